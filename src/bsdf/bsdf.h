@@ -1,0 +1,141 @@
+/*
+ * bsdf/bsdf.h: the BSDF contract. One tagged union, dispatched by a switch in bsdf.c; one file
+ * per variant named as Mitsuba names the plugin (diffuse.c, dielectric.c, roughconductor.c, ...).
+ *
+ * Conventions (every variant and every integrator relies on these):
+ * - Directions are WORLD-space unit vectors pointing AWAY from the surface: wo toward the
+ *   previous vertex of the path being traced (the camera side for camera paths), wi the other one.
+ *   The variant transforms them into the local shading frame h->sh (normalmap and bumpmap first
+ *   perturb that frame, twosided flips it for the back side).
+ * - eval() returns f(wo, wi) WITHOUT the cosine factor. It is zero for delta lobes.
+ * - pdf() is the solid-angle density with which sample() produces wi, counting only the non-delta
+ *   lobes (and the probability of choosing them). Zero when wi cannot be sampled.
+ * - sample() returns false for "no sample" (absorbed, below the horizon, total internal reflection
+ *   where only refraction was asked). On success: wi, weight = f |cos(wi, sh.n)| / pdf (the whole
+ *   estimator factor), pdf (solid angle; for a delta lobe, the discrete probability of choosing
+ *   it), the one lobe it sampled, and eta.
+ * - eta in a sample record: for a transmission, the relative IOR n(wi side) / n(wo side); 1 for
+ *   reflection and null passage. Integrators multiply it into Russian roulette's throughput
+ *   correction as pbrt-v4 does.
+ * - Transport mode: SPC_MODE_RADIANCE on camera paths, SPC_MODE_IMPORTANCE on light paths. For a
+ *   refraction in radiance mode f is divided by eta^2 (radiance compression, as pbrt-v4).
+ *   Shading-normal asymmetry (Veach 1997, eq. 5.20) is NOT applied here; BDPT applies it.
+ * - Sidedness: one-sided BSDFs (diffuse, conductors, ... without twosided) are black when
+ *   wo is below the shading horizon (Mitsuba 3's convention). Dielectrics are two-sided by nature;
+ *   "inside" is the side opposite to sh.n.
+ * - Hot path: no error codes, no allocation.
+ */
+#ifndef SPC_BSDF_BSDF_H
+#define SPC_BSDF_BSDF_H
+
+#include "core/math.h"
+#include "scene/hit.h"
+#include "scene/texture.h"
+
+typedef enum spc_transport {
+    SPC_MODE_RADIANCE = 0,
+    SPC_MODE_IMPORTANCE = 1
+} spc_transport;
+
+/* Lobe flags: a sample reports exactly one; spc_bsdf_flags() reports the union. */
+enum {
+    SPC_LOBE_DIFFUSE_REFLECTION = 1u << 0,
+    SPC_LOBE_GLOSSY_REFLECTION = 1u << 1,
+    SPC_LOBE_DELTA_REFLECTION = 1u << 2,
+    SPC_LOBE_DIFFUSE_TRANSMISSION = 1u << 3,
+    SPC_LOBE_GLOSSY_TRANSMISSION = 1u << 4,
+    SPC_LOBE_DELTA_TRANSMISSION = 1u << 5,
+    SPC_LOBE_NULL = 1u << 6 /* passes straight through (null, mask): wi = -wo */
+};
+#define SPC_LOBE_DELTA (SPC_LOBE_DELTA_REFLECTION | SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_NULL)
+#define SPC_LOBE_SMOOTH                                                                                              \
+    (SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_GLOSSY_REFLECTION | SPC_LOBE_DIFFUSE_TRANSMISSION |                       \
+     SPC_LOBE_GLOSSY_TRANSMISSION)
+#define SPC_LOBE_REFLECTION (SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_GLOSSY_REFLECTION | SPC_LOBE_DELTA_REFLECTION)
+#define SPC_LOBE_TRANSMISSION                                                                                        \
+    (SPC_LOBE_DIFFUSE_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_NULL)
+
+typedef enum spc_bsdf_type {
+    SPC_BSDF_DIFFUSE,
+    SPC_BSDF_ROUGHDIFFUSE,   /* Oren-Nayar */
+    SPC_BSDF_PHONG,          /* energy-normalized modified Blinn-Phong */
+    SPC_BSDF_CONDUCTOR,      /* smooth metal: perfect mirror, or Fresnel from eta/k */
+    SPC_BSDF_ROUGHCONDUCTOR, /* GGX / Beckmann microfacets (Walter et al. 2007) */
+    SPC_BSDF_DIELECTRIC,     /* smooth glass */
+    SPC_BSDF_THINDIELECTRIC, /* thin sheet: reflection and straight transmission */
+    SPC_BSDF_ROUGHDIELECTRIC,
+    SPC_BSDF_PLASTIC,
+    SPC_BSDF_ROUGHPLASTIC,
+    SPC_BSDF_TWOSIDED,  /* nested[0] on the front, nested[1] (or nested[0]) on the back */
+    SPC_BSDF_NORMALMAP, /* nested[0] with the shading normal from a tangent-space map */
+    SPC_BSDF_BUMPMAP,   /* nested[0] with the shading normal from a height texture */
+    SPC_BSDF_NULL,      /* invisible: null lobe only */
+    SPC_BSDF_MASK,      /* opacity blend between nested[0] and null */
+    SPC_BSDF_BLENDBSDF  /* weight blend: (1-w) nested[0] + w nested[1] */
+} spc_bsdf_type;
+
+typedef enum spc_microfacet_type {
+    SPC_MICROFACET_GGX,
+    SPC_MICROFACET_BECKMANN
+} spc_microfacet_type;
+
+/*
+ * Parameters of every variant (unused fields are ignored). Textures are never NULL where a variant
+ * reads them: the loader supplies Mitsuba's defaults as constant textures.
+ */
+typedef struct spc_bsdf {
+    spc_bsdf_type type;
+    const spc_texture *reflectance;            /* diffuse, roughdiffuse; plastic/phong: diffuse part */
+    const spc_texture *specular_reflectance;   /* conductors, dielectrics, plastic, phong */
+    const spc_texture *specular_transmittance; /* dielectrics */
+    const spc_texture *alpha_u, *alpha_v;      /* roughness (roughdiffuse: alpha_u is sigma-like alpha) */
+    spc_microfacet_type distribution;
+    bool sample_visible; /* visible-normal sampling (Heitz 2018); default true */
+    double eta;          /* dielectrics, plastic: int_ior / ext_ior */
+    spc_rgb cond_eta, cond_k; /* conductors: complex IOR relative to ext_ior; k < 0 means perfect mirror */
+    double exponent;          /* phong */
+    bool nonlinear;           /* plastic */
+    const spc_texture *weight;  /* blendbsdf */
+    const spc_texture *opacity; /* mask */
+    const spc_texture *normalmap; /* normalmap: tangent-space normal, RGB in [0,1] -> [-1,1] */
+    const spc_texture *bump;      /* bumpmap height */
+    double bump_scale;
+    const struct spc_bsdf *nested[2];
+} spc_bsdf;
+
+typedef struct spc_bsdf_sample {
+    spc_vec3 wi;
+    spc_rgb weight; /* f |cos| / pdf */
+    double pdf;     /* solid angle, or discrete probability for a delta lobe */
+    unsigned lobe;  /* exactly one SPC_LOBE_* */
+    double eta;     /* relative IOR of a transmission, else 1 */
+} spc_bsdf_sample;
+
+unsigned spc_bsdf_flags(const spc_bsdf *b);
+static inline bool spc_bsdf_has_smooth(const spc_bsdf *b) { return (spc_bsdf_flags(b) & SPC_LOBE_SMOOTH) != 0; }
+static inline bool spc_bsdf_is_delta_only(const spc_bsdf *b) { return (spc_bsdf_flags(b) & SPC_LOBE_SMOOTH) == 0; }
+
+spc_rgb spc_bsdf_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi);
+double spc_bsdf_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi);
+bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
+                         spc_vec2 u, spc_bsdf_sample *out);
+/* Diffuse-like albedo at the hit for the albedo AOV and for light-path heuristics. */
+spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h);
+/* True if the BSDF behaves as a perfect specular interface (conductor or dielectric, smooth):
+ * the specular solvers treat such surfaces as chain vertices. *eta receives int_ior/ext_ior
+ * (0 for a reflector). */
+bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta);
+
+/* Fresnel helpers shared by the variants and the specular solvers (src/bsdf/fresnel.c). */
+/* Unpolarized dielectric reflectance for cos_i (signed: < 0 means wi on the inside) and
+ * eta = n_inside / n_outside. *cos_t receives the signed cosine of the transmitted direction
+ * (opposite sign to cos_i), *eta_ti the relative IOR n_t/n_i. Returns 1 under total internal
+ * reflection. */
+double spc_fresnel_dielectric(double cos_i, double eta, double *cos_t, double *eta_ti);
+/* Conductor reflectance per channel for a complex IOR eta + i k. */
+spc_rgb spc_fresnel_conductor(double cos_i, spc_rgb eta, spc_rgb k);
+/* Refraction of w (away from surface) about n with relative IOR eta = n_inside/n_outside, given
+ * cos_t from spc_fresnel_dielectric. */
+spc_vec3 spc_refract(spc_vec3 w, spc_vec3 n, double cos_t, double eta_ti);
+
+#endif

@@ -1,0 +1,33 @@
+/*
+ * core/sampler.h: deterministic low-discrepancy sample streams.
+ *
+ * Each (pixel, sample index, seed) owns its own stream of dimensions, so an image does not depend
+ * on the thread count or on the tile order, and a render can resume at any sample index. Each pair
+ * of dimensions is a (0,2)-sequence (the first two Sobol dimensions), with the sample index
+ * shuffled and the points Owen-scrambled by a hash of (pixel, seed, dimension) (Burley 2020,
+ * "Practical Hash-based Owen Scrambling"). Any prefix of the samples of a pixel is well
+ * stratified, which --time needs because the final count is not known in advance.
+ */
+#ifndef SPC_CORE_SAMPLER_H
+#define SPC_CORE_SAMPLER_H
+
+#include <stdint.h>
+
+#include "core/math.h"
+
+typedef struct spc_sampler {
+    uint64_t pixel_seed; /* hash of (pixel, seed) */
+    uint32_t index;      /* sample index within the pixel */
+    uint32_t dim;        /* next dimension pair */
+} spc_sampler;
+
+/* Starts the stream of sample `index` of pixel (px, py) for the global `seed`. */
+void spc_sampler_start(spc_sampler *s, uint32_t px, uint32_t py, uint32_t index, uint64_t seed);
+/* Starts a stream identified by an arbitrary key (tests, light tracing, solver seeds). */
+void spc_sampler_start_key(spc_sampler *s, uint64_t key, uint32_t index);
+/* Next value in [0,1). Uses one dimension pair. */
+double spc_sampler_1d(spc_sampler *s);
+/* Next point in [0,1)^2, stratified across the sample indices of the same stream. */
+spc_vec2 spc_sampler_2d(spc_sampler *s);
+
+#endif

@@ -1,0 +1,51 @@
+/*
+ * core/warp.h: mappings from [0,1)^2 to directions and points, with their densities, and discrete
+ * distributions. Every pdf is stated with its measure: solid angle (sr^-1) for directions, area for
+ * points on the unit disk or triangle.
+ */
+#ifndef SPC_CORE_WARP_H
+#define SPC_CORE_WARP_H
+
+#include <stddef.h>
+
+#include "core/math.h"
+
+spc_vec2 spc_warp_disk_concentric(spc_vec2 u);               /* unit disk, pdf 1/pi (area) */
+spc_vec3 spc_warp_cosine_hemisphere(spc_vec2 u);             /* z >= 0 */
+double spc_warp_cosine_hemisphere_pdf(spc_vec3 w);           /* cos/pi, 0 for z <= 0 */
+spc_vec3 spc_warp_uniform_sphere(spc_vec2 u);                /* pdf 1/(4 pi) */
+spc_vec3 spc_warp_uniform_hemisphere(spc_vec2 u);            /* z >= 0, pdf 1/(2 pi) */
+spc_vec3 spc_warp_uniform_cone(spc_vec2 u, double cos_max);  /* around +z */
+double spc_warp_uniform_cone_pdf(double cos_max);            /* 1/(2 pi (1-cos_max)) */
+spc_vec2 spc_warp_uniform_triangle(spc_vec2 u);              /* barycentrics (b1, b2), uniform */
+double spc_warp_tent(double u);                              /* [-1,1], pdf 1-|x| */
+double spc_warp_gaussian_truncated(double u, double stddev, double radius); /* pdf prop. to gaussian */
+double spc_erfinv(double x);
+
+/* Discrete distribution over n non-negative weights. */
+typedef struct spc_distrib1d {
+    double *cdf; /* n+1 entries, cdf[0] = 0, cdf[n] = 1 */
+    double *pmf; /* n entries */
+    size_t n;
+    double sum; /* sum of the weights before normalization */
+} spc_distrib1d;
+
+/* Returns false (and leaves d empty) if allocation fails or every weight is zero or invalid. */
+bool spc_distrib1d_init(spc_distrib1d *d, const double *w, size_t n);
+void spc_distrib1d_release(spc_distrib1d *d);
+/* Samples an index; *u_remap (if not NULL) receives u rescaled to [0,1) within the chosen bin. */
+size_t spc_distrib1d_sample(const spc_distrib1d *d, double u, double *u_remap);
+
+/* 2D piecewise-constant distribution on [0,1)^2 (envmaps, textured lights). */
+typedef struct spc_distrib2d {
+    spc_distrib1d marginal;    /* over rows */
+    spc_distrib1d *conditional; /* one per row */
+    size_t w, h;
+} spc_distrib2d;
+bool spc_distrib2d_init(spc_distrib2d *d, const double *w, size_t width, size_t height); /* row-major */
+void spc_distrib2d_release(spc_distrib2d *d);
+/* Returns the point in [0,1)^2 and its density with respect to area on [0,1)^2. */
+spc_vec2 spc_distrib2d_sample(const spc_distrib2d *d, spc_vec2 u, double *pdf);
+double spc_distrib2d_pdf(const spc_distrib2d *d, spc_vec2 p);
+
+#endif

@@ -1,0 +1,101 @@
+/*
+ * emitter/emitter.h: light sources. Tagged union, dispatched in emitter.c, one file per variant.
+ *
+ * Conventions:
+ * - sample_direct() samples a point on the light as seen from a reference point ref and reports
+ *   its density in SOLID ANGLE at ref (spheres by the subtended cone, other shapes by area
+ *   converted with dist^2 / |cos|). Delta lights (point, spot, directional) report pdf = 1 and
+ *   is_delta; their L already includes the 1/dist^2 falloff, so every strategy adds
+ *   f * L * |cos_ref| / pdf.
+ * - L is radiance leaving the light toward ref. Area emitters are one-sided: zero on the side
+ *   opposite to the shape's normal.
+ * - Infinite lights (constant, envmap) have dist = +inf and are evaluated by direction.
+ * - power() estimates emitted flux (for picking lights in proportion to power).
+ *
+ * XML: point (intensity, position | to_world), area (radiance: rgb or texture), constant
+ * (radiance), envmap (filename, scale, to_world), spot (intensity, cutoff_angle 20,
+ * beam_width cutoff*3/4, to_world), directional (irradiance, direction | to_world).
+ */
+#ifndef SPC_EMITTER_EMITTER_H
+#define SPC_EMITTER_EMITTER_H
+
+#include "core/math.h"
+#include "core/warp.h"
+#include "scene/hit.h"
+#include "scene/texture.h"
+
+struct spc_shape;
+
+typedef enum spc_emitter_type {
+    SPC_EMITTER_POINT,
+    SPC_EMITTER_SPOT,
+    SPC_EMITTER_DIRECTIONAL,
+    SPC_EMITTER_AREA,
+    SPC_EMITTER_CONSTANT,
+    SPC_EMITTER_ENVMAP
+} spc_emitter_type;
+
+typedef struct spc_emitter {
+    spc_emitter_type type;
+    spc_rgb intensity;                 /* point, spot (W/sr) */
+    spc_vec3 position;                 /* point, spot */
+    spc_mat4 to_world, to_local;       /* spot (looks along +z), envmap */
+    double cutoff_angle, beam_width;   /* spot, degrees */
+    spc_vec3 direction;                /* directional: direction light travels */
+    spc_rgb irradiance;                /* directional */
+    const spc_texture *radiance;       /* area, constant, envmap (bitmap lat-long) */
+    double scale;                      /* envmap, default 1 */
+    const struct spc_shape *shape;     /* area */
+    int shape_index;                   /* area */
+    /* set by spc_emitter_prepare: */
+    spc_distrib2d tex_distrib;         /* envmap and textured area lights */
+    bool has_tex_distrib;
+    spc_vec3 scene_center;             /* infinite and directional lights */
+    double scene_radius;
+    double power;
+    int index; /* position in scene->emitters */
+} spc_emitter;
+
+typedef struct spc_emitter_direct {
+    spc_vec3 p, n;   /* point on the light and its normal (n unused for delta/infinite) */
+    spc_vec3 wi;     /* unit direction from ref toward the light */
+    double dist;     /* distance to p, +inf for infinite lights */
+    spc_rgb L;       /* radiance toward ref (delta lights: intensity / dist^2, or irradiance) */
+    double pdf;      /* solid angle at ref; 1 for delta lights */
+    double err;      /* position error bound of p */
+    bool is_delta, is_infinite;
+} spc_emitter_direct;
+
+typedef struct spc_emitter_emission {
+    spc_vec3 p, n, d; /* origin, surface normal (or d for point lights), direction */
+    spc_rgb weight;   /* Le * |cos| / (pdf_pos * pdf_dir) */
+    double pdf_pos;   /* area density (1 for delta positions) */
+    double pdf_dir;   /* solid angle density (1 for delta directions) */
+    double err;
+    bool delta_pos, delta_dir, is_infinite;
+} spc_emitter_emission;
+
+/* Scene bounds are needed by infinite and directional lights. false: zero power or no memory. */
+bool spc_emitter_prepare(spc_emitter *e, spc_vec3 scene_center, double scene_radius);
+void spc_emitter_release(spc_emitter *e);
+bool spc_emitter_is_delta(const spc_emitter *e);
+bool spc_emitter_is_infinite(const spc_emitter *e);
+
+bool spc_emitter_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_vec2 u, spc_emitter_direct *out);
+/* Solid-angle density at ref of sample_direct producing point p (normal n) on an area light. */
+double spc_emitter_pdf_direct(const spc_emitter *e, spc_vec3 ref, spc_vec3 p, spc_vec3 n);
+/* Radiance leaving an area light at hit h in direction w (unit, away from the surface). */
+spc_rgb spc_emitter_eval_area(const spc_emitter *e, const spc_hit *h, spc_vec3 w);
+/* Radiance arriving along a ray that escaped the scene, travelling in direction d. */
+spc_rgb spc_emitter_eval_infinite(const spc_emitter *e, spc_vec3 d);
+/* Solid-angle density of sample_direct for an infinite light producing the ray direction
+ * toward the light -d (d is the escaping ray's direction). */
+double spc_emitter_pdf_infinite(const spc_emitter *e, spc_vec3 d);
+
+/* Emission sampling (BDPT, light tracing). */
+bool spc_emitter_sample_emission(const spc_emitter *e, spc_vec2 u_pos, spc_vec2 u_dir, spc_emitter_emission *out);
+/* Densities of sample_emission for the given origin, normal and direction. */
+void spc_emitter_pdf_emission(const spc_emitter *e, spc_vec3 p, spc_vec3 n, spc_vec3 d, double *pdf_pos,
+                              double *pdf_dir);
+
+#endif

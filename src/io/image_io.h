@@ -1,0 +1,50 @@
+/*
+ * io/image_io.h: reading and writing images.
+ *
+ * - EXR through the OpenEXR core C API (openexr.h); PNG through libpng; JPEG through libjpeg.
+ * - Writers are atomic: they write "<path>.tmp-<pid>" and rename it over path only when the whole
+ *   file is written and flushed, so a failed run never replaces a good image.
+ * - Images in memory are float, interleaved, row-major, row 0 at the TOP.
+ */
+#ifndef SPC_IO_IMAGE_IO_H
+#define SPC_IO_IMAGE_IO_H
+
+#include "core/error.h"
+
+typedef struct spc_image {
+    int width, height, channels; /* channels: 1, 3 or 4 after reading */
+    float *data;                 /* width * height * channels, owned */
+    bool srgb;                   /* values are sRGB-encoded in [0,1] (8/16-bit PNG and JPEG) */
+} spc_image;
+
+void spc_image_release(spc_image *img);
+
+/* Reads EXR (R,G,B[,A] or Y), PNG (gray, gray+alpha, RGB, RGBA; 8 or 16 bit) or JPEG, chosen by
+ * the file's magic bytes. Errors name the file. */
+spc_status spc_image_read(const char *path, spc_image *img, spc_error *err);
+
+/* A named extra attribute for EXR headers (string values). */
+typedef struct spc_exr_attr {
+    const char *name, *value;
+} spc_exr_attr;
+
+/* Writes an EXR with nchannels float (FLOAT, 32-bit) channels named names[i], interleaved data,
+ * ZIP compression, plus nattrs string attributes. Channel names are written in the order given
+ * (EXR sorts them in the file; readers find them by name). */
+spc_status spc_exr_write(const char *path, int width, int height, int nchannels, const char *const *names,
+                         const float *data, const spc_exr_attr *attrs, int nattrs, spc_error *err);
+
+/* Reads named channels of an EXR into a planar-by-name interleaved buffer: out receives
+ * width*height*nnames floats; a channel that is missing sets *found[i] = false (found may be NULL)
+ * and fills zeros. */
+spc_status spc_exr_read_channels(const char *path, int nnames, const char *const *names, int *width, int *height,
+                                 float **out, bool *found, spc_error *err);
+
+/* Writes an 8-bit sRGB PNG from linear RGB floats (3 channels), clamped to [0,1]. */
+spc_status spc_png_write_srgb(const char *path, int width, int height, const float *rgb, spc_error *err);
+
+/* sRGB transfer functions. */
+double spc_srgb_to_linear(double v);
+double spc_linear_to_srgb(double v);
+
+#endif

@@ -1,0 +1,77 @@
+/*
+ * scene/hit.h: a ray's intersection with a surface, with what shading and the specular solvers need.
+ *
+ * Conventions:
+ * - ng is the unit geometric normal, oriented as the shape defines it (outward for closed shapes,
+ *   the triangle winding for meshes, flipped if the shape says flip_normals). It is NOT flipped
+ *   toward the ray.
+ * - sh is the shading frame: sh.n is the interpolated (or mapped) shading normal on the same side
+ *   as ng; sh.s follows dpdu where it can.
+ * - dndu/dndv are derivatives of the (unnormalized-then-normalized) shading normal with respect to
+ *   (u, v): for triangles, u and v are the barycentric coordinates b1, b2 of vertices 1 and 2.
+ * - err is a bound on the absolute error of p, used by spc_hit_spawn to offset new rays.
+ */
+#ifndef SPC_SCENE_HIT_H
+#define SPC_SCENE_HIT_H
+
+#include "core/math.h"
+
+struct spc_shape;
+struct spc_bsdf;
+struct spc_emitter;
+
+typedef struct spc_hit {
+    double t;        /* ray distance */
+    spc_vec3 p;      /* world position */
+    spc_vec3 ng;     /* geometric normal */
+    spc_frame sh;    /* shading frame */
+    spc_vec2 uv;     /* texture coordinates */
+    spc_vec3 dpdu, dpdv;
+    spc_vec3 dndu, dndv;
+    double b1, b2;   /* barycentrics of vertices 1 and 2 (triangles), surface coords otherwise */
+    double err;      /* absolute error bound of p */
+    int prim;        /* triangle index, 0 for analytic shapes */
+    int shape_index; /* index in scene->shapes */
+    const struct spc_shape *shape;
+    const struct spc_bsdf *bsdf;       /* never NULL for a surface hit */
+    const struct spc_emitter *emitter; /* area emitter attached to the shape, or NULL */
+} spc_hit;
+
+/* The offset origin for a ray leaving h in direction d (robust against self-intersection):
+ * p moved along ng, to the side d points to, by a multiple of the error bound. */
+static inline spc_vec3 spc_hit_offset(const spc_hit *h, spc_vec3 d)
+{
+    double off = h->err;
+    spc_vec3 n = h->ng;
+    if (spc_dot(n, d) < 0.0)
+        off = -off;
+    return spc_madd(h->p, n, off);
+}
+
+static inline spc_ray spc_hit_spawn(const spc_hit *h, spc_vec3 d)
+{
+    spc_ray r;
+    r.o = spc_hit_offset(h, d);
+    r.d = d;
+    r.tmin = 0.0;
+    r.tmax = SPC_INF;
+    return r;
+}
+
+/* A ray from h toward point q (tmax stops short of q by a relative margin). */
+static inline spc_ray spc_hit_spawn_to(const spc_hit *h, spc_vec3 q, double q_err)
+{
+    spc_vec3 o = spc_hit_offset(h, spc_sub(q, h->p));
+    spc_vec3 d = spc_sub(q, o);
+    double dist = spc_length(d);
+    spc_ray r;
+    r.o = o;
+    r.d = dist > 0.0 ? spc_scale(d, 1.0 / dist) : h->ng;
+    r.tmin = 0.0;
+    r.tmax = dist - 2.0 * q_err - 1e-7 * dist;
+    if (r.tmax < 0.0)
+        r.tmax = 0.0;
+    return r;
+}
+
+#endif

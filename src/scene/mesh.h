@@ -1,0 +1,45 @@
+/*
+ * scene/mesh.h: an indexed triangle mesh as loaded (object space) or placed (world space).
+ *
+ * Positions, normals and uvs are float (the layout Embree reads); every computation on them is
+ * done in double. normals and uvs are NULL when the file has none. Ownership: the mesh owns its
+ * arrays; spc_mesh_release frees them (NULL-safe).
+ */
+#ifndef SPC_SCENE_MESH_H
+#define SPC_SCENE_MESH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/error.h"
+#include "core/math.h"
+
+typedef struct spc_mesh {
+    size_t nverts, ntris;
+    float *p;     /* 3 * nverts */
+    float *n;     /* 3 * nverts, or NULL: face normals are used */
+    float *uv;    /* 2 * nverts, or NULL */
+    uint32_t *idx; /* 3 * ntris */
+} spc_mesh;
+
+void spc_mesh_release(spc_mesh *m);
+/* Checks every value: finite positions/normals/uvs, indices < nverts. Names the first bad one. */
+spc_status spc_mesh_validate(const spc_mesh *m, const char *file, spc_error *err);
+/* Applies a transform (normals by the inverse transpose, renormalized). Returns false if the
+ * transform is singular. */
+bool spc_mesh_transform(spc_mesh *m, const spc_mat4 *to_world);
+/* Removes triangles of zero area (they cannot be hit and break area sampling); returns how many. */
+size_t spc_mesh_drop_degenerate(spc_mesh *m);
+/* Appends src to dst (for shapegroups and merging); false on allocation failure. */
+bool spc_mesh_append(spc_mesh *dst, const spc_mesh *src);
+
+static inline spc_vec3 spc_mesh_p(const spc_mesh *m, uint32_t i)
+{
+    return spc_v3(m->p[3 * i], m->p[3 * i + 1], m->p[3 * i + 2]);
+}
+static inline spc_vec3 spc_mesh_n(const spc_mesh *m, uint32_t i)
+{
+    return spc_v3(m->n[3 * i], m->n[3 * i + 1], m->n[3 * i + 2]);
+}
+
+#endif

@@ -1,0 +1,129 @@
+/*
+ * scene/scene.h: the scene: it owns every shape, BSDF, emitter and texture it holds and frees them
+ * in one call. Loaders fill it through spc_scene_new_*; spc_scene_finalize then freezes it
+ * (sampling tables, light selection, acceleration structure). After that integrators only read it,
+ * from any number of threads.
+ */
+#ifndef SPC_SCENE_SCENE_H
+#define SPC_SCENE_SCENE_H
+
+#include <stdint.h>
+
+#include "bsdf/bsdf.h"
+#include "core/error.h"
+#include "core/math.h"
+#include "core/warp.h"
+#include "emitter/emitter.h"
+#include "scene/shape.h"
+#include "scene/texture.h"
+
+struct spc_accel;
+
+typedef enum spc_camera_type {
+    SPC_CAMERA_PERSPECTIVE,
+    SPC_CAMERA_ORTHOGRAPHIC
+} spc_camera_type;
+
+typedef enum spc_fov_axis {
+    SPC_FOV_X,
+    SPC_FOV_Y,
+    SPC_FOV_SMALLER,
+    SPC_FOV_LARGER,
+    SPC_FOV_DIAGONAL
+} spc_fov_axis;
+
+typedef struct spc_camera {
+    spc_camera_type type;
+    spc_mat4 to_world; /* camera looks along local +z, local +y is up, local +x is image-left */
+    double fov;        /* degrees, along fov_axis */
+    spc_fov_axis fov_axis;
+    double near_clip, far_clip;
+} spc_camera;
+
+typedef enum spc_rfilter_type {
+    SPC_RFILTER_BOX,
+    SPC_RFILTER_TENT,
+    SPC_RFILTER_GAUSSIAN
+} spc_rfilter_type;
+
+typedef struct spc_film_spec {
+    int width, height;                      /* full film */
+    int crop_x, crop_y, crop_w, crop_h;     /* rendered window (crop_w = 0: whole film) */
+    spc_rfilter_type rfilter;
+    double filter_radius;                   /* box 0.5, tent 1, gaussian 4 * stddev */
+    double filter_stddev;                   /* gaussian, default 0.5 */
+} spc_film_spec;
+
+#define SPC_SPECULAR_NEE_NONE 0
+
+typedef struct spc_integrator_spec {
+    char type[64];        /* "path", "ipt", "bdpt" (checked by the renderer) */
+    int max_depth;        /* Mitsuba's meaning: 1 = emitters seen directly, 2 = direct light; -1 = no limit */
+    int rr_depth;         /* Russian roulette starts at this depth (Mitsuba default 5) */
+    bool hide_emitters;
+    char specular_nee[32];  /* "" (off), "angular", "newton", "conic" */
+    int specular_max_chain; /* longest chain of specular vertices for specular NEE */
+    char decl_file[512];    /* where the integrator was declared, for error messages */
+    int decl_line, decl_col;
+} spc_integrator_spec;
+
+typedef struct spc_scene {
+    spc_shape **shapes;
+    int nshapes, cap_shapes;
+    spc_bsdf **bsdfs;
+    int nbsdfs, cap_bsdfs;
+    spc_emitter **emitters;
+    int nemitters, cap_emitters;
+    spc_texture **textures;
+    int ntextures, cap_textures;
+
+    spc_camera camera;
+    spc_film_spec film;
+    spc_integrator_spec integrator;
+    int spp;
+    uint64_t seed;
+
+    /* set by spc_scene_finalize */
+    const spc_emitter *env;       /* the infinite emitter, or NULL */
+    spc_distrib1d light_distrib;  /* over emitters, in proportion to power */
+    double *light_pmf;            /* per emitter (same order as emitters) */
+    spc_vec3 bbox_min, bbox_max;  /* of the shapes */
+    spc_vec3 center;
+    double radius;                /* bounding sphere radius (>= a small positive value) */
+    struct spc_accel *accel;
+    bool finalized;
+
+    char path[512]; /* the file it was loaded from, if any */
+} spc_scene;
+
+/* Returns NULL on allocation failure. */
+spc_scene *spc_scene_create(void);
+/* Frees everything the scene owns; NULL does nothing. */
+void spc_scene_destroy(spc_scene *s);
+
+/* New zeroed objects registered in the scene (which frees them). NULL on allocation failure. */
+spc_shape *spc_scene_new_shape(spc_scene *s);
+spc_bsdf *spc_scene_new_bsdf(spc_scene *s);
+spc_emitter *spc_scene_new_emitter(spc_scene *s);
+spc_texture *spc_scene_new_texture(spc_scene *s);
+/* A constant texture owned by the scene. */
+const spc_texture *spc_scene_constant(spc_scene *s, spc_rgb value);
+
+/* Fills defaults for camera, film, integrator, spp: Mitsuba's (fov 45 along x, 768x576,
+ * box filter... as documented in the loader). */
+void spc_scene_set_defaults(spc_scene *s);
+
+/* Validates, builds sampling tables and the acceleration structure. */
+spc_status spc_scene_finalize(spc_scene *s, spc_error *err);
+
+bool spc_scene_intersect(const spc_scene *s, const spc_ray *r, spc_hit *h);
+bool spc_scene_occluded(const spc_scene *s, const spc_ray *r);
+
+/* Picks an emitter in proportion to power; *pmf receives its probability. NULL if none. */
+const spc_emitter *spc_scene_sample_emitter(const spc_scene *s, double u, double *pmf);
+double spc_scene_emitter_pmf(const spc_scene *s, const spc_emitter *e);
+
+/* Rays traced by the calling thread since it started (intersect + occluded). */
+uint64_t spc_scene_rays_traced(void);
+
+#endif

@@ -1,0 +1,112 @@
+/*
+ * scene/shape.h: the shapes of a scene, in world space. Tagged union, dispatched in shape.c;
+ * analytic shapes are intersected exactly in double precision (Embree user geometry), meshes
+ * through Embree's triangles.
+ *
+ * XML (Mitsuba 3 conventions):
+ *   sphere     center (0,0,0), radius (1), to_world (uniform scale and translation only)
+ *   rectangle  [-1,1]^2 in z = 0, normal +z, uv = ((x+1)/2, (y+1)/2); stored as a 2-triangle mesh
+ *   cube       [-1,1]^3, outward normals; stored as a 12-triangle mesh with uvs per face
+ *   disk       unit disk in z = 0, normal +z (exact)
+ *   cylinder   radius (1), p0 (0,0,0), p1 (0,0,1), open, outward normals (exact)
+ *   obj, ply, serialized  filename, face_normals (false), flip_normals (false), to_world
+ * Every shape: flip_normals, an optional bsdf (default: diffuse 0.5), an optional area emitter,
+ * and the per-shape booleans caustic_caster, caustic_receiver (+ _single / _multi variants).
+ */
+#ifndef SPC_SCENE_SHAPE_H
+#define SPC_SCENE_SHAPE_H
+
+#include "core/math.h"
+#include "core/warp.h"
+#include "scene/hit.h"
+#include "scene/mesh.h"
+
+struct spc_bsdf;
+struct spc_emitter;
+struct spc_sdf;
+
+typedef enum spc_shape_type {
+    SPC_SHAPE_MESH,
+    SPC_SHAPE_SPHERE,
+    SPC_SHAPE_DISK,
+    SPC_SHAPE_CYLINDER,
+    SPC_SHAPE_SDF
+} spc_shape_type;
+
+/* Per-shape caustic flags (Mitsuba properties used by the caustics papers' scenes). */
+enum {
+    SPC_CAUSTIC_CASTER = 1u << 0,         /* may be a vertex of a specular chain (default for specular shapes) */
+    SPC_CAUSTIC_RECEIVER = 1u << 1,       /* specular NEE starts at its diffuse points (default) */
+    SPC_CAUSTIC_CASTER_SINGLE = 1u << 2,  /* only in chains of one vertex */
+    SPC_CAUSTIC_CASTER_MULTI = 1u << 3,   /* only in chains of more than one vertex */
+    SPC_CAUSTIC_FLAGS_EXPLICIT = 1u << 8  /* the file said something: do not apply defaults */
+};
+
+typedef struct spc_shape {
+    spc_shape_type type;
+    char id[128];
+    spc_mesh mesh;           /* MESH: world space */
+    bool face_normals;       /* MESH: ignore vertex normals */
+    spc_vec3 center;         /* SPHERE */
+    double radius;           /* SPHERE, CYLINDER */
+    double length;           /* CYLINDER: along local z */
+    spc_mat4 to_world, to_local; /* DISK, CYLINDER, SPHERE (orientation for uv), SDF */
+    struct spc_sdf *sdf;     /* SDF, owned */
+    bool flip_normals;
+    const struct spc_bsdf *bsdf;
+    const struct spc_emitter *emitter; /* area emitter, or NULL */
+    unsigned caustic_flags;
+    int interior_medium, exterior_medium; /* indices into scene->media, -1 for none */
+    /* set by spc_shape_prepare: */
+    double area;
+    spc_distrib1d tri_distrib; /* MESH: triangle areas */
+    spc_vec3 bbox_min, bbox_max;
+} spc_shape;
+
+/* Area-measure sample of a point on a shape. */
+typedef struct spc_shape_sample {
+    spc_vec3 p, n; /* position and geometric normal (flip_normals applied) */
+    spc_vec2 uv;
+    double pdf;    /* area density (1/area for uniform sampling) */
+    double err;    /* position error bound */
+    int prim;
+} spc_shape_sample;
+
+/* Constructors used by the loaders (they set type and geometry; the caller sets bsdf, emitter,
+ * flags). Each returns false with a message in err for invalid input (negative radius, singular
+ * transform, NaN). spc_shape_init_mesh takes ownership of *m (and empties it) and transforms it to
+ * world space. */
+bool spc_shape_init_sphere(spc_shape *s, spc_vec3 center, double radius, const spc_mat4 *to_world,
+                           const char *file, int line, int col, spc_error *err);
+bool spc_shape_init_rectangle(spc_shape *s, const spc_mat4 *to_world, const char *file, int line, int col,
+                              spc_error *err);
+bool spc_shape_init_cube(spc_shape *s, const spc_mat4 *to_world, const char *file, int line, int col, spc_error *err);
+bool spc_shape_init_disk(spc_shape *s, const spc_mat4 *to_world, const char *file, int line, int col, spc_error *err);
+bool spc_shape_init_cylinder(spc_shape *s, spc_vec3 p0, spc_vec3 p1, double radius, const spc_mat4 *to_world,
+                             const char *file, int line, int col, spc_error *err);
+bool spc_shape_init_mesh(spc_shape *s, spc_mesh *m, const spc_mat4 *to_world, const char *file, int line, int col,
+                         spc_error *err);
+
+/* Computes area, sampling tables and bounds. Returns false on allocation failure or zero area. */
+bool spc_shape_prepare(spc_shape *s);
+void spc_shape_release(spc_shape *s);
+
+/* Exact intersection for analytic shapes: the nearest t in (tmin, tmax), or false.
+ * *u, *v receive surface coordinates passed back to spc_shape_fill_hit. */
+bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *t, double *u, double *v);
+/* Fills every field of h for a hit of ray r at distance t on primitive prim with coordinates
+ * (u, v) (barycentrics b1, b2 for triangles). */
+void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h);
+
+/* Uniform area sampling. */
+void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, double u_prim, spc_shape_sample *out);
+
+/* Solid-angle sampling from a reference point where the shape supports it (spheres: the cone of
+ * directions subtended). Returns false if the shape has no such method (use area sampling) or ref
+ * is inside. On success: the point on the shape, and pdf in SOLID ANGLE at ref. */
+bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, spc_shape_sample *out);
+/* Density (solid angle at ref) of the above for the point p on the shape seen from ref. */
+double spc_shape_pdf_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec3 p);
+bool spc_shape_has_solid_angle_sampling(const spc_shape *s, spc_vec3 ref);
+
+#endif

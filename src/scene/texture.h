@@ -1,0 +1,51 @@
+/*
+ * scene/texture.h: textures evaluated at a surface uv. A constant value is also a texture, so
+ * every reflectance, roughness or radiance parameter of a plugin is a `const spc_texture *`.
+ *
+ * XML (Mitsuba): <texture type="bitmap"> filename, filter_type ("bilinear"|"nearest"),
+ * wrap_mode ("repeat"|"mirror"|"clamp"), raw (bool: no sRGB decoding of 8-bit images), to_uv;
+ * <texture type="checkerboard"> color0 (0.4), color1 (0.2), to_uv.
+ */
+#ifndef SPC_SCENE_TEXTURE_H
+#define SPC_SCENE_TEXTURE_H
+
+#include "core/error.h"
+#include "core/math.h"
+
+typedef enum spc_texture_type {
+    SPC_TEX_CONSTANT,
+    SPC_TEX_BITMAP,
+    SPC_TEX_CHECKERBOARD
+} spc_texture_type;
+
+typedef enum spc_wrap_mode {
+    SPC_WRAP_REPEAT,
+    SPC_WRAP_MIRROR,
+    SPC_WRAP_CLAMP
+} spc_wrap_mode;
+
+typedef struct spc_texture {
+    spc_texture_type type;
+    spc_rgb value; /* constant */
+    /* bitmap: linear RGB, row-major, row 0 at the top of the image (v = 1 - y/height) */
+    int width, height;
+    float *data; /* 3 * width * height, owned */
+    bool nearest;
+    spc_wrap_mode wrap;
+    /* checkerboard */
+    spc_rgb color0, color1;
+    /* to_uv: uv' = M (u, v, 1), rows 0 and 1 of a 3x3 affine map */
+    double to_uv[2][3];
+} spc_texture;
+
+/* A constant texture (the caller owns it: static or inside a scene). */
+void spc_texture_init_constant(spc_texture *t, spc_rgb value);
+spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv);
+/* Mean of the channels at uv (roughness, opacity, weights). */
+double spc_texture_eval1(const spc_texture *t, spc_vec2 uv);
+/* Mean value over [0,1]^2 (for light power and albedo estimates). */
+spc_rgb spc_texture_mean(const spc_texture *t);
+bool spc_texture_is_constant(const spc_texture *t);
+void spc_texture_release(spc_texture *t);
+
+#endif

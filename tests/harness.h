@@ -1,0 +1,78 @@
+/*
+ * tests/harness.h: the in-house test harness. A test program defines test functions with TEST,
+ * runs them with RUN from main and returns spc_test_finish(), which prints "N passed, N failed"
+ * (tests, not assertions) and returns nonzero if any test failed.
+ */
+#ifndef SPC_TESTS_HARNESS_H
+#define SPC_TESTS_HARNESS_H
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int spc_t_passed = 0, spc_t_failed = 0, spc_t_cur_failed = 0;
+static const char *spc_t_cur = "";
+
+#define TEST(name) static void name(void)
+
+#define RUN(name)                                                                                                     \
+    do {                                                                                                              \
+        spc_t_cur = #name;                                                                                            \
+        spc_t_cur_failed = 0;                                                                                         \
+        name();                                                                                                       \
+        if (spc_t_cur_failed) {                                                                                       \
+            ++spc_t_failed;                                                                                           \
+            printf("FAIL %s\n", #name);                                                                               \
+        } else {                                                                                                      \
+            ++spc_t_passed;                                                                                           \
+            printf("ok   %s\n", #name);                                                                               \
+        }                                                                                                             \
+        fflush(stdout);                                                                                               \
+    } while (0)
+
+#define CHECK(cond)                                                                                                   \
+    do {                                                                                                              \
+        if (!(cond)) {                                                                                                \
+            printf("  %s:%d: %s: check failed: %s\n", __FILE__, __LINE__, spc_t_cur, #cond);                          \
+            spc_t_cur_failed = 1;                                                                                     \
+        }                                                                                                             \
+    } while (0)
+
+#define CHECK_MSG(cond, ...)                                                                                          \
+    do {                                                                                                              \
+        if (!(cond)) {                                                                                                \
+            printf("  %s:%d: %s: check failed: %s: ", __FILE__, __LINE__, spc_t_cur, #cond);                          \
+            printf(__VA_ARGS__);                                                                                      \
+            printf("\n");                                                                                             \
+            spc_t_cur_failed = 1;                                                                                     \
+        }                                                                                                             \
+    } while (0)
+
+#define CHECK_NEAR(a, b, tol)                                                                                         \
+    do {                                                                                                              \
+        double spc_t_a = (a), spc_t_b = (b), spc_t_tol = (tol);                                                       \
+        if (!(fabs(spc_t_a - spc_t_b) <= spc_t_tol)) {                                                                \
+            printf("  %s:%d: %s: %s = %.12g, %s = %.12g, |diff| %.3g > %.3g\n", __FILE__, __LINE__, spc_t_cur, #a,    \
+                   spc_t_a, #b, spc_t_b, fabs(spc_t_a - spc_t_b), spc_t_tol);                                          \
+            spc_t_cur_failed = 1;                                                                                     \
+        }                                                                                                             \
+    } while (0)
+
+/* Relative closeness: |a-b| <= rel * max(|a|,|b|) + abs_tol. */
+#define CHECK_REL(a, b, rel, abs_tol) CHECK_NEAR(a, b, (rel) * fmax(fabs(a), fabs(b)) + (abs_tol))
+
+static inline int spc_test_finish(void)
+{
+    printf("%d passed, %d failed\n", spc_t_passed, spc_t_failed);
+    return spc_t_failed ? 1 : 0;
+}
+
+/* Source tree root (set by ctest), so tests find scenes/ and ../shared. */
+static inline const char *spc_test_source_dir(void)
+{
+    const char *d = getenv("SPC_SOURCE_DIR");
+    return d ? d : ".";
+}
+
+#endif
