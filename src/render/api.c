@@ -1,0 +1,371 @@
+/*
+ * render/api.c: the public API around a loaded scene: loading (through the Mitsuba XML loader),
+ * the summary and the per-object description that `specula info` prints, and the defaults of the
+ * render options. Rendering itself is render/driver.c; films and images are film.c, film_io.c and
+ * diff.c.
+ */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "io/mitsuba_xml.h"
+#include "render/film.h"
+#include "scene/scene.h"
+#include "specula/specula.h"
+
+spc_status spc_scene_load(const char *path, const spc_define *defs, int ndefs, spc_scene **out, spc_error *err)
+{
+    if (out)
+        *out = NULL;
+    if (!path || !out)
+        return spc_error_set(err, SPC_ERR_VALUE, NULL, 0, 0, "spc_scene_load: no path or output given");
+    if (ndefs < 0 || (ndefs > 0 && !defs))
+        return spc_error_set(err, SPC_ERR_VALUE, path, 0, 0, "invalid list of -D definitions");
+    return spc_mitsuba_load(path, defs, ndefs, out, err);
+}
+
+void spc_render_options_init(spc_render_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->integrator = NULL;
+    o->specular_nee = NULL;
+    o->progress = NULL;
+    o->progress_user = NULL;
+    o->cancel = NULL;
+    o->strategy_s = -1;
+    o->strategy_t = -1;
+    o->strategy_weighted = false;
+    o->seed = 0;
+}
+
+static bool shape_is_analytic(const spc_shape *sh)
+{
+    switch (sh->type) {
+    case SPC_SHAPE_MESH:
+        return false;
+    case SPC_SHAPE_SPHERE:
+    case SPC_SHAPE_DISK:
+    case SPC_SHAPE_CYLINDER:
+        return true;
+    }
+    return false;
+}
+
+void spc_scene_summarize(const spc_scene *s, spc_scene_summary *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!s)
+        return;
+    out->shapes = s->nshapes;
+    out->bsdfs = s->nbsdfs;
+    out->emitters = s->nemitters;
+    out->textures = s->ntextures;
+    bool have_box = false;
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+    for (int i = 0; i < s->nshapes; ++i) {
+        const spc_shape *sh = s->shapes[i];
+        if (shape_is_analytic(sh)) {
+            out->analytic_shapes++;
+        } else {
+            out->meshes++;
+            out->triangles += (uint64_t)sh->mesh.ntris;
+        }
+        /* the shapes' bounds are set by spc_shape_prepare; use them when the scene's are not */
+        double smin[3] = {sh->bbox_min.x, sh->bbox_min.y, sh->bbox_min.z};
+        double smax[3] = {sh->bbox_max.x, sh->bbox_max.y, sh->bbox_max.z};
+        if (!(smin[0] <= smax[0] && smin[1] <= smax[1] && smin[2] <= smax[2]))
+            continue;
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = have_box ? spc_min(lo[k], smin[k]) : smin[k];
+            hi[k] = have_box ? spc_max(hi[k], smax[k]) : smax[k];
+        }
+        have_box = true;
+    }
+    if (s->finalized) {
+        lo[0] = s->bbox_min.x, lo[1] = s->bbox_min.y, lo[2] = s->bbox_min.z;
+        hi[0] = s->bbox_max.x, hi[1] = s->bbox_max.y, hi[2] = s->bbox_max.z;
+    }
+    for (int k = 0; k < 3; ++k) {
+        out->bbox_min[k] = lo[k];
+        out->bbox_max[k] = hi[k];
+    }
+    out->width = s->film.width;
+    out->height = s->film.height;
+    out->spp = s->spp;
+    out->max_depth = s->integrator.max_depth;
+    snprintf(out->integrator, sizeof out->integrator, "%s", s->integrator.type);
+}
+
+/* ---- description: a growable string ---- */
+
+typedef struct strbuf {
+    char *data;
+    size_t len, cap;
+    bool failed;
+} strbuf;
+
+static void sb_printf(strbuf *b, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+static void sb_printf(strbuf *b, const char *fmt, ...)
+{
+    if (b->failed)
+        return;
+    for (;;) {
+        size_t room = b->cap - b->len;
+        va_list ap;
+        va_start(ap, fmt);
+        int n = room > 0 ? vsnprintf(b->data + b->len, room, fmt, ap) : vsnprintf(NULL, 0, fmt, ap);
+        va_end(ap);
+        if (n < 0) {
+            b->failed = true;
+            return;
+        }
+        if ((size_t)n < room) {
+            b->len += (size_t)n;
+            return;
+        }
+        size_t cap = b->cap ? b->cap : 256;
+        while (cap <= b->len + (size_t)n)
+            cap *= 2;
+        char *p = realloc(b->data, cap);
+        if (!p) {
+            b->failed = true;
+            return;
+        }
+        b->data = p;
+        b->cap = cap;
+    }
+}
+
+static const char *shape_type_name(const spc_shape *sh)
+{
+    switch (sh->type) {
+    case SPC_SHAPE_MESH: return "mesh";
+    case SPC_SHAPE_SPHERE: return "sphere";
+    case SPC_SHAPE_DISK: return "disk";
+    case SPC_SHAPE_CYLINDER: return "cylinder";
+    }
+    return "?";
+}
+
+static const char *bsdf_type_name(spc_bsdf_type t)
+{
+    switch (t) {
+    case SPC_BSDF_DIFFUSE: return "diffuse";
+    case SPC_BSDF_ROUGHDIFFUSE: return "roughdiffuse";
+    case SPC_BSDF_PHONG: return "phong";
+    case SPC_BSDF_CONDUCTOR: return "conductor";
+    case SPC_BSDF_ROUGHCONDUCTOR: return "roughconductor";
+    case SPC_BSDF_DIELECTRIC: return "dielectric";
+    case SPC_BSDF_THINDIELECTRIC: return "thindielectric";
+    case SPC_BSDF_ROUGHDIELECTRIC: return "roughdielectric";
+    case SPC_BSDF_PLASTIC: return "plastic";
+    case SPC_BSDF_ROUGHPLASTIC: return "roughplastic";
+    case SPC_BSDF_TWOSIDED: return "twosided";
+    case SPC_BSDF_NORMALMAP: return "normalmap";
+    case SPC_BSDF_BUMPMAP: return "bumpmap";
+    case SPC_BSDF_NULL: return "null";
+    case SPC_BSDF_MASK: return "mask";
+    case SPC_BSDF_BLENDBSDF: return "blendbsdf";
+    }
+    return "?";
+}
+
+static const char *emitter_type_name(spc_emitter_type t)
+{
+    switch (t) {
+    case SPC_EMITTER_POINT: return "point";
+    case SPC_EMITTER_SPOT: return "spot";
+    case SPC_EMITTER_DIRECTIONAL: return "directional";
+    case SPC_EMITTER_AREA: return "area";
+    case SPC_EMITTER_CONSTANT: return "constant";
+    case SPC_EMITTER_ENVMAP: return "envmap";
+    }
+    return "?";
+}
+
+static int bsdf_index(const spc_scene *s, const spc_bsdf *b)
+{
+    for (int i = 0; i < s->nbsdfs; ++i)
+        if (s->bsdfs[i] == b)
+            return i;
+    return -1;
+}
+
+static int shape_index(const spc_scene *s, const spc_shape *sh)
+{
+    for (int i = 0; i < s->nshapes; ++i)
+        if (s->shapes[i] == sh)
+            return i;
+    return -1;
+}
+
+/* "diffuse" or "twosided(diffuse)", nested BSDFs by type, depth-limited against cycles. */
+static void describe_bsdf_type(strbuf *b, const spc_bsdf *bsdf, int depth)
+{
+    if (!bsdf) {
+        sb_printf(b, "none");
+        return;
+    }
+    sb_printf(b, "%s", bsdf_type_name(bsdf->type));
+    if (depth >= 4 || (!bsdf->nested[0] && !bsdf->nested[1]))
+        return;
+    sb_printf(b, "(");
+    describe_bsdf_type(b, bsdf->nested[0], depth + 1);
+    if (bsdf->nested[1]) {
+        sb_printf(b, ", ");
+        describe_bsdf_type(b, bsdf->nested[1], depth + 1);
+    }
+    sb_printf(b, ")");
+}
+
+static void describe_texture(strbuf *b, const char *name, const spc_texture *t)
+{
+    if (!t)
+        return;
+    switch (t->type) {
+    case SPC_TEX_CONSTANT:
+        sb_printf(b, " %s=(%.4g, %.4g, %.4g)", name, t->value.r, t->value.g, t->value.b);
+        break;
+    case SPC_TEX_BITMAP:
+        sb_printf(b, " %s=bitmap %dx%d", name, t->width, t->height);
+        break;
+    case SPC_TEX_CHECKERBOARD:
+        sb_printf(b, " %s=checkerboard", name);
+        break;
+    }
+}
+
+char *spc_scene_describe(const spc_scene *s)
+{
+    strbuf b = {0};
+    sb_printf(&b, "%s", ""); /* an empty scene still gets a (empty) string */
+    for (int i = 0; s && i < s->nshapes; ++i) {
+        const spc_shape *sh = s->shapes[i];
+        sb_printf(&b, "shape %d: %s", i, shape_type_name(sh));
+        if (sh->id[0])
+            sb_printf(&b, " id='%s'", sh->id);
+        if (sh->type == SPC_SHAPE_MESH)
+            sb_printf(&b, " triangles %zu vertices %zu%s%s", sh->mesh.ntris, sh->mesh.nverts,
+                      sh->mesh.n && !sh->face_normals ? " normals" : "", sh->mesh.uv ? " uvs" : "");
+        else if (sh->type == SPC_SHAPE_SPHERE)
+            sb_printf(&b, " center (%.4g, %.4g, %.4g) radius %.4g", sh->center.x, sh->center.y, sh->center.z,
+                      sh->radius);
+        sb_printf(&b, " bsdf ");
+        int bi = bsdf_index(s, sh->bsdf);
+        if (bi >= 0)
+            sb_printf(&b, "#%d ", bi);
+        describe_bsdf_type(&b, sh->bsdf, 0);
+        if (sh->emitter)
+            sb_printf(&b, " emitter #%d %s", sh->emitter->index, emitter_type_name(sh->emitter->type));
+        if (sh->flip_normals)
+            sb_printf(&b, " flip_normals");
+        sb_printf(&b, "\n");
+    }
+    for (int i = 0; s && i < s->nbsdfs; ++i) {
+        const spc_bsdf *bsdf = s->bsdfs[i];
+        sb_printf(&b, "bsdf %d: ", i);
+        describe_bsdf_type(&b, bsdf, 0);
+        switch (bsdf->type) {
+        case SPC_BSDF_DIFFUSE:
+        case SPC_BSDF_ROUGHDIFFUSE:
+            describe_texture(&b, "reflectance", bsdf->reflectance);
+            break;
+        case SPC_BSDF_DIELECTRIC:
+        case SPC_BSDF_THINDIELECTRIC:
+        case SPC_BSDF_ROUGHDIELECTRIC:
+        case SPC_BSDF_PLASTIC:
+        case SPC_BSDF_ROUGHPLASTIC:
+            sb_printf(&b, " eta=%.4g", bsdf->eta);
+            break;
+        case SPC_BSDF_CONDUCTOR:
+        case SPC_BSDF_ROUGHCONDUCTOR:
+            if (bsdf->cond_k.r < 0.0)
+                sb_printf(&b, " mirror");
+            else
+                sb_printf(&b, " eta=(%.3g, %.3g, %.3g) k=(%.3g, %.3g, %.3g)", bsdf->cond_eta.r, bsdf->cond_eta.g,
+                          bsdf->cond_eta.b, bsdf->cond_k.r, bsdf->cond_k.g, bsdf->cond_k.b);
+            break;
+        case SPC_BSDF_PHONG:
+            sb_printf(&b, " exponent=%.4g", bsdf->exponent);
+            break;
+        case SPC_BSDF_TWOSIDED:
+        case SPC_BSDF_NORMALMAP:
+        case SPC_BSDF_BUMPMAP:
+        case SPC_BSDF_NULL:
+        case SPC_BSDF_MASK:
+        case SPC_BSDF_BLENDBSDF:
+            break;
+        }
+        switch (bsdf->type) {
+        case SPC_BSDF_ROUGHCONDUCTOR:
+        case SPC_BSDF_ROUGHDIELECTRIC:
+        case SPC_BSDF_ROUGHPLASTIC:
+            sb_printf(&b, " %s", bsdf->distribution == SPC_MICROFACET_GGX ? "ggx" : "beckmann");
+            describe_texture(&b, "alpha_u", bsdf->alpha_u);
+            if (bsdf->alpha_v != bsdf->alpha_u)
+                describe_texture(&b, "alpha_v", bsdf->alpha_v);
+            break;
+        case SPC_BSDF_DIFFUSE:
+        case SPC_BSDF_ROUGHDIFFUSE:
+        case SPC_BSDF_PHONG:
+        case SPC_BSDF_CONDUCTOR:
+        case SPC_BSDF_DIELECTRIC:
+        case SPC_BSDF_THINDIELECTRIC:
+        case SPC_BSDF_PLASTIC:
+        case SPC_BSDF_TWOSIDED:
+        case SPC_BSDF_NORMALMAP:
+        case SPC_BSDF_BUMPMAP:
+        case SPC_BSDF_NULL:
+        case SPC_BSDF_MASK:
+        case SPC_BSDF_BLENDBSDF:
+            break;
+        }
+        sb_printf(&b, "\n");
+    }
+    for (int i = 0; s && i < s->nemitters; ++i) {
+        const spc_emitter *e = s->emitters[i];
+        sb_printf(&b, "emitter %d: %s", i, emitter_type_name(e->type));
+        switch (e->type) {
+        case SPC_EMITTER_POINT:
+        case SPC_EMITTER_SPOT:
+            sb_printf(&b, " position (%.4g, %.4g, %.4g) intensity (%.4g, %.4g, %.4g)", e->position.x, e->position.y,
+                      e->position.z, e->intensity.r, e->intensity.g, e->intensity.b);
+            break;
+        case SPC_EMITTER_DIRECTIONAL:
+            sb_printf(&b, " direction (%.4g, %.4g, %.4g) irradiance (%.4g, %.4g, %.4g)", e->direction.x,
+                      e->direction.y, e->direction.z, e->irradiance.r, e->irradiance.g, e->irradiance.b);
+            break;
+        case SPC_EMITTER_AREA: {
+            int si = e->shape ? shape_index(s, e->shape) : e->shape_index;
+            sb_printf(&b, " shape #%d", si);
+            if (e->shape && e->shape->id[0])
+                sb_printf(&b, " '%s'", e->shape->id);
+            describe_texture(&b, "radiance", e->radiance);
+            break;
+        }
+        case SPC_EMITTER_CONSTANT:
+            describe_texture(&b, "radiance", e->radiance);
+            break;
+        case SPC_EMITTER_ENVMAP:
+            describe_texture(&b, "radiance", e->radiance);
+            sb_printf(&b, " scale %.4g", e->scale);
+            break;
+        }
+        if (e->power > 0.0)
+            sb_printf(&b, " power %.4g", e->power);
+        if (s->light_pmf)
+            sb_printf(&b, " pmf %.4g", s->light_pmf[i]);
+        sb_printf(&b, "\n");
+    }
+    if (b.failed) {
+        free(b.data);
+        return NULL;
+    }
+    return b.data;
+}

@@ -1,0 +1,92 @@
+/*
+ * render/film_io.c: writes a resolved film as an EXR (mean, optionally the variance of the mean,
+ * and the AOVs) and as an 8-bit sRGB PNG preview. Both go through io/image_io's atomic writers
+ * (temporary file, then rename), so a failure never leaves a half-written image behind.
+ *
+ * EXR channel names: R, G, B; variance.R, variance.G, variance.B; albedo.R, albedo.G, albedo.B,
+ * normal.X, normal.Y, normal.Z, depth.Z. String attributes: "spp" and "renderer".
+ */
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "io/image_io.h"
+#include "render/film.h"
+#include "specula/specula.h"
+
+#define FILM_IO_MAX_CHANNELS 13 /* rgb + variance rgb + 7 AOVs */
+
+static spc_status check_resolved(const struct spc_film *f, const char *path, spc_error *err)
+{
+    if (!f || !path)
+        return spc_error_set(err, SPC_ERR_VALUE, path, 0, 0, "no film or no output path");
+    if (!f->rgb || f->width <= 0 || f->height <= 0)
+        return spc_error_set(err, SPC_ERR_INTERNAL, path, 0, 0, "the film has not been resolved");
+    return SPC_OK;
+}
+
+spc_status spc_film_write_exr(const struct spc_film *f, const char *path, bool variance, spc_error *err)
+{
+    spc_status st = check_resolved(f, path, err);
+    if (st != SPC_OK)
+        return st;
+    if (variance && !f->var)
+        return spc_error_set(err, SPC_ERR_INTERNAL, path, 0, 0, "the film has no resolved variance");
+    bool aovs = f->has_aovs && f->aov;
+
+    const char *names[FILM_IO_MAX_CHANNELS];
+    int nch = 0;
+    names[nch++] = "R";
+    names[nch++] = "G";
+    names[nch++] = "B";
+    if (variance) {
+        names[nch++] = "variance.R";
+        names[nch++] = "variance.G";
+        names[nch++] = "variance.B";
+    }
+    if (aovs) {
+        names[nch++] = "albedo.R";
+        names[nch++] = "albedo.G";
+        names[nch++] = "albedo.B";
+        names[nch++] = "normal.X";
+        names[nch++] = "normal.Y";
+        names[nch++] = "normal.Z";
+        names[nch++] = "depth.Z";
+    }
+
+    size_t npix = (size_t)f->width * (size_t)f->height;
+    float *data = malloc(npix * (size_t)nch * sizeof(float));
+    if (!data)
+        return spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory writing a %dx%d image", f->width,
+                             f->height);
+    for (size_t i = 0; i < npix; ++i) {
+        float *px = data + i * (size_t)nch;
+        int c = 0;
+        for (int k = 0; k < 3; ++k)
+            px[c++] = f->rgb[3 * i + (size_t)k];
+        if (variance)
+            for (int k = 0; k < 3; ++k)
+                px[c++] = f->var[3 * i + (size_t)k];
+        if (aovs)
+            for (int k = 0; k < 7; ++k)
+                px[c++] = f->aov[7 * i + (size_t)k];
+    }
+
+    char spp[32];
+    snprintf(spp, sizeof spp, "%d", f->spp);
+    const spc_exr_attr attrs[] = {
+        {"spp", spp},
+        {"renderer", "specula " SPECULA_VERSION},
+    };
+    st = spc_exr_write(path, f->width, f->height, nch, names, data, attrs, (int)(sizeof attrs / sizeof attrs[0]),
+                       err);
+    free(data);
+    return st;
+}
+
+spc_status spc_film_write_png(const struct spc_film *f, const char *path, spc_error *err)
+{
+    spc_status st = check_resolved(f, path, err);
+    if (st != SPC_OK)
+        return st;
+    return spc_png_write_srgb(path, f->width, f->height, f->rgb, err);
+}
