@@ -1,0 +1,391 @@
+/*
+ * tests/test_cli.c: end-to-end checks of the `specula` command, run as a child process
+ * ($SPC_BINARY_DIR/specula) in a temporary directory with stdout and stderr captured to files:
+ * error messages with file:line:col, exit codes, no output written on failure, a tiny scene that
+ * renders to EXR + PNG, `diff`, `info` and the --stats JSON.
+ */
+/* ctest-labels: unit */
+/* ctest-timeout: 300 */
+#include <fcntl.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "harness.h"
+#include "specula/specula.h"
+
+static char tmpdir[64];
+static char binary[1024];
+
+static const char *tmp_path(const char *name)
+{
+    static char buf[8][512];
+    static int k = 0;
+    k = (k + 1) % 8;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", tmpdir, name);
+    return buf[k];
+}
+
+static bool write_file(const char *name, const char *text)
+{
+    FILE *fp = fopen(tmp_path(name), "wb");
+    if (!fp)
+        return false;
+    bool ok = fputs(text, fp) >= 0;
+    return fclose(fp) == 0 && ok;
+}
+
+/* The whole file as a string (caller frees), or NULL. */
+static char *read_file(const char *name)
+{
+    FILE *fp = fopen(tmp_path(name), "rb");
+    if (!fp)
+        return NULL;
+    size_t cap = 4096, len = 0;
+    char *buf = malloc(cap);
+    for (size_t n; buf && (n = fread(buf + len, 1, cap - len - 1, fp)) > 0;) {
+        len += n;
+        if (cap - len < 2) {
+            char *nb = realloc(buf, cap *= 2);
+            if (!nb)
+                free(buf);
+            buf = nb;
+        }
+    }
+    fclose(fp);
+    if (buf)
+        buf[len] = '\0';
+    return buf;
+}
+
+static bool file_exists(const char *name) { return access(tmp_path(name), F_OK) == 0; }
+
+/* Runs `specula ARGS...` (NULL-terminated) in tmpdir with stdout -> out.txt, stderr -> err.txt.
+ * Returns the exit status, 128 + signal if killed, -1 if it could not run. */
+static int run(const char *arg0, ...)
+{
+    const char *argv[64];
+    int n = 0;
+    argv[n++] = binary;
+    va_list ap;
+    va_start(ap, arg0);
+    for (const char *a = arg0; a && n < 63; a = va_arg(ap, const char *))
+        argv[n++] = a;
+    va_end(ap);
+    argv[n] = NULL;
+
+    fflush(stdout);
+    pid_t pid = fork();
+    if (pid < 0)
+        return -1;
+    if (pid == 0) {
+        if (chdir(tmpdir) != 0)
+            _exit(126);
+        int fo = open("out.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int fe = open("err.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fo < 0 || fe < 0 || dup2(fo, 1) < 0 || dup2(fe, 2) < 0)
+            _exit(126);
+        close(fo);
+        close(fe);
+        execv(binary, (char *const *)argv);
+        _exit(127);
+    }
+    int status = 0;
+    if (waitpid(pid, &status, 0) != pid)
+        return -1;
+    if (WIFEXITED(status))
+        return WEXITSTATUS(status);
+    if (WIFSIGNALED(status))
+        return 128 + WTERMSIG(status);
+    return -1;
+}
+
+/* Prints what the last run said, to diagnose a failed check. */
+static void show_output(void)
+{
+    char *o = read_file("out.txt"), *e = read_file("err.txt");
+    printf("  --- stdout:\n%s  --- stderr:\n%s  ---\n", o ? o : "(none)\n", e ? e : "(none)\n");
+    free(o);
+    free(e);
+}
+
+/* True if s contains `prefix` directly followed by digits and ':' (a column number). */
+static bool has_position(const char *s, const char *prefix)
+{
+    for (const char *p = s ? strstr(s, prefix) : NULL; p; p = strstr(p + 1, prefix)) {
+        const char *q = p + strlen(prefix);
+        const char *d = q;
+        while (*d >= '0' && *d <= '9')
+            ++d;
+        if (d > q && *d == ':')
+            return true;
+    }
+    return false;
+}
+
+/* A rectangle light facing down over a diffuse floor; 4 triangles in all. */
+static const char *tiny_scene =
+    "<scene version=\"3.0.0\">\n"
+    "  <integrator type=\"path\">\n"
+    "    <integer name=\"max_depth\" value=\"4\"/>\n"
+    "  </integrator>\n"
+    "  <sensor type=\"perspective\">\n"
+    "    <float name=\"fov\" value=\"45\"/>\n"
+    "    <transform name=\"to_world\">\n"
+    "      <lookat origin=\"0, 0, 4\" target=\"0, 0, 0\" up=\"0, 1, 0\"/>\n"
+    "    </transform>\n"
+    "    <sampler type=\"independent\">\n"
+    "      <integer name=\"sample_count\" value=\"8\"/>\n"
+    "    </sampler>\n"
+    "    <film type=\"hdrfilm\">\n"
+    "      <integer name=\"width\" value=\"16\"/>\n"
+    "      <integer name=\"height\" value=\"16\"/>\n"
+    "    </film>\n"
+    "  </sensor>\n"
+    "  <shape type=\"rectangle\" id=\"floor\">\n"
+    "    <bsdf type=\"diffuse\">\n"
+    "      <rgb name=\"reflectance\" value=\"0.5, 0.5, 0.5\"/>\n"
+    "    </bsdf>\n"
+    "  </shape>\n"
+    "  <shape type=\"rectangle\" id=\"light\">\n"
+    "    <transform name=\"to_world\">\n"
+    "      <scale x=\"0.3\" y=\"0.3\" z=\"0.3\"/>\n"
+    "      <rotate x=\"1\" angle=\"180\"/>\n"
+    "      <translate x=\"0\" y=\"0\" z=\"2\"/>\n"
+    "    </transform>\n"
+    "    <emitter type=\"area\">\n"
+    "      <rgb name=\"radiance\" value=\"5, 5, 5\"/>\n"
+    "    </emitter>\n"
+    "  </shape>\n"
+    "</scene>\n";
+
+/* The closing tag on line 3 does not match <shape> */
+static const char *malformed_scene =
+    "<scene version=\"3.0.0\">\n"
+    "  <shape type=\"sphere\">\n"
+    "</scene>\n";
+
+static const char *unknown_plugin_scene =
+    "<scene version=\"3.0.0\">\n"
+    "  <shape type=\"sphere\">\n"
+    "    <float name=\"radius\" value=\"1\"/>\n"
+    "    <bsdf type=\"plastik\"/>\n"
+    "  </shape>\n"
+    "</scene>\n";
+
+static const char *sentinel = "sentinel: not an image\n";
+
+TEST(usage_and_version)
+{
+    CHECK(run(NULL) == 2);
+    CHECK(run("--version", NULL) == 0);
+    char *o = read_file("out.txt");
+    CHECK(o && strstr(o, SPECULA_VERSION));
+    free(o);
+    CHECK(run("--help", NULL) == 0);
+    CHECK(run("render", "--help", NULL) == 0);
+    o = read_file("out.txt");
+    CHECK(o && strstr(o, "--spp"));
+    free(o);
+    CHECK(run("frobnicate", NULL) == 2);
+    CHECK(run("render", "tiny.xml", "--no-such-option", NULL) == 2);
+    CHECK(run("render", "tiny.xml", "--spp", "many", NULL) == 2);
+    CHECK(run("render", "tiny.xml", "--res", "16by16", NULL) == 2);
+    CHECK(run("render", NULL) == 2);
+    CHECK(run("diff", "only-one.exr", NULL) == 2);
+    char *e = read_file("err.txt");
+    CHECK(e && strncmp(e, "specula: ", 9) == 0);
+    free(e);
+}
+
+TEST(malformed_xml_names_position)
+{
+    CHECK(write_file("bad.xml", malformed_scene));
+    int rc = run("render", "bad.xml", "--quiet", NULL);
+    CHECK(rc == 3);
+    char *e = read_file("err.txt");
+    CHECK_MSG(has_position(e, "bad.xml:3:"), "stderr: %s", e ? e : "(none)");
+    CHECK(e && strncmp(e, "specula: ", 9) == 0);
+    /* one line */
+    CHECK(e && strchr(e, '\n') == e + strlen(e) - 1);
+    free(e);
+    CHECK(!file_exists("bad.exr") && !file_exists("bad.png"));
+    /* info reports the same */
+    CHECK(run("info", "bad.xml", NULL) == 3);
+    e = read_file("err.txt");
+    CHECK(has_position(e, "bad.xml:3:"));
+    free(e);
+}
+
+TEST(unknown_plugin_names_type_and_line)
+{
+    CHECK(write_file("plugin.xml", unknown_plugin_scene));
+    CHECK(run("render", "plugin.xml", "--quiet", NULL) == 3);
+    char *e = read_file("err.txt");
+    CHECK_MSG(e && strstr(e, "plastik"), "stderr: %s", e ? e : "(none)");
+    CHECK_MSG(has_position(e, "plugin.xml:4:"), "stderr: %s", e ? e : "(none)");
+    free(e);
+}
+
+TEST(failed_run_keeps_existing_output)
+{
+    CHECK(write_file("bad.xml", malformed_scene));
+    CHECK(write_file("tiny.xml", tiny_scene));
+    CHECK(write_file("keep.exr", sentinel));
+    /* a load failure */
+    CHECK(run("render", "bad.xml", "-o", "keep.exr", "--quiet", NULL) == 3);
+    char *c = read_file("keep.exr");
+    CHECK(c && !strcmp(c, sentinel));
+    free(c);
+    CHECK(!file_exists("keep.png"));
+    /* a render failure: the scene loads, the integrator does not exist */
+    int rc = run("render", "tiny.xml", "-o", "keep.exr", "--integrator", "no-such-integrator", "--quiet", NULL);
+    CHECK_MSG(rc == 4, "exit %d", rc);
+    c = read_file("keep.exr");
+    CHECK(c && !strcmp(c, sentinel));
+    free(c);
+    CHECK(!file_exists("keep.png"));
+    /* a malformed -D is a usage error, also before anything is written */
+    CHECK(run("render", "tiny.xml", "-o", "keep.exr", "-D", "novalue", NULL) == 2);
+    c = read_file("keep.exr");
+    CHECK(c && !strcmp(c, sentinel));
+    free(c);
+    /* no temporary files left behind */
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "ls %s | grep -q tmp", tmpdir);
+    CHECK(system(cmd) != 0);
+}
+
+TEST(tiny_scene_renders_and_diffs)
+{
+    CHECK(write_file("tiny.xml", tiny_scene));
+    int rc = run("render", "tiny.xml", "-o", "out.exr", "--spp", "4", "--variance", "--quiet", NULL);
+    CHECK(rc == 0);
+    if (rc != 0)
+        show_output();
+    CHECK(file_exists("out.exr"));
+    CHECK(file_exists("out.png"));
+    char *c = read_file("out.exr");
+    CHECK(c && (unsigned char)c[0] == 0x76 && c[1] == 0x2f && c[2] == 0x31 && c[3] == 0x01);
+    free(c);
+
+    CHECK(run("diff", "out.exr", "out.exr", NULL) == 0);
+    char *o = read_file("out.txt");
+    CHECK_MSG(o && strstr(o, "MSE: 0\n"), "stdout: %s", o ? o : "(none)");
+    CHECK(o && strstr(o, "relMSE: 0\n"));
+    CHECK(o && strstr(o, "z-test: 1 of 256 pixels"));
+    free(o);
+
+    CHECK(run("diff", "out.exr", "out.exr", "--json", NULL) == 0);
+    o = read_file("out.txt");
+    CHECK(o && strstr(o, "\"mse\": 0"));
+    CHECK(o && strstr(o, "\"pass_fraction\": 1"));
+    /* the floor is lit: the mean is not black */
+    const char *m = o ? strstr(o, "\"mean_a\": [") : NULL;
+    CHECK(m && atof(m + strlen("\"mean_a\": [")) > 0.0);
+    free(o);
+
+    /* the PNG is comparable too; its size matches */
+    CHECK(run("diff", "out.png", "out.exr", NULL) == 0);
+    o = read_file("out.txt");
+    CHECK(o && strstr(o, "16x16"));
+    free(o);
+
+    /* another seed gives a different image of the same size */
+    CHECK(run("render", "tiny.xml", "-o", "seed.exr", "--spp", "4", "--seed", "7", "--quiet", NULL) == 0);
+    CHECK(run("diff", "seed.exr", "out.exr", "--json", NULL) == 0);
+    o = read_file("out.txt");
+    CHECK(o && !strstr(o, "\"mse\": 0,"));
+    free(o);
+
+    /* --res changes the size; mismatched sizes are an input error for diff */
+    CHECK(run("render", "tiny.xml", "-o", "small.exr", "--spp", "1", "--res", "8x4", "--quiet", NULL) == 0);
+    CHECK(run("diff", "small.exr", "out.exr", NULL) == 3);
+}
+
+TEST(default_output_name)
+{
+    CHECK(write_file("tiny.xml", tiny_scene));
+    remove(tmp_path("tiny.exr"));
+    remove(tmp_path("tiny.png"));
+    CHECK(run("render", tmp_path("tiny.xml"), "--spp", "1", "--quiet", NULL) == 0);
+    CHECK(file_exists("tiny.exr"));
+    CHECK(file_exists("tiny.png"));
+}
+
+TEST(info_prints_triangles)
+{
+    CHECK(write_file("tiny.xml", tiny_scene));
+    CHECK(run("info", "tiny.xml", NULL) == 0);
+    char *o = read_file("out.txt");
+    CHECK_MSG(o && strstr(o, "triangles: 4\n"), "stdout: %s", o ? o : "(none)");
+    CHECK(o && strstr(o, "film: 16x16"));
+    CHECK(o && strstr(o, "emitters: 1\n"));
+    CHECK(o && strstr(o, "id='floor'"));
+    CHECK(o && strstr(o, "emitter 0: area"));
+    free(o);
+}
+
+TEST(stats_json)
+{
+    CHECK(write_file("tiny.xml", tiny_scene));
+    CHECK(run("render", "tiny.xml", "-o", "stats.exr", "--spp", "2", "--threads", "1", "--stats", "stats.json",
+              "--quiet", NULL) == 0);
+    char *s = read_file("stats.json");
+    CHECK(s != NULL);
+    const char *keys[] = {"\"mrays_per_second\": ", "\"wall_seconds\": ", "\"rays_traced\": ", "\"threads\": 1",
+                          "\"samples\": ", "\"invalid_samples\": ", "\"width\": 16", "\"height\": 16",
+                          "\"spp\": 2", "\"integrator\": \"path\""};
+    for (size_t k = 0; k < sizeof keys / sizeof keys[0]; ++k)
+        CHECK_MSG(s && strstr(s, keys[k]), "missing %s in %s", keys[k], s ? s : "(none)");
+    const char *r = s ? strstr(s, "\"rays_traced\": ") : NULL;
+    CHECK(r && atof(r + strlen("\"rays_traced\": ")) >= 16 * 16 * 2);
+    free(s);
+}
+
+int main(void)
+{
+    const char *bin = getenv("SPC_BINARY_DIR");
+    snprintf(binary, sizeof binary, "%s/specula", bin ? bin : "build");
+    if (binary[0] != '/') { /* the child changes directory */
+        char cwd[512];
+        if (getcwd(cwd, sizeof cwd)) {
+            char rel[1024];
+            snprintf(rel, sizeof rel, "%s", binary);
+            snprintf(binary, sizeof binary, "%s/%s", cwd, rel);
+        }
+    }
+    if (access(binary, X_OK) != 0) {
+        printf("cannot run %s (set SPC_BINARY_DIR)\n0 passed, 1 failed\n", binary);
+        return 1;
+    }
+    snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_test_cli_XXXXXX");
+    if (!mkdtemp(tmpdir)) {
+        perror("mkdtemp");
+        return 1;
+    }
+    RUN(usage_and_version);
+    RUN(malformed_xml_names_position);
+    RUN(unknown_plugin_names_type_and_line);
+    RUN(failed_run_keeps_existing_output);
+    RUN(tiny_scene_renders_and_diffs);
+    RUN(default_output_name);
+    RUN(info_prints_triangles);
+    RUN(stats_json);
+    int rc = spc_test_finish();
+    if (rc == 0) {
+        char cmd[600];
+        snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
+        if (system(cmd) != 0)
+            printf("could not remove %s\n", tmpdir);
+    } else {
+        printf("files kept in %s\n", tmpdir);
+    }
+    return rc;
+}
