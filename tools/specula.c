@@ -121,9 +121,16 @@ static int usage_error(const char *usage, const char *fmt, ...)
     va_start(ap, fmt);
     fputs("specula: ", stderr);
     vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
     va_end(ap);
-    fputs(usage, stderr);
+    /* one line, like every other error; the full usage is one --help away */
+    if (usage == usage_render)
+        fputs(" (see specula render --help)\n", stderr);
+    else if (usage == usage_diff)
+        fputs(" (see specula diff --help)\n", stderr);
+    else if (usage == usage_info)
+        fputs(" (see specula info --help)\n", stderr);
+    else
+        fputs(" (see specula --help)\n", stderr);
     return EXIT_USAGE;
 }
 
