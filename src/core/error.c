@@ -59,6 +59,7 @@ const char *spc_status_name(spc_status code)
     case SPC_ERR_LIMIT: return "limit exceeded";
     case SPC_ERR_ACCEL: return "acceleration structure error";
     case SPC_ERR_INTERNAL: return "internal error";
+    case SPC_ERR_INTERRUPTED: return "interrupted";
     }
     return "unknown status";
 }

@@ -9,27 +9,7 @@
 
 #include <stdarg.h>
 
-typedef enum spc_status {
-    SPC_OK = 0,          /* success */
-    SPC_ERR_IO = 1,      /* a file could not be opened, read or written */
-    SPC_ERR_PARSE = 2,   /* malformed input: XML syntax, OBJ/PLY/EXR/PNG content */
-    SPC_ERR_PLUGIN = 3,  /* an unknown plugin type or an integrator specula does not have */
-    SPC_ERR_VALUE = 4,   /* a well-formed but invalid value: negative radius, NaN vertex, bad index */
-    SPC_ERR_NOMEM = 5,   /* an allocation failed */
-    SPC_ERR_LIMIT = 6,   /* a size beyond what specula accepts (film, sample count) */
-    SPC_ERR_ACCEL = 7,   /* Embree refused the device or the scene */
-    SPC_ERR_INTERNAL = 8 /* a broken invariant: a bug in specula */
-} spc_status;
-
-#define SPC_ERROR_MSG_MAX 1024
-
-/* Details of the last failure: "file:line:col: message". line/col are 0 when unknown. */
-typedef struct spc_error {
-    spc_status code;
-    char file[512];
-    int line, col;
-    char msg[SPC_ERROR_MSG_MAX];
-} spc_error;
+#include "specula/specula.h" /* spc_status, spc_error, spc_error_format, spc_status_name */
 
 /* Fills err (if not NULL) and returns code. file may be NULL. */
 spc_status spc_error_set(spc_error *err, spc_status code, const char *file, int line, int col, const char *fmt, ...)
@@ -39,9 +19,6 @@ spc_status spc_error_set(spc_error *err, spc_status code, const char *file, int 
     ;
 spc_status spc_error_setv(spc_error *err, spc_status code, const char *file, int line, int col, const char *fmt,
                           va_list ap);
-/* Writes "file:line:col: message" (parts omitted when unknown) into buf. */
-void spc_error_format(const spc_error *err, char *buf, int size);
-const char *spc_status_name(spc_status code);
 
 /* Warnings (unknown properties, ...): printed to stderr as "file:line:col: warning: ...". */
 void spc_warn(const char *file, int line, int col, const char *fmt, ...)

@@ -11,10 +11,7 @@
 #include "core/error.h"
 #include "scene/scene.h"
 
-typedef struct spc_define {
-    const char *name, *value; /* -D name=value: overrides <default name=...> */
-} spc_define;
-
+/* spc_define (-D name=value) is declared in specula/specula.h. */
 spc_status spc_mitsuba_load(const char *path, const spc_define *defs, int ndefs, spc_scene **out, spc_error *err);
 /* The same from a string in memory; base_dir resolves relative file names (NULL: cwd). */
 spc_status spc_mitsuba_load_string(const char *xml, size_t len, const char *name, const char *base_dir,

@@ -5,10 +5,13 @@
  * - ng is the unit geometric normal, oriented as the shape defines it (outward for closed shapes,
  *   the triangle winding for meshes, flipped if the shape says flip_normals). It is NOT flipped
  *   toward the ray.
- * - sh is the shading frame: sh.n is the interpolated (or mapped) shading normal on the same side
- *   as ng; sh.s follows dpdu where it can.
- * - dndu/dndv are derivatives of the (unnormalized-then-normalized) shading normal with respect to
- *   (u, v): for triangles, u and v are the barycentric coordinates b1, b2 of vertices 1 and 2.
+ * - sh is the shading frame: sh.n is the interpolated shading normal; for meshes with vertex
+ *   normals ng is flipped to lie on the same side as sh.n (Mitsuba's convention). sh.s follows the
+ *   texture-space tangent dP/du(texture) where the mesh has uvs (normal maps need it), else dpdu.
+ * - dpdu, dpdv, dndu, dndv are derivatives of the position and of the unit shading normal with
+ *   respect to the shape's SURFACE PARAMETERS (b1, b2): for triangles the barycentric coordinates
+ *   of vertices 1 and 2 (p = (1-b1-b2) p0 + b1 p1 + b2 p2); for analytic shapes their (u, v)
+ *   parameterization (documented in shape.c). The specular solvers rely on these.
  * - err is a bound on the absolute error of p, used by spc_hit_spawn to offset new rays.
  */
 #ifndef SPC_SCENE_HIT_H

@@ -23,14 +23,12 @@
 
 struct spc_bsdf;
 struct spc_emitter;
-struct spc_sdf;
 
 typedef enum spc_shape_type {
     SPC_SHAPE_MESH,
     SPC_SHAPE_SPHERE,
     SPC_SHAPE_DISK,
-    SPC_SHAPE_CYLINDER,
-    SPC_SHAPE_SDF
+    SPC_SHAPE_CYLINDER
 } spc_shape_type;
 
 /* Per-shape caustic flags (Mitsuba properties used by the caustics papers' scenes). */
@@ -50,8 +48,7 @@ typedef struct spc_shape {
     spc_vec3 center;         /* SPHERE */
     double radius;           /* SPHERE, CYLINDER */
     double length;           /* CYLINDER: along local z */
-    spc_mat4 to_world, to_local; /* DISK, CYLINDER, SPHERE (orientation for uv), SDF */
-    struct spc_sdf *sdf;     /* SDF, owned */
+    spc_mat4 to_world, to_local; /* DISK, CYLINDER, SPHERE (orientation for uv) */
     bool flip_normals;
     const struct spc_bsdf *bsdf;
     const struct spc_emitter *emitter; /* area emitter, or NULL */
@@ -98,8 +95,8 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
  * (u, v) (barycentrics b1, b2 for triangles). */
 void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h);
 
-/* Uniform area sampling. */
-void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, double u_prim, spc_shape_sample *out);
+/* Uniform area sampling (meshes pick the triangle with u.x and reuse it, rescaled). */
+void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out);
 
 /* Solid-angle sampling from a reference point where the shape supports it (spheres: the cone of
  * directions subtended). Returns false if the shape has no such method (use area sampling) or ref

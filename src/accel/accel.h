@@ -1,0 +1,30 @@
+/*
+ * accel/accel.h: the acceleration structure (Embree 3). Triangles go to Embree's triangle
+ * geometry; analytic shapes are Embree user geometry intersected in double precision from the
+ * caller's double ray (passed through an extended intersect context). No Embree type leaves
+ * src/accel/.
+ */
+#ifndef SPC_ACCEL_ACCEL_H
+#define SPC_ACCEL_ACCEL_H
+
+#include <stdint.h>
+
+#include "core/error.h"
+#include "core/math.h"
+
+struct spc_scene;
+typedef struct spc_accel spc_accel;
+
+/* Builds over scene->shapes (which must stay alive and unchanged). NULL with err on failure. */
+spc_accel *spc_accel_create(const struct spc_scene *scene, spc_error *err);
+void spc_accel_destroy(spc_accel *a);
+
+/* Nearest hit in (tmin, tmax): shape index, primitive, surface coordinates and distance. */
+bool spc_accel_intersect(const spc_accel *a, const spc_ray *r, int *shape, int *prim, double *u, double *v,
+                         double *t);
+/* Any hit in (tmin, tmax). */
+bool spc_accel_occluded(const spc_accel *a, const spc_ray *r);
+/* Rays traced by the calling thread so far. */
+uint64_t spc_accel_rays_traced(void);
+
+#endif

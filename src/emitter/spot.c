@@ -1,0 +1,75 @@
+/*
+ * emitter/spot.c: spot light (Mitsuba 3's falloff: full intensity inside beam_width, falling
+ * linearly in angle to zero at cutoff_angle).
+ * XML: <emitter type="spot"> intensity (1), cutoff_angle (20 degrees), beam_width
+ * (3/4 of cutoff_angle), to_world (the light looks along local +z).
+ */
+#include "emitter/variants.h"
+
+static double falloff(const spc_emitter *e, spc_vec3 d_world)
+{
+    spc_vec3 l = spc_normalize(spc_mat4_apply_vector(&e->to_local, d_world));
+    double cut = e->cutoff_angle * SPC_PI / 180.0, beam = e->beam_width * SPC_PI / 180.0;
+    double th = acos(spc_clamp(l.z, -1.0, 1.0));
+    if (th >= cut)
+        return 0.0;
+    if (th <= beam)
+        return 1.0;
+    return (cut - th) / (cut - beam);
+}
+
+bool spc_spot_prepare(spc_emitter *e)
+{
+    if (!(e->cutoff_angle > 0.0))
+        e->cutoff_angle = 20.0;
+    if (!(e->beam_width > 0.0) || e->beam_width > e->cutoff_angle)
+        e->beam_width = 0.75 * e->cutoff_angle;
+    e->position = spc_mat4_apply_point(&e->to_world, spc_v3(0, 0, 0));
+    if (!spc_mat4_inverse(&e->to_world, &e->to_local))
+        return false;
+    double mid = 0.5 * (e->cutoff_angle + e->beam_width) * SPC_PI / 180.0;
+    e->power = 2.0 * SPC_PI * (1.0 - cos(mid)) * spc_rgb_avg(e->intensity);
+    return e->power > 0.0;
+}
+
+bool spc_spot_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitter_direct *out)
+{
+    spc_vec3 d = spc_sub(e->position, ref);
+    double dist2 = spc_length2(d);
+    if (!(dist2 > 0.0))
+        return false;
+    double dist = sqrt(dist2);
+    out->p = e->position;
+    out->wi = spc_scale(d, 1.0 / dist);
+    out->n = spc_neg(out->wi);
+    out->dist = dist;
+    double f = falloff(e, spc_neg(out->wi));
+    out->L = spc_rgb_scale(e->intensity, f / dist2);
+    out->pdf = 1.0;
+    out->err = 1e-9 * spc_max_abs(e->position);
+    return f > 0.0;
+}
+
+bool spc_spot_sample_emission(const spc_emitter *e, spc_vec2 u_dir, spc_emitter_emission *out)
+{
+    double cos_max = cos(e->cutoff_angle * SPC_PI / 180.0);
+    spc_vec3 l = spc_warp_uniform_cone(u_dir, cos_max);
+    spc_vec3 d = spc_normalize(spc_mat4_apply_vector(&e->to_world, l));
+    double pdf = spc_warp_uniform_cone_pdf(cos_max);
+    out->p = e->position;
+    out->d = d;
+    out->n = d;
+    out->pdf_pos = 1.0;
+    out->pdf_dir = pdf;
+    out->weight = spc_rgb_scale(e->intensity, falloff(e, d) / pdf);
+    out->delta_pos = true;
+    out->err = 1e-9 * spc_max_abs(e->position);
+    return !spc_rgb_is_black(out->weight);
+}
+
+double spc_spot_pdf_dir(const spc_emitter *e, spc_vec3 d)
+{
+    double cos_max = cos(e->cutoff_angle * SPC_PI / 180.0);
+    spc_vec3 l = spc_normalize(spc_mat4_apply_vector(&e->to_local, d));
+    return l.z >= cos_max ? spc_warp_uniform_cone_pdf(cos_max) : 0.0;
+}

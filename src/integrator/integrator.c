@@ -1,0 +1,111 @@
+/*
+ * integrator/integrator.c: dispatch over integrators, and film splatting through the pixel filter.
+ */
+#include "integrator/integrator.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind)
+{
+    if (!strcmp(name, "path")) {
+        *kind = SPC_INTEGRATOR_PATH;
+        return true;
+    }
+    if (!strcmp(name, "ipt")) {
+        *kind = SPC_INTEGRATOR_IPT;
+        return true;
+    }
+    return false;
+}
+
+const char *spc_integrator_kind_name(spc_integrator_kind kind)
+{
+    switch (kind) {
+    case SPC_INTEGRATOR_PATH: return "path";
+    case SPC_INTEGRATOR_IPT: return "ipt";
+    }
+    return "?";
+}
+
+void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
+                           spc_sample_out *out)
+{
+    switch (ctx->kind) {
+    case SPC_INTEGRATOR_PATH:
+    case SPC_INTEGRATOR_IPT: spc_path_sample(ctx, tls, ray, smp, out); return;
+    }
+}
+
+/* Normalized 1D filter profile (integrates to 1 over [-radius, radius]). */
+static double filter_1d(const spc_film_spec *f, double x)
+{
+    double r = f->filter_radius;
+    if (fabs(x) >= r)
+        return 0.0;
+    switch (f->rfilter) {
+    case SPC_RFILTER_BOX: return 1.0 / (2.0 * r);
+    case SPC_RFILTER_TENT: return (r - fabs(x)) / (r * r);
+    case SPC_RFILTER_GAUSSIAN: {
+        double s = f->filter_stddev;
+        double norm = erf(r / (s * sqrt(2.0)));
+        return exp(-x * x / (2.0 * s * s)) / (s * sqrt(2.0 * SPC_PI) * norm);
+    }
+    }
+    return 0.0;
+}
+
+static void push_splat(spc_tls *tls, int x, int y, spc_rgb v)
+{
+    if (tls->nsplats == tls->cap) {
+        size_t ncap = tls->cap ? 2 * tls->cap : 256;
+        spc_splat *ns = realloc(tls->splats, ncap * sizeof *ns);
+        if (!ns) {
+            tls->oom = true;
+            tls->invalid++;
+            return;
+        }
+        tls->splats = ns;
+        tls->cap = ncap;
+    }
+    spc_splat *s = &tls->splats[tls->nsplats++];
+    s->x = x;
+    s->y = y;
+    s->r = (float)v.r;
+    s->g = (float)v.g;
+    s->b = (float)v.b;
+}
+
+void spc_splat_add(const spc_render_ctx *ctx, spc_tls *tls, double fx, double fy, spc_rgb v)
+{
+    if (!spc_rgb_finite(v)) {
+        tls->invalid++;
+        return;
+    }
+    double r = ctx->film->filter_radius;
+    /* pixels whose centers lie within the filter radius, in the rendered window */
+    int x0 = (int)floor(fx - r - 0.5) + 1, x1 = (int)floor(fx + r - 0.5);
+    int y0 = (int)floor(fy - r - 0.5) + 1, y1 = (int)floor(fy + r - 0.5);
+    if (ctx->film->rfilter == SPC_RFILTER_BOX) {
+        /* a box of radius 0.5 covers exactly the pixel containing the point */
+        if (r <= 0.5) {
+            x0 = x1 = (int)floor(fx);
+            y0 = y1 = (int)floor(fy);
+        }
+    }
+    for (int y = y0; y <= y1; ++y) {
+        int wy = y - ctx->crop_y;
+        if (wy < 0 || wy >= ctx->height)
+            continue;
+        double fyw = ctx->film->rfilter == SPC_RFILTER_BOX && r <= 0.5 ? 1.0 : filter_1d(ctx->film, y + 0.5 - fy);
+        for (int x = x0; x <= x1; ++x) {
+            int wx = x - ctx->crop_x;
+            if (wx < 0 || wx >= ctx->width)
+                continue;
+            double fxw = ctx->film->rfilter == SPC_RFILTER_BOX && r <= 0.5 ? 1.0 : filter_1d(ctx->film, x + 0.5 - fx);
+            double w = fxw * fyw;
+            if (w > 0.0)
+                push_splat(tls, wx, wy, spc_rgb_scale(v, w));
+        }
+    }
+}

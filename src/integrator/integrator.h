@@ -1,0 +1,83 @@
+/*
+ * integrator/integrator.h: what the render driver asks of an integrator: one estimate of the
+ * measurement of a camera ray, plus splats on the film for strategies that connect to the camera.
+ *
+ * Depth convention (Mitsuba's max_depth): the number of path SEGMENTS. max_depth = 1 shows only
+ * emitters seen directly, 2 adds direct illumination; -1 means unbounded (Russian roulette ends
+ * paths). Russian roulette starts once a path has rr_depth segments.
+ */
+#ifndef SPC_INTEGRATOR_INTEGRATOR_H
+#define SPC_INTEGRATOR_INTEGRATOR_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/sampler.h"
+#include "render/camera.h"
+#include "scene/scene.h"
+
+typedef enum spc_integrator_kind {
+    SPC_INTEGRATOR_PATH, /* NEE + BSDF sampling, power heuristic */
+    SPC_INTEGRATOR_IPT   /* implicit: light counts only when a path hits it */
+} spc_integrator_kind;
+
+typedef struct spc_render_ctx {
+    const spc_scene *scene;
+    const spc_camera_state *cam;
+    spc_integrator_kind kind;
+    int max_depth, rr_depth;
+    bool hide_emitters;
+    int strategy_s, strategy_t; /* bdpt debug: >= 0 keeps only this strategy */
+    bool strategy_weighted;
+    /* film geometry for splats: the rendered window within the full film */
+    int crop_x, crop_y, width, height;
+    const spc_film_spec *film;
+} spc_render_ctx;
+
+typedef struct spc_splat {
+    int32_t x, y; /* pixel in the rendered window */
+    float r, g, b;
+} spc_splat;
+
+/* Per-work-item scratch: splats produced while rendering one tile of one pass. */
+typedef struct spc_tls {
+    spc_splat *splats;
+    size_t nsplats, cap;
+    bool oom; /* a splat could not be stored (reported as invalid samples) */
+    uint64_t invalid;
+} spc_tls;
+
+typedef struct spc_sample_out {
+    spc_rgb L;
+    spc_rgb albedo;
+    spc_vec3 normal;
+    double depth;
+} spc_sample_out;
+
+/* Parses an integrator name; false if unknown. */
+bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind);
+const char *spc_integrator_kind_name(spc_integrator_kind kind);
+
+/* One estimate for a camera ray. out->L must be finite (the driver checks and counts). */
+void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
+                           spc_sample_out *out);
+
+/* Splat value v at continuous film position (fx, fy) of the full film, spread by the pixel
+ * filter (normalized), into tls. */
+void spc_splat_add(const spc_render_ctx *ctx, spc_tls *tls, double fx, double fy, spc_rgb v);
+
+/* Power heuristic (beta = 2) for two strategies with densities a (the one used) and b. */
+static inline double spc_mis_power(double a, double b)
+{
+    if (!(a > 0.0))
+        return 0.0;
+    if (isinf(a))
+        return 1.0;
+    double a2 = a * a, b2 = b * b;
+    return a2 / (a2 + b2);
+}
+
+void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
+                     spc_sample_out *out);
+
+#endif

@@ -1,0 +1,120 @@
+/*
+ * integrator/path.c: unidirectional path tracing, in two modes.
+ *
+ * - path: next-event estimation (one light chosen in proportion to power, one point on it) and
+ *   BSDF sampling, combined by multiple importance sampling with the power heuristic (Veach 1997,
+ *   ch. 9). Emitters hit by BSDF sampling are weighted against the NEE density of the same point
+ *   (solid angle: light pmf times spc_emitter_pdf_direct / pdf_infinite).
+ * - ipt: the implicit path tracer of the lecture note (shared/papers 001): no NEE; a path counts
+ *   emission only when it hits an emitter. Unbiased with Russian roulette; our ground truth.
+ *
+ * Throughput with Russian roulette: after rr_depth segments a path survives with probability
+ * q = min(0.95, max(beta) * eta_scale^2), where eta_scale undoes the radiance scaling of
+ * refraction so that paths inside glass are not killed for it (pbrt-v4).
+ */
+#include "integrator/integrator.h"
+
+static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
+
+void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0, spc_sampler *smp,
+                     spc_sample_out *out)
+{
+    (void)tls;
+    const spc_scene *sc = ctx->scene;
+    const bool nee = ctx->kind == SPC_INTEGRATOR_PATH;
+    spc_rgb L = spc_rgb1(0.0), beta = spc_rgb1(1.0);
+    spc_ray ray = *ray0;
+    bool specular = true; /* the last scattering was a delta lobe (or it is the camera) */
+    double prev_pdf = 1.0, eta_scale = 1.0;
+    spc_vec3 prev_p = ray.o;
+    out->albedo = spc_rgb1(0.0);
+    out->normal = spc_v3(0, 0, 0);
+    out->depth = 0.0;
+
+    for (int segments = 1;; ++segments) {
+        /* segments: the number of path segments once this ray is traced */
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h)) {
+            if (sc->env && !(segments == 1 && ctx->hide_emitters)) {
+                spc_rgb Le = spc_emitter_eval_infinite(sc->env, ray.d);
+                double w = 1.0;
+                if (nee && !specular) {
+                    double lp = spc_scene_emitter_pmf(sc, sc->env) * spc_emitter_pdf_infinite(sc->env, ray.d);
+                    w = spc_mis_power(prev_pdf, lp);
+                }
+                L = spc_rgb_add(L, spc_rgb_scale(spc_rgb_mul(beta, Le), w));
+            }
+            break;
+        }
+        if (segments == 1) {
+            out->albedo = spc_bsdf_albedo(h.bsdf, &h);
+            out->normal = h.sh.n;
+            out->depth = h.t;
+        }
+        spc_vec3 wo = spc_neg(ray.d);
+        if (h.emitter && !(segments == 1 && ctx->hide_emitters)) {
+            spc_rgb Le = spc_emitter_eval_area(h.emitter, &h, wo);
+            if (!spc_rgb_is_black(Le)) {
+                double w = 1.0;
+                if (nee && !specular) {
+                    double lp = spc_scene_emitter_pmf(sc, h.emitter) *
+                                spc_emitter_pdf_direct(h.emitter, prev_p, h.p, h.ng);
+                    w = spc_mis_power(prev_pdf, lp);
+                }
+                L = spc_rgb_add(L, spc_rgb_scale(spc_rgb_mul(beta, Le), w));
+            }
+        }
+        /* every continuation adds at least one segment */
+        if (!depth_allows(ctx->max_depth, segments + 1))
+            break;
+        const spc_bsdf *b = h.bsdf;
+
+        /* next-event estimation (always draw the same dimensions, so streams stay aligned) */
+        double u_light = spc_sampler_1d(smp);
+        spc_vec2 u_lpos = spc_sampler_2d(smp);
+        if (nee && spc_bsdf_has_smooth(b)) {
+            double pmf;
+            const spc_emitter *e = spc_scene_sample_emitter(sc, u_light, &pmf);
+            spc_emitter_direct ds;
+            if (e && spc_emitter_sample_direct(e, h.p, u_lpos, &ds)) {
+                spc_rgb f = spc_bsdf_eval(b, &h, SPC_MODE_RADIANCE, wo, ds.wi);
+                double cosi = spc_absdot(ds.wi, h.sh.n);
+                if (!spc_rgb_is_black(f) && cosi > 0.0) {
+                    spc_ray sr = ds.is_infinite ? spc_hit_spawn(&h, ds.wi) : spc_hit_spawn_to(&h, ds.p, ds.err);
+                    if (!spc_scene_occluded(sc, &sr)) {
+                        double lp = pmf * ds.pdf;
+                        double w = ds.is_delta ? 1.0
+                                               : spc_mis_power(lp, spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE, wo, ds.wi));
+                        spc_rgb c = spc_rgb_mul(spc_rgb_mul(beta, f), ds.L);
+                        L = spc_rgb_add(L, spc_rgb_scale(c, cosi * w / lp));
+                    }
+                }
+            }
+        }
+
+        /* BSDF sampling */
+        double u_lobe = spc_sampler_1d(smp);
+        spc_vec2 u_dir = spc_sampler_2d(smp);
+        double u_rr = spc_sampler_1d(smp);
+        spc_bsdf_sample bs;
+        if (!spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
+            break;
+        beta = spc_rgb_mul(beta, bs.weight);
+        if (spc_rgb_is_black(beta))
+            break;
+        specular = (bs.lobe & SPC_LOBE_DELTA) != 0;
+        prev_pdf = bs.pdf;
+        prev_p = h.p;
+        if (bs.lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))
+            eta_scale *= bs.eta * bs.eta;
+        ray = spc_hit_spawn(&h, bs.wi);
+
+        if (segments >= ctx->rr_depth) {
+            double q = spc_min(0.95, spc_rgb_max(beta) * eta_scale);
+            if (!(u_rr < q))
+                break;
+            beta = spc_rgb_scale(beta, 1.0 / q);
+        }
+    }
+    out->L = L;
+}

@@ -1,0 +1,99 @@
+/*
+ * render/camera.c: camera ray generation and projection.
+ *
+ * Perspective (Mitsuba 3): fov along fov_axis; a film point (fx, fy) maps to the local direction
+ * ((1 - 2 fx/W) tan_x, (1 - 2 fy/H) tan_y, 1). Orthographic: local x in [-1, 1] across the width
+ * and y in [-H/W, H/W], scaled by to_world.
+ */
+#include "render/camera.h"
+
+bool spc_camera_prepare(spc_camera_state *cs, const spc_camera *c, int width, int height)
+{
+    cs->type = c->type;
+    cs->to_world = c->to_world;
+    if (!spc_mat4_inverse(&c->to_world, &cs->to_local) || width <= 0 || height <= 0)
+        return false;
+    cs->width = width;
+    cs->height = height;
+    cs->origin = spc_mat4_apply_point(&c->to_world, spc_v3(0, 0, 0));
+    cs->forward = spc_normalize(spc_mat4_apply_vector(&c->to_world, spc_v3(0, 0, 1)));
+    cs->near_clip = c->near_clip;
+    cs->far_clip = c->far_clip;
+    cs->pixel_scale = spc_length(spc_mat4_apply_vector(&c->to_world, spc_v3(0, 0, 1)));
+    double aspect = (double)width / (double)height;
+    if (c->type == SPC_CAMERA_ORTHOGRAPHIC) {
+        cs->tan_x = 1.0;
+        cs->tan_y = 1.0 / aspect;
+    } else {
+        double t = tan(0.5 * c->fov * SPC_PI / 180.0);
+        if (!(t > 0.0) || !isfinite(t))
+            return false;
+        spc_fov_axis ax = c->fov_axis;
+        if (ax == SPC_FOV_SMALLER)
+            ax = aspect > 1.0 ? SPC_FOV_Y : SPC_FOV_X;
+        else if (ax == SPC_FOV_LARGER)
+            ax = aspect > 1.0 ? SPC_FOV_X : SPC_FOV_Y;
+        switch (ax) {
+        case SPC_FOV_X:
+            cs->tan_x = t;
+            cs->tan_y = t / aspect;
+            break;
+        case SPC_FOV_Y:
+            cs->tan_y = t;
+            cs->tan_x = t * aspect;
+            break;
+        case SPC_FOV_DIAGONAL: {
+            double diag = sqrt((double)width * width + (double)height * height);
+            cs->tan_x = t * width / diag;
+            cs->tan_y = t * height / diag;
+            break;
+        }
+        case SPC_FOV_SMALLER:
+        case SPC_FOV_LARGER: break;
+        }
+    }
+    cs->image_area = 4.0 * cs->tan_x * cs->tan_y;
+    return true;
+}
+
+spc_ray spc_camera_ray(const spc_camera_state *cs, double fx, double fy)
+{
+    double x = (1.0 - 2.0 * fx / cs->width) * cs->tan_x;
+    double y = (1.0 - 2.0 * fy / cs->height) * cs->tan_y;
+    spc_ray r;
+    if (cs->type == SPC_CAMERA_ORTHOGRAPHIC) {
+        r.o = spc_mat4_apply_point(&cs->to_world, spc_v3(x, y, 0.0));
+        r.d = cs->forward;
+        r.tmin = cs->near_clip * cs->pixel_scale;
+        r.tmax = cs->far_clip * cs->pixel_scale;
+        return r;
+    }
+    spc_vec3 dw = spc_mat4_apply_vector(&cs->to_world, spc_v3(x, y, 1.0));
+    double len = spc_length(dw);
+    r.o = cs->origin;
+    r.d = spc_scale(dw, 1.0 / len);
+    /* clip planes are depths along the camera's z axis: local depth z is at distance z |dw| */
+    r.tmin = cs->near_clip * len;
+    r.tmax = cs->far_clip * len;
+    return r;
+}
+
+bool spc_camera_project(const spc_camera_state *cs, spc_vec3 p, double *fx, double *fy)
+{
+    spc_vec3 l = spc_mat4_apply_point(&cs->to_local, p);
+    double x, y;
+    if (cs->type == SPC_CAMERA_ORTHOGRAPHIC) {
+        if (l.z <= 0.0)
+            return false;
+        x = l.x;
+        y = l.y;
+    } else {
+        if (!(l.z > 0.0))
+            return false;
+        x = l.x / l.z;
+        y = l.y / l.z;
+    }
+    *fx = (1.0 - x / cs->tan_x) * 0.5 * cs->width;
+    *fy = (1.0 - y / cs->tan_y) * 0.5 * cs->height;
+    return *fx >= 0.0 && *fx < cs->width && *fy >= 0.0 && *fy < cs->height;
+}

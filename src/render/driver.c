@@ -1,0 +1,335 @@
+/*
+ * render/driver.c: the render loop: passes of one sample per pixel, tiles, threads.
+ *
+ * Work is a list of (pass, tile) items handed to threads through an atomic counter. Every pixel's
+ * samples come from its own deterministic stream (pixel, pass index, seed), each item writes only
+ * its own pixels and keeps its splats in its own list, and passes are committed to the film in
+ * order with splats merged in tile order. The image is therefore bit-identical for any thread
+ * count. Passes are grouped into batches so small images keep every thread busy; with a time
+ * limit the batch size follows the measured time per pass.
+ */
+#include <limits.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "accel/accel.h"
+#include "core/warp.h"
+#include "integrator/integrator.h"
+#include "render/camera.h"
+#include "render/film.h"
+#include "scene/scene.h"
+#include "specula/specula.h"
+
+#define SPC_TILE 16                     /* tile edge in pixels */
+#define SPC_MAX_SPP (1 << 24)           /* more samples per pixel than any render needs */
+#define SPC_BATCH_PIXELS (1 << 22)      /* pixel-passes per batch buffer: 4M x 3 doubles = 96 MiB */
+#define SPC_BATCH_TARGET_SECONDS 1.0    /* batches this long keep progress and cancellation responsive */
+#define SPC_MAX_THREADS 256
+
+typedef struct tile {
+    int x0, y0, x1, y1; /* in the rendered window */
+} tile;
+
+typedef struct job {
+    const spc_render_ctx *ctx;
+    const tile *tiles;
+    int ntiles;
+    int pass0, npasses; /* passes in this batch */
+    int stride;         /* doubles per pixel in a batch buffer: 3, or 10 with AOVs */
+    double *buf;        /* npasses * width * height * stride */
+    spc_tls *tls;       /* npasses * ntiles */
+    uint64_t seed;
+    atomic_int next;
+    atomic_ullong rays;
+} job;
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+
+static double filter_sample(const spc_film_spec *f, double u)
+{
+    switch (f->rfilter) {
+    case SPC_RFILTER_BOX: return (2.0 * u - 1.0) * f->filter_radius;
+    case SPC_RFILTER_TENT: return spc_warp_tent(u) * f->filter_radius;
+    case SPC_RFILTER_GAUSSIAN: return spc_warp_gaussian_truncated(u, f->filter_stddev, f->filter_radius);
+    }
+    return 0.0;
+}
+
+static void render_item(job *jb, int item)
+{
+    const spc_render_ctx *ctx = jb->ctx;
+    int b = item / jb->ntiles, ti = item % jb->ntiles;
+    const tile *t = &jb->tiles[ti];
+    spc_tls *tls = &jb->tls[item];
+    int pass = jb->pass0 + b;
+    size_t npix = (size_t)ctx->width * (size_t)ctx->height;
+    double *buf = jb->buf + (size_t)b * npix * (size_t)jb->stride;
+    for (int y = t->y0; y < t->y1; ++y)
+        for (int x = t->x0; x < t->x1; ++x) {
+            int fx = x + ctx->crop_x, fy = y + ctx->crop_y;
+            spc_sampler smp;
+            spc_sampler_start(&smp, (uint32_t)fx, (uint32_t)fy, (uint32_t)pass, jb->seed);
+            spc_vec2 u = spc_sampler_2d(&smp);
+            double px = fx + 0.5 + filter_sample(ctx->film, u.x);
+            double py = fy + 0.5 + filter_sample(ctx->film, u.y);
+            spc_ray ray = spc_camera_ray(ctx->cam, px, py);
+            spc_sample_out out;
+            spc_integrator_sample(ctx, tls, &ray, &smp, &out);
+            if (!spc_rgb_finite(out.L)) {
+                tls->invalid++;
+                out.L = spc_rgb1(0.0);
+            }
+            double *d = buf + ((size_t)y * ctx->width + x) * jb->stride;
+            d[0] = out.L.r;
+            d[1] = out.L.g;
+            d[2] = out.L.b;
+            if (jb->stride == 10) {
+                d[3] = out.albedo.r;
+                d[4] = out.albedo.g;
+                d[5] = out.albedo.b;
+                d[6] = out.normal.x;
+                d[7] = out.normal.y;
+                d[8] = out.normal.z;
+                d[9] = out.depth;
+            }
+        }
+}
+
+static void *worker(void *arg)
+{
+    job *jb = arg;
+    uint64_t r0 = spc_accel_rays_traced();
+    int nitems = jb->npasses * jb->ntiles;
+    for (;;) {
+        int i = atomic_fetch_add(&jb->next, 1);
+        if (i >= nitems)
+            break;
+        render_item(jb, i);
+    }
+    atomic_fetch_add(&jb->rays, (unsigned long long)(spc_accel_rays_traced() - r0));
+    return NULL;
+}
+
+static int default_threads(void)
+{
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (int)n : 1;
+}
+
+spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film **out, spc_render_stats *stats,
+                      spc_error *err)
+{
+    *out = NULL;
+    const char *file = sc->path[0] ? sc->path : NULL;
+    spc_render_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = sc;
+    const char *iname = (o->integrator && o->integrator[0]) ? o->integrator : sc->integrator.type;
+    if (!spc_integrator_kind_from_name(iname, &ctx.kind))
+        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "unknown integrator '%s'; specula has: path, ipt",
+                             iname);
+    ctx.max_depth = o->max_depth != 0 ? o->max_depth : sc->integrator.max_depth;
+    if (ctx.max_depth < -1 || ctx.max_depth == 0)
+        ctx.max_depth = -1;
+    ctx.rr_depth = sc->integrator.rr_depth > 0 ? sc->integrator.rr_depth : 5;
+    ctx.hide_emitters = sc->integrator.hide_emitters;
+    ctx.strategy_s = o->strategy_s;
+    ctx.strategy_t = o->strategy_t;
+    ctx.strategy_weighted = o->strategy_weighted;
+
+    spc_film_spec fs = sc->film;
+    if (o->width > 0 && o->height > 0) {
+        fs.width = o->width;
+        fs.height = o->height;
+        fs.crop_x = fs.crop_y = fs.crop_w = fs.crop_h = 0;
+    }
+    if (fs.width <= 0 || fs.height <= 0 || fs.width > 65536 || fs.height > 65536 ||
+        (long long)fs.width * fs.height > (1LL << 28))
+        return spc_error_set(err, SPC_ERR_LIMIT, file, 0, 0, "film size %dx%d is outside 1..65536 per side and 2^28 pixels",
+                             fs.width, fs.height);
+    if (fs.crop_w <= 0 || fs.crop_h <= 0) {
+        fs.crop_x = fs.crop_y = 0;
+        fs.crop_w = fs.width;
+        fs.crop_h = fs.height;
+    }
+    if (fs.crop_x < 0 || fs.crop_y < 0 || fs.crop_x + fs.crop_w > fs.width || fs.crop_y + fs.crop_h > fs.height)
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "film crop window lies outside the film");
+    if (!(fs.filter_radius > 0.0))
+        fs.filter_radius = 0.5;
+    ctx.film = &fs;
+    ctx.crop_x = fs.crop_x;
+    ctx.crop_y = fs.crop_y;
+    ctx.width = fs.crop_w;
+    ctx.height = fs.crop_h;
+
+    spc_camera_state cam;
+    if (!spc_camera_prepare(&cam, &sc->camera, fs.width, fs.height))
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "invalid camera (singular transform or field of view)");
+    ctx.cam = &cam;
+
+    long long spp = o->spp > 0 ? o->spp : sc->spp;
+    if (o->time_limit > 0.0 && o->spp <= 0)
+        spp = SPC_MAX_SPP;
+    if (spp <= 0 || spp > SPC_MAX_SPP)
+        return spc_error_set(err, SPC_ERR_LIMIT, file, 0, 0, "sample count %lld is outside 1..%d", spp, SPC_MAX_SPP);
+    int threads = o->threads > 0 ? o->threads : default_threads();
+    if (threads > SPC_MAX_THREADS)
+        threads = SPC_MAX_THREADS;
+
+    struct spc_film *film = spc_film_create(fs.width, fs.height, fs.crop_x, fs.crop_y, fs.crop_w, fs.crop_h, o->aovs);
+    if (!film)
+        return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for a %dx%d film", fs.crop_w, fs.crop_h);
+
+    int tx = (ctx.width + SPC_TILE - 1) / SPC_TILE, ty = (ctx.height + SPC_TILE - 1) / SPC_TILE;
+    int ntiles = tx * ty;
+    tile *tiles = malloc((size_t)ntiles * sizeof *tiles);
+    size_t npix = (size_t)ctx.width * (size_t)ctx.height;
+    int max_batch = (int)spc_max(1.0, spc_min((double)SPC_BATCH_PIXELS / (double)npix, 4096.0));
+    int stride = o->aovs ? 10 : 3;
+    double *buf = malloc((size_t)max_batch * npix * (size_t)stride * sizeof(double));
+    spc_tls *tls = calloc((size_t)max_batch * (size_t)ntiles, sizeof *tls);
+    pthread_t *th = malloc((size_t)threads * sizeof *th);
+    if (!tiles || !buf || !tls || !th) {
+        free(tiles);
+        free(buf);
+        free(tls);
+        free(th);
+        spc_film_destroy(film);
+        return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for render buffers");
+    }
+    for (int j = 0; j < ty; ++j)
+        for (int i = 0; i < tx; ++i) {
+            tile *t = &tiles[j * tx + i];
+            t->x0 = i * SPC_TILE;
+            t->y0 = j * SPC_TILE;
+            t->x1 = t->x0 + SPC_TILE < ctx.width ? t->x0 + SPC_TILE : ctx.width;
+            t->y1 = t->y0 + SPC_TILE < ctx.height ? t->y0 + SPC_TILE : ctx.height;
+        }
+
+    double t_start = now_seconds();
+    uint64_t rays = 0, invalid = 0;
+    int done = 0;
+    double sec_per_pass = 0.0;
+    spc_status status = SPC_OK;
+    while (done < spp) {
+        if (o->cancel && *o->cancel) {
+            status = SPC_ERR_INTERRUPTED;
+            break;
+        }
+        double elapsed = now_seconds() - t_start;
+        int batch = max_batch;
+        if (batch > spp - done)
+            batch = (int)(spp - done);
+        if (done == 0) {
+            batch = 1; /* measure */
+        } else if (sec_per_pass > 0.0) {
+            int by_time = (int)(SPC_BATCH_TARGET_SECONDS / sec_per_pass);
+            if (o->time_limit > 0.0) {
+                double left = o->time_limit - elapsed;
+                int fit = (int)(left / sec_per_pass);
+                if (fit < 1)
+                    break;
+                if (by_time > fit)
+                    by_time = fit;
+            }
+            if (by_time < 1)
+                by_time = 1;
+            if (batch > by_time)
+                batch = by_time;
+        }
+        job jb;
+        jb.ctx = &ctx;
+        jb.tiles = tiles;
+        jb.ntiles = ntiles;
+        jb.pass0 = done;
+        jb.npasses = batch;
+        jb.stride = stride;
+        jb.buf = buf;
+        jb.tls = tls;
+        jb.seed = o->seed;
+        atomic_init(&jb.next, 0);
+        atomic_init(&jb.rays, 0);
+        double t0 = now_seconds();
+        int nt = threads;
+        if (nt > batch * ntiles)
+            nt = batch * ntiles;
+        int started = 0;
+        for (int i = 1; i < nt; ++i) {
+            if (pthread_create(&th[i], NULL, worker, &jb) != 0)
+                break;
+            ++started;
+        }
+        worker(&jb);
+        for (int i = 1; i <= started; ++i)
+            pthread_join(th[i], NULL);
+        rays += atomic_load(&jb.rays);
+        /* commit the passes in order, splats merged in tile order */
+        for (int b = 0; b < batch; ++b) {
+            double *pb = buf + (size_t)b * npix * stride;
+            for (size_t p = 0; p < npix; ++p) {
+                film->pass[3 * p] += pb[p * stride];
+                film->pass[3 * p + 1] += pb[p * stride + 1];
+                film->pass[3 * p + 2] += pb[p * stride + 2];
+                if (stride == 10)
+                    for (int k = 0; k < 7; ++k)
+                        film->aov_sum[7 * p + k] += pb[p * stride + 3 + k];
+            }
+            for (int ti = 0; ti < ntiles; ++ti) {
+                spc_tls *t = &tls[(size_t)b * ntiles + ti];
+                for (size_t k = 0; k < t->nsplats; ++k) {
+                    const spc_splat *s = &t->splats[k];
+                    size_t p = (size_t)s->y * ctx.width + (size_t)s->x;
+                    film->pass[3 * p] += s->r;
+                    film->pass[3 * p + 1] += s->g;
+                    film->pass[3 * p + 2] += s->b;
+                }
+                t->nsplats = 0;
+                invalid += t->invalid;
+                t->invalid = 0;
+            }
+            spc_film_commit_pass(film);
+        }
+        done += batch;
+        double dt = now_seconds() - t0;
+        sec_per_pass = dt / batch;
+        if (o->progress)
+            o->progress(o->progress_user, (double)done / (double)spp, done, (int)spp, now_seconds() - t_start);
+        if (o->time_limit > 0.0 && now_seconds() - t_start + sec_per_pass > o->time_limit)
+            break;
+    }
+    double wall = now_seconds() - t_start;
+    for (size_t i = 0; i < (size_t)max_batch * ntiles; ++i)
+        free(tls[i].splats);
+    free(tls);
+    free(buf);
+    free(tiles);
+    free(th);
+    film->invalid_samples = invalid;
+    if (!spc_film_resolve(film)) {
+        spc_film_destroy(film);
+        return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory resolving the film");
+    }
+    if (stats) {
+        stats->spp = film->spp;
+        stats->wall_seconds = wall;
+        stats->rays_traced = rays;
+        stats->mrays_per_second = wall > 0.0 ? (double)rays / wall * 1e-6 : 0.0;
+        stats->threads = threads;
+        stats->samples = (uint64_t)film->spp * npix;
+        stats->invalid_samples = invalid;
+    }
+    *out = film;
+    if (status == SPC_ERR_INTERRUPTED)
+        spc_error_set(err, SPC_ERR_INTERRUPTED, file, 0, 0, "render interrupted after %d samples per pixel", film->spp);
+    return status;
+}

@@ -1,0 +1,41 @@
+/*
+ * render/film.h: the film: per-pixel running sums of the per-pass estimates (mean and variance of
+ * the mean), optional AOVs, and a per-pass splat buffer for light tracing.
+ *
+ * Rendering proceeds in passes of one sample per pixel. A pass's value of a pixel is its camera
+ * sample plus whatever light-tracing splats the pass put on it; the film sums those values and their
+ * squares, so the variance of the mean is valid for every integrator, splatting ones included.
+ * Everything is double and summed in a fixed order, so images are bit-identical for any thread
+ * count.
+ */
+#ifndef SPC_RENDER_FILM_H
+#define SPC_RENDER_FILM_H
+
+#include <stdint.h>
+
+#include "core/error.h"
+#include "core/math.h"
+
+struct spc_film {
+    int width, height;           /* rendered window */
+    int full_width, full_height; /* whole film (camera projection) */
+    int crop_x, crop_y;
+    int spp;                     /* passes accumulated */
+    double *sum, *sumsq;         /* 3 per pixel */
+    double *pass;                /* 3 per pixel: the current pass (camera sample + splats) */
+    bool has_aovs;
+    double *aov_sum;             /* 7 per pixel: albedo rgb, normal xyz, depth */
+    /* resolved by spc_film_resolve */
+    float *rgb, *var;            /* 3 per pixel */
+    float *aov;                  /* 7 per pixel */
+    uint64_t invalid_samples;
+};
+
+/* NULL on allocation failure or absurd size. */
+struct spc_film *spc_film_create(int full_w, int full_h, int crop_x, int crop_y, int w, int h, bool aovs);
+/* Adds the current pass buffer into the sums and clears it. */
+void spc_film_commit_pass(struct spc_film *f);
+/* Computes rgb/var/aov floats from the sums. false on allocation failure. */
+bool spc_film_resolve(struct spc_film *f);
+
+#endif

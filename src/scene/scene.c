@@ -1,0 +1,252 @@
+/*
+ * scene/scene.c: scene ownership, finalization (sampling tables, light selection by power,
+ * acceleration structure) and the ray queries integrators use.
+ */
+#include "scene/scene.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "accel/accel.h"
+
+#define GROW(arr, n, cap, type)                                                                                      \
+    do {                                                                                                              \
+        if ((n) == (cap)) {                                                                                           \
+            int ncap = (cap) ? 2 * (cap) : 16;                                                                        \
+            type **na = realloc((arr), (size_t)ncap * sizeof(type *));                                                \
+            if (!na)                                                                                                  \
+                return NULL;                                                                                          \
+            (arr) = na;                                                                                               \
+            (cap) = ncap;                                                                                             \
+        }                                                                                                             \
+    } while (0)
+
+spc_scene *spc_scene_create(void)
+{
+    spc_scene *s = calloc(1, sizeof *s);
+    if (!s)
+        return NULL;
+    spc_scene_set_defaults(s);
+    return s;
+}
+
+void spc_scene_set_defaults(spc_scene *s)
+{
+    s->camera.type = SPC_CAMERA_PERSPECTIVE;
+    s->camera.to_world = spc_mat4_identity();
+    s->camera.fov = 45.0;
+    s->camera.fov_axis = SPC_FOV_X;
+    s->camera.near_clip = 1e-2;
+    s->camera.far_clip = 1e4;
+    s->film.width = 768;
+    s->film.height = 576;
+    s->film.crop_x = s->film.crop_y = s->film.crop_w = s->film.crop_h = 0;
+    s->film.rfilter = SPC_RFILTER_GAUSSIAN;
+    s->film.filter_stddev = 0.5;
+    s->film.filter_radius = 2.0;
+    snprintf(s->integrator.type, sizeof s->integrator.type, "path");
+    s->integrator.max_depth = -1;
+    s->integrator.rr_depth = 5;
+    s->integrator.hide_emitters = false;
+    s->integrator.specular_nee[0] = '\0';
+    s->integrator.specular_max_chain = 2;
+    s->spp = 4;
+    s->seed = 0;
+}
+
+void spc_scene_destroy(spc_scene *s)
+{
+    if (!s)
+        return;
+    spc_accel_destroy(s->accel);
+    for (int i = 0; i < s->nshapes; ++i) {
+        spc_shape_release(s->shapes[i]);
+        free(s->shapes[i]);
+    }
+    for (int i = 0; i < s->nbsdfs; ++i)
+        free(s->bsdfs[i]);
+    for (int i = 0; i < s->nemitters; ++i) {
+        spc_emitter_release(s->emitters[i]);
+        free(s->emitters[i]);
+    }
+    for (int i = 0; i < s->ntextures; ++i) {
+        spc_texture_release(s->textures[i]);
+        free(s->textures[i]);
+    }
+    free(s->shapes);
+    free(s->bsdfs);
+    free(s->emitters);
+    free(s->textures);
+    spc_distrib1d_release(&s->light_distrib);
+    free(s->light_pmf);
+    free(s);
+}
+
+spc_shape *spc_scene_new_shape(spc_scene *s)
+{
+    GROW(s->shapes, s->nshapes, s->cap_shapes, spc_shape);
+    spc_shape *o = calloc(1, sizeof *o);
+    if (!o)
+        return NULL;
+    o->interior_medium = o->exterior_medium = -1;
+    o->to_world = o->to_local = spc_mat4_identity();
+    o->caustic_flags = SPC_CAUSTIC_CASTER | SPC_CAUSTIC_RECEIVER;
+    s->shapes[s->nshapes++] = o;
+    return o;
+}
+
+spc_bsdf *spc_scene_new_bsdf(spc_scene *s)
+{
+    GROW(s->bsdfs, s->nbsdfs, s->cap_bsdfs, spc_bsdf);
+    spc_bsdf *o = calloc(1, sizeof *o);
+    if (!o)
+        return NULL;
+    o->sample_visible = true;
+    o->eta = 1.5046 / 1.000277;
+    s->bsdfs[s->nbsdfs++] = o;
+    return o;
+}
+
+spc_emitter *spc_scene_new_emitter(spc_scene *s)
+{
+    GROW(s->emitters, s->nemitters, s->cap_emitters, spc_emitter);
+    spc_emitter *o = calloc(1, sizeof *o);
+    if (!o)
+        return NULL;
+    o->to_world = o->to_local = spc_mat4_identity();
+    o->scale = 1.0;
+    o->shape_index = -1;
+    o->index = s->nemitters;
+    s->emitters[s->nemitters++] = o;
+    return o;
+}
+
+spc_texture *spc_scene_new_texture(spc_scene *s)
+{
+    GROW(s->textures, s->ntextures, s->cap_textures, spc_texture);
+    spc_texture *o = calloc(1, sizeof *o);
+    if (!o)
+        return NULL;
+    spc_texture_init_constant(o, spc_rgb1(0.0));
+    s->textures[s->ntextures++] = o;
+    return o;
+}
+
+const spc_texture *spc_scene_constant(spc_scene *s, spc_rgb value)
+{
+    spc_texture *t = spc_scene_new_texture(s);
+    if (t)
+        spc_texture_init_constant(t, value);
+    return t;
+}
+
+spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
+{
+    if (s->finalized)
+        return SPC_OK;
+    const char *file = s->path[0] ? s->path : NULL;
+    spc_bsdf *default_bsdf = NULL;
+    spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
+    for (int i = 0; i < s->nshapes; ++i) {
+        spc_shape *sh = s->shapes[i];
+        if (!sh->bsdf) {
+            if (!default_bsdf) {
+                default_bsdf = spc_scene_new_bsdf(s);
+                const spc_texture *r = default_bsdf ? spc_scene_constant(s, spc_rgb1(0.5)) : NULL;
+                if (!r)
+                    return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory");
+                default_bsdf->type = SPC_BSDF_DIFFUSE;
+                default_bsdf->reflectance = r;
+            }
+            sh->bsdf = default_bsdf;
+        }
+        if (!spc_shape_prepare(sh))
+            return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "shape %d ('%s') has zero area or invalid geometry",
+                                 i, sh->id);
+        lo = spc_vmin(lo, sh->bbox_min);
+        hi = spc_vmax(hi, sh->bbox_max);
+    }
+    if (s->nshapes == 0) {
+        lo = spc_v3(-1, -1, -1);
+        hi = spc_v3(1, 1, 1);
+    }
+    s->bbox_min = lo;
+    s->bbox_max = hi;
+    s->center = spc_scale(spc_add(lo, hi), 0.5);
+    s->radius = spc_max(0.5 * spc_length(spc_sub(hi, lo)), 1e-6 * (spc_max_abs(s->center) + 1e-30));
+    if (!(s->radius > 0.0) || !isfinite(s->radius))
+        s->radius = 1.0;
+
+    s->env = NULL;
+    double *power = s->nemitters ? malloc((size_t)s->nemitters * sizeof(double)) : NULL;
+    s->light_pmf = s->nemitters ? calloc((size_t)s->nemitters, sizeof(double)) : NULL;
+    if (s->nemitters && (!power || !s->light_pmf)) {
+        free(power);
+        return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory");
+    }
+    for (int i = 0; i < s->nemitters; ++i) {
+        spc_emitter *e = s->emitters[i];
+        e->index = i;
+        if (e->type == SPC_EMITTER_AREA) {
+            if (e->shape_index < 0 || e->shape_index >= s->nshapes) {
+                free(power);
+                return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "area emitter %d is not attached to a shape", i);
+            }
+            e->shape = s->shapes[e->shape_index];
+        }
+        if (spc_emitter_is_infinite(e)) {
+            if (s->env) {
+                free(power);
+                return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                                     "a scene may hold one environment emitter (constant or envmap); found two");
+            }
+            s->env = e;
+        }
+        if (!spc_emitter_prepare(e, s->center, s->radius))
+            e->power = 0.0; /* zero-power light: visible, never sampled */
+        power[i] = (e->power > 0.0 && isfinite(e->power)) ? e->power : 0.0;
+    }
+    if (s->nemitters && spc_distrib1d_init(&s->light_distrib, power, (size_t)s->nemitters)) {
+        for (int i = 0; i < s->nemitters; ++i)
+            s->light_pmf[i] = s->light_distrib.pmf[i];
+    }
+    free(power);
+
+    s->accel = spc_accel_create(s, err);
+    if (!s->accel)
+        return err ? err->code : SPC_ERR_ACCEL;
+    s->finalized = true;
+    return SPC_OK;
+}
+
+bool spc_scene_intersect(const spc_scene *s, const spc_ray *r, spc_hit *h)
+{
+    int shape, prim;
+    double u, v, t;
+    if (!spc_accel_intersect(s->accel, r, &shape, &prim, &u, &v, &t))
+        return false;
+    h->shape_index = shape;
+    spc_shape_fill_hit(s->shapes[shape], prim, u, v, r, t, h);
+    return true;
+}
+
+bool spc_scene_occluded(const spc_scene *s, const spc_ray *r) { return spc_accel_occluded(s->accel, r); }
+
+const spc_emitter *spc_scene_sample_emitter(const spc_scene *s, double u, double *pmf)
+{
+    if (s->light_distrib.n == 0)
+        return NULL;
+    size_t i = spc_distrib1d_sample(&s->light_distrib, u, NULL);
+    *pmf = s->light_distrib.pmf[i];
+    return *pmf > 0.0 ? s->emitters[i] : NULL;
+}
+
+double spc_scene_emitter_pmf(const spc_scene *s, const spc_emitter *e)
+{
+    if (!e || !s->light_pmf || e->index < 0 || e->index >= s->nemitters)
+        return 0.0;
+    return s->light_pmf[e->index];
+}
+
+uint64_t spc_scene_rays_traced(void) { return spc_accel_rays_traced(); }

@@ -1,0 +1,680 @@
+/*
+ * scene/shape.c: construction, exact intersection, surface interaction and sampling of shapes.
+ *
+ * Surface parameters (u, v) of each shape, with respect to which hit.dpdu/dpdv/dndu/dndv are
+ * given (the specular solvers differentiate through them):
+ *   mesh      barycentrics (b1, b2) of the triangle's vertices 1 and 2
+ *   sphere    u = phi / (2 pi), v = theta / pi in the sphere's local frame (to_world rotation),
+ *             theta measured from local +z; texture uv = (u, v) as Mitsuba 3
+ *   disk      u = r, v = phi / (2 pi) in local coordinates; texture uv = (u, v)
+ *   cylinder  u = phi / (2 pi), v = local z in [0, 1]; texture uv = (u, v)
+ *
+ * Error bounds for ray offsets: analytic shapes are intersected in double from the double ray, so
+ * their points are accurate to a few double ulps; triangles are intersected by Embree in float,
+ * so a new ray must leave a triangle's plane by more than float rounding of the vertices' and the
+ * origin's magnitude (SPC_FLOAT_OFFSET below).
+ */
+#include "scene/shape.h"
+
+#include <float.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Relative offset for surfaces intersected in float: ~8 float ulps of the coordinates' magnitude,
+ * above Embree's watertight intersection error, far below any feature a float scene can hold. */
+#define SPC_FLOAT_OFFSET (8.0 * FLT_EPSILON)
+/* Relative offset for analytic shapes intersected in double. */
+#define SPC_DOUBLE_OFFSET 1e-9
+
+static bool fail(spc_error *err, const char *file, int line, int col, const char *msg)
+{
+    spc_error_set(err, SPC_ERR_VALUE, file, line, col, "%s", msg);
+    return false;
+}
+
+static bool mat_ok(const spc_mat4 *m)
+{
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            if (!isfinite(m->m[i][j]))
+                return false;
+    return true;
+}
+
+static void shape_clear(spc_shape *s, spc_shape_type type)
+{
+    spc_mesh_release(&s->mesh);
+    s->type = type;
+    s->to_world = spc_mat4_identity();
+    s->to_local = spc_mat4_identity();
+    s->interior_medium = s->exterior_medium = -1;
+}
+
+bool spc_shape_init_sphere(spc_shape *s, spc_vec3 center, double radius, const spc_mat4 *to_world,
+                           const char *file, int line, int col, spc_error *err)
+{
+    shape_clear(s, SPC_SHAPE_SPHERE);
+    if (!(radius > 0.0) || !isfinite(radius) || !spc_v3_finite(center))
+        return fail(err, file, line, col, "sphere radius must be positive and finite, and the center finite");
+    spc_mat4 M = to_world ? *to_world : spc_mat4_identity();
+    if (!mat_ok(&M))
+        return fail(err, file, line, col, "sphere transform has non-finite entries");
+    /* The transform may carry a uniform scale, a rotation and a translation. */
+    spc_vec3 ax = spc_mat4_apply_vector(&M, spc_v3(1, 0, 0));
+    spc_vec3 ay = spc_mat4_apply_vector(&M, spc_v3(0, 1, 0));
+    spc_vec3 az = spc_mat4_apply_vector(&M, spc_v3(0, 0, 1));
+    double sx = spc_length(ax), sy = spc_length(ay), sz = spc_length(az);
+    if (!(sx > 0.0) || fabs(sx - sy) > 1e-5 * sx || fabs(sx - sz) > 1e-5 * sx ||
+        fabs(spc_dot(ax, ay)) > 1e-5 * sx * sy || fabs(spc_dot(ax, az)) > 1e-5 * sx * sz)
+        return fail(err, file, line, col, "sphere transform must be a uniform scale, rotation and translation");
+    s->center = spc_mat4_apply_point(&M, center);
+    s->radius = radius * sx;
+    /* orientation only (for uv) */
+    spc_mat4 R = spc_mat4_identity();
+    spc_vec3 cols[3] = {spc_scale(ax, 1.0 / sx), spc_scale(ay, 1.0 / sy), spc_scale(az, 1.0 / sz)};
+    for (int j = 0; j < 3; ++j) {
+        R.m[0][j] = cols[j].x;
+        R.m[1][j] = cols[j].y;
+        R.m[2][j] = cols[j].z;
+    }
+    s->to_world = R;
+    s->to_local = spc_mat4_transpose(&R);
+    return true;
+}
+
+static bool init_local_transform(spc_shape *s, const spc_mat4 *to_world, const char *what, const char *file,
+                                 int line, int col, spc_error *err)
+{
+    s->to_world = to_world ? *to_world : spc_mat4_identity();
+    if (!mat_ok(&s->to_world) || !spc_mat4_inverse(&s->to_world, &s->to_local) ||
+        fabs(spc_mat4_det3(&s->to_world)) < 1e-300) {
+        spc_error_set(err, SPC_ERR_VALUE, file, line, col, "%s transform is singular or not finite", what);
+        return false;
+    }
+    return true;
+}
+
+bool spc_shape_init_disk(spc_shape *s, const spc_mat4 *to_world, const char *file, int line, int col, spc_error *err)
+{
+    shape_clear(s, SPC_SHAPE_DISK);
+    return init_local_transform(s, to_world, "disk", file, line, col, err);
+}
+
+bool spc_shape_init_cylinder(spc_shape *s, spc_vec3 p0, spc_vec3 p1, double radius, const spc_mat4 *to_world,
+                             const char *file, int line, int col, spc_error *err)
+{
+    shape_clear(s, SPC_SHAPE_CYLINDER);
+    if (!(radius > 0.0) || !isfinite(radius) || !spc_v3_finite(p0) || !spc_v3_finite(p1))
+        return fail(err, file, line, col, "cylinder radius must be positive and its end points finite");
+    spc_vec3 axis = spc_sub(p1, p0);
+    double len = spc_length(axis);
+    if (!(len > 0.0))
+        return fail(err, file, line, col, "cylinder end points coincide");
+    /* local unit cylinder (radius 1, z in [0, 1]) -> p0 + frame * diag(r, r, len) */
+    spc_frame fr = spc_frame_from_n(spc_scale(axis, 1.0 / len));
+    spc_mat4 L = spc_mat4_identity();
+    spc_vec3 cols[4] = {spc_scale(fr.s, radius), spc_scale(fr.t, radius), axis, p0};
+    for (int j = 0; j < 4; ++j) {
+        L.m[0][j] = cols[j].x;
+        L.m[1][j] = cols[j].y;
+        L.m[2][j] = cols[j].z;
+    }
+    spc_mat4 M = to_world ? spc_mat4_mul(to_world, &L) : L;
+    s->radius = radius;
+    s->length = len;
+    return init_local_transform(s, &M, "cylinder", file, line, col, err);
+}
+
+static bool mesh_from_arrays(spc_mesh *m, const float *p, size_t nv, const float *uv, const uint32_t *idx,
+                             size_t nt)
+{
+    memset(m, 0, sizeof *m);
+    m->p = malloc(3 * nv * sizeof(float));
+    m->uv = malloc(2 * nv * sizeof(float));
+    m->idx = malloc(3 * nt * sizeof(uint32_t));
+    if (!m->p || !m->uv || !m->idx) {
+        spc_mesh_release(m);
+        return false;
+    }
+    memcpy(m->p, p, 3 * nv * sizeof(float));
+    memcpy(m->uv, uv, 2 * nv * sizeof(float));
+    memcpy(m->idx, idx, 3 * nt * sizeof(uint32_t));
+    m->nverts = nv;
+    m->ntris = nt;
+    return true;
+}
+
+bool spc_shape_init_rectangle(spc_shape *s, const spc_mat4 *to_world, const char *file, int line, int col,
+                              spc_error *err)
+{
+    static const float p[12] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+    static const float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+    static const uint32_t idx[6] = {0, 1, 2, 2, 3, 0};
+    spc_mesh m;
+    if (!mesh_from_arrays(&m, p, 4, uv, idx, 2)) {
+        spc_error_set(err, SPC_ERR_NOMEM, file, line, col, "out of memory");
+        return false;
+    }
+    return spc_shape_init_mesh(s, &m, to_world, file, line, col, err);
+}
+
+bool spc_shape_init_cube(spc_shape *s, const spc_mat4 *to_world, const char *file, int line, int col, spc_error *err)
+{
+    /* 6 faces, 4 vertices each, counter-clockwise seen from outside */
+    float p[72], uv[48];
+    uint32_t idx[36];
+    int v = 0, t = 0;
+    for (int axis = 0; axis < 3; ++axis)
+        for (int sign = -1; sign <= 1; sign += 2) {
+            int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+            static const float cu[4] = {-1, 1, 1, -1}, cv[4] = {-1, -1, 1, 1};
+            for (int k = 0; k < 4; ++k) {
+                float q[3];
+                q[axis] = (float)sign;
+                /* swap the in-plane axes on the negative side to keep the winding outward */
+                q[a1] = sign > 0 ? cu[k] : cv[k];
+                q[a2] = sign > 0 ? cv[k] : cu[k];
+                p[3 * (v + k)] = q[0];
+                p[3 * (v + k) + 1] = q[1];
+                p[3 * (v + k) + 2] = q[2];
+                uv[2 * (v + k)] = (sign > 0 ? cu[k] : cv[k]) * 0.5f + 0.5f;
+                uv[2 * (v + k) + 1] = (sign > 0 ? cv[k] : cu[k]) * 0.5f + 0.5f;
+            }
+            uint32_t b = (uint32_t)v;
+            uint32_t tri[6] = {b, b + 1, b + 2, b + 2, b + 3, b};
+            memcpy(idx + 3 * t, tri, sizeof tri);
+            v += 4;
+            t += 2;
+        }
+    spc_mesh m;
+    if (!mesh_from_arrays(&m, p, 24, uv, idx, 12)) {
+        spc_error_set(err, SPC_ERR_NOMEM, file, line, col, "out of memory");
+        return false;
+    }
+    return spc_shape_init_mesh(s, &m, to_world, file, line, col, err);
+}
+
+bool spc_shape_init_mesh(spc_shape *s, spc_mesh *m, const spc_mat4 *to_world, const char *file, int line, int col,
+                         spc_error *err)
+{
+    shape_clear(s, SPC_SHAPE_MESH);
+    s->mesh = *m;
+    memset(m, 0, sizeof *m);
+    if (spc_mesh_validate(&s->mesh, file, err) != SPC_OK) {
+        if (err && line > 0 && err->line == 0) {
+            /* point at the XML element as well */
+            err->line = line;
+            err->col = col;
+        }
+        return false;
+    }
+    if (to_world) {
+        if (!mat_ok(to_world) || !spc_mesh_transform(&s->mesh, to_world))
+            return fail(err, file, line, col, "mesh transform is singular or not finite");
+        s->to_world = *to_world;
+        /* a mirroring transform flips the winding: restore outward-facing normals */
+        if (spc_mat4_det3(to_world) < 0.0)
+            for (size_t i = 0; i < s->mesh.ntris; ++i) {
+                uint32_t tmp = s->mesh.idx[3 * i + 1];
+                s->mesh.idx[3 * i + 1] = s->mesh.idx[3 * i + 2];
+                s->mesh.idx[3 * i + 2] = tmp;
+            }
+    }
+    spc_mesh_drop_degenerate(&s->mesh);
+    if (s->mesh.ntris == 0)
+        return fail(err, file, line, col, "mesh has no triangle of non-zero area");
+    return true;
+}
+
+void spc_shape_release(spc_shape *s)
+{
+    if (!s)
+        return;
+    spc_mesh_release(&s->mesh);
+    spc_distrib1d_release(&s->tri_distrib);
+}
+
+static double tri_area(const spc_mesh *m, size_t i)
+{
+    spc_vec3 a = spc_mesh_p(m, m->idx[3 * i]), b = spc_mesh_p(m, m->idx[3 * i + 1]), c = spc_mesh_p(m, m->idx[3 * i + 2]);
+    return 0.5 * spc_length(spc_cross(spc_sub(b, a), spc_sub(c, a)));
+}
+
+bool spc_shape_prepare(spc_shape *s)
+{
+    switch (s->type) {
+    case SPC_SHAPE_MESH: {
+        const spc_mesh *m = &s->mesh;
+        double *w = malloc(m->ntris * sizeof(double));
+        if (!w)
+            return false;
+        double area = 0.0;
+        for (size_t i = 0; i < m->ntris; ++i)
+            area += (w[i] = tri_area(m, i));
+        bool ok = spc_distrib1d_init(&s->tri_distrib, w, m->ntris);
+        free(w);
+        if (!ok)
+            return false;
+        s->area = area;
+        spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
+        for (size_t i = 0; i < m->nverts; ++i) {
+            lo = spc_vmin(lo, spc_mesh_p(m, (uint32_t)i));
+            hi = spc_vmax(hi, spc_mesh_p(m, (uint32_t)i));
+        }
+        s->bbox_min = lo;
+        s->bbox_max = hi;
+        return area > 0.0;
+    }
+    case SPC_SHAPE_SPHERE:
+        s->area = 4.0 * SPC_PI * s->radius * s->radius;
+        s->bbox_min = spc_sub(s->center, spc_v3(s->radius, s->radius, s->radius));
+        s->bbox_max = spc_add(s->center, spc_v3(s->radius, s->radius, s->radius));
+        return true;
+    case SPC_SHAPE_DISK:
+    case SPC_SHAPE_CYLINDER: {
+        /* area of the transformed surface: integrate |dp/du x dp/dv| numerically would be exact
+         * only for similarity transforms; Mitsuba makes the same assumption for sampling */
+        spc_vec3 ex = spc_mat4_apply_vector(&s->to_world, spc_v3(1, 0, 0));
+        spc_vec3 ey = spc_mat4_apply_vector(&s->to_world, spc_v3(0, 1, 0));
+        spc_vec3 ez = spc_mat4_apply_vector(&s->to_world, spc_v3(0, 0, 1));
+        if (s->type == SPC_SHAPE_DISK)
+            s->area = SPC_PI * spc_length(spc_cross(ex, ey));
+        else
+            s->area = 2.0 * SPC_PI * sqrt(spc_length(ex) * spc_length(ey)) * spc_length(ez);
+        spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
+        for (int k = 0; k < 8; ++k) {
+            double z0 = s->type == SPC_SHAPE_DISK ? 0.0 : (double)((k >> 2) & 1);
+            spc_vec3 q = spc_mat4_apply_point(&s->to_world, spc_v3((k & 1) ? 1 : -1, (k & 2) ? 1 : -1, z0));
+            lo = spc_vmin(lo, q);
+            hi = spc_vmax(hi, q);
+        }
+        s->bbox_min = lo;
+        s->bbox_max = hi;
+        return s->area > 0.0 && isfinite(s->area);
+    }
+    }
+    return false;
+}
+
+/* ---- exact intersection of analytic shapes ---- */
+
+/* Roots of a t^2 + b t + c = 0 (stable form). */
+static bool solve_quadratic(double a, double b, double c, double *t0, double *t1)
+{
+    if (a == 0.0) {
+        if (b == 0.0)
+            return false;
+        *t0 = *t1 = -c / b;
+        return true;
+    }
+    double disc = b * b - 4.0 * a * c;
+    if (disc < 0.0)
+        return false;
+    double r = sqrt(disc);
+    double q = b < 0.0 ? -0.5 * (b - r) : -0.5 * (b + r);
+    double x0 = q / a, x1 = q != 0.0 ? c / q : x0;
+    if (x0 > x1) {
+        double tmp = x0;
+        x0 = x1;
+        x1 = tmp;
+    }
+    *t0 = x0;
+    *t1 = x1;
+    return true;
+}
+
+static bool intersect_sphere(const spc_shape *s, const spc_ray *r, double *t)
+{
+    /* relative to the center, with the discriminant in the form of Hearn-Baker / RTG2 ch. 7 for
+     * precision far from the sphere */
+    spc_vec3 f = spc_sub(r->o, s->center);
+    double b = spc_dot(f, r->d);
+    double R = s->radius;
+    spc_vec3 l = spc_sub(f, spc_scale(r->d, b));
+    double disc = R * R - spc_length2(l);
+    if (disc < 0.0)
+        return false;
+    double c = spc_length2(f) - R * R;
+    double sq = sqrt(disc);
+    double q = b > 0.0 ? -(b + sq) : -(b - sq);
+    double t0 = q, t1 = q != 0.0 ? c / q : q;
+    if (t0 > t1) {
+        double tmp = t0;
+        t0 = t1;
+        t1 = tmp;
+    }
+    if (t0 > r->tmin && t0 < r->tmax) {
+        *t = t0;
+        return true;
+    }
+    if (t1 > r->tmin && t1 < r->tmax) {
+        *t = t1;
+        return true;
+    }
+    return false;
+}
+
+bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *t, double *u, double *v)
+{
+    switch (s->type) {
+    case SPC_SHAPE_SPHERE:
+        *u = *v = 0.0;
+        return intersect_sphere(s, r, t);
+    case SPC_SHAPE_DISK: {
+        spc_vec3 o = spc_mat4_apply_point(&s->to_local, r->o);
+        spc_vec3 d = spc_mat4_apply_vector(&s->to_local, r->d);
+        if (d.z == 0.0)
+            return false;
+        double th = -o.z / d.z;
+        if (!(th > r->tmin && th < r->tmax))
+            return false;
+        double x = o.x + th * d.x, y = o.y + th * d.y;
+        if (x * x + y * y > 1.0)
+            return false;
+        *t = th;
+        *u = x;
+        *v = y;
+        return true;
+    }
+    case SPC_SHAPE_CYLINDER: {
+        spc_vec3 o = spc_mat4_apply_point(&s->to_local, r->o);
+        spc_vec3 d = spc_mat4_apply_vector(&s->to_local, r->d);
+        double a = d.x * d.x + d.y * d.y, b = 2.0 * (o.x * d.x + o.y * d.y), c = o.x * o.x + o.y * o.y - 1.0;
+        double t0, t1;
+        if (a == 0.0 || !solve_quadratic(a, b, c, &t0, &t1))
+            return false;
+        double ts[2] = {t0, t1};
+        for (int k = 0; k < 2; ++k) {
+            double th = ts[k];
+            if (!(th > r->tmin && th < r->tmax))
+                continue;
+            double z = o.z + th * d.z;
+            if (z < 0.0 || z > 1.0)
+                continue;
+            *t = th;
+            *u = o.x + th * d.x;
+            *v = o.y + th * d.y;
+            return true;
+        }
+        return false;
+    }
+    case SPC_SHAPE_MESH:
+        return false;
+    }
+    return false;
+}
+
+/* ---- surface interaction ---- */
+
+static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, spc_hit *h)
+{
+    const spc_mesh *m = &s->mesh;
+    uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
+    spc_vec3 p0 = spc_mesh_p(m, i0), p1 = spc_mesh_p(m, i1), p2 = spc_mesh_p(m, i2);
+    double b0 = 1.0 - b1 - b2;
+    h->p = spc_add(spc_add(spc_scale(p0, b0), spc_scale(p1, b1)), spc_scale(p2, b2));
+    spc_vec3 e1 = spc_sub(p1, p0), e2 = spc_sub(p2, p0);
+    h->ng = spc_normalize(spc_cross(e1, e2));
+    h->dpdu = e1;
+    h->dpdv = e2;
+    h->b1 = b1;
+    h->b2 = b2;
+    double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
+    h->err = SPC_FLOAT_OFFSET * spc_max(mag, spc_max_abs(h->p));
+    /* texture-space tangent */
+    spc_vec3 tangent = e1;
+    if (m->uv) {
+        double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
+        double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
+        double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
+        h->uv = spc_v2(u0 + b1 * du1 + b2 * du2, v0 + b1 * dv1 + b2 * dv2);
+        double det = du1 * dv2 - dv1 * du2;
+        if (fabs(det) > 1e-20) {
+            /* dP/du(texture) = (dv2 e1 - dv1 e2) / det */
+            tangent = spc_scale(spc_sub(spc_scale(e1, dv2), spc_scale(e2, dv1)), 1.0 / det);
+        }
+    } else {
+        h->uv = spc_v2(b1, b2);
+    }
+    if (m->n && !s->face_normals) {
+        spc_vec3 n0 = spc_mesh_n(m, i0), n1 = spc_mesh_n(m, i1), n2 = spc_mesh_n(m, i2);
+        spc_vec3 nr = spc_add(spc_add(spc_scale(n0, b0), spc_scale(n1, b1)), spc_scale(n2, b2));
+        double len = spc_length(nr);
+        if (len > 1e-12) {
+            spc_vec3 n = spc_scale(nr, 1.0 / len);
+            /* d(nr/|nr|) = (I - n n^T) d(nr) / |nr| */
+            spc_vec3 d1 = spc_sub(n1, n0), d2 = spc_sub(n2, n0);
+            h->dndu = spc_scale(spc_sub(d1, spc_scale(n, spc_dot(n, d1))), 1.0 / len);
+            h->dndv = spc_scale(spc_sub(d2, spc_scale(n, spc_dot(n, d2))), 1.0 / len);
+            if (s->flip_normals) {
+                n = spc_neg(n);
+                h->dndu = spc_neg(h->dndu);
+                h->dndv = spc_neg(h->dndv);
+            }
+            if (spc_dot(n, h->ng) < 0.0)
+                h->ng = spc_neg(h->ng);
+            h->sh = spc_frame_from_ns(n, tangent);
+            return;
+        }
+    }
+    if (s->flip_normals)
+        h->ng = spc_neg(h->ng);
+    h->dndu = h->dndv = spc_v3(0, 0, 0);
+    h->sh = spc_frame_from_ns(h->ng, tangent);
+}
+
+static void fill_sphere(const spc_shape *s, const spc_ray *r, double t, spc_hit *h)
+{
+    spc_vec3 p = spc_madd(r->o, r->d, t);
+    spc_vec3 dir = spc_normalize(spc_sub(p, s->center));
+    double R = s->radius;
+    h->p = spc_madd(s->center, dir, R);
+    h->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + R);
+    spc_vec3 l = spc_mat4_apply_vector(&s->to_local, dir);
+    double theta = acos(spc_clamp(l.z, -1.0, 1.0));
+    double phi = atan2(l.y, l.x);
+    if (phi < 0.0)
+        phi += 2.0 * SPC_PI;
+    h->uv = spc_v2(phi * SPC_INV_2PI, theta * SPC_INV_PI);
+    h->b1 = h->uv.x;
+    h->b2 = h->uv.y;
+    double st = sin(theta), ct = cos(theta), sp = sin(phi), cp = cos(phi);
+    /* local p = R (st cp, st sp, ct); u = phi/2pi, v = theta/pi */
+    spc_vec3 dpdu_l = spc_v3(-2.0 * SPC_PI * R * st * sp, 2.0 * SPC_PI * R * st * cp, 0.0);
+    spc_vec3 dpdv_l = spc_v3(SPC_PI * R * ct * cp, SPC_PI * R * ct * sp, -SPC_PI * R * st);
+    h->dpdu = spc_mat4_apply_vector(&s->to_world, dpdu_l);
+    h->dpdv = spc_mat4_apply_vector(&s->to_world, dpdv_l);
+    double sgn = s->flip_normals ? -1.0 : 1.0;
+    h->ng = spc_scale(dir, sgn);
+    h->dndu = spc_scale(h->dpdu, sgn / R);
+    h->dndv = spc_scale(h->dpdv, sgn / R);
+    spc_vec3 tangent = st > 1e-9 ? h->dpdu : spc_cross(h->ng, h->dpdv);
+    h->sh = spc_frame_from_ns(h->ng, tangent);
+}
+
+static void fill_disk(const spc_shape *s, double x, double y, spc_hit *h)
+{
+    double r = sqrt(x * x + y * y);
+    double phi = atan2(y, x);
+    if (phi < 0.0)
+        phi += 2.0 * SPC_PI;
+    h->p = spc_mat4_apply_point(&s->to_world, spc_v3(x, y, 0.0));
+    h->uv = spc_v2(r, phi * SPC_INV_2PI);
+    h->b1 = h->uv.x;
+    h->b2 = h->uv.y;
+    double cp = cos(phi), sp = sin(phi);
+    h->dpdu = spc_mat4_apply_vector(&s->to_world, spc_v3(cp, sp, 0.0));
+    h->dpdv = spc_mat4_apply_vector(&s->to_world, spc_v3(-2.0 * SPC_PI * r * sp, 2.0 * SPC_PI * r * cp, 0.0));
+    spc_vec3 n = spc_normalize(spc_mat4_apply_normal(&s->to_local, spc_v3(0, 0, 1)));
+    if (s->flip_normals)
+        n = spc_neg(n);
+    h->ng = n;
+    h->dndu = h->dndv = spc_v3(0, 0, 0);
+    h->err = SPC_DOUBLE_OFFSET * (spc_max_abs(h->p) + spc_max_abs(spc_mat4_apply_point(&s->to_world, spc_v3(0, 0, 0))) +
+                                  spc_length(h->dpdu));
+    spc_vec3 ex = spc_mat4_apply_vector(&s->to_world, spc_v3(1, 0, 0));
+    h->sh = spc_frame_from_ns(n, r > 1e-9 ? h->dpdu : ex);
+}
+
+static void fill_cylinder(const spc_shape *s, const spc_ray *r, double t, spc_hit *h)
+{
+    spc_vec3 o = spc_mat4_apply_point(&s->to_local, r->o);
+    spc_vec3 d = spc_mat4_apply_vector(&s->to_local, r->d);
+    spc_vec3 l = spc_madd(o, d, t);
+    double phi = atan2(l.y, l.x);
+    if (phi < 0.0)
+        phi += 2.0 * SPC_PI;
+    double cp = cos(phi), sp = sin(phi);
+    l = spc_v3(cp, sp, spc_clamp(l.z, 0.0, 1.0));
+    h->p = spc_mat4_apply_point(&s->to_world, l);
+    h->uv = spc_v2(phi * SPC_INV_2PI, l.z);
+    h->b1 = h->uv.x;
+    h->b2 = h->uv.y;
+    h->dpdu = spc_mat4_apply_vector(&s->to_world, spc_v3(-2.0 * SPC_PI * sp, 2.0 * SPC_PI * cp, 0.0));
+    h->dpdv = spc_mat4_apply_vector(&s->to_world, spc_v3(0.0, 0.0, 1.0));
+    spc_vec3 nl = spc_v3(cp, sp, 0.0);
+    spc_vec3 nu = spc_mat4_apply_normal(&s->to_local, nl);
+    double len = spc_length(nu);
+    spc_vec3 n = spc_scale(nu, 1.0 / len);
+    /* dn/du: derivative of normalize(N^T nl) with nl' = 2 pi (-sp, cp, 0) */
+    spc_vec3 dnu = spc_scale(spc_mat4_apply_normal(&s->to_local, spc_v3(-2.0 * SPC_PI * sp, 2.0 * SPC_PI * cp, 0.0)),
+                             1.0 / len);
+    h->dndu = spc_sub(dnu, spc_scale(n, spc_dot(n, dnu)));
+    h->dndv = spc_v3(0, 0, 0);
+    if (s->flip_normals) {
+        n = spc_neg(n);
+        h->dndu = spc_neg(h->dndu);
+    }
+    h->ng = n;
+    h->err = SPC_DOUBLE_OFFSET * (spc_max_abs(h->p) + spc_length(h->dpdu) + spc_length(h->dpdv));
+    h->sh = spc_frame_from_ns(n, h->dpdu);
+}
+
+void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h)
+{
+    h->t = t;
+    h->prim = prim;
+    h->shape = s;
+    h->bsdf = s->bsdf;
+    h->emitter = s->emitter;
+    switch (s->type) {
+    case SPC_SHAPE_MESH: fill_mesh(s, prim, u, v, h); break;
+    case SPC_SHAPE_SPHERE: fill_sphere(s, r, t, h); break;
+    case SPC_SHAPE_DISK: fill_disk(s, u, v, h); break;
+    case SPC_SHAPE_CYLINDER: fill_cylinder(s, r, t, h); break;
+    }
+}
+
+/* ---- sampling ---- */
+
+void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out)
+{
+    out->pdf = 1.0 / s->area;
+    out->prim = 0;
+    switch (s->type) {
+    case SPC_SHAPE_MESH: {
+        double ux;
+        size_t i = spc_distrib1d_sample(&s->tri_distrib, u.x, &ux);
+        spc_vec2 b = spc_warp_uniform_triangle(spc_v2(ux, u.y));
+        spc_hit h;
+        memset(&h, 0, sizeof h);
+        fill_mesh(s, (int)i, b.x, b.y, &h);
+        out->p = h.p;
+        out->n = h.ng;
+        out->uv = h.uv;
+        out->err = h.err;
+        out->prim = (int)i;
+        return;
+    }
+    case SPC_SHAPE_SPHERE: {
+        spc_vec3 d = spc_warp_uniform_sphere(u);
+        out->p = spc_madd(s->center, d, s->radius);
+        out->n = s->flip_normals ? spc_neg(d) : d;
+        spc_vec3 l = spc_mat4_apply_vector(&s->to_local, d);
+        double phi = atan2(l.y, l.x);
+        if (phi < 0.0)
+            phi += 2.0 * SPC_PI;
+        out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
+        out->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + s->radius);
+        return;
+    }
+    case SPC_SHAPE_DISK: {
+        spc_vec2 d = spc_warp_disk_concentric(u);
+        spc_hit h;
+        memset(&h, 0, sizeof h);
+        fill_disk(s, d.x, d.y, &h);
+        out->p = h.p;
+        out->n = h.ng;
+        out->uv = h.uv;
+        out->err = h.err;
+        return;
+    }
+    case SPC_SHAPE_CYLINDER: {
+        double phi = 2.0 * SPC_PI * u.x;
+        spc_vec3 l = spc_v3(cos(phi), sin(phi), u.y);
+        spc_hit h;
+        memset(&h, 0, sizeof h);
+        spc_ray r;
+        /* a ray from the axis to the point, so fill_cylinder lands on it */
+        r.o = spc_mat4_apply_point(&s->to_world, spc_v3(0, 0, u.y));
+        r.d = spc_sub(spc_mat4_apply_point(&s->to_world, l), r.o);
+        r.tmin = 0;
+        r.tmax = INFINITY;
+        fill_cylinder(s, &r, 1.0, &h);
+        out->p = h.p;
+        out->n = h.ng;
+        out->uv = h.uv;
+        out->err = h.err;
+        return;
+    }
+    }
+}
+
+bool spc_shape_has_solid_angle_sampling(const spc_shape *s, spc_vec3 ref)
+{
+    if (s->type != SPC_SHAPE_SPHERE)
+        return false;
+    /* outside by a relative margin: inside, area sampling is used */
+    return spc_length2(spc_sub(ref, s->center)) > s->radius * s->radius * (1.0 + 1e-9);
+}
+
+bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, spc_shape_sample *out)
+{
+    if (!spc_shape_has_solid_angle_sampling(s, ref))
+        return false;
+    spc_vec3 dc = spc_sub(s->center, ref);
+    double dist2 = spc_length2(dc), dist = sqrt(dist2);
+    double R = s->radius;
+    double sin2_max = R * R / dist2;
+    double cos_max = sqrt(spc_max(0.0, 1.0 - sin2_max));
+    spc_frame fr = spc_frame_from_n(spc_scale(dc, 1.0 / dist));
+    spc_vec3 wl = spc_warp_uniform_cone(u, cos_max);
+    spc_vec3 w = spc_frame_to_world(&fr, wl);
+    /* point on the sphere along w: nearest intersection (clamped to the tangent point) */
+    double b = spc_dot(w, dc);
+    double disc = R * R - (dist2 - b * b);
+    double t = b - spc_safe_sqrt(disc);
+    spc_vec3 p = spc_madd(ref, w, t);
+    spc_vec3 n = spc_normalize(spc_sub(p, s->center));
+    out->p = spc_madd(s->center, n, R);
+    out->n = s->flip_normals ? spc_neg(n) : n;
+    spc_vec3 l = spc_mat4_apply_vector(&s->to_local, n);
+    double phi = atan2(l.y, l.x);
+    if (phi < 0.0)
+        phi += 2.0 * SPC_PI;
+    out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
+    out->pdf = spc_warp_uniform_cone_pdf(cos_max);
+    out->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + R);
+    out->prim = 0;
+    return true;
+}
+
+double spc_shape_pdf_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec3 p)
+{
+    (void)p;
+    if (!spc_shape_has_solid_angle_sampling(s, ref))
+        return 0.0;
+    double dist2 = spc_length2(spc_sub(s->center, ref));
+    double cos_max = sqrt(spc_max(0.0, 1.0 - s->radius * s->radius / dist2));
+    return spc_warp_uniform_cone_pdf(cos_max);
+}
