@@ -1,0 +1,190 @@
+/*
+ * bsdf/bsdf.c: dispatch of the BSDF contract (bsdf.h) to the variants by a switch on the type
+ * (one file per variant, see variants.h), lobe flags of every variant, and the specular-interface
+ * query used by the specular solvers.
+ */
+#include "bsdf/variants.h"
+
+unsigned spc_bsdf_flags(const spc_bsdf *b)
+{
+    if (!b)
+        return 0;
+    switch (b->type) {
+    case SPC_BSDF_DIFFUSE:
+    case SPC_BSDF_ROUGHDIFFUSE:
+        return SPC_LOBE_DIFFUSE_REFLECTION;
+    case SPC_BSDF_PHONG:
+        return SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_GLOSSY_REFLECTION;
+    case SPC_BSDF_CONDUCTOR:
+        return SPC_LOBE_DELTA_REFLECTION;
+    case SPC_BSDF_ROUGHCONDUCTOR:
+        return SPC_LOBE_GLOSSY_REFLECTION;
+    case SPC_BSDF_DIELECTRIC:
+    case SPC_BSDF_THINDIELECTRIC:
+        return SPC_LOBE_DELTA_REFLECTION | SPC_LOBE_DELTA_TRANSMISSION;
+    case SPC_BSDF_ROUGHDIELECTRIC:
+        return SPC_LOBE_GLOSSY_REFLECTION | SPC_LOBE_GLOSSY_TRANSMISSION;
+    case SPC_BSDF_PLASTIC:
+        return SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_DELTA_REFLECTION;
+    case SPC_BSDF_ROUGHPLASTIC:
+        return SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_GLOSSY_REFLECTION;
+    case SPC_BSDF_TWOSIDED:
+        return spc_bsdf_flags(b->nested[0]) | spc_bsdf_flags(b->nested[1]);
+    case SPC_BSDF_NORMALMAP:
+    case SPC_BSDF_BUMPMAP:
+        return spc_bsdf_flags(b->nested[0]);
+    case SPC_BSDF_NULL:
+        return SPC_LOBE_NULL;
+    case SPC_BSDF_MASK:
+        return spc_bsdf_flags(b->nested[0]) | SPC_LOBE_NULL;
+    case SPC_BSDF_BLENDBSDF:
+        return spc_bsdf_flags(b->nested[0]) | spc_bsdf_flags(b->nested[1]);
+    }
+    return 0;
+}
+
+spc_rgb spc_bsdf_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
+{
+    if (!b)
+        return spc_rgb1(0.0);
+    switch (b->type) {
+    case SPC_BSDF_DIFFUSE: return spc_diffuse_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_ROUGHDIFFUSE: return spc_roughdiffuse_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_PHONG: return spc_phong_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_CONDUCTOR: return spc_conductor_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_ROUGHCONDUCTOR: return spc_roughconductor_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_DIELECTRIC: return spc_dielectric_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_THINDIELECTRIC: return spc_thindielectric_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_ROUGHDIELECTRIC: return spc_roughdielectric_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_PLASTIC: return spc_plastic_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_ROUGHPLASTIC: return spc_roughplastic_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_TWOSIDED: return spc_twosided_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_NORMALMAP: return spc_normalmap_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_BUMPMAP: return spc_bumpmap_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_NULL: return spc_null_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_MASK: return spc_mask_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_BLENDBSDF: return spc_blendbsdf_eval(b, h, mode, wo, wi);
+    }
+    return spc_rgb1(0.0);
+}
+
+double spc_bsdf_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
+{
+    if (!b)
+        return 0.0;
+    switch (b->type) {
+    case SPC_BSDF_DIFFUSE: return spc_diffuse_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_ROUGHDIFFUSE: return spc_roughdiffuse_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_PHONG: return spc_phong_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_CONDUCTOR: return spc_conductor_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_ROUGHCONDUCTOR: return spc_roughconductor_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_DIELECTRIC: return spc_dielectric_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_THINDIELECTRIC: return spc_thindielectric_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_ROUGHDIELECTRIC: return spc_roughdielectric_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_PLASTIC: return spc_plastic_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_ROUGHPLASTIC: return spc_roughplastic_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_TWOSIDED: return spc_twosided_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_NORMALMAP: return spc_normalmap_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_BUMPMAP: return spc_bumpmap_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_NULL: return spc_null_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_MASK: return spc_mask_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_BLENDBSDF: return spc_blendbsdf_pdf(b, h, mode, wo, wi);
+    }
+    return 0.0;
+}
+
+bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
+                         spc_vec2 u, spc_bsdf_sample *out)
+{
+    if (!b)
+        return false;
+    bool ok = false;
+    switch (b->type) {
+    case SPC_BSDF_DIFFUSE: ok = spc_diffuse_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_ROUGHDIFFUSE: ok = spc_roughdiffuse_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_PHONG: ok = spc_phong_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_CONDUCTOR: ok = spc_conductor_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_ROUGHCONDUCTOR: ok = spc_roughconductor_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_DIELECTRIC: ok = spc_dielectric_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_THINDIELECTRIC: ok = spc_thindielectric_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_ROUGHDIELECTRIC: ok = spc_roughdielectric_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_PLASTIC: ok = spc_plastic_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_ROUGHPLASTIC: ok = spc_roughplastic_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_TWOSIDED: ok = spc_twosided_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_NORMALMAP: ok = spc_normalmap_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_BUMPMAP: ok = spc_bumpmap_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_NULL: ok = spc_null_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_MASK: ok = spc_mask_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_BLENDBSDF: ok = spc_blendbsdf_sample(b, h, mode, wo, u_lobe, u, out); break;
+    }
+    /* one guard for every variant: a sample is either usable or reported as none */
+    if (ok && !(out->pdf > 0.0 && spc_rgb_finite(out->weight) && spc_v3_finite(out->wi)))
+        ok = false;
+    return ok;
+}
+
+spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h)
+{
+    if (!b)
+        return spc_rgb1(0.0);
+    switch (b->type) {
+    case SPC_BSDF_DIFFUSE: return spc_diffuse_albedo(b, h);
+    case SPC_BSDF_ROUGHDIFFUSE: return spc_roughdiffuse_albedo(b, h);
+    case SPC_BSDF_PHONG: return spc_phong_albedo(b, h);
+    case SPC_BSDF_CONDUCTOR: return spc_conductor_albedo(b, h);
+    case SPC_BSDF_ROUGHCONDUCTOR: return spc_roughconductor_albedo(b, h);
+    case SPC_BSDF_DIELECTRIC: return spc_dielectric_albedo(b, h);
+    case SPC_BSDF_THINDIELECTRIC: return spc_thindielectric_albedo(b, h);
+    case SPC_BSDF_ROUGHDIELECTRIC: return spc_roughdielectric_albedo(b, h);
+    case SPC_BSDF_PLASTIC: return spc_plastic_albedo(b, h);
+    case SPC_BSDF_ROUGHPLASTIC: return spc_roughplastic_albedo(b, h);
+    case SPC_BSDF_TWOSIDED: return spc_twosided_albedo(b, h);
+    case SPC_BSDF_NORMALMAP: return spc_normalmap_albedo(b, h);
+    case SPC_BSDF_BUMPMAP: return spc_bumpmap_albedo(b, h);
+    case SPC_BSDF_NULL: return spc_null_albedo(b, h);
+    case SPC_BSDF_MASK: return spc_mask_albedo(b, h);
+    case SPC_BSDF_BLENDBSDF: return spc_blendbsdf_albedo(b, h);
+    }
+    return spc_rgb1(0.0);
+}
+
+bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta)
+{
+    if (eta)
+        *eta = 0.0;
+    if (!b)
+        return false;
+    switch (b->type) {
+    case SPC_BSDF_CONDUCTOR:
+        return true;
+    case SPC_BSDF_DIELECTRIC:
+        if (eta)
+            *eta = b->eta;
+        return true;
+    case SPC_BSDF_TWOSIDED:
+        /* a two-sided mirror is still a mirror on both sides; only when both sides agree */
+        if (b->nested[1] && b->nested[1] != b->nested[0]) {
+            double e0, e1;
+            bool s0 = spc_bsdf_is_specular_interface(b->nested[0], &e0);
+            bool s1 = spc_bsdf_is_specular_interface(b->nested[1], &e1);
+            if (!(s0 && s1 && e0 == e1))
+                return false;
+        }
+        return spc_bsdf_is_specular_interface(b->nested[0], eta);
+    case SPC_BSDF_DIFFUSE:
+    case SPC_BSDF_ROUGHDIFFUSE:
+    case SPC_BSDF_PHONG:
+    case SPC_BSDF_ROUGHCONDUCTOR:
+    case SPC_BSDF_THINDIELECTRIC: /* no bending: the solvers treat it as a null-like sheet */
+    case SPC_BSDF_ROUGHDIELECTRIC:
+    case SPC_BSDF_PLASTIC:        /* has a diffuse lobe besides its coating */
+    case SPC_BSDF_ROUGHPLASTIC:
+    case SPC_BSDF_NORMALMAP:      /* the solvers use the hit's frame, not a mapped one */
+    case SPC_BSDF_BUMPMAP:
+    case SPC_BSDF_NULL:
+    case SPC_BSDF_MASK:
+    case SPC_BSDF_BLENDBSDF:
+        return false;
+    }
+    return false;
+}

@@ -1,0 +1,124 @@
+/*
+ * bsdf/bumpmap.c: perturbs the shading normal with a height texture (Blinn 1978, "Simulation of
+ * Wrinkled Surfaces"; the construction of Mitsuba 3's bumpmap). With the height
+ * H(u, v) = scale * texture(u, v) (channel mean) and the position's derivatives along the
+ * texture coordinates, the displaced surface p + H n has the tangents
+ *   dp/du' = dp/du + n (dH/du - n . dp/du),   dp/dv' likewise,
+ * (the term H dn/du is neglected, as Mitsuba does), so n' = normalize(dp/du' x dp/dv'), oriented
+ * to the side of the unperturbed sh.n, and s' is dp/du' made orthogonal to n'. The nested BSDF is
+ * evaluated in that frame with the side test and cosine correction of spc_bsdf_perturbed_scale
+ * (variants.h).
+ *
+ * Gradient: central finite differences of H in the hit's uv. For bitmaps the step is half a
+ * texel (mapped through the texture's to_uv), so a difference spans at most one bilinear cell
+ * boundary and equals the bilinear interpolant's exact gradient inside a cell; for other textures
+ * the step is BUMP_STEP_UV.
+ * Derivatives along the texture coordinates: the hit's dpdu/dpdv are derivatives along the shape's
+ * surface parameters (hit.h), which equal the texture coordinates except for meshes with uvs; for
+ * those the texture-space tangents are rebuilt from the triangle's vertex uvs through h->shape.
+ *
+ * Mitsuba XML <bsdf type="bumpmap">:
+ *   nested <texture>   height map (mean of the channels)
+ *   scale              float   1.0   (b->bump_scale; the loader sets the default)
+ *   nested <bsdf>
+ */
+#include "bsdf/variants.h"
+#include "scene/shape.h"
+
+/* Finite-difference step (in uv) for textures without texels (checkerboard: flat almost
+ * everywhere, so any small step gives the zero gradient). */
+#define BUMP_STEP_UV 1e-4
+
+/* dp/du and dp/dv along the TEXTURE coordinates at h. */
+static void texture_tangents(const spc_hit *h, spc_vec3 *dpdu, spc_vec3 *dpdv)
+{
+    *dpdu = h->dpdu;
+    *dpdv = h->dpdv;
+    const spc_shape *s = h->shape;
+    if (!s || s->type != SPC_SHAPE_MESH || !s->mesh.uv || !s->mesh.idx || h->prim < 0)
+        return;
+    const spc_mesh *m = &s->mesh;
+    uint32_t i0 = m->idx[3 * (size_t)h->prim], i1 = m->idx[3 * (size_t)h->prim + 1], i2 = m->idx[3 * (size_t)h->prim + 2];
+    double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
+    double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
+    double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
+    double det = du1 * dv2 - dv1 * du2;
+    if (!(fabs(det) > 1e-20))
+        return;
+    /* h->dpdu, h->dpdv are dp/db1 = e1 and dp/db2 = e2; invert the uv Jacobian */
+    spc_vec3 e1 = h->dpdu, e2 = h->dpdv;
+    *dpdu = spc_scale(spc_sub(spc_scale(e1, dv2), spc_scale(e2, dv1)), 1.0 / det);
+    *dpdv = spc_scale(spc_sub(spc_scale(e2, du1), spc_scale(e1, du2)), 1.0 / det);
+}
+
+static void bump_steps(const spc_texture *t, double *du, double *dv)
+{
+    *du = *dv = BUMP_STEP_UV;
+    if (t->type != SPC_TEX_BITMAP || t->width <= 0 || t->height <= 0)
+        return;
+    /* texels crossed per unit of hit u and v */
+    double tu = spc_max(fabs(t->to_uv[0][0]) * t->width, fabs(t->to_uv[1][0]) * t->height);
+    double tv = spc_max(fabs(t->to_uv[0][1]) * t->width, fabs(t->to_uv[1][1]) * t->height);
+    if (tu > 0.0)
+        *du = 0.5 / tu;
+    if (tv > 0.0)
+        *dv = 0.5 / tv;
+}
+
+static void bumpmap_hit(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
+{
+    *out = *h;
+    if (!b->bump)
+        return;
+    double du, dv;
+    bump_steps(b->bump, &du, &dv);
+    spc_vec2 uv = h->uv;
+    double k = b->bump_scale;
+    double dhdu = k * (spc_texture_eval1(b->bump, spc_v2(uv.x + du, uv.y)) -
+                       spc_texture_eval1(b->bump, spc_v2(uv.x - du, uv.y))) / (2.0 * du);
+    double dhdv = k * (spc_texture_eval1(b->bump, spc_v2(uv.x, uv.y + dv)) -
+                       spc_texture_eval1(b->bump, spc_v2(uv.x, uv.y - dv))) / (2.0 * dv);
+    spc_vec3 dpdu, dpdv, n = h->sh.n;
+    texture_tangents(h, &dpdu, &dpdv);
+    dpdu = spc_madd(dpdu, n, dhdu - spc_dot(n, dpdu));
+    dpdv = spc_madd(dpdv, n, dhdv - spc_dot(n, dpdv));
+    spc_vec3 np = spc_cross(dpdu, dpdv);
+    double len = spc_length(np);
+    if (!(len > 1e-30) || !spc_v3_finite(np))
+        return;
+    np = spc_scale(np, 1.0 / len);
+    if (spc_dot(np, n) < 0.0)
+        np = spc_neg(np);
+    out->sh = spc_frame_from_ns(np, dpdu);
+}
+
+spc_rgb spc_bumpmap_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
+{
+    spc_hit ph;
+    bumpmap_hit(b, h, &ph);
+    double k = spc_bsdf_perturbed_scale(h, &ph, wi);
+    if (k == 0.0)
+        return spc_rgb1(0.0);
+    return spc_rgb_scale(spc_bsdf_eval(b->nested[0], &ph, mode, wo, wi), k);
+}
+
+double spc_bumpmap_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
+{
+    spc_hit ph;
+    bumpmap_hit(b, h, &ph);
+    if (spc_bsdf_perturbed_scale(h, &ph, wi) == 0.0)
+        return 0.0;
+    return spc_bsdf_pdf(b->nested[0], &ph, mode, wo, wi);
+}
+
+bool spc_bumpmap_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
+                        spc_vec2 u, spc_bsdf_sample *out)
+{
+    spc_hit ph;
+    bumpmap_hit(b, h, &ph);
+    if (!spc_bsdf_sample_dir(b->nested[0], &ph, mode, wo, u_lobe, u, out))
+        return false;
+    return (out->lobe & SPC_LOBE_NULL) || spc_bsdf_perturbed_scale(h, &ph, out->wi) != 0.0;
+}
+
+spc_rgb spc_bumpmap_albedo(const spc_bsdf *b, const spc_hit *h) { return spc_bsdf_albedo(b->nested[0], h); }

@@ -1,0 +1,52 @@
+/*
+ * bsdf/microfacet.h: anisotropic GGX and Beckmann microfacet distributions (Walter et al. 2007,
+ * "Microfacet Models for Refraction through Rough Surfaces"), shared by roughconductor,
+ * roughdielectric and roughplastic.
+ *
+ * Conventions:
+ * - Every vector is in the LOCAL shading frame: z is the macro-normal, x the direction of alpha_u,
+ *   y the direction of alpha_v. Microfacet normals m always have m.z > 0.
+ * - D is normalized so that the projected microfacet area is one: integral of D(m) m.z dm = 1.
+ * - The masking-shadowing term is Smith's separable form G = G1(wo) G1(wi) (as Mitsuba), with the
+ *   anisotropic Lambda functions of Heitz 2014 ("Understanding the Masking-Shadowing Function").
+ * - Sampling draws m either from the distribution of visible normals seen from w,
+ *   D_w(m) = G1(w, m) max(0, w.m) D(m) / w.z (Heitz 2018 for GGX; Heitz and d'Eon 2014 with a
+ *   numerical inversion of the slope CDF for Beckmann), or, with sample_visible false, from
+ *   D(m) m.z. Densities are with respect to solid angle of m.
+ */
+#ifndef SPC_BSDF_MICROFACET_H
+#define SPC_BSDF_MICROFACET_H
+
+#include "bsdf/bsdf.h"
+
+/* Roughness below this is clamped: the distributions become numerically singular (Mitsuba uses
+ * the same floor). */
+#define SPC_MICROFACET_MIN_ALPHA 1e-4
+
+typedef struct spc_microfacet {
+    spc_microfacet_type type;
+    double alpha_u, alpha_v;
+    bool sample_visible;
+} spc_microfacet;
+
+/* A distribution with alphas clamped to [SPC_MICROFACET_MIN_ALPHA, inf). */
+spc_microfacet spc_microfacet_make(spc_microfacet_type type, double alpha_u, double alpha_v, bool sample_visible);
+/* The distribution of a rough variant at a hit: alpha_u, alpha_v (alpha_u if NULL) textures. */
+spc_microfacet spc_microfacet_from_bsdf(const spc_bsdf *b, const spc_hit *h);
+
+/* Normal distribution D(m) (solid angle of m); 0 for m.z <= 0. */
+double spc_microfacet_d(const spc_microfacet *md, spc_vec3 m);
+/* Smith's Lambda(w) for the direction w (any hemisphere; uses |w.z|). */
+double spc_microfacet_lambda(const spc_microfacet *md, spc_vec3 w);
+/* Smith's G1(w, m): 0 when w is on the back of m relative to its side of the macro-surface. */
+double spc_microfacet_g1(const spc_microfacet *md, spc_vec3 w, spc_vec3 m);
+/* Separable masking-shadowing G1(wo, m) G1(wi, m). */
+double spc_microfacet_g(const spc_microfacet *md, spc_vec3 wo, spc_vec3 wi, spc_vec3 m);
+/* Samples a microfacet normal for the direction w (w.z > 0 required; callers flip w to the upper
+ * hemisphere first). Returns m (m.z > 0) and its density in *pdf (0 means no sample). */
+spc_vec3 spc_microfacet_sample(const spc_microfacet *md, spc_vec3 w, spc_vec2 u, double *pdf);
+/* Density of spc_microfacet_sample producing m for the direction w (w may be in either
+ * hemisphere; it is flipped to the upper one). */
+double spc_microfacet_pdf(const spc_microfacet *md, spc_vec3 w, spc_vec3 m);
+
+#endif

@@ -1,0 +1,66 @@
+/*
+ * bsdf/thindielectric.c: a thin dielectric sheet (window pane, soap film) whose two parallel
+ * interfaces are collapsed into one surface, as Mitsuba's thindielectric. Summing the light
+ * bouncing between the two interfaces gives the total reflectance R' = R + T^2 R / (1 - R^2)
+ * (T = 1 - R, R the Fresnel reflectance of one interface at the incident angle); the rest,
+ * 1 - R', passes straight through (wi = -wo: the two refractions cancel), so the transmission
+ * reports eta = 1 and needs no radiance scaling. Both lobes are delta and chosen with probabilities
+ * R' and 1 - R'.
+ *
+ * Mitsuba XML <bsdf type="thindielectric">:
+ *   int_ior                  float or string       "bk7" (1.5046)
+ *   ext_ior                  float or string       "air" (1.000277)   b->eta = int_ior / ext_ior
+ *   specular_reflectance     spectrum or texture   1.0
+ *   specular_transmittance   spectrum or texture   1.0
+ */
+#include "bsdf/variants.h"
+
+spc_rgb spc_thindielectric_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
+{
+    (void)b;
+    (void)h;
+    (void)mode;
+    (void)wo;
+    (void)wi;
+    return spc_rgb1(0.0);
+}
+
+double spc_thindielectric_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
+{
+    (void)b;
+    (void)h;
+    (void)mode;
+    (void)wo;
+    (void)wi;
+    return 0.0;
+}
+
+bool spc_thindielectric_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
+                               spc_vec2 u, spc_bsdf_sample *out)
+{
+    (void)mode;
+    (void)u;
+    spc_vec3 lo = spc_bsdf_to_local(h, wo);
+    if (lo.z == 0.0)
+        return false;
+    /* the sheet is symmetric: the entering interface is seen from outside either way */
+    double R = spc_fresnel_dielectric(fabs(lo.z), b->eta, NULL, NULL);
+    if (R < 1.0) {
+        double T = 1.0 - R;
+        R += T * T * R / (1.0 - R * R);
+    }
+    if (u_lobe < R) {
+        spc_bsdf_set_sample(out, spc_bsdf_to_world(h, spc_bsdf_mirror_local(lo)),
+                            spc_bsdf_tex(b->specular_reflectance, h, spc_rgb1(1.0)), R, SPC_LOBE_DELTA_REFLECTION,
+                            1.0);
+        return true;
+    }
+    spc_bsdf_set_sample(out, spc_neg(wo), spc_bsdf_tex(b->specular_transmittance, h, spc_rgb1(1.0)), 1.0 - R,
+                        SPC_LOBE_DELTA_TRANSMISSION, 1.0);
+    return true;
+}
+
+spc_rgb spc_thindielectric_albedo(const spc_bsdf *b, const spc_hit *h)
+{
+    return spc_bsdf_tex(b->specular_transmittance, h, spc_rgb1(1.0));
+}

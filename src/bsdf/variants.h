@@ -1,0 +1,111 @@
+/*
+ * bsdf/variants.h: private interface between the dispatcher (bsdf.c) and the variant files. Not
+ * for use outside src/bsdf/.
+ *
+ * Every variant implements the four functions of the public contract in bsdf.h with the same
+ * parameters and the same meaning (world-space directions, eval without the cosine, pdf in solid
+ * angle over the smooth lobes, sample weight f |cos| / pdf):
+ *   spc_<variant>_eval, spc_<variant>_pdf, spc_<variant>_sample, spc_<variant>_albedo.
+ */
+#ifndef SPC_BSDF_VARIANTS_H
+#define SPC_BSDF_VARIANTS_H
+
+#include "bsdf/bsdf.h"
+#include "core/warp.h"
+
+/* Cosine-weighted hemispherical average of the dielectric Fresnel reflectance for light arriving
+ * on the side where eta = n_other / n_incident (fresnel.c). */
+double spc_fresnel_diffuse_reflectance(double eta);
+
+/* ---- small helpers shared by the variants ---- */
+static inline spc_vec3 spc_bsdf_to_local(const spc_hit *h, spc_vec3 w) { return spc_frame_to_local(&h->sh, w); }
+static inline spc_vec3 spc_bsdf_to_world(const spc_hit *h, spc_vec3 w) { return spc_frame_to_world(&h->sh, w); }
+static inline spc_rgb spc_bsdf_tex(const spc_texture *t, const spc_hit *h, spc_rgb fallback)
+{
+    return t ? spc_texture_eval(t, h->uv) : fallback;
+}
+static inline double spc_bsdf_tex1(const spc_texture *t, const spc_hit *h, double fallback)
+{
+    return t ? spc_texture_eval1(t, h->uv) : fallback;
+}
+/* Mirror direction about the local z axis. */
+static inline spc_vec3 spc_bsdf_mirror_local(spc_vec3 w) { return spc_v3(-w.x, -w.y, w.z); }
+
+/* Reflectance of a conductor (conductor, roughconductor) for the cosine cos_i: a perfect mirror
+ * when the loader marked it with cond_k.r < 0 (material "none"). */
+static inline spc_rgb spc_bsdf_conductor_fresnel(const spc_bsdf *b, double cos_i)
+{
+    if (b->cond_k.r < 0.0)
+        return spc_rgb1(1.0);
+    return spc_fresnel_conductor(cos_i, b->cond_eta, b->cond_k);
+}
+
+/* Diffuse base of plastic and roughplastic (Mitsuba's model): light refracts into the coating,
+ * scatters diffusely with albedo R, and is partly reflected back by the coating from inside
+ * (average reflectance fdr_int = spc_fresnel_diffuse_reflectance(1/eta)), summed as a geometric
+ * series: R / (1 - fdr_int), or R / (1 - R fdr_int) if nonlinear. With the two smooth Fresnel
+ * transmissions and the 1/eta^2 of entering/leaving the denser medium:
+ *   f_d = R' (1 - F(cos_o)) (1 - F(cos_i)) / (pi eta^2),
+ * whose albedo is exactly R (1 - F(cos_o)) in the linear case. */
+static inline spc_rgb spc_bsdf_plastic_diffuse(spc_rgb R, double eta, bool nonlinear, double cos_o, double cos_i)
+{
+    double fdr_int = spc_fresnel_diffuse_reflectance(1.0 / eta);
+    spc_rgb denom = nonlinear ? spc_rgb_sub(spc_rgb1(1.0), spc_rgb_scale(R, fdr_int)) : spc_rgb1(1.0 - fdr_int);
+    spc_rgb Rp = spc_rgb_div(R, denom);
+    double t = (1.0 - spc_fresnel_dielectric(cos_o, eta, NULL, NULL)) *
+               (1.0 - spc_fresnel_dielectric(cos_i, eta, NULL, NULL));
+    return spc_rgb_scale(Rp, t * SPC_INV_PI / (eta * eta));
+}
+
+/* normalmap and bumpmap evaluate their nested BSDF in a perturbed frame (hit copy `pert`). As
+ * Mitsuba 3 does, a direction wi counts only if it lies on the same side of both frames, and the
+ * nested f (which assumes the perturbed cosine) is rescaled so that the integrators, which
+ * multiply by |wi . sh.n| of the ORIGINAL frame, get f_nested |wi . n_pert|: this factor is what
+ * spc_bsdf_perturbed_scale returns (0 when the sides differ). */
+static inline double spc_bsdf_perturbed_scale(const spc_hit *orig, const spc_hit *pert, spc_vec3 wi)
+{
+    double c0 = spc_dot(wi, orig->sh.n), c1 = spc_dot(wi, pert->sh.n);
+    if (!(c0 * c1 > 0.0))
+        return 0.0;
+    return c1 / c0;
+}
+
+/* Fills a sample record (wi given in world space). */
+static inline void spc_bsdf_set_sample(spc_bsdf_sample *s, spc_vec3 wi, spc_rgb weight, double pdf, unsigned lobe,
+                                       double eta)
+{
+    s->wi = wi;
+    s->weight = weight;
+    s->pdf = pdf;
+    s->lobe = lobe;
+    s->eta = eta;
+}
+
+#define SPC_BSDF_VARIANT(name)                                                                                       \
+    spc_rgb spc_##name##_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi);   \
+    double spc_##name##_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi);     \
+    bool spc_##name##_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,   \
+                             spc_vec2 u, spc_bsdf_sample *out);                                                      \
+    spc_rgb spc_##name##_albedo(const spc_bsdf *b, const spc_hit *h)
+
+/* One line per file, named as the file and the Mitsuba plugin. */
+SPC_BSDF_VARIANT(diffuse);
+SPC_BSDF_VARIANT(roughdiffuse);
+SPC_BSDF_VARIANT(phong);
+SPC_BSDF_VARIANT(conductor);
+SPC_BSDF_VARIANT(roughconductor);
+SPC_BSDF_VARIANT(dielectric);
+SPC_BSDF_VARIANT(thindielectric);
+SPC_BSDF_VARIANT(roughdielectric);
+SPC_BSDF_VARIANT(plastic);
+SPC_BSDF_VARIANT(roughplastic);
+SPC_BSDF_VARIANT(twosided);
+SPC_BSDF_VARIANT(normalmap);
+SPC_BSDF_VARIANT(bumpmap);
+SPC_BSDF_VARIANT(null);
+SPC_BSDF_VARIANT(mask);
+SPC_BSDF_VARIANT(blendbsdf);
+
+#undef SPC_BSDF_VARIANT
+
+#endif
