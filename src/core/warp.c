@@ -200,7 +200,7 @@ bool spc_distrib2d_init(spc_distrib2d *d, const double *w, size_t width, size_t 
     d->w = width;
     d->h = height;
     d->conditional = calloc(height, sizeof(spc_distrib1d));
-    double *rows = malloc(height * sizeof(double));
+    double *rows = calloc(height ? height : 1, sizeof(double));
     if (!d->conditional || !rows) {
         free(d->conditional);
         free(rows);

@@ -1,0 +1,78 @@
+/*
+ * tests/render_util.h: helpers for tests that build scenes in code and render them.
+ */
+#ifndef SPC_TESTS_RENDER_UTIL_H
+#define SPC_TESTS_RENDER_UTIL_H
+
+#include <stdlib.h>
+
+#include "integrator/integrator.h"
+#include "render/film.h"
+#include "scene/scene.h"
+#include "specula/specula.h"
+
+static inline spc_bsdf *tu_diffuse(spc_scene *sc, double albedo)
+{
+    spc_bsdf *b = spc_scene_new_bsdf(sc);
+    b->type = SPC_BSDF_DIFFUSE;
+    b->reflectance = spc_scene_constant(sc, spc_rgb1(albedo));
+    return b;
+}
+
+static inline spc_emitter *tu_area(spc_scene *sc, spc_shape *sh, int shape_index, double radiance)
+{
+    spc_emitter *e = spc_scene_new_emitter(sc);
+    e->type = SPC_EMITTER_AREA;
+    e->radiance = spc_scene_constant(sc, spc_rgb1(radiance));
+    e->shape_index = shape_index;
+    sh->emitter = e;
+    return e;
+}
+
+static inline void tu_camera(spc_scene *sc, spc_vec3 origin, spc_vec3 target, spc_vec3 up, double fov, int w, int h)
+{
+    spc_mat4_lookat(origin, target, up, &sc->camera.to_world);
+    sc->camera.fov = fov;
+    sc->camera.fov_axis = SPC_FOV_X;
+    sc->film.width = w;
+    sc->film.height = h;
+    sc->film.rfilter = SPC_RFILTER_BOX;
+    sc->film.filter_radius = 0.5;
+}
+
+/* Renders and returns the film (caller destroys); NULL on failure (message printed). */
+static inline spc_film *tu_render(const spc_scene *sc, const char *integrator, int spp, int threads, uint64_t seed)
+{
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = spp;
+    o.threads = threads;
+    o.seed = seed;
+    o.integrator = integrator;
+    spc_film *f = NULL;
+    spc_error err;
+    spc_render_stats st;
+    if (spc_render(sc, &o, &f, &st, &err) != SPC_OK) {
+        char buf[1200];
+        spc_error_format(&err, buf, sizeof buf);
+        printf("  render failed: %s\n", buf);
+        spc_film_destroy(f);
+        return NULL;
+    }
+    return f;
+}
+
+/* Mean over pixels and channel c (0..2), and the standard error of that mean. */
+static inline void tu_image_mean(const spc_film *f, int c, double *mean, double *stderr_)
+{
+    size_t n = (size_t)f->width * f->height;
+    double s = 0.0, v = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        s += f->rgb[3 * i + c];
+        v += f->var[3 * i + c];
+    }
+    *mean = s / (double)n;
+    *stderr_ = sqrt(v) / (double)n;
+}
+
+#endif

@@ -1,0 +1,192 @@
+/*
+ * tests/test_core.c: transforms, the sampler's stratification and determinism, warping densities,
+ * discrete distributions.
+ */
+/* ctest-labels: unit */
+#include "core/math.h"
+#include "core/rng.h"
+#include "core/sampler.h"
+#include "core/warp.h"
+#include "harness.h"
+
+TEST(mat4_inverse_and_lookat)
+{
+    spc_mat4 R = spc_mat4_rotate(spc_v3(1, 2, 3), 37.0);
+    spc_mat4 T = spc_mat4_translate(spc_v3(1, -2, 5));
+    spc_mat4 S = spc_mat4_scale(spc_v3(2, 3, 0.5));
+    spc_mat4 M = spc_mat4_mul(&T, &R);
+    M = spc_mat4_mul(&M, &S);
+    spc_mat4 Mi;
+    CHECK(spc_mat4_inverse(&M, &Mi));
+    spc_mat4 I = spc_mat4_mul(&M, &Mi);
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            CHECK_NEAR(I.m[i][j], i == j ? 1.0 : 0.0, 1e-12);
+    /* rotation by 90 degrees about z maps x to y (right-handed) */
+    spc_mat4 Rz = spc_mat4_rotate(spc_v3(0, 0, 1), 90.0);
+    spc_vec3 y = spc_mat4_apply_vector(&Rz, spc_v3(1, 0, 0));
+    CHECK_NEAR(y.x, 0.0, 1e-12);
+    CHECK_NEAR(y.y, 1.0, 1e-12);
+    /* lookat: +z toward the target, +x = up x dir (image left) */
+    spc_mat4 L;
+    CHECK(spc_mat4_lookat(spc_v3(0, 0, 5), spc_v3(0, 0, 0), spc_v3(0, 1, 0), &L));
+    spc_vec3 dz = spc_mat4_apply_vector(&L, spc_v3(0, 0, 1));
+    spc_vec3 dx = spc_mat4_apply_vector(&L, spc_v3(1, 0, 0));
+    CHECK_NEAR(dz.z, -1.0, 1e-12);
+    CHECK_NEAR(dx.x, -1.0, 1e-12);
+    spc_mat4 Z;
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            Z.m[i][j] = 0.0;
+    CHECK(!spc_mat4_inverse(&Z, &Mi));
+    /* normals by the inverse transpose stay perpendicular to transformed tangents */
+    spc_vec3 t = spc_v3(1, 1, 0), n = spc_v3(1, -1, 0.3);
+    t = spc_sub(t, spc_scale(n, spc_dot(t, n) / spc_dot(n, n)));
+    spc_mat4_inverse(&M, &Mi);
+    CHECK_NEAR(spc_dot(spc_mat4_apply_vector(&M, t), spc_mat4_apply_normal(&Mi, n)), 0.0, 1e-12);
+}
+
+TEST(frames_orthonormal)
+{
+    spc_rng r;
+    spc_rng_seed(&r, 1, 2);
+    for (int i = 0; i < 1000; ++i) {
+        spc_vec3 n = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&r), spc_rng_next(&r)));
+        spc_frame f = spc_frame_from_n(n);
+        CHECK_NEAR(spc_dot(f.s, f.t), 0.0, 1e-12);
+        CHECK_NEAR(spc_dot(f.s, f.n), 0.0, 1e-12);
+        CHECK_NEAR(spc_length(f.s), 1.0, 1e-12);
+        CHECK_NEAR(spc_length(f.t), 1.0, 1e-12);
+        CHECK(spc_dot(spc_cross(f.s, f.t), f.n) > 0.999999);
+    }
+}
+
+/* Each 2D dimension of a pixel's stream is stratified: for N = 4^k samples, every cell of an
+ * (2^k x 2^k) grid holds exactly one point (a (0,2)-sequence property), in every dimension. */
+TEST(sampler_stratified_and_deterministic)
+{
+    const int N = 256, G = 16;
+    for (int dim = 0; dim < 6; ++dim) {
+        int counts[16 * 16] = {0};
+        for (int i = 0; i < N; ++i) {
+            spc_sampler s;
+            spc_sampler_start(&s, 7, 11, (uint32_t)i, 42);
+            spc_vec2 u = spc_v2(0, 0);
+            for (int d = 0; d <= dim; ++d)
+                u = spc_sampler_2d(&s);
+            CHECK(u.x >= 0.0 && u.x < 1.0 && u.y >= 0.0 && u.y < 1.0);
+            counts[(int)(u.y * G) * G + (int)(u.x * G)]++;
+        }
+        int bad = 0;
+        for (int c = 0; c < G * G; ++c)
+            bad += counts[c] != 1;
+        CHECK_MSG(bad == 0, "dimension %d: %d cells without exactly one point", dim, bad);
+    }
+    spc_sampler a, b, c;
+    spc_sampler_start(&a, 3, 4, 5, 6);
+    spc_sampler_start(&b, 3, 4, 5, 6);
+    spc_sampler_start(&c, 3, 4, 5, 7);
+    double va = spc_sampler_1d(&a), vb = spc_sampler_1d(&b), vc = spc_sampler_1d(&c);
+    CHECK(va == vb);
+    CHECK(va != vc);
+    /* different pixels are decorrelated: the mean of the products is near 1/4 */
+    double acc = 0.0;
+    for (int i = 0; i < 4096; ++i) {
+        spc_sampler p, q;
+        spc_sampler_start(&p, (uint32_t)i, 0, 0, 1);
+        spc_sampler_start(&q, (uint32_t)i + 1, 0, 0, 1);
+        acc += spc_sampler_1d(&p) * spc_sampler_1d(&q);
+    }
+    CHECK_NEAR(acc / 4096.0, 0.25, 0.02);
+}
+
+/* Monte Carlo integral of f / pdf over the warped samples equals the integral of f. */
+TEST(warps_match_their_pdfs)
+{
+    spc_rng r;
+    spc_rng_seed(&r, 3, 4);
+    const int N = 200000;
+    double cos_acc = 0.0, cone_acc = 0.0, sph = 0.0, tri = 0.0;
+    double cos_max = 0.8;
+    for (int i = 0; i < N; ++i) {
+        spc_vec2 u = spc_v2(spc_rng_next(&r), spc_rng_next(&r));
+        spc_vec3 w = spc_warp_cosine_hemisphere(u);
+        CHECK_NEAR(spc_length(w), 1.0, 1e-12);
+        cos_acc += 1.0 / spc_warp_cosine_hemisphere_pdf(w); /* integral of 1 over the hemisphere */
+        spc_vec3 c = spc_warp_uniform_cone(u, cos_max);
+        CHECK(c.z >= cos_max - 1e-12);
+        cone_acc += c.z / spc_warp_uniform_cone_pdf(cos_max);
+        spc_vec3 s = spc_warp_uniform_sphere(u);
+        sph += s.z * s.z * 4.0 * SPC_PI;
+        spc_vec2 b = spc_warp_uniform_triangle(u);
+        CHECK(b.x >= 0 && b.y >= 0 && b.x + b.y <= 1.0 + 1e-12);
+        tri += b.x; /* mean barycentric is 1/3 */
+    }
+    CHECK_NEAR(cos_acc / N, 2.0 * SPC_PI, 0.05);
+    CHECK_NEAR(cone_acc / N, SPC_PI * (1.0 - cos_max * cos_max), 0.01);
+    CHECK_NEAR(sph / N, 4.0 * SPC_PI / 3.0, 0.03);
+    CHECK_NEAR(tri / N, 1.0 / 3.0, 0.003);
+}
+
+TEST(tent_and_gaussian_inversions)
+{
+    /* tent: the CDF at x is 1/2 (1+x)^2 on [-1, 0] */
+    CHECK_NEAR(spc_warp_tent(0.5 * 0.25), -0.5, 1e-12);
+    CHECK_NEAR(spc_warp_tent(0.5), 0.0, 1e-12);
+    CHECK_NEAR(spc_warp_tent(1.0 - 0.5 * 0.25), 0.5, 1e-12);
+    for (double x = -0.99; x < 1.0; x += 0.11)
+        CHECK_NEAR(erf(spc_erfinv(x)), x, 1e-12);
+    /* truncated gaussian: median 0, quartiles at the normal quantile scaled by truncation */
+    CHECK_NEAR(spc_warp_gaussian_truncated(0.5, 0.5, 2.0), 0.0, 1e-12);
+    double q = spc_warp_gaussian_truncated(0.75, 0.5, 2.0);
+    double s = 0.5 * sqrt(2.0);
+    CHECK_NEAR(erf(q / s), 0.5 * erf(2.0 / s), 1e-10);
+}
+
+TEST(distributions)
+{
+    double w[5] = {1, 0, 3, 0, 4};
+    spc_distrib1d d;
+    CHECK(spc_distrib1d_init(&d, w, 5));
+    CHECK_NEAR(d.sum, 8.0, 1e-15);
+    int counts[5] = {0};
+    for (int i = 0; i < 8000; ++i) {
+        double ur;
+        size_t k = spc_distrib1d_sample(&d, (i + 0.5) / 8000.0, &ur);
+        CHECK(ur >= 0.0 && ur < 1.0);
+        counts[k]++;
+    }
+    CHECK(counts[0] == 1000 && counts[1] == 0 && counts[2] == 3000 && counts[3] == 0 && counts[4] == 4000);
+    spc_distrib1d_release(&d);
+    double z[2] = {0, 0};
+    CHECK(!spc_distrib1d_init(&d, z, 2));
+    double nanw[2] = {1, NAN};
+    CHECK(!spc_distrib1d_init(&d, nanw, 2));
+
+    double img[6] = {1, 2, 0, 0, 3, 4}; /* 3 x 2 */
+    spc_distrib2d d2;
+    CHECK(spc_distrib2d_init(&d2, img, 3, 2));
+    spc_rng r;
+    spc_rng_seed(&r, 9, 9);
+    double acc = 0.0;
+    for (int i = 0; i < 20000; ++i) {
+        double pdf;
+        spc_vec2 p = spc_distrib2d_sample(&d2, spc_v2(spc_rng_next(&r), spc_rng_next(&r)), &pdf);
+        CHECK_NEAR(pdf, spc_distrib2d_pdf(&d2, p), 1e-9);
+        acc += 1.0 / pdf; /* integral of 1 over the support */
+    }
+    /* support: 4 non-zero cells of area 1/6 */
+    CHECK_NEAR(acc / 20000.0, 4.0 / 6.0, 0.02);
+    spc_distrib2d_release(&d2);
+}
+
+int main(void)
+{
+    RUN(mat4_inverse_and_lookat);
+    RUN(frames_orthonormal);
+    RUN(sampler_stratified_and_deterministic);
+    RUN(warps_match_their_pdfs);
+    RUN(tent_and_gaussian_inversions);
+    RUN(distributions);
+    return spc_test_finish();
+}

@@ -1,0 +1,225 @@
+/*
+ * tests/test_render.c: the estimators against closed forms (white furnace, a point light in a
+ * diffuse sphere, a glass slab over a uniform emitter), robustness at scales 1e-3 and 1e3, and
+ * bit-identical images for 1 and 2 threads.
+ */
+/* ctest-labels: stat */
+/* ctest-timeout: 600 */
+#include "harness.h"
+#include "render_util.h"
+
+/* |mean - expected| within k standard errors (plus a tiny absolute slack for float storage). */
+static void check_mean(const spc_film *f, double expected, double k)
+{
+    for (int c = 0; c < 3; ++c) {
+        double m, se;
+        tu_image_mean(f, c, &m, &se);
+        CHECK_MSG(fabs(m - expected) <= k * se + 1e-6 * expected, "channel %d: mean %.6f expected %.6f (se %.2g)", c, m,
+                  expected, se);
+        CHECK_MSG(se > 0.0 && se < 0.02 * expected, "channel %d: standard error %.3g is not small", c, se);
+    }
+}
+
+/* A closed sphere (normals inward) of albedo a emitting Le inside: L = Le / (1 - a). */
+static spc_scene *furnace_sphere(double a, double Le, double scale)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_shape *sh = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_sphere(sh, spc_v3(0.3 * scale, -0.2 * scale, 0.1 * scale), scale, NULL, NULL, 0, 0, &err);
+    sh->flip_normals = true;
+    sh->bsdf = tu_diffuse(sc, a);
+    tu_area(sc, sh, 0, Le);
+    tu_camera(sc, spc_v3(0.3 * scale, -0.2 * scale, 0.1 * scale), spc_v3(0.3 * scale, -0.2 * scale, 1.1 * scale),
+              spc_v3(0, 1, 0), 90, 8, 8);
+    sc->camera.near_clip = 1e-4 * scale;
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  finalize: %s\n", err.msg);
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+/* A closed cube (a triangle mesh, normals inward) of albedo a emitting Le, at any scale. */
+static spc_scene *furnace_cube(double a, double Le, double scale)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_shape *sh = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_mat4 M = spc_mat4_scale(spc_v3(scale, 0.7 * scale, 1.3 * scale));
+    spc_mat4 T = spc_mat4_translate(spc_v3(2 * scale, 0, -scale));
+    M = spc_mat4_mul(&T, &M);
+    spc_shape_init_cube(sh, &M, NULL, 0, 0, &err);
+    sh->flip_normals = true;
+    sh->bsdf = tu_diffuse(sc, a);
+    tu_area(sc, sh, 0, Le);
+    tu_camera(sc, spc_v3(2.2 * scale, 0.1 * scale, -scale), spc_v3(1.5 * scale, -0.3 * scale, -0.2 * scale),
+              spc_v3(0, 1, 0), 100, 8, 8);
+    sc->camera.near_clip = 1e-4 * scale;
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+TEST(white_furnace_sphere_ipt)
+{
+    spc_scene *sc = furnace_sphere(0.5, 1.0, 1.0);
+    CHECK(sc != NULL);
+    spc_film *f = sc ? tu_render(sc, "ipt", 512, 2, 1) : NULL;
+    CHECK(f != NULL);
+    if (f)
+        check_mean(f, 2.0, 3.5);
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
+TEST(white_furnace_sphere_path)
+{
+    spc_scene *sc = furnace_sphere(0.5, 1.0, 1.0);
+    CHECK(sc != NULL);
+    spc_film *f = sc ? tu_render(sc, "path", 512, 2, 2) : NULL;
+    CHECK(f != NULL);
+    if (f)
+        check_mean(f, 2.0, 3.5);
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
+/* Shadow acne would darken, light leaks brighten: the furnace must hold at every scale. */
+TEST(white_furnace_cube_scales)
+{
+    double scales[3] = {1e-3, 1.0, 1e3};
+    for (int i = 0; i < 3; ++i) {
+        spc_scene *sc = furnace_cube(0.6, 0.5, scales[i]);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_film *f = tu_render(sc, "path", 256, 2, 3);
+        CHECK(f != NULL);
+        if (f)
+            check_mean(f, 0.5 / (1.0 - 0.6), 3.5);
+        spc_film_destroy(f);
+        spc_scene_destroy(sc);
+    }
+}
+
+/* A point light of intensity I at the centre of a diffuse sphere (radius r, albedo a):
+ * L = (a / pi) (I / r^2) / (1 - a). */
+TEST(point_light_in_sphere)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_shape *sh = spc_scene_new_shape(sc);
+    spc_error err;
+    double r = 2.0, a = 0.5, I = 3.0;
+    spc_shape_init_sphere(sh, spc_v3(0, 0, 0), r, NULL, NULL, 0, 0, &err);
+    sh->flip_normals = true;
+    sh->bsdf = tu_diffuse(sc, a);
+    spc_emitter *e = spc_scene_new_emitter(sc);
+    e->type = SPC_EMITTER_POINT;
+    e->intensity = spc_rgb1(I);
+    e->position = spc_v3(0, 0, 0);
+    tu_camera(sc, spc_v3(0, 0, 0.5), spc_v3(0, 1, 0.5), spc_v3(0, 0, 1), 90, 8, 8);
+    CHECK(spc_scene_finalize(sc, &err) == SPC_OK);
+    spc_film *f = tu_render(sc, "path", 512, 2, 4);
+    CHECK(f != NULL);
+    /* the camera is off-centre but on every wall point the irradiance from the light is I/r^2 */
+    if (f)
+        check_mean(f, (a / SPC_PI) * (I / (r * r)) / (1.0 - a), 3.5);
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
+/* A glass slab (IOR eta) seen at normal incidence in front of a uniform emitter Le: with every
+ * internal reflection, L = Le (1 - R)^2 / (1 - R^2) = Le (1 - R) / (1 + R), R = ((eta-1)/(eta+1))^2. */
+static spc_scene *glass_slab(double eta, double Le)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_error err;
+    spc_shape *slab = spc_scene_new_shape(sc);
+    spc_mat4 M = spc_mat4_scale(spc_v3(10, 10, 0.2));
+    spc_shape_init_cube(slab, &M, NULL, 0, 0, &err);
+    spc_bsdf *g = spc_scene_new_bsdf(sc);
+    g->type = SPC_BSDF_DIELECTRIC;
+    g->eta = eta;
+    g->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    g->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
+    slab->bsdf = g;
+    spc_shape *light = spc_scene_new_shape(sc);
+    spc_mat4 S = spc_mat4_scale(spc_v3(30, 30, 1));
+    spc_mat4 T = spc_mat4_translate(spc_v3(0, 0, -3));
+    spc_mat4 L = spc_mat4_mul(&T, &S);
+    spc_shape_init_rectangle(light, &L, NULL, 0, 0, &err);
+    light->bsdf = tu_diffuse(sc, 0.0);
+    tu_area(sc, light, 1, Le);
+    /* orthographic camera at z = 5 looking down -z, a 1x1 window */
+    sc->camera.type = SPC_CAMERA_ORTHOGRAPHIC;
+    spc_mat4 V;
+    spc_mat4_lookat(spc_v3(0, 0, 5), spc_v3(0, 0, 0), spc_v3(0, 1, 0), &V);
+    spc_mat4 Sc = spc_mat4_scale(spc_v3(0.5, 0.5, 1));
+    sc->camera.to_world = spc_mat4_mul(&V, &Sc);
+    sc->film.width = sc->film.height = 8;
+    sc->film.rfilter = SPC_RFILTER_BOX;
+    sc->film.filter_radius = 0.5;
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+TEST(glass_slab_transmission)
+{
+    double eta = 1.5, Le = 2.0;
+    double R = spc_sqr((eta - 1) / (eta + 1));
+    double expected = Le * (1 - R) / (1 + R);
+    const char *names[2] = {"ipt", "path"};
+    for (int k = 0; k < 2; ++k) {
+        spc_scene *sc = glass_slab(eta, Le);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_film *f = tu_render(sc, names[k], 1024, 2, 5);
+        CHECK(f != NULL);
+        if (f)
+            check_mean(f, expected, 3.5);
+        spc_film_destroy(f);
+        spc_scene_destroy(sc);
+    }
+}
+
+TEST(same_image_for_any_thread_count)
+{
+    spc_scene *sc = glass_slab(1.33, 1.0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *a = tu_render(sc, "path", 16, 1, 7);
+    spc_film *b = tu_render(sc, "path", 16, 2, 7);
+    spc_film *c = tu_render(sc, "path", 16, 2, 8);
+    CHECK(a && b && c);
+    if (a && b && c) {
+        size_t n = 3 * (size_t)a->width * a->height;
+        CHECK(memcmp(a->rgb, b->rgb, n * sizeof(float)) == 0);
+        CHECK(memcmp(a->var, b->var, n * sizeof(float)) == 0);
+        CHECK(memcmp(a->rgb, c->rgb, n * sizeof(float)) != 0); /* the seed matters */
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_film_destroy(c);
+    spc_scene_destroy(sc);
+}
+
+int main(void)
+{
+    spc_warn_set_quiet(1);
+    RUN(white_furnace_sphere_ipt);
+    RUN(white_furnace_sphere_path);
+    RUN(white_furnace_cube_scales);
+    RUN(point_light_in_sphere);
+    RUN(glass_slab_transmission);
+    RUN(same_image_for_any_thread_count);
+    return spc_test_finish();
+}

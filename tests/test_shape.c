@@ -1,0 +1,243 @@
+/*
+ * tests/test_shape.c: exact intersections, surface derivatives against finite differences, and
+ * area / solid-angle sampling of shapes.
+ */
+/* ctest-labels: unit */
+#include <string.h>
+
+#include "core/rng.h"
+#include "harness.h"
+#include "scene/shape.h"
+
+static spc_rng rng;
+static double rnd(void) { return spc_rng_next(&rng); }
+
+TEST(sphere_intersection_precise)
+{
+    spc_shape s;
+    memset(&s, 0, sizeof s);
+    spc_error err;
+    CHECK(spc_shape_init_sphere(&s, spc_v3(1, 2, 3), 0.5, NULL, NULL, 0, 0, &err));
+    CHECK(spc_shape_prepare(&s));
+    CHECK_NEAR(s.area, SPC_PI, 1e-12);
+    for (int i = 0; i < 1000; ++i) {
+        double dist = pow(10.0, 6.0 * rnd()); /* from 1 to 1e6 away */
+        spc_vec3 dir = spc_warp_uniform_sphere(spc_v2(rnd(), rnd()));
+        spc_vec3 target = spc_madd(s.center, spc_warp_uniform_sphere(spc_v2(rnd(), rnd())), 0.3);
+        spc_ray r;
+        r.o = spc_madd(target, dir, dist);
+        r.d = spc_normalize(spc_sub(target, r.o));
+        r.tmin = 0;
+        r.tmax = INFINITY;
+        double t, u, v;
+        CHECK(spc_shape_intersect_analytic(&s, &r, &t, &u, &v));
+        spc_hit h;
+        spc_shape_fill_hit(&s, 0, u, v, &r, t, &h);
+        CHECK_NEAR(spc_distance(h.p, s.center), 0.5, 1e-12);
+        CHECK_NEAR(spc_distance(spc_madd(r.o, r.d, t), h.p), 0.0, 1e-9 * dist);
+        CHECK(spc_dot(h.ng, r.d) < 0.0);
+        /* a ray spawned outward from the hit does not hit the sphere again */
+        spc_ray out = spc_hit_spawn(&h, spc_reflect(spc_neg(r.d), h.ng));
+        CHECK(!spc_shape_intersect_analytic(&s, &out, &t, &u, &v));
+        /* a ray spawned inward hits the far side, not the same point */
+        spc_ray in = spc_hit_spawn(&h, r.d);
+        CHECK(spc_shape_intersect_analytic(&s, &in, &t, &u, &v));
+        CHECK(t > 1e-6);
+    }
+    spc_shape_release(&s);
+}
+
+/* Finite differences of position and unit normal with respect to the surface parameters. */
+static void check_derivs_mesh(void)
+{
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    float p[9] = {0, 0, 0, 1, 0.1f, 0, 0.2f, 1, 0.3f};
+    float n[9] = {0.1f, 0, 1, -0.3f, 0.2f, 1, 0.2f, -0.4f, 0.8f};
+    uint32_t idx[3] = {0, 1, 2};
+    m.nverts = 3;
+    m.ntris = 1;
+    m.p = malloc(sizeof p);
+    m.n = malloc(sizeof n);
+    m.idx = malloc(sizeof idx);
+    memcpy(m.p, p, sizeof p);
+    memcpy(m.n, n, sizeof n);
+    memcpy(m.idx, idx, sizeof idx);
+    spc_shape s;
+    memset(&s, 0, sizeof s);
+    spc_error err;
+    CHECK(spc_shape_init_mesh(&s, &m, NULL, NULL, 0, 0, &err));
+    CHECK(spc_shape_prepare(&s));
+    spc_ray r = {spc_v3(0, 0, 1), spc_v3(0, 0, -1), 0, INFINITY};
+    const double e = 1e-6;
+    for (int i = 0; i < 50; ++i) {
+        double b1 = 0.1 + 0.4 * rnd(), b2 = 0.1 + 0.4 * rnd();
+        spc_hit h, hu, hv, hu2, hv2;
+        spc_shape_fill_hit(&s, 0, b1, b2, &r, 1, &h);
+        spc_shape_fill_hit(&s, 0, b1 + e, b2, &r, 1, &hu);
+        spc_shape_fill_hit(&s, 0, b1 - e, b2, &r, 1, &hu2);
+        spc_shape_fill_hit(&s, 0, b1, b2 + e, &r, 1, &hv);
+        spc_shape_fill_hit(&s, 0, b1, b2 - e, &r, 1, &hv2);
+        spc_vec3 fdu = spc_scale(spc_sub(hu.sh.n, hu2.sh.n), 0.5 / e);
+        spc_vec3 fdv = spc_scale(spc_sub(hv.sh.n, hv2.sh.n), 0.5 / e);
+        CHECK_NEAR(spc_distance(fdu, h.dndu), 0.0, 1e-7 * (1 + spc_length(fdu)));
+        CHECK_NEAR(spc_distance(fdv, h.dndv), 0.0, 1e-7 * (1 + spc_length(fdv)));
+        spc_vec3 fpu = spc_scale(spc_sub(hu.p, hu2.p), 0.5 / e);
+        CHECK_NEAR(spc_distance(fpu, h.dpdu), 0.0, 1e-7);
+        CHECK_NEAR(spc_length(h.sh.n), 1.0, 1e-12);
+        CHECK(spc_dot(h.ng, h.sh.n) > 0.0);
+    }
+    spc_shape_release(&s);
+}
+
+static void sphere_point_hit(const spc_shape *s, double u, double v, spc_hit *h)
+{
+    double phi = 2 * SPC_PI * u, th = SPC_PI * v;
+    spc_vec3 l = spc_v3(sin(th) * cos(phi), sin(th) * sin(phi), cos(th));
+    spc_vec3 n = spc_mat4_apply_vector(&s->to_world, l);
+    spc_vec3 p = spc_madd(s->center, n, s->radius);
+    spc_ray r;
+    r.o = spc_madd(p, n, 3.0);
+    r.d = spc_neg(n);
+    r.tmin = 0;
+    r.tmax = INFINITY;
+    spc_shape_fill_hit(s, 0, 0, 0, &r, 3.0, h);
+}
+
+TEST(surface_derivatives)
+{
+    check_derivs_mesh();
+    spc_shape s;
+    memset(&s, 0, sizeof s);
+    spc_error err;
+    spc_mat4 R = spc_mat4_rotate(spc_v3(1, 1, 0), 30);
+    CHECK(spc_shape_init_sphere(&s, spc_v3(0.5, 0, 0), 2.0, &R, NULL, 0, 0, &err));
+    const double e = 1e-6;
+    for (int i = 0; i < 50; ++i) {
+        double u = 0.05 + 0.9 * rnd(), v = 0.1 + 0.8 * rnd();
+        spc_hit h, a, b, c, d;
+        sphere_point_hit(&s, u, v, &h);
+        CHECK_NEAR(h.uv.x, u, 1e-9);
+        CHECK_NEAR(h.uv.y, v, 1e-9);
+        sphere_point_hit(&s, u + e, v, &a);
+        sphere_point_hit(&s, u - e, v, &b);
+        sphere_point_hit(&s, u, v + e, &c);
+        sphere_point_hit(&s, u, v - e, &d);
+        CHECK_NEAR(spc_distance(spc_scale(spc_sub(a.p, b.p), 0.5 / e), h.dpdu), 0.0, 1e-6);
+        CHECK_NEAR(spc_distance(spc_scale(spc_sub(c.p, d.p), 0.5 / e), h.dpdv), 0.0, 1e-6);
+        CHECK_NEAR(spc_distance(spc_scale(spc_sub(a.ng, b.ng), 0.5 / e), h.dndu), 0.0, 1e-6);
+        CHECK_NEAR(spc_distance(spc_scale(spc_sub(c.ng, d.ng), 0.5 / e), h.dndv), 0.0, 1e-6);
+    }
+    spc_shape_release(&s);
+}
+
+TEST(analytic_disk_and_cylinder)
+{
+    spc_shape d;
+    memset(&d, 0, sizeof d);
+    spc_error err;
+    spc_mat4 T = spc_mat4_translate(spc_v3(0, 0, 2));
+    spc_mat4 S = spc_mat4_scale(spc_v3(3, 3, 3));
+    spc_mat4 M = spc_mat4_mul(&T, &S);
+    CHECK(spc_shape_init_disk(&d, &M, NULL, 0, 0, &err));
+    CHECK(spc_shape_prepare(&d));
+    CHECK_NEAR(d.area, 9 * SPC_PI, 1e-9);
+    spc_ray r = {spc_v3(1, 1, 5), spc_v3(0, 0, -1), 0, INFINITY};
+    double t, u, v;
+    CHECK(spc_shape_intersect_analytic(&d, &r, &t, &u, &v));
+    CHECK_NEAR(t, 3.0, 1e-12);
+    r.o = spc_v3(2.5, 2.5, 5); /* outside the radius */
+    CHECK(!spc_shape_intersect_analytic(&d, &r, &t, &u, &v));
+
+    spc_shape c;
+    memset(&c, 0, sizeof c);
+    CHECK(spc_shape_init_cylinder(&c, spc_v3(0, 0, 0), spc_v3(0, 0, 2), 0.5, NULL, NULL, 0, 0, &err));
+    CHECK(spc_shape_prepare(&c));
+    CHECK_NEAR(c.area, 2 * SPC_PI * 0.5 * 2, 1e-9);
+    spc_ray rc = {spc_v3(3, 0, 1), spc_v3(-1, 0, 0), 0, INFINITY};
+    CHECK(spc_shape_intersect_analytic(&c, &rc, &t, &u, &v));
+    CHECK_NEAR(t, 2.5, 1e-12);
+    spc_hit h;
+    spc_shape_fill_hit(&c, 0, u, v, &rc, t, &h);
+    CHECK_NEAR(h.ng.x, 1.0, 1e-12);
+    CHECK_NEAR(h.p.z, 1.0, 1e-12);
+    /* open: a ray along the axis misses */
+    spc_ray ra = {spc_v3(0, 0, 5), spc_v3(0, 0, -1), 0, INFINITY};
+    CHECK(!spc_shape_intersect_analytic(&c, &ra, &t, &u, &v));
+    spc_shape_release(&d);
+    spc_shape_release(&c);
+}
+
+/* The solid angle of a sphere, estimated by area sampling converted to solid angle, and the
+ * density of cone sampling, both give 2 pi (1 - cos_max). */
+TEST(sphere_sampling_solid_angle)
+{
+    spc_shape s;
+    memset(&s, 0, sizeof s);
+    spc_error err;
+    CHECK(spc_shape_init_sphere(&s, spc_v3(0, 0, 0), 1.0, NULL, NULL, 0, 0, &err));
+    CHECK(spc_shape_prepare(&s));
+    spc_vec3 ref = spc_v3(0, 3, 0);
+    double cos_max = sqrt(1 - 1.0 / 9.0);
+    double exact = 2 * SPC_PI * (1 - cos_max);
+    double acc = 0.0;
+    const int N = 200000;
+    for (int i = 0; i < N; ++i) {
+        spc_shape_sample ss;
+        spc_shape_sample_area(&s, spc_v2(rnd(), rnd()), &ss);
+        spc_vec3 d = spc_sub(ss.p, ref);
+        double dist2 = spc_length2(d);
+        double c = -spc_dot(ss.n, d) / sqrt(dist2);
+        if (c > 0) /* visible side */
+            acc += c / dist2 / ss.pdf;
+    }
+    CHECK_NEAR(acc / N, exact, 0.01 * exact);
+    spc_shape_sample ss;
+    CHECK(spc_shape_sample_solid_angle(&s, ref, spc_v2(0.3, 0.7), &ss));
+    CHECK_NEAR(1.0 / ss.pdf, exact, 1e-12);
+    CHECK_NEAR(spc_length(ss.p), 1.0, 1e-12);
+    CHECK(spc_dot(ss.n, spc_sub(ref, ss.p)) > 0.0);
+    CHECK(!spc_shape_sample_solid_angle(&s, spc_v3(0, 0.5, 0), spc_v2(0.3, 0.7), &ss));
+    spc_shape_release(&s);
+}
+
+TEST(mesh_area_sampling_uniform)
+{
+    spc_shape s;
+    memset(&s, 0, sizeof s);
+    spc_error err;
+    spc_mat4 S = spc_mat4_scale(spc_v3(2, 1, 1));
+    CHECK(spc_shape_init_rectangle(&s, &S, NULL, 0, 0, &err));
+    CHECK(spc_shape_prepare(&s));
+    CHECK_NEAR(s.area, 8.0, 1e-12);
+    double mx = 0, mxx = 0;
+    const int N = 100000;
+    for (int i = 0; i < N; ++i) {
+        spc_shape_sample ss;
+        spc_shape_sample_area(&s, spc_v2(rnd(), rnd()), &ss);
+        CHECK_NEAR(ss.pdf, 1.0 / 8.0, 1e-12);
+        mx += ss.p.x;
+        mxx += ss.p.x * ss.p.x;
+    }
+    CHECK_NEAR(mx / N, 0.0, 0.02);
+    CHECK_NEAR(mxx / N, 4.0 / 3.0, 0.02); /* uniform on [-2, 2] */
+    /* invalid inputs */
+    spc_shape bad;
+    memset(&bad, 0, sizeof bad);
+    CHECK(!spc_shape_init_sphere(&bad, spc_v3(0, 0, 0), -1.0, NULL, "x.xml", 3, 4, &err));
+    CHECK(err.code == SPC_ERR_VALUE && err.line == 3);
+    spc_mat4 Z = spc_mat4_scale(spc_v3(0, 1, 1));
+    CHECK(!spc_shape_init_disk(&bad, &Z, "x.xml", 5, 6, &err));
+    spc_shape_release(&s);
+}
+
+int main(void)
+{
+    spc_rng_seed(&rng, 12, 34);
+    RUN(sphere_intersection_precise);
+    RUN(surface_derivatives);
+    RUN(analytic_disk_and_cylinder);
+    RUN(sphere_sampling_solid_angle);
+    RUN(mesh_area_sampling_uniform);
+    return spc_test_finish();
+}
