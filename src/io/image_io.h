@@ -9,6 +9,9 @@
 #ifndef SPC_IO_IMAGE_IO_H
 #define SPC_IO_IMAGE_IO_H
 
+#include <stdbool.h>
+#include <stddef.h>
+
 #include "core/error.h"
 
 typedef struct spc_image {
@@ -46,5 +49,22 @@ spc_status spc_png_write_srgb(const char *path, int width, int height, const flo
 /* sRGB transfer functions. */
 double spc_srgb_to_linear(double v);
 double spc_linear_to_srgb(double v);
+
+/* ---- Internal to src/io (shared by exr.c, png.c, jpeg.c and image.c) ---- */
+
+/* Per-format readers behind spc_image_read (the caller has checked the magic bytes). */
+spc_status spc_exr_read_image(const char *path, spc_image *img, spc_error *err);
+spc_status spc_png_read_image(const char *path, spc_image *img, spc_error *err);
+spc_status spc_jpeg_read_image(const char *path, spc_image *img, spc_error *err);
+
+/* Atomic file replacement. spc_atomic_open creates "<path>.tmp-<pid>" (its name is written to tmp,
+ * tmpsize >= strlen(path) + 32) and returns its descriptor, or -1 with err set (SPC_ERR_IO).
+ * spc_atomic_commit fsyncs, closes and renames tmp over path; on any failure it removes tmp and
+ * leaves path untouched. spc_atomic_abort closes and removes tmp. Both always close fd. */
+int spc_atomic_open(const char *path, char *tmp, size_t tmpsize, spc_error *err);
+spc_status spc_atomic_commit(int fd, const char *tmp, const char *path, spc_error *err);
+void spc_atomic_abort(int fd, const char *tmp);
+/* write(2) until done (retrying short writes and EINTR); false on failure with errno set. */
+bool spc_write_all(int fd, const void *buf, size_t size);
 
 #endif
