@@ -27,7 +27,11 @@ typedef enum spc_wrap_mode {
 typedef struct spc_texture {
     spc_texture_type type;
     spc_rgb value; /* constant */
-    /* bitmap: linear RGB, row-major, row 0 at the top of the image (v = 1 - y/height) */
+    /* bitmap: linear RGB, row-major, row 0 at the top of the image. As in Mitsuba 3 (drjit's
+     * Texture), uv (0,0) is the top-left corner of the image file: texel (x, y) covers
+     * u in [x/width, (x+1)/width], v in [y/height, (y+1)/height] with y counted from the top; the
+     * OBJ loader flips v (Mitsuba's flip_tex_coords, default true), so OBJ files still see v = 0 at
+     * the bottom of the image. */
     int width, height;
     float *data; /* 3 * width * height, owned */
     bool nearest;
@@ -46,6 +50,13 @@ double spc_texture_eval1(const spc_texture *t, spc_vec2 uv);
 /* Mean value over [0,1]^2 (for light power and albedo estimates). */
 spc_rgb spc_texture_mean(const spc_texture *t);
 bool spc_texture_is_constant(const spc_texture *t);
+/* A checkerboard texture with identity to_uv (the caller owns it). */
+void spc_texture_init_checkerboard(spc_texture *t, spc_rgb color0, spc_rgb color1);
+/* Loads an image (EXR, PNG, JPEG) into a bitmap texture: linear RGB (8/16-bit images are
+ * sRGB-decoded unless raw; gray is expanded to RGB; alpha is dropped), bilinear, repeat, identity
+ * to_uv; the caller may change nearest/wrap/to_uv afterwards. On failure *t is a black constant
+ * texture and err names the file. Free with spc_texture_release. */
+spc_status spc_texture_load_bitmap(spc_texture *t, const char *path, bool raw, spc_error *err);
 void spc_texture_release(spc_texture *t);
 
 #endif
