@@ -24,6 +24,10 @@ bool spc_accel_intersect(const spc_accel *a, const spc_ray *r, int *shape, int *
                          double *t);
 /* Any hit in (tmin, tmax). */
 bool spc_accel_occluded(const spc_accel *a, const spc_ray *r);
+/* Benchmark support: traces n rays with bare rtcIntersect1 calls (no hit records, no double
+ * precision user geometry bookkeeping beyond what Embree calls) and returns how many hit. Not
+ * counted in spc_accel_rays_traced. */
+uint64_t spc_accel_raw_loop(const spc_accel *a, const spc_ray *rays, size_t n);
 /* Rays traced by the calling thread so far. */
 uint64_t spc_accel_rays_traced(void);
 

@@ -226,3 +226,22 @@ bool spc_accel_occluded(const spc_accel *a, const spc_ray *r)
     rtcOccluded1(a->scene, &cx.ctx, &er);
     return er.tfar < 0.0f;
 }
+
+uint64_t spc_accel_raw_loop(const spc_accel *a, const spc_ray *rays, size_t n)
+{
+    uint64_t hits = 0;
+    ctx_ext cx;
+    rtcInitIntersectContext(&cx.ctx);
+    cx.sc = a->sc;
+    for (size_t i = 0; i < n; ++i) {
+        struct RTCRayHit rh;
+        cx.ray = &rays[i];
+        cx.geom = -1;
+        to_embree_ray(&rays[i], &rh.ray);
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(a->scene, &cx.ctx, &rh);
+        hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    }
+    return hits;
+}

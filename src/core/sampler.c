@@ -3,15 +3,20 @@
  */
 #include "core/sampler.h"
 
+#include <pthread.h>
+
 #include "core/rng.h"
 
 static uint32_t reverse_bits(uint32_t x)
 {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+#if defined(__GNUC__)
+    x = __builtin_bswap32(x);
+#else
+    x = (x >> 24) | ((x >> 8) & 0xff00u) | ((x << 8) & 0xff0000u) | (x << 24);
+#endif
     x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
-    return (x >> 16) | (x << 16);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    return ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
 }
 
 /* Laine-Karras style hash: each bit only depends on lower bits, so on reversed bits it is an
@@ -31,19 +36,37 @@ static uint32_t nested_uniform_scramble(uint32_t x, uint32_t seed)
     return reverse_bits(lk_permute(reverse_bits(x), seed));
 }
 
-static uint32_t sobol_dim0(uint32_t index) { return reverse_bits(index); }
+/* The second Sobol dimension: index bits select rows of the Pascal matrix mod 2. Precomputed per
+ * byte of the index (4 x 256 entries, built once; read-only afterwards), stored BIT-REVERSED so
+ * that the Owen scramble (which works on reversed bits) needs one reversal less. */
+static uint32_t sobol1_table[4][256];
+static pthread_once_t sobol1_once = PTHREAD_ONCE_INIT;
 
-static uint32_t sobol_dim1(uint32_t index)
+static void sobol1_init(void)
 {
-    uint32_t r = 0;
-    for (uint32_t v = 1u << 31; index != 0; index >>= 1, v ^= v >> 1)
-        if (index & 1u)
-            r ^= v;
-    return r;
+    uint32_t dir[32];
+    uint32_t v = 1u << 31;
+    for (int i = 0; i < 32; ++i, v ^= v >> 1)
+        dir[i] = v;
+    for (int byte = 0; byte < 4; ++byte)
+        for (int x = 0; x < 256; ++x) {
+            uint32_t r = 0;
+            for (int b = 0; b < 8; ++b)
+                if (x & (1 << b))
+                    r ^= dir[8 * byte + b];
+            sobol1_table[byte][x] = reverse_bits(r); /* stored bit-reversed: see spc_sampler_2d */
+        }
+}
+
+static uint32_t sobol_dim1_reversed(uint32_t index)
+{
+    return sobol1_table[0][index & 0xff] ^ sobol1_table[1][(index >> 8) & 0xff] ^
+           sobol1_table[2][(index >> 16) & 0xff] ^ sobol1_table[3][index >> 24];
 }
 
 void spc_sampler_start_key(spc_sampler *s, uint64_t key, uint32_t index)
 {
+    pthread_once(&sobol1_once, sobol1_init);
     s->pixel_seed = spc_hash64(key);
     s->index = index;
     s->dim = 0;
@@ -59,8 +82,10 @@ spc_vec2 spc_sampler_2d(spc_sampler *s)
 {
     uint64_t h = spc_hash_combine(s->pixel_seed, s->dim++);
     uint32_t idx = nested_uniform_scramble(s->index, (uint32_t)h);
-    uint32_t x = nested_uniform_scramble(sobol_dim0(idx), (uint32_t)(h >> 32));
-    uint32_t y = nested_uniform_scramble(sobol_dim1(idx), (uint32_t)spc_hash64(h));
+    /* nested_uniform_scramble(v) = reverse(lk(reverse(v))); the Sobol points are reversed
+     * quantities (dim 0 is reverse(idx)), so the inner reversal cancels */
+    uint32_t x = reverse_bits(lk_permute(idx, (uint32_t)(h >> 32)));
+    uint32_t y = reverse_bits(lk_permute(sobol_dim1_reversed(idx), (uint32_t)spc_hash64(h)));
     const double k = 1.0 / 4294967296.0;
     return spc_v2(x * k, y * k);
 }
