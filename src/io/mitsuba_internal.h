@@ -1,0 +1,172 @@
+/*
+ * io/mitsuba_internal.h: what the parts of the Mitsuba loader share (not a public interface).
+ *
+ *   mitsuba_xml.c      structure: parameters and $substitution, includes, dialects, ids and
+ *                      references, property values and transforms, sensor/film/sampler,
+ *                      integrator, the top-level walk
+ *   mitsuba_plugins.c  shapes, BSDFs, textures, emitters
+ *   mitsuba_tables.c   spectra -> RGB (CIE 1931), named IORs, conductor eta/k
+ *
+ * Errors are sticky: the first mts_fail() fills the caller's spc_error and sets L->status; later
+ * ones are ignored, so value getters can return a default and let the builder check L->status
+ * once.
+ */
+#ifndef SPC_IO_MITSUBA_INTERNAL_H
+#define SPC_IO_MITSUBA_INTERNAL_H
+
+#include "core/error.h"
+#include "core/math.h"
+#include "io/xml.h"
+#include "scene/scene.h"
+
+#define MTS_MAX_INCLUDE_DEPTH 15 /* Mitsuba 3's MI_XML_INCLUDE_MAX_RECURSION */
+
+typedef enum mts_kind {
+    MTS_BOOL,
+    MTS_INT,
+    MTS_FLOAT,
+    MTS_STRING,
+    MTS_RGB,       /* rgb, srgb and spectrum (converted to linear RGB) */
+    MTS_POINT,     /* point and vector */
+    MTS_TRANSFORM,
+    MTS_OBJECT     /* a nested object element, or the target of a <ref> */
+} mts_kind;
+
+typedef struct mts_prop {
+    const char *name; /* NULL for unnamed nested objects */
+    mts_kind kind;
+    bool b;
+    long long i;
+    double f;
+    const char *s;
+    spc_rgb rgb;
+    spc_vec3 v;
+    spc_mat4 m;
+    const spc_xml_node *node; /* the property element (for messages) */
+    spc_xml_node *obj;        /* MTS_OBJECT: the object element */
+    bool used;
+} mts_prop;
+
+typedef struct mts_props {
+    const spc_xml_node *owner;
+    mts_prop *p;
+    int n;
+} mts_props;
+
+typedef struct mts_id {
+    const char *id;
+    spc_xml_node *node;
+    void *obj;     /* built object (bsdf, texture), once built */
+    int state;     /* 0 not built, 1 building (cycle guard), 2 built */
+    int seq;       /* registration order (duplicates are reported in document order) */
+} mts_id;
+
+typedef struct mts_param {
+    char *name, *value;
+    bool from_define;
+} mts_param;
+
+typedef struct mts_doc {
+    char *file;        /* label used in messages (owned) */
+    char *dir;         /* directory relative file names start from (owned) */
+    spc_xml_node *root;
+} mts_doc;
+
+typedef struct mts_mesh_entry {
+    char *key;
+    spc_mesh mesh; /* object space */
+} mts_mesh_entry;
+
+typedef struct mts_loader {
+    spc_scene *scene;
+    spc_error *err;
+    spc_status status;
+
+    mts_param *params;
+    int nparams, cap_params;
+    char **dirs; /* <path> directories, in declaration order */
+    int ndirs;
+    char *base_dir;
+    mts_doc *docs;
+    int ndocs, cap_docs;
+
+    mts_id *ids;
+    int nids, cap_ids;
+
+    mts_mesh_entry *meshes; /* object-space meshes used by shapegroups */
+    int nmeshes;
+
+    const spc_bsdf *default_bsdf;
+    bool have_sensor, have_integrator;
+    bool warned_thinlens;
+} mts_loader;
+
+/* ---- mitsuba_xml.c ---- */
+spc_status mts_fail(mts_loader *L, const spc_xml_node *at, spc_status code, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
+void mts_warn(const spc_xml_node *at, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+const char *mts_type(const spc_xml_node *n); /* the type attribute, or "" */
+int mts_dialect(const spc_xml_node *n);      /* major version of the file the node came from */
+
+/* Collects the children of an object element; warns about unused ones in mts_props_end. */
+spc_status mts_props_collect(mts_loader *L, const spc_xml_node *owner, mts_props *P);
+void mts_props_end(mts_props *P); /* warns for each unused property, frees */
+mts_prop *mts_find(mts_props *P, const char *name); /* marks it used */
+bool mts_has(const mts_props *P, const char *name);
+void mts_ignore(mts_props *P, const char *name); /* known and deliberately unused: no warning */
+/* Nested objects of a category ("bsdf", "texture", ...), in order; index k, marks it used. */
+spc_xml_node *mts_object(mts_props *P, const char *category, int k, const spc_xml_node **at);
+int mts_count_objects(const mts_props *P, const char *category);
+
+double mts_get_float(mts_loader *L, mts_props *P, const char *name, double def);
+int mts_get_int(mts_loader *L, mts_props *P, const char *name, int def);
+bool mts_get_bool(mts_loader *L, mts_props *P, const char *name, bool def);
+const char *mts_get_string(mts_loader *L, mts_props *P, const char *name, const char *def);
+spc_rgb mts_get_rgb(mts_loader *L, mts_props *P, const char *name, spc_rgb def);
+spc_vec3 mts_get_point(mts_loader *L, mts_props *P, const char *name, spc_vec3 def);
+spc_mat4 mts_get_transform(mts_loader *L, mts_props *P, const char *name);
+/* The element that set a property (for messages), or the owner. */
+const spc_xml_node *mts_where(const mts_props *P, const char *name);
+
+/* Resolves a file name used at node `at`: absolute as is; else the directory of the file that
+ * holds `at`, the scene's directory, the <path> directories (latest first), the working
+ * directory. Returns false (out unchanged) if no such readable file exists. */
+bool mts_resolve(mts_loader *L, const spc_xml_node *at, const char *name, char *out, size_t size);
+
+/* Id table. */
+mts_id *mts_lookup_id(mts_loader *L, const char *id);
+mts_id *mts_id_of(mts_loader *L, const spc_xml_node *node); /* NULL if node has no id */
+
+/* ---- mitsuba_plugins.c ---- */
+const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node);
+const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node);
+/* A texture-valued property: rgb / spectrum / float constants, a nested texture or a ref. */
+const spc_texture *mts_get_texture(mts_loader *L, mts_props *P, const char *name, spc_rgb def);
+/* Builds a shape (or, for instance, copies of a shapegroup's shapes) with `prefix` applied
+ * before its own to_world (identity at the top level). */
+spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group);
+spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index);
+void mts_mesh_cache_release(mts_loader *L);
+
+/* ---- mitsuba_tables.c ---- */
+/* Linear sRGB of a piecewise-linear spectrum (wavelengths in nm, increasing; zero outside),
+ * integrated against the CIE 1931 2-degree observer and normalized so that a constant spectrum
+ * of 1 gives (1, 1, 1). Negative channels are clamped to 0. */
+spc_rgb mts_spectrum_to_rgb(const double *wavelengths, const double *values, int n);
+double mts_srgb_to_linear(double v);
+/* Mitsuba's named IORs ("bk7", "water", ...); false if unknown. */
+bool mts_named_ior(const char *name, double *ior);
+/* RGB complex IOR of a conductor preset ("Au", "Cu", ...); false if unknown. */
+bool mts_conductor_preset(const char *name, spc_rgb *eta, spc_rgb *k);
+/* Comma-separated lists of the known names, for error messages. */
+const char *mts_ior_names(void);
+const char *mts_conductor_names(void);
+
+#endif

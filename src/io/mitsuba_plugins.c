@@ -1,0 +1,853 @@
+/*
+ * io/mitsuba_plugins.c: the Mitsuba plugins specula knows, from their XML properties to shapes,
+ * BSDFs, textures and emitters of the scene. Defaults are Mitsuba 3's unless noted (0.x files get
+ * 0.x defaults where they differ: conductor material Cu).
+ *
+ * Shapes: sphere (center 0, radius 1, to_world: uniform scale, rotation, translation), rectangle,
+ *   disk, cube, cylinder (p0 0, p1 (0,0,1), radius 1), obj / ply / serialized (filename,
+ *   face_normals false, flip_tex_coords true (obj), shape_index 0 (serialized)); all: to_world,
+ *   flip_normals false, a nested or referenced bsdf (default diffuse 0.5), a nested area emitter,
+ *   caustic_caster / caustic_receiver / caustic_caster_single / caustic_caster_multi.
+ *   shapegroup holds shapes; instance (a ref to a shapegroup, to_world) copies them, placed.
+ * BSDFs: diffuse (reflectance 0.5), roughdiffuse (reflectance 0.5, alpha 0.2), phong (exponent 30,
+ *   specular_reflectance 0.2, diffuse_reflectance 0.5), conductor (material "none" = perfect
+ *   mirror, or eta + k; ext_eta 1; specular_reflectance 1), roughconductor (+ alpha | alpha_u,
+ *   alpha_v 0.1, distribution beckmann, sample_visible true), dielectric, thindielectric,
+ *   roughdielectric (int_ior bk7 1.5046, ext_ior air 1.000277, names or numbers; specular_
+ *   reflectance and _transmittance 1; rough: alpha 0.1, distribution beckmann), plastic,
+ *   roughplastic (int_ior, ext_ior, diffuse_reflectance 0.5, specular_reflectance 1, nonlinear
+ *   false; rough: alpha 0.1, distribution beckmann), twosided (one or two bsdfs), normalmap (a
+ *   texture "normalmap" + bsdf), bumpmap (texture + bsdf, scale 1), null, mask (opacity 0.5 +
+ *   bsdf), blendbsdf (weight 0.5 + two bsdfs).
+ * Textures: bitmap (filename, filter_type bilinear | nearest, wrap_mode repeat | mirror | clamp,
+ *   raw false, to_uv; 0.x uoffset/voffset/uscale/vscale), checkerboard (color0 0.4, color1 0.2,
+ *   to_uv). Any texture-valued property also takes rgb, spectrum or float constants.
+ * Emitters: point (intensity 1, position | to_world), spot (intensity 1, cutoff_angle 20,
+ *   beam_width 3/4 cutoff_angle, to_world), directional (irradiance 1, direction | to_world),
+ *   area (radiance 1, rgb or texture; inside a shape), constant (radiance 1), envmap (filename,
+ *   scale 1, to_world).
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "io/mesh_io.h"
+#include "io/mitsuba_internal.h"
+
+#define UNIFORM_SCALE_TOL 1e-5 /* relative: sphere to_world columns must agree this well */
+
+/* ------------------------------------------------------------------------------------------------ */
+/* helpers */
+
+static const spc_texture *constant(mts_loader *L, const spc_xml_node *at, spc_rgb v)
+{
+    const spc_texture *t = spc_scene_constant(L->scene, v);
+    if (!t)
+        mts_fail(L, at, SPC_ERR_NOMEM, "out of memory");
+    return t;
+}
+
+/* Guards objects with an id against being built twice and against reference cycles. */
+static bool cache_get(mts_loader *L, spc_xml_node *node, void **obj, mts_id **entry)
+{
+    *entry = mts_id_of(L, node);
+    if (!*entry)
+        return false;
+    if ((*entry)->state == 2) {
+        *obj = (*entry)->obj;
+        return true;
+    }
+    if ((*entry)->state == 1) {
+        mts_fail(L, node, SPC_ERR_VALUE, "reference cycle through id '%s'", (*entry)->id);
+        *obj = NULL;
+        return true;
+    }
+    (*entry)->state = 1;
+    return false;
+}
+
+static void cache_put(mts_id *entry, void *obj)
+{
+    if (entry) {
+        entry->obj = obj;
+        entry->state = obj ? 2 : 0;
+    }
+}
+
+static void set_to_uv(spc_texture *t, const spc_mat4 *m)
+{
+    t->to_uv[0][0] = m->m[0][0];
+    t->to_uv[0][1] = m->m[0][1];
+    t->to_uv[0][2] = m->m[0][3];
+    t->to_uv[1][0] = m->m[1][0];
+    t->to_uv[1][1] = m->m[1][1];
+    t->to_uv[1][2] = m->m[1][3];
+}
+
+static spc_mat4 mul(const spc_mat4 *a, const spc_mat4 *b) { return spc_mat4_mul(a, b); }
+
+/* ------------------------------------------------------------------------------------------------ */
+/* textures */
+
+const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
+{
+    void *cached;
+    mts_id *entry;
+    if (cache_get(L, node, &cached, &entry))
+        return cached;
+    mts_props P;
+    if (mts_props_collect(L, node, &P)) {
+        cache_put(entry, NULL);
+        return NULL;
+    }
+    const char *type = mts_type(node);
+    spc_texture *t = NULL;
+    spc_mat4 to_uv = mts_get_transform(L, &P, "to_uv");
+    if (mts_has(&P, "uoffset") || mts_has(&P, "voffset") || mts_has(&P, "uscale") || mts_has(&P, "vscale")) {
+        /* 0.x: as Mitsuba 3's upgrade, translate by the offset, then scale */
+        spc_vec3 off = spc_v3(mts_get_float(L, &P, "uoffset", 0), mts_get_float(L, &P, "voffset", 0), 0);
+        spc_vec3 sc = spc_v3(mts_get_float(L, &P, "uscale", 1), mts_get_float(L, &P, "vscale", 1), 1);
+        spc_mat4 T = spc_mat4_translate(off), S = spc_mat4_scale(sc);
+        spc_mat4 ST = mul(&S, &T);
+        to_uv = mul(&ST, &to_uv);
+    }
+    if (strcmp(type, "bitmap") == 0) {
+        const char *fname = mts_get_string(L, &P, "filename", NULL);
+        bool raw = mts_get_bool(L, &P, "raw", false);
+        const char *filter = mts_get_string(L, &P, "filter_type", "bilinear");
+        const char *wrap = mts_get_string(L, &P, "wrap_mode", "repeat");
+        mts_ignore(&P, "max_anisotropy");
+        mts_ignore(&P, "cache");
+        bool nearest = false;
+        spc_wrap_mode wm = SPC_WRAP_REPEAT;
+        if (strcmp(filter, "nearest") == 0)
+            nearest = true;
+        else if (strcmp(filter, "bilinear") != 0 && strcmp(filter, "ewa") != 0 && strcmp(filter, "trilinear") != 0)
+            mts_fail(L, mts_where(&P, "filter_type"), SPC_ERR_VALUE, "unknown filter_type '%s' (bilinear, nearest)",
+                     filter);
+        if (strcmp(wrap, "mirror") == 0)
+            wm = SPC_WRAP_MIRROR;
+        else if (strcmp(wrap, "clamp") == 0)
+            wm = SPC_WRAP_CLAMP;
+        else if (strcmp(wrap, "zero") == 0 || strcmp(wrap, "one") == 0) {
+            mts_warn(mts_where(&P, "wrap_mode"), "wrap_mode '%s' is read as 'clamp'", wrap);
+            wm = SPC_WRAP_CLAMP;
+        } else if (strcmp(wrap, "repeat") != 0)
+            mts_fail(L, mts_where(&P, "wrap_mode"), SPC_ERR_VALUE, "unknown wrap_mode '%s' (repeat, mirror, clamp)",
+                     wrap);
+        char path[4096];
+        if (L->status == SPC_OK && !fname)
+            mts_fail(L, node, SPC_ERR_VALUE, "bitmap texture needs a filename");
+        else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&P, "filename"), fname, path, sizeof path))
+            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "texture file '%s' not found", fname);
+        if (L->status == SPC_OK) {
+            t = spc_scene_new_texture(L->scene);
+            spc_error sub;
+            memset(&sub, 0, sizeof sub);
+            if (!t) {
+                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+            } else if (spc_texture_load_bitmap(t, path, raw, &sub) != SPC_OK) {
+                char msg[SPC_ERROR_MSG_MAX];
+                spc_error_format(&sub, msg, sizeof msg);
+                mts_fail(L, node, sub.code ? sub.code : SPC_ERR_IO, "cannot load texture '%s': %s", fname, msg);
+            } else {
+                t->nearest = nearest;
+                t->wrap = wm;
+                set_to_uv(t, &to_uv);
+            }
+        }
+    } else if (strcmp(type, "checkerboard") == 0) {
+        spc_rgb c0 = mts_get_rgb(L, &P, "color0", spc_rgb1(0.4));
+        spc_rgb c1 = mts_get_rgb(L, &P, "color1", spc_rgb1(0.2));
+        if (L->status == SPC_OK) {
+            t = spc_scene_new_texture(L->scene);
+            if (!t) {
+                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+            } else {
+                spc_texture_init_checkerboard(t, c0, c1);
+                set_to_uv(t, &to_uv);
+            }
+        }
+    } else {
+        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown texture type '%s' (bitmap, checkerboard)", type);
+    }
+    if (L->status != SPC_OK)
+        t = NULL;
+    mts_props_end(&P);
+    cache_put(entry, t);
+    return t;
+}
+
+const spc_texture *mts_get_texture(mts_loader *L, mts_props *P, const char *name, spc_rgb def)
+{
+    mts_prop *p = mts_find(P, name);
+    if (!p)
+        return constant(L, P->owner, def);
+    switch (p->kind) {
+    case MTS_RGB: return constant(L, p->node, p->rgb);
+    case MTS_FLOAT:
+    case MTS_INT: return constant(L, p->node, spc_rgb1(p->f));
+    case MTS_OBJECT:
+        if (strcmp(p->obj->name, "texture") == 0)
+            return mts_build_texture(L, p->obj);
+        break;
+    case MTS_BOOL:
+    case MTS_STRING:
+    case MTS_POINT:
+    case MTS_TRANSFORM: break;
+    }
+    mts_fail(L, p->node, SPC_ERR_VALUE, "property '%s' must be a texture, rgb, spectrum or float", name);
+    return NULL;
+}
+
+/* The first texture among named property `name` and the unnamed nested textures. */
+static const spc_texture *any_texture(mts_loader *L, mts_props *P, const char *name)
+{
+    if (mts_has(P, name))
+        return mts_get_texture(L, P, name, spc_rgb1(0));
+    for (int i = 0; i < P->n; ++i) {
+        mts_prop *p = &P->p[i];
+        if (p->kind == MTS_OBJECT && strcmp(p->obj->name, "texture") == 0) {
+            p->used = true;
+            return mts_build_texture(L, p->obj);
+        }
+    }
+    return NULL;
+}
+
+/* ------------------------------------------------------------------------------------------------ */
+/* BSDFs */
+
+static double get_ior(mts_loader *L, mts_props *P, const char *name, double def)
+{
+    mts_prop *p = mts_find(P, name);
+    if (!p)
+        return def;
+    double v = def;
+    if (p->kind == MTS_FLOAT || p->kind == MTS_INT) {
+        v = p->f;
+    } else if (p->kind == MTS_STRING) {
+        if (!mts_named_ior(p->s, &v)) {
+            mts_fail(L, p->node, SPC_ERR_VALUE, "unknown IOR name '%s' for '%s' (known: %s)", p->s, name,
+                     mts_ior_names());
+            return def;
+        }
+    } else {
+        mts_fail(L, p->node, SPC_ERR_VALUE, "property '%s' must be a float or an IOR name", name);
+        return def;
+    }
+    if (!(v > 0.0))
+        mts_fail(L, p->node, SPC_ERR_VALUE, "%s %g must be positive", name, v);
+    return v;
+}
+
+static void roughness(mts_loader *L, mts_props *P, spc_bsdf *b, double def, bool anisotropic)
+{
+    if (mts_has(P, "alpha") || !anisotropic) {
+        if (anisotropic && (mts_has(P, "alpha_u") || mts_has(P, "alpha_v")))
+            mts_fail(L, mts_where(P, "alpha"), SPC_ERR_VALUE, "give either alpha or alpha_u/alpha_v, not both");
+        b->alpha_u = b->alpha_v = mts_get_texture(L, P, "alpha", spc_rgb1(def));
+    } else {
+        b->alpha_u = mts_get_texture(L, P, "alpha_u", spc_rgb1(def));
+        b->alpha_v = mts_get_texture(L, P, "alpha_v", spc_rgb1(def));
+    }
+    const char *dist = mts_get_string(L, P, "distribution", "beckmann");
+    if (strcmp(dist, "beckmann") == 0)
+        b->distribution = SPC_MICROFACET_BECKMANN;
+    else if (strcmp(dist, "ggx") == 0)
+        b->distribution = SPC_MICROFACET_GGX;
+    else
+        mts_fail(L, mts_where(P, "distribution"), SPC_ERR_VALUE, "unknown microfacet distribution '%s' (beckmann, ggx)",
+                 dist);
+    b->sample_visible = mts_get_bool(L, P, "sample_visible", true);
+}
+
+static void conductor(mts_loader *L, mts_props *P, spc_bsdf *b, const spc_xml_node *node)
+{
+    const char *def_material = mts_dialect(node) < 2 ? "Cu" : "none";
+    bool given = mts_has(P, "eta") || mts_has(P, "k");
+    if (given && mts_has(P, "material"))
+        mts_fail(L, mts_where(P, "material"), SPC_ERR_VALUE, "give either material or eta and k, not both");
+    spc_rgb eta = spc_rgb1(0), k = spc_rgb1(-1);
+    if (given) {
+        if (!mts_has(P, "eta") || !mts_has(P, "k"))
+            mts_fail(L, node, SPC_ERR_VALUE, "a conductor needs both eta and k");
+        eta = mts_get_rgb(L, P, "eta", spc_rgb1(0));
+        k = mts_get_rgb(L, P, "k", spc_rgb1(0));
+        if (L->status == SPC_OK && (eta.r < 0 || eta.g < 0 || eta.b < 0 || k.r < 0 || k.g < 0 || k.b < 0))
+            mts_fail(L, mts_where(P, "eta"), SPC_ERR_VALUE, "conductor eta and k must not be negative");
+    } else {
+        const char *material = mts_get_string(L, P, "material", def_material);
+        if (strcmp(material, "none") != 0 && !mts_conductor_preset(material, &eta, &k))
+            mts_fail(L, mts_where(P, "material"), SPC_ERR_VALUE, "unknown conductor material '%s' (known: %s)",
+                     material, mts_conductor_names());
+    }
+    double ext = mts_get_float(L, P, "ext_eta", 1.0);
+    if (L->status == SPC_OK && !(ext > 0.0))
+        mts_fail(L, mts_where(P, "ext_eta"), SPC_ERR_VALUE, "ext_eta %g must be positive", ext);
+    if (k.r >= 0.0 && ext > 0.0) {
+        eta = spc_rgb_scale(eta, 1.0 / ext);
+        k = spc_rgb_scale(k, 1.0 / ext);
+    }
+    b->cond_eta = eta;
+    b->cond_k = k; /* k < 0: perfect mirror (material "none") */
+    b->specular_reflectance = mts_get_texture(L, P, "specular_reflectance", spc_rgb1(1));
+}
+
+static const spc_bsdf *nested_bsdf(mts_loader *L, mts_props *P, int k)
+{
+    spc_xml_node *n = mts_object(P, "bsdf", k, NULL);
+    return n ? mts_build_bsdf(L, n) : NULL;
+}
+
+const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
+{
+    void *cached;
+    mts_id *entry;
+    if (cache_get(L, node, &cached, &entry))
+        return cached;
+    mts_props P;
+    if (mts_props_collect(L, node, &P)) {
+        cache_put(entry, NULL);
+        return NULL;
+    }
+    const char *type = mts_type(node);
+    spc_bsdf *b = spc_scene_new_bsdf(L->scene);
+    if (!b) {
+        mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+        goto out;
+    }
+    b->sample_visible = true;
+    b->eta = 1.0;
+    b->bump_scale = 1.0;
+    int nbsdf = mts_count_objects(&P, "bsdf");
+    if (strcmp(type, "diffuse") == 0) {
+        b->type = SPC_BSDF_DIFFUSE;
+        b->reflectance = mts_get_texture(L, &P, "reflectance", spc_rgb1(0.5));
+    } else if (strcmp(type, "roughdiffuse") == 0) {
+        b->type = SPC_BSDF_ROUGHDIFFUSE;
+        b->reflectance = mts_get_texture(L, &P, "reflectance", spc_rgb1(0.5));
+        b->alpha_u = b->alpha_v = mts_get_texture(L, &P, "alpha", spc_rgb1(0.2));
+        mts_ignore(&P, "use_fast_approx");
+    } else if (strcmp(type, "phong") == 0) {
+        b->type = SPC_BSDF_PHONG;
+        b->exponent = mts_get_float(L, &P, "exponent", 30.0);
+        b->specular_reflectance = mts_get_texture(L, &P, "specular_reflectance", spc_rgb1(0.2));
+        b->reflectance = mts_get_texture(L, &P, "diffuse_reflectance", spc_rgb1(0.5));
+        if (L->status == SPC_OK && !(b->exponent > 0.0))
+            mts_fail(L, mts_where(&P, "exponent"), SPC_ERR_VALUE, "phong exponent %g must be positive", b->exponent);
+    } else if (strcmp(type, "conductor") == 0) {
+        b->type = SPC_BSDF_CONDUCTOR;
+        conductor(L, &P, b, node);
+    } else if (strcmp(type, "roughconductor") == 0) {
+        b->type = SPC_BSDF_ROUGHCONDUCTOR;
+        conductor(L, &P, b, node);
+        roughness(L, &P, b, 0.1, true);
+    } else if (strcmp(type, "dielectric") == 0 || strcmp(type, "thindielectric") == 0 ||
+               strcmp(type, "roughdielectric") == 0) {
+        b->type = type[0] == 'd' ? SPC_BSDF_DIELECTRIC
+                                 : (type[0] == 't' ? SPC_BSDF_THINDIELECTRIC : SPC_BSDF_ROUGHDIELECTRIC);
+        double in = get_ior(L, &P, "int_ior", 1.5046), ext = get_ior(L, &P, "ext_ior", 1.000277);
+        b->eta = in / ext;
+        b->specular_reflectance = mts_get_texture(L, &P, "specular_reflectance", spc_rgb1(1));
+        b->specular_transmittance = mts_get_texture(L, &P, "specular_transmittance", spc_rgb1(1));
+        if (b->type == SPC_BSDF_ROUGHDIELECTRIC)
+            roughness(L, &P, b, 0.1, true);
+    } else if (strcmp(type, "plastic") == 0 || strcmp(type, "roughplastic") == 0) {
+        b->type = type[0] == 'p' ? SPC_BSDF_PLASTIC : SPC_BSDF_ROUGHPLASTIC;
+        double in = get_ior(L, &P, "int_ior", 1.49), ext = get_ior(L, &P, "ext_ior", 1.000277);
+        b->eta = in / ext;
+        b->reflectance = mts_get_texture(L, &P, "diffuse_reflectance", spc_rgb1(0.5));
+        b->specular_reflectance = mts_get_texture(L, &P, "specular_reflectance", spc_rgb1(1));
+        b->nonlinear = mts_get_bool(L, &P, "nonlinear", false);
+        if (b->type == SPC_BSDF_ROUGHPLASTIC)
+            roughness(L, &P, b, 0.1, false);
+    } else if (strcmp(type, "twosided") == 0) {
+        b->type = SPC_BSDF_TWOSIDED;
+        if (nbsdf < 1 || nbsdf > 2)
+            mts_fail(L, node, SPC_ERR_VALUE, "twosided needs one or two nested bsdfs, got %d", nbsdf);
+        else {
+            b->nested[0] = nested_bsdf(L, &P, 0);
+            b->nested[1] = nbsdf == 2 ? nested_bsdf(L, &P, 1) : b->nested[0];
+        }
+    } else if (strcmp(type, "normalmap") == 0) {
+        b->type = SPC_BSDF_NORMALMAP;
+        b->normalmap = any_texture(L, &P, "normalmap");
+        if (nbsdf != 1)
+            mts_fail(L, node, SPC_ERR_VALUE, "normalmap needs exactly one nested bsdf, got %d", nbsdf);
+        else if (L->status == SPC_OK && !b->normalmap)
+            mts_fail(L, node, SPC_ERR_VALUE, "normalmap needs a texture named 'normalmap'");
+        else
+            b->nested[0] = nested_bsdf(L, &P, 0);
+    } else if (strcmp(type, "bumpmap") == 0) {
+        b->type = SPC_BSDF_BUMPMAP;
+        b->bump = any_texture(L, &P, "bumpmap");
+        b->bump_scale = mts_get_float(L, &P, "scale", 1.0);
+        if (nbsdf != 1)
+            mts_fail(L, node, SPC_ERR_VALUE, "bumpmap needs exactly one nested bsdf, got %d", nbsdf);
+        else if (L->status == SPC_OK && !b->bump)
+            mts_fail(L, node, SPC_ERR_VALUE, "bumpmap needs a nested texture");
+        else
+            b->nested[0] = nested_bsdf(L, &P, 0);
+    } else if (strcmp(type, "null") == 0) {
+        b->type = SPC_BSDF_NULL;
+    } else if (strcmp(type, "mask") == 0) {
+        b->type = SPC_BSDF_MASK;
+        b->opacity = mts_get_texture(L, &P, "opacity", spc_rgb1(0.5));
+        if (nbsdf != 1)
+            mts_fail(L, node, SPC_ERR_VALUE, "mask needs exactly one nested bsdf, got %d", nbsdf);
+        else
+            b->nested[0] = nested_bsdf(L, &P, 0);
+    } else if (strcmp(type, "blendbsdf") == 0) {
+        b->type = SPC_BSDF_BLENDBSDF;
+        b->weight = mts_get_texture(L, &P, "weight", spc_rgb1(0.5));
+        if (nbsdf != 2)
+            mts_fail(L, node, SPC_ERR_VALUE, "blendbsdf needs exactly two nested bsdfs, got %d", nbsdf);
+        else {
+            b->nested[0] = nested_bsdf(L, &P, 0);
+            b->nested[1] = nested_bsdf(L, &P, 1);
+        }
+    } else {
+        mts_fail(L, node, SPC_ERR_PLUGIN,
+                 "unknown bsdf type '%s' (diffuse, roughdiffuse, phong, conductor, roughconductor, dielectric, "
+                 "thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, bumpmap, null, mask, "
+                 "blendbsdf)",
+                 type);
+    }
+out:
+    if (L->status != SPC_OK)
+        b = NULL;
+    mts_props_end(&P);
+    cache_put(entry, b);
+    return b;
+}
+
+/* ------------------------------------------------------------------------------------------------ */
+/* meshes */
+
+static bool mesh_copy(spc_mesh *dst, const spc_mesh *src)
+{
+    memset(dst, 0, sizeof *dst);
+    dst->nverts = src->nverts;
+    dst->ntris = src->ntris;
+    dst->p = malloc(3 * src->nverts * sizeof(float) + 1);
+    dst->idx = malloc(3 * src->ntris * sizeof(uint32_t) + 1);
+    if (src->n)
+        dst->n = malloc(3 * src->nverts * sizeof(float) + 1);
+    if (src->uv)
+        dst->uv = malloc(2 * src->nverts * sizeof(float) + 1);
+    if (!dst->p || !dst->idx || (src->n && !dst->n) || (src->uv && !dst->uv)) {
+        spc_mesh_release(dst);
+        memset(dst, 0, sizeof *dst);
+        return false;
+    }
+    memcpy(dst->p, src->p, 3 * src->nverts * sizeof(float));
+    memcpy(dst->idx, src->idx, 3 * src->ntris * sizeof(uint32_t));
+    if (src->n)
+        memcpy(dst->n, src->n, 3 * src->nverts * sizeof(float));
+    if (src->uv)
+        memcpy(dst->uv, src->uv, 2 * src->nverts * sizeof(float));
+    return true;
+}
+
+void mts_mesh_cache_release(mts_loader *L)
+{
+    for (int i = 0; i < L->nmeshes; ++i) {
+        free(L->meshes[i].key);
+        spc_mesh_release(&L->meshes[i].mesh);
+    }
+    free(L->meshes);
+    L->meshes = NULL;
+    L->nmeshes = 0;
+}
+
+/* Loads a mesh file in object space into *m (which the caller then owns). Shapes inside a
+ * shapegroup go through a cache so that each instance does not read the file again. */
+static void load_mesh(mts_loader *L, const spc_xml_node *node, const char *type, const char *path, int shape_index,
+                      bool flip_tex, bool cached, spc_mesh *m)
+{
+    memset(m, 0, sizeof *m);
+    char key[4200];
+    snprintf(key, sizeof key, "%s|%d|%d|%s", type, shape_index, flip_tex ? 1 : 0, path);
+    if (cached) {
+        for (int i = 0; i < L->nmeshes; ++i) {
+            if (strcmp(L->meshes[i].key, key) == 0) {
+                if (!mesh_copy(m, &L->meshes[i].mesh))
+                    mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+                return;
+            }
+        }
+    }
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    spc_status st;
+    if (strcmp(type, "obj") == 0)
+        st = spc_obj_load_ex(path, flip_tex, m, &sub);
+    else if (strcmp(type, "ply") == 0)
+        st = spc_ply_load(path, m, &sub);
+    else
+        st = spc_serialized_load(path, shape_index, m, &sub);
+    if (st != SPC_OK) {
+        char msg[SPC_ERROR_MSG_MAX];
+        spc_error_format(&sub, msg, sizeof msg);
+        mts_fail(L, node, st, "cannot load %s mesh: %s", type, msg);
+        spc_mesh_release(m);
+        memset(m, 0, sizeof *m);
+        return;
+    }
+    if (cached) {
+        mts_mesh_entry *e = realloc(L->meshes, (size_t)(L->nmeshes + 1) * sizeof *e);
+        if (!e) {
+            mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+            return;
+        }
+        L->meshes = e;
+        char *k = malloc(strlen(key) + 1);
+        spc_mesh copy;
+        if (!k || !mesh_copy(&copy, m)) {
+            free(k);
+            mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+            return;
+        }
+        strcpy(k, key);
+        L->meshes[L->nmeshes].key = k;
+        L->meshes[L->nmeshes].mesh = copy;
+        ++L->nmeshes;
+    }
+}
+
+/* ------------------------------------------------------------------------------------------------ */
+/* shapes */
+
+static const spc_bsdf *default_bsdf(mts_loader *L, const spc_xml_node *at)
+{
+    if (L->default_bsdf)
+        return L->default_bsdf;
+    spc_bsdf *b = spc_scene_new_bsdf(L->scene);
+    if (!b) {
+        mts_fail(L, at, SPC_ERR_NOMEM, "out of memory");
+        return NULL;
+    }
+    b->type = SPC_BSDF_DIFFUSE;
+    b->reflectance = constant(L, at, spc_rgb1(0.5));
+    b->sample_visible = true;
+    b->eta = 1.0;
+    b->bump_scale = 1.0;
+    L->default_bsdf = b;
+    return b;
+}
+
+static bool uniform_scale(const spc_mat4 *m)
+{
+    spc_vec3 c[3];
+    for (int j = 0; j < 3; ++j)
+        c[j] = spc_v3(m->m[0][j], m->m[1][j], m->m[2][j]);
+    double l0 = spc_length(c[0]);
+    if (!(l0 > 0.0))
+        return false;
+    for (int j = 1; j < 3; ++j)
+        if (fabs(spc_length(c[j]) - l0) > UNIFORM_SCALE_TOL * l0)
+            return false;
+    for (int a = 0; a < 3; ++a)
+        for (int b = a + 1; b < 3; ++b)
+            if (fabs(spc_dot(c[a], c[b])) > UNIFORM_SCALE_TOL * l0 * l0)
+                return false;
+    return m->m[3][0] == 0.0 && m->m[3][1] == 0.0 && m->m[3][2] == 0.0 && m->m[3][3] == 1.0;
+}
+
+static void caustic_flags(mts_loader *L, mts_props *P, spc_shape *s)
+{
+    static const struct {
+        const char *name;
+        unsigned bit;
+    } flags[] = {{"caustic_caster", SPC_CAUSTIC_CASTER},
+                 {"caustic_receiver", SPC_CAUSTIC_RECEIVER},
+                 {"caustic_caster_single", SPC_CAUSTIC_CASTER_SINGLE},
+                 {"caustic_caster_multi", SPC_CAUSTIC_CASTER_MULTI}};
+    /* As in the specular manifold sampling code these properties come from: once a shape says
+     * anything, it has exactly the roles it sets to true. */
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; ++i) {
+        if (!mts_has(P, flags[i].name))
+            continue;
+        if (!(s->caustic_flags & SPC_CAUSTIC_FLAGS_EXPLICIT))
+            s->caustic_flags = SPC_CAUSTIC_FLAGS_EXPLICIT;
+        if (mts_get_bool(L, P, flags[i].name, false))
+            s->caustic_flags |= flags[i].bit;
+    }
+}
+
+static void build_instance(mts_loader *L, spc_xml_node *node, mts_props *P, const spc_mat4 *prefix, bool in_group)
+{
+    const spc_xml_node *at = node;
+    spc_xml_node *group = mts_object(P, "shape", 0, &at);
+    if (in_group) {
+        mts_fail(L, node, SPC_ERR_VALUE, "an instance cannot be inside a shapegroup");
+        return;
+    }
+    if (!group || strcmp(mts_type(group), "shapegroup") != 0 || mts_count_objects(P, "shape") != 1) {
+        mts_fail(L, at, SPC_ERR_VALUE, "an instance needs exactly one reference to a shapegroup");
+        return;
+    }
+    spc_mat4 local = mts_get_transform(L, P, "to_world");
+    spc_mat4 M = prefix ? mul(prefix, &local) : local;
+    for (int i = 0; i < group->nchildren && L->status == SPC_OK; ++i) {
+        spc_xml_node *c = group->children[i];
+        if (strcmp(c->name, "shape") == 0)
+            mts_build_shape(L, c, &M, true);
+        else if (strcmp(c->name, "ref") == 0) {
+            mts_id *e = mts_lookup_id(L, spc_xml_get(c, "id") ? spc_xml_get(c, "id") : "");
+            if (!e)
+                mts_fail(L, c, SPC_ERR_VALUE, "reference to unknown id '%s'",
+                         spc_xml_get(c, "id") ? spc_xml_get(c, "id") : "");
+            else if (strcmp(e->node->name, "shape") != 0)
+                mts_fail(L, c, SPC_ERR_VALUE, "a shapegroup holds only shapes, not <%s>", e->node->name);
+            else
+                mts_build_shape(L, e->node, &M, true);
+        } else if (strcmp(c->name, "default") != 0 && strcmp(c->name, "path") != 0)
+            mts_fail(L, c, SPC_ERR_VALUE, "a shapegroup holds only shapes, not <%s>", c->name);
+    }
+}
+
+spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group)
+{
+    const char *type = mts_type(node);
+    if (strcmp(type, "shapegroup") == 0) {
+        if (in_group)
+            return mts_fail(L, node, SPC_ERR_VALUE, "shapegroups cannot be nested");
+        return L->status; /* its shapes are made by the instances that refer to it */
+    }
+    mts_props P;
+    if (mts_props_collect(L, node, &P))
+        return L->status;
+    if (strcmp(type, "instance") == 0) {
+        build_instance(L, node, &P, prefix, in_group);
+        mts_props_end(&P);
+        return L->status;
+    }
+    static const char *known[] = {"sphere", "rectangle", "disk", "cube", "cylinder", "obj", "ply", "serialized"};
+    bool ok = false;
+    for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
+        ok |= strcmp(type, known[i]) == 0;
+    if (!ok) {
+        mts_fail(L, node, SPC_ERR_PLUGIN,
+                 "unknown shape type '%s' (sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, "
+                 "shapegroup, instance)",
+                 type);
+        mts_props_end(&P);
+        return L->status;
+    }
+    if (mts_count_objects(&P, "medium") > 0) {
+        const spc_xml_node *at = node;
+        mts_object(&P, "medium", 0, &at);
+        mts_fail(L, at, SPC_ERR_PLUGIN, "participating media (interior/exterior) are not supported");
+        mts_props_end(&P);
+        return L->status;
+    }
+    spc_mat4 local = mts_get_transform(L, &P, "to_world");
+    spc_mat4 M = prefix ? mul(prefix, &local) : local;
+    bool flip = mts_get_bool(L, &P, "flip_normals", false);
+    bool mesh = strcmp(type, "obj") == 0 || strcmp(type, "ply") == 0 || strcmp(type, "serialized") == 0;
+    bool face_normals = mesh ? mts_get_bool(L, &P, "face_normals", false) : false;
+
+    /* validate and load everything before creating the shape */
+    spc_vec3 center = spc_v3(0, 0, 0), p0 = spc_v3(0, 0, 0), p1 = spc_v3(0, 0, 1);
+    double radius = 1.0;
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    if (strcmp(type, "sphere") == 0 || strcmp(type, "cylinder") == 0) {
+        radius = mts_get_float(L, &P, "radius", 1.0);
+        if (L->status == SPC_OK && !(radius > 0.0))
+            mts_fail(L, mts_where(&P, "radius"), SPC_ERR_VALUE, "%s radius %g must be positive", type, radius);
+    }
+    if (strcmp(type, "sphere") == 0) {
+        center = mts_get_point(L, &P, "center", center);
+        if (L->status == SPC_OK && !uniform_scale(&M))
+            mts_fail(L, mts_where(&P, "to_world"), SPC_ERR_VALUE,
+                     "a sphere's to_world may only rotate, translate and scale uniformly");
+    } else if (strcmp(type, "cylinder") == 0) {
+        p0 = mts_get_point(L, &P, "p0", p0);
+        p1 = mts_get_point(L, &P, "p1", p1);
+        if (L->status == SPC_OK && !(spc_distance(p0, p1) > 0.0))
+            mts_fail(L, node, SPC_ERR_VALUE, "cylinder p0 and p1 must differ");
+    } else if (mesh) {
+        const char *fname = mts_get_string(L, &P, "filename", NULL);
+        int shape_index = strcmp(type, "serialized") == 0 ? mts_get_int(L, &P, "shape_index", 0) : 0;
+        bool flip_tex = strcmp(type, "obj") == 0 ? mts_get_bool(L, &P, "flip_tex_coords", true) : true;
+        char path[4096];
+        if (L->status == SPC_OK && !fname)
+            mts_fail(L, node, SPC_ERR_VALUE, "%s shape needs a filename", type);
+        else if (L->status == SPC_OK && shape_index < 0)
+            mts_fail(L, mts_where(&P, "shape_index"), SPC_ERR_VALUE, "shape_index %d must not be negative",
+                     shape_index);
+        else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&P, "filename"), fname, path, sizeof path))
+            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "mesh file '%s' not found", fname);
+        if (L->status == SPC_OK)
+            load_mesh(L, mts_where(&P, "filename"), type, path, shape_index, flip_tex, in_group, &m);
+    }
+    if (L->status != SPC_OK) {
+        spc_mesh_release(&m);
+        mts_props_end(&P);
+        return L->status;
+    }
+
+    spc_shape *s = spc_scene_new_shape(L->scene);
+    if (!s) {
+        spc_mesh_release(&m);
+        mts_props_end(&P);
+        return mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+    }
+    int index = L->scene->nshapes - 1;
+    s->interior_medium = s->exterior_medium = -1;
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    bool built = true;
+    const char *f = node->file;
+    if (strcmp(type, "sphere") == 0)
+        built = spc_shape_init_sphere(s, center, radius, &M, f, node->line, node->col, &sub);
+    else if (strcmp(type, "rectangle") == 0)
+        built = spc_shape_init_rectangle(s, &M, f, node->line, node->col, &sub);
+    else if (strcmp(type, "disk") == 0)
+        built = spc_shape_init_disk(s, &M, f, node->line, node->col, &sub);
+    else if (strcmp(type, "cube") == 0)
+        built = spc_shape_init_cube(s, &M, f, node->line, node->col, &sub);
+    else if (strcmp(type, "cylinder") == 0)
+        built = spc_shape_init_cylinder(s, p0, p1, radius, &M, f, node->line, node->col, &sub);
+    else
+        built = spc_shape_init_mesh(s, &m, &M, f, node->line, node->col, &sub);
+    spc_mesh_release(&m); /* emptied by init_mesh on success */
+    if (!built) {
+        mts_props_end(&P);
+        return mts_fail(L, node, sub.code ? sub.code : SPC_ERR_VALUE, "%s shape: %s", type, sub.msg);
+    }
+    const char *id = spc_xml_get(node, "id");
+    if (id)
+        snprintf(s->id, sizeof s->id, "%s", id);
+    s->flip_normals = flip;
+    s->face_normals = face_normals;
+    caustic_flags(L, &P, s);
+
+    int nbsdf = mts_count_objects(&P, "bsdf"), nem = mts_count_objects(&P, "emitter");
+    if (nbsdf > 1)
+        mts_fail(L, node, SPC_ERR_VALUE, "a shape takes one bsdf, got %d", nbsdf);
+    else if (nem > 1)
+        mts_fail(L, node, SPC_ERR_VALUE, "a shape takes one emitter, got %d", nem);
+    else {
+        spc_xml_node *bn = mts_object(&P, "bsdf", 0, NULL);
+        s->bsdf = bn ? mts_build_bsdf(L, bn) : default_bsdf(L, node);
+        spc_xml_node *en = mts_object(&P, "emitter", 0, NULL);
+        if (en && L->status == SPC_OK)
+            mts_build_emitter(L, en, s, index);
+    }
+    mts_props_end(&P);
+    return L->status;
+}
+
+/* ------------------------------------------------------------------------------------------------ */
+/* emitters */
+
+spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index)
+{
+    mts_props P;
+    if (mts_props_collect(L, node, &P))
+        return L->status;
+    const char *type = mts_type(node);
+    static const char *known[] = {"area", "point", "spot", "directional", "constant", "envmap"};
+    bool ok = false;
+    for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
+        ok |= strcmp(type, known[i]) == 0;
+    if (!ok) {
+        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown emitter type '%s' (area, point, spot, directional, constant, envmap)",
+                 type);
+    } else if (shape && strcmp(type, "area") != 0) {
+        mts_fail(L, node, SPC_ERR_VALUE, "only area emitters can be attached to a shape, not '%s'", type);
+    } else if (!shape && strcmp(type, "area") == 0) {
+        mts_fail(L, node, SPC_ERR_VALUE, "an area emitter must be nested inside a <shape>");
+    }
+    if (L->status != SPC_OK) {
+        mts_props_end(&P);
+        return L->status;
+    }
+    spc_mat4 to_world = mts_get_transform(L, &P, "to_world");
+    spc_emitter tmp;
+    memset(&tmp, 0, sizeof tmp);
+    tmp.scale = 1.0;
+    tmp.to_world = to_world;
+    tmp.to_local = spc_mat4_identity();
+    tmp.shape_index = -1;
+    if (!spc_mat4_inverse(&to_world, &tmp.to_local))
+        mts_fail(L, mts_where(&P, "to_world"), SPC_ERR_VALUE, "emitter to_world is singular");
+    spc_vec3 origin = spc_mat4_apply_point(&to_world, spc_v3(0, 0, 0));
+    if (strcmp(type, "area") == 0) {
+        tmp.type = SPC_EMITTER_AREA;
+        tmp.radiance = mts_get_texture(L, &P, "radiance", spc_rgb1(1));
+        tmp.shape = shape;
+        tmp.shape_index = shape_index;
+    } else if (strcmp(type, "point") == 0) {
+        tmp.type = SPC_EMITTER_POINT;
+        tmp.intensity = mts_get_rgb(L, &P, "intensity", spc_rgb1(1));
+        if (mts_has(&P, "position") && mts_has(&P, "to_world"))
+            mts_fail(L, mts_where(&P, "position"), SPC_ERR_VALUE, "give either position or to_world, not both");
+        tmp.position = mts_get_point(L, &P, "position", origin);
+    } else if (strcmp(type, "spot") == 0) {
+        tmp.type = SPC_EMITTER_SPOT;
+        tmp.intensity = mts_get_rgb(L, &P, "intensity", spc_rgb1(1));
+        tmp.cutoff_angle = mts_get_float(L, &P, "cutoff_angle", 20.0);
+        tmp.beam_width = mts_get_float(L, &P, "beam_width", 0.75 * tmp.cutoff_angle);
+        tmp.position = origin;
+        mts_ignore(&P, "texture");
+        if (L->status == SPC_OK && !(tmp.cutoff_angle > 0.0 && tmp.cutoff_angle <= 90.0))
+            mts_fail(L, mts_where(&P, "cutoff_angle"), SPC_ERR_VALUE, "cutoff_angle %g must be in (0, 90]",
+                     tmp.cutoff_angle);
+        if (L->status == SPC_OK && !(tmp.beam_width > 0.0 && tmp.beam_width <= tmp.cutoff_angle))
+            mts_fail(L, mts_where(&P, "beam_width"), SPC_ERR_VALUE, "beam_width %g must be in (0, cutoff_angle]",
+                     tmp.beam_width);
+    } else if (strcmp(type, "directional") == 0) {
+        tmp.type = SPC_EMITTER_DIRECTIONAL;
+        tmp.irradiance = mts_get_rgb(L, &P, "irradiance", spc_rgb1(1));
+        spc_vec3 d = spc_mat4_apply_vector(&to_world, spc_v3(0, 0, 1));
+        d = mts_get_point(L, &P, "direction", d);
+        if (L->status == SPC_OK && !(spc_length(d) > 0.0))
+            mts_fail(L, mts_where(&P, "direction"), SPC_ERR_VALUE, "directional emitter needs a non-zero direction");
+        tmp.direction = spc_normalize(d);
+    } else if (strcmp(type, "constant") == 0) {
+        tmp.type = SPC_EMITTER_CONSTANT;
+        tmp.radiance = mts_get_texture(L, &P, "radiance", spc_rgb1(1));
+    } else { /* envmap */
+        tmp.type = SPC_EMITTER_ENVMAP;
+        tmp.scale = mts_get_float(L, &P, "scale", 1.0);
+        const char *fname = mts_get_string(L, &P, "filename", NULL);
+        char path[4096];
+        if (L->status == SPC_OK && !fname)
+            mts_fail(L, node, SPC_ERR_VALUE, "envmap needs a filename");
+        else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&P, "filename"), fname, path, sizeof path))
+            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "envmap file '%s' not found", fname);
+        if (L->status == SPC_OK) {
+            spc_texture *t = spc_scene_new_texture(L->scene);
+            spc_error sub;
+            memset(&sub, 0, sizeof sub);
+            if (!t) {
+                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+            } else if (spc_texture_load_bitmap(t, path, false, &sub) != SPC_OK) {
+                char msg[SPC_ERROR_MSG_MAX];
+                spc_error_format(&sub, msg, sizeof msg);
+                mts_fail(L, mts_where(&P, "filename"), sub.code ? sub.code : SPC_ERR_IO, "cannot load envmap '%s': %s",
+                         fname, msg);
+            }
+            tmp.radiance = t;
+        }
+    }
+    if (L->status == SPC_OK) {
+        spc_emitter *e = spc_scene_new_emitter(L->scene);
+        if (!e) {
+            mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+        } else {
+            *e = tmp;
+            e->index = L->scene->nemitters - 1;
+            if (shape)
+                shape->emitter = e;
+        }
+    }
+    mts_props_end(&P);
+    return L->status;
+}

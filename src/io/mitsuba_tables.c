@@ -1,0 +1,251 @@
+/*
+ * io/mitsuba_tables.c: the data tables of the Mitsuba loader.
+ *
+ * - Spectrum -> linear sRGB: the CIE 1931 2-degree colour matching functions at 5 nm from 360 to
+ *   830 nm (the CIE's tabulated values; CVRL ciexyz31), linearly interpolated to a 1 nm grid, the
+ *   spectrum integrated against them, XYZ -> linear sRGB with the ITU-R BT.709 / sRGB matrix, and
+ *   each channel divided by the result for a constant spectrum of 1, so that "flat" means white.
+ *   (Mitsuba 3 normalizes to D65 white instead; the difference is a white balance of a few percent
+ *   that only affects <spectrum> tags with wavelengths.)
+ * - Named IORs: Mitsuba's table (include/mitsuba/render/ior.h).
+ * - Conductors: RGB eta and k for the names of Mitsuba's measured conductor data, as integrated to
+ *   RGB by Tungsten (Benedikt Bitterli) from the same spectral data; Mitsuba's "_palik" variants map
+ *   to the base names. Small negative values, artefacts of the RGB fit, are clamped to 0.
+ */
+#include <string.h>
+#include <strings.h>
+
+#include "io/mitsuba_internal.h"
+
+#define CIE_START 360
+#define CIE_STEP 5
+#define CIE_COUNT 95 /* 360..830 nm */
+
+static const double cie_x[CIE_COUNT] = {
+    0.0001299,    0.0002321,     0.0004149,    0.0007416,    0.001368,     0.002236,     0.004243,
+    0.00765,      0.01431,       0.02319,      0.04351,      0.07763,      0.13438,      0.21477,
+    0.2839,       0.3285,        0.34828,      0.34806,      0.3362,       0.3187,       0.2908,
+    0.2511,       0.19536,       0.1421,       0.09564,      0.05795001,   0.03201,      0.0147,
+    0.0049,       0.0024,        0.0093,       0.0291,       0.06327,      0.1096,       0.1655,
+    0.2257499,    0.2904,        0.3597,       0.4334499,    0.5120501,    0.5945,       0.6784,
+    0.7621,       0.8425,        0.9163,       0.9786,       1.0263,       1.0567,       1.0622,
+    1.0456,       1.0026,        0.9384,       0.8544499,    0.7514,       0.6424,       0.5419,
+    0.4479,       0.3608,        0.2835,       0.2187,       0.1649,       0.1212,       0.0874,
+    0.0636,       0.04677,       0.0329,       0.0227,       0.01584,      0.01135916,   0.008110916,
+    0.005790346,  0.004109457,   0.002899327,  0.00204919,   0.001439971,  0.0009999493, 0.0006900786,
+    0.0004760213, 0.0003323011,  0.0002348261, 0.0001661505, 0.000117413,  0.00008307527, 0.00005870652,
+    0.00004150994, 0.00002935326, 0.00002067383, 0.00001455977, 0.00001025398, 0.000007221456,
+    0.000005085868, 0.000003581652, 0.000002522525, 0.000001776509, 0.000001251141};
+
+static const double cie_y[CIE_COUNT] = {
+    0.000003917,  0.000006965,  0.00001239,   0.00002202,   0.000039,     0.000064,     0.00012,
+    0.000217,     0.000396,     0.00064,      0.00121,      0.00218,      0.004,        0.0073,
+    0.0116,       0.01684,      0.023,        0.0298,       0.038,        0.048,        0.06,
+    0.0739,       0.09098,      0.1126,       0.13902,      0.1693,       0.20802,      0.2586,
+    0.323,        0.4073,       0.503,        0.6082,       0.71,         0.7932,       0.862,
+    0.9148501,    0.954,        0.9803,       0.9949501,    1.0,          0.995,        0.9786,
+    0.952,        0.9154,       0.87,         0.8163,       0.757,        0.6949,       0.631,
+    0.5668,       0.503,        0.4412,       0.381,        0.321,        0.265,        0.217,
+    0.175,        0.1382,       0.107,        0.0816,       0.061,        0.04458,      0.032,
+    0.0232,       0.017,        0.01192,      0.00821,      0.005723,     0.004102,     0.002929,
+    0.002091,     0.001484,     0.001047,     0.00074,      0.00052,      0.0003611,    0.0002492,
+    0.0001719,    0.00012,      0.0000848,    0.00006,      0.0000424,    0.00003,      0.0000212,
+    0.00001499,   0.0000106,    0.0000074657, 0.0000052578, 0.0000037029, 0.0000026078, 0.0000018366,
+    0.0000012934, 0.00000091093, 0.00000064153, 0.00000045181};
+
+static const double cie_z[CIE_COUNT] = {
+    0.0006061,   0.001086,   0.001946,  0.003486,  0.006450001, 0.01054999,  0.02005001, 0.03621,
+    0.06785001,  0.1102,     0.2074,    0.3713,    0.6456,      1.0390501,   1.3856,     1.62296,
+    1.74706,     1.7826,     1.77211,   1.7441,    1.6692,      1.5281,      1.28764,    1.0419,
+    0.8129501,   0.6162,     0.46518,   0.3533,    0.272,       0.2123,      0.1582,     0.1117,
+    0.07824999,  0.05725001, 0.04216,   0.02984,   0.0203,      0.0134,      0.008749999, 0.005749999,
+    0.0039,      0.002749999, 0.0021,   0.0018,    0.001650001, 0.0014,      0.0011,     0.001,
+    0.0008,      0.0006,     0.00034,   0.00024,   0.00019,     0.0001,      0.00004999999, 0.00003,
+    0.00002,     0.00001,    0,         0,         0,           0,           0,          0,
+    0,           0,          0,         0,         0,           0,           0,          0,
+    0,           0,          0,         0,         0,           0,           0,          0,
+    0,           0,          0,         0,         0,           0,           0,          0,
+    0,           0,          0,         0,         0,           0,           0};
+
+/* XYZ -> linear sRGB (BT.709 primaries, D65). */
+static const double xyz_to_rgb[3][3] = {{3.2404542, -1.5371385, -0.4985314},
+                                        {-0.9692660, 1.8760108, 0.0415560},
+                                        {0.0556434, -0.2040259, 1.0572252}};
+
+static double cmf(const double *tab, double lambda)
+{
+    double x = (lambda - CIE_START) / CIE_STEP;
+    if (x < 0.0 || x > CIE_COUNT - 1)
+        return 0.0;
+    int i = (int)x;
+    if (i >= CIE_COUNT - 1)
+        return tab[CIE_COUNT - 1];
+    double t = x - i;
+    return (1.0 - t) * tab[i] + t * tab[i + 1];
+}
+
+static double spectrum_at(const double *wl, const double *val, int n, double lambda)
+{
+    if (n == 1)
+        return val[0];
+    if (lambda < wl[0] || lambda > wl[n - 1])
+        return 0.0;
+    int lo = 0, hi = n - 1;
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (wl[mid] <= lambda)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    double span = wl[hi] - wl[lo];
+    if (!(span > 0.0))
+        return val[lo];
+    double t = (lambda - wl[lo]) / span;
+    return (1.0 - t) * val[lo] + t * val[hi];
+}
+
+static void to_rgb(const double xyz[3], double rgb[3])
+{
+    for (int c = 0; c < 3; ++c)
+        rgb[c] = xyz_to_rgb[c][0] * xyz[0] + xyz_to_rgb[c][1] * xyz[1] + xyz_to_rgb[c][2] * xyz[2];
+}
+
+spc_rgb mts_spectrum_to_rgb(const double *wavelengths, const double *values, int n)
+{
+    double xyz[3] = {0, 0, 0}, white[3] = {0, 0, 0};
+    for (int lambda = CIE_START; lambda <= CIE_START + CIE_STEP * (CIE_COUNT - 1); ++lambda) {
+        double s = spectrum_at(wavelengths, values, n, lambda);
+        double x = cmf(cie_x, lambda), y = cmf(cie_y, lambda), z = cmf(cie_z, lambda);
+        xyz[0] += s * x;
+        xyz[1] += s * y;
+        xyz[2] += s * z;
+        white[0] += x;
+        white[1] += y;
+        white[2] += z;
+    }
+    double rgb[3], wrgb[3];
+    to_rgb(xyz, rgb);
+    to_rgb(white, wrgb);
+    for (int c = 0; c < 3; ++c) {
+        rgb[c] /= wrgb[c];
+        if (!(rgb[c] > 0.0))
+            rgb[c] = 0.0;
+    }
+    return spc_rgb3(rgb[0], rgb[1], rgb[2]);
+}
+
+double mts_srgb_to_linear(double v)
+{
+    if (v <= 0.04045)
+        return v / 12.92;
+    return pow((v + 0.055) / 1.055, 2.4);
+}
+
+typedef struct named_ior {
+    const char *name;
+    double ior;
+} named_ior;
+
+static const named_ior iors[] = {
+    {"vacuum", 1.0},         {"helium", 1.000036},       {"hydrogen", 1.000132},
+    {"air", 1.000277},       {"carbon dioxide", 1.00045}, {"water", 1.3330},
+    {"acetone", 1.36},       {"ethanol", 1.361},         {"carbon tetrachloride", 1.461},
+    {"glycerol", 1.4729},    {"benzene", 1.501},         {"silicone oil", 1.52045},
+    {"bromine", 1.661},      {"water ice", 1.31},        {"fused quartz", 1.458},
+    {"pyrex", 1.470},        {"acrylic glass", 1.49},    {"polypropylene", 1.49},
+    {"bk7", 1.5046},         {"sodium chloride", 1.544}, {"amber", 1.55},
+    {"pet", 1.5750},         {"diamond", 2.419}};
+
+bool mts_named_ior(const char *name, double *ior)
+{
+    for (size_t i = 0; i < sizeof iors / sizeof iors[0]; ++i) {
+        if (strcasecmp(iors[i].name, name) == 0) {
+            *ior = iors[i].ior;
+            return true;
+        }
+    }
+    return false;
+}
+
+const char *mts_ior_names(void)
+{
+    return "vacuum, helium, hydrogen, air, carbon dioxide, water, acetone, ethanol, carbon tetrachloride, "
+           "glycerol, benzene, silicone oil, bromine, water ice, fused quartz, pyrex, acrylic glass, "
+           "polypropylene, bk7, sodium chloride, amber, pet, diamond";
+}
+
+typedef struct conductor {
+    const char *name;
+    double eta[3], k[3];
+} conductor;
+
+static const conductor conductors[] = {
+    {"a-C", {2.9440999, 2.2271503, 1.9681669}, {0.8874329, 0.7993216, 0.8152863}},
+    {"Ag", {0.1552646, 0.1167233, 0.1383807}, {4.8283433, 3.1222459, 2.1469504}},
+    {"Al", {1.6574600, 0.8803690, 0.5212287}, {9.2238692, 6.2695232, 4.8370012}},
+    {"AlAs", {3.6051024, 3.2329366, 2.2175612}, {0.0006670, 0.0, 0.0074261}},
+    {"AlSb", {0.0, 4.1427548, 4.6697691}, {0.0, 0.0937665, 1.3007390}},
+    {"Au", {0.1431190, 0.3749570, 1.4424786}, {3.9831604, 2.3857207, 1.6032153}},
+    {"Be", {4.1850593, 3.1850604, 2.7840913}, {3.8354398, 3.0101260, 2.8690089}},
+    {"Cr", {4.3696829, 2.9167025, 1.6547005}, {5.2064338, 4.2313645, 3.7549468}},
+    {"CsI", {2.1449030, 1.7023165, 1.6624194}, {0.0, 0.0, 0.0}},
+    {"Cu", {0.2004377, 0.9240334, 1.1022120}, {3.9129485, 2.4528477, 2.1421880}},
+    {"Cu2O", {3.5492834, 2.9520622, 2.7369202}, {0.1132179, 0.1946660, 0.6001681}},
+    {"CuO", {3.2453822, 2.4496294, 2.1974114}, {0.5202740, 0.5707373, 0.7172251}},
+    {"d-C", {2.7112525, 2.3185813, 2.2288565}, {0.0, 0.0, 0.0}},
+    {"Hg", {2.3989315, 1.4400255, 0.9095512}, {6.3276269, 4.3719414, 3.4217899}},
+    {"HgTe", {4.7795268, 3.2309985, 2.6600252}, {1.6319827, 1.5808189, 1.7295754}},
+    {"Ir", {3.0864098, 2.0821938, 1.6178867}, {5.5921510, 4.0671757, 3.2672611}},
+    {"K", {0.0640493, 0.0464101, 0.0381842}, {2.1042156, 1.3489364, 0.9132114}},
+    {"Li", {0.2657872, 0.1956102, 0.2209199}, {3.5401743, 2.3111307, 1.6685930}},
+    {"MgO", {2.0895886, 1.6507225, 1.5948760}, {0.0, 0.0, 0.0}},
+    {"Mo", {4.4837010, 3.5254578, 2.7760769}, {4.1111308, 3.4208716, 3.1506031}},
+    {"Na", {0.0602665, 0.0561412, 0.0619909}, {3.1792906, 2.1124801, 1.5790940}},
+    {"Nb", {3.4201354, 2.7901921, 2.3955857}, {3.4413818, 2.7376438, 2.5799133}},
+    {"Ni", {2.3672754, 1.6633583, 1.4670554}, {4.4988330, 3.0501644, 2.3454274}},
+    {"Rh", {2.5857955, 1.8601866, 1.5544280}, {6.7822927, 4.7029501, 3.9760892}},
+    {"Se-e", {5.7242725, 4.1653993, 4.0816099}, {0.8713747, 1.1052845, 1.5647789}},
+    {"Se", {4.0592611, 2.8426947, 2.8207583}, {0.7543792, 0.6385151, 0.5215872}},
+    {"SiC", {3.1723450, 2.5259678, 2.4793624}, {0.0000007, 0.0, 0.0000100}},
+    {"SnTe", {4.5251866, 1.9811526, 1.2816819}, {0.0, 0.0, 0.0}},
+    {"Ta", {2.0625847, 2.3930916, 2.6280685}, {2.4080468, 1.7413706, 1.9470377}},
+    {"Te-e", {7.5090398, 4.2964603, 2.3698732}, {5.5842077, 4.9476231, 3.9975145}},
+    {"Te", {7.3908396, 4.4821029, 2.6370708}, {3.2561413, 3.5273908, 3.2921683}},
+    {"ThF4", {1.8307187, 1.4422274, 1.3876489}, {0.0, 0.0, 0.0}},
+    {"TiC", {3.7004674, 2.8374357, 2.5823030}, {3.2656906, 2.3515586, 2.1727858}},
+    {"TiN", {1.6484692, 1.1504483, 1.3797795}, {3.3684596, 1.9434889, 1.1020123}},
+    {"TiO2-e", {3.1065575, 2.5131551, 2.5823844}, {0.0000290, 0.0, 0.0001776}},
+    {"TiO2", {3.4566203, 2.8017077, 2.9051485}, {0.0001027, 0.0, 0.0006357}},
+    {"VC", {3.6575666, 2.7527298, 2.5326815}, {3.0683517, 2.1986688, 1.9631816}},
+    {"VN", {2.8656012, 2.1191818, 1.9400767}, {3.0323265, 2.0561076, 1.6162931}},
+    {"V", {4.2775126, 3.5131538, 2.7611257}, {3.4911845, 2.8893581, 3.1116965}},
+    {"W", {4.3707030, 3.3002972, 2.9982667}, {3.5006779, 2.6048653, 2.2731931}}};
+
+bool mts_conductor_preset(const char *name, spc_rgb *eta, spc_rgb *k)
+{
+    char base[32];
+    size_t n = strlen(name);
+    const char *suffix = "_palik";
+    size_t ls = strlen(suffix);
+    if (n > ls && n - ls < sizeof base && strcmp(name + n - ls, suffix) == 0) {
+        memcpy(base, name, n - ls);
+        base[n - ls] = '\0';
+        name = base;
+    }
+    for (size_t i = 0; i < sizeof conductors / sizeof conductors[0]; ++i) {
+        if (strcmp(conductors[i].name, name) == 0) {
+            *eta = spc_rgb3(conductors[i].eta[0], conductors[i].eta[1], conductors[i].eta[2]);
+            *k = spc_rgb3(conductors[i].k[0], conductors[i].k[1], conductors[i].k[2]);
+            return true;
+        }
+    }
+    return false;
+}
+
+const char *mts_conductor_names(void)
+{
+    return "none, a-C, Ag, Al, AlAs, AlSb, Au, Be, Cr, CsI, Cu, Cu2O, CuO, d-C, Hg, HgTe, Ir, K, Li, MgO, Mo, "
+           "Na, Nb, Ni, Rh, Se, Se-e, SiC, SnTe, Ta, Te, Te-e, ThF4, TiC, TiN, TiO2, TiO2-e, VC, VN, V, W "
+           "(and the _palik variants)";
+}
