@@ -351,7 +351,17 @@ TEST(stats_json)
 
 int main(void)
 {
+    /* ctest sets SPC_BINARY_DIR; run by hand, the test sits beside specula in the build dir */
     const char *bin = getenv("SPC_BINARY_DIR");
+    char self[900];
+    ssize_t n = bin ? -1 : readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n > 0) {
+        self[n] = '\0';
+        char *slash = strrchr(self, '/');
+        if (slash)
+            *slash = '\0';
+        bin = self;
+    }
     snprintf(binary, sizeof binary, "%s/specula", bin ? bin : "build");
     if (binary[0] != '/') { /* the child changes directory */
         char cwd[512];
