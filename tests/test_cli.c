@@ -21,7 +21,7 @@
 #include "specula/specula.h"
 
 static char tmpdir[64];
-static char binary[1024];
+static char binary[2048];
 
 static const char *tmp_path(const char *name)
 {
@@ -366,8 +366,8 @@ int main(void)
     if (binary[0] != '/') { /* the child changes directory */
         char cwd[512];
         if (getcwd(cwd, sizeof cwd)) {
-            char rel[1024];
-            snprintf(rel, sizeof rel, "%s", binary);
+            char rel[1000];
+            snprintf(rel, sizeof rel, "%.999s", binary);
             snprintf(binary, sizeof binary, "%s/%s", cwd, rel);
         }
     }
