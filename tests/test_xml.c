@@ -4,6 +4,7 @@
  */
 /* ctest-labels: unit */
 #include <fcntl.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,6 +12,7 @@
 #include <unistd.h>
 
 #include "harness.h"
+#include "io/image_io.h"
 #include "io/mitsuba_xml.h"
 #include "io/xml.h"
 
@@ -801,6 +803,109 @@ TEST(bsdf_variants)
                  SPC_ERR_IO, 3, 47, "nope.png");
 }
 
+
+TEST(bitmaps_and_envmap)
+{
+    char path[600];
+    snprintf(path, sizeof path, "%s/tex.exr", tmpdir);
+    const char *names[3] = {"R", "G", "B"};
+    const float px[6] = {1, 2, 3, 4, 5, 6};
+    spc_error e;
+    CHECK(spc_exr_write(path, 2, 1, 3, names, px, NULL, 0, &e) == SPC_OK);
+    snprintf(path, sizeof path, "%s/nm.png", tmpdir);
+    const float half[3] = {0.5f, 0.5f, 1.0f};
+    CHECK(spc_png_write_srgb(path, 1, 1, half, &e) == SPC_OK);
+    spc_scene *s = load_ok(
+        "<scene version=\"3.0.0\">\n"
+        "  <texture type=\"bitmap\" id=\"t\"><string name=\"filename\" value=\"tex.exr\"/>"
+        "<string name=\"filter_type\" value=\"nearest\"/><string name=\"wrap_mode\" value=\"clamp\"/>"
+        "<transform name=\"to_uv\"><scale x=\"2\"/><translate y=\"0.5\"/></transform></texture>\n"
+        "  <bsdf type=\"diffuse\"><ref name=\"reflectance\" id=\"t\"/></bsdf>\n"
+        "  <bsdf type=\"normalmap\"><texture type=\"bitmap\" name=\"normalmap\"><string name=\"filename\" "
+        "value=\"nm.png\"/><boolean name=\"raw\" value=\"true\"/></texture><bsdf type=\"diffuse\"/></bsdf>\n"
+        "  <bsdf type=\"bumpmap\"><ref id=\"t\"/><float name=\"scale\" value=\"0.5\"/><bsdf type=\"diffuse\"/></bsdf>\n"
+        "  <emitter type=\"envmap\"><string name=\"filename\" value=\"tex.exr\"/><float name=\"scale\" value=\"3\"/>"
+        "</emitter>\n"
+        "</scene>\n");
+    CHECK(s != NULL);
+    if (!s)
+        return;
+    const spc_texture *t = s->bsdfs[0]->reflectance;
+    CHECK(t->type == SPC_TEX_BITMAP && t->width == 2 && t->height == 1);
+    CHECK(t->data && t->data[3] == 4.0f && t->data[5] == 6.0f); /* EXR is linear: no decoding */
+    CHECK(t->nearest && t->wrap == SPC_WRAP_CLAMP);
+    CHECK(t->to_uv[0][0] == 2.0 && t->to_uv[1][1] == 1.0 && t->to_uv[1][2] == 0.5 && t->to_uv[0][2] == 0.0);
+    const spc_bsdf *nm = s->bsdfs[1];
+    CHECK(nm->type == SPC_BSDF_NORMALMAP && nm->normalmap && nm->nested[0]);
+    /* raw: the stored 8-bit value (0.5 encoded as sRGB is 187.5/255) is not decoded back to 0.5 */
+    CHECK(nm->normalmap && nm->normalmap->data && fabs(nm->normalmap->data[0] - 187.5 / 255.0) < 0.6 / 255.0);
+    const spc_bsdf *bm = s->bsdfs[3];
+    CHECK(bm->type == SPC_BSDF_BUMPMAP && bm->bump == t && bm->bump_scale == 0.5);
+    CHECK(s->nemitters == 1 && s->emitters[0]->type == SPC_EMITTER_ENVMAP);
+    CHECK(s->emitters[0]->scale == 3.0 && s->emitters[0]->radiance->type == SPC_TEX_BITMAP);
+    spc_scene_destroy(s);
+}
+
+/* Every prefix (in steps) and a few hundred random byte mutations of a scene that uses most of
+ * the syntax must either load or fail with a message: never crash, never leave a half scene. */
+TEST(fuzz_truncations_and_mutations)
+{
+    const char *base =
+        "<scene version=\"3.0.0\">\n"
+        "  <default name=\"spp\" value=\"4\"/>\n"
+        "  <integrator type=\"path\"><integer name=\"max_depth\" value=\"5\"/></integrator>\n"
+        "  <sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/>\n"
+        "    <transform name=\"to_world\"><lookat origin=\"0,1,5\" target=\"0,0,0\" up=\"0,1,0\"/></transform>\n"
+        "    <sampler type=\"independent\"><integer name=\"sample_count\" value=\"$spp\"/></sampler>\n"
+        "    <film type=\"hdrfilm\"><integer name=\"width\" value=\"32\"/><rfilter type=\"gaussian\"/></film>\n"
+        "  </sensor>\n"
+        "  <bsdf type=\"twosided\" id=\"w\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5, 0.4, 0.3\"/>"
+        "</bsdf></bsdf>\n"
+        "  <shape type=\"rectangle\"><ref id=\"w\"/><transform name=\"to_world\"><scale value=\"3\"/>"
+        "<rotate x=\"1\" angle=\"-90\"/></transform></shape>\n"
+        "  <shape type=\"sphere\"><point name=\"center\" value=\"0, 1, 0\"/><float name=\"radius\" value=\"0.5\"/>"
+        "<bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"water\"/></bsdf></shape>\n"
+        "  <shape type=\"disk\"><emitter type=\"area\"><spectrum name=\"radiance\" value=\"400:1, 700:2\"/></emitter>"
+        "<transform name=\"to_world\"><translate y=\"3\"/></transform></shape>\n"
+        "  <emitter type=\"constant\"><rgb name=\"radiance\" value=\"#101010\"/></emitter>\n"
+        "</scene>\n";
+    size_t n = strlen(base);
+    char *buf = malloc(n + 1);
+    uint64_t state = 12345;
+    int loaded = 0, failed = 0;
+    for (int trial = 0; trial < 400; ++trial) {
+        size_t len = n;
+        memcpy(buf, base, n + 1);
+        if (trial < 100) {
+            len = (size_t)trial * n / 100; /* prefixes */
+            buf[len] = '\0';
+        } else {
+            int k = 1 + trial % 3;
+            for (int j = 0; j < k; ++j) {
+                state = state * 6364136223846793005ull + 1442695040888963407ull;
+                size_t pos = (size_t)(state >> 33) % n;
+                static const char alphabet[] = "<>/\"=$#:, .-0123456789abcxyz\n";
+                buf[pos] = alphabet[(state >> 20) % (sizeof alphabet - 1)];
+            }
+        }
+        spc_scene *s = (spc_scene *)1;
+        spc_error e;
+        memset(&e, 0, sizeof e);
+        spc_status st = spc_mitsuba_load_string(buf, len, "fuzz.xml", tmpdir, NULL, 0, &s, &e);
+        if (st == SPC_OK) {
+            CHECK(s != NULL);
+            ++loaded;
+            spc_scene_destroy(s);
+        } else {
+            CHECK(s == NULL);
+            CHECK(e.code == st && e.msg[0] != '\0');
+            ++failed;
+        }
+    }
+    CHECK(loaded > 0 && failed > 100);
+    free(buf);
+}
+
 static void shared_scene(const char *name, int nshapes, int nemitters)
 {
     char path[1024];
@@ -855,6 +960,8 @@ int main(void)
     RUN(error_locations);
     RUN(unknown_property_warns);
     RUN(bsdf_variants);
+    RUN(bitmaps_and_envmap);
+    RUN(fuzz_truncations_and_mutations);
     RUN(shared_scenes);
     char cmd[512];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);

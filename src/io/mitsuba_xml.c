@@ -896,11 +896,8 @@ static spc_status push_prop(mts_loader *L, mts_props *P, const mts_prop *p)
     return SPC_OK;
 }
 
-spc_status mts_props_collect(mts_loader *L, const spc_xml_node *owner, mts_props *P)
+static spc_status collect(mts_loader *L, const spc_xml_node *owner, mts_props *P)
 {
-    P->owner = owner;
-    P->p = NULL;
-    P->n = 0;
     for (int i = 0; i < owner->nchildren; ++i) {
         spc_xml_node *c = owner->children[i];
         const char *tag = c->name;
@@ -996,6 +993,20 @@ spc_status mts_props_collect(mts_loader *L, const spc_xml_node *owner, mts_props
         }
         if (push_prop(L, P, &p))
             return L->status;
+    }
+    return SPC_OK;
+}
+
+spc_status mts_props_collect(mts_loader *L, const spc_xml_node *owner, mts_props *P)
+{
+    P->owner = owner;
+    P->p = NULL;
+    P->n = 0;
+    if (collect(L, owner, P) != SPC_OK) {
+        free(P->p);
+        P->p = NULL;
+        P->n = 0;
+        return L->status;
     }
     return SPC_OK;
 }
