@@ -10,7 +10,12 @@
 #include "core/error.h"
 #include "scene/mesh.h"
 
+/* OBJ: v, vn, vt, f (v, v/vt, v//vn, v/vt/vn; negative indices count back from the last
+ * definition); o, g, s, usemtl, mtllib, l, p and unknown statements are ignored. Texture
+ * coordinates are flipped, v' = 1 - v, as Mitsuba's flip_tex_coords (default true) does;
+ * spc_obj_load_ex lets the caller choose. A file without faces is an error (SPC_ERR_VALUE). */
 spc_status spc_obj_load(const char *path, spc_mesh *out, spc_error *err);
+spc_status spc_obj_load_ex(const char *path, bool flip_tex_coords, spc_mesh *out, spc_error *err);
 /* PLY: ascii, binary_little_endian and binary_big_endian; vertex x y z, optional nx ny nz,
  * u v (or s t, texture_u texture_v); face vertex_indices (or vertex_index) lists. */
 spc_status spc_ply_load(const char *path, spc_mesh *out, spc_error *err);

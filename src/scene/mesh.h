@@ -33,6 +33,12 @@ size_t spc_mesh_drop_degenerate(spc_mesh *m);
 /* Appends src to dst (for shapegroups and merging); false on allocation failure. */
 bool spc_mesh_append(spc_mesh *dst, const spc_mesh *src);
 
+/* Triangulates the polygon ids[0..n-1] (vertex indices into positions p, 3 floats each): a fan
+ * for convex polygons, ear clipping in the polygon's dominant plane for concave ones (a fan
+ * again if no ear can be found: self-intersecting input). Triangles keep the polygon's winding.
+ * Writes up to 3*(n-2) indices to tris and returns the number of triangles (0 if n < 3). */
+size_t spc_polygon_triangulate(const float *p, const uint32_t *ids, size_t n, uint32_t *tris);
+
 static inline spc_vec3 spc_mesh_p(const spc_mesh *m, uint32_t i)
 {
     return spc_v3(m->p[3 * i], m->p[3 * i + 1], m->p[3 * i + 2]);
