@@ -62,9 +62,13 @@ spc_vec3 spc_refract(spc_vec3 w, spc_vec3 n, double cos_t, double eta_ti)
     return spc_sub(spc_scale(n, spc_dot(w, n) * inv + cos_t), spc_scale(w, inv));
 }
 
-/* Closed form for n > 1 (external incidence, no total internal reflection). */
+/* Closed form for n > 1 (external incidence, no total internal reflection). Within 1e-4 of n = 1
+ * its terms cancel (each is O(1/(n-1)) while the sum is O(n-1)); there the leading term
+ * (n - 1)/3 is used instead, accurate to 3e-8. */
 static double diffuse_reflectance_external(double n)
 {
+    if (n - 1.0 < 1e-4)
+        return (n - 1.0) / 3.0;
     double n2 = n * n, n4 = n2 * n2;
     double n2p1 = n2 + 1.0, n4m1 = n4 - 1.0;
     return 0.5 + (n - 1.0) * (3.0 * n + 1.0) / (6.0 * (n + 1.0) * (n + 1.0)) +
@@ -75,10 +79,8 @@ static double diffuse_reflectance_external(double n)
 
 double spc_fresnel_diffuse_reflectance(double eta)
 {
-    /* near eta = 1 the closed form cancels badly; there r(n) < 1e-7 for n > 1, and for n < 1 the
-     * value is dominated by total internal reflection, 1 - n^2 */
-    if (!(fabs(eta - 1.0) > 1e-3))
-        return eta < 1.0 ? 1.0 - eta * eta : 0.0;
+    if (!(eta > 0.0) || eta == 1.0)
+        return 0.0;
     if (eta > 1.0)
         return diffuse_reflectance_external(eta);
     return 1.0 - (1.0 - diffuse_reflectance_external(1.0 / eta)) * eta * eta;
