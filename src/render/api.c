@@ -205,8 +205,9 @@ static int shape_index(const spc_scene *s, const spc_shape *sh)
     return -1;
 }
 
-/* "diffuse" or "twosided(diffuse)", nested BSDFs by type, depth-limited against cycles. */
-static void describe_bsdf_type(strbuf *b, const spc_bsdf *bsdf, int depth)
+/* "diffuse" or "twosided(#1 diffuse)": nested BSDFs by index and type (a second nested BSDF only
+ * when it differs from the first), depth-limited against cycles. */
+static void describe_bsdf_type(strbuf *b, const spc_scene *s, const spc_bsdf *bsdf, int depth)
 {
     if (!bsdf) {
         sb_printf(b, "none");
@@ -216,10 +217,16 @@ static void describe_bsdf_type(strbuf *b, const spc_bsdf *bsdf, int depth)
     if (depth >= 4 || (!bsdf->nested[0] && !bsdf->nested[1]))
         return;
     sb_printf(b, "(");
-    describe_bsdf_type(b, bsdf->nested[0], depth + 1);
-    if (bsdf->nested[1]) {
-        sb_printf(b, ", ");
-        describe_bsdf_type(b, bsdf->nested[1], depth + 1);
+    for (int k = 0; k < 2; ++k) {
+        const spc_bsdf *n = bsdf->nested[k];
+        if (k == 1 && (!n || n == bsdf->nested[0]))
+            break;
+        if (k == 1)
+            sb_printf(b, ", ");
+        int ni = n ? bsdf_index(s, n) : -1;
+        if (ni >= 0)
+            sb_printf(b, "#%d ", ni);
+        describe_bsdf_type(b, s, n, depth + 1);
     }
     sb_printf(b, ")");
 }
@@ -260,7 +267,7 @@ char *spc_scene_describe(const spc_scene *s)
         int bi = bsdf_index(s, sh->bsdf);
         if (bi >= 0)
             sb_printf(&b, "#%d ", bi);
-        describe_bsdf_type(&b, sh->bsdf, 0);
+        describe_bsdf_type(&b, s, sh->bsdf, 0);
         if (sh->emitter)
             sb_printf(&b, " emitter #%d %s", sh->emitter->index, emitter_type_name(sh->emitter->type));
         if (sh->flip_normals)
@@ -270,7 +277,7 @@ char *spc_scene_describe(const spc_scene *s)
     for (int i = 0; s && i < s->nbsdfs; ++i) {
         const spc_bsdf *bsdf = s->bsdfs[i];
         sb_printf(&b, "bsdf %d: ", i);
-        describe_bsdf_type(&b, bsdf, 0);
+        describe_bsdf_type(&b, s, bsdf, 0);
         switch (bsdf->type) {
         case SPC_BSDF_DIFFUSE:
         case SPC_BSDF_ROUGHDIFFUSE:
