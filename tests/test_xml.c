@@ -930,6 +930,15 @@ static void shared_scene(const char *name, int nshapes, int nemitters)
     CHECK(strcmp(s->integrator.type, "path") == 0);
     CHECK(s->spp == 64);
     spc_scene_destroy(s);
+    /* what --integrator passes: the file's integrator type is replaced, its max_depth kept */
+    spc_define o = {SPC_MITSUBA_INTEGRATOR_DEFINE, "bdpt"};
+    st = spc_mitsuba_load(path, &o, 1, &s, &e);
+    CHECK_MSG(st == SPC_OK, "%s", e.msg);
+    if (st != SPC_OK)
+        return;
+    CHECK(strcmp(s->integrator.type, "bdpt") == 0);
+    CHECK(s->integrator.max_depth > 0);
+    spc_scene_destroy(s);
 }
 
 TEST(shared_scenes)

@@ -47,7 +47,10 @@ typedef struct mts_prop {
     bool used;
 } mts_prop;
 
+struct mts_loader;
+
 typedef struct mts_props {
+    struct mts_loader *L; /* no warnings once loading has failed */
     const spc_xml_node *owner;
     mts_prop *p;
     int n;
@@ -96,6 +99,7 @@ typedef struct mts_loader {
     mts_mesh_entry *meshes; /* object-space meshes used by shapegroups */
     int nmeshes;
 
+    const char *integrator_override; /* the "@integrator" define, or NULL */
     const spc_bsdf *default_bsdf;
     bool have_sensor, have_integrator;
     bool warned_thinlens;

@@ -25,7 +25,9 @@
  *               sobol: sample_count 4, seed 0 (specula has one sampler; the type is not kept)
  *   integrator  path, volpath, volpathmis, prb (-> path), direct (-> path, max_depth 2), bdpt,
  *               ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" | angular |
- *               newton | conic), specular_max_chain; aov, moment, stokes: the nested integrator
+ *               newton | conic), specular_max_chain; aov, moment, stokes: the nested integrator.
+ *               The define "@integrator" replaces the file's integrator type (its properties are
+ *               still read), so that a scene made for another renderer's integrator can load.
  */
 #include "io/mitsuba_xml.h"
 
@@ -999,6 +1001,7 @@ static spc_status collect(mts_loader *L, const spc_xml_node *owner, mts_props *P
 
 spc_status mts_props_collect(mts_loader *L, const spc_xml_node *owner, mts_props *P)
 {
+    P->L = L;
     P->owner = owner;
     P->p = NULL;
     P->n = 0;
@@ -1013,7 +1016,7 @@ spc_status mts_props_collect(mts_loader *L, const spc_xml_node *owner, mts_props
 
 void mts_props_end(mts_props *P)
 {
-    for (int i = 0; i < P->n; ++i) {
+    for (int i = 0; i < P->n && P->L->status == SPC_OK; ++i) {
         const mts_prop *p = &P->p[i];
         if (p->used)
             continue;
@@ -1413,6 +1416,8 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     }
     const char *ours = NULL;
     int max_depth = -1;
+    if (L->integrator_override)
+        type = L->integrator_override;
     if (strcmp(type, "path") == 0 || strcmp(type, "volpath") == 0 || strcmp(type, "volpathmis") == 0 ||
         strcmp(type, "prb") == 0) {
         ours = "path";
@@ -1552,6 +1557,8 @@ static spc_status load(const char *xml, size_t len, const char *name, const char
             goto done;
         }
     }
+    const mts_param *ov = find_param(&L, SPC_MITSUBA_INTEGRATOR_DEFINE);
+    L.integrator_override = ov ? ov->value : NULL;
     if (add_doc(&L, name, L.base_dir, NULL, &doc) != SPC_OK)
         goto done;
     spc_xml_node *root;

@@ -11,7 +11,12 @@
 #include "core/error.h"
 #include "scene/scene.h"
 
-/* spc_define (-D name=value) is declared in specula/specula.h. */
+/* spc_define (-D name=value) is declared in specula/specula.h. A define with the reserved name
+ * below (not a valid $parameter name) replaces the type of the file's <integrator>, keeping its
+ * properties: the command line's --integrator passes it so that a scene written for an integrator
+ * specula does not have (path_guiding_integrator, ...) still loads. */
+#define SPC_MITSUBA_INTEGRATOR_DEFINE "@integrator"
+
 spc_status spc_mitsuba_load(const char *path, const spc_define *defs, int ndefs, spc_scene **out, spc_error *err);
 /* The same from a string in memory; base_dir resolves relative file names (NULL: cwd). */
 spc_status spc_mitsuba_load_string(const char *xml, size_t len, const char *name, const char *base_dir,
