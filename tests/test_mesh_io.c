@@ -617,6 +617,78 @@ TEST(serialized_corrupt_files)
     CHECK(spc_serialized_load(tmp_path("none.serialized"), 0, &m, &err) == SPC_ERR_IO);
 }
 
+/* ---------------- mutation fuzzing ---------------- */
+
+static uint32_t lcg(uint32_t *s)
+{
+    *s = *s * 1664525u + 1013904223u;
+    return *s >> 8;
+}
+
+typedef spc_status (*loader)(const char *path, spc_mesh *out, spc_error *err);
+static spc_status load_serialized0(const char *path, spc_mesh *out, spc_error *err)
+{
+    return spc_serialized_load(path, 0, out, err);
+}
+
+/* Byte flips, insertions of digits/signs/separators and truncations of a valid file: the loader
+ * returns OK (with a valid mesh) or an error with a message, never crashes. */
+static void fuzz_loader(loader load, const unsigned char *src, size_t n, const char *name, int rounds, uint32_t seed)
+{
+    unsigned char *m = malloc(n + 16);
+    const char *path = tmp_path(name);
+    int rejected = 0;
+    for (int r = 0; r < rounds; ++r) {
+        size_t len = n;
+        memcpy(m, src, n);
+        int edits = 1 + (int)(lcg(&seed) % 3);
+        for (int k = 0; k < edits; ++k) {
+            size_t at = lcg(&seed) % len;
+            static const char pool[] = "0123456789-+.eE/ \n#nanif";
+            switch (lcg(&seed) % 3) {
+            case 0: m[at] = (unsigned char)lcg(&seed); break;
+            case 1: m[at] = (unsigned char)pool[lcg(&seed) % (sizeof pool - 1)]; break;
+            default: len = at + 1; break;
+            }
+        }
+        write_bytes(path, m, len);
+        spc_mesh mesh;
+        spc_error err = {0};
+        spc_status st = load(path, &mesh, &err);
+        if (st == SPC_OK) {
+            CHECK(spc_mesh_validate(&mesh, path, &err) == SPC_OK);
+            spc_mesh_release(&mesh);
+        } else {
+            ++rejected;
+            CHECK(err.msg[0] != '\0');
+            CHECK(mesh.p == NULL && mesh.idx == NULL);
+        }
+    }
+    printf("  %s: %d of %d mutated files rejected\n", name, rejected, rounds);
+    free(m);
+}
+
+TEST(loaders_survive_mutations)
+{
+    const char *obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 1\nvn 0 0 1\n"
+                      "f 1/1/1 2/2/1 3/2/1 4/1/1\nf -4//1 -2//1 -1//1\nf 1 2 3\n";
+    fuzz_loader(spc_obj_load, (const unsigned char *)obj, strlen(obj), "fuzz.obj", 400, 11);
+    for (int mode = 0; mode < 3; ++mode) {
+        const char *path = tmp_path("fuzz_src.ply");
+        write_ply(path, mode, mode == 2);
+        FILE *f = fopen(path, "rb");
+        unsigned char buf[4096];
+        size_t n = f ? fread(buf, 1, sizeof buf, f) : 0;
+        if (f)
+            fclose(f);
+        fuzz_loader(spc_ply_load, buf, n, "fuzz.ply", 300, 20u + (uint32_t)mode);
+    }
+    bytes b = {0};
+    add_serialized_mesh(&b, 4, 0x1000 | 0x1 | 0x2, 0.0, false);
+    fuzz_loader(load_serialized0, b.b, b.n, "fuzz.serialized", 300, 31);
+    free(b.b);
+}
+
 /* ---------------- mesh operations ---------------- */
 
 static spc_mesh make_mesh(size_t nv, const float *p, const float *n, const float *uv, size_t nt, const uint32_t *idx)
@@ -770,6 +842,7 @@ int main(void)
     RUN(serialized_single_meshes);
     RUN(serialized_multi_mesh_dictionary);
     RUN(serialized_corrupt_files);
+    RUN(loaders_survive_mutations);
     RUN(mesh_transform_normals_by_inverse_transpose);
     RUN(mesh_drop_degenerate_append_validate);
     RUN(polygon_triangulation);
