@@ -846,6 +846,46 @@ TEST(bitmaps_and_envmap)
     spc_scene_destroy(s);
 }
 
+TEST(more_syntax)
+{
+    write_file("refl.spd", "# wavelength value\n360 0.25\n830 0.25\n");
+    write_file("bad_part.xml", "<scene version=\"3.0.0\">\n\n   <bsdf type=\"velvet\"/>\n</scene>\n");
+    spc_scene *s = load_ok(
+        "<scene version=\"0.6.0\">\n"
+        "  <bsdf type=\"diffuse\"><spectrum name=\"reflectance\" filename=\"refl.spd\"/></bsdf>\n"
+        "  <bsdf type=\"diffuse\"><srgb name=\"reflectance\" value=\"0.5\"/></bsdf>\n"
+        "  <bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\">"
+        "<float name=\"uoffset\" value=\"0.5\"/><float name=\"uscale\" value=\"4\"/></texture></bsdf>\n"
+        "  <bsdf type=\"null\" id=\"n\"/>\n"
+        "  <alias id=\"n\" as=\"m\"/>\n"
+        "  <shape type=\"disk\"><ref id=\"m\"/></shape>\n"
+        "  <sensor type=\"perspective\"><transform name=\"toWorld\"><lookAt origin=\"0,0,0\" target=\"0,0,1\"/>"
+        "</transform></sensor>\n"
+        "</scene>\n");
+    CHECK(s != NULL);
+    if (s) {
+        CHECK_NEAR(const_rgb(s->bsdfs[0]->reflectance).g, 0.25, 1e-9);
+        CHECK_NEAR(const_rgb(s->bsdfs[1]->reflectance).r, 0.2140411, 1e-6); /* sRGB 0.5 decoded */
+        const spc_texture *c = s->bsdfs[2]->reflectance;
+        /* as Mitsuba 3's upgrade: translate by the offset, then scale: u' = 4 (u + 0.5) */
+        CHECK(c->type == SPC_TEX_CHECKERBOARD && c->to_uv[0][0] == 4.0 && c->to_uv[0][2] == 2.0);
+        CHECK(s->shapes[0]->bsdf == s->bsdfs[3]);
+        /* lookat without up: some up perpendicular to the view direction */
+        spc_vec3 z = spc_v3(s->camera.to_world.m[0][2], s->camera.to_world.m[1][2], s->camera.to_world.m[2][2]);
+        spc_vec3 y = spc_v3(s->camera.to_world.m[0][1], s->camera.to_world.m[1][1], s->camera.to_world.m[2][1]);
+        CHECK_NEAR(z.z, 1.0, 1e-12);
+        CHECK_NEAR(spc_dot(y, z), 0.0, 1e-12);
+        CHECK_NEAR(spc_length(y), 1.0, 1e-12);
+        spc_scene_destroy(s);
+    }
+    /* an error inside an included file names that file and its position */
+    spc_error e;
+    CHECK(load("<scene version=\"3.0.0\"><include filename=\"bad_part.xml\"/></scene>", &s, &e) == SPC_ERR_PLUGIN);
+    CHECK(strstr(e.file, "bad_part.xml") != NULL);
+    CHECK(e.line == 3 && e.col == 4);
+    CHECK(strstr(e.msg, "velvet") != NULL);
+}
+
 /* Every prefix (in steps) and a few hundred random byte mutations of a scene that uses most of
  * the syntax must either load or fail with a message: never crash, never leave a half scene. */
 TEST(fuzz_truncations_and_mutations)
@@ -970,6 +1010,7 @@ int main(void)
     RUN(unknown_property_warns);
     RUN(bsdf_variants);
     RUN(bitmaps_and_envmap);
+    RUN(more_syntax);
     RUN(fuzz_truncations_and_mutations);
     RUN(shared_scenes);
     char cmd[512];
