@@ -751,7 +751,6 @@ int main(void)
     RUN(jpeg_reads_rgb_and_gray);
     RUN(corrupt_files_are_errors_not_crashes);
     RUN(srgb_functions_are_inverses);
-    if (getenv("KEEP")) return spc_test_finish();
     char cmd[400];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
     if (system(cmd) != 0)
