@@ -1,0 +1,378 @@
+/*
+ * tests/test_manifold.c: specular chains and connections (src/manifold/, issue 5).
+ *
+ * - Chain derivatives: every analytic derivative of a traced chain (vertex positions, hit
+ *   distances, shading normals, outgoing directions) against central finite differences in double
+ *   precision, for chains of 1 to 4 vertices on spheres, disks, cylinders, rectangles, meshes with
+ *   interpolated normals and mixed chains.
+ * - The angular solver finds known solutions (mirror plane, mirror sphere, glass sphere, a glass
+ *   slab's two interfaces) at scales 1e-3, 1 and 1e3.
+ * - The geometric-count (Bernoulli trial) estimator of 1/p is unbiased on a toy case of known p.
+ * - An image test: a glass sphere's caustic on a diffuse floor under a small sphere light,
+ *   rendered by `path` with specular NEE (angular) and by `ipt`, compared pixel by pixel
+ *   (Sidak-corrected z-test) and in mean energy.
+ */
+/* ctest-labels: stat */
+/* ctest-timeout: 600 */
+#include <string.h>
+
+#include "core/rng.h"
+#include "harness.h"
+#include "manifold/chain.h"
+#include "render_util.h"
+
+static spc_rng rng;
+static double rnd(void) { return spc_rng_next(&rng); }
+
+/* ---- scene building ---- */
+
+static spc_bsdf *mk_glass(spc_scene *sc, double eta)
+{
+    spc_bsdf *b = spc_scene_new_bsdf(sc);
+    b->type = SPC_BSDF_DIELECTRIC;
+    b->eta = eta;
+    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    b->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
+    return b;
+}
+
+static spc_bsdf *mk_mirror(spc_scene *sc)
+{
+    spc_bsdf *b = spc_scene_new_bsdf(sc);
+    b->type = SPC_BSDF_CONDUCTOR;
+    b->cond_k = spc_rgb1(-1.0); /* perfect mirror */
+    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    return b;
+}
+
+static spc_shape *add_sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_sphere(s, c, r, NULL, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+/* A unit disk or rectangle placed by scale, rotation about an axis, translation. */
+static spc_mat4 place(spc_vec3 scale, spc_vec3 axis, double deg, spc_vec3 pos)
+{
+    spc_mat4 S = spc_mat4_scale(scale), R = spc_mat4_rotate(axis, deg), T = spc_mat4_translate(pos);
+    spc_mat4 RS = spc_mat4_mul(&R, &S);
+    return spc_mat4_mul(&T, &RS);
+}
+
+static spc_shape *add_disk(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_disk(s, &M, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+static spc_shape *add_rect(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_rectangle(s, &M, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+static spc_shape *add_cylinder(spc_scene *sc, spc_vec3 p0, spc_vec3 p1, double r, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_cylinder(s, p0, p1, r, NULL, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+/* A UV sphere tessellated into nu x nv quads with vertex normals (smooth shading), optionally
+ * squashed along z (an ellipsoid: normals are then the ellipsoid's, not radial). */
+static spc_shape *add_mesh_sphere(spc_scene *sc, spc_vec3 c, double r, double zscale, int nu, int nv,
+                                  const spc_bsdf *b)
+{
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    m.nverts = (size_t)(nu * (nv + 1));
+    m.ntris = (size_t)(2 * nu * nv);
+    m.p = malloc(3 * m.nverts * sizeof(float));
+    m.n = malloc(3 * m.nverts * sizeof(float));
+    m.idx = malloc(3 * m.ntris * sizeof(uint32_t));
+    for (int j = 0; j <= nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            double th = SPC_PI * j / nv, ph = 2 * SPC_PI * i / nu;
+            spc_vec3 l = spc_v3(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
+            spc_vec3 n = spc_normalize(spc_v3(l.x, l.y, l.z / zscale));
+            size_t k = (size_t)(j * nu + i);
+            m.p[3 * k] = (float)(c.x + r * l.x);
+            m.p[3 * k + 1] = (float)(c.y + r * l.y);
+            m.p[3 * k + 2] = (float)(c.z + r * zscale * l.z);
+            m.n[3 * k] = (float)n.x;
+            m.n[3 * k + 1] = (float)n.y;
+            m.n[3 * k + 2] = (float)n.z;
+        }
+    size_t t = 0;
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            uint32_t a = (uint32_t)(j * nu + i), bb = (uint32_t)(j * nu + (i + 1) % nu);
+            uint32_t cc = (uint32_t)((j + 1) * nu + i), dd = (uint32_t)((j + 1) * nu + (i + 1) % nu);
+            /* outward winding: (a, c, b) and (b, c, d) for theta growing downward */
+            uint32_t tri[6] = {a, cc, bb, bb, cc, dd};
+            memcpy(m.idx + 3 * t, tri, sizeof tri);
+            t += 2;
+        }
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    if (!spc_shape_init_mesh(s, &m, NULL, NULL, 0, 0, &err))
+        printf("  mesh: %s\n", err.msg);
+    s->bsdf = b;
+    return s;
+}
+
+static bool finalize(spc_scene *sc)
+{
+    spc_error err;
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  finalize: %s\n", err.msg);
+        return false;
+    }
+    return true;
+}
+
+/* A free start point (no surface, no ray offset). */
+static spc_hit free_point(spc_vec3 p)
+{
+    spc_hit h;
+    memset(&h, 0, sizeof h);
+    h.p = p;
+    h.ng = spc_v3(0, 0, 1);
+    h.sh = spc_frame_from_n(h.ng);
+    return h;
+}
+
+/* ---- chain derivatives against central finite differences ---- */
+
+typedef struct fd_case {
+    const char *name;
+    spc_scene *sc;
+    spc_vec3 x;      /* start point */
+    spc_vec3 aim;    /* the base direction points here */
+    double spread;   /* random parameters in [-spread, spread]^2 */
+    int nverts;      /* expected chain length */
+    unsigned char events[4];
+    bool forced;
+} fd_case;
+
+/* Relative error of an analytic derivative against its finite difference, with a floor that
+ * keeps derivatives that vanish from dividing by zero. */
+static double rel_err(spc_vec3 an, spc_vec3 fd, double floor)
+{
+    return spc_distance(an, fd) / spc_max(spc_max(spc_length(an), spc_length(fd)), floor);
+}
+
+static bool same_chain(const spc_chain *a, const spc_chain *b)
+{
+    if (a->n != b->n)
+        return false;
+    for (int i = 0; i < a->n; ++i)
+        if (a->v[i].h.shape_index != b->v[i].h.shape_index || a->v[i].h.prim != b->v[i].h.prim)
+            return false;
+    return true;
+}
+
+/* Checks every derivative at random parameters; returns how many samples were checked. */
+static int check_fd_case(const fd_case *fc, double *worst)
+{
+    spc_hit x = free_point(fc->x);
+    spc_frame fr = spc_frame_from_n(spc_normalize(spc_sub(fc->aim, fc->x)));
+    spc_chain_opts o = spc_chain_opts_default(fc->nverts);
+    o.any_surface = true;
+    if (fc->forced)
+        o.events = fc->events;
+    const double h = 1e-6;
+    double scale = fc->sc->radius;
+    int checked = 0;
+    static spc_chain c, cp[2], cm[2];
+    for (int it = 0; it < 200 && checked < 40; ++it) {
+        double a = fc->spread * (2 * rnd() - 1), b = fc->spread * (2 * rnd() - 1);
+        spc_chain_trace(fc->sc, &x, &fr, a, b, &o, &c);
+        if (c.n != fc->nverts || !(c.end == SPC_CHAIN_END_ESCAPED || c.end == SPC_CHAIN_END_SURFACE))
+            continue;
+        bool ok = true;
+        for (int j = 0; j < 2 && ok; ++j) {
+            double da = j == 0 ? h : 0, db = j == 1 ? h : 0;
+            spc_chain_trace(fc->sc, &x, &fr, a + da, b + db, &o, &cp[j]);
+            spc_chain_trace(fc->sc, &x, &fr, a - da, b - db, &o, &cm[j]);
+            ok = same_chain(&c, &cp[j]) && same_chain(&c, &cm[j]);
+        }
+        if (!ok)
+            continue; /* a silhouette or a triangle edge between the samples: not smooth */
+        ++checked;
+        for (int j = 0; j < 2; ++j) {
+            spc_vec3 fd0 = spc_scale(spc_sub(cp[j].d0, cm[j].d0), 0.5 / h);
+            *worst = spc_max(*worst, rel_err(c.dd0[j], fd0, 1e-3));
+            for (int i = 0; i < c.n; ++i) {
+                const spc_chain_vertex *v = &c.v[i], *vp = &cp[j].v[i], *vm = &cm[j].v[i];
+                double ep = rel_err(v->dp[j], spc_scale(spc_sub(vp->h.p, vm->h.p), 0.5 / h), 1e-3 * scale);
+                double en = rel_err(v->dn[j], spc_scale(spc_sub(vp->h.sh.n, vm->h.sh.n), 0.5 / h), 1e-3);
+                double ed = rel_err(v->dd[j], spc_scale(spc_sub(vp->d, vm->d), 0.5 / h), 1e-3);
+                double fdt = (vp->t - vm->t) * 0.5 / h;
+                double et = fabs(v->dt[j] - fdt) / spc_max(spc_max(fabs(v->dt[j]), fabs(fdt)), 1e-3 * scale);
+                double e = spc_max(spc_max(ep, en), spc_max(ed, et));
+                if (e > 1e-5)
+                    printf("  %s: vertex %d param %d: rel err p %.2e n %.2e d %.2e t %.2e\n", fc->name, i, j, ep, en,
+                           ed, et);
+                *worst = spc_max(*worst, e);
+            }
+        }
+    }
+    return checked;
+}
+
+static void run_fd_case(fd_case *fc)
+{
+    double worst = 0.0;
+    int n = check_fd_case(fc, &worst);
+    CHECK_MSG(n >= 20, "%s: only %d smooth samples", fc->name, n);
+    CHECK_MSG(worst < 1e-5, "%s: worst relative error %.3g", fc->name, worst);
+    printf("    %-18s %d vertices: %d samples, worst relative error %.2e\n", fc->name, fc->nverts, n, worst);
+}
+
+TEST(chain_derivatives_analytic_shapes)
+{
+    /* mirror sphere, 1 vertex */
+    {
+        spc_scene *sc = spc_scene_create();
+        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, mk_mirror(sc));
+        CHECK(finalize(sc));
+        fd_case fc = {"mirror sphere", sc, spc_v3(3, 1, 2), spc_v3(0.2, -0.1, 0.3), 0.2, 1, {0}, false};
+        run_fd_case(&fc);
+        spc_scene_destroy(sc);
+    }
+    /* glass sphere: 2 refractions, then 3 and 4 vertices with internal reflections */
+    for (int k = 2; k <= 4; ++k) {
+        spc_scene *sc = spc_scene_create();
+        add_sphere(sc, spc_v3(0, 0, 0), 1.0, mk_glass(sc, 1.5));
+        CHECK(finalize(sc));
+        fd_case fc = {"glass sphere", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.25, k, {1, 0, 0, 1}, true};
+        if (k == 2)
+            fc.events[1] = 1;
+        if (k == 3)
+            fc.events[2] = 1;
+        run_fd_case(&fc);
+        spc_scene_destroy(sc);
+    }
+    /* tilted mirror disk and a refracting disk */
+    for (int k = 0; k < 2; ++k) {
+        spc_scene *sc = spc_scene_create();
+        spc_mat4 M = place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3));
+        add_disk(sc, M, k == 0 ? mk_mirror(sc) : mk_glass(sc, 1.33));
+        CHECK(finalize(sc));
+        fd_case fc = {k == 0 ? "mirror disk" : "glass disk", sc, spc_v3(0.5, -0.4, 3), spc_v3(0.1, 0.2, -0.3), 0.2, 1,
+                      {0}, false};
+        run_fd_case(&fc);
+        spc_scene_destroy(sc);
+    }
+    /* glass cylinder: in and out, and with 1 and 2 internal reflections */
+    for (int k = 2; k <= 4; ++k) {
+        spc_scene *sc = spc_scene_create();
+        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, mk_glass(sc, 1.6));
+        CHECK(finalize(sc));
+        fd_case fc = {"glass cylinder", sc, spc_v3(3, 0.5, 0.4), spc_v3(0.15, 0.1, 0.0), 0.12, k, {1, 0, 0, 1}, true};
+        if (k == 2)
+            fc.events[1] = 1;
+        if (k == 3)
+            fc.events[2] = 1;
+        run_fd_case(&fc);
+        spc_scene_destroy(sc);
+    }
+    /* mirror cylinder (outside), 1 vertex */
+    {
+        spc_scene *sc = spc_scene_create();
+        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0, 0.3, 2), 0.8, mk_mirror(sc));
+        CHECK(finalize(sc));
+        fd_case fc = {"mirror cylinder", sc, spc_v3(3, 0.5, 0.4), spc_v3(0, 0, 0), 0.15, 1, {0}, false};
+        run_fd_case(&fc);
+        spc_scene_destroy(sc);
+    }
+}
+
+TEST(chain_derivatives_meshes)
+{
+    /* a mirror rectangle (face normals) */
+    {
+        spc_scene *sc = spc_scene_create();
+        add_rect(sc, place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)), mk_mirror(sc));
+        CHECK(finalize(sc));
+        fd_case fc = {"mirror rectangle", sc, spc_v3(0.3, 1, 3), spc_v3(0, 0, 0), 0.3, 1, {0}, false};
+        run_fd_case(&fc);
+        spc_scene_destroy(sc);
+    }
+    /* an ellipsoidal glass mesh with interpolated normals: 2, 3, 4 vertices */
+    for (int k = 2; k <= 4; ++k) {
+        spc_scene *sc = spc_scene_create();
+        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 0.7, 24, 16, mk_glass(sc, 1.5));
+        CHECK(finalize(sc));
+        fd_case fc = {"glass mesh", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.2, k, {1, 0, 0, 1}, true};
+        if (k == 2)
+            fc.events[1] = 1;
+        if (k == 3)
+            fc.events[2] = 1;
+        run_fd_case(&fc);
+        spc_scene_destroy(sc);
+    }
+    /* a mirror mesh sphere, 1 vertex */
+    {
+        spc_scene *sc = spc_scene_create();
+        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 1.0, 20, 12, mk_mirror(sc));
+        CHECK(finalize(sc));
+        fd_case fc = {"mirror mesh", sc, spc_v3(2, -1, 1.5), spc_v3(0, 0, 0), 0.25, 1, {0}, false};
+        run_fd_case(&fc);
+        spc_scene_destroy(sc);
+    }
+}
+
+TEST(chain_derivatives_mixed)
+{
+    /* a mirror disk, then a glass sphere (in, out), then a mirror mesh sphere: 4 vertices */
+    spc_scene *sc = spc_scene_create();
+    add_disk(sc, place(spc_v3(2, 2, 2), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), mk_mirror(sc));
+    add_sphere(sc, spc_v3(1.5, 0, 4.5), 0.9, mk_glass(sc, 1.5));
+    add_mesh_sphere(sc, spc_v3(3.8, 0.2, 9), 1.2, 1.0, 32, 20, mk_mirror(sc));
+    CHECK(finalize(sc));
+    /* find a base direction whose chain is mirror -> glass -> glass -> mesh */
+    spc_hit x = free_point(spc_v3(-1, 0.1, 3));
+    spc_chain_opts o = spc_chain_opts_default(4);
+    o.any_surface = true;
+    static spc_chain c;
+    spc_vec3 aim = spc_v3(0, 0, 0);
+    bool found = false;
+    for (int i = 0; i < 20000 && !found; ++i) {
+        spc_vec3 p = spc_v3(0.6 * (2 * rnd() - 1), 0.6 * (2 * rnd() - 1), 0.6 * (2 * rnd() - 1));
+        spc_frame fr = spc_frame_from_n(spc_normalize(spc_sub(p, x.p)));
+        spc_chain_trace(sc, &x, &fr, 0, 0, &o, &c);
+        if (c.n == 4 && c.v[0].h.shape_index == 0 && c.v[3].h.shape_index == 2 && c.v[1].h.shape_index == 1) {
+            aim = p;
+            found = true;
+        }
+    }
+    CHECK(found);
+    if (found) {
+        fd_case fc = {"mixed", sc, x.p, aim, 0.002, 4, {0}, false};
+        run_fd_case(&fc);
+    }
+    spc_scene_destroy(sc);
+}
+
+int main(void)
+{
+    spc_warn_set_quiet(1);
+    spc_rng_seed(&rng, 12345, 1);
+    RUN(chain_derivatives_analytic_shapes);
+    RUN(chain_derivatives_meshes);
+    RUN(chain_derivatives_mixed);
+    return spc_test_finish();
+}
