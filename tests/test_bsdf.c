@@ -1040,6 +1040,20 @@ static void build_cases(void)
     spc_bsdf *nmd = mk_wrap(SPC_BSDF_NORMALMAP, mk_plastic(SPC_BSDF_ROUGHPLASTIC, G, 0.3, false), NULL);
     nmd->normalmap = tex3(0.3, 0.6, 0.8);
     add_case("normalmap roughplastic", nmd, 60, 90, R);
+    /* a height ramp along u (2 texels, bilinear): dH/du = 2 scale at the default hit's uv */
+    static float ramp_data[6] = {0, 0, 0, 1, 1, 1};
+    static spc_texture ramp;
+    memset(&ramp, 0, sizeof ramp);
+    ramp.type = SPC_TEX_BITMAP;
+    ramp.width = 2;
+    ramp.height = 1;
+    ramp.data = ramp_data;
+    ramp.wrap = SPC_WRAP_CLAMP;
+    ramp.to_uv[0][0] = ramp.to_uv[1][1] = 1.0;
+    spc_bsdf *bm = mk_wrap(SPC_BSDF_BUMPMAP, mk_roughconductor(B, 0.25, 0.25, true, false), NULL);
+    bm->bump = &ramp;
+    bm->bump_scale = 0.3;
+    add_case("bumpmap beckmann", bm, 50, 0, R);
 }
 
 TEST(test_sample_consistency)
