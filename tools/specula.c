@@ -598,6 +598,13 @@ static int cmd_render(int argc, char **argv)
         goto done;
     }
 
+    if (opt.integrator) {
+        /* room was reserved: defines_init allots argc + 1 entries and --integrator takes two */
+        defs.names[defs.n] = NULL;
+        defs.defs[defs.n].name = SPC_DEFINE_INTEGRATOR;
+        defs.defs[defs.n].value = opt.integrator;
+        defs.n++;
+    }
     spc_status st = spc_scene_load(scene_path, defs.defs, defs.n, &scene, &err);
     if (st != SPC_OK) {
         fail_error(&err);

@@ -15,7 +15,7 @@
  * below (not a valid $parameter name) replaces the type of the file's <integrator>, keeping its
  * properties: the command line's --integrator passes it so that a scene written for an integrator
  * specula does not have (path_guiding_integrator, ...) still loads. */
-#define SPC_MITSUBA_INTEGRATOR_DEFINE "@integrator"
+#define SPC_MITSUBA_INTEGRATOR_DEFINE SPC_DEFINE_INTEGRATOR
 
 spc_status spc_mitsuba_load(const char *path, const spc_define *defs, int ndefs, spc_scene **out, spc_error *err);
 /* The same from a string in memory; base_dir resolves relative file names (NULL: cwd). */
