@@ -48,6 +48,9 @@ const char *spc_status_name(spc_status code);
 typedef struct spc_define {
     const char *name, *value; /* -D name=value: overrides <default name=...> */
 } spc_define;
+/* A define of this name replaces the type of the scene's <integrator> (keeping its properties), so
+ * `--integrator path` works on files that name an integrator specula does not have. */
+#define SPC_DEFINE_INTEGRATOR "@integrator"
 
 typedef struct spc_scene spc_scene;
 typedef struct spc_film spc_film;
