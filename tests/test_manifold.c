@@ -18,7 +18,7 @@
 
 #include "core/rng.h"
 #include "harness.h"
-#include "manifold/chain.h"
+#include "manifold/specular_nee.h"
 #include "render_util.h"
 
 static spc_rng rng;
@@ -367,6 +367,256 @@ TEST(chain_derivatives_mixed)
     spc_scene_destroy(sc);
 }
 
+/* Total internal reflection is reported (not turned into a reflection) with the vertex index. */
+TEST(chain_reports_tir)
+{
+    spc_scene *sc = spc_scene_create();
+    add_sphere(sc, spc_v3(0, 0, 0), 1.0, mk_glass(sc, 1.5));
+    CHECK(finalize(sc));
+    spc_hit x = free_point(spc_v3(0, 0.9, 0)); /* inside, near the top */
+    spc_frame fr = spc_frame_from_n(spc_v3(1, 0, 0)); /* hits the surface at about 64 degrees */
+    spc_chain_opts o = spc_chain_opts_default(2);
+    o.any_surface = true;
+    static spc_chain c;
+    CHECK(spc_chain_trace(sc, &x, &fr, 0, 0, &o, &c) == SPC_CHAIN_END_TIR);
+    CHECK(c.fail_vertex == 0 && c.n == 0);
+    /* closer to the normal it refracts out and escapes */
+    fr = spc_frame_from_n(spc_normalize(spc_v3(1, 1.5, 0)));
+    CHECK(spc_chain_trace(sc, &x, &fr, 0, 0, &o, &c) == SPC_CHAIN_END_ESCAPED);
+    CHECK(c.n == 1 && c.v[0].event == SPC_CHAIN_REFRACT && fabs(c.v[0].eta_ti - 1.0 / 1.5) < 1e-15);
+    spc_scene_destroy(sc);
+}
+
+/* ---- the angular solver finds known solutions at every scale ---- */
+
+static const double scales[3] = {1e-3, 1.0, 1e3};
+
+/* Solves from x toward y (normal ny, or 0 for a point) seeded toward `aim`; checks convergence. */
+static bool solve(spc_scene *sc, spc_vec3 x, spc_vec3 y, spc_vec3 ny, spc_vec3 aim, int max_vertices,
+                  spc_angular_method method, spc_chain *c, spc_angular_result *res)
+{
+    spc_hit hx = free_point(x);
+    spc_angular_target tg = {y, ny, sc->radius, 0.0};
+    spc_chain_opts o = spc_chain_opts_default(max_vertices);
+    o.any_surface = true;
+    spc_angular_options ao;
+    spc_angular_options_default(&ao);
+    ao.method = method;
+    if (method == SPC_ANGULAR_GRADIENT)
+        ao.max_iterations = 2000;
+    return spc_angular_solve(sc, &hx, &tg, spc_normalize(spc_sub(aim, x)), &o, &ao, c, res);
+}
+
+TEST(solver_mirror_plane)
+{
+    for (int si = 0; si < 3; ++si) {
+        double s = scales[si];
+        spc_scene *sc = spc_scene_create();
+        add_rect(sc, place(spc_v3(5 * s, 5 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), mk_mirror(sc));
+        CHECK(finalize(sc));
+        spc_vec3 x = spc_scale(spc_v3(-1, 0, 1), s), y = spc_scale(spc_v3(1.5, 0.3, 2), s);
+        /* mirror image of y, and where the segment x -> image crosses z = 0 */
+        spc_vec3 yi = spc_v3(y.x, y.y, -y.z);
+        spc_vec3 expect = spc_madd(x, spc_sub(yi, x), x.z / (x.z - yi.z));
+        for (int m = 0; m < 2; ++m) {
+            static spc_chain c;
+            spc_angular_result res;
+            spc_vec3 ny = m == 0 ? spc_v3(0, 0, 0) : spc_normalize(spc_v3(0.3, 0.1, -1));
+            bool ok = solve(sc, x, y, ny, spc_scale(spc_v3(0.7, -0.4, 0), s), 1, SPC_ANGULAR_GAUSS_NEWTON, &c, &res);
+            CHECK_MSG(ok, "scale %g: no convergence (residual %g)", s, res.residual);
+            if (ok) {
+                CHECK(c.n == 1);
+                CHECK_MSG(spc_distance(c.v[0].h.p, expect) < 1e-6 * s, "scale %g: vertex off by %g", s,
+                          spc_distance(c.v[0].h.p, expect));
+                CHECK(res.iterations <= 8);
+            }
+            /* the thesis' gradient descent gets there too, slower */
+            ok = solve(sc, x, y, ny, spc_scale(spc_v3(0.7, -0.4, 0), s), 1, SPC_ANGULAR_GRADIENT, &c, &res);
+            CHECK_MSG(ok && spc_distance(c.v[0].h.p, expect) < 1e-6 * s, "gradient descent, scale %g: residual %g", s,
+                      res.residual);
+        }
+        spc_scene_destroy(sc);
+    }
+}
+
+TEST(solver_mirror_sphere)
+{
+    for (int si = 0; si < 3; ++si) {
+        double s = scales[si];
+        spc_scene *sc = spc_scene_create();
+        spc_vec3 ctr = spc_scale(spc_v3(0.3, -0.2, 0.5), s);
+        double R = 0.8 * s;
+        add_sphere(sc, ctr, R, mk_mirror(sc));
+        CHECK(finalize(sc));
+        /* x and y symmetric about the plane through the centre: the reflection point lies on the
+         * bisector, at the sphere's point facing both */
+        double D = 3 * s, al = 0.6;
+        spc_vec3 x = spc_add(ctr, spc_v3(D * cos(al), D * sin(al), 0.2 * s));
+        spc_vec3 y = spc_add(ctr, spc_v3(D * cos(al), -D * sin(al), 0.2 * s));
+        spc_vec3 expect = spc_add(ctr, spc_scale(spc_normalize(spc_v3(D * cos(al), 0, 0.2 * s)), R));
+        spc_vec3 ny = spc_normalize(spc_sub(ctr, y));
+        for (int m = 0; m < 2; ++m) {
+            static spc_chain c;
+            spc_angular_result res;
+            spc_vec3 aim = spc_add(ctr, spc_v3(0.3 * s, 0.2 * s, -0.1 * s));
+            bool ok = solve(sc, x, y, m ? ny : spc_v3(0, 0, 0), aim, 1, SPC_ANGULAR_GAUSS_NEWTON, &c, &res);
+            CHECK_MSG(ok, "scale %g: residual %g", s, res.residual);
+            if (ok)
+                CHECK_MSG(spc_distance(c.v[0].h.p, expect) < 1e-6 * s, "scale %g: vertex off by %g", s,
+                          spc_distance(c.v[0].h.p, expect));
+        }
+        spc_scene_destroy(sc);
+    }
+}
+
+TEST(solver_glass_sphere)
+{
+    for (int si = 0; si < 3; ++si) {
+        double s = scales[si];
+        spc_vec3 entry = spc_v3(0, 0, 0);
+        for (int mesh = 0; mesh < 2; ++mesh) {
+            spc_scene *sc = spc_scene_create();
+            spc_vec3 ctr = spc_scale(spc_v3(-0.2, 0.1, 0.3), s);
+            double R = s;
+            if (mesh)
+                add_mesh_sphere(sc, ctr, R, 1.0, 48, 32, mk_glass(sc, 1.5));
+            else
+                add_sphere(sc, ctr, R, mk_glass(sc, 1.5));
+            CHECK(finalize(sc));
+            /* symmetric about the plane x = ctr.x: the path through the ball is symmetric and its
+             * inner segment parallel to the x axis */
+            spc_vec3 x = spc_add(ctr, spc_v3(-3 * s, 0.4 * s, 0.25 * s));
+            spc_vec3 y = spc_add(ctr, spc_v3(3 * s, 0.4 * s, 0.25 * s));
+            static spc_chain c;
+            spc_angular_result res;
+            bool ok = solve(sc, x, y, spc_v3(-1, 0, 0), spc_add(ctr, spc_v3(0, 0.2 * s, 0.1 * s)), 2,
+                            SPC_ANGULAR_GAUSS_NEWTON, &c, &res);
+            CHECK_MSG(ok, "scale %g mesh %d: residual %g", s, mesh, res.residual);
+            if (!ok || c.n != 2) {
+                CHECK(ok && c.n == 2);
+                spc_scene_destroy(sc);
+                continue;
+            }
+            spc_vec3 p1 = spc_sub(c.v[0].h.p, ctr), p2 = spc_sub(c.v[1].h.p, ctr);
+            if (!mesh) {
+                CHECK_MSG(fabs(p1.x + p2.x) < 1e-6 * s && fabs(p1.y - p2.y) < 1e-6 * s && fabs(p1.z - p2.z) < 1e-6 * s,
+                          "scale %g: not symmetric", s);
+                CHECK(fabs(c.v[0].d.y) < 1e-6 && fabs(c.v[0].d.z) < 1e-6);
+                entry = c.v[0].h.p;
+            } else {
+                /* the tessellation (48 x 32, split diagonals) is not symmetric: its solution is
+                 * the sphere's to the accuracy of the tessellation */
+                CHECK_MSG(spc_distance(c.v[0].h.p, entry) < 1e-2 * s, "scale %g: mesh entry %g from the sphere's", s,
+                          spc_distance(c.v[0].h.p, entry));
+            }
+            /* Snell's law at the entry, from the hit's own normal */
+            spc_vec3 n = c.v[0].h.sh.n;
+            double si_ = spc_length(spc_cross(c.v[0].wi, n)), st = spc_length(spc_cross(c.v[0].d, n));
+            CHECK_NEAR(si_, 1.5 * st, 1e-9);
+            CHECK(res.iterations <= 12);
+            spc_scene_destroy(sc);
+        }
+    }
+}
+
+/* Lateral displacement through a slab of thickness w: the horizontal distance covered by a ray at
+ * angle th1 from x (h1 above) to y (h2 below the slab). */
+static double slab_reach(double th1, double eta, double h1, double w, double h2)
+{
+    double th2 = asin(sin(th1) / eta);
+    return (h1 + h2) * tan(th1) + w * tan(th2);
+}
+
+TEST(solver_glass_slab_two_interfaces)
+{
+    for (int si = 0; si < 3; ++si) {
+        double s = scales[si];
+        spc_scene *sc = spc_scene_create();
+        double w = 0.4 * s, eta = 1.6;
+        spc_shape *slab = spc_scene_new_shape(sc);
+        spc_error err;
+        spc_mat4 M = place(spc_v3(10 * s, 10 * s, 0.5 * w), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0));
+        spc_shape_init_cube(slab, &M, NULL, 0, 0, &err);
+        slab->bsdf = mk_glass(sc, eta);
+        CHECK(finalize(sc));
+        double h1 = 1.0 * s, h2 = 0.7 * s, D = 1.9 * s;
+        spc_vec3 x = spc_v3(0, 0, 0.5 * w + h1), y = spc_v3(D * 0.6, D * 0.8, -0.5 * w - h2);
+        /* the angle by bisection on the monotonic reach */
+        double lo = 0, hi = 0.5 * SPC_PI - 1e-9;
+        for (int i = 0; i < 200; ++i) {
+            double mid = 0.5 * (lo + hi);
+            if (slab_reach(mid, eta, h1, w, h2) < D)
+                lo = mid;
+            else
+                hi = mid;
+        }
+        double r1 = h1 * tan(0.5 * (lo + hi));
+        spc_vec3 expect = spc_v3(r1 * 0.6, r1 * 0.8, 0.5 * w);
+        static spc_chain c;
+        spc_angular_result res;
+        bool ok = solve(sc, x, y, spc_v3(0, 0, 1), spc_v3(0.1 * s, -0.2 * s, 0.5 * w), 2, SPC_ANGULAR_GAUSS_NEWTON,
+                        &c, &res);
+        CHECK_MSG(ok, "scale %g: residual %g", s, res.residual);
+        if (ok) {
+            CHECK(c.n == 2);
+            /* triangle rays leave their surface offset by ~1e-6 of the mesh's extent (shape.c's float
+             * offset), which shifts the solution of a 20x wider slab by a few 1e-6 */
+            CHECK_MSG(spc_distance(c.v[0].h.p, expect) < 2e-5 * s, "scale %g: entry off by %g", s,
+                      spc_distance(c.v[0].h.p, expect));
+        }
+        spc_scene_destroy(sc);
+    }
+}
+
+/* ---- the geometric-count estimator of 1/p ---- */
+
+typedef struct bern {
+    spc_rng r;
+    double p;
+} bern;
+
+static bool bern_trial(void *user)
+{
+    bern *b = user;
+    return spc_rng_next(&b->r) < b->p;
+}
+
+TEST(bernoulli_estimator_unbiased)
+{
+    const double ps[3] = {0.9, 0.3, 0.05};
+    for (int k = 0; k < 3; ++k) {
+        bern b;
+        spc_rng_seed(&b.r, 77 + (uint64_t)k, 3);
+        b.p = ps[k];
+        const int N = 200000;
+        double sum = 0, sum2 = 0;
+        int ncap = 0;
+        for (int i = 0; i < N; ++i) {
+            bool capped;
+            double n = spc_snee_count_trials(bern_trial, &b, 100000, &capped);
+            ncap += capped;
+            sum += n;
+            sum2 += n * n;
+        }
+        double mean = sum / N, se = sqrt((sum2 / N - mean * mean) / N);
+        CHECK_MSG(fabs(mean - 1.0 / b.p) < 4 * se, "p %g: mean %g, 1/p %g, se %g", b.p, mean, 1.0 / b.p, se);
+        CHECK(ncap == 0);
+        /* with a cap M the expectation is (1 - (1-p)^M) / p, the documented bias */
+        const int M = 10;
+        sum = sum2 = 0;
+        for (int i = 0; i < N; ++i) {
+            bool capped;
+            double n = spc_snee_count_trials(bern_trial, &b, M, &capped);
+            sum += n;
+            sum2 += n * n;
+        }
+        mean = sum / N;
+        se = sqrt((sum2 / N - mean * mean) / N);
+        double expect = (1.0 - pow(1.0 - b.p, M)) / b.p;
+        CHECK_MSG(fabs(mean - expect) < 4 * se + 1e-12, "capped, p %g: mean %g, expected %g", b.p, mean, expect);
+    }
+}
+
 int main(void)
 {
     spc_warn_set_quiet(1);
@@ -374,5 +624,11 @@ int main(void)
     RUN(chain_derivatives_analytic_shapes);
     RUN(chain_derivatives_meshes);
     RUN(chain_derivatives_mixed);
+    RUN(chain_reports_tir);
+    RUN(solver_mirror_plane);
+    RUN(solver_mirror_sphere);
+    RUN(solver_glass_sphere);
+    RUN(solver_glass_slab_two_interfaces);
+    RUN(bernoulli_estimator_unbiased);
     return spc_test_finish();
 }

@@ -125,6 +125,12 @@ spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h);
  * the specular solvers treat such surfaces as chain vertices. *eta receives int_ior/ext_ior
  * (0 for a reflector). */
 bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta);
+/* The factor of a delta lobe for a direction pair the caller constructed (specular.c): wi must be
+ * the exact mirror (or refracted) direction of wo about h->sh.n. Reflection F * specular_
+ * reflectance, refraction (1 - F) * specular_transmittance / eta_t^2 (radiance mode), the same
+ * as BSDF sampling's weight times the lobe's probability. Zero where the BSDF has no such lobe. */
+spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
+                                     spc_vec3 wi);
 
 /* Fresnel helpers shared by the variants and the specular solvers (src/bsdf/fresnel.c). */
 /* Unpolarized dielectric reflectance for cos_i (signed: < 0 means wi on the inside) and

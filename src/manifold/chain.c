@@ -39,17 +39,24 @@ bool spc_chain_caster_allowed(unsigned flags, int k)
     return (flags & SPC_CAUSTIC_CASTER) != 0;
 }
 
-bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event)
+bool spc_chain_shape_is_caster(const spc_shape *s, bool any_surface, int *event)
 {
     double eta;
-    if (!h->shape || h->emitter || !spc_bsdf_is_specular_interface(h->bsdf, &eta))
+    if (!s || s->emitter || !spc_bsdf_is_specular_interface(s->bsdf, &eta))
         return false;
     if (event)
         *event = eta > 0.0 ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
     if (any_surface)
         return true;
-    unsigned f = h->shape->caustic_flags;
-    return spc_chain_caster_allowed(f, 1) || spc_chain_caster_allowed(f, 2);
+    return spc_chain_caster_allowed(s->caustic_flags, 1) || spc_chain_caster_allowed(s->caustic_flags, 2);
+}
+
+bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event)
+{
+    /* the hit's BSDF is the shape's (no per-hit BSDF exists yet); ask the hit's in case */
+    if (!h->shape || h->bsdf != h->shape->bsdf)
+        return false;
+    return spc_chain_shape_is_caster(h->shape, any_surface, event);
 }
 
 spc_vec3 spc_chain_direction(const spc_frame *f, double a, double b, spc_vec3 dd[2])
@@ -248,6 +255,39 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
         dd[1] = v->dd[1];
         ray = spc_hit_spawn(&v->h, d);
     }
+}
+
+/* Derivatives with respect to the old parameters -> with respect to the new ones. */
+static void reparam(spc_vec3 v[2], double C[2][2])
+{
+    spc_vec3 a = v[0], b = v[1];
+    v[0] = spc_add(spc_scale(a, C[0][0]), spc_scale(b, C[1][0]));
+    v[1] = spc_add(spc_scale(a, C[0][1]), spc_scale(b, C[1][1]));
+}
+
+bool spc_chain_recenter(spc_chain *c)
+{
+    spc_frame nf = spc_frame_from_n(c->d0);
+    /* [s', t'] = [dd/da, dd/db] C: project on s', t' and invert the 2x2 matrix */
+    double P00 = spc_dot(c->dd0[0], nf.s), P01 = spc_dot(c->dd0[1], nf.s);
+    double P10 = spc_dot(c->dd0[0], nf.t), P11 = spc_dot(c->dd0[1], nf.t);
+    double det = P00 * P11 - P01 * P10;
+    if (!(fabs(det) > 0.0) || !isfinite(det))
+        return false;
+    double C[2][2] = {{P11 / det, -P01 / det}, {-P10 / det, P00 / det}};
+    reparam(c->dd0, C);
+    for (int i = 0; i < c->n; ++i) {
+        spc_chain_vertex *v = &c->v[i];
+        reparam(v->dp, C);
+        reparam(v->dn, C);
+        reparam(v->dd, C);
+        double t0 = v->dt[0], t1 = v->dt[1];
+        v->dt[0] = t0 * C[0][0] + t1 * C[1][0];
+        v->dt[1] = t0 * C[0][1] + t1 * C[1][1];
+    }
+    c->frame = nf;
+    c->a = c->b = 0.0;
+    return true;
 }
 
 void spc_chain_signature(const spc_chain *c, spc_chain_sig *sig)

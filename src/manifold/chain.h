@@ -110,6 +110,9 @@ spc_chain_opts spc_chain_opts_default(int max_vertices);
  * casters by default (SPC_CAUSTIC_CASTER); CASTER_SINGLE / CASTER_MULTI, when either is set,
  * restrict the shape to chains of one vertex / of more than one. */
 bool spc_chain_caster_allowed(unsigned caustic_flags, int k);
+/* Is the shape a possible chain vertex (specular interface BSDF, no emitter, caster for some chain
+ * length unless any_surface)? *event (may be NULL) receives the BSDF's event. */
+bool spc_chain_shape_is_caster(const spc_shape *s, bool any_surface, int *event);
 /* Is the surface of h a possible chain vertex (specular interface, no emitter, caster for some
  * chain length unless any_surface)? *event receives the BSDF's event. */
 bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event);
@@ -121,6 +124,10 @@ spc_vec3 spc_chain_direction(const spc_frame *f, double a, double b, spc_vec3 dd
  * may pass err = 0) and returns out->end. */
 spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_frame *frame, double a, double b,
                               const spc_chain_opts *opts, spc_chain *out);
+
+/* Re-expresses the chain in the frame centred on its current direction d0 (a = b = 0) by the
+ * chain rule, without tracing again. False if the old parameterization is singular there. */
+bool spc_chain_recenter(spc_chain *c);
 
 void spc_chain_signature(const spc_chain *c, spc_chain_sig *sig);
 bool spc_chain_sig_equal(const spc_chain_sig *a, const spc_chain_sig *b);

@@ -1,0 +1,67 @@
+/*
+ * bsdf/specular.c: the factor a smooth specular interface applies to light that follows one of
+ * its delta lobes, for callers that construct the lobe's direction themselves (the specular
+ * connections of src/manifold/) instead of sampling it. For a delta lobe, f |cos| integrates to
+ * this factor, which is what BSDF sampling returns as the sample weight times the probability of
+ * choosing the lobe:
+ *   conductor               F_conductor(cos_o) specular_reflectance   (one-sided: 0 behind)
+ *   dielectric, reflection  F(cos_o) specular_reflectance
+ *   dielectric, refraction  (1 - F(cos_o)) specular_transmittance / eta_t^2 in radiance mode
+ *                           (radiance compression, eta_t = n(wi side) / n(wo side), as
+ *                           dielectric.c), no 1/eta_t^2 in importance mode
+ *   twosided                the nested BSDF of wo's side, in the flipped frame on the back
+ * where F is the unpolarized Fresnel reflectance of fresnel.c.
+ */
+#include "bsdf/variants.h"
+
+spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
+                                     spc_vec3 wi)
+{
+    if (!b)
+        return spc_rgb1(0.0);
+    double co = spc_dot(wo, h->sh.n), ci = spc_dot(wi, h->sh.n);
+    switch (b->type) {
+    case SPC_BSDF_CONDUCTOR:
+        if (!(co > 0.0) || !(ci > 0.0))
+            return spc_rgb1(0.0);
+        return spc_rgb_mul(spc_bsdf_conductor_fresnel(b, co), spc_bsdf_tex(b->specular_reflectance, h, spc_rgb1(1.0)));
+    case SPC_BSDF_DIELECTRIC: {
+        if (co == 0.0 || ci == 0.0)
+            return spc_rgb1(0.0);
+        double cos_t, eta_ti;
+        double F = spc_fresnel_dielectric(co, b->eta, &cos_t, &eta_ti);
+        if (co * ci > 0.0)
+            return spc_rgb_scale(spc_bsdf_tex(b->specular_reflectance, h, spc_rgb1(1.0)), F);
+        if (F >= 1.0)
+            return spc_rgb1(0.0); /* total internal reflection: nothing is transmitted */
+        spc_rgb T = spc_rgb_scale(spc_bsdf_tex(b->specular_transmittance, h, spc_rgb1(1.0)), 1.0 - F);
+        if (mode == SPC_MODE_RADIANCE)
+            T = spc_rgb_scale(T, 1.0 / (eta_ti * eta_ti));
+        return T;
+    }
+    case SPC_BSDF_TWOSIDED: {
+        if (co >= 0.0)
+            return spc_bsdf_specular_throughput(b->nested[0], h, mode, wo, wi);
+        spc_hit flip = *h;
+        flip.sh.t = spc_neg(h->sh.t);
+        flip.sh.n = spc_neg(h->sh.n);
+        flip.ng = spc_neg(h->ng);
+        return spc_bsdf_specular_throughput(b->nested[1] ? b->nested[1] : b->nested[0], &flip, mode, wo, wi);
+    }
+    case SPC_BSDF_DIFFUSE:
+    case SPC_BSDF_ROUGHDIFFUSE:
+    case SPC_BSDF_PHONG:
+    case SPC_BSDF_ROUGHCONDUCTOR:
+    case SPC_BSDF_THINDIELECTRIC:
+    case SPC_BSDF_ROUGHDIELECTRIC:
+    case SPC_BSDF_PLASTIC:
+    case SPC_BSDF_ROUGHPLASTIC:
+    case SPC_BSDF_NORMALMAP:
+    case SPC_BSDF_BUMPMAP:
+    case SPC_BSDF_NULL:
+    case SPC_BSDF_MASK:
+    case SPC_BSDF_BLENDBSDF:
+        return spc_rgb1(0.0);
+    }
+    return spc_rgb1(0.0);
+}

@@ -1,0 +1,180 @@
+/*
+ * manifold/angular.c: the angular solver. Optimizes the initial direction of a specular chain
+ * (chain.c) so that its final segment passes through a target point, as in Dadfar 2022
+ * (shared/papers/000): loss of sec. 5.1 (eq. 17-20) on the final segment, its gradient by the chain
+ * rule (sec. 6.1, eq. 21-23), gradient descent with an adaptive step (sec. 6.5, eq. 54-55), and
+ * the scale-invariant stopping rule proposed in sec. 9.1. Beyond the thesis: a Gauss-Newton step
+ * on the 2x2 normal matrix of the endpoint Jacobian (the default; it converges quadratically where
+ * gradient descent crawls along ill-conditioned valleys), gnomonic parameters re-centred after
+ * every step instead of polar angles (sec. 6.4 has a pole), and the option of the residual on the
+ * light's tangent plane.
+ */
+#include "manifold/angular.h"
+
+#include "manifold/specular_nee.h"
+
+/* Defaults. Gauss-Newton converges quadratically: 32 traces leave room for the damped steps of a
+ * bad seed; a seed that has not converged by then rarely does (bench/bench_solvers.c). */
+#define SPC_ANGULAR_MAX_ITERATIONS 32
+/* 1e-7 of the scene's size: well below any visible feature, and 1000x under the tolerance with
+ * which specular_nee.c identifies two solutions as the same. */
+#define SPC_ANGULAR_TOL_SCENE 1e-7
+/* 1e-5 of the light's size, so that the solved point stays on small lights. */
+#define SPC_ANGULAR_TOL_LIGHT 1e-5
+/* Largest step in gnomonic parameters (about 27 degrees): a bigger jump has left the region
+ * where the linear model means anything. */
+#define SPC_ANGULAR_MAX_STEP 0.5
+/* beta below this (relative to its start) means no step along the current direction lowers the
+ * loss: a local minimum that is not a solution, or a sequence boundary. */
+#define SPC_ANGULAR_MIN_BETA 1e-12
+
+void spc_angular_options_default(spc_angular_options *o)
+{
+    o->method = SPC_ANGULAR_GAUSS_NEWTON;
+    o->loss = SPC_ANGULAR_LOSS_PLANE;
+    o->max_iterations = SPC_ANGULAR_MAX_ITERATIONS;
+    o->tol_scene = SPC_ANGULAR_TOL_SCENE;
+    o->tol_light = SPC_ANGULAR_TOL_LIGHT;
+}
+
+/* Residual r and its Jacobian J (columns d r / da, d r / db) for the loss. */
+static void residual(const spc_chain *c, const spc_angular_target *tg, spc_angular_loss loss, spc_vec3 *r,
+                     spc_vec3 J[2])
+{
+    if (loss == SPC_ANGULAR_LOSS_PLANE && spc_length2(tg->ny) > 0.0) {
+        spc_vec3 q, dq[2];
+        if (spc_chain_plane_hit(c, tg->y, tg->ny, &q, dq, NULL)) {
+            *r = spc_sub(q, tg->y);
+            J[0] = dq[0];
+            J[1] = dq[1];
+            return;
+        }
+        /* parallel to the plane or meeting it behind: the segment loss still pulls the right way */
+    }
+    spc_vec3 o, d, dO[2], dd[2];
+    spc_chain_final_segment(c, &o, dO, &d, dd);
+    spc_vec3 w = spc_sub(o, tg->y);
+    double s = -spc_dot(w, d); /* t* of eq. 19 (|d| = 1) */
+    if (s > 0.0) {
+        *r = spc_madd(w, d, s);
+        for (int j = 0; j < 2; ++j) {
+            double ds = -(spc_dot(dO[j], d) + spc_dot(w, dd[j])); /* eq. 23 */
+            J[j] = spc_madd(spc_madd(dO[j], d, ds), dd[j], s);  /* eq. 22 */
+        }
+    } else {
+        *r = w; /* t* clamped at 0: the closest point is the segment's start */
+        J[0] = dO[0];
+        J[1] = dO[1];
+    }
+}
+
+static bool chain_ok(const spc_chain *c) { return c->end == SPC_CHAIN_END_ESCAPED || c->end == SPC_CHAIN_END_SURFACE; }
+
+bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_target *tg, spc_vec3 seed_dir,
+                       const spc_chain_opts *opts, const spc_angular_options *ao, spc_chain *out,
+                       spc_angular_result *res)
+{
+    res->iterations = 1;
+    res->converged = false;
+    res->residual = INFINITY;
+    spc_frame fr = spc_frame_from_n(seed_dir);
+    spc_chain_trace(sc, x, &fr, 0.0, 0.0, opts, out);
+    if (out->n < 1 || !chain_ok(out))
+        return false;
+    double tol = ao->tol_scene * tg->scale;
+    if (tg->light_size > 0.0)
+        tol = spc_min(tol, ao->tol_light * tg->light_size);
+
+    spc_chain_sig sig;
+    spc_chain_signature(out, &sig);
+    spc_chain_opts fo = *opts;
+    fo.fixed = &sig;
+    fo.events = NULL;
+    fo.find_end = false;
+
+    spc_chain trial;
+    spc_vec3 r, J[2];
+    residual(out, tg, ao->loss, &r, J);
+    double L = spc_length2(r);
+    double beta = 1.0, beta0 = 1.0;
+    bool gd_init = false;
+    while (L > tol * tol) {
+        if (res->iterations >= ao->max_iterations)
+            break;
+        /* g = J^T r (half the gradient of L, eq. 21), A = J^T J */
+        double g0 = spc_dot(J[0], r), g1 = spc_dot(J[1], r);
+        double a00 = spc_dot(J[0], J[0]), a01 = spc_dot(J[0], J[1]), a11 = spc_dot(J[1], J[1]);
+        double da, db;
+        double det = a00 * a11 - a01 * a01;
+        if (ao->method == SPC_ANGULAR_GAUSS_NEWTON && det > 1e-14 * a00 * a11) {
+            da = -(a11 * g0 - a01 * g1) / det;
+            db = -(a00 * g1 - a01 * g0) / det;
+            da *= beta;
+            db *= beta;
+        } else {
+            double gg = g0 * g0 + g1 * g1;
+            if (!(gg > 0.0))
+                break;
+            if (!gd_init) {
+                /* first step a quarter of the distance the linearized loss says is left: the
+                 * scale-free start of eq. 54 (L / |grad L| has the units of the parameters) */
+                beta = beta0 = 0.25 * L / gg;
+                gd_init = true;
+            }
+            da = -beta * g0;
+            db = -beta * g1;
+        }
+        double len = sqrt(da * da + db * db);
+        if (len > SPC_ANGULAR_MAX_STEP) {
+            da *= SPC_ANGULAR_MAX_STEP / len;
+            db *= SPC_ANGULAR_MAX_STEP / len;
+        }
+        spc_chain_trace(sc, x, &out->frame, out->a + da, out->b + db, &fo, &trial);
+        res->iterations++;
+        bool accepted = false;
+        if (chain_ok(&trial) && trial.n == sig.n) {
+            spc_vec3 r2, J2[2];
+            residual(&trial, tg, ao->loss, &r2, J2);
+            double L2 = spc_length2(r2);
+            if (L2 < L && spc_chain_recenter(&trial)) {
+                *out = trial;
+                residual(out, tg, ao->loss, &r, J); /* in the re-centred parameters */
+                L = spc_length2(r);
+                accepted = true;
+            }
+        }
+        if (accepted) {
+            beta *= 2.0;
+            if (ao->method == SPC_ANGULAR_GAUSS_NEWTON && beta > 1.0 && det > 1e-14 * a00 * a11)
+                beta = 1.0;
+        } else {
+            beta *= 0.5;
+            if (beta < SPC_ANGULAR_MIN_BETA * beta0)
+                break;
+        }
+    }
+    if (out->a != 0.0 || out->b != 0.0)
+        spc_chain_recenter(out);
+    res->residual = sqrt(L);
+    res->converged = L <= tol * tol;
+    return res->converged;
+}
+
+bool spc_angular_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations)
+{
+    spc_vec3 seed;
+    if (!spc_snee_seed_direction(q, rng, &seed))
+        return false;
+    spc_chain_opts o = spc_chain_opts_default(q->max_chain);
+    o.any_surface = q->any_surface;
+    spc_angular_target tg;
+    tg.y = q->y;
+    tg.ny = q->ny;
+    tg.scale = q->scene->radius;
+    tg.light_size = q->light_size;
+    spc_angular_result res;
+    bool ok = spc_angular_solve(q->scene, q->x, &tg, seed, &o, &q->params->angular, out, &res);
+    if (iterations)
+        *iterations += res.iterations;
+    return ok;
+}

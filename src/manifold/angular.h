@@ -1,0 +1,76 @@
+/*
+ * manifold/angular.h: the angular solver (Dadfar 2022, sec. 6.5 and 9.1): find the initial
+ * direction at x whose specular chain ends on the target point y, by minimizing over the two
+ * direction parameters of a chain (chain.h) the squared distance between y and the chain's final
+ * segment.
+ *
+ * Losses (the residual r is a 3-vector, the loss |r|^2):
+ *   SEGMENT  r = y's offset from the closest point of the final segment, a half-line (thesis eq.
+ *            17-20 restricted to the last segment; t* is clamped at 0 as the thesis clamps it).
+ *   PLANE    r = offset between y and the point where the final segment meets the tangent plane
+ *            of the light's surface at y (needs the light's normal; points use SEGMENT).
+ * Methods:
+ *   GAUSS_NEWTON  step -(J^T J)^-1 J^T r on the 3x2 Jacobian of the endpoint, scaled by beta;
+ *   GRADIENT      the thesis' gradient descent, step -beta grad L (eq. 54-55);
+ * in both beta doubles after a step that lowers the loss (up to 1 for Gauss-Newton) and halves
+ * after one that raises it or changes the chain's sequence of surfaces and events (which is part
+ * of the solution: such steps are shortened, never taken). After each accepted step the chain is
+ * re-expressed around its new direction (spc_chain_recenter), so the parameters never approach
+ * the gnomonic chart's horizon.
+ * Stopping: converged when |r| <= tol_scene * scene size and, for a light of linear size s > 0,
+ * |r| <= tol_light * s, so the same settings hold at every scale (thesis sec. 9.1); failed after
+ * max_iterations traces or when beta becomes negligible (no step lowers the loss).
+ */
+#ifndef SPC_MANIFOLD_ANGULAR_H
+#define SPC_MANIFOLD_ANGULAR_H
+
+#include "core/rng.h"
+#include "manifold/chain.h"
+
+typedef enum spc_angular_method {
+    SPC_ANGULAR_GAUSS_NEWTON,
+    SPC_ANGULAR_GRADIENT
+} spc_angular_method;
+
+typedef enum spc_angular_loss {
+    SPC_ANGULAR_LOSS_SEGMENT,
+    SPC_ANGULAR_LOSS_PLANE
+} spc_angular_loss;
+
+typedef struct spc_angular_options {
+    spc_angular_method method;
+    spc_angular_loss loss;
+    int max_iterations; /* chain traces per solve, the seed's included */
+    double tol_scene;   /* residual tolerance relative to the scene's size */
+    double tol_light;   /* residual tolerance relative to the light's linear size */
+} spc_angular_options;
+
+/* Gauss-Newton, PLANE loss, 32 iterations, tol_scene 1e-7, tol_light 1e-5 (see angular.c). */
+void spc_angular_options_default(spc_angular_options *o);
+
+typedef struct spc_angular_target {
+    spc_vec3 y;        /* the point to reach */
+    spc_vec3 ny;       /* unit normal of the light's surface at y; (0,0,0) for a point */
+    double scale;      /* the scene's size (scene->radius) */
+    double light_size; /* the light's linear size (sqrt of its area); 0 for a point */
+} spc_angular_target;
+
+typedef struct spc_angular_result {
+    int iterations;  /* chain traces done */
+    double residual; /* |r| at the end */
+    bool converged;
+} spc_angular_result;
+
+/* Traces the seed chain from x along seed_dir (unit) with opts (its signature becomes the one to
+ * keep; it needs 1 or more vertices and a final segment that is not blocked by another chain
+ * surface), then iterates. On success *out holds the solved chain, re-centred (a = b = 0). The
+ * chain's final segment is not checked for visibility. Hot path: false means no solution. */
+bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_target *tg, spc_vec3 seed_dir,
+                       const spc_chain_opts *opts, const spc_angular_options *ao, spc_chain *out,
+                       spc_angular_result *res);
+
+struct spc_snee_query;
+/* The solver-table entry (specular_nee.h): one seeded attempt for the query. */
+bool spc_angular_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations);
+
+#endif

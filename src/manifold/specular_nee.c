@@ -1,0 +1,356 @@
+/*
+ * manifold/specular_nee.c: specular next-event estimation for any solver (contract and the exact
+ * set of paths it covers in specular_nee.h), the solver table, seeding, the contribution of a
+ * solved chain, the unbiased estimate of the reciprocal probability of a solution, and the
+ * bookkeeping that keeps the path tracer from counting the same paths again.
+ *
+ * Contribution: the measurement at x through a chain x -> x_1 .. x_k -> y, integrated over
+ * directions at x, is changed to an integral over the light's area with the generalized geometry
+ * term of the chain (Jakob and Marschner 2012; Dadfar 2022 sec. 6.6; Hanika et al. 2015), computed
+ * from the chain's derivatives (chain.c). Probability: Zeltner et al. 2020, sec. 4.3 (the
+ * number of independent solver attempts until the same solution reappears is geometric with mean
+ * 1/p; thesis sec. 6.6).
+ */
+#include "manifold/specular_nee.h"
+
+#include <string.h>
+
+/* Cap of the attempts counted for <1/p_solve>. The count is cut for solutions found with
+ * probability below about 3/cap; at 64 that is p < 5%, seeds that rarely lead anywhere, and the
+ * cost of one estimate stays bounded (each attempt is a full solve). */
+#define SPC_SNEE_MAX_TRIALS 64
+/* Two converged chains with the same signature are the same solution when every vertex agrees to
+ * this fraction of the scene's size: far above the solver's tolerance (angular.c, 1e-7), far below
+ * the distance between distinct solutions of any sensible scene. */
+#define SPC_SNEE_SAME_REL 1e-4
+
+/* ---- solver table ---- */
+
+static const spc_specular_solver solvers[] = {
+    {"none", NULL, NULL},
+    {"angular", spc_angular_solve_one, NULL},
+};
+#define NSOLVERS ((int)(sizeof solvers / sizeof solvers[0]))
+
+const spc_specular_solver *spc_specular_solver_get(int id)
+{
+    if (id <= SPC_SNEE_NONE || id >= NSOLVERS || (!solvers[id].solve_one && !solvers[id].solve_all))
+        return NULL;
+    return &solvers[id];
+}
+
+bool spc_specular_solver_parse(const char *name, int *id)
+{
+    if (!name || !name[0] || !strcmp(name, "none")) {
+        *id = SPC_SNEE_NONE;
+        return true;
+    }
+    for (int i = 1; i < NSOLVERS; ++i)
+        if (!strcmp(name, solvers[i].name) && (solvers[i].solve_one || solvers[i].solve_all)) {
+            *id = i;
+            return true;
+        }
+    return false;
+}
+
+const char *spc_specular_solver_names(void) { return "none, angular"; }
+
+void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
+{
+    memset(p, 0, sizeof *p);
+    p->solver = solver;
+    p->max_chain = max_chain < SPC_CHAIN_MAX_VERTICES ? max_chain : SPC_CHAIN_MAX_VERTICES;
+    p->seed = SPC_SNEE_SEED_SHAPE;
+    p->max_trials = SPC_SNEE_MAX_TRIALS;
+    p->any_surface = false;
+    spc_angular_options_default(&p->angular);
+}
+
+/* ---- seeding ---- */
+
+bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *dir)
+{
+    const spc_scene *sc = q->scene;
+    switch (q->seed) {
+    case SPC_SNEE_SEED_LIGHT: {
+        spc_vec3 d = spc_sub(q->y, q->x->p);
+        double l = spc_length(d);
+        if (!(l > 0.0))
+            return false;
+        *dir = spc_scale(d, 1.0 / l);
+        return true;
+    }
+    case SPC_SNEE_SEED_BSDF: {
+        spc_bsdf_sample bs;
+        double ul = spc_rng_next(rng);
+        spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+        if (!spc_bsdf_sample_dir(q->x->bsdf, q->x, SPC_MODE_RADIANCE, q->wo, ul, u, &bs))
+            return false;
+        *dir = bs.wi;
+        return true;
+    }
+    case SPC_SNEE_SEED_SHAPE: {
+        /* one pass of reservoir sampling: uniform over caster shapes, no table needed */
+        const spc_shape *pick = NULL;
+        int seen = 0;
+        for (int i = 0; i < sc->nshapes; ++i) {
+            if (!spc_chain_shape_is_caster(sc->shapes[i], q->any_surface, NULL))
+                continue;
+            ++seen;
+            if (spc_rng_next(rng) * seen < 1.0)
+                pick = sc->shapes[i];
+        }
+        if (!pick)
+            return false;
+        spc_shape_sample ss;
+        spc_shape_sample_area(pick, spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &ss);
+        spc_vec3 d = spc_sub(ss.p, q->x->p);
+        double l = spc_length(d);
+        if (!(l > 0.0))
+            return false;
+        *dir = spc_scale(d, 1.0 / l);
+        return true;
+    }
+    }
+    return false;
+}
+
+/* ---- contribution ---- */
+
+spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c)
+{
+    const spc_rgb zero = spc_rgb1(0.0);
+    int k = c->n;
+    if (k < 1 || k > q->max_chain)
+        return zero;
+    if (!q->any_surface)
+        for (int i = 0; i < k; ++i)
+            if (!spc_chain_caster_allowed(c->v[i].h.shape->caustic_flags, k))
+                return zero;
+    const spc_chain_vertex *last = &c->v[k - 1];
+    spc_vec3 d = last->d;
+    /* the last segment must reach y unblocked (earlier segments are first hits by construction) */
+    double y_err = 1e-9 * (spc_max_abs(q->y) + q->scene->radius);
+    spc_ray sr = spc_hit_spawn_to(&last->h, q->y, y_err);
+    if (spc_scene_occluded(q->scene, &sr))
+        return zero;
+
+    spc_rgb Le;
+    spc_vec3 ny = q->ny;
+    if (e->type == SPC_EMITTER_AREA) {
+        spc_hit yh;
+        memset(&yh, 0, sizeof yh);
+        yh.p = q->y;
+        yh.ng = q->ny;
+        yh.uv = uv;
+        Le = spc_emitter_eval_area(e, &yh, spc_neg(d));
+    } else {
+        /* point and spot: the intensity toward the last vertex, on a virtual patch facing it */
+        spc_emitter_direct ds;
+        if (!spc_emitter_sample_direct(e, last->h.p, spc_v2(0.5, 0.5), &ds))
+            return zero;
+        Le = spc_rgb_scale(ds.L, ds.dist * ds.dist);
+        ny = spc_neg(d);
+    }
+    if (spc_rgb_is_black(Le))
+        return zero;
+
+    const spc_hit *x = q->x;
+    spc_rgb f = spc_bsdf_eval(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0);
+    double cosx = spc_absdot(c->d0, x->sh.n);
+    if (spc_rgb_is_black(f) || !(cosx > 0.0))
+        return zero;
+    spc_rgb T = spc_rgb1(1.0);
+    for (int i = 0; i < k; ++i) {
+        const spc_chain_vertex *v = &c->v[i];
+        T = spc_rgb_mul(T, spc_bsdf_specular_throughput(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, spc_neg(v->wi), v->d));
+        if (spc_rgb_is_black(T))
+            return zero;
+    }
+    double G = spc_chain_geometry(c, q->y, ny);
+    if (!(G > 0.0) || !isfinite(G))
+        return zero;
+    return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G);
+}
+
+bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene_size)
+{
+    if (a->n != b->n)
+        return false;
+    double tol2 = spc_sqr(SPC_SNEE_SAME_REL * scene_size);
+    for (int i = 0; i < a->n; ++i) {
+        if (a->v[i].h.shape_index != b->v[i].h.shape_index || a->v[i].event != b->v[i].event)
+            return false;
+        if (spc_length2(spc_sub(a->v[i].h.p, b->v[i].h.p)) > tol2)
+            return false;
+    }
+    return true;
+}
+
+int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped)
+{
+    *capped = false;
+    for (int n = 1; n <= cap; ++n)
+        if (trial(user))
+            return n;
+    *capped = true;
+    return cap;
+}
+
+typedef struct trial_ctx {
+    const spc_snee_query *q;
+    const spc_specular_solver *solver;
+    const spc_chain *target;
+    spc_rng *rng;
+    spc_chain scratch;
+    int iterations;
+} trial_ctx;
+
+static bool trial_same(void *user)
+{
+    trial_ctx *t = user;
+    return t->solver->solve_one(t->q, t->rng, &t->scratch, &t->iterations) &&
+           spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
+}
+
+int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface)
+{
+    if (max_chain < 1 || !x->bsdf || !spc_bsdf_has_smooth(x->bsdf))
+        return 0;
+    if (!any_surface && !(x->shape && (x->shape->caustic_flags & SPC_CAUSTIC_RECEIVER)))
+        return 0;
+    return max_chain < SPC_CHAIN_MAX_VERTICES ? max_chain : SPC_CHAIN_MAX_VERTICES;
+}
+
+spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                         int max_chain, spc_rng *rng, spc_snee_stats *st)
+{
+    const spc_rgb zero = spc_rgb1(0.0);
+    const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
+    if (max_chain > p->max_chain)
+        max_chain = p->max_chain;
+    max_chain = spc_snee_budget(x, max_chain, p->any_surface);
+    if (!solver || !solver->solve_one || max_chain < 1)
+        return zero;
+
+    double pmf;
+    const spc_emitter *e = spc_scene_sample_emitter(sc, spc_rng_next(rng), &pmf);
+    if (!e)
+        return zero;
+    spc_snee_query q;
+    q.scene = sc;
+    q.x = x;
+    q.wo = wo;
+    q.max_chain = max_chain;
+    q.seed = p->seed;
+    q.any_surface = p->any_surface;
+    q.params = p;
+    double p_y;
+    spc_vec2 uv = spc_v2(0, 0);
+    switch (e->type) {
+    case SPC_EMITTER_AREA: {
+        spc_shape_sample ss;
+        spc_shape_sample_area(e->shape, spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &ss);
+        q.y = ss.p;
+        q.ny = ss.n;
+        q.light_size = sqrt(e->shape->area);
+        uv = ss.uv;
+        p_y = pmf * ss.pdf;
+        /* an area light emits on the side of its normal: if x lies behind the light's tangent
+         * plane, a chain can still reach the front, so no early exit here */
+        break;
+    }
+    case SPC_EMITTER_POINT:
+    case SPC_EMITTER_SPOT:
+        q.y = e->position;
+        q.ny = spc_v3(0, 0, 0);
+        q.light_size = 0.0;
+        p_y = pmf;
+        break;
+    case SPC_EMITTER_DIRECTIONAL:
+    case SPC_EMITTER_CONSTANT:
+    case SPC_EMITTER_ENVMAP:
+        return zero;
+    default:
+        return zero;
+    }
+    if (!(p_y > 0.0))
+        return zero;
+    if (st)
+        st->calls++;
+
+    spc_chain sol;
+    int iterations = 0;
+    bool ok = solver->solve_one(&q, rng, &sol, &iterations);
+    if (st)
+        st->iterations += (uint64_t)iterations;
+    if (!ok)
+        return zero;
+    if (st)
+        st->solved++;
+    spc_rgb v = spc_snee_chain_value(&q, e, uv, &sol);
+    if (spc_rgb_is_black(v))
+        return zero;
+
+    /* <1/p_solve>: attempts until the same solution is found again */
+    double inv_p = 1.0;
+    if (p->seed != SPC_SNEE_SEED_LIGHT) {
+        trial_ctx tc;
+        tc.q = &q;
+        tc.solver = solver;
+        tc.target = &sol;
+        tc.rng = rng;
+        tc.iterations = 0;
+        bool capped;
+        int n = spc_snee_count_trials(trial_same, &tc, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS, &capped);
+        inv_p = (double)n;
+        if (st) {
+            st->trials += (uint64_t)n;
+            st->iterations += (uint64_t)tc.iterations;
+            st->capped += capped ? 1u : 0u;
+        }
+    }
+    if (st)
+        st->contributions++;
+    return spc_rgb_scale(v, inv_p / p_y);
+}
+
+/* ---- exclusion of the covered paths from BSDF sampling ---- */
+
+void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, int snee_budget, bool any_surface)
+{
+    if (!(lobe & SPC_LOBE_DELTA)) {
+        /* a non-delta scattering: a new receiver, tracked if specular NEE ran there */
+        t->live = snee_budget > 0;
+        t->k = 0;
+        t->max_chain = snee_budget;
+        t->single_ok = t->multi_ok = true;
+        t->any_surface = any_surface;
+        return;
+    }
+    if (!t->live)
+        return;
+    int event;
+    if (!spc_chain_surface(h, t->any_surface, &event)) {
+        t->live = false;
+        return;
+    }
+    unsigned want = event == SPC_CHAIN_REFLECT ? SPC_LOBE_DELTA_REFLECTION : SPC_LOBE_DELTA_TRANSMISSION;
+    if (lobe != want || ++t->k > t->max_chain) {
+        t->live = false;
+        return;
+    }
+    if (!t->any_surface) {
+        t->single_ok = t->single_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 1);
+        t->multi_ok = t->multi_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 2);
+    }
+}
+
+bool spc_snee_track_covers(const spc_snee_track *t, const spc_scene *sc, const spc_emitter *e)
+{
+    if (!t->live || t->k < 1 || t->k > t->max_chain || !e || e->type != SPC_EMITTER_AREA)
+        return false;
+    if (!(t->k == 1 ? t->single_ok : t->multi_ok))
+        return false;
+    return spc_scene_emitter_pmf(sc, e) > 0.0;
+}

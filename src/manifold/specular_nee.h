@@ -1,0 +1,147 @@
+/*
+ * manifold/specular_nee.h: specular next-event estimation, independent of the solver.
+ *
+ * At a non-delta vertex x of a camera path, one light point y is sampled (light chosen in
+ * proportion to power, then uniformly by area on its shape; point and spot lights are their
+ * position), a solver looks for a chain of 1..max_chain specular vertices connecting x to y
+ * (chain.h), and the path x -> chain -> y adds
+ *
+ *     f_x(wo, d0) |cos| * prod_i T_i * Le(y, -d_k) * G(x <-> y) / p(y) * <1/p_solve>,
+ *
+ * T_i the delta-lobe factor at vertex i (spc_bsdf_specular_throughput), G the generalized
+ * geometry term |dw(x)/dA(y)| of the whole chain (spc_chain_geometry), p(y) the light sample's area
+ * density, and <1/p_solve> an unbiased estimate of the reciprocal probability that one randomized
+ * solver attempt finds this very solution: the number of further independent attempts until it is
+ * found again (a geometric variable of mean 1/p; Zeltner, Georgiev and Jakob 2020, "Specular
+ * Manifold Sampling", sec. 4.3). Summed over solutions, the expectation is the exact sum of every
+ * chain's contribution. Attempts are capped at max_trials; a capped count underestimates 1/p
+ * (expectation (1 - (1-p)^cap) / p instead of 1/p): bias only for solutions found with p below
+ * about 3 / cap, and counted in spc_snee_stats.capped. A deterministic seed (SEED_LIGHT) skips the
+ * count (1/p = 1): unbiased only where a single solution exists, as in Hanika et al.'s MNEE.
+ *
+ * Which paths it produces, exactly (the path tracer drops the same paths when it reaches them by
+ * BSDF sampling, spc_snee_track_*, so nothing is counted twice):
+ *   - x is a receiver (shape caustic_flags & SPC_CAUSTIC_RECEIVER) whose BSDF has a non-delta lobe,
+ *     and the direction leaving x is a non-delta sample;
+ *   - then k vertices, 1 <= k <= max_chain (also limited by max_depth), each on a shape whose BSDF
+ *     is a smooth specular interface (spc_bsdf_is_specular_interface), with no emitter, allowed in
+ *     chains of k vertices (spc_chain_caster_allowed), where the light REFLECTS off conductors and
+ *     REFRACTS through dielectrics (a reflection off a dielectric, total internal reflection
+ *     included, is not a chain vertex);
+ *   - then the surface of an area emitter (point and spot lights cannot be hit; environment and
+ *     directional lights are not handled: their chains stay with BSDF sampling).
+ */
+#ifndef SPC_MANIFOLD_SPECULAR_NEE_H
+#define SPC_MANIFOLD_SPECULAR_NEE_H
+
+#include <stdint.h>
+
+#include "core/rng.h"
+#include "manifold/angular.h"
+#include "manifold/chain.h"
+
+/* Solver ids (index into the solver table; 0 = specular NEE off). */
+enum {
+    SPC_SNEE_NONE = 0,
+    SPC_SNEE_ANGULAR = 1
+};
+
+typedef enum spc_snee_seed {
+    SPC_SNEE_SEED_SHAPE, /* toward a uniform point of a uniformly chosen caster shape (default) */
+    SPC_SNEE_SEED_LIGHT, /* toward y: deterministic, see above */
+    SPC_SNEE_SEED_BSDF   /* along a direction sampled from x's BSDF: the path a tracer would take */
+} spc_snee_seed;
+
+typedef struct spc_snee_params {
+    int solver;        /* SPC_SNEE_* */
+    int max_chain;     /* longest chain (<= SPC_CHAIN_MAX_VERTICES) */
+    spc_snee_seed seed;
+    int max_trials;    /* cap of the attempts counted for <1/p_solve> */
+    bool any_surface;  /* ignore caustic flags (tests, benchmarks) */
+    spc_angular_options angular;
+} spc_snee_params;
+
+/* Defaults: SEED_SHAPE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
+ * solver's defaults. */
+void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain);
+
+/* One connection problem: from x (wo toward the previous path vertex) to y. */
+typedef struct spc_snee_query {
+    const spc_scene *scene;
+    const spc_hit *x;
+    spc_vec3 wo;
+    spc_vec3 y, ny;    /* ny: the light's unit normal at y; (0,0,0) for a point light */
+    double light_size; /* sqrt(area) of the light's shape; 0 for a point light */
+    int max_chain;
+    spc_snee_seed seed;
+    bool any_surface;
+    const spc_snee_params *params;
+} spc_snee_query;
+
+/* A solver: one randomized attempt from the query's seed distribution (the same distribution on
+ * every call, which <1/p_solve> requires), or the set of all solutions. */
+typedef struct spc_specular_solver {
+    const char *name;
+    bool (*solve_one)(const spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations);
+    /* NULL unless the solver enumerates every solution (then no probability is estimated);
+     * returns the number written to out (at most max_out). */
+    int (*solve_all)(const spc_snee_query *q, spc_chain *out, int max_out, int *iterations);
+} spc_specular_solver;
+
+/* The solver of an id, or NULL (none, or not implemented). */
+const spc_specular_solver *spc_specular_solver_get(int id);
+/* Parses a solver name: "" and "none" give SPC_SNEE_NONE. False for an unknown name. */
+bool spc_specular_solver_parse(const char *name, int *id);
+/* The valid names, for error messages: "none, angular". */
+const char *spc_specular_solver_names(void);
+
+/* A seed direction for the query (shared by the solvers); false if none (no caster shape). */
+bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *dir);
+
+typedef struct spc_snee_stats {
+    uint64_t calls;         /* light samples tried */
+    uint64_t solved;        /* first attempts that converged */
+    uint64_t contributions; /* nonzero contributions */
+    uint64_t trials;        /* further attempts for <1/p_solve> */
+    uint64_t capped;        /* counts cut at max_trials */
+    uint64_t iterations;    /* solver iterations, trials included */
+} spc_snee_stats;
+
+/* The specular NEE estimate at the path vertex x (to be multiplied by the path throughput), with
+ * chains of at most max_chain vertices (the caller's budget, <= params->max_chain). st may be
+ * NULL. */
+spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                         int max_chain, spc_rng *rng, spc_snee_stats *st);
+
+/* The contribution of one solved chain toward the light point of q on emitter e (uv: the
+ * point's texture coordinates), without p(y) and <1/p_solve>: zero if the chain is not one specular
+ * NEE produces (length, caustic flags), its last segment is blocked, or any factor vanishes. */
+spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c);
+
+/* Same solution: same signature and every vertex within SPC_SNEE_SAME_REL of the scene's size. */
+bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene_size);
+
+/* Counts independent trials until the first success, capped: the geometric estimator of 1/p.
+ * *capped is set if the cap was reached without success (the count is then cap). */
+int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped);
+
+/* ---- the exclusion that keeps BSDF sampling from counting specular NEE's paths again ---- */
+typedef struct spc_snee_track {
+    bool live;      /* the path since the last receiver may still be one specular NEE covers */
+    int k;          /* chain vertices passed */
+    int max_chain;  /* specular NEE's budget at the receiver */
+    bool single_ok; /* every vertex allowed in chains of one vertex */
+    bool multi_ok;  /* every vertex allowed in chains of more than one */
+    bool any_surface;
+} spc_snee_track;
+
+/* Specular NEE's chain budget at x: max_chain if x is a receiver with a non-delta lobe, else 0. */
+int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface);
+
+/* After BSDF sampling at a path vertex: `snee_budget` is the max_chain specular NEE used there (0 if
+ * it did not run: then the path is not tracked), `lobe` the sampled lobe. */
+void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, int snee_budget, bool any_surface);
+/* At an emitter hit: true if specular NEE already counted this path (drop it). */
+bool spc_snee_track_covers(const spc_snee_track *t, const spc_scene *sc, const spc_emitter *e);
+
+#endif
