@@ -244,8 +244,15 @@ TEST(failed_run_keeps_existing_output)
     CHECK(c && !strcmp(c, sentinel));
     free(c);
     CHECK(!file_exists("keep.png"));
-    /* a render failure: the scene loads, the integrator does not exist */
+    /* an unknown --integrator is refused when the scene is read (it replaces the scene's type) */
     int rc = run("render", "tiny.xml", "-o", "keep.exr", "--integrator", "no-such-integrator", "--quiet", NULL);
+    CHECK_MSG(rc == 3, "exit %d", rc);
+    c = read_file("keep.exr");
+    CHECK(c && !strcmp(c, sentinel));
+    free(c);
+    CHECK(!file_exists("keep.png"));
+    /* a render failure: the scene loads, the film is absurdly large */
+    rc = run("render", "tiny.xml", "-o", "keep.exr", "--res", "100000x100000", "--quiet", NULL);
     CHECK_MSG(rc == 4, "exit %d", rc);
     c = read_file("keep.exr");
     CHECK(c && !strcmp(c, sentinel));
