@@ -28,6 +28,7 @@
 #include "bsdf/variants.h"
 #include "core/rng.h"
 #include "core/warp.h"
+#include "chi2.h"
 #include "harness.h"
 
 /* ------------------------------------------------------------------------------------------ */
@@ -164,74 +165,7 @@ static double rgb_rel_diff(spc_rgb a, spc_rgb b)
 }
 
 /* ------------------------------------------------------------------------------------------ */
-/* statistics: regularized incomplete gamma, adaptive Simpson, chi-square                       */
-
-/* Regularized upper incomplete gamma Q(a, x) = Gamma(a, x) / Gamma(a): the power series of
- * P(a, x) = x^a e^-x / Gamma(a+1) sum x^n / ((a+1)...(a+n)) for x < a + 1, else the continued
- * fraction of Gamma(a, x) evaluated with the modified Lentz method. */
-static double gamma_q(double a, double x)
-{
-    if (x <= 0.0)
-        return 1.0;
-    double lg = lgamma(a);
-    if (x < a + 1.0) {
-        double term = 1.0 / a, sum = term;
-        for (int n = 1; n < 100000; ++n) {
-            term *= x / (a + n);
-            sum += term;
-            if (fabs(term) < fabs(sum) * 1e-16)
-                break;
-        }
-        return 1.0 - sum * exp(-x + a * log(x) - lg);
-    }
-    const double tiny = 1e-300;
-    double bcf = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / bcf, hcf = d;
-    for (int i = 1; i < 100000; ++i) {
-        double an = -i * (i - a);
-        bcf += 2.0;
-        d = an * d + bcf;
-        if (fabs(d) < tiny)
-            d = tiny;
-        c = bcf + an / c;
-        if (fabs(c) < tiny)
-            c = tiny;
-        d = 1.0 / d;
-        double del = d * c;
-        hcf *= del;
-        if (fabs(del - 1.0) < 1e-16)
-            break;
-    }
-    return exp(-x + a * log(x) - lg) * hcf;
-}
-
-typedef double (*integrand_fn)(double x, void *ctx);
-
-static double simpson_rec(integrand_fn f, void *ctx, double a, double b, double fa, double fm, double fb, double whole,
-                          double eps, int depth)
-{
-    double m = 0.5 * (a + b), lm = 0.5 * (a + m), rm = 0.5 * (m + b);
-    double flm = f(lm, ctx), frm = f(rm, ctx);
-    double left = (m - a) / 6.0 * (fa + 4.0 * flm + fm), right = (b - m) / 6.0 * (fm + 4.0 * frm + fb);
-    double delta = left + right - whole;
-    if (depth <= 0 || fabs(delta) <= 15.0 * eps)
-        return left + right + delta / 15.0;
-    return simpson_rec(f, ctx, a, m, fa, flm, fm, left, 0.5 * eps, depth - 1) +
-           simpson_rec(f, ctx, m, b, fm, frm, fb, right, 0.5 * eps, depth - 1);
-}
-
-/* Adaptive Simpson over [a, b] split first into `pieces` equal intervals (so narrow peaks are
- * seen), absolute tolerance eps in total. */
-static double integrate(integrand_fn f, void *ctx, double a, double b, int pieces, double eps, int depth)
-{
-    double sum = 0.0, w = (b - a) / pieces;
-    for (int i = 0; i < pieces; ++i) {
-        double x0 = a + i * w, x1 = x0 + w, xm = 0.5 * (x0 + x1);
-        double f0 = f(x0, ctx), fm = f(xm, ctx), f1 = f(x1, ctx);
-        double whole = w / 6.0 * (f0 + 4.0 * fm + f1);
-        sum += simpson_rec(f, ctx, x0, x1, f0, fm, f1, whole, eps / pieces, depth);
-    }
-    return sum;
-}
+/* statistics: the chi-square machinery lives in tests/chi2.h                                  */
 
 /* What is sampled and what it is tested against. */
 typedef struct chi2_case {
@@ -243,146 +177,45 @@ typedef struct chi2_case {
     spc_transport mode;
 } chi2_case;
 
-typedef struct pdf_ctx {
-    const spc_bsdf *b;
+typedef struct bsdf_chi2 {
+    const chi2_case *cs;
     const spc_hit *h;
-    spc_transport mode;
     spc_vec3 wo;
-    double scale;
-    double cz;           /* inner integral: fixed cos theta */
-    double phi0, phi1;   /* outer integral: the cell's phi range */
-    double eps_inner;
-} pdf_ctx;
+} bsdf_chi2;
 
-static double pdf_at(pdf_ctx *c, double cz, double phi)
+/* the smooth part: delta-lobe samples count as "no sample" */
+static bool bsdf_chi2_sample(void *user, spc_rng *rng, spc_vec3 *dir)
 {
-    double sz = spc_safe_sqrt(1.0 - cz * cz);
-    spc_vec3 wl = spc_v3(sz * cos(phi), sz * sin(phi), cz);
-    return c->scale * spc_bsdf_pdf(c->b, c->h, c->mode, c->wo, spc_frame_to_world(&c->h->sh, wl));
-}
-static double inner_fn(double phi, void *ctx)
-{
-    pdf_ctx *c = ctx;
-    return pdf_at(c, c->cz, phi);
-}
-static double outer_fn(double cz, void *ctx)
-{
-    pdf_ctx *c = ctx;
-    c->cz = cz;
-    return integrate(inner_fn, c, c->phi0, c->phi1, 2, c->eps_inner, 14);
+    const bsdf_chi2 *t = user;
+    double ul = spc_rng_next(rng);
+    spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+    spc_bsdf_sample s;
+    if (!spc_bsdf_sample_dir(t->cs->b, t->h, t->cs->mode, t->wo, ul, u, &s) || (s.lobe & SPC_LOBE_DELTA))
+        return false;
+    *dir = s.wi;
+    return true;
 }
 
-#define CHI_NT 16 /* cells in cos theta over [-1, 1] */
-#define CHI_NP 32 /* cells in phi over [0, 2 pi) */
-#define CHI_NCELLS (CHI_NT * CHI_NP + 1) /* + the "no smooth sample" cell */
-#define CHI_MIN_EXPECTED 5.0
+static double bsdf_chi2_pdf(void *user, spc_vec3 dir)
+{
+    const bsdf_chi2 *t = user;
+    const spc_bsdf *b = t->cs->pdf_b ? t->cs->pdf_b : t->cs->b;
+    double scale = t->cs->pdf_scale > 0.0 ? t->cs->pdf_scale : 1.0;
+    return scale * spc_bsdf_pdf(b, t->h, t->cs->mode, t->wo, dir);
+}
+
 #define CHI_SAMPLES 1000000
-#define CHI_SIGNIFICANCE 0.01
 
 static int chi2_total_tests = 1; /* set by the test before running the cases (Sidak) */
 
-/* Runs one chi-square test; returns the p-value (0 if a sample fell where pdf() is zero). */
+/* Runs one chi-square test (tests/chi2.h); returns the p-value. */
 static double chi2_run(const chi2_case *cs, const spc_hit *h, int n_samples, uint64_t seed, bool verbose)
 {
-    static double obs[CHI_NCELLS], expct[CHI_NCELLS];
-    memset(obs, 0, sizeof obs);
-    spc_vec3 wo = spc_frame_to_world(&h->sh, spc_normalize(cs->wo_local));
-    spc_rng rng;
-    spc_rng_seed(&rng, seed, 0x5eed);
-    int n_hist = 0;
-    for (int i = 0; i < n_samples; ++i) {
-        double ul = spc_rng_next(&rng);
-        spc_vec2 u = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
-        spc_bsdf_sample s;
-        if (!spc_bsdf_sample_dir(cs->b, h, cs->mode, wo, ul, u, &s) || (s.lobe & SPC_LOBE_DELTA))
-            continue;
-        spc_vec3 wl = spc_frame_to_local(&h->sh, s.wi);
-        int it = (int)floor((spc_clamp(wl.z, -1.0, 1.0) + 1.0) * 0.5 * CHI_NT);
-        double phi = atan2(wl.y, wl.x);
-        if (phi < 0.0)
-            phi += 2.0 * SPC_PI;
-        int ip = (int)floor(phi / (2.0 * SPC_PI) * CHI_NP);
-        it = it < 0 ? 0 : (it >= CHI_NT ? CHI_NT - 1 : it);
-        ip = ip < 0 ? 0 : (ip >= CHI_NP ? CHI_NP - 1 : ip);
-        obs[it * CHI_NP + ip] += 1.0;
-        ++n_hist;
-    }
-    obs[CHI_NCELLS - 1] = n_samples - n_hist;
-
-    pdf_ctx c = {cs->pdf_b ? cs->pdf_b : cs->b, h, cs->mode, wo, cs->pdf_scale > 0.0 ? cs->pdf_scale : 1.0,
-                 0.0, 0.0, 0.0, 0.0};
-    double total = 0.0;
-    for (int it = 0; it < CHI_NT; ++it) {
-        double c0 = -1.0 + 2.0 * it / CHI_NT, c1 = -1.0 + 2.0 * (it + 1) / CHI_NT;
-        for (int ip = 0; ip < CHI_NP; ++ip) {
-            c.phi0 = 2.0 * SPC_PI * ip / CHI_NP;
-            c.phi1 = 2.0 * SPC_PI * (ip + 1) / CHI_NP;
-            c.eps_inner = 1e-7;
-            double v = integrate(outer_fn, &c, c0, c1, 2, 1e-8, 14);
-            expct[it * CHI_NP + ip] = v * n_samples;
-            total += v;
-        }
-    }
-    expct[CHI_NCELLS - 1] = (1.0 - total) * n_samples;
-
-    /* a sample where pdf() says nothing can land is an immediate failure */
-    for (int i = 0; i < CHI_NCELLS - 1; ++i) {
-        if (expct[i] <= 0.0 && obs[i] > 0.0) {
-            printf("  chi2 %s: %g samples in cell %d whose expected count is %g\n", cs->name, obs[i], i, expct[i]);
-            return 0.0;
-        }
-    }
-    /* pool the cells expecting fewer than CHI_MIN_EXPECTED, in increasing order of expectation */
-    static int order[CHI_NCELLS];
-    for (int i = 0; i < CHI_NCELLS; ++i)
-        order[i] = i;
-    for (int i = 1; i < CHI_NCELLS; ++i) { /* insertion sort: small array */
-        int k = order[i], j = i - 1;
-        while (j >= 0 && expct[order[j]] > expct[k]) {
-            order[j + 1] = order[j];
-            --j;
-        }
-        order[j + 1] = k;
-    }
-    double chi2 = 0.0, pool_obs = 0.0, pool_exp = 0.0;
-    int dof = -1, pooled = 0;
-    for (int r = 0; r < CHI_NCELLS; ++r) {
-        int i = order[r];
-        double e = spc_max(expct[i], 0.0);
-        if (e < CHI_MIN_EXPECTED) {
-            pool_obs += obs[i];
-            pool_exp += e;
-            ++pooled;
-            if (pool_exp >= CHI_MIN_EXPECTED) {
-                chi2 += spc_sqr(pool_obs - pool_exp) / pool_exp;
-                ++dof;
-                pool_obs = pool_exp = 0.0;
-            }
-            continue;
-        }
-        chi2 += spc_sqr(obs[i] - e) / e;
-        ++dof;
-    }
-    if (pool_exp > 0.0 || pool_obs > 0.0) {
-        /* the remainder of the pool: fold it into the chi-square as one more (small) cell */
-        double e = spc_max(pool_exp, 1e-3);
-        chi2 += spc_sqr(pool_obs - e) / e;
-        ++dof;
-    }
-    if (dof < 1)
-        dof = 1;
-    double p = gamma_q(0.5 * dof, 0.5 * chi2);
-    if (verbose)
-        printf("  chi2 %-44s chi2 %9.1f dof %4d p %.4f (smooth mass %.5f, pooled %d)\n", cs->name, chi2, dof, p,
-               total, pooled);
-    return p;
+    bsdf_chi2 t = {cs, h, spc_frame_to_world(&h->sh, spc_normalize(cs->wo_local))};
+    return chi2_direction_test(cs->name, bsdf_chi2_sample, bsdf_chi2_pdf, &t, &h->sh, n_samples, seed, verbose);
 }
 
-static bool chi2_accept(double p)
-{
-    double alpha = 1.0 - pow(1.0 - CHI_SIGNIFICANCE, 1.0 / chi2_total_tests);
-    return p > alpha;
-}
+static bool bsdf_chi2_accept(double p) { return chi2_accept(p, chi2_total_tests); }
 
 /* ------------------------------------------------------------------------------------------ */
 /* 1. closed forms                                                                             */
@@ -1105,7 +938,7 @@ TEST(test_chi2_sampling)
     chi2_total_tests = n_cases + 3; /* + the three checks of the rejection test */
     for (int k = 0; k < n_cases; ++k) {
         double p = chi2_run(&cases[k], &h, CHI_SAMPLES, 1000 + (uint64_t)k, true);
-        CHECK_MSG(chi2_accept(p), "%s: sampling does not follow pdf(), p = %g", cases[k].name, p);
+        CHECK_MSG(bsdf_chi2_accept(p), "%s: sampling does not follow pdf(), p = %g", cases[k].name, p);
     }
 }
 
@@ -1123,16 +956,16 @@ TEST(test_chi2_rejects_wrong_pdf)
     chi2_case shifted = {"ggx samples 0.3, pdf 0.33", a, a2, 0.0, wo, SPC_MODE_RADIANCE};
     chi2_case other = {"ggx samples, beckmann pdf", a, bk, 0.0, wo, SPC_MODE_RADIANCE};
     chi2_case right = {"ggx control", a, NULL, 0.0, wo, SPC_MODE_RADIANCE};
-    CHECK(!chi2_accept(chi2_run(&scaled, &h, CHI_SAMPLES, 77, true)));
-    CHECK(!chi2_accept(chi2_run(&shifted, &h, CHI_SAMPLES, 78, true)));
-    CHECK(!chi2_accept(chi2_run(&other, &h, CHI_SAMPLES, 79, true)));
-    CHECK(chi2_accept(chi2_run(&right, &h, CHI_SAMPLES, 80, true)));
+    CHECK(!bsdf_chi2_accept(chi2_run(&scaled, &h, CHI_SAMPLES, 77, true)));
+    CHECK(!bsdf_chi2_accept(chi2_run(&shifted, &h, CHI_SAMPLES, 78, true)));
+    CHECK(!bsdf_chi2_accept(chi2_run(&other, &h, CHI_SAMPLES, 79, true)));
+    CHECK(bsdf_chi2_accept(chi2_run(&right, &h, CHI_SAMPLES, 80, true)));
     /* the incomplete gamma function itself: Q(1, x) = e^-x, Q(0.5, x) = erfc(sqrt x) */
-    CHECK_NEAR(gamma_q(1.0, 0.7), exp(-0.7), 1e-12);
-    CHECK_NEAR(gamma_q(1.0, 7.0), exp(-7.0), 1e-14);
-    CHECK_NEAR(gamma_q(0.5, 2.3), erfc(sqrt(2.3)), 1e-12);
-    CHECK_NEAR(gamma_q(0.5, 0.1), erfc(sqrt(0.1)), 1e-12);
-    CHECK_NEAR(gamma_q(50.0, 50.0), 0.481191684528, 1e-9);
+    CHECK_NEAR(chi2_gamma_q(1.0, 0.7), exp(-0.7), 1e-12);
+    CHECK_NEAR(chi2_gamma_q(1.0, 7.0), exp(-7.0), 1e-14);
+    CHECK_NEAR(chi2_gamma_q(0.5, 2.3), erfc(sqrt(2.3)), 1e-12);
+    CHECK_NEAR(chi2_gamma_q(0.5, 0.1), erfc(sqrt(0.1)), 1e-12);
+    CHECK_NEAR(chi2_gamma_q(50.0, 50.0), 0.481191684528, 1e-9);
 }
 
 int main(void)
