@@ -91,9 +91,20 @@ static const char *const usage_render =
     "  --strategy S,T         bdpt: render only the (s, t) strategy, unweighted\n"
     "  --strategy-weighted    with --strategy: apply the MIS weight\n"
     "  --quiet                no progress bar or summary\n"
+    "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"
+    "                         seconds, and when the render ends or is interrupted\n"
+    "  --checkpoint-every S   seconds between checkpoints (default 60; 0: after every pass)\n"
     "\n"
-    "Ctrl-C stops after the current pass and writes the image so far (exit 130); a second\n"
-    "Ctrl-C quits at once without writing.\n";
+    "usage: specula render --resume FILE [-o OUT.exr] [--spp N] [--time S] [--threads N]\n"
+    "                      [--stats FILE] [--checkpoint FILE] [--checkpoint-every S] [--quiet]\n"
+    "\n"
+    "  continues a checkpointed render with the options it was started with (scene, -D, seed,\n"
+    "  integrator, ...) and keeps checkpointing to FILE; the image is bit-identical to an\n"
+    "  uninterrupted render. A checkpoint of another scene, other settings or another specula\n"
+    "  version is refused.\n"
+    "\n"
+    "Ctrl-C stops after the passes in flight and writes the image so far (and the checkpoint)\n"
+    "(exit 130); a second Ctrl-C quits at once without writing.\n";
 
 static const char *const usage_diff =
     "usage: specula diff A.exr B.exr [--json]\n"
@@ -484,10 +495,72 @@ static bool write_stats(const char *path, const spc_render_stats *st, const stat
 
 /* ---- render ---- */
 
-static int cmd_render(int argc, char **argv)
+/* Options of a render that are not recorded in its checkpoint: a resumed render may set them anew
+ * (the output, scene and checkpoint paths are recorded separately, made absolute). */
+static bool option_is_unrecorded(const char *a)
+{
+    static const char *const names[] = {"--output", "-o", "--threads", "--quiet", "-q", "--stats",
+                                        "--checkpoint-every", "--checkpoint", "--resume"};
+    if (a[0] != '-' || a[1] == '\0')
+        return true; /* the scene */
+    for (size_t k = 0; k < sizeof names / sizeof names[0]; ++k) {
+        size_t len = strlen(names[k]);
+        if (!strncmp(a, names[k], len) && (a[len] == '\0' || a[len] == '=' || (len == 2 && names[k][1] != '-')))
+            return true;
+    }
+    return false;
+}
+
+/* A growable newline-separated list of arguments: the checkpoint's user text. */
+typedef struct arglist {
+    char *text;
+    size_t len;
+    bool failed;
+} arglist;
+
+static void arglist_add(arglist *l, const char *a)
+{
+    size_t n = strlen(a);
+    if (l->failed)
+        return;
+    if (strchr(a, '\n')) {
+        l->failed = true;
+        return;
+    }
+    char *t = realloc(l->text, l->len + n + 2);
+    if (!t) {
+        l->failed = true;
+        return;
+    }
+    l->text = t;
+    memcpy(t + l->len, a, n);
+    l->len += n;
+    t[l->len++] = '\n';
+    t[l->len] = '\0';
+}
+
+/* path made absolute against the current directory; the caller frees. */
+static char *absolute_path(const char *path)
+{
+    if (path[0] == '/')
+        return strdup(path);
+    char cwd[4096];
+    if (!getcwd(cwd, sizeof cwd))
+        return NULL;
+    size_t n = strlen(cwd) + strlen(path) + 2;
+    char *p = malloc(n);
+    if (p)
+        snprintf(p, n, "%s/%s", cwd, path);
+    return p;
+}
+
+static int render_run(int argc, char **argv, const spc_checkpoint *resume)
 {
     spc_render_options opt;
     spc_render_options_init(&opt);
+    opt.resume = resume;
+    const char *ckpt_path = NULL;
+    arglist recorded = {NULL, 0, false};
     const char *scene_path = NULL, *out_arg = NULL, *stats_path = NULL;
     bool variance = false, quiet = false;
     defines defs;
@@ -498,10 +571,19 @@ static int cmd_render(int argc, char **argv)
     int code = 0;
     for (int i = 0; i < argc && code == 0;) {
         const char *a = argv[i], *v = NULL;
+        int i0 = i;
         if (is_help(a)) {
             fputs(usage_render, stdout);
             defines_release(&defs);
             return 0;
+        } else if (opt_value(argc, argv, &i, "--checkpoint-every", NULL, &v)) {
+            if (!parse_double(v, &opt.checkpoint_every) || opt.checkpoint_every < 0.0)
+                code = usage_error(usage_render, "--checkpoint-every needs a number of seconds >= 0, not '%s'",
+                                   v ? v : "");
+        } else if (opt_value(argc, argv, &i, "--checkpoint", NULL, &v)) {
+            if (!v || !*v)
+                code = usage_error(usage_render, "--checkpoint needs a file name");
+            ckpt_path = v;
         } else if (opt_value(argc, argv, &i, "--output", "-o", &v)) {
             if (!v || !*v)
                 code = usage_error(usage_render, "-o needs a file name");
@@ -570,6 +652,9 @@ static int cmd_render(int argc, char **argv)
             scene_path = a;
             ++i;
         }
+        if (!option_is_unrecorded(a))
+            for (int k = i0; k < i; ++k)
+                arglist_add(&recorded, argv[k]);
     }
     if (code == 0 && !scene_path)
         code = usage_error(usage_render, "no scene given");
@@ -577,6 +662,7 @@ static int cmd_render(int argc, char **argv)
         code = usage_error(usage_render, "--strategy-weighted needs --strategy S,T");
     if (code != 0) {
         defines_release(&defs);
+        free(recorded.text);
         return code;
     }
 
@@ -596,6 +682,30 @@ static int cmd_render(int argc, char **argv)
         fail("%s: cannot write there: %s", out_path, strerror(errno));
         code = EXIT_WRITE;
         goto done;
+    }
+    if (ckpt_path) {
+        if (!output_dir_ok(ckpt_path)) {
+            fail("%s: cannot write there: %s", ckpt_path, strerror(errno));
+            code = EXIT_WRITE;
+            goto done;
+        }
+        /* what --resume needs to render the same thing again, from any directory */
+        char *abs_out = absolute_path(out_path), *abs_scene = absolute_path(scene_path);
+        arglist_add(&recorded, "-o");
+        arglist_add(&recorded, abs_out ? abs_out : "");
+        arglist_add(&recorded, abs_scene ? abs_scene : "");
+        bool ok = abs_out && abs_scene && !recorded.failed;
+        free(abs_out);
+        free(abs_scene);
+        if (!ok) {
+            fail("%s: cannot record this command line in a checkpoint (an argument holds a newline, or out of "
+                 "memory)",
+                 ckpt_path);
+            code = EXIT_USAGE;
+            goto done;
+        }
+        opt.checkpoint_path = ckpt_path;
+        opt.checkpoint_user = recorded.text;
     }
 
     if (opt.integrator) {
@@ -636,9 +746,15 @@ static int cmd_render(int argc, char **argv)
         fputc('\n', stderr);
     pthread_mutex_destroy(&prog.mu);
     bool interrupted = st == SPC_ERR_INTERRUPTED || (st == SPC_OK && cancel_flag);
-    if (st != SPC_OK && st != SPC_ERR_INTERRUPTED) {
+    bool ckpt_failed = false;
+    if (film && (st == SPC_ERR_IO || st == SPC_ERR_LIMIT) && ckpt_path) {
+        /* the checkpoint could not be written: keep the image rendered so far, then fail */
         fail_error(&err);
-        code = EXIT_RENDER;
+        ckpt_failed = true;
+        interrupted = cancel_flag != 0;
+    } else if (st != SPC_OK && st != SPC_ERR_INTERRUPTED) {
+        fail_error(&err);
+        code = resume && st == SPC_ERR_VALUE ? EXIT_INPUT : EXIT_RENDER;
         goto done;
     }
     if (!film) {
@@ -687,14 +803,129 @@ static int cmd_render(int argc, char **argv)
                 interrupted ? "interrupted" : "rendered", spc_film_width(film), spc_film_height(film), stats.spp,
                 stats.wall_seconds, stats.mrays_per_second, stats.threads,
                 stats.invalid_samples ? " (some invalid samples discarded)" : "", out_path, png);
-    code = interrupted ? EXIT_INTERRUPTED : 0;
+    code = ckpt_failed ? EXIT_WRITE : interrupted ? EXIT_INTERRUPTED : 0;
 
 done:
     spc_film_destroy(film);
     spc_scene_destroy(scene);
     free(png);
     free(out_owned);
+    free(recorded.text);
     defines_release(&defs);
+    return code;
+}
+
+/* Options a resumed render may set anew; everything else comes from the checkpoint. */
+static bool option_allowed_on_resume(const char *a)
+{
+    static const char *const names[] = {"--output", "-o", "--threads", "--quiet", "-q", "--stats",
+                                        "--checkpoint-every", "--checkpoint", "--spp", "--time"};
+    for (size_t k = 0; k < sizeof names / sizeof names[0]; ++k) {
+        size_t len = strlen(names[k]);
+        if (!strncmp(a, names[k], len) && (a[len] == '\0' || a[len] == '=' || (len == 2 && names[k][1] != '-')))
+            return true;
+    }
+    return false;
+}
+
+/* `render --resume FILE [options]`: the checkpoint's recorded arguments, then the new ones (the last
+ * value of an option wins), checkpointing to FILE unless --checkpoint says otherwise. */
+static int cmd_render(int argc, char **argv)
+{
+    const char *resume_path = NULL;
+    int at = -1;
+    for (int i = 0; i < argc; ++i) {
+        const char *v = NULL;
+        int j = i;
+        if (opt_value(argc, argv, &j, "--resume", NULL, &v)) {
+            if (!v || !*v)
+                return usage_error(usage_render, "--resume needs a checkpoint file");
+            if (resume_path)
+                return usage_error(usage_render, "--resume given twice");
+            resume_path = v;
+            at = i;
+            i = j - 1;
+        }
+    }
+    if (!resume_path)
+        return render_run(argc, argv, NULL);
+
+    int skip = argv[at][strlen("--resume")] == '=' ? 1 : 2;
+    bool own_ckpt = false;
+    for (int i = 0; i < argc; ++i) {
+        if (i == at) {
+            i += skip - 1;
+            continue;
+        }
+        const char *a = argv[i];
+        if (is_help(a)) {
+            fputs(usage_render, stdout);
+            return 0;
+        }
+        if (a[0] != '-' || a[1] == '\0')
+            return usage_error(usage_render, "--resume takes the scene from the checkpoint; '%s' is not an option", a);
+        if (!option_allowed_on_resume(a))
+            return usage_error(usage_render, "'%s' cannot be changed when resuming: the checkpoint fixes it", a);
+        if (!strncmp(a, "--checkpoint", 12) && (a[12] == '\0' || a[12] == '='))
+            own_ckpt = true;
+        /* skip the option's value */
+        bool valued = strcmp(a, "--quiet") != 0 && strcmp(a, "-q") != 0 && !strchr(a, '=') &&
+                      !(a[1] != '-' && a[2] != '\0');
+        if (valued)
+            ++i;
+    }
+
+    spc_checkpoint *ck = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_checkpoint_load(resume_path, &ck, &err) != SPC_OK) {
+        fail_error(&err);
+        return EXIT_INPUT;
+    }
+    spc_checkpoint_info info;
+    spc_checkpoint_get_info(ck, &info);
+    size_t ulen = strlen(info.user);
+    char *user = malloc(ulen + 1);
+    char **args = calloc((size_t)argc + ulen + 4, sizeof *args);
+    if (!user || !args) {
+        free(user);
+        free(args);
+        spc_checkpoint_destroy(ck);
+        fail("out of memory");
+        return EXIT_RENDER;
+    }
+    memcpy(user, info.user, ulen + 1);
+    int n = 0;
+    for (char *p = user, *nl; *p; p = nl + 1) {
+        nl = strchr(p, '\n');
+        if (!nl)
+            break;
+        *nl = '\0';
+        args[n++] = p;
+    }
+    if (n == 0) {
+        fail("%s: this checkpoint was not written by the specula command (it records no arguments)", resume_path);
+        free(user);
+        free(args);
+        spc_checkpoint_destroy(ck);
+        return EXIT_INPUT;
+    }
+    for (int i = 0; i < argc; ++i) {
+        if (i == at) {
+            i += skip - 1;
+            continue;
+        }
+        args[n++] = argv[i];
+    }
+    char ckopt[] = "--checkpoint";
+    if (!own_ckpt) {
+        args[n++] = ckopt;
+        args[n++] = (char *)resume_path;
+    }
+    int code = render_run(n, args, ck);
+    free(user);
+    free(args);
+    spc_checkpoint_destroy(ck);
     return code;
 }
 

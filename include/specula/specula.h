@@ -89,6 +89,18 @@ typedef struct spc_render_options {
     volatile int *cancel;    /* polled between passes; nonzero stops the render cleanly */
     int strategy_s, strategy_t; /* bdpt debug: >= 0 renders only the (s, t) strategy, unweighted */
     bool strategy_weighted;  /* with strategy_s/t: apply the MIS weight */
+    /* Checkpoints (see spc_checkpoint below). With checkpoint_path the film's state is written there
+     * atomically at pass boundaries, at least checkpoint_every seconds apart (<= 0: after every batch
+     * of passes, which are then kept short), and once more when the render ends or is cancelled.
+     * checkpoint_user is stored verbatim (the CLI keeps its arguments there). */
+    const char *checkpoint_path;
+    double checkpoint_every;     /* seconds; spc_render_options_init sets 60 */
+    const char *checkpoint_user;
+    /* Non-NULL: continue that render from its pass count, to the spp target of these options. The
+     * scene (file bytes and defines) and the resolved settings must equal the checkpoint's, or the
+     * render is refused with SPC_ERR_VALUE saying what differs. The result is bit-identical to an
+     * uninterrupted render of the same spp and seed. */
+    const struct spc_checkpoint *resume;
 } spc_render_options;
 
 void spc_render_options_init(spc_render_options *o);
@@ -105,6 +117,24 @@ typedef struct spc_render_stats {
 
 spc_status spc_render(const spc_scene *s, const spc_render_options *o, spc_film **out, spc_render_stats *stats,
                       spc_error *err);
+
+/* ---- checkpoints ---- */
+/* The saved state of an unfinished render: film sums after a whole number of passes, the resolved
+ * settings, a hash of the scene, the version that wrote it. */
+typedef struct spc_checkpoint spc_checkpoint;
+/* Reads and verifies a checkpoint; *out is NULL on failure: SPC_ERR_IO (unreadable), SPC_ERR_PARSE
+ * (torn, damaged or not a checkpoint: a checksum covers the whole file), SPC_ERR_VALUE (written by
+ * another specula version). Free with spc_checkpoint_destroy. */
+spc_status spc_checkpoint_load(const char *path, spc_checkpoint **out, spc_error *err);
+void spc_checkpoint_destroy(spc_checkpoint *c);
+typedef struct spc_checkpoint_info {
+    int spp_done, spp_target;
+    int width, height;                 /* rendered window */
+    const char *scene_path, *settings; /* settings: "key=value;..." */
+    const char *user;                  /* the options' checkpoint_user ("" if none) */
+    const char *version;               /* of the specula that wrote it */
+} spc_checkpoint_info; /* strings owned by the checkpoint */
+void spc_checkpoint_get_info(const spc_checkpoint *c, spc_checkpoint_info *out);
 
 /* ---- films ---- */
 void spc_film_destroy(spc_film *f);

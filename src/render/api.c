@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "io/mitsuba_xml.h"
+#include "render/checkpoint.h"
 #include "render/film.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
@@ -22,7 +23,10 @@ spc_status spc_scene_load(const char *path, const spc_define *defs, int ndefs, s
         return spc_error_set(err, SPC_ERR_VALUE, NULL, 0, 0, "spc_scene_load: no path or output given");
     if (ndefs < 0 || (ndefs > 0 && !defs))
         return spc_error_set(err, SPC_ERR_VALUE, path, 0, 0, "invalid list of -D definitions");
-    return spc_mitsuba_load(path, defs, ndefs, out, err);
+    spc_status st = spc_mitsuba_load(path, defs, ndefs, out, err);
+    if (st == SPC_OK)
+        (*out)->content_hash = spc_ckpt_scene_hash(path, defs, ndefs); /* checkpoints refuse other scenes */
+    return st;
 }
 
 void spc_render_options_init(spc_render_options *o)
@@ -37,6 +41,7 @@ void spc_render_options_init(spc_render_options *o)
     o->strategy_t = -1;
     o->strategy_weighted = false;
     o->seed = 0;
+    o->checkpoint_every = 60.0;
 }
 
 static bool shape_is_analytic(const spc_shape *sh)

@@ -7,6 +7,12 @@
  * order with splats merged in tile order. The image is therefore bit-identical for any thread
  * count. Passes are grouped into batches so small images keep every thread busy; with a time
  * limit the batch size follows the measured time per pass.
+ *
+ * Cancellation is polled before every work item, but a render only ever stops at a pass boundary:
+ * the passes already started are finished, later ones dropped, and only whole passes reach the
+ * film. Checkpoints (render/checkpoint.h) are written between batches, so they too hold whole
+ * passes, and a resumed render starts at pass index = the checkpoint's pass count: the same
+ * additions in the same order as an uninterrupted render.
  */
 #include <limits.h>
 #include <pthread.h>
@@ -20,6 +26,7 @@
 #include "core/warp.h"
 #include "integrator/integrator.h"
 #include "render/camera.h"
+#include "render/checkpoint.h"
 #include "render/film.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
@@ -44,6 +51,9 @@ typedef struct job {
     spc_tls *tls;       /* npasses * ntiles */
     uint64_t seed;
     atomic_int next;
+    atomic_int limit;       /* items below it are rendered: all of them, or up to the end of the passes
+                             * already started when a cancel was seen */
+    volatile int *cancel;
     atomic_ullong rays;
 } job;
 
@@ -109,11 +119,19 @@ static void *worker(void *arg)
 {
     job *jb = arg;
     uint64_t r0 = spc_accel_rays_traced();
-    int nitems = jb->npasses * jb->ntiles;
     for (;;) {
         int i = atomic_fetch_add(&jb->next, 1);
-        if (i >= nitems)
+        if (i >= atomic_load(&jb->limit))
             break;
+        if (jb->cancel && *jb->cancel) {
+            /* items below i were all handed out: finish their passes, start none after them */
+            int end = (i + jb->ntiles - 1) / jb->ntiles * jb->ntiles;
+            int cur = atomic_load(&jb->limit);
+            while (end < cur && !atomic_compare_exchange_weak(&jb->limit, &cur, end))
+                ;
+            if (i >= atomic_load(&jb->limit))
+                break;
+        }
         render_item(jb, i);
     }
     atomic_fetch_add(&jb->rays, (unsigned long long)(spc_accel_rays_traced() - r0));
@@ -216,10 +234,27 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
             t->y1 = t->y0 + SPC_TILE < ctx.height ? t->y0 + SPC_TILE : ctx.height;
         }
 
+    char settings[1024];
+    spc_ckpt_settings_text(&ctx, o->specular_nee ? o->specular_nee : sc->integrator.specular_nee, o->seed, o->aovs,
+                           settings, sizeof settings);
+    if (o->resume) {
+        spc_status rs = spc_ckpt_restore(o->resume, sc->content_hash, settings, film, err);
+        if (rs != SPC_OK) {
+            free(tiles);
+            free(buf);
+            free(tls);
+            free(th);
+            spc_film_destroy(film);
+            return rs;
+        }
+    }
+    spc_ckpt_meta meta = {sc->content_hash, settings, (int)spp, sc->path, o->checkpoint_user};
+
     double t_start = now_seconds();
-    uint64_t rays = 0, invalid = 0;
-    int done = 0;
-    double sec_per_pass = 0.0;
+    uint64_t rays = 0, invalid = film->invalid_samples;
+    const int start = film->spp;
+    int done = start;
+    double sec_per_pass = 0.0, last_ckpt = t_start;
     spc_status status = SPC_OK;
     while (done < spp) {
         if (o->cancel && *o->cancel) {
@@ -230,10 +265,13 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         int batch = max_batch;
         if (batch > spp - done)
             batch = (int)(spp - done);
-        if (done == 0) {
+        if (done == start) {
             batch = 1; /* measure */
         } else if (sec_per_pass > 0.0) {
-            int by_time = (int)(SPC_BATCH_TARGET_SECONDS / sec_per_pass);
+            double target = SPC_BATCH_TARGET_SECONDS;
+            if (o->checkpoint_path && o->checkpoint_every < target)
+                target = o->checkpoint_every > 0.0 ? o->checkpoint_every : 0.0;
+            int by_time = (int)(target / sec_per_pass);
             if (o->time_limit > 0.0) {
                 double left = o->time_limit - elapsed;
                 int fit = (int)(left / sec_per_pass);
@@ -258,6 +296,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         jb.tls = tls;
         jb.seed = o->seed;
         atomic_init(&jb.next, 0);
+        atomic_init(&jb.limit, batch * ntiles);
+        jb.cancel = o->cancel;
         atomic_init(&jb.rays, 0);
         double t0 = now_seconds();
         int nt = threads;
@@ -273,7 +313,14 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         for (int i = 1; i <= started; ++i)
             pthread_join(th[i], NULL);
         rays += atomic_load(&jb.rays);
-        /* commit the passes in order, splats merged in tile order */
+        int whole = atomic_load(&jb.limit) / ntiles; /* passes rendered in full */
+        /* commit the passes in order, splats merged in tile order; drop the unfinished ones */
+        for (int b = whole; b < batch; ++b)
+            for (int ti = 0; ti < ntiles; ++ti) {
+                tls[(size_t)b * ntiles + ti].nsplats = 0;
+                tls[(size_t)b * ntiles + ti].invalid = 0;
+            }
+        batch = whole;
         for (int b = 0; b < batch; ++b) {
             double *pb = buf + (size_t)b * npix * stride;
             for (size_t p = 0; p < npix; ++p) {
@@ -301,11 +348,28 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         }
         done += batch;
         double dt = now_seconds() - t0;
-        sec_per_pass = dt / batch;
+        if (batch > 0)
+            sec_per_pass = dt / batch;
+        film->invalid_samples = invalid;
+        if (o->checkpoint_path && done < spp && !(o->cancel && *o->cancel) &&
+            now_seconds() - last_ckpt >= o->checkpoint_every) {
+            status = spc_ckpt_write(o->checkpoint_path, film, &meta, err);
+            if (status != SPC_OK)
+                break;
+            last_ckpt = now_seconds();
+        }
         if (o->progress)
             o->progress(o->progress_user, (double)done / (double)spp, done, (int)spp, now_seconds() - t_start);
         if (o->time_limit > 0.0 && now_seconds() - t_start + sec_per_pass > o->time_limit)
             break;
+    }
+    if (status == SPC_OK && o->cancel && *o->cancel && done < spp)
+        status = SPC_ERR_INTERRUPTED;
+    film->invalid_samples = invalid;
+    if (o->checkpoint_path && status != SPC_ERR_IO && status != SPC_ERR_LIMIT) { /* not again after a failed write */
+        spc_status cs = spc_ckpt_write(o->checkpoint_path, film, &meta, err);
+        if (cs != SPC_OK)
+            status = cs;
     }
     double wall = now_seconds() - t_start;
     for (size_t i = 0; i < (size_t)max_batch * ntiles; ++i)
@@ -328,7 +392,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         stats->samples = (uint64_t)film->spp * npix;
         stats->invalid_samples = invalid;
     }
-    *out = film;
+    *out = film; /* also with a checkpoint write error: the image rendered so far is valid */
     if (status == SPC_ERR_INTERRUPTED)
         spc_error_set(err, SPC_ERR_INTERRUPTED, file, 0, 0, "render interrupted after %d samples per pixel", film->spp);
     return status;

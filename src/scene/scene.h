@@ -94,6 +94,7 @@ typedef struct spc_scene {
     bool finalized;
 
     char path[512]; /* the file it was loaded from, if any */
+    uint64_t content_hash; /* of that file's bytes and the -D defines (spc_scene_load), 0 if unknown */
 } spc_scene;
 
 /* Returns NULL on allocation failure. */
