@@ -66,7 +66,7 @@ bool spc_emitter_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_vec2 u, s
         out->dist = INFINITY;
         out->p = spc_madd(ref, w, 2.0 * e->scene_radius);
         out->n = spc_neg(w);
-        out->L = spc_envmap_eval(e, spc_neg(w));
+        out->L = spc_envmap_eval(e, w);
         out->pdf = pdf;
         out->is_infinite = true;
         return !spc_rgb_is_black(out->L);
@@ -98,7 +98,7 @@ double spc_emitter_pdf_infinite(const spc_emitter *e, spc_vec3 d)
 {
     if (!spc_emitter_is_infinite(e))
         return 0.0;
-    return spc_envmap_pdf_dir(e, spc_neg(d));
+    return spc_envmap_pdf_dir(e, d);
 }
 
 /* Infinite lights emit from a disk of the scene's radius, perpendicular to the direction, placed
@@ -133,7 +133,7 @@ bool spc_emitter_sample_emission(const spc_emitter *e, spc_vec2 u_pos, spc_vec2 
         double R = e->scene_radius;
         out->pdf_pos = 1.0 / (SPC_PI * R * R);
         out->pdf_dir = pdf_dir;
-        out->weight = spc_rgb_scale(spc_envmap_eval(e, d), 1.0 / (out->pdf_pos * pdf_dir));
+        out->weight = spc_rgb_scale(spc_envmap_eval(e, w), 1.0 / (out->pdf_pos * pdf_dir));
         out->is_infinite = true;
         return !spc_rgb_is_black(out->weight);
     }

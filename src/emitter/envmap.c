@@ -112,15 +112,12 @@ void spc_envmap_release(spc_emitter *e)
     e->has_tex_distrib = false;
 }
 
-spc_rgb spc_envmap_eval(const spc_emitter *e, spc_vec3 d)
+spc_rgb spc_envmap_eval(const spc_emitter *e, spc_vec3 w)
 {
-    if (!is_image(e)) {
-        double st;
-        spc_vec2 uv = dir_to_uv(e, spc_neg(d), &st);
-        return spc_rgb_scale(spc_texture_eval(e->radiance, uv), e->scale);
-    }
     double st;
-    spc_vec2 uv = dir_to_uv(e, spc_neg(d), &st);
+    spc_vec2 uv = dir_to_uv(e, w, &st);
+    if (!is_image(e))
+        return spc_rgb_scale(spc_texture_eval(e->radiance, uv), e->scale);
     return spc_rgb_scale(lookup(e->radiance, uv.x, uv.y), e->scale);
 }
 

@@ -27,7 +27,8 @@ bool spc_area_sample_emission(const spc_emitter *e, spc_vec2 u_pos, spc_vec2 u_d
 void spc_area_pdf_emission(const spc_emitter *e, spc_vec3 p, spc_vec3 n, spc_vec3 d, double *pdf_pos,
                            double *pdf_dir);
 
-/* constant and envmap share the infinite-light machinery */
+/* constant and envmap share the infinite-light machinery; every direction argument points from
+ * the scene TOWARD the environment (an escaping ray's direction) */
 bool spc_envmap_prepare(spc_emitter *e);
 void spc_envmap_release(spc_emitter *e);
 spc_rgb spc_envmap_eval(const spc_emitter *e, spc_vec3 d);
