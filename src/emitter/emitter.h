@@ -88,8 +88,8 @@ double spc_emitter_pdf_direct(const spc_emitter *e, spc_vec3 ref, spc_vec3 p, sp
 spc_rgb spc_emitter_eval_area(const spc_emitter *e, const spc_hit *h, spc_vec3 w);
 /* Radiance arriving along a ray that escaped the scene, travelling in direction d. */
 spc_rgb spc_emitter_eval_infinite(const spc_emitter *e, spc_vec3 d);
-/* Solid-angle density of sample_direct for an infinite light producing the ray direction
- * toward the light -d (d is the escaping ray's direction). */
+/* Solid-angle density with which sample_direct of an infinite light produces wi = d, where d is
+ * the direction of a ray escaping the scene (it points toward the light). */
 double spc_emitter_pdf_infinite(const spc_emitter *e, spc_vec3 d);
 
 /* Emission sampling (BDPT, light tracing). */
