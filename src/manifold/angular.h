@@ -45,7 +45,7 @@ typedef struct spc_angular_options {
     double tol_light;   /* residual tolerance relative to the light's linear size */
 } spc_angular_options;
 
-/* Gauss-Newton, PLANE loss, 32 iterations, tol_scene 1e-7, tol_light 1e-5 (see angular.c). */
+/* Gauss-Newton, PLANE loss, 48 iterations, tol_scene 1e-7, tol_light 1e-5 (see angular.c). */
 void spc_angular_options_default(spc_angular_options *o);
 
 typedef struct spc_angular_target {
