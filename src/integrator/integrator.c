@@ -16,6 +16,10 @@ bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind)
         *kind = SPC_INTEGRATOR_IPT;
         return true;
     }
+    if (!strcmp(name, "bdpt")) {
+        *kind = SPC_INTEGRATOR_BDPT;
+        return true;
+    }
     return false;
 }
 
@@ -24,6 +28,7 @@ const char *spc_integrator_kind_name(spc_integrator_kind kind)
     switch (kind) {
     case SPC_INTEGRATOR_PATH: return "path";
     case SPC_INTEGRATOR_IPT: return "ipt";
+    case SPC_INTEGRATOR_BDPT: return "bdpt";
     }
     return "?";
 }
@@ -34,6 +39,7 @@ void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ra
     switch (ctx->kind) {
     case SPC_INTEGRATOR_PATH:
     case SPC_INTEGRATOR_IPT: spc_path_sample(ctx, tls, ray, smp, out); return;
+    case SPC_INTEGRATOR_BDPT: spc_bdpt_sample(ctx, tls, ray, smp, out); return;
     }
 }
 

@@ -18,7 +18,8 @@
 
 typedef enum spc_integrator_kind {
     SPC_INTEGRATOR_PATH, /* NEE + BSDF sampling, power heuristic */
-    SPC_INTEGRATOR_IPT   /* implicit: light counts only when a path hits it */
+    SPC_INTEGRATOR_IPT,  /* implicit: light counts only when a path hits it */
+    SPC_INTEGRATOR_BDPT  /* bidirectional path tracing with Veach's MIS (bdpt.c) */
 } spc_integrator_kind;
 
 typedef struct spc_render_ctx {
@@ -29,6 +30,7 @@ typedef struct spc_render_ctx {
     bool hide_emitters;
     int strategy_s, strategy_t; /* bdpt debug: >= 0 keeps only this strategy */
     bool strategy_weighted;
+    bool mis_balance; /* bdpt: balance heuristic instead of the power heuristic */
     /* film geometry for splats: the rendered window within the full film */
     int crop_x, crop_y, width, height;
     const spc_film_spec *film;
@@ -79,5 +81,13 @@ static inline double spc_mis_power(double a, double b)
 
 void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
                      spc_sample_out *out);
+
+/* Bidirectional path tracing (bdpt.c): one camera subpath for this ray and one light subpath, every
+ * (s, t) strategy; t = 1 strategies splat into tls. */
+void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
+                     spc_sample_out *out);
+/* Subpaths cut short by the fixed vertex arrays of bdpt.c since the program started (a path
+ * that long only occurs with max_depth -1, and Russian roulette makes it astronomically rare). */
+uint64_t spc_bdpt_truncated_paths(void);
 
 #endif

@@ -4,6 +4,12 @@
  * Perspective (Mitsuba 3): fov along fov_axis; a film point (fx, fy) maps to the local direction
  * ((1 - 2 fx/W) tan_x, (1 - 2 fy/H) tan_y, 1). Orthographic: local x in [-1, 1] across the width
  * and y in [-H/W, H/W], scaled by to_world.
+ *
+ * Importance (BDPT, light tracing): a film point uniform over the image plane z = 1 (area
+ * A = 4 tan_x tan_y) gives the ray direction w = M v / |M v|, v = (x, y, 1), M the linear part of
+ * to_world; its solid-angle density is |M v|^3 / (|det M| A) (= 1 / (A cos^3 theta) for a rigid
+ * M; Veach 1997, sec. 10.8; pbrt-v4's PerspectiveCamera::PDF_We without the lens). See camera.h
+ * for the normalization against the pixel filter.
  */
 #include "render/camera.h"
 
@@ -96,4 +102,57 @@ bool spc_camera_project(const spc_camera_state *cs, spc_vec3 p, double *fx, doub
     *fx = (1.0 - x / cs->tan_x) * 0.5 * cs->width;
     *fy = (1.0 - y / cs->tan_y) * 0.5 * cs->height;
     return *fx >= 0.0 && *fx < cs->width && *fy >= 0.0 && *fy < cs->height;
+}
+
+bool spc_camera_connectible(const spc_camera_state *cs) { return cs->type == SPC_CAMERA_PERSPECTIVE; }
+
+/* Density of the direction through the image-plane point (x, y, 1), local coordinates. */
+static double pdf_dir_local(const spc_camera_state *cs, double x, double y)
+{
+    spc_vec3 mv = spc_mat4_apply_vector(&cs->to_world, spc_v3(x, y, 1.0));
+    double det = fabs(spc_mat4_det3(&cs->to_world));
+    if (!(det > 0.0))
+        return 0.0;
+    double len = spc_length(mv);
+    return len * len * len / (det * cs->image_area);
+}
+
+double spc_camera_pdf_dir(const spc_camera_state *cs, spc_vec3 d)
+{
+    if (!spc_camera_connectible(cs))
+        return 0.0;
+    spc_vec3 l = spc_mat4_apply_vector(&cs->to_local, d);
+    if (!(l.z > 0.0))
+        return 0.0;
+    return pdf_dir_local(cs, l.x / l.z, l.y / l.z);
+}
+
+bool spc_camera_sample_direct(const spc_camera_state *cs, spc_vec3 ref, double margin, spc_camera_direct *out)
+{
+    if (!spc_camera_connectible(cs))
+        return false;
+    spc_vec3 l = spc_mat4_apply_point(&cs->to_local, ref);
+    /* camera rays start at local depth near_clip and end at far_clip */
+    if (!(l.z > cs->near_clip && l.z < cs->far_clip))
+        return false;
+    double x = l.x / l.z, y = l.y / l.z;
+    double fx = (1.0 - x / cs->tan_x) * 0.5 * cs->width;
+    double fy = (1.0 - y / cs->tan_y) * 0.5 * cs->height;
+    if (!(fx >= -margin && fx < cs->width + margin && fy >= -margin && fy < cs->height + margin))
+        return false;
+    double pdf = pdf_dir_local(cs, x, y);
+    spc_vec3 d = spc_sub(cs->origin, ref);
+    double dist = spc_length(d);
+    if (!(pdf > 0.0) || !(dist > 0.0))
+        return false;
+    out->p = cs->origin;
+    out->wi = spc_scale(d, 1.0 / dist);
+    out->dist = dist;
+    /* the camera ray through ref reaches local depth near_clip at a fraction near/z of the way */
+    out->p_near = spc_madd(cs->origin, spc_sub(ref, cs->origin), cs->near_clip / l.z);
+    out->fx = fx;
+    out->fy = fy;
+    out->We = (double)cs->width * (double)cs->height * pdf;
+    out->pdf = 1.0;
+    return true;
 }

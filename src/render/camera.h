@@ -28,4 +28,43 @@ spc_ray spc_camera_ray(const spc_camera_state *cs, double fx, double fy);
  * *fx, *fy receive the continuous film position. */
 bool spc_camera_project(const spc_camera_state *cs, spc_vec3 p, double *fx, double *fy);
 
+/*
+ * Camera importance, for strategies that connect to the camera (BDPT's t = 1, light tracing).
+ * Only the perspective pinhole can be connected to: an orthographic camera has a delta direction
+ * per film point, so no light-path vertex can reach it (spc_camera_connectible is false, the
+ * functions below return 0 / false and BDPT skips those strategies).
+ *
+ * Normalization. The driver estimates pixel j as I_j = integral over the film of f_j(x) L(x) dx,
+ * x in pixels of the FULL film and f_j the pixel filter normalized to integrate to 1 (box filter
+ * of radius 0.5: f_j = 1 on the pixel). Changing variables to the direction w of the camera ray
+ * gives I_j = integral f_j(x(w)) We(w) L(w) dw with the importance per unit solid angle
+ * We(w) = W H pdf_dir(w), where pdf_dir is the density of w when the film point is uniform over
+ * the whole film (1 / (A cos^3) for an image plane of area A at unit distance). A light-tracing
+ * estimate of I_j therefore multiplies by We and lets spc_splat_add apply f_j; the integrator
+ * divides by the number of light paths traced per pass.
+ */
+/* True if light paths can be connected to the camera (perspective pinhole). */
+bool spc_camera_connectible(const spc_camera_state *cs);
+/* Solid-angle density of the world direction d (unit) of a camera ray when the film position is
+ * uniform over the whole film. The same expression is returned past the film's edges (where
+ * pixel filters wider than a pixel still take camera samples); 0 behind the camera and for
+ * orthographic cameras. */
+double spc_camera_pdf_dir(const spc_camera_state *cs, spc_vec3 d);
+
+typedef struct spc_camera_direct {
+    spc_vec3 p;       /* the pinhole */
+    spc_vec3 wi;      /* unit direction from ref toward the pinhole */
+    double dist;      /* distance from ref to the pinhole */
+    spc_vec3 p_near;  /* where the camera ray through ref starts (on the near clip plane): visibility
+                         must be tested from ref up to this point only */
+    double fx, fy;    /* film position (continuous pixels of the full film) */
+    double We;        /* importance per unit solid angle at the pinhole: W H pdf_dir(-wi) */
+    double pdf;       /* density of choosing the camera point: 1 (the pinhole is a delta position) */
+} spc_camera_direct;
+
+/* Connects a world point to the camera: false if ref projects farther than `margin` pixels
+ * outside the film (pass the pixel filter's radius: points just off the film still reach the
+ * filters of the edge pixels), lies outside the clip range, or the camera is not connectible. */
+bool spc_camera_sample_direct(const spc_camera_state *cs, spc_vec3 ref, double margin, spc_camera_direct *out);
+
 #endif

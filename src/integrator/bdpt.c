@@ -1,0 +1,618 @@
+/*
+ * integrator/bdpt.c: bidirectional path tracing (Veach 1997, ch. 10; Veach and Guibas 1995) with
+ * multiple importance sampling over every (s, t) strategy (Veach 1997, ch. 9 and sec. 10.3),
+ * the weights computed by recursive ratios of forward and reverse vertex densities (shared/papers
+ * 004, eqs. 30-35; Veach 1997, eq. 10.9; pbrt-v4 does the same).
+ *
+ * Per camera sample: a camera subpath z0 (the camera) z1 ... z_{t-1} and a light subpath y0 (on a
+ * light, picked in proportion to power) y1 ... y_{s-1}. A strategy (s, t) joins y_{s-1} to z_{t-1}
+ * into the path y0 .. y_{s-1} z_{t-1} .. z0 of s + t - 1 segments (Mitsuba's max_depth counts
+ * segments, as in path.c):
+ * - s = 0: the camera subpath itself hits an area light or escapes to the environment;
+ * - s = 1, t >= 2: a fresh light point from spc_emitter_sample_direct at z_{t-1} (next-event
+ *   estimation; spheres sampled by solid angle);
+ * - t = 1: y_{s-1} joined to the pinhole and splatted on the film (light tracing);
+ * - otherwise both vertices are joined by a shadow ray.
+ * t = 0 (a light path hitting the lens) is impossible for a pinhole and is not a strategy.
+ *
+ * Densities. Every vertex keeps pdf_fwd, the density of its subpath's walk producing it, and
+ * pdf_rev, the density of a walk from the other end producing it, both in AREA measure (solid
+ * angle for directions: the environment and vertices on lights at infinity, whose following
+ * vertex gets the emission disk's area density times its cosine). For the strategy with i light
+ * vertices, p_i = prod_{j<i} pL(x_j) prod_{j>=i} pE(x_j), so p_{i+1} / p_i = pL(x_i) / pE(x_i)
+ * and the weight w_s = 1 / sum_i (p_i / p_s)^beta comes from products of such ratios: no path
+ * density is ever formed, so nothing overflows. Two refinements of the plain product:
+ * - s = 1 samples y0 by sample_direct from x1, not by the emission sampling of the light
+ *   subpath, so p_1 uses that density D(x0 | x1) (converted to area; it differs from the
+ *   emission density for lights sampled by solid angle); the ratios next to i = 1 use it.
+ * - A vertex scattered by a delta lobe cannot be joined; the densities of its neighbours sampled
+ *   from it are stored as 0 and counted as 1 in the ratios (pbrt's remap0), where they cancel
+ *   between the strategies that remain possible. Delta lights (point, spot: delta position;
+ *   directional: delta direction) cannot be hit (no s = 0); a light at infinity cannot be joined to
+ *   the pinhole directly ((1, 1) is impossible for it).
+ * The t = 1 strategy has N = (pixels of the rendered window) light paths per pass for each pixel,
+ * against one camera sample: in the multi-sample heuristic its density counts N times. The camera's
+ * density for MIS takes the pixel filter as 1 over the pixel (exact for the box of radius 0.5;
+ * for wider filters the weights still sum to one, they are only less than optimal).
+ *
+ * Shading normals: BSDFs do not correct for them (bsdf.h), so light subpaths apply Veach's
+ * adjoint correction (1997, eq. 5.20) |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) at each scattering and
+ * at the light-side end of a connection. Camera subpaths need none.
+ *
+ * Russian roulette on both subpaths from rr_depth segments, on the throughput since the
+ * subpath's start (times eta^2 on camera paths, as path.c); the MIS weights ignore the survival
+ * probabilities (they still sum to one, so the estimate stays unbiased).
+ *
+ * Scratch: each subpath lives in a fixed array of SPC_BDPT_MAX_VERTICES vertices on the stack; a
+ * walk that would grow longer stops there (counted by spc_bdpt_truncated_paths).
+ *
+ * Debug: ctx->strategy_s / strategy_t >= 0 keep only the matching strategies, weighted by MIS
+ * only if ctx->strategy_weighted. The sum of the weighted single-strategy images is the full image.
+ */
+#include <stdatomic.h>
+#include <string.h>
+
+#include "core/rng.h"
+#include "integrator/integrator.h"
+
+/* Vertices per subpath. 64 segments are far beyond anything Russian roulette lets through in a
+ * lit scene (each segment past rr_depth survives with probability <= 0.95: 0.95^59 < 5%, and
+ * throughput usually drops much faster), while two arrays of them stay well inside a thread's
+ * stack. */
+#define SPC_BDPT_MAX_VERTICES 64
+#define SPC_BDPT_MAX_PATH (2 * SPC_BDPT_MAX_VERTICES)
+
+/* Stream keys of the light subpath and of the s = 1 light samples, mixed with the pixel's seed. */
+#define SPC_BDPT_LIGHT_STREAM 0x6c69676874706174ULL
+#define SPC_BDPT_CONNECT_STREAM 0x636f6e6e65637473ULL
+
+static atomic_ullong truncated_paths;
+
+uint64_t spc_bdpt_truncated_paths(void) { return (uint64_t)atomic_load(&truncated_paths); }
+
+typedef enum vkind {
+    V_CAMERA,  /* z0 */
+    V_LIGHT,   /* y0: a point on an area light, a point/spot position, or a light at infinity */
+    V_SURFACE, /* a scattering vertex */
+    V_ENV      /* a camera ray that escaped: p holds its unit direction */
+} vkind;
+
+typedef struct vtx {
+    vkind kind;
+    spc_hit h;      /* V_SURFACE: the hit; V_LIGHT: p, ng and err only (to spawn shadow rays) */
+    spc_vec3 p;     /* position (V_ENV: direction toward the environment) */
+    spc_vec3 n;     /* geometric normal if on_surface */
+    spc_vec3 wo;    /* V_SURFACE: unit direction toward the previous vertex of its own subpath */
+    spc_vec3 d;     /* V_LIGHT at infinity: the direction light travels */
+    spc_rgb beta;   /* subpath throughput arriving at the vertex (light endpoint: 1 / origin pdf) */
+    spc_rgb Le;     /* V_LIGHT on an area light: emitted radiance (front side) */
+    double pdf_fwd, pdf_rev;
+    double pdf_pos; /* V_LIGHT at infinity: area density on the emission disk */
+    const spc_emitter *light;
+    bool on_surface, delta, infinite;
+} vtx;
+
+typedef struct bdpt {
+    const spc_render_ctx *ctx;
+    const spc_scene *sc;
+    double n_light_paths; /* light subpaths per pass: pixels of the rendered window */
+    double film_pixels;   /* pixels of the full film */
+    bool weighted, balance;
+} bdpt;
+
+/* ---- densities ---- */
+
+/* Solid-angle density pdf at `from` converted to the measure of `to` (area; directions stay). */
+static double to_area(double pdf, const vtx *from, const vtx *to)
+{
+    if (to->kind == V_ENV || (to->kind == V_LIGHT && to->infinite))
+        return pdf;
+    spc_vec3 w = spc_sub(to->p, from->p);
+    double d2 = spc_length2(w);
+    if (!(d2 > 0.0))
+        return 0.0;
+    double c = to->on_surface ? spc_absdot(to->n, w) / sqrt(d2) : 1.0;
+    return pdf * c / d2;
+}
+
+/* Unit direction from vertex a toward vertex b (b at infinity: along its direction). */
+static spc_vec3 dir_to(const vtx *a, const vtx *b)
+{
+    if (a->kind == V_LIGHT && a->infinite)
+        return a->d;
+    if (b->kind == V_ENV)
+        return b->p;
+    if (b->kind == V_LIGHT && b->infinite)
+        return spc_neg(b->d);
+    return spc_normalize(spc_sub(b->p, a->p));
+}
+
+/* Density with which the light subpath picks its origin l: light pmf times the area density of
+ * the position (the direction density for lights at infinity). */
+static double light_origin_pdf(const spc_scene *sc, const vtx *l)
+{
+    double pp, pd;
+    spc_emitter_pdf_emission(l->light, l->p, l->n, l->infinite ? l->d : l->n, &pp, &pd);
+    return spc_scene_emitter_pmf(sc, l->light) * (l->infinite ? pd : pp);
+}
+
+/* Density (measure of to) with which light endpoint l emits toward vertex `to`. */
+static double light_emit_pdf(const vtx *l, const vtx *to)
+{
+    double pp, pd;
+    if (l->infinite) {
+        spc_emitter_pdf_emission(l->light, l->p, l->n, l->d, &pp, &pd);
+        return pp * (to->on_surface ? spc_absdot(to->n, l->d) : 1.0);
+    }
+    spc_emitter_pdf_emission(l->light, l->p, l->n, dir_to(l, to), &pp, &pd);
+    return to_area(pd, l, to);
+}
+
+/* Density (area at l) of spc_emitter_sample_direct producing l from ref, times the light pmf.
+ * For delta lights and lights at infinity it equals the origin density. */
+static double light_direct_pdf(const spc_scene *sc, const vtx *l, const vtx *ref)
+{
+    if (l->light->type != SPC_EMITTER_AREA)
+        return light_origin_pdf(sc, l);
+    double sa = spc_emitter_pdf_direct(l->light, ref->p, l->p, l->n);
+    return spc_scene_emitter_pmf(sc, l->light) * to_area(sa, ref, l);
+}
+
+/* Veach's adjoint correction for shading normals on light subpaths (1997, eq. 5.20): wo toward
+ * the light side, wi toward the camera side. */
+static double shading_fix(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
+{
+    double den = spc_absdot(wo, h->ng) * spc_absdot(wi, h->sh.n);
+    if (!(den > 0.0))
+        return 0.0;
+    return spc_absdot(wo, h->sh.n) * spc_absdot(wi, h->ng) / den;
+}
+
+static double remap0(double p) { return p > 0.0 && isfinite(p) ? p : 1.0; }
+
+/* ---- random walks ---- */
+
+/* Extends path[0 .. n-1] by tracing `ray` from path[n-1], which sampled its direction with
+ * solid-angle density pdf_dir; beta is the throughput carried by the ray. Returns the new vertex
+ * count (at most max_vertices). */
+static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir, spc_transport mode,
+                       spc_sampler *smp, vtx *path, int n, int max_vertices, bool capped)
+{
+    const spc_render_ctx *ctx = B->ctx;
+    const spc_transport other = mode == SPC_MODE_RADIANCE ? SPC_MODE_IMPORTANCE : SPC_MODE_RADIANCE;
+    double eta_scale = 1.0;
+    spc_rgb thr = spc_rgb1(1.0); /* throughput since the walk's start, for Russian roulette */
+    for (;;) {
+        if (n >= max_vertices)
+            break;
+        vtx *prev = &path[n - 1], *v = &path[n];
+        spc_hit h;
+        if (!spc_scene_intersect(B->sc, &ray, &h)) {
+            if (mode == SPC_MODE_RADIANCE && B->sc->env) {
+                v->kind = V_ENV;
+                v->p = ray.d;
+                v->n = spc_v3(0, 0, 0);
+                v->beta = beta;
+                v->pdf_fwd = pdf_dir;
+                v->pdf_rev = 0.0;
+                v->on_surface = v->delta = v->infinite = false;
+                v->light = B->sc->env;
+                ++n;
+            }
+            break;
+        }
+        v->kind = V_SURFACE;
+        v->h = h;
+        v->p = h.p;
+        v->n = h.ng;
+        v->wo = spc_neg(ray.d);
+        v->beta = beta;
+        v->on_surface = true;
+        v->delta = v->infinite = false;
+        v->light = h.emitter;
+        v->pdf_rev = 0.0;
+        if (prev->kind == V_LIGHT && prev->infinite)
+            v->pdf_fwd = prev->pdf_pos * spc_absdot(h.ng, ray.d);
+        else
+            v->pdf_fwd = to_area(pdf_dir, prev, v);
+        ++n;
+        if (n >= max_vertices) {
+            if (capped) /* max_depth would allow more: the array cut the walk short */
+                atomic_fetch_add(&truncated_paths, 1);
+            break;
+        }
+        int segments = n - 1;
+
+        double u_lobe = spc_sampler_1d(smp);
+        spc_vec2 u_dir = spc_sampler_2d(smp);
+        double u_rr = spc_sampler_1d(smp);
+        spc_bsdf_sample bs;
+        if (!spc_bsdf_sample_dir(h.bsdf, &v->h, mode, v->wo, u_lobe, u_dir, &bs))
+            break;
+        spc_rgb w = bs.weight;
+        if (mode == SPC_MODE_IMPORTANCE)
+            w = spc_rgb_scale(w, shading_fix(&v->h, v->wo, bs.wi));
+        double pdf_rev_dir;
+        if (bs.lobe & SPC_LOBE_DELTA) {
+            v->delta = true;
+            pdf_dir = 0.0;
+            pdf_rev_dir = 0.0;
+        } else {
+            pdf_dir = bs.pdf;
+            pdf_rev_dir = spc_bsdf_pdf(h.bsdf, &v->h, other, bs.wi, v->wo);
+        }
+        prev->pdf_rev = to_area(pdf_rev_dir, v, prev);
+        beta = spc_rgb_mul(beta, w);
+        thr = spc_rgb_mul(thr, w);
+        if (spc_rgb_is_black(beta) || !spc_rgb_finite(beta))
+            break;
+        if (mode == SPC_MODE_RADIANCE &&
+            (bs.lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION)))
+            eta_scale *= bs.eta * bs.eta;
+        ray = spc_hit_spawn(&v->h, bs.wi);
+        if (segments >= ctx->rr_depth) {
+            double q = spc_min(0.95, spc_rgb_max(thr) * eta_scale);
+            if (!(u_rr < q))
+                break;
+            beta = spc_rgb_scale(beta, 1.0 / q);
+            thr = spc_rgb_scale(thr, 1.0 / q);
+        }
+    }
+    return n;
+}
+
+/* The light subpath: y0 by emission sampling, then a walk in importance mode. */
+static int light_subpath(const bdpt *B, spc_sampler *smp, vtx *y, int max_vertices, bool capped)
+{
+    double u_light = spc_sampler_1d(smp);
+    spc_vec2 u_pos = spc_sampler_2d(smp);
+    spc_vec2 u_dir = spc_sampler_2d(smp);
+    if (max_vertices < 1)
+        return 0;
+    double pmf;
+    const spc_emitter *e = spc_scene_sample_emitter(B->sc, u_light, &pmf);
+    spc_emitter_emission em;
+    if (!e || !(pmf > 0.0) || !spc_emitter_sample_emission(e, u_pos, u_dir, &em) || !(em.pdf_pos > 0.0) ||
+        !(em.pdf_dir > 0.0))
+        return 0;
+    vtx *y0 = &y[0];
+    y0->kind = V_LIGHT;
+    y0->light = e;
+    y0->infinite = em.is_infinite;
+    y0->on_surface = e->type == SPC_EMITTER_AREA;
+    y0->delta = false;
+    y0->p = em.p;
+    y0->n = y0->on_surface ? em.n : spc_v3(0, 0, 0);
+    y0->d = em.d;
+    y0->h.p = em.p;
+    y0->h.ng = y0->n;
+    y0->h.err = em.err;
+    y0->pdf_pos = em.pdf_pos;
+    y0->pdf_fwd = pmf * (em.is_infinite ? em.pdf_dir : em.pdf_pos);
+    y0->pdf_rev = 0.0;
+    y0->beta = spc_rgb1(1.0 / (pmf * em.pdf_pos));
+    y0->Le = spc_rgb1(0.0);
+    if (y0->on_surface) {
+        double c = spc_dot(em.n, em.d);
+        if (c > 0.0)
+            y0->Le = spc_rgb_scale(em.weight, em.pdf_pos * em.pdf_dir / c);
+    }
+    if (max_vertices < 2)
+        return 1;
+    spc_ray ray;
+    ray.o = y0->on_surface ? spc_hit_offset(&y0->h, em.d) : em.p;
+    ray.d = em.d;
+    ray.tmin = 0.0;
+    ray.tmax = SPC_INF;
+    return random_walk(B, ray, spc_rgb_scale(em.weight, 1.0 / pmf), em.pdf_dir, SPC_MODE_IMPORTANCE, smp, y, 1,
+                       max_vertices, capped);
+}
+
+/* ---- MIS ---- */
+
+static double heuristic(const bdpt *B, double r) { return B->balance ? r : r * r; }
+
+/*
+ * The MIS weight of strategy (s, t). y: light subpath; z: camera subpath. lend: the light endpoint
+ * when it is not y[0] (s = 0: z[t-1] seen as a light; s = 1, t >= 2: the sample_direct vertex).
+ * pdf_cam_area: t = 1 only, the camera's density (times its sample count ratio) of y[s-1].
+ */
+static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend,
+                         double pdf_cam_area)
+{
+    const spc_scene *sc = B->sc;
+    const int n = s + t;
+    const vtx *x[SPC_BDPT_MAX_PATH];
+    double Lp[SPC_BDPT_MAX_PATH], Ep[SPC_BDPT_MAX_PATH];
+    bool dl[SPC_BDPT_MAX_PATH];
+    for (int j = 0; j < s; ++j) {
+        x[j] = (j == 0 && lend) ? lend : &y[j];
+        Lp[j] = x[j]->pdf_fwd;
+        Ep[j] = x[j]->pdf_rev;
+        dl[j] = x[j]->delta;
+    }
+    for (int k = 0; k < t; ++k) {
+        int j = n - 1 - k;
+        x[j] = &z[k];
+        Ep[j] = z[k].pdf_fwd;
+        Lp[j] = z[k].pdf_rev;
+        dl[j] = z[k].delta;
+    }
+    const vtx *l0 = s == 0 ? lend : x[0]; /* the light endpoint, as a light */
+    if (s == 0) {
+        dl[0] = false;
+        Lp[0] = light_origin_pdf(sc, l0);
+        Lp[1] = light_emit_pdf(l0, x[1]);
+    } else {
+        const vtx *a = x[s - 1], *b = x[s];
+        dl[s - 1] = dl[s] = false;
+        spc_vec3 ab = dir_to(a, b), ba = dir_to(b, a);
+        if (t == 1)
+            Ep[s - 1] = pdf_cam_area;
+        else
+            Ep[s - 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_RADIANCE, b->wo, ba), b, a);
+        if (s == 1) {
+            Lp[0] = l0->pdf_fwd;
+            Lp[1] = light_emit_pdf(a, b);
+        } else {
+            Lp[s] = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_IMPORTANCE, a->wo, ab), a, b);
+            Ep[s - 2] = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_RADIANCE, ab, a->wo), a, x[s - 2]);
+        }
+        if (t >= 2)
+            Lp[s + 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, x[s + 1]);
+    }
+    /* p_1 samples x0 from x1 by sample_direct (for n = 2 it is the (1, 1) strategy: emission) */
+    double D = n >= 3 ? light_direct_pdf(sc, l0, x[1]) : Lp[0];
+    const bool light_delta = spc_emitter_is_delta(l0->light);
+
+    /* r(i + 1) / r(i) = p_{i+1} / p_i */
+#define UP(i)                                                                                                         \
+    ((i) == 0 ? remap0(D) / remap0(Ep[0])                                                                             \
+              : ((i) == 1 && n > 2 ? remap0(Lp[0]) * remap0(Lp[1]) / (remap0(D) * remap0(Ep[1]))                      \
+                                   : remap0(Lp[i]) / remap0(Ep[i])))
+    double sum = 1.0, r = 1.0;
+    for (int i = s; i + 1 <= n - 1; ++i) {
+        r *= UP(i);
+        int k = i + 1; /* strategy with k light vertices */
+        bool valid;
+        if (k == n - 1)
+            valid = !dl[n - 1] && !dl[n - 2] && (n > 2 || (!l0->infinite && !light_delta));
+        else
+            valid = !dl[k - 1] && !dl[k];
+        if (valid)
+            sum += heuristic(B, r);
+    }
+    r = 1.0;
+    for (int i = s; i - 1 >= 0; --i) {
+        r /= UP(i - 1);
+        int k = i - 1;
+        bool valid = k == 0 ? !light_delta : (!dl[k - 1] && !dl[k]);
+        if (valid)
+            sum += heuristic(B, r);
+    }
+#undef UP
+    double w = 1.0 / sum;
+    return isfinite(w) && w > 0.0 ? w : 0.0;
+}
+
+/* ---- connections ---- */
+
+static double weight_of(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend, double pdf_cam)
+{
+    return B->weighted ? mis_weight(B, y, s, z, t, lend, pdf_cam) : 1.0;
+}
+
+/* s = 0: the camera subpath's last vertex z[t-1] is on a light. */
+static spc_rgb connect_s0(const bdpt *B, const vtx *z, int t)
+{
+    const vtx *v = &z[t - 1];
+    vtx l;
+    spc_rgb Le;
+    l.kind = V_LIGHT;
+    l.delta = false;
+    l.pdf_rev = 0.0;
+    if (v->kind == V_ENV) {
+        Le = spc_emitter_eval_infinite(B->sc->env, v->p);
+        l.light = B->sc->env;
+        l.infinite = true;
+        l.on_surface = false;
+        l.d = spc_neg(v->p);
+        l.p = spc_v3(0, 0, 0);
+        l.n = l.p;
+    } else if (v->kind == V_SURFACE && v->h.emitter) {
+        Le = spc_emitter_eval_area(v->h.emitter, &v->h, v->wo);
+        l.light = v->h.emitter;
+        l.infinite = false;
+        l.on_surface = true;
+        l.p = v->p;
+        l.n = v->n;
+        l.d = v->wo;
+    } else {
+        return spc_rgb1(0.0);
+    }
+    spc_rgb C = spc_rgb_mul(v->beta, Le);
+    if (spc_rgb_is_black(C))
+        return C;
+    return spc_rgb_scale(C, weight_of(B, NULL, 0, z, t, &l, 0.0));
+}
+
+/* t = 1: the light subpath's vertex y[s-1] joined to the pinhole, splatted. */
+static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const vtx *z)
+{
+    const spc_render_ctx *ctx = B->ctx;
+    const vtx *v = &y[s - 1];
+    /* a light at infinity cannot be joined to a point; a delta-position light seen directly is not
+     * rendered (as in path and Mitsuba: point and spot lights are invisible) */
+    if (v->kind == V_LIGHT && (v->infinite || !v->on_surface))
+        return;
+    if (v->kind == V_SURFACE && !spc_bsdf_has_smooth(v->h.bsdf))
+        return;
+    spc_camera_direct cd;
+    if (!spc_camera_sample_direct(ctx->cam, v->p, ctx->film->filter_radius, &cd))
+        return;
+    spc_rgb C;
+    if (v->kind == V_LIGHT) { /* (1, 1): a point on an area light seen directly */
+        double c = spc_dot(v->n, cd.wi);
+        if (!(c > 0.0))
+            return;
+        C = spc_rgb_scale(spc_rgb_mul(v->beta, v->Le), c / (cd.dist * cd.dist));
+    } else {
+        spc_rgb f = spc_bsdf_eval(v->h.bsdf, &v->h, SPC_MODE_IMPORTANCE, v->wo, cd.wi);
+        double g = shading_fix(&v->h, v->wo, cd.wi) * spc_absdot(cd.wi, v->h.sh.n) / (cd.dist * cd.dist);
+        C = spc_rgb_scale(spc_rgb_mul(v->beta, f), g);
+    }
+    C = spc_rgb_scale(C, cd.We / B->n_light_paths);
+    if (spc_rgb_is_black(C))
+        return;
+    spc_ray sr = spc_hit_spawn_to(&v->h, cd.p_near, 0.0);
+    if (spc_scene_occluded(B->sc, &sr))
+        return;
+    double w = 1.0;
+    if (B->weighted) {
+        /* the camera's density of v: its direction density times W H / N (see the file comment) */
+        double pdf_cam = to_area(cd.We / B->n_light_paths, &z[0], v);
+        w = mis_weight(B, y, s, z, 1, NULL, pdf_cam);
+    }
+    spc_splat_add(ctx, tls, cd.fx, cd.fy, spc_rgb_scale(C, w));
+}
+
+/* s = 1, t >= 2: a light point sampled from z[t-1] (next-event estimation). */
+static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, spc_vec2 u_lpos)
+{
+    const vtx *v = &z[t - 1];
+    if (v->kind != V_SURFACE || !spc_bsdf_has_smooth(v->h.bsdf))
+        return spc_rgb1(0.0);
+    double pmf;
+    const spc_emitter *e = spc_scene_sample_emitter(B->sc, u_light, &pmf);
+    spc_emitter_direct ds;
+    if (!e || !(pmf > 0.0) || !spc_emitter_sample_direct(e, v->p, u_lpos, &ds) || !(ds.pdf > 0.0))
+        return spc_rgb1(0.0);
+    spc_rgb f = spc_bsdf_eval(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, v->wo, ds.wi);
+    double c = spc_absdot(ds.wi, v->h.sh.n);
+    spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(v->beta, f), ds.L), c / (pmf * ds.pdf));
+    if (spc_rgb_is_black(C))
+        return C;
+    spc_ray sr = ds.is_infinite ? spc_hit_spawn(&v->h, ds.wi) : spc_hit_spawn_to(&v->h, ds.p, ds.err);
+    if (spc_scene_occluded(B->sc, &sr))
+        return spc_rgb1(0.0);
+    if (!B->weighted)
+        return C;
+    vtx l;
+    l.kind = V_LIGHT;
+    l.light = e;
+    l.infinite = ds.is_infinite;
+    l.on_surface = e->type == SPC_EMITTER_AREA;
+    l.delta = false;
+    l.p = ds.p;
+    l.n = l.on_surface ? ds.n : spc_v3(0, 0, 0);
+    l.d = spc_neg(ds.wi);
+    l.pdf_rev = 0.0;
+    l.pdf_fwd = light_origin_pdf(B->sc, &l);
+    return spc_rgb_scale(C, mis_weight(B, &l, 1, z, t, &l, 0.0));
+}
+
+/* s >= 2, t >= 2: join two scattering vertices. */
+static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int t)
+{
+    const vtx *a = &y[s - 1], *b = &z[t - 1];
+    if (a->kind != V_SURFACE || b->kind != V_SURFACE || !spc_bsdf_has_smooth(a->h.bsdf) ||
+        !spc_bsdf_has_smooth(b->h.bsdf))
+        return spc_rgb1(0.0);
+    spc_vec3 d = spc_sub(b->p, a->p);
+    double d2 = spc_length2(d);
+    if (!(d2 > 0.0))
+        return spc_rgb1(0.0);
+    spc_vec3 w = spc_scale(d, 1.0 / sqrt(d2)); /* from a toward b */
+    spc_rgb fa = spc_bsdf_eval(a->h.bsdf, &a->h, SPC_MODE_IMPORTANCE, a->wo, w);
+    if (spc_rgb_is_black(fa))
+        return fa;
+    spc_rgb fb = spc_bsdf_eval(b->h.bsdf, &b->h, SPC_MODE_RADIANCE, b->wo, spc_neg(w));
+    double G = shading_fix(&a->h, a->wo, w) * spc_absdot(w, a->h.sh.n) * spc_absdot(w, b->h.sh.n) / d2;
+    spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(a->beta, fa), spc_rgb_mul(fb, b->beta)), G);
+    if (spc_rgb_is_black(C))
+        return C;
+    spc_ray sr = spc_hit_spawn_to(&a->h, b->p, b->h.err);
+    if (spc_scene_occluded(B->sc, &sr))
+        return spc_rgb1(0.0);
+    return spc_rgb_scale(C, weight_of(B, y, s, z, t, NULL, 0.0));
+}
+
+/* ---- one sample ---- */
+
+void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0, spc_sampler *smp,
+                     spc_sample_out *out)
+{
+    vtx z[SPC_BDPT_MAX_VERTICES], y[SPC_BDPT_MAX_VERTICES];
+    bdpt B;
+    B.ctx = ctx;
+    B.sc = ctx->scene;
+    B.n_light_paths = (double)ctx->width * (double)ctx->height;
+    B.film_pixels = (double)ctx->cam->width * (double)ctx->cam->height;
+    const bool debug = ctx->strategy_s >= 0 || ctx->strategy_t >= 0;
+    B.weighted = !debug || ctx->strategy_weighted;
+    B.balance = ctx->mis_balance;
+    const bool unbounded = ctx->max_depth < 0;
+    /* t <= max_depth + 1 (s = 0), s <= max_depth (t = 1) */
+    const bool cam_capped = unbounded || ctx->max_depth + 1 > SPC_BDPT_MAX_VERTICES;
+    const bool light_capped = unbounded || ctx->max_depth > SPC_BDPT_MAX_VERTICES;
+    int max_cam = cam_capped ? SPC_BDPT_MAX_VERTICES : ctx->max_depth + 1;
+    int max_light = light_capped ? SPC_BDPT_MAX_VERTICES : ctx->max_depth;
+
+    out->albedo = spc_rgb1(0.0);
+    out->normal = spc_v3(0, 0, 0);
+    out->depth = 0.0;
+
+    /* camera subpath */
+    double pdf_cam = spc_camera_pdf_dir(ctx->cam, ray0->d);
+    vtx *z0 = &z[0];
+    z0->kind = V_CAMERA;
+    z0->p = ray0->o;
+    z0->n = spc_v3(0, 0, 0);
+    z0->on_surface = z0->infinite = false;
+    /* no light path can join an orthographic camera */
+    z0->delta = !(pdf_cam > 0.0);
+    z0->beta = spc_rgb1(1.0);
+    z0->pdf_fwd = 1.0;
+    z0->pdf_rev = 0.0;
+    z0->light = NULL;
+    double pdf_cam_mis = pdf_cam > 0.0 ? pdf_cam * B.film_pixels / B.n_light_paths : 1.0;
+    int nc = random_walk(&B, *ray0, spc_rgb1(1.0), pdf_cam_mis, SPC_MODE_RADIANCE, smp, z, 1, max_cam, cam_capped);
+    if (nc >= 2 && z[1].kind == V_SURFACE) {
+        out->albedo = spc_bsdf_albedo(z[1].h.bsdf, &z[1].h);
+        out->normal = z[1].h.sh.n;
+        out->depth = z[1].h.t;
+    }
+
+    /* light subpath, from its own stream so that its dimensions do not depend on the camera's */
+    spc_sampler ls, cs;
+    spc_sampler_start_key(&ls, spc_hash_combine(smp->pixel_seed, SPC_BDPT_LIGHT_STREAM), smp->index);
+    spc_sampler_start_key(&cs, spc_hash_combine(smp->pixel_seed, SPC_BDPT_CONNECT_STREAM), smp->index);
+    int nl = light_subpath(&B, &ls, y, max_light, light_capped);
+
+    spc_rgb L = spc_rgb1(0.0);
+    for (int t = 1; t <= nc; ++t) {
+        double u_light = spc_sampler_1d(&cs);
+        spc_vec2 u_lpos = spc_sampler_2d(&cs);
+        for (int s = 0; s <= nl; ++s) {
+            int segments = s + t - 1;
+            if (segments < 1 || (!unbounded && segments > ctx->max_depth))
+                continue;
+            if (segments == 1 && ctx->hide_emitters)
+                continue;
+            if ((ctx->strategy_s >= 0 && s != ctx->strategy_s) || (ctx->strategy_t >= 0 && t != ctx->strategy_t))
+                continue;
+            spc_rgb c;
+            if (s == 0)
+                c = connect_s0(&B, z, t);
+            else if (t == 1) {
+                connect_t1(&B, tls, y, s, z);
+                continue;
+            } else if (s == 1)
+                c = connect_s1(&B, z, t, u_light, u_lpos);
+            else
+                c = connect_st(&B, y, s, z, t);
+            L = spc_rgb_add(L, c);
+        }
+    }
+    out->L = L;
+}

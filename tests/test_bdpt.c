@@ -1,0 +1,597 @@
+/*
+ * tests/test_bdpt.c: bidirectional path tracing (src/integrator/bdpt.c) and camera importance.
+ *
+ * - Closed forms of test_render.c rendered by bdpt: white furnace sphere and cube (three scales),
+ *   point light in a diffuse sphere, glass slab behind an orthographic camera (no t = 1).
+ * - Per-pixel z-tests (Sidak over pixels, alpha 0.01, spc_image_diff) of bdpt against path: a box
+ *   with an area light, a glass and a mirror sphere; a caustic (glass sphere on a floor, small
+ *   sphere light); a point light in a diffuse box; and bdpt's balance heuristic against its power
+ *   heuristic.
+ * - Strategies (debug mode): the weighted single-strategy images sum to the full image; each
+ *   unweighted strategy (s, t) of length k = s + t - 1 in a diffuse scene (every strategy samples
+ *   every path there) agrees with the length-k image; light tracing (t = 1) agrees with NEE
+ *   (s = 1) for box, tent and Gaussian pixel filters and a crop window, which checks the
+ *   normalization of the camera importance.
+ * - Bit-identical images, splats included, for 1 and 2 threads.
+ */
+/* ctest-labels: stat */
+/* ctest-timeout: 600 */
+#include "harness.h"
+#include "render_util.h"
+
+/* ---- helpers ---- */
+
+static spc_film *render_opts(const spc_scene *sc, const char *integrator, int spp, int threads, uint64_t seed,
+                             int max_depth, int s, int t, bool weighted, bool balance)
+{
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = spp;
+    o.threads = threads;
+    o.seed = seed;
+    o.integrator = integrator;
+    o.max_depth = max_depth;
+    o.strategy_s = s;
+    o.strategy_t = t;
+    o.strategy_weighted = weighted;
+    o.mis_balance = balance;
+    spc_film *f = NULL;
+    spc_error err;
+    spc_render_stats st;
+    if (spc_render(sc, &o, &f, &st, &err) != SPC_OK) {
+        char buf[1200];
+        spc_error_format(&err, buf, sizeof buf);
+        printf("  render failed: %s\n", buf);
+        spc_film_destroy(f);
+        return NULL;
+    }
+    return f;
+}
+
+/* |mean - expected| within k standard errors (as test_render.c). */
+static void check_mean(const spc_film *f, double expected, double k)
+{
+    for (int c = 0; c < 3; ++c) {
+        double m, se;
+        tu_image_mean(f, c, &m, &se);
+        CHECK_MSG(fabs(m - expected) <= k * se + 1e-6 * expected, "channel %d: mean %.6f expected %.6f (se %.2g)", c, m,
+                  expected, se);
+        CHECK_MSG(se > 0.0 && se < 0.02 * expected, "channel %d: standard error %.3g is not small", c, se);
+    }
+}
+
+/* Fraction of pixels passing the Sidak-corrected z-test of a against b (both with variance);
+ * prints the worst pixels when below `need`. */
+static double ztest(const spc_film *a, const spc_film *b, double need, const char *what)
+{
+    spc_image_rgb ia = {a->width, a->height, a->rgb, a->var};
+    spc_image_rgb ib = {b->width, b->height, b->rgb, b->var};
+    spc_diff_result r;
+    spc_error err;
+    if (spc_image_diff(&ia, &ib, &r, &err) != SPC_OK || !r.has_ztest)
+        return 0.0;
+    printf("  %s: z-test pass %.4f, means (%.5f %.5f %.5f) vs (%.5f %.5f %.5f)\n", what, r.ztest_pass_fraction,
+           r.mean_a[0], r.mean_a[1], r.mean_a[2], r.mean_b[0], r.mean_b[1], r.mean_b[2]);
+    if (r.ztest_pass_fraction < need) {
+        int shown = 0;
+        for (int i = 0; i < a->width * a->height && shown < 8; ++i)
+            for (int c = 0; c < 3; ++c) {
+                double v = (double)a->var[3 * i + c] + b->var[3 * i + c];
+                double z = v > 0.0 ? (a->rgb[3 * i + c] - b->rgb[3 * i + c]) / sqrt(v) : 0.0;
+                if (fabs(z) > 4.0) {
+                    printf("    pixel (%d, %d) channel %d: %.5g vs %.5g, z = %.2f\n", i % a->width, i / a->width, c,
+                           a->rgb[3 * i + c], b->rgb[3 * i + c], z);
+                    ++shown;
+                    break;
+                }
+            }
+    }
+    return r.ztest_pass_fraction;
+}
+
+/* The image means of a and b agree within k combined standard errors, per channel. */
+static void check_means_agree(const spc_film *a, const spc_film *b, double k)
+{
+    for (int c = 0; c < 3; ++c) {
+        double ma, sa, mb, sb;
+        tu_image_mean(a, c, &ma, &sa);
+        tu_image_mean(b, c, &mb, &sb);
+        double se = sqrt(sa * sa + sb * sb);
+        CHECK_MSG(fabs(ma - mb) <= k * se + 1e-7, "channel %d: image means %.6f and %.6f differ by %.2f standard errors",
+                  c, ma, mb, se > 0.0 ? fabs(ma - mb) / se : INFINITY);
+    }
+}
+
+static spc_bsdf *twosided_diffuse(spc_scene *sc, double r, double g, double b)
+{
+    spc_bsdf *d = spc_scene_new_bsdf(sc);
+    d->type = SPC_BSDF_DIFFUSE;
+    d->reflectance = spc_scene_constant(sc, spc_rgb3(r, g, b));
+    spc_bsdf *t = spc_scene_new_bsdf(sc);
+    t->type = SPC_BSDF_TWOSIDED;
+    t->nested[0] = d;
+    return t;
+}
+
+static spc_bsdf *glass(spc_scene *sc, double eta)
+{
+    spc_bsdf *g = spc_scene_new_bsdf(sc);
+    g->type = SPC_BSDF_DIELECTRIC;
+    g->eta = eta;
+    g->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    g->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
+    return g;
+}
+
+static spc_bsdf *mirror(spc_scene *sc)
+{
+    spc_bsdf *m = spc_scene_new_bsdf(sc);
+    m->type = SPC_BSDF_CONDUCTOR;
+    m->cond_eta = spc_rgb1(0.0);
+    m->cond_k = spc_rgb1(-1.0); /* perfect mirror */
+    m->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    return m;
+}
+
+/* A rectangle ([-1,1]^2 in xy, normal +z) scaled by (sx, sy), rotated about x by rx degrees (then
+ * about y by ry), translated to c. */
+static spc_shape *rect(spc_scene *sc, double sx, double sy, double rx, double ry, spc_vec3 c, const spc_bsdf *b)
+{
+    spc_shape *sh = spc_scene_new_shape(sc);
+    spc_mat4 S = spc_mat4_scale(spc_v3(sx, sy, 1.0));
+    spc_mat4 Rx = spc_mat4_rotate(spc_v3(1, 0, 0), rx);
+    spc_mat4 Ry = spc_mat4_rotate(spc_v3(0, 1, 0), ry);
+    spc_mat4 T = spc_mat4_translate(c);
+    spc_mat4 M = spc_mat4_mul(&Rx, &S);
+    M = spc_mat4_mul(&Ry, &M);
+    M = spc_mat4_mul(&T, &M);
+    spc_error err;
+    spc_shape_init_rectangle(sh, &M, NULL, 0, 0, &err);
+    sh->bsdf = b;
+    return sh;
+}
+
+static spc_shape *sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
+{
+    spc_shape *sh = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_sphere(sh, c, r, NULL, NULL, 0, 0, &err);
+    sh->bsdf = b;
+    return sh;
+}
+
+static spc_scene *finalize(spc_scene *sc)
+{
+    spc_error err;
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  finalize: %s\n", err.msg);
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+/* The demo's Cornell box (scenes/demo.xml) built in code: white floor, ceiling and back wall, red
+ * left and green right walls, an area light under the ceiling (light_scale times the demo's size),
+ * optionally the glass and mirror spheres, or a point light instead of the area light. */
+enum { BOX_PLAIN = 0, BOX_SPHERES = 1, BOX_POINT = 2 };
+static spc_scene *cornell_box_fov(int variant, int res, double light_scale, double fov)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_bsdf *white = twosided_diffuse(sc, 0.725, 0.71, 0.68);
+    spc_bsdf *red = twosided_diffuse(sc, 0.63, 0.065, 0.05);
+    spc_bsdf *green = twosided_diffuse(sc, 0.14, 0.45, 0.091);
+    rect(sc, 1, 1, -90, 0, spc_v3(0, 0, 0), white);
+    rect(sc, 1, 1, 90, 0, spc_v3(0, 2, 0), white);
+    rect(sc, 1, 1, 0, 0, spc_v3(0, 1, -1), white);
+    rect(sc, 1, 1, 0, 90, spc_v3(-1, 1, 0), red);
+    rect(sc, 1, 1, 0, -90, spc_v3(1, 1, 0), green);
+    if (variant == BOX_POINT) {
+        spc_emitter *e = spc_scene_new_emitter(sc);
+        e->type = SPC_EMITTER_POINT;
+        e->intensity = spc_rgb3(3.0, 2.5, 1.5);
+        e->position = spc_v3(0.2, 1.6, 0.1);
+        sphere(sc, spc_v3(-0.3, 0.4, -0.2), 0.4, twosided_diffuse(sc, 0.5, 0.6, 0.7));
+    } else {
+        spc_shape *l = rect(sc, 0.25 * light_scale, 0.2 * light_scale, 90, 0, spc_v3(0, 1.98, 0), tu_diffuse(sc, 0.0));
+        spc_emitter *e = tu_area(sc, l, sc->nshapes - 1, 1.0);
+        e->radiance = spc_scene_constant(sc, spc_rgb_scale(spc_rgb3(17, 12, 4), 1.0 / (light_scale * light_scale)));
+    }
+    if (variant == BOX_SPHERES) {
+        sphere(sc, spc_v3(-0.42, 0.36, -0.1), 0.36, glass(sc, 1.5));
+        sphere(sc, spc_v3(0.45, 0.33, -0.45), 0.33, mirror(sc));
+    }
+    tu_camera(sc, spc_v3(0, 1, 3.9), spc_v3(0, 1, 0), spc_v3(0, 1, 0), fov, res, res);
+    return finalize(sc);
+}
+
+static spc_scene *cornell_box(int variant, int res, double light_scale)
+{
+    return cornell_box_fov(variant, res, light_scale, 40.0);
+}
+
+/* No corners: a diffuse floor, a diffuse sphere floating above it and a large area light facing
+ * down. Joining two surface vertices has a bounded geometry term here, so every unweighted
+ * strategy has finite variance (in a box, corners make that of s, t >= 2 infinite). */
+static spc_scene *open_scene(int res)
+{
+    spc_scene *sc = spc_scene_create();
+    rect(sc, 2.5, 2.5, -90, 0, spc_v3(0, 0, 0), twosided_diffuse(sc, 0.7, 0.6, 0.5));
+    sphere(sc, spc_v3(0.1, 0.9, 0.0), 0.5, twosided_diffuse(sc, 0.3, 0.7, 0.8));
+    spc_shape *l = rect(sc, 1.2, 1.2, 90, 0, spc_v3(-0.3, 2.5, 0.2), tu_diffuse(sc, 0.0));
+    tu_area(sc, l, sc->nshapes - 1, 2.0);
+    tu_camera(sc, spc_v3(0, 1.6, 3.5), spc_v3(0, 0.5, 0), spc_v3(0, 1, 0), 50, res, res);
+    return finalize(sc);
+}
+
+/* A caustic: a glass sphere on a diffuse floor in front of a wall, lit by a small sphere light. */
+static spc_scene *caustic_scene(int res)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_bsdf *white = twosided_diffuse(sc, 0.7, 0.7, 0.7);
+    rect(sc, 3, 3, -90, 0, spc_v3(0, 0, 0), white);
+    rect(sc, 3, 2, 0, 0, spc_v3(0, 2, -1.5), white);
+    sphere(sc, spc_v3(0, 0.5, 0), 0.5, glass(sc, 1.5));
+    spc_shape *l = sphere(sc, spc_v3(0.9, 2.2, 0.6), 0.2, tu_diffuse(sc, 0.0));
+    spc_emitter *e = tu_area(sc, l, sc->nshapes - 1, 1.0);
+    e->radiance = spc_scene_constant(sc, spc_rgb3(30, 27, 22));
+    tu_camera(sc, spc_v3(0, 2.2, 3.2), spc_v3(-0.2, 0.3, 0), spc_v3(0, 1, 0), 45, res, res);
+    return finalize(sc);
+}
+
+/* ---- closed forms ---- */
+
+TEST(white_furnace_sphere)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_shape *sh = sphere(sc, spc_v3(0.3, -0.2, 0.1), 1.0, tu_diffuse(sc, 0.5));
+    sh->flip_normals = true;
+    tu_area(sc, sh, 0, 1.0);
+    tu_camera(sc, spc_v3(0.3, -0.2, 0.1), spc_v3(0.3, -0.2, 1.1), spc_v3(0, 1, 0), 90, 8, 8);
+    sc->camera.near_clip = 1e-4;
+    sc = finalize(sc);
+    CHECK(sc != NULL);
+    spc_film *f = sc ? tu_render(sc, "bdpt", 256, 2, 1) : NULL;
+    CHECK(f != NULL);
+    if (f)
+        check_mean(f, 2.0, 3.5);
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
+TEST(white_furnace_cube_scales)
+{
+    double scales[3] = {1e-3, 1.0, 1e3};
+    for (int i = 0; i < 3; ++i) {
+        double s = scales[i];
+        spc_scene *sc = spc_scene_create();
+        spc_shape *sh = spc_scene_new_shape(sc);
+        spc_error err;
+        spc_mat4 M = spc_mat4_scale(spc_v3(s, 0.7 * s, 1.3 * s));
+        spc_mat4 T = spc_mat4_translate(spc_v3(2 * s, 0, -s));
+        M = spc_mat4_mul(&T, &M);
+        spc_shape_init_cube(sh, &M, NULL, 0, 0, &err);
+        sh->flip_normals = true;
+        sh->bsdf = tu_diffuse(sc, 0.6);
+        tu_area(sc, sh, 0, 0.5);
+        tu_camera(sc, spc_v3(2.2 * s, 0.1 * s, -s), spc_v3(1.5 * s, -0.3 * s, -0.2 * s), spc_v3(0, 1, 0), 100, 8, 8);
+        sc->camera.near_clip = 1e-4 * s;
+        sc = finalize(sc);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_film *f = tu_render(sc, "bdpt", 128, 2, 3);
+        CHECK(f != NULL);
+        if (f)
+            check_mean(f, 0.5 / (1.0 - 0.6), 3.5);
+        spc_film_destroy(f);
+        spc_scene_destroy(sc);
+    }
+}
+
+/* L = (a / pi) (I / r^2) / (1 - a) on every wall point of the sphere. */
+TEST(point_light_in_sphere)
+{
+    spc_scene *sc = spc_scene_create();
+    double r = 2.0, a = 0.5, I = 3.0;
+    spc_shape *sh = sphere(sc, spc_v3(0, 0, 0), r, tu_diffuse(sc, a));
+    sh->flip_normals = true;
+    spc_emitter *e = spc_scene_new_emitter(sc);
+    e->type = SPC_EMITTER_POINT;
+    e->intensity = spc_rgb1(I);
+    e->position = spc_v3(0, 0, 0);
+    tu_camera(sc, spc_v3(0, 0, 0.5), spc_v3(0, 1, 0.5), spc_v3(0, 0, 1), 90, 8, 8);
+    sc = finalize(sc);
+    CHECK(sc != NULL);
+    spc_film *f = sc ? tu_render(sc, "bdpt", 256, 2, 4) : NULL;
+    CHECK(f != NULL);
+    if (f)
+        check_mean(f, (a / SPC_PI) * (I / (r * r)) / (1.0 - a), 3.5);
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
+/* A glass slab seen at normal incidence by an orthographic camera in front of a uniform emitter:
+ * L = Le (1 - R) / (1 + R). The orthographic camera cannot be joined to: no t = 1 strategy. */
+TEST(glass_slab_orthographic)
+{
+    double eta = 1.5, Le = 2.0;
+    double R = spc_sqr((eta - 1) / (eta + 1));
+    spc_scene *sc = spc_scene_create();
+    spc_error err;
+    spc_shape *slab = spc_scene_new_shape(sc);
+    spc_mat4 M = spc_mat4_scale(spc_v3(10, 10, 0.2));
+    spc_shape_init_cube(slab, &M, NULL, 0, 0, &err);
+    slab->bsdf = glass(sc, eta);
+    spc_shape *light = rect(sc, 30, 30, 0, 0, spc_v3(0, 0, -3), tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 1, Le);
+    sc->camera.type = SPC_CAMERA_ORTHOGRAPHIC;
+    spc_mat4 V;
+    spc_mat4_lookat(spc_v3(0, 0, 5), spc_v3(0, 0, 0), spc_v3(0, 1, 0), &V);
+    spc_mat4 Sc = spc_mat4_scale(spc_v3(0.5, 0.5, 1));
+    sc->camera.to_world = spc_mat4_mul(&V, &Sc);
+    sc->film.width = sc->film.height = 8;
+    sc->film.rfilter = SPC_RFILTER_BOX;
+    sc->film.filter_radius = 0.5;
+    sc = finalize(sc);
+    CHECK(sc != NULL);
+    spc_film *f = sc ? tu_render(sc, "bdpt", 512, 2, 5) : NULL;
+    CHECK(f != NULL);
+    if (f)
+        check_mean(f, Le * (1 - R) / (1 + R), 3.5);
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
+/* ---- bdpt against path ---- */
+
+static void compare_to_path(spc_scene *sc, int spp_bdpt, int spp_path, int max_depth, const char *what)
+{
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *b = render_opts(sc, "bdpt", spp_bdpt, 2, 11, max_depth, -1, -1, false, false);
+    spc_film *p = render_opts(sc, "path", spp_path, 2, 12, max_depth, -1, -1, false, false);
+    CHECK(b && p);
+    if (b && p) {
+        CHECK(ztest(b, p, 0.99, what) >= 0.99);
+        check_means_agree(b, p, 4.0);
+    }
+    spc_film_destroy(b);
+    spc_film_destroy(p);
+    spc_scene_destroy(sc);
+}
+
+TEST(box_glass_mirror_against_path)
+{
+    /* the light is twice the demo's size so that path finds the caustics of the glass sphere
+     * often enough for its variance estimate to be trustworthy */
+    compare_to_path(cornell_box(BOX_SPHERES, 24, 2.0), 256, 2048, -1, "box with glass and mirror spheres");
+}
+
+TEST(caustic_against_path)
+{
+    compare_to_path(caustic_scene(24), 256, 4096, -1, "caustic");
+}
+
+TEST(point_light_against_path)
+{
+    compare_to_path(cornell_box(BOX_POINT, 24, 1.0), 128, 1024, -1, "point light box");
+}
+
+/* Both heuristics weight every path to a total of one: the images agree. */
+TEST(balance_heuristic_against_power)
+{
+    spc_scene *sc = cornell_box(BOX_SPHERES, 16, 2.0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *a = render_opts(sc, "bdpt", 256, 2, 21, -1, -1, -1, false, true);
+    spc_film *b = render_opts(sc, "bdpt", 256, 2, 22, -1, -1, -1, false, false);
+    CHECK(a && b);
+    if (a && b) {
+        CHECK(ztest(a, b, 0.99, "balance vs power") >= 0.99);
+        check_means_agree(a, b, 4.0);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
+}
+
+/* ---- strategies ---- */
+
+/* With the same seed every strategy sees the same subpaths, so the weighted single-strategy
+ * images of all (s, t) with s + t - 1 <= max_depth add up to the full image. */
+TEST(weighted_strategies_sum_to_full_image)
+{
+    spc_scene *sc = cornell_box(BOX_SPHERES, 16, 1.0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const int max_depth = 4, spp = 16;
+    spc_film *full = render_opts(sc, "bdpt", spp, 2, 31, max_depth, -1, -1, false, false);
+    CHECK(full != NULL);
+    size_t n = (size_t)16 * 16 * 3;
+    double *sum = calloc(n, sizeof(double));
+    int nonzero = 0;
+    for (int k = 1; k <= max_depth; ++k)
+        for (int s = 0; s <= k + 1; ++s) {
+            int t = k + 1 - s;
+            if (t < 1)
+                continue;
+            spc_film *f = render_opts(sc, "bdpt", spp, 2, 31, max_depth, s, t, true, false);
+            CHECK(f != NULL);
+            if (!f)
+                continue;
+            double m = 0.0;
+            for (size_t i = 0; i < n; ++i) {
+                sum[i] += f->rgb[i];
+                m += f->rgb[i];
+            }
+            nonzero += m > 0.0;
+            spc_film_destroy(f);
+        }
+    CHECK_MSG(nonzero == 14, "%d of the 14 strategies (s, t) with t >= 1 contributed", nonzero);
+    if (full) {
+        double worst = 0.0;
+        for (size_t i = 0; i < n; ++i) {
+            double d = fabs(sum[i] - full->rgb[i]) / (fabs(full->rgb[i]) + 1e-6);
+            worst = d > worst ? d : worst;
+        }
+        CHECK_MSG(worst < 1e-4, "largest relative difference %.3g", worst);
+    }
+    free(sum);
+    spc_film_destroy(full);
+    spc_scene_destroy(sc);
+}
+
+/* In a diffuse box lit by an area light every strategy (s, t) with t >= 1 samples every path of
+ * length k = s + t - 1, so each unweighted strategy alone estimates the length-k image, which is
+ * the sum of the weighted strategies of that length (here rendered with other seeds). */
+TEST(unweighted_strategies_estimate_length_images)
+{
+    spc_scene *sc = open_scene(16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    for (int k = 2; k <= 3; ++k) {
+        /* the length-k image: the weighted strategies of length k, each rendered with its own
+         * seed so that the variances of their means add */
+        size_t n = (size_t)16 * 16 * 3;
+        spc_film *ref = NULL;
+        for (int s = 0; s <= k + 1; ++s) {
+            int t = k + 1 - s;
+            if (t < 1)
+                continue;
+            spc_film *f = render_opts(sc, "bdpt", 1024, 2, 40 + 10 * k + s, k, s, t, true, false);
+            CHECK(f != NULL);
+            if (!f)
+                continue;
+            if (!ref) {
+                ref = f;
+                continue;
+            }
+            for (size_t i = 0; i < n; ++i) {
+                ref->rgb[i] += f->rgb[i];
+                ref->var[i] += f->var[i];
+            }
+            spc_film_destroy(f);
+        }
+        CHECK(ref != NULL);
+        for (int s = 0; s <= k + 1 && ref; ++s) {
+            int t = k + 1 - s;
+            if (t < 1)
+                continue;
+            int spp = (s == 0 || t == 1) ? 2048 : 512;
+            spc_film *f = render_opts(sc, "bdpt", spp, 2, 90 + 10 * k + s, k, s, t, false, false);
+            CHECK(f != NULL);
+            if (!f)
+                continue;
+            char what[64];
+            snprintf(what, sizeof what, "unweighted (s=%d, t=%d) vs length-%d image", s, t, k);
+            CHECK_MSG(ztest(f, ref, 0.99, what) >= 0.99, "%s", what);
+            check_means_agree(f, ref, 4.0);
+            spc_film_destroy(f);
+        }
+        spc_film_destroy(ref);
+    }
+    spc_scene_destroy(sc);
+}
+
+/* Light tracing (2, 1) against next-event estimation (1, 2) for direct light, unweighted, for
+ * every pixel filter and with a crop window: the camera importance and its normalization by the
+ * filter and the number of light paths per pass. */
+TEST(light_tracing_matches_nee_for_every_filter)
+{
+    struct {
+        spc_rfilter_type type;
+        double radius, stddev;
+        bool crop;
+        const char *name;
+    } cases[4] = {{SPC_RFILTER_BOX, 0.5, 0.0, false, "box"},
+                  {SPC_RFILTER_TENT, 1.0, 0.0, false, "tent"},
+                  {SPC_RFILTER_GAUSSIAN, 2.0, 0.5, false, "gaussian"},
+                  {SPC_RFILTER_TENT, 1.0, 0.0, true, "tent, crop window"}};
+    for (int c = 0; c < 4; ++c) {
+        /* a narrower view, all inside the box: no pixel straddles the box's edge */
+        spc_scene *sc = cornell_box_fov(BOX_PLAIN, 16, 1.5, 28.0);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        sc->film.rfilter = cases[c].type;
+        sc->film.filter_radius = cases[c].radius;
+        sc->film.filter_stddev = cases[c].stddev;
+        if (cases[c].crop) {
+            sc->film.width = sc->film.height = 24;
+            sc->film.crop_x = 5;
+            sc->film.crop_y = 3;
+            sc->film.crop_w = 16;
+            sc->film.crop_h = 12;
+        }
+        spc_film *lt = render_opts(sc, "bdpt", 512, 2, 60 + c, 2, 2, 1, false, false);
+        spc_film *ne = render_opts(sc, "bdpt", 256, 2, 70 + c, 2, 1, 2, false, false);
+        CHECK(lt && ne);
+        if (lt && ne) {
+            CHECK_MSG(ztest(lt, ne, 0.99, cases[c].name) >= 0.99, "%s", cases[c].name);
+            check_means_agree(lt, ne, 4.0);
+            double m_lt, m_ne, se;
+            tu_image_mean(lt, 1, &m_lt, &se);
+            tu_image_mean(ne, 1, &m_ne, &se);
+            CHECK(m_lt > 0.0 && m_ne > 0.0);
+        }
+        spc_film_destroy(lt);
+        spc_film_destroy(ne);
+        spc_scene_destroy(sc);
+    }
+}
+
+/* ---- determinism ---- */
+
+TEST(same_image_for_any_thread_count)
+{
+    spc_scene *sc = cornell_box(BOX_SPHERES, 20, 1.0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *a = render_opts(sc, "bdpt", 8, 1, 7, -1, -1, -1, false, false);
+    spc_film *b = render_opts(sc, "bdpt", 8, 2, 7, -1, -1, -1, false, false);
+    spc_film *c = render_opts(sc, "bdpt", 8, 2, 8, -1, -1, -1, false, false);
+    CHECK(a && b && c);
+    if (a && b && c) {
+        size_t n = 3 * (size_t)a->width * a->height;
+        CHECK(memcmp(a->rgb, b->rgb, n * sizeof(float)) == 0);
+        CHECK(memcmp(a->var, b->var, n * sizeof(float)) == 0);
+        CHECK(memcmp(a->rgb, c->rgb, n * sizeof(float)) != 0); /* the seed matters */
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_film_destroy(c);
+    spc_scene_destroy(sc);
+}
+
+TEST(integrator_name)
+{
+    spc_integrator_kind k;
+    CHECK(spc_integrator_kind_from_name("bdpt", &k) && k == SPC_INTEGRATOR_BDPT);
+    CHECK(!strcmp(spc_integrator_kind_name(SPC_INTEGRATOR_BDPT), "bdpt"));
+}
+
+int main(void)
+{
+    spc_warn_set_quiet(1);
+    RUN(integrator_name);
+    RUN(white_furnace_sphere);
+    RUN(white_furnace_cube_scales);
+    RUN(point_light_in_sphere);
+    RUN(glass_slab_orthographic);
+    RUN(same_image_for_any_thread_count);
+    RUN(weighted_strategies_sum_to_full_image);
+    RUN(light_tracing_matches_nee_for_every_filter);
+    RUN(unweighted_strategies_estimate_length_images);
+    RUN(balance_heuristic_against_power);
+    RUN(point_light_against_path);
+    RUN(box_glass_mirror_against_path);
+    RUN(caustic_against_path);
+    printf("bdpt subpaths truncated at the vertex limit: %llu\n", (unsigned long long)spc_bdpt_truncated_paths());
+    return spc_test_finish();
+}
