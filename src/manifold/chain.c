@@ -107,6 +107,8 @@ static bool intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h)
     return true;
 }
 
+bool spc_chain_intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h) { return intersect(sc, r, h); }
+
 /* Solves dp = dpdu du + dpdv dv (least squares) and returns dn = dndu du + dndv dv. */
 static bool normal_derivative(const spc_hit *h, spc_vec3 dp, spc_vec3 *dn)
 {

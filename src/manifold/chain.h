@@ -117,6 +117,10 @@ bool spc_chain_shape_is_caster(const spc_shape *s, bool any_surface, int *event)
  * chain length unless any_surface)? *event receives the BSDF's event. */
 bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event);
 
+/* The scene's first hit along r, a triangle hit re-intersected in double precision (as the chain
+ * tracer does, so that other solvers project onto the same surfaces); false for a miss. */
+bool spc_chain_intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h);
+
 /* d0 and its derivatives for the frame and parameters. */
 spc_vec3 spc_chain_direction(const spc_frame *f, double a, double b, spc_vec3 dd[2]);
 
