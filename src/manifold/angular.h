@@ -12,7 +12,9 @@
  * Methods:
  *   GAUSS_NEWTON  step -(J^T J)^-1 J^T r on the 3x2 Jacobian of the endpoint, scaled by beta;
  *   GRADIENT      the thesis' gradient descent, step -beta grad L (eq. 54-55);
- * in both beta doubles after a step that lowers the loss (up to 1 for Gauss-Newton) and halves
+ *   LEVENBERG_MARQUARDT  -(J^T J + lambda mean(diag) I)^-1 J^T r: Gauss-Newton that bends toward
+ *                 the gradient after a failed step instead of only shortening it;
+ * in the first two beta doubles after a step that lowers the loss (up to 1 for Gauss-Newton) and halves
  * after one that raises it or changes the chain's sequence of surfaces and events (which is part
  * of the solution: such steps are shortened, never taken). After each accepted step the chain is
  * re-expressed around its new direction (spc_chain_recenter), so the parameters never approach
@@ -29,7 +31,8 @@
 
 typedef enum spc_angular_method {
     SPC_ANGULAR_GAUSS_NEWTON,
-    SPC_ANGULAR_GRADIENT
+    SPC_ANGULAR_GRADIENT,
+    SPC_ANGULAR_LEVENBERG_MARQUARDT
 } spc_angular_method;
 
 typedef enum spc_angular_loss {
