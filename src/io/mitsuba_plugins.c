@@ -5,7 +5,9 @@
  *
  * Shapes: sphere (center 0, radius 1, to_world: uniform scale, rotation, translation), rectangle,
  *   disk, cube, cylinder (p0 0, p1 (0,0,1), radius 1), obj / ply / serialized (filename,
- *   face_normals false, flip_tex_coords true (obj), shape_index 0 (serialized)); all: to_world,
+ *   face_normals false, flip_tex_coords true (obj), shape_index 0 (serialized); a file without
+ *   normals gets angle-weighted vertex normals from its world-space positions unless face_normals,
+ *   as in Mitsuba 3); all: to_world,
  *   flip_normals false, a nested or referenced bsdf (default diffuse 0.5), a nested area emitter,
  *   caustic_caster / caustic_receiver / caustic_caster_single / caustic_caster_multi.
  *   shapegroup holds shapes; instance (a ref to a shapegroup, to_world) copies them, placed.
@@ -719,6 +721,12 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     if (!built) {
         mts_props_end(&P);
         return mts_fail(L, node, sub.code ? sub.code : SPC_ERR_VALUE, "%s shape: %s", type, sub.msg);
+    }
+    /* as Mitsuba 3: a mesh file without normals gets smooth vertex normals (unless face_normals),
+     * computed from the WORLD-space positions (they differ under a non-uniform scale) */
+    if (mesh && !face_normals && !spc_mesh_compute_vertex_normals(&s->mesh)) {
+        mts_props_end(&P);
+        return mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
     }
     const char *id = spc_xml_get(node, "id");
     if (id)

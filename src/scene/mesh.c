@@ -116,6 +116,55 @@ static bool grow(void *arr, size_t count, size_t size)
     return true;
 }
 
+bool spc_mesh_compute_vertex_normals(spc_mesh *m)
+{
+    if (m->n || m->nverts == 0)
+        return true;
+    double *acc = calloc(3 * m->nverts, sizeof(double));
+    float *n = malloc(3 * m->nverts * sizeof(float));
+    spc_vec3 *first = calloc(m->nverts, sizeof(spc_vec3));
+    if (!acc || !n || !first) {
+        free(acc);
+        free(n);
+        free(first);
+        return false;
+    }
+    for (size_t t = 0; t < m->ntris; ++t) {
+        const uint32_t *id = m->idx + 3 * t;
+        spc_vec3 p[3] = {spc_mesh_p(m, id[0]), spc_mesh_p(m, id[1]), spc_mesh_p(m, id[2])};
+        spc_vec3 fn = spc_cross(spc_sub(p[1], p[0]), spc_sub(p[2], p[0]));
+        double len = spc_length(fn);
+        if (!(len > 0.0))
+            continue;
+        fn = spc_scale(fn, 1.0 / len);
+        for (int k = 0; k < 3; ++k) {
+            spc_vec3 e1 = spc_normalize(spc_sub(p[(k + 1) % 3], p[k]));
+            spc_vec3 e2 = spc_normalize(spc_sub(p[(k + 2) % 3], p[k]));
+            double angle = acos(spc_clamp(spc_dot(e1, e2), -1.0, 1.0));
+            double *a = acc + 3 * (size_t)id[k];
+            a[0] += angle * fn.x;
+            a[1] += angle * fn.y;
+            a[2] += angle * fn.z;
+            if (spc_length2(first[id[k]]) == 0.0)
+                first[id[k]] = fn;
+        }
+    }
+    for (size_t i = 0; i < m->nverts; ++i) {
+        spc_vec3 v = spc_v3(acc[3 * i], acc[3 * i + 1], acc[3 * i + 2]);
+        double len = spc_length(v);
+        v = len > 1e-12 ? spc_scale(v, 1.0 / len) : first[i];
+        if (spc_length2(v) == 0.0)
+            v = spc_v3(0, 0, 1); /* a vertex of no triangle: never shaded */
+        n[3 * i] = (float)v.x;
+        n[3 * i + 1] = (float)v.y;
+        n[3 * i + 2] = (float)v.z;
+    }
+    free(acc);
+    free(first);
+    m->n = n;
+    return true;
+}
+
 bool spc_mesh_append(spc_mesh *dst, const spc_mesh *src)
 {
     if (src->nverts == 0 && src->ntris == 0)

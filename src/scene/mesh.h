@@ -30,6 +30,12 @@ spc_status spc_mesh_validate(const spc_mesh *m, const char *file, spc_error *err
 bool spc_mesh_transform(spc_mesh *m, const spc_mat4 *to_world);
 /* Removes triangles of zero area (they cannot be hit and break area sampling); returns how many. */
 size_t spc_mesh_drop_degenerate(spc_mesh *m);
+/* Gives a mesh without normals smooth vertex normals, as Mitsuba 3 does for mesh files without
+ * them (unless face_normals): each vertex gets the sum of the unit normals of the triangles around
+ * it weighted by the triangle's angle at the vertex, normalized (Thuermer and Wuethrich 1998);
+ * a vertex whose sum vanishes gets the normal of its first triangle. Does nothing when the mesh
+ * has normals. Returns false on allocation failure (the mesh is unchanged). */
+bool spc_mesh_compute_vertex_normals(spc_mesh *m);
 /* Appends src to dst (for shapegroups and merging); false on allocation failure. */
 bool spc_mesh_append(spc_mesh *dst, const spc_mesh *src);
 

@@ -160,32 +160,25 @@ bool spc_shape_init_rectangle(spc_shape *s, const spc_mat4 *to_world, const char
 
 bool spc_shape_init_cube(spc_shape *s, const spc_mat4 *to_world, const char *file, int line, int col, spc_error *err)
 {
-    /* 6 faces, 4 vertices each, counter-clockwise seen from outside */
+    /* Mitsuba 3's cube, vertex for vertex (its uvs are part of what a scene sees): 6 faces of 4
+     * vertices, face f = (-y, +y, +x, +z, -x, -z) with corners c0..c3 and uvs (0,1), (1,1),
+     * (1,0), (0,0), triangles (c0, c1, c2) and (c3, c0, c2), wound outward. */
+    static const float P[72] = {1,  -1, -1, 1,  -1, 1,  -1, -1, 1,  -1, -1, -1, /* -y */
+                                1,  1,  -1, -1, 1,  -1, -1, 1,  1,  1,  1,  1,  /* +y */
+                                1,  -1, -1, 1,  1,  -1, 1,  1,  1,  1,  -1, 1,  /* +x */
+                                1,  -1, 1,  1,  1,  1,  -1, 1,  1,  -1, -1, 1,  /* +z */
+                                -1, -1, 1,  -1, 1,  1,  -1, 1,  -1, -1, -1, -1, /* -x */
+                                1,  1,  -1, 1,  -1, -1, -1, -1, -1, -1, 1,  -1}; /* -z */
+    static const float corner_uv[8] = {0, 1, 1, 1, 1, 0, 0, 0};
     float p[72], uv[48];
     uint32_t idx[36];
-    int v = 0, t = 0;
-    for (int axis = 0; axis < 3; ++axis)
-        for (int sign = -1; sign <= 1; sign += 2) {
-            int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
-            static const float cu[4] = {-1, 1, 1, -1}, cv[4] = {-1, -1, 1, 1};
-            for (int k = 0; k < 4; ++k) {
-                float q[3];
-                q[axis] = (float)sign;
-                /* swap the in-plane axes on the negative side to keep the winding outward */
-                q[a1] = sign > 0 ? cu[k] : cv[k];
-                q[a2] = sign > 0 ? cv[k] : cu[k];
-                p[3 * (v + k)] = q[0];
-                p[3 * (v + k) + 1] = q[1];
-                p[3 * (v + k) + 2] = q[2];
-                uv[2 * (v + k)] = (sign > 0 ? cu[k] : cv[k]) * 0.5f + 0.5f;
-                uv[2 * (v + k) + 1] = (sign > 0 ? cv[k] : cu[k]) * 0.5f + 0.5f;
-            }
-            uint32_t b = (uint32_t)v;
-            uint32_t tri[6] = {b, b + 1, b + 2, b + 2, b + 3, b};
-            memcpy(idx + 3 * t, tri, sizeof tri);
-            v += 4;
-            t += 2;
-        }
+    memcpy(p, P, sizeof p);
+    for (uint32_t f = 0; f < 6; ++f) {
+        uint32_t b = 4 * f;
+        memcpy(uv + 8 * f, corner_uv, sizeof corner_uv);
+        uint32_t tri[6] = {b, b + 1, b + 2, b + 3, b, b + 2};
+        memcpy(idx + 6 * f, tri, sizeof tri);
+    }
     spc_mesh m;
     if (!mesh_from_arrays(&m, p, 24, uv, idx, 12)) {
         spc_error_set(err, SPC_ERR_NOMEM, file, line, col, "out of memory");

@@ -1,0 +1,157 @@
+#!/usr/bin/env python3
+"""Render every validation scene with Mitsuba 3 and with specula and z-test the images.
+
+    python3 tests/validation/validate.py [SCENE.xml ...] [--out DIR] [--res 64] [--spp 1024]
+                                         [--passes 32] [--force] [--markdown FILE] [--json FILE]
+
+Default scenes: scenes/*.xml and ../shared/scenes/*/scene.xml. For each scene:
+  1. a Mitsuba 3 reference (tests/validation/mitsuba_ref.py, scalar_rgb): the mean of `passes`
+     independent renders and the variance of that mean from their spread; cached in --out and
+     reused unless --force;
+  2. a specula render at the same spp with --variance (the variance of the mean from its passes);
+  3. `specula diff --json`: per pixel and channel z = (a - b) / sqrt(var_a + var_b), a pixel fails
+     when its smallest p-value (Sidak over its channels) is below alpha = 0.01 Sidak-corrected over
+     the pixels. Mitsuba's own bar (src/render/tests/test_renders.py) is 99.75% of pixels passing.
+Both renderers get `-D integrator=path` and the small resolution (`res`, or `resx`/`resy` when the
+scene declares those defaults). Scenes listed in SPP_FACTOR get more samples (caustics need them
+for the variance estimate to be meaningful). The table gives resolution, spp of each, pass rate,
+both means, relMSE and the wall time of each renderer (informative only: the machine is shared).
+"""
+import argparse
+import glob
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.normpath(os.path.join(HERE, "..", ".."))
+PASS_BAR = 0.9975
+
+# Scenes whose estimators are noisy enough that 1024 spp leaves a poor variance estimate.
+SPP_FACTOR = {
+    "caustic_glass_sphere": 4,
+    "caustic_mirror_ring": 4,
+    "caustic_pool": 4,
+    "veach-mis": 2,
+}
+
+
+def scene_name(path):
+    base = os.path.basename(path)
+    if base == "scene.xml":
+        return os.path.basename(os.path.dirname(path))
+    return os.path.splitext(base)[0]
+
+
+def resolution_defines(path, res):
+    text = open(path, encoding="utf-8").read()
+    names = set(re.findall(r'<default\s+name="([a-zA-Z_]+)"', text))
+    d = []
+    if "res" in names:
+        d.append("res=%d" % res)
+    if "resx" in names:
+        d.append("resx=%d" % res)
+    if "resy" in names:
+        d.append("resy=%d" % res)
+    if "integrator" in names:
+        d.append("integrator=path")
+    return d
+
+
+def run(cmd, log):
+    t0 = time.time()
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    dt = time.time() - t0
+    with open(log, "a") as f:
+        f.write("$ " + " ".join(cmd) + "\n" + p.stdout + "\n")
+    if p.returncode != 0:
+        raise RuntimeError("command failed (%d): %s\n%s" % (p.returncode, " ".join(cmd), p.stdout[-2000:]))
+    return p.stdout, dt
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scenes", nargs="*")
+    ap.add_argument("--out", default="/tmp/specula-validation")
+    ap.add_argument("--res", type=int, default=64)
+    ap.add_argument("--spp", type=int, default=1024)
+    ap.add_argument("--passes", type=int, default=32)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--specula", default=os.path.join(ROOT, "build", "specula"))
+    ap.add_argument("--force", action="store_true", help="re-render cached Mitsuba references")
+    ap.add_argument("--markdown")
+    ap.add_argument("--json")
+    ap.add_argument("-D", action="append", default=[], help="extra define for both renderers")
+    a = ap.parse_args()
+    scenes = a.scenes or (sorted(glob.glob(os.path.join(ROOT, "scenes", "*.xml"))) +
+                          sorted(glob.glob(os.path.join(ROOT, "..", "shared", "scenes", "*", "scene.xml"))))
+    os.makedirs(a.out, exist_ok=True)
+    log = os.path.join(a.out, "validate.log")
+    rows = []
+    for path in scenes:
+        name = scene_name(path)
+        spp = a.spp * SPP_FACTOR.get(name, 1)
+        defs = resolution_defines(path, a.res) + a.D
+        dflags = sum((["-D", d] for d in defs), [])
+        ref = os.path.join(a.out, name + "_mitsuba.exr")
+        img = os.path.join(a.out, name + "_specula.exr")
+        row = {"scene": name, "res": a.res, "spp_mitsuba": spp, "spp_specula": spp, "passes": a.passes}
+        try:
+            if a.force or not os.path.exists(ref):
+                _, row["time_mitsuba"] = run([sys.executable, os.path.join(HERE, "mitsuba_ref.py"), path, ref, "--spp",
+                                              str(spp), "--passes", str(a.passes)] + dflags, log)
+            _, row["time_specula"] = run([a.specula, "render", path, "-o", img, "--spp", str(spp), "--variance",
+                                          "--quiet", "--threads", str(a.threads)] + dflags, log)
+            out, _ = run([a.specula, "diff", img, ref, "--json"], log)
+            d = json.loads(out)
+            row["pass"] = d["ztest"]["pass_fraction"]
+            row["mean_specula"] = d["mean_a"]
+            row["mean_mitsuba"] = d["mean_b"]
+            row["rel_mse"] = d["rel_mse"]
+        except (RuntimeError, KeyError, ValueError) as e:
+            row["error"] = str(e).splitlines()[0]
+        rows.append(row)
+        print(format_row(row), flush=True)
+    table = markdown(rows)
+    print()
+    print(table)
+    if a.markdown:
+        with open(a.markdown, "w") as f:
+            f.write(table + "\n")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    return 0 if all(r.get("pass", 0) >= PASS_BAR for r in rows) else 1
+
+
+def fmt3(v):
+    return "(%.4g, %.4g, %.4g)" % tuple(v)
+
+
+def format_row(r):
+    if "error" in r:
+        return "%-24s ERROR %s" % (r["scene"], r["error"])
+    return "%-24s %3dx%-3d spp %5d  pass %7.3f%%  specula %s  mitsuba %s  relMSE %.3g" % (
+        r["scene"], r["res"], r["res"], r["spp_specula"], 100 * r["pass"], fmt3(r["mean_specula"]),
+        fmt3(r["mean_mitsuba"]), r["rel_mse"])
+
+
+def markdown(rows):
+    lines = ["| scene | res | spp (Mitsuba / specula) | pixels passing | mean specula | mean Mitsuba | relMSE |",
+             "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if "error" in r:
+            lines.append("| %s | | | error: %s | | | |" % (r["scene"], r["error"]))
+            continue
+        mark = "" if r["pass"] >= PASS_BAR else " **below**"
+        lines.append("| %s | %dx%d | %d (%d passes) / %d | %.2f%%%s | %s | %s | %.3g |" % (
+            r["scene"], r["res"], r["res"], r["spp_mitsuba"], r["passes"], r["spp_specula"], 100 * r["pass"], mark,
+            fmt3(r["mean_specula"]), fmt3(r["mean_mitsuba"]), r["rel_mse"]))
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
