@@ -23,12 +23,18 @@
  * this fraction of the scene's size: far above the solver's tolerance (angular.c, 1e-7), far below
  * the distance between distinct solutions of any sensible scene. */
 #define SPC_SNEE_SAME_REL 1e-4
+/* Attempts per light sample of the biased estimator: enough to find both solutions of a glass
+ * sphere's caustic from shape seeds most of the time (bench/RESULTS.md, Newton solver). */
+#define SPC_SNEE_BIASED_SEEDS 8
+/* Distinct solutions the biased estimator keeps per light sample (more are dropped: bias). */
+#define SPC_SNEE_BIASED_MAX_SOLUTIONS 8
 
 /* ---- solver table ---- */
 
 static const spc_specular_solver solvers[] = {
     {"none", NULL, NULL},
     {"angular", spc_angular_solve_one, NULL},
+    {"newton", spc_newton_solve_one, NULL},
 };
 #define NSOLVERS ((int)(sizeof solvers / sizeof solvers[0]))
 
@@ -53,7 +59,7 @@ bool spc_specular_solver_parse(const char *name, int *id)
     return false;
 }
 
-const char *spc_specular_solver_names(void) { return "none, angular"; }
+const char *spc_specular_solver_names(void) { return "none, angular, newton"; }
 
 void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
 {
@@ -64,6 +70,9 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->max_trials = SPC_SNEE_MAX_TRIALS;
     p->any_surface = false;
     spc_angular_options_default(&p->angular);
+    spc_newton_options_default(&p->newton);
+    p->biased = false;
+    p->biased_seeds = SPC_SNEE_BIASED_SEEDS;
 }
 
 /* ---- seeding ---- */
@@ -213,6 +222,38 @@ static bool trial_same(void *user)
            spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
 }
 
+/* The biased estimator: the distinct solutions of biased_seeds attempts, each counted once. */
+static spc_rgb biased_estimate(const spc_snee_query *q, const spc_specular_solver *solver, const spc_emitter *e,
+                               spc_vec2 uv, double p_y, spc_rng *rng, spc_snee_stats *st)
+{
+    spc_chain found[SPC_SNEE_BIASED_MAX_SOLUTIONS + 1]; /* the last one is scratch */
+    int nfound = 0, iterations = 0, seeds = q->params->biased_seeds > 0 ? q->params->biased_seeds : 1;
+    spc_rgb sum = spc_rgb1(0.0);
+    for (int s = 0; s < seeds; ++s) {
+        spc_chain *c = &found[nfound];
+        if (!solver->solve_one(q, rng, c, &iterations))
+            continue;
+        bool seen = false;
+        for (int i = 0; i < nfound && !seen; ++i)
+            seen = spc_snee_same_solution(&found[i], c, q->scene->radius);
+        if (seen)
+            continue;
+        if (st)
+            st->solved++;
+        spc_rgb v = spc_snee_chain_value(q, e, uv, c);
+        if (!spc_rgb_is_black(v)) {
+            sum = spc_rgb_add(sum, v);
+            if (st)
+                st->contributions++;
+        }
+        if (nfound < SPC_SNEE_BIASED_MAX_SOLUTIONS)
+            ++nfound;
+    }
+    if (st)
+        st->iterations += (uint64_t)iterations;
+    return spc_rgb_scale(sum, 1.0 / p_y);
+}
+
 int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface)
 {
     if (max_chain < 1 || !x->bsdf || !spc_bsdf_has_smooth(x->bsdf))
@@ -232,6 +273,8 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
     max_chain = spc_snee_budget(x, max_chain, p->any_surface);
     if (!solver || !solver->solve_one || max_chain < 1)
         return zero;
+    if (p->solver == SPC_SNEE_NEWTON && p->newton.rough)
+        return spc_newton_rough_nee(sc, p, x, wo, max_chain, rng, st);
 
     double pmf;
     const spc_emitter *e = spc_scene_sample_emitter(sc, spc_rng_next(rng), &pmf);
@@ -278,6 +321,9 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
         return zero;
     if (st)
         st->calls++;
+
+    if (p->biased)
+        return biased_estimate(&q, solver, e, uv, p_y, rng, st);
 
     spc_chain sol;
     int iterations = 0;

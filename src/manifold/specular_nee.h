@@ -39,11 +39,13 @@
 #include "core/rng.h"
 #include "manifold/angular.h"
 #include "manifold/chain.h"
+#include "manifold/newton.h"
 
 /* Solver ids (index into the solver table; 0 = specular NEE off). */
 enum {
     SPC_SNEE_NONE = 0,
-    SPC_SNEE_ANGULAR = 1
+    SPC_SNEE_ANGULAR = 1,
+    SPC_SNEE_NEWTON = 2 /* manifold NEE by Newton's method on the vertices (newton.h) */
 };
 
 typedef enum spc_snee_seed {
@@ -59,10 +61,16 @@ typedef struct spc_snee_params {
     int max_trials;    /* cap of the attempts counted for <1/p_solve> */
     bool any_surface;  /* ignore caustic flags (tests, benchmarks) */
     spc_angular_options angular;
+    spc_newton_options newton;
+    /* Biased estimator (Zeltner et al. 2020, sec. 4.4): biased_seeds attempts per light sample, every
+     * distinct solution found counted once with <1/p_solve> = 1, no trials. It misses the solutions
+     * no attempt finds (energy loss where solutions are hard to find) and has less variance. */
+    bool biased;
+    int biased_seeds;
 } spc_snee_params;
 
 /* Defaults: SEED_SHAPE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
- * solver's defaults. */
+ * and Newton solvers' defaults, unbiased (biased_seeds SPC_SNEE_BIASED_SEEDS when switched on). */
 void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain);
 
 /* One connection problem: from x (wo toward the previous path vertex) to y. */

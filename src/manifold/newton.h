@@ -1,0 +1,149 @@
+/*
+ * manifold/newton.h: the Newton solver of manifold next-event estimation (Hanika, Droske and
+ * Kettunen 2015, "Manifold Next Event Estimation"; Jakob and Marschner 2012, "Manifold
+ * Exploration"; Zeltner, Georgiev and Jakob 2020, "Specular Manifold Sampling").
+ *
+ * Unknowns: the positions of the k specular vertices x_1..x_k between a fixed start x (= x_0) and a
+ * fixed light point y (= x_{k+1}), each moving on its own surface, described at every iteration by
+ * two orthonormal coordinates of the surface's tangent plane (so no surface parameterization, uv or
+ * pole enters; the normal's derivatives come from the hit's dndu/dndv, which every shape fills).
+ * Constraints, two per vertex, each depending on the vertex and its two neighbours only:
+ *   HALF_VECTOR  the generalized half vector h = normalize(w_i + eta w_o) (w_i, w_o unit vectors
+ *                toward the neighbours, eta = n(w_o side) / n(w_i side), 1 for a reflection)
+ *                projected on the vertex's tangent frame (s, t): (h.s, h.t) (Jakob and Marschner
+ *                2012, sec. 4; Hanika et al. 2015, sec. 3);
+ *   ANGLE_DIFF   the difference between w_o and the direction the specular law sends w_i to,
+ *                in azimuthal-equidistant coordinates around that side's normal: (theta cos phi,
+ *                theta sin phi)(w_o) - (...)(w_s). This is Zeltner et al.'s angle-difference
+ *                constraint (sec. 5) written in coordinates that have no pole at normal incidence,
+ *                where their (theta, phi) difference is undefined.
+ * The Jacobian of the stacked constraints is block tridiagonal with 2x2 blocks; a Newton step
+ * solves it by block LU (the Thomas algorithm on 2x2 blocks). The moved vertices are projected
+ * back onto the surfaces by tracing from the (new) previous vertex, x for the first, toward each
+ * moved position; the step is scaled by beta, which halves when a projection misses the vertex's
+ * surface, a vertex changes between transmission and reflection (or the specular direction does
+ * not exist), or the constraints' norm does not decrease, and doubles (up to 1) after a success.
+ * Stopping: converged when the full Newton step moves no vertex farther than tol_scene times the
+ * scene's size (scale invariant); failed after max_iterations projections or when beta falls
+ * below SPC_NEWTON_MIN_BETA (no progress).
+ *
+ * Rough interfaces (Zeltner et al. 2020, sec. 4.3), with rough = true: isotropic roughconductor
+ * and roughdielectric surfaces of constant roughness are chain vertices too. Each gets a
+ * microfacet normal m drawn from D(m) cos(m) before the solve and fixed in the vertex's local frame
+ * (built from the normal and a reference vector fixed for the whole estimate), and the constraint
+ * uses m's world direction as the normal. The contribution then carries f_r |cos| |dw/dm| / p(m)
+ * per rough vertex and the generalized geometry term of the offset-normal chain, computed from the
+ * constraint Jacobian (spc_newton_geometry). Off by default: it is reachable through
+ * spc_newton_rough_nee (and spc_specular_nee with params->newton.rough), tested against brute force,
+ * but src/integrator/path.c does not yet drop the glossy paths through rough casters that it then
+ * produces (the spc_snee_track exclusion knows only delta lobes), so a render would count them
+ * twice.
+ *
+ * Hot path: no allocation; false means no solution.
+ */
+#ifndef SPC_MANIFOLD_NEWTON_H
+#define SPC_MANIFOLD_NEWTON_H
+
+#include "core/rng.h"
+#include "manifold/chain.h"
+
+typedef enum spc_newton_constraint {
+    SPC_NEWTON_HALF_VECTOR,
+    SPC_NEWTON_ANGLE_DIFF
+} spc_newton_constraint;
+
+typedef struct spc_newton_options {
+    spc_newton_constraint constraint;
+    int max_iterations;    /* projections (one ray per vertex each) per solve */
+    double tol_scene;      /* converged when the Newton step moves every vertex less than this times
+                              the scene's size */
+    int polish_iterations; /* traces allowed to the final chain (see spc_newton_solve_one) */
+    bool rough;            /* rough interfaces as chain vertices (see above; off by default) */
+} spc_newton_options;
+
+/* HALF_VECTOR, SPC_NEWTON_MAX_ITERATIONS, tol_scene SPC_NEWTON_TOL_SCENE, rough off (newton.c). */
+void spc_newton_options_default(spc_newton_options *o);
+
+typedef struct spc_newton_vertex {
+    spc_hit h;     /* the vertex on its surface (shape_index fixes the surface) */
+    int event;     /* spc_chain_event */
+    double eta;    /* the BSDF's n_inside / n_outside for a refraction; 1 for a reflection */
+    bool rough;    /* rough interface with the microfacet normal m */
+    spc_vec3 m;    /* microfacet normal in the local frame (s, t, n); (0, 0, 1) for a smooth one */
+} spc_newton_vertex;
+
+typedef struct spc_newton_path {
+    int n; /* vertices, 1..SPC_CHAIN_MAX_VERTICES */
+    spc_newton_vertex v[SPC_CHAIN_MAX_VERTICES];
+    /* Reference of the local frames: s = normalize(ref - n (n . ref)), t = n x s. (0,0,0): a tangent
+     * of each vertex's geometric tangent plane at the current iterate (smooth chains, where the
+     * frame's rotation does not change the solutions). Rough chains need one fixed vector. */
+    spc_vec3 ref;
+} spc_newton_path;
+
+typedef struct spc_newton_result {
+    int iterations;  /* projections done */
+    double step;     /* length of the last full Newton step (largest vertex move) */
+    bool converged;
+} spc_newton_result;
+
+/* Builds a seed path (classic MNEE): every chain surface the straight segment from x to y crosses
+ * becomes a vertex, with its BSDF's event. False if the segment is blocked by another surface, or
+ * crosses no chain surface or more than max_vertices. rough_u (NULL for smooth chains only): two
+ * uniform numbers per vertex index for the microfacet normals of rough vertices. */
+bool spc_newton_seed_straight(const spc_scene *sc, const spc_hit *x, spc_vec3 y, int max_vertices, bool any_surface,
+                              const double (*rough_u)[2], spc_vec3 ref, spc_newton_path *p);
+/* Builds a seed path by tracing from x along dir (unit) through the chain surfaces (reflecting or
+ * refracting about each vertex's normal, its microfacet normal for rough ones), as specular manifold
+ * sampling does. False on total internal reflection, no vertex, or a final segment that runs into
+ * another chain surface after max_vertices. */
+bool spc_newton_seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int max_vertices, bool any_surface,
+                           const double (*rough_u)[2], spc_vec3 ref, spc_newton_path *p);
+/* The Newton path of a traced chain (smooth vertices). */
+void spc_newton_path_from_chain(const spc_chain *c, spc_newton_path *p);
+
+/* Solves in place: p holds the seed and, on success, the solution. x->err and x->ng offset the
+ * first projection ray (a free point may pass err = 0). */
+bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_newton_path *p,
+                      const spc_newton_options *o, spc_newton_result *res);
+
+/* The constraints of p between x and y (c[i], 2 per vertex) and the blocks of their Jacobian with
+ * respect to the tangent coordinates of the previous, own and next vertex: A[i] (A[0] is zero),
+ * B[i], C[i], where C[n-1] is the derivative with respect to y moving in the plane of normal ny
+ * (coordinates along spc_frame_from_n(ny).s, .t; zero if ny is (0,0,0)). The tangent coordinates
+ * of vertex i run along basis[i][0], basis[i][1] (orthonormal, in the geometric tangent plane).
+ * False if a vertex is on the wrong side for its event, its specular direction does not exist
+ * (ANGLE_DIFF), or a surface parameterization is degenerate. */
+bool spc_newton_constraints(spc_vec3 x, const spc_newton_path *p, spc_vec3 y, spc_vec3 ny,
+                            spc_newton_constraint kind, double c[][2], double A[][2][2], double B[][2][2],
+                            double C[][2][2], spc_vec3 basis[][2]);
+
+/* Solves the block-tridiagonal system A[i] X[i-1] + B[i] X[i] + C[i] X[i+1] = R[i] (i = 0..n-1;
+ * A[0] and C[n-1] unused) by block LU without pivoting between blocks (Thomas algorithm). False if
+ * a pivot block is singular. */
+bool spc_newton_block_solve(int n, const double A[][2][2], const double B[][2][2], const double C[][2][2],
+                            const double R[][2], double X[][2]);
+
+/* Generalized geometry term |dw(x) / dA(y)| of the solved path toward y on a surface of unit normal
+ * ny (point light: ny = unit vector from y to the last vertex) from the constraint Jacobian (Jakob
+ * and Marschner 2012, sec. 4.3: the derivative of the first vertex with respect to y by the
+ * implicit function theorem). 0 if degenerate. */
+double spc_newton_geometry(spc_vec3 x, const spc_newton_path *p, spc_vec3 y, spc_vec3 ny,
+                           spc_newton_constraint kind);
+
+struct spc_snee_query;
+struct spc_snee_params;
+struct spc_snee_stats;
+/* The solver-table entry (specular_nee.h): seed from the query's seed mode, Newton solve, then the
+ * chain traced from x toward the first vertex with the solution's signature and refined by at most
+ * polish_iterations Gauss-Newton steps in direction space (spc_angular_solve), which absorbs the
+ * ray offsets the tracer applies at every vertex; the interface computes the contribution from
+ * that chain. */
+bool spc_newton_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations);
+
+/* Specular NEE with rough vertices (see above): like spc_specular_nee, with the microfacet normals
+ * drawn once per light sample and kept for every attempt that estimates <1/p_solve>. */
+spc_rgb spc_newton_rough_nee(const spc_scene *sc, const struct spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                             int max_chain, spc_rng *rng, struct spc_snee_stats *st);
+
+#endif
