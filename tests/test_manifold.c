@@ -821,6 +821,83 @@ TEST(caustic_image_path_snee_vs_ipt)
     spc_scene_destroy(sc);
 }
 
+/* ---- the exclusion of specular NEE's paths from BSDF sampling ---- */
+
+static spc_hit shape_hit(const spc_scene *sc, int i)
+{
+    spc_hit h;
+    memset(&h, 0, sizeof h);
+    h.shape = sc->shapes[i];
+    h.shape_index = i;
+    h.bsdf = h.shape->bsdf;
+    h.emitter = h.shape->emitter;
+    h.sh = spc_frame_from_n(spc_v3(0, 0, 1));
+    h.ng = h.sh.n;
+    return h;
+}
+
+/* Runs the tracker over a path: receiver, then vertices (shape, lobe), then the light. */
+static bool covers(const spc_scene *sc, int budget, const int *shapes, const unsigned *lobes, int n)
+{
+    spc_snee_track t;
+    memset(&t, 0, sizeof t);
+    spc_hit x = shape_hit(sc, 0);
+    spc_snee_track_scatter(&t, &x, SPC_LOBE_DIFFUSE_REFLECTION, budget, false);
+    for (int i = 0; i < n; ++i) {
+        spc_hit h = shape_hit(sc, shapes[i]);
+        spc_snee_track_scatter(&t, &h, lobes[i], budget, false);
+    }
+    return spc_snee_track_covers(&t, sc, sc->shapes[1]->emitter);
+}
+
+TEST(exclusion_matches_specular_nee)
+{
+    spc_scene *sc = spc_scene_create();
+    add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5)); /* 0 */
+    spc_shape *light = add_sphere(sc, spc_v3(0, 0, 3), 0.2, tu_diffuse(sc, 0.0));               /* 1 */
+    tu_area(sc, light, 1, 1.0);
+    add_sphere(sc, spc_v3(0, 0, 1), 0.5, mk_glass(sc, 1.5));                                        /* 2 */
+    add_sphere(sc, spc_v3(2, 0, 1), 0.5, mk_mirror(sc));                                            /* 3 */
+    spc_shape *single = add_sphere(sc, spc_v3(-2, 0, 1), 0.5, mk_glass(sc, 1.5));                   /* 4 */
+    single->caustic_flags = SPC_CAUSTIC_CASTER_SINGLE | SPC_CAUSTIC_FLAGS_EXPLICIT;
+    spc_shape *multi = add_sphere(sc, spc_v3(0, 2, 1), 0.5, mk_glass(sc, 1.5));                     /* 5 */
+    multi->caustic_flags = SPC_CAUSTIC_CASTER_MULTI | SPC_CAUSTIC_FLAGS_EXPLICIT;
+    spc_shape *none = add_sphere(sc, spc_v3(0, -2, 1), 0.5, mk_glass(sc, 1.5));                     /* 6 */
+    none->caustic_flags = SPC_CAUSTIC_RECEIVER | SPC_CAUSTIC_FLAGS_EXPLICIT;
+    CHECK(finalize(sc));
+    const unsigned T = SPC_LOBE_DELTA_TRANSMISSION, R = SPC_LOBE_DELTA_REFLECTION;
+    int glass2[2] = {2, 2}, mirror1[1] = {3}, glass1[1] = {2};
+    unsigned TT[2] = {T, T}, RR[2] = {R, R}, TR[2] = {T, R};
+    CHECK(covers(sc, 2, glass2, TT, 2));    /* in and out of the glass ball */
+    CHECK(covers(sc, 2, glass1, TT, 1));    /* one refraction */
+    CHECK(covers(sc, 2, mirror1, RR, 1));   /* a mirror */
+    CHECK(!covers(sc, 2, glass2, TR, 2));   /* a reflection off glass is not a chain vertex */
+    CHECK(!covers(sc, 2, mirror1, TT, 1));  /* (a mirror never transmits) */
+    CHECK(!covers(sc, 1, glass2, TT, 2));   /* longer than the budget */
+    CHECK(!covers(sc, 0, glass1, TT, 1));   /* specular NEE did not run at x */
+    CHECK(!covers(sc, 2, glass1, TT, 0));   /* a direct hit is regular NEE's */
+    int s1[1] = {4}, s2[2] = {4, 4}, m1[1] = {5}, m2[2] = {5, 5}, n1[1] = {6};
+    CHECK(covers(sc, 2, s1, TT, 1));        /* caster_single: in chains of one vertex only */
+    CHECK(!covers(sc, 2, s2, TT, 2));
+    CHECK(!covers(sc, 2, m1, TT, 1));       /* caster_multi: in longer chains only */
+    CHECK(covers(sc, 2, m2, TT, 2));
+    CHECK(!covers(sc, 2, n1, TT, 1));       /* not a caster */
+    /* a delta scattering at the receiver itself starts nothing */
+    spc_snee_track t;
+    memset(&t, 0, sizeof t);
+    spc_hit x = shape_hit(sc, 0), g = shape_hit(sc, 2);
+    spc_snee_track_scatter(&t, &x, SPC_LOBE_DELTA_REFLECTION, 2, false);
+    spc_snee_track_scatter(&t, &g, T, 2, false);
+    CHECK(!spc_snee_track_covers(&t, sc, light->emitter));
+    /* and the receiver flag decides the budget */
+    CHECK(spc_snee_budget(&x, 2, false) == 2);
+    spc_hit gl = shape_hit(sc, 2);
+    CHECK(spc_snee_budget(&gl, 2, false) == 0); /* glass has no non-delta lobe */
+    sc->shapes[0]->caustic_flags = SPC_CAUSTIC_CASTER | SPC_CAUSTIC_FLAGS_EXPLICIT;
+    CHECK(spc_snee_budget(&x, 2, false) == 0);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     spc_warn_set_quiet(1);
@@ -835,6 +912,7 @@ int main(void)
     RUN(solver_glass_slab_two_interfaces);
     RUN(bernoulli_estimator_unbiased);
     RUN(snee_point_estimates);
+    RUN(exclusion_matches_specular_nee);
     RUN(caustic_image_path_snee_vs_ipt);
     return spc_test_finish();
 }
