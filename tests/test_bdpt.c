@@ -18,6 +18,7 @@
 /* ctest-timeout: 600 */
 #include "harness.h"
 #include "render_util.h"
+#include "scene/mesh.h"
 
 /* ---- helpers ---- */
 
@@ -239,6 +240,132 @@ static spc_scene *caustic_scene(int res)
     return finalize(sc);
 }
 
+/* A coarse triangulated sphere (nu x nv quads) with smooth vertex normals: its shading normals
+ * differ from the geometric ones by up to ~20 degrees, which exercises the adjoint correction. */
+static spc_shape *mesh_sphere(spc_scene *sc, spc_vec3 c, double r, int nu, int nv, const spc_bsdf *b)
+{
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    m.nverts = (size_t)(nu + 1) * (size_t)(nv + 1);
+    m.ntris = 2 * (size_t)nu * (size_t)nv;
+    m.p = malloc(3 * m.nverts * sizeof(float));
+    m.n = malloc(3 * m.nverts * sizeof(float));
+    m.idx = malloc(3 * m.ntris * sizeof(uint32_t));
+    if (!m.p || !m.n || !m.idx) {
+        spc_mesh_release(&m);
+        return NULL;
+    }
+    for (int j = 0; j <= nv; ++j)
+        for (int i = 0; i <= nu; ++i) {
+            double th = SPC_PI * j / nv, ph = 2.0 * SPC_PI * i / nu;
+            spc_vec3 d = spc_v3(sin(th) * cos(ph), cos(th), sin(th) * sin(ph));
+            size_t k = (size_t)j * (nu + 1) + i;
+            m.p[3 * k] = (float)(c.x + r * d.x);
+            m.p[3 * k + 1] = (float)(c.y + r * d.y);
+            m.p[3 * k + 2] = (float)(c.z + r * d.z);
+            m.n[3 * k] = (float)d.x;
+            m.n[3 * k + 1] = (float)d.y;
+            m.n[3 * k + 2] = (float)d.z;
+        }
+    size_t t = 0;
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            uint32_t a = (uint32_t)(j * (nu + 1) + i), bq = a + 1, cq = a + (uint32_t)(nu + 1), dq = cq + 1;
+            uint32_t tri[6] = {a, bq, cq, bq, dq, cq};
+            for (int q = 0; q < 6; ++q)
+                m.idx[3 * t + q] = tri[q];
+            t += 2;
+        }
+    spc_mesh_drop_degenerate(&m);
+    spc_shape *sh = spc_scene_new_shape(sc);
+    spc_error err;
+    if (!spc_shape_init_mesh(sh, &m, NULL, NULL, 0, 0, &err)) {
+        spc_mesh_release(&m);
+        return NULL;
+    }
+    sh->bsdf = b;
+    return sh;
+}
+
+/* The Cornell box with coarse smooth-shaded mesh spheres (one diffuse, one glass). */
+static spc_scene *box_smooth_meshes(int res)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_bsdf *white = twosided_diffuse(sc, 0.725, 0.71, 0.68);
+    rect(sc, 1, 1, -90, 0, spc_v3(0, 0, 0), white);
+    rect(sc, 1, 1, 90, 0, spc_v3(0, 2, 0), white);
+    rect(sc, 1, 1, 0, 0, spc_v3(0, 1, -1), white);
+    rect(sc, 1, 1, 0, 90, spc_v3(-1, 1, 0), twosided_diffuse(sc, 0.63, 0.065, 0.05));
+    rect(sc, 1, 1, 0, -90, spc_v3(1, 1, 0), twosided_diffuse(sc, 0.14, 0.45, 0.091));
+    spc_shape *l = rect(sc, 0.5, 0.4, 90, 0, spc_v3(0, 1.98, 0), tu_diffuse(sc, 0.0));
+    spc_emitter *e = tu_area(sc, l, sc->nshapes - 1, 1.0);
+    e->radiance = spc_scene_constant(sc, spc_rgb3(17, 12, 4));
+    spc_shape *a = mesh_sphere(sc, spc_v3(-0.42, 0.4, -0.1), 0.38, 6, 4, glass(sc, 1.5));
+    spc_shape *b = mesh_sphere(sc, spc_v3(0.45, 0.5, -0.4), 0.45, 5, 4, twosided_diffuse(sc, 0.8, 0.8, 0.8));
+    if (!a || !b) {
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    tu_camera(sc, spc_v3(0, 1, 3.9), spc_v3(0, 1, 0), spc_v3(0, 1, 0), 40, res, res);
+    return finalize(sc);
+}
+
+/* A floor with a diffuse and a glass sphere under a uniform sky (constant environment). */
+static spc_scene *sky_scene(int res, bool image)
+{
+    spc_scene *sc = spc_scene_create();
+    rect(sc, 2.5, 2.5, -90, 0, spc_v3(0, 0, 0), twosided_diffuse(sc, 0.7, 0.6, 0.5));
+    sphere(sc, spc_v3(-0.6, 0.45, 0.0), 0.45, twosided_diffuse(sc, 0.3, 0.7, 0.8));
+    sphere(sc, spc_v3(0.6, 0.45, 0.2), 0.45, glass(sc, 1.5));
+    spc_emitter *e = spc_scene_new_emitter(sc);
+    e->type = SPC_EMITTER_CONSTANT;
+    e->radiance = spc_scene_constant(sc, spc_rgb3(0.8, 0.9, 1.0));
+    if (image) {
+        /* a lat-long map: a sky gradient and a bright "sun" texel block (importance sampled) */
+        spc_texture *t = spc_scene_new_texture(sc);
+        t->type = SPC_TEX_BITMAP;
+        t->width = 32;
+        t->height = 16;
+        t->data = calloc(3 * 32 * 16, sizeof(float));
+        for (int y = 0; y < 16 && t->data; ++y)
+            for (int x = 0; x < 32; ++x) {
+                float *p = t->data + 3 * (y * 32 + x);
+                double g = y < 8 ? 0.3 + 0.05 * y : 0.1;
+                bool sun = x >= 20 && x < 22 && y >= 3 && y < 5;
+                p[0] = (float)(sun ? 40.0 : 0.8 * g);
+                p[1] = (float)(sun ? 36.0 : 0.9 * g);
+                p[2] = (float)(sun ? 30.0 : 1.0 * g);
+            }
+        e->type = SPC_EMITTER_ENVMAP;
+        e->radiance = t;
+    }
+    e->scale = 1.0;
+    e->to_world = spc_mat4_identity();
+    tu_camera(sc, spc_v3(0, 1.4, 3.2), spc_v3(0, 0.4, 0), spc_v3(0, 1, 0), 50, res, res);
+    return finalize(sc);
+}
+
+/* A diffuse floor, wall and sphere lit by a directional light and a spot light (both delta). */
+static spc_scene *delta_lights_scene(int res)
+{
+    spc_scene *sc = spc_scene_create();
+    rect(sc, 2.5, 2.5, -90, 0, spc_v3(0, 0, 0), twosided_diffuse(sc, 0.7, 0.6, 0.5));
+    rect(sc, 2.5, 1.5, 0, 0, spc_v3(0, 1.5, -1.2), twosided_diffuse(sc, 0.6, 0.6, 0.6));
+    sphere(sc, spc_v3(0.0, 0.5, 0.0), 0.5, twosided_diffuse(sc, 0.3, 0.7, 0.8));
+    spc_emitter *d = spc_scene_new_emitter(sc);
+    d->type = SPC_EMITTER_DIRECTIONAL;
+    d->direction = spc_normalize(spc_v3(0.4, -1.0, -0.3));
+    d->irradiance = spc_rgb3(1.0, 0.9, 0.7);
+    spc_emitter *sp = spc_scene_new_emitter(sc);
+    sp->type = SPC_EMITTER_SPOT;
+    sp->intensity = spc_rgb3(4, 4, 5);
+    sp->cutoff_angle = 30.0;
+    sp->beam_width = 20.0;
+    spc_mat4_lookat(spc_v3(-1.2, 2.0, 1.0), spc_v3(0, 0.3, 0), spc_v3(0, 1, 0), &sp->to_world);
+    tu_camera(sc, spc_v3(0, 1.4, 3.2), spc_v3(0, 0.5, 0), spc_v3(0, 1, 0), 50, res, res);
+    return finalize(sc);
+}
+
 /* ---- closed forms ---- */
 
 TEST(white_furnace_sphere)
@@ -377,6 +504,22 @@ TEST(caustic_against_path)
 TEST(point_light_against_path)
 {
     compare_to_path(cornell_box(BOX_POINT, 24, 1.0), 128, 1024, -1, "point light box");
+}
+
+TEST(shading_normals_against_path)
+{
+    compare_to_path(box_smooth_meshes(24), 256, 2048, -1, "smooth-shaded mesh spheres");
+}
+
+TEST(environment_against_path)
+{
+    compare_to_path(sky_scene(24, false), 128, 1024, -1, "constant environment, glass sphere");
+    compare_to_path(sky_scene(24, true), 128, 1024, -1, "environment map, glass sphere");
+}
+
+TEST(directional_and_spot_against_path)
+{
+    compare_to_path(delta_lights_scene(24), 128, 1024, -1, "directional and spot lights");
 }
 
 /* Both heuristics weight every path to a total of one: the images agree. */
@@ -590,6 +733,9 @@ int main(void)
     RUN(unweighted_strategies_estimate_length_images);
     RUN(balance_heuristic_against_power);
     RUN(point_light_against_path);
+    RUN(environment_against_path);
+    RUN(shading_normals_against_path);
+    RUN(directional_and_spot_against_path);
     RUN(box_glass_mirror_against_path);
     RUN(caustic_against_path);
     printf("bdpt subpaths truncated at the vertex limit: %llu\n", (unsigned long long)spc_bdpt_truncated_paths());

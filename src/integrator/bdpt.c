@@ -436,6 +436,14 @@ static spc_rgb connect_s0(const bdpt *B, const vtx *z, int t)
     return spc_rgb_scale(C, weight_of(B, NULL, 0, z, t, &l, 0.0));
 }
 
+/* True if film position (fx, fy) lies in the rendered window: light tracing covers exactly the
+ * positions there, the driver's camera samples never leave it (their filter is restricted to it,
+ * film.h). */
+static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
+{
+    return fx >= ctx->crop_x && fx < ctx->crop_x + ctx->width && fy >= ctx->crop_y && fy < ctx->crop_y + ctx->height;
+}
+
 /* t = 1: the light subpath's vertex y[s-1] joined to the pinhole, splatted. */
 static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const vtx *z)
 {
@@ -448,7 +456,7 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
     if (v->kind == V_SURFACE && !spc_bsdf_has_smooth(v->h.bsdf))
         return;
     spc_camera_direct cd;
-    if (!spc_camera_sample_direct(ctx->cam, v->p, ctx->film->filter_radius, &cd))
+    if (!spc_camera_sample_direct(ctx->cam, v->p, &cd) || !in_window(ctx, cd.fx, cd.fy))
         return;
     spc_rgb C;
     if (v->kind == V_LIGHT) { /* (1, 1): a point on an area light seen directly */
@@ -569,8 +577,11 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     z0->p = ray0->o;
     z0->n = spc_v3(0, 0, 0);
     z0->on_surface = z0->infinite = false;
-    /* no light path can join an orthographic camera */
-    z0->delta = !(pdf_cam > 0.0);
+    /* no light path can join an orthographic camera, nor reach a film position outside the
+     * rendered window (should a filter sample ever land there): then t = 1 is no strategy */
+    double fx = -1.0, fy = -1.0;
+    spc_camera_project(ctx->cam, spc_add(ray0->o, ray0->d), &fx, &fy);
+    z0->delta = !(pdf_cam > 0.0) || !in_window(ctx, fx, fy);
     z0->beta = spc_rgb1(1.0);
     z0->pdf_fwd = 1.0;
     z0->pdf_rev = 0.0;

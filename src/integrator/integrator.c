@@ -3,8 +3,12 @@
  */
 #include "integrator/integrator.h"
 
+#include <float.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+#define SPC_SPLAT_MAX_COORD 1e9 /* film coordinates beyond this lie on no film (sides <= 65536) */
 
 bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind)
 {
@@ -84,10 +88,14 @@ static void push_splat(spc_tls *tls, int x, int y, spc_rgb v)
 
 void spc_splat_add(const spc_render_ctx *ctx, spc_tls *tls, double fx, double fy, spc_rgb v)
 {
-    if (!spc_rgb_finite(v)) {
+    /* splats are stored as float: a value beyond float range is as invalid as a NaN (the driver
+     * applies the same rule to camera samples) */
+    if (!(fabs(v.r) <= FLT_MAX && fabs(v.g) <= FLT_MAX && fabs(v.b) <= FLT_MAX)) {
         tls->invalid++;
         return;
     }
+    if (!(fabs(fx) < SPC_SPLAT_MAX_COORD && fabs(fy) < SPC_SPLAT_MAX_COORD))
+        return; /* NaN or far off the film: no pixel; and the int conversions below stay defined */
     double r = ctx->film->filter_radius;
     /* pixels whose centers lie within the filter radius, in the rendered window */
     int x0 = (int)floor(fx - r - 0.5) + 1, x1 = (int)floor(fx + r - 0.5);

@@ -127,7 +127,7 @@ double spc_camera_pdf_dir(const spc_camera_state *cs, spc_vec3 d)
     return pdf_dir_local(cs, l.x / l.z, l.y / l.z);
 }
 
-bool spc_camera_sample_direct(const spc_camera_state *cs, spc_vec3 ref, double margin, spc_camera_direct *out)
+bool spc_camera_sample_direct(const spc_camera_state *cs, spc_vec3 ref, spc_camera_direct *out)
 {
     if (!spc_camera_connectible(cs))
         return false;
@@ -138,7 +138,7 @@ bool spc_camera_sample_direct(const spc_camera_state *cs, spc_vec3 ref, double m
     double x = l.x / l.z, y = l.y / l.z;
     double fx = (1.0 - x / cs->tan_x) * 0.5 * cs->width;
     double fy = (1.0 - y / cs->tan_y) * 0.5 * cs->height;
-    if (!(fx >= -margin && fx < cs->width + margin && fy >= -margin && fy < cs->height + margin))
+    if (!(fx >= 0.0 && fx < cs->width && fy >= 0.0 && fy < cs->height))
         return false;
     double pdf = pdf_dir_local(cs, x, y);
     spc_vec3 d = spc_sub(cs->origin, ref);

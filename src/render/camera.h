@@ -46,9 +46,8 @@ bool spc_camera_project(const spc_camera_state *cs, spc_vec3 p, double *fx, doub
 /* True if light paths can be connected to the camera (perspective pinhole). */
 bool spc_camera_connectible(const spc_camera_state *cs);
 /* Solid-angle density of the world direction d (unit) of a camera ray when the film position is
- * uniform over the whole film. The same expression is returned past the film's edges (where
- * pixel filters wider than a pixel still take camera samples); 0 behind the camera and for
- * orthographic cameras. */
+ * uniform over the whole film. The same expression is returned past the film's edges (callers
+ * decide what lies on the film); 0 behind the camera and for orthographic cameras. */
 double spc_camera_pdf_dir(const spc_camera_state *cs, spc_vec3 d);
 
 typedef struct spc_camera_direct {
@@ -62,9 +61,9 @@ typedef struct spc_camera_direct {
     double pdf;       /* density of choosing the camera point: 1 (the pinhole is a delta position) */
 } spc_camera_direct;
 
-/* Connects a world point to the camera: false if ref projects farther than `margin` pixels
- * outside the film (pass the pixel filter's radius: points just off the film still reach the
- * filters of the edge pixels), lies outside the clip range, or the camera is not connectible. */
-bool spc_camera_sample_direct(const spc_camera_state *cs, spc_vec3 ref, double margin, spc_camera_direct *out);
+/* Connects a world point to the camera: false if ref projects outside the film, lies outside the
+ * clip range, or the camera is not connectible. (Callers rendering a crop window check that
+ * (fx, fy) lies in it: the driver takes no camera sample outside the rendered window.) */
+bool spc_camera_sample_direct(const spc_camera_state *cs, spc_vec3 ref, spc_camera_direct *out);
 
 #endif

@@ -66,10 +66,10 @@ void spc_ckpt_settings_text(const struct spc_render_ctx *ctx, const char *specul
 {
     const spc_film_spec *fs = ctx->film;
     snprintf(buf, size,
-             "integrator=%s;max_depth=%d;rr_depth=%d;hide_emitters=%d;strategy=%d,%d,%d;"
+             "integrator=%s;max_depth=%d;rr_depth=%d;hide_emitters=%d;strategy=%d,%d,%d;mis_balance=%d;"
              "specular_nee=%s;seed=%llu;film=%dx%d;crop=%d,%d,%d,%d;filter=%d,%.17g,%.17g;aovs=%d",
              spc_integrator_kind_name(ctx->kind), ctx->max_depth, ctx->rr_depth, (int)ctx->hide_emitters,
-             ctx->strategy_s, ctx->strategy_t, (int)ctx->strategy_weighted,
+             ctx->strategy_s, ctx->strategy_t, (int)ctx->strategy_weighted, (int)ctx->mis_balance,
              specular_nee ? specular_nee : "", (unsigned long long)seed, fs->width, fs->height, ctx->crop_x,
              ctx->crop_y, ctx->width, ctx->height, (int)fs->rfilter, fs->filter_radius, fs->filter_stddev,
              (int)aovs);
@@ -202,11 +202,14 @@ static bool r_bytes(reader *r, void *data, size_t n)
     return true;
 }
 
-static char *r_text(reader *r, uint32_t len)
+/* A text field of len bytes; NULL with *nomem set if out of memory, NULL alone if unreadable. */
+static char *r_text(reader *r, uint32_t len, bool *nomem)
 {
     char *s = malloc((size_t)len + 1);
-    if (!s)
+    if (!s) {
+        *nomem = true;
         return NULL;
+    }
     if (!r_bytes(r, s, len)) {
         free(s);
         return NULL;
@@ -297,11 +300,13 @@ spc_status spc_checkpoint_load(const char *path, spc_checkpoint **out, spc_error
         status = corrupt(err, path, fsize < expect ? "the file is truncated" : "the file is too long");
         goto fail;
     }
-    c->settings = r_text(&r, ls);
-    c->scene_path = c->settings ? r_text(&r, lp) : NULL;
-    c->user = c->scene_path ? r_text(&r, lu) : NULL;
+    bool nomem = false;
+    c->settings = r_text(&r, ls, &nomem);
+    c->scene_path = c->settings ? r_text(&r, lp, &nomem) : NULL;
+    c->user = c->scene_path ? r_text(&r, lu, &nomem) : NULL;
     if (!c->user) {
-        status = corrupt(err, path, "unreadable text fields");
+        status = nomem ? spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory reading the checkpoint")
+                       : corrupt(err, path, "unreadable text fields");
         goto fail;
     }
     c->sum = malloc(3 * n * sizeof(double));

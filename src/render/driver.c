@@ -14,7 +14,9 @@
  * passes, and a resumed render starts at pass index = the checkpoint's pass count: the same
  * additions in the same order as an uninterrupted render.
  */
+#include <float.h>
 #include <limits.h>
+#include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -65,6 +67,19 @@ static double now_seconds(void)
 }
 
 
+/* A camera sample's estimate is kept only if every channel is finite and within float range: the
+ * image is stored as float, and a larger value would become infinite there (its square, in the
+ * variance sums, stays finite in double). Others are counted as invalid and replaced by zero. */
+#define SPC_MAX_ESTIMATE ((double)FLT_MAX)
+
+static bool estimate_ok(spc_rgb L)
+{
+    return fabs(L.r) <= SPC_MAX_ESTIMATE && fabs(L.g) <= SPC_MAX_ESTIMATE && fabs(L.b) <= SPC_MAX_ESTIMATE;
+}
+
+/* AOVs are not estimates that can be discarded: a non-finite one is stored as zero. */
+static double finite_or_zero(double v) { return fabs(v) <= SPC_MAX_ESTIMATE ? v : 0.0; }
+
 static double filter_sample(const spc_film_spec *f, double u)
 {
     switch (f->rfilter) {
@@ -95,7 +110,7 @@ static void render_item(job *jb, int item)
             spc_ray ray = spc_camera_ray(ctx->cam, px, py);
             spc_sample_out out;
             spc_integrator_sample(ctx, tls, &ray, &smp, &out);
-            if (!spc_rgb_finite(out.L)) {
+            if (!estimate_ok(out.L)) {
                 tls->invalid++;
                 out.L = spc_rgb1(0.0);
             }
@@ -104,13 +119,13 @@ static void render_item(job *jb, int item)
             d[1] = out.L.g;
             d[2] = out.L.b;
             if (jb->stride == 10) {
-                d[3] = out.albedo.r;
-                d[4] = out.albedo.g;
-                d[5] = out.albedo.b;
-                d[6] = out.normal.x;
-                d[7] = out.normal.y;
-                d[8] = out.normal.z;
-                d[9] = out.depth;
+                d[3] = finite_or_zero(out.albedo.r);
+                d[4] = finite_or_zero(out.albedo.g);
+                d[5] = finite_or_zero(out.albedo.b);
+                d[6] = finite_or_zero(out.normal.x);
+                d[7] = finite_or_zero(out.normal.y);
+                d[8] = finite_or_zero(out.normal.z);
+                d[9] = finite_or_zero(out.depth);
             }
         }
 }

@@ -203,7 +203,17 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
             }
             s->env = e;
         }
-        if (!spc_emitter_prepare(e, s->center, s->radius))
+        bool lit = spc_emitter_prepare(e, s->center, s->radius);
+        if (isnan(e->power) || e->power < 0.0 || isinf(e->power)) {
+            /* a negative or overflowing radiance would silently black out or break light selection */
+            double p = e->power;
+            free(power);
+            return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                                 "emitter %d has power %g: its radiance, intensity or irradiance must be finite, "
+                                 "non-negative and small enough for its size",
+                                 i, p);
+        }
+        if (!lit)
             e->power = 0.0; /* zero-power light: visible, never sampled */
         power[i] = (e->power > 0.0 && isfinite(e->power)) ? e->power : 0.0;
     }

@@ -1,0 +1,9 @@
+/*
+ * fuzz/fuzz_serialized.c: libFuzzer harness for the serialized loader (the target is spc_fuzz_serialized in
+ * fuzz/fuzz_targets.h). Built with -DSPC_FUZZ=ON (clang); run by fuzz/run.sh.
+ */
+#include "fuzz_targets.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) { return spc_fuzz_serialized(data, size); }
