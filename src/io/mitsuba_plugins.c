@@ -11,6 +11,9 @@
  *   flip_normals false, a nested or referenced bsdf (default diffuse 0.5), a nested area emitter,
  *   caustic_caster / caustic_receiver / caustic_caster_single / caustic_caster_multi.
  *   shapegroup holds shapes; instance (a ref to a shapegroup, to_world) copies them, placed.
+ *   sdf: one nested <sdf type="sphere | box | roundbox | torus | capsule | cylinder | plane | union |
+ *   intersection | difference | smooth_union"> tree, each node with its own to_world (properties
+ *   and defaults in scene/sdf.h); operations take two or more nested <sdf> and fold from the left.
  * BSDFs: diffuse (reflectance 0.5), roughdiffuse (reflectance 0.5, alpha 0.2), phong (exponent 30,
  *   specular_reflectance 0.2, diffuse_reflectance 0.5), conductor (material "none" = perfect
  *   mirror, or eta + k; ext_eta 1; specular_reflectance 1), roughconductor (+ alpha | alpha_u,
@@ -36,8 +39,12 @@
 
 #include "io/mesh_io.h"
 #include "io/mitsuba_internal.h"
+#include "scene/sdf.h"
 
 #define UNIFORM_SCALE_TOL 1e-5 /* relative: sphere to_world columns must agree this well */
+/* Nesting limit of <sdf> nodes: far beyond hand-written trees, and it bounds the recursion a
+ * fuzzed file can cause. */
+#define MTS_SDF_MAX_DEPTH 64
 
 /* ------------------------------------------------------------------------------------------------ */
 /* helpers */
@@ -579,6 +586,118 @@ static void caustic_flags(mts_loader *L, mts_props *P, spc_shape *s)
     }
 }
 
+/* A size: a vector, or one float for all three axes. */
+static spc_vec3 get_size(mts_loader *L, mts_props *P, const char *name, spc_vec3 def)
+{
+    mts_prop *p = mts_find(P, name);
+    if (!p)
+        return def;
+    if (p->kind == MTS_FLOAT || p->kind == MTS_INT)
+        return spc_v3(p->f, p->f, p->f);
+    p->used = false;
+    return mts_get_point(L, P, name, def);
+}
+
+/* Builds the <sdf> element `node` (and its children) into sdf; returns its node index, or -1 after
+ * mts_fail. */
+static int build_sdf(mts_loader *L, spc_sdf *sdf, spc_xml_node *node, int depth)
+{
+    if (depth > MTS_SDF_MAX_DEPTH) {
+        mts_fail(L, node, SPC_ERR_LIMIT, "<sdf> nodes nested deeper than %d", MTS_SDF_MAX_DEPTH);
+        return -1;
+    }
+    const char *type = mts_type(node);
+    spc_sdf_type t;
+    if (!spc_sdf_type_from_name(type, &t)) {
+        mts_fail(L, node, SPC_ERR_PLUGIN,
+                 "unknown sdf type '%s' (sphere, box, roundbox, torus, capsule, cylinder, plane, union, "
+                 "intersection, difference, smooth_union)",
+                 type);
+        return -1;
+    }
+    mts_props P;
+    if (mts_props_collect(L, node, &P))
+        return -1;
+    spc_sdf_desc d;
+    spc_sdf_desc_init(&d, t);
+    d.to_world = mts_get_transform(L, &P, "to_world");
+    const char *size_name = "half_size";
+    switch (t) {
+    case SPC_SDF_SPHERE: d.radius = mts_get_float(L, &P, "radius", d.radius); break;
+    case SPC_SDF_BOX:
+    case SPC_SDF_ROUNDBOX:
+        if (mts_has(&P, "size") && mts_has(&P, "half_size")) {
+            mts_fail(L, mts_where(&P, "size"), SPC_ERR_VALUE, "sdf %s: give size or half_size, not both", type);
+        } else if (mts_has(&P, "size")) {
+            d.half_size = spc_scale(get_size(L, &P, "size", d.half_size), 0.5);
+            size_name = "size";
+        } else {
+            d.half_size = get_size(L, &P, "half_size", d.half_size);
+        }
+        if (t == SPC_SDF_ROUNDBOX)
+            d.radius = mts_get_float(L, &P, "radius", d.radius);
+        break;
+    case SPC_SDF_TORUS:
+        d.major = mts_get_float(L, &P, "major_radius", d.major);
+        d.minor = mts_get_float(L, &P, "minor_radius", d.minor);
+        break;
+    case SPC_SDF_CAPSULE:
+        d.p0 = mts_get_point(L, &P, "p0", d.p0);
+        d.p1 = mts_get_point(L, &P, "p1", d.p1);
+        d.radius = mts_get_float(L, &P, "radius", d.radius);
+        break;
+    case SPC_SDF_CYLINDER:
+        d.radius = mts_get_float(L, &P, "radius", d.radius);
+        d.height = mts_get_float(L, &P, "height", d.height);
+        break;
+    case SPC_SDF_PLANE:
+        d.normal = mts_get_point(L, &P, "normal", d.normal);
+        d.offset = mts_get_float(L, &P, "offset", d.offset);
+        break;
+    case SPC_SDF_SMOOTH_UNION: d.k = mts_get_float(L, &P, "k", d.k); break;
+    case SPC_SDF_UNION:
+    case SPC_SDF_INTERSECTION:
+    case SPC_SDF_DIFFERENCE: break;
+    }
+    char msg[256];
+    const char *field = NULL;
+    if (L->status == SPC_OK && !spc_sdf_desc_check(&d, msg, sizeof msg, &field))
+        mts_fail(L, mts_where(&P, strcmp(field, "half_size") == 0 ? size_name : field), SPC_ERR_VALUE, "sdf %s: %s",
+                 type, msg);
+    int nchildren = mts_count_objects(&P, "sdf"), idx = -1;
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    if (L->status != SPC_OK) {
+        /* reported */
+    } else if (!spc_sdf_type_is_operation(t)) {
+        if (nchildren > 0)
+            mts_fail(L, node, SPC_ERR_VALUE, "sdf %s is a primitive: it takes no nested <sdf>", type);
+        else if ((idx = spc_sdf_add(sdf, &d, node->file, node->line, node->col, &sub)) < 0)
+            mts_fail(L, node, sub.code ? sub.code : SPC_ERR_VALUE, "%s", sub.msg);
+    } else if (nchildren < 2) {
+        mts_fail(L, node, SPC_ERR_VALUE, "sdf %s needs two or more nested <sdf>, got %d", type, nchildren);
+    } else {
+        /* ((c0 op c1) op c2) ...: the node's transform applies to the outermost fold */
+        spc_mat4 to_world = d.to_world;
+        for (int c = 0; c < nchildren && L->status == SPC_OK; ++c) {
+            int ci = build_sdf(L, sdf, mts_object(&P, "sdf", c, NULL), depth + 1);
+            if (ci < 0)
+                break;
+            if (c == 0) {
+                idx = ci;
+                continue;
+            }
+            d.a = idx;
+            d.b = ci;
+            d.to_world = c == nchildren - 1 ? to_world : spc_mat4_identity();
+            if ((idx = spc_sdf_add(sdf, &d, node->file, node->line, node->col, &sub)) < 0)
+                mts_fail(L, node, sub.code ? sub.code : SPC_ERR_VALUE, "%s", sub.msg);
+        }
+    }
+    mts_props_end(&P);
+    return L->status == SPC_OK ? idx : -1;
+}
+
 static void build_instance(mts_loader *L, spc_xml_node *node, mts_props *P, const spc_mat4 *prefix, bool in_group)
 {
     const spc_xml_node *at = node;
@@ -627,13 +746,13 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
         mts_props_end(&P);
         return L->status;
     }
-    static const char *known[] = {"sphere", "rectangle", "disk", "cube", "cylinder", "obj", "ply", "serialized"};
+    static const char *known[] = {"sphere", "rectangle", "disk", "cube", "cylinder", "obj", "ply", "serialized", "sdf"};
     bool ok = false;
     for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
         ok |= strcmp(type, known[i]) == 0;
     if (!ok) {
         mts_fail(L, node, SPC_ERR_PLUGIN,
-                 "unknown shape type '%s' (sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, "
+                 "unknown shape type '%s' (sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, "
                  "shapegroup, instance)",
                  type);
         mts_props_end(&P);
@@ -657,6 +776,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     double radius = 1.0;
     spc_mesh m;
     memset(&m, 0, sizeof m);
+    spc_sdf *sdf = NULL;
+    int sdf_root = -1;
     if (strcmp(type, "sphere") == 0 || strcmp(type, "cylinder") == 0) {
         radius = mts_get_float(L, &P, "radius", 1.0);
         if (L->status == SPC_OK && !(radius > 0.0))
@@ -686,8 +807,17 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
             mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "mesh file '%s' not found", fname);
         if (L->status == SPC_OK)
             load_mesh(L, mts_where(&P, "filename"), type, path, shape_index, flip_tex, in_group, &m);
+    } else if (strcmp(type, "sdf") == 0) {
+        int nsdf = mts_count_objects(&P, "sdf");
+        if (nsdf != 1)
+            mts_fail(L, node, SPC_ERR_VALUE, "an sdf shape takes one nested <sdf> tree, got %d", nsdf);
+        else if (!(sdf = spc_sdf_create()))
+            mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+        else
+            sdf_root = build_sdf(L, sdf, mts_object(&P, "sdf", 0, NULL), 1);
     }
     if (L->status != SPC_OK) {
+        spc_sdf_destroy(sdf);
         spc_mesh_release(&m);
         mts_props_end(&P);
         return L->status;
@@ -695,6 +825,7 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
 
     spc_shape *s = spc_scene_new_shape(L->scene);
     if (!s) {
+        spc_sdf_destroy(sdf);
         spc_mesh_release(&m);
         mts_props_end(&P);
         return mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
@@ -715,6 +846,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
         built = spc_shape_init_cube(s, &M, f, node->line, node->col, &sub);
     else if (strcmp(type, "cylinder") == 0)
         built = spc_shape_init_cylinder(s, p0, p1, radius, &M, f, node->line, node->col, &sub);
+    else if (sdf)
+        built = spc_shape_init_sdf(s, sdf, sdf_root, &M, f, node->line, node->col, &sub); /* owns sdf */
     else
         built = spc_shape_init_mesh(s, &m, &M, f, node->line, node->col, &sub);
     spc_mesh_release(&m); /* emptied by init_mesh on success */

@@ -366,7 +366,8 @@ mts_id *mts_id_of(mts_loader *L, const spc_xml_node *node)
 static bool is_object_tag(const char *t)
 {
     static const char *tags[] = {"bsdf",   "texture",    "shape",  "emitter", "sensor", "film",
-                                 "sampler", "rfilter", "integrator", "medium", "phase",   "volume"};
+                                 "sampler", "rfilter", "integrator", "medium", "phase",   "volume",
+                                 "sdf"};
     for (size_t i = 0; i < sizeof tags / sizeof tags[0]; ++i)
         if (strcmp(t, tags[i]) == 0)
             return true;

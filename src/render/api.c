@@ -52,6 +52,7 @@ static bool shape_is_analytic(const spc_shape *sh)
     case SPC_SHAPE_SPHERE:
     case SPC_SHAPE_DISK:
     case SPC_SHAPE_CYLINDER:
+    case SPC_SHAPE_SDF:
         return true;
     }
     return false;
@@ -154,6 +155,7 @@ static const char *shape_type_name(const spc_shape *sh)
     case SPC_SHAPE_SPHERE: return "sphere";
     case SPC_SHAPE_DISK: return "disk";
     case SPC_SHAPE_CYLINDER: return "cylinder";
+    case SPC_SHAPE_SDF: return "sdf";
     }
     return "?";
 }

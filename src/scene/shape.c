@@ -8,6 +8,11 @@
  *             theta measured from local +z; texture uv = (u, v) as Mitsuba 3
  *   disk      u = r, v = phi / (2 pi) in local coordinates; texture uv = (u, v)
  *   cylinder  u = phi / (2 pi), v = local z in [0, 1]; texture uv = (u, v)
+ *   sdf       local tangent-plane coordinates at the hit: u, v along an orthonormal tangent basis
+ *             (s, t) of the normal (spc_frame_from_n), so dpdu, dpdv are unit and orthogonal and
+ *             dndu, dndv are the shape operator applied to them, (I - n n^T) H t / |grad f| from
+ *             the field's Hessian H (scene/sdf.c); b1 = b2 = 0 at the hit. Texture uv = spherical
+ *             angles of p in the root node's frame, as the sphere's.
  *
  * Error bounds for ray offsets: analytic shapes are intersected in double from the double ray, so
  * their points are accurate to a few double ulps; triangles are intersected by Embree in float,
@@ -19,6 +24,8 @@
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "scene/sdf.h"
 
 /* Relative offset for surfaces intersected in float: ~8 float ulps of the coordinates' magnitude,
  * above Embree's watertight intersection error, far below any feature a float scene can hold. */
@@ -44,6 +51,8 @@ static bool mat_ok(const spc_mat4 *m)
 static void shape_clear(spc_shape *s, spc_shape_type type)
 {
     spc_mesh_release(&s->mesh);
+    spc_sdf_destroy(s->sdf);
+    s->sdf = NULL;
     s->type = type;
     s->to_world = spc_mat4_identity();
     s->to_local = spc_mat4_identity();
@@ -219,11 +228,30 @@ bool spc_shape_init_mesh(spc_shape *s, spc_mesh *m, const spc_mat4 *to_world, co
     return true;
 }
 
+bool spc_shape_init_sdf(spc_shape *s, struct spc_sdf *sdf, int root, const spc_mat4 *to_world, const char *file,
+                        int line, int col, spc_error *err)
+{
+    shape_clear(s, SPC_SHAPE_SDF);
+    s->sdf = sdf;
+    if (!sdf)
+        return fail(err, file, line, col, "sdf shape without a field");
+    if (!spc_sdf_finalize(sdf, root, to_world, file, line, col, err)) {
+        spc_sdf_destroy(sdf);
+        s->sdf = NULL;
+        return false;
+    }
+    if (to_world)
+        s->to_world = *to_world;
+    return true;
+}
+
 void spc_shape_release(spc_shape *s)
 {
     if (!s)
         return;
     spc_mesh_release(&s->mesh);
+    spc_sdf_destroy(s->sdf);
+    s->sdf = NULL;
     spc_distrib1d_release(&s->tri_distrib);
 }
 
@@ -285,6 +313,13 @@ bool spc_shape_prepare(spc_shape *s)
         s->bbox_max = hi;
         return s->area > 0.0 && isfinite(s->area);
     }
+    case SPC_SHAPE_SDF:
+        /* exact for one primitive, else a Crofton estimate (scene/sdf.c) */
+        if (!s->sdf)
+            return false;
+        s->area = spc_sdf_area(s->sdf);
+        spc_sdf_bounds(s->sdf, &s->bbox_min, &s->bbox_max);
+        return s->area > 0.0 && isfinite(s->area);
     }
     return false;
 }
@@ -391,6 +426,9 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
         }
         return false;
     }
+    case SPC_SHAPE_SDF:
+        *u = *v = 0.0;
+        return spc_sdf_intersect(s->sdf, r, t);
     case SPC_SHAPE_MESH:
         return false;
     }
@@ -555,6 +593,7 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
     case SPC_SHAPE_SPHERE: fill_sphere(s, r, t, h); break;
     case SPC_SHAPE_DISK: fill_disk(s, u, v, h); break;
     case SPC_SHAPE_CYLINDER: fill_cylinder(s, r, t, h); break;
+    case SPC_SHAPE_SDF: spc_sdf_fill_hit(s->sdf, spc_madd(r->o, r->d, t), s->flip_normals, h); break;
     }
 }
 
@@ -620,11 +659,30 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
         out->err = h.err;
         return;
     }
+    case SPC_SHAPE_SDF: {
+        /* uniform by line sampling with rejection (scene/sdf.c); failure needs a surface far
+         * smaller than its bounding sphere and is reported as a zero density */
+        spc_vec3 p;
+        spc_hit h;
+        memset(&h, 0, sizeof h);
+        if (!spc_sdf_sample_area(s->sdf, u, &p)) {
+            p = spc_scale(spc_add(s->bbox_min, s->bbox_max), 0.5);
+            out->pdf = 0.0;
+        }
+        spc_sdf_fill_hit(s->sdf, p, s->flip_normals, &h);
+        out->p = p;
+        out->n = h.ng;
+        out->uv = h.uv;
+        out->err = h.err;
+        return;
+    }
     }
 }
 
 bool spc_shape_has_solid_angle_sampling(const spc_shape *s, spc_vec3 ref)
 {
+    if (s->type == SPC_SHAPE_SDF)
+        return true; /* from anywhere: the bounding sphere's cone, or all directions inside it */
     if (s->type != SPC_SHAPE_SPHERE)
         return false;
     /* outside by a relative margin: inside, area sampling is used */
@@ -635,6 +693,25 @@ bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, 
 {
     if (!spc_shape_has_solid_angle_sampling(s, ref))
         return false;
+    if (s->type == SPC_SHAPE_SDF) {
+        spc_vec3 p;
+        double pdf;
+        memset(out, 0, sizeof *out);
+        if (!spc_sdf_sample_direction(s->sdf, ref, u, &p, &pdf)) {
+            out->p = spc_add(ref, spc_v3(1, 0, 0)); /* no sample: pdf 0 */
+            out->n = spc_v3(0, 0, 1);
+            return true;
+        }
+        spc_hit h;
+        memset(&h, 0, sizeof h);
+        spc_sdf_fill_hit(s->sdf, p, s->flip_normals, &h);
+        out->p = p;
+        out->n = h.ng;
+        out->uv = h.uv;
+        out->err = h.err;
+        out->pdf = pdf;
+        return true;
+    }
     spc_vec3 dc = spc_sub(s->center, ref);
     double dist2 = spc_length2(dc), dist = sqrt(dist2);
     double R = s->radius;
@@ -667,6 +744,8 @@ double spc_shape_pdf_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec3 p)
     (void)p;
     if (!spc_shape_has_solid_angle_sampling(s, ref))
         return 0.0;
+    if (s->type == SPC_SHAPE_SDF)
+        return spc_sdf_pdf_direction(s->sdf, ref);
     double dist2 = spc_length2(spc_sub(s->center, ref));
     double cos_max = sqrt(spc_max(0.0, 1.0 - s->radius * s->radius / dist2));
     return spc_warp_uniform_cone_pdf(cos_max);

@@ -10,6 +10,7 @@
  *   disk       unit disk in z = 0, normal +z (exact)
  *   cylinder   radius (1), p0 (0,0,0), p1 (0,0,1), open, outward normals (exact)
  *   obj, ply, serialized  filename, face_normals (false), flip_normals (false), to_world
+ *   sdf        one nested <sdf> tree (scene/sdf.h lists its nodes), to_world (a similarity)
  * Every shape: flip_normals, an optional bsdf (default: diffuse 0.5), an optional area emitter,
  * and the per-shape booleans caustic_caster, caustic_receiver (+ _single / _multi variants).
  */
@@ -23,12 +24,14 @@
 
 struct spc_bsdf;
 struct spc_emitter;
+struct spc_sdf;
 
 typedef enum spc_shape_type {
     SPC_SHAPE_MESH,
     SPC_SHAPE_SPHERE,
     SPC_SHAPE_DISK,
-    SPC_SHAPE_CYLINDER
+    SPC_SHAPE_CYLINDER,
+    SPC_SHAPE_SDF
 } spc_shape_type;
 
 /* Per-shape caustic flags (Mitsuba properties used by the caustics papers' scenes). */
@@ -49,6 +52,7 @@ typedef struct spc_shape {
     double radius;           /* SPHERE, CYLINDER */
     double length;           /* CYLINDER: along local z */
     spc_mat4 to_world, to_local; /* DISK, CYLINDER, SPHERE (orientation for uv) */
+    struct spc_sdf *sdf;     /* SDF: the field in world space (owned, freed by spc_shape_release) */
     bool flip_normals;
     const struct spc_bsdf *bsdf;
     const struct spc_emitter *emitter; /* area emitter, or NULL */
@@ -83,6 +87,10 @@ bool spc_shape_init_cylinder(spc_shape *s, spc_vec3 p0, spc_vec3 p1, double radi
                              const char *file, int line, int col, spc_error *err);
 bool spc_shape_init_mesh(spc_shape *s, spc_mesh *m, const spc_mat4 *to_world, const char *file, int line, int col,
                          spc_error *err);
+/* Takes ownership of sdf (also on failure: it is then destroyed) and finalizes it with node `root`
+ * and to_world (see spc_sdf_finalize). */
+bool spc_shape_init_sdf(spc_shape *s, struct spc_sdf *sdf, int root, const spc_mat4 *to_world, const char *file,
+                        int line, int col, spc_error *err);
 
 /* Computes area, sampling tables and bounds. Returns false on allocation failure or zero area. */
 bool spc_shape_prepare(spc_shape *s);
@@ -99,8 +107,10 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
 void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out);
 
 /* Solid-angle sampling from a reference point where the shape supports it (spheres: the cone of
- * directions subtended). Returns false if the shape has no such method (use area sampling) or ref
- * is inside. On success: the point on the shape, and pdf in SOLID ANGLE at ref. */
+ * directions subtended; SDFs: the cone of their bounding sphere traced to the first crossing, from
+ * anywhere). Returns false if the shape has no such method (use area sampling) or ref is inside.
+ * On success: the point on the shape, and pdf in SOLID ANGLE at ref; pdf = 0 means the method
+ * applies but this sample found no point (an SDF direction that misses): no sample. */
 bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, spc_shape_sample *out);
 /* Density (solid angle at ref) of the above for the point p on the shape seen from ref. */
 double spc_shape_pdf_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec3 p);
