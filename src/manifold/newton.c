@@ -744,6 +744,43 @@ typedef struct rough_query {
     const spc_snee_query *q;             /* for the seed directions */
 } rough_query;
 
+/* May the shape hold a vertex of a rough chain (a smooth caster, or a rough one)? */
+static bool rough_caster_shape(const spc_shape *s, bool any_surface)
+{
+    if (spc_chain_shape_is_caster(s, any_surface, NULL))
+        return true;
+    const spc_bsdf *b = s->bsdf;
+    if (s->emitter || !b || (b->type != SPC_BSDF_ROUGHCONDUCTOR && b->type != SPC_BSDF_ROUGHDIELECTRIC))
+        return false;
+    return any_surface || spc_chain_caster_allowed(s->caustic_flags, 1) || spc_chain_caster_allowed(s->caustic_flags, 2);
+}
+
+/* Seed directions of rough chains: SEED_SHAPE picks among rough casters too. */
+static bool rough_seed_direction(const rough_query *rq, spc_rng *rng, spc_vec3 *dir)
+{
+    if (rq->seed != SPC_SNEE_SEED_SHAPE)
+        return spc_snee_seed_direction(rq->q, rng, dir);
+    const spc_shape *pick = NULL;
+    int seen = 0;
+    for (int i = 0; i < rq->sc->nshapes; ++i) {
+        if (!rough_caster_shape(rq->sc->shapes[i], rq->any_surface))
+            continue;
+        ++seen;
+        if (spc_rng_next(rng) * seen < 1.0)
+            pick = rq->sc->shapes[i];
+    }
+    if (!pick)
+        return false;
+    spc_shape_sample ss;
+    spc_shape_sample_area(pick, spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &ss);
+    spc_vec3 d = spc_sub(ss.p, rq->x->p);
+    double l = spc_length(d);
+    if (!(l > 0.0))
+        return false;
+    *dir = spc_scale(d, 1.0 / l);
+    return true;
+}
+
 static bool rough_attempt(const rough_query *rq, spc_rng *rng, spc_newton_path *p, int *iterations)
 {
     if (rq->seed == SPC_SNEE_SEED_LIGHT) {
@@ -752,7 +789,7 @@ static bool rough_attempt(const rough_query *rq, spc_rng *rng, spc_newton_path *
             return false;
     } else {
         spc_vec3 dir;
-        if (!spc_snee_seed_direction(rq->q, rng, &dir) ||
+        if (!rough_seed_direction(rq, rng, &dir) ||
             !spc_newton_seed_trace(rq->sc, rq->x, dir, rq->max_chain, rq->any_surface, (const double(*)[2])rq->u,
                                    rq->ref, p))
             return false;
@@ -826,7 +863,8 @@ static spc_rgb rough_value(const rough_query *rq, const spc_emitter *e, spc_vec2
         if (!v->rough) {
             f = spc_rgb_mul(f, spc_bsdf_specular_throughput(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, wp, wn));
         } else {
-            /* f_r |cos| times |dw_n / dm| (Walter et al. 2007, eq. 14 and 17) over p(m) = D(m) cos(m) */
+            /* f_r |cos| times |dw_n / dm|, the inverse of Walter et al. 2007's half-vector Jacobians
+             * (eq. 14 and 17), over p(m) = D(m) cos(m) */
             spc_vec3 m = vertex_normal(v, p->ref);
             double jac;
             if (v->event == SPC_CHAIN_REFLECT) {
@@ -835,7 +873,7 @@ static spc_rgb rough_value(const rough_query *rq, const spc_emitter *e, spc_vec2
                 bool outside = spc_dot(wp, v->h.sh.n) > 0.0;
                 double ep = outside ? 1.0 : v->eta, en = outside ? v->eta : 1.0;
                 double den = ep * spc_dot(wp, m) + en * spc_dot(wn, m);
-                jac = en * en * spc_absdot(wn, m) / (den * den);
+                jac = den * den / (en * en * spc_absdot(wn, m));
             }
             spc_microfacet md = spc_microfacet_from_bsdf(v->h.bsdf, &v->h);
             double pm = spc_microfacet_d(&md, v->m) * v->m.z;
