@@ -898,6 +898,68 @@ TEST(exclusion_matches_specular_nee)
     spc_scene_destroy(sc);
 }
 
+/* A point light seen in a plane mirror, at three scales: L = (albedo/pi) I cos / |x - y'|^2 with y'
+ * the light's mirror image. */
+TEST(snee_point_light_mirror_scales)
+{
+    for (int si = 0; si < 3; ++si) {
+        double s = scales[si];
+        spc_scene *sc = spc_scene_create();
+        add_rect(sc, place(spc_v3(4 * s, 4 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+        add_rect(sc, place(spc_v3(3 * s, 3 * s, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5 * s)), mk_mirror(sc));
+        spc_emitter *e = spc_scene_new_emitter(sc);
+        e->type = SPC_EMITTER_POINT;
+        e->intensity = spc_rgb1(3.0);
+        e->position = spc_scale(spc_v3(2, 0.4, 2), s);
+        CHECK(finalize(sc));
+        spc_hit x;
+        CHECK(floor_hit(sc, spc_scale(spc_v3(1, 0.3, 0.05), s), &x));
+        spc_vec3 yi = spc_v3(-e->position.x, e->position.y, e->position.z);
+        spc_vec3 d = spc_sub(yi, x.p);
+        double expect = 0.8 / SPC_PI * 3.0 * (d.z / spc_length(d)) / spc_length2(d);
+        spc_snee_params p;
+        spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+        spc_rng r;
+        spc_rng_seed(&r, 5, 5);
+        const int N = 4000;
+        double s1 = 0, s2 = 0;
+        for (int i = 0; i < N; ++i) {
+            double v = spc_specular_nee(sc, &p, &x, spc_v3(0, 0, 1), 2, &r, NULL).r;
+            s1 += v;
+            s2 += v * v;
+        }
+        double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N);
+        /* the solver stops within 1e-7 of the scene size: agreement to 1e-5 relative */
+        CHECK_MSG(fabs(m - expect) <= 4 * se + 1e-5 * expect, "scale %g: %.6g +- %.2g, expected %.6g", s, m, se, expect);
+        CHECK(m > 0.0);
+        spc_scene_destroy(sc);
+    }
+}
+
+TEST(render_rejects_unknown_solver)
+{
+    spc_scene *sc = caustic_scene();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = 1;
+    o.threads = 1;
+    o.specular_nee = "angulr";
+    spc_film *f = NULL;
+    spc_error err;
+    spc_render_stats st;
+    CHECK(spc_render(sc, &o, &f, &st, &err) == SPC_ERR_PLUGIN);
+    CHECK(strstr(err.msg, "angulr") && strstr(err.msg, "angular") && strstr(err.msg, "none"));
+    spc_film_destroy(f);
+    o.specular_nee = "none";
+    f = NULL;
+    CHECK(spc_render(sc, &o, &f, &st, &err) == SPC_OK);
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     spc_warn_set_quiet(1);
@@ -913,6 +975,8 @@ int main(void)
     RUN(bernoulli_estimator_unbiased);
     RUN(snee_point_estimates);
     RUN(exclusion_matches_specular_nee);
+    RUN(snee_point_light_mirror_scales);
+    RUN(render_rejects_unknown_solver);
     RUN(caustic_image_path_snee_vs_ipt);
     return spc_test_finish();
 }
