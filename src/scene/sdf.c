@@ -1158,6 +1158,7 @@ bool spc_sdf_sample_area(const spc_sdf *s, spc_vec2 u, spc_vec3 *p)
     spc_rng rng;
     spc_rng_seed(&rng, spc_hash_combine(bx, by), 0x5df5df5dull);
     int nmax = s->nodes[s->root].nmax;
+    bool have_fallback = false;
     for (int trial = 0; trial < SDF_SAMPLE_TRIALS; ++trial) {
         double u0 = spc_rng_next(&rng), u1 = spc_rng_next(&rng), u2 = spc_rng_next(&rng), u3 = spc_rng_next(&rng);
         spc_ray r = random_line(s, u0, u1, u2, u3);
@@ -1174,9 +1175,15 @@ bool spc_sdf_sample_area(const spc_sdf *s, spc_vec2 u, spc_vec3 *p)
                 *p = spc_madd(r.o, r.d, t);
                 return true;
             }
+            if (!have_fallback) {
+                *p = spc_madd(r.o, r.d, t);
+                have_fallback = true;
+            }
         }
     }
-    return false;
+    /* out of trials (acceptance below ~1e-4): some surface point rather than none, so that
+     * callers dividing by the density stay finite (a bias only for such degenerate shapes) */
+    return have_fallback;
 }
 
 double spc_sdf_pdf_direction(const spc_sdf *s, spc_vec3 ref)

@@ -128,8 +128,9 @@ int spc_sdf_crossings(const spc_sdf *s, const spc_ray *r, double *t, int max);
 void spc_sdf_fill_hit(const spc_sdf *s, spc_vec3 p, bool flip_normals, spc_hit *h);
 
 /* Uniformly distributed point on the surface (density 1 / spc_sdf_area), by line sampling with
- * rejection; u seeds the internal random stream. Returns false only if no point was found in the
- * trial budget (a surface far smaller than its bounding sphere). */
+ * rejection; u seeds the internal random stream. If the trial budget runs out (a surface whose
+ * lines are accepted less than ~1e-4 of the time) it returns some crossing found on the way, and
+ * false only if there was none. */
 bool spc_sdf_sample_area(const spc_sdf *s, spc_vec2 u, spc_vec3 *p);
 /* A direction from ref, uniform in the cone subtended by the bounding sphere (or the whole
  * sphere of directions when ref is inside it), traced to the first surface crossing *p. *pdf is
