@@ -19,6 +19,7 @@
 #include "core/rng.h"
 #include "harness.h"
 #include "manifold/specular_nee.h"
+#include "scene/sdf.h"
 #include "render_util.h"
 
 static spc_rng rng;
@@ -365,6 +366,49 @@ TEST(chain_derivatives_mixed)
         run_fd_case(&fc);
     }
     spc_scene_destroy(sc);
+}
+
+/* An SDF shape filling spc_hit's derivatives (scene/sdf.h) goes through the same chain code. */
+static spc_shape *add_sdf(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, const spc_bsdf *b)
+{
+    spc_sdf *f = spc_sdf_create();
+    spc_sdf_desc d;
+    spc_sdf_desc_init(&d, type);
+    if (type == SPC_SDF_TORUS) {
+        d.major = 1.0;
+        d.minor = 0.4;
+    } else {
+        d.radius = 0.9;
+    }
+    spc_error err;
+    int root = spc_sdf_add(f, &d, NULL, 0, 0, &err);
+    spc_shape *s = spc_scene_new_shape(sc);
+    if (root < 0 || !spc_shape_init_sdf(s, f, root, M, NULL, 0, 0, &err))
+        printf("  sdf: %s\n", err.msg);
+    s->bsdf = b;
+    return s;
+}
+
+TEST(chain_derivatives_sdf)
+{
+    for (int k = 1; k <= 3; ++k) {
+        spc_scene *sc = spc_scene_create();
+        spc_mat4 M = place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
+        add_sdf(sc, k == 1 ? SPC_SDF_SPHERE : SPC_SDF_TORUS, &M, k == 1 ? mk_mirror(sc) : mk_glass(sc, 1.5));
+        CHECK(finalize(sc));
+        /* aim at the tube of the torus (1 from its centre along its plane) */
+        spc_vec3 aim = k == 1 ? spc_v3(0.1, -0.2, 0.3) : spc_mat4_apply_point(&M, spc_v3(1.0, 0, 0));
+        fd_case fc = {k == 1 ? "sdf mirror sphere" : "sdf glass torus", sc, spc_v3(2.5, 1.5, 2.0), aim, 0.05, k == 1 ? 1 : 2,
+                      {1, 1, 0, 0}, k == 3};
+        if (k == 3) {
+            /* into the tube, a reflection inside, out */
+            fc.nverts = 3;
+            fc.events[1] = 0;
+            fc.events[2] = 1;
+        }
+        run_fd_case(&fc);
+        spc_scene_destroy(sc);
+    }
 }
 
 /* Total internal reflection is reported (not turned into a reflection) with the vertex index. */
@@ -967,6 +1011,7 @@ int main(void)
     RUN(chain_derivatives_analytic_shapes);
     RUN(chain_derivatives_meshes);
     RUN(chain_derivatives_mixed);
+    RUN(chain_derivatives_sdf);
     RUN(chain_reports_tir);
     RUN(solver_mirror_plane);
     RUN(solver_mirror_sphere);
