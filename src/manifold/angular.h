@@ -14,14 +14,16 @@
  *   GRADIENT      the thesis' gradient descent, step -beta grad L (eq. 54-55);
  *   LEVENBERG_MARQUARDT  -(J^T J + lambda mean(diag) I)^-1 J^T r: Gauss-Newton that bends toward
  *                 the gradient after a failed step instead of only shortening it;
- * in the first two beta doubles after a step that lowers the loss (up to 1 for Gauss-Newton) and halves
- * after one that raises it or changes the chain's sequence of surfaces and events (which is part
- * of the solution: such steps are shortened, never taken). After each accepted step the chain is
- * re-expressed around its new direction (spc_chain_recenter), so the parameters never approach
- * the gnomonic chart's horizon.
+ * In the first two, beta doubles after a step that lowers the loss (up to 1 for Gauss-Newton) and
+ * halves after one that raises it or changes the chain's sequence of surfaces and events (which is
+ * part of the solution: such steps are shortened, never taken; after one, beta is held for two
+ * accepted steps). After each accepted step the chain is re-expressed around its new direction
+ * (spc_chain_recenter), so the parameters never approach the gnomonic chart's horizon.
  * Stopping: converged when |r| <= tol_scene * scene size and, for a light of linear size s > 0,
  * |r| <= tol_light * s, so the same settings hold at every scale (thesis sec. 9.1); failed after
- * max_iterations traces or when beta becomes negligible (no step lowers the loss).
+ * max_iterations traces, when beta (or LM's damping) says no step lowers the loss, or (Gauss-Newton,
+ * LM) after three accepted steps in a row that each lower the loss by less than 5% (stagnation
+ * against a fold or silhouette, sec. 9.1's relative change of the loss).
  */
 #ifndef SPC_MANIFOLD_ANGULAR_H
 #define SPC_MANIFOLD_ANGULAR_H
