@@ -754,8 +754,20 @@ TEST(test_mask_null_blend)
     CHECK_NEAR(s.weight.r, 0.6, 1e-12);
 }
 
+/* Mitsuba 3.9's bump-terminator shadowing G1(w) for perturbed normals (Conty Estevez et al. 2019):
+ * alpha^2 = tan^2(delta) / 8 (delta between the normals, clamped to 1), G1 = 2 / (1 + sqrt(1 +
+ * alpha^2 tan^2 theta_w)), theta_w measured from the original normal. */
+static double bump_g1(spc_vec3 n, spc_vec3 np, spc_vec3 w)
+{
+    double cd = spc_dot(n, np), a2 = (1 - cd * cd) / (8 * cd * cd), c = fabs(spc_dot(w, n));
+    if (a2 > 1)
+        a2 = 1;
+    return 2 / (1 + sqrt(1 + a2 * (1 - c * c) / (c * c)));
+}
+
 /* A tangent-space normal (0,0,1) changes nothing; a tilted one evaluates the nested BSDF in the
- * tilted frame, rescaled by the cosine ratio. */
+ * tilted frame, rescaled by the cosine ratio and Mitsuba 3.9's shadowing term; a viewer below the
+ * tilted normal (but above the surface) sees it turned by 180 degrees about the surface normal. */
 TEST(test_normalmap)
 {
     spc_hit h = default_hit();
@@ -770,11 +782,21 @@ TEST(test_normalmap)
     spc_hit ht = h;
     ht.sh = spc_frame_from_ns(spc_normalize(spc_add(spc_scale(h.sh.s, nx), spc_scale(h.sh.n, nz))), h.sh.s);
     spc_rgb expect = spc_rgb_scale(spc_bsdf_eval(rc, &ht, SPC_MODE_RADIANCE, wo, wi),
-                                   spc_dot(wi, ht.sh.n) / spc_dot(wi, h.sh.n));
+                                   spc_dot(wi, ht.sh.n) / spc_dot(wi, h.sh.n) * bump_g1(h.sh.n, ht.sh.n, wi));
+    CHECK(bump_g1(h.sh.n, ht.sh.n, wi) < 0.999);
     CHECK(rgb_rel_diff(spc_bsdf_eval(tilt, &h, SPC_MODE_RADIANCE, wo, wi), expect) < 1e-9);
     /* below the perturbed horizon but above the original one: zero */
     spc_vec3 w_edge = spc_normalize(spc_add(spc_scale(h.sh.s, -0.9), spc_scale(h.sh.n, 0.2)));
     CHECK(spc_rgb_is_black(spc_bsdf_eval(tilt, &h, SPC_MODE_RADIANCE, wo, w_edge)));
+    /* the viewer below the tilted normal: the normal tilts the other way, (-nx, 0, nz) */
+    spc_hit hr = h;
+    hr.sh = spc_frame_from_ns(spc_normalize(spc_add(spc_scale(h.sh.s, -nx), spc_scale(h.sh.n, nz))), h.sh.s);
+    spc_vec3 wi2 = dir(&h, 30, 180);
+    spc_rgb expect2 = spc_rgb_scale(spc_bsdf_eval(rc, &hr, SPC_MODE_RADIANCE, w_edge, wi2),
+                                    spc_dot(wi2, hr.sh.n) / spc_dot(wi2, h.sh.n) * bump_g1(h.sh.n, hr.sh.n, wi2));
+    spc_rgb got2 = spc_bsdf_eval(tilt, &h, SPC_MODE_RADIANCE, w_edge, wi2);
+    CHECK(!spc_rgb_is_black(got2));
+    CHECK_MSG(rgb_rel_diff(got2, expect2) < 1e-9, "got %g expected %g", got2.r, expect2.r);
 }
 
 /* Bump map with a height ramp along u: slope 2 scale in uv, flat hit with dpdu = s, dpdv = t. */
@@ -800,7 +822,7 @@ TEST(test_bumpmap)
     ht.sh = spc_frame_from_ns(spc_normalize(spc_sub(h.sh.n, spc_scale(h.sh.s, 0.2))), h.sh.s);
     spc_vec3 wo = dir(&h, 30, 0), wi = dir(&h, 35, 180);
     spc_rgb expect = spc_rgb_scale(spc_bsdf_eval(rc, &ht, SPC_MODE_RADIANCE, wo, wi),
-                                   spc_dot(wi, ht.sh.n) / spc_dot(wi, h.sh.n));
+                                   spc_dot(wi, ht.sh.n) / spc_dot(wi, h.sh.n) * bump_g1(h.sh.n, ht.sh.n, wi));
     spc_rgb got = spc_bsdf_eval(bm, &h, SPC_MODE_RADIANCE, wo, wi);
     CHECK_MSG(rgb_rel_diff(got, expect) < 1e-9, "got %g expected %g", got.r, expect.r);
     CHECK(rgb_rel_diff(got, spc_bsdf_eval(rc, &h, SPC_MODE_RADIANCE, wo, wi)) > 1e-3);

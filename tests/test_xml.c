@@ -494,20 +494,21 @@ TEST(named_ior_and_conductors)
     CHECK_NEAR(s->bsdfs[0]->eta, 2.419, 1e-12);
     CHECK_NEAR(s->bsdfs[1]->eta, 1.5046 / 1.000277, 1e-12);
     CHECK(s->bsdfs[2]->cond_k.r < 0.0); /* material none: a perfect mirror */
-    CHECK_NEAR(s->bsdfs[3]->cond_eta.r, 0.1431190, 1e-6);
-    CHECK_NEAR(s->bsdfs[3]->cond_k.b, 1.6032153, 1e-6);
+    /* Mitsuba 3.9's RGB values for Au and Cu (mitsuba_tables.c) */
+    CHECK_NEAR(s->bsdfs[3]->cond_eta.r, 0.1430360, 1e-6);
+    CHECK_NEAR(s->bsdfs[3]->cond_k.b, 1.6033592, 1e-6);
     CHECK_NEAR(const_rgb(s->bsdfs[3]->specular_reflectance).g, 1.0, 0);
     CHECK_NEAR(s->bsdfs[4]->cond_eta.g, 0.9, 1e-12);
     CHECK_NEAR(s->bsdfs[4]->cond_k.r, 3.9, 1e-12);
     CHECK(s->bsdfs[4]->distribution == SPC_MICROFACET_BECKMANN && s->bsdfs[4]->sample_visible);
     CHECK_NEAR(const_rgb(s->bsdfs[4]->alpha_u).r, 0.1, 1e-12);
-    CHECK_NEAR(s->bsdfs[5]->cond_eta.g, 0.9240334, 1e-6);
+    CHECK_NEAR(s->bsdfs[5]->cond_eta.g, 0.9237495, 1e-6);
     spc_scene_destroy(s);
     /* a 0.6 conductor defaults to copper */
     s = load_ok("<scene version=\"0.6.0\"><bsdf type=\"conductor\"/></scene>");
     CHECK(s != NULL);
     if (s) {
-        CHECK_NEAR(s->bsdfs[0]->cond_k.r, 3.9129485, 1e-6);
+        CHECK_NEAR(s->bsdfs[0]->cond_k.r, 3.9132621, 1e-6);
         spc_scene_destroy(s);
     }
     expect_error("<scene version=\"3.0.0\">\n"

@@ -5,14 +5,17 @@
  * texture coordinates, the displaced surface p + H n has the tangents
  *   dp/du' = dp/du + n (dH/du - n . dp/du),   dp/dv' likewise,
  * (the term H dn/du is neglected, as Mitsuba does), so n' = normalize(dp/du' x dp/dv'), oriented
- * to the side of the unperturbed sh.n, and s' is dp/du' made orthogonal to n'. The nested BSDF is
+ * to the side of the unperturbed sh.n, and s' is dp/du' made orthogonal to n'. (For reliefs so
+ * steep that dp/du' x dp/dv' turns past the tangent plane, Mitsuba 3.9.1's eval sometimes
+ * negates the normal, as its source says and we do, and sometimes mirrors it about the tangent
+ * plane; we found no rule for the latter.) The nested BSDF is
  * evaluated in that frame with the side test and cosine correction of spc_bsdf_perturbed_scale
- * (variants.h).
+ * and the bump-terminator shadowing of spc_bsdf_bump_shadowing (variants.h), as Mitsuba 3.9.
  *
- * Gradient: central finite differences of H in the hit's uv. For bitmaps the step is half a
- * texel (mapped through the texture's to_uv), so a difference spans at most one bilinear cell
- * boundary and equals the bilinear interpolant's exact gradient inside a cell; for other textures
- * the step is BUMP_STEP_UV.
+ * Gradient: spc_texture_eval1_grad, the exact gradient of the bilinear interpolant in the cell
+ * holding the hit's uv (through to_uv), as Mitsuba 3's eval_1_grad; zero for nearest bitmaps and
+ * piecewise-constant textures, as there. (A central difference over a texel, which this replaced,
+ * averages the gradients of neighbouring cells: a visibly smoother relief than Mitsuba's.)
  * Derivatives along the texture coordinates: the hit's dpdu/dpdv are derivatives along the shape's
  * surface parameters (hit.h), which equal the texture coordinates except for meshes with uvs; for
  * those the texture-space tangents are rebuilt from the triangle's vertex uvs through h->shape.
@@ -24,10 +27,6 @@
  */
 #include "bsdf/variants.h"
 #include "scene/shape.h"
-
-/* Finite-difference step (in uv) for textures without texels (checkerboard: flat almost
- * everywhere, so any small step gives the zero gradient). */
-#define BUMP_STEP_UV 1e-4
 
 /* dp/du and dp/dv along the TEXTURE coordinates at h. */
 static void texture_tangents(const spc_hit *h, spc_vec3 *dpdu, spc_vec3 *dpdv)
@@ -51,33 +50,13 @@ static void texture_tangents(const spc_hit *h, spc_vec3 *dpdu, spc_vec3 *dpdv)
     *dpdv = spc_scale(spc_sub(spc_scale(e2, du1), spc_scale(e1, du2)), 1.0 / det);
 }
 
-static void bump_steps(const spc_texture *t, double *du, double *dv)
-{
-    *du = *dv = BUMP_STEP_UV;
-    if (t->type != SPC_TEX_BITMAP || t->width <= 0 || t->height <= 0)
-        return;
-    /* texels crossed per unit of hit u and v */
-    double tu = spc_max(fabs(t->to_uv[0][0]) * t->width, fabs(t->to_uv[1][0]) * t->height);
-    double tv = spc_max(fabs(t->to_uv[0][1]) * t->width, fabs(t->to_uv[1][1]) * t->height);
-    if (tu > 0.0)
-        *du = 0.5 / tu;
-    if (tv > 0.0)
-        *dv = 0.5 / tv;
-}
-
-static void bumpmap_hit(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
+static void bumpmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
 {
     *out = *h;
     if (!b->bump)
         return;
-    double du, dv;
-    bump_steps(b->bump, &du, &dv);
-    spc_vec2 uv = h->uv;
-    double k = b->bump_scale;
-    double dhdu = k * (spc_texture_eval1(b->bump, spc_v2(uv.x + du, uv.y)) -
-                       spc_texture_eval1(b->bump, spc_v2(uv.x - du, uv.y))) / (2.0 * du);
-    double dhdv = k * (spc_texture_eval1(b->bump, spc_v2(uv.x, uv.y + dv)) -
-                       spc_texture_eval1(b->bump, spc_v2(uv.x, uv.y - dv))) / (2.0 * dv);
+    spc_vec2 g = spc_texture_eval1_grad(b->bump, h->uv);
+    double dhdu = b->bump_scale * g.x, dhdv = b->bump_scale * g.y;
     spc_vec3 dpdu, dpdv, n = h->sh.n;
     texture_tangents(h, &dpdu, &dpdv);
     dpdu = spc_madd(dpdu, n, dhdu - spc_dot(n, dpdu));
@@ -92,20 +71,28 @@ static void bumpmap_hit(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
     out->sh = spc_frame_from_ns(np, dpdu);
 }
 
+/* The perturbed hit as Mitsuba 3.9 sees it from wo (variants.h). */
+static void bumpmap_hit(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_hit *out)
+{
+    bumpmap_hit_frame(b, h, out);
+    spc_bsdf_perturbed_face_view(h, out, wo);
+}
+
 spc_rgb spc_bumpmap_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
     spc_hit ph;
-    bumpmap_hit(b, h, &ph);
+    bumpmap_hit(b, h, wo, &ph);
     double k = spc_bsdf_perturbed_scale(h, &ph, wi);
     if (k == 0.0)
         return spc_rgb1(0.0);
+    k *= spc_bsdf_bump_shadowing(h, &ph, wi); /* as Mitsuba 3.9 (variants.h) */
     return spc_rgb_scale(spc_bsdf_eval(b->nested[0], &ph, mode, wo, wi), k);
 }
 
 double spc_bumpmap_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
     spc_hit ph;
-    bumpmap_hit(b, h, &ph);
+    bumpmap_hit(b, h, wo, &ph);
     if (spc_bsdf_perturbed_scale(h, &ph, wi) == 0.0)
         return 0.0;
     return spc_bsdf_pdf(b->nested[0], &ph, mode, wo, wi);
@@ -115,10 +102,17 @@ bool spc_bumpmap_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode,
                         spc_vec2 u, spc_bsdf_sample *out)
 {
     spc_hit ph;
-    bumpmap_hit(b, h, &ph);
+    bumpmap_hit(b, h, wo, &ph);
     if (!spc_bsdf_sample_dir(b->nested[0], &ph, mode, wo, u_lobe, u, out))
         return false;
-    return (out->lobe & SPC_LOBE_NULL) || spc_bsdf_perturbed_scale(h, &ph, out->wi) != 0.0;
+    if (out->lobe & SPC_LOBE_NULL)
+        return true;
+    if (spc_bsdf_perturbed_scale(h, &ph, out->wi) == 0.0)
+        return false;
+    /* the nested weight already uses the perturbed cosine, as the rescaled eval does; the
+     * shadowing term multiplies eval, so it multiplies the weight (not the pdf) */
+    out->weight = spc_rgb_scale(out->weight, spc_bsdf_bump_shadowing(h, &ph, out->wi));
+    return true;
 }
 
 spc_rgb spc_bumpmap_albedo(const spc_bsdf *b, const spc_hit *h) { return spc_bsdf_albedo(b->nested[0], h); }

@@ -4,7 +4,8 @@
  * frame (sh.s, sh.t, sh.n) (hit.h: sh.s follows the texture-space tangent); the new frame has
  * n = normalize(n_local in world space) and s the Gram-Schmidt projection of the old sh.s. The
  * nested BSDF is evaluated in that frame, with the side test and cosine correction described at
- * spc_bsdf_perturbed_scale (variants.h). A zero or non-finite map value leaves the frame as is.
+ * spc_bsdf_perturbed_scale and the bump-terminator shadowing of spc_bsdf_bump_shadowing
+ * (variants.h), as Mitsuba 3.9. A zero or non-finite map value leaves the frame as is.
  *
  * Mitsuba XML <bsdf type="normalmap">:
  *   normalmap      texture (bitmap, raw="true")   tangent-space normals in [0,1]^3
@@ -12,7 +13,7 @@
  */
 #include "bsdf/variants.h"
 
-static void normalmap_hit(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
+static void normalmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
 {
     *out = *h;
     if (!b->normalmap)
@@ -26,20 +27,28 @@ static void normalmap_hit(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
     out->sh = spc_frame_from_ns(spc_scale(n, 1.0 / len), h->sh.s);
 }
 
+/* The perturbed hit as Mitsuba 3.9 sees it from wo (variants.h). */
+static void normalmap_hit(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_hit *out)
+{
+    normalmap_hit_frame(b, h, out);
+    spc_bsdf_perturbed_face_view(h, out, wo);
+}
+
 spc_rgb spc_normalmap_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
     spc_hit ph;
-    normalmap_hit(b, h, &ph);
+    normalmap_hit(b, h, wo, &ph);
     double k = spc_bsdf_perturbed_scale(h, &ph, wi);
     if (k == 0.0)
         return spc_rgb1(0.0);
+    k *= spc_bsdf_bump_shadowing(h, &ph, wi); /* as Mitsuba 3.9 (variants.h) */
     return spc_rgb_scale(spc_bsdf_eval(b->nested[0], &ph, mode, wo, wi), k);
 }
 
 double spc_normalmap_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
     spc_hit ph;
-    normalmap_hit(b, h, &ph);
+    normalmap_hit(b, h, wo, &ph);
     if (spc_bsdf_perturbed_scale(h, &ph, wi) == 0.0)
         return 0.0;
     return spc_bsdf_pdf(b->nested[0], &ph, mode, wo, wi);
@@ -49,11 +58,17 @@ bool spc_normalmap_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mod
                           spc_vec2 u, spc_bsdf_sample *out)
 {
     spc_hit ph;
-    normalmap_hit(b, h, &ph);
+    normalmap_hit(b, h, wo, &ph);
     if (!spc_bsdf_sample_dir(b->nested[0], &ph, mode, wo, u_lobe, u, out))
         return false;
-    /* the nested weight already uses the perturbed cosine, as the rescaled eval does */
-    return (out->lobe & SPC_LOBE_NULL) || spc_bsdf_perturbed_scale(h, &ph, out->wi) != 0.0;
+    if (out->lobe & SPC_LOBE_NULL)
+        return true;
+    if (spc_bsdf_perturbed_scale(h, &ph, out->wi) == 0.0)
+        return false;
+    /* the nested weight already uses the perturbed cosine, as the rescaled eval does; the
+     * shadowing term multiplies eval, so it multiplies the weight (not the pdf) */
+    out->weight = spc_rgb_scale(out->weight, spc_bsdf_bump_shadowing(h, &ph, out->wi));
+    return true;
 }
 
 spc_rgb spc_normalmap_albedo(const spc_bsdf *b, const spc_hit *h) { return spc_bsdf_albedo(b->nested[0], h); }

@@ -4,9 +4,13 @@
  * Lat-long convention (Mitsuba 3's): for a unit direction w TOWARD the environment, in the
  * emitter's local frame (to_world^-1 w): u = atan2(w.x, -w.z) / (2 pi) wrapped to [0, 1),
  * v = acos(w.y) / pi; v = 0 is the top row of the image (local +y is up). Radiance is the bilinear
- * interpolation of the texels times `scale`. Directions are sampled from a piecewise-constant
- * distribution over texels whose weight is the largest luminance among the texel and its 8
- * neighbours (a superset of the bilinear support, so every direction with radiance has density)
+ * interpolation of the texels times `scale`, placed as Mitsuba 3's envmap places them (checked
+ * against its eval to 1e-6): texel column i is centered at u = (i + 1/2) / width (wrapping), but
+ * row j at v = j / (height - 1), so the first and last rows sit on the poles; a lookup is at
+ * x = u width - 1/2, y = v (height - 1). Directions are sampled from a piecewise-constant
+ * distribution over texel cells [i, i+1]/width x [j, j+1]/height whose weight is the largest
+ * luminance among texel (i, j) and its 8 neighbours (the bilinear lookup anywhere in the cell reads
+ * only texels among those, so every direction with radiance has density)
  * times sin(theta); the solid-angle density is pdf_uv / (2 pi^2 sin theta).
  *
  * XML: <emitter type="constant"> radiance (1); <emitter type="envmap"> filename, scale (1),
@@ -32,7 +36,7 @@ static spc_rgb texel(const spc_texture *t, int x, int y)
 
 static spc_rgb lookup(const spc_texture *t, double u, double v)
 {
-    double x = u * t->width - 0.5, y = v * t->height - 0.5;
+    double x = u * t->width - 0.5, y = v * (t->height > 1 ? t->height - 1 : 1);
     double fx = floor(x), fy = floor(y);
     int x0 = (int)fx, y0 = (int)fy;
     double ax = x - fx, ay = y - fy;

@@ -8,6 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "render/film.h"
+
 #define SPC_SPLAT_MAX_COORD 1e9 /* film coordinates beyond this lie on no film (sides <= 65536) */
 
 bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind)
@@ -118,6 +120,10 @@ void spc_splat_add(const spc_render_ctx *ctx, spc_tls *tls, double fx, double fy
                 continue;
             double fxw = ctx->film->rfilter == SPC_RFILTER_BOX && r <= 0.5 ? 1.0 : filter_1d(ctx->film, x + 0.5 - fx);
             double w = fxw * fyw;
+            /* near the window's edges the filter is renormalized over the part inside (film.h) */
+            if (w > 0.0 && r > 0.5)
+                w /= spc_film_filter_mass(ctx->film, x + 0.5, ctx->crop_x, ctx->crop_x + ctx->width) *
+                     spc_film_filter_mass(ctx->film, y + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
             if (w > 0.0)
                 push_splat(tls, wx, wy, spc_rgb_scale(v, w));
         }

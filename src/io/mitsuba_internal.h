@@ -40,6 +40,8 @@ typedef struct mts_prop {
     double f;
     const char *s;
     spc_rgb rgb;
+    spc_rgb rgb_emission; /* <spectrum>: its color as an emitter's (see mts_spectrum_to_rgb_emission) */
+    bool spectral;        /* the value came from a <spectrum> tag */
     spc_vec3 v;
     spc_mat4 m;
     const spc_xml_node *node; /* the property element (for messages) */
@@ -164,6 +166,10 @@ void mts_mesh_cache_release(mts_loader *L);
  * integrated against the CIE 1931 2-degree observer and normalized so that a constant spectrum
  * of 1 gives (1, 1, 1). Negative channels are clamped to 0. */
 spc_rgb mts_spectrum_to_rgb(const double *wavelengths, const double *values, int n);
+/* The same spectrum as an emitter's radiance, as Mitsuba 3's RGB variants read it: XYZ divided by
+ * the integral of y-bar, then linear sRGB, with no white normalization, so a constant spectrum of
+ * 1 is the equal-energy illuminant, (1.2048, 0.9483, 0.9089) in sRGB. */
+spc_rgb mts_spectrum_to_rgb_emission(const double *wavelengths, const double *values, int n);
 double mts_srgb_to_linear(double v);
 /* Mitsuba's named IORs ("bk7", "water", ...); false if unknown. */
 bool mts_named_ior(const char *name, double *ior);

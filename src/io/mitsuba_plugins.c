@@ -887,6 +887,28 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
 /* ------------------------------------------------------------------------------------------------ */
 /* emitters */
 
+/* An emitter's color property: a <spectrum> is read as an illuminant (mts_spectrum_to_rgb_emission),
+ * as Mitsuba 3's RGB variants do; rgb and float values are taken as they are. */
+static spc_rgb emission_rgb(mts_loader *L, mts_props *P, const char *name, spc_rgb def)
+{
+    mts_prop *p = mts_find(P, name);
+    if (p && p->kind == MTS_RGB && p->spectral) {
+        p->used = true;
+        return p->rgb_emission;
+    }
+    return mts_get_rgb(L, P, name, def);
+}
+
+static const spc_texture *emission_texture(mts_loader *L, mts_props *P, const char *name, spc_rgb def)
+{
+    mts_prop *p = mts_find(P, name);
+    if (p && p->kind == MTS_RGB && p->spectral) {
+        p->used = true;
+        return constant(L, p->node, p->rgb_emission);
+    }
+    return mts_get_texture(L, P, name, def);
+}
+
 spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index)
 {
     mts_props P;
@@ -921,18 +943,18 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
     spc_vec3 origin = spc_mat4_apply_point(&to_world, spc_v3(0, 0, 0));
     if (strcmp(type, "area") == 0) {
         tmp.type = SPC_EMITTER_AREA;
-        tmp.radiance = mts_get_texture(L, &P, "radiance", spc_rgb1(1));
+        tmp.radiance = emission_texture(L, &P, "radiance", spc_rgb1(1));
         tmp.shape = shape;
         tmp.shape_index = shape_index;
     } else if (strcmp(type, "point") == 0) {
         tmp.type = SPC_EMITTER_POINT;
-        tmp.intensity = mts_get_rgb(L, &P, "intensity", spc_rgb1(1));
+        tmp.intensity = emission_rgb(L, &P, "intensity", spc_rgb1(1));
         if (mts_has(&P, "position") && mts_has(&P, "to_world"))
             mts_fail(L, mts_where(&P, "position"), SPC_ERR_VALUE, "give either position or to_world, not both");
         tmp.position = mts_get_point(L, &P, "position", origin);
     } else if (strcmp(type, "spot") == 0) {
         tmp.type = SPC_EMITTER_SPOT;
-        tmp.intensity = mts_get_rgb(L, &P, "intensity", spc_rgb1(1));
+        tmp.intensity = emission_rgb(L, &P, "intensity", spc_rgb1(1));
         tmp.cutoff_angle = mts_get_float(L, &P, "cutoff_angle", 20.0);
         tmp.beam_width = mts_get_float(L, &P, "beam_width", 0.75 * tmp.cutoff_angle);
         tmp.position = origin;
@@ -945,7 +967,7 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
                      tmp.beam_width);
     } else if (strcmp(type, "directional") == 0) {
         tmp.type = SPC_EMITTER_DIRECTIONAL;
-        tmp.irradiance = mts_get_rgb(L, &P, "irradiance", spc_rgb1(1));
+        tmp.irradiance = emission_rgb(L, &P, "irradiance", spc_rgb1(1));
         spc_vec3 d = spc_mat4_apply_vector(&to_world, spc_v3(0, 0, 1));
         d = mts_get_point(L, &P, "direction", d);
         if (L->status == SPC_OK && !(spc_length(d) > 0.0))
@@ -953,7 +975,7 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
         tmp.direction = spc_normalize(d);
     } else if (strcmp(type, "constant") == 0) {
         tmp.type = SPC_EMITTER_CONSTANT;
-        tmp.radiance = mts_get_texture(L, &P, "radiance", spc_rgb1(1));
+        tmp.radiance = emission_texture(L, &P, "radiance", spc_rgb1(1));
     } else { /* envmap */
         tmp.type = SPC_EMITTER_ENVMAP;
         tmp.scale = mts_get_float(L, &P, "scale", 1.0);

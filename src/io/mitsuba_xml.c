@@ -805,7 +805,7 @@ static bool push_pair(double **wl, double **val, int *n, int *cap, double w, dou
     return true;
 }
 
-static spc_status parse_spectrum(mts_loader *L, const spc_xml_node *n, spc_rgb *out)
+static spc_status parse_spectrum(mts_loader *L, const spc_xml_node *n, spc_rgb *out, spc_rgb *out_emission)
 {
     if (spc_xml_get(n, "type"))
         return mts_fail(L, n, SPC_ERR_PLUGIN, "unknown spectrum type '%s' (specula reads constant and sampled spectra)",
@@ -825,6 +825,7 @@ static spc_status parse_spectrum(mts_loader *L, const spc_xml_node *n, spc_rgb *
             return mts_fail(L, n, SPC_ERR_VALUE,
                             "could not parse spectrum \"%s\" (expected one value or wavelength:value pairs)", value);
         *out = spc_rgb1(v[0]);
+        *out_emission = mts_spectrum_to_rgb_emission(NULL, v, 1);
         return SPC_OK;
     }
     const char *src = value;
@@ -878,8 +879,10 @@ static spc_status parse_spectrum(mts_loader *L, const spc_xml_node *n, spc_rgb *
     }
     if (st == SPC_OK && cnt == 0)
         st = mts_fail(L, n, SPC_ERR_VALUE, "empty spectrum");
-    if (st == SPC_OK)
+    if (st == SPC_OK) {
         *out = mts_spectrum_to_rgb(wl, val, cnt);
+        *out_emission = mts_spectrum_to_rgb_emission(wl, val, cnt);
+    }
     free(wl);
     free(val);
     free(text);
@@ -969,7 +972,8 @@ static spc_status collect(mts_loader *L, const spc_xml_node *owner, mts_props *P
                     return L->status;
             } else if (strcmp(tag, "spectrum") == 0) {
                 p.kind = MTS_RGB;
-                if (parse_spectrum(L, c, &p.rgb))
+                p.spectral = true;
+                if (parse_spectrum(L, c, &p.rgb, &p.rgb_emission))
                     return L->status;
             } else if (strcmp(tag, "point") == 0 || strcmp(tag, "vector") == 0) {
                 p.kind = MTS_POINT;

@@ -80,16 +80,6 @@ static bool estimate_ok(spc_rgb L)
 /* AOVs are not estimates that can be discarded: a non-finite one is stored as zero. */
 static double finite_or_zero(double v) { return fabs(v) <= SPC_MAX_ESTIMATE ? v : 0.0; }
 
-static double filter_sample(const spc_film_spec *f, double u)
-{
-    switch (f->rfilter) {
-    case SPC_RFILTER_BOX: return (2.0 * u - 1.0) * f->filter_radius;
-    case SPC_RFILTER_TENT: return spc_warp_tent(u) * f->filter_radius;
-    case SPC_RFILTER_GAUSSIAN: return spc_warp_gaussian_truncated(u, f->filter_stddev, f->filter_radius);
-    }
-    return 0.0;
-}
-
 static void render_item(job *jb, int item)
 {
     const spc_render_ctx *ctx = jb->ctx;
@@ -105,8 +95,11 @@ static void render_item(job *jb, int item)
             spc_sampler smp;
             spc_sampler_start(&smp, (uint32_t)fx, (uint32_t)fy, (uint32_t)pass, jb->seed);
             spc_vec2 u = spc_sampler_2d(&smp);
-            double px = fx + 0.5 + filter_sample(ctx->film, u.x);
-            double py = fy + 0.5 + filter_sample(ctx->film, u.y);
+            /* the filter restricted to the rendered window, as Mitsuba's films (film.h) */
+            double px = fx + 0.5 +
+                        spc_film_filter_sample(ctx->film, u.x, fx + 0.5, ctx->crop_x, ctx->crop_x + ctx->width);
+            double py = fy + 0.5 +
+                        spc_film_filter_sample(ctx->film, u.y, fy + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
             spc_ray ray = spc_camera_ray(ctx->cam, px, py);
             spc_sample_out out;
             spc_integrator_sample(ctx, tls, &ray, &smp, &out);

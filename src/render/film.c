@@ -1,11 +1,15 @@
 /*
- * render/film.c: accumulation of passes and the mean / variance-of-the-mean resolve.
+ * render/film.c: accumulation of passes and the mean / variance-of-the-mean resolve; the pixel
+ * filter's density, CDF and sampling restricted to the rendered window (see film.h).
  */
 #include "render/film.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/warp.h"
+#include "scene/scene.h"
 #include "specula/specula.h"
 
 #define SPC_FILM_MAX_PIXELS (1LL << 28) /* 268M pixels: ~13 GiB of sums; refuse anything larger */
@@ -96,3 +100,71 @@ int spc_film_width(const struct spc_film *f) { return f->width; }
 int spc_film_height(const struct spc_film *f) { return f->height; }
 const float *spc_film_rgb(const struct spc_film *f) { return f->rgb; }
 const float *spc_film_variance(const struct spc_film *f) { return f->var; }
+
+/* ---- pixel filter ---- */
+
+double spc_film_filter_eval(const spc_film_spec *f, double x)
+{
+    double r = f->filter_radius;
+    if (!(fabs(x) < r))
+        return 0.0;
+    switch (f->rfilter) {
+    case SPC_RFILTER_BOX: return 1.0 / (2.0 * r);
+    case SPC_RFILTER_TENT: return (r - fabs(x)) / (r * r);
+    case SPC_RFILTER_GAUSSIAN: {
+        double s = f->filter_stddev;
+        return exp(-x * x / (2.0 * s * s)) / (s * sqrt(2.0 * SPC_PI) * erf(r / (s * sqrt(2.0))));
+    }
+    }
+    return 0.0;
+}
+
+double spc_film_filter_cdf(const spc_film_spec *f, double x)
+{
+    double r = f->filter_radius;
+    if (!(x > -r))
+        return 0.0;
+    if (!(x < r))
+        return 1.0;
+    switch (f->rfilter) {
+    case SPC_RFILTER_BOX: return (x + r) / (2.0 * r);
+    case SPC_RFILTER_TENT: {
+        double t = x / r;
+        return t < 0.0 ? 0.5 * (1.0 + t) * (1.0 + t) : 1.0 - 0.5 * (1.0 - t) * (1.0 - t);
+    }
+    case SPC_RFILTER_GAUSSIAN: {
+        double s = f->filter_stddev * sqrt(2.0);
+        return 0.5 * (erf(x / s) / erf(r / s) + 1.0);
+    }
+    }
+    return 0.0;
+}
+
+/* The inverse CDF (what spc_warp_* compute), for u in [0, 1]. */
+static double filter_inverse_cdf(const spc_film_spec *f, double u)
+{
+    switch (f->rfilter) {
+    case SPC_RFILTER_BOX: return (2.0 * u - 1.0) * f->filter_radius;
+    case SPC_RFILTER_TENT: return spc_warp_tent(u) * f->filter_radius;
+    case SPC_RFILTER_GAUSSIAN: return spc_warp_gaussian_truncated(u, f->filter_stddev, f->filter_radius);
+    }
+    return 0.0;
+}
+
+double spc_film_filter_sample(const spc_film_spec *f, double u, double c, double lo, double hi)
+{
+    double r = f->filter_radius;
+    if (c - r >= lo && c + r <= hi)
+        return filter_inverse_cdf(f, u);
+    double a = spc_film_filter_cdf(f, lo - c), b = spc_film_filter_cdf(f, hi - c);
+    double x = filter_inverse_cdf(f, a + u * (b - a));
+    return spc_clamp(x, lo - c, hi - c);
+}
+
+double spc_film_filter_mass(const spc_film_spec *f, double c, double lo, double hi)
+{
+    double r = f->filter_radius;
+    if (c - r >= lo && c + r <= hi)
+        return 1.0;
+    return spc_film_filter_cdf(f, hi - c) - spc_film_filter_cdf(f, lo - c);
+}

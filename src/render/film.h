@@ -38,4 +38,19 @@ void spc_film_commit_pass(struct spc_film *f);
 /* Computes rgb/var/aov floats from the sums. false on allocation failure. */
 bool spc_film_resolve(struct spc_film *f);
 
+/* The pixel filter, per axis (filters are separable: box, tent, truncated gaussian), normalized to
+ * integrate to 1 over [-radius, radius], and its CDF.
+ *
+ * Borders, as Mitsuba's films: no sample is taken outside the rendered window [lo, hi) (the crop
+ * window, in full-film pixels), so a pixel near its edge is the filter-weighted mean of the
+ * radiance over the part of its support inside the window. spc_film_filter_sample draws the offset
+ * from the pixel center c from the filter restricted to [lo - c, hi - c] (inverse CDF; the plain
+ * filter sample, unchanged, when the support is inside); splats divide the filter value by
+ * spc_film_filter_mass, the integral of the filter over that interval (1 away from the edges). */
+struct spc_film_spec;
+double spc_film_filter_eval(const struct spc_film_spec *f, double x);
+double spc_film_filter_cdf(const struct spc_film_spec *f, double x);
+double spc_film_filter_sample(const struct spc_film_spec *f, double u, double c, double lo, double hi);
+double spc_film_filter_mass(const struct spc_film_spec *f, double c, double lo, double hi);
+
 #endif

@@ -129,6 +129,27 @@ spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv)
 
 double spc_texture_eval1(const spc_texture *t, spc_vec2 uv) { return spc_rgb_avg(spc_texture_eval(t, uv)); }
 
+spc_vec2 spc_texture_eval1_grad(const spc_texture *t, spc_vec2 uv)
+{
+    if (t->type != SPC_TEX_BITMAP || t->nearest || !t->data || t->width <= 0 || t->height <= 0)
+        return spc_v2(0.0, 0.0);
+    spc_vec2 p = map_uv(t, uv);
+    double s = p.x * t->width - 0.5, r = p.y * t->height - 0.5;
+    int64_t x0 = to_index(s), y0 = to_index(r);
+    double fx = s - (double)x0, fy = r - (double)y0;
+    if (!(fx >= 0.0 && fx <= 1.0))
+        fx = 0.0;
+    if (!(fy >= 0.0 && fy <= 1.0))
+        fy = 0.0;
+    double f00 = spc_rgb_avg(texel(t, x0, y0)), f10 = spc_rgb_avg(texel(t, x0 + 1, y0));
+    double f01 = spc_rgb_avg(texel(t, x0, y0 + 1)), f11 = spc_rgb_avg(texel(t, x0 + 1, y0 + 1));
+    /* partials in texels, then per unit of the mapped uv */
+    double ds = ((1.0 - fy) * (f10 - f00) + fy * (f11 - f01)) * t->width;
+    double dr = ((1.0 - fx) * (f01 - f00) + fx * (f11 - f10)) * t->height;
+    const double(*m)[3] = t->to_uv;
+    return spc_v2(m[0][0] * ds + m[1][0] * dr, m[0][1] * ds + m[1][1] * dr);
+}
+
 spc_rgb spc_texture_mean(const spc_texture *t)
 {
     switch (t->type) {

@@ -47,6 +47,11 @@ void spc_texture_init_constant(spc_texture *t, spc_rgb value);
 spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv);
 /* Mean of the channels at uv (roughness, opacity, weights). */
 double spc_texture_eval1(const spc_texture *t, spc_vec2 uv);
+/* Gradient of spc_texture_eval1 with respect to the surface uv (before to_uv), as Mitsuba 3's
+ * eval_1_grad: for bilinear bitmaps the exact gradient of the interpolant in the cell holding uv,
+ * (d/ds, d/dt) times the resolution, then through the transpose of to_uv's linear part; zero for
+ * nearest bitmaps, constants and checkerboards (piecewise constant). */
+spc_vec2 spc_texture_eval1_grad(const spc_texture *t, spc_vec2 uv);
 /* Mean value over [0,1]^2 (for light power and albedo estimates). */
 spc_rgb spc_texture_mean(const spc_texture *t);
 bool spc_texture_is_constant(const spc_texture *t);

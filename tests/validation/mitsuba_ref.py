@@ -29,7 +29,17 @@ def main():
     for d in a.D:
         k, v = d.split("=", 1)
         defs[k] = v
-    scene = mi.load_file(a.scene, **defs)
+    text = open(a.scene, encoding="utf-8").read()
+    if "<lookAt" in text:
+        # Mitsuba 3 upgrades 0.x property names but not the <lookAt> tag: rename it, load the
+        # text with the scene's folder on the file resolver (for relative paths)
+        import os
+
+        text = text.replace("<lookAt", "<lookat")
+        mi.Thread.thread().file_resolver().prepend(os.path.dirname(os.path.abspath(a.scene)))
+        scene = mi.load_string(text, **defs)
+    else:
+        scene = mi.load_file(a.scene, **defs)
     per = max(1, a.spp // a.passes)
     imgs = []
     for i in range(a.passes):

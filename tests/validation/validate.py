@@ -107,6 +107,7 @@ def main():
                                           "--quiet", "--threads", str(a.threads)] + dflags, log)
             out, _ = run([a.specula, "diff", img, ref, "--json"], log)
             d = json.loads(out)
+            row["width"], row["height"] = d["width"], d["height"]
             row["pass"] = d["ztest"]["pass_fraction"]
             row["mean_specula"] = d["mean_a"]
             row["mean_mitsuba"] = d["mean_b"]
@@ -135,7 +136,7 @@ def format_row(r):
     if "error" in r:
         return "%-24s ERROR %s" % (r["scene"], r["error"])
     return "%-24s %3dx%-3d spp %5d  pass %7.3f%%  specula %s  mitsuba %s  relMSE %.3g" % (
-        r["scene"], r["res"], r["res"], r["spp_specula"], 100 * r["pass"], fmt3(r["mean_specula"]),
+        r["scene"], r["width"], r["height"], r["spp_specula"], 100 * r["pass"], fmt3(r["mean_specula"]),
         fmt3(r["mean_mitsuba"]), r["rel_mse"])
 
 
@@ -148,7 +149,7 @@ def markdown(rows):
             continue
         mark = "" if r["pass"] >= PASS_BAR else " **below**"
         lines.append("| %s | %dx%d | %d (%d passes) / %d | %.2f%%%s | %s | %s | %.3g |" % (
-            r["scene"], r["res"], r["res"], r["spp_mitsuba"], r["passes"], r["spp_specula"], 100 * r["pass"], mark,
+            r["scene"], r["width"], r["height"], r["spp_mitsuba"], r["passes"], r["spp_specula"], 100 * r["pass"], mark,
             fmt3(r["mean_specula"]), fmt3(r["mean_mitsuba"]), r["rel_mse"]))
     return "\n".join(lines)
 
