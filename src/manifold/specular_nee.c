@@ -15,6 +15,8 @@
 
 #include <string.h>
 
+#include "manifold/conic.h"
+
 /* Cap of the attempts counted for <1/p_solve>. The count is cut for solutions found with
  * probability below about 3/cap; at 64 that is p < 5%, seeds that rarely lead anywhere, and the
  * cost of one estimate stays bounded (each attempt is a full solve). */
@@ -28,13 +30,18 @@
 #define SPC_SNEE_BIASED_SEEDS 8
 /* Distinct solutions the biased estimator keeps per light sample (more are dropped: bias). */
 #define SPC_SNEE_BIASED_MAX_SOLUTIONS 8
+/* Solutions kept from a solver that enumerates them all (solve_all): one interface rarely has more
+ * than a handful between two points. */
+#define SPC_SNEE_MAX_ALL 16
 
 /* ---- solver table ---- */
 
 static const spc_specular_solver solvers[] = {
-    {"none", NULL, NULL},
-    {"angular", spc_angular_solve_one, NULL},
-    {"newton", spc_newton_solve_one, NULL},
+    {"none", NULL, NULL, NULL, NULL},
+    {"angular", spc_angular_solve_one, NULL, NULL, NULL},
+    {"newton", spc_newton_solve_one, NULL, NULL, NULL},
+    /* conic: every one-vertex chain on meshes exactly, the angular estimate for the rest */
+    {"conic", spc_angular_solve_one, spc_conic_solve_all, spc_conic_covers, spc_conic_covers_all},
 };
 #define NSOLVERS ((int)(sizeof solvers / sizeof solvers[0]))
 
@@ -59,7 +66,7 @@ bool spc_specular_solver_parse(const char *name, int *id)
     return false;
 }
 
-const char *spc_specular_solver_names(void) { return "none, angular, newton"; }
+const char *spc_specular_solver_names(void) { return "none, angular, newton, conic"; }
 
 void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
 {
@@ -233,6 +240,8 @@ static spc_rgb biased_estimate(const spc_snee_query *q, const spc_specular_solve
         spc_chain *c = &found[nfound];
         if (!solver->solve_one(q, rng, c, &iterations))
             continue;
+        if (solver->solve_all && solver->covers && solver->covers(c))
+            continue; /* counted exactly by solve_all */
         bool seen = false;
         for (int i = 0; i < nfound && !seen; ++i)
             seen = spc_snee_same_solution(&found[i], c, q->scene->radius);
@@ -271,7 +280,7 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
     if (max_chain > p->max_chain)
         max_chain = p->max_chain;
     max_chain = spc_snee_budget(x, max_chain, p->any_surface);
-    if (!solver || !solver->solve_one || max_chain < 1)
+    if (!solver || (!solver->solve_one && !solver->solve_all) || max_chain < 1)
         return zero;
     if (p->solver == SPC_SNEE_NEWTON && p->newton.rough)
         return spc_newton_rough_nee(sc, p, x, wo, max_chain, rng, st);
@@ -322,8 +331,31 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
     if (st)
         st->calls++;
 
+    /* a solver that enumerates every solution: the exact sum, no probability to estimate */
+    spc_rgb total = zero;
+    if (solver->solve_all) {
+        spc_chain all[SPC_SNEE_MAX_ALL];
+        int all_iterations = 0;
+        int nall = solver->solve_all(&q, all, SPC_SNEE_MAX_ALL, &all_iterations);
+        if (st) {
+            st->iterations += (uint64_t)all_iterations;
+            st->solved += nall > 0 ? 1u : 0u;
+        }
+        for (int i = 0; i < nall; ++i) {
+            spc_rgb v = spc_snee_chain_value(&q, e, uv, &all[i]);
+            if (spc_rgb_is_black(v))
+                continue;
+            total = spc_rgb_add(total, v);
+            if (st)
+                st->contributions++;
+        }
+        total = spc_rgb_scale(total, 1.0 / p_y);
+        if (!solver->solve_one || !solver->covers || (solver->covers_all && solver->covers_all(&q)))
+            return total;
+    }
+
     if (p->biased)
-        return biased_estimate(&q, solver, e, uv, p_y, rng, st);
+        return spc_rgb_add(total, biased_estimate(&q, solver, e, uv, p_y, rng, st));
 
     spc_chain sol;
     int iterations = 0;
@@ -331,12 +363,14 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
     if (st)
         st->iterations += (uint64_t)iterations;
     if (!ok)
-        return zero;
+        return total;
+    if (solver->solve_all && solver->covers(&sol))
+        return total; /* already counted exactly */
     if (st)
         st->solved++;
     spc_rgb v = spc_snee_chain_value(&q, e, uv, &sol);
     if (spc_rgb_is_black(v))
-        return zero;
+        return total;
 
     /* <1/p_solve>: attempts until the same solution is found again */
     double inv_p = 1.0;
@@ -358,7 +392,7 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
     }
     if (st)
         st->contributions++;
-    return spc_rgb_scale(v, inv_p / p_y);
+    return spc_rgb_add(total, spc_rgb_scale(v, inv_p / p_y));
 }
 
 /* ---- exclusion of the covered paths from BSDF sampling ---- */

@@ -45,7 +45,8 @@
 enum {
     SPC_SNEE_NONE = 0,
     SPC_SNEE_ANGULAR = 1,
-    SPC_SNEE_NEWTON = 2 /* manifold NEE by Newton's method on the vertices (newton.h) */
+    SPC_SNEE_NEWTON = 2, /* manifold NEE by Newton's method on the vertices (newton.h) */
+    SPC_SNEE_CONIC = 3   /* every one-vertex chain on meshes by the coplanarity conic (conic.h) */
 };
 
 typedef enum spc_snee_seed {
@@ -94,6 +95,11 @@ typedef struct spc_specular_solver {
     /* NULL unless the solver enumerates every solution (then no probability is estimated);
      * returns the number written to out (at most max_out). */
     int (*solve_all)(const spc_snee_query *q, spc_chain *out, int max_out, int *iterations);
+    /* With both solve_all and solve_one: the chains solve_all enumerates (their exact sum is
+     * added; solve_one's estimate then skips them), and whether those are every chain of the
+     * query (then solve_one is not called). NULL: solve_all covers everything. */
+    bool (*covers)(const spc_chain *c);
+    bool (*covers_all)(const spc_snee_query *q);
 } spc_specular_solver;
 
 /* The solver of an id, or NULL (none, or not implemented). */
