@@ -66,7 +66,21 @@ TEST(xml) { replay("xml", spc_fuzz_xml); }
 TEST(obj) { replay("obj", spc_fuzz_obj); }
 TEST(ply) { replay("ply", spc_fuzz_ply); }
 TEST(serialized) { replay("serialized", spc_fuzz_serialized); }
-TEST(exr) { replay("exr", spc_fuzz_exr); }
+/* exr/chunk_claims_3GB.exr: OpenEXR allocated a 3.2 GB chunk buffer for a 3445-byte file (chunks
+ * beyond 256 MiB are now refused); exr/huge_window_*: tiny files whose data window claims up to
+ * 2^28 pixels (planes are now allocated only once the first chunk's table entry is read). */
+TEST(exr)
+{
+    replay("exr", spc_fuzz_exr);
+    char path[1024];
+    snprintf(path, sizeof path, "%s/tests/data/fuzz_regressions/exr/chunk_claims_3GB.exr", spc_test_source_dir());
+    spc_image img;
+    memset(&img, 0, sizeof img);
+    spc_error err;
+    CHECK(spc_image_read(path, &img, &err) == SPC_ERR_LIMIT);
+    CHECK_MSG(strstr(err.msg, "too large") != NULL, "%s", err.msg);
+    spc_image_release(&img);
+}
 /* Peak resident memory of this process so far, in MB. */
 static long peak_rss_mb(void)
 {

@@ -30,6 +30,10 @@
 /* Pixels we accept in one image (2^28 = 16384^2): beyond this a corrupt header is likelier than a
  * real image, and the float planes would need gigabytes. */
 #define SPC_EXR_MAX_PIXELS ((size_t)1 << 28)
+/* Decoded bytes of one chunk (16-256 scanlines, or a tile, of every channel): 256 MiB is twenty
+ * times a 16384-wide, 16-line chunk of 13 float channels. A corrupt header can claim a chunk of
+ * gigabytes (found by fuzzing: 3.2 GB from a 3445-byte file), which OpenEXR would allocate. */
+#define SPC_EXR_MAX_CHUNK_BYTES ((uint64_t)1 << 28)
 
 /* The library reports details through a callback; keep the last message of this thread. */
 static _Thread_local char last_msg[512];
@@ -278,14 +282,10 @@ static spc_status read_planes(const char *path, int nnames, const char *const *n
             }
             found[i] = true;
         }
-        if (found[i]) {
-            planes[i] = calloc(w * h, sizeof(float));
-            if (!planes[i]) {
-                st = spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory for a %zux%zu image", w, h);
-                goto done;
-            }
-        }
     }
+    /* the planes are allocated once the first chunk's table entry has been read: a corrupt header
+     * claiming a huge image in a tiny file is refused before gigabytes are reserved */
+    bool planes_ready = false;
 
     /* Chunks: scanline blocks, or level-0 tiles. (x0, y0) is the chunk's first pixel relative to
      * the data window. */
@@ -327,6 +327,23 @@ static spc_status read_planes(const char *path, int nnames, const char *const *n
             }
             if (rv != EXR_ERR_SUCCESS)
                 break;
+            if (cinfo.unpacked_size > SPC_EXR_MAX_CHUNK_BYTES) {
+                /* the library would allocate it whole before looking at the data */
+                st = spc_error_set(err, SPC_ERR_LIMIT, path, 0, 0, "EXR chunk of %llu bytes is too large",
+                                   (unsigned long long)cinfo.unpacked_size);
+                rv = EXR_ERR_CORRUPT_CHUNK;
+                break;
+            }
+            for (int i = 0; i < nnames && !planes_ready; ++i) {
+                if (found[i] && !(planes[i] = calloc(w * h, sizeof(float)))) {
+                    st = spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory for a %zux%zu image", w, h);
+                    rv = EXR_ERR_OUT_OF_MEMORY;
+                    break;
+                }
+            }
+            if (rv != EXR_ERR_SUCCESS)
+                break;
+            planes_ready = true;
             rv = dec_init ? exr_decoding_update(ctx, 0, &cinfo, &dec) : exr_decoding_initialize(ctx, 0, &cinfo, &dec);
             if (rv != EXR_ERR_SUCCESS)
                 break;
@@ -359,7 +376,7 @@ static spc_status read_planes(const char *path, int nnames, const char *const *n
     }
     if (dec_init)
         exr_decoding_destroy(ctx, &dec);
-    if (rv != EXR_ERR_SUCCESS)
+    if (rv != EXR_ERR_SUCCESS && st == SPC_OK)
         st = exr_fail(err, SPC_ERR_PARSE, path, "corrupt or truncated EXR pixel data", rv);
 
 done:
