@@ -307,6 +307,30 @@ TEST(sigint_writes_partial_image_and_checkpoint)
     }
 }
 
+/* A second SIGINT ends the process at once (default action), whatever it is doing: writing the
+ * image, the PNG or a checkpoint. Every file left behind is whole: atomic writes. */
+TEST(second_sigint_corrupts_nothing)
+{
+    for (int trial = 0; trial < 6; ++trial) {
+        char out[32], ck[32];
+        snprintf(out, sizeof out, "twice%d.exr", trial);
+        snprintf(ck, sizeof ck, "twice%d.ckpt", trial);
+        const char *args[] = {"render", scene, "-D", "res=16", "--spp", "100000", "--quiet", "--variance", "-o", out,
+                              "--checkpoint", ck, "--checkpoint-every", "0", NULL};
+        pid_t pid = spawn(args);
+        sleep_ms(300 + 40 * trial);
+        kill(pid, SIGINT);
+        sleep_ms(trial % 3); /* 0-2 ms: during the last passes or the writes */
+        kill(pid, SIGINT);
+        int rc = wait_code(pid);
+        CHECK_MSG(rc == 130, "trial %d: exit %d", trial, rc);
+        if (access(tmp_path(ck), F_OK) == 0)
+            CHECK_MSG(ckpt_spp(tmp_path(ck)) > 0, "trial %d: checkpoint unreadable", trial);
+        if (access(tmp_path(out), F_OK) == 0)
+            CHECK_MSG(exr_spp(tmp_path(out)) > 0, "trial %d: image unreadable", trial);
+    }
+}
+
 /* ---- refusals ---- */
 
 static bool copy_file(const char *from, const char *to)
@@ -643,6 +667,7 @@ int main(void)
     }
     RUN(killed_and_resumed_is_bit_identical);
     RUN(sigint_writes_partial_image_and_checkpoint);
+    RUN(second_sigint_corrupts_nothing);
     RUN(corrupt_checkpoints_refused);
     RUN(other_version_refused);
     RUN(other_scene_refused);
