@@ -31,6 +31,10 @@ typedef struct spc_render_ctx {
     int strategy_s, strategy_t; /* bdpt debug: >= 0 keeps only this strategy */
     bool strategy_weighted;
     bool mis_balance; /* bdpt: balance heuristic instead of the power heuristic */
+    /* specular NEE (src/manifold/specular_nee.h): solver id SPC_SNEE_* (0: off) and the longest
+     * chain of specular vertices it connects through */
+    int specular_nee;
+    int specular_max_chain;
     /* film geometry for splats: the rendered window within the full film */
     int crop_x, crop_y, width, height;
     const spc_film_spec *film;

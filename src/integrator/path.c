@@ -8,11 +8,19 @@
  * - ipt: the implicit path tracer of the lecture note (shared/papers 001): no NEE; a path counts
  *   emission only when it hits an emitter. Unbiased with Russian roulette; our ground truth.
  *
+ * Specular NEE (ctx->specular_nee, src/manifold/specular_nee.h): at every vertex with a non-delta
+ * lobe, one more light sample connected through chains of 1..specular_max_chain specular vertices
+ * by the chosen solver. The paths it covers (receiver -> non-delta sample -> k caster vertices with
+ * the solver's events -> area emitter, k within the budget; exact condition in specular_nee.h) are
+ * dropped when BSDF sampling reaches them (spc_snee_track_*), so nothing is counted twice; every
+ * other path keeps its usual weight.
+ *
  * Throughput with Russian roulette: after rr_depth segments a path survives with probability
  * q = min(0.95, max(beta) * eta_scale^2), where eta_scale undoes the radiance scaling of
  * refraction so that paths inside glass are not killed for it (pbrt-v4).
  */
 #include "integrator/integrator.h"
+#include "manifold/specular_nee.h"
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
 
@@ -27,6 +35,12 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     bool specular = true; /* the last scattering was a delta lobe (or it is the camera) */
     double prev_pdf = 1.0, eta_scale = 1.0;
     spc_vec3 prev_p = ray.o;
+    /* ---- specular NEE state (issue 5) ---- */
+    const bool snee = nee && ctx->specular_nee != SPC_SNEE_NONE;
+    spc_snee_params snp;
+    spc_snee_track track = {0};
+    if (snee)
+        spc_snee_params_default(&snp, ctx->specular_nee, ctx->specular_max_chain);
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
     out->depth = 0.0;
@@ -52,7 +66,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             out->depth = h.t;
         }
         spc_vec3 wo = spc_neg(ray.d);
-        if (h.emitter && !(segments == 1 && ctx->hide_emitters)) {
+        /* specular NEE hook: an emitter hit it already counted is dropped */
+        bool covered = snee && spc_snee_track_covers(&track, sc, h.emitter);
+        if (h.emitter && !(segments == 1 && ctx->hide_emitters) && !covered) {
             spc_rgb Le = spc_emitter_eval_area(h.emitter, &h, wo);
             if (!spc_rgb_is_black(Le)) {
                 double w = 1.0;
@@ -92,6 +108,23 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             }
         }
 
+        /* specular NEE hook: chains of at most the budget, within max_depth */
+        int snee_budget = 0;
+        if (snee) {
+            int budget = ctx->specular_max_chain;
+            if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < budget)
+                budget = ctx->max_depth - segments - 1;
+            snee_budget = spc_snee_budget(&h, budget, snp.any_surface);
+            if (snee_budget > 0) {
+                /* its own deterministic stream: the sampler's dimensions stay as without it */
+                spc_rng rng;
+                spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, ((uint64_t)smp->index << 32) | smp->dim),
+                             (uint64_t)segments);
+                spc_rgb c = spc_specular_nee(sc, &snp, &h, wo, snee_budget, &rng, NULL);
+                L = spc_rgb_add(L, spc_rgb_mul(beta, c));
+            }
+        }
+
         /* BSDF sampling */
         double u_lobe = spc_sampler_1d(smp);
         spc_vec2 u_dir = spc_sampler_2d(smp);
@@ -99,6 +132,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         spc_bsdf_sample bs;
         if (!spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
             break;
+        if (snee)
+            spc_snee_track_scatter(&track, &h, bs.lobe, snee_budget, snp.any_surface);
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))
             break;

@@ -27,6 +27,7 @@
 #include "accel/accel.h"
 #include "core/warp.h"
 #include "integrator/integrator.h"
+#include "manifold/specular_nee.h"
 #include "render/camera.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
@@ -172,6 +173,11 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.strategy_s = o->strategy_s;
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;
+    const char *sname = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
+    if (!spc_specular_solver_parse(sname, &ctx.specular_nee))
+        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "unknown specular NEE solver '%s'; specula has: %s", sname,
+                             spc_specular_solver_names());
+    ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
     ctx.mis_balance = o->mis_balance;
 
     spc_film_spec fs = sc->film;
