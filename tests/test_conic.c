@@ -256,6 +256,216 @@ TEST(vca_against_sturm_and_known_roots)
            cases, sturm_checked, dup, clusters_complex, sf_checked);
 }
 
+/* ================= the conic ================= */
+
+static spc_conic_tri random_tri(double spread)
+{
+    spc_vec3 p[3], n[3];
+    for (int k = 0; k < 3; ++k)
+        p[k] = rnd_vec(-1, 1);
+    spc_vec3 ng = spc_normalize(spc_cross(spc_sub(p[1], p[0]), spc_sub(p[2], p[0])));
+    for (int k = 0; k < 3; ++k)
+        n[k] = spc_normalize(spc_add(ng, rnd_vec(-spread, spread)));
+    return spc_conic_tri_make(p[0], p[1], p[2], n[0], n[1], n[2]);
+}
+
+TEST(conic_coefficients_and_chord_polynomial)
+{
+    double worst_q = 0.0, worst_f = 0.0;
+    for (int it = 0; it < 2000; ++it) {
+        spc_conic_tri t = random_tri(0.8);
+        spc_vec3 x = rnd_vec(-3, 3), y = rnd_vec(-3, 3);
+        spc_conic q = spc_conic_coplanarity(&t, x, y);
+        double u = rnd_in(-0.5, 1.5), v = rnd_in(-0.5, 1.5);
+        spc_vec3 P = spc_conic_tri_point(&t, u, v), n = spc_conic_tri_normal(&t, u, v);
+        spc_vec3 ax = spc_sub(x, P), ay = spc_sub(y, P);
+        double direct = spc_dot(n, spc_cross(ax, ay));
+        double scale = spc_length(n) * spc_length(ax) * spc_length(ay);
+        worst_q = fmax(worst_q, fabs(spc_conic_eval(&q, u, v) - direct) / scale);
+        /* the chord polynomial against the squared law evaluated in 3D */
+        spc_vec2 a = spc_v2(rnd(), rnd()), b = spc_v2(rnd(), rnd());
+        double ex = rnd_in(1, 2.5), ey = rnd_in(1, 2.5), f[7];
+        spc_conic_chord_poly(&t, x, y, ex, ey, a, b, f);
+        double tt = rnd_in(-0.2, 1.2);
+        double fd = spc_conic_snell_eval(&t, x, y, ex, ey, a.x + tt * (b.x - a.x), a.y + tt * (b.y - a.y));
+        double fs = ex * ex * spc_length2(ay) * spc_length2(ax) * spc_length2(n) + ey * ey * spc_length2(ax) * spc_length2(ay) *
+                                                                                           spc_length2(n);
+        worst_f = fmax(worst_f, fabs(spc_poly_eval(f, 6, tt) - fd) / (fs + 1e-300));
+    }
+    printf("    largest relative error: conic %.2g, chord polynomial %.2g\n", worst_q, worst_f);
+    CHECK(worst_q < 1e-13);
+    CHECK(worst_f < 1e-11);
+}
+
+/* Q from a matrix form, randomly rescaled (the classification must not depend on the scale). */
+static spc_conic conic_of(double A, double B, double C, double D, double E, double F)
+{
+    double s = pow(10.0, rnd_in(-8, 8)) * (rnd() < 0.5 ? -1 : 1);
+    return (spc_conic){A * s, B * s, C * s, D * s, E * s, F * s};
+}
+
+/* (u - a)(v - b) style products of lines a1 u + b1 v + c1 and a2 u + b2 v + c2 */
+static spc_conic line_product(double a1, double b1, double c1, double a2, double b2, double c2)
+{
+    return conic_of(a1 * a2, a1 * b2 + a2 * b1, b1 * b2, a1 * c2 + a2 * c1, b1 * c2 + b2 * c1, c1 * c2);
+}
+
+TEST(conic_classification)
+{
+    typedef struct {
+        spc_conic q;
+        spc_conic_type want;
+        const char *what;
+    } conic_case;
+    conic_case cases[16];
+    int n = 0;
+    for (int rep = 0; rep < 20; ++rep) {
+        n = 0;
+        /* (u-.3)^2/.01 + (v-.3)^2/.04 = 1, rotated by expanding a rotated quadratic form */
+        cases[n++] = (conic_case){conic_of(1 / 0.01, 0, 1 / 0.04, -0.6 / 0.01, -0.6 / 0.04, 0.09 / 0.01 + 0.09 / 0.04 - 1),
+                                        SPC_CONIC_ELLIPSE, "ellipse"};
+        cases[n++] = (conic_case){conic_of(1, 0, 1, -0.6, -0.6, 0.18 + 1), SPC_CONIC_EMPTY, "imaginary ellipse"};
+        cases[n++] = (conic_case){conic_of(1, 0, -1, -0.6, 0.6, -0.01), SPC_CONIC_HYPERBOLA, "hyperbola"};
+        cases[n++] = (conic_case){conic_of(-1, 0, 0, 0.8, 1, -0.16 - 0.1), SPC_CONIC_PARABOLA, "parabola"};
+        cases[n++] = (conic_case){conic_of(1, 2, 1, -0.3, -0.7, 0.05), SPC_CONIC_PARABOLA, "oblique parabola"};
+        cases[n++] = (conic_case){line_product(1, 0, -0.2, 0, 1, -0.3), SPC_CONIC_LINE_PAIR, "line pair"};
+        cases[n++] = (conic_case){line_product(1, 2, -0.5, 3, -1, 0.2), SPC_CONIC_LINE_PAIR, "oblique line pair"};
+        cases[n++] = (conic_case){line_product(1, 0, -0.2, 1, 0, -0.5), SPC_CONIC_PARALLEL_LINES, "parallel lines"};
+        cases[n++] = (conic_case){line_product(1, 1, -0.5, 1, 1, -0.5), SPC_CONIC_DOUBLE_LINE, "double line"};
+        cases[n++] = (conic_case){conic_of(1, 0, 1, -0.4, -0.6, 0.13), SPC_CONIC_POINT, "point"};
+        cases[n++] = (conic_case){conic_of(1, 0, 0, -0.4, 0, 0.05), SPC_CONIC_EMPTY, "complex parallel lines"};
+        cases[n++] = (conic_case){conic_of(0, 0, 0, 1, 2, -0.5), SPC_CONIC_LINE, "line"};
+        cases[n++] = (conic_case){conic_of(0, 0, 0, 0, 0, 1), SPC_CONIC_EMPTY, "constant"};
+        cases[n++] = (conic_case){(spc_conic){0, 0, 0, 0, 0, 0}, SPC_CONIC_PLANE, "zero"};
+        for (int i = 0; i < n; ++i) {
+            spc_conic_type got = spc_conic_classify(&cases[i].q);
+            CHECK_MSG(got == cases[i].want, "%s classified as %s", cases[i].what, spc_conic_type_name(got));
+        }
+    }
+}
+
+/* Distance from p to the segment ab. */
+static double seg_dist(spc_vec2 p, spc_vec2 a, spc_vec2 b)
+{
+    double dx = b.x - a.x, dy = b.y - a.y, l2 = dx * dx + dy * dy;
+    double t = l2 > 0 ? ((p.x - a.x) * dx + (p.y - a.y) * dy) / l2 : 0.0;
+    t = spc_clamp(t, 0.0, 1.0);
+    return hypot(p.x - a.x - t * dx, p.y - a.y - t * dy);
+}
+
+/* Arcs and chords of a conic: every chord end on the conic and in the triangle, every chord
+ * within its tolerance of the arc, and every sign change of Q on a fine grid near some chord (the
+ * chords cover the conic's part in the triangle). Returns false on the first failure. */
+static bool check_arcs(const spc_conic *q0, double tol, int *nchords, char *why, size_t whylen)
+{
+    spc_conic_arcs arcs;
+    spc_conic_find_arcs(q0, &arcs);
+    double s = fmax(fmax(fmax(fabs(q0->A), fabs(q0->B)), fmax(fabs(q0->C), fabs(q0->D))), fmax(fabs(q0->E), fabs(q0->F)));
+    spc_conic q = *q0;
+    if (s > 0)
+        q = (spc_conic){q0->A / s, q0->B / s, q0->C / s, q0->D / s, q0->E / s, q0->F / s};
+    static spc_conic_arc ch[4096];
+    int nc = 0;
+    for (int i = 0; i < arcs.narcs; ++i)
+        nc += spc_conic_chords(&arcs, &arcs.arc[i], tol, ch + nc, 4096 - nc);
+    *nchords = nc;
+    for (int i = 0; i < nc; ++i) {
+        spc_vec2 e[2] = {ch[i].a, ch[i].b};
+        for (int k = 0; k < 2; ++k) {
+            spc_vec2 g = spc_v2(2 * q.A * e[k].x + q.B * e[k].y + q.D, q.B * e[k].x + 2 * q.C * e[k].y + q.E);
+            double dist = fabs(spc_conic_eval(&q, e[k].x, e[k].y)) / fmax(hypot(g.x, g.y), 1e-300);
+            if (dist > 1e-9 || e[k].x < -1e-9 || e[k].y < -1e-9 || e[k].x + e[k].y > 1 + 1e-9) {
+                snprintf(why, whylen, "%s: chord end (%g, %g) off the conic by %g or outside", spc_conic_type_name(arcs.type),
+                         e[k].x, e[k].y, dist);
+                return false;
+            }
+        }
+        if (!ch[i].segment && ch[i].err > tol * (1 + 1e-9)) {
+            snprintf(why, whylen, "chord error %g above %g", ch[i].err, tol);
+            return false;
+        }
+    }
+    /* sign changes of Q along the edges of a fine grid clipped to the triangle */
+    const int N = 300;
+    double h = 1.0 / N;
+    for (int i = 0; i <= N; ++i)
+        for (int j = 0; i + j <= N; ++j) {
+            double u = i * h, v = j * h, q00 = spc_conic_eval(&q, u, v);
+            for (int dir = 0; dir < 2; ++dir) {
+                int i2 = i + (dir == 0), j2 = j + (dir == 1);
+                if (i2 + j2 > N)
+                    continue;
+                double u2 = i2 * h, v2 = j2 * h, q11 = spc_conic_eval(&q, u2, v2);
+                if (!(q00 * q11 < 0))
+                    continue;
+                double tz = q00 / (q00 - q11);
+                spc_vec2 z = spc_v2(u + tz * (u2 - u), v + tz * (v2 - v));
+                double best = INFINITY;
+                for (int k = 0; k < nc; ++k)
+                    best = fmin(best, seg_dist(z, ch[k].a, ch[k].b));
+                for (int k = 0; k < arcs.npoints; ++k)
+                    best = fmin(best, hypot(z.x - arcs.point[k].x, z.y - arcs.point[k].y));
+                if (best > tol + 2 * h) {
+                    snprintf(why, whylen, "%s: the conic crosses (%g, %g), %g from every chord",
+                             spc_conic_type_name(arcs.type), z.x, z.y, best);
+                    return false;
+                }
+            }
+        }
+    return true;
+}
+
+TEST(conic_arcs_and_chords)
+{
+    char why[256];
+    int total_chords = 0, checked = 0;
+    /* constructed cases: a whole ellipse inside, one tangent to two edges, a parabola, line
+     * pairs crossing inside and on an edge, parallel lines, a line through a vertex */
+    spc_conic special[] = {
+        {1 / 0.01, 0, 1 / 0.04, -0.6 / 0.01, -0.6 / 0.04, 0.09 / 0.01 + 0.09 / 0.04 - 1},
+        {1, 0, 1, -0.6, -0.6, 0.09}, /* circle (0.3, 0.3) radius 0.3: tangent to u = 0 and v = 0 */
+        {-1, 0, 0, 0.8, 1, -0.26},
+        {1, 0, -1, -0.6, 0.6, -0.01},
+        {0, 1, 0, -0.3, -0.2, 0.06}, /* (u - 0.2)(v - 0.3) */
+        {0, 1, 0, 0, -0.2, 0},       /* u (v - 0.2): one line on the edge u = 0 */
+        {1, 0, 0, -0.7, 0, 0.1},     /* (u - 0.2)(u - 0.5) */
+        {0, 0, 0, 1, -1, 0},         /* u = v through the vertex (0, 0) */
+        {1, 2, 1, -0.3, -0.7, 0.05},
+    };
+    for (size_t i = 0; i < sizeof special / sizeof special[0]; ++i) {
+        int nc;
+        bool ok = check_arcs(&special[i], 1e-3, &nc, why, sizeof why);
+        CHECK_MSG(ok, "special case %zu: %s", i, why);
+        total_chords += nc;
+        ++checked;
+    }
+    /* the whole ellipse inside gives a closed chain of chords */
+    {
+        spc_conic_arcs arcs;
+        spc_conic_find_arcs(&special[0], &arcs);
+        CHECK(arcs.type == SPC_CONIC_ELLIPSE && arcs.narcs >= 2);
+    }
+    /* random conics, and conics of random triangles (nearly straight ones included) */
+    for (int it = 0; it < 3000; ++it) {
+        spc_conic q;
+        if (it % 2) {
+            q = (spc_conic){rnd_in(-1, 1), rnd_in(-1, 1), rnd_in(-1, 1), rnd_in(-1, 1), rnd_in(-1, 1), rnd_in(-0.3, 0.3)};
+        } else {
+            spc_conic_tri t = random_tri(it % 4 == 0 ? 0.02 : 0.7);
+            q = spc_conic_coplanarity(&t, rnd_vec(-3, 3), rnd_vec(-3, 3));
+        }
+        int nc;
+        bool ok = check_arcs(&q, 1e-3, &nc, why, sizeof why);
+        CHECK_MSG(ok, "random conic %d: %s", it, why);
+        if (!ok)
+            break;
+        total_chords += nc;
+        ++checked;
+    }
+    printf("    %d conics, %d chords (tolerance 1e-3) covering every sign change of Q on a 300 x 300 grid\n", checked,
+           total_chords);
+}
+
 /* ================= the solver against a dense search ================= */
 
 /* The law, written independently of the solver: the side-correct indices and the residual
@@ -539,12 +749,439 @@ TEST(solver_against_dense_search)
           type_count[SPC_CONIC_PLANE] > 0);
 }
 
+/* ================= meshes: the hierarchy, the cache ================= */
+
+/* The displacement of the blob and its gradient (in 3D, at the unit direction d). */
+static double blob_g(spc_vec3 d, spc_vec3 *grad)
+{
+    double a = sin(3.0 * d.x + 0.5), b = sin(2.0 * d.y + 1.0), c = cos(4.0 * d.z);
+    *grad = spc_v3(3.0 * cos(3.0 * d.x + 0.5) * b, 2.0 * a * cos(2.0 * d.y + 1.0), -2.0 * sin(4.0 * d.z));
+    return a * b + 0.5 * c;
+}
+
+/* A closed blob ("bunny-like"): a cube sphere of 12 n^2 triangles displaced radially,
+ * r(d) = R (1 + amp g(d)), with its exact (analytic) vertex normals. Seam vertices are computed
+ * from the same cube points, so the surface is watertight and its normals continuous. */
+static spc_mesh blob_mesh(int n, spc_vec3 center, double R, double amp)
+{
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    m.nverts = 6 * (size_t)(n + 1) * (n + 1);
+    m.ntris = 12 * (size_t)n * n;
+    m.p = malloc(3 * m.nverts * sizeof(float));
+    m.n = malloc(3 * m.nverts * sizeof(float));
+    m.idx = malloc(3 * m.ntris * sizeof(uint32_t));
+    size_t v = 0, t = 0;
+    for (int face = 0; face < 6; ++face) {
+        int ax = face / 2, sg = face % 2 ? -1 : 1;
+        size_t base = v;
+        for (int j = 0; j <= n; ++j)
+            for (int i = 0; i <= n; ++i) {
+                double a = -1.0 + 2.0 * i / n, b = -1.0 + 2.0 * j / n, c[3];
+                c[ax] = sg;
+                c[(ax + 1) % 3] = sg > 0 ? a : b;
+                c[(ax + 2) % 3] = sg > 0 ? b : a;
+                spc_vec3 d = spc_normalize(spc_v3(c[0], c[1], c[2])), grad;
+                double g = blob_g(d, &grad), r = R * (1.0 + amp * g);
+                spc_vec3 gt = spc_sub(grad, spc_scale(d, spc_dot(grad, d)));
+                spc_vec3 nn = spc_normalize(spc_sub(d, spc_scale(gt, R * amp / r)));
+                spc_vec3 p = spc_madd(center, d, r);
+                m.p[3 * v] = (float)p.x, m.p[3 * v + 1] = (float)p.y, m.p[3 * v + 2] = (float)p.z;
+                m.n[3 * v] = (float)nn.x, m.n[3 * v + 1] = (float)nn.y, m.n[3 * v + 2] = (float)nn.z;
+                ++v;
+            }
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                uint32_t q00 = (uint32_t)(base + j * (n + 1) + i), q10 = q00 + 1, q01 = q00 + (uint32_t)(n + 1),
+                         q11 = q01 + 1;
+                uint32_t tri[6] = {q00, q10, q11, q00, q11, q01};
+                memcpy(m.idx + 3 * t, tri, sizeof tri);
+                t += 2;
+            }
+    }
+    return m;
+}
+
+/* The water surface: an n x n grid over [-s, s]^2 at height z0 with waves, analytic normals. */
+static double water_h(double x, double y, double *hx, double *hy)
+{
+    const double A = 0.04;
+    double a = sin(5.0 * x + 0.3) * cos(4.0 * y), b = sin(3.0 * (x + y) + 1.0);
+    *hx = A * (5.0 * cos(5.0 * x + 0.3) * cos(4.0 * y) + 0.5 * 3.0 * cos(3.0 * (x + y) + 1.0));
+    *hy = A * (-4.0 * sin(5.0 * x + 0.3) * sin(4.0 * y) + 0.5 * 3.0 * cos(3.0 * (x + y) + 1.0));
+    return A * (a + 0.5 * b);
+}
+
+static spc_mesh water_mesh(int n, double s, double z0)
+{
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    m.nverts = (size_t)(n + 1) * (n + 1);
+    m.ntris = 2 * (size_t)n * n;
+    m.p = malloc(3 * m.nverts * sizeof(float));
+    m.n = malloc(3 * m.nverts * sizeof(float));
+    m.idx = malloc(3 * m.ntris * sizeof(uint32_t));
+    size_t v = 0, t = 0;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            double x = -s + 2.0 * s * i / n, y = -s + 2.0 * s * j / n, hx, hy;
+            double z = z0 + water_h(x, y, &hx, &hy);
+            spc_vec3 nn = spc_normalize(spc_v3(-hx, -hy, 1.0));
+            m.p[3 * v] = (float)x, m.p[3 * v + 1] = (float)y, m.p[3 * v + 2] = (float)z;
+            m.n[3 * v] = (float)nn.x, m.n[3 * v + 1] = (float)nn.y, m.n[3 * v + 2] = (float)nn.z;
+            ++v;
+        }
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            uint32_t q00 = (uint32_t)(j * (n + 1) + i), q10 = q00 + 1, q01 = q00 + (uint32_t)(n + 1), q11 = q01 + 1;
+            uint32_t tri[6] = {q00, q10, q11, q00, q11, q01};
+            memcpy(m.idx + 3 * t, tri, sizeof tri);
+            t += 2;
+        }
+    return m;
+}
+
+static spc_shape *add_mesh(spc_scene *sc, spc_mesh m, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_mesh(s, &m, NULL, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+/* A query with a known solution on the mesh: x random, y along the scattered ray through a
+ * random point of a random triangle (and, half the time, x and y anywhere instead). */
+static void mesh_query(const spc_conic_mesh *cm, spc_vec3 lo, spc_vec3 hi, int event, spc_conic_problem *pb)
+{
+    pb->event = event;
+    pb->eta = rnd_in(1.1, 2.5);
+    spc_vec3 ext = spc_sub(hi, lo);
+    double size = spc_length(ext);
+    if (rnd() < 0.3) {
+        pb->x = spc_add(lo, spc_mul(ext, rnd_vec(-0.5, 1.5)));
+        pb->y = spc_add(lo, spc_mul(ext, rnd_vec(-0.5, 1.5)));
+        return;
+    }
+    int prim = (int)(rnd() * spc_conic_mesh_ntris(cm));
+    spc_conic_tri t = spc_conic_mesh_triangle(cm, prim);
+    double a = rnd(), b = rnd();
+    if (a + b > 1) {
+        a = 1 - a;
+        b = 1 - b;
+    }
+    spc_vec3 P = spc_conic_tri_point(&t, a, b), nh = spc_normalize(spc_conic_tri_normal(&t, a, b));
+    for (;;) {
+        spc_vec3 wx = rnd_unit();
+        if (fabs(spc_dot(wx, nh)) < 0.1)
+            continue;
+        pb->x = spc_madd(P, wx, size * rnd_in(0.2, 1.0));
+        spc_vec3 d = spc_neg(wx), out;
+        if (event == SPC_CONIC_REFLECT) {
+            out = spc_sub(d, spc_scale(nh, 2 * spc_dot(d, nh)));
+        } else {
+            double c = -spc_dot(d, nh), r = c > 0 ? 1 / pb->eta : pb->eta;
+            spc_vec3 mm = c > 0 ? nh : spc_neg(nh);
+            c = fabs(c);
+            double k = 1 - r * r * (1 - c * c);
+            if (!(k > 0))
+                continue;
+            out = spc_add(spc_scale(d, r), spc_scale(mm, r * c - sqrt(k)));
+        }
+        pb->y = spc_madd(P, out, size * rnd_in(0.2, 1.0));
+        return;
+    }
+}
+
+TEST(hierarchy_matches_triangle_loop)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_shape *shapes[3];
+    shapes[0] = add_mesh(sc, blob_mesh(14, spc_v3(0, 0, 0), 1.0, 0.15), NULL);   /* 2352 triangles */
+    shapes[1] = add_mesh(sc, water_mesh(34, 1.0, 0.0), NULL);                    /* 2312 triangles */
+    shapes[2] = add_mesh(sc, blob_mesh(6, spc_v3(0, 0, 0), 1.0, 0.6), NULL);     /* strongly curved */
+    long total = 0, same = 0, nodes = 0, tris_h = 0, tris_b = 0, queries = 0;
+    for (int k = 0; k < 3; ++k) {
+        spc_shape *s = shapes[k];
+        CHECK(spc_shape_prepare(s));
+        spc_conic_mesh *cm = spc_conic_mesh_build(s);
+        CHECK(cm != NULL);
+        if (!cm)
+            continue;
+        for (int it = 0; it < 150; ++it) {
+            spc_conic_problem pb;
+            mesh_query(cm, s->bbox_min, s->bbox_max, it % 2 ? SPC_CONIC_REFRACT : SPC_CONIC_REFLECT, &pb);
+            spc_conic_solution a[64], b[64];
+            spc_conic_stats sa, sb;
+            memset(&sa, 0, sizeof sa);
+            memset(&sb, 0, sizeof sb);
+            int na = spc_conic_mesh_solve(cm, &pb, a, 64, false, &sa);
+            int nb = spc_conic_mesh_solve(cm, &pb, b, 64, true, &sb);
+            ++queries;
+            nodes += sa.nodes;
+            tris_h += sa.triangles;
+            tris_b += sb.triangles;
+            total += nb;
+            CHECK_MSG(na == nb, "mesh %d query %d: hierarchy %d solutions, loop %d", k, it, na, nb);
+            for (int i = 0; i < nb; ++i) {
+                bool found = false;
+                for (int j = 0; j < na; ++j)
+                    found = found || spc_distance(a[j].p, b[i].p) <= 1e-9 * (1 + spc_length(b[i].p));
+                same += found;
+                CHECK(found);
+                /* and every solution satisfies the law on its triangle */
+                spc_conic_tri t = spc_conic_mesh_triangle(cm, b[i].prim);
+                CHECK(spc_conic_law_residual(&t, &pb, b[i].u, b[i].v) <= 1e-9);
+            }
+        }
+        spc_conic_mesh_destroy(cm);
+    }
+    printf("    %ld queries on 3 meshes: %ld solutions, %ld found by both; triangles solved %.1f (hierarchy, %.1f nodes "
+           "visited) vs %.1f (loop) per query\n",
+           queries, total, same, (double)tris_h / queries, (double)nodes / queries, (double)tris_b / queries);
+    CHECK(total > queries / 2);
+    CHECK(tris_h * 10 < tris_b);
+    /* the lazy cache: built once, the same pointer after, freed with the scene */
+    const spc_conic_mesh *c1 = spc_conic_mesh_get(shapes[0]), *c2 = spc_conic_mesh_get(shapes[0]);
+    CHECK(c1 != NULL && c1 == c2 && shapes[0]->solver_cache == (void *)c1);
+    spc_scene_destroy(sc);
+}
+
+/* ================= the distance correction factor ================= */
+
+static spc_bsdf *mk_glass(spc_scene *sc, double eta)
+{
+    spc_bsdf *b = spc_scene_new_bsdf(sc);
+    b->type = SPC_BSDF_DIELECTRIC;
+    b->eta = eta;
+    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    b->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
+    return b;
+}
+
+static spc_bsdf *mk_mirror(spc_scene *sc)
+{
+    spc_bsdf *b = spc_scene_new_bsdf(sc);
+    b->type = SPC_BSDF_CONDUCTOR;
+    b->cond_k = spc_rgb1(-1.0); /* perfect mirror */
+    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    return b;
+}
+
+static spc_shape *add_rect(spc_scene *sc, spc_vec3 scale, spc_vec3 pos, const spc_bsdf *b)
+{
+    spc_mat4 S = spc_mat4_scale(scale), T = spc_mat4_translate(pos), M = spc_mat4_mul(&T, &S);
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_rectangle(s, &M, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+static bool finalize(spc_scene *sc)
+{
+    spc_error err;
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  finalize: %s\n", err.msg);
+        return false;
+    }
+    return true;
+}
+
+/* Chains from spc_conic_solve_all toward light points: the distance correction factor D by ray
+ * differentials (report sec. 7, appendix C) gives |cos theta_y| / D, which must equal the
+ * chain's generalized geometry term (derivatives of the traced chain, chain.c). */
+static void dcf_against_chains(spc_scene *sc, int mesh_shape, const spc_shape *floor_shape, int *compared,
+                               double *worst)
+{
+    const spc_shape *ms = sc->shapes[mesh_shape];
+    const spc_conic_mesh *cm = spc_conic_mesh_get(ms);
+    int event;
+    double eta = 0.0;
+    spc_chain_shape_is_caster(ms, true, &event);
+    spc_bsdf_is_specular_interface(ms->bsdf, &eta);
+    for (int it = 0; it < 300; ++it) {
+        /* x on the floor (hit from below), y on a plane of light points above */
+        spc_ray r;
+        r.o = spc_v3(rnd_in(-0.8, 0.8), rnd_in(-0.8, 0.8), floor_shape->bbox_min.z - 1.0);
+        r.d = spc_v3(0, 0, 1);
+        r.tmin = 0;
+        r.tmax = INFINITY;
+        spc_hit x;
+        if (!spc_scene_intersect(sc, &r, &x) || x.shape != floor_shape)
+            continue;
+        /* a free point just above the floor: the chain then starts exactly at x (a surface point's
+         * ray offset moves the start by ~1e-6, and the chain with it) */
+        x.p.z += 1e-5;
+        x.err = 0.0;
+        spc_snee_query q;
+        memset(&q, 0, sizeof q);
+        q.scene = sc;
+        q.x = &x;
+        q.wo = spc_v3(0, 0, 1);
+        q.y = spc_v3(rnd_in(-1.5, 1.5), rnd_in(-1.5, 1.5), 2.5);
+        q.ny = spc_normalize(spc_v3(rnd_in(-0.3, 0.3), rnd_in(-0.3, 0.3), -1.0));
+        q.max_chain = 1;
+        q.any_surface = true;
+        spc_chain ch[16];
+        int it2 = 0;
+        int nc = spc_conic_solve_all(&q, ch, 16, &it2);
+        spc_conic_problem pb = {x.p, q.y, event == SPC_CHAIN_REFRACT ? SPC_CONIC_REFRACT : SPC_CONIC_REFLECT, eta};
+        spc_conic_solution sol[64];
+        int ns = spc_conic_mesh_solve(cm, &pb, sol, 64, false, NULL);
+        for (int i = 0; i < nc; ++i) {
+            double G = spc_chain_geometry(&ch[i], q.y, q.ny);
+            for (int j = 0; j < ns; ++j) {
+                if (spc_distance(sol[j].p, ch[i].v[0].h.p) > 1e-6)
+                    continue;
+                spc_conic_tri t = spc_conic_mesh_triangle(cm, sol[j].prim);
+                double D = spc_conic_dcf(&t, &pb, &sol[j]);
+                double Gd = spc_absdot(ch[i].v[0].d, q.ny) / D;
+                if (!(G > 0) || !(D > 0))
+                    continue;
+                double rel = fabs(Gd - G) / G;
+                *worst = fmax(*worst, rel);
+                ++*compared;
+
+                break;
+            }
+        }
+    }
+}
+
+TEST(dcf_against_generalized_geometry_term)
+{
+    int compared = 0;
+    double worst = 0.0;
+    /* a water surface (refraction from the floor below it) */
+    {
+        spc_scene *sc = spc_scene_create();
+        spc_shape *fl = add_rect(sc, spc_v3(1.2, 1.2, 1), spc_v3(0, 0, -0.6), tu_diffuse(sc, 0.5));
+        add_mesh(sc, water_mesh(24, 1.0, 0.0), mk_glass(sc, 1.33));
+        CHECK(finalize(sc));
+        dcf_against_chains(sc, 1, fl, &compared, &worst);
+        spc_scene_destroy(sc);
+    }
+    int after_water = compared;
+    /* a mirror blob over the floor (reflection) */
+    {
+        spc_scene *sc = spc_scene_create();
+        spc_shape *fl = add_rect(sc, spc_v3(1.2, 1.2, 1), spc_v3(0, 0, -0.6), tu_diffuse(sc, 0.5));
+        add_mesh(sc, blob_mesh(10, spc_v3(0, 0, 0.5), 0.5, 0.15), mk_mirror(sc));
+        CHECK(finalize(sc));
+        dcf_against_chains(sc, 1, fl, &compared, &worst);
+        spc_scene_destroy(sc);
+    }
+    printf("    %d refracted and %d reflected chains: largest relative difference %.2g\n", after_water,
+           compared - after_water, worst);
+    CHECK(after_water > 20 && compared - after_water > 20);
+    CHECK(worst < 1e-7);
+
+    /* a flat interface with a constant normal: the closed form, V (= x) in the medium of index eta:
+     * D = (dV + eta dL) (dV cos_L / cos_V + eta dL cos_V / cos_L). The report prints the second
+     * term with cos_L / cos_V (a typo: the sagittal and tangential spreads are checked here). */
+    double worst_flat = 0.0, paper_off = 0.0;
+    for (int it = 0; it < 200; ++it) {
+        spc_vec3 p0 = spc_v3(-10, -10, 0), p1 = spc_v3(30, -10, 0), p2 = spc_v3(-10, 30, 0), nz = spc_v3(0, 0, 1);
+        spc_conic_tri t = spc_conic_tri_make(p0, p1, p2, nz, nz, nz);
+        double eta = rnd_in(1.1, 2.5);
+        spc_conic_problem pb = {spc_v3(rnd_in(-1, 1), rnd_in(-1, 1), -rnd_in(0.2, 2)),
+                                spc_v3(rnd_in(-1, 1), rnd_in(-1, 1), rnd_in(0.2, 2)), SPC_CONIC_REFRACT, eta};
+        spc_conic_solution sol[4];
+        int ns = spc_conic_solve_triangle(&t, &pb, sol, 4, NULL);
+        CHECK(ns == 1);
+        if (ns != 1)
+            continue;
+        double D = spc_conic_dcf(&t, &pb, &sol[0]);
+        spc_vec3 P = sol[0].p;
+        double dV = spc_distance(P, pb.x), dL = spc_distance(P, pb.y);
+        double cV = fabs(pb.x.z - P.z) / dV, cL = fabs(pb.y.z - P.z) / dL;
+        double closed = (dV + eta * dL) * (dV * cL / cV + eta * dL * cV / cL);
+        double printed = (dV + eta * dL) * (cL / cV * dV + eta * cL / cV * dL);
+        worst_flat = fmax(worst_flat, fabs(D - closed) / closed);
+        paper_off = fmax(paper_off, fabs(printed - closed) / closed);
+    }
+    printf("    flat interface: ray differentials vs closed form %.2g; the report's printed form is off by up to %.2g\n",
+           worst_flat, paper_off);
+    CHECK(worst_flat < 1e-9);
+    CHECK(paper_off > 1e-2);
+}
+
+/* ================= the Specular Polynomials fixture ================= */
+
+/* Fan et al. 2024, "Specular Polynomials" (SIGGRAPH), public code, test case "T #1" (single
+ * refraction, eta = 1.5041833): the triangle x1 = p10 + p11 u + p12 v with normal
+ * n = n10 + n11 u + n12 v (p11, p12 edge vectors, n11, n12 normal differences), endpoints
+ * pD = (0, -2.6, -1.1) and pL = (1, 2.5, 2), and the answer u = 0.301126, alpha = 0.310013,
+ * v = 1 - alpha - u = 0.388861 (the data are given to 6 digits).
+ * What holds there: coplanarity (to 4e-6) and eta sin(theta_D) = sin(theta_L); polishing the
+ * unsquared vector law eta wD + wL || n^ from it converges to (0.300399, 0.389131), 7e-4 away (the
+ * interpolated normal nearly cancels there, |n| = 0.23, so 6-digit data move the root that much).
+ * Admissibility: at that root both endpoints lie on the SAME side of the shading normal
+ * (cos = -0.772 and -0.294) while on opposite sides of the geometric normal, so no refraction
+ * about that shading normal connects them (the dielectric BSDF would call this pair a
+ * reflection): a root that squaring (and the unsigned law) admits but physics does not. The conic
+ * solver must not return it. */
+TEST(specular_polynomials_fixture)
+{
+    spc_conic_tri t;
+    t.p0 = spc_v3(-0.933849, 0.091093, -1.07752);
+    t.e1 = spc_v3(-0.025211, -0.021542, 0.0107059);
+    t.e2 = spc_v3(-0.023945, -0.022294, 0.011972);
+    t.n0 = spc_v3(-0.80496, 0.081929, 0.587645);
+    t.dn1 = spc_v3(-0.048272, 0.020128, -1.09909);
+    t.dn2 = spc_v3(1.71536, 0.1286, -0.943807);
+    spc_conic_problem pb = {spc_v3(0, -2.6, -1.1), spc_v3(1, 2.5, 2), SPC_CONIC_REFRACT, 1.5041833};
+    double u = 0.301126, v = 1.0 - 0.310013 - 0.301126;
+    spc_conic q = spc_conic_coplanarity(&t, pb.x, pb.y);
+    spc_vec3 P = spc_conic_tri_point(&t, u, v), n = spc_conic_tri_normal(&t, u, v);
+    spc_vec3 wD = spc_normalize(spc_sub(pb.x, P)), wL = spc_normalize(spc_sub(pb.y, P)), nh = spc_normalize(n);
+    double cop = spc_dot(nh, spc_cross(wD, wL));
+    double ratio = spc_length(spc_cross(wD, nh)) / spc_length(spc_cross(wL, nh));
+    printf("    fixture: coplanarity %.2g, Q %.2g, sin D / sin L = %.6f (1/eta = %.6f), |n| = %.3f\n", cop,
+           spc_conic_eval(&q, u, v), ratio, 1.0 / pb.eta, spc_length(n));
+    CHECK(fabs(cop) < 1e-5);
+    CHECK(fabs(ratio * pb.eta - 1.0) < 5e-3);
+    /* the unsquared law with eta on D's side, polished from the fixture */
+    double pu = u, pv = v;
+    bool conv = bf_newton(&t, &pb, pb.eta, 1.0, &pu, &pv);
+    P = spc_conic_tri_point(&t, pu, pv);
+    nh = spc_normalize(spc_conic_tri_normal(&t, pu, pv));
+    wD = spc_normalize(spc_sub(pb.x, P));
+    wL = spc_normalize(spc_sub(pb.y, P));
+    spc_vec3 ng = spc_normalize(spc_cross(t.e1, t.e2));
+    printf("    exact root of the data at (%.6f, %.6f) (alpha %.6f), %.1e from the fixture; cos to the shading normal "
+           "%.3f and %.3f, to the geometric normal %.3f and %.3f\n",
+           pu, pv, 1 - pu - pv, hypot(pu - u, pv - v), spc_dot(wD, nh), spc_dot(wL, nh), spc_dot(wD, ng), spc_dot(wL, ng));
+    CHECK(conv);
+    CHECK(hypot(pu - u, pv - v) < 2e-3);
+    CHECK(spc_dot(wD, nh) * spc_dot(wL, nh) > 0.0); /* same side of the shading normal */
+    CHECK(spc_dot(wD, ng) * spc_dot(wL, ng) < 0.0); /* opposite sides of the triangle */
+    CHECK(!isfinite(spc_conic_law_residual(&t, &pb, pu, pv))); /* not admissible */
+    /* the solver returns nothing there */
+    spc_conic_solution sol[16];
+    int ns = spc_conic_solve_triangle(&t, &pb, sol, 16, NULL);
+    bool near = false;
+    for (int i = 0; i < ns; ++i)
+        near = near || hypot(sol[i].u - pu, sol[i].v - pv) < 1e-2;
+    printf("    the conic solver returns %d admissible refraction(s) on this triangle, none at the fixture\n", ns);
+    CHECK(!near);
+    for (int i = 0; i < ns; ++i)
+        CHECK(spc_conic_law_residual(&t, &pb, sol[i].u, sol[i].v) <= 1e-9);
+}
+
 int main(void)
 {
     spc_warn_set_quiet(1);
     spc_rng_seed(&rng, 777, 3);
     RUN(taylor_shift_matches_binomial);
     RUN(vca_against_sturm_and_known_roots);
+    RUN(conic_coefficients_and_chord_polynomial);
+    RUN(conic_classification);
+    RUN(conic_arcs_and_chords);
     RUN(solver_against_dense_search);
+    RUN(specular_polynomials_fixture);
+    RUN(hierarchy_matches_triangle_loop);
+    RUN(dcf_against_generalized_geometry_term);
     return spc_test_finish();
 }

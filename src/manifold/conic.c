@@ -146,10 +146,10 @@ spc_conic_type spc_conic_classify(const spc_conic *q0)
         return SPC_CONIC_PLANE;
     double qm = fmax(fmax(fabs(q.A), fabs(q.B)), fabs(q.C));
     double lm = fmax(fabs(q.D), fabs(q.E));
+    if (qm == 0.0 && lm == 0.0)
+        return SPC_CONIC_EMPTY; /* Q = F != 0 */
     if (qm <= SPC_CONIC_LINE_TOL * lm)
         return SPC_CONIC_LINE;
-    if (qm == 0.0)
-        return SPC_CONIC_EMPTY; /* Q = F != 0 */
     double d2 = (q.A * q.C - 0.25 * q.B * q.B) / (qm * qm);
     double d3 = det3(&q);
     if (fabs(d3) <= SPC_CONIC_DEGENERATE_TOL) {

@@ -1380,7 +1380,9 @@ int spc_conic_solve_all(const spc_snee_query *q, spc_chain *out, int max_out, in
         for (int k = 0; k < ns && n < max_out; ++k) {
             /* trace x -> P: the first hit must be this shape at P, which gives the chain its
              * derivatives and proves the first segment unblocked */
+            /* aimed from the offset origin the ray will leave from, so that it meets P itself */
             spc_vec3 dir = spc_sub(sol[k].p, pb.x);
+            dir = spc_sub(sol[k].p, spc_hit_offset(q->x, dir));
             double dist = spc_length(dir);
             if (!(dist > 0.0))
                 continue;
