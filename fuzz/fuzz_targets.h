@@ -36,8 +36,10 @@
 static inline int spc_fuzz_memfile(const uint8_t *data, size_t size, char *path, size_t pathsize)
 {
     static int fd = -1;
-    if (fd < 0)
+    if (fd < 0) {
         fd = memfd_create("spc_fuzz", 0);
+        spc_warn_set_quiet(1); /* loaders' warnings about bad input would flood the fuzzer's log */
+    }
     if (fd < 0)
         return -1;
     if (ftruncate(fd, 0) != 0 || (size > 0 && pwrite(fd, data, size, 0) != (ssize_t)size))
