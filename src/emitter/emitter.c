@@ -44,6 +44,7 @@ void spc_emitter_release(spc_emitter *e)
     if (!e)
         return;
     spc_envmap_release(e);
+    spc_area_release(e);
 }
 
 bool spc_emitter_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_vec2 u, spc_emitter_direct *out)

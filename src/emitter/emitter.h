@@ -48,8 +48,13 @@ typedef struct spc_emitter {
     const struct spc_shape *shape;     /* area */
     int shape_index;                   /* area */
     /* set by spc_emitter_prepare: */
-    spc_distrib2d tex_distrib;         /* envmap and textured area lights */
+    spc_distrib2d tex_distrib;         /* envmap */
     bool has_tex_distrib;
+    /* area lights with a bitmap radiance on a small mesh: texel-proportional sampling (area.c) */
+    spc_distrib1d cell_distrib;        /* over the sub-triangles of every triangle */
+    size_t *cell_offset;               /* per triangle: index of its first cell (ntris + 1 entries) */
+    int *cell_k;                       /* per triangle: subdivisions per edge (k^2 cells) */
+    bool has_cell_distrib;
     spc_vec3 scene_center;             /* infinite and directional lights */
     double scene_radius;
     double power;

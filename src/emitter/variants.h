@@ -20,6 +20,7 @@ bool spc_directional_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitt
 bool spc_directional_sample_emission(const spc_emitter *e, spc_vec2 u_pos, spc_emitter_emission *out);
 
 bool spc_area_prepare(spc_emitter *e);
+void spc_area_release(spc_emitter *e);
 bool spc_area_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_vec2 u, spc_emitter_direct *out);
 double spc_area_pdf_direct(const spc_emitter *e, spc_vec3 ref, spc_vec3 p, spc_vec3 n);
 spc_rgb spc_area_eval(const spc_emitter *e, spc_vec2 uv, spc_vec3 n, spc_vec3 w);

@@ -8,7 +8,8 @@
  *   face_normals false, flip_tex_coords true (obj), shape_index 0 (serialized); a file without
  *   normals gets angle-weighted vertex normals from its world-space positions unless face_normals,
  *   as in Mitsuba 3); all: to_world,
- *   flip_normals false, a nested or referenced bsdf (default diffuse 0.5), a nested area emitter,
+ *   flip_normals false, a nested or referenced bsdf (default diffuse 0.5; black for a shape with an
+ *   area emitter, as Mitsuba 3), a nested area emitter,
  *   caustic_caster / caustic_receiver / caustic_caster_single / caustic_caster_multi.
  *   shapegroup holds shapes; instance (a ref to a shapegroup, to_world) copies them, placed.
  *   sdf: one nested <sdf type="sphere | box | roundbox | torus | capsule | cylinder | plane | union |
@@ -529,8 +530,23 @@ static void load_mesh(mts_loader *L, const spc_xml_node *node, const char *type,
 /* ------------------------------------------------------------------------------------------------ */
 /* shapes */
 
-static const spc_bsdf *default_bsdf(mts_loader *L, const spc_xml_node *at)
+/* The BSDF of a shape that names none: diffuse 0.5, or, for a shape with an area emitter, diffuse
+ * 0 (black), as Mitsuba 3 does (an emitter without a BSDF reflects nothing). */
+static const spc_bsdf *default_bsdf(mts_loader *L, const spc_xml_node *at, bool emitter)
 {
+    if (emitter) {
+        spc_bsdf *b = spc_scene_new_bsdf(L->scene);
+        if (!b) {
+            mts_fail(L, at, SPC_ERR_NOMEM, "out of memory");
+            return NULL;
+        }
+        b->type = SPC_BSDF_DIFFUSE;
+        b->reflectance = constant(L, at, spc_rgb1(0.0));
+        b->sample_visible = true;
+        b->eta = 1.0;
+        b->bump_scale = 1.0;
+        return b;
+    }
     if (L->default_bsdf)
         return L->default_bsdf;
     spc_bsdf *b = spc_scene_new_bsdf(L->scene);
@@ -875,8 +891,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
         mts_fail(L, node, SPC_ERR_VALUE, "a shape takes one emitter, got %d", nem);
     else {
         spc_xml_node *bn = mts_object(&P, "bsdf", 0, NULL);
-        s->bsdf = bn ? mts_build_bsdf(L, bn) : default_bsdf(L, node);
         spc_xml_node *en = mts_object(&P, "emitter", 0, NULL);
+        s->bsdf = bn ? mts_build_bsdf(L, bn) : default_bsdf(L, node, en != NULL);
         if (en && L->status == SPC_OK)
             mts_build_emitter(L, en, s, index);
     }

@@ -139,8 +139,17 @@ spc_rgb mts_spectrum_to_rgb(const double *wavelengths, const double *values, int
     return spc_rgb3(rgb[0], rgb[1], rgb[2]);
 }
 
+/* The equal-energy spectrum E in linear sRGB as Mitsuba 3.9 computes it (1 nm CIE tables; printed
+ * by its RGB variants for <spectrum value="1"/> on an emitter). Our 5 nm table gives the same to
+ * 1e-4, which is visible on directly seen lights, so constant spectra use these. */
+#define E_SRGB_R 1.20479
+#define E_SRGB_G 0.948291
+#define E_SRGB_B 0.908916
+
 spc_rgb mts_spectrum_to_rgb_emission(const double *wavelengths, const double *values, int n)
 {
+    if (n == 1)
+        return spc_rgb3(values[0] * E_SRGB_R, values[0] * E_SRGB_G, values[0] * E_SRGB_B);
     double xyz[3] = {0, 0, 0}, y_int = 0.0;
     for (int lambda = CIE_START; lambda <= CIE_START + CIE_STEP * (CIE_COUNT - 1); ++lambda) {
         double s = spectrum_at(wavelengths, values, n, lambda);

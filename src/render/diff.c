@@ -15,7 +15,7 @@
  * two good ones, and it needs no incomplete gamma function. A pixel passes when
  * p_pixel >= alpha_sidak = 1 - (1 - 0.01)^(1/npixels), so a correct image passes every pixel with
  * probability 0.99 as a whole. A channel whose combined variance is zero cannot be tested
- * statistically; it passes iff |a - b| <= 1e-6 (|b| + 1e-3) (a pixel of zero total variance thus
+ * statistically; it passes iff |a - b| <= 1e-5 (|b| + 1e-3) (a pixel of zero total variance thus
  * passes iff all three channels match to that tolerance). A channel within that tolerance passes
  * whatever its variance (float rounding is not evidence).
  */
@@ -30,7 +30,9 @@
 
 #define DIFF_REL_EPS 0.01          /* relMSE denominator offset, as the papers define it */
 #define DIFF_ALPHA 0.01            /* family-wise significance level of the z-test */
-#define DIFF_EXACT_REL 1e-6        /* zero-variance pixels: relative tolerance ... */
+#define DIFF_EXACT_REL 1e-5        /* zero-variance pixels: relative tolerance (float images of two
+                                      * renderers differ by ~1e-6 where nothing is random: Mitsuba
+                                      * decodes sRGB texels in float) ... */
 #define DIFF_EXACT_ABS 1e-3        /* ... with this floor on |b| */
 
 static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};

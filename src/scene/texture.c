@@ -129,6 +129,13 @@ spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv)
 
 double spc_texture_eval1(const spc_texture *t, spc_vec2 uv) { return spc_rgb_avg(spc_texture_eval(t, uv)); }
 
+spc_rgb spc_texture_texel(const spc_texture *t, int64_t x, int64_t y)
+{
+    if (t->type != SPC_TEX_BITMAP || !t->data || t->width <= 0 || t->height <= 0)
+        return spc_rgb1(0.0);
+    return texel(t, x, y);
+}
+
 spc_vec2 spc_texture_eval1_grad(const spc_texture *t, spc_vec2 uv)
 {
     if (t->type != SPC_TEX_BITMAP || t->nearest || !t->data || t->width <= 0 || t->height <= 0)

@@ -9,6 +9,8 @@
 #ifndef SPC_SCENE_TEXTURE_H
 #define SPC_SCENE_TEXTURE_H
 
+#include <stdint.h>
+
 #include "core/error.h"
 #include "core/math.h"
 
@@ -52,6 +54,9 @@ double spc_texture_eval1(const spc_texture *t, spc_vec2 uv);
  * (d/ds, d/dt) times the resolution, then through the transpose of to_uv's linear part; zero for
  * nearest bitmaps, constants and checkerboards (piecewise constant). */
 spc_vec2 spc_texture_eval1_grad(const spc_texture *t, spc_vec2 uv);
+/* Bitmap texel (x, y) (y from the top row), with the texture's wrap mode applied to out-of-range
+ * indices. Black for other texture types. */
+spc_rgb spc_texture_texel(const spc_texture *t, int64_t x, int64_t y);
 /* Mean value over [0,1]^2 (for light power and albedo estimates). */
 spc_rgb spc_texture_mean(const spc_texture *t);
 bool spc_texture_is_constant(const spc_texture *t);
