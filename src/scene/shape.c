@@ -253,6 +253,11 @@ void spc_shape_release(spc_shape *s)
     spc_sdf_destroy(s->sdf);
     s->sdf = NULL;
     spc_distrib1d_release(&s->tri_distrib);
+    if (s->solver_cache) {
+        void (**destroy)(void *) = s->solver_cache;
+        (*destroy)(s->solver_cache);
+        s->solver_cache = NULL;
+    }
 }
 
 static double tri_area(const spc_mesh *m, size_t i)

@@ -62,6 +62,10 @@ typedef struct spc_shape {
     double area;
     spc_distrib1d tri_distrib; /* MESH: triangle areas */
     spc_vec3 bbox_min, bbox_max;
+    /* Per-shape data of a specular solver (manifold/conic_solver.c: the mesh hierarchy), built on
+     * first use and published atomically, so concurrent readers are safe. Its first member is its
+     * destructor, void (*)(void *), which spc_shape_release calls. NULL until used. */
+    void *solver_cache;
 } spc_shape;
 
 /* Area-measure sample of a point on a shape. */
