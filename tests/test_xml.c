@@ -702,7 +702,7 @@ TEST(error_locations)
                  "</scene>\n",
                  SPC_ERR_VALUE, 2, 3, "cycle");
     expect_error("<scene version=\"3.0.0\">\n"
-                 "  <medium type=\"homogeneous\"/>\n"
+                 "  <medium type=\"heterogeneous\"/>\n"
                  "</scene>\n",
                  SPC_ERR_PLUGIN, 2, 3, "media");
 }

@@ -81,7 +81,7 @@ static const char *const usage_render =
     "  --threads N            worker threads (default: all cores)\n"
     "  --seed S               random seed (default 0)\n"
     "  --res WxH              film size (default: the scene's)\n"
-    "  --integrator NAME      path, ipt or bdpt (default: the scene's)\n"
+    "  --integrator NAME      path, ipt, bdpt or volpath (default: the scene's)\n"
     "  --specular-nee NAME    none, angular, newton or conic (default: the scene's)\n"
     "  --max-depth N          longest path, Mitsuba's meaning; -1 for no limit\n"
     "  -D name=value          override a <default name=... value=...> of the scene (repeatable)\n"

@@ -26,6 +26,10 @@ bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind)
         *kind = SPC_INTEGRATOR_BDPT;
         return true;
     }
+    if (!strcmp(name, "volpath")) {
+        *kind = SPC_INTEGRATOR_VOLPATH;
+        return true;
+    }
     return false;
 }
 
@@ -35,6 +39,7 @@ const char *spc_integrator_kind_name(spc_integrator_kind kind)
     case SPC_INTEGRATOR_PATH: return "path";
     case SPC_INTEGRATOR_IPT: return "ipt";
     case SPC_INTEGRATOR_BDPT: return "bdpt";
+    case SPC_INTEGRATOR_VOLPATH: return "volpath";
     }
     return "?";
 }
@@ -46,6 +51,7 @@ void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ra
     case SPC_INTEGRATOR_PATH:
     case SPC_INTEGRATOR_IPT: spc_path_sample(ctx, tls, ray, smp, out); return;
     case SPC_INTEGRATOR_BDPT: spc_bdpt_sample(ctx, tls, ray, smp, out); return;
+    case SPC_INTEGRATOR_VOLPATH: spc_volpath_sample(ctx, tls, ray, smp, out); return;
     }
 }
 

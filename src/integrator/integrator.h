@@ -19,7 +19,8 @@
 typedef enum spc_integrator_kind {
     SPC_INTEGRATOR_PATH, /* NEE + BSDF sampling, power heuristic */
     SPC_INTEGRATOR_IPT,  /* implicit: light counts only when a path hits it */
-    SPC_INTEGRATOR_BDPT  /* bidirectional path tracing with Veach's MIS (bdpt.c) */
+    SPC_INTEGRATOR_BDPT, /* bidirectional path tracing with Veach's MIS (bdpt.c) */
+    SPC_INTEGRATOR_VOLPATH /* path tracing through participating media (volpath.c) */
 } spc_integrator_kind;
 
 typedef struct spc_render_ctx {
@@ -85,6 +86,12 @@ static inline double spc_mis_power(double a, double b)
 
 void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
                      spc_sample_out *out);
+
+/* Volumetric path tracing (volpath.c): path's estimator plus free-flight sampling, phase
+ * scattering and transmittance along shadow rays; specular connections through one interface
+ * from medium vertices when ctx->specular_nee is set. */
+void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
+                        spc_sample_out *out);
 
 /* Bidirectional path tracing (bdpt.c): one camera subpath for this ray and one light subpath, every
  * (s, t) strategy; t = 1 strategies splat into tls. */

@@ -5,6 +5,7 @@
  *                      references, property values and transforms, sensor/film/sampler,
  *                      integrator, the top-level walk
  *   mitsuba_plugins.c  shapes, BSDFs, textures, emitters
+ *   mitsuba_media.c    participating media and phase functions
  *   mitsuba_tables.c   spectra -> RGB (CIE 1931), named IORs, conductor eta/k
  *
  * Errors are sticky: the first mts_fail() fills the caller's spc_error and sets L->status; later
@@ -160,6 +161,16 @@ const spc_texture *mts_get_texture(mts_loader *L, mts_props *P, const char *name
 spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group);
 spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index);
 void mts_mesh_cache_release(mts_loader *L);
+
+/* ---- mitsuba_media.c ---- */
+/* Builds a <medium> into the scene (once per id); returns its index in scene->media, or -1 after
+ * mts_fail. */
+int mts_build_medium(mts_loader *L, spc_xml_node *node);
+/* Reads a <phase> element; false after mts_fail. */
+bool mts_build_phase(mts_loader *L, spc_xml_node *node, spc_phase *out);
+/* The interior and exterior media nested in or referenced by a shape's properties (-1: none);
+ * false after mts_fail (a medium without name="interior" / "exterior", or two of one). */
+bool mts_shape_media(mts_loader *L, mts_props *P, int *interior, int *exterior);
 
 /* ---- mitsuba_tables.c ---- */
 /* Linear sRGB of a piecewise-linear spectrum (wavelengths in nm, increasing; zero outside),

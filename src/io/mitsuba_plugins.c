@@ -10,7 +10,8 @@
  *   as in Mitsuba 3); all: to_world,
  *   flip_normals false, a nested or referenced bsdf (default diffuse 0.5; black for a shape with an
  *   area emitter, as Mitsuba 3), a nested area emitter,
- *   caustic_caster / caustic_receiver / caustic_caster_single / caustic_caster_multi.
+ *   caustic_caster / caustic_receiver / caustic_caster_single / caustic_caster_multi, and media
+ *   (name="interior" / "exterior", nested or referenced; io/mitsuba_media.c).
  *   shapegroup holds shapes; instance (a ref to a shapegroup, to_world) copies them, placed.
  *   sdf: one nested <sdf type="sphere | box | roundbox | torus | capsule | cylinder | plane | union |
  *   intersection | difference | smooth_union"> tree, each node with its own to_world (properties
@@ -774,10 +775,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
         mts_props_end(&P);
         return L->status;
     }
-    if (mts_count_objects(&P, "medium") > 0) {
-        const spc_xml_node *at = node;
-        mts_object(&P, "medium", 0, &at);
-        mts_fail(L, at, SPC_ERR_PLUGIN, "participating media (interior/exterior) are not supported");
+    int interior, exterior; /* media (mitsuba_media.c) */
+    if (!mts_shape_media(L, &P, &interior, &exterior)) {
         mts_props_end(&P);
         return L->status;
     }
@@ -880,6 +879,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     const char *id = spc_xml_get(node, "id");
     if (id)
         snprintf(s->id, sizeof s->id, "%s", id);
+    s->interior_medium = interior; /* after init, which clears them */
+    s->exterior_medium = exterior;
     s->flip_normals = flip;
     s->face_normals = face_normals;
     caustic_flags(L, &P, s);

@@ -23,8 +23,8 @@
  *               mitchell, catmullrom, lanczos become gaussian with a warning
  *   sampler     independent, stratified, multijitter, orthogonal, ldsampler, halton, hammersley,
  *               sobol: sample_count 4, seed 0 (specula has one sampler; the type is not kept)
- *   integrator  path, volpath, volpathmis, prb (-> path), direct (-> path, max_depth 2), bdpt,
- *               ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" | angular |
+ *   integrator  path, prb (-> path), volpath, volpathmis (-> volpath), direct (-> path, max_depth
+ *               2), bdpt, ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" | angular |
  *               newton | conic), specular_max_chain; aov, moment, stokes: the nested integrator.
  *               The define "@integrator" replaces the file's integrator type (its properties are
  *               still read), so that a scene made for another renderer's integrator can load.
@@ -1394,6 +1394,9 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
     spc_xml_node *smp = mts_object(&P, "sampler", 0, NULL);
     if (smp && L->status == SPC_OK)
         parse_sampler(L, smp);
+    spc_xml_node *med = mts_object(&P, "medium", 0, NULL); /* the camera's medium */
+    if (med && L->status == SPC_OK)
+        s->camera_medium = mts_build_medium(L, med);
     mts_props_end(&P);
 }
 
@@ -1423,9 +1426,10 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     int max_depth = -1;
     if (L->integrator_override)
         type = L->integrator_override;
-    if (strcmp(type, "path") == 0 || strcmp(type, "volpath") == 0 || strcmp(type, "volpathmis") == 0 ||
-        strcmp(type, "prb") == 0) {
+    if (strcmp(type, "path") == 0 || strcmp(type, "prb") == 0) {
         ours = "path";
+    } else if (strcmp(type, "volpath") == 0 || strcmp(type, "volpathmis") == 0) {
+        ours = "volpath";
     } else if (strcmp(type, "direct") == 0) {
         ours = "path";
         max_depth = 2;
@@ -1499,8 +1503,13 @@ static void build_scene(mts_loader *L, spc_xml_node *root)
             mts_build_texture(L, c);
         } else if (strcmp(t, "emitter") == 0) {
             mts_build_emitter(L, c, NULL, -1);
-        } else if (strcmp(t, "medium") == 0 || strcmp(t, "phase") == 0 || strcmp(t, "volume") == 0) {
-            mts_fail(L, c, SPC_ERR_PLUGIN, "<%s type=\"%s\">: participating media are not supported", t, mts_type(c));
+        } else if (strcmp(t, "medium") == 0) {
+            mts_build_medium(L, c); /* mitsuba_media.c */
+        } else if (strcmp(t, "phase") == 0) {
+            spc_phase unused;
+            mts_build_phase(L, c, &unused); /* checked here, built where a medium refers to it */
+        } else if (strcmp(t, "volume") == 0) {
+            mts_fail(L, c, SPC_ERR_PLUGIN, "<%s type=\"%s\">: heterogeneous media are not supported", t, mts_type(c));
         } else {
             mts_fail(L, c, SPC_ERR_PARSE, "unexpected <%s> at the top level of the scene", t);
         }

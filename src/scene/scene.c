@@ -53,6 +53,7 @@ void spc_scene_set_defaults(spc_scene *s)
     s->integrator.specular_max_chain = 2;
     s->spp = 4;
     s->seed = 0;
+    s->camera_medium = -1;
 }
 
 void spc_scene_destroy(spc_scene *s)
@@ -74,6 +75,9 @@ void spc_scene_destroy(spc_scene *s)
         spc_texture_release(s->textures[i]);
         free(s->textures[i]);
     }
+    for (int i = 0; i < s->nmedia; ++i)
+        free(s->media[i]);
+    free(s->media);
     free(s->shapes);
     free(s->bsdfs);
     free(s->emitters);
@@ -133,6 +137,18 @@ spc_texture *spc_scene_new_texture(spc_scene *s)
     return o;
 }
 
+spc_medium *spc_scene_new_medium(spc_scene *s)
+{
+    GROW(s->media, s->nmedia, s->cap_media, spc_medium);
+    spc_medium *o = calloc(1, sizeof *o);
+    if (!o)
+        return NULL;
+    spc_medium_init_homogeneous(o, spc_rgb1(0.0), spc_rgb1(0.0));
+    o->index = s->nmedia;
+    s->media[s->nmedia++] = o;
+    return o;
+}
+
 const spc_texture *spc_scene_constant(spc_scene *s, spc_rgb value)
 {
     spc_texture *t = spc_scene_new_texture(s);
@@ -161,12 +177,17 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
             }
             sh->bsdf = default_bsdf;
         }
+        if (sh->interior_medium >= s->nmedia || sh->exterior_medium >= s->nmedia)
+            return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "shape %d ('%s') refers to a medium that does not exist",
+                                 i, sh->id);
         if (!spc_shape_prepare(sh))
             return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "shape %d ('%s') has zero area or invalid geometry",
                                  i, sh->id);
         lo = spc_vmin(lo, sh->bbox_min);
         hi = spc_vmax(hi, sh->bbox_max);
     }
+    if (s->camera_medium >= s->nmedia)
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "the camera's medium %d does not exist", s->camera_medium);
     if (s->nshapes == 0) {
         lo = spc_v3(-1, -1, -1);
         hi = spc_v3(1, 1, 1);

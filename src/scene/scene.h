@@ -14,6 +14,7 @@
 #include "core/math.h"
 #include "core/warp.h"
 #include "emitter/emitter.h"
+#include "medium/medium.h"
 #include "scene/shape.h"
 #include "scene/texture.h"
 
@@ -76,6 +77,9 @@ typedef struct spc_scene {
     int nemitters, cap_emitters;
     spc_texture **textures;
     int ntextures, cap_textures;
+    spc_medium **media; /* participating media (medium/medium.h); shapes refer to them by index */
+    int nmedia, cap_media;
+    int camera_medium;  /* the medium the camera sits in: index into media, -1 for vacuum */
 
     spc_camera camera;
     spc_film_spec film;
@@ -107,6 +111,8 @@ spc_shape *spc_scene_new_shape(spc_scene *s);
 spc_bsdf *spc_scene_new_bsdf(spc_scene *s);
 spc_emitter *spc_scene_new_emitter(spc_scene *s);
 spc_texture *spc_scene_new_texture(spc_scene *s);
+/* A medium; its index field is its position in s->media. */
+spc_medium *spc_scene_new_medium(spc_scene *s);
 /* A constant texture owned by the scene. */
 const spc_texture *spc_scene_constant(spc_scene *s, spc_rgb value);
 

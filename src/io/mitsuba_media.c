@@ -1,0 +1,179 @@
+/*
+ * io/mitsuba_media.c: the Mitsuba loader's participating media: <medium> and <phase> elements,
+ * nested in a shape (name="interior" / "exterior"), in the sensor (the camera's medium), at the top
+ * level with an id, or referenced by <ref>. Values are checked here and reported with file:line.
+ *
+ * <medium type="homogeneous"> (medium/homogeneous.c):
+ *   sigma_a, sigma_s   spectrum/rgb/float   a missing one is 0 (0.x files: sigmaA, sigmaS)
+ *   sigma_t, albedo    spectrum/rgb/float   1, 0.75 (Mitsuba 3); sigma_s = albedo sigma_t
+ *   scale              float                1 (0.x: also densityMultiplier)
+ *   sample_emitters    boolean              true
+ *   <phase>            nested or ref        isotropic
+ * Giving both pairs (sigma_a/sigma_s and sigma_t/albedo) is an error, as are negative or non-finite
+ * coefficients, albedo outside [0, 1], named materials ("material") and volume-valued (grid)
+ * properties, which belong to heterogeneous media.
+ * <phase type="isotropic"/>; <phase type="hg">: g (0.8), -1 < g < 1.
+ */
+#include <stdio.h>
+#include <string.h>
+
+#include "io/mitsuba_internal.h"
+
+static bool check_rgb(mts_loader *L, mts_props *P, const char *name, spc_rgb v, double hi)
+{
+    double c[3] = {v.r, v.g, v.b};
+    for (int i = 0; i < 3; ++i)
+        if (!(c[i] >= 0.0 && c[i] <= hi)) {
+            if (hi < INFINITY)
+                mts_fail(L, mts_where(P, name), SPC_ERR_VALUE, "medium %s (%g, %g, %g) must lie in [0, %g]", name, v.r,
+                         v.g, v.b, hi);
+            else
+                mts_fail(L, mts_where(P, name), SPC_ERR_VALUE,
+                         "medium %s (%g, %g, %g) must be finite and not negative", name, v.r, v.g, v.b);
+            return false;
+        }
+    return true;
+}
+
+bool mts_build_phase(mts_loader *L, spc_xml_node *node, spc_phase *out)
+{
+    out->type = SPC_PHASE_ISOTROPIC;
+    out->g = 0.0;
+    mts_props P;
+    if (mts_props_collect(L, node, &P))
+        return false;
+    const char *type = mts_type(node);
+    if (strcmp(type, "isotropic") == 0) {
+        out->type = SPC_PHASE_ISOTROPIC;
+    } else if (strcmp(type, "hg") == 0) {
+        double g = mts_get_float(L, &P, "g", 0.8);
+        if (L->status == SPC_OK && !(g > -1.0 && g < 1.0))
+            mts_fail(L, mts_where(&P, "g"), SPC_ERR_VALUE, "hg phase function g = %g must lie in (-1, 1)", g);
+        out->type = SPC_PHASE_HG;
+        out->g = g;
+    } else {
+        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown phase function type '%s' (isotropic, hg)", type);
+    }
+    mts_props_end(&P);
+    return L->status == SPC_OK;
+}
+
+int mts_build_medium(mts_loader *L, spc_xml_node *node)
+{
+    /* a medium with an id is built once, whatever refers to it */
+    mts_id *entry = mts_id_of(L, node);
+    if (entry) {
+        if (entry->state == 2)
+            return ((const spc_medium *)entry->obj)->index;
+        if (entry->state == 1) {
+            mts_fail(L, node, SPC_ERR_VALUE, "reference cycle through id '%s'", entry->id);
+            return -1;
+        }
+        entry->state = 1;
+    }
+    int index = -1;
+    mts_props P;
+    if (mts_props_collect(L, node, &P)) {
+        if (entry)
+            entry->state = 0;
+        return -1;
+    }
+    const char *type = mts_type(node);
+    bool pair_as = mts_has(&P, "sigma_a") || mts_has(&P, "sigma_s");
+    bool pair_ta = mts_has(&P, "sigma_t") || mts_has(&P, "albedo");
+    if (strcmp(type, "homogeneous") != 0) {
+        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown medium type '%s' (homogeneous; heterogeneous media are not supported)",
+                 type);
+    } else if (mts_count_objects(&P, "volume") > 0) {
+        const spc_xml_node *at = node;
+        mts_object(&P, "volume", 0, &at);
+        mts_fail(L, at, SPC_ERR_PLUGIN, "volume-valued medium properties (heterogeneous media) are not supported");
+    } else if (mts_has(&P, "material")) {
+        mts_fail(L, mts_where(&P, "material"), SPC_ERR_PLUGIN,
+                 "named medium materials are not supported; give sigma_a and sigma_s, or sigma_t and albedo");
+    } else if (pair_as && pair_ta) {
+        mts_fail(L, mts_where(&P, mts_has(&P, "sigma_t") ? "sigma_t" : "albedo"), SPC_ERR_VALUE,
+                 "a medium takes sigma_a and sigma_s, or sigma_t and albedo, not both");
+    } else if (mts_count_objects(&P, "phase") > 1) {
+        mts_fail(L, node, SPC_ERR_VALUE, "a medium takes one phase function, got %d", mts_count_objects(&P, "phase"));
+    }
+    spc_rgb sa = spc_rgb1(0.0), ss = spc_rgb1(0.0);
+    double scale = 1.0;
+    bool emitters = true;
+    spc_phase phase = {SPC_PHASE_ISOTROPIC, 0.0};
+    if (L->status == SPC_OK) {
+        const char *scale_name = mts_has(&P, "density_multiplier") ? "density_multiplier" : "scale";
+        scale = mts_get_float(L, &P, scale_name, 1.0);
+        if (L->status == SPC_OK && !(scale >= 0.0 && scale < INFINITY))
+            mts_fail(L, mts_where(&P, scale_name), SPC_ERR_VALUE, "medium %s %g must be finite and not negative",
+                     scale_name, scale);
+        if (pair_as) {
+            sa = mts_get_rgb(L, &P, "sigma_a", spc_rgb1(0.0));
+            ss = mts_get_rgb(L, &P, "sigma_s", spc_rgb1(0.0));
+            if (L->status == SPC_OK && check_rgb(L, &P, "sigma_a", sa, INFINITY))
+                check_rgb(L, &P, "sigma_s", ss, INFINITY);
+        } else {
+            spc_rgb st = mts_get_rgb(L, &P, "sigma_t", spc_rgb1(1.0));
+            spc_rgb al = mts_get_rgb(L, &P, "albedo", spc_rgb1(0.75));
+            if (L->status == SPC_OK && check_rgb(L, &P, "sigma_t", st, INFINITY) &&
+                check_rgb(L, &P, "albedo", al, 1.0)) {
+                ss = spc_rgb_mul(al, st);
+                sa = spc_rgb_sub(st, ss);
+            }
+        }
+        emitters = mts_get_bool(L, &P, "sample_emitters", true);
+        spc_xml_node *pn = mts_object(&P, "phase", 0, NULL);
+        if (pn && L->status == SPC_OK)
+            mts_build_phase(L, pn, &phase);
+    }
+    if (L->status == SPC_OK) {
+        spc_medium *m = spc_scene_new_medium(L->scene);
+        if (!m) {
+            mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+        } else if (!spc_medium_init_homogeneous(m, spc_rgb_scale(sa, scale), spc_rgb_scale(ss, scale))) {
+            mts_fail(L, node, SPC_ERR_VALUE, "medium coefficients overflow (scale %g)", scale);
+        } else {
+            m->phase = phase;
+            m->sample_emitters = emitters;
+            const char *id = spc_xml_get(node, "id");
+            if (id)
+                snprintf(m->id, sizeof m->id, "%s", id);
+            index = m->index;
+            if (entry) {
+                entry->obj = m;
+                entry->state = 2;
+            }
+        }
+    }
+    if (entry && entry->state != 2)
+        entry->state = 0;
+    mts_props_end(&P);
+    return L->status == SPC_OK ? index : -1;
+}
+
+bool mts_shape_media(mts_loader *L, mts_props *P, int *interior, int *exterior)
+{
+    *interior = *exterior = -1;
+    for (int i = 0; i < P->n && L->status == SPC_OK; ++i) {
+        mts_prop *p = &P->p[i];
+        if (p->kind != MTS_OBJECT || strcmp(p->obj->name, "medium") != 0)
+            continue;
+        p->used = true;
+        int *slot = NULL;
+        if (p->name && strcmp(p->name, "interior") == 0)
+            slot = interior;
+        else if (p->name && strcmp(p->name, "exterior") == 0)
+            slot = exterior;
+        if (!slot) {
+            mts_fail(L, p->node, SPC_ERR_VALUE, "a shape's medium needs name=\"interior\" or name=\"exterior\"%s%s%s",
+                     p->name ? ", not \"" : "", p->name ? p->name : "", p->name ? "\"" : "");
+            break;
+        }
+        if (*slot >= 0) {
+            mts_fail(L, p->node, SPC_ERR_VALUE, "a shape takes one %s medium", p->name);
+            break;
+        }
+        *slot = mts_build_medium(L, p->obj);
+    }
+    return L->status == SPC_OK;
+}
