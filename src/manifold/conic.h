@@ -157,6 +157,8 @@ typedef struct spc_conic_problem {
     spc_vec3 x, y;
     int event;  /* spc_conic_event */
     double eta; /* refraction: n_inside / n_outside, the inside opposite to the shading normal */
+    bool front_only; /* reflection: only on the side the shading normal points to (a one-sided
+                        conductor reflects nothing from behind), which also culls more */
 } spc_conic_problem;
 
 typedef struct spc_conic_solution {

@@ -8,25 +8,30 @@
  * Per triangle (spc_conic_solve_triangle):
  *  1. the coplanarity conic, its type and its arcs inside the triangle (conic.c; report sec. 5.2);
  *  2. each arc is cut into chords within SPC_CONIC_CHORD_TOL of it (sec. 5.3.2); on a chord the
- *     sides of x and y relative to n(t) change only where the quadratics (x-P).n and (y-P).n
- *     vanish, so the chord splits into pieces of fixed sidedness; pieces the event cannot use are
- *     skipped, the others get the squared sine law with the indices of their sides (sec. 5.1,
- *     5.3.1), a polynomial of degree 6;
+ *     squared sine law with the indices of one side assignment is a polynomial of degree 6
+ *     (sec. 5.1, 5.3.1); the sides of x and y change only where (x-P).n and (y-P).n vanish, so each
+ *     assignment is solved only on the pieces of the chord whose sides may allow it;
  *  3. VCA bisection isolates its roots, Newton refines them (polyroots.c; sec. 6.1-6.2);
  *  4. each root is polished on the true law (the report's projection onto the conic, sec. 6.3,
  *     replaced by Gauss-Newton on n^ x (eta_x wx + eta_y wy) = 0 in (u, v): coplanarity and the
  *     unsquared vector law together) and kept if the law holds to SPC_CONIC_LAW_TOL, the point is
  *     in the triangle and the sides agree with the event and the indices used; this rejects
  *     every root squaring admitted (a ray bent to the wrong side, total internal reflection,
- *     reflection for refraction and the reverse, zero interpolated normals);
- *  5. what the report's method can miss is caught: a chord that passes near but not through a
- *     pair of close roots of the arc (a local extremum of f on the chord within the chord-to-arc
- *     discrepancy of zero) is split further until the pair resolves; at the depth limit the
- *     extremum itself is polished (a double root, the fold of a caustic); degenerate conics give
- *     exact segments; isolated points (a point conic, a tangency from outside, a line pair's
- *     crossing) are polished directly.
- * Roots at an arc's ends are never lost: both ends of every chord lie on the conic, so f has the
- * same value there on the chord and on the arc, and a sign change is kept.
+ *     reflection for refraction and the reverse, zero interpolated normals).
+ * The report's method assumes the chord's polynomial has the arc's roots; it need not. Here the
+ * arc's offset from its chord is bounded (a conic arc is convex: below err and below its end
+ * tangents), which bounds f on the arc by f on the chord plus a band |D|, D the change of f to
+ * the chord's offset. A chord is split again while (a) a band interval is wider than
+ * SPC_CONIC_BAND_WIDTH (f varies much more across the chord than along it: the arc's roots cannot
+ * be placed), (b) a band interval without a root of the chord has ends of one sign (a pair of the
+ * arc's roots may hide there: a near miss), or (c) a root of the chord, classified as a true one
+ * (a sign change of the unsquared law, evaluated on the arc: squaring's own roots are skipped),
+ * polishes outside its band interval, onto a solution another root of the chord reached, or not
+ * at all. At the depth limit the band interval itself is polished (a double root: the fold of a
+ * caustic). Roots at an arc's ends are never lost: both ends of every chord lie on the conic, so
+ * f has the same value there on the chord and on the arc. Degenerate conics give exact segments
+ * (the square-free part of f catches their double roots); isolated points (a point conic, a
+ * tangency from outside, a line pair's crossing) are polished directly.
  *
  * Per mesh (spc_conic_mesh_*): a bounding volume hierarchy (median splits) whose nodes carry a
  * box and a cone bounding the unit shading normals of their triangles. A node is culled when
@@ -77,6 +82,10 @@
 /* Where the interpolated normal is shorter than this fraction of the vertex normals' mean length,
  * its direction turns fast (it vanishes nearby): roots there are all polished, none classified. */
 #define SPC_CONIC_FAST_NORMAL 0.25
+/* Relative tolerance of gcd(f, f') in the square-free part of an exact segment's polynomial:
+ * calibrated on polynomials with exact repeated roots (tests/test_conic.c), where remainders that
+ * vanish in exact arithmetic come out near 1e-10 of the dividend. */
+#define SPC_CONIC_SQUAREFREE_TOL 1e-8
 /* Candidate roots kept per triangle. */
 #define SPC_CONIC_MAX_CANDIDATES 256
 /* Solutions per triangle (a conic and a sextic meet in at most 12 points, each arc piece is
@@ -189,7 +198,7 @@ static bool indices(const spc_conic_problem *pb, double sx, double sy, double *e
 {
     if (pb->event == SPC_CONIC_REFLECT) {
         *ex = *ey = 1.0;
-        return sx * sy > 0.0;
+        return pb->front_only ? sx > 0.0 && sy > 0.0 : sx * sy > 0.0;
     }
     if (!(sx * sy < 0.0))
         return false;
@@ -439,6 +448,28 @@ static void sort_doubles(double *v, int n)
         }
 }
 
+/* True if p +- k q (w <= 1, so this bounds the band) have no root in [0, 1] and p(0) lies outside
+ * the band: then |p| > k w |q| on the whole chord, and the band holds nothing (one Descartes test
+ * per sign, no isolation). */
+static bool clear_of_band(const double *p, const double *q, int n)
+{
+    double a[8], b[8];
+    for (int i = 0; i <= n; ++i) {
+        a[i] = p[i] + SPC_CONIC_BAND_MARGIN * q[i];
+        b[i] = p[i] - SPC_CONIC_BAND_MARGIN * q[i];
+    }
+    if (!(a[0] * b[0] > 0.0)) /* p(0) within the band, or on its edge */
+        return false;
+    double sa = 0.0, sb = 0.0;
+    for (int i = 0; i <= n; ++i) {
+        sa += a[i];
+        sb += b[i];
+    }
+    if (!(sa * a[0] > 0.0 && sb * b[0] > 0.0)) /* a sign change between the ends */
+        return false;
+    return spc_poly_descartes01(a, n) == 0 && spc_poly_descartes01(b, n) == 0;
+}
+
 /* The set U of [t0, t1] where |f| <= k w |D|: where the arc's f may differ in sign from the
  * chord's. Writes its maximal intervals (at most max_out) and returns how many. A root of the arc
  * lies in the U-interval of a root of the chord; a U-interval whose ends have the same sign of f
@@ -485,6 +516,8 @@ static bool sides_allow(const spc_conic_problem *pb, int sx, int sy, int want_x,
 {
     if (certain && (sx == 0 || sy == 0))
         return false;
+    if (pb->event == SPC_CONIC_REFLECT && pb->front_only)
+        return sx >= 0 && sy >= 0;
     if (pb->event == SPC_CONIC_REFLECT)
         return sx == 0 || sy == 0 || sx == sy;
     /* refraction: x on side want_x, y on the other */
@@ -545,14 +578,16 @@ static bool solve_chord(tri_ctx *c, spc_vec2 a, spc_vec2 b, double err, spc_vec2
         }
         band_init(&bd, la, lb);
     }
-    /* breakpoints of the side statuses: where g = +-k w dg */
+    /* breakpoints of the side statuses: where g = +-k w dg (none when g keeps a sign by more
+     * than its band everywhere: the common case of x and y well off the surface) */
     double br[64];
     int nbr = 0;
     br[nbr++] = 0.0;
-    if (err > 0.0)
+    if (err > 0.0) {
         for (int i = 0; i < 2; ++i)
-            nbr = band_roots(&bd, gq[i], dg[i], 2, 0.0, 1.0, br, nbr, 62);
-    else
+            if (!clear_of_band(gq[i], dg[i], 2))
+                nbr = band_roots(&bd, gq[i], dg[i], 2, 0.0, 1.0, br, nbr, 62);
+    } else {
         for (int i = 0; i < 2; ++i) {
             double r[4];
             int k = spc_poly_roots(gq[i], 2, 0.0, 1.0, r, 4);
@@ -560,6 +595,7 @@ static bool solve_chord(tri_ctx *c, spc_vec2 a, spc_vec2 b, double err, spc_vec2
                 if (r[j] > 0.0 && r[j] < 1.0)
                     br[nbr++] = r[j];
         }
+    }
     br[nbr++] = 1.0;
     sort_doubles(br, nbr);
     int first = c->nsol; /* solutions from here on were found on this chord */
@@ -608,7 +644,7 @@ static bool solve_chord(tri_ctx *c, spc_vec2 a, spc_vec2 b, double err, spc_vec2
                 continue;
             }
             double U[16][2];
-            int nU = err > 0.0 ? band_intervals(&bd, fp, D, t0, t1, U, 16) : 0;
+            int nU = err > 0.0 && (k > 0 || !clear_of_band(fp, D, 6)) ? band_intervals(&bd, fp, D, t0, t1, U, 16) : 0;
             /* a chord whose f is too coarse to place the arc's roots (a wide band interval: f
              * varies much across the chord compared with along it, near a tangency of the conic
              * and the curve f = 0) is split before its roots are trusted */
@@ -673,16 +709,16 @@ static bool solve_chord(tri_ctx *c, spc_vec2 a, spc_vec2 b, double err, spc_vec2
                     return false;
             }
             if (err == 0.0) {
-                /* an exact segment: only a double root of f itself can hide (rounding may make it
-                 * a complex pair); extrema of f within rounding of zero are polished */
-                double df[6], scale = 0.0, cr[8];
-                spc_poly_derivative(fp, 6, df);
-                for (int q = 0; q <= 6; ++q)
-                    scale = fmax(scale, fabs(fp[q]));
-                int kc = spc_poly_roots(df, 5, t0, t1, cr, 8);
-                for (int q = 0; q < kc; ++q)
-                    if (fabs(spc_poly_eval(fp, 6, cr[q])) <= 1e-9 * scale)
-                        try_candidate(c, a.x + cr[q] * d.x, a.y + cr[q] * d.y, ex, ey, NULL, NULL);
+                /* an exact segment: only a multiple root of f itself can hide (rounding may turn a
+                 * double root into a complex pair); the roots of its square-free part, where f has
+                 * one, are polished too */
+                double sf[7], sr[8];
+                int ns = spc_poly_squarefree(fp, 6, SPC_CONIC_SQUAREFREE_TOL, sf);
+                if (ns < spc_poly_degree(fp, 6)) {
+                    int ks = spc_poly_roots(sf, ns, t0, t1, sr, 8);
+                    for (int q = 0; q < ks; ++q)
+                        try_candidate(c, a.x + sr[q] * d.x, a.y + sr[q] * d.y, ex, ey, NULL, NULL);
+                }
             }
         }
     }
@@ -783,7 +819,7 @@ int spc_conic_solve_triangle(const spc_conic_tri *t, const spc_conic_problem *pb
 typedef struct cnode {
     float lo[3], hi[3];
     float axis[3];
-    float angle;   /* half-angle of the normal cone, padded; >= pi: every direction */
+    float cos_a, sin_a; /* half-angle of the normal cone, padded; cos_a < -1: every direction */
     int32_t index; /* leaf: first entry of order[]; inner: the right child (the left is this + 1) */
     int32_t count; /* leaf: number of triangles (> 0); inner: 0 */
 } cnode;
@@ -981,15 +1017,72 @@ static void store_cone(cnode *nd, cone c)
     nd->axis[0] = (float)c.axis.x;
     nd->axis[1] = (float)c.axis.y;
     nd->axis[2] = (float)c.axis.z;
-    nd->angle = c.angle >= SPC_PI ? (float)(2.0 * SPC_PI) : (float)(c.angle + SPC_CONIC_CONE_PAD);
+    double a = c.angle + SPC_CONIC_CONE_PAD;
+    if (c.angle >= SPC_PI || a >= SPC_PI) {
+        nd->cos_a = -2.0f;
+        nd->sin_a = 0.0f;
+    } else {
+        nd->cos_a = (float)cos(a);
+        nd->sin_a = (float)sin(a);
+    }
 }
 
 static cone load_cone(const cnode *nd)
 {
     cone c;
     c.axis = spc_normalize(spc_v3(nd->axis[0], nd->axis[1], nd->axis[2]));
-    c.angle = nd->angle;
+    c.angle = nd->cos_a < -1.5f ? SPC_PI : atan2(nd->sin_a, nd->cos_a);
     return c;
+}
+
+/* A cone for the culling tests: its half-angle by cosine and sine (no inverse trigonometry per
+ * test); full: every direction. */
+typedef struct qcone {
+    spc_vec3 axis;
+    double c, s;
+    bool full;
+} qcone;
+
+static qcone node_qcone(const cnode *nd)
+{
+    qcone q;
+    q.axis = spc_v3(nd->axis[0], nd->axis[1], nd->axis[2]);
+    double l = spc_length(q.axis);
+    q.full = nd->cos_a < -1.5f || !(l > 0.0);
+    q.axis = spc_scale(q.axis, l > 0.0 ? 1.0 / l : 0.0);
+    q.c = nd->cos_a;
+    q.s = nd->sin_a;
+    return q;
+}
+
+/* The cone of a triangle's shading normals: the axis of the mean unit vertex normal, the smallest
+ * cosine to a vertex normal (interpolated normals stay inside while the cone is convex). */
+static qcone tri_qcone(const spc_conic_tri *t)
+{
+    spc_vec3 n[3] = {t->n0, spc_add(t->n0, t->dn1), spc_add(t->n0, t->dn2)};
+    qcone q = {spc_v3(0, 0, 1), -1.0, 0.0, true};
+    spc_vec3 sum = spc_v3(0, 0, 0);
+    for (int k = 0; k < 3; ++k) {
+        double l = spc_length(n[k]);
+        if (!(l > 0.0))
+            return q;
+        n[k] = spc_scale(n[k], 1.0 / l);
+        sum = spc_add(sum, n[k]);
+    }
+    double ls = spc_length(sum);
+    if (!(ls > 1e-6))
+        return q;
+    q.axis = spc_scale(sum, 1.0 / ls);
+    double c = 1.0;
+    for (int k = 0; k < 3; ++k)
+        c = fmin(c, spc_dot(q.axis, n[k]));
+    c -= 1e-9; /* rounding */
+    if (!(c > 1e-6))
+        return q;
+    q.full = false;
+    q.c = c;
+    q.s = sqrt(fmax(0.0, 1.0 - c * c));
+    return q;
 }
 
 static void mesh_destroy_void(void *p) { spc_conic_mesh_destroy(p); }
@@ -1107,30 +1200,39 @@ static void query_init(query *q, const spc_conic_problem *pb)
 }
 
 /* The cone of unit directions from the ball (c, r) toward X; false if X is inside the ball. */
-static bool dir_cone(spc_vec3 X, spc_vec3 c, double r, cone *o)
+static bool dir_cone(spc_vec3 X, spc_vec3 c, double r, qcone *o)
 {
     spc_vec3 d = spc_sub(X, c);
     double l = spc_length(d);
     if (!(l > r))
         return false;
     o->axis = spc_scale(d, 1.0 / l);
-    o->angle = asin(r / l);
+    o->s = r / l;
+    o->c = sqrt(fmax(0.0, 1.0 - o->s * o->s));
+    o->full = false;
     return true;
 }
 
-/* Side of X relative to every normal of the cone: +1 surely in front, -1 surely behind, 0 unknown. */
-static int side(const cone *dx, const cone *nc)
+/* Side of X relative to every normal of the cone: +1 surely in front, -1 surely behind, 0 unknown.
+ * With phi the angle between the axes and sigma the sum of the half-angles: in front if
+ * phi + sigma < pi/2, behind if phi - sigma > pi/2 (angle sums by cosines and sines). */
+static int side(const qcone *dx, const qcone *nc)
 {
-    double phi = angle_between(dx->axis, nc->axis);
-    if (phi + dx->angle + nc->angle < 0.5 * SPC_PI)
+    double cp = spc_dot(dx->axis, nc->axis), sp = spc_length(spc_cross(dx->axis, nc->axis));
+    double cs = dx->c * nc->c - dx->s * nc->s, ss = dx->s * nc->c + dx->c * nc->s;
+    if (ss < 0.0)
+        return 0; /* sigma > pi */
+    double c1 = cp * cs - sp * ss, s1 = sp * cs + cp * ss; /* phi + sigma */
+    if (c1 > 0.0 && s1 >= 0.0)
         return 1;
-    if (phi - dx->angle - nc->angle > 0.5 * SPC_PI)
+    double c2 = cp * cs + sp * ss, s2 = sp * cs - cp * ss; /* phi - sigma */
+    if (c2 < 0.0 && s2 > 0.0)
         return -1;
     return 0;
 }
 
 /* Can a ball (c, r) whose shading normals lie in the cone nc hold a solution? */
-static bool may_hold(const query *q, spc_vec3 c, double r, const cone *nc)
+static bool may_hold(const query *q, spc_vec3 c, double r, const qcone *nc)
 {
     if (q->spindle) {
         spc_vec3 w = spc_sub(c, q->mid);
@@ -1139,13 +1241,15 @@ static bool may_hold(const query *q, spc_vec3 c, double r, const cone *nc)
         if (hypot(rho + q->sc, z) - r > q->sR)
             return false;
     }
-    if (nc->angle >= SPC_PI)
+    if (nc->full)
         return true;
-    cone cx, cy;
+    qcone cx, cy;
     if (!dir_cone(q->pb->x, c, r, &cx) || !dir_cone(q->pb->y, c, r, &cy))
         return true;
     int sx = side(&cx, nc), sy = side(&cy, nc);
     if (sx && sy && (q->refract ? sx == sy : sx != sy))
+        return false;
+    if (!q->refract && q->pb->front_only && (sx < 0 || sy < 0))
         return false;
     /* generalized half vector h = ex wx + ey wy, for the index assignments the sides allow */
     double as[2][2];
@@ -1165,15 +1269,19 @@ static bool may_hold(const query *q, spc_vec3 c, double r, const cone *nc)
             ++na;
         }
     }
-    double ex_ = 2.0 * sin(0.5 * cx.angle), ey_ = 2.0 * sin(0.5 * cy.angle);
+    /* |w - axis| <= 2 sin(theta / 2) = sqrt(2 - 2 cos theta) over a cone of directions */
+    double ex_ = sqrt(fmax(0.0, 2.0 - 2.0 * cx.c)), ey_ = sqrt(fmax(0.0, 2.0 - 2.0 * cy.c));
     for (int i = 0; i < na; ++i) {
         spc_vec3 h0 = spc_add(spc_scale(cx.axis, as[i][0]), spc_scale(cy.axis, as[i][1]));
         double lh = spc_length(h0), rho = as[i][0] * ex_ + as[i][1] * ey_;
         if (!(lh > rho))
             return true;
-        double th = asin(rho / lh);
-        double phi = angle_between(h0, nc->axis);
-        if (fmin(phi, SPC_PI - phi) <= th + nc->angle)
+        /* theta_h = asin(rho / lh); the line of h within theta_h + theta_n of the normal axis */
+        double sh = rho / lh, ch = sqrt(fmax(0.0, 1.0 - sh * sh));
+        double cpsi = ch * nc->c - sh * nc->s, spsi = sh * nc->c + ch * nc->s;
+        if (cpsi <= 0.0 || spsi < 0.0)
+            return true; /* theta_h + theta_n >= pi/2: every line */
+        if (fabs(spc_dot(h0, nc->axis)) / lh >= cpsi)
             return true;
     }
     return false;
@@ -1184,7 +1292,7 @@ static bool node_may_hold(const query *q, const cnode *nd)
     spc_vec3 lo = spc_v3(nd->lo[0], nd->lo[1], nd->lo[2]), hi = spc_v3(nd->hi[0], nd->hi[1], nd->hi[2]);
     spc_vec3 c = spc_scale(spc_add(lo, hi), 0.5);
     double r = 0.5 * spc_length(spc_sub(hi, lo)) * (1.0 + 1e-9) + 1e-12 * spc_max_abs(c);
-    cone nc = load_cone(nd);
+    qcone nc = node_qcone(nd);
     return may_hold(q, c, r, &nc);
 }
 
@@ -1194,9 +1302,7 @@ static bool tri_may_hold(const query *q, const spc_conic_tri *t)
     spc_vec3 lo = spc_vmin(t->p0, spc_vmin(p1, p2)), hi = spc_vmax(t->p0, spc_vmax(p1, p2));
     spc_vec3 c = spc_scale(spc_add(lo, hi), 0.5);
     double r = 0.5 * spc_length(spc_sub(hi, lo)) * (1.0 + 1e-9) + 1e-12 * spc_max_abs(c);
-    cone nc = tri_cone(t);
-    if (nc.angle < SPC_PI)
-        nc.angle += 1e-9;
+    qcone nc = tri_qcone(t);
     return may_hold(q, c, r, &nc);
 }
 
@@ -1376,6 +1482,7 @@ int spc_conic_solve_all(const spc_snee_query *q, spc_chain *out, int max_out, in
         pb.y = q->y;
         pb.event = event == SPC_CHAIN_REFRACT ? SPC_CONIC_REFRACT : SPC_CONIC_REFLECT;
         pb.eta = eta;
+        pb.front_only = s->bsdf && s->bsdf->type == SPC_BSDF_CONDUCTOR; /* not a twosided one */
         int ns = spc_conic_mesh_solve(m, &pb, sol, SPC_CONIC_MAX_MESH_SOLUTIONS, false, &st);
         for (int k = 0; k < ns && n < max_out; ++k) {
             /* trace x -> P: the first hit must be this shape at P, which gives the chain its
