@@ -14,6 +14,11 @@
  * - t = 1: y_{s-1} joined to the pinhole and splatted on the film (light tracing);
  * - otherwise both vertices are joined by a shadow ray.
  * t = 0 (a light path hitting the lens) is impossible for a pinhole and is not a strategy.
+ * Orthographic cameras have a delta direction per film point: nothing can be joined to them, so
+ * t = 1 is skipped and no MIS weight counts it (z0 is flagged like a delta vertex). Point and spot
+ * lights seen directly ((1, 1) with a delta position) are not rendered, as in path and Mitsuba.
+ * Light tracing splats only film positions inside the rendered window, where the driver's camera
+ * samples lie (film.h); camera samples outside it, if any, would count t = 1 as impossible.
  *
  * Densities. Every vertex keeps pdf_fwd, the density of its subpath's walk producing it, and
  * pdf_rev, the density of a walk from the other end producing it, both in AREA measure (solid
@@ -25,11 +30,18 @@
  * - s = 1 samples y0 by sample_direct from x1, not by the emission sampling of the light
  *   subpath, so p_1 uses that density D(x0 | x1) (converted to area; it differs from the
  *   emission density for lights sampled by solid angle); the ratios next to i = 1 use it.
- * - A vertex scattered by a delta lobe cannot be joined; the densities of its neighbours sampled
- *   from it are stored as 0 and counted as 1 in the ratios (pbrt's remap0), where they cancel
- *   between the strategies that remain possible. Delta lights (point, spot: delta position;
- *   directional: delta direction) cannot be hit (no s = 0); a light at infinity cannot be joined to
- *   the pinhole directly ((1, 1) is impossible for it).
+ * - A vertex scattered by a delta lobe cannot be joined (strategies joining there get no weight),
+ *   and the density of a neighbour sampled through it has a Dirac factor that cancels between the
+ *   strategies that remain possible. We count the delta lobe as its choice probability per unit
+ *   SOLID ANGLE and convert to area as for any lobe. For a chain x0 -> mirror x1 -> x2 this gives
+ *   exactly the ratio of the true densities of a planar mirror (the |cos| / d^2 of both segments
+ *   cancel against the reverse direction's), and for curved or refracting interfaces it is a good
+ *   approximation; pbrt's remap of the AREA density to 1 instead leaves a factor
+ *   d12^2 cos0 / (d01^2 cos2) that over-weighted s = 0 on caustics lighting diffuse surfaces
+ *   (light - glass - floor - wall - camera) and left fireflies. Zero densities (a pdf that is
+ *   genuinely zero one way) count as 1 in the ratios (remap0); the weights still sum to one.
+ *   Delta lights (point, spot: delta position; directional: delta direction) cannot be hit (no
+ *   s = 0); a light at infinity cannot be joined to the pinhole directly ((1, 1) is impossible).
  * The t = 1 strategy has N = (pixels of the rendered window) light paths per pass for each pixel,
  * against one camera sample: in the multi-sample heuristic its density counts N times. The camera's
  * density for MIS takes the pixel filter as 1 over the pixel (exact for the box of radius 0.5;
@@ -55,10 +67,11 @@
 #include "core/rng.h"
 #include "integrator/integrator.h"
 
-/* Vertices per subpath. 64 segments are far beyond anything Russian roulette lets through in a
- * lit scene (each segment past rr_depth survives with probability <= 0.95: 0.95^59 < 5%, and
- * throughput usually drops much faster), while two arrays of them stay well inside a thread's
- * stack. */
+/* Vertices per subpath (two arrays of ~500-byte vertices: 63 KiB of stack). Past rr_depth each
+ * segment survives Russian roulette with probability min(0.95, throughput), and throughput falls
+ * with every diffuse bounce, so lit scenes essentially never reach 64 vertices; the exception is
+ * light trapped by total internal reflection (throughput ~1, q = 0.95, 0.95^59 ~ 5%): the
+ * coarse smooth-shaded glass mesh of tests/test_bdpt.c truncates a few subpaths per million. */
 #define SPC_BDPT_MAX_VERTICES 64
 #define SPC_BDPT_MAX_PATH (2 * SPC_BDPT_MAX_VERTICES)
 
@@ -234,9 +247,11 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
             w = spc_rgb_scale(w, shading_fix(&v->h, v->wo, bs.wi));
         double pdf_rev_dir;
         if (bs.lobe & SPC_LOBE_DELTA) {
+            /* a delta lobe's density counts as its choice probability per unit solid angle, so
+             * that its Dirac factors cancel between strategies (see the file comment) */
             v->delta = true;
-            pdf_dir = 0.0;
-            pdf_rev_dir = 0.0;
+            pdf_dir = bs.pdf;
+            pdf_rev_dir = bs.pdf;
         } else {
             pdf_dir = bs.pdf;
             pdf_rev_dir = spc_bsdf_pdf(h.bsdf, &v->h, other, bs.wi, v->wo);
