@@ -146,16 +146,21 @@ static inline int spc_fuzz_exr(const uint8_t *data, size_t size)
 
 static inline int spc_fuzz_png(const uint8_t *data, size_t size) { return spc_fuzz_image(data, size); }
 
-/* A directory with nothing in it: every file a scene names is missing. */
+/* A directory with nothing in it: every file a scene names is missing. Removed at exit. */
+static char spc_fuzz_dir[64];
+
+static inline void spc_fuzz_remove_dir(void) { rmdir(spc_fuzz_dir); }
+
 static inline const char *spc_fuzz_empty_dir(void)
 {
-    static char dir[64];
-    if (!dir[0]) {
-        snprintf(dir, sizeof dir, "/tmp/spc_fuzz_empty_XXXXXX");
-        if (!mkdtemp(dir))
-            snprintf(dir, sizeof dir, "/nonexistent-spc-fuzz");
+    if (!spc_fuzz_dir[0]) {
+        snprintf(spc_fuzz_dir, sizeof spc_fuzz_dir, "/tmp/spc_fuzz_empty_XXXXXX");
+        if (mkdtemp(spc_fuzz_dir))
+            atexit(spc_fuzz_remove_dir);
+        else
+            snprintf(spc_fuzz_dir, sizeof spc_fuzz_dir, "/nonexistent-spc-fuzz");
     }
-    return dir;
+    return spc_fuzz_dir;
 }
 
 static inline int spc_fuzz_xml(const uint8_t *data, size_t size)
