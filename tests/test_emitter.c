@@ -265,8 +265,10 @@ TEST(envmap_sampling_and_orientation)
     spc_rgb bottom = spc_emitter_eval_infinite(&e, spc_v3(0, -1, 0));
     CHECK_NEAR(top.r, 2.0 * 5.1, 1e-5);
     CHECK_NEAR(bottom.r, 2.0 * 0.1, 1e-6);
-    /* u = atan2(x, -z) / 2 pi: the texel column 5 (u = 5.5/16) at theta = 3.5/8 pi */
-    double phi = 2 * SPC_PI * 5.5 / 16, th = SPC_PI * 3.5 / 8;
+    /* u = atan2(x, -z) / 2 pi: texel column 5 is centred at u = 5.5/16; rows sit on
+     * v = j / (height - 1) (Mitsuba 3's placement: the first and last rows on the poles), so row 3
+     * is at theta = 3/7 pi */
+    double phi = 2 * SPC_PI * 5.5 / 16, th = SPC_PI * 3.0 / 7.0;
     spc_vec3 spot = spc_v3(sin(th) * sin(phi), cos(th), -sin(th) * cos(phi));
     CHECK_NEAR(spc_emitter_eval_infinite(&e, spot).r, 2.0 * 20.1, 1e-4);
     spc_emitter_direct ds;
