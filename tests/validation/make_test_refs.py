@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Render the Mitsuba 3 references that tests/test_mitsuba_refs.c checks specula against.
 
-    python3 tests/validation/make_test_refs.py [--spp 16384] [--passes 64] [NAME ...]
+    python3 tests/validation/make_test_refs.py [--spp 4096] [--passes 32] [NAME ...]
 
 Writes tests/data/mitsuba_refs/NAME.exr (R, G, B and variance.R/G/B: the mean of `passes`
 independent Mitsuba 3 scalar_rgb renders and the variance of that mean) for the scenes listed in
@@ -35,8 +35,8 @@ REFS = {
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("names", nargs="*")
-    ap.add_argument("--spp", type=int, default=16384)
-    ap.add_argument("--passes", type=int, default=64)
+    ap.add_argument("--spp", type=int, default=4096)
+    ap.add_argument("--passes", type=int, default=32)
     a = ap.parse_args()
     os.makedirs(OUT, exist_ok=True)
     for name in a.names or sorted(REFS):
