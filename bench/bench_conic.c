@@ -231,7 +231,7 @@ static spc_bsdf *diffuse(spc_scene *sc, double a)
     return b;
 }
 
-static spc_scene *pool_scene(int mirror_blob, int size)
+static spc_scene *pool_scene(int mirror_blob, double light_r, int size)
 {
     spc_scene *sc = spc_scene_create();
     spc_error err;
@@ -255,12 +255,12 @@ static spc_scene *pool_scene(int mirror_blob, int size)
     spc_shape_init_mesh(ms, &m, NULL, NULL, 0, 0, &err);
     ms->bsdf = spec;
     spc_shape *light = spc_scene_new_shape(sc);
-    spc_shape_init_sphere(light, mirror_blob ? spc_v3(-0.6, 0.3, 1.6) : spc_v3(0.3, 0.2, 2.2), 0.25, NULL, NULL, 0, 0,
+    spc_shape_init_sphere(light, mirror_blob ? spc_v3(-0.6, 0.3, 1.6) : spc_v3(0.3, 0.2, 2.2), light_r, NULL, NULL, 0, 0,
                           &err);
     light->bsdf = diffuse(sc, 0.0);
     spc_emitter *e = spc_scene_new_emitter(sc);
     e->type = SPC_EMITTER_AREA;
-    e->radiance = spc_scene_constant(sc, spc_rgb1(8.0));
+    e->radiance = spc_scene_constant(sc, spc_rgb1(0.5 / (light_r * light_r))); /* the same power for every size */
     e->shape_index = 2;
     light->emitter = e;
     spc_mat4_lookat(spc_v3(0.0, -2.6, 2.4), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), &sc->camera.to_world);
@@ -315,24 +315,28 @@ static double rel_mse(const spc_film *a, const spc_film *ref)
 static void equal_time(double budget)
 {
     const char *solvers[] = {"conic", "newton", "angular", "none"};
-    printf("| scene | solver | spp measured | CPU s | relMSE measured | relMSE at %.0f CPU-s |\n|---|---|---|---|---|---|\n",
+    const int spp = 256, ref_spp = 4096;
+    printf("| scene | light radius | solver | spp measured | CPU s | relMSE measured | relMSE at %.0f CPU-s |\n"
+           "|---|---|---|---|---|---|---|\n",
            budget);
-    for (int k = 0; k < 2; ++k) {
-        spc_scene *sc = pool_scene(k, 32);
+    for (int k = 0; k < 4; ++k) {
+        int mirror = k >= 2;
+        double light_r = mirror ? (k == 2 ? 0.2 : 0.06) : (k == 0 ? 0.25 : 0.08);
+        spc_scene *sc = pool_scene(mirror, light_r, 32);
         if (!sc)
             return;
         double cref;
-        spc_film *ref = render(sc, "conic", 2048, 99, &cref);
-        fprintf(stderr, "  reference (%s): path + conic 2048 spp, %.1f CPU-s\n", k ? "mirror blob" : "pool", cref);
+        spc_film *ref = render(sc, "conic", ref_spp, 99, &cref);
+        fprintf(stderr, "  reference (%s, light %.2f): path + conic %d spp, %.1f CPU-s\n", mirror ? "mirror blob" : "pool",
+                light_r, ref_spp, cref);
         for (int i = 0; i < 4; ++i) {
             double cpu;
-            int spp = 64;
             spc_film *f = render(sc, solvers[i], spp, 5, &cpu);
             if (!f || !ref)
                 continue;
             double r = rel_mse(f, ref);
-            printf("| %s | %s | %d | %.1f | %.4g | %.4g |\n", k ? "mirror blob (reflection)" : "pool (refraction)",
-                   solvers[i], spp, cpu, r, r * cpu / budget);
+            printf("| %s | %.2f | %s | %d | %.1f | %.4g | %.4g |\n", mirror ? "mirror blob (reflection)" : "pool (refraction)",
+                   light_r, solvers[i], spp, cpu, r, r * cpu / budget);
             fflush(stdout);
             spc_film_destroy(f);
         }

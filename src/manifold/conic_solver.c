@@ -534,7 +534,7 @@ static bool solve_chord(tri_ctx *c, spc_vec2 a, spc_vec2 b, double err, spc_vec2
     if (c->st)
         c->st->chords++;
     spc_vec2 d = spc_v2(b.x - a.x, b.y - a.y);
-    double clen = hypot(d.x, d.y);
+    double clen = sqrt(d.x * d.x + d.y * d.y);
     /* the unit normal of the chord toward its arc, and the chord offset by err along it */
     spc_vec2 nu = clen > 0.0 ? spc_v2(-d.y / clen, d.x / clen) : spc_v2(0.0, 0.0);
     if (nu.x * (s.x - a.x) + nu.y * (s.y - a.y) < 0.0)
@@ -567,7 +567,7 @@ static bool solve_chord(tri_ctx *c, spc_vec2 a, spc_vec2 b, double err, spc_vec2
             for (int e = 0; e < 2; ++e) {
                 spc_vec2 pe = e == 0 ? a : b;
                 double gx = 2.0 * q->A * pe.x + q->B * pe.y + q->D, gy = q->B * pe.x + 2.0 * q->C * pe.y + q->E;
-                double gl = hypot(gx, gy), sn = gl > 0.0 ? fabs(gx * d.x + gy * d.y) / (gl * clen) : 1.0;
+                double gl = sqrt(gx * gx + gy * gy), sn = gl > 0.0 ? fabs(gx * d.x + gy * d.y) / (gl * clen) : 1.0;
                 double cs = sqrt(fmax(0.0, 1.0 - sn * sn));
                 double slope = cs > 0.0 ? sn / cs * clen / err : INFINITY;
                 if (e == 0)
@@ -1045,11 +1045,11 @@ typedef struct qcone {
 
 static qcone node_qcone(const cnode *nd)
 {
+    /* the axis was unit before rounding to float: its length differs from 1 by ~1e-7, far inside
+     * the cone's padding */
     qcone q;
     q.axis = spc_v3(nd->axis[0], nd->axis[1], nd->axis[2]);
-    double l = spc_length(q.axis);
-    q.full = nd->cos_a < -1.5f || !(l > 0.0);
-    q.axis = spc_scale(q.axis, l > 0.0 ? 1.0 / l : 0.0);
+    q.full = nd->cos_a < -1.5f;
     q.c = nd->cos_a;
     q.s = nd->sin_a;
     return q;
@@ -1238,7 +1238,7 @@ static bool may_hold(const query *q, spc_vec3 c, double r, const qcone *nc)
         spc_vec3 w = spc_sub(c, q->mid);
         double z = spc_dot(w, q->axis);
         double rho = spc_length(spc_sub(w, spc_scale(q->axis, z)));
-        if (hypot(rho + q->sc, z) - r > q->sR)
+        if (sqrt((rho + q->sc) * (rho + q->sc) + z * z) - r > q->sR)
             return false;
     }
     if (nc->full)
