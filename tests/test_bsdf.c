@@ -18,7 +18,7 @@
  * 4. The chi-square routine rejects a wrong pdf (scaled by 1.2; a slightly different roughness).
  */
 /* ctest-labels: unit stat */
-/* ctest-timeout: 300 */
+/* ctest-timeout: 900 */
 #include <complex.h>
 #include <stdint.h>
 #include <string.h>
