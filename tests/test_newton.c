@@ -20,7 +20,7 @@
  *   standard errors.
  */
 /* ctest-labels: stat */
-/* ctest-timeout: 600 */
+/* ctest-timeout: 1200 */
 #include <string.h>
 
 #include "core/rng.h"
