@@ -102,7 +102,8 @@ TEST(png)
 }
 TEST(checkpoint) { replay("checkpoint", spc_fuzz_checkpoint); }
 
-/* The empty input and a few trivially hostile ones reach every target. */
+/* The empty input and a few trivially hostile ones reach every target: the test fails by crashing
+ * (and, under the CI's ASan build, by any memory error or leak); there is no value to compare. */
 TEST(tiny_inputs)
 {
     const target_fn all[] = {spc_fuzz_xml, spc_fuzz_obj, spc_fuzz_ply, spc_fuzz_serialized,
@@ -111,7 +112,6 @@ TEST(tiny_inputs)
     for (size_t t = 0; t < sizeof all / sizeof all[0]; ++t)
         for (size_t i = 0; i < sizeof inputs / sizeof inputs[0]; ++i)
             all[t]((const uint8_t *)inputs[i], i == 1 ? 1 : strlen(inputs[i]));
-    CHECK(1);
 }
 
 int main(void)
