@@ -236,11 +236,11 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         }
         int segments = n - 1;
 
-        double u_lobe = spc_sampler_1d(smp);
+        spc_vec2 u_lobe_rr = spc_sampler_2d(smp); /* one dimension pair for the lobe and roulette */
         spc_vec2 u_dir = spc_sampler_2d(smp);
-        double u_rr = spc_sampler_1d(smp);
+        double u_rr = u_lobe_rr.y;
         spc_bsdf_sample bs;
-        if (!spc_bsdf_sample_dir(h.bsdf, &v->h, mode, v->wo, u_lobe, u_dir, &bs))
+        if (!spc_bsdf_sample_dir(h.bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
             break;
         spc_rgb w = bs.weight;
         if (mode == SPC_MODE_IMPORTANCE)
