@@ -38,16 +38,25 @@
  * |dw(x)/dA(y)| (spc_chain_geometry), and <1/p_solve> 1 for a solver that returns every solution
  * (solve_all, e.g. "conic" on meshes), else the count of further attempts until the same solution
  * reappears (specular_nee.h; attempts are seeded from a mixture of the light point and the
- * solver's usual seeds, SPC_VOLPATH_SEED_LIGHT_PROB); a solver with both (conic) sums what solve_all covers and estimates
- * the rest, as spc_specular_nee does. The last segment P -> y must be unblocked (no null crossing either).
- * Exclusion rule (nothing counted twice): a path that continues from such an x by phase sampling,
- * crosses its medium without interaction to the first surface P, takes there the delta lobe of the
- * chain event (spc_snee_track_scatter), crosses the next medium without interaction and without
- * any null surface, and hits an area emitter with nonzero light-selection probability, does not
- * count that emission. Every other path keeps its usual weight. Connections are made only from
- * medium vertices of scattering order <= SPC_VOLPATH_CONNECT_MAX_ORDER (single scattering by
- * default) and only when max_depth allows the two more segments; surface vertices do not run
- * specular NEE in volpath.
+ * solver's usual seeds, SPC_VOLPATH_SEED_LIGHT_PROB). A solver with both (conic) sums what
+ * solve_all covers and estimates the rest, as spc_specular_nee does. The last segment P -> y must
+ * be unblocked (no null crossing either). Connections are made at every medium vertex (every
+ * scattering order: connecting single scattering only left the multiple-scattering fireflies of
+ * phase sampling in place, bench/RESULTS.md) when max_depth allows the two more segments; surface
+ * vertices do not run specular NEE in volpath.
+ *
+ * Nothing is counted twice. The paths both strategies produce are those that continue from such an
+ * x by phase sampling, cross x's medium without interaction to the first surface P, take there the
+ * delta lobe of the chain event (spc_snee_track_scatter), cross the next medium without
+ * interaction and without any null surface, and hit an area emitter with nonzero light-selection
+ * probability (tracked by spc_snee_track with a budget of one vertex). For such a path:
+ *   - if its chain is one the solver enumerates (solve_all, and covers() if the solver has it), the
+ *     two strategies are combined by the power heuristic on their densities in solid angle at x:
+ *     phase(wo, d0) for phase sampling, p(y) / G for the connection (p(y) = pmf(light) / area, the
+ *     connection's uniform area density); the emitter hit traces the chain from x once to get G;
+ *   - otherwise (a solution found one at a time, with no density to weigh) phase sampling drops
+ *     the emission: exclusion.
+ * Every other path keeps its usual weight.
  */
 #include <string.h>
 
@@ -67,13 +76,6 @@
  * almost always, so p >= 1/2 for that solution, while the other half of the seeds still reaches
  * every other solution. */
 #define SPC_VOLPATH_SEED_LIGHT_PROB 0.5
-/* Highest scattering order at which medium vertices make the specular connection (the order of a
- * vertex: the non-delta vertices of the path up to and including it; -1: every order). 1 connects
- * only single scattering along the camera's (possibly refracted) rays, as Walter et al. 2009 do:
- * the sharp part of the light through the boundary. Higher orders are smooth, phase sampling finds
- * them with little noise, and a connection costs a full solve (conic: ~40 us on a 320-triangle
- * mesh), so connecting at every order made the glass scene 45x slower for a small gain there. */
-#define SPC_VOLPATH_CONNECT_MAX_ORDER 1
 /* Solutions kept from a solver that enumerates them all: one refraction through a closed mesh
  * seldom has more than a few; the rest would be dropped (bias), so the cap is generous. */
 #define SPC_VOLPATH_MAX_SOLUTIONS 16
@@ -195,7 +197,8 @@ typedef struct conn_query {
 /* The value of one solved chain x -> P -> y (without p(y) and <1/p_solve>): zero unless it is a
  * one-vertex chain with the event its surface's BSDF has, the caster may be in single chains, and
  * the last segment is unblocked. */
-static spc_rgb chain_value(const conn_query *cq, const spc_snee_query *q, const spc_chain *c)
+static spc_rgb chain_value(const conn_query *cq, const spc_snee_query *q, const spc_chain *c, double *G_out,
+                           double *phase_out)
 {
     const spc_rgb zero = spc_rgb1(0.0);
     if (c->n != 1)
@@ -242,6 +245,8 @@ static spc_rgb chain_value(const conn_query *cq, const spc_snee_query *q, const 
     if (!(G > 0.0) || !isfinite(G))
         return zero;
     spc_rgb T = spc_rgb_mul(spc_rgb_mul(Tin, Tout), Ts);
+    *G_out = G;
+    *phase_out = ph;
     return spc_rgb_scale(spc_rgb_mul(T, Le), ph * G);
 }
 
@@ -334,8 +339,15 @@ static spc_rgb medium_connection(const spc_scene *sc, const spc_snee_params *snp
         spc_chain sols[SPC_VOLPATH_MAX_SOLUTIONS];
         int iterations = 0;
         int n = solver->solve_all(&q, sols, SPC_VOLPATH_MAX_SOLUTIONS, &iterations);
-        for (int i = 0; i < n; ++i)
-            total = spc_rgb_add(total, chain_value(&cq, &q, &sols[i]));
+        for (int i = 0; i < n; ++i) {
+            double G = 0.0, ph = 0.0;
+            spc_rgb v = chain_value(&cq, &q, &sols[i], &G, &ph);
+            if (spc_rgb_is_black(v))
+                continue;
+            /* MIS against phase sampling: this strategy's density in solid angle at x is p_y / G */
+            double w = e->type == SPC_EMITTER_AREA ? spc_mis_power(p_y / G, ph) : 1.0;
+            total = spc_rgb_add(total, spc_rgb_scale(v, w));
+        }
         total = spc_rgb_scale(total, 1.0 / p_y);
         if (!solver->solve_one || !solver->covers || (solver->covers_all && solver->covers_all(&q)))
             return total;
@@ -347,7 +359,8 @@ static spc_rgb medium_connection(const spc_scene *sc, const spc_snee_params *snp
         return total;
     if (solver->solve_all && solver->covers(&sol))
         return total; /* counted exactly above */
-    spc_rgb v = chain_value(&cq, &q, &sol);
+    double G, ph;
+    spc_rgb v = chain_value(&cq, &q, &sol, &G, &ph);
     if (spc_rgb_is_black(v))
         return total;
     trial_ctx tc;
@@ -358,6 +371,37 @@ static spc_rgb medium_connection(const spc_scene *sc, const spc_snee_params *snp
     bool capped;
     int trials = spc_snee_count_trials(trial_same, &tc, snp->max_trials, &capped);
     return spc_rgb_add(total, spc_rgb_scale(v, (double)trials / p_y));
+}
+
+/* The weight of an emitter hit by a path that left the medium vertex x along d0 (phase density
+ * pdf_phase), crossed one chain vertex and reached the area emitter e at h: the path is one the
+ * connection at x produces too. Chains the solver enumerates are weighted by the power heuristic
+ * against the connection (density pmf(e) / area(e) / G in solid angle at x, G of the chain traced
+ * from x along d0); those it estimates one at a time (solve_one: no density) are excluded (0). */
+static double covered_weight(const spc_scene *sc, const spc_specular_solver *solver, spc_vec3 x, spc_vec3 d0,
+                             double pdf_phase, const spc_hit *h)
+{
+    if (!solver->solve_all)
+        return 0.0;
+    spc_hit xh;
+    memset(&xh, 0, sizeof xh);
+    xh.p = x;
+    xh.ng = d0;
+    xh.sh = spc_frame_from_n(d0);
+    xh.shape_index = -1;
+    spc_frame fr = spc_frame_from_n(d0);
+    spc_chain_opts o = spc_chain_opts_default(1);
+    spc_chain c;
+    spc_chain_trace(sc, &xh, &fr, 0.0, 0.0, &o, &c);
+    if (c.n != 1)
+        return 1.0; /* the tracer does not reproduce the chain: neither would the solver's chains */
+    if (solver->covers && !solver->covers(&c))
+        return 0.0; /* left to solve_one's estimate */
+    double G = spc_chain_geometry(&c, h->p, h->ng);
+    double area = h->emitter->shape ? h->emitter->shape->area : 0.0;
+    if (!(G > 0.0) || !isfinite(G) || !(area > 0.0))
+        return 1.0;
+    return spc_mis_power(pdf_phase, spc_scene_emitter_pmf(sc, h->emitter) / area / G);
 }
 
 /* ---- the path ---- */
@@ -383,8 +427,10 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
     spc_snee_params_default(&snp, ctx->specular_nee, 1);
     spc_snee_track track;
     memset(&track, 0, sizeof track);
+    spc_vec3 conn_x = spc_v3(0, 0, 0), conn_d0 = spc_v3(0, 0, 1); /* the vertex tracked and its direction */
+    double conn_pdf = 0.0;
     bool first = true;
-    int nulls = 0, order = 0; /* order: non-delta vertices so far */
+    int nulls = 0;
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
     out->depth = 0.0;
@@ -421,9 +467,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                     L = spc_rgb_add(L, spc_rgb_mul(beta, c));
                 }
                 bool connected = false;
-                ++order;
-                if (solver && nee && depth_allows(ctx->max_depth, segments + 2) &&
-                    (SPC_VOLPATH_CONNECT_MAX_ORDER < 0 || order <= SPC_VOLPATH_CONNECT_MAX_ORDER)) {
+                if (solver && nee && depth_allows(ctx->max_depth, segments + 2)) {
                     /* its own deterministic stream: the sampler's dimensions stay as without it */
                     spc_rng rng;
                     spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, ((uint64_t)smp->index << 32) | smp->dim),
@@ -444,6 +488,9 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                 track.max_chain = 1;
                 track.single_ok = track.multi_ok = true;
                 track.any_surface = snp.any_surface;
+                conn_x = x;
+                conn_d0 = wi;
+                conn_pdf = pdf;
                 prev_nee = nee;
                 prev_pdf = pdf;
                 prev_p = x;
@@ -483,11 +530,13 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
         }
         spc_vec3 wo = spc_neg(ray.d);
         bool covered = track.live && spc_snee_track_covers(&track, sc, h.emitter);
-        if (h.emitter && !(segments == 1 && ctx->hide_emitters) && !covered) {
+        if (h.emitter && !(segments == 1 && ctx->hide_emitters)) {
             spc_rgb Le = spc_emitter_eval_area(h.emitter, &h, wo);
             if (!spc_rgb_is_black(Le)) {
                 double w = 1.0;
-                if (prev_nee) {
+                if (covered) {
+                    w = covered_weight(sc, solver, conn_x, conn_d0, conn_pdf, &h);
+                } else if (prev_nee) {
                     double lp = spc_scene_emitter_pmf(sc, h.emitter) *
                                 spc_emitter_pdf_direct(h.emitter, prev_p, h.p, h.ng);
                     w = spc_mis_power(prev_pdf, lp);
@@ -531,8 +580,6 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
         if (spc_rgb_is_black(beta))
             break;
         prev_nee = nee && !(bs.lobe & SPC_LOBE_DELTA);
-        if (!(bs.lobe & SPC_LOBE_DELTA))
-            ++order;
         prev_pdf = bs.pdf;
         prev_p = h.p;
         if (bs.lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))

@@ -23,7 +23,7 @@ static bool check_rgb(mts_loader *L, mts_props *P, const char *name, spc_rgb v, 
 {
     double c[3] = {v.r, v.g, v.b};
     for (int i = 0; i < 3; ++i)
-        if (!(c[i] >= 0.0 && c[i] <= hi)) {
+        if (!(c[i] >= 0.0 && c[i] <= hi && isfinite(c[i]))) {
             if (hi < INFINITY)
                 mts_fail(L, mts_where(P, name), SPC_ERR_VALUE, "medium %s (%g, %g, %g) must lie in [0, %g]", name, v.r,
                          v.g, v.b, hi);
