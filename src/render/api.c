@@ -279,7 +279,22 @@ char *spc_scene_describe(const spc_scene *s)
             sb_printf(&b, " emitter #%d %s", sh->emitter->index, emitter_type_name(sh->emitter->type));
         if (sh->flip_normals)
             sb_printf(&b, " flip_normals");
+        if (sh->interior_medium >= 0)
+            sb_printf(&b, " interior medium #%d", sh->interior_medium);
+        if (sh->exterior_medium >= 0)
+            sb_printf(&b, " exterior medium #%d", sh->exterior_medium);
         sb_printf(&b, "\n");
+    }
+    for (int i = 0; s && i < s->nmedia; ++i) {
+        const spc_medium *m = s->media[i];
+        sb_printf(&b, "medium %d: homogeneous", i);
+        if (m->id[0])
+            sb_printf(&b, " id='%s'", m->id);
+        sb_printf(&b, " sigma_a=(%.4g, %.4g, %.4g) sigma_s=(%.4g, %.4g, %.4g) phase %s", m->sigma_a.r, m->sigma_a.g,
+                  m->sigma_a.b, m->sigma_s.r, m->sigma_s.g, m->sigma_s.b, m->phase.type == SPC_PHASE_HG ? "hg" : "isotropic");
+        if (m->phase.type == SPC_PHASE_HG)
+            sb_printf(&b, " g=%.4g", m->phase.g);
+        sb_printf(&b, "%s\n", i == s->camera_medium ? " (the camera's)" : "");
     }
     for (int i = 0; s && i < s->nbsdfs; ++i) {
         const spc_bsdf *bsdf = s->bsdfs[i];
