@@ -27,6 +27,7 @@
 #include "harness.h"
 #include "manifold/newton.h"
 #include "manifold/specular_nee.h"
+#include "render/camera.h"
 #include "render_util.h"
 
 static spc_rng rng;
@@ -823,7 +824,8 @@ static void brute_force(const spc_scene *sc, const spc_hit *x, int max_chain, in
         spc_vec3 l = spc_warp_cosine_hemisphere(spc_v2(rnd(), rnd()));
         spc_vec3 d = spc_frame_to_world(&x->sh, l);
         spc_ray r = spc_hit_spawn(x, d);
-        double w = 0.8, v = 0;
+        /* f cos / pdf of the receiver (its albedo for a diffuse one) */
+        double w = spc_bsdf_eval(x->bsdf, x, SPC_MODE_RADIANCE, x->sh.n, d).r * SPC_PI, v = 0;
         for (int k = 0; k <= max_chain; ++k) {
             spc_hit h;
             if (!spc_scene_intersect(sc, &r, &h))
@@ -903,7 +905,7 @@ TEST(snee_point_estimates)
         spc_hit x;
         CHECK(floor_hit(sc, spc_add(xs[kind], spc_v3(0, 0, 0.05)), &x));
         double ref, ref_se;
-        brute_force(sc, &x, 2, kind == 0 ? 1000000 : 2000000, &ref, &ref_se);
+        brute_force(sc, &x, 2, kind == 0 ? 200000 : 400000, &ref, &ref_se);
         /* unbiased with every seed (the straight line only where it meets the caster: the slab),
          * both constraint kinds; biased where every solution is easy to find */
         const point_run runs[] = {{SPC_SNEE_SEED_SHAPE, false, false, SPC_NEWTON_HALF_VECTOR},
@@ -919,7 +921,7 @@ TEST(snee_point_estimates)
                 continue; /* the ball's second solution is rare from shape seeds: biased loses it */
             double m, se;
             spc_snee_stats st;
-            point_estimate(sc, &x, 2, pr, kind == 0 ? 20000 : 40000, &m, &se, &st);
+            point_estimate(sc, &x, 2, pr, kind == 0 ? 5000 : 20000, &m, &se, &st);
             double tol = 4.0 * sqrt(se * se + ref_se * ref_se) + 1e-4 * ref;
             printf("    %-10s seed %d %s%s: snee %.5f +- %.5f, brute force %.5f +- %.5f; solved %.2f, "
                    "trials/solution %.2f, capped %llu\n",
@@ -948,7 +950,7 @@ TEST(rough_point_estimates)
         spc_hit x;
         CHECK(floor_hit(sc, spc_add(xs[kind], spc_v3(0, 0, 0.05)), &x));
         double ref, ref_se;
-        brute_force(sc, &x, 2, 2000000, &ref, &ref_se);
+        brute_force(sc, &x, 2, 400000, &ref, &ref_se);
         /* rough off: no chain through rough surfaces */
         point_run off = {SPC_SNEE_SEED_SHAPE, false, false, SPC_NEWTON_HALF_VECTOR};
         double m, se;
@@ -957,7 +959,7 @@ TEST(rough_point_estimates)
         CHECK(m == 0.0);
         for (int k = 0; k < 2; ++k) {
             point_run pr = {SPC_SNEE_SEED_SHAPE, false, true, (spc_newton_constraint)k};
-            point_estimate(sc, &x, 2, &pr, 40000, &m, &se, &st);
+            point_estimate(sc, &x, 2, &pr, 12000, &m, &se, &st);
             double tol = 4.0 * sqrt(se * se + ref_se * ref_se) + 1e-4 * ref;
             printf("    %-16s %s: snee %.5f +- %.5f, brute force %.5f +- %.5f; solved %.2f, trials/solution %.2f, "
                    "capped %llu\n",
@@ -978,6 +980,178 @@ TEST(rough_point_estimates)
             RUN(name);                                                                                                 \
     } while (0)
 
+/* ---- images: path + specular NEE (newton) against ipt ---- */
+
+/* 0: a glass sphere's caustic; 1: a water surface (bumpy mesh, interpolated normals) over a pool
+ * floor; 2: two stacked glass slabs. Small films: the reference is an ipt render. */
+static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
+{
+    spc_scene *sc = spc_scene_create();
+    switch (which) {
+    case 0: {
+        /* the floor inside the ball's focal length (0.75 from its centre), so the caustic is a
+         * bright converging spot without a focus on the floor (where G has an integrable
+         * singularity and every estimator an infinite variance); seen through the ball from above */
+        add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+        add_sphere(sc, spc_v3(0, 0, 0.55), 0.5, mk_glass(sc, 1.5));
+        spc_shape *light = add_sphere(sc, spc_v3(0.35, 0.25, 2.2), 0.35, tu_diffuse(sc, 0.0));
+        tu_area(sc, light, 2, 2.0);
+        tu_camera(sc, spc_v3(0.1, -1.2, 2.6), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 26, 24, 24);
+        sc->integrator.specular_max_chain = 2;
+        /* where the line from the light through the ball's centre meets the floor, and the caustic
+         * around it */
+        *region_c = spc_v3(-0.117, -0.083, 0);
+        *region_r = 0.3;
+        break;
+    }
+    case 1: {
+        add_rect(sc, place(spc_v3(1, 1, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+        add_water(sc, 1.3, 0.4, 0.02, 48, mk_glass(sc, 1.33));
+        spc_shape *light = add_sphere(sc, spc_v3(0.2, 0.1, 2.0), 0.2, tu_diffuse(sc, 0.0));
+        tu_area(sc, light, 2, 10.0);
+        tu_camera(sc, spc_v3(0, -1.6, 2.4), spc_v3(0, 0, 0), spc_v3(0, 0, 1), 45, 24, 24);
+        sc->integrator.specular_max_chain = 1;
+        *region_c = spc_v3(0, 0, 0);
+        *region_r = 0.8;
+        break;
+    }
+    default: {
+        /* slabs wider than the floor: every floor point sees the light through four interfaces
+         * only (top and bottom faces); the camera looks at the floor from under the slabs */
+        add_rect(sc, place(spc_v3(1.2, 1.2, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+        add_cube(sc, place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.9)), mk_glass(sc, 1.5));
+        add_cube(sc, place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.55)), mk_glass(sc, 1.5));
+        spc_shape *light = add_sphere(sc, spc_v3(0.3, 0.2, 2.2), 0.3, tu_diffuse(sc, 0.0));
+        tu_area(sc, light, 3, 4.0);
+        tu_camera(sc, spc_v3(0.1, -1.1, 0.4), spc_v3(0.1, 0.3, 0), spc_v3(0, 0, 1), 50, 24, 24);
+        sc->integrator.specular_max_chain = 4;
+        /* the bright disk: the light's image through the slabs */
+        *region_c = spc_v3(0.25, 0.17, 0);
+        *region_r = 0.5;
+        break;
+    }
+    }
+    if (!finalize(sc)) {
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+static spc_film *render_with(const spc_scene *sc, const char *integrator, const char *snee, int spp, uint64_t seed)
+{
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = spp;
+    o.threads = 2;
+    o.seed = seed;
+    o.integrator = integrator;
+    o.specular_nee = snee;
+    spc_film *f = NULL;
+    spc_error err;
+    spc_render_stats st;
+    if (spc_render(sc, &o, &f, &st, &err) != SPC_OK) {
+        printf("  render failed: %s\n", err.msg);
+        spc_film_destroy(f);
+        return NULL;
+    }
+    return f;
+}
+
+/* Pixels whose camera ray (through the pixel centre) first meets the floor (shape 0) within r of c. */
+static int region_mask(const spc_scene *sc, spc_vec3 c, double r, unsigned char *mask)
+{
+    spc_camera_state cam;
+    int w = sc->film.width, h = sc->film.height, n = 0;
+    if (!spc_camera_prepare(&cam, &sc->camera, w, h))
+        return 0;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            spc_hit hit;
+            mask[j * w + i] = 0;
+            spc_ray ray = spc_camera_ray(&cam, i + 0.5, j + 0.5);
+            /* follow delta refractions down to the floor (the pool's and the slabs' floor) */
+            for (int b = 0; b < 8 && spc_scene_intersect(sc, &ray, &hit); ++b) {
+                if (hit.shape_index == 0) {
+                    if (spc_distance(hit.p, c) < r) {
+                        mask[j * w + i] = 1;
+                        ++n;
+                    }
+                    break;
+                }
+                double eta;
+                if (!spc_bsdf_is_specular_interface(hit.bsdf, &eta) || !(eta > 0.0))
+                    break;
+                double cos_t, eta_ti;
+                double ci = spc_dot(spc_neg(ray.d), hit.sh.n);
+                spc_fresnel_dielectric(ci, eta, &cos_t, &eta_ti);
+                if (cos_t == 0.0)
+                    break;
+                ray = spc_hit_spawn(&hit, spc_refract(spc_neg(ray.d), hit.sh.n, cos_t, eta_ti));
+            }
+        }
+    return n;
+}
+
+TEST(images_path_newton_vs_ipt)
+{
+    const char *names[3] = {"glass sphere caustic", "pool", "two slabs"};
+    const int ref_spp[3] = {8192, 8192, 8192}, snee_spp[3] = {256, 256, 256};
+    for (int which = 0; which < 3; ++which) {
+        spc_vec3 rc;
+        double rr;
+        spc_scene *sc = image_scene(which, &rc, &rr);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_film *ref = render_with(sc, "ipt", "none", ref_spp[which], 11);
+        spc_film *img = render_with(sc, "path", "newton", snee_spp[which], 12);
+        CHECK(ref && img);
+        if (ref && img && getenv("SPC_NEWTON_IMAGES")) {
+            /* for looking at the scenes: SPC_NEWTON_IMAGES=dir writes dir/newton_<i>_{path,ipt}.png */
+            char path[1024];
+            spc_error err;
+            snprintf(path, sizeof path, "%s/newton_%d_path.png", getenv("SPC_NEWTON_IMAGES"), which);
+            spc_film_write_png(img, path, &err);
+            snprintf(path, sizeof path, "%s/newton_%d_ipt.png", getenv("SPC_NEWTON_IMAGES"), which);
+            spc_film_write_png(ref, path, &err);
+        }
+        if (ref && img) {
+            spc_image_rgb a = {img->width, img->height, img->rgb, img->var};
+            spc_image_rgb b = {ref->width, ref->height, ref->rgb, ref->var};
+            spc_diff_result d;
+            spc_error err;
+            CHECK(spc_image_diff(&a, &b, &d, &err) == SPC_OK);
+            CHECK_MSG(d.has_ztest && d.ztest_pass_fraction >= 0.99, "%s: z-test pass fraction %.4f", names[which],
+                      d.ztest_pass_fraction);
+            /* the caustic region's mean energy */
+            int w = img->width, h = img->height;
+            unsigned char *mask = malloc((size_t)(w * h));
+            int nreg = region_mask(sc, rc, rr, mask);
+            double sa = 0, va = 0, sb = 0, vb = 0;
+            for (int k = 0; k < w * h; ++k)
+                if (mask[k])
+                    for (int c = 0; c < 3; ++c) {
+                        sa += img->rgb[3 * k + c];
+                        va += img->var[3 * k + c];
+                        sb += ref->rgb[3 * k + c];
+                        vb += ref->var[3 * k + c];
+                    }
+            double m = 3.0 * nreg;
+            double ma = sa / m, mb = sb / m, se = sqrt(va + vb) / m;
+            printf("    %-20s z-test pass %.4f of %d pixels; caustic region (%d pixels) %.5f vs ipt %.5f (se %.5f, "
+                   "%.2f se)\n",
+                   names[which], d.ztest_pass_fraction, d.ztest_pixels, nreg, ma, mb, se, fabs(ma - mb) / se);
+            CHECK_MSG(nreg >= 20, "%s: region of %d pixels", names[which], nreg);
+            CHECK_MSG(fabs(ma - mb) <= 3.0 * se, "%s: caustic region %.5f vs %.5f (se %.2g)", names[which], ma, mb, se);
+            free(mask);
+        }
+        spc_film_destroy(ref);
+        spc_film_destroy(img);
+        spc_scene_destroy(sc);
+    }
+}
+
 int main(int argc, char **argv)
 {
     const char *filter = argc > 1 ? argv[1] : NULL;
@@ -993,5 +1167,6 @@ int main(int argc, char **argv)
     RUNF(geometry_term_matches_chain);
     RUNF(snee_point_estimates);
     RUNF(rough_point_estimates);
+    RUNF(images_path_newton_vs_ipt);
     return spc_test_finish();
 }

@@ -12,20 +12,23 @@
  *                toward the neighbours, eta = n(w_o side) / n(w_i side), 1 for a reflection)
  *                projected on the vertex's tangent frame (s, t): (h.s, h.t) (Jakob and Marschner
  *                2012, sec. 4; Hanika et al. 2015, sec. 3);
- *   ANGLE_DIFF   the difference between w_o and the direction the specular law sends w_i to,
- *                in azimuthal-equidistant coordinates around that side's normal: (theta cos phi,
- *                theta sin phi)(w_o) - (...)(w_s). This is Zeltner et al.'s angle-difference
- *                constraint (sec. 5) written in coordinates that have no pole at normal incidence,
- *                where their (theta, phi) difference is undefined.
+ *   ANGLE_DIFF   (default) the difference between w_o and the direction the specular law sends
+ *                w_i to, in azimuthal-equidistant coordinates around that side's normal:
+ *                (theta cos phi, theta sin phi)(w_o) - (...)(w_s). This is Zeltner et al.'s
+ *                angle-difference constraint (sec. 5) written in coordinates that have no pole at
+ *                normal incidence, where their (theta, phi) difference is undefined; beyond the
+ *                critical angle w_i and w_o trade roles (the refracted direction then exists).
  * The Jacobian of the stacked constraints is block tridiagonal with 2x2 blocks; a Newton step
  * solves it by block LU (the Thomas algorithm on 2x2 blocks). The moved vertices are projected
  * back onto the surfaces by tracing from the (new) previous vertex, x for the first, toward each
- * moved position; the step is scaled by beta, which halves when a projection misses the vertex's
- * surface, a vertex changes between transmission and reflection (or the specular direction does
- * not exist), or the constraints' norm does not decrease, and doubles (up to 1) after a success.
- * Stopping: converged when the full Newton step moves no vertex farther than tol_scene times the
- * scene's size (scale invariant); failed after max_iterations projections or when beta falls
- * below SPC_NEWTON_MIN_BETA (no progress).
+ * moved position. The step is first shortened so that no vertex moves by more than half its
+ * distance to the previous one (a trust region), then scaled by beta, which halves when a
+ * projection misses the vertex's surface, a vertex changes from transmission to reflection or back
+ * (a seed vertex on the wrong sides for its event may only be set right), the specular direction
+ * does not exist, or the constraints' norm does not decrease, and doubles (up to 1) after a
+ * success. Stopping: converged when the full Newton step moves no vertex farther than tol_scene
+ * times the scene's size (scale invariant) and every vertex has its event's sides; failed after
+ * max_iterations projections or when beta falls below SPC_NEWTON_MIN_BETA (no progress).
  *
  * Rough interfaces (Zeltner et al. 2020, sec. 4.3), with rough = true: isotropic roughconductor
  * and roughdielectric surfaces of constant roughness are chain vertices too. Each gets a
@@ -45,6 +48,7 @@
 #define SPC_MANIFOLD_NEWTON_H
 
 #include "core/rng.h"
+#include "manifold/angular.h"
 #include "manifold/chain.h"
 
 typedef enum spc_newton_constraint {
@@ -61,7 +65,8 @@ typedef struct spc_newton_options {
     bool rough;            /* rough interfaces as chain vertices (see above; off by default) */
 } spc_newton_options;
 
-/* HALF_VECTOR, SPC_NEWTON_MAX_ITERATIONS, tol_scene SPC_NEWTON_TOL_SCENE, rough off (newton.c). */
+/* ANGLE_DIFF (SPC_NEWTON_DEFAULT_CONSTRAINT), SPC_NEWTON_MAX_ITERATIONS, tol_scene
+ * SPC_NEWTON_TOL_SCENE, polish SPC_NEWTON_POLISH_ITERATIONS, rough off (newton.c). */
 void spc_newton_options_default(spc_newton_options *o);
 
 typedef struct spc_newton_vertex {
@@ -131,14 +136,20 @@ bool spc_newton_block_solve(int n, const double A[][2][2], const double B[][2][2
 double spc_newton_geometry(spc_vec3 x, const spc_newton_path *p, spc_vec3 y, spc_vec3 ny,
                            spc_newton_constraint kind);
 
+/* The chain (chain.h) of a solved path: traced from x toward its first vertex with its signature
+ * and refined by at most `polish` Gauss-Newton steps in direction space (spc_angular_solve with the
+ * target tg), which absorbs the ray offsets the tracer applies at every vertex. False if that does
+ * not converge. */
+bool spc_newton_to_chain(const spc_scene *sc, const spc_hit *x, const spc_newton_path *p,
+                         const spc_angular_target *tg, const spc_angular_options *ao, int polish, bool any_surface,
+                         spc_chain *out, int *iterations);
+
 struct spc_snee_query;
 struct spc_snee_params;
 struct spc_snee_stats;
-/* The solver-table entry (specular_nee.h): seed from the query's seed mode, Newton solve, then the
- * chain traced from x toward the first vertex with the solution's signature and refined by at most
- * polish_iterations Gauss-Newton steps in direction space (spc_angular_solve), which absorbs the
- * ray offsets the tracer applies at every vertex; the interface computes the contribution from
- * that chain. */
+/* The solver-table entry (specular_nee.h): seed from the query's seed mode, Newton solve, then
+ * spc_newton_to_chain with polish_iterations; the interface computes the contribution from that
+ * chain. */
 bool spc_newton_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations);
 
 /* Specular NEE with rough vertices (see above): like spc_specular_nee, with the microfacet normals
