@@ -159,7 +159,7 @@ static void scaling(int nq)
             memset(&shape, 0, sizeof shape);
             spc_mesh m = kind == 0 ? water_mesh(water_n[li], 1.5, 0.5) : blob_mesh(blob_n[li], spc_v3(0, 0, 0), 1.0, 0.15);
             spc_error err;
-            if (!spc_shape_init_mesh(&shape, &m, NULL, NULL, 0, 0, &err) || !spc_shape_prepare(&shape)) {
+            if (!spc_shape_init_mesh(&shape, &m, NULL, NULL, 0, 0, &err) || spc_shape_prepare(&shape) != SPC_OK) {
                 fprintf(stderr, "mesh failed\n");
                 return;
             }

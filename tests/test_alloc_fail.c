@@ -140,6 +140,8 @@ static void inject(const char *what, op_fn op, void *ctx, long max_runs)
     printf("  %s: %ld allocations; failing each: %d out-of-memory errors, %d other errors, %d successes\n", what,
            count, nomem, other, ok);
     CHECK(count > 0 && nomem > 0);
+    /* an allocation failure must read as one: spc_shape_prepare once reported it as "zero area" */
+    CHECK_MSG(other == 0, "%s: %d allocation failures reported as something other than out of memory", what, other);
 }
 
 /* ---- operations ---- */

@@ -905,7 +905,7 @@ TEST(hierarchy_matches_triangle_loop)
     long total = 0, same = 0, nodes = 0, tris_h = 0, tris_b = 0, queries = 0;
     for (int k = 0; k < 3; ++k) {
         spc_shape *s = shapes[k];
-        CHECK(spc_shape_prepare(s));
+        CHECK(spc_shape_prepare(s) == SPC_OK);
         spc_conic_mesh *cm = spc_conic_mesh_build(s);
         CHECK(cm != NULL);
         if (!cm)

@@ -327,14 +327,14 @@ static void make_sphere_pair(double scale, spc_shape *ana, spc_shape *sdf)
     memset(ana, 0, sizeof *ana);
     memset(sdf, 0, sizeof *sdf);
     CHECK(spc_shape_init_sphere(ana, c, scale, NULL, NULL, 0, 0, &err));
-    CHECK(spc_shape_prepare(ana));
+    CHECK(spc_shape_prepare(ana) == SPC_OK);
     spc_sdf *s = spc_sdf_create();
     spc_sdf_desc d = desc(SPC_SDF_SPHERE);
     d.radius = 1.0;
     int i = spc_sdf_add(s, &d, NULL, 0, 0, &err);
     spc_mat4 M = similarity(scale, spc_v3(0, 1, 0), 30.0, c);
     CHECK(spc_shape_init_sdf(sdf, s, i, &M, NULL, 0, 0, &err));
-    CHECK(spc_shape_prepare(sdf));
+    CHECK(spc_shape_prepare(sdf) == SPC_OK);
 }
 
 TEST(sphere_trace_matches_exact_sphere)
@@ -499,7 +499,7 @@ TEST(torus_normal_derivatives)
                              : spc_mat4_identity();
         CHECK(spc_shape_init_sdf(&sh, f, i, &M, NULL, 0, 0, &err));
         sh.flip_normals = variant == 1;
-        CHECK(spc_shape_prepare(&sh));
+        CHECK(spc_shape_prepare(&sh) == SPC_OK);
         double scale = variant ? 2.5 : 1.0, worst = 0.0, worst_p = 0.0;
         int hits = 0;
         for (int k = 0; k < 300; ++k) {

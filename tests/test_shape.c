@@ -18,7 +18,7 @@ TEST(sphere_intersection_precise)
     memset(&s, 0, sizeof s);
     spc_error err;
     CHECK(spc_shape_init_sphere(&s, spc_v3(1, 2, 3), 0.5, NULL, NULL, 0, 0, &err));
-    CHECK(spc_shape_prepare(&s));
+    CHECK(spc_shape_prepare(&s) == SPC_OK);
     CHECK_NEAR(s.area, SPC_PI, 1e-12);
     for (int i = 0; i < 1000; ++i) {
         double dist = pow(10.0, 6.0 * rnd()); /* from 1 to 1e6 away */
@@ -67,7 +67,7 @@ static void check_derivs_mesh(void)
     memset(&s, 0, sizeof s);
     spc_error err;
     CHECK(spc_shape_init_mesh(&s, &m, NULL, NULL, 0, 0, &err));
-    CHECK(spc_shape_prepare(&s));
+    CHECK(spc_shape_prepare(&s) == SPC_OK);
     spc_ray r = {spc_v3(0, 0, 1), spc_v3(0, 0, -1), 0, INFINITY};
     const double e = 1e-6;
     for (int i = 0; i < 50; ++i) {
@@ -140,7 +140,7 @@ TEST(analytic_disk_and_cylinder)
     spc_mat4 S = spc_mat4_scale(spc_v3(3, 3, 3));
     spc_mat4 M = spc_mat4_mul(&T, &S);
     CHECK(spc_shape_init_disk(&d, &M, NULL, 0, 0, &err));
-    CHECK(spc_shape_prepare(&d));
+    CHECK(spc_shape_prepare(&d) == SPC_OK);
     CHECK_NEAR(d.area, 9 * SPC_PI, 1e-9);
     spc_ray r = {spc_v3(1, 1, 5), spc_v3(0, 0, -1), 0, INFINITY};
     double t, u, v;
@@ -152,7 +152,7 @@ TEST(analytic_disk_and_cylinder)
     spc_shape c;
     memset(&c, 0, sizeof c);
     CHECK(spc_shape_init_cylinder(&c, spc_v3(0, 0, 0), spc_v3(0, 0, 2), 0.5, NULL, NULL, 0, 0, &err));
-    CHECK(spc_shape_prepare(&c));
+    CHECK(spc_shape_prepare(&c) == SPC_OK);
     CHECK_NEAR(c.area, 2 * SPC_PI * 0.5 * 2, 1e-9);
     spc_ray rc = {spc_v3(3, 0, 1), spc_v3(-1, 0, 0), 0, INFINITY};
     CHECK(spc_shape_intersect_analytic(&c, &rc, &t, &u, &v));
@@ -176,7 +176,7 @@ TEST(sphere_sampling_solid_angle)
     memset(&s, 0, sizeof s);
     spc_error err;
     CHECK(spc_shape_init_sphere(&s, spc_v3(0, 0, 0), 1.0, NULL, NULL, 0, 0, &err));
-    CHECK(spc_shape_prepare(&s));
+    CHECK(spc_shape_prepare(&s) == SPC_OK);
     spc_vec3 ref = spc_v3(0, 3, 0);
     double cos_max = sqrt(1 - 1.0 / 9.0);
     double exact = 2 * SPC_PI * (1 - cos_max);
@@ -208,7 +208,7 @@ TEST(mesh_area_sampling_uniform)
     spc_error err;
     spc_mat4 S = spc_mat4_scale(spc_v3(2, 1, 1));
     CHECK(spc_shape_init_rectangle(&s, &S, NULL, 0, 0, &err));
-    CHECK(spc_shape_prepare(&s));
+    CHECK(spc_shape_prepare(&s) == SPC_OK);
     CHECK_NEAR(s.area, 8.0, 1e-12);
     double mx = 0, mxx = 0;
     const int N = 100000;

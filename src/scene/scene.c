@@ -180,9 +180,12 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
         if (sh->interior_medium >= s->nmedia || sh->exterior_medium >= s->nmedia)
             return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "shape %d ('%s') refers to a medium that does not exist",
                                  i, sh->id);
-        if (!spc_shape_prepare(sh))
-            return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "shape %d ('%s') has zero area or invalid geometry",
-                                 i, sh->id);
+        spc_status ps = spc_shape_prepare(sh);
+        if (ps == SPC_ERR_NOMEM)
+            return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0,
+                                 "out of memory for the area sampling table of shape %d ('%s')", i, sh->id);
+        if (ps != SPC_OK)
+            return spc_error_set(err, ps, file, 0, 0, "shape %d ('%s') has zero area or invalid geometry", i, sh->id);
         lo = spc_vmin(lo, sh->bbox_min);
         hi = spc_vmax(hi, sh->bbox_max);
     }

@@ -266,21 +266,26 @@ static double tri_area(const spc_mesh *m, size_t i)
     return 0.5 * spc_length(spc_cross(spc_sub(b, a), spc_sub(c, a)));
 }
 
-bool spc_shape_prepare(spc_shape *s)
+spc_status spc_shape_prepare(spc_shape *s)
 {
     switch (s->type) {
     case SPC_SHAPE_MESH: {
         const spc_mesh *m = &s->mesh;
         double *w = malloc(m->ntris * sizeof(double));
         if (!w)
-            return false;
+            return SPC_ERR_NOMEM;
         double area = 0.0;
         for (size_t i = 0; i < m->ntris; ++i)
             area += (w[i] = tri_area(m, i));
+        if (!(area > 0.0) || !isfinite(area)) {
+            free(w);
+            return SPC_ERR_VALUE;
+        }
+        /* the weights are valid and not all zero, so only an allocation can fail here */
         bool ok = spc_distrib1d_init(&s->tri_distrib, w, m->ntris);
         free(w);
         if (!ok)
-            return false;
+            return SPC_ERR_NOMEM;
         s->area = area;
         spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
         for (size_t i = 0; i < m->nverts; ++i) {
@@ -289,13 +294,13 @@ bool spc_shape_prepare(spc_shape *s)
         }
         s->bbox_min = lo;
         s->bbox_max = hi;
-        return area > 0.0;
+        return SPC_OK;
     }
     case SPC_SHAPE_SPHERE:
         s->area = 4.0 * SPC_PI * s->radius * s->radius;
         s->bbox_min = spc_sub(s->center, spc_v3(s->radius, s->radius, s->radius));
         s->bbox_max = spc_add(s->center, spc_v3(s->radius, s->radius, s->radius));
-        return true;
+        return SPC_OK;
     case SPC_SHAPE_DISK:
     case SPC_SHAPE_CYLINDER: {
         /* area of the transformed surface: integrate |dp/du x dp/dv| numerically would be exact
@@ -316,17 +321,17 @@ bool spc_shape_prepare(spc_shape *s)
         }
         s->bbox_min = lo;
         s->bbox_max = hi;
-        return s->area > 0.0 && isfinite(s->area);
+        return s->area > 0.0 && isfinite(s->area) ? SPC_OK : SPC_ERR_VALUE;
     }
     case SPC_SHAPE_SDF:
         /* exact for one primitive, else a Crofton estimate (scene/sdf.c) */
         if (!s->sdf)
-            return false;
+            return SPC_ERR_VALUE;
         s->area = spc_sdf_area(s->sdf);
         spc_sdf_bounds(s->sdf, &s->bbox_min, &s->bbox_max);
-        return s->area > 0.0 && isfinite(s->area);
+        return s->area > 0.0 && isfinite(s->area) ? SPC_OK : SPC_ERR_VALUE;
     }
-    return false;
+    return SPC_ERR_INTERNAL;
 }
 
 /* ---- exact intersection of analytic shapes ---- */

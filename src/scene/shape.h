@@ -96,8 +96,9 @@ bool spc_shape_init_mesh(spc_shape *s, spc_mesh *m, const spc_mat4 *to_world, co
 bool spc_shape_init_sdf(spc_shape *s, struct spc_sdf *sdf, int root, const spc_mat4 *to_world, const char *file,
                         int line, int col, spc_error *err);
 
-/* Computes area, sampling tables and bounds. Returns false on allocation failure or zero area. */
-bool spc_shape_prepare(spc_shape *s);
+/* Computes area, sampling tables and bounds. SPC_OK; SPC_ERR_NOMEM if the sampling table could not
+ * be allocated; SPC_ERR_VALUE if the area is zero or not finite (or an SDF shape has no field). */
+spc_status spc_shape_prepare(spc_shape *s);
 void spc_shape_release(spc_shape *s);
 
 /* Exact intersection for analytic shapes: the nearest t in (tmin, tmax), or false.
