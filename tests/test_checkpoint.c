@@ -8,7 +8,8 @@
  * from a fixed-seed generator; resumes are killed too. Also: SIGINT gives exit 130 and an EXR whose
  * "spp" attribute is below the target and whose pixels equal an in-process render at that spp;
  * corrupt, truncated, foreign-scene, foreign-settings and foreign-version checkpoints are refused
- * with clear messages; an in-process cancel stops at a pass boundary.
+ * with clear messages, also when only a file the scene references (an OBJ, an include) changed;
+ * an in-process cancel stops at a pass boundary.
  */
 /* ctest-labels: scene */
 /* ctest-timeout: 600 */
@@ -527,6 +528,139 @@ TEST(other_scene_refused)
     CHECK(run(bad2) == 2);
 }
 
+/* A floor read from floor.obj, lit by a rectangle light from an included light.xml; bdpt. */
+static const char *mesh_scene =
+    "<scene version=\"3.0.0\">\n"
+    "  <integrator type=\"bdpt\"><integer name=\"max_depth\" value=\"3\"/></integrator>\n"
+    "  <sensor type=\"perspective\">\n"
+    "    <float name=\"fov\" value=\"45\"/>\n"
+    "    <transform name=\"to_world\"><lookat origin=\"0, 0, 4\" target=\"0, 0, 0\" up=\"0, 1, 0\"/></transform>\n"
+    "    <film type=\"hdrfilm\"><integer name=\"width\" value=\"12\"/><integer name=\"height\" value=\"12\"/>"
+    "<rfilter type=\"box\"/></film>\n"
+    "  </sensor>\n"
+    "  <shape type=\"obj\"><string name=\"filename\" value=\"floor.obj\"/>\n"
+    "    <bsdf type=\"diffuse\"/></shape>\n"
+    "  <include filename=\"light.xml\"/>\n"
+    "</scene>\n";
+
+static const char *mesh_light =
+    "<scene version=\"3.0.0\">\n"
+    "  <shape type=\"rectangle\">\n"
+    "    <transform name=\"to_world\"><scale x=\"0.3\" y=\"0.3\" z=\"0.3\"/><rotate x=\"1\" angle=\"180\"/>"
+    "<translate z=\"2\"/></transform>\n"
+    "    <emitter type=\"area\"><rgb name=\"radiance\" value=\"5, 5, 5\"/></emitter>\n"
+    "  </shape>\n"
+    "</scene>\n";
+
+static const char *floor_obj = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n";
+
+static bool put_text(const char *name, const char *text)
+{
+    return spit(tmp_path(name), (const unsigned char *)text, (long)strlen(text));
+}
+
+/* A checkpoint holds the hash of every file the scene references, not only of the scene file: a
+ * mesh or an included file that changed between checkpoint and resume is refused by name. */
+TEST(referenced_files_refused)
+{
+    CHECK(put_text("mesh.xml", mesh_scene) && put_text("light.xml", mesh_light) && put_text("floor.obj", floor_obj));
+    const char *start[] = {"render", "mesh.xml", "--spp", "4", "--quiet", "-o", "mesh.exr", "--checkpoint",
+                           "mesh.ckpt", NULL};
+    int rc = run(start);
+    CHECK_MSG(rc == 0, "exit %d", rc);
+    if (rc != 0) {
+        show_err();
+        return;
+    }
+    /* the same bytes written again (a new modification time) are the same scene */
+    CHECK(put_text("floor.obj", floor_obj));
+    const char *resume[] = {"render", "--resume", "mesh.ckpt", "--spp", "6", "--quiet", NULL};
+    rc = run(resume);
+    CHECK_MSG(rc == 0, "resume of an unchanged scene: exit %d", rc);
+    if (rc != 0)
+        show_err();
+    CHECK(ckpt_spp(tmp_path("mesh.ckpt")) == 6);
+    long before = file_size(tmp_path("mesh.exr"));
+
+    /* one vertex of the OBJ moves: refused, exit 3, nothing written */
+    CHECK(copy_file(tmp_path("mesh.exr"), tmp_path("mesh_kept.exr")));
+    CHECK(put_text("floor.obj", "v -1 -1 0\nv 1 -1 0\nv 1 1 0.01\nv -1 1 0\nf 1 2 3\nf 1 3 4\n"));
+    const char *resume8[] = {"render", "--resume", "mesh.ckpt", "--spp", "8", "--quiet", NULL};
+    rc = run(resume8);
+    CHECK_MSG(rc == 3, "resume after the mesh changed: exit %d", rc);
+    CHECK(err_contains("belongs to another scene"));
+    CHECK(err_contains("a file it references (mesh"));
+    CHECK(ckpt_spp(tmp_path("mesh.ckpt")) == 6);
+    long sa = 0, sb = 0;
+    unsigned char *a = slurp(tmp_path("mesh.exr"), &sa), *b = slurp(tmp_path("mesh_kept.exr"), &sb);
+    CHECK(a && b && sa == before && sa == sb && memcmp(a, b, (size_t)sa) == 0);
+    free(a);
+    free(b);
+
+    /* the OBJ back as it was, the included file changes: refused too */
+    CHECK(put_text("floor.obj", floor_obj));
+    char *light = strdup(mesh_light);
+    char *v = light ? strstr(light, "5, 5, 5") : NULL;
+    CHECK(v != NULL);
+    if (v)
+        v[0] = '6';
+    CHECK(light && put_text("light.xml", light));
+    free(light);
+    rc = run(resume8);
+    CHECK_MSG(rc == 3, "resume after the included file changed: exit %d", rc);
+    CHECK(err_contains("belongs to another scene"));
+    /* and both as they were: accepted again */
+    CHECK(put_text("light.xml", mesh_light));
+    rc = run(resume8);
+    CHECK_MSG(rc == 0, "exit %d", rc);
+    CHECK(ckpt_spp(tmp_path("mesh.ckpt")) == 8);
+}
+
+/* Settings that change pixel values are recorded, and a resume with another value is refused. */
+TEST(bdpt_settings_recorded)
+{
+    CHECK(put_text("mesh.xml", mesh_scene) && put_text("light.xml", mesh_light) && put_text("floor.obj", floor_obj));
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK(spc_scene_load(tmp_path("mesh.xml"), NULL, 0, &sc, &err) == SPC_OK);
+    if (!sc)
+        return;
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = 3;
+    o.mis_balance = true;
+    o.checkpoint_path = tmp_path("balance.ckpt");
+    spc_film *film = NULL, *full = NULL;
+    CHECK(spc_render(sc, &o, &film, NULL, &err) == SPC_OK);
+    spc_film_destroy(film);
+    film = NULL;
+    spc_checkpoint *c = NULL;
+    CHECK(spc_checkpoint_load(tmp_path("balance.ckpt"), &c, &err) == SPC_OK);
+    if (c) {
+        spc_checkpoint_info info;
+        spc_checkpoint_get_info(c, &info);
+        CHECK_MSG(strstr(info.settings, "mis_balance=1;") != NULL, "%s", info.settings);
+        CHECK_MSG(strstr(info.settings, "specular_max_chain=2;") != NULL, "%s", info.settings);
+        o.checkpoint_path = NULL;
+        o.resume = c;
+        o.spp = 5;
+        o.mis_balance = false; /* the power heuristic now */
+        CHECK(spc_render(sc, &o, &film, NULL, &err) == SPC_ERR_VALUE && !film);
+        CHECK_MSG(strstr(err.msg, "mis_balance=0 now, mis_balance=1 in the checkpoint") != NULL, "%s", err.msg);
+        o.mis_balance = true;
+        CHECK(spc_render(sc, &o, &film, NULL, &err) == SPC_OK);
+        /* equal to an uninterrupted balance-heuristic render */
+        o.resume = NULL;
+        CHECK(spc_render(sc, &o, &full, NULL, &err) == SPC_OK);
+        if (film && full)
+            CHECK(memcmp(spc_film_rgb(film), spc_film_rgb(full), 3 * 12 * 12 * sizeof(float)) == 0);
+    }
+    spc_film_destroy(film);
+    spc_film_destroy(full);
+    spc_checkpoint_destroy(c);
+    spc_scene_destroy(sc);
+}
+
 /* ---- in-process: resume through the API, cancel at a pass boundary ---- */
 
 static void *cancel_later(void *arg)
@@ -671,6 +805,8 @@ int main(void)
     RUN(corrupt_checkpoints_refused);
     RUN(other_version_refused);
     RUN(other_scene_refused);
+    RUN(referenced_files_refused);
+    RUN(bdpt_settings_recorded);
     RUN(api_resume_and_cancel);
     remove_tree(tmpdir);
     return spc_test_finish();

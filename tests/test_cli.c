@@ -316,6 +316,58 @@ TEST(tiny_scene_renders_and_diffs)
     CHECK(run("diff", "small.exr", "out.exr", NULL) == 3);
 }
 
+/* The mean squared difference `specula diff A B --json` reports, or -1. */
+static double diff_mse(const char *a, const char *b)
+{
+    if (run("diff", a, b, "--json", NULL) != 0)
+        return -1.0;
+    char *o = read_file("out.txt");
+    const char *m = o ? strstr(o, "\"mse\": ") : NULL;
+    double v = m ? atof(m + strlen("\"mse\": ")) : -1.0;
+    free(o);
+    return v;
+}
+
+/* --mis-balance reaches bdpt (the image changes, the mean does not move far), the integrator
+ * property mis_balance does the same, and a checkpoint keeps it for --resume. */
+TEST(mis_balance_flag)
+{
+    CHECK(run("render", "--help", NULL) == 0);
+    char *o = read_file("out.txt");
+    CHECK(o && strstr(o, "--mis-balance"));
+    free(o);
+    CHECK(write_file("tiny.xml", tiny_scene));
+    CHECK(run("render", "tiny.xml", "--integrator", "bdpt", "--spp", "8", "--seed", "3", "--quiet", "-o",
+              "power.exr", NULL) == 0);
+    int rc = run("render", "tiny.xml", "--integrator", "bdpt", "--mis-balance", "--spp", "8", "--seed", "3", "--quiet",
+                 "-o", "balance.exr", NULL);
+    CHECK_MSG(rc == 0, "exit %d", rc);
+    if (rc != 0)
+        show_output();
+    CHECK(diff_mse("balance.exr", "power.exr") > 0.0);
+
+    /* the same through the scene: <boolean name="mis_balance" value="true"/> */
+    const char *at = strstr(tiny_scene, "  </integrator>");
+    CHECK(at != NULL);
+    if (!at)
+        return;
+    char xml[4096];
+    snprintf(xml, sizeof xml, "%.*s    <boolean name=\"mis_balance\" value=\"true\"/>\n%s", (int)(at - tiny_scene),
+             tiny_scene, at);
+    CHECK(write_file("tiny_balance.xml", xml));
+    CHECK(run("render", "tiny_balance.xml", "--integrator", "bdpt", "--spp", "8", "--seed", "3", "--quiet", "-o",
+              "balance_xml.exr", NULL) == 0);
+    CHECK(diff_mse("balance_xml.exr", "balance.exr") == 0.0);
+
+    /* recorded in the checkpoint: the resumed render uses it, and it cannot be changed there */
+    CHECK(run("render", "tiny.xml", "--integrator", "bdpt", "--mis-balance", "--spp", "5", "--seed", "3", "--quiet",
+              "-o", "resumed.exr", "--checkpoint", "balance.ckpt", NULL) == 0);
+    CHECK(run("render", "--resume", "balance.ckpt", "--mis-balance", "--quiet", NULL) == 2);
+    rc = run("render", "--resume", "balance.ckpt", "--spp", "8", "--quiet", NULL);
+    CHECK_MSG(rc == 0, "exit %d", rc);
+    CHECK(diff_mse("resumed.exr", "balance.exr") == 0.0);
+}
+
 TEST(default_output_name)
 {
     CHECK(write_file("tiny.xml", tiny_scene));
@@ -393,6 +445,7 @@ int main(void)
     RUN(failed_run_keeps_existing_output);
     RUN(tiny_scene_renders_and_diffs);
     RUN(default_output_name);
+    RUN(mis_balance_flag);
     RUN(info_prints_triangles);
     RUN(stats_json);
     int rc = spc_test_finish();

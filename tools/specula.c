@@ -90,6 +90,8 @@ static const char *const usage_render =
     "  --stats FILE.json      write render statistics as JSON\n"
     "  --strategy S,T         bdpt: render only the (s, t) strategy, unweighted\n"
     "  --strategy-weighted    with --strategy: apply the MIS weight\n"
+    "  --mis-balance          bdpt: weight strategies by the balance heuristic instead of the\n"
+    "                         power heuristic (also the integrator property mis_balance)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"
     "                         seconds, and when the render ends or is interrupted\n"
@@ -634,6 +636,9 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
                                    v ? v : "");
         } else if (!strcmp(a, "--strategy-weighted")) {
             opt.strategy_weighted = true;
+            ++i;
+        } else if (!strcmp(a, "--mis-balance")) {
+            opt.mis_balance = true;
             ++i;
         } else if (!strcmp(a, "--variance")) {
             variance = true;

@@ -89,7 +89,8 @@ typedef struct spc_render_options {
     volatile int *cancel;    /* polled between passes; nonzero stops the render cleanly */
     int strategy_s, strategy_t; /* bdpt debug: >= 0 renders only the (s, t) strategy, unweighted */
     bool strategy_weighted;  /* with strategy_s/t: apply the MIS weight */
-    bool mis_balance;        /* bdpt: balance heuristic instead of the power heuristic (beta = 2) */
+    bool mis_balance;        /* bdpt: balance heuristic instead of the power heuristic (beta = 2); also on
+                              * when the scene's integrator says <boolean name="mis_balance" value="true"/> */
     /* Checkpoints (see spc_checkpoint below). With checkpoint_path the film's state is written there
      * atomically at pass boundaries, at least checkpoint_every seconds apart (<= 0: after every batch
      * of passes, which are then kept short), and once more when the render ends or is cancelled.

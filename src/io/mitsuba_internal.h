@@ -95,6 +95,7 @@ typedef struct mts_loader {
     char *base_dir;
     mts_doc *docs;
     int ndocs, cap_docs;
+    uint64_t files_hash; /* of every file mts_resolve found, in order: becomes spc_scene.files_hash */
 
     mts_id *ids;
     int nids, cap_ids;

@@ -25,7 +25,8 @@
  *               sobol: sample_count 4, seed 0 (specula has one sampler; the type is not kept)
  *   integrator  path, prb (-> path), volpath, volpathmis (-> volpath), direct (-> path, max_depth
  *               2), bdpt, ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" | angular |
- *               newton | conic), specular_max_chain; aov, moment, stokes: the nested integrator.
+ *               newton | conic), specular_max_chain, mis_balance (false; bdpt: the balance
+ *               heuristic instead of the power heuristic); aov, moment, stokes: the nested integrator.
  *               The define "@integrator" replaces the file's integrator type (its properties are
  *               still read), so that a scene made for another renderer's integrator can load.
  */
@@ -41,6 +42,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "core/hash.h"
 #include "io/mitsuba_internal.h"
 
 #define MAX_RESOLUTION 65536  /* film width/height beyond which a file is surely wrong */
@@ -136,6 +138,15 @@ static const char *doc_dir(const mts_loader *L, const spc_xml_node *at)
     return L->base_dir;
 }
 
+/* Every file the scene refers to is found here, so its bytes enter the scene's hash here: a
+ * checkpoint is then refused when a mesh or a texture changed, not only the XML (checkpoint.h). A
+ * file that cannot be read folds in as far as it was read; loading it fails anyway. */
+static bool found(mts_loader *L, const char *path)
+{
+    (void)spc_fnv1a_file(&L->files_hash, path);
+    return true;
+}
+
 bool mts_resolve(mts_loader *L, const spc_xml_node *at, const char *name, char *out, size_t size)
 {
     char buf[4096];
@@ -143,24 +154,24 @@ bool mts_resolve(mts_loader *L, const spc_xml_node *at, const char *name, char *
         if (!is_file(name) || strlen(name) >= size)
             return false;
         strcpy(out, name);
-        return true;
+        return found(L, out);
     }
     const char *cands[3] = {doc_dir(L, at), L->base_dir, NULL};
     for (int i = 0; i < 2; ++i) {
         if (join_path(buf, sizeof buf, cands[i], name) && is_file(buf) && strlen(buf) < size) {
             strcpy(out, buf);
-            return true;
+            return found(L, out);
         }
     }
     for (int i = L->ndirs - 1; i >= 0; --i) {
         if (join_path(buf, sizeof buf, L->dirs[i], name) && is_file(buf) && strlen(buf) < size) {
             strcpy(out, buf);
-            return true;
+            return found(L, out);
         }
     }
     if (is_file(name) && strlen(name) < size) {
         strcpy(out, name);
-        return true;
+        return found(L, out);
     }
     return false;
 }
@@ -1451,6 +1462,8 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     it->max_depth = max_depth == 2 ? 2 : mts_get_int(L, &P, "max_depth", -1);
     it->rr_depth = mts_get_int(L, &P, "rr_depth", 5);
     it->hide_emitters = mts_get_bool(L, &P, "hide_emitters", false);
+    /* specula's own (bdpt); read for every type so that --integrator path on a bdpt scene is quiet */
+    it->mis_balance = mts_get_bool(L, &P, "mis_balance", false);
     mts_ignore(&P, "strict_normals");
     if (mts_has(&P, "specular_nee")) {
         const char *nee = mts_get_string(L, &P, "specular_nee", "");
@@ -1546,6 +1559,7 @@ static spc_status load(const char *xml, size_t len, const char *name, const char
     mts_loader L;
     memset(&L, 0, sizeof L);
     L.err = err;
+    L.files_hash = SPC_FNV_OFFSET;
     L.base_dir = dup_str(dir ? dir : ".");
     mts_doc *doc = NULL;
     if (!L.base_dir) {
@@ -1611,6 +1625,7 @@ static spc_status load(const char *xml, size_t len, const char *name, const char
     it->hide_emitters = false;
     snprintf(L.scene->path, sizeof L.scene->path, "%s", name);
     build_scene(&L, root);
+    L.scene->files_hash = L.files_hash;
     if (L.status == SPC_OK) {
         st = spc_scene_finalize(L.scene, err);
         if (st != SPC_OK)

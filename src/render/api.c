@@ -25,7 +25,8 @@ spc_status spc_scene_load(const char *path, const spc_define *defs, int ndefs, s
         return spc_error_set(err, SPC_ERR_VALUE, path, 0, 0, "invalid list of -D definitions");
     spc_status st = spc_mitsuba_load(path, defs, ndefs, out, err);
     if (st == SPC_OK)
-        (*out)->content_hash = spc_ckpt_scene_hash(path, defs, ndefs); /* checkpoints refuse other scenes */
+        /* checkpoints refuse other scenes */
+        (*out)->content_hash = spc_ckpt_scene_hash(path, defs, ndefs, (*out)->files_hash);
     return st;
 }
 

@@ -30,34 +30,17 @@ static const char ckpt_magic[8] = {'S', 'P', 'C', 'C', 'K', 'P', 'T', '\0'};
 #define CKPT_MAX_SIDE 65536             /* the driver's film limits */
 #define CKPT_MAX_PIXELS (1LL << 28)
 
-uint64_t spc_fnv1a(uint64_t h, const void *data, size_t n)
+uint64_t spc_ckpt_scene_hash(const char *path, const spc_define *defs, int ndefs, uint64_t files_hash)
 {
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; ++i) {
-        h ^= p[i];
-        h *= 0x100000001b3ull;
-    }
-    return h;
-}
-
-uint64_t spc_ckpt_scene_hash(const char *path, const spc_define *defs, int ndefs)
-{
-    FILE *fp = path ? fopen(path, "rb") : NULL;
-    if (!fp)
-        return 0;
     uint64_t h = SPC_FNV_OFFSET;
-    unsigned char buf[65536];
-    for (size_t n; (n = fread(buf, 1, sizeof buf, fp)) > 0;)
-        h = spc_fnv1a(h, buf, n);
-    bool bad = ferror(fp) != 0;
-    fclose(fp);
-    if (bad)
+    if (!spc_fnv1a_file(&h, path))
         return 0;
     for (int i = 0; i < ndefs; ++i) {
         const char *name = defs[i].name ? defs[i].name : "", *value = defs[i].value ? defs[i].value : "";
         h = spc_fnv1a(h, name, strlen(name) + 1);
         h = spc_fnv1a(h, value, strlen(value) + 1);
     }
+    h = spc_fnv1a(h, &files_hash, sizeof files_hash);
     return h ? h : 1;
 }
 
@@ -67,10 +50,12 @@ void spc_ckpt_settings_text(const struct spc_render_ctx *ctx, const char *specul
     const spc_film_spec *fs = ctx->film;
     snprintf(buf, size,
              "integrator=%s;max_depth=%d;rr_depth=%d;hide_emitters=%d;strategy=%d,%d,%d;mis_balance=%d;"
-             "specular_nee=%s;seed=%llu;film=%dx%d;crop=%d,%d,%d,%d;filter=%d,%.17g,%.17g;aovs=%d",
+             "specular_nee=%s;specular_max_chain=%d;seed=%llu;film=%dx%d;crop=%d,%d,%d,%d;filter=%d,%.17g,%.17g;"
+             "aovs=%d",
              spc_integrator_kind_name(ctx->kind), ctx->max_depth, ctx->rr_depth, (int)ctx->hide_emitters,
              ctx->strategy_s, ctx->strategy_t, (int)ctx->strategy_weighted, (int)ctx->mis_balance,
-             specular_nee ? specular_nee : "", (unsigned long long)seed, fs->width, fs->height, ctx->crop_x,
+             specular_nee ? specular_nee : "", ctx->specular_max_chain, (unsigned long long)seed, fs->width,
+             fs->height, ctx->crop_x,
              ctx->crop_y, ctx->width, ctx->height, (int)fs->rfilter, fs->filter_radius, fs->filter_stddev,
              (int)aovs);
 }
@@ -390,7 +375,8 @@ spc_status spc_ckpt_restore(const struct spc_checkpoint *c, uint64_t scene_hash,
     if (c->scene_hash != scene_hash)
         return spc_error_set(err, SPC_ERR_VALUE, c->path, 0, 0,
                              "this checkpoint belongs to another scene: it was written for '%s' (hash %016llx), but "
-                             "the scene being rendered, its file contents or its -D definitions differ (hash %016llx)",
+                             "the scene being rendered differs (hash %016llx): its file, a file it references (mesh, "
+                             "texture, envmap, include) or its -D definitions changed",
                              c->scene_path, (unsigned long long)c->scene_hash, (unsigned long long)scene_hash);
     if (strcmp(c->settings, settings) != 0) {
         char diff[512];

@@ -14,7 +14,8 @@
  *   0       8     magic "SPCCKPT\0"
  *   8       4     format (u32)
  *   12      16    specula version that wrote it, NUL-padded
- *   28      8     scene hash (u64; spc_scene.content_hash: the scene file's bytes and its defines)
+ *   28      8     scene hash (u64; spc_scene.content_hash: the bytes of the scene file and of every
+ *                 file it references, and its defines)
  *   36      8     settings hash (u64; FNV-1a of the settings text below)
  *   44      4     spp_done (i32): passes in the sums
  *   48      4     spp_target (i32): passes the render was asked for
@@ -36,6 +37,7 @@
 #include <stdint.h>
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "render/film.h"
 
 #define SPC_CKPT_FORMAT 1u
@@ -63,12 +65,9 @@ typedef struct spc_ckpt_meta {
     const char *user; /* may be NULL */
 } spc_ckpt_meta;
 
-/* FNV-1a, 64 bit: h is the running hash (start with SPC_FNV_OFFSET). */
-#define SPC_FNV_OFFSET 0xcbf29ce484222325ull
-uint64_t spc_fnv1a(uint64_t h, const void *data, size_t n);
-
-/* Hash of a scene file's bytes followed by each define's name and value; 0 if it cannot be read. */
-uint64_t spc_ckpt_scene_hash(const char *path, const spc_define *defs, int ndefs);
+/* Hash of a scene file's bytes, each define's name and value, and files_hash (spc_scene.files_hash:
+ * the bytes of every file the scene references); 0 if the scene file cannot be read. */
+uint64_t spc_ckpt_scene_hash(const char *path, const spc_define *defs, int ndefs, uint64_t files_hash);
 
 /* The resolved settings that decide every pass's values, as "key=value;..." text (their hash is the
  * settings hash): integrator, depths, strategies, specular NEE, seed, film, crop and filter, AOVs.

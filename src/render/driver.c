@@ -178,7 +178,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "unknown specular NEE solver '%s'; specula has: %s", sname,
                              spc_specular_solver_names());
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
-    ctx.mis_balance = o->mis_balance;
+    ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
 
     spc_film_spec fs = sc->film;
     if (o->width > 0 && o->height > 0) {

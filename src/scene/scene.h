@@ -64,6 +64,7 @@ typedef struct spc_integrator_spec {
     bool hide_emitters;
     char specular_nee[32];  /* "" (off), "angular", "newton", "conic" */
     int specular_max_chain; /* longest chain of specular vertices for specular NEE */
+    bool mis_balance;       /* bdpt: balance heuristic instead of the power heuristic */
     char decl_file[512];    /* where the integrator was declared, for error messages */
     int decl_line, decl_col;
 } spc_integrator_spec;
@@ -98,7 +99,11 @@ typedef struct spc_scene {
     bool finalized;
 
     char path[512]; /* the file it was loaded from, if any */
-    uint64_t content_hash; /* of that file's bytes and the -D defines (spc_scene_load), 0 if unknown */
+    /* FNV-1a of the bytes of every file the scene file references (includes, meshes, textures,
+     * envmaps, spectra), in the order the loader resolved them; SPC_FNV_OFFSET if none */
+    uint64_t files_hash;
+    /* of the scene file's bytes, the -D defines and files_hash (spc_scene_load), 0 if unknown */
+    uint64_t content_hash;
 } spc_scene;
 
 /* Returns NULL on allocation failure. */
