@@ -13,7 +13,15 @@
  *   in [1.1, 2.5]) against an independent dense search (a 120 x 120 grid of the residual, Newton
  *   from every local minimum, deduplication): recall 100% of the search's solutions, precision
  *   100% (every solution satisfies the law to 1e-9).
- * - The Specular Polynomials refraction fixture (Fan et al. 2024, test "T #1").
+ * - Constructed cases the random ones reach only by chance: the normal field bent (keeping a known
+ *   solution) until the conic is a parabola, a line pair or a point, or tangent to an edge at a
+ *   solution (from inside and from outside); y on the caustic of a known solution (a double root
+ *   of the law); vertex normals on both sides of the face (the interpolated normal flips). Each
+ *   against the known solution and the dense search.
+ * - Each culling test of the hierarchy alone (sidedness, normal cone against the half-vector cone,
+ *   spindle) never culls a ball holding a solution, and does cull random balls.
+ * - The Specular Polynomials refraction fixture (Fan et al. 2024, test "T #1"), which is not an
+ *   admissible refraction (see the test).
  * - The hierarchy returns the same solutions as the loop over every triangle.
  * - The distance correction factor (ray differentials) against the chain's generalized geometry
  *   term, and the closed form for a flat interface.
@@ -750,6 +758,436 @@ TEST(solver_against_dense_search)
           type_count[SPC_CONIC_PLANE] > 0);
 }
 
+/* ================= constructed special cases ================= */
+
+static spc_vec2 conic_grad_of(const spc_conic *q, double u, double v)
+{
+    return spc_v2(2.0 * q->A * u + q->B * v + q->D, q->B * u + 2.0 * q->C * v + q->E);
+}
+
+/* The scattered direction of -wx about the unit normal nh (reflection, or refraction with the
+ * solver's convention: index 1 on the side nh points to, eta behind); false on total internal
+ * reflection. */
+static bool scatter_dir(const spc_conic_problem *pb, spc_vec3 wx, spc_vec3 nh, spc_vec3 *out)
+{
+    spc_vec3 d = spc_neg(wx);
+    if (pb->event == SPC_CONIC_REFLECT) {
+        *out = spc_sub(d, spc_scale(nh, 2.0 * spc_dot(d, nh)));
+        return true;
+    }
+    double c = -spc_dot(d, nh), r = c > 0.0 ? 1.0 / pb->eta : pb->eta;
+    spc_vec3 m = c > 0.0 ? nh : spc_neg(nh);
+    c = fabs(c);
+    double k = 1.0 - r * r * (1.0 - c * c);
+    if (!(k > 0.0))
+        return false;
+    *out = spc_add(spc_scale(d, r), spc_scale(m, r * c - sqrt(k)));
+    return true;
+}
+
+/* A random triangle (vertex normals within `spread` of the face normal) with x and y built around
+ * a solution at (us, vs); false if the scattered ray could not be built. */
+static bool config_with_solution(int event, double spread, double us, double vs, spc_conic_tri *t,
+                                 spc_conic_problem *pb)
+{
+    spc_vec3 p[3], n[3];
+    for (int k = 0; k < 3; ++k)
+        p[k] = rnd_vec(-1, 1);
+    spc_vec3 ng = spc_normalize(spc_cross(spc_sub(p[1], p[0]), spc_sub(p[2], p[0])));
+    for (int k = 0; k < 3; ++k)
+        n[k] = spc_normalize(spc_add(ng, rnd_vec(-spread, spread)));
+    *t = spc_conic_tri_make(p[0], p[1], p[2], n[0], n[1], n[2]);
+    pb->event = event;
+    pb->eta = rnd_in(1.1, 2.5);
+    pb->front_only = false;
+    spc_vec3 P = spc_conic_tri_point(t, us, vs), nh = spc_normalize(spc_conic_tri_normal(t, us, vs));
+    for (int tries = 0; tries < 100; ++tries) {
+        spc_vec3 wx = rnd_unit(), out;
+        if (fabs(spc_dot(wx, nh)) < 0.1 || !scatter_dir(pb, wx, nh, &out))
+            continue;
+        pb->x = spc_madd(P, wx, rnd_in(0.5, 3.0));
+        pb->y = spc_madd(P, out, rnd_in(0.5, 3.0));
+        return true;
+    }
+    return false;
+}
+
+/* The triangle with the normal field changed by tau (w (u - us) or w (v - vs) for dir 0 or 1):
+ * the normal at (us, vs), hence the solution there, is unchanged. */
+static spc_conic_tri bend_normals(const spc_conic_tri *t0, int dir, spc_vec3 w, double us, double vs, double tau)
+{
+    spc_conic_tri t = *t0;
+    if (dir == 0) {
+        t.dn1 = spc_madd(t.dn1, w, tau);
+        t.n0 = spc_madd(t.n0, w, -us * tau);
+    } else {
+        t.dn2 = spc_madd(t.dn2, w, tau);
+        t.n0 = spc_madd(t.n0, w, -vs * tau);
+    }
+    return t;
+}
+
+static double det3_of(const spc_conic *q)
+{
+    double a = q->A, b = 0.5 * q->B, c = q->C, d = 0.5 * q->D, e = 0.5 * q->E, f = q->F;
+    return a * (c * f - e * e) - b * (b * f - e * d) + d * (b * e - c * d);
+}
+
+/* A root of g on [lo, hi] from a sign change on a grid of 400 cells, bisected to the last bit;
+ * false without a sign change. */
+static bool bracket_root(double (*g)(double, void *), void *ctx, double lo, double hi, double *root)
+{
+    const int N = 400;
+    double a = lo, ga = g(lo, ctx);
+    for (int i = 1; i <= N; ++i) {
+        double b = lo + (hi - lo) * i / N, gb = g(b, ctx);
+        if (isfinite(ga) && isfinite(gb) && ga * gb <= 0.0) {
+            for (int k = 0; k < 200 && b - a > 0.0; ++k) {
+                double m = 0.5 * (a + b), gm = g(m, ctx);
+                if (m <= a || m >= b)
+                    break;
+                if (ga * gm <= 0.0) {
+                    b = m;
+                    gb = gm;
+                } else {
+                    a = m;
+                    ga = gm;
+                }
+            }
+            *root = fabs(ga) < fabs(gb) ? a : b;
+            return true;
+        }
+        a = b;
+        ga = gb;
+    }
+    return false;
+}
+
+typedef struct bend_ctx {
+    const spc_conic_tri *t;
+    const spc_conic_problem *pb;
+    int dir, what; /* what: 0 the parabola discriminant, 1 det of the 3x3 matrix, 2 dQ/du at (us, 0) */
+    spc_vec3 w;
+    double us, vs;
+} bend_ctx;
+
+static double bend_g(double tau, void *p)
+{
+    const bend_ctx *b = p;
+    spc_conic_tri t = bend_normals(b->t, b->dir, b->w, b->us, b->vs, tau);
+    spc_conic q = spc_conic_coplanarity(&t, b->pb->x, b->pb->y);
+    double s = fmax(fmax(fmax(fabs(q.A), fabs(q.B)), fmax(fabs(q.C), fabs(q.D))), fmax(fabs(q.E), fabs(q.F)));
+    if (!(s > 0.0))
+        return NAN;
+    if (b->what == 0)
+        return (q.B * q.B - 4.0 * q.A * q.C) / (s * s);
+    if (b->what == 1)
+        return det3_of(&q) / (s * s * s);
+    return (2.0 * q.A * b->us + q.B * b->vs + q.D) / s;
+}
+
+/* Checks one constructed case: the known solution (us, vs) is returned (within `near` in
+ * barycentrics), every returned solution satisfies the law, and every solution of the dense search
+ * strictly inside is returned. Returns false (and says why) on a failure. */
+static bool check_case(const spc_conic_tri *t, const spc_conic_problem *pb, double us, double vs, double near,
+                       const char *what, int *inner)
+{
+    spc_conic_solution sol[32];
+    int ns = spc_conic_solve_triangle(t, pb, sol, 32, NULL);
+    bool found = false;
+    for (int i = 0; i < ns; ++i) {
+        double ex, ey;
+        spc_vec3 R;
+        double res = bf_law(t, pb, sol[i].u, sol[i].v, &ex, &ey, &R);
+        if (!(res <= 1e-9)) {
+            printf("    %s: solution (%.12g, %.12g) residual %.3g\n", what, sol[i].u, sol[i].v, res);
+            return false;
+        }
+        found = found || hypot(sol[i].u - us, sol[i].v - vs) < near;
+    }
+    if (!found) {
+        printf("    %s: the known solution (%.12g, %.12g) missed (%d returned)\n", what, us, vs, ns);
+        return false;
+    }
+    double bf[BF_MAX][2];
+    int nb = brute_force(t, pb, bf, BF_MAX);
+    for (int j = 0; j < nb; ++j) {
+        double u = bf[j][0], v = bf[j][1];
+        if (u < 1e-7 || v < 1e-7 || u + v > 1 - 1e-7)
+            continue;
+        ++*inner;
+        bool got = false;
+        for (int i = 0; i < ns; ++i)
+            got = got || hypot(sol[i].u - u, sol[i].v - v) < fmax(near, 1e-6);
+        if (!got) {
+            printf("    %s: the dense search's (%.12g, %.12g) missed (%.3g from the known one)\n", what, u, v,
+                   hypot(u - us, v - vs));
+            return false;
+        }
+    }
+    return true;
+}
+
+/* Conics the random configurations reach only by chance: the normal field is bent, keeping a known
+ * solution, until the conic is a parabola, a line pair or a point (the solution then the point
+ * itself), or tangent to an edge at a solution on it; each case against the known solution and
+ * the dense search. */
+TEST(constructed_degenerate_conics_and_tangency)
+{
+    int made[SPC_CONIC_PLANE + 1] = {0}, tangent = 0, tangent_outside = 0, crossing = 0, inner = 0, fails = 0;
+    for (int it = 0; it < 1200 && fails < 5; ++it) {
+        /* 0 parabola, 1 line pair (det = 0 by bisection), 2 tangency to the edge v = 0, 3 the
+         * conic singular at the solution: a line pair crossing there, or a point conic */
+        int kind = it % 4;
+        int event = (it / 3) % 2 ? SPC_CONIC_REFRACT : SPC_CONIC_REFLECT;
+        double us = rnd_in(0.1, 0.8), vs = kind == 2 ? 0.0 : rnd_in(0.05, 0.9 - us);
+        spc_conic_tri t0, t;
+        spc_conic_problem pb;
+        if (!config_with_solution(event, 0.5, us, vs, &t0, &pb))
+            continue;
+        if (kind == 3) {
+            /* bending by tau1 w1 (u - us) + tau2 w2 (v - vs) adds tau1 s.((P-x) x w1) (u - us) +
+             * tau2 s.((P-x) x w2) (v - vs) to Q: the gradient at the solution is cancelled exactly */
+            spc_vec3 w1 = rnd_unit(), w2 = rnd_unit(), sv = spc_sub(pb.y, pb.x);
+            spc_vec3 ax = spc_sub(spc_conic_tri_point(&t0, us, vs), pb.x);
+            spc_conic q0 = spc_conic_coplanarity(&t0, pb.x, pb.y);
+            spc_vec2 g0 = conic_grad_of(&q0, us, vs);
+            double k1 = spc_dot(sv, spc_cross(ax, w1)), k2 = spc_dot(sv, spc_cross(ax, w2));
+            if (fabs(k1) < 1e-3 || fabs(k2) < 1e-3)
+                continue;
+            spc_conic_tri t1 = bend_normals(&t0, 0, w1, us, vs, -g0.x / k1);
+            t = bend_normals(&t1, 1, w2, us, vs, -g0.y / k2);
+        } else {
+            bend_ctx b = {&t0, &pb, kind == 2 ? 0 : 1, kind, rnd_unit(), us, vs};
+            double tau;
+            if (!bracket_root(bend_g, &b, -4.0, 4.0, &tau))
+                continue;
+            t = bend_normals(&t0, b.dir, b.w, us, vs, tau);
+        }
+        /* the solution is kept: the normal at (us, vs) did not change */
+        if (!(spc_conic_law_residual(&t, &pb, us, vs) < 1e-12))
+            continue;
+        spc_conic q = spc_conic_coplanarity(&t, pb.x, pb.y);
+        spc_conic_type type = spc_conic_classify(&q);
+        char what[96];
+        if (kind == 2) {
+            /* tangent to the edge v = 0 at (us, 0): from inside the triangle or from outside (then
+             * that point is the only one of the conic in the closed triangle near it) */
+            spc_vec2 g = conic_grad_of(&q, us, 0.0);
+            if (!(fabs(g.x) <= 1e-9 * fabs(g.y)))
+                continue;
+            double curv = q.A; /* Q along the edge: A (u - us)^2 */
+            bool outside = (curv > 0) == (g.y > 0); /* Q >= 0 on the edge, the conic bends to v < 0 */
+            ++tangent;
+            tangent_outside += outside;
+            snprintf(what, sizeof what, "tangent to an edge (%s, %s)", outside ? "outside" : "inside",
+                     event ? "refract" : "reflect");
+        } else {
+            if (kind == 0 && type != SPC_CONIC_PARABOLA)
+                continue;
+            if (kind == 1 && type != SPC_CONIC_LINE_PAIR)
+                continue;
+            if (kind == 3) {
+                /* the singular point is the solution: the crossing of the pair, or the point */
+                spc_vec2 g = conic_grad_of(&q, us, vs);
+                double qs = fmax(fmax(fabs(q.A), fabs(q.B)), fabs(q.C));
+                if (!(hypot(g.x, g.y) <= 1e-9 * qs) || (type != SPC_CONIC_LINE_PAIR && type != SPC_CONIC_POINT))
+                    continue;
+                crossing += type == SPC_CONIC_LINE_PAIR;
+            }
+            made[type]++;
+            snprintf(what, sizeof what, "%s (%s)", spc_conic_type_name(type), event ? "refract" : "reflect");
+        }
+        if (!check_case(&t, &pb, us, vs, 1e-6, what, &inner))
+            ++fails;
+    }
+    printf("    constructed: %d parabolas, %d line pairs (%d crossing at the solution), %d points (the solution), %d "
+           "tangent to an edge (%d from outside); %d dense-search solutions inside\n",
+           made[SPC_CONIC_PARABOLA], made[SPC_CONIC_LINE_PAIR], crossing, made[SPC_CONIC_POINT], tangent,
+           tangent_outside, inner);
+    CHECK(fails == 0);
+    /* (a point conic cannot be built this way: every conic made singular at a solution came out a
+     * line pair; point conics are covered by conic_classification and conic_arcs_and_chords) */
+    CHECK(made[SPC_CONIC_PARABOLA] >= 50 && made[SPC_CONIC_LINE_PAIR] >= 50 && crossing >= 20);
+    CHECK(tangent >= 50 && tangent_outside > 0 && tangent_outside < tangent);
+}
+
+typedef struct fold_ctx {
+    const spc_conic_tri *t;
+    spc_conic_problem pb;
+    spc_vec3 P, out;
+    double us, vs, ex, ey;
+} fold_ctx;
+
+/* The derivative of the squared law f along the conic at the known solution, for y at distance d
+ * along the scattered ray (f(us, vs) = 0 for every d); it vanishes where y is on the caustic. */
+static double fold_g(double d, void *p)
+{
+    fold_ctx *c = p;
+    spc_vec3 y = spc_madd(c->P, c->out, d);
+    spc_conic q = spc_conic_coplanarity(c->t, c->pb.x, y);
+    spc_vec2 g = conic_grad_of(&q, c->us, c->vs);
+    double lg = hypot(g.x, g.y);
+    if (!(lg > 0.0))
+        return NAN;
+    spc_vec2 a = spc_v2(c->us, c->vs), b = spc_v2(c->us - g.y / lg, c->vs + g.x / lg);
+    double f[7];
+    spc_conic_chord_poly(c->t, c->pb.x, y, c->ex, c->ey, a, b, f);
+    double scale = 0.0;
+    for (int k = 0; k < 7; ++k)
+        scale = fmax(scale, fabs(f[k]));
+    return scale > 0.0 ? f[1] / scale : NAN;
+}
+
+/* Repeated roots: y placed exactly on the caustic of the known solution (the fold, where two
+ * solutions merge), so the law has a double root there; and triangles whose interpolated normal
+ * flips (vanishes on a line inside the triangle). */
+TEST(constructed_double_roots_and_flipping_normals)
+{
+    int folds = 0, fold_found = 0, inner = 0, fails = 0;
+    double worst_fold = 0.0;
+    for (int it = 0; it < 1500 && folds < 150; ++it) {
+        int event = it % 2 ? SPC_CONIC_REFRACT : SPC_CONIC_REFLECT;
+        double us = rnd_in(0.1, 0.7), vs = rnd_in(0.1, 0.9 - us);
+        spc_conic_tri t;
+        spc_conic_problem pb;
+        if (!config_with_solution(event, 0.6, us, vs, &t, &pb))
+            continue;
+        fold_ctx c = {&t, pb, spc_conic_tri_point(&t, us, vs), spc_v3(0, 0, 0), us, vs, 1.0, 1.0};
+        c.out = spc_normalize(spc_sub(pb.y, c.P));
+        spc_vec3 nh = spc_normalize(spc_conic_tri_normal(&t, us, vs));
+        if (event == SPC_CONIC_REFRACT) {
+            bool front = spc_dot(spc_sub(pb.x, c.P), nh) > 0.0;
+            c.ex = front ? 1.0 : pb.eta;
+            c.ey = front ? pb.eta : 1.0;
+        }
+        double d;
+        if (!bracket_root(fold_g, &c, 0.05, 6.0, &d))
+            continue;
+        pb.y = spc_madd(c.P, c.out, d);
+        if (!(spc_conic_law_residual(&t, &pb, us, vs) < 1e-12))
+            continue;
+        ++folds;
+        /* at a double root the law's residual grows quadratically: a solution to 1e-10 may sit
+         * ~1e-5 away, so the known one is matched to 1e-4 */
+        spc_conic_solution sol[32];
+        int ns = spc_conic_solve_triangle(&t, &pb, sol, 32, NULL);
+        double best = INFINITY;
+        for (int i = 0; i < ns; ++i)
+            best = fmin(best, hypot(sol[i].u - us, sol[i].v - vs));
+        fold_found += best < 1e-4;
+        if (best < 1e-4)
+            worst_fold = fmax(worst_fold, best);
+        char what[64];
+        snprintf(what, sizeof what, "fold (%s, d %.4g)", event ? "refract" : "reflect", d);
+        if (!check_case(&t, &pb, us, vs, 1e-4, what, &inner))
+            ++fails;
+    }
+    printf("    %d configurations with y on the caustic (a double root): the merged solution found in %d (within "
+           "%.2g)\n",
+           folds, fold_found, worst_fold);
+    CHECK(folds >= 100);
+    CHECK(fold_found == folds);
+    /* flipping normals: n0 and n1 on opposite sides of the face, so the interpolated normal
+     * vanishes on a line across the triangle and points to the other side beyond it */
+    int flips = 0, flip_fails = 0, flip_inner = 0;
+    for (int it = 0; it < 400; ++it) {
+        spc_vec3 p[3], n[3];
+        for (int k = 0; k < 3; ++k)
+            p[k] = rnd_vec(-1, 1);
+        spc_vec3 ng = spc_normalize(spc_cross(spc_sub(p[1], p[0]), spc_sub(p[2], p[0])));
+        n[0] = spc_normalize(spc_add(ng, rnd_vec(-0.5, 0.5)));
+        n[1] = spc_normalize(spc_add(spc_neg(ng), rnd_vec(-0.5, 0.5)));
+        n[2] = spc_normalize(spc_add(rnd() < 0.5 ? ng : spc_neg(ng), rnd_vec(-0.5, 0.5)));
+        spc_conic_tri t = spc_conic_tri_make(p[0], p[1], p[2], n[0], n[1], n[2]);
+        spc_conic_problem pb = {spc_v3(0, 0, 0), spc_v3(0, 0, 0), it % 2 ? SPC_CONIC_REFRACT : SPC_CONIC_REFLECT,
+                                rnd_in(1.1, 2.5), false};
+        /* a known solution on the far side of the flip half the time */
+        double us = rnd_in(0.02, 0.9), vs = rnd_in(0.02, 0.95 - us);
+        spc_vec3 nn = spc_conic_tri_normal(&t, us, vs);
+        if (spc_length(nn) < 0.05)
+            continue;
+        spc_vec3 nh = spc_normalize(nn), P = spc_conic_tri_point(&t, us, vs), wx, out;
+        int tries = 0;
+        do {
+            wx = rnd_unit();
+        } while (++tries < 100 && (fabs(spc_dot(wx, nh)) < 0.1 || !scatter_dir(&pb, wx, nh, &out)));
+        if (tries >= 100)
+            continue;
+        pb.x = spc_madd(P, wx, rnd_in(0.5, 3.0));
+        pb.y = spc_madd(P, out, rnd_in(0.5, 3.0));
+        ++flips;
+        char what[64];
+        snprintf(what, sizeof what, "flipping normals (%s, n . ng %+.2f)", pb.event ? "refract" : "reflect",
+                 spc_dot(nh, ng));
+        if (!check_case(&t, &pb, us, vs, 1e-6, what, &flip_inner))
+            ++flip_fails;
+    }
+    printf("    %d triangles with flipping normals: %d dense-search solutions inside, %d failures\n", flips, flip_inner,
+           flip_fails);
+    CHECK(flips >= 300 && flip_fails == 0);
+    CHECK(fails == 0);
+}
+
+/* ================= culling ================= */
+
+/* Each culling test alone never culls a ball that holds a solution: random problems with a known
+ * solution P (normal n), balls holding P (often on their boundary) with cones holding n (often on
+ * their boundary), from tiny to larger than the scene, reflection (two- and one-sided) and
+ * refraction (eta above and below 1). And each test does cull: random balls and cones without a
+ * known solution are culled by each test alone some of the time. */
+TEST(culling_never_prunes_a_solution)
+{
+    const char *name[3] = {"sides", "cones", "spindle"};
+    long wrong[3] = {0, 0, 0}, culls[3] = {0, 0, 0}, balls = 0, tries = 0;
+    for (int it = 0; it < 60000; ++it) {
+        spc_conic_problem pb;
+        pb.event = it % 3 ? SPC_CONIC_REFRACT : SPC_CONIC_REFLECT;
+        pb.eta = it % 6 == 5 ? rnd_in(0.4, 0.9) : rnd_in(1.05, 2.5);
+        pb.front_only = pb.event == SPC_CONIC_REFLECT && it % 2;
+        spc_vec3 P = rnd_vec(-1, 1), n = rnd_unit(), wx = rnd_unit(), out;
+        if (fabs(spc_dot(wx, n)) < 1e-3)
+            continue;
+        if (pb.front_only && spc_dot(wx, n) < 0.0)
+            wx = spc_neg(wx);
+        if (!scatter_dir(&pb, wx, n, &out))
+            continue;
+        double L = rnd_in(0.2, 3.0);
+        pb.x = spc_madd(P, wx, L);
+        pb.y = spc_madd(P, out, L * rnd_in(0.2, 3.0));
+        /* the ball: P inside, on the boundary half the time */
+        double r = L * pow(10.0, rnd_in(-4, 0.5));
+        spc_vec3 c = spc_madd(P, rnd_unit(), r * (rnd() < 0.5 ? 1.0 - 1e-9 : rnd()));
+        /* the cone: n inside, on the boundary half the time */
+        double angle = rnd() < 0.3 ? pow(10.0, rnd_in(-4, -1)) : rnd_in(0.0, 0.98 * SPC_PI);
+        spc_vec3 perp = spc_normalize(spc_cross(n, rnd_unit()));
+        double a = angle * (rnd() < 0.5 ? 1.0 - 1e-9 : rnd());
+        spc_vec3 axis = spc_add(spc_scale(n, cos(a)), spc_scale(perp, sin(a)));
+        unsigned m = spc_conic_cull_tests(&pb, c, r, axis, angle);
+        ++balls;
+        for (int k = 0; k < 3; ++k)
+            if (m & (1u << k)) {
+                if (wrong[k]++ < 5)
+                    printf("    %s culled a ball holding a solution (%s, eta %.3f, r %.3g, cone %.3g)\n", name[k],
+                           pb.event ? "refract" : "reflect", pb.eta, r, angle);
+            }
+        /* effectiveness: the same problem, a ball and a cone anywhere */
+        spc_vec3 c2 = rnd_vec(-3, 3);
+        double r2 = L * pow(10.0, rnd_in(-3, -0.5)), angle2 = rnd_in(0.0, 1.0);
+        unsigned m2 = spc_conic_cull_tests(&pb, c2, r2, rnd_unit(), angle2);
+        ++tries;
+        for (int k = 0; k < 3; ++k)
+            culls[k] += (m2 >> k) & 1u;
+    }
+    printf("    %ld balls holding a solution: culled by sides %ld, cones %ld, spindle %ld; %ld random balls: culled "
+           "by sides %ld, cones %ld, spindle %ld\n",
+           balls, wrong[0], wrong[1], wrong[2], tries, culls[0], culls[1], culls[2]);
+    for (int k = 0; k < 3; ++k) {
+        CHECK_MSG(wrong[k] == 0, "%s culled %ld balls holding a solution", name[k], wrong[k]);
+        CHECK_MSG(culls[k] > tries / 100, "%s culled only %ld of %ld random balls", name[k], culls[k], tries);
+    }
+}
+
 /* ================= meshes: the hierarchy, the cache ================= */
 
 /* The displacement of the blob and its gradient (in 3D, at the unit direction d). */
@@ -1283,6 +1721,9 @@ int main(void)
     RUN(conic_classification);
     RUN(conic_arcs_and_chords);
     RUN(solver_against_dense_search);
+    RUN(constructed_degenerate_conics_and_tangency);
+    RUN(constructed_double_roots_and_flipping_normals);
+    RUN(culling_never_prunes_a_solution);
     RUN(specular_polynomials_fixture);
     RUN(hierarchy_matches_triangle_loop);
     RUN(dcf_against_generalized_geometry_term);

@@ -12,7 +12,9 @@
  * Completed where the report stops (sec. 8.2): parabolas and every degenerate conic (lines,
  * line pairs, parallel and double lines, a point, nothing, the whole plane) are classified and
  * handled; tangency to an edge needs no classification of crossing patterns, because an arc
- * between consecutive crossings is kept when its middle is inside; and the parameter along the
+ * between consecutive crossings is kept when its middle is inside, and a conic that touches an edge
+ * from outside (a discriminant within rounding of zero, either sign) leaves the touching point as
+ * an isolated point to polish; and the parameter along the
  * conic is the pencil of lines through a point of it (conic.h), which unlike the report's affine
  * normalization (appendix A) covers parabolas and stays accurate for nearly straight conics.
  */
@@ -39,6 +41,10 @@
 /* A coefficient of the conic below this multiple of its terms' magnitudes is rounding noise:
  * each triple product carries a relative error of a few ulps of its factors' magnitudes. */
 #define SPC_CONIC_ROUNDING 3e-15
+/* Distance (barycentric units) within which a conic that misses an edge by rounding counts as
+ * touching it: far above the ~1e-12 the coefficients' rounding can move it, far below any
+ * triangle. */
+#define SPC_CONIC_TOUCH 1e-7
 /* Chord subdivision depth limit: 2^-40 of an arc is far below any tolerance asked for. */
 #define SPC_CONIC_MAX_CHORD_DEPTH 40
 
@@ -526,20 +532,33 @@ void spc_conic_find_arcs(const spc_conic *q0, spc_conic_arcs *out)
         return;
     }
 
-    /* boundary crossings on the three edges */
+    /* boundary crossings on the three edges, each edge p0 + s (p1 - p0) with Q = a s^2 + b s + c */
     spc_vec2 bp[6];
     int nb = 0;
-    double r[2];
-    int k;
-    k = quad_roots01(q.A, q.D, q.F, r); /* v = 0: (s, 0) */
-    for (int i = 0; i < k; ++i)
-        bp[nb++] = spc_v2(r[i], 0.0);
-    k = quad_roots01(q.A - q.B + q.C, -2.0 * q.A + q.B - q.D + q.E, q.A + q.D + q.F, r); /* (1-s, s) */
-    for (int i = 0; i < k; ++i)
-        bp[nb++] = spc_v2(1.0 - r[i], r[i]);
-    k = quad_roots01(q.C, -2.0 * q.C - q.E, q.C + q.E + q.F, r); /* (0, 1-s) */
-    for (int i = 0; i < k; ++i)
-        bp[nb++] = spc_v2(0.0, 1.0 - r[i]);
+    const spc_vec2 E0[3] = {{0.0, 0.0}, {1.0, 0.0}, {0.0, 1.0}}, E1[3] = {{1.0, 0.0}, {0.0, 1.0}, {0.0, 0.0}};
+    const double ec[3][3] = {{q.A, q.D, q.F},
+                             {q.A - q.B + q.C, -2.0 * q.A + q.B - q.D + q.E, q.A + q.D + q.F},
+                             {q.C, -2.0 * q.C - q.E, q.C + q.E + q.F}};
+    for (int e = 0; e < 3; ++e) {
+        double r[2];
+        spc_vec2 dir = v2sub(E1[e], E0[e]);
+        int k = quad_roots01(ec[e][0], ec[e][1], ec[e][2], r);
+        for (int i = 0; i < k; ++i)
+            bp[nb++] = v2add(E0[e], v2scale(dir, r[i]));
+        /* a conic tangent to the edge from outside touches it at one point, where the
+         * discriminant is zero; the coefficients' rounding (relative to their terms, not to
+         * themselves) may leave it slightly negative, so a vertex of the parabola s -> Q within
+         * SPC_CONIC_TOUCH of the conic is kept as an isolated point (polishing decides) */
+        if (k == 0 && ec[e][0] != 0.0) {
+            double s0 = -ec[e][1] / (2.0 * ec[e][0]);
+            if (s0 >= 0.0 && s0 <= 1.0) {
+                spc_vec2 p = v2add(E0[e], v2scale(dir, s0));
+                double g = v2len(conic_grad(&q, p));
+                if (g > 0.0 && fabs(spc_conic_eval(&q, p.x, p.y)) <= SPC_CONIC_TOUCH * g)
+                    add_point(out, p);
+            }
+        }
+    }
     /* merge duplicates (vertices) */
     int m = 0;
     for (int i = 0; i < nb; ++i) {

@@ -209,6 +209,20 @@ int spc_conic_mesh_ntris(const spc_conic_mesh *m);
 int spc_conic_mesh_solve(const spc_conic_mesh *m, const spc_conic_problem *pb, spc_conic_solution *out, int max_out,
                          bool brute, spc_conic_stats *st);
 
+/* The culling tests of the hierarchy, one bit each (the traversal culls a node when any is set). */
+typedef enum spc_conic_cull {
+    SPC_CONIC_CULL_SIDES = 1,  /* x and y surely on sides of every normal that the event excludes
+                                  (refraction: one side; reflection: two; one-sided: behind) */
+    SPC_CONIC_CULL_CONES = 2,  /* the normal cone misses every line of the generalized half vector */
+    SPC_CONIC_CULL_SPINDLE = 4 /* refraction: outside the spindle where x P y can bend by refraction */
+} spc_conic_cull;
+
+/* Which tests cull a ball (centre c, radius r) whose unit shading normals all lie within `angle`
+ * radians of the unit vector `axis` (angle >= pi: any normal), for problem pb: the same code the
+ * traversal runs on each node's bounding ball and padded cone, here with every test evaluated.
+ * A ball that holds a solution must get 0 (tests/test_conic.c checks each bit alone). */
+unsigned spc_conic_cull_tests(const spc_conic_problem *pb, spc_vec3 c, double r, spc_vec3 axis, double angle);
+
 /* The distance correction factor of Walter et al. 2009 by ray differentials (report sec. 7.1,
  * appendix C, with its typos fixed): the area at y, perpendicular to the final direction, swept
  * per unit solid angle of directions leaving x, D = |dA_perp(y) / dw(x)|, through the solution

@@ -29,7 +29,11 @@
  * polishes outside its band interval, onto a solution another root of the chord reached, or not
  * at all. At the depth limit the band interval itself is polished (a double root: the fold of a
  * caustic). Roots at an arc's ends are never lost: both ends of every chord lie on the conic, so
- * f has the same value there on the chord and on the arc. Degenerate conics give exact segments
+ * f has the same value there on the chord and on the arc. Double roots (y on a caustic, the fold
+ * where two solutions merge) keep the band interval as wide relative to the chord at every depth,
+ * so chords there are split down to rounding; on such deep chords the zeros of f' and the chord
+ * ends where |f| is within rounding of zero are polished as well, and polished points of one flat
+ * valley are merged (tests: constructed folds). Degenerate conics give exact segments
  * (the square-free part of f catches their double roots); isolated points (a point conic, a
  * tangency from outside, a line pair's crossing) are polished directly.
  *
@@ -74,6 +78,13 @@
 #define SPC_CONIC_INSIDE_TOL 1e-9
 /* Solutions of one triangle closer than this (barycentric units) are the same. */
 #define SPC_CONIC_SAME_UV 1e-8
+/* Solutions of one triangle closer than this (barycentric units) are the same if the law holds
+ * halfway between them as well as at them (try_candidate): the spread of polished points around a
+ * double root, where the residual grows only quadratically (~1e-5 measured on constructed folds). */
+#define SPC_CONIC_SAME_FOLD 1e-4
+/* A candidate that starts this close (barycentric units) to a solution found before is that
+ * solution: well inside the basin of any simple root, and within the spread of a double root. */
+#define SPC_CONIC_SAME_START 1e-6
 /* Solutions of a mesh closer than this fraction of their distance to x and y are the same. */
 #define SPC_CONIC_SAME_REL 1e-8
 /* The interpolated normal must keep this fraction of the vertex normals' mean length: where it
@@ -86,6 +97,21 @@
  * calibrated on polynomials with exact repeated roots (tests/test_conic.c), where remainders that
  * vanish in exact arithmetic come out near 1e-10 of the dividend. */
 #define SPC_CONIC_SQUAREFREE_TOL 1e-8
+/* A zero of the chord polynomial's derivative (or a chord end) where |f| is below this fraction of
+ * the size of f's terms (snell_scale) may be a double root within rounding (a fold of the
+ * caustic, where f grows quadratically: within ~1e-4 of it) and is polished; polishing rejects
+ * what is not a solution. */
+#define SPC_CONIC_DOUBLE_ROOT_TOL 1e-8
+/* A chord within this distance (barycentric units) of its arc was split far below
+ * SPC_CONIC_CHORD_TOL: by a fold or a near miss; its double-root candidates are polished. */
+#define SPC_CONIC_DEEP_CHORD 1e-9
+/* Double-root candidates (solve_chord) polished per triangle at most, and the distance
+ * (barycentric units) from a known solution within which they are taken for it: the stretch around
+ * a fold where |f| stays below SPC_CONIC_DOUBLE_ROOT_TOL. */
+#define SPC_CONIC_MAX_FOLD_CANDIDATES 16
+#define SPC_CONIC_FOLD_REACH 1e-3
+/* Inadmissible roots of the law remembered per triangle (see try_candidate). */
+#define SPC_CONIC_MAX_REJECTED 16
 /* Candidate roots kept per triangle. */
 #define SPC_CONIC_MAX_CANDIDATES 256
 /* Solutions per triangle (a conic and a sextic meet in at most 12 points, each arc piece is
@@ -238,6 +264,10 @@ typedef struct tri_ctx {
     spc_conic_solution sol[SPC_CONIC_MAX_TRI_SOLUTIONS];
     int nsol;
     int ncand;
+    spc_vec2 rejected[SPC_CONIC_MAX_REJECTED]; /* roots of the law on inadmissible sides */
+    double rejected_ex[SPC_CONIC_MAX_REJECTED];  /* and the index assignment they were polished with */
+    int nrej;
+    int nfold; /* double-root candidates polished */
     spc_conic_stats *st;
 } tri_ctx;
 
@@ -252,6 +282,24 @@ typedef enum polish_result {
  * where the polish ended, *which (may be NULL) the index of the solution kept or matched. */
 static polish_result try_candidate(tri_ctx *c, double u, double v, double ex, double ey, spc_vec2 *end, int *which)
 {
+    /* a start next to a solution found before polishes onto it (chords split down to a fold
+     * end next to its double root at every level: this keeps them from spending the budget) */
+    for (int i = 0; i < c->nsol; ++i)
+        if (hypot(c->sol[i].u - u, c->sol[i].v - v) <= SPC_CONIC_SAME_START) {
+            if (end)
+                *end = spc_v2(c->sol[i].u, c->sol[i].v);
+            if (which)
+                *which = i;
+            return POLISH_KNOWN;
+        }
+    /* likewise next to a root of the law found on inadmissible sides (a chain of chords split
+     * toward it would otherwise polish onto it again at every depth) */
+    for (int i = 0; i < c->nrej; ++i)
+        if (c->rejected_ex[i] == ex && hypot(c->rejected[i].x - u, c->rejected[i].y - v) <= SPC_CONIC_SAME_START) {
+            if (end)
+                *end = c->rejected[i];
+            return POLISH_REJECTED;
+        }
     if (c->ncand >= SPC_CONIC_MAX_CANDIDATES)
         return POLISH_BUDGET;
     c->ncand++;
@@ -271,14 +319,32 @@ static polish_result try_candidate(tri_ctx *c, double u, double v, double ex, do
     law_eval L;
     double exx, eyy;
     if (!law(c->t, c->pb, ex, ey, u, v, false, &L) || !indices(c->pb, L.cx, L.cy, &exx, &eyy) || exx != ex ||
-        eyy != ey)
-        return POLISH_REJECTED;
-    for (int i = 0; i < c->nsol; ++i)
-        if (hypot(c->sol[i].u - u, c->sol[i].v - v) <= SPC_CONIC_SAME_UV) {
-            if (which)
-                *which = i;
-            return POLISH_KNOWN;
+        eyy != ey) {
+        if (c->nrej < SPC_CONIC_MAX_REJECTED) {
+            c->rejected_ex[c->nrej] = ex;
+            c->rejected[c->nrej++] = spc_v2(u, v);
         }
+        return POLISH_REJECTED;
+    }
+    for (int i = 0; i < c->nsol; ++i) {
+        double dist = hypot(c->sol[i].u - u, c->sol[i].v - v);
+        if (dist > SPC_CONIC_SAME_FOLD)
+            continue;
+        /* near a double root (a fold) polishing stops anywhere in a flat valley of the residual,
+         * which is convex there: halfway between two such ends it is no larger than at the
+         * ends. Two distinct roots have a ridge between them (the residual grows like the square
+         * of the distance to both), so a midpoint residual above the ends' keeps them apart. */
+        if (dist > SPC_CONIC_SAME_UV) {
+            law_eval M;
+            double um = 0.5 * (u + c->sol[i].u), vm = 0.5 * (v + c->sol[i].v);
+            double bound = 2.0 * fmax(res, c->sol[i].residual) + 1e-15;
+            if (!law(c->t, c->pb, ex, ey, um, vm, false, &M) || !(spc_length(M.R) / (ex + ey) <= bound))
+                continue;
+        }
+        if (which)
+            *which = i;
+        return POLISH_KNOWN;
+    }
     if (c->nsol >= SPC_CONIC_MAX_TRI_SOLUTIONS)
         return POLISH_BUDGET;
     if (which)
@@ -334,6 +400,14 @@ static spc_vec2 onto_conic(const tri_ctx *c, spc_vec2 q, spc_vec2 nu, double err
     if (!(fabs(best) <= 2.0 * err))
         return q;
     return spc_v2(q.x + best * nu.x, q.y + best * nu.y);
+}
+
+/* The size of the terms of the squared law f at (u, v) (conic.h): its rounding is ~1e-16 of this. */
+static double snell_scale(const spc_conic_tri *t, const spc_conic_problem *pb, double ex, double ey, double u, double v)
+{
+    spc_vec3 P = spc_conic_tri_point(t, u, v);
+    double lx = spc_length2(spc_sub(pb->x, P)), ly = spc_length2(spc_sub(pb->y, P));
+    return (ex * ex + ey * ey) * lx * ly * spc_length2(spc_conic_tri_normal(t, u, v));
 }
 
 /* Squaring the sine law admits roots where the tangential parts of eta_x wx and eta_y wy have
@@ -708,6 +782,43 @@ static bool solve_chord(tri_ctx *c, spc_vec2 a, spc_vec2 b, double err, spc_vec2
                 if (tp < lo - slack || tp > hi + slack || off > 1.5 * err + slack * clen)
                     return false;
             }
+            /* double roots (y on a caustic, where two solutions merge: the fold) need not show as
+             * roots of the chord's f: rounding turns them into a complex pair or two roots a
+             * rounding apart, the chord's offset from the arc may lift them off zero below the
+             * band's resolution, and a root that touches zero without a sign change fails the
+             * classification above. Near a fold f is flat, so the band intervals stay as wide
+             * relative to the chord at every depth and the chords there are split down to
+             * rounding; on such deep chords (and at the depth limit) the zeros of f' where |f| is
+             * within rounding (or the band) of zero are polished, and the run's ends where |f| is
+             * within rounding of zero (a chord's ends are on the conic). Elsewhere |f| is far from
+             * zero there, so this costs a polish only near folds. */
+            if (!splittable || err < SPC_CONIC_DEEP_CHORD) {
+                double df[6], dr[10];
+                int nd = spc_poly_derivative(fp, 6, df);
+                int kd = nd > 0 ? spc_poly_roots(df, nd, t0, t1, dr, 8) : 0;
+                if (kd < 0)
+                    kd = 0;
+                dr[kd++] = t0;
+                dr[kd++] = t1;
+                for (int q = 0; q < kd; ++q) {
+                    double tt = dr[q];
+                    double mag = snell_scale(t, pb, ex, ey, a.x + tt * d.x, a.y + tt * d.y);
+                    double band_f = err > 0.0 ? SPC_CONIC_BAND_MARGIN * band_w(&bd, tt) * fabs(spc_poly_eval(D, 6, tt)) : 0.0;
+                    if (!(fabs(spc_poly_eval(fp, 6, tt)) <= SPC_CONIC_DOUBLE_ROOT_TOL * mag + band_f))
+                        continue;
+                    /* f stays within the tolerance over a stretch around a fold, which many short
+                     * chords cover: a start next to a solution found before is that fold, and the
+                     * count is capped so that these never spend the candidates of true roots */
+                    spc_vec2 st = spc_v2(a.x + tt * d.x, a.y + tt * d.y);
+                    bool near_known = false;
+                    for (int i = 0; i < c->nsol && !near_known; ++i)
+                        near_known = hypot(c->sol[i].u - st.x, c->sol[i].v - st.y) <= SPC_CONIC_FOLD_REACH;
+                    if (!near_known && c->nfold < SPC_CONIC_MAX_FOLD_CANDIDATES) {
+                        c->nfold++;
+                        try_candidate(c, st.x, st.y, ex, ey, NULL, NULL);
+                    }
+                }
+            }
             if (err == 0.0) {
                 /* an exact segment: only a multiple root of f itself can hide (rounding may turn a
                  * double root into a complex pair); the roots of its square-free part, where f has
@@ -783,6 +894,8 @@ int spc_conic_solve_triangle(const spc_conic_tri *t, const spc_conic_problem *pb
     c.nmean = c.nmin / SPC_CONIC_MIN_NORMAL;
     c.nsol = 0;
     c.ncand = 0;
+    c.nrej = 0;
+    c.nfold = 0;
     c.st = st;
     if (arcs.type == SPC_CONIC_PLANE) {
         /* every point is coplanar: n is constant and parallel to y - x (or x lies in the plane);
@@ -1231,26 +1344,33 @@ static int side(const qcone *dx, const qcone *nc)
     return 0;
 }
 
-/* Can a ball (c, r) whose shading normals lie in the cone nc hold a solution? */
-static bool may_hold(const query *q, spc_vec3 c, double r, const qcone *nc)
+/* Which culling tests reject a ball (c, r) whose unit shading normals lie in the cone nc
+ * (SPC_CONIC_CULL_* bits; 0: it may hold a solution). all: evaluate every test (the tests check
+ * each one alone); otherwise return at the first that culls (the traversal). */
+static unsigned cull_mask(const query *q, spc_vec3 c, double r, const qcone *nc, bool all)
 {
+    unsigned mask = 0;
     if (q->spindle) {
         spc_vec3 w = spc_sub(c, q->mid);
         double z = spc_dot(w, q->axis);
         double rho = spc_length(spc_sub(w, spc_scale(q->axis, z)));
-        if (sqrt((rho + q->sc) * (rho + q->sc) + z * z) - r > q->sR)
-            return false;
+        if (sqrt((rho + q->sc) * (rho + q->sc) + z * z) - r > q->sR) {
+            mask |= SPC_CONIC_CULL_SPINDLE;
+            if (!all)
+                return mask;
+        }
     }
     if (nc->full)
-        return true;
+        return mask;
     qcone cx, cy;
     if (!dir_cone(q->pb->x, c, r, &cx) || !dir_cone(q->pb->y, c, r, &cy))
-        return true;
+        return mask;
     int sx = side(&cx, nc), sy = side(&cy, nc);
-    if (sx && sy && (q->refract ? sx == sy : sx != sy))
-        return false;
-    if (!q->refract && q->pb->front_only && (sx < 0 || sy < 0))
-        return false;
+    if ((sx && sy && (q->refract ? sx == sy : sx != sy)) || (!q->refract && q->pb->front_only && (sx < 0 || sy < 0))) {
+        mask |= SPC_CONIC_CULL_SIDES;
+        if (!all)
+            return mask;
+    }
     /* generalized half vector h = ex wx + ey wy, for the index assignments the sides allow */
     double as[2][2];
     int na = 0;
@@ -1275,16 +1395,31 @@ static bool may_hold(const query *q, spc_vec3 c, double r, const qcone *nc)
         spc_vec3 h0 = spc_add(spc_scale(cx.axis, as[i][0]), spc_scale(cy.axis, as[i][1]));
         double lh = spc_length(h0), rho = as[i][0] * ex_ + as[i][1] * ey_;
         if (!(lh > rho))
-            return true;
+            return mask;
         /* theta_h = asin(rho / lh); the line of h within theta_h + theta_n of the normal axis */
         double sh = rho / lh, ch = sqrt(fmax(0.0, 1.0 - sh * sh));
         double cpsi = ch * nc->c - sh * nc->s, spsi = sh * nc->c + ch * nc->s;
         if (cpsi <= 0.0 || spsi < 0.0)
-            return true; /* theta_h + theta_n >= pi/2: every line */
+            return mask; /* theta_h + theta_n >= pi/2: every line */
         if (fabs(spc_dot(h0, nc->axis)) / lh >= cpsi)
-            return true;
+            return mask;
     }
-    return false;
+    /* every half-vector cone missed (none to test: refraction with x and y surely on one side,
+     * which the sides test has culled) */
+    if (na > 0)
+        mask |= SPC_CONIC_CULL_CONES;
+    return mask;
+}
+
+/* Can a ball (c, r) whose shading normals lie in the cone nc hold a solution? */
+static bool may_hold(const query *q, spc_vec3 c, double r, const qcone *nc) { return cull_mask(q, c, r, nc, false) == 0; }
+
+unsigned spc_conic_cull_tests(const spc_conic_problem *pb, spc_vec3 c, double r, spc_vec3 axis, double angle)
+{
+    query q;
+    query_init(&q, pb);
+    qcone nc = {spc_normalize(axis), cos(angle), sin(angle), angle >= SPC_PI};
+    return cull_mask(&q, c, r, &nc, true);
 }
 
 static bool node_may_hold(const query *q, const cnode *nd)
