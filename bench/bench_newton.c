@@ -201,6 +201,13 @@ static bool make_chain(const spc_scene *sc, int k, spc_vec3 *y, spc_vec3 *x, spc
     return from_x->n == k && spc_distance(from_x->v[k - 1].h.p, c.v[0].h.p) < 1e-6 * sc->radius;
 }
 
+/* Why a newton attempt failed: spc_newton_stop, then the seed and the final chain. */
+enum { WHY_SEED_PATH = SPC_NEWTON_STOP_SIDES + 1, WHY_POLISH, WHY_LENGTH, NWHY };
+#define WHY_SEED WHY_SEED_PATH
+#define MAXFAIL 64
+static char fail[MAXFAIL][256];
+static int nfail;
+
 typedef struct cfg {
     const char *name;
     int solver; /* 0 angular (Gauss-Newton, PLANE loss), 1 newton */
@@ -245,6 +252,7 @@ int main(int argc, char **argv)
                 spc_newton_options_default(&no);
                 no.constraint = cf->kind;
                 int ok = 0, same = 0, inseq = 0, ok_inseq = 0;
+                int why[NWHY] = {0}; /* newton: why seeds in sequence failed */
                 long it_ok = 0, it_all = 0;
                 double secs = 0;
                 spc_rng seeds;
@@ -305,12 +313,18 @@ int main(int argc, char **argv)
                         spc_newton_path p;
                         conv = cf->seed < 0 ? spc_newton_seed_straight(sc, &hx, ys[i], k, true, NULL, spc_v3(0, 0, 0), &p)
                                             : spc_newton_seed_trace(sc, &hx, sd, k, true, NULL, spc_v3(0, 0, 0), &p);
+                        int w = WHY_SEED;
                         if (conv) {
                             conv = spc_newton_solve(sc, &hx, ys[i], &p, &no, &res);
                             iters = res.iterations;
-                            if (conv)
+                            w = (int)res.stop;
+                            if (conv) {
                                 conv = spc_newton_to_chain(sc, &hx, &p, &tg, &ao, no.polish_iterations, true, &c, &iters);
+                                w = !conv ? WHY_POLISH : c.n != k ? WHY_LENGTH : (int)SPC_NEWTON_CONVERGED;
+                            }
                         }
+                        if (in)
+                            why[w]++;
                     }
                     secs += now() - t0;
                     it_all += iters;
@@ -327,6 +341,13 @@ int main(int argc, char **argv)
                        inseq ? 100.0 * same / inseq : 0.0, ok ? (double)it_ok / ok : 0.0, (double)it_all / n,
                        1e6 * secs / n);
                 fflush(stdout);
+                if (cf->solver == 1 && inseq > 0 && nfail < MAXFAIL) {
+                    int len = snprintf(fail[nfail], sizeof fail[nfail], "| %s | %d | %s |", scene_names[si], k, cf->name);
+                    for (int r = 1; r < NWHY; ++r)
+                        len += snprintf(fail[nfail] + len, sizeof fail[nfail] - (size_t)len, " %.1f%% |",
+                                        100.0 * why[r] / inseq);
+                    ++nfail;
+                }
             }
             free(ys);
             free(xs);
@@ -334,5 +355,10 @@ int main(int argc, char **argv)
         }
         spc_scene_destroy(sc);
     }
+    printf("\nNewton's failures from seeds in the generating chain's sequence (share of those seeds):\n\n");
+    printf("| scene | k | solver, seed | constraints undefined at the seed | singular | iteration cap | no progress | "
+           "wrong sides | no seed path | polish | other length |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for (int i = 0; i < nfail; ++i)
+        printf("%s\n", fail[i]);
     return 0;
 }

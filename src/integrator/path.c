@@ -13,7 +13,9 @@
  * by the chosen solver. The paths it covers (receiver -> non-delta sample -> k caster vertices with
  * the solver's events -> area emitter, k within the budget; exact condition in specular_nee.h) are
  * dropped when BSDF sampling reaches them (spc_snee_track_*), so nothing is counted twice; every
- * other path keeps its usual weight.
+ * other path keeps its usual weight. With rough chain vertices (newton's "rough" option) the covered
+ * paths may also end with the light sample taken at a rough vertex: that sample is dropped too
+ * (spc_snee_track_covers_light), as is the emitter it would be weighted against by MIS.
  *
  * Throughput with Russian roulette: after rr_depth segments a path survives with probability
  * q = min(0.95, max(beta) * eta_scale^2), where eta_scale undoes the radiance scaling of
@@ -37,10 +39,10 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     spc_vec3 prev_p = ray.o;
     /* ---- specular NEE state (issue 5) ---- */
     const bool snee = nee && ctx->specular_nee != SPC_SNEE_NONE;
-    spc_snee_params snp;
+    spc_snee_params snp = {0};
     spc_snee_track track = {0};
     if (snee)
-        spc_snee_params_default(&snp, ctx->specular_nee, ctx->specular_max_chain);
+        snp = ctx->snee;
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
     out->depth = 0.0;
@@ -97,7 +99,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 double cosi = spc_absdot(ds.wi, h.sh.n);
                 if (!spc_rgb_is_black(f) && cosi > 0.0) {
                     spc_ray sr = ds.is_infinite ? spc_hit_spawn(&h, ds.wi) : spc_hit_spawn_to(&h, ds.p, ds.err);
-                    if (!spc_scene_occluded(sc, &sr)) {
+                    /* with rough chain vertices, specular NEE may have counted this path already */
+                    bool snee_has = snee && spc_snee_track_covers_light(&track, &snp, sc, &h, wo, ds.wi, e);
+                    if (!snee_has && !spc_scene_occluded(sc, &sr)) {
                         double lp = pmf * ds.pdf;
                         double w = ds.is_delta ? 1.0
                                                : spc_mis_power(lp, spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE, wo, ds.wi));
@@ -114,7 +118,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             int budget = ctx->specular_max_chain;
             if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < budget)
                 budget = ctx->max_depth - segments - 1;
-            snee_budget = spc_snee_budget(&h, budget, snp.any_surface);
+            snee_budget = spc_snee_budget_params(&snp, &h, budget);
             if (snee_budget > 0) {
                 /* its own deterministic stream: the sampler's dimensions stay as without it */
                 spc_rng rng;
@@ -133,7 +137,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         if (!spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
             break;
         if (snee)
-            spc_snee_track_scatter(&track, &h, bs.lobe, snee_budget, snp.any_surface);
+            spc_snee_track_scatter_params(&track, &snp, &h, bs.lobe, snee_budget);
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))
             break;

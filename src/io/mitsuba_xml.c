@@ -25,7 +25,8 @@
  *               sobol: sample_count 4, seed 0 (specula has one sampler; the type is not kept)
  *   integrator  path, prb (-> path), volpath, volpathmis (-> volpath), direct (-> path, max_depth
  *               2), bdpt, ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" | angular |
- *               newton | conic), specular_max_chain, mis_balance (false; bdpt: the balance
+ *               newton | conic, optionally with options as "newton:biased=8,rough": spc_snee_parse in
+ *               manifold/specular_nee.h), specular_max_chain, mis_balance (false; bdpt: the balance
  *               heuristic instead of the power heuristic); aov, moment, stokes: the nested integrator.
  *               The define "@integrator" replaces the file's integrator type (its properties are
  *               still read), so that a scene made for another renderer's integrator can load.
@@ -44,6 +45,7 @@
 
 #include "core/hash.h"
 #include "io/mitsuba_internal.h"
+#include "manifold/specular_nee.h"
 
 #define MAX_RESOLUTION 65536  /* film width/height beyond which a file is surely wrong */
 #define MAX_SAMPLE_COUNT (1 << 24)
@@ -1467,10 +1469,12 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     mts_ignore(&P, "strict_normals");
     if (mts_has(&P, "specular_nee")) {
         const char *nee = mts_get_string(L, &P, "specular_nee", "");
-        if (strcmp(nee, "") != 0 && strcmp(nee, "angular") != 0 && strcmp(nee, "newton") != 0 &&
-            strcmp(nee, "conic") != 0)
+        spc_snee_params snp;
+        if (strlen(nee) >= sizeof it->specular_nee || !spc_snee_parse(nee, 2, &snp))
             mts_fail(L, mts_where(&P, "specular_nee"), SPC_ERR_VALUE,
-                     "unknown specular_nee '%s' (\"\", angular, newton, conic)", nee);
+                     "unknown specular_nee '%s' (\"\", angular, newton, conic, optionally followed by "
+                     ":unbiased|biased[=M],trials=N,seed=shape|light|bsdf,constraint=angle|half,rough)",
+                     nee);
         snprintf(it->specular_nee, sizeof it->specular_nee, "%s", nee);
     }
     if (mts_has(&P, "specular_max_chain"))

@@ -51,6 +51,9 @@
 /* Gram determinant of (dpdu, dpdv) below this fraction of |dpdu|^2 |dpdv|^2: the surface
  * parameterization is degenerate (a sphere's pole), the normal's derivative unknown. */
 #define SPC_NEWTON_GRAM_EPS 1e-20
+/* Distinct solutions the biased estimator of rough chains keeps per light sample (as specular_nee.c
+ * keeps for smooth ones): later ones are still counted, only not remembered for deduplication. */
+#define SPC_NEWTON_BIASED_MAX_SOLUTIONS 8
 
 /* The default constraint: angle differences converge from twice as many shape seeds on single
  * interfaces (70-75% against 33-38% for half vectors), a few percent fewer on two (bench/RESULTS.md). */
@@ -479,27 +482,34 @@ static bool vertex_surface(const spc_hit *h, bool any_surface, bool rough, spc_n
         v->eta = event == SPC_CHAIN_REFRACT ? eta : 1.0;
         return event == SPC_CHAIN_REFLECT || eta > 0.0;
     }
-    if (!rough)
+    if (!rough || !spc_newton_rough_surface(h, any_surface, &event))
         return false;
+    v->event = event;
+    v->eta = event == SPC_CHAIN_REFRACT ? h->bsdf->eta : 1.0;
+    v->rough = true;
+    return true;
+}
+
+bool spc_newton_rough_surface(const spc_hit *h, bool any_surface, int *event)
+{
     const spc_shape *s = h->shape;
     const spc_bsdf *b = h->bsdf;
     if (!s || s->emitter || !b || b != s->bsdf)
         return false;
     if (!any_surface && !spc_chain_caster_allowed(s->caustic_flags, 1) && !spc_chain_caster_allowed(s->caustic_flags, 2))
         return false;
-    if (b->type == SPC_BSDF_ROUGHCONDUCTOR) {
-        v->event = SPC_CHAIN_REFLECT;
-        v->eta = 1.0;
-    } else if (b->type == SPC_BSDF_ROUGHDIELECTRIC && b->eta > 0.0) {
-        v->event = SPC_CHAIN_REFRACT;
-        v->eta = b->eta;
-    } else {
+    int ev;
+    if (b->type == SPC_BSDF_ROUGHCONDUCTOR)
+        ev = SPC_CHAIN_REFLECT;
+    else if (b->type == SPC_BSDF_ROUGHDIELECTRIC && b->eta > 0.0)
+        ev = SPC_CHAIN_REFRACT;
+    else
         return false;
-    }
     spc_microfacet md = spc_microfacet_from_bsdf(b, h);
     if (md.alpha_u != md.alpha_v)
         return false; /* anisotropic: the local frame's rotation would matter (newton.h) */
-    v->rough = true;
+    if (event)
+        *event = ev;
     return true;
 }
 
@@ -653,6 +663,7 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
     res->iterations = 0;
     res->step = INFINITY;
     res->converged = false;
+    res->stop = SPC_NEWTON_STOP_SEED;
     int k = p->n;
     if (k < 1 || k > SPC_CHAIN_MAX_VERTICES)
         return false;
@@ -674,8 +685,10 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
             R[i][1] = -c[i][1];
         }
         if (!spc_newton_block_solve(k, (const double(*)[2][2])A, (const double(*)[2][2])B,
-                                    (const double(*)[2][2])C, (const double(*)[2])R, D))
+                                    (const double(*)[2][2])C, (const double(*)[2])R, D)) {
+            res->stop = SPC_NEWTON_STOP_SINGULAR;
             return false;
+        }
         double step = 0.0;
         for (int i = 0; i < k; ++i)
             step = spc_max(step, hypot(D[i][0], D[i][1]));
@@ -696,11 +709,14 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
         if (step <= tol) {
             /* a solution of the constraints with a vertex on the wrong sides is not a path */
             res->converged = wrong == 0;
+            res->stop = res->converged ? SPC_NEWTON_CONVERGED : SPC_NEWTON_STOP_SIDES;
             return res->converged;
         }
         for (;;) {
-            if (res->iterations >= o->max_iterations)
+            if (res->iterations >= o->max_iterations) {
+                res->stop = SPC_NEWTON_STOP_ITERATIONS;
                 return false;
+            }
             res->iterations++;
             if (project(sc, x, p, basis, D, beta, &trial) &&
                 constraints(x->p, &trial, y, zero, o->constraint, c2, A2, B2, C2, basis2, &wrong2)) {
@@ -721,8 +737,10 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
                 }
             }
             beta *= 0.5;
-            if (beta < SPC_NEWTON_MIN_BETA)
+            if (beta < SPC_NEWTON_MIN_BETA) {
+                res->stop = SPC_NEWTON_STOP_PROGRESS;
                 return false;
+            }
         }
     }
 }
@@ -978,7 +996,7 @@ spc_rgb spc_newton_rough_nee(const spc_scene *sc, const struct spc_snee_params *
     const spc_rgb zero = spc_rgb1(0.0);
     if (max_chain > prm->max_chain)
         max_chain = prm->max_chain;
-    max_chain = spc_snee_budget(x, max_chain, prm->any_surface);
+    max_chain = spc_snee_budget_params(prm, x, max_chain);
     if (max_chain < 1)
         return zero;
     double pmf;
@@ -1034,6 +1052,34 @@ spc_rgb spc_newton_rough_nee(const spc_scene *sc, const struct spc_snee_params *
 
     spc_newton_path sol, trial;
     int iterations = 0;
+    if (prm->biased) {
+        /* the biased estimator (specular_nee.h): the distinct solutions of biased_seeds attempts */
+        spc_newton_path found[SPC_NEWTON_BIASED_MAX_SOLUTIONS];
+        int nfound = 0, seeds = prm->biased_seeds > 0 ? prm->biased_seeds : 1;
+        spc_rgb sum = zero;
+        for (int s = 0; s < seeds; ++s) {
+            if (!rough_attempt(&rq, rng, &trial, &iterations))
+                continue;
+            bool seen = false;
+            for (int i = 0; i < nfound && !seen; ++i)
+                seen = same_path(&found[i], &trial, sc->radius);
+            if (seen)
+                continue;
+            if (nfound < SPC_NEWTON_BIASED_MAX_SOLUTIONS)
+                found[nfound++] = trial;
+            spc_rgb v = rough_value(&rq, e, uv, &trial);
+            if (st)
+                st->solved++;
+            if (!spc_rgb_is_black(v)) {
+                sum = spc_rgb_add(sum, v);
+                if (st)
+                    st->contributions++;
+            }
+        }
+        if (st)
+            st->iterations += (uint64_t)iterations;
+        return spc_rgb_scale(sum, 1.0 / p_y);
+    }
     bool ok = rough_attempt(&rq, rng, &sol, &iterations);
     if (st)
         st->iterations += (uint64_t)iterations;

@@ -36,11 +36,14 @@
  * (built from the normal and a reference vector fixed for the whole estimate), and the constraint
  * uses m's world direction as the normal. The contribution then carries f_r |cos| |dw/dm| / p(m)
  * per rough vertex and the generalized geometry term of the offset-normal chain, computed from the
- * constraint Jacobian (spc_newton_geometry). Off by default: it is reachable through
- * spc_newton_rough_nee (and spc_specular_nee with params->newton.rough), tested against brute force,
- * but src/integrator/path.c does not yet drop the glossy paths through rough casters that it then
- * produces (the spc_snee_track exclusion knows only delta lobes), so a render would count them
- * twice.
+ * constraint Jacobian (spc_newton_geometry). Off by default; on with the setting "newton:rough"
+ * (spc_snee_parse), which path.c honours: a rough chain surface is then never a receiver, and the
+ * glossy paths and light samples through rough casters that specular NEE covers are dropped from
+ * BSDF sampling (spc_snee_track_scatter_params, spc_snee_track_covers_light). m is drawn with the
+ * roughness at the seed's hit and weighted with the one at the solution: the same for constant
+ * roughness (textured roughness would need one draw per surface, not done). The
+ * estimator's variance grows fast with roughness (tests/test_newton.c: alpha 0.03 renders agree
+ * with ipt per pixel, alpha 0.1 only in block means at 256 spp).
  *
  * Hot path: no allocation; false means no solution.
  */
@@ -86,10 +89,21 @@ typedef struct spc_newton_path {
     spc_vec3 ref;
 } spc_newton_path;
 
+/* Why a solve stopped (for benchmarks and diagnostics). */
+typedef enum spc_newton_stop {
+    SPC_NEWTON_CONVERGED,
+    SPC_NEWTON_STOP_SEED,       /* the constraints are undefined at the seed */
+    SPC_NEWTON_STOP_SINGULAR,   /* a singular pivot block (a caustic of the light) */
+    SPC_NEWTON_STOP_ITERATIONS, /* max_iterations projections */
+    SPC_NEWTON_STOP_PROGRESS,   /* beta below its minimum: no step lowered the constraints */
+    SPC_NEWTON_STOP_SIDES       /* converged with a vertex on the wrong sides for its event */
+} spc_newton_stop;
+
 typedef struct spc_newton_result {
     int iterations;  /* projections done */
     double step;     /* length of the last full Newton step (largest vertex move) */
     bool converged;
+    spc_newton_stop stop;
 } spc_newton_result;
 
 /* Builds a seed path (classic MNEE): every chain surface the straight segment from x to y crosses
@@ -105,6 +119,10 @@ bool spc_newton_seed_straight(const spc_scene *sc, const spc_hit *x, spc_vec3 y,
  * included). False if there is no vertex. */
 bool spc_newton_seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int max_vertices, bool any_surface,
                            const double (*rough_u)[2], spc_vec3 ref, spc_newton_path *p);
+/* Is h on a rough chain surface (the shape's own BSDF an isotropic roughconductor, reflecting, or
+ * roughdielectric, refracting; no emitter; a caster unless any_surface)? event: its chain event. */
+bool spc_newton_rough_surface(const spc_hit *h, bool any_surface, int *event);
+
 /* The Newton path of a traced chain (smooth vertices). */
 void spc_newton_path_from_chain(const spc_chain *c, spc_newton_path *p);
 

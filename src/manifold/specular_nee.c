@@ -68,6 +68,87 @@ bool spc_specular_solver_parse(const char *name, int *id)
 
 const char *spc_specular_solver_names(void) { return "none, angular, newton, conic"; }
 
+/* Parses a positive integer option value; false unless the whole string is one. */
+static bool parse_count(const char *s, size_t n, int *out)
+{
+    if (n == 0 || n > 6)
+        return false;
+    int v = 0;
+    for (size_t i = 0; i < n; ++i) {
+        if (s[i] < '0' || s[i] > '9')
+            return false;
+        v = 10 * v + (s[i] - '0');
+    }
+    if (v < 1)
+        return false;
+    *out = v;
+    return true;
+}
+
+static bool opt_is(const char *s, size_t n, const char *name) { return strlen(name) == n && !strncmp(s, name, n); }
+
+bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
+{
+    if (!spec)
+        spec = "";
+    const char *colon = strchr(spec, ':');
+    size_t nlen = colon ? (size_t)(colon - spec) : strlen(spec);
+    char name[32];
+    if (nlen >= sizeof name)
+        return false;
+    memcpy(name, spec, nlen);
+    name[nlen] = '\0';
+    int id;
+    if (!spc_specular_solver_parse(name, &id))
+        return false;
+    spc_snee_params_default(p, id, max_chain);
+    if (!colon)
+        return true;
+    if (id == SPC_SNEE_NONE)
+        return false; /* options without a solver are a mistake, not a no-op */
+    for (const char *o = colon + 1;;) {
+        const char *end = strchr(o, ',');
+        size_t n = end ? (size_t)(end - o) : strlen(o);
+        const char *eq = memchr(o, '=', n);
+        size_t kn = eq ? (size_t)(eq - o) : n;
+        const char *val = eq ? eq + 1 : NULL;
+        size_t vn = eq ? n - kn - 1 : 0;
+        if (opt_is(o, n, "unbiased")) {
+            p->biased = false;
+        } else if (opt_is(o, kn, "biased")) {
+            p->biased = true;
+            if (val && !parse_count(val, vn, &p->biased_seeds))
+                return false;
+        } else if (opt_is(o, kn, "trials") && val) {
+            if (!parse_count(val, vn, &p->max_trials))
+                return false;
+        } else if (opt_is(o, kn, "seed") && val) {
+            if (opt_is(val, vn, "shape"))
+                p->seed = SPC_SNEE_SEED_SHAPE;
+            else if (opt_is(val, vn, "light"))
+                p->seed = SPC_SNEE_SEED_LIGHT;
+            else if (opt_is(val, vn, "bsdf"))
+                p->seed = SPC_SNEE_SEED_BSDF;
+            else
+                return false;
+        } else if (opt_is(o, kn, "constraint") && val && id == SPC_SNEE_NEWTON) {
+            if (opt_is(val, vn, "angle"))
+                p->newton.constraint = SPC_NEWTON_ANGLE_DIFF;
+            else if (opt_is(val, vn, "half"))
+                p->newton.constraint = SPC_NEWTON_HALF_VECTOR;
+            else
+                return false;
+        } else if (opt_is(o, n, "rough") && id == SPC_SNEE_NEWTON) {
+            p->newton.rough = true;
+        } else {
+            return false;
+        }
+        if (!end)
+            return true;
+        o = end + 1;
+    }
+}
+
 void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
 {
     memset(p, 0, sizeof *p);
@@ -431,6 +512,65 @@ bool spc_snee_track_covers(const spc_snee_track *t, const spc_scene *sc, const s
     if (!t->live || t->k < 1 || t->k > t->max_chain || !e || e->type != SPC_EMITTER_AREA)
         return false;
     if (!(t->k == 1 ? t->single_ok : t->multi_ok))
+        return false;
+    return spc_scene_emitter_pmf(sc, e) > 0.0;
+}
+
+/* ---- the same with rough vertices ---- */
+
+static bool rough_mode(const spc_snee_params *p) { return p->solver == SPC_SNEE_NEWTON && p->newton.rough; }
+
+int spc_snee_budget_params(const spc_snee_params *p, const spc_hit *x, int max_chain)
+{
+    int b = spc_snee_budget(x, max_chain, p->any_surface);
+    if (b > 0 && rough_mode(p) && spc_newton_rough_surface(x, p->any_surface, NULL))
+        return 0;
+    return b;
+}
+
+/* The chain-vertex bookkeeping of one more vertex on h (allowed flags, budget). */
+static void track_vertex(spc_snee_track *t, const spc_hit *h)
+{
+    if (++t->k > t->max_chain) {
+        t->live = false;
+        return;
+    }
+    if (!t->any_surface) {
+        t->single_ok = t->single_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 1);
+        t->multi_ok = t->multi_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 2);
+    }
+}
+
+void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, const spc_hit *h, unsigned lobe,
+                                   int snee_budget)
+{
+    int event;
+    if (rough_mode(p) && spc_newton_rough_surface(h, p->any_surface, &event)) {
+        unsigned want = event == SPC_CHAIN_REFLECT ? SPC_LOBE_GLOSSY_REFLECTION : SPC_LOBE_GLOSSY_TRANSMISSION;
+        if (t->live && lobe == want)
+            track_vertex(t, h);
+        else
+            t->live = false; /* any other lobe: not a chain vertex, and never a receiver */
+        return;
+    }
+    spc_snee_track_scatter(t, h, lobe, snee_budget, p->any_surface);
+}
+
+bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,
+                                 const spc_hit *h, spc_vec3 wo, spc_vec3 wi, const spc_emitter *e)
+{
+    int event;
+    if (!rough_mode(p) || !t->live || !e || !spc_newton_rough_surface(h, p->any_surface, &event))
+        return false;
+    if (e->type != SPC_EMITTER_AREA && e->type != SPC_EMITTER_POINT && e->type != SPC_EMITTER_SPOT)
+        return false;
+    /* sides by the shading normal, as the solver's constraints have them */
+    double s = spc_dot(wo, h->sh.n) * spc_dot(wi, h->sh.n);
+    if (event == SPC_CHAIN_REFLECT ? !(s > 0.0) : !(s < 0.0))
+        return false;
+    spc_snee_track u = *t;
+    track_vertex(&u, h);
+    if (!u.live || !(u.k == 1 ? u.single_ok : u.multi_ok))
         return false;
     return spc_scene_emitter_pmf(sc, e) > 0.0;
 }

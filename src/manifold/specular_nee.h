@@ -102,6 +102,18 @@ typedef struct spc_specular_solver {
     bool (*covers_all)(const spc_snee_query *q);
 } spc_specular_solver;
 
+/* Parses a specular-NEE setting: NAME[:OPTION[,OPTION...]], NAME a solver name (as
+ * spc_specular_solver_parse) and the options (for the solvers that find one solution at a time):
+ *   unbiased            one solution per light sample times the Bernoulli-trial count (default)
+ *   biased[=M]          M attempts (default SPC_SNEE_BIASED_SEEDS), the distinct solutions summed
+ *   trials=N            cap of the trial count (default SPC_SNEE_MAX_TRIALS)
+ *   seed=shape|light|bsdf   seeding (default shape; light is Hanika et al.'s straight line)
+ *   constraint=angle|half   newton: angle differences (default) or half vectors
+ *   rough               newton: rough dielectrics and conductors are chain vertices (newton.h)
+ * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
+ * options. False (p undefined) for an unknown name or option, or a bad value. */
+bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);
+
 /* The solver of an id, or NULL (none, or not implemented). */
 const spc_specular_solver *spc_specular_solver_get(int id);
 /* Parses a solver name: "" and "none" give SPC_SNEE_NONE. False for an unknown name. */
@@ -151,6 +163,24 @@ typedef struct spc_snee_track {
 
 /* Specular NEE's chain budget at x: max_chain if x is a receiver with a non-delta lobe, else 0. */
 int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface);
+
+/* With rough vertices (params->newton.rough and the newton solver; newton.h) specular NEE also
+ * covers paths through rough conductors (a glossy reflection) and rough dielectrics (a glossy
+ * transmission), which BSDF sampling reaches through glossy lobes and which the path tracer's own
+ * light sample at such a vertex reaches too. The three calls below take the params and reduce to
+ * the ones above without rough vertices:
+ *   - the budget is 0 at a rough chain surface (it is a chain vertex, never a receiver: the paths
+ *     through it would be counted by the specular NEE of both of its ends);
+ *   - the track follows glossy lobes of the chain event on rough chain surfaces;
+ *   - spc_snee_track_covers_light: at a vertex h reached along a tracked path (the track as it is
+ *     before scattering at h), is the path that the light sample at h closes toward e (direction wi)
+ *     one specular NEE already counted? (h a rough chain surface one vertex within the budget, wi on
+ *     the side of its chain event, e an area, point or spot light.) */
+int spc_snee_budget_params(const spc_snee_params *p, const spc_hit *x, int max_chain);
+void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, const spc_hit *h, unsigned lobe,
+                                   int snee_budget);
+bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,
+                                 const spc_hit *h, spc_vec3 wo, spc_vec3 wi, const spc_emitter *e);
 
 /* After BSDF sampling at a path vertex: `snee_budget` is the max_chain specular NEE used there (0 if
  * it did not run: then the path is not tracked), `lobe` the sampled lobe. */
