@@ -3,8 +3,9 @@
 #
 # For each scene: a reference rendered by bdpt for REF_SECONDS (seed 1), then path and bdpt for
 # SECONDS each (seeds 2, 3), and `specula diff` of each against the reference (relMSE). Then the
-# caustic scene's strategies (s, t) of lengths 1..4, unweighted and MIS-weighted, as small PNGs in
-# bench/bdpt_strategies/.
+# caustic scene's strategies (s, t) of lengths 1..4, unweighted and MIS-weighted, from one render
+# with --strategy-images, as small PNGs in bench/bdpt_strategies/, and each weighted strategy's
+# share of the caustic (build/bdpt_strategy_share: 7x7 pixels around the image's brightest pixel).
 #
 # The machine may be shared: besides wall-clock equal time, each render's CPU time (user + system,
 # from /usr/bin/time) is recorded, and relMSE x CPU seconds (constant for an unbiased estimator
@@ -21,7 +22,7 @@ REF=${3:-600}
 RES=${4:-128}
 OUT=${OUT:-/tmp/specula_bench_bdpt}
 SPC="$BUILD/specula"
-SCENES=${SCENES:-"indirect_shade indirect_door caustic_sphere"}
+SCENES=${SCENES-"indirect_shade indirect_door caustic_sphere"} # SCENES= : strategy images only
 mkdir -p "$OUT" bench/bdpt_strategies
 
 json_num() { # json_num FILE KEY: the number after "KEY": in FILE
@@ -58,24 +59,13 @@ for sc in $SCENES; do
 done
 [ "${STRATEGIES:-1}" = 0 ] && exit 0
 
-# per-strategy images of the caustic: lengths k = s + t - 1 <= 4, at 64x64
+# per-strategy images of the caustic: lengths k = s + t - 1 <= 4, at 64x64, all from one render
 SRES=${SRES:-64}
 SSPP=${SSPP:-256}
-for k in 1 2 3 4; do
-    s=0
-    while [ "$s" -le "$k" ]; do
-        t=$((k + 1 - s))
-        for w in unweighted weighted; do
-            flag=""
-            [ "$w" = weighted ] && flag="--strategy-weighted"
-            "$SPC" render scenes/caustic_sphere.xml -D res="$SRES" --max-depth 4 --spp "$SSPP" --seed 4 --quiet \
-                --strategy "$s,$t" $flag -o "$OUT/strategy_s${s}_t${t}_$w.exr"
-            cp "$OUT/strategy_s${s}_t${t}_$w.png" "bench/bdpt_strategies/s${s}_t${t}_$w.png"
-        done
-        s=$((s + 1))
-    done
-done
-"$SPC" render scenes/caustic_sphere.xml -D res="$SRES" --max-depth 4 --spp "$SSPP" --seed 4 --quiet \
-    -o "$OUT/strategy_all.exr"
+/usr/bin/time -f "%U %S" -o "$OUT/strategies.cpu" "$SPC" render scenes/caustic_sphere.xml -D res="$SRES" \
+    --max-depth 4 --spp "$SSPP" --seed 4 --quiet -o "$OUT/strategy_all.exr" --strategy-images "$OUT/strategies"
+echo "strategy images: $(awk '{ printf "%.1f", $1 + $2 }' "$OUT/strategies.cpu") CPU s for the image and 28 films"
+cp "$OUT"/strategies/s*_t*_*weighted.png bench/bdpt_strategies/
 cp "$OUT/strategy_all.png" bench/bdpt_strategies/all_max_depth_4.png
+"$BUILD/bdpt_strategy_share" "$OUT/strategy_all.exr" "$OUT/strategies"
 echo "per-strategy images: bench/bdpt_strategies/"

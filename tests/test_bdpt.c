@@ -14,7 +14,8 @@
  *   seed); each unweighted strategy (s, t) of length k = s + t - 1 in a scene without corners
  *   (every strategy samples every path there, with finite variance) agrees with the length-k
  *   image; light tracing (t = 1) agrees with NEE (s = 1) for box, tent and Gaussian pixel filters
- *   and a crop window, which checks the normalization of the camera importance.
+ *   and a crop window, which checks the normalization of the camera importance. All strategies in
+ *   one render (strategy_images) equal the single-strategy renders bit for bit and sum to the image.
  * - Bit-identical images, splats included, for 1 and 2 threads.
  */
 /* ctest-labels: stat */
@@ -634,6 +635,114 @@ TEST(weighted_strategies_sum_to_full_image)
     spc_scene_destroy(sc);
 }
 
+/* Two films hold the same bits (mean and variance). */
+static bool same_film(const spc_film *a, const spc_film *b)
+{
+    size_t n = 3 * (size_t)a->width * (size_t)a->height * sizeof(float);
+    return a->width == b->width && a->height == b->height && memcmp(a->rgb, b->rgb, n) == 0 &&
+           memcmp(a->var, b->var, n) == 0;
+}
+
+/* strategy_images: one render fills a weighted and an unweighted film for every strategy of every
+ * length up to max_depth. Each equals the single-strategy render of the same seed bit for bit (so
+ * each unweighted one is that strategy's own estimator, checked against the length images above),
+ * the weighted ones sum to the image, and the image itself is the one rendered without them. */
+TEST(strategy_images_in_one_render)
+{
+    spc_scene *sc = cornell_box(BOX_SPHERES, 16, 1.0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const int max_depth = 4, spp = 16;
+    const uint64_t seed = 37;
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = spp;
+    o.threads = 2;
+    o.seed = seed;
+    o.integrator = "bdpt";
+    o.max_depth = max_depth;
+    o.strategy_images = true;
+    spc_film *full = NULL;
+    spc_error err;
+    CHECK(spc_render(sc, &o, &full, NULL, &err) == SPC_OK && full);
+    spc_film *plain = render_opts(sc, "bdpt", spp, 1, seed, max_depth, -1, -1, false, false);
+    CHECK(plain && full && same_film(full, plain));
+    int expected = 0;
+    for (int k = 1; k <= max_depth; ++k)
+        expected += 2 * (k + 1); /* s = 0 .. k, weighted and not */
+    int n = spc_film_strategy_count(full);
+    CHECK_MSG(n == expected, "%d strategy films, expected %d", n, expected);
+    size_t np = (size_t)16 * 16 * 3;
+    double *sum = calloc(np, sizeof(double));
+    int seen[SPC_STRATEGY_IMAGES_MAX_DEPTH + 2][SPC_STRATEGY_IMAGES_MAX_DEPTH + 2][2];
+    memset(seen, 0, sizeof seen);
+    int lit_t1 = 0, lit_st = 0, identical = 0;
+    for (int i = 0; full && i < n; ++i) {
+        int s = -1, t = -1;
+        bool w = false;
+        const spc_film *f = spc_film_strategy(full, i, &s, &t, &w);
+        CHECK(f != NULL && s >= 0 && t >= 1 && s + t - 1 <= max_depth);
+        if (!f || s < 0 || t < 1 || s + t - 1 > max_depth)
+            continue;
+        seen[s][t][w]++;
+        double m = 0.0;
+        for (size_t j = 0; j < np; ++j) {
+            if (w)
+                sum[j] += f->rgb[j];
+            m += f->rgb[j];
+        }
+        if (w && m > 0.0) {
+            lit_t1 += t == 1;
+            lit_st += s >= 2 && t >= 2;
+        }
+        spc_film *one = render_opts(sc, "bdpt", spp, 2, seed, max_depth, s, t, w, false);
+        CHECK(one != NULL);
+        if (one) {
+            bool same = same_film(f, one);
+            identical += same;
+            CHECK_MSG(same, "strategy (%d, %d) %s differs from its single-strategy render", s, t,
+                      w ? "weighted" : "unweighted");
+        }
+        spc_film_destroy(one);
+    }
+    printf("  %d of %d strategy films equal their single-strategy renders\n", identical, n);
+    for (int k = 1; k <= max_depth; ++k)
+        for (int s = 0; s <= k; ++s)
+            CHECK_MSG(seen[s][k + 1 - s][0] == 1 && seen[s][k + 1 - s][1] == 1, "strategy (%d, %d) not there once", s,
+                      k + 1 - s);
+    /* light tracing splats and general connections both reached their films */
+    CHECK(lit_t1 > 0 && lit_st > 0);
+    if (full) {
+        double worst = 0.0;
+        for (size_t j = 0; j < np; ++j) {
+            double d = fabs(sum[j] - full->rgb[j]) / (fabs(full->rgb[j]) + 1e-6);
+            worst = d > worst ? d : worst;
+        }
+        CHECK_MSG(worst < 1e-4, "weighted strategy films: largest relative difference from the image %.3g", worst);
+    }
+    free(sum);
+    spc_film_destroy(plain);
+    spc_film_destroy(full);
+
+    /* refused: another integrator, no depth limit, with a single strategy, with a checkpoint */
+    spc_film *f = NULL;
+    o.integrator = "path";
+    CHECK(spc_render(sc, &o, &f, NULL, &err) == SPC_ERR_VALUE && !f);
+    o.integrator = "bdpt";
+    o.max_depth = -1;
+    CHECK(spc_render(sc, &o, &f, NULL, &err) == SPC_ERR_VALUE && !f);
+    o.max_depth = max_depth;
+    o.strategy_s = 1;
+    o.strategy_t = 2;
+    CHECK(spc_render(sc, &o, &f, NULL, &err) == SPC_ERR_VALUE && !f);
+    o.strategy_s = o.strategy_t = -1;
+    o.checkpoint_path = "/nonexistent/never-written.ckpt";
+    CHECK(spc_render(sc, &o, &f, NULL, &err) == SPC_ERR_VALUE && !f);
+    CHECK(strstr(err.msg, "checkpoint") != NULL);
+    spc_scene_destroy(sc);
+}
+
 /* In a diffuse scene lit by an area light every strategy (s, t) with t >= 1 samples every path
  * of length k = s + t - 1, so each unweighted strategy alone estimates the length-k image, which
  * is the sum of the weighted strategies of that length (here rendered with other seeds). The
@@ -777,6 +886,7 @@ int main(void)
     RUN(glass_slab_orthographic);
     RUN(same_image_for_any_thread_count);
     RUN(weighted_strategies_sum_to_full_image);
+    RUN(strategy_images_in_one_render);
     RUN(light_tracing_matches_nee_for_every_filter);
     RUN(unweighted_strategies_estimate_length_images);
     RUN(balance_heuristic_against_power);

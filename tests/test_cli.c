@@ -2,7 +2,7 @@
  * tests/test_cli.c: end-to-end checks of the `specula` command, run as a child process
  * ($SPC_BINARY_DIR/specula) in a temporary directory with stdout and stderr captured to files:
  * error messages with file:line:col, exit codes, no output written on failure, a tiny scene that
- * renders to EXR + PNG, `diff`, `info` and the --stats JSON.
+ * renders to EXR + PNG, `diff`, `info` and the --stats JSON; --mis-balance and --strategy-images.
  */
 /* ctest-labels: unit */
 /* ctest-timeout: 300 */
@@ -368,6 +368,47 @@ TEST(mis_balance_flag)
     CHECK(diff_mse("resumed.exr", "balance.exr") == 0.0);
 }
 
+/* --strategy-images DIR: every strategy of lengths 1..max_depth, weighted and unweighted, as EXR
+ * and PNG, in one bdpt render; refused with --strategy, --checkpoint or another integrator. */
+TEST(strategy_images_flag)
+{
+    CHECK(write_file("tiny.xml", tiny_scene));
+    int rc = run("render", "tiny.xml", "--integrator", "bdpt", "--max-depth", "2", "--spp", "2", "--quiet", "-o",
+                 "strat.exr", "--strategy-images", "strat", "--variance", NULL);
+    CHECK_MSG(rc == 0, "exit %d", rc);
+    if (rc != 0)
+        show_output();
+    int found = 0;
+    for (int k = 1; k <= 2; ++k)
+        for (int s = 0; s <= k; ++s)
+            for (int w = 0; w < 2; ++w)
+                for (int png = 0; png < 2; ++png) {
+                    char name[64];
+                    snprintf(name, sizeof name, "strat/s%d_t%d_%s.%s", s, k + 1 - s, w ? "weighted" : "unweighted",
+                             png ? "png" : "exr");
+                    bool there = file_exists(name);
+                    CHECK_MSG(there, "%s missing", name);
+                    found += there;
+                }
+    CHECK(found == 20);
+    /* the direct light at length 2 comes from NEE and light tracing: both unweighted images see it */
+    CHECK(run("diff", "strat/s1_t2_unweighted.exr", "strat/s2_t1_unweighted.exr", "--json", NULL) == 0);
+    char *o = read_file("out.txt");
+    const char *m = o ? strstr(o, "\"mean_a\": [") : NULL, *mb = o ? strstr(o, "\"mean_b\": [") : NULL;
+    CHECK(m && mb && atof(m + strlen("\"mean_a\": [")) > 0.0 && atof(mb + strlen("\"mean_b\": [")) > 0.0);
+    free(o);
+    CHECK(run("render", "tiny.xml", "--integrator", "bdpt", "--max-depth", "2", "--strategy", "1,1",
+              "--strategy-images", "strat2", "--quiet", NULL) == 2);
+    CHECK(run("render", "tiny.xml", "--integrator", "bdpt", "--max-depth", "2", "--checkpoint", "s.ckpt",
+              "--strategy-images", "strat2", "--quiet", NULL) == 2);
+    CHECK(run("render", "tiny.xml", "--integrator", "path", "--max-depth", "2", "--spp", "1", "-o", "p.exr",
+              "--strategy-images", "strat2", "--quiet", NULL) == 4);
+    char *e = read_file("err.txt");
+    CHECK_MSG(e && strstr(e, "bdpt"), "stderr: %s", e ? e : "(none)");
+    free(e);
+    CHECK(!file_exists("p.exr"));
+}
+
 TEST(default_output_name)
 {
     CHECK(write_file("tiny.xml", tiny_scene));
@@ -446,6 +487,7 @@ int main(void)
     RUN(tiny_scene_renders_and_diffs);
     RUN(default_output_name);
     RUN(mis_balance_flag);
+    RUN(strategy_images_flag);
     RUN(info_prints_triangles);
     RUN(stats_json);
     int rc = spc_test_finish();

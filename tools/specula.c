@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -82,12 +83,7 @@ static const char *const usage_render =
     "  --seed S               random seed (default 0)\n"
     "  --res WxH              film size (default: the scene's)\n"
     "  --integrator NAME      path, ipt, bdpt or volpath (default: the scene's)\n"
-    "  --specular-nee NAME[:OPTS]  none, angular, newton or conic (default: the scene's); OPTS,\n"
-    "                         comma-separated: unbiased (default: one solution, 1/p by Bernoulli\n"
-    "                         trials) or biased[=M] (M seeds, distinct solutions summed; M 8),\n"
-    "                         trials=N (cap, 64), seed=shape|light|bsdf, and for newton\n"
-    "                         constraint=angle|half, rough (rough interfaces as chain vertices);\n"
-    "                         e.g. --specular-nee newton:biased=8\n"
+    "  --specular-nee NAME    none, angular, newton or conic (default: the scene's)\n"
     "  --max-depth N          longest path, Mitsuba's meaning; -1 for no limit\n"
     "  -D name=value          override a <default name=... value=...> of the scene (repeatable)\n"
     "  --variance             also write the variance of the mean (variance.R/G/B)\n"
@@ -95,6 +91,9 @@ static const char *const usage_render =
     "  --stats FILE.json      write render statistics as JSON\n"
     "  --strategy S,T         bdpt: render only the (s, t) strategy, unweighted\n"
     "  --strategy-weighted    with --strategy: apply the MIS weight\n"
+    "  --strategy-images DIR  bdpt: in the same render, also write every strategy (s, t) of\n"
+    "                         length s + t - 1 <= max_depth (1..8) as DIR/sS_tT_weighted.exr and\n"
+    "                         DIR/sS_tT_unweighted.exr (+ .png); the weighted ones sum to the image\n"
     "  --mis-balance          bdpt: weight strategies by the balance heuristic instead of the\n"
     "                         power heuristic (also the integrator property mis_balance)\n"
     "  --quiet                no progress bar or summary\n"
@@ -315,6 +314,38 @@ static bool output_dir_ok(const char *path)
     dir[len] = '\0';
     bool ok = access(dir, W_OK) == 0;
     free(dir);
+    return ok;
+}
+
+/* Writes every strategy film of `film` into dir (created if missing) as sS_tT_{weighted,unweighted}
+ * .exr and .png; false with a message on stderr at the first failure. */
+static bool write_strategy_images(const spc_film *film, const char *dir, bool variance)
+{
+    int n = spc_film_strategy_count(film);
+    size_t len = strlen(dir) + 64;
+    char *path = malloc(len);
+    if (!path) {
+        fail("out of memory");
+        return false;
+    }
+    bool ok = true;
+    for (int i = 0; ok && i < n; ++i) {
+        int s = 0, t = 0;
+        bool weighted = false;
+        const spc_film *f = spc_film_strategy(film, i, &s, &t, &weighted);
+        spc_error err;
+        memset(&err, 0, sizeof err);
+        const char *kind = weighted ? "weighted" : "unweighted";
+        snprintf(path, len, "%s/s%d_t%d_%s.exr", dir, s, t, kind);
+        ok = f && spc_film_write_exr(f, path, variance, &err) == SPC_OK;
+        if (ok) {
+            snprintf(path, len, "%s/s%d_t%d_%s.png", dir, s, t, kind);
+            ok = spc_film_write_png(f, path, &err) == SPC_OK;
+        }
+        if (!ok)
+            fail_error(&err);
+    }
+    free(path);
     return ok;
 }
 
@@ -568,7 +599,7 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
     opt.resume = resume;
     const char *ckpt_path = NULL;
     arglist recorded = {NULL, 0, false};
-    const char *scene_path = NULL, *out_arg = NULL, *stats_path = NULL;
+    const char *scene_path = NULL, *out_arg = NULL, *stats_path = NULL, *strategy_dir = NULL;
     bool variance = false, quiet = false;
     defines defs;
     if (!defines_init(&defs, argc)) {
@@ -642,6 +673,11 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         } else if (!strcmp(a, "--strategy-weighted")) {
             opt.strategy_weighted = true;
             ++i;
+        } else if (opt_value(argc, argv, &i, "--strategy-images", NULL, &v)) {
+            if (!v || !*v)
+                code = usage_error(usage_render, "--strategy-images needs a directory");
+            strategy_dir = v;
+            opt.strategy_images = true;
         } else if (!strcmp(a, "--mis-balance")) {
             opt.mis_balance = true;
             ++i;
@@ -670,6 +706,10 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         code = usage_error(usage_render, "no scene given");
     if (code == 0 && opt.strategy_weighted && opt.strategy_s < 0)
         code = usage_error(usage_render, "--strategy-weighted needs --strategy S,T");
+    if (code == 0 && strategy_dir && opt.strategy_s >= 0)
+        code = usage_error(usage_render, "--strategy-images writes every strategy; it does not go with --strategy");
+    if (code == 0 && strategy_dir && (ckpt_path || resume))
+        code = usage_error(usage_render, "--strategy-images cannot be checkpointed; render without --checkpoint");
     if (code != 0) {
         defines_release(&defs);
         free(recorded.text);
@@ -690,6 +730,11 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
     }
     if (!output_dir_ok(out_path)) {
         fail("%s: cannot write there: %s", out_path, strerror(errno));
+        code = EXIT_WRITE;
+        goto done;
+    }
+    if (strategy_dir && mkdir(strategy_dir, 0777) != 0 && errno != EEXIST) {
+        fail("%s: cannot create the directory: %s", strategy_dir, strerror(errno));
         code = EXIT_WRITE;
         goto done;
     }
@@ -788,6 +833,10 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         st = spc_film_write_png(film, png, &err);
     if (st != SPC_OK) {
         fail_error(&err);
+        code = EXIT_WRITE;
+        goto done;
+    }
+    if (strategy_dir && !write_strategy_images(film, strategy_dir, variance)) {
         code = EXIT_WRITE;
         goto done;
     }

@@ -103,7 +103,18 @@ typedef struct spc_render_options {
      * render is refused with SPC_ERR_VALUE saying what differs. The result is bit-identical to an
      * uninterrupted render of the same spp and seed. */
     const struct spc_checkpoint *resume;
+    /* bdpt debug: in the same render, also accumulate each strategy (s, t), t >= 1, of every length
+     * s + t - 1 = 1 .. max_depth into films of its own, MIS-weighted and unweighted (light tracing,
+     * t = 1, splats as in the image). The weighted films sum to the image; each film equals the
+     * render of that one strategy (strategy_s/t, strategy_weighted) with the same seed, bit for bit.
+     * Needs bdpt and 1 <= max_depth <= SPC_STRATEGY_IMAGES_MAX_DEPTH; not with strategy_s/t nor
+     * with checkpoints. Memory: about 100 bytes per pixel per film. Read them with
+     * spc_film_strategy. */
+    bool strategy_images;
 } spc_render_options;
+
+#define SPC_STRATEGY_IMAGES_MAX_DEPTH 8
+#define SPC_STRATEGY_IMAGES_MAX 44 /* strategies of lengths 1 .. 8: 8 (8 + 3) / 2 */
 
 void spc_render_options_init(spc_render_options *o);
 
@@ -146,6 +157,11 @@ int spc_film_height(const spc_film *f);
 const float *spc_film_rgb(const spc_film *f);
 /* Variance of the pixel mean (3 floats per pixel); owned by the film. */
 const float *spc_film_variance(const spc_film *f);
+/* Strategy films of a render with strategy_images (0 and NULL otherwise, or for i out of range):
+ * film i holds strategy (*s, *t), *weighted or not; owned by f (valid until f is destroyed), and
+ * written like any film (spc_film_write_exr, spc_film_write_png). */
+int spc_film_strategy_count(const spc_film *f);
+const spc_film *spc_film_strategy(const spc_film *f, int i, int *s, int *t, bool *weighted);
 /* EXR with R,G,B; with `variance` also variance.R/G/B; with AOVs albedo.*, normal.*, depth.Z when
  * rendered. Written atomically (temporary file, then rename). */
 spc_status spc_film_write_exr(const spc_film *f, const char *path, bool variance, spc_error *err);

@@ -60,6 +60,10 @@
  *
  * Debug: ctx->strategy_s / strategy_t >= 0 keep only the matching strategies, weighted by MIS
  * only if ctx->strategy_weighted. The sum of the weighted single-strategy images is the full image.
+ * With ctx->strategy_images_depth > 0 one render also hands every strategy's weighted and
+ * unweighted contribution to the driver (spc_sample_out.strategy_L; t = 1 splats into strategy
+ * films), computed by the same arithmetic as the single-strategy modes, so that each strategy film
+ * equals the corresponding --strategy render bit for bit.
  */
 #include <stdatomic.h>
 #include <string.h>
@@ -417,9 +421,13 @@ static double weight_of(const bdpt *B, const vtx *y, int s, const vtx *z, int t,
     return B->weighted ? mis_weight(B, y, s, z, t, lend, pdf_cam) : 1.0;
 }
 
+/* The connect_* functions return a strategy's unweighted contribution C and its MIS weight in *w
+ * (1 when not weighting); the image gets C * w. */
+
 /* s = 0: the camera subpath's last vertex z[t-1] is on a light. */
-static spc_rgb connect_s0(const bdpt *B, const vtx *z, int t)
+static spc_rgb connect_s0(const bdpt *B, const vtx *z, int t, double *w)
 {
+    *w = 1.0;
     const vtx *v = &z[t - 1];
     vtx l;
     spc_rgb Le;
@@ -448,7 +456,8 @@ static spc_rgb connect_s0(const bdpt *B, const vtx *z, int t)
     spc_rgb C = spc_rgb_mul(v->beta, Le);
     if (spc_rgb_is_black(C))
         return C;
-    return spc_rgb_scale(C, weight_of(B, NULL, 0, z, t, &l, 0.0));
+    *w = weight_of(B, NULL, 0, z, t, &l, 0.0);
+    return C;
 }
 
 /* True if film position (fx, fy) lies in the rendered window: light tracing covers exactly the
@@ -459,8 +468,9 @@ static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
     return fx >= ctx->crop_x && fx < ctx->crop_x + ctx->width && fy >= ctx->crop_y && fy < ctx->crop_y + ctx->height;
 }
 
-/* t = 1: the light subpath's vertex y[s-1] joined to the pinhole, splatted. */
-static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const vtx *z)
+/* t = 1: the light subpath's vertex y[s-1] joined to the pinhole, splatted; with strategy >= 0
+ * also into that strategy's films (weighted, unweighted). */
+static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const vtx *z, int strategy)
 {
     const spc_render_ctx *ctx = B->ctx;
     const vtx *v = &y[s - 1];
@@ -497,11 +507,16 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
         w = mis_weight(B, y, s, z, 1, NULL, pdf_cam);
     }
     spc_splat_add(ctx, tls, cd.fx, cd.fy, spc_rgb_scale(C, w));
+    if (strategy >= 0) {
+        spc_splat_add_to(ctx, tls, 1 + 2 * strategy, cd.fx, cd.fy, spc_rgb_scale(C, w));
+        spc_splat_add_to(ctx, tls, 2 + 2 * strategy, cd.fx, cd.fy, C);
+    }
 }
 
 /* s = 1, t >= 2: a light point sampled from z[t-1] (next-event estimation). */
-static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, spc_vec2 u_lpos)
+static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, spc_vec2 u_lpos, double *w)
 {
+    *w = 1.0;
     const vtx *v = &z[t - 1];
     if (v->kind != V_SURFACE || !spc_bsdf_has_smooth(v->h.bsdf))
         return spc_rgb1(0.0);
@@ -531,12 +546,14 @@ static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, sp
     l.d = spc_neg(ds.wi);
     l.pdf_rev = 0.0;
     l.pdf_fwd = light_origin_pdf(B->sc, &l);
-    return spc_rgb_scale(C, mis_weight(B, &l, 1, z, t, &l, 0.0));
+    *w = mis_weight(B, &l, 1, z, t, &l, 0.0);
+    return C;
 }
 
 /* s >= 2, t >= 2: join two scattering vertices. */
-static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int t)
+static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int t, double *mis)
 {
+    *mis = 1.0;
     const vtx *a = &y[s - 1], *b = &z[t - 1];
     if (a->kind != V_SURFACE || b->kind != V_SURFACE || !spc_bsdf_has_smooth(a->h.bsdf) ||
         !spc_bsdf_has_smooth(b->h.bsdf))
@@ -557,7 +574,8 @@ static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int 
     spc_ray sr = spc_hit_spawn_to(&a->h, b->p, b->h.err);
     if (spc_scene_occluded(B->sc, &sr))
         return spc_rgb1(0.0);
-    return spc_rgb_scale(C, weight_of(B, y, s, z, t, NULL, 0.0));
+    *mis = weight_of(B, y, s, z, t, NULL, 0.0);
+    return C;
 }
 
 /* ---- one sample ---- */
@@ -616,6 +634,10 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     int nl = light_subpath(&B, &ls, y, max_light, light_capped);
 
     spc_rgb L = spc_rgb1(0.0);
+    spc_rgb *SL = ctx->strategy_images_depth > 0 ? out->strategy_L : NULL;
+    if (SL)
+        for (int k = 0; k < 2 * spc_strategy_count(ctx->strategy_images_depth); ++k)
+            SL[k] = spc_rgb1(0.0);
     for (int t = 1; t <= nc; ++t) {
         double u_light = spc_sampler_1d(&cs);
         spc_vec2 u_lpos = spc_sampler_2d(&cs);
@@ -627,17 +649,25 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 continue;
             if ((ctx->strategy_s >= 0 && s != ctx->strategy_s) || (ctx->strategy_t >= 0 && t != ctx->strategy_t))
                 continue;
+            int k = SL && segments <= ctx->strategy_images_depth ? spc_strategy_index(s, t) : -1;
             spc_rgb c;
+            double w;
             if (s == 0)
-                c = connect_s0(&B, z, t);
+                c = connect_s0(&B, z, t, &w);
             else if (t == 1) {
-                connect_t1(&B, tls, y, s, z);
+                connect_t1(&B, tls, y, s, z, k);
                 continue;
             } else if (s == 1)
-                c = connect_s1(&B, z, t, u_light, u_lpos);
+                c = connect_s1(&B, z, t, u_light, u_lpos, &w);
             else
-                c = connect_st(&B, y, s, z, t);
-            L = spc_rgb_add(L, c);
+                c = connect_st(&B, y, s, z, t, &w);
+            spc_rgb cw = spc_rgb_scale(c, w);
+            L = spc_rgb_add(L, cw);
+            if (k >= 0) {
+                /* 0 + x, as L of a single-strategy render: the same bits, signed zeros included */
+                SL[2 * k] = spc_rgb_add(spc_rgb1(0.0), cw);
+                SL[2 * k + 1] = spc_rgb_add(spc_rgb1(0.0), c);
+            }
         }
     }
     out->L = L;

@@ -73,14 +73,15 @@ static double filter_1d(const spc_film_spec *f, double x)
     return 0.0;
 }
 
-static void push_splat(spc_tls *tls, int x, int y, spc_rgb v)
+static void push_splat(spc_tls *tls, int film, int x, int y, spc_rgb v)
 {
     if (tls->nsplats == tls->cap) {
         size_t ncap = tls->cap ? 2 * tls->cap : 256;
         spc_splat *ns = realloc(tls->splats, ncap * sizeof *ns);
         if (!ns) {
             tls->oom = true;
-            tls->invalid++;
+            if (film == 0)
+                tls->invalid++;
             return;
         }
         tls->splats = ns;
@@ -92,14 +93,21 @@ static void push_splat(spc_tls *tls, int x, int y, spc_rgb v)
     s->r = (float)v.r;
     s->g = (float)v.g;
     s->b = (float)v.b;
+    s->film = film;
 }
 
 void spc_splat_add(const spc_render_ctx *ctx, spc_tls *tls, double fx, double fy, spc_rgb v)
 {
+    spc_splat_add_to(ctx, tls, 0, fx, fy, v);
+}
+
+void spc_splat_add_to(const spc_render_ctx *ctx, spc_tls *tls, int film, double fx, double fy, spc_rgb v)
+{
     /* splats are stored as float: a value beyond float range is as invalid as a NaN (the driver
      * applies the same rule to camera samples) */
     if (!(fabs(v.r) <= FLT_MAX && fabs(v.g) <= FLT_MAX && fabs(v.b) <= FLT_MAX)) {
-        tls->invalid++;
+        if (film == 0)
+            tls->invalid++;
         return;
     }
     if (!(fabs(fx) < SPC_SPLAT_MAX_COORD && fabs(fy) < SPC_SPLAT_MAX_COORD))
@@ -131,7 +139,7 @@ void spc_splat_add(const spc_render_ctx *ctx, spc_tls *tls, double fx, double fy
                 w /= spc_film_filter_mass(ctx->film, x + 0.5, ctx->crop_x, ctx->crop_x + ctx->width) *
                      spc_film_filter_mass(ctx->film, y + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
             if (w > 0.0)
-                push_splat(tls, wx, wy, spc_rgb_scale(v, w));
+                push_splat(tls, film, wx, wy, spc_rgb_scale(v, w));
         }
     }
 }

@@ -13,7 +13,6 @@
 #include <stdint.h>
 
 #include "core/sampler.h"
-#include "manifold/specular_nee.h"
 #include "render/camera.h"
 #include "scene/scene.h"
 
@@ -33,13 +32,13 @@ typedef struct spc_render_ctx {
     int strategy_s, strategy_t; /* bdpt debug: >= 0 keeps only this strategy */
     bool strategy_weighted;
     bool mis_balance; /* bdpt: balance heuristic instead of the power heuristic */
+    /* bdpt debug: > 0 also fills spc_sample_out.strategy_L for every strategy with s + t - 1 <= this
+     * (spc_strategy_index) and splats t = 1 into the strategy films too */
+    int strategy_images_depth;
     /* specular NEE (src/manifold/specular_nee.h): solver id SPC_SNEE_* (0: off) and the longest
      * chain of specular vertices it connects through */
     int specular_nee;
     int specular_max_chain;
-    /* the options of the specular_nee setting (spc_snee_parse: estimator, seeds, rough vertices),
-     * solver and max_chain as above; path.c uses them, volpath.c only the solver */
-    spc_snee_params snee;
     /* film geometry for splats: the rendered window within the full film */
     int crop_x, crop_y, width, height;
     const spc_film_spec *film;
@@ -48,6 +47,7 @@ typedef struct spc_render_ctx {
 typedef struct spc_splat {
     int32_t x, y; /* pixel in the rendered window */
     float r, g, b;
+    int32_t film; /* 0: the image; 1 + j: strategy film j (spc_sample_out.strategy_L's slots) */
 } spc_splat;
 
 /* Per-work-item scratch: splats produced while rendering one tile of one pass. */
@@ -63,7 +63,21 @@ typedef struct spc_sample_out {
     spc_rgb albedo;
     spc_vec3 normal;
     double depth;
+    /* Set by the driver before the call: NULL, or (with ctx->strategy_images_depth > 0) room for
+     * 2 spc_strategy_count(depth) values that bdpt fills: slot 2 k holds the MIS-weighted and slot
+     * 2 k + 1 the unweighted contribution of strategy k = spc_strategy_index(s, t) to L (zero for
+     * t = 1, which splats instead). Other integrators leave it alone. */
+    spc_rgb *strategy_L;
 } spc_sample_out;
+
+/* Strategies (s, t), t >= 1, of lengths k = s + t - 1 = 1 .. depth, numbered by length, then by s:
+ * (0, 2) (1, 1), (0, 3) (1, 2) (2, 1), ...; depth (depth + 3) / 2 of them. */
+static inline int spc_strategy_count(int depth) { return depth * (depth + 3) / 2; }
+static inline int spc_strategy_index(int s, int t)
+{
+    int k = s + t - 1;
+    return (k - 1) * (k + 2) / 2 + s;
+}
 
 /* Parses an integrator name; false if unknown. */
 bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind);
@@ -76,6 +90,9 @@ void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ra
 /* Splat value v at continuous film position (fx, fy) of the full film, spread by the pixel
  * filter (normalized), into tls. */
 void spc_splat_add(const spc_render_ctx *ctx, spc_tls *tls, double fx, double fy, spc_rgb v);
+/* The same into film `film` (spc_splat.film). Only film 0 counts invalid values: the others hold
+ * parts of the image's estimate, which counts them once. */
+void spc_splat_add_to(const spc_render_ctx *ctx, spc_tls *tls, int film, double fx, double fy, spc_rgb v);
 
 /* Power heuristic (beta = 2) for two strategies with densities a (the one used) and b. */
 static inline double spc_mis_power(double a, double b)

@@ -49,7 +49,9 @@ typedef struct job {
     const tile *tiles;
     int ntiles;
     int pass0, npasses; /* passes in this batch */
-    int stride;         /* doubles per pixel in a batch buffer: 3, or 10 with AOVs */
+    int stride;         /* doubles per pixel in a batch buffer: base, then 3 per strategy film */
+    int base;           /* 3, or 10 with AOVs */
+    int nfilms;         /* strategy films (spc_render_options.strategy_images), 0 without */
     double *buf;        /* npasses * width * height * stride */
     spc_tls *tls;       /* npasses * ntiles */
     uint64_t seed;
@@ -103,6 +105,8 @@ static void render_item(job *jb, int item)
                         spc_film_filter_sample(ctx->film, u.y, fy + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
             spc_ray ray = spc_camera_ray(ctx->cam, px, py);
             spc_sample_out out;
+            spc_rgb strategy_L[2 * SPC_STRATEGY_IMAGES_MAX];
+            out.strategy_L = jb->nfilms > 0 ? strategy_L : NULL;
             spc_integrator_sample(ctx, tls, &ray, &smp, &out);
             if (!estimate_ok(out.L)) {
                 tls->invalid++;
@@ -112,7 +116,14 @@ static void render_item(job *jb, int item)
             d[0] = out.L.r;
             d[1] = out.L.g;
             d[2] = out.L.b;
-            if (jb->stride == 10) {
+            for (int j = 0; j < jb->nfilms; ++j) {
+                /* the rule of the image, so a strategy film equals a single-strategy render */
+                spc_rgb v = estimate_ok(strategy_L[j]) ? strategy_L[j] : spc_rgb1(0.0);
+                d[jb->base + 3 * j] = v.r;
+                d[jb->base + 3 * j + 1] = v.g;
+                d[jb->base + 3 * j + 2] = v.b;
+            }
+            if (jb->base == 10) {
                 d[3] = finite_or_zero(out.albedo.r);
                 d[4] = finite_or_zero(out.albedo.g);
                 d[5] = finite_or_zero(out.albedo.b);
@@ -174,14 +185,29 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;
     const char *sname = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
+    if (!spc_specular_solver_parse(sname, &ctx.specular_nee))
+        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "unknown specular NEE solver '%s'; specula has: %s", sname,
+                             spc_specular_solver_names());
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
-    if (!spc_snee_parse(sname, ctx.specular_max_chain, &ctx.snee))
-        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0,
-                             "bad specular NEE setting '%s'; specula has: %s, optionally followed by "
-                             ":unbiased|biased[=M],trials=N,seed=shape|light|bsdf,constraint=angle|half,rough",
-                             sname, spc_specular_solver_names());
-    ctx.specular_nee = ctx.snee.solver;
     ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
+    if (o->strategy_images) {
+        if (ctx.kind != SPC_INTEGRATOR_BDPT)
+            return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "strategy images need the bdpt integrator, not '%s'",
+                                 iname);
+        if (ctx.max_depth < 1 || ctx.max_depth > SPC_STRATEGY_IMAGES_MAX_DEPTH)
+            return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                                 "strategy images need a max_depth from 1 to %d (two images per strategy, %d "
+                                 "strategies at %d), not %d",
+                                 SPC_STRATEGY_IMAGES_MAX_DEPTH, SPC_STRATEGY_IMAGES_MAX, SPC_STRATEGY_IMAGES_MAX_DEPTH,
+                                 ctx.max_depth);
+        if (ctx.strategy_s >= 0 || ctx.strategy_t >= 0)
+            return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                                 "strategy images and a single strategy (strategy_s, strategy_t) exclude each other");
+        if (o->checkpoint_path || o->resume)
+            return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                                 "strategy images are not kept in checkpoints: render them without one");
+        ctx.strategy_images_depth = ctx.max_depth;
+    }
 
     spc_film_spec fs = sc->film;
     if (o->width > 0 && o->height > 0) {
@@ -231,7 +257,35 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     tile *tiles = malloc((size_t)ntiles * sizeof *tiles);
     size_t npix = (size_t)ctx.width * (size_t)ctx.height;
     int max_batch = (int)spc_max(1.0, spc_min((double)SPC_BATCH_PIXELS / (double)npix, 4096.0));
-    int stride = o->aovs ? 10 : 3;
+    const int base = o->aovs ? 10 : 3;
+    const int nfilms = ctx.strategy_images_depth > 0 ? 2 * spc_strategy_count(ctx.strategy_images_depth) : 0;
+    const int stride = base + 3 * nfilms;
+    if (nfilms > 0) /* keep the batch buffer near its usual size (3 doubles per pixel-pass) */
+        max_batch = (int)spc_max(1.0, spc_min(max_batch, 3.0 * SPC_BATCH_PIXELS / ((double)npix * stride)));
+    if (nfilms > 0) {
+        /* owned by the image, which frees them with itself on every path below */
+        film->strategy = calloc((size_t)nfilms, sizeof *film->strategy);
+        bool ok = film->strategy != NULL;
+        for (int j = 0; ok && j < nfilms; ++j) {
+            film->strategy[j] = spc_film_create(fs.width, fs.height, fs.crop_x, fs.crop_y, fs.crop_w, fs.crop_h, false);
+            ok = film->strategy[j] != NULL;
+            if (ok)
+                film->nstrategy = j + 1;
+        }
+        if (!ok) {
+            spc_film_destroy(film);
+            return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for %d strategy films of %dx%d",
+                                 nfilms, fs.crop_w, fs.crop_h);
+        }
+        for (int k = 1; k <= ctx.strategy_images_depth; ++k)
+            for (int s = 0; s <= k; ++s)
+                for (int wt = 0; wt < 2; ++wt) {
+                    struct spc_film *f = film->strategy[2 * spc_strategy_index(s, k + 1 - s) + wt];
+                    f->strategy_s = s;
+                    f->strategy_t = k + 1 - s;
+                    f->strategy_weighted = wt == 0;
+                }
+    }
     double *buf = malloc((size_t)max_batch * npix * (size_t)stride * sizeof(double));
     spc_tls *tls = calloc((size_t)max_batch * (size_t)ntiles, sizeof *tls);
     pthread_t *th = malloc((size_t)threads * sizeof *th);
@@ -310,6 +364,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         jb.pass0 = done;
         jb.npasses = batch;
         jb.stride = stride;
+        jb.base = base;
+        jb.nfilms = nfilms;
         jb.buf = buf;
         jb.tls = tls;
         jb.seed = o->seed;
@@ -345,24 +401,30 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                 film->pass[3 * p] += pb[p * stride];
                 film->pass[3 * p + 1] += pb[p * stride + 1];
                 film->pass[3 * p + 2] += pb[p * stride + 2];
-                if (stride == 10)
+                if (base == 10)
                     for (int k = 0; k < 7; ++k)
                         film->aov_sum[7 * p + k] += pb[p * stride + 3 + k];
+                for (int j = 0; j < nfilms; ++j)
+                    for (int c = 0; c < 3; ++c)
+                        film->strategy[j]->pass[3 * p + c] += pb[p * stride + base + 3 * j + c];
             }
             for (int ti = 0; ti < ntiles; ++ti) {
                 spc_tls *t = &tls[(size_t)b * ntiles + ti];
                 for (size_t k = 0; k < t->nsplats; ++k) {
                     const spc_splat *s = &t->splats[k];
                     size_t p = (size_t)s->y * ctx.width + (size_t)s->x;
-                    film->pass[3 * p] += s->r;
-                    film->pass[3 * p + 1] += s->g;
-                    film->pass[3 * p + 2] += s->b;
+                    struct spc_film *dst = s->film == 0 ? film : film->strategy[s->film - 1];
+                    dst->pass[3 * p] += s->r;
+                    dst->pass[3 * p + 1] += s->g;
+                    dst->pass[3 * p + 2] += s->b;
                 }
                 t->nsplats = 0;
                 invalid += t->invalid;
                 t->invalid = 0;
             }
             spc_film_commit_pass(film);
+            for (int j = 0; j < nfilms; ++j)
+                spc_film_commit_pass(film->strategy[j]);
         }
         done += batch;
         double dt = now_seconds() - t0;

@@ -52,6 +52,9 @@ void spc_film_destroy(struct spc_film *f)
     free(f->rgb);
     free(f->var);
     free(f->aov);
+    for (int j = 0; j < f->nstrategy; ++j)
+        spc_film_destroy(f->strategy[j]);
+    free(f->strategy);
     free(f);
 }
 
@@ -93,6 +96,9 @@ bool spc_film_resolve(struct spc_film *f)
     if (f->has_aovs)
         for (size_t i = 0; i < 7 * n; ++i)
             f->aov[i] = (float)(f->aov_sum[i] / N);
+    for (int j = 0; j < f->nstrategy; ++j)
+        if (!spc_film_resolve(f->strategy[j]))
+            return false;
     return true;
 }
 
@@ -100,6 +106,22 @@ int spc_film_width(const struct spc_film *f) { return f->width; }
 int spc_film_height(const struct spc_film *f) { return f->height; }
 const float *spc_film_rgb(const struct spc_film *f) { return f->rgb; }
 const float *spc_film_variance(const struct spc_film *f) { return f->var; }
+
+int spc_film_strategy_count(const struct spc_film *f) { return f ? f->nstrategy : 0; }
+
+const struct spc_film *spc_film_strategy(const struct spc_film *f, int i, int *s, int *t, bool *weighted)
+{
+    if (!f || i < 0 || i >= f->nstrategy)
+        return NULL;
+    const struct spc_film *g = f->strategy[i];
+    if (s)
+        *s = g->strategy_s;
+    if (t)
+        *t = g->strategy_t;
+    if (weighted)
+        *weighted = g->strategy_weighted;
+    return g;
+}
 
 /* ---- pixel filter ---- */
 

@@ -29,13 +29,21 @@ struct spc_film {
     float *rgb, *var;            /* 3 per pixel */
     float *aov;                  /* 7 per pixel */
     uint64_t invalid_samples;
+    /* bdpt strategy images (spc_render_options.strategy_images): films owned by this one, which
+     * spc_film_destroy and spc_film_resolve handle with it; film 2 k is strategy k
+     * (integrator.h: spc_strategy_index) weighted, 2 k + 1 unweighted */
+    struct spc_film **strategy;
+    int nstrategy;
+    int strategy_s, strategy_t; /* of a strategy film */
+    bool strategy_weighted;
 };
 
 /* NULL on allocation failure or absurd size. */
 struct spc_film *spc_film_create(int full_w, int full_h, int crop_x, int crop_y, int w, int h, bool aovs);
 /* Adds the current pass buffer into the sums and clears it. */
 void spc_film_commit_pass(struct spc_film *f);
-/* Computes rgb/var/aov floats from the sums. false on allocation failure. */
+/* Computes rgb/var/aov floats from the sums, also of the strategy films. false on allocation
+ * failure. */
 bool spc_film_resolve(struct spc_film *f);
 
 /* The pixel filter, per axis (filters are separable: box, tent, truncated gaussian), normalized to
