@@ -5,6 +5,12 @@
  */
 #include "bsdf/variants.h"
 
+void spc_bsdf_prepare(spc_bsdf *b)
+{
+    if (b && b->type == SPC_BSDF_ROUGHPLASTIC)
+        spc_roughplastic_prepare(b);
+}
+
 unsigned spc_bsdf_flags(const spc_bsdf *b)
 {
     if (!b)

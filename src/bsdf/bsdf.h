@@ -83,6 +83,10 @@ typedef enum spc_microfacet_type {
  * Parameters of every variant (unused fields are ignored). Textures are never NULL where a variant
  * reads them: the loader supplies Mitsuba's defaults as constant textures.
  */
+/* Entries of roughplastic's coating transmittance table over cos in [0, 1]: Mitsuba 3's
+ * MI_ROUGH_TRANSMITTANCE_RES, so that the linear interpolation between entries matches too. */
+#define SPC_ROUGHPLASTIC_TABLE_RES 64
+
 typedef struct spc_bsdf {
     spc_bsdf_type type;
     const spc_texture *reflectance;            /* diffuse, roughdiffuse; plastic/phong: diffuse part */
@@ -101,6 +105,13 @@ typedef struct spc_bsdf {
     const spc_texture *bump;      /* bumpmap height */
     double bump_scale;
     const struct spc_bsdf *nested[2];
+    /* roughplastic: the rough coating's directional transmittance at cos = i / (RES - 1) and its
+     * cosine-weighted internal reflectance, as Mitsuba 3 tabulates them; filled by
+     * spc_bsdf_prepare. coat_ready false (textured or anisotropic alpha, or not prepared): the
+     * smooth-interface Fresnel terms stand in. */
+    bool coat_ready;
+    double coat_fdr_int;
+    float coat_t[SPC_ROUGHPLASTIC_TABLE_RES];
 } spc_bsdf;
 
 typedef struct spc_bsdf_sample {
@@ -110,6 +121,10 @@ typedef struct spc_bsdf_sample {
     unsigned lobe;  /* exactly one SPC_LOBE_* */
     double eta;     /* relative IOR of a transmission, else 1 */
 } spc_bsdf_sample;
+
+/* Precomputes what a BSDF tabulates from its parameters (roughplastic's coating terms); the
+ * scene calls it for every BSDF in spc_scene_finalize. Call again after changing parameters. */
+void spc_bsdf_prepare(spc_bsdf *b);
 
 unsigned spc_bsdf_flags(const spc_bsdf *b);
 static inline bool spc_bsdf_has_smooth(const spc_bsdf *b) { return (spc_bsdf_flags(b) & SPC_LOBE_SMOOTH) != 0; }

@@ -46,16 +46,27 @@ static inline spc_rgb spc_bsdf_conductor_fresnel(const spc_bsdf *b, double cos_i
  * series: R / (1 - fdr_int), or R / (1 - R fdr_int) if nonlinear. With the two smooth Fresnel
  * transmissions and the 1/eta^2 of entering/leaving the denser medium:
  *   f_d = R' (1 - F(cos_o)) (1 - F(cos_i)) / (pi eta^2),
- * whose albedo is exactly R (1 - F(cos_o)) in the linear case. */
-static inline spc_rgb spc_bsdf_plastic_diffuse(spc_rgb R, double eta, bool nonlinear, double cos_o, double cos_i)
+ * whose albedo is exactly R (1 - F(cos_o)) in the linear case. spc_bsdf_coated_diffuse takes the
+ * coating's terms as arguments (internal reflectance fdr_int, transmittances t_o, t_i in place of
+ * 1 - F): roughplastic passes its rough coating's tables; spc_bsdf_plastic_diffuse is the smooth
+ * interface. */
+static inline spc_rgb spc_bsdf_coated_diffuse(spc_rgb R, double eta, bool nonlinear, double fdr_int, double t_o,
+                                              double t_i)
 {
-    double fdr_int = spc_fresnel_diffuse_reflectance(1.0 / eta);
     spc_rgb denom = nonlinear ? spc_rgb_sub(spc_rgb1(1.0), spc_rgb_scale(R, fdr_int)) : spc_rgb1(1.0 - fdr_int);
     spc_rgb Rp = spc_rgb_div(R, denom);
-    double t = (1.0 - spc_fresnel_dielectric(cos_o, eta, NULL, NULL)) *
-               (1.0 - spc_fresnel_dielectric(cos_i, eta, NULL, NULL));
-    return spc_rgb_scale(Rp, t * SPC_INV_PI / (eta * eta));
+    return spc_rgb_scale(Rp, t_o * t_i * SPC_INV_PI / (eta * eta));
 }
+
+static inline spc_rgb spc_bsdf_plastic_diffuse(spc_rgb R, double eta, bool nonlinear, double cos_o, double cos_i)
+{
+    return spc_bsdf_coated_diffuse(R, eta, nonlinear, spc_fresnel_diffuse_reflectance(1.0 / eta),
+                                   1.0 - spc_fresnel_dielectric(cos_o, eta, NULL, NULL),
+                                   1.0 - spc_fresnel_dielectric(cos_i, eta, NULL, NULL));
+}
+
+/* roughplastic.c: fills b->coat_t and b->coat_fdr_int (see bsdf.h). */
+void spc_roughplastic_prepare(spc_bsdf *b);
 
 /* normalmap and bumpmap evaluate their nested BSDF in a perturbed frame (hit copy `pert`). As
  * Mitsuba 3 does, a direction wi counts only if it lies on the same side of both frames, and the

@@ -164,6 +164,8 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
     const char *file = s->path[0] ? s->path : NULL;
     spc_bsdf *default_bsdf = NULL;
     spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
+    for (int i = 0; i < s->nbsdfs; ++i)
+        spc_bsdf_prepare(s->bsdfs[i]);
     for (int i = 0; i < s->nshapes; ++i) {
         spc_shape *sh = s->shapes[i];
         if (!sh->bsdf) {
