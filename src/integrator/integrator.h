@@ -13,6 +13,7 @@
 #include <stdint.h>
 
 #include "core/sampler.h"
+#include "manifold/specular_nee.h"
 #include "render/camera.h"
 #include "scene/scene.h"
 
@@ -39,6 +40,9 @@ typedef struct spc_render_ctx {
      * chain of specular vertices it connects through */
     int specular_nee;
     int specular_max_chain;
+    /* the options of the specular_nee setting (spc_snee_parse: estimator, seeds, rough vertices),
+     * solver and max_chain as above; path.c uses them, volpath.c only the solver */
+    spc_snee_params snee;
     /* film geometry for splats: the rendered window within the full film */
     int crop_x, crop_y, width, height;
     const spc_film_spec *film;

@@ -185,10 +185,13 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;
     const char *sname = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
-    if (!spc_specular_solver_parse(sname, &ctx.specular_nee))
-        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "unknown specular NEE solver '%s'; specula has: %s", sname,
-                             spc_specular_solver_names());
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
+    if (!spc_snee_parse(sname, ctx.specular_max_chain, &ctx.snee))
+        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0,
+                             "bad specular NEE setting '%s'; specula has: %s, optionally followed by "
+                             ":unbiased|biased[=M],trials=N,seed=shape|light|bsdf,constraint=angle|half,rough",
+                             sname, spc_specular_solver_names());
+    ctx.specular_nee = ctx.snee.solver;
     ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
     if (o->strategy_images) {
         if (ctx.kind != SPC_INTEGRATOR_BDPT)
