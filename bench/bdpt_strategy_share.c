@@ -70,7 +70,8 @@ int main(int argc, char **argv)
             if (im.width == full.width && im.height == full.height) {
                 double v = window_sum(&im, cx, cy, r);
                 sum += v;
-                printf("| (%d, %d) | %d | %.6g | %.4f%% |\n", s, k + 1 - s, k, v, total > 0.0 ? 100.0 * v / total : 0.0);
+                double share = total > 0.0 ? 100.0 * v / total : 0.0;
+                printf("| (%d, %d) | %d | %.6g | %.4f%% |\n", s, k + 1 - s, k, v, share);
             }
             spc_image_rgb_release(&im);
         }
