@@ -33,10 +33,10 @@ def main():
         defs[k] = v
     text = open(a.scene, encoding="utf-8").read()
     # Mitsuba 3 upgrades 0.x property names but not the <lookAt> tag; and it refuses properties
-    # only specula reads (specular NEE settings, caustic flags). Such files are edited in memory
+    # only specula reads (specular NEE settings, mis_balance, caustic flags). Such files are edited in memory
     # and loaded with the scene's folder on the file resolver (for relative paths).
     edited = text.replace("<lookAt", "<lookat")
-    edited = re.sub(r'<(string|integer|boolean)\s+name="(specular_nee|specular_max_chain|caustic_caster|'
+    edited = re.sub(r'<(string|integer|boolean)\s+name="(specular_nee|specular_max_chain|mis_balance|caustic_caster|'
                     r'caustic_receiver|caustic_caster_single|caustic_caster_multi)"[^>]*/>', "", edited)
     if edited != text:
         mi.file_resolver().prepend(os.path.dirname(os.path.abspath(a.scene)))
