@@ -83,6 +83,11 @@
 #define SPC_BDPT_LIGHT_STREAM 0x6c69676874706174ULL
 #define SPC_BDPT_CONNECT_STREAM 0x636f6e6e65637473ULL
 
+/* the public header's bound on strategy images is the count of spc_strategy_count at its depth */
+_Static_assert(SPC_STRATEGY_IMAGES_MAX ==
+                   SPC_STRATEGY_IMAGES_MAX_DEPTH * (SPC_STRATEGY_IMAGES_MAX_DEPTH + 3) / 2,
+               "SPC_STRATEGY_IMAGES_MAX must equal spc_strategy_count(SPC_STRATEGY_IMAGES_MAX_DEPTH)");
+
 static atomic_ullong truncated_paths;
 
 uint64_t spc_bdpt_truncated_paths(void) { return (uint64_t)atomic_load(&truncated_paths); }
