@@ -55,24 +55,6 @@ void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ra
     }
 }
 
-/* Normalized 1D filter profile (integrates to 1 over [-radius, radius]). */
-static double filter_1d(const spc_film_spec *f, double x)
-{
-    double r = f->filter_radius;
-    if (fabs(x) >= r)
-        return 0.0;
-    switch (f->rfilter) {
-    case SPC_RFILTER_BOX: return 1.0 / (2.0 * r);
-    case SPC_RFILTER_TENT: return (r - fabs(x)) / (r * r);
-    case SPC_RFILTER_GAUSSIAN: {
-        double s = f->filter_stddev;
-        double norm = erf(r / (s * sqrt(2.0)));
-        return exp(-x * x / (2.0 * s * s)) / (s * sqrt(2.0 * SPC_PI) * norm);
-    }
-    }
-    return 0.0;
-}
-
 static void push_splat(spc_tls *tls, int film, int x, int y, spc_rgb v)
 {
     if (tls->nsplats == tls->cap) {
@@ -127,12 +109,13 @@ void spc_splat_add_to(const spc_render_ctx *ctx, spc_tls *tls, int film, double 
         int wy = y - ctx->crop_y;
         if (wy < 0 || wy >= ctx->height)
             continue;
-        double fyw = ctx->film->rfilter == SPC_RFILTER_BOX && r <= 0.5 ? 1.0 : filter_1d(ctx->film, y + 0.5 - fy);
+        bool unit_box = ctx->film->rfilter == SPC_RFILTER_BOX && r <= 0.5;
+        double fyw = unit_box ? 1.0 : spc_film_filter_eval(ctx->film, y + 0.5 - fy);
         for (int x = x0; x <= x1; ++x) {
             int wx = x - ctx->crop_x;
             if (wx < 0 || wx >= ctx->width)
                 continue;
-            double fxw = ctx->film->rfilter == SPC_RFILTER_BOX && r <= 0.5 ? 1.0 : filter_1d(ctx->film, x + 0.5 - fx);
+            double fxw = unit_box ? 1.0 : spc_film_filter_eval(ctx->film, x + 0.5 - fx);
             double w = fxw * fyw;
             /* near the window's edges the filter is renormalized over the part inside (film.h) */
             if (w > 0.0 && r > 0.5)

@@ -50,14 +50,14 @@ void spc_ckpt_settings_text(const struct spc_render_ctx *ctx, const char *specul
     const spc_film_spec *fs = ctx->film;
     snprintf(buf, size,
              "integrator=%s;max_depth=%d;rr_depth=%d;hide_emitters=%d;strategy=%d,%d,%d;mis_balance=%d;"
-             "specular_nee=%s;specular_max_chain=%d;seed=%llu;film=%dx%d;crop=%d,%d,%d,%d;filter=%d,%.17g,%.17g;"
+             "specular_nee=%s;specular_max_chain=%d;seed=%llu;film=%dx%d;crop=%d,%d,%d,%d;filter=%d,%.17g,%.17g,steps%d;"
              "aovs=%d",
              spc_integrator_kind_name(ctx->kind), ctx->max_depth, ctx->rr_depth, (int)ctx->hide_emitters,
              ctx->strategy_s, ctx->strategy_t, (int)ctx->strategy_weighted, (int)ctx->mis_balance,
              specular_nee ? specular_nee : "", ctx->specular_max_chain, (unsigned long long)seed, fs->width,
              fs->height, ctx->crop_x,
              ctx->crop_y, ctx->width, ctx->height, (int)fs->rfilter, fs->filter_radius, fs->filter_stddev,
-             (int)aovs);
+             SPC_FILTER_RESOLUTION, (int)aovs);
 }
 
 /* ---- little-endian fields ---- */

@@ -231,6 +231,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "film crop window lies outside the film");
     if (!(fs.filter_radius > 0.0))
         fs.filter_radius = 0.5;
+    spc_film_filter_prepare(&fs);
     ctx.film = &fs;
     ctx.crop_x = fs.crop_x;
     ctx.crop_y = fs.crop_y;

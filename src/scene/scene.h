@@ -47,12 +47,20 @@ typedef enum spc_rfilter_type {
     SPC_RFILTER_GAUSSIAN
 } spc_rfilter_type;
 
+/* Steps of the tent and gaussian filters over [0, radius]: Mitsuba 3's MI_FILTER_RESOLUTION
+ * (render/film.h says why the filters are step functions). */
+#define SPC_FILTER_RESOLUTION 31
+
 typedef struct spc_film_spec {
     int width, height;                      /* full film */
     int crop_x, crop_y, crop_w, crop_h;     /* rendered window (crop_w = 0: whole film) */
     spc_rfilter_type rfilter;
     double filter_radius;                   /* box 0.5, tent 1, gaussian 4 * stddev */
     double filter_stddev;                   /* gaussian, default 0.5 */
+    /* filled by spc_film_filter_prepare (render/film.h): the normalized density on each step of
+     * |x| and the mass of [0, k radius / RES) */
+    double filter_step[SPC_FILTER_RESOLUTION];
+    double filter_step_cdf[SPC_FILTER_RESOLUTION + 1];
 } spc_film_spec;
 
 #define SPC_SPECULAR_NEE_NONE 0
