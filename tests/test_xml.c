@@ -705,6 +705,31 @@ TEST(error_locations)
                  "  <medium type=\"heterogeneous\"/>\n"
                  "</scene>\n",
                  SPC_ERR_PLUGIN, 2, 3, "media");
+    /* references, includes and attributes that are missing, and a degenerate transform */
+    expect_error("<scene version=\"3.0.0\">\n"
+                 "  <shape type=\"sphere\">\n"
+                 "    <ref id=\"nothere\"/>\n"
+                 "  </shape>\n"
+                 "</scene>\n",
+                 SPC_ERR_VALUE, 3, 5, "unknown id 'nothere'");
+    expect_error("<scene version=\"3.0.0\">\n"
+                 "  <include filename=\"no_such_part.xml\"/>\n"
+                 "</scene>\n",
+                 SPC_ERR_IO, 2, 3, "no_such_part.xml");
+    expect_error("<scene version=\"3.0.0\">\n"
+                 "  <bsdf type=\"diffuse\">\n"
+                 "    <rgb name=\"reflectance\"/>\n"
+                 "  </bsdf>\n"
+                 "</scene>\n",
+                 SPC_ERR_PARSE, 3, 5, "needs a 'value' attribute");
+    expect_error("<scene version=\"3.0.0\">\n"
+                 "  <shape type=\"sphere\">\n"
+                 "    <transform name=\"to_world\">\n"
+                 "      <rotate angle=\"30\"/>\n"
+                 "    </transform>\n"
+                 "  </shape>\n"
+                 "</scene>\n",
+                 SPC_ERR_VALUE, 4, 7, "non-zero axis");
 }
 
 TEST(unknown_property_warns)
