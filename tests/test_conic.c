@@ -25,8 +25,9 @@
  * - The hierarchy returns the same solutions as the loop over every triangle.
  * - The distance correction factor (ray differentials) against the chain's generalized geometry
  *   term, and the closed form for a flat interface.
- * - Images: path with --specular-nee conic against ipt (per-pixel z-test) on a glass blob and a
- *   water surface.
+ * - Images: path with --specular-nee conic against ipt (per-pixel z-test) on a glass bunny-like
+ *   mesh (scenes/meshes/conic_bunny.obj) with a mirror blob, and a water surface (larger versions by
+ *   hand: bench/conic_validate.sh).
  */
 /* ctest-labels: unit stat */
 /* ctest-timeout: 600 */
@@ -34,6 +35,7 @@
 
 #include "core/rng.h"
 #include "harness.h"
+#include "io/mesh_io.h"
 #include "manifold/conic.h"
 #include "manifold/polyroots.h"
 #include "manifold/specular_nee.h"
@@ -998,7 +1000,9 @@ TEST(constructed_degenerate_conics_and_tangency)
             made[type]++;
             snprintf(what, sizeof what, "%s (%s)", spc_conic_type_name(type), event ? "refract" : "reflect");
         }
-        if (!check_case(&t, &pb, us, vs, 1e-6, what, &inner))
+        /* a conic singular at the solution makes it a double root of the 2D system too (coplanarity
+         * holds to second order there): solutions then agree to ~1e-6, so matched to 1e-4 */
+        if (!check_case(&t, &pb, us, vs, kind == 3 ? 1e-4 : 1e-6, what, &inner))
             ++fails;
     }
     printf("    constructed: %d parabolas, %d line pairs (%d crossing at the solution), %d points (the solution), %d "
@@ -1694,13 +1698,32 @@ TEST(image_water_surface)
 
 TEST(image_glass_blob)
 {
-    /* a closed glass blob on a floor: its caustic needs two refractions (in and out), which the
-     * conic mode leaves to the angular estimate, while the one-vertex chains (none here from the
-     * floor) are enumerated; a mirror blob beside it casts one-reflection caustics the conic
-     * solver enumerates exactly */
+    /* a closed glass "bunny" on a floor (scenes/meshes/conic_bunny.obj: irregular, non-convex, 5120
+     * triangles; turned z-up): its caustic needs two refractions (in and out), which the conic
+     * mode leaves to the angular estimate, while the one-vertex chains (reflections off its
+     * surface, several where it is concave) are enumerated; a mirror blob beside it casts
+     * one-reflection caustics the conic solver enumerates exactly */
     spc_scene *sc = spc_scene_create();
     add_rect(sc, spc_v3(2, 2, 1), spc_v3(0, 0, 0), tu_diffuse(sc, 0.7));
-    add_mesh(sc, blob_mesh(10, spc_v3(-0.45, 0, 0.5), 0.4, 0.12), mk_glass(sc, 1.5));
+    char path[1024];
+    snprintf(path, sizeof path, "%s/scenes/meshes/conic_bunny.obj", spc_test_source_dir());
+    spc_mesh bunny;
+    memset(&bunny, 0, sizeof bunny);
+    spc_error err;
+    CHECK(spc_obj_load(path, &bunny, &err) == SPC_OK);
+    if (!bunny.p || !bunny.n) {
+        printf("  %s: %s\n", path, err.msg);
+        spc_scene_destroy(sc);
+        return;
+    }
+    for (size_t i = 0; i < bunny.nverts; ++i) {
+        /* (x, y, z) y-up -> (x - 0.45, -z, y) z-up, scaled by 0.8: a rotation, normals alike */
+        float *p = bunny.p + 3 * i, *n = bunny.n + 3 * i;
+        float px = p[0], py = p[1], pz = p[2], nx = n[0], ny = n[1], nz = n[2];
+        p[0] = 0.8f * px - 0.45f, p[1] = -0.8f * pz, p[2] = 0.8f * py;
+        n[0] = nx, n[1] = -nz, n[2] = ny;
+    }
+    add_mesh(sc, bunny, mk_glass(sc, 1.5));
     add_mesh(sc, blob_mesh(8, spc_v3(0.55, 0.1, 0.4), 0.3, 0.2), mk_mirror(sc));
     spc_shape *light = add_sphere(sc, spc_v3(0.1, 0.3, 2.2), 0.3, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 3, 6.0);

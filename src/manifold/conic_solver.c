@@ -105,13 +105,17 @@
 /* A chord within this distance (barycentric units) of its arc was split far below
  * SPC_CONIC_CHORD_TOL: by a fold or a near miss; its double-root candidates are polished. */
 #define SPC_CONIC_DEEP_CHORD 1e-9
-/* Double-root candidates (solve_chord) polished per triangle at most, and the distance
+/* Chord-end and double-root candidates (solve_chord) polished per triangle at most, and the distance
  * (barycentric units) from a known solution within which they are taken for it: the stretch around
  * a fold where |f| stays below SPC_CONIC_DOUBLE_ROOT_TOL. */
 #define SPC_CONIC_MAX_FOLD_CANDIDATES 16
 #define SPC_CONIC_FOLD_REACH 1e-3
 /* Inadmissible roots of the law remembered per triangle (see try_candidate). */
 #define SPC_CONIC_MAX_REJECTED 16
+/* A chord farther than this from its arc (barycentric units) is split when an undecided root's
+ * polish wanders off (solve_chord); below it a start is close enough to its root that a wandering
+ * polish means there is none. */
+#define SPC_CONIC_WANDER_ERR 1e-6
 /* Candidate roots kept per triangle. */
 #define SPC_CONIC_MAX_CANDIDATES 256
 /* Solutions per triangle (a conic and a sextic meet in at most 12 points, each arc piece is
@@ -766,14 +770,31 @@ static bool solve_chord(tri_ctx *c, spc_vec2 a, spc_vec2 b, double err, spc_vec2
                 spc_vec2 p;
                 int which = -1;
                 polish_result pr = try_candidate(c, q.x, q.y, ex, ey, &p, &which);
+                /* a root at an end of the chord (a solution on an edge, or at a split point) has
+                 * half its band interval cut off, so the parity of the arc's roots in it is
+                 * unknown: another root of the arc may share it (seen: a conic tangent to an edge,
+                 * turning sharply there, with a second solution 2e-4 from the first). The
+                 * interval's other end is polished too. */
+                if ((roots[r] <= 1e-9 || roots[r] >= 1.0 - 1e-9) && hi > lo) {
+                    double tf = roots[r] <= 1e-9 ? hi : lo;
+                    try_candidate(c, a.x + tf * d.x, a.y + tf * d.y, ex, ey, NULL, NULL);
+                }
                 if (!splittable || pr == POLISH_BUDGET)
                     continue;
                 /* a true root, surely on admissible sides, that does not polish, or polishes onto a
                  * solution another root of this chord reached, was started too far from its own */
                 if ((pr == POLISH_REJECTED && certain) || (pr == POLISH_KNOWN && which >= first))
                     return false;
-                if (pr == POLISH_REJECTED)
+                if (pr == POLISH_REJECTED) {
+                    /* an undecided root (sides or kind unknown) whose polish wandered beyond its band
+                     * interval left the basin of whatever the arc holds there: the chord is split
+                     * while it is coarse (seen: two roots near the tangent plane of x, both
+                     * polished out of the triangle, the solution between them lost) */
+                    double reach = (hi - lo) * clen + 2.0 * err + 1e-9;
+                    if (err > SPC_CONIC_WANDER_ERR && hypot(p.x - q.x, p.y - q.y) > reach)
+                        return false;
                     continue;
+                }
                 /* the arc's root lies in the band interval of the chord's root: one polished
                  * outside it went to another root and may have left its own unvisited */
                 double tp = ((p.x - a.x) * d.x + (p.y - a.y) * d.y) / (clen * clen);
@@ -782,28 +803,36 @@ static bool solve_chord(tri_ctx *c, spc_vec2 a, spc_vec2 b, double err, spc_vec2
                 if (tp < lo - slack || tp > hi + slack || off > 1.5 * err + slack * clen)
                     return false;
             }
-            /* double roots (y on a caustic, where two solutions merge: the fold) need not show as
-             * roots of the chord's f: rounding turns them into a complex pair or two roots a
-             * rounding apart, the chord's offset from the arc may lift them off zero below the
-             * band's resolution, and a root that touches zero without a sign change fails the
-             * classification above. Near a fold f is flat, so the band intervals stay as wide
-             * relative to the chord at every depth and the chords there are split down to
-             * rounding; on such deep chords (and at the depth limit) the zeros of f' where |f| is
-             * within rounding (or the band) of zero are polished, and the run's ends where |f| is
-             * within rounding of zero (a chord's ends are on the conic). Elsewhere |f| is far from
-             * zero there, so this costs a polish only near folds. */
-            if (!splittable || err < SPC_CONIC_DEEP_CHORD) {
+            /* roots the isolation may not report: (a) a root at an end of the chord (a solution on
+             * an edge, where a conic tangent to the edge from inside meets it) sits at the interval's
+             * end, where rounding may put f on either side; (b) double roots (y on a caustic, where
+             * two solutions merge: the fold) need not show as roots of the chord's f: rounding turns
+             * them into a complex pair or two roots a rounding apart, the chord's offset from the
+             * arc may lift them off zero below the band's resolution, and a root that touches zero
+             * without a sign change fails the classification above. Near a fold f is flat, so the
+             * band intervals stay as wide relative to the chord at every depth and the chords there
+             * are split down to rounding. So the run's ends where |f| is within rounding of zero
+             * (the chord's ends are on the conic), and on deep chords (and at the depth limit) the
+             * zeros of f' where |f| is within rounding or the band of zero, are polished too.
+             * Elsewhere |f| is far from zero there, so this costs a polish only near such roots. */
+            {
                 double df[6], dr[10];
-                int nd = spc_poly_derivative(fp, 6, df);
-                int kd = nd > 0 ? spc_poly_roots(df, nd, t0, t1, dr, 8) : 0;
-                if (kd < 0)
-                    kd = 0;
+                int kd = 0;
+                if (!splittable || err < SPC_CONIC_DEEP_CHORD) {
+                    int nd = spc_poly_derivative(fp, 6, df);
+                    kd = nd > 0 ? spc_poly_roots(df, nd, t0, t1, dr, 8) : 0;
+                    if (kd < 0)
+                        kd = 0;
+                }
+                int kderiv = kd;
                 dr[kd++] = t0;
                 dr[kd++] = t1;
                 for (int q = 0; q < kd; ++q) {
                     double tt = dr[q];
                     double mag = snell_scale(t, pb, ex, ey, a.x + tt * d.x, a.y + tt * d.y);
-                    double band_f = err > 0.0 ? SPC_CONIC_BAND_MARGIN * band_w(&bd, tt) * fabs(spc_poly_eval(D, 6, tt)) : 0.0;
+                    double band_f = err > 0.0 && q < kderiv
+                                        ? SPC_CONIC_BAND_MARGIN * band_w(&bd, tt) * fabs(spc_poly_eval(D, 6, tt))
+                                        : 0.0;
                     if (!(fabs(spc_poly_eval(fp, 6, tt)) <= SPC_CONIC_DOUBLE_ROOT_TOL * mag + band_f))
                         continue;
                     /* f stays within the tolerance over a stretch around a fold, which many short
