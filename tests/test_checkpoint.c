@@ -560,7 +560,7 @@ static bool put_text(const char *name, const char *text)
 }
 
 /* A checkpoint holds the hash of every file the scene references, not only of the scene file: a
- * mesh or an included file that changed between checkpoint and resume is refused by name. */
+ * mesh, an included file or a texture that changed between checkpoint and resume is refused. */
 TEST(referenced_files_refused)
 {
     CHECK(put_text("mesh.xml", mesh_scene) && put_text("light.xml", mesh_light) && put_text("floor.obj", floor_obj));
@@ -614,6 +614,43 @@ TEST(referenced_files_refused)
     rc = run(resume8);
     CHECK_MSG(rc == 0, "exit %d", rc);
     CHECK(ckpt_spp(tmp_path("mesh.ckpt")) == 8);
+
+    /* a bitmap texture: two PNGs specula wrote (the previews of two renders) take turns */
+    const char *other[] = {"render", "mesh.xml", "--spp", "1", "--seed", "9", "--quiet", "-o", "other.exr", NULL};
+    CHECK(run(other) == 0);
+    long sp = 0, so = 0;
+    unsigned char *png = slurp(tmp_path("mesh.png"), &sp), *png2 = slurp(tmp_path("other.png"), &so);
+    CHECK_MSG(png && png2 && (sp != so || memcmp(png, png2, (size_t)sp) != 0), "the two PNGs are the same");
+    char *xml = strdup(mesh_scene);
+    char *bsdf = xml ? strstr(xml, "<bsdf type=\"diffuse\"/>") : NULL;
+    CHECK(bsdf != NULL);
+    if (png && png2 && bsdf) {
+        *bsdf = '\0';
+        char textured[4096];
+        snprintf(textured, sizeof textured,
+                 "%s<bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
+                 "<string name=\"filename\" value=\"tex.png\"/></texture></bsdf>%s",
+                 xml, bsdf + strlen("<bsdf type=\"diffuse\"/>"));
+        CHECK(put_text("tex.xml", textured) && spit(tmp_path("tex.png"), png, sp));
+        const char *tstart[] = {"render", "tex.xml", "--spp", "2", "--quiet", "-o", "tex.exr", "--checkpoint",
+                                "tex.ckpt", NULL};
+        rc = run(tstart);
+        CHECK_MSG(rc == 0, "textured scene: exit %d", rc);
+        if (rc != 0)
+            show_err();
+        CHECK(spit(tmp_path("tex.png"), png2, so));
+        const char *tresume[] = {"render", "--resume", "tex.ckpt", "--spp", "4", "--quiet", NULL};
+        rc = run(tresume);
+        CHECK_MSG(rc == 3, "resume after the texture changed: exit %d", rc);
+        CHECK(err_contains("belongs to another scene"));
+        CHECK(spit(tmp_path("tex.png"), png, sp));
+        rc = run(tresume);
+        CHECK_MSG(rc == 0, "resume with the texture restored: exit %d", rc);
+        CHECK(ckpt_spp(tmp_path("tex.ckpt")) == 4);
+    }
+    free(xml);
+    free(png);
+    free(png2);
 }
 
 /* Settings that change pixel values are recorded, and a resume with another value is refused. */
