@@ -13,12 +13,19 @@ Mitsuba the mi.render() call after one untimed warm-up render (which, for the ll
 compiles the kernel; its time is reported separately). The renders alternate (specula, Mitsuba,
 specula, ...) `repeats` times and the table gives the medians and their ratio, so that load from
 other processes hits both alike; the 1-minute load average is printed before and after.
+
+CPU seconds (user + system, all threads) are measured next to wall time, because on a shared
+machine wall time depends on what else runs: for specula getrusage(RUSAGE_CHILDREN) around the
+child process (so it includes parsing the scene and building the BVH, a small share here: an upper
+bound for the render alone), for Mitsuba getrusage(RUSAGE_SELF) around mi.render() in this process.
+Both ratios specula / Mitsuba are reported, of the medians over the repeats.
 """
 import argparse
 import glob
 import json
 import os
 import re
+import resource
 import statistics
 import subprocess
 import sys
@@ -32,6 +39,11 @@ ROOT = os.path.normpath(os.path.join(HERE, ".."))
 def defaults_of(path):
     text = open(path, encoding="utf-8").read()
     return dict(re.findall(r'<default\s+name="([a-zA-Z_]+)"\s+value="([^"]*)"', text))
+
+
+def cpu_seconds(who):
+    r = resource.getrusage(who)
+    return r.ru_utime + r.ru_stime
 
 
 def main():
@@ -74,33 +86,44 @@ def main():
         t0 = time.time()
         mi.render(scene, spp=a.spp, seed=0)
         warm = time.time() - t0
-        ts, tm = [], []
+        ts, tm, cs, cm = [], [], [], []
         with tempfile.TemporaryDirectory() as tmp:
             for r in range(a.repeats):
                 stats = os.path.join(tmp, "stats.json")
+                c0 = cpu_seconds(resource.RUSAGE_CHILDREN)
                 subprocess.run([a.specula, "render", path, "-o", os.path.join(tmp, "out.exr"), "--spp", str(a.spp),
                                 "--threads", "2", "--quiet", "--stats", stats, "--seed", str(r)] + dflags, check=True)
+                cs.append(cpu_seconds(resource.RUSAGE_CHILDREN) - c0)
                 ts.append(json.load(open(stats))["wall_seconds"])
+                c0 = cpu_seconds(resource.RUSAGE_SELF)
                 t0 = time.time()
                 img = mi.render(scene, spp=a.spp, seed=r + 1)
                 dr.eval(img)
                 dr.sync_thread()
                 tm.append(time.time() - t0)
+                cm.append(cpu_seconds(resource.RUSAGE_SELF) - c0)
         res = "%sx%s" % (defs.get("resx", defs.get("res")), defs.get("resy", defs.get("res")))
         row = {"scene": name, "res": res, "spp": a.spp, "specula_s": statistics.median(ts),
-               "mitsuba_s": statistics.median(tm), "mitsuba_first_s": warm, "variant": a.variant}
+               "mitsuba_s": statistics.median(tm), "mitsuba_first_s": warm, "variant": a.variant,
+               "specula_cpu": statistics.median(cs), "mitsuba_cpu": statistics.median(cm)}
         row["ratio"] = row["specula_s"] / row["mitsuba_s"]
+        row["cpu_ratio"] = row["specula_cpu"] / row["mitsuba_cpu"]
         rows.append(row)
-        print("%-12s %-9s spp %d  specula %.2f s  Mitsuba (%s) %.2f s (first render %.2f s)  specula/Mitsuba %.2f"
-              % (name, res, a.spp, row["specula_s"], a.variant, row["mitsuba_s"], warm, row["ratio"]), flush=True)
+        print("%-12s %-9s spp %d  wall: specula %.2f s  Mitsuba (%s) %.2f s (first render %.2f s)  ratio %.2f;"
+              "  CPU: specula %.2f s  Mitsuba %.2f s  ratio %.2f" % (name, res, a.spp, row["specula_s"], a.variant,
+                                                                     row["mitsuba_s"], warm, row["ratio"], row["specula_cpu"],
+                                                                     row["mitsuba_cpu"], row["cpu_ratio"]), flush=True)
+        print("  wall specula %s  Mitsuba %s" % (["%.2f" % t for t in ts], ["%.2f" % t for t in tm]))
+        print("  CPU  specula %s  Mitsuba %s" % (["%.2f" % t for t in cs], ["%.2f" % t for t in cm]), flush=True)
     print("load average after: %.2f" % os.getloadavg()[0])
     print()
-    print("| scene | resolution | spp | specula (s) | Mitsuba %s (s) | Mitsuba first render, with JIT (s) | specula / Mitsuba |"
-          % a.variant)
-    print("|---|---|---|---|---|---|---|")
+    print("| scene | resolution | spp | wall specula (s) | wall Mitsuba %s (s) | wall specula / Mitsuba "
+          "| CPU specula (s) | CPU Mitsuba (s) | CPU specula / Mitsuba | Mitsuba first render (s) |" % a.variant)
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print("| %s | %s | %d | %.2f | %.2f | %.2f | %.2f |" % (r["scene"], r["res"], r["spp"], r["specula_s"],
-                                                               r["mitsuba_s"], r["mitsuba_first_s"], r["ratio"]))
+        print("| %s | %s | %d | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |" % (
+            r["scene"], r["res"], r["spp"], r["specula_s"], r["mitsuba_s"], r["ratio"], r["specula_cpu"],
+            r["mitsuba_cpu"], r["cpu_ratio"], r["mitsuba_first_s"]))
     return 0
 
 
