@@ -760,7 +760,9 @@ TEST(snee_point_estimates)
         } else {
             brute_force(sc, &x, 2, 2000000, &ref, &ref_se);
         }
-        for (int seed = 0; seed < 3; ++seed) {
+        /* variant 3: shape seeds without the straight-line solution counted first */
+        for (int variant = 0; variant < 4; ++variant) {
+            int seed = variant == 3 ? SPC_SNEE_SEED_SHAPE : variant;
             /* seeding toward the light is deterministic: right only where exactly one solution
              * exists and the straight line meets the caster (the slab) */
             if (seed == SPC_SNEE_SEED_LIGHT && kind != 1)
@@ -768,6 +770,7 @@ TEST(snee_point_estimates)
             spc_snee_params p;
             spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
             p.seed = (spc_snee_seed)seed;
+            p.straight_first = variant == 0;
             spc_snee_stats st;
             memset(&st, 0, sizeof st);
             spc_rng r;
@@ -781,16 +784,93 @@ TEST(snee_point_estimates)
             }
             double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N);
             double tol = 4.0 * sqrt(se * se + ref_se * ref_se) + 1e-4 * ref;
-            printf("    %-10s seed %d: snee %.5f +- %.5f, reference %.5f +- %.5f; solved %.2f, trials/solution %.2f, "
-                   "capped %llu\n",
-                   names[kind], seed, m, se, ref, ref_se, (double)st.solved / (double)st.calls,
+            printf("    %-10s seed %d%s: snee %.5f +- %.5f, reference %.5f +- %.5f; solved %.2f, straight %.2f, "
+                   "trials/solution %.2f, capped %llu\n",
+                   names[kind], seed, variant == 0 ? " (straight first)" : "", m, se, ref, ref_se,
+                   (double)st.solved / (double)st.calls, (double)st.straight / (double)st.calls,
                    st.contributions ? (double)st.trials / (double)st.contributions : 0.0,
                    (unsigned long long)st.capped);
-            CHECK_MSG(fabs(m - ref) <= tol, "%s, seed %d: %.6f vs %.6f", names[kind], seed, m, ref);
+            CHECK_MSG(fabs(m - ref) <= tol, "%s, variant %d: %.6f vs %.6f", names[kind], variant, m, ref);
             CHECK(ref > 0.0 && st.contributions > 0);
+            /* the straight line x -> y crosses the slab and the ball, never the mirror */
+            if (variant == 0)
+                CHECK_MSG(kind == 0 ? st.straight == 0 : st.straight > 0, "%s: %llu straight-line solutions",
+                          names[kind], (unsigned long long)st.straight);
+            else
+                CHECK(st.straight == 0);
         }
         spc_scene_destroy(sc);
     }
+}
+
+/* ---- the light point: a sphere light only where it faces the casters ---- */
+
+/* g(y) weighted over the part of a sphere light whose points face the glass ball below it (the
+ * only part a chain through the ball can end on), by spc_snee_sample_light's density and by
+ * uniform points on the whole sphere with the facing condition tested exactly: the two must
+ * agree (the cap it samples covers that part and its density is right there), and every sampled
+ * point faces the ball's bounding box. */
+TEST(snee_light_sampling_faces_casters)
+{
+    spc_scene *sc = spc_scene_create();
+    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+    const spc_vec3 bc = spc_v3(0.1, 0.0, 0.8), lc = spc_v3(0.6, -0.3, 2.6);
+    const double br = 0.6, lr = 0.5;
+    add_sphere(sc, bc, br, mk_glass(sc, 1.5));
+    spc_shape *light = add_sphere(sc, lc, lr, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 2, 5.0);
+    if (!finalize(sc)) {
+        CHECK(false);
+        spc_scene_destroy(sc);
+        return;
+    }
+    spc_hit x;
+    CHECK(floor_hit(sc, spc_v3(0.3, 0.2, 0.05), &x));
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+    const int N = 200000;
+    double s1 = 0, s2 = 0, u1 = 0, u2 = 0;
+    int outside = 0, fails = 0;
+    spc_rng r;
+    spc_rng_seed(&r, 5, 6);
+    for (int i = 0; i < N; ++i) {
+        spc_snee_query q;
+        memset(&q, 0, sizeof q);
+        q.scene = sc;
+        q.x = &x;
+        q.params = &p;
+        const spc_emitter *e;
+        spc_vec2 uv;
+        double p_y;
+        double v = 0.0;
+        if (spc_snee_sample_light(sc, false, &r, &q, &e, &uv, &p_y)) {
+            /* faces the ball (exact condition for a sphere): some point of it lies in front */
+            bool faces = spc_dot(q.ny, spc_sub(bc, q.y)) + br > 0.0;
+            if (fabs(spc_length(spc_sub(q.y, lc)) - lr) > 1e-9 || spc_dot(q.ny, spc_sub(q.y, lc)) < lr * (1 - 1e-9))
+                ++fails;
+            /* the ball's bounding box reaches br * sqrt(3) from its centre */
+            if (!(spc_dot(q.ny, spc_sub(bc, q.y)) + br * sqrt(3.0) > 0.0))
+                ++outside;
+            v = faces ? (1.0 + q.y.x * q.y.x) / p_y : 0.0;
+        }
+        s1 += v;
+        s2 += v * v;
+        /* uniform on the whole light sphere */
+        spc_vec3 n = spc_warp_uniform_sphere(spc_v2(rnd(), rnd()));
+        spc_vec3 y = spc_madd(lc, n, lr);
+        double w = spc_dot(n, spc_sub(bc, y)) + br > 0.0 ? (1.0 + y.x * y.x) * 4.0 * SPC_PI * lr * lr : 0.0;
+        u1 += w;
+        u2 += w * w;
+    }
+    double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N);
+    double mu = u1 / N, seu = sqrt(spc_max(u2 / N - mu * mu, 0.0) / N);
+    printf("    facing part of the light: %.5f +- %.5f (light sampling), %.5f +- %.5f (uniform); whole sphere %.5f\n",
+           m, se, mu, seu, 4.0 * SPC_PI * lr * lr);
+    CHECK_MSG(fabs(m - mu) <= 4.0 * sqrt(se * se + seu * seu), "%.5f vs %.5f", m, mu);
+    CHECK(fails == 0 && outside == 0);
+    /* the cap leaves out part of the sphere: the samples' density is above uniform */
+    CHECK(se < seu);
+    spc_scene_destroy(sc);
 }
 
 /* ---- image test: a glass sphere's caustic, path + specular NEE against ipt ---- */
@@ -1019,6 +1099,7 @@ int main(void)
     RUN(solver_glass_slab_two_interfaces);
     RUN(bernoulli_estimator_unbiased);
     RUN(snee_point_estimates);
+    RUN(snee_light_sampling_faces_casters);
     RUN(exclusion_matches_specular_nee);
     RUN(snee_point_light_mirror_scales);
     RUN(render_rejects_unknown_solver);

@@ -58,6 +58,10 @@ void spc_angular_options_default(spc_angular_options *o)
     o->max_iterations = SPC_ANGULAR_MAX_ITERATIONS;
     o->tol_scene = SPC_ANGULAR_TOL_SCENE;
     o->tol_light = SPC_ANGULAR_TOL_LIGHT;
+    o->stall_steps = SPC_ANGULAR_STALL_STEPS;
+    o->stall_drop = SPC_ANGULAR_STALL_DROP;
+    o->window = 0;
+    o->window_keep = 1.0;
 }
 
 /* Residual r and its Jacobian J (columns d r / da, d r / db) for the loss. */
@@ -93,13 +97,16 @@ static void residual(const spc_chain *c, const spc_angular_target *tg, spc_angul
 
 static bool chain_ok(const spc_chain *c) { return c->end == SPC_CHAIN_END_ESCAPED || c->end == SPC_CHAIN_END_SURFACE; }
 
-bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_target *tg, spc_vec3 seed_dir,
-                       const spc_chain_opts *opts, const spc_angular_options *ao, spc_chain *out,
-                       spc_angular_result *res)
+/* spc_angular_solve; with want != NULL it gives up at once if the seed chain's signature differs
+ * (the solve keeps the seed's signature, so it could not end on a chain with signature want). */
+static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_target *tg, spc_vec3 seed_dir,
+                  const spc_chain_opts *opts, const spc_angular_options *ao, const spc_chain_sig *want,
+                  spc_chain *out, spc_angular_result *res)
 {
     res->iterations = 1;
     res->converged = false;
     res->residual = INFINITY;
+    res->stop = SPC_ANGULAR_STOP_SEED;
     spc_frame fr = spc_frame_from_n(seed_dir);
     spc_chain_trace(sc, x, &fr, 0.0, 0.0, opts, out);
     /* a seed whose final segment runs into one more chain surface (LIMIT) still fixes a sequence
@@ -112,6 +119,8 @@ bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_
 
     spc_chain_sig sig;
     spc_chain_signature(out, &sig);
+    if (want && !spc_chain_sig_equal(&sig, want))
+        return false;
     spc_chain_opts fo = *opts;
     fo.fixed = &sig;
     fo.events = NULL;
@@ -126,9 +135,22 @@ bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_
     int stall = 0, hold = 0;
     const bool lm = ao->method == SPC_ANGULAR_LEVENBERG_MARQUARDT;
     double lambda = 0.0; /* Levenberg-Marquardt damping, relative to the mean of diag(J^T J) */
+    spc_angular_stop stop = SPC_ANGULAR_STOP_CONVERGED;
+    double L_ref = L;
+    int ref_iter = res->iterations;
     while (L > tol * tol) {
-        if (res->iterations >= ao->max_iterations)
+        if (res->iterations >= ao->max_iterations) {
+            stop = SPC_ANGULAR_STOP_MAX_ITER;
             break;
+        }
+        if (ao->window > 0 && res->iterations - ref_iter >= ao->window) {
+            if (L > ao->window_keep * L_ref) {
+                stop = SPC_ANGULAR_STOP_STALL;
+                break;
+            }
+            L_ref = L;
+            ref_iter = res->iterations;
+        }
         /* g = J^T r (half the gradient of L, eq. 21), A = J^T J */
         double g0 = spc_dot(J[0], r), g1 = spc_dot(J[1], r);
         double a00 = spc_dot(J[0], J[0]), a01 = spc_dot(J[0], J[1]), a11 = spc_dot(J[1], J[1]);
@@ -137,8 +159,10 @@ bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_
         if (lm) {
             double mu = 0.5 * (a00 + a11) * lambda;
             double b00 = a00 + mu, b11 = a11 + mu, dl = b00 * b11 - a01 * a01;
-            if (!(dl > 0.0))
+            if (!(dl > 0.0)) {
+                stop = SPC_ANGULAR_STOP_SINGULAR;
                 break;
+            }
             da = -(b11 * g0 - a01 * g1) / dl;
             db = -(b00 * g1 - a01 * g0) / dl;
         } else if (ao->method == SPC_ANGULAR_GAUSS_NEWTON && det > 1e-14 * a00 * a11) {
@@ -148,8 +172,10 @@ bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_
             db *= beta;
         } else {
             double gg = g0 * g0 + g1 * g1;
-            if (!(gg > 0.0))
+            if (!(gg > 0.0)) {
+                stop = SPC_ANGULAR_STOP_SINGULAR;
                 break;
+            }
             if (!gd_init) {
                 /* first step a quarter of the distance the linearized loss says is left: the
                  * scale-free start of eq. 54 (L / |grad L| has the units of the parameters) */
@@ -174,7 +200,7 @@ bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_
             residual(&trial, tg, ao->loss, &r2, J2);
             double L2 = spc_length2(r2);
             if (L2 < L && spc_chain_recenter(&trial)) {
-                stall = L2 > (1.0 - SPC_ANGULAR_STALL_DROP) * L ? stall + 1 : 0;
+                stall = L2 > (1.0 - ao->stall_drop) * L ? stall + 1 : 0;
                 *out = trial;
                 residual(out, tg, ao->loss, &r, J); /* in the re-centred parameters */
                 L = spc_length2(r);
@@ -185,19 +211,25 @@ bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_
             /* the damping takes the place of beta: a failed step turns the next toward the
              * gradient and shortens it, a good one turns it back toward Gauss-Newton */
             if (accepted) {
-                if (stall >= SPC_ANGULAR_STALL_STEPS)
+                if (stall >= ao->stall_steps) {
+                    stop = SPC_ANGULAR_STOP_STALL;
                     break;
+                }
                 lambda = lambda < SPC_ANGULAR_LM_MIN ? 0.0 : lambda * 0.25;
             } else {
                 lambda = lambda > 0.0 ? lambda * 4.0 : SPC_ANGULAR_LM_MIN;
-                if (lambda > SPC_ANGULAR_LM_MAX)
+                if (lambda > SPC_ANGULAR_LM_MAX) {
+                    stop = SPC_ANGULAR_STOP_MIN_BETA;
                     break;
+                }
             }
             continue;
         }
         if (accepted) {
-            if (stall >= SPC_ANGULAR_STALL_STEPS && ao->method == SPC_ANGULAR_GAUSS_NEWTON)
+            if (stall >= ao->stall_steps && ao->method == SPC_ANGULAR_GAUSS_NEWTON) {
+                stop = SPC_ANGULAR_STOP_STALL;
                 break;
+            }
             if (hold > 0)
                 --hold;
             else
@@ -206,15 +238,25 @@ bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_
                 beta = 1.0;
         } else {
             beta *= 0.5;
-            if (beta < SPC_ANGULAR_MIN_BETA * beta0)
+            if (beta < SPC_ANGULAR_MIN_BETA * beta0) {
+                stop = SPC_ANGULAR_STOP_MIN_BETA;
                 break;
+            }
         }
     }
     if (out->a != 0.0 || out->b != 0.0)
         spc_chain_recenter(out);
     res->residual = sqrt(L);
     res->converged = L <= tol * tol;
+    res->stop = res->converged ? SPC_ANGULAR_STOP_CONVERGED : stop;
     return res->converged;
+}
+
+bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_target *tg, spc_vec3 seed_dir,
+                       const spc_chain_opts *opts, const spc_angular_options *ao, spc_chain *out,
+                       spc_angular_result *res)
+{
+    return solve(sc, x, tg, seed_dir, opts, ao, NULL, out, res);
 }
 
 bool spc_angular_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations)
@@ -230,7 +272,7 @@ bool spc_angular_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_cha
     tg.scale = q->scene->radius;
     tg.light_size = q->light_size;
     spc_angular_result res;
-    bool ok = spc_angular_solve(q->scene, q->x, &tg, seed, &o, &q->params->angular, out, &res);
+    bool ok = solve(q->scene, q->x, &tg, seed, &o, &q->params->angular, q->want, out, &res);
     if (iterations)
         *iterations += res.iterations;
     return ok;

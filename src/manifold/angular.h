@@ -48,6 +48,13 @@ typedef struct spc_angular_options {
     int max_iterations; /* chain traces per solve, the seed's included */
     double tol_scene;   /* residual tolerance relative to the scene's size */
     double tol_light;   /* residual tolerance relative to the light's linear size */
+    /* Stagnation: stall_steps accepted steps in a row that each lower the loss by less than the
+     * fraction stall_drop end the solve; and (progress window, 0 = off) the solve ends when
+     * window traces have not brought the loss below window_keep times its value before them. */
+    int stall_steps;
+    double stall_drop;
+    int window;
+    double window_keep;
 } spc_angular_options;
 
 /* Gauss-Newton, PLANE loss, 48 iterations, tol_scene 1e-7, tol_light 1e-5 (see angular.c). */
@@ -60,10 +67,21 @@ typedef struct spc_angular_target {
     double light_size; /* the light's linear size (sqrt of its area); 0 for a point */
 } spc_angular_target;
 
+/* Why a solve ended (for profiling). */
+typedef enum spc_angular_stop {
+    SPC_ANGULAR_STOP_CONVERGED,
+    SPC_ANGULAR_STOP_SEED,      /* the seed's chain is unusable (no vertex, TIR, degenerate) */
+    SPC_ANGULAR_STOP_MAX_ITER,  /* max_iterations traces */
+    SPC_ANGULAR_STOP_STALL,     /* accepted steps that barely lower the loss */
+    SPC_ANGULAR_STOP_MIN_BETA,  /* no step along the current direction lowers the loss */
+    SPC_ANGULAR_STOP_SINGULAR   /* zero gradient or singular damped system */
+} spc_angular_stop;
+
 typedef struct spc_angular_result {
     int iterations;  /* chain traces done */
     double residual; /* |r| at the end */
     bool converged;
+    spc_angular_stop stop;
 } spc_angular_result;
 
 /* Traces the seed chain from x along seed_dir (unit) with opts (its signature becomes the one to

@@ -59,6 +59,14 @@ typedef struct spc_snee_params {
     int solver;        /* SPC_SNEE_* */
     int max_chain;     /* longest chain (<= SPC_CHAIN_MAX_VERTICES) */
     spc_snee_seed seed;
+    /* With SEED_SHAPE and a solver without solve_all: where the straight segment x -> y first
+     * meets a refracting caster, one more attempt is seeded toward y (deterministic: Hanika et
+     * al.'s MNEE seed, close to the solution through weakly curved glass). The solution it finds
+     * is added exactly (no <1/p_solve>), and the shape-seeded attempt and its trials estimate the
+     * other solutions: one that finds the straight-line solution again adds nothing. Unbiased
+     * (sum over the other solutions of p v / p), and where the straight line finds the only
+     * solution, that solution has no trial-count variance and needs no trials. */
+    bool straight_first;
     int max_trials;    /* cap of the attempts counted for <1/p_solve> */
     bool any_surface;  /* ignore caustic flags (tests, benchmarks) */
     spc_angular_options angular;
@@ -71,7 +79,10 @@ typedef struct spc_snee_params {
 } spc_snee_params;
 
 /* Defaults: SEED_SHAPE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
- * and Newton solvers' defaults, unbiased (biased_seeds SPC_SNEE_BIASED_SEEDS when switched on). */
+ * and Newton solvers' defaults, unbiased (biased_seeds SPC_SNEE_BIASED_SEEDS when switched on).
+ * For the angular solver: straight_first, the angular solver's progress window and a cap of 256
+ * (specular_nee.c, SPC_SNEE_ANGULAR_WINDOW, SPC_SNEE_ANGULAR_MAX_TRIALS); conic (whose one-at-a-time
+ * part is the angular solver) gets the window too. */
 void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain);
 
 /* One connection problem: from x (wo toward the previous path vertex) to y. */
@@ -85,6 +96,11 @@ typedef struct spc_snee_query {
     spc_snee_seed seed;
     bool any_surface;
     const spc_snee_params *params;
+    /* Set while counting trials for <1/p_solve>: the signature of the solution being counted. A
+     * solver whose attempt keeps the signature of its seed chain may stop an attempt whose seed
+     * has another one (it cannot end at that solution; the outcome is the same, only sooner).
+     * NULL otherwise. */
+    const spc_chain_sig *want;
 } spc_snee_query;
 
 /* A solver: one randomized attempt from the query's seed distribution (the same distribution on
@@ -121,6 +137,20 @@ bool spc_specular_solver_parse(const char *name, int *id);
 /* The valid names, for error messages: "none, angular". */
 const char *spc_specular_solver_names(void);
 
+/* The light point of a query (shared by the solvers): a light chosen in proportion to power, then
+ * a point y on it, written to q->y, q->ny, q->light_size; *e the light, *uv the point's texture
+ * coordinates, *p_y its density (area measure, the light's choice included). A sphere light is
+ * sampled uniformly on the cap that faces the casters' bounding sphere (no chain ends elsewhere on
+ * it); other area lights uniformly by area; point and spot lights are their position. False (no
+ * contribution) if no chain can reach the point: no caster, an environment or directional light,
+ * or a point that faces away from every caster. */
+bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, spc_snee_query *q,
+                           const spc_emitter **e, spc_vec2 *uv, double *p_y);
+
+/* Does the straight segment from x toward y first meet a refracting caster (params->straight_first
+ * applies)? Toward a mirror, or past every caster, the straight line leads nowhere. One ray. */
+bool spc_snee_straight_hits_glass(const spc_snee_query *q);
+
 /* A seed direction for the query (shared by the solvers); false if none (no caster shape). */
 bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *dir);
 
@@ -131,6 +161,8 @@ typedef struct spc_snee_stats {
     uint64_t trials;        /* further attempts for <1/p_solve> */
     uint64_t capped;        /* counts cut at max_trials */
     uint64_t iterations;    /* solver iterations, trials included */
+    uint64_t trial_iterations; /* of which in the attempts counted for <1/p_solve> */
+    uint64_t straight;      /* straight-line solutions (straight_first), counted exactly */
 } spc_snee_stats;
 
 /* The specular NEE estimate at the path vertex x (to be multiplied by the path throughput), with
