@@ -1564,8 +1564,9 @@ TEST(dcf_against_generalized_geometry_term)
  * Admissibility: at that root both endpoints lie on the SAME side of the shading normal
  * (cos = -0.772 and -0.294) while on opposite sides of the geometric normal, so no refraction
  * about that shading normal connects them (the dielectric BSDF would call this pair a
- * reflection): a root that squaring (and the unsigned law) admits but physics does not. The conic
- * solver must not return it. */
+ * reflection): a root that squaring (and the unsigned law) admits but physics does not. It is not
+ * total internal reflection: with eta on D's side, eta sin(theta_D) = 0.96 < 1 (checked below), so
+ * the only obstacle is sidedness. The conic solver must not return it. */
 TEST(specular_polynomials_fixture)
 {
     spc_conic_tri t;
@@ -1601,6 +1602,9 @@ TEST(specular_polynomials_fixture)
     CHECK(hypot(pu - u, pv - v) < 2e-3);
     CHECK(spc_dot(wD, nh) * spc_dot(wL, nh) > 0.0); /* same side of the shading normal */
     CHECK(spc_dot(wD, ng) * spc_dot(wL, ng) < 0.0); /* opposite sides of the triangle */
+    double sinD = spc_length(spc_cross(wD, nh));
+    printf("    eta sin(theta_D) = %.3f: no total internal reflection, only the sides forbid it\n", pb.eta * sinD);
+    CHECK(pb.eta * sinD < 1.0);
     CHECK(!isfinite(spc_conic_law_residual(&t, &pb, pu, pv))); /* not admissible */
     /* the solver returns nothing there */
     spc_conic_solution sol[16];
