@@ -251,6 +251,13 @@ int main(int argc, char **argv)
                 spc_newton_options no;
                 spc_newton_options_default(&no);
                 no.constraint = cf->kind;
+                /* for experiments: SPC_NEWTON_MAX_ITERATIONS, SPC_NEWTON_MIN_BETA override the defaults */
+                if (getenv("SPC_NEWTON_MAX_ITERATIONS"))
+                    no.max_iterations = atoi(getenv("SPC_NEWTON_MAX_ITERATIONS"));
+                if (getenv("SPC_NEWTON_MIN_BETA"))
+                    no.min_beta = atof(getenv("SPC_NEWTON_MIN_BETA"));
+                if (getenv("SPC_NEWTON_SWITCH_KIND"))
+                    no.switch_kind = atoi(getenv("SPC_NEWTON_SWITCH_KIND")) != 0;
                 int ok = 0, same = 0, inseq = 0, ok_inseq = 0;
                 int why[NWHY] = {0}; /* newton: why seeds in sequence failed */
                 long it_ok = 0, it_all = 0;

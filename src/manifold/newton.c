@@ -40,7 +40,9 @@
  * 27 degrees of turn, the angular solver's SPC_ANGULAR_MAX_STEP): Newton steps from far seeds can be
  * huge where the constraint Jacobian is nearly singular (silhouettes, caustics). */
 #define SPC_NEWTON_MAX_TURN 0.5
-/* beta below this means no step along the Newton direction lowers the constraints: 10 halvings. */
+/* beta below this means no step along the Newton direction lowers the constraints: 4 halvings.
+ * More do not help: at 1/1024 no more seeds converged on bench_newton's chains (the stalls are
+ * far seeds whose Newton direction does not lower the constraints at all), only iterations grew. */
 #define SPC_NEWTON_MIN_BETA (1.0 / 16.0)
 /* A 2x2 pivot block whose determinant is below this fraction of its squared largest entry is
  * singular (a chain at a caustic of the light, where the vertex is not a function of y). */
@@ -55,6 +57,14 @@
  * keeps for smooth ones): later ones are still counted, only not remembered for deduplication. */
 #define SPC_NEWTON_BIASED_MAX_SOLUTIONS 8
 
+/* On no progress, continue once with the other constraint kind: far from the solution the two
+ * Newton directions differ, and where one stalls the other often goes on. Measured on bench_newton's
+ * chains (400 per row, bench/RESULTS.md): angle differences from seeds in sequence, one interface
+ * 86-91% -> 87-91%, two 69-80% -> 78-85%, three 68-81% -> 78-86%; straight-line seeds on three
+ * interfaces 71-77% -> 82-89%; half vectors from shape seeds on one interface 44-53% -> 58-63%.
+ * Never fewer solutions; 1-2 more projections on the seeds that stall. */
+#define SPC_NEWTON_SWITCH_KIND true
+
 /* The default constraint: angle differences converge from twice as many shape seeds on single
  * interfaces (70-75% against 33-38% for half vectors), a few percent fewer on two (bench/RESULTS.md). */
 #define SPC_NEWTON_DEFAULT_CONSTRAINT SPC_NEWTON_ANGLE_DIFF
@@ -65,6 +75,8 @@ void spc_newton_options_default(spc_newton_options *o)
     o->max_iterations = SPC_NEWTON_MAX_ITERATIONS;
     o->tol_scene = SPC_NEWTON_TOL_SCENE;
     o->polish_iterations = SPC_NEWTON_POLISH_ITERATIONS;
+    o->min_beta = SPC_NEWTON_MIN_BETA;
+    o->switch_kind = SPC_NEWTON_SWITCH_KIND;
     o->rough = false;
 }
 
@@ -675,7 +687,9 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
         C2[SPC_CHAIN_MAX_VERTICES][2][2];
     spc_vec3 basis2[SPC_CHAIN_MAX_VERTICES][2];
     unsigned wrong, wrong2;
-    if (!constraints(x->p, p, y, zero, o->constraint, c, A, B, C, basis, &wrong))
+    spc_newton_constraint kind = o->constraint;
+    bool switched = false;
+    if (!constraints(x->p, p, y, zero, kind, c, A, B, C, basis, &wrong))
         return false;
     double E = norm2(k, c), beta = 1.0, tol = o->tol_scene * sc->radius;
     spc_newton_path trial;
@@ -719,7 +733,7 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
             }
             res->iterations++;
             if (project(sc, x, p, basis, D, beta, &trial) &&
-                constraints(x->p, &trial, y, zero, o->constraint, c2, A2, B2, C2, basis2, &wrong2)) {
+                constraints(x->p, &trial, y, zero, kind, c2, A2, B2, C2, basis2, &wrong2)) {
                 double E2 = norm2(k, c2);
                 /* no vertex may change from transmission to reflection or back (one that starts on
                  * the wrong sides, as a seed may, can only be set right) */
@@ -737,7 +751,18 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
                 }
             }
             beta *= 0.5;
-            if (beta < SPC_NEWTON_MIN_BETA) {
+            if (beta < o->min_beta) {
+                /* stalled: once, the other constraint kind from here (its Newton direction differs
+                 * far from the solution; both vanish at the same paths) */
+                if (o->switch_kind && !switched) {
+                    switched = true;
+                    kind = kind == SPC_NEWTON_ANGLE_DIFF ? SPC_NEWTON_HALF_VECTOR : SPC_NEWTON_ANGLE_DIFF;
+                    if (constraints(x->p, p, y, zero, kind, c, A, B, C, basis, &wrong)) {
+                        E = norm2(k, c);
+                        beta = 1.0;
+                        break;
+                    }
+                }
                 res->stop = SPC_NEWTON_STOP_PROGRESS;
                 return false;
             }

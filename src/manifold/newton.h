@@ -28,7 +28,8 @@
  * does not exist, or the constraints' norm does not decrease, and doubles (up to 1) after a
  * success. Stopping: converged when the full Newton step moves no vertex farther than tol_scene
  * times the scene's size (scale invariant) and every vertex has its event's sides; failed after
- * max_iterations projections or when beta falls below SPC_NEWTON_MIN_BETA (no progress).
+ * max_iterations projections or when beta falls below min_beta (no progress), unless switch_kind
+ * (default): then the solve goes on once with the other constraint kind from where it stalled.
  *
  * Rough interfaces (Zeltner et al. 2020, sec. 4.3), with rough = true: isotropic roughconductor
  * and roughdielectric surfaces of constant roughness are chain vertices too. Each gets a
@@ -65,11 +66,14 @@ typedef struct spc_newton_options {
     double tol_scene;      /* converged when the Newton step moves every vertex less than this times
                               the scene's size */
     int polish_iterations; /* traces allowed to the final chain (see spc_newton_solve_one) */
+    double min_beta;       /* no progress when the step scale falls below this */
+    bool switch_kind;      /* on no progress, continue once with the other constraint kind */
     bool rough;            /* rough interfaces as chain vertices (see above; off by default) */
 } spc_newton_options;
 
 /* ANGLE_DIFF (SPC_NEWTON_DEFAULT_CONSTRAINT), SPC_NEWTON_MAX_ITERATIONS, tol_scene
- * SPC_NEWTON_TOL_SCENE, polish SPC_NEWTON_POLISH_ITERATIONS, rough off (newton.c). */
+ * SPC_NEWTON_TOL_SCENE, polish SPC_NEWTON_POLISH_ITERATIONS, min_beta SPC_NEWTON_MIN_BETA, rough off
+ * (newton.c). */
 void spc_newton_options_default(spc_newton_options *o);
 
 typedef struct spc_newton_vertex {
