@@ -4,7 +4,7 @@
 For each caustic scene (and, where the scene's light is large, a smaller light of the same power),
 `specula render` with `--specular-nee none` (plain path tracing), `angular`, `newton` and, on the
 scenes with one specular interface, `conic`; each image's relMSE against a converged reference
-(`specula diff --json`), scaled to equal CPU time.
+(`specula diff --json`), scaled to equal CPU time. For context, `bdpt` (no specular NEE) too.
 
 Equal CPU time. The machine is shared, so wall time says little: each render's CPU time (user +
 system of the child process, from os.wait4) is measured, minus the CPU time of the same command at
@@ -46,18 +46,24 @@ def small_light(r, r_small, rgb):
     return {"light_radius": str(r_small), "light_radiance": ", ".join("%.6g" % (c * s) for c in rgb)}
 
 
+# conic runs where its chains exist (one vertex on a triangle mesh): on the analytic mirror cylinder
+# it would hand every chain to angular, and no solver makes a normal-mapped surface a chain vertex
+# (spc_bsdf_is_specular_interface), so on caustic_pool every solver renders what path renders.
 # name, scene, defines, solvers, reference solver, checks, description. A check is an integrator
 # (bdpt, ipt) or a specular NEE solver of `path` other than the reference's; "+" joins several.
-# The floor of the pools is seen through the water (specular-diffuse-specular paths, which bdpt
-# samples poorly), so they are also checked against another solver.
+# Where the camera sees a diffuse surface through a specular one (the pools' floors through the
+# water, the floor's caustic in the mirror ring's wall), the light comes by specular-diffuse-specular
+# paths, which bdpt samples only by hitting the light: its variance estimate there is too low for
+# the z-test, so those scenes are also checked against another solver.
 VARIANTS = [
     ("glass_sphere", "caustic_glass_sphere", {}, ["none", "angular", "newton"], "angular", "bdpt",
      "glass sphere on a floor, sphere light r 0.12 (2 refractions)"),
-    ("mirror_ring", "caustic_mirror_ring", {}, ["none", "angular", "newton", "conic"], "angular", "bdpt",
+    ("mirror_ring", "caustic_mirror_ring", {}, ["none", "angular", "newton"], "angular",
+     "bdpt+newton",
      "mirror cylinder (analytic), sphere light r 0.1 (1 reflection)"),
-    ("sdf_torus", "caustic_sdf_torus", {}, ["none", "angular", "newton"], "angular", "bdpt",
+    ("sdf_torus", "caustic_sdf_torus", {}, ["none", "angular", "newton"], "newton", "bdpt+none+angular",
      "glass SDF torus, sphere light r 0.08 (2 refractions)"),
-    ("pool_normalmap", "caustic_pool", {}, ["none", "angular", "newton", "conic"], "none", "bdpt",
+    ("pool_normalmap", "caustic_pool", {}, ["none", "angular", "newton"], "none", "bdpt",
      "water plane with a normal map over a tiled pool, sphere light r 0.15"),
     ("newton_pool", "newton_pool", {}, ["none", "angular", "newton", "conic"], "conic", "bdpt+newton",
      "mesh water (interpolated normals), sphere light r 0.25 (1 refraction)"),
@@ -196,7 +202,8 @@ def timed_render(a, scene, defines, integrator, solver, cpu_budget, seed, out, v
 
 
 def ref_paths(a, name):
-    return os.path.join(a.out, name + "_ref.exr"), os.path.join(a.out, name + "_ref.meta.json")
+    d = a.ref_dir or a.out
+    return os.path.join(d, name + "_ref.exr"), os.path.join(d, name + "_ref.meta.json")
 
 
 def cmd_refs(a, variants):
@@ -204,15 +211,19 @@ def cmd_refs(a, variants):
     for name, scene, defs, _, solver, checks, _ in variants:
         ref, meta = ref_paths(a, name)
         if os.path.exists(meta) and not a.force:
-            print("%s: cached (%s)" % (name, meta), flush=True)
-            continue
-        r = timed_render(a, scene, defs, "path", solver, a.ref_budget, 1, ref, variance=True)
-        m = {"name": name, "ref": r, "ref_solver": solver, "ref_rel_mse_noise": rel_mse_noise(ref),
-             "checks": [], "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-             "loadavg": open("/proc/loadavg").read().split()[:3]}
-        print("%s: reference path %s, %d spp, %.0f CPU-s, own relMSE %.3g" % (
-            name, solver, r["spp"], r["cpu"], m["ref_rel_mse_noise"]), flush=True)
+            with open(meta) as f:
+                m = json.load(f)
+            print("%s: reference cached (%s)" % (name, meta), flush=True)
+        else:
+            r = timed_render(a, scene, defs, "path", solver, a.ref_budget, 1, ref, variance=True)
+            m = {"name": name, "ref": r, "ref_solver": solver, "ref_rel_mse_noise": rel_mse_noise(ref),
+                 "checks": [], "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                 "loadavg": open("/proc/loadavg").read().split()[:3]}
+            print("%s: reference path %s, %d spp, %.0f CPU-s, own relMSE %.3g" % (
+                name, solver, r["spp"], r["cpu"], m["ref_rel_mse_noise"]), flush=True)
         for i, chk in enumerate(checks.split("+")):
+            if any(c["check"] == chk for c in m["checks"]):
+                continue
             integ, s = (chk, "none") if chk in ("bdpt", "ipt") else ("path", chk)
             out = os.path.join(a.out, "%s_check_%s.exr" % (name, chk))
             c = timed_render(a, scene, defs, integ, s, a.check_budget, 2 + i, out, variance=True)
@@ -236,21 +247,29 @@ def cmd_run(a, variants):
     t0 = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     rows, summary = [], []
     results = {}
+    prev = None
+    if a.reuse:
+        with open(a.reuse) as f:
+            prev = json.load(f)
     for name, scene, defs, solvers, _, _, desc in variants:
         ref, meta = ref_paths(a, name)
         with open(meta) as f:
             m = json.load(f)
         res = {}
-        for s in solvers:
+        for s in solvers + (["bdpt"] if a.bdpt else []):
             img = os.path.join(a.out, "%s_%s_run.exr" % (name, s))
-            r = timed_render(a, scene, defs, "path", s, a.budget, 3 + a.seed, img)
+            integ, sol = ("bdpt", "none") if s == "bdpt" else ("path", s)
+            if prev:  # the images and CPU times of an earlier run, against these references
+                r = prev[name]["solvers"][s]
+            else:
+                r = timed_render(a, scene, defs, integ, sol, a.budget, 3 + a.seed, img)
             r["rel_mse"] = diff(a, img, ref)["rel_mse"]
             r["at_T"] = r["rel_mse"] * r["cpu"] / a.budget
             res[s] = r
             print("  %s %s: %d spp, %.1f CPU-s, relMSE %.4g" % (name, s, r["spp"], r["cpu"], r["rel_mse"]),
                   file=sys.stderr, flush=True)
         results[name] = {"solvers": res, "ref": m}
-        for s in solvers:
+        for s in res:
             r = res[s]
             ratio = res["none"]["at_T"] / r["at_T"]
             rows.append("| %s | %s | %d | %.1f | %s | %s | %s |" % (
@@ -265,7 +284,7 @@ def cmd_run(a, variants):
             name, desc, m["ref_solver"], m["ref"]["spp"], m["ref"]["cpu"], fmt(m["ref_rel_mse_noise"]),
             100.0 * m["ref_rel_mse_noise"] / res[best]["rel_mse"], checks))
     load1 = open("/proc/loadavg").read().split()[:3]
-    with open(os.path.join(a.out, "run%d.json" % a.seed), "w") as f:
+    with open(os.path.join(a.out, "run%d%s.json" % (a.seed, "_rescored" if prev else "")), "w") as f:
         json.dump(results, f, indent=1)
     print("date %s to %s, %d cores, load average %s at the start, %s at the end; budget %.0f CPU-s "
           "per render, %d threads, %dx%d px" % (t0, time.strftime("%H:%M UTC", time.gmtime()),
@@ -296,12 +315,18 @@ def main():
     ap.add_argument("--check-budget", type=float, default=60.0, help="CPU seconds per check render")
     ap.add_argument("--probe-spp", type=int, default=4)
     ap.add_argument("--max-spp", type=int, default=1 << 16)
+    ap.add_argument("--no-bdpt", dest="bdpt", action="store_false",
+                    help="skip the bdpt row (context: the other way to sample caustics)")
     ap.add_argument("--seed", type=int, default=0, help="added to the measured renders' seeds")
+    ap.add_argument("--ref-dir", default="", help="references from this directory (default --out)")
+    ap.add_argument("--reuse", default="", help="run: re-score the images of the run whose JSON this is "
+                    "(in --out) against the references instead of rendering")
     ap.add_argument("--only", default="", help="comma-separated variant names")
     ap.add_argument("--force", action="store_true", help="re-render cached references")
     a = ap.parse_args()
     a.specula = os.path.abspath(a.specula)
     a.out = os.path.abspath(a.out)
+    a.ref_dir = os.path.abspath(a.ref_dir) if a.ref_dir else ""
     only = set(filter(None, a.only.split(",")))
     variants = [v for v in VARIANTS if not only or v[0] in only]
     if a.mode == "refs":
