@@ -1070,8 +1070,8 @@ static int cmd_diff(int argc, char **argv)
         printf("MSE: %.6g\n", r.mse);
         printf("relMSE: %.6g\n", r.rel_mse);
         if (r.has_ztest)
-            printf("z-test: %.6g of %d pixels pass (alpha 0.01, Sidak-corrected)\n", r.ztest_pass_fraction,
-                   r.ztest_pixels);
+            printf("z-test: %.4f%% of %d pixels pass (alpha 0.01, Sidak-corrected)\n",
+                   100.0 * r.ztest_pass_fraction, r.ztest_pixels);
         else
             printf("z-test: no variance channels\n");
     }
