@@ -40,8 +40,10 @@ static inline void tu_camera(spc_scene *sc, spc_vec3 origin, spc_vec3 target, sp
     sc->film.filter_radius = 0.5;
 }
 
-/* Renders and returns the film (caller destroys); NULL on failure (message printed). */
-static inline spc_film *tu_render(const spc_scene *sc, const char *integrator, int spp, int threads, uint64_t seed)
+/* Renders with specular NEE `snee` (NULL: the scene's) and returns the film (caller destroys); NULL on
+ * failure (message printed). *wall_seconds (if not NULL) gets the render's wall time. */
+static inline spc_film *tu_render_nee(const spc_scene *sc, const char *integrator, const char *snee, int spp,
+                                      int threads, uint64_t seed, double *wall_seconds)
 {
     spc_render_options o;
     spc_render_options_init(&o);
@@ -49,6 +51,7 @@ static inline spc_film *tu_render(const spc_scene *sc, const char *integrator, i
     o.threads = threads;
     o.seed = seed;
     o.integrator = integrator;
+    o.specular_nee = snee;
     spc_film *f = NULL;
     spc_error err;
     spc_render_stats st;
@@ -59,7 +62,15 @@ static inline spc_film *tu_render(const spc_scene *sc, const char *integrator, i
         spc_film_destroy(f);
         return NULL;
     }
+    if (wall_seconds)
+        *wall_seconds = st.wall_seconds;
     return f;
+}
+
+/* Renders and returns the film (caller destroys); NULL on failure (message printed). */
+static inline spc_film *tu_render(const spc_scene *sc, const char *integrator, int spp, int threads, uint64_t seed)
+{
+    return tu_render_nee(sc, integrator, NULL, spp, threads, seed, NULL);
 }
 
 /* Mean over pixels and channel c (0..2), and the standard error of that mean. */

@@ -894,23 +894,7 @@ static spc_scene *caustic_scene(void)
 static spc_film *render_with(const spc_scene *sc, const char *integrator, const char *snee, int spp, uint64_t seed,
                              double *seconds)
 {
-    spc_render_options o;
-    spc_render_options_init(&o);
-    o.spp = spp;
-    o.threads = 2;
-    o.seed = seed;
-    o.integrator = integrator;
-    o.specular_nee = snee;
-    spc_film *f = NULL;
-    spc_error err;
-    spc_render_stats st;
-    if (spc_render(sc, &o, &f, &st, &err) != SPC_OK) {
-        printf("  render failed: %s\n", err.msg);
-        spc_film_destroy(f);
-        return NULL;
-    }
-    *seconds = st.wall_seconds;
-    return f;
+    return tu_render_nee(sc, integrator, snee, spp, 2, seed, seconds);
 }
 
 TEST(caustic_image_path_snee_vs_ipt)

@@ -47,24 +47,7 @@
 
 static spc_film *render_nee(const spc_scene *sc, const char *integrator, const char *snee, int spp, uint64_t seed)
 {
-    spc_render_options o;
-    spc_render_options_init(&o);
-    o.spp = spp;
-    o.threads = 2;
-    o.seed = seed;
-    o.integrator = integrator;
-    o.specular_nee = snee;
-    spc_film *f = NULL;
-    spc_error err;
-    spc_render_stats st;
-    if (spc_render(sc, &o, &f, &st, &err) != SPC_OK) {
-        char buf[1200];
-        spc_error_format(&err, buf, sizeof buf);
-        printf("  render failed: %s\n", buf);
-        spc_film_destroy(f);
-        return NULL;
-    }
-    return f;
+    return tu_render_nee(sc, integrator, snee, spp, 2, seed, NULL);
 }
 
 /* Image mean of each channel within k standard errors of expected[c]; the error is small. */
