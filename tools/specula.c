@@ -86,7 +86,7 @@ static const char *const usage_render =
     "  --specular-nee NAME[:OPTS]  none, angular, newton or conic (default: the scene's); OPTS,\n"
     "                         comma-separated: unbiased (default: one solution, 1/p by Bernoulli\n"
     "                         trials) or biased[=M] (M seeds, distinct solutions summed; M 8),\n"
-    "                         trials=N (cap, 64), seed=shape|light|bsdf, and for newton\n"
+    "                         trials=N (cap; 256 angular, 64 others), seed=shape|light|bsdf; newton:\n"
     "                         constraint=angle|half, rough (rough interfaces as chain vertices);\n"
     "                         e.g. --specular-nee newton:biased=8\n"
     "  --max-depth N          longest path, Mitsuba's meaning; -1 for no limit\n"
