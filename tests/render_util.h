@@ -40,6 +40,27 @@ static inline void tu_camera(spc_scene *sc, spc_vec3 origin, spc_vec3 target, sp
     sc->film.filter_radius = 0.5;
 }
 
+/* A smooth dielectric of relative index eta, white reflectance and transmittance. */
+static inline spc_bsdf *tu_glass(spc_scene *sc, double eta)
+{
+    spc_bsdf *b = spc_scene_new_bsdf(sc);
+    b->type = SPC_BSDF_DIELECTRIC;
+    b->eta = eta;
+    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    b->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
+    return b;
+}
+
+/* A perfect mirror (a conductor with k = -1: reflectance 1 at every angle). */
+static inline spc_bsdf *tu_mirror(spc_scene *sc)
+{
+    spc_bsdf *b = spc_scene_new_bsdf(sc);
+    b->type = SPC_BSDF_CONDUCTOR;
+    b->cond_k = spc_rgb1(-1.0);
+    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    return b;
+}
+
 /* Renders with specular NEE `snee` (NULL: the scene's) and returns the film (caller destroys); NULL on
  * failure (message printed). *wall_seconds (if not NULL) gets the render's wall time. */
 static inline spc_film *tu_render_nee(const spc_scene *sc, const char *integrator, const char *snee, int spp,

@@ -1393,25 +1393,6 @@ TEST(hierarchy_matches_triangle_loop)
 
 /* ================= the distance correction factor ================= */
 
-static spc_bsdf *mk_glass(spc_scene *sc, double eta)
-{
-    spc_bsdf *b = spc_scene_new_bsdf(sc);
-    b->type = SPC_BSDF_DIELECTRIC;
-    b->eta = eta;
-    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
-    b->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
-    return b;
-}
-
-static spc_bsdf *mk_mirror(spc_scene *sc)
-{
-    spc_bsdf *b = spc_scene_new_bsdf(sc);
-    b->type = SPC_BSDF_CONDUCTOR;
-    b->cond_k = spc_rgb1(-1.0); /* perfect mirror */
-    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
-    return b;
-}
-
 static spc_shape *add_rect(spc_scene *sc, spc_vec3 scale, spc_vec3 pos, const spc_bsdf *b)
 {
     spc_mat4 S = spc_mat4_scale(scale), T = spc_mat4_translate(pos), M = spc_mat4_mul(&T, &S);
@@ -1501,7 +1482,7 @@ TEST(dcf_against_generalized_geometry_term)
     {
         spc_scene *sc = spc_scene_create();
         spc_shape *fl = add_rect(sc, spc_v3(1.2, 1.2, 1), spc_v3(0, 0, -0.6), tu_diffuse(sc, 0.5));
-        add_mesh(sc, water_mesh(24, 1.0, 0.0), mk_glass(sc, 1.33));
+        add_mesh(sc, water_mesh(24, 1.0, 0.0), tu_glass(sc, 1.33));
         CHECK(finalize(sc));
         dcf_against_chains(sc, 1, fl, &compared, &worst);
         spc_scene_destroy(sc);
@@ -1511,7 +1492,7 @@ TEST(dcf_against_generalized_geometry_term)
     {
         spc_scene *sc = spc_scene_create();
         spc_shape *fl = add_rect(sc, spc_v3(1.2, 1.2, 1), spc_v3(0, 0, -0.6), tu_diffuse(sc, 0.5));
-        add_mesh(sc, blob_mesh(10, spc_v3(0, 0, 0.5), 0.5, 0.15), mk_mirror(sc));
+        add_mesh(sc, blob_mesh(10, spc_v3(0, 0, 0.5), 0.5, 0.15), tu_mirror(sc));
         CHECK(finalize(sc));
         dcf_against_chains(sc, 1, fl, &compared, &worst);
         spc_scene_destroy(sc);
@@ -1674,7 +1655,7 @@ TEST(image_water_surface)
      * refraction through the mesh, which the conic solver enumerates exactly (max chain 1) */
     spc_scene *sc = spc_scene_create();
     add_rect(sc, spc_v3(1.5, 1.5, 1), spc_v3(0, 0, 0), tu_diffuse(sc, 0.7));
-    add_mesh(sc, water_mesh(40, 1.5, 0.5), mk_glass(sc, 1.33));
+    add_mesh(sc, water_mesh(40, 1.5, 0.5), tu_glass(sc, 1.33));
     spc_shape *light = add_sphere(sc, spc_v3(0.3, 0.2, 2.2), 0.3, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 6.0);
     tu_camera(sc, spc_v3(0.0, -2.6, 2.4), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 45, 24, 24);
@@ -1711,8 +1692,8 @@ TEST(image_glass_blob)
         p[0] = 0.8f * px - 0.45f, p[1] = -0.8f * pz, p[2] = 0.8f * py;
         n[0] = nx, n[1] = -nz, n[2] = ny;
     }
-    add_mesh(sc, bunny, mk_glass(sc, 1.5));
-    add_mesh(sc, blob_mesh(8, spc_v3(0.55, 0.1, 0.4), 0.3, 0.2), mk_mirror(sc));
+    add_mesh(sc, bunny, tu_glass(sc, 1.5));
+    add_mesh(sc, blob_mesh(8, spc_v3(0.55, 0.1, 0.4), 0.3, 0.2), tu_mirror(sc));
     spc_shape *light = add_sphere(sc, spc_v3(0.1, 0.3, 2.2), 0.3, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 3, 6.0);
     tu_camera(sc, spc_v3(0.2, -2.8, 2.2), spc_v3(0, 0, 0.3), spc_v3(0, 0, 1), 50, 24, 24);

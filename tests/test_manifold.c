@@ -27,25 +27,6 @@ static double rnd(void) { return spc_rng_next(&rng); }
 
 /* ---- scene building ---- */
 
-static spc_bsdf *mk_glass(spc_scene *sc, double eta)
-{
-    spc_bsdf *b = spc_scene_new_bsdf(sc);
-    b->type = SPC_BSDF_DIELECTRIC;
-    b->eta = eta;
-    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
-    b->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
-    return b;
-}
-
-static spc_bsdf *mk_mirror(spc_scene *sc)
-{
-    spc_bsdf *b = spc_scene_new_bsdf(sc);
-    b->type = SPC_BSDF_CONDUCTOR;
-    b->cond_k = spc_rgb1(-1.0); /* perfect mirror */
-    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
-    return b;
-}
-
 static spc_shape *add_sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
 {
     spc_shape *s = spc_scene_new_shape(sc);
@@ -247,7 +228,7 @@ TEST(chain_derivatives_analytic_shapes)
     /* mirror sphere, 1 vertex */
     {
         spc_scene *sc = spc_scene_create();
-        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, mk_mirror(sc));
+        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, tu_mirror(sc));
         CHECK(finalize(sc));
         fd_case fc = {"mirror sphere", sc, spc_v3(3, 1, 2), spc_v3(0.2, -0.1, 0.3), 0.2, 1, {0}, false};
         run_fd_case(&fc);
@@ -256,7 +237,7 @@ TEST(chain_derivatives_analytic_shapes)
     /* glass sphere: 2 refractions, then 3 and 4 vertices with internal reflections */
     for (int k = 2; k <= 4; ++k) {
         spc_scene *sc = spc_scene_create();
-        add_sphere(sc, spc_v3(0, 0, 0), 1.0, mk_glass(sc, 1.5));
+        add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
         CHECK(finalize(sc));
         fd_case fc = {"glass sphere", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.25, k, {1, 0, 0, 1}, true};
         if (k == 2)
@@ -270,7 +251,7 @@ TEST(chain_derivatives_analytic_shapes)
     for (int k = 0; k < 2; ++k) {
         spc_scene *sc = spc_scene_create();
         spc_mat4 M = place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3));
-        add_disk(sc, M, k == 0 ? mk_mirror(sc) : mk_glass(sc, 1.33));
+        add_disk(sc, M, k == 0 ? tu_mirror(sc) : tu_glass(sc, 1.33));
         CHECK(finalize(sc));
         fd_case fc = {k == 0 ? "mirror disk" : "glass disk", sc, spc_v3(0.5, -0.4, 3), spc_v3(0.1, 0.2, -0.3), 0.2, 1,
                       {0}, false};
@@ -280,7 +261,7 @@ TEST(chain_derivatives_analytic_shapes)
     /* glass cylinder: in and out, and with 1 and 2 internal reflections */
     for (int k = 2; k <= 4; ++k) {
         spc_scene *sc = spc_scene_create();
-        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, mk_glass(sc, 1.6));
+        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, tu_glass(sc, 1.6));
         CHECK(finalize(sc));
         fd_case fc = {"glass cylinder", sc, spc_v3(3, 0.5, 0.4), spc_v3(0.15, 0.1, 0.0), 0.12, k, {1, 0, 0, 1}, true};
         if (k == 2)
@@ -293,7 +274,7 @@ TEST(chain_derivatives_analytic_shapes)
     /* mirror cylinder (outside), 1 vertex */
     {
         spc_scene *sc = spc_scene_create();
-        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0, 0.3, 2), 0.8, mk_mirror(sc));
+        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0, 0.3, 2), 0.8, tu_mirror(sc));
         CHECK(finalize(sc));
         fd_case fc = {"mirror cylinder", sc, spc_v3(3, 0.5, 0.4), spc_v3(0, 0, 0), 0.15, 1, {0}, false};
         run_fd_case(&fc);
@@ -306,7 +287,7 @@ TEST(chain_derivatives_meshes)
     /* a mirror rectangle (face normals) */
     {
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)), mk_mirror(sc));
+        add_rect(sc, place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)), tu_mirror(sc));
         CHECK(finalize(sc));
         fd_case fc = {"mirror rectangle", sc, spc_v3(0.3, 1, 3), spc_v3(0, 0, 0), 0.3, 1, {0}, false};
         run_fd_case(&fc);
@@ -315,7 +296,7 @@ TEST(chain_derivatives_meshes)
     /* an ellipsoidal glass mesh with interpolated normals: 2, 3, 4 vertices */
     for (int k = 2; k <= 4; ++k) {
         spc_scene *sc = spc_scene_create();
-        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 0.7, 24, 16, mk_glass(sc, 1.5));
+        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 0.7, 24, 16, tu_glass(sc, 1.5));
         CHECK(finalize(sc));
         fd_case fc = {"glass mesh", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.2, k, {1, 0, 0, 1}, true};
         if (k == 2)
@@ -328,7 +309,7 @@ TEST(chain_derivatives_meshes)
     /* a mirror mesh sphere, 1 vertex */
     {
         spc_scene *sc = spc_scene_create();
-        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 1.0, 20, 12, mk_mirror(sc));
+        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 1.0, 20, 12, tu_mirror(sc));
         CHECK(finalize(sc));
         fd_case fc = {"mirror mesh", sc, spc_v3(2, -1, 1.5), spc_v3(0, 0, 0), 0.25, 1, {0}, false};
         run_fd_case(&fc);
@@ -340,9 +321,9 @@ TEST(chain_derivatives_mixed)
 {
     /* a mirror disk, then a glass sphere (in, out), then a mirror mesh sphere: 4 vertices */
     spc_scene *sc = spc_scene_create();
-    add_disk(sc, place(spc_v3(2, 2, 2), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), mk_mirror(sc));
-    add_sphere(sc, spc_v3(1.5, 0, 4.5), 0.9, mk_glass(sc, 1.5));
-    add_mesh_sphere(sc, spc_v3(3.8, 0.2, 9), 1.2, 1.0, 32, 20, mk_mirror(sc));
+    add_disk(sc, place(spc_v3(2, 2, 2), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
+    add_sphere(sc, spc_v3(1.5, 0, 4.5), 0.9, tu_glass(sc, 1.5));
+    add_mesh_sphere(sc, spc_v3(3.8, 0.2, 9), 1.2, 1.0, 32, 20, tu_mirror(sc));
     CHECK(finalize(sc));
     /* find a base direction whose chain is mirror -> glass -> glass -> mesh */
     spc_hit x = free_point(spc_v3(-1, 0.1, 3));
@@ -394,7 +375,7 @@ TEST(chain_derivatives_sdf)
     for (int k = 1; k <= 3; ++k) {
         spc_scene *sc = spc_scene_create();
         spc_mat4 M = place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
-        add_sdf(sc, k == 1 ? SPC_SDF_SPHERE : SPC_SDF_TORUS, &M, k == 1 ? mk_mirror(sc) : mk_glass(sc, 1.5));
+        add_sdf(sc, k == 1 ? SPC_SDF_SPHERE : SPC_SDF_TORUS, &M, k == 1 ? tu_mirror(sc) : tu_glass(sc, 1.5));
         CHECK(finalize(sc));
         /* aim at the tube of the torus (1 from its centre along its plane) */
         spc_vec3 aim = k == 1 ? spc_v3(0.1, -0.2, 0.3) : spc_mat4_apply_point(&M, spc_v3(1.0, 0, 0));
@@ -415,7 +396,7 @@ TEST(chain_derivatives_sdf)
 TEST(chain_reports_tir)
 {
     spc_scene *sc = spc_scene_create();
-    add_sphere(sc, spc_v3(0, 0, 0), 1.0, mk_glass(sc, 1.5));
+    add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
     CHECK(finalize(sc));
     spc_hit x = free_point(spc_v3(0, 0.9, 0)); /* inside, near the top */
     spc_frame fr = spc_frame_from_n(spc_v3(1, 0, 0)); /* hits the surface at about 64 degrees */
@@ -456,7 +437,7 @@ TEST(solver_mirror_plane)
     for (int si = 0; si < 3; ++si) {
         double s = scales[si];
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(5 * s, 5 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), mk_mirror(sc));
+        add_rect(sc, place(spc_v3(5 * s, 5 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
         CHECK(finalize(sc));
         spc_vec3 x = spc_scale(spc_v3(-1, 0, 1), s), y = spc_scale(spc_v3(1.5, 0.3, 2), s);
         /* mirror image of y, and where the segment x -> image crosses z = 0 */
@@ -490,7 +471,7 @@ TEST(solver_mirror_sphere)
         spc_scene *sc = spc_scene_create();
         spc_vec3 ctr = spc_scale(spc_v3(0.3, -0.2, 0.5), s);
         double R = 0.8 * s;
-        add_sphere(sc, ctr, R, mk_mirror(sc));
+        add_sphere(sc, ctr, R, tu_mirror(sc));
         CHECK(finalize(sc));
         /* x and y symmetric about the plane through the centre: the reflection point lies on the
          * bisector, at the sphere's point facing both */
@@ -523,9 +504,9 @@ TEST(solver_glass_sphere)
             spc_vec3 ctr = spc_scale(spc_v3(-0.2, 0.1, 0.3), s);
             double R = s;
             if (mesh)
-                add_mesh_sphere(sc, ctr, R, 1.0, 48, 32, mk_glass(sc, 1.5));
+                add_mesh_sphere(sc, ctr, R, 1.0, 48, 32, tu_glass(sc, 1.5));
             else
-                add_sphere(sc, ctr, R, mk_glass(sc, 1.5));
+                add_sphere(sc, ctr, R, tu_glass(sc, 1.5));
             CHECK(finalize(sc));
             /* symmetric about the plane x = ctr.x: the path through the ball is symmetric and its
              * inner segment parallel to the x axis */
@@ -581,7 +562,7 @@ TEST(solver_glass_slab_two_interfaces)
         spc_error err;
         spc_mat4 M = place(spc_v3(10 * s, 10 * s, 0.5 * w), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0));
         spc_shape_init_cube(slab, &M, NULL, 0, 0, &err);
-        slab->bsdf = mk_glass(sc, eta);
+        slab->bsdf = tu_glass(sc, eta);
         CHECK(finalize(sc));
         double h1 = 1.0 * s, h2 = 0.7 * s, D = 1.9 * s;
         spc_vec3 x = spc_v3(0, 0, 0.5 * w + h1), y = spc_v3(D * 0.6, D * 0.8, -0.5 * w - h2);
@@ -673,18 +654,18 @@ static spc_scene *point_scene(int kind, double rl, spc_vec3 lp)
     tu_area(sc, light, 1, 5.0);
     switch (kind) {
     case 0: /* a vertical mirror in the plane x = 0 */
-        add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5)), mk_mirror(sc));
+        add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5)), tu_mirror(sc));
         break;
     case 1: { /* a glass slab between floor and light */
         spc_shape *slab = spc_scene_new_shape(sc);
         spc_error err;
         spc_mat4 M = place(spc_v3(2.5, 2.5, 0.25), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 1.0));
         spc_shape_init_cube(slab, &M, NULL, 0, 0, &err);
-        slab->bsdf = mk_glass(sc, 1.5);
+        slab->bsdf = tu_glass(sc, 1.5);
         break;
     }
     default: /* a glass ball, the floor inside its focal length (no caustic on it from this light) */
-        add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, mk_glass(sc, 1.5));
+        add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, tu_glass(sc, 1.5));
         break;
     }
     if (!finalize(sc)) {
@@ -816,7 +797,7 @@ TEST(snee_light_sampling_faces_casters)
     add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
     const spc_vec3 bc = spc_v3(0.1, 0.0, 0.8), lc = spc_v3(0.6, -0.3, 2.6);
     const double br = 0.6, lr = 0.5;
-    add_sphere(sc, bc, br, mk_glass(sc, 1.5));
+    add_sphere(sc, bc, br, tu_glass(sc, 1.5));
     spc_shape *light = add_sphere(sc, lc, lr, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 5.0);
     if (!finalize(sc)) {
@@ -879,7 +860,7 @@ static spc_scene *caustic_scene(void)
 {
     spc_scene *sc = spc_scene_create();
     add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-    add_sphere(sc, spc_v3(0, 0, 0.55), 0.5, mk_glass(sc, 1.5));
+    add_sphere(sc, spc_v3(0, 0, 0.55), 0.5, tu_glass(sc, 1.5));
     spc_shape *light = add_sphere(sc, spc_v3(0.35, 0.25, 2.2), 0.25, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 4.0);
     tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.35), spc_v3(0, 0, 1), 50, 24, 24);
@@ -964,13 +945,13 @@ TEST(exclusion_matches_specular_nee)
     add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5)); /* 0 */
     spc_shape *light = add_sphere(sc, spc_v3(0, 0, 3), 0.2, tu_diffuse(sc, 0.0));               /* 1 */
     tu_area(sc, light, 1, 1.0);
-    add_sphere(sc, spc_v3(0, 0, 1), 0.5, mk_glass(sc, 1.5));                                        /* 2 */
-    add_sphere(sc, spc_v3(2, 0, 1), 0.5, mk_mirror(sc));                                            /* 3 */
-    spc_shape *single = add_sphere(sc, spc_v3(-2, 0, 1), 0.5, mk_glass(sc, 1.5));                   /* 4 */
+    add_sphere(sc, spc_v3(0, 0, 1), 0.5, tu_glass(sc, 1.5));                                        /* 2 */
+    add_sphere(sc, spc_v3(2, 0, 1), 0.5, tu_mirror(sc));                                            /* 3 */
+    spc_shape *single = add_sphere(sc, spc_v3(-2, 0, 1), 0.5, tu_glass(sc, 1.5));                   /* 4 */
     single->caustic_flags = SPC_CAUSTIC_CASTER_SINGLE | SPC_CAUSTIC_FLAGS_EXPLICIT;
-    spc_shape *multi = add_sphere(sc, spc_v3(0, 2, 1), 0.5, mk_glass(sc, 1.5));                     /* 5 */
+    spc_shape *multi = add_sphere(sc, spc_v3(0, 2, 1), 0.5, tu_glass(sc, 1.5));                     /* 5 */
     multi->caustic_flags = SPC_CAUSTIC_CASTER_MULTI | SPC_CAUSTIC_FLAGS_EXPLICIT;
-    spc_shape *none = add_sphere(sc, spc_v3(0, -2, 1), 0.5, mk_glass(sc, 1.5));                     /* 6 */
+    spc_shape *none = add_sphere(sc, spc_v3(0, -2, 1), 0.5, tu_glass(sc, 1.5));                     /* 6 */
     none->caustic_flags = SPC_CAUSTIC_RECEIVER | SPC_CAUSTIC_FLAGS_EXPLICIT;
     CHECK(finalize(sc));
     const unsigned T = SPC_LOBE_DELTA_TRANSMISSION, R = SPC_LOBE_DELTA_REFLECTION;
@@ -1014,7 +995,7 @@ TEST(snee_point_light_mirror_scales)
         double s = scales[si];
         spc_scene *sc = spc_scene_create();
         add_rect(sc, place(spc_v3(4 * s, 4 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
-        add_rect(sc, place(spc_v3(3 * s, 3 * s, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5 * s)), mk_mirror(sc));
+        add_rect(sc, place(spc_v3(3 * s, 3 * s, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5 * s)), tu_mirror(sc));
         spc_emitter *e = spc_scene_new_emitter(sc);
         e->type = SPC_EMITTER_POINT;
         e->intensity = spc_rgb1(3.0);

@@ -36,25 +36,6 @@ static double rnd(void) { return spc_rng_next(&rng); }
 
 /* ---- scene building ---- */
 
-static spc_bsdf *mk_glass(spc_scene *sc, double eta)
-{
-    spc_bsdf *b = spc_scene_new_bsdf(sc);
-    b->type = SPC_BSDF_DIELECTRIC;
-    b->eta = eta;
-    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
-    b->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
-    return b;
-}
-
-static spc_bsdf *mk_mirror(spc_scene *sc)
-{
-    spc_bsdf *b = spc_scene_new_bsdf(sc);
-    b->type = SPC_BSDF_CONDUCTOR;
-    b->cond_k = spc_rgb1(-1.0); /* perfect mirror */
-    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
-    return b;
-}
-
 static spc_bsdf *mk_rough(spc_scene *sc, spc_bsdf_type type, double eta, double alpha)
 {
     spc_bsdf *b = spc_scene_new_bsdf(sc);
@@ -278,7 +259,7 @@ TEST(converges_mirror_plane)
     for (int si = 0; si < 3; ++si) {
         double s = scales[si];
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(5 * s, 5 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), mk_mirror(sc));
+        add_rect(sc, place(spc_v3(5 * s, 5 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
         CHECK(finalize(sc));
         spc_vec3 x = spc_scale(spc_v3(-1, 0, 1), s), y = spc_scale(spc_v3(1.5, 0.3, 2), s);
         spc_vec3 yi = spc_v3(y.x, y.y, -y.z);
@@ -307,7 +288,7 @@ TEST(converges_mirror_sphere)
         spc_scene *sc = spc_scene_create();
         spc_vec3 ctr = spc_scale(spc_v3(0.3, -0.2, 0.5), s);
         double R = 0.8 * s;
-        add_sphere(sc, ctr, R, mk_mirror(sc));
+        add_sphere(sc, ctr, R, tu_mirror(sc));
         CHECK(finalize(sc));
         /* x and y symmetric about a plane through the centre: the reflection point is on it */
         double D = 3 * s, al = 0.6;
@@ -334,7 +315,7 @@ TEST(converges_glass_sphere)
         double s = scales[si];
         spc_scene *sc = spc_scene_create();
         spc_vec3 ctr = spc_scale(spc_v3(-0.2, 0.1, 0.3), s);
-        add_sphere(sc, ctr, s, mk_glass(sc, 1.5));
+        add_sphere(sc, ctr, s, tu_glass(sc, 1.5));
         CHECK(finalize(sc));
         /* symmetric about the plane x = ctr.x: the inner segment is parallel to the x axis */
         spc_vec3 x = spc_add(ctr, spc_v3(-3 * s, 0.4 * s, 0.25 * s));
@@ -380,7 +361,7 @@ TEST(converges_stacked_slabs)
             for (int k = 0; k < nslab; ++k) {
                 double zc = -(w + g) * k;
                 add_cube(sc, place(spc_v3(10 * s, 10 * s, 0.5 * w), spc_v3(0, 0, 1), 0, spc_v3(0, 0, zc)),
-                         mk_glass(sc, eta));
+                         tu_glass(sc, eta));
             }
             CHECK(finalize(sc));
             double h1 = 1.0 * s, h2 = 0.7 * s, D = 1.3 * s;
@@ -466,44 +447,44 @@ TEST(converges_other_surfaces)
             int nv;
             switch (c) {
             case 0:
-                add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, mk_glass(sc, 1.6));
+                add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, tu_glass(sc, 1.6));
                 x = spc_v3(3, 0.5, 0.4), aim = spc_v3(0.1, 0.1, 0), nv = 2;
                 break;
             case 1:
-                add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)), mk_mirror(sc));
+                add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)), tu_mirror(sc));
                 x = spc_v3(0.5, -0.4, 3), aim = spc_v3(0.3, 0.2, -0.3), nv = 1;
                 break;
             case 2:
                 add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)),
-                         mk_glass(sc, 1.33));
+                         tu_glass(sc, 1.33));
                 x = spc_v3(0.5, -0.4, 3), aim = spc_v3(0.3, 0.2, -0.3), nv = 1;
                 break;
             case 3:
-                add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 48, 32, mk_glass(sc, 1.5));
+                add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 48, 32, tu_glass(sc, 1.5));
                 x = spc_v3(2.5, 0.7, -1.1), aim = spc_v3(0.1, 0.1, 0), nv = 2;
                 break;
             case 4:
-                add_disk(sc, place(spc_v3(2, 2, 2), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), mk_mirror(sc));
-                add_sphere(sc, spc_v3(1.2, 0, 3.0), 0.7, mk_glass(sc, 1.5));
+                add_disk(sc, place(spc_v3(2, 2, 2), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
+                add_sphere(sc, spc_v3(1.2, 0, 3.0), 0.7, tu_glass(sc, 1.5));
                 x = spc_v3(-1, 0.1, 3), aim = spc_v3(0.15, 0.05, 0), nv = 3;
                 break;
             case 5: {
                 /* the tube of the torus (around its local y axis), in and out */
                 spc_mat4 M = place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
-                add_sdf(sc, SPC_SDF_TORUS, &M, mk_glass(sc, 1.5));
+                add_sdf(sc, SPC_SDF_TORUS, &M, tu_glass(sc, 1.5));
                 x = spc_v3(2.5, 1.5, 2.0), aim = spc_mat4_apply_point(&M, spc_v3(1.0, 0, 0)), nv = 2;
                 break;
             }
             case 6: {
                 spc_mat4 M = place(spc_v3(1, 1, 1), spc_v3(0, 0, 1), 20, spc_v3(0, 0, 0));
-                add_sdf(sc, SPC_SDF_ROUNDBOX, &M, mk_mirror(sc));
+                add_sdf(sc, SPC_SDF_ROUNDBOX, &M, tu_mirror(sc));
                 x = spc_v3(0.3, -0.2, 2.5), aim = spc_mat4_apply_point(&M, spc_v3(0.72, 0.0, 0.25)), nv = 1;
                 break;
             }
             default:
-                add_cube(sc, place(spc_v3(3, 3, 0.1), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.9)), mk_glass(sc, 1.5));
-                add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), mk_mirror(sc));
-                add_sphere(sc, spc_v3(2.2, 0, 3.0), 0.7, mk_mirror(sc));
+                add_cube(sc, place(spc_v3(3, 3, 0.1), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.9)), tu_glass(sc, 1.5));
+                add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
+                add_sphere(sc, spc_v3(2.2, 0, 3.0), 0.7, tu_mirror(sc));
                 x = spc_v3(-1.2, 0.05, 2.0), aim = spc_v3(0, 0, 0), nv = 6;
                 break;
             }
@@ -644,39 +625,39 @@ static spc_scene *case_scene(int c, chain_case *cc)
     cc->sc = sc;
     switch (c) {
     case 0:
-        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, mk_mirror(sc));
+        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, tu_mirror(sc));
         *cc = (chain_case){"mirror sphere", sc, {3, 1, 2}, {0.2, -0.1, 0.3}, 0.2, 1, {0}, false, false};
         break;
     case 1:
-        add_sphere(sc, spc_v3(0, 0, 0), 1.0, mk_glass(sc, 1.5));
+        add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
         *cc = (chain_case){"glass sphere", sc, {2.5, 0.7, -1.1}, {0, 0, 0}, 0.25, 2, {1, 1}, true, false};
         break;
     case 2:
-        add_sphere(sc, spc_v3(0, 0, 0), 1.0, mk_glass(sc, 1.5));
+        add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
         *cc = (chain_case){"glass sphere TIR", sc, {2.5, 0.7, -1.1}, {0, 0, 0}, 0.25, 4, {1, 0, 0, 1}, true, false};
         break;
     case 3:
-        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, mk_glass(sc, 1.6));
+        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, tu_glass(sc, 1.6));
         *cc = (chain_case){"glass cylinder", sc, {3, 0.5, 0.4}, {0.15, 0.1, 0}, 0.12, 3, {1, 0, 1}, true, false};
         break;
     case 4:
-        add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)), mk_glass(sc, 1.33));
+        add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)), tu_glass(sc, 1.33));
         *cc = (chain_case){"glass disk", sc, {0.5, -0.4, 3}, {0.1, 0.2, -0.3}, 0.2, 1, {0}, false, false};
         break;
     case 5:
-        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 24, 16, mk_glass(sc, 1.5));
+        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 24, 16, tu_glass(sc, 1.5));
         *cc = (chain_case){"glass mesh", sc, {2.5, 0.7, -1.1}, {0, 0, 0}, 0.2, 2, {1, 1}, true, true};
         break;
     case 7: {
         spc_mat4 M = place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
-        add_sdf(sc, SPC_SDF_TORUS, &M, mk_glass(sc, 1.5));
+        add_sdf(sc, SPC_SDF_TORUS, &M, tu_glass(sc, 1.5));
         spc_vec3 aim = spc_mat4_apply_point(&M, spc_v3(1.0, 0, 0));
         *cc = (chain_case){"glass SDF torus", sc, {2.5, 1.5, 2.0}, aim, 0.04, 2, {1, 1}, true, false};
         break;
     }
     default:
-        add_cube(sc, place(spc_v3(3, 3, 0.2), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0)), mk_glass(sc, 1.6));
-        add_cube(sc, place(spc_v3(3, 3, 0.2), spc_v3(0, 0, 1), 0, spc_v3(0, 0, -0.7)), mk_glass(sc, 1.6));
+        add_cube(sc, place(spc_v3(3, 3, 0.2), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0)), tu_glass(sc, 1.6));
+        add_cube(sc, place(spc_v3(3, 3, 0.2), spc_v3(0, 0, 1), 0, spc_v3(0, 0, -0.7)), tu_glass(sc, 1.6));
         *cc = (chain_case){"two slabs", sc, {0.2, 0.1, 1.5}, {0, 0, -1}, 0.3, 4, {1, 1, 1, 1}, true, true};
         break;
     }
@@ -960,9 +941,9 @@ static spc_scene *point_scene(int kind, double rl, spc_vec3 lp)
     spc_mat4 slab = place(spc_v3(2.5, 2.5, 0.25), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 1.0));
     spc_mat4 wall = place(spc_v3(3, 3, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5));
     switch (kind) {
-    case 0: add_rect(sc, wall, mk_mirror(sc)); break;
-    case 1: add_cube(sc, slab, mk_glass(sc, 1.5)); break;
-    case 2: add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, mk_glass(sc, 1.5)); break;
+    case 0: add_rect(sc, wall, tu_mirror(sc)); break;
+    case 1: add_cube(sc, slab, tu_glass(sc, 1.5)); break;
+    case 2: add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, tu_glass(sc, 1.5)); break;
     case 3: add_rect(sc, wall, mk_rough(sc, SPC_BSDF_ROUGHCONDUCTOR, 0, 0.2)); break;
     case 4: add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, mk_rough(sc, SPC_BSDF_ROUGHDIELECTRIC, 1.5, 0.08)); break;
     default: add_cube(sc, slab, mk_rough(sc, SPC_BSDF_ROUGHDIELECTRIC, 1.5, 0.15)); break;
@@ -1185,7 +1166,7 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
          * bright converging spot without a focus on the floor (where G has an integrable
          * singularity and every estimator an infinite variance); seen through the ball from above */
         add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-        add_sphere(sc, spc_v3(0, 0, 0.55), 0.5, mk_glass(sc, 1.5));
+        add_sphere(sc, spc_v3(0, 0, 0.55), 0.5, tu_glass(sc, 1.5));
         spc_shape *light = add_sphere(sc, spc_v3(0.35, 0.25, 2.2), 0.35, tu_diffuse(sc, 0.0));
         tu_area(sc, light, 2, 2.0);
         tu_camera(sc, spc_v3(0.1, -1.2, 2.6), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 26, 24, 24);
@@ -1198,7 +1179,7 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
     }
     case 1: {
         add_rect(sc, place(spc_v3(1, 1, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-        add_water(sc, 1.3, 0.4, 0.02, 48, mk_glass(sc, 1.33));
+        add_water(sc, 1.3, 0.4, 0.02, 48, tu_glass(sc, 1.33));
         spc_shape *light = add_sphere(sc, spc_v3(0.2, 0.1, 2.0), 0.2, tu_diffuse(sc, 0.0));
         tu_area(sc, light, 2, 10.0);
         tu_camera(sc, spc_v3(0, -1.6, 2.4), spc_v3(0, 0, 0), spc_v3(0, 0, 1), 45, 24, 24);
@@ -1226,8 +1207,8 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
         /* slabs wider than the floor: every floor point sees the light through four interfaces
          * only (top and bottom faces); the camera looks at the floor from under the slabs */
         add_rect(sc, place(spc_v3(1.2, 1.2, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-        add_cube(sc, place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.9)), mk_glass(sc, 1.5));
-        add_cube(sc, place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.55)), mk_glass(sc, 1.5));
+        add_cube(sc, place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.9)), tu_glass(sc, 1.5));
+        add_cube(sc, place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.55)), tu_glass(sc, 1.5));
         spc_shape *light = add_sphere(sc, spc_v3(0.3, 0.2, 2.2), 0.3, tu_diffuse(sc, 0.0));
         tu_area(sc, light, 3, 4.0);
         tu_camera(sc, spc_v3(0.1, -1.1, 0.4), spc_v3(0.1, 0.3, 0), spc_v3(0, 0, 1), 50, 24, 24);
