@@ -168,7 +168,10 @@ bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta)
             *eta = b->eta;
         return true;
     case SPC_BSDF_TWOSIDED:
-        /* a two-sided mirror is still a mirror on both sides; only when both sides agree */
+        /* a two-sided mirror is still a mirror on both sides; only when both sides agree (and not
+         * over a normal map: the chains map only a normalmap at the top) */
+        if (b->nested[0] && b->nested[0]->type == SPC_BSDF_NORMALMAP)
+            return false;
         if (b->nested[1] && b->nested[1] != b->nested[0]) {
             double e0, e1;
             bool s0 = spc_bsdf_is_specular_interface(b->nested[0], &e0);
@@ -176,6 +179,9 @@ bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta)
             if (!(s0 && s1 && e0 == e1))
                 return false;
         }
+        return spc_bsdf_is_specular_interface(b->nested[0], eta);
+    case SPC_BSDF_NORMALMAP:
+        /* the chain maps the normal at each vertex (spc_bsdf_map_chain_hit) */
         return spc_bsdf_is_specular_interface(b->nested[0], eta);
     case SPC_BSDF_DIFFUSE:
     case SPC_BSDF_ROUGHDIFFUSE:
@@ -185,7 +191,6 @@ bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta)
     case SPC_BSDF_ROUGHDIELECTRIC:
     case SPC_BSDF_PLASTIC:        /* has a diffuse lobe besides its coating */
     case SPC_BSDF_ROUGHPLASTIC:
-    case SPC_BSDF_NORMALMAP:      /* the solvers use the hit's frame, not a mapped one */
     case SPC_BSDF_BUMPMAP:
     case SPC_BSDF_NULL:
     case SPC_BSDF_MASK:

@@ -136,14 +136,24 @@ bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode
                          spc_vec2 u, spc_bsdf_sample *out);
 /* Diffuse-like albedo at the hit for the albedo AOV and for light-path heuristics. */
 spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h);
-/* True if the BSDF behaves as a perfect specular interface (conductor or dielectric, smooth):
- * the specular solvers treat such surfaces as chain vertices. *eta receives int_ior/ext_ior
- * (0 for a reflector). */
+/* True if the BSDF behaves as a perfect specular interface (conductor or dielectric, smooth,
+ * possibly under a twosided or a normalmap): the specular solvers treat such surfaces as chain
+ * vertices. *eta receives int_ior/ext_ior (0 for a reflector). */
 bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta);
 /* The factor of a delta lobe for a direction pair the caller constructed (specular.c): wi must be
  * the exact mirror (or refracted) direction of wo about h->sh.n. Reflection F * specular_
  * reflectance, refraction (1 - F) * specular_transmittance / eta_t^2 (radiance mode), the same
  * as BSDF sampling's weight times the lobe's probability. Zero where the BSDF has no such lobe. */
+/* A normal-mapped chain vertex: if h->bsdf is a normalmap (and h not yet mapped), replaces h->sh by
+ * the mapped frame as the BSDF sees it from wo (toward the previous vertex), h->dndu/dndv by the
+ * mapped normal's derivatives with respect to the surface parameters, keeps the old normal in
+ * h->n_unmapped and sets h->normal_mapped (normalmap.c; also where the map's value leaves the
+ * frame as is). True with h unchanged for other BSDFs and normalmaps without a texture; false
+ * where the shape has no texture-frame derivatives (spc_shape_texture_frame). */
+bool spc_bsdf_map_chain_hit(spc_hit *h, spc_vec3 wo);
+/* Is a shape with this BSDF a usable chain vertex as far as normal maps go (the shape can
+ * differentiate its texture frame)? */
+bool spc_bsdf_chain_mappable(const spc_bsdf *b, int shape_type);
 spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
                                      spc_vec3 wi);
 

@@ -10,6 +10,9 @@
  *                           (radiance compression, eta_t = n(wi side) / n(wo side), as
  *                           dielectric.c), no 1/eta_t^2 in importance mode
  *   twosided                the nested BSDF of wo's side, in the flipped frame on the back
+ *   normalmap               the nested BSDF's in the mapped frame (mapped here unless the hit is
+ *                           already), 0 if wi lies on different sides of the two frames, times
+ *                           the shadowing term (spc_normalmap_specular_throughput)
  * where F is the unpolarized Fresnel reflectance of fresnel.c.
  */
 #include "bsdf/variants.h"
@@ -39,6 +42,8 @@ spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_tr
             T = spc_rgb_scale(T, 1.0 / (eta_ti * eta_ti));
         return T;
     }
+    case SPC_BSDF_NORMALMAP:
+        return spc_normalmap_specular_throughput(b, h, mode, wo, wi);
     case SPC_BSDF_TWOSIDED: {
         if (co >= 0.0)
             return spc_bsdf_specular_throughput(b->nested[0], h, mode, wo, wi);
@@ -56,7 +61,6 @@ spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_tr
     case SPC_BSDF_ROUGHDIELECTRIC:
     case SPC_BSDF_PLASTIC:
     case SPC_BSDF_ROUGHPLASTIC:
-    case SPC_BSDF_NORMALMAP:
     case SPC_BSDF_BUMPMAP:
     case SPC_BSDF_NULL:
     case SPC_BSDF_MASK:

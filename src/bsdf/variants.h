@@ -148,6 +148,8 @@ SPC_BSDF_VARIANT(plastic);
 SPC_BSDF_VARIANT(roughplastic);
 SPC_BSDF_VARIANT(twosided);
 SPC_BSDF_VARIANT(normalmap);
+spc_rgb spc_normalmap_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
+                                          spc_vec3 wi);
 SPC_BSDF_VARIANT(bumpmap);
 SPC_BSDF_VARIANT(null);
 SPC_BSDF_VARIANT(mask);

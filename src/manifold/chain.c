@@ -42,7 +42,7 @@ bool spc_chain_caster_allowed(unsigned flags, int k)
 bool spc_chain_shape_is_caster(const spc_shape *s, bool any_surface, int *event)
 {
     double eta;
-    if (!s || s->emitter || !spc_bsdf_is_specular_interface(s->bsdf, &eta))
+    if (!s || s->emitter || !spc_bsdf_is_specular_interface(s->bsdf, &eta) || !spc_bsdf_chain_mappable(s->bsdf, s->type))
         return false;
     if (event)
         *event = eta > 0.0 ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
@@ -104,7 +104,15 @@ static bool intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h)
             h->shape_index = idx;
         }
     }
+    /* a normal-mapped chain surface: the mapped frame as the ray arriving sees it */
+    if (h->bsdf && h->bsdf->type == SPC_BSDF_NORMALMAP && spc_chain_shape_is_caster(s, true, NULL))
+        spc_bsdf_map_chain_hit(h, spc_neg(r->d));
     return true;
+}
+
+bool spc_chain_hit_ready(const spc_hit *h)
+{
+    return !h->bsdf || h->bsdf->type != SPC_BSDF_NORMALMAP || !h->bsdf->normalmap || h->normal_mapped;
 }
 
 bool spc_chain_intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h) { return intersect(sc, r, h); }
@@ -222,6 +230,8 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
 
         spc_chain_vertex *v = &c->v[i];
         c->fail_vertex = i;
+        if (!spc_chain_hit_ready(&h))
+            return c->end = SPC_CHAIN_END_DEGENERATE;
         v->h = h;
         v->wi = d;
         v->event = event;

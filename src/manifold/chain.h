@@ -27,6 +27,10 @@
  *     normals, thesis eq. 40, 43-46; any shape that fills spc_hit's derivatives works, SDFs
  *     included);
  *   - reflection and refraction by the chain rule (thesis eq. 25, 26-33).
+ * A normal-mapped interface (bsdf normalmap over a conductor or dielectric) is a chain vertex with
+ * the mapped normal and its derivatives through the texture (spc_bsdf_map_chain_hit, applied by
+ * spc_chain_intersect as the arriving ray sees it); bilinear maps make such chains smooth inside
+ * texels and continuous across them.
  * Triangle hits are re-intersected in double precision (Embree reports float barycentrics), so a
  * chain is a smooth function of (a, b) to double precision away from silhouettes and edges of
  * mesh-less shapes.
@@ -118,8 +122,12 @@ bool spc_chain_shape_is_caster(const spc_shape *s, bool any_surface, int *event)
 bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event);
 
 /* The scene's first hit along r, a triangle hit re-intersected in double precision (as the chain
- * tracer does, so that other solvers project onto the same surfaces); false for a miss. */
+ * tracer does, so that other solvers project onto the same surfaces), a normal-mapped chain
+ * surface mapped as seen from -r.d; false for a miss. */
 bool spc_chain_intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h);
+/* False for a normal-mapped hit whose map could not be applied (spc_bsdf_map_chain_hit failed):
+ * it must not become a chain vertex. */
+bool spc_chain_hit_ready(const spc_hit *h);
 
 /* d0 and its derivatives for the frame and parameters. */
 spc_vec3 spc_chain_direction(const spc_frame *f, double a, double b, spc_vec3 dd[2]);

@@ -1605,7 +1605,13 @@ double spc_conic_dcf(const spc_conic_tri *t, const spc_conic_problem *pb, const 
 
 /* ---- the specular NEE solver-table entry ---- */
 
-bool spc_conic_covers(const spc_chain *c) { return c->n == 1 && c->v[0].h.shape && c->v[0].h.shape->type == SPC_SHAPE_MESH; }
+/* Meshes whose normals are interpolated: a normal map is not (the angular estimate covers it). */
+static bool conic_shape(const spc_shape *s)
+{
+    return s && s->type == SPC_SHAPE_MESH && !(s->bsdf && s->bsdf->type == SPC_BSDF_NORMALMAP);
+}
+
+bool spc_conic_covers(const spc_chain *c) { return c->n == 1 && conic_shape(c->v[0].h.shape); }
 
 bool spc_conic_covers_all(const spc_snee_query *q)
 {
@@ -1616,7 +1622,7 @@ bool spc_conic_covers_all(const spc_snee_query *q)
             continue;
         if (q->max_chain > 1 && (q->any_surface || spc_chain_caster_allowed(s->caustic_flags, 2)))
             return false; /* longer chains: the angular estimate */
-        if (s->type != SPC_SHAPE_MESH && (q->any_surface || spc_chain_caster_allowed(s->caustic_flags, 1)))
+        if (!conic_shape(s) && (q->any_surface || spc_chain_caster_allowed(s->caustic_flags, 1)))
             return false;
     }
     return true;
@@ -1632,7 +1638,7 @@ int spc_conic_solve_all(const spc_snee_query *q, spc_chain *out, int max_out, in
     for (int i = 0; i < sc->nshapes && n < max_out; ++i) {
         const spc_shape *s = sc->shapes[i];
         int event;
-        if (s->type != SPC_SHAPE_MESH || !spc_chain_shape_is_caster(s, q->any_surface, &event))
+        if (!conic_shape(s) || !spc_chain_shape_is_caster(s, q->any_surface, &event))
             continue;
         if (!q->any_surface && !spc_chain_caster_allowed(s->caustic_flags, 1))
             continue;

@@ -488,6 +488,8 @@ static bool vertex_surface(const spc_hit *h, bool any_surface, bool rough, spc_n
     v->h = *h;
     v->rough = false;
     v->m = spc_v3(0, 0, 1);
+    if (!spc_chain_hit_ready(h))
+        return false;
     if (spc_chain_surface(h, any_surface, &event)) {
         spc_bsdf_is_specular_interface(h->bsdf, &eta);
         v->event = event;

@@ -13,6 +13,9 @@
  *   of vertices 1 and 2 (p = (1-b1-b2) p0 + b1 p1 + b2 p2); for analytic shapes their (u, v)
  *   parameterization (documented in shape.c). The specular solvers rely on these.
  * - err is a bound on the absolute error of p, used by spc_hit_spawn to offset new rays.
+ * - normal_mapped: the hit is a specular chain vertex whose normal map has already been applied
+ *   (spc_bsdf_map_chain_hit): sh is the mapped frame, dndu/dndv its normal's derivatives, and
+ *   n_unmapped the shading normal the map perturbed. False for every hit the shapes fill.
  */
 #ifndef SPC_SCENE_HIT_H
 #define SPC_SCENE_HIT_H
@@ -33,6 +36,8 @@ typedef struct spc_hit {
     spc_vec3 dndu, dndv;
     double b1, b2;   /* barycentrics of vertices 1 and 2 (triangles), surface coords otherwise */
     double err;      /* absolute error bound of p */
+    spc_vec3 n_unmapped; /* see normal_mapped */
+    bool normal_mapped;
     int prim;        /* triangle index, 0 for analytic shapes */
     int shape_index; /* index in scene->shapes */
     const struct spc_shape *shape;

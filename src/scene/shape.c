@@ -591,6 +591,64 @@ static void fill_cylinder(const spc_shape *s, const spc_ray *r, double t, spc_hi
     h->sh = spc_frame_from_ns(n, h->dpdu);
 }
 
+bool spc_shape_texture_frame(const spc_hit *h, spc_vec2 duv[2], spc_vec3 *T, spc_vec3 dT[2])
+{
+    const spc_shape *s = h->shape;
+    if (!s)
+        return false;
+    /* analytic shapes: uv are the surface parameters, T = dpdu */
+    duv[0] = spc_v2(1.0, 0.0);
+    duv[1] = spc_v2(0.0, 1.0);
+    *T = h->dpdu;
+    switch (s->type) {
+    case SPC_SHAPE_MESH: {
+        const spc_mesh *m = &s->mesh;
+        dT[0] = dT[1] = spc_v3(0, 0, 0);
+        if (!m->uv)
+            return true;
+        uint32_t i0 = m->idx[3 * h->prim], i1 = m->idx[3 * h->prim + 1], i2 = m->idx[3 * h->prim + 2];
+        double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
+        double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
+        double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
+        duv[0] = spc_v2(du1, dv1);
+        duv[1] = spc_v2(du2, dv2);
+        double det = du1 * dv2 - dv1 * du2;
+        if (fabs(det) > 1e-20) /* as fill_mesh */
+            *T = spc_scale(spc_sub(spc_scale(h->dpdu, dv2), spc_scale(h->dpdv, dv1)), 1.0 / det);
+        return true;
+    }
+    case SPC_SHAPE_SPHERE: {
+        double theta = SPC_PI * h->b2, phi = 2.0 * SPC_PI * h->b1;
+        double st = sin(theta), ct = cos(theta), sp = sin(phi), cp = cos(phi), R = s->radius;
+        if (!(st > 1e-9))
+            return false; /* fill_sphere's pole tangent: probability zero */
+        dT[0] = spc_mat4_apply_vector(&s->to_world, spc_v3(-4.0 * SPC_PI * SPC_PI * R * st * cp,
+                                                          -4.0 * SPC_PI * SPC_PI * R * st * sp, 0.0));
+        dT[1] = spc_mat4_apply_vector(&s->to_world, spc_v3(-2.0 * SPC_PI * SPC_PI * R * ct * sp,
+                                                          2.0 * SPC_PI * SPC_PI * R * ct * cp, 0.0));
+        return true;
+    }
+    case SPC_SHAPE_DISK: {
+        double phi = 2.0 * SPC_PI * h->b2;
+        if (!(h->b1 > 1e-9))
+            return false; /* fill_disk's centre tangent */
+        dT[0] = spc_v3(0, 0, 0);
+        dT[1] = spc_mat4_apply_vector(&s->to_world, spc_v3(-2.0 * SPC_PI * sin(phi), 2.0 * SPC_PI * cos(phi), 0.0));
+        return true;
+    }
+    case SPC_SHAPE_CYLINDER: {
+        double phi = 2.0 * SPC_PI * h->b1;
+        dT[0] = spc_mat4_apply_vector(&s->to_world,
+                                      spc_v3(-4.0 * SPC_PI * SPC_PI * cos(phi), -4.0 * SPC_PI * SPC_PI * sin(phi), 0.0));
+        dT[1] = spc_v3(0, 0, 0);
+        return true;
+    }
+    case SPC_SHAPE_SDF:
+        return false; /* its uv are not its surface parameters */
+    }
+    return false;
+}
+
 void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h)
 {
     h->t = t;
@@ -598,6 +656,8 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
     h->shape = s;
     h->bsdf = s->bsdf;
     h->emitter = s->emitter;
+    h->normal_mapped = false;
+    h->n_unmapped = spc_v3(0, 0, 0);
     switch (s->type) {
     case SPC_SHAPE_MESH: fill_mesh(s, prim, u, v, h); break;
     case SPC_SHAPE_SPHERE: fill_sphere(s, r, t, h); break;

@@ -104,6 +104,12 @@ void spc_shape_release(spc_shape *s);
 /* Exact intersection for analytic shapes: the nearest t in (tmin, tmax), or false.
  * *u, *v receive surface coordinates passed back to spc_shape_fill_hit. */
 bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *t, double *u, double *v);
+/* The texture frame of a hit as the shape builds its shading frame, sh = frame_from_ns(sh.n, T),
+ * with derivatives with respect to the surface parameters (b1, b2) of hit.h: duv[j] = d uv / d b_j
+ * and dT[j] = d T / d b_j. Normal maps on specular chain vertices need them (bsdf/normalmap.c).
+ * False where no such derivatives exist: SDFs (their uv are not surface parameters) and the
+ * probability-zero points where a shape's tangent is special (sphere poles, disk centre). */
+bool spc_shape_texture_frame(const spc_hit *h, spc_vec2 duv[2], spc_vec3 *T, spc_vec3 dT[2]);
 /* Fills every field of h for a hit of ray r at distance t on primitive prim with coordinates
  * (u, v) (barycentrics b1, b2 for triangles). */
 void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h);

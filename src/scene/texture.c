@@ -157,6 +157,34 @@ spc_vec2 spc_texture_eval1_grad(const spc_texture *t, spc_vec2 uv)
     return spc_v2(m[0][0] * ds + m[1][0] * dr, m[0][1] * ds + m[1][1] * dr);
 }
 
+spc_rgb spc_texture_eval_grad(const spc_texture *t, spc_vec2 uv, spc_rgb grad[2])
+{
+    grad[0] = grad[1] = spc_rgb1(0.0);
+    if (t->type != SPC_TEX_BITMAP || t->nearest || !t->data || t->width <= 0 || t->height <= 0)
+        return spc_texture_eval(t, uv);
+    spc_vec2 p = map_uv(t, uv);
+    double s = p.x * t->width - 0.5, r = p.y * t->height - 0.5;
+    int64_t x0 = to_index(s), y0 = to_index(r);
+    double fx = s - (double)x0, fy = r - (double)y0;
+    if (!(fx >= 0.0 && fx <= 1.0))
+        fx = 0.0;
+    if (!(fy >= 0.0 && fy <= 1.0))
+        fy = 0.0;
+    spc_rgb c00 = texel(t, x0, y0), c10 = texel(t, x0 + 1, y0);
+    spc_rgb c01 = texel(t, x0, y0 + 1), c11 = texel(t, x0 + 1, y0 + 1);
+    spc_rgb c0 = spc_rgb_add(spc_rgb_scale(c00, 1.0 - fx), spc_rgb_scale(c10, fx));
+    spc_rgb c1 = spc_rgb_add(spc_rgb_scale(c01, 1.0 - fx), spc_rgb_scale(c11, fx));
+    /* partials per unit of the mapped uv, then through the transpose of to_uv's linear part */
+    spc_rgb ds = spc_rgb_scale(spc_rgb_add(spc_rgb_scale(spc_rgb_sub(c10, c00), 1.0 - fy),
+                                           spc_rgb_scale(spc_rgb_sub(c11, c01), fy)),
+                               (double)t->width);
+    spc_rgb dr = spc_rgb_scale(spc_rgb_sub(c1, c0), (double)t->height);
+    const double(*m)[3] = t->to_uv;
+    grad[0] = spc_rgb_add(spc_rgb_scale(ds, m[0][0]), spc_rgb_scale(dr, m[1][0]));
+    grad[1] = spc_rgb_add(spc_rgb_scale(ds, m[0][1]), spc_rgb_scale(dr, m[1][1]));
+    return spc_rgb_add(spc_rgb_scale(c0, 1.0 - fy), spc_rgb_scale(c1, fy));
+}
+
 spc_rgb spc_texture_mean(const spc_texture *t)
 {
     switch (t->type) {

@@ -54,6 +54,11 @@ double spc_texture_eval1(const spc_texture *t, spc_vec2 uv);
  * (d/ds, d/dt) times the resolution, then through the transpose of to_uv's linear part; zero for
  * nearest bitmaps, constants and checkerboards (piecewise constant). */
 spc_vec2 spc_texture_eval1_grad(const spc_texture *t, spc_vec2 uv);
+/* spc_texture_eval and, in grad[0], grad[1], its derivatives with respect to the surface u and v
+ * (before to_uv), per channel, as spc_texture_eval1_grad: exact for the bilinear interpolant in
+ * the cell holding uv, zero for piecewise constant textures. Normal maps on specular chain
+ * vertices need it (bsdf/normalmap.c). */
+spc_rgb spc_texture_eval_grad(const spc_texture *t, spc_vec2 uv, spc_rgb grad[2]);
 /* Bitmap texel (x, y) (y from the top row), with the texture's wrap mode applied to out-of-range
  * indices. Black for other texture types. */
 spc_rgb spc_texture_texel(const spc_texture *t, int64_t x, int64_t y);
