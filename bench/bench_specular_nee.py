@@ -46,9 +46,9 @@ def small_light(r, r_small, rgb):
     return {"light_radius": str(r_small), "light_radiance": ", ".join("%.6g" % (c * s) for c in rgb)}
 
 
-# conic runs where its chains exist (one vertex on a triangle mesh): on the analytic mirror cylinder
-# it would hand every chain to angular, and no solver makes a normal-mapped surface a chain vertex
-# (spc_bsdf_is_specular_interface), so on caustic_pool every solver renders what path renders.
+# conic runs where its chains exist (one vertex on a triangle mesh with interpolated normals): on the
+# analytic mirror cylinder it would hand every chain to angular, and on caustic_pool's normal-mapped
+# water (a chain vertex of angular and newton since the normal map is differentiated) too.
 # name, scene, defines, solvers, reference solver, checks, description. A check is an integrator
 # (bdpt, ipt) or a specular NEE solver of `path` other than the reference's; "+" joins several.
 # Where the camera sees a diffuse surface through a specular one (the pools' floors through the
@@ -63,7 +63,7 @@ VARIANTS = [
      "mirror cylinder (analytic), sphere light r 0.1 (1 reflection)"),
     ("sdf_torus", "caustic_sdf_torus", {}, ["none", "angular", "newton"], "newton", "bdpt+none+angular",
      "glass SDF torus, sphere light r 0.08 (2 refractions)"),
-    ("pool_normalmap", "caustic_pool", {}, ["none", "angular", "newton"], "none", "bdpt",
+    ("pool_normalmap", "caustic_pool", {}, ["none", "angular", "newton"], "newton", "bdpt+none+angular",
      "water plane with a normal map over a tiled pool, sphere light r 0.15"),
     ("newton_pool", "newton_pool", {}, ["none", "angular", "newton", "conic"], "conic", "bdpt+newton",
      "mesh water (interpolated normals), sphere light r 0.25 (1 refraction)"),

@@ -61,6 +61,41 @@ static inline spc_bsdf *tu_mirror(spc_scene *sc)
     return b;
 }
 
+/* A normalmap BSDF over `nested` with an n x n tangent-space map (bilinear, repeat, to_uv scaled by
+ * rep) of smooth tilts up to about `tilt` radians, a sum of sines with phases drawn from seed. */
+static inline spc_bsdf *tu_normal_mapped(spc_scene *sc, const spc_bsdf *nested, int n, double tilt, double rep,
+                                         uint64_t seed)
+{
+    spc_texture *t = spc_scene_new_texture(sc);
+    spc_texture_init_constant(t, spc_rgb1(0.0));
+    t->type = SPC_TEX_BITMAP;
+    t->width = t->height = n;
+    t->data = malloc(3 * (size_t)(n * n) * sizeof(float));
+    t->nearest = false;
+    t->wrap = SPC_WRAP_REPEAT;
+    double ph[4];
+    for (int k = 0; k < 4; ++k) {
+        seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+        ph[k] = 2 * SPC_PI * (double)(seed >> 11) / 9007199254740992.0;
+    }
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            double u = 2 * SPC_PI * x / n, v = 2 * SPC_PI * y / n;
+            double ax = tilt * sin(u + ph[0]) * cos(2 * v + ph[1]), ay = tilt * cos(2 * u + ph[2]) * sin(v + ph[3]);
+            spc_vec3 nl = spc_normalize(spc_v3(tan(ax), tan(ay), 1.0));
+            float *p = t->data + 3 * (y * n + x);
+            p[0] = (float)(0.5 * nl.x + 0.5);
+            p[1] = (float)(0.5 * nl.y + 0.5);
+            p[2] = (float)(0.5 * nl.z + 0.5);
+        }
+    t->to_uv[0][0] = t->to_uv[1][1] = rep;
+    spc_bsdf *b = spc_scene_new_bsdf(sc);
+    b->type = SPC_BSDF_NORMALMAP;
+    b->normalmap = t;
+    b->nested[0] = nested;
+    return b;
+}
+
 /* Renders with specular NEE `snee` (NULL: the scene's) and returns the film (caller destroys); NULL on
  * failure (message printed). *wall_seconds (if not NULL) gets the render's wall time. */
 static inline spc_film *tu_render_nee(const spc_scene *sc, const char *integrator, const char *snee, int spp,

@@ -394,38 +394,6 @@ TEST(chain_derivatives_sdf)
 
 /* ---- normal maps ---- */
 
-/* A normalmap BSDF over `nested` with an n x n tangent-space map of smooth random tilts up to
- * about `tilt` radians (bilinear, repeat, to_uv scaled by `rep`). */
-static spc_bsdf *normal_mapped(spc_scene *sc, const spc_bsdf *nested, int n, double tilt, double rep)
-{
-    spc_texture *t = spc_scene_new_texture(sc);
-    spc_texture_init_constant(t, spc_rgb1(0.0));
-    t->type = SPC_TEX_BITMAP;
-    t->width = t->height = n;
-    t->data = malloc(3 * (size_t)(n * n) * sizeof(float));
-    t->nearest = false;
-    t->wrap = SPC_WRAP_REPEAT;
-    double ph[4];
-    for (int k = 0; k < 4; ++k)
-        ph[k] = 2 * SPC_PI * rnd();
-    for (int y = 0; y < n; ++y)
-        for (int x = 0; x < n; ++x) {
-            double u = 2 * SPC_PI * x / n, v = 2 * SPC_PI * y / n;
-            double ax = tilt * sin(u + ph[0]) * cos(2 * v + ph[1]), ay = tilt * cos(2 * u + ph[2]) * sin(v + ph[3]);
-            spc_vec3 nl = spc_normalize(spc_v3(tan(ax), tan(ay), 1.0));
-            float *p = t->data + 3 * (y * n + x);
-            p[0] = (float)(0.5 * nl.x + 0.5);
-            p[1] = (float)(0.5 * nl.y + 0.5);
-            p[2] = (float)(0.5 * nl.z + 0.5);
-        }
-    t->to_uv[0][0] = t->to_uv[1][1] = rep;
-    spc_bsdf *b = spc_scene_new_bsdf(sc);
-    b->type = SPC_BSDF_NORMALMAP;
-    b->normalmap = t;
-    b->nested[0] = nested;
-    return b;
-}
-
 /* Normal-mapped interfaces are chain vertices whose normal derivatives go through the texture,
  * the uv parameterization and the rotating tangent frame: rectangles (meshes with uv), spheres,
  * disks, cylinders, meshes without uv, and a chain mixing them. */
@@ -434,7 +402,7 @@ TEST(chain_derivatives_normal_maps)
     {
         spc_scene *sc = spc_scene_create();
         add_rect(sc, place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)),
-                 normal_mapped(sc, tu_glass(sc, 1.33), 8, 0.35, 2.0));
+                 tu_normal_mapped(sc, tu_glass(sc, 1.33), 8, 0.35, 2.0, 1));
         CHECK(finalize(sc));
         fd_case fc = {"mapped water", sc, spc_v3(0.3, 1, 3), spc_v3(0, 0, 0), 0.3, 1, {0}, false};
         run_fd_case(&fc);
@@ -442,7 +410,7 @@ TEST(chain_derivatives_normal_maps)
     }
     {
         spc_scene *sc = spc_scene_create();
-        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, normal_mapped(sc, tu_mirror(sc), 8, 0.3, 3.0));
+        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, tu_normal_mapped(sc, tu_mirror(sc), 8, 0.3, 3.0, 2));
         CHECK(finalize(sc));
         fd_case fc = {"mapped mirror ball", sc, spc_v3(3, 1, 2), spc_v3(0.2, -0.1, 0.3), 0.2, 1, {0}, false};
         run_fd_case(&fc);
@@ -450,7 +418,7 @@ TEST(chain_derivatives_normal_maps)
     }
     {
         spc_scene *sc = spc_scene_create();
-        add_sphere(sc, spc_v3(0, 0, 0), 1.0, normal_mapped(sc, tu_glass(sc, 1.5), 8, 0.2, 2.0));
+        add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_normal_mapped(sc, tu_glass(sc, 1.5), 8, 0.2, 2.0, 3));
         CHECK(finalize(sc));
         fd_case fc = {"mapped glass ball", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.25, 2, {1, 1}, true};
         run_fd_case(&fc);
@@ -460,9 +428,10 @@ TEST(chain_derivatives_normal_maps)
         spc_scene *sc = spc_scene_create();
         if (k == 0)
             add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)),
-                     normal_mapped(sc, tu_mirror(sc), 8, 0.3, 1.0));
+                     tu_normal_mapped(sc, tu_mirror(sc), 8, 0.3, 1.0, 4));
         else
-            add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, normal_mapped(sc, tu_glass(sc, 1.6), 8, 0.2, 2.0));
+            add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8,
+                         tu_normal_mapped(sc, tu_glass(sc, 1.6), 8, 0.2, 2.0, 5));
         CHECK(finalize(sc));
         fd_case fc = {k == 0 ? "mapped mirror disk" : "mapped glass cylinder", sc,
                       k == 0 ? spc_v3(0.5, -0.4, 3) : spc_v3(3, 0.5, 0.4),
@@ -474,7 +443,7 @@ TEST(chain_derivatives_normal_maps)
     {
         /* interpolated normals and no uv: the map is read at the barycentrics */
         spc_scene *sc = spc_scene_create();
-        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 0.7, 12, 8, normal_mapped(sc, tu_glass(sc, 1.5), 4, 0.2, 1.0));
+        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 0.7, 12, 8, tu_normal_mapped(sc, tu_glass(sc, 1.5), 4, 0.2, 1.0, 6));
         CHECK(finalize(sc));
         fd_case fc = {"mapped glass mesh", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.2, 2, {1, 1}, true};
         run_fd_case(&fc);
@@ -490,8 +459,8 @@ TEST(normal_map_chain_frame_matches_bsdf)
 {
     spc_scene *sc = spc_scene_create();
     add_rect(sc, place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)),
-             normal_mapped(sc, tu_glass(sc, 1.33), 8, 0.7, 2.0));
-    add_sphere(sc, spc_v3(0, 0, 5), 1.0, normal_mapped(sc, tu_mirror(sc), 8, 0.6, 3.0));
+             tu_normal_mapped(sc, tu_glass(sc, 1.33), 8, 0.7, 2.0, 7));
+    add_sphere(sc, spc_v3(0, 0, 5), 1.0, tu_normal_mapped(sc, tu_mirror(sc), 8, 0.6, 3.0, 8));
     CHECK(finalize(sc));
     int checked = 0, turned = 0, zero = 0, flips = 0;
     double worst_d = 0.0, worst_f = 0.0;
@@ -910,9 +879,10 @@ TEST(snee_point_estimates)
         } else {
             brute_force(sc, &x, 2, 2000000, &ref, &ref_se);
         }
-        /* variant 3: shape seeds without the straight-line solution counted first */
-        for (int variant = 0; variant < 4; ++variant) {
-            int seed = variant == 3 ? SPC_SNEE_SEED_SHAPE : variant;
+        /* variant 3: shape seeds without the straight-line solution counted first; 4: cone seeds
+         * without it */
+        for (int variant = 0; variant < 5; ++variant) {
+            int seed = variant == 3 ? SPC_SNEE_SEED_SHAPE : variant == 4 ? SPC_SNEE_SEED_CONE : variant;
             /* seeding toward the light is deterministic: right only where exactly one solution
              * exists and the straight line meets the caster (the slab) */
             if (seed == SPC_SNEE_SEED_LIGHT && kind != 1)
@@ -951,6 +921,69 @@ TEST(snee_point_estimates)
         }
         spc_scene_destroy(sc);
     }
+}
+
+/* Under normal-mapped water: specular NEE (angular and newton, unbiased) at a floor point against
+ * brute force that knows nothing of chains: cosine-sampled directions traced by the scene and the
+ * normalmap BSDF's own sampling at the water (its frame, face-view turn, side test and shadowing),
+ * adding albedo * weight * Le where the sampled direction then meets the light. The map's tilts (up
+ * to ~0.3 rad) give several solutions per light point. */
+TEST(snee_normal_map_point_estimates)
+{
+    spc_scene *sc = spc_scene_create();
+    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+    spc_shape *light = add_disk(sc, place(spc_v3(0.6, 0.6, 0.6), spc_v3(1, 0, 0), 180, spc_v3(0.3, 0.1, 3.0)),
+                                tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 1, 5.0);
+    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 1.4)),
+             tu_normal_mapped(sc, tu_glass(sc, 1.33), 16, 0.3, 8.0, 11));
+    CHECK(finalize(sc));
+    spc_hit x;
+    CHECK(floor_hit(sc, spc_v3(0.1, 0.05, 0.05), &x));
+    /* brute force */
+    double s1 = 0, s2 = 0;
+    const int NB = 4000000;
+    for (int i = 0; i < NB; ++i) {
+        spc_vec3 d = spc_frame_to_world(&x.sh, spc_warp_cosine_hemisphere(spc_v2(rnd(), rnd())));
+        spc_ray r = spc_hit_spawn(&x, d);
+        spc_hit w, l;
+        double v = 0;
+        if (spc_scene_intersect(sc, &r, &w) && w.shape_index == 2) {
+            spc_bsdf_sample bs;
+            if (spc_bsdf_sample_dir(w.bsdf, &w, SPC_MODE_RADIANCE, spc_neg(d), rnd(), spc_v2(rnd(), rnd()), &bs)) {
+                spc_ray r2 = spc_hit_spawn(&w, bs.wi);
+                if (spc_scene_intersect(sc, &r2, &l) && l.emitter)
+                    v = 0.8 * bs.weight.r * spc_emitter_eval_area(l.emitter, &l, spc_neg(bs.wi)).r;
+            }
+        }
+        s1 += v;
+        s2 += v * v;
+    }
+    double ref = s1 / NB, ref_se = sqrt(spc_max(s2 / NB - ref * ref, 0.0) / NB);
+    CHECK(ref > 0.0);
+    for (int solver = SPC_SNEE_ANGULAR; solver <= SPC_SNEE_NEWTON; ++solver) {
+        spc_snee_params p;
+        spc_snee_params_default(&p, solver, 1);
+        spc_snee_stats st;
+        memset(&st, 0, sizeof st);
+        spc_rng r;
+        spc_rng_seed(&r, 7, (uint64_t)solver);
+        const int N = solver == SPC_SNEE_ANGULAR ? 40000 : 10000;
+        double m1 = 0, m2 = 0;
+        for (int i = 0; i < N; ++i) {
+            double v = spc_specular_nee(sc, &p, &x, spc_v3(0, 0, 1), 1, &r, &st).r;
+            m1 += v;
+            m2 += v * v;
+        }
+        double m = m1 / N, se = sqrt(spc_max(m2 / N - m * m, 0.0) / N);
+        printf("    %-8s snee %.5f +- %.5f, brute force %.5f +- %.5f; solved %.2f, trials/solution %.2f, capped %llu\n",
+               solver == SPC_SNEE_ANGULAR ? "angular" : "newton", m, se, ref, ref_se,
+               (double)st.solved / (double)st.calls,
+               st.contributions ? (double)st.trials / (double)st.contributions : 0.0, (unsigned long long)st.capped);
+        CHECK_MSG(fabs(m - ref) <= 4.0 * sqrt(se * se + ref_se * ref_se), "solver %d: %.6f vs %.6f", solver, m, ref);
+        CHECK(st.contributions > 0);
+    }
+    spc_scene_destroy(sc);
 }
 
 /* ---- the light point: a sphere light only where it faces the casters ---- */
@@ -1235,6 +1268,7 @@ int main(void)
     RUN(solver_glass_slab_two_interfaces);
     RUN(bernoulli_estimator_unbiased);
     RUN(snee_point_estimates);
+    RUN(snee_normal_map_point_estimates);
     RUN(snee_light_sampling_faces_casters);
     RUN(exclusion_matches_specular_nee);
     RUN(snee_point_light_mirror_scales);

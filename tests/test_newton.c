@@ -911,7 +911,9 @@ TEST(parse_specular_nee_options)
 {
     spc_snee_params p;
     CHECK(spc_snee_parse("newton", 2, &p) && p.solver == SPC_SNEE_NEWTON && !p.biased && !p.newton.rough &&
-          p.seed == SPC_SNEE_SEED_SHAPE && p.max_chain == 2);
+          p.seed == SPC_SNEE_SEED_CONE && p.max_chain == 2);
+    CHECK(spc_snee_parse("angular:seed=shape", 2, &p) && p.seed == SPC_SNEE_SEED_SHAPE);
+    CHECK(spc_snee_parse("angular:seed=cone", 2, &p) && p.seed == SPC_SNEE_SEED_CONE);
     CHECK(spc_snee_parse("newton:biased", 3, &p) && p.biased && p.biased_seeds > 0 && p.max_chain == 3);
     CHECK(spc_snee_parse("newton:biased=5,seed=light,constraint=half,trials=7,rough", 2, &p) && p.biased &&
           p.biased_seeds == 5 && p.seed == SPC_SNEE_SEED_LIGHT && p.newton.constraint == SPC_NEWTON_HALF_VECTOR &&
@@ -1056,9 +1058,10 @@ TEST(snee_point_estimates)
                                   {SPC_SNEE_SEED_SHAPE, false, false, SPC_NEWTON_ANGLE_DIFF, 0},
                                   {SPC_SNEE_SEED_BSDF, false, false, SPC_NEWTON_HALF_VECTOR, 0},
                                   {SPC_SNEE_SEED_LIGHT, false, false, SPC_NEWTON_HALF_VECTOR, 0},
-                                  {SPC_SNEE_SEED_SHAPE, true, false, SPC_NEWTON_ANGLE_DIFF, 0}};
+                                  {SPC_SNEE_SEED_SHAPE, true, false, SPC_NEWTON_ANGLE_DIFF, 0},
+                                  {SPC_SNEE_SEED_CONE, false, false, SPC_NEWTON_ANGLE_DIFF, 0}};
         double unbiased_se = 0.0;
-        for (int ri = 0; ri < 5; ++ri) {
+        for (int ri = 0; ri < 6; ++ri) {
             const point_run *pr = &runs[ri];
             if (pr->seed == SPC_SNEE_SEED_LIGHT && kind != 1)
                 continue;
@@ -1203,6 +1206,21 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
         *region_r = 0.3;
         break;
     }
+    case 4:
+    case 5: {
+        /* scene 1's pool with a flat water surface under a normal map (a 16 x 16 bilinear map of
+         * tilts up to ~0.15 rad, repeated twice): every chain vertex's normal comes from the map */
+        add_rect(sc, place(spc_v3(1, 1, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+        add_rect(sc, place(spc_v3(1.3, 1.3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0.4)),
+                 tu_normal_mapped(sc, tu_glass(sc, 1.33), 16, 0.15, 2.0, 3));
+        spc_shape *light = add_sphere(sc, spc_v3(0.2, 0.1, 2.0), 0.2, tu_diffuse(sc, 0.0));
+        tu_area(sc, light, 2, 10.0);
+        tu_camera(sc, spc_v3(0, -1.6, 2.4), spc_v3(0, 0, 0), spc_v3(0, 0, 1), 45, 24, 24);
+        sc->integrator.specular_max_chain = 1;
+        *region_c = spc_v3(0, 0, 0);
+        *region_r = 0.8;
+        break;
+    }
     default: {
         /* slabs wider than the floor: every floor point sees the light through four interfaces
          * only (top and bottom faces); the camera looks at the floor from under the slabs */
@@ -1285,12 +1303,14 @@ static int region_mask(const spc_scene *sc, spc_vec3 c, double r, unsigned char 
 
 TEST(images_path_newton_vs_ipt)
 {
-    const char *names[4] = {"glass sphere caustic", "pool", "two slabs", "rough sphere caustic"};
-    const int ref_spp[4] = {8192, 8192, 8192, 8192}, snee_spp[4] = {256, 256, 256, 256};
+    const char *names[6] = {"glass sphere caustic", "pool", "two slabs", "rough sphere caustic",
+                            "normal-mapped pool", "normal-mapped pool"};
+    const int ref_spp[6] = {8192, 8192, 8192, 8192, 8192, 8192}, snee_spp[6] = {256, 256, 256, 256, 256, 256};
     /* the rough ball through rough chain vertices: the path tracer then drops the glossy paths and
-     * light samples those chains cover (an error there shows as a doubled or missing caustic) */
-    const char *snee[4] = {"newton", "newton", "newton", "newton:rough"};
-    for (int which = 0; which < 4; ++which) {
+     * light samples those chains cover (an error there shows as a doubled or missing caustic); the
+     * normal-mapped pool with both solvers */
+    const char *snee[6] = {"newton", "newton", "newton", "newton:rough", "newton", "angular"};
+    for (int which = 0; which < 6; ++which) {
         /* SPC_NEWTON_ONLY=i renders only scene i, SPC_NEWTON_SNEE=setting overrides its specular
          * NEE setting (for looking at one) */
         if (getenv("SPC_NEWTON_ONLY") && atoi(getenv("SPC_NEWTON_ONLY")) != which)

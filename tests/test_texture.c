@@ -138,6 +138,56 @@ TEST(bitmap_to_uv_and_mean)
     check_rgb(mean, spc_rgb3(1.0, 0.5, 10.0 + 1.0 + 1.5), 1e-12, "mean");
 }
 
+/* spc_texture_eval_grad: the value equals spc_texture_eval, the gradient the central difference of
+ * the bilinear interpolant inside a cell (through a rotating, scaling to_uv and the repeat wrap),
+ * its channel mean spc_texture_eval1_grad; piecewise constant textures have none. */
+TEST(bitmap_gradient)
+{
+    float data[5 * 4 * 3];
+    for (int i = 0; i < 5 * 4 * 3; ++i)
+        data[i] = (float)(0.5 + 0.45 * sin(1.7 * i + 0.3 * (i % 3)));
+    spc_texture t = make_bitmap(5, 4, data, SPC_WRAP_REPEAT, false);
+    t.to_uv[0][0] = 1.3;
+    t.to_uv[0][1] = -0.4;
+    t.to_uv[1][0] = 0.7;
+    t.to_uv[1][1] = 2.1;
+    t.to_uv[0][2] = 0.05;
+    uint64_t st = 7;
+    double worst = 0.0;
+    int n = 0;
+    for (int it = 0; it < 500; ++it) {
+        st = st * 6364136223846793005ULL + 1442695040888963407ULL;
+        spc_vec2 uv = spc_v2((double)(st >> 40) / (1 << 24) * 3 - 1, (double)((st >> 16) & 0xffffff) / (1 << 24) * 3 - 1);
+        spc_rgb g[2];
+        spc_rgb v = spc_texture_eval_grad(&t, uv, g);
+        check_rgb(v, spc_texture_eval(&t, uv), 0.0, "value");
+        spc_vec2 g1 = spc_texture_eval1_grad(&t, uv);
+        CHECK_NEAR(spc_rgb_avg(g[0]), g1.x, 1e-12);
+        CHECK_NEAR(spc_rgb_avg(g[1]), g1.y, 1e-12);
+        const double h = 1e-7;
+        for (int j = 0; j < 2; ++j) {
+            spc_vec2 d = j == 0 ? spc_v2(h, 0) : spc_v2(0, h);
+            spc_rgb p = spc_texture_eval(&t, spc_v2(uv.x + d.x, uv.y + d.y));
+            spc_rgb m = spc_texture_eval(&t, spc_v2(uv.x - d.x, uv.y - d.y));
+            spc_rgb fd = spc_rgb_scale(spc_rgb_sub(p, m), 0.5 / h);
+            double e = spc_max(fabs(fd.r - g[j].r), spc_max(fabs(fd.g - g[j].g), fabs(fd.b - g[j].b)));
+            /* a cell border between the samples is a kink: the one-sided differences differ */
+            double kink = spc_rgb_avg(spc_rgb_sub(spc_rgb_sub(p, v), spc_rgb_sub(v, m))) / h;
+            if (fabs(kink) < 1e-3) {
+                worst = spc_max(worst, e);
+                ++n;
+            }
+        }
+    }
+    printf("    %d smooth samples, worst |grad - fd| %.2e\n", n, worst);
+    CHECK(n > 900);
+    CHECK(worst < 1e-5);
+    t.nearest = true;
+    spc_rgb g[2];
+    spc_texture_eval_grad(&t, spc_v2(0.3, 0.3), g);
+    CHECK(spc_rgb_is_black(g[0]) && spc_rgb_is_black(g[1]));
+}
+
 TEST(checkerboard_pattern)
 {
     spc_texture t;
@@ -274,6 +324,7 @@ int main(void)
     RUN(bitmap_bilinear_values);
     RUN(bitmap_wrap_modes);
     RUN(bitmap_to_uv_and_mean);
+    RUN(bitmap_gradient);
     RUN(checkerboard_pattern);
     RUN(load_png_srgb_decoding);
     RUN(load_exr_stays_linear_and_errors);

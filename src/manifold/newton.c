@@ -881,10 +881,11 @@ static bool rough_caster_shape(const spc_shape *s, bool any_surface)
     return any_surface || spc_chain_caster_allowed(s->caustic_flags, 1) || spc_chain_caster_allowed(s->caustic_flags, 2);
 }
 
-/* Seed directions of rough chains: SEED_SHAPE picks among rough casters too. */
+/* Seed directions of rough chains: SEED_SHAPE and SEED_CONE pick among rough casters too (a uniform
+ * point of the chosen one). */
 static bool rough_seed_direction(const rough_query *rq, spc_rng *rng, spc_vec3 *dir)
 {
-    if (rq->seed != SPC_SNEE_SEED_SHAPE)
+    if (rq->seed != SPC_SNEE_SEED_SHAPE && rq->seed != SPC_SNEE_SEED_CONE)
         return spc_snee_seed_direction(rq->q, rng, dir);
     const spc_shape *pick = NULL;
     int seen = 0;
