@@ -1080,6 +1080,98 @@ static spc_film *render_with(const spc_scene *sc, const char *integrator, const 
     return tu_render_nee(sc, integrator, snee, spp, 2, seed, seconds);
 }
 
+/* MIS of specular NEE with BSDF sampling (spc_snee_params.mis): spc_snee_light_pdf is the density
+ * spc_snee_sample_light draws with (every sampled point), and for BSDF-sampled paths floor -> ball
+ * -> ball -> light the path integrator's weight (spc_snee_mis_bsdf_weight, from the retraced chain)
+ * and the weight specular NEE applies to the same chain toward the same light point sum to 1. */
+TEST(snee_mis_weights_sum_to_one)
+{
+    spc_scene *sc = caustic_scene();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+    p.mis = true;
+    double worst_pdf = 0.0, worst_sum = 0.0, wmin = 1.0, wmax = 0.0;
+    int npdf = 0, npaths = 0;
+    for (int i = 0; i < 2000; ++i) {
+        spc_snee_query q;
+        memset(&q, 0, sizeof q);
+        q.scene = sc;
+        const spc_emitter *e;
+        spc_vec2 uv;
+        double p_y;
+        if (spc_snee_sample_light(sc, false, &rng, &q, &e, &uv, &p_y)) {
+            double pdf = spc_snee_light_pdf(sc, false, e, q.y, q.ny);
+            worst_pdf = spc_max(worst_pdf, fabs(pdf - p_y) / p_y);
+            ++npdf;
+        }
+    }
+    for (int i = 0; i < 400000 && npaths < 300; ++i) {
+        spc_hit x;
+        if (!floor_hit(sc, spc_v3(0.8 * (2 * rnd() - 1), 0.8 * (2 * rnd() - 1), 0.05), &x))
+            continue;
+        spc_vec3 wo = spc_normalize(spc_v3(0.2, -1, 1));
+        spc_vec3 d0 = spc_frame_to_world(&x.sh, spc_warp_cosine_hemisphere(spc_v2(rnd(), rnd())));
+        spc_ray r = spc_hit_spawn(&x, d0);
+        spc_hit h = x;
+        int k = 0;
+        bool light = false;
+        for (int b = 0; b < 3; ++b) {
+            spc_hit n;
+            if (!spc_scene_intersect(sc, &r, &n))
+                break;
+            if (n.emitter) {
+                light = true;
+                h = n;
+                break;
+            }
+            spc_bsdf_sample bs;
+            if (n.shape_index != 1 ||
+                !spc_bsdf_sample_dir(n.bsdf, &n, SPC_MODE_RADIANCE, spc_neg(r.d), 0.9999, spc_v2(0.5, 0.5), &bs))
+                break;
+            ++k;
+            r = spc_hit_spawn(&n, bs.wi);
+        }
+        if (!light || k != 2)
+            continue;
+        double wb = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, d0, k, &h);
+        /* specular NEE's weight on the same chain: its value with MIS over its value without */
+        spc_frame fr = spc_frame_from_n(d0);
+        spc_chain_opts o = spc_chain_opts_default(2);
+        static spc_chain c;
+        spc_chain_trace(sc, &x, &fr, 0, 0, &o, &c);
+        spc_snee_query q;
+        memset(&q, 0, sizeof q);
+        q.scene = sc;
+        q.x = &x;
+        q.wo = wo;
+        q.y = h.p;
+        q.ny = h.ng;
+        q.max_chain = 2;
+        q.params = &p;
+        q.p_y = spc_snee_light_pdf(sc, false, h.emitter, h.p, h.ng);
+        spc_rgb with = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
+        q.p_y = 0.0; /* no weight */
+        spc_rgb without = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
+        if (!(without.r > 0.0))
+            continue;
+        double wn = with.r / without.r;
+        worst_sum = spc_max(worst_sum, fabs(wn + wb - 1.0));
+        wmin = spc_min(wmin, wb);
+        wmax = spc_max(wmax, wb);
+        ++npaths;
+    }
+    printf("    light pdf: %d points, worst relative error %.2e; %d paths through the ball: worst |w_nee + w_bsdf - 1| "
+           "%.2e, w_bsdf in [%.3g, %.3g]\n",
+           npdf, worst_pdf, npaths, worst_sum, wmin, wmax);
+    CHECK(npdf > 1000 && worst_pdf < 1e-12);
+    CHECK(npaths >= 300 && worst_sum < 1e-9);
+    CHECK(wmax > 0.5 && wmin < 0.01); /* both strategies carry some of these paths */
+    spc_scene_destroy(sc);
+}
+
 TEST(caustic_image_path_snee_vs_ipt)
 {
     spc_scene *sc = caustic_scene();
@@ -1273,6 +1365,7 @@ int main(void)
     RUN(exclusion_matches_specular_nee);
     RUN(snee_point_light_mirror_scales);
     RUN(render_rejects_unknown_solver);
+    RUN(snee_mis_weights_sum_to_one);
     RUN(caustic_image_path_snee_vs_ipt);
     return spc_test_finish();
 }

@@ -89,6 +89,7 @@ static const char *const usage_render =
     "                         trials=N (cap; 256 angular, 64 others), seed=cone|shape|light|bsdf\n"
     "                         (cone: the default, toward a caster's bounding sphere); newton:\n"
     "                         constraint=angle|half, rough (rough interfaces as chain vertices);\n"
+    "                         nomis (no MIS with BSDF sampling: the paths it covers are dropped);\n"
     "                         e.g. --specular-nee newton:biased=8\n"
     "  --max-depth N          longest path, Mitsuba's meaning; -1 for no limit\n"
     "  -D name=value          override a <default name=... value=...> of the scene (repeatable)\n"

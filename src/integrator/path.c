@@ -12,8 +12,9 @@
  * lobe, one more light sample connected through chains of 1..specular_max_chain specular vertices
  * by the chosen solver. The paths it covers (receiver -> non-delta sample -> k caster vertices with
  * the solver's events -> area emitter, k within the budget; exact condition in specular_nee.h) are
- * dropped when BSDF sampling reaches them (spc_snee_track_*), so nothing is counted twice; every
- * other path keeps its usual weight. With rough chain vertices (newton's "rough" option) the covered
+ * weighted against specular NEE's light sample by the power heuristic when BSDF sampling reaches
+ * them (spc_snee_params.mis, spc_snee_mis_bsdf_weight: the chain retraced from the receiver for its
+ * geometry term), so nothing is counted twice; every other path keeps its usual weight. With rough chain vertices (newton's "rough" option) the covered
  * paths may also end with the light sample taken at a rough vertex: that sample is dropped too
  * (spc_snee_track_covers_light), as is the emitter it would be weighted against by MIS.
  *
@@ -21,6 +22,8 @@
  * q = min(0.95, max(beta) * eta_scale^2), where eta_scale undoes the radiance scaling of
  * refraction so that paths inside glass are not killed for it (pbrt-v4).
  */
+#include <string.h>
+
 #include "integrator/integrator.h"
 #include "manifold/specular_nee.h"
 
@@ -41,8 +44,13 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     const bool snee = nee && ctx->specular_nee != SPC_SNEE_NONE;
     spc_snee_params snp = {0};
     spc_snee_track track = {0};
-    if (snee)
+    spc_hit mis_x;      /* the receiver the track started at, with its wo and sampled direction */
+    spc_vec3 mis_wo = spc_v3(0, 0, 1), mis_d0 = spc_v3(0, 0, 1);
+    memset(&mis_x, 0, sizeof mis_x);
+    if (snee) {
         snp = ctx->snee;
+        snp.mis = !snp.no_mis && !(snp.solver == SPC_SNEE_NEWTON && snp.newton.rough);
+    }
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
     out->depth = 0.0;
@@ -68,12 +76,15 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             out->depth = h.t;
         }
         spc_vec3 wo = spc_neg(ray.d);
-        /* specular NEE hook: an emitter hit it already counted is dropped */
+        /* specular NEE hook: an emitter hit through a chain it covers (see above) */
         bool covered = snee && spc_snee_track_covers(&track, sc, h.emitter);
-        if (h.emitter && !(segments == 1 && ctx->hide_emitters) && !covered) {
+        if (h.emitter && !(segments == 1 && ctx->hide_emitters)) {
             spc_rgb Le = spc_emitter_eval_area(h.emitter, &h, wo);
-            if (!spc_rgb_is_black(Le)) {
-                double w = 1.0;
+            /* a covered path: weighted against specular NEE's light sample, or dropped */
+            double w = 1.0;
+            if (covered && !spc_rgb_is_black(Le))
+                w = spc_snee_mis_bsdf_weight(sc, &snp, &mis_x, mis_wo, mis_d0, track.k, &h);
+            if (w > 0.0 && !spc_rgb_is_black(Le)) {
                 if (nee && !specular) {
                     double lp = spc_scene_emitter_pmf(sc, h.emitter) *
                                 spc_emitter_pdf_direct(h.emitter, prev_p, h.p, h.ng);
@@ -136,8 +147,14 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         spc_bsdf_sample bs;
         if (!spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
             break;
-        if (snee)
+        if (snee) {
             spc_snee_track_scatter_params(&track, &snp, &h, bs.lobe, snee_budget);
+            if (snp.mis && !(bs.lobe & SPC_LOBE_DELTA) && snee_budget > 0) {
+                mis_x = h;
+                mis_wo = wo;
+                mis_d0 = bs.wi;
+            }
+        }
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))
             break;

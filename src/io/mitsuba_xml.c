@@ -1473,7 +1473,7 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
         if (strlen(nee) >= sizeof it->specular_nee || !spc_snee_parse(nee, 2, &snp))
             mts_fail(L, mts_where(&P, "specular_nee"), SPC_ERR_VALUE,
                      "unknown specular_nee '%s' (\"\", angular, newton, conic, optionally followed by "
-                     ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough)",
+                     ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough,nomis)",
                      nee);
         snprintf(it->specular_nee, sizeof it->specular_nee, "%s", nee);
     }

@@ -17,6 +17,9 @@
 
 #include "manifold/conic.h"
 
+/* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
+#define SPC_SNEE_CONE_COS 0.9
+
 /* Cap of the attempts counted for <1/p_solve>. The count is cut for solutions found with
  * probability below about 3/cap; at 64 that is p < 5%, seeds that rarely lead anywhere, and the
  * cost of one estimate stays bounded (each attempt is a full solve). */
@@ -127,6 +130,8 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
         size_t vn = eq ? n - kn - 1 : 0;
         if (opt_is(o, n, "unbiased")) {
             p->biased = false;
+        } else if (opt_is(o, n, "nomis")) {
+            p->no_mis = true;
         } else if (opt_is(o, kn, "biased")) {
             p->biased = true;
             if (val && !parse_count(val, vn, &p->biased_seeds))
@@ -247,6 +252,19 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
                 *dir = spc_frame_to_world(&f, w);
                 return true;
             }
+            /* x inside: half the seeds in a cone around the straight line toward y (a large
+             * caster over x, such as a water surface: the solutions lie near that line), half
+             * toward a uniform point of the shape (below) */
+            if (spc_rng_next(rng) < 0.5) {
+                spc_vec3 dy = spc_sub(q->y, q->x->p);
+                double ly = spc_length(dy);
+                if (ly > 0.0) {
+                    spc_frame f = spc_frame_from_n(spc_scale(dy, 1.0 / ly));
+                    spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+                    *dir = spc_frame_to_world(&f, spc_warp_uniform_cone(u, SPC_SNEE_CONE_COS));
+                    return true;
+                }
+            }
         }
         spc_shape_sample ss;
         spc_shape_sample_area(pick, spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &ss);
@@ -316,7 +334,10 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
     double G = spc_chain_geometry(c, q->y, ny);
     if (!(G > 0.0) || !isfinite(G))
         return zero;
-    return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G);
+    double w = 1.0;
+    if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0)
+        w = spc_snee_mis_weight(q->p_y, spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0) * G);
+    return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * w);
 }
 
 bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene_size)
@@ -501,6 +522,57 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
     return *p_y > 0.0;
 }
 
+double spc_snee_light_pdf(const spc_scene *sc, bool any_surface, const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
+{
+    if (!e || e->type != SPC_EMITTER_AREA || !e->shape)
+        return 0.0;
+    double pmf = spc_scene_emitter_pmf(sc, e);
+    spc_vec3 cb;
+    double cr;
+    if (!(pmf > 0.0) || !caster_bound(sc, any_surface, &cb, &cr))
+        return 0.0;
+    if (spc_dot(ny, spc_sub(cb, y)) + cr <= 0.0)
+        return 0.0; /* spc_snee_sample_light's exact test */
+    const spc_shape *s = e->shape;
+    if (s->type != SPC_SHAPE_SPHERE || s->flip_normals)
+        return pmf / s->area;
+    /* sample_light_facing's cap */
+    spc_vec3 axis = spc_sub(cb, s->center);
+    double D = spc_length(axis), R = s->radius;
+    double cmin = D > 0.0 ? (R - cr) / D : -1.0;
+    if (cmin >= 1.0)
+        return 0.0;
+    if (!(cmin > -1.0))
+        return pmf / s->area;
+    spc_vec3 n = spc_normalize(spc_sub(y, s->center));
+    if (spc_dot(n, axis) / D < cmin)
+        return 0.0;
+    return pmf / (2.0 * SPC_PI * R * R * (1.0 - cmin));
+}
+
+double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                                spc_vec3 d0, int k, const spc_hit *light)
+{
+    const spc_emitter *e = light->emitter;
+    if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
+        return 0.0;
+    double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
+    if (!(p_y > 0.0))
+        return 1.0; /* specular NEE never draws this light point */
+    spc_frame fr = spc_frame_from_n(d0);
+    spc_chain_opts o = spc_chain_opts_default(k);
+    o.any_surface = p->any_surface;
+    spc_chain c;
+    if (spc_chain_trace(sc, x, &fr, 0.0, 0.0, &o, &c) != SPC_CHAIN_END_SURFACE || c.n != k || !c.has_end_hit ||
+        c.end_hit.emitter != e || spc_distance(c.end_hit.p, light->p) > 1e-6 * (sc->radius + spc_max_abs(light->p)))
+        return 0.0;
+    double G = spc_chain_geometry(&c, light->p, light->ng);
+    if (!(G > 0.0) || !isfinite(G))
+        return 0.0;
+    double p_b = spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0) * G;
+    return 1.0 - spc_snee_mis_weight(p_y, p_b);
+}
+
 int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface)
 {
     if (max_chain < 1 || !x->bsdf || !spc_bsdf_has_smooth(x->bsdf))
@@ -537,6 +609,7 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
     double p_y;
     if (!spc_snee_sample_light(sc, p->any_surface, rng, &q, &e, &uv, &p_y))
         return zero;
+    q.p_y = p_y;
     if (st)
         st->calls++;
 

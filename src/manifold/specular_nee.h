@@ -81,6 +81,19 @@ typedef struct spc_snee_params {
      * no attempt finds (energy loss where solutions are hard to find) and has less variance. */
     bool biased;
     int biased_seeds;
+    /* Multiple importance sampling with the caller's BSDF sampling (the path integrator sets it;
+     * not with rough vertices). Every chain's contribution is weighted by the power heuristic
+     * w = p_y^2 / (p_y^2 + p_b^2), p_y the light point's density (area measure, the light's choice
+     * included) and p_b = pdf_bsdf(x: wo -> d0) G the density in which BSDF sampling at x reaches
+     * y through the same chain (G = |dw(x) / dA(y)|, spc_chain_geometry); the caller weights the
+     * BSDF-sampled paths that specular NEE covers by 1 - w (spc_snee_mis_bsdf_weight) instead of
+     * dropping them. The weight pretends the solver finds every chain (p_solve = 1): any
+     * deterministic pair of weights that sums to 1 keeps both estimators unbiased, and where G is
+     * large (near a caustic's folds and focus, where a light sample's contribution is heavy-tailed)
+     * BSDF sampling takes the path. */
+    bool mis;
+    bool no_mis; /* the user's "nomis" option: the integrator does not set mis (covered BSDF paths
+                    are then dropped, as before MIS) */
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
@@ -106,6 +119,7 @@ typedef struct spc_snee_query {
      * has another one (it cannot end at that solution; the outcome is the same, only sooner).
      * NULL otherwise. */
     const spc_chain_sig *want;
+    double p_y; /* the light point's density (spc_snee_sample_light), for the MIS weight */
 } spc_snee_query;
 
 /* A solver: one randomized attempt from the query's seed distribution (the same distribution on
@@ -131,6 +145,7 @@ typedef struct spc_specular_solver {
  *   seed=cone|shape|light|bsdf   seeding (default cone; light is Hanika et al.'s straight line)
  *   constraint=angle|half   newton: angle differences (default) or half vectors
  *   rough               newton: rough dielectrics and conductors are chain vertices (newton.h)
+ *   nomis               no MIS with BSDF sampling (params.no_mis): covered paths left to NEE alone
  * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
  * options. False (p undefined) for an unknown name or option, or a bad value. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);
@@ -151,6 +166,25 @@ const char *spc_specular_solver_names(void);
  * or a point that faces away from every caster. */
 bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, spc_snee_query *q,
                            const spc_emitter **e, spc_vec2 *uv, double *p_y);
+
+/* The density in which spc_snee_sample_light draws the point y (normal ny) on emitter e: the
+ * light's probability times the point's area density; 0 where it never draws y. */
+double spc_snee_light_pdf(const spc_scene *sc, bool any_surface, const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
+
+/* The power-heuristic weight of specular NEE's light sample against BSDF sampling (params.mis):
+ * p_y and p_b as there. */
+static inline double spc_snee_mis_weight(double p_y, double p_b)
+{
+    double a = p_y * p_y, b = p_b * p_b;
+    return a + b > 0.0 ? a / (a + b) : 0.0;
+}
+
+/* For the path integrator with params.mis: the weight of a BSDF-sampled path that specular NEE
+ * covers (spc_snee_track_covers), which left the receiver x (toward wo) along d0 and reached the
+ * area emitter e at the hit `light` through `k` chain vertices. Retraces the chain from x for its
+ * geometry term; 0 (the path dropped, as without MIS) if the retrace does not reproduce it. */
+double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                                spc_vec3 d0, int k, const spc_hit *light);
 
 /* Does the straight segment from x toward y first meet a refracting caster (params->straight_first
  * applies)? Toward a mirror, or past every caster, the straight line leads nowhere. One ray. */

@@ -189,7 +189,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     if (!spc_snee_parse(sname, ctx.specular_max_chain, &ctx.snee))
         return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0,
                              "bad specular NEE setting '%s'; specula has: %s, optionally followed by "
-                             ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough",
+                             ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough,nomis",
                              sname, spc_specular_solver_names());
     ctx.specular_nee = ctx.snee.solver;
     ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
