@@ -271,7 +271,7 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
 
 /* Derivatives with respect to the old parameters -> with respect to the new ones (v[0], v[1]; C is
  * 2x2; pointer parameters: GCC's -Wstringop-overflow misread the array ones under ASan). */
-static void reparam(spc_vec3 *v, const double (*C)[2])
+static void reparam(spc_vec3 *v, double (*C)[2])
 {
     spc_vec3 a = v[0], b = v[1];
     v[0] = spc_add(spc_scale(a, C[0][0]), spc_scale(b, C[1][0]));
