@@ -1180,9 +1180,18 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
         *region_r = 0.3;
         break;
     }
-    case 1: {
+    case 1:
+    case 4:
+    case 5: {
+        /* a pool: bumpy mesh water with interpolated normals (1), or a flat water surface under a
+         * normal map (4, 5: a 16 x 16 bilinear map of tilts up to ~0.15 rad, repeated twice; every
+         * chain vertex's normal comes from the map) */
         add_rect(sc, place(spc_v3(1, 1, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-        add_water(sc, 1.3, 0.4, 0.02, 48, tu_glass(sc, 1.33));
+        if (which == 1)
+            add_water(sc, 1.3, 0.4, 0.02, 48, tu_glass(sc, 1.33));
+        else
+            add_rect(sc, place(spc_v3(1.3, 1.3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0.4)),
+                     tu_normal_mapped(sc, tu_glass(sc, 1.33), 16, 0.15, 2.0, 3));
         spc_shape *light = add_sphere(sc, spc_v3(0.2, 0.1, 2.0), 0.2, tu_diffuse(sc, 0.0));
         tu_area(sc, light, 2, 10.0);
         tu_camera(sc, spc_v3(0, -1.6, 2.4), spc_v3(0, 0, 0), spc_v3(0, 0, 1), 45, 24, 24);
@@ -1204,21 +1213,6 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
         sc->integrator.specular_max_chain = 2;
         *region_c = spc_v3(-0.117, -0.083, 0);
         *region_r = 0.3;
-        break;
-    }
-    case 4:
-    case 5: {
-        /* scene 1's pool with a flat water surface under a normal map (a 16 x 16 bilinear map of
-         * tilts up to ~0.15 rad, repeated twice): every chain vertex's normal comes from the map */
-        add_rect(sc, place(spc_v3(1, 1, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-        add_rect(sc, place(spc_v3(1.3, 1.3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0.4)),
-                 tu_normal_mapped(sc, tu_glass(sc, 1.33), 16, 0.15, 2.0, 3));
-        spc_shape *light = add_sphere(sc, spc_v3(0.2, 0.1, 2.0), 0.2, tu_diffuse(sc, 0.0));
-        tu_area(sc, light, 2, 10.0);
-        tu_camera(sc, spc_v3(0, -1.6, 2.4), spc_v3(0, 0, 0), spc_v3(0, 0, 1), 45, 24, 24);
-        sc->integrator.specular_max_chain = 1;
-        *region_c = spc_v3(0, 0, 0);
-        *region_r = 0.8;
         break;
     }
     default: {

@@ -91,13 +91,11 @@ static spc_rgb texel(const spc_texture *t, int64_t x, int64_t y)
     return spc_rgb3(p[0], p[1], p[2]);
 }
 
-static spc_rgb eval_bitmap(const spc_texture *t, spc_vec2 uv)
+/* The bilinear interpolant at the mapped uv p (a bitmap with data, not nearest): its value and, if
+ * d is not NULL, its partials per unit of the mapped u and v in the cell holding p. */
+static spc_rgb bilinear(const spc_texture *t, spc_vec2 p, spc_rgb d[2])
 {
-    if (!t->data || t->width <= 0 || t->height <= 0)
-        return spc_rgb1(0.0);
-    if (t->nearest)
-        return texel(t, to_index(uv.x * t->width), to_index(uv.y * t->height));
-    double s = uv.x * t->width - 0.5, r = uv.y * t->height - 0.5;
+    double s = p.x * t->width - 0.5, r = p.y * t->height - 0.5;
     int64_t x0 = to_index(s), y0 = to_index(r);
     double fx = s - (double)x0, fy = r - (double)y0;
     if (!(fx >= 0.0 && fx <= 1.0))
@@ -108,7 +106,27 @@ static spc_rgb eval_bitmap(const spc_texture *t, spc_vec2 uv)
     spc_rgb c01 = texel(t, x0, y0 + 1), c11 = texel(t, x0 + 1, y0 + 1);
     spc_rgb c0 = spc_rgb_add(spc_rgb_scale(c00, 1.0 - fx), spc_rgb_scale(c10, fx));
     spc_rgb c1 = spc_rgb_add(spc_rgb_scale(c01, 1.0 - fx), spc_rgb_scale(c11, fx));
+    if (d) {
+        d[0] = spc_rgb_scale(spc_rgb_add(spc_rgb_scale(spc_rgb_sub(c10, c00), 1.0 - fy),
+                                         spc_rgb_scale(spc_rgb_sub(c11, c01), fy)),
+                             (double)t->width);
+        d[1] = spc_rgb_scale(spc_rgb_sub(c1, c0), (double)t->height);
+    }
     return spc_rgb_add(spc_rgb_scale(c0, 1.0 - fy), spc_rgb_scale(c1, fy));
+}
+
+static bool has_bilinear(const spc_texture *t)
+{
+    return t->type == SPC_TEX_BITMAP && !t->nearest && t->data && t->width > 0 && t->height > 0;
+}
+
+static spc_rgb eval_bitmap(const spc_texture *t, spc_vec2 uv)
+{
+    if (!t->data || t->width <= 0 || t->height <= 0)
+        return spc_rgb1(0.0);
+    if (t->nearest)
+        return texel(t, to_index(uv.x * t->width), to_index(uv.y * t->height));
+    return bilinear(t, uv, NULL);
 }
 
 spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv)
@@ -136,53 +154,31 @@ spc_rgb spc_texture_texel(const spc_texture *t, int64_t x, int64_t y)
     return texel(t, x, y);
 }
 
+/* Partials per unit of the mapped uv -> per unit of the surface uv: the transpose of to_uv's
+ * linear part. */
+static void unmap_grad(const spc_texture *t, spc_rgb d[2], spc_rgb out[2])
+{
+    const double(*m)[3] = t->to_uv;
+    out[0] = spc_rgb_add(spc_rgb_scale(d[0], m[0][0]), spc_rgb_scale(d[1], m[1][0]));
+    out[1] = spc_rgb_add(spc_rgb_scale(d[0], m[0][1]), spc_rgb_scale(d[1], m[1][1]));
+}
+
 spc_vec2 spc_texture_eval1_grad(const spc_texture *t, spc_vec2 uv)
 {
-    if (t->type != SPC_TEX_BITMAP || t->nearest || !t->data || t->width <= 0 || t->height <= 0)
-        return spc_v2(0.0, 0.0);
-    spc_vec2 p = map_uv(t, uv);
-    double s = p.x * t->width - 0.5, r = p.y * t->height - 0.5;
-    int64_t x0 = to_index(s), y0 = to_index(r);
-    double fx = s - (double)x0, fy = r - (double)y0;
-    if (!(fx >= 0.0 && fx <= 1.0))
-        fx = 0.0;
-    if (!(fy >= 0.0 && fy <= 1.0))
-        fy = 0.0;
-    double f00 = spc_rgb_avg(texel(t, x0, y0)), f10 = spc_rgb_avg(texel(t, x0 + 1, y0));
-    double f01 = spc_rgb_avg(texel(t, x0, y0 + 1)), f11 = spc_rgb_avg(texel(t, x0 + 1, y0 + 1));
-    /* partials in texels, then per unit of the mapped uv */
-    double ds = ((1.0 - fy) * (f10 - f00) + fy * (f11 - f01)) * t->width;
-    double dr = ((1.0 - fx) * (f01 - f00) + fx * (f11 - f10)) * t->height;
-    const double(*m)[3] = t->to_uv;
-    return spc_v2(m[0][0] * ds + m[1][0] * dr, m[0][1] * ds + m[1][1] * dr);
+    spc_rgb g[2];
+    spc_texture_eval_grad(t, uv, g);
+    return spc_v2(spc_rgb_avg(g[0]), spc_rgb_avg(g[1]));
 }
 
 spc_rgb spc_texture_eval_grad(const spc_texture *t, spc_vec2 uv, spc_rgb grad[2])
 {
     grad[0] = grad[1] = spc_rgb1(0.0);
-    if (t->type != SPC_TEX_BITMAP || t->nearest || !t->data || t->width <= 0 || t->height <= 0)
+    if (!has_bilinear(t))
         return spc_texture_eval(t, uv);
-    spc_vec2 p = map_uv(t, uv);
-    double s = p.x * t->width - 0.5, r = p.y * t->height - 0.5;
-    int64_t x0 = to_index(s), y0 = to_index(r);
-    double fx = s - (double)x0, fy = r - (double)y0;
-    if (!(fx >= 0.0 && fx <= 1.0))
-        fx = 0.0;
-    if (!(fy >= 0.0 && fy <= 1.0))
-        fy = 0.0;
-    spc_rgb c00 = texel(t, x0, y0), c10 = texel(t, x0 + 1, y0);
-    spc_rgb c01 = texel(t, x0, y0 + 1), c11 = texel(t, x0 + 1, y0 + 1);
-    spc_rgb c0 = spc_rgb_add(spc_rgb_scale(c00, 1.0 - fx), spc_rgb_scale(c10, fx));
-    spc_rgb c1 = spc_rgb_add(spc_rgb_scale(c01, 1.0 - fx), spc_rgb_scale(c11, fx));
-    /* partials per unit of the mapped uv, then through the transpose of to_uv's linear part */
-    spc_rgb ds = spc_rgb_scale(spc_rgb_add(spc_rgb_scale(spc_rgb_sub(c10, c00), 1.0 - fy),
-                                           spc_rgb_scale(spc_rgb_sub(c11, c01), fy)),
-                               (double)t->width);
-    spc_rgb dr = spc_rgb_scale(spc_rgb_sub(c1, c0), (double)t->height);
-    const double(*m)[3] = t->to_uv;
-    grad[0] = spc_rgb_add(spc_rgb_scale(ds, m[0][0]), spc_rgb_scale(dr, m[1][0]));
-    grad[1] = spc_rgb_add(spc_rgb_scale(ds, m[0][1]), spc_rgb_scale(dr, m[1][1]));
-    return spc_rgb_add(spc_rgb_scale(c0, 1.0 - fy), spc_rgb_scale(c1, fy));
+    spc_rgb d[2];
+    spc_rgb v = bilinear(t, map_uv(t, uv), d);
+    unmap_grad(t, d, grad);
+    return v;
 }
 
 spc_rgb spc_texture_mean(const spc_texture *t)
