@@ -15,6 +15,7 @@
 #include "core/rng.h"
 #include "core/warp.h"
 #include "manifold/specular_nee.h"
+#include "render_util.h" /* tu_glass, tu_mirror (tests/) */
 #include "scene/scene.h"
 
 /* CPU time of this thread: the machine is shared, and wall time would count other processes. */
@@ -27,25 +28,6 @@ static double now(void)
 
 static spc_rng rng;
 static double rnd(void) { return spc_rng_next(&rng); }
-
-static spc_bsdf *glass(spc_scene *sc, double eta)
-{
-    spc_bsdf *b = spc_scene_new_bsdf(sc);
-    b->type = SPC_BSDF_DIELECTRIC;
-    b->eta = eta;
-    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
-    b->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
-    return b;
-}
-
-static spc_bsdf *mirror(spc_scene *sc)
-{
-    spc_bsdf *b = spc_scene_new_bsdf(sc);
-    b->type = SPC_BSDF_CONDUCTOR;
-    b->cond_k = spc_rgb1(-1.0);
-    b->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
-    return b;
-}
 
 static void sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
 {
@@ -101,29 +83,29 @@ static spc_scene *make_scene(int which)
     spc_error err;
     switch (which) {
     case 0:
-        sphere(sc, spc_v3(0, 0, 0), 1.0, glass(sc, 1.5));
-        sphere(sc, spc_v3(2.6, 0.5, 0.3), 0.8, mirror(sc));
-        sphere(sc, spc_v3(-1.5, 2.2, -0.4), 0.7, glass(sc, 1.33));
-        sphere(sc, spc_v3(0.4, -2.4, 0.8), 0.9, mirror(sc));
+        sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
+        sphere(sc, spc_v3(2.6, 0.5, 0.3), 0.8, tu_mirror(sc));
+        sphere(sc, spc_v3(-1.5, 2.2, -0.4), 0.7, tu_glass(sc, 1.33));
+        sphere(sc, spc_v3(0.4, -2.4, 0.8), 0.9, tu_mirror(sc));
         break;
     case 1:
-        mesh_ellipsoid(sc, spc_v3(0, 0, 0), spc_v3(1, 1, 1), 64, 32, glass(sc, 1.5));
-        mesh_ellipsoid(sc, spc_v3(2.6, 0.5, 0.3), spc_v3(0.8, 0.6, 0.9), 48, 24, mirror(sc));
-        mesh_ellipsoid(sc, spc_v3(-1.5, 2.2, -0.4), spc_v3(0.7, 0.9, 0.5), 48, 24, glass(sc, 1.33));
+        mesh_ellipsoid(sc, spc_v3(0, 0, 0), spc_v3(1, 1, 1), 64, 32, tu_glass(sc, 1.5));
+        mesh_ellipsoid(sc, spc_v3(2.6, 0.5, 0.3), spc_v3(0.8, 0.6, 0.9), 48, 24, tu_mirror(sc));
+        mesh_ellipsoid(sc, spc_v3(-1.5, 2.2, -0.4), spc_v3(0.7, 0.9, 0.5), 48, 24, tu_glass(sc, 1.33));
         break;
     default: {
-        sphere(sc, spc_v3(0, 0, 0), 1.0, glass(sc, 1.5));
-        mesh_ellipsoid(sc, spc_v3(2.6, 0.5, 0.3), spc_v3(0.8, 0.8, 0.8), 48, 24, glass(sc, 1.5));
-        sphere(sc, spc_v3(0.4, -2.4, 0.8), 0.9, mirror(sc));
+        sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
+        mesh_ellipsoid(sc, spc_v3(2.6, 0.5, 0.3), spc_v3(0.8, 0.8, 0.8), 48, 24, tu_glass(sc, 1.5));
+        sphere(sc, spc_v3(0.4, -2.4, 0.8), 0.9, tu_mirror(sc));
         spc_shape *d = spc_scene_new_shape(sc);
         spc_mat4 S = spc_mat4_scale(spc_v3(2, 2, 2)), R = spc_mat4_rotate(spc_v3(1, 0, 0), 80),
                  T = spc_mat4_translate(spc_v3(-0.5, 2.8, 0));
         spc_mat4 RS = spc_mat4_mul(&R, &S), M = spc_mat4_mul(&T, &RS);
         spc_shape_init_disk(d, &M, NULL, 0, 0, &err);
-        d->bsdf = mirror(sc);
+        d->bsdf = tu_mirror(sc);
         spc_shape *cy = spc_scene_new_shape(sc);
         spc_shape_init_cylinder(cy, spc_v3(-2.2, -0.8, -1.5), spc_v3(-2.0, -0.6, 1.5), 0.6, NULL, NULL, 0, 0, &err);
-        cy->bsdf = glass(sc, 1.6);
+        cy->bsdf = tu_glass(sc, 1.6);
         break;
     }
     }
