@@ -22,7 +22,8 @@
  *
  * CONFIG: a seed name (shape, light, bsdf) and options after colons: trials=N (the cap),
  * straight / nostraight (spc_snee_params.straight_first), window=N, keep=F, stall=N, drop=F,
- * iters=N, lm (angular solver options), biased (the biased estimator). Defaults: those of
+ * iters=N, lm (angular solver options), biased (the biased estimator), reflect=P (chains reflect
+ * off dielectrics, spc_snee_params.reflect), cone (the default seed). Defaults: those of
  * spc_snee_params_default. Results go to bench/RESULTS.md by hand.
  */
 #include <stdio.h>
@@ -186,6 +187,11 @@ static bool parse_config(const char *s, spc_snee_params *p)
             p->angular.method = SPC_ANGULAR_LEVENBERG_MARQUARDT;
         else if (!strcmp(tok, "biased"))
             p->biased = true;
+        else if (!strncmp(tok, "reflect=", 8)) {
+            p->reflect = true;
+            p->reflect_min = atof(tok + 8);
+        } else if (!strcmp(tok, "cone"))
+            p->seed = SPC_SNEE_SEED_CONE;
         else
             return false;
     }

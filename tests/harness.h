@@ -1,7 +1,8 @@
 /*
  * tests/harness.h: the in-house test harness. A test program defines test functions with TEST,
  * runs them with RUN from main and returns spc_test_finish(), which prints "N passed, N failed"
- * (tests, not assertions) and returns nonzero if any test failed.
+ * (tests, not assertions) and returns nonzero if any test failed. SPC_TEST_ONLY=a,b runs only the
+ * tests named.
  */
 #ifndef SPC_TESTS_HARNESS_H
 #define SPC_TESTS_HARNESS_H
@@ -16,7 +17,21 @@ static const char *spc_t_cur = "";
 
 #define TEST(name) static void name(void)
 
+/* SPC_TEST_ONLY=name (comma-separated names) runs only those tests of a program (debugging). */
+static inline int spc_t_selected(const char *name)
+{
+    const char *only = getenv("SPC_TEST_ONLY");
+    if (!only || !*only)
+        return 1;
+    size_t n = strlen(name);
+    for (const char *p = only; (p = strstr(p, name)) != NULL; p += n)
+        if ((p == only || p[-1] == ',') && (p[n] == '\0' || p[n] == ','))
+            return 1;
+    return 0;
+}
+
 #define RUN(name)                                                                                                     \
+    if (spc_t_selected(#name))                                                                                        \
     do {                                                                                                              \
         spc_t_cur = #name;                                                                                            \
         spc_t_cur_failed = 0;                                                                                         \

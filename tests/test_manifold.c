@@ -986,6 +986,166 @@ TEST(snee_normal_map_point_estimates)
     spc_scene_destroy(sc);
 }
 
+/* ---- chains that reflect off glass (spc_snee_params.reflect) ---- */
+
+/* A hit record on shape i (no position: what the tracker and the event picker look at). */
+static spc_hit shape_hit(const spc_scene *sc, int i)
+{
+    spc_hit h;
+    memset(&h, 0, sizeof h);
+    h.shape = sc->shapes[i];
+    h.shape_index = i;
+    h.bsdf = h.shape->bsdf;
+    h.emitter = h.shape->emitter;
+    h.sh = spc_frame_from_n(spc_v3(0, 0, 1));
+    h.ng = h.sh.n;
+    return h;
+}
+
+
+/* The event picker: a conductor always reflects; a dielectric reflects with probability
+ * reflect_min + (1 - 2 reflect_min) F (F = 1 under total internal reflection), and the reported
+ * probabilities of the two events sum to 1. */
+TEST(chain_pick_event)
+{
+    spc_scene *sc = spc_scene_create();
+    add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
+    add_sphere(sc, spc_v3(5, 0, 0), 1.0, tu_mirror(sc));
+    CHECK(finalize(sc));
+    spc_hit g = shape_hit(sc, 0), m = shape_hit(sc, 1);
+    double worst = 0.0;
+    for (int i = 0; i < 200; ++i) {
+        spc_vec3 d = spc_warp_uniform_sphere(spc_v2(rnd(), rnd()));
+        double u = rnd(), rm = 0.5 * rnd(), pr, pt;
+        double F = spc_fresnel_dielectric(-d.z, 1.5, NULL, NULL);
+        double P = rm + (1.0 - 2.0 * rm) * F;
+        int e = spc_chain_pick_event(&g, d, SPC_CHAIN_REFRACT, u, rm, &pr);
+        CHECK(e == (u < P ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT));
+        spc_chain_pick_event(&g, d, SPC_CHAIN_REFRACT, u < P ? 1.0 : 0.0, rm, &pt); /* the other event */
+        worst = spc_max(worst, fabs(pr + pt - 1.0) + fabs((e == SPC_CHAIN_REFLECT ? pr : pt) - P));
+        double pm;
+        CHECK(spc_chain_pick_event(&m, d, SPC_CHAIN_REFLECT, u, rm, &pm) == SPC_CHAIN_REFLECT && pm == 1.0);
+    }
+    CHECK_MSG(worst < 1e-12, "probabilities off by %.2e", worst);
+    /* beyond the critical angle from inside: reflection with probability 1 - reflect_min */
+    double pr;
+    spc_vec3 grazing = spc_normalize(spc_v3(1, 0, 0.2)); /* leaving through the normal's side, from inside */
+    CHECK(spc_chain_pick_event(&g, grazing, SPC_CHAIN_REFRACT, 0.79, 0.2, &pr) == SPC_CHAIN_REFLECT);
+    CHECK(fabs(pr - 0.8) < 1e-12);
+    CHECK(spc_chain_pick_event(&g, grazing, SPC_CHAIN_REFRACT, 0.81, 0.2, &pr) == SPC_CHAIN_REFRACT);
+    spc_scene_destroy(sc);
+}
+
+/* Brute force that follows the BSDFs: cosine-sampled directions from x, then at every chain
+ * surface the event the surface's BSDF samples (reflection or refraction at glass), up to
+ * max_chain vertices; a path that then meets the light adds albedo * prod weight * Le. The sums
+ * for chains of at most 2 and of at most 3 vertices come from one pass. */
+static void brute_force_bsdf(const spc_scene *sc, const spc_hit *x, int n, double mean[2], double se[2])
+{
+    double s1[2] = {0, 0}, s2[2] = {0, 0};
+    for (int i = 0; i < n; ++i) {
+        spc_vec3 d = spc_frame_to_world(&x->sh, spc_warp_cosine_hemisphere(spc_v2(rnd(), rnd())));
+        spc_ray r = spc_hit_spawn(x, d);
+        double T = 1.0, v = 0.0;
+        int k = 0;
+        for (;;) {
+            spc_hit h;
+            int ev;
+            if (!spc_scene_intersect(sc, &r, &h))
+                break;
+            if (h.emitter) {
+                if (k >= 1)
+                    v = 0.8 * T * spc_emitter_eval_area(h.emitter, &h, spc_neg(r.d)).r;
+                break;
+            }
+            spc_bsdf_sample bs;
+            if (k == 3 || !spc_chain_surface(&h, false, &ev) ||
+                !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(r.d), rnd(), spc_v2(rnd(), rnd()), &bs))
+                break;
+            T *= bs.weight.r;
+            ++k;
+            r = spc_hit_spawn(&h, bs.wi);
+        }
+        for (int j = 0; j < 2; ++j) {
+            double vj = k <= 2 + j ? v : 0.0;
+            s1[j] += vj;
+            s2[j] += vj * vj;
+        }
+    }
+    for (int j = 0; j < 2; ++j) {
+        mean[j] = s1[j] / n;
+        se[j] = sqrt(spc_max(s2[j] / n - mean[j] * mean[j], 0.0) / n);
+    }
+}
+
+/* Specular NEE with chains that also reflect off the glass, at a floor point on the light's side of
+ * a glass ball, which the light reaches through the ball only by reflections (off the ball, or
+ * refracted in, reflected inside and refracted out), against brute force through the BSDFs' own
+ * sampling: angular and newton on an analytic ball (chains of 2 vertices; angular also with 3: one
+ * internal reflection), angular, newton and conic (the reflection enumerated exactly) on a mesh
+ * ball. Without reflect specular NEE finds nothing there. */
+TEST(snee_reflect_point_estimates)
+{
+    for (int mesh = 0; mesh < 2; ++mesh) {
+        spc_scene *sc = spc_scene_create();
+        add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+        spc_shape *light = add_sphere(sc, spc_v3(-1.4, 0.1, 1.4), 0.4, tu_diffuse(sc, 0.0));
+        tu_area(sc, light, 1, 5.0);
+        if (mesh)
+            add_mesh_sphere(sc, spc_v3(0, 0, 0.7), 0.5, 1.0, 64, 32, tu_glass(sc, 1.5));
+        else
+            add_sphere(sc, spc_v3(0, 0, 0.7), 0.5, tu_glass(sc, 1.5));
+        CHECK(finalize(sc));
+        spc_hit x;
+        CHECK(floor_hit(sc, spc_v3(-0.8, 0.05, 0.05), &x));
+        double ref[2], ref_se[2];
+        brute_force_bsdf(sc, &x, 8000000, ref, ref_se);
+        printf("    %s ball: brute force %.5f +- %.5f (chains <= 2), %.5f +- %.5f (<= 3)\n", mesh ? "mesh" : "analytic",
+               ref[0], ref_se[0], ref[1], ref_se[1]);
+        /* reflections reach x, and internal reflections add to them */
+        CHECK(ref[0] > 10.0 * ref_se[0] && ref[1] > ref[0] + 6.0 * hypot(ref_se[0], ref_se[1]));
+        const struct {
+            int solver, chain, N;
+            bool reflect;
+        } runs[] = {
+            {SPC_SNEE_ANGULAR, 2, 40000, true}, {SPC_SNEE_NEWTON, 2, 10000, true}, {SPC_SNEE_ANGULAR, 3, 40000, true},
+            {SPC_SNEE_CONIC, 2, 20000, true},   {SPC_SNEE_ANGULAR, 2, 40000, false},
+        };
+        for (size_t ri = 0; ri < sizeof runs / sizeof runs[0]; ++ri) {
+            if ((runs[ri].solver == SPC_SNEE_CONIC && !mesh) || (runs[ri].chain == 3 && mesh))
+                continue;
+            spc_snee_params p;
+            spc_snee_params_default(&p, runs[ri].solver, runs[ri].chain);
+            p.reflect = runs[ri].reflect;
+            spc_snee_stats st;
+            memset(&st, 0, sizeof st);
+            spc_rng r;
+            spc_rng_seed(&r, 31 + ri, (uint64_t)mesh);
+            double m1 = 0, m2 = 0;
+            const int N = runs[ri].N;
+            for (int i = 0; i < N; ++i) {
+                double v = spc_specular_nee(sc, &p, &x, spc_v3(0, 0, 1), runs[ri].chain, &r, &st).r;
+                m1 += v;
+                m2 += v * v;
+            }
+            double m = m1 / N, se = sqrt(spc_max(m2 / N - m * m, 0.0) / N);
+            int j = runs[ri].chain - 2;
+            double dz = (m - ref[j]) / sqrt(se * se + ref_se[j] * ref_se[j]);
+            printf("    %-8s chain %d%s: snee %.5f +- %.5f (z %.2f); solved %.2f, trials/solution %.2f, capped %llu\n",
+                   spc_specular_solver_get(runs[ri].solver)->name, runs[ri].chain,
+                   runs[ri].reflect ? ", reflect" : "", m, se, dz, (double)st.solved / (double)st.calls,
+                   st.contributions ? (double)st.trials / (double)st.contributions : 0.0,
+                   (unsigned long long)st.capped);
+            if (runs[ri].reflect)
+                CHECK_MSG(fabs(dz) <= 4.0, "solver %d chain %d: %.6f vs %.6f", runs[ri].solver, runs[ri].chain, m,
+                          ref[j]);
+            else
+                CHECK_MSG(m == 0.0, "without reflect: %.6f", m); /* the light reaches x only by reflections */
+        }
+        spc_scene_destroy(sc);
+    }
+}
+
 /* ---- the light point: a sphere light only where it faces the casters ---- */
 
 /* g(y) weighted over the part of a sphere light whose points face the glass ball below it (the
@@ -1136,7 +1296,7 @@ TEST(snee_mis_weights_sum_to_one)
         }
         if (!light || k != 2)
             continue;
-        double wb = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, d0, k, &h);
+        double wb = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, d0, 2, k, NULL, &h);
         /* specular NEE's weight on the same chain: its value with MIS over its value without */
         spc_frame fr = spc_frame_from_n(d0);
         spc_chain_opts o = spc_chain_opts_default(2);
@@ -1172,65 +1332,251 @@ TEST(snee_mis_weights_sum_to_one)
     spc_scene_destroy(sc);
 }
 
+/* The same with chains that reflect off the glass (params.reflect): BSDF-sampled paths floor -> ball
+ * -> light of 1 or 2 vertices with the events the glass's BSDF samples (reflection outside or
+ * inside, refraction); the path integrator's weight, from the chain retraced with the track's
+ * events, and specular NEE's weight on that chain sum to 1. */
+TEST(snee_mis_weights_with_reflections)
+{
+    spc_scene *sc = caustic_scene();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+    p.mis = true;
+    p.reflect = true;
+    double worst_sum = 0.0;
+    int npaths = 0, nreflect = 0;
+    for (int i = 0; i < 4000000 && (npaths < 400 || nreflect < 40); ++i) {
+        spc_hit x;
+        if (!floor_hit(sc, spc_v3(0.9 * (2 * rnd() - 1), 0.9 * (2 * rnd() - 1), 0.05), &x))
+            continue;
+        spc_vec3 wo = spc_normalize(spc_v3(0.2, -1, 1));
+        spc_vec3 d0 = spc_frame_to_world(&x.sh, spc_warp_cosine_hemisphere(spc_v2(rnd(), rnd())));
+        spc_snee_track t;
+        memset(&t, 0, sizeof t);
+        spc_snee_track_scatter(&t, &x, SPC_LOBE_DIFFUSE_REFLECTION, 2, false, true);
+        spc_ray r = spc_hit_spawn(&x, d0);
+        spc_hit h;
+        bool light = false;
+        for (int b = 0; b < 3; ++b) {
+            spc_hit n;
+            if (!spc_scene_intersect(sc, &r, &n))
+                break;
+            if (n.emitter) {
+                light = spc_snee_track_covers(&t, sc, n.emitter);
+                h = n;
+                break;
+            }
+            spc_bsdf_sample bs;
+            double u_lobe = (b == 0 && i % 2) ? 0.0 : rnd(); /* every other path reflects off the ball */
+            if (!spc_bsdf_sample_dir(n.bsdf, &n, SPC_MODE_RADIANCE, spc_neg(r.d), u_lobe, spc_v2(rnd(), rnd()), &bs))
+                break;
+            spc_snee_track_scatter(&t, &n, bs.lobe, 0, false, true);
+            r = spc_hit_spawn(&n, bs.wi);
+        }
+        if (!light)
+            continue;
+        double wb = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, d0, t.max_chain, t.k, t.events, &h);
+        spc_frame fr = spc_frame_from_n(d0);
+        spc_chain_opts o = spc_chain_opts_default(t.k);
+        o.events = t.events;
+        static spc_chain c;
+        spc_chain_trace(sc, &x, &fr, 0, 0, &o, &c);
+        spc_snee_query q;
+        memset(&q, 0, sizeof q);
+        q.scene = sc;
+        q.x = &x;
+        q.wo = wo;
+        q.y = h.p;
+        q.ny = h.ng;
+        q.max_chain = 2;
+        q.params = &p;
+        q.p_y = spc_snee_light_pdf(sc, false, h.emitter, h.p, h.ng);
+        spc_rgb with = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
+        q.p_y = 0.0;
+        spc_rgb without = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
+        if (!(without.r > 0.0))
+            continue;
+        worst_sum = spc_max(worst_sum, fabs(with.r / without.r + wb - 1.0));
+        ++npaths;
+        for (int k = 0; k < t.k; ++k)
+            if (t.events[k] == SPC_CHAIN_REFLECT) {
+                ++nreflect;
+                break;
+            }
+    }
+    printf("    %d paths (%d with a reflection off the glass): worst |w_nee + w_bsdf - 1| %.2e\n", npaths, nreflect,
+           worst_sum);
+    CHECK(npaths >= 400 && nreflect >= 40 && worst_sum < 1e-9);
+    spc_scene_destroy(sc);
+}
+
+/* MIS at one point, end to end: specular NEE (mis, chains reflecting off the glass) plus the
+ * BSDF-sampled paths it covers, weighted by spc_snee_mis_bsdf_weight with the track's events and
+ * budget, must add up to brute force through the BSDFs' own sampling (no weights) at a floor point
+ * in the glass ball's caustic. With psi = 1 (params.mis_solve) and with psi = 0.1, which moves the
+ * chains that randomized attempts find (not the straight-line solution) toward BSDF sampling: the
+ * two sides must agree on which chains those are, or the sum is off. */
+TEST(snee_mis_point_combination)
+{
+    spc_scene *sc = caustic_scene();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_hit x;
+    CHECK(floor_hit(sc, spc_v3(-0.12, -0.08, 0.05), &x));
+    const spc_vec3 wo = spc_normalize(spc_v3(0.2, -1, 1));
+    /* one BSDF-sampled path from x through chain surfaces (at most 2 vertices) to the light: its
+     * value, and the weight MIS gives it (1 without p) */
+    const int NB = 3000000;
+    double b1 = 0, b2 = 0;
+    for (int i = 0; i < NB; ++i) {
+        spc_bsdf_sample bs;
+        if (!spc_bsdf_sample_dir(x.bsdf, &x, SPC_MODE_RADIANCE, wo, rnd(), spc_v2(rnd(), rnd()), &bs))
+            continue;
+        spc_ray r = spc_hit_spawn(&x, bs.wi);
+        double T = bs.weight.r, v = 0.0;
+        for (int k = 0; k <= 2; ++k) {
+            spc_hit h;
+            if (!spc_scene_intersect(sc, &r, &h))
+                break;
+            if (h.emitter) {
+                if (k >= 1)
+                    v = T * spc_emitter_eval_area(h.emitter, &h, spc_neg(r.d)).r;
+                break;
+            }
+            spc_bsdf_sample b2s;
+            int ev;
+            if (k == 2 || !spc_chain_surface(&h, false, &ev) ||
+                !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(r.d), rnd(), spc_v2(rnd(), rnd()), &b2s))
+                break;
+            T *= b2s.weight.r;
+            r = spc_hit_spawn(&h, b2s.wi);
+        }
+        b1 += v;
+        b2 += v * v;
+    }
+    double ref = b1 / NB, ref_se = sqrt(spc_max(b2 / NB - ref * ref, 0.0) / NB);
+    printf("    brute force %.5f +- %.5f\n", ref, ref_se);
+    CHECK(ref > 0.0);
+    const double psis[2] = {1.0, 0.1};
+    for (int pi = 0; pi < 2; ++pi) {
+        spc_snee_params p;
+        spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+        p.mis = true;
+        p.reflect = true;
+        p.mis_solve = psis[pi];
+        spc_rng r;
+        spc_rng_seed(&r, 77, (uint64_t)pi);
+        const int N = 60000;
+        double s1 = 0, s2 = 0, sb = 0;
+        for (int i = 0; i < N; ++i) {
+            double v = spc_specular_nee(sc, &p, &x, wo, 2, &r, NULL).r;
+            /* the BSDF-sampled path of the same iteration, tracked as the path integrator does */
+            spc_bsdf_sample bs;
+            if (spc_bsdf_sample_dir(x.bsdf, &x, SPC_MODE_RADIANCE, wo, rnd(), spc_v2(rnd(), rnd()), &bs)) {
+                spc_snee_track t;
+                memset(&t, 0, sizeof t);
+                spc_snee_track_scatter(&t, &x, bs.lobe, 2, false, true);
+                spc_ray ray = spc_hit_spawn(&x, bs.wi);
+                double T = bs.weight.r;
+                for (int k = 0; k <= 2; ++k) {
+                    spc_hit h;
+                    if (!spc_scene_intersect(sc, &ray, &h))
+                        break;
+                    if (h.emitter) {
+                        if (spc_snee_track_covers(&t, sc, h.emitter)) {
+                            double w = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, bs.wi, t.max_chain, t.k, t.events, &h);
+                            double vb = T * spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d)).r * w;
+                            v += vb;
+                            sb += vb;
+                        }
+                        break;
+                    }
+                    spc_bsdf_sample b2s;
+                    if (k == 2 || !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), rnd(),
+                                                       spc_v2(rnd(), rnd()), &b2s))
+                        break;
+                    spc_snee_track_scatter(&t, &h, b2s.lobe, 0, false, true);
+                    T *= b2s.weight.r;
+                    ray = spc_hit_spawn(&h, b2s.wi);
+                }
+            }
+            s1 += v;
+            s2 += v * v;
+        }
+        double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N);
+        printf("    psi %.2f: specular NEE + weighted BSDF paths %.5f +- %.5f (BSDF share %.3f)\n", psis[pi], m, se,
+               sb / s1);
+        CHECK_MSG(fabs(m - ref) <= 4.0 * sqrt(se * se + ref_se * ref_se), "psi %.2f: %.6f vs %.6f", psis[pi], m, ref);
+        CHECK(sb > 0.0);
+    }
+    spc_scene_destroy(sc);
+}
+
 TEST(caustic_image_path_snee_vs_ipt)
 {
     spc_scene *sc = caustic_scene();
     CHECK(sc != NULL);
     if (!sc)
         return;
-    double t_ref, t_snee;
+    double t_ref = 0.0, t_snee = 0.0;
     spc_film *ref = render_with(sc, "ipt", "none", 8192, 11, &t_ref);
-    spc_film *img = render_with(sc, "path", "angular", 256, 12, &t_snee);
-    CHECK(ref && img);
-    if (ref && img) {
-        spc_image_rgb a = {img->width, img->height, img->rgb, img->var};
-        spc_image_rgb b = {ref->width, ref->height, ref->rgb, ref->var};
-        spc_diff_result d;
-        spc_error err;
-        CHECK(spc_image_diff(&a, &b, &d, &err) == SPC_OK);
-        printf("    ipt %.1f s, path+snee %.1f s; z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", t_ref, t_snee,
-               d.ztest_pass_fraction, d.ztest_pixels, d.mean_a[0], d.mean_b[0]);
-        CHECK_MSG(d.has_ztest && d.ztest_pass_fraction >= 0.99, "z-test pass fraction %.4f", d.ztest_pass_fraction);
-        for (int c = 0; c < 3; ++c) {
-            double ma, sa, mb, sb;
-            tu_image_mean(img, c, &ma, &sa);
-            tu_image_mean(ref, c, &mb, &sb);
-            double se = sqrt(sa * sa + sb * sb);
-            CHECK_MSG(fabs(ma - mb) <= 3 * se, "channel %d: mean %.5f vs %.5f (se %.2g)", c, ma, mb, se);
+    /* the default chains, and chains that also reflect off the ball (MIS with the BSDF-sampled
+     * reflections through the track's events) */
+    const char *settings[2] = {"angular", "angular:reflect"};
+    for (int si = 0; si < 2; ++si) {
+        spc_film *img = render_with(sc, "path", settings[si], 256, 12, &t_snee);
+        CHECK(ref && img);
+        printf("    %s:\n", settings[si]);
+        if (ref && img) {
+            spc_image_rgb a = {img->width, img->height, img->rgb, img->var};
+            spc_image_rgb b = {ref->width, ref->height, ref->rgb, ref->var};
+            spc_diff_result d;
+            spc_error err;
+            CHECK(spc_image_diff(&a, &b, &d, &err) == SPC_OK);
+            printf("    ipt %.1f s, path+snee %.1f s; z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", t_ref, t_snee,
+                   d.ztest_pass_fraction, d.ztest_pixels, d.mean_a[0], d.mean_b[0]);
+            CHECK_MSG(d.has_ztest && d.ztest_pass_fraction >= 0.99, "z-test pass fraction %.4f", d.ztest_pass_fraction);
+            for (int c = 0; c < 3; ++c) {
+                double ma, sa, mb, sb;
+                tu_image_mean(img, c, &ma, &sa);
+                tu_image_mean(ref, c, &mb, &sb);
+                double se = sqrt(sa * sa + sb * sb);
+                CHECK_MSG(fabs(ma - mb) <= 3 * se, "channel %d: mean %.5f vs %.5f (se %.2g)", c, ma, mb, se);
+            }
         }
+        spc_film_destroy(img);
     }
     spc_film_destroy(ref);
-    spc_film_destroy(img);
     spc_scene_destroy(sc);
 }
 
 /* ---- the exclusion of specular NEE's paths from BSDF sampling ---- */
 
-static spc_hit shape_hit(const spc_scene *sc, int i)
-{
-    spc_hit h;
-    memset(&h, 0, sizeof h);
-    h.shape = sc->shapes[i];
-    h.shape_index = i;
-    h.bsdf = h.shape->bsdf;
-    h.emitter = h.shape->emitter;
-    h.sh = spc_frame_from_n(spc_v3(0, 0, 1));
-    h.ng = h.sh.n;
-    return h;
-}
-
-/* Runs the tracker over a path: receiver, then vertices (shape, lobe), then the light. */
-static bool covers(const spc_scene *sc, int budget, const int *shapes, const unsigned *lobes, int n)
+/* Runs the tracker over a path: receiver, then vertices (shape, lobe), then the light; with
+ * reflect, dielectric vertices may reflect (and *t_out, if given, receives the track). */
+static bool covers_track(const spc_scene *sc, int budget, const int *shapes, const unsigned *lobes, int n, bool reflect,
+                         spc_snee_track *t_out)
 {
     spc_snee_track t;
     memset(&t, 0, sizeof t);
     spc_hit x = shape_hit(sc, 0);
-    spc_snee_track_scatter(&t, &x, SPC_LOBE_DIFFUSE_REFLECTION, budget, false);
+    spc_snee_track_scatter(&t, &x, SPC_LOBE_DIFFUSE_REFLECTION, budget, false, reflect);
     for (int i = 0; i < n; ++i) {
         spc_hit h = shape_hit(sc, shapes[i]);
-        spc_snee_track_scatter(&t, &h, lobes[i], budget, false);
+        spc_snee_track_scatter(&t, &h, lobes[i], budget, false, reflect);
     }
+    if (t_out)
+        *t_out = t;
     return spc_snee_track_covers(&t, sc, sc->shapes[1]->emitter);
+}
+
+static bool covers(const spc_scene *sc, int budget, const int *shapes, const unsigned *lobes, int n)
+{
+    return covers_track(sc, budget, shapes, lobes, n, false, NULL);
 }
 
 TEST(exclusion_matches_specular_nee)
@@ -1265,12 +1611,24 @@ TEST(exclusion_matches_specular_nee)
     CHECK(!covers(sc, 2, m1, TT, 1));       /* caster_multi: in longer chains only */
     CHECK(covers(sc, 2, m2, TT, 2));
     CHECK(!covers(sc, 2, n1, TT, 1));       /* not a caster */
+    /* with reflect (params.reflect) a reflection off glass is a chain vertex, and the track keeps
+     * the events for the MIS retrace */
+    spc_snee_track tr;
+    unsigned RT[2] = {R, T}, R1[1] = {R};
+    CHECK(covers_track(sc, 2, glass2, TR, 2, true, &tr));
+    CHECK(tr.k == 2 && tr.events[0] == SPC_CHAIN_REFRACT && tr.events[1] == SPC_CHAIN_REFLECT);
+    CHECK(covers_track(sc, 2, glass1, R1, 1, true, &tr) && tr.events[0] == SPC_CHAIN_REFLECT);
+    CHECK(covers_track(sc, 2, glass2, RT, 2, true, NULL));
+    CHECK(covers_track(sc, 2, glass2, TT, 2, true, &tr) && tr.events[1] == SPC_CHAIN_REFRACT);
+    CHECK(!covers_track(sc, 2, mirror1, TT, 1, true, NULL)); /* a mirror still never transmits */
+    CHECK(!covers_track(sc, 1, glass2, TR, 2, true, NULL));  /* the budget still holds */
+    CHECK(!covers_track(sc, 2, s2, TR, 2, true, NULL));      /* and the caster flags */
     /* a delta scattering at the receiver itself starts nothing */
     spc_snee_track t;
     memset(&t, 0, sizeof t);
     spc_hit x = shape_hit(sc, 0), g = shape_hit(sc, 2);
-    spc_snee_track_scatter(&t, &x, SPC_LOBE_DELTA_REFLECTION, 2, false);
-    spc_snee_track_scatter(&t, &g, T, 2, false);
+    spc_snee_track_scatter(&t, &x, SPC_LOBE_DELTA_REFLECTION, 2, false, false);
+    spc_snee_track_scatter(&t, &g, T, 2, false, false);
     CHECK(!spc_snee_track_covers(&t, sc, light->emitter));
     /* and the receiver flag decides the budget */
     CHECK(spc_snee_budget(&x, 2, false) == 2);
@@ -1361,11 +1719,15 @@ int main(void)
     RUN(bernoulli_estimator_unbiased);
     RUN(snee_point_estimates);
     RUN(snee_normal_map_point_estimates);
+    RUN(chain_pick_event);
+    RUN(snee_reflect_point_estimates);
     RUN(snee_light_sampling_faces_casters);
     RUN(exclusion_matches_specular_nee);
     RUN(snee_point_light_mirror_scales);
     RUN(render_rejects_unknown_solver);
     RUN(snee_mis_weights_sum_to_one);
+    RUN(snee_mis_weights_with_reflections);
+    RUN(snee_mis_point_combination);
     RUN(caustic_image_path_snee_vs_ipt);
     return spc_test_finish();
 }

@@ -83,7 +83,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             /* a covered path: weighted against specular NEE's light sample, or dropped */
             double w = 1.0;
             if (covered && !spc_rgb_is_black(Le))
-                w = spc_snee_mis_bsdf_weight(sc, &snp, &mis_x, mis_wo, mis_d0, track.k, &h);
+                w = spc_snee_mis_bsdf_weight(sc, &snp, &mis_x, mis_wo, mis_d0, track.max_chain, track.k, track.events,
+                                             &h);
             if (w > 0.0 && !spc_rgb_is_black(Le)) {
                 if (nee && !specular) {
                     double lp = spc_scene_emitter_pmf(sc, h.emitter) *

@@ -575,7 +575,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
         spc_bsdf_sample bs;
         if (!spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
             break;
-        spc_snee_track_scatter(&track, &h, bs.lobe, 0, snp.any_surface);
+        spc_snee_track_scatter(&track, &h, bs.lobe, 0, snp.any_surface, false);
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))
             break;

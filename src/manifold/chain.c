@@ -59,6 +59,22 @@ bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event)
     return spc_chain_shape_is_caster(h->shape, any_surface, event);
 }
 
+int spc_chain_pick_event(const spc_hit *h, spc_vec3 d, int event, double u, double reflect_min, double *prob)
+{
+    double eta = 0.0;
+    if (event != SPC_CHAIN_REFRACT || !spc_bsdf_is_specular_interface(h->bsdf, &eta) || !(eta > 0.0)) {
+        if (prob)
+            *prob = 1.0;
+        return event;
+    }
+    double F = spc_fresnel_dielectric(-spc_dot(d, h->sh.n), eta, NULL, NULL);
+    double P = reflect_min + (1.0 - 2.0 * reflect_min) * F;
+    bool r = u < P;
+    if (prob)
+        *prob = r ? P : 1.0 - P;
+    return r ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
+}
+
 spc_vec3 spc_chain_direction(const spc_frame *f, double a, double b, spc_vec3 dd[2])
 {
     spc_vec3 w = spc_add(f->n, spc_add(spc_scale(f->s, a), spc_scale(f->t, b)));
@@ -226,6 +242,8 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
             event = fixed->event[i];
         } else if (opts->events) {
             event = opts->events[i];
+        } else if (opts->event_u && chain_surface) {
+            event = spc_chain_pick_event(&h, d, event, opts->event_u[i], opts->reflect_min, NULL);
         }
 
         spc_chain_vertex *v = &c->v[i];

@@ -102,6 +102,11 @@ typedef struct spc_chain_opts {
     const spc_chain_sig *fixed;  /* follow exactly this signature (solver steps), or NULL */
     const unsigned char *events; /* without fixed: forced event per vertex, or NULL: the BSDF's
                                     (conductor: reflect, dielectric: refract) */
+    /* without fixed and events: one uniform number per vertex that picks the event at a dielectric
+     * vertex by spc_chain_pick_event (reflection with probability reflect_min + (1 - 2 reflect_min)
+     * F), or NULL: the BSDF's events. Conductors reflect either way. */
+    const double *event_u;
+    double reflect_min;
     bool any_surface;            /* every specular interface is a chain surface, whatever its
                                     caustic flags (tests, benchmarks) */
     bool find_end;               /* with fixed: also intersect the final segment (end, end_hit) */
@@ -120,6 +125,14 @@ bool spc_chain_shape_is_caster(const spc_shape *s, bool any_surface, int *event)
 /* Is the surface of h a possible chain vertex (specular interface, no emitter, caster for some
  * chain length unless any_surface)? *event receives the BSDF's event. */
 bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event);
+
+/* The event at a chain vertex on h reached along the unit direction d, when dielectric vertices may
+ * also reflect (spc_chain_opts.event_u): a conductor (event REFLECT) reflects; a dielectric
+ * reflects with probability P = reflect_min + (1 - 2 reflect_min) F, F its Fresnel reflectance at
+ * the shading normal (1 under total internal reflection), i.e. when u < P, and refracts otherwise.
+ * reflect_min in [0, 0.5] keeps both events possible. *prob (may be NULL) receives the probability
+ * of the event returned. */
+int spc_chain_pick_event(const spc_hit *h, spc_vec3 d, int event, double u, double reflect_min, double *prob);
 
 /* The scene's first hit along r, a triangle hit re-intersected in double precision (as the chain
  * tracer does, so that other solvers project onto the same surfaces), a normal-mapped chain

@@ -1647,41 +1647,47 @@ int spc_conic_solve_all(const spc_snee_query *q, spc_chain *out, int max_out, in
         const spc_conic_mesh *m = spc_conic_mesh_get(s);
         if (!m)
             continue;
-        spc_conic_problem pb;
-        pb.x = q->x->p;
-        pb.y = q->y;
-        pb.event = event == SPC_CHAIN_REFRACT ? SPC_CONIC_REFRACT : SPC_CONIC_REFLECT;
-        pb.eta = eta;
-        pb.front_only = s->bsdf && s->bsdf->type == SPC_BSDF_CONDUCTOR; /* not a twosided one */
-        int ns = spc_conic_mesh_solve(m, &pb, sol, SPC_CONIC_MAX_MESH_SOLUTIONS, false, &st);
-        for (int k = 0; k < ns && n < max_out; ++k) {
-            /* trace x -> P: the first hit must be this shape at P, which gives the chain its
-             * derivatives and proves the first segment unblocked */
-            /* aimed from the offset origin the ray will leave from, so that it meets P itself */
-            spc_vec3 dir = spc_sub(sol[k].p, pb.x);
-            dir = spc_sub(sol[k].p, spc_hit_offset(q->x, dir));
-            double dist = spc_length(dir);
-            if (!(dist > 0.0))
-                continue;
-            spc_frame fr = spc_frame_from_n(spc_scale(dir, 1.0 / dist));
-            spc_chain_sig sig;
-            memset(&sig, 0, sizeof sig);
-            sig.n = 1;
-            sig.shape[0] = i;
-            sig.event[0] = (unsigned char)event;
-            spc_chain_opts opts = spc_chain_opts_default(1);
-            opts.fixed = &sig;
-            opts.any_surface = q->any_surface;
-            spc_chain *c = &out[n];
-            if (spc_chain_trace(sc, q->x, &fr, 0.0, 0.0, &opts, c) != SPC_CHAIN_END_SURFACE || c->n != 1)
-                continue;
-            const spc_chain_vertex *v = &c->v[0];
-            if (spc_distance(v->h.p, sol[k].p) > 1e-6 * dist + 1e-6 * spc_distance(sol[k].p, pb.y))
-                continue; /* hit elsewhere first (the same mesh in front) */
-            spc_vec3 toy = spc_normalize(spc_sub(pb.y, v->h.p));
-            if (spc_length(spc_sub(v->d, toy)) > 1e-5)
-                continue; /* a normal discontinuity at an edge sent the ray elsewhere */
-            ++n;
+        /* a dielectric's reflections too where chains may reflect off glass (params.reflect) */
+        bool both = event == SPC_CHAIN_REFRACT && q->params && q->params->reflect;
+        for (int pass = 0; pass < (both ? 2 : 1); ++pass) {
+            if (pass == 1)
+                event = SPC_CHAIN_REFLECT;
+            spc_conic_problem pb;
+            pb.x = q->x->p;
+            pb.y = q->y;
+            pb.event = event == SPC_CHAIN_REFRACT ? SPC_CONIC_REFRACT : SPC_CONIC_REFLECT;
+            pb.eta = eta;
+            pb.front_only = s->bsdf && s->bsdf->type == SPC_BSDF_CONDUCTOR; /* not a twosided one */
+            int ns = spc_conic_mesh_solve(m, &pb, sol, SPC_CONIC_MAX_MESH_SOLUTIONS, false, &st);
+            for (int k = 0; k < ns && n < max_out; ++k) {
+                /* trace x -> P: the first hit must be this shape at P, which gives the chain its
+                 * derivatives and proves the first segment unblocked */
+                /* aimed from the offset origin the ray will leave from, so that it meets P itself */
+                spc_vec3 dir = spc_sub(sol[k].p, pb.x);
+                dir = spc_sub(sol[k].p, spc_hit_offset(q->x, dir));
+                double dist = spc_length(dir);
+                if (!(dist > 0.0))
+                    continue;
+                spc_frame fr = spc_frame_from_n(spc_scale(dir, 1.0 / dist));
+                spc_chain_sig sig;
+                memset(&sig, 0, sizeof sig);
+                sig.n = 1;
+                sig.shape[0] = i;
+                sig.event[0] = (unsigned char)event;
+                spc_chain_opts opts = spc_chain_opts_default(1);
+                opts.fixed = &sig;
+                opts.any_surface = q->any_surface;
+                spc_chain *c = &out[n];
+                if (spc_chain_trace(sc, q->x, &fr, 0.0, 0.0, &opts, c) != SPC_CHAIN_END_SURFACE || c->n != 1)
+                    continue;
+                const spc_chain_vertex *v = &c->v[0];
+                if (spc_distance(v->h.p, sol[k].p) > 1e-6 * dist + 1e-6 * spc_distance(sol[k].p, pb.y))
+                    continue; /* hit elsewhere first (the same mesh in front) */
+                spc_vec3 toy = spc_normalize(spc_sub(pb.y, v->h.p));
+                if (spc_length(spc_sub(v->d, toy)) > 1e-5)
+                    continue; /* a normal discontinuity at an edge sent the ray elsewhere */
+                ++n;
+            }
         }
     }
     if (iterations)

@@ -569,8 +569,11 @@ bool spc_newton_seed_straight(const spc_scene *sc, const spc_hit *x, spc_vec3 y,
     return p->n >= 1;
 }
 
-bool spc_newton_seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int max_vertices, bool any_surface,
-                           const double (*rough_u)[2], spc_vec3 ref, spc_newton_path *p)
+/* spc_newton_seed_trace; with event_u, the event at each smooth dielectric vertex is picked as
+ * spc_chain_pick_event does. */
+static bool seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int max_vertices, bool any_surface,
+                       const double (*rough_u)[2], spc_vec3 ref, const double *event_u, double reflect_min,
+                       spc_newton_path *p)
 {
     p->n = 0;
     p->ref = ref;
@@ -588,6 +591,11 @@ bool spc_newton_seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, 
             return p->n >= 1;
         if (v->rough)
             rough_normal(v, rough_u[p->n]);
+        else if (event_u && v->event == SPC_CHAIN_REFRACT) {
+            v->event = spc_chain_pick_event(&v->h, d, v->event, event_u[p->n], reflect_min, NULL);
+            if (v->event == SPC_CHAIN_REFLECT)
+                v->eta = 1.0;
+        }
         spc_vec3 n = vertex_normal(v, ref), wi = spc_neg(d);
         double c = spc_dot(wi, n);
         if (v->event == SPC_CHAIN_REFLECT) {
@@ -610,6 +618,12 @@ bool spc_newton_seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, 
         ++p->n;
         r = spc_hit_spawn(&v->h, d);
     }
+}
+
+bool spc_newton_seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int max_vertices, bool any_surface,
+                           const double (*rough_u)[2], spc_vec3 ref, spc_newton_path *p)
+{
+    return seed_trace(sc, x, dir, max_vertices, any_surface, rough_u, ref, NULL, 0.0, p);
 }
 
 void spc_newton_path_from_chain(const spc_chain *c, spc_newton_path *p)
@@ -836,8 +850,14 @@ bool spc_newton_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chai
             return false;
     } else {
         spc_vec3 dir;
+        double event_u[SPC_CHAIN_MAX_VERTICES];
+        bool reflect = q->params->reflect;
+        if (reflect)
+            for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
+                event_u[i] = spc_rng_next(rng);
         if (!spc_snee_seed_direction(q, rng, &dir) ||
-            !spc_newton_seed_trace(q->scene, q->x, dir, q->max_chain, q->any_surface, NULL, noref, &p))
+            !seed_trace(q->scene, q->x, dir, q->max_chain, q->any_surface, NULL, noref, reflect ? event_u : NULL,
+                        q->params->reflect_min, &p))
             return false;
     }
     spc_newton_result res;

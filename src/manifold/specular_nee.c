@@ -13,6 +13,7 @@
  */
 #include "manifold/specular_nee.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 #include "manifold/conic.h"
@@ -45,6 +46,10 @@
  * rim, near a fold): at 64, 0.4-0.7% of the counts were cut (bias, tests/test_manifold.c's glass
  * ball), at 256 none in that test while the mean trial count stays 2.2. Bias only below p ~ 1%. */
 #define SPC_SNEE_ANGULAR_MAX_TRIALS 256
+/* reflect's default least probability of either event at a dielectric vertex of a seed chain: the
+ * rest follows Fresnel (F ~ 0.04 at normal incidence would make a reflection chain's trial count
+ * long and often capped). Measured in bench/RESULTS.md (Session 4). */
+#define SPC_SNEE_REFLECT_MIN 0.2
 /* Solutions kept from a solver that enumerates them all (solve_all): one interface rarely has more
  * than a handful between two points. */
 #define SPC_SNEE_MAX_ALL 16
@@ -100,6 +105,22 @@ static bool parse_count(const char *s, size_t n, int *out)
     return true;
 }
 
+/* Parses a number in [lo, hi] ("0.25", ".1", "0"); false unless the whole string is one. */
+static bool parse_real(const char *s, size_t n, double lo, double hi, double *out)
+{
+    char buf[32];
+    if (n == 0 || n >= sizeof buf)
+        return false;
+    memcpy(buf, s, n);
+    buf[n] = '\0';
+    char *end;
+    double v = strtod(buf, &end);
+    if (end != buf + n || !(v >= lo && v <= hi))
+        return false;
+    *out = v;
+    return true;
+}
+
 static bool opt_is(const char *s, size_t n, const char *name) { return strlen(name) == n && !strncmp(s, name, n); }
 
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
@@ -132,6 +153,13 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
             p->biased = false;
         } else if (opt_is(o, n, "nomis")) {
             p->no_mis = true;
+        } else if (opt_is(o, kn, "mispsi") && val) {
+            if (!parse_real(val, vn, 1e-6, 1.0, &p->mis_solve))
+                return false;
+        } else if (opt_is(o, kn, "reflect")) {
+            p->reflect = true;
+            if (val && !parse_real(val, vn, 0.0, 0.5, &p->reflect_min))
+                return false;
         } else if (opt_is(o, kn, "biased")) {
             p->biased = true;
             if (val && !parse_count(val, vn, &p->biased_seeds))
@@ -163,9 +191,10 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
             return false;
         }
         if (!end)
-            return true;
+            break;
         o = end + 1;
     }
+    return !(p->reflect && p->newton.rough); /* the rough mode's chains refract through glass */
 }
 
 void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
@@ -180,6 +209,9 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     spc_newton_options_default(&p->newton);
     p->biased = false;
     p->biased_seeds = SPC_SNEE_BIASED_SEEDS;
+    p->reflect = false;
+    p->reflect_min = SPC_SNEE_REFLECT_MIN;
+    p->mis_solve = 1.0;
     if (solver != SPC_SNEE_NEWTON) {
         p->angular.window = SPC_SNEE_ANGULAR_WINDOW;
         p->angular.window_keep = SPC_SNEE_ANGULAR_WINDOW_KEEP;
@@ -336,7 +368,8 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
         return zero;
     double w = 1.0;
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0)
-        w = spc_snee_mis_weight(q->p_y, spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0) * G);
+        w = spc_snee_mis_weight(q->p_y * (q->psi > 0.0 ? q->psi : 1.0),
+                                spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0) * G);
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * w);
 }
 
@@ -550,8 +583,46 @@ double spc_snee_light_pdf(const spc_scene *sc, bool any_surface, const spc_emitt
     return pmf / (2.0 * SPC_PI * R * R * (1.0 - cmin));
 }
 
+/* The straight-line attempt of params.straight_first (deterministic: seeded toward y, the BSDFs'
+ * events): false if it does not apply to q or finds nothing. */
+static bool straight_solve(const spc_snee_query *q, const spc_specular_solver *solver, spc_chain *out, int *iterations)
+{
+    const spc_snee_params *p = q->params;
+    bool random_seed = p->seed == SPC_SNEE_SEED_SHAPE || p->seed == SPC_SNEE_SEED_CONE;
+    if (!p->straight_first || !random_seed || p->biased || !solver || !solver->solve_one || solver->solve_all ||
+        !spc_snee_straight_hits_glass(q))
+        return false;
+    spc_snee_query ql = *q;
+    ql.seed = SPC_SNEE_SEED_LIGHT;
+    ql.want = NULL;
+    return solver->solve_one(&ql, NULL, out, iterations);
+}
+
+/* psi (spc_snee_params.mis) of a chain a randomized attempt finds. */
+static double random_psi(const spc_snee_params *p)
+{
+    return p->biased || !(p->mis_solve > 0.0 && p->mis_solve < 1.0) ? 1.0 : p->mis_solve;
+}
+
+/* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
+ * straight-line solution), else random_psi. */
+static double chain_psi(const spc_snee_query *q, const spc_chain *c)
+{
+    const spc_snee_params *p = q->params;
+    const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
+    if (!solver || random_psi(p) == 1.0)
+        return 1.0;
+    if (solver->solve_all && solver->covers && solver->covers(c))
+        return 1.0;
+    spc_chain straight;
+    int it = 0;
+    if (straight_solve(q, solver, &straight, &it) && spc_snee_same_solution(&straight, c, q->scene->radius))
+        return 1.0;
+    return random_psi(p);
+}
+
 double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
-                                spc_vec3 d0, int k, const spc_hit *light)
+                                spc_vec3 d0, int max_chain, int k, const unsigned char *events, const spc_hit *light)
 {
     const spc_emitter *e = light->emitter;
     if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
@@ -562,6 +633,7 @@ double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, c
     spc_frame fr = spc_frame_from_n(d0);
     spc_chain_opts o = spc_chain_opts_default(k);
     o.any_surface = p->any_surface;
+    o.events = events;
     spc_chain c;
     if (spc_chain_trace(sc, x, &fr, 0.0, 0.0, &o, &c) != SPC_CHAIN_END_SURFACE || c.n != k || !c.has_end_hit ||
         c.end_hit.emitter != e || spc_distance(c.end_hit.p, light->p) > 1e-6 * (sc->radius + spc_max_abs(light->p)))
@@ -570,7 +642,22 @@ double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, c
     if (!(G > 0.0) || !isfinite(G))
         return 0.0;
     double p_b = spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0) * G;
-    return 1.0 - spc_snee_mis_weight(p_y, p_b);
+    /* psi as specular NEE has it for this chain toward this light point */
+    spc_snee_query q;
+    memset(&q, 0, sizeof q);
+    q.scene = sc;
+    q.x = x;
+    q.wo = wo;
+    q.y = light->p;
+    q.ny = light->ng;
+    q.light_size = sqrt(e->shape->area);
+    q.max_chain = max_chain;
+    q.seed = p->seed;
+    q.any_surface = p->any_surface;
+    q.params = p;
+    q.p_y = p_y;
+    double psi = chain_psi(&q, &c);
+    return 1.0 - spc_snee_mis_weight(psi * p_y, p_b);
 }
 
 int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface)
@@ -641,24 +728,18 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
 
     /* the straight-line solution, counted exactly (spc_snee_params.straight_first) */
     spc_chain straight;
-    bool have_straight = false;
-    bool random_seed = p->seed == SPC_SNEE_SEED_SHAPE || p->seed == SPC_SNEE_SEED_CONE;
-    if (p->straight_first && random_seed && !solver->solve_all && spc_snee_straight_hits_glass(&q)) {
-        spc_snee_query ql = q;
-        ql.seed = SPC_SNEE_SEED_LIGHT;
-        int it = 0;
-        have_straight = solver->solve_one(&ql, rng, &straight, &it);
+    int it = 0;
+    bool have_straight = straight_solve(&q, solver, &straight, &it);
+    if (st)
+        st->iterations += (uint64_t)it;
+    if (have_straight) {
+        spc_rgb vs = spc_snee_chain_value(&q, e, uv, &straight);
         if (st)
-            st->iterations += (uint64_t)it;
-        if (have_straight) {
-            spc_rgb vs = spc_snee_chain_value(&q, e, uv, &straight);
+            st->straight++;
+        if (!spc_rgb_is_black(vs)) {
+            total = spc_rgb_add(total, spc_rgb_scale(vs, 1.0 / p_y));
             if (st)
-                st->straight++;
-            if (!spc_rgb_is_black(vs)) {
-                total = spc_rgb_add(total, spc_rgb_scale(vs, 1.0 / p_y));
-                if (st)
-                    st->contributions++;
-            }
+                st->contributions++;
         }
     }
 
@@ -675,6 +756,7 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
         return total; /* counted exactly above */
     if (st)
         st->solved++;
+    q.psi = random_psi(p); /* neither the straight-line solution nor one of solve_all's */
     spc_rgb v = spc_snee_chain_value(&q, e, uv, &sol);
     if (spc_rgb_is_black(v))
         return total;
@@ -709,7 +791,8 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
 
 /* ---- exclusion of the covered paths from BSDF sampling ---- */
 
-void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, int snee_budget, bool any_surface)
+void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, int snee_budget, bool any_surface,
+                            bool reflect)
 {
     if (!(lobe & SPC_LOBE_DELTA)) {
         /* a non-delta scattering: a new receiver, tracked if specular NEE ran there */
@@ -718,6 +801,7 @@ void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, 
         t->max_chain = snee_budget;
         t->single_ok = t->multi_ok = true;
         t->any_surface = any_surface;
+        t->reflect = reflect;
         return;
     }
     if (!t->live)
@@ -727,11 +811,15 @@ void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, 
         t->live = false;
         return;
     }
+    /* the BSDF's event, or with reflect either delta lobe of a dielectric */
+    if (event == SPC_CHAIN_REFRACT && t->reflect && lobe == SPC_LOBE_DELTA_REFLECTION)
+        event = SPC_CHAIN_REFLECT;
     unsigned want = event == SPC_CHAIN_REFLECT ? SPC_LOBE_DELTA_REFLECTION : SPC_LOBE_DELTA_TRANSMISSION;
-    if (lobe != want || ++t->k > t->max_chain) {
+    if (lobe != want || t->k >= t->max_chain) {
         t->live = false;
         return;
     }
+    t->events[t->k++] = (unsigned char)event;
     if (!t->any_surface) {
         t->single_ok = t->single_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 1);
         t->multi_ok = t->multi_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 2);
@@ -784,7 +872,7 @@ void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, 
             t->live = false; /* any other lobe: not a chain vertex, and never a receiver */
         return;
     }
-    spc_snee_track_scatter(t, h, lobe, snee_budget, p->any_surface);
+    spc_snee_track_scatter(t, h, lobe, snee_budget, p->any_surface, p->reflect && !rough_mode(p));
 }
 
 bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,

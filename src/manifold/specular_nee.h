@@ -26,8 +26,9 @@
  *   - then k vertices, 1 <= k <= max_chain (also limited by max_depth), each on a shape whose BSDF
  *     is a smooth specular interface (spc_bsdf_is_specular_interface), with no emitter, allowed in
  *     chains of k vertices (spc_chain_caster_allowed), where the light REFLECTS off conductors and
- *     REFRACTS through dielectrics (a reflection off a dielectric, total internal reflection
- *     included, is not a chain vertex);
+ *     REFRACTS through dielectrics; with params.reflect it may also REFLECT off dielectrics (outside
+ *     or inside, total internal reflection included), otherwise such a reflection is not a chain
+ *     vertex;
  *   - then the surface of an area emitter (point and spot lights cannot be hit; environment and
  *     directional lights are not handled: their chains stay with BSDF sampling).
  */
@@ -90,10 +91,24 @@ typedef struct spc_snee_params {
      * dropping them. The weight pretends the solver finds every chain (p_solve = 1): any
      * deterministic pair of weights that sums to 1 keeps both estimators unbiased, and where G is
      * large (near a caustic's folds and focus, where a light sample's contribution is heavy-tailed)
-     * BSDF sampling takes the path. */
+     * BSDF sampling takes the path.
+     * The solver's probability of finding a chain enters as a deterministic stand-in psi (any
+     * function of the path keeps the weights summing to 1): p_y is replaced by psi p_y, psi = 1 for
+     * the chains found exactly (solve_all's, and the straight-line solution of straight_first, which
+     * the BSDF side recomputes from x and y) and psi = mis_solve for the chains a randomized attempt
+     * finds, whose <1/p_solve> trial count makes them heavy-tailed where p_solve is small. */
     bool mis;
+    double mis_solve;
     bool no_mis; /* the user's "nomis" option: the integrator does not set mis (covered BSDF paths
                     are then dropped, as before MIS) */
+    /* Reflection at dielectric vertices (the user's "reflect[=P]"): chains may reflect off glass as
+     * well as refract through it (the light's reflection in a glass ball on the floor, internal
+     * reflections). A randomized attempt picks the event at each dielectric vertex of its seed chain
+     * (spc_chain_pick_event: reflection with probability reflect_min + (1 - 2 reflect_min) F); the
+     * Bernoulli trials then estimate the probability of the signature along with the rest. conic
+     * enumerates both events on meshes. Not with the rough newton mode. */
+    bool reflect;
+    double reflect_min;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
@@ -120,6 +135,8 @@ typedef struct spc_snee_query {
      * NULL otherwise. */
     const spc_chain_sig *want;
     double p_y; /* the light point's density (spc_snee_sample_light), for the MIS weight */
+    double psi; /* the MIS weight's stand-in for the solve probability of the chain valued (params.mis;
+                   0 counts as 1) */
 } spc_snee_query;
 
 /* A solver: one randomized attempt from the query's seed distribution (the same distribution on
@@ -146,6 +163,10 @@ typedef struct spc_specular_solver {
  *   constraint=angle|half   newton: angle differences (default) or half vectors
  *   rough               newton: rough dielectrics and conductors are chain vertices (newton.h)
  *   nomis               no MIS with BSDF sampling (params.no_mis): covered paths left to NEE alone
+ *   reflect[=P]         chains also reflect at dielectric vertices (params.reflect; P, default
+ *                       SPC_SNEE_REFLECT_MIN, the least probability of either event, in [0, 0.5])
+ *   mispsi=Q            params.mis_solve, in (0, 1]: the MIS weight's stand-in for the probability
+ *                       that a randomized attempt finds a chain
  * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
  * options. False (p undefined) for an unknown name or option, or a bad value. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);
@@ -180,11 +201,13 @@ static inline double spc_snee_mis_weight(double p_y, double p_b)
 }
 
 /* For the path integrator with params.mis: the weight of a BSDF-sampled path that specular NEE
- * covers (spc_snee_track_covers), which left the receiver x (toward wo) along d0 and reached the
- * area emitter e at the hit `light` through `k` chain vertices. Retraces the chain from x for its
- * geometry term; 0 (the path dropped, as without MIS) if the retrace does not reproduce it. */
+ * covers (spc_snee_track_covers), which left the receiver x (toward wo, specular NEE's budget there
+ * max_chain) along d0 and reached the area emitter e at the hit `light` through `k` chain vertices
+ * with these events (the track's; NULL: the BSDFs' own). Retraces the chain from x for its geometry
+ * term, and for psi the straight-line solution from x to the light point where specular NEE would
+ * have looked for one; 0 (the path dropped, as without MIS) if the retrace does not reproduce it. */
 double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
-                                spc_vec3 d0, int k, const spc_hit *light);
+                                spc_vec3 d0, int max_chain, int k, const unsigned char *events, const spc_hit *light);
 
 /* Does the straight segment from x toward y first meet a refracting caster (params->straight_first
  * applies)? Toward a mirror, or past every caster, the straight line leads nowhere. One ray. */
@@ -230,6 +253,8 @@ typedef struct spc_snee_track {
     bool single_ok; /* every vertex allowed in chains of one vertex */
     bool multi_ok;  /* every vertex allowed in chains of more than one */
     bool any_surface;
+    bool reflect;   /* dielectric vertices may reflect (params.reflect) */
+    unsigned char events[SPC_CHAIN_MAX_VERTICES]; /* the chain event at each vertex passed */
 } spc_snee_track;
 
 /* Specular NEE's chain budget at x: max_chain if x is a receiver with a non-delta lobe, else 0. */
@@ -254,8 +279,10 @@ bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params 
                                  const spc_hit *h, spc_vec3 wo, spc_vec3 wi, const spc_emitter *e);
 
 /* After BSDF sampling at a path vertex: `snee_budget` is the max_chain specular NEE used there (0 if
- * it did not run: then the path is not tracked), `lobe` the sampled lobe. */
-void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, int snee_budget, bool any_surface);
+ * it did not run: then the path is not tracked), `lobe` the sampled lobe; any_surface and reflect
+ * as the params have them. */
+void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, int snee_budget, bool any_surface,
+                            bool reflect);
 /* At an emitter hit: true if specular NEE already counted this path (drop it). */
 bool spc_snee_track_covers(const spc_snee_track *t, const spc_scene *sc, const spc_emitter *e);
 
