@@ -1524,10 +1524,11 @@ TEST(caustic_image_path_snee_vs_ipt)
         return;
     double t_ref = 0.0, t_snee = 0.0;
     spc_film *ref = render_with(sc, "ipt", "none", 8192, 11, &t_ref);
-    /* the default chains, and chains that also reflect off the ball (MIS with the BSDF-sampled
-     * reflections through the track's events) */
-    const char *settings[2] = {"angular", "angular:reflect"};
-    for (int si = 0; si < 2; ++si) {
+    /* the default chains, chains that also reflect off the ball (MIS with the BSDF-sampled
+     * reflections through the track's events), and those with psi 0.1 and specular NEE at the first
+     * receiver only */
+    const char *settings[3] = {"angular", "angular:reflect", "angular:reflect,mispsi=0.1,receivers=1"};
+    for (int si = 0; si < 3; ++si) {
         spc_film *img = render_with(sc, "path", settings[si], 256, 12, &t_snee);
         CHECK(ref && img);
         printf("    %s:\n", settings[si]);

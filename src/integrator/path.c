@@ -55,6 +55,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     out->normal = spc_v3(0, 0, 0);
     out->depth = 0.0;
 
+    int receivers = 0; /* non-delta vertices so far (spc_snee_params.receivers) */
     for (int segments = 1;; ++segments) {
         /* segments: the number of path segments once this ray is traced */
         spc_hit h;
@@ -131,6 +132,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < budget)
                 budget = ctx->max_depth - segments - 1;
             snee_budget = spc_snee_budget_params(&snp, &h, budget);
+            if (snp.receivers > 0 && receivers >= snp.receivers)
+                snee_budget = 0; /* past the vertices specular NEE runs at */
             if (snee_budget > 0) {
                 /* its own deterministic stream: the sampler's dimensions stay as without it */
                 spc_rng rng;
@@ -156,6 +159,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 mis_d0 = bs.wi;
             }
         }
+        if (!(bs.lobe & SPC_LOBE_DELTA))
+            ++receivers;
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))
             break;

@@ -156,6 +156,9 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
         } else if (opt_is(o, kn, "mispsi") && val) {
             if (!parse_real(val, vn, 1e-6, 1.0, &p->mis_solve))
                 return false;
+        } else if (opt_is(o, kn, "receivers") && val) {
+            if (!parse_count(val, vn, &p->receivers))
+                return false;
         } else if (opt_is(o, kn, "reflect")) {
             p->reflect = true;
             if (val && !parse_real(val, vn, 0.0, 0.5, &p->reflect_min))

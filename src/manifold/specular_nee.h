@@ -109,6 +109,11 @@ typedef struct spc_snee_params {
      * enumerates both events on meshes. Not with the rough newton mode. */
     bool reflect;
     double reflect_min;
+    /* Specular NEE at the first `receivers` non-delta vertices of a camera path only (0: at all;
+     * the user's "receivers=N"). Unbiased: where it does not run, BSDF sampling keeps the paths it
+     * would have covered (the track starts nowhere). Deep vertices carry little of the image and
+     * cost as much as the first (an enclosed pool: over half of the calls). */
+    int receivers;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
@@ -167,6 +172,7 @@ typedef struct spc_specular_solver {
  *                       SPC_SNEE_REFLECT_MIN, the least probability of either event, in [0, 0.5])
  *   mispsi=Q            params.mis_solve, in (0, 1]: the MIS weight's stand-in for the probability
  *                       that a randomized attempt finds a chain
+ *   receivers=N         params.receivers: specular NEE at the first N non-delta path vertices only
  * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
  * options. False (p undefined) for an unknown name or option, or a bad value. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);
