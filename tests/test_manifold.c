@@ -1529,7 +1529,10 @@ TEST(caustic_image_path_snee_vs_ipt)
      * receiver only */
     const char *settings[3] = {"angular", "angular:reflect", "angular:reflect,mispsi=0.1,receivers=1"};
     for (int si = 0; si < 3; ++si) {
-        spc_film *img = render_with(sc, "path", settings[si], 256, 12, &t_snee);
+        /* 1024 spp: at 256 the caustic's heavy tail left every setting's image mean ~3% low (the
+         * sample variance underestimates such an estimator's error at low counts; at 4096 spp all
+         * settings agree with plain path tracing within 1 se) */
+        spc_film *img = render_with(sc, "path", settings[si], 1024, 12, &t_snee);
         CHECK(ref && img);
         printf("    %s:\n", settings[si]);
         if (ref && img) {

@@ -21,6 +21,9 @@
 /* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
 #define SPC_SNEE_CONE_COS 0.9
 
+/* Area-point seeds (SEED_SHAPE, and SEED_CONE from inside a caster's bounding sphere): points of the
+ * shape drawn until one faces x, at most this many. Measured in bench/RESULTS.md (Session 4). */
+#define SPC_SNEE_FACING_TRIES 16
 /* Cap of the attempts counted for <1/p_solve>. The count is cut for solutions found with
  * probability below about 3/cap; at 64 that is p < 5%, seeds that rarely lead anywhere, and the
  * cost of one estimate stays bounded (each attempt is a full solve). */
@@ -301,8 +304,14 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
                 }
             }
         }
+        /* a uniform point of the shape, preferably one that faces x (a closed caster's first hit
+         * from outside does; an open one seen from behind has none, and keeps the last point) */
         spc_shape_sample ss;
-        spc_shape_sample_area(pick, spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &ss);
+        for (int i = 0; i < SPC_SNEE_FACING_TRIES; ++i) {
+            spc_shape_sample_area(pick, spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &ss);
+            if (spc_dot(ss.n, spc_sub(q->x->p, ss.p)) > 0.0)
+                break;
+        }
         spc_vec3 d = spc_sub(ss.p, q->x->p);
         double l = spc_length(d);
         if (!(l > 0.0))
