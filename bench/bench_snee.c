@@ -189,7 +189,7 @@ static bool parse_config(const char *s, spc_snee_params *p)
             p->biased = true;
         else if (!strncmp(tok, "reflect=", 8)) {
             p->reflect = true;
-            p->reflect_min = atof(tok + 8);
+            p->reflect_p = atof(tok + 8);
         } else if (!strcmp(tok, "cone"))
             p->seed = SPC_SNEE_SEED_CONE;
         else

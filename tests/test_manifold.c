@@ -1003,36 +1003,32 @@ static spc_hit shape_hit(const spc_scene *sc, int i)
 }
 
 
-/* The event picker: a conductor always reflects; a dielectric reflects with probability
- * reflect_min + (1 - 2 reflect_min) F (F = 1 under total internal reflection), and the reported
- * probabilities of the two events sum to 1. */
+/* The event picker: a conductor always reflects; a dielectric reflects with probability reflect_p,
+ * and the probability of a signature's events is the product over its dielectric vertices. */
 TEST(chain_pick_event)
 {
     spc_scene *sc = spc_scene_create();
-    add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
-    add_sphere(sc, spc_v3(5, 0, 0), 1.0, tu_mirror(sc));
+    add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5)); /* 0 */
+    add_sphere(sc, spc_v3(5, 0, 0), 1.0, tu_mirror(sc));     /* 1 */
     CHECK(finalize(sc));
-    spc_hit g = shape_hit(sc, 0), m = shape_hit(sc, 1);
-    double worst = 0.0;
     for (int i = 0; i < 200; ++i) {
-        spc_vec3 d = spc_warp_uniform_sphere(spc_v2(rnd(), rnd()));
-        double u = rnd(), rm = 0.5 * rnd(), pr, pt;
-        double F = spc_fresnel_dielectric(-d.z, 1.5, NULL, NULL);
-        double P = rm + (1.0 - 2.0 * rm) * F;
-        int e = spc_chain_pick_event(&g, d, SPC_CHAIN_REFRACT, u, rm, &pr);
+        double u = rnd(), P = 0.05 + 0.9 * rnd(), pr, pm;
+        int e = spc_chain_pick_event(SPC_CHAIN_REFRACT, u, P, &pr);
         CHECK(e == (u < P ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT));
-        spc_chain_pick_event(&g, d, SPC_CHAIN_REFRACT, u < P ? 1.0 : 0.0, rm, &pt); /* the other event */
-        worst = spc_max(worst, fabs(pr + pt - 1.0) + fabs((e == SPC_CHAIN_REFLECT ? pr : pt) - P));
-        double pm;
-        CHECK(spc_chain_pick_event(&m, d, SPC_CHAIN_REFLECT, u, rm, &pm) == SPC_CHAIN_REFLECT && pm == 1.0);
+        CHECK(pr == (u < P ? P : 1.0 - P));
+        CHECK(spc_chain_pick_event(SPC_CHAIN_REFLECT, u, P, &pm) == SPC_CHAIN_REFLECT && pm == 1.0);
     }
-    CHECK_MSG(worst < 1e-12, "probabilities off by %.2e", worst);
-    /* beyond the critical angle from inside: reflection with probability 1 - reflect_min */
-    double pr;
-    spc_vec3 grazing = spc_normalize(spc_v3(1, 0, 0.2)); /* leaving through the normal's side, from inside */
-    CHECK(spc_chain_pick_event(&g, grazing, SPC_CHAIN_REFRACT, 0.79, 0.2, &pr) == SPC_CHAIN_REFLECT);
-    CHECK(fabs(pr - 0.8) < 1e-12);
-    CHECK(spc_chain_pick_event(&g, grazing, SPC_CHAIN_REFRACT, 0.81, 0.2, &pr) == SPC_CHAIN_REFRACT);
+    spc_chain_sig sig;
+    memset(&sig, 0, sizeof sig);
+    sig.n = 3;
+    sig.shape[0] = 0, sig.event[0] = SPC_CHAIN_REFRACT;
+    sig.shape[1] = 1, sig.event[1] = SPC_CHAIN_REFLECT;
+    sig.shape[2] = 0, sig.event[2] = SPC_CHAIN_REFLECT;
+    CHECK(fabs(spc_chain_events_prob(sc, &sig, true, 0.2) - 0.8 * 0.2) < 1e-15);
+    sig.n = 2;
+    CHECK(fabs(spc_chain_events_prob(sc, &sig, true, 0.3) - 0.7) < 1e-15);
+    sig.shape[1] = 7; /* no such shape */
+    CHECK(spc_chain_events_prob(sc, &sig, true, 0.3) == 0.0);
     spc_scene_destroy(sc);
 }
 

@@ -922,16 +922,17 @@ TEST(parse_specular_nee_options)
           p.seed == SPC_SNEE_SEED_BSDF);
     CHECK(spc_snee_parse("", 2, &p) && p.solver == SPC_SNEE_NONE);
     CHECK(spc_snee_parse("angular", 2, &p) && !p.reflect && p.mis_solve == 1.0);
-    CHECK(spc_snee_parse("angular:reflect", 2, &p) && p.reflect && p.reflect_min > 0.0 && p.reflect_min <= 0.5);
-    CHECK(spc_snee_parse("newton:reflect=0.05,mispsi=0.25", 2, &p) && p.reflect && p.reflect_min == 0.05 &&
+    CHECK(spc_snee_parse("angular:reflect", 2, &p) && p.reflect && p.reflect_p > 0.0 && p.reflect_p < 1.0);
+    CHECK(spc_snee_parse("newton:reflect=0.05,mispsi=0.25", 2, &p) && p.reflect && p.reflect_p == 0.05 &&
           p.mis_solve == 0.25);
-    CHECK(spc_snee_parse("conic:reflect=0,mispsi=1", 2, &p) && p.reflect && p.reflect_min == 0.0 && p.mis_solve == 1.0);
+    CHECK(spc_snee_parse("conic:reflect=0.5,mispsi=1", 2, &p) && p.reflect && p.reflect_p == 0.5 && p.mis_solve == 1.0);
     CHECK(spc_snee_parse("angular", 2, &p) && p.receivers == 0);
     CHECK(spc_snee_parse("angular:receivers=1", 2, &p) && p.receivers == 1);
     /* mistakes are refused, not ignored */
     const char *bad[] = {"newtn", "newton:", "newton:biased=0", "newton:biased=x", "newton:seed=sun",
                          "newton:fast", "angular:rough", "angular:constraint=half", "none:biased",
-                         "newton:trials=", "newton:biased=8,,rough", "angular:reflect=0.6", "angular:reflect=x",
+                         "newton:trials=", "newton:biased=8,,rough", "angular:reflect=1", "angular:reflect=0",
+                         "angular:reflect=x",
                          "angular:reflect=", "angular:mispsi=0", "angular:mispsi=1.5", "angular:mispsi",
                          "newton:rough,reflect", "angular:receivers=0", "angular:receivers"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i)

@@ -267,13 +267,15 @@ bool spc_angular_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_cha
     spc_chain_opts o = spc_chain_opts_default(q->max_chain);
     o.any_surface = q->any_surface;
     double event_u[SPC_CHAIN_MAX_VERTICES];
-    if (q->params->reflect && q->seed != SPC_SNEE_SEED_LIGHT) {
+    if (q->events) {
+        o.events = q->events; /* trials for <1/p_solve> with reflect: the solution's events */
+    } else if (q->params->reflect && q->seed != SPC_SNEE_SEED_LIGHT) {
         /* the events of the seed chain's dielectric vertices (the straight-line seed keeps the
          * BSDFs' events: it is deterministic) */
         for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
             event_u[i] = spc_rng_next(rng);
         o.event_u = event_u;
-        o.reflect_min = q->params->reflect_min;
+        o.reflect_p = q->params->reflect_p;
     }
     spc_angular_target tg;
     tg.y = q->y;

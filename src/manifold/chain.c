@@ -59,20 +59,31 @@ bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event)
     return spc_chain_shape_is_caster(h->shape, any_surface, event);
 }
 
-int spc_chain_pick_event(const spc_hit *h, spc_vec3 d, int event, double u, double reflect_min, double *prob)
+int spc_chain_pick_event(int event, double u, double reflect_p, double *prob)
 {
-    double eta = 0.0;
-    if (event != SPC_CHAIN_REFRACT || !spc_bsdf_is_specular_interface(h->bsdf, &eta) || !(eta > 0.0)) {
+    if (event != SPC_CHAIN_REFRACT) {
         if (prob)
             *prob = 1.0;
         return event;
     }
-    double F = spc_fresnel_dielectric(-spc_dot(d, h->sh.n), eta, NULL, NULL);
-    double P = reflect_min + (1.0 - 2.0 * reflect_min) * F;
-    bool r = u < P;
+    bool r = u < reflect_p;
     if (prob)
-        *prob = r ? P : 1.0 - P;
+        *prob = r ? reflect_p : 1.0 - reflect_p;
     return r ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
+}
+
+double spc_chain_events_prob(const spc_scene *sc, const spc_chain_sig *sig, bool any_surface, double reflect_p)
+{
+    double P = 1.0;
+    for (int i = 0; i < sig->n; ++i) {
+        int ev = SPC_CHAIN_REFLECT;
+        if (sig->shape[i] < 0 || sig->shape[i] >= sc->nshapes ||
+            !spc_chain_shape_is_caster(sc->shapes[sig->shape[i]], any_surface, &ev))
+            return 0.0;
+        if (ev == SPC_CHAIN_REFRACT)
+            P *= sig->event[i] == SPC_CHAIN_REFLECT ? reflect_p : 1.0 - reflect_p;
+    }
+    return P;
 }
 
 spc_vec3 spc_chain_direction(const spc_frame *f, double a, double b, spc_vec3 dd[2])
@@ -243,7 +254,7 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
         } else if (opts->events) {
             event = opts->events[i];
         } else if (opts->event_u && chain_surface) {
-            event = spc_chain_pick_event(&h, d, event, opts->event_u[i], opts->reflect_min, NULL);
+            event = spc_chain_pick_event(event, opts->event_u[i], opts->reflect_p, NULL);
         }
 
         spc_chain_vertex *v = &c->v[i];

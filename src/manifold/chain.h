@@ -103,10 +103,10 @@ typedef struct spc_chain_opts {
     const unsigned char *events; /* without fixed: forced event per vertex, or NULL: the BSDF's
                                     (conductor: reflect, dielectric: refract) */
     /* without fixed and events: one uniform number per vertex that picks the event at a dielectric
-     * vertex by spc_chain_pick_event (reflection with probability reflect_min + (1 - 2 reflect_min)
-     * F), or NULL: the BSDF's events. Conductors reflect either way. */
+     * vertex by spc_chain_pick_event (reflection with probability reflect_p), or NULL: the BSDF's
+     * events. Conductors reflect either way. */
     const double *event_u;
-    double reflect_min;
+    double reflect_p;
     bool any_surface;            /* every specular interface is a chain surface, whatever its
                                     caustic flags (tests, benchmarks) */
     bool find_end;               /* with fixed: also intersect the final segment (end, end_hit) */
@@ -126,13 +126,16 @@ bool spc_chain_shape_is_caster(const spc_shape *s, bool any_surface, int *event)
  * chain length unless any_surface)? *event receives the BSDF's event. */
 bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event);
 
-/* The event at a chain vertex on h reached along the unit direction d, when dielectric vertices may
- * also reflect (spc_chain_opts.event_u): a conductor (event REFLECT) reflects; a dielectric
- * reflects with probability P = reflect_min + (1 - 2 reflect_min) F, F its Fresnel reflectance at
- * the shading normal (1 under total internal reflection), i.e. when u < P, and refracts otherwise.
- * reflect_min in [0, 0.5] keeps both events possible. *prob (may be NULL) receives the probability
- * of the event returned. */
-int spc_chain_pick_event(const spc_hit *h, spc_vec3 d, int event, double u, double reflect_min, double *prob);
+/* The event at a chain vertex whose BSDF's event is `event`, when dielectric vertices may also
+ * reflect (spc_chain_opts.event_u): a conductor (event REFLECT) reflects; a dielectric (REFRACT)
+ * reflects when u < reflect_p and refracts otherwise. The probability does not depend on the
+ * geometry, so that the probability of a chain's events is known exactly (spc_chain_events_prob)
+ * and the Bernoulli trials of specular NEE need only estimate that of its directions. *prob (may be
+ * NULL) receives the probability of the event returned. */
+int spc_chain_pick_event(int event, double u, double reflect_p, double *prob);
+/* The probability that spc_chain_pick_event gives the events of signature sig (1 without any
+ * dielectric vertex). */
+double spc_chain_events_prob(const spc_scene *sc, const spc_chain_sig *sig, bool any_surface, double reflect_p);
 
 /* The scene's first hit along r, a triangle hit re-intersected in double precision (as the chain
  * tracer does, so that other solvers project onto the same surfaces), a normal-mapped chain

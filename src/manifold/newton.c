@@ -569,11 +569,12 @@ bool spc_newton_seed_straight(const spc_scene *sc, const spc_hit *x, spc_vec3 y,
     return p->n >= 1;
 }
 
-/* spc_newton_seed_trace; with event_u, the event at each smooth dielectric vertex is picked as
+/* spc_newton_seed_trace; with events, the event at each smooth vertex is forced (a mismatch ends
+ * the seed); else with event_u, the event at each smooth dielectric vertex is picked as
  * spc_chain_pick_event does. */
 static bool seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int max_vertices, bool any_surface,
-                       const double (*rough_u)[2], spc_vec3 ref, const double *event_u, double reflect_min,
-                       spc_newton_path *p)
+                       const double (*rough_u)[2], spc_vec3 ref, const unsigned char *events, const double *event_u,
+                       double reflect_p, spc_newton_path *p)
 {
     p->n = 0;
     p->ref = ref;
@@ -591,8 +592,15 @@ static bool seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int 
             return p->n >= 1;
         if (v->rough)
             rough_normal(v, rough_u[p->n]);
-        else if (event_u && v->event == SPC_CHAIN_REFRACT) {
-            v->event = spc_chain_pick_event(&v->h, d, v->event, event_u[p->n], reflect_min, NULL);
+        else if (events) {
+            if (events[p->n] != v->event) {
+                if (v->event != SPC_CHAIN_REFRACT)
+                    return p->n >= 1; /* a conductor cannot refract: the seed ends before it */
+                v->event = SPC_CHAIN_REFLECT;
+                v->eta = 1.0;
+            }
+        } else if (event_u && v->event == SPC_CHAIN_REFRACT) {
+            v->event = spc_chain_pick_event(v->event, event_u[p->n], reflect_p, NULL);
             if (v->event == SPC_CHAIN_REFLECT)
                 v->eta = 1.0;
         }
@@ -623,7 +631,7 @@ static bool seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int 
 bool spc_newton_seed_trace(const spc_scene *sc, const spc_hit *x, spc_vec3 dir, int max_vertices, bool any_surface,
                            const double (*rough_u)[2], spc_vec3 ref, spc_newton_path *p)
 {
-    return seed_trace(sc, x, dir, max_vertices, any_surface, rough_u, ref, NULL, 0.0, p);
+    return seed_trace(sc, x, dir, max_vertices, any_surface, rough_u, ref, NULL, NULL, 0.0, p);
 }
 
 void spc_newton_path_from_chain(const spc_chain *c, spc_newton_path *p)
@@ -851,13 +859,13 @@ bool spc_newton_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chai
     } else {
         spc_vec3 dir;
         double event_u[SPC_CHAIN_MAX_VERTICES];
-        bool reflect = q->params->reflect;
+        bool reflect = q->params->reflect && !q->events;
         if (reflect)
             for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
                 event_u[i] = spc_rng_next(rng);
         if (!spc_snee_seed_direction(q, rng, &dir) ||
-            !seed_trace(q->scene, q->x, dir, q->max_chain, q->any_surface, NULL, noref, reflect ? event_u : NULL,
-                        q->params->reflect_min, &p))
+            !seed_trace(q->scene, q->x, dir, q->max_chain, q->any_surface, NULL, noref, q->events,
+                        reflect ? event_u : NULL, q->params->reflect_p, &p))
             return false;
     }
     spc_newton_result res;

@@ -49,10 +49,9 @@
  * rim, near a fold): at 64, 0.4-0.7% of the counts were cut (bias, tests/test_manifold.c's glass
  * ball), at 256 none in that test while the mean trial count stays 2.2. Bias only below p ~ 1%. */
 #define SPC_SNEE_ANGULAR_MAX_TRIALS 256
-/* reflect's default least probability of either event at a dielectric vertex of a seed chain: the
- * rest follows Fresnel (F ~ 0.04 at normal incidence would make a reflection chain's trial count
- * long and often capped). Measured in bench/RESULTS.md (Session 4). */
-#define SPC_SNEE_REFLECT_MIN 0.2
+/* reflect's default probability of a reflection at a dielectric vertex of a seed chain. Measured in
+ * bench/RESULTS.md (Session 4). */
+#define SPC_SNEE_REFLECT_P 0.2
 /* Solutions kept from a solver that enumerates them all (solve_all): one interface rarely has more
  * than a handful between two points. */
 #define SPC_SNEE_MAX_ALL 16
@@ -164,7 +163,7 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
                 return false;
         } else if (opt_is(o, kn, "reflect")) {
             p->reflect = true;
-            if (val && !parse_real(val, vn, 0.0, 0.5, &p->reflect_min))
+            if (val && (!parse_real(val, vn, 0.0, 1.0, &p->reflect_p) || !(p->reflect_p > 0.0 && p->reflect_p < 1.0)))
                 return false;
         } else if (opt_is(o, kn, "biased")) {
             p->biased = true;
@@ -216,7 +215,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->biased = false;
     p->biased_seeds = SPC_SNEE_BIASED_SEEDS;
     p->reflect = false;
-    p->reflect_min = SPC_SNEE_REFLECT_MIN;
+    p->reflect_p = SPC_SNEE_REFLECT_P;
     p->mis_solve = 1.0;
     if (solver != SPC_SNEE_NEWTON) {
         p->angular.window = SPC_SNEE_ANGULAR_WINDOW;
@@ -780,6 +779,12 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
         spc_chain_signature(&sol, &want);
         spc_snee_query tq = q;
         tq.want = &want;
+        /* with reflect: the trials follow the solution's events, whose probability is known */
+        double p_events = 1.0;
+        if (p->reflect) {
+            tq.events = want.event;
+            p_events = spc_chain_events_prob(sc, &want, p->any_surface, p->reflect_p);
+        }
         trial_ctx tc;
         tc.q = &tq;
         tc.solver = solver;
@@ -788,7 +793,7 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
         tc.iterations = 0;
         bool capped;
         int n = spc_snee_count_trials(trial_same, &tc, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS, &capped);
-        inv_p = (double)n;
+        inv_p = p_events > 0.0 ? (double)n / p_events : 0.0;
         if (st) {
             st->trials += (uint64_t)n;
             st->iterations += (uint64_t)tc.iterations;

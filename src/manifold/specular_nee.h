@@ -104,11 +104,13 @@ typedef struct spc_snee_params {
     /* Reflection at dielectric vertices (the user's "reflect[=P]"): chains may reflect off glass as
      * well as refract through it (the light's reflection in a glass ball on the floor, internal
      * reflections). A randomized attempt picks the event at each dielectric vertex of its seed chain
-     * (spc_chain_pick_event: reflection with probability reflect_min + (1 - 2 reflect_min) F); the
-     * Bernoulli trials then estimate the probability of the signature along with the rest. conic
-     * enumerates both events on meshes. Not with the rough newton mode. */
+     * (spc_chain_pick_event: reflection with probability reflect_p, whatever the geometry). The
+     * probability of a solution is then that of its events (spc_chain_events_prob, exact) times
+     * that of the directions leading to it given those events, which the Bernoulli trials estimate
+     * with the events forced (spc_snee_query.events). conic enumerates both events on meshes. Not
+     * with the rough newton mode. */
     bool reflect;
-    double reflect_min;
+    double reflect_p;
     /* Specular NEE at the first `receivers` non-delta vertices of a camera path only (0: at all;
      * the user's "receivers=N"). Unbiased: where it does not run, BSDF sampling keeps the paths it
      * would have covered (the track starts nowhere). Deep vertices carry little of the image and
@@ -142,6 +144,9 @@ typedef struct spc_snee_query {
     double p_y; /* the light point's density (spc_snee_sample_light), for the MIS weight */
     double psi; /* the MIS weight's stand-in for the solve probability of the chain valued (params.mis;
                    0 counts as 1) */
+    /* Set while counting trials with params.reflect: the events the attempts follow (the solution's;
+     * SPC_CHAIN_MAX_VERTICES entries). NULL otherwise. */
+    const unsigned char *events;
 } spc_snee_query;
 
 /* A solver: one randomized attempt from the query's seed distribution (the same distribution on
@@ -169,7 +174,7 @@ typedef struct spc_specular_solver {
  *   rough               newton: rough dielectrics and conductors are chain vertices (newton.h)
  *   nomis               no MIS with BSDF sampling (params.no_mis): covered paths left to NEE alone
  *   reflect[=P]         chains also reflect at dielectric vertices (params.reflect; P, default
- *                       SPC_SNEE_REFLECT_MIN, the least probability of either event, in [0, 0.5])
+ *                       SPC_SNEE_REFLECT_P, the probability of a reflection there, in (0, 1))
  *   mispsi=Q            params.mis_solve, in (0, 1]: the MIS weight's stand-in for the probability
  *                       that a randomized attempt finds a chain
  *   receivers=N         params.receivers: specular NEE at the first N non-delta path vertices only
