@@ -1554,6 +1554,155 @@ TEST(caustic_image_path_snee_vs_ipt)
     spc_scene_destroy(sc);
 }
 
+/* ---- specular NEE from the camera (params.camera) ---- */
+
+/* A lamp seen through a lens: the camera looks at a glass ball with a small sphere light behind it,
+ * over a diffuse floor. Camera rays reach the light through the ball only by landing on its small
+ * refracted image (and its reflection in the ball); specular NEE from the camera solves for those
+ * chains from the pinhole and splats them. path + angular with camera (MIS with the camera rays,
+ * and without MIS: those rays dropped) against plain path tracing at 32x the samples: per-pixel
+ * z-test and image means; and the variance on the pixels that see the ball must fall well below
+ * that of the same render without camera. */
+TEST(camera_snee_lamp_through_lens)
+{
+    spc_scene *sc = spc_scene_create();
+    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5));
+    add_sphere(sc, spc_v3(0, 0, 0.6), 0.5, tu_glass(sc, 1.5));
+    spc_shape *light = add_sphere(sc, spc_v3(0.1, 2.2, 0.8), 0.06, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 2, 300.0);
+    tu_camera(sc, spc_v3(0, -3.0, 0.9), spc_v3(0, 0, 0.6), spc_v3(0, 0, 1), 30, 24, 24);
+    sc->integrator.specular_max_chain = 2;
+    CHECK(finalize(sc));
+    double t = 0.0;
+    spc_film *ref = render_with(sc, "path", "none", 32768, 21, &t);
+    spc_film *without = render_with(sc, "path", "angular:reflect", 1024, 22, &t);
+    const char *settings[2] = {"angular:reflect,camera", "angular:reflect,camera,nomis"};
+    double var_without = 0.0;
+    for (size_t i = 0; without && i < (size_t)3 * without->width * without->height; ++i)
+        var_without += without->var[i];
+    for (int si = 0; si < 2 && ref && without; ++si) {
+        spc_film *img = render_with(sc, "path", settings[si], 1024, 23, &t);
+        CHECK(img != NULL);
+        if (!img)
+            continue;
+        spc_image_rgb a = {img->width, img->height, img->rgb, img->var};
+        spc_image_rgb b = {ref->width, ref->height, ref->rgb, ref->var};
+        spc_diff_result d;
+        spc_error err;
+        CHECK(spc_image_diff(&a, &b, &d, &err) == SPC_OK);
+        double var = 0.0;
+        for (size_t i = 0; i < (size_t)3 * img->width * img->height; ++i)
+            var += img->var[i];
+        printf("    %s: z-test pass %.4f of %d pixels; means %.5f vs %.5f; summed variance %.3g (without camera "
+               "%.3g)\n",
+               settings[si], d.ztest_pass_fraction, d.ztest_pixels, d.mean_a[0], d.mean_b[0], var, var_without);
+        CHECK_MSG(d.has_ztest && d.ztest_pass_fraction >= 0.99, "z-test pass fraction %.4f", d.ztest_pass_fraction);
+        for (int c = 0; c < 3; ++c) {
+            double ma, sa, mb, sb;
+            tu_image_mean(img, c, &ma, &sa);
+            tu_image_mean(ref, c, &mb, &sb);
+            double se = sqrt(sa * sa + sb * sb);
+            CHECK_MSG(fabs(ma - mb) <= 3 * se, "channel %d: mean %.5f vs %.5f (se %.2g)", c, ma, mb, se);
+        }
+        CHECK_MSG(var < 0.25 * var_without, "variance %.3g against %.3g without camera", var, var_without);
+        spc_film_destroy(img);
+    }
+    spc_film_destroy(ref);
+    spc_film_destroy(without);
+
+    /* the MIS weights on the camera's side and on specular NEE's sum to 1 for camera rays that reach
+     * the light through the ball (events as the glass's BSDF samples them; half of the rays are
+     * forced to reflect at their first glass hit, which from here never reaches the light), with a
+     * window of a quarter of the film (cam_scale 4) */
+    spc_camera_state cs;
+    CHECK(spc_camera_prepare(&cs, &sc->camera, 24, 24));
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+    p.mis = true;
+    p.reflect = true;
+    p.camera = true;
+    p.mis_solve = 0.1;
+    const double cam_scale = 4.0;
+    double worst = 0.0, wmin = 1.0, wmax = 0.0;
+    int npaths = 0, nreflect = 0;
+    for (int i = 0; i < 4000000 && npaths < 300; ++i) {
+        spc_ray r = spc_camera_ray(&cs, 24.0 * rnd(), 24.0 * rnd());
+        const spc_vec3 d0 = r.d;
+        spc_snee_track t;
+        memset(&t, 0, sizeof t);
+        t.live = true;
+        t.max_chain = 2;
+        t.single_ok = t.multi_ok = true;
+        t.reflect = true;
+        spc_hit h;
+        bool light = false;
+        for (int b = 0; b < 3; ++b) {
+            spc_hit n;
+            if (!spc_scene_intersect(sc, &r, &n))
+                break;
+            if (n.emitter) {
+                light = spc_snee_track_covers(&t, sc, n.emitter);
+                h = n;
+                break;
+            }
+            spc_bsdf_sample bs;
+            double u_lobe = (b == 0 && i % 2) ? 0.0 : rnd();
+            if (!spc_bsdf_sample_dir(n.bsdf, &n, SPC_MODE_RADIANCE, spc_neg(r.d), u_lobe, spc_v2(rnd(), rnd()), &bs))
+                break;
+            spc_snee_track_scatter(&t, &n, bs.lobe, 0, false, true);
+            r = spc_hit_spawn(&n, bs.wi);
+        }
+        if (!light)
+            continue;
+        double wb = spc_snee_camera_bsdf_weight(sc, &p, &cs, cam_scale, d0, 2, t.k, t.events, &h);
+        spc_hit x;
+        memset(&x, 0, sizeof x);
+        x.p = cs.origin;
+        x.ng = cs.forward;
+        spc_frame fr = spc_frame_from_n(d0);
+        spc_chain_opts o = spc_chain_opts_default(t.k);
+        o.events = t.events;
+        static spc_chain c;
+        spc_chain_trace(sc, &x, &fr, 0, 0, &o, &c);
+        spc_snee_query q;
+        memset(&q, 0, sizeof q);
+        q.scene = sc;
+        q.x = &x;
+        q.wo = cs.forward;
+        q.y = h.p;
+        q.ny = h.ng;
+        q.light_size = sqrt(h.emitter->shape->area);
+        q.max_chain = 2;
+        q.params = &p;
+        q.cam = &cs;
+        q.cam_scale = cam_scale;
+        q.seed = p.seed;
+        q.p_y = spc_snee_light_pdf(sc, false, h.emitter, h.p, h.ng);
+        /* specular NEE's psi for this chain: 1 if it is the straight-line solution, else mis_solve */
+        spc_snee_query ql = q;
+        ql.seed = SPC_SNEE_SEED_LIGHT;
+        static spc_chain st;
+        bool straight = p.straight_first && spc_snee_straight_hits_glass(&q) &&
+                        spc_angular_solve_one(&ql, NULL, &st, NULL) && spc_snee_same_solution(&st, &c, sc->radius);
+        q.psi = straight ? 1.0 : p.mis_solve;
+        spc_rgb with = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
+        q.p_y = 0.0;
+        spc_rgb without = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
+        if (!(without.r > 0.0))
+            continue;
+        worst = spc_max(worst, fabs(with.r / without.r + wb - 1.0));
+        wmin = spc_min(wmin, wb);
+        wmax = spc_max(wmax, wb);
+        ++npaths;
+        nreflect += t.events[0] == SPC_CHAIN_REFLECT;
+    }
+    printf("    %d camera paths to the light (%d reflected off the ball): worst |w_nee + w_camera - 1| %.2e, w_camera "
+           "in [%.3g, %.3g]\n",
+           npaths, nreflect, worst, wmin, wmax);
+    CHECK(npaths >= 300 && worst < 1e-9 && wmax > wmin);
+    spc_scene_destroy(sc);
+}
+
 /* ---- the exclusion of specular NEE's paths from BSDF sampling ---- */
 
 /* Runs the tracker over a path: receiver, then vertices (shape, lobe), then the light; with
@@ -1729,5 +1878,6 @@ int main(void)
     RUN(snee_mis_weights_with_reflections);
     RUN(snee_mis_point_combination);
     RUN(caustic_image_path_snee_vs_ipt);
+    RUN(camera_snee_lamp_through_lens);
     return spc_test_finish();
 }

@@ -928,6 +928,8 @@ TEST(parse_specular_nee_options)
     CHECK(spc_snee_parse("conic:reflect=0.5,mispsi=1", 2, &p) && p.reflect && p.reflect_p == 0.5 && p.mis_solve == 1.0);
     CHECK(spc_snee_parse("angular", 2, &p) && p.receivers == 0);
     CHECK(spc_snee_parse("angular:receivers=1", 2, &p) && p.receivers == 1);
+    CHECK(spc_snee_parse("angular", 2, &p) && !p.camera);
+    CHECK(spc_snee_parse("newton:camera,reflect", 2, &p) && p.camera && p.reflect);
     /* mistakes are refused, not ignored */
     const char *bad[] = {"newtn", "newton:", "newton:biased=0", "newton:biased=x", "newton:seed=sun",
                          "newton:fast", "angular:rough", "angular:constraint=half", "none:biased",

@@ -29,10 +29,15 @@
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
 
+/* Film positions the driver takes camera samples at (the rendered window). */
+static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
+{
+    return fx >= ctx->crop_x && fx < ctx->crop_x + ctx->width && fy >= ctx->crop_y && fy < ctx->crop_y + ctx->height;
+}
+
 void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0, spc_sampler *smp,
                      spc_sample_out *out)
 {
-    (void)tls;
     const spc_scene *sc = ctx->scene;
     const bool nee = ctx->kind == SPC_INTEGRATOR_PATH;
     spc_rgb L = spc_rgb1(0.0), beta = spc_rgb1(1.0);
@@ -54,6 +59,35 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
     out->depth = 0.0;
+    /* specular NEE from the camera (spc_snee_params.camera): its splats, and the camera ray tracked
+     * from the pinhole as from a receiver (cam_track) until its first non-delta scattering */
+    bool cam_track = false;
+    const double cam_scale = (double)ctx->cam->width * (double)ctx->cam->height /
+                             ((double)ctx->width * (double)ctx->height);
+    if (snee && snp.camera && !(snp.solver == SPC_SNEE_NEWTON && snp.newton.rough) &&
+        spc_camera_connectible(ctx->cam)) {
+        int budget = ctx->specular_max_chain; /* k vertices: k + 1 segments */
+        if (ctx->max_depth >= 0 && ctx->max_depth - 1 < budget)
+            budget = ctx->max_depth - 1;
+        if (budget > snp.max_chain)
+            budget = snp.max_chain;
+        if (budget >= 1) {
+            spc_rng rng;
+            spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, ((uint64_t)smp->index << 32) | smp->dim), 0);
+            spc_snee_splat sp[SPC_SNEE_CAMERA_SPLATS];
+            int n = spc_snee_camera(sc, &snp, ctx->cam, cam_scale, budget, &rng, NULL, sp, SPC_SNEE_CAMERA_SPLATS);
+            for (int i = 0; i < n; ++i)
+                if (in_window(ctx, sp[i].fx, sp[i].fy))
+                    spc_splat_add(ctx, tls, sp[i].fx, sp[i].fy, sp[i].value);
+            track.live = true;
+            track.k = 0;
+            track.max_chain = budget;
+            track.single_ok = track.multi_ok = true;
+            track.any_surface = snp.any_surface;
+            track.reflect = snp.reflect;
+            cam_track = true;
+        }
+    }
 
     int receivers = 0; /* non-delta vertices so far (spc_snee_params.receivers) */
     for (int segments = 1;; ++segments) {
@@ -84,8 +118,10 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             /* a covered path: weighted against specular NEE's light sample, or dropped */
             double w = 1.0;
             if (covered && !spc_rgb_is_black(Le))
-                w = spc_snee_mis_bsdf_weight(sc, &snp, &mis_x, mis_wo, mis_d0, track.max_chain, track.k, track.events,
-                                             &h);
+                w = cam_track ? spc_snee_camera_bsdf_weight(sc, &snp, ctx->cam, cam_scale, ray0->d, track.max_chain,
+                                                            track.k, track.events, &h)
+                              : spc_snee_mis_bsdf_weight(sc, &snp, &mis_x, mis_wo, mis_d0, track.max_chain, track.k,
+                                                         track.events, &h);
             if (w > 0.0 && !spc_rgb_is_black(Le)) {
                 if (nee && !specular) {
                     double lp = spc_scene_emitter_pmf(sc, h.emitter) *
@@ -159,8 +195,10 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 mis_d0 = bs.wi;
             }
         }
-        if (!(bs.lobe & SPC_LOBE_DELTA))
+        if (!(bs.lobe & SPC_LOBE_DELTA)) {
             ++receivers;
+            cam_track = false;
+        }
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))
             break;

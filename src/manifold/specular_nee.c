@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "manifold/conic.h"
+#include "render/camera.h"
 
 /* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
 #define SPC_SNEE_CONE_COS 0.9
@@ -158,6 +159,8 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
         } else if (opt_is(o, kn, "mispsi") && val) {
             if (!parse_real(val, vn, 1e-6, 1.0, &p->mis_solve))
                 return false;
+        } else if (opt_is(o, n, "camera")) {
+            p->camera = true;
         } else if (opt_is(o, kn, "receivers") && val) {
             if (!parse_count(val, vn, &p->receivers))
                 return false;
@@ -363,8 +366,20 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
         return zero;
 
     const spc_hit *x = q->x;
-    spc_rgb f = spc_bsdf_eval(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0);
-    double cosx = spc_absdot(c->d0, x->sh.n);
+    spc_rgb f;
+    double cosx;
+    if (q->cam) {
+        /* from the pinhole: the importance toward the first vertex (a point the camera's rays reach,
+         * past the near plane), over the camera samples per pass (the caller splats it) */
+        spc_camera_direct cd;
+        if (!spc_camera_sample_direct(q->cam, c->v[0].h.p, &cd) || spc_dot(cd.wi, c->d0) > -1.0 + 1e-9)
+            return zero;
+        f = spc_rgb1(cd.We * q->cam_scale / ((double)q->cam->width * (double)q->cam->height));
+        cosx = 1.0;
+    } else {
+        f = spc_bsdf_eval(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0);
+        cosx = spc_absdot(c->d0, x->sh.n);
+    }
     if (spc_rgb_is_black(f) || !(cosx > 0.0))
         return zero;
     spc_rgb T = spc_rgb1(1.0);
@@ -378,9 +393,11 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
     if (!(G > 0.0) || !isfinite(G))
         return zero;
     double w = 1.0;
-    if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0)
-        w = spc_snee_mis_weight(q->p_y * (q->psi > 0.0 ? q->psi : 1.0),
-                                spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0) * G);
+    if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
+        double pdf_x = q->cam ? spc_camera_pdf_dir(q->cam, c->d0) * q->cam_scale
+                              : spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0);
+        w = spc_snee_mis_weight(q->p_y * (q->psi > 0.0 ? q->psi : 1.0), pdf_x * G);
+    }
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * w);
 }
 
@@ -680,6 +697,131 @@ int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface)
     return max_chain < SPC_CHAIN_MAX_VERTICES ? max_chain : SPC_CHAIN_MAX_VERTICES;
 }
 
+/* Where an estimate's contributions go: summed (a surface point), or one per chain (the camera:
+ * each chain lands on its own pixel). */
+typedef struct snee_sink {
+    spc_rgb total;
+    spc_snee_splat *splats;
+    int nsplats, max_splats;
+} snee_sink;
+
+static void emit(const spc_snee_query *q, snee_sink *sk, const spc_chain *c, spc_rgb v)
+{
+    if (!sk->splats) {
+        sk->total = spc_rgb_add(sk->total, v);
+        return;
+    }
+    spc_camera_direct cd;
+    if (sk->nsplats < sk->max_splats && spc_camera_sample_direct(q->cam, c->v[0].h.p, &cd)) {
+        spc_snee_splat *o = &sk->splats[sk->nsplats++];
+        o->fx = cd.fx;
+        o->fy = cd.fy;
+        o->value = v;
+    }
+}
+
+/* The estimate for the query's light point (drawn: e, uv, p_y), unbiased unless params.biased. */
+static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const spc_emitter *e, spc_vec2 uv,
+                     double p_y, spc_rng *rng, spc_snee_stats *st, snee_sink *sk)
+{
+    const spc_snee_params *p = q->params;
+    const spc_scene *sc = q->scene;
+    /* a solver that enumerates every solution: the exact sum, no probability to estimate */
+    if (solver->solve_all) {
+        spc_chain all[SPC_SNEE_MAX_ALL];
+        int all_iterations = 0;
+        int nall = solver->solve_all(q, all, SPC_SNEE_MAX_ALL, &all_iterations);
+        if (st) {
+            st->iterations += (uint64_t)all_iterations;
+            st->solved += nall > 0 ? 1u : 0u;
+        }
+        for (int i = 0; i < nall; ++i) {
+            spc_rgb v = spc_snee_chain_value(q, e, uv, &all[i]);
+            if (spc_rgb_is_black(v))
+                continue;
+            emit(q, sk, &all[i], spc_rgb_scale(v, 1.0 / p_y));
+            if (st)
+                st->contributions++;
+        }
+        if (!solver->solve_one || !solver->covers || (solver->covers_all && solver->covers_all(q)))
+            return;
+    }
+
+    if (p->biased && !q->cam) {
+        sk->total = spc_rgb_add(sk->total, biased_estimate(q, solver, e, uv, p_y, rng, st));
+        return;
+    }
+
+    /* the straight-line solution, counted exactly (spc_snee_params.straight_first) */
+    spc_chain straight;
+    int it = 0;
+    bool have_straight = straight_solve(q, solver, &straight, &it);
+    if (st)
+        st->iterations += (uint64_t)it;
+    if (have_straight) {
+        spc_rgb vs = spc_snee_chain_value(q, e, uv, &straight);
+        if (st)
+            st->straight++;
+        if (!spc_rgb_is_black(vs)) {
+            emit(q, sk, &straight, spc_rgb_scale(vs, 1.0 / p_y));
+            if (st)
+                st->contributions++;
+        }
+    }
+
+    spc_chain sol;
+    int iterations = 0;
+    bool ok = solver->solve_one(q, rng, &sol, &iterations);
+    if (st)
+        st->iterations += (uint64_t)iterations;
+    if (!ok)
+        return;
+    if (solver->solve_all && solver->covers(&sol))
+        return; /* already counted exactly */
+    if (have_straight && spc_snee_same_solution(&straight, &sol, sc->radius))
+        return; /* counted exactly above */
+    if (st)
+        st->solved++;
+    q->psi = random_psi(p); /* neither the straight-line solution nor one of solve_all's */
+    spc_rgb v = spc_snee_chain_value(q, e, uv, &sol);
+    q->psi = 0.0;
+    if (spc_rgb_is_black(v))
+        return;
+
+    /* <1/p_solve>: attempts until the same solution is found again */
+    double inv_p = 1.0;
+    if (q->seed != SPC_SNEE_SEED_LIGHT) {
+        spc_chain_sig want;
+        spc_chain_signature(&sol, &want);
+        spc_snee_query tq = *q;
+        tq.want = &want;
+        /* with reflect: the trials follow the solution's events, whose probability is known */
+        double p_events = 1.0;
+        if (p->reflect) {
+            tq.events = want.event;
+            p_events = spc_chain_events_prob(sc, &want, p->any_surface, p->reflect_p);
+        }
+        trial_ctx tc;
+        tc.q = &tq;
+        tc.solver = solver;
+        tc.target = &sol;
+        tc.rng = rng;
+        tc.iterations = 0;
+        bool capped;
+        int n = spc_snee_count_trials(trial_same, &tc, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS, &capped);
+        inv_p = p_events > 0.0 ? (double)n / p_events : 0.0;
+        if (st) {
+            st->trials += (uint64_t)n;
+            st->iterations += (uint64_t)tc.iterations;
+            st->trial_iterations += (uint64_t)tc.iterations;
+            st->capped += capped ? 1u : 0u;
+        }
+    }
+    if (st)
+        st->contributions++;
+    emit(q, sk, &sol, spc_rgb_scale(v, inv_p / p_y));
+}
+
 spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                          int max_chain, spc_rng *rng, spc_snee_stats *st)
 {
@@ -710,100 +852,107 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
     q.p_y = p_y;
     if (st)
         st->calls++;
+    snee_sink sk;
+    memset(&sk, 0, sizeof sk);
+    estimate(&q, solver, e, uv, p_y, rng, st, &sk);
+    return sk.total;
+}
 
-    /* a solver that enumerates every solution: the exact sum, no probability to estimate */
-    spc_rgb total = zero;
-    if (solver->solve_all) {
-        spc_chain all[SPC_SNEE_MAX_ALL];
-        int all_iterations = 0;
-        int nall = solver->solve_all(&q, all, SPC_SNEE_MAX_ALL, &all_iterations);
-        if (st) {
-            st->iterations += (uint64_t)all_iterations;
-            st->solved += nall > 0 ? 1u : 0u;
-        }
-        for (int i = 0; i < nall; ++i) {
-            spc_rgb v = spc_snee_chain_value(&q, e, uv, &all[i]);
-            if (spc_rgb_is_black(v))
-                continue;
-            total = spc_rgb_add(total, v);
-            if (st)
-                st->contributions++;
-        }
-        total = spc_rgb_scale(total, 1.0 / p_y);
-        if (!solver->solve_one || !solver->covers || (solver->covers_all && solver->covers_all(&q)))
-            return total;
-    }
+/* ---- from the camera ---- */
 
-    if (p->biased)
-        return spc_rgb_add(total, biased_estimate(&q, solver, e, uv, p_y, rng, st));
+/* The pinhole as a chain's start point (no surface, no offset). */
+static spc_hit pinhole_hit(const spc_camera_state *cam)
+{
+    spc_hit x;
+    memset(&x, 0, sizeof x);
+    x.p = cam->origin;
+    x.ng = cam->forward;
+    x.sh = spc_frame_from_n(cam->forward);
+    x.err = 0.0;
+    x.t = 0.0;
+    x.shape_index = -1;
+    return x;
+}
 
-    /* the straight-line solution, counted exactly (spc_snee_params.straight_first) */
-    spc_chain straight;
-    int it = 0;
-    bool have_straight = straight_solve(&q, solver, &straight, &it);
+int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_camera_state *cam, double cam_scale,
+                    int max_chain, spc_rng *rng, spc_snee_stats *st, spc_snee_splat *out, int max_out)
+{
+    const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
+    if (max_chain > p->max_chain)
+        max_chain = p->max_chain;
+    if (!solver || (!solver->solve_one && !solver->solve_all) || max_chain < 1 || !spc_camera_connectible(cam) ||
+        (p->solver == SPC_SNEE_NEWTON && p->newton.rough))
+        return 0;
+    spc_hit x = pinhole_hit(cam);
+    spc_snee_query q;
+    memset(&q, 0, sizeof q);
+    q.scene = sc;
+    q.x = &x;
+    q.wo = cam->forward;
+    q.max_chain = max_chain;
+    q.seed = p->seed;
+    q.any_surface = p->any_surface;
+    q.params = p;
+    q.cam = cam;
+    q.cam_scale = cam_scale;
+    const spc_emitter *e;
+    spc_vec2 uv;
+    double p_y;
+    if (!spc_snee_sample_light(sc, p->any_surface, rng, &q, &e, &uv, &p_y))
+        return 0;
+    q.p_y = p_y;
     if (st)
-        st->iterations += (uint64_t)it;
-    if (have_straight) {
-        spc_rgb vs = spc_snee_chain_value(&q, e, uv, &straight);
-        if (st)
-            st->straight++;
-        if (!spc_rgb_is_black(vs)) {
-            total = spc_rgb_add(total, spc_rgb_scale(vs, 1.0 / p_y));
-            if (st)
-                st->contributions++;
-        }
-    }
+        st->calls++;
+    snee_sink sk;
+    memset(&sk, 0, sizeof sk);
+    sk.splats = out;
+    sk.max_splats = max_out;
+    estimate(&q, solver, e, uv, p_y, rng, st, &sk);
+    return sk.nsplats;
+}
 
-    spc_chain sol;
-    int iterations = 0;
-    bool ok = solver->solve_one(&q, rng, &sol, &iterations);
-    if (st)
-        st->iterations += (uint64_t)iterations;
-    if (!ok)
-        return total;
-    if (solver->solve_all && solver->covers(&sol))
-        return total; /* already counted exactly */
-    if (have_straight && spc_snee_same_solution(&straight, &sol, sc->radius))
-        return total; /* counted exactly above */
-    if (st)
-        st->solved++;
-    q.psi = random_psi(p); /* neither the straight-line solution nor one of solve_all's */
-    spc_rgb v = spc_snee_chain_value(&q, e, uv, &sol);
-    if (spc_rgb_is_black(v))
-        return total;
-
-    /* <1/p_solve>: attempts until the same solution is found again */
-    double inv_p = 1.0;
-    if (p->seed != SPC_SNEE_SEED_LIGHT) {
-        spc_chain_sig want;
-        spc_chain_signature(&sol, &want);
-        spc_snee_query tq = q;
-        tq.want = &want;
-        /* with reflect: the trials follow the solution's events, whose probability is known */
-        double p_events = 1.0;
-        if (p->reflect) {
-            tq.events = want.event;
-            p_events = spc_chain_events_prob(sc, &want, p->any_surface, p->reflect_p);
-        }
-        trial_ctx tc;
-        tc.q = &tq;
-        tc.solver = solver;
-        tc.target = &sol;
-        tc.rng = rng;
-        tc.iterations = 0;
-        bool capped;
-        int n = spc_snee_count_trials(trial_same, &tc, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS, &capped);
-        inv_p = p_events > 0.0 ? (double)n / p_events : 0.0;
-        if (st) {
-            st->trials += (uint64_t)n;
-            st->iterations += (uint64_t)tc.iterations;
-            st->trial_iterations += (uint64_t)tc.iterations;
-            st->capped += capped ? 1u : 0u;
-        }
-    }
-    if (st)
-        st->contributions++;
-    return spc_rgb_add(total, spc_rgb_scale(v, inv_p / p_y));
+double spc_snee_camera_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_camera_state *cam,
+                                   double cam_scale, spc_vec3 d0, int max_chain, int k, const unsigned char *events,
+                                   const spc_hit *light)
+{
+    const spc_emitter *e = light->emitter;
+    if (!p->camera || !spc_camera_connectible(cam))
+        return 1.0;
+    if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
+        return 0.0; /* covered and not weighted: specular NEE's alone */
+    double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
+    if (!(p_y > 0.0))
+        return 1.0; /* specular NEE never draws this light point */
+    spc_hit x = pinhole_hit(cam);
+    spc_frame fr = spc_frame_from_n(d0);
+    spc_chain_opts o = spc_chain_opts_default(k);
+    o.any_surface = p->any_surface;
+    o.events = events;
+    spc_chain c;
+    if (spc_chain_trace(sc, &x, &fr, 0.0, 0.0, &o, &c) != SPC_CHAIN_END_SURFACE || c.n != k || !c.has_end_hit ||
+        c.end_hit.emitter != e || spc_distance(c.end_hit.p, light->p) > 1e-6 * (sc->radius + spc_max_abs(light->p)))
+        return 0.0;
+    double G = spc_chain_geometry(&c, light->p, light->ng);
+    if (!(G > 0.0) || !isfinite(G))
+        return 0.0;
+    double p_c = spc_camera_pdf_dir(cam, c.d0) * cam_scale * G;
+    spc_snee_query q;
+    memset(&q, 0, sizeof q);
+    q.scene = sc;
+    q.x = &x;
+    q.wo = cam->forward;
+    q.y = light->p;
+    q.ny = light->ng;
+    q.light_size = sqrt(e->shape->area);
+    q.max_chain = max_chain;
+    q.seed = p->seed;
+    q.any_surface = p->any_surface;
+    q.params = p;
+    q.p_y = p_y;
+    q.cam = cam;
+    q.cam_scale = cam_scale;
+    double psi = chain_psi(&q, &c);
+    return 1.0 - spc_snee_mis_weight(psi * p_y, p_c);
 }
 
 /* ---- exclusion of the covered paths from BSDF sampling ---- */

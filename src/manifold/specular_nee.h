@@ -42,6 +42,8 @@
 #include "manifold/chain.h"
 #include "manifold/newton.h"
 
+struct spc_camera_state;
+
 /* Solver ids (index into the solver table; 0 = specular NEE off). */
 enum {
     SPC_SNEE_NONE = 0,
@@ -116,6 +118,14 @@ typedef struct spc_snee_params {
      * would have covered (the track starts nowhere). Deep vertices carry little of the image and
      * cost as much as the first (an enclosed pool: over half of the calls). */
     int receivers;
+    /* Specular NEE from the camera too (the user's "camera"): once per camera sample, a light point
+     * and a chain from the pinhole through the specular surfaces to it, splatted on the pixel its
+     * first direction falls in (spc_snee_camera): the light seen through glass or in a mirror (a
+     * lamp through a lens, glints on water), which camera rays find only by landing on the light's
+     * tiny image. MIS against the camera rays that reach the light through the same chains (the
+     * camera's density of the direction, W H / N pdf_dir, for the BSDF's; spc_snee_camera_bsdf_weight)
+     * when mis is set, else those rays are dropped. Always the unbiased estimator. */
+    bool camera;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
@@ -147,6 +157,10 @@ typedef struct spc_snee_query {
     /* Set while counting trials with params.reflect: the events the attempts follow (the solution's;
      * SPC_CHAIN_MAX_VERTICES entries). NULL otherwise. */
     const unsigned char *events;
+    /* From the camera (x the pinhole, no BSDF): the camera, and the ratio of the full film's pixels
+     * to the camera samples per pass (spc_snee_camera). NULL for a surface point. */
+    const struct spc_camera_state *cam;
+    double cam_scale;
 } spc_snee_query;
 
 /* A solver: one randomized attempt from the query's seed distribution (the same distribution on
@@ -178,6 +192,8 @@ typedef struct spc_specular_solver {
  *   mispsi=Q            params.mis_solve, in (0, 1]: the MIS weight's stand-in for the probability
  *                       that a randomized attempt finds a chain
  *   receivers=N         params.receivers: specular NEE at the first N non-delta path vertices only
+ *   camera              params.camera: specular NEE from the camera too (glints, lights seen through
+ *                       glass)
  * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
  * options. False (p undefined) for an unknown name or option, or a bad value. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);
@@ -248,6 +264,33 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
  * point's texture coordinates), without p(y) and <1/p_solve>: zero if the chain is not one specular
  * NEE produces (length, caustic flags), its last segment is blocked, or any factor vanishes. */
 spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c);
+
+/* Contributions one spc_snee_camera call can return: the straight-line solution, solve_all's and one
+ * more. */
+#define SPC_SNEE_CAMERA_SPLATS 18
+
+/* A contribution of specular NEE from the camera: film position (continuous pixels of the full film)
+ * and value (to splat as it is: the camera's importance and the samples per pass are in it). */
+typedef struct spc_snee_splat {
+    double fx, fy;
+    spc_rgb value;
+} spc_snee_splat;
+
+/* Specular NEE from the pinhole of cam (perspective; nothing for other cameras): one light point,
+ * chains of 1..max_chain vertices to it (the solver's estimate, unbiased), each written to out (at
+ * most max_out) with its film position. cam_scale: the full film's pixel count over the camera
+ * samples per pass (the rendered window's pixels). Returns the number written. Chains whose first
+ * vertex the camera's rays cannot reach (before the near plane, off the film) are dropped. */
+int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const struct spc_camera_state *cam,
+                    double cam_scale, int max_chain, spc_rng *rng, spc_snee_stats *st, spc_snee_splat *out,
+                    int max_out);
+/* The MIS weight of a camera ray along d0 that reached the area emitter at the hit `light` through
+ * k chain vertices with these events (params.camera and mis; the path integrator's track from the
+ * camera), against spc_snee_camera's light sample: 0 if the retrace from the pinhole does not
+ * reproduce the path; 1 if params.camera is off. */
+double spc_snee_camera_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const struct spc_camera_state *cam,
+                                   double cam_scale, spc_vec3 d0, int max_chain, int k, const unsigned char *events,
+                                   const spc_hit *light);
 
 /* Same solution: same signature and every vertex within SPC_SNEE_SAME_REL of the scene's size. */
 bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene_size);
