@@ -323,6 +323,8 @@ def main():
     ap.add_argument("--reuse", default="", help="run: re-score the images of the run whose JSON this is "
                     "(in --out) against the references instead of rendering")
     ap.add_argument("--only", default="", help="comma-separated variant names")
+    ap.add_argument("--ref-solver", default="", help="refs: render the references with this specular NEE "
+                    "setting instead of the variants' (e.g. 'angular:camera')")
     ap.add_argument("--solvers", default="", help="run: these specular NEE settings instead of the variants' "
                     "(';'-separated, e.g. 'none;angular:reflect,mispsi=0.1'; 'none' is always measured)")
     ap.add_argument("--force", action="store_true", help="re-render cached references")
@@ -332,6 +334,8 @@ def main():
     a.ref_dir = os.path.abspath(a.ref_dir) if a.ref_dir else ""
     only = set(filter(None, a.only.split(",")))
     variants = [v for v in VARIANTS if not only or v[0] in only]
+    if a.ref_solver:
+        variants = [v[:4] + (a.ref_solver,) + tuple(v[5:]) for v in variants]
     if a.solvers:
         sol = ["none"] + [x for x in a.solvers.split(";") if x and x != "none"]
         variants = [(v[0], v[1], v[2], sol) + tuple(v[4:]) for v in variants]

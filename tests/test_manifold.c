@@ -891,6 +891,7 @@ TEST(snee_point_estimates)
             spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
             p.seed = (spc_snee_seed)seed;
             p.straight_first = variant == 0;
+            p.reflect = false; /* the brute force refracts through the glass (reflect: below) */
             spc_snee_stats st;
             memset(&st, 0, sizeof st);
             spc_rng r;
@@ -1249,6 +1250,8 @@ TEST(snee_mis_weights_sum_to_one)
     spc_snee_params p;
     spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
     p.mis = true;
+    p.reflect = false;   /* the paths below refract */
+    p.mis_solve = 1.0;   /* psi 1 on both sides (psi: snee_mis_point_combination) */
     double worst_pdf = 0.0, worst_sum = 0.0, wmin = 1.0, wmax = 0.0;
     int npdf = 0, npaths = 0;
     for (int i = 0; i < 2000; ++i) {
@@ -1342,6 +1345,7 @@ TEST(snee_mis_weights_with_reflections)
     spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
     p.mis = true;
     p.reflect = true;
+    p.mis_solve = 1.0; /* as above */
     double worst_sum = 0.0;
     int npaths = 0, nreflect = 0;
     for (int i = 0; i < 4000000 && (npaths < 400 || nreflect < 40); ++i) {
@@ -1520,10 +1524,10 @@ TEST(caustic_image_path_snee_vs_ipt)
         return;
     double t_ref = 0.0, t_snee = 0.0;
     spc_film *ref = render_with(sc, "ipt", "none", 8192, 11, &t_ref);
-    /* the default chains, chains that also reflect off the ball (MIS with the BSDF-sampled
-     * reflections through the track's events), and those with psi 0.1 and specular NEE at the first
-     * receiver only */
-    const char *settings[3] = {"angular", "angular:reflect", "angular:reflect,mispsi=0.1,receivers=1"};
+    /* chains that only refract with psi 1 (the defaults before session 4), the defaults (chains that
+     * also reflect off the ball, MIS with the BSDF-sampled reflections through the track's events,
+     * psi 0.1), and those with specular NEE at the first receiver only and from the camera */
+    const char *settings[3] = {"angular:noreflect,mispsi=1", "angular", "angular:receivers=1,camera"};
     for (int si = 0; si < 3; ++si) {
         /* 1024 spp: at 256 the caustic's heavy tail left every setting's image mean ~3% low (the
          * sample variance underestimates such an estimator's error at low counts; at 4096 spp all

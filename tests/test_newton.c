@@ -921,7 +921,11 @@ TEST(parse_specular_nee_options)
     CHECK(spc_snee_parse("angular:biased=2,unbiased,seed=bsdf", 2, &p) && p.solver == SPC_SNEE_ANGULAR && !p.biased &&
           p.seed == SPC_SNEE_SEED_BSDF);
     CHECK(spc_snee_parse("", 2, &p) && p.solver == SPC_SNEE_NONE);
-    CHECK(spc_snee_parse("angular", 2, &p) && !p.reflect && p.mis_solve == 1.0);
+    CHECK(spc_snee_parse("angular", 2, &p) && p.reflect && p.mis_solve == 0.1 && !p.camera && p.receivers == 0);
+    CHECK(spc_snee_parse("conic", 2, &p) && p.reflect);
+    CHECK(spc_snee_parse("newton", 2, &p) && !p.reflect && p.mis_solve == 0.1);
+    CHECK(spc_snee_parse("angular:noreflect", 2, &p) && !p.reflect);
+    CHECK(spc_snee_parse("newton:rough", 2, &p) && p.newton.rough && !p.reflect);
     CHECK(spc_snee_parse("angular:reflect", 2, &p) && p.reflect && p.reflect_p > 0.0 && p.reflect_p < 1.0);
     CHECK(spc_snee_parse("newton:reflect=0.05,mispsi=0.25", 2, &p) && p.reflect && p.reflect_p == 0.05 &&
           p.mis_solve == 0.25);

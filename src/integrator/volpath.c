@@ -425,6 +425,8 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
     const spc_specular_solver *solver = ctx->specular_nee ? spc_specular_solver_get(ctx->specular_nee) : NULL;
     spc_snee_params snp;
     spc_snee_params_default(&snp, ctx->specular_nee, 1);
+    snp.reflect = false; /* the connections below refract (or reflect off conductors) only, as the
+                            exclusion here assumes */
     spc_snee_track track;
     memset(&track, 0, sizeof track);
     spc_vec3 conn_x = spc_v3(0, 0, 0), conn_d0 = spc_v3(0, 0, 1); /* the vertex tracked and its direction */

@@ -53,6 +53,9 @@
 /* reflect's default probability of a reflection at a dielectric vertex of a seed chain. Measured in
  * bench/RESULTS.md (Session 4). */
 #define SPC_SNEE_REFLECT_P 0.2
+/* The MIS weight's stand-in for the probability that a randomized attempt finds a chain (params.
+ * mis_solve; measured in bench/RESULTS.md, Session 4). */
+#define SPC_SNEE_MIS_SOLVE 0.1
 /* Solutions kept from a solver that enumerates them all (solve_all): one interface rarely has more
  * than a handful between two points. */
 #define SPC_SNEE_MAX_ALL 16
@@ -145,6 +148,7 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
         return true;
     if (id == SPC_SNEE_NONE)
         return false; /* options without a solver are a mistake, not a no-op */
+    bool reflect_set = false; /* reflect asked for explicitly */
     for (const char *o = colon + 1;;) {
         const char *end = strchr(o, ',');
         size_t n = end ? (size_t)(end - o) : strlen(o);
@@ -159,6 +163,9 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
         } else if (opt_is(o, kn, "mispsi") && val) {
             if (!parse_real(val, vn, 1e-6, 1.0, &p->mis_solve))
                 return false;
+        } else if (opt_is(o, n, "noreflect")) {
+            p->reflect = false;
+            reflect_set = false;
         } else if (opt_is(o, n, "camera")) {
             p->camera = true;
         } else if (opt_is(o, kn, "receivers") && val) {
@@ -166,6 +173,7 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
                 return false;
         } else if (opt_is(o, kn, "reflect")) {
             p->reflect = true;
+            reflect_set = true;
             if (val && (!parse_real(val, vn, 0.0, 1.0, &p->reflect_p) || !(p->reflect_p > 0.0 && p->reflect_p < 1.0)))
                 return false;
         } else if (opt_is(o, kn, "biased")) {
@@ -195,6 +203,7 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
                 return false;
         } else if (opt_is(o, n, "rough") && id == SPC_SNEE_NEWTON) {
             p->newton.rough = true;
+            p->reflect = false; /* the rough mode's chains refract through glass */
         } else {
             return false;
         }
@@ -202,7 +211,7 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
             break;
         o = end + 1;
     }
-    return !(p->reflect && p->newton.rough); /* the rough mode's chains refract through glass */
+    return !(reflect_set && p->newton.rough); /* the rough mode's chains refract through glass */
 }
 
 void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
@@ -217,9 +226,12 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     spc_newton_options_default(&p->newton);
     p->biased = false;
     p->biased_seeds = SPC_SNEE_BIASED_SEEDS;
-    p->reflect = false;
+    /* reflections off glass: on for angular (and conic's angular part), off for newton, whose
+     * attempts cost more and which they made worse on multi-interface chains (bench/RESULTS.md,
+     * Session 4) */
+    p->reflect = solver == SPC_SNEE_ANGULAR || solver == SPC_SNEE_CONIC;
     p->reflect_p = SPC_SNEE_REFLECT_P;
-    p->mis_solve = 1.0;
+    p->mis_solve = SPC_SNEE_MIS_SOLVE;
     if (solver != SPC_SNEE_NEWTON) {
         p->angular.window = SPC_SNEE_ANGULAR_WINDOW;
         p->angular.window_keep = SPC_SNEE_ANGULAR_WINDOW_KEEP;

@@ -129,7 +129,8 @@ typedef struct spc_snee_params {
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
- * and Newton solvers' defaults, unbiased (biased_seeds SPC_SNEE_BIASED_SEEDS when switched on).
+ * and Newton solvers' defaults, unbiased (biased_seeds SPC_SNEE_BIASED_SEEDS when switched on),
+ * mis_solve SPC_SNEE_MIS_SOLVE, reflect for angular and conic, no camera, receivers 0 (all).
  * For the angular solver: straight_first, the angular solver's progress window and a cap of 256
  * (specular_nee.c, SPC_SNEE_ANGULAR_WINDOW, SPC_SNEE_ANGULAR_MAX_TRIALS); conic (whose one-at-a-time
  * part is the angular solver) gets the window too. */
@@ -188,7 +189,9 @@ typedef struct spc_specular_solver {
  *   rough               newton: rough dielectrics and conductors are chain vertices (newton.h)
  *   nomis               no MIS with BSDF sampling (params.no_mis): covered paths left to NEE alone
  *   reflect[=P]         chains also reflect at dielectric vertices (params.reflect; P, default
- *                       SPC_SNEE_REFLECT_P, the probability of a reflection there, in (0, 1))
+ *                       SPC_SNEE_REFLECT_P, the probability of a reflection there, in (0, 1));
+ *                       the default for angular and conic
+ *   noreflect           chains refract through dielectrics only (newton's default)
  *   mispsi=Q            params.mis_solve, in (0, 1]: the MIS weight's stand-in for the probability
  *                       that a randomized attempt finds a chain
  *   receivers=N         params.receivers: specular NEE at the first N non-delta path vertices only
