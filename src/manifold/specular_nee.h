@@ -31,6 +31,8 @@
  *     vertex;
  *   - then the surface of an area emitter (point and spot lights cannot be hit; environment and
  *     directional lights are not handled: their chains stay with BSDF sampling).
+ * With params.camera (spc_snee_camera) the same chains also start at the camera's pinhole, which
+ * takes the receiver's place (the camera ray's direction is its "non-delta sample").
  */
 #ifndef SPC_MANIFOLD_SPECULAR_NEE_H
 #define SPC_MANIFOLD_SPECULAR_NEE_H
