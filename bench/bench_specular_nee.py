@@ -46,7 +46,7 @@ def small_light(r, r_small, rgb):
     return {"light_radius": str(r_small), "light_radiance": ", ".join("%.6g" % (c * s) for c in rgb)}
 
 
-# ":reflect": chains also reflect off the glass (spc_snee_params.reflect), on the scenes with dielectrics.
+# ":camera": specular NEE from the camera too (glints, the light seen through glass or in a mirror).
 # conic runs where its chains exist (one vertex on a triangle mesh with interpolated normals): on the
 # analytic mirror cylinder it would hand every chain to angular, and on caustic_pool's normal-mapped
 # water (a chain vertex of angular and newton since the normal map is differentiated) too.
@@ -57,21 +57,23 @@ def small_light(r, r_small, rgb):
 # paths, which bdpt samples only by hitting the light: its variance estimate there is too low for
 # the z-test, so those scenes are also checked against another solver.
 VARIANTS = [
-    ("glass_sphere", "caustic_glass_sphere", {}, ["none", "angular", "angular:reflect", "newton", "newton:reflect"], "angular", "bdpt",
+    ("glass_sphere", "caustic_glass_sphere", {}, ["none", "angular", "angular:camera", "newton"], "angular:camera", "bdpt",
      "glass sphere on a floor, sphere light r 0.12 (2 refractions)"),
-    ("mirror_ring", "caustic_mirror_ring", {}, ["none", "angular", "newton"], "angular",
+    ("mirror_ring", "caustic_mirror_ring", {}, ["none", "angular", "angular:camera", "newton"], "angular",
      "bdpt+newton",
      "mirror cylinder (analytic), sphere light r 0.1 (1 reflection)"),
-    ("sdf_torus", "caustic_sdf_torus", {}, ["none", "angular", "angular:reflect", "newton", "newton:reflect"], "newton", "bdpt+none+angular",
+    ("sdf_torus", "caustic_sdf_torus", {}, ["none", "angular", "angular:camera", "newton"], "angular:camera",
+     "bdpt+none+angular",
      "glass SDF torus, sphere light r 0.08 (2 refractions)"),
-    ("pool_normalmap", "caustic_pool", {}, ["none", "angular", "angular:reflect", "newton", "newton:reflect"], "newton", "bdpt+none+angular",
+    ("pool_normalmap", "caustic_pool", {}, ["none", "angular", "angular:camera", "newton"], "angular:camera",
+     "bdpt+none+angular",
      "water plane with a normal map over a tiled pool, sphere light r 0.15"),
     ("newton_pool", "newton_pool", {}, ["none", "angular", "newton", "conic"], "conic", "bdpt+newton",
      "mesh water (interpolated normals), sphere light r 0.25 (1 refraction)"),
     ("newton_pool_small", "newton_pool", small_light(0.25, 0.08, (40, 38, 34)),
      ["none", "angular", "newton", "conic"], "conic", "bdpt+newton",
      "the same, light r 0.08 (same power)"),
-    ("slabs", "newton_slabs", {}, ["none", "angular", "angular:reflect", "newton"], "angular", "bdpt",
+    ("slabs", "newton_slabs", {}, ["none", "angular", "newton"], "angular", "bdpt",
      "two glass slabs, sphere light r 0.3 (4 refractions)"),
     ("slabs_small", "newton_slabs", small_light(0.3, 0.1, (30, 28, 24)), ["none", "angular", "newton"],
      "angular", "bdpt", "the same, light r 0.1 (same power)"),
