@@ -11,9 +11,12 @@
  * - An image test: a glass sphere's caustic on a diffuse floor under a small sphere light,
  *   rendered by `path` with specular NEE (angular) and by `ipt`, compared pixel by pixel
  *   (Sidak-corrected z-test) and in mean energy.
+ * - Chains that reflect off glass (params.reflect) against brute force through the BSDFs; MIS with
+ *   the solve-probability stand-in psi end to end at a point; specular NEE from the camera (a lamp
+ *   seen through a glass ball) against plain path tracing.
  */
 /* ctest-labels: stat */
-/* ctest-timeout: 600 */
+/* ctest-timeout: 1200 */
 #include <string.h>
 
 #include "core/rng.h"
