@@ -661,12 +661,15 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
     return random_psi(p);
 }
 
-double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
-                                spc_vec3 d0, int max_chain, int k, const unsigned char *events, const spc_hit *light)
+/* The weight of a covered path that left x (a receiver toward wo, or the pinhole of cam) along d0
+ * and reached the area light at the hit `light` through k chain vertices with these events: the
+ * chain retraced for its geometry term, the sampling side's density (the BSDF's, or the camera's
+ * W H / N pdf_dir) against psi p_y. p->mis is set and e is an area light. */
+static double covered_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                             const spc_camera_state *cam, double cam_scale, spc_vec3 d0, int max_chain, int k,
+                             const unsigned char *events, const spc_hit *light)
 {
     const spc_emitter *e = light->emitter;
-    if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
-        return 0.0;
     double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
     if (!(p_y > 0.0))
         return 1.0; /* specular NEE never draws this light point */
@@ -681,7 +684,7 @@ double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, c
     double G = spc_chain_geometry(&c, light->p, light->ng);
     if (!(G > 0.0) || !isfinite(G))
         return 0.0;
-    double p_b = spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0) * G;
+    double pdf = cam ? spc_camera_pdf_dir(cam, c.d0) * cam_scale : spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0);
     /* psi as specular NEE has it for this chain toward this light point */
     spc_snee_query q;
     memset(&q, 0, sizeof q);
@@ -696,8 +699,19 @@ double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, c
     q.any_surface = p->any_surface;
     q.params = p;
     q.p_y = p_y;
+    q.cam = cam;
+    q.cam_scale = cam_scale;
     double psi = chain_psi(&q, &c);
-    return 1.0 - spc_snee_mis_weight(psi * p_y, p_b);
+    return 1.0 - spc_snee_mis_weight(psi * p_y, pdf * G);
+}
+
+double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                                spc_vec3 d0, int max_chain, int k, const unsigned char *events, const spc_hit *light)
+{
+    const spc_emitter *e = light->emitter;
+    if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
+        return 0.0;
+    return covered_weight(sc, p, x, wo, NULL, 0.0, d0, max_chain, k, events, light);
 }
 
 int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface)
@@ -932,39 +946,8 @@ double spc_snee_camera_bsdf_weight(const spc_scene *sc, const spc_snee_params *p
         return 1.0;
     if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
         return 0.0; /* covered and not weighted: specular NEE's alone */
-    double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
-    if (!(p_y > 0.0))
-        return 1.0; /* specular NEE never draws this light point */
     spc_hit x = pinhole_hit(cam);
-    spc_frame fr = spc_frame_from_n(d0);
-    spc_chain_opts o = spc_chain_opts_default(k);
-    o.any_surface = p->any_surface;
-    o.events = events;
-    spc_chain c;
-    if (spc_chain_trace(sc, &x, &fr, 0.0, 0.0, &o, &c) != SPC_CHAIN_END_SURFACE || c.n != k || !c.has_end_hit ||
-        c.end_hit.emitter != e || spc_distance(c.end_hit.p, light->p) > 1e-6 * (sc->radius + spc_max_abs(light->p)))
-        return 0.0;
-    double G = spc_chain_geometry(&c, light->p, light->ng);
-    if (!(G > 0.0) || !isfinite(G))
-        return 0.0;
-    double p_c = spc_camera_pdf_dir(cam, c.d0) * cam_scale * G;
-    spc_snee_query q;
-    memset(&q, 0, sizeof q);
-    q.scene = sc;
-    q.x = &x;
-    q.wo = cam->forward;
-    q.y = light->p;
-    q.ny = light->ng;
-    q.light_size = sqrt(e->shape->area);
-    q.max_chain = max_chain;
-    q.seed = p->seed;
-    q.any_surface = p->any_surface;
-    q.params = p;
-    q.p_y = p_y;
-    q.cam = cam;
-    q.cam_scale = cam_scale;
-    double psi = chain_psi(&q, &c);
-    return 1.0 - spc_snee_mis_weight(psi * p_y, p_c);
+    return covered_weight(sc, p, &x, cam->forward, cam, cam_scale, d0, max_chain, k, events, light);
 }
 
 /* ---- exclusion of the covered paths from BSDF sampling ---- */
