@@ -1060,14 +1060,7 @@ spc_rgb spc_newton_rough_nee(const spc_scene *sc, const struct spc_snee_params *
     if (!e)
         return zero;
     spc_snee_query q;
-    memset(&q, 0, sizeof q);
-    q.scene = sc;
-    q.x = x;
-    q.wo = wo;
-    q.max_chain = max_chain;
-    q.seed = prm->seed;
-    q.any_surface = prm->any_surface;
-    q.params = prm;
+    spc_snee_query_init(&q, sc, prm, x, wo, max_chain);
     double p_y;
     spc_vec2 uv = spc_v2(0, 0);
     if (e->type == SPC_EMITTER_AREA) {

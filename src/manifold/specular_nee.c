@@ -241,6 +241,19 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
         p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
 }
 
+void spc_snee_query_init(spc_snee_query *q, const spc_scene *sc, const spc_snee_params *p, const spc_hit *x,
+                         spc_vec3 wo, int max_chain)
+{
+    memset(q, 0, sizeof *q);
+    q->scene = sc;
+    q->x = x;
+    q->wo = wo;
+    q->max_chain = max_chain;
+    q->seed = p->seed;
+    q->any_surface = p->any_surface;
+    q->params = p;
+}
+
 /* ---- seeding ---- */
 
 bool spc_snee_straight_hits_glass(const spc_snee_query *q)
@@ -687,17 +700,10 @@ static double covered_weight(const spc_scene *sc, const spc_snee_params *p, cons
     double pdf = cam ? spc_camera_pdf_dir(cam, c.d0) * cam_scale : spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0);
     /* psi as specular NEE has it for this chain toward this light point */
     spc_snee_query q;
-    memset(&q, 0, sizeof q);
-    q.scene = sc;
-    q.x = x;
-    q.wo = wo;
+    spc_snee_query_init(&q, sc, p, x, wo, max_chain);
     q.y = light->p;
     q.ny = light->ng;
     q.light_size = sqrt(e->shape->area);
-    q.max_chain = max_chain;
-    q.seed = p->seed;
-    q.any_surface = p->any_surface;
-    q.params = p;
     q.p_y = p_y;
     q.cam = cam;
     q.cam_scale = cam_scale;
@@ -862,14 +868,7 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
         return spc_newton_rough_nee(sc, p, x, wo, max_chain, rng, st);
 
     spc_snee_query q;
-    memset(&q, 0, sizeof q);
-    q.scene = sc;
-    q.x = x;
-    q.wo = wo;
-    q.max_chain = max_chain;
-    q.seed = p->seed;
-    q.any_surface = p->any_surface;
-    q.params = p;
+    spc_snee_query_init(&q, sc, p, x, wo, max_chain);
     const spc_emitter *e;
     spc_vec2 uv;
     double p_y;
@@ -911,14 +910,7 @@ int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_cam
         return 0;
     spc_hit x = pinhole_hit(cam);
     spc_snee_query q;
-    memset(&q, 0, sizeof q);
-    q.scene = sc;
-    q.x = &x;
-    q.wo = cam->forward;
-    q.max_chain = max_chain;
-    q.seed = p->seed;
-    q.any_surface = p->any_surface;
-    q.params = p;
+    spc_snee_query_init(&q, sc, p, &x, cam->forward, max_chain);
     q.cam = cam;
     q.cam_scale = cam_scale;
     const spc_emitter *e;

@@ -166,6 +166,11 @@ typedef struct spc_snee_query {
     double cam_scale;
 } spc_snee_query;
 
+/* A query from x (wo toward the previous path vertex) with chains of up to max_chain vertices, the
+ * params' seed and caustic-flag setting; the light point and the rest zero. */
+void spc_snee_query_init(spc_snee_query *q, const spc_scene *sc, const spc_snee_params *p, const spc_hit *x,
+                         spc_vec3 wo, int max_chain);
+
 /* A solver: one randomized attempt from the query's seed distribution (the same distribution on
  * every call, which <1/p_solve> requires), or the set of all solutions. */
 typedef struct spc_specular_solver {
