@@ -4,6 +4,9 @@
 #ifndef SPC_TESTS_RENDER_UTIL_H
 #define SPC_TESTS_RENDER_UTIL_H
 
+#include <math.h>
+#include <stdbool.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 #include "integrator/integrator.h"
@@ -140,6 +143,40 @@ static inline void tu_image_mean(const spc_film *f, int c, double *mean, double 
     }
     *mean = s / (double)n;
     *stderr_ = sqrt(v) / (double)n;
+}
+
+/* The image tests' agreement of img with the reference ref: the per-pixel z-test (Sidak, alpha
+ * 0.01) passes on at least min_pass of the pixels, and every channel's image mean lies within 3
+ * standard errors. Prints each failure after `label`; *d (may be NULL) receives the comparison. */
+static inline bool tu_image_agrees(const spc_film *img, const spc_film *ref, double min_pass, const char *label,
+                                   spc_diff_result *d)
+{
+    spc_image_rgb a = {img->width, img->height, img->rgb, img->var};
+    spc_image_rgb b = {ref->width, ref->height, ref->rgb, ref->var};
+    spc_diff_result r;
+    spc_error err;
+    if (spc_image_diff(&a, &b, &r, &err) != SPC_OK) {
+        printf("  %s: images cannot be compared: %s\n", label, err.msg);
+        return false;
+    }
+    if (d)
+        *d = r;
+    bool ok = true;
+    if (!r.has_ztest || r.ztest_pass_fraction < min_pass) {
+        printf("  %s: z-test pass fraction %.4f\n", label, r.ztest_pass_fraction);
+        ok = false;
+    }
+    for (int c = 0; c < 3; ++c) {
+        double ma, sa, mb, sb;
+        tu_image_mean(img, c, &ma, &sa);
+        tu_image_mean(ref, c, &mb, &sb);
+        double se = sqrt(sa * sa + sb * sb);
+        if (!(fabs(ma - mb) <= 3 * se)) {
+            printf("  %s channel %d: mean %.5f vs %.5f (se %.2g)\n", label, c, ma, mb, se);
+            ok = false;
+        }
+    }
+    return ok;
 }
 
 #endif
