@@ -18,6 +18,7 @@
 
 #include "manifold/conic.h"
 #include "render/camera.h"
+#include "manifold/sphere_chains.h"
 
 /* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
 #define SPC_SNEE_CONE_COS 0.9
@@ -166,6 +167,15 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
         } else if (opt_is(o, n, "noreflect")) {
             p->reflect = false;
             reflect_set = false;
+        } else if (opt_is(o, kn, "chain") && val) {
+            int k;
+            if (!parse_count(val, vn, &k) || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
+                return false;
+            p->max_chain = k;
+        } else if (opt_is(o, n, "spheres")) {
+            p->spheres = true;
+        } else if (opt_is(o, n, "nospheres")) {
+            p->spheres = false;
         } else if (opt_is(o, n, "camera")) {
             p->camera = true;
         } else if (opt_is(o, kn, "receivers") && val) {
@@ -204,6 +214,7 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
         } else if (opt_is(o, n, "rough") && id == SPC_SNEE_NEWTON) {
             p->newton.rough = true;
             p->reflect = false; /* the rough mode's chains refract through glass */
+            p->spheres = false;  /* its own estimator (newton.h) */
         } else {
             return false;
         }
@@ -237,6 +248,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
         p->angular.window_keep = SPC_SNEE_ANGULAR_WINDOW_KEEP;
     }
     p->straight_first = solver == SPC_SNEE_ANGULAR;
+    p->spheres = true;
     if (solver == SPC_SNEE_ANGULAR)
         p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
 }
@@ -450,6 +462,15 @@ int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *
     return cap;
 }
 
+/* Is c counted exactly (no <1/p_solve>): enumerated by the solver's solve_all, or a chain on one
+ * sphere (params.spheres, sphere_chains.h)? */
+static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *c)
+{
+    if (solver->solve_all && solver->covers && solver->covers(c))
+        return true;
+    return q->params && q->params->spheres && spc_sphere_chain_covers(c, q->params->reflect);
+}
+
 typedef struct trial_ctx {
     const spc_snee_query *q;
     const spc_specular_solver *solver;
@@ -477,8 +498,8 @@ static spc_rgb biased_estimate(const spc_snee_query *q, const spc_specular_solve
         spc_chain *c = &found[nfound];
         if (!solver->solve_one(q, rng, c, &iterations))
             continue;
-        if (solver->solve_all && solver->covers && solver->covers(c))
-            continue; /* counted exactly by solve_all */
+        if (exact_covers(q, solver, c))
+            continue; /* counted exactly */
         bool seen = false;
         for (int i = 0; i < nfound && !seen; ++i)
             seen = spc_snee_same_solution(&found[i], c, q->scene->radius);
@@ -648,7 +669,8 @@ static bool straight_solve(const spc_snee_query *q, const spc_specular_solver *s
     spc_snee_query ql = *q;
     ql.seed = SPC_SNEE_SEED_LIGHT;
     ql.want = NULL;
-    return solver->solve_one(&ql, NULL, out, iterations);
+    /* a chain on one sphere is counted with the other sphere chains (params.spheres) */
+    return solver->solve_one(&ql, NULL, out, iterations) && !exact_covers(q, solver, out);
 }
 
 /* psi (spc_snee_params.mis) of a chain a randomized attempt finds. */
@@ -665,7 +687,7 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
     if (!solver || random_psi(p) == 1.0)
         return 1.0;
-    if (solver->solve_all && solver->covers && solver->covers(c))
+    if (exact_covers(q, solver, c))
         return 1.0;
     spc_chain straight;
     int it = 0;
@@ -758,6 +780,26 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
 {
     const spc_snee_params *p = q->params;
     const spc_scene *sc = q->scene;
+    /* every chain on one sphere, exactly (params.spheres) */
+    if (p->spheres) {
+        spc_chain all[SPC_SNEE_MAX_ALL];
+        int all_iterations = 0;
+        int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &all_iterations);
+        if (st) {
+            st->iterations += (uint64_t)all_iterations;
+            st->solved += nall > 0 ? 1u : 0u;
+        }
+        for (int i = 0; i < nall; ++i) {
+            spc_rgb v = spc_snee_chain_value(q, e, uv, &all[i]);
+            if (spc_rgb_is_black(v))
+                continue;
+            emit(q, sk, &all[i], spc_rgb_scale(v, 1.0 / p_y));
+            if (st)
+                st->contributions++;
+        }
+        if (spc_sphere_chain_covers_all(q))
+            return;
+    }
     /* a solver that enumerates every solution: the exact sum, no probability to estimate */
     if (solver->solve_all) {
         spc_chain all[SPC_SNEE_MAX_ALL];
@@ -808,7 +850,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         st->iterations += (uint64_t)iterations;
     if (!ok)
         return;
-    if (solver->solve_all && solver->covers(&sol))
+    if (exact_covers(q, solver, &sol))
         return; /* already counted exactly */
     if (have_straight && spc_snee_same_solution(&straight, &sol, sc->radius))
         return; /* counted exactly above */

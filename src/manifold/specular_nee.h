@@ -128,11 +128,18 @@ typedef struct spc_snee_params {
      * camera's density of the direction, W H / N pdf_dir, for the BSDF's; spc_snee_camera_bsdf_weight)
      * when mis is set, else those rays are dropped. Always the unbiased estimator. */
     bool camera;
+    /* Every chain that stays on one sphere (a glass or mirror ball: reflected off it, or in, m
+     * internal reflections, out) enumerated exactly in the plane through x, y and the centre
+     * (sphere_chains.h) and counted with psi = 1; the randomized solver's attempts skip them, and
+     * with one such sphere as the only caster it is not called at all. The user's "spheres" (the
+     * default for every solver) / "nospheres". */
+    bool spheres;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
  * and Newton solvers' defaults, unbiased (biased_seeds SPC_SNEE_BIASED_SEEDS when switched on),
- * mis_solve SPC_SNEE_MIS_SOLVE, reflect for angular and conic, no camera, receivers 0 (all).
+ * mis_solve SPC_SNEE_MIS_SOLVE, reflect for angular and conic, no camera, receivers 0 (all),
+ * spheres.
  * For the angular solver: straight_first, the angular solver's progress window and a cap of 256
  * (specular_nee.c, SPC_SNEE_ANGULAR_WINDOW, SPC_SNEE_ANGULAR_MAX_TRIALS); conic (whose one-at-a-time
  * part is the angular solver) gets the window too. */
@@ -204,6 +211,10 @@ typedef struct spc_specular_solver {
  *   receivers=N         params.receivers: specular NEE at the first N non-delta path vertices only
  *   camera              params.camera: specular NEE from the camera too (glints, lights seen through
  *                       glass)
+ *   chain=N             params.max_chain: chains of at most N vertices (1 .. SPC_CHAIN_MAX_VERTICES;
+ *                       default: the integrator's specular_max_chain)
+ *   spheres, nospheres  params.spheres: chains on one sphere enumerated exactly (the default), or
+ *                       left to the solver's randomized attempts
  * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
  * options. False (p undefined) for an unknown name or option, or a bad value. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);

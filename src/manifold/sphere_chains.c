@@ -1,0 +1,486 @@
+/*
+ * manifold/sphere_chains.c: every specular chain through one sphere (sphere_chains.h).
+ *
+ * The planar problem, on the unit circle centred at the origin: x = (d, 0), d > 1, sees the arc of
+ * entry points P(theta) = (cos theta, sin theta), |theta| < acos(1/d). The ray x -> P either
+ * reflects there (m = -1) or refracts in (ratio 1/eta), crosses chords of length -2 t.Q (the
+ * internal angle is the same at every internal vertex of a sphere), reflects at m of their ends
+ * and refracts out (ratio eta). With Q the last vertex and v the final direction, the chain reaches
+ * y where f(theta) = v x (y - Q) vanishes and (y - Q).v > 0. f is smooth in theta wherever the
+ * refractions exist (the angle of the entry point, unlike the impact parameter, keeps the
+ * derivative finite at the grazing rim).
+ *
+ * Root isolation: f on SPC_SPHERE_GRID + 1 samples over the arc (ends pulled in by a relative
+ * 1e-9); a root is bracketed by a sign change between neighbours, and a pair of roots between
+ * samples by a local extremum of the samples toward zero (three samples of one sign, the middle
+ * one nearest zero): a parabolic search for the extremum of f between the outer two, and if f
+ * changes sign there, one bracket on each side. With f's few features (one extremum per rainbow
+ * order at most: the deviation of a ray through a sphere has one stationary point per internal
+ * reflection count) the grid resolves them all but pairs of roots within one sample spacing of
+ * the arc's grazing end. Brackets are refined by the Illinois variant of regula falsi to 1e-12 in
+ * theta; the polish in 3D (spc_sphere_chains_all) takes it from there, from the point the chain's
+ * first ray leaves from, and in one trace as a rule.
+ */
+#include "manifold/sphere_chains.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "bsdf/bsdf.h"
+#include "manifold/angular.h"
+#include "manifold/specular_nee.h"
+#include "scene/scene.h"
+
+/* Samples of f over the arc x sees, shared by every signature (one pass computes the way in, the
+ * chords, and each signature's way out). */
+#define SPC_SPHERE_GRID 32
+/* Roots kept per planar problem. */
+#define SPC_SPHERE_MAX_ROOTS 16
+/* Internal reflections at most, and the signatures (m = -1 .. SPC_SPHERE_MAX_M). */
+#define SPC_SPHERE_MAX_M (SPC_CHAIN_MAX_VERTICES - 2)
+#define SPC_SPHERE_SIGNATURES (SPC_SPHERE_MAX_M + 2)
+/* x (and y) count as outside a sphere of radius R beyond R (1 + this). */
+#define SPC_SPHERE_OUTSIDE_REL 1e-6
+
+bool spc_sphere_chain_shape(const spc_shape *s)
+{
+    if (!s || s->type != SPC_SHAPE_SPHERE || s->flip_normals || s->emitter || !s->bsdf || !(s->radius > 0.0))
+        return false;
+    const spc_bsdf *b = s->bsdf;
+    if (b->type == SPC_BSDF_TWOSIDED)
+        return b->nested[0] && b->nested[0]->type == SPC_BSDF_CONDUCTOR &&
+               (!b->nested[1] || b->nested[1]->type == SPC_BSDF_CONDUCTOR);
+    return b->type == SPC_BSDF_CONDUCTOR || b->type == SPC_BSDF_DIELECTRIC;
+}
+
+static bool outside(const spc_shape *s, spc_vec3 p)
+{
+    return spc_distance(p, s->center) > s->radius * (1.0 + SPC_SPHERE_OUTSIDE_REL);
+}
+
+static bool is_dielectric(const spc_shape *s) { return s->bsdf->type == SPC_BSDF_DIELECTRIC; }
+
+bool spc_sphere_chain_covers(const spc_chain *c, bool reflect)
+{
+    int n = c->n;
+    if (n < 1)
+        return false;
+    const spc_shape *s = c->v[0].h.shape;
+    if (!spc_sphere_chain_shape(s) || !outside(s, c->x))
+        return false;
+    for (int i = 0; i < n; ++i)
+        if (c->v[i].h.shape != s)
+            return false;
+    if (!is_dielectric(s))
+        return n == 1 && c->v[0].event == SPC_CHAIN_REFLECT;
+    if (n == 1)
+        return reflect && c->v[0].event == SPC_CHAIN_REFLECT;
+    if (n > 2 && !reflect)
+        return false;
+    for (int i = 0; i < n; ++i) {
+        int want = (i == 0 || i == n - 1) ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
+        if (c->v[i].event != want)
+            return false;
+    }
+    return true;
+}
+
+/* May s be a vertex of some chain of at most max_chain vertices? */
+static bool usable_caster(const spc_shape *s, bool any_surface, int max_chain)
+{
+    if (!spc_chain_shape_is_caster(s, any_surface, NULL))
+        return false;
+    if (any_surface)
+        return true;
+    for (int k = 1; k <= max_chain; ++k)
+        if (spc_chain_caster_allowed(s->caustic_flags, k))
+            return true;
+    return false;
+}
+
+bool spc_sphere_chain_covers_all(const spc_snee_query *q)
+{
+    const spc_scene *sc = q->scene;
+    int count = 0;
+    for (int i = 0; i < sc->nshapes; ++i) {
+        const spc_shape *s = sc->shapes[i];
+        if (!usable_caster(s, q->any_surface, q->max_chain))
+            continue;
+        if (!spc_sphere_chain_shape(s) || !outside(s, q->x->p))
+            return false;
+        ++count;
+    }
+    return count <= 1; /* two spheres: chains through both are the randomized solver's */
+}
+
+/* ---- the planar problem ---- */
+
+typedef struct plane_problem {
+    double d, y1, y2, eta;
+    int m;
+} plane_problem;
+
+/* w refracted at a boundary whose unit normal n faces against w (w.n < 0), ratio n1 / n2. */
+static inline bool refract2(double wx, double wy, double nx, double ny, double ratio, double *ox, double *oy)
+{
+    double ci = -(wx * nx + wy * ny);
+    double s2 = ratio * ratio * (1.0 - ci * ci);
+    if (s2 > 1.0 + 1e-9)
+        return false;
+    /* up to rounding, grazing: the way out of a sphere mirrors the way in, and at the arc's ends
+     * (grazing entry) sin i is within rounding of 1 */
+    s2 = s2 < 1.0 ? s2 : 1.0;
+    double ct = sqrt(1.0 - s2);
+    *ox = ratio * wx + (ratio * ci - ct) * nx;
+    *oy = ratio * wy + (ratio * ci - ct) * ny;
+    return true;
+}
+
+/* f(theta) and (y - Q).v at the entry point (cos theta, sin theta) = (qx, qy); false where a
+ * refraction does not exist (total internal reflection). */
+static bool plane_eval_at(const plane_problem *pb, double qx, double qy, double *f, double *ahead)
+{
+    double ux = qx - pb->d, uy = qy;
+    double ul = sqrt(ux * ux + uy * uy);
+    ux /= ul;
+    uy /= ul;
+    double vx, vy;
+    if (pb->m < 0) {
+        double dn = ux * qx + uy * qy;
+        vx = ux - 2.0 * dn * qx;
+        vy = uy - 2.0 * dn * qy;
+    } else {
+        double tx, ty;
+        if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
+            return false;
+        for (int j = 0; j <= pb->m; ++j) {
+            double len = -2.0 * (tx * qx + ty * qy);
+            qx += len * tx;
+            qy += len * ty;
+            if (j < pb->m) {
+                double dn = tx * qx + ty * qy;
+                tx -= 2.0 * dn * qx;
+                ty -= 2.0 * dn * qy;
+            }
+        }
+        if (!refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy))
+            return false;
+    }
+    double rx = pb->y1 - qx, ry = pb->y2 - qy;
+    *f = vx * ry - vy * rx;
+    *ahead = vx * rx + vy * ry;
+    return true;
+}
+
+static bool plane_eval(const plane_problem *pb, double th, double *f, double *ahead)
+{
+    return plane_eval_at(pb, cos(th), sin(th), f, ahead);
+}
+
+/* A root of f in [a, b] (fa, fb of opposite signs, both defined), by Illinois regula falsi. */
+static double refine(const plane_problem *pb, double a, double fa, double b, double fb)
+{
+    int side = 0;
+    /* to 1e-12: the 3D polish (spc_sphere_chains_all) converges from there in one step */
+    for (int it = 0; it < 100 && fabs(b - a) > 1e-12 * (1.0 + fabs(a)); ++it) {
+        double c = (a * fb - b * fa) / (fb - fa);
+        if (!(c > fmin(a, b) && c < fmax(a, b)))
+            c = 0.5 * (a + b);
+        double fc, ahead;
+        if (!plane_eval(pb, c, &fc, &ahead))
+            return 0.5 * (a + b); /* cannot happen inside a defined bracket; stay safe */
+        if (fc == 0.0)
+            return c;
+        if ((fc > 0.0) == (fb > 0.0)) {
+            b = c;
+            fb = fc;
+            if (side == -1)
+                fa *= 0.5;
+            side = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if (side == 1)
+                fb *= 0.5;
+            side = 1;
+        }
+    }
+    return fabs(fa) < fabs(fb) ? a : b;
+}
+
+static void add_root(const plane_problem *pb, double th, double *theta, int *n, int max_roots)
+{
+    double f, ahead;
+    if (*n >= max_roots || !plane_eval(pb, th, &f, &ahead) || !(ahead > 0.0))
+        return;
+    for (int i = 0; i < *n; ++i)
+        if (fabs(theta[i] - th) < 1e-10)
+            return;
+    theta[(*n)++] = th;
+}
+
+/* f of every signature m = mlo..mhi at the entry point (qx, qy), sharing the way in and the chords:
+ * f[m + 1], ok[m + 1] (m = -1: the outside reflection). */
+static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx, double qy, double *f, bool *ok)
+{
+    for (int m = mlo; m <= mhi; ++m)
+        ok[m + 1] = false;
+    double ux = qx - pb->d, uy = qy;
+    double ul = sqrt(ux * ux + uy * uy);
+    ux /= ul;
+    uy /= ul;
+    if (mlo < 0) {
+        double dn = ux * qx + uy * qy;
+        double vx = ux - 2.0 * dn * qx, vy = uy - 2.0 * dn * qy;
+        f[0] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
+        ok[0] = true;
+    }
+    if (mhi < 0)
+        return;
+    double tx, ty;
+    if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
+        return;
+    for (int j = 0; j <= mhi; ++j) {
+        double len = -2.0 * (tx * qx + ty * qy);
+        qx += len * tx;
+        qy += len * ty;
+        double vx, vy;
+        if (j >= mlo && refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy)) {
+            f[j + 1] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
+            ok[j + 1] = true;
+        }
+        double dn = tx * qx + ty * qy;
+        tx -= 2.0 * dn * qx;
+        ty -= 2.0 * dn * qy;
+    }
+}
+
+/* The roots of one signature from its samples on the grid th[0..grid]. */
+static int roots_from_samples(const plane_problem *pb, double tmax, const double *th, const double *f, const bool *ok,
+                              int grid, double *theta, int max_roots)
+{
+    int n = 0;
+    for (int j = 0; j < grid; ++j) {
+        if (!ok[j] || !ok[j + 1])
+            continue;
+        if (f[j] == 0.0)
+            add_root(pb, th[j], theta, &n, max_roots);
+        else if ((f[j] > 0.0) != (f[j + 1] > 0.0) && f[j + 1] != 0.0)
+            add_root(pb, refine(pb, th[j], f[j], th[j + 1], f[j + 1]), theta, &n, max_roots);
+    }
+    if (ok[grid] && f[grid] == 0.0)
+        add_root(pb, th[grid], theta, &n, max_roots);
+    /* pairs of roots between samples: a local extremum of the samples toward zero */
+    for (int j = 1; j < grid; ++j) {
+        if (!ok[j - 1] || !ok[j] || !ok[j + 1])
+            continue;
+        double s = f[j] > 0.0 ? 1.0 : -1.0;
+        if (!(s * f[j - 1] > s * f[j] && s * f[j + 1] > s * f[j] && s * f[j - 1] > 0.0 && s * f[j + 1] > 0.0 &&
+              s * f[j] > 0.0))
+            continue;
+        /* the parabola through the three samples: where its lowest point stays above half the middle
+         * sample, f would have to leave it by more than that within two cells to reach zero: the
+         * grid resolves f's features (one cell spans under 1/16 of the arc), so this extremum does
+         * not cross zero */
+        double curv = s * (f[j - 1] - 2.0 * f[j] + f[j + 1]), slope = s * 0.5 * (f[j + 1] - f[j - 1]);
+        if (curv > 0.0 && s * f[j] - 0.5 * slope * slope / curv > 0.5 * s * f[j])
+            continue;
+        /* the minimum of s f on [th[j-1], th[j+1]] by successive parabolic interpolation (golden
+         * sections where the parabola is no help), stopped as soon as f changes sign */
+        double a = th[j - 1], b = th[j], c = th[j + 1];
+        double fa = s * f[j - 1], fb = s * f[j], fc = s * f[j + 1];
+        double tm = b, fm = fb;
+        for (int it = 0; it < 40 && fm > 0.0; ++it) {
+            double p1 = (b - a) * (fb - fc), p2 = (b - c) * (fb - fa);
+            double den = 2.0 * (p1 - p2), t = b - ((b - a) * p1 - (b - c) * p2) / den;
+            if (!(den != 0.0) || !(t > a && t < c) || fabs(t - b) < 1e-3 * (c - a)) {
+                /* golden section of the larger side */
+                const double g = 0.3819660112501051;
+                t = (c - b > b - a) ? b + g * (c - b) : b - g * (b - a);
+            }
+            double ft, ahead;
+            if (!plane_eval(pb, t, &ft, &ahead))
+                break;
+            ft *= s;
+            if (ft < fb) {
+                if (t < b) {
+                    c = b;
+                    fc = fb;
+                } else {
+                    a = b;
+                    fa = fb;
+                }
+                b = t;
+                fb = ft;
+            } else if (t < b) {
+                a = t;
+                fa = ft;
+            } else {
+                c = t;
+                fc = ft;
+            }
+            tm = b;
+            fm = fb;
+            if (c - a < 1e-12 * tmax)
+                break;
+        }
+        if (!(fm < 0.0))
+            continue; /* the extremum does not cross zero (or touches it: a double root, measure zero) */
+        fm *= s;
+        add_root(pb, refine(pb, th[j - 1], f[j - 1], tm, fm), theta, &n, max_roots);
+        add_root(pb, refine(pb, tm, fm, th[j + 1], f[j + 1]), theta, &n, max_roots);
+    }
+    return n;
+}
+
+/* The roots of the signatures m = mlo..mhi on one arc (|theta| < tmax): theta[m + 1][...], n[m + 1]. */
+static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, int mhi, double tmax,
+                         double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
+{
+    enum { G = SPC_SPHERE_GRID };
+    double th[G + 1], f[G + 1][SPC_SPHERE_SIGNATURES];
+    bool ok[G + 1][SPC_SPHERE_SIGNATURES];
+    /* the entry points by rotation from the first (cos and sin once) */
+    double step = 2.0 * tmax / G, cs = cos(step), sn = sin(step);
+    double cx = cos(tmax), cy = -sin(tmax);
+    plane_problem pb = {d, y1, y2, eta, 0};
+    for (int j = 0; j <= G; ++j) {
+        th[j] = -tmax + step * j;
+        plane_eval_all(&pb, mlo, mhi, cx, cy, f[j], ok[j]);
+        double nx = cx * cs - cy * sn, ny = cx * sn + cy * cs;
+        cx = nx;
+        cy = ny;
+    }
+    for (int m = mlo; m <= mhi; ++m) {
+        double fm[G + 1];
+        bool okm[G + 1];
+        for (int j = 0; j <= G; ++j) {
+            fm[j] = f[j][m + 1];
+            okm[j] = ok[j][m + 1];
+        }
+        pb.m = m;
+        n[m + 1] = roots_from_samples(&pb, tmax, th, fm, okm, G, theta[m + 1], SPC_SPHERE_MAX_ROOTS);
+    }
+}
+
+/* The roots of the signatures m = mlo..mhi (-1 <= mlo <= mhi <= SPC_SPHERE_MAX_M). */
+static void chain_roots(double d, double y1, double y2, double eta, int mlo, int mhi,
+                        double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
+{
+    for (int m = mlo; m <= mhi; ++m)
+        n[m + 1] = 0;
+    if (!(d > 1.0) || !(y1 * y1 + y2 * y2 > 1.0) || (mhi >= 0 && !(eta > 0.0)))
+        return;
+    double tmax = acos(1.0 / d) * (1.0 - 1e-9);
+    if (mhi >= 0 && eta < 1.0) {
+        /* a bubble (inside the lower index): the way in exists where sin i = d sin(theta) / |P - x|
+         * stays below eta, i.e. cos(theta) above (eta^2 + sqrt((d^2 - eta^2)(1 - eta^2))) / d; the
+         * way out then always does (it mirrors the way in). The outside reflection keeps the arc. */
+        double c = (eta * eta + sqrt((d * d - eta * eta) * (1.0 - eta * eta))) / d;
+        double tin = acos(c < 1.0 ? c : 1.0) * (1.0 - 1e-9);
+        if (mlo < 0)
+            roots_on_arc(d, y1, y2, eta, -1, -1, tmax, theta, n);
+        roots_on_arc(d, y1, y2, eta, mlo > 0 ? mlo : 0, mhi, tin < tmax ? tin : tmax, theta, n);
+        return;
+    }
+    roots_on_arc(d, y1, y2, eta, mlo, mhi, tmax, theta, n);
+}
+
+int spc_sphere_chain_roots(double d, double y1, double y2, int m, double eta, double *theta, int max_roots)
+{
+    if (m < -1 || m > SPC_SPHERE_MAX_M)
+        return 0;
+    double all[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
+    int n[SPC_SPHERE_SIGNATURES];
+    chain_roots(d, y1, y2, eta, m, m, all, n);
+    int k = n[m + 1] < max_roots ? n[m + 1] : max_roots;
+    memcpy(theta, all[m + 1], (size_t)k * sizeof *theta);
+    return k;
+}
+
+/* ---- in the scene ---- */
+
+int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, int *iterations)
+{
+    const spc_scene *sc = q->scene;
+    const spc_snee_params *p = q->params;
+    bool reflect = p && p->reflect;
+    spc_vec3 x = q->x->p;
+    int n = 0;
+    for (int i = 0; i < sc->nshapes && n < max_out; ++i) {
+        const spc_shape *s = sc->shapes[i];
+        int event;
+        if (!spc_sphere_chain_shape(s) || !spc_chain_shape_is_caster(s, q->any_surface, &event) ||
+            !outside(s, x) || !outside(s, q->y))
+            continue;
+        double R = s->radius;
+        /* the problem from the point the chain's first ray leaves from (x offset off its surface, as
+         * spc_chain_trace spawns it), so that the polish's first trace already meets its tolerance */
+        spc_vec3 xo = spc_hit_offset(q->x, spc_sub(s->center, x));
+        spc_vec3 e1 = spc_sub(xo, s->center);
+        double d = spc_length(e1);
+        e1 = spc_scale(e1, 1.0 / d);
+        spc_vec3 w = spc_sub(q->y, s->center);
+        spc_vec3 wp = spc_sub(w, spc_scale(e1, spc_dot(w, e1)));
+        double wpl = spc_length(wp);
+        /* y on the axis through x and the centre: a ring of solutions (measure zero); any plane */
+        spc_vec3 e2 = wpl > 1e-12 * spc_length(w) ? spc_scale(wp, 1.0 / wpl) : spc_frame_from_n(e1).s;
+        double y1 = spc_dot(w, e1) / R, y2 = spc_dot(w, e2) / R;
+        double eta = 0.0;
+        spc_bsdf_is_specular_interface(s->bsdf, &eta);
+        /* m = -1: one reflection; m >= 0: in, m internal reflections, out */
+        int m_lo = event == SPC_CHAIN_REFLECT ? -1 : (reflect ? -1 : 0);
+        int m_hi = event == SPC_CHAIN_REFLECT ? -1 : (reflect ? SPC_SPHERE_MAX_M : 0);
+        if (m_hi > q->max_chain - 2)
+            m_hi = q->max_chain - 2; /* k = m + 2 vertices (m = -1: one) */
+        if (m_hi < m_lo)
+            continue;
+        double roots[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
+        int nroots[SPC_SPHERE_SIGNATURES];
+        chain_roots(d / R, y1, y2, eta, m_lo, m_hi, roots, nroots);
+        for (int m = m_lo; m <= m_hi && n < max_out; ++m) {
+            int k = m < 0 ? 1 : m + 2;
+            if (k > q->max_chain || (!q->any_surface && !spc_chain_caster_allowed(s->caustic_flags, k)))
+                continue;
+            const double *theta = roots[m + 1];
+            int nr = nroots[m + 1];
+            unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+            for (int v = 0; v < k; ++v)
+                ev[v] = (m >= 0 && (v == 0 || v == k - 1)) ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
+            for (int r = 0; r < nr && n < max_out; ++r) {
+                spc_vec3 P = spc_add(s->center,
+                                     spc_scale(spc_add(spc_scale(e1, cos(theta[r])), spc_scale(e2, sin(theta[r]))), R));
+                spc_vec3 dir = spc_normalize(spc_sub(P, xo));
+                /* polished in 3D by the angular solver from the planar root; its trace proves the
+                 * segments before the last unblocked (another surface first: another signature) */
+                spc_chain_opts opts = spc_chain_opts_default(k);
+                opts.events = ev;
+                opts.any_surface = q->any_surface;
+                spc_angular_target tg = {q->y, q->ny, sc->radius, q->light_size};
+                spc_angular_options ao;
+                if (p)
+                    ao = p->angular;
+                else
+                    spc_angular_options_default(&ao);
+                ao.window = 0; /* from a root, no stagnation to cut short */
+                spc_angular_result res;
+                spc_chain *c = &out[n];
+                bool conv = spc_angular_solve(sc, q->x, &tg, dir, &opts, &ao, c, &res);
+                if (iterations)
+                    *iterations += res.iterations;
+                if (!conv || c->n != k)
+                    continue;
+                bool same = true;
+                for (int v = 0; v < k; ++v)
+                    same = same && c->v[v].h.shape == s && c->v[v].event == ev[v];
+                if (!same)
+                    continue;
+                for (int o = 0; o < n && same; ++o)
+                    same = !spc_snee_same_solution(&out[o], c, sc->radius);
+                if (same)
+                    ++n;
+            }
+        }
+    }
+    return n;
+}
