@@ -23,7 +23,8 @@
  * CONFIG: a seed name (shape, light, bsdf) and options after colons: trials=N (the cap),
  * straight / nostraight (spc_snee_params.straight_first), window=N, keep=F, stall=N, drop=F,
  * iters=N, lm (angular solver options), biased (the biased estimator), reflect=P (chains reflect
- * off dielectrics, spc_snee_params.reflect), cone (the default seed). Defaults: those of
+ * off dielectrics, spc_snee_params.reflect), cone (the default seed), noexact (chains on one sphere or
+ * mirror cylinder left to the randomized attempts, spc_snee_params.exact). Defaults: those of
  * spc_snee_params_default. Results go to bench/RESULTS.md by hand.
  */
 #include <stdio.h>
@@ -192,6 +193,8 @@ static bool parse_config(const char *s, spc_snee_params *p)
             p->reflect_p = atof(tok + 8);
         } else if (!strcmp(tok, "cone"))
             p->seed = SPC_SNEE_SEED_CONE;
+        else if (!strcmp(tok, "noexact"))
+            p->exact = false;
         else
             return false;
     }

@@ -934,10 +934,10 @@ TEST(parse_specular_nee_options)
     CHECK(spc_snee_parse("angular:receivers=1", 2, &p) && p.receivers == 1);
     CHECK(spc_snee_parse("angular", 2, &p) && !p.camera);
     CHECK(spc_snee_parse("newton:camera,reflect", 2, &p) && p.camera && p.reflect);
-    CHECK(spc_snee_parse("angular", 2, &p) && p.spheres && p.max_chain == 2);
-    CHECK(spc_snee_parse("newton:nospheres", 2, &p) && !p.spheres);
-    CHECK(spc_snee_parse("conic:nospheres,spheres,chain=4", 2, &p) && p.spheres && p.max_chain == 4);
-    CHECK(spc_snee_parse("newton:rough", 2, &p) && !p.spheres);
+    CHECK(spc_snee_parse("angular", 2, &p) && p.exact && p.max_chain == 2);
+    CHECK(spc_snee_parse("newton:noexact", 2, &p) && !p.exact);
+    CHECK(spc_snee_parse("conic:noexact,exact,chain=4", 2, &p) && p.exact && p.max_chain == 4);
+    CHECK(spc_snee_parse("newton:rough", 2, &p) && !p.exact);
     /* mistakes are refused, not ignored */
     const char *bad[] = {"newtn", "newton:", "newton:biased=0", "newton:biased=x", "newton:seed=sun",
                          "newton:fast", "angular:rough", "angular:constraint=half", "none:biased",
@@ -945,7 +945,7 @@ TEST(parse_specular_nee_options)
                          "angular:reflect=x",
                          "angular:reflect=", "angular:mispsi=0", "angular:mispsi=1.5", "angular:mispsi",
                          "newton:rough,reflect", "angular:receivers=0", "angular:receivers",
-                         "angular:chain=0", "angular:chain=9", "angular:chain", "angular:sphere"};
+                         "angular:chain=0", "angular:chain=9", "angular:chain", "angular:spheres"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i)
         CHECK_MSG(!spc_snee_parse(bad[i], 2, &p), "'%s' accepted", bad[i]);
 }
@@ -1043,7 +1043,7 @@ static void point_estimate(const spc_scene *sc, const spc_hit *x, int max_chain,
     p.biased = pr->biased;
     p.newton.rough = pr->rough;
     p.newton.constraint = pr->kind;
-    p.spheres = false; /* newton's own attempts on the glass ball (its enumeration: test_manifold.c) */
+    p.exact = false;   /* newton's own attempts on the glass ball (its enumeration: test_manifold.c) */
     if (pr->biased_seeds > 0)
         p.biased_seeds = pr->biased_seeds;
     memset(st, 0, sizeof *st);

@@ -427,7 +427,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
     spc_snee_params_default(&snp, ctx->specular_nee, 1);
     snp.reflect = false; /* the connections below refract (or reflect off conductors) only, as the
                             exclusion here assumes */
-    snp.spheres = false; /* its own estimate from medium vertices (below), not spc_specular_nee's */
+    snp.exact = false;   /* its own estimate from medium vertices (below), not spc_specular_nee's */
     spc_snee_track track;
     memset(&track, 0, sizeof track);
     spc_vec3 conn_x = spc_v3(0, 0, 0), conn_d0 = spc_v3(0, 0, 1); /* the vertex tracked and its direction */

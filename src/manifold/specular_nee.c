@@ -18,6 +18,7 @@
 
 #include "manifold/conic.h"
 #include "render/camera.h"
+#include "manifold/cylinder_chains.h"
 #include "manifold/sphere_chains.h"
 
 /* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
@@ -172,10 +173,10 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
             if (!parse_count(val, vn, &k) || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
                 return false;
             p->max_chain = k;
-        } else if (opt_is(o, n, "spheres")) {
-            p->spheres = true;
-        } else if (opt_is(o, n, "nospheres")) {
-            p->spheres = false;
+        } else if (opt_is(o, n, "exact")) {
+            p->exact = true;
+        } else if (opt_is(o, n, "noexact")) {
+            p->exact = false;
         } else if (opt_is(o, n, "camera")) {
             p->camera = true;
         } else if (opt_is(o, kn, "receivers") && val) {
@@ -214,7 +215,7 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
         } else if (opt_is(o, n, "rough") && id == SPC_SNEE_NEWTON) {
             p->newton.rough = true;
             p->reflect = false; /* the rough mode's chains refract through glass */
-            p->spheres = false;  /* its own estimator (newton.h) */
+            p->exact = false;    /* its own estimator (newton.h) */
         } else {
             return false;
         }
@@ -248,7 +249,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
         p->angular.window_keep = SPC_SNEE_ANGULAR_WINDOW_KEEP;
     }
     p->straight_first = solver == SPC_SNEE_ANGULAR;
-    p->spheres = true;
+    p->exact = true;
     if (solver == SPC_SNEE_ANGULAR)
         p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
 }
@@ -462,13 +463,41 @@ int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *
     return cap;
 }
 
-/* Is c counted exactly (no <1/p_solve>): enumerated by the solver's solve_all, or a chain on one
- * sphere (params.spheres, sphere_chains.h)? */
+/* Is c a chain on one sphere or one mirror cylinder that params.exact enumerates? */
+static bool exact_shape_covers(const spc_snee_params *p, const spc_chain *c)
+{
+    return p && p->exact && (spc_sphere_chain_covers(c, p->reflect) || spc_cylinder_chain_covers(c));
+}
+
+/* Is c counted exactly (no <1/p_solve>): enumerated by the solver's solve_all, or on one sphere or
+ * mirror cylinder (params.exact)? */
 static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *c)
 {
     if (solver->solve_all && solver->covers && solver->covers(c))
         return true;
-    return q->params && q->params->spheres && spc_sphere_chain_covers(c, q->params->reflect);
+    return exact_shape_covers(q->params, c);
+}
+
+bool spc_snee_exact_covers_all(const spc_snee_query *q)
+{
+    const spc_scene *sc = q->scene;
+    if (!q->params || !q->params->exact)
+        return false;
+    int count = 0;
+    for (int i = 0; i < sc->nshapes; ++i) {
+        const spc_shape *s = sc->shapes[i];
+        if (!spc_chain_shape_is_caster(s, q->any_surface, NULL))
+            continue;
+        bool used = q->any_surface;
+        for (int k = 1; k <= q->max_chain && !used; ++k)
+            used = spc_chain_caster_allowed(s->caustic_flags, k);
+        if (!used)
+            continue;
+        if (!spc_sphere_chain_usable(s, q->x->p) && !spc_cylinder_chain_shape(s))
+            return false;
+        ++count;
+    }
+    return count <= 1; /* two such shapes: chains through both are the randomized solver's */
 }
 
 typedef struct trial_ctx {
@@ -669,7 +698,7 @@ static bool straight_solve(const spc_snee_query *q, const spc_specular_solver *s
     spc_snee_query ql = *q;
     ql.seed = SPC_SNEE_SEED_LIGHT;
     ql.want = NULL;
-    /* a chain on one sphere is counted with the other sphere chains (params.spheres) */
+    /* a chain on one sphere is counted with the other sphere chains (params.exact) */
     return solver->solve_one(&ql, NULL, out, iterations) && !exact_covers(q, solver, out);
 }
 
@@ -780,11 +809,12 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
 {
     const spc_snee_params *p = q->params;
     const spc_scene *sc = q->scene;
-    /* every chain on one sphere, exactly (params.spheres) */
-    if (p->spheres) {
+    /* every chain on one sphere or one mirror cylinder, exactly (params.exact) */
+    if (p->exact) {
         spc_chain all[SPC_SNEE_MAX_ALL];
         int all_iterations = 0;
         int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &all_iterations);
+        nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &all_iterations);
         if (st) {
             st->iterations += (uint64_t)all_iterations;
             st->solved += nall > 0 ? 1u : 0u;
@@ -797,7 +827,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
             if (st)
                 st->contributions++;
         }
-        if (spc_sphere_chain_covers_all(q))
+        if (spc_snee_exact_covers_all(q))
             return;
     }
     /* a solver that enumerates every solution: the exact sum, no probability to estimate */

@@ -129,17 +129,17 @@ typedef struct spc_snee_params {
      * when mis is set, else those rays are dropped. Always the unbiased estimator. */
     bool camera;
     /* Every chain that stays on one sphere (a glass or mirror ball: reflected off it, or in, m
-     * internal reflections, out) enumerated exactly in the plane through x, y and the centre
-     * (sphere_chains.h) and counted with psi = 1; the randomized solver's attempts skip them, and
-     * with one such sphere as the only caster it is not called at all. The user's "spheres" (the
-     * default for every solver) / "nospheres". */
-    bool spheres;
-} spc_snee_params;
+     * internal reflections, out; sphere_chains.h) or reflects only off one mirror cylinder (the
+     * inside of a cup or ring; cylinder_chains.h) enumerated exactly, each a root of a function of
+     * one angle, and counted with psi = 1; the randomized solver's attempts skip them, and with one
+     * such shape as the only caster it is not called at all. The user's "exact" (the default for
+     * every solver) / "noexact". */
+    bool exact;} spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
  * and Newton solvers' defaults, unbiased (biased_seeds SPC_SNEE_BIASED_SEEDS when switched on),
  * mis_solve SPC_SNEE_MIS_SOLVE, reflect for angular and conic, no camera, receivers 0 (all),
- * spheres.
+ * exact.
  * For the angular solver: straight_first, the angular solver's progress window and a cap of 256
  * (specular_nee.c, SPC_SNEE_ANGULAR_WINDOW, SPC_SNEE_ANGULAR_MAX_TRIALS); conic (whose one-at-a-time
  * part is the angular solver) gets the window too. */
@@ -213,8 +213,8 @@ typedef struct spc_specular_solver {
  *                       glass)
  *   chain=N             params.max_chain: chains of at most N vertices (1 .. SPC_CHAIN_MAX_VERTICES;
  *                       default: the integrator's specular_max_chain)
- *   spheres, nospheres  params.spheres: chains on one sphere enumerated exactly (the default), or
- *                       left to the solver's randomized attempts
+ *   exact, noexact      params.exact: chains on one sphere or one mirror cylinder enumerated
+ *                       exactly (the default), or left to the solver's randomized attempts
  * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
  * options. False (p undefined) for an unknown name or option, or a bad value. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);
@@ -274,6 +274,10 @@ typedef struct spc_snee_stats {
     uint64_t trial_iterations; /* of which in the attempts counted for <1/p_solve> */
     uint64_t straight;      /* straight-line solutions (straight_first), counted exactly */
 } spc_snee_stats;
+
+/* Does params.exact's enumeration (sphere_chains.h, cylinder_chains.h) hold every chain of the
+ * query: one caster, a sphere x is outside of or a mirror cylinder? */
+bool spc_snee_exact_covers_all(const spc_snee_query *q);
 
 /* The specular NEE estimate at the path vertex x (to be multiplied by the path throughput), with
  * chains of at most max_chain vertices (the caller's budget, <= params->max_chain). st may be

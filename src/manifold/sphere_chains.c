@@ -10,14 +10,11 @@
  * refractions exist (the angle of the entry point, unlike the impact parameter, keeps the
  * derivative finite at the grazing rim).
  *
- * Root isolation: f on SPC_SPHERE_GRID + 1 samples over the arc (ends pulled in by a relative
- * 1e-9); a root is bracketed by a sign change between neighbours, and a pair of roots between
- * samples by a local extremum of the samples toward zero (three samples of one sign, the middle
- * one nearest zero): a parabolic search for the extremum of f between the outer two, and if f
- * changes sign there, one bracket on each side. With f's few features (one extremum per rainbow
- * order at most: the deviation of a ray through a sphere has one stationary point per internal
- * reflection count) the grid resolves them all but pairs of roots within one sample spacing of
- * the arc's grazing end. Brackets are refined by the Illinois variant of regula falsi to 1e-12 in
+ * Root isolation (roots1d.h): f on SPC_SPHERE_GRID + 1 samples over the arc (ends pulled in by a
+ * relative 1e-9), sign changes, and pairs of roots between samples at local extrema of the samples.
+ * With f's few features (one extremum per rainbow order at most: the deviation of a ray through a
+ * sphere has one stationary point per internal reflection count) the grid resolves them all but
+ * pairs of roots within one sample spacing of the arc's grazing end. Roots are refined to 1e-12 in
  * theta; the polish in 3D (spc_sphere_chains_all) takes it from there, from the point the chain's
  * first ray leaves from, and in one trace as a rule.
  */
@@ -28,6 +25,7 @@
 
 #include "bsdf/bsdf.h"
 #include "manifold/angular.h"
+#include "manifold/roots1d.h"
 #include "manifold/specular_nee.h"
 #include "scene/scene.h"
 
@@ -85,33 +83,7 @@ bool spc_sphere_chain_covers(const spc_chain *c, bool reflect)
     return true;
 }
 
-/* May s be a vertex of some chain of at most max_chain vertices? */
-static bool usable_caster(const spc_shape *s, bool any_surface, int max_chain)
-{
-    if (!spc_chain_shape_is_caster(s, any_surface, NULL))
-        return false;
-    if (any_surface)
-        return true;
-    for (int k = 1; k <= max_chain; ++k)
-        if (spc_chain_caster_allowed(s->caustic_flags, k))
-            return true;
-    return false;
-}
-
-bool spc_sphere_chain_covers_all(const spc_snee_query *q)
-{
-    const spc_scene *sc = q->scene;
-    int count = 0;
-    for (int i = 0; i < sc->nshapes; ++i) {
-        const spc_shape *s = sc->shapes[i];
-        if (!usable_caster(s, q->any_surface, q->max_chain))
-            continue;
-        if (!spc_sphere_chain_shape(s) || !outside(s, q->x->p))
-            return false;
-        ++count;
-    }
-    return count <= 1; /* two spheres: chains through both are the randomized solver's */
-}
+bool spc_sphere_chain_usable(const spc_shape *s, spc_vec3 x) { return spc_sphere_chain_shape(s) && outside(s, x); }
 
 /* ---- the planar problem ---- */
 
@@ -136,23 +108,33 @@ static inline bool refract2(double wx, double wy, double nx, double ny, double r
     return true;
 }
 
-/* f(theta) and (y - Q).v at the entry point (cos theta, sin theta) = (qx, qy); false where a
- * refraction does not exist (total internal reflection). */
-static bool plane_eval_at(const plane_problem *pb, double qx, double qy, double *f, double *ahead)
+/* The angles roots1d watches (in turns): the way in, the first direction inside (the chords turn
+ * with it) and the way out. */
+#define SPHERE_ANGLES 3
+
+/* f(theta) and (y - Q).v at the entry point (cos theta, sin theta) = (qx, qy), and (ang, if not
+ * NULL) the angles; false where a refraction does not exist (total internal reflection). */
+static bool plane_eval_at(const plane_problem *pb, double qx, double qy, double *f, double *ahead, double *ang)
 {
     double ux = qx - pb->d, uy = qy;
     double ul = sqrt(ux * ux + uy * uy);
     ux /= ul;
     uy /= ul;
     double vx, vy;
+    if (ang)
+        ang[0] = spc_roots1d_turns(ux, uy);
     if (pb->m < 0) {
         double dn = ux * qx + uy * qy;
         vx = ux - 2.0 * dn * qx;
         vy = uy - 2.0 * dn * qy;
+        if (ang)
+            ang[1] = spc_roots1d_turns(vx, vy);
     } else {
         double tx, ty;
         if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
             return false;
+        if (ang)
+            ang[1] = spc_roots1d_turns(tx, ty);
         for (int j = 0; j <= pb->m; ++j) {
             double len = -2.0 * (tx * qx + ty * qy);
             qx += len * tx;
@@ -166,62 +148,23 @@ static bool plane_eval_at(const plane_problem *pb, double qx, double qy, double 
         if (!refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy))
             return false;
     }
+    if (ang)
+        ang[2] = spc_roots1d_turns(vx, vy);
     double rx = pb->y1 - qx, ry = pb->y2 - qy;
     *f = vx * ry - vy * rx;
     *ahead = vx * rx + vy * ry;
     return true;
 }
 
-static bool plane_eval(const plane_problem *pb, double th, double *f, double *ahead)
+static bool plane_fn(const void *ctx, double th, double *f, double *ahead, double *ang)
 {
-    return plane_eval_at(pb, cos(th), sin(th), f, ahead);
-}
-
-/* A root of f in [a, b] (fa, fb of opposite signs, both defined), by Illinois regula falsi. */
-static double refine(const plane_problem *pb, double a, double fa, double b, double fb)
-{
-    int side = 0;
-    /* to 1e-12: the 3D polish (spc_sphere_chains_all) converges from there in one step */
-    for (int it = 0; it < 100 && fabs(b - a) > 1e-12 * (1.0 + fabs(a)); ++it) {
-        double c = (a * fb - b * fa) / (fb - fa);
-        if (!(c > fmin(a, b) && c < fmax(a, b)))
-            c = 0.5 * (a + b);
-        double fc, ahead;
-        if (!plane_eval(pb, c, &fc, &ahead))
-            return 0.5 * (a + b); /* cannot happen inside a defined bracket; stay safe */
-        if (fc == 0.0)
-            return c;
-        if ((fc > 0.0) == (fb > 0.0)) {
-            b = c;
-            fb = fc;
-            if (side == -1)
-                fa *= 0.5;
-            side = -1;
-        } else {
-            a = c;
-            fa = fc;
-            if (side == 1)
-                fb *= 0.5;
-            side = 1;
-        }
-    }
-    return fabs(fa) < fabs(fb) ? a : b;
-}
-
-static void add_root(const plane_problem *pb, double th, double *theta, int *n, int max_roots)
-{
-    double f, ahead;
-    if (*n >= max_roots || !plane_eval(pb, th, &f, &ahead) || !(ahead > 0.0))
-        return;
-    for (int i = 0; i < *n; ++i)
-        if (fabs(theta[i] - th) < 1e-10)
-            return;
-    theta[(*n)++] = th;
+    return plane_eval_at(ctx, cos(th), sin(th), f, ahead, ang);
 }
 
 /* f of every signature m = mlo..mhi at the entry point (qx, qy), sharing the way in and the chords:
  * f[m + 1], ok[m + 1] (m = -1: the outside reflection). */
-static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx, double qy, double *f, bool *ok)
+static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx, double qy, double *f, double *ahead,
+                           double (*ang)[SPHERE_ANGLES], bool *ok)
 {
     for (int m = mlo; m <= mhi; ++m)
         ok[m + 1] = false;
@@ -229,10 +172,14 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
     double ul = sqrt(ux * ux + uy * uy);
     ux /= ul;
     uy /= ul;
+    double a_in = spc_roots1d_turns(ux, uy);
     if (mlo < 0) {
         double dn = ux * qx + uy * qy;
         double vx = ux - 2.0 * dn * qx, vy = uy - 2.0 * dn * qy;
         f[0] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
+        ahead[0] = vx * (pb->y1 - qx) + vy * (pb->y2 - qy);
+        ang[0][0] = a_in;
+        ang[0][1] = ang[0][2] = spc_roots1d_turns(vx, vy);
         ok[0] = true;
     }
     if (mhi < 0)
@@ -240,6 +187,7 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
     double tx, ty;
     if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
         return;
+    double a_t = spc_roots1d_turns(tx, ty);
     for (int j = 0; j <= mhi; ++j) {
         double len = -2.0 * (tx * qx + ty * qy);
         qx += len * tx;
@@ -247,6 +195,10 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
         double vx, vy;
         if (j >= mlo && refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy)) {
             f[j + 1] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
+            ahead[j + 1] = vx * (pb->y1 - qx) + vy * (pb->y2 - qy);
+            ang[j + 1][0] = a_in;
+            ang[j + 1][1] = a_t;
+            ang[j + 1][2] = spc_roots1d_turns(vx, vy);
             ok[j + 1] = true;
         }
         double dn = tx * qx + ty * qy;
@@ -255,90 +207,13 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
     }
 }
 
-/* The roots of one signature from its samples on the grid th[0..grid]. */
-static int roots_from_samples(const plane_problem *pb, double tmax, const double *th, const double *f, const bool *ok,
-                              int grid, double *theta, int max_roots)
-{
-    int n = 0;
-    for (int j = 0; j < grid; ++j) {
-        if (!ok[j] || !ok[j + 1])
-            continue;
-        if (f[j] == 0.0)
-            add_root(pb, th[j], theta, &n, max_roots);
-        else if ((f[j] > 0.0) != (f[j + 1] > 0.0) && f[j + 1] != 0.0)
-            add_root(pb, refine(pb, th[j], f[j], th[j + 1], f[j + 1]), theta, &n, max_roots);
-    }
-    if (ok[grid] && f[grid] == 0.0)
-        add_root(pb, th[grid], theta, &n, max_roots);
-    /* pairs of roots between samples: a local extremum of the samples toward zero */
-    for (int j = 1; j < grid; ++j) {
-        if (!ok[j - 1] || !ok[j] || !ok[j + 1])
-            continue;
-        double s = f[j] > 0.0 ? 1.0 : -1.0;
-        if (!(s * f[j - 1] > s * f[j] && s * f[j + 1] > s * f[j] && s * f[j - 1] > 0.0 && s * f[j + 1] > 0.0 &&
-              s * f[j] > 0.0))
-            continue;
-        /* the parabola through the three samples: where its lowest point stays above half the middle
-         * sample, f would have to leave it by more than that within two cells to reach zero: the
-         * grid resolves f's features (one cell spans under 1/16 of the arc), so this extremum does
-         * not cross zero */
-        double curv = s * (f[j - 1] - 2.0 * f[j] + f[j + 1]), slope = s * 0.5 * (f[j + 1] - f[j - 1]);
-        if (curv > 0.0 && s * f[j] - 0.5 * slope * slope / curv > 0.5 * s * f[j])
-            continue;
-        /* the minimum of s f on [th[j-1], th[j+1]] by successive parabolic interpolation (golden
-         * sections where the parabola is no help), stopped as soon as f changes sign */
-        double a = th[j - 1], b = th[j], c = th[j + 1];
-        double fa = s * f[j - 1], fb = s * f[j], fc = s * f[j + 1];
-        double tm = b, fm = fb;
-        for (int it = 0; it < 40 && fm > 0.0; ++it) {
-            double p1 = (b - a) * (fb - fc), p2 = (b - c) * (fb - fa);
-            double den = 2.0 * (p1 - p2), t = b - ((b - a) * p1 - (b - c) * p2) / den;
-            if (!(den != 0.0) || !(t > a && t < c) || fabs(t - b) < 1e-3 * (c - a)) {
-                /* golden section of the larger side */
-                const double g = 0.3819660112501051;
-                t = (c - b > b - a) ? b + g * (c - b) : b - g * (b - a);
-            }
-            double ft, ahead;
-            if (!plane_eval(pb, t, &ft, &ahead))
-                break;
-            ft *= s;
-            if (ft < fb) {
-                if (t < b) {
-                    c = b;
-                    fc = fb;
-                } else {
-                    a = b;
-                    fa = fb;
-                }
-                b = t;
-                fb = ft;
-            } else if (t < b) {
-                a = t;
-                fa = ft;
-            } else {
-                c = t;
-                fc = ft;
-            }
-            tm = b;
-            fm = fb;
-            if (c - a < 1e-12 * tmax)
-                break;
-        }
-        if (!(fm < 0.0))
-            continue; /* the extremum does not cross zero (or touches it: a double root, measure zero) */
-        fm *= s;
-        add_root(pb, refine(pb, th[j - 1], f[j - 1], tm, fm), theta, &n, max_roots);
-        add_root(pb, refine(pb, tm, fm, th[j + 1], f[j + 1]), theta, &n, max_roots);
-    }
-    return n;
-}
-
 /* The roots of the signatures m = mlo..mhi on one arc (|theta| < tmax): theta[m + 1][...], n[m + 1]. */
 static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, int mhi, double tmax,
                          double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
 {
     enum { G = SPC_SPHERE_GRID };
-    double th[G + 1], f[G + 1][SPC_SPHERE_SIGNATURES];
+    double th[G + 1], f[G + 1][SPC_SPHERE_SIGNATURES], ah[G + 1][SPC_SPHERE_SIGNATURES];
+    double an[G + 1][SPC_SPHERE_SIGNATURES][SPHERE_ANGLES];
     bool ok[G + 1][SPC_SPHERE_SIGNATURES];
     /* the entry points by rotation from the first (cos and sin once) */
     double step = 2.0 * tmax / G, cs = cos(step), sn = sin(step);
@@ -346,20 +221,25 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
     plane_problem pb = {d, y1, y2, eta, 0};
     for (int j = 0; j <= G; ++j) {
         th[j] = -tmax + step * j;
-        plane_eval_all(&pb, mlo, mhi, cx, cy, f[j], ok[j]);
+        plane_eval_all(&pb, mlo, mhi, cx, cy, f[j], ah[j], an[j], ok[j]);
         double nx = cx * cs - cy * sn, ny = cx * sn + cy * cs;
         cx = nx;
         cy = ny;
     }
     for (int m = mlo; m <= mhi; ++m) {
-        double fm[G + 1];
+        double fm[G + 1], am[G + 1], angm[G + 1][SPC_ROOTS1D_MAX_ANGLES];
         bool okm[G + 1];
         for (int j = 0; j <= G; ++j) {
             fm[j] = f[j][m + 1];
+            am[j] = ah[j][m + 1];
             okm[j] = ok[j][m + 1];
+            for (int i = 0; i < SPHERE_ANGLES; ++i)
+                angm[j][i] = an[j][m + 1][i];
         }
         pb.m = m;
-        n[m + 1] = roots_from_samples(&pb, tmax, th, fm, okm, G, theta[m + 1], SPC_SPHERE_MAX_ROOTS);
+        /* to 1e-12: the 3D polish (spc_sphere_chains_all) converges from there in one trace */
+        n[m + 1] = spc_roots1d(plane_fn, NULL, &pb, th, fm, am, &angm[0][0], SPHERE_ANGLES, okm, G, NULL, 1e-12 * tmax,
+                               theta[m + 1], SPC_SPHERE_MAX_ROOTS);
     }
 }
 
@@ -410,8 +290,8 @@ int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, 
     for (int i = 0; i < sc->nshapes && n < max_out; ++i) {
         const spc_shape *s = sc->shapes[i];
         int event;
-        if (!spc_sphere_chain_shape(s) || !spc_chain_shape_is_caster(s, q->any_surface, &event) ||
-            !outside(s, x) || !outside(s, q->y))
+        if (!spc_sphere_chain_shape(s) || !spc_chain_shape_is_caster(s, q->any_surface, &event) || !outside(s, x) ||
+            !outside(s, q->y))
             continue;
         double R = s->radius;
         /* the problem from the point the chain's first ray leaves from (x offset off its surface, as

@@ -33,8 +33,8 @@ bool spc_sphere_chain_shape(const spc_shape *s);
  * outside it, events R or T R^m T; reflect: whether reflections at dielectric vertices are chain
  * events)? */
 bool spc_sphere_chain_covers(const spc_chain *c, bool reflect);
-/* Are all chains of the query (on every caster it may use) on such spheres, one sphere each? */
-bool spc_sphere_chain_covers_all(const struct spc_snee_query *q);
+/* Is s such a sphere, and x outside it (the chains from x it enumerates are every chain on s)? */
+bool spc_sphere_chain_usable(const spc_shape *s, spc_vec3 x);
 /* Every such chain from q->x to q->y (at most max_out, written to out, polished and traced: each
  * segment before the last proven unblocked; the last is checked by spc_snee_chain_value). Adds the
  * chain traces it spends to *iterations. */

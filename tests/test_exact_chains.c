@@ -1,0 +1,496 @@
+/*
+ * tests/test_exact_chains.c: every specular chain through one sphere (manifold/sphere_chains.c) and
+ * every chain of reflections on one mirror cylinder (manifold/cylinder_chains.c).
+ *
+ * - The planar roots against an independent formulation (angles: Snell's law on the incidence
+ *   angle, chords that turn by pi + 2 beta about the centre) scanned on a 50001-point grid, over
+ *   random configurations, for the outside reflection and for 0, 1 and 2 internal reflections,
+ *   glass (eta 1.5, 1.33) and a bubble (eta 0.75, total internal reflection on entry): every root
+ *   the dense scan finds is among spc_sphere_chain_roots', and every one of those is a root.
+ * - In a scene: the chains spc_sphere_chains_all enumerates from floor points to light points
+ *   through a glass ball (chains of up to 3 vertices, reflections included) and a mirror ball, each
+ *   checked to end on its light point, contain every distinct chain that 3000 randomized angular
+ *   attempts find.
+ * - The cylinder's projected roots against an independent formulation (the ellipse as a quadric
+ *   p^T Q p = 1: normals Q p, chords from the quadratic) scanned on a 20001-point grid, for random
+ *   ellipses, x inside and outside, 1 to 3 reflections.
+ * - In a scene: a round mirror ring and a tilted elliptic mirror cylinder (two-sided conductors) on
+ *   a floor, floor points inside and outside, chains of up to 3 reflections: every distinct chain
+ *   that randomized angular attempts find is enumerated, and every enumerated chain ends on y.
+ */
+/* ctest-labels: unit */
+#include <math.h>
+#include <string.h>
+
+#include "core/rng.h"
+#include "harness.h"
+#include "manifold/angular.h"
+#include "manifold/specular_nee.h"
+#include "manifold/cylinder_chains.h"
+#include "manifold/sphere_chains.h"
+#include "render_util.h"
+
+static spc_rng rng;
+static double rnd(void) { return spc_rng_next(&rng); }
+
+/* ---- the planar problem, by angles ---- */
+
+static double wrap(double a)
+{
+    while (a > SPC_PI)
+        a -= 2 * SPC_PI;
+    while (a <= -SPC_PI)
+        a += 2 * SPC_PI;
+    return a;
+}
+
+/* f = v x (y - Q) for the entry point at angle th, as spc_sphere_chain_roots defines it, computed
+ * from angles; false where a refraction does not exist. */
+static bool f_angles(double d, double y1, double y2, int m, double eta, double th, double *f, double *ahead)
+{
+    double phi_u = atan2(sin(th), cos(th) - d); /* direction x -> P */
+    double phi_v, qa;                           /* final direction, angle of the last vertex */
+    if (m < 0) {
+        phi_v = 2.0 * th - phi_u + SPC_PI; /* mirror about the normal line at angle th */
+        qa = th;
+    } else {
+        double alpha = wrap(phi_u - (th + SPC_PI)); /* against the inward normal */
+        double sb = sin(alpha) / eta;
+        if (fabs(sb) >= 1.0)
+            return false;
+        double beta = asin(sb);
+        /* each chord turns the vertex by pi + 2 beta about the centre; the direction keeps the angle
+         * beta to the inward normal at its start, so it leaves vertex j at th_j + pi + beta */
+        qa = th + (m + 1) * (SPC_PI + 2.0 * beta);
+        double dir_in = th + m * (SPC_PI + 2.0 * beta) + SPC_PI + beta; /* the last chord's direction */
+        double gamma = wrap(dir_in - qa);                               /* against the outward normal */
+        double so = eta * sin(gamma);
+        if (fabs(so) >= 1.0)
+            return false;
+        phi_v = qa + asin(so);
+    }
+    double qx = cos(qa), qy = sin(qa), vx = cos(phi_v), vy = sin(phi_v);
+    double rx = y1 - qx, ry = y2 - qy;
+    *f = vx * ry - vy * rx;
+    *ahead = vx * rx + vy * ry;
+    return true;
+}
+
+TEST(planar_roots_against_dense_scan)
+{
+    spc_rng_seed(&rng, 5, 1);
+    const double etas[3] = {1.5, 1.33, 0.75};
+    int dense_roots = 0, found = 0, missed = 0, extra = 0, configs = 0;
+    for (int trial = 0; trial < 240; ++trial) {
+        int m = (int)(rnd() * 4) - 1;
+        double eta = etas[(int)(rnd() * 3)];
+        double d = 1.05 + 5.0 * rnd() * rnd();
+        double r = 1.05 + 6.0 * rnd(), a = 2 * SPC_PI * rnd();
+        double y1 = r * cos(a), y2 = fabs(r * sin(a));
+        double theta[16];
+        int n = spc_sphere_chain_roots(d, y1, y2, m, eta, theta, 16);
+        ++configs;
+        /* every root returned is a root, and y is ahead */
+        for (int i = 0; i < n; ++i) {
+            double f, ahead;
+            bool ok = f_angles(d, y1, y2, m, eta, theta[i], &f, &ahead);
+            CHECK_MSG(ok && fabs(f) < 1e-9 * (1.0 + r) && ahead > 0.0, "m %d eta %g: root %g has f %g ahead %g", m, eta,
+                      theta[i], f, ahead);
+            if (!(ok && fabs(f) < 1e-9 * (1.0 + r) && ahead > 0.0))
+                ++extra;
+        }
+        /* the dense scan */
+        const int N = 50000;
+        double tmax = acos(1.0 / d) * (1.0 - 1e-9);
+        double fp = 0, ap = 0, tp = 0;
+        bool okp = false;
+        for (int j = 0; j <= N; ++j) {
+            double t = -tmax + 2.0 * tmax * j / N, f, ahead;
+            bool ok = f_angles(d, y1, y2, m, eta, t, &f, &ahead);
+            if (ok && okp && (f > 0.0) != (fp > 0.0) && ahead > 0.0 && ap > 0.0) {
+                double root = tp + (t - tp) * fp / (fp - f);
+                ++dense_roots;
+                bool hit = false;
+                for (int i = 0; i < n; ++i)
+                    hit = hit || fabs(theta[i] - root) < 4.0 * tmax / N;
+                if (hit) {
+                    ++found;
+                } else {
+                    ++missed;
+                    printf("    missed: d %g y (%g, %g) m %d eta %g root %g (arc +-%g)\n", d, y1, y2, m, eta, root,
+                           tmax);
+                }
+            }
+            okp = ok;
+            fp = f;
+            ap = ahead;
+            tp = t;
+        }
+    }
+    printf("    %d configurations: dense scan %d roots, found %d, missed %d; %d returned roots false\n", configs,
+           dense_roots, found, missed, extra);
+    CHECK(dense_roots > 200);
+    CHECK(missed == 0 && extra == 0);
+}
+
+/* ---- in a scene ---- */
+
+static spc_shape *add_sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_sphere(s, c, r, NULL, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+static spc_scene *ball_scene(bool mirror)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_shape *floor = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_mat4 M = spc_mat4_scale(spc_v3(4, 4, 1));
+    spc_shape_init_rectangle(floor, &M, NULL, 0, 0, &err); /* 8 x 8 */
+    floor->bsdf = tu_diffuse(sc, 0.8);
+    add_sphere(sc, spc_v3(0, 0, 0.6), 0.5, mirror ? tu_mirror(sc) : tu_glass(sc, 1.5));
+    /* low to the side: the light's internal reflections (its rainbow) reach the floor */
+    spc_shape *light = add_sphere(sc, spc_v3(-1.6, 0.3, 1.0), 0.3, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 2, 5.0);
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  finalize: %s\n", err.msg);
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+/* Distance from y to the chain's final half-line. */
+static double miss(const spc_chain *c, spc_vec3 y)
+{
+    const spc_chain_vertex *v = &c->v[c->n - 1];
+    spc_vec3 r = spc_sub(y, v->h.p);
+    double t = spc_dot(r, v->d);
+    return t < 0.0 ? spc_length(r) : spc_length(spc_sub(r, spc_scale(v->d, t)));
+}
+
+/* Does the chain contribute (its final segment reaches y unblocked, as spc_snee_chain_value
+ * requires; the solvers leave that check to it)? */
+static bool reaches(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c)
+{
+    return spc_snee_chain_value(q, e, uv, c).r > 0.0;
+}
+
+TEST(sphere_chains_contain_randomized_solutions)
+{
+    spc_rng_seed(&rng, 11, 2);
+    for (int mirror = 0; mirror < 2; ++mirror) {
+        spc_scene *sc = ball_scene(mirror);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_snee_params p;
+        spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 3);
+        p.any_surface = true;
+        int enumerated = 0, random_distinct = 0, random_missing = 0, points = 0;
+        int by_len[4] = {0, 0, 0, 0};
+        for (int pt = 0; pt < 40; ++pt) {
+            spc_hit x;
+            spc_vec3 above = spc_v3(-3.0 + 6.0 * rnd(), -1.5 + 3.0 * rnd(), 0.05);
+            spc_ray ray = {above, spc_v3(0, 0, -1), 0, INFINITY};
+            if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
+                continue;
+            spc_snee_query q;
+            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 0, 1), 3);
+            const spc_emitter *e;
+            spc_vec2 uv;
+            double p_y;
+            spc_rng r;
+            spc_rng_seed(&r, 3, (uint64_t)pt);
+            if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+                continue;
+            ++points;
+            CHECK(spc_snee_exact_covers_all(&q));
+            spc_chain all[16];
+            int n = spc_sphere_chains_all(&q, all, 16, NULL);
+            enumerated += n;
+            for (int i = 0; i < n; ++i) {
+                ++by_len[all[i].n];
+                CHECK_MSG(miss(&all[i], q.y) < 1e-6, "chain %d of %d vertices misses y by %g", i, all[i].n,
+                          miss(&all[i], q.y));
+                CHECK(spc_sphere_chain_covers(&all[i], true));
+                for (int j = 0; j < i; ++j)
+                    CHECK(!spc_snee_same_solution(&all[i], &all[j], sc->radius));
+            }
+            /* randomized attempts (their events drawn as specular NEE draws them) */
+            spc_chain seen[32];
+            int nseen = 0;
+            for (int a = 0; a < 3000; ++a) {
+                spc_chain c;
+                int it = 0;
+                if (!spc_angular_solve_one(&q, &r, &c, &it) || !spc_sphere_chain_covers(&c, true) ||
+                    !reaches(&q, e, uv, &c))
+                    continue;
+                bool dup = false;
+                for (int j = 0; j < nseen && !dup; ++j)
+                    dup = spc_snee_same_solution(&seen[j], &c, sc->radius);
+                if (dup || nseen == 32)
+                    continue;
+                seen[nseen++] = c;
+                ++random_distinct;
+                bool in = false;
+                for (int i = 0; i < n && !in; ++i)
+                    in = spc_snee_same_solution(&all[i], &c, sc->radius);
+                if (!in) {
+                    ++random_missing;
+                    printf("    %s ball, point %d: a randomized chain of %d vertices (first at %g %g %g) not "
+                           "enumerated\n",
+                           mirror ? "mirror" : "glass", pt, c.n, c.v[0].h.p.x, c.v[0].h.p.y, c.v[0].h.p.z);
+                    printf("      x %g %g %g y %g %g %g miss %g events %d %d\n", x.p.x, x.p.y, x.p.z, q.y.x, q.y.y,
+                           q.y.z, miss(&c, q.y), c.v[0].event, c.n > 1 ? c.v[1].event : -1);
+                    for (int i = 0; i < n; ++i)
+                        printf("      enumerated: n %d first %g %g %g\n", all[i].n, all[i].v[0].h.p.x,
+                               all[i].v[0].h.p.y, all[i].v[0].h.p.z);
+                }
+            }
+        }
+        printf("    %s ball: %d points, %d chains enumerated (1/2/3 vertices: %d/%d/%d), %d distinct randomized, "
+               "%d of them not enumerated\n",
+               mirror ? "mirror" : "glass", points, enumerated, by_len[1], by_len[2], by_len[3], random_distinct,
+               random_missing);
+        CHECK(points >= 16 && random_distinct >= 10);
+        CHECK(random_missing == 0);
+        if (mirror)
+            CHECK(by_len[2] == 0 && by_len[3] == 0 && by_len[1] > 0);
+        else
+            CHECK(by_len[1] > 0 && by_len[2] > 0 && by_len[3] > 0);
+        spc_scene_destroy(sc);
+    }
+}
+
+/* ---- the cylinder's projected problem, as a quadric ---- */
+
+/* f for k reflections with the first vertex at p1 = u cos(phi) + v sin(phi), the ellipse written as
+ * p^T Q p = 1 (Q = M^-T M^-1): normal Q p, the next vertex the other root of the line's quadratic. */
+static bool f_quadric(const double u[2], const double v[2], const double x[2], const double y[2], int k, double phi,
+                      double *f, double *ahead)
+{
+    double det = u[0] * v[1] - u[1] * v[0];
+    double mi[2][2] = {{v[1] / det, -v[0] / det}, {-u[1] / det, u[0] / det}};
+    double Q[2][2];
+    for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j)
+            Q[i][j] = mi[0][i] * mi[0][j] + mi[1][i] * mi[1][j];
+    double p[2] = {u[0] * cos(phi) + v[0] * sin(phi), u[1] * cos(phi) + v[1] * sin(phi)};
+    double d[2] = {p[0] - x[0], p[1] - x[1]};
+    double l = hypot(d[0], d[1]);
+    d[0] /= l;
+    d[1] /= l;
+    for (int j = 0; j < k; ++j) {
+        double n[2] = {Q[0][0] * p[0] + Q[0][1] * p[1], Q[1][0] * p[0] + Q[1][1] * p[1]};
+        double nl = hypot(n[0], n[1]);
+        n[0] /= nl;
+        n[1] /= nl;
+        double dn = d[0] * n[0] + d[1] * n[1];
+        d[0] -= 2 * dn * n[0];
+        d[1] -= 2 * dn * n[1];
+        if (j == k - 1)
+            break;
+        /* (p + t d)^T Q (p + t d) = 1 with p^T Q p = 1: t = -2 d^T Q p / d^T Q d */
+        double dQp = d[0] * (Q[0][0] * p[0] + Q[0][1] * p[1]) + d[1] * (Q[1][0] * p[0] + Q[1][1] * p[1]);
+        double dQd = d[0] * (Q[0][0] * d[0] + Q[0][1] * d[1]) + d[1] * (Q[1][0] * d[0] + Q[1][1] * d[1]);
+        double t = -2 * dQp / dQd;
+        if (!(t > 1e-9))
+            return false;
+        p[0] += t * d[0];
+        p[1] += t * d[1];
+    }
+    double r[2] = {y[0] - p[0], y[1] - p[1]};
+    *f = d[0] * r[1] - d[1] * r[0];
+    *ahead = d[0] * r[0] + d[1] * r[1];
+    return true;
+}
+
+TEST(cylinder_roots_against_dense_scan)
+{
+    spc_rng_seed(&rng, 7, 3);
+    int dense_roots = 0, found = 0, missed = 0, extra = 0;
+    for (int trial = 0; trial < 150; ++trial) {
+        int k = 1 + (int)(rnd() * 3);
+        /* an ellipse: axes of length 0.5 .. 2 at a random angle, possibly clockwise */
+        double ra = 0.5 + 1.5 * rnd(), rb = 0.5 + 1.5 * rnd(), ang = 2 * SPC_PI * rnd();
+        double sg = rnd() < 0.5 ? -1.0 : 1.0;
+        double u[2] = {ra * cos(ang), ra * sin(ang)}, v[2] = {-sg * rb * sin(ang), sg * rb * cos(ang)};
+        /* x inside (half the time) or outside; y anywhere around */
+        double xr = rnd() < 0.5 ? 0.9 * rnd() : 1.2 + 2.0 * rnd(), xa = 2 * SPC_PI * rnd();
+        double yr = 0.2 + 4.0 * rnd(), ya = 2 * SPC_PI * rnd();
+        double x[2] = {u[0] * xr * cos(xa) + v[0] * xr * sin(xa), u[1] * xr * cos(xa) + v[1] * xr * sin(xa)};
+        double y[2] = {u[0] * yr * cos(ya) + v[0] * yr * sin(ya), u[1] * yr * cos(ya) + v[1] * yr * sin(ya)};
+        double phi[16], len[48], total[16];
+        int n = spc_cylinder_chain_roots(u, v, x, y, k, phi, len, total, 16);
+        for (int i = 0; i < n; ++i) {
+            double f, ahead;
+            bool ok = f_quadric(u, v, x, y, k, phi[i], &f, &ahead);
+            bool good = ok && fabs(f) < 1e-8 * (1.0 + yr) && ahead > 0.0;
+            CHECK_MSG(good, "k %d: root %g has f %g ahead %g", k, phi[i], f, ahead);
+            extra += !good;
+        }
+        const int N = 20000;
+        double fp = 0, ap = 0, tp = 0;
+        bool okp = false;
+        for (int j = 0; j <= N; ++j) {
+            double t = 2 * SPC_PI * j / N, f, ahead;
+            bool ok = f_quadric(u, v, x, y, k, t, &f, &ahead);
+            if (ok && okp && (f > 0.0) != (fp > 0.0) && ahead > 0.0 && ap > 0.0) {
+                double root = tp + (t - tp) * fp / (fp - f);
+                ++dense_roots;
+                bool hit = false;
+                for (int i = 0; i < n; ++i) {
+                    double dd = fabs(phi[i] - root);
+                    hit = hit || dd < 4.0 * SPC_PI / N || fabs(dd - 2 * SPC_PI) < 4.0 * SPC_PI / N;
+                }
+                if (hit) {
+                    ++found;
+                } else {
+                    ++missed;
+                    printf("    missed: k %d u (%.17g, %.17g) v (%.17g, %.17g) x (%.17g, %.17g) y (%.17g, %.17g) root "
+                           "%g\n",
+                           k, u[0], u[1], v[0], v[1], x[0], x[1], y[0], y[1], root);
+                }
+            }
+            okp = ok;
+            fp = f;
+            ap = ahead;
+            tp = t;
+        }
+    }
+    printf("    150 configurations: dense scan %d roots, found %d, missed %d; %d returned roots false\n", dense_roots,
+           found, missed, extra);
+    CHECK(dense_roots > 150);
+    CHECK(missed == 0 && extra == 0);
+}
+
+/* A floor, a two-sided mirror cylinder (round: the ring of scenes/caustic_mirror_ring.xml; or
+ * elliptic and tilted), a sphere light outside it. */
+static spc_scene *cylinder_scene(bool elliptic)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_shape *floor = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_mat4 M = spc_mat4_scale(spc_v3(4, 4, 1));
+    spc_shape_init_rectangle(floor, &M, NULL, 0, 0, &err); /* 8 x 8 */
+    floor->bsdf = tu_diffuse(sc, 0.8);
+    spc_shape *cyl = spc_scene_new_shape(sc);
+    spc_bsdf *mirror = spc_scene_new_bsdf(sc);
+    mirror->type = SPC_BSDF_TWOSIDED;
+    mirror->nested[0] = tu_mirror(sc);
+    mirror->nested[1] = NULL;
+    if (elliptic) {
+        spc_mat4 S = spc_mat4_scale(spc_v3(1.4, 0.8, 1.0)), R = spc_mat4_rotate(spc_v3(1, 0.3, 0), 12.0);
+        spc_mat4 RS = spc_mat4_mul(&R, &S);
+        spc_shape_init_cylinder(cyl, spc_v3(0, 0, -0.05), spc_v3(0, 0, 0.5), 0.7, &RS, NULL, 0, 0, &err);
+    } else {
+        spc_shape_init_cylinder(cyl, spc_v3(0, 0, 0), spc_v3(0, 0, 0.9), 0.8, NULL, NULL, 0, 0, &err);
+    }
+    cyl->bsdf = mirror;
+    spc_shape *light = add_sphere(sc, spc_v3(-2.2, 0.3, 1.3), 0.15, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 2, 5.0);
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  finalize: %s\n", err.msg);
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+TEST(cylinder_chains_contain_randomized_solutions)
+{
+    spc_rng_seed(&rng, 13, 4);
+    for (int elliptic = 0; elliptic < 2; ++elliptic) {
+        spc_scene *sc = cylinder_scene(elliptic);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_snee_params p;
+        spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 3);
+        p.any_surface = true;
+        int enumerated = 0, random_distinct = 0, random_missing = 0, points = 0, inside = 0;
+        int by_len[4] = {0, 0, 0, 0};
+        for (int pt = 0; pt < 40; ++pt) {
+            spc_hit x;
+            /* half inside the cylinder's footprint, half around it */
+            double r = pt % 2 ? 0.6 * sqrt(rnd()) : 0.9 + 1.5 * rnd(), a = 2 * SPC_PI * rnd();
+            spc_ray ray = {spc_v3(r * cos(a), r * sin(a), 0.02), spc_v3(0, 0, -1), 0, INFINITY};
+            if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
+                continue;
+            spc_snee_query q;
+            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 0, 1), 3);
+            const spc_emitter *e;
+            spc_vec2 uv;
+            double p_y;
+            spc_rng rr;
+            spc_rng_seed(&rr, 5, (uint64_t)pt);
+            if (!spc_snee_sample_light(sc, true, &rr, &q, &e, &uv, &p_y))
+                continue;
+            ++points;
+            inside += pt % 2;
+            CHECK(spc_snee_exact_covers_all(&q));
+            spc_chain all[16];
+            int n = spc_cylinder_chains_all(&q, all, 16, NULL);
+            enumerated += n;
+            for (int i = 0; i < n; ++i) {
+                ++by_len[all[i].n];
+                CHECK_MSG(miss(&all[i], q.y) < 1e-6, "chain %d of %d vertices misses y by %g", i, all[i].n,
+                          miss(&all[i], q.y));
+                CHECK(spc_cylinder_chain_covers(&all[i]));
+                for (int j = 0; j < i; ++j)
+                    CHECK(!spc_snee_same_solution(&all[i], &all[j], sc->radius));
+            }
+            spc_chain seen[32];
+            int nseen = 0;
+            for (int att = 0; att < 3000; ++att) {
+                spc_chain c;
+                int it = 0;
+                /* (a chain whose last segment crosses the wall below its rim is not one) */
+                if (!spc_angular_solve_one(&q, &rr, &c, &it) || !spc_cylinder_chain_covers(&c) ||
+                    !reaches(&q, e, uv, &c))
+                    continue;
+                bool dup = false;
+                for (int j = 0; j < nseen && !dup; ++j)
+                    dup = spc_snee_same_solution(&seen[j], &c, sc->radius);
+                if (dup || nseen == 32)
+                    continue;
+                seen[nseen++] = c;
+                ++random_distinct;
+                bool in = false;
+                for (int i = 0; i < n && !in; ++i)
+                    in = spc_snee_same_solution(&all[i], &c, sc->radius);
+                if (!in) {
+                    ++random_missing;
+                    printf(
+                        "    %s cylinder, point %d (%g %g): a randomized chain of %d reflections (first at %g %g %g) "
+                        "not enumerated\n",
+                        elliptic ? "elliptic" : "round", pt, x.p.x, x.p.y, c.n, c.v[0].h.p.x, c.v[0].h.p.y,
+                        c.v[0].h.p.z);
+                }
+            }
+        }
+        printf(
+            "    %s cylinder: %d points (%d inside), %d chains enumerated (1/2/3 reflections: %d/%d/%d), %d distinct "
+            "randomized, %d of them not enumerated\n",
+            elliptic ? "elliptic" : "round", points, inside, enumerated, by_len[1], by_len[2], by_len[3],
+            random_distinct, random_missing);
+        CHECK(points >= 30 && random_distinct >= 10);
+        CHECK(random_missing == 0);
+        CHECK(by_len[1] > 0 && by_len[2] > 0);
+        spc_scene_destroy(sc);
+    }
+}
+
+int main(void)
+{
+    RUN(planar_roots_against_dense_scan);
+    RUN(sphere_chains_contain_randomized_solutions);
+    RUN(cylinder_roots_against_dense_scan);
+    RUN(cylinder_chains_contain_randomized_solutions);
+    return spc_test_finish();
+}
