@@ -90,6 +90,7 @@ static void add_exact(spc_roots1d_fn fn, spc_roots1d_accept accept, const void *
 /* The refined samples. */
 typedef struct samples {
     double t[SPC_ROOTS1D_MAX_SAMPLES], f[SPC_ROOTS1D_MAX_SAMPLES], a[SPC_ROOTS1D_MAX_SAMPLES];
+    double target[SPC_ROOTS1D_MAX_SAMPLES]; /* the target's angle seen from the final segment (turns) */
     double ang[SPC_ROOTS1D_MAX_SAMPLES][SPC_ROOTS1D_MAX_ANGLES];
     bool ok[SPC_ROOTS1D_MAX_SAMPLES], skip[SPC_ROOTS1D_MAX_SAMPLES]; /* skip: the cell from this sample */
     int n;
@@ -102,6 +103,7 @@ static void push(samples *S, double t, double f, double a, const double *ang, in
     S->t[S->n] = t;
     S->f[S->n] = f;
     S->a[S->n] = a;
+    S->target[S->n] = ok ? spc_roots1d_turns(a, f) : 0.0;
     S->ok[S->n] = ok;
     S->skip[S->n] = skip;
     S->n++;
@@ -122,7 +124,7 @@ static double turn(double a0, double a1)
  * sine and cosine, times the distance) and of the chain's own angles. */
 static double cell_turn(const samples *S, int i, double f1, double a1, const double *ang1, int nang)
 {
-    double m = turn(spc_roots1d_turns(S->a[i], S->f[i]), spc_roots1d_turns(a1, f1));
+    double m = turn(S->target[i], spc_roots1d_turns(a1, f1));
     for (int k = 0; k < nang; ++k) {
         double d = turn(S->ang[i][k], ang1[k]);
         m = d > m ? d : m;
