@@ -54,6 +54,16 @@ static inline spc_bsdf *tu_glass(spc_scene *sc, double eta)
     return b;
 }
 
+/* A sphere with BSDF b (NULL: none). */
+static inline spc_shape *tu_sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_sphere(s, c, r, NULL, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
 /* A perfect mirror (a conductor with k = -1: reflectance 1 at every angle). */
 static inline spc_bsdf *tu_mirror(spc_scene *sc)
 {

@@ -135,33 +135,38 @@ TEST(planar_roots_against_dense_scan)
 
 /* ---- in a scene ---- */
 
-static spc_shape *add_sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_sphere(s, c, r, NULL, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
-static spc_scene *ball_scene(bool mirror)
+/* An 8 x 8 diffuse floor (z = 0); the caller adds the caster and then the light (shape index 2). */
+static spc_scene *floor_scene(void)
 {
     spc_scene *sc = spc_scene_create();
     spc_shape *floor = spc_scene_new_shape(sc);
     spc_error err;
     spc_mat4 M = spc_mat4_scale(spc_v3(4, 4, 1));
-    spc_shape_init_rectangle(floor, &M, NULL, 0, 0, &err); /* 8 x 8 */
+    spc_shape_init_rectangle(floor, &M, NULL, 0, 0, &err);
     floor->bsdf = tu_diffuse(sc, 0.8);
-    add_sphere(sc, spc_v3(0, 0, 0.6), 0.5, mirror ? tu_mirror(sc) : tu_glass(sc, 1.5));
-    /* low to the side: the light's internal reflections (its rainbow) reach the floor */
-    spc_shape *light = add_sphere(sc, spc_v3(-1.6, 0.3, 1.0), 0.3, tu_diffuse(sc, 0.0));
+    return sc;
+}
+
+/* The sphere light (shape index 2) and the scene finalized; NULL (destroyed) on failure. */
+static spc_scene *add_light_finish(spc_scene *sc, spc_vec3 c, double r)
+{
+    spc_shape *light = tu_sphere(sc, c, r, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 5.0);
+    spc_error err;
     if (spc_scene_finalize(sc, &err) != SPC_OK) {
         printf("  finalize: %s\n", err.msg);
         spc_scene_destroy(sc);
         return NULL;
     }
     return sc;
+}
+
+static spc_scene *ball_scene(bool mirror)
+{
+    spc_scene *sc = floor_scene();
+    tu_sphere(sc, spc_v3(0, 0, 0.6), 0.5, mirror ? tu_mirror(sc) : tu_glass(sc, 1.5));
+    /* low to the side: the light's internal reflections (its rainbow) reach the floor */
+    return add_light_finish(sc, spc_v3(-1.6, 0.3, 1.0), 0.3);
 }
 
 /* Distance from y to the chain's final half-line. */
@@ -180,6 +185,80 @@ static bool reaches(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, 
     return spc_snee_chain_value(q, e, uv, c).r > 0.0;
 }
 
+/* What one comparison of an enumeration with randomized attempts counted. */
+typedef struct tally {
+    int points, enumerated, random_distinct, random_missing, by_len[4];
+} tally;
+
+/* At the floor point below `above` and one light point drawn from it (rng stream `stream`): the
+ * chains the enumeration finds (the cylinder's, or the sphere's) each end on y, are covered, and are
+ * distinct; and every distinct contributing chain of the kind that 3000 randomized angular attempts
+ * find is among them. */
+static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, uint64_t stream, bool cylinder,
+                       const char *label, tally *t)
+{
+    spc_hit x;
+    spc_ray ray = {above, spc_v3(0, 0, -1), 0, INFINITY};
+    if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
+        return;
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, p, &x, spc_v3(0, 0, 1), 3);
+    const spc_emitter *e;
+    spc_vec2 uv;
+    double p_y;
+    spc_rng r;
+    spc_rng_seed(&r, 3, stream);
+    if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+        return;
+    ++t->points;
+    CHECK(spc_snee_exact_covers_all(&q));
+    spc_chain all[16];
+    int n = cylinder ? spc_cylinder_chains_all(&q, all, 16, NULL) : spc_sphere_chains_all(&q, all, 16, NULL);
+    t->enumerated += n;
+    for (int i = 0; i < n; ++i) {
+        ++t->by_len[all[i].n < 4 ? all[i].n : 3];
+        CHECK_MSG(miss(&all[i], q.y) < 1e-6, "chain %d of %d vertices misses y by %g", i, all[i].n, miss(&all[i], q.y));
+        CHECK(cylinder ? spc_cylinder_chain_covers(&all[i]) : spc_sphere_chain_covers(&all[i], true));
+        for (int j = 0; j < i; ++j)
+            CHECK(!spc_snee_same_solution(&all[i], &all[j], sc->radius));
+    }
+    /* randomized attempts (their events drawn as specular NEE draws them); a chain whose last
+     * segment is blocked (by the wall below its rim, the light's far side) is not one */
+    spc_chain seen[32];
+    int nseen = 0;
+    for (int a = 0; a < 3000; ++a) {
+        spc_chain c;
+        int it = 0;
+        if (!spc_angular_solve_one(&q, &r, &c, &it) ||
+            !(cylinder ? spc_cylinder_chain_covers(&c) : spc_sphere_chain_covers(&c, true)) || !reaches(&q, e, uv, &c))
+            continue;
+        bool dup = false;
+        for (int j = 0; j < nseen && !dup; ++j)
+            dup = spc_snee_same_solution(&seen[j], &c, sc->radius);
+        if (dup || nseen == 32)
+            continue;
+        seen[nseen++] = c;
+        ++t->random_distinct;
+        bool in = false;
+        for (int i = 0; i < n && !in; ++i)
+            in = spc_snee_same_solution(&all[i], &c, sc->radius);
+        if (!in) {
+            ++t->random_missing;
+            printf("    %s, x (%g %g %g), y (%g %g %g): a randomized chain of %d vertices (first at %g %g %g) not "
+                   "enumerated\n",
+                   label, x.p.x, x.p.y, x.p.z, q.y.x, q.y.y, q.y.z, c.n, c.v[0].h.p.x, c.v[0].h.p.y, c.v[0].h.p.z);
+        }
+    }
+}
+
+static void print_tally(const char *label, const tally *t)
+{
+    printf("    %s: %d points, %d chains enumerated (1/2/3+ vertices: %d/%d/%d), %d distinct randomized, %d of them "
+           "not enumerated\n",
+           label, t->points, t->enumerated, t->by_len[1], t->by_len[2], t->by_len[3], t->random_distinct,
+           t->random_missing);
+}
+
 TEST(sphere_chains_contain_randomized_solutions)
 {
     spc_rng_seed(&rng, 11, 2);
@@ -191,78 +270,18 @@ TEST(sphere_chains_contain_randomized_solutions)
         spc_snee_params p;
         spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 3);
         p.any_surface = true;
-        int enumerated = 0, random_distinct = 0, random_missing = 0, points = 0;
-        int by_len[4] = {0, 0, 0, 0};
-        for (int pt = 0; pt < 40; ++pt) {
-            spc_hit x;
-            spc_vec3 above = spc_v3(-3.0 + 6.0 * rnd(), -1.5 + 3.0 * rnd(), 0.05);
-            spc_ray ray = {above, spc_v3(0, 0, -1), 0, INFINITY};
-            if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
-                continue;
-            spc_snee_query q;
-            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 0, 1), 3);
-            const spc_emitter *e;
-            spc_vec2 uv;
-            double p_y;
-            spc_rng r;
-            spc_rng_seed(&r, 3, (uint64_t)pt);
-            if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
-                continue;
-            ++points;
-            CHECK(spc_snee_exact_covers_all(&q));
-            spc_chain all[16];
-            int n = spc_sphere_chains_all(&q, all, 16, NULL);
-            enumerated += n;
-            for (int i = 0; i < n; ++i) {
-                ++by_len[all[i].n];
-                CHECK_MSG(miss(&all[i], q.y) < 1e-6, "chain %d of %d vertices misses y by %g", i, all[i].n,
-                          miss(&all[i], q.y));
-                CHECK(spc_sphere_chain_covers(&all[i], true));
-                for (int j = 0; j < i; ++j)
-                    CHECK(!spc_snee_same_solution(&all[i], &all[j], sc->radius));
-            }
-            /* randomized attempts (their events drawn as specular NEE draws them) */
-            spc_chain seen[32];
-            int nseen = 0;
-            for (int a = 0; a < 3000; ++a) {
-                spc_chain c;
-                int it = 0;
-                if (!spc_angular_solve_one(&q, &r, &c, &it) || !spc_sphere_chain_covers(&c, true) ||
-                    !reaches(&q, e, uv, &c))
-                    continue;
-                bool dup = false;
-                for (int j = 0; j < nseen && !dup; ++j)
-                    dup = spc_snee_same_solution(&seen[j], &c, sc->radius);
-                if (dup || nseen == 32)
-                    continue;
-                seen[nseen++] = c;
-                ++random_distinct;
-                bool in = false;
-                for (int i = 0; i < n && !in; ++i)
-                    in = spc_snee_same_solution(&all[i], &c, sc->radius);
-                if (!in) {
-                    ++random_missing;
-                    printf("    %s ball, point %d: a randomized chain of %d vertices (first at %g %g %g) not "
-                           "enumerated\n",
-                           mirror ? "mirror" : "glass", pt, c.n, c.v[0].h.p.x, c.v[0].h.p.y, c.v[0].h.p.z);
-                    printf("      x %g %g %g y %g %g %g miss %g events %d %d\n", x.p.x, x.p.y, x.p.z, q.y.x, q.y.y,
-                           q.y.z, miss(&c, q.y), c.v[0].event, c.n > 1 ? c.v[1].event : -1);
-                    for (int i = 0; i < n; ++i)
-                        printf("      enumerated: n %d first %g %g %g\n", all[i].n, all[i].v[0].h.p.x,
-                               all[i].v[0].h.p.y, all[i].v[0].h.p.z);
-                }
-            }
-        }
-        printf("    %s ball: %d points, %d chains enumerated (1/2/3 vertices: %d/%d/%d), %d distinct randomized, "
-               "%d of them not enumerated\n",
-               mirror ? "mirror" : "glass", points, enumerated, by_len[1], by_len[2], by_len[3], random_distinct,
-               random_missing);
-        CHECK(points >= 16 && random_distinct >= 10);
-        CHECK(random_missing == 0);
+        const char *label = mirror ? "mirror ball" : "glass ball";
+        tally t;
+        memset(&t, 0, sizeof t);
+        for (int pt = 0; pt < 40; ++pt)
+            compare_at(sc, &p, spc_v3(-3.0 + 6.0 * rnd(), -1.5 + 3.0 * rnd(), 0.05), (uint64_t)pt, false, label, &t);
+        print_tally(label, &t);
+        CHECK(t.points >= 16 && t.random_distinct >= 10);
+        CHECK(t.random_missing == 0);
         if (mirror)
-            CHECK(by_len[2] == 0 && by_len[3] == 0 && by_len[1] > 0);
+            CHECK(t.by_len[2] == 0 && t.by_len[3] == 0 && t.by_len[1] > 0);
         else
-            CHECK(by_len[1] > 0 && by_len[2] > 0 && by_len[3] > 0);
+            CHECK(t.by_len[1] > 0 && t.by_len[2] > 0 && t.by_len[3] > 0);
         spc_scene_destroy(sc);
     }
 }
@@ -373,17 +392,13 @@ TEST(cylinder_roots_against_dense_scan)
  * elliptic and tilted), a sphere light outside it. */
 static spc_scene *cylinder_scene(bool elliptic)
 {
-    spc_scene *sc = spc_scene_create();
-    spc_shape *floor = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_mat4 M = spc_mat4_scale(spc_v3(4, 4, 1));
-    spc_shape_init_rectangle(floor, &M, NULL, 0, 0, &err); /* 8 x 8 */
-    floor->bsdf = tu_diffuse(sc, 0.8);
+    spc_scene *sc = floor_scene();
     spc_shape *cyl = spc_scene_new_shape(sc);
     spc_bsdf *mirror = spc_scene_new_bsdf(sc);
     mirror->type = SPC_BSDF_TWOSIDED;
     mirror->nested[0] = tu_mirror(sc);
     mirror->nested[1] = NULL;
+    spc_error err;
     if (elliptic) {
         spc_mat4 S = spc_mat4_scale(spc_v3(1.4, 0.8, 1.0)), R = spc_mat4_rotate(spc_v3(1, 0.3, 0), 12.0);
         spc_mat4 RS = spc_mat4_mul(&R, &S);
@@ -392,14 +407,7 @@ static spc_scene *cylinder_scene(bool elliptic)
         spc_shape_init_cylinder(cyl, spc_v3(0, 0, 0), spc_v3(0, 0, 0.9), 0.8, NULL, NULL, 0, 0, &err);
     }
     cyl->bsdf = mirror;
-    spc_shape *light = add_sphere(sc, spc_v3(-2.2, 0.3, 1.3), 0.15, tu_diffuse(sc, 0.0));
-    tu_area(sc, light, 2, 5.0);
-    if (spc_scene_finalize(sc, &err) != SPC_OK) {
-        printf("  finalize: %s\n", err.msg);
-        spc_scene_destroy(sc);
-        return NULL;
-    }
-    return sc;
+    return add_light_finish(sc, spc_v3(-2.2, 0.3, 1.3), 0.15);
 }
 
 TEST(cylinder_chains_contain_randomized_solutions)
@@ -413,75 +421,18 @@ TEST(cylinder_chains_contain_randomized_solutions)
         spc_snee_params p;
         spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 3);
         p.any_surface = true;
-        int enumerated = 0, random_distinct = 0, random_missing = 0, points = 0, inside = 0;
-        int by_len[4] = {0, 0, 0, 0};
+        const char *label = elliptic ? "elliptic cylinder" : "round cylinder";
+        tally t;
+        memset(&t, 0, sizeof t);
         for (int pt = 0; pt < 40; ++pt) {
-            spc_hit x;
             /* half inside the cylinder's footprint, half around it */
             double r = pt % 2 ? 0.6 * sqrt(rnd()) : 0.9 + 1.5 * rnd(), a = 2 * SPC_PI * rnd();
-            spc_ray ray = {spc_v3(r * cos(a), r * sin(a), 0.02), spc_v3(0, 0, -1), 0, INFINITY};
-            if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
-                continue;
-            spc_snee_query q;
-            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 0, 1), 3);
-            const spc_emitter *e;
-            spc_vec2 uv;
-            double p_y;
-            spc_rng rr;
-            spc_rng_seed(&rr, 5, (uint64_t)pt);
-            if (!spc_snee_sample_light(sc, true, &rr, &q, &e, &uv, &p_y))
-                continue;
-            ++points;
-            inside += pt % 2;
-            CHECK(spc_snee_exact_covers_all(&q));
-            spc_chain all[16];
-            int n = spc_cylinder_chains_all(&q, all, 16, NULL);
-            enumerated += n;
-            for (int i = 0; i < n; ++i) {
-                ++by_len[all[i].n];
-                CHECK_MSG(miss(&all[i], q.y) < 1e-6, "chain %d of %d vertices misses y by %g", i, all[i].n,
-                          miss(&all[i], q.y));
-                CHECK(spc_cylinder_chain_covers(&all[i]));
-                for (int j = 0; j < i; ++j)
-                    CHECK(!spc_snee_same_solution(&all[i], &all[j], sc->radius));
-            }
-            spc_chain seen[32];
-            int nseen = 0;
-            for (int att = 0; att < 3000; ++att) {
-                spc_chain c;
-                int it = 0;
-                /* (a chain whose last segment crosses the wall below its rim is not one) */
-                if (!spc_angular_solve_one(&q, &rr, &c, &it) || !spc_cylinder_chain_covers(&c) ||
-                    !reaches(&q, e, uv, &c))
-                    continue;
-                bool dup = false;
-                for (int j = 0; j < nseen && !dup; ++j)
-                    dup = spc_snee_same_solution(&seen[j], &c, sc->radius);
-                if (dup || nseen == 32)
-                    continue;
-                seen[nseen++] = c;
-                ++random_distinct;
-                bool in = false;
-                for (int i = 0; i < n && !in; ++i)
-                    in = spc_snee_same_solution(&all[i], &c, sc->radius);
-                if (!in) {
-                    ++random_missing;
-                    printf(
-                        "    %s cylinder, point %d (%g %g): a randomized chain of %d reflections (first at %g %g %g) "
-                        "not enumerated\n",
-                        elliptic ? "elliptic" : "round", pt, x.p.x, x.p.y, c.n, c.v[0].h.p.x, c.v[0].h.p.y,
-                        c.v[0].h.p.z);
-                }
-            }
+            compare_at(sc, &p, spc_v3(r * cos(a), r * sin(a), 0.02), 100 + (uint64_t)pt, true, label, &t);
         }
-        printf(
-            "    %s cylinder: %d points (%d inside), %d chains enumerated (1/2/3 reflections: %d/%d/%d), %d distinct "
-            "randomized, %d of them not enumerated\n",
-            elliptic ? "elliptic" : "round", points, inside, enumerated, by_len[1], by_len[2], by_len[3],
-            random_distinct, random_missing);
-        CHECK(points >= 30 && random_distinct >= 10);
-        CHECK(random_missing == 0);
-        CHECK(by_len[1] > 0 && by_len[2] > 0);
+        print_tally(label, &t);
+        CHECK(t.points >= 30 && t.random_distinct >= 10);
+        CHECK(t.random_missing == 0);
+        CHECK(t.by_len[1] > 0 && t.by_len[2] > 0);
         spc_scene_destroy(sc);
     }
 }

@@ -16,7 +16,6 @@
 #include <string.h>
 
 #include "bsdf/bsdf.h"
-#include "manifold/angular.h"
 #include "manifold/roots1d.h"
 #include "manifold/specular_nee.h"
 #include "scene/scene.h"
@@ -331,7 +330,6 @@ static bool chain_fits(const cyl_problem *pb, int k, double phi, double *a1, dou
 int spc_cylinder_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, int *iterations)
 {
     const spc_scene *sc = q->scene;
-    const spc_snee_params *p = q->params;
     int n = 0;
     int kmax = q->max_chain < SPC_CHAIN_MAX_VERTICES ? q->max_chain : SPC_CHAIN_MAX_VERTICES;
     for (int i = 0; i < sc->nshapes && n < max_out && kmax >= 1; ++i) {
@@ -388,30 +386,7 @@ int spc_cylinder_chains_all(const spc_snee_query *q, spc_chain *out, int max_out
                     continue;
                 spc_vec3 P = spc_add(spc_add(C, spc_scale(U, a)), spc_add(spc_scale(V, b), spc_scale(A, z)));
                 spc_vec3 dir = spc_normalize(spc_sub(P, xo));
-                spc_chain_opts opts = spc_chain_opts_default(k);
-                opts.events = ev;
-                opts.any_surface = q->any_surface;
-                spc_angular_target tg = {q->y, q->ny, sc->radius, q->light_size};
-                spc_angular_options ao;
-                if (p)
-                    ao = p->angular;
-                else
-                    spc_angular_options_default(&ao);
-                ao.window = 0;
-                ao.max_iterations = 8; /* from a root that fits, one or two traces */
-                spc_angular_result res;
-                spc_chain *c = &out[n];
-                bool conv = spc_angular_solve(sc, q->x, &tg, dir, &opts, &ao, c, &res);
-                if (iterations)
-                    *iterations += res.iterations;
-                if (!conv || c->n != k)
-                    continue;
-                bool same = true;
-                for (int j = 0; j < k; ++j)
-                    same = same && c->v[j].h.shape == s && c->v[j].event == SPC_CHAIN_REFLECT;
-                for (int o = 0; o < n && same; ++o)
-                    same = !spc_snee_same_solution(&out[o], c, sc->radius);
-                if (same)
+                if (spc_snee_exact_polish(q, s, k, ev, dir, out, n, iterations))
                     ++n;
             }
         }

@@ -478,6 +478,37 @@ static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *sol
     return exact_shape_covers(q->params, c);
 }
 
+bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
+                           spc_vec3 dir, spc_chain *out, int n, int *iterations)
+{
+    const spc_scene *sc = q->scene;
+    spc_chain_opts opts = spc_chain_opts_default(k);
+    opts.events = events;
+    opts.any_surface = q->any_surface;
+    spc_angular_target tg = {q->y, q->ny, sc->radius, q->light_size};
+    spc_angular_options ao;
+    if (q->params)
+        ao = q->params->angular;
+    else
+        spc_angular_options_default(&ao);
+    ao.window = 0;         /* from a root, no stagnation to cut short */
+    ao.max_iterations = 8; /* one or two traces as a rule */
+    spc_angular_result res;
+    spc_chain *c = &out[n];
+    bool conv = spc_angular_solve(sc, q->x, &tg, dir, &opts, &ao, c, &res);
+    if (iterations)
+        *iterations += res.iterations;
+    if (!conv || c->n != k)
+        return false;
+    for (int j = 0; j < k; ++j)
+        if (c->v[j].h.shape != s || c->v[j].event != events[j])
+            return false;
+    for (int o = 0; o < n; ++o)
+        if (spc_snee_same_solution(&out[o], c, sc->radius))
+            return false;
+    return true;
+}
+
 bool spc_snee_exact_covers_all(const spc_snee_query *q)
 {
     const spc_scene *sc = q->scene;
@@ -803,6 +834,24 @@ static void emit(const spc_snee_query *q, snee_sink *sk, const spc_chain *c, spc
     }
 }
 
+/* Chains found exactly (every one of their kind), each added with 1 / p_y. */
+static void emit_exact(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, double p_y, const spc_chain *all,
+                       int nall, int iterations, spc_snee_stats *st, snee_sink *sk)
+{
+    if (st) {
+        st->iterations += (uint64_t)iterations;
+        st->solved += nall > 0 ? 1u : 0u;
+    }
+    for (int i = 0; i < nall; ++i) {
+        spc_rgb v = spc_snee_chain_value(q, e, uv, &all[i]);
+        if (spc_rgb_is_black(v))
+            continue;
+        emit(q, sk, &all[i], spc_rgb_scale(v, 1.0 / p_y));
+        if (st)
+            st->contributions++;
+    }
+}
+
 /* The estimate for the query's light point (drawn: e, uv, p_y), unbiased unless params.biased. */
 static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const spc_emitter *e, spc_vec2 uv,
                      double p_y, spc_rng *rng, spc_snee_stats *st, snee_sink *sk)
@@ -812,41 +861,19 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
     /* every chain on one sphere or one mirror cylinder, exactly (params.exact) */
     if (p->exact) {
         spc_chain all[SPC_SNEE_MAX_ALL];
-        int all_iterations = 0;
-        int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &all_iterations);
-        nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &all_iterations);
-        if (st) {
-            st->iterations += (uint64_t)all_iterations;
-            st->solved += nall > 0 ? 1u : 0u;
-        }
-        for (int i = 0; i < nall; ++i) {
-            spc_rgb v = spc_snee_chain_value(q, e, uv, &all[i]);
-            if (spc_rgb_is_black(v))
-                continue;
-            emit(q, sk, &all[i], spc_rgb_scale(v, 1.0 / p_y));
-            if (st)
-                st->contributions++;
-        }
+        int it = 0;
+        int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &it);
+        nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
+        emit_exact(q, e, uv, p_y, all, nall, it, st, sk);
         if (spc_snee_exact_covers_all(q))
             return;
     }
     /* a solver that enumerates every solution: the exact sum, no probability to estimate */
     if (solver->solve_all) {
         spc_chain all[SPC_SNEE_MAX_ALL];
-        int all_iterations = 0;
-        int nall = solver->solve_all(q, all, SPC_SNEE_MAX_ALL, &all_iterations);
-        if (st) {
-            st->iterations += (uint64_t)all_iterations;
-            st->solved += nall > 0 ? 1u : 0u;
-        }
-        for (int i = 0; i < nall; ++i) {
-            spc_rgb v = spc_snee_chain_value(q, e, uv, &all[i]);
-            if (spc_rgb_is_black(v))
-                continue;
-            emit(q, sk, &all[i], spc_rgb_scale(v, 1.0 / p_y));
-            if (st)
-                st->contributions++;
-        }
+        int it = 0;
+        int nall = solver->solve_all(q, all, SPC_SNEE_MAX_ALL, &it);
+        emit_exact(q, e, uv, p_y, all, nall, it, st, sk);
         if (!solver->solve_one || !solver->covers || (solver->covers_all && solver->covers_all(q)))
             return;
     }

@@ -275,6 +275,14 @@ typedef struct spc_snee_stats {
     uint64_t straight;      /* straight-line solutions (straight_first), counted exactly */
 } spc_snee_stats;
 
+/* For the exact enumerations (sphere_chains.h, cylinder_chains.h): the chain of k vertices on shape s
+ * with these events that leaves x along dir (a root of a planar problem), polished by the angular
+ * solver toward q's light point (its trace proves the segments before the last unblocked: another
+ * surface first gives another signature); written to out[n] and true if it converged with the
+ * signature and is not one of out[0..n). Adds its traces to *iterations. */
+bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
+                           spc_vec3 dir, spc_chain *out, int n, int *iterations);
+
 /* Does params.exact's enumeration (sphere_chains.h, cylinder_chains.h) hold every chain of the
  * query: one caster, a sphere x is outside of or a mirror cylinder? */
 bool spc_snee_exact_covers_all(const spc_snee_query *q);

@@ -24,7 +24,6 @@
 #include <string.h>
 
 #include "bsdf/bsdf.h"
-#include "manifold/angular.h"
 #include "manifold/roots1d.h"
 #include "manifold/specular_nee.h"
 #include "scene/scene.h"
@@ -331,33 +330,7 @@ int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, 
                 spc_vec3 P = spc_add(s->center,
                                      spc_scale(spc_add(spc_scale(e1, cos(theta[r])), spc_scale(e2, sin(theta[r]))), R));
                 spc_vec3 dir = spc_normalize(spc_sub(P, xo));
-                /* polished in 3D by the angular solver from the planar root; its trace proves the
-                 * segments before the last unblocked (another surface first: another signature) */
-                spc_chain_opts opts = spc_chain_opts_default(k);
-                opts.events = ev;
-                opts.any_surface = q->any_surface;
-                spc_angular_target tg = {q->y, q->ny, sc->radius, q->light_size};
-                spc_angular_options ao;
-                if (p)
-                    ao = p->angular;
-                else
-                    spc_angular_options_default(&ao);
-                ao.window = 0; /* from a root, no stagnation to cut short */
-                spc_angular_result res;
-                spc_chain *c = &out[n];
-                bool conv = spc_angular_solve(sc, q->x, &tg, dir, &opts, &ao, c, &res);
-                if (iterations)
-                    *iterations += res.iterations;
-                if (!conv || c->n != k)
-                    continue;
-                bool same = true;
-                for (int v = 0; v < k; ++v)
-                    same = same && c->v[v].h.shape == s && c->v[v].event == ev[v];
-                if (!same)
-                    continue;
-                for (int o = 0; o < n && same; ++o)
-                    same = !spc_snee_same_solution(&out[o], c, sc->radius);
-                if (same)
+                if (spc_snee_exact_polish(q, s, k, ev, dir, out, n, iterations))
                     ++n;
             }
         }
