@@ -844,6 +844,30 @@ static void brute_force(const spc_scene *sc, const spc_hit *x, int max_chain, in
     *se = sqrt(spc_max(s2 / n - *mean * *mean, 0.0) / n);
 }
 
+/* Follows r through up to 3 surfaces by BSDF sampling (the first one's lobe forced to a reflection
+ * when reflect_first: a glass ball's reflection), tracking the chain in t as the path integrator
+ * does (reflections off glass as chain events); true if it reaches an emitter the track covers,
+ * whose hit goes to *light. */
+static bool walk_to_light(const spc_scene *sc, spc_ray r, spc_snee_track *t, bool reflect_first, spc_hit *light)
+{
+    for (int b = 0; b < 3; ++b) {
+        spc_hit n;
+        if (!spc_scene_intersect(sc, &r, &n))
+            return false;
+        if (n.emitter) {
+            *light = n;
+            return spc_snee_track_covers(t, sc, n.emitter);
+        }
+        spc_bsdf_sample bs;
+        double u_lobe = (b == 0 && reflect_first) ? 0.0 : rnd();
+        if (!spc_bsdf_sample_dir(n.bsdf, &n, SPC_MODE_RADIANCE, spc_neg(r.d), u_lobe, spc_v2(rnd(), rnd()), &bs))
+            return false;
+        spc_snee_track_scatter(t, &n, bs.lobe, 0, false, true);
+        r = spc_hit_spawn(&n, bs.wi);
+    }
+    return false;
+}
+
 static bool floor_hit(const spc_scene *sc, spc_vec3 above, spc_hit *h)
 {
     spc_ray r = {above, spc_v3(0, 0, -1), 0, INFINITY};
@@ -1372,24 +1396,7 @@ TEST(snee_mis_weights_with_reflections)
         spc_snee_track_scatter(&t, &x, SPC_LOBE_DIFFUSE_REFLECTION, 2, false, true);
         spc_ray r = spc_hit_spawn(&x, d0);
         spc_hit h;
-        bool light = false;
-        for (int b = 0; b < 3; ++b) {
-            spc_hit n;
-            if (!spc_scene_intersect(sc, &r, &n))
-                break;
-            if (n.emitter) {
-                light = spc_snee_track_covers(&t, sc, n.emitter);
-                h = n;
-                break;
-            }
-            spc_bsdf_sample bs;
-            double u_lobe = (b == 0 && i % 2) ? 0.0 : rnd(); /* every other path reflects off the ball */
-            if (!spc_bsdf_sample_dir(n.bsdf, &n, SPC_MODE_RADIANCE, spc_neg(r.d), u_lobe, spc_v2(rnd(), rnd()), &bs))
-                break;
-            spc_snee_track_scatter(&t, &n, bs.lobe, 0, false, true);
-            r = spc_hit_spawn(&n, bs.wi);
-        }
-        if (!light)
+        if (!walk_to_light(sc, r, &t, i % 2 == 1, &h)) /* every other path reflects off the ball */
             continue;
         double wb = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, d0, t.max_chain, t.k, t.events, &h);
         spc_frame fr = spc_frame_from_n(d0);
@@ -1672,24 +1679,7 @@ TEST(camera_snee_lamp_through_lens)
             t.single_ok = t.multi_ok = true;
             t.reflect = true;
             spc_hit h;
-            bool light = false;
-            for (int b = 0; b < 3; ++b) {
-                spc_hit n;
-                if (!spc_scene_intersect(sc, &r, &n))
-                    break;
-                if (n.emitter) {
-                    light = spc_snee_track_covers(&t, sc, n.emitter);
-                    h = n;
-                    break;
-                }
-                spc_bsdf_sample bs;
-                double u_lobe = (b == 0 && i % 2) ? 0.0 : rnd();
-                if (!spc_bsdf_sample_dir(n.bsdf, &n, SPC_MODE_RADIANCE, spc_neg(r.d), u_lobe, spc_v2(rnd(), rnd()), &bs))
-                    break;
-                spc_snee_track_scatter(&t, &n, bs.lobe, 0, false, true);
-                r = spc_hit_spawn(&n, bs.wi);
-            }
-            if (!light)
+            if (!walk_to_light(sc, r, &t, i % 2 == 1, &h))
                 continue;
             double wb = spc_snee_camera_bsdf_weight(sc, &p, &cs, cam_scale, d0, 2, t.k, t.events, &h);
             spc_hit x;
