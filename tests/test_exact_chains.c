@@ -3,8 +3,8 @@
  * every chain of reflections on one mirror cylinder (manifold/cylinder_chains.c).
  *
  * - The planar roots against an independent formulation (angles: Snell's law on the incidence
- *   angle, chords that turn by pi + 2 beta about the centre) scanned on a 50001-point grid, over
- *   random configurations, for the outside reflection and for 0, 1 and 2 internal reflections,
+ *   angle, chords that turn by pi + 2 beta about the centre) scanned on a 20001-point grid, over
+ *   random configurations, for the outside reflection and for 0 to 5 internal reflections,
  *   glass (eta 1.5, 1.33) and a bubble (eta 0.75, total internal reflection on entry): every root
  *   the dense scan finds is among spc_sphere_chain_roots', and every one of those is a root.
  * - In a scene: the chains spc_sphere_chains_all enumerates from floor points to light points
@@ -81,8 +81,8 @@ TEST(planar_roots_against_dense_scan)
     spc_rng_seed(&rng, 5, 1);
     const double etas[3] = {1.5, 1.33, 0.75};
     int dense_roots = 0, found = 0, missed = 0, extra = 0, configs = 0;
-    for (int trial = 0; trial < 240; ++trial) {
-        int m = (int)(rnd() * 4) - 1;
+    for (int trial = 0; trial < 400; ++trial) {
+        int m = (int)(rnd() * 7) - 1; /* up to five internal reflections */
         double eta = etas[(int)(rnd() * 3)];
         double d = 1.05 + 5.0 * rnd() * rnd();
         double r = 1.05 + 6.0 * rnd(), a = 2 * SPC_PI * rnd();
@@ -100,7 +100,7 @@ TEST(planar_roots_against_dense_scan)
                 ++extra;
         }
         /* the dense scan */
-        const int N = 50000;
+        const int N = 20000;
         double tmax = acos(1.0 / d) * (1.0 - 1e-9);
         double fp = 0, ap = 0, tp = 0;
         bool okp = false;

@@ -29,8 +29,10 @@
 #include "scene/scene.h"
 
 /* Samples of f over the arc x sees, shared by every signature (one pass computes the way in, the
- * chords, and each signature's way out). */
-#define SPC_SPHERE_GRID 32
+ * chords, and each signature's way out). roots1d halves the cells where the chain's angles turn
+ * fast, so the grid only has to see f's broad shape: 32 samples found the same roots in the tests
+ * and in 40000 calls of bench_snee on the glass ball, at 1.5x the cost per call; 4 miss some. */
+#define SPC_SPHERE_GRID 16
 /* Roots kept per planar problem. */
 #define SPC_SPHERE_MAX_ROOTS 16
 /* Internal reflections at most, and the signatures (m = -1 .. SPC_SPHERE_MAX_M). */
