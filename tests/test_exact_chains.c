@@ -333,7 +333,7 @@ TEST(cylinder_roots_against_dense_scan)
 {
     spc_rng_seed(&rng, 7, 3);
     int dense_roots = 0, found = 0, missed = 0, extra = 0;
-    for (int trial = 0; trial < 150; ++trial) {
+    for (int trial = 0; trial < 800; ++trial) {
         int k = 1 + (int)(rnd() * 3);
         /* an ellipse: axes of length 0.5 .. 2 at a random angle, possibly clockwise */
         double ra = 0.5 + 1.5 * rnd(), rb = 0.5 + 1.5 * rnd(), ang = 2 * SPC_PI * rnd();
@@ -382,7 +382,7 @@ TEST(cylinder_roots_against_dense_scan)
             tp = t;
         }
     }
-    printf("    150 configurations: dense scan %d roots, found %d, missed %d; %d returned roots false\n", dense_roots,
+    printf("    800 configurations: dense scan %d roots, found %d, missed %d; %d returned roots false\n", dense_roots,
            found, missed, extra);
     CHECK(dense_roots > 150);
     CHECK(missed == 0 && extra == 0);

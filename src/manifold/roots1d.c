@@ -6,10 +6,12 @@
 #include <math.h>
 #include <stddef.h>
 
-/* Samples after refinement, at most; levels of halving per grid cell, at most; and the largest turn
- * of an angle across a cell that is not halved (radians). */
+/* Samples after refinement, at most; levels of halving per grid cell, at most (a vertex of a chain
+ * of three reflections sweeping past the sharp end of a long ellipse needs cells of 1/4096 of the
+ * grid's; with 8 levels the tests missed 1 root in 2251); and the largest turn of an angle across a
+ * cell that is not halved (in turns, as spc_roots1d_turns measures them). */
 #define SPC_ROOTS1D_MAX_SAMPLES 1024
-#define SPC_ROOTS1D_MAX_DEPTH 8
+#define SPC_ROOTS1D_MAX_DEPTH 12
 #define SPC_ROOTS1D_MAX_TURN 0.08
 /* The bracket width (in t) at which a root is first judged (y ahead, the caller's accept). */
 #define SPC_ROOTS1D_COARSE 1e-6

@@ -5,7 +5,7 @@
  * Given f on grid points t[0..n] (ok[j] false where f is undefined), each cell is first halved
  * (recursively, a few levels) while the target's angle seen from the chain's final segment,
  * atan2(f, ahead), or one of the chain's own angles (its segments' directions) turns by more than
- * about a quarter radian (0.04 turn) across it, or f is defined at one end only: a narrow feature of f comes from a
+ * 0.08 turn (about half a radian) across it, or f is defined at one end only: a narrow feature of f comes from a
  * segment that swings fast (a reflection near the sharp end of an ellipse, x close to the surface),
  * and a swing shows at the cell's ends even where f's spike does not. Then a root is bracketed by a sign change between neighbours, and a pair of roots between samples by a local extremum of the samples
  * toward zero (three samples of one sign, the middle one nearest zero, and the parabola through
