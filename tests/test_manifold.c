@@ -1064,10 +1064,11 @@ TEST(chain_pick_event)
 }
 
 /* Brute force that follows the BSDFs: a direction sampled by x's BSDF (toward wo), then at every
- * chain surface the event the surface's BSDF samples (reflection or refraction at glass), up to 3
- * vertices; a path that then meets the light adds the product of the sample weights times Le. The
- * sums for chains of at most 2 and of at most 3 vertices come from one pass. */
-static void brute_force_bsdf(const spc_scene *sc, const spc_hit *x, spc_vec3 wo, int n, double mean[2], double se[2])
+ * chain surface the event the surface's BSDF samples (reflection or refraction at glass), up to
+ * kmax vertices; a path that then meets the light adds the product of the sample weights times Le.
+ * The sums for chains of at most 2 and of at most kmax vertices come from one pass. */
+static void brute_force_bsdf(const spc_scene *sc, const spc_hit *x, spc_vec3 wo, int n, int kmax, double mean[2],
+                             double se[2])
 {
     double s1[2] = {0, 0}, s2[2] = {0, 0};
     for (int i = 0; i < n; ++i) {
@@ -1088,7 +1089,7 @@ static void brute_force_bsdf(const spc_scene *sc, const spc_hit *x, spc_vec3 wo,
                 break;
             }
             spc_bsdf_sample bs;
-            if (k == 3 || !spc_chain_surface(&h, false, &ev) ||
+            if (k == kmax || !spc_chain_surface(&h, false, &ev) ||
                 !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(r.d), rnd(), spc_v2(rnd(), rnd()), &bs))
                 break;
             T *= bs.weight.r;
@@ -1096,7 +1097,7 @@ static void brute_force_bsdf(const spc_scene *sc, const spc_hit *x, spc_vec3 wo,
             r = spc_hit_spawn(&h, bs.wi);
         }
         for (int j = 0; j < 2; ++j) {
-            double vj = k <= 2 + j ? v : 0.0;
+            double vj = k <= (j ? kmax : 2) ? v : 0.0;
             s1[j] += vj;
             s2[j] += vj * vj;
         }
@@ -1128,7 +1129,7 @@ TEST(snee_reflect_point_estimates)
         spc_hit x;
         CHECK(floor_hit(sc, spc_v3(-0.8, 0.05, 0.05), &x));
         double ref[2], ref_se[2];
-        brute_force_bsdf(sc, &x, spc_v3(0, 0, 1), 8000000, ref, ref_se);
+        brute_force_bsdf(sc, &x, spc_v3(0, 0, 1), 8000000, 3, ref, ref_se);
         printf("    %s ball: brute force %.5f +- %.5f (chains <= 2), %.5f +- %.5f (<= 3)\n", mesh ? "mesh" : "analytic",
                ref[0], ref_se[0], ref[1], ref_se[1]);
         /* reflections reach x, and internal reflections add to them */
@@ -1450,7 +1451,7 @@ TEST(snee_mis_point_combination)
     const spc_vec3 wo = spc_normalize(spc_v3(0.2, -1, 1));
     /* brute force through the BSDFs, chains of at most 2 vertices */
     double bf[2], bf_se[2];
-    brute_force_bsdf(sc, &x, wo, 3000000, bf, bf_se);
+    brute_force_bsdf(sc, &x, wo, 3000000, 3, bf, bf_se);
     const double ref = bf[0], ref_se = bf_se[0];
     printf("    brute force %.5f +- %.5f\n", ref, ref_se);
     CHECK(ref > 0.0);
@@ -1463,6 +1464,7 @@ TEST(snee_mis_point_combination)
         p.reflect = true;
         p.mis_solve = psis[pi];
         p.exact = pi == 2;
+        p.long_p = 0.0; /* chains of at most 2 here (snee_long_chains_point_combination: longer) */
         spc_rng r;
         spc_rng_seed(&r, 77, (uint64_t)pi);
         const int N = 60000;
@@ -1507,6 +1509,93 @@ TEST(snee_mis_point_combination)
                pi == 2 ? "exact" : pi == 1 ? "psi 0.10" : "psi 1.00", m, se, sb / s1);
         CHECK_MSG(fabs(m - ref) <= 4.0 * sqrt(se * se + ref_se * ref_se), "psi %.2f: %.6f vs %.6f", psis[pi], m, ref);
         CHECK(sb > 0.0);
+    }
+    spc_scene_destroy(sc);
+}
+
+/* The longer chains on one sphere (params.long_p) at one point, end to end: at a floor point that the
+ * light reaches through the glass ball also by internal reflections, specular NEE with chains of 2
+ * and, with probability long_p per call, one longer length (3 to 6 vertices: one to four internal
+ * reflections), plus the BSDF-sampled paths it covers (tracked up to 6 vertices, as the path
+ * integrator does with its depth), weighted by spc_snee_mis_bsdf_weight, must add up to brute force
+ * through the BSDFs with chains of up to 6 vertices, for long_p 0.5 and 0.1 (psi = long_p / 4 on
+ * the BSDF side: a mismatch with the pass's probability shows as a wrong sum) and without the longer
+ * chains (they are then BSDF sampling's alone). The BSDF-sampled paths through the longer chains
+ * must have been handed in part to specular NEE (mean weight below 1). */
+TEST(snee_long_chains_point_combination)
+{
+    spc_scene *sc = caustic_scene();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_hit x;
+    CHECK(floor_hit(sc, spc_v3(0.3, 0.3, 0.05), &x));
+    const spc_vec3 wo = spc_normalize(spc_v3(0.2, -1, 1));
+    double bf[2], bf_se[2];
+    brute_force_bsdf(sc, &x, wo, 8000000, 6, bf, bf_se);
+    printf("    brute force: chains <= 2: %.3e +- %.1e, <= 6: %.3e +- %.1e\n", bf[0], bf_se[0], bf[1], bf_se[1]);
+    CHECK(bf[1] > bf[0] + 4.0 * bf_se[1]); /* the longer chains matter here */
+    const double long_ps[3] = {0.5, 0.1, 0.0};
+    for (int li = 0; li < 3; ++li) {
+        spc_snee_params p;
+        spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+        p.mis = true;
+        p.long_p = long_ps[li];
+        spc_rng r;
+        spc_rng_seed(&r, 91, (uint64_t)li);
+        const int N = 400000;
+        double s1 = 0, s2 = 0, wlong = 0;
+        int nlong = 0;
+        for (int i = 0; i < N; ++i) {
+            double v = spc_specular_nee_depth(sc, &p, &x, wo, 2, 6, &r, NULL).r;
+            spc_bsdf_sample bs;
+            if (spc_bsdf_sample_dir(x.bsdf, &x, SPC_MODE_RADIANCE, wo, rnd(), spc_v2(rnd(), rnd()), &bs)) {
+                spc_snee_track t;
+                memset(&t, 0, sizeof t);
+                spc_snee_track_scatter_params(&t, &p, &x, bs.lobe, 2, 6);
+                spc_ray ray = spc_hit_spawn(&x, bs.wi);
+                double T = bs.weight.r;
+                for (int k = 0; k <= 6; ++k) {
+                    spc_hit h;
+                    if (!spc_scene_intersect(sc, &ray, &h))
+                        break;
+                    if (h.emitter) {
+                        double w = 1.0;
+                        if (spc_snee_track_covers(&t, sc, h.emitter))
+                            w = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, bs.wi, t.max_chain, t.k, t.events, &h);
+                        if (k > 2) {
+                            wlong += w;
+                            ++nlong;
+                        }
+                        if (k >= 1)
+                            v += T * spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d)).r * w;
+                        break;
+                    }
+                    int ev;
+                    spc_bsdf_sample b2s;
+                    if (k == 6 || !spc_chain_surface(&h, false, &ev) ||
+                        !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), rnd(), spc_v2(rnd(), rnd()),
+                                             &b2s))
+                        break;
+                    spc_snee_track_scatter_params(&t, &p, &h, b2s.lobe, 0, 0);
+                    T *= b2s.weight.r;
+                    ray = spc_hit_spawn(&h, b2s.wi);
+                }
+            }
+            s1 += v;
+            s2 += v * v;
+        }
+        double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N);
+        printf("    long_p %.2f: specular NEE + weighted BSDF paths %.3e +- %.1e; %d BSDF paths through 3-6 vertices, "
+               "mean weight %.3f\n",
+               long_ps[li], m, se, nlong, nlong ? wlong / nlong : 0.0);
+        CHECK_MSG(fabs(m - bf[1]) <= 4.0 * sqrt(se * se + bf_se[1] * bf_se[1]), "long_p %.2f: %.6f vs %.6f", long_ps[li],
+                  m, bf[1]);
+        CHECK(nlong >= 10);
+        if (li < 2)
+            CHECK(wlong < 0.9 * nlong);
+        else
+            CHECK(wlong == nlong);
     }
     spc_scene_destroy(sc);
 }
@@ -1571,7 +1660,10 @@ TEST(caustic_image_path_snee_vs_ipt)
     if (!sc)
         return;
     double t_ref = 0.0, t_snee = 0.0;
-    spc_film *ref = render_with(sc, "ipt", "none", 8192, 11, &t_ref);
+    /* 32768 spp: at 8192 a few floor pixels lit only through the ball's internal reflections (which
+     * specular NEE's longer chains, params.long_p, find) had not one ipt path yet: 0 with variance
+     * 0, and every estimate that finds their light failed the z-test there */
+    spc_film *ref = render_with(sc, "ipt", "none", 32768, 11, &t_ref);
     /* chains that only refract with psi 1 (the defaults before session 4), the defaults (chains that
      * also reflect off the ball, MIS with the BSDF-sampled reflections through the track's events,
      * psi 0.1), and those with specular NEE at the first receiver only and from the camera */
@@ -1907,6 +1999,7 @@ int main(void)
     RUN(snee_mis_weights_sum_to_one);
     RUN(snee_mis_weights_with_reflections);
     RUN(snee_mis_point_combination);
+    RUN(snee_long_chains_point_combination);
     RUN(caustic_image_path_snee_vs_ipt);
     RUN(ring_image_exact_vs_randomized);
     RUN(camera_snee_lamp_through_lens);

@@ -938,6 +938,9 @@ TEST(parse_specular_nee_options)
     CHECK(spc_snee_parse("newton:noexact", 2, &p) && !p.exact);
     CHECK(spc_snee_parse("conic:noexact,exact,chain=4", 2, &p) && p.exact && p.max_chain == 4);
     CHECK(spc_snee_parse("newton:rough", 2, &p) && !p.exact);
+    CHECK(spc_snee_parse("angular", 2, &p) && p.long_p > 0.0 && p.long_p < 1.0);
+    CHECK(spc_snee_parse("newton:long=0.5", 2, &p) && p.long_p == 0.5);
+    CHECK(spc_snee_parse("conic:long=1,nolong", 2, &p) && p.long_p == 0.0);
     /* mistakes are refused, not ignored */
     const char *bad[] = {"newtn", "newton:", "newton:biased=0", "newton:biased=x", "newton:seed=sun",
                          "newton:fast", "angular:rough", "angular:constraint=half", "none:biased",
@@ -945,7 +948,8 @@ TEST(parse_specular_nee_options)
                          "angular:reflect=x",
                          "angular:reflect=", "angular:mispsi=0", "angular:mispsi=1.5", "angular:mispsi",
                          "newton:rough,reflect", "angular:receivers=0", "angular:receivers",
-                         "angular:chain=0", "angular:chain=9", "angular:chain", "angular:spheres"};
+                         "angular:chain=0", "angular:chain=9", "angular:chain", "angular:spheres",
+                         "angular:long=0", "angular:long=1.5", "angular:long", "angular:long=x"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i)
         CHECK_MSG(!spc_snee_parse(bad[i], 2, &p), "'%s' accepted", bad[i]);
 }

@@ -163,6 +163,10 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
 
         /* specular NEE hook: chains of at most the budget, within max_depth */
         int snee_budget = 0;
+        /* the longer chains' bound (spc_snee_params.long_p): the depth left */
+        int long_budget = SPC_CHAIN_MAX_VERTICES;
+        if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < long_budget)
+            long_budget = ctx->max_depth - segments - 1;
         if (snee) {
             int budget = ctx->specular_max_chain;
             if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < budget)
@@ -175,7 +179,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 spc_rng rng;
                 spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, ((uint64_t)smp->index << 32) | smp->dim),
                              (uint64_t)segments);
-                spc_rgb c = spc_specular_nee(sc, &snp, &h, wo, snee_budget, &rng, NULL);
+                spc_rgb c = spc_specular_nee_depth(sc, &snp, &h, wo, snee_budget, long_budget, &rng, NULL);
                 L = spc_rgb_add(L, spc_rgb_mul(beta, c));
             }
         }
@@ -188,7 +192,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         if (!spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
             break;
         if (snee) {
-            spc_snee_track_scatter_params(&track, &snp, &h, bs.lobe, snee_budget);
+            spc_snee_track_scatter_params(&track, &snp, &h, bs.lobe, snee_budget, long_budget);
             if (snp.mis && !(bs.lobe & SPC_LOBE_DELTA) && snee_budget > 0) {
                 mis_x = h;
                 mis_wo = wo;

@@ -160,11 +160,11 @@ static bool cyl_accept(const void *ctx, double phi)
     return ok[pb->k - 1] && z[pb->k - 1] >= -1e-3 && z[pb->k - 1] <= 1.0 + 1e-3;
 }
 
-/* Roots for k = 1..kmax: phi[k - 1][...], n[k - 1]. With has_axial, grid cells where the first
- * vertex's height stays off the wall are not searched (their roots are not chains): both ends off
+/* Roots for k = kmin..kmax (none below kmin): phi[k - 1][...], n[k - 1]. With has_axial, grid
+ * cells where the first vertex's height stays off the wall are not searched (their roots are not chains): both ends off
  * on one side by more than z's possible bulge between them (z is smooth in phi; the neighbouring
  * second differences bound it, with a factor 4 to spare). */
-static void cyl_roots(cyl_problem *pb, int kmax, double phi[][SPC_CYL_MAX_ROOTS], int *n)
+static void cyl_roots(cyl_problem *pb, int kmin, int kmax, double phi[][SPC_CYL_MAX_ROOTS], int *n)
 {
     enum { G = SPC_CYL_GRID };
     double t[G + 1], f[G + 1][SPC_CHAIN_MAX_VERTICES], ah[G + 1][SPC_CHAIN_MAX_VERTICES],
@@ -180,7 +180,9 @@ static void cyl_roots(cyl_problem *pb, int kmax, double phi[][SPC_CYL_MAX_ROOTS]
         a = na;
         b = nb;
     }
-    for (int k = 1; k <= kmax; ++k) {
+    for (int k = 1; k < kmin && k <= kmax; ++k)
+        n[k - 1] = 0;
+    for (int k = kmin > 1 ? kmin : 1; k <= kmax; ++k) {
         double fk[G + 1], ak[G + 1];
         bool okk[G + 1], skip[G];
         for (int j = 0; j <= G; ++j) {
@@ -237,7 +239,7 @@ int spc_cylinder_chain_roots(const double u[2], const double v[2], const double 
     problem_init(&pb);
     double roots[SPC_CHAIN_MAX_VERTICES][SPC_CYL_MAX_ROOTS];
     int n[SPC_CHAIN_MAX_VERTICES];
-    cyl_roots(&pb, k, roots, n);
+    cyl_roots(&pb, 1, k, roots, n);
     int m = n[k - 1] < max_roots ? n[k - 1] : max_roots;
     for (int i = 0; i < m; ++i) {
         phi[i] = roots[k - 1][i];
@@ -373,8 +375,8 @@ int spc_cylinder_chains_all(const spc_snee_query *q, spc_chain *out, int max_out
         pb->alen = alen;
         double roots[SPC_CHAIN_MAX_VERTICES][SPC_CYL_MAX_ROOTS];
         int nroots[SPC_CHAIN_MAX_VERTICES];
-        cyl_roots(pb, kk, roots, nroots);
-        for (int k = 1; k <= kk && n < max_out; ++k) {
+        cyl_roots(pb, q->min_chain, kk, roots, nroots);
+        for (int k = q->min_chain > 1 ? q->min_chain : 1; k <= kk && n < max_out; ++k) {
             if (!q->any_surface && !spc_chain_caster_allowed(s->caustic_flags, k))
                 continue;
             unsigned char ev[SPC_CHAIN_MAX_VERTICES];

@@ -58,6 +58,13 @@
 /* The MIS weight's stand-in for the probability that a randomized attempt finds a chain (params.
  * mis_solve; measured in bench/RESULTS.md, Session 4). */
 #define SPC_SNEE_MIS_SOLVE 0.1
+/* params.long_p's default: the probability per call of the longer chains on one sphere or mirror
+ * cylinder (measured in bench/RESULTS.md, Session 6). */
+#define SPC_SNEE_LONG_P 0.1
+/* The longest of those chains (vertices): a pass takes one length, uniformly from max_chain + 1 to
+ * this; each internal reflection in a glass ball keeps a few percent of the light, and the
+ * enumeration's cost grows with the count (1D roots on a ball: 3 us for one, 14 us for four). */
+#define SPC_SNEE_LONG_MAX 6
 /* Solutions kept from a solver that enumerates them all (solve_all): one interface rarely has more
  * than a handful between two points. */
 #define SPC_SNEE_MAX_ALL 16
@@ -177,6 +184,11 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
             p->exact = true;
         } else if (opt_is(o, n, "noexact")) {
             p->exact = false;
+        } else if (opt_is(o, kn, "long") && val) {
+            if (!parse_real(val, vn, 1e-6, 1.0, &p->long_p))
+                return false;
+        } else if (opt_is(o, n, "nolong")) {
+            p->long_p = 0.0;
         } else if (opt_is(o, n, "camera")) {
             p->camera = true;
         } else if (opt_is(o, kn, "receivers") && val) {
@@ -250,6 +262,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     }
     p->straight_first = solver == SPC_SNEE_ANGULAR;
     p->exact = true;
+    p->long_p = SPC_SNEE_LONG_P;
     if (solver == SPC_SNEE_ANGULAR)
         p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
 }
@@ -467,6 +480,23 @@ int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *
 static bool exact_shape_covers(const spc_snee_params *p, const spc_chain *c)
 {
     return p && p->exact && (spc_sphere_chain_covers(c, p->reflect) || spc_cylinder_chain_covers(c));
+}
+
+/* Does specular NEE add the longer chains (params.long_p) at this query? */
+static bool long_on(const spc_snee_query *q)
+{
+    const spc_snee_params *p = q->params;
+    return p && p->exact && p->mis && p->long_p > 0.0 && !q->cam && q->long_max > q->max_chain &&
+           q->max_chain < SPC_SNEE_LONG_MAX;
+}
+
+/* The probability that a call enumerates the longer chains of k vertices (one length per pass, with
+ * probability long_p): 0 if it never does. */
+static double long_psi(const spc_snee_query *q, int k)
+{
+    if (!long_on(q) || k <= q->max_chain || k > q->long_max || k > SPC_SNEE_LONG_MAX)
+        return 0.0;
+    return q->params->long_p / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
 
 /* Is c counted exactly (no <1/p_solve>): enumerated by the solver's solve_all, or on one sphere or
@@ -740,10 +770,13 @@ static double random_psi(const spc_snee_params *p)
 }
 
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
- * straight-line solution), else random_psi. */
+ * straight-line solution), else random_psi; past the budget long_p for a longer chain on one sphere
+ * or mirror cylinder (params.long_p), else 0 (specular NEE never makes it). */
 static double chain_psi(const spc_snee_query *q, const spc_chain *c)
 {
     const spc_snee_params *p = q->params;
+    if (c->n > q->max_chain) /* longer than the budget: one of params.long_p's, or none */
+        return exact_shape_covers(p, c) ? long_psi(q, c->n) : 0.0;
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
     if (!solver || random_psi(p) == 1.0)
         return 1.0;
@@ -789,6 +822,7 @@ static double covered_weight(const spc_scene *sc, const spc_snee_params *p, cons
     q.p_y = p_y;
     q.cam = cam;
     q.cam_scale = cam_scale;
+    q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
     double psi = chain_psi(&q, &c);
     return 1.0 - spc_snee_mis_weight(psi * p_y, pdf * G);
 }
@@ -865,6 +899,21 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &it);
         nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
         emit_exact(q, e, uv, p_y, all, nall, it, st, sk);
+        /* with probability long_p the longer chains of one length too, each counted with 1 / psi */
+        double u = long_on(q) ? spc_rng_next(rng) : 1.0;
+        if (u < p->long_p) {
+            int k = q->max_chain + 1 + (int)(u / p->long_p * (SPC_SNEE_LONG_MAX - q->max_chain));
+            double psi = long_psi(q, k);
+            if (psi > 0.0) {
+                spc_snee_query lq = *q;
+                lq.min_chain = lq.max_chain = k;
+                lq.psi = psi;
+                it = 0;
+                nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
+                nall += spc_cylinder_chains_all(&lq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
+                emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
+            }
+        }
         if (spc_snee_exact_covers_all(q))
             return;
     }
@@ -956,6 +1005,12 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
 spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                          int max_chain, spc_rng *rng, spc_snee_stats *st)
 {
+    return spc_specular_nee_depth(sc, p, x, wo, max_chain, SPC_CHAIN_MAX_VERTICES, rng, st);
+}
+
+spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                               int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st)
+{
     const spc_rgb zero = spc_rgb1(0.0);
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
     if (max_chain > p->max_chain)
@@ -968,6 +1023,7 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
 
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, x, wo, max_chain);
+    q.long_max = long_max < SPC_CHAIN_MAX_VERTICES ? long_max : SPC_CHAIN_MAX_VERTICES;
     const spc_emitter *e;
     spc_vec2 uv;
     double p_y;
@@ -1051,6 +1107,7 @@ void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, 
         t->live = snee_budget > 0;
         t->k = 0;
         t->max_chain = snee_budget;
+        t->long_max = 0;
         t->single_ok = t->multi_ok = true;
         t->any_surface = any_surface;
         t->reflect = reflect;
@@ -1067,7 +1124,7 @@ void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, 
     if (event == SPC_CHAIN_REFRACT && t->reflect && lobe == SPC_LOBE_DELTA_REFLECTION)
         event = SPC_CHAIN_REFLECT;
     unsigned want = event == SPC_CHAIN_REFLECT ? SPC_LOBE_DELTA_REFLECTION : SPC_LOBE_DELTA_TRANSMISSION;
-    if (lobe != want || t->k >= t->max_chain) {
+    if (lobe != want || t->k >= (t->long_max > t->max_chain ? t->long_max : t->max_chain)) {
         t->live = false;
         return;
     }
@@ -1080,7 +1137,8 @@ void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, 
 
 bool spc_snee_track_covers(const spc_snee_track *t, const spc_scene *sc, const spc_emitter *e)
 {
-    if (!t->live || t->k < 1 || t->k > t->max_chain || !e || e->type != SPC_EMITTER_AREA)
+    if (!t->live || t->k < 1 || t->k > (t->long_max > t->max_chain ? t->long_max : t->max_chain) || !e ||
+        e->type != SPC_EMITTER_AREA)
         return false;
     if (!(t->k == 1 ? t->single_ok : t->multi_ok))
         return false;
@@ -1113,7 +1171,7 @@ static void track_vertex(spc_snee_track *t, const spc_hit *h)
 }
 
 void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, const spc_hit *h, unsigned lobe,
-                                   int snee_budget)
+                                   int snee_budget, int long_max)
 {
     int event;
     if (rough_mode(p) && spc_newton_rough_surface(h, p->any_surface, &event)) {
@@ -1125,6 +1183,9 @@ void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, 
         return;
     }
     spc_snee_track_scatter(t, h, lobe, snee_budget, p->any_surface, p->reflect && !rough_mode(p));
+    /* the longer chains of params.long_p (as long_on has them at a receiver) */
+    if (!(lobe & SPC_LOBE_DELTA) && snee_budget > 0 && p->exact && p->mis && p->long_p > 0.0)
+        t->long_max = long_max < SPC_SNEE_LONG_MAX ? long_max : SPC_SNEE_LONG_MAX;
 }
 
 bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,

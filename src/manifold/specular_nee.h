@@ -134,7 +134,18 @@ typedef struct spc_snee_params {
      * one angle, and counted with psi = 1; the randomized solver's attempts skip them, and with one
      * such shape as the only caster it is not called at all. The user's "exact" (the default for
      * every solver) / "noexact". */
-    bool exact;} spc_snee_params;
+    bool exact;
+    /* Longer chains on those shapes (the user's "long=P" / "nolong"): at each call, with probability
+     * long_p, every chain of max_chain + 1 .. SPC_CHAIN_MAX_VERTICES vertices (within the caller's
+     * depth) on one sphere or mirror cylinder is enumerated too and counted with 1 / long_p; MIS
+     * weighs it with psi = long_p against the BSDF-sampled paths through the same chain, which the
+     * track follows that far (spc_snee_track). Light that bounces inside a glass ball before it
+     * leaves (three internal reflections: a single BSDF-sampled path of value 200 on a pixel of 0.03)
+     * is then no longer left to BSDF sampling alone, for a fraction of the cost of a longer
+     * max_chain. Needs exact and mis (off without them), reflect for dielectric balls; not from the
+     * camera. */
+    double long_p;
+} spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
  * and Newton solvers' defaults, unbiased (biased_seeds SPC_SNEE_BIASED_SEEDS when switched on),
@@ -171,6 +182,9 @@ typedef struct spc_snee_query {
      * to the camera samples per pass (spc_snee_camera). NULL for a surface point. */
     const struct spc_camera_state *cam;
     double cam_scale;
+    /* The exact enumerations' shortest chain (0: 1), and the longest chain params.long_p may add
+     * (0: none; spc_specular_nee_depth). */
+    int min_chain, long_max;
 } spc_snee_query;
 
 /* A query from x (wo toward the previous path vertex) with chains of up to max_chain vertices, the
@@ -215,6 +229,8 @@ typedef struct spc_specular_solver {
  *                       default: the integrator's specular_max_chain)
  *   exact, noexact      params.exact: chains on one sphere or one mirror cylinder enumerated
  *                       exactly (the default), or left to the solver's randomized attempts
+ *   long=P, nolong      params.long_p: longer chains on those shapes with probability P, in
+ *                       (0, 1] (default SPC_SNEE_LONG_P), or never
  * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
  * options. False (p undefined) for an unknown name or option, or a bad value. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);
@@ -292,6 +308,10 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q);
  * NULL. */
 spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                          int max_chain, spc_rng *rng, spc_snee_stats *st);
+/* The same with the longer chains of params.long_p bounded by long_max vertices (the path's depth
+ * left; spc_specular_nee: SPC_CHAIN_MAX_VERTICES). */
+spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                               int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st);
 
 /* The contribution of one solved chain toward the light point of q on emitter e (uv: the
  * point's texture coordinates), without p(y) and <1/p_solve>: zero if the chain is not one specular
@@ -341,6 +361,7 @@ typedef struct spc_snee_track {
     bool multi_ok;  /* every vertex allowed in chains of more than one */
     bool any_surface;
     bool reflect;   /* dielectric vertices may reflect (params.reflect) */
+    int long_max;   /* followed up to this many vertices (params.long_p; <= max_chain: none) */
     unsigned char events[SPC_CHAIN_MAX_VERTICES]; /* the chain event at each vertex passed */
 } spc_snee_track;
 
@@ -361,7 +382,7 @@ int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface);
  *     the side of its chain event, e an area, point or spot light.) */
 int spc_snee_budget_params(const spc_snee_params *p, const spc_hit *x, int max_chain);
 void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, const spc_hit *h, unsigned lobe,
-                                   int snee_budget);
+                                   int snee_budget, int long_max);
 bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,
                                  const spc_hit *h, spc_vec3 wo, spc_vec3 wi, const spc_emitter *e);
 

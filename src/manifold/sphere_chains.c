@@ -314,6 +314,8 @@ int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, 
         int m_hi = event == SPC_CHAIN_REFLECT ? -1 : (reflect ? SPC_SPHERE_MAX_M : 0);
         if (m_hi > q->max_chain - 2)
             m_hi = q->max_chain - 2; /* k = m + 2 vertices (m = -1: one) */
+        if (q->min_chain > 1 && m_lo < q->min_chain - 2)
+            m_lo = q->min_chain - 2;
         if (m_hi < m_lo)
             continue;
         double roots[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
