@@ -99,7 +99,7 @@ static const char *const usage_render =
     "                         the pinhole: the light seen through glass or in mirrors);\n"
     "                         chain=N (longest chain; default the scene's, 2); noexact (no\n"
     "                         exact enumeration of chains on one sphere or mirror cylinder);\n"
-    "                         long=P, nolong (longer ones too, P per call; 0.1);\n"
+    "                         long=P, nolong (longer ones on a sphere, P per call; 0.1);\n"
     "                         e.g. --specular-nee newton:biased=8\n"
     "  --max-depth N          longest path, Mitsuba's meaning; -1 for no limit\n"
     "  -D name=value          override a <default name=... value=...> of the scene (repeatable)\n"

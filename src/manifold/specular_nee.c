@@ -58,8 +58,8 @@
 /* The MIS weight's stand-in for the probability that a randomized attempt finds a chain (params.
  * mis_solve; measured in bench/RESULTS.md, Session 4). */
 #define SPC_SNEE_MIS_SOLVE 0.1
-/* params.long_p's default: the probability per call of the longer chains on one sphere or mirror
- * cylinder (measured in bench/RESULTS.md, Session 6). */
+/* params.long_p's default: the probability per call of the longer chains on one sphere (measured in
+ * bench/RESULTS.md, Session 6: 0.1 against 0.25 on the glass ball). */
 #define SPC_SNEE_LONG_P 0.1
 /* The longest of those chains (vertices): a pass takes one length, uniformly from max_chain + 1 to
  * this; each internal reflection in a glass ball keeps a few percent of the light, and the
@@ -770,13 +770,13 @@ static double random_psi(const spc_snee_params *p)
 }
 
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
- * straight-line solution), else random_psi; past the budget long_p for a longer chain on one sphere
- * or mirror cylinder (params.long_p), else 0 (specular NEE never makes it). */
+ * straight-line solution), else random_psi; past the budget long_psi for a longer chain on one
+ * sphere (params.long_p), else 0 (specular NEE never makes it). */
 static double chain_psi(const spc_snee_query *q, const spc_chain *c)
 {
     const spc_snee_params *p = q->params;
     if (c->n > q->max_chain) /* longer than the budget: one of params.long_p's, or none */
-        return exact_shape_covers(p, c) ? long_psi(q, c->n) : 0.0;
+        return p->exact && spc_sphere_chain_covers(c, p->reflect) ? long_psi(q, c->n) : 0.0;
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
     if (!solver || random_psi(p) == 1.0)
         return 1.0;
@@ -899,7 +899,9 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &it);
         nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
         emit_exact(q, e, uv, p_y, all, nall, it, st, sk);
-        /* with probability long_p the longer chains of one length too, each counted with 1 / psi */
+        /* with probability long_p the longer chains of one length on a sphere too, each counted with
+         * 1 / psi (on the mirror ring the cylinder's longer chains cost a quarter of the samples and
+         * gained nothing: bench/RESULTS.md, Session 6) */
         double u = long_on(q) ? spc_rng_next(rng) : 1.0;
         if (u < p->long_p) {
             int k = q->max_chain + 1 + (int)(u / p->long_p * (SPC_SNEE_LONG_MAX - q->max_chain));
@@ -910,7 +912,6 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
                 lq.psi = psi;
                 it = 0;
                 nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
-                nall += spc_cylinder_chains_all(&lq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
                 emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
             }
         }

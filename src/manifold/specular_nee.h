@@ -135,11 +135,11 @@ typedef struct spc_snee_params {
      * such shape as the only caster it is not called at all. The user's "exact" (the default for
      * every solver) / "noexact". */
     bool exact;
-    /* Longer chains on those shapes (the user's "long=P" / "nolong"): at each call, with probability
-     * long_p, every chain of max_chain + 1 .. SPC_CHAIN_MAX_VERTICES vertices (within the caller's
-     * depth) on one sphere or mirror cylinder is enumerated too and counted with 1 / long_p; MIS
-     * weighs it with psi = long_p against the BSDF-sampled paths through the same chain, which the
-     * track follows that far (spc_snee_track). Light that bounces inside a glass ball before it
+    /* Longer chains on one sphere (the user's "long=P" / "nolong"): at each call, with probability
+     * long_p, every chain on a sphere of one more length, uniform in max_chain + 1 .. 6 vertices
+     * (within the caller's depth), is enumerated too and counted with 1 / psi, psi = long_p /
+     * (6 - max_chain); MIS weighs it with psi against the BSDF-sampled paths through the same chain,
+     * which the track follows that far (spc_snee_track). Light that bounces inside a glass ball before it
      * leaves (three internal reflections: a single BSDF-sampled path of value 200 on a pixel of 0.03)
      * is then no longer left to BSDF sampling alone, for a fraction of the cost of a longer
      * max_chain. Needs exact and mis (off without them), reflect for dielectric balls; not from the
@@ -229,7 +229,7 @@ typedef struct spc_specular_solver {
  *                       default: the integrator's specular_max_chain)
  *   exact, noexact      params.exact: chains on one sphere or one mirror cylinder enumerated
  *                       exactly (the default), or left to the solver's randomized attempts
- *   long=P, nolong      params.long_p: longer chains on those shapes with probability P, in
+ *   long=P, nolong      params.long_p: longer chains on one sphere with probability P, in
  *                       (0, 1] (default SPC_SNEE_LONG_P), or never
  * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
  * options. False (p undefined) for an unknown name or option, or a bad value. */
