@@ -48,7 +48,8 @@ def small_light(r, r_small, rgb):
 
 # ":camera": specular NEE from the camera too (glints, the light seen through glass or in a mirror).
 # ":noexact": the glass ball's and the mirror ring's chains left to the randomized solver instead of
-# enumerated exactly (spc_snee_params.exact, the default).
+# enumerated exactly (spc_snee_params.exact, the default). ":nolong": without the glass ball's longer
+# chains (internal reflections; spc_snee_params.long_p).
 # conic runs where its chains exist (one vertex on a triangle mesh with interpolated normals): on the
 # analytic mirror cylinder it would hand every chain to angular, and on caustic_pool's normal-mapped
 # water (a chain vertex of angular and newton since the normal map is differentiated) too.
@@ -59,7 +60,8 @@ def small_light(r, r_small, rgb):
 # paths, which bdpt samples only by hitting the light: its variance estimate there is too low for
 # the z-test, so those scenes are also checked against another solver.
 VARIANTS = [
-    ("glass_sphere", "caustic_glass_sphere", {}, ["none", "angular", "angular:noexact", "angular:camera", "newton"],
+    ("glass_sphere", "caustic_glass_sphere", {},
+     ["none", "angular", "angular:nolong", "angular:noexact", "angular:camera", "newton"],
      "angular:camera", "bdpt",
      "glass sphere on a floor, sphere light r 0.12 (2 refractions)"),
     ("mirror_ring", "caustic_mirror_ring", {}, ["none", "angular", "angular:noexact", "angular:camera", "newton"],
