@@ -75,7 +75,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             spc_rng rng;
             spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, ((uint64_t)smp->index << 32) | smp->dim), 0);
             spc_snee_splat sp[SPC_SNEE_CAMERA_SPLATS];
-            int n = spc_snee_camera(sc, &snp, ctx->cam, cam_scale, budget, &rng, NULL, sp, SPC_SNEE_CAMERA_SPLATS);
+            int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
+            int n = spc_snee_camera(sc, &snp, ctx->cam, cam_scale, budget, long_budget, &rng, NULL, sp,
+                                    SPC_SNEE_CAMERA_SPLATS);
             for (int i = 0; i < n; ++i)
                 if (in_window(ctx, sp[i].fx, sp[i].fy))
                     spc_splat_add(ctx, tls, sp[i].fx, sp[i].fy, sp[i].value);
@@ -85,6 +87,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             track.single_ok = track.multi_ok = true;
             track.any_surface = snp.any_surface;
             track.reflect = snp.reflect;
+            track.long_max = spc_snee_track_long_max(&snp, long_budget);
             cam_track = true;
         }
     }

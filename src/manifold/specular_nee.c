@@ -486,7 +486,7 @@ static bool exact_shape_covers(const spc_snee_params *p, const spc_chain *c)
 static bool long_on(const spc_snee_query *q)
 {
     const spc_snee_params *p = q->params;
-    return p && p->exact && p->mis && p->long_p > 0.0 && !q->cam && q->long_max > q->max_chain &&
+    return p && p->exact && p->mis && p->long_p > 0.0 && q->long_max > q->max_chain &&
            q->max_chain < SPC_SNEE_LONG_MAX;
 }
 
@@ -1056,7 +1056,7 @@ static spc_hit pinhole_hit(const spc_camera_state *cam)
 }
 
 int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_camera_state *cam, double cam_scale,
-                    int max_chain, spc_rng *rng, spc_snee_stats *st, spc_snee_splat *out, int max_out)
+                    int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st, spc_snee_splat *out, int max_out)
 {
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
     if (max_chain > p->max_chain)
@@ -1069,6 +1069,7 @@ int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_cam
     spc_snee_query_init(&q, sc, p, &x, cam->forward, max_chain);
     q.cam = cam;
     q.cam_scale = cam_scale;
+    q.long_max = long_max < SPC_CHAIN_MAX_VERTICES ? long_max : SPC_CHAIN_MAX_VERTICES;
     const spc_emitter *e;
     spc_vec2 uv;
     double p_y;
@@ -1184,9 +1185,16 @@ void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, 
         return;
     }
     spc_snee_track_scatter(t, h, lobe, snee_budget, p->any_surface, p->reflect && !rough_mode(p));
-    /* the longer chains of params.long_p (as long_on has them at a receiver) */
-    if (!(lobe & SPC_LOBE_DELTA) && snee_budget > 0 && p->exact && p->mis && p->long_p > 0.0)
-        t->long_max = long_max < SPC_SNEE_LONG_MAX ? long_max : SPC_SNEE_LONG_MAX;
+    if (!(lobe & SPC_LOBE_DELTA) && snee_budget > 0)
+        t->long_max = spc_snee_track_long_max(p, long_max);
+}
+
+int spc_snee_track_long_max(const spc_snee_params *p, int long_max)
+{
+    /* as long_on has it at a query */
+    if (!(p->exact && p->mis && p->long_p > 0.0))
+        return 0;
+    return long_max < SPC_SNEE_LONG_MAX ? long_max : SPC_SNEE_LONG_MAX;
 }
 
 bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,

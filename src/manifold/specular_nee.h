@@ -142,8 +142,8 @@ typedef struct spc_snee_params {
      * which the track follows that far (spc_snee_track). Light that bounces inside a glass ball before it
      * leaves (three internal reflections: a single BSDF-sampled path of value 200 on a pixel of 0.03)
      * is then no longer left to BSDF sampling alone, for a fraction of the cost of a longer
-     * max_chain. Needs exact and mis (off without them), reflect for dielectric balls; not from the
-     * camera. */
+     * max_chain. Needs exact and mis (off without them), reflect for dielectric balls. From the
+     * camera too (params.camera): the light seen through a ball after internal reflections. */
     double long_p;
 } spc_snee_params;
 
@@ -330,13 +330,14 @@ typedef struct spc_snee_splat {
 } spc_snee_splat;
 
 /* Specular NEE from the pinhole of cam (perspective; nothing for other cameras): one light point,
- * chains of 1..max_chain vertices to it (the solver's estimate, unbiased), each written to out (at
- * most max_out) with its film position. cam_scale: the full film's pixel count over the camera
- * samples per pass (the rendered window's pixels). Returns the number written. Chains whose first
- * vertex the camera's rays cannot reach (before the near plane, off the film) are dropped. */
+ * chains of 1..max_chain vertices to it (the solver's estimate, unbiased; params.long_p's longer
+ * chains on a sphere up to long_max vertices), each written to out (at most max_out) with its film
+ * position. cam_scale: the full film's pixel count over the camera samples per pass (the rendered
+ * window's pixels). Returns the number written. Chains whose first vertex the camera's rays cannot
+ * reach (before the near plane, off the film) are dropped. */
 int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const struct spc_camera_state *cam,
-                    double cam_scale, int max_chain, spc_rng *rng, spc_snee_stats *st, spc_snee_splat *out,
-                    int max_out);
+                    double cam_scale, int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st,
+                    spc_snee_splat *out, int max_out);
 /* The MIS weight of a camera ray along d0 that reached the area emitter at the hit `light` through
  * k chain vertices with these events (params.camera and mis; the path integrator's track from the
  * camera), against spc_snee_camera's light sample: 0 if the retrace from the pinhole does not
@@ -383,6 +384,9 @@ int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface);
 int spc_snee_budget_params(const spc_snee_params *p, const spc_hit *x, int max_chain);
 void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, const spc_hit *h, unsigned lobe,
                                    int snee_budget, int long_max);
+/* How far a track follows chains for params.long_p, given the caller's depth bound long_max (0: not
+ * past its max_chain): what the track's long_max is at a receiver, or from the camera. */
+int spc_snee_track_long_max(const spc_snee_params *p, int long_max);
 bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,
                                  const spc_hit *h, spc_vec3 wo, spc_vec3 wi, const spc_emitter *e);
 
