@@ -161,9 +161,9 @@ static bool cyl_accept(const void *ctx, double phi)
 }
 
 /* Roots for k = kmin..kmax (none below kmin): phi[k - 1][...], n[k - 1]. With has_axial, grid
- * cells where the first vertex's height stays off the wall are not searched (their roots are not chains): both ends off
- * on one side by more than z's possible bulge between them (z is smooth in phi; the neighbouring
- * second differences bound it, with a factor 4 to spare). */
+ * cells where the first vertex's height stays off the wall are not searched (their roots are not
+ * chains): both ends off on one side by more than z's possible bulge between them (z is smooth in
+ * phi; the neighbouring second differences bound it, with a factor 4 to spare). */
 static void cyl_roots(cyl_problem *pb, int kmin, int kmax, double phi[][SPC_CYL_MAX_ROOTS], int *n)
 {
     enum { G = SPC_CYL_GRID };

@@ -138,12 +138,12 @@ typedef struct spc_snee_params {
     /* Longer chains on one sphere (the user's "long=P" / "nolong"): at each call, with probability
      * long_p, every chain on a sphere of one more length, uniform in max_chain + 1 .. 6 vertices
      * (within the caller's depth), is enumerated too and counted with 1 / psi, psi = long_p /
-     * (6 - max_chain); MIS weighs it with psi against the BSDF-sampled paths through the same chain,
-     * which the track follows that far (spc_snee_track). Light that bounces inside a glass ball before it
-     * leaves (three internal reflections: a single BSDF-sampled path of value 200 on a pixel of 0.03)
-     * is then no longer left to BSDF sampling alone, for a fraction of the cost of a longer
-     * max_chain. Needs exact and mis (off without them), reflect for dielectric balls. From the
-     * camera too (params.camera): the light seen through a ball after internal reflections. */
+     * (6 - max_chain); MIS weighs it with psi against the BSDF-sampled paths through the same
+     * chain, which the track follows that far (spc_snee_track). Light that bounces inside a glass
+     * ball before it leaves (three internal reflections: a single BSDF-sampled path of value 200 on
+     * a pixel of 0.03) is then no longer left to BSDF sampling alone, for a fraction of the cost of
+     * a longer max_chain. Needs exact and mis (off without them), reflect for dielectric balls. From
+     * the camera too (params.camera): the light seen through a ball after internal reflections. */
     double long_p;
 } spc_snee_params;
 
