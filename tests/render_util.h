@@ -155,6 +155,16 @@ static inline void tu_image_mean(const spc_film *f, int c, double *mean, double 
     *stderr_ = sqrt(v) / (double)n;
 }
 
+/* The summed per-pixel variance (of the pixel means) over every pixel and channel: how noisy a
+ * render is as a whole; 0 for NULL. */
+static inline double tu_var_sum(const spc_film *f)
+{
+    double v = 0.0;
+    for (size_t i = 0; f && i < (size_t)3 * f->width * f->height; ++i)
+        v += f->var[i];
+    return v;
+}
+
 /* The image tests' agreement of img with the reference ref: the per-pixel z-test (Sidak, alpha
  * 0.01) passes on at least min_pass of the pixels, and every channel's image mean lies within 3
  * standard errors. Prints each failure after `label`; *d (may be NULL) receives the comparison. */

@@ -1640,11 +1640,7 @@ TEST(ring_image_exact_vs_randomized)
         CHECK(tu_image_agrees(exact, random, 0.98, "exact against noexact", &d));
         printf("    exact 512 spp against noexact 1024: z-test pass %.4f; means %.5f vs %.5f\n", d.ztest_pass_fraction,
                d.mean_a[0], d.mean_b[0]);
-        double ve = 0.0, vr = 0.0;
-        for (size_t i = 0; i < (size_t)3 * exact->width * exact->height; ++i) {
-            ve += exact->var[i];
-            vr += random->var[i];
-        }
+        double ve = tu_var_sum(exact), vr = tu_var_sum(random);
         printf("    summed variance: exact %.3g (512 spp), noexact %.3g (1024 spp)\n", ve, vr);
         CHECK(ve < 0.5 * vr);
     }
@@ -1725,9 +1721,7 @@ TEST(camera_snee_lamp_through_lens)
     spc_film *ref_random = render_with(sc, "path", "angular:reflect,camera,noexact,chain=6", 2048, 24, &t);
     const char *settings[2] = {"angular:reflect,camera", "angular:reflect,camera,nomis,noexact"};
     const spc_film *refs[2] = {ref_random, ref};
-    double var_without = 0.0;
-    for (size_t i = 0; without && i < (size_t)3 * without->width * without->height; ++i)
-        var_without += without->var[i];
+    double var_without = tu_var_sum(without);
     for (int si = 0; si < 2 && ref && without && ref_random; ++si) {
         spc_film *img = render_with(sc, "path", settings[si], 1024, 23, &t);
         CHECK(img != NULL);
@@ -1736,9 +1730,7 @@ TEST(camera_snee_lamp_through_lens)
         spc_diff_result d;
         memset(&d, 0, sizeof d);
         CHECK(tu_image_agrees(img, refs[si], 0.99, settings[si], &d));
-        double var = 0.0;
-        for (size_t i = 0; i < (size_t)3 * img->width * img->height; ++i)
-            var += img->var[i];
+        double var = tu_var_sum(img);
         printf("    %s: z-test pass %.4f of %d pixels; means %.5f vs %.5f; summed variance %.3g (without camera "
                "%.3g)\n",
                settings[si], d.ztest_pass_fraction, d.ztest_pixels, d.mean_a[0], d.mean_b[0], var, var_without);
@@ -1750,11 +1742,7 @@ TEST(camera_snee_lamp_through_lens)
     spc_film *withlong = render_with(sc, "path", "angular:reflect,camera", 1024, 23, &t);
     CHECK(nolong && withlong);
     if (nolong && withlong) {
-        double vn = 0.0, vl = 0.0;
-        for (size_t i = 0; i < (size_t)3 * nolong->width * nolong->height; ++i) {
-            vn += nolong->var[i];
-            vl += withlong->var[i];
-        }
+        double vn = tu_var_sum(nolong), vl = tu_var_sum(withlong);
         printf("    summed variance with the longer chains %.3g, without %.3g\n", vl, vn);
         CHECK(vl < 0.5 * vn);
     }
