@@ -1275,6 +1275,41 @@ static spc_film *render_with(const spc_scene *sc, const char *integrator, const 
     return tu_render_nee(sc, integrator, snee, spp, 2, seed, seconds);
 }
 
+/* The chain that left x along d0 through k vertices (events: the track's, NULL: the BSDFs' own) and
+ * reached the light at the hit `light`, retraced into *c, and a query from x (toward wo) to that
+ * light point with chains of 2 and the light point's density, as specular NEE would value it. */
+static void retrace_query(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo, spc_vec3 d0,
+                          int k, const unsigned char *events, const spc_hit *light, spc_chain *c, spc_snee_query *q)
+{
+    spc_frame fr = spc_frame_from_n(d0);
+    spc_chain_opts o = spc_chain_opts_default(k);
+    o.events = events;
+    spc_chain_trace(sc, x, &fr, 0, 0, &o, c);
+    memset(q, 0, sizeof *q);
+    q->scene = sc;
+    q->x = x;
+    q->wo = wo;
+    q->y = light->p;
+    q->ny = light->ng;
+    q->light_size = sqrt(light->emitter->shape->area);
+    q->max_chain = 2;
+    q->params = p;
+    q->seed = p->seed;
+    q->p_y = spc_snee_light_pdf(sc, false, light->emitter, light->p, light->ng);
+}
+
+/* Specular NEE's MIS weight on the chain c of q: its value with the weight over its value without
+ * (q->p_y 0); negative if the chain has no value. */
+static double snee_weight(spc_snee_query *q, const spc_hit *light, const spc_chain *c)
+{
+    spc_rgb with = spc_snee_chain_value(q, light->emitter, light->uv, c);
+    double p_y = q->p_y;
+    q->p_y = 0.0;
+    spc_rgb without = spc_snee_chain_value(q, light->emitter, light->uv, c);
+    q->p_y = p_y;
+    return without.r > 0.0 ? with.r / without.r : -1.0;
+}
+
 /* MIS of specular NEE with BSDF sampling (spc_snee_params.mis): spc_snee_light_pdf is the density
  * spc_snee_sample_light draws with (every sampled point), and for BSDF-sampled paths floor -> ball
  * -> ball -> light the path integrator's weight (spc_snee_mis_bsdf_weight, from the retraced chain)
@@ -1335,26 +1370,12 @@ TEST(snee_mis_weights_sum_to_one)
             continue;
         double wb = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, d0, 2, k, NULL, &h);
         /* specular NEE's weight on the same chain: its value with MIS over its value without */
-        spc_frame fr = spc_frame_from_n(d0);
-        spc_chain_opts o = spc_chain_opts_default(2);
         static spc_chain c;
-        spc_chain_trace(sc, &x, &fr, 0, 0, &o, &c);
         spc_snee_query q;
-        memset(&q, 0, sizeof q);
-        q.scene = sc;
-        q.x = &x;
-        q.wo = wo;
-        q.y = h.p;
-        q.ny = h.ng;
-        q.max_chain = 2;
-        q.params = &p;
-        q.p_y = spc_snee_light_pdf(sc, false, h.emitter, h.p, h.ng);
-        spc_rgb with = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
-        q.p_y = 0.0; /* no weight */
-        spc_rgb without = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
-        if (!(without.r > 0.0))
+        retrace_query(sc, &p, &x, wo, d0, 2, NULL, &h, &c, &q);
+        double wn = snee_weight(&q, &h, &c);
+        if (wn < 0.0)
             continue;
-        double wn = with.r / without.r;
         worst_sum = spc_max(worst_sum, fabs(wn + wb - 1.0));
         wmin = spc_min(wmin, wb);
         wmax = spc_max(wmax, wb);
@@ -1400,27 +1421,13 @@ TEST(snee_mis_weights_with_reflections)
         if (!walk_to_light(sc, r, &t, i % 2 == 1, &h)) /* every other path reflects off the ball */
             continue;
         double wb = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, d0, t.max_chain, t.k, t.events, &h);
-        spc_frame fr = spc_frame_from_n(d0);
-        spc_chain_opts o = spc_chain_opts_default(t.k);
-        o.events = t.events;
         static spc_chain c;
-        spc_chain_trace(sc, &x, &fr, 0, 0, &o, &c);
         spc_snee_query q;
-        memset(&q, 0, sizeof q);
-        q.scene = sc;
-        q.x = &x;
-        q.wo = wo;
-        q.y = h.p;
-        q.ny = h.ng;
-        q.max_chain = 2;
-        q.params = &p;
-        q.p_y = spc_snee_light_pdf(sc, false, h.emitter, h.p, h.ng);
-        spc_rgb with = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
-        q.p_y = 0.0;
-        spc_rgb without = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
-        if (!(without.r > 0.0))
+        retrace_query(sc, &p, &x, wo, d0, t.k, t.events, &h, &c, &q);
+        double wn = snee_weight(&q, &h, &c);
+        if (wn < 0.0)
             continue;
-        worst_sum = spc_max(worst_sum, fabs(with.r / without.r + wb - 1.0));
+        worst_sum = spc_max(worst_sum, fabs(wn + wb - 1.0));
         ++npaths;
         for (int k = 0; k < t.k; ++k)
             if (t.events[k] == SPC_CHAIN_REFLECT) {
@@ -1786,25 +1793,11 @@ TEST(camera_snee_lamp_through_lens)
             memset(&x, 0, sizeof x);
             x.p = cs.origin;
             x.ng = cs.forward;
-            spc_frame fr = spc_frame_from_n(d0);
-            spc_chain_opts o = spc_chain_opts_default(t.k);
-            o.events = t.events;
             static spc_chain c;
-            spc_chain_trace(sc, &x, &fr, 0, 0, &o, &c);
             spc_snee_query q;
-            memset(&q, 0, sizeof q);
-            q.scene = sc;
-            q.x = &x;
-            q.wo = cs.forward;
-            q.y = h.p;
-            q.ny = h.ng;
-            q.light_size = sqrt(h.emitter->shape->area);
-            q.max_chain = 2;
-            q.params = &p;
+            retrace_query(sc, &p, &x, cs.forward, d0, t.k, t.events, &h, &c, &q);
             q.cam = &cs;
             q.cam_scale = cam_scale;
-            q.seed = p.seed;
-            q.p_y = spc_snee_light_pdf(sc, false, h.emitter, h.p, h.ng);
             /* specular NEE's psi for this chain: 1 if it is enumerated on the ball (exact) or the
              * straight-line solution, else mis_solve */
             spc_snee_query ql = q;
@@ -1814,12 +1807,10 @@ TEST(camera_snee_lamp_through_lens)
                          (p.straight_first && spc_snee_straight_hits_glass(&q) &&
                           spc_angular_solve_one(&ql, NULL, &st, NULL) && spc_snee_same_solution(&st, &c, sc->radius));
             q.psi = exact ? 1.0 : p.mis_solve;
-            spc_rgb with = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
-            q.p_y = 0.0;
-            spc_rgb without = spc_snee_chain_value(&q, h.emitter, h.uv, &c);
-            if (!(without.r > 0.0))
+            double wn = snee_weight(&q, &h, &c);
+            if (wn < 0.0)
                 continue;
-            worst = spc_max(worst, fabs(with.r / without.r + wb - 1.0));
+            worst = spc_max(worst, fabs(wn + wb - 1.0));
             wmin = spc_min(wmin, wb);
             wmax = spc_max(wmax, wb);
             ++npaths;
