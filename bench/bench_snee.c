@@ -24,8 +24,10 @@
  * straight / nostraight (spc_snee_params.straight_first), window=N, keep=F, stall=N, drop=F,
  * iters=N, lm (angular solver options), biased (the biased estimator), reflect=P (chains reflect
  * off dielectrics, spc_snee_params.reflect), cone (the default seed), noexact (chains on one sphere or
- * mirror cylinder left to the randomized attempts, spc_snee_params.exact). Defaults: those of
- * spc_snee_params_default. Results go to bench/RESULTS.md by hand.
+ * mirror cylinder left to the randomized attempts, spc_snee_params.exact), mis (weighted against
+ * BSDF sampling as the path integrator has it: the BSDF's share is then not in the sums), guide=M
+ * and sneep=Q (guided directions, the light sample's probability; with mis). Defaults: those of
+ * spc_snee_params_default (without mis). Results go to bench/RESULTS.md by hand.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -188,6 +190,12 @@ static bool parse_config(const char *s, spc_snee_params *p)
             p->angular.method = SPC_ANGULAR_LEVENBERG_MARQUARDT;
         else if (!strcmp(tok, "biased"))
             p->biased = true;
+        else if (!strcmp(tok, "mis"))
+            p->mis = true;
+        else if (!strncmp(tok, "guide=", 6))
+            p->guide = atof(tok + 6);
+        else if (!strncmp(tok, "sneep=", 6))
+            p->snee_p = atof(tok + 6);
         else if (!strncmp(tok, "reflect=", 8)) {
             p->reflect = true;
             p->reflect_p = atof(tok + 8);

@@ -1520,6 +1520,63 @@ TEST(snee_mis_point_combination)
     spc_scene_destroy(sc);
 }
 
+/* Specular NEE (params p, chains of max_chain, the longer ones up to long_max) plus the BSDF-sampled
+ * paths from x that reach a light through at most long_max chain vertices, weighted by
+ * spc_snee_mis_bsdf_weight where specular NEE covers them: N samples, mean and standard error;
+ * *wlong / *nlong: the weights' sum and count over the BSDF paths through more than max_chain
+ * vertices; st: specular NEE's counters (or NULL). */
+static void combined_estimate(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                              int max_chain, int long_max, int N, uint64_t seed, uint64_t stream, double *mean,
+                              double *se, double *wlong, int *nlong, spc_snee_stats *st)
+{
+    spc_rng r;
+    spc_rng_seed(&r, seed, stream);
+    double s1 = 0, s2 = 0;
+    *wlong = 0.0;
+    *nlong = 0;
+    for (int i = 0; i < N; ++i) {
+        double v = spc_specular_nee_depth(sc, p, x, wo, max_chain, long_max, &r, st).r;
+        spc_bsdf_sample bs;
+        if (spc_bsdf_sample_dir(x->bsdf, x, SPC_MODE_RADIANCE, wo, rnd(), spc_v2(rnd(), rnd()), &bs)) {
+            spc_snee_track t;
+            memset(&t, 0, sizeof t);
+            spc_snee_track_scatter_params(&t, p, x, bs.lobe, max_chain, long_max);
+            spc_ray ray = spc_hit_spawn(x, bs.wi);
+            double T = bs.weight.r;
+            for (int k = 0; k <= long_max; ++k) {
+                spc_hit h;
+                if (!spc_scene_intersect(sc, &ray, &h))
+                    break;
+                if (h.emitter) {
+                    double w = 1.0;
+                    if (spc_snee_track_covers(&t, sc, h.emitter))
+                        w = spc_snee_mis_bsdf_weight(sc, p, x, wo, bs.wi, t.max_chain, t.k, t.events, &h);
+                    if (k > max_chain) {
+                        *wlong += w;
+                        ++*nlong;
+                    }
+                    if (k >= 1)
+                        v += T * spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d)).r * w;
+                    break;
+                }
+                int ev;
+                spc_bsdf_sample b2s;
+                if (k == long_max || !spc_chain_surface(&h, false, &ev) ||
+                    !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), rnd(), spc_v2(rnd(), rnd()),
+                                         &b2s))
+                    break;
+                spc_snee_track_scatter_params(&t, p, &h, b2s.lobe, 0, 0);
+                T *= b2s.weight.r;
+                ray = spc_hit_spawn(&h, b2s.wi);
+            }
+        }
+        s1 += v;
+        s2 += v * v;
+    }
+    *mean = s1 / N;
+    *se = sqrt(spc_max(s2 / N - *mean * *mean, 0.0) / N);
+}
+
 /* The longer chains on one sphere (params.long_p) at one point, end to end: at a floor point that the
  * light reaches through the glass ball also by internal reflections, specular NEE with chains of 2
  * and, with probability long_p per call, one longer length (3 to 6 vertices: one to four internal
@@ -1548,51 +1605,9 @@ TEST(snee_long_chains_point_combination)
         spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
         p.mis = true;
         p.long_p = long_ps[li];
-        spc_rng r;
-        spc_rng_seed(&r, 91, (uint64_t)li);
-        const int N = 400000;
-        double s1 = 0, s2 = 0, wlong = 0;
-        int nlong = 0;
-        for (int i = 0; i < N; ++i) {
-            double v = spc_specular_nee_depth(sc, &p, &x, wo, 2, 6, &r, NULL).r;
-            spc_bsdf_sample bs;
-            if (spc_bsdf_sample_dir(x.bsdf, &x, SPC_MODE_RADIANCE, wo, rnd(), spc_v2(rnd(), rnd()), &bs)) {
-                spc_snee_track t;
-                memset(&t, 0, sizeof t);
-                spc_snee_track_scatter_params(&t, &p, &x, bs.lobe, 2, 6);
-                spc_ray ray = spc_hit_spawn(&x, bs.wi);
-                double T = bs.weight.r;
-                for (int k = 0; k <= 6; ++k) {
-                    spc_hit h;
-                    if (!spc_scene_intersect(sc, &ray, &h))
-                        break;
-                    if (h.emitter) {
-                        double w = 1.0;
-                        if (spc_snee_track_covers(&t, sc, h.emitter))
-                            w = spc_snee_mis_bsdf_weight(sc, &p, &x, wo, bs.wi, t.max_chain, t.k, t.events, &h);
-                        if (k > 2) {
-                            wlong += w;
-                            ++nlong;
-                        }
-                        if (k >= 1)
-                            v += T * spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d)).r * w;
-                        break;
-                    }
-                    int ev;
-                    spc_bsdf_sample b2s;
-                    if (k == 6 || !spc_chain_surface(&h, false, &ev) ||
-                        !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), rnd(), spc_v2(rnd(), rnd()),
-                                             &b2s))
-                        break;
-                    spc_snee_track_scatter_params(&t, &p, &h, b2s.lobe, 0, 0);
-                    T *= b2s.weight.r;
-                    ray = spc_hit_spawn(&h, b2s.wi);
-                }
-            }
-            s1 += v;
-            s2 += v * v;
-        }
-        double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N);
+        double m, se, wlong;
+        int nlong;
+        combined_estimate(sc, &p, &x, wo, 2, 6, 400000, 91, (uint64_t)li, &m, &se, &wlong, &nlong, NULL);
         printf("    long_p %.2f: specular NEE + weighted BSDF paths %.3e +- %.1e; %d BSDF paths through 3-6 vertices, "
                "mean weight %.3f\n",
                long_ps[li], m, se, nlong, nlong ? wlong / nlong : 0.0);
@@ -1605,6 +1620,82 @@ TEST(snee_long_chains_point_combination)
             CHECK(wlong == nlong);
     }
     spc_scene_destroy(sc);
+}
+
+/* Guided directions (params.guide) at one point, end to end: specular NEE with guided directions
+ * plus the BSDF-sampled paths it covers, all three weighted by the power heuristic (the guided
+ * cones' density and the light sample's probability params.snee_p recomputed from x on the BSDF
+ * side), must add up to brute force through the BSDFs with chains of at most 2, without guided
+ * directions, with them, and with the light sample made one time in ten: at a floor point under a
+ * water plane (one refraction), under a glass slab (two), and under the glass ball (two, whose
+ * chains the exact enumeration finds: no cones there). Under the water and the slab the guided
+ * directions must reach the light often (the cone fits the light's image) and lower the variance
+ * of the sum at the same number of calls, more so with the light sample made rarely. */
+TEST(snee_guided_point_combination)
+{
+    for (int si = 0; si < 3; ++si) {
+        spc_scene *sc;
+        spc_vec3 above;
+        if (si < 2) {
+            sc = spc_scene_create();
+            add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+            add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0.6)), tu_glass(sc, 1.33));
+            if (si == 1) /* the slab's underside, facing down: the glass between 0.4 and 0.6 */
+                add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 180, spc_v3(0, 0, 0.4)), tu_glass(sc, 1.33));
+            spc_shape *light = add_sphere(sc, spc_v3(0.6, 0.2, 2.0), 0.2, tu_diffuse(sc, 0.0));
+            tu_area(sc, light, sc->nshapes - 1, 4.0);
+            tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.35), spc_v3(0, 0, 1), 50, 24, 24);
+            if (!finalize(sc)) {
+                spc_scene_destroy(sc);
+                sc = NULL;
+            }
+            above = spc_v3(-0.3, 0.2, 0.05);
+        } else {
+            sc = caustic_scene();
+            above = spc_v3(0.05, -0.1, 0.05);
+        }
+        CHECK(sc != NULL);
+        if (!sc)
+            return;
+        spc_hit x;
+        CHECK(floor_hit(sc, above, &x));
+        const spc_vec3 wo = spc_normalize(spc_v3(0.2, -1, 1));
+        double bf[2], bf_se[2];
+        brute_force_bsdf(sc, &x, wo, 4000000, 2, bf, bf_se);
+        double m[3], se[3];
+        spc_snee_stats st[3];
+        const double guide[3] = {0.0, 1.0, 1.0}, snee_p[3] = {1.0, 1.0, 0.1};
+        for (int gi = 0; gi < 3; ++gi) {
+            spc_snee_params p;
+            spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+            p.mis = true;
+            p.guide = guide[gi];
+            p.snee_p = snee_p[gi];
+            memset(&st[gi], 0, sizeof st[gi]);
+            double wl;
+            int nl;
+            combined_estimate(sc, &p, &x, wo, 2, 2, 200000, 93, (uint64_t)(3 * si + gi), &m[gi], &se[gi], &wl, &nl,
+                              &st[gi]);
+            printf("    %s, guide %.0f, snee_p %.1f: %.4e +- %.1e (brute force %.4e +- %.1e); light samples %llu, "
+                   "guided directions %llu, reaching the light %llu\n",
+                   si == 0 ? "water" : si == 1 ? "slab" : "glass ball", guide[gi], snee_p[gi], m[gi], se[gi], bf[0],
+                   bf_se[0], (unsigned long long)st[gi].calls, (unsigned long long)st[gi].guided,
+                   (unsigned long long)st[gi].guided_hits);
+            CHECK_MSG(fabs(m[gi] - bf[0]) <= 4.0 * sqrt(se[gi] * se[gi] + bf_se[0] * bf_se[0]), "%d %d: %.6f vs %.6f",
+                      si, gi, m[gi], bf[0]);
+        }
+        CHECK(st[0].guided == 0);
+        if (si < 2) {
+            CHECK(st[1].guided_hits > st[1].guided / 8);
+            CHECK(se[1] < 0.9 * se[0]);
+            CHECK(st[2].calls < st[1].calls / 5); /* the light sample one time in ten */
+            CHECK(se[2] < 1.2 * se[1]);           /* at a fraction of the cost */
+        } else {
+            CHECK(st[1].guided == 0); /* every chain enumerated exactly: no cones */
+            CHECK(st[2].calls == st[1].calls);
+        }
+        spc_scene_destroy(sc);
+    }
 }
 
 /* The coffee-cup caustic (scenes/caustic_mirror_ring.xml, smaller): a two-sided mirror ring on a
@@ -1999,6 +2090,7 @@ int main(void)
     RUN(snee_mis_weights_with_reflections);
     RUN(snee_mis_point_combination);
     RUN(snee_long_chains_point_combination);
+    RUN(snee_guided_point_combination);
     RUN(caustic_image_path_snee_vs_ipt);
     RUN(ring_image_exact_vs_randomized);
     RUN(camera_snee_lamp_through_lens);

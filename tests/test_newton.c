@@ -941,6 +941,10 @@ TEST(parse_specular_nee_options)
     CHECK(spc_snee_parse("angular", 2, &p) && p.long_p > 0.0 && p.long_p < 1.0);
     CHECK(spc_snee_parse("newton:long=0.5", 2, &p) && p.long_p == 0.5);
     CHECK(spc_snee_parse("conic:long=1,nolong", 2, &p) && p.long_p == 0.0);
+    CHECK(spc_snee_parse("angular", 2, &p) && p.guide == 0.0 && p.snee_p == 1.0);
+    CHECK(spc_snee_parse("angular:guide", 2, &p) && p.guide == 1.0 && p.snee_p == 1.0);
+    CHECK(spc_snee_parse("newton:guide=1.5,sneep=0.1", 2, &p) && p.guide == 1.5 && p.snee_p == 0.1);
+    CHECK(spc_snee_parse("conic:guide=3,noguide", 2, &p) && p.guide == 0.0);
     /* mistakes are refused, not ignored */
     const char *bad[] = {"newtn", "newton:", "newton:biased=0", "newton:biased=x", "newton:seed=sun",
                          "newton:fast", "angular:rough", "angular:constraint=half", "none:biased",
@@ -949,7 +953,9 @@ TEST(parse_specular_nee_options)
                          "angular:reflect=", "angular:mispsi=0", "angular:mispsi=1.5", "angular:mispsi",
                          "newton:rough,reflect", "angular:receivers=0", "angular:receivers",
                          "angular:chain=0", "angular:chain=9", "angular:chain", "angular:spheres",
-                         "angular:long=0", "angular:long=1.5", "angular:long", "angular:long=x"};
+                         "angular:long=0", "angular:long=1.5", "angular:long", "angular:long=x", "angular:guide=0",
+                         "angular:guide=101", "angular:guide=x", "angular:sneep=0", "angular:sneep=1.5",
+                         "angular:sneep"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i)
         CHECK_MSG(!spc_snee_parse(bad[i], 2, &p), "'%s' accepted", bad[i]);
 }

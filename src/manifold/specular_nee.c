@@ -65,6 +65,16 @@
  * this; each internal reflection in a glass ball keeps a few percent of the light, and the
  * enumeration's cost grows with the count (1D roots on a ball: 3 us for one, 14 us for four). */
 #define SPC_SNEE_LONG_MAX 6
+/* params.guide's default: a cone as wide as the light's image through the chain to its point
+ * facing x (measured in bench/RESULTS.md, Session 7: 1 against 1.5 and 2 on the pools). */
+#define SPC_SNEE_GUIDE 1.0
+/* The widest guided cone (radians, half-angle): wider, a direction rarely reaches the light, and
+ * BSDF sampling does as well. */
+#define SPC_SNEE_GUIDE_MAX_ANGLE 0.5
+/* The cones' axes: chains solved to this fraction of the light's size. */
+#define SPC_SNEE_GUIDE_TOL 0.02
+/* Cones per light (chains toward its facing point). */
+#define SPC_SNEE_GUIDE_MAX_CONES 4
 /* Solutions kept from a solver that enumerates them all (solve_all): one interface rarely has more
  * than a handful between two points. */
 #define SPC_SNEE_MAX_ALL 16
@@ -189,6 +199,16 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
                 return false;
         } else if (opt_is(o, n, "nolong")) {
             p->long_p = 0.0;
+        } else if (opt_is(o, kn, "guide") && val) {
+            if (!parse_real(val, vn, 1e-6, 100.0, &p->guide))
+                return false;
+        } else if (opt_is(o, n, "guide")) {
+            p->guide = SPC_SNEE_GUIDE;
+        } else if (opt_is(o, n, "noguide")) {
+            p->guide = 0.0;
+        } else if (opt_is(o, kn, "sneep") && val) {
+            if (!parse_real(val, vn, 1e-6, 1.0, &p->snee_p))
+                return false;
         } else if (opt_is(o, n, "camera")) {
             p->camera = true;
         } else if (opt_is(o, kn, "receivers") && val) {
@@ -263,6 +283,8 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->straight_first = solver == SPC_SNEE_ANGULAR;
     p->exact = true;
     p->long_p = SPC_SNEE_LONG_P;
+    p->guide = 0.0;
+    p->snee_p = 1.0;
     if (solver == SPC_SNEE_ANGULAR)
         p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
 }
@@ -376,6 +398,190 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
     return false;
 }
 
+/* ---- guided directions (params.guide) ---- */
+
+/* Guided directions run (they need MIS; the rough mode has its own estimator). */
+static bool guide_on(const spc_snee_params *p)
+{
+    return p->guide > 0.0 && p->mis && !(p->solver == SPC_SNEE_NEWTON && p->newton.rough);
+}
+
+/* The cones at a receiver toward one light: built from x alone (deterministic), so that the BSDF
+ * side and specular NEE's light sample find the same density for a path. */
+typedef struct spc_snee_cones {
+    const spc_emitter *e; /* the light they aim at; NULL: not built */
+    int budget;           /* chains of at most this many vertices (the receiver's budget) */
+    double pmf;           /* the light's probability (by power) */
+    int n;
+    spc_vec3 axis[SPC_SNEE_GUIDE_MAX_CONES];
+    double cos_max[SPC_SNEE_GUIDE_MAX_CONES], pdf[SPC_SNEE_GUIDE_MAX_CONES];
+} spc_snee_cones;
+
+static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *c);
+
+/* Whether the light's image through chain c (solved from x toward y, light radius r) is the patch
+ * its Jacobian predicts: three probe directions, each aimed by the Jacobian at a point half a
+ * radius from y across the final segment, traced through the same surfaces; each must reach the
+ * light within a quarter radius of its aim. A smooth interface passes; a normal map's ripples, a
+ * silhouette or a fold inside the image fail (the cone would hold a part of a scattered image). */
+static bool cone_probes_ok(const spc_scene *sc, const spc_hit *x, const spc_emitter *e, const spc_chain *c,
+                           spc_vec3 y, double r, bool any_surface)
+{
+    spc_vec3 n = spc_neg(c->v[c->n - 1].d);
+    spc_vec3 q, dq[2];
+    double t;
+    if (!spc_chain_plane_hit(c, y, n, &q, dq, &t))
+        return false;
+    spc_frame pf = spc_frame_from_n(n);
+    double m00 = spc_dot(pf.s, dq[0]), m01 = spc_dot(pf.s, dq[1]);
+    double m10 = spc_dot(pf.t, dq[0]), m11 = spc_dot(pf.t, dq[1]);
+    double det = m00 * m11 - m01 * m10;
+    if (!(fabs(det) > 0.0) || !isfinite(det))
+        return false;
+    spc_chain_sig sig;
+    spc_chain_signature(c, &sig);
+    spc_chain_opts o = spc_chain_opts_default(c->n);
+    o.any_surface = any_surface;
+    o.fixed = &sig;
+    o.find_end = true;
+    /* half a radius out at 0, 120 and 240 degrees: a second-order term along any axis moves one */
+    static const double dirs[3][2] = {{0.5, 0.0}, {-0.25, 0.4330127018922193}, {-0.25, -0.4330127018922193}};
+    for (int i = 0; i < 3; ++i) {
+        /* the aim, relative to where the solved chain meets the plane */
+        double u = dirs[i][0] * r, v = dirs[i][1] * r;
+        double da = (m11 * u - m01 * v) / det, db = (m00 * v - m10 * u) / det;
+        spc_chain pc;
+        if (spc_chain_trace(sc, x, &c->frame, c->a + da, c->b + db, &o, &pc) != SPC_CHAIN_END_SURFACE ||
+            !pc.has_end_hit || pc.end_hit.emitter != e)
+            return false;
+        spc_vec3 pq, pdq[2];
+        double pt;
+        if (!spc_chain_plane_hit(&pc, y, n, &pq, pdq, &pt))
+            return false;
+        spc_vec3 aim = spc_add(q, spc_add(spc_scale(pf.s, u), spc_scale(pf.t, v)));
+        if (spc_distance(pq, aim) > 0.25 * r)
+            return false;
+    }
+    return true;
+}
+
+/* The chains from q's x to the point of e facing x (the sphere's nearest point, another shape's
+ * area sample at (1/2, 1/2)) that the randomized solver would look for (the straight-line attempt,
+ * or solve_all's; not the exact enumerations', whose light samples need no help), each a cone
+ * around its first direction as wide as the light's image through it times params.guide, kept
+ * where the image is the smooth patch the chain's Jacobian predicts (cone_probes_ok). */
+static void cones_build(const spc_snee_query *q0, const spc_emitter *e, int budget, spc_snee_cones *cs)
+{
+    const spc_snee_params *p = q0->params;
+    const spc_scene *sc = q0->scene;
+    memset(cs, 0, sizeof *cs);
+    cs->e = e;
+    cs->budget = budget;
+    if (!e || e->type != SPC_EMITTER_AREA || !e->shape || budget < 1)
+        return;
+    cs->pmf = spc_scene_emitter_pmf(sc, e);
+    const spc_shape *s = e->shape;
+    spc_vec3 y, ny;
+    double r;
+    if (s->type == SPC_SHAPE_SPHERE && !s->flip_normals) {
+        spc_vec3 v = spc_sub(q0->x->p, s->center);
+        double d = spc_length(v);
+        if (!(d > s->radius))
+            return;
+        ny = spc_scale(v, 1.0 / d);
+        y = spc_madd(s->center, ny, s->radius);
+        r = s->radius;
+    } else {
+        spc_shape_sample ss;
+        spc_shape_sample_area(s, spc_v2(0.5, 0.5), &ss);
+        y = ss.p;
+        ny = ss.n;
+        r = sqrt(s->area / SPC_PI);
+    }
+    if (!(cs->pmf > 0.0) || !(r > 0.0))
+        return;
+    /* an axis needs a small fraction of the light's size, not a point on it: the angular attempt
+     * stops there, after a few traces instead of a dozen */
+    spc_snee_params pc = *p;
+    pc.angular.tol_scene = 1.0;
+    pc.angular.tol_light = SPC_SNEE_GUIDE_TOL;
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, &pc, q0->x, q0->wo, budget);
+    q.y = y;
+    q.ny = ny;
+    q.light_size = sqrt(s->area);
+    q.seed = SPC_SNEE_SEED_LIGHT;
+    if (spc_snee_exact_covers_all(&q))
+        return;
+    spc_chain ch[SPC_SNEE_MAX_ALL];
+    int nch = 0, it = 0;
+    const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
+    if (solver && solver->solve_all)
+        nch = solver->solve_all(&q, ch, SPC_SNEE_MAX_ALL, &it);
+    else if (solver && solver->solve_one && solver->solve_one(&q, NULL, &ch[0], &it) &&
+             !exact_covers(&q, solver, &ch[0]))
+        nch = 1;
+    for (int i = 0; i < nch && cs->n < SPC_SNEE_GUIDE_MAX_CONES; ++i) {
+        const spc_chain *c = &ch[i];
+        if (c->n < 1 || c->n > budget)
+            continue;
+        /* solid angle at x per unit area across the final segment at y */
+        double g = spc_chain_geometry(c, y, spc_neg(c->v[c->n - 1].d));
+        if (!(g > 0.0) || !isfinite(g))
+            continue;
+        double th = spc_min(p->guide * r * sqrt(g), SPC_SNEE_GUIDE_MAX_ANGLE);
+        double cm = cos(th);
+        if (!(cm < 1.0) || !cone_probes_ok(sc, q0->x, e, c, y, r, p->any_surface))
+            continue;
+        cs->axis[cs->n] = c->d0;
+        cs->cos_max[cs->n] = cm;
+        cs->pdf[cs->n] = spc_warp_uniform_cone_pdf(cm);
+        cs->n++;
+    }
+}
+
+/* The probability of specular NEE's light sample at q's receiver toward e: params.snee_p where
+ * guided directions have a cone toward e, else 1. */
+static double snee_prob(const spc_snee_query *q, const spc_emitter *e);
+
+/* q's cones toward e (built on first use; NULL without params.guide or from the camera). */
+static const spc_snee_cones *cones_for(const spc_snee_query *q, const spc_emitter *e)
+{
+    spc_snee_cones *cs = q->cones;
+    if (!cs || q->cam || !e)
+        return NULL;
+    if (cs->e != e)
+        cones_build(q, e, cs->budget, cs);
+    return cs;
+}
+
+static double snee_prob(const spc_snee_query *q, const spc_emitter *e)
+{
+    const spc_snee_cones *cs = cones_for(q, e);
+    return cs && cs->n > 0 ? q->params->snee_p : 1.0;
+}
+
+/* The guided density (solid angle at x, the light's probability included) of a path that leaves x
+ * along d and reaches the cones' light through k chain vertices. */
+static double cones_pdf(const spc_snee_cones *cs, spc_vec3 d, int k)
+{
+    if (!cs || cs->n == 0 || k < 1 || k > cs->budget)
+        return 0.0;
+    double sum = 0.0;
+    for (int i = 0; i < cs->n; ++i)
+        if (spc_dot(d, cs->axis[i]) >= cs->cos_max[i])
+            sum += cs->pdf[i];
+    return cs->pmf * sum / cs->n;
+}
+
+/* The power heuristic over the three strategies of a covered path: specular NEE's light sample
+ * (psi p_y), BSDF sampling and guided directions (each in the light's area measure). */
+static double mis3(double a, double b, double c)
+{
+    double t = a * a + b * b + c * c;
+    return t > 0.0 ? a * a / t : 0.0;
+}
+
 /* ---- contribution ---- */
 
 spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c)
@@ -447,7 +653,8 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
         double pdf_x = q->cam ? spc_camera_pdf_dir(q->cam, c->d0) * q->cam_scale
                               : spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0);
-        w = spc_snee_mis_weight(q->p_y * (q->psi > 0.0 ? q->psi : 1.0), pdf_x * G);
+        double pc = cones_pdf(cones_for(q, e), c->d0, k);
+        w = mis3(q->p_y * (q->psi > 0.0 ? q->psi : 1.0), pdf_x * G, pc * G);
     }
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * w);
 }
@@ -769,8 +976,18 @@ static double random_psi(const spc_snee_params *p)
     return p->biased || !(p->mis_solve > 0.0 && p->mis_solve < 1.0) ? 1.0 : p->mis_solve;
 }
 
+/* psi of the straight-line solution: 1 (it is found whenever it exists), but with guided
+ * directions random_psi like any other, so that the BSDF side and a guided direction need not
+ * repeat the straight-line attempt for every path that reaches the light (one solve each, more
+ * than the direction itself costs); the guided directions carry the smooth images that attempt
+ * finds. */
+static double straight_psi(const spc_snee_params *p)
+{
+    return guide_on(p) ? random_psi(p) : 1.0;
+}
+
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
- * straight-line solution), else random_psi; past the budget long_psi for a longer chain on one
+ * straight-line solution: straight_psi), else random_psi; past the budget long_psi for a longer chain on one
  * sphere (params.long_p), else 0 (specular NEE never makes it). */
 static double chain_psi(const spc_snee_query *q, const spc_chain *c)
 {
@@ -782,6 +999,8 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
         return 1.0;
     if (exact_covers(q, solver, c))
         return 1.0;
+    if (guide_on(p))
+        return random_psi(p); /* straight_psi: no attempt to repeat */
     spc_chain straight;
     int it = 0;
     if (straight_solve(q, solver, &straight, &it) && spc_snee_same_solution(&straight, c, q->scene->radius))
@@ -789,42 +1008,72 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
     return random_psi(p);
 }
 
-/* The weight of a covered path that left x (a receiver toward wo, or the pinhole of cam) along d0
- * and reached the area light at the hit `light` through k chain vertices with these events: the
- * chain retraced for its geometry term, the sampling side's density (the BSDF's, or the camera's
- * W H / N pdf_dir) against psi p_y. p->mis is set and e is an area light. */
-static double covered_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
-                             const spc_camera_state *cam, double cam_scale, spc_vec3 d0, int max_chain, int k,
-                             const unsigned char *events, const spc_hit *light)
+/* The three strategies' densities (the light's area measure) of a covered path that left x (a
+ * receiver toward wo, or the pinhole of cam) along d0 and reached the area light at the hit `light`
+ * through k chain vertices with these events: *a specular NEE's light sample (psi p_y), *b the
+ * sampling side's (the BSDF's, or the camera's W H / N pdf_dir, times the chain's geometry term),
+ * *c guided directions' (params.guide; cones at x toward the light, cs if given, else built here).
+ * The chain is retraced for its geometry term. False if the retrace does not reproduce the path.
+ * p->mis is set and e is an area light. */
+static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                          const spc_camera_state *cam, double cam_scale, spc_vec3 d0, int max_chain, int k,
+                          const unsigned char *events, const spc_hit *light, const spc_snee_cones *cs, double *a,
+                          double *b, double *c)
 {
     const spc_emitter *e = light->emitter;
+    *a = *b = *c = 0.0;
     double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
-    if (!(p_y > 0.0))
-        return 1.0; /* specular NEE never draws this light point */
+    bool guided = guide_on(p) && !cam;
+    if (!(p_y > 0.0) && !guided) {
+        *b = 1.0; /* specular NEE never draws this light point: BSDF sampling's alone */
+        return true;
+    }
     spc_frame fr = spc_frame_from_n(d0);
     spc_chain_opts o = spc_chain_opts_default(k);
     o.any_surface = p->any_surface;
     o.events = events;
-    spc_chain c;
-    if (spc_chain_trace(sc, x, &fr, 0.0, 0.0, &o, &c) != SPC_CHAIN_END_SURFACE || c.n != k || !c.has_end_hit ||
-        c.end_hit.emitter != e || spc_distance(c.end_hit.p, light->p) > 1e-6 * (sc->radius + spc_max_abs(light->p)))
-        return 0.0;
-    double G = spc_chain_geometry(&c, light->p, light->ng);
+    spc_chain ch;
+    if (spc_chain_trace(sc, x, &fr, 0.0, 0.0, &o, &ch) != SPC_CHAIN_END_SURFACE || ch.n != k || !ch.has_end_hit ||
+        ch.end_hit.emitter != e || spc_distance(ch.end_hit.p, light->p) > 1e-6 * (sc->radius + spc_max_abs(light->p)))
+        return false;
+    double G = spc_chain_geometry(&ch, light->p, light->ng);
     if (!(G > 0.0) || !isfinite(G))
-        return 0.0;
-    double pdf = cam ? spc_camera_pdf_dir(cam, c.d0) * cam_scale : spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0);
-    /* psi as specular NEE has it for this chain toward this light point */
+        return false;
+    double pdf = cam ? spc_camera_pdf_dir(cam, ch.d0) * cam_scale : spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0);
+    *b = pdf * G;
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, x, wo, max_chain);
-    q.y = light->p;
-    q.ny = light->ng;
-    q.light_size = sqrt(e->shape->area);
-    q.p_y = p_y;
-    q.cam = cam;
-    q.cam_scale = cam_scale;
-    q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
-    double psi = chain_psi(&q, &c);
-    return 1.0 - spc_snee_mis_weight(psi * p_y, pdf * G);
+    spc_snee_cones own;
+    if (guided) {
+        if (!cs || cs->e != e || cs->budget != max_chain) {
+            cones_build(&q, e, max_chain, &own);
+            cs = &own;
+        }
+        *c = cones_pdf(cs, ch.d0, k) * G;
+    }
+    if (p_y > 0.0) {
+        /* psi as specular NEE has it for this chain toward this light point */
+        q.y = light->p;
+        q.ny = light->ng;
+        q.light_size = sqrt(e->shape->area);
+        q.p_y = p_y;
+        q.cam = cam;
+        q.cam_scale = cam_scale;
+        q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
+        *a = chain_psi(&q, &ch) * p_y * (guided && cs && cs->n > 0 ? p->snee_p : 1.0);
+    }
+    return true;
+}
+
+/* The weight of a covered path sampled by the BSDF at x (or the camera), as covered_terms. */
+static double covered_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                             const spc_camera_state *cam, double cam_scale, spc_vec3 d0, int max_chain, int k,
+                             const unsigned char *events, const spc_hit *light)
+{
+    double a, b, c;
+    if (!covered_terms(sc, p, x, wo, cam, cam_scale, d0, max_chain, k, events, light, NULL, &a, &b, &c))
+        return 0.0;
+    return mis3(b, a, c);
 }
 
 double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
@@ -940,7 +1189,9 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
     if (st)
         st->iterations += (uint64_t)it;
     if (have_straight) {
+        q->psi = straight_psi(p);
         spc_rgb vs = spc_snee_chain_value(q, e, uv, &straight);
+        q->psi = 0.0;
         if (st)
             st->straight++;
         if (!spc_rgb_is_black(vs)) {
@@ -1003,6 +1254,79 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
     emit(q, sk, &sol, spc_rgb_scale(v, inv_p / p_y));
 }
 
+/* One guided direction (params.guide): a light by power, a direction in one of its cones at x,
+ * traced through the chain's surfaces by their BSDFs (the events they sample, as a path would);
+ * counted where it reaches that light through a chain the path integrator's track would cover,
+ * weighed against specular NEE's light sample and BSDF sampling. */
+static void guided(spc_snee_query *q, spc_rng *rng, spc_snee_stats *st, snee_sink *sk)
+{
+    const spc_snee_params *p = q->params;
+    const spc_scene *sc = q->scene;
+    const spc_hit *x = q->x;
+    double pmf;
+    const spc_emitter *e = spc_scene_sample_emitter(sc, spc_rng_next(rng), &pmf);
+    double u0 = spc_rng_next(rng);
+    spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+    if (!e || e->type != SPC_EMITTER_AREA)
+        return;
+    const spc_snee_cones *cs = cones_for(q, e);
+    if (!cs || cs->n == 0)
+        return;
+    int i = (int)(u0 * cs->n);
+    i = i < cs->n ? i : cs->n - 1;
+    spc_frame fr = spc_frame_from_n(cs->axis[i]);
+    spc_vec3 d0 = spc_frame_to_world(&fr, spc_warp_uniform_cone(u, cs->cos_max[i]));
+    double pdf = cones_pdf(cs, d0, 1);
+    spc_rgb f = spc_bsdf_eval(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, d0);
+    double cosx = spc_absdot(d0, x->sh.n);
+    if (!(pdf > 0.0) || spc_rgb_is_black(f) || !(cosx > 0.0))
+        return;
+    if (st)
+        st->guided++;
+    spc_rgb T = spc_rgb_scale(f, cosx / pdf);
+    /* the track as the path integrator starts it at a receiver (a non-delta lobe) */
+    spc_snee_track t;
+    memset(&t, 0, sizeof t);
+    spc_snee_track_scatter(&t, x, SPC_LOBE_DIFFUSE_REFLECTION, q->max_chain, p->any_surface, p->reflect);
+    spc_ray ray = spc_hit_spawn(x, d0);
+    for (;;) {
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h))
+            return;
+        if (h.emitter) {
+            if (h.emitter != e || t.k > q->max_chain || !spc_snee_track_covers(&t, sc, e))
+                return;
+            spc_rgb Le = spc_emitter_eval_area(e, &h, spc_neg(ray.d));
+            double a, b, c;
+            if (spc_rgb_is_black(Le) || !covered_terms(sc, p, x, q->wo, NULL, 0.0, d0, q->max_chain, t.k, t.events,
+                                                        &h, cs, &a, &b, &c))
+                return;
+            double w = mis3(c, a, b);
+            if (!(w > 0.0))
+                return;
+            if (st)
+                st->guided_hits++;
+            sk->total = spc_rgb_add(sk->total, spc_rgb_scale(spc_rgb_mul(T, Le), w));
+            return;
+        }
+        if (t.k >= q->max_chain)
+            return;
+        spc_bsdf_sample bs;
+        double ul = spc_rng_next(rng);
+        spc_vec2 ud = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+        if (!h.bsdf || !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), ul, ud, &bs) ||
+            !(bs.lobe & SPC_LOBE_DELTA))
+            return;
+        spc_snee_track_scatter(&t, &h, bs.lobe, 0, p->any_surface, p->reflect);
+        if (!t.live)
+            return;
+        T = spc_rgb_mul(T, bs.weight);
+        if (spc_rgb_is_black(T))
+            return;
+        ray = spc_hit_spawn(&h, bs.wi);
+    }
+}
+
 spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                          int max_chain, spc_rng *rng, spc_snee_stats *st)
 {
@@ -1028,14 +1352,34 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
     const spc_emitter *e;
     spc_vec2 uv;
     double p_y;
-    if (!spc_snee_sample_light(sc, p->any_surface, rng, &q, &e, &uv, &p_y))
+    bool lit = spc_snee_sample_light(sc, p->any_surface, rng, &q, &e, &uv, &p_y);
+    if (!lit && !guide_on(p))
         return zero;
-    q.p_y = p_y;
-    if (st)
-        st->calls++;
+    /* params.guide: the cones at x, built on first use (a light sample that fails still leaves the
+     * guided direction its turn: its density does not depend on specular NEE's) */
+    spc_snee_cones cones;
+    bool guide = guide_on(p);
+    if (guide) {
+        memset(&cones, 0, sizeof cones);
+        cones.budget = max_chain;
+        q.cones = &cones;
+    }
     snee_sink sk;
     memset(&sk, 0, sizeof sk);
-    estimate(&q, solver, e, uv, p_y, rng, st, &sk);
+    /* params.snee_p: the light sample made with that probability, counted 1 / snee_p times */
+    double ps = lit && guide ? snee_prob(&q, e) : 1.0;
+    if (ps < 1.0) {
+        lit = spc_rng_next(rng) < ps;
+        p_y *= ps;
+    }
+    if (lit) {
+        q.p_y = p_y;
+        if (st)
+            st->calls++;
+        estimate(&q, solver, e, uv, p_y, rng, st, &sk);
+    }
+    if (guide)
+        guided(&q, rng, st, &sk);
     return sk.total;
 }
 

@@ -145,6 +145,28 @@ typedef struct spc_snee_params {
      * a longer max_chain. Needs exact and mis (off without them), reflect for dielectric balls. From
      * the camera too (params.camera): the light seen through a ball after internal reflections. */
     double long_p;
+    /* Guided directions (the user's "guide[=M]" / "noguide"): besides the light sample, one
+     * direction per call drawn at x inside a cone around a chain toward the light, then traced
+     * through the chain's surfaces by their BSDFs as a path would be; where it reaches that light
+     * through a chain specular NEE covers, it counts, weighed by MIS (power heuristic) against the
+     * light sample and BSDF sampling. The cones: for a light chosen by power, the chains to its
+     * point facing x that the randomized solver would look for (the straight-line attempt, or
+     * solve_all's; none where the exact enumerations cover every chain), each cone's half-angle M
+     * times the light's radius times sqrt of the chain's solid angle per unit area there (the
+     * light's image through the chain, widened by M), at most SPC_SNEE_GUIDE_MAX_ANGLE, and kept
+     * only where three probe directions land on the light where the chain's Jacobian says (a smooth
+     * image). Where the light's image through a chain is such a patch (a lamp seen through a
+     * mesh water surface or a slab) a direction costs one trace and reaches the light most of the
+     * time, where a solved chain costs several traces and its light point's geometry term varies.
+     * Not where the light has several images (a normal map's ripples, a torus): the cone holds one.
+     * Needs mis (off without it); not from the camera. 0 (the default): off. The psi of the
+     * straight-line solution is then random_psi's, so that a path's weight needs no solve. */
+    double guide;
+    /* The probability of specular NEE's light sample at a receiver whose light has a guided cone
+     * (the user's "sneep=Q"; 1 by default; with guide): below 1 the light sample and its solve are
+     * skipped at random and counted 1 / Q times when made, and MIS weighs them with Q p_y, so that
+     * the cheaper guided directions carry the smooth image. Not from the camera. */
+    double snee_p;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
@@ -185,6 +207,8 @@ typedef struct spc_snee_query {
     /* The exact enumerations' shortest chain (0: 1), and the longest chain params.long_p may add
      * (0: none; spc_specular_nee_depth). */
     int min_chain, long_max;
+    /* params.guide: the cones at x (built on first use per light, specular_nee.c); NULL without. */
+    struct spc_snee_cones *cones;
 } spc_snee_query;
 
 /* A query from x (wo toward the previous path vertex) with chains of up to max_chain vertices, the
@@ -231,6 +255,10 @@ typedef struct spc_specular_solver {
  *                       exactly (the default), or left to the solver's randomized attempts
  *   long=P, nolong      params.long_p: longer chains on one sphere with probability P, in
  *                       (0, 1] (default SPC_SNEE_LONG_P), or never
+ *   guide=M, noguide    params.guide: guided directions, cones M times the light's image (M in
+ *                       (0, 100], default SPC_SNEE_GUIDE), or none
+ *   sneep=Q             params.snee_p: the light sample's probability where guided directions
+ *                       have a cone, in (0, 1] (default 1)
  * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
  * options. False (p undefined) for an unknown name or option, or a bad value. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);
@@ -289,6 +317,8 @@ typedef struct spc_snee_stats {
     uint64_t iterations;    /* solver iterations, trials included */
     uint64_t trial_iterations; /* of which in the attempts counted for <1/p_solve> */
     uint64_t straight;      /* straight-line solutions (straight_first), counted exactly */
+    uint64_t guided;        /* guided directions traced (params.guide) */
+    uint64_t guided_hits;   /* of which reached the light through a covered chain */
 } spc_snee_stats;
 
 /* For the exact enumerations (sphere_chains.h, cylinder_chains.h): the chain of k vertices on shape s
