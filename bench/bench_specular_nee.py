@@ -50,6 +50,9 @@ def small_light(r, r_small, rgb):
 # ":noexact": the glass ball's and the mirror ring's chains left to the randomized solver instead of
 # enumerated exactly (spc_snee_params.exact, the default). ":nolong": without the glass ball's longer
 # chains (internal reflections; spc_snee_params.long_p).
+# ":guide,sneep=0.1": guided directions (spc_snee_params.guide) with the light sample one time in
+# ten where a cone exists (snee_p); for the scenes whose light has one smooth image through the
+# chain (the mesh pool, the slabs).
 # conic runs where its chains exist (one vertex on a triangle mesh with interpolated normals): on the
 # analytic mirror cylinder it would hand every chain to angular, and on caustic_pool's normal-mapped
 # water (a chain vertex of angular and newton since the normal map is differentiated) too.
@@ -77,14 +80,16 @@ VARIANTS = [
     ("pool_normalmap", "caustic_pool", {}, ["none", "angular", "angular:camera", "newton"], "angular:camera",
      "bdpt+none+angular",
      "water plane with a normal map over a tiled pool, sphere light r 0.15"),
-    ("newton_pool", "newton_pool", {}, ["none", "angular", "newton", "conic"], "conic", "bdpt+newton",
+    ("newton_pool", "newton_pool", {}, ["none", "angular", "angular:guide,sneep=0.1", "newton", "conic"],
+     "angular:guide,sneep=0.1", "bdpt+conic+newton",
      "mesh water (interpolated normals), sphere light r 0.25 (1 refraction)"),
     ("newton_pool_small", "newton_pool", small_light(0.25, 0.08, (40, 38, 34)),
-     ["none", "angular", "newton", "conic"], "conic", "bdpt+newton",
+     ["none", "angular", "angular:guide,sneep=0.1", "newton", "conic"], "conic", "bdpt+newton",
      "the same, light r 0.08 (same power)"),
-    ("slabs", "newton_slabs", {}, ["none", "angular", "newton"], "angular", "bdpt",
+    ("slabs", "newton_slabs", {}, ["none", "angular", "angular:guide,sneep=0.1", "newton"], "angular", "bdpt",
      "two glass slabs, sphere light r 0.3 (4 refractions)"),
-    ("slabs_small", "newton_slabs", small_light(0.3, 0.1, (30, 28, 24)), ["none", "angular", "newton"],
+    ("slabs_small", "newton_slabs", small_light(0.3, 0.1, (30, 28, 24)),
+     ["none", "angular", "angular:guide,sneep=0.1", "newton"],
      "angular", "bdpt", "the same, light r 0.1 (same power)"),
 ]
 
