@@ -97,7 +97,7 @@ static const char *const usage_render =
     "                         the pinhole: the light seen through glass or in mirrors);\n"
     "                         chain=N (longest chain; default the scene's, 2); noexact (no\n"
     "                         exact enumeration of chains on one sphere or mirror cylinder);\n"
-    "                         long=P, nolong (longer ones on a sphere, P per call; 0.1);\n"
+    "                         long=P, nolong (longer chains, P per call; 0.1);\n"
     "                         guide[=M] (guided directions in cones M x the light's image; 1),\n"
     "                         sneep=Q (then the light sample only with probability Q);\n"
     "                         e.g. --specular-nee newton:biased=8\n"

@@ -690,10 +690,14 @@ static bool exact_shape_covers(const spc_snee_params *p, const spc_chain *c)
 }
 
 /* Does specular NEE add the longer chains (params.long_p) at this query? */
+/* The longer chains of params.long_p that are not on one sphere: the angular solver's randomized
+ * attempts with the chain length fixed (the other solvers keep to their budget). */
+static bool random_long(const spc_snee_params *p) { return p->solver == SPC_SNEE_ANGULAR && !p->biased; }
+
 static bool long_on(const spc_snee_query *q)
 {
     const spc_snee_params *p = q->params;
-    return p && p->exact && p->mis && p->long_p > 0.0 && q->long_max > q->max_chain &&
+    return p && (p->exact || random_long(p)) && p->mis && p->long_p > 0.0 && q->long_max > q->max_chain &&
            q->max_chain < SPC_SNEE_LONG_MAX;
 }
 
@@ -992,8 +996,11 @@ static double straight_psi(const spc_snee_params *p)
 static double chain_psi(const spc_snee_query *q, const spc_chain *c)
 {
     const spc_snee_params *p = q->params;
-    if (c->n > q->max_chain) /* longer than the budget: one of params.long_p's, or none */
-        return p->exact && spc_sphere_chain_covers(c, p->reflect) ? long_psi(q, c->n) : 0.0;
+    if (c->n > q->max_chain) { /* longer than the budget: one of params.long_p's, or none */
+        if (p->exact && spc_sphere_chain_covers(c, p->reflect))
+            return long_psi(q, c->n); /* enumerated on the sphere */
+        return random_long(p) ? long_psi(q, c->n) * random_psi(p) : 0.0; /* a randomized attempt's */
+    }
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
     if (!solver || random_psi(p) == 1.0)
         return 1.0;
@@ -1135,6 +1142,64 @@ static void emit_exact(const spc_snee_query *q, const spc_emitter *e, spc_vec2 u
     }
 }
 
+/* <1/p_solve> of the solution sol of a randomized attempt for q: attempts until the same solution
+ * is found again (with reflect, following its events, whose probability is known). */
+static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *sol,
+                          spc_rng *rng, spc_snee_stats *st)
+{
+    const spc_snee_params *p = q->params;
+    if (q->seed == SPC_SNEE_SEED_LIGHT)
+        return 1.0; /* deterministic */
+    spc_chain_sig want;
+    spc_chain_signature(sol, &want);
+    spc_snee_query tq = *q;
+    tq.want = &want;
+    double p_events = 1.0;
+    if (p->reflect) {
+        tq.events = want.event;
+        p_events = spc_chain_events_prob(q->scene, &want, p->any_surface, p->reflect_p);
+    }
+    trial_ctx tc;
+    tc.q = &tq;
+    tc.solver = solver;
+    tc.target = sol;
+    tc.rng = rng;
+    tc.iterations = 0;
+    bool capped;
+    int n = spc_snee_count_trials(trial_same, &tc, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS, &capped);
+    if (st) {
+        st->trials += (uint64_t)n;
+        st->iterations += (uint64_t)tc.iterations;
+        st->trial_iterations += (uint64_t)tc.iterations;
+        st->capped += capped ? 1u : 0u;
+    }
+    return p_events > 0.0 ? (double)n / p_events : 0.0;
+}
+
+/* params.long_p's pass for the angular solver: one randomized attempt for a chain of exactly
+ * lq->max_chain vertices (not on one sphere when params.exact enumerates those), counted with its
+ * <1/p_solve> over p_y (the light point's density times psi). */
+static void random_long_estimate(const spc_snee_query *lq, const spc_specular_solver *solver, const spc_emitter *e,
+                                 spc_vec2 uv, double p_y, spc_rng *rng, spc_snee_stats *st, snee_sink *sk)
+{
+    spc_chain sol;
+    int it = 0;
+    bool ok = solver->solve_one(lq, rng, &sol, &it);
+    if (st)
+        st->iterations += (uint64_t)it;
+    if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol))
+        return;
+    spc_rgb v = spc_snee_chain_value(lq, e, uv, &sol);
+    if (spc_rgb_is_black(v))
+        return;
+    double inv_p = inv_p_solve(lq, solver, &sol, rng, st);
+    if (st) {
+        st->solved++;
+        st->contributions++;
+    }
+    emit(lq, sk, &sol, spc_rgb_scale(v, inv_p / p_y));
+}
+
 /* The estimate for the query's light point (drawn: e, uv, p_y), unbiased unless params.biased. */
 static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const spc_emitter *e, spc_vec2 uv,
                      double p_y, spc_rng *rng, spc_snee_stats *st, snee_sink *sk)
@@ -1148,25 +1213,32 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &it);
         nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
         emit_exact(q, e, uv, p_y, all, nall, it, st, sk);
-        /* with probability long_p the longer chains of one length on a sphere too, each counted with
-         * 1 / psi (on the mirror ring the cylinder's longer chains cost a quarter of the samples and
-         * gained nothing: bench/RESULTS.md, Session 6) */
-        double u = long_on(q) ? spc_rng_next(rng) : 1.0;
-        if (u < p->long_p) {
-            int k = q->max_chain + 1 + (int)(u / p->long_p * (SPC_SNEE_LONG_MAX - q->max_chain));
-            double psi = long_psi(q, k);
-            if (psi > 0.0) {
-                spc_snee_query lq = *q;
-                lq.min_chain = lq.max_chain = k;
-                lq.psi = psi;
-                it = 0;
-                nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
+    }
+    /* with probability long_p the longer chains of one length too, each counted with 1 / psi: on a
+     * sphere all of them (on the mirror ring the cylinder's longer chains cost a quarter of the
+     * samples and gained nothing: bench/RESULTS.md, Session 6), elsewhere one randomized attempt's */
+    double u = long_on(q) ? spc_rng_next(rng) : 1.0;
+    if (u < p->long_p) {
+        int k = q->max_chain + 1 + (int)(u / p->long_p * (SPC_SNEE_LONG_MAX - q->max_chain));
+        double psi = long_psi(q, k);
+        if (psi > 0.0) {
+            spc_snee_query lq = *q;
+            lq.min_chain = lq.max_chain = k;
+            lq.psi = psi;
+            if (p->exact) {
+                spc_chain all[SPC_SNEE_MAX_ALL];
+                int it = 0;
+                int nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
                 emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
             }
+            if (random_long(p) && solver->solve_one && !(p->exact && spc_snee_exact_covers_all(&lq))) {
+                lq.psi = psi * random_psi(p); /* MIS: as any randomized attempt's chain */
+                random_long_estimate(&lq, solver, e, uv, p_y * psi, rng, st, sk);
+            }
         }
-        if (spc_snee_exact_covers_all(q))
-            return;
     }
+    if (p->exact && spc_snee_exact_covers_all(q))
+        return;
     /* a solver that enumerates every solution: the exact sum, no probability to estimate */
     if (solver->solve_all) {
         spc_chain all[SPC_SNEE_MAX_ALL];
@@ -1220,38 +1292,9 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
     if (spc_rgb_is_black(v))
         return;
 
-    /* <1/p_solve>: attempts until the same solution is found again */
-    double inv_p = 1.0;
-    if (q->seed != SPC_SNEE_SEED_LIGHT) {
-        spc_chain_sig want;
-        spc_chain_signature(&sol, &want);
-        spc_snee_query tq = *q;
-        tq.want = &want;
-        /* with reflect: the trials follow the solution's events, whose probability is known */
-        double p_events = 1.0;
-        if (p->reflect) {
-            tq.events = want.event;
-            p_events = spc_chain_events_prob(sc, &want, p->any_surface, p->reflect_p);
-        }
-        trial_ctx tc;
-        tc.q = &tq;
-        tc.solver = solver;
-        tc.target = &sol;
-        tc.rng = rng;
-        tc.iterations = 0;
-        bool capped;
-        int n = spc_snee_count_trials(trial_same, &tc, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS, &capped);
-        inv_p = p_events > 0.0 ? (double)n / p_events : 0.0;
-        if (st) {
-            st->trials += (uint64_t)n;
-            st->iterations += (uint64_t)tc.iterations;
-            st->trial_iterations += (uint64_t)tc.iterations;
-            st->capped += capped ? 1u : 0u;
-        }
-    }
     if (st)
         st->contributions++;
-    emit(q, sk, &sol, spc_rgb_scale(v, inv_p / p_y));
+    emit(q, sk, &sol, spc_rgb_scale(v, inv_p_solve(q, solver, &sol, rng, st) / p_y));
 }
 
 /* One guided direction (params.guide): a light by power, a direction in one of its cones at x,
@@ -1536,7 +1579,7 @@ void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, 
 int spc_snee_track_long_max(const spc_snee_params *p, int long_max)
 {
     /* as long_on has it at a query */
-    if (!(p->exact && p->mis && p->long_p > 0.0))
+    if (!((p->exact || random_long(p)) && p->mis && p->long_p > 0.0))
         return 0;
     return long_max < SPC_SNEE_LONG_MAX ? long_max : SPC_SNEE_LONG_MAX;
 }

@@ -135,15 +135,18 @@ typedef struct spc_snee_params {
      * such shape as the only caster it is not called at all. The user's "exact" (the default for
      * every solver) / "noexact". */
     bool exact;
-    /* Longer chains on one sphere (the user's "long=P" / "nolong"): at each call, with probability
-     * long_p, every chain on a sphere of one more length, uniform in max_chain + 1 .. 6 vertices
-     * (within the caller's depth), is enumerated too and counted with 1 / psi, psi = long_p /
-     * (6 - max_chain); MIS weighs it with psi against the BSDF-sampled paths through the same
-     * chain, which the track follows that far (spc_snee_track). Light that bounces inside a glass
-     * ball before it leaves (three internal reflections: a single BSDF-sampled path of value 200 on
-     * a pixel of 0.03) is then no longer left to BSDF sampling alone, for a fraction of the cost of
-     * a longer max_chain. Needs exact and mis (off without them), reflect for dielectric balls. From
-     * the camera too (params.camera): the light seen through a ball after internal reflections. */
+    /* Longer chains (the user's "long=P" / "nolong"): at each call, with probability long_p, one
+     * more length k, uniform in max_chain + 1 .. 6 vertices (within the caller's depth), is looked
+     * for too and counted with 1 / psi, psi = long_p / (6 - max_chain): on one sphere every chain of
+     * k vertices, enumerated (params.exact); with the angular solver, elsewhere one randomized
+     * attempt for a chain of exactly k vertices with its <1/p_solve> (the other solvers: spheres
+     * only). MIS weighs them with psi (times random_psi for a randomized attempt's chain) against
+     * the BSDF-sampled paths through the same chains, which the track follows that far
+     * (spc_snee_track). Light that bounces inside a glass ball or torus
+     * before it leaves (three internal reflections: a single BSDF-sampled path of value 200 on a
+     * pixel of 0.03) is then no longer left to BSDF sampling alone, for a fraction of the cost of a
+     * longer max_chain. Needs mis (off without it), reflect for dielectrics. From the camera too
+     * (params.camera): the light seen through a ball after internal reflections. */
     double long_p;
     /* Guided directions (the user's "guide[=M]" / "noguide"): besides the light sample, one
      * direction per call drawn at x inside a cone around a chain toward the light, then traced
@@ -253,8 +256,8 @@ typedef struct spc_specular_solver {
  *                       default: the integrator's specular_max_chain)
  *   exact, noexact      params.exact: chains on one sphere or one mirror cylinder enumerated
  *                       exactly (the default), or left to the solver's randomized attempts
- *   long=P, nolong      params.long_p: longer chains on one sphere with probability P, in
- *                       (0, 1] (default SPC_SNEE_LONG_P), or never
+ *   long=P, nolong      params.long_p: longer chains with probability P, in (0, 1] (default
+ *                       SPC_SNEE_LONG_P), or never
  *   guide=M, noguide    params.guide: guided directions, cones M times the light's image (M in
  *                       (0, 100], default SPC_SNEE_GUIDE), or none
  *   sneep=Q             params.snee_p: the light sample's probability where guided directions
