@@ -1577,15 +1577,17 @@ static void combined_estimate(const spc_scene *sc, const spc_snee_params *p, con
     *se = sqrt(spc_max(s2 / N - *mean * *mean, 0.0) / N);
 }
 
-/* The longer chains on one sphere (params.long_p) at one point, end to end: at a floor point that the
- * light reaches through the glass ball also by internal reflections, specular NEE with chains of 2
- * and, with probability long_p per call, one longer length (3 to 6 vertices: one to four internal
+/* The longer chains (params.long_p) at one point, end to end: at a floor point that the light
+ * reaches through the glass ball also by internal reflections, specular NEE with chains of 2 and,
+ * with probability long_p per call, one longer length (3 to 6 vertices: one to four internal
  * reflections), plus the BSDF-sampled paths it covers (tracked up to 6 vertices, as the path
  * integrator does with its depth), weighted by spc_snee_mis_bsdf_weight, must add up to brute force
  * through the BSDFs with chains of up to 6 vertices, for long_p 0.5 and 0.1 (psi = long_p / 4 on
- * the BSDF side: a mismatch with the pass's probability shows as a wrong sum) and without the longer
- * chains (they are then BSDF sampling's alone). The BSDF-sampled paths through the longer chains
- * must have been handed in part to specular NEE (mean weight below 1). */
+ * the BSDF side: a mismatch with the pass's probability shows as a wrong sum), without the longer
+ * chains (they are then BSDF sampling's alone), and with the ball's chains left to the randomized
+ * attempts (noexact: the longer ones found by one attempt of fixed length and its trial count,
+ * psi x mispsi in MIS). The BSDF-sampled paths through the longer chains must have been handed in
+ * part to specular NEE (mean weight below 1). */
 TEST(snee_long_chains_point_combination)
 {
     spc_scene *sc = caustic_scene();
