@@ -27,6 +27,7 @@
 #include "manifold/angular.h"
 #include "manifold/specular_nee.h"
 #include "manifold/cylinder_chains.h"
+#include "manifold/plane_chains.h"
 #include "manifold/sphere_chains.h"
 #include "render_util.h"
 
@@ -187,14 +188,34 @@ static bool reaches(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, 
 
 /* What one comparison of an enumeration with randomized attempts counted. */
 typedef struct tally {
-    int points, enumerated, random_distinct, random_missing, by_len[4];
+    int points, enumerated, reaching, multi, random_distinct, random_missing, by_len[4];
 } tally;
 
 /* At the floor point below `above` and one light point drawn from it (rng stream `stream`): the
  * chains the enumeration finds (the cylinder's, or the sphere's) each end on y, are covered, and are
  * distinct; and every distinct contributing chain of the kind that 3000 randomized angular attempts
  * find is among them. */
-static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, uint64_t stream, bool cylinder,
+enum { KIND_SPHERE, KIND_CYLINDER, KIND_PLANE };
+
+static int enumerate(int kind, const spc_snee_query *q, spc_chain *all, int max)
+{
+    if (kind == KIND_CYLINDER)
+        return spc_cylinder_chains_all(q, all, max, NULL);
+    if (kind == KIND_PLANE)
+        return spc_plane_chains_all(q, true, all, max, NULL);
+    return spc_sphere_chains_all(q, all, max, NULL);
+}
+
+static bool covers(int kind, const spc_chain *c)
+{
+    if (kind == KIND_CYLINDER)
+        return spc_cylinder_chain_covers(c);
+    if (kind == KIND_PLANE)
+        return spc_plane_chain_covers(c, true);
+    return spc_sphere_chain_covers(c, true);
+}
+
+static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, uint64_t stream, int kind,
                        const char *label, tally *t)
 {
     spc_hit x;
@@ -212,16 +233,19 @@ static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, 
         return;
     ++t->points;
     CHECK(spc_snee_exact_covers_all(&q));
-    spc_chain all[16];
-    int n = cylinder ? spc_cylinder_chains_all(&q, all, 16, NULL) : spc_sphere_chains_all(&q, all, 16, NULL);
+    spc_chain all[32];
+    int n = enumerate(kind, &q, all, 32);
     t->enumerated += n;
+    int reach0 = t->reaching;
     for (int i = 0; i < n; ++i) {
         ++t->by_len[all[i].n < 4 ? all[i].n : 3];
         CHECK_MSG(miss(&all[i], q.y) < 1e-6, "chain %d of %d vertices misses y by %g", i, all[i].n, miss(&all[i], q.y));
-        CHECK(cylinder ? spc_cylinder_chain_covers(&all[i]) : spc_sphere_chain_covers(&all[i], true));
+        CHECK(covers(kind, &all[i]));
+        t->reaching += reaches(&q, e, uv, &all[i]) ? 1 : 0;
         for (int j = 0; j < i; ++j)
             CHECK(!spc_snee_same_solution(&all[i], &all[j], sc->radius));
     }
+    t->multi += t->reaching - reach0 >= 2 ? 1 : 0;
     /* randomized attempts (their events drawn as specular NEE draws them); a chain whose last
      * segment is blocked (by the wall below its rim, the light's far side) is not one */
     spc_chain seen[32];
@@ -230,7 +254,7 @@ static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, 
         spc_chain c;
         int it = 0;
         if (!spc_angular_solve_one(&q, &r, &c, &it) ||
-            !(cylinder ? spc_cylinder_chain_covers(&c) : spc_sphere_chain_covers(&c, true)) || !reaches(&q, e, uv, &c))
+            !covers(kind, &c) || !reaches(&q, e, uv, &c))
             continue;
         bool dup = false;
         for (int j = 0; j < nseen && !dup; ++j)
@@ -253,10 +277,10 @@ static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, 
 
 static void print_tally(const char *label, const tally *t)
 {
-    printf("    %s: %d points, %d chains enumerated (1/2/3+ vertices: %d/%d/%d), %d distinct randomized, %d of them "
-           "not enumerated\n",
-           label, t->points, t->enumerated, t->by_len[1], t->by_len[2], t->by_len[3], t->random_distinct,
-           t->random_missing);
+    printf("    %s: %d points, %d chains enumerated (1/2/3+ vertices: %d/%d/%d; %d reach y), %d distinct randomized, "
+           "%d of them not enumerated; %d points see several images\n",
+           label, t->points, t->enumerated, t->by_len[1], t->by_len[2], t->by_len[3], t->reaching, t->random_distinct,
+           t->random_missing, t->multi);
 }
 
 TEST(sphere_chains_contain_randomized_solutions)
@@ -274,7 +298,7 @@ TEST(sphere_chains_contain_randomized_solutions)
         tally t;
         memset(&t, 0, sizeof t);
         for (int pt = 0; pt < 40; ++pt)
-            compare_at(sc, &p, spc_v3(-3.0 + 6.0 * rnd(), -1.5 + 3.0 * rnd(), 0.05), (uint64_t)pt, false, label, &t);
+            compare_at(sc, &p, spc_v3(-3.0 + 6.0 * rnd(), -1.5 + 3.0 * rnd(), 0.05), (uint64_t)pt, KIND_SPHERE, label, &t);
         print_tally(label, &t);
         CHECK(t.points >= 16 && t.random_distinct >= 10);
         CHECK(t.random_missing == 0);
@@ -427,12 +451,110 @@ TEST(cylinder_chains_contain_randomized_solutions)
         for (int pt = 0; pt < 40; ++pt) {
             /* half inside the cylinder's footprint, half around it */
             double r = pt % 2 ? 0.6 * sqrt(rnd()) : 0.9 + 1.5 * rnd(), a = 2 * SPC_PI * rnd();
-            compare_at(sc, &p, spc_v3(r * cos(a), r * sin(a), 0.02), 100 + (uint64_t)pt, true, label, &t);
+            compare_at(sc, &p, spc_v3(r * cos(a), r * sin(a), 0.02), 100 + (uint64_t)pt, KIND_CYLINDER, label, &t);
         }
         print_tally(label, &t);
         CHECK(t.points >= 30 && t.random_distinct >= 10);
         CHECK(t.random_missing == 0);
         CHECK(t.by_len[1] > 0 && t.by_len[2] > 0);
+        spc_scene_destroy(sc);
+    }
+}
+
+/* ---- normal-mapped planes ---- */
+
+/* A floor and a normal-mapped plane: water (glass 1.33 under the map) above the floor, its to_uv
+ * flipped and offset and the rectangle turned; or a rippled mirror standing beside the floor (a
+ * conductor under the map). A sphere light above the water, or in front of the mirror. */
+static spc_scene *plane_scene(bool mirror)
+{
+    spc_scene *sc = floor_scene();
+    spc_shape *w = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_bsdf *b = tu_normal_mapped(sc, mirror ? tu_mirror(sc) : tu_glass(sc, 1.33), 16, mirror ? 0.3 : 0.5, 3.0, 5);
+    spc_texture *t = (spc_texture *)b->normalmap;
+    if (mirror) {
+        /* the plane x = 2.2 facing -x, 1.5 high */
+        spc_mat4 S = spc_mat4_scale(spc_v3(3.0, 1.5, 1.0)), R = spc_mat4_rotate(spc_v3(0, 1, 0), -90.0);
+        spc_mat4 T = spc_mat4_translate(spc_v3(2.2, 0.0, 1.0));
+        spc_mat4 RS = spc_mat4_mul(&R, &S), M = spc_mat4_mul(&T, &RS);
+        spc_shape_init_rectangle(w, &M, NULL, 0, 0, &err);
+    } else {
+        t->to_uv[0][0] = -7.0;
+        t->to_uv[0][2] = 0.3;
+        t->to_uv[1][1] = 5.0;
+        t->to_uv[1][2] = 0.1;
+        spc_mat4 S = spc_mat4_scale(spc_v3(2.5, 2.0, 1.0)), R = spc_mat4_rotate(spc_v3(0, 0, 1), 25.0);
+        spc_mat4 T = spc_mat4_translate(spc_v3(0.0, 0.0, 1.0));
+        spc_mat4 RS = spc_mat4_mul(&R, &S), M = spc_mat4_mul(&T, &RS);
+        spc_shape_init_rectangle(w, &M, NULL, 0, 0, &err);
+    }
+    w->bsdf = b;
+    return add_light_finish(sc, mirror ? spc_v3(-0.8, 0.3, 1.3) : spc_v3(0.4, 0.3, 2.2), 0.15);
+}
+
+/* The normal the enumeration models (the texels' bilinear blend in the plane's frame) is the one a
+ * chain vertex gets from spc_bsdf_map_chain_hit, at random points of the plane. */
+TEST(plane_model_normal_matches_chain_vertex)
+{
+    spc_rng_seed(&rng, 17, 1);
+    for (int mirror = 0; mirror < 2; ++mirror) {
+        spc_scene *sc = plane_scene(mirror);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        const spc_shape *w = sc->shapes[1];
+        CHECK(spc_plane_chain_shape(w));
+        CHECK(!spc_plane_chain_shape(sc->shapes[0]) && !spc_plane_chain_shape(sc->shapes[2]));
+        double worst = 0.0;
+        int n = 0;
+        for (int i = 0; i < 2000; ++i) {
+            /* a ray onto the plane from its front side */
+            spc_vec3 o = mirror ? spc_v3(1.0, -1.3 + 2.6 * rnd(), 0.1 + 1.8 * rnd())
+                                : spc_v3(-1.5 + 3.0 * rnd(), -1.5 + 3.0 * rnd(), 1.5);
+            spc_vec3 d = mirror ? spc_v3(1, 0, 0) : spc_v3(0, 0, -1);
+            spc_ray r = {o, d, 0.0, INFINITY};
+            spc_hit h;
+            if (!spc_scene_intersect(sc, &r, &h) || h.shape != w)
+                continue;
+            spc_vec3 fr[3];
+            double m[3];
+            CHECK(spc_plane_chain_model_normal(w, h.p, m, fr));
+            spc_vec3 mw = spc_normalize(spc_add(spc_add(spc_scale(fr[0], m[0]), spc_scale(fr[1], m[1])),
+                                                spc_scale(fr[2], m[2])));
+            CHECK(spc_bsdf_map_chain_hit(&h, spc_neg(d)) && h.normal_mapped);
+            worst = spc_max(worst, spc_length(spc_sub(mw, h.sh.n)));
+            ++n;
+        }
+        printf("    %s: %d points, largest difference %.2e\n", mirror ? "mirror" : "water", n, worst);
+        CHECK(n > 1000);
+        CHECK(worst < 1e-6); /* the shape's float uv */
+        spc_scene_destroy(sc);
+    }
+}
+
+TEST(plane_chains_contain_randomized_solutions)
+{
+    spc_rng_seed(&rng, 19, 3);
+    for (int mirror = 0; mirror < 2; ++mirror) {
+        spc_scene *sc = plane_scene(mirror);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_snee_params p;
+        spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 3);
+        p.any_surface = true;
+        const char *label = mirror ? "rippled mirror" : "rippled water";
+        tally t;
+        memset(&t, 0, sizeof t);
+        for (int pt = 0; pt < 40; ++pt)
+            compare_at(sc, &p, spc_v3(-2.0 + 3.8 * rnd(), -1.5 + 3.0 * rnd(), 0.05), 200 + (uint64_t)pt, KIND_PLANE,
+                       label, &t);
+        print_tally(label, &t);
+        CHECK(t.points >= 30 && t.random_distinct >= 20);
+        CHECK(t.random_missing == 0);
+        CHECK(t.multi >= 3); /* several images of the light */
+        CHECK(t.by_len[2] == 0 && t.by_len[3] == 0);
         spc_scene_destroy(sc);
     }
 }
@@ -443,5 +565,7 @@ int main(void)
     RUN(sphere_chains_contain_randomized_solutions);
     RUN(cylinder_roots_against_dense_scan);
     RUN(cylinder_chains_contain_randomized_solutions);
+    RUN(plane_model_normal_matches_chain_vertex);
+    RUN(plane_chains_contain_randomized_solutions);
     return spc_test_finish();
 }

@@ -954,7 +954,8 @@ TEST(snee_point_estimates)
     }
 }
 
-/* Under normal-mapped water: specular NEE (angular and newton, unbiased) at a floor point against
+/* Under normal-mapped water: specular NEE (angular and newton enumerating the plane's chains, and
+ * angular's randomized attempts with noexact; unbiased) at a floor point against
  * brute force that knows nothing of chains: cosine-sampled directions traced by the scene and the
  * normalmap BSDF's own sampling at the water (its frame, face-view turn, side test and shadowing),
  * adding albedo * weight * Le where the sampled direction then meets the light. The map's tilts (up
@@ -992,14 +993,18 @@ TEST(snee_normal_map_point_estimates)
     }
     double ref = s1 / NB, ref_se = sqrt(spc_max(s2 / NB - ref * ref, 0.0) / NB);
     CHECK(ref > 0.0);
-    for (int solver = SPC_SNEE_ANGULAR; solver <= SPC_SNEE_NEWTON; ++solver) {
+    /* angular and newton with the plane's chains enumerated (plane_chains.h), and angular's
+     * randomized attempts (noexact) */
+    for (int variant = 0; variant < 3; ++variant) {
+        int solver = variant == 2 ? SPC_SNEE_NEWTON : SPC_SNEE_ANGULAR;
         spc_snee_params p;
         spc_snee_params_default(&p, solver, 1);
+        p.exact = variant != 1;
         spc_snee_stats st;
         memset(&st, 0, sizeof st);
         spc_rng r;
-        spc_rng_seed(&r, 7, (uint64_t)solver);
-        const int N = solver == SPC_SNEE_ANGULAR ? 40000 : 10000;
+        spc_rng_seed(&r, 7, (uint64_t)variant);
+        const int N = variant == 1 ? 40000 : 20000;
         double m1 = 0, m2 = 0;
         for (int i = 0; i < N; ++i) {
             double v = spc_specular_nee(sc, &p, &x, spc_v3(0, 0, 1), 1, &r, &st).r;
@@ -1007,12 +1012,14 @@ TEST(snee_normal_map_point_estimates)
             m2 += v * v;
         }
         double m = m1 / N, se = sqrt(spc_max(m2 / N - m * m, 0.0) / N);
-        printf("    %-8s snee %.5f +- %.5f, brute force %.5f +- %.5f; solved %.2f, trials/solution %.2f, capped %llu\n",
-               solver == SPC_SNEE_ANGULAR ? "angular" : "newton", m, se, ref, ref_se,
+        printf("    %-16s snee %.5f +- %.5f, brute force %.5f +- %.5f; solved %.2f, trials/solution %.2f, capped %llu\n",
+               variant == 0 ? "angular" : variant == 1 ? "angular:noexact" : "newton", m, se, ref, ref_se,
                (double)st.solved / (double)st.calls,
                st.contributions ? (double)st.trials / (double)st.contributions : 0.0, (unsigned long long)st.capped);
-        CHECK_MSG(fabs(m - ref) <= 4.0 * sqrt(se * se + ref_se * ref_se), "solver %d: %.6f vs %.6f", solver, m, ref);
+        CHECK_MSG(fabs(m - ref) <= 4.0 * sqrt(se * se + ref_se * ref_se), "variant %d: %.6f vs %.6f", variant, m, ref);
         CHECK(st.contributions > 0);
+        /* enumerated: no trial counts */
+        CHECK(variant == 1 || st.trials == 0);
     }
     spc_scene_destroy(sc);
 }

@@ -96,7 +96,7 @@ static const char *const usage_render =
     "                         diffuse or glossy vertices of a path); camera (also from\n"
     "                         the pinhole: the light seen through glass or in mirrors);\n"
     "                         chain=N (longest chain; default the scene's, 2); noexact (no\n"
-    "                         exact enumeration of chains on one sphere or mirror cylinder);\n"
+    "                         exact chains on a sphere, mirror cylinder, normal-mapped plane);\n"
     "                         long=P, nolong (longer chains, P per call; 0.1);\n"
     "                         guide[=M] (guided directions in cones M x the light's image; 1),\n"
     "                         sneep=Q (then the light sample only with probability Q);\n"

@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "manifold/conic.h"
+#include "manifold/plane_chains.h"
 #include "render/camera.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/sphere_chains.h"
@@ -31,10 +32,6 @@
  * probability below about 3/cap; at 64 that is p < 5%, seeds that rarely lead anywhere, and the
  * cost of one estimate stays bounded (each attempt is a full solve). */
 #define SPC_SNEE_MAX_TRIALS 64
-/* Two converged chains with the same signature are the same solution when every vertex agrees to
- * this fraction of the scene's size: far above the solver's tolerance (angular.c, 1e-7), far below
- * the distance between distinct solutions of any sensible scene. */
-#define SPC_SNEE_SAME_REL 1e-4
 /* Attempts per light sample of the biased estimator: enough to find both solutions of a glass
  * sphere's caustic from shape seeds most of the time (bench/RESULTS.md, Newton solver). */
 #define SPC_SNEE_BIASED_SEEDS 8
@@ -683,10 +680,16 @@ int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *
     return cap;
 }
 
-/* Is c a chain on one sphere or one mirror cylinder that params.exact enumerates? */
-static bool exact_shape_covers(const spc_snee_params *p, const spc_chain *c)
+/* Is c a chain on one sphere, one mirror cylinder or (not from the camera) one normal-mapped plane
+ * that params.exact enumerates for q? From the camera a rippled surface's glints are dozens of
+ * images of the light (35 on the pool's water: the enumeration costs five path samples there), so
+ * the randomized attempts keep them. */
+static bool exact_shape_covers(const spc_snee_query *q, const spc_chain *c)
 {
-    return p && p->exact && (spc_sphere_chain_covers(c, p->reflect) || spc_cylinder_chain_covers(c));
+    const spc_snee_params *p = q->params;
+    return p && p->exact &&
+           (spc_sphere_chain_covers(c, p->reflect) || spc_cylinder_chain_covers(c) ||
+            (!q->cam && spc_plane_chain_covers(c, p->reflect)));
 }
 
 /* Does specular NEE add the longer chains (params.long_p) at this query? */
@@ -716,7 +719,7 @@ static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *sol
 {
     if (solver->solve_all && solver->covers && solver->covers(c))
         return true;
-    return exact_shape_covers(q->params, c);
+    return exact_shape_covers(q, c);
 }
 
 bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
@@ -765,7 +768,8 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
             used = spc_chain_caster_allowed(s->caustic_flags, k);
         if (!used)
             continue;
-        if (!spc_sphere_chain_usable(s, q->x->p) && !spc_cylinder_chain_shape(s))
+        if (!spc_sphere_chain_usable(s, q->x->p) && !spc_cylinder_chain_shape(s) &&
+            (q->cam || !spc_plane_chain_shape(s)))
             return false;
         ++count;
     }
@@ -1001,6 +1005,8 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
             return long_psi(q, c->n); /* enumerated on the sphere */
         return random_long(p) ? long_psi(q, c->n) * random_psi(p) : 0.0; /* a randomized attempt's */
     }
+    if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
+        return 0.0; /* the exact enumerations alone run there, and c is not theirs */
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
     if (!solver || random_psi(p) == 1.0)
         return 1.0;
@@ -1142,6 +1148,40 @@ static void emit_exact(const spc_snee_query *q, const spc_emitter *e, spc_vec2 u
     }
 }
 
+typedef struct plane_emit {
+    const spc_snee_query *q;
+    const spc_emitter *e;
+    spc_vec2 uv;
+    double p_y;
+    spc_snee_stats *st;
+    snee_sink *sk;
+} plane_emit;
+
+static void plane_emit_one(void *user, const spc_chain *c)
+{
+    plane_emit *pe = user;
+    spc_rgb v = spc_snee_chain_value(pe->q, pe->e, pe->uv, c);
+    if (spc_rgb_is_black(v))
+        return;
+    emit(pe->q, pe->sk, c, spc_rgb_scale(v, 1.0 / pe->p_y));
+    if (pe->st)
+        pe->st->contributions++;
+}
+
+/* Every chain through one normal-mapped plane (plane_chains.h), each added with 1 / p_y as it is
+ * found. */
+static void emit_plane_chains(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, double p_y,
+                              spc_snee_stats *st, snee_sink *sk)
+{
+    plane_emit pe = {q, e, uv, p_y, st, sk};
+    int it = 0;
+    int n = spc_plane_chains_each(q, q->params->reflect, plane_emit_one, &pe, &it);
+    if (st) {
+        st->iterations += (uint64_t)it;
+        st->solved += n > 0 ? 1u : 0u;
+    }
+}
+
 /* <1/p_solve> of the solution sol of a randomized attempt for q: attempts until the same solution
  * is found again (with reflect, following its events, whose probability is known). */
 static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *sol,
@@ -1213,6 +1253,8 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &it);
         nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
         emit_exact(q, e, uv, p_y, all, nall, it, st, sk);
+        if (!q->cam)
+            emit_plane_chains(q, e, uv, p_y, st, sk);
     }
     /* with probability long_p the longer chains of one length too, each counted with 1 / psi: on a
      * sphere all of them (on the mirror ring the cylinder's longer chains cost a quarter of the

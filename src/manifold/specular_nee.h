@@ -132,8 +132,9 @@ typedef struct spc_snee_params {
      * internal reflections, out; sphere_chains.h) or reflects only off one mirror cylinder (the
      * inside of a cup or ring; cylinder_chains.h) enumerated exactly, each a root of a function of
      * one angle, and counted with psi = 1; the randomized solver's attempts skip them, and with one
-     * such shape as the only caster it is not called at all. The user's "exact" (the default for
-     * every solver) / "noexact". */
+     * such shape as the only caster it is not called at all. So are the one-vertex chains through a
+     * normal-mapped plane (rippled water or mirror; plane_chains.h), except from the camera. The
+     * user's "exact" (the default for every solver) / "noexact". */
     bool exact;
     /* Longer chains (the user's "long=P" / "nolong"): at each call, with probability long_p, one
      * more length k, uniform in max_chain + 1 .. 6 vertices (within the caller's depth), is looked
@@ -254,8 +255,9 @@ typedef struct spc_specular_solver {
  *                       glass)
  *   chain=N             params.max_chain: chains of at most N vertices (1 .. SPC_CHAIN_MAX_VERTICES;
  *                       default: the integrator's specular_max_chain)
- *   exact, noexact      params.exact: chains on one sphere or one mirror cylinder enumerated
- *                       exactly (the default), or left to the solver's randomized attempts
+ *   exact, noexact      params.exact: chains on one sphere, one mirror cylinder or one
+ *                       normal-mapped plane enumerated exactly (the default), or left to the
+ *                       solver's randomized attempts
  *   long=P, nolong      params.long_p: longer chains with probability P, in (0, 1] (default
  *                       SPC_SNEE_LONG_P), or never
  *   guide=M, noguide    params.guide: guided directions, cones M times the light's image (M in
@@ -332,8 +334,9 @@ typedef struct spc_snee_stats {
 bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
                            spc_vec3 dir, spc_chain *out, int n, int *iterations);
 
-/* Does params.exact's enumeration (sphere_chains.h, cylinder_chains.h) hold every chain of the
- * query: one caster, a sphere x is outside of or a mirror cylinder? */
+/* Does params.exact's enumeration (sphere_chains.h, cylinder_chains.h, plane_chains.h) hold every
+ * chain of the query: one caster, a sphere x is outside of, a mirror cylinder, or (not from the
+ * camera) a normal-mapped plane? */
 bool spc_snee_exact_covers_all(const spc_snee_query *q);
 
 /* The specular NEE estimate at the path vertex x (to be multiplied by the path throughput), with
@@ -379,6 +382,10 @@ double spc_snee_camera_bsdf_weight(const spc_scene *sc, const spc_snee_params *p
                                    double cam_scale, spc_vec3 d0, int max_chain, int k, const unsigned char *events,
                                    const spc_hit *light);
 
+/* Two converged chains with the same signature are the same solution when every vertex agrees to
+ * this fraction of the scene's size: far above the solver's tolerance (angular.c, 1e-7), far below
+ * the distance between distinct solutions of any sensible scene. */
+#define SPC_SNEE_SAME_REL 1e-4
 /* Same solution: same signature and every vertex within SPC_SNEE_SAME_REL of the scene's size. */
 bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene_size);
 

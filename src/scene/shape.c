@@ -258,6 +258,11 @@ void spc_shape_release(spc_shape *s)
         (*destroy)(s->solver_cache);
         s->solver_cache = NULL;
     }
+    if (s->plane_cache) {
+        void (**destroy)(void *) = s->plane_cache;
+        (*destroy)(s->plane_cache);
+        s->plane_cache = NULL;
+    }
 }
 
 static double tri_area(const spc_mesh *m, size_t i)

@@ -66,6 +66,8 @@ typedef struct spc_shape {
      * first use and published atomically, so concurrent readers are safe. Its first member is its
      * destructor, void (*)(void *), which spc_shape_release calls. NULL until used. */
     void *solver_cache;
+    /* The same for the exact chains on a normal-mapped plane (manifold/plane_chains.c). */
+    void *plane_cache;
 } spc_shape;
 
 /* Area-measure sample of a point on a shape. */

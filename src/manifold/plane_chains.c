@@ -1,0 +1,752 @@
+/*
+ * manifold/plane_chains.c: every one-vertex chain through a normal-mapped plane (plane_chains.h).
+ *
+ * Coordinates: the plane's frame (S, T, N) as spc_bsdf_map_chain_hit builds it (S the texture
+ * tangent made orthogonal to N, T = N x S), origin o on the plane; a point of the plane has local
+ * coordinates (P_S, P_T, 0), affine in the texel coordinates (s, t) = (u' W - 1/2, v' H - 1/2)
+ * of the bilinear lookup (u', v' = to_uv(uv)). Cell (i, j) is [i, i+1] x [j, j+1] in (s, t), where
+ * the interpolant blends texels (i, j), (i+1, j), (i, j+1), (i+1, j+1) with weights from the
+ * fractional parts (a, b) (scene/texture.c, bilinear).
+ *
+ * Culling: over a rectangle of (s, t), each component of w = d / |d|, d = X - P (X = x or y, P
+ * on the rectangle), has its exact range: d_S / |d| grows with d_S and, for d_S of one sign,
+ * shrinks in magnitude as d_T^2 grows, so its extremes sit at d_S's ends with d_T^2 at its least
+ * or most; d_N / |d| (d_N fixed) is extreme at |d|'s ends. h's components are then bounded by the
+ * sums, its slopes h_S / h_N and h_T / h_N by interval division where h_N keeps a sign, and the
+ * node is culled where they miss the map's slopes there (every blend of texels with m_N > 0 has
+ * its slopes between theirs: a mediant); where h_N may vanish, by the intervals of F itself.
+ */
+#include "manifold/plane_chains.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bsdf/bsdf.h"
+#include "manifold/specular_nee.h"
+#include "scene/scene.h"
+#include "scene/shape.h"
+#include "scene/texture.h"
+
+static inline double dmin2(double a, double b) { return a < b ? a : b; }
+static inline double dmax2(double a, double b) { return a > b ? a : b; }
+
+/* Halvings of a surviving cell before Newton's method starts from each surviving piece (1/8 of a
+ * texel). */
+#define SPC_PLANE_SPLIT 3
+/* Roots kept per query and plane. */
+#define SPC_PLANE_MAX_ROOTS 256
+#define SPC_PLANE_NEWTON_ITERATIONS 30
+/* Pyramid levels at most (cells up to 2^24 per side). */
+#define SPC_PLANE_LEVELS 26
+/* Cells at most (a larger map is not enumerated: left to the randomized solver). */
+#define SPC_PLANE_MAX_CELLS (1 << 24)
+
+typedef struct bnd {
+    double lo[3], hi[3];   /* m's components (S, T, N) */
+    double slo[2], shi[2]; /* m_S / m_N and m_T / m_N, when slopes */
+    bool slopes;           /* every texel has m_N > 0 */
+} bnd;
+
+typedef struct plane_map {
+    void (*destroy)(void *); /* first member: spc_shape_release calls it */
+    bool ok;
+    const spc_texture *tex;
+    double eta;            /* the dielectric's int_ior / ext_ior; 0 for a conductor */
+    spc_vec3 o, S, T, N;
+    double p0[2], ps[2], pt[2]; /* local (P_S, P_T) = p0 + s ps + t pt */
+    double smin, smax, tmin, tmax;
+    int i0, j0, nlev;
+    int nu[SPC_PLANE_LEVELS], nv[SPC_PLANE_LEVELS];
+    bnd *lev[SPC_PLANE_LEVELS];
+} plane_map;
+
+static void map_destroy(void *p)
+{
+    plane_map *m = p;
+    for (int l = 0; l < m->nlev; ++l)
+        free(m->lev[l]);
+    free(m);
+}
+
+static void texel_m(const spc_texture *t, int64_t i, int64_t j, double m[3])
+{
+    spc_rgb c = spc_texture_texel(t, i, j);
+    m[0] = 2.0 * c.r - 1.0;
+    m[1] = 2.0 * c.g - 1.0;
+    m[2] = 2.0 * c.b - 1.0;
+}
+
+/* The bounds of the blends of four vectors. */
+static void bnd_of(double m[4][3], bnd *b)
+{
+    b->slopes = true;
+    for (int k = 0; k < 3; ++k) {
+        b->lo[k] = INFINITY;
+        b->hi[k] = -INFINITY;
+    }
+    b->slo[0] = b->slo[1] = INFINITY;
+    b->shi[0] = b->shi[1] = -INFINITY;
+    for (int c = 0; c < 4; ++c) {
+        for (int k = 0; k < 3; ++k) {
+            b->lo[k] = dmin2(b->lo[k], m[c][k]);
+            b->hi[k] = dmax2(b->hi[k], m[c][k]);
+        }
+        if (!(m[c][2] > 0.0)) {
+            b->slopes = false;
+            continue;
+        }
+        for (int k = 0; k < 2; ++k) {
+            double r = m[c][k] / m[c][2];
+            b->slo[k] = dmin2(b->slo[k], r);
+            b->shi[k] = dmax2(b->shi[k], r);
+        }
+    }
+}
+
+static void bnd_merge(bnd *a, const bnd *b)
+{
+    for (int k = 0; k < 3; ++k) {
+        a->lo[k] = dmin2(a->lo[k], b->lo[k]);
+        a->hi[k] = dmax2(a->hi[k], b->hi[k]);
+    }
+    a->slopes = a->slopes && b->slopes;
+    for (int k = 0; k < 2; ++k) {
+        a->slo[k] = dmin2(a->slo[k], b->slo[k]);
+        a->shi[k] = dmax2(a->shi[k], b->shi[k]);
+    }
+}
+
+/* Is the BSDF a normal map these chains model: a bilinear bitmap whose to_uv maps u and v
+ * separately, over a smooth dielectric or conductor? *eta: the dielectric's, 0 for a conductor. */
+static bool bsdf_ok(const spc_bsdf *b, double *eta)
+{
+    if (!b || b->type != SPC_BSDF_NORMALMAP || !b->normalmap || !b->nested[0])
+        return false;
+    const spc_texture *t = b->normalmap;
+    if (t->type != SPC_TEX_BITMAP || t->nearest || !t->data || t->width <= 0 || t->height <= 0)
+        return false;
+    if (t->to_uv[0][1] != 0.0 || t->to_uv[1][0] != 0.0 || t->to_uv[0][0] == 0.0 || t->to_uv[1][1] == 0.0 ||
+        !isfinite(t->to_uv[0][0] + t->to_uv[1][1] + t->to_uv[0][2] + t->to_uv[1][2]))
+        return false;
+    const spc_bsdf *n = b->nested[0];
+    if (n->type == SPC_BSDF_DIELECTRIC) {
+        *eta = n->eta;
+        return n->eta > 0.0 && isfinite(n->eta);
+    }
+    *eta = 0.0;
+    return n->type == SPC_BSDF_CONDUCTOR;
+}
+
+static spc_vec3 vert(const spc_mesh *m, size_t i)
+{
+    return spc_v3(m->p[3 * i], m->p[3 * i + 1], m->p[3 * i + 2]);
+}
+
+/* The plane's frame, affine maps and pyramid; m->ok false where s is not such a plane. */
+static void map_build(const spc_shape *s, plane_map *pm)
+{
+    pm->ok = false;
+    if (s->type != SPC_SHAPE_MESH || s->emitter || !bsdf_ok(s->bsdf, &pm->eta))
+        return;
+    const spc_mesh *m = &s->mesh;
+    if (!m->uv || m->ntris < 1 || m->nverts < 3)
+        return;
+    pm->tex = s->bsdf->normalmap;
+    /* uv -> position, fitted on the first triangle: p = P0 + u Pu + v Pv */
+    uint32_t i0 = m->idx[0], i1 = m->idx[1], i2 = m->idx[2];
+    spc_vec3 a = vert(m, i0), e1 = spc_sub(vert(m, i1), a), e2 = spc_sub(vert(m, i2), a);
+    double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
+    double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
+    double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
+    double det = du1 * dv2 - dv1 * du2;
+    if (!(fabs(det) > 1e-12))
+        return;
+    spc_vec3 Pu = spc_scale(spc_sub(spc_scale(e1, dv2), spc_scale(e2, dv1)), 1.0 / det);
+    spc_vec3 Pv = spc_scale(spc_sub(spc_scale(e2, du1), spc_scale(e1, du2)), 1.0 / det);
+    spc_vec3 P0 = spc_sub(a, spc_add(spc_scale(Pu, u0), spc_scale(Pv, v0)));
+    spc_vec3 ng = spc_cross(Pu, Pv);
+    double lng = spc_length(ng);
+    double size = spc_length(spc_sub(s->bbox_max, s->bbox_min));
+    if (!(lng > 0.0) || !(size > 0.0))
+        return;
+    ng = spc_scale(ng, 1.0 / lng);
+    /* every vertex on that map (float positions: a relative 1e-5), every normal along ng */
+    double tol = 1e-5 * size;
+    for (size_t i = 0; i < m->nverts; ++i) {
+        spc_vec3 q = spc_add(P0, spc_add(spc_scale(Pu, m->uv[2 * i]), spc_scale(Pv, m->uv[2 * i + 1])));
+        if (!(spc_distance(q, vert(m, i)) <= tol))
+            return;
+        if (m->n && !s->face_normals) {
+            spc_vec3 n = spc_v3(m->n[3 * i], m->n[3 * i + 1], m->n[3 * i + 2]);
+            double ln = spc_length(n);
+            if (!(ln > 0.0) || !(fabs(spc_dot(n, ng)) >= ln * (1.0 - 1e-6)))
+                return;
+        }
+    }
+    /* the frame spc_bsdf_map_chain_hit builds, from a hit on the first triangle */
+    spc_vec3 c = spc_add(a, spc_scale(spc_add(e1, e2), 1.0 / 3.0));
+    spc_ray r;
+    r.o = spc_add(c, spc_scale(ng, size));
+    r.d = spc_neg(ng);
+    r.tmin = 0.0;
+    r.tmax = 2.0 * size;
+    spc_hit h;
+    memset(&h, 0, sizeof h);
+    spc_shape_fill_hit(s, 0, 1.0 / 3.0, 1.0 / 3.0, &r, size, &h);
+    spc_vec2 duv[2];
+    spc_vec3 T, dT[2];
+    if (!spc_shape_texture_frame(&h, duv, &T, dT))
+        return;
+    spc_vec3 N = h.sh.n;
+    if (!(fabs(spc_dot(N, ng)) > 1.0 - 1e-6))
+        return;
+    spc_vec3 su = spc_sub(T, spc_scale(N, spc_dot(N, T)));
+    double ls = spc_length(su);
+    if (!(ls > 1e-12 * spc_length(T)))
+        return;
+    pm->N = N;
+    pm->S = spc_scale(su, 1.0 / ls);
+    pm->T = spc_cross(N, pm->S);
+    pm->o = P0;
+    /* (s, t) -> uv -> local coordinates */
+    const spc_texture *t = pm->tex;
+    double W = t->width, H = t->height;
+    double Au = t->to_uv[0][0], Bu = t->to_uv[0][2], Av = t->to_uv[1][1], Bv = t->to_uv[1][2];
+    double cus = 1.0 / (W * Au), cu0 = (0.5 / W - Bu) / Au; /* u = cu0 + s cus */
+    double cvt = 1.0 / (H * Av), cv0 = (0.5 / H - Bv) / Av;
+    spc_vec3 Q0 = spc_add(spc_scale(Pu, cu0), spc_scale(Pv, cv0)); /* relative to o = P0 */
+    spc_vec3 Qs = spc_scale(Pu, cus), Qt = spc_scale(Pv, cvt);
+    spc_vec3 E[2] = {pm->S, pm->T};
+    for (int k = 0; k < 2; ++k) {
+        pm->p0[k] = spc_dot(Q0, E[k]);
+        pm->ps[k] = spc_dot(Qs, E[k]);
+        pm->pt[k] = spc_dot(Qt, E[k]);
+    }
+    pm->smin = pm->tmin = INFINITY;
+    pm->smax = pm->tmax = -INFINITY;
+    for (size_t i = 0; i < m->nverts; ++i) {
+        double sv = (Au * m->uv[2 * i] + Bu) * W - 0.5, tv = (Av * m->uv[2 * i + 1] + Bv) * H - 0.5;
+        pm->smin = dmin2(pm->smin, sv);
+        pm->smax = dmax2(pm->smax, sv);
+        pm->tmin = dmin2(pm->tmin, tv);
+        pm->tmax = dmax2(pm->tmax, tv);
+    }
+    if (!(pm->smax - pm->smin < 1e7 && pm->tmax - pm->tmin < 1e7))
+        return;
+    pm->i0 = (int)floor(pm->smin);
+    pm->j0 = (int)floor(pm->tmin);
+    int nu = (int)floor(pm->smax) - pm->i0 + 1, nv = (int)floor(pm->tmax) - pm->j0 + 1;
+    if ((double)nu * nv > SPC_PLANE_MAX_CELLS)
+        return;
+    /* the pyramid: level 0 the cells, each level above 2 x 2 of the one below */
+    pm->nlev = 0;
+    for (;;) {
+        int l = pm->nlev;
+        pm->nu[l] = nu;
+        pm->nv[l] = nv;
+        pm->lev[l] = malloc(sizeof(bnd) * (size_t)nu * (size_t)nv);
+        if (!pm->lev[l])
+            return;
+        pm->nlev++;
+        for (int j = 0; j < nv; ++j)
+            for (int i = 0; i < nu; ++i) {
+                bnd *b = &pm->lev[l][(size_t)j * nu + i];
+                if (l == 0) {
+                    double mc[4][3];
+                    int64_t ci = pm->i0 + i, cj = pm->j0 + j;
+                    texel_m(t, ci, cj, mc[0]);
+                    texel_m(t, ci + 1, cj, mc[1]);
+                    texel_m(t, ci, cj + 1, mc[2]);
+                    texel_m(t, ci + 1, cj + 1, mc[3]);
+                    bnd_of(mc, b);
+                    continue;
+                }
+                const bnd *below = pm->lev[l - 1];
+                int bu = pm->nu[l - 1], bv = pm->nv[l - 1];
+                *b = below[(size_t)(2 * j) * bu + 2 * i];
+                if (2 * i + 1 < bu)
+                    bnd_merge(b, &below[(size_t)(2 * j) * bu + 2 * i + 1]);
+                if (2 * j + 1 < bv) {
+                    bnd_merge(b, &below[(size_t)(2 * j + 1) * bu + 2 * i]);
+                    if (2 * i + 1 < bu)
+                        bnd_merge(b, &below[(size_t)(2 * j + 1) * bu + 2 * i + 1]);
+                }
+            }
+        if ((nu == 1 && nv == 1) || pm->nlev == SPC_PLANE_LEVELS)
+            break;
+        nu = (nu + 1) / 2;
+        nv = (nv + 1) / 2;
+    }
+    pm->ok = pm->nu[pm->nlev - 1] == 1 && pm->nv[pm->nlev - 1] == 1;
+}
+
+/* The shape's map, built on first use and published atomically (as conic_solver.c's cache). */
+static const plane_map *map_get(const spc_shape *s)
+{
+    if (!s || s->type != SPC_SHAPE_MESH || !s->bsdf || s->bsdf->type != SPC_BSDF_NORMALMAP)
+        return NULL;
+    void **slot = (void **)&((spc_shape *)s)->plane_cache;
+    plane_map *cur = __atomic_load_n(slot, __ATOMIC_ACQUIRE);
+    if (!cur) {
+        plane_map *pm = calloc(1, sizeof *pm);
+        if (!pm)
+            return NULL;
+        pm->destroy = map_destroy;
+        map_build(s, pm);
+        void *expected = NULL;
+        if (__atomic_compare_exchange_n(slot, &expected, (void *)pm, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+            cur = pm;
+        } else {
+            map_destroy(pm); /* another thread won */
+            cur = expected;
+        }
+    }
+    return cur->ok ? cur : NULL;
+}
+
+bool spc_plane_chain_shape(const spc_shape *s) { return map_get(s) != NULL; }
+
+static spc_vec3 to_local(const plane_map *pm, spc_vec3 p)
+{
+    spc_vec3 d = spc_sub(p, pm->o);
+    return spc_v3(spc_dot(d, pm->S), spc_dot(d, pm->T), spc_dot(d, pm->N));
+}
+
+static spc_vec3 to_world(const plane_map *pm, double ls, double lt)
+{
+    return spc_add(pm->o, spc_add(spc_scale(pm->S, ls), spc_scale(pm->T, lt)));
+}
+
+/* The texel coordinates (s, t) of the plane point with local coordinates (ls, lt). */
+static bool local_to_st(const plane_map *pm, double ls, double lt, double *s, double *t)
+{
+    double det = pm->ps[0] * pm->pt[1] - pm->ps[1] * pm->pt[0];
+    if (!(det != 0.0))
+        return false;
+    double rx = ls - pm->p0[0], ry = lt - pm->p0[1];
+    *s = (rx * pm->pt[1] - ry * pm->pt[0]) / det;
+    *t = (pm->ps[0] * ry - pm->ps[1] * rx) / det;
+    return true;
+}
+
+/* The blend at (s, t) of the cell holding it, as the texture's bilinear lookup. */
+static void model_m(const plane_map *pm, double s, double t, double m[3])
+{
+    double fs = floor(s), ft = floor(t);
+    int64_t ci = (int64_t)fs, cj = (int64_t)ft;
+    double a = s - fs, b = t - ft;
+    double c[4][3];
+    texel_m(pm->tex, ci, cj, c[0]);
+    texel_m(pm->tex, ci + 1, cj, c[1]);
+    texel_m(pm->tex, ci, cj + 1, c[2]);
+    texel_m(pm->tex, ci + 1, cj + 1, c[3]);
+    for (int k = 0; k < 3; ++k)
+        m[k] = (1 - a) * (1 - b) * c[0][k] + a * (1 - b) * c[1][k] + (1 - a) * b * c[2][k] + a * b * c[3][k];
+}
+
+bool spc_plane_chain_model_normal(const spc_shape *s, spc_vec3 p, double m[3], spc_vec3 frame[3])
+{
+    const plane_map *pm = map_get(s);
+    double st, tt;
+    if (!pm)
+        return false;
+    spc_vec3 l = to_local(pm, p);
+    if (!local_to_st(pm, l.x, l.y, &st, &tt))
+        return false;
+    model_m(pm, st, tt, m);
+    if (frame) {
+        frame[0] = pm->S;
+        frame[1] = pm->T;
+        frame[2] = pm->N;
+    }
+    return true;
+}
+
+/* ---- one query ---- */
+
+typedef struct problem {
+    const plane_map *pm;
+    double X[2][3]; /* x and y, local */
+    double eta[2];  /* the index on x's side and on y's (1, 1 for a reflection) */
+    double roots[SPC_PLANE_MAX_ROOTS][2];
+    int nroots;
+} problem;
+
+/* The range over d_S in [s0, s1], d_T in [t0, t1] and d_N = z of d_S / |d|. */
+static void unit_range(double s0, double s1, double t0, double t1, double z, double *lo, double *hi)
+{
+    double tmin = (t0 <= 0.0 && t1 >= 0.0) ? 0.0 : dmin2(t0 * t0, t1 * t1);
+    double tmax = dmax2(t0 * t0, t1 * t1);
+    double rmin = tmin + z * z, rmax = tmax + z * z;
+    double rh = s1 >= 0.0 ? rmin : rmax, rl = s0 >= 0.0 ? rmax : rmin;
+    double dh = sqrt(s1 * s1 + rh), dl = sqrt(s0 * s0 + rl);
+    *hi = dh > 0.0 ? s1 / dh : 1.0;
+    *lo = dl > 0.0 ? s0 / dl : -1.0;
+}
+
+/* Bounds of h's components over the plane points of the (s, t) box. */
+static void h_range(const problem *pb, double s0, double s1, double t0, double t1, double lo[3], double hi[3])
+{
+    const plane_map *pm = pb->pm;
+    double pl[2], ph[2];
+    for (int k = 0; k < 2; ++k) {
+        double c = pm->p0[k] + 0.5 * (s0 + s1) * pm->ps[k] + 0.5 * (t0 + t1) * pm->pt[k];
+        double r = 0.5 * (s1 - s0) * fabs(pm->ps[k]) + 0.5 * (t1 - t0) * fabs(pm->pt[k]);
+        pl[k] = c - r;
+        ph[k] = c + r;
+    }
+    lo[0] = lo[1] = lo[2] = hi[0] = hi[1] = hi[2] = 0.0;
+    for (int e = 0; e < 2; ++e) {
+        const double *X = pb->X[e];
+        double ds0 = X[0] - ph[0], ds1 = X[0] - pl[0], dt0 = X[1] - ph[1], dt1 = X[1] - pl[1], z = X[2];
+        double l, h;
+        unit_range(ds0, ds1, dt0, dt1, z, &l, &h);
+        lo[0] += pb->eta[e] * l;
+        hi[0] += pb->eta[e] * h;
+        unit_range(dt0, dt1, ds0, ds1, z, &l, &h);
+        lo[1] += pb->eta[e] * l;
+        hi[1] += pb->eta[e] * h;
+        /* d_N / |d|: |d| between its least and most over the box */
+        double smn = (ds0 <= 0.0 && ds1 >= 0.0) ? 0.0 : dmin2(ds0 * ds0, ds1 * ds1);
+        double tmn = (dt0 <= 0.0 && dt1 >= 0.0) ? 0.0 : dmin2(dt0 * dt0, dt1 * dt1);
+        double dmin = sqrt(smn + tmn + z * z);
+        double dmax = sqrt(dmax2(ds0 * ds0, ds1 * ds1) + dmax2(dt0 * dt0, dt1 * dt1) + z * z);
+        double a = z / dmin, b = z / dmax;
+        lo[2] += pb->eta[e] * dmin2(a, b);
+        hi[2] += pb->eta[e] * dmax2(a, b);
+    }
+}
+
+static void imul(double a0, double a1, double b0, double b1, double *lo, double *hi)
+{
+    double p[4] = {a0 * b0, a0 * b1, a1 * b0, a1 * b1};
+    *lo = dmin2(dmin2(p[0], p[1]), dmin2(p[2], p[3]));
+    *hi = dmax2(dmax2(p[0], p[1]), dmax2(p[2], p[3]));
+}
+
+/* Margin of the culling tests (slopes and F are O(1) quantities). */
+#define SPC_PLANE_CULL_EPS 1e-9
+
+/* Can the (s, t) box, whose normals lie within b, hold a root? */
+static bool may_hold(const problem *pb, double s0, double s1, double t0, double t1, const bnd *b)
+{
+    double hl[3], hh[3];
+    h_range(pb, s0, s1, t0, t1, hl, hh);
+    if (b->slopes && (hl[2] > 0.0 || hh[2] < 0.0)) {
+        for (int k = 0; k < 2; ++k) {
+            double q[4] = {hl[k] / hl[2], hl[k] / hh[2], hh[k] / hl[2], hh[k] / hh[2]};
+            double lo = dmin2(dmin2(q[0], q[1]), dmin2(q[2], q[3]));
+            double hi = dmax2(dmax2(q[0], q[1]), dmax2(q[2], q[3]));
+            if (hi < b->slo[k] - SPC_PLANE_CULL_EPS || lo > b->shi[k] + SPC_PLANE_CULL_EPS)
+                return false;
+        }
+        return true;
+    }
+    for (int k = 0; k < 2; ++k) {
+        double al, ah, bl, bh;
+        imul(hl[k], hh[k], b->lo[2], b->hi[2], &al, &ah);
+        imul(hl[2], hh[2], b->lo[k], b->hi[k], &bl, &bh);
+        if (al - bh > SPC_PLANE_CULL_EPS || ah - bl < -SPC_PLANE_CULL_EPS)
+            return false;
+    }
+    return true;
+}
+
+/* F and its Jacobian at (a, b) of the cell at (ci, cj) with corner vectors c. */
+static void eval_F(const problem *pb, double ci, double cj, double c[4][3], double a, double b, double F[2],
+                   double J[2][2])
+{
+    const plane_map *pm = pb->pm;
+    double s = ci + a, t = cj + b;
+    double P[2] = {pm->p0[0] + s * pm->ps[0] + t * pm->pt[0], pm->p0[1] + s * pm->ps[1] + t * pm->pt[1]};
+    double dP[2][3] = {{pm->ps[0], pm->ps[1], 0.0}, {pm->pt[0], pm->pt[1], 0.0}}; /* d/da, d/db */
+    double h[3] = {0, 0, 0}, dh[2][3] = {{0, 0, 0}, {0, 0, 0}};
+    for (int e = 0; e < 2; ++e) {
+        double d[3] = {pb->X[e][0] - P[0], pb->X[e][1] - P[1], pb->X[e][2]};
+        double r = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        double w[3] = {d[0] / r, d[1] / r, d[2] / r};
+        for (int k = 0; k < 3; ++k)
+            h[k] += pb->eta[e] * w[k];
+        for (int j = 0; j < 2; ++j) {
+            /* dw = -(dP - w (w . dP)) / r */
+            double wd = w[0] * dP[j][0] + w[1] * dP[j][1];
+            for (int k = 0; k < 3; ++k)
+                dh[j][k] -= pb->eta[e] * (dP[j][k] - w[k] * wd) / r;
+        }
+    }
+    double m[3], dm[2][3];
+    for (int k = 0; k < 3; ++k) {
+        m[k] = (1 - a) * (1 - b) * c[0][k] + a * (1 - b) * c[1][k] + (1 - a) * b * c[2][k] + a * b * c[3][k];
+        dm[0][k] = (1 - b) * (c[1][k] - c[0][k]) + b * (c[3][k] - c[2][k]);
+        dm[1][k] = (1 - a) * (c[2][k] - c[0][k]) + a * (c[3][k] - c[1][k]);
+    }
+    for (int k = 0; k < 2; ++k) {
+        F[k] = h[k] * m[2] - h[2] * m[k];
+        for (int j = 0; j < 2; ++j)
+            J[k][j] = dh[j][k] * m[2] + h[k] * dm[j][2] - dh[j][2] * m[k] - h[2] * dm[j][k];
+    }
+}
+
+static bool have_root(const problem *pb, double s, double t, double tol)
+{
+    for (int i = 0; i < pb->nroots; ++i)
+        if (fabs(pb->roots[i][0] - s) <= tol && fabs(pb->roots[i][1] - t) <= tol)
+            return true;
+    return false;
+}
+
+/* Newton's method on the cell's F from (a, b); the root is kept if it lies in the cell's part
+ * [a0, a1] x [b0, b1] and is new. */
+static void newton_cell(problem *pb, double ci, double cj, double c[4][3], double a, double b, double a0,
+                        double a1, double b0, double b1)
+{
+    for (int it = 0; it < SPC_PLANE_NEWTON_ITERATIONS; ++it) {
+        double F[2], J[2][2];
+        eval_F(pb, ci, cj, c, a, b, F, J);
+        double det = J[0][0] * J[1][1] - J[0][1] * J[1][0];
+        if (!(fabs(det) > 0.0) || !isfinite(det))
+            return;
+        double da = -(J[1][1] * F[0] - J[0][1] * F[1]) / det;
+        double db = -(J[0][0] * F[1] - J[1][0] * F[0]) / det;
+        double len = sqrt(da * da + db * db);
+        if (!isfinite(len))
+            return;
+        if (len > 0.5) { /* damped: stay near the cell */
+            da *= 0.5 / len;
+            db *= 0.5 / len;
+        }
+        a += da;
+        b += db;
+        if (a < -1.0 || a > 2.0 || b < -1.0 || b > 2.0)
+            return;
+        if (len < 1e-12) {
+            const double eps = 1e-9;
+            if (a < a0 - eps || a > a1 + eps || b < b0 - eps || b > b1 + eps)
+                return;
+            double s = ci + a, t = cj + b;
+            if (pb->nroots < SPC_PLANE_MAX_ROOTS && !have_root(pb, s, t, 1e-7)) {
+                pb->roots[pb->nroots][0] = s;
+                pb->roots[pb->nroots][1] = t;
+                pb->nroots++;
+            }
+            return;
+        }
+    }
+}
+
+static void blend(double c[4][3], double a, double b, double out[3])
+{
+    for (int k = 0; k < 3; ++k)
+        out[k] = (1 - a) * (1 - b) * c[0][k] + a * (1 - b) * c[1][k] + (1 - a) * b * c[2][k] + a * b * c[3][k];
+}
+
+/* The part [a0, a1] x [b0, b1] of the cell at (ci, cj): culled, split, or Newton's start. */
+static void solve_piece(problem *pb, double ci, double cj, double c[4][3], double a0, double a1, double b0,
+                        double b1, double ca0, double ca1, double cb0, double cb1, int depth)
+{
+    double mc[4][3];
+    blend(c, a0, b0, mc[0]);
+    blend(c, a1, b0, mc[1]);
+    blend(c, a0, b1, mc[2]);
+    blend(c, a1, b1, mc[3]);
+    bnd b;
+    bnd_of(mc, &b);
+    if (!may_hold(pb, ci + a0, ci + a1, cj + b0, cj + b1, &b))
+        return;
+    if (depth < SPC_PLANE_SPLIT) {
+        double am = 0.5 * (a0 + a1), bm = 0.5 * (b0 + b1);
+        solve_piece(pb, ci, cj, c, a0, am, b0, bm, ca0, ca1, cb0, cb1, depth + 1);
+        solve_piece(pb, ci, cj, c, am, a1, b0, bm, ca0, ca1, cb0, cb1, depth + 1);
+        solve_piece(pb, ci, cj, c, a0, am, bm, b1, ca0, ca1, cb0, cb1, depth + 1);
+        solve_piece(pb, ci, cj, c, am, a1, bm, b1, ca0, ca1, cb0, cb1, depth + 1);
+        return;
+    }
+    /* a piece that holds a root found already starts no other search */
+    for (int i = 0; i < pb->nroots; ++i) {
+        double ra = pb->roots[i][0] - ci, rb = pb->roots[i][1] - cj;
+        if (ra >= a0 && ra <= a1 && rb >= b0 && rb <= b1)
+            return;
+    }
+    newton_cell(pb, ci, cj, c, 0.5 * (a0 + a1), 0.5 * (b0 + b1), ca0, ca1, cb0, cb1);
+}
+
+static void solve_cell(problem *pb, int i, int j)
+{
+    const plane_map *pm = pb->pm;
+    int64_t ci = pm->i0 + i, cj = pm->j0 + j;
+    double c[4][3];
+    texel_m(pm->tex, ci, cj, c[0]);
+    texel_m(pm->tex, ci + 1, cj, c[1]);
+    texel_m(pm->tex, ci, cj + 1, c[2]);
+    texel_m(pm->tex, ci + 1, cj + 1, c[3]);
+    double a0 = dmax2(0.0, pm->smin - (double)ci), a1 = dmin2(1.0, pm->smax - (double)ci);
+    double b0 = dmax2(0.0, pm->tmin - (double)cj), b1 = dmin2(1.0, pm->tmax - (double)cj);
+    if (!(a1 > a0 && b1 > b0))
+        return;
+    solve_piece(pb, (double)ci, (double)cj, c, a0, a1, b0, b1, a0, a1, b0, b1, 1);
+}
+
+static void descend(problem *pb, int l, int i, int j)
+{
+    const plane_map *pm = pb->pm;
+    if (i >= pm->nu[l] || j >= pm->nv[l])
+        return;
+    double w = ldexp(1.0, l);
+    double s0 = dmax2(pm->smin, pm->i0 + i * w), s1 = dmin2(pm->smax, pm->i0 + (i + 1) * w);
+    double t0 = dmax2(pm->tmin, pm->j0 + j * w), t1 = dmin2(pm->tmax, pm->j0 + (j + 1) * w);
+    if (!(s1 > s0 && t1 > t0))
+        return;
+    if (!may_hold(pb, s0, s1, t0, t1, &pm->lev[l][(size_t)j * pm->nu[l] + i]))
+        return;
+    if (l == 0) {
+        solve_cell(pb, i, j);
+        return;
+    }
+    for (int dj = 0; dj < 2; ++dj)
+        for (int di = 0; di < 2; ++di)
+            descend(pb, l - 1, 2 * i + di, 2 * j + dj);
+}
+
+/* The roots for x and y (local z of both nonzero); false if the event is not the shape's. */
+static bool problem_init(problem *pb, const plane_map *pm, spc_vec3 x, spc_vec3 y, bool *refract)
+{
+    pb->pm = pm;
+    pb->nroots = 0;
+    spc_vec3 xl = to_local(pm, x), yl = to_local(pm, y);
+    if (!(xl.z != 0.0 && yl.z != 0.0))
+        return false;
+    pb->X[0][0] = xl.x;
+    pb->X[0][1] = xl.y;
+    pb->X[0][2] = xl.z;
+    pb->X[1][0] = yl.x;
+    pb->X[1][1] = yl.y;
+    pb->X[1][2] = yl.z;
+    *refract = (xl.z > 0.0) != (yl.z > 0.0);
+    pb->eta[0] = pb->eta[1] = 1.0;
+    if (*refract) {
+        if (!(pm->eta > 0.0))
+            return false;
+        /* N points outside (ext_ior, relative 1), the other side holds int_ior (relative eta) */
+        pb->eta[0] = xl.z > 0.0 ? 1.0 : pm->eta;
+        pb->eta[1] = yl.z > 0.0 ? 1.0 : pm->eta;
+    }
+    return true;
+}
+
+static void find_roots(problem *pb)
+{
+    const plane_map *pm = pb->pm;
+    descend(pb, pm->nlev - 1, 0, 0);
+}
+
+int spc_plane_chain_roots(const spc_shape *s, spc_vec3 x, spc_vec3 y, bool refract, spc_vec3 *out, int max)
+{
+    const plane_map *pm = map_get(s);
+    problem pb;
+    bool rf;
+    if (!pm || !problem_init(&pb, pm, x, y, &rf) || rf != refract)
+        return 0;
+    find_roots(&pb);
+    int n = 0;
+    for (int i = 0; i < pb.nroots && n < max; ++i) {
+        double ls = pm->p0[0] + pb.roots[i][0] * pm->ps[0] + pb.roots[i][1] * pm->pt[0];
+        double lt = pm->p0[1] + pb.roots[i][0] * pm->ps[1] + pb.roots[i][1] * pm->pt[1];
+        out[n++] = to_world(pm, ls, lt);
+    }
+    return n;
+}
+
+bool spc_plane_chain_covers(const spc_chain *c, bool reflect)
+{
+    if (c->n != 1)
+        return false;
+    const spc_hit *h = &c->v[0].h;
+    const plane_map *pm = map_get(h->shape);
+    if (!pm)
+        return false;
+    if (c->v[0].event == SPC_CHAIN_REFRACT ? !(pm->eta > 0.0) : (pm->eta > 0.0 && !reflect))
+        return false;
+    /* the normal the enumeration models, not turned toward x (spc_bsdf_perturbed_face_view) */
+    double m[3];
+    if (!spc_plane_chain_model_normal(h->shape, h->p, m, NULL))
+        return false;
+    spc_vec3 mw = spc_add(spc_add(spc_scale(pm->S, m[0]), spc_scale(pm->T, m[1])), spc_scale(pm->N, m[2]));
+    spc_vec3 wo = spc_sub(c->x, h->p);
+    return !(spc_dot(wo, pm->N) > 0.0 && spc_dot(wo, mw) < 0.0);
+}
+
+/* Does the direction from the root r (world point P) toward y lie on the same side of the mapped
+ * normal as of the plane's (else spc_bsdf_perturbed_scale zeroes the chain's value)? */
+static bool lit_side(const plane_map *pm, const problem *pb, int r, spc_vec3 P, spc_vec3 y)
+{
+    double m[3];
+    model_m(pm, pb->roots[r][0], pb->roots[r][1], m);
+    spc_vec3 mw = spc_add(spc_add(spc_scale(pm->S, m[0]), spc_scale(pm->T, m[1])), spc_scale(pm->N, m[2]));
+    spc_vec3 wi = spc_normalize(spc_sub(y, P));
+    double c0 = spc_dot(wi, pm->N), c1 = spc_dot(wi, mw) / spc_length(mw);
+    return !(fabs(c0) > 1e-9 && fabs(c1) > 1e-9 && c0 * c1 < 0.0);
+}
+
+int spc_plane_chains_each(const spc_snee_query *q, bool reflect, void (*fn)(void *user, const spc_chain *c),
+                          void *user, int *iterations)
+{
+    const spc_scene *sc = q->scene;
+    int n = 0;
+    if (q->max_chain < 1 || q->min_chain > 1)
+        return 0;
+    for (int i = 0; i < sc->nshapes; ++i) {
+        const spc_shape *s = sc->shapes[i];
+        if (!q->any_surface && !spc_chain_caster_allowed(s->caustic_flags, 1))
+            continue;
+        const plane_map *pm = map_get(s);
+        if (!pm || !spc_chain_shape_is_caster(s, q->any_surface, NULL))
+            continue;
+        problem pb;
+        bool refract;
+        if (!problem_init(&pb, pm, q->x->p, q->y, &refract) || (!refract && pm->eta > 0.0 && !reflect))
+            continue;
+        find_roots(&pb);
+        unsigned char ev = refract ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
+        for (int r = 0; r < pb.nroots; ++r) {
+            double ls = pm->p0[0] + pb.roots[r][0] * pm->ps[0] + pb.roots[r][1] * pm->pt[0];
+            double lt = pm->p0[1] + pb.roots[r][0] * pm->ps[1] + pb.roots[r][1] * pm->pt[1];
+            spc_vec3 P = to_world(pm, ls, lt);
+            if (!lit_side(pm, &pb, r, P, q->y))
+                continue;
+            /* an area light's back (spc_area_eval: one-sided), also where y is on a sphere light's far side */
+            spc_vec3 yp = spc_sub(P, q->y);
+            if (spc_dot(q->ny, yp) < -1e-9 * spc_length(yp))
+                continue;
+            spc_vec3 xo = spc_hit_offset(q->x, spc_sub(P, q->x->p));
+            spc_vec3 dir = spc_normalize(spc_sub(P, xo));
+            spc_chain c;
+            /* each root gives its own chain: the polish must stay at it (the roots are distinct) */
+            if (!spc_snee_exact_polish(q, s, 1, &ev, dir, &c, 0, iterations) ||
+                spc_distance(c.v[0].h.p, P) > SPC_SNEE_SAME_REL * sc->radius || !spc_plane_chain_covers(&c, reflect))
+                continue;
+            fn(user, &c);
+            ++n;
+        }
+    }
+    return n;
+}
+
+typedef struct collect {
+    spc_chain *out;
+    int n, max;
+} collect;
+
+static void collect_one(void *user, const spc_chain *c)
+{
+    collect *k = user;
+    if (k->n < k->max)
+        k->out[k->n++] = *c;
+}
+
+int spc_plane_chains_all(const spc_snee_query *q, bool reflect, spc_chain *out, int max_out, int *iterations)
+{
+    collect k = {out, 0, max_out};
+    spc_plane_chains_each(q, reflect, collect_one, &k, iterations);
+    return k.n;
+}
