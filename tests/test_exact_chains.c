@@ -559,6 +559,140 @@ TEST(plane_chains_contain_randomized_solutions)
     }
 }
 
+/* The plane's roots (spc_plane_chain_roots, before any polish) against an independent search: on a
+ * square of water or mirror under a 16 x 16 map repeated 2 x 2, Snell's law (or the mirror law) applied to the
+ * modelled normal from x to each point, the residual the tangential part of the refracted direction
+ * minus the direction to y, and Newton's method with finite differences from 8 x 8 starts in every
+ * texel cell. Every root of the dense search is among the enumeration's; the enumeration's extra roots
+ * are those of the half-vector condition that no refraction realizes. */
+static bool snell_residual(const spc_shape *w, spc_vec3 x, spc_vec3 y, bool refract, double eta, spc_vec3 p,
+                           double r[2], spc_vec3 fr[3])
+{
+    double m[3];
+    if (!spc_plane_chain_model_normal(w, p, m, fr))
+        return false;
+    spc_vec3 n = spc_normalize(spc_add(spc_add(spc_scale(fr[0], m[0]), spc_scale(fr[1], m[1])), spc_scale(fr[2], m[2])));
+    spc_vec3 i = spc_normalize(spc_sub(p, x)), o;
+    if (refract) {
+        /* eta: int / ext; x below the plane (inside) */
+        double e = spc_dot(spc_sub(x, p), fr[2]) < 0.0 ? eta : 1.0 / eta;
+        double c = -spc_dot(i, n);
+        if (c < 0.0) {
+            n = spc_neg(n);
+            c = -c;
+        }
+        double k = 1.0 - e * e * (1.0 - c * c);
+        if (k < 0.0)
+            return false;
+        o = spc_add(spc_scale(i, e), spc_scale(n, e * c - sqrt(k)));
+    } else {
+        o = spc_sub(i, spc_scale(n, 2.0 * spc_dot(i, n)));
+    }
+    spc_vec3 g = spc_sub(o, spc_normalize(spc_sub(y, p)));
+    r[0] = spc_dot(g, fr[0]);
+    r[1] = spc_dot(g, fr[1]);
+    return true;
+}
+
+TEST(plane_roots_against_dense_newton)
+{
+    spc_rng_seed(&rng, 23, 5);
+    int dense = 0, found = 0, extra = 0, enumerated = 0, multi = 0;
+    for (int cfg = 0; cfg < 24; ++cfg) {
+        bool mirror = cfg % 3 == 2;
+        spc_scene *sc = floor_scene();
+        spc_shape *w = spc_scene_new_shape(sc);
+        spc_error err;
+        spc_mat4 M = spc_mat4_translate(spc_v3(0, 0, 1));
+        spc_shape_init_rectangle(w, &M, NULL, 0, 0, &err);
+        w->bsdf = tu_normal_mapped(sc, mirror ? tu_mirror(sc) : tu_glass(sc, 1.33), 16, 0.5, 2.0, 100 + (uint64_t)cfg);
+        sc = add_light_finish(sc, spc_v3(0, 0, 3), 0.1);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        w = sc->shapes[1];
+        spc_vec3 x = spc_v3(-0.6 + 1.2 * rnd(), -0.6 + 1.2 * rnd(), mirror ? 1.3 + rnd() : -0.5 + rnd() * 1.3);
+        spc_vec3 y = spc_v3(-1.0 + 2.0 * rnd(), -1.0 + 2.0 * rnd(), 1.5 + 2.0 * rnd());
+        spc_vec3 roots[256];
+        int n = spc_plane_chain_roots(w, x, y, !mirror, roots, 256);
+        enumerated += n;
+        spc_vec3 fr[3];
+        double r[2];
+        int here = 0;
+        /* the dense search, in the plane's (S, T) coordinates over [-1, 1]^2 */
+        spc_vec3 seen[256];
+        int nseen = 0;
+        const int G = 16 * 8;
+        for (int a = 0; a < G; ++a)
+            for (int b = 0; b < G; ++b) {
+                spc_vec3 p = spc_v3(-1.0 + 2.0 * (a + 0.5) / G, -1.0 + 2.0 * (b + 0.5) / G, 1.0);
+                bool conv = false;
+                for (int it = 0; it < 40 && !conv; ++it) {
+                    if (!snell_residual(w, x, y, !mirror, 1.33, p, r, fr))
+                        break;
+                    double h = 1e-7, J[2][2];
+                    for (int j = 0; j < 2; ++j) {
+                        double rp[2], rm[2];
+                        spc_vec3 fr2[3];
+                        if (!snell_residual(w, x, y, !mirror, 1.33, spc_add(p, spc_scale(fr[j], h)), rp, fr2) ||
+                            !snell_residual(w, x, y, !mirror, 1.33, spc_sub(p, spc_scale(fr[j], h)), rm, fr2))
+                            break;
+                        J[0][j] = (rp[0] - rm[0]) / (2 * h);
+                        J[1][j] = (rp[1] - rm[1]) / (2 * h);
+                    }
+                    double det = J[0][0] * J[1][1] - J[0][1] * J[1][0];
+                    if (!(fabs(det) > 1e-14))
+                        break;
+                    double da = -(J[1][1] * r[0] - J[0][1] * r[1]) / det, db = -(J[0][0] * r[1] - J[1][0] * r[0]) / det;
+                    double len = sqrt(da * da + db * db);
+                    if (len > 0.02) {
+                        da *= 0.02 / len;
+                        db *= 0.02 / len;
+                    }
+                    p = spc_add(p, spc_add(spc_scale(fr[0], da), spc_scale(fr[1], db)));
+                    if (fabs(p.x) > 1.0 || fabs(p.y) > 1.0)
+                        break;
+                    conv = len < 1e-11 && snell_residual(w, x, y, !mirror, 1.33, p, r, fr) && fabs(r[0]) + fabs(r[1]) < 1e-9;
+                }
+                if (!conv)
+                    continue;
+                bool dup = false;
+                for (int k = 0; k < nseen && !dup; ++k)
+                    dup = spc_distance(seen[k], p) < 1e-6;
+                if (dup || nseen == 256)
+                    continue;
+                seen[nseen++] = p;
+                ++dense;
+                ++here;
+                bool in = false;
+                for (int k = 0; k < n && !in; ++k)
+                    in = spc_distance(roots[k], p) < 1e-6;
+                found += in ? 1 : 0;
+                if (!in)
+                    printf("    config %d (%s): root (%.6f %.6f) not enumerated\n", cfg, mirror ? "mirror" : "water", p.x,
+                           p.y);
+            }
+        multi += here >= 2 ? 1 : 0;
+        /* every enumerated root that Snell's law realizes is one of the dense ones */
+        for (int k = 0; k < n; ++k) {
+            if (!snell_residual(w, x, y, !mirror, 1.33, roots[k], r, fr) || fabs(r[0]) + fabs(r[1]) > 1e-7) {
+                ++extra;
+                continue;
+            }
+            bool in = false;
+            for (int j = 0; j < nseen && !in; ++j)
+                in = spc_distance(roots[k], seen[j]) < 1e-6;
+            CHECK_MSG(in, "config %d: an enumerated root the dense search did not find", cfg);
+        }
+        spc_scene_destroy(sc);
+    }
+    printf("    24 configurations: dense search %d roots (%d configurations with several), enumerated %d of them; "
+           "%d enumerated in all, %d of them no refraction realizes\n",
+           dense, multi, found, enumerated, extra);
+    CHECK(dense >= 40 && multi >= 4);
+    CHECK(found == dense);
+}
+
 int main(void)
 {
     RUN(planar_roots_against_dense_scan);
@@ -567,5 +701,6 @@ int main(void)
     RUN(cylinder_chains_contain_randomized_solutions);
     RUN(plane_model_normal_matches_chain_vertex);
     RUN(plane_chains_contain_randomized_solutions);
+    RUN(plane_roots_against_dense_newton);
     return spc_test_finish();
 }

@@ -18,13 +18,13 @@
  * h_T m_N - h_N m_T) vanishes. Cells are culled through a pyramid of bounds over the map (each
  * node: the range of m's components and of its slopes m_S / m_N, m_T / m_N over its texels, which
  * bound every blend of them), against the exact range of each component of w_x and w_y over the
- * node's rectangle of the plane; a surviving cell is split into quarters the same way down to
- * 1/16, and Newton's method on the cell's own bilinear F from each surviving piece that holds no
- * root yet finds the roots inside the cell. Each root is polished in 3D by the angular solver
+ * node's rectangle of the plane; a surviving cell is split into quarters culled the same way, and
+ * Newton's method on the cell's own bilinear F from each surviving quarter that holds no root yet
+ * finds the roots inside the cell. Each root is polished in 3D by the angular solver
  * (spc_snee_exact_polish), whose trace proves the first segment unblocked.
  *
- * What is missed: a pair of roots closer than a sixteenth of a texel that Newton's steps from the
- * surviving pieces reach as one (a fold of the caustic, where the pair's contribution tends to
+ * What is missed: a pair of roots in one quarter of a cell that Newton's steps from the surviving
+ * quarters reach as one (a fold of the caustic, where the pair's contribution tends to
  * zero width), and chains whose mapped normal the BSDF turns toward the viewer (grazing, past the
  * map's slope: spc_bsdf_perturbed_face_view): those are not covered (spc_plane_chain_covers) and
  * stay with BSDF sampling.
