@@ -47,8 +47,8 @@ def small_light(r, r_small, rgb):
 
 
 # ":camera": specular NEE from the camera too (glints, the light seen through glass or in a mirror).
-# ":noexact": the glass ball's and the mirror ring's chains left to the randomized solver instead of
-# enumerated exactly (spc_snee_params.exact, the default). ":nolong": without the glass ball's longer
+# ":noexact": the glass ball's, the mirror ring's and the normal-mapped water's chains left to the
+# randomized solver instead of enumerated exactly (spc_snee_params.exact, the default). ":nolong": without the glass ball's longer
 # chains (internal reflections; spc_snee_params.long_p).
 # ":guide,sneep=0.1": guided directions (spc_snee_params.guide) with the light sample one time in
 # ten where a cone exists (snee_p); for the scenes whose light has one smooth image through the

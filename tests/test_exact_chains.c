@@ -566,11 +566,15 @@ TEST(plane_chains_contain_randomized_solutions)
  * texel cell. Every root of the dense search is among the enumeration's; the enumeration's extra roots
  * are those of the half-vector condition that no refraction realizes. */
 static bool snell_residual(const spc_shape *w, spc_vec3 x, spc_vec3 y, bool refract, double eta, spc_vec3 p,
-                           double r[2], spc_vec3 fr[3])
+                           double r[3], spc_vec3 fr[3], int turned)
 {
     double m[3];
     if (!spc_plane_chain_model_normal(w, p, m, fr))
         return false;
+    if (turned) { /* the normal the BSDF turns toward x: its tangential part negated */
+        m[0] = -m[0];
+        m[1] = -m[1];
+    }
     spc_vec3 n = spc_normalize(spc_add(spc_add(spc_scale(fr[0], m[0]), spc_scale(fr[1], m[1])), spc_scale(fr[2], m[2])));
     spc_vec3 i = spc_normalize(spc_sub(p, x)), o;
     if (refract) {
@@ -591,13 +595,16 @@ static bool snell_residual(const spc_shape *w, spc_vec3 x, spc_vec3 y, bool refr
     spc_vec3 g = spc_sub(o, spc_normalize(spc_sub(y, p)));
     r[0] = spc_dot(g, fr[0]);
     r[1] = spc_dot(g, fr[1]);
+    /* the tangential parts also agree where o is y's direction mirrored in the plane (no root):
+     * r[2] holds the normal part, checked at convergence */
+    r[2] = spc_dot(g, fr[2]);
     return true;
 }
 
 TEST(plane_roots_against_dense_newton)
 {
     spc_rng_seed(&rng, 23, 5);
-    int dense = 0, found = 0, extra = 0, enumerated = 0, multi = 0;
+    int dense = 0, found = 0, extra = 0, enumerated = 0, multi = 0, n_turned = 0;
     for (int cfg = 0; cfg < 24; ++cfg) {
         bool mirror = cfg % 3 == 2;
         spc_scene *sc = floor_scene();
@@ -613,29 +620,34 @@ TEST(plane_roots_against_dense_newton)
         w = sc->shapes[1];
         spc_vec3 x = spc_v3(-0.6 + 1.2 * rnd(), -0.6 + 1.2 * rnd(), mirror ? 1.3 + rnd() : -0.5 + rnd() * 1.3);
         spc_vec3 y = spc_v3(-1.0 + 2.0 * rnd(), -1.0 + 2.0 * rnd(), 1.5 + 2.0 * rnd());
+        if (mirror && cfg % 2) { /* grazing: x and y low over the mirror, on either side of it */
+            x = spc_v3(-1.3 - 0.5 * rnd(), -0.5 + rnd(), 1.03 + 0.1 * rnd());
+            y = spc_v3(1.3 + 0.5 * rnd(), -0.5 + rnd(), 1.05 + 0.2 * rnd());
+        }
         spc_vec3 roots[256];
         int n = spc_plane_chain_roots(w, x, y, !mirror, roots, 256);
         enumerated += n;
         spc_vec3 fr[3];
-        double r[2];
+        double r[3];
         int here = 0;
         /* the dense search, in the plane's (S, T) coordinates over [-1, 1]^2 */
         spc_vec3 seen[256];
         int nseen = 0;
         const int G = 16 * 8;
+        for (int turned = 0; turned < 2; ++turned)
         for (int a = 0; a < G; ++a)
             for (int b = 0; b < G; ++b) {
                 spc_vec3 p = spc_v3(-1.0 + 2.0 * (a + 0.5) / G, -1.0 + 2.0 * (b + 0.5) / G, 1.0);
                 bool conv = false;
                 for (int it = 0; it < 40 && !conv; ++it) {
-                    if (!snell_residual(w, x, y, !mirror, 1.33, p, r, fr))
+                    if (!snell_residual(w, x, y, !mirror, 1.33, p, r, fr, turned))
                         break;
                     double h = 1e-7, J[2][2];
                     for (int j = 0; j < 2; ++j) {
-                        double rp[2], rm[2];
+                        double rp[3], rm[3];
                         spc_vec3 fr2[3];
-                        if (!snell_residual(w, x, y, !mirror, 1.33, spc_add(p, spc_scale(fr[j], h)), rp, fr2) ||
-                            !snell_residual(w, x, y, !mirror, 1.33, spc_sub(p, spc_scale(fr[j], h)), rm, fr2))
+                        if (!snell_residual(w, x, y, !mirror, 1.33, spc_add(p, spc_scale(fr[j], h)), rp, fr2, turned) ||
+                            !snell_residual(w, x, y, !mirror, 1.33, spc_sub(p, spc_scale(fr[j], h)), rm, fr2, turned))
                             break;
                         J[0][j] = (rp[0] - rm[0]) / (2 * h);
                         J[1][j] = (rp[1] - rm[1]) / (2 * h);
@@ -652,10 +664,18 @@ TEST(plane_roots_against_dense_newton)
                     p = spc_add(p, spc_add(spc_scale(fr[0], da), spc_scale(fr[1], db)));
                     if (fabs(p.x) > 1.0 || fabs(p.y) > 1.0)
                         break;
-                    conv = len < 1e-11 && snell_residual(w, x, y, !mirror, 1.33, p, r, fr) && fabs(r[0]) + fabs(r[1]) < 1e-9;
+                    conv = len < 1e-11 && snell_residual(w, x, y, !mirror, 1.33, p, r, fr, turned) &&
+                           fabs(r[0]) + fabs(r[1]) < 1e-9 && fabs(r[2]) < 1e-6;
                 }
                 if (!conv)
                     continue;
+                /* the BSDF's normal there: turned where x is on N's side behind the map's own normal */
+                double mm[3];
+                spc_plane_chain_model_normal(w, p, mm, fr);
+                spc_vec3 wo = spc_sub(x, p);
+                double won = spc_dot(wo, fr[0]) * mm[0] + spc_dot(wo, fr[1]) * mm[1] + spc_dot(wo, fr[2]) * mm[2];
+                if ((spc_dot(wo, fr[2]) > 0.0 && won < 0.0) != (turned != 0))
+                    continue; /* not the normal the BSDF has at p */
                 bool dup = false;
                 for (int k = 0; k < nseen && !dup; ++k)
                     dup = spc_distance(seen[k], p) < 1e-6;
@@ -663,19 +683,25 @@ TEST(plane_roots_against_dense_newton)
                     continue;
                 seen[nseen++] = p;
                 ++dense;
+                n_turned += turned;
                 ++here;
                 bool in = false;
                 for (int k = 0; k < n && !in; ++k)
                     in = spc_distance(roots[k], p) < 1e-6;
                 found += in ? 1 : 0;
                 if (!in)
-                    printf("    config %d (%s): root (%.6f %.6f) not enumerated\n", cfg, mirror ? "mirror" : "water", p.x,
-                           p.y);
+                    printf("    config %d (%s): root (%.6f %.6f)%s not enumerated\n", cfg, mirror ? "mirror" : "water", p.x,
+                           p.y, turned ? " (turned normal)" : "");
             }
         multi += here >= 2 ? 1 : 0;
         /* every enumerated root that Snell's law realizes is one of the dense ones */
         for (int k = 0; k < n; ++k) {
-            if (!snell_residual(w, x, y, !mirror, 1.33, roots[k], r, fr) || fabs(r[0]) + fabs(r[1]) > 1e-7) {
+            double r2[3];
+            bool ok0 = snell_residual(w, x, y, !mirror, 1.33, roots[k], r, fr, 0) && fabs(r[0]) + fabs(r[1]) <= 1e-7 &&
+                       fabs(r[2]) < 1e-6;
+            bool ok1 = snell_residual(w, x, y, !mirror, 1.33, roots[k], r2, fr, 1) &&
+                       fabs(r2[0]) + fabs(r2[1]) <= 1e-7 && fabs(r2[2]) < 1e-6;
+            if (!ok0 && !ok1) {
                 ++extra;
                 continue;
             }
@@ -686,10 +712,10 @@ TEST(plane_roots_against_dense_newton)
         }
         spc_scene_destroy(sc);
     }
-    printf("    24 configurations: dense search %d roots (%d configurations with several), enumerated %d of them; "
-           "%d enumerated in all, %d of them no refraction realizes\n",
-           dense, multi, found, enumerated, extra);
-    CHECK(dense >= 40 && multi >= 4);
+    printf("    24 configurations: dense search %d roots (%d configurations with several; %d with the turned normal), "
+           "enumerated %d of them; %d enumerated in all, %d of them no refraction realizes\n",
+           dense, multi, n_turned, found, enumerated, extra);
+    CHECK(dense >= 40 && multi >= 4 && n_turned >= 5);
     CHECK(found == dense);
 }
 

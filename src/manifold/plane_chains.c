@@ -31,23 +31,32 @@
 static inline double dmin2(double a, double b) { return a < b ? a : b; }
 static inline double dmax2(double a, double b) { return a > b ? a : b; }
 
-/* Levels of pieces of a surviving cell (1: the cell, 2: its quarters, ...); Newton's method starts
- * from each surviving piece of the last level. Quarters found every root the randomized solver
- * found in the tests, as eighths did, at 5% less per call on the pool. */
-#define SPC_PLANE_SPLIT 2
+/* Levels of pieces of a surviving cell (1: the cell, 2: its quarters, 3: sixteenths); Newton's
+ * method starts from each surviving piece of the last level. Over 240 configurations of the dense
+ * test (test_exact_chains.c, grazing mirrors included) quarters missed 2 of 786 roots, sixteenths
+ * none. */
+#define SPC_PLANE_SPLIT 3
 /* Roots kept per query and plane. */
 #define SPC_PLANE_MAX_ROOTS 256
 #define SPC_PLANE_NEWTON_ITERATIONS 30
 /* Pyramid levels at most (cells up to 2^24 per side). */
 #define SPC_PLANE_LEVELS 26
-/* Cells at most (a larger map is not enumerated: left to the randomized solver). */
-#define SPC_PLANE_MAX_CELLS (1 << 24)
+/* Cells at most (2048 x 2048: the pyramid above them takes 62 MB; a larger map on one plane is not
+ * enumerated, its chains are left to the randomized solver). */
+#define SPC_PLANE_MAX_CELLS (1 << 22)
 
 typedef struct bnd {
     double lo[3], hi[3];   /* m's components (S, T, N) */
     double slo[2], shi[2]; /* m_S / m_N and m_T / m_N, when slopes */
     bool slopes;           /* every texel has m_N > 0 */
 } bnd;
+
+/* A node's bounds as stored (levels above the cells; the cells' own come from their four texels
+ * when needed): floats rounded outward. */
+typedef struct bndf {
+    float lo[3], hi[3], slo[2], shi[2];
+    unsigned char slopes;
+} bndf;
 
 typedef struct plane_map {
     void (*destroy)(void *); /* first member: spc_shape_release calls it */
@@ -59,7 +68,7 @@ typedef struct plane_map {
     double smin, smax, tmin, tmax;
     int i0, j0, nlev;
     int nu[SPC_PLANE_LEVELS], nv[SPC_PLANE_LEVELS];
-    bnd *lev[SPC_PLANE_LEVELS];
+    bndf *lev[SPC_PLANE_LEVELS]; /* lev[0] unused (NULL) */
 } plane_map;
 
 static void map_destroy(void *p)
@@ -105,6 +114,44 @@ static void bnd_of(double m[4][3], bnd *b)
     }
 }
 
+static float round_down(double x)
+{
+    float f = (float)x;
+    return (double)f > x ? nextafterf(f, -INFINITY) : f;
+}
+
+static float round_up(double x)
+{
+    float f = (float)x;
+    return (double)f < x ? nextafterf(f, INFINITY) : f;
+}
+
+static void bnd_store(const bnd *b, bndf *o)
+{
+    for (int k = 0; k < 3; ++k) {
+        o->lo[k] = round_down(b->lo[k]);
+        o->hi[k] = round_up(b->hi[k]);
+    }
+    for (int k = 0; k < 2; ++k) {
+        o->slo[k] = round_down(b->slo[k]);
+        o->shi[k] = round_up(b->shi[k]);
+    }
+    o->slopes = b->slopes;
+}
+
+static void bnd_load(const bndf *o, bnd *b)
+{
+    for (int k = 0; k < 3; ++k) {
+        b->lo[k] = o->lo[k];
+        b->hi[k] = o->hi[k];
+    }
+    for (int k = 0; k < 2; ++k) {
+        b->slo[k] = o->slo[k];
+        b->shi[k] = o->shi[k];
+    }
+    b->slopes = o->slopes;
+}
+
 static void bnd_merge(bnd *a, const bnd *b)
 {
     for (int k = 0; k < 3; ++k) {
@@ -142,6 +189,22 @@ static bool bsdf_ok(const spc_bsdf *b, double *eta)
 static spc_vec3 vert(const spc_mesh *m, size_t i)
 {
     return spc_v3(m->p[3 * i], m->p[3 * i + 1], m->p[3 * i + 2]);
+}
+
+/* The bounds of node (i, j) of level l: a cell's from its four texels, above from the pyramid. */
+static void node_bnd(const plane_map *pm, int l, int i, int j, bnd *b)
+{
+    if (l > 0) {
+        bnd_load(&pm->lev[l][(size_t)j * pm->nu[l] + i], b);
+        return;
+    }
+    double mc[4][3];
+    int64_t ci = (int64_t)pm->i0 + i, cj = (int64_t)pm->j0 + j;
+    texel_m(pm->tex, ci, cj, mc[0]);
+    texel_m(pm->tex, ci + 1, cj, mc[1]);
+    texel_m(pm->tex, ci, cj + 1, mc[2]);
+    texel_m(pm->tex, ci + 1, cj + 1, mc[3]);
+    bnd_of(mc, b);
 }
 
 /* The plane's frame, affine maps and pyramid; m->ok false where s is not such a plane. */
@@ -240,44 +303,35 @@ static void map_build(const spc_shape *s, plane_map *pm)
     int nu = (int)floor(pm->smax) - pm->i0 + 1, nv = (int)floor(pm->tmax) - pm->j0 + 1;
     if ((double)nu * nv > SPC_PLANE_MAX_CELLS)
         return;
-    /* the pyramid: level 0 the cells, each level above 2 x 2 of the one below */
-    pm->nlev = 0;
-    for (;;) {
-        int l = pm->nlev;
+    /* the pyramid: level 0 the cells (not stored), each level above 2 x 2 of the one below */
+    pm->nu[0] = nu;
+    pm->nv[0] = nv;
+    pm->lev[0] = NULL;
+    pm->nlev = 1;
+    while (!(nu == 1 && nv == 1) && pm->nlev < SPC_PLANE_LEVELS) {
+        int l = pm->nlev, bu = nu, bv = nv;
+        nu = (nu + 1) / 2;
+        nv = (nv + 1) / 2;
         pm->nu[l] = nu;
         pm->nv[l] = nv;
-        pm->lev[l] = malloc(sizeof(bnd) * (size_t)nu * (size_t)nv);
+        pm->lev[l] = malloc(sizeof(bndf) * (size_t)nu * (size_t)nv);
         if (!pm->lev[l])
             return;
         pm->nlev++;
         for (int j = 0; j < nv; ++j)
             for (int i = 0; i < nu; ++i) {
-                bnd *b = &pm->lev[l][(size_t)j * nu + i];
-                if (l == 0) {
-                    double mc[4][3];
-                    int64_t ci = pm->i0 + i, cj = pm->j0 + j;
-                    texel_m(t, ci, cj, mc[0]);
-                    texel_m(t, ci + 1, cj, mc[1]);
-                    texel_m(t, ci, cj + 1, mc[2]);
-                    texel_m(t, ci + 1, cj + 1, mc[3]);
-                    bnd_of(mc, b);
-                    continue;
-                }
-                const bnd *below = pm->lev[l - 1];
-                int bu = pm->nu[l - 1], bv = pm->nv[l - 1];
-                *b = below[(size_t)(2 * j) * bu + 2 * i];
-                if (2 * i + 1 < bu)
-                    bnd_merge(b, &below[(size_t)(2 * j) * bu + 2 * i + 1]);
-                if (2 * j + 1 < bv) {
-                    bnd_merge(b, &below[(size_t)(2 * j + 1) * bu + 2 * i]);
-                    if (2 * i + 1 < bu)
-                        bnd_merge(b, &below[(size_t)(2 * j + 1) * bu + 2 * i + 1]);
-                }
+                bnd b, c;
+                node_bnd(pm, l - 1, 2 * i, 2 * j, &b); /* 2i < bu, 2j < bv */
+                for (int dj = 0; dj < 2; ++dj)
+                    for (int di = 0; di < 2; ++di) {
+                        int ci = 2 * i + di, cj = 2 * j + dj;
+                        if ((di == 0 && dj == 0) || ci >= bu || cj >= bv)
+                            continue;
+                        node_bnd(pm, l - 1, ci, cj, &c);
+                        bnd_merge(&b, &c);
+                    }
+                bnd_store(&b, &pm->lev[l][(size_t)j * nu + i]);
             }
-        if ((nu == 1 && nv == 1) || pm->nlev == SPC_PLANE_LEVELS)
-            break;
-        nu = (nu + 1) / 2;
-        nv = (nv + 1) / 2;
     }
     pm->ok = pm->nu[pm->nlev - 1] == 1 && pm->nv[pm->nlev - 1] == 1;
 }
@@ -368,11 +422,42 @@ bool spc_plane_chain_model_normal(const spc_shape *s, spc_vec3 p, double m[3], s
 
 typedef struct problem {
     const plane_map *pm;
+    /* the pass for the normals the BSDF turns toward x (spc_bsdf_perturbed_face_view: where x is
+     * on N's side but behind the mapped normal, the normal's tangential part changes sign) */
+    bool turned;
     double X[2][3]; /* x and y, local */
     double eta[2];  /* the index on x's side and on y's (1, 1 for a reflection) */
     double roots[SPC_PLANE_MAX_ROOTS][2];
+    bool root_turned[SPC_PLANE_MAX_ROOTS];
     int nroots;
 } problem;
+
+/* The turned field's bounds and corner vectors: the tangential parts negated. */
+static void bnd_turn(bnd *b)
+{
+    for (int k = 0; k < 2; ++k) {
+        double lo = b->lo[k];
+        b->lo[k] = -b->hi[k];
+        b->hi[k] = -lo;
+        double sl = b->slo[k];
+        b->slo[k] = -b->shi[k];
+        b->shi[k] = -sl;
+    }
+}
+
+static void corners(const problem *pb, int64_t ci, int64_t cj, double c[4][3])
+{
+    const spc_texture *t = pb->pm->tex;
+    texel_m(t, ci, cj, c[0]);
+    texel_m(t, ci + 1, cj, c[1]);
+    texel_m(t, ci, cj + 1, c[2]);
+    texel_m(t, ci + 1, cj + 1, c[3]);
+    if (pb->turned)
+        for (int q = 0; q < 4; ++q) {
+            c[q][0] = -c[q][0];
+            c[q][1] = -c[q][1];
+        }
+}
 
 /* The box's terms for one of x, y: the ranges of d = X - P over the box (P on it), squared. */
 typedef struct dbox {
@@ -472,6 +557,23 @@ static bool may_hold(const problem *pb, double s0, double s1, double t0, double 
         if (!component_may_hold(kl, kh, nl, nh, b, k))
             return false;
     }
+    if (pb->turned && b->slopes) {
+        /* a turn needs w_x . m < 0 for the map's own normal m (slopes -sigma of the turned field's):
+         * the least of w_N + w_S m_S / m_N + w_T m_T / m_N over the box must be negative */
+        const dbox *dx = &d[0];
+        double z = pb->X[0][2], wl[3], wh[3];
+        unit_range(dx->s0, dx->s1, dx->tmin2, dx->tmax2, dx->z2, &wl[0], &wh[0]);
+        unit_range(dx->t0, dx->t1, dx->smin2, dx->smax2, dx->z2, &wl[1], &wh[1]);
+        wl[2] = z / sqrt(dx->smax2 + dx->tmax2 + dx->z2);
+        double least = wl[2];
+        for (int k = 0; k < 2; ++k) {
+            double lo, hi;
+            imul(wl[k], wh[k], -b->shi[k], -b->slo[k], &lo, &hi);
+            least += lo;
+        }
+        if (least > SPC_PLANE_CULL_EPS)
+            return false;
+    }
     return true;
 }
 
@@ -518,14 +620,29 @@ static bool have_root(const problem *pb, double s, double t, double tol)
     return false;
 }
 
+/* Does the BSDF turn the map's normal at (s, t) toward x (spc_bsdf_perturbed_face_view: x on N's
+ * side, behind the mapped normal)? */
+static bool is_turned(const problem *pb, double s, double t)
+{
+    const plane_map *pm = pb->pm;
+    if (!(pb->X[0][2] > 0.0))
+        return false;
+    double m[3];
+    model_m(pm, s, t, m);
+    double wo[3] = {pb->X[0][0] - (pm->p0[0] + s * pm->ps[0] + t * pm->pt[0]),
+                    pb->X[0][1] - (pm->p0[1] + s * pm->ps[1] + t * pm->pt[1]), pb->X[0][2]};
+    return wo[0] * m[0] + wo[1] * m[1] + wo[2] * m[2] < 0.0;
+}
+
 /* Newton's method on the cell's F from (a, b); the root is kept if it lies in the cell's part
  * [a0, a1] x [b0, b1] and is new. */
 static void newton_cell(problem *pb, double ci, double cj, double c[4][3], double a, double b, double a0,
                         double a1, double b0, double b1)
 {
+    double F[2], J[2][2];
+    eval_F(pb, ci, cj, c, a, b, F, J);
+    double f = F[0] * F[0] + F[1] * F[1];
     for (int it = 0; it < SPC_PLANE_NEWTON_ITERATIONS; ++it) {
-        double F[2], J[2][2];
-        eval_F(pb, ci, cj, c, a, b, F, J);
         double det = J[0][0] * J[1][1] - J[0][1] * J[1][0];
         if (!(fabs(det) > 0.0) || !isfinite(det))
             return;
@@ -534,22 +651,46 @@ static void newton_cell(problem *pb, double ci, double cj, double c[4][3], doubl
         double len = sqrt(da * da + db * db);
         if (!isfinite(len))
             return;
-        if (len > 0.5) { /* damped: stay near the cell */
+        if (len > 0.5) { /* stay near the cell */
             da *= 0.5 / len;
             db *= 0.5 / len;
+            len = 0.5;
         }
-        a += da;
-        b += db;
+        /* backtracking on |F|^2 (near a grazing reflection F turns fast, and full steps cycle) */
+        double lam = 1.0, na = a, nb = b, nF[2], nJ[2][2], nf = f;
+        bool moved = false;
+        for (int ls = 0; ls < 16; ++ls) {
+            na = a + lam * da;
+            nb = b + lam * db;
+            eval_F(pb, ci, cj, c, na, nb, nF, nJ);
+            nf = nF[0] * nF[0] + nF[1] * nF[1];
+            if (nf < f || lam * len < 1e-12) {
+                moved = true;
+                break;
+            }
+            lam *= 0.5;
+        }
+        if (!moved)
+            return;
+        a = na;
+        b = nb;
+        f = nf;
+        F[0] = nF[0];
+        F[1] = nF[1];
+        memcpy(J, nJ, sizeof J);
         if (a < -1.0 || a > 2.0 || b < -1.0 || b > 2.0)
             return;
-        if (len < 1e-12) {
+        if (lam * len < 1e-12) {
             const double eps = 1e-9;
             if (a < a0 - eps || a > a1 + eps || b < b0 - eps || b > b1 + eps)
                 return;
             double s = ci + a, t = cj + b;
+            if (is_turned(pb, s, t) != pb->turned)
+                return; /* the other pass's normal there */
             if (pb->nroots < SPC_PLANE_MAX_ROOTS && !have_root(pb, s, t, 1e-7)) {
                 pb->roots[pb->nroots][0] = s;
                 pb->roots[pb->nroots][1] = t;
+                pb->root_turned[pb->nroots] = pb->turned;
                 pb->nroots++;
             }
             return;
@@ -599,10 +740,7 @@ static void solve_cell(problem *pb, int i, int j)
     const plane_map *pm = pb->pm;
     int64_t ci = pm->i0 + i, cj = pm->j0 + j;
     double c[4][3];
-    texel_m(pm->tex, ci, cj, c[0]);
-    texel_m(pm->tex, ci + 1, cj, c[1]);
-    texel_m(pm->tex, ci, cj + 1, c[2]);
-    texel_m(pm->tex, ci + 1, cj + 1, c[3]);
+    corners(pb, ci, cj, c);
     double a0 = dmax2(0.0, pm->smin - (double)ci), a1 = dmin2(1.0, pm->smax - (double)ci);
     double b0 = dmax2(0.0, pm->tmin - (double)cj), b1 = dmin2(1.0, pm->tmax - (double)cj);
     if (!(a1 > a0 && b1 > b0))
@@ -620,7 +758,11 @@ static void descend(problem *pb, int l, int i, int j)
     double t0 = dmax2(pm->tmin, pm->j0 + j * w), t1 = dmin2(pm->tmax, pm->j0 + (j + 1) * w);
     if (!(s1 > s0 && t1 > t0))
         return;
-    if (!may_hold(pb, s0, s1, t0, t1, &pm->lev[l][(size_t)j * pm->nu[l] + i]))
+    bnd b;
+    node_bnd(pm, l, i, j, &b);
+    if (pb->turned)
+        bnd_turn(&b);
+    if (!may_hold(pb, s0, s1, t0, t1, &b))
         return;
     if (l == 0) {
         solve_cell(pb, i, j);
@@ -660,7 +802,14 @@ static bool problem_init(problem *pb, const plane_map *pm, spc_vec3 x, spc_vec3 
 static void find_roots(problem *pb)
 {
     const plane_map *pm = pb->pm;
+    pb->turned = false;
     descend(pb, pm->nlev - 1, 0, 0);
+    /* the turned normals: only for x on N's side */
+    if (pb->X[0][2] > 0.0) {
+        pb->turned = true;
+        descend(pb, pm->nlev - 1, 0, 0);
+        pb->turned = false;
+    }
 }
 
 int spc_plane_chain_roots(const spc_shape *s, spc_vec3 x, spc_vec3 y, bool refract, spc_vec3 *out, int max)
@@ -690,13 +839,7 @@ bool spc_plane_chain_covers(const spc_chain *c, bool reflect)
         return false;
     if (c->v[0].event == SPC_CHAIN_REFRACT ? !(pm->eta > 0.0) : (pm->eta > 0.0 && !reflect))
         return false;
-    /* the normal the enumeration models, not turned toward x (spc_bsdf_perturbed_face_view) */
-    double m[3];
-    if (!spc_plane_chain_model_normal(h->shape, h->p, m, NULL))
-        return false;
-    spc_vec3 mw = spc_add(spc_add(spc_scale(pm->S, m[0]), spc_scale(pm->T, m[1])), spc_scale(pm->N, m[2]));
-    spc_vec3 wo = spc_sub(c->x, h->p);
-    return !(spc_dot(wo, pm->N) > 0.0 && spc_dot(wo, mw) < 0.0);
+    return true; /* turned normals included (find_roots' second pass) */
 }
 
 /* Does the direction from the root r (world point P) toward y lie on the same side of the mapped
@@ -705,6 +848,10 @@ static bool lit_side(const plane_map *pm, const problem *pb, int r, spc_vec3 P, 
 {
     double m[3];
     model_m(pm, pb->roots[r][0], pb->roots[r][1], m);
+    if (pb->root_turned[r]) {
+        m[0] = -m[0];
+        m[1] = -m[1];
+    }
     spc_vec3 mw = spc_add(spc_add(spc_scale(pm->S, m[0]), spc_scale(pm->T, m[1])), spc_scale(pm->N, m[2]));
     spc_vec3 wi = spc_normalize(spc_sub(y, P));
     double c0 = spc_dot(wi, pm->N), c1 = spc_dot(wi, mw) / spc_length(mw);

@@ -18,16 +18,17 @@
  * h_T m_N - h_N m_T) vanishes. Cells are culled through a pyramid of bounds over the map (each
  * node: the range of m's components and of its slopes m_S / m_N, m_T / m_N over its texels, which
  * bound every blend of them), against the exact range of each component of w_x and w_y over the
- * node's rectangle of the plane; a surviving cell is split into quarters culled the same way, and
- * Newton's method on the cell's own bilinear F from each surviving quarter that holds no root yet
- * finds the roots inside the cell. Each root is polished in 3D by the angular solver
+ * node's rectangle of the plane; a surviving cell is split twice into quarters culled the same
+ * way, and Newton's method (backtracking on |F|) on the cell's own bilinear F from each surviving
+ * piece that holds no root yet finds the roots inside the cell. Where x is on the normal's side,
+ * a second pass does the same for the normals the BSDF turns toward x
+ * (spc_bsdf_perturbed_face_view: tangential part negated), keeping the roots where the turn
+ * applies; the first pass keeps those where it does not. Each root is polished in 3D by the angular solver
  * (spc_snee_exact_polish), whose trace proves the first segment unblocked.
  *
- * What is missed: a pair of roots in one quarter of a cell that Newton's steps from the surviving
- * quarters reach as one (a fold of the caustic, where the pair's contribution tends to
- * zero width), and chains whose mapped normal the BSDF turns toward the viewer (grazing, past the
- * map's slope: spc_bsdf_perturbed_face_view): those are not covered (spc_plane_chain_covers) and
- * stay with BSDF sampling.
+ * What is missed: a pair of roots in one sixteenth of a cell that Newton's steps from the
+ * surviving pieces reach as one (a fold of the caustic, where the pair's contribution tends to
+ * zero width).
  *
  * Planes handled: a mesh whose vertices lie in one plane, with one shading normal (face normals,
  * or vertex normals all along it), texture coordinates affine in the position, no emitter; BSDF
@@ -48,7 +49,7 @@ struct spc_snee_query;
 /* Is s a normal-mapped plane these chains handle? (Builds its cull pyramid on first use.) */
 bool spc_plane_chain_shape(const spc_shape *s);
 /* Is c one of the chains spc_plane_chains_all enumerates (one vertex on such a plane, the event
- * its sides call for, reflect as spc_snee_params.reflect, the mapped normal not turned)? */
+ * its sides call for, reflect as spc_snee_params.reflect)? */
 bool spc_plane_chain_covers(const spc_chain *c, bool reflect);
 /* Every such chain from q->x to q->y, each passed to fn as it is found (polished and traced: the
  * first segment proven unblocked; the last is checked by spc_snee_chain_value), so that a point
