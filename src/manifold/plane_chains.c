@@ -12,9 +12,11 @@
  * on the rectangle), has its exact range: d_S / |d| grows with d_S and, for d_S of one sign,
  * shrinks in magnitude as d_T^2 grows, so its extremes sit at d_S's ends with d_T^2 at its least
  * or most; d_N / |d| (d_N fixed) is extreme at |d|'s ends. h's components are then bounded by the
- * sums, its slopes h_S / h_N and h_T / h_N by interval division where h_N keeps a sign, and the
- * node is culled where they miss the map's slopes there (every blend of texels with m_N > 0 has
- * its slopes between theirs: a mediant); where h_N may vanish, by the intervals of F itself.
+ * sums, and the node is culled where h_k = sigma_k h_N cannot hold for any values in those ranges
+ * and any slope sigma_k = m_k / m_N of the map there (every blend of texels with m_N > 0 has its
+ * slopes between theirs: a mediant), compared by interval products, which need no sign of h_N;
+ * where some texel has m_N <= 0, by the intervals of F itself. The turned pass also culls where
+ * no normal of the node can face away from x.
  */
 #include "manifold/plane_chains.h"
 
@@ -41,8 +43,8 @@ static inline double dmax2(double a, double b) { return a > b ? a : b; }
 #define SPC_PLANE_NEWTON_ITERATIONS 30
 /* Pyramid levels at most (cells up to 2^24 per side). */
 #define SPC_PLANE_LEVELS 26
-/* Cells at most (2048 x 2048: the pyramid above them takes 62 MB; a larger map on one plane is not
- * enumerated, its chains are left to the randomized solver). */
+/* Cells at most (2048 x 2048: the pyramid above them takes about 60 MB; a larger map on one plane
+ * is not enumerated, its chains are left to the randomized solver). */
 #define SPC_PLANE_MAX_CELLS (1 << 22)
 
 typedef struct bnd {
