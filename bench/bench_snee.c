@@ -23,11 +23,11 @@
  * CONFIG: a seed name (shape, light, bsdf) and options after colons: trials=N (the cap),
  * straight / nostraight (spc_snee_params.straight_first), window=N, keep=F, stall=N, drop=F,
  * iters=N, lm (angular solver options), biased (the biased estimator), reflect=P (chains reflect
- * off dielectrics, spc_snee_params.reflect), cone (the default seed), noexact (chains on one sphere or
- * mirror cylinder left to the randomized attempts, spc_snee_params.exact), mis (weighted against
- * BSDF sampling as the path integrator has it: the BSDF's share is then not in the sums), guide=M
- * and sneep=Q (guided directions, the light sample's probability; with mis). Defaults: those of
- * spc_snee_params_default (without mis). Results go to bench/RESULTS.md by hand.
+ * off dielectrics, spc_snee_params.reflect), cone (the default seed), noexact (chains on one sphere,
+ * mirror cylinder or normal-mapped plane left to the randomized attempts, spc_snee_params.exact),
+ * mis (weighted against BSDF sampling as the path integrator has it: the BSDF's share is then not
+ * in the sums), guide=M and sneep=Q (guided directions, the light sample's probability; with mis).
+ * Defaults: those of spc_snee_params_default (without mis). Results go to bench/RESULTS.md by hand.
  */
 #include <stdio.h>
 #include <stdlib.h>
