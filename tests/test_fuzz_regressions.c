@@ -96,7 +96,18 @@ TEST(png)
     /* png/text_chunk_claims_755MB.png: libpng allocated a corrupt ancillary chunk's claimed length
      * (755 MB for a 322-byte file) before noticing the file ended; such chunks are now skipped.
      * png/jpeg_marker_cuts_data_224x65486.jpg: libjpeg padded a 14.6-megapixel image with gray
-     * after its data was cut short (176 MB of floats); that warning is now an error. */
+     * after its data was cut short (176 MB of floats); that warning is now an error.
+     * png/jpeg_header_claims_4146x55808.jpg: a 213-byte file whose header announced 231 megapixels
+     * (2.8 GB of floats, allocated before reading any data); a Huffman-coded file needs a bit per
+     * MCU, so such a header is now refused before anything is allocated. */
+    char path[1024];
+    snprintf(path, sizeof path, "%s/tests/data/fuzz_regressions/png/jpeg_header_claims_4146x55808.jpg",
+             spc_test_source_dir());
+    spc_image img;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    CHECK(spc_image_read(path, &img, &err) == SPC_ERR_PARSE);
+    CHECK_MSG(strstr(err.msg, "truncated") != NULL && strstr(err.msg, "213 bytes") != NULL, "%s", err.msg);
     long mb = peak_rss_mb();
     CHECK_MSG(mb >= 0 && mb < 150, "peak RSS %ld MB", mb); /* ~10 MB, ~50 MB under ASan */
 }

@@ -25,6 +25,21 @@
 /* Largest image read, in pixels (2^28 = 16384^2). */
 #define SPC_JPEG_MAX_PIXELS ((size_t)1 << 28)
 
+/* Can a file of `bytes` hold the entropy-coded data of the header's image? A Huffman-coded file
+ * (baseline or progressive) spends at least one bit per MCU (the first component's DC code), so a
+ * header that announces millions of pixels in a few hundred bytes is refused before libjpeg or we
+ * allocate for them (fuzzing: a 213-byte file announced 4146 x 55808, 2.8 GB of floats).
+ * Arithmetic coding can go below a bit per MCU: not checked there. */
+static bool data_can_fit(const struct jpeg_decompress_struct *cinfo, long bytes)
+{
+    if (cinfo->arith_code || bytes < 0)
+        return true;
+    size_t mw = 8 * (size_t)(cinfo->max_h_samp_factor > 0 ? cinfo->max_h_samp_factor : 1);
+    size_t mh = 8 * (size_t)(cinfo->max_v_samp_factor > 0 ? cinfo->max_v_samp_factor : 1);
+    size_t mcus = (((size_t)cinfo->image_width + mw - 1) / mw) * (((size_t)cinfo->image_height + mh - 1) / mh);
+    return mcus / 8 <= (size_t)bytes;
+}
+
 typedef struct jpeg_ctx {
     struct jpeg_error_mgr mgr; /* first member: libjpeg passes &mgr as cinfo->err */
     jmp_buf jmp;
@@ -83,9 +98,25 @@ spc_status spc_jpeg_read_image(const char *path, spc_image *img, spc_error *err)
         st = spc_error_set(err, SPC_ERR_PARSE, path, 0, 0, "corrupt or truncated JPEG: %s", c->msg);
         goto done;
     }
+    long bytes = -1;
+    if (fseek(f, 0, SEEK_END) == 0) {
+        bytes = ftell(f);
+        rewind(f);
+    }
     jpeg_create_decompress(cinfo);
     jpeg_stdio_src(cinfo, f);
     jpeg_read_header(cinfo, TRUE);
+    if ((size_t)cinfo->image_width * (size_t)cinfo->image_height > SPC_JPEG_MAX_PIXELS) {
+        st = spc_error_set(err, SPC_ERR_LIMIT, path, 0, 0, "JPEG image size %ux%u not supported",
+                           (unsigned)cinfo->image_width, (unsigned)cinfo->image_height);
+        goto done;
+    }
+    if (!data_can_fit(cinfo, bytes)) {
+        st = spc_error_set(err, SPC_ERR_PARSE, path, 0, 0,
+                           "corrupt or truncated JPEG: %ux%u pixels in a file of %ld bytes",
+                           (unsigned)cinfo->image_width, (unsigned)cinfo->image_height, bytes);
+        goto done;
+    }
     bool cmyk = cinfo->jpeg_color_space == JCS_CMYK || cinfo->jpeg_color_space == JCS_YCCK;
     if (cinfo->jpeg_color_space == JCS_GRAYSCALE)
         cinfo->out_color_space = JCS_GRAYSCALE;
