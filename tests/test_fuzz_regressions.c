@@ -99,7 +99,9 @@ TEST(png)
      * after its data was cut short (176 MB of floats); that warning is now an error.
      * png/jpeg_header_claims_4146x55808.jpg: a 213-byte file whose header announced 231 megapixels
      * (2.8 GB of floats, allocated before reading any data); a Huffman-coded file needs a bit per
-     * MCU, so such a header is now refused before anything is allocated. */
+     * MCU, so such a header is now refused before anything is allocated.
+     * png/png_header_claims_16000x16000.png: the same for PNG (made by hand, 74 bytes announcing 1 GB
+     * of pixels): deflate inflates at most 1032:1. */
     char path[1024];
     snprintf(path, sizeof path, "%s/tests/data/fuzz_regressions/png/jpeg_header_claims_4146x55808.jpg",
              spc_test_source_dir());
@@ -108,6 +110,11 @@ TEST(png)
     memset(&err, 0, sizeof err);
     CHECK(spc_image_read(path, &img, &err) == SPC_ERR_PARSE);
     CHECK_MSG(strstr(err.msg, "truncated") != NULL && strstr(err.msg, "213 bytes") != NULL, "%s", err.msg);
+    snprintf(path, sizeof path, "%s/tests/data/fuzz_regressions/png/png_header_claims_16000x16000.png",
+             spc_test_source_dir());
+    memset(&err, 0, sizeof err);
+    CHECK(spc_image_read(path, &img, &err) == SPC_ERR_PARSE);
+    CHECK_MSG(strstr(err.msg, "truncated") != NULL && strstr(err.msg, "74 bytes") != NULL, "%s", err.msg);
     long mb = peak_rss_mb();
     CHECK_MSG(mb >= 0 && mb < 150, "peak RSS %ld MB", mb); /* ~10 MB, ~50 MB under ASan */
 }

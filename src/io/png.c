@@ -27,6 +27,10 @@
 /* Largest image read, in pixels (2^28 = 16384^2): beyond this a corrupt header is likelier. */
 #define SPC_PNG_MAX_PIXELS ((size_t)1 << 28)
 #define SPC_PNG_MAX_CHUNK ((png_alloc_size_t)1 << 24) /* bytes of one chunk libpng may hold in memory */
+/* Deflate compresses at most 1032:1 (a run of one byte), so a file of n bytes holds at most about
+ * 1032 n bytes of image data: a header that announces more is refused before the image is
+ * allocated (the JPEG fuzzer's lesson: a few hundred bytes announcing gigabytes). */
+#define SPC_PNG_MAX_INFLATE 1100
 
 typedef struct png_ctx {
     jmp_buf jmp;
@@ -157,6 +161,11 @@ spc_status spc_png_read_image(const char *path, spc_image *img, spc_error *err)
         st = spc_error_set(err, SPC_ERR_PARSE, path, 0, 0, "corrupt or truncated PNG: %s", c->msg);
         goto done;
     }
+    long bytes = -1;
+    if (fseek(f, 0, SEEK_END) == 0) {
+        bytes = ftell(f);
+        rewind(f);
+    }
     png_init_io(png, f);
     png_set_user_limits(png, 1u << 20, 1u << 20);
     /* Ancillary chunks we do not use are skipped unread: libpng would otherwise allocate whatever
@@ -171,6 +180,14 @@ spc_status spc_png_read_image(const char *path, spc_image *img, spc_error *err)
     png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
     if ((size_t)w * (size_t)h > SPC_PNG_MAX_PIXELS) {
         st = spc_error_set(err, SPC_ERR_LIMIT, path, 0, 0, "PNG image too large (%ux%u)", (unsigned)w, (unsigned)h);
+        goto done;
+    }
+    /* the image's bytes before any transform (at least one byte per row and pass besides) */
+    size_t raw = png_get_rowbytes(png, info) * (size_t)h;
+    if (bytes >= 0 && raw / SPC_PNG_MAX_INFLATE > (size_t)bytes) {
+        st = spc_error_set(err, SPC_ERR_PARSE, path, 0, 0,
+                           "corrupt or truncated PNG: %ux%u pixels in a file of %ld bytes", (unsigned)w,
+                           (unsigned)h, bytes);
         goto done;
     }
     int color = png_get_color_type(png, info);
