@@ -36,18 +36,10 @@ static void texture_tangents(const spc_hit *h, spc_vec3 *dpdu, spc_vec3 *dpdv)
     const spc_shape *s = h->shape;
     if (!s || s->type != SPC_SHAPE_MESH || !s->mesh.uv || !s->mesh.idx || h->prim < 0)
         return;
-    const spc_mesh *m = &s->mesh;
-    uint32_t i0 = m->idx[3 * (size_t)h->prim], i1 = m->idx[3 * (size_t)h->prim + 1], i2 = m->idx[3 * (size_t)h->prim + 2];
-    double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
-    double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
-    double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
-    double det = du1 * dv2 - dv1 * du2;
-    if (!(fabs(det) > 1e-20))
-        return;
-    /* h->dpdu, h->dpdv are dp/db1 = e1 and dp/db2 = e2; invert the uv Jacobian */
-    spc_vec3 e1 = h->dpdu, e2 = h->dpdv;
-    *dpdu = spc_scale(spc_sub(spc_scale(e1, dv2), spc_scale(e2, dv1)), 1.0 / det);
-    *dpdv = spc_scale(spc_sub(spc_scale(e2, du1), spc_scale(e1, du2)), 1.0 / det);
+    double duv[4];
+    spc_mesh_tri_duv(&s->mesh, (size_t)h->prim, duv);
+    /* h->dpdu, h->dpdv are dp/db1 = e1 and dp/db2 = e2 */
+    spc_uv_tangents(h->dpdu, h->dpdv, duv, 1e-20, dpdu, dpdv);
 }
 
 static void bumpmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out)

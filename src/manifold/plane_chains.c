@@ -222,15 +222,12 @@ static void map_build(const spc_shape *s, plane_map *pm)
     /* uv -> position, fitted on the first triangle: p = P0 + u Pu + v Pv */
     uint32_t i0 = m->idx[0], i1 = m->idx[1], i2 = m->idx[2];
     spc_vec3 a = vert(m, i0), e1 = spc_sub(vert(m, i1), a), e2 = spc_sub(vert(m, i2), a);
-    double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
-    double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
-    double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
-    double det = du1 * dv2 - dv1 * du2;
-    if (!(fabs(det) > 1e-12))
+    double tduv[4];
+    spc_mesh_tri_duv(m, 0, tduv);
+    spc_vec3 Pu, Pv;
+    if (!spc_uv_tangents(e1, e2, tduv, 1e-12, &Pu, &Pv))
         return;
-    spc_vec3 Pu = spc_scale(spc_sub(spc_scale(e1, dv2), spc_scale(e2, dv1)), 1.0 / det);
-    spc_vec3 Pv = spc_scale(spc_sub(spc_scale(e2, du1), spc_scale(e1, du2)), 1.0 / det);
-    spc_vec3 P0 = spc_sub(a, spc_add(spc_scale(Pu, u0), spc_scale(Pv, v0)));
+    spc_vec3 P0 = spc_sub(a, spc_add(spc_scale(Pu, m->uv[2 * i0]), spc_scale(Pv, m->uv[2 * i0 + 1])));
     spc_vec3 ng = spc_cross(Pu, Pv);
     double lng = spc_length(ng);
     double size = spc_length(spc_sub(s->bbox_max, s->bbox_min));

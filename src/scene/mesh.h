@@ -8,6 +8,7 @@
 #ifndef SPC_SCENE_MESH_H
 #define SPC_SCENE_MESH_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -52,6 +53,32 @@ static inline spc_vec3 spc_mesh_p(const spc_mesh *m, uint32_t i)
 static inline spc_vec3 spc_mesh_n(const spc_mesh *m, uint32_t i)
 {
     return spc_v3(m->n[3 * i], m->n[3 * i + 1], m->n[3 * i + 2]);
+}
+
+/* The uv differences of triangle t's second and third vertices from its first: duv = (du1, dv1,
+ * du2, dv2). The mesh has uvs. */
+static inline void spc_mesh_tri_duv(const spc_mesh *m, size_t t, double duv[4])
+{
+    uint32_t i0 = m->idx[3 * t], i1 = m->idx[3 * t + 1], i2 = m->idx[3 * t + 2];
+    double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
+    duv[0] = m->uv[2 * i1] - u0;
+    duv[1] = m->uv[2 * i1 + 1] - v0;
+    duv[2] = m->uv[2 * i2] - u0;
+    duv[3] = m->uv[2 * i2 + 1] - v0;
+}
+
+/* dp/du and dp/dv of a triangle from its edges e1, e2 (second and third vertex minus the first)
+ * and their uv differences (spc_mesh_tri_duv): the inverse of the uv Jacobian. False (outputs
+ * untouched) where |det| <= min_det. */
+static inline bool spc_uv_tangents(spc_vec3 e1, spc_vec3 e2, const double duv[4], double min_det, spc_vec3 *dpdu,
+                                   spc_vec3 *dpdv)
+{
+    double det = duv[0] * duv[3] - duv[1] * duv[2];
+    if (!(fabs(det) > min_det))
+        return false;
+    *dpdu = spc_scale(spc_sub(spc_scale(e1, duv[3]), spc_scale(e2, duv[1])), 1.0 / det);
+    *dpdv = spc_scale(spc_sub(spc_scale(e2, duv[0]), spc_scale(e1, duv[2])), 1.0 / det);
+    return true;
 }
 
 #endif

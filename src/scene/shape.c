@@ -611,15 +611,12 @@ bool spc_shape_texture_frame(const spc_hit *h, spc_vec2 duv[2], spc_vec3 *T, spc
         dT[0] = dT[1] = spc_v3(0, 0, 0);
         if (!m->uv)
             return true;
-        uint32_t i0 = m->idx[3 * h->prim], i1 = m->idx[3 * h->prim + 1], i2 = m->idx[3 * h->prim + 2];
-        double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
-        double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
-        double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
-        duv[0] = spc_v2(du1, dv1);
-        duv[1] = spc_v2(du2, dv2);
-        double det = du1 * dv2 - dv1 * du2;
-        if (fabs(det) > 1e-20) /* as fill_mesh */
-            *T = spc_scale(spc_sub(spc_scale(h->dpdu, dv2), spc_scale(h->dpdv, dv1)), 1.0 / det);
+        double d[4];
+        spc_mesh_tri_duv(m, (size_t)h->prim, d);
+        duv[0] = spc_v2(d[0], d[1]);
+        duv[1] = spc_v2(d[2], d[3]);
+        spc_vec3 tv;
+        spc_uv_tangents(h->dpdu, h->dpdv, d, 1e-20, T, &tv); /* as fill_mesh */
         return true;
     }
     case SPC_SHAPE_SPHERE: {
