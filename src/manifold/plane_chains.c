@@ -23,6 +23,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "bsdf/bsdf.h"
 #include "manifold/specular_nee.h"
@@ -32,6 +35,24 @@
 
 static inline double dmin2(double a, double b) { return a < b ? a : b; }
 static inline double dmax2(double a, double b) { return a > b ? a : b; }
+
+/* Two lanes of doubles (x's and y's terms side by side in may_hold): GCC/Clang vector extensions,
+ * SSE2's square root where there is one. Every operation is IEEE's, lane by lane, so the culling
+ * is the scalar computation's, bit for bit. */
+typedef double v2d __attribute__((vector_size(16)));
+typedef long long v2m __attribute__((vector_size(16)));
+
+static inline v2d v2_sel(v2m m, v2d a, v2d b) { return (v2d)(((v2m)a & m) | ((v2m)b & ~m)); }
+static inline v2d v2_min(v2d a, v2d b) { return v2_sel((v2m)(a < b), a, b); }
+static inline v2d v2_max(v2d a, v2d b) { return v2_sel((v2m)(a > b), a, b); }
+static inline v2d v2_sqrt(v2d a)
+{
+#if defined(__SSE2__)
+    return (v2d)_mm_sqrt_pd((__m128d)a);
+#else
+    return (v2d){sqrt(a[0]), sqrt(a[1])};
+#endif
+}
 
 /* Levels of pieces of a surviving cell (1: the cell, 2: its quarters, 3: sixteenths); Newton's
  * method starts from each surviving piece of the last level. Over 240 configurations of the dense
@@ -426,6 +447,7 @@ typedef struct problem {
     bool turned;
     double X[2][3]; /* x and y, local */
     double eta[2];  /* the index on x's side and on y's (1, 1 for a reflection) */
+    v2d XS, XT, XN, XN2, ETA; /* the same in may_hold's lanes (x, y), XN2 = XN^2 */
     double roots[SPC_PLANE_MAX_ROOTS][2];
     bool root_turned[SPC_PLANE_MAX_ROOTS];
     int nroots;
@@ -456,37 +478,6 @@ static void corners(const problem *pb, int64_t ci, int64_t cj, double c[4][3])
             c[q][0] = -c[q][0];
             c[q][1] = -c[q][1];
         }
-}
-
-/* The box's terms for one of x, y: the ranges of d = X - P over the box (P on it), squared. */
-typedef struct dbox {
-    double s0, s1, t0, t1, z2;
-    double smin2, smax2, tmin2, tmax2;
-} dbox;
-
-static void dbox_make(const double X[3], const double pl[2], const double ph[2], dbox *d)
-{
-    d->s0 = X[0] - ph[0];
-    d->s1 = X[0] - pl[0];
-    d->t0 = X[1] - ph[1];
-    d->t1 = X[1] - pl[1];
-    d->z2 = X[2] * X[2];
-    double a = d->s0 * d->s0, b = d->s1 * d->s1, c = d->t0 * d->t0, e = d->t1 * d->t1;
-    d->smin2 = (d->s0 <= 0.0 && d->s1 >= 0.0) ? 0.0 : dmin2(a, b);
-    d->smax2 = dmax2(a, b);
-    d->tmin2 = (d->t0 <= 0.0 && d->t1 >= 0.0) ? 0.0 : dmin2(c, e);
-    d->tmax2 = dmax2(c, e);
-}
-
-/* The range of u / |d| with u in [u0, u1] (one tangential component of d) and the other's square
- * between o_min2 and o_max2: u / |d| grows with u, and for u of one sign shrinks in magnitude as
- * the other components grow. */
-static inline void unit_range(double u0, double u1, double omin2, double omax2, double z2, double *lo, double *hi)
-{
-    double rh = u1 >= 0.0 ? omin2 : omax2, rl = u0 >= 0.0 ? omax2 : omin2;
-    double dh = sqrt(u1 * u1 + rh + z2), dl = sqrt(u0 * u0 + rl + z2);
-    *hi = dh > 0.0 ? u1 / dh : 1.0;
-    *lo = dl > 0.0 ? u0 / dl : -1.0;
 }
 
 /* The local box of the plane points of the (s, t) box. */
@@ -525,49 +516,55 @@ static bool component_may_hold(double hkl, double hkh, double hnl, double hnh, c
     return !(al - bh > SPC_PLANE_CULL_EPS || ah - bl < -SPC_PLANE_CULL_EPS);
 }
 
+/* The range of u / |d| with u in [u0, u1] (one tangential component of d = X - P) and the other's
+ * square between o_min2 and o_max2, per lane: u / |d| grows with u, and for u of one sign shrinks in
+ * magnitude as the other components grow. */
+static inline void unit_range(v2d u0, v2d u1, v2d omin2, v2d omax2, v2d z2, v2d *lo, v2d *hi)
+{
+    const v2d zero = {0.0, 0.0}, one = {1.0, 1.0};
+    v2d rh = v2_sel(u1 >= zero, omin2, omax2), rl = v2_sel(u0 >= zero, omax2, omin2);
+    v2d dh = v2_sqrt(u1 * u1 + rh + z2), dl = v2_sqrt(u0 * u0 + rl + z2);
+    v2m hok = (v2m)(dh > zero), lok = (v2m)(dl > zero);
+    *hi = v2_sel(hok, u1 / v2_sel(hok, dh, one), one);
+    *lo = v2_sel(lok, u0 / v2_sel(lok, dl, one), -one);
+}
+
 /* Can the (s, t) box, whose normals lie within b, hold a root? Each component of h = sum_e eta_e
- * w_e is bounded by the sum of the exact ranges of w_e's component (w_e = d_e / |d_e|); the normal
- * component first, then S (most boxes fail there), then T. */
+ * w_e is bounded by the sum of the exact ranges of w_e's component (w_e = d_e / |d_e|, d_e = X_e - P
+ * for P on the box; x and y in the two lanes); the normal component first, then S (most boxes fail
+ * there), then T. */
 static bool may_hold(const problem *pb, double s0, double s1, double t0, double t1, const bnd *b)
 {
+    const v2d zero = {0.0, 0.0};
     double pl[2], ph[2];
     p_box(pb->pm, s0, s1, t0, t1, pl, ph);
-    dbox d[2];
-    double nl = 0.0, nh = 0.0;
-    for (int e = 0; e < 2; ++e) {
-        dbox_make(pb->X[e], pl, ph, &d[e]);
-        /* d_N / |d|, d_N = z fixed: extreme at |d|'s least and most */
-        double z = pb->X[e][2];
-        double a = z / sqrt(d[e].smin2 + d[e].tmin2 + d[e].z2), c = z / sqrt(d[e].smax2 + d[e].tmax2 + d[e].z2);
-        nl += pb->eta[e] * dmin2(a, c);
-        nh += pb->eta[e] * dmax2(a, c);
-    }
+    /* d's tangential ranges [ds0, ds1] x [dt0, dt1] and their squares' */
+    v2d ds0 = pb->XS - (v2d){ph[0], ph[0]}, ds1 = pb->XS - (v2d){pl[0], pl[0]};
+    v2d dt0 = pb->XT - (v2d){ph[1], ph[1]}, dt1 = pb->XT - (v2d){pl[1], pl[1]};
+    v2d a0 = ds0 * ds0, a1 = ds1 * ds1, c0 = dt0 * dt0, c1 = dt1 * dt1;
+    v2d smin2 = v2_sel((v2m)(ds0 <= zero) & (v2m)(ds1 >= zero), zero, v2_min(a0, a1)), smax2 = v2_max(a0, a1);
+    v2d tmin2 = v2_sel((v2m)(dt0 <= zero) & (v2m)(dt1 >= zero), zero, v2_min(c0, c1)), tmax2 = v2_max(c0, c1);
+    /* d_N / |d|, d_N = z fixed: extreme at |d|'s least and most */
+    v2d na = pb->XN / v2_sqrt(smin2 + tmin2 + pb->XN2), nc = pb->XN / v2_sqrt(smax2 + tmax2 + pb->XN2);
+    v2d nlo = pb->ETA * v2_min(na, nc), nhi = pb->ETA * v2_max(na, nc);
+    double nl = nlo[0] + nlo[1], nh = nhi[0] + nhi[1];
+    v2d wl[2], wh[2];
     for (int k = 0; k < 2; ++k) {
-        double kl = 0.0, kh = 0.0;
-        for (int e = 0; e < 2; ++e) {
-            double l, h;
-            if (k == 0)
-                unit_range(d[e].s0, d[e].s1, d[e].tmin2, d[e].tmax2, d[e].z2, &l, &h);
-            else
-                unit_range(d[e].t0, d[e].t1, d[e].smin2, d[e].smax2, d[e].z2, &l, &h);
-            kl += pb->eta[e] * l;
-            kh += pb->eta[e] * h;
-        }
-        if (!component_may_hold(kl, kh, nl, nh, b, k))
+        if (k == 0)
+            unit_range(ds0, ds1, tmin2, tmax2, pb->XN2, &wl[0], &wh[0]);
+        else
+            unit_range(dt0, dt1, smin2, smax2, pb->XN2, &wl[1], &wh[1]);
+        v2d kl = pb->ETA * wl[k], kh = pb->ETA * wh[k];
+        if (!component_may_hold(kl[0] + kl[1], kh[0] + kh[1], nl, nh, b, k))
             return false;
     }
     if (pb->turned && b->slopes) {
         /* a turn needs w_x . m < 0 for the map's own normal m (slopes -sigma of the turned field's):
-         * the least of w_N + w_S m_S / m_N + w_T m_T / m_N over the box must be negative */
-        const dbox *dx = &d[0];
-        double z = pb->X[0][2], wl[3], wh[3];
-        unit_range(dx->s0, dx->s1, dx->tmin2, dx->tmax2, dx->z2, &wl[0], &wh[0]);
-        unit_range(dx->t0, dx->t1, dx->smin2, dx->smax2, dx->z2, &wl[1], &wh[1]);
-        wl[2] = z / sqrt(dx->smax2 + dx->tmax2 + dx->z2);
-        double least = wl[2];
+         * the least of w_N + w_S m_S / m_N + w_T m_T / m_N over the box must be negative (lane x) */
+        double least = nc[0];
         for (int k = 0; k < 2; ++k) {
             double lo, hi;
-            imul(wl[k], wh[k], -b->shi[k], -b->slo[k], &lo, &hi);
+            imul(wl[k][0], wh[k][0], -b->shi[k], -b->slo[k], &lo, &hi);
             least += lo;
         }
         if (least > SPC_PLANE_CULL_EPS)
@@ -795,6 +792,11 @@ static bool problem_init(problem *pb, const plane_map *pm, spc_vec3 x, spc_vec3 
         pb->eta[0] = xl.z > 0.0 ? 1.0 : pm->eta;
         pb->eta[1] = yl.z > 0.0 ? 1.0 : pm->eta;
     }
+    pb->XS = (v2d){xl.x, yl.x};
+    pb->XT = (v2d){xl.y, yl.y};
+    pb->XN = (v2d){xl.z, yl.z};
+    pb->XN2 = pb->XN * pb->XN;
+    pb->ETA = (v2d){pb->eta[0], pb->eta[1]};
     return true;
 }
 
