@@ -1828,10 +1828,12 @@ TEST(camera_snee_lamp_through_lens)
      * 0.16 where the randomized solver with chains of 2 had 0.027 +- 0.001 and plain path tracing at
      * 32768 spp 0.18 +- 0.04) */
     spc_film *ref_random = render_with(sc, "path", "angular:reflect,camera,noexact,chain=6", 2048, 24, &t);
-    const char *settings[2] = {"angular:reflect,camera", "angular:reflect,camera,nomis,noexact"};
-    const spc_film *refs[2] = {ref_random, ref};
+    /* camera=0.25: the camera's query one camera sample in four, counted four times */
+    const char *settings[3] = {"angular:reflect,camera", "angular:reflect,camera,nomis,noexact",
+                               "angular:reflect,camera=0.25"};
+    const spc_film *refs[3] = {ref_random, ref, ref_random};
     double var_without = tu_var_sum(without);
-    for (int si = 0; si < 2 && ref && without && ref_random; ++si) {
+    for (int si = 0; si < 3 && ref && without && ref_random; ++si) {
         spc_film *img = render_with(sc, "path", settings[si], 1024, 23, &t);
         CHECK(img != NULL);
         if (!img)
@@ -1867,13 +1869,15 @@ TEST(camera_snee_lamp_through_lens)
      * window of a quarter of the film (cam_scale 4) */
     spc_camera_state cs;
     CHECK(spc_camera_prepare(&cs, &sc->camera, 24, 24));
-    for (int sph = 0; sph < 2; ++sph) {
+    for (int sph = 0; sph < 3; ++sph) {
         spc_snee_params p;
         spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
-        p.exact = sph == 1;
+        p.exact = sph >= 1;
         p.mis = true;
         p.reflect = true;
         p.camera = true;
+        if (sph == 2)
+            p.camera_p = 0.3; /* "camera=0.3": the query's density scaled in both weights */
         p.mis_solve = 0.1;
         const double cam_scale = 4.0;
         double worst = 0.0, wmin = 1.0, wmax = 0.0;
@@ -1909,6 +1913,7 @@ TEST(camera_snee_lamp_through_lens)
                          (p.straight_first && spc_snee_straight_hits_glass(&q) &&
                           spc_angular_solve_one(&ql, NULL, &st, NULL) && spc_snee_same_solution(&st, &c, sc->radius));
             q.psi = exact ? 1.0 : p.mis_solve;
+            q.p_y *= p.camera_p; /* as spc_snee_camera draws it */
             double wn = snee_weight(&q, &h, &c);
             if (wn < 0.0)
                 continue;
@@ -1920,7 +1925,7 @@ TEST(camera_snee_lamp_through_lens)
         }
         printf("    %s: %d camera paths to the light (%d reflected off the ball): worst |w_nee + w_camera - 1| %.2e, "
                "w_camera in [%.3g, %.3g]\n",
-               sph ? "exact" : "noexact", npaths, nreflect, worst, wmin, wmax);
+               sph == 2 ? "exact, camera=0.3" : sph ? "exact" : "noexact", npaths, nreflect, worst, wmin, wmax);
         CHECK(npaths >= 300 && worst < 1e-9 && wmax > wmin);
     }
     spc_scene_destroy(sc);

@@ -206,8 +206,10 @@ bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
         } else if (opt_is(o, kn, "sneep") && val) {
             if (!parse_real(val, vn, 1e-6, 1.0, &p->snee_p))
                 return false;
-        } else if (opt_is(o, n, "camera")) {
+        } else if (opt_is(o, kn, "camera")) {
             p->camera = true;
+            if (val && !parse_real(val, vn, 1e-6, 1.0, &p->camera_p))
+                return false;
         } else if (opt_is(o, kn, "receivers") && val) {
             if (!parse_count(val, vn, &p->receivers))
                 return false;
@@ -282,6 +284,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->long_p = SPC_SNEE_LONG_P;
     p->guide = 0.0;
     p->snee_p = 1.0;
+    p->camera_p = 1.0;
     if (solver == SPC_SNEE_ANGULAR)
         p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
 }
@@ -1073,7 +1076,8 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.cam = cam;
         q.cam_scale = cam_scale;
         q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
-        *a = chain_psi(&q, &ch) * p_y * (guided && cs && cs->n > 0 ? p->snee_p : 1.0);
+        double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : 1.0;
+        *a = chain_psi(&q, &ch) * p_y * ps;
     }
     return true;
 }
@@ -1499,11 +1503,15 @@ int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_cam
     q.cam = cam;
     q.cam_scale = cam_scale;
     q.long_max = long_max < SPC_CHAIN_MAX_VERTICES ? long_max : SPC_CHAIN_MAX_VERTICES;
+    /* params.camera_p: the query made with that probability, counted 1 / camera_p times */
+    if (p->camera_p < 1.0 && !(spc_rng_next(rng) < p->camera_p))
+        return 0;
     const spc_emitter *e;
     spc_vec2 uv;
     double p_y;
     if (!spc_snee_sample_light(sc, p->any_surface, rng, &q, &e, &uv, &p_y))
         return 0;
+    p_y *= p->camera_p;
     q.p_y = p_y;
     if (st)
         st->calls++;

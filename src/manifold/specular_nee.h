@@ -128,6 +128,10 @@ typedef struct spc_snee_params {
      * camera's density of the direction, W H / N pdf_dir, for the BSDF's; spc_snee_camera_bsdf_weight)
      * when mis is set, else those rays are dropped. Always the unbiased estimator. */
     bool camera;
+    /* The probability of that camera query per camera sample ("camera=Q"; 1 by default), counted
+     * 1 / Q times and in the MIS weights (like snee_p): a rippled surface's glints cost a dozen
+     * randomized attempts per query but carry little of the image's variance. */
+    double camera_p;
     /* Every chain that stays on one sphere (a glass or mirror ball: reflected off it, or in, m
      * internal reflections, out; sphere_chains.h) or reflects only off one mirror cylinder (the
      * inside of a cup or ring; cylinder_chains.h) enumerated exactly, each a root of a function of
@@ -251,8 +255,8 @@ typedef struct spc_specular_solver {
  *   mispsi=Q            params.mis_solve, in (0, 1]: the MIS weight's stand-in for the probability
  *                       that a randomized attempt finds a chain
  *   receivers=N         params.receivers: specular NEE at the first N non-delta path vertices only
- *   camera              params.camera: specular NEE from the camera too (glints, lights seen through
- *                       glass)
+ *   camera[=Q]          params.camera: specular NEE from the camera too (glints, lights seen through
+ *                       glass), with probability Q per camera sample (params.camera_p, default 1)
  *   chain=N             params.max_chain: chains of at most N vertices (1 .. SPC_CHAIN_MAX_VERTICES;
  *                       default: the integrator's specular_max_chain)
  *   exact, noexact      params.exact: chains on one sphere, one mirror cylinder or one
