@@ -700,35 +700,86 @@ static void blend(double c[4][3], double a, double b, double out[3])
         out[k] = (1 - a) * (1 - b) * c[0][k] + a * (1 - b) * c[1][k] + (1 - a) * b * c[2][k] + a * b * c[3][k];
 }
 
-/* The part [a0, a1] x [b0, b1] of the cell at (ci, cj): culled, split, or Newton's start. */
-static void solve_piece(problem *pb, double ci, double cj, double c[4][3], double a0, double a1, double b0,
-                        double b1, double ca0, double ca1, double cb0, double cb1, int depth)
+/* Pieces per side of a cell at the last level, and the grid of their corners. */
+#define SPC_PLANE_PIECES (1 << (SPC_PLANE_SPLIT - 1))
+#define SPC_PLANE_GRID (SPC_PLANE_PIECES + 1)
+
+/* A cell's corner vectors blended at the pieces' corners, once per cell (a piece's bounds are its
+ * four corners'): the coordinates in the cell, the blended m, and its slopes where m_N > 0. */
+typedef struct cell_grid {
+    double a[SPC_PLANE_GRID], b[SPC_PLANE_GRID];
+    double m[SPC_PLANE_GRID][SPC_PLANE_GRID][3];
+    double r[SPC_PLANE_GRID][SPC_PLANE_GRID][2];
+    bool pos[SPC_PLANE_GRID][SPC_PLANE_GRID];
+} cell_grid;
+
+/* The midpoints of [v[lo], v[hi]] as the recursive halving makes them. */
+static void grid_mid(double *v, int lo, int hi)
 {
-    double mc[4][3];
-    blend(c, a0, b0, mc[0]);
-    blend(c, a1, b0, mc[1]);
-    blend(c, a0, b1, mc[2]);
-    blend(c, a1, b1, mc[3]);
-    bnd b;
-    bnd_of(mc, &b);
-    /* the whole cell (depth 1) passed as the pyramid's node already */
-    if (depth > 1 && !may_hold(pb, ci + a0, ci + a1, cj + b0, cj + b1, &b))
+    if (hi - lo < 2)
         return;
+    int mid = (lo + hi) / 2;
+    v[mid] = 0.5 * (v[lo] + v[hi]);
+    grid_mid(v, lo, mid);
+    grid_mid(v, mid, hi);
+}
+
+/* The bounds of the piece with grid corners (i0, j0) .. (i1, j1). */
+static void piece_bnd(const cell_grid *g, int i0, int i1, int j0, int j1, bnd *b)
+{
+    const int ii[4] = {i0, i1, i0, i1}, jj[4] = {j0, j0, j1, j1};
+    b->slopes = true;
+    for (int k = 0; k < 3; ++k) {
+        b->lo[k] = INFINITY;
+        b->hi[k] = -INFINITY;
+    }
+    b->slo[0] = b->slo[1] = INFINITY;
+    b->shi[0] = b->shi[1] = -INFINITY;
+    for (int c = 0; c < 4; ++c) {
+        const double *m = g->m[ii[c]][jj[c]];
+        for (int k = 0; k < 3; ++k) {
+            b->lo[k] = dmin2(b->lo[k], m[k]);
+            b->hi[k] = dmax2(b->hi[k], m[k]);
+        }
+        if (!g->pos[ii[c]][jj[c]]) {
+            b->slopes = false;
+            continue;
+        }
+        for (int k = 0; k < 2; ++k) {
+            b->slo[k] = dmin2(b->slo[k], g->r[ii[c]][jj[c]][k]);
+            b->shi[k] = dmax2(b->shi[k], g->r[ii[c]][jj[c]][k]);
+        }
+    }
+}
+
+/* The piece with grid corners (i0, j0) .. (i1, j1) of the cell at (ci, cj): culled, split, or
+ * Newton's start. The whole cell (depth 1) passed as the pyramid's node already. */
+static void solve_piece(problem *pb, double ci, double cj, double c[4][3], const cell_grid *g, int i0, int i1,
+                        int j0, int j1, int depth)
+{
+    if (depth > 1) {
+        bnd b;
+        piece_bnd(g, i0, i1, j0, j1, &b);
+        if (!may_hold(pb, ci + g->a[i0], ci + g->a[i1], cj + g->b[j0], cj + g->b[j1], &b))
+            return;
+    }
     if (depth < SPC_PLANE_SPLIT) {
-        double am = 0.5 * (a0 + a1), bm = 0.5 * (b0 + b1);
-        solve_piece(pb, ci, cj, c, a0, am, b0, bm, ca0, ca1, cb0, cb1, depth + 1);
-        solve_piece(pb, ci, cj, c, am, a1, b0, bm, ca0, ca1, cb0, cb1, depth + 1);
-        solve_piece(pb, ci, cj, c, a0, am, bm, b1, ca0, ca1, cb0, cb1, depth + 1);
-        solve_piece(pb, ci, cj, c, am, a1, bm, b1, ca0, ca1, cb0, cb1, depth + 1);
+        int im = (i0 + i1) / 2, jm = (j0 + j1) / 2;
+        solve_piece(pb, ci, cj, c, g, i0, im, j0, jm, depth + 1);
+        solve_piece(pb, ci, cj, c, g, im, i1, j0, jm, depth + 1);
+        solve_piece(pb, ci, cj, c, g, i0, im, jm, j1, depth + 1);
+        solve_piece(pb, ci, cj, c, g, im, i1, jm, j1, depth + 1);
         return;
     }
+    double a0 = g->a[i0], a1 = g->a[i1], b0 = g->b[j0], b1 = g->b[j1];
     /* a piece that holds a root found already starts no other search */
     for (int i = 0; i < pb->nroots; ++i) {
         double ra = pb->roots[i][0] - ci, rb = pb->roots[i][1] - cj;
         if (ra >= a0 && ra <= a1 && rb >= b0 && rb <= b1)
             return;
     }
-    newton_cell(pb, ci, cj, c, 0.5 * (a0 + a1), 0.5 * (b0 + b1), ca0, ca1, cb0, cb1);
+    const int n = SPC_PLANE_GRID - 1;
+    newton_cell(pb, ci, cj, c, 0.5 * (a0 + a1), 0.5 * (b0 + b1), g->a[0], g->a[n], g->b[0], g->b[n]);
 }
 
 static void solve_cell(problem *pb, int i, int j)
@@ -741,7 +792,25 @@ static void solve_cell(problem *pb, int i, int j)
     double b0 = dmax2(0.0, pm->tmin - (double)cj), b1 = dmin2(1.0, pm->tmax - (double)cj);
     if (!(a1 > a0 && b1 > b0))
         return;
-    solve_piece(pb, (double)ci, (double)cj, c, a0, a1, b0, b1, a0, a1, b0, b1, 1);
+    const int n = SPC_PLANE_GRID - 1;
+    cell_grid g;
+    g.a[0] = a0;
+    g.a[n] = a1;
+    g.b[0] = b0;
+    g.b[n] = b1;
+    grid_mid(g.a, 0, n);
+    grid_mid(g.b, 0, n);
+    for (int u = 0; u <= n; ++u)
+        for (int v = 0; v <= n; ++v) {
+            double *m = g.m[u][v];
+            blend(c, g.a[u], g.b[v], m);
+            g.pos[u][v] = m[2] > 0.0;
+            if (g.pos[u][v]) {
+                g.r[u][v][0] = m[0] / m[2];
+                g.r[u][v][1] = m[1] / m[2];
+            }
+        }
+    solve_piece(pb, (double)ci, (double)cj, c, &g, 0, n, 0, n, 1);
 }
 
 static void descend(problem *pb, int l, int i, int j)
@@ -749,7 +818,7 @@ static void descend(problem *pb, int l, int i, int j)
     const plane_map *pm = pb->pm;
     if (i >= pm->nu[l] || j >= pm->nv[l])
         return;
-    double w = ldexp(1.0, l);
+    double w = (double)((int64_t)1 << l);
     double s0 = dmax2(pm->smin, pm->i0 + i * w), s1 = dmin2(pm->smax, pm->i0 + (i + 1) * w);
     double t0 = dmax2(pm->tmin, pm->j0 + j * w), t1 = dmin2(pm->tmax, pm->j0 + (j + 1) * w);
     if (!(s1 > s0 && t1 > t0))
