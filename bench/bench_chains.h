@@ -17,6 +17,8 @@
 #include "manifold/specular_nee.h"
 #include "render_util.h" /* tu_glass, tu_mirror (tests/) */
 #include "scene/scene.h"
+#include "scene/sdf.h"
+#include "scene/shape.h"
 
 /* CPU time of this thread: the machine is shared, and wall time would count other processes. */
 static double now(void)
@@ -77,6 +79,32 @@ static void mesh_ellipsoid(spc_scene *sc, spc_vec3 c, spc_vec3 r, int nu, int nv
     s->bsdf = b;
 }
 
+/* An SDF shape: a torus (major 1, minor 0.4), a sphere (radius 0.8) or a rounded box (half sizes
+ * 0.6, 0.5, 0.7, rounding 0.15), placed by M. */
+static void sdf_shape(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, const spc_bsdf *b)
+{
+    spc_sdf *f = spc_sdf_create();
+    spc_sdf_desc d;
+    spc_sdf_desc_init(&d, type);
+    if (type == SPC_SDF_TORUS) {
+        d.major = 1.0;
+        d.minor = 0.4;
+    } else if (type == SPC_SDF_ROUNDBOX) {
+        d.half_size = spc_v3(0.6, 0.5, 0.7);
+        d.radius = 0.15;
+    } else {
+        d.radius = 0.8;
+    }
+    spc_error err;
+    int root = spc_sdf_add(f, &d, NULL, 0, 0, &err);
+    spc_shape *s = spc_scene_new_shape(sc);
+    if (root < 0 || !spc_shape_init_sdf(s, f, root, M, NULL, 0, 0, &err)) {
+        fprintf(stderr, "sdf: %s\n", err.msg);
+        exit(3);
+    }
+    s->bsdf = b;
+}
+
 static spc_scene *make_scene(int which)
 {
     spc_scene *sc = spc_scene_create();
@@ -93,7 +121,19 @@ static spc_scene *make_scene(int which)
         mesh_ellipsoid(sc, spc_v3(2.6, 0.5, 0.3), spc_v3(0.8, 0.6, 0.9), 48, 24, tu_mirror(sc));
         mesh_ellipsoid(sc, spc_v3(-1.5, 2.2, -0.4), spc_v3(0.7, 0.9, 0.5), 48, 24, tu_glass(sc, 1.33));
         break;
-    default: {
+    case 3: {
+        /* signed distance fields: a tilted glass torus, a mirror sphere, a glass rounded box */
+        spc_mat4 R = spc_mat4_rotate(spc_v3(1, 0, 0), 35), T = spc_mat4_translate(spc_v3(0, 0, 0));
+        spc_mat4 M = spc_mat4_mul(&T, &R);
+        sdf_shape(sc, SPC_SDF_TORUS, &M, tu_glass(sc, 1.5));
+        M = spc_mat4_translate(spc_v3(2.6, 0.5, 0.3));
+        sdf_shape(sc, SPC_SDF_SPHERE, &M, tu_mirror(sc));
+        spc_mat4 R2 = spc_mat4_rotate(spc_v3(0, 0, 1), 25), T2 = spc_mat4_translate(spc_v3(-1.6, 2.2, -0.4));
+        M = spc_mat4_mul(&T2, &R2);
+        sdf_shape(sc, SPC_SDF_ROUNDBOX, &M, tu_glass(sc, 1.33));
+        break;
+    }
+    case 2: {
         sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
         mesh_ellipsoid(sc, spc_v3(2.6, 0.5, 0.3), spc_v3(0.8, 0.8, 0.8), 48, 24, tu_glass(sc, 1.5));
         sphere(sc, spc_v3(0.4, -2.4, 0.8), 0.9, tu_mirror(sc));

@@ -1,13 +1,14 @@
 /*
  * bench/bench_solvers.c: the specular solvers on random admissible chains (issue 5).
  *
- *   build/bench_solvers [chains per configuration (default 2000)] [rng seed]
+ *   build/bench_solvers [chains per configuration (default 2000)] [rng seed] [scene name]
  *
- * Three scenes built in code (scale 1):
+ * Four scenes built in code (scale 1; all, or the one named):
  *   spheres  analytic glass and mirror spheres;
  *   mesh     a glass UV sphere and a mirror ellipsoid tessellated with vertex normals (smooth
  *            shading through interpolated normals), and a glass mesh ellipsoid;
- *   mixed    analytic spheres, a mirror disk, a glass mesh sphere and a glass cylinder.
+ *   mixed    analytic spheres, a mirror disk, a glass mesh sphere and a glass cylinder;
+ *   sdf      signed distance fields: a tilted glass torus, a mirror sphere, a glass rounded box.
  * An admissible chain of k = 1, 2, 3 interfaces is made by tracing from a random light point y
  * toward a random point of a random specular shape, through exactly k chain vertices (reflection at
  * mirrors, refraction through glass); x is a random point on the final segment before anything it
@@ -48,7 +49,8 @@ int main(int argc, char **argv)
     int nchains = argc > 1 ? atoi(argv[1]) : 2000;
     uint64_t seed = argc > 2 ? strtoull(argv[2], NULL, 10) : 1;
     spc_rng_seed(&rng, seed, 5);
-    const char *scene_names[3] = {"spheres", "mesh", "mixed"};
+    const char *scene_names[4] = {"spheres", "mesh", "mixed", "sdf"};
+    const char *only = argc > 3 ? argv[3] : NULL;
     const cfg cfgs[] = {
         {"GN, shape", SPC_ANGULAR_GAUSS_NEWTON, SPC_ANGULAR_LOSS_PLANE, 0, 0},
         {"LM, shape", SPC_ANGULAR_LEVENBERG_MARQUARDT, SPC_ANGULAR_LOSS_PLANE, 0, 0},
@@ -62,7 +64,9 @@ int main(int argc, char **argv)
     printf("| scene | k | solver, seed | seed in sequence | success (all seeds) | success (in sequence) | "
            "generating solution (in sequence) | iterations (successes) | iterations (all) | us / solve |\n");
     printf("|---|---|---|---|---|---|---|---|---|---|\n");
-    for (int si = 0; si < 3; ++si) {
+    for (int si = 0; si < 4; ++si) {
+        if (only && strcmp(only, scene_names[si]) != 0)
+            continue;
         spc_scene *sc = make_scene(si);
         for (int k = 1; k <= 3; ++k) {
             /* the chains, made once per (scene, k) and shared by the configurations */

@@ -46,7 +46,9 @@ def small_light(r, r_small, rgb):
     return {"light_radius": str(r_small), "light_radiance": ", ".join("%.6g" % (c * s) for c in rgb)}
 
 
-# ":camera": specular NEE from the camera too (glints, the light seen through glass or in a mirror).
+# ":camera": specular NEE from the camera too (glints, the light seen through glass or in a mirror);
+# ":camera=0.25" in a quarter of the camera samples (the pool's glints: a dozen randomized attempts
+# per query for 1% of the variance).
 # ":noexact": the glass ball's, the mirror ring's and the normal-mapped water's chains left to the
 # randomized solver instead of enumerated exactly (spc_snee_params.exact, the default). ":nolong": without the glass ball's longer
 # chains (internal reflections; spc_snee_params.long_p).
@@ -77,7 +79,8 @@ VARIANTS = [
     ("sdf_torus", "caustic_sdf_torus", {}, ["none", "angular", "angular:camera", "newton"], "angular:camera",
      "bdpt+none+angular",
      "glass SDF torus, sphere light r 0.08 (2 refractions)"),
-    ("pool_normalmap", "caustic_pool", {}, ["none", "angular", "angular:camera", "newton"], "angular:camera",
+    ("pool_normalmap", "caustic_pool", {}, ["none", "angular", "angular:camera", "angular:camera=0.25", "newton"],
+     "angular:camera",
      "bdpt+none+angular",
      "water plane with a normal map over a tiled pool, sphere light r 0.15"),
     ("newton_pool", "newton_pool", {}, ["none", "angular", "angular:guide,sneep=0.1", "newton", "conic"],
