@@ -402,11 +402,10 @@ static double prim_dist(const node *n, spc_vec3 p)
     return INFINITY;
 }
 
-static double dist(const spc_sdf *s, int i, spc_vec3 p)
+/* Node i's field at p given in its own frame (its transform already applied; not its scale). */
+static double dist_local(const spc_sdf *s, int i, spc_vec3 p)
 {
     const node *n = &s->nodes[i];
-    if (n->xf)
-        p = spc_mat4_apply_point(&n->to_local, p);
     double f;
     switch (n->type) {
     case SPC_SDF_UNION: f = spc_min(dist(s, n->a, p), dist(s, n->b, p)); break;
@@ -427,7 +426,15 @@ static double dist(const spc_sdf *s, int i, spc_vec3 p)
     case SPC_SDF_PLANE:
     default: f = prim_dist(n, p); break;
     }
-    return n->xf ? n->s * f : f;
+    return f;
+}
+
+static double dist(const spc_sdf *s, int i, spc_vec3 p)
+{
+    const node *n = &s->nodes[i];
+    if (!n->xf)
+        return dist_local(s, i, p);
+    return n->s * dist_local(s, i, spc_mat4_apply_point(&n->to_local, p));
 }
 
 /* ------------------------------------------------------------------------------------------------ */
@@ -817,6 +824,10 @@ static double prim_area(const node *n)
 typedef struct walker {
     const spc_sdf *s;
     spc_vec3 o, d;
+    /* the ray in the root's frame (its transforms are similarities: o + t d maps to lo + t ld) and
+     * the root's scale, so that a step evaluates no transform at the root */
+    spc_vec3 lo, ld;
+    double rs;
     double dl;       /* |d| */
     double t, f;     /* current point and its value (never 0) */
     double t1;       /* end of the clipped segment */
@@ -825,7 +836,10 @@ typedef struct walker {
     bool done;
 } walker;
 
-static inline double ray_f(const walker *w, double t) { return dist(w->s, w->s->root, spc_madd(w->o, w->d, t)); }
+static inline double ray_f(const walker *w, double t)
+{
+    return w->rs * dist_local(w->s, w->s->root, spc_madd(w->lo, w->ld, t));
+}
 
 static bool clip_box(const spc_sdf *s, spc_vec3 o, spc_vec3 d, double *t0, double *t1)
 {
@@ -866,6 +880,10 @@ static bool walker_init(walker *w, const spc_sdf *s, const spc_ray *r)
     double t0 = r->tmin, t1 = r->tmax;
     if (!clip_box(s, r->o, r->d, &t0, &t1))
         return false;
+    const node *rn = &s->nodes[s->root];
+    w->lo = rn->xf ? spc_mat4_apply_point(&rn->to_local, r->o) : r->o;
+    w->ld = rn->xf ? spc_mat4_apply_vector(&rn->to_local, r->d) : r->d;
+    w->rs = rn->xf ? rn->s : 1.0;
     w->min_step = SDF_MIN_STEP * s->size / w->dl;
     w->tol_mag = spc_max_abs(r->o) + spc_max(spc_max_abs(s->lo), spc_max_abs(s->hi));
     w->t1 = t1;
