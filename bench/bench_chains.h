@@ -17,8 +17,6 @@
 #include "manifold/specular_nee.h"
 #include "render_util.h" /* tu_glass, tu_mirror (tests/) */
 #include "scene/scene.h"
-#include "scene/sdf.h"
-#include "scene/shape.h"
 
 /* CPU time of this thread: the machine is shared, and wall time would count other processes. */
 static double now(void)
@@ -83,7 +81,6 @@ static void mesh_ellipsoid(spc_scene *sc, spc_vec3 c, spc_vec3 r, int nu, int nv
  * 0.6, 0.5, 0.7, rounding 0.15), placed by M. */
 static void sdf_shape(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, const spc_bsdf *b)
 {
-    spc_sdf *f = spc_sdf_create();
     spc_sdf_desc d;
     spc_sdf_desc_init(&d, type);
     if (type == SPC_SDF_TORUS) {
@@ -95,14 +92,8 @@ static void sdf_shape(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, const
     } else {
         d.radius = 0.8;
     }
-    spc_error err;
-    int root = spc_sdf_add(f, &d, NULL, 0, 0, &err);
-    spc_shape *s = spc_scene_new_shape(sc);
-    if (root < 0 || !spc_shape_init_sdf(s, f, root, M, NULL, 0, 0, &err)) {
-        fprintf(stderr, "sdf: %s\n", err.msg);
+    if (!tu_sdf(sc, &d, M, b))
         exit(3);
-    }
-    s->bsdf = b;
 }
 
 static spc_scene *make_scene(int which)

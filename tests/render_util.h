@@ -12,6 +12,8 @@
 #include "integrator/integrator.h"
 #include "render/film.h"
 #include "scene/scene.h"
+#include "scene/sdf.h"
+#include "scene/shape.h"
 #include "specula/specula.h"
 
 static inline spc_bsdf *tu_diffuse(spc_scene *sc, double albedo)
@@ -60,6 +62,22 @@ static inline spc_shape *tu_sphere(spc_scene *sc, spc_vec3 c, double r, const sp
     spc_shape *s = spc_scene_new_shape(sc);
     spc_error err;
     spc_shape_init_sphere(s, c, r, NULL, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+/* A signed distance field shape of one primitive d (scene/sdf.h) placed by M, with BSDF b; NULL
+ * (and the reason printed) if d or M is refused. */
+static inline spc_shape *tu_sdf(spc_scene *sc, const spc_sdf_desc *d, const spc_mat4 *M, const spc_bsdf *b)
+{
+    spc_sdf *f = spc_sdf_create();
+    spc_error err;
+    int root = spc_sdf_add(f, d, NULL, 0, 0, &err);
+    spc_shape *s = spc_scene_new_shape(sc);
+    if (root < 0 || !spc_shape_init_sdf(s, f, root, M, NULL, 0, 0, &err)) {
+        printf("  sdf: %s\n", err.msg);
+        return NULL;
+    }
     s->bsdf = b;
     return s;
 }

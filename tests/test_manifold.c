@@ -356,7 +356,6 @@ TEST(chain_derivatives_mixed)
 /* An SDF shape filling spc_hit's derivatives (scene/sdf.h) goes through the same chain code. */
 static spc_shape *add_sdf(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, const spc_bsdf *b)
 {
-    spc_sdf *f = spc_sdf_create();
     spc_sdf_desc d;
     spc_sdf_desc_init(&d, type);
     if (type == SPC_SDF_TORUS) {
@@ -365,13 +364,7 @@ static spc_shape *add_sdf(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, c
     } else {
         d.radius = 0.9;
     }
-    spc_error err;
-    int root = spc_sdf_add(f, &d, NULL, 0, 0, &err);
-    spc_shape *s = spc_scene_new_shape(sc);
-    if (root < 0 || !spc_shape_init_sdf(s, f, root, M, NULL, 0, 0, &err))
-        printf("  sdf: %s\n", err.msg);
-    s->bsdf = b;
-    return s;
+    return tu_sdf(sc, &d, M, b);
 }
 
 TEST(chain_derivatives_sdf)

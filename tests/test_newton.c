@@ -108,7 +108,6 @@ static spc_shape *add_cylinder(spc_scene *sc, spc_vec3 p0, spc_vec3 p1, double r
  * (half sizes 0.8, 0.5, 0.3, corner radius 0.15), placed by M. */
 static spc_shape *add_sdf(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, const spc_bsdf *b)
 {
-    spc_sdf *f = spc_sdf_create();
     spc_sdf_desc d;
     spc_sdf_desc_init(&d, type);
     if (type == SPC_SDF_TORUS) {
@@ -118,13 +117,7 @@ static spc_shape *add_sdf(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, c
         d.half_size = spc_v3(0.8, 0.5, 0.3);
         d.radius = 0.15;
     }
-    spc_error err;
-    int root = spc_sdf_add(f, &d, NULL, 0, 0, &err);
-    spc_shape *s = spc_scene_new_shape(sc);
-    if (root < 0 || !spc_shape_init_sdf(s, f, root, M, NULL, 0, 0, &err))
-        printf("  sdf: %s\n", err.msg);
-    s->bsdf = b;
-    return s;
+    return tu_sdf(sc, &d, M, b);
 }
 
 /* A UV sphere tessellated into nu x nv quads with vertex normals (smooth shading). */

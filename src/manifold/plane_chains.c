@@ -111,7 +111,8 @@ static void texel_m(const spc_texture *t, int64_t i, int64_t j, double m[3])
 }
 
 /* The bounds of the blends of four vectors. */
-static void bnd_of(double m[4][3], bnd *b)
+/* An empty bound, then one normal m added (pos: m_N > 0, its slopes r = m_S / m_N, m_T / m_N). */
+static void bnd_reset(bnd *b)
 {
     b->slopes = true;
     for (int k = 0; k < 3; ++k) {
@@ -120,20 +121,35 @@ static void bnd_of(double m[4][3], bnd *b)
     }
     b->slo[0] = b->slo[1] = INFINITY;
     b->shi[0] = b->shi[1] = -INFINITY;
+}
+
+static void bnd_add(bnd *b, const double m[3], bool pos, const double r[2])
+{
+    for (int k = 0; k < 3; ++k) {
+        b->lo[k] = dmin2(b->lo[k], m[k]);
+        b->hi[k] = dmax2(b->hi[k], m[k]);
+    }
+    if (!pos) {
+        b->slopes = false;
+        return;
+    }
+    for (int k = 0; k < 2; ++k) {
+        b->slo[k] = dmin2(b->slo[k], r[k]);
+        b->shi[k] = dmax2(b->shi[k], r[k]);
+    }
+}
+
+static void bnd_of(double m[4][3], bnd *b)
+{
+    bnd_reset(b);
     for (int c = 0; c < 4; ++c) {
-        for (int k = 0; k < 3; ++k) {
-            b->lo[k] = dmin2(b->lo[k], m[c][k]);
-            b->hi[k] = dmax2(b->hi[k], m[c][k]);
+        bool pos = m[c][2] > 0.0;
+        double r[2] = {0.0, 0.0};
+        if (pos) {
+            r[0] = m[c][0] / m[c][2];
+            r[1] = m[c][1] / m[c][2];
         }
-        if (!(m[c][2] > 0.0)) {
-            b->slopes = false;
-            continue;
-        }
-        for (int k = 0; k < 2; ++k) {
-            double r = m[c][k] / m[c][2];
-            b->slo[k] = dmin2(b->slo[k], r);
-            b->shi[k] = dmax2(b->shi[k], r);
-        }
+        bnd_add(b, m[c], pos, r);
     }
 }
 
@@ -728,28 +744,9 @@ static void grid_mid(double *v, int lo, int hi)
 static void piece_bnd(const cell_grid *g, int i0, int i1, int j0, int j1, bnd *b)
 {
     const int ii[4] = {i0, i1, i0, i1}, jj[4] = {j0, j0, j1, j1};
-    b->slopes = true;
-    for (int k = 0; k < 3; ++k) {
-        b->lo[k] = INFINITY;
-        b->hi[k] = -INFINITY;
-    }
-    b->slo[0] = b->slo[1] = INFINITY;
-    b->shi[0] = b->shi[1] = -INFINITY;
-    for (int c = 0; c < 4; ++c) {
-        const double *m = g->m[ii[c]][jj[c]];
-        for (int k = 0; k < 3; ++k) {
-            b->lo[k] = dmin2(b->lo[k], m[k]);
-            b->hi[k] = dmax2(b->hi[k], m[k]);
-        }
-        if (!g->pos[ii[c]][jj[c]]) {
-            b->slopes = false;
-            continue;
-        }
-        for (int k = 0; k < 2; ++k) {
-            b->slo[k] = dmin2(b->slo[k], g->r[ii[c]][jj[c]][k]);
-            b->shi[k] = dmax2(b->shi[k], g->r[ii[c]][jj[c]][k]);
-        }
-    }
+    bnd_reset(b);
+    for (int c = 0; c < 4; ++c)
+        bnd_add(b, g->m[ii[c]][jj[c]], g->pos[ii[c]][jj[c]], g->r[ii[c]][jj[c]]);
 }
 
 /* The piece with grid corners (i0, j0) .. (i1, j1) of the cell at (ci, cj): culled, split, or
