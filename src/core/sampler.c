@@ -93,4 +93,12 @@ spc_vec2 spc_sampler_2d(spc_sampler *s)
     return spc_v2(x * k, y * k);
 }
 
-double spc_sampler_1d(spc_sampler *s) { return spc_sampler_2d(s).x; }
+/* spc_sampler_2d's x alone (the same value and the same dimension pair used up), without the
+ * second coordinate's table lookups and scramble. */
+double spc_sampler_1d(spc_sampler *s)
+{
+    uint64_t h = spc_hash64(s->pixel_seed + 0x9e3779b97f4a7c15ULL * (uint64_t)(++s->dim));
+    uint32_t idx = nested_uniform_scramble(s->index, (uint32_t)h);
+    uint32_t x = reverse_bits(lk_permute(idx, (uint32_t)(h >> 32)));
+    return x * (1.0 / 4294967296.0);
+}
