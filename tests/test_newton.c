@@ -926,7 +926,8 @@ TEST(parse_specular_nee_options)
     CHECK(spc_snee_parse("angular", 2, &p) && p.receivers == 0);
     CHECK(spc_snee_parse("angular:receivers=1", 2, &p) && p.receivers == 1);
     CHECK(spc_snee_parse("angular", 2, &p) && !p.camera);
-    CHECK(spc_snee_parse("newton:camera,reflect", 2, &p) && p.camera && p.reflect);
+    CHECK(spc_snee_parse("newton:camera,reflect", 2, &p) && p.camera && p.reflect && p.camera_p == 1.0);
+    CHECK(spc_snee_parse("angular:camera=0.25", 2, &p) && p.camera && p.camera_p == 0.25);
     CHECK(spc_snee_parse("angular", 2, &p) && p.exact && p.max_chain == 2);
     CHECK(spc_snee_parse("newton:noexact", 2, &p) && !p.exact);
     CHECK(spc_snee_parse("conic:noexact,exact,chain=4", 2, &p) && p.exact && p.max_chain == 4);
@@ -948,7 +949,8 @@ TEST(parse_specular_nee_options)
                          "angular:chain=0", "angular:chain=9", "angular:chain", "angular:spheres",
                          "angular:long=0", "angular:long=1.5", "angular:long", "angular:long=x", "angular:guide=0",
                          "angular:guide=101", "angular:guide=x", "angular:sneep=0", "angular:sneep=1.5",
-                         "angular:sneep"};
+                         "angular:sneep", "angular:camera=0", "angular:camera=1.5", "angular:camera=x",
+                         "angular:camera="};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i)
         CHECK_MSG(!spc_snee_parse(bad[i], 2, &p), "'%s' accepted", bad[i]);
 }
