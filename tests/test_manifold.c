@@ -2071,6 +2071,52 @@ TEST(render_rejects_unknown_solver)
     spc_scene_destroy(sc);
 }
 
+/* The scene's caster list (spc_chain_casters_of): the casters spc_chain_shape_is_caster names, in
+ * index order, their bounding sphere, built once; among many diffuse shapes only the casters. */
+TEST(caster_list_matches_shapes)
+{
+    spc_scene *sc = spc_scene_create();
+    add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5)); /* 0 */
+    spc_shape *light = add_sphere(sc, spc_v3(0, 0, 3), 0.2, tu_glass(sc, 1.5));                     /* 1 */
+    tu_area(sc, light, 1, 1.0); /* an emitter is no caster, whatever its BSDF */
+    add_sphere(sc, spc_v3(0, 0, 1), 0.5, tu_glass(sc, 1.5));                                         /* 2 */
+    for (int i = 0; i < 200; ++i)                                                                   /* 3..202 */
+        add_sphere(sc, spc_v3(-2.0 + 0.02 * i, 1.5, 0.1), 0.01, tu_diffuse(sc, 0.5));
+    add_sphere(sc, spc_v3(2, 0, 1), 0.4, tu_mirror(sc));                                             /* 203 */
+    spc_shape *recv = add_sphere(sc, spc_v3(-2, 0, 1), 0.3, tu_glass(sc, 1.5));                     /* 204 */
+    recv->caustic_flags = SPC_CAUSTIC_RECEIVER | SPC_CAUSTIC_FLAGS_EXPLICIT;
+    CHECK(finalize(sc));
+    for (int any = 0; any < 2; ++any) {
+        const spc_chain_casters *cs = spc_chain_casters_of(sc, any == 1);
+        CHECK(cs != NULL);
+        if (!cs)
+            continue;
+        int n = 0;
+        bool same = true;
+        spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
+        for (int i = 0; i < sc->nshapes; ++i)
+            if (spc_chain_shape_is_caster(sc->shapes[i], any == 1, NULL)) {
+                same = same && n < cs->n && cs->idx[n] == i;
+                ++n;
+                lo = spc_vmin(lo, sc->shapes[i]->bbox_min);
+                hi = spc_vmax(hi, sc->shapes[i]->bbox_max);
+            }
+        CHECK(same && n == cs->n && n == (any ? 3 : 2));
+        CHECK(cs->idx[0] == 2 && cs->idx[1] == 203 && (!any || cs->idx[2] == 204));
+        CHECK(spc_distance(cs->center, spc_scale(spc_add(lo, hi), 0.5)) < 1e-12 &&
+              fabs(cs->radius - 0.5 * spc_distance(lo, hi)) < 1e-12);
+        CHECK(spc_chain_casters_of(sc, any == 1) == cs); /* built once */
+    }
+    spc_scene_destroy(sc);
+    /* a scene without casters: an empty list */
+    sc = spc_scene_create();
+    add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5));
+    CHECK(finalize(sc));
+    const spc_chain_casters *none = spc_chain_casters_of(sc, false);
+    CHECK(none && none->n == 0);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     spc_warn_set_quiet(1);
@@ -2103,5 +2149,6 @@ int main(void)
     RUN(caustic_image_path_snee_vs_ipt);
     RUN(ring_image_exact_vs_randomized);
     RUN(camera_snee_lamp_through_lens);
+    RUN(caster_list_matches_shapes);
     return spc_test_finish();
 }

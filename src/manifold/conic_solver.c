@@ -1616,10 +1616,11 @@ bool spc_conic_covers(const spc_chain *c) { return c->n == 1 && conic_shape(c->v
 bool spc_conic_covers_all(const spc_snee_query *q)
 {
     const spc_scene *sc = q->scene;
-    for (int i = 0; i < sc->nshapes; ++i) {
-        const spc_shape *s = sc->shapes[i];
-        if (!spc_chain_shape_is_caster(s, q->any_surface, NULL))
-            continue;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
+    if (!cs)
+        return false;
+    for (int j = 0; j < cs->n; ++j) {
+        const spc_shape *s = sc->shapes[cs->idx[j]];
         if (q->max_chain > 1 && (q->any_surface || spc_chain_caster_allowed(s->caustic_flags, 2)))
             return false; /* longer chains: the angular estimate */
         if (!conic_shape(s) && (q->any_surface || spc_chain_caster_allowed(s->caustic_flags, 1)))
@@ -1635,8 +1636,9 @@ int spc_conic_solve_all(const spc_snee_query *q, spc_chain *out, int max_out, in
     spc_conic_solution sol[SPC_CONIC_MAX_MESH_SOLUTIONS];
     spc_conic_stats st;
     memset(&st, 0, sizeof st);
-    for (int i = 0; i < sc->nshapes && n < max_out; ++i) {
-        const spc_shape *s = sc->shapes[i];
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
+    for (int j = 0; cs && j < cs->n && n < max_out; ++j) {
+        const spc_shape *s = sc->shapes[cs->idx[j]];
         int event;
         if (!conic_shape(s) || !spc_chain_shape_is_caster(s, q->any_surface, &event))
             continue;
@@ -1672,7 +1674,7 @@ int spc_conic_solve_all(const spc_snee_query *q, spc_chain *out, int max_out, in
                 spc_chain_sig sig;
                 memset(&sig, 0, sizeof sig);
                 sig.n = 1;
-                sig.shape[0] = i;
+                sig.shape[0] = cs->idx[j];
                 sig.event[0] = (unsigned char)event;
                 spc_chain_opts opts = spc_chain_opts_default(1);
                 opts.fixed = &sig;

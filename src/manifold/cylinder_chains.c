@@ -334,8 +334,9 @@ int spc_cylinder_chains_all(const spc_snee_query *q, spc_chain *out, int max_out
     const spc_scene *sc = q->scene;
     int n = 0;
     int kmax = q->max_chain < SPC_CHAIN_MAX_VERTICES ? q->max_chain : SPC_CHAIN_MAX_VERTICES;
-    for (int i = 0; i < sc->nshapes && n < max_out && kmax >= 1; ++i) {
-        const spc_shape *s = sc->shapes[i];
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
+    for (int j = 0; cs && j < cs->n && n < max_out && kmax >= 1; ++j) {
+        const spc_shape *s = sc->shapes[cs->idx[j]];
         if (!spc_cylinder_chain_shape(s) || !spc_chain_shape_is_caster(s, q->any_surface, NULL))
             continue;
         const spc_mat4 *M = &s->to_world;

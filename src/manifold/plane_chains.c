@@ -932,8 +932,9 @@ int spc_plane_chains_each(const spc_snee_query *q, bool reflect, void (*fn)(void
     int n = 0;
     if (q->max_chain < 1 || q->min_chain > 1)
         return 0;
-    for (int i = 0; i < sc->nshapes; ++i) {
-        const spc_shape *s = sc->shapes[i];
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
+    for (int j = 0; cs && j < cs->n; ++j) {
+        const spc_shape *s = sc->shapes[cs->idx[j]];
         if (!q->any_surface && !spc_chain_caster_allowed(s->caustic_flags, 1))
             continue;
         const plane_map *pm = map_get(s);

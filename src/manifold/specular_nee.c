@@ -342,14 +342,10 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
     case SPC_SNEE_SEED_CONE: {
         /* one pass of reservoir sampling: uniform over caster shapes, no table needed */
         const spc_shape *pick = NULL;
-        int seen = 0;
-        for (int i = 0; i < sc->nshapes; ++i) {
-            if (!spc_chain_shape_is_caster(sc->shapes[i], q->any_surface, NULL))
-                continue;
-            ++seen;
-            if (spc_rng_next(rng) * seen < 1.0)
-                pick = sc->shapes[i];
-        }
+        const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
+        for (int j = 0; cs && j < cs->n; ++j)
+            if (spc_rng_next(rng) * (j + 1) < 1.0)
+                pick = sc->shapes[cs->idx[j]];
         if (!pick)
             return false;
         if (q->seed == SPC_SNEE_SEED_CONE) {
@@ -762,10 +758,11 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
     if (!q->params || !q->params->exact)
         return false;
     int count = 0;
-    for (int i = 0; i < sc->nshapes; ++i) {
-        const spc_shape *s = sc->shapes[i];
-        if (!spc_chain_shape_is_caster(s, q->any_surface, NULL))
-            continue;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
+    if (!cs)
+        return false;
+    for (int j = 0; j < cs->n; ++j) {
+        const spc_shape *s = sc->shapes[cs->idx[j]];
         bool used = q->any_surface;
         for (int k = 1; k <= q->max_chain && !used; ++k)
             used = spc_chain_caster_allowed(s->caustic_flags, k);
@@ -834,20 +831,11 @@ static spc_rgb biased_estimate(const spc_snee_query *q, const spc_specular_solve
 /* A sphere around every caster shape (the union of their bounding boxes); false if none. */
 static bool caster_bound(const spc_scene *sc, bool any_surface, spc_vec3 *c, double *r)
 {
-    spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
-    bool any = false;
-    for (int i = 0; i < sc->nshapes; ++i) {
-        const spc_shape *s = sc->shapes[i];
-        if (!spc_chain_shape_is_caster(s, any_surface, NULL))
-            continue;
-        lo = spc_vmin(lo, s->bbox_min);
-        hi = spc_vmax(hi, s->bbox_max);
-        any = true;
-    }
-    if (!any)
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
+    if (!cs || cs->n == 0)
         return false;
-    *c = spc_scale(spc_add(lo, hi), 0.5);
-    *r = 0.5 * spc_length(spc_sub(hi, lo));
+    *c = cs->center;
+    *r = cs->radius;
     return isfinite(*r);
 }
 

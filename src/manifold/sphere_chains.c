@@ -288,8 +288,9 @@ int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, 
     bool reflect = p && p->reflect;
     spc_vec3 x = q->x->p;
     int n = 0;
-    for (int i = 0; i < sc->nshapes && n < max_out; ++i) {
-        const spc_shape *s = sc->shapes[i];
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
+    for (int j = 0; cs && j < cs->n && n < max_out; ++j) {
+        const spc_shape *s = sc->shapes[cs->idx[j]];
         int event;
         if (!spc_sphere_chain_shape(s) || !spc_chain_shape_is_caster(s, q->any_surface, &event) || !outside(s, x) ||
             !outside(s, q->y))

@@ -61,6 +61,11 @@ void spc_scene_destroy(spc_scene *s)
     if (!s)
         return;
     spc_accel_destroy(s->accel);
+    for (int k = 0; k < 2; ++k)
+        if (s->casters[k]) {
+            void (**destroy)(void *) = s->casters[k];
+            (*destroy)(s->casters[k]);
+        }
     for (int i = 0; i < s->nshapes; ++i) {
         spc_shape_release(s->shapes[i]);
         free(s->shapes[i]);

@@ -105,6 +105,10 @@ typedef struct spc_scene {
     double radius;                /* bounding sphere radius (>= a small positive value) */
     struct spc_accel *accel;
     bool finalized;
+    /* the specular chains' caster lists, one per any_surface setting (manifold/chain.c builds them
+     * on first use; the pointee's first member is its destroy function, which spc_scene_destroy
+     * calls) */
+    void *casters[2];
 
     char path[512]; /* the file it was loaded from, if any */
     /* FNV-1a of the bytes of every file the scene file references (includes, meshes, textures,
