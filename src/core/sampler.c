@@ -78,27 +78,32 @@ void spc_sampler_start(spc_sampler *s, uint32_t px, uint32_t py, uint32_t index,
     spc_sampler_start_key(s, key, index);
 }
 
-spc_vec2 spc_sampler_2d(spc_sampler *s)
+/* The next dimension pair's hash (one 64-bit hash per pair: its halves and a multiplied copy seed
+ * the three permutations: index shuffle, x scramble, y scramble), its shuffled index, and its first
+ * coordinate as 32 bits. */
+static uint32_t pair_x(spc_sampler *s, uint64_t *h, uint32_t *idx)
 {
-    /* one 64-bit hash per dimension pair; its halves and a multiplied copy seed the three
-     * permutations (index shuffle, x scramble, y scramble) */
-    uint64_t h = spc_hash64(s->pixel_seed + 0x9e3779b97f4a7c15ULL * (uint64_t)(++s->dim));
-    uint32_t h3 = (uint32_t)((h * 0xda942042e4dd58b5ULL) >> 32);
-    uint32_t idx = nested_uniform_scramble(s->index, (uint32_t)h);
+    *h = spc_hash64(s->pixel_seed + 0x9e3779b97f4a7c15ULL * (uint64_t)(++s->dim));
+    *idx = nested_uniform_scramble(s->index, (uint32_t)*h);
     /* nested_uniform_scramble(v) = reverse(lk(reverse(v))); the Sobol points are reversed
      * quantities (dim 0 is reverse(idx)), so the inner reversal cancels */
-    uint32_t x = reverse_bits(lk_permute(idx, (uint32_t)(h >> 32)));
+    return reverse_bits(lk_permute(*idx, (uint32_t)(*h >> 32)));
+}
+
+spc_vec2 spc_sampler_2d(spc_sampler *s)
+{
+    uint64_t h;
+    uint32_t idx, x = pair_x(s, &h, &idx);
+    uint32_t h3 = (uint32_t)((h * 0xda942042e4dd58b5ULL) >> 32);
     uint32_t y = reverse_bits(lk_permute(sobol_dim1_reversed(idx), h3));
     const double k = 1.0 / 4294967296.0;
     return spc_v2(x * k, y * k);
 }
 
-/* spc_sampler_2d's x alone (the same value and the same dimension pair used up), without the
- * second coordinate's table lookups and scramble. */
+/* spc_sampler_2d's x alone (the same value, the same dimension pair used up). */
 double spc_sampler_1d(spc_sampler *s)
 {
-    uint64_t h = spc_hash64(s->pixel_seed + 0x9e3779b97f4a7c15ULL * (uint64_t)(++s->dim));
-    uint32_t idx = nested_uniform_scramble(s->index, (uint32_t)h);
-    uint32_t x = reverse_bits(lk_permute(idx, (uint32_t)(h >> 32)));
-    return x * (1.0 / 4294967296.0);
+    uint64_t h;
+    uint32_t idx;
+    return pair_x(s, &h, &idx) * (1.0 / 4294967296.0);
 }

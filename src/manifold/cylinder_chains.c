@@ -337,7 +337,7 @@ int spc_cylinder_chains_all(const spc_snee_query *q, spc_chain *out, int max_out
     const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
     for (int j = 0; cs && j < cs->n && n < max_out && kmax >= 1; ++j) {
         const spc_shape *s = sc->shapes[cs->idx[j]];
-        if (!spc_cylinder_chain_shape(s) || !spc_chain_shape_is_caster(s, q->any_surface, NULL))
+        if (!spc_cylinder_chain_shape(s))
             continue;
         const spc_mat4 *M = &s->to_world;
         spc_vec3 U = spc_mat4_apply_vector(M, spc_v3(1, 0, 0)), V = spc_mat4_apply_vector(M, spc_v3(0, 1, 0));

@@ -938,7 +938,7 @@ int spc_plane_chains_each(const spc_snee_query *q, bool reflect, void (*fn)(void
         if (!q->any_surface && !spc_chain_caster_allowed(s->caustic_flags, 1))
             continue;
         const plane_map *pm = map_get(s);
-        if (!pm || !spc_chain_shape_is_caster(s, q->any_surface, NULL))
+        if (!pm)
             continue;
         problem pb;
         bool refract;

@@ -340,7 +340,8 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
     }
     case SPC_SNEE_SEED_SHAPE:
     case SPC_SNEE_SEED_CONE: {
-        /* one pass of reservoir sampling: uniform over caster shapes, no table needed */
+        /* uniform over the caster shapes, by one pass of reservoir sampling over their list (the
+         * random streams of the seeds as they were when the pass went over every shape) */
         const spc_shape *pick = NULL;
         const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
         for (int j = 0; cs && j < cs->n; ++j)
