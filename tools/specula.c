@@ -848,6 +848,11 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         code = EXIT_NOMEM;
         goto done;
     }
+    /* what the path is first (a directory named OUT is a directory, whatever its extension) */
+    if (!output_ok(out_path) || (png && !output_ok(png)) || (stats_path && !output_ok(stats_path))) {
+        code = EXIT_IO;
+        goto done;
+    }
     if (format == SPC_FORMAT_UNKNOWN) {
         code = usage_error(usage_render, "%s: unknown image format: name the output .exr, .png, .pfm or .hdr",
                            out_path);
@@ -855,10 +860,6 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
     }
     if (format != SPC_FORMAT_EXR && (variance || opt.aovs)) {
         code = usage_error(usage_render, "%s: --variance and --aovs need an .exr output", out_path);
-        goto done;
-    }
-    if (!output_ok(out_path) || (png && !output_ok(png)) || (stats_path && !output_ok(stats_path))) {
-        code = EXIT_IO;
         goto done;
     }
     if (strategy_dir && mkdir(strategy_dir, 0777) != 0 && errno != EEXIST) {
