@@ -773,7 +773,7 @@ bool spc_shape_has_solid_angle_sampling(const spc_shape *s, spc_vec3 ref)
     return spc_length2(spc_sub(ref, s->center)) > s->radius * s->radius * (1.0 + 1e-9);
 }
 
-bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, spc_shape_sample *out)
+bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, bool with_uv, spc_shape_sample *out)
 {
     if (!spc_shape_has_solid_angle_sampling(s, ref))
         return false;
@@ -812,11 +812,14 @@ bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, 
     spc_vec3 n = spc_normalize(spc_sub(p, s->center));
     out->p = spc_madd(s->center, n, R);
     out->n = s->flip_normals ? spc_neg(n) : n;
-    spc_vec3 l = spc_mat4_apply_vector(&s->to_local, n);
-    double phi = atan2(l.y, l.x);
-    if (phi < 0.0)
-        phi += 2.0 * SPC_PI;
-    out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
+    out->uv = spc_v2(0.0, 0.0);
+    if (with_uv) {
+        spc_vec3 l = spc_mat4_apply_vector(&s->to_local, n);
+        double phi = atan2(l.y, l.x);
+        if (phi < 0.0)
+            phi += 2.0 * SPC_PI;
+        out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
+    }
     out->pdf = spc_warp_uniform_cone_pdf(cos_max);
     out->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + R);
     out->prim = 0;
