@@ -108,12 +108,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             }
             break;
         }
-        if (segments == 1) {
-            out->albedo = spc_bsdf_albedo(h.bsdf, &h);
-            out->normal = h.sh.n;
-            out->depth = h.t;
-        }
         spc_vec3 wo = spc_neg(ray.d);
+        if (segments == 1)
+            spc_aov_from_hit(ctx, &h, wo, smp, out);
         /* specular NEE hook: an emitter hit through a chain it covers (see above) */
         bool covered = snee && spc_snee_track_covers(&track, sc, h.emitter);
         if (h.emitter && !(segments == 1 && ctx->hide_emitters)) {
