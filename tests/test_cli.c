@@ -20,6 +20,9 @@
 #include "harness.h"
 #include "specula/specula.h"
 
+/* the exit status of a bad command line (tools/specula.c); failures exit with their spc_status */
+#define EXIT_USAGE 64
+
 static char tmpdir[64];
 static char binary[2048];
 
@@ -183,7 +186,7 @@ static const char *sentinel = "sentinel: not an image\n";
 
 TEST(usage_and_version)
 {
-    CHECK(run(NULL) == 2);
+    CHECK(run(NULL) == EXIT_USAGE);
     CHECK(run("--version", NULL) == 0);
     char *o = read_file("out.txt");
     CHECK(o && strstr(o, SPECULA_VERSION));
@@ -193,12 +196,12 @@ TEST(usage_and_version)
     o = read_file("out.txt");
     CHECK(o && strstr(o, "--spp"));
     free(o);
-    CHECK(run("frobnicate", NULL) == 2);
-    CHECK(run("render", "tiny.xml", "--no-such-option", NULL) == 2);
-    CHECK(run("render", "tiny.xml", "--spp", "many", NULL) == 2);
-    CHECK(run("render", "tiny.xml", "--res", "16by16", NULL) == 2);
-    CHECK(run("render", NULL) == 2);
-    CHECK(run("diff", "only-one.exr", NULL) == 2);
+    CHECK(run("frobnicate", NULL) == EXIT_USAGE);
+    CHECK(run("render", "tiny.xml", "--no-such-option", NULL) == EXIT_USAGE);
+    CHECK(run("render", "tiny.xml", "--spp", "many", NULL) == EXIT_USAGE);
+    CHECK(run("render", "tiny.xml", "--res", "16by16", NULL) == EXIT_USAGE);
+    CHECK(run("render", NULL) == EXIT_USAGE);
+    CHECK(run("diff", "only-one.exr", NULL) == EXIT_USAGE);
     char *e = read_file("err.txt");
     CHECK(e && strncmp(e, "specula: ", 9) == 0);
     free(e);
@@ -208,7 +211,7 @@ TEST(malformed_xml_names_position)
 {
     CHECK(write_file("bad.xml", malformed_scene));
     int rc = run("render", "bad.xml", "--quiet", NULL);
-    CHECK(rc == 3);
+    CHECK_MSG(rc == SPC_ERR_PARSE, "exit %d", rc);
     char *e = read_file("err.txt");
     CHECK_MSG(has_position(e, "bad.xml:3:"), "stderr: %s", e ? e : "(none)");
     CHECK(e && strncmp(e, "specula: ", 9) == 0);
@@ -217,7 +220,7 @@ TEST(malformed_xml_names_position)
     free(e);
     CHECK(!file_exists("bad.exr") && !file_exists("bad.png"));
     /* info reports the same */
-    CHECK(run("info", "bad.xml", NULL) == 3);
+    CHECK(run("info", "bad.xml", NULL) == SPC_ERR_PARSE);
     e = read_file("err.txt");
     CHECK(has_position(e, "bad.xml:3:"));
     free(e);
@@ -226,7 +229,7 @@ TEST(malformed_xml_names_position)
 TEST(unknown_plugin_names_type_and_line)
 {
     CHECK(write_file("plugin.xml", unknown_plugin_scene));
-    CHECK(run("render", "plugin.xml", "--quiet", NULL) == 3);
+    CHECK(run("render", "plugin.xml", "--quiet", NULL) == SPC_ERR_PLUGIN);
     char *e = read_file("err.txt");
     CHECK_MSG(e && strstr(e, "plastik"), "stderr: %s", e ? e : "(none)");
     CHECK_MSG(has_position(e, "plugin.xml:4:"), "stderr: %s", e ? e : "(none)");
@@ -239,27 +242,28 @@ TEST(failed_run_keeps_existing_output)
     CHECK(write_file("tiny.xml", tiny_scene));
     CHECK(write_file("keep.exr", sentinel));
     /* a load failure */
-    CHECK(run("render", "bad.xml", "-o", "keep.exr", "--quiet", NULL) == 3);
+    CHECK(run("render", "bad.xml", "-o", "keep.exr", "--quiet", NULL) == SPC_ERR_PARSE);
     char *c = read_file("keep.exr");
     CHECK(c && !strcmp(c, sentinel));
     free(c);
     CHECK(!file_exists("keep.png"));
     /* an unknown --integrator is refused when the scene is read (it replaces the scene's type) */
     int rc = run("render", "tiny.xml", "-o", "keep.exr", "--integrator", "no-such-integrator", "--quiet", NULL);
-    CHECK_MSG(rc == 3, "exit %d", rc);
+    CHECK_MSG(rc == SPC_ERR_PLUGIN, "exit %d", rc);
     c = read_file("keep.exr");
     CHECK(c && !strcmp(c, sentinel));
     free(c);
     CHECK(!file_exists("keep.png"));
-    /* a render failure: the scene loads, the film is absurdly large */
-    rc = run("render", "tiny.xml", "-o", "keep.exr", "--res", "100000x100000", "--quiet", NULL);
-    CHECK_MSG(rc == 4, "exit %d", rc);
+    /* a render failure: the scene loads, the film is absurdly large (each side within the limit,
+     * 3.6e9 pixels beyond it) */
+    rc = run("render", "tiny.xml", "-o", "keep.exr", "--res", "60000x60000", "--quiet", NULL);
+    CHECK_MSG(rc == SPC_ERR_LIMIT, "exit %d", rc);
     c = read_file("keep.exr");
     CHECK(c && !strcmp(c, sentinel));
     free(c);
     CHECK(!file_exists("keep.png"));
     /* a malformed -D is a usage error, also before anything is written */
-    CHECK(run("render", "tiny.xml", "-o", "keep.exr", "-D", "novalue", NULL) == 2);
+    CHECK(run("render", "tiny.xml", "-o", "keep.exr", "-D", "novalue", NULL) == EXIT_USAGE);
     c = read_file("keep.exr");
     CHECK(c && !strcmp(c, sentinel));
     free(c);
@@ -313,7 +317,8 @@ TEST(tiny_scene_renders_and_diffs)
 
     /* --res changes the size; mismatched sizes are an input error for diff */
     CHECK(run("render", "tiny.xml", "-o", "small.exr", "--spp", "1", "--res", "8x4", "--quiet", NULL) == 0);
-    CHECK(run("diff", "small.exr", "out.exr", NULL) == 3);
+    rc = run("diff", "small.exr", "out.exr", NULL);
+    CHECK_MSG(rc == SPC_ERR_VALUE, "exit %d", rc);
 }
 
 /* The mean squared difference `specula diff A B --json` reports, or -1. */
@@ -362,7 +367,7 @@ TEST(mis_balance_flag)
     /* recorded in the checkpoint: the resumed render uses it, and it cannot be changed there */
     CHECK(run("render", "tiny.xml", "--integrator", "bdpt", "--mis-balance", "--spp", "5", "--seed", "3", "--quiet",
               "-o", "resumed.exr", "--checkpoint", "balance.ckpt", NULL) == 0);
-    CHECK(run("render", "--resume", "balance.ckpt", "--mis-balance", "--quiet", NULL) == 2);
+    CHECK(run("render", "--resume", "balance.ckpt", "--mis-balance", "--quiet", NULL) == EXIT_USAGE);
     rc = run("render", "--resume", "balance.ckpt", "--spp", "8", "--quiet", NULL);
     CHECK_MSG(rc == 0, "exit %d", rc);
     CHECK(diff_mse("resumed.exr", "balance.exr") == 0.0);
@@ -398,11 +403,11 @@ TEST(strategy_images_flag)
     CHECK(m && mb && atof(m + strlen("\"mean_a\": [")) > 0.0 && atof(mb + strlen("\"mean_b\": [")) > 0.0);
     free(o);
     CHECK(run("render", "tiny.xml", "--integrator", "bdpt", "--max-depth", "2", "--strategy", "1,1",
-              "--strategy-images", "strat2", "--quiet", NULL) == 2);
+              "--strategy-images", "strat2", "--quiet", NULL) == EXIT_USAGE);
     CHECK(run("render", "tiny.xml", "--integrator", "bdpt", "--max-depth", "2", "--checkpoint", "s.ckpt",
-              "--strategy-images", "strat2", "--quiet", NULL) == 2);
+              "--strategy-images", "strat2", "--quiet", NULL) == EXIT_USAGE);
     CHECK(run("render", "tiny.xml", "--integrator", "path", "--max-depth", "2", "--spp", "1", "-o", "p.exr",
-              "--strategy-images", "strat2", "--quiet", NULL) == 4);
+              "--strategy-images", "strat2", "--quiet", NULL) == SPC_ERR_VALUE);
     char *e = read_file("err.txt");
     CHECK_MSG(e && strstr(e, "bdpt"), "stderr: %s", e ? e : "(none)");
     free(e);

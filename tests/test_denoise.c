@@ -15,7 +15,7 @@
  *   interrupted; `specula denoise` on the EXR gives the film's denoised image, and again on its own
  *   output (from noisy.*) the same.
  * - The CLI: render --denoise writes the denoised EXR; with the library missing it fails before
- *   rendering (exit 4, nothing written, the message says `pip install pyoidn`).
+ *   rendering (exit 1, SPC_ERR_IO; nothing written, the message says `pip install pyoidn`).
  */
 /* ctest-labels: scene */
 /* ctest-timeout: 600 */
@@ -323,11 +323,11 @@ TEST(cli_render_denoise)
     free(px);
     /* the library missing: refused before rendering, nothing written */
     const char *render2[] = {"render", cornell, "--res", "24x24", "--spp", "4", "--denoise", "-o", out2, NULL};
-    CHECK(run_cli("/nonexistent/libOpenImageDenoise.so.2", render2) == 4);
+    CHECK(run_cli("/nonexistent/libOpenImageDenoise.so.2", render2) == 1);
     CHECK(err_says("pip install pyoidn"));
     CHECK(access(out2, F_OK) != 0);
     const char *den[] = {"denoise", out, "-o", out2, NULL};
-    CHECK(run_cli("/nonexistent/libOpenImageDenoise.so.2", den) == 4);
+    CHECK(run_cli("/nonexistent/libOpenImageDenoise.so.2", den) == 1);
     CHECK(access(out2, F_OK) != 0);
     CHECK(run_cli(NULL, den) == 0);
     CHECK(access(out2, F_OK) == 0);

@@ -719,15 +719,14 @@ TEST(glass_slab_connection_angular)
                     "angular", 2048, 256, "glass slab: angular connection vs phase sampling");
 }
 
-/* A glass icosphere (interpolated normals) by the conic solver, which enumerates every solution,
- * when it is registered. */
+/* A glass icosphere (interpolated normals) by the conic solver, which enumerates every solution. */
 TEST(glass_icosphere_connection_conic)
 {
     int conic;
-    if (!spc_specular_solver_parse("conic", &conic) || !spc_specular_solver_get(conic)) {
-        printf("  conic solver not registered: skipped\n");
+    bool registered = spc_specular_solver_parse("conic", &conic) && spc_specular_solver_get(conic);
+    CHECK_MSG(registered, "the conic solver is not registered");
+    if (!registered)
         return;
-    }
     connection_case("type=\"obj\">\n    <string name=\"filename\" value=\"meshes/icosphere.obj\"/>", "conic", 2048, 256,
                     "glass icosphere: conic connection vs phase sampling");
 }

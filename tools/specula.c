@@ -2,10 +2,14 @@
  * tools/specula.c: the `specula` command: render a Mitsuba scene, compare two images, describe a
  * scene. It uses nothing but the public header specula/specula.h, which proves the API suffices.
  *
- * Exit codes: 0 success, 2 usage, 3 bad input (scene or image), 4 render failure, 5 write failure,
- * 130 interrupted (after writing the image rendered so far). Errors are one line on stderr,
+ * Exit status: 0 success; otherwise the spc_status of the failure (specula.h: 1 I/O, 2 parse,
+ * 3 plugin, 4 value, 5 out of memory, 6 limit, 7 Embree, 8 internal), 64 for a bad command line
+ * (sysexits' EX_USAGE, which no status uses) and 130 for an interrupted render (128 + SIGINT, as
+ * shells report it; the image so far is written). Errors are one line on stderr,
  * "specula: file:line:col: message". Images are written atomically by the library, and never
- * when loading or rendering failed, so an existing image is never replaced by a broken one.
+ * when loading or rendering failed, so an existing image is never replaced by a broken one; only
+ * regular files (or a symbolic link's target) are ever replaced, and outputs are checked before
+ * rendering.
  */
 #include <errno.h>
 #include <limits.h>
@@ -26,12 +30,26 @@
 #include "specula/specula.h"
 
 enum {
-    EXIT_USAGE = 2,       /* bad command line */
-    EXIT_INPUT = 3,       /* the scene or an image could not be loaded */
-    EXIT_RENDER = 4,      /* the renderer failed */
-    EXIT_WRITE = 5,       /* an output could not be written */
+    EXIT_USAGE = 64,       /* bad command line (EX_USAGE) */
+    EXIT_DIFFER = 10,      /* diff: the images differ beyond --max-relmse or --min-pass */
     EXIT_INTERRUPTED = 130 /* SIGINT/SIGTERM: 128 + SIGINT, as shells report it */
 };
+
+/* The exit status of a failure: its status code, so scripts and the API read one table. */
+static int exit_code(spc_status st)
+{
+    if (st == SPC_OK)
+        return 0;
+    return st == SPC_ERR_INTERRUPTED ? EXIT_INTERRUPTED : (int)st;
+}
+
+#define EXIT_NOMEM ((int)SPC_ERR_NOMEM)
+#define EXIT_IO ((int)SPC_ERR_IO)
+
+/* The most --time and --checkpoint-every accept: a year, far beyond any render, far below what
+ * the driver's clock arithmetic could overflow on. */
+#define MAX_SECONDS (366.0 * 24 * 3600)
+#define MAX_FILM_SIDE 65536 /* the renderer's own limit per side (it also caps the pixel count) */
 
 #define PROGRESS_INTERVAL_S 0.1 /* redraw the progress bar at most ten times a second */
 #define PROGRESS_BAR_WIDTH 30
@@ -77,14 +95,20 @@ static const char *const usage_render =
     "usage: specula render SCENE.xml [options]\n"
     "\n"
     "  -o, --output OUT.exr   output image (default: the scene's name with .exr, in the current\n"
-    "                         directory); a PNG preview is written beside it (OUT.png)\n"
+    "                         directory); the extension picks the format: .exr (a PNG preview\n"
+    "                         OUT.png is written beside it), .png (8-bit sRGB, clamped), .pfm,\n"
+    "                         .hdr (Radiance RGBE). Only a regular file is replaced (a symbolic\n"
+    "                         link's target is written through it); a directory, device, FIFO or\n"
+    "                         socket is refused before rendering. If the image cannot be written\n"
+    "                         at the end, it is saved under a name that is printed\n"
     "  --spp N                samples per pixel (default: the scene's)\n"
     "  --time SECONDS         render whole passes until the time is up (--spp then caps)\n"
     "  --threads N            worker threads (default: all cores)\n"
     "  --seed S               random seed (default 0)\n"
     "  --res WxH              film size (default: the scene's)\n"
     "  --integrator NAME      path, ipt, bdpt or volpath (default: the scene's)\n"
-    "  --specular-nee NAME[:OPTS]  none, angular, newton or conic (default: the scene's); OPTS,\n"
+    "  --specular-nee NAME[:OPTS]  none, angular, newton or conic (default: the scene's); path and\n"
+    "                         volpath only (with bdpt or ipt anything but none is refused); OPTS,\n"
     "                         comma-separated: unbiased (default: one solution, 1/p by Bernoulli\n"
     "                         trials) or biased[=M] (M seeds, distinct solutions summed; M 8),\n"
     "                         trials=N (cap; 256 angular, 64 others), seed=cone|shape|light|bsdf\n"
@@ -102,8 +126,15 @@ static const char *const usage_render =
     "                         guide[=M] (guided directions in cones M x the light's image; 1),\n"
     "                         sneep=Q (then the light sample only with probability Q);\n"
     "                         e.g. --specular-nee newton:biased=8\n"
+    ;
+
+/* the options after --specular-nee (one string would pass the 4095 characters C99 promises) */
+static const char *const usage_render_more =
     "  --max-depth N          longest path, Mitsuba's meaning; -1 for no limit\n"
-    "  -D name=value          override a <default name=... value=...> of the scene (repeatable)\n"
+    "  -D name=value          override a <default name=... value=...> of the scene (repeatable);\n"
+    "                         a name the scene does not declare is an error\n"
+    "  --lenient              a property no plugin reads is a warning, not an error (scenes\n"
+    "                         written for other renderers)\n"
     "  --variance             also write the variance of the mean (variance.R/G/B)\n"
     "  --aovs                 also write albedo, normal and depth channels\n"
     "  --denoise              denoise the image (see below)\n"
@@ -119,7 +150,10 @@ static const char *const usage_render =
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"
     "                         seconds, and when the render ends or is interrupted\n"
     "  --checkpoint-every S   seconds between checkpoints (default 60; 0: after every pass)\n"
-    "\n"
+    "\n";
+
+/* the second half of `render --help` (one string would pass the 4095 characters C99 promises) */
+static const char *const usage_render_resume =
     "usage: specula render --resume FILE [-o OUT.exr] [--spp N] [--time S] [--threads N]\n"
     "                      [--stats FILE] [--checkpoint FILE] [--checkpoint-every S] [--quiet]\n"
     "\n"
@@ -131,13 +165,26 @@ static const char *const usage_render =
     "Ctrl-C stops after the passes in flight and writes the image so far (and the checkpoint)\n"
     "(exit 130); a second Ctrl-C quits at once without writing.\n";
 
-static const char *const usage_diff =
-    "usage: specula diff A.exr B.exr [--json]\n"
+/* printed after each command's usage */
+static const char *const usage_exit =
     "\n"
-    "Compares image A against the reference B: per-channel means, MSE, relMSE\n"
+    "exit status: 0 success; otherwise the API's spc_status: 1 I/O error, 2 parse error, 3 unknown\n"
+    "plugin, 4 invalid value, 5 out of memory, 6 beyond a limit, 7 Embree failure, 8 internal\n"
+    "error; 64 bad command line; 130 interrupted (the image so far is written); diff: 10 when the\n"
+    "images differ beyond --max-relmse or --min-pass.\n";
+
+static const char *const usage_diff =
+    "usage: specula diff A.exr B.exr [--json] [--max-relmse X] [--min-pass F]\n"
+    "\n"
+    "Compares image A against the reference B: per-channel means and their ratio A/B, MSE, relMSE\n"
     "(mean of (a-b)^2 / (b^2 + 0.01)) and, when either image has variance channels, the fraction\n"
-    "of pixels passing a z-test at alpha 0.01 (Sidak-corrected for the pixel count).\n"
-    "  --json                 print the result as JSON\n";
+    "of pixels passing a z-test at alpha 0.01 (Sidak-corrected for the pixel count). PNG and JPEG\n"
+    "images are 8-bit sRGB: they are decoded to linear values (clamped to 1 when written) before\n"
+    "the comparison, and a note says so.\n"
+    "  --json                 print the result as JSON\n"
+    "  --max-relmse X         exit 10 when relMSE exceeds X\n"
+    "  --min-pass F           exit 10 when fewer than the fraction F (0..1) of pixels pass the\n"
+    "                         z-test (needs variance channels: render with --variance)\n";
 
 /* printed after usage_render (one string would pass the 4095 characters C guarantees) */
 static const char *const usage_render_denoise =
@@ -160,7 +207,7 @@ static const char *const usage_denoise =
     "  --quiet                no progress or summary\n";
 
 static const char *const usage_info =
-    "usage: specula info SCENE.xml [-D name=value]...\n"
+    "usage: specula info SCENE.xml [-D name=value]... [--lenient]\n"
     "\n"
     "Prints the scene's shapes, triangles, BSDFs, emitters, bounding box, film and integrator,\n"
     "then one line per shape, BSDF and emitter.\n";
@@ -223,7 +270,7 @@ static bool opt_value(int argc, char **argv, int *i, const char *name, const cha
 
 static bool parse_int(const char *s, long lo, long hi, int *out)
 {
-    if (!s || !*s)
+    if (!s || !*s || (*s != '-' && !(*s >= '0' && *s <= '9')))
         return false;
     char *end;
     errno = 0;
@@ -236,7 +283,8 @@ static bool parse_int(const char *s, long lo, long hi, int *out)
 
 static bool parse_u64(const char *s, uint64_t *out)
 {
-    if (!s || !*s || *s == '-')
+    /* strtoull skips white space and accepts a sign, and wraps "-1" to 2^64 - 1: only digits */
+    if (!s || !(*s >= '0' && *s <= '9'))
         return false;
     char *end;
     errno = 0;
@@ -258,6 +306,18 @@ static bool parse_double(const char *s, double *out)
         return false;
     *out = v;
     return true;
+}
+
+/* "AxB" with sep between two integers in lo..hi (as parse_int: no overflow, nothing else). */
+static bool parse_pair(const char *s, char sep, long lo, long hi, int *a, int *b)
+{
+    const char *mid = s ? strchr(s, sep) : NULL;
+    if (!mid || mid == s || mid - s > 31)
+        return false;
+    char first[32];
+    memcpy(first, s, (size_t)(mid - s));
+    first[mid - s] = '\0';
+    return parse_int(first, lo, hi, a) && parse_int(mid + 1, lo, hi, b);
 }
 
 /* "name=value" -> a define whose strings live in the argument (name is copied). */
@@ -326,11 +386,11 @@ static char *default_output(const char *scene, const char *ext)
     return out;
 }
 
-/* OUT.exr -> OUT.png; any other name gets ".png" appended. The caller frees. */
+/* The PNG preview beside OUT.exr: OUT.png. The caller frees. */
 static char *png_path(const char *out)
 {
     size_t len = strlen(out);
-    if (len > 4 && !strcasecmp(out + len - 4, ".exr"))
+    if (len >= 4 && !strcasecmp(out + len - 4, ".exr"))
         len -= 4;
     char *p = malloc(len + 5);
     if (!p)
@@ -340,22 +400,48 @@ static char *png_path(const char *out)
     return p;
 }
 
-/* True if the directory that will hold path exists and is writable (checked before rendering so a
- * long render is not wasted on a typo). */
-static bool output_dir_ok(const char *path)
+/* Checked before rendering, so a long render is not wasted on a typo and nothing but a regular
+ * file is ever replaced: path names a regular file or nothing yet (after symbolic links), in a
+ * writable folder. Prints the reason and returns false otherwise. */
+static bool output_ok(const char *path)
 {
-    const char *slash = strrchr(path, '/');
-    if (!slash)
-        return access(".", W_OK) == 0;
-    size_t len = slash == path ? 1 : (size_t)(slash - path);
-    char *dir = malloc(len + 1);
-    if (!dir)
-        return false;
-    memcpy(dir, path, len);
-    dir[len] = '\0';
-    bool ok = access(dir, W_OK) == 0;
-    free(dir);
-    return ok;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_output_check(path, &err) == SPC_OK)
+        return true;
+    fail_error(&err);
+    return false;
+}
+
+/* Writes the film to out (format by its extension) and, for an EXR, the PNG preview. When the
+ * image itself cannot be written, it is saved as an EXR under a rescue name, in the current folder
+ * or else in $TMPDIR or /tmp, and that name is printed: a finished render is never lost. Returns
+ * the status of the write of out (or of the preview). */
+static spc_status write_outputs(const spc_film *film, const char *out, const char *png, bool variance)
+{
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    spc_status st = spc_film_write(film, out, variance, &err);
+    if (st == SPC_OK) {
+        if (png && (st = spc_film_write_png(film, png, &err)) != SPC_OK)
+            fail_error(&err);
+        return st;
+    }
+    fail_error(&err);
+    const char *tmpdir = getenv("TMPDIR");
+    const char *dirs[] = {".", tmpdir && *tmpdir ? tmpdir : "/tmp", "/tmp"};
+    for (size_t k = 0; k < sizeof dirs / sizeof dirs[0]; ++k) {
+        char rescue[4200];
+        snprintf(rescue, sizeof rescue, "%s/specula-rescue-%ld-%ld.exr", dirs[k], (long)getpid(), (long)time(NULL));
+        spc_error e2;
+        memset(&e2, 0, sizeof e2);
+        if (spc_film_write_exr(film, rescue, variance, &e2) == SPC_OK) {
+            fail("the rendered image is saved as %s instead", rescue);
+            return st;
+        }
+    }
+    fail("the rendered image could not be saved anywhere");
+    return st;
 }
 
 /* Writes every strategy film of `film` into dir (created if missing) as sS_tT_{weighted,unweighted}
@@ -588,8 +674,17 @@ typedef struct stats_info {
     bool interrupted;
 } stats_info;
 
-static bool write_stats(const char *path, const spc_render_stats *st, const stats_info *in, char *why, size_t whylen)
+static bool write_stats(const char *given, const spc_render_stats *st, const stats_info *in, char *why,
+                        size_t whylen)
 {
+    /* like the images: only a regular file is replaced, a symbolic link's target through it */
+    char path[4096];
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_output_resolve(given, path, sizeof path, &err) != SPC_OK) {
+        snprintf(why, whylen, "%s", err.msg);
+        return false;
+    }
     size_t len = strlen(path);
     char *tmp = malloc(len + 32);
     if (!tmp) {
@@ -706,11 +801,11 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
     const char *ckpt_path = NULL;
     arglist recorded = {NULL, 0, false};
     const char *scene_path = NULL, *out_arg = NULL, *stats_path = NULL, *strategy_dir = NULL;
-    bool variance = false, quiet = false, denoise = false;
+    bool variance = false, quiet = false, lenient = false, denoise = false;
     defines defs;
     if (!defines_init(&defs, argc)) {
         fail("out of memory");
-        return EXIT_RENDER;
+        return EXIT_NOMEM;
     }
     int code = 0;
     for (int i = 0; i < argc && code == 0;) {
@@ -718,13 +813,17 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         int i0 = i;
         if (is_help(a)) {
             fputs(usage_render, stdout);
+            fputs(usage_render_more, stdout);
             fputs(usage_render_denoise, stdout);
+            fputs(usage_render_resume, stdout);
+            fputs(usage_exit, stdout);
             defines_release(&defs);
             return 0;
         } else if (opt_value(argc, argv, &i, "--checkpoint-every", NULL, &v)) {
-            if (!parse_double(v, &opt.checkpoint_every) || opt.checkpoint_every < 0.0)
-                code = usage_error(usage_render, "--checkpoint-every needs a number of seconds >= 0, not '%s'",
-                                   v ? v : "");
+            if (!parse_double(v, &opt.checkpoint_every) || opt.checkpoint_every < 0.0 ||
+                opt.checkpoint_every > MAX_SECONDS)
+                code = usage_error(usage_render, "--checkpoint-every needs a number of seconds from 0 to %g, not '%s'",
+                                   MAX_SECONDS, v ? v : "");
         } else if (opt_value(argc, argv, &i, "--checkpoint", NULL, &v)) {
             if (!v || !*v)
                 code = usage_error(usage_render, "--checkpoint needs a file name");
@@ -737,8 +836,9 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
             if (!parse_int(v, 1, INT_MAX, &opt.spp))
                 code = usage_error(usage_render, "--spp needs a positive integer, not '%s'", v ? v : "");
         } else if (opt_value(argc, argv, &i, "--time", NULL, &v)) {
-            if (!parse_double(v, &opt.time_limit) || opt.time_limit <= 0.0)
-                code = usage_error(usage_render, "--time needs a positive number of seconds, not '%s'", v ? v : "");
+            if (!parse_double(v, &opt.time_limit) || opt.time_limit <= 0.0 || opt.time_limit > MAX_SECONDS)
+                code = usage_error(usage_render, "--time needs a positive number of seconds up to %g, not '%s'",
+                                   MAX_SECONDS, v ? v : "");
         } else if (opt_value(argc, argv, &i, "--threads", NULL, &v)) {
             if (!parse_int(v, 0, 4096, &opt.threads))
                 code = usage_error(usage_render, "--threads needs a count (0: all cores), not '%s'", v ? v : "");
@@ -746,9 +846,10 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
             if (!parse_u64(v, &opt.seed))
                 code = usage_error(usage_render, "--seed needs a non-negative integer, not '%s'", v ? v : "");
         } else if (opt_value(argc, argv, &i, "--res", NULL, &v)) {
-            int w = 0, h = 0, n = 0;
-            if (!v || sscanf(v, "%dx%d%n", &w, &h, &n) != 2 || v[n] != '\0' || w <= 0 || h <= 0)
-                code = usage_error(usage_render, "--res needs WIDTHxHEIGHT, not '%s'", v ? v : "");
+            int w = 0, h = 0;
+            if (!parse_pair(v, 'x', 1, MAX_FILM_SIDE, &w, &h))
+                code = usage_error(usage_render, "--res needs WIDTHxHEIGHT, each 1 to %d, not '%s'", MAX_FILM_SIDE,
+                                   v ? v : "");
             opt.width = w;
             opt.height = h;
         } else if (opt_value(argc, argv, &i, "--integrator", NULL, &v)) {
@@ -772,9 +873,7 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
                 code = usage_error(usage_render, "--stats needs a file name");
             stats_path = v;
         } else if (opt_value(argc, argv, &i, "--strategy", NULL, &v)) {
-            int n = 0;
-            if (!v || sscanf(v, "%d,%d%n", &opt.strategy_s, &opt.strategy_t, &n) != 2 || v[n] != '\0' ||
-                opt.strategy_s < 0 || opt.strategy_t < 0)
+            if (!parse_pair(v, ',', 0, 1000000, &opt.strategy_s, &opt.strategy_t))
                 code = usage_error(usage_render, "--strategy needs S,T (two non-negative integers), not '%s'",
                                    v ? v : "");
         } else if (!strcmp(a, "--strategy-weighted")) {
@@ -799,6 +898,9 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
             ++i;
         } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
             quiet = true;
+            ++i;
+        } else if (!strcmp(a, "--lenient")) {
+            lenient = true;
             ++i;
         } else if (a[0] == '-' && a[1] != '\0') {
             code = usage_error(usage_render, "unknown option '%s'", a);
@@ -830,30 +932,39 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
 
     char *out_owned = out_arg ? NULL : default_output(scene_path, ".exr");
     const char *out_path = out_arg ? out_arg : out_owned;
-    char *png = out_path ? png_path(out_path) : NULL;
+    spc_image_format format = out_path ? spc_image_format_of(out_path) : SPC_FORMAT_UNKNOWN;
+    char *png = out_path && format == SPC_FORMAT_EXR ? png_path(out_path) : NULL;
     spc_scene *scene = NULL;
     spc_film *film = NULL;
     spc_error err;
     memset(&err, 0, sizeof err);
-    if (!out_path || !png) {
+    if (!out_path || (format == SPC_FORMAT_EXR && !png)) {
         fail("out of memory");
-        code = EXIT_RENDER;
+        code = EXIT_NOMEM;
         goto done;
     }
-    if (!output_dir_ok(out_path)) {
-        fail("%s: cannot write there: %s", out_path, strerror(errno));
-        code = EXIT_WRITE;
+    /* what the path is first (a directory named OUT is a directory, whatever its extension) */
+    if (!output_ok(out_path) || (png && !output_ok(png)) || (stats_path && !output_ok(stats_path))) {
+        code = EXIT_IO;
+        goto done;
+    }
+    if (format == SPC_FORMAT_UNKNOWN) {
+        code = usage_error(usage_render, "%s: unknown image format: name the output .exr, .png, .pfm or .hdr",
+                           out_path);
+        goto done;
+    }
+    if (format != SPC_FORMAT_EXR && (variance || opt.aovs)) {
+        code = usage_error(usage_render, "%s: --variance and --aovs need an .exr output", out_path);
         goto done;
     }
     if (strategy_dir && mkdir(strategy_dir, 0777) != 0 && errno != EEXIST) {
         fail("%s: cannot create the directory: %s", strategy_dir, strerror(errno));
-        code = EXIT_WRITE;
+        code = EXIT_IO;
         goto done;
     }
     if (ckpt_path) {
-        if (!output_dir_ok(ckpt_path)) {
-            fail("%s: cannot write there: %s", ckpt_path, strerror(errno));
-            code = EXIT_WRITE;
+        if (!output_ok(ckpt_path)) {
+            code = EXIT_IO;
             goto done;
         }
         /* what --resume needs to render the same thing again, from any directory */
@@ -877,9 +988,10 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
 
     if (denoise) {
         /* a missing library is reported before the render, not after it */
-        if (spc_denoise_load(NULL, 0, &err) != SPC_OK) {
+        spc_status lst = spc_denoise_load(NULL, 0, &err);
+        if (lst != SPC_OK) {
             fail_error(&err);
-            code = EXIT_RENDER;
+            code = exit_code(lst);
             goto done;
         }
     }
@@ -890,10 +1002,16 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         defs.defs[defs.n].value = opt.integrator;
         defs.n++;
     }
+    if (lenient) { /* --lenient is one argument of its own: its entry was reserved too */
+        defs.names[defs.n] = NULL;
+        defs.defs[defs.n].name = SPC_DEFINE_UNREFERENCED;
+        defs.defs[defs.n].value = "warn";
+        defs.n++;
+    }
     spc_status st = spc_scene_load(scene_path, defs.defs, defs.n, &scene, &err);
     if (st != SPC_OK) {
         fail_error(&err);
-        code = EXIT_INPUT;
+        code = exit_code(st);
         goto done;
     }
     spc_scene_summary sum;
@@ -929,7 +1047,7 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         interrupted = cancel_flag != 0;
     } else if (st != SPC_OK && st != SPC_ERR_INTERRUPTED) {
         fail_error(&err);
-        code = resume && st == SPC_ERR_VALUE ? EXIT_INPUT : EXIT_RENDER;
+        code = exit_code(st);
         goto done;
     }
     if (!film) {
@@ -938,7 +1056,7 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
             code = EXIT_INTERRUPTED;
         } else {
             fail("the renderer returned no image");
-            code = EXIT_RENDER;
+            code = exit_code(SPC_ERR_INTERNAL);
         }
         goto done;
     }
@@ -951,16 +1069,13 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
     /* the final image only: checkpoints hold the film's sums, so a resumed render denoises the
      * same image; if the denoiser fails, the noisy image is written and the exit code says so */
     bool denoise_failed = denoise && !denoise_film(film, opt.threads, quiet);
-    st = spc_film_write_exr(film, out_path, variance, &err);
-    if (st == SPC_OK)
-        st = spc_film_write_png(film, png, &err);
+    st = write_outputs(film, out_path, png, variance);
     if (st != SPC_OK) {
-        fail_error(&err);
-        code = EXIT_WRITE;
+        code = exit_code(st);
         goto done;
     }
     if (strategy_dir && !write_strategy_images(film, strategy_dir, variance)) {
-        code = EXIT_WRITE;
+        code = EXIT_IO;
         goto done;
     }
     if (stats_path) {
@@ -973,19 +1088,20 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
             .height = spc_film_height(film),
             .interrupted = interrupted,
         };
-        char why[256];
+        char why[SPC_ERROR_MSG_MAX];
         if (!write_stats(stats_path, &stats, &info, why, sizeof why)) {
             fail("%s: cannot write statistics: %s", stats_path, why);
-            code = EXIT_WRITE;
+            code = EXIT_IO;
             goto done;
         }
     }
     if (!quiet)
-        fprintf(stderr, "%s: %dx%d, %d spp, %.2f s, %.2f Mrays/s, %d threads%s -> %s, %s\n",
+        fprintf(stderr, "%s: %dx%d, %d spp, %.2f s, %.2f Mrays/s, %d threads%s -> %s%s%s\n",
                 interrupted ? "interrupted" : "rendered", spc_film_width(film), spc_film_height(film), stats.spp,
                 stats.wall_seconds, stats.mrays_per_second, stats.threads,
-                stats.invalid_samples ? " (some invalid samples discarded)" : "", out_path, png);
-    code = ckpt_failed ? EXIT_WRITE : interrupted ? EXIT_INTERRUPTED : denoise_failed ? EXIT_RENDER : 0;
+                stats.invalid_samples ? " (some invalid samples discarded)" : "", out_path, png ? ", " : "",
+                png ? png : "");
+    code = ckpt_failed ? EXIT_IO : interrupted ? EXIT_INTERRUPTED : denoise_failed ? (int)SPC_ERR_INTERNAL : 0;
 
 done:
     spc_film_destroy(film);
@@ -1042,7 +1158,10 @@ static int cmd_render(int argc, char **argv)
         const char *a = argv[i];
         if (is_help(a)) {
             fputs(usage_render, stdout);
+            fputs(usage_render_more, stdout);
             fputs(usage_render_denoise, stdout);
+            fputs(usage_render_resume, stdout);
+            fputs(usage_exit, stdout);
             return 0;
         }
         if (a[0] != '-' || a[1] == '\0')
@@ -1061,9 +1180,10 @@ static int cmd_render(int argc, char **argv)
     spc_checkpoint *ck = NULL;
     spc_error err;
     memset(&err, 0, sizeof err);
-    if (spc_checkpoint_load(resume_path, &ck, &err) != SPC_OK) {
+    spc_status lst = spc_checkpoint_load(resume_path, &ck, &err);
+    if (lst != SPC_OK) {
         fail_error(&err);
-        return EXIT_INPUT;
+        return exit_code(lst);
     }
     spc_checkpoint_info info;
     spc_checkpoint_get_info(ck, &info);
@@ -1075,7 +1195,7 @@ static int cmd_render(int argc, char **argv)
         free(args);
         spc_checkpoint_destroy(ck);
         fail("out of memory");
-        return EXIT_RENDER;
+        return EXIT_NOMEM;
     }
     memcpy(user, info.user, ulen + 1);
     int n = 0;
@@ -1091,7 +1211,7 @@ static int cmd_render(int argc, char **argv)
         free(user);
         free(args);
         spc_checkpoint_destroy(ck);
-        return EXIT_INPUT;
+        return exit_code(SPC_ERR_VALUE);
     }
     for (int i = 0; i < argc; ++i) {
         if (i == at) {
@@ -1114,15 +1234,40 @@ static int cmd_render(int argc, char **argv)
 
 /* ---- diff ---- */
 
+/* PNG and JPEG files hold 8-bit sRGB (by their first bytes, as the reader decides). */
+static bool is_srgb_file(const char *path)
+{
+    unsigned char magic[8] = {0};
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return false;
+    size_t n = fread(magic, 1, sizeof magic, fp);
+    fclose(fp);
+    static const unsigned char png[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    static const unsigned char jpg[3] = {0xff, 0xd8, 0xff};
+    return (n >= 8 && !memcmp(magic, png, 8)) || (n >= 3 && !memcmp(magic, jpg, 3));
+}
+
 static int cmd_diff(int argc, char **argv)
 {
     const char *paths[2] = {NULL, NULL};
     int npaths = 0;
     bool json = false;
+    double max_relmse = -1.0, min_pass = -1.0;
     for (int i = 0; i < argc; ++i) {
-        const char *a = argv[i];
-        if (is_help(a)) {
+        const char *a = argv[i], *v = NULL;
+        int j = i;
+        if (opt_value(argc, argv, &j, "--max-relmse", NULL, &v)) {
+            if (!parse_double(v, &max_relmse) || max_relmse < 0.0)
+                return usage_error(usage_diff, "--max-relmse needs a number >= 0, not '%s'", v ? v : "");
+            i = j - 1;
+        } else if (opt_value(argc, argv, &j, "--min-pass", NULL, &v)) {
+            if (!parse_double(v, &min_pass) || min_pass < 0.0 || min_pass > 1.0)
+                return usage_error(usage_diff, "--min-pass needs a fraction from 0 to 1, not '%s'", v ? v : "");
+            i = j - 1;
+        } else if (is_help(a)) {
             fputs(usage_diff, stdout);
+            fputs(usage_exit, stdout);
             return 0;
         } else if (!strcmp(a, "--json")) {
             json = true;
@@ -1142,15 +1287,38 @@ static int cmd_diff(int argc, char **argv)
     spc_error err;
     memset(&err, 0, sizeof err);
     int code = 0;
-    for (int k = 0; k < 2 && code == 0; ++k)
-        if (spc_image_rgb_read(paths[k], &img[k], &err) != SPC_OK) {
+    for (int k = 0; k < 2 && code == 0; ++k) {
+        spc_status rst = spc_image_rgb_read(paths[k], &img[k], &err);
+        if (rst != SPC_OK) {
             fail_error(&err);
-            code = EXIT_INPUT;
+            code = exit_code(rst);
         }
+    }
     spc_diff_result r;
-    if (code == 0 && spc_image_diff(&img[0], &img[1], &r, &err) != SPC_OK) {
+    spc_status dst = code == 0 ? spc_image_diff(&img[0], &img[1], &r, &err) : SPC_OK;
+    if (dst != SPC_OK) {
         fail("%s vs %s: %s", paths[0], paths[1], err.msg);
-        code = EXIT_INPUT;
+        code = exit_code(dst);
+    }
+    for (int k = 0; k < 2 && code == 0; ++k)
+        if (is_srgb_file(paths[k]))
+            fprintf(stderr,
+                    "specula: note: %s is 8-bit sRGB (a tone-mapped preview): its values were decoded to linear "
+                    "for the comparison, and anything above 1 was clipped when it was written\n",
+                    paths[k]);
+    if (code == 0 && min_pass >= 0.0 && !r.has_ztest) {
+        fail("--min-pass needs a variance channel in one of the images (render with --variance)");
+        code = exit_code(SPC_ERR_VALUE);
+    }
+    double ratio[4] = {0, 0, 0, 0};
+    if (code == 0) {
+        double sa = 0.0, sb = 0.0;
+        for (int c = 0; c < 3; ++c) {
+            ratio[c] = r.mean_a[c] / r.mean_b[c]; /* inf or NaN (printed as such) for a black reference */
+            sa += r.mean_a[c];
+            sb += r.mean_b[c];
+        }
+        ratio[3] = sa / sb;
     }
     if (code == 0 && json) {
         printf("{\n  \"a\": ");
@@ -1169,6 +1337,16 @@ static int cmd_diff(int argc, char **argv)
             }
             printf("]");
         }
+        printf(",\n  \"ratio\": [");
+        for (int c = 0; c < 3; ++c) {
+            if (c)
+                printf(", ");
+            json_number(stdout, ratio[c]);
+        }
+        printf("],\n  \"ratio_mean\": ");
+        json_number(stdout, ratio[3]);
+        printf(",\n  \"srgb\": [%s, %s]", is_srgb_file(paths[0]) ? "true" : "false",
+               is_srgb_file(paths[1]) ? "true" : "false");
         printf(",\n  \"mse\": ");
         json_number(stdout, r.mse);
         printf(",\n  \"rel_mse\": ");
@@ -1186,6 +1364,7 @@ static int cmd_diff(int argc, char **argv)
                r.mean_a[1], r.mean_a[2]);
         printf("b: %s  %dx%d  mean (%.6g, %.6g, %.6g)\n", paths[1], img[1].width, img[1].height, r.mean_b[0],
                r.mean_b[1], r.mean_b[2]);
+        printf("ratio of means a/b: %.6g (%.6g, %.6g, %.6g)\n", ratio[3], ratio[0], ratio[1], ratio[2]);
         printf("MSE: %.6g\n", r.mse);
         printf("relMSE: %.6g\n", r.rel_mse);
         if (r.has_ztest)
@@ -1193,6 +1372,14 @@ static int cmd_diff(int argc, char **argv)
                    100.0 * r.ztest_pass_fraction, r.ztest_pixels);
         else
             printf("z-test: no variance channels\n");
+    }
+    if (code == 0 && max_relmse >= 0.0 && !(r.rel_mse <= max_relmse)) {
+        fail("relMSE %.6g exceeds --max-relmse %g", r.rel_mse, max_relmse);
+        code = EXIT_DIFFER;
+    }
+    if (code == 0 && min_pass >= 0.0 && !(r.ztest_pass_fraction >= min_pass)) {
+        fail("%.4f of the pixels pass the z-test, fewer than --min-pass %g", r.ztest_pass_fraction, min_pass);
+        code = EXIT_DIFFER;
     }
     spc_image_rgb_release(&img[0]);
     spc_image_rgb_release(&img[1]);
@@ -1235,9 +1422,11 @@ static int cmd_denoise(int argc, char **argv)
         return usage_error(usage_denoise, "no image given");
     if (!out)
         return usage_error(usage_denoise, "no output given (-o OUT.exr)");
-    if (!output_dir_ok(out)) {
-        fail("%s: cannot write there: %s", out, strerror(errno));
-        return EXIT_WRITE;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_output_check(out, &err) != SPC_OK) {
+        fail_error(&err);
+        return exit_code(SPC_ERR_IO);
     }
     progress prog;
     memset(&prog, 0, sizeof prog);
@@ -1248,17 +1437,13 @@ static int cmd_denoise(int argc, char **argv)
     }
     spc_denoise_stats ds;
     memset(&ds, 0, sizeof ds);
-    spc_error err;
-    memset(&err, 0, sizeof err);
     spc_status st = spc_denoise_exr(in, out, &dopt, &ds, &err);
     if (prog.drawn)
         fputc('\n', stderr);
     pthread_mutex_destroy(&prog.mu);
     if (st != SPC_OK) {
         fail_error(&err);
-        return st == SPC_ERR_PARSE || (st == SPC_ERR_IO && !strcmp(err.file, in)) ? EXIT_INPUT
-               : st == SPC_ERR_IO && !strcmp(err.file, out)                      ? EXIT_WRITE
-                                                                                  : EXIT_RENDER;
+        return exit_code(st);
     }
     if (!ds.used_aux)
         fprintf(stderr, "specula: warning: %s has no albedo.* and normal.* channels (render with --aovs); "
@@ -1280,18 +1465,25 @@ static int cmd_info(int argc, char **argv)
     defines defs;
     if (!defines_init(&defs, argc)) {
         fail("out of memory");
-        return EXIT_INPUT;
+        return EXIT_NOMEM;
     }
     int code = 0;
     for (int i = 0; i < argc && code == 0;) {
         const char *a = argv[i], *v = NULL;
         if (is_help(a)) {
             fputs(usage_info, stdout);
+            fputs(usage_exit, stdout);
             defines_release(&defs);
             return 0;
         } else if (opt_value(argc, argv, &i, "-D", NULL, &v)) {
             if (!defines_add(&defs, v))
                 code = usage_error(usage_info, "-D needs name=value, not '%s'", v ? v : "");
+        } else if (!strcmp(a, "--lenient")) {
+            defs.names[defs.n] = NULL;
+            defs.defs[defs.n].name = SPC_DEFINE_UNREFERENCED;
+            defs.defs[defs.n].value = "warn";
+            defs.n++;
+            ++i;
         } else if (a[0] == '-' && a[1] != '\0') {
             code = usage_error(usage_info, "unknown option '%s'", a);
         } else {
@@ -1311,10 +1503,11 @@ static int cmd_info(int argc, char **argv)
     spc_scene *scene = NULL;
     spc_error err;
     memset(&err, 0, sizeof err);
-    if (spc_scene_load(scene_path, defs.defs, defs.n, &scene, &err) != SPC_OK) {
+    spc_status st = spc_scene_load(scene_path, defs.defs, defs.n, &scene, &err);
+    if (st != SPC_OK) {
         fail_error(&err);
         defines_release(&defs);
-        return EXIT_INPUT;
+        return exit_code(st);
     }
     spc_scene_summary s;
     spc_scene_summarize(scene, &s);
@@ -1353,6 +1546,7 @@ int main(int argc, char **argv)
     }
     if (is_help(cmd) || !strcmp(cmd, "help")) {
         fputs(usage_main, stdout);
+        fputs(usage_exit, stdout);
         return 0;
     }
     if (!strcmp(cmd, "render"))

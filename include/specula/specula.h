@@ -51,6 +51,9 @@ typedef struct spc_define {
 /* A define of this name replaces the type of the scene's <integrator> (keeping its properties), so
  * `--integrator path` works on files that name an integrator specula does not have. */
 #define SPC_DEFINE_INTEGRATOR "@integrator"
+/* A define of this name with the value "warn" makes a property that no plugin reads a warning
+ * instead of an error (scenes written for other renderers); "error" is the default. */
+#define SPC_DEFINE_UNREFERENCED "@unreferenced"
 
 typedef struct spc_scene spc_scene;
 typedef struct spc_film spc_film;
@@ -211,12 +214,35 @@ const float *spc_film_noisy_rgb(const spc_film *f);
 spc_status spc_denoise_exr(const char *in, const char *out, const spc_denoise_options *o, spc_denoise_stats *stats,
                            spc_error *err);
 
+/* Output formats, chosen by the path's extension (case-insensitive) as in pbrt-v4 and Mitsuba. */
+typedef enum spc_image_format {
+    SPC_FORMAT_UNKNOWN = 0, /* any other extension, or none */
+    SPC_FORMAT_EXR,         /* .exr: linear float, every channel */
+    SPC_FORMAT_PNG,         /* .png: 8-bit sRGB, clamped to [0, 1] */
+    SPC_FORMAT_PFM,         /* .pfm: linear float RGB, little-endian */
+    SPC_FORMAT_HDR          /* .hdr: Radiance RGBE */
+} spc_image_format;
+spc_image_format spc_image_format_of(const char *path);
+/* Writes the film in the format its extension names (SPC_ERR_VALUE for an unknown one, or for
+ * variance or AOVs in anything but EXR); atomic, like every writer. */
+spc_status spc_film_write(const spc_film *f, const char *path, bool variance, spc_error *err);
+/* Checks, before rendering, that path can be written as an output: after following symbolic links
+ * it names a regular file or nothing yet, in an existing writable folder. SPC_ERR_IO otherwise,
+ * saying what it is (directory, device, FIFO, socket). Every writer applies the same check: no
+ * output ever replaces anything but a regular file. */
+spc_status spc_output_check(const char *path, spc_error *err);
+/* The file a write of path replaces: path with its symbolic links followed (relative targets from
+ * the link's folder), into out (size bytes); the same checks and errors as spc_output_check. */
+spc_status spc_output_resolve(const char *path, char *out, size_t size, spc_error *err);
+
 /* ---- images (for `specula diff`) ---- */
 typedef struct spc_image_rgb {
     int width, height;
     float *rgb;      /* 3 per pixel */
     float *variance; /* 3 per pixel (variance of the mean), or NULL when the file has none */
 } spc_image_rgb;
+/* Reads EXR (R,G,B and variance.R/G/B when present), PNG or JPEG; 8-bit sRGB files (PNG, JPEG) are
+ * decoded to linear values. */
 spc_status spc_image_rgb_read(const char *path, spc_image_rgb *out, spc_error *err);
 void spc_image_rgb_release(spc_image_rgb *img);
 

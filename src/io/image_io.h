@@ -13,6 +13,7 @@
 #include <stddef.h>
 
 #include "core/error.h"
+#include "specula/specula.h"
 
 typedef struct spc_image {
     int width, height, channels; /* channels: 1, 3 or 4 after reading */
@@ -46,6 +47,13 @@ spc_status spc_exr_read_channels(const char *path, int nnames, const char *const
 /* Writes an 8-bit sRGB PNG from linear RGB floats (3 channels), clamped to [0,1]. */
 spc_status spc_png_write_srgb(const char *path, int width, int height, const float *rgb, spc_error *err);
 
+/* Writes a little-endian Portable Float Map (RGB, linear floats) (pfm.c). */
+spc_status spc_pfm_write(const char *path, int width, int height, const float *rgb, spc_error *err);
+/* Writes a Radiance RGBE .hdr (flat scanlines) from linear RGB floats (hdr.c). */
+spc_status spc_hdr_write(const char *path, int width, int height, const float *rgb, spc_error *err);
+/* One pixel in RGBE: shared exponent out[3] = e + 128; black below 1e-32; negatives and NaN as 0. */
+void spc_rgbe_encode(const float rgb[3], unsigned char out[4]);
+
 /* sRGB transfer functions. */
 double spc_srgb_to_linear(double v);
 double spc_linear_to_srgb(double v);
@@ -62,6 +70,8 @@ spc_status spc_jpeg_read_image(const char *path, spc_image *img, spc_error *err)
  * spc_atomic_commit fsyncs, closes and renames tmp over path; on any failure it removes tmp and
  * leaves path untouched. spc_atomic_abort closes and removes tmp. Both always close fd. */
 int spc_atomic_open(const char *path, char *tmp, size_t tmpsize, spc_error *err);
+/* spc_output_resolve (specula.h) finds the file an atomic write replaces. */
+#define SPC_OUTPUT_MAX_LINKS 40 /* links followed before giving up (Linux's own limit) */
 spc_status spc_atomic_commit(int fd, const char *tmp, const char *path, spc_error *err);
 void spc_atomic_abort(int fd, const char *tmp);
 /* write(2) until done (retrying short writes and EINTR); false on failure with errno set. */

@@ -48,6 +48,10 @@ typedef struct mts_prop {
     const spc_xml_node *node; /* the property element (for messages) */
     spc_xml_node *obj;        /* MTS_OBJECT: the object element */
     bool used;
+    /* the name a plugin asked for that is closest to this one (for "did you mean"), and its
+     * edit distance; "" while none was asked for */
+    char closest[48];
+    int closest_distance;
 } mts_prop;
 
 struct mts_loader;
@@ -70,6 +74,8 @@ typedef struct mts_id {
 typedef struct mts_param {
     char *name, *value;
     bool from_define;
+    bool declared; /* a <default> names it */
+    bool used;     /* a $name was replaced by it */
 } mts_param;
 
 typedef struct mts_doc {
@@ -107,6 +113,7 @@ typedef struct mts_loader {
     const spc_bsdf *default_bsdf;
     bool have_sensor, have_integrator;
     bool warned_thinlens;
+    bool lenient; /* the "@unreferenced" define is "warn": properties no plugin reads only warn */
 } mts_loader;
 
 /* ---- mitsuba_xml.c ---- */
@@ -125,7 +132,9 @@ int mts_dialect(const spc_xml_node *n);      /* major version of the file the no
 
 /* Collects the children of an object element; warns about unused ones in mts_props_end. */
 spc_status mts_props_collect(mts_loader *L, const spc_xml_node *owner, mts_props *P);
-void mts_props_end(mts_props *P); /* warns for each unused property, frees */
+/* Fails on the first property no plugin read ("unreferenced property", with the closest name that
+ * was read), or only warns when the loader is lenient; warns for unused nested objects; frees. */
+void mts_props_end(mts_props *P);
 mts_prop *mts_find(mts_props *P, const char *name); /* marks it used */
 bool mts_has(const mts_props *P, const char *name);
 void mts_ignore(mts_props *P, const char *name); /* known and deliberately unused: no warning */
@@ -147,6 +156,9 @@ const spc_xml_node *mts_where(const mts_props *P, const char *name);
  * holds `at`, the scene's directory, the <path> directories (latest first), the working
  * directory. Returns false (out unchanged) if no such readable file exists. */
 bool mts_resolve(mts_loader *L, const spc_xml_node *at, const char *name, char *out, size_t size);
+/* Why mts_resolve found no file of that name: "is a directory", "is not a regular file", "cannot
+ * be read" (for the first candidate path that exists) or "not found". */
+const char *mts_resolve_failure(mts_loader *L, const spc_xml_node *at, const char *name);
 
 /* Id table. */
 mts_id *mts_lookup_id(mts_loader *L, const char *id);

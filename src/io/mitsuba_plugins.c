@@ -151,7 +151,8 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
         if (L->status == SPC_OK && !fname)
             mts_fail(L, node, SPC_ERR_VALUE, "bitmap texture needs a filename");
         else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&P, "filename"), fname, path, sizeof path))
-            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "texture file '%s' not found", fname);
+            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "texture file '%s' %s", fname,
+                     mts_resolve_failure(L, mts_where(&P, "filename"), fname));
         if (L->status == SPC_OK) {
             t = spc_scene_new_texture(L->scene);
             spc_error sub;
@@ -800,7 +801,10 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     }
     if (strcmp(type, "sphere") == 0) {
         center = mts_get_point(L, &P, "center", center);
-        if (L->status == SPC_OK && !uniform_scale(&M))
+        if (L->status == SPC_OK && !(spc_length(spc_v3(M.m[0][0], M.m[1][0], M.m[2][0])) > 0.0))
+            mts_fail(L, mts_where(&P, "to_world"), SPC_ERR_VALUE,
+                     "a sphere's to_world scales it to a point (a scale of 0): the sphere would vanish");
+        else if (L->status == SPC_OK && !uniform_scale(&M))
             mts_fail(L, mts_where(&P, "to_world"), SPC_ERR_VALUE,
                      "a sphere's to_world may only rotate, translate and scale uniformly");
     } else if (strcmp(type, "cylinder") == 0) {
@@ -819,7 +823,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
             mts_fail(L, mts_where(&P, "shape_index"), SPC_ERR_VALUE, "shape_index %d must not be negative",
                      shape_index);
         else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&P, "filename"), fname, path, sizeof path))
-            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "mesh file '%s' not found", fname);
+            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "mesh file '%s' %s", fname,
+                     mts_resolve_failure(L, mts_where(&P, "filename"), fname));
         if (L->status == SPC_OK)
             load_mesh(L, mts_where(&P, "filename"), type, path, shape_index, flip_tex, in_group, &m);
     } else if (strcmp(type, "sdf") == 0) {
@@ -1001,7 +1006,8 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
         if (L->status == SPC_OK && !fname)
             mts_fail(L, node, SPC_ERR_VALUE, "envmap needs a filename");
         else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&P, "filename"), fname, path, sizeof path))
-            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "envmap file '%s' not found", fname);
+            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "envmap file '%s' %s", fname,
+                     mts_resolve_failure(L, mts_where(&P, "filename"), fname));
         if (L->status == SPC_OK) {
             spc_texture *t = spc_scene_new_texture(L->scene);
             spc_error sub;

@@ -35,6 +35,7 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -178,6 +179,34 @@ bool mts_resolve(mts_loader *L, const spc_xml_node *at, const char *name, char *
     return false;
 }
 
+static const char *path_failure(const char *path)
+{
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return NULL;
+    if (S_ISDIR(st.st_mode))
+        return "is a directory, not a file";
+    if (!S_ISREG(st.st_mode))
+        return "is not a regular file";
+    return access(path, R_OK) == 0 ? NULL : "cannot be read (permission denied)";
+}
+
+const char *mts_resolve_failure(mts_loader *L, const spc_xml_node *at, const char *name)
+{
+    char buf[4096];
+    const char *why;
+    if (name[0] == '/')
+        return (why = path_failure(name)) ? why : "not found";
+    const char *cands[2] = {doc_dir(L, at), L->base_dir};
+    for (int i = 0; i < 2; ++i)
+        if (join_path(buf, sizeof buf, cands[i], name) && (why = path_failure(buf)))
+            return why;
+    for (int i = L->ndirs - 1; i >= 0; --i)
+        if (join_path(buf, sizeof buf, L->dirs[i], name) && (why = path_failure(buf)))
+            return why;
+    return (why = path_failure(name)) ? why : "not found";
+}
+
 /* ------------------------------------------------------------------------------------------------ */
 /* parameters ($name) */
 
@@ -205,8 +234,29 @@ static bool add_param(mts_loader *L, const char *name, const char *value, bool f
         free(v);
         return false;
     }
-    L->params[L->nparams++] = (mts_param){n, v, from_define};
+    L->params[L->nparams++] = (mts_param){n, v, from_define, false, false};
     return true;
+}
+
+/* A -D that names no <default> and replaces no $name is a mistake (a typo, or a scene other than
+ * the one meant): an error listing the scene's defaults, as Mitsuba 3 refuses it. Names starting
+ * with '@' are specula's own settings. */
+static spc_status check_defines(mts_loader *L, const spc_xml_node *root)
+{
+    for (int i = 0; i < L->nparams; ++i) {
+        const mts_param *d = &L->params[i];
+        if (!d->from_define || d->declared || d->used || d->name[0] == '@')
+            continue;
+        char list[512] = "";
+        size_t n = 0;
+        for (int k = 0; k < L->nparams && n < sizeof list; ++k)
+            if (L->params[k].declared)
+                n += (size_t)snprintf(list + n, sizeof list - n, "%s%s", n ? ", " : "", L->params[k].name);
+        return mts_fail(L, root, SPC_ERR_VALUE, "-D %s=%s: the scene declares no <default name=\"%s\">; %s%s",
+                                 d->name, d->value, d->name, n ? "its defaults are: " : "it declares no defaults",
+                                 list);
+    }
+    return SPC_OK;
 }
 
 /* Replaces every $name in the node's attribute values. */
@@ -224,7 +274,7 @@ static spc_status substitute(mts_loader *L, spc_xml_node *node)
             const char *piece = s;
             size_t len = 1;
             if (*s == '$') {
-                const mts_param *best = NULL;
+                mts_param *best = NULL;
                 size_t best_len = 0;
                 for (int i = 0; i < L->nparams; ++i) {
                     size_t l = strlen(L->params[i].name);
@@ -240,6 +290,7 @@ static spc_status substitute(mts_loader *L, spc_xml_node *node)
                                     "<default name=... value=...> or -D name=value",
                                     v, node->attrs[a].name, node->name);
                 }
+                best->used = true;
                 piece = best->value;
                 len = strlen(piece);
                 s += 1 + best_len;
@@ -486,8 +537,10 @@ static spc_status preprocess_node(mts_loader *L, spc_xml_node *node, int dialect
         const char *name = spc_xml_get(node, "name"), *value = spc_xml_get(node, "value");
         if (!name || !name[0] || !value)
             return mts_fail(L, node, SPC_ERR_PARSE, "<default> needs non-empty name and value attributes");
-        if (!find_param(L, name) && !add_param(L, name, value, false))
+        mts_param *known = find_param(L, name);
+        if (!known && !add_param(L, name, value, false))
             return nomem(L, node);
+        (known ? known : &L->params[L->nparams - 1])->declared = true;
         return SPC_OK;
     }
     if (strcmp(node->name, "path") == 0) {
@@ -1042,23 +1095,70 @@ void mts_props_end(mts_props *P)
         if (p->kind == MTS_OBJECT)
             mts_warn(p->node, "unused nested <%s%s%s%s> in <%s type=\"%s\">: ignored", p->obj->name,
                      p->name ? " name=\"" : "", p->name ? p->name : "", p->name ? "\"" : "", P->owner->name, type);
+        else if (P->L->lenient)
+            mts_warn(p->node, "unreferenced property '%s' of <%s type=\"%s\">%s%s%s: ignored", p->name,
+                     P->owner->name, type, p->closest[0] ? " (did you mean '" : "", p->closest,
+                     p->closest[0] ? "'?)" : "");
         else
-            mts_warn(p->node, "unknown property '%s' of <%s type=\"%s\">: ignored", p->name, P->owner->name, type);
+            mts_fail(P->L, p->node, SPC_ERR_VALUE,
+                     "unreferenced property '%s' of <%s type=\"%s\">%s%s%s; -D " SPC_DEFINE_UNREFERENCED
+                     "=warn (specula render --lenient) only warns",
+                     p->name, P->owner->name, type, p->closest[0] ? " (did you mean '" : "", p->closest,
+                     p->closest[0] ? "'?)" : "");
     }
     free(P->p);
     P->p = NULL;
     P->n = 0;
 }
 
-mts_prop *mts_find(mts_props *P, const char *name)
+/* Levenshtein distance of two short names (longer ones count as far apart). */
+static int edit_distance(const char *a, const char *b)
 {
-    for (int i = 0; i < P->n; ++i) {
-        if (P->p[i].name && strcmp(P->p[i].name, name) == 0) {
-            P->p[i].used = true;
-            return &P->p[i];
+    enum { MAX = 47 };
+    size_t na = strlen(a), nb = strlen(b);
+    if (na > MAX || nb > MAX)
+        return MAX + 1;
+    int row[MAX + 1];
+    for (size_t j = 0; j <= nb; ++j)
+        row[j] = (int)j;
+    for (size_t i = 1; i <= na; ++i) {
+        int diag = row[0];
+        row[0] = (int)i;
+        for (size_t j = 1; j <= nb; ++j) {
+            int up = row[j];
+            int best = diag + (a[i - 1] != b[j - 1]);
+            if (up + 1 < best)
+                best = up + 1;
+            if (row[j - 1] + 1 < best)
+                best = row[j - 1] + 1;
+            row[j] = best;
+            diag = up;
         }
     }
-    return NULL;
+    return row[nb];
+}
+
+mts_prop *mts_find(mts_props *P, const char *name)
+{
+    mts_prop *found = NULL;
+    for (int i = 0; i < P->n; ++i) {
+        mts_prop *p = &P->p[i];
+        if (!p->name)
+            continue;
+        if (strcmp(p->name, name) == 0) {
+            p->used = true;
+            found = p;
+        } else if (!p->used && p->kind != MTS_OBJECT && strlen(name) < sizeof p->closest) {
+            /* a name is worth suggesting when at most a third of it (and at least 2 letters) differs */
+            int d = edit_distance(p->name, name), n = (int)strlen(name);
+            int limit = n / 3 > 2 ? n / 3 : 2;
+            if (d <= limit && (!p->closest[0] || d < p->closest_distance)) {
+                snprintf(p->closest, sizeof p->closest, "%s", name);
+                p->closest_distance = d;
+            }
+        }
+    }
+    return found;
 }
 
 bool mts_has(const mts_props *P, const char *name)
@@ -1117,10 +1217,14 @@ static const char *kind_name(mts_kind k)
     return "?";
 }
 
+/* "a" or "an" before a word, by its first letter (every kind name here follows that rule) */
+static const char *article(const char *word) { return strchr("aeiouAEIOU", word[0]) && word[0] ? "an" : "a"; }
+
 static void wrong_kind(mts_loader *L, const mts_prop *p, const char *want)
 {
-    mts_fail(L, p->node, SPC_ERR_VALUE, "property '%s' must be a %s, not a %s", p->name, want,
-             p->kind == MTS_OBJECT ? p->obj->name : kind_name(p->kind));
+    const char *got = p->kind == MTS_OBJECT ? p->obj->name : kind_name(p->kind);
+    mts_fail(L, p->node, SPC_ERR_VALUE, "property '%s' must be %s %s, not %s %s", p->name, article(want), want,
+             article(got), got);
 }
 
 double mts_get_float(mts_loader *L, mts_props *P, const char *name, double def)
@@ -1139,9 +1243,17 @@ int mts_get_int(mts_loader *L, mts_props *P, const char *name, int def)
     mts_prop *p = mts_find(P, name);
     if (!p)
         return def;
-    if ((p->kind == MTS_INT || (p->kind == MTS_FLOAT && p->f == floor(p->f))) && fabs(p->f) < 2e9)
-        return (int)p->f;
-    wrong_kind(L, p, "integer");
+    if (p->kind == MTS_INT || (p->kind == MTS_FLOAT && p->f == floor(p->f))) {
+        if (p->f >= (double)INT_MIN && p->f <= (double)INT_MAX)
+            return (int)p->f;
+        mts_fail(L, p->node, SPC_ERR_LIMIT, "property '%s': %.17g is out of range (%d to %d)", p->name, p->f, INT_MIN,
+                 INT_MAX);
+        return def;
+    }
+    if (p->kind == MTS_FLOAT)
+        mts_fail(L, p->node, SPC_ERR_VALUE, "property '%s' must be an integer, not %.17g", p->name, p->f);
+    else
+        wrong_kind(L, p, "integer");
     return def;
 }
 
@@ -1335,9 +1447,10 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
         mts_props_end(&P);
         return;
     }
+    /* Mitsuba's perspective sensor accepts focus_distance too (it only matters for a lens) */
+    mts_ignore(&P, "focus_distance");
     if (thin) {
         mts_ignore(&P, "aperture_radius");
-        mts_ignore(&P, "focus_distance");
         if (!L->warned_thinlens)
             mts_warn(node, "sensor 'thinlens' is rendered as 'perspective' (a pinhole): no depth of field");
         L->warned_thinlens = true;
@@ -1591,6 +1704,13 @@ static spc_status load(const char *xml, size_t len, const char *name, const char
     }
     const mts_param *ov = find_param(&L, SPC_MITSUBA_INTEGRATOR_DEFINE);
     L.integrator_override = ov ? ov->value : NULL;
+    const mts_param *unref = find_param(&L, SPC_DEFINE_UNREFERENCED);
+    if (unref && strcmp(unref->value, "warn") != 0 && strcmp(unref->value, "error") != 0) {
+        mts_fail(&L, NULL, SPC_ERR_VALUE, "-D " SPC_DEFINE_UNREFERENCED "=%s: the value must be warn or error",
+                 unref->value);
+        goto done;
+    }
+    L.lenient = unref && strcmp(unref->value, "warn") == 0;
     if (add_doc(&L, name, L.base_dir, NULL, &doc) != SPC_OK)
         goto done;
     spc_xml_node *root;
@@ -1613,7 +1733,8 @@ static spc_status load(const char *xml, size_t len, const char *name, const char
         goto done;
     }
     root->user = dialect;
-    if (preprocess_children(&L, root, dialect, 0) != SPC_OK || finish_ids(&L, root) != SPC_OK)
+    if (preprocess_children(&L, root, dialect, 0) != SPC_OK || finish_ids(&L, root) != SPC_OK ||
+        check_defines(&L, root) != SPC_OK)
         goto done;
 
     L.scene = spc_scene_create();

@@ -10,6 +10,8 @@
  */
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <strings.h>
 
 #include "io/image_io.h"
 #include "render/film.h"
@@ -100,4 +102,44 @@ spc_status spc_film_write_png(const struct spc_film *f, const char *path, spc_er
     if (st != SPC_OK)
         return st;
     return spc_png_write_srgb(path, f->width, f->height, f->rgb, err);
+}
+
+spc_image_format spc_image_format_of(const char *path)
+{
+    static const struct {
+        const char *ext;
+        spc_image_format format;
+    } formats[] = {
+        {".exr", SPC_FORMAT_EXR},
+        {".png", SPC_FORMAT_PNG},
+        {".pfm", SPC_FORMAT_PFM},
+        {".hdr", SPC_FORMAT_HDR},
+    };
+    const char *slash = path ? strrchr(path, '/') : NULL;
+    const char *dot = path ? strrchr(slash ? slash : path, '.') : NULL;
+    if (!dot)
+        return SPC_FORMAT_UNKNOWN;
+    for (size_t i = 0; i < sizeof formats / sizeof formats[0]; ++i)
+        if (strcasecmp(dot, formats[i].ext) == 0)
+            return formats[i].format;
+    return SPC_FORMAT_UNKNOWN;
+}
+
+spc_status spc_film_write(const struct spc_film *f, const char *path, bool variance, spc_error *err)
+{
+    spc_image_format format = spc_image_format_of(path);
+    if (format != SPC_FORMAT_EXR && (variance || (f && f->has_aovs)))
+        return spc_error_set(err, SPC_ERR_VALUE, path, 0, 0,
+                             "the variance and AOV channels can only be written to an .exr file");
+    spc_status st = check_resolved(f, path, err);
+    if (st != SPC_OK)
+        return st;
+    switch (format) {
+    case SPC_FORMAT_EXR: return spc_film_write_exr(f, path, variance, err);
+    case SPC_FORMAT_PNG: return spc_png_write_srgb(path, f->width, f->height, f->rgb, err);
+    case SPC_FORMAT_PFM: return spc_pfm_write(path, f->width, f->height, f->rgb, err);
+    case SPC_FORMAT_HDR: return spc_hdr_write(path, f->width, f->height, f->rgb, err);
+    case SPC_FORMAT_UNKNOWN: break;
+    }
+    return spc_error_set(err, SPC_ERR_VALUE, path, 0, 0, "unknown image format: name it .exr, .png, .pfm or .hdr");
 }
