@@ -1,18 +1,22 @@
 #!/usr/bin/env python3
-"""Wall time of specula against Mitsuba 3 at equal samples per pixel, 2 threads each.
+"""Time of specula against Mitsuba 3 at equal samples per pixel, same threads each.
 
-    python3 bench/bench_vs_mitsuba.py [--specula build/specula] [--spp 64] [--scale 0.5]
-                                      [--variant llvm_ad_rgb] [--repeats 3] [SCENE.xml ...]
+    python3 bench/bench_vs_mitsuba.py [--specula build/specula] [--spp 64] [--scale S] [--threads 2]
+                                      [--variant llvm_ad_rgb] [--scalar] [--repeats 3] [SCENE.xml[:SCALE] ...]
 
-Default scenes: ../shared/scenes/cornell-box and veach-mis, rendered at `scale` times their own
-resolution with the path tracer (-D integrator=path) and the scenes' max_depth. Both renderers get
-2 threads: specula --threads 2; Mitsuba through drjit's thread pool (dr.set_thread_count(2)).
-The variant defaults to llvm_ad_rgb and falls back to scalar_rgb when it cannot render here. The
-times are of the render alone (scene loading excluded): specula's --stats wall_seconds, and for
-Mitsuba the mi.render() call after one untimed warm-up render (which, for the llvm variants,
-compiles the kernel; its time is reported separately). The renders alternate (specula, Mitsuba,
-specula, ...) `repeats` times and the table gives the medians and their ratio, so that load from
-other processes hits both alike; the 1-minute load average is printed before and after.
+Default scenes: ../shared/scenes/cornell-box at 0.25 of its resolution (256x256) and veach-mis at
+its own (1280x720), rendered with the path tracer (-D integrator=path) and the scenes' max_depth;
+--scale S sets every scene's scale, SCENE.xml:S one scene's. Both renderers get the same thread
+count: specula --threads N; Mitsuba through drjit's thread pool (dr.set_thread_count(N)).
+The variant defaults to llvm_ad_rgb, with DRJIT_LIBLLVM_PATH set to Debian 12's libLLVM 19 unless
+the environment sets it (Debian's LLVM 14 is too old for drjit, 15 and 16 fail to compile its
+kernels on AVX-512 hosts); it falls back to scalar_rgb when it cannot render here. --scalar also
+times scalar_rgb in the same run (a third column). The times are of the render alone (scene
+loading excluded): specula's --stats wall_seconds, and for Mitsuba the mi.render() call after one
+untimed warm-up render (which, for the llvm variants, compiles the kernel; its time is reported
+separately). The renders alternate (specula, Mitsuba, specula, ...) `repeats` times and the table
+gives the medians and their ratio, so that load from other processes hits both alike; the 1-minute
+load average is printed before and after.
 
 CPU seconds (user + system, all threads) are measured next to wall time, because on a shared
 machine wall time depends on what else runs: for specula getrusage(RUSAGE_CHILDREN) around the
@@ -46,68 +50,106 @@ def cpu_seconds(who):
     return r.ru_utime + r.ru_stime
 
 
+LLVM_DEFAULT = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
+# The issue's sizes: the cornell box at a quarter of its 1024x1024, veach-mis at its 1280x720.
+DEFAULT_SCENES = (("cornell-box", 0.25), ("veach-mis", 1.0))
+
+
+def mitsuba_time(mi, dr, scene, spp, seed):
+    """Wall and CPU seconds of one mi.render() in this process."""
+    c0 = cpu_seconds(resource.RUSAGE_SELF)
+    t0 = time.time()
+    img = mi.render(scene, spp=spp, seed=seed)
+    dr.eval(img)
+    dr.sync_thread()
+    return time.time() - t0, cpu_seconds(resource.RUSAGE_SELF) - c0
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("scenes", nargs="*")
     ap.add_argument("--specula", default=os.path.join(ROOT, "build", "specula"))
     ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--scale", type=float, default=0.5)
+    ap.add_argument("--scale", type=float, default=None)
+    ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--scalar", action="store_true", help="also time scalar_rgb in the same run")
     ap.add_argument("--repeats", type=int, default=3)
     a = ap.parse_args()
-    scenes = a.scenes or sorted(glob.glob(os.path.join(ROOT, "..", "shared", "scenes", "*", "scene.xml")))
+    scenes = []
+    for arg in a.scenes:
+        path, _, sc = arg.rpartition(":") if re.search(r":[0-9.]+$", arg) else (arg, "", "")
+        scenes.append((path, float(sc) if sc else (a.scale or 1.0)))
+    if not scenes:
+        shared = os.path.join(ROOT, "..", "shared", "scenes")
+        if not os.path.isdir(shared):
+            shared = "/work/shared/scenes"
+        scenes = [(os.path.join(shared, n, "scene.xml"), a.scale or sc) for n, sc in DEFAULT_SCENES]
+    if "llvm" in a.variant and "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(LLVM_DEFAULT):
+        os.environ["DRJIT_LIBLLVM_PATH"] = LLVM_DEFAULT
 
-    # A variant that loads can still abort inside its JIT (llvm_ad_rgb does here, "LLVM ERROR:
-    # Cannot select ... fminimum" with the system's LLVM): try a tiny render in a child process.
+    # A variant that loads can still abort inside its JIT (llvm_ad_rgb does with Debian's LLVM 15
+    # and 16: "LLVM ERROR: Cannot select ... fminimum"): try a tiny render in a child process.
     probe = ("import mitsuba as mi; mi.set_variant('%s'); "
              "mi.render(mi.load_dict(mi.cornell_box()), spp=1)" % a.variant)
     if subprocess.run([sys.executable, "-c", probe], capture_output=True).returncode != 0:
         print("variant %s does not render here: using scalar_rgb" % a.variant)
         a.variant = "scalar_rgb"
+    scalar = a.scalar and a.variant != "scalar_rgb"
 
     import drjit as dr
     import mitsuba as mi
 
-    mi.set_variant(a.variant)
-    dr.set_thread_count(2)
+    dr.set_thread_count(a.threads)
     print("load average before: %.2f" % os.getloadavg()[0])
     rows = []
-    for path in scenes:
+    for path, scale in scenes:
         name = os.path.basename(os.path.dirname(path)) if path.endswith("scene.xml") else os.path.basename(path)
         d = defaults_of(path)
         defs = {"integrator": "path"}
         if "resx" in d:
-            defs["resx"] = str(int(int(d["resx"]) * a.scale))
-            defs["resy"] = str(int(int(d["resy"]) * a.scale))
+            defs["resx"] = str(int(int(d["resx"]) * scale))
+            defs["resy"] = str(int(int(d["resy"]) * scale))
         elif "res" in d:
-            defs["res"] = str(int(int(d["res"]) * a.scale))
+            defs["res"] = str(int(int(d["res"]) * scale))
         dflags = sum((["-D", "%s=%s" % kv] for kv in defs.items()), [])
+        mi.set_variant(a.variant)
         scene = mi.load_file(path, **defs)
         t0 = time.time()
         mi.render(scene, spp=a.spp, seed=0)
         warm = time.time() - t0
-        ts, tm, cs, cm = [], [], [], []
+        scene_scalar = None
+        if scalar:
+            mi.set_variant("scalar_rgb")
+            scene_scalar = mi.load_file(path, **defs)
+        ts, tm, cs, cm, tss, css = [], [], [], [], [], []
         with tempfile.TemporaryDirectory() as tmp:
             for r in range(a.repeats):
                 stats = os.path.join(tmp, "stats.json")
                 c0 = cpu_seconds(resource.RUSAGE_CHILDREN)
                 subprocess.run([a.specula, "render", path, "-o", os.path.join(tmp, "out.exr"), "--spp", str(a.spp),
-                                "--threads", "2", "--quiet", "--stats", stats, "--seed", str(r)] + dflags, check=True)
+                                "--threads", str(a.threads), "--quiet", "--stats", stats, "--seed", str(r)] + dflags,
+                               check=True)
                 cs.append(cpu_seconds(resource.RUSAGE_CHILDREN) - c0)
                 ts.append(json.load(open(stats))["wall_seconds"])
-                c0 = cpu_seconds(resource.RUSAGE_SELF)
-                t0 = time.time()
-                img = mi.render(scene, spp=a.spp, seed=r + 1)
-                dr.eval(img)
-                dr.sync_thread()
-                tm.append(time.time() - t0)
-                cm.append(cpu_seconds(resource.RUSAGE_SELF) - c0)
+                mi.set_variant(a.variant)
+                w, c = mitsuba_time(mi, dr, scene, a.spp, r + 1)
+                tm.append(w)
+                cm.append(c)
+                if scalar:
+                    mi.set_variant("scalar_rgb")
+                    w, c = mitsuba_time(mi, dr, scene_scalar, a.spp, r + 1)
+                    tss.append(w)
+                    css.append(c)
         res = "%sx%s" % (defs.get("resx", defs.get("res")), defs.get("resy", defs.get("res")))
         row = {"scene": name, "res": res, "spp": a.spp, "specula_s": statistics.median(ts),
                "mitsuba_s": statistics.median(tm), "mitsuba_first_s": warm, "variant": a.variant,
                "specula_cpu": statistics.median(cs), "mitsuba_cpu": statistics.median(cm)}
         row["ratio"] = row["specula_s"] / row["mitsuba_s"]
         row["cpu_ratio"] = row["specula_cpu"] / row["mitsuba_cpu"]
+        if scalar:
+            row["scalar_s"] = statistics.median(tss)
+            row["scalar_cpu"] = statistics.median(css)
         rows.append(row)
         print("%-12s %-9s spp %d  wall: specula %.2f s  Mitsuba (%s) %.2f s (first render %.2f s)  ratio %.2f;"
               "  CPU: specula %.2f s  Mitsuba %.2f s  ratio %.2f" % (name, res, a.spp, row["specula_s"], a.variant,
@@ -115,15 +157,26 @@ def main():
                                                                      row["mitsuba_cpu"], row["cpu_ratio"]), flush=True)
         print("  wall specula %s  Mitsuba %s" % (["%.2f" % t for t in ts], ["%.2f" % t for t in tm]))
         print("  CPU  specula %s  Mitsuba %s" % (["%.2f" % t for t in cs], ["%.2f" % t for t in cm]), flush=True)
+        if scalar:
+            print("  scalar_rgb wall %s  CPU %s" % (["%.2f" % t for t in tss], ["%.2f" % t for t in css]), flush=True)
     print("load average after: %.2f" % os.getloadavg()[0])
     print()
-    print("| scene | resolution | spp | wall specula (s) | wall Mitsuba %s (s) | wall specula / Mitsuba "
-          "| CPU specula (s) | CPU Mitsuba (s) | CPU specula / Mitsuba | Mitsuba first render (s) |" % a.variant)
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("%d thread(s) each, medians of %d" % (a.threads, a.repeats))
+    head = ("| scene | resolution | spp | wall specula (s) | wall Mitsuba %s (s) | wall specula / Mitsuba "
+            "| CPU specula (s) | CPU Mitsuba (s) | CPU specula / Mitsuba |" % a.variant)
+    sep = "|---|---|---|---|---|---|---|---|---|"
+    if scalar:
+        head += " wall scalar_rgb (s) | CPU scalar_rgb (s) | CPU specula / scalar_rgb |"
+        sep += "---|---|---|"
+    print(head + " Mitsuba first render (s) |")
+    print(sep + "---|")
     for r in rows:
-        print("| %s | %s | %d | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |" % (
+        line = "| %s | %s | %d | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |" % (
             r["scene"], r["res"], r["spp"], r["specula_s"], r["mitsuba_s"], r["ratio"], r["specula_cpu"],
-            r["mitsuba_cpu"], r["cpu_ratio"], r["mitsuba_first_s"]))
+            r["mitsuba_cpu"], r["cpu_ratio"])
+        if scalar:
+            line += " %.2f | %.2f | %.2f |" % (r["scalar_s"], r["scalar_cpu"], r["specula_cpu"] / r["scalar_cpu"])
+        print(line + " %.2f |" % r["mitsuba_first_s"])
     return 0
 
 

@@ -672,7 +672,7 @@ TEST(solid_angle_sampling)
     for (int i = 0; i < N; ++i) {
         spc_shape_sample ss;
         CHECK(spc_shape_has_solid_angle_sampling(&sdf, ref));
-        CHECK(spc_shape_sample_solid_angle(&sdf, ref, spc_v2(rnd(), rnd()), &ss));
+        CHECK(spc_shape_sample_solid_angle(&sdf, ref, spc_v2(rnd(), rnd()), true, &ss));
         double w = ss.pdf > 0 ? 1.0 / ss.pdf : 0.0;
         if (ss.pdf > 0) {
             CHECK_NEAR(spc_distance(ss.p, ana.center), 1.0, 1e-12);

@@ -193,11 +193,22 @@ TEST(sphere_sampling_solid_angle)
     }
     CHECK_NEAR(acc / N, exact, 0.01 * exact);
     spc_shape_sample ss;
-    CHECK(spc_shape_sample_solid_angle(&s, ref, spc_v2(0.3, 0.7), &ss));
+    CHECK(spc_shape_sample_solid_angle(&s, ref, spc_v2(0.3, 0.7), true, &ss));
     CHECK_NEAR(1.0 / ss.pdf, exact, 1e-12);
     CHECK_NEAR(spc_length(ss.p), 1.0, 1e-12);
     CHECK(spc_dot(ss.n, spc_sub(ref, ss.p)) > 0.0);
-    CHECK(!spc_shape_sample_solid_angle(&s, spc_v3(0, 0.5, 0), spc_v2(0.3, 0.7), &ss));
+    CHECK(!spc_shape_sample_solid_angle(&s, spc_v3(0, 0.5, 0), spc_v2(0.3, 0.7), true, &ss));
+    /* without uv: every other field bit for bit the same */
+    for (int i = 0; i < 1000; ++i) {
+        spc_vec2 u = spc_v2(rnd(), rnd());
+        spc_shape_sample a, b;
+        CHECK(spc_shape_sample_solid_angle(&s, ref, u, true, &a));
+        CHECK(spc_shape_sample_solid_angle(&s, ref, u, false, &b));
+        CHECK(memcmp(&a.p, &b.p, sizeof a.p) == 0 && memcmp(&a.n, &b.n, sizeof a.n) == 0);
+        CHECK(a.pdf == b.pdf && a.err == b.err && a.prim == b.prim);
+        CHECK(b.uv.x == 0.0 && b.uv.y == 0.0);
+        CHECK(a.uv.x >= 0.0 && a.uv.x <= 1.0 && a.uv.y >= 0.0 && a.uv.y <= 1.0);
+    }
     spc_shape_release(&s);
 }
 

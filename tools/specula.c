@@ -86,6 +86,7 @@ static const char *const usage_main =
     "  render SCENE.xml [options]   render a Mitsuba scene to an EXR (and a PNG preview)\n"
     "  diff A.exr B.exr [--json]    compare image A against reference B\n"
     "  info SCENE.xml [-D n=v]...   describe a scene\n"
+    "  denoise IN.exr -o OUT.exr    denoise a render (Intel Open Image Denoise)\n"
     "\n"
     "  specula --version            print the version\n"
     "  specula <command> --help     options of a command\n";
@@ -136,6 +137,7 @@ static const char *const usage_render_more =
     "                         written for other renderers)\n"
     "  --variance             also write the variance of the mean (variance.R/G/B)\n"
     "  --aovs                 also write albedo, normal and depth channels\n"
+    "  --denoise              denoise the image (see below)\n"
     "  --stats FILE.json      write render statistics as JSON\n"
     "  --strategy S,T         bdpt: render only the (s, t) strategy, unweighted\n"
     "  --strategy-weighted    with --strategy: apply the MIS weight\n"
@@ -184,6 +186,26 @@ static const char *const usage_diff =
     "  --min-pass F           exit 10 when fewer than the fraction F (0..1) of pixels pass the\n"
     "                         z-test (needs variance channels: render with --variance)\n";
 
+/* printed after usage_render (one string would pass the 4095 characters C guarantees) */
+static const char *const usage_render_denoise =
+    "\n"
+    "--denoise runs Intel Open Image Denoise on the final image, guided by the albedo and normal\n"
+    "AOVs (it implies --aovs; the library: `pip install pyoidn`, see specula denoise --help). The\n"
+    "EXR's R, G, B and the PNG are then the denoised image; the noisy one is kept in the same EXR\n"
+    "as noisy.R/G/B (its variance, with --variance, as noisy.variance.R/G/B).\n";
+
+static const char *const usage_denoise =
+    "usage: specula denoise IN.exr -o OUT.exr [--threads N] [--quiet]\n"
+    "\n"
+    "Denoises an EXR written by specula with Intel Open Image Denoise (RT filter, HDR), guided by\n"
+    "its albedo and normal channels (render with --aovs; without them the image is denoised alone,\n"
+    "with a warning). OUT.exr: R, G, B denoised, the input's image as noisy.R/G/B, its AOVs.\n"
+    "The library is the PyPI package pyoidn (`pip install pyoidn`), the system's\n"
+    "libOpenImageDenoise.so.2, or the file named by SPECULA_OIDN_LIBRARY.\n"
+    "  -o, --output OUT.exr   output image (required)\n"
+    "  --threads N            denoiser threads (default: all cores)\n"
+    "  --quiet                no progress or summary\n";
+
 static const char *const usage_info =
     "usage: specula info SCENE.xml [-D name=value]... [--lenient]\n"
     "\n"
@@ -210,6 +232,8 @@ static int usage_error(const char *usage, const char *fmt, ...)
         fputs(" (see specula diff --help)\n", stderr);
     else if (usage == usage_info)
         fputs(" (see specula info --help)\n", stderr);
+    else if (usage == usage_denoise)
+        fputs(" (see specula denoise --help)\n", stderr);
     else
         fputs(" (see specula --help)\n", stderr);
     return EXIT_USAGE;
@@ -576,6 +600,71 @@ static void on_progress(void *user, double fraction, int spp_done, int spp_total
     pthread_mutex_unlock(&p->mu);
 }
 
+#define DENOISE_PROGRESS_MIN_PIXELS (512 * 512) /* smaller images denoise in well under a second */
+
+static double monotonic_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The denoiser's progress (from its threads): "denoising [###---]  45.0%". */
+static void on_denoise_progress(void *user, double fraction)
+{
+    progress *p = user;
+    if (pthread_mutex_trylock(&p->mu) != 0)
+        return;
+    double t = monotonic_seconds();
+    if (!p->drawn || t - p->last_drawn >= PROGRESS_INTERVAL_S || fraction >= 1.0) {
+        p->last_drawn = t;
+        p->drawn = true;
+        double f = fraction < 0.0 ? 0.0 : (fraction > 1.0 ? 1.0 : fraction);
+        char bar[PROGRESS_BAR_WIDTH + 1];
+        int filled = (int)(f * PROGRESS_BAR_WIDTH + 0.5);
+        for (int i = 0; i < PROGRESS_BAR_WIDTH; ++i)
+            bar[i] = i < filled ? '#' : '-';
+        bar[PROGRESS_BAR_WIDTH] = '\0';
+        fprintf(stderr, "\rdenoising [%s] %5.1f%%  \x1b[K", bar, 100.0 * f);
+        fflush(stderr);
+    }
+    pthread_mutex_unlock(&p->mu);
+}
+
+/* Denoises film (progress on a terminal for large images); false with a message on failure. */
+static bool denoise_film(spc_film *film, int threads, bool quiet)
+{
+    spc_denoise_options dopt;
+    spc_denoise_options_init(&dopt);
+    dopt.threads = threads;
+    progress prog;
+    memset(&prog, 0, sizeof prog);
+    pthread_mutex_init(&prog.mu, NULL);
+    if (!quiet && isatty(STDERR_FILENO) &&
+        (long)spc_film_width(film) * spc_film_height(film) >= DENOISE_PROGRESS_MIN_PIXELS) {
+        dopt.progress = on_denoise_progress;
+        dopt.progress_user = &prog;
+    }
+    spc_denoise_stats ds;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    spc_status st = spc_film_denoise(film, &dopt, &ds, &err);
+    if (prog.drawn)
+        fputc('\n', stderr);
+    pthread_mutex_destroy(&prog.mu);
+    if (st != SPC_OK) {
+        fail_error(&err);
+        return false;
+    }
+    if (ds.nonfinite_pixels)
+        fprintf(stderr, "specula: warning: %llu pixels had NaN or infinite values; the denoiser got them as 0\n",
+                (unsigned long long)ds.nonfinite_pixels);
+    if (!quiet)
+        fprintf(stderr, "denoised: Open Image Denoise, %s, %.2f s (%s)\n",
+                ds.used_aux ? "albedo and normal prefiltered" : "image alone", ds.seconds, ds.library);
+    return true;
+}
+
 /* ---- stats ---- */
 
 typedef struct stats_info {
@@ -712,7 +801,7 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
     const char *ckpt_path = NULL;
     arglist recorded = {NULL, 0, false};
     const char *scene_path = NULL, *out_arg = NULL, *stats_path = NULL, *strategy_dir = NULL;
-    bool variance = false, quiet = false, lenient = false;
+    bool variance = false, quiet = false, lenient = false, denoise = false;
     defines defs;
     if (!defines_init(&defs, argc)) {
         fail("out of memory");
@@ -725,6 +814,7 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         if (is_help(a)) {
             fputs(usage_render, stdout);
             fputs(usage_render_more, stdout);
+            fputs(usage_render_denoise, stdout);
             fputs(usage_render_resume, stdout);
             fputs(usage_exit, stdout);
             defines_release(&defs);
@@ -803,6 +893,9 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         } else if (!strcmp(a, "--aovs")) {
             opt.aovs = true;
             ++i;
+        } else if (!strcmp(a, "--denoise")) {
+            denoise = opt.aovs = true;
+            ++i;
         } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
             quiet = true;
             ++i;
@@ -827,6 +920,8 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         code = usage_error(usage_render, "--strategy-weighted needs --strategy S,T");
     if (code == 0 && strategy_dir && opt.strategy_s >= 0)
         code = usage_error(usage_render, "--strategy-images writes every strategy; it does not go with --strategy");
+    if (code == 0 && denoise && strategy_dir)
+        code = usage_error(usage_render, "--denoise does not go with --strategy-images");
     if (code == 0 && strategy_dir && (ckpt_path || resume))
         code = usage_error(usage_render, "--strategy-images cannot be checkpointed; render without --checkpoint");
     if (code != 0) {
@@ -891,6 +986,15 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         opt.checkpoint_user = recorded.text;
     }
 
+    if (denoise) {
+        /* a missing library is reported before the render, not after it */
+        spc_status lst = spc_denoise_load(NULL, 0, &err);
+        if (lst != SPC_OK) {
+            fail_error(&err);
+            code = exit_code(lst);
+            goto done;
+        }
+    }
     if (opt.integrator) {
         /* room was reserved: defines_init allots argc + 1 entries and --integrator takes two */
         defs.names[defs.n] = NULL;
@@ -962,6 +1066,9 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         goto done;
     }
 
+    /* the final image only: checkpoints hold the film's sums, so a resumed render denoises the
+     * same image; if the denoiser fails, the noisy image is written and the exit code says so */
+    bool denoise_failed = denoise && !denoise_film(film, opt.threads, quiet);
     st = write_outputs(film, out_path, png, variance);
     if (st != SPC_OK) {
         code = exit_code(st);
@@ -994,7 +1101,7 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
                 stats.wall_seconds, stats.mrays_per_second, stats.threads,
                 stats.invalid_samples ? " (some invalid samples discarded)" : "", out_path, png ? ", " : "",
                 png ? png : "");
-    code = ckpt_failed ? EXIT_IO : interrupted ? EXIT_INTERRUPTED : 0;
+    code = ckpt_failed ? EXIT_IO : interrupted ? EXIT_INTERRUPTED : denoise_failed ? (int)SPC_ERR_INTERNAL : 0;
 
 done:
     spc_film_destroy(film);
@@ -1052,6 +1159,7 @@ static int cmd_render(int argc, char **argv)
         if (is_help(a)) {
             fputs(usage_render, stdout);
             fputs(usage_render_more, stdout);
+            fputs(usage_render_denoise, stdout);
             fputs(usage_render_resume, stdout);
             fputs(usage_exit, stdout);
             return 0;
@@ -1278,6 +1386,77 @@ static int cmd_diff(int argc, char **argv)
     return code;
 }
 
+/* ---- denoise ---- */
+
+static int cmd_denoise(int argc, char **argv)
+{
+    const char *in = NULL, *out = NULL;
+    bool quiet = false;
+    spc_denoise_options dopt;
+    spc_denoise_options_init(&dopt);
+    for (int i = 0; i < argc;) {
+        const char *a = argv[i], *v = NULL;
+        if (is_help(a)) {
+            fputs(usage_denoise, stdout);
+            return 0;
+        } else if (opt_value(argc, argv, &i, "--output", "-o", &v)) {
+            if (!v || !*v)
+                return usage_error(usage_denoise, "-o needs a file name");
+            out = v;
+        } else if (opt_value(argc, argv, &i, "--threads", NULL, &v)) {
+            if (!parse_int(v, 0, 4096, &dopt.threads))
+                return usage_error(usage_denoise, "--threads needs a count (0: all cores), not '%s'", v ? v : "");
+        } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
+            quiet = true;
+            ++i;
+        } else if (a[0] == '-' && a[1] != '\0') {
+            return usage_error(usage_denoise, "unknown option '%s'", a);
+        } else {
+            if (in)
+                return usage_error(usage_denoise, "denoise takes one image ('%s' and '%s' given)", in, a);
+            in = a;
+            ++i;
+        }
+    }
+    if (!in)
+        return usage_error(usage_denoise, "no image given");
+    if (!out)
+        return usage_error(usage_denoise, "no output given (-o OUT.exr)");
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_output_check(out, &err) != SPC_OK) {
+        fail_error(&err);
+        return exit_code(SPC_ERR_IO);
+    }
+    progress prog;
+    memset(&prog, 0, sizeof prog);
+    pthread_mutex_init(&prog.mu, NULL);
+    if (!quiet && isatty(STDERR_FILENO)) {
+        dopt.progress = on_denoise_progress;
+        dopt.progress_user = &prog;
+    }
+    spc_denoise_stats ds;
+    memset(&ds, 0, sizeof ds);
+    spc_status st = spc_denoise_exr(in, out, &dopt, &ds, &err);
+    if (prog.drawn)
+        fputc('\n', stderr);
+    pthread_mutex_destroy(&prog.mu);
+    if (st != SPC_OK) {
+        fail_error(&err);
+        return exit_code(st);
+    }
+    if (!ds.used_aux)
+        fprintf(stderr, "specula: warning: %s has no albedo.* and normal.* channels (render with --aovs); "
+                        "denoised the image alone\n", in);
+    if (ds.nonfinite_pixels)
+        fprintf(stderr, "specula: warning: %llu pixels had NaN or infinite values; the denoiser got them as 0\n",
+                (unsigned long long)ds.nonfinite_pixels);
+    if (!quiet)
+        fprintf(stderr, "denoised: Open Image Denoise, %s, %.2f s (%s) -> %s\n",
+                ds.used_aux ? "albedo and normal prefiltered" : "image alone", ds.seconds, ds.library, out);
+    return 0;
+}
+
 /* ---- info ---- */
 
 static int cmd_info(int argc, char **argv)
@@ -1376,5 +1555,7 @@ int main(int argc, char **argv)
         return cmd_diff(argc - 2, argv + 2);
     if (!strcmp(cmd, "info"))
         return cmd_info(argc - 2, argv + 2);
+    if (!strcmp(cmd, "denoise"))
+        return cmd_denoise(argc - 2, argv + 2);
     return usage_error(usage_main, "unknown command '%s'", cmd);
 }

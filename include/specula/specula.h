@@ -171,6 +171,49 @@ spc_status spc_film_write_exr(const spc_film *f, const char *path, bool variance
 /* 8-bit sRGB preview, clamped; atomic. */
 spc_status spc_film_write_png(const spc_film *f, const char *path, spc_error *err);
 
+/* ---- denoising: Intel Open Image Denoise 2.x, loaded at run time (src/denoise/oidn.h says where
+ * it is looked for: $SPECULA_OIDN_LIBRARY, the system's library path, the PyPI package pyoidn) ---- */
+typedef void (*spc_denoise_progress_fn)(void *user, double fraction);
+typedef struct spc_denoise_options {
+    int threads;      /* 0: OIDN's choice (all cores) */
+    bool prefilter;   /* denoise albedo and normal first and give them to the image's filter as clean
+                       * (OIDN's cleanAux), as OIDN recommends for final frames; init: true */
+    spc_denoise_progress_fn progress; /* may be NULL; fraction of the whole run, from OIDN's threads */
+    void *progress_user;
+} spc_denoise_options;
+void spc_denoise_options_init(spc_denoise_options *o);
+/* Finds and loads the library now (once per process): SPC_OK with its path in library (size
+ * bytes, may be NULL), or SPC_ERR_IO saying where it looked and how to install it. The CLI asks
+ * before a render with --denoise, so a missing library costs no render. */
+spc_status spc_denoise_load(char *library, size_t size, spc_error *err);
+typedef struct spc_denoise_stats {
+    bool used_aux;             /* albedo and normal guided the filter (false: the image alone) */
+    uint64_t nonfinite_pixels; /* pixels with a NaN or infinite value in the image or its AOVs: the
+                                * value is given to OIDN as 0 and the pixel counted */
+    double seconds;            /* wall time of the denoising, loading the library included */
+    char library[1024];        /* the OIDN library used */
+} spc_denoise_stats;
+/* Denoises a linear HDR image (3 floats per pixel, row 0 at the top) into out (3 floats per pixel;
+ * may be rgb). albedo and normal (3 floats per pixel, OIDN's definitions: integrator/aov.c) are both
+ * given or both NULL; albedo is clamped to [0, 1] and normal to [-1, 1] for OIDN. Errors: SPC_ERR_IO
+ * when the library is missing (the message says how to install it), SPC_ERR_NOMEM,
+ * SPC_ERR_INTERNAL when OIDN fails. */
+spc_status spc_denoise_rgb(int width, int height, const float *rgb, const float *albedo, const float *normal,
+                           float *out, const spc_denoise_options *o, spc_denoise_stats *stats, spc_error *err);
+/* Denoises a resolved film, with its AOVs when it has them (stats->used_aux says). Afterwards
+ * spc_film_rgb is the denoised image, spc_film_noisy_rgb the image before, and the writers write
+ * the denoised image: the EXR as R, G, B, with the noisy image as noisy.R/G/B (and its variance, if
+ * written, as noisy.variance.R/G/B, never as variance.*: it is not the denoised image's). */
+spc_status spc_film_denoise(spc_film *f, const spc_denoise_options *o, spc_denoise_stats *stats, spc_error *err);
+/* The image before spc_film_denoise (owned by the film), or NULL for a film not denoised. */
+const float *spc_film_noisy_rgb(const spc_film *f);
+/* `specula denoise`: reads an EXR written by specula (R, G, B, and albedo.*, normal.* when rendered
+ * with AOVs; an image already denoised is denoised again from its noisy.* channels), denoises it
+ * and writes out atomically as spc_film_write_exr does for a denoised film: R, G, B denoised,
+ * noisy.R/G/B, noisy.variance.* if the input had variance, and the AOV channels it had. */
+spc_status spc_denoise_exr(const char *in, const char *out, const spc_denoise_options *o, spc_denoise_stats *stats,
+                           spc_error *err);
+
 /* Output formats, chosen by the path's extension (case-insensitive) as in pbrt-v4 and Mitsuba. */
 typedef enum spc_image_format {
     SPC_FORMAT_UNKNOWN = 0, /* any other extension, or none */

@@ -31,11 +31,6 @@ static uint32_t lk_permute(uint32_t x, uint32_t seed)
     return x;
 }
 
-static uint32_t nested_uniform_scramble(uint32_t x, uint32_t seed)
-{
-    return reverse_bits(lk_permute(reverse_bits(x), seed));
-}
-
 /* The second Sobol dimension: index bits select rows of the Pascal matrix mod 2. Precomputed per
  * byte of the index (4 x 256 entries, built once; read-only afterwards), stored BIT-REVERSED so
  * that the Owen scramble (which works on reversed bits) needs one reversal less. */
@@ -69,6 +64,7 @@ void spc_sampler_start_key(spc_sampler *s, uint64_t key, uint32_t index)
     pthread_once(&sobol1_once, sobol1_init);
     s->pixel_seed = spc_hash64(key);
     s->index = index;
+    s->index_rev = reverse_bits(index);
     s->dim = 0;
 }
 
@@ -84,9 +80,11 @@ void spc_sampler_start(spc_sampler *s, uint32_t px, uint32_t py, uint32_t index,
 static uint32_t pair_x(spc_sampler *s, uint64_t *h, uint32_t *idx)
 {
     *h = spc_hash64(s->pixel_seed + 0x9e3779b97f4a7c15ULL * (uint64_t)(++s->dim));
-    *idx = nested_uniform_scramble(s->index, (uint32_t)*h);
-    /* nested_uniform_scramble(v) = reverse(lk(reverse(v))); the Sobol points are reversed
-     * quantities (dim 0 is reverse(idx)), so the inner reversal cancels */
+    /* the index's nested uniform scramble, reverse(lk(reverse(index))), from the reversal kept in
+     * the sampler */
+    *idx = reverse_bits(lk_permute(s->index_rev, (uint32_t)*h));
+    /* the Sobol points are reversed quantities (dim 0 is reverse(idx)), so the scramble's inner
+     * reversal cancels */
     return reverse_bits(lk_permute(*idx, (uint32_t)(*h >> 32)));
 }
 

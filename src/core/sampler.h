@@ -18,6 +18,7 @@
 typedef struct spc_sampler {
     uint64_t pixel_seed; /* hash of (pixel, seed) */
     uint32_t index;      /* sample index within the pixel */
+    uint32_t index_rev;  /* index with its bits reversed (each pair's index shuffle starts there) */
     uint32_t dim;        /* next dimension pair */
 } spc_sampler;
 

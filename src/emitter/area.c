@@ -336,7 +336,7 @@ bool spc_area_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_vec2 u, spc_
     const spc_shape *s = e->shape;
     spc_shape_sample ss;
     double pdf;
-    if (!e->has_cell_distrib && spc_shape_sample_solid_angle(s, ref, u, &ss)) {
+    if (!e->has_cell_distrib && spc_shape_sample_solid_angle(s, ref, u, !spc_texture_is_constant(e->radiance), &ss)) {
         pdf = ss.pdf;
     } else {
         if (!sample_area(e, u, &ss))

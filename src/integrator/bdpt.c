@@ -627,9 +627,7 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     double pdf_cam_mis = pdf_cam > 0.0 ? pdf_cam * B.film_pixels / B.n_light_paths : 1.0;
     int nc = random_walk(&B, *ray0, spc_rgb1(1.0), pdf_cam_mis, SPC_MODE_RADIANCE, smp, z, 1, max_cam, cam_capped);
     if (nc >= 2 && z[1].kind == V_SURFACE) {
-        out->albedo = spc_bsdf_albedo(z[1].h.bsdf, &z[1].h);
-        out->normal = z[1].h.sh.n;
-        out->depth = z[1].h.t;
+        spc_aov_from_hit(ctx, &z[1].h, spc_neg(ray0->d), smp, out);
     }
 
     /* light subpath, from its own stream so that its dimensions do not depend on the camera's */

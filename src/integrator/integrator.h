@@ -30,6 +30,7 @@ typedef struct spc_render_ctx {
     spc_integrator_kind kind;
     int max_depth, rr_depth;
     bool hide_emitters;
+    bool aovs; /* the film keeps AOVs: spc_aov_from_hit looks through delta surfaces */
     int strategy_s, strategy_t; /* bdpt debug: >= 0 keeps only this strategy */
     bool strategy_weighted;
     bool mis_balance; /* bdpt: balance heuristic instead of the power heuristic */
@@ -82,6 +83,12 @@ static inline int spc_strategy_index(int s, int t)
     int k = s + t - 1;
     return (k - 1) * (k + 2) / 2 + s;
 }
+
+/* The AOVs of a camera sample whose ray first hit h0 (wo0 toward the camera): depth h0->t; albedo
+ * and shading normal of the first surface with a non-delta lobe, found by sampling delta lobes from
+ * h0 on with a random stream of its own (aov.c; only with ctx->aovs, else h0's own features). */
+void spc_aov_from_hit(const spc_render_ctx *ctx, const spc_hit *h0, spc_vec3 wo0, const spc_sampler *smp,
+                      spc_sample_out *out);
 
 /* Parses an integrator name; false if unknown. */
 bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind);

@@ -110,17 +110,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             }
             break;
         }
-        if (segments == 1 || aov_follow) {
-            /* AOVs describe the first surface that is not purely specular, seen through the
-             * mirrors and glass in front of it: its albedo times their sampled weights (without
-             * radiance's 1/eta^2, a reflectance), its normal; depth stays the first hit's */
-            out->albedo = spc_rgb_mul(aov_beta, spc_bsdf_albedo(h.bsdf, &h));
-            out->normal = h.sh.n;
-            if (segments == 1)
-                out->depth = h.t;
-            aov_follow = h.bsdf && spc_bsdf_is_delta_only(h.bsdf);
-        }
         spc_vec3 wo = spc_neg(ray.d);
+        if (segments == 1)
+            spc_aov_from_hit(ctx, &h, wo, smp, out);
         /* specular NEE hook: an emitter hit through a chain it covers (see above) */
         bool covered = snee && spc_snee_track_covers(&track, sc, h.emitter);
         if (h.emitter && !(segments == 1 && ctx->hide_emitters)) {

@@ -526,9 +526,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
         }
         /* ---- a surface ---- */
         if (first && !is_null_surface(&h)) {
-            out->albedo = spc_bsdf_albedo(h.bsdf, &h);
-            out->normal = h.sh.n;
-            out->depth = h.t;
+            spc_aov_from_hit(ctx, &h, spc_neg(ray.d), smp, out);
             first = false;
         }
         spc_vec3 wo = spc_neg(ray.d);

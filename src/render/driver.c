@@ -181,6 +181,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         ctx.max_depth = -1;
     ctx.rr_depth = sc->integrator.rr_depth > 0 ? sc->integrator.rr_depth : 5;
     ctx.hide_emitters = sc->integrator.hide_emitters;
+    ctx.aovs = o->aovs;
     ctx.strategy_s = o->strategy_s;
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;

@@ -52,6 +52,7 @@ void spc_film_destroy(struct spc_film *f)
     free(f->rgb);
     free(f->var);
     free(f->aov);
+    free(f->noisy);
     for (int j = 0; j < f->nstrategy; ++j)
         spc_film_destroy(f->strategy[j]);
     free(f->strategy);
@@ -81,6 +82,8 @@ bool spc_film_resolve(struct spc_film *f)
         f->aov = malloc(7 * n * sizeof(float));
     if (!f->rgb || !f->var || (f->has_aovs && !f->aov))
         return false;
+    free(f->noisy); /* rgb is the sums' mean again */
+    f->noisy = NULL;
     double N = f->spp > 0 ? (double)f->spp : 1.0;
     for (size_t i = 0; i < 3 * n; ++i) {
         double mean = f->sum[i] / N;
@@ -106,6 +109,7 @@ int spc_film_width(const struct spc_film *f) { return f->width; }
 int spc_film_height(const struct spc_film *f) { return f->height; }
 const float *spc_film_rgb(const struct spc_film *f) { return f->rgb; }
 const float *spc_film_variance(const struct spc_film *f) { return f->var; }
+const float *spc_film_noisy_rgb(const struct spc_film *f) { return f->noisy; }
 
 int spc_film_strategy_count(const struct spc_film *f) { return f ? f->nstrategy : 0; }
 

@@ -28,6 +28,8 @@ struct spc_film {
     /* resolved by spc_film_resolve */
     float *rgb, *var;            /* 3 per pixel */
     float *aov;                  /* 7 per pixel */
+    float *noisy;                /* 3 per pixel after spc_film_denoise: rgb before it (rgb is then the
+                                  * denoised image); NULL otherwise, and again after a resolve */
     uint64_t invalid_samples;
     /* bdpt strategy images (spc_render_options.strategy_images): films owned by this one, which
      * spc_film_destroy and spc_film_resolve handle with it; film 2 k is strategy k

@@ -4,7 +4,9 @@
  * (temporary file, then rename), so a failure never leaves a half-written image behind.
  *
  * EXR channel names: R, G, B; variance.R, variance.G, variance.B; albedo.R, albedo.G, albedo.B,
- * normal.X, normal.Y, normal.Z, depth.Z. String attributes: "spp" and "renderer".
+ * normal.X, normal.Y, normal.Z, depth.Z. String attributes: "spp" and "renderer". A denoised film
+ * (spc_film_denoise) writes the denoised image as R, G, B, the image before as noisy.R, noisy.G,
+ * noisy.B, and its variance as noisy.variance.R/G/B (the denoised image has none).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -15,7 +17,7 @@
 #include "render/film.h"
 #include "specula/specula.h"
 
-#define FILM_IO_MAX_CHANNELS 13 /* rgb + variance rgb + 7 AOVs */
+#define FILM_IO_MAX_CHANNELS 16 /* rgb + noisy rgb + variance rgb + 7 AOVs */
 
 static spc_status check_resolved(const struct spc_film *f, const char *path, spc_error *err)
 {
@@ -40,10 +42,15 @@ spc_status spc_film_write_exr(const struct spc_film *f, const char *path, bool v
     names[nch++] = "R";
     names[nch++] = "G";
     names[nch++] = "B";
+    if (f->noisy) {
+        names[nch++] = "noisy.R";
+        names[nch++] = "noisy.G";
+        names[nch++] = "noisy.B";
+    }
     if (variance) {
-        names[nch++] = "variance.R";
-        names[nch++] = "variance.G";
-        names[nch++] = "variance.B";
+        names[nch++] = f->noisy ? "noisy.variance.R" : "variance.R";
+        names[nch++] = f->noisy ? "noisy.variance.G" : "variance.G";
+        names[nch++] = f->noisy ? "noisy.variance.B" : "variance.B";
     }
     if (aovs) {
         names[nch++] = "albedo.R";
@@ -65,6 +72,9 @@ spc_status spc_film_write_exr(const struct spc_film *f, const char *path, bool v
         int c = 0;
         for (int k = 0; k < 3; ++k)
             px[c++] = f->rgb[3 * i + (size_t)k];
+        if (f->noisy)
+            for (int k = 0; k < 3; ++k)
+                px[c++] = f->noisy[3 * i + (size_t)k];
         if (variance)
             for (int k = 0; k < 3; ++k)
                 px[c++] = f->var[3 * i + (size_t)k];
@@ -78,9 +88,10 @@ spc_status spc_film_write_exr(const struct spc_film *f, const char *path, bool v
     const spc_exr_attr attrs[] = {
         {"spp", spp},
         {"renderer", "specula " SPECULA_VERSION},
+        {"denoiser", "Intel Open Image Denoise 2 (RT filter, hdr; noisy image in noisy.*)"},
     };
-    st = spc_exr_write(path, f->width, f->height, nch, names, data, attrs, (int)(sizeof attrs / sizeof attrs[0]),
-                       err);
+    int nattrs = (int)(sizeof attrs / sizeof attrs[0]) - (f->noisy ? 0 : 1);
+    st = spc_exr_write(path, f->width, f->height, nch, names, data, attrs, nattrs, err);
     free(data);
     return st;
 }

@@ -452,7 +452,10 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
 
 /* ---- surface interaction ---- */
 
-static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, spc_hit *h)
+/* A triangle's hit at barycentrics (b1, b2). With frame false only what a light sample needs is
+ * filled (p, ng with its orientation, uv, err, b1, b2, dpdu, dpdv): no shading frame, no normal
+ * derivatives, no texture tangent; the values filled are the same either way. */
+static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool frame, spc_hit *h)
 {
     const spc_mesh *m = &s->mesh;
     uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
@@ -475,7 +478,7 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, spc_hi
         double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
         h->uv = spc_v2(u0 + b1 * du1 + b2 * du2, v0 + b1 * dv1 + b2 * dv2);
         double det = du1 * dv2 - dv1 * du2;
-        if (fabs(det) > 1e-20) {
+        if (frame && fabs(det) > 1e-20) {
             /* dP/du(texture) = (dv2 e1 - dv1 e2) / det */
             tangent = spc_scale(spc_sub(spc_scale(e1, dv2), spc_scale(e2, dv1)), 1.0 / det);
         }
@@ -488,6 +491,14 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, spc_hi
         double len = spc_length(nr);
         if (len > 1e-12) {
             spc_vec3 n = spc_scale(nr, 1.0 / len);
+            if (!frame) {
+                /* ng on the side of the (flipped) shading normal */
+                if (s->flip_normals)
+                    n = spc_neg(n);
+                if (spc_dot(n, h->ng) < 0.0)
+                    h->ng = spc_neg(h->ng);
+                return;
+            }
             /* d(nr/|nr|) = (I - n n^T) d(nr) / |nr| */
             spc_vec3 d1 = spc_sub(n1, n0), d2 = spc_sub(n2, n0);
             h->dndu = spc_scale(spc_sub(d1, spc_scale(n, spc_dot(n, d1))), 1.0 / len);
@@ -505,6 +516,8 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, spc_hi
     }
     if (s->flip_normals)
         h->ng = spc_neg(h->ng);
+    if (!frame)
+        return;
     h->dndu = h->dndv = spc_v3(0, 0, 0);
     h->sh = spc_frame_from_ns(h->ng, tangent);
 }
@@ -661,7 +674,7 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
     h->normal_mapped = false;
     h->n_unmapped = spc_v3(0, 0, 0);
     switch (s->type) {
-    case SPC_SHAPE_MESH: fill_mesh(s, prim, u, v, h); break;
+    case SPC_SHAPE_MESH: fill_mesh(s, prim, u, v, true, h); break;
     case SPC_SHAPE_SPHERE: fill_sphere(s, r, t, h); break;
     case SPC_SHAPE_DISK: fill_disk(s, u, v, h); break;
     case SPC_SHAPE_CYLINDER: fill_cylinder(s, r, t, h); break;
@@ -680,9 +693,8 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
         double ux;
         size_t i = spc_distrib1d_sample(&s->tri_distrib, u.x, &ux);
         spc_vec2 b = spc_warp_uniform_triangle(spc_v2(ux, u.y));
-        spc_hit h;
-        memset(&h, 0, sizeof h);
-        fill_mesh(s, (int)i, b.x, b.y, &h);
+        spc_hit h; /* the fields read below are all filled */
+        fill_mesh(s, (int)i, b.x, b.y, false, &h);
         out->p = h.p;
         out->n = h.ng;
         out->uv = h.uv;
@@ -761,7 +773,7 @@ bool spc_shape_has_solid_angle_sampling(const spc_shape *s, spc_vec3 ref)
     return spc_length2(spc_sub(ref, s->center)) > s->radius * s->radius * (1.0 + 1e-9);
 }
 
-bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, spc_shape_sample *out)
+bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, bool with_uv, spc_shape_sample *out)
 {
     if (!spc_shape_has_solid_angle_sampling(s, ref))
         return false;
@@ -800,11 +812,14 @@ bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, 
     spc_vec3 n = spc_normalize(spc_sub(p, s->center));
     out->p = spc_madd(s->center, n, R);
     out->n = s->flip_normals ? spc_neg(n) : n;
-    spc_vec3 l = spc_mat4_apply_vector(&s->to_local, n);
-    double phi = atan2(l.y, l.x);
-    if (phi < 0.0)
-        phi += 2.0 * SPC_PI;
-    out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
+    out->uv = spc_v2(0.0, 0.0);
+    if (with_uv) {
+        spc_vec3 l = spc_mat4_apply_vector(&s->to_local, n);
+        double phi = atan2(l.y, l.x);
+        if (phi < 0.0)
+            phi += 2.0 * SPC_PI;
+        out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
+    }
     out->pdf = spc_warp_uniform_cone_pdf(cos_max);
     out->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + R);
     out->prim = 0;

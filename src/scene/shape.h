@@ -123,8 +123,10 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
  * directions subtended; SDFs: the cone of their bounding sphere traced to the first crossing, from
  * anywhere). Returns false if the shape has no such method (use area sampling) or ref is inside.
  * On success: the point on the shape, and pdf in SOLID ANGLE at ref; pdf = 0 means the method
- * applies but this sample found no point (an SDF direction that misses): no sample. */
-bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, spc_shape_sample *out);
+ * applies but this sample found no point (an SDF direction that misses): no sample. With_uv false
+ * (the caller does not read uv, e.g. an emitter of constant radiance), a sphere's uv is left
+ * (0, 0) rather than computed; every other field is the same. */
+bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, bool with_uv, spc_shape_sample *out);
 /* Density (solid angle at ref) of the above for the point p on the shape seen from ref. */
 double spc_shape_pdf_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec3 p);
 bool spc_shape_has_solid_angle_sampling(const spc_shape *s, spc_vec3 ref);
