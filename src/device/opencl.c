@@ -297,7 +297,7 @@ static spc_status add_mesh(host_scene *hs, const spc_shape *s, int *si, float *s
     if (m->ntris > CL_MAX_TRIANGLES)
         return REFUSE("mesh '%s' of %zu triangles not supported (at most %d: rectangles, cubes)", s->id, m->ntris,
                       CL_MAX_TRIANGLES);
-    si[4] = (int)hs->tri.n;
+    si[4] = (int)(hs->tri.n / TRI_F);
     si[5] = (int)m->ntris;
     float *t = grow_add(&hs->tri, m->ntris * TRI_F);
     if (!t)
