@@ -785,10 +785,12 @@ static void camera_sample(const camera_t *c, int x, int y, rng_t *rng, float3 *o
 
 /* ---- path: NEE and BSDF sampling with the power heuristic (integrator/path.c) ---- */
 
-__kernel void render_path(SCENE_ARGS, int pass0, int base, uint seed_lo, uint seed_hi, int max_depth, int rr_depth,
+__kernel void render_path(SCENE_ARGS, int pass0, int base, int count, uint seed_lo, uint seed_hi, int max_depth, int rr_depth,
                           int hide_emitters, float mis_beta, __global float *out)
 {
     SCENE_INIT;
+    if ((int)get_global_id(0) >= count)
+        return;
     int gid = base + get_global_id(0);
     int npix = crop_w * crop_h;
     int b = gid / npix, pix = gid % npix;
@@ -858,5 +860,421 @@ __kernel void render_path(SCENE_ARGS, int pass0, int base, uint seed_lo, uint se
             beta /= q;
         }
     }
+    vstore3(L, get_global_id(0), out);
+}
+
+/* ---- bdpt (Veach 1997, ch. 10; the MIS weights as ratios of forward and reverse area densities
+ * along the path, as integrator/bdpt.c; the light's (1, 1) is left to (0, 2)) ---- */
+
+#define V_CAMERA 0
+#define V_LIGHT 1
+#define V_SURFACE 2
+
+typedef struct vtx_t {
+    float3 p, n, beta;
+    float pdf_fwd, pdf_rev; /* area densities (camera: 1 by convention, never used) */
+    int kind, bsdf, emitter;
+    bool delta;
+} vtx_t;
+
+/* solid-angle density at `from` -> area density at `to` (the pinhole has no area: no cosine) */
+static float to_area(float pdf, float3 from, const vtx_t *to)
+{
+    float3 w = to->p - from;
+    float d2 = dot(w, w);
+    if (!(d2 > 0.0f))
+        return 0.0f;
+    float c = to->kind == V_CAMERA ? 1.0f : fabs(dot(to->n, w)) / sqrt(d2);
+    return pdf * c / d2;
+}
+
+static float3 cam_local(const camera_t *c, float3 p)
+{
+    __global const float *m = c->f + 18;
+    return (float3)(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                    m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+}
+
+/* Density (solid angle) of camera ray directions toward world direction w, scaled by the film's
+ * pixel count over the window's (render/camera.c: |M v|^3 / (|det M| A)); 0 outside the film. */
+static float camera_pdf_dir(const camera_t *c, float3 w)
+{
+    float3 l = cam_local(c, cam_origin(c) + w) - cam_local(c, cam_origin(c));
+    if (!(l.z > 0.0f))
+        return 0.0f;
+    float x = l.x / l.z, y = l.y / l.z;
+    if (fabs(x) > c->f[12] || fabs(y) > c->f[13])
+        return 0.0f;
+    float mv = length(cam_vec(c, (float3)(x, y, 1.0f)));
+    return mv * mv * mv / (c->f[30] * 4.0f * c->f[12] * c->f[13]) * c->f[31];
+}
+
+static float emitter_area(const scene_t *sc, int e)
+{
+    int shape = sc->emit_i[e];
+    __global const float *sf = sc->shape_f + shape * SHAPE_F_STRIDE;
+    return sc->shape_i[shape * SHAPE_I_STRIDE] == SHAPE_SPHERE ? 4.0f * PI_F * sf[3] * sf[3] : sf[0];
+}
+
+/* Area density at `next` of sampling it from v (whose predecessor is prev, unused for lights and
+ * the camera). */
+static float vtx_pdf(const scene_t *sc, const camera_t *cam, const vtx_t *v, const vtx_t *prev, const vtx_t *next)
+{
+    float3 wn = next->p - v->p;
+    float dn = length(wn);
+    if (!(dn > 0.0f))
+        return 0.0f;
+    wn /= dn;
+    float pdf;
+    if (v->kind == V_CAMERA)
+        pdf = camera_pdf_dir(cam, wn);
+    else if (v->kind == V_LIGHT)
+        pdf = fmax(0.0f, dot(v->n, wn)) * INV_PI_F;
+    else
+        pdf = bsdf_pdf(sc, v->bsdf, v->n, normalize(prev->p - v->p), wn);
+    return to_area(pdf, v->p, next);
+}
+
+/* Follows a subpath from vertex path[0] along (o, d) with direction density pdf (solid angle),
+ * storing up to maxv further vertices; returns how many. mode 0: radiance, 1: importance. */
+static int random_walk(const scene_t *sc, rng_t *rng, float3 o, float3 d, float tmin, float tmax, float3 beta,
+                       float pdf, int maxv, int mode, vtx_t *path)
+{
+    int n = 0;
+    float pdf_fwd = pdf;
+    while (n < maxv) {
+        hit_t h;
+        if (!scene_intersect(sc, o, d, tmin, tmax, false, &h))
+            break;
+        vtx_t *prev = &path[n], *v = &path[n + 1];
+        __global const int *si = sc->shape_i + h.shape * SHAPE_I_STRIDE;
+        v->p = h.p;
+        v->n = h.n;
+        v->beta = beta;
+        v->kind = V_SURFACE;
+        v->bsdf = si[1];
+        v->emitter = si[2];
+        v->delta = false;
+        v->pdf_fwd = to_area(pdf_fwd, prev->p, v);
+        v->pdf_rev = 0.0f;
+        ++n;
+        float u0 = rnd(rng), u1 = rnd(rng), u2 = rnd(rng);
+        if (n >= maxv)
+            break;
+        float3 wo = -d;
+        bsdf_sample_t bs;
+        if (!bsdf_sample(sc, v->bsdf, v->n, wo, mode, u0, u1, u2, &bs))
+            break;
+        beta *= bs.weight;
+        if (!(maxc(beta) > 0.0f))
+            break;
+        float pdf_rev;
+        if (bs.delta) {
+            /* a delta lobe counts as its choice probability per unit solid angle, converted to
+             * area like any lobe (as integrator/bdpt.c: exact ratios for planar mirrors, close for
+             * curved glass; pbrt's density of 1 over-weights s = 0 on caustics). The reverse
+             * choice has the same probability (Fresnel is symmetric). */
+            v->delta = true;
+            pdf_fwd = pdf_rev = bs.pdf;
+        } else {
+            pdf_fwd = bs.pdf;
+            pdf_rev = bsdf_pdf(sc, v->bsdf, v->n, bs.wi, wo);
+        }
+        prev->pdf_rev = to_area(pdf_rev, v->p, prev);
+        o = spawn(sc, &h, bs.wi);
+        d = bs.wi;
+        tmin = 0.0f;
+        tmax = INFINITY;
+    }
+    return n;
+}
+
+static float remap0(float x) { return x != 0.0f ? x : 1.0f; }
+
+/* The weight of strategy (s, t) for the path of light vertices ls[0..s-1] and camera vertices
+ * cs[0..t-1] (the connection vertices already in place), power heuristic of exponent beta. */
+static float mis_weight(const scene_t *sc, const camera_t *cam, vtx_t *ls, int s, vtx_t *cs, int t, float beta)
+{
+    if (s + t == 2)
+        return 1.0f;
+    vtx_t *qs = s > 0 ? &ls[s - 1] : 0, *pt = &cs[t - 1];
+    vtx_t *qs_m = s > 1 ? &ls[s - 2] : 0, *pt_m = t > 1 ? &cs[t - 2] : 0;
+    /* save what is changed */
+    float pt_rev = pt->pdf_rev, ptm_rev = pt_m ? pt_m->pdf_rev : 0.0f;
+    float qs_rev = qs ? qs->pdf_rev : 0.0f, qsm_rev = qs_m ? qs_m->pdf_rev : 0.0f;
+    bool pt_delta = pt->delta, qs_delta = qs ? qs->delta : false;
+    pt->delta = false;
+    if (qs)
+        qs->delta = false;
+    if (s > 0)
+        pt->pdf_rev = vtx_pdf(sc, cam, qs, qs_m, pt);
+    else /* pt on a light: the density of emission sampling choosing it */
+        pt->pdf_rev = emitter_pmf(sc, pt->emitter) / emitter_area(sc, pt->emitter);
+    if (pt_m) {
+        if (s > 0) {
+            pt_m->pdf_rev = vtx_pdf(sc, cam, pt, qs, pt_m);
+        } else {
+            vtx_t lv = *pt;
+            lv.kind = V_LIGHT;
+            pt_m->pdf_rev = vtx_pdf(sc, cam, &lv, 0, pt_m);
+        }
+    }
+    if (qs)
+        qs->pdf_rev = vtx_pdf(sc, cam, pt, pt_m, qs);
+    if (qs_m)
+        qs_m->pdf_rev = vtx_pdf(sc, cam, qs, pt, qs_m);
+
+    float sum = 0.0f, ri = 1.0f;
+    for (int i = t - 1; i > 0; --i) {
+        ri *= remap0(cs[i].pdf_rev) / remap0(cs[i].pdf_fwd);
+        if (!cs[i].delta && !cs[i - 1].delta)
+            sum += beta == 1.0f ? ri : ri * ri;
+    }
+    ri = 1.0f;
+    for (int i = s - 1; i >= 0; --i) {
+        ri *= remap0(ls[i].pdf_rev) / remap0(ls[i].pdf_fwd);
+        bool prev_delta = i > 0 ? ls[i - 1].delta : false; /* area lights: no delta origin */
+        if (!ls[i].delta && !prev_delta)
+            sum += beta == 1.0f ? ri : ri * ri;
+    }
+    pt->pdf_rev = pt_rev;
+    if (pt_m)
+        pt_m->pdf_rev = ptm_rev;
+    if (qs)
+        qs->pdf_rev = qs_rev;
+    if (qs_m)
+        qs_m->pdf_rev = qsm_rev;
+    pt->delta = pt_delta;
+    if (qs)
+        qs->delta = qs_delta;
+    return 1.0f / (1.0f + sum);
+}
+
+static float filter_eval1(const camera_t *c, float x)
+{
+    float r = c->f[16];
+    if (!(fabs(x) < r))
+        return 0.0f;
+    if (c->f[17] == 0.0f)
+        return 1.0f / (2.0f * r);
+    float kf = fabs(x) * FILTER_RES / r;
+    int k = kf < FILTER_RES - 1 ? (int)kf : FILTER_RES - 1;
+    return c->filt[k];
+}
+
+static float filter_mass(const camera_t *c, float ctr, float lo, float hi)
+{
+    float r = c->f[16];
+    if (ctr - r >= lo && ctr + r <= hi)
+        return 1.0f;
+    return filter_cdf(c, hi - ctr) - filter_cdf(c, lo - ctr);
+}
+
+/* One pixel of the window along an axis for a splat at film coordinate f: chosen with probability
+ * proportional to its filter weight (renormalized over the window, as render/film.h), which
+ * returns the sum of the weights: the splat times it is unbiased for every pixel's share. -1 if
+ * no window pixel is in reach. */
+static int splat_axis(const camera_t *c, float f, int lo, int size, float u, float *wsum)
+{
+    float r = c->f[16];
+    int x0 = (int)floor(f - r - 0.5f) + 1, x1 = (int)floor(f + r - 0.5f);
+    if (c->f[17] == 0.0f && r <= 0.5f)
+        x0 = x1 = (int)floor(f);
+    if (x0 < lo)
+        x0 = lo;
+    if (x1 > lo + size - 1)
+        x1 = lo + size - 1;
+    float w[16], sum = 0.0f;
+    int n = 0;
+    for (int x = x0; x <= x1 && n < 16; ++x, ++n) {
+        float wx = (c->f[17] == 0.0f && r <= 0.5f) ? 1.0f : filter_eval1(c, x + 0.5f - f);
+        if (wx > 0.0f && r > 0.5f)
+            wx /= filter_mass(c, x + 0.5f, (float)lo, (float)(lo + size));
+        w[n] = wx;
+        sum += wx;
+    }
+    *wsum = sum;
+    if (!(sum > 0.0f))
+        return -1;
+    float acc = 0.0f, target = u * sum;
+    for (int k = 0; k < n; ++k) {
+        acc += w[k];
+        if (target < acc && w[k] > 0.0f)
+            return x0 + k - lo;
+    }
+    for (int k = n - 1; k >= 0; --k)
+        if (w[k] > 0.0f)
+            return x0 + k - lo;
+    return -1;
+}
+
+__kernel void render_bdpt(SCENE_ARGS, int pass0, int base, int count, uint seed_lo, uint seed_hi, int max_depth, int rr_depth,
+                          int hide_emitters, float mis_beta, __global float *out, __global float *splats)
+{
+    SCENE_INIT;
+    if ((int)get_global_id(0) >= count)
+        return;
+    int gid = base + get_global_id(0);
+    int npix = crop_w * crop_h;
+    int b = gid / npix, pix = gid % npix;
+    int x = pix % crop_w, y = pix / crop_w;
+    rng_t rng = rng_start((uint)(x + crop_x), (uint)(y + crop_y), (uint)(pass0 + b), seed_lo, seed_hi);
+    __global float *sp = splats + (size_t)get_global_id(0) * MAX_SPLATS * 4;
+    int nsplat = 0;
+    float3 L = (float3)(0.0f);
+
+    /* camera subpath */
+    vtx_t cs[BDPT_MAX_VERTS], ls[BDPT_MAX_VERTS];
+    float3 o, d;
+    float tmin, tmax;
+    camera_sample(&cam, x, y, &rng, &o, &d, &tmin, &tmax);
+    cs[0].p = o;
+    cs[0].n = normalize(cam_vec(&cam, (float3)(0.0f, 0.0f, 1.0f)));
+    cs[0].beta = (float3)(1.0f);
+    cs[0].kind = V_CAMERA;
+    cs[0].delta = false;
+    cs[0].pdf_fwd = 1.0f;
+    cs[0].pdf_rev = 0.0f;
+    cs[0].bsdf = cs[0].emitter = -1;
+    int nc = 1 + random_walk(&sc, &rng, o, d, tmin, tmax, (float3)(1.0f), camera_pdf_dir(&cam, d), max_depth, 0, cs);
+
+    /* light subpath: a light by power, a point by area, a cosine-weighted direction */
+    int nl = 0;
+    if (nemitters > 0) {
+        float pmf;
+        int e = pick_emitter(&sc, rnd(&rng), &pmf);
+        float u0 = rnd(&rng), u1 = rnd(&rng), u2 = rnd(&rng), u3 = rnd(&rng), u4 = rnd(&rng);
+        float3 p, n;
+        float pdf_pos = emitter_sample_area(&sc, e, u0, u1, u2, &p, &n);
+        float3 l = cosine_hemisphere(u3, u4);
+        float3 w = to_world(n, l);
+        float3 Le = emitter_radiance(&sc, e, n, w);
+        ls[0].p = p;
+        ls[0].n = n;
+        ls[0].beta = (float3)(1.0f / (pmf * pdf_pos));
+        ls[0].kind = V_LIGHT;
+        ls[0].delta = false;
+        ls[0].pdf_fwd = pmf * pdf_pos;
+        ls[0].pdf_rev = 0.0f;
+        ls[0].bsdf = -1;
+        ls[0].emitter = e;
+        nl = 1;
+        float pdf_dir = l.z * INV_PI_F;
+        if (max_depth > 1 && pdf_dir > 0.0f && maxc(Le) > 0.0f) {
+            float eps = ray_eps(&sc, p);
+            nl += random_walk(&sc, &rng, p + n * eps, w, 0.0f, INFINITY, Le * (l.z / (pmf * pdf_pos * pdf_dir)),
+                              pdf_dir, max_depth - 1, 1, ls);
+        }
+    }
+
+    for (int t = 1; t <= nc; ++t)
+        for (int s = 0; s <= nl; ++s) {
+            /* (1, 1), the light seen by light tracing, is left to (0, 2), which has weight 1 */
+            if (s + t < 2 || s + t - 1 > max_depth || (s == 1 && t == 1))
+                continue;
+#ifdef ONLY_S
+            if (s != ONLY_S || t != ONLY_T)
+                continue;
+#ifndef WEIGHTED
+#define mis_weight(a, b, c, d, e, f, g) 1.0f
+#endif
+#endif
+            float u_a = rnd(&rng), u_b = rnd(&rng), u_c = rnd(&rng);
+            vtx_t *pt = &cs[t - 1];
+            float3 c = (float3)(0.0f);
+            if (s == 0) {
+                /* the camera subpath found a light */
+                if (pt->kind != V_SURFACE || pt->emitter < 0 || (t == 2 && hide_emitters))
+                    continue;
+                c = pt->beta * emitter_radiance(&sc, pt->emitter, pt->n, normalize(cs[t - 2].p - pt->p));
+                if (!(maxc(c) > 0.0f))
+                    continue;
+                L += c * mis_weight(&sc, &cam, ls, 0, cs, t, mis_beta);
+                continue;
+            }
+            vtx_t *qs = &ls[s - 1];
+            if (qs->delta || (qs->kind == V_SURFACE && bsdf_is_delta(&sc, qs->bsdf)))
+                continue;
+            if (t == 1) {
+                /* light tracing: qs seen by the pinhole, splatted */
+                float3 lp = cam_local(&cam, qs->p);
+                if (!(lp.z > 0.0f) || lp.z < cam.f[14] || lp.z > cam.f[15])
+                    continue;
+                float X = lp.x / lp.z, Y = lp.y / lp.z;
+                float fx = (1.0f - X / cam.f[12]) * 0.5f * cam.width, fy = (1.0f - Y / cam.f[13]) * 0.5f * cam.height;
+                if (!(fx >= 0.0f && fx < cam.width && fy >= 0.0f && fy < cam.height))
+                    continue;
+                float wx, wy;
+                int px = splat_axis(&cam, fx, cam.crop_x, cam.crop_w, u_a, &wx);
+                int py = splat_axis(&cam, fy, cam.crop_y, cam.crop_h, u_b, &wy);
+                if (px < 0 || py < 0)
+                    continue;
+                float3 co = cam_origin(&cam);
+                float3 wc = co - qs->p;
+                float d2 = dot(wc, wc);
+                wc /= sqrt(d2);
+                float3 f = s == 1 ? emitter_radiance(&sc, qs->emitter, qs->n, wc)
+                                  : bsdf_eval(&sc, qs->bsdf, qs->n, normalize(ls[s - 2].p - qs->p), wc);
+                float We = camera_pdf_dir(&cam, -wc);
+                c = qs->beta * f * (fabs(dot(qs->n, wc)) * We / d2) * (wx * wy);
+                if (!(maxc(c) > 0.0f))
+                    continue;
+                float3 near_pt = co + (qs->p - co) * (cam.f[14] / lp.z);
+                if (!visible(&sc, qs->p, qs->n, near_pt, (float3)(0.0f)))
+                    continue;
+                vtx_t cam0 = cs[0];
+                cs[0].pdf_rev = 0.0f;
+                c *= mis_weight(&sc, &cam, ls, s, cs, 1, mis_beta);
+                cs[0] = cam0;
+                if (nsplat < MAX_SPLATS) {
+                    sp[4 * nsplat] = as_float(px + py * crop_w);
+                    sp[4 * nsplat + 1] = c.x;
+                    sp[4 * nsplat + 2] = c.y;
+                    sp[4 * nsplat + 3] = c.z;
+                    ++nsplat;
+                }
+                continue;
+            }
+            if (pt->kind != V_SURFACE || bsdf_is_delta(&sc, pt->bsdf))
+                continue;
+            if (s == 1) {
+                /* a fresh light sample toward pt (as path's NEE); MIS sees the emission density */
+                float pmf;
+                int e = pick_emitter(&sc, u_a, &pmf);
+                light_sample_t lsm;
+                if (!emitter_sample_direct(&sc, e, pt->p, u_b, u_c, rnd(&rng), &lsm))
+                    continue;
+                float3 wi = normalize(lsm.p - pt->p);
+                float3 f = bsdf_eval(&sc, pt->bsdf, pt->n, normalize(cs[t - 2].p - pt->p), wi);
+                c = pt->beta * f * lsm.L * (fabs(dot(wi, pt->n)) / (pmf * lsm.pdf));
+                if (!(maxc(c) > 0.0f) || !visible(&sc, pt->p, pt->n, lsm.p, lsm.n))
+                    continue;
+                vtx_t l0 = ls[0];
+                ls[0].p = lsm.p;
+                ls[0].n = lsm.n;
+                ls[0].kind = V_LIGHT;
+                ls[0].emitter = e;
+                ls[0].delta = false;
+                ls[0].pdf_fwd = emitter_pmf(&sc, e) / emitter_area(&sc, e);
+                ls[0].pdf_rev = 0.0f;
+                c *= mis_weight(&sc, &cam, ls, 1, cs, t, mis_beta);
+                ls[0] = l0;
+                L += c;
+                continue;
+            }
+            /* two subpath vertices joined */
+            float3 wd = pt->p - qs->p;
+            float d2 = dot(wd, wd);
+            wd /= sqrt(d2);
+            float3 fl = bsdf_eval(&sc, qs->bsdf, qs->n, normalize(ls[s - 2].p - qs->p), wd);
+            float3 fc = bsdf_eval(&sc, pt->bsdf, pt->n, normalize(cs[t - 2].p - pt->p), -wd);
+            float G = fabs(dot(qs->n, wd)) * fabs(dot(pt->n, wd)) / d2;
+            c = qs->beta * fl * fc * pt->beta * G;
+            if (!(maxc(c) > 0.0f) || !visible(&sc, qs->p, qs->n, pt->p, pt->n))
+                continue;
+            L += c * mis_weight(&sc, &cam, ls, s, cs, t, mis_beta);
+        }
+    if (nsplat < MAX_SPLATS)
+        sp[4 * nsplat] = as_float(-1);
     vstore3(L, get_global_id(0), out);
 }

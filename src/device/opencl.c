@@ -15,8 +15,13 @@
  *            eta, k (k < 0: perfect mirror), specular reflectance; dielectric eta, specular
  *            reflectance, specular transmittance
  *   emit_i / emit_f  shape; radiance, pmf (the scene's power-proportional choice), cdf
- *   cam_f    camera rows (12), tan_x, tan_y, near, far, filter radius, filter type (0 box)
+ *   cam_f    camera rows (12), tan_x, tan_y, near, far, filter radius, filter type (0 box), world-to-
+ *            camera rows (12), |det| of the camera's linear part, film pixels / window pixels
  *   filt     the filter's 31 step densities and 32 cumulative masses (render/film.c)
+ *
+ * Debugging: the environment variable SPC_CL_DEBUG adds kernel build options; "-DONLY_S=s
+ * -DONLY_T=t" renders only bdpt's strategy (s, t), unweighted, or weighted with "-DWEIGHTED" (the
+ * CPU's --strategy s,t [--strategy-weighted]), to compare one strategy with the CPU's.
  *
  * Built without OpenCL (CMake found no OpenCL), every entry point says so.
  */
@@ -104,8 +109,12 @@ char *spc_cl_describe_devices(void) { return strdup("opencl: not available (spec
  * time one launch holds a GPU. */
 #define CL_LAUNCH_ITEMS (1 << 18)
 #define CL_LAUNCH_ITEMS_BDPT (1 << 15)
+/* Work-group size: the implementation's own choice can be large enough for PoCL to run out of
+ * stack with bdpt's two vertex arrays per work item; 64 also suits GPUs (two warps or one
+ * wavefront). */
+#define CL_GROUP 64
 
-enum { SHAPE_I = 8, SHAPE_F = 16, NODE_F = 24, TRI_F = 16, BSDF_F = 12, EMIT_F = 8, CAM_F = 24, FILT_F = 63 };
+enum { SHAPE_I = 8, SHAPE_F = 16, NODE_F = 24, TRI_F = 16, BSDF_F = 12, EMIT_F = 8, CAM_F = 32, FILT_F = 63 };
 
 typedef struct grow {
     void *p;
@@ -457,6 +466,12 @@ static spc_status build_scene(const spc_render_ctx *ctx, host_scene *hs, spc_err
     hs->cam_f[15] = (float)cs->far_clip;
     hs->cam_f[16] = (float)ctx->film->filter_radius;
     hs->cam_f[17] = ctx->film->rfilter == SPC_RFILTER_BOX ? 0.0f : 1.0f;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c)
+            hs->cam_f[18 + 4 * r + c] = (float)cs->to_local.m[r][c];
+    hs->cam_f[30] = (float)fabs(spc_mat4_det3(&cs->to_world));
+    /* light-tracing splats: the film's pixels over the window's (camera.h's normalization) */
+    hs->cam_f[31] = (float)((double)cs->width * cs->height / ((double)ctx->width * ctx->height));
     for (int k = 0; k < SPC_FILTER_RESOLUTION; ++k)
         hs->filt[k] = (float)ctx->film->filter_step[k];
     for (int k = 0; k <= SPC_FILTER_RESOLUTION; ++k)
@@ -641,7 +656,9 @@ spc_status spc_cl_create(const spc_render_ctx *ctx, int device_index, bool aovs,
     size_t src_len = spc_kernels_cl_len;
     r->program = clCreateProgramWithSource(r->context, 1, &src, &src_len, &e);
     CHECK("clCreateProgramWithSource");
-    e = clBuildProgram(r->program, 1, &dev, "-cl-std=CL1.2", NULL, NULL);
+    char opts[256];
+    snprintf(opts, sizeof opts, "-cl-std=CL1.2 %s", getenv("SPC_CL_DEBUG") ? getenv("SPC_CL_DEBUG") : "");
+    e = clBuildProgram(r->program, 1, &dev, opts, NULL, NULL);
     if (e != CL_SUCCESS) {
         char log[4096] = "";
         clGetProgramBuildInfo(r->program, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
@@ -725,6 +742,8 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
         cl_uint a = ARG_BATCH;
         cl_int e = clSetKernelArg(r->kernel, a++, sizeof p0, &p0);
         e |= clSetKernelArg(r->kernel, a++, sizeof base, &base);
+        cl_int cnt = (cl_int)count;
+        e |= clSetKernelArg(r->kernel, a++, sizeof cnt, &cnt);
         e |= clSetKernelArg(r->kernel, a++, sizeof seed_lo, &seed_lo);
         e |= clSetKernelArg(r->kernel, a++, sizeof seed_hi, &seed_hi);
         e |= clSetKernelArg(r->kernel, a++, sizeof max_depth, &max_depth);
@@ -736,8 +755,8 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
             e |= clSetKernelArg(r->kernel, a++, sizeof(cl_mem), &r->splats);
         if (e != CL_SUCCESS)
             return spc_error_set(err, SPC_ERR_ACCEL, file, 0, 0, "opencl device: clSetKernelArg failed (%d)", (int)e);
-        size_t gsize = count;
-        e = clEnqueueNDRangeKernel(r->queue, r->kernel, 1, NULL, &gsize, NULL, 0, NULL, NULL);
+        size_t lsize = CL_GROUP, gsize = (count + CL_GROUP - 1) / CL_GROUP * CL_GROUP;
+        e = clEnqueueNDRangeKernel(r->queue, r->kernel, 1, NULL, &gsize, &lsize, 0, NULL, NULL);
         if (e == CL_SUCCESS)
             e = clEnqueueReadBuffer(r->queue, r->out, CL_TRUE, 0, count * 3 * sizeof(float), r->host_out, 0, NULL,
                                     NULL);
