@@ -7,14 +7,19 @@
  *   and operation under a sphere light, with a mirror, a glass CSG object and rectangles
  *   (scenes/sdf_shapes_csg.xml).
  * - The device is deterministic (two renders are equal bit for bit) and keeps the driver's pass
- *   structure (a render of 2 x N passes equals the checkpointed halves: see the resume test).
- * - Scenes and options it does not support are refused, naming what is missing.
- * - `specula info --devices` lists an OpenCL device.
+ *   structure: a render checkpointed and resumed equals the uninterrupted one bit for bit, a
+ *   checkpoint does not resume on another device, --time renders whole passes.
+ * - Scenes and options it does not support are refused, naming what is missing, by the library
+ *   and by `specula render --device opencl` (nonzero exit); `specula info --devices` lists an
+ *   OpenCL device.
  * Needs an OpenCL implementation (PoCL on CI, which tools/build.sh installs); specula built
  * without OpenCL fails this test, as it must not pass silently.
  * ctest-labels: scene stat
  * ctest-timeout: 600
  */
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "harness.h"
 #include "render_util.h"
 
@@ -211,11 +216,120 @@ TEST(devices_listed)
     free(s);
 }
 
+
+/* The driver's passes on the device: a render checkpointed after 3 passes and resumed to 6 equals
+ * an uninterrupted render of 6, bit for bit; a device's checkpoint does not resume on another
+ * device; a time limit renders whole passes. */
+TEST(checkpoint_resume_and_time_limit)
+{
+    spc_scene *sc = load_scene("scenes/sdf_shapes_csg.xml", NULL, 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    char ck[] = "/tmp/spc_test_opencl_XXXXXX";
+    int fd = mkstemp(ck);
+    CHECK(fd >= 0);
+    if (fd < 0) {
+        spc_scene_destroy(sc);
+        return;
+    }
+    close(fd);
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = 3;
+    o.width = o.height = 16;
+    o.integrator = "bdpt";
+    o.max_depth = 6;
+    o.seed = 11;
+    o.device = "opencl";
+    o.checkpoint_path = ck;
+    spc_film *part = NULL, *resumed = NULL, *whole = NULL, *other = NULL;
+    spc_error err;
+    CHECK(spc_render(sc, &o, &part, NULL, &err) == SPC_OK);
+    spc_checkpoint *c = NULL;
+    CHECK(spc_checkpoint_load(ck, &c, &err) == SPC_OK);
+    if (c) {
+        spc_render_options r = o;
+        r.spp = 6;
+        r.checkpoint_path = NULL;
+        r.resume = c;
+        CHECK(spc_render(sc, &r, &resumed, NULL, &err) == SPC_OK);
+        r.device = "cpu";
+        spc_status st = spc_render(sc, &r, &other, NULL, &err);
+        CHECK_MSG(st == SPC_ERR_VALUE, "resumed on the cpu: status %d", (int)st);
+        CHECK(other == NULL);
+    }
+    o.spp = 6;
+    o.checkpoint_path = NULL;
+    CHECK(spc_render(sc, &o, &whole, NULL, &err) == SPC_OK);
+    if (resumed && whole) {
+        CHECK(resumed->spp == 6 && whole->spp == 6);
+        CHECK(memcmp(resumed->rgb, whole->rgb, sizeof(float) * 3 * 16 * 16) == 0);
+        CHECK(memcmp(resumed->var, whole->var, sizeof(float) * 3 * 16 * 16) == 0);
+    }
+    spc_film_destroy(part);
+    spc_film_destroy(resumed);
+    spc_film_destroy(whole);
+    spc_film_destroy(other);
+    spc_checkpoint_destroy(c);
+    unlink(ck);
+
+    spc_render_options t;
+    spc_render_options_init(&t);
+    t.width = t.height = 16;
+    t.time_limit = 1.0;
+    t.device = "opencl";
+    spc_film *f = NULL;
+    spc_render_stats stats;
+    CHECK(spc_render(sc, &t, &f, &stats, &err) == SPC_OK);
+    CHECK(f && f->spp >= 1 && stats.spp == f->spp);
+    printf("  time limit 1 s: %d passes in %.2f s\n", stats.spp, stats.wall_seconds);
+    CHECK(stats.wall_seconds < 10.0); /* loose: the machine may be shared */
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
+/* The command line: --device opencl on a scene the device lacks exits nonzero naming it. */
+TEST(cli_refuses_by_name)
+{
+    const char *bin = getenv("SPC_BINARY_DIR");
+    char path[] = "/tmp/spc_test_opencl_XXXXXX";
+    int fd = mkstemp(path);
+    CHECK(fd >= 0 && bin);
+    if (fd < 0 || !bin)
+        return;
+    const char *xml = SCENE_HEAD LIGHT SDF_BALL "<bsdf type=\"plastic\"/></shape></scene>";
+    CHECK(write(fd, xml, strlen(xml)) == (ssize_t)strlen(xml));
+    close(fd);
+    char cmd[4096], out[4096] = "";
+    snprintf(cmd, sizeof cmd, "%s/specula render %s --device opencl --quiet -o %s.exr 2>&1", bin, path, path);
+    FILE *p = popen(cmd, "r");
+    CHECK(p != NULL);
+    if (p) {
+        size_t n = fread(out, 1, sizeof out - 1, p);
+        out[n] = '\0';
+        int rc = pclose(p);
+        CHECK_MSG(WIFEXITED(rc) && WEXITSTATUS(rc) != 0, "exit status %d", rc);
+        CHECK_MSG(strstr(out, "opencl device: bsdf 'plastic' not supported") != NULL, "output: %s", out);
+    }
+    snprintf(cmd, sizeof cmd, "%s/specula info --devices 2>&1", bin);
+    p = popen(cmd, "r");
+    if (p) {
+        size_t n = fread(out, 1, sizeof out - 1, p);
+        out[n] = '\0';
+        CHECK(pclose(p) == 0);
+        CHECK_MSG(strstr(out, "cpu") && strstr(out, "opencl:0"), "output: %s", out);
+    }
+    unlink(path);
+}
+
 int main(void)
 {
     RUN(devices_listed);
     RUN(unsupported_scenes_refused);
     RUN(deterministic);
+    RUN(checkpoint_resume_and_time_limit);
+    RUN(cli_refuses_by_name);
     RUN(torus_path_matches_cpu);
     RUN(shapes_csg_path_matches_cpu);
     RUN(torus_bdpt_matches_cpu);

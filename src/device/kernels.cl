@@ -1,27 +1,24 @@
 /*
  * device/kernels.cl: the OpenCL C 1.2 kernels of the opencl device (src/device/opencl.c builds
- * their inputs and documents the buffer layouts, which the OFF_* and *_STRIDE macros below
- * must match).
+ * their inputs and documents the buffer layouts, which the *_STRIDE macros below must match).
  *
  * One work item renders one camera sample: pixel (x, y) of pass p, for the passes of a batch.
  * Everything is single precision. Geometry: signed distance fields from the flat postfix
  * program of scene/sdf.c (spc_sdf_flatten) evaluated on a small value stack, analytic spheres
  * and triangles (rectangles, cubes: meshes of a few triangles, tested one by one).
  *
- * Tolerances (all relative to SCENE_SCALE, the extent of the scene's bounds plus the distance of
- * its centre from the origin, passed in as scene_scale):
- * - RAY_EPS: a spawned ray starts RAY_EPS * scale off the surface along the geometric normal, on
- *   the side it leaves to; a shadow ray stops the same distance before its light point. 1e-4
- *   covers float rounding of coordinates (6e-8 relative) with margin, sphere tracing's hit
- *   tolerance below, and the gradient's error.
- * - SDF_HIT_EPS: sphere tracing stops stepping once |f| < 1e-6 * scale... rather than stopping
- *   at a small |f|, the march detects the sign change of f (which also finds exits of rays that
- *   start inside, for refraction) and then bisects the bracket SDF_BISECT times (2^-24 of the
- *   last step). Steps are max(|f|, SDF_MIN_STEP * size), so thin features below 1e-5 of a shape's
- *   size can be stepped over, and a march is abandoned after SDF_MAX_STEPS (a miss).
- * - SDF normals: the tetrahedral four-point gradient (paper 004) with h = SDF_GRAD_H * size of
- *   the shape; rounding error ~1e-4 relative, smoothing of creases over a band of width h.
- *
+ * Tolerances (float has 24 bits: coordinates are known to ~6e-8 of their magnitude):
+ * - RAY_EPS: a spawned ray starts RAY_EPS * (scale + |p|) off the surface along the normal, on the
+ *   side it leaves to, where scale is the magnitude of the scene's bounds (scene_scale); a shadow
+ *   ray stops as far before its end point. 2e-5 is ~300 times the rounding of a coordinate, and
+ *   above the position error of SDF hits (below). The CPU device uses 1e-9 in double.
+ * - Sphere tracing (sdf_intersect): steps of max(|f|, SDF_MIN_STEP * size), size the diagonal of
+ *   the shape's bounds; rather than stopping once |f| is small, the march looks for the sign
+ *   change of f (which also finds the exit of a ray that starts inside, for refraction) and
+ *   bisects that bracket SDF_BISECT times (2^-24 of the step: float resolution). Features thinner
+ *   than 1e-5 of the shape can be stepped over; a march of SDF_MAX_STEPS steps is a miss.
+ * - SDF normals: the tetrahedral four-point gradient (paper 004) with h = SDF_GRAD_H * size: its
+ *   rounding error is ~1e-4 relative and it rounds creases (CSG edges) over a band of width h.
  * Random numbers: counter-based, a hash of (pixel, pass, seed, draw counter): any pass of any
  * pixel can be rendered in any order and on any device and gives the same numbers for the same
  * kernel.

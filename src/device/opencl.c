@@ -709,6 +709,12 @@ spc_status spc_cl_create(const spc_render_ctx *ctx, int device_index, bool aovs,
         CHECK("clSetKernelArg");
     }
     host_scene_release(&hs);
+    uint64_t none = 0;
+    st = spc_cl_render_passes(r, 0, 0, 0, NULL, 0, &none, err);
+    if (st != SPC_OK) {
+        spc_cl_destroy(r);
+        return st;
+    }
     *out = r;
     return SPC_OK;
 fail:
@@ -736,7 +742,9 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
     cl_uint seed_lo = (cl_uint)seed, seed_hi = (cl_uint)(seed >> 32);
     cl_int p0 = pass0, max_depth = ctx->max_depth, rr_depth = ctx->rr_depth, hide = ctx->hide_emitters ? 1 : 0;
     cl_float beta = ctx->mis_balance ? 1.0f : 2.0f;
-    for (size_t start = 0; start < total; start += (size_t)r->launch_items) {
+    /* total == 0: one empty launch, which makes implementations that compile on first use (PoCL
+     * specializes kernels for the work-group size then) do it before the render's clock starts */
+    for (size_t start = 0; start < total || (total == 0 && start == 0); start += (size_t)r->launch_items) {
         size_t count = total - start < (size_t)r->launch_items ? total - start : (size_t)r->launch_items;
         cl_int base = (cl_int)start;
         cl_uint a = ARG_BATCH;
@@ -755,12 +763,14 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
             e |= clSetKernelArg(r->kernel, a++, sizeof(cl_mem), &r->splats);
         if (e != CL_SUCCESS)
             return spc_error_set(err, SPC_ERR_ACCEL, file, 0, 0, "opencl device: clSetKernelArg failed (%d)", (int)e);
-        size_t lsize = CL_GROUP, gsize = (count + CL_GROUP - 1) / CL_GROUP * CL_GROUP;
+        size_t lsize = CL_GROUP, gsize = count == 0 ? CL_GROUP : (count + CL_GROUP - 1) / CL_GROUP * CL_GROUP;
         e = clEnqueueNDRangeKernel(r->queue, r->kernel, 1, NULL, &gsize, &lsize, 0, NULL, NULL);
-        if (e == CL_SUCCESS)
+        if (e == CL_SUCCESS && count == 0)
+            e = clFinish(r->queue);
+        if (e == CL_SUCCESS && count > 0)
             e = clEnqueueReadBuffer(r->queue, r->out, CL_TRUE, 0, count * 3 * sizeof(float), r->host_out, 0, NULL,
                                     NULL);
-        if (e == CL_SUCCESS && r->bdpt)
+        if (e == CL_SUCCESS && r->bdpt && count > 0)
             e = clEnqueueReadBuffer(r->queue, r->splats, CL_TRUE, 0, count * CL_MAX_SPLATS * 4 * sizeof(float),
                                     r->host_splats, 0, NULL, NULL);
         if (e != CL_SUCCESS)
