@@ -86,7 +86,11 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
     return spc_error_set(err, SPC_ERR_PLUGIN, NULL, 0, 0, "opencl device: not available");
 }
 
-char *spc_cl_describe_devices(void) { return strdup("opencl: not available (specula was built without OpenCL)\n"); }
+char *spc_cl_describe_devices(void)
+{
+    return strdup("cpu        specula's threads (the default)\n"
+                  "opencl: not available (specula was built without OpenCL)\n");
+}
 
 #else
 
