@@ -146,6 +146,7 @@ static const char *const usage_render_more =
     "                         DIR/sS_tT_unweighted.exr (+ .png); the weighted ones sum to the image\n"
     "  --mis-balance          bdpt: weight strategies by the balance heuristic instead of the\n"
     "                         power heuristic (also the integrator property mis_balance)\n"
+    "  --device cpu|opencl[:N]  (info --devices)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"
     "                         seconds, and when the render ends or is interrupted\n"
@@ -208,6 +209,7 @@ static const char *const usage_denoise =
 
 static const char *const usage_info =
     "usage: specula info SCENE.xml [-D name=value]... [--lenient]\n"
+    "       specula info --devices   list the render devices (cpu, OpenCL platforms and devices)\n"
     "\n"
     "Prints the scene's shapes, triangles, BSDFs, emitters, bounding box, film and integrator,\n"
     "then one line per shape, BSDF and emitter.\n";
@@ -896,6 +898,10 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         } else if (!strcmp(a, "--denoise")) {
             denoise = opt.aovs = true;
             ++i;
+        } else if (opt_value(argc, argv, &i, "--device", NULL, &v)) {
+            if (!v || !*v)
+                code = usage_error(usage_render, "--device needs cpu, opencl or opencl:N");
+            opt.device = v;
         } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
             quiet = true;
             ++i;
@@ -1474,6 +1480,16 @@ static int cmd_info(int argc, char **argv)
             fputs(usage_info, stdout);
             fputs(usage_exit, stdout);
             defines_release(&defs);
+            return 0;
+        } else if (!strcmp(a, "--devices")) {
+            char *list = spc_devices_describe();
+            defines_release(&defs);
+            if (!list) {
+                fail("out of memory");
+                return EXIT_NOMEM;
+            }
+            fputs(list, stdout);
+            free(list);
             return 0;
         } else if (opt_value(argc, argv, &i, "-D", NULL, &v)) {
             if (!defines_add(&defs, v))

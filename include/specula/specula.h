@@ -114,6 +114,11 @@ typedef struct spc_render_options {
      * with checkpoints. Memory: about 100 bytes per pixel per film. Read them with
      * spc_film_strategy. */
     bool strategy_images;
+    /* Where to render: NULL or "cpu" (specula's threads), "opencl" or "opencl:N" (device N of
+     * spc_devices_describe). The opencl device renders only scenes it supports and refuses others
+     * with SPC_ERR_PLUGIN naming what it lacks; the film, passes and seeds work as on the CPU, the
+     * image is deterministic for a given device (not equal to the CPU's bit for bit). */
+    const char *device;
 } spc_render_options;
 
 #define SPC_STRATEGY_IMAGES_MAX_DEPTH 8
@@ -133,6 +138,10 @@ typedef struct spc_render_stats {
 
 spc_status spc_render(const spc_scene *s, const spc_render_options *o, spc_film **out, spc_render_stats *stats,
                       spc_error *err);
+
+/* The render devices found (cpu, then every OpenCL device as "opencl:N ..."), one line each; the
+ * caller frees the string (NULL when out of memory). */
+char *spc_devices_describe(void);
 
 /* ---- checkpoints ---- */
 /* The saved state of an unfinished render: film sums after a whole number of passes, the resolved

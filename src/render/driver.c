@@ -19,6 +19,7 @@
 #include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -26,6 +27,7 @@
 
 #include "accel/accel.h"
 #include "core/warp.h"
+#include "device/device.h"
 #include "integrator/integrator.h"
 #include "manifold/specular_nee.h"
 #include "render/camera.h"
@@ -320,12 +322,40 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
             t->y1 = t->y0 + SPC_TILE < ctx.height ? t->y0 + SPC_TILE : ctx.height;
         }
 
+    /* another device renders the batches (device/device.h); everything else stays the same */
+    bool use_cl = false;
+    int cl_index = 0;
+    spc_cl_renderer *cl = NULL;
+    if (!spc_device_parse(o->device, &use_cl, &cl_index)) {
+        free(tiles);
+        free(buf);
+        free(tls);
+        free(th);
+        spc_film_destroy(film);
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "unknown device '%s'; specula has: cpu, opencl[:N]",
+                             o->device);
+    }
+    if (use_cl) {
+        spc_status cs = spc_cl_create(&ctx, cl_index, o->aovs, &cl, err);
+        if (cs != SPC_OK) {
+            free(tiles);
+            free(buf);
+            free(tls);
+            free(th);
+            spc_film_destroy(film);
+            return cs;
+        }
+    }
+
     char settings[1024];
     spc_ckpt_settings_text(&ctx, o->specular_nee ? o->specular_nee : sc->integrator.specular_nee, o->seed, o->aovs,
                            settings, sizeof settings);
+    if (use_cl) /* a checkpoint resumes only on the device that began it */
+        snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";device=opencl:%d", cl_index);
     if (o->resume) {
         spc_status rs = spc_ckpt_restore(o->resume, sc->content_hash, settings, film, err);
         if (rs != SPC_OK) {
+            spc_cl_destroy(cl);
             free(tiles);
             free(buf);
             free(tls);
@@ -388,7 +418,13 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         jb.cancel = o->cancel;
         atomic_init(&jb.rays, 0);
         double t0 = now_seconds();
-        int nt = threads;
+        if (cl) {
+            status = spc_cl_render_passes(cl, done, batch, o->seed, buf, stride, &invalid, err);
+            if (status != SPC_OK)
+                break;
+            atomic_store(&jb.limit, batch * ntiles);
+        }
+        int nt = cl ? 0 : threads;
         if (nt > batch * ntiles)
             nt = batch * ntiles;
         int started = 0;
@@ -397,7 +433,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                 break;
             ++started;
         }
-        worker(&jb);
+        if (!cl)
+            worker(&jb);
         for (int i = 1; i <= started; ++i)
             pthread_join(th[i], NULL);
         rays += atomic_load(&jb.rays);
@@ -466,6 +503,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
             status = cs;
     }
     double wall = now_seconds() - t_start;
+    spc_cl_destroy(cl);
     for (size_t i = 0; i < (size_t)max_batch * ntiles; ++i)
         free(tls[i].splats);
     free(tls);
