@@ -23,6 +23,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "explore_server.h"
 #include "specula/specula.h"
 
 enum {
@@ -68,6 +69,7 @@ static const char *const usage_main =
     "  render SCENE.xml [options]   render a Mitsuba scene to an EXR (and a PNG preview)\n"
     "  diff A.exr B.exr [--json]    compare image A against reference B\n"
     "  info SCENE.xml [-D n=v]...   describe a scene\n"
+    "  explore SCENE.xml [--port N] watch the specular solvers in the browser\n"
     "\n"
     "  specula --version            print the version\n"
     "  specula <command> --help     options of a command\n";
@@ -1181,5 +1183,7 @@ int main(int argc, char **argv)
         return cmd_diff(argc - 2, argv + 2);
     if (!strcmp(cmd, "info"))
         return cmd_info(argc - 2, argv + 2);
+    if (!strcmp(cmd, "explore"))
+        return spc_cli_explore(argc - 2, argv + 2);
     return usage_error(usage_main, "unknown command '%s'", cmd);
 }

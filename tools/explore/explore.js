@@ -1,0 +1,397 @@
+// specula explore: the page. 3D: the scene from /api/scene, a receiver picked and dragged with the
+// mouse, every solver's iterates, gradients and solutions from /api/solve, the loss map from
+// /api/lossmap. 2D: a slice playground computed here (planes and circles, mirror and glass).
+'use strict';
+
+const $ = (id) => document.getElementById(id);
+const COLORS = { angular: 0xffa040, newton: 0x60e060, conic: 0xe060e0, exact: 0x40d0ff };
+
+async function api(path, body) {
+  const opts = body ? { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) } : {};
+  const r = await fetch(path, opts);
+  const j = await r.json();
+  if (!r.ok) throw new Error(j.error || ('HTTP ' + r.status));
+  return j;
+}
+
+function setStatus(text, ok) {
+  const el = $('solver-status');
+  el.textContent = text;
+  el.className = ok ? 'ok' : 'fail';
+}
+
+// ---------------------------------------------------------------- 3D view
+const V = {
+  renderer: null, camera: null, scene: null, target: new THREE.Vector3(), radius: 1,
+  pickables: [], overlay: null, ray: null, busy: false, pending: false, result: null, info: null,
+};
+
+function v3(a) { return new THREE.Vector3(a[0], a[1], a[2]); }
+
+function material(s) {
+  if (s.emitter) return new THREE.MeshBasicMaterial({ color: 0xffee88 });
+  if (s.specular && s.eta > 0)
+    return new THREE.MeshPhongMaterial({ color: 0x88bbff, transparent: true, opacity: 0.35, shininess: 90, side: THREE.DoubleSide, depthWrite: false });
+  if (s.specular) return new THREE.MeshPhongMaterial({ color: 0xc8c8d0, shininess: 120, specular: 0xffffff, side: THREE.DoubleSide });
+  return new THREE.MeshLambertMaterial({ color: 0x9a9a9a, side: THREE.DoubleSide });
+}
+
+function shapeObject(s) {
+  let geo = null, m4 = null;
+  if (s.type === 'mesh' || s.type === 'sdf') {
+    geo = new THREE.BufferGeometry();
+    geo.setAttribute('position', new THREE.Float32BufferAttribute(s.positions, 3));
+    geo.setIndex(s.indices);
+    geo.computeVertexNormals();
+  } else if (s.type === 'sphere') {
+    geo = new THREE.SphereBufferGeometry(s.radius, 48, 32);
+    geo.translate(s.center[0], s.center[1], s.center[2]);
+  } else if (s.type === 'disk') {
+    geo = new THREE.CircleBufferGeometry(1, 48);
+    m4 = s.to_world;
+  } else if (s.type === 'cylinder') {
+    // to_world maps the unit cylinder (radius 1, z from 0 to 1)
+    geo = new THREE.CylinderBufferGeometry(1, 1, 1, 48, 1, true);
+    geo.rotateX(Math.PI / 2);
+    geo.translate(0, 0, 0.5);
+    m4 = s.to_world;
+  }
+  if (!geo) return null;
+  const mesh = new THREE.Mesh(geo, material(s));
+  if (m4) {
+    const M = new THREE.Matrix4();
+    M.set(...m4);
+    mesh.matrixAutoUpdate = false;
+    mesh.matrix.copy(M);
+  }
+  mesh.userData = s;
+  return mesh;
+}
+
+async function init3d() {
+  const canvas = $('view3d');
+  V.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+  V.scene = new THREE.Scene();
+  V.scene.background = new THREE.Color(0x1d1f23);
+  V.scene.add(new THREE.AmbientLight(0xffffff, 0.45));
+  const sc = await api('/api/scene');
+  V.info = sc;
+  V.radius = sc.radius;
+  const dl = new THREE.DirectionalLight(0xffffff, 0.6);
+  dl.position.set(1, 2, 1.5);
+  V.scene.add(dl);
+  for (const s of sc.shapes) {
+    const o = shapeObject(s);
+    if (!o) continue;
+    V.scene.add(o);
+    V.pickables.push(o);
+  }
+  for (const l of sc.lights) {
+    if (!l.position) continue;
+    const m = new THREE.Mesh(new THREE.SphereBufferGeometry(0.015 * V.radius, 12, 8), new THREE.MeshBasicMaterial({ color: 0xffee66 }));
+    m.position.copy(v3(l.position));
+    V.scene.add(m);
+  }
+  V.overlay = new THREE.Group();
+  V.scene.add(V.overlay);
+  const c = sc.camera;
+  V.camera = new THREE.PerspectiveCamera(40, 1, 1e-3 * V.radius, 100 * V.radius);
+  V.camera.position.copy(v3(c.origin));
+  V.camera.up.copy(v3(c.up));
+  const mid = new THREE.Vector3().addVectors(v3(sc.bbox[0]), v3(sc.bbox[1])).multiplyScalar(0.5);
+  const f = v3(c.forward);
+  V.target.copy(v3(c.origin)).addScaledVector(f, Math.max(0.1 * V.radius, mid.clone().sub(v3(c.origin)).dot(f)));
+  V.fov = c.fov;
+  V.fovAxis = c.fov_axis;
+  V.camera.lookAt(V.target);
+  resize3d();
+  window.addEventListener('resize', () => { resize3d(); resize2d(); });
+  installMouse3d(canvas);
+  for (const id of ['solver', 'max_chain', 'seed', 'seed_index', 'light_sample', 'method', 'loss'])
+    $(id).addEventListener('change', () => { if (V.ray) solve(); });
+  $('iter').addEventListener('input', () => drawResult());
+  animate();
+}
+
+function resize3d() {
+  const canvas = $('view3d');
+  const w = canvas.clientWidth, h = canvas.clientHeight;
+  if (!w || !h) return;
+  V.renderer.setSize(w, h, false);
+  V.camera.aspect = w / h;
+  let fov = V.fov || 40;
+  if (V.fovAxis === 'x') fov = 2 * Math.atan(Math.tan(fov * Math.PI / 360) / V.camera.aspect) * 180 / Math.PI;
+  V.camera.fov = fov;
+  V.camera.updateProjectionMatrix();
+}
+
+function animate() {
+  requestAnimationFrame(animate);
+  if ($('view3d').style.display !== 'none') V.renderer.render(V.scene, V.camera);
+}
+
+function pickRay(ev) {
+  const canvas = $('view3d'), r = canvas.getBoundingClientRect();
+  const ndc = new THREE.Vector2(((ev.clientX - r.left) / r.width) * 2 - 1, -((ev.clientY - r.top) / r.height) * 2 + 1);
+  const rc = new THREE.Raycaster();
+  rc.setFromCamera(ndc, V.camera);
+  return rc;
+}
+
+function installMouse3d(canvas) {
+  let mode = null, last = null;
+  canvas.addEventListener('contextmenu', (e) => e.preventDefault());
+  canvas.addEventListener('mousedown', (e) => {
+    last = [e.clientX, e.clientY];
+    if (e.button === 2 || e.shiftKey) { mode = 'orbit'; return; }
+    mode = 'drag';
+    placeReceiver(e);
+  });
+  window.addEventListener('mouseup', () => { mode = null; });
+  canvas.addEventListener('mousemove', (e) => {
+    if (!mode) return;
+    if (mode === 'orbit') {
+      const dx = e.clientX - last[0], dy = e.clientY - last[1];
+      const off = V.camera.position.clone().sub(V.target);
+      const sph = new THREE.Spherical().setFromVector3(off.applyQuaternion(upQuat()));
+      sph.theta -= dx * 0.006;
+      sph.phi = Math.min(Math.PI - 0.01, Math.max(0.01, sph.phi - dy * 0.006));
+      const n = new THREE.Vector3().setFromSpherical(sph).applyQuaternion(upQuat().invert ? upQuat().invert() : upQuat().inverse());
+      V.camera.position.copy(V.target).add(n);
+      V.camera.lookAt(V.target);
+    } else {
+      placeReceiver(e);
+    }
+    last = [e.clientX, e.clientY];
+  });
+  canvas.addEventListener('wheel', (e) => {
+    e.preventDefault();
+    const off = V.camera.position.clone().sub(V.target).multiplyScalar(e.deltaY > 0 ? 1.1 : 1 / 1.1);
+    V.camera.position.copy(V.target).add(off);
+  }, { passive: false });
+}
+
+function upQuat() { return new THREE.Quaternion().setFromUnitVectors(V.camera.up.clone().normalize(), new THREE.Vector3(0, 1, 0)); }
+
+function placeReceiver(ev) {
+  const rc = pickRay(ev);
+  const hits = rc.intersectObjects(V.pickables);
+  if (!hits.length) return;
+  V.ray = { origin: rc.ray.origin.toArray(), direction: rc.ray.direction.toArray() };
+  solve();
+}
+
+function request() {
+  return {
+    receiver: V.ray, solver: $('solver').value, max_chain: +$('max_chain').value, seed: $('seed').value,
+    seed_index: +$('seed_index').value, light_sample: +$('light_sample').value, method: $('method').value, loss: $('loss').value,
+  };
+}
+
+// One solve in flight at a time; a drag during it leaves one more to do.
+async function solve() {
+  if (V.busy) { V.pending = true; return; }
+  V.busy = true;
+  try {
+    const req = request();
+    const res = await api('/api/solve', req);
+    V.result = res;
+    const ang = res.runs.find((r) => r.solver === 'angular');
+    $('iter').max = ang ? Math.max(0, ang.iterates.length - 1) : 0;
+    $('iter').value = 0;
+    drawResult();
+    reportStatus(res);
+    if (ang) lossMap(req, ang).catch((e) => { $('lossmap-info').textContent = e.message; });
+  } catch (e) {
+    V.result = null;
+    clearOverlay();
+    setStatus('failed: ' + e.message, false);
+  }
+  V.busy = false;
+  if (V.pending) { V.pending = false; solve(); }
+}
+
+function runStatus(r) {
+  if (r.solver === 'conic' || r.solver === 'exact')
+    return r.success ? 'converged: ' + r.solutions.length + ' solution' + (r.solutions.length > 1 ? 's' : '') : 'failed: no solution';
+  return r.success ? 'converged in ' + r.iterations + ' iteration' + (r.iterations > 1 ? 's' : '') : 'failed: ' + r.stop + ' after ' + r.iterations + ' iterations';
+}
+
+function reportStatus(res) {
+  const runs = res.runs;
+  if (runs.length === 1) setStatus(runStatus(runs[0]), runs[0].success);
+  else setStatus(runs.map((r) => r.solver + ': ' + runStatus(r)).join('; '), runs.some((r) => r.success));
+  let h = '<table><tr><th>solver</th><th>result</th><th>iter.</th><th>ms</th></tr>';
+  for (const r of runs)
+    h += '<tr><td><span class="sw" style="background:#' + COLORS[r.solver].toString(16).padStart(6, '0') + '"></span>' + r.solver +
+      '</td><td>' + (r.success ? 'ok' : 'failed') + ': ' + r.stop + '</td><td>' + r.iterations + '</td><td>' + r.time_ms.toFixed(3) + '</td></tr>';
+  $('runs').innerHTML = h + '</table>';
+  let s = '<table><tr><th>solver</th><th>vertices</th><th>contribution (rgb)</th><th>G</th></tr>';
+  for (const r of runs)
+    for (const sol of r.solutions)
+      s += '<tr><td>' + r.solver + '</td><td>' + sol.signature.map((v) => v[1] + v[0]).join(' ') + '</td><td>' +
+        sol.contribution.map((x) => x.toPrecision(3)).join(', ') + '</td><td>' + sol.G.toPrecision(4) + '</td></tr>';
+  $('solutions').innerHTML = s + '</table>';
+}
+
+function clearOverlay() {
+  while (V.overlay.children.length) {
+    const o = V.overlay.children.pop();
+    if (o.geometry) o.geometry.dispose();
+  }
+}
+
+function polyline(points, color, opacity) {
+  const g = new THREE.BufferGeometry().setFromPoints(points.map(v3));
+  return new THREE.Line(g, new THREE.LineBasicMaterial({ color, transparent: opacity < 1, opacity }));
+}
+
+function tube(points, color, r) {
+  const grp = new THREE.Group();
+  for (let i = 0; i + 1 < points.length; ++i) {
+    const a = v3(points[i]), b = v3(points[i + 1]);
+    const len = a.distanceTo(b);
+    if (len <= 0) continue;
+    const m = new THREE.Mesh(new THREE.CylinderBufferGeometry(r, r, len, 8), new THREE.MeshBasicMaterial({ color }));
+    m.position.copy(a).add(b).multiplyScalar(0.5);
+    m.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0), b.clone().sub(a).normalize());
+    grp.add(m);
+  }
+  for (const p of points) grp.add(dot(p, color, 2 * r));
+  return grp;
+}
+
+function dot(p, color, r) {
+  const m = new THREE.Mesh(new THREE.SphereBufferGeometry(r, 12, 8), new THREE.MeshBasicMaterial({ color }));
+  m.position.copy(v3(p));
+  return m;
+}
+
+function drawResult() {
+  clearOverlay();
+  const res = V.result;
+  if (!res) return;
+  const R = V.radius;
+  V.overlay.add(dot(res.receiver.point, 0xffffff, 0.005 * R));
+  V.overlay.add(dot(res.light.point, 0xffff40, 0.005 * R));
+  const k = +$('iter').value;
+  for (const run of res.runs) {
+    const col = COLORS[run.solver];
+    run.iterates.forEach((it, i) => {
+      V.overlay.add(polyline(it.points, col, it.accepted ? 0.45 : 0.15));
+      if (run.solver === 'angular' && i === k) {
+        V.overlay.add(tube(it.points, 0xffffff, 0.0007 * R));
+        if (it.grad3) {
+          // descent directions at x: the analytic one and the finite difference's (they overlap)
+          const L = 0.08 * R, x = v3(res.receiver.point);
+          const ga = v3(it.grad3).negate(), gf = v3(it.grad_fd3).negate();
+          if (ga.length() > 0) V.overlay.add(new THREE.ArrowHelper(ga.normalize(), x, L, 0xff4040, 0.08 * L, 0.05 * L));
+          if (gf.length() > 0) V.overlay.add(new THREE.ArrowHelper(gf.normalize(), x, 0.8 * L, 0x40a0ff, 0.1 * L, 0.07 * L));
+        }
+        $('iter-label').textContent = k + ' of ' + (run.iterates.length - 1);
+        $('iter-info').innerHTML = (it.accepted ? 'accepted' : 'rejected') + ', chain ' + it.end +
+          (it.loss !== undefined ? '<br>loss ' + fmt(it.loss) : '') +
+          (it.grad ? '<br><span style="color:#f66">analytic grad</span> (' + it.grad.map(fmt).join(', ') + ')<br>' +
+            '<span style="color:#6af">finite diff.</span> (' + it.grad_fd.map(fmt).join(', ') + ')' : '');
+      }
+    });
+    for (const sol of run.solutions) V.overlay.add(tube(sol.points, col, 0.0012 * R));
+  }
+  if (V.map) drawLossMap();
+}
+
+function fmt(x) { return x === null ? 'n/a' : Number(x).toExponential(4); }
+
+// ---------------------------------------------------------------- loss map
+async function lossMap(req, run) {
+  const seed = v3(run.seed_direction);
+  // extent: every iterate's direction inside the map, in the seed's gnomonic coordinates
+  const fr = frameOf(seed);
+  let ext = 0.02;
+  for (const it of run.iterates) {
+    const d = v3(it.d0), dn = d.dot(fr.n);
+    if (dn > 0.05) ext = Math.max(ext, Math.abs(d.dot(fr.s) / dn), Math.abs(d.dot(fr.t) / dn));
+  }
+  ext = Math.min(2, ext * 1.3);
+  const body = Object.assign({}, req, { seed_direction: run.seed_direction, size: 64, extent: ext });
+  delete body.seed;
+  delete body.solver;
+  V.map = await api('/api/lossmap', body);
+  V.map.run = run;
+  drawLossMap();
+}
+
+function frameOf(n) {
+  // the same frame as spc_frame_from_n (Duff et al. 2017), so the map's axes match the server's
+  const sign = n.z >= 0 ? 1 : -1, a = -1 / (sign + n.z), b = n.x * n.y * a;
+  return { s: new THREE.Vector3(1 + sign * n.x * n.x * a, sign * b, -sign * n.x), t: new THREE.Vector3(b, sign + n.y * n.y * a, -n.y), n };
+}
+
+function drawLossMap() {
+  const m = V.map, cv = $('lossmap'), g = cv.getContext('2d');
+  const N = m.size, W = cv.width, H = cv.height;
+  let lo = Infinity, hi = -Infinity;
+  for (const L of m.loss) if (L !== null && L > 0) { const l = Math.log10(L); lo = Math.min(lo, l); hi = Math.max(hi, l); }
+  const img = g.createImageData(N, N);
+  for (let j = 0; j < m.rows; ++j)
+    for (let i = 0; i < N; ++i) {
+      const L = m.loss[j * N + i], o = 4 * ((N - 1 - j) * N + i);
+      if (L === null) { img.data[o] = img.data[o + 1] = img.data[o + 2] = 60; img.data[o + 3] = 255; continue; }
+      const u = hi > lo ? (Math.log10(Math.max(L, 1e-300)) - lo) / (hi - lo) : 0;
+      const c = viridis(Math.max(0, Math.min(1, u)));
+      const sig = m.signature[j * N + i];
+      const edge = (i > 0 && m.signature[j * N + i - 1] !== sig) || (j > 0 && m.signature[(j - 1) * N + i] !== sig);
+      img.data[o] = edge ? 255 : c[0]; img.data[o + 1] = edge ? 255 : c[1]; img.data[o + 2] = edge ? 255 : c[2]; img.data[o + 3] = 255;
+    }
+  const tmp = document.createElement('canvas');
+  tmp.width = tmp.height = N;
+  tmp.getContext('2d').putImageData(img, 0, 0);
+  g.imageSmoothingEnabled = false;
+  g.drawImage(tmp, 0, 0, W, H);
+  // the iterates, in the seed's gnomonic coordinates
+  const fr = { s: v3(m.frame.s), t: v3(m.frame.t), n: v3(m.frame.n) };
+  const toPx = (d) => { const dn = d.dot(fr.n); return [(d.dot(fr.s) / dn / m.extent * 0.5 + 0.5) * W, (0.5 - d.dot(fr.t) / dn / m.extent * 0.5) * H]; };
+  g.strokeStyle = '#fff'; g.lineWidth = 1.5; g.beginPath();
+  const acc = m.run.iterates.filter((it) => it.accepted);
+  acc.forEach((it, i) => { const p = toPx(v3(it.d0)); if (i) g.lineTo(p[0], p[1]); else g.moveTo(p[0], p[1]); });
+  g.stroke();
+  acc.forEach((it, i) => { const p = toPx(v3(it.d0)); g.fillStyle = i === acc.length - 1 ? (m.run.success ? '#4f4' : '#f44') : '#fff'; g.beginPath(); g.arc(p[0], p[1], 3, 0, 7); g.fill(); });
+  $('lossmap-info').textContent = 'a, b in [-' + m.extent.toPrecision(3) + ', ' + m.extent.toPrecision(3) + '], log10 loss ' +
+    lo.toFixed(1) + ' .. ' + hi.toFixed(1) + '; grey: no chain; white lines: the chain\'s surfaces change';
+}
+
+function viridis(u) {
+  const stops = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
+  const x = u * (stops.length - 1), i = Math.min(stops.length - 2, Math.floor(x)), f = x - i;
+  return stops[i].map((c, k) => Math.round(c + f * (stops[i + 1][k] - c)));
+}
+
+// ---------------------------------------------------------------- tabs
+function showTab(which) {
+  const is3 = which === '3d';
+  $('view3d').style.display = is3 ? '' : 'none';
+  $('view2d').style.display = is3 ? 'none' : '';
+  $('tab3d').className = is3 ? 'on' : '';
+  $('tab2d').className = is3 ? '' : 'on';
+  for (const el of document.querySelectorAll('.only3d')) el.style.display = is3 ? '' : 'none';
+  for (const el of document.querySelectorAll('.only2d')) el.style.display = is3 ? 'none' : 'block';
+  $('help').textContent = is3 ? 'left click / drag on a diffuse surface: receiver x · right drag: orbit · wheel: zoom'
+    : 'drag x, y, the aim handle or shapes · the ray follows up to 10 bounces';
+  if (is3) resize3d(); else { resize2d(); draw2d(); }
+}
+
+// For tests and scripts: the pixel (client coordinates) of a world point in the 3D view.
+window.specula = {
+  project(p) {
+    const v = v3(p).project(V.camera), r = $('view3d').getBoundingClientRect();
+    return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height];
+  },
+  result() { return V.result; },
+};
+
+$('tab3d').onclick = () => showTab('3d');
+$('tab2d').onclick = () => showTab('2d');
+function resize2d() {}
+function draw2d() {}
+init3d().then(() => { $('scene-name').textContent = 'scene: ' + V.info.shapes.length + ' shapes, radius ' + V.radius.toPrecision(3); })
+  .catch((e) => setStatus('failed: ' + e.message, false));
