@@ -391,7 +391,317 @@ window.specula = {
 
 $('tab3d').onclick = () => showTab('3d');
 $('tab2d').onclick = () => showTab('2d');
-function resize2d() {}
-function draw2d() {}
+
+// ---------------------------------------------------------------- 2D view
+// A slice: planes (segments) and circles, mirror or glass, a start x, a target y and the ray's
+// angle theta at x. The ray is traced through up to 10 bounces with the derivatives of its points
+// and directions by theta (the 2D counterpart of the chain's derivatives), the loss is the squared
+// distance from y to the final segment (Dadfar 2022, eq. 17-20), its analytic derivative is drawn
+// against a central finite difference, and the loss over every theta with the solutions as the
+// roots of the signed distance from y to the final line.
+const MAXB = 10;
+const P = { shapes: [], x: [0, 0], y: [0, 0], theta: 0, sel: -1, iterates: [], roots: [], view: null };
+const PRESETS = {
+  'glass ball': () => ({ x: [0.1, -0.9], y: [-0.09, 1.0], shapes: [{ kind: 'circle', c: [0, 0.1], r: 0.4, mat: 'glass', eta: 1.5 }] }),
+  'two mirrors': () => ({ x: [-0.9, -0.6], y: [0.9, -0.6], shapes: [
+    { kind: 'plane', c: [-0.3, 0.6], ang: -Math.PI / 2 - 0.25, half: 0.5, mat: 'mirror' },
+    { kind: 'plane', c: [0.4, 0.5], ang: -Math.PI / 2 + 0.3, half: 0.5, mat: 'mirror' }] }),
+  'lens and mirror': () => ({ x: [-1.1, -0.7], y: [1.1, -0.7], shapes: [
+    { kind: 'circle', c: [-0.35, 0.1], r: 0.3, mat: 'glass', eta: 1.5 },
+    { kind: 'plane', c: [0.5, 0.8], ang: -Math.PI / 2, half: 0.7, mat: 'mirror' }] }),
+  'glass slab': () => ({ x: [-0.8, -0.8], y: [0.7, 0.9], shapes: [
+    { kind: 'plane', c: [0, -0.1], ang: -Math.PI / 2 + 0.2, half: 0.9, mat: 'glass', eta: 1.5 },
+    { kind: 'plane', c: [-0.04, 0.25], ang: Math.PI / 2 + 0.2, half: 0.9, mat: 'glass', eta: 1.5 }] }),
+};
+
+const add2 = (a, b) => [a[0] + b[0], a[1] + b[1]];
+const sub2 = (a, b) => [a[0] - b[0], a[1] - b[1]];
+const mul2 = (a, s) => [a[0] * s, a[1] * s];
+const dot2 = (a, b) => a[0] * b[0] + a[1] * b[1];
+
+function loadPreset(name) {
+  const p = PRESETS[name]();
+  P.shapes = p.shapes; P.x = p.x; P.y = p.y; P.sel = -1; P.iterates = [];
+  // start a little off the straight line x -> y, so that a solve has something to do
+  P.theta = Math.atan2(P.y[1] - P.x[1], P.y[0] - P.x[0]) + 0.08;
+  update2d();
+}
+
+// Nearest hit of the ray (o, d) after distance 1e-9: {t, i, n (unit, outward), dn/dp factor}.
+function hit2(o, d, skip) {
+  let best = null;
+  P.shapes.forEach((s, i) => {
+    if (s.kind === 'plane') {
+      const n = [Math.cos(s.ang), Math.sin(s.ang)], nd = dot2(n, d);
+      if (Math.abs(nd) < 1e-12) return;
+      const t = dot2(n, sub2(s.c, o)) / nd;
+      const p = add2(o, mul2(d, t));
+      if (t > 1e-9 && Math.abs(dot2(sub2(p, s.c), [-n[1], n[0]])) <= s.half && (!best || t < best.t) && !(i === skip && t < 1e-7))
+        best = { t, i, n };
+    } else {
+      const oc = sub2(o, s.c), b = dot2(oc, d), c = dot2(oc, oc) - s.r * s.r, disc = b * b - c;
+      if (disc < 0) return;
+      const sq = Math.sqrt(disc);
+      for (const t of [-b - sq, -b + sq])
+        if (t > 1e-9 && !(i === skip && t < 1e-7) && (!best || t < best.t)) {
+          const p = add2(o, mul2(d, t));
+          best = { t, i, n: mul2(sub2(p, s.c), 1 / s.r) };
+          break;
+        }
+    }
+  });
+  return best;
+}
+
+// Traces from x along theta; returns the points, the signature, the final ray with derivatives,
+// the loss, its analytic derivative and the closest point.
+function trace2(theta) {
+  let o = P.x.slice(), d = [Math.cos(theta), Math.sin(theta)];
+  let dO = [0, 0], dD = [-Math.sin(theta), Math.cos(theta)];
+  const pts = [o.slice()], sig = [];
+  let skip = -1, end = 'escaped';
+  for (let k = 0; k < MAXB; ++k) {
+    const h = hit2(o, d, skip);
+    if (!h) break;
+    const s = P.shapes[h.i];
+    const t = h.t, p = add2(o, mul2(d, t));
+    let n = h.n, dn = [0, 0], dt;
+    if (s.kind === 'plane') dt = -(dot2(n, dO) + t * dot2(n, dD)) / dot2(n, d);
+    else dt = -dot2(sub2(p, s.c), add2(dO, mul2(dD, t))) / dot2(sub2(p, s.c), d);
+    const dp = add2(add2(dO, mul2(d, dt)), mul2(dD, t));
+    if (s.kind === 'circle') dn = mul2(dp, 1 / s.r);
+    let cosI = -dot2(d, n), eta = 1;
+    if (cosI < 0) { n = mul2(n, -1); dn = mul2(dn, -1); cosI = -cosI; eta = s.mat === 'glass' ? s.eta : 1; }
+    else eta = s.mat === 'glass' ? 1 / s.eta : 1;
+    const dcos = -(dot2(dD, n) + dot2(d, dn));
+    let nd, ndD, ev = 'R';
+    const kk = 1 - eta * eta * (1 - cosI * cosI);
+    if (s.mat === 'glass' && kk > 0) {
+      const sk = Math.sqrt(kk), dk = 2 * eta * eta * cosI * dcos, dsk = dk / (2 * sk);
+      nd = add2(mul2(d, eta), mul2(n, eta * cosI - sk));
+      ndD = add2(add2(mul2(dD, eta), mul2(n, eta * dcos - dsk)), mul2(dn, eta * cosI - sk));
+      ev = 'T';
+    } else {
+      // d' = d + 2 cosI n
+      nd = add2(d, mul2(n, 2 * cosI));
+      ndD = add2(add2(dD, mul2(n, 2 * dcos)), mul2(dn, 2 * cosI));
+    }
+    pts.push(p); sig.push(ev + h.i);
+    o = p; dO = dp; d = nd; dD = ndD; skip = h.i;
+    if (k === MAXB - 1) end = 'bounce limit';
+  }
+  const w = sub2(P.y, o), sproj = dot2(w, d);
+  let q, dq;
+  if (sproj > 0) {
+    const ds = -dot2(dO, d) + dot2(w, dD);
+    q = add2(o, mul2(d, sproj)); dq = add2(add2(dO, mul2(d, ds)), mul2(dD, sproj));
+  } else { q = o; dq = dO; }
+  const r = sub2(q, P.y), L = dot2(r, r);
+  return { pts, sig: sig.join(' '), o, d, q, r, dq, L, g: 2 * dot2(r, dq), ahead: sproj > 0,
+    signed: d[0] * w[1] - d[1] * w[0], end };
+}
+
+function fd2(theta, h) {
+  const a = trace2(theta + h), b = trace2(theta - h), c = trace2(theta);
+  if (a.sig !== c.sig || b.sig !== c.sig) return NaN;
+  return (a.L - b.L) / (2 * h);
+}
+
+// Roots of the signed distance from y to the final line over theta (same signature on both sides
+// of a sign change, y ahead), by bisection.
+function roots2() {
+  const N = 1440, out = [];
+  let prev = null;
+  for (let i = 0; i <= N; ++i) {
+    const th = -Math.PI + 2 * Math.PI * i / N, tr = trace2(th);
+    const cur = { th, f: tr.signed, sig: tr.sig, ok: tr.ahead && tr.pts.length > 1 };
+    if (prev && prev.ok && cur.ok && prev.sig === cur.sig && (prev.f < 0) !== (cur.f < 0)) {
+      let a = prev.th, b = th, fa = prev.f;
+      for (let k = 0; k < 60; ++k) {
+        const m = 0.5 * (a + b), fm = trace2(m).signed;
+        if ((fm < 0) === (fa < 0)) { a = m; fa = fm; } else b = m;
+      }
+      const th0 = 0.5 * (a + b), t0 = trace2(th0);
+      if (t0.L < 1e-12) out.push({ theta: th0, sig: t0.sig });
+    }
+    prev = cur;
+  }
+  return out;
+}
+
+// Gauss-Newton on theta from the current angle, with step halving; records the iterates.
+function solve2d() {
+  let th = P.theta, tr = trace2(th);
+  const its = [th];
+  const sig0 = tr.sig;
+  let msg = null, n = 1;
+  for (; n < 60 && tr.L > 1e-20; ++n) {
+    const jj = dot2(tr.dq, tr.dq);
+    if (!(jj > 0)) { msg = 'zero derivative'; break; }
+    let step = -dot2(tr.r, tr.dq) / jj, ok = false;
+    step = Math.max(-0.5, Math.min(0.5, step));
+    for (let k = 0; k < 30; ++k, step *= 0.5) {
+      const t2 = trace2(th + step);
+      if (t2.sig === sig0 && t2.L < tr.L) { th += step; tr = t2; ok = true; break; }
+    }
+    its.push(th);
+    if (!ok) { msg = 'no step lowers the loss (local minimum)'; break; }
+  }
+  P.theta = th;
+  P.iterates = its;
+  const conv = tr.L <= 1e-20 || Math.sqrt(tr.L) < 1e-9;
+  setStatus(conv ? '2D: converged in ' + n + ' iterations' : '2D: failed: ' + (msg || 'iteration limit'), conv);
+  update2d(true);
+}
+
+function resize2d() {
+  const cv = $('view2d');
+  if (!cv.clientWidth) return;
+  cv.width = cv.clientWidth; cv.height = cv.clientHeight;
+  const s = Math.min(cv.width / 3.4, cv.height / 2.4);
+  P.view = { s, cx: cv.width / 2, cy: cv.height / 2 };
+}
+const toS = (p) => [P.view.cx + p[0] * P.view.s, P.view.cy - p[1] * P.view.s];
+const toW = (q) => [(q[0] - P.view.cx) / P.view.s, (P.view.cy - q[1]) / P.view.s];
+
+function update2d(keepIterates) {
+  if (!keepIterates) P.iterates = [];
+  P.roots = roots2();
+  draw2d();
+}
+
+function draw2d() {
+  const cv = $('view2d');
+  if (!P.view || cv.style.display === 'none') return;
+  const g = cv.getContext('2d');
+  g.fillStyle = '#1d1f23'; g.fillRect(0, 0, cv.width, cv.height);
+  const line = (pts, color, w, dash) => {
+    g.strokeStyle = color; g.lineWidth = w; g.setLineDash(dash || []); g.beginPath();
+    pts.forEach((p, i) => { const q = toS(p); if (i) g.lineTo(q[0], q[1]); else g.moveTo(q[0], q[1]); });
+    g.stroke(); g.setLineDash([]);
+  };
+  const disc = (p, r, color) => { const q = toS(p); g.fillStyle = color; g.beginPath(); g.arc(q[0], q[1], r, 0, 7); g.fill(); };
+  P.shapes.forEach((s, i) => {
+    const color = s.mat === 'glass' ? '#6ab0ff' : '#d0d0d8', w = i === P.sel ? 4 : 2;
+    if (s.kind === 'plane') {
+      const t = [-Math.sin(s.ang), Math.cos(s.ang)], n = [Math.cos(s.ang), Math.sin(s.ang)];
+      line([add2(s.c, mul2(t, -s.half)), add2(s.c, mul2(t, s.half))], color, w);
+      line([s.c, add2(s.c, mul2(n, 0.08))], color, 1);
+    } else {
+      const q = toS(s.c);
+      g.strokeStyle = color; g.lineWidth = w; g.beginPath(); g.arc(q[0], q[1], s.r * P.view.s, 0, 7); g.stroke();
+      if (s.mat === 'glass') { g.fillStyle = 'rgba(106,176,255,0.12)'; g.fill(); }
+    }
+  });
+  const far = (tr) => tr.pts.concat([add2(tr.o, mul2(tr.d, 4))]);
+  for (const r of P.roots) line(far(trace2(r.theta)), 'rgba(80,230,120,0.55)', 1.5);
+  for (const th of P.iterates) line(far(trace2(th)), 'rgba(255,160,64,0.35)', 1);
+  const tr = trace2(P.theta);
+  line(far(tr), '#ffa040', 2);
+  tr.pts.slice(1).forEach((p) => disc(p, 3.5, '#ffa040'));
+  line([tr.q, P.y], '#ff5050', 1, [4, 3]);
+  disc(tr.q, 4, '#ff5050');
+  disc(P.x, 6, '#ffffff');
+  disc(P.y, 6, '#ffee44');
+  const aim = add2(P.x, [0.3 * Math.cos(P.theta), 0.3 * Math.sin(P.theta)]);
+  disc(aim, 5, '#ff9020');
+  // the two derivatives as arrows across the ray at x (descent: -dL/dtheta), scaled together
+  const gfd = fd2(P.theta, 1e-6), tang = [-Math.sin(P.theta), Math.cos(P.theta)];
+  const m = Math.max(Math.abs(tr.g), Math.abs(gfd) || 0) || 1;
+  const arrow = (gv, color, off) => {
+    if (!isFinite(gv)) return;
+    const base = add2(P.x, mul2([Math.cos(P.theta), Math.sin(P.theta)], off));
+    line([base, add2(base, mul2(tang, -0.25 * gv / m))], color, 3);
+  };
+  arrow(tr.g, '#ff4040', 0.15);
+  arrow(gfd, '#40a0ff', 0.2);
+  $('info2d').innerHTML = 'theta ' + P.theta.toFixed(6) + ', bounces ' + (tr.pts.length - 1) + ' (' + (tr.sig || 'none') + ')<br>loss ' +
+    fmt(tr.L) + '<br><span style="color:#f66">dL/dtheta analytic ' + fmt(tr.g) + '</span><br><span style="color:#6af">finite difference ' +
+    fmt(isFinite(gfd) ? gfd : null) + '</span><br>solutions (roots): ' + P.roots.length;
+  plot2d(tr);
+}
+
+function plot2d(cur) {
+  const cv = $('plot2d'), g = cv.getContext('2d'), W = cv.width, H = cv.height, N = 720;
+  g.fillStyle = '#111'; g.fillRect(0, 0, W, H);
+  const vals = [];
+  for (let i = 0; i <= N; ++i) {
+    const th = -Math.PI + 2 * Math.PI * i / N, tr = trace2(th);
+    vals.push(Math.log10(Math.max(tr.L, 1e-16)));
+  }
+  const fin = vals.filter((v) => v !== null);
+  const lo = Math.min(-8, ...fin), hi = Math.max(0, ...fin);
+  const X = (th) => (th + Math.PI) / (2 * Math.PI) * W, Y = (v) => H - 4 - (v - lo) / (hi - lo) * (H - 8);
+  g.strokeStyle = '#ffa040'; g.lineWidth = 1; g.beginPath();
+  let pen = false;
+  vals.forEach((v, i) => {
+    const th = -Math.PI + 2 * Math.PI * i / N;
+    if (v === null) { pen = false; return; }
+    if (pen) g.lineTo(X(th), Y(v)); else g.moveTo(X(th), Y(v));
+    pen = true;
+  });
+  g.stroke();
+  g.fillStyle = '#50e678';
+  for (const r of P.roots) { g.beginPath(); g.arc(X(r.theta), Y(lo), 4, 0, 7); g.fill(); }
+  g.strokeStyle = '#fff'; g.beginPath(); g.moveTo(X(wrap(P.theta)), 0); g.lineTo(X(wrap(P.theta)), H); g.stroke();
+  g.fillStyle = '#99a'; g.font = '10px sans-serif';
+  g.fillText('log10 loss ' + hi.toFixed(0) + ' .. ' + lo.toFixed(0) + ', theta -pi .. pi; green: solutions', 4, 12);
+}
+function wrap(t) { return Math.atan2(Math.sin(t), Math.cos(t)); }
+
+function install2d() {
+  const sel = $('preset2d');
+  for (const k of Object.keys(PRESETS)) { const o = document.createElement('option'); o.value = o.textContent = k; sel.appendChild(o); }
+  sel.onchange = () => loadPreset(sel.value);
+  $('add-mirror').onclick = () => { P.shapes.push({ kind: 'plane', c: [0, 0.6], ang: -Math.PI / 2, half: 0.4, mat: 'mirror' }); update2d(); };
+  $('add-glass').onclick = () => { P.shapes.push({ kind: 'circle', c: [0.5, 0.2], r: 0.25, mat: 'glass', eta: 1.5 }); update2d(); };
+  $('add-glass-plane').onclick = () => { P.shapes.push({ kind: 'plane', c: [0, 0.3], ang: -Math.PI / 2, half: 0.6, mat: 'glass', eta: 1.5 }); update2d(); };
+  $('solve2d').onclick = solve2d;
+  const cv = $('view2d');
+  let drag = null;
+  const near = (a, b, px) => Math.hypot(...sub2(toS(a), toS(b))) < px;
+  cv.addEventListener('mousedown', (e) => {
+    const r = cv.getBoundingClientRect(), w = toW([e.clientX - r.left, e.clientY - r.top]);
+    const aim = add2(P.x, [0.3 * Math.cos(P.theta), 0.3 * Math.sin(P.theta)]);
+    if (near(w, aim, 9)) drag = { what: 'aim' };
+    else if (near(w, P.x, 9)) drag = { what: 'x' };
+    else if (near(w, P.y, 9)) drag = { what: 'y' };
+    else {
+      P.sel = -1;
+      P.shapes.forEach((s, i) => {
+        const d = s.kind === 'circle' ? Math.abs(Math.hypot(...sub2(w, s.c)) - s.r) : Math.abs(dot2(sub2(w, s.c), [Math.cos(s.ang), Math.sin(s.ang)]));
+        const inside = s.kind === 'circle' ? true : Math.abs(dot2(sub2(w, s.c), [-Math.sin(s.ang), Math.cos(s.ang)])) <= s.half;
+        if (inside && (d * P.view.s < 8 || (s.kind === 'circle' && Math.hypot(...sub2(w, s.c)) < s.r))) P.sel = i;
+      });
+      if (P.sel >= 0) drag = { what: 'shape', off: sub2(P.shapes[P.sel].c, w) };
+    }
+    draw2d();
+  });
+  window.addEventListener('mouseup', () => { drag = null; });
+  cv.addEventListener('mousemove', (e) => {
+    if (!drag) return;
+    const r = cv.getBoundingClientRect(), w = toW([e.clientX - r.left, e.clientY - r.top]);
+    if (drag.what === 'aim') P.theta = Math.atan2(w[1] - P.x[1], w[0] - P.x[0]);
+    else if (drag.what === 'x') P.x = w;
+    else if (drag.what === 'y') P.y = w;
+    else P.shapes[P.sel].c = add2(w, drag.off);
+    update2d();
+  });
+  cv.addEventListener('wheel', (e) => {
+    if (P.sel < 0) return;
+    e.preventDefault();
+    const s = P.shapes[P.sel];
+    if (s.kind === 'circle') s.r = Math.max(0.02, s.r * (e.deltaY > 0 ? 0.95 : 1.05));
+    else s.ang += e.deltaY > 0 ? 0.03 : -0.03;
+    update2d();
+  }, { passive: false });
+  window.addEventListener('keydown', (e) => {
+    if ((e.key === 'Delete' || e.key === 'Backspace') && P.sel >= 0 && $('view2d').style.display !== 'none') {
+      P.shapes.splice(P.sel, 1); P.sel = -1; update2d();
+    }
+  });
+  loadPreset('glass ball');
+}
+install2d();
 init3d().then(() => { $('scene-name').textContent = 'scene: ' + V.info.shapes.length + ' shapes, radius ' + V.radius.toPrecision(3); })
   .catch((e) => setStatus('failed: ' + e.message, false));
