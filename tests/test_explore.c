@@ -305,7 +305,8 @@ TEST(bad_requests)
         {"POST", "/api/solve", "{\"receiver\":{\"origin\":[0,1,0],\"direction\":[0,0,0]}}", 400, "zero"},
         {"POST", "/api/solve", "{\"receiver\":{\"origin\":[0,1,0],\"direction\":[1,2]}}", 400, "3 numbers"},
         {"POST", "/api/solve", "{\"receiver\":{\"origin\":[0,10,0],\"direction\":[0,1,0]}}", 422, "misses"},
-        {"POST", "/api/solve", "{\"receiver\":{\"origin\":[0,2,0],\"direction\":[0,-1,0]}}", 422, "not a receiver"},
+        {"POST", "/api/solve", "{\"receiver\":{\"origin\":[-0.9,3,-0.6],\"direction\":[0,-1,0]}}", 422,
+         "not a receiver"},
         {"POST", "/api/solve", "{" RX_REQ ",\"seed\":\"psychic\"}", 400, "unknown seed"},
         {"POST", "/api/lossmap", "{" RX_REQ ",\"size\":100000}", 400, "out of range"},
     };

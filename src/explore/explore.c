@@ -39,6 +39,8 @@
 #define FD_STEP_DEFAULT 1e-6
 /* Solutions kept per solver (specular_nee.c keeps as many). */
 #define MAX_SOLUTIONS 16
+/* Specular surfaces a pick ray passes straight through on its way to the receiver. */
+#define PICK_MAX_SPECULAR 16
 /* Draws of specular NEE's light sample before the explorer gives up on finding a light point a
  * chain can reach (the sky of the caustic scenes takes a few percent of the draws). */
 #define LIGHT_TRIES 64
@@ -429,13 +431,23 @@ static int read_problem(const spc_scene *sc, req *r, int solver, problem *pb)
     if (!get_int(r, r->root, "max_chain", 1, 4, &max_chain) ||
         !get_int(r, r->root, "light_sample", 0, 1000000, &light_sample))
         return 400;
+    /* the first surface along the pick ray that is not a specular interface: a receiver seen
+     * through glass or in a mirror's plane is picked where the straight ray meets it */
     spc_ray ray = {o, d, 0.0, INFINITY};
-    if (!spc_scene_intersect(sc, &ray, &pb->x))
+    bool hit = false;
+    for (int k = 0; k < PICK_MAX_SPECULAR; ++k) {
+        double eta;
+        if (!(hit = spc_scene_intersect(sc, &ray, &pb->x)) || !spc_bsdf_is_specular_interface(pb->x.bsdf, &eta))
+            break;
+        ray = spc_hit_spawn(&pb->x, d);
+        hit = false;
+    }
+    if (!hit)
         return bad(r, "%s", "the receiver ray misses the scene"), 422;
     pb->wo = spc_neg(d);
     pb->max_chain = max_chain;
     spc_snee_params_default(&pb->params, solver, max_chain);
-    if (spc_snee_budget(&pb->x, max_chain, false) < 1)
+    if (pb->x.emitter || spc_snee_budget(&pb->x, max_chain, false) < 1)
         return bad(r, "%s", "the picked point is not a receiver (a specular, emitting or non-receiving surface)"), 422;
     spc_snee_query_init(&pb->q, sc, &pb->params, &pb->x, pb->wo, max_chain);
     spc_rng rng;
