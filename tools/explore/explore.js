@@ -261,6 +261,13 @@ function tube(points, color, r) {
   return grp;
 }
 
+// An arrow drawn over everything (the glass would hide it)
+function arrow(dir, origin, len, color, head, width) {
+  const a = new THREE.ArrowHelper(dir, origin, len, color, head, width);
+  for (const part of [a.line, a.cone]) { part.material.depthTest = false; part.renderOrder = 10; }
+  return a;
+}
+
 function dot(p, color, r) {
   const m = new THREE.Mesh(new THREE.SphereBufferGeometry(r, 12, 8), new THREE.MeshBasicMaterial({ color }));
   m.position.copy(v3(p));
@@ -282,11 +289,13 @@ function drawResult() {
       if (run.solver === 'angular' && i === k) {
         V.overlay.add(tube(it.points, 0xffffff, 0.0007 * R));
         if (it.grad3) {
-          // descent directions at x: the analytic one and the finite difference's (they overlap)
-          const L = 0.08 * R, x = v3(res.receiver.point);
+          // descent directions of the first segment, drawn from a point on it: the analytic one
+          // and the finite difference's (they overlap when the derivatives are right)
+          const p0 = v3(it.points[0]), p1 = v3(it.points[1]), seg = p1.distanceTo(p0);
+          const L = 0.06 * R, x = p0.clone().lerp(p1, Math.min(0.35, 0.5 * L / Math.max(seg, 1e-12)));
           const ga = v3(it.grad3).negate(), gf = v3(it.grad_fd3).negate();
-          if (ga.length() > 0) V.overlay.add(new THREE.ArrowHelper(ga.normalize(), x, L, 0xff4040, 0.08 * L, 0.05 * L));
-          if (gf.length() > 0) V.overlay.add(new THREE.ArrowHelper(gf.normalize(), x, 0.8 * L, 0x40a0ff, 0.1 * L, 0.07 * L));
+          if (ga.length() > 0) V.overlay.add(arrow(ga.normalize(), x, L, 0xff4040, 0.3 * L, 0.14 * L));
+          if (gf.length() > 0) V.overlay.add(arrow(gf.normalize(), x, 0.8 * L, 0x40a0ff, 0.3 * L, 0.18 * L));
         }
         $('iter-label').textContent = k + ' of ' + (run.iterates.length - 1);
         $('iter-info').innerHTML = (it.accepted ? 'accepted' : 'rejected') + ', chain ' + it.end +
