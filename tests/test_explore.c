@@ -225,6 +225,16 @@ TEST(newton_and_exact_equal_solvers)
     const spc_json *nr = spc_json_at(&d, runs, 1);
     CHECK(!strcmp(spc_json_get(&d, nr, "solver")->str, "newton"));
     CHECK(ok && spc_json_get(&d, nr, "success")->num == 1.0 && (int)spc_json_get(&d, nr, "iterations")->num == it);
+    /* Newton's iterates: the seed path, then projected steps, the constraints falling to ~0 */
+    const spc_json *nits = spc_json_get(&d, nr, "iterates");
+    CHECK(nits && nits->count >= 2);
+    double E0 = spc_json_get(&d, spc_json_at(&d, nits, 0), "constraints")->num, Elast = E0;
+    for (int i = 0; nits && i < nits->count; ++i) {
+        const spc_json *ni = spc_json_at(&d, nits, i);
+        if (spc_json_get(&d, ni, "accepted")->num == 1.0)
+            Elast = spc_json_get(&d, ni, "constraints")->num;
+    }
+    CHECK_MSG(Elast < 1e-8 * E0, "constraints %g -> %g", E0, Elast);
     const spc_json *pts = spc_json_get(&d, spc_json_at(&d, spc_json_get(&d, nr, "solutions"), 0), "points");
     for (int i = 0; ok && pts && i < c.n; ++i) {
         spc_vec3 v = jv3(&d, spc_json_at(&d, pts, i + 1));

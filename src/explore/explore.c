@@ -731,7 +731,7 @@ static const char *newton_stop_name(spc_newton_stop s)
     return "?";
 }
 
-static void write_path(spc_jbuf *b, spc_vec3 x, const spc_newton_path *p, spc_vec3 y)
+static void write_path(spc_jbuf *b, spc_vec3 x, const spc_newton_path *p, spc_vec3 y, double E, bool accepted)
 {
     spc_jbuf_raw(b, "{\"points\":[");
     jvec3(b, x);
@@ -741,23 +741,59 @@ static void write_path(spc_jbuf *b, spc_vec3 x, const spc_newton_path *p, spc_ve
     }
     spc_jbuf_raw(b, ",");
     jvec3(b, y);
-    spc_jbuf_raw(b, "],\"accepted\":true}");
+    spc_jbuf_printf(b, "],\"accepted\":%s,\"constraints\":", accepted ? "true" : "false");
+    spc_jbuf_num(b, E);
+    spc_jbuf_raw(b, "}");
+}
+
+typedef struct newton_recorder {
+    spc_newton_path *p;
+    double *E;
+    bool *accepted;
+    int n, cap;
+} newton_recorder;
+
+static void record_newton(void *user, const spc_newton_path *p, double E, bool accepted)
+{
+    newton_recorder *rc = user;
+    if (rc->n < rc->cap) {
+        rc->p[rc->n] = *p;
+        rc->E[rc->n] = E;
+        rc->accepted[rc->n] = accepted;
+        rc->n++;
+    }
 }
 
 static void run_newton(spc_jbuf *b, const spc_scene *sc, problem *pb, const solve_opts *so)
 {
+    newton_recorder rc = {0};
+    rc.cap = SPC_EXPLORE_MAX_TRACE + 1;
+    rc.p = malloc((size_t)rc.cap * sizeof *rc.p);
+    rc.E = malloc((size_t)rc.cap * sizeof *rc.E);
+    rc.accepted = malloc((size_t)rc.cap * sizeof *rc.accepted);
+    if (!rc.p || !rc.E || !rc.accepted) {
+        free(rc.p);
+        free(rc.E);
+        free(rc.accepted);
+        b->failed = true;
+        return;
+    }
+    spc_newton_options no = pb->params.newton;
+    if (no.max_iterations > SPC_EXPLORE_MAX_TRACE)
+        no.max_iterations = SPC_EXPLORE_MAX_TRACE;
+    no.trace = record_newton;
+    no.trace_user = &rc;
     spc_newton_path p;
     const spc_vec3 noref = spc_v3(0, 0, 0);
     double t0 = now_s();
     bool seeded = so->straight ? spc_newton_seed_straight(sc, &pb->x, pb->q.y, pb->max_chain, false, NULL, noref, &p)
                                : spc_newton_seed_trace(sc, &pb->x, so->seed, pb->max_chain, false, NULL, noref, &p);
-    spc_newton_path seed = p;
     spc_newton_result res = {0};
     bool ok = false;
     spc_chain out;
     int it = 0;
     if (seeded) {
-        ok = spc_newton_solve(sc, &pb->x, pb->q.y, &p, &pb->params.newton, &res);
+        ok = spc_newton_solve(sc, &pb->x, pb->q.y, &p, &no, &res);
         if (ok)
             ok = spc_newton_to_chain(sc, &pb->x, &p, &pb->tg, &pb->params.angular, pb->params.newton.polish_iterations,
                                      false, &out, &it);
@@ -770,17 +806,18 @@ static void run_newton(spc_jbuf *b, const spc_scene *sc, problem *pb, const solv
                                              : newton_stop_name(res.stop));
     spc_jbuf_num(b, 1e3 * dt);
     spc_jbuf_raw(b, ",\"iterates\":[");
-    if (seeded) {
-        write_path(b, pb->x.p, &seed, pb->q.y);
-        if (res.iterations > 0) {
+    for (int i = 0; i < rc.n; ++i) {
+        if (i)
             spc_jbuf_raw(b, ",");
-            write_path(b, pb->x.p, &p, pb->q.y);
-        }
+        write_path(b, pb->x.p, &rc.p[i], pb->q.y, rc.E[i], rc.accepted[i]);
     }
     spc_jbuf_raw(b, "],\"solutions\":[");
     if (ok)
         write_solution(b, pb, &out);
     spc_jbuf_raw(b, "]}");
+    free(rc.p);
+    free(rc.E);
+    free(rc.accepted);
 }
 
 /* ---- every solution: the conic solver and the exact enumerations ---- */
