@@ -55,7 +55,10 @@
 #include "manifold/angular.h"
 #include "manifold/chain.h"
 
-typedef enum spc_newton_constraint { SPC_NEWTON_HALF_VECTOR, SPC_NEWTON_ANGLE_DIFF } spc_newton_constraint;
+typedef enum spc_newton_constraint {
+    SPC_NEWTON_HALF_VECTOR,
+    SPC_NEWTON_ANGLE_DIFF
+} spc_newton_constraint;
 
 struct spc_newton_path;
 
@@ -82,11 +85,11 @@ typedef struct spc_newton_options {
 void spc_newton_options_default(spc_newton_options *o);
 
 typedef struct spc_newton_vertex {
-    spc_hit h;  /* the vertex on its surface (shape_index fixes the surface) */
-    int event;  /* spc_chain_event */
-    double eta; /* the BSDF's n_inside / n_outside for a refraction; 1 for a reflection */
-    bool rough; /* rough interface with the microfacet normal m */
-    spc_vec3 m; /* microfacet normal in the local frame (s, t, n); (0, 0, 1) for a smooth one */
+    spc_hit h;     /* the vertex on its surface (shape_index fixes the surface) */
+    int event;     /* spc_chain_event */
+    double eta;    /* the BSDF's n_inside / n_outside for a refraction; 1 for a reflection */
+    bool rough;    /* rough interface with the microfacet normal m */
+    spc_vec3 m;    /* microfacet normal in the local frame (s, t, n); (0, 0, 1) for a smooth one */
 } spc_newton_vertex;
 
 typedef struct spc_newton_path {
@@ -109,8 +112,8 @@ typedef enum spc_newton_stop {
 } spc_newton_stop;
 
 typedef struct spc_newton_result {
-    int iterations; /* projections done */
-    double step;    /* length of the last full Newton step (largest vertex move) */
+    int iterations;  /* projections done */
+    double step;     /* length of the last full Newton step (largest vertex move) */
     bool converged;
     spc_newton_stop stop;
 } spc_newton_result;
@@ -147,8 +150,9 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
  * of vertex i run along basis[i][0], basis[i][1] (orthonormal, in the geometric tangent plane).
  * False if a vertex is on the wrong side for its event, its specular direction does not exist
  * (ANGLE_DIFF), or a surface parameterization is degenerate. */
-bool spc_newton_constraints(spc_vec3 x, const spc_newton_path *p, spc_vec3 y, spc_vec3 ny, spc_newton_constraint kind,
-                            double c[][2], double A[][2][2], double B[][2][2], double C[][2][2], spc_vec3 basis[][2]);
+bool spc_newton_constraints(spc_vec3 x, const spc_newton_path *p, spc_vec3 y, spc_vec3 ny,
+                            spc_newton_constraint kind, double c[][2], double A[][2][2], double B[][2][2],
+                            double C[][2][2], spc_vec3 basis[][2]);
 
 /* Solves the block-tridiagonal system A[i] X[i-1] + B[i] X[i] + C[i] X[i+1] = R[i] (i = 0..n-1;
  * A[0] and C[n-1] unused) by block LU without pivoting between blocks (Thomas algorithm). False if
@@ -160,14 +164,16 @@ bool spc_newton_block_solve(int n, const double A[][2][2], const double B[][2][2
  * ny (point light: ny = unit vector from y to the last vertex) from the constraint Jacobian (Jakob
  * and Marschner 2012, sec. 4.3: the derivative of the first vertex with respect to y by the
  * implicit function theorem). 0 if degenerate. */
-double spc_newton_geometry(spc_vec3 x, const spc_newton_path *p, spc_vec3 y, spc_vec3 ny, spc_newton_constraint kind);
+double spc_newton_geometry(spc_vec3 x, const spc_newton_path *p, spc_vec3 y, spc_vec3 ny,
+                           spc_newton_constraint kind);
 
 /* The chain (chain.h) of a solved path: traced from x toward its first vertex with its signature
  * and refined by at most `polish` Gauss-Newton steps in direction space (spc_angular_solve with the
  * target tg), which absorbs the ray offsets the tracer applies at every vertex. False if that does
  * not converge. */
-bool spc_newton_to_chain(const spc_scene *sc, const spc_hit *x, const spc_newton_path *p, const spc_angular_target *tg,
-                         const spc_angular_options *ao, int polish, bool any_surface, spc_chain *out, int *iterations);
+bool spc_newton_to_chain(const spc_scene *sc, const spc_hit *x, const spc_newton_path *p,
+                         const spc_angular_target *tg, const spc_angular_options *ao, int polish, bool any_surface,
+                         spc_chain *out, int *iterations);
 
 struct spc_snee_query;
 struct spc_snee_params;
