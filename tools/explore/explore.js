@@ -197,7 +197,9 @@ async function solve() {
     const res = await api('/api/solve', req);
     V.result = res;
     const ang = res.runs.find((r) => r.solver === 'angular');
-    $('iter').max = ang ? Math.max(0, ang.iterates.length - 1) : 0;
+    // the slider steps through the angular solver's iterates, or Newton's when it runs alone
+    V.stepped = ang || res.runs.find((r) => r.solver === 'newton');
+    $('iter').max = V.stepped ? Math.max(0, V.stepped.iterates.length - 1) : 0;
     $('iter').value = 0;
     drawResult();
     reportStatus(res);
@@ -286,7 +288,7 @@ function drawResult() {
     const col = COLORS[run.solver];
     run.iterates.forEach((it, i) => {
       V.overlay.add(polyline(it.points, col, it.accepted ? 0.45 : 0.15));
-      if (run.solver === 'angular' && i === k) {
+      if (run === V.stepped && i === k) {
         V.overlay.add(tube(it.points, 0xffffff, 0.0007 * R));
         if (it.grad3) {
           // descent directions of the first segment, drawn from a point on it: the analytic one
@@ -298,8 +300,9 @@ function drawResult() {
           if (gf.length() > 0) V.overlay.add(arrow(gf.normalize(), x, 0.8 * L, 0x40a0ff, 0.3 * L, 0.18 * L));
         }
         $('iter-label').textContent = k + ' of ' + (run.iterates.length - 1);
-        $('iter-info').innerHTML = (it.accepted ? 'accepted' : 'rejected') + ', chain ' + it.end +
+        $('iter-info').innerHTML = run.solver + ': ' + (it.accepted ? 'accepted' : 'rejected') + (it.end ? ', chain ' + it.end : '') +
           (it.loss !== undefined ? '<br>loss ' + fmt(it.loss) : '') +
+          (it.constraints !== undefined ? '<br>|constraints|^2 ' + fmt(it.constraints) : '') +
           (it.grad ? '<br><span style="color:#f66">analytic grad</span> (' + it.grad.map(fmt).join(', ') + ')<br>' +
             '<span style="color:#6af">finite diff.</span> (' + it.grad_fd.map(fmt).join(', ') + ')' : '');
       }
