@@ -20,6 +20,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "bsdf/bsdf.h"
 #include "emitter/emitter.h"
 #include "explore/json.h"
 #include "manifold/angular.h"
@@ -328,6 +329,19 @@ static int handle_scene(const spc_explorer *ex, char **response)
         spc_jbuf_str(&b, s->id);
         spc_jbuf_printf(&b, ",\"specular\":%s,\"eta\":", spec ? "true" : "false");
         spc_jbuf_num(&b, eta);
+        /* a display colour: the BSDF's albedo at the middle of the texture space */
+        spc_hit h;
+        memset(&h, 0, sizeof h);
+        h.uv.x = h.uv.y = 0.5;
+        h.ng = spc_v3(0, 0, 1);
+        h.sh = spc_frame_from_n(h.ng);
+        h.shape = s;
+        h.shape_index = i;
+        h.bsdf = s->bsdf;
+        spc_rgb al = s->bsdf ? spc_bsdf_albedo(s->bsdf, &h) : spc_rgb1(0.0);
+        double alv[3] = {al.r, al.g, al.b};
+        spc_jbuf_raw(&b, ",\"albedo\":");
+        spc_jbuf_vec(&b, alv, 3);
         spc_jbuf_printf(&b, ",\"caster\":%s,\"receiver\":%s,\"emitter\":%s",
                         spc_chain_shape_is_caster(s, false, NULL) ? "true" : "false",
                         (s->caustic_flags & SPC_CAUSTIC_RECEIVER) && !spec ? "true" : "false",

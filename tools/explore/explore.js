@@ -33,7 +33,8 @@ function material(s) {
   if (s.specular && s.eta > 0)
     return new THREE.MeshPhongMaterial({ color: 0x88bbff, transparent: true, opacity: 0.35, shininess: 90, side: THREE.DoubleSide, depthWrite: false });
   if (s.specular) return new THREE.MeshPhongMaterial({ color: 0xc8c8d0, shininess: 120, specular: 0xffffff, side: THREE.DoubleSide });
-  return new THREE.MeshLambertMaterial({ color: 0x9a9a9a, side: THREE.DoubleSide });
+  const a = (s.albedo || [0.6, 0.6, 0.6]).map((c) => Math.pow(Math.max(0, Math.min(1, c)), 1 / 2.2));
+  return new THREE.MeshLambertMaterial({ color: new THREE.Color(a[0], a[1], a[2]), side: THREE.DoubleSide });
 }
 
 function shapeObject(s) {
