@@ -104,6 +104,16 @@ async function init3d() {
   V.target.copy(v3(c.origin)).addScaledVector(f, Math.max(0.1 * V.radius, mid.clone().sub(v3(c.origin)).dot(f)));
   V.fov = c.fov;
   V.fovAxis = c.fov_axis;
+  // the scene's camera as a small frustum (seen once the view is orbited away from it)
+  const asp = c.width / c.height;
+  let vf = c.fov;
+  if (c.fov_axis === 'x') vf = 2 * Math.atan(Math.tan(c.fov * Math.PI / 360) / asp) * 180 / Math.PI;
+  const sceneCam = new THREE.PerspectiveCamera(vf, asp, 0.02 * V.radius, 0.08 * V.radius);
+  sceneCam.position.copy(v3(c.origin));
+  sceneCam.up.copy(v3(c.up));
+  sceneCam.lookAt(v3(c.origin).add(v3(c.forward)));
+  sceneCam.updateMatrixWorld();
+  V.scene.add(new THREE.CameraHelper(sceneCam));
   V.camera.lookAt(V.target);
   resize3d();
   window.addEventListener('resize', () => { resize3d(); resize2d(); });
@@ -111,6 +121,11 @@ async function init3d() {
   for (const id of ['solver', 'max_chain', 'seed', 'seed_index', 'light_sample', 'method', 'loss'])
     $(id).addEventListener('change', () => { if (V.ray) solve(); });
   $('iter').addEventListener('input', () => drawResult());
+  $('next-seed').onclick = () => {
+    if ($('seed').value !== 'cone') $('seed').value = 'cone';
+    else $('seed_index').value = +$('seed_index').value + 1;
+    if (V.ray) solve();
+  };
   animate();
 }
 
