@@ -27,6 +27,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "explore_server.h"
 #include "specula/specula.h"
 
 enum {
@@ -87,6 +88,7 @@ static const char *const usage_main =
     "  diff A.exr B.exr [--json]    compare image A against reference B\n"
     "  info SCENE.xml [-D n=v]...   describe a scene\n"
     "  denoise IN.exr -o OUT.exr    denoise a render (Intel Open Image Denoise)\n"
+    "  explore SCENE.xml [--port N] watch the specular solvers in the browser\n"
     "\n"
     "  specula --version            print the version\n"
     "  specula <command> --help     options of a command\n";
@@ -1573,5 +1575,7 @@ int main(int argc, char **argv)
         return cmd_info(argc - 2, argv + 2);
     if (!strcmp(cmd, "denoise"))
         return cmd_denoise(argc - 2, argv + 2);
+    if (!strcmp(cmd, "explore"))
+        return spc_cli_explore(argc - 2, argv + 2);
     return usage_error(usage_main, "unknown command '%s'", cmd);
 }

@@ -265,6 +265,20 @@ typedef struct spc_diff_result {
 /* Compares a against reference b; the z-test uses the variance channels of both when present. */
 spc_status spc_image_diff(const spc_image_rgb *a, const spc_image_rgb *b, spc_diff_result *out, spc_error *err);
 
+/* ---- the solver explorer (`specula explore`) ---- */
+typedef struct spc_explorer spc_explorer;
+/* Largest request body the explorer accepts (bytes); the server refuses longer ones (413). */
+#define SPC_EXPLORE_MAX_BODY 8192
+/* An explorer over a loaded scene (which must outlive it). NULL on allocation failure. */
+spc_explorer *spc_explore_create(const spc_scene *s);
+void spc_explore_destroy(spc_explorer *ex);
+/* Answers one API request (GET /api/scene, POST /api/solve, POST /api/lossmap; README, "The solver
+ * explorer"): returns the HTTP status and sets *response to a JSON text the caller frees (an
+ * object with "error" for every status >= 400; NULL only if memory ran out, status 500). Safe to
+ * call from several threads at once. */
+int spc_explore_handle(spc_explorer *ex, const char *method, const char *path, const char *body, size_t len,
+                       char **response);
+
 #ifdef __cplusplus
 }
 #endif
