@@ -246,6 +246,14 @@ TEST(transforms)
     spc_mat4 ry = camera_to_world("<rotate y=\"1\" angle=\"90\"/>");
     CHECK_NEAR(ry.m[2][0], -1.0, 1e-12);
     CHECK_NEAR(ry.m[0][2], 1.0, 1e-12);
+    /* an axis not of unit length is used as written, as Mitsuba 3 does: its matrix for 15 degrees
+     * about (0, 1, 1), as Mitsuba 3.9.1 prints it (to_world of a shape), to its 6 digits */
+    const double ru[16] = {0.965926, -0.258819, 0.258819,  0, 0.258819, 1, 0.0340742, 0,
+                           -0.258819, 0.0340742, 1,        0, 0,        0, 0,         1};
+    spc_mat4 m = camera_to_world("<rotate x=\"0.0\" y=\"1.0\" z=\"1.0\" angle=\"15\"/>");
+    for (int r = 0; r < 4; ++r)
+        for (int q = 0; q < 4; ++q)
+            CHECK_NEAR(m.m[r][q], ru[4 * r + q], 1e-6);
 }
 
 TEST(defaults_and_defines)
