@@ -46,6 +46,8 @@ static const ref_case cases[] = {
     {"dielectrics", "dielectrics.xml", 1024, NULL},
     /* media behind thin dielectrics: Mitsuba's null events (volpath.c) */
     {"medium_thin", "medium_thin.xml", 1024, "volpath"},
+    /* a spot light projecting an image */
+    {"spot_texture", "spot_texture.xml", 2048, NULL},
 };
 
 static const char *source_dir(void)

@@ -30,6 +30,7 @@ REFS = {
     "mask_null": ("mask_null.xml", ["res=32"]),
     "dielectrics": ("dielectrics.xml", ["res=32"]),
     "medium_thin": ("medium_thin.xml", ["res=32", "integrator=volpath"]),
+    "spot_texture": ("spot_texture.xml", ["res=32"]),
 }
 
 
