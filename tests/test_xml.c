@@ -396,6 +396,34 @@ TEST(forward_reference)
                  SPC_ERR_VALUE, 3, 6, "nothing");
 }
 
+/* Objects declared at the top level with an id and used by reference, as Mitsuba 3's own scenes
+ * do: an area emitter referenced from a shape declared before it (cbox-rgb.xml), a sampler, a
+ * film and its filter. */
+TEST(objects_by_reference)
+{
+    spc_scene *s = load_ok("<scene version=\"3.0.0\">\n"
+                           "  <shape type=\"sphere\"><ref id=\"light\"/></shape>\n"
+                           "  <shape type=\"sphere\"><point name=\"center\" x=\"3\"/></shape>\n"
+                           "  <emitter type=\"area\" id=\"light\"><rgb name=\"radiance\" value=\"2\"/></emitter>\n"
+                           "  <emitter type=\"area\" id=\"unused\"/>\n"
+                           "  <sampler type=\"independent\" id=\"smp\"><integer name=\"sample_count\" value=\"9\"/></sampler>\n"
+                           "  <rfilter type=\"tent\" id=\"flt\"/>\n"
+                           "  <film type=\"hdrfilm\" id=\"flm\"><integer name=\"width\" value=\"20\"/>"
+                           "<integer name=\"height\" value=\"10\"/><ref id=\"flt\"/></film>\n"
+                           "  <sensor type=\"perspective\"><ref id=\"smp\"/><ref id=\"flm\"/></sensor>\n"
+                           "</scene>\n");
+    CHECK(s != NULL);
+    if (!s)
+        return;
+    CHECK(s->nemitters == 1);
+    CHECK(s->nemitters == 1 && s->emitters[0]->shape == s->shapes[0] && s->shapes[0]->emitter == s->emitters[0]);
+    CHECK(s->shapes[1]->emitter == NULL);
+    CHECK(s->spp == 9);
+    CHECK(s->film.width == 20 && s->film.height == 10);
+    CHECK(s->film.rfilter == SPC_RFILTER_TENT);
+    spc_scene_destroy(s);
+}
+
 TEST(dialect_06_equals_3)
 {
     const char *v06 = "<scene version=\"0.6.0\">\n"
@@ -1037,6 +1065,7 @@ int main(void)
     RUN(defaults_and_defines);
     RUN(include_and_path);
     RUN(forward_reference);
+    RUN(objects_by_reference);
     RUN(dialect_06_equals_3);
     RUN(named_ior_and_conductors);
     RUN(shapes_and_emitters);

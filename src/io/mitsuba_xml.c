@@ -1543,7 +1543,15 @@ static void build_scene(mts_loader *L, spc_xml_node *root)
         } else if (strcmp(t, "texture") == 0) {
             mts_build_texture(L, c);
         } else if (strcmp(t, "emitter") == 0) {
-            mts_build_emitter(L, c, NULL, -1);
+            /* an area emitter with an id is built by each shape that refers to it (<ref id=.../>);
+             * one no shape refers to emits nothing, as in Mitsuba 3 */
+            if (!(strcmp(mts_type(c), "area") == 0 && spc_xml_get(c, "id")))
+                mts_build_emitter(L, c, NULL, -1);
+        } else if (strcmp(t, "sampler") == 0 || strcmp(t, "film") == 0 || strcmp(t, "rfilter") == 0) {
+            /* read where a sensor (or film) refers to it by id; unreferenced, it does nothing, as
+             * in Mitsuba 3 */
+            if (!spc_xml_get(c, "id"))
+                mts_warn(c, "<%s> at the top level without an id: no sensor can use it; ignored", t);
         } else if (strcmp(t, "medium") == 0) {
             mts_build_medium(L, c); /* mitsuba_media.c */
         } else if (strcmp(t, "phase") == 0) {
