@@ -48,6 +48,8 @@ static const ref_case cases[] = {
     {"medium_thin", "medium_thin.xml", 1024, "volpath"},
     /* a spot light projecting an image */
     {"spot_texture", "spot_texture.xml", 2048, NULL},
+    /* a thin-lens camera: depth of field */
+    {"thinlens", "thinlens.xml", 1024, NULL},
 };
 
 static const char *source_dir(void)

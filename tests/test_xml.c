@@ -652,13 +652,17 @@ TEST(sensor_and_integrators)
         CHECK_NEAR(s->camera.fov, 2.0 * atan(sqrt(36.0 * 36.0 + 24.0 * 24.0) / 70.0) * 180.0 / SPC_PI, 1e-9);
         spc_scene_destroy(s);
     }
-    capture_begin();
+    /* thinlens: a lens (its focus_distance defaults to far_clip), aperture_radius required */
     s = load_ok("<scene version=\"3.0.0\"><sensor type=\"thinlens\"><float name=\"aperture_radius\" value=\"0.1\"/>"
-                "</sensor></scene>");
-    const char *w = capture_end();
-    CHECK(strstr(w, "test.xml:1:24: warning:") != NULL && strstr(w, "thinlens") != NULL);
+                "<float name=\"far_clip\" value=\"50\"/></sensor></scene>");
     CHECK(s && s->camera.type == SPC_CAMERA_PERSPECTIVE);
+    CHECK(s && s->camera.aperture_radius == 0.1 && s->camera.focus_distance == 50.0);
     spc_scene_destroy(s);
+    expect_error("<scene version=\"3.0.0\"><sensor type=\"thinlens\"/></scene>", SPC_ERR_VALUE, 1, 24,
+                 "aperture_radius");
+    expect_error("<scene version=\"3.0.0\"><sensor type=\"thinlens\"><float name=\"aperture_radius\" value=\"0.1\"/>"
+                 "<float name=\"focus_distance\" value=\"-1\"/></sensor></scene>",
+                 SPC_ERR_VALUE, 1, 91, "focus_distance");
 }
 
 TEST(error_locations)

@@ -106,7 +106,6 @@ typedef struct mts_loader {
     const char *integrator_override; /* the "@integrator" define, or NULL */
     const spc_bsdf *default_bsdf;
     bool have_sensor, have_integrator;
-    bool warned_thinlens;
 } mts_loader;
 
 /* ---- mitsuba_xml.c ---- */

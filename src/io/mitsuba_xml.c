@@ -13,7 +13,7 @@
  * Scene-level plugins handled here; shapes, BSDFs, textures and emitters in mitsuba_plugins.c.
  *
  * XML (defaults as in Mitsuba 3):
- *   sensor      perspective | thinlens (as perspective, with a warning) | orthographic:
+ *   sensor      perspective | thinlens (aperture_radius, required; focus_distance far_clip) | orthographic:
  *               to_world, fov | focal_length ("50mm" when neither: 46.8 degrees along the
  *               diagonal), fov_axis (x | y | smaller | larger | diagonal), near_clip 0.01,
  *               far_clip 10000; nested film and sampler
@@ -1359,18 +1359,28 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
         mts_props_end(&P);
         return;
     }
-    if (thin) {
-        mts_ignore(&P, "aperture_radius");
-        mts_ignore(&P, "focus_distance");
-        if (!L->warned_thinlens)
-            mts_warn(node, "sensor 'thinlens' is rendered as 'perspective' (a pinhole): no depth of field");
-        L->warned_thinlens = true;
-    }
     mts_ignore(&P, "shutter_open");
     mts_ignore(&P, "shutter_close");
     cam->to_world = mts_get_transform(L, &P, "to_world");
     cam->near_clip = mts_get_float(L, &P, "near_clip", 0.01);
     cam->far_clip = mts_get_float(L, &P, "far_clip", 10000.0);
+    cam->aperture_radius = 0.0;
+    if (thin) {
+        /* Mitsuba 3: aperture_radius is required (0 becomes a tiny lens), focus_distance defaults
+         * to far_clip */
+        if (L->status == SPC_OK && !mts_has(&P, "aperture_radius"))
+            mts_fail(L, node, SPC_ERR_VALUE, "sensor 'thinlens' needs an aperture_radius");
+        cam->aperture_radius = mts_get_float(L, &P, "aperture_radius", 0.0);
+        cam->focus_distance = mts_get_float(L, &P, "focus_distance", cam->far_clip);
+        if (L->status == SPC_OK && !(cam->aperture_radius >= 0.0 && isfinite(cam->aperture_radius)))
+            mts_fail(L, mts_where(&P, "aperture_radius"), SPC_ERR_VALUE, "aperture_radius %g must be >= 0",
+                     cam->aperture_radius);
+        if (L->status == SPC_OK && !(cam->focus_distance > 0.0 && isfinite(cam->focus_distance)))
+            mts_fail(L, mts_where(&P, "focus_distance"), SPC_ERR_VALUE, "focus_distance %g must be > 0",
+                     cam->focus_distance);
+        if (cam->aperture_radius == 0.0)
+            cam->aperture_radius = 1e-7; /* Mitsuba's "zero aperture": a float epsilon */
+    }
     if (L->status == SPC_OK && !(cam->near_clip > 0.0 && cam->far_clip > cam->near_clip))
         mts_fail(L, node, SPC_ERR_VALUE, "need 0 < near_clip < far_clip (got %g, %g)", cam->near_clip, cam->far_clip);
     if (cam->type == SPC_CAMERA_PERSPECTIVE) {
