@@ -498,6 +498,13 @@ static spc_status preprocess_node(mts_loader *L, spc_xml_node *node, int dialect
         const char *dir = value;
         if (value[0] != '/' && join_path(buf, sizeof buf, doc_dir(L, node), value) && is_dir(buf))
             dir = buf;
+        /* else, as Mitsuba 3's file resolver: relative to the main file's folder or a folder named
+         * before (an included file's path written relative to the scene that includes it) */
+        if (value[0] != '/' && !is_dir(dir) && join_path(buf, sizeof buf, L->base_dir, value) && is_dir(buf))
+            dir = buf;
+        for (int i = L->ndirs - 1; i >= 0 && value[0] != '/' && !is_dir(dir); --i)
+            if (join_path(buf, sizeof buf, L->dirs[i], value) && is_dir(buf))
+                dir = buf;
         if (!is_dir(dir))
             return mts_fail(L, node, SPC_ERR_IO, "<path>: folder '%s' not found", value);
         char **d = realloc(L->dirs, (size_t)(L->ndirs + 1) * sizeof *d);
