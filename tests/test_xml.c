@@ -366,6 +366,15 @@ TEST(include_and_path)
         CHECK(s->nshapes == 1 && s->shapes[0]->type == SPC_SHAPE_MESH && s->shapes[0]->mesh.ntris == 1);
         spc_scene_destroy(s);
     }
+    /* an included file's <path> written relative to the including scene (Mitsuba 3's resolver) */
+    snprintf(sub, sizeof sub, "%s/parts", tmpdir);
+    CHECK(mkdir(sub, 0700) == 0 || access(sub, F_OK) == 0);
+    write_file("parts/inc.xml", "<scene version=\"3.0.0\"><path value=\"meshes\"/>"
+                                "<shape type=\"obj\"><string name=\"filename\" value=\"tri.obj\"/></shape></scene>\n");
+    s = load_ok("<scene version=\"3.0.0\"><include filename=\"parts/inc.xml\"/></scene>\n");
+    CHECK(s != NULL && s->nshapes == 1);
+    spc_scene_destroy(s);
+    expect_error("<scene version=\"3.0.0\"><path value=\"nowhere\"/></scene>\n", SPC_ERR_IO, 1, 24, "nowhere");
 }
 
 TEST(forward_reference)
