@@ -282,8 +282,9 @@ def format_row(r):
     if "ratio" in r and r["ratio"] is not None:
         zt = "%.2f%%" % (100 * r["ztest_pass"]) if "ztest_pass" in r else "-"
         zm = "%.1f" % r["z_mean"] if r.get("z_mean") is not None else "-"
-        return "%-62s M %-3s S %-3s  %.4g / %.4g = %.3f  z %s  zmean %s" % (
-            r["scene"], m, "yes", r["specula_mean"], r["mitsuba_mean"], r["ratio"], zt, zm)
+        return "%-62s M %-3s S %-3s  %.4g / %.4g = %.3f  z %s  zmean %s  (%.0f s, %.0f s)" % (
+            r["scene"], m, "yes", r["specula_mean"], r["mitsuba_mean"], r["ratio"], zt, zm, r["mitsuba_s"],
+            r["specula_s"])
     return "%-62s M %-3s S %s" % (r["scene"], m + ("" if r["mitsuba_loads"] else " (" + r.get("mitsuba_error", "")[:80] + ")"), s)
 
 
