@@ -105,7 +105,9 @@ static void render_item(job *jb, int item)
                         spc_film_filter_sample(ctx->film, u.x, fx + 0.5, ctx->crop_x, ctx->crop_x + ctx->width);
             double py = fy + 0.5 +
                         spc_film_filter_sample(ctx->film, u.y, fy + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
-            spc_ray ray = spc_camera_ray(ctx->cam, px, py);
+            /* a lens sample only for a thin lens: a pinhole's sample dimensions stay as they were */
+            spc_ray ray = spc_camera_has_lens(ctx->cam) ? spc_camera_ray_lens(ctx->cam, px, py, spc_sampler_2d(&smp))
+                                                        : spc_camera_ray(ctx->cam, px, py);
             spc_sample_out out;
             spc_rgb strategy_L[2 * SPC_STRATEGY_IMAGES_MAX];
             out.strategy_L = jb->nfilms > 0 ? strategy_L : NULL;

@@ -39,6 +39,8 @@ typedef struct spc_camera {
     double fov;        /* degrees, along fov_axis */
     spc_fov_axis fov_axis;
     double near_clip, far_clip;
+    double aperture_radius; /* thinlens: radius of the lens in local units; 0: a pinhole */
+    double focus_distance;  /* thinlens: local depth of the plane in focus */
 } spc_camera;
 
 typedef enum spc_rfilter_type {
