@@ -221,6 +221,8 @@ TEST(mesh_area_sampling_uniform)
     CHECK(spc_shape_init_rectangle(&s, &S, NULL, 0, 0, &err));
     CHECK(spc_shape_prepare(&s) == SPC_OK);
     CHECK_NEAR(s.area, 8.0, 1e-12);
+    /* placed meshes carry the float of padding Embree's in-place reads need */
+    CHECK(s.mesh.p_padded && s.mesh.p[3 * s.mesh.nverts] == 0.0f);
     double mx = 0, mxx = 0;
     const int N = 100000;
     for (int i = 0; i < N; ++i) {

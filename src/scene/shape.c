@@ -225,6 +225,15 @@ bool spc_shape_init_mesh(spc_shape *s, spc_mesh *m, const spc_mat4 *to_world, co
     spc_mesh_drop_degenerate(&s->mesh);
     if (s->mesh.ntris == 0)
         return fail(err, file, line, col, "mesh has no triangle of non-zero area");
+    /* the padding Embree needs to read the positions in place (spc_mesh.p_padded) */
+    float *p = realloc(s->mesh.p, (3 * s->mesh.nverts + 1) * sizeof(float));
+    if (!p) {
+        spc_error_set(err, SPC_ERR_NOMEM, file, line, col, "out of memory");
+        return false;
+    }
+    p[3 * s->mesh.nverts] = 0.0f;
+    s->mesh.p = p;
+    s->mesh.p_padded = true;
     return true;
 }
 
