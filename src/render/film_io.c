@@ -4,7 +4,8 @@
  * (temporary file, then rename), so a failure never leaves a half-written image behind.
  *
  * EXR channel names: R, G, B; variance.R, variance.G, variance.B; albedo.R, albedo.G, albedo.B,
- * normal.X, normal.Y, normal.Z, depth.Z. String attributes: "spp" and "renderer".
+ * normal.X, normal.Y, normal.Z, depth.Z. String attributes: "spp", "renderer",
+ * "integrator" and "specular_nee" (the setting that ran; empty for a film not rendered).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -76,6 +77,8 @@ spc_status spc_film_write_exr(const struct spc_film *f, const char *path, bool v
     const spc_exr_attr attrs[] = {
         {"spp", spp},
         {"renderer", "specula " SPECULA_VERSION},
+        {"integrator", f->integrator},
+        {"specular_nee", f->specular_nee},
     };
     st = spc_exr_write(path, f->width, f->height, nch, names, data, attrs, (int)(sizeof attrs / sizeof attrs[0]),
                        err);
