@@ -2,8 +2,8 @@
  * tests/test_snee_plan.c: specular NEE by default (manifold/snee_plan.h).
  *
  * - The plan: on (angular) for path and volpath on a scene with a caster, a receiver and an area
- *   light; off without casters, with bdpt or ipt, with only an environment light, and when the
- *   setting says none or off; an explicit setting is kept. What ran is recorded in the render's
+ *   light; off without casters, with a flat-faced caster (a glass pane), with bdpt or ipt, with
+ *   only an environment light, and when the setting says none or off; an explicit setting is kept. What ran is recorded in the render's
  *   stats and the film (EXR header), and `spc_scene_plan` lists every caster with its method.
  * - The XML property: auto and off are accepted, a misspelling is refused with file and line.
  * - The default agrees with specular NEE off: a glass ball's caustic under a sphere light,
@@ -135,6 +135,27 @@ TEST(default_on_with_casters_only)
     text = spc_scene_plan(without, NULL, NULL);
     CHECK(text && strstr(text, "specular NEE: none (auto: no specular casters)"));
     free(text);
+
+    /* a flat-faced caster no exact enumeration covers (a glass pane): off by default, on when asked
+     * for */
+    spc_scene *pane = ball_scene(false, 0.25, spc_v3(0.35, 0.25, 2.2), 4);
+    if (pane) {
+        spc_shape *g = spc_scene_new_shape(pane);
+        spc_error gerr;
+        spc_mat4 M = spc_mat4_translate(spc_v3(0, 0, 1));
+        spc_shape_init_rectangle(g, &M, NULL, 0, 0, &gerr);
+        g->bsdf = tu_glass(pane, 1.5);
+        g->caustic_flags = SPC_CAUSTIC_CASTER | SPC_CAUSTIC_RECEIVER;
+        CHECK(finalize(pane));
+        spc_snee_plan_make(pane, "path", NULL, &p);
+        CHECK_MSG(!p.on && p.casters == 1 && strstr(p.reason, "caster shape 2 is flat-faced"), "%s",
+                  p.reason);
+        spc_snee_plan_make(pane, "path", "angular", &p);
+        CHECK(p.on);
+        spc_scene_destroy(pane);
+    } else {
+        CHECK(false);
+    }
 
     /* only an environment light: nothing for specular NEE to draw */
     spc_scene *env = spc_scene_create();

@@ -33,6 +33,12 @@ static bool snee_light(const spc_emitter *e)
     return e->type == SPC_EMITTER_AREA || e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
 }
 
+/* Flat faces: a disk, or a mesh without vertex normals (a cube, a rectangle, face_normals). */
+static bool flat(const spc_shape *s)
+{
+    return s->type == SPC_SHAPE_DISK || (s->type == SPC_SHAPE_MESH && (s->face_normals || !s->mesh.n));
+}
+
 static void off(spc_snee_plan *out, const char *why)
 {
     out->on = false;
@@ -76,6 +82,20 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         off(out, "no area, point or spot light");
         return;
     }
+    /* not with flat-faced casters no enumeration covers (snee_plan.h) */
+    spc_snee_params p;
+    if (!spc_snee_parse(SPC_SNEE_PLAN_SOLVER, 2, &p)) {
+        off(out, "no solver");
+        return;
+    }
+    for (int i = 0; i < cs->n; ++i)
+        if (flat(sc->shapes[cs->idx[i]]) &&
+            spc_snee_plan_method(&p, sc->shapes[cs->idx[i]]) == SPC_SNEE_METHOD_SOLVER) {
+            snprintf(out->reason, sizeof out->reason, "caster shape %d is flat-faced", cs->idx[i]);
+            out->on = false;
+            snprintf(out->setting, sizeof out->setting, "none");
+            return;
+        }
     out->on = true;
     snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SOLVER);
 }

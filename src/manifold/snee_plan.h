@@ -8,17 +8,23 @@
  *     scene has at least one caster (a smooth specular interface: spc_chain_casters_of), one
  *     receiver (a shape with a non-delta BSDF lobe that receives caustics) and one light specular
  *     NEE can draw a point on (area, point or spot);
+ *   - off too if a caster is flat-faced (a disk, a mesh without vertex normals: cubes, slabs,
+ *     panes) and not a normal-mapped plane: flat glass does not focus light, its chains are left to
+ *     the randomized attempts, and their Bernoulli trial counts were heavy-tailed there (the glass
+ *     cube and silver ball at equal CPU time: relMSE 0.089 with specular NEE against 0.039 without,
+ *     one pixel 94% of the error; two tilted slabs: newton -2.5% at 52x the cost; bench/RESULTS.md,
+ *     "Caustics by default"), while on curved casters the attempts paid (the SDF torus 6.8x, a
+ *     smooth water mesh 96x);
  *   - otherwise the angular solver with its defaults (spc_snee_params_default): chains of up to the
  *     scene's specular_max_chain (2) vertices, reflections off glass, MIS with BSDF sampling, the
  *     longer chains with probability 0.1, and every chain on one analytic sphere, one mirror
  *     cylinder or one normal-mapped plane enumerated exactly (sphere_chains.h, cylinder_chains.h,
- *     plane_chains.h), so that the randomized attempts only run for the other casters (meshes,
- *     signed distance fields, disks, rectangles).
- * Why angular: on the caustic scenes it was the fastest unbiased choice at equal time (the pool:
- * 96x against path, conic 45x, newton 26x; the mirror ring 148x, newton 214x at 1.5x its time),
- * and newton was slow and biased on multi-interface chains (two tilted slabs: -2.5% at 52x the
- * time per sample of path; bench/RESULTS.md). "none" (or "off") turns specular NEE off; any other
- * setting (spc_snee_parse) is used as given.
+ *     plane_chains.h); with only such casters the randomized solver itself never runs.
+ * Why angular: of the solvers it has the exact enumerations with reflections and longer chains, and
+ * on the caustic scenes it was the fastest unbiased choice at equal time (the pool: 96x against
+ * path, conic 45x, newton 26x); newton was slow and biased on multi-interface chains (two tilted
+ * slabs: -2.5% at 52x the time per sample of path; bench/RESULTS.md). "none" (or "off") turns
+ * specular NEE off; any other setting (spc_snee_parse) is used as given.
  */
 #ifndef SPC_MANIFOLD_SNEE_PLAN_H
 #define SPC_MANIFOLD_SNEE_PLAN_H
