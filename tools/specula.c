@@ -109,8 +109,9 @@ static const char *const usage_render =
     "  --seed S               random seed (default 0)\n"
     "  --res WxH              film size (default: the scene's)\n"
     "  --integrator NAME      path, ipt, bdpt or volpath (default: the scene's)\n"
-    "  --specular-nee NAME[:OPTS]  none, angular, newton or conic (default: the scene's); path and\n"
-    "                         volpath only (with bdpt or ipt anything but none is refused); OPTS,\n"
+    "  --specular-nee NAME[:OPTS]  auto, none, angular, newton, conic (default: the scene's, else\n"
+    "                         auto: chosen from the scene, as `specula info` shows); path and\n"
+    "                         volpath only (with bdpt or ipt only none and auto); OPTS,\n"
     "                         comma-separated: unbiased (default: one solution, 1/p by Bernoulli\n"
     "                         trials) or biased[=M] (M seeds, distinct solutions summed; M 8),\n"
     "                         trials=N (cap; 256 angular, 64 others), seed=cone|shape|light|bsdf\n"
@@ -214,7 +215,8 @@ static const char *const usage_info =
     "       specula info --devices   list the render devices (cpu, OpenCL platforms and devices)\n"
     "\n"
     "Prints the scene's shapes, triangles, BSDFs, emitters, bounding box, film and integrator,\n"
-    "then one line per shape, BSDF and emitter.\n";
+    "what specular NEE will do (the setting, and for each caster how its chains are found and\n"
+    "their lengths), then one line per shape, BSDF and emitter.\n";
 
 static int usage_error(const char *usage, const char *fmt, ...)
 #if defined(__GNUC__)
@@ -720,6 +722,8 @@ static bool write_stats(const char *given, const spc_render_stats *st, const sta
     fprintf(fp, ",\n  \"threads\": %d", st->threads);
     fprintf(fp, ",\n  \"samples\": %llu", (unsigned long long)st->samples);
     fprintf(fp, ",\n  \"invalid_samples\": %llu", (unsigned long long)st->invalid_samples);
+    fprintf(fp, ",\n  \"specular_nee\": ");
+    json_string(fp, st->specular_nee);
     fprintf(fp, ",\n  \"interrupted\": %s\n}\n", in->interrupted ? "true" : "false");
     bool ok = !ferror(fp);
     if (fflush(fp) != 0 || fsync(fileno(fp)) != 0)
@@ -863,8 +867,6 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         } else if (opt_value(argc, argv, &i, "--specular-nee", NULL, &v)) {
             if (!v)
                 code = usage_error(usage_render, "--specular-nee needs a name");
-            else if (!strcmp(v, "none") || !strcmp(v, "off"))
-                v = "";
             opt.specular_nee = v;
         } else if (opt_value(argc, argv, &i, "--max-depth", NULL, &v)) {
             if (!parse_int(v, -1, INT_MAX, &opt.max_depth))
@@ -1542,6 +1544,10 @@ static int cmd_info(int argc, char **argv)
         printf("integrator: %s (max_depth unbounded)\n", s.integrator);
     else
         printf("integrator: %s (max_depth %d)\n", s.integrator, s.max_depth);
+    char *plan = spc_scene_plan(scene, NULL, NULL);
+    if (plan)
+        fputs(plan, stdout);
+    free(plan);
     char *desc = spc_scene_describe(scene);
     if (desc)
         fputs(desc, stdout);

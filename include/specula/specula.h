@@ -73,6 +73,11 @@ typedef struct spc_scene_summary {
 void spc_scene_summarize(const spc_scene *s, spc_scene_summary *out);
 /* One line per shape / BSDF / emitter, for `specula info`; the caller frees the string. */
 char *spc_scene_describe(const spc_scene *s);
+/* What specular NEE will do when s is rendered with this integrator (NULL: the scene's) and setting
+ * (NULL: the scene's; "" or "auto": chosen from the scene; "none": off; else as given): a line with
+ * the setting (or why it is off), then one per caster with the method that finds its chains and the
+ * chain lengths. The caller frees the string; NULL if out of memory. */
+char *spc_scene_plan(const spc_scene *s, const char *integrator, const char *specular_nee);
 
 /* ---- rendering ---- */
 typedef void (*spc_progress_fn)(void *user, double fraction, int spp_done, int spp_total, double elapsed_s);
@@ -84,7 +89,8 @@ typedef struct spc_render_options {
     uint64_t seed;
     int width, height;       /* 0: the scene's film size */
     const char *integrator;  /* NULL: the scene's ("path", "ipt", "bdpt") */
-    const char *specular_nee;/* NULL: the scene's; "", "angular", "newton", "conic" */
+    const char *specular_nee;/* NULL: the scene's; "" or "auto": chosen from the scene (spc_scene_plan),
+                              * "none": off, or a setting: "angular", "newton:biased=8", ... */
     int max_depth;           /* 0: the scene's; -1: unbounded */
     bool aovs;               /* albedo, shading normal, depth */
     spc_progress_fn progress;
@@ -134,6 +140,7 @@ typedef struct spc_render_stats {
     int threads;
     uint64_t samples;
     uint64_t invalid_samples; /* NaN or infinite estimates, discarded and counted */
+    char specular_nee[96];    /* the specular NEE setting that ran ("none" when off; see spc_scene_plan) */
 } spc_render_stats;
 
 spc_status spc_render(const spc_scene *s, const spc_render_options *o, spc_film **out, spc_render_stats *stats,

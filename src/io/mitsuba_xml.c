@@ -24,8 +24,9 @@
  *   sampler     independent, stratified, multijitter, orthogonal, ldsampler, halton, hammersley,
  *               sobol: sample_count 4, seed 0 (specula has one sampler; the type is not kept)
  *   integrator  path, prb (-> path), volpath, volpathmis (-> volpath), direct (-> path, max_depth
- *               2), bdpt, ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" | angular |
- *               newton | conic, optionally with options as "newton:biased=8,rough": spc_snee_parse in
+ *               2), bdpt, ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" or auto:
+ *               chosen from the scene, manifold/snee_plan.h; none or off; angular | newton | conic,
+ *               optionally with options as "newton:biased=8,rough": spc_snee_parse in
  *               manifold/specular_nee.h), specular_max_chain, mis_balance (false; bdpt: the balance
  *               heuristic instead of the power heuristic); aov, moment, stokes: the nested integrator.
  *               The define "@integrator" replaces the file's integrator type (its properties are
@@ -1626,9 +1627,10 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     if (mts_has(&P, "specular_nee")) {
         const char *nee = mts_get_string(L, &P, "specular_nee", "");
         spc_snee_params snp;
-        if (strlen(nee) >= sizeof it->specular_nee || !spc_snee_parse(nee, 2, &snp))
+        bool word = !strcmp(nee, "auto") || !strcmp(nee, "off"); /* snee_plan.h's own words */
+        if (strlen(nee) >= sizeof it->specular_nee || (!word && !spc_snee_parse(nee, 2, &snp)))
             mts_fail(L, mts_where(&P, "specular_nee"), SPC_ERR_VALUE,
-                     "unknown specular_nee '%s' (\"\", angular, newton, conic, optionally followed by "
+                     "unknown specular_nee '%s' (auto, none, angular, newton, conic, optionally followed by "
                      ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough,nomis)",
                      nee);
         snprintf(it->specular_nee, sizeof it->specular_nee, "%s", nee);

@@ -29,6 +29,7 @@
 #include "core/warp.h"
 #include "device/device.h"
 #include "integrator/integrator.h"
+#include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
 #include "render/camera.h"
 #include "render/checkpoint.h"
@@ -189,11 +190,15 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.strategy_s = o->strategy_s;
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;
-    const char *sname = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
+    /* the given setting, or the scene's, or the default chosen from the scene (snee_plan.h) */
+    spc_snee_plan plan;
+    spc_snee_plan_make(sc, spc_integrator_kind_name(ctx.kind),
+                       o->specular_nee ? o->specular_nee : sc->integrator.specular_nee, &plan);
+    const char *sname = plan.setting;
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
     if (!spc_snee_parse(sname, ctx.specular_max_chain, &ctx.snee))
         return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0,
-                             "bad specular NEE setting '%s'; specula has: %s, optionally followed by "
+                             "bad specular NEE setting '%s'; specula has: auto, %s, optionally followed by "
                              ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough,nomis,"
                              "reflect[=P],noreflect,mispsi=Q,receivers=N,camera,chain=N,exact,noexact",
                              sname, spc_specular_solver_names());
@@ -269,6 +274,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     struct spc_film *film = spc_film_create(fs.width, fs.height, fs.crop_x, fs.crop_y, fs.crop_w, fs.crop_h, o->aovs);
     if (!film)
         return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for a %dx%d film", fs.crop_w, fs.crop_h);
+    snprintf(film->integrator, sizeof film->integrator, "%s", spc_integrator_kind_name(ctx.kind));
+    snprintf(film->specular_nee, sizeof film->specular_nee, "%s", ctx.specular_nee ? sname : "none");
 
     int tx = (ctx.width + SPC_TILE - 1) / SPC_TILE, ty = (ctx.height + SPC_TILE - 1) / SPC_TILE;
     int ntiles = tx * ty;
@@ -350,8 +357,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     }
 
     char settings[1024];
-    spc_ckpt_settings_text(&ctx, o->specular_nee ? o->specular_nee : sc->integrator.specular_nee, o->seed, o->aovs,
-                           settings, sizeof settings);
+    spc_ckpt_settings_text(&ctx, sname, o->seed, o->aovs, settings, sizeof settings);
     if (use_cl) /* a checkpoint resumes only on the device that began it */
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";device=opencl:%d", cl_index);
     if (o->resume) {
@@ -525,6 +531,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         stats->threads = threads;
         stats->samples = (uint64_t)film->spp * npix;
         stats->invalid_samples = invalid;
+        snprintf(stats->specular_nee, sizeof stats->specular_nee, "%s", ctx.specular_nee ? sname : "none");
     }
     *out = film; /* also with a checkpoint write error: the image rendered so far is valid */
     if (status == SPC_ERR_INTERRUPTED)
