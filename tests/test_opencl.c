@@ -58,6 +58,9 @@ static spc_film *render_on(const spc_scene *sc, const char *device, const char *
     o.integrator = integrator;
     o.seed = seed;
     o.device = device;
+    /* the same algorithm on both devices: the CPU's specular NEE (on by default for path on a
+     * caustic scene) would smooth the caustic the device finds by BSDF sampling alone */
+    o.specular_nee = "none";
     spc_film *f = NULL;
     spc_error err;
     spc_render_stats st;

@@ -190,10 +190,16 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.strategy_s = o->strategy_s;
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;
-    /* the given setting, or the scene's, or the default chosen from the scene (snee_plan.h) */
+    /* the given setting, or the scene's, or the default chosen from the scene (snee_plan.h); the
+     * OpenCL device has no specular NEE, so there the default is off (an explicit setting is still
+     * refused by the device, by name) */
+    const char *given = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
+    bool dev_cl = false;
+    int dev_index = 0;
+    if (spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl && (!given || !*given || !strcmp(given, "auto")))
+        given = "none";
     spc_snee_plan plan;
-    spc_snee_plan_make(sc, spc_integrator_kind_name(ctx.kind),
-                       o->specular_nee ? o->specular_nee : sc->integrator.specular_nee, &plan);
+    spc_snee_plan_make(sc, spc_integrator_kind_name(ctx.kind), given, &plan);
     const char *sname = plan.setting;
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
     if (!spc_snee_parse(sname, ctx.specular_max_chain, &ctx.snee))
