@@ -601,9 +601,10 @@ TEST(diff_ratio_and_thresholds)
 /* ---- --time ---- */
 
 /* The render's own clock (--stats wall_seconds) against the budget: the passes stop in time, at
- * most one batch late. The process's wall time adds loading and writing, which a loaded machine
- * stretches, so it is only bounded loosely (a render that ignored --time would run for an hour:
- * the spp cap is 10^6). */
+ * most one batch late. A batch is sized by the passes timed so far, so a machine whose load jumps
+ * makes it late: at load 30 one ran 3.2 s past a 1 s budget (1.0-1.03 s when the load is steady),
+ * hence the 5 s slack. A render that ignored --time would run for an hour (the spp cap is 10^6).
+ * The process's wall time adds loading and writing and is only bounded loosely. */
 static double stats_wall(const char *name)
 {
     char *j = read_text(name);
@@ -621,7 +622,7 @@ TEST(time_budget)
                  "--stats", "t.json", "--quiet", NULL);
     double wall = now_s() - t0, rw = stats_wall("t.json");
     CHECK_MSG(rc == 0, "exit %d", rc);
-    CHECK_MSG(rw >= 0.9 && rw < 1.0 + 1.5, "--time 1 rendered for %.3f s", rw);
+    CHECK_MSG(rw >= 0.9 && rw < 1.0 + 5.0, "--time 1 rendered for %.3f s", rw);
     CHECK_MSG(wall < 60.0, "--time 1 took %.2f s in all", wall);
     int spp = exr_spp("t.exr");
     CHECK_MSG(spp > 4, "spp %d: the time budget, not the scene's 4 spp, decides", spp);
@@ -643,7 +644,7 @@ TEST(time_budget)
     wall = now_s() - t0;
     rw = stats_wall("tk.json");
     /* the render's clock here includes the final checkpoint's write and fsync */
-    CHECK_MSG(rc == 0 && rw >= 0.9 && rw < 1.0 + 3.0 && wall < 60.0, "exit %d after %.2f s (render %.3f s)", rc, wall,
+    CHECK_MSG(rc == 0 && rw >= 0.9 && rw < 1.0 + 6.0 && wall < 60.0, "exit %d after %.2f s (render %.3f s)", rc, wall,
               rw);
     spp = exr_spp("tk.exr");
     spc_checkpoint *ck = NULL;
