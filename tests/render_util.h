@@ -154,10 +154,12 @@ static inline spc_film *tu_render_nee(const spc_scene *sc, const char *integrato
     return f;
 }
 
-/* Renders and returns the film (caller destroys); NULL on failure (message printed). */
+/* Renders and returns the film (caller destroys); NULL on failure (message printed). Specular NEE
+ * as the scene says, and off where it says nothing: these tests check the integrators themselves,
+ * not the default chosen from the scene (tests of that pass NULL to tu_render_nee). */
 static inline spc_film *tu_render(const spc_scene *sc, const char *integrator, int spp, int threads, uint64_t seed)
 {
-    return tu_render_nee(sc, integrator, NULL, spp, threads, seed, NULL);
+    return tu_render_nee(sc, integrator, sc->integrator.specular_nee[0] ? NULL : "none", spp, threads, seed, NULL);
 }
 
 /* Mean over pixels and channel c (0..2), and the standard error of that mean. */

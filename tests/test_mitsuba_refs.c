@@ -13,7 +13,7 @@
  * envmaps and bitmap-textured area lights (sampled in proportion to their texels), perspective
  * cameras with several fov axes and a crop window (box filters: the tails of tent and gaussian
  * filters put rare, bright samples in border pixels that a 32-pixel z-test cannot judge; they are
- * compared at full size by validate.py). The
+ * compared at full size by validate.py), and volpath's media behind thin dielectrics. The
  * full-size comparison of every scene is tests/validation/validate.py (bench/RESULTS.md).
  */
 /* ctest-labels: scene */
@@ -27,17 +27,29 @@
 #define REF_PASS_FRACTION 0.9975 /* Mitsuba's test_renders.py bar */
 
 typedef struct ref_case {
-    const char *name;  /* tests/data/mitsuba_refs/NAME.exr */
-    const char *scene; /* under scenes/ */
-    int spp;           /* specula's samples per pixel */
+    const char *name;       /* tests/data/mitsuba_refs/NAME.exr */
+    const char *scene;      /* under scenes/ */
+    int spp;                /* specula's samples per pixel */
+    const char *integrator; /* -D integrator=...; NULL: path */
 } ref_case;
 
 static const ref_case cases[] = {
-    {"shapes", "shapes.xml", 512},           {"textures", "textures.xml", 512},
-    {"conductors", "conductors.xml", 512},   {"envmap", "envmap.xml", 512},
-    {"normal_bump", "normal_bump.xml", 512}, {"area_textured", "area_textured.xml", 1024},
-    {"lights", "lights.xml", 512},           {"v06_box", "v06_box.xml", 512},
-    {"mask_null", "mask_null.xml", 512},     {"dielectrics", "dielectrics.xml", 1024},
+    {"shapes", "shapes.xml", 512, NULL},
+    {"textures", "textures.xml", 512, NULL},
+    {"conductors", "conductors.xml", 512, NULL},
+    {"envmap", "envmap.xml", 512, NULL},
+    {"normal_bump", "normal_bump.xml", 512, NULL},
+    {"area_textured", "area_textured.xml", 1024, NULL},
+    {"lights", "lights.xml", 512, NULL},
+    {"v06_box", "v06_box.xml", 512, NULL},
+    {"mask_null", "mask_null.xml", 512, NULL},
+    {"dielectrics", "dielectrics.xml", 1024, NULL},
+    /* media behind thin dielectrics: Mitsuba's null events (volpath.c) */
+    {"medium_thin", "medium_thin.xml", 1024, "volpath"},
+    /* a spot light projecting an image */
+    {"spot_texture", "spot_texture.xml", 2048, NULL},
+    /* a thin-lens camera: depth of field */
+    {"thinlens", "thinlens.xml", 1024, NULL},
 };
 
 static const char *source_dir(void)
@@ -53,7 +65,7 @@ static double compare(const ref_case *c, double scale)
     char scene_path[1024], ref_path[1024];
     snprintf(scene_path, sizeof scene_path, "%s/scenes/%s", source_dir(), c->scene);
     snprintf(ref_path, sizeof ref_path, "%s/tests/data/mitsuba_refs/%s.exr", source_dir(), c->name);
-    spc_define defs[2] = {{"res", "32"}, {"integrator", "path"}};
+    spc_define defs[2] = {{"res", "32"}, {"integrator", c->integrator ? c->integrator : "path"}};
     spc_scene *s = NULL;
     spc_error err;
     char msg[1200];

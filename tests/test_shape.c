@@ -3,6 +3,7 @@
  * area / solid-angle sampling of shapes.
  */
 /* ctest-labels: unit */
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/rng.h"
@@ -212,6 +213,91 @@ TEST(sphere_sampling_solid_angle)
     spc_shape_release(&s);
 }
 
+/* Hits on a mesh with its kept per-triangle frames (spc_shape.tri_frame) equal, bit for bit, the
+ * hits computed from the vertices alone: with and without uvs, vertex normals, flip_normals, a
+ * degenerate uv map. */
+static bool same_hit(const spc_hit *a, const spc_hit *b)
+{
+    return memcmp(&a->p, &b->p, sizeof a->p) == 0 && memcmp(&a->ng, &b->ng, sizeof a->ng) == 0 &&
+           memcmp(&a->sh, &b->sh, sizeof a->sh) == 0 && memcmp(&a->uv, &b->uv, sizeof a->uv) == 0 &&
+           memcmp(&a->dpdu, &b->dpdu, sizeof a->dpdu) == 0 && memcmp(&a->dpdv, &b->dpdv, sizeof a->dpdv) == 0 &&
+           memcmp(&a->dndu, &b->dndu, sizeof a->dndu) == 0 && memcmp(&a->dndv, &b->dndv, sizeof a->dndv) == 0 &&
+           a->err == b->err;
+}
+
+TEST(mesh_kept_frames_match)
+{
+    int checked = 0;
+    for (int kind = 0; kind < 4; ++kind)
+        for (int flip = 0; flip < 2; ++flip) {
+            spc_shape s;
+            memset(&s, 0, sizeof s);
+            spc_error err;
+            spc_mat4 T = {{{1, 0.2, 0, 0.5}, {0, 1.3, 0.1, -2}, {0.3, 0, 0.7, 1}, {0, 0, 0, 1}}}; /* sheared */
+            if (kind == 0) {
+                CHECK(spc_shape_init_cube(&s, &T, NULL, 0, 0, &err)); /* uvs */
+            } else {
+                /* two triangles; kind 1: no uvs, 2: vertex normals, 3: a uv map of zero area */
+                spc_mesh m;
+                memset(&m, 0, sizeof m);
+                m.nverts = 4;
+                m.ntris = 2;
+                m.p = malloc(12 * sizeof(float));
+                m.idx = malloc(6 * sizeof(uint32_t));
+                float P[12] = {0, 0, 0, 1, 0, 0.1f, 1, 1, 0, 0, 1, 0.3f};
+                uint32_t I[6] = {0, 1, 2, 0, 2, 3};
+                memcpy(m.p, P, sizeof P);
+                memcpy(m.idx, I, sizeof I);
+                if (kind == 2) {
+                    float N[12] = {0, 0, 1, 0.1f, 0, 1, 0, 0.2f, 1, -0.1f, 0, 1};
+                    m.n = malloc(sizeof N);
+                    memcpy(m.n, N, sizeof N);
+                }
+                if (kind == 3) {
+                    float UV[8] = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f};
+                    m.uv = malloc(sizeof UV);
+                    memcpy(m.uv, UV, sizeof UV);
+                }
+                CHECK(spc_shape_init_mesh(&s, &m, &T, NULL, 0, 0, &err));
+            }
+            s.flip_normals = flip != 0;
+            CHECK(spc_shape_prepare(&s) == SPC_OK);
+            CHECK(s.tri_frame != NULL);
+            double *kept = s.tri_frame;
+            for (int i = 0; i < 200; ++i) {
+                int prim = (int)(rnd() * (double)s.mesh.ntris);
+                double b1 = rnd(), b2 = rnd() * (1.0 - b1);
+                spc_hit a, b;
+                memset(&a, 0, sizeof a);
+                memset(&b, 0, sizeof b);
+                s.tri_frame = kept;
+                spc_shape_fill_hit(&s, prim, b1, b2, NULL, 1.0, &a);
+                s.tri_frame = NULL;
+                spc_shape_fill_hit(&s, prim, b1, b2, NULL, 1.0, &b);
+                CHECK(same_hit(&a, &b));
+                ++checked;
+            }
+            /* flip_normals changed after the frames were kept: still the same hits */
+            s.flip_normals = !s.flip_normals;
+            for (int i = 0; i < 50; ++i) {
+                int prim = (int)(rnd() * (double)s.mesh.ntris);
+                double b1 = rnd(), b2 = rnd() * (1.0 - b1);
+                spc_hit a, b;
+                memset(&a, 0, sizeof a);
+                memset(&b, 0, sizeof b);
+                s.tri_frame = kept;
+                spc_shape_fill_hit(&s, prim, b1, b2, NULL, 1.0, &a);
+                s.tri_frame = NULL;
+                spc_shape_fill_hit(&s, prim, b1, b2, NULL, 1.0, &b);
+                CHECK(same_hit(&a, &b));
+                ++checked;
+            }
+            s.tri_frame = kept;
+            spc_shape_release(&s);
+        }
+    CHECK(checked == 8 * 250);
+}
+
 TEST(mesh_area_sampling_uniform)
 {
     spc_shape s;
@@ -221,6 +307,8 @@ TEST(mesh_area_sampling_uniform)
     CHECK(spc_shape_init_rectangle(&s, &S, NULL, 0, 0, &err));
     CHECK(spc_shape_prepare(&s) == SPC_OK);
     CHECK_NEAR(s.area, 8.0, 1e-12);
+    /* placed meshes carry the float of padding Embree's in-place reads need */
+    CHECK(s.mesh.p_padded && s.mesh.p[3 * s.mesh.nverts] == 0.0f);
     double mx = 0, mxx = 0;
     const int N = 100000;
     for (int i = 0; i < N; ++i) {
@@ -250,5 +338,6 @@ int main(void)
     RUN(analytic_disk_and_cylinder);
     RUN(sphere_sampling_solid_angle);
     RUN(mesh_area_sampling_uniform);
+    RUN(mesh_kept_frames_match);
     return spc_test_finish();
 }

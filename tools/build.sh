@@ -5,7 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 pkgs=(build-essential cmake pkg-config libembree-dev libopenexr-dev libpng-dev libexpat1-dev zlib1g-dev
-      libjpeg62-turbo-dev)
+      libjpeg62-turbo-dev libmicrohttpd-dev libjs-three
+      ocl-icd-opencl-dev opencl-c-headers pocl-opencl-icd)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")

@@ -27,6 +27,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "explore_server.h"
 #include "specula/specula.h"
 
 enum {
@@ -87,6 +88,7 @@ static const char *const usage_main =
     "  diff A.exr B.exr [--json]    compare image A against reference B\n"
     "  info SCENE.xml [-D n=v]...   describe a scene\n"
     "  denoise IN.exr -o OUT.exr    denoise a render (Intel Open Image Denoise)\n"
+    "  explore SCENE.xml [--port N] watch the specular solvers in the browser\n"
     "\n"
     "  specula --version            print the version\n"
     "  specula <command> --help     options of a command\n";
@@ -107,8 +109,9 @@ static const char *const usage_render =
     "  --seed S               random seed (default 0)\n"
     "  --res WxH              film size (default: the scene's)\n"
     "  --integrator NAME      path, ipt, bdpt or volpath (default: the scene's)\n"
-    "  --specular-nee NAME[:OPTS]  none, angular, newton or conic (default: the scene's); path and\n"
-    "                         volpath only (with bdpt or ipt anything but none is refused); OPTS,\n"
+    "  --specular-nee NAME[:OPTS]  auto, none, angular, newton, conic (default: the scene's, else\n"
+    "                         auto: chosen from the scene, as `specula info` shows); path and\n"
+    "                         volpath only (with bdpt or ipt only none and auto); OPTS,\n"
     "                         comma-separated: unbiased (default: one solution, 1/p by Bernoulli\n"
     "                         trials) or biased[=M] (M seeds, distinct solutions summed; M 8),\n"
     "                         trials=N (cap; 256 angular, 64 others), seed=cone|shape|light|bsdf\n"
@@ -146,6 +149,7 @@ static const char *const usage_render_more =
     "                         DIR/sS_tT_unweighted.exr (+ .png); the weighted ones sum to the image\n"
     "  --mis-balance          bdpt: weight strategies by the balance heuristic instead of the\n"
     "                         power heuristic (also the integrator property mis_balance)\n"
+    "  --device cpu|opencl[:N]  (info --devices)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"
     "                         seconds, and when the render ends or is interrupted\n"
@@ -208,9 +212,11 @@ static const char *const usage_denoise =
 
 static const char *const usage_info =
     "usage: specula info SCENE.xml [-D name=value]... [--lenient]\n"
+    "       specula info --devices   list the render devices (cpu, OpenCL platforms and devices)\n"
     "\n"
     "Prints the scene's shapes, triangles, BSDFs, emitters, bounding box, film and integrator,\n"
-    "then one line per shape, BSDF and emitter.\n";
+    "what specular NEE will do (the setting, and for each caster how its chains are found and\n"
+    "their lengths), then one line per shape, BSDF and emitter.\n";
 
 static int usage_error(const char *usage, const char *fmt, ...)
 #if defined(__GNUC__)
@@ -716,6 +722,8 @@ static bool write_stats(const char *given, const spc_render_stats *st, const sta
     fprintf(fp, ",\n  \"threads\": %d", st->threads);
     fprintf(fp, ",\n  \"samples\": %llu", (unsigned long long)st->samples);
     fprintf(fp, ",\n  \"invalid_samples\": %llu", (unsigned long long)st->invalid_samples);
+    fprintf(fp, ",\n  \"specular_nee\": ");
+    json_string(fp, st->specular_nee);
     fprintf(fp, ",\n  \"interrupted\": %s\n}\n", in->interrupted ? "true" : "false");
     bool ok = !ferror(fp);
     if (fflush(fp) != 0 || fsync(fileno(fp)) != 0)
@@ -859,8 +867,6 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         } else if (opt_value(argc, argv, &i, "--specular-nee", NULL, &v)) {
             if (!v)
                 code = usage_error(usage_render, "--specular-nee needs a name");
-            else if (!strcmp(v, "none") || !strcmp(v, "off"))
-                v = "";
             opt.specular_nee = v;
         } else if (opt_value(argc, argv, &i, "--max-depth", NULL, &v)) {
             if (!parse_int(v, -1, INT_MAX, &opt.max_depth))
@@ -896,6 +902,10 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         } else if (!strcmp(a, "--denoise")) {
             denoise = opt.aovs = true;
             ++i;
+        } else if (opt_value(argc, argv, &i, "--device", NULL, &v)) {
+            if (!v || !*v)
+                code = usage_error(usage_render, "--device needs cpu, opencl or opencl:N");
+            opt.device = v;
         } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
             quiet = true;
             ++i;
@@ -1478,6 +1488,16 @@ static int cmd_info(int argc, char **argv)
             fputs(usage_exit, stdout);
             defines_release(&defs);
             return 0;
+        } else if (!strcmp(a, "--devices")) {
+            char *list = spc_devices_describe();
+            defines_release(&defs);
+            if (!list) {
+                fail("out of memory");
+                return EXIT_NOMEM;
+            }
+            fputs(list, stdout);
+            free(list);
+            return 0;
         } else if (opt_value(argc, argv, &i, "-D", NULL, &v)) {
             if (!defines_add(&defs, v))
                 code = usage_error(usage_info, "-D needs name=value, not '%s'", v ? v : "");
@@ -1527,6 +1547,10 @@ static int cmd_info(int argc, char **argv)
         printf("integrator: %s (max_depth unbounded)\n", s.integrator);
     else
         printf("integrator: %s (max_depth %d)\n", s.integrator, s.max_depth);
+    char *plan = spc_scene_plan(scene, NULL, NULL);
+    if (plan)
+        fputs(plan, stdout);
+    free(plan);
     char *desc = spc_scene_describe(scene);
     if (desc)
         fputs(desc, stdout);
@@ -1560,5 +1584,7 @@ int main(int argc, char **argv)
         return cmd_info(argc - 2, argv + 2);
     if (!strcmp(cmd, "denoise"))
         return cmd_denoise(argc - 2, argv + 2);
+    if (!strcmp(cmd, "explore"))
+        return spc_cli_explore(argc - 2, argv + 2);
     return usage_error(usage_main, "unknown command '%s'", cmd);
 }

@@ -73,6 +73,11 @@ typedef struct spc_scene_summary {
 void spc_scene_summarize(const spc_scene *s, spc_scene_summary *out);
 /* One line per shape / BSDF / emitter, for `specula info`; the caller frees the string. */
 char *spc_scene_describe(const spc_scene *s);
+/* What specular NEE will do when s is rendered with this integrator (NULL: the scene's) and setting
+ * (NULL: the scene's; "" or "auto": chosen from the scene; "none": off; else as given): a line with
+ * the setting (or why it is off), then one per caster with the method that finds its chains and the
+ * chain lengths. The caller frees the string; NULL if out of memory. */
+char *spc_scene_plan(const spc_scene *s, const char *integrator, const char *specular_nee);
 
 /* ---- rendering ---- */
 typedef void (*spc_progress_fn)(void *user, double fraction, int spp_done, int spp_total, double elapsed_s);
@@ -84,7 +89,8 @@ typedef struct spc_render_options {
     uint64_t seed;
     int width, height;       /* 0: the scene's film size */
     const char *integrator;  /* NULL: the scene's ("path", "ipt", "bdpt") */
-    const char *specular_nee;/* NULL: the scene's; "", "angular", "newton", "conic" */
+    const char *specular_nee;/* NULL: the scene's; "" or "auto": chosen from the scene (spc_scene_plan),
+                              * "none": off, or a setting: "angular", "newton:biased=8", ... */
     int max_depth;           /* 0: the scene's; -1: unbounded */
     bool aovs;               /* albedo, shading normal, depth */
     spc_progress_fn progress;
@@ -114,6 +120,11 @@ typedef struct spc_render_options {
      * with checkpoints. Memory: about 100 bytes per pixel per film. Read them with
      * spc_film_strategy. */
     bool strategy_images;
+    /* Where to render: NULL or "cpu" (specula's threads), "opencl" or "opencl:N" (device N of
+     * spc_devices_describe). The opencl device renders only scenes it supports and refuses others
+     * with SPC_ERR_PLUGIN naming what it lacks; the film, passes and seeds work as on the CPU, the
+     * image is deterministic for a given device (not equal to the CPU's bit for bit). */
+    const char *device;
 } spc_render_options;
 
 #define SPC_STRATEGY_IMAGES_MAX_DEPTH 8
@@ -129,10 +140,15 @@ typedef struct spc_render_stats {
     int threads;
     uint64_t samples;
     uint64_t invalid_samples; /* NaN or infinite estimates, discarded and counted */
+    char specular_nee[96];    /* the specular NEE setting that ran ("none" when off; see spc_scene_plan) */
 } spc_render_stats;
 
 spc_status spc_render(const spc_scene *s, const spc_render_options *o, spc_film **out, spc_render_stats *stats,
                       spc_error *err);
+
+/* The render devices found (cpu, then every OpenCL device as "opencl:N ..."), one line each; the
+ * caller frees the string (NULL when out of memory). */
+char *spc_devices_describe(void);
 
 /* ---- checkpoints ---- */
 /* The saved state of an unfinished render: film sums after a whole number of passes, the resolved
@@ -255,6 +271,20 @@ typedef struct spc_diff_result {
 } spc_diff_result;
 /* Compares a against reference b; the z-test uses the variance channels of both when present. */
 spc_status spc_image_diff(const spc_image_rgb *a, const spc_image_rgb *b, spc_diff_result *out, spc_error *err);
+
+/* ---- the solver explorer (`specula explore`) ---- */
+typedef struct spc_explorer spc_explorer;
+/* Largest request body the explorer accepts (bytes); the server refuses longer ones (413). */
+#define SPC_EXPLORE_MAX_BODY 8192
+/* An explorer over a loaded scene (which must outlive it). NULL on allocation failure. */
+spc_explorer *spc_explore_create(const spc_scene *s);
+void spc_explore_destroy(spc_explorer *ex);
+/* Answers one API request (GET /api/scene, POST /api/solve, POST /api/lossmap; README, "The solver
+ * explorer"): returns the HTTP status and sets *response to a JSON text the caller frees (an
+ * object with "error" for every status >= 400; NULL only if memory ran out, status 500). Safe to
+ * call from several threads at once. */
+int spc_explore_handle(spc_explorer *ex, const char *method, const char *path, const char *body, size_t len,
+                       char **response);
 
 #ifdef __cplusplus
 }

@@ -1,8 +1,9 @@
 /*
- * accel/embree.c: Embree 3 device and scene. Meshes are RTC_GEOMETRY_TYPE_TRIANGLE (vertex data
- * copied into Embree's padded buffers); spheres, disks and cylinders are RTC_GEOMETRY_TYPE_USER
- * whose callbacks intersect in double precision from the caller's double ray, which travels in an
- * extended RTCIntersectContext. The geometry ID of every shape equals its index in the scene.
+ * accel/embree.c: Embree 3 device and scene. Meshes are RTC_GEOMETRY_TYPE_TRIANGLE reading the
+ * scene's float positions and indices in place (spc_mesh.p_padded; copies otherwise); spheres,
+ * disks and cylinders are RTC_GEOMETRY_TYPE_USER whose callbacks intersect in double precision
+ * from the caller's double ray, which travels in an extended RTCIntersectContext. The geometry ID
+ * of every shape equals its index in the scene.
  */
 #include "accel/accel.h"
 
@@ -117,18 +118,34 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
         RTCGeometry g;
         if (s->type == SPC_SHAPE_MESH) {
             g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-            float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                s->mesh.nverts);
-            unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                                   s->mesh.ntris);
-            if (!vb || !ib) {
+            /* the scene's own arrays where the positions are padded for Embree's loads (the
+             * scene outlives the accel and does not change), else copies */
+            const void *vb, *ib;
+            if (s->mesh.p_padded) {
+                rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, s->mesh.p, 0,
+                                           3 * sizeof(float), s->mesh.nverts);
+                rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, s->mesh.idx, 0,
+                                           3 * sizeof(unsigned), s->mesh.ntris);
+                vb = s->mesh.p;
+                ib = s->mesh.idx;
+            } else {
+                float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                   s->mesh.nverts);
+                unsigned *i3 = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                       3 * sizeof(unsigned), s->mesh.ntris);
+                if (v)
+                    memcpy(v, s->mesh.p, 3 * s->mesh.nverts * sizeof(float));
+                if (i3)
+                    memcpy(i3, s->mesh.idx, 3 * s->mesh.ntris * sizeof(unsigned));
+                vb = v;
+                ib = i3;
+            }
+            if (!vb || !ib || rtcGetDeviceError(a->device) != RTC_ERROR_NONE) {
                 rtcReleaseGeometry(g);
                 spc_accel_destroy(a);
-                spc_error_set(err, SPC_ERR_NOMEM, NULL, 0, 0, "Embree: out of memory for mesh '%s'", s->id);
+                spc_error_set(err, SPC_ERR_NOMEM, NULL, 0, 0, "Embree: cannot take mesh '%s' (out of memory)", s->id);
                 return NULL;
             }
-            memcpy(vb, s->mesh.p, 3 * s->mesh.nverts * sizeof(float));
-            memcpy(ib, s->mesh.idx, 3 * s->mesh.ntris * sizeof(unsigned));
         } else {
             g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_USER);
             rtcSetGeometryUserPrimitiveCount(g, 1);

@@ -154,6 +154,57 @@ spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h)
     return spc_rgb1(0.0);
 }
 
+bool spc_bsdf_has_null(const spc_bsdf *b)
+{
+    if (!b)
+        return false;
+    if (b->type == SPC_BSDF_THINDIELECTRIC || b->type == SPC_BSDF_NULL || b->type == SPC_BSDF_MASK)
+        return true;
+    if (b->type == SPC_BSDF_TWOSIDED)
+        return spc_bsdf_has_null(b->nested[0]) || spc_bsdf_has_null(b->nested[1]);
+    return false;
+}
+
+spc_rgb spc_bsdf_null_transmission(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo)
+{
+    if (!b)
+        return spc_rgb1(0.0);
+    switch (b->type) {
+    case SPC_BSDF_NULL: return spc_rgb1(1.0);
+    case SPC_BSDF_MASK: return spc_mask_null_transmission(b, h);
+    case SPC_BSDF_THINDIELECTRIC: return spc_thindielectric_null_transmission(b, h, wo);
+    case SPC_BSDF_TWOSIDED: {
+        /* the side wo is on picks the nested BSDF, as twosided's sampling does */
+        const spc_bsdf *side = spc_dot(wo, h->sh.n) >= 0.0 || !b->nested[1] ? b->nested[0] : b->nested[1];
+        return spc_bsdf_null_transmission(side, h, wo);
+    }
+    case SPC_BSDF_DIFFUSE:
+    case SPC_BSDF_ROUGHDIFFUSE:
+    case SPC_BSDF_PHONG:
+    case SPC_BSDF_CONDUCTOR:
+    case SPC_BSDF_ROUGHCONDUCTOR:
+    case SPC_BSDF_DIELECTRIC:
+    case SPC_BSDF_ROUGHDIELECTRIC:
+    case SPC_BSDF_PLASTIC:
+    case SPC_BSDF_ROUGHPLASTIC:
+    case SPC_BSDF_NORMALMAP:
+    case SPC_BSDF_BUMPMAP:
+    case SPC_BSDF_BLENDBSDF: return spc_rgb1(0.0);
+    }
+    return spc_rgb1(0.0);
+}
+
+bool spc_bsdf_sample_is_null(const spc_bsdf *b, const spc_bsdf_sample *bs)
+{
+    if (bs->lobe == SPC_LOBE_NULL)
+        return true;
+    /* a thin sheet's straight transmission (reported as a delta transmission with eta 1) */
+    return bs->lobe == SPC_LOBE_DELTA_TRANSMISSION && spc_bsdf_has_null(b) && bs->eta == 1.0 &&
+           (b->type == SPC_BSDF_THINDIELECTRIC ||
+            (b->type == SPC_BSDF_TWOSIDED && b->nested[0]->type == SPC_BSDF_THINDIELECTRIC &&
+             (!b->nested[1] || b->nested[1]->type == SPC_BSDF_THINDIELECTRIC)));
+}
+
 bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta)
 {
     if (eta)

@@ -136,6 +136,16 @@ bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode
                          spc_vec2 u, spc_bsdf_sample *out);
 /* Diffuse-like albedo at the hit for the albedo AOV and for light-path heuristics. */
 spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h);
+/* Mitsuba 3's null component (BSDFFlags::Null): the part of a surface that light passes straight
+ * through (wi = -wo) without scattering: all of `null`, 1 - opacity of a `mask`, the transmission
+ * of a `thindielectric` (1 - R'). Mitsuba's volpath does not count crossing it as a bounce and
+ * lets shadow rays through it with this factor (its eval_null_transmission).
+ * spc_bsdf_has_null: can the BSDF have such a part. spc_bsdf_null_transmission: its factor for a
+ * ray arriving from wo (per channel; zero where there is none). spc_bsdf_sample_is_null: did this
+ * sample of b take it. */
+bool spc_bsdf_has_null(const spc_bsdf *b);
+spc_rgb spc_bsdf_null_transmission(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo);
+bool spc_bsdf_sample_is_null(const spc_bsdf *b, const spc_bsdf_sample *bs);
 /* True if the BSDF behaves as a perfect specular interface (conductor or dielectric, smooth,
  * possibly under a twosided or a normalmap): the specular solvers treat such surfaces as chain
  * vertices. *eta receives int_ior/ext_ior (0 for a reflector). */

@@ -48,6 +48,11 @@ bool spc_mask_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode, sp
     return true;
 }
 
+spc_rgb spc_mask_null_transmission(const spc_bsdf *b, const spc_hit *h)
+{
+    return spc_rgb1(1.0 - mask_opacity(b, h));
+}
+
 spc_rgb spc_mask_albedo(const spc_bsdf *b, const spc_hit *h)
 {
     return spc_rgb_scale(spc_bsdf_albedo(b->nested[0], h), mask_opacity(b, h));

@@ -143,6 +143,7 @@ SPC_BSDF_VARIANT(conductor);
 SPC_BSDF_VARIANT(roughconductor);
 SPC_BSDF_VARIANT(dielectric);
 SPC_BSDF_VARIANT(thindielectric);
+spc_rgb spc_thindielectric_null_transmission(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo);
 SPC_BSDF_VARIANT(roughdielectric);
 SPC_BSDF_VARIANT(plastic);
 SPC_BSDF_VARIANT(roughplastic);
@@ -153,6 +154,7 @@ spc_rgb spc_normalmap_specular_throughput(const spc_bsdf *b, const spc_hit *h, s
 SPC_BSDF_VARIANT(bumpmap);
 SPC_BSDF_VARIANT(null);
 SPC_BSDF_VARIANT(mask);
+spc_rgb spc_mask_null_transmission(const spc_bsdf *b, const spc_hit *h);
 SPC_BSDF_VARIANT(blendbsdf);
 
 #undef SPC_BSDF_VARIANT

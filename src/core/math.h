@@ -127,16 +127,24 @@ static inline spc_frame spc_frame_from_n(spc_vec3 n)
     f.n = n;
     return f;
 }
+/* The unit tangent *s of spc_frame_from_ns(n, dpdu): dpdu with its n component removed,
+ * normalized; false (s untouched) where dpdu is (nearly) parallel to n. The same for -n. */
+static inline bool spc_frame_tangent(spc_vec3 n, spc_vec3 dpdu, spc_vec3 *s)
+{
+    spc_vec3 d = spc_sub(dpdu, spc_scale(n, spc_dot(n, dpdu)));
+    double l = spc_length(d);
+    if (!(l > 1e-12 * (spc_length(dpdu) + 1e-300)))
+        return false;
+    *s = spc_scale(d, 1.0 / l);
+    return true;
+}
 /* Frame with n and the tangent s as close to dpdu as possible (Gram-Schmidt). */
 static inline spc_frame spc_frame_from_ns(spc_vec3 n, spc_vec3 dpdu)
 {
-    spc_vec3 s = spc_sub(dpdu, spc_scale(n, spc_dot(n, dpdu)));
-    double l = spc_length(s);
-    if (!(l > 1e-12 * (spc_length(dpdu) + 1e-300)))
-        return spc_frame_from_n(n);
     spc_frame f;
+    if (!spc_frame_tangent(n, dpdu, &f.s))
+        return spc_frame_from_n(n);
     f.n = n;
-    f.s = spc_scale(s, 1.0 / l);
     f.t = spc_cross(n, f.s);
     return f;
 }

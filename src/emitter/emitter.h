@@ -44,6 +44,7 @@ typedef struct spc_emitter {
     spc_vec3 direction;                /* directional: direction light travels */
     spc_rgb irradiance;                /* directional */
     const spc_texture *radiance;       /* area, constant, envmap (bitmap lat-long) */
+    const spc_texture *texture;        /* spot: an image over the beam (NULL: none) */
     double scale;                      /* envmap, default 1 */
     const struct spc_shape *shape;     /* area */
     int shape_index;                   /* area */

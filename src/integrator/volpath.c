@@ -13,12 +13,15 @@
  * weight 1) and does NEE toward a light sample.
  *
  * Shadow rays carry transmittance: the analytic T of each segment in its medium, through surfaces
- * whose BSDF is purely null (Mitsuba's null BSDF: index-matched boundaries of media); any other
- * surface blocks, so NEE never crosses a refractive boundary: light reaches a medium behind glass
- * by BSDF/phase sampling only (or by the specular connection below). A path crossing a pure null
- * surface by sampling is not a new vertex either: no segment is counted and the MIS state of the
- * last real vertex is kept, so an emitter hit behind null surfaces is weighted against the NEE of
- * that vertex, which reaches it through the same surfaces. Both strategies' MIS densities are the
+ * with a null component (Mitsuba's BSDFFlags::Null: the null BSDF of index-matched boundaries of
+ * media, a mask's holes, a thin dielectric's straight transmission) times its null transmission
+ * (1, 1 - opacity, 1 - R'; spc_bsdf_null_transmission); any other surface blocks, so NEE never
+ * crosses a refractive boundary: light reaches a medium behind glass by BSDF/phase sampling only
+ * (or by the specular connection below). A path crossing a pure null surface, or taking a null
+ * component by sampling, is not a new vertex either (Mitsuba's volpath does not count it as a
+ * bounce): no segment is counted and the MIS state of the last real vertex is kept, so an emitter
+ * hit behind null surfaces is weighted against the NEE of that vertex, which reaches it through
+ * the same surfaces. Both strategies' MIS densities are the
  * directional ones only (BSDF or phase pdf against the light's solid-angle pdf), without the
  * free-flight probabilities; since both strategies use the same pair, the weights still sum to 1.
  * In a scene without media and null surfaces the estimator and its sample dimensions are path.c's.
@@ -99,7 +102,7 @@ static bool scene_is_plain(const spc_scene *sc)
     if (sc->nmedia > 0 || sc->camera_medium >= 0)
         return false;
     for (int i = 0; i < sc->nbsdfs; ++i)
-        if (spc_bsdf_flags(sc->bsdfs[i]) == SPC_LOBE_NULL)
+        if (spc_bsdf_has_null(sc->bsdfs[i]))
             return false;
     return true;
 }
@@ -110,7 +113,9 @@ static spc_rgb tr_of(const spc_scene *sc, int med, double d)
 }
 
 /* Transmittance along r from its origin to r.tmax, starting in medium med: products of the media's
- * transmittances across pure null surfaces, zero if anything else blocks. */
+ * transmittances and of the null transmission of each surface crossed (spc_bsdf_null_transmission:
+ * 1 for null, 1 - opacity for a mask, 1 - R' for a thin dielectric), zero if anything else
+ * blocks. */
 static spc_rgb shadow_transmittance(const spc_scene *sc, spc_ray r, int med, bool plain)
 {
     const spc_rgb zero = spc_rgb1(0.0);
@@ -124,7 +129,10 @@ static spc_rgb shadow_transmittance(const spc_scene *sc, spc_ray r, int med, boo
         T = spc_rgb_mul(T, tr_of(sc, med, hit ? h.t : r.tmax));
         if (!hit)
             return T;
-        if (!is_null_surface(&h) || spc_rgb_is_black(T))
+        if (!spc_bsdf_has_null(h.bsdf))
+            return zero;
+        T = spc_rgb_mul(T, spc_bsdf_null_transmission(h.bsdf, &h, spc_neg(r.d)));
+        if (spc_rgb_is_black(T))
             return zero;
         med = medium_after(&h, r.d, med);
         spc_ray n;
@@ -554,16 +562,16 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
             track.live = false;
             continue;
         }
-        nulls = 0;
-        /* every continuation adds at least one segment */
-        if (!depth_allows(ctx->max_depth, segments + 1))
-            break;
         const spc_bsdf *b = h.bsdf;
+        /* every continuation adds at least one segment, but a null event (below) */
+        const bool more = depth_allows(ctx->max_depth, segments + 1);
+        if (!more && !spc_bsdf_has_null(b))
+            break;
 
         /* next-event estimation (always draw the same dimensions, as path.c) */
         double u_light = spc_sampler_1d(smp);
         spc_vec2 u_lpos = spc_sampler_2d(smp);
-        const bool nee = spc_bsdf_has_smooth(b);
+        const bool nee = spc_bsdf_has_smooth(b) && more;
         if (nee) {
             spc_rgb c = next_event(sc, &h, h.p, NULL, wo, med, plain, u_light, u_lpos);
             L = spc_rgb_add(L, spc_rgb_mul(beta, c));
@@ -576,6 +584,20 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
         spc_bsdf_sample bs;
         if (!spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
             break;
+        if (spc_bsdf_sample_is_null(b, &bs)) {
+            /* Mitsuba's null event (a thin sheet's transmission, a mask's hole): crossed as a pure
+             * null surface is, not a vertex; NEE reaches past it with its null transmission */
+            beta = spc_rgb_mul(beta, bs.weight);
+            if (spc_rgb_is_black(beta) || ++nulls > SPC_VOLPATH_MAX_NULL_CROSSINGS)
+                break;
+            med = medium_after(&h, bs.wi, med);
+            ray = spc_hit_spawn(&h, bs.wi);
+            track.live = false;
+            continue;
+        }
+        if (!more)
+            break;
+        nulls = 0;
         spc_snee_track_scatter(&track, &h, bs.lobe, 0, snp.any_surface, false);
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))

@@ -112,7 +112,6 @@ typedef struct mts_loader {
     const char *integrator_override; /* the "@integrator" define, or NULL */
     const spc_bsdf *default_bsdf;
     bool have_sensor, have_integrator;
-    bool warned_thinlens;
     bool lenient; /* the "@unreferenced" define is "warn": properties no plugin reads only warn */
 } mts_loader;
 

@@ -30,7 +30,7 @@
  *   raw false, to_uv; 0.x uoffset/voffset/uscale/vscale), checkerboard (color0 0.4, color1 0.2,
  *   to_uv). Any texture-valued property also takes rgb, spectrum or float constants.
  * Emitters: point (intensity 1, position | to_world), spot (intensity 1, cutoff_angle 20,
- *   beam_width 3/4 cutoff_angle, to_world), directional (irradiance 1, direction | to_world),
+ *   beam_width 3/4 cutoff_angle, texture (none), to_world), directional (irradiance 1, direction | to_world),
  *   area (radiance 1, rgb or texture; inside a shape), constant (radiance 1), envmap (filename,
  *   scale 1, to_world).
  */
@@ -980,7 +980,8 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
         tmp.cutoff_angle = mts_get_float(L, &P, "cutoff_angle", 20.0);
         tmp.beam_width = mts_get_float(L, &P, "beam_width", 0.75 * tmp.cutoff_angle);
         tmp.position = origin;
-        mts_ignore(&P, "texture");
+        if (mts_has(&P, "texture"))
+            tmp.texture = mts_get_texture(L, &P, "texture", spc_rgb1(1));
         if (L->status == SPC_OK && !(tmp.cutoff_angle > 0.0 && tmp.cutoff_angle <= 90.0))
             mts_fail(L, mts_where(&P, "cutoff_angle"), SPC_ERR_VALUE, "cutoff_angle %g must be in (0, 90]",
                      tmp.cutoff_angle);

@@ -13,7 +13,7 @@
  * Scene-level plugins handled here; shapes, BSDFs, textures and emitters in mitsuba_plugins.c.
  *
  * XML (defaults as in Mitsuba 3):
- *   sensor      perspective | thinlens (as perspective, with a warning) | orthographic:
+ *   sensor      perspective | thinlens (aperture_radius, required; focus_distance far_clip) | orthographic:
  *               to_world, fov | focal_length ("50mm" when neither: 46.8 degrees along the
  *               diagonal), fov_axis (x | y | smaller | larger | diagonal), near_clip 0.01,
  *               far_clip 10000; nested film and sampler
@@ -24,8 +24,9 @@
  *   sampler     independent, stratified, multijitter, orthogonal, ldsampler, halton, hammersley,
  *               sobol: sample_count 4, seed 0 (specula has one sampler; the type is not kept)
  *   integrator  path, prb (-> path), volpath, volpathmis (-> volpath), direct (-> path, max_depth
- *               2), bdpt, ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" | angular |
- *               newton | conic, optionally with options as "newton:biased=8,rough": spc_snee_parse in
+ *               2), bdpt, ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" or auto:
+ *               chosen from the scene, manifold/snee_plan.h; none or off; angular | newton | conic,
+ *               optionally with options as "newton:biased=8,rough": spc_snee_parse in
  *               manifold/specular_nee.h), specular_max_chain, mis_balance (false; bdpt: the balance
  *               heuristic instead of the power heuristic); aov, moment, stokes: the nested integrator.
  *               The define "@integrator" replaces the file's integrator type (its properties are
@@ -551,6 +552,13 @@ static spc_status preprocess_node(mts_loader *L, spc_xml_node *node, int dialect
         const char *dir = value;
         if (value[0] != '/' && join_path(buf, sizeof buf, doc_dir(L, node), value) && is_dir(buf))
             dir = buf;
+        /* else, as Mitsuba 3's file resolver: relative to the main file's folder or a folder named
+         * before (an included file's path written relative to the scene that includes it) */
+        if (value[0] != '/' && !is_dir(dir) && join_path(buf, sizeof buf, L->base_dir, value) && is_dir(buf))
+            dir = buf;
+        for (int i = L->ndirs - 1; i >= 0 && value[0] != '/' && !is_dir(dir); --i)
+            if (join_path(buf, sizeof buf, L->dirs[i], value) && is_dir(buf))
+                dir = buf;
         if (!is_dir(dir))
             return mts_fail(L, node, SPC_ERR_IO, "<path>: folder '%s' not found", value);
         char **d = realloc(L->dirs, (size_t)(L->ndirs + 1) * sizeof *d);
@@ -745,6 +753,27 @@ static spc_status parse_named_vec(mts_loader *L, const spc_xml_node *n, const ch
     return SPC_OK;
 }
 
+/* Mitsuba 3's <rotate>: Rodrigues' matrix with the axis as written, not normalized (Mitsuba 3
+ * builds it with drjit's rotate, which does not normalize), so an axis such as (0, 1, 1) rotates
+ * and also stretches; the same scene must give the same geometry in both renderers. For a unit
+ * axis this is the rotation of spc_mat4_rotate. */
+static spc_mat4 mitsuba_rotate(spc_vec3 a, double degrees)
+{
+    double th = degrees * SPC_PI / 180.0;
+    double c = cos(th), s = sin(th), ic = 1.0 - c;
+    spc_mat4 r = spc_mat4_identity();
+    r.m[0][0] = a.x * a.x * ic + c;
+    r.m[0][1] = a.x * a.y * ic - a.z * s;
+    r.m[0][2] = a.x * a.z * ic + a.y * s;
+    r.m[1][0] = a.y * a.x * ic + a.z * s;
+    r.m[1][1] = a.y * a.y * ic + c;
+    r.m[1][2] = a.y * a.z * ic - a.x * s;
+    r.m[2][0] = a.z * a.x * ic - a.y * s;
+    r.m[2][1] = a.z * a.y * ic + a.x * s;
+    r.m[2][2] = a.z * a.z * ic + c;
+    return r;
+}
+
 static spc_status parse_transform(mts_loader *L, const spc_xml_node *t, spc_mat4 *out)
 {
     spc_mat4 M = spc_mat4_identity();
@@ -769,7 +798,10 @@ static spc_status parse_transform(mts_loader *L, const spc_xml_node *t, spc_mat4
                 return L->status;
             if (!(spc_length(axis) > 0.0))
                 return mts_fail(L, c, SPC_ERR_VALUE, "<rotate> needs a non-zero axis");
-            A = spc_mat4_rotate(spc_normalize(axis), angle);
+            if (fabs(spc_length(axis) - 1.0) > 1e-6)
+                mts_warn(c, "<rotate> axis of length %g: used as written, as Mitsuba 3 does (the matrix also scales)",
+                         spc_length(axis));
+            A = mitsuba_rotate(axis, angle);
         } else if (strcmp(c->name, "lookat") == 0) {
             spc_vec3 o, tg, up = spc_v3(0, 0, 0);
             const char *s;
@@ -1447,19 +1479,31 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
         mts_props_end(&P);
         return;
     }
-    /* Mitsuba's perspective sensor accepts focus_distance too (it only matters for a lens) */
-    mts_ignore(&P, "focus_distance");
-    if (thin) {
-        mts_ignore(&P, "aperture_radius");
-        if (!L->warned_thinlens)
-            mts_warn(node, "sensor 'thinlens' is rendered as 'perspective' (a pinhole): no depth of field");
-        L->warned_thinlens = true;
-    }
     mts_ignore(&P, "shutter_open");
     mts_ignore(&P, "shutter_close");
     cam->to_world = mts_get_transform(L, &P, "to_world");
     cam->near_clip = mts_get_float(L, &P, "near_clip", 0.01);
     cam->far_clip = mts_get_float(L, &P, "far_clip", 10000.0);
+    cam->aperture_radius = 0.0;
+    if (thin) {
+        /* Mitsuba 3: aperture_radius is required (0 becomes a tiny lens), focus_distance defaults
+         * to far_clip */
+        if (L->status == SPC_OK && !mts_has(&P, "aperture_radius"))
+            mts_fail(L, node, SPC_ERR_VALUE, "sensor 'thinlens' needs an aperture_radius");
+        cam->aperture_radius = mts_get_float(L, &P, "aperture_radius", 0.0);
+        cam->focus_distance = mts_get_float(L, &P, "focus_distance", cam->far_clip);
+        if (L->status == SPC_OK && !(cam->aperture_radius >= 0.0 && isfinite(cam->aperture_radius)))
+            mts_fail(L, mts_where(&P, "aperture_radius"), SPC_ERR_VALUE, "aperture_radius %g must be >= 0",
+                     cam->aperture_radius);
+        if (L->status == SPC_OK && !(cam->focus_distance > 0.0 && isfinite(cam->focus_distance)))
+            mts_fail(L, mts_where(&P, "focus_distance"), SPC_ERR_VALUE, "focus_distance %g must be > 0",
+                     cam->focus_distance);
+        if (cam->aperture_radius == 0.0)
+            cam->aperture_radius = 1e-7; /* Mitsuba's "zero aperture": a float epsilon */
+    } else {
+        /* Mitsuba's perspective sensor accepts focus_distance too (it only matters for a lens) */
+        mts_ignore(&P, "focus_distance");
+    }
     if (L->status == SPC_OK && !(cam->near_clip > 0.0 && cam->far_clip > cam->near_clip))
         mts_fail(L, node, SPC_ERR_VALUE, "need 0 < near_clip < far_clip (got %g, %g)", cam->near_clip, cam->far_clip);
     if (cam->type == SPC_CAMERA_PERSPECTIVE) {
@@ -1583,9 +1627,10 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     if (mts_has(&P, "specular_nee")) {
         const char *nee = mts_get_string(L, &P, "specular_nee", "");
         spc_snee_params snp;
-        if (strlen(nee) >= sizeof it->specular_nee || !spc_snee_parse(nee, 2, &snp))
+        bool word = !strcmp(nee, "auto") || !strcmp(nee, "off"); /* snee_plan.h's own words */
+        if (strlen(nee) >= sizeof it->specular_nee || (!word && !spc_snee_parse(nee, 2, &snp)))
             mts_fail(L, mts_where(&P, "specular_nee"), SPC_ERR_VALUE,
-                     "unknown specular_nee '%s' (\"\", angular, newton, conic, optionally followed by "
+                     "unknown specular_nee '%s' (auto, none, angular, newton, conic, optionally followed by "
                      ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough,nomis)",
                      nee);
         snprintf(it->specular_nee, sizeof it->specular_nee, "%s", nee);
@@ -1632,7 +1677,15 @@ static void build_scene(mts_loader *L, spc_xml_node *root)
         } else if (strcmp(t, "texture") == 0) {
             mts_build_texture(L, c);
         } else if (strcmp(t, "emitter") == 0) {
-            mts_build_emitter(L, c, NULL, -1);
+            /* an area emitter with an id is built by each shape that refers to it (<ref id=.../>);
+             * one no shape refers to emits nothing, as in Mitsuba 3 */
+            if (!(strcmp(mts_type(c), "area") == 0 && spc_xml_get(c, "id")))
+                mts_build_emitter(L, c, NULL, -1);
+        } else if (strcmp(t, "sampler") == 0 || strcmp(t, "film") == 0 || strcmp(t, "rfilter") == 0) {
+            /* read where a sensor (or film) refers to it by id; unreferenced, it does nothing, as
+             * in Mitsuba 3 */
+            if (!spc_xml_get(c, "id"))
+                mts_warn(c, "<%s> at the top level without an id: no sensor can use it; ignored", t);
         } else if (strcmp(t, "medium") == 0) {
             mts_build_medium(L, c); /* mitsuba_media.c */
         } else if (strcmp(t, "phase") == 0) {

@@ -62,6 +62,8 @@ void spc_angular_options_default(spc_angular_options *o)
     o->stall_drop = SPC_ANGULAR_STALL_DROP;
     o->window = 0;
     o->window_keep = 1.0;
+    o->trace = NULL;
+    o->trace_user = NULL;
 }
 
 /* Residual r and its Jacobian J (columns d r / da, d r / db) for the loss. */
@@ -95,6 +97,12 @@ static void residual(const spc_chain *c, const spc_angular_target *tg, spc_angul
     }
 }
 
+void spc_angular_residual(const spc_chain *c, const spc_angular_target *tg, spc_angular_loss loss, spc_vec3 *r,
+                          spc_vec3 J[2])
+{
+    residual(c, tg, loss, r, J);
+}
+
 static bool chain_ok(const spc_chain *c) { return c->end == SPC_CHAIN_END_ESCAPED || c->end == SPC_CHAIN_END_SURFACE; }
 
 /* spc_angular_solve; with want != NULL it gives up at once if the seed chain's signature differs
@@ -121,6 +129,8 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
     spc_chain_signature(out, &sig);
     if (want && !spc_chain_sig_equal(&sig, want))
         return false;
+    if (ao->trace)
+        ao->trace(ao->trace_user, out, true);
     spc_chain_opts fo = *opts;
     fo.fixed = &sig;
     fo.events = NULL;
@@ -207,6 +217,8 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
                 accepted = true;
             }
         }
+        if (ao->trace)
+            ao->trace(ao->trace_user, accepted ? out : &trial, accepted);
         if (lm) {
             /* the damping takes the place of beta: a failed step turns the next toward the
              * gradient and shortens it, a good one turns it back toward Gauss-Newton */

@@ -55,6 +55,12 @@ typedef struct spc_angular_options {
     double stall_drop;
     int window;
     double window_keep;
+    /* Optional observer (NULL in rendering; `specula explore` records iterates with it): called
+     * with every chain the solve traces, the seed's first, then each trial step's, with accepted
+     * true for the seed and for steps taken (such a chain is re-centred, a = b = 0). It sees the
+     * chains only and changes nothing the solve does. */
+    void (*trace)(void *user, const spc_chain *c, bool accepted);
+    void *trace_user;
 } spc_angular_options;
 
 /* Gauss-Newton, PLANE loss, 48 iterations, tol_scene 1e-7, tol_light 1e-5 (see angular.c). */
@@ -66,6 +72,11 @@ typedef struct spc_angular_target {
     double scale;      /* the scene's size (scene->radius) */
     double light_size; /* the light's linear size (sqrt of its area); 0 for a point */
 } spc_angular_target;
+
+/* The residual r of the loss (|r|^2 the loss) of chain c toward the target, and its Jacobian J
+ * (columns dr/da, dr/db at c's parameters): the quantities the solver steps with. */
+void spc_angular_residual(const spc_chain *c, const spc_angular_target *tg, spc_angular_loss loss, spc_vec3 *r,
+                          spc_vec3 J[2]);
 
 /* Why a solve ended (for profiling). */
 typedef enum spc_angular_stop {

@@ -78,6 +78,8 @@ void spc_newton_options_default(spc_newton_options *o)
     o->min_beta = SPC_NEWTON_MIN_BETA;
     o->switch_kind = SPC_NEWTON_SWITCH_KIND;
     o->rough = false;
+    o->trace = NULL;
+    o->trace_user = NULL;
 }
 
 /* ---- forward-mode derivatives ---- */
@@ -717,6 +719,8 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
         return false;
     double E = norm2(k, c), beta = 1.0, tol = o->tol_scene * sc->radius;
     spc_newton_path trial;
+    if (o->trace)
+        o->trace(o->trace_user, p, E, true);
     for (;;) {
         for (int i = 0; i < k; ++i) {
             R[i][0] = -c[i][0];
@@ -756,9 +760,11 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
                 return false;
             }
             res->iterations++;
-            if (project(sc, x, p, basis, D, beta, &trial) &&
-                constraints(x->p, &trial, y, zero, kind, c2, A2, B2, C2, basis2, &wrong2)) {
+            bool projected = project(sc, x, p, basis, D, beta, &trial);
+            if (projected && constraints(x->p, &trial, y, zero, kind, c2, A2, B2, C2, basis2, &wrong2)) {
                 double E2 = norm2(k, c2);
+                if (o->trace)
+                    o->trace(o->trace_user, &trial, E2, E2 < E && (wrong2 & ~wrong) == 0);
                 /* no vertex may change from transmission to reflection or back (one that starts on
                  * the wrong sides, as a seed may, can only be set right) */
                 if (E2 < E && (wrong2 & ~wrong) == 0) {
@@ -773,6 +779,8 @@ bool spc_newton_solve(const spc_scene *sc, const spc_hit *x, spc_vec3 y, spc_new
                     beta = spc_min(1.0, 2.0 * beta);
                     break;
                 }
+            } else if (projected && o->trace) {
+                o->trace(o->trace_user, &trial, INFINITY, false);
             }
             beta *= 0.5;
             if (beta < o->min_beta) {

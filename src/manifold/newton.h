@@ -60,6 +60,8 @@ typedef enum spc_newton_constraint {
     SPC_NEWTON_ANGLE_DIFF
 } spc_newton_constraint;
 
+struct spc_newton_path;
+
 typedef struct spc_newton_options {
     spc_newton_constraint constraint;
     int max_iterations;    /* projections (one ray per vertex each) per solve */
@@ -69,6 +71,12 @@ typedef struct spc_newton_options {
     double min_beta;       /* no progress when the step scale falls below this */
     bool switch_kind;      /* on no progress, continue once with the other constraint kind */
     bool rough;            /* rough interfaces as chain vertices (see above; off by default) */
+    /* Optional observer (NULL in rendering; `specula explore` records iterates with it): called
+     * with the seed path (accepted) and with every projected trial path, accepted when taken, with
+     * E the squared norm of its constraints (infinite if they are undefined there). It changes
+     * nothing the solve does. */
+    void (*trace)(void *user, const struct spc_newton_path *p, double E, bool accepted);
+    void *trace_user;
 } spc_newton_options;
 
 /* ANGLE_DIFF (SPC_NEWTON_DEFAULT_CONSTRAINT), SPC_NEWTON_MAX_ITERATIONS, tol_scene

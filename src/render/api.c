@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "io/mitsuba_xml.h"
+#include "manifold/snee_plan.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "scene/scene.h"
@@ -398,4 +399,17 @@ char *spc_scene_describe(const spc_scene *s)
         return NULL;
     }
     return b.data;
+}
+
+char *spc_scene_plan(const spc_scene *s, const char *integrator, const char *specular_nee)
+{
+    spc_snee_plan plan;
+    spc_snee_plan_make(s, integrator ? integrator : s->integrator.type,
+                       specular_nee ? specular_nee : s->integrator.specular_nee, &plan);
+    int chain = s->integrator.specular_max_chain > 0 ? s->integrator.specular_max_chain : 2;
+    int n = spc_snee_plan_describe(s, &plan, chain, NULL, 0);
+    char *buf = malloc((size_t)n + 1);
+    if (buf)
+        spc_snee_plan_describe(s, &plan, chain, buf, (size_t)n + 1);
+    return buf;
 }

@@ -10,8 +10,13 @@
  * to_world; its solid-angle density is |M v|^3 / (|det M| A) (= 1 / (A cos^3 theta) for a rigid
  * M; Veach 1997, sec. 10.8; pbrt-v4's PerspectiveCamera::PDF_We without the lens). See camera.h
  * for the normalization against the pixel filter.
+ *
+ * Thin lens (Mitsuba 3's thinlens): the ray from a point on the lens disk (radius aperture_radius,
+ * at the pinhole, in the plane z = 0) toward the point where the pinhole ray meets the plane in
+ * focus z = focus_distance; so that plane is sharp and the rest is blurred.
  */
 #include "render/camera.h"
+#include "core/warp.h"
 
 bool spc_camera_prepare(spc_camera_state *cs, const spc_camera *c, int width, int height)
 {
@@ -59,7 +64,32 @@ bool spc_camera_prepare(spc_camera_state *cs, const spc_camera *c, int width, in
         }
     }
     cs->image_area = 4.0 * cs->tan_x * cs->tan_y;
+    cs->aperture_radius = c->type == SPC_CAMERA_PERSPECTIVE ? c->aperture_radius : 0.0;
+    cs->focus_distance = c->focus_distance;
+    if (cs->aperture_radius > 0.0 && !(cs->focus_distance > 0.0))
+        return false;
     return true;
+}
+
+spc_ray spc_camera_ray_lens(const spc_camera_state *cs, double fx, double fy, spc_vec2 u_lens)
+{
+    if (!spc_camera_has_lens(cs))
+        return spc_camera_ray(cs, fx, fy);
+    double x = (1.0 - 2.0 * fx / cs->width) * cs->tan_x;
+    double y = (1.0 - 2.0 * fy / cs->height) * cs->tan_y;
+    spc_vec2 a = spc_warp_disk_concentric(u_lens);
+    spc_vec3 lens = spc_v3(cs->aperture_radius * a.x, cs->aperture_radius * a.y, 0.0);
+    /* the pinhole ray's point on the plane in focus, seen from the lens point */
+    spc_vec3 v = spc_sub(spc_v3(x * cs->focus_distance, y * cs->focus_distance, cs->focus_distance), lens);
+    spc_vec3 dw = spc_mat4_apply_vector(&cs->to_world, v);
+    double len = spc_length(dw);
+    spc_ray r;
+    r.o = spc_mat4_apply_point(&cs->to_world, lens);
+    r.d = spc_scale(dw, 1.0 / len);
+    /* local depth z is reached at t = z |dw| / v.z */
+    r.tmin = cs->near_clip * len / v.z;
+    r.tmax = cs->far_clip * len / v.z;
+    return r;
 }
 
 spc_ray spc_camera_ray(const spc_camera_state *cs, double fx, double fy)
@@ -104,7 +134,10 @@ bool spc_camera_project(const spc_camera_state *cs, spc_vec3 p, double *fx, doub
     return *fx >= 0.0 && *fx < cs->width && *fy >= 0.0 && *fy < cs->height;
 }
 
-bool spc_camera_connectible(const spc_camera_state *cs) { return cs->type == SPC_CAMERA_PERSPECTIVE; }
+bool spc_camera_connectible(const spc_camera_state *cs)
+{
+    return cs->type == SPC_CAMERA_PERSPECTIVE && !spc_camera_has_lens(cs);
+}
 
 /* Density of the direction through the image-plane point (x, y, 1), local coordinates. */
 static double pdf_dir_local(const spc_camera_state *cs, double x, double y)

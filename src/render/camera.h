@@ -19,11 +19,18 @@ typedef struct spc_camera_state {
     double near_clip, far_clip;
     double image_area;    /* area of the image plane at z = 1 (perspective) in world units */
     double pixel_scale;   /* world length of the camera's unit local x (to normalize scaled to_world) */
+    double aperture_radius, focus_distance; /* thin lens (perspective); radius 0: the pinhole */
 } spc_camera_state;
 
 bool spc_camera_prepare(spc_camera_state *cs, const spc_camera *c, int width, int height);
 /* Ray through continuous film position (fx, fy) in pixels of the full film. */
 spc_ray spc_camera_ray(const spc_camera_state *cs, double fx, double fy);
+/* True for a thin-lens camera (aperture_radius > 0): its rays need a lens sample. */
+static inline bool spc_camera_has_lens(const spc_camera_state *cs) { return cs->aperture_radius > 0.0; }
+/* A thin lens's ray through (fx, fy) from the lens point u_lens (uniform in [0,1)^2, mapped
+ * concentrically onto the lens disk), as Mitsuba 3's thinlens: aimed at the point the pinhole ray
+ * meets on the plane z = focus_distance. The pinhole's ray when the camera has no lens. */
+spc_ray spc_camera_ray_lens(const spc_camera_state *cs, double fx, double fy, spc_vec2 u_lens);
 /* Projects a world point onto the film: false if behind the camera or outside the film.
  * *fx, *fy receive the continuous film position. */
 bool spc_camera_project(const spc_camera_state *cs, spc_vec3 p, double *fx, double *fy);
@@ -43,11 +50,13 @@ bool spc_camera_project(const spc_camera_state *cs, spc_vec3 p, double *fx, doub
  * estimate of I_j therefore multiplies by We and lets spc_splat_add apply f_j; the integrator
  * divides by the number of light paths traced per pass.
  */
-/* True if light paths can be connected to the camera (perspective pinhole). */
+/* True if light paths can be connected to the camera (perspective pinhole; not a thin lens, whose
+ * strategies that join the lens are not implemented: like an orthographic camera's they are no
+ * strategy, and the others' weights sum to one without them). */
 bool spc_camera_connectible(const spc_camera_state *cs);
 /* Solid-angle density of the world direction d (unit) of a camera ray when the film position is
  * uniform over the whole film. The same expression is returned past the film's edges (callers
- * decide what lies on the film); 0 behind the camera and for orthographic cameras. */
+ * decide what lies on the film); 0 behind the camera and for orthographic and thin-lens cameras. */
 double spc_camera_pdf_dir(const spc_camera_state *cs, spc_vec3 d);
 
 typedef struct spc_camera_direct {

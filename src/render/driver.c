@@ -19,6 +19,7 @@
 #include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -26,7 +27,9 @@
 
 #include "accel/accel.h"
 #include "core/warp.h"
+#include "device/device.h"
 #include "integrator/integrator.h"
+#include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
 #include "render/camera.h"
 #include "render/checkpoint.h"
@@ -103,7 +106,9 @@ static void render_item(job *jb, int item)
                         spc_film_filter_sample(ctx->film, u.x, fx + 0.5, ctx->crop_x, ctx->crop_x + ctx->width);
             double py = fy + 0.5 +
                         spc_film_filter_sample(ctx->film, u.y, fy + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
-            spc_ray ray = spc_camera_ray(ctx->cam, px, py);
+            /* a lens sample only for a thin lens: a pinhole's sample dimensions stay as they were */
+            spc_ray ray = spc_camera_has_lens(ctx->cam) ? spc_camera_ray_lens(ctx->cam, px, py, spc_sampler_2d(&smp))
+                                                        : spc_camera_ray(ctx->cam, px, py);
             spc_sample_out out;
             spc_rgb strategy_L[2 * SPC_STRATEGY_IMAGES_MAX];
             out.strategy_L = jb->nfilms > 0 ? strategy_L : NULL;
@@ -185,11 +190,15 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.strategy_s = o->strategy_s;
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;
-    const char *sname = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
+    /* the given setting, or the scene's, or the default chosen from the scene (snee_plan.h) */
+    spc_snee_plan plan;
+    spc_snee_plan_make(sc, spc_integrator_kind_name(ctx.kind),
+                       o->specular_nee ? o->specular_nee : sc->integrator.specular_nee, &plan);
+    const char *sname = plan.setting;
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
     if (!spc_snee_parse(sname, ctx.specular_max_chain, &ctx.snee))
         return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0,
-                             "bad specular NEE setting '%s'; specula has: %s, optionally followed by "
+                             "bad specular NEE setting '%s'; specula has: auto, %s, optionally followed by "
                              ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough,nomis,"
                              "reflect[=P],noreflect,mispsi=Q,receivers=N,camera,chain=N,exact,noexact",
                              sname, spc_specular_solver_names());
@@ -265,6 +274,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     struct spc_film *film = spc_film_create(fs.width, fs.height, fs.crop_x, fs.crop_y, fs.crop_w, fs.crop_h, o->aovs);
     if (!film)
         return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for a %dx%d film", fs.crop_w, fs.crop_h);
+    snprintf(film->integrator, sizeof film->integrator, "%s", spc_integrator_kind_name(ctx.kind));
+    snprintf(film->specular_nee, sizeof film->specular_nee, "%s", ctx.specular_nee ? sname : "none");
 
     int tx = (ctx.width + SPC_TILE - 1) / SPC_TILE, ty = (ctx.height + SPC_TILE - 1) / SPC_TILE;
     int ntiles = tx * ty;
@@ -320,12 +331,39 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
             t->y1 = t->y0 + SPC_TILE < ctx.height ? t->y0 + SPC_TILE : ctx.height;
         }
 
+    /* another device renders the batches (device/device.h); everything else stays the same */
+    bool use_cl = false;
+    int cl_index = 0;
+    spc_cl_renderer *cl = NULL;
+    if (!spc_device_parse(o->device, &use_cl, &cl_index)) {
+        free(tiles);
+        free(buf);
+        free(tls);
+        free(th);
+        spc_film_destroy(film);
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "unknown device '%s'; specula has: cpu, opencl[:N]",
+                             o->device);
+    }
+    if (use_cl) {
+        spc_status cs = spc_cl_create(&ctx, cl_index, o->aovs, &cl, err);
+        if (cs != SPC_OK) {
+            free(tiles);
+            free(buf);
+            free(tls);
+            free(th);
+            spc_film_destroy(film);
+            return cs;
+        }
+    }
+
     char settings[1024];
-    spc_ckpt_settings_text(&ctx, o->specular_nee ? o->specular_nee : sc->integrator.specular_nee, o->seed, o->aovs,
-                           settings, sizeof settings);
+    spc_ckpt_settings_text(&ctx, sname, o->seed, o->aovs, settings, sizeof settings);
+    if (use_cl) /* a checkpoint resumes only on the device that began it */
+        snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";device=opencl:%d", cl_index);
     if (o->resume) {
         spc_status rs = spc_ckpt_restore(o->resume, sc->content_hash, settings, film, err);
         if (rs != SPC_OK) {
+            spc_cl_destroy(cl);
             free(tiles);
             free(buf);
             free(tls);
@@ -388,7 +426,13 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         jb.cancel = o->cancel;
         atomic_init(&jb.rays, 0);
         double t0 = now_seconds();
-        int nt = threads;
+        if (cl) {
+            status = spc_cl_render_passes(cl, done, batch, o->seed, buf, stride, &invalid, err);
+            if (status != SPC_OK)
+                break;
+            atomic_store(&jb.limit, batch * ntiles);
+        }
+        int nt = cl ? 0 : threads;
         if (nt > batch * ntiles)
             nt = batch * ntiles;
         int started = 0;
@@ -397,7 +441,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                 break;
             ++started;
         }
-        worker(&jb);
+        if (!cl)
+            worker(&jb);
         for (int i = 1; i <= started; ++i)
             pthread_join(th[i], NULL);
         rays += atomic_load(&jb.rays);
@@ -466,6 +511,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
             status = cs;
     }
     double wall = now_seconds() - t_start;
+    spc_cl_destroy(cl);
     for (size_t i = 0; i < (size_t)max_batch * ntiles; ++i)
         free(tls[i].splats);
     free(tls);
@@ -485,6 +531,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         stats->threads = threads;
         stats->samples = (uint64_t)film->spp * npix;
         stats->invalid_samples = invalid;
+        snprintf(stats->specular_nee, sizeof stats->specular_nee, "%s", ctx.specular_nee ? sname : "none");
     }
     *out = film; /* also with a checkpoint write error: the image rendered so far is valid */
     if (status == SPC_ERR_INTERRUPTED)

@@ -38,6 +38,10 @@ struct spc_film {
     int nstrategy;
     int strategy_s, strategy_t; /* of a strategy film */
     bool strategy_weighted;
+    /* what rendered it, for the EXR header: the integrator and the specular NEE setting that ran
+     * ("none" when off); "" for a film not rendered by spc_render */
+    char integrator[16];
+    char specular_nee[96];
 };
 
 /* NULL on allocation failure or absurd size. */

@@ -4,9 +4,11 @@
  * (temporary file, then rename), so a failure never leaves a half-written image behind.
  *
  * EXR channel names: R, G, B; variance.R, variance.G, variance.B; albedo.R, albedo.G, albedo.B,
- * normal.X, normal.Y, normal.Z, depth.Z. String attributes: "spp" and "renderer". A denoised film
- * (spc_film_denoise) writes the denoised image as R, G, B, the image before as noisy.R, noisy.G,
- * noisy.B, and its variance as noisy.variance.R/G/B (the denoised image has none).
+ * normal.X, normal.Y, normal.Z, depth.Z. String attributes: "spp", "renderer",
+ * "integrator" and "specular_nee" (the setting that ran; empty for a film not rendered), and
+ * "denoiser" for a denoised film. A denoised film (spc_film_denoise) writes the denoised image as
+ * R, G, B, the image before as noisy.R, noisy.G, noisy.B, and its variance as
+ * noisy.variance.R/G/B (the denoised image has none).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -88,7 +90,9 @@ spc_status spc_film_write_exr(const struct spc_film *f, const char *path, bool v
     const spc_exr_attr attrs[] = {
         {"spp", spp},
         {"renderer", "specula " SPECULA_VERSION},
-        {"denoiser", "Intel Open Image Denoise 2 (RT filter, hdr; noisy image in noisy.*)"},
+        {"integrator", f->integrator},
+        {"specular_nee", f->specular_nee},
+        {"denoiser", "Intel Open Image Denoise 2 (RT filter, hdr; noisy image in noisy.*)"}, /* last: only when denoised */
     };
     int nattrs = (int)(sizeof attrs / sizeof attrs[0]) - (f->noisy ? 0 : 1);
     st = spc_exr_write(path, f->width, f->height, nch, names, data, attrs, nattrs, err);

@@ -21,6 +21,10 @@ typedef struct spc_mesh {
     float *n;     /* 3 * nverts, or NULL: face normals are used */
     float *uv;    /* 2 * nverts, or NULL */
     uint32_t *idx; /* 3 * ntris */
+    /* p holds one float more than 3 * nverts (zero), so that a 16-byte load at the last vertex
+     * stays inside it: Embree then reads p and idx in place instead of copies
+     * (spc_shape_init_mesh pads every mesh it places) */
+    bool p_padded;
 } spc_mesh;
 
 void spc_mesh_release(spc_mesh *m);

@@ -39,6 +39,8 @@ typedef struct spc_camera {
     double fov;        /* degrees, along fov_axis */
     spc_fov_axis fov_axis;
     double near_clip, far_clip;
+    double aperture_radius; /* thinlens: radius of the lens in local units; 0: a pinhole */
+    double focus_distance;  /* thinlens: local depth of the plane in focus */
 } spc_camera;
 
 typedef enum spc_rfilter_type {
@@ -70,7 +72,8 @@ typedef struct spc_integrator_spec {
     int max_depth;        /* Mitsuba's meaning: 1 = emitters seen directly, 2 = direct light; -1 = no limit */
     int rr_depth;         /* Russian roulette starts at this depth (Mitsuba default 5) */
     bool hide_emitters;
-    char specular_nee[96];  /* "" (off), "angular", "newton", "conic", with options (spc_snee_parse) */
+    char specular_nee[96];  /* "" or "auto" (chosen from the scene: manifold/snee_plan.h), "none" or "off",
+                             * "angular", "newton", "conic", with options (spc_snee_parse) */
     int specular_max_chain; /* longest chain of specular vertices for specular NEE */
     bool mis_balance;       /* bdpt: balance heuristic instead of the power heuristic */
     char decl_file[512];    /* where the integrator was declared, for error messages */

@@ -1233,3 +1233,91 @@ bool spc_sdf_sample_direction(const spc_sdf *s, spc_vec3 ref, spc_vec2 u, spc_ve
     *p = spc_madd(ref, w, t);
     return true;
 }
+
+/* ------------------------------------------------------------------------------------------------ */
+/* flat program */
+
+typedef struct flat_state {
+    const spc_sdf *s;
+    spc_sdf_flat *out;
+    int max, n, sp, depth;
+} flat_state;
+
+static void affine_rows(const spc_mat4 *m, double M[3][4])
+{
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 4; ++j)
+            M[i][j] = m->m[i][j];
+}
+
+/* Node i under the world-to-parent map W (a similarity of scale ws, world per parent unit). */
+static void flatten_node(flat_state *st, int i, const spc_mat4 *W, double ws)
+{
+    const node *n = &st->s->nodes[i];
+    spc_mat4 Wn = n->xf ? spc_mat4_mul(&n->to_local, W) : *W;
+    double sn = n->xf ? ws * n->s : ws;
+    if (spc_sdf_type_is_operation(n->type)) {
+        flatten_node(st, n->a, &Wn, sn);
+        flatten_node(st, n->b, &Wn, sn);
+    }
+    if (st->n < st->max) {
+        spc_sdf_flat *f = &st->out[st->n];
+        memset(f, 0, sizeof *f);
+        f->type = n->type;
+        affine_rows(&Wn, f->M);
+        f->s = sn;
+        double *q = f->param;
+        switch (n->type) {
+        case SPC_SDF_SPHERE: q[0] = n->r; break;
+        case SPC_SDF_BOX:
+        case SPC_SDF_ROUNDBOX:
+            q[0] = n->v0.x;
+            q[1] = n->v0.y;
+            q[2] = n->v0.z;
+            q[3] = n->type == SPC_SDF_ROUNDBOX ? n->r : 0.0;
+            break;
+        case SPC_SDF_TORUS:
+            q[0] = n->r;
+            q[1] = n->r2;
+            break;
+        case SPC_SDF_CAPSULE:
+            q[0] = n->v0.x;
+            q[1] = n->v0.y;
+            q[2] = n->v0.z;
+            q[3] = n->v1.x;
+            q[4] = n->v1.y;
+            q[5] = n->v1.z;
+            q[6] = n->r;
+            break;
+        case SPC_SDF_CYLINDER:
+            q[0] = n->r;
+            q[1] = n->h;
+            break;
+        case SPC_SDF_PLANE:
+            q[0] = n->v0.x;
+            q[1] = n->v0.y;
+            q[2] = n->v0.z;
+            q[3] = n->h;
+            break;
+        case SPC_SDF_SMOOTH_UNION: q[0] = n->r * sn; break;
+        case SPC_SDF_UNION:
+        case SPC_SDF_INTERSECTION:
+        case SPC_SDF_DIFFERENCE: break;
+        }
+    }
+    st->n++;
+    st->sp += spc_sdf_type_is_operation(n->type) ? -1 : 1;
+    if (st->sp > st->depth)
+        st->depth = st->sp;
+}
+
+int spc_sdf_flatten(const spc_sdf *s, spc_sdf_flat *out, int max, int *depth)
+{
+    if (!s->finalized)
+        return -1;
+    flat_state st = {s, out, max, 0, 0, 0};
+    spc_mat4 I = spc_mat4_identity();
+    flatten_node(&st, s->root, &I, 1.0);
+    *depth = st.depth;
+    return st.n;
+}

@@ -140,4 +140,24 @@ bool spc_sdf_sample_direction(const spc_sdf *s, spc_vec3 ref, spc_vec2 u, spc_ve
 /* The density above, for any first-crossing point seen from ref. */
 double spc_sdf_pdf_direction(const spc_sdf *s, spc_vec3 ref);
 
+/* ---- the field as a flat program (for devices that cannot recurse: src/device/) ---- */
+
+/* One instruction of a postfix program over a value stack: a primitive pushes its field value at
+ * the world point p, s * f_local(M p) (M the composed world-to-node transform, s the composed
+ * scale); an operation pops its two operands (b on top) and pushes the result in world units
+ * (min and max commute with the positive scale, and the smooth minimum's width is k s). */
+typedef struct spc_sdf_flat {
+    spc_sdf_type type;
+    double M[3][4];   /* primitives: world -> node frame (rows of the affine map) */
+    double s;         /* primitives: world length of a unit of the node frame */
+    double param[8];  /* sphere r; box hx hy hz; roundbox inner hx hy hz, r; torus R, r; capsule
+                       * ax ay az bx by bz r; cylinder r, half height; plane nx ny nz offset;
+                       * smooth_union k (world units) */
+} spc_sdf_flat;
+
+/* Writes the postfix program of a finalized field into out (at most max instructions) and the
+ * stack depth it needs into *depth. Returns the instruction count (which may exceed max: then
+ * only the first max were written), or -1 if s is not finalized. */
+int spc_sdf_flatten(const spc_sdf *s, spc_sdf_flat *out, int max, int *depth);
+
 #endif

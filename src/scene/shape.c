@@ -225,6 +225,15 @@ bool spc_shape_init_mesh(spc_shape *s, spc_mesh *m, const spc_mat4 *to_world, co
     spc_mesh_drop_degenerate(&s->mesh);
     if (s->mesh.ntris == 0)
         return fail(err, file, line, col, "mesh has no triangle of non-zero area");
+    /* the padding Embree needs to read the positions in place (spc_mesh.p_padded) */
+    float *p = realloc(s->mesh.p, (3 * s->mesh.nverts + 1) * sizeof(float));
+    if (!p) {
+        spc_error_set(err, SPC_ERR_NOMEM, file, line, col, "out of memory");
+        return false;
+    }
+    p[3 * s->mesh.nverts] = 0.0f;
+    s->mesh.p = p;
+    s->mesh.p_padded = true;
     return true;
 }
 
@@ -253,6 +262,8 @@ void spc_shape_release(spc_shape *s)
     spc_sdf_destroy(s->sdf);
     s->sdf = NULL;
     spc_distrib1d_release(&s->tri_distrib);
+    free(s->tri_frame);
+    s->tri_frame = NULL;
     if (s->solver_cache) {
         void (**destroy)(void *) = s->solver_cache;
         (*destroy)(s->solver_cache);
@@ -269,6 +280,21 @@ static double tri_area(const spc_mesh *m, size_t i)
 {
     spc_vec3 a = spc_mesh_p(m, m->idx[3 * i]), b = spc_mesh_p(m, m->idx[3 * i + 1]), c = spc_mesh_p(m, m->idx[3 * i + 2]);
     return 0.5 * spc_length(spc_cross(spc_sub(b, a), spc_sub(c, a)));
+}
+
+/* The texture-space tangent of a triangle (edges e1, e2 from vertex i0): dP/du(texture) where the
+ * mesh has uvs that span the triangle, else e1. */
+static spc_vec3 tri_tangent(const spc_mesh *m, uint32_t i0, uint32_t i1, uint32_t i2, spc_vec3 e1, spc_vec3 e2)
+{
+    if (m->uv) {
+        double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
+        double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
+        double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
+        double det = du1 * dv2 - dv1 * du2;
+        if (fabs(det) > 1e-20) /* dP/du(texture) = (dv2 e1 - dv1 e2) / det */
+            return spc_scale(spc_sub(spc_scale(e1, dv2), spc_scale(e2, dv1)), 1.0 / det);
+    }
+    return e1;
 }
 
 spc_status spc_shape_prepare(spc_shape *s)
@@ -292,6 +318,24 @@ spc_status spc_shape_prepare(spc_shape *s)
         if (!ok)
             return SPC_ERR_NOMEM;
         s->area = area;
+        free(s->tri_frame);
+        s->tri_frame = NULL;
+        if (m->ntris <= SPC_MESH_FRAME_MAX_TRIS) {
+            double *c = malloc(6 * m->ntris * sizeof(double));
+            if (!c)
+                return SPC_ERR_NOMEM;
+            for (size_t i = 0; i < m->ntris; ++i) {
+                uint32_t i0 = m->idx[3 * i], i1 = m->idx[3 * i + 1], i2 = m->idx[3 * i + 2];
+                spc_vec3 p0 = spc_mesh_p(m, i0);
+                spc_vec3 e1 = spc_sub(spc_mesh_p(m, i1), p0), e2 = spc_sub(spc_mesh_p(m, i2), p0);
+                spc_vec3 ng = spc_normalize(spc_cross(e1, e2)), t = spc_v3(0, 0, 0);
+                spc_frame_tangent(s->flip_normals ? spc_neg(ng) : ng, tri_tangent(m, i0, i1, i2, e1, e2), &t);
+                double v[6] = {ng.x, ng.y, ng.z, t.x, t.y, t.z};
+                memcpy(c + 6 * i, v, sizeof v);
+            }
+            s->tri_frame = c;
+            s->tri_frame_flip = s->flip_normals;
+        }
         spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
         for (size_t i = 0; i < m->nverts; ++i) {
             lo = spc_vmin(lo, spc_mesh_p(m, (uint32_t)i));
@@ -454,34 +498,29 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
 
 /* A triangle's hit at barycentrics (b1, b2). With frame false only what a light sample needs is
  * filled (p, ng with its orientation, uv, err, b1, b2, dpdu, dpdv): no shading frame, no normal
- * derivatives, no texture tangent; the values filled are the same either way. */
+ * derivatives; the values filled are the same either way, and the same with or without the
+ * shape's tri_frame (which holds this function's own per-triangle normal and tangent). */
 static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool frame, spc_hit *h)
 {
     const spc_mesh *m = &s->mesh;
     uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
     spc_vec3 p0 = spc_mesh_p(m, i0), p1 = spc_mesh_p(m, i1), p2 = spc_mesh_p(m, i2);
+    const double *c = s->tri_frame ? s->tri_frame + 6 * (size_t)prim : NULL;
     double b0 = 1.0 - b1 - b2;
     h->p = spc_add(spc_add(spc_scale(p0, b0), spc_scale(p1, b1)), spc_scale(p2, b2));
     spc_vec3 e1 = spc_sub(p1, p0), e2 = spc_sub(p2, p0);
-    h->ng = spc_normalize(spc_cross(e1, e2));
+    h->ng = c ? spc_v3(c[0], c[1], c[2]) : spc_normalize(spc_cross(e1, e2));
     h->dpdu = e1;
     h->dpdv = e2;
     h->b1 = b1;
     h->b2 = b2;
     double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
     h->err = SPC_FLOAT_OFFSET * spc_max(mag, spc_max_abs(h->p));
-    /* texture-space tangent */
-    spc_vec3 tangent = e1;
     if (m->uv) {
         double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
         double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
         double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
         h->uv = spc_v2(u0 + b1 * du1 + b2 * du2, v0 + b1 * dv1 + b2 * dv2);
-        double det = du1 * dv2 - dv1 * du2;
-        if (frame && fabs(det) > 1e-20) {
-            /* dP/du(texture) = (dv2 e1 - dv1 e2) / det */
-            tangent = spc_scale(spc_sub(spc_scale(e1, dv2), spc_scale(e2, dv1)), 1.0 / det);
-        }
     } else {
         h->uv = spc_v2(b1, b2);
     }
@@ -510,7 +549,7 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool f
             }
             if (spc_dot(n, h->ng) < 0.0)
                 h->ng = spc_neg(h->ng);
-            h->sh = spc_frame_from_ns(n, tangent);
+            h->sh = spc_frame_from_ns(n, tri_tangent(m, i0, i1, i2, e1, e2));
             return;
         }
     }
@@ -519,7 +558,14 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool f
     if (!frame)
         return;
     h->dndu = h->dndv = spc_v3(0, 0, 0);
-    h->sh = spc_frame_from_ns(h->ng, tangent);
+    if (c && s->tri_frame_flip == s->flip_normals && !(c[3] == 0.0 && c[4] == 0.0 && c[5] == 0.0)) {
+        /* spc_frame_from_ns(ng, tangent) with the kept tangent */
+        h->sh.n = h->ng;
+        h->sh.s = spc_v3(c[3], c[4], c[5]);
+        h->sh.t = spc_cross(h->ng, h->sh.s);
+    } else {
+        h->sh = spc_frame_from_ns(h->ng, tri_tangent(m, i0, i1, i2, e1, e2));
+    }
 }
 
 static void fill_sphere(const spc_shape *s, const spc_ray *r, double t, spc_hit *h)

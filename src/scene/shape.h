@@ -34,6 +34,12 @@ typedef enum spc_shape_type {
     SPC_SHAPE_SDF
 } spc_shape_type;
 
+/* Meshes up to this many triangles keep their triangles' normals and tangents (spc_shape.tri_frame,
+ * 48 bytes a triangle, at most 3 MiB a mesh): the walls, boxes and quads that most rays of a room
+ * hit, where a hit's normalizations are a tenth of the path tracer's time (cornell box); bigger
+ * meshes are hit by fewer rays per triangle and keep their memory. */
+#define SPC_MESH_FRAME_MAX_TRIS 65536
+
 /* Per-shape caustic flags (Mitsuba properties used by the caustics papers' scenes). */
 enum {
     SPC_CAUSTIC_CASTER = 1u << 0,         /* may be a vertex of a specular chain (default for specular shapes) */
@@ -61,6 +67,13 @@ typedef struct spc_shape {
     /* set by spc_shape_prepare: */
     double area;
     spc_distrib1d tri_distrib; /* MESH: triangle areas */
+    /* MESH of at most SPC_MESH_FRAME_MAX_TRIS triangles: per triangle its unit geometric normal
+     * (before flip_normals) and the unit tangent of the shading frame on that normal as
+     * flip_normals was when it was made (tri_frame_flip; zero where the frame falls back to
+     * spc_frame_from_n), 6 doubles each, so that a hit does not recompute them; NULL for bigger
+     * meshes. */
+    double *tri_frame;
+    bool tri_frame_flip;
     spc_vec3 bbox_min, bbox_max;
     /* Per-shape data of a specular solver (manifold/conic_solver.c: the mesh hierarchy), built on
      * first use and published atomically, so concurrent readers are safe. Its first member is its

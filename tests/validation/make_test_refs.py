@@ -5,7 +5,7 @@
 
 Writes tests/data/mitsuba_refs/NAME.exr (R, G, B and variance.R/G/B: the mean of `passes`
 independent Mitsuba 3 scalar_rgb renders and the variance of that mean) for the scenes listed in
-REFS, at the resolution given there, with -D integrator=path. The references are rendered once
+REFS, at the resolution given there, with -D integrator=path unless the entry names another. The references are rendered once
 and committed, so CI needs no Mitsuba. Keep the list in step with the table in the test.
 """
 import argparse
@@ -29,6 +29,9 @@ REFS = {
     "v06_box": ("v06_box.xml", ["res=32"]),
     "mask_null": ("mask_null.xml", ["res=32"]),
     "dielectrics": ("dielectrics.xml", ["res=32"]),
+    "medium_thin": ("medium_thin.xml", ["res=32", "integrator=volpath"]),
+    "spot_texture": ("spot_texture.xml", ["res=32"]),
+    "thinlens": ("thinlens.xml", ["res=32"]),
 }
 
 
@@ -42,8 +45,9 @@ def main():
     for name in a.names or sorted(REFS):
         scene, defs = REFS[name]
         cmd = [sys.executable, os.path.join(HERE, "mitsuba_ref.py"), os.path.join(ROOT, "scenes", scene),
-               os.path.join(OUT, name + ".exr"), "--spp", str(a.spp), "--passes", str(a.passes), "-D",
-               "integrator=path"]
+               os.path.join(OUT, name + ".exr"), "--spp", str(a.spp), "--passes", str(a.passes)]
+        if not any(d.startswith("integrator=") for d in defs):
+            cmd += ["-D", "integrator=path"]
         for d in defs:
             cmd += ["-D", d]
         print(" ".join(cmd), flush=True)

@@ -1,0 +1,191 @@
+/*
+ * manifold/snee_plan.c: the default of specular NEE, chosen from the scene (snee_plan.h), and its
+ * description for `specula info`, the --stats JSON and the EXR header.
+ */
+#include "manifold/snee_plan.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "bsdf/bsdf.h"
+#include "emitter/emitter.h"
+#include "manifold/cylinder_chains.h"
+#include "manifold/plane_chains.h"
+#include "manifold/sphere_chains.h"
+#include "scene/scene.h"
+
+/* The solver the plan picks wherever specular NEE pays (the reasons are in snee_plan.h). */
+#define SPC_SNEE_PLAN_SOLVER "angular"
+
+static bool is_auto(const char *s) { return !s || !s[0] || !strcmp(s, "auto"); }
+static bool is_off(const char *s) { return s && (!strcmp(s, "none") || !strcmp(s, "off")); }
+
+/* A shape specular NEE may start at: a receiver with a non-delta lobe. */
+static bool receiver(const spc_shape *s)
+{
+    return s->bsdf && (s->caustic_flags & SPC_CAUSTIC_RECEIVER) && spc_bsdf_has_smooth(s->bsdf);
+}
+
+/* A light specular NEE draws points on (spc_snee_sample_light). */
+static bool snee_light(const spc_emitter *e)
+{
+    return e->type == SPC_EMITTER_AREA || e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
+}
+
+/* Flat faces: a disk, or a mesh without vertex normals (a cube, a rectangle, face_normals). */
+static bool flat(const spc_shape *s)
+{
+    return s->type == SPC_SHAPE_DISK || (s->type == SPC_SHAPE_MESH && (s->face_normals || !s->mesh.n));
+}
+
+static void off(spc_snee_plan *out, const char *why)
+{
+    out->on = false;
+    snprintf(out->setting, sizeof out->setting, "none");
+    snprintf(out->reason, sizeof out->reason, "%s", why);
+}
+
+void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char *setting, spc_snee_plan *out)
+{
+    memset(out, 0, sizeof *out);
+    const spc_chain_casters *cs = sc ? spc_chain_casters_of(sc, false) : NULL;
+    out->casters = cs ? cs->n : 0;
+    for (int i = 0; sc && i < sc->nshapes; ++i)
+        out->receivers += receiver(sc->shapes[i]) ? 1 : 0;
+    out->automatic = is_auto(setting);
+    if (is_off(setting)) {
+        off(out, "turned off");
+        return;
+    }
+    if (!out->automatic) {
+        out->on = true;
+        snprintf(out->setting, sizeof out->setting, "%s", setting);
+        return;
+    }
+    if (!integrator || (strcmp(integrator, "path") && strcmp(integrator, "volpath"))) {
+        off(out, "only path and volpath use it");
+        return;
+    }
+    if (out->casters == 0) {
+        off(out, "no specular casters");
+        return;
+    }
+    if (out->receivers == 0) {
+        off(out, "no receivers");
+        return;
+    }
+    bool lit = false;
+    for (int i = 0; i < sc->nemitters && !lit; ++i)
+        lit = snee_light(sc->emitters[i]);
+    if (!lit) {
+        off(out, "no area, point or spot light");
+        return;
+    }
+    /* not with flat-faced casters no enumeration covers (snee_plan.h) */
+    spc_snee_params p;
+    if (!spc_snee_parse(SPC_SNEE_PLAN_SOLVER, 2, &p)) {
+        off(out, "no solver");
+        return;
+    }
+    for (int i = 0; i < cs->n; ++i)
+        if (flat(sc->shapes[cs->idx[i]]) &&
+            spc_snee_plan_method(&p, sc->shapes[cs->idx[i]]) == SPC_SNEE_METHOD_SOLVER) {
+            snprintf(out->reason, sizeof out->reason, "caster shape %d is flat-faced", cs->idx[i]);
+            out->on = false;
+            snprintf(out->setting, sizeof out->setting, "none");
+            return;
+        }
+    out->on = true;
+    snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SOLVER);
+}
+
+spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *s)
+{
+    if (p->exact) {
+        if (spc_sphere_chain_shape(s))
+            return SPC_SNEE_METHOD_SPHERE;
+        if (spc_cylinder_chain_shape(s))
+            return SPC_SNEE_METHOD_CYLINDER;
+        if (spc_plane_chain_shape(s))
+            return SPC_SNEE_METHOD_PLANE;
+    }
+    return SPC_SNEE_METHOD_SOLVER;
+}
+
+typedef struct out_buf {
+    char *p;
+    size_t len, used;
+} out_buf;
+
+static void put(out_buf *b, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    size_t room = b->used < b->len ? b->len - b->used : 0;
+    int n = vsnprintf(room ? b->p + b->used : NULL, room, fmt, ap);
+    va_end(ap);
+    if (n > 0)
+        b->used += (size_t)n;
+}
+
+static const char *shape_name(const spc_shape *s)
+{
+    switch (s->type) {
+    case SPC_SHAPE_MESH: return "mesh";
+    case SPC_SHAPE_SPHERE: return "sphere";
+    case SPC_SHAPE_DISK: return "disk";
+    case SPC_SHAPE_CYLINDER: return "cylinder";
+    case SPC_SHAPE_SDF: return "sdf";
+    }
+    return "?";
+}
+
+int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int max_chain, char *buf, size_t len)
+{
+    out_buf b = {buf, len, 0};
+    if (len)
+        buf[0] = '\0';
+    if (!plan->on) {
+        put(&b, "specular NEE: none (%s%s); %d casters, %d receivers\n", plan->automatic ? "auto: " : "",
+            plan->reason, plan->casters, plan->receivers);
+        return (int)b.used;
+    }
+    spc_snee_params p;
+    if (!spc_snee_parse(plan->setting, max_chain, &p)) {
+        put(&b, "specular NEE: '%s' is not a valid setting\n", plan->setting);
+        return (int)b.used;
+    }
+    const spc_specular_solver *solver = spc_specular_solver_get(p.solver);
+    put(&b, "specular NEE: %s%s; chains of 1-%d vertices%s%s; %d casters, %d receivers\n", plan->setting,
+        plan->automatic ? " (auto)" : "", p.max_chain, p.reflect ? ", reflections off glass" : "",
+        !p.no_mis ? "" : ", no MIS", plan->casters, plan->receivers);
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, p.any_surface);
+    for (int i = 0; cs && i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        const char *kind = spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0 ? "glass" : "mirror";
+        put(&b, "  caster shape %d: %s %s%s%s: ", cs->idx[i], kind, shape_name(s), s->id[0] ? " id=" : "", s->id);
+        switch (spc_snee_plan_method(&p, s)) {
+        case SPC_SNEE_METHOD_SPHERE:
+            put(&b, "every chain on the sphere enumerated exactly, 1-%d vertices", p.max_chain);
+            if (p.long_p > 0.0 && !p.no_mis)
+                put(&b, " (up to 6 with probability %g)", p.long_p);
+            break;
+        case SPC_SNEE_METHOD_CYLINDER:
+            put(&b, "every reflection on the mirror cylinder enumerated exactly, 1-%d vertices", p.max_chain);
+            break;
+        case SPC_SNEE_METHOD_PLANE:
+            put(&b, "every chain through the normal-mapped plane enumerated exactly, 1 vertex");
+            if (p.max_chain > 1)
+                put(&b, "; longer chains by %s", solver ? solver->name : "?");
+            break;
+        case SPC_SNEE_METHOD_SOLVER:
+            put(&b, "%s, 1-%d vertices%s", solver ? solver->name : "?", p.max_chain,
+                p.biased ? " (biased)" : solver && solver->solve_all ? "" : " (unbiased: Bernoulli trial count)");
+            break;
+        }
+        put(&b, "\n");
+    }
+    return (int)b.used;
+}

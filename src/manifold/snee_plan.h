@@ -1,0 +1,67 @@
+/*
+ * manifold/snee_plan.h: whether, and how, specular NEE runs on a scene: the one place where the
+ * default is decided.
+ *
+ * A render's specular NEE setting comes from --specular-nee, else from the scene's integrator
+ * property specular_nee, else it is chosen here from the scene ("auto"):
+ *   - off unless the integrator is path or volpath (bdpt and ipt sample every path themselves), the
+ *     scene has at least one caster (a smooth specular interface: spc_chain_casters_of), one
+ *     receiver (a shape with a non-delta BSDF lobe that receives caustics) and one light specular
+ *     NEE can draw a point on (area, point or spot);
+ *   - off too if a caster is flat-faced (a disk, a mesh without vertex normals: cubes, slabs,
+ *     panes) and not a normal-mapped plane: flat glass does not focus light, its chains are left to
+ *     the randomized attempts, and their Bernoulli trial counts were heavy-tailed there (the glass
+ *     cube and silver ball at equal CPU time: relMSE 0.089 with specular NEE against 0.039 without,
+ *     one pixel 94% of the error; two tilted slabs: newton -2.5% at 52x the cost; bench/RESULTS.md,
+ *     "Caustics by default"), while on curved casters the attempts paid (the SDF torus 6.8x, a
+ *     smooth water mesh 96x);
+ *   - otherwise the angular solver with its defaults (spc_snee_params_default): chains of up to the
+ *     scene's specular_max_chain (2) vertices, reflections off glass, MIS with BSDF sampling, the
+ *     longer chains with probability 0.1, and every chain on one analytic sphere, one mirror
+ *     cylinder or one normal-mapped plane enumerated exactly (sphere_chains.h, cylinder_chains.h,
+ *     plane_chains.h); with only such casters the randomized solver itself never runs.
+ * Why angular: of the solvers it has the exact enumerations with reflections and longer chains, and
+ * on the caustic scenes it was the fastest unbiased choice at equal time (the pool: 96x against
+ * path, conic 45x, newton 26x); newton was slow and biased on multi-interface chains (two tilted
+ * slabs: -2.5% at 52x the time per sample of path; bench/RESULTS.md). "none" (or "off") turns
+ * specular NEE off; any other setting (spc_snee_parse) is used as given.
+ */
+#ifndef SPC_MANIFOLD_SNEE_PLAN_H
+#define SPC_MANIFOLD_SNEE_PLAN_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#include "manifold/specular_nee.h"
+
+/* How the chains of one caster are found under a plan. */
+typedef enum spc_snee_method {
+    SPC_SNEE_METHOD_SPHERE,   /* every chain on the sphere enumerated (sphere_chains.h) */
+    SPC_SNEE_METHOD_CYLINDER, /* every reflection chain on the mirror cylinder (cylinder_chains.h) */
+    SPC_SNEE_METHOD_PLANE,    /* every one-vertex chain through the normal-mapped plane (plane_chains.h) */
+    SPC_SNEE_METHOD_SOLVER    /* the plan's solver (randomized attempts, or conic's enumeration) */
+} spc_snee_method;
+
+typedef struct spc_snee_plan {
+    bool automatic;   /* chosen from the scene, not given */
+    bool on;          /* specular NEE runs */
+    char setting[96]; /* what runs, as spc_snee_parse reads it: "none", "angular", "newton:biased=8", ... */
+    char reason[96];  /* why it is off, or "" */
+    int casters;      /* caster shapes (spc_chain_casters_of) */
+    int receivers;    /* shapes specular NEE may start at */
+} spc_snee_plan;
+
+/* The plan for rendering sc with integrator `integrator` ("path", "volpath", "bdpt", "ipt") and the
+ * given setting (NULL, "" or "auto": choose; "none" or "off": off; anything else: as given). Never
+ * fails: a bad explicit setting is copied as given and refused by spc_snee_parse later. */
+void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char *setting, spc_snee_plan *out);
+
+/* The method a plan's params p use for the caster shape s. */
+spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *s);
+
+/* Writes a description of the plan (one line, then one line per caster: shape index, its BSDF, the
+ * method and the chain lengths it covers) to buf (always terminated); max_chain the scene's. Returns
+ * the length it needed (as snprintf). */
+int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int max_chain, char *buf, size_t len);
+
+#endif
