@@ -145,6 +145,8 @@ static inline int spc_fuzz_exr(const uint8_t *data, size_t size)
 }
 
 static inline int spc_fuzz_png(const uint8_t *data, size_t size) { return spc_fuzz_image(data, size); }
+/* JPEG: the same reader entry, its own seed corpus of baseline, progressive, gray and CMYK files */
+static inline int spc_fuzz_jpeg(const uint8_t *data, size_t size) { return spc_fuzz_image(data, size); }
 
 /* A directory with nothing in it: every file a scene names is missing. Removed at exit. */
 static char spc_fuzz_dir[64];

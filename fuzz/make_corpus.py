@@ -218,6 +218,31 @@ for f in ['emit.exr', 'ramp.exr']:
 for f in ['bumps.png', 'grid.png', 'mask.png', 'emit.png', 'blobs.jpg']:
     copy('png', 'scenes/textures/' + f)
 
+# ---- JPEG (the reader's own corpus): the scenes' texture, and small baseline RGB, gray and
+# low-quality files written by Mitsuba 3 (the reference peer, installed beside specula) ----
+copy('jpeg', 'scenes/textures/blobs.jpg')
+try:
+    import mitsuba as mi, numpy as np
+    mi.set_variant('scalar_rgb')
+    rng = np.random.default_rng(1)
+    for fname, shape, fmt, q in [('rgb.jpg', (6, 8, 3), mi.Bitmap.PixelFormat.RGB, 80),
+                                 ('gray.jpg', (5, 7, 1), mi.Bitmap.PixelFormat.Y, 50),
+                                 ('low.jpg', (3, 16, 3), mi.Bitmap.PixelFormat.RGB, 10)]:
+        b = mi.Bitmap(rng.random(shape).astype(np.float32), pixel_format=fmt)
+        b = b.convert(fmt, mi.Struct.Type.UInt8, True)
+        with tempfile.TemporaryDirectory() as t:
+            b.write(os.path.join(t, fname), mi.Bitmap.FileFormat.JPEG, q)
+            put('jpeg', fname, open(os.path.join(t, fname), 'rb').read())
+except ImportError:
+    print('mitsuba not installed: only blobs.jpg in the JPEG corpus', file=sys.stderr)
+
+# ---- the command line's numbers (fuzz_cli): arguments separated by NUL bytes ----
+put('cli', 'numbers', '\0'.join(['16x16', '1,2', '4294967312x4294967312', '0.5', '-1', '18446744073709551615',
+                                  '1e308', 'nan', 'angular:biased=8,trials=64']) + '\0')
+put('cli', 'options', '\0'.join(['newton:constraint=half,rough,chain=3,mispsi=0.1,receivers=2',
+                                  'conic:reflect=0.2,camera=0.25,long=0.1,guide=2,sneep=0.5', ' 7', '+3', '0x10',
+                                  '65536x65536']) + '\0')
+
 # ---- with the binary: a multi-channel EXR and a checkpoint ----
 if len(sys.argv) > 1:
     exe = os.path.abspath(sys.argv[1])

@@ -30,6 +30,17 @@ static inline int spc_t_selected(const char *name)
     return 0;
 }
 
+/* SPC_TEST_QUICK=1 is set by the sanitizer pass of .ci/run, where the code runs several times
+ * slower. Tests that loop over many independent cases (BSDF configurations, scenes, solver
+ * settings) then run every spc_test_stride(n)-th case, each at its full size, so every assertion
+ * that runs keeps its significance; the full run covers the rest. */
+static inline int spc_test_quick(void)
+{
+    const char *q = getenv("SPC_TEST_QUICK");
+    return q && *q && strcmp(q, "0") != 0;
+}
+static inline int spc_test_stride(int ncases) { return spc_test_quick() && ncases > 2 ? (ncases + 2) / 3 : 1; }
+
 #define RUN(name)                                                                                                     \
     if (spc_t_selected(#name))                                                                                        \
     do {                                                                                                              \

@@ -691,7 +691,7 @@ static void random_config(int cfg, spc_conic_tri *t, spc_conic_problem *pb)
 TEST(solver_against_dense_search)
 {
     /* CONIC_CONFIGS / CONIC_SEED: longer or different runs by hand */
-    const int configs = getenv("CONIC_CONFIGS") ? atoi(getenv("CONIC_CONFIGS")) : 10000;
+    const int configs = getenv("CONIC_CONFIGS") ? atoi(getenv("CONIC_CONFIGS")) : spc_test_quick() ? 1000 : 10000;
     if (getenv("CONIC_SEED"))
         spc_rng_seed(&rng, (uint64_t)atoll(getenv("CONIC_SEED")), 7);
     long brute_total = 0, brute_inner = 0, found_inner = 0, conic_total = 0, conic_only = 0, bad_law = 0;

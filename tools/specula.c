@@ -1374,7 +1374,10 @@ static int cmd_diff(int argc, char **argv)
                r.mean_a[1], r.mean_a[2]);
         printf("b: %s  %dx%d  mean (%.6g, %.6g, %.6g)\n", paths[1], img[1].width, img[1].height, r.mean_b[0],
                r.mean_b[1], r.mean_b[2]);
-        printf("ratio of means a/b: %.6g (%.6g, %.6g, %.6g)\n", ratio[3], ratio[0], ratio[1], ratio[2]);
+        if (isfinite(ratio[3]))
+            printf("ratio of means a/b: %.6g (%.6g, %.6g, %.6g)\n", ratio[3], ratio[0], ratio[1], ratio[2]);
+        else
+            printf("ratio of means a/b: undefined (b is black)\n");
         printf("MSE: %.6g\n", r.mse);
         printf("relMSE: %.6g\n", r.rel_mse);
         if (r.has_ztest)

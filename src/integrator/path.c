@@ -93,8 +93,6 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     }
 
     int receivers = 0; /* non-delta vertices so far (spc_snee_params.receivers) */
-    bool aov_follow = false;       /* the AOVs wait for a surface past the specular ones so far */
-    spc_rgb aov_beta = spc_rgb1(1.0); /* those specular surfaces' weights */
     for (int segments = 1;; ++segments) {
         /* segments: the number of path segments once this ray is traced */
         spc_hit h;
@@ -204,10 +202,6 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         if (!(bs.lobe & SPC_LOBE_DELTA)) {
             ++receivers;
             cam_track = false;
-        }
-        if (aov_follow) {
-            bool refracted = (bs.lobe & SPC_LOBE_DELTA_TRANSMISSION) && bs.eta > 0.0;
-            aov_beta = spc_rgb_mul(aov_beta, spc_rgb_scale(bs.weight, refracted ? bs.eta * bs.eta : 1.0));
         }
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))
