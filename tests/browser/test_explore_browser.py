@@ -28,6 +28,38 @@ def check(cond, what):
         failures.append(what)
 
 
+def http_checks(url):
+    """The server answers bad requests with a 4xx and a message, and keeps serving."""
+    import json
+    import urllib.error
+    import urllib.request
+
+    def req(path, body=None, method=None):
+        data = body.encode() if isinstance(body, str) else body
+        r = urllib.request.Request(url.rstrip("/") + path, data=data, method=method)
+        try:
+            with urllib.request.urlopen(r, timeout=30) as f:
+                return f.status, f.read()
+        except urllib.error.HTTPError as e:
+            return e.code, e.read()
+
+    good = '{"receiver": {"origin": [0.2, 0.05, 0.14], "direction": [0, -1, 0]}}'
+    cases = [("/api/solve", "{bad", 400, b"malformed JSON"),
+             ("/api/solve", " " * 20000, 413, b"too large"),
+             ("/api/solve", good[:-1] + ', "max_chain": 99}', 400, b"out of range"),
+             ("/api/solve", good[:-1] + ', "time_limit": -1}', 400, b"out of range"),
+             ("/api/nothing", None, 404, b"no such API path"),
+             ("/../../etc/passwd", None, 404, b"not found"),
+             ("/three.min.js/../index.html", None, 404, b"not found")]
+    for path, body, status, msg in cases:
+        st, text = req(path, body)
+        check(st == status and msg in text, "%s %r... -> %d %r" % (path, (body or "")[:20], st, text[:60]))
+    st, text = req("/api/solve", good)
+    check(st == 200 and json.loads(text)["runs"][0]["success"], "a good solve after the bad requests")
+    st, text = req("/three.min.js")
+    check(st == 200 and b"THREE" in text[:4000], "three.js served")
+
+
 def main():
     specula = sys.argv[1]
     shot = sys.argv[2] if len(sys.argv) > 2 else os.path.join(os.path.dirname(specula), "explore_browser.png")
@@ -55,6 +87,7 @@ def main():
         if not m:
             return 1
         url = "http://127.0.0.1:%s/" % m.group(1)
+        http_checks(url)
 
         opts = webdriver.ChromeOptions()
         opts.binary_location = "/usr/bin/chromium"
