@@ -260,6 +260,40 @@ TEST(newton_and_exact_equal_solvers)
     spc_scene_destroy(sc);
 }
 
+TEST(picked_light)
+{
+    spc_scene *sc = load("caustic_glass_sphere.xml");
+    if (!sc) {
+        CHECK(sc);
+        return;
+    }
+    spc_explorer *ex = spc_explore_create(sc);
+    spc_json_doc d;
+    /* a ray up into the sphere light (centre (-0.9, 2.4, -0.6), radius 0.12): y its lowest point */
+    CHECK(call(ex, "POST", "/api/solve",
+               "{" RX_REQ ",\"light\":{\"origin\":[-0.9,1.5,-0.6],\"direction\":[0,1,0]},\"solver\":\"exact\"}",
+               &d) == 200);
+    spc_vec3 y = jv3(&d, path_get(&d, "light", -1, "point"));
+    spc_vec3 ny = jv3(&d, path_get(&d, "light", -1, "normal"));
+    CHECK(fabs(y.x + 0.9) < 1e-9 && fabs(y.y - 2.28) < 1e-9 && fabs(y.z + 0.6) < 1e-9);
+    CHECK(fabs(ny.y + 1.0) < 1e-9);
+    const spc_json *sols = spc_json_get(&d, path_get(&d, "runs", 0, NULL), "solutions");
+    CHECK(sols && sols->count >= 1);
+    for (int k = 0; sols && k < sols->count; ++k) {
+        const spc_json *pts = spc_json_get(&d, spc_json_at(&d, sols, k), "points");
+        spc_vec3 e = jv3(&d, spc_json_at(&d, pts, pts->count - 1));
+        CHECK(e.x == y.x && e.y == y.y && e.z == y.z); /* every chain ends at the picked point */
+    }
+    spc_json_doc_release(&d);
+    /* a ray that meets the floor first is refused */
+    CHECK(call(ex, "POST", "/api/solve", "{" RX_REQ ",\"light\":{\"origin\":[0,1,0],\"direction\":[0,-1,0]}}", &d) ==
+          422);
+    CHECK(strstr(spc_json_get(&d, &d.nodes[0], "error")->str, "area light"));
+    spc_json_doc_release(&d);
+    spc_explore_destroy(ex);
+    spc_scene_destroy(sc);
+}
+
 TEST(lossmap_shape)
 {
     spc_scene *sc = load("caustic_glass_sphere.xml");
@@ -350,6 +384,7 @@ int main(void)
     RUN(scene_json);
     RUN(angular_solve_equals_solver);
     RUN(newton_and_exact_equal_solvers);
+    RUN(picked_light);
     RUN(lossmap_shape);
     RUN(bad_requests);
     return spc_test_finish();

@@ -466,13 +466,33 @@ static int read_problem(const spc_scene *sc, req *r, int solver, problem *pb)
     spc_snee_query_init(&pb->q, sc, &pb->params, &pb->x, pb->wo, max_chain);
     spc_rng rng;
     spc_rng_seed(&rng, (uint64_t)light_sample, 0x11);
-    /* light_sample k: the first point the stream k draws on a light a chain can reach (an
-     * environment light's draws give none) */
-    bool found = false;
-    for (int k = 0; k < LIGHT_TRIES && !found; ++k)
-        found = spc_snee_sample_light(sc, false, &rng, &pb->q, &pb->e, &pb->uv, &pb->p_y);
-    if (!found)
-        return bad(r, "%s", "no light point a chain can reach (no caster, or only environment lights)"), 422;
+    const spc_json *lj = spc_json_get(r->d, r->root, "light");
+    if (lj) {
+        /* a picked light point: where the ray meets an area light */
+        spc_vec3 lo, ld;
+        if (lj->type != SPC_JSON_OBJECT)
+            return bad(r, "'%s' must be an object with origin and direction", "light"), 400;
+        if (!get_vec3(r, lj, "origin", lim, false, true, &lo) || !get_vec3(r, lj, "direction", 1e9, true, true, &ld))
+            return 400;
+        spc_ray lr = {lo, ld, 0.0, INFINITY};
+        spc_hit lh;
+        if (!spc_scene_intersect(sc, &lr, &lh) || !lh.emitter || lh.emitter->type != SPC_EMITTER_AREA)
+            return bad(r, "%s", "the light ray does not meet an area light first"), 422;
+        pb->e = lh.emitter;
+        pb->uv = lh.uv;
+        pb->q.y = lh.p;
+        pb->q.ny = lh.ng;
+        pb->q.light_size = sqrt(lh.shape->area);
+        pb->p_y = spc_snee_light_pdf(sc, false, pb->e, pb->q.y, pb->q.ny);
+    } else {
+        /* light_sample k: the first point the stream k draws on a light a chain can reach (an
+         * environment light's draws give none) */
+        bool found = false;
+        for (int k = 0; k < LIGHT_TRIES && !found; ++k)
+            found = spc_snee_sample_light(sc, false, &rng, &pb->q, &pb->e, &pb->uv, &pb->p_y);
+        if (!found)
+            return bad(r, "%s", "no light point a chain can reach (no caster, or only environment lights)"), 422;
+    }
     pb->tg.y = pb->q.y;
     pb->tg.ny = pb->q.ny;
     pb->tg.scale = sc->radius;

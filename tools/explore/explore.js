@@ -118,6 +118,7 @@ async function init3d() {
   resize3d();
   window.addEventListener('resize', () => { resize3d(); resize2d(); });
   installMouse3d(canvas);
+  $('light_sample').addEventListener('change', () => { V.lightRay = null; }); // back to sampled points
   for (const id of ['solver', 'max_chain', 'seed', 'seed_index', 'light_sample', 'method', 'loss'])
     $(id).addEventListener('change', () => { if (V.ray) solve(); });
   $('iter').addEventListener('input', () => drawResult());
@@ -160,6 +161,7 @@ function installMouse3d(canvas) {
   canvas.addEventListener('mousedown', (e) => {
     last = [e.clientX, e.clientY];
     if (e.button === 2 || e.shiftKey) { mode = 'orbit'; return; }
+    if (e.ctrlKey || e.altKey) { pickLight(e); return; }
     mode = 'drag';
     placeReceiver(e);
   });
@@ -197,11 +199,20 @@ function placeReceiver(ev) {
   solve();
 }
 
+// ctrl- or alt-click on an area light: y there (instead of specular NEE's sampled point)
+function pickLight(ev) {
+  const rc = pickRay(ev);
+  V.lightRay = { origin: rc.ray.origin.toArray(), direction: rc.ray.direction.toArray() };
+  if (V.ray) solve();
+}
+
 function request() {
-  return {
+  const req = {
     receiver: V.ray, solver: $('solver').value, max_chain: +$('max_chain').value, seed: $('seed').value,
     seed_index: +$('seed_index').value, light_sample: +$('light_sample').value, method: $('method').value, loss: $('loss').value,
   };
+  if (V.lightRay) req.light = V.lightRay;
+  return req;
 }
 
 // One solve in flight at a time; a drag during it leaves one more to do.
@@ -403,7 +414,7 @@ function showTab(which) {
   $('tab2d').className = is3 ? '' : 'on';
   for (const el of document.querySelectorAll('.only3d')) el.style.display = is3 ? '' : 'none';
   for (const el of document.querySelectorAll('.only2d')) el.style.display = is3 ? 'none' : 'block';
-  $('help').textContent = is3 ? 'left click / drag on a diffuse surface: receiver x · right drag: orbit · wheel: zoom'
+  $('help').textContent = is3 ? 'left click / drag on a diffuse surface: receiver x · ctrl-click on a light: y · right drag: orbit · wheel: zoom'
     : 'drag x, y, the aim handle or shapes · the ray follows up to 10 bounces';
   if (is3) resize3d(); else { resize2d(); draw2d(); }
 }
