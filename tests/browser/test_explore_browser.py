@@ -157,6 +157,23 @@ def main():
         driver.find_element(By.ID, "solve2d").click()
         WebDriverWait(driver, 10).until(lambda d: re.match(r"2D: (converged|failed)", status.text))
         check(status.text.startswith("2D: converged"), "2D view solves: %r" % status.text)
+        # every preset: the analytic dL/dtheta against a central difference at 400 angles (where the
+        # bounce sequence is the same on both sides), a solve from the preset's start converges, and
+        # the loss over theta has roots
+        for name in driver.execute_script("return Object.keys(PRESETS);"):
+            n, worst, st, roots = driver.execute_script("""
+              loadPreset(arguments[0]);
+              let worst = 0, n = 0;
+              for (let i = 0; i < 400; ++i) {
+                const th = -Math.PI + 2 * Math.PI * (i + 0.37) / 400, t = trace2(th), f = fd2(th, 1e-6);
+                if (!isFinite(f) || t.L < 1e-12) continue;
+                worst = Math.max(worst, Math.abs(t.g - f) / Math.max(Math.abs(t.g), 1e-3 * t.L)); ++n;
+              }
+              solve2d();
+              return [n, worst, document.getElementById('solver-status').textContent, P.roots.length];""", name)
+            check(n > 300 and worst < 1e-4 and st.startswith("2D: converged") and "direct" not in st and roots >= 1,
+                  "2D preset %r: %d angles, worst derivative error %.2g, %r, %d roots" % (name, n, worst, st, roots))
+        driver.execute_script("loadPreset('glass ball'); solve2d();")
         driver.save_screenshot(os.path.splitext(shot)[0] + "_2d.png")
 
         errors = [e for e in driver.get_log("browser") if e.get("level") == "SEVERE"]

@@ -443,8 +443,8 @@ const P = { shapes: [], x: [0, 0], y: [0, 0], theta: 0, sel: -1, iterates: [], r
 const PRESETS = {
   'glass ball': () => ({ x: [0.1, -0.9], y: [-0.09, 1.0], shapes: [{ kind: 'circle', c: [0, 0.1], r: 0.4, mat: 'glass', eta: 1.5 }] }),
   'two mirrors': () => ({ x: [-0.9, -0.6], y: [0.9, -0.6], shapes: [
-    { kind: 'plane', c: [-0.3, 0.6], ang: -Math.PI / 2 - 0.25, half: 0.5, mat: 'mirror' },
-    { kind: 'plane', c: [0.4, 0.5], ang: -Math.PI / 2 + 0.3, half: 0.5, mat: 'mirror' }] }),
+    { kind: 'plane', c: [-0.3, 0.6], ang: -1.09, half: 0.3, mat: 'mirror' },
+    { kind: 'plane', c: [0.4, 0.5], ang: -2.21, half: 0.3, mat: 'mirror' }] }),
   'lens and mirror': () => ({ x: [-1.1, -0.7], y: [1.1, -0.7], shapes: [
     { kind: 'circle', c: [-0.35, 0.1], r: 0.3, mat: 'glass', eta: 1.5 },
     { kind: 'plane', c: [0.5, 0.8], ang: -Math.PI / 2, half: 0.7, mat: 'mirror' }] }),
@@ -461,8 +461,9 @@ const dot2 = (a, b) => a[0] * b[0] + a[1] * b[1];
 function loadPreset(name) {
   const p = PRESETS[name]();
   P.shapes = p.shapes; P.x = p.x; P.y = p.y; P.sel = -1; P.iterates = [];
-  // start a little off the straight line x -> y, so that a solve has something to do
-  P.theta = Math.atan2(P.y[1] - P.x[1], P.y[0] - P.x[0]) + 0.08;
+  // start a little off the line from x to the first shape, so that a solve has something to do
+  const c0 = P.shapes[0].c;
+  P.theta = Math.atan2(c0[1] - P.x[1], c0[0] - P.x[0]) + 0.05;
   update2d();
 }
 
@@ -589,7 +590,8 @@ function solve2d() {
   P.theta = th;
   P.iterates = its;
   const conv = tr.L <= 1e-20 || Math.sqrt(tr.L) < 1e-9;
-  setStatus(conv ? '2D: converged in ' + n + ' iterations' : '2D: failed: ' + (msg || 'iteration limit'), conv);
+  const direct = tr.pts.length < 2 ? ' (the direct line, no bounce)' : '';
+  setStatus(conv ? '2D: converged in ' + n + ' iterations' + direct : '2D: failed: ' + (msg || 'iteration limit'), conv);
   update2d(true);
 }
 
