@@ -873,8 +873,8 @@ static void run_all(spc_jbuf *b, const spc_scene *sc, problem *pb, bool conic)
         n += spc_plane_chains_all(&pb->q, pb->params.reflect, out + n, MAX_SOLUTIONS - n, &it);
     }
     double dt = now_s() - t0;
-    spc_jbuf_printf(b, "{\"solver\":\"%s\",\"success\":%s,\"iterations\":%d,\"stop\":\"%d solutions\",\"time_ms\":",
-                    conic ? "conic" : "exact", n > 0 ? "true" : "false", it, n);
+    spc_jbuf_printf(b, "{\"solver\":\"%s\",\"success\":%s,\"iterations\":%d,\"stop\":\"%d solution%s\",\"time_ms\":",
+                    conic ? "conic" : "exact", n > 0 ? "true" : "false", it, n, n == 1 ? "" : "s");
     spc_jbuf_num(b, 1e3 * dt);
     spc_jbuf_raw(b, ",\"iterates\":[],\"solutions\":[");
     for (int i = 0; i < n; ++i) {
