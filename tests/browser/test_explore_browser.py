@@ -77,6 +77,14 @@ def main():
             print("FAIL %s is missing (.ci/run installs chromium and chromium-driver)" % path)
             return 1
 
+    # the command line's mistakes: a clear message and a nonzero exit, no server
+    for args, code, msg in ((["explore"], 2, "no scene given"),
+                            (["explore", SCENE, "--port", "70000"], 2, "--port needs a number"),
+                            (["explore", SCENE, "--bogus"], 2, "unknown option"),
+                            (["explore", "scenes/no_such_scene.xml"], 3, "no_such_scene.xml")):
+        p = subprocess.run([specula] + args, capture_output=True, text=True, timeout=60)
+        check(p.returncode == code and msg in p.stderr, "specula %s -> exit %d, %r" % (" ".join(args), p.returncode,
+                                                                                     p.stderr.strip()[:80]))
     server = subprocess.Popen([specula, "explore", SCENE, "--port", "0"], stdout=subprocess.PIPE,
                               stderr=subprocess.STDOUT, text=True)
     driver = None
