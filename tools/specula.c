@@ -1,6 +1,7 @@
 /*
  * tools/specula.c: the `specula` command: render a Mitsuba scene, compare two images, describe a
- * scene. It uses nothing but the public header specula/specula.h, which proves the API suffices.
+ * scene, serve the solver explorer (tools/explore_server.c). It uses nothing but the public header
+ * specula/specula.h, which proves the API suffices.
  *
  * Exit codes: 0 success, 2 usage, 3 bad input (scene or image), 4 render failure, 5 write failure,
  * 130 interrupted (after writing the image rendered so far). Errors are one line on stderr,
