@@ -316,6 +316,12 @@ TEST(lossmap_shape)
     double L0 = it0 ? spc_json_get(&d, it0, "loss")->num : -1.0;
     CHECK_MSG(fabs(centre - L0) <= 1e-5 * L0 && L0 > 0.0, "centre %g, seed %g", centre, L0);
     spc_json_doc_release(&d);
+    /* the time limit: a 128^2 map (16k traces, tens of ms) cut after 1 ms returns the rows done */
+    CHECK(call(ex, "POST", "/api/lossmap", "{" RX_REQ ",\"size\":128,\"extent\":0.5,\"time_limit\":0.001}", &d) == 200);
+    int rows = (int)path_get(&d, "rows", -1, NULL)->num;
+    CHECK(path_get(&d, "timed_out", -1, NULL)->num == 1.0 && rows >= 1 && rows < 128);
+    CHECK(path_get(&d, "loss", -1, NULL)->count == 128 * rows);
+    spc_json_doc_release(&d);
     spc_explore_destroy(ex);
     spc_scene_destroy(sc);
 }

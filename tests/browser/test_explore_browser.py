@@ -96,6 +96,9 @@ def main():
             return 1
         url = "http://127.0.0.1:%s/" % m.group(1)
         http_checks(url)
+        p = subprocess.run([specula, "explore", SCENE, "--port", m.group(1)], capture_output=True, text=True, timeout=60)
+        check(p.returncode == 4 and "cannot listen" in p.stderr, "a second server on the same port: exit %d, %r" %
+              (p.returncode, p.stderr.strip()))
 
         opts = webdriver.ChromeOptions()
         opts.binary_location = "/usr/bin/chromium"
