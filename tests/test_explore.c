@@ -316,6 +316,20 @@ TEST(lossmap_shape)
     double L0 = it0 ? spc_json_get(&d, it0, "loss")->num : -1.0;
     CHECK_MSG(fabs(centre - L0) <= 1e-5 * L0 && L0 > 0.0, "centre %g, seed %g", centre, L0);
     spc_json_doc_release(&d);
+    /* basins: the centre cell (the seed) reaches the solution the solve reaches */
+    CHECK(call(ex, "POST", "/api/lossmap", "{" RX_REQ ",\"size\":9,\"extent\":0.4,\"basins\":true}", &d) == 200);
+    const spc_json *basin = path_get(&d, "basin", -1, NULL), *bsol = path_get(&d, "solutions", -1, NULL);
+    CHECK(basin && basin->count == 81 && bsol && bsol->count >= 1);
+    int bc = basin ? (int)spc_json_at(&d, basin, 40)->num : -1;
+    CHECK(bc >= 0 && bsol && bc < bsol->count);
+    spc_vec3 bd = bc >= 0 && bsol ? jv3(&d, spc_json_at(&d, bsol, bc)) : spc_v3(0, 0, 0);
+    spc_json_doc_release(&d);
+    CHECK(call(ex, "POST", "/api/solve", "{" RX_REQ ",\"solver\":\"angular\"}", &d) == 200);
+    spc_vec3 sd = jv3(
+        &d, spc_json_get(&d, spc_json_at(&d, spc_json_get(&d, path_get(&d, "runs", 0, NULL), "solutions"), 0), "d0"));
+    CHECK_MSG(spc_length(spc_sub(bd, sd)) < 1e-9, "basin's solution (%g %g %g), solve's (%g %g %g)", bd.x, bd.y, bd.z,
+              sd.x, sd.y, sd.z);
+    spc_json_doc_release(&d);
     /* the time limit: a 128^2 map (16k traces, tens of ms) cut after 1 ms returns the rows done */
     CHECK(call(ex, "POST", "/api/lossmap", "{" RX_REQ ",\"size\":128,\"extent\":0.5,\"time_limit\":0.001}", &d) == 200);
     int rows = (int)path_get(&d, "rows", -1, NULL)->num;

@@ -153,6 +153,17 @@ static const char *get_str(req *r, const spc_json *obj, const char *key, const c
     return j->str;
 }
 
+static bool get_bool(req *r, const spc_json *obj, const char *key, bool *v)
+{
+    const spc_json *j = spc_json_get(r->d, obj, key);
+    if (!j)
+        return true;
+    if (j->type != SPC_JSON_BOOL)
+        return bad(r, "'%s' must be true or false", key);
+    *v = j->num != 0.0;
+    return true;
+}
+
 /* ---- writing helpers ---- */
 
 static void jvec3(spc_jbuf *b, spc_vec3 v)
@@ -986,8 +997,9 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
     solve_opts so;
     int n = 64;
     double extent = 0.3, limit = TIME_LIMIT_DEFAULT;
+    bool basins = false;
     if (!read_angular(r, &so) || !get_int(r, r->root, "size", 4, SPC_EXPLORE_MAX_MAP, &n) ||
-        !get_num(r, r->root, "extent", 1e-6, 2.0, false, &extent) ||
+        !get_bool(r, r->root, "basins", &basins) || !get_num(r, r->root, "extent", 1e-6, 2.0, false, &extent) ||
         !get_num(r, r->root, "time_limit", 0.001, SPC_EXPLORE_MAX_TIME, false, &limit))
         return 400;
     problem pb;
@@ -998,7 +1010,10 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
         return r->bad ? 400 : 422;
     spc_frame fr = spc_frame_from_n(so.seed);
     spc_chain_opts o = spc_chain_opts_default(pb.max_chain);
-    spc_chain *c = malloc(sizeof *c);
+    /* c: the cell's chain; with basins, sol[0..nsol) the distinct solutions found and sol[nsol]
+     * the scratch of each cell's solve */
+    spc_chain *c = malloc((MAX_SOLUTIONS + 2) * sizeof *c), *sol = c + 1;
+    int nsol = 0;
     spc_jbuf b = {0};
     if (!c)
         return error_response(500, "out of memory", response);
@@ -1015,7 +1030,7 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
      * cell's chain as a small id, so the page can show where the chain's surfaces change */
     spc_chain_sig sigs[32];
     int nsig = 0;
-    int *sig_id = malloc((size_t)n * n * sizeof *sig_id);
+    int *sig_id = malloc(2 * (size_t)n * n * sizeof *sig_id), *basin = sig_id + (size_t)n * n;
     if (!sig_id) {
         free(c);
         return error_response(500, "out of memory", response);
@@ -1044,6 +1059,21 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
                 }
             }
             sig_id[j * n + i] = id;
+            if (basins) {
+                /* the basin of attraction: which solution the solver reaches from this direction */
+                spc_vec3 dd[2];
+                spc_vec3 dir = spc_chain_direction(&fr, a, bb, dd);
+                spc_angular_result res;
+                int bid = -1;
+                if (spc_angular_solve(sc, &pb.x, &pb.tg, dir, &o, &so.ao, &sol[nsol], &res)) {
+                    for (int k = 0; k < nsol && bid < 0; ++k)
+                        if (spc_snee_same_solution(&sol[k], &sol[nsol], sc->radius))
+                            bid = k;
+                    if (bid < 0 && nsol < MAX_SOLUTIONS)
+                        bid = nsol++;
+                }
+                basin[j * n + i] = bid;
+            }
             if (done++)
                 spc_jbuf_raw(&b, ",");
             if (isfinite(L))
@@ -1056,7 +1086,20 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
     spc_jbuf_raw(&b, "],\"signature\":[");
     for (int k = 0; k < done; ++k)
         spc_jbuf_printf(&b, "%s%d", k ? "," : "", sig_id[k]);
-    spc_jbuf_printf(&b, "],\"rows\":%d,\"timed_out\":%s}", done / n, timed_out ? "true" : "false");
+    spc_jbuf_raw(&b, "]");
+    if (basins) {
+        spc_jbuf_raw(&b, ",\"basin\":[");
+        for (int k = 0; k < done; ++k)
+            spc_jbuf_printf(&b, "%s%d", k ? "," : "", basin[k]);
+        spc_jbuf_raw(&b, "],\"solutions\":[");
+        for (int k = 0; k < nsol; ++k) {
+            if (k)
+                spc_jbuf_raw(&b, ",");
+            jvec3(&b, sol[k].d0);
+        }
+        spc_jbuf_raw(&b, "]");
+    }
+    spc_jbuf_printf(&b, ",\"rows\":%d,\"timed_out\":%s}", done / n, timed_out ? "true" : "false");
     free(sig_id);
     free(c);
     return finish(&b, 200, response);

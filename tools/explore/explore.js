@@ -119,7 +119,7 @@ async function init3d() {
   window.addEventListener('resize', () => { resize3d(); resize2d(); });
   installMouse3d(canvas);
   $('light_sample').addEventListener('change', () => { V.lightRay = null; }); // back to sampled points
-  for (const id of ['solver', 'max_chain', 'seed', 'seed_index', 'light_sample', 'method', 'loss'])
+  for (const id of ['solver', 'max_chain', 'seed', 'seed_index', 'light_sample', 'method', 'loss', 'basins'])
     $(id).addEventListener('change', () => { if (V.ray) solve(); });
   $('iter').addEventListener('input', () => drawResult());
   $('next-seed').onclick = () => {
@@ -342,7 +342,15 @@ function drawResult() {
 function fmt(x) { return x === null ? 'n/a' : Number(x).toExponential(4); }
 
 // ---------------------------------------------------------------- loss map
+// One loss map in flight at a time; while it runs, only the latest request waits.
 async function lossMap(req, run) {
+  if (V.mapBusy) { V.mapPending = [req, run]; return; }
+  V.mapBusy = true;
+  try { await lossMapNow(req, run); } finally { V.mapBusy = false; }
+  if (V.mapPending) { const p = V.mapPending; V.mapPending = null; return lossMap(p[0], p[1]); }
+}
+
+async function lossMapNow(req, run) {
   const seed = v3(run.seed_direction);
   // extent: every iterate's direction inside the map, in the seed's gnomonic coordinates
   const fr = frameOf(seed);
@@ -352,7 +360,8 @@ async function lossMap(req, run) {
     if (dn > 0.05) ext = Math.max(ext, Math.abs(d.dot(fr.s) / dn), Math.abs(d.dot(fr.t) / dn));
   }
   ext = Math.min(2, ext * 1.3);
-  const body = Object.assign({}, req, { seed_direction: run.seed_direction, size: 64, extent: ext });
+  const basins = $('basins').checked;
+  const body = Object.assign({}, req, { seed_direction: run.seed_direction, size: basins ? 48 : 64, extent: ext, basins });
   delete body.seed;
   delete body.solver;
   V.map = await api('/api/lossmap', body);
@@ -380,6 +389,12 @@ function drawLossMap() {
       const c = viridis(Math.max(0, Math.min(1, u)));
       const sig = m.signature[j * N + i];
       const edge = (i > 0 && m.signature[j * N + i - 1] !== sig) || (j > 0 && m.signature[(j - 1) * N + i] !== sig);
+      if (m.basin) {
+        // basins: the solution's hue over the loss's brightness; no solution: dark
+        const bid = m.basin[j * N + i], v = 0.35 + 0.65 * (1 - u);
+        const h = bid < 0 ? null : new THREE.Color().setHSL((bid * 0.618034) % 1, 0.85, 0.25 + 0.35 * v);
+        if (h) { c[0] = 255 * h.r; c[1] = 255 * h.g; c[2] = 255 * h.b; } else { c[0] = c[1] = c[2] = 25; }
+      }
       img.data[o] = edge ? 255 : c[0]; img.data[o + 1] = edge ? 255 : c[1]; img.data[o + 2] = edge ? 255 : c[2]; img.data[o + 3] = 255;
     }
   const tmp = document.createElement('canvas');
@@ -395,7 +410,9 @@ function drawLossMap() {
   acc.forEach((it, i) => { const p = toPx(v3(it.d0)); if (i) g.lineTo(p[0], p[1]); else g.moveTo(p[0], p[1]); });
   g.stroke();
   acc.forEach((it, i) => { const p = toPx(v3(it.d0)); g.fillStyle = i === acc.length - 1 ? (m.run.success ? '#4f4' : '#f44') : '#fff'; g.beginPath(); g.arc(p[0], p[1], 3, 0, 7); g.fill(); });
-  $('lossmap-info').textContent = 'a, b in [-' + m.extent.toPrecision(3) + ', ' + m.extent.toPrecision(3) + '], log10 loss ' +
+  if (m.solutions) // the solutions the basins lead to, as rings
+    for (const sd of m.solutions) { const p = toPx(v3(sd)); g.strokeStyle = '#fff'; g.lineWidth = 2; g.beginPath(); g.arc(p[0], p[1], 6, 0, 7); g.stroke(); }
+  $('lossmap-info').textContent = (m.solutions ? m.solutions.length + (m.solutions.length === 1 ? ' solution' : ' solutions') + ' reached; ' : '') + 'a, b in [-' + m.extent.toPrecision(3) + ', ' + m.extent.toPrecision(3) + '], log10 loss ' +
     lo.toFixed(1) + ' .. ' + hi.toFixed(1) + '; grey: no chain; white lines: the chain\'s surfaces change';
 }
 
