@@ -56,6 +56,13 @@ def http_checks(url):
         check(st == status and msg in text, "%s %r... -> %d %r" % (path, (body or "")[:20], st, text[:60]))
     st, text = req("/api/solve", good)
     check(st == 200 and json.loads(text)["runs"][0]["success"], "a good solve after the bad requests")
+    r = urllib.request.Request(url.rstrip("/") + "/api/scene", headers={"Host": "evil.example:80"})
+    try:
+        urllib.request.urlopen(r, timeout=30)
+        st = 200
+    except urllib.error.HTTPError as e:
+        st = e.code
+    check(st == 403, "a request with a foreign Host header is refused (%d)" % st)
     st, text = req("/three.min.js")
     check(st == 200 and b"THREE" in text[:4000], "three.js served")
 
