@@ -260,6 +260,40 @@ TEST(newton_and_exact_equal_solvers)
     spc_scene_destroy(sc);
 }
 
+TEST(picked_light)
+{
+    spc_scene *sc = load("caustic_glass_sphere.xml");
+    if (!sc) {
+        CHECK(sc);
+        return;
+    }
+    spc_explorer *ex = spc_explore_create(sc);
+    spc_json_doc d;
+    /* a ray up into the sphere light (centre (-0.9, 2.4, -0.6), radius 0.12): y its lowest point */
+    CHECK(call(ex, "POST", "/api/solve",
+               "{" RX_REQ ",\"light\":{\"origin\":[-0.9,1.5,-0.6],\"direction\":[0,1,0]},\"solver\":\"exact\"}",
+               &d) == 200);
+    spc_vec3 y = jv3(&d, path_get(&d, "light", -1, "point"));
+    spc_vec3 ny = jv3(&d, path_get(&d, "light", -1, "normal"));
+    CHECK(fabs(y.x + 0.9) < 1e-9 && fabs(y.y - 2.28) < 1e-9 && fabs(y.z + 0.6) < 1e-9);
+    CHECK(fabs(ny.y + 1.0) < 1e-9);
+    const spc_json *sols = spc_json_get(&d, path_get(&d, "runs", 0, NULL), "solutions");
+    CHECK(sols && sols->count >= 1);
+    for (int k = 0; sols && k < sols->count; ++k) {
+        const spc_json *pts = spc_json_get(&d, spc_json_at(&d, sols, k), "points");
+        spc_vec3 e = jv3(&d, spc_json_at(&d, pts, pts->count - 1));
+        CHECK(e.x == y.x && e.y == y.y && e.z == y.z); /* every chain ends at the picked point */
+    }
+    spc_json_doc_release(&d);
+    /* a ray that meets the floor first is refused */
+    CHECK(call(ex, "POST", "/api/solve", "{" RX_REQ ",\"light\":{\"origin\":[0,1,0],\"direction\":[0,-1,0]}}", &d) ==
+          422);
+    CHECK(strstr(spc_json_get(&d, &d.nodes[0], "error")->str, "area light"));
+    spc_json_doc_release(&d);
+    spc_explore_destroy(ex);
+    spc_scene_destroy(sc);
+}
+
 TEST(lossmap_shape)
 {
     spc_scene *sc = load("caustic_glass_sphere.xml");
@@ -281,6 +315,26 @@ TEST(lossmap_shape)
     const spc_json *it0 = spc_json_at(&d, spc_json_get(&d, path_get(&d, "runs", 0, NULL), "iterates"), 0);
     double L0 = it0 ? spc_json_get(&d, it0, "loss")->num : -1.0;
     CHECK_MSG(fabs(centre - L0) <= 1e-5 * L0 && L0 > 0.0, "centre %g, seed %g", centre, L0);
+    spc_json_doc_release(&d);
+    /* basins: the centre cell (the seed) reaches the solution the solve reaches */
+    CHECK(call(ex, "POST", "/api/lossmap", "{" RX_REQ ",\"size\":9,\"extent\":0.4,\"basins\":true}", &d) == 200);
+    const spc_json *basin = path_get(&d, "basin", -1, NULL), *bsol = path_get(&d, "solutions", -1, NULL);
+    CHECK(basin && basin->count == 81 && bsol && bsol->count >= 1);
+    int bc = basin ? (int)spc_json_at(&d, basin, 40)->num : -1;
+    CHECK(bc >= 0 && bsol && bc < bsol->count);
+    spc_vec3 bd = bc >= 0 && bsol ? jv3(&d, spc_json_at(&d, bsol, bc)) : spc_v3(0, 0, 0);
+    spc_json_doc_release(&d);
+    CHECK(call(ex, "POST", "/api/solve", "{" RX_REQ ",\"solver\":\"angular\"}", &d) == 200);
+    spc_vec3 sd = jv3(
+        &d, spc_json_get(&d, spc_json_at(&d, spc_json_get(&d, path_get(&d, "runs", 0, NULL), "solutions"), 0), "d0"));
+    CHECK_MSG(spc_length(spc_sub(bd, sd)) < 1e-9, "basin's solution (%g %g %g), solve's (%g %g %g)", bd.x, bd.y, bd.z,
+              sd.x, sd.y, sd.z);
+    spc_json_doc_release(&d);
+    /* the time limit: a 128^2 map (16k traces, tens of ms) cut after 1 ms returns the rows done */
+    CHECK(call(ex, "POST", "/api/lossmap", "{" RX_REQ ",\"size\":128,\"extent\":0.5,\"time_limit\":0.001}", &d) == 200);
+    int rows = (int)path_get(&d, "rows", -1, NULL)->num;
+    CHECK(path_get(&d, "timed_out", -1, NULL)->num == 1.0 && rows >= 1 && rows < 128);
+    CHECK(path_get(&d, "loss", -1, NULL)->count == 128 * rows);
     spc_json_doc_release(&d);
     spc_explore_destroy(ex);
     spc_scene_destroy(sc);
@@ -350,6 +404,7 @@ int main(void)
     RUN(scene_json);
     RUN(angular_solve_equals_solver);
     RUN(newton_and_exact_equal_solvers);
+    RUN(picked_light);
     RUN(lossmap_shape);
     RUN(bad_requests);
     return spc_test_finish();

@@ -4,7 +4,8 @@
  * time from tools/explore/, three.js read once at start from Debian's libjs-three), hands /api/
  * requests to spc_explore_handle (the library's handlers, specula.h), and stops on SIGINT/SIGTERM.
  * No part of a request's path reaches the file system: a path is looked up in the table or passed
- * to the API, which knows three names. Bodies over SPC_EXPLORE_MAX_BODY are refused (413) without
+ * to the API, which knows three names. Requests whose Host header is not this address are refused
+ * (403), which keeps pages of other sites out through DNS rebinding. Bodies over SPC_EXPLORE_MAX_BODY are refused (413) without
  * being kept.
  */
 #include "explore_server.h"
@@ -49,6 +50,7 @@ typedef struct asset {
 typedef struct server {
     spc_explorer *ex;
     asset assets[3];
+    char host_ip[32], host_name[32]; /* the Host headers accepted: 127.0.0.1:PORT, localhost:PORT */
 } server;
 
 /* The body of one request, gathered across calls. */
@@ -121,6 +123,13 @@ static enum MHD_Result answer(void *cls, struct MHD_Connection *c, const char *u
         }
         *upload_size = 0;
         return MHD_YES;
+    }
+    /* only requests addressed to this server by name: a page elsewhere that rebinds its own DNS
+     * name to 127.0.0.1 sends its own Host and is refused */
+    const char *host = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST);
+    if (!host || (strcmp(host, sv->host_ip) != 0 && strcmp(host, sv->host_name) != 0)) {
+        static const char msg[] = "{\"error\":\"unexpected Host header\"}";
+        return send_text(c, 403, "application/json", msg, sizeof msg - 1, MHD_RESPMEM_PERSISTENT);
     }
     if (b->too_large) {
         char *msg = strdup("{\"error\":\"request body too large\"}");
@@ -275,6 +284,14 @@ int spc_cli_explore(int argc, char **argv)
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(d, MHD_DAEMON_INFO_BIND_PORT);
     unsigned bound = info ? info->port : (unsigned)port;
+    /* browsers leave the default port out of Host */
+    if (bound == 80) {
+        snprintf(sv.host_ip, sizeof sv.host_ip, "127.0.0.1");
+        snprintf(sv.host_name, sizeof sv.host_name, "localhost");
+    } else {
+        snprintf(sv.host_ip, sizeof sv.host_ip, "127.0.0.1:%u", bound);
+        snprintf(sv.host_name, sizeof sv.host_name, "localhost:%u", bound);
+    }
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;

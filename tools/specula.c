@@ -1,6 +1,7 @@
 /*
  * tools/specula.c: the `specula` command: render a Mitsuba scene, compare two images, describe a
- * scene. It uses nothing but the public header specula/specula.h, which proves the API suffices.
+ * scene, serve the solver explorer (tools/explore_server.c). It uses nothing but the public header
+ * specula/specula.h, which proves the API suffices.
  *
  * Exit status: 0 success; otherwise the spc_status of the failure (specula.h: 1 I/O, 2 parse,
  * 3 plugin, 4 value, 5 out of memory, 6 limit, 7 Embree, 8 internal), 64 for a bad command line

@@ -153,6 +153,17 @@ static const char *get_str(req *r, const spc_json *obj, const char *key, const c
     return j->str;
 }
 
+static bool get_bool(req *r, const spc_json *obj, const char *key, bool *v)
+{
+    const spc_json *j = spc_json_get(r->d, obj, key);
+    if (!j)
+        return true;
+    if (j->type != SPC_JSON_BOOL)
+        return bad(r, "'%s' must be true or false", key);
+    *v = j->num != 0.0;
+    return true;
+}
+
 /* ---- writing helpers ---- */
 
 static void jvec3(spc_jbuf *b, spc_vec3 v)
@@ -466,13 +477,33 @@ static int read_problem(const spc_scene *sc, req *r, int solver, problem *pb)
     spc_snee_query_init(&pb->q, sc, &pb->params, &pb->x, pb->wo, max_chain);
     spc_rng rng;
     spc_rng_seed(&rng, (uint64_t)light_sample, 0x11);
-    /* light_sample k: the first point the stream k draws on a light a chain can reach (an
-     * environment light's draws give none) */
-    bool found = false;
-    for (int k = 0; k < LIGHT_TRIES && !found; ++k)
-        found = spc_snee_sample_light(sc, false, &rng, &pb->q, &pb->e, &pb->uv, &pb->p_y);
-    if (!found)
-        return bad(r, "%s", "no light point a chain can reach (no caster, or only environment lights)"), 422;
+    const spc_json *lj = spc_json_get(r->d, r->root, "light");
+    if (lj) {
+        /* a picked light point: where the ray meets an area light */
+        spc_vec3 lo, ld;
+        if (lj->type != SPC_JSON_OBJECT)
+            return bad(r, "'%s' must be an object with origin and direction", "light"), 400;
+        if (!get_vec3(r, lj, "origin", lim, false, true, &lo) || !get_vec3(r, lj, "direction", 1e9, true, true, &ld))
+            return 400;
+        spc_ray lr = {lo, ld, 0.0, INFINITY};
+        spc_hit lh;
+        if (!spc_scene_intersect(sc, &lr, &lh) || !lh.emitter || lh.emitter->type != SPC_EMITTER_AREA)
+            return bad(r, "%s", "the light ray does not meet an area light first"), 422;
+        pb->e = lh.emitter;
+        pb->uv = lh.uv;
+        pb->q.y = lh.p;
+        pb->q.ny = lh.ng;
+        pb->q.light_size = sqrt(lh.shape->area);
+        pb->p_y = spc_snee_light_pdf(sc, false, pb->e, pb->q.y, pb->q.ny);
+    } else {
+        /* light_sample k: the first point the stream k draws on a light a chain can reach (an
+         * environment light's draws give none) */
+        bool found = false;
+        for (int k = 0; k < LIGHT_TRIES && !found; ++k)
+            found = spc_snee_sample_light(sc, false, &rng, &pb->q, &pb->e, &pb->uv, &pb->p_y);
+        if (!found)
+            return bad(r, "%s", "no light point a chain can reach (no caster, or only environment lights)"), 422;
+    }
     pb->tg.y = pb->q.y;
     pb->tg.ny = pb->q.ny;
     pb->tg.scale = sc->radius;
@@ -853,8 +884,8 @@ static void run_all(spc_jbuf *b, const spc_scene *sc, problem *pb, bool conic)
         n += spc_plane_chains_all(&pb->q, pb->params.reflect, out + n, MAX_SOLUTIONS - n, &it);
     }
     double dt = now_s() - t0;
-    spc_jbuf_printf(b, "{\"solver\":\"%s\",\"success\":%s,\"iterations\":%d,\"stop\":\"%d solutions\",\"time_ms\":",
-                    conic ? "conic" : "exact", n > 0 ? "true" : "false", it, n);
+    spc_jbuf_printf(b, "{\"solver\":\"%s\",\"success\":%s,\"iterations\":%d,\"stop\":\"%d solution%s\",\"time_ms\":",
+                    conic ? "conic" : "exact", n > 0 ? "true" : "false", it, n, n == 1 ? "" : "s");
     spc_jbuf_num(b, 1e3 * dt);
     spc_jbuf_raw(b, ",\"iterates\":[],\"solutions\":[");
     for (int i = 0; i < n; ++i) {
@@ -966,8 +997,9 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
     solve_opts so;
     int n = 64;
     double extent = 0.3, limit = TIME_LIMIT_DEFAULT;
+    bool basins = false;
     if (!read_angular(r, &so) || !get_int(r, r->root, "size", 4, SPC_EXPLORE_MAX_MAP, &n) ||
-        !get_num(r, r->root, "extent", 1e-6, 2.0, false, &extent) ||
+        !get_bool(r, r->root, "basins", &basins) || !get_num(r, r->root, "extent", 1e-6, 2.0, false, &extent) ||
         !get_num(r, r->root, "time_limit", 0.001, SPC_EXPLORE_MAX_TIME, false, &limit))
         return 400;
     problem pb;
@@ -978,7 +1010,10 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
         return r->bad ? 400 : 422;
     spc_frame fr = spc_frame_from_n(so.seed);
     spc_chain_opts o = spc_chain_opts_default(pb.max_chain);
-    spc_chain *c = malloc(sizeof *c);
+    /* c: the cell's chain; with basins, sol[0..nsol) the distinct solutions found and sol[nsol]
+     * the scratch of each cell's solve */
+    spc_chain *c = malloc((MAX_SOLUTIONS + 2) * sizeof *c), *sol = c + 1;
+    int nsol = 0;
     spc_jbuf b = {0};
     if (!c)
         return error_response(500, "out of memory", response);
@@ -995,7 +1030,7 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
      * cell's chain as a small id, so the page can show where the chain's surfaces change */
     spc_chain_sig sigs[32];
     int nsig = 0;
-    int *sig_id = malloc((size_t)n * n * sizeof *sig_id);
+    int *sig_id = malloc(2 * (size_t)n * n * sizeof *sig_id), *basin = sig_id + (size_t)n * n;
     if (!sig_id) {
         free(c);
         return error_response(500, "out of memory", response);
@@ -1024,6 +1059,21 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
                 }
             }
             sig_id[j * n + i] = id;
+            if (basins) {
+                /* the basin of attraction: which solution the solver reaches from this direction */
+                spc_vec3 dd[2];
+                spc_vec3 dir = spc_chain_direction(&fr, a, bb, dd);
+                spc_angular_result res;
+                int bid = -1;
+                if (spc_angular_solve(sc, &pb.x, &pb.tg, dir, &o, &so.ao, &sol[nsol], &res)) {
+                    for (int k = 0; k < nsol && bid < 0; ++k)
+                        if (spc_snee_same_solution(&sol[k], &sol[nsol], sc->radius))
+                            bid = k;
+                    if (bid < 0 && nsol < MAX_SOLUTIONS)
+                        bid = nsol++;
+                }
+                basin[j * n + i] = bid;
+            }
             if (done++)
                 spc_jbuf_raw(&b, ",");
             if (isfinite(L))
@@ -1036,7 +1086,20 @@ static int handle_lossmap(const spc_explorer *ex, req *r, char **response)
     spc_jbuf_raw(&b, "],\"signature\":[");
     for (int k = 0; k < done; ++k)
         spc_jbuf_printf(&b, "%s%d", k ? "," : "", sig_id[k]);
-    spc_jbuf_printf(&b, "],\"rows\":%d,\"timed_out\":%s}", done / n, timed_out ? "true" : "false");
+    spc_jbuf_raw(&b, "]");
+    if (basins) {
+        spc_jbuf_raw(&b, ",\"basin\":[");
+        for (int k = 0; k < done; ++k)
+            spc_jbuf_printf(&b, "%s%d", k ? "," : "", basin[k]);
+        spc_jbuf_raw(&b, "],\"solutions\":[");
+        for (int k = 0; k < nsol; ++k) {
+            if (k)
+                spc_jbuf_raw(&b, ",");
+            jvec3(&b, sol[k].d0);
+        }
+        spc_jbuf_raw(&b, "]");
+    }
+    spc_jbuf_printf(&b, ",\"rows\":%d,\"timed_out\":%s}", done / n, timed_out ? "true" : "false");
     free(sig_id);
     free(c);
     return finish(&b, 200, response);

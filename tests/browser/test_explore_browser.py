@@ -28,6 +28,45 @@ def check(cond, what):
         failures.append(what)
 
 
+def http_checks(url):
+    """The server answers bad requests with a 4xx and a message, and keeps serving."""
+    import json
+    import urllib.error
+    import urllib.request
+
+    def req(path, body=None, method=None):
+        data = body.encode() if isinstance(body, str) else body
+        r = urllib.request.Request(url.rstrip("/") + path, data=data, method=method)
+        try:
+            with urllib.request.urlopen(r, timeout=30) as f:
+                return f.status, f.read()
+        except urllib.error.HTTPError as e:
+            return e.code, e.read()
+
+    good = '{"receiver": {"origin": [0.2, 0.05, 0.14], "direction": [0, -1, 0]}}'
+    cases = [("/api/solve", "{bad", 400, b"malformed JSON"),
+             ("/api/solve", " " * 20000, 413, b"too large"),
+             ("/api/solve", good[:-1] + ', "max_chain": 99}', 400, b"out of range"),
+             ("/api/solve", good[:-1] + ', "time_limit": -1}', 400, b"out of range"),
+             ("/api/nothing", None, 404, b"no such API path"),
+             ("/../../etc/passwd", None, 404, b"not found"),
+             ("/three.min.js/../index.html", None, 404, b"not found")]
+    for path, body, status, msg in cases:
+        st, text = req(path, body)
+        check(st == status and msg in text, "%s %r... -> %d %r" % (path, (body or "")[:20], st, text[:60]))
+    st, text = req("/api/solve", good)
+    check(st == 200 and json.loads(text)["runs"][0]["success"], "a good solve after the bad requests")
+    r = urllib.request.Request(url.rstrip("/") + "/api/scene", headers={"Host": "evil.example:80"})
+    try:
+        urllib.request.urlopen(r, timeout=30)
+        st = 200
+    except urllib.error.HTTPError as e:
+        st = e.code
+    check(st == 403, "a request with a foreign Host header is refused (%d)" % st)
+    st, text = req("/three.min.js")
+    check(st == 200 and b"THREE" in text[:4000], "three.js served")
+
+
 def main():
     specula = sys.argv[1]
     shot = sys.argv[2] if len(sys.argv) > 2 else os.path.join(os.path.dirname(specula), "explore_browser.png")
@@ -45,6 +84,14 @@ def main():
             print("FAIL %s is missing (.ci/run installs chromium and chromium-driver)" % path)
             return 1
 
+    # the command line's mistakes: a clear message and a nonzero exit, no server
+    for args, code, msg in ((["explore"], 2, "no scene given"),
+                            (["explore", SCENE, "--port", "70000"], 2, "--port needs a number"),
+                            (["explore", SCENE, "--bogus"], 2, "unknown option"),
+                            (["explore", "scenes/no_such_scene.xml"], 3, "no_such_scene.xml")):
+        p = subprocess.run([specula] + args, capture_output=True, text=True, timeout=60)
+        check(p.returncode == code and msg in p.stderr, "specula %s -> exit %d, %r" % (" ".join(args), p.returncode,
+                                                                                     p.stderr.strip()[:80]))
     server = subprocess.Popen([specula, "explore", SCENE, "--port", "0"], stdout=subprocess.PIPE,
                               stderr=subprocess.STDOUT, text=True)
     driver = None
@@ -55,6 +102,10 @@ def main():
         if not m:
             return 1
         url = "http://127.0.0.1:%s/" % m.group(1)
+        http_checks(url)
+        p = subprocess.run([specula, "explore", SCENE, "--port", m.group(1)], capture_output=True, text=True, timeout=60)
+        check(p.returncode == 4 and "cannot listen" in p.stderr, "a second server on the same port: exit %d, %r" %
+              (p.returncode, p.stderr.strip()))
 
         opts = webdriver.ChromeOptions()
         opts.binary_location = "/usr/bin/chromium"
@@ -124,6 +175,23 @@ def main():
         driver.find_element(By.ID, "solve2d").click()
         WebDriverWait(driver, 10).until(lambda d: re.match(r"2D: (converged|failed)", status.text))
         check(status.text.startswith("2D: converged"), "2D view solves: %r" % status.text)
+        # every preset: the analytic dL/dtheta against a central difference at 400 angles (where the
+        # bounce sequence is the same on both sides), a solve from the preset's start converges, and
+        # the loss over theta has roots
+        for name in driver.execute_script("return Object.keys(PRESETS);"):
+            n, worst, st, roots = driver.execute_script("""
+              loadPreset(arguments[0]);
+              let worst = 0, n = 0;
+              for (let i = 0; i < 400; ++i) {
+                const th = -Math.PI + 2 * Math.PI * (i + 0.37) / 400, t = trace2(th), f = fd2(th, 1e-6);
+                if (!isFinite(f) || t.L < 1e-12) continue;
+                worst = Math.max(worst, Math.abs(t.g - f) / Math.max(Math.abs(t.g), 1e-3 * t.L)); ++n;
+              }
+              solve2d();
+              return [n, worst, document.getElementById('solver-status').textContent, P.roots.length];""", name)
+            check(n > 300 and worst < 1e-4 and st.startswith("2D: converged") and "direct" not in st and roots >= 1,
+                  "2D preset %r: %d angles, worst derivative error %.2g, %r, %d roots" % (name, n, worst, st, roots))
+        driver.execute_script("loadPreset('glass ball'); solve2d();")
         driver.save_screenshot(os.path.splitext(shot)[0] + "_2d.png")
 
         errors = [e for e in driver.get_log("browser") if e.get("level") == "SEVERE"]

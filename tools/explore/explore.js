@@ -118,7 +118,8 @@ async function init3d() {
   resize3d();
   window.addEventListener('resize', () => { resize3d(); resize2d(); });
   installMouse3d(canvas);
-  for (const id of ['solver', 'max_chain', 'seed', 'seed_index', 'light_sample', 'method', 'loss'])
+  $('light_sample').addEventListener('change', () => { V.lightRay = null; }); // back to sampled points
+  for (const id of ['solver', 'max_chain', 'seed', 'seed_index', 'light_sample', 'method', 'loss', 'basins'])
     $(id).addEventListener('change', () => { if (V.ray) solve(); });
   $('iter').addEventListener('input', () => drawResult());
   $('next-seed').onclick = () => {
@@ -160,6 +161,7 @@ function installMouse3d(canvas) {
   canvas.addEventListener('mousedown', (e) => {
     last = [e.clientX, e.clientY];
     if (e.button === 2 || e.shiftKey) { mode = 'orbit'; return; }
+    if (e.ctrlKey || e.altKey) { pickLight(e); return; }
     mode = 'drag';
     placeReceiver(e);
   });
@@ -197,11 +199,20 @@ function placeReceiver(ev) {
   solve();
 }
 
+// ctrl- or alt-click on an area light: y there (instead of specular NEE's sampled point)
+function pickLight(ev) {
+  const rc = pickRay(ev);
+  V.lightRay = { origin: rc.ray.origin.toArray(), direction: rc.ray.direction.toArray() };
+  if (V.ray) solve();
+}
+
 function request() {
-  return {
+  const req = {
     receiver: V.ray, solver: $('solver').value, max_chain: +$('max_chain').value, seed: $('seed').value,
     seed_index: +$('seed_index').value, light_sample: +$('light_sample').value, method: $('method').value, loss: $('loss').value,
   };
+  if (V.lightRay) req.light = V.lightRay;
+  return req;
 }
 
 // One solve in flight at a time; a drag during it leaves one more to do.
@@ -331,7 +342,15 @@ function drawResult() {
 function fmt(x) { return x === null ? 'n/a' : Number(x).toExponential(4); }
 
 // ---------------------------------------------------------------- loss map
+// One loss map in flight at a time; while it runs, only the latest request waits.
 async function lossMap(req, run) {
+  if (V.mapBusy) { V.mapPending = [req, run]; return; }
+  V.mapBusy = true;
+  try { await lossMapNow(req, run); } finally { V.mapBusy = false; }
+  if (V.mapPending) { const p = V.mapPending; V.mapPending = null; return lossMap(p[0], p[1]); }
+}
+
+async function lossMapNow(req, run) {
   const seed = v3(run.seed_direction);
   // extent: every iterate's direction inside the map, in the seed's gnomonic coordinates
   const fr = frameOf(seed);
@@ -341,7 +360,8 @@ async function lossMap(req, run) {
     if (dn > 0.05) ext = Math.max(ext, Math.abs(d.dot(fr.s) / dn), Math.abs(d.dot(fr.t) / dn));
   }
   ext = Math.min(2, ext * 1.3);
-  const body = Object.assign({}, req, { seed_direction: run.seed_direction, size: 64, extent: ext });
+  const basins = $('basins').checked;
+  const body = Object.assign({}, req, { seed_direction: run.seed_direction, size: basins ? 48 : 64, extent: ext, basins });
   delete body.seed;
   delete body.solver;
   V.map = await api('/api/lossmap', body);
@@ -369,6 +389,12 @@ function drawLossMap() {
       const c = viridis(Math.max(0, Math.min(1, u)));
       const sig = m.signature[j * N + i];
       const edge = (i > 0 && m.signature[j * N + i - 1] !== sig) || (j > 0 && m.signature[(j - 1) * N + i] !== sig);
+      if (m.basin) {
+        // basins: the solution's hue over the loss's brightness; no solution: dark
+        const bid = m.basin[j * N + i], v = 0.35 + 0.65 * (1 - u);
+        const h = bid < 0 ? null : new THREE.Color().setHSL((bid * 0.618034) % 1, 0.85, 0.25 + 0.35 * v);
+        if (h) { c[0] = 255 * h.r; c[1] = 255 * h.g; c[2] = 255 * h.b; } else { c[0] = c[1] = c[2] = 25; }
+      }
       img.data[o] = edge ? 255 : c[0]; img.data[o + 1] = edge ? 255 : c[1]; img.data[o + 2] = edge ? 255 : c[2]; img.data[o + 3] = 255;
     }
   const tmp = document.createElement('canvas');
@@ -384,7 +410,9 @@ function drawLossMap() {
   acc.forEach((it, i) => { const p = toPx(v3(it.d0)); if (i) g.lineTo(p[0], p[1]); else g.moveTo(p[0], p[1]); });
   g.stroke();
   acc.forEach((it, i) => { const p = toPx(v3(it.d0)); g.fillStyle = i === acc.length - 1 ? (m.run.success ? '#4f4' : '#f44') : '#fff'; g.beginPath(); g.arc(p[0], p[1], 3, 0, 7); g.fill(); });
-  $('lossmap-info').textContent = 'a, b in [-' + m.extent.toPrecision(3) + ', ' + m.extent.toPrecision(3) + '], log10 loss ' +
+  if (m.solutions) // the solutions the basins lead to, as rings
+    for (const sd of m.solutions) { const p = toPx(v3(sd)); g.strokeStyle = '#fff'; g.lineWidth = 2; g.beginPath(); g.arc(p[0], p[1], 6, 0, 7); g.stroke(); }
+  $('lossmap-info').textContent = (m.solutions ? m.solutions.length + (m.solutions.length === 1 ? ' solution' : ' solutions') + ' reached; ' : '') + 'a, b in [-' + m.extent.toPrecision(3) + ', ' + m.extent.toPrecision(3) + '], log10 loss ' +
     lo.toFixed(1) + ' .. ' + hi.toFixed(1) + '; grey: no chain; white lines: the chain\'s surfaces change';
 }
 
@@ -403,7 +431,7 @@ function showTab(which) {
   $('tab2d').className = is3 ? '' : 'on';
   for (const el of document.querySelectorAll('.only3d')) el.style.display = is3 ? '' : 'none';
   for (const el of document.querySelectorAll('.only2d')) el.style.display = is3 ? 'none' : 'block';
-  $('help').textContent = is3 ? 'left click / drag on a diffuse surface: receiver x · right drag: orbit · wheel: zoom'
+  $('help').textContent = is3 ? 'left click / drag on a diffuse surface: receiver x · ctrl-click on a light: y · right drag: orbit · wheel: zoom'
     : 'drag x, y, the aim handle or shapes · the ray follows up to 10 bounces';
   if (is3) resize3d(); else { resize2d(); draw2d(); }
 }
@@ -432,8 +460,8 @@ const P = { shapes: [], x: [0, 0], y: [0, 0], theta: 0, sel: -1, iterates: [], r
 const PRESETS = {
   'glass ball': () => ({ x: [0.1, -0.9], y: [-0.09, 1.0], shapes: [{ kind: 'circle', c: [0, 0.1], r: 0.4, mat: 'glass', eta: 1.5 }] }),
   'two mirrors': () => ({ x: [-0.9, -0.6], y: [0.9, -0.6], shapes: [
-    { kind: 'plane', c: [-0.3, 0.6], ang: -Math.PI / 2 - 0.25, half: 0.5, mat: 'mirror' },
-    { kind: 'plane', c: [0.4, 0.5], ang: -Math.PI / 2 + 0.3, half: 0.5, mat: 'mirror' }] }),
+    { kind: 'plane', c: [-0.3, 0.6], ang: -1.09, half: 0.3, mat: 'mirror' },
+    { kind: 'plane', c: [0.4, 0.5], ang: -2.21, half: 0.3, mat: 'mirror' }] }),
   'lens and mirror': () => ({ x: [-1.1, -0.7], y: [1.1, -0.7], shapes: [
     { kind: 'circle', c: [-0.35, 0.1], r: 0.3, mat: 'glass', eta: 1.5 },
     { kind: 'plane', c: [0.5, 0.8], ang: -Math.PI / 2, half: 0.7, mat: 'mirror' }] }),
@@ -450,8 +478,9 @@ const dot2 = (a, b) => a[0] * b[0] + a[1] * b[1];
 function loadPreset(name) {
   const p = PRESETS[name]();
   P.shapes = p.shapes; P.x = p.x; P.y = p.y; P.sel = -1; P.iterates = [];
-  // start a little off the straight line x -> y, so that a solve has something to do
-  P.theta = Math.atan2(P.y[1] - P.x[1], P.y[0] - P.x[0]) + 0.08;
+  // start a little off the line from x to the first shape, so that a solve has something to do
+  const c0 = P.shapes[0].c;
+  P.theta = Math.atan2(c0[1] - P.x[1], c0[0] - P.x[0]) + 0.05;
   update2d();
 }
 
@@ -578,7 +607,8 @@ function solve2d() {
   P.theta = th;
   P.iterates = its;
   const conv = tr.L <= 1e-20 || Math.sqrt(tr.L) < 1e-9;
-  setStatus(conv ? '2D: converged in ' + n + ' iterations' : '2D: failed: ' + (msg || 'iteration limit'), conv);
+  const direct = tr.pts.length < 2 ? ' (the direct line, no bounce)' : '';
+  setStatus(conv ? '2D: converged in ' + n + ' iterations' + direct : '2D: failed: ' + (msg || 'iteration limit'), conv);
   update2d(true);
 }
 
