@@ -108,7 +108,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             }
             break;
         }
-        if (segments == 1) {
+        if (segments == 1 && out->aovs) {
             out->albedo = spc_bsdf_albedo(h.bsdf, &h);
             out->normal = h.sh.n;
             out->depth = h.t;
