@@ -16,7 +16,7 @@
 
 /* Scenes of at least this many triangles get Embree's compact BVH (leaves index the shared vertex
  * buffer instead of holding copies of the vertices). Measured: a 10-million-triangle mesh loads in
- * about half the memory (1260 -> 672 MB peak) and 20% less CPU time; one of a million triangles
+ * about half the memory (1230 -> 656 MiB peak) and 20% less CPU time; one of a million triangles
  * loads and renders (128x128, 16 spp) in 16% less CPU time; the cornell box (36 triangles) renders
  * 8% slower. Hits are the same either way. */
 #define SPC_ACCEL_COMPACT_TRIS (1u << 19)
