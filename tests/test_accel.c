@@ -1,7 +1,7 @@
 /*
  * tests/test_accel.c: the acceleration structure's hits against closed-form ones, for a mesh whose
  * positions and indices Embree reads in place, below and at the size where the BVH turns compact
- * (SPC_ACCEL_COMPACT_TRIS).
+ * (SPC_ACCEL_COMPACT_TRIS); the scene's budget of kept triangle frames.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -12,16 +12,10 @@
 #include "harness.h"
 #include "scene/scene.h"
 
-/* A k x k grid of quads over [0,1]^2 at height z, two triangles per cell: cell (i, j) (x from
+/* Adds a k x k grid of quads over [0,1]^2 at height z, two triangles per cell: cell (i, j) (x from
  * i/k, y from j/k) holds triangles 2 (j k + i) and 2 (j k + i) + 1. */
-static spc_scene *grid_scene(int k, double z)
+static bool add_grid(spc_scene *sc, int k, double z, const spc_bsdf *d)
 {
-    spc_scene *sc = spc_scene_create();
-    if (!sc)
-        return NULL;
-    spc_bsdf *d = spc_scene_new_bsdf(sc);
-    d->type = SPC_BSDF_DIFFUSE;
-    d->reflectance = spc_scene_constant(sc, spc_rgb1(0.5));
     spc_mesh m;
     memset(&m, 0, sizeof m);
     int n = k + 1;
@@ -31,8 +25,7 @@ static spc_scene *grid_scene(int k, double z)
     m.idx = malloc(3 * m.ntris * sizeof(uint32_t));
     if (!m.p || !m.idx) {
         spc_mesh_release(&m);
-        spc_scene_destroy(sc);
-        return NULL;
+        return false;
     }
     for (int j = 0; j < n; ++j)
         for (int i = 0; i < n; ++i) {
@@ -51,11 +44,28 @@ static spc_scene *grid_scene(int k, double z)
     spc_error err;
     if (!sh || !spc_shape_init_mesh(sh, &m, NULL, NULL, 0, 0, &err)) {
         spc_mesh_release(&m);
-        spc_scene_destroy(sc);
-        return NULL;
+        return false;
     }
     sh->bsdf = d;
+    return true;
+}
+
+/* A scene of grids of k[0], k[1], ... quads a side (n of them), at heights 0.25, 0.5, ... */
+static spc_scene *grids_scene(const int *k, int n)
+{
+    spc_scene *sc = spc_scene_create();
+    if (!sc)
+        return NULL;
+    spc_bsdf *d = spc_scene_new_bsdf(sc);
+    d->type = SPC_BSDF_DIFFUSE;
+    d->reflectance = spc_scene_constant(sc, spc_rgb1(0.5));
+    for (int i = 0; i < n; ++i)
+        if (!add_grid(sc, k[i], 0.25 * (i + 1), d)) {
+            spc_scene_destroy(sc);
+            return NULL;
+        }
     spc_scene_set_defaults(sc);
+    spc_error err;
     if (spc_scene_finalize(sc, &err) != SPC_OK) {
         printf("  finalize: %s\n", err.msg);
         spc_scene_destroy(sc);
@@ -70,7 +80,7 @@ static spc_scene *grid_scene(int k, double z)
 static int check_grid(int k)
 {
     const double z = 0.25;
-    spc_scene *sc = grid_scene(k, z);
+    spc_scene *sc = grids_scene(&k, 1);
     CHECK(sc != NULL);
     if (!sc)
         return 0;
@@ -111,12 +121,32 @@ static int check_grid(int k)
 
 TEST(grid_hits_small) { CHECK(check_grid(16) == 2000); }
 
+/* The kept triangle frames' budget (SPC_MESH_FRAME_MAX_TRIS) holds for the scene: of three meshes
+ * of 2 * 110^2 = 24200 triangles the first two keep them, the third would pass the budget with
+ * them; a mesh over the budget alone keeps none. */
+TEST(kept_frames_budget)
+{
+    int k[3] = {110, 110, 110};
+    spc_scene *sc = grids_scene(k, 3);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    CHECK(2 * 2 * 110 * 110 <= SPC_MESH_FRAME_MAX_TRIS && 3 * 2 * 110 * 110 > SPC_MESH_FRAME_MAX_TRIS);
+    CHECK(sc->shapes[0]->tri_frame && sc->shapes[1]->tri_frame && !sc->shapes[2]->tri_frame);
+    spc_scene_destroy(sc);
+    int big = 200; /* 80000 triangles */
+    sc = grids_scene(&big, 1);
+    CHECK(sc && !sc->shapes[0]->tri_frame);
+    spc_scene_destroy(sc);
+}
+
 /* 2 * 512^2 = 524288 triangles: the compact BVH (SPC_ACCEL_COMPACT_TRIS) */
 TEST(grid_hits_compact) { CHECK(check_grid(512) == 2000); }
 
 int main(void)
 {
     RUN(grid_hits_small);
+    RUN(kept_frames_budget);
     RUN(grid_hits_compact);
     return spc_test_finish();
 }
