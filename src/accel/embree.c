@@ -14,6 +14,13 @@
 
 #include "scene/scene.h"
 
+/* Scenes of at least this many triangles get Embree's compact BVH (leaves index the shared vertex
+ * buffer instead of holding copies of the vertices). Measured: a 10-million-triangle mesh loads in
+ * about half the memory (1230 -> 656 MiB peak) and 20% less CPU time; one of a million triangles
+ * loads and renders (128x128, 16 spp) in 16% less CPU time; the cornell box (36 triangles) renders
+ * 8% slower. Hits are the same either way. */
+#define SPC_ACCEL_COMPACT_TRIS (1u << 19)
+
 struct spc_accel {
     RTCDevice device;
     RTCScene scene;
@@ -112,7 +119,11 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
     rtcSetDeviceErrorFunction(a->device, error_fn, NULL);
     a->scene = rtcNewScene(a->device);
     rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_HIGH);
-    rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
+    size_t ntris = 0;
+    for (int i = 0; i < sc->nshapes; ++i)
+        if (sc->shapes[i]->type == SPC_SHAPE_MESH)
+            ntris += sc->shapes[i]->mesh.ntris;
+    rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST | (ntris >= SPC_ACCEL_COMPACT_TRIS ? RTC_SCENE_FLAG_COMPACT : 0));
     for (int i = 0; i < sc->nshapes; ++i) {
         const spc_shape *s = sc->shapes[i];
         RTCGeometry g;

@@ -73,6 +73,9 @@ typedef struct spc_sample_out {
      * 2 k + 1 the unweighted contribution of strategy k = spc_strategy_index(s, t) to L (zero for
      * t = 1, which splats instead). Other integrators leave it alone. */
     spc_rgb *strategy_L;
+    /* Set by the driver before the call: whether albedo, normal and depth are wanted (the film has
+     * AOVs); when false an integrator may leave them zero. */
+    bool aovs;
 } spc_sample_out;
 
 /* Strategies (s, t), t >= 1, of lengths k = s + t - 1 = 1 .. depth, numbered by length, then by s:

@@ -109,7 +109,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             break;
         }
         spc_vec3 wo = spc_neg(ray.d);
-        if (segments == 1)
+        if (segments == 1 && out->aovs)
             spc_aov_from_hit(ctx, &h, wo, smp, out);
         /* specular NEE hook: an emitter hit through a chain it covers (see above) */
         bool covered = snee && spc_snee_track_covers(&track, sc, h.emitter);

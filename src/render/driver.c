@@ -112,6 +112,7 @@ static void render_item(job *jb, int item)
             spc_sample_out out;
             spc_rgb strategy_L[2 * SPC_STRATEGY_IMAGES_MAX];
             out.strategy_L = jb->nfilms > 0 ? strategy_L : NULL;
+            out.aovs = jb->base == 10;
             spc_integrator_sample(ctx, tls, &ray, &smp, &out);
             if (!estimate_ok(out.L)) {
                 tls->invalid++;

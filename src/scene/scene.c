@@ -171,6 +171,7 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
     spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
     for (int i = 0; i < s->nbsdfs; ++i)
         spc_bsdf_prepare(s->bsdfs[i]);
+    size_t kept_frames = 0; /* triangles whose frames the meshes keep (SPC_MESH_FRAME_MAX_TRIS) */
     for (int i = 0; i < s->nshapes; ++i) {
         spc_shape *sh = s->shapes[i];
         if (!sh->bsdf) {
@@ -193,6 +194,13 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
                                  "out of memory for the area sampling table of shape %d ('%s')", i, sh->id);
         if (ps != SPC_OK)
             return spc_error_set(err, ps, file, 0, 0, "shape %d ('%s') has zero area or invalid geometry", i, sh->id);
+        /* the kept triangle frames' budget is the scene's, not each mesh's */
+        if (sh->tri_frame) {
+            if (sh->mesh.ntris > SPC_MESH_FRAME_MAX_TRIS - kept_frames)
+                spc_shape_drop_frames(sh);
+            else
+                kept_frames += sh->mesh.ntris;
+        }
         lo = spc_vmin(lo, sh->bbox_min);
         hi = spc_vmax(hi, sh->bbox_max);
     }

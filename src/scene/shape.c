@@ -297,6 +297,12 @@ static spc_vec3 tri_tangent(const spc_mesh *m, uint32_t i0, uint32_t i1, uint32_
     return e1;
 }
 
+void spc_shape_drop_frames(spc_shape *s)
+{
+    free(s->tri_frame);
+    s->tri_frame = NULL;
+}
+
 spc_status spc_shape_prepare(spc_shape *s)
 {
     switch (s->type) {

@@ -34,10 +34,11 @@ typedef enum spc_shape_type {
     SPC_SHAPE_SDF
 } spc_shape_type;
 
-/* Meshes up to this many triangles keep their triangles' normals and tangents (spc_shape.tri_frame,
- * 48 bytes a triangle, at most 3 MiB a mesh): the walls, boxes and quads that most rays of a room
- * hit, where a hit's normalizations are a tenth of the path tracer's time (cornell box); bigger
- * meshes are hit by fewer rays per triangle and keep their memory. */
+/* Meshes keep their triangles' normals and tangents (spc_shape.tri_frame, 48 bytes a triangle)
+ * up to this many triangles, a mesh and a scene (spc_scene_finalize drops them from the meshes past
+ * the scene's budget): at most 3 MiB. Those are the walls, boxes and quads that most rays of a room
+ * hit, where a hit's normalizations were a tenth of the path tracer's time (cornell box); big meshes
+ * are hit by fewer rays per triangle and keep their memory. */
 #define SPC_MESH_FRAME_MAX_TRIS 65536
 
 /* Per-shape caustic flags (Mitsuba properties used by the caustics papers' scenes). */
@@ -114,6 +115,8 @@ bool spc_shape_init_sdf(spc_shape *s, struct spc_sdf *sdf, int root, const spc_m
 /* Computes area, sampling tables and bounds. SPC_OK; SPC_ERR_NOMEM if the sampling table could not
  * be allocated; SPC_ERR_VALUE if the area is zero or not finite (or an SDF shape has no field). */
 spc_status spc_shape_prepare(spc_shape *s);
+/* Frees a mesh's kept triangle frames (spc_shape.tri_frame); hits are the same without them. */
+void spc_shape_drop_frames(spc_shape *s);
 void spc_shape_release(spc_shape *s);
 
 /* Exact intersection for analytic shapes: the nearest t in (tmin, tmax), or false.
