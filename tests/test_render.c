@@ -5,7 +5,12 @@
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
+#include <string.h>
+#include <unistd.h>
+
 #include "harness.h"
+#include "io/image_io.h"
+#include "io/mitsuba_xml.h"
 #include "render_util.h"
 
 /* |mean - expected| within k standard errors (plus a tiny absolute slack for float storage). */
@@ -295,6 +300,71 @@ TEST(filter_edge_as_mitsuba)
     }
 }
 
+/* Mitsuba 3's aov integrator: its outputs come out as EXR channels named as Mitsuba names them,
+ * with the values of the first vertex: a plane facing the camera at distance 2 (depth 2, normal
+ * -z, position on z = 2, albedo its reflectance), the nested integrator's image again. */
+TEST(aov_integrator_channels)
+{
+    static const char xml[] =
+        "<scene version=\"3.0.0\">"
+        "<integrator type=\"aov\"><string name=\"aovs\" value=\"dd:depth, nn:sh_normal,pos:position,a:albedo\"/>"
+        "<integrator type=\"path\" name=\"image\"/></integrator>"
+        "<sensor type=\"perspective\"><float name=\"fov\" value=\"10\"/>"
+        "<film type=\"hdrfilm\"><integer name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/>"
+        "<rfilter type=\"box\"/></film></sensor>"
+        "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"10\"/><rotate y=\"1\" angle=\"180\"/>"
+        "<translate z=\"2\"/></transform><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.25, 0.5, 0.75\"/>"
+        "</bsdf></shape><emitter type=\"constant\"/></scene>";
+    spc_scene *s = NULL;
+    spc_error err;
+    if (spc_mitsuba_load_string(xml, sizeof xml - 1, "aov.xml", ".", NULL, 0, &s, &err) != SPC_OK) {
+        char msg[1200];
+        spc_error_format(&err, msg, sizeof msg);
+        CHECK_MSG(false, "%s", msg);
+        return;
+    }
+    CHECK(s->integrator.naovs == 4 && strcmp(s->integrator.aov_image, "image") == 0);
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = 4;
+    o.threads = 1;
+    spc_film *f = NULL;
+    spc_render_stats st;
+    CHECK(spc_render(s, &o, &f, &st, &err) == SPC_OK);
+    char path[] = "/tmp/specula_aov_XXXXXX";
+    int fd = mkstemp(path);
+    CHECK(fd >= 0);
+    if (fd >= 0)
+        close(fd);
+    CHECK(f && spc_film_write_exr(f, path, false, &err) == SPC_OK);
+    static const char *const names[] = {"dd.T",  "nn.X",  "nn.Y", "nn.Z", "pos.X",   "pos.Y",  "pos.Z",
+                                        "a.R",   "a.G",   "a.B",  "R",    "image.R", "image.B"};
+    const int nn = (int)(sizeof names / sizeof names[0]);
+    int w = 0, h = 0;
+    float *px = NULL;
+    bool found[sizeof names / sizeof names[0]];
+    CHECK(spc_exr_read_channels(path, nn, names, &w, &h, &px, found, &err) == SPC_OK);
+    for (int k = 0; k < nn; ++k)
+        CHECK_MSG(found[k], "channel %s missing", names[k]);
+    for (int i = 0; px && i < w * h; ++i) {
+        const float *v = px + (size_t)i * nn;
+        /* distance to the plane z = 2 along rays within 5 degrees of the axis */
+        CHECK(v[0] > 2.0 && v[0] < 2.0 / cos(6.0 * SPC_PI / 180.0));
+        CHECK_NEAR(fabs(v[3]), 1.0, 1e-6);
+        CHECK_NEAR(v[6], 2.0, 1e-5);
+        CHECK(fabs(v[4]) < 0.2 && fabs(v[5]) < 0.2);
+        CHECK_NEAR(v[7], 0.25, 1e-6);
+        CHECK_NEAR(v[8], 0.5, 1e-6);
+        CHECK_NEAR(v[9], 0.75, 1e-6);
+        CHECK_NEAR(v[10], v[11], 1e-7); /* the nested image equals the image */
+        CHECK(v[12] > 0.0);
+    }
+    free(px);
+    remove(path);
+    spc_film_destroy(f);
+    spc_scene_destroy(s);
+}
+
 int main(void)
 {
     spc_warn_set_quiet(1);
@@ -305,5 +375,6 @@ int main(void)
     RUN(glass_slab_transmission);
     RUN(same_image_for_any_thread_count);
     RUN(filter_edge_as_mitsuba);
+    RUN(aov_integrator_channels);
     return spc_test_finish();
 }

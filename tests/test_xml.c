@@ -661,6 +661,10 @@ TEST(sensor_and_integrators)
         CHECK_NEAR(s->camera.fov, 2.0 * atan(sqrt(36.0 * 36.0 + 24.0 * 24.0) / 70.0) * 180.0 / SPC_PI, 1e-9);
         spc_scene_destroy(s);
     }
+    /* aov: the types specula keeps; another is refused by name */
+    expect_error("<scene version=\"3.0.0\"><integrator type=\"aov\"><string name=\"aovs\" value=\"a:depth,b:uv\"/>"
+                 "<integrator type=\"path\"/></integrator></scene>",
+                 SPC_ERR_PLUGIN, 1, 47, "aov type 'uv'");
     /* thinlens: a lens (its focus_distance defaults to far_clip), aperture_radius required */
     s = load_ok("<scene version=\"3.0.0\"><sensor type=\"thinlens\"><float name=\"aperture_radius\" value=\"0.1\"/>"
                 "<float name=\"far_clip\" value=\"50\"/></sensor></scene>");

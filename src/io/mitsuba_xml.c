@@ -1457,6 +1457,66 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
 /* ------------------------------------------------------------------------------------------------ */
 /* integrator */
 
+/* The aov integrator's "aovs": comma-separated name:type pairs (Mitsuba 3's aov.cpp), of the types
+ * specula keeps per pixel. */
+static void parse_aovs(mts_loader *L, mts_props *P, const spc_xml_node *node)
+{
+    static const struct {
+        const char *name;
+        spc_aov_type type;
+    } types[] = {{"albedo", SPC_AOV_ALBEDO},
+                 {"depth", SPC_AOV_DEPTH},
+                 {"position", SPC_AOV_POSITION},
+                 {"sh_normal", SPC_AOV_SH_NORMAL}};
+    spc_integrator_spec *it = &L->scene->integrator;
+    const char *list = mts_get_string(L, P, "aovs", "");
+    const spc_xml_node *at = mts_where(P, "aovs");
+    if (!at)
+        at = node;
+    it->naovs = 0;
+    for (const char *p = list; L->status == SPC_OK && *p;) {
+        while (*p == ' ' || *p == ',')
+            ++p;
+        if (!*p)
+            break;
+        const char *end = p;
+        while (*end && *end != ',')
+            ++end;
+        const char *colon = memchr(p, ':', (size_t)(end - p));
+        size_t nlen = colon ? (size_t)(colon - p) : 0;
+        while (nlen > 0 && p[nlen - 1] == ' ')
+            --nlen;
+        const char *t = colon ? colon + 1 : end;
+        while (t < end && *t == ' ')
+            ++t;
+        size_t tlen = (size_t)(end - t);
+        while (tlen > 0 && t[tlen - 1] == ' ')
+            --tlen;
+        if (!colon || nlen == 0 || tlen == 0 || nlen >= sizeof it->aovs[0].name) {
+            mts_fail(L, at, SPC_ERR_VALUE, "aovs: expected name:type pairs separated by commas, got \"%.*s\"",
+                     (int)(end - p), p);
+            break;
+        }
+        int found = -1;
+        for (size_t i = 0; i < sizeof types / sizeof types[0]; ++i)
+            if (strlen(types[i].name) == tlen && strncmp(types[i].name, t, tlen) == 0)
+                found = (int)i;
+        if (found < 0) {
+            mts_fail(L, at, SPC_ERR_PLUGIN, "aov type '%.*s' is not supported (albedo, depth, position, sh_normal)",
+                     (int)tlen, t);
+            break;
+        }
+        if (it->naovs == SPC_MAX_AOV_OUTPUTS) {
+            mts_fail(L, at, SPC_ERR_LIMIT, "more than %d aovs", SPC_MAX_AOV_OUTPUTS);
+            break;
+        }
+        spc_aov_output *o = &it->aovs[it->naovs++];
+        snprintf(o->name, sizeof o->name, "%.*s", (int)nlen, p);
+        o->type = types[found].type;
+        p = end;
+    }
+}
+
 static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
 {
     mts_props P;
@@ -1465,8 +1525,11 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     spc_integrator_spec *it = &L->scene->integrator;
     const char *type = mts_type(node);
     if (strcmp(type, "aov") == 0 || strcmp(type, "moment") == 0 || strcmp(type, "stokes") == 0) {
-        mts_ignore(&P, "aovs");
+        if (strcmp(type, "aov") == 0)
+            parse_aovs(L, &P, node);
         spc_xml_node *inner = mts_object(&P, "integrator", 0, NULL);
+        if (inner && strcmp(type, "aov") == 0 && spc_xml_get(inner, "name"))
+            snprintf(it->aov_image, sizeof it->aov_image, "%s", spc_xml_get(inner, "name"));
         if (inner && depth < 8) {
             parse_integrator(L, inner, depth + 1);
         } else {
