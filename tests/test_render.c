@@ -365,6 +365,72 @@ TEST(aov_integrator_channels)
     spc_scene_destroy(s);
 }
 
+/* strict_normals (Mitsuba 0.6's strictNormals): a diffuse plane whose vertex normals lean 70
+ * degrees from its geometric normal, under a constant sky of radiance 1, seen from the side the
+ * shading normal leans to. Without strict normals the pixel is rho (the whole hemisphere around the
+ * shading normal is lit, some of it from below the plane); with them only the directions above
+ * both normals count: rho/pi times the integral of cos over that lune, by quadrature here. */
+TEST(strict_normals_drop_light_below_the_surface)
+{
+    const double tilt = 70.0 * SPC_PI / 180.0, rho = 0.5;
+    const spc_vec3 sn = spc_v3(sin(tilt), 0.0, cos(tilt));
+    double lune = 0.0;
+    const int nt = 600, np = 1200;
+    for (int i = 0; i < nt; ++i)
+        for (int j = 0; j < np; ++j) {
+            double th = (i + 0.5) * SPC_PI / nt, ph = (j + 0.5) * 2.0 * SPC_PI / np;
+            spc_vec3 w = spc_v3(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
+            double c = spc_dot(w, sn);
+            if (w.z > 0.0 && c > 0.0)
+                lune += c * sin(th) * (SPC_PI / nt) * (2.0 * SPC_PI / np);
+        }
+    const double want_strict = rho * lune / SPC_PI;
+    char dir[] = "/tmp/specula_strict_XXXXXX";
+    CHECK(mkdtemp(dir) != NULL);
+    char obj[600];
+    snprintf(obj, sizeof obj, "%s/plane.obj", dir);
+    FILE *fp = fopen(obj, "w");
+    CHECK(fp != NULL);
+    if (!fp)
+        return;
+    fprintf(fp, "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn %.17g 0 %.17g\nf 1//1 2//1 3//1\nf 1//1 3//1 4//1\n", sn.x,
+            sn.z);
+    fclose(fp);
+    for (int strict = 0; strict < 2; ++strict) {
+        char xml[2000];
+        snprintf(xml, sizeof xml,
+                 "<scene version=\"3.0.0\"><integrator type=\"path\"><integer name=\"max_depth\" value=\"2\"/>"
+                 "<boolean name=\"strict_normals\" value=\"%s\"/></integrator>"
+                 "<sensor type=\"perspective\"><float name=\"fov\" value=\"5\"/><transform name=\"to_world\">"
+                 "<lookat origin=\"3, 0, 3\" target=\"0, 0, 0\" up=\"0, 0, 1\"/></transform>"
+                 "<film type=\"hdrfilm\"><integer name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/>"
+                 "<rfilter type=\"box\"/></film></sensor>"
+                 "<shape type=\"obj\"><string name=\"filename\" value=\"plane.obj\"/><transform name=\"to_world\">"
+                 "<scale value=\"10\"/></transform><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"%g\"/>"
+                 "</bsdf></shape><emitter type=\"constant\"/></scene>",
+                 strict ? "true" : "false", rho);
+        spc_scene *s = NULL;
+        spc_error err;
+        CHECK(spc_mitsuba_load_string(xml, strlen(xml), "strict.xml", dir, NULL, 0, &s, &err) == SPC_OK);
+        if (!s)
+            continue;
+        spc_render_options o;
+        spc_render_options_init(&o);
+        o.spp = 4096;
+        o.threads = 2;
+        spc_film *f = NULL;
+        spc_render_stats st;
+        CHECK(spc_render(s, &o, &f, &st, &err) == SPC_OK);
+        if (f)
+            check_mean(f, strict ? want_strict : rho, 5.0);
+        spc_film_destroy(f);
+        spc_scene_destroy(s);
+    }
+    CHECK(want_strict < 0.8 * rho); /* the two cases differ */
+    remove(obj);
+    rmdir(dir);
+}
+
 int main(void)
 {
     spc_warn_set_quiet(1);
@@ -376,5 +442,6 @@ int main(void)
     RUN(same_image_for_any_thread_count);
     RUN(filter_edge_as_mitsuba);
     RUN(aov_integrator_channels);
+    RUN(strict_normals_drop_light_below_the_surface);
     return spc_test_finish();
 }

@@ -1570,7 +1570,9 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     it->hide_emitters = mts_get_bool(L, &P, "hide_emitters", false);
     /* specula's own (bdpt); read for every type so that --integrator path on a bdpt scene is quiet */
     it->mis_balance = mts_get_bool(L, &P, "mis_balance", false);
-    mts_ignore(&P, "strict_normals");
+    it->strict_normals = mts_get_bool(L, &P, "strict_normals", false);
+    if (it->strict_normals && strcmp(ours, "path") != 0)
+        mts_warn(mts_where(&P, "strict_normals"), "strict_normals is honoured by the path integrator only");
     if (mts_has(&P, "specular_nee")) {
         const char *nee = mts_get_string(L, &P, "specular_nee", "");
         spc_snee_params snp;

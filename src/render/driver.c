@@ -203,6 +203,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.specular_nee = ctx.snee.solver;
     ctx.specular_max_chain = ctx.snee.max_chain; /* the setting's chain=N, if given */
     ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
+    ctx.strict_normals = sc->integrator.strict_normals;
     if (o->strategy_images) {
         if (ctx.kind != SPC_INTEGRATOR_BDPT)
             return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "strategy images need the bdpt integrator, not '%s'",

@@ -88,6 +88,8 @@ typedef struct spc_integrator_spec {
     char specular_nee[96];  /* "" (off), "angular", "newton", "conic", with options (spc_snee_parse) */
     int specular_max_chain; /* longest chain of specular vertices for specular NEE */
     bool mis_balance;       /* bdpt: balance heuristic instead of the power heuristic */
+    bool strict_normals;    /* path: no light across surfaces whose shading normal disagrees with
+                               the geometric normal (Mitsuba 0.6's strictNormals) */
     int naovs;              /* an aov integrator's outputs, written as EXR channels */
     spc_aov_output aovs[SPC_MAX_AOV_OUTPUTS];
     char aov_image[48];     /* the nested integrator's name: its image also as name.R/G/B */
