@@ -181,7 +181,7 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
             }
         }
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown texture type '%s' (bitmap, checkerboard)", type);
+        mts_fail_plugin(L, node, "texture", type, "bitmap, checkerboard");
     }
     if (L->status != SPC_OK)
         t = NULL;
@@ -420,11 +420,9 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
             b->nested[1] = nested_bsdf(L, &P, 1);
         }
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN,
-                 "unknown bsdf type '%s' (diffuse, roughdiffuse, phong, conductor, roughconductor, dielectric, "
-                 "thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, bumpmap, null, mask, "
-                 "blendbsdf)",
-                 type);
+        mts_fail_plugin(L, node, "bsdf", type,
+                        "diffuse, roughdiffuse, phong, conductor, roughconductor, dielectric, thindielectric, "
+                        "roughdielectric, plastic, roughplastic, twosided, normalmap, bumpmap, null, mask, blendbsdf");
     }
 out:
     if (L->status != SPC_OK)
@@ -768,10 +766,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
         ok |= strcmp(type, known[i]) == 0;
     if (!ok) {
-        mts_fail(L, node, SPC_ERR_PLUGIN,
-                 "unknown shape type '%s' (sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, "
-                 "shapegroup, instance)",
-                 type);
+        mts_fail_plugin(L, node, "shape", type,
+                        "sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, shapegroup, instance");
         mts_props_end(&P);
         return L->status;
     }
@@ -937,8 +933,7 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
     for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
         ok |= strcmp(type, known[i]) == 0;
     if (!ok) {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown emitter type '%s' (area, point, spot, directional, constant, envmap)",
-                 type);
+        mts_fail_plugin(L, node, "emitter", type, "area, point, spot, directional, constant, envmap");
     } else if (shape && strcmp(type, "area") != 0) {
         mts_fail(L, node, SPC_ERR_VALUE, "only area emitters can be attached to a shape, not '%s'", type);
     } else if (!shape && strcmp(type, "area") == 0) {

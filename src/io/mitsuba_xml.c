@@ -1260,7 +1260,7 @@ static void parse_rfilter(mts_loader *L, spc_xml_node *node, spc_film_spec *film
         film->filter_stddev = 0.5;
         film->filter_radius = 2.0;
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown rfilter type '%s' (box, tent, gaussian)", type);
+        mts_fail_plugin(L, node, "rfilter", type, "box, tent, gaussian");
     }
     if (L->status == SPC_OK && !(film->filter_radius > 0.0))
         mts_fail(L, node, SPC_ERR_VALUE, "rfilter '%s': radius must be positive", type);
@@ -1274,7 +1274,7 @@ static void parse_film(mts_loader *L, spc_xml_node *node, spc_film_spec *film)
         return;
     const char *type = mts_type(node);
     if (strcmp(type, "hdrfilm") != 0 && strcmp(type, "ldrfilm") != 0) {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown film type '%s' (hdrfilm, ldrfilm)", type);
+        mts_fail_plugin(L, node, "film", type, "hdrfilm, ldrfilm");
         mts_props_end(&P);
         return;
     }
@@ -1362,7 +1362,7 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
     } else if (strcmp(type, "orthographic") == 0) {
         cam->type = SPC_CAMERA_ORTHOGRAPHIC;
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown sensor type '%s' (perspective, thinlens, orthographic)", type);
+        mts_fail_plugin(L, node, "sensor", type, "perspective, thinlens, orthographic");
         mts_props_end(&P);
         return;
     }
@@ -1558,9 +1558,12 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     } else if (strcmp(type, "ipt") == 0) {
         ours = "ipt";
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN,
-                 "unknown integrator '%s'; choose one of specula's with --integrator path or -D integrator=path",
-                 type);
+        if (mts_plugin_find("integrator", type))
+            mts_fail_plugin(L, node, "integrator", type, "");
+        else
+            mts_fail(L, node, SPC_ERR_PLUGIN,
+                     "unknown integrator '%s'; choose one of specula's with --integrator path or -D integrator=path",
+                     type);
         mts_props_end(&P);
         return;
     }
