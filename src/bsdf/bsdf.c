@@ -170,7 +170,7 @@ spc_rgb spc_bsdf_null_transmission(const spc_bsdf *b, const spc_hit *h, spc_vec3
     if (!b)
         return spc_rgb1(0.0);
     switch (b->type) {
-    case SPC_BSDF_NULL: return spc_rgb1(1.0);
+    case SPC_BSDF_NULL: return spc_null_null_transmission(b, h);
     case SPC_BSDF_MASK: return spc_mask_null_transmission(b, h);
     case SPC_BSDF_THINDIELECTRIC: return spc_thindielectric_null_transmission(b, h, wo);
     case SPC_BSDF_TWOSIDED: {

@@ -153,6 +153,7 @@ spc_rgb spc_normalmap_specular_throughput(const spc_bsdf *b, const spc_hit *h, s
                                           spc_vec3 wi);
 SPC_BSDF_VARIANT(bumpmap);
 SPC_BSDF_VARIANT(null);
+spc_rgb spc_null_null_transmission(const spc_bsdf *b, const spc_hit *h);
 SPC_BSDF_VARIANT(mask);
 spc_rgb spc_mask_null_transmission(const spc_bsdf *b, const spc_hit *h);
 SPC_BSDF_VARIANT(blendbsdf);

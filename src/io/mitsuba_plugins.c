@@ -403,6 +403,24 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
             b->nested[0] = nested_bsdf(L, &P, 0);
     } else if (strcmp(type, "null") == 0) {
         b->type = SPC_BSDF_NULL;
+    } else if (strcmp(type, "polarizer") == 0) {
+        /* as Mitsuba 3's RGB variants render it: a null surface passing half the light times its
+         * transmittance (polarization is not tracked; theta and polarizing change nothing there) */
+        b->type = SPC_BSDF_NULL;
+        mts_warn(node, "polarizer: polarization is not tracked; half the light passes, as in Mitsuba 3's RGB variants");
+        const spc_texture *t = mts_get_texture(L, &P, "transmittance", spc_rgb1(1));
+        mts_ignore(&P, "theta");
+        mts_ignore(&P, "polarizing");
+        spc_texture *half = L->status == SPC_OK ? spc_scene_new_texture(L->scene) : NULL;
+        if (L->status == SPC_OK && (!t || !spc_texture_is_constant(t)))
+            mts_fail(L, mts_where(&P, "transmittance"), SPC_ERR_VALUE,
+                     "polarizer: only a constant transmittance is supported");
+        else if (L->status == SPC_OK && !half)
+            mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+        else if (L->status == SPC_OK) {
+            spc_texture_init_constant(half, spc_rgb_scale(t->value, 0.5));
+            b->specular_transmittance = half;
+        }
     } else if (strcmp(type, "mask") == 0) {
         b->type = SPC_BSDF_MASK;
         b->opacity = mts_get_texture(L, &P, "opacity", spc_rgb1(0.5));
