@@ -47,7 +47,10 @@ static const mts_plugin plugins[] = {
     {"bsdf", "null", MTS_PLUGIN_YES, "-", ""},
     {"bsdf", "principled", MTS_PLUGIN_NO, "-", "not yet: the largest group of unloadable scenes"},
     {"bsdf", "principledthin", MTS_PLUGIN_NO, "-", ""},
-    {"bsdf", "pplastic", MTS_PLUGIN_NO, "-", "polarized plastic"},
+    {"bsdf", "pplastic", MTS_PLUGIN_YES,
+     "diffuse_reflectance 0.5, specular_reflectance 1, distribution \"beckmann\", alpha 0.1 (alpha_u, alpha_v), "
+     "int_ior \"polypropylene\", ext_ior \"air\", sample_visible true",
+     "as Mitsuba 3's unpolarized variants evaluate it"},
     {"bsdf", "hair", MTS_PLUGIN_NO, "-", ""},
     {"bsdf", "measured", MTS_PLUGIN_NO, "-", "measured RGL BSDFs"},
     {"bsdf", "measured_polarized", MTS_PLUGIN_NO, "-", "polarized variants only"},

@@ -374,6 +374,15 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
         b->nonlinear = mts_get_bool(L, &P, "nonlinear", false);
         if (b->type == SPC_BSDF_ROUGHPLASTIC)
             roughness(L, &P, b, 0.1, false);
+    } else if (strcmp(type, "pplastic") == 0) {
+        b->type = SPC_BSDF_PPLASTIC;
+        double in = get_ior(L, &P, "int_ior", 1.49), ext = get_ior(L, &P, "ext_ior", 1.000277);
+        b->eta = in / ext;
+        b->reflectance = mts_get_texture(L, &P, "diffuse_reflectance", spc_rgb1(0.5));
+        b->specular_reflectance = mts_get_texture(L, &P, "specular_reflectance", spc_rgb1(1));
+        roughness(L, &P, b, 0.1, true);
+        if (L->status == SPC_OK && !(in > 0.0 && ext > 0.0 && in != ext))
+            mts_fail(L, node, SPC_ERR_VALUE, "pplastic: int_ior and ext_ior must be positive and differ");
     } else if (strcmp(type, "twosided") == 0) {
         b->type = SPC_BSDF_TWOSIDED;
         if (nbsdf < 1 || nbsdf > 2)
