@@ -104,7 +104,7 @@ TEST(mirror_shows_the_albedo_behind_the_camera)
             continue;
         double worst = 0.0;
         for (int i = 0; i < f->width * f->height; ++i) {
-            const float *a = f->aov + 7 * (size_t)i;
+            const float *a = f->aov + SPC_FILM_AOVS * (size_t)i;
             for (int c = 0; c < 3; ++c)
                 worst = fmax(worst, fabs(a[c] - blue[c]));
             worst = fmax(worst, fabs(a[3]) + fabs(a[4]) + fabs(a[5] - 1.0));
@@ -131,7 +131,7 @@ TEST(glass_ball_blends_reflection_and_transmission)
     for (int c = 0; c < 3; ++c) {
         double mean = 0.0;
         for (int i = 0; i < npix; ++i)
-            mean += f->aov[7 * (size_t)i + (size_t)c] / npix;
+            mean += f->aov[SPC_FILM_AOVS * (size_t)i + (size_t)c] / npix;
         double expect = p_red * red[c] + (1.0 - p_red) * blue[c];
         /* each sample's albedo is red or blue: a Bernoulli spread over npix * spp samples */
         double se = fabs(red[c] - blue[c]) * sqrt(p_red * (1.0 - p_red) / ((double)npix * spp));
@@ -141,7 +141,7 @@ TEST(glass_ball_blends_reflection_and_transmission)
     /* the normal is the wall's: -z on the red one, +z on the blue one */
     double nz = 0.0;
     for (int i = 0; i < npix; ++i)
-        nz += f->aov[7 * (size_t)i + 5] / npix;
+        nz += f->aov[SPC_FILM_AOVS * (size_t)i + 5] / npix;
     double expect_nz = -p_red + (1.0 - p_red);
     CHECK_MSG(fabs(nz - expect_nz) < 5.0 * 2.0 * sqrt(p_red * (1.0 - p_red) / ((double)npix * spp)) + 1e-6,
               "normal z %.5f, expected %.5f", nz, expect_nz);

@@ -106,7 +106,7 @@ TEST(aovs_match_the_scene)
     double glass_albedo[3] = {0, 0, 0}, glass_nz = 0.0;
     for (int y = 0; y < f->height; ++y)
         for (int x = 0; x < f->width; ++x) {
-            const float *a = f->aov + 7 * ((size_t)y * (size_t)f->width + (size_t)x);
+            const float *a = f->aov + SPC_FILM_AOVS * ((size_t)y * (size_t)f->width + (size_t)x);
             int s = stripe_of(a[6]);
             if (s < 0) {
                 ++edge;

@@ -960,6 +960,8 @@ static void build_cases(void)
     add_case("plastic (smooth part)", mk_plastic(SPC_BSDF_PLASTIC, G, 0.1, false), 50, 0, R);
     add_case("roughplastic ggx 0.2", mk_plastic(SPC_BSDF_ROUGHPLASTIC, G, 0.2, false), 45, 0, R);
     add_case("roughplastic beckmann 0.1 nonlinear", mk_plastic(SPC_BSDF_ROUGHPLASTIC, B, 0.1, true), 70, 0, R);
+    add_case("pplastic ggx 0.2", mk_plastic(SPC_BSDF_PPLASTIC, G, 0.2, false), 45, 0, R);
+    add_case("pplastic beckmann 0.06 grazing", mk_plastic(SPC_BSDF_PPLASTIC, B, 0.06, false), 75, 30, R);
     spc_bsdf *bl = mk_wrap(SPC_BSDF_BLENDBSDF, mk_diffuse(0.5, 0.5, 0.5), mk_roughconductor(G, 0.2, 0.2, true, false));
     bl->weight = tex1(0.7);
     add_case("blendbsdf diffuse/ggx", bl, 35, 0, R);

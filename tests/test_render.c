@@ -5,7 +5,12 @@
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
+#include <string.h>
+#include <unistd.h>
+
 #include "harness.h"
+#include "io/image_io.h"
+#include "io/mitsuba_xml.h"
 #include "render_util.h"
 
 /* |mean - expected| within k standard errors (plus a tiny absolute slack for float storage). */
@@ -295,6 +300,170 @@ TEST(filter_edge_as_mitsuba)
     }
 }
 
+/* Mitsuba 3's aov integrator: its outputs come out as EXR channels named as Mitsuba names them,
+ * with the values of the first vertex: a plane facing the camera at distance 2 (depth 2, normal
+ * -z, position on z = 2, albedo its reflectance), the nested integrator's image again. */
+TEST(aov_integrator_channels)
+{
+    static const char xml[] =
+        "<scene version=\"3.0.0\">"
+        "<integrator type=\"aov\"><string name=\"aovs\" value=\"dd:depth, nn:sh_normal,pos:position,a:albedo\"/>"
+        "<integrator type=\"path\" name=\"image\"/></integrator>"
+        "<sensor type=\"perspective\"><float name=\"fov\" value=\"10\"/>"
+        "<film type=\"hdrfilm\"><integer name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/>"
+        "<rfilter type=\"box\"/></film></sensor>"
+        "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"10\"/><rotate y=\"1\" angle=\"180\"/>"
+        "<translate z=\"2\"/></transform><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.25, 0.5, 0.75\"/>"
+        "</bsdf></shape><emitter type=\"constant\"/></scene>";
+    spc_scene *s = NULL;
+    spc_error err;
+    if (spc_mitsuba_load_string(xml, sizeof xml - 1, "aov.xml", ".", NULL, 0, &s, &err) != SPC_OK) {
+        char msg[1200];
+        spc_error_format(&err, msg, sizeof msg);
+        CHECK_MSG(false, "%s", msg);
+        return;
+    }
+    CHECK(s->integrator.naovs == 4 && strcmp(s->integrator.aov_image, "image") == 0);
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = 4;
+    o.threads = 1;
+    spc_film *f = NULL;
+    spc_render_stats st;
+    CHECK(spc_render(s, &o, &f, &st, &err) == SPC_OK);
+    char path[] = "/tmp/specula_aov_XXXXXX";
+    int fd = mkstemp(path);
+    CHECK(fd >= 0);
+    if (fd >= 0)
+        close(fd);
+    CHECK(f && spc_film_write_exr(f, path, false, &err) == SPC_OK);
+    static const char *const names[] = {"dd.T",  "nn.X",  "nn.Y", "nn.Z", "pos.X",   "pos.Y",  "pos.Z",
+                                        "a.R",   "a.G",   "a.B",  "R",    "image.R", "image.B"};
+    const int nn = (int)(sizeof names / sizeof names[0]);
+    int w = 0, h = 0;
+    float *px = NULL;
+    bool found[sizeof names / sizeof names[0]];
+    CHECK(spc_exr_read_channels(path, nn, names, &w, &h, &px, found, &err) == SPC_OK);
+    for (int k = 0; k < nn; ++k)
+        CHECK_MSG(found[k], "channel %s missing", names[k]);
+    for (int i = 0; px && i < w * h; ++i) {
+        const float *v = px + (size_t)i * nn;
+        /* distance to the plane z = 2 along rays within 5 degrees of the axis */
+        CHECK(v[0] > 2.0 && v[0] < 2.0 / cos(6.0 * SPC_PI / 180.0));
+        CHECK_NEAR(fabs(v[3]), 1.0, 1e-6);
+        CHECK_NEAR(v[6], 2.0, 1e-5);
+        CHECK(fabs(v[4]) < 0.2 && fabs(v[5]) < 0.2);
+        CHECK_NEAR(v[7], 0.25, 1e-6);
+        CHECK_NEAR(v[8], 0.5, 1e-6);
+        CHECK_NEAR(v[9], 0.75, 1e-6);
+        CHECK_NEAR(v[10], v[11], 1e-7); /* the nested image equals the image */
+        CHECK(v[12] > 0.0);
+    }
+    free(px);
+    remove(path);
+    spc_film_destroy(f);
+    spc_scene_destroy(s);
+}
+
+/* strict_normals (Mitsuba 0.6's strictNormals): a diffuse plane whose vertex normals lean 70
+ * degrees from its geometric normal, under a constant sky of radiance 1, seen from the side the
+ * shading normal leans to. Without strict normals the pixel is rho (the whole hemisphere around the
+ * shading normal is lit, some of it from below the plane); with them only the directions above
+ * both normals count: rho/pi times the integral of cos over that lune, by quadrature here. */
+TEST(strict_normals_drop_light_below_the_surface)
+{
+    const double tilt = 70.0 * SPC_PI / 180.0, rho = 0.5;
+    const spc_vec3 sn = spc_v3(sin(tilt), 0.0, cos(tilt));
+    double lune = 0.0;
+    const int nt = 600, np = 1200;
+    for (int i = 0; i < nt; ++i)
+        for (int j = 0; j < np; ++j) {
+            double th = (i + 0.5) * SPC_PI / nt, ph = (j + 0.5) * 2.0 * SPC_PI / np;
+            spc_vec3 w = spc_v3(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
+            double c = spc_dot(w, sn);
+            if (w.z > 0.0 && c > 0.0)
+                lune += c * sin(th) * (SPC_PI / nt) * (2.0 * SPC_PI / np);
+        }
+    const double want_strict = rho * lune / SPC_PI;
+    char dir[] = "/tmp/specula_strict_XXXXXX";
+    CHECK(mkdtemp(dir) != NULL);
+    char obj[600];
+    snprintf(obj, sizeof obj, "%s/plane.obj", dir);
+    FILE *fp = fopen(obj, "w");
+    CHECK(fp != NULL);
+    if (!fp)
+        return;
+    fprintf(fp, "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn %.17g 0 %.17g\nf 1//1 2//1 3//1\nf 1//1 3//1 4//1\n", sn.x,
+            sn.z);
+    fclose(fp);
+    for (int strict = 0; strict < 2; ++strict) {
+        char xml[2000];
+        snprintf(xml, sizeof xml,
+                 "<scene version=\"3.0.0\"><integrator type=\"path\"><integer name=\"max_depth\" value=\"2\"/>"
+                 "<boolean name=\"strict_normals\" value=\"%s\"/></integrator>"
+                 "<sensor type=\"perspective\"><float name=\"fov\" value=\"5\"/><transform name=\"to_world\">"
+                 "<lookat origin=\"3, 0, 3\" target=\"0, 0, 0\" up=\"0, 0, 1\"/></transform>"
+                 "<film type=\"hdrfilm\"><integer name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/>"
+                 "<rfilter type=\"box\"/></film></sensor>"
+                 "<shape type=\"obj\"><string name=\"filename\" value=\"plane.obj\"/><transform name=\"to_world\">"
+                 "<scale value=\"10\"/></transform><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"%g\"/>"
+                 "</bsdf></shape><emitter type=\"constant\"/></scene>",
+                 strict ? "true" : "false", rho);
+        spc_scene *s = NULL;
+        spc_error err;
+        CHECK(spc_mitsuba_load_string(xml, strlen(xml), "strict.xml", dir, NULL, 0, &s, &err) == SPC_OK);
+        if (!s)
+            continue;
+        spc_render_options o;
+        spc_render_options_init(&o);
+        o.spp = 4096;
+        o.threads = 2;
+        spc_film *f = NULL;
+        spc_render_stats st;
+        CHECK(spc_render(s, &o, &f, &st, &err) == SPC_OK);
+        if (f)
+            check_mean(f, strict ? want_strict : rho, 5.0);
+        spc_film_destroy(f);
+        spc_scene_destroy(s);
+    }
+    CHECK(want_strict < 0.8 * rho); /* the two cases differ */
+    remove(obj);
+    rmdir(dir);
+}
+
+/* A polarizer as Mitsuba 3's RGB variants render it: the sky seen through it is half as bright
+ * times its transmittance, by path (a null lobe) and by volpath (a null surface crossed). */
+TEST(polarizer_passes_half)
+{
+    for (int vol = 0; vol < 2; ++vol) {
+        char xml[1500];
+        snprintf(xml, sizeof xml,
+                 "<scene version=\"3.0.0\"><integrator type=\"%s\"/>"
+                 "<sensor type=\"perspective\"><float name=\"fov\" value=\"10\"/>"
+                 "<film type=\"hdrfilm\"><integer name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/>"
+                 "<rfilter type=\"box\"/></film></sensor>"
+                 "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"10\"/><translate z=\"2\"/>"
+                 "</transform><bsdf type=\"polarizer\"><float name=\"transmittance\" value=\"0.6\"/></bsdf></shape>"
+                 "<emitter type=\"constant\"/></scene>",
+                 vol ? "volpath" : "path");
+        spc_scene *s = NULL;
+        spc_error err;
+        CHECK(spc_mitsuba_load_string(xml, strlen(xml), "pol.xml", ".", NULL, 0, &s, &err) == SPC_OK);
+        if (!s)
+            continue;
+        spc_render_options o;
+        spc_render_options_init(&o);
+        o.spp = 16;
+        spc_film *f = NULL;
+        spc_render_stats st;
+        CHECK(spc_render(s, &o, &f, &st, &err) == SPC_OK);
+        for (int i = 0; f && i < 3 * spc_film_width(f) * spc_film_height(f); ++i)
+            CHECK_NEAR(spc_film_rgb(f)[i], 0.3, 1e-6);
+        spc_film_destroy(f);
+        spc_scene_destroy(s);
+    }
+}
+
 int main(void)
 {
     spc_warn_set_quiet(1);
@@ -305,5 +474,8 @@ int main(void)
     RUN(glass_slab_transmission);
     RUN(same_image_for_any_thread_count);
     RUN(filter_edge_as_mitsuba);
+    RUN(aov_integrator_channels);
+    RUN(strict_normals_drop_light_below_the_surface);
+    RUN(polarizer_passes_half);
     return spc_test_finish();
 }

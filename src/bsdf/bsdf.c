@@ -33,6 +33,7 @@ unsigned spc_bsdf_flags(const spc_bsdf *b)
     case SPC_BSDF_PLASTIC:
         return SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_DELTA_REFLECTION;
     case SPC_BSDF_ROUGHPLASTIC:
+    case SPC_BSDF_PPLASTIC:
         return SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_GLOSSY_REFLECTION;
     case SPC_BSDF_TWOSIDED:
         return spc_bsdf_flags(b->nested[0]) | spc_bsdf_flags(b->nested[1]);
@@ -64,6 +65,7 @@ spc_rgb spc_bsdf_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, s
     case SPC_BSDF_ROUGHDIELECTRIC: return spc_roughdielectric_eval(b, h, mode, wo, wi);
     case SPC_BSDF_PLASTIC: return spc_plastic_eval(b, h, mode, wo, wi);
     case SPC_BSDF_ROUGHPLASTIC: return spc_roughplastic_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_PPLASTIC: return spc_pplastic_eval(b, h, mode, wo, wi);
     case SPC_BSDF_TWOSIDED: return spc_twosided_eval(b, h, mode, wo, wi);
     case SPC_BSDF_NORMALMAP: return spc_normalmap_eval(b, h, mode, wo, wi);
     case SPC_BSDF_BUMPMAP: return spc_bumpmap_eval(b, h, mode, wo, wi);
@@ -89,6 +91,7 @@ double spc_bsdf_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc
     case SPC_BSDF_ROUGHDIELECTRIC: return spc_roughdielectric_pdf(b, h, mode, wo, wi);
     case SPC_BSDF_PLASTIC: return spc_plastic_pdf(b, h, mode, wo, wi);
     case SPC_BSDF_ROUGHPLASTIC: return spc_roughplastic_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_PPLASTIC: return spc_pplastic_pdf(b, h, mode, wo, wi);
     case SPC_BSDF_TWOSIDED: return spc_twosided_pdf(b, h, mode, wo, wi);
     case SPC_BSDF_NORMALMAP: return spc_normalmap_pdf(b, h, mode, wo, wi);
     case SPC_BSDF_BUMPMAP: return spc_bumpmap_pdf(b, h, mode, wo, wi);
@@ -116,6 +119,7 @@ bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode
     case SPC_BSDF_ROUGHDIELECTRIC: ok = spc_roughdielectric_sample(b, h, mode, wo, u_lobe, u, out); break;
     case SPC_BSDF_PLASTIC: ok = spc_plastic_sample(b, h, mode, wo, u_lobe, u, out); break;
     case SPC_BSDF_ROUGHPLASTIC: ok = spc_roughplastic_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_PPLASTIC: ok = spc_pplastic_sample(b, h, mode, wo, u_lobe, u, out); break;
     case SPC_BSDF_TWOSIDED: ok = spc_twosided_sample(b, h, mode, wo, u_lobe, u, out); break;
     case SPC_BSDF_NORMALMAP: ok = spc_normalmap_sample(b, h, mode, wo, u_lobe, u, out); break;
     case SPC_BSDF_BUMPMAP: ok = spc_bumpmap_sample(b, h, mode, wo, u_lobe, u, out); break;
@@ -144,6 +148,7 @@ spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h)
     case SPC_BSDF_ROUGHDIELECTRIC: return spc_roughdielectric_albedo(b, h);
     case SPC_BSDF_PLASTIC: return spc_plastic_albedo(b, h);
     case SPC_BSDF_ROUGHPLASTIC: return spc_roughplastic_albedo(b, h);
+    case SPC_BSDF_PPLASTIC: return spc_pplastic_albedo(b, h);
     case SPC_BSDF_TWOSIDED: return spc_twosided_albedo(b, h);
     case SPC_BSDF_NORMALMAP: return spc_normalmap_albedo(b, h);
     case SPC_BSDF_BUMPMAP: return spc_bumpmap_albedo(b, h);
@@ -170,7 +175,7 @@ spc_rgb spc_bsdf_null_transmission(const spc_bsdf *b, const spc_hit *h, spc_vec3
     if (!b)
         return spc_rgb1(0.0);
     switch (b->type) {
-    case SPC_BSDF_NULL: return spc_rgb1(1.0);
+    case SPC_BSDF_NULL: return spc_null_null_transmission(b, h);
     case SPC_BSDF_MASK: return spc_mask_null_transmission(b, h);
     case SPC_BSDF_THINDIELECTRIC: return spc_thindielectric_null_transmission(b, h, wo);
     case SPC_BSDF_TWOSIDED: {
@@ -187,6 +192,7 @@ spc_rgb spc_bsdf_null_transmission(const spc_bsdf *b, const spc_hit *h, spc_vec3
     case SPC_BSDF_ROUGHDIELECTRIC:
     case SPC_BSDF_PLASTIC:
     case SPC_BSDF_ROUGHPLASTIC:
+    case SPC_BSDF_PPLASTIC:
     case SPC_BSDF_NORMALMAP:
     case SPC_BSDF_BUMPMAP:
     case SPC_BSDF_BLENDBSDF: return spc_rgb1(0.0);
@@ -242,6 +248,7 @@ bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta)
     case SPC_BSDF_ROUGHDIELECTRIC:
     case SPC_BSDF_PLASTIC:        /* has a diffuse lobe besides its coating */
     case SPC_BSDF_ROUGHPLASTIC:
+    case SPC_BSDF_PPLASTIC:
     case SPC_BSDF_BUMPMAP:
     case SPC_BSDF_NULL:
     case SPC_BSDF_MASK:

@@ -66,6 +66,7 @@ typedef enum spc_bsdf_type {
     SPC_BSDF_ROUGHDIELECTRIC,
     SPC_BSDF_PLASTIC,
     SPC_BSDF_ROUGHPLASTIC,
+    SPC_BSDF_PPLASTIC,  /* Mitsuba 3's pplastic, unpolarized: coating + base, no interreflection */
     SPC_BSDF_TWOSIDED,  /* nested[0] on the front, nested[1] (or nested[0]) on the back */
     SPC_BSDF_NORMALMAP, /* nested[0] with the shading normal from a tangent-space map */
     SPC_BSDF_BUMPMAP,   /* nested[0] with the shading normal from a height texture */

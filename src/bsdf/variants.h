@@ -147,12 +147,14 @@ spc_rgb spc_thindielectric_null_transmission(const spc_bsdf *b, const spc_hit *h
 SPC_BSDF_VARIANT(roughdielectric);
 SPC_BSDF_VARIANT(plastic);
 SPC_BSDF_VARIANT(roughplastic);
+SPC_BSDF_VARIANT(pplastic);
 SPC_BSDF_VARIANT(twosided);
 SPC_BSDF_VARIANT(normalmap);
 spc_rgb spc_normalmap_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
                                           spc_vec3 wi);
 SPC_BSDF_VARIANT(bumpmap);
 SPC_BSDF_VARIANT(null);
+spc_rgb spc_null_null_transmission(const spc_bsdf *b, const spc_hit *h);
 SPC_BSDF_VARIANT(mask);
 spc_rgb spc_mask_null_transmission(const spc_bsdf *b, const spc_hit *h);
 SPC_BSDF_VARIANT(blendbsdf);

@@ -117,8 +117,8 @@ spc_status spc_film_denoise(struct spc_film *f, const spc_denoise_options *o, sp
     } else {
         for (size_t i = 0; aux && i < npix; ++i)
             for (int c = 0; c < 3; ++c) {
-                albedo[3 * i + (size_t)c] = f->aov[7 * i + (size_t)c];
-                normal[3 * i + (size_t)c] = f->aov[7 * i + 3 + (size_t)c];
+                albedo[3 * i + (size_t)c] = f->aov[SPC_FILM_AOVS * i + (size_t)c];
+                normal[3 * i + (size_t)c] = f->aov[SPC_FILM_AOVS * i + 3 + (size_t)c];
             }
         st = spc_denoise_rgb(f->width, f->height, f->rgb, albedo, normal, out, o, stats, err);
     }

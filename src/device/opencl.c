@@ -172,6 +172,7 @@ static const char *bsdf_name(spc_bsdf_type t)
     case SPC_BSDF_ROUGHDIELECTRIC: return "roughdielectric";
     case SPC_BSDF_PLASTIC: return "plastic";
     case SPC_BSDF_ROUGHPLASTIC: return "roughplastic";
+    case SPC_BSDF_PPLASTIC: return "pplastic";
     case SPC_BSDF_TWOSIDED: return "twosided";
     case SPC_BSDF_NORMALMAP: return "normalmap";
     case SPC_BSDF_BUMPMAP: return "bumpmap";
@@ -253,6 +254,7 @@ static spc_status add_bsdf(host_scene *hs, const spc_bsdf *b, const char *file, 
     case SPC_BSDF_ROUGHDIELECTRIC:
     case SPC_BSDF_PLASTIC:
     case SPC_BSDF_ROUGHPLASTIC:
+    case SPC_BSDF_PPLASTIC:
     case SPC_BSDF_TWOSIDED:
     case SPC_BSDF_NORMALMAP:
     case SPC_BSDF_BUMPMAP:

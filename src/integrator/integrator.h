@@ -34,6 +34,7 @@ typedef struct spc_render_ctx {
     int strategy_s, strategy_t; /* bdpt debug: >= 0 keeps only this strategy */
     bool strategy_weighted;
     bool mis_balance; /* bdpt: balance heuristic instead of the power heuristic */
+    bool strict_normals; /* path: directions on different sides of the geometric and shading normals carry nothing */
     /* bdpt debug: > 0 also fills spc_sample_out.strategy_L for every strategy with s + t - 1 <= this
      * (spc_strategy_index) and splats t = 1 into the strategy films too */
     int strategy_images_depth;

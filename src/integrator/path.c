@@ -134,6 +134,10 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         /* every continuation adds at least one segment */
         if (!depth_allows(ctx->max_depth, segments + 1))
             break;
+        /* strict normals (Mitsuba 0.6): arriving on the other side of the shading normal than of
+         * the geometric one ends the path */
+        if (ctx->strict_normals && spc_dot(wo, h.ng) * spc_dot(wo, h.sh.n) < 0.0)
+            break;
         const spc_bsdf *b = h.bsdf;
 
         /* next-event estimation (always draw the same dimensions, so streams stay aligned) */
@@ -146,6 +150,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             if (e && spc_emitter_sample_direct(e, h.p, u_lpos, &ds)) {
                 spc_rgb f = spc_bsdf_eval(b, &h, SPC_MODE_RADIANCE, wo, ds.wi);
                 double cosi = spc_absdot(ds.wi, h.sh.n);
+                if (ctx->strict_normals && !(spc_dot(ds.wi, h.ng) * spc_dot(ds.wi, h.sh.n) > 0.0))
+                    cosi = 0.0;
                 if (!spc_rgb_is_black(f) && cosi > 0.0) {
                     spc_ray sr = ds.is_infinite ? spc_hit_spawn(&h, ds.wi) : spc_hit_spawn_to(&h, ds.p, ds.err);
                     /* with rough chain vertices, specular NEE may have counted this path already */
@@ -190,6 +196,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         double u_rr = spc_sampler_1d(smp);
         spc_bsdf_sample bs;
         if (!spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
+            break;
+        if (ctx->strict_normals && !(spc_dot(bs.wi, h.ng) * spc_dot(bs.wi, h.sh.n) > 0.0))
             break;
         if (snee) {
             spc_snee_track_scatter_params(&track, &snp, &h, bs.lobe, snee_budget, long_budget);

@@ -557,6 +557,9 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
             /* crossed, not a vertex: no segment, the MIS state stays the last vertex's */
             if (++nulls > SPC_VOLPATH_MAX_NULL_CROSSINGS)
                 break;
+            beta = spc_rgb_mul(beta, spc_bsdf_null_transmission(h.bsdf, &h, wo));
+            if (spc_rgb_is_black(beta))
+                break;
             med = medium_after(&h, ray.d, med);
             ray = spc_hit_spawn(&h, ray.d);
             track.live = false;

@@ -15,6 +15,8 @@
 #ifndef SPC_IO_MITSUBA_INTERNAL_H
 #define SPC_IO_MITSUBA_INTERNAL_H
 
+#include <stdio.h>
+
 #include "core/error.h"
 #include "core/math.h"
 #include "io/xml.h"
@@ -201,5 +203,32 @@ bool mts_conductor_preset(const char *name, spc_rgb *eta, spc_rgb *k);
 /* Comma-separated lists of the known names, for error messages. */
 const char *mts_ior_names(void);
 const char *mts_conductor_names(void);
+
+/* The Mitsuba 3 plugin table (mitsuba_plugin_list.c): what the loader reads, for docs/PLUGINS.md
+ * and for the errors on plugins it does not read. */
+typedef enum mts_plugin_status {
+    MTS_PLUGIN_YES, /* read */
+    MTS_PLUGIN_NO,  /* a Mitsuba 3 plugin the loader refuses (SPC_ERR_PLUGIN naming it) */
+    MTS_PLUGIN_OWN, /* read; specula's own or Mitsuba 0.6's, not in Mitsuba 3 */
+    MTS_PLUGIN_STANDIN /* loads, rendered with a stand-in the note names (the loader warns) */
+} mts_plugin_status;
+
+typedef struct mts_plugin {
+    const char *category; /* the XML tag: bsdf, emitter, shape, ... */
+    const char *name;     /* the type attribute */
+    mts_plugin_status status;
+    const char *params;   /* parameters read, with defaults */
+    const char *note;
+} mts_plugin;
+
+/* The whole table (*n rows, grouped by category); a row, or NULL. */
+const mts_plugin *mts_plugin_list(int *n);
+const mts_plugin *mts_plugin_find(const char *category, const char *name);
+/* Writes docs/PLUGINS.md's text; 0, or -1 on a write error. */
+int mts_plugins_markdown(FILE *out);
+/* Fails with SPC_ERR_PLUGIN at node: a Mitsuba 3 plugin the loader does not read is named as such
+ * (with the table's note), anything else is "unknown <category> type" followed by `known`. */
+spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type,
+                           const char *known);
 
 #endif

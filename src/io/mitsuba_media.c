@@ -52,7 +52,7 @@ bool mts_build_phase(mts_loader *L, spc_xml_node *node, spc_phase *out)
         out->type = SPC_PHASE_HG;
         out->g = g;
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown phase function type '%s' (isotropic, hg)", type);
+        mts_fail_plugin(L, node, "phase", type, "isotropic, hg");
     }
     mts_props_end(&P);
     return L->status == SPC_OK;
@@ -82,8 +82,7 @@ int mts_build_medium(mts_loader *L, spc_xml_node *node)
     bool pair_as = mts_has(&P, "sigma_a") || mts_has(&P, "sigma_s");
     bool pair_ta = mts_has(&P, "sigma_t") || mts_has(&P, "albedo");
     if (strcmp(type, "homogeneous") != 0) {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown medium type '%s' (homogeneous; heterogeneous media are not supported)",
-                 type);
+        mts_fail_plugin(L, node, "medium", type, "homogeneous");
     } else if (mts_count_objects(&P, "volume") > 0) {
         const spc_xml_node *at = node;
         mts_object(&P, "volume", 0, &at);

@@ -182,7 +182,7 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
             }
         }
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown texture type '%s' (bitmap, checkerboard)", type);
+        mts_fail_plugin(L, node, "texture", type, "bitmap, checkerboard");
     }
     if (L->status != SPC_OK)
         t = NULL;
@@ -375,6 +375,15 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
         b->nonlinear = mts_get_bool(L, &P, "nonlinear", false);
         if (b->type == SPC_BSDF_ROUGHPLASTIC)
             roughness(L, &P, b, 0.1, false);
+    } else if (strcmp(type, "pplastic") == 0) {
+        b->type = SPC_BSDF_PPLASTIC;
+        double in = get_ior(L, &P, "int_ior", 1.49), ext = get_ior(L, &P, "ext_ior", 1.000277);
+        b->eta = in / ext;
+        b->reflectance = mts_get_texture(L, &P, "diffuse_reflectance", spc_rgb1(0.5));
+        b->specular_reflectance = mts_get_texture(L, &P, "specular_reflectance", spc_rgb1(1));
+        roughness(L, &P, b, 0.1, true);
+        if (L->status == SPC_OK && !(in > 0.0 && ext > 0.0 && in != ext))
+            mts_fail(L, node, SPC_ERR_VALUE, "pplastic: int_ior and ext_ior must be positive and differ");
     } else if (strcmp(type, "twosided") == 0) {
         b->type = SPC_BSDF_TWOSIDED;
         if (nbsdf < 1 || nbsdf > 2)
@@ -404,6 +413,24 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
             b->nested[0] = nested_bsdf(L, &P, 0);
     } else if (strcmp(type, "null") == 0) {
         b->type = SPC_BSDF_NULL;
+    } else if (strcmp(type, "polarizer") == 0) {
+        /* as Mitsuba 3's RGB variants render it: a null surface passing half the light times its
+         * transmittance (polarization is not tracked; theta and polarizing change nothing there) */
+        b->type = SPC_BSDF_NULL;
+        mts_warn(node, "polarizer: polarization is not tracked; half the light passes, as in Mitsuba 3's RGB variants");
+        const spc_texture *t = mts_get_texture(L, &P, "transmittance", spc_rgb1(1));
+        mts_ignore(&P, "theta");
+        mts_ignore(&P, "polarizing");
+        spc_texture *half = L->status == SPC_OK ? spc_scene_new_texture(L->scene) : NULL;
+        if (L->status == SPC_OK && (!t || !spc_texture_is_constant(t)))
+            mts_fail(L, mts_where(&P, "transmittance"), SPC_ERR_VALUE,
+                     "polarizer: only a constant transmittance is supported");
+        else if (L->status == SPC_OK && !half)
+            mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+        else if (L->status == SPC_OK) {
+            spc_texture_init_constant(half, spc_rgb_scale(t->value, 0.5));
+            b->specular_transmittance = half;
+        }
     } else if (strcmp(type, "mask") == 0) {
         b->type = SPC_BSDF_MASK;
         b->opacity = mts_get_texture(L, &P, "opacity", spc_rgb1(0.5));
@@ -421,11 +448,9 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
             b->nested[1] = nested_bsdf(L, &P, 1);
         }
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN,
-                 "unknown bsdf type '%s' (diffuse, roughdiffuse, phong, conductor, roughconductor, dielectric, "
-                 "thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, bumpmap, null, mask, "
-                 "blendbsdf)",
-                 type);
+        mts_fail_plugin(L, node, "bsdf", type,
+                        "diffuse, roughdiffuse, phong, conductor, roughconductor, dielectric, thindielectric, "
+                        "roughdielectric, plastic, roughplastic, twosided, normalmap, bumpmap, null, mask, blendbsdf");
     }
 out:
     if (L->status != SPC_OK)
@@ -769,10 +794,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
         ok |= strcmp(type, known[i]) == 0;
     if (!ok) {
-        mts_fail(L, node, SPC_ERR_PLUGIN,
-                 "unknown shape type '%s' (sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, "
-                 "shapegroup, instance)",
-                 type);
+        mts_fail_plugin(L, node, "shape", type,
+                        "sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, shapegroup, instance");
         mts_props_end(&P);
         return L->status;
     }
@@ -942,8 +965,7 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
     for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
         ok |= strcmp(type, known[i]) == 0;
     if (!ok) {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown emitter type '%s' (area, point, spot, directional, constant, envmap)",
-                 type);
+        mts_fail_plugin(L, node, "emitter", type, "area, point, spot, directional, constant, envmap");
     } else if (shape && strcmp(type, "area") != 0) {
         mts_fail(L, node, SPC_ERR_VALUE, "only area emitters can be attached to a shape, not '%s'", type);
     } else if (!shape && strcmp(type, "area") == 0) {

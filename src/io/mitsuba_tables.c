@@ -1,14 +1,14 @@
 /*
  * io/mitsuba_tables.c: the data tables of the Mitsuba loader.
  *
- * - Spectrum -> linear sRGB: the CIE 1931 2-degree colour matching functions at 5 nm from 360 to
- *   830 nm (the CIE's tabulated values; CVRL ciexyz31), linearly interpolated to a 1 nm grid, the
- *   spectrum integrated against them, XYZ -> linear sRGB with the ITU-R BT.709 / sRGB matrix, and
- *   each channel divided by the result for a constant spectrum of 1, so that "flat" means white.
- *   (Mitsuba 3 normalizes to D65 white instead; the difference is a white balance of a few percent
- *   that only affects <spectrum> tags with wavelengths.) Emitters read spectra without the white
- *   normalization, as Mitsuba 3's RGB variants do: a flat spectrum of 1 is the equal-energy
- *   illuminant E, slightly pink in sRGB.
+ * - Spectrum -> linear sRGB, as Mitsuba 3's RGB variants convert a list of wavelength:value pairs
+ *   (its spectrum_list_to_srgb): the list times the CIE 1931 2-degree colour matching functions
+ *   (the CIE's 5 nm values, CVRL ciexyz31, linearly interpolated), times the CIE D65 illuminant for
+ *   reflectances and other non-emitter quantities, summed at 1000 wavelengths over 360..830 nm,
+ *   normalized by Mitsuba's constants (1 / the integral of y-bar, and of y-bar D65), then XYZ ->
+ *   linear sRGB with the ITU-R BT.709 / sRGB matrix; a flat reflectance of 1 is white. Emitters
+ *   read spectra without D65, so a flat spectrum of 1 is the equal-energy illuminant E, slightly
+ *   pink in sRGB. A single value is a constant (white for a reflectance).
  * - Named IORs: Mitsuba's table (include/mitsuba/render/ior.h).
  * - Conductors: RGB eta and k for the names of Mitsuba's measured conductor data: the values Mitsuba
  *   3.9's RGB variants compute from its spectral files (read back from its conductor plugin, so
@@ -71,10 +71,21 @@ static const double cie_z[CIE_COUNT] = {
     0,           0,          0,         0,         0,           0,           0,          0,
     0,           0,          0,         0,         0,           0,           0};
 
-/* XYZ -> linear sRGB (BT.709 primaries, D65). */
-static const double xyz_to_rgb[3][3] = {{3.2404542, -1.5371385, -0.4985314},
-                                        {-0.9692660, 1.8760108, 0.0415560},
-                                        {0.0556434, -0.2040259, 1.0572252}};
+/* CIE standard illuminant D65, relative spectral power (100 at 560 nm), 360..830 nm at 5 nm. */
+static const double cie_d65[CIE_COUNT] = {46.6383, 49.3637, 52.0891, 51.0323, 49.9755, 52.3118, 54.6482, 68.7015, 82.7549, 87.1204, 91.4860, 92.4589, 93.4318, 90.0570, 86.6823, 95.7736, 104.8650, 110.9360, 117.0080, 117.4100, 117.8120, 116.3360, 114.8610, 115.3920, 115.9230, 112.3670, 108.8110, 109.0820, 109.3540, 108.5780, 107.8020, 106.2960, 104.7900, 106.2390, 107.6890, 106.0470, 104.4050, 104.2250, 104.0460, 102.0230, 100.0000, 98.1671, 96.3342, 96.0611, 95.7880, 92.2368, 88.6856, 89.3459, 90.0062, 89.8026, 89.5991, 88.6489, 87.6987, 85.4936, 83.2886, 83.4939, 83.6992, 81.8630, 80.0268, 80.1207, 80.2146, 81.2462, 82.2778, 80.2810, 78.2842, 74.0027, 69.7213, 70.6652, 71.6091, 72.9790, 74.3490, 67.9765, 61.6040, 65.7448, 69.8856, 72.4863, 75.0870, 69.3398, 63.5927, 55.0054, 46.4182, 56.6118, 66.8054, 65.0941, 63.3828, 63.8434, 64.3040, 61.8779, 59.4519, 55.7054, 51.9590, 54.6998, 57.4406, 58.8765, 60.3125};
+
+/* Mitsuba 3's normalizations of its CIE tables: 1 / integral of y-bar (MI_CIE_Y_NORMALIZATION)
+ * and 1 / integral of y-bar D65 (MI_CIE_D65_NORMALIZATION), both over 360..830 nm. */
+#define MTS_CIE_Y_NORMALIZATION 0.009367658735689113
+#define MTS_CIE_D65_NORMALIZATION 0.010101273599490354
+/* Mitsuba 3 integrates a wavelength list against the CIE curves at this many wavelengths evenly
+ * spaced over 360..830 nm (its spectrum_list_to_srgb). */
+#define MTS_SPECTRUM_STEPS 1000
+
+/* XYZ -> linear sRGB (BT.709 primaries, D65), to the six digits Mitsuba 3's xyz_to_srgb uses. */
+static const double xyz_to_rgb[3][3] = {{3.240479, -1.537150, -0.498535},
+                                        {-0.969256, 1.875991, 0.041556},
+                                        {0.055648, -0.204043, 1.057311}};
 
 static double cmf(const double *tab, double lambda)
 {
@@ -115,8 +126,37 @@ static void to_rgb(const double xyz[3], double rgb[3])
         rgb[c] = xyz_to_rgb[c][0] * xyz[0] + xyz_to_rgb[c][1] * xyz[1] + xyz_to_rgb[c][2] * xyz[2];
 }
 
+/* A list of wavelength:value pairs in linear sRGB as Mitsuba 3's RGB variants read it
+ * (spectrum_list_to_srgb): the list, linearly interpolated and zero outside its range, times the
+ * CIE curves (times D65 for a reflectance-like quantity, d65) summed at MTS_SPECTRUM_STEPS
+ * wavelengths, then XYZ -> sRGB; negative channels are clamped to 0. */
+static spc_rgb spectrum_list_to_srgb(const double *wl, const double *val, int n, bool d65)
+{
+    double xyz[3] = {0, 0, 0};
+    const double lo = CIE_START, hi = CIE_START + CIE_STEP * (CIE_COUNT - 1);
+    for (int i = 0; i < MTS_SPECTRUM_STEPS; ++i) {
+        double w = lo + (double)i / (MTS_SPECTRUM_STEPS - 1) * (hi - lo);
+        if (w < wl[0] || w > wl[n - 1])
+            continue;
+        double v = spectrum_at(wl, val, n, w) * (d65 ? cmf(cie_d65, w) * MTS_CIE_D65_NORMALIZATION : 1.0);
+        xyz[0] += cmf(cie_x, w) * v;
+        xyz[1] += cmf(cie_y, w) * v;
+        xyz[2] += cmf(cie_z, w) * v;
+    }
+    for (int c = 0; c < 3; ++c)
+        xyz[c] *= (hi - lo) / MTS_SPECTRUM_STEPS * MTS_CIE_Y_NORMALIZATION;
+    double rgb[3];
+    to_rgb(xyz, rgb);
+    for (int c = 0; c < 3; ++c)
+        if (!(rgb[c] > 0.0))
+            rgb[c] = 0.0;
+    return spc_rgb3(rgb[0], rgb[1], rgb[2]);
+}
+
 spc_rgb mts_spectrum_to_rgb(const double *wavelengths, const double *values, int n)
 {
+    if (n >= 2)
+        return spectrum_list_to_srgb(wavelengths, values, n, true);
     double xyz[3] = {0, 0, 0}, white[3] = {0, 0, 0};
     for (int lambda = CIE_START; lambda <= CIE_START + CIE_STEP * (CIE_COUNT - 1); ++lambda) {
         double s = spectrum_at(wavelengths, values, n, lambda);
@@ -150,6 +190,8 @@ spc_rgb mts_spectrum_to_rgb_emission(const double *wavelengths, const double *va
 {
     if (n == 1)
         return spc_rgb3(values[0] * E_SRGB_R, values[0] * E_SRGB_G, values[0] * E_SRGB_B);
+    if (n >= 2)
+        return spectrum_list_to_srgb(wavelengths, values, n, false);
     double xyz[3] = {0, 0, 0}, y_int = 0.0;
     for (int lambda = CIE_START; lambda <= CIE_START + CIE_STEP * (CIE_COUNT - 1); ++lambda) {
         double s = spectrum_at(wavelengths, values, n, lambda);

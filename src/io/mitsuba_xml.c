@@ -1373,7 +1373,7 @@ static void parse_rfilter(mts_loader *L, spc_xml_node *node, spc_film_spec *film
         film->filter_stddev = 0.5;
         film->filter_radius = 2.0;
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown rfilter type '%s' (box, tent, gaussian)", type);
+        mts_fail_plugin(L, node, "rfilter", type, "box, tent, gaussian");
     }
     if (L->status == SPC_OK && !(film->filter_radius > 0.0))
         mts_fail(L, node, SPC_ERR_VALUE, "rfilter '%s': radius must be positive", type);
@@ -1387,7 +1387,7 @@ static void parse_film(mts_loader *L, spc_xml_node *node, spc_film_spec *film)
         return;
     const char *type = mts_type(node);
     if (strcmp(type, "hdrfilm") != 0 && strcmp(type, "ldrfilm") != 0) {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown film type '%s' (hdrfilm, ldrfilm)", type);
+        mts_fail_plugin(L, node, "film", type, "hdrfilm, ldrfilm");
         mts_props_end(&P);
         return;
     }
@@ -1475,7 +1475,7 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
     } else if (strcmp(type, "orthographic") == 0) {
         cam->type = SPC_CAMERA_ORTHOGRAPHIC;
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown sensor type '%s' (perspective, thinlens, orthographic)", type);
+        mts_fail_plugin(L, node, "sensor", type, "perspective, thinlens, orthographic");
         mts_props_end(&P);
         return;
     }
@@ -1573,6 +1573,66 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
 /* ------------------------------------------------------------------------------------------------ */
 /* integrator */
 
+/* The aov integrator's "aovs": comma-separated name:type pairs (Mitsuba 3's aov.cpp), of the types
+ * specula keeps per pixel. */
+static void parse_aovs(mts_loader *L, mts_props *P, const spc_xml_node *node)
+{
+    static const struct {
+        const char *name;
+        spc_aov_type type;
+    } types[] = {{"albedo", SPC_AOV_ALBEDO},
+                 {"depth", SPC_AOV_DEPTH},
+                 {"position", SPC_AOV_POSITION},
+                 {"sh_normal", SPC_AOV_SH_NORMAL}};
+    spc_integrator_spec *it = &L->scene->integrator;
+    const char *list = mts_get_string(L, P, "aovs", "");
+    const spc_xml_node *at = mts_where(P, "aovs");
+    if (!at)
+        at = node;
+    it->naovs = 0;
+    for (const char *p = list; L->status == SPC_OK && *p;) {
+        while (*p == ' ' || *p == ',')
+            ++p;
+        if (!*p)
+            break;
+        const char *end = p;
+        while (*end && *end != ',')
+            ++end;
+        const char *colon = memchr(p, ':', (size_t)(end - p));
+        size_t nlen = colon ? (size_t)(colon - p) : 0;
+        while (nlen > 0 && p[nlen - 1] == ' ')
+            --nlen;
+        const char *t = colon ? colon + 1 : end;
+        while (t < end && *t == ' ')
+            ++t;
+        size_t tlen = (size_t)(end - t);
+        while (tlen > 0 && t[tlen - 1] == ' ')
+            --tlen;
+        if (!colon || nlen == 0 || tlen == 0 || nlen >= sizeof it->aovs[0].name) {
+            mts_fail(L, at, SPC_ERR_VALUE, "aovs: expected name:type pairs separated by commas, got \"%.*s\"",
+                     (int)(end - p), p);
+            break;
+        }
+        int found = -1;
+        for (size_t i = 0; i < sizeof types / sizeof types[0]; ++i)
+            if (strlen(types[i].name) == tlen && strncmp(types[i].name, t, tlen) == 0)
+                found = (int)i;
+        if (found < 0) {
+            mts_fail(L, at, SPC_ERR_PLUGIN, "aov type '%.*s' is not supported (albedo, depth, position, sh_normal)",
+                     (int)tlen, t);
+            break;
+        }
+        if (it->naovs == SPC_MAX_AOV_OUTPUTS) {
+            mts_fail(L, at, SPC_ERR_LIMIT, "more than %d aovs", SPC_MAX_AOV_OUTPUTS);
+            break;
+        }
+        spc_aov_output *o = &it->aovs[it->naovs++];
+        snprintf(o->name, sizeof o->name, "%.*s", (int)nlen, p);
+        o->type = types[found].type;
+        p = end;
+    }
+}
+
 static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
 {
     mts_props P;
@@ -1581,8 +1641,11 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     spc_integrator_spec *it = &L->scene->integrator;
     const char *type = mts_type(node);
     if (strcmp(type, "aov") == 0 || strcmp(type, "moment") == 0 || strcmp(type, "stokes") == 0) {
-        mts_ignore(&P, "aovs");
+        if (strcmp(type, "aov") == 0)
+            parse_aovs(L, &P, node);
         spc_xml_node *inner = mts_object(&P, "integrator", 0, NULL);
+        if (inner && strcmp(type, "aov") == 0 && spc_xml_get(inner, "name"))
+            snprintf(it->aov_image, sizeof it->aov_image, "%s", spc_xml_get(inner, "name"));
         if (inner && depth < 8) {
             parse_integrator(L, inner, depth + 1);
         } else {
@@ -1611,9 +1674,12 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     } else if (strcmp(type, "ipt") == 0) {
         ours = "ipt";
     } else {
-        mts_fail(L, node, SPC_ERR_PLUGIN,
-                 "unknown integrator '%s'; choose one of specula's with --integrator path or -D integrator=path",
-                 type);
+        if (mts_plugin_find("integrator", type))
+            mts_fail_plugin(L, node, "integrator", type, "");
+        else
+            mts_fail(L, node, SPC_ERR_PLUGIN,
+                     "unknown integrator '%s'; choose one of specula's with --integrator path or -D integrator=path",
+                     type);
         mts_props_end(&P);
         return;
     }
@@ -1623,7 +1689,9 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     it->hide_emitters = mts_get_bool(L, &P, "hide_emitters", false);
     /* specula's own (bdpt); read for every type so that --integrator path on a bdpt scene is quiet */
     it->mis_balance = mts_get_bool(L, &P, "mis_balance", false);
-    mts_ignore(&P, "strict_normals");
+    it->strict_normals = mts_get_bool(L, &P, "strict_normals", false);
+    if (it->strict_normals && strcmp(ours, "path") != 0)
+        mts_warn(mts_where(&P, "strict_normals"), "strict_normals is honoured by the path integrator only");
     if (mts_has(&P, "specular_nee")) {
         const char *nee = mts_get_string(L, &P, "specular_nee", "");
         spc_snee_params snp;

@@ -175,6 +175,7 @@ static const char *bsdf_type_name(spc_bsdf_type t)
     case SPC_BSDF_ROUGHDIELECTRIC: return "roughdielectric";
     case SPC_BSDF_PLASTIC: return "plastic";
     case SPC_BSDF_ROUGHPLASTIC: return "roughplastic";
+    case SPC_BSDF_PPLASTIC: return "pplastic";
     case SPC_BSDF_TWOSIDED: return "twosided";
     case SPC_BSDF_NORMALMAP: return "normalmap";
     case SPC_BSDF_BUMPMAP: return "bumpmap";
@@ -312,6 +313,7 @@ char *spc_scene_describe(const spc_scene *s)
         case SPC_BSDF_ROUGHDIELECTRIC:
         case SPC_BSDF_PLASTIC:
         case SPC_BSDF_ROUGHPLASTIC:
+        case SPC_BSDF_PPLASTIC:
             sb_printf(&b, " eta=%.4g", bsdf->eta);
             break;
         case SPC_BSDF_CONDUCTOR:
@@ -337,6 +339,7 @@ char *spc_scene_describe(const spc_scene *s)
         case SPC_BSDF_ROUGHCONDUCTOR:
         case SPC_BSDF_ROUGHDIELECTRIC:
         case SPC_BSDF_ROUGHPLASTIC:
+        case SPC_BSDF_PPLASTIC:
             sb_printf(&b, " %s", bsdf->distribution == SPC_MICROFACET_GGX ? "ggx" : "beckmann");
             describe_texture(&b, "alpha_u", bsdf->alpha_u);
             if (bsdf->alpha_v != bsdf->alpha_u)

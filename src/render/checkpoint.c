@@ -153,7 +153,7 @@ spc_status spc_ckpt_write(const char *path, const struct spc_film *f, const spc_
     w_bytes(&w, f->sum, 3 * n * sizeof(double));
     w_bytes(&w, f->sumsq, 3 * n * sizeof(double));
     if (f->has_aovs)
-        w_bytes(&w, f->aov_sum, 7 * n * sizeof(double));
+        w_bytes(&w, f->aov_sum, SPC_FILM_AOVS * n * sizeof(double));
     unsigned char tail[4];
     put_u32(tail, (uint32_t)w.crc);
     if (w.ok)
@@ -280,7 +280,7 @@ spc_status spc_checkpoint_load(const char *path, spc_checkpoint **out, spc_error
     }
     size_t n = (size_t)c->width * (size_t)c->height;
     long long expect = SPC_CKPT_HEADER_BYTES + (long long)ls + lp + lu +
-                       (long long)(c->has_aovs ? 13 : 6) * (long long)n * (long long)sizeof(double) + 4;
+                       (long long)(c->has_aovs ? 6 + SPC_FILM_AOVS : 6) * (long long)n * (long long)sizeof(double) + 4;
     if (fsize != expect) {
         status = corrupt(err, path, fsize < expect ? "the file is truncated" : "the file is too long");
         goto fail;
@@ -297,14 +297,14 @@ spc_status spc_checkpoint_load(const char *path, spc_checkpoint **out, spc_error
     c->sum = malloc(3 * n * sizeof(double));
     c->sumsq = malloc(3 * n * sizeof(double));
     if (c->has_aovs)
-        c->aov_sum = malloc(7 * n * sizeof(double));
+        c->aov_sum = malloc(SPC_FILM_AOVS * n * sizeof(double));
     if (!c->sum || !c->sumsq || (c->has_aovs && !c->aov_sum)) {
         status = spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory for a %dx%d checkpoint", c->width,
                                c->height);
         goto fail;
     }
     bool ok = r_bytes(&r, c->sum, 3 * n * sizeof(double)) && r_bytes(&r, c->sumsq, 3 * n * sizeof(double)) &&
-              (!c->has_aovs || r_bytes(&r, c->aov_sum, 7 * n * sizeof(double)));
+              (!c->has_aovs || r_bytes(&r, c->aov_sum, SPC_FILM_AOVS * n * sizeof(double)));
     uLong crc = r.crc;
     unsigned char tail[4];
     if (!ok || fread(tail, 1, 4, fp) != 4) {
@@ -394,7 +394,7 @@ spc_status spc_ckpt_restore(const struct spc_checkpoint *c, uint64_t scene_hash,
     memcpy(f->sum, c->sum, 3 * n * sizeof(double));
     memcpy(f->sumsq, c->sumsq, 3 * n * sizeof(double));
     if (f->has_aovs)
-        memcpy(f->aov_sum, c->aov_sum, 7 * n * sizeof(double));
+        memcpy(f->aov_sum, c->aov_sum, SPC_FILM_AOVS * n * sizeof(double));
     f->spp = c->spp_done;
     f->invalid_samples = c->invalid_samples;
     return SPC_OK;

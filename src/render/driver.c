@@ -112,7 +112,8 @@ static void render_item(job *jb, int item)
             spc_sample_out out;
             spc_rgb strategy_L[2 * SPC_STRATEGY_IMAGES_MAX];
             out.strategy_L = jb->nfilms > 0 ? strategy_L : NULL;
-            out.aovs = jb->base == 10;
+            out.aovs = jb->base == 3 + SPC_FILM_AOVS;
+            const spc_ray cam_ray = ray;
             spc_integrator_sample(ctx, tls, &ray, &smp, &out);
             if (!estimate_ok(out.L)) {
                 tls->invalid++;
@@ -129,7 +130,11 @@ static void render_item(job *jb, int item)
                 d[jb->base + 3 * j + 1] = v.g;
                 d[jb->base + 3 * j + 2] = v.b;
             }
-            if (jb->base == 10) {
+            if (jb->base == 3 + SPC_FILM_AOVS) {
+                spc_vec3 pos = out.depth > 0.0 ? spc_madd(cam_ray.o, cam_ray.d, out.depth) : spc_v3(0, 0, 0);
+                d[10] = finite_or_zero(pos.x);
+                d[11] = finite_or_zero(pos.y);
+                d[12] = finite_or_zero(pos.z);
                 d[3] = finite_or_zero(out.albedo.r);
                 d[4] = finite_or_zero(out.albedo.g);
                 d[5] = finite_or_zero(out.albedo.b);
@@ -219,6 +224,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                              "drop it or give none",
                              o->specular_nee, iname);
     ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
+    ctx.strict_normals = sc->integrator.strict_normals;
     if (o->strategy_images) {
         if (ctx.kind != SPC_INTEGRATOR_BDPT)
             return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "strategy images need the bdpt integrator, not '%s'",
@@ -278,7 +284,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     if (threads > SPC_MAX_THREADS)
         threads = SPC_MAX_THREADS;
 
-    struct spc_film *film = spc_film_create(fs.width, fs.height, fs.crop_x, fs.crop_y, fs.crop_w, fs.crop_h, o->aovs);
+    const bool aovs = o->aovs || sc->integrator.naovs > 0;
+    struct spc_film *film = spc_film_create(fs.width, fs.height, fs.crop_x, fs.crop_y, fs.crop_w, fs.crop_h, aovs);
     if (!film)
         return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for a %dx%d film", fs.crop_w, fs.crop_h);
     snprintf(film->integrator, sizeof film->integrator, "%s", spc_integrator_kind_name(ctx.kind));
@@ -289,7 +296,10 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     tile *tiles = malloc((size_t)ntiles * sizeof *tiles);
     size_t npix = (size_t)ctx.width * (size_t)ctx.height;
     int max_batch = (int)spc_max(1.0, spc_min((double)SPC_BATCH_PIXELS / (double)npix, 4096.0));
-    const int base = o->aovs ? 10 : 3;
+    film->naov_out = sc->integrator.naovs;
+    memcpy(film->aov_out, sc->integrator.aovs, sizeof film->aov_out);
+    snprintf(film->aov_image, sizeof film->aov_image, "%s", sc->integrator.aov_image);
+    const int base = aovs ? 3 + SPC_FILM_AOVS : 3;
     const int nfilms = ctx.strategy_images_depth > 0 ? 2 * spc_strategy_count(ctx.strategy_images_depth) : 0;
     const int stride = base + 3 * nfilms;
     if (nfilms > 0) /* keep the batch buffer near its usual size (3 doubles per pixel-pass) */
@@ -352,7 +362,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                              o->device);
     }
     if (use_cl) {
-        spc_status cs = spc_cl_create(&ctx, cl_index, o->aovs, &cl, err);
+        spc_status cs = spc_cl_create(&ctx, cl_index, aovs, &cl, err);
         if (cs != SPC_OK) {
             free(tiles);
             free(buf);
@@ -364,7 +374,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     }
 
     char settings[1024];
-    spc_ckpt_settings_text(&ctx, sname, o->seed, o->aovs, settings, sizeof settings);
+    spc_ckpt_settings_text(&ctx, sname, o->seed, aovs, settings, sizeof settings);
     if (use_cl) /* a checkpoint resumes only on the device that began it */
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";device=opencl:%d", cl_index);
     if (o->resume) {
@@ -467,9 +477,9 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                 film->pass[3 * p] += pb[p * stride];
                 film->pass[3 * p + 1] += pb[p * stride + 1];
                 film->pass[3 * p + 2] += pb[p * stride + 2];
-                if (base == 10)
-                    for (int k = 0; k < 7; ++k)
-                        film->aov_sum[7 * p + k] += pb[p * stride + 3 + k];
+                if (base == 3 + SPC_FILM_AOVS)
+                    for (int k = 0; k < SPC_FILM_AOVS; ++k)
+                        film->aov_sum[SPC_FILM_AOVS * p + k] += pb[p * stride + 3 + k];
                 for (int j = 0; j < nfilms; ++j)
                     for (int c = 0; c < 3; ++c)
                         film->strategy[j]->pass[3 * p + c] += pb[p * stride + base + 3 * j + c];

@@ -33,7 +33,7 @@ struct spc_film *spc_film_create(int full_w, int full_h, int crop_x, int crop_y,
     f->pass = calloc(3 * n, sizeof(double));
     f->has_aovs = aovs;
     if (aovs)
-        f->aov_sum = calloc(7 * n, sizeof(double));
+        f->aov_sum = calloc(SPC_FILM_AOVS * n, sizeof(double));
     if (!f->sum || !f->sumsq || !f->pass || (aovs && !f->aov_sum)) {
         spc_film_destroy(f);
         return NULL;
@@ -79,7 +79,7 @@ bool spc_film_resolve(struct spc_film *f)
     if (!f->var)
         f->var = malloc(3 * n * sizeof(float));
     if (f->has_aovs && !f->aov)
-        f->aov = malloc(7 * n * sizeof(float));
+        f->aov = malloc(SPC_FILM_AOVS * n * sizeof(float));
     if (!f->rgb || !f->var || (f->has_aovs && !f->aov))
         return false;
     free(f->noisy); /* rgb is the sums' mean again */
@@ -97,7 +97,7 @@ bool spc_film_resolve(struct spc_film *f)
         f->var[i] = (float)var;
     }
     if (f->has_aovs)
-        for (size_t i = 0; i < 7 * n; ++i)
+        for (size_t i = 0; i < SPC_FILM_AOVS * n; ++i)
             f->aov[i] = (float)(f->aov_sum[i] / N);
     for (int j = 0; j < f->nstrategy; ++j)
         if (!spc_film_resolve(f->strategy[j]))

@@ -15,6 +15,11 @@
 
 #include "core/error.h"
 #include "core/math.h"
+#include "scene/scene.h"
+
+/* AOV channels kept per pixel: albedo rgb, shading normal xyz, depth (distance along the camera
+ * ray to the first vertex), position xyz (that vertex) */
+#define SPC_FILM_AOVS 10
 
 struct spc_film {
     int width, height;           /* rendered window */
@@ -24,12 +29,17 @@ struct spc_film {
     double *sum, *sumsq;         /* 3 per pixel */
     double *pass;                /* 3 per pixel: the current pass (camera sample + splats) */
     bool has_aovs;
-    double *aov_sum;             /* 7 per pixel: albedo rgb, normal xyz, depth */
+    double *aov_sum;             /* SPC_FILM_AOVS per pixel: albedo rgb, normal xyz, depth, position xyz */
     /* resolved by spc_film_resolve */
     float *rgb, *var;            /* 3 per pixel */
-    float *aov;                  /* 7 per pixel */
+    float *aov;                  /* SPC_FILM_AOVS per pixel */
     float *noisy;                /* 3 per pixel after spc_film_denoise: rgb before it (rgb is then the
                                   * denoised image); NULL otherwise, and again after a resolve */
+    /* the AOVs a scene's aov integrator asks for (names and types as Mitsuba 3 writes them), set by
+     * the renderer; none: --aovs writes albedo, normal and depth */
+    int naov_out;
+    spc_aov_output aov_out[SPC_MAX_AOV_OUTPUTS];
+    char aov_image[48];
     uint64_t invalid_samples;
     /* bdpt strategy images (spc_render_options.strategy_images): films owned by this one, which
      * spc_film_destroy and spc_film_resolve handle with it; film 2 k is strategy k

@@ -19,7 +19,9 @@
 #include "render/film.h"
 #include "specula/specula.h"
 
-#define FILM_IO_MAX_CHANNELS 16 /* rgb + noisy rgb + variance rgb + 7 AOVs */
+/* rgb + noisy rgb + variance rgb + the AOVs: --aovs' 7, or an aov integrator's outputs (3 each)
+ * and its nested integrator's image again */
+#define FILM_IO_MAX_CHANNELS (12 + 3 * SPC_MAX_AOV_OUTPUTS)
 
 static spc_status check_resolved(const struct spc_film *f, const char *path, spc_error *err)
 {
@@ -40,6 +42,9 @@ spc_status spc_film_write_exr(const struct spc_film *f, const char *path, bool v
     bool aovs = f->has_aovs && f->aov;
 
     const char *names[FILM_IO_MAX_CHANNELS];
+    char named[FILM_IO_MAX_CHANNELS][64];
+    int src[FILM_IO_MAX_CHANNELS]; /* per AOV channel: its index in the film's AOVs, or -1 - k for rgb k */
+    int naov = 0;
     int nch = 0;
     names[nch++] = "R";
     names[nch++] = "G";
@@ -54,7 +59,32 @@ spc_status spc_film_write_exr(const struct spc_film *f, const char *path, bool v
         names[nch++] = f->noisy ? "noisy.variance.G" : "variance.G";
         names[nch++] = f->noisy ? "noisy.variance.B" : "variance.B";
     }
-    if (aovs) {
+    if (aovs && f->naov_out > 0) {
+        /* as Mitsuba 3's aov integrator: the nested integrator's image, then each AOV */
+        static const char *rgb_s[3] = {"R", "G", "B"}, *xyz_s[3] = {"X", "Y", "Z"};
+        if (f->aov_image[0])
+            for (int k = 0; k < 3; ++k) {
+                snprintf(named[naov], sizeof named[naov], "%s.%s", f->aov_image, rgb_s[k]);
+                src[naov++] = -1 - k;
+            }
+        for (int a = 0; a < f->naov_out; ++a) {
+            const spc_aov_output *o = &f->aov_out[a];
+            int first = 0, n = 3;
+            const char **suffix = xyz_s;
+            switch (o->type) {
+            case SPC_AOV_ALBEDO: first = 0; suffix = rgb_s; break;
+            case SPC_AOV_SH_NORMAL: first = 3; break;
+            case SPC_AOV_DEPTH: first = 6; n = 1; break;
+            case SPC_AOV_POSITION: first = 7; break;
+            }
+            for (int k = 0; k < n; ++k) {
+                snprintf(named[naov], sizeof named[naov], "%s.%s", o->name, n == 1 ? "T" : suffix[k]);
+                src[naov++] = first + k;
+            }
+        }
+        for (int k = 0; k < naov; ++k)
+            names[nch++] = named[k];
+    } else if (aovs) {
         names[nch++] = "albedo.R";
         names[nch++] = "albedo.G";
         names[nch++] = "albedo.B";
@@ -80,9 +110,13 @@ spc_status spc_film_write_exr(const struct spc_film *f, const char *path, bool v
         if (variance)
             for (int k = 0; k < 3; ++k)
                 px[c++] = f->var[3 * i + (size_t)k];
-        if (aovs)
+        if (aovs && f->naov_out > 0)
+            for (int k = 0; k < naov; ++k)
+                px[c++] = src[k] < 0 ? f->rgb[3 * i + (size_t)(-1 - src[k])]
+                                     : f->aov[SPC_FILM_AOVS * i + (size_t)src[k]];
+        else if (aovs)
             for (int k = 0; k < 7; ++k)
-                px[c++] = f->aov[7 * i + (size_t)k];
+                px[c++] = f->aov[SPC_FILM_AOVS * i + (size_t)k];
     }
 
     char spp[32];

@@ -67,6 +67,19 @@ typedef struct spc_film_spec {
 
 #define SPC_SPECULAR_NEE_NONE 0
 
+/* One AOV of Mitsuba 3's aov integrator: the channel name and what it holds. */
+typedef enum spc_aov_type {
+    SPC_AOV_ALBEDO,    /* name.R, .G, .B */
+    SPC_AOV_DEPTH,     /* name.T: distance along the camera ray */
+    SPC_AOV_POSITION,  /* name.X, .Y, .Z */
+    SPC_AOV_SH_NORMAL  /* name.X, .Y, .Z */
+} spc_aov_type;
+#define SPC_MAX_AOV_OUTPUTS 16
+typedef struct spc_aov_output {
+    char name[48];
+    spc_aov_type type;
+} spc_aov_output;
+
 typedef struct spc_integrator_spec {
     char type[64];        /* "path", "ipt", "bdpt" (checked by the renderer) */
     int max_depth;        /* Mitsuba's meaning: 1 = emitters seen directly, 2 = direct light; -1 = no limit */
@@ -76,6 +89,11 @@ typedef struct spc_integrator_spec {
                              * "angular", "newton", "conic", with options (spc_snee_parse) */
     int specular_max_chain; /* longest chain of specular vertices for specular NEE */
     bool mis_balance;       /* bdpt: balance heuristic instead of the power heuristic */
+    bool strict_normals;    /* path: no light across surfaces whose shading normal disagrees with
+                               the geometric normal (Mitsuba 0.6's strictNormals) */
+    int naovs;              /* an aov integrator's outputs, written as EXR channels */
+    spc_aov_output aovs[SPC_MAX_AOV_OUTPUTS];
+    char aov_image[48];     /* the nested integrator's name: its image also as name.R/G/B */
     char decl_file[512];    /* where the integrator was declared, for error messages */
     int decl_line, decl_col;
 } spc_integrator_spec;

@@ -133,7 +133,7 @@ for defs in ({}, {"spp": str(spp)}, {"res": sys.argv[5], "spp": str(spp)}, {"res
         scene = mi.load_file(scene_path, **defs)
         break
     except Exception as e:
-        err = e
+        err = err or e  # the error without parameters is the telling one
 else:
     print("LOADFAIL " + " ".join(str(err).split())[:300])
     sys.exit(3)
@@ -186,12 +186,19 @@ def main():
     ap.add_argument("--specula", default=os.path.join(ROOT, "build", "specula"))
     ap.add_argument("--json", default="")
     ap.add_argument("--markdown", default="")
+    ap.add_argument("--resume", action="store_true", help="keep the rows already in --json")
     a = ap.parse_args()
     os.makedirs(a.work, exist_ok=True)
     small = make_small_copy(os.path.abspath(a.data), a.work, a.res)
     scenes = [s for s in find_scenes(a.data) if a.only in s]
     rows = []
+    done = {}
+    if a.resume and a.json and os.path.exists(a.json):
+        done = {r["scene"]: r for r in json.load(open(a.json))["rows"]}
     for rel in scenes:
+        if rel in done:
+            rows.append(done[rel])
+            continue
         path = os.path.join(small, rel)
         tag = re.sub(r"[^A-Za-z0-9]+", "_", rel)
         ref = os.path.join(a.work, tag + "_mitsuba.exr")
@@ -236,6 +243,9 @@ def main():
                 r["diff_error"] = "%s %s" % (e, err.strip()[:200])
         rows.append(r)
         print(format_row(r), flush=True)
+        if a.json:  # as it goes, for --resume
+            with open(a.json, "w") as fh:
+                json.dump({"res": a.res, "spp": a.spp, "passes": a.passes, "rows": rows}, fh, indent=1)
     summary = summarize(rows)
     print(summary)
     if a.json:

@@ -1,0 +1,238 @@
+/*
+ * io/mitsuba_plugin_list.c: every plugin of Mitsuba 3 (3.9) by category, whether specula's loader
+ * reads it, the parameters it reads with their defaults, and what differs. docs/PLUGINS.md is this
+ * table printed (mts_plugins_markdown; tests/test_plugins.c checks that the committed file equals
+ * it, and that the loader accepts every plugin marked read and refuses every one marked not read,
+ * with an error naming it).
+ *
+ * Parameters are written "name default" (a parameter Mitsuba has and specula does not read is
+ * listed in the note); "-" for none.
+ */
+#include <stdio.h>
+#include <string.h>
+
+#include "io/mitsuba_internal.h"
+
+static const mts_plugin plugins[] = {
+    /* ---- BSDFs ---- */
+    {"bsdf", "diffuse", MTS_PLUGIN_YES, "reflectance 0.5", ""},
+    {"bsdf", "dielectric", MTS_PLUGIN_YES,
+     "int_ior \"bk7\", ext_ior \"air\", specular_reflectance 1, specular_transmittance 1", ""},
+    {"bsdf", "thindielectric", MTS_PLUGIN_YES,
+     "int_ior \"bk7\", ext_ior \"air\", specular_reflectance 1, specular_transmittance 1",
+     "its transmission is a null event for volpath, as in Mitsuba"},
+    {"bsdf", "roughdielectric", MTS_PLUGIN_YES,
+     "distribution \"beckmann\", alpha 0.1 (alpha_u, alpha_v), int_ior \"bk7\", ext_ior \"air\", sample_visible true, "
+     "specular_reflectance 1, specular_transmittance 1",
+     ""},
+    {"bsdf", "conductor", MTS_PLUGIN_YES, "material \"none\" (or eta, k), specular_reflectance 1",
+     "spectral eta/k are converted to RGB (see bench/RESULTS.md for the colour difference)"},
+    {"bsdf", "roughconductor", MTS_PLUGIN_YES,
+     "material \"none\" (or eta, k), distribution \"beckmann\", alpha 0.1 (alpha_u, alpha_v), sample_visible true, "
+     "specular_reflectance 1",
+     ""},
+    {"bsdf", "plastic", MTS_PLUGIN_YES,
+     "diffuse_reflectance 0.5, specular_reflectance 1, int_ior \"polypropylene\", ext_ior \"air\", nonlinear false",
+     ""},
+    {"bsdf", "roughplastic", MTS_PLUGIN_YES,
+     "diffuse_reflectance 0.5, specular_reflectance 1, distribution \"beckmann\", alpha 0.1, int_ior "
+     "\"polypropylene\", ext_ior \"air\", nonlinear false, sample_visible true",
+     ""},
+    {"bsdf", "twosided", MTS_PLUGIN_YES, "one or two nested bsdfs", ""},
+    {"bsdf", "bumpmap", MTS_PLUGIN_YES, "a nested texture (height), scale 1, a nested bsdf", ""},
+    {"bsdf", "normalmap", MTS_PLUGIN_YES, "normalmap (a bitmap texture), a nested bsdf", ""},
+    {"bsdf", "blendbsdf", MTS_PLUGIN_YES, "weight 0.5 (float or texture), two nested bsdfs", ""},
+    {"bsdf", "mask", MTS_PLUGIN_YES, "opacity 0.5 (float or texture), a nested bsdf",
+     "its hole is a null event for volpath"},
+    {"bsdf", "null", MTS_PLUGIN_YES, "-", ""},
+    {"bsdf", "principled", MTS_PLUGIN_NO, "-", "not yet: the largest group of unloadable scenes"},
+    {"bsdf", "principledthin", MTS_PLUGIN_NO, "-", ""},
+    {"bsdf", "pplastic", MTS_PLUGIN_YES,
+     "diffuse_reflectance 0.5, specular_reflectance 1, distribution \"beckmann\", alpha 0.1 (alpha_u, alpha_v), "
+     "int_ior \"polypropylene\", ext_ior \"air\", sample_visible true",
+     "as Mitsuba 3's unpolarized variants evaluate it"},
+    {"bsdf", "hair", MTS_PLUGIN_NO, "-", ""},
+    {"bsdf", "measured", MTS_PLUGIN_NO, "-", "measured RGL BSDFs"},
+    {"bsdf", "measured_polarized", MTS_PLUGIN_NO, "-", "polarized variants only"},
+    {"bsdf", "polarizer", MTS_PLUGIN_STANDIN, "transmittance 1 (constant); theta, polarizing unused",
+     "as Mitsuba 3's RGB variants render it: a null surface passing half the light"},
+    {"bsdf", "retarder", MTS_PLUGIN_NO, "-", "polarization is not modelled"},
+    {"bsdf", "circular", MTS_PLUGIN_NO, "-", "polarization is not modelled"},
+    {"bsdf", "roughdiffuse", MTS_PLUGIN_OWN, "reflectance 0.5, alpha 0.2, use_fast_approx false",
+     "Mitsuba 0.6's (Oren-Nayar); Mitsuba 3 has no such plugin"},
+    {"bsdf", "phong", MTS_PLUGIN_OWN, "exponent 30, specular_reflectance 0.2, diffuse_reflectance 0.5",
+     "Mitsuba 0.6's; Mitsuba 3 has no such plugin"},
+
+    /* ---- emitters ---- */
+    {"emitter", "area", MTS_PLUGIN_YES, "radiance 1 (rgb or texture)",
+     "inside a shape, or at the top level with an id and referenced from shapes"},
+    {"emitter", "point", MTS_PLUGIN_YES, "intensity 1, position (or to_world)", ""},
+    {"emitter", "spot", MTS_PLUGIN_YES, "intensity 1, cutoff_angle 20, beam_width 3/4 cutoff_angle, texture, to_world",
+     ""},
+    {"emitter", "directional", MTS_PLUGIN_YES, "irradiance 1, direction (or to_world)", ""},
+    {"emitter", "constant", MTS_PLUGIN_YES, "radiance 1", ""},
+    {"emitter", "envmap", MTS_PLUGIN_YES, "filename, scale 1, to_world", ""},
+    {"emitter", "projector", MTS_PLUGIN_NO, "-", ""},
+    {"emitter", "directionalarea", MTS_PLUGIN_NO, "-", ""},
+    {"emitter", "sunsky", MTS_PLUGIN_NO, "-", ""},
+
+    /* ---- shapes ---- */
+    {"shape", "obj", MTS_PLUGIN_YES, "filename, face_normals false, flip_normals false, flip_tex_coords true, to_world",
+     ""},
+    {"shape", "ply", MTS_PLUGIN_YES, "filename, face_normals false, flip_normals false, to_world", ""},
+    {"shape", "serialized", MTS_PLUGIN_YES, "filename, shape_index 0, face_normals false, flip_normals false, to_world",
+     ""},
+    {"shape", "sphere", MTS_PLUGIN_YES, "center (0,0,0), radius 1, flip_normals false, to_world", "exact (analytic)"},
+    {"shape", "disk", MTS_PLUGIN_YES, "flip_normals false, to_world", "exact (analytic)"},
+    {"shape", "rectangle", MTS_PLUGIN_YES, "flip_normals false, to_world", ""},
+    {"shape", "cube", MTS_PLUGIN_YES, "flip_normals false, to_world", ""},
+    {"shape", "cylinder", MTS_PLUGIN_YES, "p0 (0,0,0), p1 (0,0,1), radius 1, flip_normals false, to_world",
+     "exact (analytic)"},
+    {"shape", "shapegroup", MTS_PLUGIN_YES, "nested shapes", ""},
+    {"shape", "instance", MTS_PLUGIN_YES, "a referenced shapegroup, to_world", ""},
+    {"shape", "bsplinecurve", MTS_PLUGIN_NO, "-", ""},
+    {"shape", "linearcurve", MTS_PLUGIN_NO, "-", ""},
+    {"shape", "sdfgrid", MTS_PLUGIN_NO, "-", ""},
+    {"shape", "ellipsoids", MTS_PLUGIN_NO, "-", ""},
+    {"shape", "ellipsoidsmesh", MTS_PLUGIN_NO, "-", ""},
+    {"shape", "sdf", MTS_PLUGIN_OWN, "a tree of nested sdf nodes", "specula's signed distance fields"},
+
+    /* ---- textures ---- */
+    {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
+     ""},
+    {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", ""},
+    {"texture", "mesh_attribute", MTS_PLUGIN_NO, "-", ""},
+    {"texture", "volume", MTS_PLUGIN_NO, "-", ""},
+
+    /* ---- sensors ---- */
+    {"sensor", "perspective", MTS_PLUGIN_YES,
+     "to_world, fov (fov_axis \"x\") or focal_length \"50mm\", near_clip 0.01, far_clip 10000", ""},
+    {"sensor", "thinlens", MTS_PLUGIN_YES, "as perspective, aperture_radius (required), focus_distance far_clip",
+     "bdpt's and specular NEE's strategies that join the camera are off with a lens"},
+    {"sensor", "orthographic", MTS_PLUGIN_YES, "to_world, near_clip 0.01, far_clip 10000", ""},
+    {"sensor", "radiancemeter", MTS_PLUGIN_NO, "-", ""},
+    {"sensor", "irradiancemeter", MTS_PLUGIN_NO, "-", ""},
+    {"sensor", "distant", MTS_PLUGIN_NO, "-", ""},
+    {"sensor", "batch", MTS_PLUGIN_NO, "-", ""},
+
+    /* ---- films and filters ---- */
+    {"film", "hdrfilm", MTS_PLUGIN_YES, "width 768, height 576, crop_offset_x/y 0, crop_width/height, rfilter",
+     "pixel_format and component_format are read and ignored (EXR RGB float)"},
+    {"film", "specfilm", MTS_PLUGIN_NO, "-", ""},
+    {"film", "ldrfilm", MTS_PLUGIN_OWN, "as hdrfilm", "Mitsuba 0.6's; the image is written as by hdrfilm"},
+    {"rfilter", "box", MTS_PLUGIN_YES, "-", ""},
+    {"rfilter", "tent", MTS_PLUGIN_YES, "radius 1", ""},
+    {"rfilter", "gaussian", MTS_PLUGIN_YES, "stddev 0.5", ""},
+    {"rfilter", "mitchell", MTS_PLUGIN_STANDIN, "-", "rendered with the gaussian filter (stddev 0.5), with a warning"},
+    {"rfilter", "catmullrom", MTS_PLUGIN_STANDIN, "-",
+     "rendered with the gaussian filter (stddev 0.5), with a warning"},
+    {"rfilter", "lanczos", MTS_PLUGIN_STANDIN, "-", "rendered with the gaussian filter (stddev 0.5), with a warning"},
+
+    /* ---- samplers ---- */
+    {"sampler", "independent", MTS_PLUGIN_YES, "sample_count 4, seed 0",
+     "every sampler is specula's own stratified, scrambled sequence"},
+    {"sampler", "stratified", MTS_PLUGIN_YES, "sample_count 4, seed 0", ""},
+    {"sampler", "multijitter", MTS_PLUGIN_YES, "sample_count 4, seed 0", ""},
+    {"sampler", "orthogonal", MTS_PLUGIN_YES, "sample_count 4, seed 0", ""},
+    {"sampler", "ldsampler", MTS_PLUGIN_YES, "sample_count 4, seed 0", ""},
+
+    /* ---- integrators ---- */
+    {"integrator", "path", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", ""},
+    {"integrator", "prb", MTS_PLUGIN_YES, "as path", "rendered by path"},
+    {"integrator", "volpath", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", ""},
+    {"integrator", "volpathmis", MTS_PLUGIN_YES, "as volpath", "rendered by volpath"},
+    {"integrator", "direct", MTS_PLUGIN_YES, "emitter_samples, bsdf_samples (read, not used)",
+     "path with max_depth 2; Mitsuba counts each of emitter_samples delta-light samples at full weight"},
+    {"integrator", "aov", MTS_PLUGIN_YES, "aovs (albedo, depth, position, sh_normal), a nested integrator",
+     "other AOV types are refused"},
+    {"integrator", "moment", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only"},
+    {"integrator", "stokes", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only"},
+    {"integrator", "ptracer", MTS_PLUGIN_NO, "-", ""},
+    {"integrator", "depth", MTS_PLUGIN_NO, "-", ""},
+    {"integrator", "prbvolpath", MTS_PLUGIN_NO, "-", ""},
+    {"integrator", "bdpt", MTS_PLUGIN_OWN, "max_depth -1, rr_depth 5, mis_balance false",
+     "Mitsuba 0.6 had one; Mitsuba 3 has not"},
+    {"integrator", "ipt", MTS_PLUGIN_OWN, "max_depth -1", "implicit path tracing (no NEE)"},
+
+    /* ---- media and phase functions ---- */
+    {"medium", "homogeneous", MTS_PLUGIN_YES, "sigma_t 1 and albedo 0.75 (or sigma_a, sigma_s), scale 1, phase", ""},
+    {"medium", "heterogeneous", MTS_PLUGIN_NO, "-", "heterogeneous media (grid volumes) are not supported"},
+    {"phase", "isotropic", MTS_PLUGIN_YES, "-", ""},
+    {"phase", "hg", MTS_PLUGIN_YES, "g 0.8", ""},
+    {"phase", "rayleigh", MTS_PLUGIN_NO, "-", ""},
+    {"phase", "blendphase", MTS_PLUGIN_NO, "-", ""},
+    {"phase", "tabphase", MTS_PLUGIN_NO, "-", ""},
+    {"phase", "sggx", MTS_PLUGIN_NO, "-", ""},
+    {"volume", "constvolume", MTS_PLUGIN_NO, "-", ""},
+    {"volume", "gridvolume", MTS_PLUGIN_NO, "-", ""},
+};
+
+const mts_plugin *mts_plugin_list(int *n)
+{
+    *n = (int)(sizeof plugins / sizeof plugins[0]);
+    return plugins;
+}
+
+const mts_plugin *mts_plugin_find(const char *category, const char *name)
+{
+    for (size_t i = 0; i < sizeof plugins / sizeof plugins[0]; ++i)
+        if (strcmp(plugins[i].category, category) == 0 && strcmp(plugins[i].name, name) == 0)
+            return &plugins[i];
+    return NULL;
+}
+
+spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type,
+                           const char *known)
+{
+    const mts_plugin *p = mts_plugin_find(category, type);
+    if (p && p->status == MTS_PLUGIN_NO)
+        return mts_fail(L, node, SPC_ERR_PLUGIN, "%s '%s' (a Mitsuba 3 plugin) is not supported by specula%s%s",
+                        category, type, p->note[0] ? ": " : "", p->note);
+    return mts_fail(L, node, SPC_ERR_PLUGIN, "unknown %s type '%s' (%s)", category, type, known);
+}
+
+static const char *status_text(mts_plugin_status s)
+{
+    switch (s) {
+    case MTS_PLUGIN_YES:
+        return "yes";
+    case MTS_PLUGIN_NO:
+        return "**no**";
+    case MTS_PLUGIN_OWN:
+        return "yes (not in Mitsuba 3)";
+    case MTS_PLUGIN_STANDIN:
+        return "stand-in";
+    }
+    return "?";
+}
+
+int mts_plugins_markdown(FILE *out)
+{
+    int n;
+    const mts_plugin *p = mts_plugin_list(&n);
+    int yes = 0, no = 0, standin = 0;
+    for (int i = 0; i < n; ++i) {
+        yes += p[i].status == MTS_PLUGIN_YES;
+        no += p[i].status == MTS_PLUGIN_NO;
+        standin += p[i].status == MTS_PLUGIN_STANDIN;
+    }
+    fprintf(out, "# Mitsuba 3 plugins in specula\n\n");
+    fprintf(out, "Generated from the loader's plugin table (`src/io/mitsuba_plugin_list.c`) by\n"
+                 "`tests/test_plugins.c` (`SPC_WRITE_PLUGINS=1 build/test_plugins` rewrites this file; the test\n"
+                 "fails when the file and the table differ, or when the loader does not accept a plugin marked\n"
+                 "yes or does not refuse one marked no). Do not edit by hand.\n\n");
+    fprintf(out,
+            "Of %d Mitsuba 3 plugins listed, specula reads %d, renders %d with a stand-in (and a warning)\n"
+            "and refuses %d with an error naming the plugin; %d more are specula's own or Mitsuba 0.6's.\n"
+            "Parameters are given with their defaults.\n",
+            yes + no + standin, yes, standin, no, n - yes - no - standin);
+    const char *cat = "";
+    for (int i = 0; i < n; ++i) {
+        if (strcmp(cat, p[i].category) != 0) {
+            cat = p[i].category;
+            fprintf(out, "\n## %s\n\n| plugin | specula | parameters read | notes |\n|---|---|---|---|\n", cat);
+        }
+        fprintf(out, "| `%s` | %s | %s | %s |\n", p[i].name, status_text(p[i].status), p[i].params, p[i].note);
+    }
+    return ferror(out) ? -1 : 0;
+}

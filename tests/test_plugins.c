@@ -1,0 +1,188 @@
+/*
+ * tests/test_plugins.c: the loader's plugin table (io/mitsuba_plugin_list.c) is true and
+ * docs/PLUGINS.md is that table printed. For every plugin the table marks as read, a small scene
+ * using it loads; for every one it marks as not read, loading fails with SPC_ERR_PLUGIN and an
+ * error that names the plugin. The committed docs/PLUGINS.md must equal the generated text;
+ * SPC_WRITE_PLUGINS=1 build/test_plugins writes it.
+ */
+/* ctest-labels: unit */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "harness.h"
+#include "io/mitsuba_internal.h"
+#include "io/mitsuba_xml.h"
+#include "specula/specula.h"
+
+static const char *source_dir(void)
+{
+    const char *d = getenv("SPC_SOURCE_DIR");
+    return d ? d : ".";
+}
+
+/* The body of a small scene that uses plugin p (in the scenes/ folder, for its meshes and images). */
+static void probe(const mts_plugin *p, char *xml, size_t size)
+{
+    const char *c = p->category, *n = p->name;
+    char inner[600] = "";
+    if (strcmp(c, "bsdf") == 0) {
+        if (!strcmp(n, "twosided") || !strcmp(n, "mask") || !strcmp(n, "blendbsdf"))
+            snprintf(inner, sizeof inner, "<bsdf type=\"diffuse\"/>%s",
+                     strcmp(n, "blendbsdf") == 0 ? "<bsdf type=\"conductor\"/>" : "");
+        else if (!strcmp(n, "bumpmap"))
+            snprintf(inner, sizeof inner,
+                     "<texture type=\"bitmap\"><string name=\"filename\" "
+                     "value=\"textures/bumps.png\"/></texture><bsdf type=\"diffuse\"/>");
+        else if (!strcmp(n, "normalmap"))
+            snprintf(inner, sizeof inner,
+                     "<texture type=\"bitmap\" name=\"normalmap\"><string name=\"filename\" "
+                     "value=\"textures/waves_normal.png\"/></texture><bsdf type=\"diffuse\"/>");
+        snprintf(xml, size, "<bsdf type=\"%s\" id=\"b\">%s</bsdf><shape type=\"sphere\"><ref id=\"b\"/></shape>", n,
+                 inner);
+    } else if (strcmp(c, "emitter") == 0) {
+        if (!strcmp(n, "area"))
+            snprintf(xml, size, "<shape type=\"sphere\"><emitter type=\"area\"/></shape>");
+        else if (!strcmp(n, "envmap"))
+            snprintf(xml, size,
+                     "<emitter type=\"envmap\"><string name=\"filename\" value=\"textures/sky.exr\"/>"
+                     "</emitter>");
+        else
+            snprintf(xml, size, "<emitter type=\"%s\"/>", n);
+    } else if (strcmp(c, "shape") == 0) {
+        const char *file = !strcmp(n, "obj")          ? "meshes/quad.obj"
+                           : !strcmp(n, "ply")        ? "meshes/torus_ascii.ply"
+                           : !strcmp(n, "serialized") ? "meshes/cone_prism.serialized"
+                                                      : NULL;
+        if (file)
+            snprintf(xml, size, "<shape type=\"%s\"><string name=\"filename\" value=\"%s\"/></shape>", n, file);
+        else if (!strcmp(n, "shapegroup") || !strcmp(n, "instance"))
+            snprintf(xml, size,
+                     "<shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"/></shape>"
+                     "<shape type=\"instance\"><ref id=\"g\"/></shape>");
+        else if (!strcmp(n, "sdf"))
+            snprintf(xml, size, "<shape type=\"sdf\"><sdf type=\"sphere\"/></shape>");
+        else
+            snprintf(xml, size, "<shape type=\"%s\"/>", n);
+    } else if (strcmp(c, "texture") == 0) {
+        snprintf(xml, size,
+                 "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"%s\" name=\"reflectance\">%s"
+                 "</texture></bsdf></shape>",
+                 n, strcmp(n, "bitmap") == 0 ? "<string name=\"filename\" value=\"textures/grid.png\"/>" : "");
+    } else if (strcmp(c, "sensor") == 0) {
+        snprintf(xml, size, "<sensor type=\"%s\">%s</sensor>", n,
+                 strcmp(n, "thinlens") == 0 ? "<float name=\"aperture_radius\" value=\"0.1\"/>" : "");
+    } else if (strcmp(c, "film") == 0) {
+        snprintf(xml, size, "<sensor type=\"perspective\"><film type=\"%s\"/></sensor>", n);
+    } else if (strcmp(c, "rfilter") == 0) {
+        snprintf(xml, size,
+                 "<sensor type=\"perspective\"><film type=\"hdrfilm\"><rfilter type=\"%s\"/></film></sensor>", n);
+    } else if (strcmp(c, "sampler") == 0) {
+        snprintf(xml, size, "<sensor type=\"perspective\"><sampler type=\"%s\"/></sensor>", n);
+    } else if (strcmp(c, "integrator") == 0) {
+        if (!strcmp(n, "aov"))
+            snprintf(inner, sizeof inner, "<string name=\"aovs\" value=\"d:depth\"/><integrator type=\"path\"/>");
+        else if (!strcmp(n, "moment") || !strcmp(n, "stokes"))
+            snprintf(inner, sizeof inner, "<integrator type=\"path\"/>");
+        snprintf(xml, size, "<integrator type=\"%s\">%s</integrator>", n, inner);
+    } else if (strcmp(c, "medium") == 0) {
+        snprintf(xml, size,
+                 "<medium type=\"%s\" id=\"m\"/><shape type=\"sphere\"><ref name=\"interior\" id=\"m\"/>"
+                 "</shape>",
+                 n);
+    } else if (strcmp(c, "phase") == 0) {
+        snprintf(xml, size,
+                 "<medium type=\"homogeneous\" id=\"m\"><phase type=\"%s\"/></medium>"
+                 "<shape type=\"sphere\"><ref name=\"interior\" id=\"m\"/></shape>",
+                 n);
+    } else { /* volume */
+        snprintf(xml, size,
+                 "<medium type=\"homogeneous\" id=\"m\"><volume type=\"%s\" name=\"sigma_t\"/></medium>"
+                 "<shape type=\"sphere\"><ref name=\"interior\" id=\"m\"/></shape>",
+                 n);
+    }
+}
+
+TEST(every_plugin_is_as_listed)
+{
+    int n;
+    const mts_plugin *p = mts_plugin_list(&n);
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s/scenes", source_dir());
+    for (int i = 0; i < n; ++i) {
+        char body[1500], xml[2000];
+        probe(&p[i], body, sizeof body);
+        snprintf(xml, sizeof xml, "<scene version=\"3.0.0\">%s</scene>", body);
+        spc_scene *s = NULL;
+        spc_error err;
+        memset(&err, 0, sizeof err);
+        spc_status st = spc_mitsuba_load_string(xml, strlen(xml), "probe.xml", dir, NULL, 0, &s, &err);
+        if (p[i].status == MTS_PLUGIN_NO) {
+            CHECK_MSG(st == SPC_ERR_PLUGIN, "%s '%s' is listed as not read but loads (status %d: %s)", p[i].category,
+                      p[i].name, (int)st, err.msg);
+            /* volumes are refused where a medium would take them, without their name */
+            if (strcmp(p[i].category, "volume") != 0)
+                CHECK_MSG(strstr(err.msg, p[i].name) != NULL, "%s '%s': the error does not name it: %s", p[i].category,
+                          p[i].name, err.msg);
+        } else {
+            CHECK_MSG(st == SPC_OK, "%s '%s' is listed as read but does not load: %s", p[i].category, p[i].name,
+                      err.msg);
+        }
+        spc_scene_destroy(s);
+    }
+}
+
+/* A Mitsuba 3 plugin specula does not read is named as such, not as a typo. */
+TEST(unread_plugins_are_named)
+{
+    const char *xml = "<scene version=\"3.0.0\"><bsdf type=\"hair\"/></scene>";
+    spc_scene *s = NULL;
+    spc_error err;
+    CHECK(spc_mitsuba_load_string(xml, strlen(xml), "t.xml", ".", NULL, 0, &s, &err) == SPC_ERR_PLUGIN);
+    CHECK_MSG(strstr(err.msg, "bsdf 'hair' (a Mitsuba 3 plugin) is not supported") != NULL, "%s", err.msg);
+    xml = "<scene version=\"3.0.0\"><bsdf type=\"hare\"/></scene>";
+    CHECK(spc_mitsuba_load_string(xml, strlen(xml), "t.xml", ".", NULL, 0, &s, &err) == SPC_ERR_PLUGIN);
+    CHECK_MSG(strstr(err.msg, "unknown bsdf type 'hare'") != NULL, "%s", err.msg);
+}
+
+TEST(plugins_md_is_generated)
+{
+    char *text = NULL;
+    size_t len = 0;
+    FILE *m = open_memstream(&text, &len);
+    CHECK(m != NULL);
+    if (!m)
+        return;
+    CHECK(mts_plugins_markdown(m) == 0);
+    fclose(m);
+    char path[1024];
+    snprintf(path, sizeof path, "%s/docs/PLUGINS.md", source_dir());
+    if (getenv("SPC_WRITE_PLUGINS")) {
+        FILE *f = fopen(path, "w");
+        CHECK(f != NULL);
+        if (f) {
+            fwrite(text, 1, len, f);
+            fclose(f);
+        }
+    }
+    FILE *f = fopen(path, "rb");
+    CHECK_MSG(f != NULL, "%s is missing: run SPC_WRITE_PLUGINS=1 build/test_plugins", path);
+    if (f) {
+        char *have = malloc(len + 2);
+        size_t got = have ? fread(have, 1, len + 1, f) : 0;
+        fclose(f);
+        CHECK_MSG(have && got == len && memcmp(have, text, len) == 0,
+                  "%s differs from the plugin table: run SPC_WRITE_PLUGINS=1 build/test_plugins", path);
+        free(have);
+    }
+    free(text);
+}
+
+int main(void)
+{
+    spc_warn_set_quiet(1);
+    RUN(every_plugin_is_as_listed);
+    RUN(unread_plugins_are_named);
+    RUN(plugins_md_is_generated);
+    return spc_test_finish();
+}
