@@ -105,9 +105,10 @@ char *spc_cl_describe_devices(void)
 /* Instructions of one SDF program and its stack depth (the kernel's SDF_STACK). */
 #define CL_MAX_SDF_NODES 256
 #define CL_MAX_SDF_STACK 16
-/* Longest bdpt path on the device (the kernel's BDPT_MAX_VERTS - 2 segments), and the light
- * subpath's splats per sample (MAX_SPLATS). */
-#define CL_BDPT_MAX_DEPTH 16
+/* Longest bdpt path on the device (the kernel's BDPT_MAX_VERTS - 1 segments; max_depth -1 renders
+ * paths up to it, Russian roulette making longer ones rare), and the light subpath's splats per
+ * sample (MAX_SPLATS). */
+#define CL_BDPT_MAX_DEPTH 19
 #define CL_MAX_SPLATS 32
 /* Work items per kernel launch: bounds the output and splat buffers (16 MiB of floats) and the
  * time one launch holds a GPU. */
@@ -370,8 +371,9 @@ static spc_status build_scene(const spc_render_ctx *ctx, host_scene *hs, spc_err
         return REFUSE("specular NEE not supported");
     if (ctx->strategy_s >= 0 || ctx->strategy_t >= 0 || ctx->strategy_images_depth > 0)
         return REFUSE("single strategies and strategy images not supported");
-    if (ctx->kind == SPC_INTEGRATOR_BDPT && (ctx->max_depth < 0 || ctx->max_depth > CL_BDPT_MAX_DEPTH))
-        return REFUSE("bdpt with max_depth %d not supported (1 to %d)", ctx->max_depth, CL_BDPT_MAX_DEPTH);
+    if (ctx->kind == SPC_INTEGRATOR_BDPT && ctx->max_depth > CL_BDPT_MAX_DEPTH)
+        return REFUSE("bdpt with max_depth %d not supported (1 to %d, or -1: paths up to %d segments)",
+                      ctx->max_depth, CL_BDPT_MAX_DEPTH, CL_BDPT_MAX_DEPTH);
     if (sc->nmedia > 0)
         return REFUSE("participating media not supported");
     if (sc->camera.type != SPC_CAMERA_PERSPECTIVE)
