@@ -785,6 +785,7 @@ static void camera_sample(const camera_t *c, int x, int y, rng_t *rng, float3 *o
 __kernel void render_path(SCENE_ARGS, int pass0, int base, int count, uint seed_lo, uint seed_hi, int max_depth, int rr_depth,
                           int hide_emitters, float mis_beta, __global float *out)
 {
+    (void)mis_beta; /* bdpt's; the kernels share their argument list */
     SCENE_INIT;
     if ((int)get_global_id(0) >= count)
         return;
