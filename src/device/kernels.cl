@@ -80,6 +80,7 @@ typedef struct scene_t {
     __global const float *bsdf_f;
     __global const int *emit_i;
     __global const float *emit_f;
+    uint *rays; /* rays traced by this work item (the driver's statistics) */
 } scene_t;
 
 typedef struct hit_t {
@@ -348,6 +349,7 @@ static bool tri_intersect(__global const float *tr, float3 o, float3 d, float tm
 /* Nearest hit in (tmin, tmax); with any, the first one found (shadow rays). */
 static bool scene_intersect(const scene_t *sc, float3 o, float3 d, float tmin, float tmax, bool any, hit_t *h)
 {
+    ++*sc->rays;
     int best = -1, best_tri = -1;
     float tb = tmax;
     for (int i = 0; i < sc->nshapes; ++i) {
@@ -770,6 +772,8 @@ static void camera_sample(const camera_t *c, int x, int y, rng_t *rng, float3 *o
     sc.bsdf_f = bsdf_f;                                                                                               \
     sc.emit_i = emit_i;                                                                                               \
     sc.emit_f = emit_f;                                                                                               \
+    uint nrays = 0;                                                                                                   \
+    sc.rays = &nrays;                                                                                                 \
     camera_t cam;                                                                                                     \
     cam.f = cam_f;                                                                                                    \
     cam.filt = filt;                                                                                                  \
@@ -783,7 +787,7 @@ static void camera_sample(const camera_t *c, int x, int y, rng_t *rng, float3 *o
 /* ---- path: NEE and BSDF sampling with the power heuristic (integrator/path.c) ---- */
 
 __kernel void render_path(SCENE_ARGS, int pass0, int base, int count, uint seed_lo, uint seed_hi, int max_depth, int rr_depth,
-                          int hide_emitters, float mis_beta, __global float *out)
+                          int hide_emitters, float mis_beta, __global float *out, __global uint *rays_out)
 {
     (void)mis_beta; /* bdpt's; the kernels share their argument list */
     SCENE_INIT;
@@ -859,6 +863,7 @@ __kernel void render_path(SCENE_ARGS, int pass0, int base, int count, uint seed_
         }
     }
     vstore3(L, get_global_id(0), out);
+    rays_out[get_global_id(0)] = nrays;
 }
 
 /* ---- bdpt (Veach 1997, ch. 10; the MIS weights as ratios of forward and reverse area densities
@@ -1119,7 +1124,8 @@ static int splat_axis(const camera_t *c, float f, int lo, int size, float u, flo
 }
 
 __kernel void render_bdpt(SCENE_ARGS, int pass0, int base, int count, uint seed_lo, uint seed_hi, int max_depth, int rr_depth,
-                          int hide_emitters, float mis_beta, __global float *out, __global float *splats)
+                          int hide_emitters, float mis_beta, __global float *out, __global uint *rays_out,
+                          __global float *splats)
 {
     SCENE_INIT;
     if ((int)get_global_id(0) >= count)
@@ -1291,4 +1297,5 @@ __kernel void render_bdpt(SCENE_ARGS, int pass0, int base, int count, uint seed_
     if (nsplat < MAX_SPLATS)
         sp[4 * nsplat] = as_float(-1);
     vstore3(L, get_global_id(0), out);
+    rays_out[get_global_id(0)] = nrays;
 }
