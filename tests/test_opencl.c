@@ -336,6 +336,7 @@ TEST(checkpoint_resume_and_time_limit)
     spc_render_stats stats;
     CHECK(spc_render(sc, &t, &f, &stats, &err) == SPC_OK);
     CHECK(f && f->spp >= 1 && stats.spp == f->spp);
+    CHECK(stats.rays_traced >= (uint64_t)stats.spp * 16 * 16); /* at least the camera rays */
     printf("  time limit 1 s: %d passes in %.2f s\n", stats.spp, stats.wall_seconds);
     CHECK(stats.wall_seconds < 10.0); /* loose: the machine may be shared */
     spc_film_destroy(f);
