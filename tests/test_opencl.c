@@ -5,7 +5,8 @@
  *   and image means within 4 combined standard errors, the opencl device's path and bdpt against
  *   the CPU's: the glass SDF torus caustic (scenes/caustic_sdf_torus.xml) and every SDF primitive
  *   and operation under a sphere light, with a mirror, a glass CSG object and rectangles
- *   (scenes/sdf_shapes_csg.xml).
+ *   (scenes/sdf_shapes_csg.xml); a rectangle light over SDF shapes and a glass sphere, with the
+ *   tent filter.
  * - The device is deterministic (two renders are equal bit for bit) and keeps the driver's pass
  *   structure: a render checkpointed and resumed equals the uninterrupted one bit for bit, a
  *   checkpoint does not resume on another device, --time renders whole passes.
@@ -136,8 +137,60 @@ static void compare(const char *scene, const spc_define *defs, int ndefs, const 
 
 TEST(torus_path_matches_cpu) { compare("scenes/caustic_sdf_torus.xml", big_light, 2, "path", 0, 24, 1024, 1024); }
 TEST(shapes_csg_path_matches_cpu) { compare("scenes/sdf_shapes_csg.xml", NULL, 0, "path", 0, 24, 512, 512); }
-TEST(torus_bdpt_matches_cpu) { compare("scenes/caustic_sdf_torus.xml", NULL, 0, "bdpt", 8, 24, 1024, 1024); }
+/* max_depth -1 (the scene's): Russian roulette on both subpaths */
+TEST(torus_bdpt_matches_cpu) { compare("scenes/caustic_sdf_torus.xml", NULL, 0, "bdpt", 0, 24, 1024, 1024); }
 TEST(shapes_csg_bdpt_matches_cpu) { compare("scenes/sdf_shapes_csg.xml", NULL, 0, "bdpt", 8, 24, 256, 256); }
+
+
+/* A rectangle light (a two-triangle mesh, sampled by area) over SDF shapes and a glass sphere
+ * (analytic), path and bdpt. */
+static const char *rect_light_xml =
+    "<scene version=\"3.0.0\">"
+    "<sensor type=\"perspective\"><float name=\"fov\" value=\"50\"/><transform name=\"to_world\">"
+    "<lookat origin=\"0,2,4\" target=\"0,0.4,0\" up=\"0,1,0\"/></transform>"
+    "<film type=\"hdrfilm\"><rfilter type=\"tent\"/></film></sensor>"
+    "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"3\"/><rotate x=\"1\" angle=\"-90\"/>"
+    "</transform><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.6,0.6,0.6\"/></bsdf></shape>"
+    "<shape type=\"sdf\"><sdf type=\"smooth_union\"><float name=\"k\" value=\"0.2\"/>"
+    "<sdf type=\"roundbox\"><vector name=\"half_size\" x=\"0.4\" y=\"0.3\" z=\"0.4\"/></sdf>"
+    "<sdf type=\"capsule\"><point name=\"p0\" x=\"0\" y=\"0\" z=\"0\"/><point name=\"p1\" x=\"0\" y=\"0.8\" z=\"0\"/>"
+    "<float name=\"radius\" value=\"0.15\"/></sdf></sdf>"
+    "<transform name=\"to_world\"><translate x=\"-0.6\" y=\"0.3\"/></transform>"
+    "<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.7,0.4,0.3\"/></bsdf></shape>"
+    "<shape type=\"sphere\"><point name=\"center\" x=\"0.6\" y=\"0.4\" z=\"0.2\"/><float name=\"radius\" value=\"0.4\"/>"
+    "<bsdf type=\"dielectric\"/></shape>"
+    "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"0.5\"/><rotate x=\"1\" angle=\"90\"/>"
+    "<translate y=\"2.5\"/></transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"12,11,10\"/></emitter>"
+    "</shape></scene>";
+
+static void compare_xml(const char *xml, const char *integrator, int spp)
+{
+    spc_scene *sc = NULL;
+    spc_error err;
+    spc_status st = spc_mitsuba_load_string(xml, strlen(xml), "rect_light.xml", NULL, NULL, 0, &sc, &err);
+    CHECK_MSG(st == SPC_OK, "%s", err.msg);
+    if (st != SPC_OK)
+        return;
+    spc_film *cl = render_on(sc, "opencl", integrator, 8, 16, spp, 3, NULL);
+    spc_film *cpu = render_on(sc, "cpu", integrator, 8, 16, spp, 4, NULL);
+    CHECK(cl && cpu);
+    if (cl && cpu) {
+        char what[128];
+        snprintf(what, sizeof what, "rectangle light, %s, %d spp each", integrator, spp);
+        double pass = ztest(cl, cpu, what);
+        CHECK_MSG(pass >= 0.99, "%s: only %.4f of pixels pass the z-test", what, pass);
+        check_means_agree(cl, cpu, 4.0);
+    }
+    spc_film_destroy(cl);
+    spc_film_destroy(cpu);
+    spc_scene_destroy(sc);
+}
+
+TEST(rectangle_light_matches_cpu)
+{
+    compare_xml(rect_light_xml, "path", 512);
+    compare_xml(rect_light_xml, "bdpt", 256);
+}
 
 TEST(deterministic)
 {
@@ -286,6 +339,7 @@ TEST(checkpoint_resume_and_time_limit)
     spc_render_stats stats;
     CHECK(spc_render(sc, &t, &f, &stats, &err) == SPC_OK);
     CHECK(f && f->spp >= 1 && stats.spp == f->spp);
+    CHECK(stats.rays_traced >= (uint64_t)stats.spp * 16 * 16); /* at least the camera rays */
     printf("  time limit 1 s: %d passes in %.2f s\n", stats.spp, stats.wall_seconds);
     CHECK(stats.wall_seconds < 10.0); /* loose: the machine may be shared */
     spc_film_destroy(f);
@@ -337,5 +391,6 @@ int main(void)
     RUN(shapes_csg_path_matches_cpu);
     RUN(torus_bdpt_matches_cpu);
     RUN(shapes_csg_bdpt_matches_cpu);
+    RUN(rectangle_light_matches_cpu);
     return spc_test_finish();
 }

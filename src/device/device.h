@@ -35,9 +35,9 @@ void spc_cl_destroy(spc_cl_renderer *r);
 
 /* Renders passes pass0 .. pass0 + npasses - 1 into buf (npasses blocks of width x height pixels of
  * the window, stride doubles per pixel, RGB first), light-tracing splats included. Non-finite
- * estimates are replaced by 0 and counted in *invalid. */
+ * estimates are replaced by 0 and counted in *invalid; the rays traced are added to *rays. */
 spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint64_t seed, double *buf, int stride,
-                                uint64_t *invalid, spc_error *err);
+                                uint64_t *invalid, uint64_t *rays, spc_error *err);
 
 /* The OpenCL platforms and devices found, one line each ("opencl:N  platform / device"), or a line
  * saying why there are none; the caller frees the string. */

@@ -66,7 +66,7 @@
 #define PI_F 3.14159265358979f
 #define INV_PI_F 0.318309886183791f
 #define MAX_SPLATS 32
-#define BDPT_MAX_VERTS 18
+#define BDPT_MAX_VERTS 20
 
 typedef struct scene_t {
     int nshapes, nemitters;
@@ -80,6 +80,7 @@ typedef struct scene_t {
     __global const float *bsdf_f;
     __global const int *emit_i;
     __global const float *emit_f;
+    uint *rays; /* rays traced by this work item (the driver's statistics) */
 } scene_t;
 
 typedef struct hit_t {
@@ -348,6 +349,7 @@ static bool tri_intersect(__global const float *tr, float3 o, float3 d, float tm
 /* Nearest hit in (tmin, tmax); with any, the first one found (shadow rays). */
 static bool scene_intersect(const scene_t *sc, float3 o, float3 d, float tmin, float tmax, bool any, hit_t *h)
 {
+    ++*sc->rays;
     int best = -1, best_tri = -1;
     float tb = tmax;
     for (int i = 0; i < sc->nshapes; ++i) {
@@ -770,6 +772,8 @@ static void camera_sample(const camera_t *c, int x, int y, rng_t *rng, float3 *o
     sc.bsdf_f = bsdf_f;                                                                                               \
     sc.emit_i = emit_i;                                                                                               \
     sc.emit_f = emit_f;                                                                                               \
+    uint nrays = 0;                                                                                                   \
+    sc.rays = &nrays;                                                                                                 \
     camera_t cam;                                                                                                     \
     cam.f = cam_f;                                                                                                    \
     cam.filt = filt;                                                                                                  \
@@ -783,8 +787,9 @@ static void camera_sample(const camera_t *c, int x, int y, rng_t *rng, float3 *o
 /* ---- path: NEE and BSDF sampling with the power heuristic (integrator/path.c) ---- */
 
 __kernel void render_path(SCENE_ARGS, int pass0, int base, int count, uint seed_lo, uint seed_hi, int max_depth, int rr_depth,
-                          int hide_emitters, float mis_beta, __global float *out)
+                          int hide_emitters, float mis_beta, __global float *out, __global uint *rays_out)
 {
+    (void)mis_beta; /* bdpt's; the kernels share their argument list */
     SCENE_INIT;
     if ((int)get_global_id(0) >= count)
         return;
@@ -858,6 +863,7 @@ __kernel void render_path(SCENE_ARGS, int pass0, int base, int count, uint seed_
         }
     }
     vstore3(L, get_global_id(0), out);
+    rays_out[get_global_id(0)] = nrays;
 }
 
 /* ---- bdpt (Veach 1997, ch. 10; the MIS weights as ratios of forward and reverse area densities
@@ -935,10 +941,11 @@ static float vtx_pdf(const scene_t *sc, const camera_t *cam, const vtx_t *v, con
 /* Follows a subpath from vertex path[0] along (o, d) with direction density pdf (solid angle),
  * storing up to maxv further vertices; returns how many. mode 0: radiance, 1: importance. */
 static int random_walk(const scene_t *sc, rng_t *rng, float3 o, float3 d, float tmin, float tmax, float3 beta,
-                       float pdf, int maxv, int mode, vtx_t *path)
+                       float pdf, int maxv, int mode, int rr_depth, vtx_t *path)
 {
     int n = 0;
-    float pdf_fwd = pdf;
+    float pdf_fwd = pdf, eta_scale = 1.0f;
+    float3 thr = (float3)(1.0f); /* throughput since the walk's start, for Russian roulette */
     while (n < maxv) {
         hit_t h;
         if (!scene_intersect(sc, o, d, tmin, tmax, false, &h))
@@ -955,7 +962,7 @@ static int random_walk(const scene_t *sc, rng_t *rng, float3 o, float3 d, float 
         v->pdf_fwd = to_area(pdf_fwd, prev->p, v);
         v->pdf_rev = 0.0f;
         ++n;
-        float u0 = rnd(rng), u1 = rnd(rng), u2 = rnd(rng);
+        float u0 = rnd(rng), u1 = rnd(rng), u2 = rnd(rng), u_rr = rnd(rng);
         if (n >= maxv)
             break;
         float3 wo = -d;
@@ -963,8 +970,19 @@ static int random_walk(const scene_t *sc, rng_t *rng, float3 o, float3 d, float 
         if (!bsdf_sample(sc, v->bsdf, v->n, wo, mode, u0, u1, u2, &bs))
             break;
         beta *= bs.weight;
+        thr *= bs.weight;
         if (!(maxc(beta) > 0.0f))
             break;
+        if (mode == 0)
+            eta_scale *= bs.eta * bs.eta;
+        /* Russian roulette as integrator/bdpt.c (the MIS weights ignore it: they still sum to 1) */
+        if (n >= rr_depth) {
+            float q = fmin(0.95f, maxc(thr) * eta_scale);
+            if (!(u_rr < q))
+                break;
+            beta /= q;
+            thr /= q;
+        }
         float pdf_rev;
         if (bs.delta) {
             /* a delta lobe counts as its choice probability per unit solid angle, converted to
@@ -1106,7 +1124,8 @@ static int splat_axis(const camera_t *c, float f, int lo, int size, float u, flo
 }
 
 __kernel void render_bdpt(SCENE_ARGS, int pass0, int base, int count, uint seed_lo, uint seed_hi, int max_depth, int rr_depth,
-                          int hide_emitters, float mis_beta, __global float *out, __global float *splats)
+                          int hide_emitters, float mis_beta, __global float *out, __global uint *rays_out,
+                          __global float *splats)
 {
     SCENE_INIT;
     if ((int)get_global_id(0) >= count)
@@ -1133,7 +1152,11 @@ __kernel void render_bdpt(SCENE_ARGS, int pass0, int base, int count, uint seed_
     cs[0].pdf_fwd = 1.0f;
     cs[0].pdf_rev = 0.0f;
     cs[0].bsdf = cs[0].emitter = -1;
-    int nc = 1 + random_walk(&sc, &rng, o, d, tmin, tmax, (float3)(1.0f), camera_pdf_dir(&cam, d), max_depth, 0, cs);
+    /* max_depth < 0: unbounded but for the vertex arrays (paths of more than BDPT_MAX_VERTS - 1
+     * segments are cut; Russian roulette makes them rare) */
+    int depth = max_depth < 0 || max_depth > BDPT_MAX_VERTS - 1 ? BDPT_MAX_VERTS - 1 : max_depth;
+    int nc = 1 + random_walk(&sc, &rng, o, d, tmin, tmax, (float3)(1.0f), camera_pdf_dir(&cam, d), depth, 0, rr_depth,
+                             cs);
 
     /* light subpath: a light by power, a point by area, a cosine-weighted direction */
     int nl = 0;
@@ -1157,17 +1180,17 @@ __kernel void render_bdpt(SCENE_ARGS, int pass0, int base, int count, uint seed_
         ls[0].emitter = e;
         nl = 1;
         float pdf_dir = l.z * INV_PI_F;
-        if (max_depth > 1 && pdf_dir > 0.0f && maxc(Le) > 0.0f) {
+        if (depth > 1 && pdf_dir > 0.0f && maxc(Le) > 0.0f) {
             float eps = ray_eps(&sc, p);
             nl += random_walk(&sc, &rng, p + n * eps, w, 0.0f, INFINITY, Le * (l.z / (pmf * pdf_pos * pdf_dir)),
-                              pdf_dir, max_depth - 1, 1, ls);
+                              pdf_dir, depth - 1, 1, rr_depth, ls);
         }
     }
 
     for (int t = 1; t <= nc; ++t)
         for (int s = 0; s <= nl; ++s) {
             /* (1, 1), the light seen by light tracing, is left to (0, 2), which has weight 1 */
-            if (s + t < 2 || s + t - 1 > max_depth || (s == 1 && t == 1))
+            if (s + t < 2 || s + t - 1 > depth || (s == 1 && t == 1))
                 continue;
 #ifdef ONLY_S
             if (s != ONLY_S || t != ONLY_T)
@@ -1274,4 +1297,5 @@ __kernel void render_bdpt(SCENE_ARGS, int pass0, int base, int count, uint seed_
     if (nsplat < MAX_SPLATS)
         sp[4 * nsplat] = as_float(-1);
     vstore3(L, get_global_id(0), out);
+    rays_out[get_global_id(0)] = nrays;
 }

@@ -74,9 +74,10 @@ spc_status spc_cl_create(const spc_render_ctx *ctx, int device_index, bool aovs,
 void spc_cl_destroy(spc_cl_renderer *r) { (void)r; }
 
 spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint64_t seed, double *buf, int stride,
-                                uint64_t *invalid, spc_error *err)
+                                uint64_t *invalid, uint64_t *rays, spc_error *err)
 {
     (void)r;
+    (void)rays;
     (void)pass0;
     (void)npasses;
     (void)seed;
@@ -105,9 +106,10 @@ char *spc_cl_describe_devices(void)
 /* Instructions of one SDF program and its stack depth (the kernel's SDF_STACK). */
 #define CL_MAX_SDF_NODES 256
 #define CL_MAX_SDF_STACK 16
-/* Longest bdpt path on the device (the kernel's BDPT_MAX_VERTS - 2 segments), and the light
- * subpath's splats per sample (MAX_SPLATS). */
-#define CL_BDPT_MAX_DEPTH 16
+/* Longest bdpt path on the device (the kernel's BDPT_MAX_VERTS - 1 segments; max_depth -1 renders
+ * paths up to it, Russian roulette making longer ones rare), and the light subpath's splats per
+ * sample (MAX_SPLATS). */
+#define CL_BDPT_MAX_DEPTH 19
 #define CL_MAX_SPLATS 32
 /* Work items per kernel launch: bounds the output and splat buffers (16 MiB of floats) and the
  * time one launch holds a GPU. */
@@ -372,8 +374,9 @@ static spc_status build_scene(const spc_render_ctx *ctx, host_scene *hs, spc_err
         return REFUSE("specular NEE not supported");
     if (ctx->strategy_s >= 0 || ctx->strategy_t >= 0 || ctx->strategy_images_depth > 0)
         return REFUSE("single strategies and strategy images not supported");
-    if (ctx->kind == SPC_INTEGRATOR_BDPT && (ctx->max_depth < 0 || ctx->max_depth > CL_BDPT_MAX_DEPTH))
-        return REFUSE("bdpt with max_depth %d not supported (1 to %d)", ctx->max_depth, CL_BDPT_MAX_DEPTH);
+    if (ctx->kind == SPC_INTEGRATOR_BDPT && ctx->max_depth > CL_BDPT_MAX_DEPTH)
+        return REFUSE("bdpt with max_depth %d not supported (1 to %d, or -1: paths up to %d segments)",
+                      ctx->max_depth, CL_BDPT_MAX_DEPTH, CL_BDPT_MAX_DEPTH);
     if (sc->nmedia > 0)
         return REFUSE("participating media not supported");
     if (sc->camera.type != SPC_CAMERA_PERSPECTIVE)
@@ -494,8 +497,9 @@ struct spc_cl_renderer {
     cl_program program;
     cl_kernel kernel;
     cl_mem mem[11];
-    cl_mem out, splats;
+    cl_mem out, splats, rays;
     float *host_out, *host_splats;
+    cl_uint *host_rays;
     int launch_items;
     bool bdpt;
 };
@@ -590,6 +594,8 @@ void spc_cl_destroy(spc_cl_renderer *r)
         clReleaseMemObject(r->out);
     if (r->splats)
         clReleaseMemObject(r->splats);
+    if (r->rays)
+        clReleaseMemObject(r->rays);
     if (r->kernel)
         clReleaseKernel(r->kernel);
     if (r->program)
@@ -600,6 +606,7 @@ void spc_cl_destroy(spc_cl_renderer *r)
         clReleaseContext(r->context);
     free(r->host_out);
     free(r->host_splats);
+    free(r->host_rays);
     free(r);
 }
 
@@ -689,13 +696,16 @@ spc_status spc_cl_create(const spc_render_ctx *ctx, int device_index, bool aovs,
     r->out = clCreateBuffer(r->context, CL_MEM_WRITE_ONLY, (size_t)r->launch_items * 3 * sizeof(float), NULL, &e);
     CHECK("clCreateBuffer");
     r->host_out = malloc((size_t)r->launch_items * 3 * sizeof(float));
+    r->rays = clCreateBuffer(r->context, CL_MEM_WRITE_ONLY, (size_t)r->launch_items * sizeof(cl_uint), NULL, &e);
+    CHECK("clCreateBuffer");
+    r->host_rays = malloc((size_t)r->launch_items * sizeof(cl_uint));
     if (r->bdpt) {
         size_t bytes = (size_t)r->launch_items * CL_MAX_SPLATS * 4 * sizeof(float);
         r->splats = clCreateBuffer(r->context, CL_MEM_WRITE_ONLY, bytes, NULL, &e);
         CHECK("clCreateBuffer");
         r->host_splats = malloc(bytes);
     }
-    if (!r->host_out || (r->bdpt && !r->host_splats)) {
+    if (!r->host_out || !r->host_rays || (r->bdpt && !r->host_splats)) {
         st = spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory");
         goto fail;
     }
@@ -715,8 +725,8 @@ spc_status spc_cl_create(const spc_render_ctx *ctx, int device_index, bool aovs,
         CHECK("clSetKernelArg");
     }
     host_scene_release(&hs);
-    uint64_t none = 0;
-    st = spc_cl_render_passes(r, 0, 0, 0, NULL, 0, &none, err);
+    uint64_t none = 0, no_rays = 0;
+    st = spc_cl_render_passes(r, 0, 0, 0, NULL, 0, &none, &no_rays, err);
     if (st != SPC_OK) {
         spc_cl_destroy(r);
         return st;
@@ -739,7 +749,7 @@ static bool finite_rgb(const float *v)
 }
 
 spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint64_t seed, double *buf, int stride,
-                                uint64_t *invalid, spc_error *err)
+                                uint64_t *invalid, uint64_t *rays, spc_error *err)
 {
     const spc_render_ctx *ctx = r->ctx;
     const char *file = ctx->scene->path[0] ? ctx->scene->path : NULL;
@@ -765,6 +775,7 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
         e |= clSetKernelArg(r->kernel, a++, sizeof hide, &hide);
         e |= clSetKernelArg(r->kernel, a++, sizeof beta, &beta);
         e |= clSetKernelArg(r->kernel, a++, sizeof(cl_mem), &r->out);
+        e |= clSetKernelArg(r->kernel, a++, sizeof(cl_mem), &r->rays);
         if (r->bdpt)
             e |= clSetKernelArg(r->kernel, a++, sizeof(cl_mem), &r->splats);
         if (e != CL_SUCCESS)
@@ -776,12 +787,17 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
         if (e == CL_SUCCESS && count > 0)
             e = clEnqueueReadBuffer(r->queue, r->out, CL_TRUE, 0, count * 3 * sizeof(float), r->host_out, 0, NULL,
                                     NULL);
+        if (e == CL_SUCCESS && count > 0)
+            e = clEnqueueReadBuffer(r->queue, r->rays, CL_TRUE, 0, count * sizeof(cl_uint), r->host_rays, 0, NULL,
+                                    NULL);
         if (e == CL_SUCCESS && r->bdpt && count > 0)
             e = clEnqueueReadBuffer(r->queue, r->splats, CL_TRUE, 0, count * CL_MAX_SPLATS * 4 * sizeof(float),
                                     r->host_splats, 0, NULL, NULL);
         if (e != CL_SUCCESS)
             return spc_error_set(err, SPC_ERR_ACCEL, file, 0, 0, "opencl device: kernel run failed: %s (%d)",
                                  cl_err_name(e), (int)e);
+        for (size_t k = 0; k < count; ++k)
+            *rays += r->host_rays[k];
         for (size_t k = 0; k < count; ++k) {
             size_t g = start + k;
             double *d = buf + ((g / npix) * npix + g % npix) * (size_t)stride;

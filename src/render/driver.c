@@ -444,7 +444,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         atomic_init(&jb.rays, 0);
         double t0 = now_seconds();
         if (cl) {
-            status = spc_cl_render_passes(cl, done, batch, o->seed, buf, stride, &invalid, err);
+            status = spc_cl_render_passes(cl, done, batch, o->seed, buf, stride, &invalid, &rays, err);
             if (status != SPC_OK)
                 break;
             atomic_store(&jb.limit, batch * ntiles);
