@@ -165,8 +165,8 @@ int main(int argc, char **argv)
                 e = window_sum(f->rgb, res, fx, fy, radius);
                 energy[1] += e / ref_energy / seeds;
                 core[1] += window_sum(f->rgb, res, fx, fy, 1) / e / (ref_core / ref_energy) / seeds;
-                fprintf(stderr, "%s, %d spp, seed %d: relMSE noisy %.5f denoised %.5f ratio %.2f\n", bs->label,
-                        spps[k], seed, noisy[seed], den[seed], noisy[seed] / den[seed]);
+                fprintf(stderr, "%s, %d spp, seed %d: relMSE noisy %.5f denoised %.5f ratio %.2f\n", bs->label, spps[k],
+                        seed, noisy[seed], den[seed], noisy[seed] / den[seed]);
                 share_d = sh > share_d ? sh : share_d;
                 cpu_render += t1 - t0;
                 cpu_denoise += t2 - t1;
@@ -198,8 +198,8 @@ int main(int argc, char **argv)
                 }
             }
             printf("| %s | %d | %.5f | %.5f | %.1fx | %.1f..%.1f | %.5f (seed %d) | %.1f%% / %.1f%% | %.1f / %.1f | ",
-                   bs->label, spps[k], mn, md, mn / md, rmin, rmax, worst, worst_seed, 100.0 * share_n,
-                   100.0 * share_d, cpu_render, cpu_denoise);
+                   bs->label, spps[k], mn, md, mn / md, rmin, rmax, worst, worst_seed, 100.0 * share_n, 100.0 * share_d,
+                   cpu_render, cpu_denoise);
             if (strstr(bs->label, "caustic"))
                 printf("%.3f / %.3f | %.3f / %.3f |\n", energy[0], energy[1], core[0], core[1]);
             else

@@ -137,8 +137,7 @@ static void check_ratio(const char *scene, const char *snee, double min_ratio, b
     printf("  %s: mean relMSE noisy %.5f, denoised %.5f: %.1fx\n", scene, noisy, den, noisy / den);
     CHECK_MSG(den > 0.0 && noisy >= min_ratio * den, "ratio %.2f < %.1f", noisy / den, min_ratio);
     if (focus)
-        CHECK_MSG(fabs(energy - 1.0) <= max_energy_loss, "the denoised caustic's focus has %.3f of its energy",
-                  energy);
+        CHECK_MSG(fabs(energy - 1.0) <= max_energy_loss, "the denoised caustic's focus has %.3f of its energy", energy);
     spc_film_destroy(ref);
 }
 

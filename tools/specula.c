@@ -1257,12 +1257,14 @@ static int cmd_denoise(int argc, char **argv)
     if (st != SPC_OK) {
         fail_error(&err);
         return st == SPC_ERR_PARSE || (st == SPC_ERR_IO && !strcmp(err.file, in)) ? EXIT_INPUT
-               : st == SPC_ERR_IO && !strcmp(err.file, out)                      ? EXIT_WRITE
+               : st == SPC_ERR_IO && !strcmp(err.file, out)                       ? EXIT_WRITE
                                                                                   : EXIT_RENDER;
     }
     if (!ds.used_aux)
-        fprintf(stderr, "specula: warning: %s has no albedo.* and normal.* channels (render with --aovs); "
-                        "denoised the image alone\n", in);
+        fprintf(stderr,
+                "specula: warning: %s has no albedo.* and normal.* channels (render with --aovs); "
+                "denoised the image alone\n",
+                in);
     if (ds.nonfinite_pixels)
         fprintf(stderr, "specula: warning: %llu pixels had NaN or infinite values; the denoiser got them as 0\n",
                 (unsigned long long)ds.nonfinite_pixels);
