@@ -6,9 +6,10 @@
  *   test fails, not skips, when it is missing: CMakeLists.txt disables it, visibly, only on a
  *   machine without pyoidn outside CI.
  * - Quality: the Cornell box (tests/data/cornell-box.xml, Bitterli's) and the glass-ball caustic
- *   (scenes/caustic_glass_sphere.xml, path + angular specular NEE), 64x64 at 16 spp: the denoised
- *   image's relMSE against a 1024 spp reference (its own noise subtracted, denoise_util.h) is at
- *   least 5x lower than the noisy image's.
+ *   (scenes/caustic_glass_sphere.xml, path + angular specular NEE), 64x64 at 16 spp, four seeds:
+ *   the denoised images' mean relMSE against a 1024 spp reference (its own noise subtracted,
+ *   denoise_util.h) is at least 5x lower than the noisy images'; the denoised caustic keeps its
+ *   focus's energy within 15%.
  * - NaN and infinite pixels never reach OIDN: counted, the output finite.
  * - A film without AOVs is denoised alone; the noisy image is kept and written as noisy.R/G/B.
  * - A render resumed from a checkpoint denoises to the same image, bit for bit, as one never
@@ -71,37 +72,80 @@ TEST(library_missing_is_a_clear_error)
         printf("  library: %s\n", lib);
 }
 
-/* Noisy and denoised relMSE of a 64x64, 16 spp render against a 1024 spp one. */
-static void check_ratio(const char *scene, const char *snee, double min_ratio)
+#define RATIO_SEEDS 4 /* the caustic's error is heavy-tailed: one seed's ratio ranges 3.4x..398x */
+
+/* Sum of R + G + B within `radius` pixels (a square) of (cx, cy). */
+static double window_sum(const float *rgb, int res, int cx, int cy, int radius)
+{
+    double s = 0.0;
+    for (int y = cy - radius; y <= cy + radius; ++y)
+        for (int x = cx - radius; x <= cx + radius; ++x)
+            if (x >= 0 && y >= 0 && x < res && y < res)
+                for (int c = 0; c < 3; ++c)
+                    s += rgb[3 * ((size_t)y * res + (size_t)x) + (size_t)c];
+    return s;
+}
+
+/* Mean noisy and denoised relMSE over RATIO_SEEDS 64x64, 16 spp renders against a 1024 spp one;
+ * with `focus`, the energy within 2 pixels of the reference's brightest pixel in the lower half
+ * (the caustic's focus) kept by the denoiser, within max_energy_loss of the reference's. */
+static void check_ratio(const char *scene, const char *snee, double min_ratio, bool focus, double max_energy_loss)
 {
     const int res = 64;
     spc_film *ref = du_render(scene, res, 1024, 1000, snee, false);
-    spc_film *f = du_render(scene, res, 16, 1, snee, true);
-    CHECK(ref && f);
-    if (ref && f) {
-        size_t npix = (size_t)res * res;
+    CHECK(ref);
+    if (!ref)
+        return;
+    size_t npix = (size_t)res * res;
+    int fx = 0, fy = res / 2;
+    double best = -1.0;
+    for (int y = res / 2; y < res; ++y)
+        for (int x = 0; x < res; ++x) {
+            const float *p = ref->rgb + 3 * ((size_t)y * res + (size_t)x);
+            if (p[0] + p[1] + p[2] > best) {
+                best = p[0] + p[1] + p[2];
+                fx = x;
+                fy = y;
+            }
+        }
+    double noisy = 0.0, den = 0.0, energy = 0.0;
+    for (int seed = 0; seed < RATIO_SEEDS; ++seed) {
+        spc_film *f = du_render(scene, res, 16, (uint64_t)seed, snee, true);
+        CHECK(f);
+        if (!f)
+            continue;
         double worst_noisy, worst_den;
-        double noisy = du_relmse(f->rgb, ref->rgb, ref->var, npix, &worst_noisy);
+        double n = du_relmse(f->rgb, ref->rgb, ref->var, npix, &worst_noisy);
         spc_denoise_stats ds;
         spc_error err;
         memset(&err, 0, sizeof err);
         spc_status st = spc_film_denoise(f, NULL, &ds, &err);
         CHECK_MSG(st == SPC_OK, "%s", err.msg);
         if (st == SPC_OK) {
-            double den = du_relmse(f->rgb, ref->rgb, ref->var, npix, &worst_den);
-            printf("  %s: relMSE noisy %.5f (worst pixel %.1f%%), denoised %.5f (worst pixel %.1f%%): %.1fx\n", scene,
-                   noisy, 100.0 * worst_noisy, den, 100.0 * worst_den, noisy / den);
+            double d = du_relmse(f->rgb, ref->rgb, ref->var, npix, &worst_den);
+            double e = window_sum(f->rgb, res, fx, fy, 2) / window_sum(ref->rgb, res, fx, fy, 2);
+            printf("  %s seed %d: relMSE noisy %.5f (worst pixel %.1f%%), denoised %.5f (worst pixel %.1f%%); "
+                   "focus energy %.3f of the reference's\n",
+                   scene, seed, n, 100.0 * worst_noisy, d, 100.0 * worst_den, e);
             CHECK(ds.used_aux && ds.nonfinite_pixels == 0);
-            CHECK_MSG(den > 0.0 && noisy >= min_ratio * den, "ratio %.2f < %.1f", noisy / den, min_ratio);
+            noisy += n / RATIO_SEEDS;
+            den += d / RATIO_SEEDS;
+            energy += e / RATIO_SEEDS;
         }
+        spc_film_destroy(f);
     }
+    printf("  %s: mean relMSE noisy %.5f, denoised %.5f: %.1fx\n", scene, noisy, den, noisy / den);
+    CHECK_MSG(den > 0.0 && noisy >= min_ratio * den, "ratio %.2f < %.1f", noisy / den, min_ratio);
+    if (focus)
+        CHECK_MSG(fabs(energy - 1.0) <= max_energy_loss, "the denoised caustic's focus has %.3f of its energy", energy);
     spc_film_destroy(ref);
-    spc_film_destroy(f);
 }
 
-TEST(cornell_box_16spp_five_times_lower_relmse) { check_ratio(cornell, NULL, 5.0); }
+TEST(cornell_box_16spp_five_times_lower_relmse) { check_ratio(cornell, NULL, 5.0, false, 0.0); }
 
-TEST(caustic_16spp_five_times_lower_relmse) { check_ratio(caustic, "angular", 5.0); }
+/* the focus: plain path's caustic, denoised, keeps 29% (4 spp) to 55% (16 spp) of its energy there
+ * (bench/RESULTS.md); path + angular's about 96% */
+TEST(caustic_16spp_five_times_lower_relmse) { check_ratio(caustic, "angular", 5.0, true, 0.15); }
 
 TEST(nonfinite_pixels_counted_not_passed_on)
 {

@@ -262,7 +262,7 @@ TEST(film_exr_channels_and_attributes)
             f->pass[3 * i + 1] = 0.5;
             f->pass[3 * i + 2] = (double)i;
             for (int k = 0; k < 7; ++k)
-                f->aov_sum[7 * i + k] += 0.1 * (k + 1);
+                f->aov_sum[SPC_FILM_AOVS * i + k] += 0.1 * (k + 1);
         }
         spc_film_commit_pass(f);
     }

@@ -1460,8 +1460,10 @@ static int cmd_denoise(int argc, char **argv)
         return exit_code(st);
     }
     if (!ds.used_aux)
-        fprintf(stderr, "specula: warning: %s has no albedo.* and normal.* channels (render with --aovs); "
-                        "denoised the image alone\n", in);
+        fprintf(stderr,
+                "specula: warning: %s has no albedo.* and normal.* channels (render with --aovs); "
+                "denoised the image alone\n",
+                in);
     if (ds.nonfinite_pixels)
         fprintf(stderr, "specula: warning: %llu pixels had NaN or infinite values; the denoiser got them as 0\n",
                 (unsigned long long)ds.nonfinite_pixels);

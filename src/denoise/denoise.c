@@ -95,8 +95,7 @@ spc_status spc_denoise_rgb(int width, int height, const float *rgb, const float 
     return st;
 }
 
-spc_status spc_film_denoise(struct spc_film *f, const spc_denoise_options *o, spc_denoise_stats *stats,
-                            spc_error *err)
+spc_status spc_film_denoise(struct spc_film *f, const spc_denoise_options *o, spc_denoise_stats *stats, spc_error *err)
 {
     if (!f || !f->rgb)
         return spc_error_set(err, SPC_ERR_INTERNAL, NULL, 0, 0, "denoise: the film has not been resolved");
@@ -112,8 +111,8 @@ spc_status spc_film_denoise(struct spc_film *f, const spc_denoise_options *o, sp
     }
     spc_status st = SPC_OK;
     if (!out || (aux && (!albedo || !normal))) {
-        st = spc_error_set(err, SPC_ERR_NOMEM, NULL, 0, 0, "out of memory denoising a %dx%d image", f->width,
-                           f->height);
+        st =
+            spc_error_set(err, SPC_ERR_NOMEM, NULL, 0, 0, "out of memory denoising a %dx%d image", f->width, f->height);
     } else {
         for (size_t i = 0; aux && i < npix; ++i)
             for (int c = 0; c < 3; ++c) {
@@ -135,12 +134,21 @@ spc_status spc_film_denoise(struct spc_film *f, const spc_denoise_options *o, sp
 
 /* The channels `specula denoise` reads, in this order (slots below). */
 static const char *const exr_in_names[] = {
-    "R", "G", "B", "noisy.R", "noisy.G", "noisy.B", "variance.R", "variance.G", "variance.B",
-    "noisy.variance.R", "noisy.variance.G", "noisy.variance.B", "albedo.R", "albedo.G", "albedo.B",
-    "normal.X", "normal.Y", "normal.Z", "depth.Z",
+    "R",          "G",          "B",          "noisy.R",          "noisy.G",          "noisy.B",
+    "variance.R", "variance.G", "variance.B", "noisy.variance.R", "noisy.variance.G", "noisy.variance.B",
+    "albedo.R",   "albedo.G",   "albedo.B",   "normal.X",         "normal.Y",         "normal.Z",
+    "depth.Z",
 };
-enum { IN_RGB = 0, IN_NOISY = 3, IN_VAR = 6, IN_NOISY_VAR = 9, IN_ALBEDO = 12, IN_NORMAL = 15, IN_DEPTH = 18,
-       IN_COUNT = 19 };
+enum {
+    IN_RGB = 0,
+    IN_NOISY = 3,
+    IN_VAR = 6,
+    IN_NOISY_VAR = 9,
+    IN_ALBEDO = 12,
+    IN_NORMAL = 15,
+    IN_DEPTH = 18,
+    IN_COUNT = 19
+};
 _Static_assert(sizeof exr_in_names / sizeof exr_in_names[0] == IN_COUNT, "one name per slot");
 
 static bool have3(const bool *found, int slot) { return found[slot] && found[slot + 1] && found[slot + 2]; }
@@ -166,7 +174,8 @@ spc_status spc_denoise_exr(const char *in, const char *out, const spc_denoise_op
     }
     size_t npix = (size_t)w * (size_t)h;
     float *color = malloc(3 * npix * sizeof(float)), *den = malloc(3 * npix * sizeof(float));
-    float *albedo = aux ? malloc(3 * npix * sizeof(float)) : NULL, *normal = aux ? malloc(3 * npix * sizeof(float)) : NULL;
+    float *albedo = aux ? malloc(3 * npix * sizeof(float)) : NULL,
+          *normal = aux ? malloc(3 * npix * sizeof(float)) : NULL;
     int nch = 6 + (var >= 0 ? 3 : 0) + (aux ? 6 : 0) + (depth ? 1 : 0);
     float *data = malloc(npix * (size_t)nch * sizeof(float));
     if (!color || !den || !data || (aux && (!albedo || !normal))) {

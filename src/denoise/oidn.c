@@ -46,10 +46,18 @@ typedef struct oidn_api {
 
 /* The symbols, in the order of oidn_api's members. */
 static const char *const oidn_symbols[] = {
-    "oidnNewDevice",    "oidnSetDeviceInt",    "oidnCommitDevice",
-    "oidnGetDeviceError", "oidnReleaseDevice", "oidnNewFilter",
-    "oidnSetSharedFilterImage", "oidnSetFilterBool", "oidnSetFilterProgressMonitorFunction",
-    "oidnCommitFilter", "oidnExecuteFilter",  "oidnReleaseFilter",
+    "oidnNewDevice",
+    "oidnSetDeviceInt",
+    "oidnCommitDevice",
+    "oidnGetDeviceError",
+    "oidnReleaseDevice",
+    "oidnNewFilter",
+    "oidnSetSharedFilterImage",
+    "oidnSetFilterBool",
+    "oidnSetFilterProgressMonitorFunction",
+    "oidnCommitFilter",
+    "oidnExecuteFilter",
+    "oidnReleaseFilter",
 };
 #define OIDN_NSYMBOLS (sizeof oidn_symbols / sizeof oidn_symbols[0])
 _Static_assert(sizeof(oidn_api) == OIDN_NSYMBOLS * sizeof(void (*)(void)), "one symbol per member");
@@ -196,8 +204,9 @@ static spc_status load_library(spc_error *err)
         try_glob("/usr/local/lib/python3*/site-packages", tried, why, sizeof why) ||
         try_glob("/usr/lib/python3/dist-packages", tried, why, sizeof why))
         return SPC_OK;
-    return spc_error_set(err, SPC_ERR_IO, NULL, 0, 0, "Open Image Denoise (" SPC_OIDN_SONAME ") not found; %s (tried: %s)",
-                         SPC_OIDN_INSTALL_HINT, tried);
+    return spc_error_set(err, SPC_ERR_IO, NULL, 0, 0,
+                         "Open Image Denoise (" SPC_OIDN_SONAME ") not found; %s (tried: %s)", SPC_OIDN_INSTALL_HINT,
+                         tried);
 }
 
 spc_status spc_oidn_load(char *library, size_t size, spc_error *err)
@@ -269,8 +278,8 @@ static spc_status run_filter(oidn_device d, int w, int h, const char *const *nam
 }
 
 spc_status spc_oidn_denoise(int w, int h, const float *color, float *albedo, float *normal, float *out, bool prefilter,
-                            int threads, spc_oidn_progress_fn progress, void *progress_user, char *library,
-                            size_t size, spc_error *err)
+                            int threads, spc_oidn_progress_fn progress, void *progress_user, char *library, size_t size,
+                            spc_error *err)
 {
     if (w <= 0 || h <= 0 || !color || !out || (!albedo) != (!normal))
         return spc_error_set(err, SPC_ERR_VALUE, NULL, 0, 0, "denoise: bad image arguments");

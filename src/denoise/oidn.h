@@ -26,8 +26,8 @@
 
 #define SPC_OIDN_ENV "SPECULA_OIDN_LIBRARY"
 #define SPC_OIDN_SONAME "libOpenImageDenoise.so.2"
-#define SPC_OIDN_INSTALL_HINT                                                                                        \
-    "install it with `pip install pyoidn` (ships libOpenImageDenoise.so.2), or set " SPC_OIDN_ENV                    \
+#define SPC_OIDN_INSTALL_HINT                                                                                          \
+    "install it with `pip install pyoidn` (ships libOpenImageDenoise.so.2), or set " SPC_OIDN_ENV                      \
     " to the library's path"
 
 typedef void (*spc_oidn_progress_fn)(void *user, double fraction);
@@ -44,7 +44,7 @@ spc_status spc_oidn_load(char *library, size_t size, spc_error *err);
  * Errors: SPC_ERR_IO when the library cannot be found or loaded (the message names the places
  * tried and how to install it), SPC_ERR_INTERNAL with OIDN's message when it fails. */
 spc_status spc_oidn_denoise(int w, int h, const float *color, float *albedo, float *normal, float *out, bool prefilter,
-                            int threads, spc_oidn_progress_fn progress, void *progress_user, char *library,
-                            size_t size, spc_error *err);
+                            int threads, spc_oidn_progress_fn progress, void *progress_user, char *library, size_t size,
+                            spc_error *err);
 
 #endif
