@@ -465,7 +465,10 @@ typedef struct pv {
 
 /* The factor of a BDPT strategy's weight for specular NEE (1 if it is off or the path is not
  * covered; 0 if the chain's retrace does not reproduce the path, which specular NEE then counts
- * alone, as path does). y, s, z, t, lend as mis_weight. */
+ * alone, as path does). y, s, z, t, lend as mis_weight. Only s = 0 can make a covered path: any
+ * other strategy joins two adjacent non-delta vertices, and a covered path has none but the camera
+ * and the light (and the receiver, between delta vertices), so the callers ask for s = 0 alone; the
+ * function walks any path. */
 static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend)
 {
     if (!B->snee)
@@ -565,7 +568,11 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
 
 static double weight_of(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend, double pdf_cam)
 {
-    return B->weighted ? mis_weight(B, y, s, z, t, lend, pdf_cam) * snee_share(B, y, s, z, t, lend) : 1.0;
+    if (!B->weighted)
+        return 1.0;
+    /* only s = 0 makes the paths specular NEE covers (snee_receiver) */
+    double w = mis_weight(B, y, s, z, t, lend, pdf_cam);
+    return s == 0 ? w * snee_share(B, y, s, z, t, lend) : w;
 }
 
 /* The connect_* functions return a strategy's unweighted contribution C and its MIS weight in *w
@@ -651,7 +658,7 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
     if (B->weighted) {
         /* the camera's density of v: its direction density times W H / N (see the file comment) */
         double pdf_cam = to_area(cd.We / B->n_light_paths, &z[0], v);
-        w = mis_weight(B, y, s, z, 1, NULL, pdf_cam) * snee_share(B, y, s, z, 1, NULL);
+        w = mis_weight(B, y, s, z, 1, NULL, pdf_cam);
     }
     spc_splat_add(ctx, tls, cd.fx, cd.fy, spc_rgb_scale(C, w));
     if (strategy >= 0) {
