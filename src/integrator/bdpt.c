@@ -89,7 +89,8 @@
 #define SPC_BDPT_MAX_VERTICES 64
 #define SPC_BDPT_MAX_PATH (2 * SPC_BDPT_MAX_VERTICES)
 
-/* Stream keys of the light subpath and of the s = 1 light samples, mixed with the pixel's seed. */
+/* Stream keys of the light subpath, of the s = 1 light samples and of specular NEE, mixed with the
+ * pixel's seed. */
 #define SPC_BDPT_LIGHT_STREAM 0x6c69676874706174ULL
 #define SPC_BDPT_CONNECT_STREAM 0x636f6e6e65637473ULL
 #define SPC_BDPT_SNEE_STREAM 0x736e656573747265ULL
