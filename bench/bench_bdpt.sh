@@ -22,7 +22,7 @@ REF=${3:-600}
 RES=${4:-128}
 OUT=${OUT:-/tmp/specula_bench_bdpt}
 SPC="$BUILD/specula"
-SCENES=${SCENES-"indirect_shade indirect_door caustic_sphere"} # SCENES= : strategy images only
+SCENES=${SCENES-"indirect_shade indirect_lamp_glass indirect_door caustic_sphere"} # SCENES= : strategy images only
 mkdir -p "$OUT" bench/bdpt_strategies
 
 json_num() { # json_num FILE KEY: the number after "KEY": in FILE

@@ -51,6 +51,15 @@
  * adjoint correction (1997, eq. 5.20) |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) at each scattering and
  * at the light-side end of a connection. Camera subpaths need none.
  *
+ * Specular NEE (ctx->specular_nee, src/manifold/specular_nee.h; off unless a scene or --specular-nee
+ * asks for it). Paths that go camera - delta vertices - a non-delta vertex - delta vertices - light
+ * (a caustic or the light seen through glass; with params.camera also camera - delta vertices -
+ * light) have no strategy but s = 0, which must hit the light by chance: in the glass-ball caustic a
+ * few such pixels held most of bdpt's variance. At such a vertex (the camera subpath's first
+ * non-delta vertex, seen through glass or mirrors) and from the pinhole, bdpt runs specular NEE as
+ * path does, and weighs s = 0's samples of the paths it covers by the same split (see "specular
+ * NEE's share" below). Its contributions are in the image but in no strategy image.
+ *
  * Russian roulette on both subpaths from rr_depth segments, on the throughput since the
  * subpath's start (times eta^2 on camera paths, as path.c); the MIS weights ignore the survival
  * probabilities (they still sum to one, so the estimate stays unbiased).
@@ -70,6 +79,7 @@
 
 #include "core/rng.h"
 #include "integrator/integrator.h"
+#include "manifold/specular_nee.h"
 
 /* Vertices per subpath (two arrays of ~500-byte vertices: 63 KiB of stack). Past rr_depth each
  * segment survives Russian roulette with probability min(0.95, throughput), and throughput falls
@@ -79,9 +89,11 @@
 #define SPC_BDPT_MAX_VERTICES 64
 #define SPC_BDPT_MAX_PATH (2 * SPC_BDPT_MAX_VERTICES)
 
-/* Stream keys of the light subpath and of the s = 1 light samples, mixed with the pixel's seed. */
+/* Stream keys of the light subpath, of the s = 1 light samples and of specular NEE, mixed with the
+ * pixel's seed. */
 #define SPC_BDPT_LIGHT_STREAM 0x6c69676874706174ULL
 #define SPC_BDPT_CONNECT_STREAM 0x636f6e6e65637473ULL
+#define SPC_BDPT_SNEE_STREAM 0x736e656573747265ULL
 
 /* the public header's bound on strategy images is the count of spc_strategy_count at its depth */
 _Static_assert(SPC_STRATEGY_IMAGES_MAX ==
@@ -120,6 +132,10 @@ typedef struct bdpt {
     double n_light_paths; /* light subpaths per pass: pixels of the rendered window */
     double film_pixels;   /* pixels of the full film */
     bool weighted, balance;
+    bool snee;              /* specular NEE at camera vertices (ctx->specular_nee; see the file comment) */
+    spc_snee_params snp;    /* its settings, with mis as the path integrator has it */
+    double cam_scale;       /* full film's pixels over the rendered window's (spc_snee_camera) */
+    spc_vec3 cam_d0;        /* the camera ray's direction (covered camera chains retrace it) */
 } bdpt;
 
 /* ---- densities ---- */
@@ -419,11 +435,145 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
     return isfinite(w) && w > 0.0 ? w : 0.0;
 }
 
+/* ---- specular NEE's share of a path ----
+ *
+ * With specular NEE on, each covered path (a light point on an area light, a chain of k delta
+ * vertices that specular NEE's budget allows at the receiver before it, the receiver a non-delta
+ * camera-side vertex: spc_snee_track_*, the path integrator's rule) can also be made by specular
+ * NEE at the receiver, which weighs its own sample against the BSDF-sampled continuation by its
+ * power heuristic (a = its density, b = the BSDF's times the chain's geometry term). BDPT keeps
+ * that split: specular NEE's sample keeps its weight a^2 / (a^2 + b^2) and every BDPT strategy's
+ * sample of the same path has its weight multiplied by b^2 / (a^2 + b^2)
+ * (spc_snee_mis_bsdf_weight; spc_snee_camera_bsdf_weight for chains from the pinhole), so the
+ * weights of the path still sum to one whichever strategies can make it. */
+
+/* Where BDPT runs specular NEE: at the camera subpath's first non-delta vertex z_k (k segments from
+ * the camera, `receivers` non-delta vertices before it) when the camera sees it through delta
+ * vertices only (k >= 2). The paths it covers there (camera - delta* - z_k - chain - light) have no
+ * BDPT strategy but s = 0: z_k's neighbours are both delta, and so are all vertices between z_k and
+ * the camera and between z_k and the light. So the split of the path integrator's MIS is the whole
+ * MIS of those paths. Elsewhere BDPT's own strategies (light tracing of a caustic seen directly,
+ * connections) are already good, and a two-way split against BSDF sampling would hand part of
+ * their paths to specular NEE by a weight that does not know them. */
+static bool snee_receiver(int k, int receivers) { return k >= 2 && receivers == 0; }
+
+/* One vertex of a full path walked from the camera: the vertex and whether the path scatters there
+ * by a delta lobe (a connection's ends never do). */
+typedef struct pv {
+    const vtx *v;
+    bool delta;
+} pv;
+
+/* The factor of a BDPT strategy's weight for specular NEE (1 if it is off or the path is not
+ * covered; 0 if the chain's retrace does not reproduce the path, which specular NEE then counts
+ * alone, as path does). y, s, z, t, lend as mis_weight. Only s = 0 can make a covered path: any
+ * other strategy joins two adjacent non-delta vertices, and a covered path has none but the camera
+ * and the light (and the receiver, between delta vertices), so the callers ask for s = 0 alone; the
+ * function walks any path. */
+static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend)
+{
+    if (!B->snee)
+        return 1.0;
+    const spc_render_ctx *ctx = B->ctx;
+    const spc_scene *sc = B->sc;
+    const int n = s + t;
+    pv P[SPC_BDPT_MAX_PATH];
+    for (int k = 0; k < t; ++k)
+        P[k] = (pv){&z[k], z[k].delta};
+    for (int j = s - 1; j >= 0; --j)
+        P[n - 1 - j] = (pv){(j == 0 && lend) ? lend : &y[j], y[j].delta};
+    if (s >= 1)
+        P[t].delta = false; /* y[s-1], joined */
+    if (t >= 1 && s >= 1)
+        P[t - 1].delta = false; /* z[t-1], joined */
+    /* the light end: a point on an area light */
+    spc_hit lh;
+    const vtx *l = P[n - 1].v;
+    if (s == 0) {
+        if (l->kind != V_SURFACE || !l->h.emitter)
+            return 1.0;
+        lh = l->h;
+    } else {
+        if (l->kind != V_LIGHT || !l->on_surface || l->light->type != SPC_EMITTER_AREA)
+            return 1.0;
+        memset(&lh, 0, sizeof lh);
+        lh.p = l->p;
+        lh.ng = l->n;
+        lh.err = l->h.err;
+        lh.emitter = l->light;
+    }
+    if (n < 3)
+        return 1.0;
+    spc_snee_track track;
+    memset(&track, 0, sizeof track);
+    bool cam_track = false;
+    if (B->snp.camera && spc_camera_connectible(ctx->cam)) {
+        int budget = ctx->specular_max_chain;
+        if (ctx->max_depth >= 0 && ctx->max_depth - 1 < budget)
+            budget = ctx->max_depth - 1;
+        if (budget > B->snp.max_chain)
+            budget = B->snp.max_chain;
+        if (budget >= 1) {
+            int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
+            track.live = true;
+            track.max_chain = budget;
+            track.single_ok = track.multi_ok = true;
+            track.any_surface = B->snp.any_surface;
+            track.reflect = B->snp.reflect;
+            track.long_max = spc_snee_track_long_max(&B->snp, long_budget);
+            cam_track = true;
+        }
+    }
+    const vtx *rx = NULL; /* the receiver the track started at */
+    spc_vec3 r_wo = spc_v3(0, 0, 1), r_d0 = r_wo;
+    int receivers = 0;
+    for (int j = 1; j <= n - 2; ++j) {
+        const vtx *v = P[j].v;
+        if (v->kind != V_SURFACE)
+            return 1.0;
+        spc_vec3 wo = spc_normalize(spc_sub(P[j - 1].v->p, v->p));
+        spc_vec3 wi = spc_normalize(spc_sub(P[j + 1].v->p, v->p));
+        int segments = j;
+        int budget = ctx->specular_max_chain, long_budget = SPC_CHAIN_MAX_VERTICES;
+        if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < budget)
+            budget = ctx->max_depth - segments - 1;
+        if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < long_budget)
+            long_budget = ctx->max_depth - segments - 1;
+        int snee_budget = snee_receiver(j, receivers) ? spc_snee_budget_params(&B->snp, &v->h, budget) : 0;
+        unsigned lobe = SPC_LOBE_DIFFUSE_REFLECTION;
+        if (P[j].delta)
+            lobe = spc_dot(wo, v->h.ng) * spc_dot(wi, v->h.ng) > 0.0 ? SPC_LOBE_DELTA_REFLECTION
+                                                                    : SPC_LOBE_DELTA_TRANSMISSION;
+        spc_snee_track_scatter_params(&track, &B->snp, &v->h, lobe, snee_budget, long_budget);
+        if (!P[j].delta) {
+            ++receivers;
+            cam_track = false;
+            if (snee_budget > 0) {
+                rx = v;
+                r_wo = wo;
+                r_d0 = wi;
+            }
+        }
+    }
+    if (!spc_snee_track_covers(&track, sc, lh.emitter))
+        return 1.0;
+    if (cam_track)
+        return spc_snee_camera_bsdf_weight(sc, &B->snp, ctx->cam, B->cam_scale, B->cam_d0, track.max_chain, track.k,
+                                           track.events, &lh);
+    if (!rx)
+        return 1.0;
+    return spc_snee_mis_bsdf_weight(sc, &B->snp, &rx->h, r_wo, r_d0, track.max_chain, track.k, track.events, &lh);
+}
+
 /* ---- connections ---- */
 
 static double weight_of(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend, double pdf_cam)
 {
-    return B->weighted ? mis_weight(B, y, s, z, t, lend, pdf_cam) : 1.0;
+    if (!B->weighted)
+        return 1.0;
+    /* only s = 0 makes the paths specular NEE covers (snee_receiver) */
+    double w = mis_weight(B, y, s, z, t, lend, pdf_cam);
+    return s == 0 ? w * snee_share(B, y, s, z, t, lend) : w;
 }
 
 /* The connect_* functions return a strategy's unweighted contribution C and its MIS weight in *w
@@ -583,6 +733,53 @@ static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int 
     return C;
 }
 
+
+/* Specular NEE at every non-delta vertex of the camera subpath (budgets as the path integrator
+ * has them), and from the pinhole with params.camera (splatted); returns the sum for the camera
+ * sample. Its own random stream, so the sampler's dimensions stay as without it. */
+static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *smp, const vtx *z, int nc)
+{
+    const spc_render_ctx *ctx = B->ctx;
+    const spc_snee_params *snp = &B->snp;
+    spc_rng rng;
+    spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, SPC_BDPT_SNEE_STREAM ^ (uint64_t)smp->index), 0);
+    if (snp->camera && spc_camera_connectible(ctx->cam)) {
+        int budget = ctx->specular_max_chain;
+        if (ctx->max_depth >= 0 && ctx->max_depth - 1 < budget)
+            budget = ctx->max_depth - 1;
+        if (budget > snp->max_chain)
+            budget = snp->max_chain;
+        if (budget >= 1) {
+            spc_snee_splat sp[SPC_SNEE_CAMERA_SPLATS];
+            int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
+            int n = spc_snee_camera(B->sc, snp, ctx->cam, B->cam_scale, budget, long_budget, &rng, NULL, sp,
+                                    SPC_SNEE_CAMERA_SPLATS);
+            for (int i = 0; i < n; ++i)
+                if (in_window(ctx, sp[i].fx, sp[i].fy))
+                    spc_splat_add(ctx, tls, sp[i].fx, sp[i].fy, sp[i].value);
+        }
+    }
+    spc_rgb L = spc_rgb1(0.0);
+    for (int k = 1; k < nc; ++k) {
+        const vtx *v = &z[k];
+        if (v->kind != V_SURFACE)
+            break;
+        int budget = ctx->specular_max_chain, long_budget = SPC_CHAIN_MAX_VERTICES;
+        if (ctx->max_depth >= 0 && ctx->max_depth - k - 1 < budget)
+            budget = ctx->max_depth - k - 1;
+        if (ctx->max_depth >= 0 && ctx->max_depth - k - 1 < long_budget)
+            long_budget = ctx->max_depth - k - 1;
+        int snee_budget = snee_receiver(k, 0) ? spc_snee_budget_params(snp, &v->h, budget) : 0;
+        if (snee_budget > 0) {
+            spc_rgb c = spc_specular_nee_depth(B->sc, snp, &v->h, v->wo, snee_budget, long_budget, &rng, NULL);
+            L = spc_rgb_add(L, spc_rgb_mul(v->beta, c));
+        }
+        if (!v->delta)
+            break; /* past the first non-delta vertex specular NEE does not run (snee_receiver) */
+    }
+    return L;
+}
+
 /* ---- one sample ---- */
 
 void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0, spc_sampler *smp,
@@ -597,6 +794,15 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     const bool debug = ctx->strategy_s >= 0 || ctx->strategy_t >= 0;
     B.weighted = !debug || ctx->strategy_weighted;
     B.balance = ctx->mis_balance;
+    /* specular NEE as the path integrator runs it (not with rough chain vertices, whose light
+     * samples at rough vertices BDPT's connections would have to leave out too) */
+    B.snee = ctx->specular_nee != SPC_SNEE_NONE && !(ctx->snee.solver == SPC_SNEE_NEWTON && ctx->snee.newton.rough);
+    if (B.snee) {
+        B.snp = ctx->snee;
+        B.snp.mis = !B.snp.no_mis;
+    }
+    B.cam_scale = B.film_pixels / B.n_light_paths;
+    B.cam_d0 = ray0->d;
     const bool unbounded = ctx->max_depth < 0;
     /* t <= max_depth + 1 (s = 0), s <= max_depth (t = 1) */
     const bool cam_capped = unbounded || ctx->max_depth + 1 > SPC_BDPT_MAX_VERTICES;
@@ -636,7 +842,7 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     spc_sampler_start_key(&cs, spc_hash_combine(smp->pixel_seed, SPC_BDPT_CONNECT_STREAM), smp->index);
     int nl = light_subpath(&B, &ls, y, max_light, light_capped);
 
-    spc_rgb L = spc_rgb1(0.0);
+    spc_rgb L = B.snee && !debug ? snee_camera_side(&B, tls, smp, z, nc) : spc_rgb1(0.0);
     spc_rgb *SL = ctx->strategy_images_depth > 0 ? out->strategy_L : NULL;
     if (SL)
         for (int k = 0; k < 2 * spc_strategy_count(ctx->strategy_images_depth); ++k)

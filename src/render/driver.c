@@ -217,11 +217,10 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.specular_nee = ctx.snee.solver;
     ctx.specular_max_chain = ctx.snee.max_chain; /* the setting's chain=N, if given */
     /* an option that would change nothing is refused rather than silently ignored */
-    if (o->specular_nee && ctx.snee.solver != SPC_SNEE_NONE &&
-        (ctx.kind == SPC_INTEGRATOR_BDPT || ctx.kind == SPC_INTEGRATOR_IPT))
+    if (o->specular_nee && ctx.snee.solver != SPC_SNEE_NONE && ctx.kind == SPC_INTEGRATOR_IPT)
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
-                             "specular NEE '%s' does nothing with the %s integrator (only path and volpath use it); "
-                             "drop it or give none",
+                             "specular NEE '%s' does nothing with the %s integrator (path, volpath and bdpt use "
+                             "it); drop it or give none",
                              o->specular_nee, iname);
     ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
     ctx.strict_normals = sc->integrator.strict_normals;

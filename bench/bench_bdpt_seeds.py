@@ -1,0 +1,150 @@
+#!/usr/bin/env python3
+"""path against bdpt at equal CPU time over several seeds, with each seed's worst pixel (issue 21).
+
+    python3 bench/bench_bdpt_seeds.py [--specula build/specula] [--cpu 4] [--seeds 8] [--res 32]
+                                      [--refs DIR] [--out DIR] [--mitsuba-spp 32768]
+                                      [--snee SPEC] [SCENE ...]
+
+SCENE is one of the names below (default: all). For each scene a Mitsuba 3 reference (path
+tracer, llvm_ad_rgb, `--mitsuba-spp` samples in 32 passes, tests/validation/mitsuba_ref.py) is
+rendered once into --refs (kept: delete it to render again). Each integrator's CPU seconds per
+sample are measured by a short calibration render, and every seed then renders the samples per
+pixel that take --cpu CPU seconds (user + system, both threads), so path and bdpt get equal CPU
+time however the machine's cores are shared; the table gives the CPU seconds actually used.
+
+--snee SPEC renders both integrators with --specular-nee SPEC (e.g. angular:camera).
+
+Per render: relMSE = mean over pixels and channels of ((a - b)^2 - var(b)) / (b^2 + 0.01) (as
+`specula diff`, less the reference's own variance of the mean), and the worst pixel's share of
+that sum. Per scene and integrator: mean and worst relMSE
+over the seeds, the largest worst-pixel share, and path's mean over bdpt's.
+"""
+import argparse
+import os
+import resource
+import subprocess
+import sys
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.normpath(os.path.join(HERE, ".."))
+SHARED = os.path.normpath(os.path.join(ROOT, "..", "..", "shared", "scenes"))
+
+# name: (scene file, -D definitions given the resolution)
+SCENES = {
+    "indirect_lamp_glass": ("scenes/indirect_lamp_glass.xml", lambda r: [f"res={r}"]),
+    "indirect_door": ("scenes/indirect_door.xml", lambda r: [f"res={r}"]),
+    "caustic_sphere": ("scenes/caustic_sphere.xml", lambda r: [f"res={r}"]),
+    "cornell_box": ("cornell-box/scene.xml", lambda r: [f"resx={r}", f"resy={r}"]),
+}
+
+
+def scene_path(rel):
+    p = os.path.join(ROOT, rel)
+    return p if os.path.exists(p) else os.path.join(SHARED, rel)
+
+
+def read_exr(path):
+    import mitsuba as mi
+
+    mi.set_variant("scalar_rgb")
+    return np.array(mi.Bitmap(path), dtype=np.float64)
+
+
+def read_rgb(path):
+    return read_exr(path)[:, :, :3]
+
+
+def cpu_children():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def render(a, scene, defs, integrator, spp, seed, out):
+    cmd = [a.specula, "render", scene, "--integrator", integrator, "--spp", str(spp), "--seed", str(seed),
+           "--threads", "2", "--quiet", "--variance", "-o", out, "-D", "integrator=path"]
+    if a.snee:
+        cmd += ["--specular-nee", a.snee]
+    for d in defs:
+        cmd += ["-D", d]
+    c0 = cpu_children()
+    subprocess.run(cmd, check=True)
+    return cpu_children() - c0
+
+
+def ztest_pass(a, img, ref_path):
+    """`specula diff`'s per-pixel z-test (Sidak-corrected) of img against the reference."""
+    import json
+
+    r = subprocess.run([a.specula, "diff", img, ref_path, "--json"], check=True, capture_output=True, text=True)
+    return json.loads(r.stdout).get("ztest", {}).get("pass_fraction", float("nan"))
+
+
+def errors(img, ref, ref_var):
+    """relMSE against the truth: the reference's own variance of the mean is subtracted from each
+    squared difference (E[(a - b)^2] = E[(a - truth)^2] + Var(b) for independent a and b), so a
+    noisy reference does not inflate the error of a good image."""
+    e = (((img - ref) ** 2 - ref_var) / (ref ** 2 + 0.01)).sum(axis=2)
+    total = e.sum()
+    worst = np.clip(e, 0.0, None).max()
+    return total / e.size / 3.0, (worst / total if total > 0 else 1.0)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scenes", nargs="*")
+    ap.add_argument("--specula", default=os.path.join(ROOT, "build", "specula"))
+    ap.add_argument("--cpu", type=float, default=4.0)
+    ap.add_argument("--seeds", type=int, default=8)
+    ap.add_argument("--res", type=int, default=32)
+    ap.add_argument("--refs", default="/tmp/specula_bdpt_refs")
+    ap.add_argument("--out", default="/tmp/specula_bdpt_seeds")
+    ap.add_argument("--mitsuba-spp", type=int, default=32768)
+    ap.add_argument("--snee", default="")
+    a = ap.parse_args()
+    os.makedirs(a.refs, exist_ok=True)
+    os.makedirs(a.out, exist_ok=True)
+    print(f"{a.res}x{a.res}, {a.cpu} CPU s per render, seeds 1..{a.seeds}, specular NEE '{a.snee or 'none'}', load average "
+          f"{open('/proc/loadavg').read().split()[:3]}")
+    print("| scene | integrator | spp | CPU s (mean) | relMSE mean | relMSE worst (seed) | worst pixel's share, "
+          "largest over seeds | z-test pass, lowest over seeds | path / bdpt (mean relMSE) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name in a.scenes or list(SCENES):
+        rel, defs_of = SCENES[name]
+        scene, defs = scene_path(rel), defs_of(a.res)
+        ref_path = os.path.join(a.refs, f"{name}_{a.res}.exr")
+        if not os.path.exists(ref_path):
+            env = dict(os.environ, DRJIT_LIBLLVM_PATH="/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1")
+            subprocess.run([sys.executable, os.path.join(ROOT, "tests/validation/mitsuba_ref.py"), scene, ref_path,
+                            "--spp", str(a.mitsuba_spp), "--passes", "32", "--variant", "llvm_ad_rgb",
+                            "-D", "integrator=path"] + [x for d in defs for x in ("-D", d)], check=True, env=env)
+        ref_all = read_exr(ref_path)
+        ref, ref_var = ref_all[:, :, :3], ref_all[:, :, 3:6]
+        print(f"  {name}: reference's own relMSE (its variance of the mean) "
+              f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
+        means = {}
+        for it in ("path", "bdpt"):
+            cal = 64
+            c = render(a, scene, defs, it, cal, 100, os.path.join(a.out, "cal.exr"))
+            spp = max(1, int(round(a.cpu / max(c, 1e-3) * cal)))
+            rows = []
+            for seed in range(1, a.seeds + 1):
+                out = os.path.join(a.out, f"{name}_{it}{'_' + a.snee.replace(':', '_') if a.snee else ''}_{seed}.exr")
+                cpu = render(a, scene, defs, it, spp, seed, out)
+                rm, share = errors(read_rgb(out), ref, ref_var)
+                zp = ztest_pass(a, out, ref_path)
+                rows.append((rm, share, cpu, seed, zp))
+                print(f"  {name} {it} seed {seed}: spp {spp}, CPU {cpu:.2f} s, relMSE {rm:.4g}, worst pixel "
+                      f"{100 * share:.1f}%, z-test against Mitsuba {100 * zp:.2f}%", file=sys.stderr)
+            rm = np.array([r[0] for r in rows])
+            worst = max(rows)
+            means[it] = rm.mean()
+            ratio = f"{means['path'] / means['bdpt']:.1f}" if it == "bdpt" else ""
+            print(f"| {name} | {it} | {spp} | {np.mean([r[2] for r in rows]):.2f} | {rm.mean():.4g} | "
+                  f"{worst[0]:.4g} ({worst[3]}) | {100 * max(r[1] for r in rows):.1f}% | "
+                  f"{100 * min(r[4] for r in rows):.2f}% | {ratio} |", flush=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
