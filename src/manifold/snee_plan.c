@@ -20,7 +20,7 @@
 /* Off when every light subtends more than this solid angle at the casters (snee_plan.h): BSDF
  * sampling then finds the lights through glass and mirrors often enough that specular NEE's cost
  * does not pay (bench/RESULTS.md, "Caustics by default"). */
-#define SPC_SNEE_PLAN_MAX_SR 0.05
+#define SPC_SNEE_PLAN_MAX_SR 0.03
 
 static bool is_auto(const char *s) { return !s || !s[0] || !strcmp(s, "auto"); }
 static bool is_off(const char *s) { return s && (!strcmp(s, "none") || !strcmp(s, "off")); }
