@@ -13,7 +13,8 @@ and the ratio none / default of the means. The reference's own error is in both 
 
 usage (from the source root):
   python3 bench/bench_default.py [--specula build/specula] [--out /tmp/bench_default] [--res 24]
-                                 [--budget 1.0] [--ref 12] [--seeds 3] [SCENE.xml ...]
+                                 [--budget 1.0] [--ref 12] [--seeds 3] [--setting S] [SCENE.xml ...]
+(--setting S: S instead of the default in the first column, against the same reference)
 """
 import argparse
 import glob
@@ -66,6 +67,7 @@ def main():
     ap.add_argument("--budget", type=float, default=1.0)
     ap.add_argument("--ref", type=float, default=12.0)
     ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--setting", default=None, help="render this setting in the default's column (no flag if absent)")
     a = ap.parse_args()
     scenes = a.scenes or sorted(glob.glob(os.path.join(ROOT, "scenes", "caustic_*.xml")) +
                                 [os.path.join(ROOT, "scenes", "demo.xml")])
@@ -79,27 +81,29 @@ def main():
         setting = line.split(":", 1)[1].split(";")[0].strip() if ":" in line else "?"
         base = run([a.specula, "render", scene, "-o", os.path.join(a.out, "x.exr"), "--spp", "1", "--res", "1x1",
                     "--threads", "1", "--quiet"])
+        if a.setting:
+            setting = a.setting
         cal = {}
-        for s in (None, "none"):
+        for s in (a.setting, "none"):
             c = render(a, scene, os.path.join(a.out, "cal.exr"), s, 4, 99, a.res) - base
             cal[s] = max(c, 1e-3) / 4.0
         ref_path = os.path.join(a.out, name + "_ref.exr")
         if not os.path.exists(ref_path):
-            render(a, scene, ref_path, None, max(16, int(a.ref / cal[None])), 12345, a.res)
+            render(a, scene, ref_path, None, max(16, int(a.ref / cal[a.setting])), 12345, a.res)
         ref = read_exr(ref_path)
         res = {}
-        for s in (None, "none"):
+        for s in (a.setting, "none"):
             errs, shares = [], []
             spp = max(1, int(a.budget / cal[s]))
             for k in range(a.seeds):
-                p = os.path.join(a.out, "%s_%s_%d.exr" % (name, s or "default", k))
+                p = os.path.join(a.out, "%s_%s_%d.exr" % (name, (s or "default").replace(":", "_"), k))
                 cpu = render(a, scene, p, s, spp, 1 + k, a.res) - base
                 img = read_exr(p)
                 e = ((img - ref) ** 2 / (ref ** 2 + 0.01)).mean(-1)
                 errs.append(e.mean() * max(cpu, 1e-3) / a.budget)
                 shares.append(e.max() / max(e.sum(), 1e-300))
             res[s] = (np.mean(errs), max(errs), max(shares), spp)
-        d, n = res[None], res["none"]
+        d, n = res[a.setting], res["none"]
         print("| %s | %s | %.3g (%.3g), %d spp | %.3g (%.3g), %d spp | %.1f | %.2f, %.2f |" % (
             name, setting, d[0], d[1], d[3], n[0], n[1], n[3], n[0] / d[0], d[2], n[2]))
         sys.stdout.flush()

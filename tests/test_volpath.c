@@ -691,7 +691,7 @@ static void connection_case(const char *shape, const char *solver, int spp_ref, 
     if (!sc)
         return;
     CHECK(sc->nmedia == 1 && sc->shapes[0]->interior_medium == 0);
-    spc_film *ref = render_nee(sc, "volpath", NULL, spp_ref, 31);
+    spc_film *ref = render_nee(sc, "volpath", "none", spp_ref, 31);
     spc_film *con = render_nee(sc, "volpath", solver, spp, 32);
     CHECK(ref && con);
     if (ref && con) {

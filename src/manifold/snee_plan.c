@@ -17,6 +17,10 @@
 
 /* The solver the plan picks wherever specular NEE pays (the reasons are in snee_plan.h). */
 #define SPC_SNEE_PLAN_SOLVER "angular"
+/* Off when every light subtends more than this solid angle at the casters (snee_plan.h): BSDF
+ * sampling then finds the lights through glass and mirrors often enough that specular NEE's cost
+ * does not pay (bench/RESULTS.md, "Caustics by default"). */
+#define SPC_SNEE_PLAN_MAX_SR 0.03
 
 static bool is_auto(const char *s) { return !s || !s[0] || !strcmp(s, "auto"); }
 static bool is_off(const char *s) { return s && (!strcmp(s, "none") || !strcmp(s, "off")); }
@@ -31,6 +35,19 @@ static bool receiver(const spc_shape *s)
 static bool snee_light(const spc_emitter *e)
 {
     return e->type == SPC_EMITTER_AREA || e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
+}
+
+/* The solid angle (sr, at most 2 pi) an area light's shape subtends at c: area / d^2 for a distant
+ * light (d its bounding sphere's distance), 2 pi from within that sphere. */
+static double light_solid_angle(const spc_shape *s, spc_vec3 c)
+{
+    spc_vec3 lc = spc_scale(spc_add(s->bbox_min, s->bbox_max), 0.5);
+    double lr = 0.5 * spc_length(spc_sub(s->bbox_max, s->bbox_min));
+    double d = spc_length(spc_sub(lc, c));
+    if (!(d > lr))
+        return 2.0 * SPC_PI;
+    double area = s->type == SPC_SHAPE_SPHERE ? SPC_PI * s->radius * s->radius : 0.5 * s->area;
+    return spc_min(2.0 * SPC_PI, area / (d * d));
 }
 
 /* Flat faces: a disk, or a mesh without vertex normals (a cube, a rectangle, face_normals). */
@@ -76,10 +93,26 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         return;
     }
     bool lit = false;
-    for (int i = 0; i < sc->nemitters && !lit; ++i)
-        lit = snee_light(sc->emitters[i]);
+    out->light_sr = 0.0;
+    for (int i = 0; i < sc->nemitters; ++i) {
+        const spc_emitter *e = sc->emitters[i];
+        if (!snee_light(e))
+            continue;
+        double sr = e->type == SPC_EMITTER_AREA && e->shape_index >= 0 && e->shape_index < sc->nshapes
+                        ? light_solid_angle(sc->shapes[e->shape_index], cs->center)
+                        : 0.0;
+        if (!lit || sr < out->light_sr)
+            out->light_sr = sr;
+        lit = true;
+    }
     if (!lit) {
         off(out, "no area, point or spot light");
+        return;
+    }
+    if (out->light_sr > SPC_SNEE_PLAN_MAX_SR) {
+        snprintf(out->reason, sizeof out->reason, "every light is large: %.2g sr from the casters", out->light_sr);
+        out->on = false;
+        snprintf(out->setting, sizeof out->setting, "none");
         return;
     }
     /* not with flat-faced casters no enumeration covers (snee_plan.h) */
@@ -157,9 +190,9 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
         return (int)b.used;
     }
     const spc_specular_solver *solver = spc_specular_solver_get(p.solver);
-    put(&b, "specular NEE: %s%s; chains of 1-%d vertices%s%s; %d casters, %d receivers\n", plan->setting,
-        plan->automatic ? " (auto)" : "", p.max_chain, p.reflect ? ", reflections off glass" : "",
-        !p.no_mis ? "" : ", no MIS", plan->casters, plan->receivers);
+    put(&b, "specular NEE: %s%s; chains of 1-%d vertices%s%s; %d casters, %d receivers; smallest light %.2g sr\n",
+        plan->setting, plan->automatic ? " (auto)" : "", p.max_chain, p.reflect ? ", reflections off glass" : "",
+        !p.no_mis ? "" : ", no MIS", plan->casters, plan->receivers, plan->light_sr);
     const spc_chain_casters *cs = spc_chain_casters_of(sc, p.any_surface);
     for (int i = 0; cs && i < cs->n; ++i) {
         const spc_shape *s = sc->shapes[cs->idx[i]];

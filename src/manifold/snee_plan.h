@@ -15,6 +15,10 @@
  *     one pixel 94% of the error; two tilted slabs: newton -2.5% at 52x the cost; bench/RESULTS.md,
  *     "Caustics by default"), while on curved casters the attempts paid (the SDF torus 6.8x, a
  *     smooth water mesh 96x);
+ *   - off too if every light subtends more than 0.03 sr at the casters' bounding sphere (point and
+ *     spot lights count 0): BSDF sampling then reaches such a light through glass and mirrors often
+ *     enough that specular NEE's cost does not pay (at equal CPU time, relMSE 3x that of plain path
+ *     tracing on the Mitsuba 0.6 box, 0.062 sr, and 2x on the demo's Cornell box, 0.037 sr);
  *   - otherwise the angular solver with its defaults (spc_snee_params_default): chains of up to the
  *     scene's specular_max_chain (2) vertices, reflections off glass, MIS with BSDF sampling, the
  *     longer chains with probability 0.1, and every chain on one analytic sphere, one mirror
@@ -49,6 +53,7 @@ typedef struct spc_snee_plan {
     char reason[96];  /* why it is off, or "" */
     int casters;      /* caster shapes (spc_chain_casters_of) */
     int receivers;    /* shapes specular NEE may start at */
+    double light_sr;  /* the smallest solid angle (sr) a light subtends at the casters (0: a point) */
 } spc_snee_plan;
 
 /* The plan for rendering sc with integrator `integrator` ("path", "volpath", "bdpt", "ipt") and the
