@@ -32,8 +32,9 @@ static inline int spc_t_selected(const char *name)
 
 /* SPC_TEST_QUICK=1 is set by the sanitizer pass of .ci/run, where the code runs several times
  * slower. Tests that loop over many independent cases (BSDF configurations, scenes, solver
- * settings) then run every spc_test_stride(n)-th case, each at its full size, so every assertion
- * that runs keeps its significance; the full run covers the rest. */
+ * settings) then step through them by spc_test_stride(n): about three cases spread over the list,
+ * each at its full size, so every assertion that runs keeps its significance; the full run covers
+ * the rest. */
 static inline int spc_test_quick(void)
 {
     const char *q = getenv("SPC_TEST_QUICK");
