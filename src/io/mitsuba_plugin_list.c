@@ -101,6 +101,7 @@ static const mts_plugin plugins[] = {
     {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
      ""},
     {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", ""},
+    {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", ""},
     {"texture", "mesh_attribute", MTS_PLUGIN_NO, "-", ""},
     {"texture", "volume", MTS_PLUGIN_NO, "-", ""},
 
