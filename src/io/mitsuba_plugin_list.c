@@ -101,6 +101,7 @@ static const mts_plugin plugins[] = {
     {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
      ""},
     {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", ""},
+    {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", ""},
     {"texture", "mesh_attribute", MTS_PLUGIN_NO, "-", ""},
     {"texture", "volume", MTS_PLUGIN_NO, "-", ""},
 
@@ -147,7 +148,8 @@ static const mts_plugin plugins[] = {
      "other AOV types are refused"},
     {"integrator", "moment", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only"},
     {"integrator", "stokes", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only"},
-    {"integrator", "ptracer", MTS_PLUGIN_NO, "-", ""},
+    {"integrator", "ptracer", MTS_PLUGIN_STANDIN, "max_depth -1, rr_depth 5, hide_emitters false",
+     "rendered by path tracing (the same image); samples_per_pass unused"},
     {"integrator", "depth", MTS_PLUGIN_NO, "-", ""},
     {"integrator", "prbvolpath", MTS_PLUGIN_NO, "-", ""},
     {"integrator", "bdpt", MTS_PLUGIN_OWN, "max_depth -1, rr_depth 5, mis_balance false",

@@ -181,8 +181,23 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
                 set_to_uv(t, &to_uv);
             }
         }
+    } else if (strcmp(type, "rawconstant") == 0) {
+        /* a constant read as is (no colour conversion): a float or a 3-vector */
+        mts_prop *v = mts_find(&P, "value");
+        spc_rgb c = spc_rgb1(1.0);
+        if (v && v->kind == MTS_POINT)
+            c = spc_rgb3(v->v.x, v->v.y, v->v.z);
+        else
+            c = spc_rgb1(mts_get_float(L, &P, "value", 1.0));
+        if (L->status == SPC_OK) {
+            t = spc_scene_new_texture(L->scene);
+            if (!t)
+                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+            else
+                spc_texture_init_constant(t, c);
+        }
     } else {
-        mts_fail_plugin(L, node, "texture", type, "bitmap, checkerboard");
+        mts_fail_plugin(L, node, "texture", type, "bitmap, checkerboard, rawconstant");
     }
     if (L->status != SPC_OK)
         t = NULL;

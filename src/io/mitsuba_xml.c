@@ -1661,6 +1661,11 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
         type = L->integrator_override;
     if (strcmp(type, "path") == 0 || strcmp(type, "prb") == 0) {
         ours = "path";
+    } else if (strcmp(type, "ptracer") == 0) {
+        /* Mitsuba's particle tracer estimates the same image; specula renders it by path tracing */
+        ours = "path";
+        mts_warn(node, "integrator 'ptracer' is rendered by path tracing (the same image)");
+        mts_ignore(&P, "samples_per_pass");
     } else if (strcmp(type, "volpath") == 0 || strcmp(type, "volpathmis") == 0) {
         ours = "volpath";
     } else if (strcmp(type, "direct") == 0) {

@@ -43,6 +43,10 @@ Z_MEAN_BOUND = 2.94
 NOTES = {
     "scenes/hello.xml": "Mitsuba's direct integrator counts each of emitter_samples delta-light "
                         "samples with weight 1 (4x here); specula weighs them 1/emitter_samples",
+    "docs/scenes/integrator_direct_lum.xml": "Mitsuba's direct with bsdf_samples 0 misses light reflected by "
+                                             "smooth surfaces; specula's direct estimator includes it",
+    "docs/scenes/bsdf_blendbsdf.xml": "open: a blend of rough plastic and smooth gold by a texture; each part "
+                                      "alone agrees",
 }
 
 
