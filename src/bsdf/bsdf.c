@@ -257,3 +257,27 @@ bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta)
     }
     return false;
 }
+
+const char *spc_bsdf_type_name(spc_bsdf_type t)
+{
+    switch (t) {
+    case SPC_BSDF_DIFFUSE: return "diffuse";
+    case SPC_BSDF_ROUGHDIFFUSE: return "roughdiffuse";
+    case SPC_BSDF_PHONG: return "phong";
+    case SPC_BSDF_CONDUCTOR: return "conductor";
+    case SPC_BSDF_ROUGHCONDUCTOR: return "roughconductor";
+    case SPC_BSDF_DIELECTRIC: return "dielectric";
+    case SPC_BSDF_THINDIELECTRIC: return "thindielectric";
+    case SPC_BSDF_ROUGHDIELECTRIC: return "roughdielectric";
+    case SPC_BSDF_PLASTIC: return "plastic";
+    case SPC_BSDF_ROUGHPLASTIC: return "roughplastic";
+    case SPC_BSDF_PPLASTIC: return "pplastic";
+    case SPC_BSDF_TWOSIDED: return "twosided";
+    case SPC_BSDF_NORMALMAP: return "normalmap";
+    case SPC_BSDF_BUMPMAP: return "bumpmap";
+    case SPC_BSDF_NULL: return "null";
+    case SPC_BSDF_MASK: return "mask";
+    case SPC_BSDF_BLENDBSDF: return "blendbsdf";
+    }
+    return "?";
+}

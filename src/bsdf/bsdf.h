@@ -180,4 +180,7 @@ spc_rgb spc_fresnel_conductor(double cos_i, spc_rgb eta, spc_rgb k);
  * cos_t from spc_fresnel_dielectric. */
 spc_vec3 spc_refract(spc_vec3 w, spc_vec3 n, double cos_t, double eta_ti);
 
+/* The BSDF type's Mitsuba plugin name ("diffuse", "roughplastic", ...), for messages. */
+const char *spc_bsdf_type_name(spc_bsdf_type t);
+
 #endif

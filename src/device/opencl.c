@@ -161,30 +161,6 @@ static void host_scene_release(host_scene *h)
         free(all[i]->p);
 }
 
-static const char *bsdf_name(spc_bsdf_type t)
-{
-    switch (t) {
-    case SPC_BSDF_DIFFUSE: return "diffuse";
-    case SPC_BSDF_ROUGHDIFFUSE: return "roughdiffuse";
-    case SPC_BSDF_PHONG: return "phong";
-    case SPC_BSDF_CONDUCTOR: return "conductor";
-    case SPC_BSDF_ROUGHCONDUCTOR: return "roughconductor";
-    case SPC_BSDF_DIELECTRIC: return "dielectric";
-    case SPC_BSDF_THINDIELECTRIC: return "thindielectric";
-    case SPC_BSDF_ROUGHDIELECTRIC: return "roughdielectric";
-    case SPC_BSDF_PLASTIC: return "plastic";
-    case SPC_BSDF_ROUGHPLASTIC: return "roughplastic";
-    case SPC_BSDF_PPLASTIC: return "pplastic";
-    case SPC_BSDF_TWOSIDED: return "twosided";
-    case SPC_BSDF_NORMALMAP: return "normalmap";
-    case SPC_BSDF_BUMPMAP: return "bumpmap";
-    case SPC_BSDF_NULL: return "null";
-    case SPC_BSDF_MASK: return "mask";
-    case SPC_BSDF_BLENDBSDF: return "blendbsdf";
-    }
-    return "?";
-}
-
 static const char *emitter_name(spc_emitter_type t)
 {
     switch (t) {
@@ -262,10 +238,12 @@ static spc_status add_bsdf(host_scene *hs, const spc_bsdf *b, const char *file, 
     case SPC_BSDF_BUMPMAP:
     case SPC_BSDF_NULL:
     case SPC_BSDF_MASK:
-    case SPC_BSDF_BLENDBSDF: return REFUSE("bsdf '%s' not supported (diffuse, conductor, dielectric)", bsdf_name(b->type));
+    case SPC_BSDF_BLENDBSDF:
+        return REFUSE("bsdf '%s' not supported (diffuse, conductor, dielectric)", spc_bsdf_type_name(b->type));
     }
     if (tex)
-        return REFUSE("bsdf '%s' with a textured %s not supported (constant values only)", bsdf_name(b->type), tex);
+        return REFUSE("bsdf '%s' with a textured %s not supported (constant values only)", spc_bsdf_type_name(b->type),
+                      tex);
     return SPC_OK;
 }
 

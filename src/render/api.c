@@ -162,30 +162,6 @@ static const char *shape_type_name(const spc_shape *sh)
     return "?";
 }
 
-static const char *bsdf_type_name(spc_bsdf_type t)
-{
-    switch (t) {
-    case SPC_BSDF_DIFFUSE: return "diffuse";
-    case SPC_BSDF_ROUGHDIFFUSE: return "roughdiffuse";
-    case SPC_BSDF_PHONG: return "phong";
-    case SPC_BSDF_CONDUCTOR: return "conductor";
-    case SPC_BSDF_ROUGHCONDUCTOR: return "roughconductor";
-    case SPC_BSDF_DIELECTRIC: return "dielectric";
-    case SPC_BSDF_THINDIELECTRIC: return "thindielectric";
-    case SPC_BSDF_ROUGHDIELECTRIC: return "roughdielectric";
-    case SPC_BSDF_PLASTIC: return "plastic";
-    case SPC_BSDF_ROUGHPLASTIC: return "roughplastic";
-    case SPC_BSDF_PPLASTIC: return "pplastic";
-    case SPC_BSDF_TWOSIDED: return "twosided";
-    case SPC_BSDF_NORMALMAP: return "normalmap";
-    case SPC_BSDF_BUMPMAP: return "bumpmap";
-    case SPC_BSDF_NULL: return "null";
-    case SPC_BSDF_MASK: return "mask";
-    case SPC_BSDF_BLENDBSDF: return "blendbsdf";
-    }
-    return "?";
-}
-
 static const char *emitter_type_name(spc_emitter_type t)
 {
     switch (t) {
@@ -223,7 +199,7 @@ static void describe_bsdf_type(strbuf *b, const spc_scene *s, const spc_bsdf *bs
         sb_printf(b, "none");
         return;
     }
-    sb_printf(b, "%s", bsdf_type_name(bsdf->type));
+    sb_printf(b, "%s", spc_bsdf_type_name(bsdf->type));
     if (depth >= 4 || (!bsdf->nested[0] && !bsdf->nested[1]))
         return;
     sb_printf(b, "(");
