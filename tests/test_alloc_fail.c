@@ -1,5 +1,5 @@
 /*
- * tests/test_alloc_fail.c: allocation-failure injection (SQLite's way, issue 8). Every malloc,
+ * tests/test_alloc_fail.c: allocation-failure injection (SQLite's way). Every malloc,
  * calloc and realloc that specula's own code makes goes through wrappers here (linked with
  * -Wl,--wrap=...; shared libraries such as expat, libpng, OpenEXR and Embree keep their own
  * allocator), which can be told to fail from the n-th call on. For every n from 0 to the number of

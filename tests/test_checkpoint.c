@@ -1,5 +1,5 @@
 /*
- * tests/test_checkpoint.c: checkpoints and interruption (issue 8).
+ * tests/test_checkpoint.c: checkpoints and interruption.
  *
  * The claim under test: a render killed at any moment (SIGKILL, so nothing gets to clean up) and
  * resumed from its last checkpoint ends, at the same spp, with an image BIT-IDENTICAL to an

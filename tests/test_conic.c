@@ -1,5 +1,5 @@
 /*
- * tests/test_conic.c: the conic solver (src/manifold/conic*.c, polyroots.c; issue 7).
+ * tests/test_conic.c: the conic solver (src/manifold/conic*.c, polyroots.c).
  *
  * - Polynomial tools: the O(n^2) Taylor shift against binomial expansion; VCA isolation against
  *   Sturm counts on random polynomials with distinct, repeated and clustered roots; square-free

@@ -1,6 +1,6 @@
 /*
  * tests/test_degenerate.c: degenerate and absurd input gives a clear error or a clean image, never a
- * crash, a NaN in the film or a silently wrong light (issue 8).
+ * crash, a NaN in the film or a silently wrong light.
  *
  * Zero-radius spheres, zero-area and singular shapes, negative, NaN, infinite and overflowing
  * emitters are refused with a message; zero-power lights, zero-area triangles, coincident vertices

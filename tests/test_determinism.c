@@ -1,6 +1,6 @@
 /*
  * tests/test_determinism.c: the same image, bit for bit, for 1, 2 and 8 threads, for every
- * integrator specula has (path, ipt, bdpt), and across a checkpoint and resume (issue 8).
+ * integrator specula has (path, ipt, bdpt), and across a checkpoint and resume.
  *
  * The demo scene at 40x40 has nine tiles, some partial, so thread scheduling really varies; ipt and
  * bdpt splat onto other tiles' pixels, which the driver must merge in a fixed order. RGB, variance

@@ -1,5 +1,5 @@
 /*
- * tests/test_manifold.c: specular chains and connections (src/manifold/, issue 5).
+ * tests/test_manifold.c: specular chains and connections (src/manifold/).
  *
  * - Chain derivatives: every analytic derivative of a traced chain (vertex positions, hit
  *   distances, shading normals, outgoing directions) against central finite differences in double
@@ -1762,7 +1762,7 @@ TEST(caustic_image_path_snee_vs_ipt)
      * specular NEE's longer chains, params.long_p, find) had not one ipt path yet: 0 with variance
      * 0, and every estimate that finds their light failed the z-test there */
     spc_film *ref = render_with(sc, "ipt", "none", 32768, 11, &t_ref);
-    /* chains that only refract with psi 1 (the defaults before session 4), the defaults (chains that
+    /* chains that only refract with psi 1 (psi 1, no reflections), the defaults (chains that
      * also reflect off the ball, MIS with the BSDF-sampled reflections through the track's events,
      * psi 0.1), and those with specular NEE at the first receiver only and from the camera */
     const char *settings[4] = {"angular:noreflect,mispsi=1,noexact", "angular:noexact",

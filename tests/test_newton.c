@@ -1,6 +1,5 @@
 /*
- * tests/test_newton.c: the Newton solver of manifold next-event estimation (src/manifold/newton.c,
- * issue 6).
+ * tests/test_newton.c: the Newton solver of manifold next-event estimation (src/manifold/newton.c).
  *
  * - Newton converges on known solutions: reflection off a plane and a sphere, refraction through a
  *   sphere, one, two and three stacked glass slabs (2, 4 and 6 interfaces), at scales 1e-3, 1, 1e3,

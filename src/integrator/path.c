@@ -45,7 +45,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     bool specular = true; /* the last scattering was a delta lobe (or it is the camera) */
     double prev_pdf = 1.0, eta_scale = 1.0;
     spc_vec3 prev_p = ray.o;
-    /* ---- specular NEE state (issue 5) ---- */
+    /* ---- specular NEE state ---- */
     const bool snee = nee && ctx->specular_nee != SPC_SNEE_NONE;
     spc_snee_params snp = {0};
     spc_snee_track track = {0};

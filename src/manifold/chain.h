@@ -43,7 +43,7 @@
 
 #include "scene/scene.h"
 
-/* Longest chain the fixed-size records hold (issue 5 asks for up to 4; room to spare). */
+/* Longest chain the fixed-size records hold (chains of up to 4 are asked for; room to spare). */
 #define SPC_CHAIN_MAX_VERTICES 8
 
 typedef enum spc_chain_event {
