@@ -94,9 +94,9 @@ TEST(default_on_with_casters_only)
         return;
     spc_snee_plan p;
     spc_snee_plan_make(with, "path", NULL, &p);
-    CHECK(p.on && p.automatic && !strcmp(p.setting, "angular") && p.casters == 1 && p.receivers == 2);
+    CHECK(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING) && p.casters == 1 && p.receivers == 2);
     spc_snee_plan_make(with, "volpath", "auto", &p);
-    CHECK(p.on && !strcmp(p.setting, "angular"));
+    CHECK(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING));
     spc_snee_plan_make(with, "bdpt", "", &p);
     CHECK(!p.on && !strcmp(p.setting, "none"));
     spc_snee_plan_make(with, "ipt", NULL, &p);
@@ -120,7 +120,7 @@ TEST(default_on_with_casters_only)
     /* what ran, in the stats and in the film (the EXR header's attributes) */
     char ran[96];
     spc_film *f = render_ran(with, "path", NULL, 2, 1, ran);
-    CHECK(f && !strcmp(ran, "angular") && !strcmp(f->specular_nee, "angular") && !strcmp(f->integrator, "path"));
+    CHECK(f && !strcmp(ran, SPC_SNEE_PLAN_SETTING) && !strcmp(f->specular_nee, SPC_SNEE_PLAN_SETTING) && !strcmp(f->integrator, "path"));
     spc_film_destroy(f);
     f = render_ran(with, "path", "none", 2, 1, ran);
     CHECK(f && !strcmp(ran, "none") && !strcmp(f->specular_nee, "none"));
@@ -137,7 +137,7 @@ TEST(default_on_with_casters_only)
 
     /* the plan as `specula info` prints it */
     char *text = spc_scene_plan(with, NULL, NULL);
-    CHECK(text && strstr(text, "specular NEE: angular (auto)") &&
+    CHECK(text && strstr(text, "specular NEE: " SPC_SNEE_PLAN_SETTING " (auto)") &&
           strstr(text, "caster shape 1: glass sphere: every chain on the sphere enumerated exactly"));
     free(text);
     text = spc_scene_plan(without, NULL, NULL);
@@ -213,7 +213,7 @@ TEST(xml_setting_words)
         "</scene>\n";
     static const struct {
         const char *value, *runs;
-    } words[] = {{"auto", "angular"}, {"", "angular"}, {"off", "none"}, {"none", "none"}, {"conic", "conic"}};
+    } words[] = {{"auto", SPC_SNEE_PLAN_SETTING}, {"", SPC_SNEE_PLAN_SETTING}, {"off", "none"}, {"none", "none"}, {"conic", "conic"}};
     char text[1024];
     for (size_t i = 0; i < sizeof words / sizeof words[0]; ++i) {
         snprintf(text, sizeof text, fmt, words[i].value);
@@ -259,7 +259,7 @@ TEST(default_agrees_with_none)
     char ran[96];
     spc_film *ref = render_ran(sc, "path", "none", 16384, 31, ran);
     spc_film *img = render_ran(sc, "path", plan.setting, 1024, 32, ran);
-    CHECK(ref && img && !strcmp(ran, "angular"));
+    CHECK(ref && img && !strcmp(ran, SPC_SNEE_PLAN_SETTING));
     if (ref && img) {
         spc_diff_result d;
         memset(&d, 0, sizeof d);
@@ -276,8 +276,11 @@ TEST(default_agrees_with_none)
     spc_scene_destroy(sc);
 }
 
-/* The glass ball under a small sphere light (radius 0.05) with no sky: the default against bdpt,
- * whose light paths reach the caustic directly. */
+/* The glass ball under a small sphere light (radius 0.05) with no sky: specular NEE with
+ * reflections off glass against bdpt, whose light paths reach the caustic directly. The default
+ * leaves those reflections to BSDF sampling (snee_plan.h: with them a random scene read 0.5% high
+ * against Mitsuba 3), which finds the light's small image in the ball too rarely for a z-test at
+ * this sample count, so the estimator with them is the one checked here. */
 TEST(small_light_ball_agrees_with_bdpt)
 {
     spc_scene *sc = ball_scene(true, 0.05, spc_v3(0.3, 0.4, 2.0), 16);
@@ -286,12 +289,15 @@ TEST(small_light_ball_agrees_with_bdpt)
         return;
     char ran[96];
     spc_film *ref = render_ran(sc, "bdpt", NULL, 8192, 41, ran);
-    spc_film *img = render_ran(sc, "path", NULL, 2048, 42, ran);
+    spc_film *img = render_ran(sc, "path", NULL, 2, 42, ran);
+    CHECK(img && !strcmp(ran, SPC_SNEE_PLAN_SETTING));
+    spc_film_destroy(img);
+    img = render_ran(sc, "path", "angular", 2048, 42, ran);
     CHECK(ref && img && !strcmp(ran, "angular"));
     if (ref && img) {
         spc_diff_result d;
         memset(&d, 0, sizeof d);
-        CHECK(tu_image_agrees(img, ref, 0.99, "default vs bdpt", &d));
+        CHECK(tu_image_agrees(img, ref, 0.99, "angular vs bdpt", &d));
         printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
                d.mean_a[0], d.mean_b[0]);
     }

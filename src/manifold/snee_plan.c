@@ -15,8 +15,6 @@
 #include "manifold/sphere_chains.h"
 #include "scene/scene.h"
 
-/* The solver the plan picks wherever specular NEE pays (the reasons are in snee_plan.h). */
-#define SPC_SNEE_PLAN_SOLVER "angular"
 /* Off when every light subtends more than this solid angle at the casters (snee_plan.h): BSDF
  * sampling then finds the lights through glass and mirrors often enough that specular NEE's cost
  * does not pay (bench/RESULTS.md, "Caustics by default"). */
@@ -117,7 +115,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     }
     /* not with flat-faced casters no enumeration covers (snee_plan.h) */
     spc_snee_params p;
-    if (!spc_snee_parse(SPC_SNEE_PLAN_SOLVER, 2, &p)) {
+    if (!spc_snee_parse(SPC_SNEE_PLAN_SETTING, 2, &p)) {
         off(out, "no solver");
         return;
     }
@@ -130,7 +128,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
             return;
         }
     out->on = true;
-    snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SOLVER);
+    snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING);
 }
 
 spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *s)
