@@ -374,7 +374,8 @@ static spc_status build_scene(const spc_render_ctx *ctx, host_scene *hs, spc_err
         bool used = false;
         for (int j = 0; j < sc->nshapes && !used; ++j)
             used = sc->shapes[j]->bsdf == sc->bsdfs[i];
-        if (!used) { /* nested BSDFs of unsupported wrappers, unused ones: a placeholder */
+        if (!used) { /* a BSDF no shape uses (nested in a wrapper, or unreferenced): an empty slot keeps
+                        the device's BSDF indices equal to the scene's */
             if (!grow_add(&hs->bsdf_i, 1) || !grow_add(&hs->bsdf_f, BSDF_F))
                 return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory");
             continue;

@@ -50,9 +50,10 @@ bool spc_camera_project(const spc_camera_state *cs, spc_vec3 p, double *fx, doub
  * estimate of I_j therefore multiplies by We and lets spc_splat_add apply f_j; the integrator
  * divides by the number of light paths traced per pass.
  */
-/* True if light paths can be connected to the camera (perspective pinhole; not a thin lens, whose
- * strategies that join the lens are not implemented: like an orthographic camera's they are no
- * strategy, and the others' weights sum to one without them). */
+/* True if light paths can be connected to the camera (perspective pinhole). A thin lens is not
+ * connectible: bdpt's t = 1, ipt's camera hits and specular NEE from the camera then have no
+ * strategy there, as with an orthographic camera, and the other strategies' weights sum to one
+ * without them (unbiased; the lens's light-traced caustics come from the camera side only). */
 bool spc_camera_connectible(const spc_camera_state *cs);
 /* Solid-angle density of the world direction d (unit) of a camera ray when the film position is
  * uniform over the whole film. The same expression is returned past the film's edges (callers
