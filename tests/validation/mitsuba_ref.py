@@ -23,6 +23,7 @@ def main():
     ap.add_argument("--passes", type=int, default=16)
     ap.add_argument("--variant", default="scalar_rgb")
     ap.add_argument("-D", action="append", default=[])
+    ap.add_argument("--res", help="WxH: the film's width and height instead of the scene's")
     a = ap.parse_args()
     import mitsuba as mi
 
@@ -36,6 +37,10 @@ def main():
     # only specula reads (specular NEE settings, mis_balance, caustic flags). Such files are edited in memory
     # and loaded with the scene's folder on the file resolver (for relative paths).
     edited = text.replace("<lookAt", "<lookat")
+    if a.res:
+        w, h = a.res.lower().split("x")
+        edited = re.sub(r'(<integer\s+name="width"\s+value=")[^"]*(")', r"\g<1>%s\g<2>" % w, edited)
+        edited = re.sub(r'(<integer\s+name="height"\s+value=")[^"]*(")', r"\g<1>%s\g<2>" % h, edited)
     edited = re.sub(r'<(string|integer|boolean)\s+name="(specular_nee|specular_max_chain|mis_balance|caustic_caster|'
                     r'caustic_receiver|caustic_caster_single|caustic_caster_multi)"[^>]*/>', "", edited)
     if edited != text:
