@@ -1,5 +1,9 @@
 #!/usr/bin/env python3
-"""Per-pixel Welch comparison of two EXRs with variance channels: cmp.py A.exr B.exr [--map]."""
+"""Per-pixel Welch comparison of two EXRs with variance channels: cmp.py A.exr B.exr [--map].
+
+The variances get a floor of (1e-4 x the pixel's mean)^2: pixels that both renderers see as a
+constant (the sky, a light seen directly) have zero variance in each but differ in the last float
+digits of their sums, which would otherwise fail with an infinite z."""
 import sys
 import numpy as np
 import mitsuba as mi
@@ -12,7 +16,7 @@ def load(p):
 
 a, va = load(sys.argv[1])
 b, vb = load(sys.argv[2])
-z = (a - b) / np.sqrt(va + vb + 1e-30)
+z = (a - b) / np.sqrt(va + vb + (1e-4 * 0.5 * (abs(a) + abs(b))) ** 2 + 1e-30)
 n = a.size
 from math import erf, sqrt
 alpha = 1 - (1 - 0.01) ** (1.0 / n)
