@@ -12,7 +12,9 @@ sample are measured by a short calibration render, and every seed then renders t
 pixel that take --cpu CPU seconds (user + system, both threads), so path and bdpt get equal CPU
 time however the machine's cores are shared; the table gives the CPU seconds actually used.
 
---snee SPEC renders both integrators with --specular-nee SPEC (e.g. angular:camera).
+--snee SPEC renders both integrators with --specular-nee SPEC (e.g. angular:camera);
+--bdpt-snee SPEC only bdpt (path keeps its default, the scene's plan). --integrators picks which
+of path and bdpt run. Each seed's line names its worst pixel (x, y).
 
 Per render: relMSE = mean over pixels and channels of ((a - b)^2 - var(b)) / (b^2 + 0.01) (as
 `specula diff`, less the reference's own variance of the mean), and the worst pixel's share of
@@ -61,11 +63,15 @@ def cpu_children():
     return r.ru_utime + r.ru_stime
 
 
+def snee_of(a, integrator):
+    return a.bdpt_snee if integrator == "bdpt" and a.bdpt_snee else a.snee
+
+
 def render(a, scene, defs, integrator, spp, seed, out):
     cmd = [a.specula, "render", scene, "--integrator", integrator, "--spp", str(spp), "--seed", str(seed),
            "--threads", "2", "--quiet", "--variance", "-o", out, "-D", "integrator=path"]
-    if a.snee:
-        cmd += ["--specular-nee", a.snee]
+    if snee_of(a, integrator):
+        cmd += ["--specular-nee", snee_of(a, integrator)]
     for d in defs:
         cmd += ["-D", d]
     c0 = cpu_children()
@@ -88,7 +94,8 @@ def errors(img, ref, ref_var):
     e = (((img - ref) ** 2 - ref_var) / (ref ** 2 + 0.01)).sum(axis=2)
     total = e.sum()
     worst = np.clip(e, 0.0, None).max()
-    return total / e.size / 3.0, (worst / total if total > 0 else 1.0)
+    y, x = np.unravel_index(np.argmax(e), e.shape)
+    return total / e.size / 3.0, (worst / total if total > 0 else 1.0), (int(x), int(y))
 
 
 def main():
@@ -102,10 +109,12 @@ def main():
     ap.add_argument("--out", default="/tmp/specula_bdpt_seeds")
     ap.add_argument("--mitsuba-spp", type=int, default=32768)
     ap.add_argument("--snee", default="")
+    ap.add_argument("--bdpt-snee", default="")
+    ap.add_argument("--integrators", default="path,bdpt")
     a = ap.parse_args()
     os.makedirs(a.refs, exist_ok=True)
     os.makedirs(a.out, exist_ok=True)
-    print(f"{a.res}x{a.res}, {a.cpu} CPU s per render, seeds 1..{a.seeds}, specular NEE '{a.snee or 'none'}', load average "
+    print(f"{a.res}x{a.res}, {a.cpu} CPU s per render, seeds 1..{a.seeds}, specular NEE '{a.snee or 'default'}' (bdpt: '{a.bdpt_snee or a.snee or 'none'}'), load average "
           f"{open('/proc/loadavg').read().split()[:3]}")
     print("| scene | integrator | spp | CPU s (mean) | relMSE mean | relMSE worst (seed) | worst pixel's share, "
           "largest over seeds | z-test pass, lowest over seeds | path / bdpt (mean relMSE) |")
@@ -124,23 +133,24 @@ def main():
         print(f"  {name}: reference's own relMSE (its variance of the mean) "
               f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
         means = {}
-        for it in ("path", "bdpt"):
+        for it in a.integrators.split(","):
             cal = 64
             c = render(a, scene, defs, it, cal, 100, os.path.join(a.out, "cal.exr"))
             spp = max(1, int(round(a.cpu / max(c, 1e-3) * cal)))
             rows = []
             for seed in range(1, a.seeds + 1):
-                out = os.path.join(a.out, f"{name}_{it}{'_' + a.snee.replace(':', '_') if a.snee else ''}_{seed}.exr")
+                sn = snee_of(a, it)
+                out = os.path.join(a.out, f"{name}_{it}{'_' + sn.replace(':', '_').replace(',', '_') if sn else ''}_{seed}.exr")
                 cpu = render(a, scene, defs, it, spp, seed, out)
-                rm, share = errors(read_rgb(out), ref, ref_var)
+                rm, share, wxy = errors(read_rgb(out), ref, ref_var)
                 zp = ztest_pass(a, out, ref_path)
                 rows.append((rm, share, cpu, seed, zp))
                 print(f"  {name} {it} seed {seed}: spp {spp}, CPU {cpu:.2f} s, relMSE {rm:.4g}, worst pixel "
-                      f"{100 * share:.1f}%, z-test against Mitsuba {100 * zp:.2f}%", file=sys.stderr)
+                      f"{100 * share:.1f}% at {wxy}, z-test against Mitsuba {100 * zp:.2f}%", file=sys.stderr)
             rm = np.array([r[0] for r in rows])
             worst = max(rows)
             means[it] = rm.mean()
-            ratio = f"{means['path'] / means['bdpt']:.1f}" if it == "bdpt" else ""
+            ratio = f"{means['path'] / means['bdpt']:.1f}" if it == "bdpt" and "path" in means else ""
             print(f"| {name} | {it} | {spp} | {np.mean([r[2] for r in rows]):.2f} | {rm.mean():.4g} | "
                   f"{worst[0]:.4g} ({worst[3]}) | {100 * max(r[1] for r in rows):.1f}% | "
                   f"{100 * min(r[4] for r in rows):.2f}% | {ratio} |", flush=True)

@@ -908,9 +908,11 @@ static spc_scene *load_caustic_sphere(int res)
  * (camera - glass - light, camera - glass - glass - floor - glass - glass - light) have one BDPT
  * strategy, s = 0, which finds the small light by chance; without specular NEE three pixels at
  * the ball's centre and its reflection of the light held 70% of bdpt's variance. Specular NEE
- * from the camera and from the first non-delta camera vertex seen through glass adds a strategy for
- * them, weighed against s = 0 by the path integrator's split (bdpt.c). The image must not change
- * (z-test and means against bdpt without it and against path), and the heavy pixels must go: the
+ * from the camera and from the camera vertices seen through glass with no two adjacent non-delta
+ * vertices before them (snee_receiver in bdpt.c; the floor seen through the ball, and the floor
+ * seen from there through the ball again) adds a strategy for them, weighed against s = 0 by the
+ * path integrator's split. The image must not change (z-test and means against bdpt without it
+ * and against path, with and without the pinhole's chains), and the heavy pixels must go: the
  * worst pixel's variance falls to less than half and holds less than a quarter of the image's. */
 TEST(specular_nee_tames_s0_only_paths)
 {
@@ -921,7 +923,15 @@ TEST(specular_nee_tames_s0_only_paths)
     spc_film *plain = render_snee(sc, "bdpt", "", 1024, 51);
     spc_film *with = render_snee(sc, "bdpt", "angular:camera", 1024, 52);
     spc_film *path = render_snee(sc, "path", "", 4096, 53);
-    CHECK(plain && with && path);
+    spc_film *receivers = render_snee(sc, "bdpt", "angular", 1024, 54);
+    CHECK(plain && with && path && receivers);
+    if (receivers && plain && path) {
+        CHECK(ztest(receivers, plain, 0.99, "bdpt with specular NEE at its receivers vs without") >= 0.99);
+        check_means_agree(receivers, plain, 4.0);
+        CHECK(ztest(receivers, path, 0.99, "bdpt with specular NEE at its receivers vs path") >= 0.99);
+        check_means_agree(receivers, path, 4.0);
+    }
+    spc_film_destroy(receivers);
     if (plain && with && path) {
         CHECK(ztest(with, plain, 0.99, "bdpt with specular NEE vs without") >= 0.99);
         check_means_agree(with, plain, 4.0);

@@ -55,10 +55,11 @@
  * asks for it). Paths that go camera - delta vertices - a non-delta vertex - delta vertices - light
  * (a caustic or the light seen through glass; with params.camera also camera - delta vertices -
  * light) have no strategy but s = 0, which must hit the light by chance: in the glass-ball caustic a
- * few such pixels held most of bdpt's variance. At such a vertex (the camera subpath's first
- * non-delta vertex, seen through glass or mirrors) and from the pinhole, bdpt runs specular NEE as
- * path does, and weighs s = 0's samples of the paths it covers by the same split (see "specular
- * NEE's share" below). Its contributions are in the image but in no strategy image.
+ * few such pixels held most of bdpt's variance. At such vertices (camera-subpath vertices reached
+ * through glass or mirrors with no two adjacent non-delta vertices before them: snee_receiver) and
+ * from the pinhole, bdpt runs specular NEE as path does, and weighs s = 0's samples of the paths
+ * it covers by the same split (see "specular NEE's share" below). Its contributions are in the
+ * image but in no strategy image.
  *
  * Russian roulette on both subpaths from rr_depth segments, on the throughput since the
  * subpath's start (times eta^2 on camera paths, as path.c); the MIS weights ignore the survival
@@ -447,15 +448,38 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
  * (spc_snee_mis_bsdf_weight; spc_snee_camera_bsdf_weight for chains from the pinhole), so the
  * weights of the path still sum to one whichever strategies can make it. */
 
-/* Where BDPT runs specular NEE: at the camera subpath's first non-delta vertex z_k (k segments from
- * the camera, `receivers` non-delta vertices before it) when the camera sees it through delta
- * vertices only (k >= 2). The paths it covers there (camera - delta* - z_k - chain - light) have no
- * BDPT strategy but s = 0: z_k's neighbours are both delta, and so are all vertices between z_k and
- * the camera and between z_k and the light. So the split of the path integrator's MIS is the whole
- * MIS of those paths. Elsewhere BDPT's own strategies (light tracing of a caustic seen directly,
- * connections) are already good, and a two-way split against BSDF sampling would hand part of
- * their paths to specular NEE by a weight that does not know them. */
-static bool snee_receiver(int k, int receivers) { return k >= 2 && receivers == 0; }
+/* Where BDPT runs specular NEE: at a camera-subpath vertex z_k (k segments from the camera) whose
+ * predecessor z_{k-1} is delta and whose prefix z_0 .. z_{k-1} has no two adjacent non-delta
+ * vertices (`open`; z_0 counts as non-delta unless nothing can be joined to it). The paths it covers
+ * there (that prefix - z_k - a chain of delta vertices - light) have no BDPT strategy but s = 0: a
+ * strategy joins two adjacent non-delta vertices, and such a path has none. So the split of the
+ * path integrator's MIS is the whole MIS of those paths. This holds at the first non-delta vertex
+ * seen through glass (camera - glass - glass - floor - glass - glass - light, the floor's caustic
+ * seen through a ball) and equally at later ones reached through delta vertices only (camera -
+ * glass - glass - floor - glass - glass - glass - floor - glass - glass - light: without specular
+ * NEE at the second floor vertex such paths are single samples hundreds of times their pixel's
+ * mean). Once two adjacent vertices are non-delta, BDPT's own strategies (light tracing of a caustic
+ * seen directly, connections) make the paths that follow, and a two-way split against BSDF
+ * sampling would hand part of their paths to specular NEE by a weight that does not know them. */
+static bool snee_receiver(int k, bool open, bool prev_delta) { return k >= 1 && open && prev_delta; }
+
+/* Specular NEE from the pinhole (params.camera): its chain budget and the bound on its longer
+ * chains; false if it does not run. */
+static bool camera_budget(const bdpt *B, int *budget, int *long_budget)
+{
+    const spc_render_ctx *ctx = B->ctx;
+    if (!B->snp.camera || !spc_camera_connectible(ctx->cam))
+        return false;
+    int b = ctx->specular_max_chain;
+    if (ctx->max_depth >= 0 && ctx->max_depth - 1 < b)
+        b = ctx->max_depth - 1;
+    if (b > B->snp.max_chain)
+        b = B->snp.max_chain;
+    int lb = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
+    *budget = b;
+    *long_budget = lb;
+    return b >= 1;
+}
 
 /* One vertex of a full path walked from the camera: the vertex and whether the path scatters there
  * by a delta lobe (a connection's ends never do). */
@@ -507,26 +531,19 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
     spc_snee_track track;
     memset(&track, 0, sizeof track);
     bool cam_track = false;
-    if (B->snp.camera && spc_camera_connectible(ctx->cam)) {
-        int budget = ctx->specular_max_chain;
-        if (ctx->max_depth >= 0 && ctx->max_depth - 1 < budget)
-            budget = ctx->max_depth - 1;
-        if (budget > B->snp.max_chain)
-            budget = B->snp.max_chain;
-        if (budget >= 1) {
-            int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
-            track.live = true;
-            track.max_chain = budget;
-            track.single_ok = track.multi_ok = true;
-            track.any_surface = B->snp.any_surface;
-            track.reflect = B->snp.reflect;
-            track.long_max = spc_snee_track_long_max(&B->snp, long_budget);
-            cam_track = true;
-        }
+    int cam_budget, cam_long;
+    if (camera_budget(B, &cam_budget, &cam_long)) {
+        track.live = true;
+        track.max_chain = cam_budget;
+        track.single_ok = track.multi_ok = true;
+        track.any_surface = B->snp.any_surface;
+        track.reflect = B->snp.reflect;
+        track.long_max = spc_snee_track_long_max(&B->snp, cam_long);
+        cam_track = true;
     }
     const vtx *rx = NULL; /* the receiver the track started at */
     spc_vec3 r_wo = spc_v3(0, 0, 1), r_d0 = r_wo;
-    int receivers = 0;
+    bool open = true; /* no two adjacent non-delta vertices in P[0 .. j-1] */
     for (int j = 1; j <= n - 2; ++j) {
         const vtx *v = P[j].v;
         if (v->kind != V_SURFACE)
@@ -539,14 +556,16 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
             budget = ctx->max_depth - segments - 1;
         if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < long_budget)
             long_budget = ctx->max_depth - segments - 1;
-        int snee_budget = snee_receiver(j, receivers) ? spc_snee_budget_params(&B->snp, &v->h, budget) : 0;
+        int snee_budget =
+            snee_receiver(j, open, P[j - 1].delta) ? spc_snee_budget_params(&B->snp, &v->h, budget) : 0;
         unsigned lobe = SPC_LOBE_DIFFUSE_REFLECTION;
         if (P[j].delta)
             lobe = spc_dot(wo, v->h.ng) * spc_dot(wi, v->h.ng) > 0.0 ? SPC_LOBE_DELTA_REFLECTION
                                                                     : SPC_LOBE_DELTA_TRANSMISSION;
         spc_snee_track_scatter_params(&track, &B->snp, &v->h, lobe, snee_budget, long_budget);
+        if (!P[j].delta && !P[j - 1].delta)
+            open = false;
         if (!P[j].delta) {
-            ++receivers;
             cam_track = false;
             if (snee_budget > 0) {
                 rx = v;
@@ -734,7 +753,7 @@ static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int 
 }
 
 
-/* Specular NEE at every non-delta vertex of the camera subpath (budgets as the path integrator
+/* Specular NEE at the camera subpath's receivers (snee_receiver; budgets as the path integrator
  * has them), and from the pinhole with params.camera (splatted); returns the sum for the camera
  * sample. Its own random stream, so the sampler's dimensions stay as without it. */
 static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *smp, const vtx *z, int nc)
@@ -743,39 +762,31 @@ static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *
     const spc_snee_params *snp = &B->snp;
     spc_rng rng;
     spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, SPC_BDPT_SNEE_STREAM ^ (uint64_t)smp->index), 0);
-    if (snp->camera && spc_camera_connectible(ctx->cam)) {
-        int budget = ctx->specular_max_chain;
-        if (ctx->max_depth >= 0 && ctx->max_depth - 1 < budget)
-            budget = ctx->max_depth - 1;
-        if (budget > snp->max_chain)
-            budget = snp->max_chain;
-        if (budget >= 1) {
-            spc_snee_splat sp[SPC_SNEE_CAMERA_SPLATS];
-            int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
-            int n = spc_snee_camera(B->sc, snp, ctx->cam, B->cam_scale, budget, long_budget, &rng, NULL, sp,
-                                    SPC_SNEE_CAMERA_SPLATS);
-            for (int i = 0; i < n; ++i)
-                if (in_window(ctx, sp[i].fx, sp[i].fy))
-                    spc_splat_add(ctx, tls, sp[i].fx, sp[i].fy, sp[i].value);
-        }
+    int cam_budget, cam_long;
+    if (camera_budget(B, &cam_budget, &cam_long)) {
+        spc_snee_splat sp[SPC_SNEE_CAMERA_SPLATS];
+        int n = spc_snee_camera(B->sc, snp, ctx->cam, B->cam_scale, cam_budget, cam_long, &rng, NULL, sp,
+                                SPC_SNEE_CAMERA_SPLATS);
+        for (int i = 0; i < n; ++i)
+            if (in_window(ctx, sp[i].fx, sp[i].fy))
+                spc_splat_add(ctx, tls, sp[i].fx, sp[i].fy, sp[i].value);
     }
     spc_rgb L = spc_rgb1(0.0);
     for (int k = 1; k < nc; ++k) {
         const vtx *v = &z[k];
-        if (v->kind != V_SURFACE)
-            break;
+        if (v->kind != V_SURFACE || (!v->delta && !z[k - 1].delta))
+            break; /* past two adjacent non-delta vertices specular NEE does not run (snee_receiver) */
         int budget = ctx->specular_max_chain, long_budget = SPC_CHAIN_MAX_VERTICES;
         if (ctx->max_depth >= 0 && ctx->max_depth - k - 1 < budget)
             budget = ctx->max_depth - k - 1;
         if (ctx->max_depth >= 0 && ctx->max_depth - k - 1 < long_budget)
             long_budget = ctx->max_depth - k - 1;
-        int snee_budget = snee_receiver(k, 0) ? spc_snee_budget_params(snp, &v->h, budget) : 0;
+        /* the prefix z_0 .. z_{k-1} is open: the loop stopped at the first adjacent non-delta pair */
+        int snee_budget = snee_receiver(k, true, z[k - 1].delta) ? spc_snee_budget_params(snp, &v->h, budget) : 0;
         if (snee_budget > 0) {
             spc_rgb c = spc_specular_nee_depth(B->sc, snp, &v->h, v->wo, snee_budget, long_budget, &rng, NULL);
             L = spc_rgb_add(L, spc_rgb_mul(v->beta, c));
         }
-        if (!v->delta)
-            break; /* past the first non-delta vertex specular NEE does not run (snee_receiver) */
     }
     return L;
 }
