@@ -50,6 +50,8 @@ static const ref_case cases[] = {
     {"spot_texture", "spot_texture.xml", 2048, NULL},
     /* a thin-lens camera: depth of field */
     {"thinlens", "thinlens.xml", 1024, NULL},
+    /* PLY vertex and face attributes as textures */
+    {"mesh_attribute", "mesh_attribute.xml", 512, NULL},
 };
 
 static const char *source_dir(void)

@@ -102,7 +102,8 @@ static const mts_plugin plugins[] = {
      ""},
     {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", ""},
     {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", ""},
-    {"texture", "mesh_attribute", MTS_PLUGIN_NO, "-", ""},
+    {"texture", "mesh_attribute", MTS_PLUGIN_YES, "name (\"vertex_*\" or \"face_*\"), scale 1",
+     "PLY attributes as Mitsuba names them; read by BSDF parameters (elsewhere black)"},
     {"texture", "volume", MTS_PLUGIN_NO, "-", ""},
 
     /* ---- sensors ---- */

@@ -28,7 +28,8 @@
  *   bsdf), blendbsdf (weight 0.5 + two bsdfs).
  * Textures: bitmap (filename, filter_type bilinear | nearest, wrap_mode repeat | mirror | clamp,
  *   raw false, to_uv; 0.x uoffset/voffset/uscale/vscale), checkerboard (color0 0.4, color1 0.2,
- *   to_uv). Any texture-valued property also takes rgb, spectrum or float constants.
+ *   to_uv), mesh_attribute (name, scale 1). Any texture-valued property also takes rgb, spectrum or
+ *   float constants.
  * Emitters: point (intensity 1, position | to_world), spot (intensity 1, cutoff_angle 20,
  *   beam_width 3/4 cutoff_angle, texture (none), to_world), directional (irradiance 1, direction | to_world),
  *   area (radiance 1, rgb or texture; inside a shape), constant (radiance 1), envmap (filename,
@@ -196,8 +197,21 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
             else
                 spc_texture_init_constant(t, c);
         }
+    } else if (strcmp(type, "mesh_attribute") == 0) {
+        const char *name = mts_get_string(L, &P, "name", NULL);
+        double scale = mts_get_float(L, &P, "scale", 1.0);
+        if (L->status == SPC_OK && !name)
+            mts_fail(L, node, SPC_ERR_VALUE, "mesh_attribute texture needs a name");
+        if (L->status == SPC_OK) {
+            t = spc_scene_new_texture(L->scene);
+            if (!t)
+                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+            else if (!spc_texture_init_mesh_attribute(t, name, scale))
+                mts_fail(L, mts_where(&P, "name"), SPC_ERR_VALUE,
+                         "mesh attribute name '%s' must start with 'vertex_' or 'face_' (at most 63 characters)", name);
+        }
     } else {
-        mts_fail_plugin(L, node, "texture", type, "bitmap, checkerboard, rawconstant");
+        mts_fail_plugin(L, node, "texture", type, "bitmap, checkerboard, rawconstant, mesh_attribute");
     }
     if (L->status != SPC_OK)
         t = NULL;
@@ -500,6 +514,10 @@ static bool mesh_copy(spc_mesh *dst, const spc_mesh *src)
         memcpy(dst->n, src->n, 3 * src->nverts * sizeof(float));
     if (src->uv)
         memcpy(dst->uv, src->uv, 2 * src->nverts * sizeof(float));
+    if (!spc_mesh_copy_attrs(dst, src)) {
+        spc_mesh_release(dst);
+        return false;
+    }
     return true;
 }
 
@@ -1061,6 +1079,8 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
             tmp.radiance = t;
         }
     }
+    if (L->status == SPC_OK && tmp.radiance && tmp.radiance->type == SPC_TEX_MESH_ATTRIBUTE)
+        mts_fail(L, mts_where(&P, "radiance"), SPC_ERR_VALUE, "a mesh_attribute texture cannot be an emitter's radiance");
     if (L->status == SPC_OK) {
         spc_emitter *e = spc_scene_new_emitter(L->scene);
         if (!e) {

@@ -231,6 +231,9 @@ static void describe_texture(strbuf *b, const char *name, const spc_texture *t)
     case SPC_TEX_CHECKERBOARD:
         sb_printf(b, " %s=checkerboard", name);
         break;
+    case SPC_TEX_MESH_ATTRIBUTE:
+        sb_printf(b, " %s=mesh attribute '%s'", name, t->attribute);
+        break;
     }
 }
 
