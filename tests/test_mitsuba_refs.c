@@ -52,6 +52,9 @@ static const ref_case cases[] = {
     {"thinlens", "thinlens.xml", 1024, NULL},
     /* PLY vertex and face attributes as textures */
     {"mesh_attribute", "mesh_attribute.xml", 512, NULL},
+    /* projectors: an image with its aspect ratio, a constant one with a focal length (the floor
+     * near the camera is lit only through the box: heavy-tailed at 1024 spp) */
+    {"projector", "projector.xml", 2048, NULL},
 };
 
 static const char *source_dir(void)

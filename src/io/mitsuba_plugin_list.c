@@ -72,7 +72,8 @@ static const mts_plugin plugins[] = {
     {"emitter", "directional", MTS_PLUGIN_YES, "irradiance 1, direction (or to_world)", ""},
     {"emitter", "constant", MTS_PLUGIN_YES, "radiance 1", ""},
     {"emitter", "envmap", MTS_PLUGIN_YES, "filename, scale 1, to_world", ""},
-    {"emitter", "projector", MTS_PLUGIN_NO, "-", ""},
+    {"emitter", "projector", MTS_PLUGIN_YES,
+     "irradiance 1 (rgb or texture), scale 1, fov (fov_axis \"x\") or focal_length \"50mm\", to_world", ""},
     {"emitter", "directionalarea", MTS_PLUGIN_NO, "-", ""},
     {"emitter", "sunsky", MTS_PLUGIN_NO, "-", ""},
 

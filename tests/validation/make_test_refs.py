@@ -33,6 +33,7 @@ REFS = {
     "spot_texture": ("spot_texture.xml", ["res=32"]),
     "thinlens": ("thinlens.xml", ["res=32"]),
     "mesh_attribute": ("mesh_attribute.xml", ["res=32"]),
+    "projector": ("projector.xml", ["res=32"]),
 }
 
 
