@@ -100,7 +100,7 @@ static const mts_plugin plugins[] = {
 
     /* ---- textures ---- */
     {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
-     ""},
+     "images: OpenEXR, PNG, JPEG, BMP (uncompressed)"},
     {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", ""},
     {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", ""},
     {"texture", "mesh_attribute", MTS_PLUGIN_YES, "name (\"vertex_*\" or \"face_*\"), scale 1",

@@ -87,7 +87,7 @@ spc_rgb spc_texture_mean(const spc_texture *t);
 bool spc_texture_is_constant(const spc_texture *t);
 /* A checkerboard texture with identity to_uv (the caller owns it). */
 void spc_texture_init_checkerboard(spc_texture *t, spc_rgb color0, spc_rgb color1);
-/* Loads an image (EXR, PNG, JPEG) into a bitmap texture: linear RGB (8/16-bit images are
+/* Loads an image (EXR, PNG, JPEG, BMP) into a bitmap texture: linear RGB (8/16-bit images are
  * sRGB-decoded unless raw; gray is expanded to RGB; alpha is dropped), bilinear, repeat, identity
  * to_uv; the caller may change nearest/wrap/to_uv afterwards. On failure *t is a black constant
  * texture and err names the file. Free with spc_texture_release. */
