@@ -24,7 +24,7 @@
  *   sampler     independent, stratified, multijitter, orthogonal, ldsampler, halton, hammersley,
  *               sobol: sample_count 4, seed 0 (specula has one sampler; the type is not kept)
  *   integrator  path, prb (-> path), volpath, volpathmis (-> volpath), direct (-> path, max_depth
- *               2), bdpt, ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" or auto:
+ *               2), bdpt, ipt, ptracer: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" or auto:
  *               chosen from the scene, manifold/snee_plan.h; none or off; angular | newton | conic,
  *               optionally with options as "newton:biased=8,rough": spc_snee_parse in
  *               manifold/specular_nee.h), specular_max_chain, mis_balance (false; bdpt: the balance
@@ -1666,10 +1666,8 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     if (strcmp(type, "path") == 0 || strcmp(type, "prb") == 0) {
         ours = "path";
     } else if (strcmp(type, "ptracer") == 0) {
-        /* Mitsuba's particle tracer estimates the same image; specula renders it by path tracing */
-        ours = "path";
-        mts_warn(node, "integrator 'ptracer' is rendered by path tracing (the same image)");
-        mts_ignore(&P, "samples_per_pass");
+        ours = "ptracer";
+        mts_ignore(&P, "samples_per_pass"); /* how Mitsuba splits its work; the image is the same */
     } else if (strcmp(type, "volpath") == 0 || strcmp(type, "volpathmis") == 0) {
         ours = "volpath";
     } else if (strcmp(type, "direct") == 0) {
