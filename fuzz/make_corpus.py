@@ -218,6 +218,29 @@ for f in ['emit.exr', 'ramp.exr']:
 for f in ['bumps.png', 'grid.png', 'mask.png', 'emit.png', 'blobs.jpg']:
     copy('png', 'scenes/textures/' + f)
 
+
+# BMP (read by the image fuzzer through its magic bytes): 24-bit bottom-up, 4-bit palette top-down
+def bmp(w, h, bpp):
+    row = ((w * bpp + 31) // 32) * 4
+    pal = b''.join(bytes([i * 16, 255 - i * 16, i * 8, 0]) for i in range(16)) if bpp == 4 else b''
+    data = b''
+    for y in range(h):
+        r = bytearray(row)
+        for x in range(w):
+            if bpp == 24:
+                r[3 * x:3 * x + 3] = bytes([(x * 40) % 256, (y * 80) % 256, (x * y * 30) % 256])
+            else:
+                r[x // 2] |= ((x + y) % 16) << (4 if x % 2 == 0 else 0)
+        data += bytes(r)
+    hdr = struct.pack('<IiiHHIIiiII', 40, w, h if bpp == 24 else -h, 1, bpp, 0, len(data), 2835, 2835,
+                      16 if bpp == 4 else 0, 0)
+    off = 14 + 40 + len(pal)
+    return b'BM' + struct.pack('<IHHI', off + len(data), 0, 0, off) + hdr + pal + data
+
+
+put('png', 'tiny24.bmp', bmp(7, 5, 24))
+put('png', 'tiny4.bmp', bmp(9, 4, 4))
+
 # ---- JPEG (the reader's own corpus): the scenes' texture, and small baseline RGB, gray and
 # low-quality files written by Mitsuba 3 (the reference peer, installed beside specula) ----
 copy('jpeg', 'scenes/textures/blobs.jpg')

@@ -588,6 +588,46 @@ TEST(balance_heuristic_against_power)
     spc_scene_destroy(sc);
 }
 
+/* ---- ptracer: light tracing alone ---- */
+
+/* ptracer against path on scenes without smooth surfaces seen by the camera (which light tracing
+ * cannot reach): the plain box (an area light seen directly: (1, 1)), the point-light box, the
+ * directional and spot lights, and path's depth limits and hide_emitters. */
+static void ptracer_vs_path(spc_scene *sc, int spp_pt, int spp_path, int max_depth, bool hide, const char *what)
+{
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    sc->integrator.hide_emitters = hide;
+    spc_film *a = render_opts(sc, "ptracer", spp_pt, 2, 31, max_depth, -1, -1, false, false);
+    spc_film *p = render_opts(sc, "path", spp_path, 2, 32, max_depth, -1, -1, false, false);
+    CHECK(a && p);
+    if (a && p) {
+        CHECK(ztest(a, p, 0.99, what) >= 0.99);
+        check_means_agree(a, p, 4.0);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(p);
+    spc_scene_destroy(sc);
+}
+
+TEST(ptracer_against_path)
+{
+    ptracer_vs_path(cornell_box(BOX_PLAIN, 16, 2.0), 512, 512, -1, false, "ptracer: box");
+    ptracer_vs_path(cornell_box(BOX_PLAIN, 16, 2.0), 256, 256, 1, false, "ptracer: box, max_depth 1");
+    ptracer_vs_path(cornell_box(BOX_PLAIN, 16, 2.0), 256, 256, 3, true, "ptracer: box, max_depth 3, emitters hidden");
+    ptracer_vs_path(cornell_box(BOX_POINT, 16, 1.0), 256, 512, -1, false, "ptracer: point light box");
+    ptracer_vs_path(delta_lights_scene(16), 256, 512, -1, false, "ptracer: directional and spot lights");
+}
+
+/* A light at infinity seen directly (max_depth 1: only emitters), which ptracer splats from
+ * directions sampled toward it from the pinhole: a constant sky and an environment map. */
+TEST(ptracer_sees_the_sky)
+{
+    ptracer_vs_path(sky_scene(16, false), 256, 256, 1, false, "ptracer: constant sky seen directly");
+    ptracer_vs_path(sky_scene(16, true), 2048, 256, 1, false, "ptracer: environment map seen directly");
+}
+
 /* ---- strategies ---- */
 
 /* With the same seed every strategy sees the same subpaths, so the weighted single-strategy
@@ -999,6 +1039,8 @@ int main(void)
     RUN(directional_and_spot_against_path);
     RUN(box_glass_mirror_against_path);
     RUN(caustic_against_path);
+    RUN(ptracer_against_path);
+    RUN(ptracer_sees_the_sky);
     RUN(specular_nee_tames_s0_only_paths);
     printf("bdpt subpaths truncated at the vertex limit: %llu\n", (unsigned long long)spc_bdpt_truncated_paths());
     return spc_test_finish();

@@ -9,7 +9,7 @@
 #include "render_util.h"
 
 #define N_CHI2 200000
-#define N_CHI2_TESTS 7
+#define N_CHI2_TESTS 8
 
 /* A scene holding one emitting shape. */
 static spc_scene *light_scene(int kind)
@@ -166,6 +166,77 @@ TEST(emission_sampling)
     CHECK_MSG(chi2_accept(p, N_CHI2_TESTS), "p = %g", p);
 }
 
+/* A projector at the origin looking down -z (lookat), fov 90 along x, over a 2 x 2 image (nearest):
+ * closed forms of sample_direct (Mitsuba's pi scale E / (z^2 cos)), the image's orientation (its
+ * left column toward the projector's left, local +x, as a camera there would see it), emission
+ * sampling against its density (chi-square) and its weight against sample_direct's intensity. */
+TEST(projector)
+{
+    static float px[12] = {1, 0, 0, 0, 1, 0, /* top row: red, green */
+                           0, 0, 1, 0.5f, 0.5f, 0.5f}; /* bottom row: blue, grey */
+    spc_texture img;
+    spc_texture_init_constant(&img, spc_rgb1(0));
+    img.type = SPC_TEX_BITMAP;
+    img.width = img.height = 2;
+    img.data = px;
+    img.nearest = true;
+    img.wrap = SPC_WRAP_CLAMP;
+    spc_emitter pr;
+    memset(&pr, 0, sizeof pr);
+    pr.type = SPC_EMITTER_PROJECTOR;
+    pr.texture = &img;
+    pr.scale = 3.0;
+    CHECK(spc_fov_tangents(90.0, SPC_FOV_X, 2, 2, &pr.tan_x, &pr.tan_y));
+    CHECK_NEAR(pr.tan_x, 1.0, 1e-12);
+    CHECK_NEAR(pr.tan_y, 1.0, 1e-12);
+    spc_mat4_lookat(spc_v3(0, 0, 0), spc_v3(0, 0, -1), spc_v3(0, 1, 0), &pr.to_world);
+    CHECK(spc_emitter_prepare(&pr, spc_v3(0, 0, 0), 10));
+    CHECK(spc_emitter_is_delta(&pr));
+    /* flux: pi scale A mean(E), A = 4 */
+    CHECK_NEAR(pr.power, SPC_PI * 3.0 * 4.0 * (1 + 1 + 1 + 1.5) / 12.0, 1e-9);
+    spc_vec3 left = spc_mat4_apply_vector(&pr.to_world, spc_v3(1, 0, 0));
+    spc_vec3 up = spc_mat4_apply_vector(&pr.to_world, spc_v3(0, 1, 0));
+    spc_emitter_direct ds;
+    /* up and to the left at z = 2: top-left texel (red); cos = 2 / |(1, 1, 2)| */
+    spc_vec3 q = spc_add(spc_v3(0, 0, -2), spc_add(left, up));
+    CHECK(spc_emitter_sample_direct(&pr, q, spc_v2(0, 0), &ds));
+    double cosq = 2.0 / sqrt(6.0);
+    CHECK_NEAR(ds.L.r, SPC_PI * 3.0 / (4.0 * cosq), 1e-9);
+    CHECK(ds.L.g == 0.0 && ds.L.b == 0.0 && ds.is_delta);
+    CHECK_NEAR(ds.dist, sqrt(6.0), 1e-12);
+    /* down and to the right: bottom-right texel (grey) */
+    q = spc_sub(spc_v3(0, 0, -2), spc_add(left, up));
+    CHECK(spc_emitter_sample_direct(&pr, q, spc_v2(0, 0), &ds));
+    CHECK_NEAR(ds.L.g, 0.5 * SPC_PI * 3.0 / (4.0 * cosq), 1e-9);
+    /* outside the frustum, and behind */
+    CHECK(!spc_emitter_sample_direct(&pr, spc_v3(2.5, 0, -2), spc_v2(0, 0), &ds));
+    CHECK(!spc_emitter_sample_direct(&pr, spc_v3(0, 0, 2), spc_v2(0, 0), &ds));
+
+    /* emission: the weight is the intensity over the direction's density */
+    spc_rng rng;
+    spc_rng_seed(&rng, 5, 1);
+    int bad = 0;
+    for (int i = 0; i < 200; ++i) {
+        spc_emitter_emission em;
+        if (!spc_emitter_sample_emission(&pr, spc_v2(0, 0), spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)), &em))
+            continue;
+        double pp, pd;
+        spc_emitter_pdf_emission(&pr, em.p, em.n, em.d, &pp, &pd);
+        bad += !(fabs(pd - em.pdf_dir) <= 1e-9 * em.pdf_dir) || !em.delta_pos;
+        if (!spc_emitter_sample_direct(&pr, spc_madd(em.p, em.d, 2.0), spc_v2(0, 0), &ds))
+            continue; /* a texel's edge */
+        double I = ds.L.r * 4.0;
+        bad += !(fabs(em.weight.r - I / em.pdf_dir) <= 1e-6 * (I / em.pdf_dir) + 1e-9);
+    }
+    CHECK_MSG(bad == 0, "%d emission samples disagree with sample_direct or pdf_emission", bad);
+    emission_ctx c = {&pr};
+    spc_frame fr = spc_frame_from_n(spc_v3(0, 0, -1));
+    double p = chi2_direction_test("projector emission", emission_sample, emission_pdf, &c, &fr, N_CHI2, 13, true);
+    CHECK_MSG(chi2_accept(p, N_CHI2_TESTS), "p = %g", p);
+    img.data = NULL;
+    spc_emitter_release(&pr);
+}
+
 TEST(point_and_spot_closed_forms)
 {
     spc_emitter pt;
@@ -312,5 +383,6 @@ int main(void)
     RUN(emission_sampling);
     RUN(envmap_sampling_and_orientation);
     RUN(lights_chosen_by_power);
+    RUN(projector);
     return spc_test_finish();
 }

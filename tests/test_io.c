@@ -2,7 +2,7 @@
  * tests/test_io.c: image I/O. EXR write/read round trips (extra channels, attributes, HALF and
  * tiled files written here with the core API), atomic replacement (a failed write never
  * touches the old file: missing directory, invalid request, and a write that fails midway under
- * RLIMIT_FSIZE in a child process), PNG and JPEG reading in all layouts, corrupt and truncated
+ * RLIMIT_FSIZE in a child process), PNG, JPEG and BMP reading in all layouts, corrupt and truncated
  * files (errors, never crashes; deterministic byte-flip fuzzing), and the sRGB functions.
  */
 /* ctest-labels: unit */
@@ -709,6 +709,169 @@ TEST(corrupt_files_are_errors_not_crashes)
     fuzz(jpg_path, "fuzz.jpg", 150, 3);
 }
 
+/* ---------------- BMP ---------------- */
+
+/* The test image: 5 x 3 (rows padded), colour index (3x + 5y) mod ncol into bmp_pal. */
+static const unsigned char bmp_pal[16][3] = {
+    {10, 255, 0},   {50, 225, 17},  {90, 195, 34},  {130, 165, 51}, {170, 135, 68}, {210, 105, 85},
+    {250, 75, 102}, {5, 45, 119},   {45, 15, 136},  {85, 240, 153}, {125, 210, 170}, {165, 180, 187},
+    {205, 150, 204}, {245, 120, 221}, {0, 90, 238},  {40, 60, 255}};
+enum { BMP_W = 5, BMP_H = 3 };
+static int bmp_idx(int x, int y, int ncol) { return (3 * x + 5 * y) % ncol; }
+
+static void put_u16(unsigned char *p, uint32_t v)
+{
+    p[0] = (unsigned char)v;
+    p[1] = (unsigned char)(v >> 8);
+}
+static void put_u32(unsigned char *p, uint32_t v)
+{
+    put_u16(p, v & 0xffff);
+    put_u16(p + 2, v >> 16);
+}
+
+/* Writes the test image as a BMP: bpp 1/4/8 (palette of ncol), 16 (565 masks), 24, 32 (masks
+ * if given, else BI_RGB); hsize 12, 40 or 124; top_down stores rows top first. Returns the size. */
+static size_t make_bmp(unsigned char *b, int bpp, int hsize, bool top_down, const uint32_t *masks, int ncol,
+                       uint32_t compression)
+{
+    memset(b, 0, 4096);
+    bool core = hsize == 12;
+    size_t at = 14 + (size_t)hsize;
+    bool after_masks = masks && hsize == 40;
+    size_t mask_at = hsize == 40 ? at : 14 + 40;
+    if (after_masks)
+        at += 12;
+    if (masks)
+        for (int k = 0; k < 3; ++k)
+            put_u32(b + mask_at + 4 * (size_t)k, masks[k]);
+    if (bpp <= 8)
+        for (int i = 0; i < ncol; ++i) {
+            unsigned char *e = b + at + (size_t)(core ? 3 : 4) * (size_t)i;
+            e[0] = bmp_pal[i][2];
+            e[1] = bmp_pal[i][1];
+            e[2] = bmp_pal[i][0];
+        }
+    if (bpp <= 8)
+        at += (size_t)(core ? 3 : 4) * (size_t)ncol;
+    size_t row = ((BMP_W * (size_t)bpp + 31) / 32) * 4;
+    for (int y = 0; y < BMP_H; ++y) {
+        unsigned char *r = b + at + row * (size_t)(top_down ? y : BMP_H - 1 - y);
+        for (int x = 0; x < BMP_W; ++x) {
+            int i = bmp_idx(x, y, bpp <= 8 ? ncol : 16);
+            const unsigned char *c = bmp_pal[i];
+            if (bpp <= 8) {
+                size_t bit = (size_t)x * (size_t)bpp;
+                r[bit / 8] |= (unsigned char)(i << (8 - bpp - bit % 8));
+            } else if (bpp == 16) {
+                put_u16(r + 2 * x, (uint32_t)(c[0] >> 3) << 11 | (uint32_t)(c[1] >> 2) << 5 | (uint32_t)(c[2] >> 3));
+            } else if (bpp == 24) {
+                r[3 * x] = c[2];
+                r[3 * x + 1] = c[1];
+                r[3 * x + 2] = c[0];
+            } else if (masks) { /* R in the low byte, then G, B */
+                put_u32(r + 4 * x, (uint32_t)c[0] | (uint32_t)c[1] << 8 | (uint32_t)c[2] << 16);
+            } else {
+                put_u32(r + 4 * x, (uint32_t)c[2] | (uint32_t)c[1] << 8 | (uint32_t)c[0] << 16);
+            }
+        }
+    }
+    size_t size = at + row * BMP_H;
+    b[0] = 'B';
+    b[1] = 'M';
+    put_u32(b + 2, (uint32_t)size);
+    put_u32(b + 10, (uint32_t)at);
+    put_u32(b + 14, (uint32_t)hsize);
+    if (core) {
+        put_u16(b + 18, BMP_W);
+        put_u16(b + 20, BMP_H);
+        put_u16(b + 22, 1);
+        put_u16(b + 24, (uint32_t)bpp);
+    } else {
+        put_u32(b + 18, BMP_W);
+        put_u32(b + 22, top_down ? (uint32_t)-BMP_H : BMP_H);
+        put_u16(b + 26, 1);
+        put_u16(b + 28, (uint32_t)bpp);
+        put_u32(b + 30, compression);
+        put_u32(b + 46, bpp <= 8 ? (uint32_t)ncol : 0);
+    }
+    return size;
+}
+
+TEST(bmp_reads_every_layout)
+{
+    static const uint32_t rgbx[3] = {0x000000ffu, 0x0000ff00u, 0x00ff0000u};
+    static const uint32_t m565[3] = {0xf800u, 0x07e0u, 0x001fu};
+    static const struct {
+        const char *name;
+        int bpp, hsize;
+        bool top_down;
+        const uint32_t *masks;
+        int ncol;
+    } v[] = {{"24-bit", 24, 40, false, NULL, 0},         {"32-bit V5 top-down", 32, 124, true, NULL, 0},
+             {"32-bit masks", 32, 40, false, rgbx, 0},   {"32-bit V5 masks", 32, 124, false, rgbx, 0},
+             {"16-bit 565", 16, 40, true, m565, 0},      {"8-bit palette", 8, 40, false, NULL, 16},
+             {"4-bit palette", 4, 40, false, NULL, 11},  {"1-bit OS/2", 1, 12, false, NULL, 2}};
+    unsigned char b[4096];
+    char path[512];
+    path_in_tmp(path, sizeof path, "t.bmp");
+    for (size_t k = 0; k < sizeof v / sizeof v[0]; ++k) {
+        size_t n = make_bmp(b, v[k].bpp, v[k].hsize, v[k].top_down, v[k].masks, v[k].ncol,
+                            v[k].masks ? 3u : 0u);
+        spit(path, b, n);
+        spc_image img;
+        spc_error err = {0};
+        spc_status st = spc_image_read(path, &img, &err);
+        CHECK_MSG(st == SPC_OK, "%s: %s", v[k].name, err.msg);
+        if (st != SPC_OK)
+            continue;
+        CHECK(img.width == BMP_W && img.height == BMP_H && img.channels == 3 && img.srgb);
+        int bad = 0;
+        for (int y = 0; y < BMP_H; ++y)
+            for (int x = 0; x < BMP_W; ++x) {
+                const unsigned char *c = bmp_pal[bmp_idx(x, y, v[k].bpp <= 8 ? v[k].ncol : 16)];
+                for (int ch = 0; ch < 3; ++ch) {
+                    double want = c[ch] / 255.0;
+                    if (v[k].bpp == 16) {
+                        int bits = ch == 1 ? 6 : 5;
+                        want = (double)(c[ch] >> (8 - bits)) / ((1 << bits) - 1);
+                    }
+                    bad += fabs(img.data[3 * (y * BMP_W + x) + ch] - want) > 1e-6;
+                }
+            }
+        CHECK_MSG(bad == 0, "%s: %d values differ", v[k].name, bad);
+        spc_image_release(&img);
+    }
+
+    /* refused with errors that say why */
+    spc_image img;
+    spc_error err = {0};
+    size_t n = make_bmp(b, 8, 40, false, NULL, 16, 1); /* RLE8 */
+    spit(path, b, n);
+    CHECK(spc_image_read(path, &img, &err) == SPC_ERR_VALUE && strstr(err.msg, "RLE") && strstr(err.file, "t.bmp"));
+    n = make_bmp(b, 8, 40, false, NULL, 16, 0);
+    put_u32(b + 46, 4); /* 4 palette entries, pixels use up to 15 */
+    spit(path, b, n);
+    CHECK(spc_image_read(path, &img, &err) == SPC_ERR_PARSE && strstr(err.msg, "palette"));
+    n = make_bmp(b, 24, 40, false, NULL, 0, 0);
+    put_u32(b + 18, 40000); /* wider than the file holds */
+    spit(path, b, n);
+    CHECK(spc_image_read(path, &img, &err) == SPC_ERR_PARSE && strstr(err.msg, "past the end"));
+    n = make_bmp(b, 32, 40, false, rgbx, 0, 3);
+    put_u32(b + 14 + 40, 0x0f0f0000u); /* not one run of bits */
+    spit(path, b, n);
+    CHECK(spc_image_read(path, &img, &err) == SPC_ERR_PARSE && strstr(err.msg, "mask"));
+
+    /* truncations are parse errors; byte flips never crash */
+    n = make_bmp(b, 24, 40, false, NULL, 0, 0);
+    spit(path, b, n);
+    check_truncations(path, "trunc.bmp", 12);
+    fuzz(path, "fuzz.bmp", 300, 4);
+    n = make_bmp(b, 4, 40, true, NULL, 11, 0);
+    spit(path, b, n);
+    fuzz(path, "fuzz4.bmp", 300, 5);
+}
+
 /* ---------------- sRGB ---------------- */
 
 TEST(srgb_functions_are_inverses)
@@ -750,6 +913,7 @@ int main(void)
     RUN(png_reads_every_layout);
     RUN(jpeg_reads_rgb_and_gray);
     RUN(corrupt_files_are_errors_not_crashes);
+    RUN(bmp_reads_every_layout);
     RUN(srgb_functions_are_inverses);
     char cmd[400];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);

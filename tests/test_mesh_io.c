@@ -5,7 +5,8 @@
  * triangle outside it), negative indices, v/vt/vn combinations de-indexed into vertices, flipped
  * uvs, missing normals, and errors with file:line:col and the right status. PLY: the same mesh
  * written here as ascii, binary little and big endian (with extra properties and elements to
- * skip) loads identically; errors name lines or elements. .serialized: files written here with
+ * skip) loads identically; errors name lines or elements; vertex and face attributes are named and
+ * grouped as Mitsuba 3 does and read back by the mesh_attribute texture. .serialized: files written here with
  * zlib (float and double, versions 3 and 4, several meshes with the end-of-file dictionary),
  * truncated and corrupt ones fail. Mesh operations: transform, degenerate removal, append,
  * validation, polygon triangulation.
@@ -19,7 +20,10 @@
 
 #include "harness.h"
 #include "io/mesh_io.h"
+#include "scene/hit.h"
 #include "scene/mesh.h"
+#include "scene/shape.h"
+#include "scene/texture.h"
 
 static char tmpdir[256];
 
@@ -826,6 +830,85 @@ TEST(polygon_triangulation)
     CHECK(spc_polygon_triangulate(p, ids, 2, tris) == 0);
 }
 
+/* Mesh attributes as Mitsuba 3's PLY loader names them, kept in step with the triangles, and read
+ * back by the mesh_attribute texture at a hit. */
+TEST(ply_attributes)
+{
+    const char *path = tmp_path("attrs.ply");
+    write_text(path, "ply\nformat ascii 1.0\n"
+                     "element vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+                     "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty float glow_x\n"
+                     "property float foo\nproperty float bar_q\nproperty float pos_x\nproperty float pos_y\n"
+                     "element face 3\nproperty list uchar int vertex_indices\nproperty float weight_0\n"
+                     "property float tint_r\nproperty float tint_g\nproperty float tint_b\nend_header\n"
+                     "0 0 0   255 0 51   0.5  9 9 9 9\n"
+                     "1 0 0   0 255 0    1.5  9 9 9 9\n"
+                     "1 1 0   0 0 255    2.5  9 9 9 9\n"
+                     "0 1 0   255 255 255 3.5 9 9 9 9\n"
+                     "2 0.5 0 0 0 0      4.5  9 9 9 9\n"
+                     "4 0 1 2 3  0.25  0.1 0.2 0.3\n"
+                     "3 1 4 2    0.75  0.4 0.5 0.6\n"
+                     "3 0 0 0    0.5   0 0 0\n");
+    spc_mesh m;
+    spc_error err = {0};
+    spc_status st = spc_ply_load(path, &m, &err);
+    CHECK_MSG(st == SPC_OK, "%s", err.msg);
+    if (st != SPC_OK)
+        return;
+    CHECK(m.nattrs == 4);
+    const spc_mesh_attr *col = spc_mesh_find_attr(&m, "vertex_color");
+    const spc_mesh_attr *glow = spc_mesh_find_attr(&m, "vertex_glow");
+    const spc_mesh_attr *w = spc_mesh_find_attr(&m, "face_weight");
+    const spc_mesh_attr *tint = spc_mesh_find_attr(&m, "face_tint_color");
+    CHECK(!spc_mesh_find_attr(&m, "vertex_foo") && !spc_mesh_find_attr(&m, "vertex_bar") &&
+          !spc_mesh_find_attr(&m, "vertex_pos"));
+    CHECK(col && col->dim == 3 && !col->face && glow && glow->dim == 1 && !glow->face);
+    CHECK(w && w->dim == 1 && w->face && tint && tint->dim == 3 && tint->face);
+    if (!col || !glow || !w || !tint || m.ntris != 4) {
+        CHECK_MSG(m.ntris == 4, "%zu triangles", m.ntris);
+        spc_mesh_release(&m);
+        return;
+    }
+    /* integer colours: normalized and sRGB-decoded (51/255 = 0.2 -> 0.0331) */
+    CHECK(col->data[0] == 1.0f && col->data[1] == 0.0f);
+    CHECK_NEAR(col->data[2], 0.033105, 1e-5);
+    CHECK(glow->data[3] == 3.5f);
+    /* the quad's value on both of its triangles, then the triangle's, then the third face's */
+    CHECK(w->data[0] == 0.25f && w->data[1] == 0.25f && w->data[2] == 0.75f && w->data[3] == 0.5f);
+    CHECK(tint->data[3] == 0.1f && tint->data[6] == 0.4f && tint->data[8] == 0.6f);
+    /* dropping the degenerate third face keeps face attributes with their triangles */
+    CHECK(spc_mesh_drop_degenerate(&m) == 1 && m.ntris == 3 && w->data[2] == 0.75f);
+
+    spc_shape s;
+    memset(&s, 0, sizeof s);
+    s.type = SPC_SHAPE_MESH;
+    s.mesh = m;
+    spc_texture tv, tf, tbad;
+    CHECK(spc_texture_init_mesh_attribute(&tv, "vertex_glow", 2.0));
+    CHECK(spc_texture_init_mesh_attribute(&tf, "face_tint_color", 1.0));
+    CHECK(!spc_texture_init_mesh_attribute(&tbad, "glow", 1.0));
+    spc_hit h;
+    memset(&h, 0, sizeof h);
+    h.shape = &s;
+    h.prim = 2; /* vertices 1, 4, 2: glow 1.5, 4.5, 2.5 */
+    h.b1 = 0.25;
+    h.b2 = 0.5;
+    CHECK_NEAR(spc_texture_eval_hit(&tv, &h).g, 2.0 * (0.25 * 1.5 + 0.25 * 4.5 + 0.5 * 2.5), 1e-6);
+    spc_rgb c = spc_texture_eval_hit(&tf, &h);
+    CHECK_NEAR(c.r, 0.4, 1e-6);
+    CHECK_NEAR(c.b, 0.6, 1e-6);
+    h.prim = 1;
+    CHECK_NEAR(spc_texture_eval_hit(&tf, &h).g, 0.2, 1e-6);
+    CHECK_NEAR(spc_texture_eval1_hit(&tf, &h), 0.2, 1e-6); /* the mean of the channels */
+    /* a copy has the same attributes */
+    spc_mesh copy = {0};
+    copy.nverts = m.nverts;
+    copy.ntris = m.ntris;
+    CHECK(spc_mesh_copy_attrs(&copy, &m) && copy.nattrs == 4 && spc_mesh_find_attr(&copy, "face_weight")->data[2] == 0.75f);
+    spc_mesh_release(&copy);
+    spc_mesh_release(&s.mesh);
+}
+
 int main(void)
 {
     snprintf(tmpdir, sizeof tmpdir, "/tmp/specula_test_mesh_io_XXXXXX");
@@ -839,6 +922,7 @@ int main(void)
     RUN(obj_errors_name_line_and_column);
     RUN(ply_ascii_and_binary_agree);
     RUN(ply_errors);
+    RUN(ply_attributes);
     RUN(serialized_single_meshes);
     RUN(serialized_multi_mesh_dictionary);
     RUN(serialized_corrupt_files);

@@ -1,7 +1,7 @@
 /*
  * tests/test_mitsuba_refs.c: specula against Mitsuba 3, without Mitsuba. Each scene of scenes/ in
- * the table below is rendered by specula at 32 pixels (path tracer, fixed seed, so the outcome is
- * the same on every run) and compared with a Mitsuba 3.9.1 scalar_rgb reference committed in
+ * the table below is rendered by specula at 32 pixels (path tracer unless the row names another
+ * integrator that estimates the same image, fixed seed, so the outcome is the same on every run) and compared with a Mitsuba 3.9.1 scalar_rgb reference committed in
  * tests/data/mitsuba_refs (tests/validation/make_test_refs.py: the mean of 32 independent renders
  * of 128 spp and the variance of that mean) by the per-pixel z-test of `specula diff` (alpha 0.01,
  * Sidak-corrected over the pixels). A scene passes when at least 99.75% of its pixels do,
@@ -30,7 +30,7 @@ typedef struct ref_case {
     const char *name;       /* tests/data/mitsuba_refs/NAME.exr */
     const char *scene;      /* under scenes/ */
     int spp;                /* specula's samples per pixel */
-    const char *integrator; /* -D integrator=...; NULL: path */
+    const char *integrator; /* -D integrator=...; NULL: path (Mitsuba's reference is always path's) */
 } ref_case;
 
 static const ref_case cases[] = {
@@ -50,6 +50,16 @@ static const ref_case cases[] = {
     {"spot_texture", "spot_texture.xml", 2048, NULL},
     /* a thin-lens camera: depth of field */
     {"thinlens", "thinlens.xml", 1024, NULL},
+    /* PLY vertex and face attributes as textures */
+    {"mesh_attribute", "mesh_attribute.xml", 512, NULL},
+    /* projectors: an image with its aspect ratio, a constant one with a focal length (the floor
+     * near the camera is lit only through the box: heavy-tailed at 1024 spp) */
+    {"projector", "projector.xml", 2048, NULL},
+    /* the particle tracer against the path-traced references (the same image): area lights seen
+     * directly and textured, point, spot and directional lights, a constant sky */
+    {"shapes", "shapes.xml", 1024, "ptracer"},
+    {"area_textured", "area_textured.xml", 1024, "ptracer"},
+    {"lights", "lights.xml", 1024, "ptracer"},
 };
 
 static const char *source_dir(void)
@@ -114,9 +124,9 @@ static double compare(const ref_case *c, double scale)
         printf("  %s: images differ in size (%dx%d vs %dx%d)\n", c->name, img.width, img.height, ref.width, ref.height);
     } else {
         frac = r.ztest_pass_fraction;
-        printf("  %-14s %dx%d spp %5d  pass %6.2f%%  specula (%.4f %.4f %.4f)  mitsuba (%.4f %.4f %.4f)\n", c->name,
-               img.width, img.height, c->spp, 100.0 * frac, r.mean_a[0], r.mean_a[1], r.mean_a[2], r.mean_b[0],
-               r.mean_b[1], r.mean_b[2]);
+        printf("  %-14s %-7s %dx%d spp %5d  pass %6.2f%%  specula (%.4f %.4f %.4f)  mitsuba (%.4f %.4f %.4f)\n",
+               c->name, c->integrator ? c->integrator : "path", img.width, img.height, c->spp, 100.0 * frac,
+               r.mean_a[0], r.mean_a[1], r.mean_a[2], r.mean_b[0], r.mean_b[1], r.mean_b[2]);
     }
     spc_image_rgb_release(&ref);
     spc_image_rgb_release(&img);

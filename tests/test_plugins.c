@@ -68,7 +68,9 @@ static void probe(const mts_plugin *p, char *xml, size_t size)
         snprintf(xml, size,
                  "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"%s\" name=\"reflectance\">%s"
                  "</texture></bsdf></shape>",
-                 n, strcmp(n, "bitmap") == 0 ? "<string name=\"filename\" value=\"textures/grid.png\"/>" : "");
+                 n, strcmp(n, "bitmap") == 0           ? "<string name=\"filename\" value=\"textures/grid.png\"/>"
+                    : strcmp(n, "mesh_attribute") == 0 ? "<string name=\"name\" value=\"vertex_color\"/>"
+                                                       : "");
     } else if (strcmp(c, "sensor") == 0) {
         snprintf(xml, size, "<sensor type=\"%s\">%s</sensor>", n,
                  strcmp(n, "thinlens") == 0 ? "<float name=\"aperture_radius\" value=\"0.1\"/>" : "");

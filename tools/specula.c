@@ -109,7 +109,7 @@ static const char *const usage_render =
     "  --threads N            worker threads (default: all cores)\n"
     "  --seed S               random seed (default 0)\n"
     "  --res WxH              film size (default: the scene's)\n"
-    "  --integrator NAME      path, ipt, bdpt or volpath (default: the scene's)\n"
+    "  --integrator NAME      path, ipt, bdpt, volpath or ptracer (default: the scene's)\n"
     "  --specular-nee NAME[:OPTS]  auto, none, angular, newton, conic (default: the scene's, else\n"
     "                         auto: chosen from the scene, as `specula info` shows; bdpt only\n"
     "                         when given, ipt never: there only none and auto); OPTS,\n"

@@ -40,8 +40,8 @@ spc_microfacet spc_microfacet_make(spc_microfacet_type type, double alpha_u, dou
 
 spc_microfacet spc_microfacet_from_bsdf(const spc_bsdf *b, const spc_hit *h)
 {
-    double au = b->alpha_u ? spc_texture_eval1(b->alpha_u, h->uv) : 0.1;
-    double av = b->alpha_v ? spc_texture_eval1(b->alpha_v, h->uv) : au;
+    double au = b->alpha_u ? spc_texture_eval1_hit(b->alpha_u, h) : 0.1;
+    double av = b->alpha_v ? spc_texture_eval1_hit(b->alpha_v, h) : au;
     return spc_microfacet_make(b->distribution, au, av, b->sample_visible);
 }
 

@@ -22,11 +22,11 @@ static inline spc_vec3 spc_bsdf_to_local(const spc_hit *h, spc_vec3 w) { return 
 static inline spc_vec3 spc_bsdf_to_world(const spc_hit *h, spc_vec3 w) { return spc_frame_to_world(&h->sh, w); }
 static inline spc_rgb spc_bsdf_tex(const spc_texture *t, const spc_hit *h, spc_rgb fallback)
 {
-    return t ? spc_texture_eval(t, h->uv) : fallback;
+    return t ? spc_texture_eval_hit(t, h) : fallback;
 }
 static inline double spc_bsdf_tex1(const spc_texture *t, const spc_hit *h, double fallback)
 {
-    return t ? spc_texture_eval1(t, h->uv) : fallback;
+    return t ? spc_texture_eval1_hit(t, h) : fallback;
 }
 /* Mirror direction about the local z axis. */
 static inline spc_vec3 spc_bsdf_mirror_local(spc_vec3 w) { return spc_v3(-w.x, -w.y, w.z); }

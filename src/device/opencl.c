@@ -170,6 +170,7 @@ static const char *emitter_name(spc_emitter_type t)
     case SPC_EMITTER_AREA: return "area";
     case SPC_EMITTER_CONSTANT: return "constant";
     case SPC_EMITTER_ENVMAP: return "envmap";
+    case SPC_EMITTER_PROJECTOR: return "projector";
     }
     return "?";
 }

@@ -11,6 +11,7 @@ bool spc_emitter_is_delta(const spc_emitter *e)
     switch (e->type) {
     case SPC_EMITTER_POINT:
     case SPC_EMITTER_SPOT:
+    case SPC_EMITTER_PROJECTOR:
     case SPC_EMITTER_DIRECTIONAL: return true;
     case SPC_EMITTER_AREA:
     case SPC_EMITTER_CONSTANT:
@@ -31,6 +32,7 @@ bool spc_emitter_prepare(spc_emitter *e, spc_vec3 scene_center, double scene_rad
     switch (e->type) {
     case SPC_EMITTER_POINT: return spc_point_prepare(e);
     case SPC_EMITTER_SPOT: return spc_spot_prepare(e);
+    case SPC_EMITTER_PROJECTOR: return spc_projector_prepare(e);
     case SPC_EMITTER_DIRECTIONAL: return spc_directional_prepare(e);
     case SPC_EMITTER_AREA: return spc_area_prepare(e);
     case SPC_EMITTER_CONSTANT:
@@ -55,6 +57,7 @@ bool spc_emitter_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_vec2 u, s
     switch (e->type) {
     case SPC_EMITTER_POINT: return spc_point_sample_direct(e, ref, out);
     case SPC_EMITTER_SPOT: return spc_spot_sample_direct(e, ref, out);
+    case SPC_EMITTER_PROJECTOR: return spc_projector_sample_direct(e, ref, out);
     case SPC_EMITTER_DIRECTIONAL: return spc_directional_sample_direct(e, ref, out);
     case SPC_EMITTER_AREA: return spc_area_sample_direct(e, ref, u, out);
     case SPC_EMITTER_CONSTANT:
@@ -119,6 +122,7 @@ bool spc_emitter_sample_emission(const spc_emitter *e, spc_vec2 u_pos, spc_vec2 
     switch (e->type) {
     case SPC_EMITTER_POINT: return spc_point_sample_emission(e, u_dir, out);
     case SPC_EMITTER_SPOT: return spc_spot_sample_emission(e, u_dir, out);
+    case SPC_EMITTER_PROJECTOR: return spc_projector_sample_emission(e, u_dir, out);
     case SPC_EMITTER_DIRECTIONAL: return spc_directional_sample_emission(e, u_pos, out);
     case SPC_EMITTER_AREA: return spc_area_sample_emission(e, u_pos, u_dir, out);
     case SPC_EMITTER_CONSTANT:
@@ -154,6 +158,10 @@ void spc_emitter_pdf_emission(const spc_emitter *e, spc_vec3 p, spc_vec3 n, spc_
     case SPC_EMITTER_SPOT:
         *pdf_pos = 1.0;
         *pdf_dir = spc_spot_pdf_dir(e, d);
+        return;
+    case SPC_EMITTER_PROJECTOR:
+        *pdf_pos = 1.0;
+        *pdf_dir = spc_projector_pdf_dir(e, d);
         return;
     case SPC_EMITTER_DIRECTIONAL:
         *pdf_pos = 1.0 / (SPC_PI * e->scene_radius * e->scene_radius);

@@ -14,7 +14,8 @@
  *
  * XML: point (intensity, position | to_world), area (radiance: rgb or texture), constant
  * (radiance), envmap (filename, scale, to_world), spot (intensity, cutoff_angle 20,
- * beam_width cutoff*3/4, to_world), directional (irradiance, direction | to_world).
+ * beam_width cutoff*3/4, to_world), directional (irradiance, direction | to_world), projector
+ * (irradiance, scale, fov | focal_length, to_world: projector.c).
  */
 #ifndef SPC_EMITTER_EMITTER_H
 #define SPC_EMITTER_EMITTER_H
@@ -32,7 +33,8 @@ typedef enum spc_emitter_type {
     SPC_EMITTER_DIRECTIONAL,
     SPC_EMITTER_AREA,
     SPC_EMITTER_CONSTANT,
-    SPC_EMITTER_ENVMAP
+    SPC_EMITTER_ENVMAP,
+    SPC_EMITTER_PROJECTOR
 } spc_emitter_type;
 
 typedef struct spc_emitter {
@@ -44,12 +46,14 @@ typedef struct spc_emitter {
     spc_vec3 direction;                /* directional: direction light travels */
     spc_rgb irradiance;                /* directional */
     const spc_texture *radiance;       /* area, constant, envmap (bitmap lat-long) */
-    const spc_texture *texture;        /* spot: an image over the beam (NULL: none) */
-    double scale;                      /* envmap, default 1 */
+    const spc_texture *texture;        /* spot: an image over the beam (NULL: none); projector: its
+                                          irradiance image */
+    double scale;                      /* envmap, projector, default 1 */
+    double tan_x, tan_y;               /* projector: half-extents of its image on the plane z = 1 */
     const struct spc_shape *shape;     /* area */
     int shape_index;                   /* area */
     /* set by spc_emitter_prepare: */
-    spc_distrib2d tex_distrib;         /* envmap */
+    spc_distrib2d tex_distrib;         /* envmap, projector */
     bool has_tex_distrib;
     /* area lights with a bitmap radiance on a small mesh: texel-proportional sampling (area.c) */
     spc_distrib1d cell_distrib;        /* over the sub-triangles of every triangle */

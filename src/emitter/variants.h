@@ -15,6 +15,11 @@ bool spc_spot_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitter_dire
 bool spc_spot_sample_emission(const spc_emitter *e, spc_vec2 u_dir, spc_emitter_emission *out);
 double spc_spot_pdf_dir(const spc_emitter *e, spc_vec3 d);
 
+bool spc_projector_prepare(spc_emitter *e);
+bool spc_projector_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitter_direct *out);
+bool spc_projector_sample_emission(const spc_emitter *e, spc_vec2 u_dir, spc_emitter_emission *out);
+double spc_projector_pdf_dir(const spc_emitter *e, spc_vec3 d);
+
 bool spc_directional_prepare(spc_emitter *e);
 bool spc_directional_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitter_direct *out);
 bool spc_directional_sample_emission(const spc_emitter *e, spc_vec2 u_pos, spc_emitter_emission *out);

@@ -413,6 +413,9 @@ static int handle_scene(const spc_explorer *ex, char **response)
         case SPC_EMITTER_ENVMAP:
             type = "envmap";
             break;
+        case SPC_EMITTER_PROJECTOR:
+            type = "projector";
+            break;
         }
         spc_jbuf_printf(&b, "%s{\"index\":%d,\"type\":\"%s\"", i ? "," : "", i, type);
         if (e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT) {

@@ -68,6 +68,15 @@
  * Scratch: each subpath lives in a fixed array of SPC_BDPT_MAX_VERTICES vertices on the stack; a
  * walk that would grow longer stops there (counted by spc_bdpt_truncated_paths).
  *
+ * Particle tracing (ctx->kind SPC_INTEGRATOR_PTRACER, Mitsuba 3's ptracer): the camera subpath is
+ * only z0 and every light subpath vertex is joined to the camera (t = 1, s = 1 .. max_depth), each
+ * unweighted, since it is the only strategy for its path length. It sees what light tracing can:
+ * not point or spot lights directly (as path), nor anything the camera sees only through smooth
+ * mirrors or glass (no t = 1 connection through a delta lobe; Mitsuba's ptracer misses it too).
+ * A light at infinity seen directly, which no light point can join to the pinhole, is splatted
+ * from a direction sampled toward it from the pinhole (ptracer_visible_env). hide_emitters drops
+ * (1, 1). No specular NEE.
+ *
  * Debug: ctx->strategy_s / strategy_t >= 0 keep only the matching strategies, weighted by MIS
  * only if ctx->strategy_weighted. The sum of the weighted single-strategy images is the full image.
  * With ctx->strategy_images_depth > 0 one render also hands every strategy's weighted and
@@ -687,6 +696,27 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
     }
 }
 
+/* Particle tracing's (1, 1) for a light at infinity, which no light point can join to the pinhole:
+ * as Mitsuba's ptracer, a direction toward the light sampled from the pinhole (sample_direct) and
+ * its radiance splatted where that direction meets the film, if nothing blocks it. e was picked
+ * with probability pmf. */
+static void ptracer_visible_env(const bdpt *B, spc_tls *tls, const spc_emitter *e, double pmf, spc_vec2 u)
+{
+    const spc_render_ctx *ctx = B->ctx;
+    spc_vec3 o = spc_mat4_apply_point(&ctx->cam->to_world, spc_v3(0, 0, 0));
+    spc_emitter_direct ds;
+    if (!(pmf > 0.0) || !spc_emitter_sample_direct(e, o, u, &ds) || !(ds.pdf > 0.0))
+        return;
+    double fx, fy, pdf_cam = spc_camera_pdf_dir(ctx->cam, ds.wi);
+    if (!(pdf_cam > 0.0) || !spc_camera_project(ctx->cam, spc_add(o, ds.wi), &fx, &fy) || !in_window(ctx, fx, fy))
+        return;
+    spc_ray r = {o, ds.wi, 0.0, SPC_INF};
+    if (spc_scene_occluded(B->sc, &r))
+        return;
+    double We = B->film_pixels * pdf_cam;
+    spc_splat_add(ctx, tls, fx, fy, spc_rgb_scale(ds.L, We / (pmf * ds.pdf * B->n_light_paths)));
+}
+
 /* s = 1, t >= 2: a light point sampled from z[t-1] (next-event estimation). */
 static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, spc_vec2 u_lpos, double *w)
 {
@@ -803,11 +833,13 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     B.n_light_paths = (double)ctx->width * (double)ctx->height;
     B.film_pixels = (double)ctx->cam->width * (double)ctx->cam->height;
     const bool debug = ctx->strategy_s >= 0 || ctx->strategy_t >= 0;
-    B.weighted = !debug || ctx->strategy_weighted;
+    const bool ptracer = ctx->kind == SPC_INTEGRATOR_PTRACER;
+    B.weighted = !ptracer && (!debug || ctx->strategy_weighted);
     B.balance = ctx->mis_balance;
     /* specular NEE as the path integrator runs it (not with rough chain vertices, whose light
      * samples at rough vertices BDPT's connections would have to leave out too) */
-    B.snee = ctx->specular_nee != SPC_SNEE_NONE && !(ctx->snee.solver == SPC_SNEE_NEWTON && ctx->snee.newton.rough);
+    B.snee = !ptracer && ctx->specular_nee != SPC_SNEE_NONE &&
+             !(ctx->snee.solver == SPC_SNEE_NEWTON && ctx->snee.newton.rough);
     if (B.snee) {
         B.snp = ctx->snee;
         B.snp.mis = !B.snp.no_mis;
@@ -818,7 +850,7 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     /* t <= max_depth + 1 (s = 0), s <= max_depth (t = 1) */
     const bool cam_capped = unbounded || ctx->max_depth + 1 > SPC_BDPT_MAX_VERTICES;
     const bool light_capped = unbounded || ctx->max_depth > SPC_BDPT_MAX_VERTICES;
-    int max_cam = cam_capped ? SPC_BDPT_MAX_VERTICES : ctx->max_depth + 1;
+    int max_cam = ptracer ? 1 : cam_capped ? SPC_BDPT_MAX_VERTICES : ctx->max_depth + 1;
     int max_light = light_capped ? SPC_BDPT_MAX_VERTICES : ctx->max_depth;
 
     out->albedo = spc_rgb1(0.0);
@@ -852,6 +884,8 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     spc_sampler_start_key(&ls, spc_hash_combine(smp->pixel_seed, SPC_BDPT_LIGHT_STREAM), smp->index);
     spc_sampler_start_key(&cs, spc_hash_combine(smp->pixel_seed, SPC_BDPT_CONNECT_STREAM), smp->index);
     int nl = light_subpath(&B, &ls, y, max_light, light_capped);
+    if (ptracer && nl >= 1 && y[0].infinite && !ctx->hide_emitters && (unbounded || ctx->max_depth >= 1))
+        ptracer_visible_env(&B, tls, y[0].light, spc_scene_emitter_pmf(B.sc, y[0].light), spc_sampler_2d(&cs));
 
     spc_rgb L = B.snee && !debug ? snee_camera_side(&B, tls, smp, z, nc) : spc_rgb1(0.0);
     spc_rgb *SL = ctx->strategy_images_depth > 0 ? out->strategy_L : NULL;

@@ -30,6 +30,10 @@ bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind)
         *kind = SPC_INTEGRATOR_VOLPATH;
         return true;
     }
+    if (!strcmp(name, "ptracer")) {
+        *kind = SPC_INTEGRATOR_PTRACER;
+        return true;
+    }
     return false;
 }
 
@@ -40,6 +44,7 @@ const char *spc_integrator_kind_name(spc_integrator_kind kind)
     case SPC_INTEGRATOR_IPT: return "ipt";
     case SPC_INTEGRATOR_BDPT: return "bdpt";
     case SPC_INTEGRATOR_VOLPATH: return "volpath";
+    case SPC_INTEGRATOR_PTRACER: return "ptracer";
     }
     return "?";
 }
@@ -50,7 +55,8 @@ void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ra
     switch (ctx->kind) {
     case SPC_INTEGRATOR_PATH:
     case SPC_INTEGRATOR_IPT: spc_path_sample(ctx, tls, ray, smp, out); return;
-    case SPC_INTEGRATOR_BDPT: spc_bdpt_sample(ctx, tls, ray, smp, out); return;
+    case SPC_INTEGRATOR_BDPT:
+    case SPC_INTEGRATOR_PTRACER: spc_bdpt_sample(ctx, tls, ray, smp, out); return;
     case SPC_INTEGRATOR_VOLPATH: spc_volpath_sample(ctx, tls, ray, smp, out); return;
     }
 }

@@ -21,7 +21,8 @@ typedef enum spc_integrator_kind {
     SPC_INTEGRATOR_PATH, /* NEE + BSDF sampling, power heuristic */
     SPC_INTEGRATOR_IPT,  /* implicit: light counts only when a path hits it */
     SPC_INTEGRATOR_BDPT, /* bidirectional path tracing with Veach's MIS (bdpt.c) */
-    SPC_INTEGRATOR_VOLPATH /* path tracing through participating media (volpath.c) */
+    SPC_INTEGRATOR_VOLPATH, /* path tracing through participating media (volpath.c) */
+    SPC_INTEGRATOR_PTRACER  /* particle (light) tracing: bdpt's t = 1 strategies alone (bdpt.c) */
 } spc_integrator_kind;
 
 typedef struct spc_render_ctx {
@@ -130,7 +131,10 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                         spc_sample_out *out);
 
 /* Bidirectional path tracing (bdpt.c): one camera subpath for this ray and one light subpath, every
- * (s, t) strategy; t = 1 strategies splat into tls. */
+ * (s, t) strategy; t = 1 strategies splat into tls. With ctx->kind SPC_INTEGRATOR_PTRACER only
+ * the light subpath is traced and each of its vertices is joined to the camera (t = 1, unweighted:
+ * the one strategy for each path length), as Mitsuba 3's ptracer: out->L is zero, the image is in
+ * the splats. */
 void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
                      spc_sample_out *out);
 /* Subpaths cut short by the fixed vertex arrays of bdpt.c since the program started (a path

@@ -335,6 +335,7 @@ static spc_rgb medium_connection(const spc_scene *sc, const spc_snee_params *snp
     case SPC_EMITTER_DIRECTIONAL:
     case SPC_EMITTER_CONSTANT:
     case SPC_EMITTER_ENVMAP:
+    case SPC_EMITTER_PROJECTOR:
     default: return zero;
     }
     if (!(p_y > 0.0))

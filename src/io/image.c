@@ -53,7 +53,9 @@ spc_status spc_image_read(const char *path, spc_image *img, spc_error *err)
         return spc_png_read_image(path, img, err);
     if (n >= 3 && memcmp(magic, jpg_magic, 3) == 0)
         return spc_jpeg_read_image(path, img, err);
-    return spc_error_set(err, SPC_ERR_PARSE, path, 0, 0, "unknown image format (expected OpenEXR, PNG or JPEG)");
+    if (n >= 2 && magic[0] == 'B' && magic[1] == 'M')
+        return spc_bmp_read_image(path, img, err);
+    return spc_error_set(err, SPC_ERR_PARSE, path, 0, 0, "unknown image format (expected OpenEXR, PNG, JPEG or BMP)");
 }
 
 double spc_srgb_to_linear(double v)

@@ -23,8 +23,8 @@ typedef struct spc_image {
 
 void spc_image_release(spc_image *img);
 
-/* Reads EXR (R,G,B[,A] or Y), PNG (gray, gray+alpha, RGB, RGBA; 8 or 16 bit) or JPEG, chosen by
- * the file's magic bytes. Errors name the file. */
+/* Reads EXR (R,G,B[,A] or Y), PNG (gray, gray+alpha, RGB, RGBA; 8 or 16 bit), JPEG or BMP
+ * (uncompressed, bmp.c), chosen by the file's magic bytes. Errors name the file. */
 spc_status spc_image_read(const char *path, spc_image *img, spc_error *err);
 
 /* A named extra attribute for EXR headers (string values). */
@@ -64,6 +64,7 @@ double spc_linear_to_srgb(double v);
 spc_status spc_exr_read_image(const char *path, spc_image *img, spc_error *err);
 spc_status spc_png_read_image(const char *path, spc_image *img, spc_error *err);
 spc_status spc_jpeg_read_image(const char *path, spc_image *img, spc_error *err);
+spc_status spc_bmp_read_image(const char *path, spc_image *img, spc_error *err);
 
 /* Atomic file replacement. spc_atomic_open creates "<path>.tmp-<pid>" (its name is written to tmp,
  * tmpsize >= strlen(path) + 32) and returns its descriptor, or -1 with err set (SPC_ERR_IO).

@@ -150,6 +150,9 @@ const char *mts_get_string(mts_loader *L, mts_props *P, const char *name, const 
 spc_rgb mts_get_rgb(mts_loader *L, mts_props *P, const char *name, spc_rgb def);
 spc_vec3 mts_get_point(mts_loader *L, mts_props *P, const char *name, spc_vec3 def);
 spc_mat4 mts_get_transform(mts_loader *L, mts_props *P, const char *name);
+/* fov (degrees) and fov_axis, or focal_length ("50mm" by default: diagonal), as Mitsuba reads them
+ * for perspective sensors and projectors; on failure L's error is set. */
+void mts_get_fov(mts_loader *L, mts_props *P, double *fov, spc_fov_axis *axis);
 /* The element that set a property (for messages), or the owner. */
 const spc_xml_node *mts_where(const mts_props *P, const char *name);
 

@@ -72,7 +72,8 @@ static const mts_plugin plugins[] = {
     {"emitter", "directional", MTS_PLUGIN_YES, "irradiance 1, direction (or to_world)", ""},
     {"emitter", "constant", MTS_PLUGIN_YES, "radiance 1", ""},
     {"emitter", "envmap", MTS_PLUGIN_YES, "filename, scale 1, to_world", ""},
-    {"emitter", "projector", MTS_PLUGIN_NO, "-", ""},
+    {"emitter", "projector", MTS_PLUGIN_YES,
+     "irradiance 1 (rgb or texture), scale 1, fov (fov_axis \"x\") or focal_length \"50mm\", to_world", ""},
     {"emitter", "directionalarea", MTS_PLUGIN_NO, "-", ""},
     {"emitter", "sunsky", MTS_PLUGIN_NO, "-", ""},
 
@@ -99,10 +100,11 @@ static const mts_plugin plugins[] = {
 
     /* ---- textures ---- */
     {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
-     ""},
+     "images: OpenEXR, PNG, JPEG, BMP (uncompressed)"},
     {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", ""},
     {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", ""},
-    {"texture", "mesh_attribute", MTS_PLUGIN_NO, "-", ""},
+    {"texture", "mesh_attribute", MTS_PLUGIN_YES, "name (\"vertex_*\" or \"face_*\"), scale 1",
+     "PLY attributes as Mitsuba names them; read by BSDF parameters (elsewhere black)"},
     {"texture", "volume", MTS_PLUGIN_NO, "-", ""},
 
     /* ---- sensors ---- */
@@ -148,8 +150,8 @@ static const mts_plugin plugins[] = {
      "other AOV types are refused"},
     {"integrator", "moment", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only"},
     {"integrator", "stokes", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only"},
-    {"integrator", "ptracer", MTS_PLUGIN_STANDIN, "max_depth -1, rr_depth 5, hide_emitters false",
-     "rendered by path tracing (the same image); samples_per_pass unused"},
+    {"integrator", "ptracer", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false",
+     "light tracing (bdpt's t = 1 strategies); samples_per_pass read and unused"},
     {"integrator", "depth", MTS_PLUGIN_NO, "-", ""},
     {"integrator", "prbvolpath", MTS_PLUGIN_NO, "-", ""},
     {"integrator", "bdpt", MTS_PLUGIN_OWN, "max_depth -1, rr_depth 5, mis_balance false",

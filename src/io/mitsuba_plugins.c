@@ -28,11 +28,13 @@
  *   bsdf), blendbsdf (weight 0.5 + two bsdfs).
  * Textures: bitmap (filename, filter_type bilinear | nearest, wrap_mode repeat | mirror | clamp,
  *   raw false, to_uv; 0.x uoffset/voffset/uscale/vscale), checkerboard (color0 0.4, color1 0.2,
- *   to_uv). Any texture-valued property also takes rgb, spectrum or float constants.
+ *   to_uv), mesh_attribute (name, scale 1). Any texture-valued property also takes rgb, spectrum or
+ *   float constants.
  * Emitters: point (intensity 1, position | to_world), spot (intensity 1, cutoff_angle 20,
  *   beam_width 3/4 cutoff_angle, texture (none), to_world), directional (irradiance 1, direction | to_world),
  *   area (radiance 1, rgb or texture; inside a shape), constant (radiance 1), envmap (filename,
- *   scale 1, to_world).
+ *   scale 1, to_world), projector (irradiance 1, rgb or texture; scale 1; fov, fov_axis "x" or
+ *   focal_length "50mm"; to_world).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -196,8 +198,21 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
             else
                 spc_texture_init_constant(t, c);
         }
+    } else if (strcmp(type, "mesh_attribute") == 0) {
+        const char *name = mts_get_string(L, &P, "name", NULL);
+        double scale = mts_get_float(L, &P, "scale", 1.0);
+        if (L->status == SPC_OK && !name)
+            mts_fail(L, node, SPC_ERR_VALUE, "mesh_attribute texture needs a name");
+        if (L->status == SPC_OK) {
+            t = spc_scene_new_texture(L->scene);
+            if (!t)
+                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+            else if (!spc_texture_init_mesh_attribute(t, name, scale))
+                mts_fail(L, mts_where(&P, "name"), SPC_ERR_VALUE,
+                         "mesh attribute name '%s' must start with 'vertex_' or 'face_' (at most 63 characters)", name);
+        }
     } else {
-        mts_fail_plugin(L, node, "texture", type, "bitmap, checkerboard, rawconstant");
+        mts_fail_plugin(L, node, "texture", type, "bitmap, checkerboard, rawconstant, mesh_attribute");
     }
     if (L->status != SPC_OK)
         t = NULL;
@@ -500,6 +515,10 @@ static bool mesh_copy(spc_mesh *dst, const spc_mesh *src)
         memcpy(dst->n, src->n, 3 * src->nverts * sizeof(float));
     if (src->uv)
         memcpy(dst->uv, src->uv, 2 * src->nverts * sizeof(float));
+    if (!spc_mesh_copy_attrs(dst, src)) {
+        spc_mesh_release(dst);
+        return false;
+    }
     return true;
 }
 
@@ -969,18 +988,31 @@ static const spc_texture *emission_texture(mts_loader *L, mts_props *P, const ch
     return mts_get_texture(L, P, name, def);
 }
 
+/* A projector's image on the plane z = 1: the camera's frustum for its field of view with the
+ * image's aspect ratio (a constant irradiance is a 1 x 1 image, as in Mitsuba). */
+static void projector_frustum(mts_loader *L, mts_props *P, spc_emitter *e)
+{
+    double fov = 45.0;
+    spc_fov_axis axis = SPC_FOV_X;
+    mts_get_fov(L, P, &fov, &axis);
+    bool image = e->texture && e->texture->type == SPC_TEX_BITMAP && e->texture->width > 0 && e->texture->height > 0;
+    if (L->status == SPC_OK && !spc_fov_tangents(fov, axis, image ? e->texture->width : 1,
+                                                  image ? e->texture->height : 1, &e->tan_x, &e->tan_y))
+        mts_fail(L, mts_where(P, "fov"), SPC_ERR_VALUE, "projector field of view %g is invalid", fov);
+}
+
 spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index)
 {
     mts_props P;
     if (mts_props_collect(L, node, &P))
         return L->status;
     const char *type = mts_type(node);
-    static const char *known[] = {"area", "point", "spot", "directional", "constant", "envmap"};
+    static const char *known[] = {"area", "point", "spot", "directional", "constant", "envmap", "projector"};
     bool ok = false;
     for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
         ok |= strcmp(type, known[i]) == 0;
     if (!ok) {
-        mts_fail_plugin(L, node, "emitter", type, "area, point, spot, directional, constant, envmap");
+        mts_fail_plugin(L, node, "emitter", type, "area, point, spot, directional, constant, envmap, projector");
     } else if (shape && strcmp(type, "area") != 0) {
         mts_fail(L, node, SPC_ERR_VALUE, "only area emitters can be attached to a shape, not '%s'", type);
     } else if (!shape && strcmp(type, "area") == 0) {
@@ -1025,6 +1057,12 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
         if (L->status == SPC_OK && !(tmp.beam_width > 0.0 && tmp.beam_width <= tmp.cutoff_angle))
             mts_fail(L, mts_where(&P, "beam_width"), SPC_ERR_VALUE, "beam_width %g must be in (0, cutoff_angle]",
                      tmp.beam_width);
+    } else if (strcmp(type, "projector") == 0) {
+        tmp.type = SPC_EMITTER_PROJECTOR;
+        tmp.texture = emission_texture(L, &P, "irradiance", spc_rgb1(1));
+        tmp.scale = mts_get_float(L, &P, "scale", 1.0);
+        tmp.position = origin;
+        projector_frustum(L, &P, &tmp);
     } else if (strcmp(type, "directional") == 0) {
         tmp.type = SPC_EMITTER_DIRECTIONAL;
         tmp.irradiance = emission_rgb(L, &P, "irradiance", spc_rgb1(1));
@@ -1061,6 +1099,10 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
             tmp.radiance = t;
         }
     }
+    if (L->status == SPC_OK && tmp.radiance && tmp.radiance->type == SPC_TEX_MESH_ATTRIBUTE)
+        mts_fail(L, mts_where(&P, "radiance"), SPC_ERR_VALUE, "a mesh_attribute texture cannot be an emitter's radiance");
+    if (L->status == SPC_OK && tmp.texture && tmp.texture->type == SPC_TEX_MESH_ATTRIBUTE)
+        mts_fail(L, node, SPC_ERR_VALUE, "a mesh_attribute texture cannot be an emitter's image");
     if (L->status == SPC_OK) {
         spc_emitter *e = spc_scene_new_emitter(L->scene);
         if (!e) {

@@ -24,7 +24,7 @@
  *   sampler     independent, stratified, multijitter, orthogonal, ldsampler, halton, hammersley,
  *               sobol: sample_count 4, seed 0 (specula has one sampler; the type is not kept)
  *   integrator  path, prb (-> path), volpath, volpathmis (-> volpath), direct (-> path, max_depth
- *               2), bdpt, ipt: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" or auto:
+ *               2), bdpt, ipt, ptracer: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" or auto:
  *               chosen from the scene, manifold/snee_plan.h; none or off; angular | newton | conic,
  *               optionally with options as "newton:biased=8,rough": spc_snee_parse in
  *               manifold/specular_nee.h), specular_max_chain, mis_balance (false; bdpt: the balance
@@ -1461,6 +1461,52 @@ static void parse_sampler(mts_loader *L, spc_xml_node *node)
     mts_props_end(&P);
 }
 
+void mts_get_fov(mts_loader *L, mts_props *P, double *fov, spc_fov_axis *axis_out)
+{
+    if (mts_has(P, "fov") && mts_has(P, "focal_length")) {
+        mts_fail(L, mts_where(P, "focal_length"), SPC_ERR_VALUE, "give either fov or focal_length, not both");
+    } else if (mts_has(P, "fov")) {
+        *fov = mts_get_float(L, P, "fov", 45.0);
+        const char *axis = mts_get_string(L, P, "fov_axis", "x");
+        static const struct {
+            const char *name;
+            spc_fov_axis axis;
+        } axes[] = {{"x", SPC_FOV_X},
+                    {"y", SPC_FOV_Y},
+                    {"smaller", SPC_FOV_SMALLER},
+                    {"larger", SPC_FOV_LARGER},
+                    {"diagonal", SPC_FOV_DIAGONAL}};
+        bool ok = false;
+        for (size_t i = 0; i < sizeof axes / sizeof axes[0]; ++i) {
+            if (strcasecmp(axis, axes[i].name) == 0) {
+                *axis_out = axes[i].axis;
+                ok = true;
+            }
+        }
+        if (!ok)
+            mts_fail(L, mts_where(P, "fov_axis"), SPC_ERR_VALUE,
+                     "unknown fov_axis '%s' (x, y, smaller, larger, diagonal)", axis);
+        if (L->status == SPC_OK && !(*fov > 0.0 && *fov < 180.0))
+            mts_fail(L, mts_where(P, "fov"), SPC_ERR_VALUE, "fov %g must be in (0, 180) degrees", *fov);
+    } else {
+        /* Mitsuba: a focal length on a 36 x 24 mm film gives the diagonal field of view. */
+        const char *fl = mts_get_string(L, P, "focal_length", "50mm");
+        char buf[64];
+        snprintf(buf, sizeof buf, "%s", fl);
+        size_t n = strlen(buf);
+        if (n > 2 && strcmp(buf + n - 2, "mm") == 0)
+            buf[n - 2] = '\0';
+        double f;
+        if (!parse_double(buf, &f) || !(f > 0.0))
+            mts_fail(L, mts_where(P, "focal_length"), SPC_ERR_VALUE,
+                     "could not parse focal_length \"%s\" (expected e.g. \"50mm\")", fl);
+        else {
+            *fov = 2.0 * atan(sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2.0 * f)) * 180.0 / SPC_PI;
+            *axis_out = SPC_FOV_DIAGONAL;
+        }
+    }
+}
+
 static void parse_sensor(mts_loader *L, spc_xml_node *node)
 {
     mts_props P;
@@ -1506,50 +1552,8 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
     }
     if (L->status == SPC_OK && !(cam->near_clip > 0.0 && cam->far_clip > cam->near_clip))
         mts_fail(L, node, SPC_ERR_VALUE, "need 0 < near_clip < far_clip (got %g, %g)", cam->near_clip, cam->far_clip);
-    if (cam->type == SPC_CAMERA_PERSPECTIVE) {
-        if (mts_has(&P, "fov") && mts_has(&P, "focal_length")) {
-            mts_fail(L, mts_where(&P, "focal_length"), SPC_ERR_VALUE, "give either fov or focal_length, not both");
-        } else if (mts_has(&P, "fov")) {
-            cam->fov = mts_get_float(L, &P, "fov", 45.0);
-            const char *axis = mts_get_string(L, &P, "fov_axis", "x");
-            static const struct {
-                const char *name;
-                spc_fov_axis axis;
-            } axes[] = {{"x", SPC_FOV_X},
-                        {"y", SPC_FOV_Y},
-                        {"smaller", SPC_FOV_SMALLER},
-                        {"larger", SPC_FOV_LARGER},
-                        {"diagonal", SPC_FOV_DIAGONAL}};
-            bool ok = false;
-            for (size_t i = 0; i < sizeof axes / sizeof axes[0]; ++i) {
-                if (strcasecmp(axis, axes[i].name) == 0) {
-                    cam->fov_axis = axes[i].axis;
-                    ok = true;
-                }
-            }
-            if (!ok)
-                mts_fail(L, mts_where(&P, "fov_axis"), SPC_ERR_VALUE,
-                         "unknown fov_axis '%s' (x, y, smaller, larger, diagonal)", axis);
-            if (L->status == SPC_OK && !(cam->fov > 0.0 && cam->fov < 180.0))
-                mts_fail(L, mts_where(&P, "fov"), SPC_ERR_VALUE, "fov %g must be in (0, 180) degrees", cam->fov);
-        } else {
-            /* Mitsuba: a focal length on a 36 x 24 mm film gives the diagonal field of view. */
-            const char *fl = mts_get_string(L, &P, "focal_length", "50mm");
-            char buf[64];
-            snprintf(buf, sizeof buf, "%s", fl);
-            size_t n = strlen(buf);
-            if (n > 2 && strcmp(buf + n - 2, "mm") == 0)
-                buf[n - 2] = '\0';
-            double f;
-            if (!parse_double(buf, &f) || !(f > 0.0))
-                mts_fail(L, mts_where(&P, "focal_length"), SPC_ERR_VALUE,
-                         "could not parse focal_length \"%s\" (expected e.g. \"50mm\")", fl);
-            else {
-                cam->fov = 2.0 * atan(sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2.0 * f)) * 180.0 / SPC_PI;
-                cam->fov_axis = SPC_FOV_DIAGONAL;
-            }
-        }
-    }
+    if (cam->type == SPC_CAMERA_PERSPECTIVE)
+        mts_get_fov(L, &P, &cam->fov, &cam->fov_axis);
     spc_film_spec *film = &s->film;
     film->width = 768;
     film->height = 576;
@@ -1662,10 +1666,8 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
     if (strcmp(type, "path") == 0 || strcmp(type, "prb") == 0) {
         ours = "path";
     } else if (strcmp(type, "ptracer") == 0) {
-        /* Mitsuba's particle tracer estimates the same image; specula renders it by path tracing */
-        ours = "path";
-        mts_warn(node, "integrator 'ptracer' is rendered by path tracing (the same image)");
-        mts_ignore(&P, "samples_per_pass");
+        ours = "ptracer";
+        mts_ignore(&P, "samples_per_pass"); /* how Mitsuba splits its work; the image is the same */
     } else if (strcmp(type, "volpath") == 0 || strcmp(type, "volpathmis") == 0) {
         ours = "volpath";
     } else if (strcmp(type, "direct") == 0) {

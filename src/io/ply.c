@@ -8,8 +8,9 @@
  *
  * Used: element "vertex" properties x y z (required), nx ny nz, and the uv pairs u v, s t,
  * texture_u texture_v or texture_s texture_t (each group only when complete); element "face"
- * list "vertex_indices" (or "vertex_index"). Every other property and element is read and
- * skipped, whatever its type. Polygons are triangulated after all elements are read (a file may
+ * list "vertex_indices" (or "vertex_index"). Other scalar properties of the vertex and face
+ * elements become named mesh attributes where Mitsuba 3 makes them ones (assign_attrs); every
+ * other property and element is read and skipped, whatever its type. Polygons are triangulated after all elements are read (a file may
  * list faces before vertices) with spc_polygon_triangulate. uvs are used as stored (Mitsuba's PLY
  * loader does not flip them).
  *
@@ -24,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "io/image_io.h"
 #include "io/mesh_io.h"
 
 /* Largest file read (bytes). */
@@ -63,14 +65,22 @@ static size_t type_size(ptype t)
 static bool type_is_int(ptype t) { return t != T_F32 && t != T_F64; }
 
 /* Roles of properties we use. */
-enum { R_NONE = -1, R_X, R_Y, R_Z, R_NX, R_NY, R_NZ, R_U, R_V, R_INDICES, R_COUNT };
+enum { R_NONE = -1, R_X, R_Y, R_Z, R_NX, R_NY, R_NZ, R_U, R_V, R_INDICES, R_ATTR, R_COUNT };
 
 typedef struct prop {
     char name[64];
     bool list;
     ptype type, count_type;
     int role;
+    int attr, comp; /* R_ATTR: index in the element's attribute list, and the component */
 } prop;
+
+/* A mesh attribute being read: its values per vertex or per face (polygon). */
+typedef struct attr_group {
+    char name[SPC_MESH_ATTR_NAME_MAX];
+    int dim;
+    float *data;
+} attr_group;
 
 typedef struct element {
     char name[64];
@@ -78,6 +88,8 @@ typedef struct element {
     prop props[MAX_PROPS];
     int nprops;
     int hdr_line;
+    attr_group attrs[MAX_PROPS];
+    int nattrs;
 } element;
 
 typedef struct ply {
@@ -338,6 +350,119 @@ static void assign_roles(ply *f, element **vert, element **face, bool *has_n, bo
     }
 }
 
+/* ---- mesh attributes ---- */
+
+/* Mitsuba 3's PLY loader exposes a vertex or face element's other scalar properties as named
+ * attributes (mesh_attribute textures read them):
+ *  - r g b [a] (or red green blue [alpha]), anywhere in the element: "<element>_color";
+ *  - then, in file order, runs of consecutive properties "<prefix>_<c>" whose one-letter postfixes
+ *    follow one of the sequences x y z w, r g b a, 0 1 2 3 or 1 2 3 4, of length 1 or 3:
+ *    "<element>_<prefix>", with "_color" appended for the r g b sequence.
+ * Other properties (no postfix, other lengths, a prefix seen before) are skipped. Integer
+ * properties are normalized to [0, 1] by their type's largest value and sRGB-decoded, as
+ * Mitsuba's struct conversion flags them (Normalized | Gamma). */
+static const char *const POSTFIXES[4] = {"xr01", "yg12", "zb23", "wa34"};
+
+static int find_prop(element *e, const char *name)
+{
+    for (int j = 0; j < e->nprops; ++j)
+        if (!e->props[j].list && e->props[j].role == R_NONE && strcmp(e->props[j].name, name) == 0)
+            return j;
+    return -1;
+}
+
+static void add_group(element *e, const char *elname, const char *prefix, const char *suffix, const int *props, int dim)
+{
+    if (e->nattrs >= MAX_PROPS)
+        return;
+    attr_group *g = &e->attrs[e->nattrs];
+    int len = snprintf(g->name, sizeof g->name, "%s_%s%s", elname, prefix, suffix);
+    if (len < 0 || len >= (int)sizeof g->name)
+        return;
+    for (int k = 0; k < e->nattrs; ++k)
+        if (strcmp(e->attrs[k].name, g->name) == 0)
+            return;
+    g->dim = dim;
+    g->data = NULL;
+    for (int c = 0; c < dim; ++c) {
+        e->props[props[c]].role = R_ATTR;
+        e->props[props[c]].attr = e->nattrs;
+        e->props[props[c]].comp = c;
+    }
+    ++e->nattrs;
+}
+
+static void assign_attrs(element *e, const char *elname)
+{
+    static const char *const rgba[2][4] = {{"r", "g", "b", "a"}, {"red", "green", "blue", "alpha"}};
+    for (int s = 0; s < 2; ++s) {
+        int id[4];
+        for (int c = 0; c < 4; ++c)
+            id[c] = find_prop(e, rgba[s][c]);
+        if (id[0] >= 0 && id[1] >= 0 && id[2] >= 0) {
+            add_group(e, elname, "color", "", id, id[3] >= 0 ? 4 : 3);
+            break;
+        }
+    }
+    for (int j = 0; j < e->nprops;) {
+        const prop *pr = &e->props[j];
+        const char *us = strrchr(pr->name, '_');
+        int seq = -1;
+        if (!pr->list && pr->role == R_NONE && us && us != pr->name && us[1] && !us[2]) {
+            const char *hit = strchr(POSTFIXES[0], us[1]);
+            seq = hit ? (int)(hit - POSTFIXES[0]) : -1;
+        }
+        if (seq < 0) {
+            ++j;
+            continue;
+        }
+        size_t plen = (size_t)(us - pr->name);
+        int ids[4] = {j, -1, -1, -1}, n = 1;
+        while (n < 4 && j + n < e->nprops) {
+            const prop *q = &e->props[j + n];
+            if (q->list || q->role != R_NONE || strlen(q->name) != plen + 2 || strncmp(q->name, pr->name, plen) != 0 ||
+                q->name[plen] != '_' || q->name[plen + 1] != POSTFIXES[n][seq])
+                break;
+            ids[n] = j + n;
+            ++n;
+        }
+        if (n == 1 || n == 3) {
+            char prefix[64];
+            snprintf(prefix, sizeof prefix, "%.*s", (int)plen, pr->name);
+            add_group(e, elname, prefix, seq == 1 ? "_color" : "", ids, n);
+        }
+        j += n;
+    }
+}
+
+/* The value an attribute stores for a raw property value of type t. */
+static float attr_value(double v, ptype t)
+{
+    double max = 1.0;
+    switch (t) {
+    case T_I8: max = 127.0; break;
+    case T_U8: max = 255.0; break;
+    case T_I16: max = 32767.0; break;
+    case T_U16: max = 65535.0; break;
+    case T_I32: max = 2147483647.0; break;
+    case T_U32: max = 4294967295.0; break;
+    case T_I64: max = 9223372036854775807.0; break;
+    case T_U64: max = 18446744073709551615.0; break;
+    case T_F32:
+    case T_F64: return (float)v;
+    }
+    return (float)spc_srgb_to_linear(v / max);
+}
+
+static void free_attrs(ply *f)
+{
+    for (int i = 0; i < f->nel; ++i)
+        for (int k = 0; k < f->el[i].nattrs; ++k) {
+            free(f->el[i].attrs[k].data);
+            f->el[i].attrs[k].data = NULL;
+        }
+}
+
 /* ---- body ---- */
 
 typedef struct ubuf {
@@ -454,6 +579,19 @@ spc_status spc_ply_load(const char *path, spc_mesh *out, spc_error *err)
         }
     }
     if (st == SPC_OK) {
+        assign_attrs(ve, "vertex");
+        assign_attrs(fe, "face");
+        for (int pass = 0; pass < 2 && st == SPC_OK; ++pass) {
+            element *e = pass ? fe : ve;
+            for (int k = 0; k < e->nattrs && st == SPC_OK; ++k) {
+                e->attrs[k].data = malloc(((size_t)e->attrs[k].dim * e->count + 1) * sizeof(float));
+                if (!e->attrs[k].data)
+                    st = spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory for attribute '%s'",
+                                       e->attrs[k].name);
+            }
+        }
+    }
+    if (st == SPC_OK) {
         size_t nv = ve->count;
         p = malloc((3 * nv + 1) * sizeof *p);
         n = has_n ? malloc((3 * nv + 1) * sizeof *n) : NULL;
@@ -474,6 +612,16 @@ spc_status spc_ply_load(const char *path, spc_mesh *out, spc_error *err)
                 if (!pr->list) {
                     double v;
                     st = next_value(f, pr->type, &v, what, k);
+                    if (st == SPC_OK && pr->role == R_ATTR && (e == ve || e == fe)) {
+                        attr_group *g = &e->attrs[pr->attr];
+                        float a = attr_value(v, pr->type);
+                        if (!isfinite(a))
+                            st = spc_error_set(err, SPC_ERR_VALUE, path, f->ascii ? f->line : 0, 0,
+                                               "%s %zu: non-finite %s", what, k, pr->name);
+                        else
+                            g->data[(size_t)g->dim * k + (size_t)pr->comp] = a;
+                        continue;
+                    }
                     if (st != SPC_OK || e != ve || pr->role == R_NONE)
                         continue;
                     if (!isfinite(v) || fabs(v) > FLT_MAX) {
@@ -543,6 +691,42 @@ spc_status spc_ply_load(const char *path, spc_mesh *out, spc_error *err)
                 ntris += spc_polygon_triangulate(p, polys.v + i + 1, polys.v[i], idx + 3 * ntris);
         }
     }
+    /* The mesh's attributes: vertex ones as read, face ones repeated for each triangle of their
+     * polygon (triangulated again polygon by polygon for the counts). */
+    spc_mesh_attr *attrs = NULL;
+    int nattrs = 0;
+    if (st == SPC_OK && ve->nattrs + fe->nattrs > 0) {
+        attrs = calloc((size_t)(ve->nattrs + fe->nattrs), sizeof *attrs);
+        if (!attrs)
+            st = spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory");
+        for (int k = 0; st == SPC_OK && k < ve->nattrs; ++k) {
+            attr_group *g = &ve->attrs[k];
+            spc_mesh_attr *a = &attrs[nattrs++];
+            snprintf(a->name, sizeof a->name, "%s", g->name);
+            a->dim = g->dim;
+            a->data = g->data;
+            g->data = NULL;
+        }
+        uint32_t tri_scratch[3 * (MAX_POLYGON - 2)];
+        for (int k = 0; st == SPC_OK && k < fe->nattrs; ++k) {
+            attr_group *g = &fe->attrs[k];
+            spc_mesh_attr *a = &attrs[nattrs++];
+            snprintf(a->name, sizeof a->name, "%s", g->name);
+            a->dim = g->dim;
+            a->face = true;
+            a->data = malloc(((size_t)g->dim * ntris + 1) * sizeof(float));
+            if (!a->data) {
+                st = spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory");
+                break;
+            }
+            size_t t = 0, face = 0;
+            for (size_t i = 0; i < polys.n; i += 1 + polys.v[i], ++face) {
+                size_t nt = spc_polygon_triangulate(p, polys.v + i + 1, polys.v[i], tri_scratch);
+                for (size_t q = 0; q < nt && t < ntris; ++q, ++t)
+                    memcpy(a->data + (size_t)g->dim * t, g->data + (size_t)g->dim * face, (size_t)g->dim * sizeof(float));
+            }
+        }
+    }
     if (st == SPC_OK) {
         out->nverts = ve->count;
         out->ntris = ntris;
@@ -550,13 +734,19 @@ spc_status spc_ply_load(const char *path, spc_mesh *out, spc_error *err)
         out->n = n;
         out->uv = uv;
         out->idx = idx;
+        out->attrs = attrs;
+        out->nattrs = nattrs;
     } else {
+        for (int k = 0; k < nattrs; ++k)
+            free(attrs[k].data);
+        free(attrs);
         free(p);
         free(n);
         free(uv);
         free(idx);
     }
     free(polys.v);
+    free_attrs(f);
     free(f);
     free(buf);
     return st;

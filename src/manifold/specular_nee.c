@@ -919,6 +919,7 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
     case SPC_EMITTER_DIRECTIONAL:
     case SPC_EMITTER_CONSTANT:
     case SPC_EMITTER_ENVMAP:
+    case SPC_EMITTER_PROJECTOR:
         return false;
     default:
         return false;

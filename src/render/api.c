@@ -171,6 +171,7 @@ static const char *emitter_type_name(spc_emitter_type t)
     case SPC_EMITTER_AREA: return "area";
     case SPC_EMITTER_CONSTANT: return "constant";
     case SPC_EMITTER_ENVMAP: return "envmap";
+    case SPC_EMITTER_PROJECTOR: return "projector";
     }
     return "?";
 }
@@ -230,6 +231,9 @@ static void describe_texture(strbuf *b, const char *name, const spc_texture *t)
         break;
     case SPC_TEX_CHECKERBOARD:
         sb_printf(b, " %s=checkerboard", name);
+        break;
+    case SPC_TEX_MESH_ATTRIBUTE:
+        sb_printf(b, " %s=mesh attribute '%s'", name, t->attribute);
         break;
     }
 }
@@ -346,6 +350,11 @@ char *spc_scene_describe(const spc_scene *s)
         case SPC_EMITTER_SPOT:
             sb_printf(&b, " position (%.4g, %.4g, %.4g) intensity (%.4g, %.4g, %.4g)", e->position.x, e->position.y,
                       e->position.z, e->intensity.r, e->intensity.g, e->intensity.b);
+            break;
+        case SPC_EMITTER_PROJECTOR:
+            sb_printf(&b, " position (%.4g, %.4g, %.4g) scale %.4g image %.4g x %.4g at z = 1", e->position.x,
+                      e->position.y, e->position.z, e->scale, 2.0 * e->tan_x, 2.0 * e->tan_y);
+            describe_texture(&b, "irradiance", e->texture);
             break;
         case SPC_EMITTER_DIRECTIONAL:
             sb_printf(&b, " direction (%.4g, %.4g, %.4g) irradiance (%.4g, %.4g, %.4g)", e->direction.x,

@@ -36,32 +36,8 @@ bool spc_camera_prepare(spc_camera_state *cs, const spc_camera *c, int width, in
         cs->tan_x = 1.0;
         cs->tan_y = 1.0 / aspect;
     } else {
-        double t = tan(0.5 * c->fov * SPC_PI / 180.0);
-        if (!(t > 0.0) || !isfinite(t))
+        if (!spc_fov_tangents(c->fov, c->fov_axis, width, height, &cs->tan_x, &cs->tan_y))
             return false;
-        spc_fov_axis ax = c->fov_axis;
-        if (ax == SPC_FOV_SMALLER)
-            ax = aspect > 1.0 ? SPC_FOV_Y : SPC_FOV_X;
-        else if (ax == SPC_FOV_LARGER)
-            ax = aspect > 1.0 ? SPC_FOV_X : SPC_FOV_Y;
-        switch (ax) {
-        case SPC_FOV_X:
-            cs->tan_x = t;
-            cs->tan_y = t / aspect;
-            break;
-        case SPC_FOV_Y:
-            cs->tan_y = t;
-            cs->tan_x = t * aspect;
-            break;
-        case SPC_FOV_DIAGONAL: {
-            double diag = sqrt((double)width * width + (double)height * height);
-            cs->tan_x = t * width / diag;
-            cs->tan_y = t * height / diag;
-            break;
-        }
-        case SPC_FOV_SMALLER:
-        case SPC_FOV_LARGER: break;
-        }
     }
     cs->image_area = 4.0 * cs->tan_x * cs->tan_y;
     cs->aperture_radius = c->type == SPC_CAMERA_PERSPECTIVE ? c->aperture_radius : 0.0;

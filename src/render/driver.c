@@ -185,7 +185,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.scene = sc;
     const char *iname = (o->integrator && o->integrator[0]) ? o->integrator : sc->integrator.type;
     if (!spc_integrator_kind_from_name(iname, &ctx.kind))
-        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "unknown integrator '%s'; specula has: path, ipt, bdpt, volpath",
+        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "unknown integrator '%s'; specula has: path, ipt, bdpt, volpath, ptracer",
                              iname);
     ctx.max_depth = o->max_depth != 0 ? o->max_depth : sc->integrator.max_depth;
     if (ctx.max_depth < -1 || ctx.max_depth == 0)
@@ -217,7 +217,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.specular_nee = ctx.snee.solver;
     ctx.specular_max_chain = ctx.snee.max_chain; /* the setting's chain=N, if given */
     /* an option that would change nothing is refused rather than silently ignored */
-    if (o->specular_nee && ctx.snee.solver != SPC_SNEE_NONE && ctx.kind == SPC_INTEGRATOR_IPT)
+    if (o->specular_nee && ctx.snee.solver != SPC_SNEE_NONE &&
+        (ctx.kind == SPC_INTEGRATOR_IPT || ctx.kind == SPC_INTEGRATOR_PTRACER))
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
                              "specular NEE '%s' does nothing with the %s integrator (path, volpath and bdpt use "
                              "it); drop it or give none",

@@ -17,6 +17,45 @@
 #include <stdlib.h>
 #include <string.h>
 
+static void release_attrs(spc_mesh *m)
+{
+    for (int i = 0; i < m->nattrs; ++i)
+        free(m->attrs[i].data);
+    free(m->attrs);
+    m->attrs = NULL;
+    m->nattrs = 0;
+}
+
+bool spc_mesh_copy_attrs(spc_mesh *dst, const spc_mesh *src)
+{
+    if (src->nattrs == 0)
+        return true;
+    dst->attrs = calloc((size_t)src->nattrs, sizeof *dst->attrs);
+    if (!dst->attrs)
+        return false;
+    dst->nattrs = src->nattrs;
+    for (int i = 0; i < src->nattrs; ++i) {
+        const spc_mesh_attr *a = &src->attrs[i];
+        size_t n = (size_t)a->dim * (a->face ? src->ntris : src->nverts);
+        dst->attrs[i] = *a;
+        dst->attrs[i].data = malloc(n * sizeof(float) + 1);
+        if (!dst->attrs[i].data) {
+            release_attrs(dst);
+            return false;
+        }
+        memcpy(dst->attrs[i].data, a->data, n * sizeof(float));
+    }
+    return true;
+}
+
+const spc_mesh_attr *spc_mesh_find_attr(const spc_mesh *m, const char *name)
+{
+    for (int i = 0; i < m->nattrs; ++i)
+        if (strcmp(m->attrs[i].name, name) == 0)
+            return &m->attrs[i];
+    return NULL;
+}
+
 void spc_mesh_release(spc_mesh *m)
 {
     if (!m)
@@ -25,6 +64,7 @@ void spc_mesh_release(spc_mesh *m)
     free(m->n);
     free(m->uv);
     free(m->idx);
+    release_attrs(m);
     memset(m, 0, sizeof *m);
 }
 
@@ -93,8 +133,15 @@ size_t spc_mesh_drop_degenerate(spc_mesh *m)
             ok = area2 > 0.0 && isfinite(area2);
         }
         if (ok) {
-            if (kept != t)
+            if (kept != t) {
                 memmove(m->idx + 3 * kept, id, 3 * sizeof *id);
+                for (int a = 0; a < m->nattrs; ++a) /* face attributes follow their triangles */
+                    if (m->attrs[a].face) {
+                        int d = m->attrs[a].dim;
+                        memmove(m->attrs[a].data + (size_t)d * kept, m->attrs[a].data + (size_t)d * t,
+                                (size_t)d * sizeof(float));
+                    }
+            }
             ++kept;
         }
     }
@@ -205,6 +252,7 @@ bool spc_mesh_append(spc_mesh *dst, const spc_mesh *src)
         else
             memset(dst->uv + 2 * dst->nverts, 0, 2 * src->nverts * sizeof(float));
     }
+    release_attrs(dst);
     uint32_t base = (uint32_t)dst->nverts;
     for (size_t i = 0; i < 3 * src->ntris; ++i)
         dst->idx[3 * dst->ntris + i] = src->idx[i] + base;

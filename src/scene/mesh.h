@@ -15,6 +15,17 @@
 #include "core/error.h"
 #include "core/math.h"
 
+/* A named per-vertex or per-face value of a mesh (Mitsuba's mesh attributes, read from PLY files:
+ * "vertex_color", "face_weight", ...). Face attributes hold one value per TRIANGLE (a polygon's
+ * value is repeated for each triangle it is split into). */
+#define SPC_MESH_ATTR_NAME_MAX 64
+typedef struct spc_mesh_attr {
+    char name[SPC_MESH_ATTR_NAME_MAX]; /* "vertex_<prefix>" or "face_<prefix>" */
+    bool face;                         /* per triangle (else per vertex) */
+    int dim;                           /* values per vertex or triangle: 1 to 4 */
+    float *data;                       /* dim * (face ? ntris : nverts), owned */
+} spc_mesh_attr;
+
 typedef struct spc_mesh {
     size_t nverts, ntris;
     float *p;     /* 3 * nverts */
@@ -25,6 +36,8 @@ typedef struct spc_mesh {
      * stays inside it: Embree then reads p and idx in place instead of copies
      * (spc_shape_init_mesh pads every mesh it places) */
     bool p_padded;
+    spc_mesh_attr *attrs; /* nattrs attributes, owned (NULL when none) */
+    int nattrs;
 } spc_mesh;
 
 void spc_mesh_release(spc_mesh *m);
@@ -41,7 +54,13 @@ size_t spc_mesh_drop_degenerate(spc_mesh *m);
  * a vertex whose sum vanishes gets the normal of its first triangle. Does nothing when the mesh
  * has normals. Returns false on allocation failure (the mesh is unchanged). */
 bool spc_mesh_compute_vertex_normals(spc_mesh *m);
-/* Appends src to dst (for shapegroups and merging); false on allocation failure. */
+/* Copies src's attributes onto dst (which has none; same vertex and triangle counts); false on
+ * allocation failure (dst then has none). */
+bool spc_mesh_copy_attrs(spc_mesh *dst, const spc_mesh *src);
+/* The attribute named name, or NULL. */
+const spc_mesh_attr *spc_mesh_find_attr(const spc_mesh *m, const char *name);
+/* Appends src to dst (for shapegroups and merging); false on allocation failure. Attributes are
+ * dropped from the result (they could differ between the parts). */
 bool spc_mesh_append(spc_mesh *dst, const spc_mesh *src);
 
 /* Triangulates the polygon ids[0..n-1] (vertex indices into positions p, 3 floats each): a fan

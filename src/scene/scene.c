@@ -31,6 +31,37 @@ spc_scene *spc_scene_create(void)
     return s;
 }
 
+bool spc_fov_tangents(double fov, spc_fov_axis axis, int width, int height, double *tan_x, double *tan_y)
+{
+    double t = tan(0.5 * fov * SPC_PI / 180.0);
+    if (!(t > 0.0) || !isfinite(t) || width <= 0 || height <= 0)
+        return false;
+    double aspect = (double)width / (double)height;
+    if (axis == SPC_FOV_SMALLER)
+        axis = aspect > 1.0 ? SPC_FOV_Y : SPC_FOV_X;
+    else if (axis == SPC_FOV_LARGER)
+        axis = aspect > 1.0 ? SPC_FOV_X : SPC_FOV_Y;
+    switch (axis) {
+    case SPC_FOV_X:
+        *tan_x = t;
+        *tan_y = t / aspect;
+        break;
+    case SPC_FOV_Y:
+        *tan_y = t;
+        *tan_x = t * aspect;
+        break;
+    case SPC_FOV_DIAGONAL: {
+        double diag = sqrt((double)width * width + (double)height * height);
+        *tan_x = t * width / diag;
+        *tan_y = t * height / diag;
+        break;
+    }
+    case SPC_FOV_SMALLER:
+    case SPC_FOV_LARGER: break;
+    }
+    return true;
+}
+
 void spc_scene_set_defaults(spc_scene *s)
 {
     s->camera.type = SPC_CAMERA_PERSPECTIVE;

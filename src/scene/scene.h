@@ -33,6 +33,11 @@ typedef enum spc_fov_axis {
     SPC_FOV_DIAGONAL
 } spc_fov_axis;
 
+/* The half-extents tan_x, tan_y of a perspective image of width x height pixels on the plane z = 1
+ * for a field of view of fov degrees along axis (Mitsuba's fov_axis); false for a fov outside
+ * (0, 180) or an empty image. Cameras and projectors share it. */
+bool spc_fov_tangents(double fov, spc_fov_axis axis, int width, int height, double *tan_x, double *tan_y);
+
 typedef struct spc_camera {
     spc_camera_type type;
     spc_mat4 to_world; /* camera looks along local +z, local +y is up, local +x is image-left */

@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "io/image_io.h"
+#include "scene/hit.h"
 
 static void set_identity_uv(spc_texture *t)
 {
@@ -141,11 +142,36 @@ spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv)
         bool hu = p.x - floor(p.x) > 0.5, hv = p.y - floor(p.y) > 0.5;
         return hu == hv ? t->color0 : t->color1;
     }
+    case SPC_TEX_MESH_ATTRIBUTE: /* needs a hit: spc_texture_eval_hit */
+        return spc_rgb1(0.0);
     }
     return spc_rgb1(0.0);
 }
 
 double spc_texture_eval1(const spc_texture *t, spc_vec2 uv) { return spc_rgb_avg(spc_texture_eval(t, uv)); }
+
+spc_rgb spc_texture_eval_hit(const spc_texture *t, const spc_hit *h)
+{
+    if (t->type == SPC_TEX_MESH_ATTRIBUTE)
+        return spc_mesh_attribute_eval(t, h);
+    return spc_texture_eval(t, h->uv);
+}
+
+double spc_texture_eval1_hit(const spc_texture *t, const spc_hit *h) { return spc_rgb_avg(spc_texture_eval_hit(t, h)); }
+
+bool spc_texture_init_mesh_attribute(spc_texture *t, const char *name, double scale)
+{
+    memset(t, 0, sizeof *t);
+    t->type = SPC_TEX_MESH_ATTRIBUTE;
+    t->attr_scale = scale;
+    t->wrap = SPC_WRAP_REPEAT;
+    set_identity_uv(t);
+    size_t n = strlen(name);
+    if (n >= sizeof t->attribute || (strncmp(name, "vertex_", 7) != 0 && strncmp(name, "face_", 5) != 0))
+        return false;
+    memcpy(t->attribute, name, n + 1);
+    return true;
+}
 
 spc_rgb spc_texture_texel(const spc_texture *t, int64_t x, int64_t y)
 {
@@ -188,6 +214,8 @@ spc_rgb spc_texture_mean(const spc_texture *t)
         return t->value;
     case SPC_TEX_CHECKERBOARD:
         return spc_rgb_scale(spc_rgb_add(t->color0, t->color1), 0.5);
+    case SPC_TEX_MESH_ATTRIBUTE:
+        return spc_rgb1(0.5 * t->attr_scale);
     case SPC_TEX_BITMAP: {
         if (!t->data || t->width <= 0 || t->height <= 0)
             return spc_rgb1(0.0);

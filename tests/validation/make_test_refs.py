@@ -32,6 +32,8 @@ REFS = {
     "medium_thin": ("medium_thin.xml", ["res=32", "integrator=volpath"]),
     "spot_texture": ("spot_texture.xml", ["res=32"]),
     "thinlens": ("thinlens.xml", ["res=32"]),
+    "mesh_attribute": ("mesh_attribute.xml", ["res=32"]),
+    "projector": ("projector.xml", ["res=32"]),
 }
 
 
