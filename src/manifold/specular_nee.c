@@ -19,7 +19,7 @@
 #include "manifold/conic.h"
 #include "manifold/plane_chains.h"
 #include "manifold/snee_options.h"
-#include "render/camera.h"
+#include "scene/camera.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/sphere_chains.h"
 

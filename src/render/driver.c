@@ -32,9 +32,10 @@
 #include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
-#include "render/camera.h"
+#include "scene/camera.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
+#include "scene/rfilter.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
 
