@@ -16,7 +16,7 @@
 #include "accel/accel.h"
 #include "core/rng.h"
 #include "core/warp.h"
-#include "render/camera.h"
+#include "scene/camera.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
 

@@ -36,7 +36,7 @@
 
 #include "core/rng.h"
 #include "manifold/specular_nee.h"
-#include "render/camera.h"
+#include "scene/camera.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
 

@@ -24,7 +24,7 @@
 
 #include "bsdf/bsdf.h"
 #include "core/error.h"
-#include "render/camera.h"
+#include "scene/camera.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
 

@@ -26,7 +26,7 @@
 #include "harness.h"
 #include "manifold/newton.h"
 #include "manifold/specular_nee.h"
-#include "render/camera.h"
+#include "scene/camera.h"
 #include "render_util.h"
 #include "scene/sdf.h"
 

@@ -29,6 +29,8 @@
  *   angular solver is not used on the icosphere or an analytic sphere: from deep inside, its
  *   attempts mostly end in total internal reflection and the capped count of attempts is biased
  *   low by 5-8%; see volpath.c.)
+ * - The connection takes the user's specular NEE options: on a glass sphere, trials=1 lowers the
+ *   image's mean by more than 4 standard errors, seed=light changes the image.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -731,6 +733,51 @@ TEST(glass_icosphere_connection_conic)
                     "glass icosphere: conic connection vs phase sampling");
 }
 
+/* Does a render differ from b anywhere, bit for bit? */
+static bool films_differ(const spc_film *a, const spc_film *b)
+{
+    return a->width != b->width || a->height != b->height ||
+           memcmp(a->rgb, b->rgb, sizeof a->rgb[0] * 3 * (size_t)a->width * (size_t)a->height) != 0;
+}
+
+/* volpath's connection takes the user's options: trials=1 caps every Bernoulli-trial count at 1, so
+ * the light through the glass is underestimated (the count's mean is 1/p >= 1), and seed=light
+ * changes the attempts; the same setting twice gives the same image. */
+TEST(volpath_honours_specular_nee_options)
+{
+    char xml[4096];
+    snprintf(xml, sizeof xml, glass_medium_fmt,
+             "type=\"sphere\">\n    <float name=\"radius\" value=\"0.8\"/>");
+    spc_scene *sc = NULL;
+    spc_error e;
+    CHECK_MSG(load_xml(xml, &sc, &e) == SPC_OK, "%s", e.msg);
+    if (!sc)
+        return;
+    const int spp = 2048;
+    spc_film *a = render_nee(sc, "volpath", "angular", spp, 41);
+    spc_film *a2 = render_nee(sc, "volpath", "angular", spp, 41);
+    spc_film *capped = render_nee(sc, "volpath", "angular:trials=1", spp, 41);
+    spc_film *light = render_nee(sc, "volpath", "angular:seed=light", spp, 41);
+    CHECK(a && a2 && capped && light);
+    if (a && a2 && capped && light) {
+        CHECK(!films_differ(a, a2));
+        CHECK_MSG(films_differ(a, capped), "trials=1 is ignored");
+        CHECK_MSG(films_differ(a, light), "seed=light is ignored");
+        for (int c = 0; c < 3; ++c) {
+            double ma, sa, mc, scp;
+            tu_image_mean(a, c, &ma, &sa);
+            tu_image_mean(capped, c, &mc, &scp);
+            printf("  channel %d: mean %.5f (se %.2g), with trials=1 %.5f (se %.2g)\n", c, ma, sa, mc, scp);
+            CHECK_MSG(ma - mc > 4.0 * sqrt(sa * sa + scp * scp), "trials=1 does not lower the mean of channel %d", c);
+        }
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(a2);
+    spc_film_destroy(capped);
+    spc_film_destroy(light);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(phase_closed_forms);
@@ -745,5 +792,6 @@ int main(void)
     RUN(null_surface_is_invisible);
     RUN(glass_slab_connection_angular);
     RUN(glass_icosphere_connection_conic);
+    RUN(volpath_honours_specular_nee_options);
     return spc_test_finish();
 }

@@ -113,23 +113,7 @@ static const char *const usage_render =
     "  --specular-nee NAME[:OPTS]  auto, none, angular, newton, conic (default: the scene's, else\n"
     "                         auto: chosen from the scene, as `specula info` shows; bdpt only\n"
     "                         when given, ipt never: there only none and auto); OPTS,\n"
-    "                         comma-separated: unbiased (default: one solution, 1/p by Bernoulli\n"
-    "                         trials) or biased[=M] (M seeds, distinct solutions summed; M 8),\n"
-    "                         trials=N (cap; 256 angular, 64 others), seed=cone|shape|light|bsdf\n"
-    "                         (default cone); newton: constraint=angle|half, rough (rough\n"
-    "                         interfaces as chain vertices); nomis (covered BSDF paths dropped);\n"
-    "                         reflect[=P] (chains also reflect off glass, with probability P at a\n"
-    "                         dielectric vertex; 0.2; angular's and conic's default), noreflect;\n"
-    "                         mispsi=Q (MIS: randomized attempts' chains weighted as if found\n"
-    "                         with probability Q; 0.1); receivers=N (only at the first N\n"
-    "                         diffuse or glossy vertices of a path); camera[=Q] (also from\n"
-    "                         the pinhole, Q of the samples: lights seen through glass);\n"
-    "                         chain=N (longest chain; default the scene's, 2); noexact (no\n"
-    "                         exact chains on a sphere, mirror cylinder, normal-mapped plane);\n"
-    "                         long=P, nolong (longer chains, P per call; 0.1);\n"
-    "                         guide[=M] (guided directions in cones M x the light's image; 1),\n"
-    "                         sneep=Q (then the light sample only with probability Q);\n"
-    "                         e.g. --specular-nee newton:biased=8\n"
+    "                         comma-separated, e.g. newton:biased=8,seed=light (below)\n"
     ;
 
 /* the options after --specular-nee (one string would pass the 4095 characters C99 promises) */
@@ -169,6 +153,17 @@ static const char *const usage_render_resume =
     "\n"
     "Ctrl-C stops after the passes in flight and writes the image so far (and the checkpoint)\n"
     "(exit 130); a second Ctrl-C quits at once without writing.\n";
+
+/* The options of --specular-nee, generated from the one table of them (after usage_render_more). */
+static void put_specular_nee_help(void)
+{
+    char *s = spc_specular_nee_help(2, 96);
+    if (s) {
+        fputs("specular NEE options (--specular-nee SOLVER:OPT,OPT,...; the integrator's specular_nee):\n", stdout);
+        fputs(s, stdout);
+    }
+    free(s);
+}
 
 /* printed after each command's usage */
 static const char *const usage_exit =
@@ -823,6 +818,7 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         if (is_help(a)) {
             fputs(usage_render, stdout);
             fputs(usage_render_more, stdout);
+            put_specular_nee_help();
             fputs(usage_render_denoise, stdout);
             fputs(usage_render_resume, stdout);
             fputs(usage_exit, stdout);
@@ -1170,6 +1166,7 @@ static int cmd_render(int argc, char **argv)
         if (is_help(a)) {
             fputs(usage_render, stdout);
             fputs(usage_render_more, stdout);
+            put_specular_nee_help();
             fputs(usage_render_denoise, stdout);
             fputs(usage_render_resume, stdout);
             fputs(usage_exit, stdout);

@@ -78,6 +78,11 @@ char *spc_scene_describe(const spc_scene *s);
  * the setting (or why it is off), then one per caster with the method that finds its chains and the
  * chain lengths. The caller frees the string; NULL if out of memory. */
 char *spc_scene_plan(const spc_scene *s, const char *integrator, const char *specular_nee);
+/* The options a specular NEE setting takes ("angular:trials=64,seed=light"), one paragraph each
+ * with its values and default, lines indented by `indent` and at most `width` columns: the help of
+ * --specular-nee and of the integrator property specular_nee. The caller frees the string; NULL if
+ * out of memory. */
+char *spc_specular_nee_help(int indent, int width);
 
 /* ---- rendering ---- */
 typedef void (*spc_progress_fn)(void *user, double fraction, int spp_done, int spp_total, double elapsed_s);

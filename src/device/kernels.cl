@@ -899,7 +899,7 @@ static float3 cam_local(const camera_t *c, float3 p)
 }
 
 /* Density (solid angle) of camera ray directions toward world direction w, scaled by the film's
- * pixel count over the window's (render/camera.c: |M v|^3 / (|det M| A)); 0 outside the film. */
+ * pixel count over the window's (scene/camera.c: |M v|^3 / (|det M| A)); 0 outside the film. */
 static float camera_pdf_dir(const camera_t *c, float3 w)
 {
     float3 l = cam_local(c, cam_origin(c) + w) - cam_local(c, cam_origin(c));
@@ -1086,7 +1086,7 @@ static float filter_mass(const camera_t *c, float ctr, float lo, float hi)
 }
 
 /* One pixel of the window along an axis for a splat at film coordinate f: chosen with probability
- * proportional to its filter weight (renormalized over the window, as render/film.h), which
+ * proportional to its filter weight (renormalized over the window, as scene/rfilter.h), which
  * returns the sum of the weights: the splat times it is unbiased for every pixel's share. -1 if
  * no window pixel is in reach. */
 static int splat_axis(const camera_t *c, float f, int lo, int size, float u, float *wsum)

@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "render/film.h"
+#include "scene/rfilter.h"
 
 #define SPC_SPLAT_MAX_COORD 1e9 /* film coordinates beyond this lie on no film (sides <= 65536) */
 

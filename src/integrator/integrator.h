@@ -14,7 +14,7 @@
 
 #include "core/sampler.h"
 #include "manifold/specular_nee.h"
-#include "render/camera.h"
+#include "scene/camera.h"
 #include "scene/scene.h"
 
 typedef enum spc_integrator_kind {

@@ -46,7 +46,10 @@
  * be unblocked (no null crossing either). Connections are made at every medium vertex (every
  * scattering order: connecting single scattering only left the multiple-scattering fireflies of
  * phase sampling in place, bench/RESULTS.md) when max_depth allows the two more segments; surface
- * vertices do not run specular NEE in volpath.
+ * vertices do not run specular NEE in volpath. Of the setting's options (snee_options.h) these
+ * connections use the solver's, trials and seed (the mixture's other half); their chains have one
+ * vertex, refract through glass and are estimated one at a time, whatever reflect, exact, chain and
+ * rough say.
  *
  * Nothing is counted twice. The paths both strategies produce are those that continue from such an
  * x by phase sampling, cross x's medium without interaction to the first surface P, take there the
@@ -432,11 +435,12 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
     spc_vec3 prev_p = ray.o;
     /* specular connections from medium vertices */
     const spc_specular_solver *solver = ctx->specular_nee ? spc_specular_solver_get(ctx->specular_nee) : NULL;
-    spc_snee_params snp;
-    spc_snee_params_default(&snp, ctx->specular_nee, 1);
+    spc_snee_params snp = ctx->snee; /* the user's options: trials, seed, the solvers' own */
+    snp.max_chain = 1;
     snp.reflect = false; /* the connections below refract (or reflect off conductors) only, as the
                             exclusion here assumes */
     snp.exact = false;   /* its own estimate from medium vertices (below), not spc_specular_nee's */
+    snp.newton.rough = false;
     spc_snee_track track;
     memset(&track, 0, sizeof track);
     spc_vec3 conn_x = spc_v3(0, 0, 0), conn_d0 = spc_v3(0, 0, 1); /* the vertex tracked and its direction */

@@ -26,8 +26,8 @@
  *   integrator  path, prb (-> path), volpath, volpathmis (-> volpath), direct (-> path, max_depth
  *               2), bdpt, ipt, ptracer: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" or auto:
  *               chosen from the scene, manifold/snee_plan.h; none or off; angular | newton | conic,
- *               optionally with options as "newton:biased=8,rough": spc_snee_parse in
- *               manifold/specular_nee.h), specular_max_chain, mis_balance (false; bdpt: the balance
+ *               optionally with options as "newton:biased=8,rough": the grammar of
+ *               manifold/snee_options.h), specular_max_chain, mis_balance (false; bdpt: the balance
  *               heuristic instead of the power heuristic); aov, moment, stokes: the nested integrator.
  *               The define "@integrator" replaces the file's integrator type (its properties are
  *               still read), so that a scene made for another renderer's integrator can load.
@@ -47,7 +47,7 @@
 
 #include "core/hash.h"
 #include "io/mitsuba_internal.h"
-#include "manifold/specular_nee.h"
+#include "manifold/snee_options.h"
 
 #define MAX_RESOLUTION 65536  /* film width/height beyond which a file is surely wrong */
 #define MAX_SAMPLE_COUNT (1 << 24)
@@ -1701,13 +1701,12 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
         mts_warn(mts_where(&P, "strict_normals"), "strict_normals is honoured by the path integrator only");
     if (mts_has(&P, "specular_nee")) {
         const char *nee = mts_get_string(L, &P, "specular_nee", "");
-        spc_snee_params snp;
-        bool word = !strcmp(nee, "auto") || !strcmp(nee, "off"); /* snee_plan.h's own words */
-        if (strlen(nee) >= sizeof it->specular_nee || (!word && !spc_snee_parse(nee, 2, &snp)))
-            mts_fail(L, mts_where(&P, "specular_nee"), SPC_ERR_VALUE,
-                     "unknown specular_nee '%s' (auto, none, angular, newton, conic, optionally followed by "
-                     ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough,nomis)",
-                     nee);
+        char why[SPC_SNEE_WHY_MAX];
+        if (strlen(nee) >= sizeof it->specular_nee)
+            mts_fail(L, mts_where(&P, "specular_nee"), SPC_ERR_VALUE, "specular_nee is longer than %d characters",
+                     (int)sizeof it->specular_nee - 1);
+        else if (spc_snee_setting_check(nee, why, sizeof why) != SPC_SNEE_PARSE_OK)
+            mts_fail(L, mts_where(&P, "specular_nee"), SPC_ERR_VALUE, "specular_nee '%s': %s", nee, why);
         snprintf(it->specular_nee, sizeof it->specular_nee, "%s", nee);
     }
     if (mts_has(&P, "specular_max_chain"))

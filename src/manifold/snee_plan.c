@@ -12,6 +12,7 @@
 #include "emitter/emitter.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/plane_chains.h"
+#include "manifold/snee_options.h"
 #include "manifold/sphere_chains.h"
 #include "scene/scene.h"
 
@@ -20,8 +21,8 @@
  * does not pay (bench/RESULTS.md, "Caustics by default"). */
 #define SPC_SNEE_PLAN_MAX_SR 0.03
 
-static bool is_auto(const char *s) { return !s || !s[0] || !strcmp(s, "auto"); }
-static bool is_off(const char *s) { return s && (!strcmp(s, "none") || !strcmp(s, "off")); }
+static bool is_auto(const char *s) { return spc_snee_setting_is_auto(s); }
+static bool is_off(const char *s) { return spc_snee_setting_is_off(s); }
 
 /* A shape specular NEE may start at: a receiver with a non-delta lobe. */
 static bool receiver(const spc_shape *s)

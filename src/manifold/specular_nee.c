@@ -18,7 +18,8 @@
 
 #include "manifold/conic.h"
 #include "manifold/plane_chains.h"
-#include "render/camera.h"
+#include "manifold/snee_options.h"
+#include "scene/camera.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/sphere_chains.h"
 
@@ -62,9 +63,6 @@
  * this; each internal reflection in a glass ball keeps a few percent of the light, and the
  * enumeration's cost grows with the count (1D roots on a ball: 3 us for one, 14 us for four). */
 #define SPC_SNEE_LONG_MAX 6
-/* params.guide's default: a cone as wide as the light's image through the chain to its point
- * facing x (measured in bench/RESULTS.md, Session 7: 1 against 1.5 and 2 on the pools). */
-#define SPC_SNEE_GUIDE 1.0
 /* The widest guided cone (radians, half-angle): wider, a direction rarely reaches the light, and
  * BSDF sampling does as well. */
 #define SPC_SNEE_GUIDE_MAX_ANGLE 0.5
@@ -110,151 +108,10 @@ bool spc_specular_solver_parse(const char *name, int *id)
 
 const char *spc_specular_solver_names(void) { return "none, angular, newton, conic"; }
 
-/* Parses a positive integer option value; false unless the whole string is one. */
-static bool parse_count(const char *s, size_t n, int *out)
-{
-    if (n == 0 || n > 6)
-        return false;
-    int v = 0;
-    for (size_t i = 0; i < n; ++i) {
-        if (s[i] < '0' || s[i] > '9')
-            return false;
-        v = 10 * v + (s[i] - '0');
-    }
-    if (v < 1)
-        return false;
-    *out = v;
-    return true;
-}
-
-/* Parses a number in [lo, hi] ("0.25", ".1", "0"); false unless the whole string is one. */
-static bool parse_real(const char *s, size_t n, double lo, double hi, double *out)
-{
-    char buf[32];
-    if (n == 0 || n >= sizeof buf)
-        return false;
-    memcpy(buf, s, n);
-    buf[n] = '\0';
-    char *end;
-    double v = strtod(buf, &end);
-    if (end != buf + n || !(v >= lo && v <= hi))
-        return false;
-    *out = v;
-    return true;
-}
-
-static bool opt_is(const char *s, size_t n, const char *name) { return strlen(name) == n && !strncmp(s, name, n); }
-
+/* The grammar and its table live in snee_options.c. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
 {
-    if (!spec)
-        spec = "";
-    const char *colon = strchr(spec, ':');
-    size_t nlen = colon ? (size_t)(colon - spec) : strlen(spec);
-    char name[32];
-    if (nlen >= sizeof name)
-        return false;
-    memcpy(name, spec, nlen);
-    name[nlen] = '\0';
-    int id;
-    if (!spc_specular_solver_parse(name, &id))
-        return false;
-    spc_snee_params_default(p, id, max_chain);
-    if (!colon)
-        return true;
-    if (id == SPC_SNEE_NONE)
-        return false; /* options without a solver are a mistake, not a no-op */
-    bool reflect_set = false; /* reflect asked for explicitly */
-    for (const char *o = colon + 1;;) {
-        const char *end = strchr(o, ',');
-        size_t n = end ? (size_t)(end - o) : strlen(o);
-        const char *eq = memchr(o, '=', n);
-        size_t kn = eq ? (size_t)(eq - o) : n;
-        const char *val = eq ? eq + 1 : NULL;
-        size_t vn = eq ? n - kn - 1 : 0;
-        if (opt_is(o, n, "unbiased")) {
-            p->biased = false;
-        } else if (opt_is(o, n, "nomis")) {
-            p->no_mis = true;
-        } else if (opt_is(o, kn, "mispsi") && val) {
-            if (!parse_real(val, vn, 1e-6, 1.0, &p->mis_solve))
-                return false;
-        } else if (opt_is(o, n, "noreflect")) {
-            p->reflect = false;
-            reflect_set = false;
-        } else if (opt_is(o, kn, "chain") && val) {
-            int k;
-            if (!parse_count(val, vn, &k) || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
-                return false;
-            p->max_chain = k;
-        } else if (opt_is(o, n, "exact")) {
-            p->exact = true;
-        } else if (opt_is(o, n, "noexact")) {
-            p->exact = false;
-        } else if (opt_is(o, kn, "long") && val) {
-            if (!parse_real(val, vn, 1e-6, 1.0, &p->long_p))
-                return false;
-        } else if (opt_is(o, n, "nolong")) {
-            p->long_p = 0.0;
-        } else if (opt_is(o, kn, "guide") && val) {
-            if (!parse_real(val, vn, 1e-6, 100.0, &p->guide))
-                return false;
-        } else if (opt_is(o, n, "guide")) {
-            p->guide = SPC_SNEE_GUIDE;
-        } else if (opt_is(o, n, "noguide")) {
-            p->guide = 0.0;
-        } else if (opt_is(o, kn, "sneep") && val) {
-            if (!parse_real(val, vn, 1e-6, 1.0, &p->snee_p))
-                return false;
-        } else if (opt_is(o, kn, "camera")) {
-            p->camera = true;
-            if (val && !parse_real(val, vn, 1e-6, 1.0, &p->camera_p))
-                return false;
-        } else if (opt_is(o, kn, "receivers") && val) {
-            if (!parse_count(val, vn, &p->receivers))
-                return false;
-        } else if (opt_is(o, kn, "reflect")) {
-            p->reflect = true;
-            reflect_set = true;
-            if (val && (!parse_real(val, vn, 0.0, 1.0, &p->reflect_p) || !(p->reflect_p > 0.0 && p->reflect_p < 1.0)))
-                return false;
-        } else if (opt_is(o, kn, "biased")) {
-            p->biased = true;
-            if (val && !parse_count(val, vn, &p->biased_seeds))
-                return false;
-        } else if (opt_is(o, kn, "trials") && val) {
-            if (!parse_count(val, vn, &p->max_trials))
-                return false;
-        } else if (opt_is(o, kn, "seed") && val) {
-            if (opt_is(val, vn, "shape"))
-                p->seed = SPC_SNEE_SEED_SHAPE;
-            else if (opt_is(val, vn, "light"))
-                p->seed = SPC_SNEE_SEED_LIGHT;
-            else if (opt_is(val, vn, "bsdf"))
-                p->seed = SPC_SNEE_SEED_BSDF;
-            else if (opt_is(val, vn, "cone"))
-                p->seed = SPC_SNEE_SEED_CONE;
-            else
-                return false;
-        } else if (opt_is(o, kn, "constraint") && val && id == SPC_SNEE_NEWTON) {
-            if (opt_is(val, vn, "angle"))
-                p->newton.constraint = SPC_NEWTON_ANGLE_DIFF;
-            else if (opt_is(val, vn, "half"))
-                p->newton.constraint = SPC_NEWTON_HALF_VECTOR;
-            else
-                return false;
-        } else if (opt_is(o, n, "rough") && id == SPC_SNEE_NEWTON) {
-            p->newton.rough = true;
-            p->reflect = false; /* the rough mode's chains refract through glass */
-            p->exact = false;    /* its own estimator (newton.h) */
-        } else {
-            return false;
-        }
-        if (!end)
-            break;
-        o = end + 1;
-    }
-    return !(reflect_set && p->newton.rough); /* the rough mode's chains refract through glass */
+    return spc_snee_options_parse(spec, max_chain, p, NULL, 0) == SPC_SNEE_PARSE_OK;
 }
 
 void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)

@@ -239,37 +239,9 @@ typedef struct spc_specular_solver {
     bool (*covers_all)(const spc_snee_query *q);
 } spc_specular_solver;
 
-/* Parses a specular-NEE setting: NAME[:OPTION[,OPTION...]], NAME a solver name (as
- * spc_specular_solver_parse) and the options (for the solvers that find one solution at a time):
- *   unbiased            one solution per light sample times the Bernoulli-trial count (default)
- *   biased[=M]          M attempts (default SPC_SNEE_BIASED_SEEDS), the distinct solutions summed
- *   trials=N            cap of the trial count (default SPC_SNEE_MAX_TRIALS)
- *   seed=cone|shape|light|bsdf   seeding (default cone; light is Hanika et al.'s straight line)
- *   constraint=angle|half   newton: angle differences (default) or half vectors
- *   rough               newton: rough dielectrics and conductors are chain vertices (newton.h)
- *   nomis               no MIS with BSDF sampling (params.no_mis): covered paths left to NEE alone
- *   reflect[=P]         chains also reflect at dielectric vertices (params.reflect; P, default
- *                       SPC_SNEE_REFLECT_P, the probability of a reflection there, in (0, 1));
- *                       the default for angular and conic
- *   noreflect           chains refract through dielectrics only (newton's default)
- *   mispsi=Q            params.mis_solve, in (0, 1]: the MIS weight's stand-in for the probability
- *                       that a randomized attempt finds a chain
- *   receivers=N         params.receivers: specular NEE at the first N non-delta path vertices only
- *   camera[=Q]          params.camera: specular NEE from the camera too (glints, lights seen through
- *                       glass), with probability Q per camera sample (params.camera_p, default 1)
- *   chain=N             params.max_chain: chains of at most N vertices (1 .. SPC_CHAIN_MAX_VERTICES;
- *                       default: the integrator's specular_max_chain)
- *   exact, noexact      params.exact: chains on one sphere, one mirror cylinder or one
- *                       normal-mapped plane enumerated exactly (the default), or left to the
- *                       solver's randomized attempts
- *   long=P, nolong      params.long_p: longer chains with probability P, in (0, 1] (default
- *                       SPC_SNEE_LONG_P), or never
- *   guide=M, noguide    params.guide: guided directions, cones M times the light's image (M in
- *                       (0, 100], default SPC_SNEE_GUIDE), or none
- *   sneep=Q             params.snee_p: the light sample's probability where guided directions
- *                       have a cone, in (0, 1] (default 1)
- * e.g. "newton:biased=8,seed=light". Fills p from spc_snee_params_default(p, id, max_chain) and the
- * options. False (p undefined) for an unknown name or option, or a bad value. */
+/* Parses a specular-NEE setting SOLVER[:OPTION[,OPTION...]], e.g. "newton:biased=8,seed=light":
+ * spc_snee_options_parse (snee_options.h, where the options' one table is) without the message.
+ * False (p undefined) for an unknown name or option, or a bad value. */
 bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p);
 
 /* The solver of an id, or NULL (none, or not implemented). */

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "io/mitsuba_xml.h"
+#include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
@@ -401,3 +402,5 @@ char *spc_scene_plan(const spc_scene *s, const char *integrator, const char *spe
         spc_snee_plan_describe(s, &plan, chain, buf, (size_t)n + 1);
     return buf;
 }
+
+char *spc_specular_nee_help(int indent, int width) { return spc_snee_options_help(indent, width); }

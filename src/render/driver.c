@@ -29,11 +29,13 @@
 #include "core/warp.h"
 #include "device/device.h"
 #include "integrator/integrator.h"
+#include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
-#include "render/camera.h"
+#include "scene/camera.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
+#include "scene/rfilter.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
 
@@ -208,12 +210,15 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     spc_snee_plan_make(sc, spc_integrator_kind_name(ctx.kind), given, &plan);
     const char *sname = plan.setting;
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
-    if (!spc_snee_parse(sname, ctx.specular_max_chain, &ctx.snee))
-        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0,
-                             "bad specular NEE setting '%s'; specula has: auto, %s, optionally followed by "
-                             ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough,nomis,"
-                             "reflect[=P],noreflect,mispsi=Q,receivers=N,camera,chain=N,exact,noexact",
-                             sname, spc_specular_solver_names());
+    char why[SPC_SNEE_WHY_MAX];
+    spc_snee_parse_result parsed = spc_snee_options_parse(sname, ctx.specular_max_chain, &ctx.snee, why, sizeof why);
+    if (parsed != SPC_SNEE_PARSE_OK) {
+        spc_status code = parsed == SPC_SNEE_PARSE_BAD_SOLVER ? SPC_ERR_PLUGIN : SPC_ERR_VALUE;
+        if (o->specular_nee)
+            return spc_error_set(err, code, NULL, 0, 0, "--specular-nee '%s': %s", sname, why);
+        return spc_error_set(err, code, sc->integrator.decl_file[0] ? sc->integrator.decl_file : file,
+                             sc->integrator.decl_line, sc->integrator.decl_col, "specular_nee '%s': %s", sname, why);
+    }
     ctx.specular_nee = ctx.snee.solver;
     ctx.specular_max_chain = ctx.snee.max_chain; /* the setting's chain=N, if given */
     /* an option that would change nothing is refused rather than silently ignored */

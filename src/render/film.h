@@ -62,30 +62,4 @@ void spc_film_commit_pass(struct spc_film *f);
  * failure. */
 bool spc_film_resolve(struct spc_film *f);
 
-/* The pixel filter, per axis (filters are separable: box, tent, truncated gaussian), normalized to
- * integrate to 1 over [-radius, radius], and its CDF.
- *
- * Tent and gaussian are the step functions Mitsuba 3 splats with: its filters are evaluated from a
- * table of SPC_FILTER_RESOLUTION values at |x| = k radius / RES, looked up by rounding |x| down
- * (ReconstructionFilter's discretization), so a sample at |x| weighs f(floor(|x| RES / radius)
- * radius / RES): a slightly wider filter than f itself. Measured on an edge: Mitsuba 3.9's tent
- * gives the step filter's value to 1e-4 and the exact tent's is 3e-3 off; the gaussian is Mitsuba's
- * too, exp(-x^2 / (2 stddev^2)) - exp(-radius^2 / (2 stddev^2)). Images of scenes with sharp
- * edges failed the per-pixel z-test against Mitsuba 3 along the edges before (instances.xml,
- * 98.4% of pixels passing). spc_film_filter_prepare fills the steps (the driver calls it on its
- * copy of the film settings); the functions below need it for tent and gaussian.
- *
- * Borders, as Mitsuba's films: no sample is taken outside the rendered window [lo, hi) (the crop
- * window, in full-film pixels), so a pixel near its edge is the filter-weighted mean of the
- * radiance over the part of its support inside the window. spc_film_filter_sample draws the offset
- * from the pixel center c from the filter restricted to [lo - c, hi - c] (inverse CDF; the plain
- * filter sample, unchanged, when the support is inside); splats divide the filter value by
- * spc_film_filter_mass, the integral of the filter over that interval (1 away from the edges). */
-struct spc_film_spec;
-void spc_film_filter_prepare(struct spc_film_spec *f);
-double spc_film_filter_eval(const struct spc_film_spec *f, double x);
-double spc_film_filter_cdf(const struct spc_film_spec *f, double x);
-double spc_film_filter_sample(const struct spc_film_spec *f, double u, double c, double lo, double hi);
-double spc_film_filter_mass(const struct spc_film_spec *f, double c, double lo, double hi);
-
 #endif

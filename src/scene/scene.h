@@ -55,7 +55,7 @@ typedef enum spc_rfilter_type {
 } spc_rfilter_type;
 
 /* Steps of the tent and gaussian filters over [0, radius]: Mitsuba 3's MI_FILTER_RESOLUTION
- * (render/film.h says why the filters are step functions). */
+ * (scene/rfilter.h says why the filters are step functions). */
 #define SPC_FILTER_RESOLUTION 31
 
 typedef struct spc_film_spec {
@@ -64,7 +64,7 @@ typedef struct spc_film_spec {
     spc_rfilter_type rfilter;
     double filter_radius;                   /* box 0.5, tent 1, gaussian 4 * stddev */
     double filter_stddev;                   /* gaussian, default 0.5 */
-    /* filled by spc_film_filter_prepare (render/film.h): the normalized density on each step of
+    /* filled by spc_film_filter_prepare (scene/rfilter.h): the normalized density on each step of
      * |x| and the mass of [0, k radius / RES) */
     double filter_step[SPC_FILTER_RESOLUTION];
     double filter_step_cdf[SPC_FILTER_RESOLUTION + 1];

@@ -1,5 +1,5 @@
 /*
- * render/camera.c: camera ray generation and projection.
+ * scene/camera.c: camera ray generation and projection.
  *
  * Perspective (Mitsuba 3): fov along fov_axis; a film point (fx, fy) maps to the local direction
  * ((1 - 2 fx/W) tan_x, (1 - 2 fy/H) tan_y, 1). Orthographic: local x in [-1, 1] across the width
@@ -15,7 +15,7 @@
  * at the pinhole, in the plane z = 0) toward the point where the pinhole ray meets the plane in
  * focus z = focus_distance; so that plane is sharp and the rest is blurred.
  */
-#include "render/camera.h"
+#include "scene/camera.h"
 #include "core/warp.h"
 
 bool spc_camera_prepare(spc_camera_state *cs, const spc_camera *c, int width, int height)

@@ -1,10 +1,10 @@
 /*
- * render/camera.h: pinhole perspective and orthographic cameras (Mitsuba conventions: the camera
+ * scene/camera.h: pinhole perspective and orthographic cameras (Mitsuba conventions: the camera
  * looks along local +z, local +y is up and local +x points to the image's LEFT; pixel (0, 0) is
  * the top-left corner of the full film; film coordinates are continuous pixels).
  */
-#ifndef SPC_RENDER_CAMERA_H
-#define SPC_RENDER_CAMERA_H
+#ifndef SPC_SCENE_CAMERA_H
+#define SPC_SCENE_CAMERA_H
 
 #include "core/math.h"
 #include "scene/scene.h"
