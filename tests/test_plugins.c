@@ -71,9 +71,10 @@ static void probe(const mts_plugin *p, char *xml, size_t size)
         snprintf(xml, size,
                  "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"%s\" name=\"reflectance\">%s"
                  "</texture></bsdf></shape>",
-                 n, strcmp(n, "bitmap") == 0           ? "<string name=\"filename\" value=\"textures/grid.png\"/>"
-                    : strcmp(n, "mesh_attribute") == 0 ? "<string name=\"name\" value=\"vertex_color\"/>"
-                                                       : "");
+                 n,
+                 strcmp(n, "bitmap") == 0           ? "<string name=\"filename\" value=\"textures/grid.png\"/>"
+                 : strcmp(n, "mesh_attribute") == 0 ? "<string name=\"name\" value=\"vertex_color\"/>"
+                                                    : "");
     } else if (strcmp(c, "sensor") == 0) {
         snprintf(xml, size, "<sensor type=\"%s\">%s</sensor>", n,
                  strcmp(n, "thinlens") == 0 ? "<float name=\"aperture_radius\" value=\"0.1\"/>" : "");
@@ -154,12 +155,13 @@ TEST(unread_plugins_are_named)
  * as the properties; other defaults there are only defaults; a bad value names its line. */
 TEST(own_properties_as_defaults)
 {
-    const char *xml = "<scene version=\"3.0.0\">\n"
-                      "<integrator type=\"path\"><default name=\"specular_nee\" value=\"none\"/>\n"
-                      "<default name=\"specular_max_chain\" value=\"3\"/><default name=\"other\" value=\"1\"/></integrator>\n"
-                      "<shape type=\"sphere\"><default name=\"caustic_caster\" value=\"true\"/>\n"
-                      "<default name=\"caustic_receiver\" value=\"false\"/></shape>\n"
-                      "<shape type=\"sphere\"><float name=\"radius\" value=\"$other\"/></shape></scene>";
+    const char *xml =
+        "<scene version=\"3.0.0\">\n"
+        "<integrator type=\"path\"><default name=\"specular_nee\" value=\"none\"/>\n"
+        "<default name=\"specular_max_chain\" value=\"3\"/><default name=\"other\" value=\"1\"/></integrator>\n"
+        "<shape type=\"sphere\"><default name=\"caustic_caster\" value=\"true\"/>\n"
+        "<default name=\"caustic_receiver\" value=\"false\"/></shape>\n"
+        "<shape type=\"sphere\"><float name=\"radius\" value=\"$other\"/></shape></scene>";
     spc_scene *s = NULL;
     spc_error err;
     memset(&err, 0, sizeof err);
@@ -169,7 +171,8 @@ TEST(own_properties_as_defaults)
         CHECK(strcmp(s->integrator.specular_nee, "none") == 0);
         CHECK(s->integrator.specular_max_chain == 3);
         CHECK(s->nshapes == 2);
-        CHECK((s->shapes[0]->caustic_flags & SPC_CAUSTIC_CASTER) && !(s->shapes[0]->caustic_flags & SPC_CAUSTIC_RECEIVER));
+        CHECK((s->shapes[0]->caustic_flags & SPC_CAUSTIC_CASTER) &&
+              !(s->shapes[0]->caustic_flags & SPC_CAUSTIC_RECEIVER));
         CHECK(s->shapes[0]->caustic_flags & SPC_CAUSTIC_FLAGS_EXPLICIT);
         CHECK(!(s->shapes[1]->caustic_flags & SPC_CAUSTIC_FLAGS_EXPLICIT));
     }

@@ -172,7 +172,8 @@ static const mts_plugin plugins[] = {
 };
 
 static const mts_own_property own_properties[] = {
-    {"integrator", "specular_nee", MTS_STRING, "specular next-event estimation: auto, none, angular, newton, conic[:options]"},
+    {"integrator", "specular_nee", MTS_STRING,
+     "specular next-event estimation: auto, none, angular, newton, conic[:options]"},
     {"integrator", "specular_max_chain", MTS_INT, "longest chain of specular vertices specular NEE connects through"},
     {"integrator", "mis_balance", MTS_BOOL, "bdpt: the balance heuristic instead of the power heuristic"},
     {"shape", "caustic_caster", MTS_BOOL, "specular NEE: the shape casts caustics"},
