@@ -3,7 +3,8 @@
  * docs/PLUGINS.md is that table printed. For every plugin the table marks as read, a small scene
  * using it loads; for every one it marks as not read, loading fails with SPC_ERR_PLUGIN and an
  * error that names the plugin. The committed docs/PLUGINS.md must equal the generated text;
- * SPC_WRITE_PLUGINS=1 build/test_plugins writes it.
+ * SPC_WRITE_PLUGINS=1 build/test_plugins writes it. specula's own properties given as <default>s
+ * (the form Mitsuba 3 ignores) are read.
  */
 /* ctest-labels: unit */
 #include <stdio.h>
@@ -13,6 +14,8 @@
 #include "harness.h"
 #include "io/mitsuba_internal.h"
 #include "io/mitsuba_xml.h"
+#include "scene/scene.h"
+#include "scene/shape.h"
 #include "specula/specula.h"
 
 static const char *source_dir(void)
@@ -68,9 +71,10 @@ static void probe(const mts_plugin *p, char *xml, size_t size)
         snprintf(xml, size,
                  "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"%s\" name=\"reflectance\">%s"
                  "</texture></bsdf></shape>",
-                 n, strcmp(n, "bitmap") == 0           ? "<string name=\"filename\" value=\"textures/grid.png\"/>"
-                    : strcmp(n, "mesh_attribute") == 0 ? "<string name=\"name\" value=\"vertex_color\"/>"
-                                                       : "");
+                 n,
+                 strcmp(n, "bitmap") == 0           ? "<string name=\"filename\" value=\"textures/grid.png\"/>"
+                 : strcmp(n, "mesh_attribute") == 0 ? "<string name=\"name\" value=\"vertex_color\"/>"
+                                                    : "");
     } else if (strcmp(c, "sensor") == 0) {
         snprintf(xml, size, "<sensor type=\"%s\">%s</sensor>", n,
                  strcmp(n, "thinlens") == 0 ? "<float name=\"aperture_radius\" value=\"0.1\"/>" : "");
@@ -147,6 +151,40 @@ TEST(unread_plugins_are_named)
     CHECK_MSG(strstr(err.msg, "unknown bsdf type 'hare'") != NULL, "%s", err.msg);
 }
 
+/* specula's own properties in the form Mitsuba 3 ignores (a <default> inside the plugin) are read
+ * as the properties; other defaults there are only defaults; a bad value names its line. */
+TEST(own_properties_as_defaults)
+{
+    const char *xml =
+        "<scene version=\"3.0.0\">\n"
+        "<integrator type=\"path\"><default name=\"specular_nee\" value=\"none\"/>\n"
+        "<default name=\"specular_max_chain\" value=\"3\"/><default name=\"other\" value=\"1\"/></integrator>\n"
+        "<shape type=\"sphere\"><default name=\"caustic_caster\" value=\"true\"/>\n"
+        "<default name=\"caustic_receiver\" value=\"false\"/></shape>\n"
+        "<shape type=\"sphere\"><float name=\"radius\" value=\"$other\"/></shape></scene>";
+    spc_scene *s = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    spc_status st = spc_mitsuba_load_string(xml, strlen(xml), "t.xml", ".", NULL, 0, &s, &err);
+    CHECK_MSG(st == SPC_OK, "%s", err.msg);
+    if (st == SPC_OK) {
+        CHECK(strcmp(s->integrator.specular_nee, "none") == 0);
+        CHECK(s->integrator.specular_max_chain == 3);
+        CHECK(s->nshapes == 2);
+        CHECK((s->shapes[0]->caustic_flags & SPC_CAUSTIC_CASTER) &&
+              !(s->shapes[0]->caustic_flags & SPC_CAUSTIC_RECEIVER));
+        CHECK(s->shapes[0]->caustic_flags & SPC_CAUSTIC_FLAGS_EXPLICIT);
+        CHECK(!(s->shapes[1]->caustic_flags & SPC_CAUSTIC_FLAGS_EXPLICIT));
+    }
+    spc_scene_destroy(s);
+    s = NULL;
+    xml = "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n<default name=\"caustic_caster\" value=\"maybe\"/>"
+          "</shape></scene>";
+    CHECK(spc_mitsuba_load_string(xml, strlen(xml), "t.xml", ".", NULL, 0, &s, &err) == SPC_ERR_VALUE);
+    CHECK_MSG(err.line == 3 && strstr(err.msg, "maybe") != NULL, "%d: %s", err.line, err.msg);
+    spc_scene_destroy(s);
+}
+
 TEST(plugins_md_is_generated)
 {
     char *text = NULL;
@@ -185,6 +223,7 @@ int main(void)
     spc_warn_set_quiet(1);
     RUN(every_plugin_is_as_listed);
     RUN(unread_plugins_are_named);
+    RUN(own_properties_as_defaults);
     RUN(plugins_md_is_generated);
     return spc_test_finish();
 }

@@ -55,8 +55,8 @@ bool spc_projector_prepare(spc_emitter *e)
     e->power = SPC_PI * e->scale * area * spc_rgb_avg(spc_texture_mean(e->texture));
     const spc_texture *t = e->texture;
     const double(*m)[3] = t->to_uv;
-    bool identity = m[0][0] == 1.0 && m[0][1] == 0.0 && m[0][2] == 0.0 && m[1][0] == 0.0 && m[1][1] == 1.0 &&
-                    m[1][2] == 0.0;
+    bool identity =
+        m[0][0] == 1.0 && m[0][1] == 0.0 && m[0][2] == 0.0 && m[1][0] == 0.0 && m[1][1] == 1.0 && m[1][2] == 0.0;
     if (t->type == SPC_TEX_BITMAP && t->data && t->width > 0 && t->height > 0 && identity) {
         int w = t->width, h = t->height;
         double *wt = malloc((size_t)w * (size_t)h * sizeof(double));

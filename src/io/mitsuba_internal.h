@@ -227,6 +227,16 @@ typedef struct mts_plugin {
 /* The whole table (*n rows, grouped by category); a row, or NULL. */
 const mts_plugin *mts_plugin_list(int *n);
 const mts_plugin *mts_plugin_find(const char *category, const char *name);
+/* specula's own plugin properties, which Mitsuba 3 refuses as unreferenced (mitsuba_plugin_list.c).
+ * A scene may give them as <default name="..." value="..."/> inside the plugin element instead,
+ * which Mitsuba 3 accepts and ignores: the loader reads such a default as the property, of the
+ * kind listed here. The row named name, or NULL. */
+typedef struct mts_own_property {
+    const char *category, *name;
+    mts_kind kind;
+    const char *meaning;
+} mts_own_property;
+const mts_own_property *mts_own_property_find(const char *category, const char *name);
 /* Writes docs/PLUGINS.md's text; 0, or -1 on a write error. */
 int mts_plugins_markdown(FILE *out);
 /* Fails with SPC_ERR_PLUGIN at node: a Mitsuba 3 plugin the loader does not read is named as such

@@ -171,6 +171,25 @@ static const mts_plugin plugins[] = {
     {"volume", "gridvolume", MTS_PLUGIN_NO, "-", ""},
 };
 
+static const mts_own_property own_properties[] = {
+    {"integrator", "specular_nee", MTS_STRING,
+     "specular next-event estimation: auto, none, angular, newton, conic[:options]"},
+    {"integrator", "specular_max_chain", MTS_INT, "longest chain of specular vertices specular NEE connects through"},
+    {"integrator", "mis_balance", MTS_BOOL, "bdpt: the balance heuristic instead of the power heuristic"},
+    {"shape", "caustic_caster", MTS_BOOL, "specular NEE: the shape casts caustics"},
+    {"shape", "caustic_receiver", MTS_BOOL, "specular NEE: the shape receives caustics"},
+    {"shape", "caustic_caster_single", MTS_BOOL, "specular NEE: a caster of single-bounce chains"},
+    {"shape", "caustic_caster_multi", MTS_BOOL, "specular NEE: a caster of multi-bounce chains"},
+};
+
+const mts_own_property *mts_own_property_find(const char *category, const char *name)
+{
+    for (size_t i = 0; i < sizeof own_properties / sizeof own_properties[0]; ++i)
+        if (strcmp(own_properties[i].category, category) == 0 && strcmp(own_properties[i].name, name) == 0)
+            return &own_properties[i];
+    return NULL;
+}
+
 const mts_plugin *mts_plugin_list(int *n)
 {
     *n = (int)(sizeof plugins / sizeof plugins[0]);
@@ -237,6 +256,19 @@ int mts_plugins_markdown(FILE *out)
             fprintf(out, "\n## %s\n\n| plugin | specula | parameters read | notes |\n|---|---|---|---|\n", cat);
         }
         fprintf(out, "| `%s` | %s | %s | %s |\n", p[i].name, status_text(p[i].status), p[i].params, p[i].note);
+    }
+    static const char *const kind_names[] = {"boolean", "integer", "float", "string"};
+    fprintf(out, "\n## specula's own properties\n\n"
+                 "Mitsuba 3 refuses a scene whose plugin has a property it does not read (\"unreferenced\n"
+                 "property\"). Each property below may therefore also be written as a `<default>` inside the\n"
+                 "plugin element, which Mitsuba 3 accepts and ignores, and specula reads as the property:\n"
+                 "`<integrator type=\"path\"><default name=\"specular_nee\" value=\"angular\"/></integrator>`.\n"
+                 "specula's `sdf` shapes have no such form: a scene with them loads in specula only.\n\n"
+                 "| plugin | property | type | meaning |\n|---|---|---|---|\n");
+    for (size_t i = 0; i < sizeof own_properties / sizeof own_properties[0]; ++i) {
+        const mts_own_property *o = &own_properties[i];
+        fprintf(out, "| %s | `%s` | %s | %s |\n", o->category, o->name,
+                o->kind <= MTS_STRING ? kind_names[o->kind] : "?", o->meaning);
     }
     return ferror(out) ? -1 : 0;
 }

@@ -1000,11 +1000,59 @@ static spc_status push_prop(mts_loader *L, mts_props *P, const mts_prop *p)
     return SPC_OK;
 }
 
+/* A <default> inside a plugin element that names one of specula's own properties of that plugin
+ * (mts_own_property_find): the property, with the default's value (Mitsuba 3 accepts the default
+ * and ignores it). *p->name stays NULL for any other default. */
+static spc_status own_default(mts_loader *L, const spc_xml_node *owner, const spc_xml_node *c, mts_prop *p)
+{
+    const char *name = spc_xml_get(c, "name"), *value = spc_xml_get(c, "value");
+    const mts_own_property *o = name && value ? mts_own_property_find(owner->name, name) : NULL;
+    if (!o)
+        return SPC_OK;
+    p->node = c;
+    p->kind = o->kind;
+    switch (o->kind) {
+    case MTS_BOOL:
+        if (strcasecmp(value, "true") == 0 || strcmp(value, "1") == 0)
+            p->b = true;
+        else if (!(strcasecmp(value, "false") == 0 || strcmp(value, "0") == 0))
+            return mts_fail(L, c, SPC_ERR_VALUE, "could not parse boolean value \"%s\" of property '%s' (true or false)",
+                            value, name);
+        break;
+    case MTS_INT: {
+        char *end;
+        errno = 0;
+        p->i = strtoll(value, &end, 10);
+        if (end == value || *end || errno)
+            return mts_fail(L, c, SPC_ERR_VALUE, "could not parse integer value \"%s\" of property '%s'", value, name);
+        p->f = (double)p->i;
+        break;
+    }
+    case MTS_STRING: p->s = value; break;
+    case MTS_FLOAT:
+    case MTS_RGB:
+    case MTS_POINT:
+    case MTS_TRANSFORM:
+    case MTS_OBJECT: return mts_fail(L, c, SPC_ERR_INTERNAL, "property '%s' has no <default> form", name);
+    }
+    p->name = name;
+    return SPC_OK;
+}
+
 static spc_status collect(mts_loader *L, const spc_xml_node *owner, mts_props *P)
 {
     for (int i = 0; i < owner->nchildren; ++i) {
         spc_xml_node *c = owner->children[i];
         const char *tag = c->name;
+        if (strcmp(tag, "default") == 0 && strcmp(owner->name, "scene") != 0) {
+            mts_prop p;
+            memset(&p, 0, sizeof p);
+            if (own_default(L, owner, c, &p) != SPC_OK)
+                return L->status;
+            if (p.name && push_prop(L, P, &p) != SPC_OK)
+                return L->status;
+            continue;
+        }
         if (strcmp(tag, "default") == 0 || strcmp(tag, "path") == 0)
             continue;
         mts_prop p;
