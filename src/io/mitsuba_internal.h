@@ -167,6 +167,8 @@ mts_id *mts_id_of(mts_loader *L, const spc_xml_node *node); /* NULL if node has 
 
 /* ---- mitsuba_plugins.c ---- */
 const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node);
+/* mitsuba_principled.c: principled and principledthin's parameters into b (b->type set). */
+void mts_build_principled(mts_loader *L, mts_props *P, spc_bsdf *b, const spc_xml_node *node);
 const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node);
 /* A texture-valued property: rgb / spectrum / float constants, a nested texture or a ref. */
 const spc_texture *mts_get_texture(mts_loader *L, mts_props *P, const char *name, spc_rgb def);

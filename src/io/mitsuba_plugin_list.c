@@ -45,8 +45,17 @@ static const mts_plugin plugins[] = {
     {"bsdf", "mask", MTS_PLUGIN_YES, "opacity 0.5 (float or texture), a nested bsdf",
      "its hole is a null event for volpath"},
     {"bsdf", "null", MTS_PLUGIN_YES, "-", ""},
-    {"bsdf", "principled", MTS_PLUGIN_NO, "-", "not yet: the largest group of unloadable scenes"},
-    {"bsdf", "principledthin", MTS_PLUGIN_NO, "-", ""},
+    {"bsdf", "principled", MTS_PLUGIN_YES,
+     "base_color 0.5, roughness 0.5, anisotropic 0, metallic 0, spec_trans 0, eta or specular 0.5, spec_tint 0, "
+     "sheen 0, sheen_tint 0, flatness 0, clearcoat 0, clearcoat_gloss 0 (each a float or texture), "
+     "main_specular_sampling_rate 1, clearcoat_sampling_rate 1, diffuse_reflectance_sampling_rate 1",
+     ""},
+    {"bsdf", "principledthin", MTS_PLUGIN_YES,
+     "base_color 0.5, roughness 0.5, anisotropic 0, spec_trans 0, eta 1.5, spec_tint 0, sheen 0, sheen_tint 0, "
+     "flatness 0, diff_trans 0 (each a float or texture), specular_reflectance_sampling_rate 1, "
+     "specular_transmittance_sampling_rate 1, diffuse_reflectance_sampling_rate 1, "
+     "diffuse_transmittance_sampling_rate 1",
+     ""},
     {"bsdf", "pplastic", MTS_PLUGIN_YES,
      "diffuse_reflectance 0.5, specular_reflectance 1, distribution \"beckmann\", alpha 0.1 (alpha_u, alpha_v), "
      "int_ior \"polypropylene\", ext_ior \"air\", sample_visible true",

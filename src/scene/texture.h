@@ -47,7 +47,8 @@ typedef struct spc_texture {
 /* A constant texture (the caller owns it: static or inside a scene). */
 void spc_texture_init_constant(spc_texture *t, spc_rgb value);
 spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv);
-/* Mean of the channels at uv (roughness, opacity, weights). */
+/* Mean of the channels at uv (roughness, opacity, weights): Mitsuba 3's eval_1, whose
+ * checkerboard has its two colors swapped (texture.c). */
 double spc_texture_eval1(const spc_texture *t, spc_vec2 uv);
 /* Gradient of spc_texture_eval1 with respect to the surface uv (before to_uv), as Mitsuba 3's
  * eval_1_grad: for bilinear bitmaps the exact gradient of the interpolant in the cell holding uv,

@@ -29,6 +29,7 @@ REFS = {
     "v06_box": ("v06_box.xml", ["res=32"]),
     "mask_null": ("mask_null.xml", ["res=32"]),
     "dielectrics": ("dielectrics.xml", ["res=32"]),
+    "principled": ("principled.xml", ["res=32"]),
     "medium_thin": ("medium_thin.xml", ["res=32", "integrator=volpath"]),
     "spot_texture": ("spot_texture.xml", ["res=32"]),
     "thinlens": ("thinlens.xml", ["res=32"]),
