@@ -166,16 +166,24 @@ static const mts_plugin plugins[] = {
     {"integrator", "ipt", MTS_PLUGIN_OWN, "max_depth -1", "implicit path tracing (no NEE)"},
 
     /* ---- media and phase functions ---- */
-    {"medium", "homogeneous", MTS_PLUGIN_YES, "sigma_t 1 and albedo 0.75 (or sigma_a, sigma_s), scale 1, phase", ""},
-    {"medium", "heterogeneous", MTS_PLUGIN_NO, "-", "heterogeneous media (grid volumes) are not supported"},
+    {"medium", "homogeneous", MTS_PLUGIN_YES,
+     "sigma_t 1 and albedo 0.75 (or sigma_a, sigma_s), scale 1, sample_emitters true, phase",
+     "albedo may be a volume; sigma_t a constvolume"},
+    {"medium", "heterogeneous", MTS_PLUGIN_YES,
+     "sigma_t 1 (volume or value), albedo 0.75 (volume or value), scale 1, sample_emitters true, phase",
+     "vacuum outside the sigma_t volume's bounds, as in Mitsuba; free flight by exact optical depth "
+     "(regular tracking) instead of delta tracking: the same distribution; has_spectral_extinction ignored"},
     {"phase", "isotropic", MTS_PLUGIN_YES, "-", ""},
     {"phase", "hg", MTS_PLUGIN_YES, "g 0.8", ""},
     {"phase", "rayleigh", MTS_PLUGIN_NO, "-", ""},
     {"phase", "blendphase", MTS_PLUGIN_NO, "-", ""},
     {"phase", "tabphase", MTS_PLUGIN_NO, "-", ""},
     {"phase", "sggx", MTS_PLUGIN_NO, "-", ""},
-    {"volume", "constvolume", MTS_PLUGIN_NO, "-", ""},
-    {"volume", "gridvolume", MTS_PLUGIN_NO, "-", ""},
+    {"volume", "constvolume", MTS_PLUGIN_YES, "value 1 (float or rgb), to_world", ""},
+    {"volume", "gridvolume", MTS_PLUGIN_YES,
+     "filename (.vol, 1 or 3 channels), filter_type \"trilinear\", wrap_mode \"clamp\", to_world, "
+     "use_grid_bbox false",
+     "raw and accel accepted, no effect in RGB; 6-channel grids are not read"},
 };
 
 const mts_plugin *mts_plugin_list(int *n)

@@ -31,6 +31,7 @@ REFS = {
     "dielectrics": ("dielectrics.xml", ["res=32"]),
     "principled": ("principled.xml", ["res=32"]),
     "medium_thin": ("medium_thin.xml", ["res=32", "integrator=volpath"]),
+    "medium_grid": ("medium_grid.xml", ["res=32", "integrator=volpath"]),
     "spot_texture": ("spot_texture.xml", ["res=32"]),
     "thinlens": ("thinlens.xml", ["res=32"]),
 }
