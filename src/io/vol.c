@@ -66,6 +66,18 @@ spc_status spc_vol_read(const char *path, spc_volume *v, double bbox[6], spc_err
         return spc_error_set(err, SPC_ERR_LIMIT, path, 0, 0, "volume grid of %llu values (at most %llu)", n,
                              (unsigned long long)SPC_VOL_MAX_VALUES);
     }
+    /* the file must hold the values before anything is allocated for them */
+    long here = ftell(f);
+    if (here < 0 || fseek(f, 0, SEEK_END) != 0) {
+        fclose(f);
+        return spc_error_set(err, SPC_ERR_IO, path, 0, 0, "cannot seek in volume grid");
+    }
+    long end = ftell(f);
+    if (end < 0 || fseek(f, here, SEEK_SET) != 0 || (unsigned long long)(end - here) < n * 4ull) {
+        fclose(f);
+        return spc_error_set(err, SPC_ERR_PARSE, path, 0, 0, "truncated volume grid: %lld bytes for %llu values",
+                             (long long)(end - here), n);
+    }
     float *data = malloc((size_t)n * sizeof(float));
     unsigned char *raw = malloc((size_t)n * 4);
     if (!data || !raw) {
