@@ -30,6 +30,7 @@
 #include "io/image_io.h"
 #include "io/mesh_io.h"
 #include "io/mitsuba_xml.h"
+#include "io/vol.h"
 #include "specula/specula.h"
 
 /* A memfd holding the input; *path receives its /proc name. -1 on failure. */
@@ -99,6 +100,26 @@ static inline int spc_fuzz_serialized(const uint8_t *data, size_t size)
     if (spc_serialized_load(path, index, &m, &err) == SPC_OK)
         spc_fuzz_check_mesh(&m);
     spc_mesh_release(&m);
+    return 0;
+}
+
+/* Mitsuba .vol volume grids (io/vol.c), then the grid's lookups over its whole range. */
+static inline int spc_fuzz_vol(const uint8_t *data, size_t size)
+{
+    char path[64];
+    if (spc_fuzz_memfile(data, size, path, sizeof path) < 0)
+        return 0;
+    spc_volume v;
+    memset(&v, 0, sizeof v);
+    spc_error err;
+    if (spc_vol_read(path, &v, NULL, &err) == SPC_OK) {
+        spc_mat4 id = spc_mat4_identity();
+        v.wrap = size > 0 ? (spc_volume_wrap)(data[size - 1] % 3) : SPC_VOLUME_CLAMP;
+        if (spc_volume_finish_grid(&v, &id))
+            for (int i = 0; i < 27; ++i)
+                (void)spc_volume_eval(&v, spc_v3(0.75 * (i % 3) - 0.25, 0.75 * (i / 3 % 3) - 0.25, 0.75 * (i / 9) - 0.25));
+        free(v.data);
+    }
     return 0;
 }
 

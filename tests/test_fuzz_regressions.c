@@ -119,13 +119,14 @@ TEST(png)
     CHECK_MSG(mb >= 0 && mb < 150, "peak RSS %ld MB", mb); /* ~10 MB, ~50 MB under ASan */
 }
 TEST(checkpoint) { replay("checkpoint", spc_fuzz_checkpoint); }
+TEST(vol) { replay("vol", spc_fuzz_vol); }
 
 /* The empty input and a few trivially hostile ones reach every target: the test fails by crashing
  * (and, under the CI's ASan build, by any memory error or leak); there is no value to compare. */
 TEST(tiny_inputs)
 {
     const target_fn all[] = {spc_fuzz_xml, spc_fuzz_obj, spc_fuzz_ply, spc_fuzz_serialized,
-                             spc_fuzz_exr, spc_fuzz_png, spc_fuzz_checkpoint};
+                             spc_fuzz_exr, spc_fuzz_png, spc_fuzz_checkpoint, spc_fuzz_vol};
     const char *inputs[] = {"", "\0", "<", "ply\n", "v/1\x01", "\x89PNG\r\n\x1a\n", "SPCCKPT", "f 1 2 3\n"};
     for (size_t t = 0; t < sizeof all / sizeof all[0]; ++t)
         for (size_t i = 0; i < sizeof inputs / sizeof inputs[0]; ++i)
@@ -141,6 +142,7 @@ int main(void)
     RUN(exr);
     RUN(png);
     RUN(checkpoint);
+    RUN(vol);
     RUN(tiny_inputs);
     return spc_test_finish();
 }

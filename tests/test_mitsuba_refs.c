@@ -44,6 +44,8 @@ static const ref_case cases[] = {
     {"v06_box", "v06_box.xml", 512, NULL},
     {"mask_null", "mask_null.xml", 512, NULL},
     {"dielectrics", "dielectrics.xml", 1024, NULL},
+    /* principled and principledthin with textured weights */
+    {"principled", "principled.xml", 1024, NULL},
     /* media behind thin dielectrics: Mitsuba's null events (volpath.c) */
     {"medium_thin", "medium_thin.xml", 1024, "volpath"},
     /* a spot light projecting an image */

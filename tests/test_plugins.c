@@ -103,9 +103,9 @@ static void probe(const mts_plugin *p, char *xml, size_t size)
                  n);
     } else { /* volume */
         snprintf(xml, size,
-                 "<medium type=\"homogeneous\" id=\"m\"><volume type=\"%s\" name=\"sigma_t\"/></medium>"
+                 "<medium type=\"heterogeneous\" id=\"m\"><volume type=\"%s\" name=\"sigma_t\">%s</volume></medium>"
                  "<shape type=\"sphere\"><ref name=\"interior\" id=\"m\"/></shape>",
-                 n);
+                 n, strcmp(n, "gridvolume") == 0 ? "<string name=\"filename\" value=\"textures/cloud.vol\"/>" : "");
     }
 }
 

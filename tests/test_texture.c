@@ -205,7 +205,9 @@ TEST(checkerboard_pattern)
     /* to_uv: scale 4 gives 4x4 cells per unit square */
     t.to_uv[0][0] = t.to_uv[1][1] = 4.0;
     check_rgb(spc_texture_eval(&t, spc_v2(0.2, 0.05)), c1, 0.0, "scaled");
-    CHECK_NEAR(spc_texture_eval1(&t, spc_v2(0.05, 0.05)), spc_rgb_avg(c0), 1e-15);
+    /* a float read swaps the colors, as Mitsuba 3.9's eval_1 */
+    CHECK_NEAR(spc_texture_eval1(&t, spc_v2(0.05, 0.05)), spc_rgb_avg(c1), 1e-15);
+    CHECK_NEAR(spc_texture_eval1(&t, spc_v2(0.2, 0.05)), spc_rgb_avg(c0), 1e-15);
     check_rgb(spc_texture_mean(&t), spc_rgb3(0.5, 0.1, 0.5), 1e-15, "mean");
     /* the mean is the area average: count over a fine grid */
     double s = 0.0;

@@ -398,8 +398,11 @@ TEST(loader_media)
     snprintf(buf, sizeof buf, "%s  <medium type=\"homogeneous\">\n    <phase type=\"rayleigh\"/>\n  </medium>\n</scene>\n",
              head);
     expect_error(buf, SPC_ERR_PLUGIN, 3, "rayleigh");
-    snprintf(buf, sizeof buf, "%s  <medium type=\"heterogeneous\"/>\n</scene>\n", head);
-    expect_error(buf, SPC_ERR_PLUGIN, 2, "heterogeneous");
+    snprintf(buf, sizeof buf,
+             "%s  <medium type=\"heterogeneous\">\n    <volume type=\"gridvolume\" name=\"sigma_t\"/>\n"
+             "  </medium>\n</scene>\n",
+             head);
+    expect_error(buf, SPC_ERR_VALUE, 3, "gridvolume needs a filename");
     snprintf(buf, sizeof buf, "%s  <shape type=\"sphere\">\n    <medium type=\"homogeneous\"/>\n  </shape>\n</scene>\n",
              head);
     expect_error(buf, SPC_ERR_VALUE, 3, "interior");

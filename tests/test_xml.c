@@ -772,9 +772,9 @@ TEST(error_locations)
                  "</scene>\n",
                  SPC_ERR_VALUE, 2, 3, "cycle");
     expect_error("<scene version=\"3.0.0\">\n"
-                 "  <medium type=\"heterogeneous\"/>\n"
+                 "  <medium type=\"homogenous\"/>\n"
                  "</scene>\n",
-                 SPC_ERR_PLUGIN, 2, 3, "media");
+                 SPC_ERR_PLUGIN, 2, 3, "homogenous");
     /* references, includes and attributes that are missing, and a degenerate transform */
     expect_error("<scene version=\"3.0.0\">\n"
                  "  <shape type=\"sphere\">\n"

@@ -11,6 +11,12 @@ void spc_bsdf_prepare(spc_bsdf *b)
         spc_roughplastic_prepare(b);
 }
 
+/* Can the texture be nonzero anywhere (a lobe weight that may switch a lobe on)? */
+static bool maybe_nonzero(const spc_texture *t)
+{
+    return t && !(t->type == SPC_TEX_CONSTANT && t->value.r == 0.0 && t->value.g == 0.0 && t->value.b == 0.0);
+}
+
 unsigned spc_bsdf_flags(const spc_bsdf *b)
 {
     if (!b)
@@ -46,6 +52,13 @@ unsigned spc_bsdf_flags(const spc_bsdf *b)
         return spc_bsdf_flags(b->nested[0]) | SPC_LOBE_NULL;
     case SPC_BSDF_BLENDBSDF:
         return spc_bsdf_flags(b->nested[0]) | spc_bsdf_flags(b->nested[1]);
+    case SPC_BSDF_PRINCIPLED:
+        return SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_GLOSSY_REFLECTION |
+               (maybe_nonzero(b->pr.spec_trans) ? SPC_LOBE_GLOSSY_TRANSMISSION : 0u);
+    case SPC_BSDF_PRINCIPLEDTHIN:
+        return SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_GLOSSY_REFLECTION |
+               (maybe_nonzero(b->pr.spec_trans) ? SPC_LOBE_GLOSSY_TRANSMISSION : 0u) |
+               (maybe_nonzero(b->pr.diff_trans) ? SPC_LOBE_DIFFUSE_TRANSMISSION : 0u);
     }
     return 0;
 }
@@ -72,6 +85,8 @@ spc_rgb spc_bsdf_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, s
     case SPC_BSDF_NULL: return spc_null_eval(b, h, mode, wo, wi);
     case SPC_BSDF_MASK: return spc_mask_eval(b, h, mode, wo, wi);
     case SPC_BSDF_BLENDBSDF: return spc_blendbsdf_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_PRINCIPLED: return spc_principled_eval(b, h, mode, wo, wi);
+    case SPC_BSDF_PRINCIPLEDTHIN: return spc_principledthin_eval(b, h, mode, wo, wi);
     }
     return spc_rgb1(0.0);
 }
@@ -98,6 +113,8 @@ double spc_bsdf_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc
     case SPC_BSDF_NULL: return spc_null_pdf(b, h, mode, wo, wi);
     case SPC_BSDF_MASK: return spc_mask_pdf(b, h, mode, wo, wi);
     case SPC_BSDF_BLENDBSDF: return spc_blendbsdf_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_PRINCIPLED: return spc_principled_pdf(b, h, mode, wo, wi);
+    case SPC_BSDF_PRINCIPLEDTHIN: return spc_principledthin_pdf(b, h, mode, wo, wi);
     }
     return 0.0;
 }
@@ -126,6 +143,8 @@ bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode
     case SPC_BSDF_NULL: ok = spc_null_sample(b, h, mode, wo, u_lobe, u, out); break;
     case SPC_BSDF_MASK: ok = spc_mask_sample(b, h, mode, wo, u_lobe, u, out); break;
     case SPC_BSDF_BLENDBSDF: ok = spc_blendbsdf_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_PRINCIPLED: ok = spc_principled_sample(b, h, mode, wo, u_lobe, u, out); break;
+    case SPC_BSDF_PRINCIPLEDTHIN: ok = spc_principledthin_sample(b, h, mode, wo, u_lobe, u, out); break;
     }
     /* one guard for every variant: a sample is either usable or reported as none */
     if (ok && !(out->pdf > 0.0 && spc_rgb_finite(out->weight) && spc_v3_finite(out->wi)))
@@ -155,6 +174,8 @@ spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h)
     case SPC_BSDF_NULL: return spc_null_albedo(b, h);
     case SPC_BSDF_MASK: return spc_mask_albedo(b, h);
     case SPC_BSDF_BLENDBSDF: return spc_blendbsdf_albedo(b, h);
+    case SPC_BSDF_PRINCIPLED: return spc_principled_albedo(b, h);
+    case SPC_BSDF_PRINCIPLEDTHIN: return spc_principledthin_albedo(b, h);
     }
     return spc_rgb1(0.0);
 }
@@ -195,7 +216,9 @@ spc_rgb spc_bsdf_null_transmission(const spc_bsdf *b, const spc_hit *h, spc_vec3
     case SPC_BSDF_PPLASTIC:
     case SPC_BSDF_NORMALMAP:
     case SPC_BSDF_BUMPMAP:
-    case SPC_BSDF_BLENDBSDF: return spc_rgb1(0.0);
+    case SPC_BSDF_BLENDBSDF:
+    case SPC_BSDF_PRINCIPLED:
+    case SPC_BSDF_PRINCIPLEDTHIN: return spc_rgb1(0.0);
     }
     return spc_rgb1(0.0);
 }
@@ -253,6 +276,8 @@ bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta)
     case SPC_BSDF_NULL:
     case SPC_BSDF_MASK:
     case SPC_BSDF_BLENDBSDF:
+    case SPC_BSDF_PRINCIPLED:
+    case SPC_BSDF_PRINCIPLEDTHIN:
         return false;
     }
     return false;
@@ -278,6 +303,8 @@ const char *spc_bsdf_type_name(spc_bsdf_type t)
     case SPC_BSDF_NULL: return "null";
     case SPC_BSDF_MASK: return "mask";
     case SPC_BSDF_BLENDBSDF: return "blendbsdf";
+    case SPC_BSDF_PRINCIPLED: return "principled";
+    case SPC_BSDF_PRINCIPLEDTHIN: return "principledthin";
     }
     return "?";
 }

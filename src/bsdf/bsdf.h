@@ -72,7 +72,9 @@ typedef enum spc_bsdf_type {
     SPC_BSDF_BUMPMAP,   /* nested[0] with the shading normal from a height texture */
     SPC_BSDF_NULL,      /* invisible: null lobe only */
     SPC_BSDF_MASK,      /* opacity blend between nested[0] and null */
-    SPC_BSDF_BLENDBSDF  /* weight blend: (1-w) nested[0] + w nested[1] */
+    SPC_BSDF_BLENDBSDF, /* weight blend: (1-w) nested[0] + w nested[1] */
+    SPC_BSDF_PRINCIPLED,    /* Mitsuba 3's Disney-style principled BSDF (principled.c) */
+    SPC_BSDF_PRINCIPLEDTHIN /* its thin-sheet variant (principledthin.c) */
 } spc_bsdf_type;
 
 typedef enum spc_microfacet_type {
@@ -87,6 +89,20 @@ typedef enum spc_microfacet_type {
 /* Entries of roughplastic's coating transmittance table over cos in [0, 1]: Mitsuba 3's
  * MI_ROUGH_TRANSMITTANCE_RES, so that the linear interpolation between entries matches too. */
 #define SPC_ROUGHPLASTIC_TABLE_RES 64
+
+/* principled and principledthin: Mitsuba 3's parameters, each a float texture read with
+ * spc_texture_eval1 (NULL reads as Mitsuba's default). Sampling rates are the plugins' relative
+ * lobe-selection weights (1 by default). */
+typedef struct spc_principled_params {
+    const spc_texture *base_color; /* rgb */
+    const spc_texture *roughness, *anisotropic, *metallic, *spec_trans, *spec_tint, *sheen, *sheen_tint, *flatness,
+        *clearcoat, *clearcoat_gloss;
+    const spc_texture *diff_trans, *eta_thin; /* principledthin only */
+    /* principled: rate_spec (main_specular_sampling_rate), rate_clearcoat, rate_diffuse
+     * (diffuse_reflectance_sampling_rate). principledthin: rate_spec (specular_reflectance_...),
+     * rate_spec_trans, rate_diffuse, rate_diff_trans (diffuse_transmittance_...). */
+    double rate_spec, rate_spec_trans, rate_clearcoat, rate_diffuse, rate_diff_trans;
+} spc_principled_params;
 
 typedef struct spc_bsdf {
     spc_bsdf_type type;
@@ -106,6 +122,7 @@ typedef struct spc_bsdf {
     const spc_texture *bump;      /* bumpmap height */
     double bump_scale;
     const struct spc_bsdf *nested[2];
+    spc_principled_params pr; /* principled, principledthin (the former's eta is b->eta) */
     /* roughplastic: the rough coating's directional transmittance at cos = i / (RES - 1) and its
      * cosine-weighted internal reflectance, as Mitsuba 3 tabulates them; filled by
      * spc_bsdf_prepare. coat_ready false (textured or anisotropic alpha, or not prepared): the

@@ -62,6 +62,8 @@ spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_tr
     case SPC_BSDF_PLASTIC:
     case SPC_BSDF_ROUGHPLASTIC:
     case SPC_BSDF_PPLASTIC:
+    case SPC_BSDF_PRINCIPLED:
+    case SPC_BSDF_PRINCIPLEDTHIN:
     case SPC_BSDF_BUMPMAP:
     case SPC_BSDF_NULL:
     case SPC_BSDF_MASK:

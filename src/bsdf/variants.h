@@ -158,6 +158,8 @@ spc_rgb spc_null_null_transmission(const spc_bsdf *b, const spc_hit *h);
 SPC_BSDF_VARIANT(mask);
 spc_rgb spc_mask_null_transmission(const spc_bsdf *b, const spc_hit *h);
 SPC_BSDF_VARIANT(blendbsdf);
+SPC_BSDF_VARIANT(principled);
+SPC_BSDF_VARIANT(principledthin);
 
 #undef SPC_BSDF_VARIANT
 

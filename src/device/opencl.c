@@ -234,6 +234,8 @@ static spc_status add_bsdf(host_scene *hs, const spc_bsdf *b, const char *file, 
     case SPC_BSDF_PLASTIC:
     case SPC_BSDF_ROUGHPLASTIC:
     case SPC_BSDF_PPLASTIC:
+    case SPC_BSDF_PRINCIPLED:
+    case SPC_BSDF_PRINCIPLEDTHIN:
     case SPC_BSDF_TWOSIDED:
     case SPC_BSDF_NORMALMAP:
     case SPC_BSDF_BUMPMAP:

@@ -1,7 +1,8 @@
 /*
  * integrator/volpath.c: volumetric path tracing (Mitsuba's volpath): path.c's estimator (NEE +
  * BSDF sampling with the power heuristic, Russian roulette) in scenes with homogeneous
- * participating media (medium/medium.h).
+ * participating media (medium/medium.h), homogeneous or heterogeneous (the medium's functions along
+ * a ray: transmittance and free flight through volumes are the medium's business).
  *
  * Media. The medium a ray travels in is tracked along the path: the camera's (scene->camera_medium),
  * then, at every surface that is a medium transition (its shape names an interior or exterior
@@ -110,9 +111,10 @@ static bool scene_is_plain(const spc_scene *sc)
     return true;
 }
 
-static spc_rgb tr_of(const spc_scene *sc, int med, double d)
+/* Transmittance of medium med (-1: vacuum) along o + t dir, t in [0, d] (dir a unit vector). */
+static spc_rgb tr_of(const spc_scene *sc, int med, spc_vec3 o, spc_vec3 dir, double d)
 {
-    return med >= 0 ? spc_medium_transmittance(sc->media[med], d) : spc_rgb1(1.0);
+    return med >= 0 ? spc_medium_transmittance_ray(sc->media[med], o, dir, d) : spc_rgb1(1.0);
 }
 
 /* Transmittance along r from its origin to r.tmax, starting in medium med: products of the media's
@@ -129,7 +131,7 @@ static spc_rgb shadow_transmittance(const spc_scene *sc, spc_ray r, int med, boo
     for (int i = 0; i <= SPC_VOLPATH_MAX_NULL_CROSSINGS; ++i) {
         spc_hit h;
         bool hit = spc_scene_intersect(sc, &r, &h);
-        T = spc_rgb_mul(T, tr_of(sc, med, hit ? h.t : r.tmax));
+        T = spc_rgb_mul(T, tr_of(sc, med, r.o, r.d, hit ? h.t : r.tmax));
         if (!hit)
             return T;
         if (!spc_bsdf_has_null(h.bsdf))
@@ -250,8 +252,13 @@ static spc_rgb chain_value(const conn_query *cq, const spc_snee_query *q, const 
     spc_rgb Ts = spc_bsdf_specular_throughput(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, spc_neg(v->wi), d);
     if (!(ph > 0.0) || spc_rgb_is_black(Ts))
         return zero;
-    spc_rgb Tin = spc_medium_transmittance(cq->m, spc_distance(cq->x, v->h.p));
-    spc_rgb Tout = tr_of(sc, medium_after(&v->h, d, cq->med), spc_distance(v->h.p, q->y));
+    double d_in = spc_distance(cq->x, v->h.p), d_out = spc_distance(v->h.p, q->y);
+    spc_rgb Tin = d_in > 0.0 ? spc_medium_transmittance_ray(cq->m, cq->x, spc_scale(spc_sub(v->h.p, cq->x), 1.0 / d_in),
+                                                            d_in)
+                             : spc_rgb1(1.0);
+    spc_rgb Tout = d_out > 0.0 ? tr_of(sc, medium_after(&v->h, d, cq->med), v->h.p,
+                                       spc_scale(spc_sub(q->y, v->h.p), 1.0 / d_out), d_out)
+                               : spc_rgb1(1.0);
     double G = spc_chain_geometry(c, q->y, ny);
     if (!(G > 0.0) || !isfinite(G))
         return zero;
@@ -459,7 +466,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
         if (m && !spc_medium_is_vacuum(m)) {
             spc_vec2 u = spc_sampler_2d(smp);
             spc_medium_event ev;
-            if (!spc_medium_sample_distance(m, hit ? h.t : ray.tmax, beta, u.x, u.y, &ev))
+            if (!spc_medium_sample_ray(m, ray.o, ray.d, hit ? h.t : ray.tmax, beta, u.x, u.y, &ev))
                 break;
             beta = spc_rgb_mul(beta, ev.weight);
             if (spc_rgb_is_black(beta))
@@ -468,7 +475,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                 /* ---- a medium vertex ---- */
                 spc_vec3 x = spc_madd(ray.o, ray.d, ev.t), wo = spc_neg(ray.d);
                 if (first) {
-                    out->albedo = spc_rgb_div(m->sigma_s, m->sigma_t);
+                    out->albedo = ev.albedo;
                     out->depth = ev.t;
                     first = false;
                 }

@@ -170,6 +170,8 @@ mts_id *mts_id_of(mts_loader *L, const spc_xml_node *node); /* NULL if node has 
 
 /* ---- mitsuba_plugins.c ---- */
 const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node);
+/* mitsuba_principled.c: principled and principledthin's parameters into b (b->type set). */
+void mts_build_principled(mts_loader *L, mts_props *P, spc_bsdf *b, const spc_xml_node *node);
 const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node);
 /* A texture-valued property: rgb / spectrum / float constants, a nested texture or a ref. */
 const spc_texture *mts_get_texture(mts_loader *L, mts_props *P, const char *name, spc_rgb def);
@@ -185,6 +187,11 @@ void mts_mesh_cache_release(mts_loader *L);
 int mts_build_medium(mts_loader *L, spc_xml_node *node);
 /* Reads a <phase> element; false after mts_fail. */
 bool mts_build_phase(mts_loader *L, spc_xml_node *node, spc_phase *out);
+/* mitsuba_volumes.c: the volume-valued property `name` (a nested gridvolume or constvolume, or a
+ * plain value read as a constvolume over the unit cube; def when absent) into *out; false on error.
+ * mts_is_grid_volume: is the property a volume other than a constvolume (without reading it)? */
+bool mts_get_volume(mts_loader *L, mts_props *P, const char *name, spc_rgb def, spc_volume *out);
+bool mts_is_grid_volume(mts_props *P, const char *name);
 /* The interior and exterior media nested in or referenced by a shape's properties (-1: none);
  * false after mts_fail (a medium without name="interior" / "exterior", or two of one). */
 bool mts_shape_media(mts_loader *L, mts_props *P, int *interior, int *exterior);

@@ -9,12 +9,17 @@
  *   scale              float                1 (0.x: also densityMultiplier)
  *   sample_emitters    boolean              true
  *   <phase>            nested or ref        isotropic
+ *   albedo may be a volume (gridvolume: sigma_s varies, sigma_t does not); sigma_t a constvolume.
+ * <medium type="heterogeneous"> (medium/heterogeneous.c): sigma_t (volume or value, 1), albedo
+ *   (volume or value, 0.75), scale (1), sample_emitters (true), has_spectral_extinction (ignored),
+ *   <phase>. Volumes: io/mitsuba_volumes.c.
  * Giving both pairs (sigma_a/sigma_s and sigma_t/albedo) is an error, as are negative or non-finite
- * coefficients, albedo outside [0, 1], named materials ("material") and volume-valued (grid)
- * properties, which belong to heterogeneous media.
+ * coefficients, albedo outside [0, 1], named materials ("material"), a grid as a homogeneous
+ * medium's sigma_t and volumes as sigma_a or sigma_s.
  * <phase type="isotropic"/>; <phase type="hg">: g (0.8), -1 < g < 1.
  */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "io/mitsuba_internal.h"
@@ -30,6 +35,32 @@ static bool check_rgb(mts_loader *L, mts_props *P, const char *name, spc_rgb v, 
             else
                 mts_fail(L, mts_where(P, name), SPC_ERR_VALUE,
                          "medium %s (%g, %g, %g) must be finite and not negative", name, v.r, v.g, v.b);
+            return false;
+        }
+    return true;
+}
+
+/* Is the property `name` a nested volume? */
+static bool volume_named(mts_props *P, const char *name)
+{
+    for (int i = 0; i < P->n; ++i) {
+        const mts_prop *p = &P->p[i];
+        if (p->name && strcmp(p->name, name) == 0)
+            return p->kind == MTS_OBJECT && strcmp(p->obj->name, "volume") == 0;
+    }
+    return false;
+}
+
+/* A volume's values are finite and not negative (and at most 1 for an albedo). */
+static bool check_volume(mts_loader *L, mts_props *P, const char *name, const spc_volume *v, bool albedo)
+{
+    if (!v->grid)
+        return check_rgb(L, P, name, v->value, albedo ? 1.0 : INFINITY);
+    size_t n = (size_t)v->res[0] * (size_t)v->res[1] * (size_t)v->res[2] * (size_t)v->channels;
+    for (size_t i = 0; i < n; ++i)
+        if (!(v->data[i] >= 0.0f) || (albedo && v->data[i] > 1.0f)) {
+            mts_fail(L, mts_where(P, name), SPC_ERR_VALUE, "medium %s: grid value %zu is %g (must lie in [0, %s])",
+                     name, i, (double)v->data[i], albedo ? "1" : "inf");
             return false;
         }
     return true;
@@ -79,14 +110,20 @@ int mts_build_medium(mts_loader *L, spc_xml_node *node)
         return -1;
     }
     const char *type = mts_type(node);
+    bool hetero = strcmp(type, "heterogeneous") == 0;
     bool pair_as = mts_has(&P, "sigma_a") || mts_has(&P, "sigma_s");
     bool pair_ta = mts_has(&P, "sigma_t") || mts_has(&P, "albedo");
-    if (strcmp(type, "homogeneous") != 0) {
-        mts_fail_plugin(L, node, "medium", type, "homogeneous");
-    } else if (mts_count_objects(&P, "volume") > 0) {
-        const spc_xml_node *at = node;
-        mts_object(&P, "volume", 0, &at);
-        mts_fail(L, at, SPC_ERR_PLUGIN, "volume-valued medium properties (heterogeneous media) are not supported");
+    if (strcmp(type, "homogeneous") != 0 && !hetero) {
+        mts_fail_plugin(L, node, "medium", type, "homogeneous, heterogeneous");
+    } else if (!hetero && mts_is_grid_volume(&P, "sigma_t")) {
+        mts_fail(L, mts_where(&P, "sigma_t"), SPC_ERR_VALUE,
+                 "a homogeneous medium's sigma_t is one value; a grid of them makes a heterogeneous medium");
+    } else if (volume_named(&P, "sigma_a") || volume_named(&P, "sigma_s")) {
+        mts_fail(L, mts_where(&P, volume_named(&P, "sigma_a") ? "sigma_a" : "sigma_s"), SPC_ERR_VALUE,
+                 "sigma_a and sigma_s are constants; give a volume as sigma_t or albedo");
+    } else if (hetero && pair_as) {
+        mts_fail(L, mts_where(&P, mts_has(&P, "sigma_a") ? "sigma_a" : "sigma_s"), SPC_ERR_VALUE,
+                 "a heterogeneous medium takes sigma_t and albedo");
     } else if (mts_has(&P, "material")) {
         mts_fail(L, mts_where(&P, "material"), SPC_ERR_PLUGIN,
                  "named medium materials are not supported; give sigma_a and sigma_s, or sigma_t and albedo");
@@ -97,6 +134,10 @@ int mts_build_medium(mts_loader *L, spc_xml_node *node)
         mts_fail(L, node, SPC_ERR_VALUE, "a medium takes one phase function, got %d", mts_count_objects(&P, "phase"));
     }
     spc_rgb sa = spc_rgb1(0.0), ss = spc_rgb1(0.0);
+    spc_volume vol_t, vol_a; /* heterogeneous sigma_t; a volume albedo (either type) */
+    memset(&vol_t, 0, sizeof vol_t);
+    memset(&vol_a, 0, sizeof vol_a);
+    bool have_a = false;
     double scale = 1.0;
     bool emitters = true;
     spc_phase phase = {SPC_PHASE_ISOTROPIC, 0.0};
@@ -106,16 +147,33 @@ int mts_build_medium(mts_loader *L, spc_xml_node *node)
         if (L->status == SPC_OK && !(scale >= 0.0 && scale < INFINITY))
             mts_fail(L, mts_where(&P, scale_name), SPC_ERR_VALUE, "medium %s %g must be finite and not negative",
                      scale_name, scale);
-        if (pair_as) {
+        mts_ignore(&P, "has_spectral_extinction"); /* RGB channels are always sampled as spectra */
+        if (hetero) {
+            if (mts_get_volume(L, &P, "sigma_t", spc_rgb1(1.0), &vol_t))
+                check_volume(L, &P, "sigma_t", &vol_t, false);
+            if (L->status == SPC_OK && mts_get_volume(L, &P, "albedo", spc_rgb1(0.75), &vol_a) &&
+                check_volume(L, &P, "albedo", &vol_a, true))
+                have_a = true;
+        } else if (pair_as) {
             sa = mts_get_rgb(L, &P, "sigma_a", spc_rgb1(0.0));
             ss = mts_get_rgb(L, &P, "sigma_s", spc_rgb1(0.0));
             if (L->status == SPC_OK && check_rgb(L, &P, "sigma_a", sa, INFINITY))
                 check_rgb(L, &P, "sigma_s", ss, INFINITY);
         } else {
-            spc_rgb st = mts_get_rgb(L, &P, "sigma_t", spc_rgb1(1.0));
-            spc_rgb al = mts_get_rgb(L, &P, "albedo", spc_rgb1(0.75));
+            spc_rgb st = spc_rgb1(1.0), al = spc_rgb1(0.75);
+            if (mts_has(&P, "sigma_t") && mts_get_volume(L, &P, "sigma_t", st, &vol_t))
+                st = vol_t.value; /* a constvolume: its value everywhere */
+            memset(&vol_t, 0, sizeof vol_t);
+            if (mts_is_grid_volume(&P, "albedo")) {
+                if (mts_get_volume(L, &P, "albedo", al, &vol_a) && check_volume(L, &P, "albedo", &vol_a, true)) {
+                    have_a = true;
+                    al = vol_a.max; /* for the description; sampling reads the volume */
+                }
+            } else if (mts_has(&P, "albedo") && mts_get_volume(L, &P, "albedo", al, &vol_a)) {
+                al = vol_a.value;
+            }
             if (L->status == SPC_OK && check_rgb(L, &P, "sigma_t", st, INFINITY) &&
-                check_rgb(L, &P, "albedo", al, 1.0)) {
+                (have_a || check_rgb(L, &P, "albedo", al, 1.0))) {
                 ss = spc_rgb_mul(al, st);
                 sa = spc_rgb_sub(st, ss);
             }
@@ -129,9 +187,22 @@ int mts_build_medium(mts_loader *L, spc_xml_node *node)
         spc_medium *m = spc_scene_new_medium(L->scene);
         if (!m) {
             mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+        } else if (hetero) {
+            spc_medium_init_heterogeneous(m, &vol_t, scale, have_a && !vol_a.grid ? vol_a.value : spc_rgb1(0.75));
+            vol_t.data = NULL; /* the medium owns it */
+            if (have_a && vol_a.grid) {
+                m->albedo_vol = vol_a;
+                m->has_albedo_vol = true;
+                vol_a.data = NULL;
+            }
         } else if (!spc_medium_init_homogeneous(m, spc_rgb_scale(sa, scale), spc_rgb_scale(ss, scale))) {
             mts_fail(L, node, SPC_ERR_VALUE, "medium coefficients overflow (scale %g)", scale);
-        } else {
+        } else if (have_a) {
+            m->albedo_vol = vol_a;
+            m->has_albedo_vol = true;
+            vol_a.data = NULL;
+        }
+        if (m && L->status == SPC_OK) {
             m->phase = phase;
             m->sample_emitters = emitters;
             const char *id = spc_xml_get(node, "id");
@@ -144,6 +215,8 @@ int mts_build_medium(mts_loader *L, spc_xml_node *node)
             }
         }
     }
+    free(vol_t.data);
+    free(vol_a.data);
     if (entry && entry->state != 2)
         entry->state = 0;
     mts_props_end(&P);

@@ -45,8 +45,17 @@ static const mts_plugin plugins[] = {
     {"bsdf", "mask", MTS_PLUGIN_YES, "opacity 0.5 (float or texture), a nested bsdf",
      "its hole is a null event for volpath"},
     {"bsdf", "null", MTS_PLUGIN_YES, "-", ""},
-    {"bsdf", "principled", MTS_PLUGIN_NO, "-", "not yet: the largest group of unloadable scenes"},
-    {"bsdf", "principledthin", MTS_PLUGIN_NO, "-", ""},
+    {"bsdf", "principled", MTS_PLUGIN_YES,
+     "base_color 0.5, roughness 0.5, anisotropic 0, metallic 0, spec_trans 0, eta or specular 0.5, spec_tint 0, "
+     "sheen 0, sheen_tint 0, flatness 0, clearcoat 0, clearcoat_gloss 0 (each a float or texture), "
+     "main_specular_sampling_rate 1, clearcoat_sampling_rate 1, diffuse_reflectance_sampling_rate 1",
+     ""},
+    {"bsdf", "principledthin", MTS_PLUGIN_YES,
+     "base_color 0.5, roughness 0.5, anisotropic 0, spec_trans 0, eta 1.5, spec_tint 0, sheen 0, sheen_tint 0, "
+     "flatness 0, diff_trans 0 (each a float or texture), specular_reflectance_sampling_rate 1, "
+     "specular_transmittance_sampling_rate 1, diffuse_reflectance_sampling_rate 1, "
+     "diffuse_transmittance_sampling_rate 1",
+     ""},
     {"bsdf", "pplastic", MTS_PLUGIN_YES,
      "diffuse_reflectance 0.5, specular_reflectance 1, distribution \"beckmann\", alpha 0.1 (alpha_u, alpha_v), "
      "int_ior \"polypropylene\", ext_ior \"air\", sample_visible true",
@@ -159,16 +168,24 @@ static const mts_plugin plugins[] = {
     {"integrator", "ipt", MTS_PLUGIN_OWN, "max_depth -1", "implicit path tracing (no NEE)"},
 
     /* ---- media and phase functions ---- */
-    {"medium", "homogeneous", MTS_PLUGIN_YES, "sigma_t 1 and albedo 0.75 (or sigma_a, sigma_s), scale 1, phase", ""},
-    {"medium", "heterogeneous", MTS_PLUGIN_NO, "-", "heterogeneous media (grid volumes) are not supported"},
+    {"medium", "homogeneous", MTS_PLUGIN_YES,
+     "sigma_t 1 and albedo 0.75 (or sigma_a, sigma_s), scale 1, sample_emitters true, phase",
+     "albedo may be a volume; sigma_t a constvolume"},
+    {"medium", "heterogeneous", MTS_PLUGIN_YES,
+     "sigma_t 1 (volume or value), albedo 0.75 (volume or value), scale 1, sample_emitters true, phase",
+     "vacuum outside the sigma_t volume's bounds, as in Mitsuba; free flight by exact optical depth "
+     "(regular tracking) instead of delta tracking: the same distribution; has_spectral_extinction ignored"},
     {"phase", "isotropic", MTS_PLUGIN_YES, "-", ""},
     {"phase", "hg", MTS_PLUGIN_YES, "g 0.8", ""},
     {"phase", "rayleigh", MTS_PLUGIN_NO, "-", ""},
     {"phase", "blendphase", MTS_PLUGIN_NO, "-", ""},
     {"phase", "tabphase", MTS_PLUGIN_NO, "-", ""},
     {"phase", "sggx", MTS_PLUGIN_NO, "-", ""},
-    {"volume", "constvolume", MTS_PLUGIN_NO, "-", ""},
-    {"volume", "gridvolume", MTS_PLUGIN_NO, "-", ""},
+    {"volume", "constvolume", MTS_PLUGIN_YES, "value 1 (float or rgb), to_world", ""},
+    {"volume", "gridvolume", MTS_PLUGIN_YES,
+     "filename (.vol, 1 or 3 channels), filter_type \"trilinear\", wrap_mode \"clamp\", to_world, "
+     "use_grid_bbox false",
+     "raw and accel accepted, no effect in RGB; 6-channel grids are not read"},
 };
 
 static const mts_own_property own_properties[] = {

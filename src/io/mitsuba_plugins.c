@@ -414,6 +414,9 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
         roughness(L, &P, b, 0.1, true);
         if (L->status == SPC_OK && !(in > 0.0 && ext > 0.0 && in != ext))
             mts_fail(L, node, SPC_ERR_VALUE, "pplastic: int_ior and ext_ior must be positive and differ");
+    } else if (strcmp(type, "principled") == 0 || strcmp(type, "principledthin") == 0) {
+        b->type = type[10] ? SPC_BSDF_PRINCIPLEDTHIN : SPC_BSDF_PRINCIPLED;
+        mts_build_principled(L, &P, b, node);
     } else if (strcmp(type, "twosided") == 0) {
         b->type = SPC_BSDF_TWOSIDED;
         if (nbsdf < 1 || nbsdf > 2)
@@ -480,7 +483,8 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
     } else {
         mts_fail_plugin(L, node, "bsdf", type,
                         "diffuse, roughdiffuse, phong, conductor, roughconductor, dielectric, thindielectric, "
-                        "roughdielectric, plastic, roughplastic, twosided, normalmap, bumpmap, null, mask, blendbsdf");
+                        "roughdielectric, plastic, roughplastic, pplastic, principled, principledthin, twosided, "
+                        "normalmap, bumpmap, null, mask, blendbsdf");
     }
 out:
     if (L->status != SPC_OK)

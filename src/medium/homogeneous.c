@@ -14,7 +14,7 @@
  *   sample_emitters    boolean                  true
  *   <phase>            nested or referenced     isotropic
  */
-#include "medium/medium.h"
+#include "medium/variants.h"
 
 static double channel(spc_rgb c, int i) { return i == 0 ? c.r : (i == 1 ? c.g : c.b); }
 
@@ -38,6 +38,9 @@ bool spc_medium_init_homogeneous(spc_medium *m, spc_rgb sigma_a, spc_rgb sigma_s
     m->phase.type = SPC_PHASE_ISOTROPIC;
     m->phase.g = 0.0;
     m->sample_emitters = true;
+    m->has_albedo_vol = false;
+    m->albedo = spc_rgb1(0.0);
+    m->scale = 1.0;
     return true;
 }
 
@@ -45,6 +48,7 @@ bool spc_medium_is_vacuum(const spc_medium *m)
 {
     switch (m->type) {
     case SPC_MEDIUM_HOMOGENEOUS: return spc_rgb_is_black(m->sigma_t);
+    case SPC_MEDIUM_HETEROGENEOUS: return !(m->scale > 0.0) || spc_rgb_max(m->sigma_t_vol.max) <= 0.0;
     }
     return true;
 }
@@ -54,6 +58,7 @@ spc_rgb spc_medium_transmittance(const spc_medium *m, double d)
     switch (m->type) {
     case SPC_MEDIUM_HOMOGENEOUS:
         return spc_rgb3(tr1(m->sigma_t.r, d), tr1(m->sigma_t.g, d), tr1(m->sigma_t.b, d));
+    case SPC_MEDIUM_HETEROGENEOUS: break; /* depends on the ray: spc_medium_transmittance_ray */
     }
     return spc_rgb1(1.0);
 }
@@ -98,16 +103,7 @@ bool spc_medium_sample_distance(const spc_medium *m, double t_max, spc_rgb beta,
     spc_medium_channel_pmf(beta, q);
     /* the channel: the first whose cumulative probability exceeds u (zero-probability channels
      * are never chosen, even when u sits on a boundary) */
-    int c = -1;
-    double cum = 0.0;
-    for (int i = 0; i < 3; ++i) {
-        if (!(q[i] > 0.0))
-            continue;
-        c = i;
-        cum += q[i];
-        if (u_channel < cum)
-            break;
-    }
+    int c = spc_medium_pick_channel(q, u_channel);
     if (c < 0)
         return false;
     double s = channel(m->sigma_t, c);
@@ -120,6 +116,7 @@ bool spc_medium_sample_distance(const spc_medium *m, double t_max, spc_rgb beta,
         out->t = t;
         out->pdf = pdf;
         out->weight = spc_rgb_scale(spc_rgb_mul(m->sigma_s, spc_medium_transmittance(m, t)), 1.0 / pdf);
+        out->albedo = spc_rgb_div(m->sigma_s, m->sigma_t);
         return true;
     }
     double P = mixture(m, q, t_max, false);
@@ -129,5 +126,6 @@ bool spc_medium_sample_distance(const spc_medium *m, double t_max, spc_rgb beta,
     out->t = t_max;
     out->pdf = P;
     out->weight = spc_rgb_scale(spc_medium_transmittance(m, t_max), 1.0 / P);
+    out->albedo = spc_rgb1(0.0);
     return true;
 }

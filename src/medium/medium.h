@@ -58,17 +58,71 @@ double spc_phase_pdf(const spc_phase *p, spc_vec3 wo, spc_vec3 wi);
 bool spc_phase_sample(const spc_phase *p, spc_vec3 wo, spc_vec2 u, spc_vec3 *wi, double *pdf);
 
 typedef enum spc_medium_type {
-    SPC_MEDIUM_HOMOGENEOUS
+    SPC_MEDIUM_HOMOGENEOUS,
+    SPC_MEDIUM_HETEROGENEOUS /* sigma_t from a volume, zero outside its bounds (heterogeneous.c) */
 } spc_medium_type;
+
+typedef enum spc_volume_wrap {
+    SPC_VOLUME_CLAMP,
+    SPC_VOLUME_REPEAT,
+    SPC_VOLUME_MIRROR
+} spc_volume_wrap;
+
+/*
+ * A volume-valued property (medium/gridvolume.c): Mitsuba 3's gridvolume, a grid of res[0] x res[1]
+ * x res[2] values of 1 or 3 channels over the unit cube of its local space, or its constvolume, one
+ * value everywhere. A world point p is looked up at to_local p. Grid values sit at the texel
+ * centres ((i + 0.5) / res) and are interpolated trilinearly (or taken from the nearest texel),
+ * indices outside the grid wrapped by `wrap`, as drjit's Texture3f does for Mitsuba. lo and hi
+ * bound the unit cube in world space (Mitsuba's volume bbox: a heterogeneous medium is vacuum
+ * outside its sigma_t volume's).
+ */
+typedef struct spc_volume {
+    bool grid;            /* false: constant `value` */
+    spc_rgb value;        /* constvolume */
+    int res[3], channels; /* grid: x varies fastest, then y, then z; 1 or 3 channels */
+    float *data;          /* grid: res[0] res[1] res[2] channels values (owned; spc_medium_release) */
+    bool nearest;
+    spc_volume_wrap wrap;
+    spc_mat4 to_world, to_local;
+    spc_vec3 lo, hi;
+    spc_rgb max; /* the largest value per channel */
+} spc_volume;
 
 typedef struct spc_medium {
     spc_medium_type type;
     char id[128];
-    spc_rgb sigma_a, sigma_s, sigma_t; /* per unit length; sigma_t = sigma_a + sigma_s */
+    spc_rgb sigma_a, sigma_s, sigma_t; /* homogeneous, per unit length; sigma_t = sigma_a + sigma_s */
+    /* heterogeneous: sigma_t(x) = scale sigma_t_vol(x); both types: with has_albedo_vol,
+     * sigma_s(x) = sigma_t(x) albedo_vol(x), else albedo is constant (heterogeneous: `albedo`,
+     * homogeneous: sigma_s / sigma_t) */
+    spc_volume sigma_t_vol, albedo_vol;
+    bool has_albedo_vol;
+    spc_rgb albedo;
+    double scale;
     spc_phase phase;
     bool sample_emitters; /* next-event estimation at its interactions (Mitsuba's sample_emitters) */
     int index;            /* position in scene->media */
 } spc_medium;
+
+/* Frees the volumes' grids (the scene calls it before freeing the medium). */
+void spc_medium_release(spc_medium *m);
+
+/* The volume's value at the world point p (per channel; a 1-channel grid fills all three). */
+spc_rgb spc_volume_eval(const spc_volume *v, spc_vec3 p);
+/* Sets v to a constant volume over the unit cube mapped by to_world (false: singular map). */
+bool spc_volume_init_constant(spc_volume *v, spc_rgb value, const spc_mat4 *to_world);
+/* Completes a grid volume whose res, channels, data, nearest and wrap are set: transforms, bounds
+ * and maxima (false: singular to_world). */
+bool spc_volume_finish_grid(spc_volume *v, const spc_mat4 *to_world);
+
+/* Makes m heterogeneous: sigma_t = scale sigma_t_vol (moved into m), constant albedo (the caller
+ * may then set albedo_vol and has_albedo_vol). The phase function is isotropic, sample_emitters
+ * true. */
+void spc_medium_init_heterogeneous(spc_medium *m, const spc_volume *sigma_t_vol, double scale, spc_rgb albedo);
+
+/* The coefficients at the point x: sigma_t and sigma_s (per unit length). */
+void spc_medium_coefficients(const spc_medium *m, spc_vec3 x, spc_rgb *sigma_t, spc_rgb *sigma_s);
 
 /* Sets the coefficients (sigma_t = sigma_a + sigma_s), an isotropic phase function and
  * sample_emitters. Returns false if a coefficient is negative or not finite. */
@@ -88,8 +142,25 @@ typedef struct spc_medium_event {
     double t;       /* the interaction's distance (scattered), else t_max */
     spc_rgb weight; /* the factor for beta (see above) */
     double pdf;     /* pdf(t) for an interaction, P(passing) otherwise */
+    spc_rgb albedo; /* sigma_s / sigma_t at the interaction (scattered) */
 } spc_medium_event;
 
+/* ---- along a ray: every medium type (what the integrators call) ----
+ * The ray is o + t d (d need not be unit: t is in its units times |d|; the integrators pass unit
+ * directions). For a homogeneous medium these are the functions below with d = t |d|. For a
+ * heterogeneous one the optical depth tau(t) = integral sigma_t is exact: along a line, trilinear
+ * interpolation is a cubic polynomial between the planes of texel centres it crosses, so Simpson's
+ * rule over each such piece integrates it exactly, and free-flight distances are drawn by
+ * inverting tau (regular tracking, with the same spectral mixture as above: one channel by
+ * throughput, pdf(t) = sum_c q_c sigma_t,c(t) T_c(t)). No majorant, no null collisions, no noise in
+ * shadow rays' transmittance. */
+spc_rgb spc_medium_transmittance_ray(const spc_medium *m, spc_vec3 o, spc_vec3 d, double t);
+bool spc_medium_sample_ray(const spc_medium *m, spc_vec3 o, spc_vec3 d, double t_max, spc_rgb beta, double u_channel,
+                           double u_dist, spc_medium_event *out);
+double spc_medium_pdf_ray(const spc_medium *m, spc_vec3 o, spc_vec3 d, spc_rgb beta, double t, double t_max,
+                          bool scattered);
+
+/* ---- homogeneous media by distance alone ---- */
 /* Free-flight sampling along a segment of length t_max (may be +inf) for throughput beta, from
  * two uniform numbers (u_channel picks the channel, u_dist the distance). False if neither an
  * interaction nor passing has positive probability (nothing to continue: the path ends). */

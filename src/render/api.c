@@ -308,6 +308,13 @@ char *spc_scene_describe(const spc_scene *s)
         case SPC_BSDF_PHONG:
             sb_printf(&b, " exponent=%.4g", bsdf->exponent);
             break;
+        case SPC_BSDF_PRINCIPLED:
+            sb_printf(&b, " eta=%.4g", bsdf->eta);
+            describe_texture(&b, "base_color", bsdf->pr.base_color);
+            break;
+        case SPC_BSDF_PRINCIPLEDTHIN:
+            describe_texture(&b, "base_color", bsdf->pr.base_color);
+            break;
         case SPC_BSDF_TWOSIDED:
         case SPC_BSDF_NORMALMAP:
         case SPC_BSDF_BUMPMAP:
@@ -339,6 +346,8 @@ char *spc_scene_describe(const spc_scene *s)
         case SPC_BSDF_NULL:
         case SPC_BSDF_MASK:
         case SPC_BSDF_BLENDBSDF:
+        case SPC_BSDF_PRINCIPLED:
+        case SPC_BSDF_PRINCIPLEDTHIN:
             break;
         }
         sb_printf(&b, "\n");

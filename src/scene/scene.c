@@ -111,8 +111,10 @@ void spc_scene_destroy(spc_scene *s)
         spc_texture_release(s->textures[i]);
         free(s->textures[i]);
     }
-    for (int i = 0; i < s->nmedia; ++i)
+    for (int i = 0; i < s->nmedia; ++i) {
+        spc_medium_release(s->media[i]);
         free(s->media[i]);
+    }
     free(s->media);
     free(s->shapes);
     free(s->bsdfs);

@@ -12,8 +12,11 @@
  *             [0, N) so that the edge texel repeats (..., 1, 0, 0, 1, ..., N-1, N-1, N-2, ...).
  * Checkerboard (Mitsuba 3 src/textures/checkerboard.cpp, eval): with (u, v) = to_uv(uv),
  * color0 where (u - floor u > 0.5) == (v - floor v > 0.5), color1 elsewhere; the mean is the
- * average of the two colors. (Mitsuba's eval_1 uses the opposite test, which looks like a slip;
- * spc_texture_eval1 here is the channel mean of spc_texture_eval, so the two always agree.)
+ * average of the two colors. Mitsuba 3's eval_1, which every float parameter reads (roughness,
+ * weights, opacity, heights, the principled BSDF's parameters), uses the opposite test (color0
+ * where the two differ; checked on Mitsuba 3.9.1): spc_texture_eval1 does the same, so that a
+ * float checkerboard renders as in Mitsuba (its mitsuba-data principled scenes fail the per-pixel
+ * z-test otherwise). The two patterns are shifted by one cell; their means are equal.
  */
 #include "scene/texture.h"
 
@@ -148,7 +151,15 @@ spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv)
     return spc_rgb1(0.0);
 }
 
-double spc_texture_eval1(const spc_texture *t, spc_vec2 uv) { return spc_rgb_avg(spc_texture_eval(t, uv)); }
+double spc_texture_eval1(const spc_texture *t, spc_vec2 uv)
+{
+    if (t->type == SPC_TEX_CHECKERBOARD) {
+        spc_vec2 p = map_uv(t, uv);
+        bool hu = p.x - floor(p.x) > 0.5, hv = p.y - floor(p.y) > 0.5;
+        return spc_rgb_avg(hu != hv ? t->color0 : t->color1);
+    }
+    return spc_rgb_avg(spc_texture_eval(t, uv));
+}
 
 spc_rgb spc_texture_eval_hit(const spc_texture *t, const spc_hit *h)
 {

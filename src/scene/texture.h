@@ -66,7 +66,8 @@ bool spc_texture_init_mesh_attribute(spc_texture *t, const char *name, double sc
  * a fourth is dropped. Black where the hit's shape is not a mesh or has no attribute of that
  * name. */
 spc_rgb spc_mesh_attribute_eval(const spc_texture *t, const struct spc_hit *h);
-/* Mean of the channels at uv (roughness, opacity, weights). */
+/* Mean of the channels at uv (roughness, opacity, weights): Mitsuba 3's eval_1, whose
+ * checkerboard has its two colors swapped (texture.c). */
 double spc_texture_eval1(const spc_texture *t, spc_vec2 uv);
 /* Gradient of spc_texture_eval1 with respect to the surface uv (before to_uv), as Mitsuba 3's
  * eval_1_grad: for bilinear bitmaps the exact gradient of the interpolant in the cell holding uv,
