@@ -18,6 +18,7 @@
 
 #include "manifold/conic.h"
 #include "manifold/plane_chains.h"
+#include "manifold/snee_cost.h"
 #include "render/camera.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/sphere_chains.h"
@@ -774,7 +775,8 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
             return false;
         ++count;
     }
-    return count <= 1; /* two such shapes: chains through both are the randomized solver's */
+    /* two such shapes: chains through both are the randomized solver's, unless none is short enough */
+    return count <= 1 || spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain);
 }
 
 typedef struct trial_ctx {

@@ -1,0 +1,23 @@
+/*
+ * manifold/snee_cost.h: exact tests that spare specular NEE (specular_nee.h) work that cannot add
+ * anything, so that its estimate stays the same, bit for bit, only cheaper.
+ */
+#ifndef SPC_MANIFOLD_SNEE_COST_H
+#define SPC_MANIFOLD_SNEE_COST_H
+
+#include <stdbool.h>
+
+#include "manifold/chain.h"
+
+/* Does no chain of at most max_chain vertices from x visit two of the casters cs? True when every
+ * caster is a sphere that sphere_chains.h enumerates (spc_sphere_chain_usable from x), no two of
+ * them overlap, and the two shortest visits add up to more than max_chain vertices: a visit to a
+ * convex mirror is one reflection (the ray leaves it and cannot come back), one to a glass ball two
+ * refractions, in and out (one reflection if reflect: dielectric vertices may reflect). Then every
+ * chain specular NEE can make from x stays on one sphere and is enumerated exactly, and the
+ * randomized attempts would find nothing else (a Cornell box with a glass and a mirror ball and
+ * chains of up to 2 vertices: a chain through both needs 3). */
+bool spc_snee_spheres_keep_apart(const spc_scene *sc, const spc_chain_casters *cs, spc_vec3 x, bool reflect,
+                                 int max_chain);
+
+#endif
