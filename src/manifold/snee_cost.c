@@ -43,3 +43,8 @@ bool spc_snee_spheres_keep_apart(const spc_scene *sc, const spc_chain_casters *c
     }
     return cs->n < 2 || least + next > max_chain;
 }
+
+double spc_snee_query_prob(const spc_snee_params *p)
+{
+    return p->guide > 0.0 || !(p->query_p > 0.0 && p->query_p < 1.0) ? 1.0 : p->query_p;
+}

@@ -8,6 +8,7 @@
 #include <stdbool.h>
 
 #include "manifold/chain.h"
+#include "manifold/specular_nee.h"
 
 /* Does no chain of at most max_chain vertices from x visit two of the casters cs? True when every
  * caster is a sphere that sphere_chains.h enumerates (spc_sphere_chain_usable from x), no two of
@@ -19,5 +20,9 @@
  * chains of up to 2 vertices: a chain through both needs 3). */
 bool spc_snee_spheres_keep_apart(const spc_scene *sc, const spc_chain_casters *cs, spc_vec3 x, bool reflect,
                                  int max_chain);
+
+/* The probability that specular NEE makes this query (spc_snee_params.query_p, later_p): query_p
+ * where it is in (0, 1) and guided directions are off, else 1. */
+double spc_snee_query_prob(const spc_snee_params *p);
 
 #endif
