@@ -264,6 +264,8 @@ typedef struct spc_specular_solver {
  *   mispsi=Q            params.mis_solve, in (0, 1]: the MIS weight's stand-in for the probability
  *                       that a randomized attempt finds a chain
  *   receivers=N         params.receivers: specular NEE at the first N non-delta path vertices only
+ *   later=P             params.later_p: past a path's first non-delta vertex the query with
+ *                       probability P, in (0, 1] (default 1), counted 1 / P times
  *   camera[=Q]          params.camera: specular NEE from the camera too (glints, lights seen through
  *                       glass), with probability Q per camera sample (params.camera_p, default 1)
  *   chain=N             params.max_chain: chains of at most N vertices (1 .. SPC_CHAIN_MAX_VERTICES;
