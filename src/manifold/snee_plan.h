@@ -76,8 +76,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
 /* The method a plan's params p use for the caster shape s. */
 spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *s);
 
-/* Writes a description of the plan (one line, a line on later_p if it is below 1, then one line per caster: shape index, its BSDF, the
- * method and the chain lengths it covers) to buf (always terminated); max_chain the scene's. Returns
+/* Writes a description of the plan (one line, a line on later_p if it is below 1, then one line per
+ * caster: shape index, its BSDF, the method and the chain lengths it covers) to buf (always terminated); max_chain the scene's. Returns
  * the length it needed (as snprintf). */
 int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int max_chain, char *buf, size_t len);
 

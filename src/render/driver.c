@@ -212,7 +212,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0,
                              "bad specular NEE setting '%s'; specula has: auto, %s, optionally followed by "
                              ":unbiased|biased[=M],trials=N,seed=cone|shape|light|bsdf,constraint=angle|half,rough,nomis,"
-                             "reflect[=P],noreflect,mispsi=Q,receivers=N,later=P,camera,chain=N,exact,noexact",
+                             "reflect[=P],noreflect,mispsi=Q,receivers=N,later=P,"
+                             "camera,chain=N,exact,noexact",
                              sname, spc_specular_solver_names());
     ctx.specular_nee = ctx.snee.solver;
     ctx.specular_max_chain = ctx.snee.max_chain; /* the setting's chain=N, if given */
