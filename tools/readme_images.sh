@@ -1,22 +1,28 @@
 #!/usr/bin/env bash
-# Regenerates the README's pictures: scenes/caustic_mirror_ring.xml (a caustic inside a mirror ring
-# under a small sphere light) rendered with the default (specular NEE chosen from the scene) and
-# with --specular-nee none, at about equal CPU time: none gets SPP_RATIO times the samples (the
-# default's cost per sample there, from bench/bench_default.py's calibration: 139 against 1488 spp
-# per CPU-second at 24x24). Writes docs/images/ring_default.png and docs/images/ring_none.png.
-# Usage: bash tools/readme_images.sh [RES] [SPP] [SPP_RATIO]
+# Regenerates the README's pictures, each scene with the default (specular NEE chosen from the scene)
+# and with --specular-nee none at about equal CPU time (none gets as many more samples as the
+# default costs per sample):
+#   - scenes/demo.xml at its own size (256x256), the default at its 16 spp, none at 75 spp (the
+#     default's cost per sample there is 4.7x none's: 7.9 against 6.7 CPU-s for 16 and 64 spp,
+#     bench/RESULTS.md, "The per-sample cost of specular NEE"): docs/images/demo_default.png,
+#     docs/images/demo_none.png;
+#   - scenes/caustic_mirror_ring.xml (a caustic inside a mirror ring under a small sphere light) at
+#     128x128, 32 against 352 spp (139 against 1488 spp per CPU-second at 24x24, bench_default.py):
+#     docs/images/ring_default.png, docs/images/ring_none.png.
+# Usage: bash tools/readme_images.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
-res=${1:-128}
-spp=${2:-32}
-ratio=${3:-11}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-scene=scenes/caustic_mirror_ring.xml
-"${SPECULA:-build/specula}" render "$scene" --res "${res}x${res}" --spp "$spp" --seed 1 -o "$tmp/default.exr" --quiet
-"${SPECULA:-build/specula}" render "$scene" --res "${res}x${res}" --spp $((spp * ratio)) --seed 1 --specular-nee none \
-  -o "$tmp/none.exr" --quiet
+spc=${SPECULA:-build/specula}
 mkdir -p docs/images
-cp "$tmp/default.png" docs/images/ring_default.png
-cp "$tmp/none.png" docs/images/ring_none.png
-echo "wrote docs/images/ring_default.png and docs/images/ring_none.png (${res}x${res}, $spp and $((spp * ratio)) spp)"
+# scene, name, res, default spp, none spp
+pair() {
+  "$spc" render "$1" --res "$3x$3" --spp "$4" --seed 1 -o "$tmp/default.exr" --quiet
+  "$spc" render "$1" --res "$3x$3" --spp "$5" --seed 1 --specular-nee none -o "$tmp/none.exr" --quiet
+  cp "$tmp/default.png" "docs/images/$2_default.png"
+  cp "$tmp/none.png" "docs/images/$2_none.png"
+  echo "wrote docs/images/$2_default.png and docs/images/$2_none.png ($3x$3, $4 and $5 spp)"
+}
+pair scenes/demo.xml demo 256 16 75
+pair scenes/caustic_mirror_ring.xml ring 128 32 352

@@ -181,6 +181,10 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             if (snp.receivers > 0 && receivers >= snp.receivers)
                 snee_budget = 0; /* past the vertices specular NEE runs at */
             if (snee_budget > 0) {
+                /* spc_snee_params.later_p: past the first receiver, the query by Russian roulette;
+                 * a covered BSDF path's MIS weight reads the same query_p (a vertex with a smooth
+                 * lobe is no chain vertex: a live track started at the last such vertex) */
+                snp.query_p = receivers > 0 ? snp.later_p : 1.0;
                 /* its own deterministic stream: the sampler's dimensions stay as without it */
                 spc_rng rng;
                 spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, ((uint64_t)smp->index << 32) | smp->dim),

@@ -18,6 +18,7 @@
 
 #include "manifold/conic.h"
 #include "manifold/plane_chains.h"
+#include "manifold/snee_cost.h"
 #include "manifold/snee_options.h"
 #include "scene/camera.h"
 #include "manifold/cylinder_chains.h"
@@ -141,6 +142,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->long_p = SPC_SNEE_LONG_P;
     p->guide = 0.0;
     p->snee_p = 1.0;
+    p->later_p = 1.0;
     p->camera_p = 1.0;
     if (solver == SPC_SNEE_ANGULAR)
         p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
@@ -631,7 +633,8 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
             return false;
         ++count;
     }
-    return count <= 1; /* two such shapes: chains through both are the randomized solver's */
+    /* two such shapes: chains through both are the randomized solver's, unless none is short enough */
+    return count <= 1 || spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain);
 }
 
 typedef struct trial_ctx {
@@ -923,7 +926,7 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.cam = cam;
         q.cam_scale = cam_scale;
         q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
-        double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : 1.0;
+        double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p);
         *a = chain_psi(&q, &ch) * p_y * ps;
     }
     return true;
@@ -1281,6 +1284,10 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
         return zero;
     if (p->solver == SPC_SNEE_NEWTON && p->newton.rough)
         return spc_newton_rough_nee(sc, p, x, wo, max_chain, rng, st);
+    /* params.query_p: the query made with that probability, counted 1 / query_p times (p_y below) */
+    double pq = spc_snee_query_prob(p);
+    if (pq < 1.0 && !(spc_rng_next(rng) < pq))
+        return zero;
 
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, x, wo, max_chain);
@@ -1308,6 +1315,7 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
         lit = spc_rng_next(rng) < ps;
         p_y *= ps;
     }
+    p_y *= pq;
     if (lit) {
         q.p_y = p_y;
         if (st)

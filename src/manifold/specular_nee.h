@@ -175,6 +175,15 @@ typedef struct spc_snee_params {
      * skipped at random and counted 1 / Q times when made, and MIS weighs them with Q p_y, so that
      * the cheaper guided directions carry the smooth image. Not from the camera. */
     double snee_p;
+    /* Russian roulette on the whole query past a path's first receiver (the user's "later=P"; 1 by
+     * default): at the second and later non-delta vertices of a camera path the query is made with
+     * probability P and counted 1 / P times, and MIS weighs it with P p_y, so that BSDF sampling
+     * takes more of the covered paths there. Unbiased for any P in (0, 1]; it spends the queries
+     * where the caustic is seen rather than where it only lights the room. The caller sets
+     * query_p per receiver (the path integrator: 1 at the first, later_p after it; 0 counts as
+     * 1); not with guide, not from the camera (camera_p). */
+    double later_p;
+    double query_p;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular

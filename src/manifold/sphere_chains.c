@@ -25,6 +25,7 @@
 
 #include "bsdf/bsdf.h"
 #include "manifold/roots1d.h"
+#include "manifold/snee_cost.h"
 #include "manifold/specular_nee.h"
 #include "scene/scene.h"
 
@@ -213,7 +214,7 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
                          double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
 {
     enum { G = SPC_SPHERE_GRID };
-    double th[G + 1], f[G + 1][SPC_SPHERE_SIGNATURES], ah[G + 1][SPC_SPHERE_SIGNATURES];
+    double th[G + 1], f[G + 1][SPC_SPHERE_SIGNATURES], ah[G + 1][SPC_SPHERE_SIGNATURES], pc[G + 1][2];
     double an[G + 1][SPC_SPHERE_SIGNATURES][SPHERE_ANGLES];
     bool ok[G + 1][SPC_SPHERE_SIGNATURES];
     /* the entry points by rotation from the first (cos and sin once) */
@@ -222,6 +223,8 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
     plane_problem pb = {d, y1, y2, eta, 0};
     for (int j = 0; j <= G; ++j) {
         th[j] = -tmax + step * j;
+        pc[j][0] = cx;
+        pc[j][1] = cy;
         plane_eval_all(&pb, mlo, mhi, cx, cy, f[j], ah[j], an[j], ok[j]);
         double nx = cx * cs - cy * sn, ny = cx * sn + cy * cs;
         cx = nx;
@@ -238,9 +241,15 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
                 angm[j][i] = an[j][m + 1][i];
         }
         pb.m = m;
+        /* an outside reflection reaches y only from a point y sees (y beyond its tangent plane):
+         * the cells of the arc y cannot see hold no root (spc_sphere_arc_unseen) */
+        bool skip[G], any = false;
+        if (m < 0)
+            for (int j = 0; j < G; ++j)
+                any |= skip[j] = spc_sphere_arc_unseen(y1, y2, pc[j], pc[j + 1]);
         /* to 1e-12: the 3D polish (spc_sphere_chains_all) converges from there in one trace */
-        n[m + 1] = spc_roots1d(plane_fn, NULL, &pb, th, fm, am, &angm[0][0], SPHERE_ANGLES, okm, G, NULL, 1e-12 * tmax,
-                               theta[m + 1], SPC_SPHERE_MAX_ROOTS);
+        n[m + 1] = spc_roots1d(plane_fn, NULL, &pb, th, fm, am, &angm[0][0], SPHERE_ANGLES, okm, G, any ? skip : NULL,
+                               1e-12 * tmax, theta[m + 1], SPC_SPHERE_MAX_ROOTS);
     }
 }
 

@@ -1,0 +1,62 @@
+/*
+ * manifold/snee_cost.c: exact early-outs for specular NEE (snee_cost.h). Each test proves that
+ * some work cannot produce a chain (or a nonzero contribution), so skipping it leaves the estimate
+ * unchanged.
+ */
+#include "manifold/snee_cost.h"
+
+#include <math.h>
+
+#include "bsdf/bsdf.h"
+#include "manifold/sphere_chains.h"
+#include "scene/scene.h"
+
+/* Spheres closer than this (relative to the sum of their radii) count as overlapping. */
+#define SPC_SNEE_APART_REL 1e-6
+
+/* The fewest vertices of one visit of a chain to the sphere s (spc_sphere_chain_shape). */
+static int visit_vertices(const spc_shape *s, bool reflect)
+{
+    return s->bsdf->type == SPC_BSDF_DIELECTRIC && !reflect ? 2 : 1;
+}
+
+bool spc_snee_spheres_keep_apart(const spc_scene *sc, const spc_chain_casters *cs, spc_vec3 x, bool reflect,
+                                 int max_chain)
+{
+    if (!cs)
+        return false;
+    int least = 1 << 20, next = 1 << 20; /* the two shortest visits */
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        if (!spc_sphere_chain_usable(s, x))
+            return false;
+        for (int j = 0; j < i; ++j) {
+            const spc_shape *t = sc->shapes[cs->idx[j]];
+            if (!(spc_distance(s->center, t->center) > (s->radius + t->radius) * (1.0 + SPC_SNEE_APART_REL)))
+                return false;
+        }
+        int v = visit_vertices(s, reflect);
+        if (v < least) {
+            next = least;
+            least = v;
+        } else if (v < next) {
+            next = v;
+        }
+    }
+    return cs->n < 2 || least + next > max_chain;
+}
+
+double spc_snee_query_prob(const spc_snee_params *p)
+{
+    return p->guide > 0.0 || !(p->query_p > 0.0 && p->query_p < 1.0) ? 1.0 : p->query_p;
+}
+
+bool spc_sphere_arc_unseen(double y1, double y2, const double p0[2], const double p1[2])
+{
+    /* y . P(t) = |y| cos(t - phi) on an arc shorter than half a turn: its largest value is |y| > 1
+     * where its derivative y2 cos t - y1 sin t turns from positive to negative inside, else at an
+     * end */
+    if (y2 * p0[0] - y1 * p0[1] > 0.0 && y2 * p1[0] - y1 * p1[1] < 0.0)
+        return false;
+    return fmax(y1 * p0[0] + y2 * p0[1], y1 * p1[0] + y2 * p1[1]) < 1.0 - 1e-9;
+}

@@ -1,0 +1,35 @@
+/*
+ * manifold/snee_cost.h: exact tests that spare specular NEE (specular_nee.h) work that cannot add
+ * anything, so that its estimate stays the same, bit for bit, only cheaper.
+ */
+#ifndef SPC_MANIFOLD_SNEE_COST_H
+#define SPC_MANIFOLD_SNEE_COST_H
+
+#include <stdbool.h>
+
+#include "manifold/chain.h"
+#include "manifold/specular_nee.h"
+
+/* Does no chain of at most max_chain vertices from x visit two of the casters cs? True when every
+ * caster is a sphere that sphere_chains.h enumerates (spc_sphere_chain_usable from x), no two of
+ * them overlap, and the two shortest visits add up to more than max_chain vertices: a visit to a
+ * convex mirror is one reflection (the ray leaves it and cannot come back), one to a glass ball two
+ * refractions, in and out (one reflection if reflect: dielectric vertices may reflect). Then every
+ * chain specular NEE can make from x stays on one sphere and is enumerated exactly, and the
+ * randomized attempts would find nothing else (a Cornell box with a glass and a mirror ball and
+ * chains of up to 2 vertices: a chain through both needs 3). */
+bool spc_snee_spheres_keep_apart(const spc_scene *sc, const spc_chain_casters *cs, spc_vec3 x, bool reflect,
+                                 int max_chain);
+
+/* Is every point P of the unit circle's arc from p0 to p1 (counterclockwise, less than half a turn;
+ * each given as (cos t, sin t)) behind its tangent line as seen from y = (y1, y2), i.e. y . P < 1
+ * there (with a margin of 1e-9)? A chain that leaves the circle by an outside reflection at such a
+ * point cannot reach y (the reflected ray leaves the tangent line on the far side from y), so no
+ * root of that chain lies there. */
+bool spc_sphere_arc_unseen(double y1, double y2, const double p0[2], const double p1[2]);
+
+/* The probability that specular NEE makes this query (spc_snee_params.query_p, later_p): query_p
+ * where it is in (0, 1) and guided directions are off, else 1. */
+double spc_snee_query_prob(const spc_snee_params *p);
+
+#endif
