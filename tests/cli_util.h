@@ -1,10 +1,11 @@
 /*
  * tests/cli_util.h: running the `specula` command from a test, once for every test that does.
  *
- * cu_init finds the binary ($SPC_BINARY_DIR/specula under ctest, else beside the test program) and
- * makes a temporary directory; cu_run and cu_spawn start the command in that directory with stdout
- * to out.txt and stderr to err.txt there, and return its exit status (128 + signal if killed, -1 if
- * it could not run). Paths given to the helpers are relative to the temporary directory.
+ * cli_init finds the binary ($SPC_BINARY_DIR/specula under ctest, else beside the test program) and
+ * makes a temporary directory; run, run_v and spawn_v start the command in that directory with
+ * stdout to out.txt and stderr to err.txt there; run and run_v return its exit status (128 + signal
+ * if killed, -1 if it could not run). Names given to the helpers are relative to the temporary
+ * directory. The helpers are static, one copy per test program, like the harness's.
  */
 #ifndef SPC_TESTS_CLI_UTIL_H
 #define SPC_TESTS_CLI_UTIL_H
@@ -21,13 +22,13 @@
 #include <unistd.h>
 
 /* The exit status of a bad command line (tools/specula.c); failures exit with their spc_status. */
-#define CU_EXIT_USAGE 64
+#define EXIT_USAGE 64
 
-static char cu_tmpdir[64];
-static char cu_binary[2048];
+static char tmpdir[64];
+static char binary[2048];
 
 /* Finds the binary and makes /tmp/spc_<name>_XXXXXX; false (and why printed) if either fails. */
-static inline bool cu_init(const char *name)
+static inline bool cli_init(const char *name)
 {
     const char *bin = getenv("SPC_BINARY_DIR");
     char self[900];
@@ -39,20 +40,20 @@ static inline bool cu_init(const char *name)
             *slash = '\0';
         bin = self;
     }
-    snprintf(cu_binary, sizeof cu_binary, "%s/specula", bin ? bin : "build");
-    if (cu_binary[0] != '/') { /* the child changes directory */
+    snprintf(binary, sizeof binary, "%s/specula", bin ? bin : "build");
+    if (binary[0] != '/') { /* the child changes directory */
         char cwd[512], rel[1000];
         if (getcwd(cwd, sizeof cwd)) {
-            snprintf(rel, sizeof rel, "%.999s", cu_binary);
-            snprintf(cu_binary, sizeof cu_binary, "%s/%s", cwd, rel);
+            snprintf(rel, sizeof rel, "%.999s", binary);
+            snprintf(binary, sizeof binary, "%s/%s", cwd, rel);
         }
     }
-    if (access(cu_binary, X_OK) != 0) {
-        printf("cannot run %s (set SPC_BINARY_DIR)\n", cu_binary);
+    if (access(binary, X_OK) != 0) {
+        printf("cannot run %s (set SPC_BINARY_DIR)\n", binary);
         return false;
     }
-    snprintf(cu_tmpdir, sizeof cu_tmpdir, "/tmp/spc_%.20s_XXXXXX", name);
-    if (!mkdtemp(cu_tmpdir)) {
+    snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_%.20s_XXXXXX", name);
+    if (!mkdtemp(tmpdir)) {
         perror("mkdtemp");
         return false;
     }
@@ -61,32 +62,32 @@ static inline bool cu_init(const char *name)
 
 /* After spc_test_finish's rc: removes the temporary directory if every test passed, else says where
  * its files are kept. Returns rc. */
-static inline int cu_finish(int rc)
+static inline int cli_finish(int rc)
 {
     if (rc == 0) {
         char cmd[600];
-        snprintf(cmd, sizeof cmd, "rm -rf '%s'", cu_tmpdir);
+        snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
         if (system(cmd) != 0)
-            printf("could not remove %s\n", cu_tmpdir);
+            printf("could not remove %s\n", tmpdir);
     } else {
-        printf("files kept in %s\n", cu_tmpdir);
+        printf("files kept in %s\n", tmpdir);
     }
     return rc;
 }
 
 /* name inside the temporary directory (eight buffers in rotation). */
-static inline const char *cu_path(const char *name)
+static inline const char *tmp_path(const char *name)
 {
     static char buf[8][600];
     static int k = 0;
     k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", cu_tmpdir, name);
+    snprintf(buf[k], sizeof buf[k], "%s/%s", tmpdir, name);
     return buf[k];
 }
 
-static inline bool cu_write(const char *name, const char *text)
+static inline bool write_file(const char *name, const char *text)
 {
-    FILE *fp = fopen(cu_path(name), "wb");
+    FILE *fp = fopen(tmp_path(name), "wb");
     if (!fp)
         return false;
     bool ok = fputs(text, fp) >= 0;
@@ -94,9 +95,9 @@ static inline bool cu_write(const char *name, const char *text)
 }
 
 /* The whole file, terminated (caller frees), its size in *size unless NULL; NULL if unreadable. */
-static inline unsigned char *cu_read_bytes(const char *name, size_t *size)
+static inline unsigned char *read_bytes(const char *name, size_t *size)
 {
-    FILE *fp = fopen(cu_path(name), "rb");
+    FILE *fp = fopen(tmp_path(name), "rb");
     if (!fp)
         return NULL;
     size_t cap = 4096, len = 0;
@@ -118,25 +119,25 @@ static inline unsigned char *cu_read_bytes(const char *name, size_t *size)
     return buf;
 }
 
-static inline char *cu_read_text(const char *name) { return (char *)cu_read_bytes(name, NULL); }
+static inline char *read_text(const char *name) { return (char *)read_bytes(name, NULL); }
 
-static inline bool cu_exists(const char *name) { return access(cu_path(name), F_OK) == 0; }
+static inline bool exists(const char *name) { return access(tmp_path(name), F_OK) == 0; }
 
 /* Starts `specula ARGS` (a NULL-terminated array) in the temporary directory; the environment
  * variable env_name is set to env_value first (unset if env_value is NULL) unless env_name is NULL.
  * Returns the child's pid, or -1. */
-static inline pid_t cu_spawn_env(const char *env_name, const char *env_value, const char *const *args)
+static inline pid_t spawn_env(const char *env_name, const char *env_value, const char *const *args)
 {
     const char *argv[64];
     int n = 0;
-    argv[n++] = cu_binary;
+    argv[n++] = binary;
     for (int i = 0; args[i] && n < 63; ++i)
         argv[n++] = args[i];
     argv[n] = NULL;
     fflush(stdout);
     pid_t pid = fork();
     if (pid == 0) {
-        if (chdir(cu_tmpdir) != 0)
+        if (chdir(tmpdir) != 0)
             _exit(126);
         int fo = open("out.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
         int fe = open("err.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -148,16 +149,16 @@ static inline pid_t cu_spawn_env(const char *env_name, const char *env_value, co
             setenv(env_name, env_value, 1);
         else if (env_name)
             unsetenv(env_name);
-        execv(cu_binary, (char *const *)argv);
+        execv(binary, (char *const *)argv);
         _exit(127);
     }
     return pid;
 }
 
-static inline pid_t cu_spawn(const char *const *args) { return cu_spawn_env(NULL, NULL, args); }
+static inline pid_t spawn_v(const char *const *args) { return spawn_env(NULL, NULL, args); }
 
 /* The exit status of a child, 128 + signal if killed, -1 on error. */
-static inline int cu_wait(pid_t pid)
+static inline int wait_code(pid_t pid)
 {
     int st = 0;
     if (pid < 0 || waitpid(pid, &st, 0) != pid)
@@ -168,10 +169,10 @@ static inline int cu_wait(pid_t pid)
 }
 
 /* Runs `specula ARGS` (a NULL-terminated array) and waits. */
-static inline int cu_run_v(const char *const *args) { return cu_wait(cu_spawn(args)); }
+static inline int run_v(const char *const *args) { return wait_code(spawn_v(args)); }
 
 /* Runs `specula ARG0 ...` (NULL-terminated arguments) and waits. */
-static inline int cu_run(const char *arg0, ...)
+static inline int run(const char *arg0, ...)
 {
     const char *args[64];
     int n = 0;
@@ -181,13 +182,13 @@ static inline int cu_run(const char *arg0, ...)
         args[n++] = a;
     va_end(ap);
     args[n] = NULL;
-    return cu_run_v(args);
+    return run_v(args);
 }
 
 /* Does the last run's file (out.txt, err.txt) contain needle? Prints the file if not. */
-static inline bool cu_file_has(const char *file, const char *needle)
+static inline bool file_has(const char *file, const char *needle)
 {
-    char *e = cu_read_text(file);
+    char *e = read_text(file);
     bool found = e && strstr(e, needle);
     if (!found)
         printf("  %s lacks \"%s\": %s\n", file, needle, e ? e : "(none)");
@@ -195,13 +196,13 @@ static inline bool cu_file_has(const char *file, const char *needle)
     return found;
 }
 
-static inline bool cu_err_has(const char *needle) { return cu_file_has("err.txt", needle); }
-static inline bool cu_out_has(const char *needle) { return cu_file_has("out.txt", needle); }
+static inline bool err_has(const char *needle) { return file_has("err.txt", needle); }
+static inline bool out_has(const char *needle) { return file_has("out.txt", needle); }
 
 /* Prints what the last run said, to diagnose a failed check. */
-static inline void cu_show_output(void)
+static inline void show_output(void)
 {
-    char *o = cu_read_text("out.txt"), *e = cu_read_text("err.txt");
+    char *o = read_text("out.txt"), *e = read_text("err.txt");
     printf("  --- stdout:\n%s  --- stderr:\n%s  ---\n", o ? o : "(none)\n", e ? e : "(none)\n");
     free(o);
     free(e);

@@ -17,106 +17,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "cli_util.h"
 #include "harness.h"
 #include "specula/specula.h"
-
-/* the exit status of a bad command line (tools/specula.c); failures exit with their spc_status */
-#define EXIT_USAGE 64
-
-static char tmpdir[64];
-static char binary[2048];
-
-static const char *tmp_path(const char *name)
-{
-    static char buf[8][512];
-    static int k = 0;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", tmpdir, name);
-    return buf[k];
-}
-
-static bool write_file(const char *name, const char *text)
-{
-    FILE *fp = fopen(tmp_path(name), "wb");
-    if (!fp)
-        return false;
-    bool ok = fputs(text, fp) >= 0;
-    return fclose(fp) == 0 && ok;
-}
-
-/* The whole file as a string (caller frees), or NULL. */
-static char *read_file(const char *name)
-{
-    FILE *fp = fopen(tmp_path(name), "rb");
-    if (!fp)
-        return NULL;
-    size_t cap = 4096, len = 0;
-    char *buf = malloc(cap);
-    for (size_t n; buf && (n = fread(buf + len, 1, cap - len - 1, fp)) > 0;) {
-        len += n;
-        if (cap - len < 2) {
-            char *nb = realloc(buf, cap *= 2);
-            if (!nb)
-                free(buf);
-            buf = nb;
-        }
-    }
-    fclose(fp);
-    if (buf)
-        buf[len] = '\0';
-    return buf;
-}
-
-static bool file_exists(const char *name) { return access(tmp_path(name), F_OK) == 0; }
-
-/* Runs `specula ARGS...` (NULL-terminated) in tmpdir with stdout -> out.txt, stderr -> err.txt.
- * Returns the exit status, 128 + signal if killed, -1 if it could not run. */
-static int run(const char *arg0, ...)
-{
-    const char *argv[64];
-    int n = 0;
-    argv[n++] = binary;
-    va_list ap;
-    va_start(ap, arg0);
-    for (const char *a = arg0; a && n < 63; a = va_arg(ap, const char *))
-        argv[n++] = a;
-    va_end(ap);
-    argv[n] = NULL;
-
-    fflush(stdout);
-    pid_t pid = fork();
-    if (pid < 0)
-        return -1;
-    if (pid == 0) {
-        if (chdir(tmpdir) != 0)
-            _exit(126);
-        int fo = open("out.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int fe = open("err.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fo < 0 || fe < 0 || dup2(fo, 1) < 0 || dup2(fe, 2) < 0)
-            _exit(126);
-        close(fo);
-        close(fe);
-        execv(binary, (char *const *)argv);
-        _exit(127);
-    }
-    int status = 0;
-    if (waitpid(pid, &status, 0) != pid)
-        return -1;
-    if (WIFEXITED(status))
-        return WEXITSTATUS(status);
-    if (WIFSIGNALED(status))
-        return 128 + WTERMSIG(status);
-    return -1;
-}
-
-/* Prints what the last run said, to diagnose a failed check. */
-static void show_output(void)
-{
-    char *o = read_file("out.txt"), *e = read_file("err.txt");
-    printf("  --- stdout:\n%s  --- stderr:\n%s  ---\n", o ? o : "(none)\n", e ? e : "(none)\n");
-    free(o);
-    free(e);
-}
 
 /* True if s contains `prefix` directly followed by digits and ':' (a column number). */
 static bool has_position(const char *s, const char *prefix)
@@ -188,12 +91,12 @@ TEST(usage_and_version)
 {
     CHECK(run(NULL) == EXIT_USAGE);
     CHECK(run("--version", NULL) == 0);
-    char *o = read_file("out.txt");
+    char *o = read_text("out.txt");
     CHECK(o && strstr(o, SPECULA_VERSION));
     free(o);
     CHECK(run("--help", NULL) == 0);
     CHECK(run("render", "--help", NULL) == 0);
-    o = read_file("out.txt");
+    o = read_text("out.txt");
     CHECK(o && strstr(o, "--spp"));
     free(o);
     CHECK(run("frobnicate", NULL) == EXIT_USAGE);
@@ -202,7 +105,7 @@ TEST(usage_and_version)
     CHECK(run("render", "tiny.xml", "--res", "16by16", NULL) == EXIT_USAGE);
     CHECK(run("render", NULL) == EXIT_USAGE);
     CHECK(run("diff", "only-one.exr", NULL) == EXIT_USAGE);
-    char *e = read_file("err.txt");
+    char *e = read_text("err.txt");
     CHECK(e && strncmp(e, "specula: ", 9) == 0);
     free(e);
 }
@@ -212,16 +115,16 @@ TEST(malformed_xml_names_position)
     CHECK(write_file("bad.xml", malformed_scene));
     int rc = run("render", "bad.xml", "--quiet", NULL);
     CHECK_MSG(rc == SPC_ERR_PARSE, "exit %d", rc);
-    char *e = read_file("err.txt");
+    char *e = read_text("err.txt");
     CHECK_MSG(has_position(e, "bad.xml:3:"), "stderr: %s", e ? e : "(none)");
     CHECK(e && strncmp(e, "specula: ", 9) == 0);
     /* one line */
     CHECK(e && strchr(e, '\n') == e + strlen(e) - 1);
     free(e);
-    CHECK(!file_exists("bad.exr") && !file_exists("bad.png"));
+    CHECK(!exists("bad.exr") && !exists("bad.png"));
     /* info reports the same */
     CHECK(run("info", "bad.xml", NULL) == SPC_ERR_PARSE);
-    e = read_file("err.txt");
+    e = read_text("err.txt");
     CHECK(has_position(e, "bad.xml:3:"));
     free(e);
 }
@@ -230,7 +133,7 @@ TEST(unknown_plugin_names_type_and_line)
 {
     CHECK(write_file("plugin.xml", unknown_plugin_scene));
     CHECK(run("render", "plugin.xml", "--quiet", NULL) == SPC_ERR_PLUGIN);
-    char *e = read_file("err.txt");
+    char *e = read_text("err.txt");
     CHECK_MSG(e && strstr(e, "plastik"), "stderr: %s", e ? e : "(none)");
     CHECK_MSG(has_position(e, "plugin.xml:4:"), "stderr: %s", e ? e : "(none)");
     free(e);
@@ -243,28 +146,28 @@ TEST(failed_run_keeps_existing_output)
     CHECK(write_file("keep.exr", sentinel));
     /* a load failure */
     CHECK(run("render", "bad.xml", "-o", "keep.exr", "--quiet", NULL) == SPC_ERR_PARSE);
-    char *c = read_file("keep.exr");
+    char *c = read_text("keep.exr");
     CHECK(c && !strcmp(c, sentinel));
     free(c);
-    CHECK(!file_exists("keep.png"));
+    CHECK(!exists("keep.png"));
     /* an unknown --integrator is refused when the scene is read (it replaces the scene's type) */
     int rc = run("render", "tiny.xml", "-o", "keep.exr", "--integrator", "no-such-integrator", "--quiet", NULL);
     CHECK_MSG(rc == SPC_ERR_PLUGIN, "exit %d", rc);
-    c = read_file("keep.exr");
+    c = read_text("keep.exr");
     CHECK(c && !strcmp(c, sentinel));
     free(c);
-    CHECK(!file_exists("keep.png"));
+    CHECK(!exists("keep.png"));
     /* a render failure: the scene loads, the film is absurdly large (each side within the limit,
      * 3.6e9 pixels beyond it) */
     rc = run("render", "tiny.xml", "-o", "keep.exr", "--res", "60000x60000", "--quiet", NULL);
     CHECK_MSG(rc == SPC_ERR_LIMIT, "exit %d", rc);
-    c = read_file("keep.exr");
+    c = read_text("keep.exr");
     CHECK(c && !strcmp(c, sentinel));
     free(c);
-    CHECK(!file_exists("keep.png"));
+    CHECK(!exists("keep.png"));
     /* a malformed -D is a usage error, also before anything is written */
     CHECK(run("render", "tiny.xml", "-o", "keep.exr", "-D", "novalue", NULL) == EXIT_USAGE);
-    c = read_file("keep.exr");
+    c = read_text("keep.exr");
     CHECK(c && !strcmp(c, sentinel));
     free(c);
     /* no temporary files left behind */
@@ -280,21 +183,21 @@ TEST(tiny_scene_renders_and_diffs)
     CHECK(rc == 0);
     if (rc != 0)
         show_output();
-    CHECK(file_exists("out.exr"));
-    CHECK(file_exists("out.png"));
-    char *c = read_file("out.exr");
+    CHECK(exists("out.exr"));
+    CHECK(exists("out.png"));
+    char *c = read_text("out.exr");
     CHECK(c && (unsigned char)c[0] == 0x76 && c[1] == 0x2f && c[2] == 0x31 && c[3] == 0x01);
     free(c);
 
     CHECK(run("diff", "out.exr", "out.exr", NULL) == 0);
-    char *o = read_file("out.txt");
+    char *o = read_text("out.txt");
     CHECK_MSG(o && strstr(o, "MSE: 0\n"), "stdout: %s", o ? o : "(none)");
     CHECK(o && strstr(o, "relMSE: 0\n"));
     CHECK(o && strstr(o, "z-test: 100.0000% of 256 pixels"));
     free(o);
 
     CHECK(run("diff", "out.exr", "out.exr", "--json", NULL) == 0);
-    o = read_file("out.txt");
+    o = read_text("out.txt");
     CHECK(o && strstr(o, "\"mse\": 0"));
     CHECK(o && strstr(o, "\"pass_fraction\": 1"));
     /* the floor is lit: the mean is not black */
@@ -304,14 +207,14 @@ TEST(tiny_scene_renders_and_diffs)
 
     /* the PNG is comparable too; its size matches */
     CHECK(run("diff", "out.png", "out.exr", NULL) == 0);
-    o = read_file("out.txt");
+    o = read_text("out.txt");
     CHECK(o && strstr(o, "16x16"));
     free(o);
 
     /* another seed gives a different image of the same size */
     CHECK(run("render", "tiny.xml", "-o", "seed.exr", "--spp", "4", "--seed", "7", "--quiet", NULL) == 0);
     CHECK(run("diff", "seed.exr", "out.exr", "--json", NULL) == 0);
-    o = read_file("out.txt");
+    o = read_text("out.txt");
     CHECK(o && !strstr(o, "\"mse\": 0,"));
     free(o);
 
@@ -326,7 +229,7 @@ static double diff_mse(const char *a, const char *b)
 {
     if (run("diff", a, b, "--json", NULL) != 0)
         return -1.0;
-    char *o = read_file("out.txt");
+    char *o = read_text("out.txt");
     const char *m = o ? strstr(o, "\"mse\": ") : NULL;
     double v = m ? atof(m + strlen("\"mse\": ")) : -1.0;
     free(o);
@@ -338,7 +241,7 @@ static double diff_mse(const char *a, const char *b)
 TEST(mis_balance_flag)
 {
     CHECK(run("render", "--help", NULL) == 0);
-    char *o = read_file("out.txt");
+    char *o = read_text("out.txt");
     CHECK(o && strstr(o, "--mis-balance"));
     free(o);
     CHECK(write_file("tiny.xml", tiny_scene));
@@ -391,14 +294,14 @@ TEST(strategy_images_flag)
                     char name[64];
                     snprintf(name, sizeof name, "strat/s%d_t%d_%s.%s", s, k + 1 - s, w ? "weighted" : "unweighted",
                              png ? "png" : "exr");
-                    bool there = file_exists(name);
+                    bool there = exists(name);
                     CHECK_MSG(there, "%s missing", name);
                     found += there;
                 }
     CHECK(found == 20);
     /* the direct light at length 2 comes from NEE and light tracing: both unweighted images see it */
     CHECK(run("diff", "strat/s1_t2_unweighted.exr", "strat/s2_t1_unweighted.exr", "--json", NULL) == 0);
-    char *o = read_file("out.txt");
+    char *o = read_text("out.txt");
     const char *m = o ? strstr(o, "\"mean_a\": [") : NULL, *mb = o ? strstr(o, "\"mean_b\": [") : NULL;
     CHECK(m && mb && atof(m + strlen("\"mean_a\": [")) > 0.0 && atof(mb + strlen("\"mean_b\": [")) > 0.0);
     free(o);
@@ -408,10 +311,10 @@ TEST(strategy_images_flag)
               "--strategy-images", "strat2", "--quiet", NULL) == EXIT_USAGE);
     CHECK(run("render", "tiny.xml", "--integrator", "path", "--max-depth", "2", "--spp", "1", "-o", "p.exr",
               "--strategy-images", "strat2", "--quiet", NULL) == SPC_ERR_VALUE);
-    char *e = read_file("err.txt");
+    char *e = read_text("err.txt");
     CHECK_MSG(e && strstr(e, "bdpt"), "stderr: %s", e ? e : "(none)");
     free(e);
-    CHECK(!file_exists("p.exr"));
+    CHECK(!exists("p.exr"));
 }
 
 TEST(default_output_name)
@@ -420,15 +323,15 @@ TEST(default_output_name)
     remove(tmp_path("tiny.exr"));
     remove(tmp_path("tiny.png"));
     CHECK(run("render", tmp_path("tiny.xml"), "--spp", "1", "--quiet", NULL) == 0);
-    CHECK(file_exists("tiny.exr"));
-    CHECK(file_exists("tiny.png"));
+    CHECK(exists("tiny.exr"));
+    CHECK(exists("tiny.png"));
 }
 
 TEST(info_prints_triangles)
 {
     CHECK(write_file("tiny.xml", tiny_scene));
     CHECK(run("info", "tiny.xml", NULL) == 0);
-    char *o = read_file("out.txt");
+    char *o = read_text("out.txt");
     CHECK_MSG(o && strstr(o, "triangles: 4\n"), "stdout: %s", o ? o : "(none)");
     CHECK(o && strstr(o, "film: 16x16"));
     CHECK(o && strstr(o, "emitters: 1\n"));
@@ -442,7 +345,7 @@ TEST(stats_json)
     CHECK(write_file("tiny.xml", tiny_scene));
     CHECK(run("render", "tiny.xml", "-o", "stats.exr", "--spp", "2", "--threads", "1", "--stats", "stats.json",
               "--quiet", NULL) == 0);
-    char *s = read_file("stats.json");
+    char *s = read_text("stats.json");
     CHECK(s != NULL);
     const char *keys[] = {"\"mrays_per_second\": ", "\"wall_seconds\": ", "\"rays_traced\": ", "\"threads\": 1",
                           "\"samples\": ", "\"invalid_samples\": ", "\"width\": 16", "\"height\": 16",
@@ -456,33 +359,8 @@ TEST(stats_json)
 
 int main(void)
 {
-    /* ctest sets SPC_BINARY_DIR; run by hand, the test sits beside specula in the build dir */
-    const char *bin = getenv("SPC_BINARY_DIR");
-    char self[900];
-    ssize_t n = bin ? -1 : readlink("/proc/self/exe", self, sizeof self - 1);
-    if (n > 0) {
-        self[n] = '\0';
-        char *slash = strrchr(self, '/');
-        if (slash)
-            *slash = '\0';
-        bin = self;
-    }
-    snprintf(binary, sizeof binary, "%s/specula", bin ? bin : "build");
-    if (binary[0] != '/') { /* the child changes directory */
-        char cwd[512];
-        if (getcwd(cwd, sizeof cwd)) {
-            char rel[1000];
-            snprintf(rel, sizeof rel, "%.999s", binary);
-            snprintf(binary, sizeof binary, "%s/%s", cwd, rel);
-        }
-    }
-    if (access(binary, X_OK) != 0) {
-        printf("cannot run %s (set SPC_BINARY_DIR)\n0 passed, 1 failed\n", binary);
-        return 1;
-    }
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_test_cli_XXXXXX");
-    if (!mkdtemp(tmpdir)) {
-        perror("mkdtemp");
+    if (!cli_init("test_cli")) {
+        printf("0 passed, 1 failed\n");
         return 1;
     }
     RUN(usage_and_version);
@@ -495,14 +373,6 @@ int main(void)
     RUN(strategy_images_flag);
     RUN(info_prints_triangles);
     RUN(stats_json);
-    int rc = spc_test_finish();
-    if (rc == 0) {
-        char cmd[600];
-        snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-        if (system(cmd) != 0)
-            printf("could not remove %s\n", tmpdir);
-    } else {
-        printf("files kept in %s\n", tmpdir);
-    }
+    int rc = cli_finish(spc_test_finish());
     return rc;
 }

@@ -36,120 +36,11 @@
 
 #include <openexr.h>
 
+#include "cli_util.h"
 #include "harness.h"
 #include "specula/specula.h"
 
-#define EXIT_USAGE 64  /* a bad command line (tools/specula.c) */
 #define EXIT_DIFFER 10 /* diff: beyond --max-relmse or --min-pass */
-
-static char tmpdir[64];
-static char binary[2048];
-
-static const char *tmp_path(const char *name)
-{
-    static char buf[8][600];
-    static int k = 0;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", tmpdir, name);
-    return buf[k];
-}
-
-static bool write_file(const char *name, const char *text)
-{
-    FILE *fp = fopen(tmp_path(name), "wb");
-    if (!fp)
-        return false;
-    bool ok = fputs(text, fp) >= 0;
-    return fclose(fp) == 0 && ok;
-}
-
-/* The whole file (caller frees), its size in *size; NULL if unreadable. */
-static unsigned char *read_bytes(const char *name, size_t *size)
-{
-    FILE *fp = fopen(tmp_path(name), "rb");
-    if (!fp)
-        return NULL;
-    size_t cap = 4096, len = 0;
-    unsigned char *buf = malloc(cap);
-    for (size_t n; buf && (n = fread(buf + len, 1, cap - len - 1, fp)) > 0;) {
-        len += n;
-        if (cap - len < 2) {
-            unsigned char *nb = realloc(buf, cap *= 2);
-            if (!nb)
-                free(buf);
-            buf = nb;
-        }
-    }
-    fclose(fp);
-    if (buf)
-        buf[len] = '\0';
-    if (size)
-        *size = len;
-    return buf;
-}
-
-static char *read_text(const char *name) { return (char *)read_bytes(name, NULL); }
-
-static bool exists(const char *name) { return access(tmp_path(name), F_OK) == 0; }
-
-static pid_t spawn_v(const char *const *args)
-{
-    const char *argv[64];
-    int n = 0;
-    argv[n++] = binary;
-    for (; args[n - 1] && n < 63; ++n)
-        argv[n] = args[n - 1];
-    argv[n] = NULL;
-    fflush(stdout);
-    pid_t pid = fork();
-    if (pid == 0) {
-        if (chdir(tmpdir) != 0)
-            _exit(126);
-        int fo = open("out.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int fe = open("err.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fo < 0 || fe < 0 || dup2(fo, 1) < 0 || dup2(fe, 2) < 0)
-            _exit(126);
-        close(fo);
-        close(fe);
-        execv(binary, (char *const *)argv);
-        _exit(127);
-    }
-    return pid;
-}
-
-static int wait_code(pid_t pid)
-{
-    int st = 0;
-    if (pid < 0 || waitpid(pid, &st, 0) != pid)
-        return -1;
-    if (WIFEXITED(st))
-        return WEXITSTATUS(st);
-    return WIFSIGNALED(st) ? 128 + WTERMSIG(st) : -1;
-}
-
-/* Runs `specula ARGS...` (NULL-terminated) in tmpdir; stdout -> out.txt, stderr -> err.txt. */
-static int run(const char *arg0, ...)
-{
-    const char *args[64];
-    int n = 0;
-    va_list ap;
-    va_start(ap, arg0);
-    for (const char *a = arg0; a && n < 63; a = va_arg(ap, const char *))
-        args[n++] = a;
-    va_end(ap);
-    args[n] = NULL;
-    return wait_code(spawn_v(args));
-}
-
-static bool err_has(const char *needle)
-{
-    char *e = read_text("err.txt");
-    bool found = e && strstr(e, needle);
-    if (!found)
-        printf("  stderr lacks \"%s\": %s", needle, e ? e : "(none)\n");
-    free(e);
-    return found;
-}
 
 static double now_s(void)
 {
@@ -663,32 +554,8 @@ TEST(time_budget)
 
 int main(void)
 {
-    const char *bin = getenv("SPC_BINARY_DIR");
-    char self[900];
-    ssize_t n = bin ? -1 : readlink("/proc/self/exe", self, sizeof self - 1);
-    if (n > 0) {
-        self[n] = '\0';
-        char *slash = strrchr(self, '/');
-        if (slash)
-            *slash = '\0';
-        bin = self;
-    }
-    snprintf(binary, sizeof binary, "%s/specula", bin ? bin : "build");
-    if (binary[0] != '/') {
-        char cwd[512];
-        if (getcwd(cwd, sizeof cwd)) {
-            char rel[1000];
-            snprintf(rel, sizeof rel, "%.999s", binary);
-            snprintf(binary, sizeof binary, "%s/%s", cwd, rel);
-        }
-    }
-    if (access(binary, X_OK) != 0) {
-        printf("cannot run %s (set SPC_BINARY_DIR)\n0 passed, 1 failed\n", binary);
-        return 1;
-    }
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_test_strict_XXXXXX");
-    if (!mkdtemp(tmpdir)) {
-        perror("mkdtemp");
+    if (!cli_init("test_strict")) {
+        printf("0 passed, 1 failed\n");
         return 1;
     }
     RUN(refuses_non_files_before_rendering);
@@ -701,14 +568,6 @@ int main(void)
     RUN(exit_statuses_documented);
     RUN(diff_ratio_and_thresholds);
     RUN(time_budget);
-    int rc = spc_test_finish();
-    if (rc == 0) {
-        char cmd[600];
-        snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-        if (system(cmd) != 0)
-            printf("could not remove %s\n", tmpdir);
-    } else {
-        printf("files kept in %s\n", tmpdir);
-    }
+    int rc = cli_finish(spc_test_finish());
     return rc;
 }

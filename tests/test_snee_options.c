@@ -167,8 +167,8 @@ TEST(help_lists_every_option)
         }
     }
     free(help);
-    CHECK(cu_run("render", "--help", NULL) == 0);
-    char *out = cu_read_text("out.txt");
+    CHECK(run("render", "--help", NULL) == 0);
+    char *out = read_text("out.txt");
     CHECK(out != NULL);
     if (out)
         check_help_text(out, "specula render --help");
@@ -228,48 +228,48 @@ TEST(bad_settings_refused)
         "</scene>\n";
     char xml[2048];
     snprintf(xml, sizeof xml, scene_fmt, "auto");
-    CHECK(cu_write("ok.xml", xml));
-    CHECK(cu_run("render", "ok.xml", "-o", "a.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:trials=8", NULL) == 0);
-    CHECK(cu_run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:trails=8",
+    CHECK(write_file("ok.xml", xml));
+    CHECK(run("render", "ok.xml", "-o", "a.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:trials=8", NULL) == 0);
+    CHECK(run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:trails=8",
                  NULL) == SPC_ERR_VALUE);
-    CHECK(cu_err_has("--specular-nee 'angular:trails=8': unknown specular NEE option 'trails=8'"));
-    CHECK(cu_err_has("valid options: ") && cu_err_has("trials=N"));
-    CHECK(!cu_exists("b.exr"));
-    CHECK(cu_run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:camera=2",
+    CHECK(err_has("--specular-nee 'angular:trails=8': unknown specular NEE option 'trails=8'"));
+    CHECK(err_has("valid options: ") && err_has("trials=N"));
+    CHECK(!exists("b.exr"));
+    CHECK(run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:camera=2",
                  NULL) == SPC_ERR_VALUE);
-    CHECK(cu_err_has("bad value '2' of specular NEE option 'camera': a number in (0, 1]"));
-    CHECK(cu_run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "glass", NULL) ==
+    CHECK(err_has("bad value '2' of specular NEE option 'camera': a number in (0, 1]"));
+    CHECK(run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "glass", NULL) ==
           SPC_ERR_PLUGIN);
-    CHECK(cu_err_has("unknown specular NEE solver 'glass'"));
+    CHECK(err_has("unknown specular NEE solver 'glass'"));
 
     /* the scene file: the property's file:line:col, by the loader and by the command */
     snprintf(xml, sizeof xml, scene_fmt, "newton:constraint=half,seed=cone,guide=200");
-    CHECK(cu_write("bad.xml", xml));
+    CHECK(write_file("bad.xml", xml));
     spc_scene *sc = NULL;
     spc_error err;
-    CHECK(spc_scene_load(cu_path("bad.xml"), NULL, 0, &sc, &err) == SPC_ERR_VALUE && !sc);
+    CHECK(spc_scene_load(tmp_path("bad.xml"), NULL, 0, &sc, &err) == SPC_ERR_VALUE && !sc);
     CHECK_MSG(err.line == 4 && err.col > 0, "line %d col %d", err.line, err.col);
     CHECK_MSG(strstr(err.msg, "bad value '200' of specular NEE option 'guide': a number in (0, 100]"), "%s", err.msg);
     spc_scene_destroy(sc);
-    CHECK(cu_run("render", "bad.xml", "-o", "b.exr", "--spp", "1", "--quiet", NULL) == SPC_ERR_VALUE);
-    CHECK(cu_err_has("bad.xml:4:") && cu_err_has("specular_nee 'newton:constraint=half,seed=cone,guide=200'"));
+    CHECK(run("render", "bad.xml", "-o", "b.exr", "--spp", "1", "--quiet", NULL) == SPC_ERR_VALUE);
+    CHECK(err_has("bad.xml:4:") && err_has("specular_nee 'newton:constraint=half,seed=cone,guide=200'"));
     snprintf(xml, sizeof xml, scene_fmt, "angular:constraint=half");
-    CHECK(cu_write("bad2.xml", xml));
-    CHECK(cu_run("render", "bad2.xml", "-o", "b.exr", "--spp", "1", "--quiet", NULL) == SPC_ERR_VALUE);
-    CHECK(cu_err_has("bad2.xml:4:") && cu_err_has("'constraint' is the newton solver's, not angular's"));
+    CHECK(write_file("bad2.xml", xml));
+    CHECK(run("render", "bad2.xml", "-o", "b.exr", "--spp", "1", "--quiet", NULL) == SPC_ERR_VALUE);
+    CHECK(err_has("bad2.xml:4:") && err_has("'constraint' is the newton solver's, not angular's"));
     snprintf(xml, sizeof xml, scene_fmt, "angular:long=0.5,mispsi=0.2");
-    CHECK(cu_write("good.xml", xml));
-    CHECK(cu_run("render", "good.xml", "-o", "g.exr", "--spp", "1", "--quiet", NULL) == 0);
+    CHECK(write_file("good.xml", xml));
+    CHECK(run("render", "good.xml", "-o", "g.exr", "--spp", "1", "--quiet", NULL) == 0);
 }
 
 int main(void)
 {
-    if (!cu_init("snee_options")) {
+    if (!cli_init("snee_options")) {
         printf("0 passed, 1 failed\n");
         return 1;
     }
     RUN(every_option_parses_and_round_trips);
     RUN(help_lists_every_option);
     RUN(bad_settings_refused);
-    return cu_finish(spc_test_finish());
+    return cli_finish(spc_test_finish());
 }

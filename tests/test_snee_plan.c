@@ -46,7 +46,7 @@ static bool finalize(spc_scene *sc)
 
 /* A floor (z = 0), a glass ball of radius 0.5 on it (unless `ball` is false) and a sphere light of
  * radius rl at lp with the power of radiance 4 on a sphere of radius 0.25; res x res pixels. */
-static spc_scene *ball_scene(bool ball, double rl, spc_vec3 lp, int res)
+static spc_scene *ball_scene_open(bool ball, double rl, spc_vec3 lp, int res)
 {
     spc_scene *sc = spc_scene_create();
     add_floor(sc, 3.0, tu_diffuse(sc, 0.7));
@@ -55,6 +55,13 @@ static spc_scene *ball_scene(bool ball, double rl, spc_vec3 lp, int res)
     spc_shape *light = tu_sphere(sc, lp, rl, tu_diffuse(sc, 0.0));
     tu_area(sc, light, ball ? 2 : 1, 4.0 * (0.25 / rl) * (0.25 / rl));
     tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.35), spc_v3(0, 0, 1), 50, res, res);
+    return sc;
+}
+
+/* The same, finalized; NULL if that fails. */
+static spc_scene *ball_scene(bool ball, double rl, spc_vec3 lp, int res)
+{
+    spc_scene *sc = ball_scene_open(ball, rl, lp, res);
     if (!finalize(sc)) {
         spc_scene_destroy(sc);
         return NULL;
@@ -148,7 +155,7 @@ TEST(default_on_with_casters_only)
 
     /* a flat-faced caster no exact enumeration covers (a glass pane): off by default, on when asked
      * for */
-    spc_scene *pane = ball_scene(false, 0.1, spc_v3(0.35, 0.25, 2.2), 4);
+    spc_scene *pane = ball_scene_open(false, 0.1, spc_v3(0.35, 0.25, 2.2), 4);
     if (pane) {
         spc_shape *g = spc_scene_new_shape(pane);
         spc_error gerr;

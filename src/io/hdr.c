@@ -6,7 +6,6 @@
  * Scanlines are written flat (not run-length encoded), which every reader accepts, top row first
  * ("-Y height +X width"). Negative and NaN values become 0. Written atomically (image.c).
  */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -41,42 +40,18 @@ void spc_rgbe_encode(const float rgb[3], unsigned char out[4])
     out[3] = (unsigned char)(e + 128);
 }
 
+/* File row i is image row i, one RGBE quadruple per pixel. */
+static void encode_row(const float *rgb, int width, int height, int i, unsigned char *row)
+{
+    (void)height;
+    const float *src = rgb + (size_t)i * (size_t)width * 3;
+    for (int x = 0; x < width; ++x)
+        spc_rgbe_encode(src + 3 * (size_t)x, row + 4 * (size_t)x);
+}
+
 spc_status spc_hdr_write(const char *path, int width, int height, const float *rgb, spc_error *err)
 {
-    if (width <= 0 || height <= 0 || !rgb)
-        return spc_error_set(err, SPC_ERR_VALUE, path, 0, 0, "invalid HDR write request (%dx%d)", width, height);
-    size_t tmpsize = strlen(path) + 64, rowbytes = (size_t)width * 4;
-    char *tmp = malloc(tmpsize);
-    unsigned char *row = malloc(rowbytes);
-    if (!tmp || !row) {
-        free(tmp);
-        free(row);
-        return spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory");
-    }
-    int fd = spc_atomic_open(path, tmp, tmpsize, err);
-    if (fd < 0) {
-        free(tmp);
-        free(row);
-        return SPC_ERR_IO;
-    }
     char header[128];
-    int hl = snprintf(header, sizeof header, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n", height, width);
-    bool ok = spc_write_all(fd, header, (size_t)hl);
-    for (int y = 0; ok && y < height; ++y) {
-        const float *src = rgb + (size_t)y * (size_t)width * 3;
-        for (int x = 0; x < width; ++x)
-            spc_rgbe_encode(src + 3 * (size_t)x, row + 4 * (size_t)x);
-        ok = spc_write_all(fd, row, rowbytes);
-    }
-    spc_status st;
-    if (ok) {
-        st = spc_atomic_commit(fd, tmp, path, err);
-    } else {
-        int e = errno;
-        spc_atomic_abort(fd, tmp);
-        st = spc_error_set(err, SPC_ERR_IO, path, 0, 0, "cannot write HDR: %s", strerror(e));
-    }
-    free(tmp);
-    free(row);
-    return st;
+    snprintf(header, sizeof header, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n", height, width);
+    return spc_raster_write(path, "HDR", header, (size_t)width * 4, width, height, rgb, encode_row, err);
 }

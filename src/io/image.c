@@ -1,6 +1,7 @@
 /*
  * io/image.c: image reading by file content (not by extension), the sRGB transfer functions and
- * the atomic file replacement that every image writer uses.
+ * the atomic file replacement that every image writer uses, and the writer of the simple raster
+ * formats (pfm.c, hdr.c) over it.
  *
  * spc_image_read looks at the first bytes of the file: "v/1\x01" is OpenEXR, "\x89PNG\r\n\x1a\n"
  * is PNG and "\xff\xd8\xff" is JPEG; the per-format readers live in exr.c, png.c and jpeg.c.
@@ -258,4 +259,42 @@ bool spc_write_all(int fd, const void *buf, size_t size)
         size -= (size_t)w;
     }
     return true;
+}
+
+spc_status spc_raster_write(const char *path, const char *format, const char *header, size_t rowbytes, int width,
+                            int height, const float *rgb, spc_row_encoder encode, spc_error *err)
+{
+    if (width <= 0 || height <= 0 || !rgb)
+        return spc_error_set(err, SPC_ERR_VALUE, path, 0, 0, "invalid %s write request (%dx%d)", format, width,
+                             height);
+    size_t tmpsize = strlen(path) + 64;
+    char *tmp = malloc(tmpsize);
+    unsigned char *row = malloc(rowbytes);
+    if (!tmp || !row) {
+        free(tmp);
+        free(row);
+        return spc_error_set(err, SPC_ERR_NOMEM, path, 0, 0, "out of memory");
+    }
+    int fd = spc_atomic_open(path, tmp, tmpsize, err);
+    if (fd < 0) {
+        free(tmp);
+        free(row);
+        return SPC_ERR_IO;
+    }
+    bool ok = spc_write_all(fd, header, strlen(header));
+    for (int i = 0; ok && i < height; ++i) {
+        encode(rgb, width, height, i, row);
+        ok = spc_write_all(fd, row, rowbytes);
+    }
+    spc_status st;
+    if (ok) {
+        st = spc_atomic_commit(fd, tmp, path, err);
+    } else {
+        int e = errno;
+        spc_atomic_abort(fd, tmp);
+        st = spc_error_set(err, SPC_ERR_IO, path, 0, 0, "cannot write %s: %s", format, strerror(e));
+    }
+    free(tmp);
+    free(row);
+    return st;
 }

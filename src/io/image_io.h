@@ -78,4 +78,11 @@ void spc_atomic_abort(int fd, const char *tmp);
 /* write(2) until done (retrying short writes and EINTR); false on failure with errno set. */
 bool spc_write_all(int fd, const void *buf, size_t size);
 
+/* Writes a simple raster format atomically: `header`, then `height` rows of rowbytes bytes, row i
+ * (in file order) filled by encode(rgb, width, i, row) from the linear RGB floats rgb (width x
+ * height, top row first). `format` names the format in messages ("PFM"). Refuses an empty image. */
+typedef void (*spc_row_encoder)(const float *rgb, int width, int height, int i, unsigned char *row);
+spc_status spc_raster_write(const char *path, const char *format, const char *header, size_t rowbytes, int width,
+                            int height, const float *rgb, spc_row_encoder encode, spc_error *err);
+
 #endif

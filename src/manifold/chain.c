@@ -33,66 +33,21 @@ spc_chain_opts spc_chain_opts_default(int max_vertices)
     return o;
 }
 
-bool spc_chain_caster_allowed(unsigned flags, int k)
-{
-    bool single = (flags & SPC_CAUSTIC_CASTER_SINGLE) != 0, multi = (flags & SPC_CAUSTIC_CASTER_MULTI) != 0;
-    if (single || multi)
-        return k == 1 ? single : multi;
-    return (flags & SPC_CAUSTIC_CASTER) != 0;
-}
-
-static void casters_destroy(void *p)
-{
-    spc_chain_casters *c = p;
-    free(c->idx);
-    free(c);
-}
+bool spc_chain_caster_allowed(unsigned flags, int k) { return spc_scene_caster_allowed(flags, k); }
 
 const spc_chain_casters *spc_chain_casters_of(const spc_scene *sc, bool any_surface)
 {
-    void **slot = (void **)&((spc_scene *)sc)->casters[any_surface ? 1 : 0];
-    spc_chain_casters *cur = __atomic_load_n(slot, __ATOMIC_ACQUIRE);
-    if (cur)
-        return cur;
-    spc_chain_casters *c = calloc(1, sizeof *c);
-    if (!c)
-        return NULL;
-    c->destroy = casters_destroy;
-    c->idx = malloc((size_t)(sc->nshapes > 0 ? sc->nshapes : 1) * sizeof *c->idx);
-    if (!c->idx) {
-        free(c);
-        return NULL;
-    }
-    spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
-    for (int i = 0; i < sc->nshapes; ++i) {
-        const spc_shape *s = sc->shapes[i];
-        if (!spc_chain_shape_is_caster(s, any_surface, NULL))
-            continue;
-        c->idx[c->n++] = i;
-        lo = spc_vmin(lo, s->bbox_min);
-        hi = spc_vmax(hi, s->bbox_max);
-    }
-    if (c->n > 0) {
-        c->center = spc_scale(spc_add(lo, hi), 0.5);
-        c->radius = 0.5 * spc_length(spc_sub(hi, lo));
-    }
-    void *expected = NULL;
-    if (__atomic_compare_exchange_n(slot, &expected, (void *)c, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
-        return c;
-    casters_destroy(c); /* another thread won */
-    return expected;
+    return &sc->casters[any_surface ? 1 : 0];
 }
 
 bool spc_chain_shape_is_caster(const spc_shape *s, bool any_surface, int *event)
 {
     double eta;
-    if (!s || s->emitter || !spc_bsdf_is_specular_interface(s->bsdf, &eta) || !spc_bsdf_chain_mappable(s->bsdf, s->type))
+    if (!spc_scene_shape_is_caster(s, any_surface, &eta))
         return false;
     if (event)
         *event = eta > 0.0 ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
-    if (any_surface)
-        return true;
-    return spc_chain_caster_allowed(s->caustic_flags, 1) || spc_chain_caster_allowed(s->caustic_flags, 2);
+    return true;
 }
 
 bool spc_chain_surface(const spc_hit *h, bool any_surface, int *event)

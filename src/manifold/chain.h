@@ -122,17 +122,10 @@ bool spc_chain_caster_allowed(unsigned caustic_flags, int k);
 /* Is the shape a possible chain vertex (specular interface BSDF, no emitter, caster for some chain
  * length unless any_surface)? *event (may be NULL) receives the BSDF's event. */
 bool spc_chain_shape_is_caster(const spc_shape *s, bool any_surface, int *event);
-/* The scene's casters (spc_chain_shape_is_caster) for one any_surface setting: their shape
- * indices in ascending order and the sphere around their bounding boxes (r 0 if none). Built on a
- * scene's first use and kept (thread-safe); a scene's shapes, BSDFs and caustic flags must not
- * change after it. NULL only if memory runs out. */
-typedef struct spc_chain_casters {
-    void (*destroy)(void *); /* first member: spc_scene_destroy calls it */
-    int n;
-    int *idx;
-    spc_vec3 center;
-    double radius;
-} spc_chain_casters;
+/* The scene's casters (spc_chain_shape_is_caster) for one any_surface setting: their shape indices
+ * in ascending order and the sphere around their bounding boxes (r 0 if none); built by
+ * spc_scene_finalize (a scene's shapes, BSDFs and caustic flags must not change after it). */
+typedef spc_scene_casters spc_chain_casters;
 const spc_chain_casters *spc_chain_casters_of(const spc_scene *sc, bool any_surface);
 /* Is the surface of h a possible chain vertex (specular interface, no emitter, caster for some
  * chain length unless any_surface)? *event receives the BSDF's event. */

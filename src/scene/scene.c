@@ -93,10 +93,7 @@ void spc_scene_destroy(spc_scene *s)
         return;
     spc_accel_destroy(s->accel);
     for (int k = 0; k < 2; ++k)
-        if (s->casters[k]) {
-            void (**destroy)(void *) = s->casters[k];
-            (*destroy)(s->casters[k]);
-        }
+        free(s->casters[k].idx);
     for (int i = 0; i < s->nshapes; ++i) {
         spc_shape_release(s->shapes[i]);
         free(s->shapes[i]);
@@ -193,6 +190,50 @@ const spc_texture *spc_scene_constant(spc_scene *s, spc_rgb value)
     if (t)
         spc_texture_init_constant(t, value);
     return t;
+}
+
+bool spc_scene_caster_allowed(unsigned flags, int k)
+{
+    bool single = (flags & SPC_CAUSTIC_CASTER_SINGLE) != 0, multi = (flags & SPC_CAUSTIC_CASTER_MULTI) != 0;
+    if (single || multi)
+        return k == 1 ? single : multi;
+    return (flags & SPC_CAUSTIC_CASTER) != 0;
+}
+
+bool spc_scene_shape_is_caster(const spc_shape *s, bool any_surface, double *eta)
+{
+    double e;
+    if (!s || s->emitter || !spc_bsdf_is_specular_interface(s->bsdf, &e) || !spc_bsdf_chain_mappable(s->bsdf, s->type))
+        return false;
+    if (eta)
+        *eta = e;
+    if (any_surface)
+        return true;
+    return spc_scene_caster_allowed(s->caustic_flags, 1) || spc_scene_caster_allowed(s->caustic_flags, 2);
+}
+
+/* The caster list of one any_surface setting (spc_scene_casters); false if memory runs out. */
+static bool casters_build(const spc_scene *s, bool any_surface, spc_scene_casters *c)
+{
+    free(c->idx);
+    memset(c, 0, sizeof *c);
+    c->idx = malloc((size_t)(s->nshapes > 0 ? s->nshapes : 1) * sizeof *c->idx);
+    if (!c->idx)
+        return false;
+    spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
+    for (int i = 0; i < s->nshapes; ++i) {
+        const spc_shape *sh = s->shapes[i];
+        if (!spc_scene_shape_is_caster(sh, any_surface, NULL))
+            continue;
+        c->idx[c->n++] = i;
+        lo = spc_vmin(lo, sh->bbox_min);
+        hi = spc_vmax(hi, sh->bbox_max);
+    }
+    if (c->n > 0) {
+        c->center = spc_scale(spc_add(lo, hi), 0.5);
+        c->radius = 0.5 * spc_length(spc_sub(hi, lo));
+    }
+    return true;
 }
 
 spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
@@ -294,6 +335,10 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
             s->light_pmf[i] = s->light_distrib.pmf[i];
     }
     free(power);
+
+    for (int k = 0; k < 2; ++k)
+        if (!casters_build(s, k == 1, &s->casters[k]))
+            return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory");
 
     s->accel = spc_accel_create(s, err);
     if (!s->accel)

@@ -103,6 +103,16 @@ typedef struct spc_integrator_spec {
     int decl_line, decl_col;
 } spc_integrator_spec;
 
+/* The shapes that may be vertices of a specular chain (spc_scene_shape_is_caster) for one
+ * any_surface setting: their indices in ascending order and the sphere around their bounding boxes
+ * (radius 0 if none). Built by spc_scene_finalize. */
+typedef struct spc_scene_casters {
+    int n;
+    int *idx;
+    spc_vec3 center;
+    double radius;
+} spc_scene_casters;
+
 typedef struct spc_scene {
     spc_shape **shapes;
     int nshapes, cap_shapes;
@@ -131,10 +141,7 @@ typedef struct spc_scene {
     double radius;                /* bounding sphere radius (>= a small positive value) */
     struct spc_accel *accel;
     bool finalized;
-    /* the specular chains' caster lists, one per any_surface setting (manifold/chain.c builds them
-     * on first use; the pointee's first member is its destroy function, which spc_scene_destroy
-     * calls) */
-    void *casters[2];
+    spc_scene_casters casters[2]; /* the specular chains' casters: [0] by caustic flags, [1] any_surface */
 
     char path[512]; /* the file it was loaded from, if any */
     /* FNV-1a of the bytes of every file the scene file references (includes, meshes, textures,
@@ -165,6 +172,14 @@ void spc_scene_set_defaults(spc_scene *s);
 
 /* Validates, builds sampling tables and the acceleration structure. */
 spc_status spc_scene_finalize(spc_scene *s, spc_error *err);
+
+/* Do the caustic flags allow a shape in chains of k specular vertices? SPC_CAUSTIC_CASTER allows
+ * every length; CASTER_SINGLE / CASTER_MULTI, when either is set, restrict it to one vertex / more. */
+bool spc_scene_caster_allowed(unsigned caustic_flags, int k);
+/* Is s a possible chain vertex: a specular interface BSDF that chains can follow on its shape, no
+ * emitter, a caster for some chain length (unless any_surface)? *eta (may be NULL) receives the
+ * BSDF's relative index (spc_bsdf_is_specular_interface: 0 for a mirror). */
+bool spc_scene_shape_is_caster(const spc_shape *s, bool any_surface, double *eta);
 
 bool spc_scene_intersect(const spc_scene *s, const spc_ray *r, spc_hit *h);
 bool spc_scene_occluded(const spc_scene *s, const spc_ray *r);
