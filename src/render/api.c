@@ -271,9 +271,14 @@ char *spc_scene_describe(const spc_scene *s)
     }
     for (int i = 0; s && i < s->nmedia; ++i) {
         const spc_medium *m = s->media[i];
-        sb_printf(&b, "medium %d: homogeneous", i);
+        sb_printf(&b, "medium %d: %s", i, m->type == SPC_MEDIUM_HETEROGENEOUS ? "heterogeneous" : "homogeneous");
         if (m->id[0])
             sb_printf(&b, " id='%s'", m->id);
+        if (m->type == SPC_MEDIUM_HETEROGENEOUS)
+            sb_printf(&b, " sigma_t grid %dx%dx%d (largest values below)", m->sigma_t_vol.res[0], m->sigma_t_vol.res[1],
+                      m->sigma_t_vol.res[2]);
+        if (m->has_albedo_vol)
+            sb_printf(&b, " albedo grid %dx%dx%d", m->albedo_vol.res[0], m->albedo_vol.res[1], m->albedo_vol.res[2]);
         sb_printf(&b, " sigma_a=(%.4g, %.4g, %.4g) sigma_s=(%.4g, %.4g, %.4g) phase %s", m->sigma_a.r, m->sigma_a.g,
                   m->sigma_a.b, m->sigma_s.r, m->sigma_s.g, m->sigma_s.b, m->phase.type == SPC_PHASE_HG ? "hg" : "isotropic");
         if (m->phase.type == SPC_PHASE_HG)
