@@ -99,8 +99,8 @@ TEST(every_option_parses_and_round_trips)
     }
     /* a few values read back as written */
     spc_snee_params p;
-    CHECK(spc_snee_options_parse("angular:trials=7,seed=light,reflect=0.3,camera=0.25,receivers=2,chain=3", 2, &p,
-                                 NULL, 0) == SPC_SNEE_PARSE_OK);
+    CHECK(spc_snee_options_parse("angular:trials=7,seed=light,reflect=0.3,camera=0.25,receivers=2,chain=3", 2, &p, NULL,
+                                 0) == SPC_SNEE_PARSE_OK);
     CHECK(p.max_trials == 7 && p.seed == SPC_SNEE_SEED_LIGHT && p.reflect && p.reflect_p == 0.3 && p.camera &&
           p.camera_p == 0.25 && p.receivers == 2 && p.max_chain == 3);
     CHECK(spc_snee_options_parse("newton:constraint=half,rough", 2, &p, NULL, 0) == SPC_SNEE_PARSE_OK &&
@@ -181,7 +181,8 @@ TEST(bad_settings_refused)
         const char *spec, *says[3];
         spc_snee_parse_result r;
     } bad[] = {
-        {"angular:frobnicate", {"unknown specular NEE option 'frobnicate'", "valid options: ", "sneep=Q"},
+        {"angular:frobnicate",
+         {"unknown specular NEE option 'frobnicate'", "valid options: ", "sneep=Q"},
          SPC_SNEE_PARSE_BAD_OPTION},
         {"angular:trials=0", {"'trials'", "'0'", "from 1 to"}, SPC_SNEE_PARSE_BAD_OPTION},
         {"angular:trials", {"'trials' needs a value", "trials=N", NULL}, SPC_SNEE_PARSE_BAD_OPTION},
@@ -220,23 +221,26 @@ TEST(bad_settings_refused)
         "    <string name=\"specular_nee\" value=\"%s\"/>\n"
         "  </integrator>\n"
         "  <sensor type=\"perspective\">\n"
-        "    <film type=\"hdrfilm\"><integer name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/></film>\n"
+        "    <film type=\"hdrfilm\"><integer name=\"width\" value=\"4\"/><integer name=\"height\" "
+        "value=\"4\"/></film>\n"
         "  </sensor>\n"
         "  <shape type=\"rectangle\"><bsdf type=\"diffuse\"/></shape>\n"
-        "  <shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0\" z=\"1\"/><float name=\"radius\" value=\"0.3\"/>\n"
+        "  <shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0\" z=\"1\"/><float name=\"radius\" "
+        "value=\"0.3\"/>\n"
         "    <emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>\n"
         "</scene>\n";
     char xml[2048];
     snprintf(xml, sizeof xml, scene_fmt, "auto");
     CHECK(write_file("ok.xml", xml));
-    CHECK(run("render", "ok.xml", "-o", "a.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:trials=8", NULL) == 0);
-    CHECK(run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:trails=8",
-                 NULL) == SPC_ERR_VALUE);
+    CHECK(run("render", "ok.xml", "-o", "a.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:trials=8", NULL) ==
+          0);
+    CHECK(run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:trails=8", NULL) ==
+          SPC_ERR_VALUE);
     CHECK(err_has("--specular-nee 'angular:trails=8': unknown specular NEE option 'trails=8'"));
     CHECK(err_has("valid options: ") && err_has("trials=N"));
     CHECK(!exists("b.exr"));
-    CHECK(run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:camera=2",
-                 NULL) == SPC_ERR_VALUE);
+    CHECK(run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "angular:camera=2", NULL) ==
+          SPC_ERR_VALUE);
     CHECK(err_has("bad value '2' of specular NEE option 'camera': a number in (0, 1]"));
     CHECK(run("render", "ok.xml", "-o", "b.exr", "--spp", "1", "--quiet", "--specular-nee", "glass", NULL) ==
           SPC_ERR_PLUGIN);

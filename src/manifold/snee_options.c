@@ -34,8 +34,8 @@ static const spc_snee_option options[] = {
      AT(biased_seeds), 0, NULL,
      "unbiased: one solution per light sample, times its Bernoulli-trial count (1/p); biased: M attempts, "
      "the distinct solutions found summed (no trials: energy lost where solutions are hard to find)"},
-    {"trials", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_SNEE_COUNT_MAX, false, false, NULL, 0, NO,
-     AT(max_trials), 0, NULL, "cap of the Bernoulli-trial count (a capped count is biased low)"},
+    {"trials", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_SNEE_COUNT_MAX, false, false, NULL, 0, NO, AT(max_trials),
+     0, NULL, "cap of the Bernoulli-trial count (a capped count is biased low)"},
     {"seed", NULL, SPC_SNEE_OPT_CHOICE, false, "S", 0, 0, false, false, seed_choices, 0, NO, AT(seed), 0, NULL,
      "the randomized attempts' seeds: a uniform point of a caster (shape), the straight line to the light "
      "(light: Hanika et al.'s MNEE), a direction sampled from the receiver's BSDF (bsdf), or uniform in the "
@@ -52,15 +52,15 @@ static const spc_snee_option options[] = {
      NULL, "chains also reflect off glass, with probability P at a dielectric vertex of a seed chain"},
     {"mispsi", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(mis_solve), 0, NULL,
      "MIS weighs the chains of randomized attempts as if found with probability Q"},
-    {"receivers", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_SNEE_COUNT_MAX, false, false, NULL, 0, NO,
-     AT(receivers), 0, "every receiver", "specular NEE at the first N diffuse or glossy vertices of a path only"},
+    {"receivers", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_SNEE_COUNT_MAX, false, false, NULL, 0, NO, AT(receivers),
+     0, "every receiver", "specular NEE at the first N diffuse or glossy vertices of a path only"},
     {"later", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(later_p), 0, NULL,
      "past a path's first diffuse or glossy vertex, the whole query with probability P, counted 1/P times"},
     {"camera", NULL, SPC_SNEE_OPT_REAL, true, "Q", 0, 1, true, false, NULL, 0, AT(camera), AT(camera_p), 0, NULL,
      "specular NEE from the camera's pinhole too, in a fraction Q of the camera samples (lights seen through "
      "glass, glints)"},
-    {"chain", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_CHAIN_MAX_VERTICES, false, false, NULL, 0, NO,
-     AT(max_chain), 0, "the integrator's specular_max_chain, 2", "the longest chain, in specular vertices"},
+    {"chain", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_CHAIN_MAX_VERTICES, false, false, NULL, 0, NO, AT(max_chain),
+     0, "the integrator's specular_max_chain, 2", "the longest chain, in specular vertices"},
     {"exact", "noexact", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(exact), NO, 0, NULL,
      "chains on one sphere, one mirror cylinder or one normal-mapped plane enumerated exactly, not left to "
      "the randomized attempts"},
@@ -200,7 +200,10 @@ static spc_snee_parse_result refuse(char *why, size_t why_len, const char *fmt, 
 
 /* ---- parsing ---- */
 
-static bool word_is(const char *s, size_t n, const char *word) { return word && strlen(word) == n && !strncmp(s, word, n); }
+static bool word_is(const char *s, size_t n, const char *word)
+{
+    return word && strlen(word) == n && !strncmp(s, word, n);
+}
 
 /* Parses the whole of s[0..n) as the option's value into *v; false if it is not one or out of range. */
 static bool parse_value(const spc_snee_option *o, const char *s, size_t n, double *v)
@@ -353,7 +356,8 @@ static void cat_option(char *buf, size_t len, size_t *used, const spc_snee_param
 {
     if (o->solver && o->solver != p->solver)
         return;
-    bool on = o->flag != SPC_SNEE_NO_FIELD ? flag_of(p, o) : in_range(o, value_of(p, o)) || o->kind == SPC_SNEE_OPT_CHOICE;
+    bool on =
+        o->flag != SPC_SNEE_NO_FIELD ? flag_of(p, o) : in_range(o, value_of(p, o)) || o->kind == SPC_SNEE_OPT_CHOICE;
     if (!on) {
         if (o->negation)
             cat(buf, len, used, "%s", o->negation);
@@ -480,8 +484,8 @@ static void cat_default(char *buf, size_t len, size_t *used, const spc_snee_opti
         if (!o->negation && o->flag == SPC_SNEE_NO_FIELD) /* a plain value: "64", not "trials=64" */
             memmove(tokens[n], tokens[n] + strlen(o->name) + 1, strlen(tokens[n] + strlen(o->name) + 1) + 1);
         else if (o->flag != SPC_SNEE_NO_FIELD && o->field != SPC_SNEE_NO_FIELD && !flag_of(&p, o))
-            cat(tokens[n], sizeof tokens[n], &tn, o->kind == SPC_SNEE_OPT_REAL ? ", %s %g" : ", %s %.0f",
-                o->metavar, value_of(&p, o)); /* the value it would take: "unbiased, M 8" */
+            cat(tokens[n], sizeof tokens[n], &tn, o->kind == SPC_SNEE_OPT_REAL ? ", %s %g" : ", %s %.0f", o->metavar,
+                value_of(&p, o)); /* the value it would take: "unbiased, M 8" */
         ids[n++] = id;
     }
     bool all_same = true;

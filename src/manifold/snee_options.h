@@ -43,19 +43,19 @@ typedef enum spc_snee_option_kind {
  * `implied`; the negation clears the flag, or without one sets the field to 0. */
 typedef struct spc_snee_option {
     const char *name;
-    const char *negation;        /* the word that turns it off ("noreflect"), or NULL */
+    const char *negation; /* the word that turns it off ("noreflect"), or NULL */
     spc_snee_option_kind kind;
-    bool value_optional;         /* NAME alone is valid too */
-    const char *metavar;         /* the value's name in the help: "N", "P", ... (NULL for a switch) */
-    double lo, hi;               /* the value's range (COUNT, REAL) */
+    bool value_optional; /* NAME alone is valid too */
+    const char *metavar; /* the value's name in the help: "N", "P", ... (NULL for a switch) */
+    double lo, hi;       /* the value's range (COUNT, REAL) */
     bool lo_open, hi_open;
-    const char *const *choices;  /* CHOICE: NULL-terminated, in the enum's order */
-    int solver;                  /* 0: every solver; else only this one (SPC_SNEE_NEWTON) */
-    size_t flag;                 /* offsetof the bool in spc_snee_params, or SPC_SNEE_NO_FIELD */
-    size_t field;                /* offsetof the int, double or enum, or SPC_SNEE_NO_FIELD */
-    double implied;              /* NAME alone without a flag: the value it sets */
-    const char *default_note;    /* the default in words where the table's is not the whole story */
-    const char *help;            /* what it does, one sentence */
+    const char *const *choices; /* CHOICE: NULL-terminated, in the enum's order */
+    int solver;                 /* 0: every solver; else only this one (SPC_SNEE_NEWTON) */
+    size_t flag;                /* offsetof the bool in spc_snee_params, or SPC_SNEE_NO_FIELD */
+    size_t field;               /* offsetof the int, double or enum, or SPC_SNEE_NO_FIELD */
+    double implied;             /* NAME alone without a flag: the value it sets */
+    const char *default_note;   /* the default in words where the table's is not the whole story */
+    const char *help;           /* what it does, one sentence */
 } spc_snee_option;
 
 /* The table, and its length in *n. */
@@ -71,8 +71,8 @@ typedef enum spc_snee_parse_result {
  * none): *p = spc_snee_params_default(p, solver, max_chain), then each option in turn. On failure (p
  * undefined) a message in why (at most why_len bytes, SPC_SNEE_WHY_MAX is enough) names the bad
  * solver, option or value and lists the valid ones. why may be NULL. */
-spc_snee_parse_result spc_snee_options_parse(const char *setting, int max_chain, struct spc_snee_params *p,
-                                             char *why, size_t why_len);
+spc_snee_parse_result spc_snee_options_parse(const char *setting, int max_chain, struct spc_snee_params *p, char *why,
+                                             size_t why_len);
 
 /* Checks a setting as a scene file or the command line gives it: the plan's words too. The result
  * and message as spc_snee_options_parse's. */
