@@ -2,19 +2,23 @@
 """bench/bench_default.py: the default specular NEE (snee_plan.h) against `--specular-nee none`
 at equal CPU time, on every caustic scene in scenes/.
 
-For each scene: a reference rendered by the default (specula render, no flag) at `--ref` CPU
-seconds; then, for each of `--seeds` seeds, the default and none, each with the sample count that a
-short calibration render says fits `--budget` CPU seconds (user + system of the child, from
-os.wait4, minus the same command at 1 spp on one pixel: loading and the acceleration structure).
-relMSE = mean over pixels of (img - ref)^2 / (ref^2 + 0.01) (as `specula diff`), scaled to the
-budget (relMSE x cpu / budget, exact for an unbiased estimator). Reports per setting the mean over
-seeds, the worst seed, and the share of the worst pixel in the error of the mean image's error sum,
-and the ratio none / default of the means. The reference's own error is in both columns alike.
+For each scene: a reference rendered by the default (specula render, no flag; or --ref-setting) at
+`--ref` CPU seconds, with its per-pixel variance; then, for each of `--seeds` seeds, the default and
+none (and each --extra setting), each with the sample count that a short calibration render says
+fits `--budget` CPU seconds (user + system of the child, from os.wait4, minus the same command at 1
+spp on one pixel: loading and the acceleration structure). relMSE = mean over pixels of
+((img - ref)^2 - var_ref) / (ref^2 + 0.01) (as `specula diff`, less the reference's own expected
+share, var_ref its variance of the mean: without it the reference's error sits in every column and
+caps the ratios), scaled to the budget (relMSE x cpu / budget, exact for an unbiased estimator).
+Reports per setting the mean over seeds, the worst seed, and the largest share of one pixel in a
+seed's error sum, and the ratio none / setting of the means.
 
 usage (from the source root):
   python3 bench/bench_default.py [--specula build/specula] [--out /tmp/bench_default] [--res 24]
-                                 [--budget 1.0] [--ref 12] [--seeds 3] [--setting S] [SCENE.xml ...]
-(--setting S: S instead of the default in the first column, against the same reference)
+                                 [--budget 1.0] [--ref 12] [--seeds 3] [--setting S] [--extra S ...]
+                                 [--ref-setting S] [SCENE.xml ...]
+(--setting S: S instead of the default in the first column, against the same reference; --extra S:
+one more column; --ref-setting S: the reference rendered with S instead of the default)
 """
 import argparse
 import glob
@@ -50,12 +54,23 @@ def run(args):
     return ru.ru_utime + ru.ru_stime
 
 
-def render(a, scene, out, setting, spp, seed, res):
+def render(a, scene, out, setting, spp, seed, res, variance=False):
     cmd = [a.specula, "render", scene, "-o", out, "--spp", str(spp), "--seed", str(seed), "--threads", "1",
            "--res", "%dx%d" % (res, res), "--quiet"]
     if setting is not None:
         cmd += ["--specular-nee", setting]
+    if variance:
+        cmd += ["--variance"]
     return run(cmd)
+
+
+def read_exr_var(path):
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    b = mi.Bitmap(path)
+    ch = dict(b.split())
+    img = np.array(ch["<root>"]).astype(np.float64)[..., :3]
+    return img, np.array(ch["variance"]).astype(np.float64)[..., :3]
 
 
 def main():
@@ -68,12 +83,19 @@ def main():
     ap.add_argument("--ref", type=float, default=12.0)
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--setting", default=None, help="render this setting in the default's column (no flag if absent)")
+    ap.add_argument("--extra", action="append", default=[], help="one more column with this setting")
+    ap.add_argument("--ref-setting", default=None, help="the reference's setting (default: no flag)")
     a = ap.parse_args()
     scenes = a.scenes or sorted(glob.glob(os.path.join(ROOT, "scenes", "caustic_*.xml")) +
                                 [os.path.join(ROOT, "scenes", "demo.xml")])
     os.makedirs(a.out, exist_ok=True)
-    print("| scene | default | relMSE default: mean (worst seed) | relMSE none: mean (worst seed) | none / default | worst pixel's share (default, none) |")
-    print("|---|---|---|---|---|---|")
+    cols = [a.setting, "none"] + a.extra
+    head = "| scene | default | relMSE default: mean (worst seed), spp | relMSE none: mean (worst seed), spp | none / default |"
+    for x in a.extra:
+        head += " relMSE %s: mean (worst seed), spp | none / it |" % x
+    head += " worst pixel's share (%s) |" % ", ".join(c or "default" for c in cols)
+    print(head)
+    print("|---" * (head.count("|") - 1) + "|")
     for scene in scenes:
         name = os.path.splitext(os.path.basename(scene))[0]
         plan = subprocess.run([a.specula, "info", scene], capture_output=True, text=True).stdout
@@ -84,28 +106,36 @@ def main():
         if a.setting:
             setting = a.setting
         cal = {}
-        for s in (a.setting, "none"):
+        for s in cols + [a.ref_setting]:
+            if s in cal:
+                continue
             c = render(a, scene, os.path.join(a.out, "cal.exr"), s, 4, 99, a.res) - base
             cal[s] = max(c, 1e-3) / 4.0
-        ref_path = os.path.join(a.out, name + "_ref.exr")
+        ref_path = os.path.join(a.out, "%s_ref_%s.exr" % (name, (a.ref_setting or "default").replace(":", "_")))
         if not os.path.exists(ref_path):
-            render(a, scene, ref_path, None, max(16, int(a.ref / cal[a.setting])), 12345, a.res)
-        ref = read_exr(ref_path)
+            render(a, scene, ref_path, a.ref_setting, max(16, int(a.ref / cal[a.ref_setting])), 12345, a.res,
+                   variance=True)
+        ref, ref_var = read_exr_var(ref_path)
         res = {}
-        for s in (a.setting, "none"):
+        for s in cols:
             errs, shares = [], []
             spp = max(1, int(a.budget / cal[s]))
             for k in range(a.seeds):
                 p = os.path.join(a.out, "%s_%s_%d.exr" % (name, (s or "default").replace(":", "_"), k))
                 cpu = render(a, scene, p, s, spp, 1 + k, a.res) - base
                 img = read_exr(p)
-                e = ((img - ref) ** 2 / (ref ** 2 + 0.01)).mean(-1)
+                e = (((img - ref) ** 2 - ref_var) / (ref ** 2 + 0.01)).mean(-1)
                 errs.append(e.mean() * max(cpu, 1e-3) / a.budget)
                 shares.append(e.max() / max(e.sum(), 1e-300))
             res[s] = (np.mean(errs), max(errs), max(shares), spp)
         d, n = res[a.setting], res["none"]
-        print("| %s | %s | %.3g (%.3g), %d spp | %.3g (%.3g), %d spp | %.1f | %.2f, %.2f |" % (
-            name, setting, d[0], d[1], d[3], n[0], n[1], n[3], n[0] / d[0], d[2], n[2]))
+        row = "| %s | %s | %.3g (%.3g), %d spp | %.3g (%.3g), %d spp | %.1f |" % (
+            name, setting, d[0], d[1], d[3], n[0], n[1], n[3], n[0] / d[0])
+        for x in a.extra:
+            r = res[x]
+            row += " %.3g (%.3g), %d spp | %.1f |" % (r[0], r[1], r[3], n[0] / r[0])
+        row += " %s |" % ", ".join("%.2f" % res[c][2] for c in cols)
+        print(row)
         sys.stdout.flush()
 
 

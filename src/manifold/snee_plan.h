@@ -19,9 +19,9 @@
  *     spot lights count 0): BSDF sampling then reaches such a light through glass and mirrors often
  *     enough that specular NEE's cost does not pay (at equal CPU time, relMSE 3x that of plain path
  *     tracing on the Mitsuba 0.6 box, 0.062 sr, and 2x on the demo's Cornell box, 0.037 sr);
- *   - otherwise the angular solver with its defaults (spc_snee_params_default) but reflections off
- *     glass (SPC_SNEE_PLAN_SETTING): chains of up to the scene's specular_max_chain (2) vertices
- *     through glass and off mirrors, MIS with BSDF sampling, the
+ *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
+ *     the camera (SPC_SNEE_PLAN_SETTING): chains of up to the scene's specular_max_chain (2)
+ *     vertices through and off glass and off mirrors, MIS with BSDF sampling, the
  *     longer chains with probability 0.1, and every chain on one analytic sphere, one mirror
  *     cylinder or one normal-mapped plane enumerated exactly (sphere_chains.h, cylinder_chains.h,
  *     plane_chains.h); with only such casters the randomized solver itself never runs.
@@ -39,16 +39,22 @@
 
 #include "manifold/specular_nee.h"
 
-/* The setting the plan picks wherever specular NEE pays (the reasons are above). Chains
- * that reflect off glass are left to BSDF sampling (noreflect): with them on, random caustic scene
- * 2 (a glass ball under a small sphere light, max_depth 4) rendered 0.5% above Mitsuba 3 over half
- * of its pixels (mean z +9.1 against 524k spp of llvm_ad_rgb; noreflect: mean z -0.4, 99.0% of
- * pixels pass; bench/RESULTS.md, "Caustics by default"). Past a path's first receiver the query is
- * made with probability 0.25 (later=0.25, unbiased Russian roulette): in an enclosed room most
- * queries are at deeper vertices, where the caustic only lights the room; equal-time relMSE
- * against none went from 1.3x to 2.5x on the pool and from 0.7x to 1.2x on the demo, the same
- * elsewhere (bench/RESULTS.md, "The per-sample cost of specular NEE"). */
-#define SPC_SNEE_PLAN_SETTING "angular:noreflect,later=0.25"
+/* The setting the plan picks wherever specular NEE pays (the reasons are above): chains that
+ * reflect off glass as well as refract (the light's image in a glass ball or on water, internal
+ * reflections in the longer chains), and the same chains from the camera (the light seen in or
+ * through glass). Without either, those paths are left to BSDF sampling and to camera rays, which
+ * find the light's small image rarely: on the SDF torus, the pool and the glass sphere one pixel
+ * then held 73-99% of the error at equal CPU time, and with both the default's relMSE was 4-8x
+ * lower than without specular NEE (bench/RESULTS.md, "Heavy tails of the default"). Reflections were
+ * once left out as biased (random caustic scene 2 read 0.5% high against Mitsuba 3 over half its
+ * pixels): the references were short, not specula; they find the light's reflection in the ball
+ * in a few pixels only, and summed over 4x4 pixel blocks or the whole image the two agree. Past a
+ * path's first receiver the query is made with probability 0.25 (later=0.25, unbiased Russian
+ * roulette): in an enclosed room most queries are at deeper vertices, where the caustic
+ * only lights the room; equal-time relMSE against none went from 1.3x to 2.5x on the pool and from
+ * 0.7x to 1.2x on the demo with reflections off (bench/RESULTS.md, "The per-sample cost of
+ * specular NEE"). */
+#define SPC_SNEE_PLAN_SETTING "angular:camera,later=0.25"
 
 /* How the chains of one caster are found under a plan. */
 typedef enum spc_snee_method {
