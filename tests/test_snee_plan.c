@@ -15,9 +15,12 @@
  *   default against bdpt, per-pixel z-test and image means.
  * - No fireflies where the camera sees a small light in and through a glass ball: the default's
  *   image means over seeds scatter little where camera rays alone find the light's images rarely.
+ * - Random caustic scene 2's ball and light at max_depth 4 (chains of one and two vertices at the
+ *   first receiver): specular NEE with reflections off glass against bdpt over pixel blocks.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -287,6 +290,8 @@ TEST(default_agrees_with_none)
     spc_scene_destroy(sc);
 }
 
+static bool blocks_agree(const spc_film *img, const spc_film *ref, int n, const char *label);
+
 /* The glass ball under a small sphere light (radius 0.05) with no sky: the default (reflections
  * off glass and the query from the camera included) against bdpt, whose light paths reach the
  * caustic directly. */
@@ -303,9 +308,12 @@ TEST(small_light_ball_agrees_with_bdpt)
     if (ref && img) {
         spc_diff_result d;
         memset(&d, 0, sizeof d);
-        CHECK(tu_image_agrees(img, ref, 0.99, "default vs bdpt", &d));
+        /* per pixel for the record; the check is over 4 x 4 blocks: bdpt reaches the light's
+         * reflection in the ball about once per pixel (see blocks_agree); the image means too */
+        CHECK(tu_image_agrees(img, ref, 0.0, "default vs bdpt (image means)", &d));
         printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
                d.mean_a[0], d.mean_b[0]);
+        CHECK(blocks_agree(img, ref, 4, "default vs bdpt"));
     }
     spc_film_destroy(img);
     spc_film_destroy(ref);
@@ -404,6 +412,70 @@ TEST(default_has_no_fireflies_through_glass)
     spc_scene_destroy(sc);
 }
 
+/* Sums of img and ref over n x n pixel blocks agree: per block and channel z = (a - b) / sqrt(var_a +
+ * var_b), two-sided, Sidak-corrected at 0.01 over every block and channel. A bias over a region
+ * stays in its blocks' sums, while a path one estimator samples rarely (a reference that reaches
+ * a light's reflection in a glass ball once per pixel or less) averages out over a block. Prints
+ * each failing block after `label`. */
+static bool blocks_agree(const spc_film *img, const spc_film *ref, int n, const char *label)
+{
+    int bw = ref->width / n, bh = ref->height / n, tests = 3 * bw * bh;
+    double alpha = -expm1(log1p(-0.01) / tests);
+    bool ok = img->width == ref->width && img->height == ref->height && tests > 0;
+    for (int by = 0; ok && by < bh; ++by)
+        for (int bx = 0; bx < bw; ++bx)
+            for (int c = 0; c < 3; ++c) {
+                double a = 0.0, b = 0.0, v = 0.0;
+                for (int y = by * n; y < (by + 1) * n; ++y)
+                    for (int x = bx * n; x < (bx + 1) * n; ++x) {
+                        size_t i = 3 * ((size_t)y * ref->width + x) + c;
+                        a += img->rgb[i];
+                        b += ref->rgb[i];
+                        v += img->var[i] + ref->var[i];
+                    }
+                double z = v > 0.0 ? (a - b) / sqrt(v) : (a == b ? 0.0 : INFINITY);
+                if (!(erfc(fabs(z) / sqrt(2.0)) >= alpha)) {
+                    printf("  %s: block (%d, %d) channel %d: %.6g vs %.6g, z %.1f\n", label, bx, by, c, a, b, z);
+                    ok = false;
+                }
+            }
+    return ok;
+}
+
+/* Random caustic scene 2's glass ball and small sphere light, scaled to the ball above, at
+ * max_depth 4, where a receiver's chains of one vertex (the light's reflection in the ball) and of
+ * two (through it) both run: specular NEE with reflections off glass against bdpt. Per pixel
+ * bdpt is the wrong judge here: its light paths reach the floor near the camera by the ball's
+ * reflection about once per pixel at 8192 spp (strategy s = 3, t = 1), so most of those pixels
+ * read 1% low with a variance that does not show it, and such a z-test passes 97-98% of pixels
+ * with the failures moving between seeds. Over 8 x 8 pixel blocks those misses average out (|z|
+ * at most 2.6 over four pairs of seeds), while the light's reflection in the ball counted 1.5
+ * times (the image 0.3% brighter) puts three of the four blocks at z 5.0 to 6.1 (bench/RESULTS.md,
+ * "Reflections off glass: no bias"). */
+TEST(reflections_at_depth_4_agree_with_bdpt)
+{
+    spc_scene *sc = ball_scene(true, 0.0666, spc_v3(-1.068, 0.340, 2.953), 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    sc->integrator.max_depth = 4;
+    char ran[96];
+    spc_film *ref = render_ran(sc, "bdpt", NULL, 8192, 51, ran);
+    spc_film *img = render_ran(sc, "path", "angular", 2048, 52, ran);
+    CHECK(ref && img && !strcmp(ran, "angular"));
+    if (ref && img) {
+        CHECK(blocks_agree(img, ref, 8, "angular vs bdpt at max_depth 4"));
+        double ma, sa, mb, sb;
+        tu_image_mean(img, 0, &ma, &sa);
+        tu_image_mean(ref, 0, &mb, &sb);
+        CHECK_MSG(fabs(ma - mb) <= 3.0 * sqrt(sa * sa + sb * sb), "means %.6f vs %.6f", ma, mb);
+        printf("    image means %.6f +- %.6f vs %.6f +- %.6f\n", ma, sa, mb, sb);
+    }
+    spc_film_destroy(img);
+    spc_film_destroy(ref);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(demo_plan_on);
@@ -412,5 +484,6 @@ int main(void)
     RUN(default_agrees_with_none);
     RUN(small_light_ball_agrees_with_bdpt);
     RUN(default_has_no_fireflies_through_glass);
+    RUN(reflections_at_depth_4_agree_with_bdpt);
     return spc_test_finish();
 }

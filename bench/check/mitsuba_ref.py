@@ -1,0 +1,62 @@
+#!/usr/bin/env python3
+"""bench/check/mitsuba_ref.py: a Mitsuba 3 reference as batches, for per-pixel Welch tests
+(bench/check/cmp_ref.py).
+
+  python3 bench/check/mitsuba_ref.py SCENE.xml OUT.npy [--batches 32] [--spp 8192] [--res 32]
+                                     [--max-depth 4] [--integrator path|ptracer] [-D name=value]...
+
+Renders --batches independent images of --spp samples each with the llvm_ad_rgb variant (scalar_rgb
+if LLVM is missing) and saves them as one array, batches x height x width x 3; the per-pixel
+variance of the mean comes from the batches.
+
+Which integrator: `path` (the scene's own kind) finds a small light's reflection in a glass ball
+only when a BSDF sample from the floor lands on the light's tiny image in the ball (about once in
+1e5 samples for random caustic scene 2); at 524k spp most floor pixels still have none, so its
+per-pixel mean is low there with a batch variance that does not show it, and any estimator that
+gets that reflection right fails a per-pixel test against it (bench/RESULTS.md, "Reflections off
+glass: no bias"). `ptracer` (light tracing, every path connected to the camera at its last
+diffuse vertex) reaches that reflection from the light and is the reference for pixels that see a
+diffuse surface directly; it renders nothing seen through glass or in a mirror, so compare only
+those pixels (cmp_ref.py --floor).
+"""
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+os.environ.setdefault("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1")
+import mitsuba as mi  # noqa: E402
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scene")
+    ap.add_argument("out")
+    ap.add_argument("--batches", type=int, default=32)
+    ap.add_argument("--spp", type=int, default=8192)
+    ap.add_argument("--res", type=int, default=32)
+    ap.add_argument("--max-depth", type=int, default=4)
+    ap.add_argument("--integrator", default="path", choices=["path", "ptracer"])
+    ap.add_argument("-D", action="append", default=[], help="name=value: a <default> of the scene")
+    a = ap.parse_args()
+    try:
+        mi.set_variant("llvm_ad_rgb")
+    except Exception:
+        mi.set_variant("scalar_rgb")
+    params = dict(kv.split("=", 1) for kv in a.D)
+    params.update(res=a.res, spp=a.spp, max_depth=a.max_depth)
+    scene = mi.load_file(a.scene, **params)
+    integrator = mi.load_dict({"type": a.integrator, "max_depth": a.max_depth})
+    imgs = []
+    t0 = time.time()
+    for b in range(a.batches):
+        img = mi.render(scene, integrator=integrator, seed=7919 * (b + 1), spp=a.spp)
+        imgs.append(np.array(img)[:, :, :3])
+        print("batch %d/%d, %.0f s" % (b + 1, a.batches, time.time() - t0), file=sys.stderr, flush=True)
+    np.save(a.out, np.stack(imgs))
+
+
+if __name__ == "__main__":
+    main()
