@@ -168,7 +168,12 @@ spc_rgb spc_texture_eval_hit(const spc_texture *t, const spc_hit *h)
     return spc_texture_eval(t, h->uv);
 }
 
-double spc_texture_eval1_hit(const spc_texture *t, const spc_hit *h) { return spc_rgb_avg(spc_texture_eval_hit(t, h)); }
+double spc_texture_eval1_hit(const spc_texture *t, const spc_hit *h)
+{
+    if (t->type == SPC_TEX_MESH_ATTRIBUTE)
+        return spc_rgb_avg(spc_mesh_attribute_eval(t, h));
+    return spc_texture_eval1(t, h->uv); /* the checkerboard's float read, as Mitsuba 3's eval_1 */
+}
 
 bool spc_texture_init_mesh_attribute(spc_texture *t, const char *name, double scale)
 {
