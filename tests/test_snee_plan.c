@@ -281,9 +281,9 @@ TEST(default_agrees_with_none)
 
 /* The glass ball under a small sphere light (radius 0.05) with no sky: specular NEE with
  * reflections off glass against bdpt, whose light paths reach the caustic directly. The default
- * leaves those reflections to BSDF sampling (snee_plan.h: with them a random scene read 0.5% high
- * against Mitsuba 3), which finds the light's small image in the ball too rarely for a z-test at
- * this sample count, so the estimator with them is the one checked here. */
+ * leaves those reflections to BSDF sampling (snee_plan.h), which finds the light's small image in
+ * the ball too rarely for a z-test at this sample count, so the estimator with them is the one
+ * checked here. */
 TEST(small_light_ball_agrees_with_bdpt)
 {
     spc_scene *sc = ball_scene(true, 0.05, spc_v3(0.3, 0.4, 2.0), 16);

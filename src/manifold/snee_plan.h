@@ -40,10 +40,12 @@
 #include "manifold/specular_nee.h"
 
 /* The setting the plan picks wherever specular NEE pays (the reasons are above). Chains
- * that reflect off glass are left to BSDF sampling (noreflect): with them on, random caustic scene
- * 2 (a glass ball under a small sphere light, max_depth 4) rendered 0.5% above Mitsuba 3 over half
- * of its pixels (mean z +9.1 against 524k spp of llvm_ad_rgb; noreflect: mean z -0.4, 99.0% of
- * pixels pass; bench/RESULTS.md, "Caustics by default"). */
+ * that reflect off glass are left to BSDF sampling (noreflect). With them on the estimator is
+ * unbiased (random caustic scene 2 against bdpt and Mitsuba 3's ptracer; the 0.5% once read against
+ * Mitsuba 3's path tracer was that reference missing the light's image in the ball), and at equal
+ * CPU time it won on five caustic scenes of six (1.0x to 3.9x, the SDF torus most) and lost 1.5x
+ * on scenes/dielectrics.xml (bench/RESULTS.md, "Reflections off glass: no bias"); not yet
+ * switched. */
 #define SPC_SNEE_PLAN_SETTING "angular:noreflect"
 
 /* How the chains of one caster are found under a plan. */
