@@ -48,7 +48,9 @@
  * lower than without specular NEE (bench/RESULTS.md, "Heavy tails of the default"). Reflections were
  * once left out as biased (random caustic scene 2 read 0.5% high against Mitsuba 3 over half its
  * pixels): the references were short, not specula; they find the light's reflection in the ball
- * in a few pixels only, and summed over 4x4 pixel blocks or the whole image the two agree. Past a
+ * in a few pixels only, and summed over 4x4 pixel blocks or the whole image the two agree, as do
+ * bdpt at 65536 spp and Mitsuba 3's ptracer per pixel (bench/RESULTS.md, "Reflections off glass:
+ * no bias"); reflections lose 1.5x at equal time on scenes/dielectrics.xml (a point light). Past a
  * path's first receiver the query is made with probability 0.25 (later=0.25, unbiased Russian
  * roulette): in an enclosed room most queries are at deeper vertices, where the caustic
  * only lights the room; equal-time relMSE against none went from 1.3x to 2.5x on the pool and from
