@@ -59,13 +59,15 @@ spc_status spc_vol_read(const char *path, spc_volume *v, double bbox[6], spc_err
         return spc_error_set(err, SPC_ERR_VALUE, path, 0, 0, "volume grid size %d x %d x %d", (int)res[0], (int)res[1],
                              (int)res[2]);
     }
-    unsigned long long n =
-        (unsigned long long)res[0] * (unsigned long long)res[1] * (unsigned long long)res[2] * (unsigned long long)ch;
-    if (n > SPC_VOL_MAX_VALUES) {
+    /* the count in double first: three sizes up to 2^31 overflow 64 bits */
+    double nd = (double)res[0] * (double)res[1] * (double)res[2] * (double)ch;
+    if (nd > (double)SPC_VOL_MAX_VALUES) {
         fclose(f);
-        return spc_error_set(err, SPC_ERR_LIMIT, path, 0, 0, "volume grid of %llu values (at most %llu)", n,
+        return spc_error_set(err, SPC_ERR_LIMIT, path, 0, 0, "volume grid of %.0f values (at most %llu)", nd,
                              (unsigned long long)SPC_VOL_MAX_VALUES);
     }
+    unsigned long long n =
+        (unsigned long long)res[0] * (unsigned long long)res[1] * (unsigned long long)res[2] * (unsigned long long)ch;
     /* the file must hold the values before anything is allocated for them */
     long here = ftell(f);
     if (here < 0 || fseek(f, 0, SEEK_END) != 0) {
