@@ -151,6 +151,56 @@ TEST(unread_plugins_are_named)
     CHECK_MSG(strstr(err.msg, "unknown bsdf type 'hare'") != NULL, "%s", err.msg);
 }
 
+/* The table is the one list of names: every bsdf, shape and emitter row the loader reads names its
+ * builder, and an unknown type's error lists every name of its category the table marks read
+ * (and none it marks not read). */
+TEST(unknown_type_lists_the_table)
+{
+    int n;
+    const mts_plugin *p = mts_plugin_list(&n);
+    for (int i = 0; i < n; ++i) {
+        bool registry = !strcmp(p[i].category, "bsdf") || !strcmp(p[i].category, "shape") ||
+                        !strcmp(p[i].category, "emitter");
+        if (registry)
+            CHECK_MSG((p[i].build != NULL) == (p[i].status != MTS_PLUGIN_NO), "%s '%s': builder %s, status %d",
+                      p[i].category, p[i].name, p[i].build ? "set" : "missing", (int)p[i].status);
+        else
+            CHECK_MSG(p[i].build == NULL, "%s '%s' names a builder the loader never calls", p[i].category, p[i].name);
+    }
+    static const char *const xml[][2] = {
+        {"bsdf", "<bsdf type=\"zzz\"/>"},
+        {"shape", "<shape type=\"zzz\"/>"},
+        {"emitter", "<emitter type=\"zzz\"/>"},
+        {"texture", "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"zzz\" name=\"reflectance\"/>"
+                    "</bsdf></shape>"},
+        {"sensor", "<sensor type=\"zzz\"/>"},
+    };
+    for (size_t k = 0; k < sizeof xml / sizeof xml[0]; ++k) {
+        char doc[600];
+        snprintf(doc, sizeof doc, "<scene version=\"3.0.0\">%s</scene>", xml[k][1]);
+        spc_scene *s = NULL;
+        spc_error err;
+        memset(&err, 0, sizeof err);
+        CHECK(spc_mitsuba_load_string(doc, strlen(doc), "t.xml", ".", NULL, 0, &s, &err) == SPC_ERR_PLUGIN);
+        spc_scene_destroy(s);
+        const char *list = strchr(err.msg, '(');
+        CHECK_MSG(strstr(err.msg, "unknown") && strstr(err.msg, "'zzz'") && list, "%s", err.msg);
+        if (!list)
+            continue;
+        for (int i = 0; i < n; ++i) {
+            if (strcmp(p[i].category, xml[k][0]) != 0)
+                continue;
+            bool listed = false; /* as a whole name: after "(" or " ", before "," or ")" */
+            for (const char *q = list; (q = strstr(q, p[i].name)) != NULL; ++q)
+                if ((q[-1] == '(' || q[-1] == ' ') &&
+                    (q[strlen(p[i].name)] == ',' || q[strlen(p[i].name)] == ')'))
+                    listed = true;
+            CHECK_MSG(listed == (p[i].status != MTS_PLUGIN_NO), "%s '%s' %s the list: %s", xml[k][0], p[i].name,
+                      listed ? "is in" : "is missing from", err.msg);
+        }
+    }
+}
+
 /* specula's own properties in the form Mitsuba 3 ignores (a <default> inside the plugin) are read
  * as the properties; other defaults there are only defaults; a bad value names its line. */
 TEST(own_properties_as_defaults)
@@ -223,6 +273,7 @@ int main(void)
     spc_warn_set_quiet(1);
     RUN(every_plugin_is_as_listed);
     RUN(unread_plugins_are_named);
+    RUN(unknown_type_lists_the_table);
     RUN(own_properties_as_defaults);
     RUN(plugins_md_is_generated);
     return spc_test_finish();

@@ -223,13 +223,81 @@ typedef enum mts_plugin_status {
     MTS_PLUGIN_STANDIN /* loads, rendered with a stand-in the note names (the loader warns) */
 } mts_plugin_status;
 
+/* What a plugin's builder reads and fills, per category:
+ *   bsdf     P collected by mts_build_bsdf; object: the spc_bsdf, with the loader's defaults set;
+ *            nested: the number of nested bsdfs. The builder sets the type and its parameters.
+ *   shape    P NULL: the builder collects the element's properties itself (a shapegroup has none
+ *            to read); prefix: the transform before its own to_world (NULL at the top level);
+ *            in_group: inside a shapegroup.
+ *   emitter  P collected by mts_build_emitter; object: the spc_emitter being filled (to_world,
+ *            to_local, scale 1 set); shape, shape_index: the shape an area emitter is nested in.
+ * A builder reports failure through mts_fail (L->status). */
+typedef struct mts_build {
+    mts_loader *L;
+    spc_xml_node *node;
+    const char *type;
+    mts_props *P;
+    void *object;
+    int nested;
+    const spc_mat4 *prefix;
+    bool in_group;
+    spc_shape *shape;
+    int shape_index;
+} mts_build;
+typedef void (*mts_build_fn)(const mts_build *a);
+
+/* One row per plugin: the one place its name is written. A row whose build is NULL is read by
+ * code outside this registry's categories (textures, sensors, ...) or not read at all. */
 typedef struct mts_plugin {
     const char *category; /* the XML tag: bsdf, emitter, shape, ... */
     const char *name;     /* the type attribute */
     mts_plugin_status status;
     const char *params;   /* parameters read, with defaults */
     const char *note;
+    mts_build_fn build; /* bsdf, shape, emitter: what the loader calls for this type */
 } mts_plugin;
+
+/* The builders the table names (mitsuba_plugins.c, mitsuba_principled.c). */
+void mts_bsdf_diffuse(const mts_build *a);
+void mts_bsdf_roughdiffuse(const mts_build *a);
+void mts_bsdf_phong(const mts_build *a);
+void mts_bsdf_conductor(const mts_build *a);
+void mts_bsdf_roughconductor(const mts_build *a);
+void mts_bsdf_dielectric(const mts_build *a);
+void mts_bsdf_thindielectric(const mts_build *a);
+void mts_bsdf_roughdielectric(const mts_build *a);
+void mts_bsdf_plastic(const mts_build *a);
+void mts_bsdf_roughplastic(const mts_build *a);
+void mts_bsdf_pplastic(const mts_build *a);
+void mts_bsdf_principled(const mts_build *a);
+void mts_bsdf_principledthin(const mts_build *a);
+void mts_bsdf_twosided(const mts_build *a);
+void mts_bsdf_normalmap(const mts_build *a);
+void mts_bsdf_bumpmap(const mts_build *a);
+void mts_bsdf_null(const mts_build *a);
+void mts_bsdf_polarizer(const mts_build *a);
+void mts_bsdf_mask(const mts_build *a);
+void mts_bsdf_blendbsdf(const mts_build *a);
+
+void mts_shape_sphere(const mts_build *a);
+void mts_shape_disk(const mts_build *a);
+void mts_shape_rectangle(const mts_build *a);
+void mts_shape_cube(const mts_build *a);
+void mts_shape_cylinder(const mts_build *a);
+void mts_shape_obj(const mts_build *a);
+void mts_shape_ply(const mts_build *a);
+void mts_shape_serialized(const mts_build *a);
+void mts_shape_sdf(const mts_build *a);
+void mts_shape_shapegroup(const mts_build *a);
+void mts_shape_instance(const mts_build *a);
+
+void mts_emitter_area(const mts_build *a);
+void mts_emitter_point(const mts_build *a);
+void mts_emitter_spot(const mts_build *a);
+void mts_emitter_directional(const mts_build *a);
+void mts_emitter_constant(const mts_build *a);
+void mts_emitter_envmap(const mts_build *a);
+void mts_emitter_projector(const mts_build *a);
 
 /* The whole table (*n rows, grouped by category); a row, or NULL. */
 const mts_plugin *mts_plugin_list(int *n);
@@ -247,8 +315,8 @@ const mts_own_property *mts_own_property_find(const char *category, const char *
 /* Writes docs/PLUGINS.md's text; 0, or -1 on a write error. */
 int mts_plugins_markdown(FILE *out);
 /* Fails with SPC_ERR_PLUGIN at node: a Mitsuba 3 plugin the loader does not read is named as such
- * (with the table's note), anything else is "unknown <category> type" followed by `known`. */
-spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type,
-                           const char *known);
+ * (with the table's note), anything else is "unknown <category> type", followed by the names of
+ * the category the table marks read. */
+spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type);
 
 #endif

@@ -83,7 +83,7 @@ bool mts_build_phase(mts_loader *L, spc_xml_node *node, spc_phase *out)
         out->type = SPC_PHASE_HG;
         out->g = g;
     } else {
-        mts_fail_plugin(L, node, "phase", type, "isotropic, hg");
+        mts_fail_plugin(L, node, "phase", type);
     }
     mts_props_end(&P);
     return L->status == SPC_OK;
@@ -114,7 +114,7 @@ int mts_build_medium(mts_loader *L, spc_xml_node *node)
     bool pair_as = mts_has(&P, "sigma_a") || mts_has(&P, "sigma_s");
     bool pair_ta = mts_has(&P, "sigma_t") || mts_has(&P, "albedo");
     if (strcmp(type, "homogeneous") != 0 && !hetero) {
-        mts_fail_plugin(L, node, "medium", type, "homogeneous, heterogeneous");
+        mts_fail_plugin(L, node, "medium", type);
     } else if (!hetero && mts_is_grid_volume(&P, "sigma_t")) {
         mts_fail(L, mts_where(&P, "sigma_t"), SPC_ERR_VALUE,
                  "a homogeneous medium's sigma_t is one value; a grid of them makes a heterogeneous medium");

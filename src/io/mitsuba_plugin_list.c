@@ -6,7 +6,9 @@
  * with an error naming it).
  *
  * Parameters are written "name default" (a parameter Mitsuba has and specula does not read is
- * listed in the note); "-" for none.
+ * listed in the note); "-" for none. A bsdf, shape or emitter row ends with the builder the loader
+ * calls for that type (mitsuba_plugins.c): adding a plugin of those categories is one row here and
+ * its builder. The loader's "unknown type" errors list the names this table marks read.
  */
 #include <stdio.h>
 #include <string.h>
@@ -15,177 +17,182 @@
 
 static const mts_plugin plugins[] = {
     /* ---- BSDFs ---- */
-    {"bsdf", "diffuse", MTS_PLUGIN_YES, "reflectance 0.5", ""},
+    {"bsdf", "diffuse", MTS_PLUGIN_YES, "reflectance 0.5", "", mts_bsdf_diffuse},
     {"bsdf", "dielectric", MTS_PLUGIN_YES,
-     "int_ior \"bk7\", ext_ior \"air\", specular_reflectance 1, specular_transmittance 1", ""},
+     "int_ior \"bk7\", ext_ior \"air\", specular_reflectance 1, specular_transmittance 1", "", mts_bsdf_dielectric},
     {"bsdf", "thindielectric", MTS_PLUGIN_YES,
      "int_ior \"bk7\", ext_ior \"air\", specular_reflectance 1, specular_transmittance 1",
-     "its transmission is a null event for volpath, as in Mitsuba"},
+     "its transmission is a null event for volpath, as in Mitsuba", mts_bsdf_thindielectric},
     {"bsdf", "roughdielectric", MTS_PLUGIN_YES,
      "distribution \"beckmann\", alpha 0.1 (alpha_u, alpha_v), int_ior \"bk7\", ext_ior \"air\", sample_visible true, "
      "specular_reflectance 1, specular_transmittance 1",
-     ""},
+     "", mts_bsdf_roughdielectric},
     {"bsdf", "conductor", MTS_PLUGIN_YES, "material \"none\" (or eta, k), specular_reflectance 1",
-     "spectral eta/k are converted to RGB (see bench/RESULTS.md for the colour difference)"},
+     "spectral eta/k are converted to RGB (see bench/RESULTS.md for the colour difference)", mts_bsdf_conductor},
     {"bsdf", "roughconductor", MTS_PLUGIN_YES,
      "material \"none\" (or eta, k), distribution \"beckmann\", alpha 0.1 (alpha_u, alpha_v), sample_visible true, "
      "specular_reflectance 1",
-     ""},
+     "", mts_bsdf_roughconductor},
     {"bsdf", "plastic", MTS_PLUGIN_YES,
-     "diffuse_reflectance 0.5, specular_reflectance 1, int_ior \"polypropylene\", ext_ior \"air\", nonlinear false",
-     ""},
+     "diffuse_reflectance 0.5, specular_reflectance 1, int_ior \"polypropylene\", ext_ior \"air\", nonlinear false", "",
+     mts_bsdf_plastic},
     {"bsdf", "roughplastic", MTS_PLUGIN_YES,
      "diffuse_reflectance 0.5, specular_reflectance 1, distribution \"beckmann\", alpha 0.1, int_ior "
      "\"polypropylene\", ext_ior \"air\", nonlinear false, sample_visible true",
-     ""},
-    {"bsdf", "twosided", MTS_PLUGIN_YES, "one or two nested bsdfs", ""},
-    {"bsdf", "bumpmap", MTS_PLUGIN_YES, "a nested texture (height), scale 1, a nested bsdf", ""},
-    {"bsdf", "normalmap", MTS_PLUGIN_YES, "normalmap (a bitmap texture), a nested bsdf", ""},
-    {"bsdf", "blendbsdf", MTS_PLUGIN_YES, "weight 0.5 (float or texture), two nested bsdfs", ""},
+     "", mts_bsdf_roughplastic},
+    {"bsdf", "twosided", MTS_PLUGIN_YES, "one or two nested bsdfs", "", mts_bsdf_twosided},
+    {"bsdf", "bumpmap", MTS_PLUGIN_YES, "a nested texture (height), scale 1, a nested bsdf", "", mts_bsdf_bumpmap},
+    {"bsdf", "normalmap", MTS_PLUGIN_YES, "normalmap (a bitmap texture), a nested bsdf", "", mts_bsdf_normalmap},
+    {"bsdf", "blendbsdf", MTS_PLUGIN_YES, "weight 0.5 (float or texture), two nested bsdfs", "", mts_bsdf_blendbsdf},
     {"bsdf", "mask", MTS_PLUGIN_YES, "opacity 0.5 (float or texture), a nested bsdf",
-     "its hole is a null event for volpath"},
-    {"bsdf", "null", MTS_PLUGIN_YES, "-", ""},
+     "its hole is a null event for volpath", mts_bsdf_mask},
+    {"bsdf", "null", MTS_PLUGIN_YES, "-", "", mts_bsdf_null},
     {"bsdf", "principled", MTS_PLUGIN_YES,
      "base_color 0.5, roughness 0.5, anisotropic 0, metallic 0, spec_trans 0, eta or specular 0.5, spec_tint 0, "
      "sheen 0, sheen_tint 0, flatness 0, clearcoat 0, clearcoat_gloss 0 (each a float or texture), "
      "main_specular_sampling_rate 1, clearcoat_sampling_rate 1, diffuse_reflectance_sampling_rate 1",
-     ""},
+     "", mts_bsdf_principled},
     {"bsdf", "principledthin", MTS_PLUGIN_YES,
      "base_color 0.5, roughness 0.5, anisotropic 0, spec_trans 0, eta 1.5, spec_tint 0, sheen 0, sheen_tint 0, "
      "flatness 0, diff_trans 0 (each a float or texture), specular_reflectance_sampling_rate 1, "
      "specular_transmittance_sampling_rate 1, diffuse_reflectance_sampling_rate 1, "
      "diffuse_transmittance_sampling_rate 1",
-     ""},
+     "", mts_bsdf_principledthin},
     {"bsdf", "pplastic", MTS_PLUGIN_YES,
      "diffuse_reflectance 0.5, specular_reflectance 1, distribution \"beckmann\", alpha 0.1 (alpha_u, alpha_v), "
      "int_ior \"polypropylene\", ext_ior \"air\", sample_visible true",
-     "as Mitsuba 3's unpolarized variants evaluate it"},
-    {"bsdf", "hair", MTS_PLUGIN_NO, "-", ""},
-    {"bsdf", "measured", MTS_PLUGIN_NO, "-", "measured RGL BSDFs"},
-    {"bsdf", "measured_polarized", MTS_PLUGIN_NO, "-", "polarized variants only"},
+     "as Mitsuba 3's unpolarized variants evaluate it", mts_bsdf_pplastic},
+    {"bsdf", "hair", MTS_PLUGIN_NO, "-", "", NULL},
+    {"bsdf", "measured", MTS_PLUGIN_NO, "-", "measured RGL BSDFs", NULL},
+    {"bsdf", "measured_polarized", MTS_PLUGIN_NO, "-", "polarized variants only", NULL},
     {"bsdf", "polarizer", MTS_PLUGIN_STANDIN, "transmittance 1 (constant); theta, polarizing unused",
-     "as Mitsuba 3's RGB variants render it: a null surface passing half the light"},
-    {"bsdf", "retarder", MTS_PLUGIN_NO, "-", "polarization is not modelled"},
-    {"bsdf", "circular", MTS_PLUGIN_NO, "-", "polarization is not modelled"},
+     "as Mitsuba 3's RGB variants render it: a null surface passing half the light", mts_bsdf_polarizer},
+    {"bsdf", "retarder", MTS_PLUGIN_NO, "-", "polarization is not modelled", NULL},
+    {"bsdf", "circular", MTS_PLUGIN_NO, "-", "polarization is not modelled", NULL},
     {"bsdf", "roughdiffuse", MTS_PLUGIN_OWN, "reflectance 0.5, alpha 0.2, use_fast_approx false",
-     "Mitsuba 0.6's (Oren-Nayar); Mitsuba 3 has no such plugin"},
+     "Mitsuba 0.6's (Oren-Nayar); Mitsuba 3 has no such plugin", mts_bsdf_roughdiffuse},
     {"bsdf", "phong", MTS_PLUGIN_OWN, "exponent 30, specular_reflectance 0.2, diffuse_reflectance 0.5",
-     "Mitsuba 0.6's; Mitsuba 3 has no such plugin"},
+     "Mitsuba 0.6's; Mitsuba 3 has no such plugin", mts_bsdf_phong},
 
     /* ---- emitters ---- */
     {"emitter", "area", MTS_PLUGIN_YES, "radiance 1 (rgb or texture)",
-     "inside a shape, or at the top level with an id and referenced from shapes"},
-    {"emitter", "point", MTS_PLUGIN_YES, "intensity 1, position (or to_world)", ""},
+     "inside a shape, or at the top level with an id and referenced from shapes", mts_emitter_area},
+    {"emitter", "point", MTS_PLUGIN_YES, "intensity 1, position (or to_world)", "", mts_emitter_point},
     {"emitter", "spot", MTS_PLUGIN_YES, "intensity 1, cutoff_angle 20, beam_width 3/4 cutoff_angle, texture, to_world",
-     ""},
-    {"emitter", "directional", MTS_PLUGIN_YES, "irradiance 1, direction (or to_world)", ""},
-    {"emitter", "constant", MTS_PLUGIN_YES, "radiance 1", ""},
-    {"emitter", "envmap", MTS_PLUGIN_YES, "filename, scale 1, to_world", ""},
+     "", mts_emitter_spot},
+    {"emitter", "directional", MTS_PLUGIN_YES, "irradiance 1, direction (or to_world)", "", mts_emitter_directional},
+    {"emitter", "constant", MTS_PLUGIN_YES, "radiance 1", "", mts_emitter_constant},
+    {"emitter", "envmap", MTS_PLUGIN_YES, "filename, scale 1, to_world", "", mts_emitter_envmap},
     {"emitter", "projector", MTS_PLUGIN_YES,
-     "irradiance 1 (rgb or texture), scale 1, fov (fov_axis \"x\") or focal_length \"50mm\", to_world", ""},
-    {"emitter", "directionalarea", MTS_PLUGIN_NO, "-", ""},
-    {"emitter", "sunsky", MTS_PLUGIN_NO, "-", ""},
+     "irradiance 1 (rgb or texture), scale 1, fov (fov_axis \"x\") or focal_length \"50mm\", to_world", "",
+     mts_emitter_projector},
+    {"emitter", "directionalarea", MTS_PLUGIN_NO, "-", "", NULL},
+    {"emitter", "sunsky", MTS_PLUGIN_NO, "-", "", NULL},
 
     /* ---- shapes ---- */
     {"shape", "obj", MTS_PLUGIN_YES, "filename, face_normals false, flip_normals false, flip_tex_coords true, to_world",
-     ""},
-    {"shape", "ply", MTS_PLUGIN_YES, "filename, face_normals false, flip_normals false, to_world", ""},
+     "", mts_shape_obj},
+    {"shape", "ply", MTS_PLUGIN_YES, "filename, face_normals false, flip_normals false, to_world", "", mts_shape_ply},
     {"shape", "serialized", MTS_PLUGIN_YES, "filename, shape_index 0, face_normals false, flip_normals false, to_world",
-     ""},
-    {"shape", "sphere", MTS_PLUGIN_YES, "center (0,0,0), radius 1, flip_normals false, to_world", "exact (analytic)"},
-    {"shape", "disk", MTS_PLUGIN_YES, "flip_normals false, to_world", "exact (analytic)"},
-    {"shape", "rectangle", MTS_PLUGIN_YES, "flip_normals false, to_world", ""},
-    {"shape", "cube", MTS_PLUGIN_YES, "flip_normals false, to_world", ""},
+     "", mts_shape_serialized},
+    {"shape", "sphere", MTS_PLUGIN_YES, "center (0,0,0), radius 1, flip_normals false, to_world", "exact (analytic)",
+     mts_shape_sphere},
+    {"shape", "disk", MTS_PLUGIN_YES, "flip_normals false, to_world", "exact (analytic)", mts_shape_disk},
+    {"shape", "rectangle", MTS_PLUGIN_YES, "flip_normals false, to_world", "", mts_shape_rectangle},
+    {"shape", "cube", MTS_PLUGIN_YES, "flip_normals false, to_world", "", mts_shape_cube},
     {"shape", "cylinder", MTS_PLUGIN_YES, "p0 (0,0,0), p1 (0,0,1), radius 1, flip_normals false, to_world",
-     "exact (analytic)"},
-    {"shape", "shapegroup", MTS_PLUGIN_YES, "nested shapes", ""},
-    {"shape", "instance", MTS_PLUGIN_YES, "a referenced shapegroup, to_world", ""},
-    {"shape", "bsplinecurve", MTS_PLUGIN_NO, "-", ""},
-    {"shape", "linearcurve", MTS_PLUGIN_NO, "-", ""},
-    {"shape", "sdfgrid", MTS_PLUGIN_NO, "-", ""},
-    {"shape", "ellipsoids", MTS_PLUGIN_NO, "-", ""},
-    {"shape", "ellipsoidsmesh", MTS_PLUGIN_NO, "-", ""},
-    {"shape", "sdf", MTS_PLUGIN_OWN, "a tree of nested sdf nodes", "specula's signed distance fields"},
+     "exact (analytic)", mts_shape_cylinder},
+    {"shape", "shapegroup", MTS_PLUGIN_YES, "nested shapes", "", mts_shape_shapegroup},
+    {"shape", "instance", MTS_PLUGIN_YES, "a referenced shapegroup, to_world", "", mts_shape_instance},
+    {"shape", "bsplinecurve", MTS_PLUGIN_NO, "-", "", NULL},
+    {"shape", "linearcurve", MTS_PLUGIN_NO, "-", "", NULL},
+    {"shape", "sdfgrid", MTS_PLUGIN_NO, "-", "", NULL},
+    {"shape", "ellipsoids", MTS_PLUGIN_NO, "-", "", NULL},
+    {"shape", "ellipsoidsmesh", MTS_PLUGIN_NO, "-", "", NULL},
+    {"shape", "sdf", MTS_PLUGIN_OWN, "a tree of nested sdf nodes", "specula's signed distance fields", mts_shape_sdf},
 
     /* ---- textures ---- */
     {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
-     "images: OpenEXR, PNG, JPEG, BMP (uncompressed)"},
-    {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", ""},
-    {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", ""},
+     "images: OpenEXR, PNG, JPEG, BMP (uncompressed)", NULL},
+    {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", "", NULL},
+    {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", "", NULL},
     {"texture", "mesh_attribute", MTS_PLUGIN_YES, "name (\"vertex_*\" or \"face_*\"), scale 1",
-     "PLY attributes as Mitsuba names them; read by BSDF parameters (elsewhere black)"},
-    {"texture", "volume", MTS_PLUGIN_NO, "-", ""},
+     "PLY attributes as Mitsuba names them; read by BSDF parameters (elsewhere black)", NULL},
+    {"texture", "volume", MTS_PLUGIN_NO, "-", "", NULL},
 
     /* ---- sensors ---- */
     {"sensor", "perspective", MTS_PLUGIN_YES,
-     "to_world, fov (fov_axis \"x\") or focal_length \"50mm\", near_clip 0.01, far_clip 10000", ""},
+     "to_world, fov (fov_axis \"x\") or focal_length \"50mm\", near_clip 0.01, far_clip 10000", "", NULL},
     {"sensor", "thinlens", MTS_PLUGIN_YES, "as perspective, aperture_radius (required), focus_distance far_clip",
-     "bdpt's and specular NEE's strategies that join the camera are off with a lens"},
-    {"sensor", "orthographic", MTS_PLUGIN_YES, "to_world, near_clip 0.01, far_clip 10000", ""},
-    {"sensor", "radiancemeter", MTS_PLUGIN_NO, "-", ""},
-    {"sensor", "irradiancemeter", MTS_PLUGIN_NO, "-", ""},
-    {"sensor", "distant", MTS_PLUGIN_NO, "-", ""},
-    {"sensor", "batch", MTS_PLUGIN_NO, "-", ""},
+     "bdpt's and specular NEE's strategies that join the camera are off with a lens", NULL},
+    {"sensor", "orthographic", MTS_PLUGIN_YES, "to_world, near_clip 0.01, far_clip 10000", "", NULL},
+    {"sensor", "radiancemeter", MTS_PLUGIN_NO, "-", "", NULL},
+    {"sensor", "irradiancemeter", MTS_PLUGIN_NO, "-", "", NULL},
+    {"sensor", "distant", MTS_PLUGIN_NO, "-", "", NULL},
+    {"sensor", "batch", MTS_PLUGIN_NO, "-", "", NULL},
 
     /* ---- films and filters ---- */
     {"film", "hdrfilm", MTS_PLUGIN_YES, "width 768, height 576, crop_offset_x/y 0, crop_width/height, rfilter",
-     "pixel_format and component_format are read and ignored (EXR RGB float)"},
-    {"film", "specfilm", MTS_PLUGIN_NO, "-", ""},
-    {"film", "ldrfilm", MTS_PLUGIN_OWN, "as hdrfilm", "Mitsuba 0.6's; the image is written as by hdrfilm"},
-    {"rfilter", "box", MTS_PLUGIN_YES, "-", ""},
-    {"rfilter", "tent", MTS_PLUGIN_YES, "radius 1", ""},
-    {"rfilter", "gaussian", MTS_PLUGIN_YES, "stddev 0.5", ""},
-    {"rfilter", "mitchell", MTS_PLUGIN_STANDIN, "-", "rendered with the gaussian filter (stddev 0.5), with a warning"},
-    {"rfilter", "catmullrom", MTS_PLUGIN_STANDIN, "-",
-     "rendered with the gaussian filter (stddev 0.5), with a warning"},
-    {"rfilter", "lanczos", MTS_PLUGIN_STANDIN, "-", "rendered with the gaussian filter (stddev 0.5), with a warning"},
+     "pixel_format and component_format are read and ignored (EXR RGB float)", NULL},
+    {"film", "specfilm", MTS_PLUGIN_NO, "-", "", NULL},
+    {"film", "ldrfilm", MTS_PLUGIN_OWN, "as hdrfilm", "Mitsuba 0.6's; the image is written as by hdrfilm", NULL},
+    {"rfilter", "box", MTS_PLUGIN_YES, "-", "", NULL},
+    {"rfilter", "tent", MTS_PLUGIN_YES, "radius 1", "", NULL},
+    {"rfilter", "gaussian", MTS_PLUGIN_YES, "stddev 0.5", "", NULL},
+    {"rfilter", "mitchell", MTS_PLUGIN_STANDIN, "-", "rendered with the gaussian filter (stddev 0.5), with a warning",
+     NULL},
+    {"rfilter", "catmullrom", MTS_PLUGIN_STANDIN, "-", "rendered with the gaussian filter (stddev 0.5), with a warning",
+     NULL},
+    {"rfilter", "lanczos", MTS_PLUGIN_STANDIN, "-", "rendered with the gaussian filter (stddev 0.5), with a warning",
+     NULL},
 
     /* ---- samplers ---- */
     {"sampler", "independent", MTS_PLUGIN_YES, "sample_count 4, seed 0",
-     "every sampler is specula's own stratified, scrambled sequence"},
-    {"sampler", "stratified", MTS_PLUGIN_YES, "sample_count 4, seed 0", ""},
-    {"sampler", "multijitter", MTS_PLUGIN_YES, "sample_count 4, seed 0", ""},
-    {"sampler", "orthogonal", MTS_PLUGIN_YES, "sample_count 4, seed 0", ""},
-    {"sampler", "ldsampler", MTS_PLUGIN_YES, "sample_count 4, seed 0", ""},
+     "every sampler is specula's own stratified, scrambled sequence", NULL},
+    {"sampler", "stratified", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
+    {"sampler", "multijitter", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
+    {"sampler", "orthogonal", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
+    {"sampler", "ldsampler", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
 
     /* ---- integrators ---- */
-    {"integrator", "path", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", ""},
-    {"integrator", "prb", MTS_PLUGIN_YES, "as path", "rendered by path"},
-    {"integrator", "volpath", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", ""},
-    {"integrator", "volpathmis", MTS_PLUGIN_YES, "as volpath", "rendered by volpath"},
+    {"integrator", "path", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", NULL},
+    {"integrator", "prb", MTS_PLUGIN_YES, "as path", "rendered by path", NULL},
+    {"integrator", "volpath", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", NULL},
+    {"integrator", "volpathmis", MTS_PLUGIN_YES, "as volpath", "rendered by volpath", NULL},
     {"integrator", "direct", MTS_PLUGIN_YES, "emitter_samples, bsdf_samples (read, not used)",
-     "path with max_depth 2; Mitsuba counts each of emitter_samples delta-light samples at full weight"},
+     "path with max_depth 2; Mitsuba counts each of emitter_samples delta-light samples at full weight", NULL},
     {"integrator", "aov", MTS_PLUGIN_YES, "aovs (albedo, depth, position, sh_normal), a nested integrator",
-     "other AOV types are refused"},
-    {"integrator", "moment", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only"},
-    {"integrator", "stokes", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only"},
+     "other AOV types are refused", NULL},
+    {"integrator", "moment", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", NULL},
+    {"integrator", "stokes", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", NULL},
     {"integrator", "ptracer", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false",
-     "light tracing (bdpt's t = 1 strategies); samples_per_pass read and unused"},
-    {"integrator", "depth", MTS_PLUGIN_NO, "-", ""},
-    {"integrator", "prbvolpath", MTS_PLUGIN_NO, "-", ""},
+     "light tracing (bdpt's t = 1 strategies); samples_per_pass read and unused", NULL},
+    {"integrator", "depth", MTS_PLUGIN_NO, "-", "", NULL},
+    {"integrator", "prbvolpath", MTS_PLUGIN_NO, "-", "", NULL},
     {"integrator", "bdpt", MTS_PLUGIN_OWN, "max_depth -1, rr_depth 5, mis_balance false",
-     "Mitsuba 0.6 had one; Mitsuba 3 has not"},
-    {"integrator", "ipt", MTS_PLUGIN_OWN, "max_depth -1", "implicit path tracing (no NEE)"},
+     "Mitsuba 0.6 had one; Mitsuba 3 has not", NULL},
+    {"integrator", "ipt", MTS_PLUGIN_OWN, "max_depth -1", "implicit path tracing (no NEE)", NULL},
 
     /* ---- media and phase functions ---- */
     {"medium", "homogeneous", MTS_PLUGIN_YES,
      "sigma_t 1 and albedo 0.75 (or sigma_a, sigma_s), scale 1, sample_emitters true, phase",
-     "albedo may be a volume; sigma_t a constvolume"},
+     "albedo may be a volume; sigma_t a constvolume", NULL},
     {"medium", "heterogeneous", MTS_PLUGIN_YES,
      "sigma_t 1 (volume or value), albedo 0.75 (volume or value), scale 1, sample_emitters true, phase",
      "vacuum outside the sigma_t volume's bounds, as in Mitsuba; free flight by exact optical depth "
-     "(regular tracking) instead of delta tracking: the same distribution; has_spectral_extinction ignored"},
-    {"phase", "isotropic", MTS_PLUGIN_YES, "-", ""},
-    {"phase", "hg", MTS_PLUGIN_YES, "g 0.8", ""},
-    {"phase", "rayleigh", MTS_PLUGIN_NO, "-", ""},
-    {"phase", "blendphase", MTS_PLUGIN_NO, "-", ""},
-    {"phase", "tabphase", MTS_PLUGIN_NO, "-", ""},
-    {"phase", "sggx", MTS_PLUGIN_NO, "-", ""},
-    {"volume", "constvolume", MTS_PLUGIN_YES, "value 1 (float or rgb), to_world", ""},
+     "(regular tracking) instead of delta tracking: the same distribution; has_spectral_extinction ignored",
+     NULL},
+    {"phase", "isotropic", MTS_PLUGIN_YES, "-", "", NULL},
+    {"phase", "hg", MTS_PLUGIN_YES, "g 0.8", "", NULL},
+    {"phase", "rayleigh", MTS_PLUGIN_NO, "-", "", NULL},
+    {"phase", "blendphase", MTS_PLUGIN_NO, "-", "", NULL},
+    {"phase", "tabphase", MTS_PLUGIN_NO, "-", "", NULL},
+    {"phase", "sggx", MTS_PLUGIN_NO, "-", "", NULL},
+    {"volume", "constvolume", MTS_PLUGIN_YES, "value 1 (float or rgb), to_world", "", NULL},
     {"volume", "gridvolume", MTS_PLUGIN_YES,
      "filename (.vol, 1 or 3 channels), filter_type \"trilinear\", wrap_mode \"clamp\", to_world, "
      "use_grid_bbox false",
-     "raw and accel accepted, no effect in RGB; 6-channel grids are not read"},
+     "raw and accel accepted, no effect in RGB; 6-channel grids are not read", NULL},
 };
 
 static const mts_own_property own_properties[] = {
@@ -221,9 +228,25 @@ const mts_plugin *mts_plugin_find(const char *category, const char *name)
     return NULL;
 }
 
-spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type,
-                           const char *known)
+/* The names of a category the loader reads (every row not marked no), comma-separated, in buf. */
+static void known_names(const char *category, char *buf, size_t len)
 {
+    size_t used = 0;
+    buf[0] = '\0';
+    for (size_t i = 0; i < sizeof plugins / sizeof plugins[0]; ++i) {
+        if (strcmp(plugins[i].category, category) != 0 || plugins[i].status == MTS_PLUGIN_NO)
+            continue;
+        int n = snprintf(buf + used, len - used, "%s%s", used ? ", " : "", plugins[i].name);
+        if (n < 0 || (size_t)n >= len - used)
+            break;
+        used += (size_t)n;
+    }
+}
+
+spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type)
+{
+    char known[1024];
+    known_names(category, known, sizeof known);
     const mts_plugin *p = mts_plugin_find(category, type);
     if (p && p->status == MTS_PLUGIN_NO)
         return mts_fail(L, node, SPC_ERR_PLUGIN, "%s '%s' (a Mitsuba 3 plugin) is not supported by specula%s%s",

@@ -212,7 +212,7 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
                          "mesh attribute name '%s' must start with 'vertex_' or 'face_' (at most 63 characters)", name);
         }
     } else {
-        mts_fail_plugin(L, node, "texture", type, "bitmap, checkerboard, rawconstant, mesh_attribute");
+        mts_fail_plugin(L, node, "texture", type);
     }
     if (L->status != SPC_OK)
         t = NULL;
@@ -343,6 +343,213 @@ static const spc_bsdf *nested_bsdf(mts_loader *L, mts_props *P, int k)
     return n ? mts_build_bsdf(L, n) : NULL;
 }
 
+/* ---- the BSDF builders: one per bsdf row of the plugin table (mitsuba_plugin_list.c) ---- */
+
+void mts_bsdf_diffuse(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_DIFFUSE;
+    b->reflectance = mts_get_texture(a->L, a->P, "reflectance", spc_rgb1(0.5));
+}
+
+void mts_bsdf_roughdiffuse(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_ROUGHDIFFUSE;
+    b->reflectance = mts_get_texture(a->L, a->P, "reflectance", spc_rgb1(0.5));
+    b->alpha_u = b->alpha_v = mts_get_texture(a->L, a->P, "alpha", spc_rgb1(0.2));
+    mts_ignore(a->P, "use_fast_approx");
+}
+
+void mts_bsdf_phong(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_PHONG;
+    b->exponent = mts_get_float(L, a->P, "exponent", 30.0);
+    b->specular_reflectance = mts_get_texture(L, a->P, "specular_reflectance", spc_rgb1(0.2));
+    b->reflectance = mts_get_texture(L, a->P, "diffuse_reflectance", spc_rgb1(0.5));
+    if (L->status == SPC_OK && !(b->exponent > 0.0))
+        mts_fail(L, mts_where(a->P, "exponent"), SPC_ERR_VALUE, "phong exponent %g must be positive", b->exponent);
+}
+
+void mts_bsdf_conductor(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_CONDUCTOR;
+    conductor(a->L, a->P, b, a->node);
+}
+
+void mts_bsdf_roughconductor(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_ROUGHCONDUCTOR;
+    conductor(a->L, a->P, b, a->node);
+    roughness(a->L, a->P, b, 0.1, true);
+}
+
+/* dielectric, thindielectric, roughdielectric */
+static void dielectric(const mts_build *a, spc_bsdf_type type)
+{
+    spc_bsdf *b = a->object;
+    b->type = type;
+    double in = get_ior(a->L, a->P, "int_ior", 1.5046), ext = get_ior(a->L, a->P, "ext_ior", 1.000277);
+    b->eta = in / ext;
+    b->specular_reflectance = mts_get_texture(a->L, a->P, "specular_reflectance", spc_rgb1(1));
+    b->specular_transmittance = mts_get_texture(a->L, a->P, "specular_transmittance", spc_rgb1(1));
+    if (type == SPC_BSDF_ROUGHDIELECTRIC)
+        roughness(a->L, a->P, b, 0.1, true);
+}
+void mts_bsdf_dielectric(const mts_build *a) { dielectric(a, SPC_BSDF_DIELECTRIC); }
+void mts_bsdf_thindielectric(const mts_build *a) { dielectric(a, SPC_BSDF_THINDIELECTRIC); }
+void mts_bsdf_roughdielectric(const mts_build *a) { dielectric(a, SPC_BSDF_ROUGHDIELECTRIC); }
+
+/* plastic, roughplastic */
+static void plastic(const mts_build *a, spc_bsdf_type type)
+{
+    spc_bsdf *b = a->object;
+    b->type = type;
+    double in = get_ior(a->L, a->P, "int_ior", 1.49), ext = get_ior(a->L, a->P, "ext_ior", 1.000277);
+    b->eta = in / ext;
+    b->reflectance = mts_get_texture(a->L, a->P, "diffuse_reflectance", spc_rgb1(0.5));
+    b->specular_reflectance = mts_get_texture(a->L, a->P, "specular_reflectance", spc_rgb1(1));
+    b->nonlinear = mts_get_bool(a->L, a->P, "nonlinear", false);
+    if (type == SPC_BSDF_ROUGHPLASTIC)
+        roughness(a->L, a->P, b, 0.1, false);
+}
+void mts_bsdf_plastic(const mts_build *a) { plastic(a, SPC_BSDF_PLASTIC); }
+void mts_bsdf_roughplastic(const mts_build *a) { plastic(a, SPC_BSDF_ROUGHPLASTIC); }
+
+void mts_bsdf_pplastic(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_PPLASTIC;
+    double in = get_ior(L, a->P, "int_ior", 1.49), ext = get_ior(L, a->P, "ext_ior", 1.000277);
+    b->eta = in / ext;
+    b->reflectance = mts_get_texture(L, a->P, "diffuse_reflectance", spc_rgb1(0.5));
+    b->specular_reflectance = mts_get_texture(L, a->P, "specular_reflectance", spc_rgb1(1));
+    roughness(L, a->P, b, 0.1, true);
+    if (L->status == SPC_OK && !(in > 0.0 && ext > 0.0 && in != ext))
+        mts_fail(L, a->node, SPC_ERR_VALUE, "pplastic: int_ior and ext_ior must be positive and differ");
+}
+
+/* principled, principledthin: parameters in mitsuba_principled.c */
+void mts_bsdf_principled(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_PRINCIPLED;
+    mts_build_principled(a->L, a->P, b, a->node);
+}
+
+void mts_bsdf_principledthin(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_PRINCIPLEDTHIN;
+    mts_build_principled(a->L, a->P, b, a->node);
+}
+
+void mts_bsdf_twosided(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_TWOSIDED;
+    if (a->nested < 1 || a->nested > 2)
+        mts_fail(a->L, a->node, SPC_ERR_VALUE, "twosided needs one or two nested bsdfs, got %d", a->nested);
+    else {
+        b->nested[0] = nested_bsdf(a->L, a->P, 0);
+        b->nested[1] = a->nested == 2 ? nested_bsdf(a->L, a->P, 1) : b->nested[0];
+    }
+}
+
+void mts_bsdf_normalmap(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_NORMALMAP;
+    b->normalmap = any_texture(L, a->P, "normalmap");
+    if (a->nested != 1)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "normalmap needs exactly one nested bsdf, got %d", a->nested);
+    else if (L->status == SPC_OK && !b->normalmap)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "normalmap needs a texture named 'normalmap'");
+    else
+        b->nested[0] = nested_bsdf(L, a->P, 0);
+}
+
+void mts_bsdf_bumpmap(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_BUMPMAP;
+    b->bump = any_texture(L, a->P, "bumpmap");
+    b->bump_scale = mts_get_float(L, a->P, "scale", 1.0);
+    if (a->nested != 1)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "bumpmap needs exactly one nested bsdf, got %d", a->nested);
+    else if (L->status == SPC_OK && !b->bump)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "bumpmap needs a nested texture");
+    else
+        b->nested[0] = nested_bsdf(L, a->P, 0);
+}
+
+void mts_bsdf_null(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_NULL;
+}
+
+/* As Mitsuba 3's RGB variants render it: a null surface passing half the light times its
+ * transmittance (polarization is not tracked; theta and polarizing change nothing there). */
+void mts_bsdf_polarizer(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_NULL;
+    mts_warn(a->node, "polarizer: polarization is not tracked; half the light passes, as in Mitsuba 3's RGB variants");
+    const spc_texture *t = mts_get_texture(L, a->P, "transmittance", spc_rgb1(1));
+    mts_ignore(a->P, "theta");
+    mts_ignore(a->P, "polarizing");
+    spc_texture *half = L->status == SPC_OK ? spc_scene_new_texture(L->scene) : NULL;
+    if (L->status == SPC_OK && (!t || !spc_texture_is_constant(t)))
+        mts_fail(L, mts_where(a->P, "transmittance"), SPC_ERR_VALUE,
+                 "polarizer: only a constant transmittance is supported");
+    else if (L->status == SPC_OK && !half)
+        mts_fail(L, a->node, SPC_ERR_NOMEM, "out of memory");
+    else if (L->status == SPC_OK) {
+        spc_texture_init_constant(half, spc_rgb_scale(t->value, 0.5));
+        b->specular_transmittance = half;
+    }
+}
+
+void mts_bsdf_mask(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_MASK;
+    b->opacity = mts_get_texture(a->L, a->P, "opacity", spc_rgb1(0.5));
+    if (a->nested != 1)
+        mts_fail(a->L, a->node, SPC_ERR_VALUE, "mask needs exactly one nested bsdf, got %d", a->nested);
+    else
+        b->nested[0] = nested_bsdf(a->L, a->P, 0);
+}
+
+void mts_bsdf_blendbsdf(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_BLENDBSDF;
+    b->weight = mts_get_texture(a->L, a->P, "weight", spc_rgb1(0.5));
+    if (a->nested != 2)
+        mts_fail(a->L, a->node, SPC_ERR_VALUE, "blendbsdf needs exactly two nested bsdfs, got %d", a->nested);
+    else {
+        b->nested[0] = nested_bsdf(a->L, a->P, 0);
+        b->nested[1] = nested_bsdf(a->L, a->P, 1);
+    }
+}
+
+/* The builder of a type in the table's category, or NULL (the type is not read). */
+static mts_build_fn builder(const char *category, const char *type)
+{
+    const mts_plugin *p = mts_plugin_find(category, type);
+    return p ? p->build : NULL;
+}
+
 const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
 {
     void *cached;
@@ -363,128 +570,13 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
     b->sample_visible = true;
     b->eta = 1.0;
     b->bump_scale = 1.0;
-    int nbsdf = mts_count_objects(&P, "bsdf");
-    if (strcmp(type, "diffuse") == 0) {
-        b->type = SPC_BSDF_DIFFUSE;
-        b->reflectance = mts_get_texture(L, &P, "reflectance", spc_rgb1(0.5));
-    } else if (strcmp(type, "roughdiffuse") == 0) {
-        b->type = SPC_BSDF_ROUGHDIFFUSE;
-        b->reflectance = mts_get_texture(L, &P, "reflectance", spc_rgb1(0.5));
-        b->alpha_u = b->alpha_v = mts_get_texture(L, &P, "alpha", spc_rgb1(0.2));
-        mts_ignore(&P, "use_fast_approx");
-    } else if (strcmp(type, "phong") == 0) {
-        b->type = SPC_BSDF_PHONG;
-        b->exponent = mts_get_float(L, &P, "exponent", 30.0);
-        b->specular_reflectance = mts_get_texture(L, &P, "specular_reflectance", spc_rgb1(0.2));
-        b->reflectance = mts_get_texture(L, &P, "diffuse_reflectance", spc_rgb1(0.5));
-        if (L->status == SPC_OK && !(b->exponent > 0.0))
-            mts_fail(L, mts_where(&P, "exponent"), SPC_ERR_VALUE, "phong exponent %g must be positive", b->exponent);
-    } else if (strcmp(type, "conductor") == 0) {
-        b->type = SPC_BSDF_CONDUCTOR;
-        conductor(L, &P, b, node);
-    } else if (strcmp(type, "roughconductor") == 0) {
-        b->type = SPC_BSDF_ROUGHCONDUCTOR;
-        conductor(L, &P, b, node);
-        roughness(L, &P, b, 0.1, true);
-    } else if (strcmp(type, "dielectric") == 0 || strcmp(type, "thindielectric") == 0 ||
-               strcmp(type, "roughdielectric") == 0) {
-        b->type = type[0] == 'd' ? SPC_BSDF_DIELECTRIC
-                                 : (type[0] == 't' ? SPC_BSDF_THINDIELECTRIC : SPC_BSDF_ROUGHDIELECTRIC);
-        double in = get_ior(L, &P, "int_ior", 1.5046), ext = get_ior(L, &P, "ext_ior", 1.000277);
-        b->eta = in / ext;
-        b->specular_reflectance = mts_get_texture(L, &P, "specular_reflectance", spc_rgb1(1));
-        b->specular_transmittance = mts_get_texture(L, &P, "specular_transmittance", spc_rgb1(1));
-        if (b->type == SPC_BSDF_ROUGHDIELECTRIC)
-            roughness(L, &P, b, 0.1, true);
-    } else if (strcmp(type, "plastic") == 0 || strcmp(type, "roughplastic") == 0) {
-        b->type = type[0] == 'p' ? SPC_BSDF_PLASTIC : SPC_BSDF_ROUGHPLASTIC;
-        double in = get_ior(L, &P, "int_ior", 1.49), ext = get_ior(L, &P, "ext_ior", 1.000277);
-        b->eta = in / ext;
-        b->reflectance = mts_get_texture(L, &P, "diffuse_reflectance", spc_rgb1(0.5));
-        b->specular_reflectance = mts_get_texture(L, &P, "specular_reflectance", spc_rgb1(1));
-        b->nonlinear = mts_get_bool(L, &P, "nonlinear", false);
-        if (b->type == SPC_BSDF_ROUGHPLASTIC)
-            roughness(L, &P, b, 0.1, false);
-    } else if (strcmp(type, "pplastic") == 0) {
-        b->type = SPC_BSDF_PPLASTIC;
-        double in = get_ior(L, &P, "int_ior", 1.49), ext = get_ior(L, &P, "ext_ior", 1.000277);
-        b->eta = in / ext;
-        b->reflectance = mts_get_texture(L, &P, "diffuse_reflectance", spc_rgb1(0.5));
-        b->specular_reflectance = mts_get_texture(L, &P, "specular_reflectance", spc_rgb1(1));
-        roughness(L, &P, b, 0.1, true);
-        if (L->status == SPC_OK && !(in > 0.0 && ext > 0.0 && in != ext))
-            mts_fail(L, node, SPC_ERR_VALUE, "pplastic: int_ior and ext_ior must be positive and differ");
-    } else if (strcmp(type, "principled") == 0 || strcmp(type, "principledthin") == 0) {
-        b->type = type[10] ? SPC_BSDF_PRINCIPLEDTHIN : SPC_BSDF_PRINCIPLED;
-        mts_build_principled(L, &P, b, node);
-    } else if (strcmp(type, "twosided") == 0) {
-        b->type = SPC_BSDF_TWOSIDED;
-        if (nbsdf < 1 || nbsdf > 2)
-            mts_fail(L, node, SPC_ERR_VALUE, "twosided needs one or two nested bsdfs, got %d", nbsdf);
-        else {
-            b->nested[0] = nested_bsdf(L, &P, 0);
-            b->nested[1] = nbsdf == 2 ? nested_bsdf(L, &P, 1) : b->nested[0];
-        }
-    } else if (strcmp(type, "normalmap") == 0) {
-        b->type = SPC_BSDF_NORMALMAP;
-        b->normalmap = any_texture(L, &P, "normalmap");
-        if (nbsdf != 1)
-            mts_fail(L, node, SPC_ERR_VALUE, "normalmap needs exactly one nested bsdf, got %d", nbsdf);
-        else if (L->status == SPC_OK && !b->normalmap)
-            mts_fail(L, node, SPC_ERR_VALUE, "normalmap needs a texture named 'normalmap'");
-        else
-            b->nested[0] = nested_bsdf(L, &P, 0);
-    } else if (strcmp(type, "bumpmap") == 0) {
-        b->type = SPC_BSDF_BUMPMAP;
-        b->bump = any_texture(L, &P, "bumpmap");
-        b->bump_scale = mts_get_float(L, &P, "scale", 1.0);
-        if (nbsdf != 1)
-            mts_fail(L, node, SPC_ERR_VALUE, "bumpmap needs exactly one nested bsdf, got %d", nbsdf);
-        else if (L->status == SPC_OK && !b->bump)
-            mts_fail(L, node, SPC_ERR_VALUE, "bumpmap needs a nested texture");
-        else
-            b->nested[0] = nested_bsdf(L, &P, 0);
-    } else if (strcmp(type, "null") == 0) {
-        b->type = SPC_BSDF_NULL;
-    } else if (strcmp(type, "polarizer") == 0) {
-        /* as Mitsuba 3's RGB variants render it: a null surface passing half the light times its
-         * transmittance (polarization is not tracked; theta and polarizing change nothing there) */
-        b->type = SPC_BSDF_NULL;
-        mts_warn(node, "polarizer: polarization is not tracked; half the light passes, as in Mitsuba 3's RGB variants");
-        const spc_texture *t = mts_get_texture(L, &P, "transmittance", spc_rgb1(1));
-        mts_ignore(&P, "theta");
-        mts_ignore(&P, "polarizing");
-        spc_texture *half = L->status == SPC_OK ? spc_scene_new_texture(L->scene) : NULL;
-        if (L->status == SPC_OK && (!t || !spc_texture_is_constant(t)))
-            mts_fail(L, mts_where(&P, "transmittance"), SPC_ERR_VALUE,
-                     "polarizer: only a constant transmittance is supported");
-        else if (L->status == SPC_OK && !half)
-            mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
-        else if (L->status == SPC_OK) {
-            spc_texture_init_constant(half, spc_rgb_scale(t->value, 0.5));
-            b->specular_transmittance = half;
-        }
-    } else if (strcmp(type, "mask") == 0) {
-        b->type = SPC_BSDF_MASK;
-        b->opacity = mts_get_texture(L, &P, "opacity", spc_rgb1(0.5));
-        if (nbsdf != 1)
-            mts_fail(L, node, SPC_ERR_VALUE, "mask needs exactly one nested bsdf, got %d", nbsdf);
-        else
-            b->nested[0] = nested_bsdf(L, &P, 0);
-    } else if (strcmp(type, "blendbsdf") == 0) {
-        b->type = SPC_BSDF_BLENDBSDF;
-        b->weight = mts_get_texture(L, &P, "weight", spc_rgb1(0.5));
-        if (nbsdf != 2)
-            mts_fail(L, node, SPC_ERR_VALUE, "blendbsdf needs exactly two nested bsdfs, got %d", nbsdf);
-        else {
-            b->nested[0] = nested_bsdf(L, &P, 0);
-            b->nested[1] = nested_bsdf(L, &P, 1);
-        }
+    mts_build_fn build = builder("bsdf", type);
+    if (build) {
+        mts_build a = {
+            .L = L, .node = node, .type = type, .P = &P, .object = b, .nested = mts_count_objects(&P, "bsdf")};
+        build(&a);
     } else {
-        mts_fail_plugin(L, node, "bsdf", type,
-                        "diffuse, roughdiffuse, phong, conductor, roughconductor, dielectric, thindielectric, "
-                        "roughdielectric, plastic, roughplastic, pplastic, principled, principledthin, twosided, "
-                        "normalmap, bumpmap, null, mask, blendbsdf");
+        mts_fail_plugin(L, node, "bsdf", type);
     }
 out:
     if (L->status != SPC_OK)
@@ -537,10 +629,14 @@ void mts_mesh_cache_release(mts_loader *L)
     L->nmeshes = 0;
 }
 
+typedef enum mesh_format { MESH_OBJ, MESH_PLY, MESH_SERIALIZED } mesh_format;
+
 /* Loads a mesh file in object space into *m (which the caller then owns). Shapes inside a
- * shapegroup go through a cache so that each instance does not read the file again. */
-static void load_mesh(mts_loader *L, const spc_xml_node *node, const char *type, const char *path, int shape_index,
-                      bool flip_tex, bool cached, spc_mesh *m)
+ * shapegroup go through a cache so that each instance does not read the file again. type: the
+ * plugin's name, for the cache key and messages. */
+
+static void load_mesh(mts_loader *L, const spc_xml_node *node, const char *type, mesh_format format, const char *path,
+                      int shape_index, bool flip_tex, bool cached, spc_mesh *m)
 {
     memset(m, 0, sizeof *m);
     char key[4200];
@@ -556,13 +652,18 @@ static void load_mesh(mts_loader *L, const spc_xml_node *node, const char *type,
     }
     spc_error sub;
     memset(&sub, 0, sizeof sub);
-    spc_status st;
-    if (strcmp(type, "obj") == 0)
+    spc_status st = SPC_ERR_INTERNAL;
+    switch (format) {
+    case MESH_OBJ:
         st = spc_obj_load_ex(path, flip_tex, m, &sub);
-    else if (strcmp(type, "ply") == 0)
+        break;
+    case MESH_PLY:
         st = spc_ply_load(path, m, &sub);
-    else
+        break;
+    case MESH_SERIALIZED:
         st = spc_serialized_load(path, shape_index, m, &sub);
+        break;
+    }
     if (st != SPC_OK) {
         char msg[SPC_ERROR_MSG_MAX];
         spc_error_format(&sub, msg, sizeof msg);
@@ -811,158 +912,269 @@ static void build_instance(mts_loader *L, spc_xml_node *node, mts_props *P, cons
     }
 }
 
-spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group)
-{
-    const char *type = mts_type(node);
-    if (strcmp(type, "shapegroup") == 0) {
-        if (in_group)
-            return mts_fail(L, node, SPC_ERR_VALUE, "shapegroups cannot be nested");
-        return L->status; /* its shapes are made by the instances that refer to it */
-    }
+/* ---- the shape builders: one per shape row of the plugin table (mitsuba_plugin_list.c) ---- */
+
+/* What every geometric shape reads around its own parameters. */
+typedef struct geometry {
     mts_props P;
-    if (mts_props_collect(L, node, &P))
-        return L->status;
-    if (strcmp(type, "instance") == 0) {
-        build_instance(L, node, &P, prefix, in_group);
-        mts_props_end(&P);
-        return L->status;
-    }
-    static const char *known[] = {"sphere", "rectangle", "disk", "cube", "cylinder", "obj", "ply", "serialized", "sdf"};
-    bool ok = false;
-    for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
-        ok |= strcmp(type, known[i]) == 0;
-    if (!ok) {
-        mts_fail_plugin(L, node, "shape", type,
-                        "sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, shapegroup, instance");
-        mts_props_end(&P);
-        return L->status;
-    }
-    int interior, exterior; /* media (mitsuba_media.c) */
-    if (!mts_shape_media(L, &P, &interior, &exterior)) {
-        mts_props_end(&P);
-        return L->status;
-    }
-    spc_mat4 local = mts_get_transform(L, &P, "to_world");
-    spc_mat4 M = prefix ? mul(prefix, &local) : local;
-    bool flip = mts_get_bool(L, &P, "flip_normals", false);
-    bool mesh = strcmp(type, "obj") == 0 || strcmp(type, "ply") == 0 || strcmp(type, "serialized") == 0;
-    bool face_normals = mesh ? mts_get_bool(L, &P, "face_normals", false) : false;
+    spc_mat4 M;             /* the prefix times the shape's to_world */
+    int interior, exterior; /* media (mitsuba_media.c), -1: none */
+    bool flip;
+    bool mesh; /* a mesh file: smooth vertex normals unless face_normals */
+    bool face_normals;
+} geometry;
 
-    /* validate and load everything before creating the shape */
-    spc_vec3 center = spc_v3(0, 0, 0), p0 = spc_v3(0, 0, 0), p1 = spc_v3(0, 0, 1);
-    double radius = 1.0;
-    spc_mesh m;
-    memset(&m, 0, sizeof m);
-    spc_sdf *sdf = NULL;
-    int sdf_root = -1;
-    if (strcmp(type, "sphere") == 0 || strcmp(type, "cylinder") == 0) {
-        radius = mts_get_float(L, &P, "radius", 1.0);
-        if (L->status == SPC_OK && !(radius > 0.0))
-            mts_fail(L, mts_where(&P, "radius"), SPC_ERR_VALUE, "%s radius %g must be positive", type, radius);
+/* Collects the element's properties and reads media, to_world and flip_normals; false after
+ * mts_fail (nothing to release). */
+static bool geometry_begin(const mts_build *a, geometry *g)
+{
+    mts_loader *L = a->L;
+    memset(g, 0, sizeof *g);
+    if (mts_props_collect(L, a->node, &g->P))
+        return false;
+    if (!mts_shape_media(L, &g->P, &g->interior, &g->exterior)) {
+        mts_props_end(&g->P);
+        return false;
     }
-    if (strcmp(type, "sphere") == 0) {
-        center = mts_get_point(L, &P, "center", center);
-        if (L->status == SPC_OK && !(spc_length(spc_v3(M.m[0][0], M.m[1][0], M.m[2][0])) > 0.0))
-            mts_fail(L, mts_where(&P, "to_world"), SPC_ERR_VALUE,
-                     "a sphere's to_world scales it to a point (a scale of 0): the sphere would vanish");
-        else if (L->status == SPC_OK && !uniform_scale(&M))
-            mts_fail(L, mts_where(&P, "to_world"), SPC_ERR_VALUE,
-                     "a sphere's to_world may only rotate, translate and scale uniformly");
-    } else if (strcmp(type, "cylinder") == 0) {
-        p0 = mts_get_point(L, &P, "p0", p0);
-        p1 = mts_get_point(L, &P, "p1", p1);
-        if (L->status == SPC_OK && !(spc_distance(p0, p1) > 0.0))
-            mts_fail(L, node, SPC_ERR_VALUE, "cylinder p0 and p1 must differ");
-    } else if (mesh) {
-        const char *fname = mts_get_string(L, &P, "filename", NULL);
-        int shape_index = strcmp(type, "serialized") == 0 ? mts_get_int(L, &P, "shape_index", 0) : 0;
-        bool flip_tex = strcmp(type, "obj") == 0 ? mts_get_bool(L, &P, "flip_tex_coords", true) : true;
-        char path[4096];
-        if (L->status == SPC_OK && !fname)
-            mts_fail(L, node, SPC_ERR_VALUE, "%s shape needs a filename", type);
-        else if (L->status == SPC_OK && shape_index < 0)
-            mts_fail(L, mts_where(&P, "shape_index"), SPC_ERR_VALUE, "shape_index %d must not be negative",
-                     shape_index);
-        else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&P, "filename"), fname, path, sizeof path))
-            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "mesh file '%s' %s", fname,
-                     mts_resolve_failure(L, mts_where(&P, "filename"), fname));
-        if (L->status == SPC_OK)
-            load_mesh(L, mts_where(&P, "filename"), type, path, shape_index, flip_tex, in_group, &m);
-    } else if (strcmp(type, "sdf") == 0) {
-        int nsdf = mts_count_objects(&P, "sdf");
-        if (nsdf != 1)
-            mts_fail(L, node, SPC_ERR_VALUE, "an sdf shape takes one nested <sdf> tree, got %d", nsdf);
-        else if (!(sdf = spc_sdf_create()))
-            mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
-        else
-            sdf_root = build_sdf(L, sdf, mts_object(&P, "sdf", 0, NULL), 1);
-    }
-    if (L->status != SPC_OK) {
-        spc_sdf_destroy(sdf);
-        spc_mesh_release(&m);
-        mts_props_end(&P);
-        return L->status;
-    }
+    spc_mat4 local = mts_get_transform(L, &g->P, "to_world");
+    g->M = a->prefix ? mul(a->prefix, &local) : local;
+    g->flip = mts_get_bool(L, &g->P, "flip_normals", false);
+    return true;
+}
 
-    spc_shape *s = spc_scene_new_shape(L->scene);
-    if (!s) {
-        spc_sdf_destroy(sdf);
-        spc_mesh_release(&m);
-        mts_props_end(&P);
-        return mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
-    }
-    int index = L->scene->nshapes - 1;
+/* A new shape in the scene, its index in *index, once the shape's parameters were read without
+ * error; NULL when they were not, or out of memory (geometry_end reports it). */
+static spc_shape *geometry_shape(const mts_build *a, int *index)
+{
+    *index = -1;
+    if (a->L->status != SPC_OK)
+        return NULL;
+    spc_shape *s = spc_scene_new_shape(a->L->scene);
+    if (!s)
+        return NULL;
+    *index = a->L->scene->nshapes - 1;
     s->interior_medium = s->exterior_medium = -1;
-    spc_error sub;
-    memset(&sub, 0, sizeof sub);
-    bool built = true;
-    const char *f = node->file;
-    if (strcmp(type, "sphere") == 0)
-        built = spc_shape_init_sphere(s, center, radius, &M, f, node->line, node->col, &sub);
-    else if (strcmp(type, "rectangle") == 0)
-        built = spc_shape_init_rectangle(s, &M, f, node->line, node->col, &sub);
-    else if (strcmp(type, "disk") == 0)
-        built = spc_shape_init_disk(s, &M, f, node->line, node->col, &sub);
-    else if (strcmp(type, "cube") == 0)
-        built = spc_shape_init_cube(s, &M, f, node->line, node->col, &sub);
-    else if (strcmp(type, "cylinder") == 0)
-        built = spc_shape_init_cylinder(s, p0, p1, radius, &M, f, node->line, node->col, &sub);
-    else if (sdf)
-        built = spc_shape_init_sdf(s, sdf, sdf_root, &M, f, node->line, node->col, &sub); /* owns sdf */
-    else
-        built = spc_shape_init_mesh(s, &m, &M, f, node->line, node->col, &sub);
-    spc_mesh_release(&m); /* emptied by init_mesh on success */
+    return s;
+}
+
+/* After the shape's init (built: it succeeded; sub: its error otherwise): the id, media, normals,
+ * caustic roles, bsdf and emitter; ends g->P. s NULL: the parameters failed, or out of memory. */
+static void geometry_end(const mts_build *a, geometry *g, spc_shape *s, int index, bool built, const spc_error *sub)
+{
+    mts_loader *L = a->L;
+    spc_xml_node *node = a->node;
+    if (L->status != SPC_OK) {
+        mts_props_end(&g->P);
+        return;
+    }
+    if (!s) {
+        mts_props_end(&g->P);
+        mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+        return;
+    }
     if (!built) {
-        mts_props_end(&P);
-        return mts_fail(L, node, sub.code ? sub.code : SPC_ERR_VALUE, "%s shape: %s", type, sub.msg);
+        mts_props_end(&g->P);
+        mts_fail(L, node, sub->code ? sub->code : SPC_ERR_VALUE, "%s shape: %s", a->type, sub->msg);
+        return;
     }
     /* as Mitsuba 3: a mesh file without normals gets smooth vertex normals (unless face_normals),
      * computed from the WORLD-space positions (they differ under a non-uniform scale) */
-    if (mesh && !face_normals && !spc_mesh_compute_vertex_normals(&s->mesh)) {
-        mts_props_end(&P);
-        return mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+    if (g->mesh && !g->face_normals && !spc_mesh_compute_vertex_normals(&s->mesh)) {
+        mts_props_end(&g->P);
+        mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
+        return;
     }
     const char *id = spc_xml_get(node, "id");
     if (id)
         snprintf(s->id, sizeof s->id, "%s", id);
-    s->interior_medium = interior; /* after init, which clears them */
-    s->exterior_medium = exterior;
-    s->flip_normals = flip;
-    s->face_normals = face_normals;
-    caustic_flags(L, &P, s);
+    s->interior_medium = g->interior; /* after init, which clears them */
+    s->exterior_medium = g->exterior;
+    s->flip_normals = g->flip;
+    s->face_normals = g->face_normals;
+    caustic_flags(L, &g->P, s);
 
-    int nbsdf = mts_count_objects(&P, "bsdf"), nem = mts_count_objects(&P, "emitter");
+    int nbsdf = mts_count_objects(&g->P, "bsdf"), nem = mts_count_objects(&g->P, "emitter");
     if (nbsdf > 1)
         mts_fail(L, node, SPC_ERR_VALUE, "a shape takes one bsdf, got %d", nbsdf);
     else if (nem > 1)
         mts_fail(L, node, SPC_ERR_VALUE, "a shape takes one emitter, got %d", nem);
     else {
-        spc_xml_node *bn = mts_object(&P, "bsdf", 0, NULL);
-        spc_xml_node *en = mts_object(&P, "emitter", 0, NULL);
+        spc_xml_node *bn = mts_object(&g->P, "bsdf", 0, NULL);
+        spc_xml_node *en = mts_object(&g->P, "emitter", 0, NULL);
         s->bsdf = bn ? mts_build_bsdf(L, bn) : default_bsdf(L, node, en != NULL);
         if (en && L->status == SPC_OK)
             mts_build_emitter(L, en, s, index);
     }
+    mts_props_end(&g->P);
+}
+
+/* sphere and cylinder: radius 1, positive */
+static double get_radius(const mts_build *a, geometry *g)
+{
+    double radius = mts_get_float(a->L, &g->P, "radius", 1.0);
+    if (a->L->status == SPC_OK && !(radius > 0.0))
+        mts_fail(a->L, mts_where(&g->P, "radius"), SPC_ERR_VALUE, "%s radius %g must be positive", a->type, radius);
+    return radius;
+}
+
+void mts_shape_sphere(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    geometry g;
+    if (!geometry_begin(a, &g))
+        return;
+    double radius = get_radius(a, &g);
+    spc_vec3 center = mts_get_point(L, &g.P, "center", spc_v3(0, 0, 0));
+    if (L->status == SPC_OK && !(spc_length(spc_v3(g.M.m[0][0], g.M.m[1][0], g.M.m[2][0])) > 0.0))
+        mts_fail(L, mts_where(&g.P, "to_world"), SPC_ERR_VALUE,
+                 "a sphere's to_world scales it to a point (a scale of 0): the sphere would vanish");
+    else if (L->status == SPC_OK && !uniform_scale(&g.M))
+        mts_fail(L, mts_where(&g.P, "to_world"), SPC_ERR_VALUE,
+                 "a sphere's to_world may only rotate, translate and scale uniformly");
+    int index;
+    spc_shape *s = geometry_shape(a, &index);
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    const spc_xml_node *n = a->node;
+    bool built = s && spc_shape_init_sphere(s, center, radius, &g.M, n->file, n->line, n->col, &sub);
+    geometry_end(a, &g, s, index, built, &sub);
+}
+
+void mts_shape_cylinder(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    geometry g;
+    if (!geometry_begin(a, &g))
+        return;
+    double radius = get_radius(a, &g);
+    spc_vec3 p0 = mts_get_point(L, &g.P, "p0", spc_v3(0, 0, 0));
+    spc_vec3 p1 = mts_get_point(L, &g.P, "p1", spc_v3(0, 0, 1));
+    if (L->status == SPC_OK && !(spc_distance(p0, p1) > 0.0))
+        mts_fail(L, a->node, SPC_ERR_VALUE, "cylinder p0 and p1 must differ");
+    int index;
+    spc_shape *s = geometry_shape(a, &index);
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    const spc_xml_node *n = a->node;
+    bool built = s && spc_shape_init_cylinder(s, p0, p1, radius, &g.M, n->file, n->line, n->col, &sub);
+    geometry_end(a, &g, s, index, built, &sub);
+}
+
+/* rectangle, disk, cube: no parameters of their own */
+typedef bool (*plain_init)(spc_shape *s, const spc_mat4 *to_world, const char *file, int line, int col, spc_error *err);
+static void plain_shape(const mts_build *a, plain_init init)
+{
+    geometry g;
+    if (!geometry_begin(a, &g))
+        return;
+    int index;
+    spc_shape *s = geometry_shape(a, &index);
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    const spc_xml_node *n = a->node;
+    bool built = s && init(s, &g.M, n->file, n->line, n->col, &sub);
+    geometry_end(a, &g, s, index, built, &sub);
+}
+void mts_shape_rectangle(const mts_build *a) { plain_shape(a, spc_shape_init_rectangle); }
+void mts_shape_disk(const mts_build *a) { plain_shape(a, spc_shape_init_disk); }
+void mts_shape_cube(const mts_build *a) { plain_shape(a, spc_shape_init_cube); }
+
+/* obj, ply, serialized */
+static void mesh_shape(const mts_build *a, mesh_format format)
+{
+    mts_loader *L = a->L;
+    geometry g;
+    if (!geometry_begin(a, &g))
+        return;
+    g.mesh = true;
+    g.face_normals = mts_get_bool(L, &g.P, "face_normals", false);
+    const char *fname = mts_get_string(L, &g.P, "filename", NULL);
+    int shape_index = format == MESH_SERIALIZED ? mts_get_int(L, &g.P, "shape_index", 0) : 0;
+    bool flip_tex = format == MESH_OBJ ? mts_get_bool(L, &g.P, "flip_tex_coords", true) : true;
+    char path[4096];
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    if (L->status == SPC_OK && !fname)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "%s shape needs a filename", a->type);
+    else if (L->status == SPC_OK && shape_index < 0)
+        mts_fail(L, mts_where(&g.P, "shape_index"), SPC_ERR_VALUE, "shape_index %d must not be negative", shape_index);
+    else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&g.P, "filename"), fname, path, sizeof path))
+        mts_fail(L, mts_where(&g.P, "filename"), SPC_ERR_IO, "mesh file '%s' %s", fname,
+                 mts_resolve_failure(L, mts_where(&g.P, "filename"), fname));
+    if (L->status == SPC_OK)
+        load_mesh(L, mts_where(&g.P, "filename"), a->type, format, path, shape_index, flip_tex, a->in_group, &m);
+    int index;
+    spc_shape *s = geometry_shape(a, &index);
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    const spc_xml_node *n = a->node;
+    bool built = s && spc_shape_init_mesh(s, &m, &g.M, n->file, n->line, n->col, &sub);
+    spc_mesh_release(&m); /* emptied by init_mesh on success */
+    geometry_end(a, &g, s, index, built, &sub);
+}
+void mts_shape_obj(const mts_build *a) { mesh_shape(a, MESH_OBJ); }
+void mts_shape_ply(const mts_build *a) { mesh_shape(a, MESH_PLY); }
+void mts_shape_serialized(const mts_build *a) { mesh_shape(a, MESH_SERIALIZED); }
+
+void mts_shape_sdf(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    geometry g;
+    if (!geometry_begin(a, &g))
+        return;
+    spc_sdf *sdf = NULL;
+    int sdf_root = -1;
+    int nsdf = mts_count_objects(&g.P, "sdf");
+    if (L->status != SPC_OK) {
+        /* reported */
+    } else if (nsdf != 1)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "an sdf shape takes one nested <sdf> tree, got %d", nsdf);
+    else if (!(sdf = spc_sdf_create()))
+        mts_fail(L, a->node, SPC_ERR_NOMEM, "out of memory");
+    else
+        sdf_root = build_sdf(L, sdf, mts_object(&g.P, "sdf", 0, NULL), 1);
+    int index;
+    spc_shape *s = geometry_shape(a, &index);
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    const spc_xml_node *n = a->node;
+    bool built = false;
+    if (s)
+        built = spc_shape_init_sdf(s, sdf, sdf_root, &g.M, n->file, n->line, n->col, &sub); /* owns sdf */
+    else
+        spc_sdf_destroy(sdf);
+    geometry_end(a, &g, s, index, built, &sub);
+}
+
+/* A shapegroup's shapes are made by the instances that refer to it. */
+void mts_shape_shapegroup(const mts_build *a)
+{
+    if (a->in_group)
+        mts_fail(a->L, a->node, SPC_ERR_VALUE, "shapegroups cannot be nested");
+}
+
+void mts_shape_instance(const mts_build *a)
+{
+    mts_props P;
+    if (mts_props_collect(a->L, a->node, &P))
+        return;
+    build_instance(a->L, a->node, &P, a->prefix, a->in_group);
+    mts_props_end(&P);
+}
+
+spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group)
+{
+    const char *type = mts_type(node);
+    mts_build_fn build = builder("shape", type);
+    if (build) {
+        mts_build a = {.L = L, .node = node, .type = type, .prefix = prefix, .in_group = in_group};
+        build(&a);
+        return L->status;
+    }
+    mts_props P;
+    if (mts_props_collect(L, node, &P))
+        return L->status;
+    mts_fail_plugin(L, node, "shape", type);
     mts_props_end(&P);
     return L->status;
 }
@@ -1005,21 +1217,123 @@ static void projector_frustum(mts_loader *L, mts_props *P, spc_emitter *e)
         mts_fail(L, mts_where(P, "fov"), SPC_ERR_VALUE, "projector field of view %g is invalid", fov);
 }
 
+/* ---- the emitter builders: one per emitter row of the plugin table (mitsuba_plugin_list.c) ---- */
+
+/* The emitter's origin in the world (its to_world applied to 0). */
+static spc_vec3 emitter_origin(const spc_emitter *e) { return spc_mat4_apply_point(&e->to_world, spc_v3(0, 0, 0)); }
+
+void mts_emitter_area(const mts_build *a)
+{
+    spc_emitter *e = a->object;
+    e->type = SPC_EMITTER_AREA;
+    e->radiance = emission_texture(a->L, a->P, "radiance", spc_rgb1(1));
+    e->shape = a->shape;
+    e->shape_index = a->shape_index;
+}
+
+void mts_emitter_point(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    spc_emitter *e = a->object;
+    e->type = SPC_EMITTER_POINT;
+    e->intensity = emission_rgb(L, a->P, "intensity", spc_rgb1(1));
+    if (mts_has(a->P, "position") && mts_has(a->P, "to_world"))
+        mts_fail(L, mts_where(a->P, "position"), SPC_ERR_VALUE, "give either position or to_world, not both");
+    e->position = mts_get_point(L, a->P, "position", emitter_origin(e));
+}
+
+void mts_emitter_spot(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    spc_emitter *e = a->object;
+    e->type = SPC_EMITTER_SPOT;
+    e->intensity = emission_rgb(L, a->P, "intensity", spc_rgb1(1));
+    e->cutoff_angle = mts_get_float(L, a->P, "cutoff_angle", 20.0);
+    e->beam_width = mts_get_float(L, a->P, "beam_width", 0.75 * e->cutoff_angle);
+    e->position = emitter_origin(e);
+    if (mts_has(a->P, "texture"))
+        e->texture = mts_get_texture(L, a->P, "texture", spc_rgb1(1));
+    if (L->status == SPC_OK && !(e->cutoff_angle > 0.0 && e->cutoff_angle <= 90.0))
+        mts_fail(L, mts_where(a->P, "cutoff_angle"), SPC_ERR_VALUE, "cutoff_angle %g must be in (0, 90]",
+                 e->cutoff_angle);
+    if (L->status == SPC_OK && !(e->beam_width > 0.0 && e->beam_width <= e->cutoff_angle))
+        mts_fail(L, mts_where(a->P, "beam_width"), SPC_ERR_VALUE, "beam_width %g must be in (0, cutoff_angle]",
+                 e->beam_width);
+}
+
+void mts_emitter_projector(const mts_build *a)
+{
+    spc_emitter *e = a->object;
+    e->type = SPC_EMITTER_PROJECTOR;
+    e->texture = emission_texture(a->L, a->P, "irradiance", spc_rgb1(1));
+    e->scale = mts_get_float(a->L, a->P, "scale", 1.0);
+    e->position = emitter_origin(e);
+    projector_frustum(a->L, a->P, e);
+}
+
+void mts_emitter_directional(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    spc_emitter *e = a->object;
+    e->type = SPC_EMITTER_DIRECTIONAL;
+    e->irradiance = emission_rgb(L, a->P, "irradiance", spc_rgb1(1));
+    spc_vec3 d = spc_mat4_apply_vector(&e->to_world, spc_v3(0, 0, 1));
+    d = mts_get_point(L, a->P, "direction", d);
+    if (L->status == SPC_OK && !(spc_length(d) > 0.0))
+        mts_fail(L, mts_where(a->P, "direction"), SPC_ERR_VALUE, "directional emitter needs a non-zero direction");
+    e->direction = spc_normalize(d);
+}
+
+void mts_emitter_constant(const mts_build *a)
+{
+    spc_emitter *e = a->object;
+    e->type = SPC_EMITTER_CONSTANT;
+    e->radiance = emission_texture(a->L, a->P, "radiance", spc_rgb1(1));
+}
+
+void mts_emitter_envmap(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    spc_emitter *e = a->object;
+    e->type = SPC_EMITTER_ENVMAP;
+    e->scale = mts_get_float(L, a->P, "scale", 1.0);
+    const char *fname = mts_get_string(L, a->P, "filename", NULL);
+    char path[4096];
+    if (L->status == SPC_OK && !fname)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "envmap needs a filename");
+    else if (L->status == SPC_OK && !mts_resolve(L, mts_where(a->P, "filename"), fname, path, sizeof path))
+        mts_fail(L, mts_where(a->P, "filename"), SPC_ERR_IO, "envmap file '%s' %s", fname,
+                 mts_resolve_failure(L, mts_where(a->P, "filename"), fname));
+    if (L->status != SPC_OK)
+        return;
+    spc_texture *t = spc_scene_new_texture(L->scene);
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    if (!t) {
+        mts_fail(L, a->node, SPC_ERR_NOMEM, "out of memory");
+    } else if (spc_texture_load_bitmap(t, path, false, &sub) != SPC_OK) {
+        char msg[SPC_ERROR_MSG_MAX];
+        spc_error_format(&sub, msg, sizeof msg);
+        mts_fail(L, mts_where(a->P, "filename"), sub.code ? sub.code : SPC_ERR_IO, "cannot load envmap '%s': %s", fname,
+                 msg);
+    }
+    e->radiance = t;
+}
+
+/* Emitters other than area ones stand alone; an area emitter is nested in the shape it lights. */
 spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index)
 {
     mts_props P;
     if (mts_props_collect(L, node, &P))
         return L->status;
     const char *type = mts_type(node);
-    static const char *known[] = {"area", "point", "spot", "directional", "constant", "envmap", "projector"};
-    bool ok = false;
-    for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
-        ok |= strcmp(type, known[i]) == 0;
-    if (!ok) {
-        mts_fail_plugin(L, node, "emitter", type, "area, point, spot, directional, constant, envmap, projector");
-    } else if (shape && strcmp(type, "area") != 0) {
+    mts_build_fn build = builder("emitter", type);
+    bool area = build == mts_emitter_area;
+    if (!build) {
+        mts_fail_plugin(L, node, "emitter", type);
+    } else if (shape && !area) {
         mts_fail(L, node, SPC_ERR_VALUE, "only area emitters can be attached to a shape, not '%s'", type);
-    } else if (!shape && strcmp(type, "area") == 0) {
+    } else if (!shape && area) {
         mts_fail(L, node, SPC_ERR_VALUE, "an area emitter must be nested inside a <shape>");
     }
     if (L->status != SPC_OK) {
@@ -1035,74 +1349,9 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
     tmp.shape_index = -1;
     if (!spc_mat4_inverse(&to_world, &tmp.to_local))
         mts_fail(L, mts_where(&P, "to_world"), SPC_ERR_VALUE, "emitter to_world is singular");
-    spc_vec3 origin = spc_mat4_apply_point(&to_world, spc_v3(0, 0, 0));
-    if (strcmp(type, "area") == 0) {
-        tmp.type = SPC_EMITTER_AREA;
-        tmp.radiance = emission_texture(L, &P, "radiance", spc_rgb1(1));
-        tmp.shape = shape;
-        tmp.shape_index = shape_index;
-    } else if (strcmp(type, "point") == 0) {
-        tmp.type = SPC_EMITTER_POINT;
-        tmp.intensity = emission_rgb(L, &P, "intensity", spc_rgb1(1));
-        if (mts_has(&P, "position") && mts_has(&P, "to_world"))
-            mts_fail(L, mts_where(&P, "position"), SPC_ERR_VALUE, "give either position or to_world, not both");
-        tmp.position = mts_get_point(L, &P, "position", origin);
-    } else if (strcmp(type, "spot") == 0) {
-        tmp.type = SPC_EMITTER_SPOT;
-        tmp.intensity = emission_rgb(L, &P, "intensity", spc_rgb1(1));
-        tmp.cutoff_angle = mts_get_float(L, &P, "cutoff_angle", 20.0);
-        tmp.beam_width = mts_get_float(L, &P, "beam_width", 0.75 * tmp.cutoff_angle);
-        tmp.position = origin;
-        if (mts_has(&P, "texture"))
-            tmp.texture = mts_get_texture(L, &P, "texture", spc_rgb1(1));
-        if (L->status == SPC_OK && !(tmp.cutoff_angle > 0.0 && tmp.cutoff_angle <= 90.0))
-            mts_fail(L, mts_where(&P, "cutoff_angle"), SPC_ERR_VALUE, "cutoff_angle %g must be in (0, 90]",
-                     tmp.cutoff_angle);
-        if (L->status == SPC_OK && !(tmp.beam_width > 0.0 && tmp.beam_width <= tmp.cutoff_angle))
-            mts_fail(L, mts_where(&P, "beam_width"), SPC_ERR_VALUE, "beam_width %g must be in (0, cutoff_angle]",
-                     tmp.beam_width);
-    } else if (strcmp(type, "projector") == 0) {
-        tmp.type = SPC_EMITTER_PROJECTOR;
-        tmp.texture = emission_texture(L, &P, "irradiance", spc_rgb1(1));
-        tmp.scale = mts_get_float(L, &P, "scale", 1.0);
-        tmp.position = origin;
-        projector_frustum(L, &P, &tmp);
-    } else if (strcmp(type, "directional") == 0) {
-        tmp.type = SPC_EMITTER_DIRECTIONAL;
-        tmp.irradiance = emission_rgb(L, &P, "irradiance", spc_rgb1(1));
-        spc_vec3 d = spc_mat4_apply_vector(&to_world, spc_v3(0, 0, 1));
-        d = mts_get_point(L, &P, "direction", d);
-        if (L->status == SPC_OK && !(spc_length(d) > 0.0))
-            mts_fail(L, mts_where(&P, "direction"), SPC_ERR_VALUE, "directional emitter needs a non-zero direction");
-        tmp.direction = spc_normalize(d);
-    } else if (strcmp(type, "constant") == 0) {
-        tmp.type = SPC_EMITTER_CONSTANT;
-        tmp.radiance = emission_texture(L, &P, "radiance", spc_rgb1(1));
-    } else { /* envmap */
-        tmp.type = SPC_EMITTER_ENVMAP;
-        tmp.scale = mts_get_float(L, &P, "scale", 1.0);
-        const char *fname = mts_get_string(L, &P, "filename", NULL);
-        char path[4096];
-        if (L->status == SPC_OK && !fname)
-            mts_fail(L, node, SPC_ERR_VALUE, "envmap needs a filename");
-        else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&P, "filename"), fname, path, sizeof path))
-            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "envmap file '%s' %s", fname,
-                     mts_resolve_failure(L, mts_where(&P, "filename"), fname));
-        if (L->status == SPC_OK) {
-            spc_texture *t = spc_scene_new_texture(L->scene);
-            spc_error sub;
-            memset(&sub, 0, sizeof sub);
-            if (!t) {
-                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
-            } else if (spc_texture_load_bitmap(t, path, false, &sub) != SPC_OK) {
-                char msg[SPC_ERROR_MSG_MAX];
-                spc_error_format(&sub, msg, sizeof msg);
-                mts_fail(L, mts_where(&P, "filename"), sub.code ? sub.code : SPC_ERR_IO, "cannot load envmap '%s': %s",
-                         fname, msg);
-            }
-            tmp.radiance = t;
-        }
-    }
+    mts_build a = {
+        .L = L, .node = node, .type = type, .P = &P, .object = &tmp, .shape = shape, .shape_index = shape_index};
+    build(&a);
     if (L->status == SPC_OK && tmp.radiance && tmp.radiance->type == SPC_TEX_MESH_ATTRIBUTE)
         mts_fail(L, mts_where(&P, "radiance"), SPC_ERR_VALUE, "a mesh_attribute texture cannot be an emitter's radiance");
     if (L->status == SPC_OK && tmp.texture && tmp.texture->type == SPC_TEX_MESH_ATTRIBUTE)

@@ -70,7 +70,7 @@ static bool build_volume(mts_loader *L, spc_xml_node *node, spc_volume *out)
             }
         }
     } else {
-        mts_fail_plugin(L, node, "volume", type, "gridvolume, constvolume");
+        mts_fail_plugin(L, node, "volume", type);
     }
     mts_props_end(&P);
     if (L->status != SPC_OK) {

@@ -1421,7 +1421,7 @@ static void parse_rfilter(mts_loader *L, spc_xml_node *node, spc_film_spec *film
         film->filter_stddev = 0.5;
         film->filter_radius = 2.0;
     } else {
-        mts_fail_plugin(L, node, "rfilter", type, "box, tent, gaussian");
+        mts_fail_plugin(L, node, "rfilter", type);
     }
     if (L->status == SPC_OK && !(film->filter_radius > 0.0))
         mts_fail(L, node, SPC_ERR_VALUE, "rfilter '%s': radius must be positive", type);
@@ -1435,7 +1435,7 @@ static void parse_film(mts_loader *L, spc_xml_node *node, spc_film_spec *film)
         return;
     const char *type = mts_type(node);
     if (strcmp(type, "hdrfilm") != 0 && strcmp(type, "ldrfilm") != 0) {
-        mts_fail_plugin(L, node, "film", type, "hdrfilm, ldrfilm");
+        mts_fail_plugin(L, node, "film", type);
         mts_props_end(&P);
         return;
     }
@@ -1569,7 +1569,7 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
     } else if (strcmp(type, "orthographic") == 0) {
         cam->type = SPC_CAMERA_ORTHOGRAPHIC;
     } else {
-        mts_fail_plugin(L, node, "sensor", type, "perspective, thinlens, orthographic");
+        mts_fail_plugin(L, node, "sensor", type);
         mts_props_end(&P);
         return;
     }
@@ -1730,7 +1730,7 @@ static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
         ours = "ipt";
     } else {
         if (mts_plugin_find("integrator", type))
-            mts_fail_plugin(L, node, "integrator", type, "");
+            mts_fail_plugin(L, node, "integrator", type);
         else
             mts_fail(L, node, SPC_ERR_PLUGIN,
                      "unknown integrator '%s'; choose one of specula's with --integrator path or -D integrator=path",
