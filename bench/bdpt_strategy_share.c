@@ -1,6 +1,6 @@
 /*
  * bench/bdpt_strategy_share.c: how much of an image each bdpt strategy carries in a window, from
- * the films of `specula render --strategy-images DIR` (issue 4: "which strategies carry the
+ * the films of `specula render --strategy-images DIR` ("which strategies carry the
  * caustic").
  *
  * usage: bdpt_strategy_share IMAGE.exr DIR [X Y [RADIUS]]

@@ -1,5 +1,5 @@
 #!/bin/sh
-# bench/bench_bdpt.sh: BDPT against path at equal time (issue 4), and BDPT's per-strategy images.
+# bench/bench_bdpt.sh: BDPT against path at equal time, and BDPT's per-strategy images.
 #
 # For each scene: a reference rendered by bdpt for REF_SECONDS (seed 1), then path and bdpt for
 # SECONDS each (seeds 2, 3), and `specula diff` of each against the reference (relMSE). Then the

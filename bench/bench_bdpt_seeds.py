@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""path against bdpt at equal CPU time over several seeds, with each seed's worst pixel (issue 21).
+"""path against bdpt at equal CPU time over several seeds, with each seed's worst pixel.
 
     python3 bench/bench_bdpt_seeds.py [--specula build/specula] [--cpu 4] [--seeds 8] [--res 32]
                                       [--refs DIR] [--out DIR] [--mitsuba-spp 32768]

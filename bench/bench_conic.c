@@ -1,5 +1,5 @@
 /*
- * bench/bench_conic.c: the conic solver (issue 7): cost per query against the triangle count, and
+ * bench/bench_conic.c: the conic solver: cost per query against the triangle count, and
  * equal-time error of specular NEE by conic, newton and angular on single-interface scenes.
  *
  *   build/bench_conic scaling [queries]          microseconds per query and per triangle solved,

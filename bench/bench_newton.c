@@ -1,5 +1,5 @@
 /*
- * bench/bench_newton.c: the Newton solver (manifold NEE, issue 6) next to the angular solver on the
+ * bench/bench_newton.c: the Newton solver (manifold NEE) next to the angular solver on the
  * random admissible chains of bench/bench_solvers.c (the same scenes and the same chains: the chain
  * generator below is that file's, with the same random streams).
  *

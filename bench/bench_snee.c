@@ -1,6 +1,6 @@
 /*
  * bench/bench_snee.c: where specular NEE's time goes, and its efficiency per receiver point, on a
- * scene file (issue 5: the angular solver's seeding and trial counting).
+ * scene file (the angular solver's seeding and trial counting).
  *
  *   build/bench_snee SCENE.xml [-D name=value]... [--solver NAME] [--points N] [--calls M]
  *                    [--seed S] [--profile] CONFIG...

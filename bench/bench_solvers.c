@@ -1,5 +1,5 @@
 /*
- * bench/bench_solvers.c: the specular solvers on random admissible chains (issue 5).
+ * bench/bench_solvers.c: the specular solvers on random admissible chains.
  *
  *   build/bench_solvers [chains per configuration (default 2000)] [rng seed] [scene name]
  *

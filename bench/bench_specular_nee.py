@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""bench/bench_specular_nee.py: specular next-event estimation at equal CPU time (issues 5 and 6).
+"""bench/bench_specular_nee.py: specular next-event estimation at equal CPU time.
 
 For each caustic scene (and, where the scene's light is large, a smaller light of the same power),
 `specula render` with `--specular-nee none` (plain path tracing), `angular`, `newton` and, on the

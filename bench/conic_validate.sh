@@ -1,5 +1,5 @@
 #!/bin/sh
-# bench/conic_validate.sh: the larger, by-hand versions of the conic solver's image tests (issue 7),
+# bench/conic_validate.sh: the larger, by-hand versions of the conic solver's image tests,
 # whose small versions run in CI (tests/test_conic.c, tests/test_volpath.c):
 #   - conic_bunny.xml (glass bunny-like mesh caustic): path + specular NEE conic against ipt;
 #   - newton_pool.xml (a water surface mesh): path + conic against ipt;

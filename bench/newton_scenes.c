@@ -1,12 +1,12 @@
 /*
- * bench/newton_scenes.c: the caustic scenes of issues 5 and 6 rendered by path tracing with specular
+ * bench/newton_scenes.c: the caustic scenes rendered by path tracing with specular
  * NEE (newton, unbiased unless the setting says otherwise) against the implicit path tracer `ipt`,
  * at sizes larger than CI's (tests/test_newton.c renders small scenes built in code).
  *
  *   build/newton_scenes REF_SPP SNEE_SPP RES [SETTING [SCENE.xml ...]]
  *
  * SETTING is a specular_nee value (default "newton"; e.g. "newton:biased=8"); the scenes default to
- * the six of issue 6 (scenes/caustic_{glass_sphere,mirror_ring,sdf_torus,pool}.xml,
+ * the six caustic scenes (scenes/caustic_{glass_sphere,mirror_ring,sdf_torus,pool}.xml,
  * scenes/newton_{pool,slabs}.xml: run from the source tree's root). For each scene: the fraction of
  * pixels that pass the per-pixel z-test (alpha 0.01, Sidak-corrected for the pixel count, with the
  * variance of both means: spc_image_diff), the image means' ratio, and the CPU seconds of each

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes scenes/meshes/conic_bunny.obj: a closed, irregular, non-convex "bunny-like" glass mesh
-for the conic solver's validation scene (scenes/conic_bunny.xml, issue 7).
+for the conic solver's validation scene (scenes/conic_bunny.xml).
 
     python3 tests/validation/make_conic_bunny.py [--level 4] [--out scenes/meshes/conic_bunny.obj]
 
