@@ -13,6 +13,7 @@
  *   caustic_caster / caustic_receiver / caustic_caster_single / caustic_caster_multi, and media
  *   (name="interior" / "exterior", nested or referenced; io/mitsuba_media.c).
  *   shapegroup holds shapes; instance (a ref to a shapegroup, to_world) copies them, placed.
+ *   linearcurve, bsplinecurve: filename (io/mitsuba_curves.c, scene/curve.h).
  *   sdf: one nested <sdf type="sphere | box | roundbox | torus | capsule | cylinder | plane | union |
  *   intersection | difference | smooth_union"> tree, each node with its own to_world (properties
  *   and defaults in scene/sdf.h); operations take two or more nested <sdf> and fold from the left.
@@ -43,6 +44,7 @@
 
 #include "io/mesh_io.h"
 #include "io/mitsuba_internal.h"
+#include "scene/curve.h"
 #include "scene/sdf.h"
 
 #define UNIFORM_SCALE_TOL 1e-5 /* relative: sphere to_world columns must agree this well */
@@ -831,9 +833,11 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     bool ok = false;
     for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
         ok |= strcmp(type, known[i]) == 0;
+    ok |= mts_is_curve_type(type);
     if (!ok) {
         mts_fail_plugin(L, node, "shape", type,
-                        "sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, shapegroup, instance");
+                        "sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, linearcurve, bsplinecurve, "
+                        "shapegroup, instance");
         mts_props_end(&P);
         return L->status;
     }
@@ -855,6 +859,7 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     memset(&m, 0, sizeof m);
     spc_sdf *sdf = NULL;
     int sdf_root = -1;
+    spc_curve *curve = mts_is_curve_type(type) ? mts_load_curve(L, node, &P, type, &M) : NULL;
     if (strcmp(type, "sphere") == 0 || strcmp(type, "cylinder") == 0) {
         radius = mts_get_float(L, &P, "radius", 1.0);
         if (L->status == SPC_OK && !(radius > 0.0))
@@ -899,6 +904,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     }
     if (L->status != SPC_OK) {
         spc_sdf_destroy(sdf);
+        spc_curve_release(curve);
+        free(curve);
         spc_mesh_release(&m);
         mts_props_end(&P);
         return L->status;
@@ -906,6 +913,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
 
     spc_shape *s = spc_scene_new_shape(L->scene);
     if (!s) {
+        spc_curve_release(curve);
+        free(curve);
         spc_sdf_destroy(sdf);
         spc_mesh_release(&m);
         mts_props_end(&P);
@@ -927,6 +936,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
         built = spc_shape_init_cube(s, &M, f, node->line, node->col, &sub);
     else if (strcmp(type, "cylinder") == 0)
         built = spc_shape_init_cylinder(s, p0, p1, radius, &M, f, node->line, node->col, &sub);
+    else if (curve)
+        built = spc_shape_init_curve(s, curve, f, node->line, node->col, &sub); /* owns curve */
     else if (sdf)
         built = spc_shape_init_sdf(s, sdf, sdf_root, &M, f, node->line, node->col, &sub); /* owns sdf */
     else
