@@ -111,7 +111,8 @@ static const mts_plugin plugins[] = {
 
     /* ---- textures ---- */
     {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
-     "images: OpenEXR, PNG, JPEG, BMP (uncompressed)"},
+     "images: OpenEXR, PNG, JPEG, BMP (uncompressed); format (storage precision), max_anisotropy and cache are "
+     "accepted and ignored (texels are float)"},
     {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", ""},
     {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", ""},
     {"texture", "mesh_attribute", MTS_PLUGIN_YES, "name (\"vertex_*\" or \"face_*\"), scale 1",

@@ -134,6 +134,7 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
         const char *wrap = mts_get_string(L, &P, "wrap_mode", "repeat");
         mts_ignore(&P, "max_anisotropy");
         mts_ignore(&P, "cache");
+        mts_ignore(&P, "format"); /* Mitsuba's storage precision of the texels; specula keeps float */
         bool nearest = false;
         spc_wrap_mode wm = SPC_WRAP_REPEAT;
         if (strcmp(filter, "nearest") == 0)
