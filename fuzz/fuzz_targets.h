@@ -31,6 +31,7 @@
 #include "io/mesh_io.h"
 #include "io/mitsuba_xml.h"
 #include "io/vol.h"
+#include "scene/curve.h"
 #include "specula/specula.h"
 
 /* A memfd holding the input; *path receives its /proc name. -1 on failure. */
@@ -119,6 +120,29 @@ static inline int spc_fuzz_vol(const uint8_t *data, size_t size)
             for (int i = 0; i < 27; ++i)
                 (void)spc_volume_eval(&v, spc_v3(0.75 * (i % 3) - 0.25, 0.75 * (i / 3 % 3) - 0.25, 0.75 * (i / 9) - 0.25));
         free(v.data);
+    }
+    return 0;
+}
+
+/* Curve files (scene/curve.h) as both bases; a curve that parses has its bounds, area and a hit
+ * on every segment computed. */
+static inline int spc_fuzz_curve(const uint8_t *data, size_t size)
+{
+    for (int basis = 0; basis < 2; ++basis) {
+        spc_curve c;
+        spc_error err;
+        if (spc_curve_parse((const char *)data, size, "fuzz.txt", (spc_curve_basis)basis, NULL, &c, &err) != SPC_OK)
+            continue;
+        spc_vec3 lo, hi;
+        spc_curve_bounds(&c, &lo, &hi);
+        (void)spc_curve_area(&c);
+        for (uint32_t k = 0; k < c.nseg && k < 64; ++k) {
+            spc_ray r = {spc_v3(0, 0, 10), spc_v3(0, 0, -1), 0.0, INFINITY};
+            spc_hit h;
+            memset(&h, 0, sizeof h);
+            spc_curve_fill_hit(&c, (int)k, 0.5, &r, 10.0, k & 1, &h);
+        }
+        spc_curve_release(&c);
     }
     return 0;
 }

@@ -4,7 +4,7 @@
 # the committed fuzz/corpus/); a crash leaves build-fuzz/fuzz/crash-<name>-* and fails the run.
 #
 # usage: bash fuzz/run.sh [SECONDS_EACH (default 20)] [NAME...]   (names: xml obj ply serialized
-#        exr png jpeg checkpoint cli explore vol; default all). FUZZ_JOBS=N runs N fuzzers at once (default 1).
+#        exr png jpeg checkpoint cli explore vol curve; default all). FUZZ_JOBS=N runs N fuzzers at once (default 1).
 # Installs clang and libclang-rt-14-dev (Debian) if missing; the library's own dependencies are
 # tools/build.sh's (run it first on a fresh machine).
 set -euo pipefail
@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 secs=${1:-20}
 shift || true
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(xml obj ply serialized exr png jpeg checkpoint cli explore vol)
+[ ${#names[@]} -eq 0 ] && names=(xml obj ply serialized exr png jpeg checkpoint cli explore vol curve)
 
 missing=()
 for p in clang libclang-rt-14-dev; do

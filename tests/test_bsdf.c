@@ -834,6 +834,20 @@ TEST(test_mask_null_blend)
     CHECK(spc_bsdf_sample_dir(bl, &h, SPC_MODE_RADIANCE, wo, 0.6, spc_v2(0.5, 0.5), &s));
     CHECK(s.lobe == SPC_LOBE_DIFFUSE_REFLECTION);
     CHECK_NEAR(s.weight.r, 0.6, 1e-12);
+    /* the mean sample weight is the mixture of the albedos, 0.75 * 0.6 + 0.25 * 1 (Mitsuba 3.9.1's
+     * blend mixes the diffuse density into the delta sample's pdf and falls below it:
+     * tests/validation/blendbsdf_delta_mitsuba.py) */
+    spc_rng rng;
+    spc_rng_seed(&rng, 11, 0);
+    double sum = 0.0;
+    const int N = 20000;
+    for (int i = 0; i < N; ++i) {
+        double ul = spc_rng_next(&rng);
+        spc_vec2 u = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
+        if (spc_bsdf_sample_dir(bl, &h, SPC_MODE_RADIANCE, wo, ul, u, &s))
+            sum += s.weight.r;
+    }
+    CHECK_NEAR(sum / N, 0.75 * 0.6 + 0.25 * 1.0, 0.005); /* standard error 0.0012 */
 }
 
 /* Mitsuba 3.9's bump-terminator shadowing G1(w) for perturbed normals (Conty Estevez et al. 2019):

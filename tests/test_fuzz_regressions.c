@@ -126,7 +126,8 @@ TEST(vol) { replay("vol", spc_fuzz_vol); }
 TEST(tiny_inputs)
 {
     const target_fn all[] = {spc_fuzz_xml, spc_fuzz_obj, spc_fuzz_ply, spc_fuzz_serialized,
-                             spc_fuzz_exr, spc_fuzz_png, spc_fuzz_checkpoint, spc_fuzz_vol};
+                             spc_fuzz_exr, spc_fuzz_png, spc_fuzz_checkpoint, spc_fuzz_vol,
+                             spc_fuzz_curve};
     const char *inputs[] = {"", "\0", "<", "ply\n", "v/1\x01", "\x89PNG\r\n\x1a\n", "SPCCKPT", "f 1 2 3\n"};
     for (size_t t = 0; t < sizeof all / sizeof all[0]; ++t)
         for (size_t i = 0; i < sizeof inputs / sizeof inputs[0]; ++i)

@@ -56,6 +56,7 @@ static void probe(const mts_plugin *p, char *xml, size_t size)
         const char *file = !strcmp(n, "obj")          ? "meshes/quad.obj"
                            : !strcmp(n, "ply")        ? "meshes/torus_ascii.ply"
                            : !strcmp(n, "serialized") ? "meshes/cone_prism.serialized"
+                           : strstr(n, "curve")       ? "meshes/curves.txt"
                                                       : NULL;
         if (file)
             snprintf(xml, size, "<shape type=\"%s\"><string name=\"filename\" value=\"%s\"/></shape>", n, file);

@@ -2,8 +2,10 @@
  * accel/embree.c: Embree 3 device and scene. Meshes are RTC_GEOMETRY_TYPE_TRIANGLE reading the
  * scene's float positions and indices in place (spc_mesh.p_padded; copies otherwise); spheres,
  * disks and cylinders are RTC_GEOMETRY_TYPE_USER whose callbacks intersect in double precision
- * from the caller's double ray, which travels in an extended RTCIntersectContext. The geometry ID
- * of every shape equals its index in the scene.
+ * from the caller's double ray, which travels in an extended RTCIntersectContext; curves are
+ * Embree's round linear and round B-spline curves reading the shape's control points in place, with
+ * their back faces culled (Mitsuba 3's Embree is built so: a ray from inside a tube passes out of
+ * it). The geometry ID of every shape equals its index in the scene.
  */
 #include "accel/accel.h"
 
@@ -12,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "scene/curve.h"
 #include "scene/scene.h"
 
 /* Scenes of at least this many triangles get Embree's compact BVH (leaves index the shared vertex
@@ -94,6 +97,23 @@ static void occluded_fn(const struct RTCOccludedFunctionNArguments *args)
         ray->tfar = -INFINITY;
 }
 
+/* Culls a curve's back faces: a hit whose geometric normal (outward) faces along the ray. */
+static void curve_filter_fn(const struct RTCFilterFunctionNArguments *args)
+{
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (!args->valid[i])
+            continue;
+        /* the SoA layouts of rtcore_ray.h (its accessors are C++ only): hit Ng_x,y,z at 0, N, 2N;
+         * ray dir_x,y,z at 4N, 5N, 6N */
+        const float *hit = (const float *)args->hit, *ray = (const float *)args->ray;
+        unsigned N = args->N;
+        float nx = hit[i], ny = hit[N + i], nz = hit[2 * N + i];
+        float dx = ray[4 * N + i], dy = ray[5 * N + i], dz = ray[6 * N + i];
+        if (nx * dx + ny * dy + nz * dz > 0.0f)
+            args->valid[i] = 0;
+    }
+}
+
 static void error_fn(void *user, enum RTCError code, const char *str)
 {
     (void)user;
@@ -155,6 +175,22 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
                 rtcReleaseGeometry(g);
                 spc_accel_destroy(a);
                 spc_error_set(err, SPC_ERR_NOMEM, NULL, 0, 0, "Embree: cannot take mesh '%s' (out of memory)", s->id);
+                return NULL;
+            }
+        } else if (s->type == SPC_SHAPE_CURVE) {
+            const spc_curve *c = s->curve;
+            g = rtcNewGeometry(a->device, c->basis == SPC_CURVE_LINEAR ? RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE
+                                                                       : RTC_GEOMETRY_TYPE_ROUND_BSPLINE_CURVE);
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, (void *)c->cp, 0, 4 * sizeof(float),
+                                       c->ncp);
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, (void *)c->seg, 0, sizeof(uint32_t),
+                                       c->nseg);
+            rtcSetGeometryIntersectFilterFunction(g, curve_filter_fn);
+            rtcSetGeometryOccludedFilterFunction(g, curve_filter_fn);
+            if (rtcGetDeviceError(a->device) != RTC_ERROR_NONE) {
+                rtcReleaseGeometry(g);
+                spc_accel_destroy(a);
+                spc_error_set(err, SPC_ERR_ACCEL, NULL, 0, 0, "Embree: cannot take curve '%s'", s->id);
                 return NULL;
             }
         } else {

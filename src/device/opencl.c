@@ -425,8 +425,9 @@ static spc_status build_scene(const spc_render_ctx *ctx, host_scene *hs, spc_err
             break;
         case SPC_SHAPE_DISK:
         case SPC_SHAPE_CYLINDER:
+        case SPC_SHAPE_CURVE:
             return REFUSE("shape '%s' of type %s not supported (sdf, sphere, rectangle, cube)", s->id,
-                          s->type == SPC_SHAPE_DISK ? "disk" : "cylinder");
+                          s->type == SPC_SHAPE_DISK ? "disk" : s->type == SPC_SHAPE_CURVE ? "curve" : "cylinder");
         }
         if (st != SPC_OK)
             return st;

@@ -181,6 +181,15 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
 spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index);
 void mts_mesh_cache_release(mts_loader *L);
 
+/* ---- mitsuba_curves.c ---- */
+struct spc_curve;
+/* Is type one of Mitsuba 3's curve shapes (linearcurve, bsplinecurve)? */
+bool mts_is_curve_type(const char *type);
+/* Reads a curve shape's file with its positions in world space (M); NULL after mts_fail. The caller
+ * owns the result (spc_shape_init_curve takes it). */
+struct spc_curve *mts_load_curve(mts_loader *L, spc_xml_node *node, mts_props *P, const char *type,
+                                 const spc_mat4 *M);
+
 /* ---- mitsuba_media.c ---- */
 /* Builds a <medium> into the scene (once per id); returns its index in scene->media, or -1 after
  * mts_fail. */
@@ -288,6 +297,7 @@ void mts_shape_obj(const mts_build *a);
 void mts_shape_ply(const mts_build *a);
 void mts_shape_serialized(const mts_build *a);
 void mts_shape_sdf(const mts_build *a);
+void mts_shape_curve(const mts_build *a); /* linearcurve, bsplinecurve */
 void mts_shape_shapegroup(const mts_build *a);
 void mts_shape_instance(const mts_build *a);
 

@@ -104,8 +104,10 @@ static const mts_plugin plugins[] = {
      "exact (analytic)", mts_shape_cylinder},
     {"shape", "shapegroup", MTS_PLUGIN_YES, "nested shapes", "", mts_shape_shapegroup},
     {"shape", "instance", MTS_PLUGIN_YES, "a referenced shapegroup, to_world", "", mts_shape_instance},
-    {"shape", "bsplinecurve", MTS_PLUGIN_NO, "-", "", NULL},
-    {"shape", "linearcurve", MTS_PLUGIN_NO, "-", "", NULL},
+    {"shape", "bsplinecurve", MTS_PLUGIN_YES, "filename, flip_normals false, to_world (radii not scaled)",
+     "Embree's round B-spline curves, back faces culled, as Mitsuba 3; not an area emitter", mts_shape_curve},
+    {"shape", "linearcurve", MTS_PLUGIN_YES, "filename, flip_normals false, to_world (radii not scaled)",
+     "Embree's round linear curves, back faces culled, as Mitsuba 3; not an area emitter", mts_shape_curve},
     {"shape", "sdfgrid", MTS_PLUGIN_NO, "-", "", NULL},
     {"shape", "ellipsoids", MTS_PLUGIN_NO, "-", "", NULL},
     {"shape", "ellipsoidsmesh", MTS_PLUGIN_NO, "-", "", NULL},
@@ -113,7 +115,8 @@ static const mts_plugin plugins[] = {
 
     /* ---- textures ---- */
     {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
-     "images: OpenEXR, PNG, JPEG, BMP (uncompressed)", NULL},
+     "images: OpenEXR, PNG, JPEG, BMP (uncompressed); format (storage precision), max_anisotropy and cache are "
+     "accepted and ignored (texels are float)", NULL},
     {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", "", NULL},
     {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", "", NULL},
     {"texture", "mesh_attribute", MTS_PLUGIN_YES, "name (\"vertex_*\" or \"face_*\"), scale 1",

@@ -13,6 +13,7 @@
  *   caustic_caster / caustic_receiver / caustic_caster_single / caustic_caster_multi, and media
  *   (name="interior" / "exterior", nested or referenced; io/mitsuba_media.c).
  *   shapegroup holds shapes; instance (a ref to a shapegroup, to_world) copies them, placed.
+ *   linearcurve, bsplinecurve: filename (io/mitsuba_curves.c, scene/curve.h).
  *   sdf: one nested <sdf type="sphere | box | roundbox | torus | capsule | cylinder | plane | union |
  *   intersection | difference | smooth_union"> tree, each node with its own to_world (properties
  *   and defaults in scene/sdf.h); operations take two or more nested <sdf> and fold from the left.
@@ -43,6 +44,7 @@
 
 #include "io/mesh_io.h"
 #include "io/mitsuba_internal.h"
+#include "scene/curve.h"
 #include "scene/sdf.h"
 
 #define UNIFORM_SCALE_TOL 1e-5 /* relative: sphere to_world columns must agree this well */
@@ -132,6 +134,7 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
         const char *wrap = mts_get_string(L, &P, "wrap_mode", "repeat");
         mts_ignore(&P, "max_anisotropy");
         mts_ignore(&P, "cache");
+        mts_ignore(&P, "format"); /* Mitsuba's storage precision of the texels; specula keeps float */
         bool nearest = false;
         spc_wrap_mode wm = SPC_WRAP_REPEAT;
         if (strcmp(filter, "nearest") == 0)
@@ -1143,6 +1146,29 @@ void mts_shape_sdf(const mts_build *a)
         built = spc_shape_init_sdf(s, sdf, sdf_root, &g.M, n->file, n->line, n->col, &sub); /* owns sdf */
     else
         spc_sdf_destroy(sdf);
+    geometry_end(a, &g, s, index, built, &sub);
+}
+
+/* linearcurve, bsplinecurve: control points with radii from a file (io/mitsuba_curves.c) */
+void mts_shape_curve(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    geometry g;
+    if (!geometry_begin(a, &g))
+        return;
+    spc_curve *curve = L->status == SPC_OK ? mts_load_curve(L, a->node, &g.P, a->type, &g.M) : NULL;
+    int index;
+    spc_shape *s = geometry_shape(a, &index);
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    const spc_xml_node *n = a->node;
+    bool built = false;
+    if (s)
+        built = spc_shape_init_curve(s, curve, n->file, n->line, n->col, &sub); /* owns curve */
+    else if (curve) {
+        spc_curve_release(curve);
+        free(curve);
+    }
     geometry_end(a, &g, s, index, built, &sub);
 }
 

@@ -51,6 +51,7 @@ static bool shape_is_analytic(const spc_shape *sh)
 {
     switch (sh->type) {
     case SPC_SHAPE_MESH:
+    case SPC_SHAPE_CURVE:
         return false;
     case SPC_SHAPE_SPHERE:
     case SPC_SHAPE_DISK:
@@ -159,6 +160,7 @@ static const char *shape_type_name(const spc_shape *sh)
     case SPC_SHAPE_DISK: return "disk";
     case SPC_SHAPE_CYLINDER: return "cylinder";
     case SPC_SHAPE_SDF: return "sdf";
+    case SPC_SHAPE_CURVE: return "curve";
     }
     return "?";
 }

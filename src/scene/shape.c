@@ -13,6 +13,7 @@
  *             dndu, dndv are the shape operator applied to them, (I - n n^T) H t / |grad f| from
  *             the field's Hessian H (scene/sdf.c); b1 = b2 = 0 at the hit. Texture uv = spherical
  *             angles of p in the root node's frame, as the sphere's.
+ *   curves    scene/curve.h (intersected by Embree in float: SPC_CURVE_OFFSET there)
  *
  * Error bounds for ray offsets: analytic shapes are intersected in double from the double ray, so
  * their points are accurate to a few double ulps; triangles are intersected by Embree in float,
@@ -25,6 +26,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "scene/curve.h"
 #include "scene/sdf.h"
 
 /* Relative offset for surfaces intersected in float: ~8 float ulps of the coordinates' magnitude,
@@ -48,11 +50,19 @@ static bool mat_ok(const spc_mat4 *m)
     return true;
 }
 
+static void free_curve(spc_shape *s)
+{
+    spc_curve_release(s->curve);
+    free(s->curve);
+    s->curve = NULL;
+}
+
 static void shape_clear(spc_shape *s, spc_shape_type type)
 {
     spc_mesh_release(&s->mesh);
     spc_sdf_destroy(s->sdf);
     s->sdf = NULL;
+    free_curve(s);
     s->type = type;
     s->to_world = spc_mat4_identity();
     s->to_local = spc_mat4_identity();
@@ -254,10 +264,21 @@ bool spc_shape_init_sdf(spc_shape *s, struct spc_sdf *sdf, int root, const spc_m
     return true;
 }
 
+bool spc_shape_init_curve(spc_shape *s, struct spc_curve *curve, const char *file, int line, int col,
+                          spc_error *err)
+{
+    shape_clear(s, SPC_SHAPE_CURVE);
+    s->curve = curve;
+    if (!curve || curve->nseg == 0)
+        return fail(err, file, line, col, "curve shape without segments");
+    return true;
+}
+
 void spc_shape_release(spc_shape *s)
 {
     if (!s)
         return;
+    free_curve(s);
     spc_mesh_release(&s->mesh);
     spc_sdf_destroy(s->sdf);
     s->sdf = NULL;
@@ -385,6 +406,12 @@ spc_status spc_shape_prepare(spc_shape *s)
         s->area = spc_sdf_area(s->sdf);
         spc_sdf_bounds(s->sdf, &s->bbox_min, &s->bbox_max);
         return s->area > 0.0 && isfinite(s->area) ? SPC_OK : SPC_ERR_VALUE;
+    case SPC_SHAPE_CURVE:
+        if (!s->curve)
+            return SPC_ERR_VALUE;
+        s->area = spc_curve_area(s->curve);
+        spc_curve_bounds(s->curve, &s->bbox_min, &s->bbox_max);
+        return isfinite(s->area) ? SPC_OK : SPC_ERR_VALUE;
     }
     return SPC_ERR_INTERNAL;
 }
@@ -494,6 +521,7 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
     case SPC_SHAPE_SDF:
         *u = *v = 0.0;
         return spc_sdf_intersect(s->sdf, r, t);
+    case SPC_SHAPE_CURVE: /* Embree's own curves */
     case SPC_SHAPE_MESH:
         return false;
     }
@@ -712,6 +740,8 @@ bool spc_shape_texture_frame(const spc_hit *h, spc_vec2 duv[2], spc_vec3 *T, spc
     }
     case SPC_SHAPE_SDF:
         return false; /* its uv are not its surface parameters */
+    case SPC_SHAPE_CURVE:
+        return false; /* never a chain vertex */
     }
     return false;
 }
@@ -731,6 +761,7 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
     case SPC_SHAPE_DISK: fill_disk(s, u, v, h); break;
     case SPC_SHAPE_CYLINDER: fill_cylinder(s, r, t, h); break;
     case SPC_SHAPE_SDF: spc_sdf_fill_hit(s->sdf, spc_madd(r->o, r->d, t), s->flip_normals, h); break;
+    case SPC_SHAPE_CURVE: spc_curve_fill_hit(s->curve, prim, u, r, t, s->flip_normals, h); break;
     }
 }
 
@@ -812,6 +843,11 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
         out->err = h.err;
         return;
     }
+    case SPC_SHAPE_CURVE:
+        /* curves are not emitters (the loader refuses them): no sample */
+        memset(out, 0, sizeof *out);
+        out->n = spc_v3(0, 0, 1);
+        return;
     }
 }
 

@@ -191,11 +191,18 @@ def main():
     ap.add_argument("--json", default="")
     ap.add_argument("--markdown", default="")
     ap.add_argument("--resume", action="store_true", help="keep the rows already in --json")
+    ap.add_argument("--mitsuba-from", default="",
+                    help="an earlier run's --json whose --work holds its Mitsuba images (NAME_mitsuba.exr, same "
+                         "--res/--spp/--passes, copied into this --work): Mitsuba is not run again; specula takes "
+                         "the first of the Mitsuba job's define sets that it loads with")
     a = ap.parse_args()
     os.makedirs(a.work, exist_ok=True)
     small = make_small_copy(os.path.abspath(a.data), a.work, a.res)
     scenes = [s for s in find_scenes(a.data) if a.only in s]
     rows = []
+    cached = {}
+    if a.mitsuba_from:
+        cached = {r["scene"]: r for r in json.load(open(a.mitsuba_from))["rows"]}
     done = {}
     if a.resume and a.json and os.path.exists(a.json):
         done = {r["scene"]: r for r in json.load(open(a.json))["rows"]}
@@ -208,19 +215,35 @@ def main():
         ref = os.path.join(a.work, tag + "_mitsuba.exr")
         img = os.path.join(a.work, tag + "_specula.exr")
         r = {"scene": rel, "note": NOTES.get(rel, "")}
-        rc, out, err, dt = run([sys.executable, "-c", MITSUBA_JOB, path, ref, str(a.spp), str(a.passes), str(a.res)],
-                               a.timeout)
-        r["mitsuba_s"] = round(dt, 1)
-        r["mitsuba_loads"] = rc == 0 and "OK" in out
         defs = []
-        for line in out.splitlines():
-            if line.startswith("LOADFAIL"):
-                r["mitsuba_error"] = line[9:]
-            if line.startswith("DEFS"):
-                defs = line[5:].split()
-        if rc != 0 and "mitsuba_error" not in r:
-            r["mitsuba_error"] = first_error(err) or "exit %d" % rc
-            # loaded but failed to render: still counts as not rendered by Mitsuba
+        c = cached.get(rel)
+        if c is not None and (not c.get("mitsuba_loads") or os.path.exists(ref)):
+            for k in ("mitsuba_s", "mitsuba_loads", "mitsuba_error"):
+                if k in c:
+                    r[k] = c[k]
+            r["mitsuba_cached"] = True
+            if c.get("mitsuba_loads"):
+                # the Mitsuba job's define sets, in its order: the first specula loads with
+                for dset in ([], ["spp=%d" % a.spp], ["res=%d" % a.res, "spp=%d" % a.spp], ["res=%d" % a.res]):
+                    cmd = [a.specula, "info", path]
+                    for d in dset:
+                        cmd += ["-D", d]
+                    if run(cmd, a.timeout)[0] == 0:
+                        defs = dset
+                        break
+        else:
+            rc, out, err, dt = run([sys.executable, "-c", MITSUBA_JOB, path, ref, str(a.spp), str(a.passes),
+                                    str(a.res)], a.timeout)
+            r["mitsuba_s"] = round(dt, 1)
+            r["mitsuba_loads"] = rc == 0 and "OK" in out
+            for line in out.splitlines():
+                if line.startswith("LOADFAIL"):
+                    r["mitsuba_error"] = line[9:]
+                if line.startswith("DEFS"):
+                    defs = line[5:].split()
+            if rc != 0 and "mitsuba_error" not in r:
+                r["mitsuba_error"] = first_error(err) or "exit %d" % rc
+                # loaded but failed to render: still counts as not rendered by Mitsuba
         cmd = [a.specula, "render", path, "-o", img, "--spp", str(a.spp), "--variance", "--quiet", "--seed", "1"]
         for d in defs:
             if not d.startswith("spp="):
