@@ -8,7 +8,7 @@
  * Mitsuba's own bar in its test_renders.py; with 1024 pixels that allows two.
  *
  * Together the scenes cover the loader's dialects (3.0 and 0.6 with camelCase names and spectra),
- * every shape (obj, ply ascii/binary, serialized, sphere, rectangle, disk, cube, cylinder), the
+ * every shape (obj, ply ascii/binary, serialized, sphere, rectangle, disk, cube, cylinder, sdfgrid), the
  * BSDFs Mitsuba 3 has, bitmap (png, jpeg, exr) and checkerboard textures, every emitter including
  * envmaps and bitmap-textured area lights (sampled in proportion to their texels), perspective
  * cameras with several fov axes and a crop window (box filters: the tails of tent and gaussian
@@ -57,6 +57,8 @@ static const ref_case cases[] = {
     /* projectors: an image with its aspect ratio, a constant one with a focal length (the floor
      * near the camera is lit only through the box: heavy-tailed at 1024 spp) */
     {"projector", "projector.xml", 2048, NULL},
+    /* sdfgrid: exact voxel intersection, smooth (instanced, rotated) and analytic normals */
+    {"sdfgrid", "sdfgrid.xml", 1024, NULL},
     /* the particle tracer against the path-traced references (the same image): area lights seen
      * directly and textured, point, spot and directional lights, a constant sky */
     {"shapes", "shapes.xml", 1024, "ptracer"},

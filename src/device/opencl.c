@@ -427,6 +427,8 @@ static spc_status build_scene(const spc_render_ctx *ctx, host_scene *hs, spc_err
         case SPC_SHAPE_CYLINDER:
             return REFUSE("shape '%s' of type %s not supported (sdf, sphere, rectangle, cube)", s->id,
                           s->type == SPC_SHAPE_DISK ? "disk" : "cylinder");
+        case SPC_SHAPE_SDFGRID:
+            return REFUSE("shape '%s' of type sdfgrid not supported (sdf, sphere, rectangle, cube)", s->id);
         }
         if (st != SPC_OK)
             return st;

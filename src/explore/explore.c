@@ -308,6 +308,8 @@ static const char *shape_type_name(spc_shape_type t)
         return "cylinder";
     case SPC_SHAPE_SDF:
         return "sdf";
+    case SPC_SHAPE_SDFGRID:
+        return "sdfgrid";
     }
     return "unknown";
 }
@@ -386,6 +388,8 @@ static int handle_scene(const spc_explorer *ex, char **response)
             break;
         case SPC_SHAPE_SDF:
             write_sdf(&b, s);
+            break;
+        case SPC_SHAPE_SDFGRID: /* bounds only */
             break;
         }
         spc_jbuf_raw(&b, "}");

@@ -178,6 +178,8 @@ const spc_texture *mts_get_texture(mts_loader *L, mts_props *P, const char *name
 /* Builds a shape (or, for instance, copies of a shapegroup's shapes) with `prefix` applied
  * before its own to_world (identity at the top level). */
 spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group);
+/* mitsuba_sdfgrid.c: the grid of an sdfgrid shape, or NULL after mts_fail */
+struct spc_sdfgrid *mts_load_sdfgrid(mts_loader *L, mts_props *P, const spc_xml_node *node, const spc_mat4 *to_world);
 spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index);
 void mts_mesh_cache_release(mts_loader *L);
 

@@ -44,6 +44,7 @@
 #include "io/mesh_io.h"
 #include "io/mitsuba_internal.h"
 #include "scene/sdf.h"
+#include "scene/sdfgrid.h"
 
 #define UNIFORM_SCALE_TOL 1e-5 /* relative: sphere to_world columns must agree this well */
 /* Nesting limit of <sdf> nodes: far beyond hand-written trees, and it bounds the recursion a
@@ -827,13 +828,13 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
         mts_props_end(&P);
         return L->status;
     }
-    static const char *known[] = {"sphere", "rectangle", "disk", "cube", "cylinder", "obj", "ply", "serialized", "sdf"};
+    static const char *known[] = {"sphere", "rectangle", "disk", "cube", "cylinder", "obj", "ply", "serialized", "sdf", "sdfgrid"};
     bool ok = false;
     for (size_t i = 0; i < sizeof known / sizeof known[0]; ++i)
         ok |= strcmp(type, known[i]) == 0;
     if (!ok) {
         mts_fail_plugin(L, node, "shape", type,
-                        "sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, shapegroup, instance");
+                        "sphere, rectangle, disk, cube, cylinder, obj, ply, serialized, sdf, sdfgrid, shapegroup, instance");
         mts_props_end(&P);
         return L->status;
     }
@@ -855,6 +856,7 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     memset(&m, 0, sizeof m);
     spc_sdf *sdf = NULL;
     int sdf_root = -1;
+    struct spc_sdfgrid *grid = NULL;
     if (strcmp(type, "sphere") == 0 || strcmp(type, "cylinder") == 0) {
         radius = mts_get_float(L, &P, "radius", 1.0);
         if (L->status == SPC_OK && !(radius > 0.0))
@@ -896,9 +898,15 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
             mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
         else
             sdf_root = build_sdf(L, sdf, mts_object(&P, "sdf", 0, NULL), 1);
+    } else if (strcmp(type, "sdfgrid") == 0) {
+        if (mts_count_objects(&P, "emitter") > 0)
+            mts_fail(L, node, SPC_ERR_VALUE, "an sdfgrid cannot be an area emitter (as in Mitsuba 3)");
+        else
+            grid = mts_load_sdfgrid(L, &P, node, &M);
     }
     if (L->status != SPC_OK) {
         spc_sdf_destroy(sdf);
+        spc_sdfgrid_destroy(grid);
         spc_mesh_release(&m);
         mts_props_end(&P);
         return L->status;
@@ -907,6 +915,7 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
     spc_shape *s = spc_scene_new_shape(L->scene);
     if (!s) {
         spc_sdf_destroy(sdf);
+        spc_sdfgrid_destroy(grid);
         spc_mesh_release(&m);
         mts_props_end(&P);
         return mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
@@ -927,6 +936,8 @@ spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *pr
         built = spc_shape_init_cube(s, &M, f, node->line, node->col, &sub);
     else if (strcmp(type, "cylinder") == 0)
         built = spc_shape_init_cylinder(s, p0, p1, radius, &M, f, node->line, node->col, &sub);
+    else if (grid)
+        built = spc_shape_init_sdfgrid(s, grid, f, node->line, node->col, &sub); /* owns grid */
     else if (sdf)
         built = spc_shape_init_sdf(s, sdf, sdf_root, &M, f, node->line, node->col, &sub); /* owns sdf */
     else

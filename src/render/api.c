@@ -56,6 +56,7 @@ static bool shape_is_analytic(const spc_shape *sh)
     case SPC_SHAPE_DISK:
     case SPC_SHAPE_CYLINDER:
     case SPC_SHAPE_SDF:
+    case SPC_SHAPE_SDFGRID:
         return true;
     }
     return false;
@@ -159,6 +160,7 @@ static const char *shape_type_name(const spc_shape *sh)
     case SPC_SHAPE_DISK: return "disk";
     case SPC_SHAPE_CYLINDER: return "cylinder";
     case SPC_SHAPE_SDF: return "sdf";
+    case SPC_SHAPE_SDFGRID: return "sdfgrid";
     }
     return "?";
 }

@@ -203,7 +203,8 @@ bool spc_scene_caster_allowed(unsigned flags, int k)
 bool spc_scene_shape_is_caster(const spc_shape *s, bool any_surface, double *eta)
 {
     double e;
-    if (!s || s->emitter || !spc_bsdf_is_specular_interface(s->bsdf, &e) || !spc_bsdf_chain_mappable(s->bsdf, s->type))
+    /* sdfgrid: its normal has no derivatives (piecewise trilinear), so it cannot be a chain vertex */
+    if (!s || s->emitter || s->type == SPC_SHAPE_SDFGRID || !spc_bsdf_is_specular_interface(s->bsdf, &e) || !spc_bsdf_chain_mappable(s->bsdf, s->type))
         return false;
     if (eta)
         *eta = e;

@@ -36,6 +36,7 @@ REFS = {
     "thinlens": ("thinlens.xml", ["res=32"]),
     "mesh_attribute": ("mesh_attribute.xml", ["res=32"]),
     "projector": ("projector.xml", ["res=32"]),
+    "sdfgrid": ("sdfgrid.xml", ["res=32"]),
 }
 
 
