@@ -17,7 +17,11 @@
  * - Shading normals: "smooth" (Mitsuba's default; Hansson-Soderlund, Evans and Akenine-Moller,
  *   "Ray Tracing of Signed Distance Function Grids", JCGT 11(3) 2022): the unit gradients of the 8
  *   voxels around the nearest lattice vertex, trilinearly blended; voxels with a negative index are
- *   left out. "analytic": the geometric normal.
+ *   left out, while those past the upper faces are kept with the clamped field's gradient (which
+ *   lacks that axis), exactly as Mitsuba does. "analytic": the geometric normal.
+ * - to_world may be any invertible affine map. (Mitsuba 3 bounds each voxel by transforming its
+ *   two corners only, so it loses rotated grids and warns "use instancing"; an instance's
+ *   rotation renders alike in both.)
  * - No texture coordinates (uv = 0), not an area emitter (both as Mitsuba).
  */
 #ifndef SPC_SCENE_SDFGRID_H
