@@ -6,6 +6,7 @@ sdfgrid reads them; the file's bounding box is unused by sdfgrid (written as the
   torus.vol   24^3: a torus around local z, major radius 0.3, minor 0.12, centred in the box
   blob.vol    12^3: the union of two spheres (radii 0.3 and 0.22), coarse on purpose: its
               trilinear facets and the smooth normals' blend are visible
+  ball.vol    7^3: a sphere of radius 0.4, coarser still (scenes/sdfgrid_normals.xml)
 """
 import os
 import struct
@@ -37,6 +38,8 @@ def main():
     a = np.sqrt((x - 0.4) ** 2 + (y - 0.45) ** 2 + (z - 0.5) ** 2) - 0.3
     b = np.sqrt((x - 0.68) ** 2 + (y - 0.6) ** 2 + (z - 0.45) ** 2) - 0.22
     write_vol(os.path.join(HERE, "blob.vol"), np.minimum(a, b))
+    x, y, z = lattice(7)
+    write_vol(os.path.join(HERE, "ball.vol"), np.sqrt((x - 0.5) ** 2 + (y - 0.5) ** 2 + (z - 0.5) ** 2) - 0.4)
 
 
 if __name__ == "__main__":
