@@ -35,8 +35,9 @@ struct spc_sdfgrid {
     size_t noccupied;
     spc_mat4 to_world, to_local;
     bool smooth;
+    int occ_lo[3], occ_hi[3]; /* index bounds of the occupied voxels (vertices occ_lo..occ_hi+1) */
     double size;         /* world diagonal of the box */
-    spc_vec3 lo, hi;     /* world bounds */
+    spc_vec3 lo, hi;     /* world bounds of the occupied voxels (the box if none) */
 };
 
 static size_t vidx(const spc_sdfgrid *g, int x, int y, int z)
@@ -105,6 +106,10 @@ spc_sdfgrid *spc_sdfgrid_create(const float *values, int nx, int ny, int nz, con
     g->to_local = Mi;
     g->smooth = smooth;
     /* occupied: not all 8 corners > 0 and not all < 0 (Mitsuba's test: a zero corner counts) */
+    for (int a = 0; a < 3; ++a) {
+        g->occ_lo[a] = g->n[a];
+        g->occ_hi[a] = -1;
+    }
     for (int z = 0; z + 1 < nz; ++z)
         for (int y = 0; y + 1 < ny; ++y)
             for (int x = 0; x + 1 < nx; ++x) {
@@ -118,17 +123,33 @@ spc_sdfgrid *spc_sdfgrid_create(const float *values, int nx, int ny, int nz, con
                 if (!pos && !neg) {
                     g->occupied[cidx(g, x, y, z)] = 1;
                     g->noccupied++;
+                    int v[3] = {x, y, z};
+                    for (int a = 0; a < 3; ++a) {
+                        g->occ_lo[a] = v[a] < g->occ_lo[a] ? v[a] : g->occ_lo[a];
+                        g->occ_hi[a] = v[a] > g->occ_hi[a] ? v[a] : g->occ_hi[a];
+                    }
                 }
             }
-    spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
+    /* rays are clipped to the occupied voxels' box, and so are the Embree bounds */
+    double blo[3] = {0, 0, 0}, bhi[3] = {1, 1, 1};
+    if (g->noccupied > 0)
+        for (int a = 0; a < 3; ++a) {
+            blo[a] = (double)g->occ_lo[a] / (g->n[a] - 1);
+            bhi[a] = (double)(g->occ_hi[a] + 1) / (g->n[a] - 1);
+        }
+    spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo), box_lo = lo, box_hi = hi;
     for (int k = 0; k < 8; ++k) {
-        spc_vec3 q = spc_mat4_apply_point(&M, spc_v3(k & 1, (k >> 1) & 1, (k >> 2) & 1));
+        spc_vec3 q = spc_mat4_apply_point(&M, spc_v3(k & 1 ? bhi[0] : blo[0], (k >> 1) & 1 ? bhi[1] : blo[1],
+                                                     (k >> 2) & 1 ? bhi[2] : blo[2]));
         lo = spc_vmin(lo, q);
         hi = spc_vmax(hi, q);
+        spc_vec3 b = spc_mat4_apply_point(&M, spc_v3(k & 1, (k >> 1) & 1, (k >> 2) & 1));
+        box_lo = spc_vmin(box_lo, b);
+        box_hi = spc_vmax(box_hi, b);
     }
     g->lo = lo;
     g->hi = hi;
-    g->size = spc_length(spc_sub(hi, lo));
+    g->size = spc_length(spc_sub(box_hi, box_lo));
     return g;
 }
 
@@ -331,16 +352,17 @@ bool spc_sdfgrid_intersect(const spc_sdfgrid *g, const spc_ray *r, double *t)
     spc_vec3 dl = spc_mat4_apply_vector(&g->to_local, r->d);
     double O[3] = {o.x * (g->n[0] - 1), o.y * (g->n[1] - 1), o.z * (g->n[2] - 1)};
     double D[3] = {dl.x * (g->n[0] - 1), dl.y * (g->n[1] - 1), dl.z * (g->n[2] - 1)};
-    /* clip to the box [0, n-1]^3 */
-    double t0 = r->tmin, t1 = r->tmax;
+    /* clip to the box of the occupied voxels */
+    double t0 = r->tmin, t1 = r->tmax, inv[3];
     for (int a = 0; a < 3; ++a) {
-        double hi = g->n[a] - 1;
+        double lo = g->occ_lo[a], hi = g->occ_hi[a] + 1.0;
+        inv[a] = D[a] != 0.0 ? 1.0 / D[a] : 0.0;
         if (D[a] == 0.0) {
-            if (O[a] < 0.0 || O[a] > hi)
+            if (O[a] < lo || O[a] > hi)
                 return false;
             continue;
         }
-        double ta = (0.0 - O[a]) / D[a], tb = (hi - O[a]) / D[a];
+        double ta = (lo - O[a]) * inv[a], tb = (hi - O[a]) * inv[a];
         if (ta > tb) {
             double tmp = ta;
             ta = tb;
@@ -356,11 +378,11 @@ bool spc_sdfgrid_intersect(const spc_sdfgrid *g, const spc_ray *r, double *t)
     double tc = t0;
     for (int a = 0; a < 3; ++a) {
         double pa = O[a] + D[a] * t0;
-        int i = (int)floor(spc_clamp(pa, 0.0, (double)(g->n[a] - 1)));
-        if (i > g->n[a] - 2)
-            i = g->n[a] - 2;
+        int i = (int)floor(spc_clamp(pa, (double)g->occ_lo[a], g->occ_hi[a] + 1.0));
+        if (i > g->occ_hi[a])
+            i = g->occ_hi[a];
         /* on a boundary, going down: start in the lower voxel */
-        if (D[a] < 0.0 && pa == (double)i && i > 0)
+        if (D[a] < 0.0 && pa == (double)i && i > g->occ_lo[a])
             i -= 1;
         v[a] = i;
         step[a] = D[a] > 0.0 ? 1 : (D[a] < 0.0 ? -1 : 0);
@@ -373,7 +395,7 @@ bool spc_sdfgrid_intersect(const spc_sdfgrid *g, const spc_ray *r, double *t)
             if (step[a] == 0)
                 continue;
             double b = step[a] > 0 ? v[a] + 1.0 : (double)v[a];
-            double ta = (b - O[a]) / D[a];
+            double ta = (b - O[a]) * inv[a];
             if (ta < tn) {
                 tn = ta;
                 axis = a;
@@ -394,7 +416,7 @@ bool spc_sdfgrid_intersect(const spc_sdfgrid *g, const spc_ray *r, double *t)
         if (axis < 0 || tn >= t1)
             return false;
         v[axis] += step[axis];
-        if (v[axis] < 0 || v[axis] > g->n[axis] - 2)
+        if (v[axis] < g->occ_lo[axis] || v[axis] > g->occ_hi[axis])
             return false;
         tc = spc_max(tc, tn);
     }

@@ -48,7 +48,7 @@ spc_sdfgrid *spc_sdfgrid_create(const float *values, int nx, int ny, int nz, con
                                 const char *file, int line, int col, spc_error *err);
 void spc_sdfgrid_destroy(spc_sdfgrid *g);
 
-/* World bounds of the box [0,1]^3 (the shape's Embree bounds). */
+/* World bounds of the occupied voxels (the shape's Embree bounds; the box [0,1]^3 if none). */
 void spc_sdfgrid_bounds(const spc_sdfgrid *g, spc_vec3 *lo, spc_vec3 *hi);
 /* Number of voxels that hold surface. */
 size_t spc_sdfgrid_occupied(const spc_sdfgrid *g);
