@@ -19,6 +19,7 @@
 #include "scene/scene.h"
 #include "scene/sdfgrid.h"
 #include "scene/shape.h"
+#include "specula/specula.h"
 
 static double urand(uint64_t *s)
 {
@@ -423,6 +424,58 @@ TEST(loader)
         printf("  could not remove %s\n", dir);
 }
 
+/* A glass sdfgrid is never a specular chain vertex (its normal has no derivatives): a glass
+ * sphere beside it is; the default render (specular NEE on) runs and gives a finite image. */
+TEST(not_a_chain_vertex)
+{
+    snprintf(dir, sizeof dir, "%s/scenes", spc_test_source_dir());
+    const char *xml =
+        "<scene version=\"3.0.0\">"
+        "<sensor type=\"perspective\"><transform name=\"to_world\"><lookat origin=\"0,0,4\" target=\"0,0,0\" "
+        "up=\"0,1,0\"/></transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
+        "<integer name=\"height\" value=\"8\"/></film></sensor>"
+        "<shape type=\"sdfgrid\"><string name=\"filename\" value=\"sdfgrid/ball.vol\"/>"
+        "<bsdf type=\"dielectric\"/><transform name=\"to_world\"><translate x=\"-1.2\" y=\"-0.5\" "
+        "z=\"-0.5\"/></transform></shape>"
+        "<shape type=\"sphere\"><float name=\"radius\" value=\"0.4\"/><point name=\"center\" x=\"0.7\" "
+        "y=\"0\" z=\"0\"/><bsdf type=\"dielectric\"/></shape>"
+        "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"3\"/><translate z=\"-1\"/>"
+        "</transform></shape>"
+        "<shape type=\"sphere\"><float name=\"radius\" value=\"0.2\"/><point name=\"center\" x=\"0\" "
+        "y=\"2\" z=\"1\"/><emitter type=\"area\"><rgb name=\"radiance\" value=\"20\"/></emitter></shape>"
+        "</scene>";
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    spc_status st = spc_mitsuba_load_string(xml, strlen(xml), "chain.xml", dir, NULL, 0, &sc, &err);
+    CHECK_MSG(st == SPC_OK, "%s", err.msg);
+    if (st != SPC_OK)
+        return;
+    CHECK(sc->nshapes == 4 && sc->shapes[0]->type == SPC_SHAPE_SDFGRID);
+    CHECK(!spc_scene_shape_is_caster(sc->shapes[0], true, NULL));
+    CHECK(spc_scene_shape_is_caster(sc->shapes[1], true, NULL));
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = 16;
+    o.seed = 1;
+    spc_film *f = NULL;
+    spc_render_stats rs;
+    st = spc_render(sc, &o, &f, &rs, &err);
+    CHECK_MSG(st == SPC_OK, "%s", err.msg);
+    if (f) {
+        const float *rgb = spc_film_rgb(f);
+        double sum = 0.0;
+        bool finite = true;
+        for (int i = 0; i < 3 * 64; ++i) {
+            finite &= isfinite(rgb[i]) != 0;
+            sum += rgb[i];
+        }
+        CHECK(finite && sum > 0.0);
+    }
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(plane_exact_under_transform);
@@ -431,5 +484,6 @@ int main(void)
     RUN(smooth_normals_closer_on_sphere);
     RUN(bad_grids);
     RUN(loader);
+    RUN(not_a_chain_vertex);
     return spc_test_finish();
 }
