@@ -32,6 +32,7 @@
 #include "io/mitsuba_xml.h"
 #include "io/vol.h"
 #include "scene/curve.h"
+#include "scene/sdfgrid.h"
 #include "specula/specula.h"
 
 /* A memfd holding the input; *path receives its /proc name. -1 on failure. */
@@ -119,6 +120,21 @@ static inline int spc_fuzz_vol(const uint8_t *data, size_t size)
         if (spc_volume_finish_grid(&v, &id))
             for (int i = 0; i < 27; ++i)
                 (void)spc_volume_eval(&v, spc_v3(0.75 * (i % 3) - 0.25, 0.75 * (i / 3 % 3) - 0.25, 0.75 * (i / 9) - 0.25));
+        /* the same values as an sdfgrid shape (scene/sdfgrid.h): rays from 27 points around the box */
+        spc_sdfgrid *g = v.channels == 1 ? spc_sdfgrid_create(v.data, v.res[0], v.res[1], v.res[2], NULL, true,
+                                                              path, 0, 0, &err)
+                                         : NULL;
+        for (int i = 0; g && i < 27; ++i) {
+            spc_vec3 o = spc_v3(1.5 * (i % 3) - 0.8, 1.5 * (i / 3 % 3) - 0.7, 1.5 * (i / 9) - 0.9);
+            spc_ray r = {o, spc_normalize(spc_sub(spc_v3(0.5, 0.5, 0.5), o)), 0.0, INFINITY};
+            double t;
+            if (spc_sdfgrid_intersect(g, &r, &t)) {
+                spc_hit h;
+                memset(&h, 0, sizeof h);
+                spc_sdfgrid_fill_hit(g, spc_madd(r.o, r.d, t), false, &h);
+            }
+        }
+        spc_sdfgrid_destroy(g);
         free(v.data);
     }
     return 0;

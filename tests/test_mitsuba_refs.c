@@ -9,7 +9,7 @@
  *
  * Together the scenes cover the loader's dialects (3.0 and 0.6 with camelCase names and spectra),
  * every shape (obj, ply ascii/binary, serialized, sphere, rectangle, disk, cube, cylinder, the
- * curves), the
+ * curves, sdfgrid), the
  * BSDFs Mitsuba 3 has, bitmap (png, jpeg, exr) and checkerboard textures, every emitter including
  * envmaps and bitmap-textured area lights (sampled in proportion to their texels), perspective
  * cameras with several fov axes and a crop window (box filters: the tails of tent and gaussian
@@ -60,6 +60,10 @@ static const ref_case cases[] = {
     {"projector", "projector.xml", 2048, NULL},
     /* linearcurve (textured by its uv) and bsplinecurve (a rough conductor: its normals) */
     {"curves", "curves.xml", 1024, NULL},
+    /* sdfgrid: exact voxel intersection, smooth (instanced, rotated) and analytic normals */
+    {"sdfgrid", "sdfgrid.xml", 1024, NULL},
+    /* a coarse sdfgrid ball with smooth normals beside one with analytic normals */
+    {"sdfgrid_normals", "sdfgrid_normals.xml", 1024, NULL},
     /* the particle tracer against the path-traced references (the same image): area lights seen
      * directly and textured, point, spot and directional lights, a constant sky */
     {"shapes", "shapes.xml", 1024, "ptracer"},
@@ -75,16 +79,23 @@ static const char *source_dir(void)
 
 /* Renders one case, multiplies specula's image by `scale` (1: as rendered) and z-tests it; returns
  * the pass fraction, or -1 on failure (printed). */
-static double compare(const ref_case *c, double scale)
+static double compare_with(const ref_case *c, double scale, const spc_define *extra, int nextra);
+
+static double compare(const ref_case *c, double scale) { return compare_with(c, scale, NULL, 0); }
+
+/* The same with nextra more defines (at most 2). */
+static double compare_with(const ref_case *c, double scale, const spc_define *extra, int nextra)
 {
     char scene_path[1024], ref_path[1024];
     snprintf(scene_path, sizeof scene_path, "%s/scenes/%s", source_dir(), c->scene);
     snprintf(ref_path, sizeof ref_path, "%s/tests/data/mitsuba_refs/%s.exr", source_dir(), c->name);
-    spc_define defs[2] = {{"res", "32"}, {"integrator", c->integrator ? c->integrator : "path"}};
+    spc_define defs[4] = {{"res", "32"}, {"integrator", c->integrator ? c->integrator : "path"}};
+    for (int k = 0; k < nextra && k < 2; ++k)
+        defs[2 + k] = extra[k];
     spc_scene *s = NULL;
     spc_error err;
     char msg[1200];
-    if (spc_scene_load(scene_path, defs, 2, &s, &err) != SPC_OK) {
+    if (spc_scene_load(scene_path, defs, 2 + (nextra < 2 ? nextra : 2), &s, &err) != SPC_OK) {
         spc_error_format(&err, msg, sizeof msg);
         printf("  %s: %s\n", c->name, msg);
         return -1.0;
@@ -156,9 +167,26 @@ TEST(detects_a_three_percent_error)
     CHECK_MSG(frac < 0.9, "3%% too bright, %.4f of the pixels still pass", frac);
 }
 
+/* ... and it sees an sdfgrid's shading normals: the two balls' modes swapped fail it. */
+TEST(detects_swapped_sdfgrid_normals)
+{
+    const ref_case *c = NULL;
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i)
+        if (strcmp(cases[i].name, "sdfgrid_normals") == 0)
+            c = &cases[i];
+    CHECK(c != NULL);
+    if (!c)
+        return;
+    spc_define swap[2] = {{"left_normals", "analytic"}, {"right_normals", "smooth"}};
+    double frac = compare_with(c, 1.0, swap, 2);
+    CHECK(frac >= 0.0);
+    CHECK_MSG(frac < 0.97, "normals swapped, %.4f of the pixels still pass", frac);
+}
+
 int main(void)
 {
     RUN(scenes_match_mitsuba);
     RUN(detects_a_three_percent_error);
+    RUN(detects_swapped_sdfgrid_normals);
     return spc_test_finish();
 }

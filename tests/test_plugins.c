@@ -66,6 +66,8 @@ static void probe(const mts_plugin *p, char *xml, size_t size)
                      "<shape type=\"instance\"><ref id=\"g\"/></shape>");
         else if (!strcmp(n, "sdf"))
             snprintf(xml, size, "<shape type=\"sdf\"><sdf type=\"sphere\"/></shape>");
+        else if (!strcmp(n, "sdfgrid"))
+            snprintf(xml, size, "<shape type=\"sdfgrid\"><string name=\"filename\" value=\"sdfgrid/blob.vol\"/></shape>");
         else
             snprintf(xml, size, "<shape type=\"%s\"/>", n);
     } else if (strcmp(c, "texture") == 0) {

@@ -428,6 +428,8 @@ static spc_status build_scene(const spc_render_ctx *ctx, host_scene *hs, spc_err
         case SPC_SHAPE_CURVE:
             return REFUSE("shape '%s' of type %s not supported (sdf, sphere, rectangle, cube)", s->id,
                           s->type == SPC_SHAPE_DISK ? "disk" : s->type == SPC_SHAPE_CURVE ? "curve" : "cylinder");
+        case SPC_SHAPE_SDFGRID:
+            return REFUSE("shape '%s' of type sdfgrid not supported (sdf, sphere, rectangle, cube)", s->id);
         }
         if (st != SPC_OK)
             return st;

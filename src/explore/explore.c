@@ -310,6 +310,8 @@ static const char *shape_type_name(spc_shape_type t)
         return "sdf";
     case SPC_SHAPE_CURVE:
         return "curve";
+    case SPC_SHAPE_SDFGRID:
+        return "sdfgrid";
     }
     return "unknown";
 }
@@ -390,6 +392,7 @@ static int handle_scene(const spc_explorer *ex, char **response)
             write_sdf(&b, s);
             break;
         case SPC_SHAPE_CURVE: /* not drawn by the explorer */
+        case SPC_SHAPE_SDFGRID: /* bounds only */
             break;
         }
         spc_jbuf_raw(&b, "}");

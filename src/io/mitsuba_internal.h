@@ -178,6 +178,8 @@ const spc_texture *mts_get_texture(mts_loader *L, mts_props *P, const char *name
 /* Builds a shape (or, for instance, copies of a shapegroup's shapes) with `prefix` applied
  * before its own to_world (identity at the top level). */
 spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group);
+/* mitsuba_sdfgrid.c: the grid of an sdfgrid shape, or NULL after mts_fail */
+struct spc_sdfgrid *mts_load_sdfgrid(mts_loader *L, mts_props *P, const spc_xml_node *node, const spc_mat4 *to_world);
 spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index);
 void mts_mesh_cache_release(mts_loader *L);
 
@@ -298,6 +300,7 @@ void mts_shape_ply(const mts_build *a);
 void mts_shape_serialized(const mts_build *a);
 void mts_shape_sdf(const mts_build *a);
 void mts_shape_curve(const mts_build *a); /* linearcurve, bsplinecurve */
+void mts_shape_sdfgrid(const mts_build *a);
 void mts_shape_shapegroup(const mts_build *a);
 void mts_shape_instance(const mts_build *a);
 

@@ -46,6 +46,7 @@
 #include "io/mitsuba_internal.h"
 #include "scene/curve.h"
 #include "scene/sdf.h"
+#include "scene/sdfgrid.h"
 
 #define UNIFORM_SCALE_TOL 1e-5 /* relative: sphere to_world columns must agree this well */
 /* Nesting limit of <sdf> nodes: far beyond hand-written trees, and it bounds the recursion a
@@ -1146,6 +1147,33 @@ void mts_shape_sdf(const mts_build *a)
         built = spc_shape_init_sdf(s, sdf, sdf_root, &g.M, n->file, n->line, n->col, &sub); /* owns sdf */
     else
         spc_sdf_destroy(sdf);
+    geometry_end(a, &g, s, index, built, &sub);
+}
+
+/* sdfgrid: a signed distance grid over [0,1]^3 (io/mitsuba_sdfgrid.c); never an area emitter */
+void mts_shape_sdfgrid(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    geometry g;
+    if (!geometry_begin(a, &g))
+        return;
+    struct spc_sdfgrid *grid = NULL;
+    if (L->status != SPC_OK) {
+        /* reported */
+    } else if (mts_count_objects(&g.P, "emitter") > 0)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "an sdfgrid cannot be an area emitter (as in Mitsuba 3)");
+    else
+        grid = mts_load_sdfgrid(L, &g.P, a->node, &g.M);
+    int index;
+    spc_shape *s = geometry_shape(a, &index);
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    const spc_xml_node *n = a->node;
+    bool built = false;
+    if (s)
+        built = spc_shape_init_sdfgrid(s, grid, n->file, n->line, n->col, &sub); /* owns grid */
+    else
+        spc_sdfgrid_destroy(grid);
     geometry_end(a, &g, s, index, built, &sub);
 }
 

@@ -170,6 +170,7 @@ static const char *shape_name(const spc_shape *s)
     case SPC_SHAPE_CYLINDER: return "cylinder";
     case SPC_SHAPE_SDF: return "sdf";
     case SPC_SHAPE_CURVE: return "curve";
+    case SPC_SHAPE_SDFGRID: return "sdfgrid";
     }
     return "?";
 }

@@ -57,6 +57,7 @@ static bool shape_is_analytic(const spc_shape *sh)
     case SPC_SHAPE_DISK:
     case SPC_SHAPE_CYLINDER:
     case SPC_SHAPE_SDF:
+    case SPC_SHAPE_SDFGRID:
         return true;
     }
     return false;
@@ -161,6 +162,7 @@ static const char *shape_type_name(const spc_shape *sh)
     case SPC_SHAPE_CYLINDER: return "cylinder";
     case SPC_SHAPE_SDF: return "sdf";
     case SPC_SHAPE_CURVE: return "curve";
+    case SPC_SHAPE_SDFGRID: return "sdfgrid";
     }
     return "?";
 }

@@ -203,9 +203,10 @@ bool spc_scene_caster_allowed(unsigned flags, int k)
 bool spc_scene_shape_is_caster(const spc_shape *s, bool any_surface, double *eta)
 {
     double e;
-    /* curves: Embree's float hits and no normal derivatives along them, so never chain vertices */
-    if (!s || s->emitter || s->type == SPC_SHAPE_CURVE || !spc_bsdf_is_specular_interface(s->bsdf, &e) ||
-        !spc_bsdf_chain_mappable(s->bsdf, s->type))
+    /* curves: Embree's float hits and no normal derivatives along them; sdfgrid: its normal has no
+     * derivatives (piecewise trilinear); so neither is ever a chain vertex */
+    if (!s || s->emitter || s->type == SPC_SHAPE_CURVE || s->type == SPC_SHAPE_SDFGRID ||
+        !spc_bsdf_is_specular_interface(s->bsdf, &e) || !spc_bsdf_chain_mappable(s->bsdf, s->type))
         return false;
     if (eta)
         *eta = e;

@@ -28,6 +28,7 @@
 
 #include "scene/curve.h"
 #include "scene/sdf.h"
+#include "scene/sdfgrid.h"
 
 /* Relative offset for surfaces intersected in float: ~8 float ulps of the coordinates' magnitude,
  * above Embree's watertight intersection error, far below any feature a float scene can hold. */
@@ -63,6 +64,8 @@ static void shape_clear(spc_shape *s, spc_shape_type type)
     spc_sdf_destroy(s->sdf);
     s->sdf = NULL;
     free_curve(s);
+    spc_sdfgrid_destroy(s->sdfgrid);
+    s->sdfgrid = NULL;
     s->type = type;
     s->to_world = spc_mat4_identity();
     s->to_local = spc_mat4_identity();
@@ -274,6 +277,16 @@ bool spc_shape_init_curve(spc_shape *s, struct spc_curve *curve, const char *fil
     return true;
 }
 
+bool spc_shape_init_sdfgrid(spc_shape *s, struct spc_sdfgrid *grid, const char *file, int line, int col,
+                            spc_error *err)
+{
+    shape_clear(s, SPC_SHAPE_SDFGRID);
+    s->sdfgrid = grid;
+    if (!grid)
+        return fail(err, file, line, col, "sdfgrid shape without a grid");
+    return true;
+}
+
 void spc_shape_release(spc_shape *s)
 {
     if (!s)
@@ -282,6 +295,8 @@ void spc_shape_release(spc_shape *s)
     spc_mesh_release(&s->mesh);
     spc_sdf_destroy(s->sdf);
     s->sdf = NULL;
+    spc_sdfgrid_destroy(s->sdfgrid);
+    s->sdfgrid = NULL;
     spc_distrib1d_release(&s->tri_distrib);
     free(s->tri_frame);
     s->tri_frame = NULL;
@@ -412,6 +427,14 @@ spc_status spc_shape_prepare(spc_shape *s)
         s->area = spc_curve_area(s->curve);
         spc_curve_bounds(s->curve, &s->bbox_min, &s->bbox_max);
         return isfinite(s->area) ? SPC_OK : SPC_ERR_VALUE;
+    case SPC_SHAPE_SDFGRID:
+        /* an estimate (scene/sdfgrid.h): the shape is never an emitter nor a chain vertex, so no
+         * density depends on it; a grid without surface is allowed (Mitsuba renders nothing) */
+        if (!s->sdfgrid)
+            return SPC_ERR_VALUE;
+        s->area = spc_sdfgrid_area(s->sdfgrid);
+        spc_sdfgrid_bounds(s->sdfgrid, &s->bbox_min, &s->bbox_max);
+        return isfinite(s->area) ? SPC_OK : SPC_ERR_VALUE;
     }
     return SPC_ERR_INTERNAL;
 }
@@ -521,6 +544,9 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
     case SPC_SHAPE_SDF:
         *u = *v = 0.0;
         return spc_sdf_intersect(s->sdf, r, t);
+    case SPC_SHAPE_SDFGRID:
+        *u = *v = 0.0;
+        return spc_sdfgrid_intersect(s->sdfgrid, r, t);
     case SPC_SHAPE_CURVE: /* Embree's own curves */
     case SPC_SHAPE_MESH:
         return false;
@@ -739,6 +765,7 @@ bool spc_shape_texture_frame(const spc_hit *h, spc_vec2 duv[2], spc_vec3 *T, spc
         return true;
     }
     case SPC_SHAPE_SDF:
+    case SPC_SHAPE_SDFGRID:
         return false; /* its uv are not its surface parameters */
     case SPC_SHAPE_CURVE:
         return false; /* never a chain vertex */
@@ -762,6 +789,7 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
     case SPC_SHAPE_CYLINDER: fill_cylinder(s, r, t, h); break;
     case SPC_SHAPE_SDF: spc_sdf_fill_hit(s->sdf, spc_madd(r->o, r->d, t), s->flip_normals, h); break;
     case SPC_SHAPE_CURVE: spc_curve_fill_hit(s->curve, prim, u, r, t, s->flip_normals, h); break;
+    case SPC_SHAPE_SDFGRID: spc_sdfgrid_fill_hit(s->sdfgrid, spc_madd(r->o, r->d, t), s->flip_normals, h); break;
     }
 }
 
@@ -847,6 +875,14 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
         /* curves are not emitters (the loader refuses them): no sample */
         memset(out, 0, sizeof *out);
         out->n = spc_v3(0, 0, 1);
+        return;
+    case SPC_SHAPE_SDFGRID:
+        /* not sampled (never an emitter, as in Mitsuba): no sample */
+        out->p = spc_scale(spc_add(s->bbox_min, s->bbox_max), 0.5);
+        out->n = spc_v3(0, 0, 1);
+        out->uv = spc_v2(0, 0);
+        out->err = 0.0;
+        out->pdf = 0.0;
         return;
     }
 }

@@ -12,6 +12,8 @@
  *   obj, ply, serialized  filename, face_normals (false), flip_normals (false), to_world
  *   sdf        one nested <sdf> tree (scene/sdf.h lists its nodes), to_world (a similarity)
  *   linearcurve, bsplinecurve  filename, to_world (scene/curve.h); not emitters, not chain vertices
+ *   sdfgrid    filename (a one-channel .vol grid over [0,1]^3), normals ("smooth" | "analytic"),
+ *              to_world (scene/sdfgrid.h); not an area emitter, never a specular chain vertex
  * Every shape: flip_normals, an optional bsdf (default: diffuse 0.5), an optional area emitter,
  * and the per-shape booleans caustic_caster, caustic_receiver (+ _single / _multi variants).
  */
@@ -27,6 +29,7 @@ struct spc_bsdf;
 struct spc_emitter;
 struct spc_sdf;
 struct spc_curve;
+struct spc_sdfgrid;
 
 typedef enum spc_shape_type {
     SPC_SHAPE_MESH,
@@ -34,7 +37,8 @@ typedef enum spc_shape_type {
     SPC_SHAPE_DISK,
     SPC_SHAPE_CYLINDER,
     SPC_SHAPE_SDF,
-    SPC_SHAPE_CURVE
+    SPC_SHAPE_CURVE,
+    SPC_SHAPE_SDFGRID
 } spc_shape_type;
 
 /* Meshes keep their triangles' normals and tangents (spc_shape.tri_frame, 48 bytes a triangle)
@@ -64,6 +68,7 @@ typedef struct spc_shape {
     spc_mat4 to_world, to_local; /* DISK, CYLINDER, SPHERE (orientation for uv) */
     struct spc_sdf *sdf;     /* SDF: the field in world space (owned, freed by spc_shape_release) */
     struct spc_curve *curve; /* CURVE: control points in world space (owned, as sdf) */
+    struct spc_sdfgrid *sdfgrid; /* SDFGRID: the grid and its to_world (owned, freed likewise) */
     bool flip_normals;
     const struct spc_bsdf *bsdf;
     const struct spc_emitter *emitter; /* area emitter, or NULL */
@@ -118,6 +123,10 @@ bool spc_shape_init_sdf(spc_shape *s, struct spc_sdf *sdf, int root, const spc_m
 /* Takes ownership of curve (a heap spc_curve read by spc_curve_read, also on failure). */
 bool spc_shape_init_curve(spc_shape *s, struct spc_curve *curve, const char *file, int line, int col,
                           spc_error *err);
+
+/* Takes ownership of grid (also on failure). The grid already holds its to_world. */
+bool spc_shape_init_sdfgrid(spc_shape *s, struct spc_sdfgrid *grid, const char *file, int line, int col,
+                            spc_error *err);
 
 /* Computes area, sampling tables and bounds. SPC_OK; SPC_ERR_NOMEM if the sampling table could not
  * be allocated; SPC_ERR_VALUE if the area is zero or not finite (or an SDF shape has no field). */

@@ -37,6 +37,8 @@ REFS = {
     "mesh_attribute": ("mesh_attribute.xml", ["res=32"]),
     "projector": ("projector.xml", ["res=32"]),
     "curves": ("curves.xml", ["res=32"]),
+    "sdfgrid": ("sdfgrid.xml", ["res=32"]),
+    "sdfgrid_normals": ("sdfgrid_normals.xml", ["res=32"]),
 }
 
 
