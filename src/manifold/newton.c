@@ -24,7 +24,7 @@
 
 #include "bsdf/microfacet.h"
 #include "manifold/angular.h"
-#include "manifold/specular_nee.h"
+#include "manifold/solver.h"
 
 /* Projections per solve. Inside the basin Newton converges quadratically (3 to 6 steps from a
  * reasonable seed); the rest is room for the halved steps of a far seed. Measured on random chains of
@@ -1060,7 +1060,6 @@ spc_rgb spc_newton_rough_nee(const spc_scene *sc, const struct spc_snee_params *
     const spc_rgb zero = spc_rgb1(0.0);
     if (max_chain > prm->max_chain)
         max_chain = prm->max_chain;
-    max_chain = spc_snee_budget_params(prm, x, max_chain);
     if (max_chain < 1)
         return zero;
     double pmf;

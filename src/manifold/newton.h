@@ -178,13 +178,14 @@ bool spc_newton_to_chain(const spc_scene *sc, const spc_hit *x, const spc_newton
 struct spc_snee_query;
 struct spc_snee_params;
 struct spc_snee_stats;
-/* The solver-table entry (specular_nee.h): seed from the query's seed mode, Newton solve, then
+/* The solver-table entry (solver.h): seed from the query's seed mode, Newton solve, then
  * spc_newton_to_chain with polish_iterations; the interface computes the contribution from that
  * chain. */
 bool spc_newton_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations);
 
 /* Specular NEE with rough vertices (see above): like spc_specular_nee, with the microfacet normals
- * drawn once per light sample and kept for every attempt that estimates <1/p_solve>. */
+ * drawn once per light sample and kept for every attempt that estimates <1/p_solve>. max_chain is
+ * specular NEE's budget at x (spc_snee_budget_params: 0 at a rough chain surface). */
 spc_rgb spc_newton_rough_nee(const spc_scene *sc, const struct spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                              int max_chain, spc_rng *rng, struct spc_snee_stats *st);
 
