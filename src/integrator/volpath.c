@@ -493,8 +493,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                 if (solver && nee && depth_allows(ctx->max_depth, segments + 2)) {
                     /* its own deterministic stream: the sampler's dimensions stay as without it */
                     spc_rng rng;
-                    spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, ((uint64_t)smp->index << 32) | smp->dim),
-                                 (uint64_t)segments);
+                    spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
                     spc_rgb c = medium_connection(sc, &snp, solver, med, x, wo, &rng);
                     L = spc_rgb_add(L, spc_rgb_mul(beta, c));
                     connected = true;
