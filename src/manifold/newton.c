@@ -994,22 +994,8 @@ static spc_rgb rough_value(const rough_query *rq, const spc_emitter *e, spc_vec2
     if (spc_scene_occluded(rq->sc, &sr))
         return zero;
     spc_vec3 d = spc_normalize(spc_sub(rq->y, last->p));
-    spc_vec3 ny = rq->ny;
-    spc_rgb Le;
-    if (e->type == SPC_EMITTER_AREA) {
-        spc_hit yh;
-        memset(&yh, 0, sizeof yh);
-        yh.p = rq->y;
-        yh.ng = rq->ny;
-        yh.uv = uv;
-        Le = spc_emitter_eval_area(e, &yh, spc_neg(d));
-    } else {
-        spc_emitter_direct ds;
-        if (!spc_emitter_sample_direct(e, last->p, spc_v2(0.5, 0.5), &ds))
-            return zero;
-        Le = spc_rgb_scale(ds.L, ds.dist * ds.dist);
-        ny = spc_neg(d);
-    }
+    spc_vec3 ny;
+    spc_rgb Le = spc_snee_light_radiance(e, rq->y, rq->ny, uv, last->p, d, &ny);
     if (spc_rgb_is_black(Le))
         return zero;
     const spc_hit *x = rq->x;

@@ -132,3 +132,64 @@ bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene
     }
     return true;
 }
+
+int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped)
+{
+    *capped = false;
+    for (int n = 1; n <= cap; ++n)
+        if (trial(user))
+            return n;
+    *capped = true;
+    return cap;
+}
+
+typedef struct trial_ctx {
+    const spc_snee_query *q;
+    const spc_specular_solver *solver;
+    spc_snee_attempt attempt;
+    const spc_chain *target;
+    spc_rng *rng;
+    spc_chain scratch;
+    int *iterations;
+} trial_ctx;
+
+static bool trial_same(void *user)
+{
+    trial_ctx *t = user;
+    bool found = t->attempt ? t->attempt(t->q, t->solver, t->rng, &t->scratch, t->iterations)
+                            : t->solver->solve_one(t->q, t->rng, &t->scratch, t->iterations);
+    return found && spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
+}
+
+int spc_snee_count_same(const spc_snee_query *q, const spc_specular_solver *solver, spc_snee_attempt attempt,
+                        spc_rng *rng, const spc_chain *target, int cap, bool *capped, int *iterations)
+{
+    trial_ctx tc;
+    tc.q = q;
+    tc.solver = solver;
+    tc.attempt = attempt;
+    tc.target = target;
+    tc.rng = rng;
+    tc.iterations = iterations;
+    return spc_snee_count_trials(trial_same, &tc, cap, capped);
+}
+
+spc_rgb spc_snee_light_radiance(const spc_emitter *e, spc_vec3 y, spc_vec3 ny, spc_vec2 uv, spc_vec3 p, spc_vec3 d,
+                                spc_vec3 *ny_out)
+{
+    *ny_out = ny;
+    if (e->type == SPC_EMITTER_AREA) {
+        spc_hit yh;
+        memset(&yh, 0, sizeof yh);
+        yh.p = y;
+        yh.ng = ny;
+        yh.uv = uv;
+        return spc_emitter_eval_area(e, &yh, spc_neg(d));
+    }
+    /* point and spot: the intensity toward p, on a virtual patch facing it */
+    spc_emitter_direct ds;
+    *ny_out = spc_neg(d);
+    if (!spc_emitter_sample_direct(e, p, spc_v2(0.5, 0.5), &ds))
+        return spc_rgb1(0.0);
+    return spc_rgb_scale(ds.L, ds.dist * ds.dist);
+}

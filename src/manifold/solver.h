@@ -273,4 +273,26 @@ typedef struct spc_snee_stats {
     uint64_t guided_hits;   /* of which reached the light through a covered chain */
 } spc_snee_stats;
 
+/* The radiance the light e sends from its point y (unit normal ny; texture coordinates uv) along -d
+ * to a chain's last vertex at p (d: the unit direction from p to y): an area light's emitted
+ * radiance, *ny_out = ny; a point or spot light's intensity toward p as the radiance of a virtual
+ * patch at y facing p (times the squared distance), *ny_out = -d. Black where nothing arrives. */
+spc_rgb spc_snee_light_radiance(const spc_emitter *e, spc_vec3 y, spc_vec3 ny, spc_vec2 uv, spc_vec3 p, spc_vec3 d,
+                                spc_vec3 *ny_out);
+
+/* Counts independent trials until the first success, capped: the geometric estimator of 1/p.
+ * *capped is set if the cap was reached without success (the count is then cap). */
+int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped);
+
+/* One randomized attempt of solver for q (the same distribution on every call); adds its
+ * iterations to *iterations. */
+typedef bool (*spc_snee_attempt)(const spc_snee_query *q, const spc_specular_solver *solver, spc_rng *rng,
+                                 spc_chain *out, int *iterations);
+/* The trial count that estimates <1/p_solve> for the solution `target` of q: independent attempts
+ * (attempt; NULL: solver->solve_one) until one finds the same solution (spc_snee_same_solution),
+ * at most cap (then *capped is set and the count is cap). Adds the attempts' iterations to
+ * *iterations. */
+int spc_snee_count_same(const spc_snee_query *q, const spc_specular_solver *solver, spc_snee_attempt attempt,
+                        spc_rng *rng, const spc_chain *target, int cap, bool *capped, int *iterations);
+
 #endif

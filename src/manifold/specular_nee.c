@@ -245,23 +245,8 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
     if (spc_scene_occluded(q->scene, &sr))
         return zero;
 
-    spc_rgb Le;
-    spc_vec3 ny = q->ny;
-    if (e->type == SPC_EMITTER_AREA) {
-        spc_hit yh;
-        memset(&yh, 0, sizeof yh);
-        yh.p = q->y;
-        yh.ng = q->ny;
-        yh.uv = uv;
-        Le = spc_emitter_eval_area(e, &yh, spc_neg(d));
-    } else {
-        /* point and spot: the intensity toward the last vertex, on a virtual patch facing it */
-        spc_emitter_direct ds;
-        if (!spc_emitter_sample_direct(e, last->h.p, spc_v2(0.5, 0.5), &ds))
-            return zero;
-        Le = spc_rgb_scale(ds.L, ds.dist * ds.dist);
-        ny = spc_neg(d);
-    }
+    spc_vec3 ny;
+    spc_rgb Le = spc_snee_light_radiance(e, q->y, q->ny, uv, last->h.p, d, &ny);
     if (spc_rgb_is_black(Le))
         return zero;
 
@@ -300,16 +285,6 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
         w = mis3(q->p_y * (q->psi > 0.0 ? q->psi : 1.0), pdf_x * G, pc * G);
     }
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * w);
-}
-
-int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped)
-{
-    *capped = false;
-    for (int n = 1; n <= cap; ++n)
-        if (trial(user))
-            return n;
-    *capped = true;
-    return cap;
 }
 
 /* Is c a chain on one sphere, one mirror cylinder or (not from the camera) one normal-mapped plane
@@ -377,22 +352,6 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
     }
     /* two such shapes: chains through both are the randomized solver's, unless none is short enough */
     return count <= 1 || spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain);
-}
-
-typedef struct trial_ctx {
-    const spc_snee_query *q;
-    const spc_specular_solver *solver;
-    const spc_chain *target;
-    spc_rng *rng;
-    spc_chain scratch;
-    int iterations;
-} trial_ctx;
-
-static bool trial_same(void *user)
-{
-    trial_ctx *t = user;
-    return t->solver->solve_one(t->q, t->rng, &t->scratch, &t->iterations) &&
-           spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
 }
 
 /* The biased estimator: the distinct solutions of biased_seeds attempts, each counted once. */
@@ -795,18 +754,14 @@ static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *so
         tq.events = want.event;
         p_events = spc_chain_events_prob(q->scene, &want, p->any_surface, p->reflect_p);
     }
-    trial_ctx tc;
-    tc.q = &tq;
-    tc.solver = solver;
-    tc.target = sol;
-    tc.rng = rng;
-    tc.iterations = 0;
     bool capped;
-    int n = spc_snee_count_trials(trial_same, &tc, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS, &capped);
+    int iterations = 0;
+    int n = spc_snee_count_same(&tq, solver, NULL, rng, sol, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS,
+                                &capped, &iterations);
     if (st) {
         st->trials += (uint64_t)n;
-        st->iterations += (uint64_t)tc.iterations;
-        st->trial_iterations += (uint64_t)tc.iterations;
+        st->iterations += (uint64_t)iterations;
+        st->trial_iterations += (uint64_t)iterations;
         st->capped += capped ? 1u : 0u;
     }
     return p_events > 0.0 ? (double)n / p_events : 0.0;

@@ -123,10 +123,6 @@ double spc_snee_camera_bsdf_weight(const spc_scene *sc, const spc_snee_params *p
                                    double cam_scale, spc_vec3 d0, int max_chain, int k, const unsigned char *events,
                                    const spc_hit *light);
 
-/* Counts independent trials until the first success, capped: the geometric estimator of 1/p.
- * *capped is set if the cap was reached without success (the count is then cap). */
-int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped);
-
 /* ---- the exclusion that keeps BSDF sampling from counting specular NEE's paths again ---- */
 typedef struct spc_snee_track {
     bool live;      /* the path since the last receiver may still be one specular NEE covers */
