@@ -18,6 +18,7 @@
 
 #include "manifold/conic.h"
 #include "manifold/plane_chains.h"
+#include "manifold/rough.h"
 #include "manifold/snee_cost.h"
 #include "manifold/snee_options.h"
 #include "scene/camera.h"
@@ -980,7 +981,7 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
     if (!solver || (!solver->solve_one && !solver->solve_all) || max_chain < 1)
         return zero;
     if (p->solver == SPC_SNEE_NEWTON && p->newton.rough)
-        return spc_newton_rough_nee(sc, p, x, wo, spc_snee_budget_params(p, x, max_chain), rng, st);
+        return spc_rough_nee(sc, p, x, wo, spc_snee_budget_params(p, x, max_chain), rng, st);
     /* params.query_p: the query made with that probability, counted 1 / query_p times (p_y below) */
     double pq = spc_snee_query_prob(p);
     if (pq < 1.0 && !(spc_rng_next(rng) < pq))
