@@ -105,3 +105,8 @@ double spc_sampler_1d(spc_sampler *s)
     uint32_t idx;
     return pair_x(s, &h, &idx) * (1.0 / 4294967296.0);
 }
+
+void spc_sampler_fork_rng(const spc_sampler *s, uint64_t stream, spc_rng *rng)
+{
+    spc_rng_seed(rng, spc_hash_combine(s->pixel_seed, ((uint64_t)s->index << 32) | s->dim), stream);
+}

@@ -14,6 +14,7 @@
 #include <stdint.h>
 
 #include "core/math.h"
+#include "core/rng.h"
 
 typedef struct spc_sampler {
     uint64_t pixel_seed; /* hash of (pixel, seed) */
@@ -30,5 +31,10 @@ void spc_sampler_start_key(spc_sampler *s, uint64_t key, uint32_t index);
 double spc_sampler_1d(spc_sampler *s);
 /* Next point in [0,1)^2, stratified across the sample indices of the same stream. */
 spc_vec2 spc_sampler_2d(spc_sampler *s);
+/* A generator of its own for a consumer of an unknown number of values (specular NEE's solver
+ * attempts, an AOV's walk): seeded from the stream's state (pixel, index, next dimension) and
+ * `stream`, which tells apart the forks taken at the same state. The sampler does not move, so
+ * its later dimensions are the same with or without the fork. */
+void spc_sampler_fork_rng(const spc_sampler *s, uint64_t stream, spc_rng *rng);
 
 #endif

@@ -43,8 +43,7 @@ void spc_aov_from_hit(const spc_render_ctx *ctx, const spc_hit *h0, spc_vec3 wo0
         if (k >= SPC_AOV_MAX_DELTA)
             return;
         if (!seeded) {
-            spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, ((uint64_t)smp->index << 32) | smp->dim),
-                         0x616f76u /* "aov": a stream of its own */);
+            spc_sampler_fork_rng(smp, 0x616f76u /* "aov": a stream of its own */, &rng);
             seeded = true;
         }
         double u_lobe = spc_rng_next(&rng);

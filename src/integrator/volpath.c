@@ -229,23 +229,8 @@ static spc_rgb chain_value(const conn_query *cq, const spc_snee_query *q, const 
     spc_ray sr = spc_hit_spawn_to(&v->h, q->y, y_err);
     if (spc_scene_occluded(sc, &sr))
         return zero;
-    spc_rgb Le;
-    spc_vec3 ny = q->ny;
-    if (cq->e->type == SPC_EMITTER_AREA) {
-        spc_hit yh;
-        memset(&yh, 0, sizeof yh);
-        yh.p = q->y;
-        yh.ng = q->ny;
-        yh.uv = cq->uv;
-        Le = spc_emitter_eval_area(cq->e, &yh, spc_neg(d));
-    } else {
-        /* point and spot: the intensity toward P on a virtual patch facing it (as specular_nee.c) */
-        spc_emitter_direct ds;
-        if (!spc_emitter_sample_direct(cq->e, v->h.p, spc_v2(0.5, 0.5), &ds))
-            return zero;
-        Le = spc_rgb_scale(ds.L, ds.dist * ds.dist);
-        ny = spc_neg(d);
-    }
+    spc_vec3 ny;
+    spc_rgb Le = spc_snee_light_radiance(cq->e, q->y, q->ny, cq->uv, v->h.p, d, &ny);
     if (spc_rgb_is_black(Le))
         return zero;
     double ph = spc_phase_eval(&cq->m->phase, cq->wo, c->d0);
@@ -272,28 +257,13 @@ static spc_rgb chain_value(const conn_query *cq, const spc_snee_query *q, const 
  * toward the light point y with probability SPC_VOLPATH_SEED_LIGHT_PROB, else the solver's usual
  * seed (a uniform point on a caster). The mixture is the same distribution on every call, as the
  * <1/p_solve> count requires. */
-static bool attempt(const spc_snee_query *q0, const spc_specular_solver *solver, spc_rng *rng, spc_chain *out)
+static bool attempt(const spc_snee_query *q0, const spc_specular_solver *solver, spc_rng *rng, spc_chain *out,
+                    int *iterations)
 {
     spc_snee_query q = *q0;
     if (spc_rng_next(rng) < SPC_VOLPATH_SEED_LIGHT_PROB)
         q.seed = SPC_SNEE_SEED_LIGHT;
-    int it = 0;
-    return solver->solve_one(&q, rng, out, &it);
-}
-
-typedef struct trial_ctx {
-    const spc_snee_query *q;
-    const spc_specular_solver *solver;
-    const spc_chain *target;
-    spc_rng *rng;
-    spc_chain scratch;
-} trial_ctx;
-
-static bool trial_same(void *user)
-{
-    trial_ctx *t = user;
-    return attempt(t->q, t->solver, t->rng, &t->scratch) &&
-           spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
+    return solver->solve_one(&q, rng, out, iterations);
 }
 
 /* The specular connection at the medium point x (contract at the top of the file), without beta. */
@@ -374,7 +344,8 @@ static spc_rgb medium_connection(const spc_scene *sc, const spc_snee_params *snp
     if (!solver->solve_one)
         return total;
     spc_chain sol;
-    if (!attempt(&q, solver, rng, &sol))
+    int iterations = 0;
+    if (!attempt(&q, solver, rng, &sol, &iterations))
         return total;
     if (solver->solve_all && solver->covers(&sol))
         return total; /* counted exactly above */
@@ -382,13 +353,8 @@ static spc_rgb medium_connection(const spc_scene *sc, const spc_snee_params *snp
     spc_rgb v = chain_value(&cq, &q, &sol, &G, &ph);
     if (spc_rgb_is_black(v))
         return total;
-    trial_ctx tc;
-    tc.q = &q;
-    tc.solver = solver;
-    tc.target = &sol;
-    tc.rng = rng;
     bool capped;
-    int trials = spc_snee_count_trials(trial_same, &tc, snp->max_trials, &capped);
+    int trials = spc_snee_count_same(&q, solver, attempt, rng, &sol, snp->max_trials, &capped, &iterations);
     return spc_rgb_add(total, spc_rgb_scale(v, (double)trials / p_y));
 }
 
@@ -493,8 +459,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                 if (solver && nee && depth_allows(ctx->max_depth, segments + 2)) {
                     /* its own deterministic stream: the sampler's dimensions stay as without it */
                     spc_rng rng;
-                    spc_rng_seed(&rng, spc_hash_combine(smp->pixel_seed, ((uint64_t)smp->index << 32) | smp->dim),
-                                 (uint64_t)segments);
+                    spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
                     spc_rgb c = medium_connection(sc, &snp, solver, med, x, wo, &rng);
                     L = spc_rgb_add(L, spc_rgb_mul(beta, c));
                     connected = true;

@@ -11,7 +11,7 @@
  */
 #include "manifold/angular.h"
 
-#include "manifold/specular_nee.h"
+#include "manifold/solver.h"
 
 /* Defaults. Gauss-Newton converges quadratically once close; from a distant seed, damped steps
  * (often along a silhouette) take 10 to 30 traces. Beyond 48 the share of late successes is

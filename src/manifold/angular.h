@@ -104,7 +104,7 @@ bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_
                        spc_angular_result *res);
 
 struct spc_snee_query;
-/* The solver-table entry (specular_nee.h): one seeded attempt for the query. */
+/* The solver-table entry (solver.h): one seeded attempt for the query. */
 bool spc_angular_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations);
 
 #endif

@@ -232,7 +232,7 @@ double spc_conic_dcf(const spc_conic_tri *t, const spc_conic_problem *pb, const 
 
 struct spc_snee_query;
 struct spc_chain;
-/* The solver-table entry (specular_nee.h): every chain of exactly one vertex on a mesh shape that
+/* The solver-table entry (solver.h): every chain of exactly one vertex on a mesh shape that
  * may be a caster, traced from x (so the chain carries its derivatives and the first segment is
  * known unblocked); returns the count written (at most max_out). */
 int spc_conic_solve_all(const struct spc_snee_query *q, struct spc_chain *out, int max_out, int *iterations);

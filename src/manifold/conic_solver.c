@@ -53,7 +53,7 @@
 
 #include "manifold/conic.h"
 #include "manifold/polyroots.h"
-#include "manifold/specular_nee.h"
+#include "manifold/solver.h"
 
 /* Largest distance, in barycentric units, between a chord and its arc before it is split. Roots
  * are polished on the true law afterwards, so this only sets how close the starting points are;

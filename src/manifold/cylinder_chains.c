@@ -17,7 +17,7 @@
 
 #include "bsdf/bsdf.h"
 #include "manifold/roots1d.h"
-#include "manifold/specular_nee.h"
+#include "manifold/solver.h"
 #include "scene/scene.h"
 
 /* Samples of the first vertex's angle over the whole ellipse (shared by every chain length). */

@@ -38,7 +38,7 @@
  * uses m's world direction as the normal. The contribution then carries f_r |cos| |dw/dm| / p(m)
  * per rough vertex and the generalized geometry term of the offset-normal chain, computed from the
  * constraint Jacobian (spc_newton_geometry). Off by default; on with the setting "newton:rough"
- * (spc_snee_parse), which path.c honours: a rough chain surface is then never a receiver, and the
+ * (spc_snee_parse; the estimator is rough.h's), which path.c honours: a rough chain surface is then never a receiver, and the
  * glossy paths and light samples through rough casters that specular NEE covers are dropped from
  * BSDF sampling (spc_snee_track_scatter_params, spc_snee_track_covers_light). m is drawn with the
  * roughness at the seed's hit and weighted with the one at the solution: the same for constant
@@ -176,16 +176,13 @@ bool spc_newton_to_chain(const spc_scene *sc, const spc_hit *x, const spc_newton
                          spc_chain *out, int *iterations);
 
 struct spc_snee_query;
-struct spc_snee_params;
-struct spc_snee_stats;
-/* The solver-table entry (specular_nee.h): seed from the query's seed mode, Newton solve, then
+/* The solver-table entry (solver.h): seed from the query's seed mode, Newton solve, then
  * spc_newton_to_chain with polish_iterations; the interface computes the contribution from that
  * chain. */
 bool spc_newton_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations);
 
-/* Specular NEE with rough vertices (see above): like spc_specular_nee, with the microfacet normals
- * drawn once per light sample and kept for every attempt that estimates <1/p_solve>. */
-spc_rgb spc_newton_rough_nee(const spc_scene *sc, const struct spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
-                             int max_chain, spc_rng *rng, struct spc_snee_stats *st);
+/* The world direction of the (offset) normal of v: the shading normal, or for a rough vertex its
+ * microfacet normal in the local frame built from the normal and ref. */
+spc_vec3 spc_newton_vertex_normal(const spc_newton_vertex *v, spc_vec3 ref);
 
 #endif

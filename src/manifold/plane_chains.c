@@ -28,7 +28,7 @@
 #endif
 
 #include "bsdf/bsdf.h"
-#include "manifold/specular_nee.h"
+#include "manifold/solver.h"
 #include "scene/scene.h"
 #include "scene/shape.h"
 #include "scene/texture.h"

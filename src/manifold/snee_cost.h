@@ -8,7 +8,7 @@
 #include <stdbool.h>
 
 #include "manifold/chain.h"
-#include "manifold/specular_nee.h"
+#include "manifold/solver.h"
 
 /* Does no chain of at most max_chain vertices from x visit two of the casters cs? True when every
  * caster is a sphere that sphere_chains.h enumerates (spc_sphere_chain_usable from x), no two of

@@ -1,7 +1,7 @@
 /*
  * manifold/snee_options.c: the table of specular NEE's options and everything read from it: the
  * parser, the canonical text, the help and the error messages (snee_options.h). What each option
- * means for the estimator is documented with its field in specular_nee.h (spc_snee_params).
+ * means for the estimator is documented with its field in solver.h (spc_snee_params).
  */
 #include "manifold/snee_options.h"
 
@@ -10,7 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "manifold/specular_nee.h"
+#include "manifold/solver.h"
 
 /* guide without a value: a cone as wide as the light's image through the chain to its point facing
  * x (measured in bench/RESULTS.md, Session 7: 1 against 1.5 and 2 on the pools). */
@@ -534,4 +534,9 @@ char *spc_snee_options_help(int indent, int width)
         return NULL;
     }
     return t.s;
+}
+
+bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
+{
+    return spc_snee_options_parse(spec, max_chain, p, NULL, 0) == SPC_SNEE_PARSE_OK;
 }

@@ -91,4 +91,9 @@ int spc_snee_options_format(const struct spc_snee_params *p, char *buf, size_t l
  * `indent` spaces, at most `width` columns. The caller frees it; NULL if out of memory. */
 char *spc_snee_options_help(int indent, int width);
 
+/* Parses a specular-NEE setting SOLVER[:OPTION[,OPTION...]], e.g. "newton:biased=8,seed=light":
+ * spc_snee_options_parse (snee_options.h, where the options' one table is) without the message.
+ * False (p undefined) for an unknown name or option, or a bad value. */
+bool spc_snee_parse(const char *spec, int max_chain, struct spc_snee_params *p);
+
 #endif

@@ -37,7 +37,8 @@
 #include <stdbool.h>
 #include <stddef.h>
 
-#include "manifold/specular_nee.h"
+#include "manifold/snee_options.h"
+#include "manifold/solver.h"
 
 /* The setting the plan picks wherever specular NEE pays (the reasons are above): chains that
  * reflect off glass as well as refract (the light's image in a glass ball or on water, internal

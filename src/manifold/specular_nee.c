@@ -1,7 +1,7 @@
 /*
  * manifold/specular_nee.c: specular next-event estimation for any solver (contract and the exact
- * set of paths it covers in specular_nee.h), the solver table, seeding, the contribution of a
- * solved chain, the unbiased estimate of the reciprocal probability of a solution, and the
+ * set of paths it covers in specular_nee.h; the solvers and their table: solver.h), the contribution
+ * of a solved chain, the unbiased estimate of the reciprocal probability of a solution, and the
  * bookkeeping that keeps the path tracer from counting the same paths again.
  *
  * Contribution: the measurement at x through a chain x -> x_1 .. x_k -> y, integrated over
@@ -18,48 +18,15 @@
 
 #include "manifold/conic.h"
 #include "manifold/plane_chains.h"
+#include "manifold/rough.h"
 #include "manifold/snee_cost.h"
 #include "manifold/snee_options.h"
 #include "scene/camera.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/sphere_chains.h"
 
-/* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
-#define SPC_SNEE_CONE_COS 0.9
-
-/* Area-point seeds (SEED_SHAPE, and SEED_CONE from inside a caster's bounding sphere): points of the
- * shape drawn until one faces x, at most this many. Measured in bench/RESULTS.md (Session 4). */
-#define SPC_SNEE_FACING_TRIES 16
-/* Cap of the attempts counted for <1/p_solve>. The count is cut for solutions found with
- * probability below about 3/cap; at 64 that is p < 5%, seeds that rarely lead anywhere, and the
- * cost of one estimate stays bounded (each attempt is a full solve). */
-#define SPC_SNEE_MAX_TRIALS 64
-/* Attempts per light sample of the biased estimator: enough to find both solutions of a glass
- * sphere's caustic from shape seeds most of the time (bench/RESULTS.md, Newton solver). */
-#define SPC_SNEE_BIASED_SEEDS 8
 /* Distinct solutions the biased estimator keeps per light sample (more are dropped: bias). */
 #define SPC_SNEE_BIASED_MAX_SOLUTIONS 8
-/* The angular solver's progress window in specular NEE (angular.h): an attempt ends when 4 chain
- * traces have not halved the loss. Most attempts have no solution to find (a receiver outside
- * every caustic), and the solver's own stagnation rule spent 16 traces on them; with the window
- * they end after 5-6. Solutions are found 20-40% less often, so the trial count grows, but
- * specular NEE's variance x time fell 1.9-2.7x on the caustic scenes (bench_snee, bench/RESULTS.md). */
-#define SPC_SNEE_ANGULAR_WINDOW 4
-#define SPC_SNEE_ANGULAR_WINDOW_KEEP 0.5
-/* The angular solver's cap of the trial count: its attempts now end within ~6 traces, so a longer
- * count is affordable, and the window lowers the probability of hard solutions (a glass ball's
- * rim, near a fold): at 64, 0.4-0.7% of the counts were cut (bias, tests/test_manifold.c's glass
- * ball), at 256 none in that test while the mean trial count stays 2.2. Bias only below p ~ 1%. */
-#define SPC_SNEE_ANGULAR_MAX_TRIALS 256
-/* reflect's default probability of a reflection at a dielectric vertex of a seed chain. Measured in
- * bench/RESULTS.md (Session 4). */
-#define SPC_SNEE_REFLECT_P 0.2
-/* The MIS weight's stand-in for the probability that a randomized attempt finds a chain (params.
- * mis_solve; measured in bench/RESULTS.md, Session 4). */
-#define SPC_SNEE_MIS_SOLVE 0.1
-/* params.long_p's default: the probability per call of the longer chains on one sphere (measured in
- * bench/RESULTS.md, Session 6: 0.1 against 0.25 on the glass ball). */
-#define SPC_SNEE_LONG_P 0.1
 /* The longest of those chains (vertices): a pass takes one length, uniformly from max_chain + 1 to
  * this; each internal reflection in a glass ball keeps a few percent of the light, and the
  * enumeration's cost grows with the count (1D roots on a ball: 3 us for one, 14 us for four). */
@@ -74,185 +41,6 @@
 /* Solutions kept from a solver that enumerates them all (solve_all): one interface rarely has more
  * than a handful between two points. */
 #define SPC_SNEE_MAX_ALL 16
-
-/* ---- solver table ---- */
-
-static const spc_specular_solver solvers[] = {
-    {"none", NULL, NULL, NULL, NULL},
-    {"angular", spc_angular_solve_one, NULL, NULL, NULL},
-    {"newton", spc_newton_solve_one, NULL, NULL, NULL},
-    /* conic: every one-vertex chain on meshes exactly, the angular estimate for the rest */
-    {"conic", spc_angular_solve_one, spc_conic_solve_all, spc_conic_covers, spc_conic_covers_all},
-};
-#define NSOLVERS ((int)(sizeof solvers / sizeof solvers[0]))
-
-const spc_specular_solver *spc_specular_solver_get(int id)
-{
-    if (id <= SPC_SNEE_NONE || id >= NSOLVERS || (!solvers[id].solve_one && !solvers[id].solve_all))
-        return NULL;
-    return &solvers[id];
-}
-
-bool spc_specular_solver_parse(const char *name, int *id)
-{
-    if (!name || !name[0] || !strcmp(name, "none")) {
-        *id = SPC_SNEE_NONE;
-        return true;
-    }
-    for (int i = 1; i < NSOLVERS; ++i)
-        if (!strcmp(name, solvers[i].name) && (solvers[i].solve_one || solvers[i].solve_all)) {
-            *id = i;
-            return true;
-        }
-    return false;
-}
-
-const char *spc_specular_solver_names(void) { return "none, angular, newton, conic"; }
-
-/* The grammar and its table live in snee_options.c. */
-bool spc_snee_parse(const char *spec, int max_chain, spc_snee_params *p)
-{
-    return spc_snee_options_parse(spec, max_chain, p, NULL, 0) == SPC_SNEE_PARSE_OK;
-}
-
-void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
-{
-    memset(p, 0, sizeof *p);
-    p->solver = solver;
-    p->max_chain = max_chain < SPC_CHAIN_MAX_VERTICES ? max_chain : SPC_CHAIN_MAX_VERTICES;
-    p->seed = SPC_SNEE_SEED_CONE;
-    p->max_trials = SPC_SNEE_MAX_TRIALS;
-    p->any_surface = false;
-    spc_angular_options_default(&p->angular);
-    spc_newton_options_default(&p->newton);
-    p->biased = false;
-    p->biased_seeds = SPC_SNEE_BIASED_SEEDS;
-    /* reflections off glass: on for angular (and conic's angular part), off for newton, whose
-     * attempts cost more and which they made worse on multi-interface chains (bench/RESULTS.md,
-     * Session 4) */
-    p->reflect = solver == SPC_SNEE_ANGULAR || solver == SPC_SNEE_CONIC;
-    p->reflect_p = SPC_SNEE_REFLECT_P;
-    p->mis_solve = SPC_SNEE_MIS_SOLVE;
-    if (solver != SPC_SNEE_NEWTON) {
-        p->angular.window = SPC_SNEE_ANGULAR_WINDOW;
-        p->angular.window_keep = SPC_SNEE_ANGULAR_WINDOW_KEEP;
-    }
-    p->straight_first = solver == SPC_SNEE_ANGULAR;
-    p->exact = true;
-    p->long_p = SPC_SNEE_LONG_P;
-    p->guide = 0.0;
-    p->snee_p = 1.0;
-    p->later_p = 1.0;
-    p->camera_p = 1.0;
-    if (solver == SPC_SNEE_ANGULAR)
-        p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
-}
-
-void spc_snee_query_init(spc_snee_query *q, const spc_scene *sc, const spc_snee_params *p, const spc_hit *x,
-                         spc_vec3 wo, int max_chain)
-{
-    memset(q, 0, sizeof *q);
-    q->scene = sc;
-    q->x = x;
-    q->wo = wo;
-    q->max_chain = max_chain;
-    q->seed = p->seed;
-    q->any_surface = p->any_surface;
-    q->params = p;
-}
-
-/* ---- seeding ---- */
-
-bool spc_snee_straight_hits_glass(const spc_snee_query *q)
-{
-    spc_vec3 d = spc_sub(q->y, q->x->p);
-    double l = spc_length(d);
-    if (!(l > 0.0))
-        return false;
-    spc_ray r = spc_hit_spawn(q->x, spc_scale(d, 1.0 / l));
-    spc_hit h;
-    int event;
-    return spc_scene_intersect(q->scene, &r, &h) && spc_chain_surface(&h, q->any_surface, &event) &&
-           event == SPC_CHAIN_REFRACT;
-}
-
-bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *dir)
-{
-    const spc_scene *sc = q->scene;
-    switch (q->seed) {
-    case SPC_SNEE_SEED_LIGHT: {
-        spc_vec3 d = spc_sub(q->y, q->x->p);
-        double l = spc_length(d);
-        if (!(l > 0.0))
-            return false;
-        *dir = spc_scale(d, 1.0 / l);
-        return true;
-    }
-    case SPC_SNEE_SEED_BSDF: {
-        spc_bsdf_sample bs;
-        double ul = spc_rng_next(rng);
-        spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
-        if (!spc_bsdf_sample_dir(q->x->bsdf, q->x, SPC_MODE_RADIANCE, q->wo, ul, u, &bs))
-            return false;
-        *dir = bs.wi;
-        return true;
-    }
-    case SPC_SNEE_SEED_SHAPE:
-    case SPC_SNEE_SEED_CONE: {
-        /* uniform over the caster shapes, by one pass of reservoir sampling over their list (the
-         * random streams of the seeds as they were when the pass went over every shape) */
-        const spc_shape *pick = NULL;
-        const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
-        for (int j = 0; cs && j < cs->n; ++j)
-            if (spc_rng_next(rng) * (j + 1) < 1.0)
-                pick = sc->shapes[cs->idx[j]];
-        if (!pick)
-            return false;
-        if (q->seed == SPC_SNEE_SEED_CONE) {
-            /* uniform in the cone of the sphere around the shape's bounding box, unless x is inside
-             * it. (The exact cone of a sphere caster was measured worse: 1.6x the CPU at the same
-             * variance on caustic_glass_sphere; seeds that miss fail at once.) */
-            spc_vec3 c = spc_scale(spc_add(pick->bbox_min, pick->bbox_max), 0.5), d = spc_sub(c, q->x->p);
-            double r = 0.5 * spc_distance(pick->bbox_min, pick->bbox_max), l = spc_length(d);
-            if (l > r * 1.000001) {
-                double sin_max = r / l, cos_max = sqrt(spc_max(0.0, 1.0 - sin_max * sin_max));
-                spc_frame f = spc_frame_from_n(spc_scale(d, 1.0 / l));
-                spc_vec3 w = spc_warp_uniform_cone(spc_v2(spc_rng_next(rng), spc_rng_next(rng)), cos_max);
-                *dir = spc_frame_to_world(&f, w);
-                return true;
-            }
-            /* x inside: half the seeds in a cone around the straight line toward y (a large
-             * caster over x, such as a water surface: the solutions lie near that line), half
-             * toward a uniform point of the shape (below) */
-            if (spc_rng_next(rng) < 0.5) {
-                spc_vec3 dy = spc_sub(q->y, q->x->p);
-                double ly = spc_length(dy);
-                if (ly > 0.0) {
-                    spc_frame f = spc_frame_from_n(spc_scale(dy, 1.0 / ly));
-                    spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
-                    *dir = spc_frame_to_world(&f, spc_warp_uniform_cone(u, SPC_SNEE_CONE_COS));
-                    return true;
-                }
-            }
-        }
-        /* a uniform point of the shape, preferably one that faces x (a closed caster's first hit
-         * from outside does; an open one seen from behind has none, and keeps the last point) */
-        spc_shape_sample ss;
-        for (int i = 0; i < SPC_SNEE_FACING_TRIES; ++i) {
-            spc_shape_sample_area(pick, spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &ss);
-            if (spc_dot(ss.n, spc_sub(q->x->p, ss.p)) > 0.0)
-                break;
-        }
-        spc_vec3 d = spc_sub(ss.p, q->x->p);
-        double l = spc_length(d);
-        if (!(l > 0.0))
-            return false;
-        *dir = spc_scale(d, 1.0 / l);
-        return true;
-    }
-    }
-    return false;
-}
 
 /* ---- guided directions (params.guide) ---- */
 
@@ -458,23 +246,8 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
     if (spc_scene_occluded(q->scene, &sr))
         return zero;
 
-    spc_rgb Le;
-    spc_vec3 ny = q->ny;
-    if (e->type == SPC_EMITTER_AREA) {
-        spc_hit yh;
-        memset(&yh, 0, sizeof yh);
-        yh.p = q->y;
-        yh.ng = q->ny;
-        yh.uv = uv;
-        Le = spc_emitter_eval_area(e, &yh, spc_neg(d));
-    } else {
-        /* point and spot: the intensity toward the last vertex, on a virtual patch facing it */
-        spc_emitter_direct ds;
-        if (!spc_emitter_sample_direct(e, last->h.p, spc_v2(0.5, 0.5), &ds))
-            return zero;
-        Le = spc_rgb_scale(ds.L, ds.dist * ds.dist);
-        ny = spc_neg(d);
-    }
+    spc_vec3 ny;
+    spc_rgb Le = spc_snee_light_radiance(e, q->y, q->ny, uv, last->h.p, d, &ny);
     if (spc_rgb_is_black(Le))
         return zero;
 
@@ -513,30 +286,6 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
         w = mis3(q->p_y * (q->psi > 0.0 ? q->psi : 1.0), pdf_x * G, pc * G);
     }
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * w);
-}
-
-bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene_size)
-{
-    if (a->n != b->n)
-        return false;
-    double tol2 = spc_sqr(SPC_SNEE_SAME_REL * scene_size);
-    for (int i = 0; i < a->n; ++i) {
-        if (a->v[i].h.shape_index != b->v[i].h.shape_index || a->v[i].event != b->v[i].event)
-            return false;
-        if (spc_length2(spc_sub(a->v[i].h.p, b->v[i].h.p)) > tol2)
-            return false;
-    }
-    return true;
-}
-
-int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped)
-{
-    *capped = false;
-    for (int n = 1; n <= cap; ++n)
-        if (trial(user))
-            return n;
-    *capped = true;
-    return cap;
 }
 
 /* Is c a chain on one sphere, one mirror cylinder or (not from the camera) one normal-mapped plane
@@ -581,37 +330,6 @@ static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *sol
     return exact_shape_covers(q, c);
 }
 
-bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
-                           spc_vec3 dir, spc_chain *out, int n, int *iterations)
-{
-    const spc_scene *sc = q->scene;
-    spc_chain_opts opts = spc_chain_opts_default(k);
-    opts.events = events;
-    opts.any_surface = q->any_surface;
-    spc_angular_target tg = {q->y, q->ny, sc->radius, q->light_size};
-    spc_angular_options ao;
-    if (q->params)
-        ao = q->params->angular;
-    else
-        spc_angular_options_default(&ao);
-    ao.window = 0;         /* from a root, no stagnation to cut short */
-    ao.max_iterations = 8; /* one or two traces as a rule */
-    spc_angular_result res;
-    spc_chain *c = &out[n];
-    bool conv = spc_angular_solve(sc, q->x, &tg, dir, &opts, &ao, c, &res);
-    if (iterations)
-        *iterations += res.iterations;
-    if (!conv || c->n != k)
-        return false;
-    for (int j = 0; j < k; ++j)
-        if (c->v[j].h.shape != s || c->v[j].event != events[j])
-            return false;
-    for (int o = 0; o < n; ++o)
-        if (spc_snee_same_solution(&out[o], c, sc->radius))
-            return false;
-    return true;
-}
-
 bool spc_snee_exact_covers_all(const spc_snee_query *q)
 {
     const spc_scene *sc = q->scene;
@@ -635,22 +353,6 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
     }
     /* two such shapes: chains through both are the randomized solver's, unless none is short enough */
     return count <= 1 || spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain);
-}
-
-typedef struct trial_ctx {
-    const spc_snee_query *q;
-    const spc_specular_solver *solver;
-    const spc_chain *target;
-    spc_rng *rng;
-    spc_chain scratch;
-    int iterations;
-} trial_ctx;
-
-static bool trial_same(void *user)
-{
-    trial_ctx *t = user;
-    return t->solver->solve_one(t->q, t->rng, &t->scratch, &t->iterations) &&
-           spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
 }
 
 /* The biased estimator: the distinct solutions of biased_seeds attempts, each counted once. */
@@ -1053,18 +755,14 @@ static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *so
         tq.events = want.event;
         p_events = spc_chain_events_prob(q->scene, &want, p->any_surface, p->reflect_p);
     }
-    trial_ctx tc;
-    tc.q = &tq;
-    tc.solver = solver;
-    tc.target = sol;
-    tc.rng = rng;
-    tc.iterations = 0;
     bool capped;
-    int n = spc_snee_count_trials(trial_same, &tc, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS, &capped);
+    int iterations = 0;
+    int n = spc_snee_count_same(&tq, solver, NULL, rng, sol, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS,
+                                &capped, &iterations);
     if (st) {
         st->trials += (uint64_t)n;
-        st->iterations += (uint64_t)tc.iterations;
-        st->trial_iterations += (uint64_t)tc.iterations;
+        st->iterations += (uint64_t)iterations;
+        st->trial_iterations += (uint64_t)iterations;
         st->capped += capped ? 1u : 0u;
     }
     return p_events > 0.0 ? (double)n / p_events : 0.0;
@@ -1283,7 +981,7 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
     if (!solver || (!solver->solve_one && !solver->solve_all) || max_chain < 1)
         return zero;
     if (p->solver == SPC_SNEE_NEWTON && p->newton.rough)
-        return spc_newton_rough_nee(sc, p, x, wo, max_chain, rng, st);
+        return spc_rough_nee(sc, p, x, wo, spc_snee_budget_params(p, x, max_chain), rng, st);
     /* params.query_p: the query made with that probability, counted 1 / query_p times (p_y below) */
     double pq = spc_snee_query_prob(p);
     if (pq < 1.0 && !(spc_rng_next(rng) < pq))

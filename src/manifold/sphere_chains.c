@@ -26,7 +26,7 @@
 #include "bsdf/bsdf.h"
 #include "manifold/roots1d.h"
 #include "manifold/snee_cost.h"
-#include "manifold/specular_nee.h"
+#include "manifold/solver.h"
 #include "scene/scene.h"
 
 /* Samples of f over the arc x sees, shared by every signature (one pass computes the way in, the

@@ -1,0 +1,122 @@
+/*
+ * integrator/path_snee.c: the path tracer's hooks into specular NEE (path_snee.h): the parameters
+ * as a path runs them, the chain budget from the depth left, specular NEE from the camera and at
+ * each receiver on streams forked from the sampler, and the exclusion track that keeps BSDF
+ * sampling from counting specular NEE's paths again (specular_nee.h).
+ */
+#include "integrator/path_snee.h"
+
+#include <string.h>
+
+/* The rough-vertex mode (newton's "rough"): its own estimator, without MIS or camera queries. */
+static bool rough_mode(const spc_snee_params *p) { return p->solver == SPC_SNEE_NEWTON && p->newton.rough; }
+
+/* The longest chain (in vertices: k vertices make k + 1 segments) that fits in the depth left after
+ * `segments` segments, at most cap. */
+static int depth_left(const spc_render_ctx *ctx, int segments, int cap)
+{
+    if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < cap)
+        return ctx->max_depth - segments - 1;
+    return cap;
+}
+
+/* Film positions the driver takes camera samples at (the rendered window). */
+static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
+{
+    return fx >= ctx->crop_x && fx < ctx->crop_x + ctx->width && fy >= ctx->crop_y && fy < ctx->crop_y + ctx->height;
+}
+
+void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0,
+                         const spc_sampler *smp)
+{
+    memset(s, 0, sizeof *s);
+    s->mis_wo = s->mis_d0 = spc_v3(0, 0, 1);
+    s->cam_d0 = ray0->d;
+    s->cam_scale = (double)ctx->cam->width * (double)ctx->cam->height / ((double)ctx->width * (double)ctx->height);
+    s->on = ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee != SPC_SNEE_NONE;
+    if (!s->on)
+        return;
+    s->p = ctx->snee;
+    s->p.mis = !s->p.no_mis && !rough_mode(&s->p);
+    if (!s->p.camera || rough_mode(&s->p) || !spc_camera_connectible(ctx->cam))
+        return;
+    /* from the pinhole: its splats, and the camera ray tracked as from a receiver until its first
+     * non-delta scattering */
+    int budget = depth_left(ctx, 0, ctx->specular_max_chain);
+    if (budget > s->p.max_chain)
+        budget = s->p.max_chain;
+    if (budget < 1)
+        return;
+    spc_rng rng;
+    spc_sampler_fork_rng(smp, 0, &rng);
+    spc_snee_splat sp[SPC_SNEE_CAMERA_SPLATS];
+    int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
+    int n = spc_snee_camera(ctx->scene, &s->p, ctx->cam, s->cam_scale, budget, long_budget, &rng, NULL, sp,
+                            SPC_SNEE_CAMERA_SPLATS);
+    for (int i = 0; i < n; ++i)
+        if (in_window(ctx, sp[i].fx, sp[i].fy))
+            spc_splat_add(ctx, tls, sp[i].fx, sp[i].fy, sp[i].value);
+    s->track.live = true;
+    s->track.k = 0;
+    s->track.max_chain = budget;
+    s->track.single_ok = s->track.multi_ok = true;
+    s->track.any_surface = s->p.any_surface;
+    s->track.reflect = s->p.reflect;
+    s->track.long_max = spc_snee_track_long_max(&s->p, long_budget);
+    s->cam_track = true;
+}
+
+double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h)
+{
+    const spc_snee_track *t = &s->track;
+    if (!s->on || !spc_snee_track_covers(t, ctx->scene, h->emitter))
+        return 1.0;
+    if (s->cam_track)
+        return spc_snee_camera_bsdf_weight(ctx->scene, &s->p, ctx->cam, s->cam_scale, s->cam_d0, t->max_chain, t->k,
+                                           t->events, h);
+    return spc_snee_mis_bsdf_weight(ctx->scene, &s->p, &s->mis_x, s->mis_wo, s->mis_d0, t->max_chain, t->k,
+                                    t->events, h);
+}
+
+bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, const spc_hit *h, spc_vec3 wo,
+                                 spc_vec3 wi, const spc_emitter *e)
+{
+    return s->on && spc_snee_track_covers_light(&s->track, &s->p, sc, h, wo, wi, e);
+}
+
+spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
+                                int segments, const spc_sampler *smp)
+{
+    s->budget = 0;
+    s->long_budget = depth_left(ctx, segments, SPC_CHAIN_MAX_VERTICES);
+    if (!s->on)
+        return spc_rgb1(0.0);
+    s->budget = spc_snee_budget_params(&s->p, h, depth_left(ctx, segments, ctx->specular_max_chain));
+    if (s->p.receivers > 0 && s->receivers >= s->p.receivers)
+        s->budget = 0; /* past the vertices specular NEE runs at */
+    if (s->budget <= 0)
+        return spc_rgb1(0.0);
+    /* spc_snee_params.later_p: past the first receiver, the query by Russian roulette; a covered
+     * BSDF path's MIS weight reads the same query_p (a vertex with a smooth lobe is no chain
+     * vertex: a live track started at the last such vertex) */
+    s->p.query_p = s->receivers > 0 ? s->p.later_p : 1.0;
+    spc_rng rng;
+    spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
+    return spc_specular_nee_depth(ctx->scene, &s->p, h, wo, s->budget, s->long_budget, &rng, NULL);
+}
+
+void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, spc_vec3 wi, unsigned lobe)
+{
+    if (s->on) {
+        spc_snee_track_scatter_params(&s->track, &s->p, h, lobe, s->budget, s->long_budget);
+        if (s->p.mis && !(lobe & SPC_LOBE_DELTA) && s->budget > 0) {
+            s->mis_x = *h;
+            s->mis_wo = wo;
+            s->mis_d0 = wi;
+        }
+    }
+    if (!(lobe & SPC_LOBE_DELTA)) {
+        ++s->receivers;
+        s->cam_track = false;
+    }
+}

@@ -1,0 +1,60 @@
+/*
+ * integrator/path_snee.h: specular NEE inside the path tracer, as a few hooks over one state.
+ *
+ * spc_path_sample (path.c) calls these at the points of its loop; with specular NEE off (or in the
+ * ipt mode) every hook does nothing and returns the neutral value. What they keep:
+ *   - the parameters as the path tracer runs them (the user's, with MIS against BSDF sampling unless
+ *     "nomis" or the rough-vertex mode);
+ *   - the exclusion track (spc_snee_track): since the last receiver, is the path still one that
+ *     specular NEE covers, so that its emitter hit is weighted against specular NEE's light sample
+ *     (or dropped) instead of counted twice;
+ *   - the receiver the track started at (x, wo, the sampled direction), for that MIS weight;
+ *   - the receivers passed (spc_snee_params.receivers, later_p), and whether the track started at
+ *     the camera's pinhole (spc_snee_params.camera).
+ * The contract of the covered paths and the weights is specular_nee.h's.
+ */
+#ifndef SPC_INTEGRATOR_PATH_SNEE_H
+#define SPC_INTEGRATOR_PATH_SNEE_H
+
+#include "integrator/integrator.h"
+
+typedef struct spc_path_snee {
+    bool on;                 /* specular NEE runs in this path */
+    spc_snee_params p;       /* the user's parameters, mis and query_p as this path runs them */
+    spc_snee_track track;    /* the exclusion track */
+    spc_hit mis_x;           /* the receiver the track started at, with its wo and sampled direction */
+    spc_vec3 mis_wo, mis_d0;
+    bool cam_track;          /* the track started at the pinhole (until the first non-delta scattering) */
+    double cam_scale;        /* the full film's pixels over the camera samples per pass */
+    spc_vec3 cam_d0;         /* the camera ray's direction */
+    int receivers;           /* non-delta vertices so far */
+    int budget, long_budget; /* at the current vertex: the chain budget specular NEE used (0: none)
+                                and the longer chains' bound */
+} spc_path_snee;
+
+/* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, and with
+ * params.camera specular NEE from the pinhole, its splats added to the tile (spc_splat_add). */
+void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0,
+                         const spc_sampler *smp);
+
+/* The weight of the emission at the surface hit h (h->emitter set, its emission not black) reached
+ * by BSDF sampling, against specular NEE: 1 where specular NEE does not cover the path; else the
+ * MIS weight against its light sample (spc_snee_mis_bsdf_weight, spc_snee_camera_bsdf_weight), 0
+ * where the path is dropped. */
+double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h);
+
+/* Does ordinary NEE at h (toward e, direction wi) close a path specular NEE already counted (rough
+ * chain vertices only)? */
+bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, const spc_hit *h, spc_vec3 wo,
+                                 spc_vec3 wi, const spc_emitter *e);
+
+/* Specular NEE at the path vertex h (wo toward the previous vertex; segments: the path's segments
+ * so far), to be multiplied by the path throughput: chains within the depth left and the budget.
+ * smp is not moved (the estimate draws from a fork of it). */
+spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
+                                int segments, const spc_sampler *smp);
+
+/* After BSDF sampling at h (wo toward the previous vertex) chose direction wi in lobe `lobe`. */
+void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, spc_vec3 wi, unsigned lobe);
+
+#endif

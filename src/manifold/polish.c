@@ -1,0 +1,37 @@
+/*
+ * manifold/polish.c: a root of an exact enumeration (sphere_chains.c, cylinder_chains.c,
+ * plane_chains.c) made a chain: a few steps of the angular solver toward the query's light point,
+ * whose trace also proves the segments before the last unblocked (solver.h).
+ */
+#include "manifold/solver.h"
+
+bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
+                           spc_vec3 dir, spc_chain *out, int n, int *iterations)
+{
+    const spc_scene *sc = q->scene;
+    spc_chain_opts opts = spc_chain_opts_default(k);
+    opts.events = events;
+    opts.any_surface = q->any_surface;
+    spc_angular_target tg = {q->y, q->ny, sc->radius, q->light_size};
+    spc_angular_options ao;
+    if (q->params)
+        ao = q->params->angular;
+    else
+        spc_angular_options_default(&ao);
+    ao.window = 0;         /* from a root, no stagnation to cut short */
+    ao.max_iterations = 8; /* one or two traces as a rule */
+    spc_angular_result res;
+    spc_chain *c = &out[n];
+    bool conv = spc_angular_solve(sc, q->x, &tg, dir, &opts, &ao, c, &res);
+    if (iterations)
+        *iterations += res.iterations;
+    if (!conv || c->n != k)
+        return false;
+    for (int j = 0; j < k; ++j)
+        if (c->v[j].h.shape != s || c->v[j].event != events[j])
+            return false;
+    for (int o = 0; o < n; ++o)
+        if (spc_snee_same_solution(&out[o], c, sc->radius))
+            return false;
+    return true;
+}

@@ -1,0 +1,195 @@
+/*
+ * manifold/solver.c: the solver side of specular NEE (solver.h): a query's initial state, the seed
+ * directions of the randomized attempts, and when two converged chains are the same solution.
+ */
+#include "manifold/solver.h"
+
+#include <string.h>
+
+/* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
+#define SPC_SNEE_CONE_COS 0.9
+
+/* Area-point seeds (SEED_SHAPE, and SEED_CONE from inside a caster's bounding sphere): points of the
+ * shape drawn until one faces x, at most this many. Measured in bench/RESULTS.md (Session 4). */
+#define SPC_SNEE_FACING_TRIES 16
+
+void spc_snee_query_init(spc_snee_query *q, const spc_scene *sc, const spc_snee_params *p, const spc_hit *x,
+                         spc_vec3 wo, int max_chain)
+{
+    memset(q, 0, sizeof *q);
+    q->scene = sc;
+    q->x = x;
+    q->wo = wo;
+    q->max_chain = max_chain;
+    q->seed = p->seed;
+    q->any_surface = p->any_surface;
+    q->params = p;
+}
+
+/* ---- seeding ---- */
+
+bool spc_snee_straight_hits_glass(const spc_snee_query *q)
+{
+    spc_vec3 d = spc_sub(q->y, q->x->p);
+    double l = spc_length(d);
+    if (!(l > 0.0))
+        return false;
+    spc_ray r = spc_hit_spawn(q->x, spc_scale(d, 1.0 / l));
+    spc_hit h;
+    int event;
+    return spc_scene_intersect(q->scene, &r, &h) && spc_chain_surface(&h, q->any_surface, &event) &&
+           event == SPC_CHAIN_REFRACT;
+}
+
+bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *dir)
+{
+    const spc_scene *sc = q->scene;
+    switch (q->seed) {
+    case SPC_SNEE_SEED_LIGHT: {
+        spc_vec3 d = spc_sub(q->y, q->x->p);
+        double l = spc_length(d);
+        if (!(l > 0.0))
+            return false;
+        *dir = spc_scale(d, 1.0 / l);
+        return true;
+    }
+    case SPC_SNEE_SEED_BSDF: {
+        spc_bsdf_sample bs;
+        double ul = spc_rng_next(rng);
+        spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+        if (!spc_bsdf_sample_dir(q->x->bsdf, q->x, SPC_MODE_RADIANCE, q->wo, ul, u, &bs))
+            return false;
+        *dir = bs.wi;
+        return true;
+    }
+    case SPC_SNEE_SEED_SHAPE:
+    case SPC_SNEE_SEED_CONE: {
+        /* uniform over the caster shapes, by one pass of reservoir sampling over their list (the
+         * random streams of the seeds as they were when the pass went over every shape) */
+        const spc_shape *pick = NULL;
+        const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
+        for (int j = 0; cs && j < cs->n; ++j)
+            if (spc_rng_next(rng) * (j + 1) < 1.0)
+                pick = sc->shapes[cs->idx[j]];
+        if (!pick)
+            return false;
+        if (q->seed == SPC_SNEE_SEED_CONE) {
+            /* uniform in the cone of the sphere around the shape's bounding box, unless x is inside
+             * it. (The exact cone of a sphere caster was measured worse: 1.6x the CPU at the same
+             * variance on caustic_glass_sphere; seeds that miss fail at once.) */
+            spc_vec3 c = spc_scale(spc_add(pick->bbox_min, pick->bbox_max), 0.5), d = spc_sub(c, q->x->p);
+            double r = 0.5 * spc_distance(pick->bbox_min, pick->bbox_max), l = spc_length(d);
+            if (l > r * 1.000001) {
+                double sin_max = r / l, cos_max = sqrt(spc_max(0.0, 1.0 - sin_max * sin_max));
+                spc_frame f = spc_frame_from_n(spc_scale(d, 1.0 / l));
+                spc_vec3 w = spc_warp_uniform_cone(spc_v2(spc_rng_next(rng), spc_rng_next(rng)), cos_max);
+                *dir = spc_frame_to_world(&f, w);
+                return true;
+            }
+            /* x inside: half the seeds in a cone around the straight line toward y (a large
+             * caster over x, such as a water surface: the solutions lie near that line), half
+             * toward a uniform point of the shape (below) */
+            if (spc_rng_next(rng) < 0.5) {
+                spc_vec3 dy = spc_sub(q->y, q->x->p);
+                double ly = spc_length(dy);
+                if (ly > 0.0) {
+                    spc_frame f = spc_frame_from_n(spc_scale(dy, 1.0 / ly));
+                    spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+                    *dir = spc_frame_to_world(&f, spc_warp_uniform_cone(u, SPC_SNEE_CONE_COS));
+                    return true;
+                }
+            }
+        }
+        /* a uniform point of the shape, preferably one that faces x (a closed caster's first hit
+         * from outside does; an open one seen from behind has none, and keeps the last point) */
+        spc_shape_sample ss;
+        for (int i = 0; i < SPC_SNEE_FACING_TRIES; ++i) {
+            spc_shape_sample_area(pick, spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &ss);
+            if (spc_dot(ss.n, spc_sub(q->x->p, ss.p)) > 0.0)
+                break;
+        }
+        spc_vec3 d = spc_sub(ss.p, q->x->p);
+        double l = spc_length(d);
+        if (!(l > 0.0))
+            return false;
+        *dir = spc_scale(d, 1.0 / l);
+        return true;
+    }
+    }
+    return false;
+}
+
+bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene_size)
+{
+    if (a->n != b->n)
+        return false;
+    double tol2 = spc_sqr(SPC_SNEE_SAME_REL * scene_size);
+    for (int i = 0; i < a->n; ++i) {
+        if (a->v[i].h.shape_index != b->v[i].h.shape_index || a->v[i].event != b->v[i].event)
+            return false;
+        if (spc_length2(spc_sub(a->v[i].h.p, b->v[i].h.p)) > tol2)
+            return false;
+    }
+    return true;
+}
+
+int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped)
+{
+    *capped = false;
+    for (int n = 1; n <= cap; ++n)
+        if (trial(user))
+            return n;
+    *capped = true;
+    return cap;
+}
+
+typedef struct trial_ctx {
+    const spc_snee_query *q;
+    const spc_specular_solver *solver;
+    spc_snee_attempt attempt;
+    const spc_chain *target;
+    spc_rng *rng;
+    spc_chain scratch;
+    int *iterations;
+} trial_ctx;
+
+static bool trial_same(void *user)
+{
+    trial_ctx *t = user;
+    bool found = t->attempt ? t->attempt(t->q, t->solver, t->rng, &t->scratch, t->iterations)
+                            : t->solver->solve_one(t->q, t->rng, &t->scratch, t->iterations);
+    return found && spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
+}
+
+int spc_snee_count_same(const spc_snee_query *q, const spc_specular_solver *solver, spc_snee_attempt attempt,
+                        spc_rng *rng, const spc_chain *target, int cap, bool *capped, int *iterations)
+{
+    trial_ctx tc;
+    tc.q = q;
+    tc.solver = solver;
+    tc.attempt = attempt;
+    tc.target = target;
+    tc.rng = rng;
+    tc.iterations = iterations;
+    return spc_snee_count_trials(trial_same, &tc, cap, capped);
+}
+
+spc_rgb spc_snee_light_radiance(const spc_emitter *e, spc_vec3 y, spc_vec3 ny, spc_vec2 uv, spc_vec3 p, spc_vec3 d,
+                                spc_vec3 *ny_out)
+{
+    *ny_out = ny;
+    if (e->type == SPC_EMITTER_AREA) {
+        spc_hit yh;
+        memset(&yh, 0, sizeof yh);
+        yh.p = y;
+        yh.ng = ny;
+        yh.uv = uv;
+        return spc_emitter_eval_area(e, &yh, spc_neg(d));
+    }
+    /* point and spot: the intensity toward p, on a virtual patch facing it */
+    spc_emitter_direct ds;
+    *ny_out = spc_neg(d);
+    if (!spc_emitter_sample_direct(e, p, spc_v2(0.5, 0.5), &ds))
+        return spc_rgb1(0.0);
+    return spc_rgb_scale(ds.L, ds.dist * ds.dist);
+}

@@ -1,0 +1,298 @@
+/*
+ * manifold/solver.h: what a specular solver sees and gives back, and the table that names them.
+ *
+ * A solver gets a query (the receiver x, the light point y, the chain budget and the user's
+ * parameters) and returns chains from x to y (chain.h): one randomized attempt whose seed follows
+ * the query's seed distribution (the same on every call, which specular NEE's count of trials for
+ * <1/p_solve> needs), or every solution at once. The estimator (specular_nee.h) samples the light
+ * point, calls a solver through the table and values the chains; the solvers (angular.c, newton.c,
+ * conic_solver.c) and the exact enumerations (sphere_chains.c, cylinder_chains.c, plane_chains.c)
+ * include this header and never the estimator's. Bodies: solver.c (query, seeding, one solution or
+ * two), polish.c (polishing an enumeration's root), solver_table.c (the table and the parameters'
+ * defaults).
+ */
+#ifndef SPC_MANIFOLD_SOLVER_H
+#define SPC_MANIFOLD_SOLVER_H
+
+#include <stdint.h>
+
+#include "core/rng.h"
+#include "manifold/angular.h"
+#include "manifold/chain.h"
+#include "manifold/newton.h"
+
+struct spc_camera_state;
+
+/* Cap of the attempts counted for <1/p_solve> (the default of params.max_trials but for the angular
+ * solver's). The count is cut for solutions found with probability below about 3/cap; at 64 that
+ * is p < 5%, seeds that rarely lead anywhere, and the cost of one estimate stays bounded (each
+ * attempt is a full solve). */
+#define SPC_SNEE_MAX_TRIALS 64
+
+/* Solver ids (index into the solver table; 0 = specular NEE off). */
+enum {
+    SPC_SNEE_NONE = 0,
+    SPC_SNEE_ANGULAR = 1,
+    SPC_SNEE_NEWTON = 2, /* manifold NEE by Newton's method on the vertices (newton.h) */
+    SPC_SNEE_CONIC = 3   /* every one-vertex chain on meshes by the coplanarity conic (conic.h) */
+};
+
+typedef enum spc_snee_seed {
+    SPC_SNEE_SEED_SHAPE, /* toward a uniform point of a uniformly chosen caster shape */
+    SPC_SNEE_SEED_LIGHT, /* toward y: deterministic, see above */
+    SPC_SNEE_SEED_BSDF,  /* along a direction sampled from x's BSDF: the path a tracer would take */
+    SPC_SNEE_SEED_CONE   /* uniform in the cone of directions from x to the sphere around the
+                            bounding box of a uniformly chosen caster (SHAPE's area point when x is
+                            inside it); the default: 1.1-1.7x less CPU than SHAPE at the same
+                            variance on the caustic scenes (bench/RESULTS.md), attempts failing
+                            sooner where the straight-line attempt found the solution */
+} spc_snee_seed;
+
+typedef struct spc_snee_params {
+    int solver;        /* SPC_SNEE_* */
+    int max_chain;     /* longest chain (<= SPC_CHAIN_MAX_VERTICES) */
+    spc_snee_seed seed;
+    /* With SEED_SHAPE or SEED_CONE and a solver without solve_all: where the straight segment x -> y first
+     * meets a refracting caster, one more attempt is seeded toward y (deterministic: Hanika et
+     * al.'s MNEE seed, close to the solution through weakly curved glass). The solution it finds
+     * is added exactly (no <1/p_solve>), and the shape-seeded attempt and its trials estimate the
+     * other solutions: one that finds the straight-line solution again adds nothing. Unbiased
+     * (sum over the other solutions of p v / p), and where the straight line finds the only
+     * solution, that solution has no trial-count variance and needs no trials. */
+    bool straight_first;
+    int max_trials;    /* cap of the attempts counted for <1/p_solve> */
+    bool any_surface;  /* ignore caustic flags (tests, benchmarks) */
+    spc_angular_options angular;
+    spc_newton_options newton;
+    /* Biased estimator (Zeltner et al. 2020, sec. 4.4): biased_seeds attempts per light sample, every
+     * distinct solution found counted once with <1/p_solve> = 1, no trials. It misses the solutions
+     * no attempt finds (energy loss where solutions are hard to find) and has less variance. */
+    bool biased;
+    int biased_seeds;
+    /* Multiple importance sampling with the caller's BSDF sampling (the path integrator sets it;
+     * not with rough vertices). Every chain's contribution is weighted by the power heuristic
+     * w = p_y^2 / (p_y^2 + p_b^2), p_y the light point's density (area measure, the light's choice
+     * included) and p_b = pdf_bsdf(x: wo -> d0) G the density in which BSDF sampling at x reaches
+     * y through the same chain (G = |dw(x) / dA(y)|, spc_chain_geometry); the caller weights the
+     * BSDF-sampled paths that specular NEE covers by 1 - w (spc_snee_mis_bsdf_weight) instead of
+     * dropping them. The weight pretends the solver finds every chain (p_solve = 1): any
+     * deterministic pair of weights that sums to 1 keeps both estimators unbiased, and where G is
+     * large (near a caustic's folds and focus, where a light sample's contribution is heavy-tailed)
+     * BSDF sampling takes the path.
+     * The solver's probability of finding a chain enters as a deterministic stand-in psi (any
+     * function of the path keeps the weights summing to 1): p_y is replaced by psi p_y, psi = 1 for
+     * the chains found exactly (solve_all's, and the straight-line solution of straight_first, which
+     * the BSDF side recomputes from x and y) and psi = mis_solve for the chains a randomized attempt
+     * finds, whose <1/p_solve> trial count makes them heavy-tailed where p_solve is small. */
+    bool mis;
+    double mis_solve;
+    bool no_mis; /* the user's "nomis" option: the integrator does not set mis (covered BSDF paths
+                    are then dropped, as before MIS) */
+    /* Reflection at dielectric vertices (the user's "reflect[=P]"): chains may reflect off glass as
+     * well as refract through it (the light's reflection in a glass ball on the floor, internal
+     * reflections). A randomized attempt picks the event at each dielectric vertex of its seed chain
+     * (spc_chain_pick_event: reflection with probability reflect_p, whatever the geometry). The
+     * probability of a solution is then that of its events (spc_chain_events_prob, exact) times
+     * that of the directions leading to it given those events, which the Bernoulli trials estimate
+     * with the events forced (spc_snee_query.events). conic enumerates both events on meshes. Not
+     * with the rough newton mode. */
+    bool reflect;
+    double reflect_p;
+    /* Specular NEE at the first `receivers` non-delta vertices of a camera path only (0: at all;
+     * the user's "receivers=N"). Unbiased: where it does not run, BSDF sampling keeps the paths it
+     * would have covered (the track starts nowhere). Deep vertices carry little of the image and
+     * cost as much as the first (an enclosed pool: over half of the calls). */
+    int receivers;
+    /* Specular NEE from the camera too (the user's "camera"): once per camera sample, a light point
+     * and a chain from the pinhole through the specular surfaces to it, splatted on the pixel its
+     * first direction falls in (spc_snee_camera): the light seen through glass or in a mirror (a
+     * lamp through a lens, glints on water), which camera rays find only by landing on the light's
+     * tiny image. MIS against the camera rays that reach the light through the same chains (the
+     * camera's density of the direction, W H / N pdf_dir, for the BSDF's; spc_snee_camera_bsdf_weight)
+     * when mis is set, else those rays are dropped. Always the unbiased estimator. */
+    bool camera;
+    /* The probability of that camera query per camera sample ("camera=Q"; 1 by default), counted
+     * 1 / Q times and in the MIS weights (like snee_p): a rippled surface's glints cost a dozen
+     * randomized attempts per query but carry little of the image's variance. */
+    double camera_p;
+    /* Every chain that stays on one sphere (a glass or mirror ball: reflected off it, or in, m
+     * internal reflections, out; sphere_chains.h) or reflects only off one mirror cylinder (the
+     * inside of a cup or ring; cylinder_chains.h) enumerated exactly, each a root of a function of
+     * one angle, and counted with psi = 1; the randomized solver's attempts skip them, and with one
+     * such shape as the only caster it is not called at all. So are the one-vertex chains through a
+     * normal-mapped plane (rippled water or mirror; plane_chains.h), except from the camera. The
+     * user's "exact" (the default for every solver) / "noexact". */
+    bool exact;
+    /* Longer chains (the user's "long=P" / "nolong"): at each call, with probability long_p, one
+     * more length k, uniform in max_chain + 1 .. 6 vertices (within the caller's depth), is looked
+     * for too and counted with 1 / psi, psi = long_p / (6 - max_chain): on one sphere every chain of
+     * k vertices, enumerated (params.exact); with the angular solver, elsewhere one randomized
+     * attempt for a chain of exactly k vertices with its <1/p_solve> (the other solvers: spheres
+     * only). MIS weighs them with psi (times random_psi for a randomized attempt's chain) against
+     * the BSDF-sampled paths through the same chains, which the track follows that far
+     * (spc_snee_track). Light that bounces inside a glass ball or torus
+     * before it leaves (three internal reflections: a single BSDF-sampled path of value 200 on a
+     * pixel of 0.03) is then no longer left to BSDF sampling alone, for a fraction of the cost of a
+     * longer max_chain. Needs mis (off without it), reflect for dielectrics. From the camera too
+     * (params.camera): the light seen through a ball after internal reflections. */
+    double long_p;
+    /* Guided directions (the user's "guide[=M]" / "noguide"): besides the light sample, one
+     * direction per call drawn at x inside a cone around a chain toward the light, then traced
+     * through the chain's surfaces by their BSDFs as a path would be; where it reaches that light
+     * through a chain specular NEE covers, it counts, weighed by MIS (power heuristic) against the
+     * light sample and BSDF sampling. The cones: for a light chosen by power, the chains to its
+     * point facing x that the randomized solver would look for (the straight-line attempt, or
+     * solve_all's; none where the exact enumerations cover every chain), each cone's half-angle M
+     * times the light's radius times sqrt of the chain's solid angle per unit area there (the
+     * light's image through the chain, widened by M), at most SPC_SNEE_GUIDE_MAX_ANGLE, and kept
+     * only where three probe directions land on the light where the chain's Jacobian says (a smooth
+     * image). Where the light's image through a chain is such a patch (a lamp seen through a
+     * mesh water surface or a slab) a direction costs one trace and reaches the light most of the
+     * time, where a solved chain costs several traces and its light point's geometry term varies.
+     * Not where the light has several images (a normal map's ripples, a torus): the cone holds one.
+     * Needs mis (off without it); not from the camera. 0 (the default): off. The psi of the
+     * straight-line solution is then random_psi's, so that a path's weight needs no solve. */
+    double guide;
+    /* The probability of specular NEE's light sample at a receiver whose light has a guided cone
+     * (the user's "sneep=Q"; 1 by default; with guide): below 1 the light sample and its solve are
+     * skipped at random and counted 1 / Q times when made, and MIS weighs them with Q p_y, so that
+     * the cheaper guided directions carry the smooth image. Not from the camera. */
+    double snee_p;
+    /* Russian roulette on the whole query past a path's first receiver (the user's "later=P"; 1 by
+     * default): at the second and later non-delta vertices of a camera path the query is made with
+     * probability P and counted 1 / P times, and MIS weighs it with P p_y, so that BSDF sampling
+     * takes more of the covered paths there. Unbiased for any P in (0, 1]; it spends the queries
+     * where the caustic is seen rather than where it only lights the room. The caller sets
+     * query_p per receiver (the path integrator: 1 at the first, later_p after it; 0 counts as
+     * 1); not with guide, not from the camera (camera_p). */
+    double later_p;
+    double query_p;
+} spc_snee_params;
+
+/* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
+ * and Newton solvers' defaults, unbiased (biased_seeds SPC_SNEE_BIASED_SEEDS when switched on),
+ * mis_solve SPC_SNEE_MIS_SOLVE, reflect for angular and conic, no camera, receivers 0 (all),
+ * exact.
+ * For the angular solver: straight_first, the angular solver's progress window and a cap of 256
+ * (solver_table.c, SPC_SNEE_ANGULAR_WINDOW, SPC_SNEE_ANGULAR_MAX_TRIALS); conic (whose one-at-a-time
+ * part is the angular solver) gets the window too. */
+void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain);
+
+/* One connection problem: from x (wo toward the previous path vertex) to y. */
+typedef struct spc_snee_query {
+    const spc_scene *scene;
+    const spc_hit *x;
+    spc_vec3 wo;
+    spc_vec3 y, ny;    /* ny: the light's unit normal at y; (0,0,0) for a point light */
+    double light_size; /* sqrt(area) of the light's shape; 0 for a point light */
+    int max_chain;
+    spc_snee_seed seed;
+    bool any_surface;
+    const spc_snee_params *params;
+    /* Set while counting trials for <1/p_solve>: the signature of the solution being counted. A
+     * solver whose attempt keeps the signature of its seed chain may stop an attempt whose seed
+     * has another one (it cannot end at that solution; the outcome is the same, only sooner).
+     * NULL otherwise. */
+    const spc_chain_sig *want;
+    double p_y; /* the light point's density (spc_snee_sample_light), for the MIS weight */
+    double psi; /* the MIS weight's stand-in for the solve probability of the chain valued (params.mis;
+                   0 counts as 1) */
+    /* Set while counting trials with params.reflect: the events the attempts follow (the solution's;
+     * SPC_CHAIN_MAX_VERTICES entries). NULL otherwise. */
+    const unsigned char *events;
+    /* From the camera (x the pinhole, no BSDF): the camera, and the ratio of the full film's pixels
+     * to the camera samples per pass (spc_snee_camera). NULL for a surface point. */
+    const struct spc_camera_state *cam;
+    double cam_scale;
+    /* The exact enumerations' shortest chain (0: 1), and the longest chain params.long_p may add
+     * (0: none; spc_specular_nee_depth). */
+    int min_chain, long_max;
+    /* params.guide: the cones at x (built on first use per light, specular_nee.c); NULL without. */
+    struct spc_snee_cones *cones;
+} spc_snee_query;
+
+/* A query from x (wo toward the previous path vertex) with chains of up to max_chain vertices, the
+ * params' seed and caustic-flag setting; the light point and the rest zero. */
+void spc_snee_query_init(spc_snee_query *q, const spc_scene *sc, const spc_snee_params *p, const spc_hit *x,
+                         spc_vec3 wo, int max_chain);
+
+/* A solver: one randomized attempt from the query's seed distribution (the same distribution on
+ * every call, which <1/p_solve> requires), or the set of all solutions. */
+typedef struct spc_specular_solver {
+    const char *name;
+    bool (*solve_one)(const spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations);
+    /* NULL unless the solver enumerates every solution (then no probability is estimated);
+     * returns the number written to out (at most max_out). */
+    int (*solve_all)(const spc_snee_query *q, spc_chain *out, int max_out, int *iterations);
+    /* With both solve_all and solve_one: the chains solve_all enumerates (their exact sum is
+     * added; solve_one's estimate then skips them), and whether those are every chain of the
+     * query (then solve_one is not called). NULL: solve_all covers everything. */
+    bool (*covers)(const spc_chain *c);
+    bool (*covers_all)(const spc_snee_query *q);
+} spc_specular_solver;
+
+/* The solver of an id, or NULL (none, or not implemented). */
+const spc_specular_solver *spc_specular_solver_get(int id);
+/* Parses a solver name: "" and "none" give SPC_SNEE_NONE. False for an unknown name. */
+bool spc_specular_solver_parse(const char *name, int *id);
+/* The valid names, for error messages: "none, angular". */
+const char *spc_specular_solver_names(void);
+
+/* Does the straight segment from x toward y first meet a refracting caster (params->straight_first
+ * applies)? Toward a mirror, or past every caster, the straight line leads nowhere. One ray. */
+bool spc_snee_straight_hits_glass(const spc_snee_query *q);
+
+/* A seed direction for the query (shared by the solvers); false if none (no caster shape). */
+bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *dir);
+
+/* For the exact enumerations (sphere_chains.h, cylinder_chains.h): the chain of k vertices on shape s
+ * with these events that leaves x along dir (a root of a planar problem), polished by the angular
+ * solver toward q's light point (its trace proves the segments before the last unblocked: another
+ * surface first gives another signature); written to out[n] and true if it converged with the
+ * signature and is not one of out[0..n). Adds its traces to *iterations. */
+bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
+                           spc_vec3 dir, spc_chain *out, int n, int *iterations);
+
+/* Two converged chains with the same signature are the same solution when every vertex agrees to
+ * this fraction of the scene's size: far above the solver's tolerance (angular.c, 1e-7), far below
+ * the distance between distinct solutions of any sensible scene. */
+#define SPC_SNEE_SAME_REL 1e-4
+/* Same solution: same signature and every vertex within SPC_SNEE_SAME_REL of the scene's size. */
+bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene_size);
+
+typedef struct spc_snee_stats {
+    uint64_t calls;         /* light samples tried */
+    uint64_t solved;        /* first attempts that converged */
+    uint64_t contributions; /* nonzero contributions */
+    uint64_t trials;        /* further attempts for <1/p_solve> */
+    uint64_t capped;        /* counts cut at max_trials */
+    uint64_t iterations;    /* solver iterations, trials included */
+    uint64_t trial_iterations; /* of which in the attempts counted for <1/p_solve> */
+    uint64_t straight;      /* straight-line solutions (straight_first), counted exactly */
+    uint64_t guided;        /* guided directions traced (params.guide) */
+    uint64_t guided_hits;   /* of which reached the light through a covered chain */
+} spc_snee_stats;
+
+/* The radiance the light e sends from its point y (unit normal ny; texture coordinates uv) along -d
+ * to a chain's last vertex at p (d: the unit direction from p to y): an area light's emitted
+ * radiance, *ny_out = ny; a point or spot light's intensity toward p as the radiance of a virtual
+ * patch at y facing p (times the squared distance), *ny_out = -d. Black where nothing arrives. */
+spc_rgb spc_snee_light_radiance(const spc_emitter *e, spc_vec3 y, spc_vec3 ny, spc_vec2 uv, spc_vec3 p, spc_vec3 d,
+                                spc_vec3 *ny_out);
+
+/* Counts independent trials until the first success, capped: the geometric estimator of 1/p.
+ * *capped is set if the cap was reached without success (the count is then cap). */
+int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped);
+
+/* One randomized attempt of solver for q (the same distribution on every call); adds its
+ * iterations to *iterations. */
+typedef bool (*spc_snee_attempt)(const spc_snee_query *q, const spc_specular_solver *solver, spc_rng *rng,
+                                 spc_chain *out, int *iterations);
+/* The trial count that estimates <1/p_solve> for the solution `target` of q: independent attempts
+ * (attempt; NULL: solver->solve_one) until one finds the same solution (spc_snee_same_solution),
+ * at most cap (then *capped is set and the count is cap). Adds the attempts' iterations to
+ * *iterations. */
+int spc_snee_count_same(const spc_snee_query *q, const spc_specular_solver *solver, spc_snee_attempt attempt,
+                        spc_rng *rng, const spc_chain *target, int cap, bool *capped, int *iterations);
+
+#endif

@@ -1,0 +1,102 @@
+/*
+ * manifold/solver_table.c: the specular solvers by id and name, and the parameters' defaults per
+ * solver (solver.h). The table is the one list of solvers: the option parser (snee_options.c)
+ * and the estimator (specular_nee.c) read it.
+ */
+#include "manifold/solver.h"
+
+#include <string.h>
+
+#include "manifold/conic.h"
+
+/* Attempts per light sample of the biased estimator: enough to find both solutions of a glass
+ * sphere's caustic from shape seeds most of the time (bench/RESULTS.md, Newton solver). */
+#define SPC_SNEE_BIASED_SEEDS 8
+/* The angular solver's progress window in specular NEE (angular.h): an attempt ends when 4 chain
+ * traces have not halved the loss. Most attempts have no solution to find (a receiver outside
+ * every caustic), and the solver's own stagnation rule spent 16 traces on them; with the window
+ * they end after 5-6. Solutions are found 20-40% less often, so the trial count grows, but
+ * specular NEE's variance x time fell 1.9-2.7x on the caustic scenes (bench_snee, bench/RESULTS.md). */
+#define SPC_SNEE_ANGULAR_WINDOW 4
+#define SPC_SNEE_ANGULAR_WINDOW_KEEP 0.5
+/* The angular solver's cap of the trial count: its attempts now end within ~6 traces, so a longer
+ * count is affordable, and the window lowers the probability of hard solutions (a glass ball's
+ * rim, near a fold): at 64, 0.4-0.7% of the counts were cut (bias, tests/test_manifold.c's glass
+ * ball), at 256 none in that test while the mean trial count stays 2.2. Bias only below p ~ 1%. */
+#define SPC_SNEE_ANGULAR_MAX_TRIALS 256
+/* reflect's default probability of a reflection at a dielectric vertex of a seed chain. Measured in
+ * bench/RESULTS.md (Session 4). */
+#define SPC_SNEE_REFLECT_P 0.2
+/* The MIS weight's stand-in for the probability that a randomized attempt finds a chain (params.
+ * mis_solve; measured in bench/RESULTS.md, Session 4). */
+#define SPC_SNEE_MIS_SOLVE 0.1
+/* params.long_p's default: the probability per call of the longer chains on one sphere (measured in
+ * bench/RESULTS.md, Session 6: 0.1 against 0.25 on the glass ball). */
+#define SPC_SNEE_LONG_P 0.1
+
+/* ---- solver table ---- */
+
+static const spc_specular_solver solvers[] = {
+    {"none", NULL, NULL, NULL, NULL},
+    {"angular", spc_angular_solve_one, NULL, NULL, NULL},
+    {"newton", spc_newton_solve_one, NULL, NULL, NULL},
+    /* conic: every one-vertex chain on meshes exactly, the angular estimate for the rest */
+    {"conic", spc_angular_solve_one, spc_conic_solve_all, spc_conic_covers, spc_conic_covers_all},
+};
+#define NSOLVERS ((int)(sizeof solvers / sizeof solvers[0]))
+
+const spc_specular_solver *spc_specular_solver_get(int id)
+{
+    if (id <= SPC_SNEE_NONE || id >= NSOLVERS || (!solvers[id].solve_one && !solvers[id].solve_all))
+        return NULL;
+    return &solvers[id];
+}
+
+bool spc_specular_solver_parse(const char *name, int *id)
+{
+    if (!name || !name[0] || !strcmp(name, "none")) {
+        *id = SPC_SNEE_NONE;
+        return true;
+    }
+    for (int i = 1; i < NSOLVERS; ++i)
+        if (!strcmp(name, solvers[i].name) && (solvers[i].solve_one || solvers[i].solve_all)) {
+            *id = i;
+            return true;
+        }
+    return false;
+}
+
+const char *spc_specular_solver_names(void) { return "none, angular, newton, conic"; }
+
+void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
+{
+    memset(p, 0, sizeof *p);
+    p->solver = solver;
+    p->max_chain = max_chain < SPC_CHAIN_MAX_VERTICES ? max_chain : SPC_CHAIN_MAX_VERTICES;
+    p->seed = SPC_SNEE_SEED_CONE;
+    p->max_trials = SPC_SNEE_MAX_TRIALS;
+    p->any_surface = false;
+    spc_angular_options_default(&p->angular);
+    spc_newton_options_default(&p->newton);
+    p->biased = false;
+    p->biased_seeds = SPC_SNEE_BIASED_SEEDS;
+    /* reflections off glass: on for angular (and conic's angular part), off for newton, whose
+     * attempts cost more and which they made worse on multi-interface chains (bench/RESULTS.md,
+     * Session 4) */
+    p->reflect = solver == SPC_SNEE_ANGULAR || solver == SPC_SNEE_CONIC;
+    p->reflect_p = SPC_SNEE_REFLECT_P;
+    p->mis_solve = SPC_SNEE_MIS_SOLVE;
+    if (solver != SPC_SNEE_NEWTON) {
+        p->angular.window = SPC_SNEE_ANGULAR_WINDOW;
+        p->angular.window_keep = SPC_SNEE_ANGULAR_WINDOW_KEEP;
+    }
+    p->straight_first = solver == SPC_SNEE_ANGULAR;
+    p->exact = true;
+    p->long_p = SPC_SNEE_LONG_P;
+    p->guide = 0.0;
+    p->snee_p = 1.0;
+    p->later_p = 1.0;
+    p->camera_p = 1.0;
+    if (solver == SPC_SNEE_ANGULAR)
+        p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
+}
