@@ -128,8 +128,14 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
             snprintf(out->setting, sizeof out->setting, "none");
             return;
         }
+    /* the query from the camera only where some caster is glass (snee_plan.h) */
+    bool glass = false;
+    for (int i = 0; i < cs->n && !glass; ++i) {
+        double eta = 0.0;
+        glass = spc_bsdf_is_specular_interface(sc->shapes[cs->idx[i]]->bsdf, &eta) && eta > 0.0;
+    }
     out->on = true;
-    snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING);
+    snprintf(out->setting, sizeof out->setting, "%s", glass ? SPC_SNEE_PLAN_SETTING : SPC_SNEE_PLAN_SETTING_MIRRORS);
 }
 
 spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *s)

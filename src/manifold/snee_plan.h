@@ -20,7 +20,8 @@
  *     enough that specular NEE's cost does not pay (at equal CPU time, relMSE 3x that of plain path
  *     tracing on the Mitsuba 0.6 box, 0.062 sr, and 2x on the demo's Cornell box, 0.037 sr);
  *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
- *     the camera (SPC_SNEE_PLAN_SETTING): chains of up to the scene's specular_max_chain (2)
+ *     the camera (SPC_SNEE_PLAN_SETTING; without that query if every caster is a mirror:
+ *     SPC_SNEE_PLAN_SETTING_MIRRORS): chains of up to the scene's specular_max_chain (2)
  *     vertices through and off glass and off mirrors, MIS with BSDF sampling, the
  *     longer chains with probability 0.1, and every chain on one analytic sphere, one mirror
  *     cylinder or one normal-mapped plane enumerated exactly (sphere_chains.h, cylinder_chains.h,
@@ -57,6 +58,13 @@
  * 0.7x to 1.2x on the demo with reflections off (bench/RESULTS.md, "The per-sample cost of
  * specular NEE"). */
 #define SPC_SNEE_PLAN_SETTING "angular:camera,later=0.25"
+
+/* The setting where every caster is a mirror: the same without the query from the camera. There the
+ * camera sees the light only by reflection, which camera rays find as often as the query's splats
+ * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal
+ * CPU time the query from the camera raised relMSE (bench/RESULTS.md, "Mirror-only scenes without
+ * the camera query"). */
+#define SPC_SNEE_PLAN_SETTING_MIRRORS "angular:later=0.25"
 
 /* How the chains of one caster are found under a plan. */
 typedef enum spc_snee_method {
