@@ -4,7 +4,8 @@
  * - The plan: on (angular) for path and volpath on a scene with a caster, a receiver and an area
  *   light; off without casters, with a flat-faced caster (a glass pane), with bdpt or ipt, with
  *   only an environment light, and when the setting says none or off; an explicit setting is kept;
- *   without the query from the camera where every caster is a mirror. What ran is recorded in the render's
+ *   without the query from the camera where every caster is a mirror; on with a large light whose
+ *   every direction meets a caster (a lamp in a glass globe), where it agrees with none. What ran is recorded in the render's
  *   stats and the film (EXR header), and `spc_scene_plan` lists every caster with its method.
  * - The XML property: auto and off are accepted, a misspelling is refused with file and line.
  * - The default's estimator agrees with specular NEE off: a glass ball's caustic under a large
@@ -362,6 +363,39 @@ TEST(mirror_only_plan_has_no_camera_query)
     spc_scene_destroy(sc);
 }
 
+/* A lamp in a glass globe: a sphere light of radius 0.2 inside a glass ball of radius 0.6 above a
+ * floor. The light is large (the plan's solid-angle rule alone would leave specular NEE off), but
+ * every direction from it meets the glass, so the plan is on; its estimator (the light inside the
+ * sphere that the chains are enumerated on) agrees with specular NEE off. */
+TEST(lamp_in_glass_globe_plan_on)
+{
+    spc_scene *sc = spc_scene_create();
+    add_floor(sc, 3.0, tu_diffuse(sc, 0.7));
+    tu_sphere(sc, spc_v3(0, 0, 0.9), 0.6, tu_glass(sc, 1.5));
+    spc_shape *light = tu_sphere(sc, spc_v3(0.1, 0.05, 0.95), 0.2, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 2, 5.0);
+    tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.6), spc_v3(0, 0, 1), 55, 12, 12);
+    CHECK(finalize(sc));
+    spc_snee_plan p;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && p.light_sr > 0.03 && p.caster_share >= 1.0 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING),
+              "%s (%s) %g sr, share %g", p.setting, p.reason, p.light_sr, p.caster_share);
+    char ran[96];
+    spc_film *ref = render_ran(sc, "path", "none", 16384, 71, ran);
+    spc_film *img = render_ran(sc, "path", NULL, 4096, 72, ran);
+    CHECK(ref && img && !strcmp(ran, SPC_SNEE_PLAN_SETTING));
+    if (ref && img) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(img, ref, 0.99, "lamp in a globe: default vs none", &d));
+        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
+               d.mean_a[0], d.mean_b[0]);
+    }
+    spc_film_destroy(img);
+    spc_film_destroy(ref);
+    spc_scene_destroy(sc);
+}
+
 static bool blocks_agree(const spc_film *img, const spc_film *ref, int n, const char *label);
 
 /* The glass ball under a small sphere light (radius 0.05) with no sky: the default (reflections
@@ -555,6 +589,7 @@ int main(void)
     RUN(xml_setting_words);
     RUN(default_agrees_with_none);
     RUN(mirror_only_plan_has_no_camera_query);
+    RUN(lamp_in_glass_globe_plan_on);
     RUN(small_light_ball_agrees_with_bdpt);
     RUN(default_has_no_fireflies_through_glass);
     RUN(reflections_at_depth_4_agree_with_bdpt);
