@@ -23,10 +23,11 @@
 #define SPC_SNEE_PLAN_MAX_SR 0.03
 
 /* ... unless the casters fill at least this share of a light's directions (the light within or
- * close over their bounding sphere, as over a water surface): most light then reaches the receivers
- * through the casters, and specular NEE paid even with a larger light (newton_pool, 0.075 sr, share
- * 1: at equal CPU time relMSE 5.9x lower than without; the Mitsuba 0.6 box, 0.062 sr, share 0.08:
- * 5x higher; bench/RESULTS.md, "Large lights over a water surface"). */
+ * close over the spheres around them, as over a water surface): most light then reaches the
+ * receivers through the casters, and specular NEE paid even with a larger light (newton_pool, 0.075
+ * sr, share 1: at equal CPU time relMSE 1.9x lower than without, 5.9x with `angular:camera`; the
+ * Mitsuba 0.6 box, 0.062 sr, share 0.05: 5x higher with `angular:camera`; bench/RESULTS.md, "Plan
+ * rules from the scene"). */
 #define SPC_SNEE_PLAN_MIN_SHARE 0.25
 
 static bool is_auto(const char *s) { return spc_snee_setting_is_auto(s); }

@@ -65,8 +65,8 @@
 /* The setting where every caster is a mirror: the same without the query from the camera. There the
  * camera sees the light only by reflection, which camera rays find as often as the query's splats
  * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal
- * CPU time the query from the camera raised relMSE (bench/RESULTS.md, "Mirror-only scenes without
- * the camera query"). */
+ * CPU time the query from the camera doubled relMSE (bench/RESULTS.md, "Plan rules from the
+ * scene"). */
 #define SPC_SNEE_PLAN_SETTING_MIRRORS "angular:later=0.25"
 
 /* How the chains of one caster are found under a plan. */
