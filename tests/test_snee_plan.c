@@ -3,7 +3,9 @@
  *
  * - The plan: on (angular) for path and volpath on a scene with a caster, a receiver and an area
  *   light; off without casters, with a flat-faced caster (a glass pane), with bdpt or ipt, with
- *   only an environment light, and when the setting says none or off; an explicit setting is kept. What ran is recorded in the render's
+ *   only an environment light, and when the setting says none or off; an explicit setting is kept;
+ *   without the query from the camera where every caster is a mirror; on with a large light whose
+ *   every direction meets a caster (a lamp in a glass globe), where it agrees with none. What ran is recorded in the render's
  *   stats and the film (EXR header), and `spc_scene_plan` lists every caster with its method.
  * - The XML property: auto and off are accepted, a misspelling is refused with file and line.
  * - The default's estimator agrees with specular NEE off: a glass ball's caustic under a large
@@ -290,6 +292,110 @@ TEST(default_agrees_with_none)
     spc_scene_destroy(sc);
 }
 
+/* A floor, a mirror ball of radius 0.5 on it (and a glass ball beside it if `glass`), a sphere
+ * light of radius rl above; res x res pixels. */
+static spc_scene *mirror_scene(bool glass, double rl, int res)
+{
+    spc_scene *sc = spc_scene_create();
+    add_floor(sc, 3.0, tu_diffuse(sc, 0.7));
+    tu_sphere(sc, spc_v3(0, 0, 0.5), 0.5, tu_mirror(sc));
+    int n = 2;
+    if (glass) {
+        tu_sphere(sc, spc_v3(1.2, 0.3, 0.4), 0.4, tu_glass(sc, 1.5));
+        ++n;
+    }
+    spc_shape *light = tu_sphere(sc, spc_v3(0.9, -0.6, 2.2), rl, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, n, 4.0 * (0.25 / rl) * (0.25 / rl));
+    tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.35), spc_v3(0, 0, 1), 50, res, res);
+    if (!finalize(sc)) {
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+/* Where every caster is a mirror, the plan leaves out the query from the camera (the camera sees
+ * the light only by reflection, which camera rays find as often); with a glass caster too it keeps
+ * it. The mirror-only setting agrees with specular NEE off (a larger light, so that plain path
+ * tracing converges). */
+TEST(mirror_only_plan_has_no_camera_query)
+{
+    spc_scene *mirror = mirror_scene(false, 0.1, 4);
+    spc_scene *both = mirror_scene(true, 0.1, 4);
+    spc_scene *sc = mirror_scene(false, 0.6, 12);
+    CHECK(mirror && both && sc);
+    if (!mirror || !both || !sc) {
+        spc_scene_destroy(mirror);
+        spc_scene_destroy(both);
+        spc_scene_destroy(sc);
+        return;
+    }
+    spc_snee_plan p;
+    spc_snee_plan_make(mirror, "path", NULL, &p);
+    CHECK_MSG(p.on && p.casters == 1 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_MIRRORS), "%s", p.setting);
+    spc_snee_params sp;
+    CHECK(spc_snee_parse(p.setting, 2, &sp) && !sp.camera && sp.later_p < 1.0);
+    char *text = spc_scene_plan(mirror, NULL, NULL);
+    CHECK(text && strstr(text, "specular NEE: " SPC_SNEE_PLAN_SETTING_MIRRORS " (auto)") &&
+          strstr(text, "caster shape 1: mirror sphere"));
+    free(text);
+    spc_snee_plan both_plan;
+    spc_snee_plan_make(both, "path", NULL, &both_plan);
+    CHECK_MSG(both_plan.on && both_plan.casters == 2 && !strcmp(both_plan.setting, SPC_SNEE_PLAN_SETTING), "%s",
+              both_plan.setting);
+    CHECK(spc_snee_parse(both_plan.setting, 2, &sp) && sp.camera);
+
+    char ran[96];
+    spc_film *ref = render_ran(sc, "path", "none", 8192, 41, ran);
+    spc_film *img = render_ran(sc, "path", p.setting, 1024, 42, ran);
+    CHECK(ref && img && !strcmp(ran, SPC_SNEE_PLAN_SETTING_MIRRORS));
+    if (ref && img) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(img, ref, 0.99, "mirror-only default vs none", &d));
+        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
+               d.mean_a[0], d.mean_b[0]);
+    }
+    spc_film_destroy(img);
+    spc_film_destroy(ref);
+    spc_scene_destroy(mirror);
+    spc_scene_destroy(both);
+    spc_scene_destroy(sc);
+}
+
+/* A lamp in a glass globe: a sphere light of radius 0.2 inside a glass ball of radius 0.6 above a
+ * floor. The light is large (the plan's solid-angle rule alone would leave specular NEE off), but
+ * every direction from it meets the glass, so the plan is on; its estimator (the light inside the
+ * sphere that the chains are enumerated on) agrees with specular NEE off. */
+TEST(lamp_in_glass_globe_plan_on)
+{
+    spc_scene *sc = spc_scene_create();
+    add_floor(sc, 3.0, tu_diffuse(sc, 0.7));
+    tu_sphere(sc, spc_v3(0, 0, 0.9), 0.6, tu_glass(sc, 1.5));
+    spc_shape *light = tu_sphere(sc, spc_v3(0.1, 0.05, 0.95), 0.2, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 2, 5.0);
+    tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.6), spc_v3(0, 0, 1), 55, 12, 12);
+    CHECK(finalize(sc));
+    spc_snee_plan p;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && p.light_sr > 0.03 && p.caster_share >= 1.0 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING),
+              "%s (%s) %g sr, share %g", p.setting, p.reason, p.light_sr, p.caster_share);
+    char ran[96];
+    spc_film *ref = render_ran(sc, "path", "none", 16384, 71, ran);
+    spc_film *img = render_ran(sc, "path", NULL, 4096, 72, ran);
+    CHECK(ref && img && !strcmp(ran, SPC_SNEE_PLAN_SETTING));
+    if (ref && img) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(img, ref, 0.99, "lamp in a globe: default vs none", &d));
+        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
+               d.mean_a[0], d.mean_b[0]);
+    }
+    spc_film_destroy(img);
+    spc_film_destroy(ref);
+    spc_scene_destroy(sc);
+}
+
 static bool blocks_agree(const spc_film *img, const spc_film *ref, int n, const char *label);
 
 /* The glass ball under a small sphere light (radius 0.05) with no sky: the default (reflections
@@ -482,6 +588,8 @@ int main(void)
     RUN(default_on_with_casters_only);
     RUN(xml_setting_words);
     RUN(default_agrees_with_none);
+    RUN(mirror_only_plan_has_no_camera_query);
+    RUN(lamp_in_glass_globe_plan_on);
     RUN(small_light_ball_agrees_with_bdpt);
     RUN(default_has_no_fireflies_through_glass);
     RUN(reflections_at_depth_4_agree_with_bdpt);

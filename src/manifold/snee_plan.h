@@ -18,9 +18,13 @@
  *   - off too if every light subtends more than 0.03 sr at the casters' bounding sphere (point and
  *     spot lights count 0): BSDF sampling then reaches such a light through glass and mirrors often
  *     enough that specular NEE's cost does not pay (at equal CPU time, relMSE 3x that of plain path
- *     tracing on the Mitsuba 0.6 box, 0.062 sr, and 2x on the demo's Cornell box, 0.037 sr);
+ *     tracing on the Mitsuba 0.6 box, 0.062 sr, and 2x on the demo's Cornell box, 0.037 sr); but
+ *     not if the casters (the spheres around their bounding boxes) fill a quarter or more of some
+ *     light's directions (a light over a water surface, a lamp in a glass globe): most light then
+ *     reaches the receivers through the casters;
  *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
- *     the camera (SPC_SNEE_PLAN_SETTING): chains of up to the scene's specular_max_chain (2)
+ *     the camera (SPC_SNEE_PLAN_SETTING; without that query if every caster is a mirror:
+ *     SPC_SNEE_PLAN_SETTING_MIRRORS): chains of up to the scene's specular_max_chain (2)
  *     vertices through and off glass and off mirrors, MIS with BSDF sampling, the
  *     longer chains with probability 0.1, and every chain on one analytic sphere, one mirror
  *     cylinder or one normal-mapped plane enumerated exactly (sphere_chains.h, cylinder_chains.h,
@@ -59,6 +63,13 @@
  * specular NEE"). */
 #define SPC_SNEE_PLAN_SETTING "angular:camera,later=0.25"
 
+/* The setting where every caster is a mirror: the same without the query from the camera. There the
+ * camera sees the light only by reflection, which camera rays find as often as the query's splats
+ * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal
+ * CPU time the query from the camera doubled relMSE (bench/RESULTS.md, "Plan rules from the
+ * scene"). */
+#define SPC_SNEE_PLAN_SETTING_MIRRORS "angular:later=0.25"
+
 /* How the chains of one caster are found under a plan. */
 typedef enum spc_snee_method {
     SPC_SNEE_METHOD_SPHERE,   /* every chain on the sphere enumerated (sphere_chains.h) */
@@ -75,6 +86,7 @@ typedef struct spc_snee_plan {
     int casters;      /* caster shapes (spc_chain_casters_of) */
     int receivers;    /* shapes specular NEE may start at */
     double light_sr;  /* the smallest solid angle (sr) a light subtends at the casters (0: a point) */
+    double caster_share; /* the largest share of a light's directions that meet the casters (snee_plan.c) */
 } spc_snee_plan;
 
 /* The plan for rendering sc with integrator `integrator` ("path", "volpath", "bdpt", "ipt") and the
