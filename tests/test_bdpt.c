@@ -990,6 +990,37 @@ TEST(specular_nee_tames_s0_only_paths)
     spc_scene_destroy(sc);
 }
 
+/* The setting that covers the light seen in and through the ball at equal time (the pinhole's
+ * chains on one camera sample in ten) and the corner receivers (corner_receiver in bdpt.c: specular
+ * NEE where a camera vertex's non-delta predecessor is very close, in the room's corners, its
+ * sample and the two BDPT strategies of the same paths splitting them by the path integrator's
+ * weights): the image must not change against plain bdpt and path, and no pixel may hold a quarter
+ * of the variance. */
+TEST(specular_nee_camera_share_and_corners)
+{
+    spc_scene *sc = load_caustic_sphere(16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *plain = render_snee(sc, "bdpt", "", 2048, 61);
+    spc_film *with = render_snee(sc, "bdpt", "angular:camera=0.1", 1024, 62);
+    spc_film *path = render_snee(sc, "path", "", 2048, 63);
+    CHECK(plain && with && path);
+    if (plain && with && path) {
+        CHECK(ztest(with, plain, 0.99, "bdpt angular:camera=0.1 vs plain bdpt") >= 0.99);
+        check_means_agree(with, plain, 4.0);
+        CHECK(ztest(with, path, 0.99, "bdpt angular:camera=0.1 vs path") >= 0.99);
+        check_means_agree(with, path, 4.0);
+        double sw, wv = worst_rel_var(with, &sw);
+        printf("  worst pixel's relative variance %.3g, %.0f%% of the image's\n", wv, 100.0 * sw);
+        CHECK_MSG(sw < 0.25, "the worst pixel holds %.0f%% of the variance", 100.0 * sw);
+    }
+    spc_film_destroy(plain);
+    spc_film_destroy(with);
+    spc_film_destroy(path);
+    spc_scene_destroy(sc);
+}
+
 TEST(same_image_for_any_thread_count)
 {
     spc_scene *sc = cornell_box(BOX_SPHERES, 20, 1.0);
@@ -1042,6 +1073,7 @@ int main(void)
     RUN(ptracer_against_path);
     RUN(ptracer_sees_the_sky);
     RUN(specular_nee_tames_s0_only_paths);
+    RUN(specular_nee_camera_share_and_corners);
     printf("bdpt subpaths truncated at the vertex limit: %llu\n", (unsigned long long)spc_bdpt_truncated_paths());
     return spc_test_finish();
 }
