@@ -58,8 +58,9 @@
  * few such pixels held most of bdpt's variance. At such vertices (camera-subpath vertices reached
  * through glass or mirrors with no two adjacent non-delta vertices before them: snee_receiver) and
  * from the pinhole, bdpt runs specular NEE as path does, and weighs s = 0's samples of the paths
- * it covers by the same split (see "specular NEE's share" below). Its contributions are in the
- * image but in no strategy image.
+ * it covers by the same split (see "specular NEE's share" below); also at corners (corner_receiver),
+ * where s = 0 and the connection across the corner share the BSDF side of the split. Its
+ * contributions are in the image but in no strategy image.
  *
  * Russian roulette on both subpaths from rr_depth segments, on the throughput since the
  * subpath's start (times eta^2 on camera paths, as path.c); the MIS weights ignore the survival
@@ -526,10 +527,10 @@ typedef struct pv {
 
 /* The factor of a BDPT strategy's weight for specular NEE (1 if it is off or the path is not
  * covered; 0 if the chain's retrace does not reproduce the path, which specular NEE then counts
- * alone, as path does). y, s, z, t, lend as mis_weight. Only s = 0 can make a covered path: any
- * other strategy joins two adjacent non-delta vertices, and a covered path has none but the camera
- * and the light (and the receiver, between delta vertices), so the callers ask for s = 0 alone; the
- * function walks any path. */
+ * alone, as path does). y, s, z, t, lend as mis_weight. Only s = 0 and connections (s, t >= 2) can
+ * make a covered path: any other strategy joins two adjacent non-delta vertices next to the camera
+ * or the light, and a covered path has one such pair at most, the corner before a corner receiver,
+ * which only a connection joins; the function walks any path. */
 static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend)
 {
     if (!B->snee)
