@@ -631,7 +631,12 @@ static double weight_of(const bdpt *B, const vtx *y, int s, const vtx *z, int t,
     /* only s = 0 makes the paths specular NEE covers at snee_receiver's vertices; at a corner
      * receiver also the connection across the corner (s, t >= 2) */
     double w = mis_weight(B, y, s, z, t, lend, pdf_cam);
-    return s == 0 || (s >= 2 && t >= 2) ? w * snee_share(B, y, s, z, t, lend) : w;
+    if (s == 0)
+        return w * snee_share(B, y, s, z, t, lend);
+    /* a connection's path is covered only with the joined pair as the corner */
+    if (B->snee && s >= 2 && t >= 2 && corner_receiver(B, t, true, &z[t - 1], false, &y[s - 1]))
+        return w * snee_share(B, y, s, z, t, lend);
+    return w;
 }
 
 /* The connect_* functions return a strategy's unweighted contribution C and its MIS weight in *w
