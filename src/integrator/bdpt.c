@@ -483,9 +483,10 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
 static bool snee_receiver(int k, bool open, bool prev_delta) { return k >= 1 && open && prev_delta; }
 
 /* A corner receiver: the camera vertex v (k segments from the camera) whose predecessor prev is a
- * non-delta (prev_delta false: scattered on the path by a non-delta lobe, or joined) surface vertex closer than SPC_BDPT_CORNER_FRAC of the scene's radius, the prefix up to
- * prev open (no two adjacent non-delta vertices) and reached through delta vertices (k >= 2; the
- * pinhole counts as non-delta, so k = 2 with z_1 non-delta is not open). The paths specular NEE
+ * non-delta surface vertex (prev_delta false: scattered on the path by a non-delta lobe, or
+ * joined) closer than SPC_BDPT_CORNER_FRAC of the scene's radius, the prefix up to prev open (no
+ * two adjacent non-delta vertices) and reached through delta vertices (k >= 2; the pinhole counts
+ * as non-delta, so k = 2 with z_1 non-delta is not open). The paths specular NEE
  * covers there (prefix - prev - v - delta chain - light) have two BDPT strategies: s = 0 and the
  * connection across prev - v. Specular NEE's sample keeps the path integrator's split a^2 / (a^2 +
  * b^2) and both strategies' weights are multiplied by b^2 / (a^2 + b^2) (snee_share), which is a
