@@ -144,8 +144,8 @@ static double sample_beckmann_slope_x(double u, double tan_t, double cot_t)
         double dens = (1.0 - x * tan_t) * e;
         double next = dens > 0.0 ? x - f / dens : 0.5 * (lo + hi);
         /* a converged Newton step ends the search even where it lands on the bracket's end (x
-         * itself is that end): tested after the bracket check, such a step turned into bisections
-         * down to the 1e-15 bracket, 40 and more iterations for about one sample in ten */
+         * itself is that end): the bracket test would reject it and bisect down to the 1e-15
+         * bracket, 40 and more iterations */
         if (fabs(next - x) <= 1e-14 * (1.0 + fabs(x)))
             return next;
         if (!(next > lo && next < hi))
