@@ -68,22 +68,26 @@ double spc_film_filter_cdf(const spc_film_spec *f, double x)
     return x < 0.0 ? 0.5 - m : 0.5 + m;
 }
 
+/* The branch-free search below steps through the cumulative masses by halving powers of two. */
+_Static_assert(((SPC_FILTER_RESOLUTION + 1) & SPC_FILTER_RESOLUTION) == 0,
+               "filter_inverse_cdf needs SPC_FILTER_RESOLUTION + 1 to be a power of two");
+
 /* The inverse CDF, for u in [0, 1]: the step by a search of the cumulative masses, then linear
- * within it (the density is constant there). */
+ * within it (the density is constant there). The step is the last k <= RES - 1 with
+ * filter_step_cdf[k] <= t, found without branches: the outcome of each comparison is a coin flip,
+ * and a branchy bisection's mispredictions cost more than the rest of the sampling (veach-mis). */
 static double filter_inverse_cdf(const spc_film_spec *f, double u)
 {
     double r = f->filter_radius;
     if (f->rfilter == SPC_RFILTER_BOX)
         return (2.0 * u - 1.0) * r;
     double t = fabs(u - 0.5), h = r / SPC_FILTER_RESOLUTION;
-    int lo = 0, hi = SPC_FILTER_RESOLUTION; /* filter_step_cdf[lo] <= t < filter_step_cdf[hi] */
-    while (hi - lo > 1) {
-        int mid = (lo + hi) / 2;
-        if (f->filter_step_cdf[mid] <= t)
-            lo = mid;
-        else
-            hi = mid;
+    int lo = 0; /* filter_step_cdf[lo] <= t (filter_step_cdf[0] = 0) */
+    for (int step = (SPC_FILTER_RESOLUTION + 1) / 2; step > 0; step /= 2) {
+        int next = lo + step; /* at most SPC_FILTER_RESOLUTION: inside filter_step_cdf */
+        lo = f->filter_step_cdf[next] <= t ? next : lo;
     }
+    lo = lo < SPC_FILTER_RESOLUTION - 1 ? lo : SPC_FILTER_RESOLUTION - 1;
     double a = lo * h;
     if (f->filter_step[lo] > 0.0)
         a += (t - f->filter_step_cdf[lo]) / f->filter_step[lo];
