@@ -13,7 +13,6 @@
  */
 /* ctest-labels: scene */
 /* ctest-timeout: 600 */
-#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <openexr.h>
@@ -32,6 +31,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include "cli_util.h"
 #include "harness.h"
 #include "specula/specula.h"
 
@@ -39,8 +39,6 @@
 #define KILL_TRIALS 5    /* independent kill / resume sequences */
 #define MAX_PIECES 12    /* starts + resumes in one sequence before giving up on killing it */
 
-static char tmpdir[64];
-static char binary[2048];
 static char scene[2048];
 static uint64_t rng_state = 0x9e3779b97f4a7c15ull; /* fixed: the kill delays are reproducible */
 
@@ -48,27 +46,6 @@ static uint32_t rnd(void)
 {
     rng_state = rng_state * 6364136223846793005ull + 1442695040888963407ull;
     return (uint32_t)(rng_state >> 33);
-}
-
-static const char *tmp_path(const char *name)
-{
-    static char buf[8][512];
-    static int k = 0;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", tmpdir, name);
-    return buf[k];
-}
-
-static char *read_text(const char *path)
-{
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return NULL;
-    char *buf = calloc(1, 65536);
-    if (buf)
-        buf[fread(buf, 1, 65535, fp)] = '\0';
-    fclose(fp);
-    return buf;
 }
 
 static double now_s(void)
@@ -85,55 +62,16 @@ static void sleep_ms(double ms)
         ;
 }
 
-/* Starts `specula ARGS` (NULL-terminated array) in tmpdir, stderr to err.txt. */
-static pid_t spawn(const char *const *args)
-{
-    const char *argv[64];
-    int n = 0;
-    argv[n++] = binary;
-    for (int i = 0; args[i] && n < 63; ++i)
-        argv[n++] = args[i];
-    argv[n] = NULL;
-    fflush(stdout);
-    pid_t pid = fork();
-    if (pid == 0) {
-        if (chdir(tmpdir) != 0)
-            _exit(126);
-        int fe = open("err.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int fo = open("/dev/null", O_WRONLY);
-        if (fe < 0 || fo < 0 || dup2(fo, 1) < 0 || dup2(fe, 2) < 0)
-            _exit(126);
-        execv(binary, (char *const *)argv);
-        _exit(127);
-    }
-    return pid;
-}
-
-/* Exit code, 128 + signal if killed, -1 on error. */
-static int wait_code(pid_t pid)
-{
-    int st = 0;
-    if (pid < 0 || waitpid(pid, &st, 0) != pid)
-        return -1;
-    if (WIFEXITED(st))
-        return WEXITSTATUS(st);
-    if (WIFSIGNALED(st))
-        return 128 + WTERMSIG(st);
-    return -1;
-}
-
-static int run(const char *const *args) { return wait_code(spawn(args)); }
-
 static void show_err(void)
 {
-    char *e = read_text(tmp_path("err.txt"));
+    char *e = read_text("err.txt");
     printf("  --- stderr:\n%s  ---\n", e ? e : "(none)\n");
     free(e);
 }
 
 static bool err_contains(const char *what)
 {
-    char *e = read_text(tmp_path("err.txt"));
+    char *e = read_text("err.txt");
     bool ok = e && strstr(e, what);
     free(e);
     return ok;
@@ -211,7 +149,7 @@ TEST(killed_and_resumed_is_bit_identical)
     const char *ref_args[] = {"render", scene, "-D", "res=16", "--spp", "384", "--seed", "7", "--variance",
                               "--quiet", "-o", "ref.exr", NULL};
     double t0 = now_s();
-    int rc = run(ref_args);
+    int rc = run_v(ref_args);
     double t_full = now_s() - t0; /* only to place the kills inside the render, never asserted */
     CHECK_MSG(rc == 0, "reference render exit %d", rc);
     if (rc != 0) {
@@ -238,7 +176,7 @@ TEST(killed_and_resumed_is_bit_identical)
             const char *const *args = !have_ckpt ? start : (piece % 2 ? resume1 : resume3);
             int before = have_ckpt ? ckpt_spp(tmp_path(ck)) : 0;
             CHECK_MSG(!have_ckpt || before >= 0, "trial %d: checkpoint unreadable after a kill", trial);
-            pid_t pid = spawn(args);
+            pid_t pid = spawn_v(args);
             /* the last pieces run to the end */
             if (piece < MAX_PIECES - 2) {
                 double ms = (0.1 + 0.8 * (rnd() / 4294967296.0)) * t_full * 1000.0;
@@ -281,7 +219,7 @@ TEST(sigint_writes_partial_image_and_checkpoint)
                           "--quiet", "-o", "int.exr", "--checkpoint", "int.ckpt", "--checkpoint-every", "0.05",
                           "--stats", "int.json", NULL};
     remove(tmp_path("int.ckpt"));
-    pid_t pid = spawn(args);
+    pid_t pid = spawn_v(args);
     /* interrupted soon after its first checkpoint: a render of a few hundred passes at most, so
      * the bit-for-bit comparison below always runs and stays short */
     for (int waited = 0; waited < 20000 && access(tmp_path("int.ckpt"), F_OK) != 0; waited += 10)
@@ -293,7 +231,7 @@ TEST(sigint_writes_partial_image_and_checkpoint)
     int spp = exr_spp(tmp_path("int.exr"));
     CHECK_MSG(spp > 0 && spp < 100000, "spp attribute %d", spp);
     CHECK(ckpt_spp(tmp_path("int.ckpt")) == spp);
-    char *json = read_text(tmp_path("int.json"));
+    char *json = read_text("int.json");
     CHECK(json && strstr(json, "\"interrupted\": true") && strstr(json, "\"invalid_samples\": 0"));
     free(json);
     /* the partial image is exactly the render at that many passes */
@@ -303,7 +241,7 @@ TEST(sigint_writes_partial_image_and_checkpoint)
     char sppbuf[32];
     snprintf(sppbuf, sizeof sppbuf, "%d", spp + 5);
     const char *res_args[] = {"render", "--resume", "int.ckpt", "--spp", sppbuf, "-o", "int2.exr", "--quiet", NULL};
-    rc = run(res_args);
+    rc = run_v(res_args);
     CHECK_MSG(rc == 0, "resume exit %d", rc);
     CHECK(exr_spp(tmp_path("int2.exr")) == spp + 5);
     CHECK(render_here(scene, spp + 5, 3, 1, tmp_path("int2_lib.exr")));
@@ -320,7 +258,7 @@ TEST(second_sigint_corrupts_nothing)
         snprintf(ck, sizeof ck, "twice%d.ckpt", trial);
         const char *args[] = {"render", scene, "-D", "res=16", "--spp", "100000", "--quiet", "--variance", "-o", out,
                               "--checkpoint", ck, "--checkpoint-every", "0", NULL};
-        pid_t pid = spawn(args);
+        pid_t pid = spawn_v(args);
         sleep_ms(300 + 40 * trial);
         kill(pid, SIGINT);
         sleep_ms(trial % 3); /* 0-2 ms: during the last passes or the writes */
@@ -382,7 +320,7 @@ static bool make_checkpoint(const char *name)
 {
     const char *args[] = {"render", "own.xml", "-D", "res=16", "--spp", "16", "--quiet", "-o", "own.exr",
                           "--checkpoint", name, NULL};
-    return run(args) == 0 && access(tmp_path(name), F_OK) == 0;
+    return run_v(args) == 0 && access(tmp_path(name), F_OK) == 0;
 }
 
 static spc_status load_status(const char *path, char *msg, size_t size)
@@ -435,7 +373,7 @@ TEST(corrupt_checkpoints_refused)
     b[size / 2] ^= 1;
     CHECK(spit(tmp_path("bad.ckpt"), b, size));
     const char *args[] = {"render", "--resume", "bad.ckpt", "-o", "bad.exr", "--quiet", NULL};
-    int rc = run(args);
+    int rc = run_v(args);
     CHECK_MSG(rc == SPC_ERR_PARSE, "exit %d", rc);
     CHECK(err_contains("bad.ckpt: not a usable checkpoint (checksum mismatch)"));
     CHECK(access(tmp_path("bad.exr"), F_OK) != 0);
@@ -461,7 +399,7 @@ TEST(other_version_refused)
     CHECK(load_status(tmp_path("ver.ckpt"), msg, sizeof msg) == SPC_ERR_VALUE);
     CHECK_MSG(strstr(msg, "written by specula 0.0.1") != NULL, "%s", msg);
     const char *args[] = {"render", "--resume", "ver.ckpt", "--quiet", NULL};
-    CHECK(run(args) == SPC_ERR_VALUE);
+    CHECK(run_v(args) == SPC_ERR_VALUE);
     CHECK(err_contains("written by specula 0.0.1"));
 }
 
@@ -482,7 +420,7 @@ TEST(other_scene_refused)
     CHECK(spit(tmp_path("own.xml"), x, size));
     free(x);
     const char *args[] = {"render", "--resume", "scene.ckpt", "-o", "scene.exr", "--quiet", NULL};
-    CHECK(run(args) == SPC_ERR_VALUE);
+    CHECK(run_v(args) == SPC_ERR_VALUE);
     CHECK(err_contains("belongs to another scene"));
     CHECK(access(tmp_path("scene.exr"), F_OK) != 0);
 
@@ -525,9 +463,9 @@ TEST(other_scene_refused)
     /* options that the checkpoint fixes cannot be changed on --resume */
     CHECK(make_checkpoint("fixed.ckpt"));
     const char *bad1[] = {"render", "--resume", "fixed.ckpt", "--seed", "2", NULL};
-    CHECK(run(bad1) == 64 /* a bad command line */);
+    CHECK(run_v(bad1) == 64 /* a bad command line */);
     const char *bad2[] = {"render", "--resume", "fixed.ckpt", "own.xml", NULL};
-    CHECK(run(bad2) == 64);
+    CHECK(run_v(bad2) == 64);
 }
 
 /* A floor read from floor.obj, lit by a rectangle light from an included light.xml; bdpt. */
@@ -568,7 +506,7 @@ TEST(referenced_files_refused)
     CHECK(put_text("mesh.xml", mesh_scene) && put_text("light.xml", mesh_light) && put_text("floor.obj", floor_obj));
     const char *start[] = {"render", "mesh.xml", "--spp", "4", "--quiet", "-o", "mesh.exr", "--checkpoint",
                            "mesh.ckpt", NULL};
-    int rc = run(start);
+    int rc = run_v(start);
     CHECK_MSG(rc == 0, "exit %d", rc);
     if (rc != 0) {
         show_err();
@@ -577,7 +515,7 @@ TEST(referenced_files_refused)
     /* the same bytes written again (a new modification time) are the same scene */
     CHECK(put_text("floor.obj", floor_obj));
     const char *resume[] = {"render", "--resume", "mesh.ckpt", "--spp", "6", "--quiet", NULL};
-    rc = run(resume);
+    rc = run_v(resume);
     CHECK_MSG(rc == 0, "resume of an unchanged scene: exit %d", rc);
     if (rc != 0)
         show_err();
@@ -588,7 +526,7 @@ TEST(referenced_files_refused)
     CHECK(copy_file(tmp_path("mesh.exr"), tmp_path("mesh_kept.exr")));
     CHECK(put_text("floor.obj", "v -1 -1 0\nv 1 -1 0\nv 1 1 0.01\nv -1 1 0\nf 1 2 3\nf 1 3 4\n"));
     const char *resume8[] = {"render", "--resume", "mesh.ckpt", "--spp", "8", "--quiet", NULL};
-    rc = run(resume8);
+    rc = run_v(resume8);
     CHECK_MSG(rc == SPC_ERR_VALUE, "resume after the mesh changed: exit %d", rc);
     CHECK(err_contains("belongs to another scene"));
     CHECK(err_contains("a file it references (mesh"));
@@ -608,18 +546,18 @@ TEST(referenced_files_refused)
         v[0] = '6';
     CHECK(light && put_text("light.xml", light));
     free(light);
-    rc = run(resume8);
+    rc = run_v(resume8);
     CHECK_MSG(rc == SPC_ERR_VALUE, "resume after the included file changed: exit %d", rc);
     CHECK(err_contains("belongs to another scene"));
     /* and both as they were: accepted again */
     CHECK(put_text("light.xml", mesh_light));
-    rc = run(resume8);
+    rc = run_v(resume8);
     CHECK_MSG(rc == 0, "exit %d", rc);
     CHECK(ckpt_spp(tmp_path("mesh.ckpt")) == 8);
 
     /* a bitmap texture: two PNGs specula wrote (the previews of two renders) take turns */
     const char *other[] = {"render", "mesh.xml", "--spp", "1", "--seed", "9", "--quiet", "-o", "other.exr", NULL};
-    CHECK(run(other) == 0);
+    CHECK(run_v(other) == 0);
     long sp = 0, so = 0;
     unsigned char *png = slurp(tmp_path("mesh.png"), &sp), *png2 = slurp(tmp_path("other.png"), &so);
     CHECK_MSG(png && png2 && (sp != so || memcmp(png, png2, (size_t)sp) != 0), "the two PNGs are the same");
@@ -636,17 +574,17 @@ TEST(referenced_files_refused)
         CHECK(put_text("tex.xml", textured) && spit(tmp_path("tex.png"), png, sp));
         const char *tstart[] = {"render", "tex.xml", "--spp", "2", "--quiet", "-o", "tex.exr", "--checkpoint",
                                 "tex.ckpt", NULL};
-        rc = run(tstart);
+        rc = run_v(tstart);
         CHECK_MSG(rc == 0, "textured scene: exit %d", rc);
         if (rc != 0)
             show_err();
         CHECK(spit(tmp_path("tex.png"), png2, so));
         const char *tresume[] = {"render", "--resume", "tex.ckpt", "--spp", "4", "--quiet", NULL};
-        rc = run(tresume);
+        rc = run_v(tresume);
         CHECK_MSG(rc == SPC_ERR_VALUE, "resume after the texture changed: exit %d", rc);
         CHECK(err_contains("belongs to another scene"));
         CHECK(spit(tmp_path("tex.png"), png, sp));
-        rc = run(tresume);
+        rc = run_v(tresume);
         CHECK_MSG(rc == 0, "resume with the texture restored: exit %d", rc);
         CHECK(ckpt_spp(tmp_path("tex.ckpt")) == 4);
     }
@@ -796,48 +734,15 @@ TEST(api_resume_and_cancel)
 
 /* ---- setup ---- */
 
-static void remove_tree(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return;
-    for (struct dirent *e; (e = readdir(d));) {
-        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
-            continue;
-        char p[1024];
-        snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
-        unlink(p);
-    }
-    closedir(d);
-    rmdir(dir);
-}
-
 int main(void)
 {
-    const char *bin = getenv("SPC_BINARY_DIR");
-    if (bin) {
-        snprintf(binary, sizeof binary, "%s/specula", bin);
-    } else {
-        char self[1024];
-        ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-        self[n > 0 ? n : 0] = '\0';
-        char *slash = strrchr(self, '/');
-        if (slash)
-            *slash = '\0';
-        snprintf(binary, sizeof binary, "%s/specula", self);
-    }
+    if (!cli_init("ckpt"))
+        return 1;
     char cwd[1024];
     if (!getcwd(cwd, sizeof cwd))
         return 1;
     const char *src = spc_test_source_dir();
     snprintf(scene, sizeof scene, "%s/%s/scenes/demo.xml", src[0] == '/' ? "" : cwd, src);
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_ckpt_XXXXXX");
-    if (!mkdtemp(tmpdir))
-        return 1;
-    if (access(binary, X_OK) != 0) {
-        printf("no specula binary at %s\n", binary);
-        return 1;
-    }
     RUN(killed_and_resumed_is_bit_identical);
     RUN(sigint_writes_partial_image_and_checkpoint);
     RUN(second_sigint_corrupts_nothing);
@@ -847,6 +752,5 @@ int main(void)
     RUN(referenced_files_refused);
     RUN(bdpt_settings_recorded);
     RUN(api_resume_and_cancel);
-    remove_tree(tmpdir);
-    return spc_test_finish();
+    return cli_finish(spc_test_finish());
 }

@@ -29,22 +29,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "cli_util.h"
 #include "denoise_util.h"
 #include "harness.h"
 #include "io/image_io.h"
 #include "render/film.h"
 #include "specula/specula.h"
-
-static char tmpdir[64];
-
-static const char *tmp_path(const char *name)
-{
-    static char buf[8][512];
-    static int k = 0;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", tmpdir, name);
-    return buf[k];
-}
 
 static const char *const cornell = "tests/data/cornell-box.xml";
 static const char *const caustic = "scenes/caustic_glass_sphere.xml";
@@ -303,51 +293,11 @@ TEST(exr_denoise_matches_the_film)
     spc_film_destroy(f);
 }
 
-/* Runs the specula binary with args (NULL-terminated), SPECULA_OIDN_LIBRARY set to lib unless
- * NULL, stderr to err.txt in tmpdir; returns its exit status. */
+/* Runs `specula ARGS` (NULL-terminated) in tmpdir with SPECULA_OIDN_LIBRARY set to lib (unset if
+ * NULL); its exit status. */
 static int run_cli(const char *lib, const char *const *args)
 {
-    const char *bindir = getenv("SPC_BINARY_DIR");
-    char bin[1024];
-    snprintf(bin, sizeof bin, "%s/specula", bindir ? bindir : "build");
-    const char *argv[16];
-    int n = 0;
-    argv[n++] = bin;
-    for (int i = 0; args[i] && n < 15; ++i)
-        argv[n++] = args[i];
-    argv[n] = NULL;
-    fflush(stdout);
-    pid_t pid = fork();
-    if (pid == 0) {
-        int fe = open(tmp_path("err.txt"), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fe < 0 || dup2(fe, 2) < 0)
-            _exit(126);
-        if (lib)
-            setenv("SPECULA_OIDN_LIBRARY", lib, 1);
-        else
-            unsetenv("SPECULA_OIDN_LIBRARY");
-        execv(bin, (char *const *)argv);
-        _exit(127);
-    }
-    int status = 0;
-    if (pid < 0 || waitpid(pid, &status, 0) != pid || !WIFEXITED(status))
-        return -1;
-    return WEXITSTATUS(status);
-}
-
-static bool err_says(const char *what)
-{
-    FILE *fp = fopen(tmp_path("err.txt"), "rb");
-    char buf[8192] = "";
-    if (fp) {
-        size_t k = fread(buf, 1, sizeof buf - 1, fp);
-        buf[k] = '\0';
-        fclose(fp);
-    }
-    bool ok = strstr(buf, what) != NULL;
-    if (!ok)
-        printf("  stderr: %s\n", buf);
-    return ok;
+    return wait_code(spawn_env("SPECULA_OIDN_LIBRARY", lib, args));
 }
 
 TEST(cli_render_denoise)
@@ -355,7 +305,9 @@ TEST(cli_render_denoise)
     char out[512], out2[512];
     snprintf(out, sizeof out, "%s", tmp_path("cli.exr"));
     snprintf(out2, sizeof out2, "%s", tmp_path("cli2.exr"));
-    const char *render[] = {"render", cornell, "--res", "24x24", "--spp", "4", "--denoise", "-o", out, NULL};
+    char scene[4096]; /* the command runs in tmpdir */
+    CHECK(realpath(cornell, scene) != NULL);
+    const char *render[] = {"render", scene, "--res", "24x24", "--spp", "4", "--denoise", "-o", out, NULL};
     CHECK(run_cli(NULL, render) == 0);
     const char *names[] = {"R", "noisy.R", "albedo.R", "normal.Z"};
     bool found[4] = {false, false, false, false};
@@ -366,9 +318,9 @@ TEST(cli_render_denoise)
     CHECK(found[0] && found[1] && found[2] && found[3]);
     free(px);
     /* the library missing: refused before rendering, nothing written */
-    const char *render2[] = {"render", cornell, "--res", "24x24", "--spp", "4", "--denoise", "-o", out2, NULL};
+    const char *render2[] = {"render", scene, "--res", "24x24", "--spp", "4", "--denoise", "-o", out2, NULL};
     CHECK(run_cli("/nonexistent/libOpenImageDenoise.so.2", render2) == 1);
-    CHECK(err_says("pip install pyoidn"));
+    CHECK(err_has("pip install pyoidn"));
     CHECK(access(out2, F_OK) != 0);
     const char *den[] = {"denoise", out, "-o", out2, NULL};
     CHECK(run_cli("/nonexistent/libOpenImageDenoise.so.2", den) == 1);
@@ -376,19 +328,16 @@ TEST(cli_render_denoise)
     CHECK(run_cli(NULL, den) == 0);
     CHECK(access(out2, F_OK) == 0);
     /* an image without AOVs: denoised alone, with a warning */
-    const char *plain[] = {"render", cornell, "--res", "24x24", "--spp", "2", "-o", out, "--quiet", NULL};
+    const char *plain[] = {"render", scene, "--res", "24x24", "--spp", "2", "-o", out, "--quiet", NULL};
     CHECK(run_cli(NULL, plain) == 0);
     CHECK(run_cli(NULL, den) == 0);
-    CHECK(err_says("no albedo"));
+    CHECK(err_has("no albedo"));
 }
 
 int main(void)
 {
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_test_denoise_XXXXXX");
-    if (!mkdtemp(tmpdir)) {
-        perror("mkdtemp");
+    if (!cli_init("test_denoise"))
         return 1;
-    }
     RUN(library_missing_is_a_clear_error); /* first: the library is loaded once per process */
     RUN(cornell_box_16spp_five_times_lower_relmse);
     RUN(caustic_16spp_five_times_lower_relmse);
@@ -397,14 +346,5 @@ int main(void)
     RUN(resumed_render_denoises_the_same);
     RUN(exr_denoise_matches_the_film);
     RUN(cli_render_denoise);
-    int rc = spc_test_finish();
-    if (rc == 0) {
-        char cmd[600];
-        snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-        if (system(cmd) != 0)
-            printf("could not remove %s\n", tmpdir);
-    } else {
-        printf("files kept in %s\n", tmpdir);
-    }
-    return rc;
+    return cli_finish(spc_test_finish());
 }

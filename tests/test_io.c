@@ -20,6 +20,7 @@
 #include <png.h>
 
 #include "harness.h"
+#include "png_util.h"
 #include "io/image_io.h"
 
 static char tmpdir[256];
@@ -413,36 +414,6 @@ TEST(png_roundtrip_srgb)
         CHECK(img.data[0] == 0.0f && img.data[1] == 1.0f && img.data[2] == 0.0f);
     }
     spc_image_release(&img);
-}
-
-/* Writes a PNG with libpng: color type, bit depth, optional palette / tRNS. */
-static bool write_png_raw(const char *path, int w, int h, int color, int depth, const unsigned char *rows,
-                          size_t rowbytes, const png_color *pal, int npal, const png_byte *trns, int ntrns)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return false;
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
-    png_infop info = png_create_info_struct(png);
-    if (setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        fclose(f);
-        return false;
-    }
-    png_init_io(png, f);
-    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, depth, color, PNG_INTERLACE_NONE,
-                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-    if (pal)
-        png_set_PLTE(png, info, pal, npal);
-    if (trns)
-        png_set_tRNS(png, info, trns, ntrns, NULL);
-    png_write_info(png, info);
-    for (int y = 0; y < h; ++y)
-        png_write_row(png, (png_const_bytep)(rows + (size_t)y * rowbytes));
-    png_write_end(png, info);
-    png_destroy_write_struct(&png, &info);
-    fclose(f);
-    return true;
 }
 
 TEST(png_reads_every_layout)

@@ -11,6 +11,7 @@
 #include <png.h>
 
 #include "harness.h"
+#include "png_util.h"
 #include "io/image_io.h"
 #include "scene/texture.h"
 
@@ -216,30 +217,6 @@ TEST(checkerboard_pattern)
         for (int j = 0; j < n; ++j)
             s += spc_texture_eval(&t, spc_v2((i + 0.5) / n, (j + 0.5) / n)).r;
     CHECK_NEAR(s / (n * n), 0.5, 1e-12);
-}
-
-static bool write_png8(const char *path, int w, int h, int color, const unsigned char *pix, int comps)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return false;
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
-    png_infop info = png_create_info_struct(png);
-    if (setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        fclose(f);
-        return false;
-    }
-    png_init_io(png, f);
-    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, color, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-                 PNG_FILTER_TYPE_DEFAULT);
-    png_write_info(png, info);
-    for (int y = 0; y < h; ++y)
-        png_write_row(png, (png_const_bytep)(pix + (size_t)y * (size_t)(w * comps)));
-    png_write_end(png, info);
-    png_destroy_write_struct(&png, &info);
-    fclose(f);
-    return true;
 }
 
 TEST(load_png_srgb_decoding)

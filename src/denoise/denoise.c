@@ -1,6 +1,7 @@
 /*
- * denoise/denoise.c: the public denoising calls (specula.h): an image in memory, a resolved film,
- * an EXR file. Each prepares the inputs OIDN is given (denoise/oidn.c runs it):
+ * denoise/denoise.c: the public denoising calls (specula.h) on an image in memory and on an EXR
+ * file (a resolved film is denoised by render/film_denoise.c through spc_denoise_rgb). Each
+ * prepares the inputs OIDN is given (denoise/oidn.c runs it):
  *
  * - No NaN or infinite value reaches OIDN: such a value is given as 0 and its pixel counted
  *   (spc_denoise_stats.nonfinite_pixels), since a single one spreads over the filter's whole
@@ -17,7 +18,6 @@
 
 #include "denoise/oidn.h"
 #include "io/image_io.h"
-#include "render/film.h"
 #include "specula/specula.h"
 
 void spc_denoise_options_init(spc_denoise_options *o)
@@ -93,43 +93,6 @@ spc_status spc_denoise_rgb(int width, int height, const float *rgb, const float 
     free(a);
     free(nn);
     return st;
-}
-
-spc_status spc_film_denoise(struct spc_film *f, const spc_denoise_options *o, spc_denoise_stats *stats, spc_error *err)
-{
-    if (!f || !f->rgb)
-        return spc_error_set(err, SPC_ERR_INTERNAL, NULL, 0, 0, "denoise: the film has not been resolved");
-    if (f->noisy)
-        return spc_error_set(err, SPC_ERR_VALUE, NULL, 0, 0, "denoise: the film is denoised already");
-    size_t npix = (size_t)f->width * (size_t)f->height;
-    float *out = malloc(3 * npix * sizeof(float));
-    float *albedo = NULL, *normal = NULL;
-    bool aux = f->has_aovs && f->aov;
-    if (aux) {
-        albedo = malloc(3 * npix * sizeof(float));
-        normal = malloc(3 * npix * sizeof(float));
-    }
-    spc_status st = SPC_OK;
-    if (!out || (aux && (!albedo || !normal))) {
-        st =
-            spc_error_set(err, SPC_ERR_NOMEM, NULL, 0, 0, "out of memory denoising a %dx%d image", f->width, f->height);
-    } else {
-        for (size_t i = 0; aux && i < npix; ++i)
-            for (int c = 0; c < 3; ++c) {
-                albedo[3 * i + (size_t)c] = f->aov[SPC_FILM_AOVS * i + (size_t)c];
-                normal[3 * i + (size_t)c] = f->aov[SPC_FILM_AOVS * i + 3 + (size_t)c];
-            }
-        st = spc_denoise_rgb(f->width, f->height, f->rgb, albedo, normal, out, o, stats, err);
-    }
-    free(albedo);
-    free(normal);
-    if (st != SPC_OK) {
-        free(out);
-        return st;
-    }
-    f->noisy = f->rgb;
-    f->rgb = out;
-    return SPC_OK;
 }
 
 /* The channels `specula denoise` reads, in this order (slots below). */

@@ -3,7 +3,7 @@
  *
  * Writing: one scanline part, FLOAT channels, ZIP compression (16 lines per chunk). The library
  * writes through our own write callback into the descriptor of "<path>.tmp-<pid>" (see
- * spc_atomic_open in image.c), which is renamed over path only once exr_finish has written the
+ * spc_atomic_open in image_write.c), which is renamed over path only once exr_finish has written the
  * chunk offset table, so a failure at any step leaves the previous file intact.
  *
  * OpenEXR's encoder (3.1 up to 3.4.7, issue #2306) keeps zlib output whose size EQUALS the raw

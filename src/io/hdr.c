@@ -4,7 +4,7 @@
  * Each pixel is three 8-bit mantissas sharing one 8-bit exponent: for m = max(r, g, b) with
  * m = f 2^e, f in [0.5, 1), the bytes are (r, g, b) 256 / 2^e and e + 128; m < 1e-32 is (0,0,0,0).
  * Scanlines are written flat (not run-length encoded), which every reader accepts, top row first
- * ("-Y height +X width"). Negative and NaN values become 0. Written atomically (image.c).
+ * ("-Y height +X width"). Negative and NaN values become 0. Written atomically (image_write.c).
  */
 #include <math.h>
 #include <stdio.h>

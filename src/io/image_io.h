@@ -58,7 +58,7 @@ void spc_rgbe_encode(const float rgb[3], unsigned char out[4]);
 double spc_srgb_to_linear(double v);
 double spc_linear_to_srgb(double v);
 
-/* ---- Internal to src/io (shared by exr.c, png.c, jpeg.c and image.c) ---- */
+/* ---- Internal to src/io (the readers are image.c's; the atomic writing is image_write.c's, for every writer) ---- */
 
 /* Per-format readers behind spc_image_read (the caller has checked the magic bytes). */
 spc_status spc_exr_read_image(const char *path, spc_image *img, spc_error *err);

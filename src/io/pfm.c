@@ -3,7 +3,7 @@
  *
  * Layout: the text header "PF\n<width> <height>\n-1.0\n" (a negative scale means little-endian
  * floats), then width x height RGB triples of 32-bit floats, rows from the BOTTOM of the image up.
- * Written atomically like every image (image.c).
+ * Written atomically like every image (image_write.c).
  */
 #include <stdint.h>
 #include <stdio.h>

@@ -63,18 +63,6 @@ spc_rgb spc_medium_transmittance(const spc_medium *m, double d)
     return spc_rgb1(1.0);
 }
 
-void spc_medium_channel_pmf(spc_rgb beta, double q[3])
-{
-    double b[3] = {spc_max(beta.r, 0.0), spc_max(beta.g, 0.0), spc_max(beta.b, 0.0)};
-    double sum = b[0] + b[1] + b[2];
-    if (!(sum > 0.0) || !isfinite(sum)) {
-        q[0] = q[1] = q[2] = 1.0 / 3.0;
-        return;
-    }
-    for (int i = 0; i < 3; ++i)
-        q[i] = b[i] / sum;
-}
-
 /* sum_c q_c sigma_t[c] T_c(t) (interaction) or sum_c q_c T_c(t_max) (passing) */
 static double mixture(const spc_medium *m, const double q[3], double t, bool scattered)
 {

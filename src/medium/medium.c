@@ -50,21 +50,6 @@ void spc_medium_coefficients(const spc_medium *m, spc_vec3 x, spc_rgb *sigma_t, 
     *sigma_t = *sigma_s = spc_rgb1(0.0);
 }
 
-int spc_medium_pick_channel(const double q[3], double u)
-{
-    int c = -1;
-    double cum = 0.0;
-    for (int i = 0; i < 3; ++i) {
-        if (!(q[i] > 0.0))
-            continue;
-        c = i;
-        cum += q[i];
-        if (u < cum)
-            break;
-    }
-    return c;
-}
-
 spc_rgb spc_medium_transmittance_ray(const spc_medium *m, spc_vec3 o, spc_vec3 d, double t)
 {
     switch (m->type) {
