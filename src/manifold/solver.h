@@ -231,7 +231,7 @@ typedef struct spc_specular_solver {
     bool (*covers_all)(const spc_snee_query *q);
 } spc_specular_solver;
 
-/* The solver of an id, or NULL (none, or not implemented). */
+/* The solver of an id; NULL for none or an id outside the table. */
 const spc_specular_solver *spc_specular_solver_get(int id);
 /* Parses a solver name: "" and "none" give SPC_SNEE_NONE. False for an unknown name. */
 bool spc_specular_solver_parse(const char *name, int *id);
