@@ -1247,7 +1247,7 @@ __kernel void render_bdpt(SCENE_ARGS, int pass0, int base, int count, uint seed_
                 c *= mis_weight(&sc, &cam, ls, s, cs, 1, mis_beta);
                 cs[0] = cam0;
                 if (nsplat < MAX_SPLATS) {
-                    sp[4 * nsplat] = as_float(px + py * crop_w);
+                    sp[4 * nsplat] = (float)(px + py * crop_w);
                     sp[4 * nsplat + 1] = c.x;
                     sp[4 * nsplat + 2] = c.y;
                     sp[4 * nsplat + 3] = c.z;
@@ -1295,7 +1295,7 @@ __kernel void render_bdpt(SCENE_ARGS, int pass0, int base, int count, uint seed_
             L += c * mis_weight(&sc, &cam, ls, s, cs, t, mis_beta);
         }
     if (nsplat < MAX_SPLATS)
-        sp[4 * nsplat] = as_float(-1);
+        sp[4 * nsplat] = -1.0f;
     vstore3(L, get_global_id(0), out);
     rays_out[get_global_id(0)] = nrays;
 }

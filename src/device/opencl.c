@@ -743,6 +743,10 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
     cl_uint seed_lo = (cl_uint)seed, seed_hi = (cl_uint)(seed >> 32);
     cl_int p0 = pass0, max_depth = ctx->max_depth, rr_depth = ctx->rr_depth, hide = ctx->hide_emitters ? 1 : 0;
     cl_float beta = ctx->mis_balance ? 1.0f : 2.0f;
+    if (r->bdpt && npix > ((size_t)1 << 24))
+        return spc_error_set(err, SPC_ERR_LIMIT, file, 0, 0,
+                             "opencl device: bdpt's light-tracing splats index at most 2^24 pixels, the image has %zu",
+                             npix);
     /* total == 0: one empty launch, which makes implementations that compile on first use (PoCL
      * specializes kernels for the work-group size then) do it before the render's clock starts */
     for (size_t start = 0; start < total || (total == 0 && start == 0); start += (size_t)r->launch_items) {
@@ -798,15 +802,17 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
         }
         if (r->bdpt) {
             /* splats in work-item order: deterministic; each record is the pixel index in the window
-             * (an int's bits) and rgb, a negative index ends the item's list */
+             * as a float (exact below 2^24 pixels; an int's bits stored in a float would be a
+             * denormal that a device flushing denormals may turn into 0) and rgb; a negative index
+             * ends the item's list */
             for (size_t k = 0; k < count; ++k) {
                 size_t g = start + k, b = g / npix;
                 const float *s = r->host_splats + k * CL_MAX_SPLATS * 4;
                 for (int j = 0; j < CL_MAX_SPLATS; ++j) {
-                    int32_t pix;
-                    memcpy(&pix, s + 4 * j, sizeof pix);
-                    if (pix < 0 || (size_t)pix >= npix)
+                    float fpix = s[4 * j];
+                    if (!(fpix >= 0.0f) || (double)fpix >= (double)npix)
                         break;
+                    size_t pix = (size_t)fpix;
                     const float *v = s + 4 * j + 1;
                     if (!finite_rgb(v)) {
                         ++*invalid;
