@@ -19,6 +19,8 @@
  *   image means over seeds scatter little where camera rays alone find the light's images rarely.
  * - Random caustic scene 2's ball and light at max_depth 4 (chains of one and two vertices at the
  *   first receiver): specular NEE with reflections off glass against bdpt over pixel blocks.
+ * - A light no caster sees (a bulb inside an opaque shade): the plan is off; with the shade's side
+ *   toward the caster taken away, on.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -582,6 +584,92 @@ TEST(reflections_at_depth_4_agree_with_bdpt)
     spc_scene_destroy(sc);
 }
 
+/* A rectangle ([-1, 1]^2 in z = 0 under M) with BSDF b. */
+static void add_rect(spc_scene *sc, spc_mat4 T, spc_mat4 R, spc_vec3 scale, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_mat4 S = spc_mat4_scale(scale);
+    spc_mat4 RS = spc_mat4_mul(&R, &S);
+    spc_mat4 M = spc_mat4_mul(&T, &RS);
+    spc_shape_init_rectangle(s, &M, NULL, 0, 0, &err);
+    s->bsdf = b;
+}
+
+/* The glass ball of ball_scene and a small light (a sphere of radius 0.05, or a point light) at
+ * (1.5, 0, 1.2) inside an opaque housing open at the top (a box 0.4 x 0.4, z from 1.0 to 1.6),
+ * whose side toward the ball (x = 1.3) is left out unless `closed`. */
+static spc_scene *housing_scene(bool closed, bool point)
+{
+    spc_scene *sc = spc_scene_create();
+    add_floor(sc, 3.0, tu_diffuse(sc, 0.7));
+    tu_sphere(sc, spc_v3(0, 0, 0.5), 0.5, tu_glass(sc, 1.5));
+    spc_vec3 lp = spc_v3(1.5, 0, 1.2);
+    if (point) {
+        spc_emitter *e = spc_scene_new_emitter(sc);
+        e->type = SPC_EMITTER_POINT;
+        e->position = lp;
+        e->intensity = spc_rgb1(1.0);
+    } else {
+        tu_area(sc, tu_sphere(sc, lp, 0.05, tu_diffuse(sc, 0.0)), 2, 100.0);
+    }
+    const spc_bsdf *shade = tu_diffuse(sc, 0.5);
+    spc_mat4 I = spc_mat4_identity();
+    spc_mat4 Ry = spc_mat4_rotate(spc_v3(0, 1, 0), 90), Rx = spc_mat4_rotate(spc_v3(1, 0, 0), 90);
+    add_rect(sc, spc_mat4_translate(spc_v3(1.5, 0, 1.0)), I, spc_v3(0.2, 0.2, 1), shade);
+    add_rect(sc, spc_mat4_translate(spc_v3(1.7, 0, 1.3)), Ry, spc_v3(0.3, 0.2, 1), shade);
+    if (closed)
+        add_rect(sc, spc_mat4_translate(spc_v3(1.3, 0, 1.3)), Ry, spc_v3(0.3, 0.2, 1), shade);
+    add_rect(sc, spc_mat4_translate(spc_v3(1.5, 0.2, 1.3)), Rx, spc_v3(0.2, 0.3, 1), shade);
+    add_rect(sc, spc_mat4_translate(spc_v3(1.5, -0.2, 1.3)), Rx, spc_v3(0.2, 0.3, 1), shade);
+    tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.35), spc_v3(0, 0, 1), 50, 8, 8);
+    if (!finalize(sc)) {
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+/* A light no caster sees (a bulb inside an opaque shade, below its rim): every chain's last
+ * segment is blocked, so the plan is off (specular NEE there cost 6x per sample and found nothing:
+ * scenes/indirect_lamp_glass.xml); with the shade's side toward the ball taken away it is on. The
+ * same for a point light. */
+TEST(light_in_housing_plan_off)
+{
+    for (int point = 0; point < 2; ++point)
+        for (int closed = 0; closed < 2; ++closed) {
+            spc_scene *sc = housing_scene(closed, point);
+            CHECK(sc != NULL);
+            if (!sc)
+                continue;
+            spc_snee_plan p;
+            spc_snee_plan_make(sc, "path", NULL, &p);
+            if (closed)
+                CHECK_MSG(!p.on && strstr(p.reason, "seen"), "%s light in a closed housing: %s (%s)",
+                          point ? "point" : "sphere", p.setting, p.reason);
+            else
+                CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING), "%s light, housing open to the ball: %s (%s)",
+                          point ? "point" : "sphere", p.setting, p.reason);
+            spc_scene_destroy(sc);
+        }
+    char path[1200];
+    snprintf(path, sizeof path, "%s/scenes/indirect_lamp_glass.xml", spc_test_source_dir());
+    spc_define defs[2] = {{"res", "8"}, {"integrator", "path"}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK_MSG(spc_scene_load(path, defs, 2, &sc, &err) == SPC_OK, "%s", err.msg);
+    if (!sc)
+        return;
+    spc_snee_plan p;
+    spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
+    CHECK_MSG(!p.on && p.casters == 1 && strstr(p.reason, "seen"), "indirect_lamp_glass: %s (%s)", p.setting, p.reason);
+    char ran[96];
+    spc_film *img = render_ran(sc, "path", NULL, 4, 61, ran);
+    CHECK_MSG(img && !strcmp(ran, "none"), "indirect_lamp_glass ran %s", ran);
+    spc_film_destroy(img);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(demo_plan_on);
@@ -593,5 +681,6 @@ int main(void)
     RUN(small_light_ball_agrees_with_bdpt);
     RUN(default_has_no_fireflies_through_glass);
     RUN(reflections_at_depth_4_agree_with_bdpt);
+    RUN(light_in_housing_plan_off);
     return spc_test_finish();
 }

@@ -8,6 +8,10 @@
  *     scene has at least one caster (a smooth specular interface: spc_chain_casters_of), one
  *     receiver (a shape with a non-delta BSDF lobe that receives caustics) and one light specular
  *     NEE can draw a point on (area, point or spot);
+ *   - off too if no such light is seen from a caster (no straight segment from a point of a caster
+ *     to a point of the light passes through nothing but casters: a bulb inside an opaque shade),
+ *     since every chain's last segment is then blocked; lights not seen are left out of the rules
+ *     below;
  *   - off too if a caster is flat-faced (a disk, a mesh without vertex normals: cubes, slabs,
  *     panes) and not a normal-mapped plane: flat glass does not focus light, its chains are left to
  *     the randomized attempts, and their Bernoulli trial counts were heavy-tailed there (the glass
