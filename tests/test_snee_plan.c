@@ -5,7 +5,8 @@
  *   light; off without casters, with a flat-faced caster (a glass pane), with bdpt or ipt, with
  *   only an environment light, and when the setting says none or off; an explicit setting is kept;
  *   without the query from the camera where every caster is a mirror, and with it in a fraction
- *   sqrt(s) of the camera samples where glass covers a share s of the image (an analytic share);
+ *   sqrt(s) of the camera samples where glass covers a share s of the image (an analytic share)
+ *   and every glass caster is enumerated exactly (in every sample for an SDF ball);
  *   on with a large light whose
  *   every direction meets a caster (a lamp in a glass globe), where it agrees with none. What ran is recorded in the render's
  *   stats and the film (EXR header), and `spc_scene_plan` lists every caster with its method.
@@ -337,6 +338,25 @@ TEST(camera_query_from_glass_share)
                p.setting);
         spc_scene_destroy(sc);
     }
+    /* the same ball as a signed distance field, whose chains go to the randomized attempts: the
+     * query in every camera sample */
+    spc_scene *sc = ball_scene_open(false, 0.1, spc_v3(0.35, 0.25, 2.2), 16);
+    tu_camera(sc, spc_v3(0, -3.0, 0.5), spc_v3(0, 0, 0.5), spc_v3(0, 0, 1), 50, 16, 16);
+    spc_sdf_desc sd;
+    spc_sdf_desc_init(&sd, SPC_SDF_SPHERE);
+    sd.radius = 0.5;
+    spc_mat4 M = spc_mat4_translate(spc_v3(0, 0, 0.5));
+    CHECK(tu_sdf(sc, &sd, &M, tu_glass(sc, 1.5)) != NULL);
+    if (!finalize(sc)) {
+        spc_scene_destroy(sc);
+        CHECK(false);
+        return;
+    }
+    spc_snee_plan p;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && p.glass_share > 0.05 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING), "SDF ball: share %g, %s",
+              p.glass_share, p.setting);
+    spc_scene_destroy(sc);
 }
 
 /* A floor, a mirror ball of radius 0.5 on it (and a glass ball beside it if `glass`), a sphere

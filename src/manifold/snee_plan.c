@@ -158,8 +158,9 @@ static double glass_image_share(const spc_scene *sc, const spc_chain_casters *cs
     return (double)seen / (g * g);
 }
 
-/* The query from the camera is made in a fraction Q = sqrt(glass_share) of the camera samples, at
- * least MIN (snee_plan.h), and in every one from ALL up (a glass surface filling the image). */
+/* The query from the camera is made in a fraction Q = sqrt(glass_share) of the camera samples where
+ * every glass caster is enumerated exactly, at least MIN (snee_plan.h), and in every one from ALL
+ * up (a glass surface filling the image). */
 #define SPC_SNEE_PLAN_CAMERA_MIN 0.1
 #define SPC_SNEE_PLAN_CAMERA_ALL 0.95
 
@@ -239,16 +240,21 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
             snprintf(out->setting, sizeof out->setting, "none");
             return;
         }
-    /* the query from the camera only where some caster is glass (snee_plan.h) */
-    bool glass = false;
-    for (int i = 0; i < cs->n && !glass; ++i) {
+    /* the query from the camera only where some caster is glass, by Russian roulette only where
+     * every glass caster's chains are enumerated exactly (snee_plan.h) */
+    bool glass = false, exact = true;
+    for (int i = 0; i < cs->n; ++i) {
         double eta = 0.0;
-        glass = spc_bsdf_is_specular_interface(sc->shapes[cs->idx[i]]->bsdf, &eta) && eta > 0.0;
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        if (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) {
+            glass = true;
+            exact = exact && spc_snee_plan_method(&p, s) != SPC_SNEE_METHOD_SOLVER;
+        }
     }
     out->on = true;
     out->glass_share = glass ? glass_image_share(sc, cs) : 0.0;
     out->open_share = open_share(sc, cs);
-    double q = spc_max(SPC_SNEE_PLAN_CAMERA_MIN, sqrt(out->glass_share));
+    double q = exact ? spc_max(SPC_SNEE_PLAN_CAMERA_MIN, sqrt(out->glass_share)) : 1.0;
     if (!glass)
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_MIRRORS);
     else if (q < SPC_SNEE_PLAN_CAMERA_ALL)
