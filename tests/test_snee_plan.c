@@ -4,7 +4,10 @@
  * - The plan: on (angular) for path and volpath on a scene with a caster, a receiver and an area
  *   light; off without casters, with a flat-faced caster (a glass pane), with bdpt or ipt, with
  *   only an environment light, and when the setting says none or off; an explicit setting is kept;
- *   without the query from the camera where every caster is a mirror; on with a large light whose
+ *   without the query from the camera where every caster is a mirror, and with it in a fraction
+ *   sqrt(s) of the camera samples where glass covers a share s of the image (an analytic share)
+ *   and every glass caster is enumerated exactly (in every sample for an SDF ball);
+ *   on with a large light whose
  *   every direction meets a caster (a lamp in a glass globe), where it agrees with none. What ran is recorded in the render's
  *   stats and the film (EXR header), and `spc_scene_plan` lists every caster with its method.
  * - The XML property: auto and off are accepted, a misspelling is refused with file and line.
@@ -102,6 +105,18 @@ static spc_film *render_ran(const spc_scene *sc, const char *integrator, const c
     return f;
 }
 
+/* A setting of the plan where a caster is glass (snee_plan.h): angular with reflections off glass,
+ * the Russian roulette past the first receiver and the query from the camera, in every camera sample
+ * (SPC_SNEE_PLAN_SETTING) or in a fraction sqrt(glass share) of them, at least 0.1. */
+static bool glass_setting(const char *s)
+{
+    spc_snee_params p;
+    if (!spc_snee_parse(s, 2, &p))
+        return false;
+    return p.solver == SPC_SNEE_ANGULAR && p.reflect && p.camera && p.camera_p >= 0.1 && p.later_p == 0.25 &&
+           (p.camera_p == 1.0 ? !strcmp(s, SPC_SNEE_PLAN_SETTING) : p.camera_p < 0.95);
+}
+
 TEST(default_on_with_casters_only)
 {
     spc_scene *with = ball_scene(true, 0.1, spc_v3(0.35, 0.25, 2.2), 4);
@@ -112,9 +127,11 @@ TEST(default_on_with_casters_only)
         return;
     spc_snee_plan p;
     spc_snee_plan_make(with, "path", NULL, &p);
-    CHECK(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING) && p.casters == 1 && p.receivers == 2);
+    CHECK(p.on && p.automatic && glass_setting(p.setting) && p.casters == 1 && p.receivers == 2);
+    char auto_setting[96];
+    snprintf(auto_setting, sizeof auto_setting, "%s", p.setting);
     spc_snee_plan_make(with, "volpath", "auto", &p);
-    CHECK(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING));
+    CHECK(p.on && !strcmp(p.setting, auto_setting));
     spc_snee_plan_make(with, "bdpt", "", &p);
     CHECK(!p.on && !strcmp(p.setting, "none"));
     spc_snee_plan_make(with, "ipt", NULL, &p);
@@ -138,7 +155,7 @@ TEST(default_on_with_casters_only)
     /* what ran, in the stats and in the film (the EXR header's attributes) */
     char ran[96];
     spc_film *f = render_ran(with, "path", NULL, 2, 1, ran);
-    CHECK(f && !strcmp(ran, SPC_SNEE_PLAN_SETTING) && !strcmp(f->specular_nee, SPC_SNEE_PLAN_SETTING) && !strcmp(f->integrator, "path"));
+    CHECK(f && !strcmp(ran, auto_setting) && !strcmp(f->specular_nee, auto_setting) && !strcmp(f->integrator, "path"));
     spc_film_destroy(f);
     f = render_ran(with, "path", "none", 2, 1, ran);
     CHECK(f && !strcmp(ran, "none") && !strcmp(f->specular_nee, "none"));
@@ -155,7 +172,9 @@ TEST(default_on_with_casters_only)
 
     /* the plan as `specula info` prints it */
     char *text = spc_scene_plan(with, NULL, NULL);
-    CHECK(text && strstr(text, "specular NEE: " SPC_SNEE_PLAN_SETTING " (auto)") &&
+    char line[160];
+    snprintf(line, sizeof line, "specular NEE: %s (auto)", auto_setting);
+    CHECK(text && strstr(text, line) && strstr(text, "glass seen on") &&
           strstr(text, "caster shape 1: glass sphere: every chain on the sphere enumerated exactly"));
     free(text);
     text = spc_scene_plan(without, NULL, NULL);
@@ -231,7 +250,7 @@ TEST(xml_setting_words)
         "</scene>\n";
     static const struct {
         const char *value, *runs;
-    } words[] = {{"auto", SPC_SNEE_PLAN_SETTING}, {"", SPC_SNEE_PLAN_SETTING}, {"off", "none"}, {"none", "none"}, {"conic", "conic"}};
+    } words[] = {{"auto", NULL}, {"", NULL}, {"off", "none"}, {"none", "none"}, {"conic", "conic"}}; /* NULL: glass_setting */
     char text[1024];
     for (size_t i = 0; i < sizeof words / sizeof words[0]; ++i) {
         snprintf(text, sizeof text, fmt, words[i].value);
@@ -242,7 +261,8 @@ TEST(xml_setting_words)
             continue;
         spc_snee_plan p;
         spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
-        CHECK_MSG(!strcmp(p.setting, words[i].runs), "'%s' runs '%s'", words[i].value, p.setting);
+        CHECK_MSG(words[i].runs ? !strcmp(p.setting, words[i].runs) : glass_setting(p.setting), "'%s' runs '%s'",
+                  words[i].value, p.setting);
         spc_scene_destroy(sc);
     }
     snprintf(text, sizeof text, fmt, "autox");
@@ -277,7 +297,7 @@ TEST(default_agrees_with_none)
     char ran[96];
     spc_film *ref = render_ran(sc, "path", "none", 16384, 31, ran);
     spc_film *img = render_ran(sc, "path", plan.setting, 1024, 32, ran);
-    CHECK(ref && img && !strcmp(ran, SPC_SNEE_PLAN_SETTING));
+    CHECK(ref && img && !strcmp(ran, plan.setting) && glass_setting(ran));
     if (ref && img) {
         spc_diff_result d;
         memset(&d, 0, sizeof d);
@@ -291,6 +311,53 @@ TEST(default_agrees_with_none)
     }
     spc_film_destroy(img);
     spc_film_destroy(ref);
+    spc_scene_destroy(sc);
+}
+
+/* The query from the camera in a fraction sqrt(s) of the camera samples, s the share of the image
+ * whose camera ray meets a glass caster first (at least 0.1): the glass ball of radius 0.5 seen
+ * from 3 away on the axis covers pi r^2 / (d^2 - r^2) of the image plane at distance 1, over
+ * (2 tan 25 deg)^2 for the 50-degree square image: 0.1032; from 0.8 away it fills the image. */
+TEST(camera_query_from_glass_share)
+{
+    const double d[2] = {3.0, 0.8};
+    for (int i = 0; i < 2; ++i) {
+        spc_scene *sc = ball_scene_open(true, 0.1, spc_v3(0.35, 0.25, 2.2), 16);
+        tu_camera(sc, spc_v3(0, -d[i], 0.5), spc_v3(0, 0, 0.5), spc_v3(0, 0, 1), 50, 16, 16);
+        if (!finalize(sc)) {
+            spc_scene_destroy(sc);
+            CHECK(false);
+            continue;
+        }
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        double want = i == 0 ? SPC_PI * 0.25 / (9.0 - 0.25) / pow(2.0 * tan(25.0 * SPC_PI / 180.0), 2.0) : 1.0;
+        spc_snee_params sp;
+        CHECK_MSG(p.on && fabs(p.glass_share - want) < 0.01 && spc_snee_parse(p.setting, 2, &sp) &&
+                      fabs(sp.camera_p - spc_max(0.1, sqrt(want))) < 0.01 && glass_setting(p.setting),
+                  "distance %g: share %g (want %g), %s", d[i], p.glass_share, want, p.setting);
+        printf("    camera %g from the ball: glass on %.4f of the image (%.4f), %s\n", d[i], p.glass_share, want,
+               p.setting);
+        spc_scene_destroy(sc);
+    }
+    /* the same ball as a signed distance field, whose chains go to the randomized attempts: the
+     * query in every camera sample */
+    spc_scene *sc = ball_scene_open(false, 0.1, spc_v3(0.35, 0.25, 2.2), 16);
+    tu_camera(sc, spc_v3(0, -3.0, 0.5), spc_v3(0, 0, 0.5), spc_v3(0, 0, 1), 50, 16, 16);
+    spc_sdf_desc sd;
+    spc_sdf_desc_init(&sd, SPC_SDF_SPHERE);
+    sd.radius = 0.5;
+    spc_mat4 M = spc_mat4_translate(spc_v3(0, 0, 0.5));
+    CHECK(tu_sdf(sc, &sd, &M, tu_glass(sc, 1.5)) != NULL);
+    if (!finalize(sc)) {
+        spc_scene_destroy(sc);
+        CHECK(false);
+        return;
+    }
+    spc_snee_plan p;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && p.glass_share > 0.05 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING), "SDF ball: share %g, %s",
+              p.glass_share, p.setting);
     spc_scene_destroy(sc);
 }
 
@@ -343,7 +410,7 @@ TEST(mirror_only_plan_has_no_camera_query)
     free(text);
     spc_snee_plan both_plan;
     spc_snee_plan_make(both, "path", NULL, &both_plan);
-    CHECK_MSG(both_plan.on && both_plan.casters == 2 && !strcmp(both_plan.setting, SPC_SNEE_PLAN_SETTING), "%s",
+    CHECK_MSG(both_plan.on && both_plan.casters == 2 && glass_setting(both_plan.setting), "%s",
               both_plan.setting);
     CHECK(spc_snee_parse(both_plan.setting, 2, &sp) && sp.camera);
 
@@ -380,12 +447,12 @@ TEST(lamp_in_glass_globe_plan_on)
     CHECK(finalize(sc));
     spc_snee_plan p;
     spc_snee_plan_make(sc, "path", NULL, &p);
-    CHECK_MSG(p.on && p.light_sr > 0.03 && p.caster_share >= 1.0 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING),
+    CHECK_MSG(p.on && p.light_sr > 0.03 && p.caster_share >= 1.0 && glass_setting(p.setting),
               "%s (%s) %g sr, share %g", p.setting, p.reason, p.light_sr, p.caster_share);
     char ran[96];
     spc_film *ref = render_ran(sc, "path", "none", 16384, 71, ran);
     spc_film *img = render_ran(sc, "path", NULL, 4096, 72, ran);
-    CHECK(ref && img && !strcmp(ran, SPC_SNEE_PLAN_SETTING));
+    CHECK(ref && img && !strcmp(ran, p.setting));
     if (ref && img) {
         spc_diff_result d;
         memset(&d, 0, sizeof d);
@@ -412,7 +479,7 @@ TEST(small_light_ball_agrees_with_bdpt)
     char ran[96];
     spc_film *ref = render_ran(sc, "bdpt", NULL, 8192, 41, ran);
     spc_film *img = render_ran(sc, "path", NULL, 2048, 42, ran);
-    CHECK(ref && img && !strcmp(ran, SPC_SNEE_PLAN_SETTING));
+    CHECK(ref && img && glass_setting(ran));
     if (ref && img) {
         spc_diff_result d;
         memset(&d, 0, sizeof d);
@@ -443,11 +510,11 @@ TEST(demo_plan_on)
         return;
     spc_snee_plan p;
     spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
-    CHECK_MSG(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING) && p.casters == 2 && p.light_sr < 0.03,
+    CHECK_MSG(p.on && p.automatic && glass_setting(p.setting) && p.casters == 2 && p.light_sr < 0.03,
               "%s: %s (%g sr)", p.setting, p.reason, p.light_sr);
     char ran[96];
     spc_film *img = render_ran(sc, "path", NULL, 512, 51, ran);
-    CHECK(img && !strcmp(ran, SPC_SNEE_PLAN_SETTING));
+    CHECK(img && !strcmp(ran, p.setting));
     spc_film *all = render_ran(sc, "path", "angular:camera", 512, 52, ran);
     CHECK(img && all);
     if (img && all) {
@@ -676,6 +743,7 @@ int main(void)
     RUN(default_on_with_casters_only);
     RUN(xml_setting_words);
     RUN(default_agrees_with_none);
+    RUN(camera_query_from_glass_share);
     RUN(mirror_only_plan_has_no_camera_query);
     RUN(lamp_in_glass_globe_plan_on);
     RUN(small_light_ball_agrees_with_bdpt);

@@ -16,6 +16,7 @@
 #include "manifold/plane_chains.h"
 #include "manifold/snee_options.h"
 #include "manifold/sphere_chains.h"
+#include "scene/camera.h"
 #include "scene/scene.h"
 
 /* Off when every light subtends more than this solid angle at the casters (snee_plan.h): BSDF
@@ -97,10 +98,15 @@ static double caster_share(const spc_emitter *e, const spc_scene *sc, const spc_
  * surface it meets continues it: chains pass through and off casters). */
 #define SPC_SNEE_PLAN_SIGHT_CROSSINGS 16
 
-static bool in_casters(const spc_chain_casters *cs, int idx)
+/* Directions open_share traces from the casters' centre (a Fibonacci sphere: the share to about
+ * 1/256), and the caster or light surfaces one of its rays passes before it counts as stopped. */
+#define SPC_SNEE_PLAN_OPEN_DIRS 256
+#define SPC_SNEE_PLAN_OPEN_PASSES 16
+
+static bool is_caster(const spc_chain_casters *cs, int shape_index)
 {
-    for (int i = 0; i < cs->n; ++i)
-        if (cs->idx[i] == idx)
+    for (int k = 0; k < cs->n; ++k)
+        if (cs->idx[k] == shape_index)
             return true;
     return false;
 }
@@ -153,7 +159,7 @@ static bool light_seen(const spc_emitter *e, int ei, const spc_scene *sc, const 
             }
             if (ls && h.shape_index == e->shape_index)
                 return true;
-            if (!in_casters(cs, h.shape_index))
+            if (!is_caster(cs, h.shape_index))
                 break; /* blocked */
             double left = r.tmax - h.t;
             r = spc_hit_spawn(&h, d);
@@ -162,6 +168,32 @@ static bool light_seen(const spc_emitter *e, int ei, const spc_scene *sc, const 
         }
     }
     return false;
+/* The share of the directions from the casters' centre along which a ray leaves the scene, passing
+ * casters and lights but no other surface: about 1/2 over an open floor, near 0 in a closed room.
+ * 0 where the scene is not finalized. Deterministic. */
+static double open_share(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    if (!sc->finalized)
+        return 0.0;
+    const int n = SPC_SNEE_PLAN_OPEN_DIRS;
+    const double golden = SPC_PI * (3.0 - sqrt(5.0));
+    int open = 0;
+    for (int i = 0; i < n; ++i) {
+        double z = 1.0 - (2.0 * i + 1.0) / n, r = sqrt(spc_max(0.0, 1.0 - z * z));
+        spc_vec3 d = spc_v3(r * cos(golden * i), r * sin(golden * i), z);
+        spc_ray ray = {cs->center, d, 0.0, SPC_INF};
+        for (int k = 0; k < SPC_SNEE_PLAN_OPEN_PASSES; ++k) {
+            spc_hit h;
+            if (!spc_scene_intersect(sc, &ray, &h)) {
+                ++open;
+                break;
+            }
+            if (!h.emitter && !is_caster(cs, h.shape_index))
+                break;
+            ray = spc_hit_spawn(&h, d);
+        }
+    }
+    return (double)open / n;
 }
 
 /* Flat faces: a disk, or a mesh without vertex normals (a cube, a rectangle, face_normals). */
@@ -169,6 +201,39 @@ static bool flat(const spc_shape *s)
 {
     return s->type == SPC_SHAPE_DISK || (s->type == SPC_SHAPE_MESH && (s->face_normals || !s->mesh.n));
 }
+
+/* Pinhole rays per side of the grid glass_image_share traces: 32 x 32 rays (a few ms at load) find
+ * a caster that covers 1/1000 of the image. */
+#define SPC_SNEE_PLAN_SHARE_GRID 32
+
+/* The share of the image whose camera ray meets a glass caster first: pinhole rays through the
+ * centres of a grid of SPC_SNEE_PLAN_SHARE_GRID^2 cells of the scene's film. 1 where that cannot
+ * be traced (the scene not finalized, a camera that does not prepare). Deterministic. */
+static double glass_image_share(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    spc_camera_state cam;
+    if (!sc->finalized || !spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height))
+        return 1.0;
+    const int g = SPC_SNEE_PLAN_SHARE_GRID;
+    int seen = 0;
+    for (int j = 0; j < g; ++j)
+        for (int i = 0; i < g; ++i) {
+            spc_ray r = spc_camera_ray(&cam, (i + 0.5) * cam.width / g, (j + 0.5) * cam.height / g);
+            spc_hit h;
+            if (!spc_scene_intersect(sc, &r, &h))
+                continue;
+            double eta = 0.0;
+            seen += is_caster(cs, h.shape_index) && h.shape && spc_bsdf_is_specular_interface(h.shape->bsdf, &eta) &&
+                    eta > 0.0;
+        }
+    return (double)seen / (g * g);
+}
+
+/* The query from the camera is made in a fraction Q = sqrt(glass_share) of the camera samples where
+ * every glass caster is enumerated exactly, at least MIN (snee_plan.h), and in every one from ALL
+ * up (a glass surface filling the image). */
+#define SPC_SNEE_PLAN_CAMERA_MIN 0.1
+#define SPC_SNEE_PLAN_CAMERA_ALL 0.95
 
 static void off(spc_snee_plan *out, const char *why)
 {
@@ -253,14 +318,27 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
             snprintf(out->setting, sizeof out->setting, "none");
             return;
         }
-    /* the query from the camera only where some caster is glass (snee_plan.h) */
-    bool glass = false;
-    for (int i = 0; i < cs->n && !glass; ++i) {
+    /* the query from the camera only where some caster is glass, by Russian roulette only where
+     * every glass caster's chains are enumerated exactly (snee_plan.h) */
+    bool glass = false, exact = true;
+    for (int i = 0; i < cs->n; ++i) {
         double eta = 0.0;
-        glass = spc_bsdf_is_specular_interface(sc->shapes[cs->idx[i]]->bsdf, &eta) && eta > 0.0;
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        if (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) {
+            glass = true;
+            exact = exact && spc_snee_plan_method(&p, s) != SPC_SNEE_METHOD_SOLVER;
+        }
     }
     out->on = true;
-    snprintf(out->setting, sizeof out->setting, "%s", glass ? SPC_SNEE_PLAN_SETTING : SPC_SNEE_PLAN_SETTING_MIRRORS);
+    out->glass_share = glass ? glass_image_share(sc, cs) : 0.0;
+    out->open_share = open_share(sc, cs);
+    double q = exact ? spc_max(SPC_SNEE_PLAN_CAMERA_MIN, sqrt(out->glass_share)) : 1.0;
+    if (!glass)
+        snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_MIRRORS);
+    else if (q < SPC_SNEE_PLAN_CAMERA_ALL)
+        snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,later=0.25", q);
+    else
+        snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING);
 }
 
 spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *s)
@@ -325,6 +403,10 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
     put(&b, "specular NEE: %s%s; chains of 1-%d vertices%s%s; %d casters, %d receivers; smallest light %.2g sr\n",
         plan->setting, plan->automatic ? " (auto)" : "", p.max_chain, p.reflect ? ", reflections off glass" : "",
         !p.no_mis ? "" : ", no MIS", plan->casters, plan->receivers, plan->light_sr);
+    if (plan->automatic && p.camera)
+        put(&b, "  glass seen on %.3g of the image\n", plan->glass_share);
+    if (plan->automatic)
+        put(&b, "  open to the sky in %.3g of the directions from the casters\n", plan->open_share);
     if (p.later_p < 1.0)
         put(&b, "  past a path's first receiver with probability %g (Russian roulette)\n", p.later_p);
     const spc_chain_casters *cs = spc_chain_casters_of(sc, p.any_surface);

@@ -28,7 +28,18 @@
  *     reaches the receivers through the casters;
  *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
  *     the camera (SPC_SNEE_PLAN_SETTING; without that query if every caster is a mirror:
- *     SPC_SNEE_PLAN_SETTING_MIRRORS): chains of up to the scene's specular_max_chain (2)
+ *     SPC_SNEE_PLAN_SETTING_MIRRORS). Where every glass caster is enumerated exactly (below), that
+ *     query is made in a fraction Q = sqrt(s) of the camera samples (at least 0.1; camera=Q), s
+ *     the share of the image whose camera ray meets a glass caster first (a grid of pinhole rays):
+ *     the query costs about as much as the rest of specular NEE per sample wherever the glass is,
+ *     and pays only on the pixels that see it. Russian roulette with probability Q minimizes cost
+ *     x variance at Q = sqrt(c V_q / (c_q V)) (c, V the cost and variance of the rest, c_q and V_q
+ *     the query's); with c_q ~ c and the query's variance on a share s of the pixels, Q ~ sqrt(s).
+ *     At equal CPU time relMSE fell 1.3-1.6x on dielectrics, the demo and the glass sphere against
+ *     the query in every sample. Where glass goes to the randomized attempts, the query's splats
+ *     already carry the Bernoulli trial counts' tail, and 1/Q on top lost: the SDF scene
+ *     sdf_shapes_csg 2.2x worse at Q = 0.2 (bench/RESULTS.md, "Plan: never worse than none").
+ *     Chains of up to the scene's specular_max_chain (2)
  *     vertices through and off glass and off mirrors, MIS with BSDF sampling, the
  *     longer chains with probability 0.1, and every chain on one analytic sphere, one mirror
  *     cylinder or one normal-mapped plane enumerated exactly (sphere_chains.h, cylinder_chains.h,
@@ -51,7 +62,8 @@
 /* The setting the plan picks wherever specular NEE pays (the reasons are above): chains that
  * reflect off glass as well as refract (the light's image in a glass ball or on water, internal
  * reflections in the longer chains), and the same chains from the camera (the light seen in or
- * through glass). Without either, those paths are left to BSDF sampling and to camera rays, which
+ * through glass; the plan lowers the query's probability camera=Q where glass covers little of the
+ * image, snee_plan.c). Without either, those paths are left to BSDF sampling and to camera rays, which
  * find the light's small image rarely: on the SDF torus, the pool and the glass sphere one pixel
  * then held 73-99% of the error at equal CPU time, and with both the default's relMSE was 4-8x
  * lower than without specular NEE (bench/RESULTS.md, "Heavy tails of the default"). Reflections were
@@ -91,6 +103,8 @@ typedef struct spc_snee_plan {
     int receivers;    /* shapes specular NEE may start at */
     double light_sr;  /* the smallest solid angle (sr) a light subtends at the casters (0: a point) */
     double caster_share; /* the largest share of a light's directions that meet the casters (snee_plan.c) */
+    double glass_share;  /* the share of the image whose camera ray meets a glass caster first (snee_plan.c) */
+    double open_share;   /* the share of directions from the casters that leave the scene (snee_plan.c) */
 } spc_snee_plan;
 
 /* The plan for rendering sc with integrator `integrator` ("path", "volpath", "bdpt", "ipt") and the
