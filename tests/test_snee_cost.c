@@ -10,6 +10,9 @@
  *   enumeration covers. With 3 vertices such chains are found (the test can fail).
  * - spc_sphere_arc_unseen against a dense scan of y . P over random arcs and points y.
  * - spc_snee_query_prob: later_p's probability only where it applies.
+ * - spc_snee_caster_share: one ball's cone of directions in closed form; 1 within a caster's bound.
+ * - spc_snee_later_prob: later_p far from the casters, 1 beside them, in between in proportion to
+ *   the share, never below later_p nor above 1; 1 without roulette.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -172,11 +175,59 @@ TEST(query_prob)
     CHECK(spc_snee_parse("angular", 2, &p) && p.later_p == 1.0);
 }
 
+TEST(later_prob_from_the_casters_share)
+{
+    spc_scene *sc = balls(false, false);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, false);
+    CHECK(cs && cs->n == 2);
+    /* a point on the axis through the glass ball's centre and the mirror ball's, beyond the glass
+     * ball: both bounds' cones from it in closed form (each ball's bounding box sphere, radius
+     * sqrt(3) times the ball's) */
+    spc_vec3 cg = spc_v3(-0.42, 0.1, 0.36), cm = spc_v3(0.45, -0.3, 0.33);
+    spc_vec3 x = spc_v3(-6.0, 0.5, 2.0);
+    double want = 0.0;
+    const spc_vec3 c[2] = {cg, cm};
+    const double r[2] = {0.36, 0.33};
+    for (int i = 0; i < 2; ++i) {
+        double R = sqrt(3.0) * r[i], d = spc_distance(x, c[i]);
+        want += 0.5 * (1.0 - sqrt(1.0 - R * R / (d * d)));
+    }
+    double got = spc_snee_caster_share(sc, cs, x);
+    CHECK_MSG(fabs(got - want) < 1e-9 * want, "share %g, closed form %g", got, want);
+    CHECK(spc_snee_caster_share(sc, cs, spc_v3(-0.42, 0.1, 0.0)) == 1.0); /* under the glass ball */
+
+    spc_snee_params p;
+    CHECK(spc_snee_parse("angular:later=0.25", 2, &p));
+    CHECK(spc_snee_later_prob(sc, &p, spc_v3(-0.42, 0.1, 0.0)) == 1.0);
+    CHECK(spc_snee_later_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 0.25);
+    /* along a line away from the balls: from 1 down to later_p, never rising, and in between
+     * equal to the share over 0.3 */
+    double last = 2.0;
+    int between = 0;
+    for (int i = 0; i <= 200; ++i) {
+        spc_vec3 y = spc_v3(-0.42 - 0.05 * i, 0.1, 0.0);
+        double q = spc_snee_later_prob(sc, &p, y), s = spc_snee_caster_share(sc, cs, y);
+        CHECK_MSG(q >= 0.25 && q <= 1.0 && q <= last + 1e-12, "at %g: q %g after %g", y.x, q, last);
+        if (q > 0.25 && q < 1.0) {
+            ++between;
+            CHECK_MSG(fabs(q - s / 0.3) < 1e-12, "at %g: q %g, share %g", y.x, q, s);
+        }
+        last = q;
+    }
+    CHECK(last == 0.25 && between > 5);
+    CHECK(spc_snee_parse("angular", 2, &p) && spc_snee_later_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 1.0);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(spheres_keep_apart);
     RUN(no_chain_visits_two_balls);
     RUN(arc_unseen_against_a_scan);
     RUN(query_prob);
+    RUN(later_prob_from_the_casters_share);
     return spc_test_finish();
 }

@@ -8,6 +8,8 @@
 
 #include <string.h>
 
+#include "manifold/snee_cost.h"
+
 /* The rough-vertex mode (newton's "rough"): its own estimator, without MIS or camera queries. */
 static bool rough_mode(const spc_snee_params *p) { return p->solver == SPC_SNEE_NEWTON && p->newton.rough; }
 
@@ -96,10 +98,10 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
         s->budget = 0; /* past the vertices specular NEE runs at */
     if (s->budget <= 0)
         return spc_rgb1(0.0);
-    /* spc_snee_params.later_p: past the first receiver, the query by Russian roulette; a covered
-     * BSDF path's MIS weight reads the same query_p (a vertex with a smooth lobe is no chain
-     * vertex: a live track started at the last such vertex) */
-    s->p.query_p = s->receivers > 0 ? s->p.later_p : 1.0;
+    /* spc_snee_params.later_p: past the first receiver, the query by Russian roulette, made always
+     * near the casters (spc_snee_later_prob); a covered BSDF path's MIS weight reads the same query_p
+     * (a vertex with a smooth lobe is no chain vertex: a live track started at the last such vertex) */
+    s->p.query_p = s->receivers > 0 ? spc_snee_later_prob(ctx->scene, &s->p, h->p) : 1.0;
     spc_rng rng;
     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
     return spc_specular_nee_depth(ctx->scene, &s->p, h, wo, s->budget, s->long_budget, &rng, NULL);

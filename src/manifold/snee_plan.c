@@ -408,7 +408,8 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
     if (plan->automatic)
         put(&b, "  open to the sky in %.3g of the directions from the casters\n", plan->open_share);
     if (p.later_p < 1.0)
-        put(&b, "  past a path's first receiver with probability %g (Russian roulette)\n", p.later_p);
+        put(&b, "  past a path's first receiver with probability %g (Russian roulette), up to 1 near the casters\n",
+            p.later_p);
     const spc_chain_casters *cs = spc_chain_casters_of(sc, p.any_surface);
     for (int i = 0; cs && i < cs->n; ++i) {
         const spc_shape *s = sc->shapes[cs->idx[i]];

@@ -163,8 +163,8 @@ typedef struct spc_snee_params {
      * probability P and counted 1 / P times, and MIS weighs it with P p_y, so that BSDF sampling
      * takes more of the covered paths there. Unbiased for any P in (0, 1]; it spends the queries
      * where the caustic is seen rather than where it only lights the room. The caller sets
-     * query_p per receiver (the path integrator: 1 at the first, later_p after it; 0 counts as
-     * 1); not with guide, not from the camera (camera_p). */
+     * query_p per receiver (the path integrator: 1 at the first, after it later_p, raised near the
+     * casters by spc_snee_later_prob; 0 counts as 1); not with guide, not from the camera (camera_p). */
     double later_p;
     double query_p;
 } spc_snee_params;
