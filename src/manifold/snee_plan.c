@@ -168,6 +168,8 @@ static bool light_seen(const spc_emitter *e, int ei, const spc_scene *sc, const 
         }
     }
     return false;
+}
+
 /* The share of the directions from the casters' centre along which a ray leaves the scene, passing
  * casters and lights but no other surface: about 1/2 over an open floor, near 0 in a closed room.
  * 0 where the scene is not finalized. Deterministic. */
