@@ -113,8 +113,9 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting, sizeof out->setting, "%s", setting);
         return;
     }
-    if (!integrator || (strcmp(integrator, "path") && strcmp(integrator, "volpath"))) {
-        off(out, "only path and volpath use it");
+    const bool bdpt = integrator && !strcmp(integrator, "bdpt");
+    if (!integrator || (strcmp(integrator, "path") && strcmp(integrator, "volpath") && !bdpt)) {
+        off(out, "only path, volpath and bdpt use it");
         return;
     }
     if (out->casters == 0) {
@@ -172,7 +173,9 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         glass = spc_bsdf_is_specular_interface(sc->shapes[cs->idx[i]]->bsdf, &eta) && eta > 0.0;
     }
     out->on = true;
-    snprintf(out->setting, sizeof out->setting, "%s", glass ? SPC_SNEE_PLAN_SETTING : SPC_SNEE_PLAN_SETTING_MIRRORS);
+    const char *chosen = bdpt ? (glass ? SPC_SNEE_PLAN_SETTING_BDPT : SPC_SNEE_PLAN_SETTING_BDPT_MIRRORS)
+                               : (glass ? SPC_SNEE_PLAN_SETTING : SPC_SNEE_PLAN_SETTING_MIRRORS);
+    snprintf(out->setting, sizeof out->setting, "%s", chosen);
 }
 
 spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *s)
@@ -239,6 +242,8 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
         !p.no_mis ? "" : ", no MIS", plan->casters, plan->receivers, plan->light_sr);
     if (p.later_p < 1.0)
         put(&b, "  past a path's first receiver with probability %g (Russian roulette)\n", p.later_p);
+    if (p.camera && p.camera_p < 1.0)
+        put(&b, "  from the camera on a share %g of the samples\n", p.camera_p);
     const spc_chain_casters *cs = spc_chain_casters_of(sc, p.any_surface);
     for (int i = 0; cs && i < cs->n; ++i) {
         const spc_shape *s = sc->shapes[cs->idx[i]];
