@@ -78,9 +78,10 @@
  * The paths it covers (a caustic seen through glass, the light seen in or through glass) are
  * single samples hundreds of times their pixel's mean for s = 0 alone: on the glass-ball caustic at
  * equal CPU time bdpt's mean relMSE over 8 seeds was 2.1x lower with this setting than without
- * specular NEE and 1.1x lower than with `angular` (no query from the camera; the query on every
- * sample cost 2.2x per sample and lost), and on the lamp with a glass ball it was even (1.03x);
- * bench/RESULTS.md, "Issue 21, continued" and "Issue 21, part 4". */
+ * specular NEE (the worst pixel's share 60% -> 20%) and 1.1x lower than with `angular` (no query
+ * from the camera; the query on every sample cost 2.2x per sample and lost); on the lamp with a
+ * glass egg, whose caustic paths are a small part of the image, it cost 1.08x (8% more time per
+ * sample for nothing); bench/RESULTS.md, "Issue 21, continued" and "Issue 21, part 4". */
 #define SPC_SNEE_PLAN_SETTING_BDPT "angular:camera=0.1"
 
 /* bdpt's setting where every caster is a mirror: the same without the query from the camera (as
