@@ -114,7 +114,7 @@ def main():
     a = ap.parse_args()
     os.makedirs(a.refs, exist_ok=True)
     os.makedirs(a.out, exist_ok=True)
-    print(f"{a.res}x{a.res}, {a.cpu} CPU s per render, seeds 1..{a.seeds}, specular NEE '{a.snee or 'default'}' (bdpt: '{a.bdpt_snee or a.snee or 'none'}'), load average "
+    print(f"{a.res}x{a.res}, {a.cpu} CPU s per render, seeds 1..{a.seeds}, specular NEE '{a.snee or 'default'}' (bdpt: '{a.bdpt_snee or a.snee or 'default, the plan'}'), load average "
           f"{open('/proc/loadavg').read().split()[:3]}")
     print("| scene | integrator | spp | CPU s (mean) | relMSE mean | relMSE worst (seed) | worst pixel's share, "
           "largest over seeds | z-test pass, lowest over seeds | path / bdpt (mean relMSE) |")

@@ -960,7 +960,7 @@ TEST(specular_nee_tames_s0_only_paths)
     CHECK(sc != NULL);
     if (!sc)
         return;
-    spc_film *plain = render_snee(sc, "bdpt", "", 1024, 51);
+    spc_film *plain = render_snee(sc, "bdpt", "none", 1024, 51);
     spc_film *with = render_snee(sc, "bdpt", "angular:camera", 1024, 52);
     spc_film *path = render_snee(sc, "path", "", 4096, 53);
     spc_film *receivers = render_snee(sc, "bdpt", "angular", 1024, 54);
@@ -1002,7 +1002,7 @@ TEST(specular_nee_camera_share_and_corners)
     CHECK(sc != NULL);
     if (!sc)
         return;
-    spc_film *plain = render_snee(sc, "bdpt", "", 2048, 61);
+    spc_film *plain = render_snee(sc, "bdpt", "none", 2048, 61);
     spc_film *with = render_snee(sc, "bdpt", "angular:camera=0.1", 1024, 62);
     spc_film *path = render_snee(sc, "path", "", 2048, 63);
     CHECK(plain && with && path);

@@ -2,7 +2,7 @@
  * tests/test_snee_plan.c: specular NEE by default (manifold/snee_plan.h).
  *
  * - The plan: on (angular) for path and volpath on a scene with a caster, a receiver and an area
- *   light; off without casters, with a flat-faced caster (a glass pane), with bdpt or ipt, with
+ *   light; off without casters, with a flat-faced caster (a glass pane), with ipt, with
  *   only an environment light, and when the setting says none or off; an explicit setting is kept;
  *   without the query from the camera where every caster is a mirror, and with it in a fraction
  *   sqrt(s) of the camera samples where glass covers a share s of the image (an analytic share)
@@ -20,6 +20,8 @@
  *   default against bdpt, per-pixel z-test and image means.
  * - No fireflies where the camera sees a small light in and through a glass ball: the default's
  *   image means over seeds scatter little where camera rays alone find the light's images rarely.
+ * - bdpt's default: its own setting from the same rules, and its estimator against bdpt without
+ *   specular NEE (per-pixel z-test and image means).
  * - Random caustic scene 2's ball and light at max_depth 4 (chains of one and two vertices at the
  *   first receiver): specular NEE with reflections off glass against bdpt over pixel blocks.
  * - A light no caster sees (a bulb inside an opaque shade): the plan is off; with the shade's side
@@ -133,7 +135,7 @@ TEST(default_on_with_casters_only)
     spc_snee_plan_make(with, "volpath", "auto", &p);
     CHECK(p.on && !strcmp(p.setting, auto_setting));
     spc_snee_plan_make(with, "bdpt", "", &p);
-    CHECK(!p.on && !strcmp(p.setting, "none"));
+    CHECK(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BDPT));
     spc_snee_plan_make(with, "ipt", NULL, &p);
     CHECK(!p.on);
     spc_snee_plan_make(with, "path", "none", &p);
@@ -161,7 +163,7 @@ TEST(default_on_with_casters_only)
     CHECK(f && !strcmp(ran, "none") && !strcmp(f->specular_nee, "none"));
     spc_film_destroy(f);
     f = render_ran(with, "bdpt", NULL, 2, 1, ran);
-    CHECK(f && !strcmp(ran, "none"));
+    CHECK(f && !strcmp(ran, SPC_SNEE_PLAN_SETTING_BDPT));
     spc_film_destroy(f);
     f = render_ran(without, "path", NULL, 2, 1, ran);
     CHECK(f && !strcmp(ran, "none"));
@@ -467,6 +469,67 @@ TEST(lamp_in_glass_globe_plan_on)
 
 static bool blocks_agree(const spc_film *img, const spc_film *ref, int n, const char *label);
 
+/* bdpt's default follows the plan with its own setting: on with a glass caster (the query from the
+ * camera on a share of the samples), without that query where every caster is a mirror, off
+ * without casters, with a large light, or when turned off; what ran is in the stats, `specula
+ * info`'s text says it. Its estimator: the default (1024 spp) against bdpt without specular NEE
+ * (4096 spp) on the glass ball under a small light, per-pixel z-test and image means. */
+TEST(bdpt_default_follows_the_plan)
+{
+    spc_scene *with = ball_scene(true, 0.1, spc_v3(0.35, 0.25, 2.2), 12);
+    spc_scene *without = ball_scene(false, 0.1, spc_v3(0.35, 0.25, 2.2), 4);
+    spc_scene *large = ball_scene(true, 0.6, spc_v3(0.35, 0.25, 2.2), 4);
+    spc_scene *mirror = mirror_scene(false, 0.1, 4);
+    CHECK(with && without && large && mirror);
+    if (!with || !without || !large || !mirror) {
+        spc_scene_destroy(with);
+        spc_scene_destroy(without);
+        spc_scene_destroy(large);
+        spc_scene_destroy(mirror);
+        return;
+    }
+    spc_snee_plan p;
+    spc_snee_plan_make(with, "bdpt", NULL, &p);
+    CHECK_MSG(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BDPT), "%s", p.setting);
+    spc_snee_params sp;
+    CHECK(spc_snee_parse(p.setting, 2, &sp) && sp.camera && sp.camera_p > 0.0 && sp.camera_p < 1.0);
+    spc_snee_plan_make(mirror, "bdpt", NULL, &p);
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BDPT_MIRRORS), "%s", p.setting);
+    CHECK(spc_snee_parse(p.setting, 2, &sp) && !sp.camera);
+    spc_snee_plan_make(without, "bdpt", NULL, &p);
+    CHECK(!p.on && strstr(p.reason, "casters") != NULL);
+    spc_snee_plan_make(large, "bdpt", NULL, &p);
+    CHECK_MSG(!p.on && strstr(p.reason, "every light is large") != NULL, "%s", p.reason);
+    spc_snee_plan_make(with, "bdpt", "none", &p);
+    CHECK(!p.on && !p.automatic);
+    spc_snee_plan_make(with, "ptracer", NULL, &p);
+    CHECK(!p.on);
+    char *text = spc_scene_plan(with, "bdpt", NULL);
+    CHECK_MSG(text && strstr(text, "specular NEE: " SPC_SNEE_PLAN_SETTING_BDPT " (auto)") &&
+                  strstr(text, "from the camera on a share 0.1 of the samples"),
+              "%s", text ? text : "(null)");
+    free(text);
+
+    char ran[96];
+    spc_film *img = render_ran(with, "bdpt", NULL, 1024, 61, ran);
+    CHECK(img && !strcmp(ran, SPC_SNEE_PLAN_SETTING_BDPT));
+    spc_film *ref = render_ran(with, "bdpt", "none", 4096, 62, ran);
+    CHECK(ref && !strcmp(ran, "none"));
+    if (img && ref) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(img, ref, 0.99, "bdpt default vs bdpt none", &d));
+        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
+               d.mean_a[0], d.mean_b[0]);
+    }
+    spc_film_destroy(img);
+    spc_film_destroy(ref);
+    spc_scene_destroy(with);
+    spc_scene_destroy(without);
+    spc_scene_destroy(large);
+    spc_scene_destroy(mirror);
+}
+
 /* The glass ball under a small sphere light (radius 0.05) with no sky: the default (reflections
  * off glass and the query from the camera included) against bdpt, whose light paths reach the
  * caustic directly, with specular NEE at its receivers (camera=0.1): plain bdpt at 8192 spp misses
@@ -639,7 +702,7 @@ TEST(reflections_at_depth_4_agree_with_bdpt)
         return;
     sc->integrator.max_depth = 4;
     char ran[96];
-    spc_film *ref = render_ran(sc, "bdpt", NULL, 8192, 51, ran);
+    spc_film *ref = render_ran(sc, "bdpt", "none", 8192, 51, ran);
     spc_film *img = render_ran(sc, "path", "angular", 2048, 52, ran);
     CHECK(ref && img && !strcmp(ran, "angular"));
     if (ref && img) {
@@ -752,6 +815,7 @@ int main(void)
     RUN(mirror_only_plan_has_no_camera_query);
     RUN(lamp_in_glass_globe_plan_on);
     RUN(small_light_ball_agrees_with_bdpt);
+    RUN(bdpt_default_follows_the_plan);
     RUN(default_has_no_fireflies_through_glass);
     RUN(reflections_at_depth_4_agree_with_bdpt);
     RUN(light_in_housing_plan_off);

@@ -111,8 +111,8 @@ static const char *const usage_render =
     "  --res WxH              film size (default: the scene's)\n"
     "  --integrator NAME      path, ipt, bdpt, volpath or ptracer (default: the scene's)\n"
     "  --specular-nee NAME[:OPTS]  auto, none, angular, newton, conic (default: the scene's, else\n"
-    "                         auto: chosen from the scene, as `specula info` shows; bdpt only\n"
-    "                         when given, ipt never: there only none and auto); OPTS,\n"
+    "                         auto: chosen from the scene, as `specula info` shows, for path,\n"
+    "                         volpath and bdpt; ipt never: there only none and auto); OPTS,\n"
     "                         comma-separated, e.g. newton:biased=8,seed=light (below)\n"
     ;
 

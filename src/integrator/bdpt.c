@@ -51,8 +51,8 @@
  * adjoint correction (1997, eq. 5.20) |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) at each scattering and
  * at the light-side end of a connection. Camera subpaths need none.
  *
- * Specular NEE (ctx->specular_nee, src/manifold/specular_nee.h; off unless a scene or --specular-nee
- * asks for it). Paths that go camera - delta vertices - a non-delta vertex - delta vertices - light
+ * Specular NEE (ctx->specular_nee, src/manifold/specular_nee.h; by default as the scene's plan
+ * says, manifold/snee_plan.h: on with smooth glass or mirror casters and a small light). Paths that go camera - delta vertices - a non-delta vertex - delta vertices - light
  * (a caustic or the light seen through glass; with params.camera also camera - delta vertices -
  * light) have no strategy but s = 0, which must hit the light by chance: in the glass-ball caustic a
  * few such pixels held most of bdpt's variance. At such vertices (camera-subpath vertices reached

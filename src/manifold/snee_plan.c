@@ -261,8 +261,9 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting, sizeof out->setting, "%s", setting);
         return;
     }
-    if (!integrator || (strcmp(integrator, "path") && strcmp(integrator, "volpath"))) {
-        off(out, "only path and volpath use it");
+    const bool bdpt = integrator && !strcmp(integrator, "bdpt");
+    if (!integrator || (strcmp(integrator, "path") && strcmp(integrator, "volpath") && !bdpt)) {
+        off(out, "only path, volpath and bdpt use it");
         return;
     }
     if (out->casters == 0) {
@@ -335,7 +336,10 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     out->glass_share = glass ? glass_image_share(sc, cs) : 0.0;
     out->open_share = open_share(sc, cs);
     double q = exact ? spc_max(SPC_SNEE_PLAN_CAMERA_MIN, sqrt(out->glass_share)) : 1.0;
-    if (!glass)
+    if (bdpt)
+        snprintf(out->setting, sizeof out->setting, "%s",
+                 glass ? SPC_SNEE_PLAN_SETTING_BDPT : SPC_SNEE_PLAN_SETTING_BDPT_MIRRORS);
+    else if (!glass)
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_MIRRORS);
     else if (q < SPC_SNEE_PLAN_CAMERA_ALL)
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,later=0.25", q);
@@ -412,6 +416,8 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
     if (p.later_p < 1.0)
         put(&b, "  past a path's first receiver with probability %g (Russian roulette), up to 1 near the casters\n",
             p.later_p);
+    if (p.camera && p.camera_p < 1.0)
+        put(&b, "  from the camera on a share %g of the samples\n", p.camera_p);
     const spc_chain_casters *cs = spc_chain_casters_of(sc, p.any_surface);
     for (int i = 0; cs && i < cs->n; ++i) {
         const spc_shape *s = sc->shapes[cs->idx[i]];
