@@ -21,6 +21,7 @@
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
 #include "harness.h"
+#include "integrator/bdpt.h"
 #include "render_util.h"
 #include "scene/mesh.h"
 

@@ -8,6 +8,8 @@
 
 #include <string.h>
 
+#include "integrator/splat.h"
+
 /* The rough-vertex mode (newton's "rough"): its own estimator, without MIS or camera queries. */
 static bool rough_mode(const spc_snee_params *p) { return p->solver == SPC_SNEE_NEWTON && p->newton.rough; }
 
