@@ -12,7 +12,7 @@
 #include <string.h>
 
 #include "harness.h"
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_plugin_list.h"
 #include "io/mitsuba_xml.h"
 #include "scene/scene.h"
 #include "scene/shape.h"

@@ -22,7 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
 
 static bool check_rgb(mts_loader *L, mts_props *P, const char *name, spc_rgb v, double hi)
 {

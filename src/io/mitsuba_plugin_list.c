@@ -10,10 +10,12 @@
  * calls for that type (mitsuba_plugins.c): adding a plugin of those categories is one row here and
  * its builder. The loader's "unknown type" errors list the names this table marks read.
  */
+#include "io/mitsuba_plugin_list.h"
+
 #include <stdio.h>
 #include <string.h>
 
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
 
 static const mts_plugin plugins[] = {
     /* ---- BSDFs ---- */
@@ -199,63 +201,10 @@ static const mts_plugin plugins[] = {
      "raw and accel accepted, no effect in RGB; 6-channel grids are not read", NULL},
 };
 
-static const mts_own_property own_properties[] = {
-    {"integrator", "specular_nee", MTS_STRING,
-     "specular next-event estimation: auto, none, angular, newton, conic[:options]"},
-    {"integrator", "specular_max_chain", MTS_INT, "longest chain of specular vertices specular NEE connects through"},
-    {"integrator", "mis_balance", MTS_BOOL, "bdpt: the balance heuristic instead of the power heuristic"},
-    {"shape", "caustic_caster", MTS_BOOL, "specular NEE: the shape casts caustics"},
-    {"shape", "caustic_receiver", MTS_BOOL, "specular NEE: the shape receives caustics"},
-    {"shape", "caustic_caster_single", MTS_BOOL, "specular NEE: a caster of single-bounce chains"},
-    {"shape", "caustic_caster_multi", MTS_BOOL, "specular NEE: a caster of multi-bounce chains"},
-};
-
-const mts_own_property *mts_own_property_find(const char *category, const char *name)
-{
-    for (size_t i = 0; i < sizeof own_properties / sizeof own_properties[0]; ++i)
-        if (strcmp(own_properties[i].category, category) == 0 && strcmp(own_properties[i].name, name) == 0)
-            return &own_properties[i];
-    return NULL;
-}
-
 const mts_plugin *mts_plugin_list(int *n)
 {
     *n = (int)(sizeof plugins / sizeof plugins[0]);
     return plugins;
-}
-
-const mts_plugin *mts_plugin_find(const char *category, const char *name)
-{
-    for (size_t i = 0; i < sizeof plugins / sizeof plugins[0]; ++i)
-        if (strcmp(plugins[i].category, category) == 0 && strcmp(plugins[i].name, name) == 0)
-            return &plugins[i];
-    return NULL;
-}
-
-/* The names of a category the loader reads (every row not marked no), comma-separated, in buf. */
-static void known_names(const char *category, char *buf, size_t len)
-{
-    size_t used = 0;
-    buf[0] = '\0';
-    for (size_t i = 0; i < sizeof plugins / sizeof plugins[0]; ++i) {
-        if (strcmp(plugins[i].category, category) != 0 || plugins[i].status == MTS_PLUGIN_NO)
-            continue;
-        int n = snprintf(buf + used, len - used, "%s%s", used ? ", " : "", plugins[i].name);
-        if (n < 0 || (size_t)n >= len - used)
-            break;
-        used += (size_t)n;
-    }
-}
-
-spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type)
-{
-    char known[1024];
-    known_names(category, known, sizeof known);
-    const mts_plugin *p = mts_plugin_find(category, type);
-    if (p && p->status == MTS_PLUGIN_NO)
-        return mts_fail(L, node, SPC_ERR_PLUGIN, "%s '%s' (a Mitsuba 3 plugin) is not supported by specula%s%s",
-                        category, type, p->note[0] ? ": " : "", p->note);
-    return mts_fail(L, node, SPC_ERR_PLUGIN, "unknown %s type '%s' (%s)", category, type, known);
 }
 
 static const char *status_text(mts_plugin_status s)
@@ -309,8 +258,10 @@ int mts_plugins_markdown(FILE *out)
                  "`<integrator type=\"path\"><default name=\"specular_nee\" value=\"angular\"/></integrator>`.\n"
                  "specula's `sdf` shapes have no such form: a scene with them loads in specula only.\n\n"
                  "| plugin | property | type | meaning |\n|---|---|---|---|\n");
-    for (size_t i = 0; i < sizeof own_properties / sizeof own_properties[0]; ++i) {
-        const mts_own_property *o = &own_properties[i];
+    int nown;
+    const mts_own_property *own = mts_own_property_list(&nown);
+    for (int i = 0; i < nown; ++i) {
+        const mts_own_property *o = &own[i];
         fprintf(out, "| %s | `%s` | %s | %s |\n", o->category, o->name,
                 o->kind <= MTS_STRING ? kind_names[o->kind] : "?", o->meaning);
     }

@@ -43,7 +43,8 @@
 #include <strings.h>
 
 #include "io/mesh_io.h"
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
+#include "io/mitsuba_tables.h"
 #include "scene/curve.h"
 #include "scene/sdf.h"
 #include "scene/sdfgrid.h"
@@ -438,21 +439,6 @@ void mts_bsdf_pplastic(const mts_build *a)
         mts_fail(L, a->node, SPC_ERR_VALUE, "pplastic: int_ior and ext_ior must be positive and differ");
 }
 
-/* principled, principledthin: parameters in mitsuba_principled.c */
-void mts_bsdf_principled(const mts_build *a)
-{
-    spc_bsdf *b = a->object;
-    b->type = SPC_BSDF_PRINCIPLED;
-    mts_build_principled(a->L, a->P, b, a->node);
-}
-
-void mts_bsdf_principledthin(const mts_build *a)
-{
-    spc_bsdf *b = a->object;
-    b->type = SPC_BSDF_PRINCIPLEDTHIN;
-    mts_build_principled(a->L, a->P, b, a->node);
-}
-
 void mts_bsdf_twosided(const mts_build *a)
 {
     spc_bsdf *b = a->object;
@@ -548,9 +534,9 @@ void mts_bsdf_blendbsdf(const mts_build *a)
 }
 
 /* The builder of a type in the table's category, or NULL (the type is not read). */
-static mts_build_fn builder(const char *category, const char *type)
+static mts_build_fn builder(const mts_loader *L, const char *category, const char *type)
 {
-    const mts_plugin *p = mts_plugin_find(category, type);
+    const mts_plugin *p = mts_plugin_find(L, category, type);
     return p ? p->build : NULL;
 }
 
@@ -574,7 +560,7 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
     b->sample_visible = true;
     b->eta = 1.0;
     b->bump_scale = 1.0;
-    mts_build_fn build = builder("bsdf", type);
+    mts_build_fn build = builder(L, "bsdf", type);
     if (build) {
         mts_build a = {
             .L = L, .node = node, .type = type, .P = &P, .object = b, .nested = mts_count_objects(&P, "bsdf")};
@@ -1219,7 +1205,7 @@ void mts_shape_instance(const mts_build *a)
 spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group)
 {
     const char *type = mts_type(node);
-    mts_build_fn build = builder("shape", type);
+    mts_build_fn build = builder(L, "shape", type);
     if (build) {
         mts_build a = {.L = L, .node = node, .type = type, .prefix = prefix, .in_group = in_group};
         build(&a);
@@ -1381,7 +1367,7 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
     if (mts_props_collect(L, node, &P))
         return L->status;
     const char *type = mts_type(node);
-    mts_build_fn build = builder("emitter", type);
+    mts_build_fn build = builder(L, "emitter", type);
     bool area = build == mts_emitter_area;
     if (!build) {
         mts_fail_plugin(L, node, "emitter", type);

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
 #include "io/vol.h"
 
 /* A <volume> element into *out (false: failed, L's error set). */
