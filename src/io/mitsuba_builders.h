@@ -54,7 +54,8 @@ bool mts_is_grid_volume(mts_props *P, const char *name);
  * false after mts_fail (a medium without name="interior" / "exterior", or two of one). */
 bool mts_shape_media(mts_loader *L, mts_props *P, int *interior, int *exterior);
 
-/* The builders the table names (mitsuba_plugins.c, mitsuba_principled.c). */
+/* The builders the table names (mitsuba_plugins.c, mitsuba_principled.c, mitsuba_media.c,
+ * mitsuba_volumes.c). */
 void mts_bsdf_diffuse(const mts_build *a);
 void mts_bsdf_roughdiffuse(const mts_build *a);
 void mts_bsdf_phong(const mts_build *a);
@@ -89,6 +90,18 @@ void mts_shape_curve(const mts_build *a); /* linearcurve, bsplinecurve */
 void mts_shape_sdfgrid(const mts_build *a);
 void mts_shape_shapegroup(const mts_build *a);
 void mts_shape_instance(const mts_build *a);
+
+void mts_texture_bitmap(const mts_build *a);
+void mts_texture_checkerboard(const mts_build *a);
+void mts_texture_rawconstant(const mts_build *a);
+void mts_texture_mesh_attribute(const mts_build *a);
+
+void mts_medium_homogeneous(const mts_build *a);
+void mts_medium_heterogeneous(const mts_build *a);
+void mts_phase_isotropic(const mts_build *a);
+void mts_phase_hg(const mts_build *a);
+void mts_volume_constvolume(const mts_build *a);
+void mts_volume_gridvolume(const mts_build *a);
 
 void mts_emitter_area(const mts_build *a);
 void mts_emitter_point(const mts_build *a);

@@ -6,9 +6,11 @@
  * with an error naming it).
  *
  * Parameters are written "name default" (a parameter Mitsuba has and specula does not read is
- * listed in the note); "-" for none. A bsdf, shape or emitter row ends with the builder the loader
- * calls for that type (mitsuba_plugins.c): adding a plugin of those categories is one row here and
- * its builder. The loader's "unknown type" errors list the names this table marks read.
+ * listed in the note); "-" for none. A bsdf, shape, emitter, texture, medium, phase or volume row
+ * ends with the builder the loader calls for that type (mitsuba_builders.h): adding a plugin of
+ * those categories is one row here and its builder. The other categories (sensor, film, rfilter,
+ * sampler, integrator) are read by the walk (mitsuba_xml.c). The loader's "unknown type" errors
+ * list the names this table marks read.
  */
 #include "io/mitsuba_plugin_list.h"
 
@@ -119,11 +121,11 @@ static const mts_plugin plugins[] = {
     /* ---- textures ---- */
     {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
      "images: OpenEXR, PNG, JPEG, BMP (uncompressed); format (storage precision), max_anisotropy and cache are "
-     "accepted and ignored (texels are float)", NULL},
-    {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", "", NULL},
-    {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", "", NULL},
+     "accepted and ignored (texels are float)", mts_texture_bitmap},
+    {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", "", mts_texture_checkerboard},
+    {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", "", mts_texture_rawconstant},
     {"texture", "mesh_attribute", MTS_PLUGIN_YES, "name (\"vertex_*\" or \"face_*\"), scale 1",
-     "PLY attributes as Mitsuba names them; read by BSDF parameters (elsewhere black)", NULL},
+     "PLY attributes as Mitsuba names them; read by BSDF parameters (elsewhere black)", mts_texture_mesh_attribute},
     {"texture", "volume", MTS_PLUGIN_NO, "-", "", NULL},
 
     /* ---- sensors ---- */
@@ -182,23 +184,23 @@ static const mts_plugin plugins[] = {
     /* ---- media and phase functions ---- */
     {"medium", "homogeneous", MTS_PLUGIN_YES,
      "sigma_t 1 and albedo 0.75 (or sigma_a, sigma_s), scale 1, sample_emitters true, phase",
-     "albedo may be a volume; sigma_t a constvolume", NULL},
+     "albedo may be a volume; sigma_t a constvolume", mts_medium_homogeneous},
     {"medium", "heterogeneous", MTS_PLUGIN_YES,
      "sigma_t 1 (volume or value), albedo 0.75 (volume or value), scale 1, sample_emitters true, phase",
      "vacuum outside the sigma_t volume's bounds, as in Mitsuba; free flight by exact optical depth "
      "(regular tracking) instead of delta tracking: the same distribution; has_spectral_extinction ignored",
-     NULL},
-    {"phase", "isotropic", MTS_PLUGIN_YES, "-", "", NULL},
-    {"phase", "hg", MTS_PLUGIN_YES, "g 0.8", "", NULL},
+     mts_medium_heterogeneous},
+    {"phase", "isotropic", MTS_PLUGIN_YES, "-", "", mts_phase_isotropic},
+    {"phase", "hg", MTS_PLUGIN_YES, "g 0.8", "", mts_phase_hg},
     {"phase", "rayleigh", MTS_PLUGIN_NO, "-", "", NULL},
     {"phase", "blendphase", MTS_PLUGIN_NO, "-", "", NULL},
     {"phase", "tabphase", MTS_PLUGIN_NO, "-", "", NULL},
     {"phase", "sggx", MTS_PLUGIN_NO, "-", "", NULL},
-    {"volume", "constvolume", MTS_PLUGIN_YES, "value 1 (float or rgb), to_world", "", NULL},
+    {"volume", "constvolume", MTS_PLUGIN_YES, "value 1 (float or rgb), to_world", "", mts_volume_constvolume},
     {"volume", "gridvolume", MTS_PLUGIN_YES,
      "filename (.vol, 1 or 3 channels), filter_type \"trilinear\", wrap_mode \"clamp\", to_world, "
      "use_grid_bbox false",
-     "raw and accel accepted, no effect in RGB; 6-channel grids are not read", NULL},
+     "raw and accel accepted, no effect in RGB; 6-channel grids are not read", mts_volume_gridvolume},
 };
 
 const mts_plugin *mts_plugin_list(int *n)

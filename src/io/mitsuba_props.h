@@ -191,6 +191,13 @@ typedef enum mts_plugin_status {
  *            in_group: inside a shapegroup.
  *   emitter  P collected by mts_build_emitter; object: the spc_emitter being filled (to_world,
  *            to_local, scale 1 set); shape, shape_index: the shape an area emitter is nested in.
+ *   texture  P collected by mts_build_texture; transform: to_uv (0.x offsets and scales applied);
+ *            object: a spc_texture * the builder sets to the texture it adds to the scene.
+ *   medium   P collected by mts_build_medium; object: a spc_medium * the builder sets to the
+ *            medium it adds to the scene.
+ *   phase    P collected by mts_build_phase; object: the spc_phase to fill (isotropic set).
+ *   volume   P collected by mts_get_volume; transform: to_world; object: the spc_volume to fill
+ *            (zeroed).
  * A builder reports failure through mts_fail (L->status). */
 typedef struct mts_build {
     mts_loader *L;
@@ -203,6 +210,7 @@ typedef struct mts_build {
     bool in_group;
     spc_shape *shape;
     int shape_index;
+    const spc_mat4 *transform;
 } mts_build;
 typedef void (*mts_build_fn)(const mts_build *a);
 
