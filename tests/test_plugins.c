@@ -180,6 +180,9 @@ TEST(unknown_type_lists_the_table)
         {"texture", "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"zzz\" name=\"reflectance\"/>"
                     "</bsdf></shape>"},
         {"sensor", "<sensor type=\"zzz\"/>"},
+        {"sampler", "<sensor type=\"perspective\"><sampler type=\"zzz\"/></sensor>"},
+        {"film", "<sensor type=\"perspective\"><film type=\"zzz\"/></sensor>"},
+        {"rfilter", "<sensor type=\"perspective\"><film type=\"hdrfilm\"><rfilter type=\"zzz\"/></film></sensor>"},
         {"medium", "<shape type=\"sphere\"><medium type=\"zzz\" name=\"interior\"/></shape>"},
         {"phase", "<shape type=\"sphere\"><medium type=\"homogeneous\" name=\"interior\"><phase type=\"zzz\"/>"
                   "</medium></shape>"},

@@ -161,6 +161,9 @@ static const mts_plugin plugins[] = {
     {"sampler", "multijitter", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
     {"sampler", "orthogonal", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
     {"sampler", "ldsampler", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
+    {"sampler", "halton", MTS_PLUGIN_OWN, "sample_count 4, seed 0", "Mitsuba 0.6's", NULL},
+    {"sampler", "hammersley", MTS_PLUGIN_OWN, "sample_count 4, seed 0", "Mitsuba 0.6's", NULL},
+    {"sampler", "sobol", MTS_PLUGIN_OWN, "sample_count 4, seed 0", "Mitsuba 0.6's", NULL},
 
     /* ---- integrators ---- */
     {"integrator", "path", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", NULL},

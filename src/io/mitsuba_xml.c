@@ -472,12 +472,20 @@ static spc_status finish_ids(mts_loader *L, spc_xml_node *root)
 /* ------------------------------------------------------------------------------------------------ */
 /* sensor, film, sampler, rfilter */
 
+/* The registry's row of a plugin the loader reads, or NULL (unknown, or marked not read). */
+static const mts_plugin *read_row(const mts_loader *L, const char *category, const char *type)
+{
+    const mts_plugin *row = mts_plugin_find(L, category, type);
+    return row && row->status != MTS_PLUGIN_NO ? row : NULL;
+}
+
 static void parse_rfilter(mts_loader *L, spc_xml_node *node, spc_film_spec *film)
 {
     mts_props P;
     if (mts_props_collect(L, node, &P))
         return;
     const char *type = mts_type(node);
+    const mts_plugin *row = read_row(L, "rfilter", type);
     if (strcmp(type, "box") == 0) {
         film->rfilter = SPC_RFILTER_BOX;
         film->filter_radius = mts_get_float(L, &P, "radius", 0.5);
@@ -488,7 +496,7 @@ static void parse_rfilter(mts_loader *L, spc_xml_node *node, spc_film_spec *film
         film->rfilter = SPC_RFILTER_GAUSSIAN;
         film->filter_stddev = mts_get_float(L, &P, "stddev", 0.5);
         film->filter_radius = 4.0 * film->filter_stddev;
-    } else if (strcmp(type, "mitchell") == 0 || strcmp(type, "catmullrom") == 0 || strcmp(type, "lanczos") == 0) {
+    } else if (row && row->status == MTS_PLUGIN_STANDIN) {
         mts_warn(node, "rfilter '%s' is not supported: using gaussian (stddev 0.5)", type);
         for (int i = 0; i < P.n; ++i)
             P.p[i].used = true;
@@ -509,7 +517,7 @@ static void parse_film(mts_loader *L, spc_xml_node *node, spc_film_spec *film)
     if (mts_props_collect(L, node, &P))
         return;
     const char *type = mts_type(node);
-    if (strcmp(type, "hdrfilm") != 0 && strcmp(type, "ldrfilm") != 0) {
+    if (!read_row(L, "film", type)) {
         mts_fail_plugin(L, node, "film", type);
         mts_props_end(&P);
         return;
@@ -556,14 +564,9 @@ static void parse_sampler(mts_loader *L, spc_xml_node *node)
     mts_props P;
     if (mts_props_collect(L, node, &P))
         return;
-    static const char *types[] = {"independent", "stratified", "multijitter", "orthogonal",
-                                  "ldsampler",   "halton",     "hammersley",  "sobol"};
     const char *type = mts_type(node);
-    bool known = false;
-    for (size_t i = 0; i < sizeof types / sizeof types[0]; ++i)
-        known |= strcmp(type, types[i]) == 0;
-    if (!known) {
-        mts_fail(L, node, SPC_ERR_PLUGIN, "unknown sampler type '%s'", type);
+    if (!read_row(L, "sampler", type)) {
+        mts_fail_plugin(L, node, "sampler", type);
         mts_props_end(&P);
         return;
     }
