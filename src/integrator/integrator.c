@@ -9,40 +9,31 @@
 #include "integrator/path.h"
 #include "integrator/volpath.h"
 
+/* The integrators by name: the one list the parser and the names read. */
+static const struct {
+    const char *name;
+    spc_integrator_kind kind;
+} integrators[] = {
+    {"path", SPC_INTEGRATOR_PATH},       {"ipt", SPC_INTEGRATOR_IPT},         {"bdpt", SPC_INTEGRATOR_BDPT},
+    {"volpath", SPC_INTEGRATOR_VOLPATH}, {"ptracer", SPC_INTEGRATOR_PTRACER},
+};
+
 bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind)
 {
-    if (!strcmp(name, "path")) {
-        *kind = SPC_INTEGRATOR_PATH;
-        return true;
-    }
-    if (!strcmp(name, "ipt")) {
-        *kind = SPC_INTEGRATOR_IPT;
-        return true;
-    }
-    if (!strcmp(name, "bdpt")) {
-        *kind = SPC_INTEGRATOR_BDPT;
-        return true;
-    }
-    if (!strcmp(name, "volpath")) {
-        *kind = SPC_INTEGRATOR_VOLPATH;
-        return true;
-    }
-    if (!strcmp(name, "ptracer")) {
-        *kind = SPC_INTEGRATOR_PTRACER;
-        return true;
+    for (size_t i = 0; i < sizeof integrators / sizeof integrators[0]; ++i) {
+        if (!strcmp(name, integrators[i].name)) {
+            *kind = integrators[i].kind;
+            return true;
+        }
     }
     return false;
 }
 
 const char *spc_integrator_kind_name(spc_integrator_kind kind)
 {
-    switch (kind) {
-    case SPC_INTEGRATOR_PATH: return "path";
-    case SPC_INTEGRATOR_IPT: return "ipt";
-    case SPC_INTEGRATOR_BDPT: return "bdpt";
-    case SPC_INTEGRATOR_VOLPATH: return "volpath";
-    case SPC_INTEGRATOR_PTRACER: return "ptracer";
-    }
+    for (size_t i = 0; i < sizeof integrators / sizeof integrators[0]; ++i)
+        if (integrators[i].kind == kind)
+            return integrators[i].name;
     return "?";
 }
 
