@@ -10,7 +10,9 @@
  *  2. build, in document order: objects are made when met; a <ref> builds its target first if it
  *     was not built yet, so references may point forward. Objects with an id are built once.
  *
- * Scene-level plugins handled here; shapes, BSDFs, textures and emitters in mitsuba_plugins.c.
+ * Scene-level plugins (sensor, film, rfilter, sampler, integrator) are read here, every other one by
+ * its builder (mitsuba_builders.h), found in the plugin registry (mitsuba_plugin_list.c) that the
+ * loader is handed; properties and their values are mitsuba_props.c's.
  *
  * XML (defaults as in Mitsuba 3):
  *   sensor      perspective | thinlens (aperture_radius, required; focus_distance far_clip) | orthographic:
@@ -36,14 +38,9 @@
 
 #include <ctype.h>
 #include <errno.h>
-#include <limits.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include "core/hash.h"
 #include "io/mitsuba_builders.h"
