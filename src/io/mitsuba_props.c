@@ -321,27 +321,6 @@ static spc_status parse_named_vec(mts_loader *L, const spc_xml_node *n, const ch
     return SPC_OK;
 }
 
-/* Mitsuba 3's <rotate>: Rodrigues' matrix with the axis as written, not normalized (Mitsuba 3
- * builds it with drjit's rotate, which does not normalize), so an axis such as (0, 1, 1) rotates
- * and also stretches; the same scene must give the same geometry in both renderers. For a unit
- * axis this is the rotation of spc_mat4_rotate. */
-static spc_mat4 mitsuba_rotate(spc_vec3 a, double degrees)
-{
-    double th = degrees * SPC_PI / 180.0;
-    double c = cos(th), s = sin(th), ic = 1.0 - c;
-    spc_mat4 r = spc_mat4_identity();
-    r.m[0][0] = a.x * a.x * ic + c;
-    r.m[0][1] = a.x * a.y * ic - a.z * s;
-    r.m[0][2] = a.x * a.z * ic + a.y * s;
-    r.m[1][0] = a.y * a.x * ic + a.z * s;
-    r.m[1][1] = a.y * a.y * ic + c;
-    r.m[1][2] = a.y * a.z * ic - a.x * s;
-    r.m[2][0] = a.z * a.x * ic - a.y * s;
-    r.m[2][1] = a.z * a.y * ic + a.x * s;
-    r.m[2][2] = a.z * a.z * ic + c;
-    return r;
-}
-
 static spc_status parse_transform(mts_loader *L, const spc_xml_node *t, spc_mat4 *out)
 {
     spc_mat4 M = spc_mat4_identity();
@@ -369,7 +348,10 @@ static spc_status parse_transform(mts_loader *L, const spc_xml_node *t, spc_mat4
             if (fabs(spc_length(axis) - 1.0) > 1e-6)
                 mts_warn(c, "<rotate> axis of length %g: used as written, as Mitsuba 3 does (the matrix also scales)",
                          spc_length(axis));
-            A = mitsuba_rotate(axis, angle);
+            /* Mitsuba 3's <rotate>: the axis as written, not normalized (Mitsuba 3 builds it with
+             * drjit's rotate, which does not normalize), so an axis such as (0, 1, 1) rotates and
+             * also stretches; the same scene must give the same geometry in both renderers */
+            A = spc_mat4_rodrigues(axis, angle);
         } else if (strcmp(c->name, "lookat") == 0) {
             spc_vec3 o, tg, up = spc_v3(0, 0, 0);
             const char *s;
