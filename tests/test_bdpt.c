@@ -1090,6 +1090,9 @@ TEST(integrator_name)
     for (size_t i = 0; i < sizeof all / sizeof all[0]; ++i)
         CHECK(spc_integrator_kind_from_name(spc_integrator_kind_name(all[i]), &k) && k == all[i]);
     CHECK(!spc_integrator_kind_from_name("pathh", &k));
+    char names[128];
+    spc_integrator_kind_names(names, sizeof names);
+    CHECK_MSG(!strcmp(names, "path, ipt, bdpt, volpath, ptracer"), "%s", names);
 }
 
 int main(void)

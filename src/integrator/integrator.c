@@ -3,6 +3,7 @@
  */
 #include "integrator/integrator.h"
 
+#include <stdio.h>
 #include <string.h>
 
 #include "integrator/bdpt.h"
@@ -35,6 +36,19 @@ const char *spc_integrator_kind_name(spc_integrator_kind kind)
         if (integrators[i].kind == kind)
             return integrators[i].name;
     return "?";
+}
+
+void spc_integrator_kind_names(char *buf, size_t size)
+{
+    size_t used = 0;
+    if (size)
+        buf[0] = '\0';
+    for (size_t i = 0; i < sizeof integrators / sizeof integrators[0]; ++i) {
+        int n = snprintf(buf + used, size - used, "%s%s", i ? ", " : "", integrators[i].name);
+        if (n < 0 || (size_t)n >= size - used)
+            break;
+        used += (size_t)n;
+    }
 }
 
 void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,

@@ -12,6 +12,8 @@
 /* Parses an integrator name; false if unknown. */
 bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind);
 const char *spc_integrator_kind_name(spc_integrator_kind kind);
+/* Every integrator name, comma-separated ("path, ipt, ..."), into buf (cut short to size). */
+void spc_integrator_kind_names(char *buf, size_t size);
 
 /* One estimate for a camera ray. out->L must be finite (the driver checks and counts). */
 void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
