@@ -154,8 +154,8 @@ TEST(unread_plugins_are_named)
     CHECK_MSG(strstr(err.msg, "unknown bsdf type 'hare'") != NULL, "%s", err.msg);
 }
 
-/* The table is the one list of names: every bsdf, shape, emitter, texture, medium, phase and volume
- * row the loader reads names its
+/* The table is the one list of names: every bsdf, shape, emitter, texture, medium, phase, volume and
+ * integrator row the loader reads names its
  * builder, and an unknown type's error lists every name of its category the table marks read
  * (and none it marks not read). */
 TEST(unknown_type_lists_the_table)
@@ -166,7 +166,7 @@ TEST(unknown_type_lists_the_table)
         bool registry = !strcmp(p[i].category, "bsdf") || !strcmp(p[i].category, "shape") ||
                         !strcmp(p[i].category, "emitter") || !strcmp(p[i].category, "texture") ||
                         !strcmp(p[i].category, "medium") || !strcmp(p[i].category, "phase") ||
-                        !strcmp(p[i].category, "volume");
+                        !strcmp(p[i].category, "volume") || !strcmp(p[i].category, "integrator");
         if (registry)
             CHECK_MSG((p[i].build != NULL) == (p[i].status != MTS_PLUGIN_NO), "%s '%s': builder %s, status %d",
                       p[i].category, p[i].name, p[i].build ? "set" : "missing", (int)p[i].status);

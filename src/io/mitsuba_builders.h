@@ -11,6 +11,7 @@
  *   mitsuba_sdfgrid.c    sdfgrid
  *   mitsuba_media.c      participating media and phase functions
  *   mitsuba_volumes.c    volumes (gridvolume, constvolume)
+ *   mitsuba_integrators.c  integrators
  */
 #ifndef SPC_IO_MITSUBA_BUILDERS_H
 #define SPC_IO_MITSUBA_BUILDERS_H
@@ -54,8 +55,12 @@ bool mts_is_grid_volume(mts_props *P, const char *name);
  * false after mts_fail (a medium without name="interior" / "exterior", or two of one). */
 bool mts_shape_media(mts_loader *L, mts_props *P, int *interior, int *exterior);
 
+/* mitsuba_integrators.c: an <integrator> (depth: how deep it is nested in aov, moment or stokes)
+ * into L->scene->integrator; L's error set on failure. */
+void mts_build_integrator(mts_loader *L, spc_xml_node *node, int depth);
+
 /* The builders the table names (mitsuba_plugins.c, mitsuba_principled.c, mitsuba_media.c,
- * mitsuba_volumes.c). */
+ * mitsuba_volumes.c, mitsuba_integrators.c). */
 void mts_bsdf_diffuse(const mts_build *a);
 void mts_bsdf_roughdiffuse(const mts_build *a);
 void mts_bsdf_phong(const mts_build *a);
@@ -102,6 +107,14 @@ void mts_phase_isotropic(const mts_build *a);
 void mts_phase_hg(const mts_build *a);
 void mts_volume_constvolume(const mts_build *a);
 void mts_volume_gridvolume(const mts_build *a);
+
+void mts_integrator_path(const mts_build *a);    /* path, prb */
+void mts_integrator_volpath(const mts_build *a); /* volpath, volpathmis */
+void mts_integrator_direct(const mts_build *a);
+void mts_integrator_ptracer(const mts_build *a);
+void mts_integrator_bdpt(const mts_build *a);
+void mts_integrator_ipt(const mts_build *a);
+void mts_integrator_nested(const mts_build *a); /* aov, moment, stokes */
 
 void mts_emitter_area(const mts_build *a);
 void mts_emitter_point(const mts_build *a);

@@ -6,11 +6,11 @@
  * with an error naming it).
  *
  * Parameters are written "name default" (a parameter Mitsuba has and specula does not read is
- * listed in the note); "-" for none. A bsdf, shape, emitter, texture, medium, phase or volume row
- * ends with the builder the loader calls for that type (mitsuba_builders.h): adding a plugin of
- * those categories is one row here and its builder. The other categories (sensor, film, rfilter,
- * sampler, integrator) are read by the walk (mitsuba_xml.c). The loader's "unknown type" errors
- * list the names this table marks read.
+ * listed in the note); "-" for none. A bsdf, shape, emitter, texture, medium, phase, volume or
+ * integrator row ends with the builder the loader calls for that type (mitsuba_builders.h): adding a
+ * plugin of those categories is one row here and its builder. The other categories (sensor, film,
+ * rfilter, sampler) are read by the walk (mitsuba_xml.c), which accepts a type by its row here.
+ * The loader's "unknown type" errors list the names this table marks read.
  */
 #include "io/mitsuba_plugin_list.h"
 
@@ -166,23 +166,23 @@ static const mts_plugin plugins[] = {
     {"sampler", "sobol", MTS_PLUGIN_OWN, "sample_count 4, seed 0", "Mitsuba 0.6's", NULL},
 
     /* ---- integrators ---- */
-    {"integrator", "path", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", NULL},
-    {"integrator", "prb", MTS_PLUGIN_YES, "as path", "rendered by path", NULL},
-    {"integrator", "volpath", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", NULL},
-    {"integrator", "volpathmis", MTS_PLUGIN_YES, "as volpath", "rendered by volpath", NULL},
+    {"integrator", "path", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", mts_integrator_path},
+    {"integrator", "prb", MTS_PLUGIN_YES, "as path", "rendered by path", mts_integrator_path},
+    {"integrator", "volpath", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", mts_integrator_volpath},
+    {"integrator", "volpathmis", MTS_PLUGIN_YES, "as volpath", "rendered by volpath", mts_integrator_volpath},
     {"integrator", "direct", MTS_PLUGIN_YES, "emitter_samples, bsdf_samples (read, not used)",
-     "path with max_depth 2; Mitsuba counts each of emitter_samples delta-light samples at full weight", NULL},
+     "path with max_depth 2; Mitsuba counts each of emitter_samples delta-light samples at full weight", mts_integrator_direct},
     {"integrator", "aov", MTS_PLUGIN_YES, "aovs (albedo, depth, position, sh_normal), a nested integrator",
-     "other AOV types are refused", NULL},
-    {"integrator", "moment", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", NULL},
-    {"integrator", "stokes", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", NULL},
+     "other AOV types are refused", mts_integrator_nested},
+    {"integrator", "moment", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", mts_integrator_nested},
+    {"integrator", "stokes", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", mts_integrator_nested},
     {"integrator", "ptracer", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false",
-     "light tracing (bdpt's t = 1 strategies); samples_per_pass read and unused", NULL},
+     "light tracing (bdpt's t = 1 strategies); samples_per_pass read and unused", mts_integrator_ptracer},
     {"integrator", "depth", MTS_PLUGIN_NO, "-", "", NULL},
     {"integrator", "prbvolpath", MTS_PLUGIN_NO, "-", "", NULL},
     {"integrator", "bdpt", MTS_PLUGIN_OWN, "max_depth -1, rr_depth 5, mis_balance false",
-     "Mitsuba 0.6 had one; Mitsuba 3 has not", NULL},
-    {"integrator", "ipt", MTS_PLUGIN_OWN, "max_depth -1", "implicit path tracing (no NEE)", NULL},
+     "Mitsuba 0.6 had one; Mitsuba 3 has not", mts_integrator_bdpt},
+    {"integrator", "ipt", MTS_PLUGIN_OWN, "max_depth -1", "implicit path tracing (no NEE)", mts_integrator_ipt},
 
     /* ---- media and phase functions ---- */
     {"medium", "homogeneous", MTS_PLUGIN_YES,

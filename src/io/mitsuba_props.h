@@ -198,6 +198,9 @@ typedef enum mts_plugin_status {
  *   phase    P collected by mts_build_phase; object: the spc_phase to fill (isotropic set).
  *   volume   P collected by mts_get_volume; transform: to_world; object: the spc_volume to fill
  *            (zeroed).
+ *   integrator  P collected by mts_build_integrator; type: the type read (the "@integrator"
+ *            define's where it applies); nested: how deep the element is nested in aov, moment
+ *            or stokes. The builder fills L->scene->integrator.
  * A builder reports failure through mts_fail (L->status). */
 typedef struct mts_build {
     mts_loader *L;

@@ -10,7 +10,7 @@
  *  2. build, in document order: objects are made when met; a <ref> builds its target first if it
  *     was not built yet, so references may point forward. Objects with an id are built once.
  *
- * Scene-level plugins (sensor, film, rfilter, sampler, integrator) are read here, every other one by
+ * Scene-level plugins (sensor, film, rfilter, sampler) are read here, every other one by
  * its builder (mitsuba_builders.h), found in the plugin registry (mitsuba_plugin_list.c) that the
  * loader is handed; properties and their values are mitsuba_props.c's.
  *
@@ -25,14 +25,7 @@
  *               mitchell, catmullrom, lanczos become gaussian with a warning
  *   sampler     independent, stratified, multijitter, orthogonal, ldsampler, halton, hammersley,
  *               sobol: sample_count 4, seed 0 (specula has one sampler; the type is not kept)
- *   integrator  path, prb (-> path), volpath, volpathmis (-> volpath), direct (-> path, max_depth
- *               2), bdpt, ipt, ptracer: max_depth -1, rr_depth 5, hide_emitters false, specular_nee ("" or auto:
- *               chosen from the scene, manifold/snee_plan.h; none or off; angular | newton | conic,
- *               optionally with options as "newton:biased=8,rough": the grammar of
- *               manifold/snee_options.h), specular_max_chain, mis_balance (false; bdpt: the balance
- *               heuristic instead of the power heuristic); aov, moment, stokes: the nested integrator.
- *               The define "@integrator" replaces the file's integrator type (its properties are
- *               still read), so that a scene made for another renderer's integrator can load.
+ *   integrator  io/mitsuba_integrators.c
  */
 #include "io/mitsuba_xml.h"
 
@@ -46,7 +39,6 @@
 #include "io/mitsuba_builders.h"
 #include "io/mitsuba_plugin_list.h"
 #include "io/mitsuba_props.h"
-#include "manifold/snee_options.h"
 
 #define MTS_MAX_INCLUDE_DEPTH 15 /* Mitsuba 3's MI_XML_INCLUDE_MAX_RECURSION */
 #define MAX_RESOLUTION 65536  /* film width/height beyond which a file is surely wrong */
@@ -652,154 +644,6 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
 }
 
 /* ------------------------------------------------------------------------------------------------ */
-/* integrator */
-
-/* The aov integrator's "aovs": comma-separated name:type pairs (Mitsuba 3's aov.cpp), of the types
- * specula keeps per pixel. */
-static void parse_aovs(mts_loader *L, mts_props *P, const spc_xml_node *node)
-{
-    static const struct {
-        const char *name;
-        spc_aov_type type;
-    } types[] = {{"albedo", SPC_AOV_ALBEDO},
-                 {"depth", SPC_AOV_DEPTH},
-                 {"position", SPC_AOV_POSITION},
-                 {"sh_normal", SPC_AOV_SH_NORMAL}};
-    spc_integrator_spec *it = &L->scene->integrator;
-    const char *list = mts_get_string(L, P, "aovs", "");
-    const spc_xml_node *at = mts_where(P, "aovs");
-    if (!at)
-        at = node;
-    it->naovs = 0;
-    for (const char *p = list; L->status == SPC_OK && *p;) {
-        while (*p == ' ' || *p == ',')
-            ++p;
-        if (!*p)
-            break;
-        const char *end = p;
-        while (*end && *end != ',')
-            ++end;
-        const char *colon = memchr(p, ':', (size_t)(end - p));
-        size_t nlen = colon ? (size_t)(colon - p) : 0;
-        while (nlen > 0 && p[nlen - 1] == ' ')
-            --nlen;
-        const char *t = colon ? colon + 1 : end;
-        while (t < end && *t == ' ')
-            ++t;
-        size_t tlen = (size_t)(end - t);
-        while (tlen > 0 && t[tlen - 1] == ' ')
-            --tlen;
-        if (!colon || nlen == 0 || tlen == 0 || nlen >= sizeof it->aovs[0].name) {
-            mts_fail(L, at, SPC_ERR_VALUE, "aovs: expected name:type pairs separated by commas, got \"%.*s\"",
-                     (int)(end - p), p);
-            break;
-        }
-        int found = -1;
-        for (size_t i = 0; i < sizeof types / sizeof types[0]; ++i)
-            if (strlen(types[i].name) == tlen && strncmp(types[i].name, t, tlen) == 0)
-                found = (int)i;
-        if (found < 0) {
-            mts_fail(L, at, SPC_ERR_PLUGIN, "aov type '%.*s' is not supported (albedo, depth, position, sh_normal)",
-                     (int)tlen, t);
-            break;
-        }
-        if (it->naovs == SPC_MAX_AOV_OUTPUTS) {
-            mts_fail(L, at, SPC_ERR_LIMIT, "more than %d aovs", SPC_MAX_AOV_OUTPUTS);
-            break;
-        }
-        spc_aov_output *o = &it->aovs[it->naovs++];
-        snprintf(o->name, sizeof o->name, "%.*s", (int)nlen, p);
-        o->type = types[found].type;
-        p = end;
-    }
-}
-
-static void parse_integrator(mts_loader *L, spc_xml_node *node, int depth)
-{
-    mts_props P;
-    if (mts_props_collect(L, node, &P))
-        return;
-    spc_integrator_spec *it = &L->scene->integrator;
-    const char *type = mts_type(node);
-    if (strcmp(type, "aov") == 0 || strcmp(type, "moment") == 0 || strcmp(type, "stokes") == 0) {
-        if (strcmp(type, "aov") == 0)
-            parse_aovs(L, &P, node);
-        spc_xml_node *inner = mts_object(&P, "integrator", 0, NULL);
-        if (inner && strcmp(type, "aov") == 0 && spc_xml_get(inner, "name"))
-            snprintf(it->aov_image, sizeof it->aov_image, "%s", spc_xml_get(inner, "name"));
-        if (inner && depth < 8) {
-            parse_integrator(L, inner, depth + 1);
-        } else {
-            mts_warn(node, "integrator '%s' without a nested integrator: using path", type);
-            snprintf(it->type, sizeof it->type, "path");
-        }
-        mts_props_end(&P);
-        return;
-    }
-    const char *ours = NULL;
-    int max_depth = -1;
-    if (L->integrator_override)
-        type = L->integrator_override;
-    if (strcmp(type, "path") == 0 || strcmp(type, "prb") == 0) {
-        ours = "path";
-    } else if (strcmp(type, "ptracer") == 0) {
-        ours = "ptracer";
-        mts_ignore(&P, "samples_per_pass"); /* how Mitsuba splits its work; the image is the same */
-    } else if (strcmp(type, "volpath") == 0 || strcmp(type, "volpathmis") == 0) {
-        ours = "volpath";
-    } else if (strcmp(type, "direct") == 0) {
-        ours = "path";
-        max_depth = 2;
-        mts_ignore(&P, "emitter_samples");
-        mts_ignore(&P, "bsdf_samples");
-        mts_ignore(&P, "shading_samples");
-    } else if (strcmp(type, "bdpt") == 0) {
-        ours = "bdpt";
-    } else if (strcmp(type, "ipt") == 0) {
-        ours = "ipt";
-    } else {
-        if (mts_plugin_find(L, "integrator", type))
-            mts_fail_plugin(L, node, "integrator", type);
-        else
-            mts_fail(L, node, SPC_ERR_PLUGIN,
-                     "unknown integrator '%s'; choose one of specula's with --integrator path or -D integrator=path",
-                     type);
-        mts_props_end(&P);
-        return;
-    }
-    snprintf(it->type, sizeof it->type, "%s", ours);
-    it->max_depth = max_depth == 2 ? 2 : mts_get_int(L, &P, "max_depth", -1);
-    it->rr_depth = mts_get_int(L, &P, "rr_depth", 5);
-    it->hide_emitters = mts_get_bool(L, &P, "hide_emitters", false);
-    /* specula's own (bdpt); read for every type so that --integrator path on a bdpt scene is quiet */
-    it->mis_balance = mts_get_bool(L, &P, "mis_balance", false);
-    it->strict_normals = mts_get_bool(L, &P, "strict_normals", false);
-    if (it->strict_normals && strcmp(ours, "path") != 0)
-        mts_warn(mts_where(&P, "strict_normals"), "strict_normals is honoured by the path integrator only");
-    if (mts_has(&P, "specular_nee")) {
-        const char *nee = mts_get_string(L, &P, "specular_nee", "");
-        char why[SPC_SNEE_WHY_MAX];
-        if (strlen(nee) >= sizeof it->specular_nee)
-            mts_fail(L, mts_where(&P, "specular_nee"), SPC_ERR_VALUE, "specular_nee is longer than %d characters",
-                     (int)sizeof it->specular_nee - 1);
-        else if (spc_snee_setting_check(nee, why, sizeof why) != SPC_SNEE_PARSE_OK)
-            mts_fail(L, mts_where(&P, "specular_nee"), SPC_ERR_VALUE, "specular_nee '%s': %s", nee, why);
-        snprintf(it->specular_nee, sizeof it->specular_nee, "%s", nee);
-    }
-    if (mts_has(&P, "specular_max_chain"))
-        it->specular_max_chain = mts_get_int(L, &P, "specular_max_chain", it->specular_max_chain);
-    if (L->status == SPC_OK && it->max_depth < -1)
-        mts_fail(L, mts_where(&P, "max_depth"), SPC_ERR_VALUE, "max_depth %d must be -1 (no limit) or >= 0",
-                 it->max_depth);
-    if (L->status == SPC_OK && it->rr_depth < 1)
-        mts_fail(L, mts_where(&P, "rr_depth"), SPC_ERR_VALUE, "rr_depth %d must be at least 1", it->rr_depth);
-    snprintf(it->decl_file, sizeof it->decl_file, "%s", node->file ? node->file : "");
-    it->decl_line = node->line;
-    it->decl_col = node->col;
-    mts_props_end(&P);
-}
-
-/* ------------------------------------------------------------------------------------------------ */
 /* the scene */
 
 static void build_scene(mts_loader *L, spc_xml_node *root)
@@ -813,7 +657,7 @@ static void build_scene(mts_loader *L, spc_xml_node *root)
             if (L->have_integrator)
                 mts_fail(L, c, SPC_ERR_VALUE, "more than one <integrator>");
             else
-                parse_integrator(L, c, 0);
+                mts_build_integrator(L, c, 0);
             L->have_integrator = true;
         } else if (strcmp(t, "sensor") == 0) {
             if (L->have_sensor)
