@@ -21,6 +21,7 @@
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
 #include "harness.h"
+#include "integrator/bdpt.h"
 #include "render_util.h"
 #include "scene/mesh.h"
 
@@ -1083,6 +1084,15 @@ TEST(integrator_name)
     spc_integrator_kind k;
     CHECK(spc_integrator_kind_from_name("bdpt", &k) && k == SPC_INTEGRATOR_BDPT);
     CHECK(!strcmp(spc_integrator_kind_name(SPC_INTEGRATOR_BDPT), "bdpt"));
+    /* every kind has one name, and the name parses back to it */
+    const spc_integrator_kind all[] = {SPC_INTEGRATOR_PATH, SPC_INTEGRATOR_IPT, SPC_INTEGRATOR_BDPT,
+                                       SPC_INTEGRATOR_VOLPATH, SPC_INTEGRATOR_PTRACER};
+    for (size_t i = 0; i < sizeof all / sizeof all[0]; ++i)
+        CHECK(spc_integrator_kind_from_name(spc_integrator_kind_name(all[i]), &k) && k == all[i]);
+    CHECK(!spc_integrator_kind_from_name("pathh", &k));
+    char names[128];
+    spc_integrator_kind_names(names, sizeof names);
+    CHECK_MSG(!strcmp(names, "path, ipt, bdpt, volpath, ptracer"), "%s", names);
 }
 
 int main(void)

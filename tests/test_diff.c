@@ -129,7 +129,7 @@ TEST(consistent_noise_passes)
     CHECK_MSG(r.ztest_pass_fraction >= 0.999, "pass fraction %g", r.ztest_pass_fraction);
     CHECK_NEAR(r.mse, sigma * sigma, 0.1 * sigma * sigma);
 
-    /* the same noise, 10 sigma off: essentially nothing passes (both variances now count, so
+    /* the same noise, 10 sigma off: essentially nothing passes (both variances count, so
      * z = 10 / sqrt 2 ~ 7, still far beyond the corrected threshold of ~4.9) */
     for (int i = 0; i < w * h * 3; ++i)
         a.rgb[i] = (float)(b.rgb[i] + 10.0 * sigma);

@@ -66,9 +66,9 @@ TEST(xml) { replay("xml", spc_fuzz_xml); }
 TEST(obj) { replay("obj", spc_fuzz_obj); }
 TEST(ply) { replay("ply", spc_fuzz_ply); }
 TEST(serialized) { replay("serialized", spc_fuzz_serialized); }
-/* exr/chunk_claims_3GB.exr: OpenEXR allocated a 3.2 GB chunk buffer for a 3445-byte file (chunks
- * beyond 256 MiB are now refused); exr/huge_window_*: tiny files whose data window claims up to
- * 2^28 pixels (planes are now allocated only once the first chunk's table entry is read). */
+/* exr/chunk_claims_3GB.exr: a 3445-byte file whose chunk claims 3.2 GB, which OpenEXR would allocate
+ * (chunks beyond 256 MiB are refused); exr/huge_window_*: tiny files whose data window claims up to
+ * 2^28 pixels (planes are allocated only once the first chunk's table entry is read). */
 TEST(exr)
 {
     replay("exr", spc_fuzz_exr);
@@ -93,13 +93,13 @@ static long peak_rss_mb(void)
 TEST(png)
 {
     replay("png", spc_fuzz_png);
-    /* png/text_chunk_claims_755MB.png: libpng allocated a corrupt ancillary chunk's claimed length
-     * (755 MB for a 322-byte file) before noticing the file ended; such chunks are now skipped.
-     * png/jpeg_marker_cuts_data_224x65486.jpg: libjpeg padded a 14.6-megapixel image with gray
-     * after its data was cut short (176 MB of floats); that warning is now an error.
-     * png/jpeg_header_claims_4146x55808.jpg: a 213-byte file whose header announced 231 megapixels
+    /* png/text_chunk_claims_755MB.png: a corrupt ancillary chunk claiming 755 MB in a 322-byte file,
+     * which libpng allocates before noticing the file ended: such chunks are skipped.
+     * png/jpeg_marker_cuts_data_224x65486.jpg: a 14.6-megapixel image whose data is cut short, which
+     * libjpeg pads with gray (176 MB of floats) and only warns about: that warning is an error.
+     * png/jpeg_header_claims_4146x55808.jpg: a 213-byte file whose header announces 231 megapixels
      * (2.8 GB of floats, allocated before reading any data); a Huffman-coded file needs a bit per
-     * MCU, so such a header is now refused before anything is allocated.
+     * MCU, so such a header is refused before anything is allocated.
      * png/png_header_claims_16000x16000.png: the same for PNG (made by hand, 74 bytes announcing 1 GB
      * of pixels): deflate inflates at most 1032:1. */
     char path[1024];

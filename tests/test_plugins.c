@@ -12,7 +12,7 @@
 #include <string.h>
 
 #include "harness.h"
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_plugin_list.h"
 #include "io/mitsuba_xml.h"
 #include "scene/scene.h"
 #include "scene/shape.h"
@@ -154,7 +154,8 @@ TEST(unread_plugins_are_named)
     CHECK_MSG(strstr(err.msg, "unknown bsdf type 'hare'") != NULL, "%s", err.msg);
 }
 
-/* The table is the one list of names: every bsdf, shape and emitter row the loader reads names its
+/* The table is the one list of names: every bsdf, shape, emitter, texture, medium, phase, volume and
+ * integrator row the loader reads names its
  * builder, and an unknown type's error lists every name of its category the table marks read
  * (and none it marks not read). */
 TEST(unknown_type_lists_the_table)
@@ -163,7 +164,9 @@ TEST(unknown_type_lists_the_table)
     const mts_plugin *p = mts_plugin_list(&n);
     for (int i = 0; i < n; ++i) {
         bool registry = !strcmp(p[i].category, "bsdf") || !strcmp(p[i].category, "shape") ||
-                        !strcmp(p[i].category, "emitter");
+                        !strcmp(p[i].category, "emitter") || !strcmp(p[i].category, "texture") ||
+                        !strcmp(p[i].category, "medium") || !strcmp(p[i].category, "phase") ||
+                        !strcmp(p[i].category, "volume") || !strcmp(p[i].category, "integrator");
         if (registry)
             CHECK_MSG((p[i].build != NULL) == (p[i].status != MTS_PLUGIN_NO), "%s '%s': builder %s, status %d",
                       p[i].category, p[i].name, p[i].build ? "set" : "missing", (int)p[i].status);
@@ -177,6 +180,14 @@ TEST(unknown_type_lists_the_table)
         {"texture", "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"zzz\" name=\"reflectance\"/>"
                     "</bsdf></shape>"},
         {"sensor", "<sensor type=\"zzz\"/>"},
+        {"sampler", "<sensor type=\"perspective\"><sampler type=\"zzz\"/></sensor>"},
+        {"film", "<sensor type=\"perspective\"><film type=\"zzz\"/></sensor>"},
+        {"rfilter", "<sensor type=\"perspective\"><film type=\"hdrfilm\"><rfilter type=\"zzz\"/></film></sensor>"},
+        {"medium", "<shape type=\"sphere\"><medium type=\"zzz\" name=\"interior\"/></shape>"},
+        {"phase", "<shape type=\"sphere\"><medium type=\"homogeneous\" name=\"interior\"><phase type=\"zzz\"/>"
+                  "</medium></shape>"},
+        {"volume", "<shape type=\"sphere\"><medium type=\"heterogeneous\" name=\"interior\">"
+                   "<volume type=\"zzz\" name=\"sigma_t\"/></medium></shape>"},
     };
     for (size_t k = 0; k < sizeof xml / sizeof xml[0]; ++k) {
         char doc[600];

@@ -101,9 +101,10 @@ spc_mat4 spc_mat4_scale(spc_vec3 s)
 }
 
 /* Rotation by `degrees` about `axis` (right-handed, Rodrigues). */
-spc_mat4 spc_mat4_rotate(spc_vec3 axis, double degrees)
+spc_mat4 spc_mat4_rotate(spc_vec3 axis, double degrees) { return spc_mat4_rodrigues(spc_normalize(axis), degrees); }
+
+spc_mat4 spc_mat4_rodrigues(spc_vec3 a, double degrees)
 {
-    spc_vec3 a = spc_normalize(axis);
     double th = degrees * SPC_PI / 180.0;
     double c = cos(th), s = sin(th), ic = 1.0 - c;
     spc_mat4 r = spc_mat4_identity();

@@ -165,6 +165,9 @@ spc_mat4 spc_mat4_transpose(const spc_mat4 *a);
 spc_mat4 spc_mat4_translate(spc_vec3 t);
 spc_mat4 spc_mat4_scale(spc_vec3 s);
 spc_mat4 spc_mat4_rotate(spc_vec3 axis, double degrees);
+/* Rodrigues' matrix for `degrees` about a, as written (not normalized): for a unit a the rotation
+ * of spc_mat4_rotate; a longer or shorter a also scales (Mitsuba 3's <rotate>, io/mitsuba_props.c). */
+spc_mat4 spc_mat4_rodrigues(spc_vec3 a, double degrees);
 /* Mitsuba's lookat: the camera looks along +z toward target, up is +y; +x = up x dir. */
 bool spc_mat4_lookat(spc_vec3 origin, spc_vec3 target, spc_vec3 up, spc_mat4 *out);
 spc_vec3 spc_mat4_apply_point(const spc_mat4 *m, spc_vec3 p);

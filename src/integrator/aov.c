@@ -14,7 +14,7 @@
  * dimension), so the integrator's sample dimensions, and therefore its image, are the same with
  * and without AOVs. Media are not sampled on the walk.
  */
-#include "integrator/integrator.h"
+#include "integrator/aov.h"
 
 /* Delta surfaces followed before giving up: internal reflections in a glass ball rarely pass 8;
  * 16 costs nothing where fewer suffice. */

@@ -89,7 +89,9 @@
 #include <string.h>
 
 #include "core/rng.h"
-#include "integrator/integrator.h"
+#include "integrator/aov.h"
+#include "integrator/bdpt.h"
+#include "integrator/splat.h"
 #include "manifold/specular_nee.h"
 
 /* Vertices per subpath (two arrays of ~500-byte vertices: 63 KiB of stack). Past rr_depth each

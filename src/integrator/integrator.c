@@ -1,52 +1,54 @@
 /*
- * integrator/integrator.c: dispatch over integrators, and film splatting through the pixel filter.
+ * integrator/integrator.c: integrator names, and the dispatch of a camera sample to the integrator.
  */
 #include "integrator/integrator.h"
 
-#include <float.h>
-#include <math.h>
-#include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 
-#include "scene/rfilter.h"
+#include "integrator/bdpt.h"
+#include "integrator/path.h"
+#include "integrator/volpath.h"
 
-#define SPC_SPLAT_MAX_COORD 1e9 /* film coordinates beyond this lie on no film (sides <= 65536) */
+/* The integrators by name: the one list the parser and the names read. */
+static const struct {
+    const char *name;
+    spc_integrator_kind kind;
+} integrators[] = {
+    {"path", SPC_INTEGRATOR_PATH},       {"ipt", SPC_INTEGRATOR_IPT},         {"bdpt", SPC_INTEGRATOR_BDPT},
+    {"volpath", SPC_INTEGRATOR_VOLPATH}, {"ptracer", SPC_INTEGRATOR_PTRACER},
+};
 
 bool spc_integrator_kind_from_name(const char *name, spc_integrator_kind *kind)
 {
-    if (!strcmp(name, "path")) {
-        *kind = SPC_INTEGRATOR_PATH;
-        return true;
-    }
-    if (!strcmp(name, "ipt")) {
-        *kind = SPC_INTEGRATOR_IPT;
-        return true;
-    }
-    if (!strcmp(name, "bdpt")) {
-        *kind = SPC_INTEGRATOR_BDPT;
-        return true;
-    }
-    if (!strcmp(name, "volpath")) {
-        *kind = SPC_INTEGRATOR_VOLPATH;
-        return true;
-    }
-    if (!strcmp(name, "ptracer")) {
-        *kind = SPC_INTEGRATOR_PTRACER;
-        return true;
+    for (size_t i = 0; i < sizeof integrators / sizeof integrators[0]; ++i) {
+        if (!strcmp(name, integrators[i].name)) {
+            *kind = integrators[i].kind;
+            return true;
+        }
     }
     return false;
 }
 
 const char *spc_integrator_kind_name(spc_integrator_kind kind)
 {
-    switch (kind) {
-    case SPC_INTEGRATOR_PATH: return "path";
-    case SPC_INTEGRATOR_IPT: return "ipt";
-    case SPC_INTEGRATOR_BDPT: return "bdpt";
-    case SPC_INTEGRATOR_VOLPATH: return "volpath";
-    case SPC_INTEGRATOR_PTRACER: return "ptracer";
-    }
+    for (size_t i = 0; i < sizeof integrators / sizeof integrators[0]; ++i)
+        if (integrators[i].kind == kind)
+            return integrators[i].name;
     return "?";
+}
+
+void spc_integrator_kind_names(char *buf, size_t size)
+{
+    size_t used = 0;
+    if (size)
+        buf[0] = '\0';
+    for (size_t i = 0; i < sizeof integrators / sizeof integrators[0]; ++i) {
+        int n = snprintf(buf + used, size - used, "%s%s", i ? ", " : "", integrators[i].name);
+        if (n < 0 || (size_t)n >= size - used)
+            break;
+        used += (size_t)n;
+    }
 }
 
 void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray, spc_sampler *smp,
@@ -58,77 +60,5 @@ void spc_integrator_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ra
     case SPC_INTEGRATOR_BDPT:
     case SPC_INTEGRATOR_PTRACER: spc_bdpt_sample(ctx, tls, ray, smp, out); return;
     case SPC_INTEGRATOR_VOLPATH: spc_volpath_sample(ctx, tls, ray, smp, out); return;
-    }
-}
-
-static void push_splat(spc_tls *tls, int film, int x, int y, spc_rgb v)
-{
-    if (tls->nsplats == tls->cap) {
-        size_t ncap = tls->cap ? 2 * tls->cap : 256;
-        spc_splat *ns = realloc(tls->splats, ncap * sizeof *ns);
-        if (!ns) {
-            tls->oom = true;
-            if (film == 0)
-                tls->invalid++;
-            return;
-        }
-        tls->splats = ns;
-        tls->cap = ncap;
-    }
-    spc_splat *s = &tls->splats[tls->nsplats++];
-    s->x = x;
-    s->y = y;
-    s->r = (float)v.r;
-    s->g = (float)v.g;
-    s->b = (float)v.b;
-    s->film = film;
-}
-
-void spc_splat_add(const spc_render_ctx *ctx, spc_tls *tls, double fx, double fy, spc_rgb v)
-{
-    spc_splat_add_to(ctx, tls, 0, fx, fy, v);
-}
-
-void spc_splat_add_to(const spc_render_ctx *ctx, spc_tls *tls, int film, double fx, double fy, spc_rgb v)
-{
-    /* splats are stored as float: a value beyond float range is as invalid as a NaN (the driver
-     * applies the same rule to camera samples) */
-    if (!(fabs(v.r) <= FLT_MAX && fabs(v.g) <= FLT_MAX && fabs(v.b) <= FLT_MAX)) {
-        if (film == 0)
-            tls->invalid++;
-        return;
-    }
-    if (!(fabs(fx) < SPC_SPLAT_MAX_COORD && fabs(fy) < SPC_SPLAT_MAX_COORD))
-        return; /* NaN or far off the film: no pixel; and the int conversions below stay defined */
-    double r = ctx->film->filter_radius;
-    /* pixels whose centers lie within the filter radius, in the rendered window */
-    int x0 = (int)floor(fx - r - 0.5) + 1, x1 = (int)floor(fx + r - 0.5);
-    int y0 = (int)floor(fy - r - 0.5) + 1, y1 = (int)floor(fy + r - 0.5);
-    if (ctx->film->rfilter == SPC_RFILTER_BOX) {
-        /* a box of radius 0.5 covers exactly the pixel containing the point */
-        if (r <= 0.5) {
-            x0 = x1 = (int)floor(fx);
-            y0 = y1 = (int)floor(fy);
-        }
-    }
-    for (int y = y0; y <= y1; ++y) {
-        int wy = y - ctx->crop_y;
-        if (wy < 0 || wy >= ctx->height)
-            continue;
-        bool unit_box = ctx->film->rfilter == SPC_RFILTER_BOX && r <= 0.5;
-        double fyw = unit_box ? 1.0 : spc_film_filter_eval(ctx->film, y + 0.5 - fy);
-        for (int x = x0; x <= x1; ++x) {
-            int wx = x - ctx->crop_x;
-            if (wx < 0 || wx >= ctx->width)
-                continue;
-            double fxw = unit_box ? 1.0 : spc_film_filter_eval(ctx->film, x + 0.5 - fx);
-            double w = fxw * fyw;
-            /* near the window's edges the filter is renormalized over the part inside (film.h) */
-            if (w > 0.0 && r > 0.5)
-                w /= spc_film_filter_mass(ctx->film, x + 0.5, ctx->crop_x, ctx->crop_x + ctx->width) *
-                     spc_film_filter_mass(ctx->film, y + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
-            if (w > 0.0)
-                push_splat(tls, film, wx, wy, spc_rgb_scale(v, w));
-        }
     }
 }

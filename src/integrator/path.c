@@ -22,7 +22,9 @@
  * q = min(0.95, max(beta) * eta_scale^2), where eta_scale undoes the radiance scaling of
  * refraction so that paths inside glass are not killed for it (pbrt-v4).
  */
-#include "integrator/integrator.h"
+#include "integrator/path.h"
+
+#include "integrator/aov.h"
 #include "integrator/path_snee.h"
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }

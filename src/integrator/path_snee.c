@@ -8,6 +8,7 @@
 
 #include <string.h>
 
+#include "integrator/splat.h"
 #include "manifold/snee_cost.h"
 
 /* The rough-vertex mode (newton's "rough"): its own estimator, without MIS or camera queries. */

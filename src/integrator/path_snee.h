@@ -16,7 +16,7 @@
 #ifndef SPC_INTEGRATOR_PATH_SNEE_H
 #define SPC_INTEGRATOR_PATH_SNEE_H
 
-#include "integrator/integrator.h"
+#include "integrator/context.h"
 
 typedef struct spc_path_snee {
     bool on;                 /* specular NEE runs in this path */

@@ -67,7 +67,8 @@
  */
 #include <string.h>
 
-#include "integrator/integrator.h"
+#include "integrator/aov.h"
+#include "integrator/volpath.h"
 #include "manifold/specular_nee.h"
 #include "medium/medium.h"
 

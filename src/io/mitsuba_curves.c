@@ -11,7 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
 #include "scene/curve.h"
 
 bool mts_is_curve_type(const char *type)

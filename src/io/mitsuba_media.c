@@ -22,7 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
 
 static bool check_rgb(mts_loader *L, mts_props *P, const char *name, spc_rgb v, double hi)
 {
@@ -66,6 +66,20 @@ static bool check_volume(mts_loader *L, mts_props *P, const char *name, const sp
     return true;
 }
 
+/* ---- the phase function and medium builders: one per row of the plugin table ---- */
+
+void mts_phase_isotropic(const mts_build *a) { ((spc_phase *)a->object)->type = SPC_PHASE_ISOTROPIC; }
+
+void mts_phase_hg(const mts_build *a)
+{
+    spc_phase *out = a->object;
+    double g = mts_get_float(a->L, a->P, "g", 0.8);
+    if (a->L->status == SPC_OK && !(g > -1.0 && g < 1.0))
+        mts_fail(a->L, mts_where(a->P, "g"), SPC_ERR_VALUE, "hg phase function g = %g must lie in (-1, 1)", g);
+    out->type = SPC_PHASE_HG;
+    out->g = g;
+}
+
 bool mts_build_phase(mts_loader *L, spc_xml_node *node, spc_phase *out)
 {
     out->type = SPC_PHASE_ISOTROPIC;
@@ -74,14 +88,10 @@ bool mts_build_phase(mts_loader *L, spc_xml_node *node, spc_phase *out)
     if (mts_props_collect(L, node, &P))
         return false;
     const char *type = mts_type(node);
-    if (strcmp(type, "isotropic") == 0) {
-        out->type = SPC_PHASE_ISOTROPIC;
-    } else if (strcmp(type, "hg") == 0) {
-        double g = mts_get_float(L, &P, "g", 0.8);
-        if (L->status == SPC_OK && !(g > -1.0 && g < 1.0))
-            mts_fail(L, mts_where(&P, "g"), SPC_ERR_VALUE, "hg phase function g = %g must lie in (-1, 1)", g);
-        out->type = SPC_PHASE_HG;
-        out->g = g;
+    const mts_plugin *row = mts_plugin_find(L, "phase", type);
+    if (row && row->build) {
+        mts_build a = {.L = L, .node = node, .type = type, .P = &P, .object = out};
+        row->build(&a);
     } else {
         mts_fail_plugin(L, node, "phase", type);
     }
@@ -89,49 +99,31 @@ bool mts_build_phase(mts_loader *L, spc_xml_node *node, spc_phase *out)
     return L->status == SPC_OK;
 }
 
-int mts_build_medium(mts_loader *L, spc_xml_node *node)
+/* homogeneous and heterogeneous (hetero): one reading of the coefficients, checked alike */
+static void medium(const mts_build *a, bool hetero)
 {
-    /* a medium with an id is built once, whatever refers to it */
-    mts_id *entry = mts_id_of(L, node);
-    if (entry) {
-        if (entry->state == 2)
-            return ((const spc_medium *)entry->obj)->index;
-        if (entry->state == 1) {
-            mts_fail(L, node, SPC_ERR_VALUE, "reference cycle through id '%s'", entry->id);
-            return -1;
-        }
-        entry->state = 1;
-    }
-    int index = -1;
-    mts_props P;
-    if (mts_props_collect(L, node, &P)) {
-        if (entry)
-            entry->state = 0;
-        return -1;
-    }
-    const char *type = mts_type(node);
-    bool hetero = strcmp(type, "heterogeneous") == 0;
-    bool pair_as = mts_has(&P, "sigma_a") || mts_has(&P, "sigma_s");
-    bool pair_ta = mts_has(&P, "sigma_t") || mts_has(&P, "albedo");
-    if (strcmp(type, "homogeneous") != 0 && !hetero) {
-        mts_fail_plugin(L, node, "medium", type);
-    } else if (!hetero && mts_is_grid_volume(&P, "sigma_t")) {
-        mts_fail(L, mts_where(&P, "sigma_t"), SPC_ERR_VALUE,
+    mts_loader *L = a->L;
+    mts_props *P = a->P;
+    spc_xml_node *node = a->node;
+    bool pair_as = mts_has(P, "sigma_a") || mts_has(P, "sigma_s");
+    bool pair_ta = mts_has(P, "sigma_t") || mts_has(P, "albedo");
+    if (!hetero && mts_is_grid_volume(P, "sigma_t")) {
+        mts_fail(L, mts_where(P, "sigma_t"), SPC_ERR_VALUE,
                  "a homogeneous medium's sigma_t is one value; a grid of them makes a heterogeneous medium");
-    } else if (volume_named(&P, "sigma_a") || volume_named(&P, "sigma_s")) {
-        mts_fail(L, mts_where(&P, volume_named(&P, "sigma_a") ? "sigma_a" : "sigma_s"), SPC_ERR_VALUE,
+    } else if (volume_named(P, "sigma_a") || volume_named(P, "sigma_s")) {
+        mts_fail(L, mts_where(P, volume_named(P, "sigma_a") ? "sigma_a" : "sigma_s"), SPC_ERR_VALUE,
                  "sigma_a and sigma_s are constants; give a volume as sigma_t or albedo");
     } else if (hetero && pair_as) {
-        mts_fail(L, mts_where(&P, mts_has(&P, "sigma_a") ? "sigma_a" : "sigma_s"), SPC_ERR_VALUE,
+        mts_fail(L, mts_where(P, mts_has(P, "sigma_a") ? "sigma_a" : "sigma_s"), SPC_ERR_VALUE,
                  "a heterogeneous medium takes sigma_t and albedo");
-    } else if (mts_has(&P, "material")) {
-        mts_fail(L, mts_where(&P, "material"), SPC_ERR_PLUGIN,
+    } else if (mts_has(P, "material")) {
+        mts_fail(L, mts_where(P, "material"), SPC_ERR_PLUGIN,
                  "named medium materials are not supported; give sigma_a and sigma_s, or sigma_t and albedo");
     } else if (pair_as && pair_ta) {
-        mts_fail(L, mts_where(&P, mts_has(&P, "sigma_t") ? "sigma_t" : "albedo"), SPC_ERR_VALUE,
+        mts_fail(L, mts_where(P, mts_has(P, "sigma_t") ? "sigma_t" : "albedo"), SPC_ERR_VALUE,
                  "a medium takes sigma_a and sigma_s, or sigma_t and albedo, not both");
-    } else if (mts_count_objects(&P, "phase") > 1) {
-        mts_fail(L, node, SPC_ERR_VALUE, "a medium takes one phase function, got %d", mts_count_objects(&P, "phase"));
+    } else if (mts_count_objects(P, "phase") > 1) {
+        mts_fail(L, node, SPC_ERR_VALUE, "a medium takes one phase function, got %d", mts_count_objects(P, "phase"));
     }
     spc_rgb sa = spc_rgb1(0.0), ss = spc_rgb1(0.0);
     spc_volume vol_t, vol_a; /* heterogeneous sigma_t; a volume albedo (either type) */
@@ -142,44 +134,44 @@ int mts_build_medium(mts_loader *L, spc_xml_node *node)
     bool emitters = true;
     spc_phase phase = {SPC_PHASE_ISOTROPIC, 0.0};
     if (L->status == SPC_OK) {
-        const char *scale_name = mts_has(&P, "density_multiplier") ? "density_multiplier" : "scale";
-        scale = mts_get_float(L, &P, scale_name, 1.0);
+        const char *scale_name = mts_has(P, "density_multiplier") ? "density_multiplier" : "scale";
+        scale = mts_get_float(L, P, scale_name, 1.0);
         if (L->status == SPC_OK && !(scale >= 0.0 && scale < INFINITY))
-            mts_fail(L, mts_where(&P, scale_name), SPC_ERR_VALUE, "medium %s %g must be finite and not negative",
+            mts_fail(L, mts_where(P, scale_name), SPC_ERR_VALUE, "medium %s %g must be finite and not negative",
                      scale_name, scale);
-        mts_ignore(&P, "has_spectral_extinction"); /* RGB channels are always sampled as spectra */
+        mts_ignore(P, "has_spectral_extinction"); /* RGB channels are always sampled as spectra */
         if (hetero) {
-            if (mts_get_volume(L, &P, "sigma_t", spc_rgb1(1.0), &vol_t))
-                check_volume(L, &P, "sigma_t", &vol_t, false);
-            if (L->status == SPC_OK && mts_get_volume(L, &P, "albedo", spc_rgb1(0.75), &vol_a) &&
-                check_volume(L, &P, "albedo", &vol_a, true))
+            if (mts_get_volume(L, P, "sigma_t", spc_rgb1(1.0), &vol_t))
+                check_volume(L, P, "sigma_t", &vol_t, false);
+            if (L->status == SPC_OK && mts_get_volume(L, P, "albedo", spc_rgb1(0.75), &vol_a) &&
+                check_volume(L, P, "albedo", &vol_a, true))
                 have_a = true;
         } else if (pair_as) {
-            sa = mts_get_rgb(L, &P, "sigma_a", spc_rgb1(0.0));
-            ss = mts_get_rgb(L, &P, "sigma_s", spc_rgb1(0.0));
-            if (L->status == SPC_OK && check_rgb(L, &P, "sigma_a", sa, INFINITY))
-                check_rgb(L, &P, "sigma_s", ss, INFINITY);
+            sa = mts_get_rgb(L, P, "sigma_a", spc_rgb1(0.0));
+            ss = mts_get_rgb(L, P, "sigma_s", spc_rgb1(0.0));
+            if (L->status == SPC_OK && check_rgb(L, P, "sigma_a", sa, INFINITY))
+                check_rgb(L, P, "sigma_s", ss, INFINITY);
         } else {
             spc_rgb st = spc_rgb1(1.0), al = spc_rgb1(0.75);
-            if (mts_has(&P, "sigma_t") && mts_get_volume(L, &P, "sigma_t", st, &vol_t))
+            if (mts_has(P, "sigma_t") && mts_get_volume(L, P, "sigma_t", st, &vol_t))
                 st = vol_t.value; /* a constvolume: its value everywhere */
             memset(&vol_t, 0, sizeof vol_t);
-            if (mts_is_grid_volume(&P, "albedo")) {
-                if (mts_get_volume(L, &P, "albedo", al, &vol_a) && check_volume(L, &P, "albedo", &vol_a, true)) {
+            if (mts_is_grid_volume(P, "albedo")) {
+                if (mts_get_volume(L, P, "albedo", al, &vol_a) && check_volume(L, P, "albedo", &vol_a, true)) {
                     have_a = true;
                     al = vol_a.max; /* for the description; sampling reads the volume */
                 }
-            } else if (mts_has(&P, "albedo") && mts_get_volume(L, &P, "albedo", al, &vol_a)) {
+            } else if (mts_has(P, "albedo") && mts_get_volume(L, P, "albedo", al, &vol_a)) {
                 al = vol_a.value;
             }
-            if (L->status == SPC_OK && check_rgb(L, &P, "sigma_t", st, INFINITY) &&
-                (have_a || check_rgb(L, &P, "albedo", al, 1.0))) {
+            if (L->status == SPC_OK && check_rgb(L, P, "sigma_t", st, INFINITY) &&
+                (have_a || check_rgb(L, P, "albedo", al, 1.0))) {
                 ss = spc_rgb_mul(al, st);
                 sa = spc_rgb_sub(st, ss);
             }
         }
-        emitters = mts_get_bool(L, &P, "sample_emitters", true);
-        spc_xml_node *pn = mts_object(&P, "phase", 0, NULL);
+        emitters = mts_get_bool(L, P, "sample_emitters", true);
+        spc_xml_node *pn = mts_object(P, "phase", 0, NULL);
         if (pn && L->status == SPC_OK)
             mts_build_phase(L, pn, &phase);
     }
@@ -205,18 +197,56 @@ int mts_build_medium(mts_loader *L, spc_xml_node *node)
         if (m && L->status == SPC_OK) {
             m->phase = phase;
             m->sample_emitters = emitters;
-            const char *id = spc_xml_get(node, "id");
-            if (id)
-                snprintf(m->id, sizeof m->id, "%s", id);
-            index = m->index;
-            if (entry) {
-                entry->obj = m;
-                entry->state = 2;
-            }
+            *(spc_medium **)a->object = m;
         }
     }
     free(vol_t.data);
     free(vol_a.data);
+}
+
+void mts_medium_homogeneous(const mts_build *a) { medium(a, false); }
+void mts_medium_heterogeneous(const mts_build *a) { medium(a, true); }
+
+
+int mts_build_medium(mts_loader *L, spc_xml_node *node)
+{
+    /* a medium with an id is built once, whatever refers to it */
+    mts_id *entry = mts_id_of(L, node);
+    if (entry) {
+        if (entry->state == 2)
+            return ((const spc_medium *)entry->obj)->index;
+        if (entry->state == 1) {
+            mts_fail(L, node, SPC_ERR_VALUE, "reference cycle through id '%s'", entry->id);
+            return -1;
+        }
+        entry->state = 1;
+    }
+    int index = -1;
+    mts_props P;
+    if (mts_props_collect(L, node, &P)) {
+        if (entry)
+            entry->state = 0;
+        return -1;
+    }
+    const char *type = mts_type(node);
+    const mts_plugin *row = mts_plugin_find(L, "medium", type);
+    spc_medium *m = NULL;
+    if (row && row->build) {
+        mts_build a = {.L = L, .node = node, .type = type, .P = &P, .object = &m};
+        row->build(&a);
+    } else {
+        mts_fail_plugin(L, node, "medium", type);
+    }
+    if (m && L->status == SPC_OK) {
+        const char *id = spc_xml_get(node, "id");
+        if (id)
+            snprintf(m->id, sizeof m->id, "%s", id);
+        index = m->index;
+        if (entry) {
+            entry->obj = m;
+            entry->state = 2;
+        }
+    }
     if (entry && entry->state != 2)
         entry->state = 0;
     mts_props_end(&P);

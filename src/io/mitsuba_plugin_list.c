@@ -6,14 +6,18 @@
  * with an error naming it).
  *
  * Parameters are written "name default" (a parameter Mitsuba has and specula does not read is
- * listed in the note); "-" for none. A bsdf, shape or emitter row ends with the builder the loader
- * calls for that type (mitsuba_plugins.c): adding a plugin of those categories is one row here and
- * its builder. The loader's "unknown type" errors list the names this table marks read.
+ * listed in the note); "-" for none. A bsdf, shape, emitter, texture, medium, phase, volume or
+ * integrator row ends with the builder the loader calls for that type (mitsuba_builders.h): adding a
+ * plugin of those categories is one row here and its builder. The other categories (sensor, film,
+ * rfilter, sampler) are read by the walk (mitsuba_xml.c), which accepts a type by its row here.
+ * The loader's "unknown type" errors list the names this table marks read.
  */
+#include "io/mitsuba_plugin_list.h"
+
 #include <stdio.h>
 #include <string.h>
 
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
 
 static const mts_plugin plugins[] = {
     /* ---- BSDFs ---- */
@@ -117,11 +121,11 @@ static const mts_plugin plugins[] = {
     /* ---- textures ---- */
     {"texture", "bitmap", MTS_PLUGIN_YES, "filename, filter_type \"bilinear\", wrap_mode \"repeat\", raw false, to_uv",
      "images: OpenEXR, PNG, JPEG, BMP (uncompressed); format (storage precision), max_anisotropy and cache are "
-     "accepted and ignored (texels are float)", NULL},
-    {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", "", NULL},
-    {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", "", NULL},
+     "accepted and ignored (texels are float)", mts_texture_bitmap},
+    {"texture", "checkerboard", MTS_PLUGIN_YES, "color0 0.4, color1 0.2, to_uv", "", mts_texture_checkerboard},
+    {"texture", "rawconstant", MTS_PLUGIN_YES, "value 1 (float or vector)", "", mts_texture_rawconstant},
     {"texture", "mesh_attribute", MTS_PLUGIN_YES, "name (\"vertex_*\" or \"face_*\"), scale 1",
-     "PLY attributes as Mitsuba names them; read by BSDF parameters (elsewhere black)", NULL},
+     "PLY attributes as Mitsuba names them; read by BSDF parameters (elsewhere black)", mts_texture_mesh_attribute},
     {"texture", "volume", MTS_PLUGIN_NO, "-", "", NULL},
 
     /* ---- sensors ---- */
@@ -157,105 +161,55 @@ static const mts_plugin plugins[] = {
     {"sampler", "multijitter", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
     {"sampler", "orthogonal", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
     {"sampler", "ldsampler", MTS_PLUGIN_YES, "sample_count 4, seed 0", "", NULL},
+    {"sampler", "halton", MTS_PLUGIN_OWN, "sample_count 4, seed 0", "Mitsuba 0.6's", NULL},
+    {"sampler", "hammersley", MTS_PLUGIN_OWN, "sample_count 4, seed 0", "Mitsuba 0.6's", NULL},
+    {"sampler", "sobol", MTS_PLUGIN_OWN, "sample_count 4, seed 0", "Mitsuba 0.6's", NULL},
 
     /* ---- integrators ---- */
-    {"integrator", "path", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", NULL},
-    {"integrator", "prb", MTS_PLUGIN_YES, "as path", "rendered by path", NULL},
-    {"integrator", "volpath", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", NULL},
-    {"integrator", "volpathmis", MTS_PLUGIN_YES, "as volpath", "rendered by volpath", NULL},
+    {"integrator", "path", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", mts_integrator_path},
+    {"integrator", "prb", MTS_PLUGIN_YES, "as path", "rendered by path", mts_integrator_path},
+    {"integrator", "volpath", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false", "", mts_integrator_volpath},
+    {"integrator", "volpathmis", MTS_PLUGIN_YES, "as volpath", "rendered by volpath", mts_integrator_volpath},
     {"integrator", "direct", MTS_PLUGIN_YES, "emitter_samples, bsdf_samples (read, not used)",
-     "path with max_depth 2; Mitsuba counts each of emitter_samples delta-light samples at full weight", NULL},
+     "path with max_depth 2; Mitsuba counts each of emitter_samples delta-light samples at full weight", mts_integrator_direct},
     {"integrator", "aov", MTS_PLUGIN_YES, "aovs (albedo, depth, position, sh_normal), a nested integrator",
-     "other AOV types are refused", NULL},
-    {"integrator", "moment", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", NULL},
-    {"integrator", "stokes", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", NULL},
+     "other AOV types are refused", mts_integrator_nested},
+    {"integrator", "moment", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", mts_integrator_nested},
+    {"integrator", "stokes", MTS_PLUGIN_YES, "a nested integrator", "the nested integrator's image only", mts_integrator_nested},
     {"integrator", "ptracer", MTS_PLUGIN_YES, "max_depth -1, rr_depth 5, hide_emitters false",
-     "light tracing (bdpt's t = 1 strategies); samples_per_pass read and unused", NULL},
+     "light tracing (bdpt's t = 1 strategies); samples_per_pass read and unused", mts_integrator_ptracer},
     {"integrator", "depth", MTS_PLUGIN_NO, "-", "", NULL},
     {"integrator", "prbvolpath", MTS_PLUGIN_NO, "-", "", NULL},
     {"integrator", "bdpt", MTS_PLUGIN_OWN, "max_depth -1, rr_depth 5, mis_balance false",
-     "Mitsuba 0.6 had one; Mitsuba 3 has not", NULL},
-    {"integrator", "ipt", MTS_PLUGIN_OWN, "max_depth -1", "implicit path tracing (no NEE)", NULL},
+     "Mitsuba 0.6 had one; Mitsuba 3 has not", mts_integrator_bdpt},
+    {"integrator", "ipt", MTS_PLUGIN_OWN, "max_depth -1", "implicit path tracing (no NEE)", mts_integrator_ipt},
 
     /* ---- media and phase functions ---- */
     {"medium", "homogeneous", MTS_PLUGIN_YES,
      "sigma_t 1 and albedo 0.75 (or sigma_a, sigma_s), scale 1, sample_emitters true, phase",
-     "albedo may be a volume; sigma_t a constvolume", NULL},
+     "albedo may be a volume; sigma_t a constvolume", mts_medium_homogeneous},
     {"medium", "heterogeneous", MTS_PLUGIN_YES,
      "sigma_t 1 (volume or value), albedo 0.75 (volume or value), scale 1, sample_emitters true, phase",
      "vacuum outside the sigma_t volume's bounds, as in Mitsuba; free flight by exact optical depth "
      "(regular tracking) instead of delta tracking: the same distribution; has_spectral_extinction ignored",
-     NULL},
-    {"phase", "isotropic", MTS_PLUGIN_YES, "-", "", NULL},
-    {"phase", "hg", MTS_PLUGIN_YES, "g 0.8", "", NULL},
+     mts_medium_heterogeneous},
+    {"phase", "isotropic", MTS_PLUGIN_YES, "-", "", mts_phase_isotropic},
+    {"phase", "hg", MTS_PLUGIN_YES, "g 0.8", "", mts_phase_hg},
     {"phase", "rayleigh", MTS_PLUGIN_NO, "-", "", NULL},
     {"phase", "blendphase", MTS_PLUGIN_NO, "-", "", NULL},
     {"phase", "tabphase", MTS_PLUGIN_NO, "-", "", NULL},
     {"phase", "sggx", MTS_PLUGIN_NO, "-", "", NULL},
-    {"volume", "constvolume", MTS_PLUGIN_YES, "value 1 (float or rgb), to_world", "", NULL},
+    {"volume", "constvolume", MTS_PLUGIN_YES, "value 1 (float or rgb), to_world", "", mts_volume_constvolume},
     {"volume", "gridvolume", MTS_PLUGIN_YES,
      "filename (.vol, 1 or 3 channels), filter_type \"trilinear\", wrap_mode \"clamp\", to_world, "
      "use_grid_bbox false",
-     "raw and accel accepted, no effect in RGB; 6-channel grids are not read", NULL},
+     "raw and accel accepted, no effect in RGB; 6-channel grids are not read", mts_volume_gridvolume},
 };
-
-static const mts_own_property own_properties[] = {
-    {"integrator", "specular_nee", MTS_STRING,
-     "specular next-event estimation: auto, none, angular, newton, conic[:options]"},
-    {"integrator", "specular_max_chain", MTS_INT, "longest chain of specular vertices specular NEE connects through"},
-    {"integrator", "mis_balance", MTS_BOOL, "bdpt: the balance heuristic instead of the power heuristic"},
-    {"shape", "caustic_caster", MTS_BOOL, "specular NEE: the shape casts caustics"},
-    {"shape", "caustic_receiver", MTS_BOOL, "specular NEE: the shape receives caustics"},
-    {"shape", "caustic_caster_single", MTS_BOOL, "specular NEE: a caster of single-bounce chains"},
-    {"shape", "caustic_caster_multi", MTS_BOOL, "specular NEE: a caster of multi-bounce chains"},
-};
-
-const mts_own_property *mts_own_property_find(const char *category, const char *name)
-{
-    for (size_t i = 0; i < sizeof own_properties / sizeof own_properties[0]; ++i)
-        if (strcmp(own_properties[i].category, category) == 0 && strcmp(own_properties[i].name, name) == 0)
-            return &own_properties[i];
-    return NULL;
-}
 
 const mts_plugin *mts_plugin_list(int *n)
 {
     *n = (int)(sizeof plugins / sizeof plugins[0]);
     return plugins;
-}
-
-const mts_plugin *mts_plugin_find(const char *category, const char *name)
-{
-    for (size_t i = 0; i < sizeof plugins / sizeof plugins[0]; ++i)
-        if (strcmp(plugins[i].category, category) == 0 && strcmp(plugins[i].name, name) == 0)
-            return &plugins[i];
-    return NULL;
-}
-
-/* The names of a category the loader reads (every row not marked no), comma-separated, in buf. */
-static void known_names(const char *category, char *buf, size_t len)
-{
-    size_t used = 0;
-    buf[0] = '\0';
-    for (size_t i = 0; i < sizeof plugins / sizeof plugins[0]; ++i) {
-        if (strcmp(plugins[i].category, category) != 0 || plugins[i].status == MTS_PLUGIN_NO)
-            continue;
-        int n = snprintf(buf + used, len - used, "%s%s", used ? ", " : "", plugins[i].name);
-        if (n < 0 || (size_t)n >= len - used)
-            break;
-        used += (size_t)n;
-    }
-}
-
-spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type)
-{
-    char known[1024];
-    known_names(category, known, sizeof known);
-    const mts_plugin *p = mts_plugin_find(category, type);
-    if (p && p->status == MTS_PLUGIN_NO)
-        return mts_fail(L, node, SPC_ERR_PLUGIN, "%s '%s' (a Mitsuba 3 plugin) is not supported by specula%s%s",
-                        category, type, p->note[0] ? ": " : "", p->note);
-    return mts_fail(L, node, SPC_ERR_PLUGIN, "unknown %s type '%s' (%s)", category, type, known);
 }
 
 static const char *status_text(mts_plugin_status s)
@@ -309,8 +263,10 @@ int mts_plugins_markdown(FILE *out)
                  "`<integrator type=\"path\"><default name=\"specular_nee\" value=\"angular\"/></integrator>`.\n"
                  "specula's `sdf` shapes have no such form: a scene with them loads in specula only.\n\n"
                  "| plugin | property | type | meaning |\n|---|---|---|---|\n");
-    for (size_t i = 0; i < sizeof own_properties / sizeof own_properties[0]; ++i) {
-        const mts_own_property *o = &own_properties[i];
+    int nown;
+    const mts_own_property *own = mts_own_property_list(&nown);
+    for (int i = 0; i < nown; ++i) {
+        const mts_own_property *o = &own[i];
         fprintf(out, "| %s | `%s` | %s | %s |\n", o->category, o->name,
                 o->kind <= MTS_STRING ? kind_names[o->kind] : "?", o->meaning);
     }

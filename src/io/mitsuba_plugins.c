@@ -43,7 +43,8 @@
 #include <strings.h>
 
 #include "io/mesh_io.h"
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
+#include "io/mitsuba_tables.h"
 #include "scene/curve.h"
 #include "scene/sdf.h"
 #include "scene/sdfgrid.h"
@@ -106,6 +107,121 @@ static spc_mat4 mul(const spc_mat4 *a, const spc_mat4 *b) { return spc_mat4_mul(
 /* ------------------------------------------------------------------------------------------------ */
 /* textures */
 
+/* The builder of a type in the table's category, or NULL (the type is not read). */
+static mts_build_fn builder(const mts_loader *L, const char *category, const char *type)
+{
+    const mts_plugin *p = mts_plugin_find(L, category, type);
+    return p ? p->build : NULL;
+}
+
+/* ---- the texture builders: one per texture row of the plugin table (mitsuba_plugin_list.c) ---- */
+
+/* A new texture of the scene for builder a, or NULL after mts_fail. */
+static spc_texture *new_texture(const mts_build *a)
+{
+    spc_texture *t = spc_scene_new_texture(a->L->scene);
+    if (!t)
+        mts_fail(a->L, a->node, SPC_ERR_NOMEM, "out of memory");
+    return t;
+}
+
+void mts_texture_bitmap(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    mts_props *P = a->P;
+    const char *fname = mts_get_string(L, P, "filename", NULL);
+    bool raw = mts_get_bool(L, P, "raw", false);
+    const char *filter = mts_get_string(L, P, "filter_type", "bilinear");
+    const char *wrap = mts_get_string(L, P, "wrap_mode", "repeat");
+    mts_ignore(P, "max_anisotropy");
+    mts_ignore(P, "cache");
+    mts_ignore(P, "format"); /* Mitsuba's storage precision of the texels; specula keeps float */
+    bool nearest = false;
+    spc_wrap_mode wm = SPC_WRAP_REPEAT;
+    if (strcmp(filter, "nearest") == 0)
+        nearest = true;
+    else if (strcmp(filter, "bilinear") != 0 && strcmp(filter, "ewa") != 0 && strcmp(filter, "trilinear") != 0)
+        mts_fail(L, mts_where(P, "filter_type"), SPC_ERR_VALUE, "unknown filter_type '%s' (bilinear, nearest)", filter);
+    if (strcmp(wrap, "mirror") == 0)
+        wm = SPC_WRAP_MIRROR;
+    else if (strcmp(wrap, "clamp") == 0)
+        wm = SPC_WRAP_CLAMP;
+    else if (strcmp(wrap, "zero") == 0 || strcmp(wrap, "one") == 0) {
+        mts_warn(mts_where(P, "wrap_mode"), "wrap_mode '%s' is read as 'clamp'", wrap);
+        wm = SPC_WRAP_CLAMP;
+    } else if (strcmp(wrap, "repeat") != 0)
+        mts_fail(L, mts_where(P, "wrap_mode"), SPC_ERR_VALUE, "unknown wrap_mode '%s' (repeat, mirror, clamp)", wrap);
+    char path[4096];
+    if (L->status == SPC_OK && !fname)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "bitmap texture needs a filename");
+    else if (L->status == SPC_OK && !mts_resolve(L, mts_where(P, "filename"), fname, path, sizeof path))
+        mts_fail(L, mts_where(P, "filename"), SPC_ERR_IO, "texture file '%s' %s", fname,
+                 mts_resolve_failure(L, mts_where(P, "filename"), fname));
+    if (L->status != SPC_OK)
+        return;
+    spc_texture *t = new_texture(a);
+    if (!t)
+        return;
+    spc_error sub;
+    memset(&sub, 0, sizeof sub);
+    if (spc_texture_load_bitmap(t, path, raw, &sub) != SPC_OK) {
+        char msg[SPC_ERROR_MSG_MAX];
+        spc_error_format(&sub, msg, sizeof msg);
+        mts_fail(L, a->node, sub.code ? sub.code : SPC_ERR_IO, "cannot load texture '%s': %s", fname, msg);
+        return;
+    }
+    t->nearest = nearest;
+    t->wrap = wm;
+    set_to_uv(t, a->transform);
+    *(spc_texture **)a->object = t;
+}
+
+void mts_texture_checkerboard(const mts_build *a)
+{
+    spc_rgb c0 = mts_get_rgb(a->L, a->P, "color0", spc_rgb1(0.4));
+    spc_rgb c1 = mts_get_rgb(a->L, a->P, "color1", spc_rgb1(0.2));
+    spc_texture *t = a->L->status == SPC_OK ? new_texture(a) : NULL;
+    if (!t)
+        return;
+    spc_texture_init_checkerboard(t, c0, c1);
+    set_to_uv(t, a->transform);
+    *(spc_texture **)a->object = t;
+}
+
+/* a constant read as is (no colour conversion): a float or a 3-vector */
+void mts_texture_rawconstant(const mts_build *a)
+{
+    mts_prop *v = mts_find(a->P, "value");
+    spc_rgb c = spc_rgb1(1.0);
+    if (v && v->kind == MTS_POINT)
+        c = spc_rgb3(v->v.x, v->v.y, v->v.z);
+    else
+        c = spc_rgb1(mts_get_float(a->L, a->P, "value", 1.0));
+    spc_texture *t = a->L->status == SPC_OK ? new_texture(a) : NULL;
+    if (!t)
+        return;
+    spc_texture_init_constant(t, c);
+    *(spc_texture **)a->object = t;
+}
+
+void mts_texture_mesh_attribute(const mts_build *a)
+{
+    mts_loader *L = a->L;
+    const char *name = mts_get_string(L, a->P, "name", NULL);
+    double scale = mts_get_float(L, a->P, "scale", 1.0);
+    if (L->status == SPC_OK && !name)
+        mts_fail(L, a->node, SPC_ERR_VALUE, "mesh_attribute texture needs a name");
+    spc_texture *t = L->status == SPC_OK ? new_texture(a) : NULL;
+    if (!t)
+        return;
+    if (!spc_texture_init_mesh_attribute(t, name, scale)) {
+        mts_fail(L, mts_where(a->P, "name"), SPC_ERR_VALUE,
+                 "mesh attribute name '%s' must start with 'vertex_' or 'face_' (at most 63 characters)", name);
+        return;
+    }
+    *(spc_texture **)a->object = t;
+}
+
 const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
 {
     void *cached;
@@ -128,93 +244,10 @@ const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node)
         spc_mat4 ST = mul(&S, &T);
         to_uv = mul(&ST, &to_uv);
     }
-    if (strcmp(type, "bitmap") == 0) {
-        const char *fname = mts_get_string(L, &P, "filename", NULL);
-        bool raw = mts_get_bool(L, &P, "raw", false);
-        const char *filter = mts_get_string(L, &P, "filter_type", "bilinear");
-        const char *wrap = mts_get_string(L, &P, "wrap_mode", "repeat");
-        mts_ignore(&P, "max_anisotropy");
-        mts_ignore(&P, "cache");
-        mts_ignore(&P, "format"); /* Mitsuba's storage precision of the texels; specula keeps float */
-        bool nearest = false;
-        spc_wrap_mode wm = SPC_WRAP_REPEAT;
-        if (strcmp(filter, "nearest") == 0)
-            nearest = true;
-        else if (strcmp(filter, "bilinear") != 0 && strcmp(filter, "ewa") != 0 && strcmp(filter, "trilinear") != 0)
-            mts_fail(L, mts_where(&P, "filter_type"), SPC_ERR_VALUE, "unknown filter_type '%s' (bilinear, nearest)",
-                     filter);
-        if (strcmp(wrap, "mirror") == 0)
-            wm = SPC_WRAP_MIRROR;
-        else if (strcmp(wrap, "clamp") == 0)
-            wm = SPC_WRAP_CLAMP;
-        else if (strcmp(wrap, "zero") == 0 || strcmp(wrap, "one") == 0) {
-            mts_warn(mts_where(&P, "wrap_mode"), "wrap_mode '%s' is read as 'clamp'", wrap);
-            wm = SPC_WRAP_CLAMP;
-        } else if (strcmp(wrap, "repeat") != 0)
-            mts_fail(L, mts_where(&P, "wrap_mode"), SPC_ERR_VALUE, "unknown wrap_mode '%s' (repeat, mirror, clamp)",
-                     wrap);
-        char path[4096];
-        if (L->status == SPC_OK && !fname)
-            mts_fail(L, node, SPC_ERR_VALUE, "bitmap texture needs a filename");
-        else if (L->status == SPC_OK && !mts_resolve(L, mts_where(&P, "filename"), fname, path, sizeof path))
-            mts_fail(L, mts_where(&P, "filename"), SPC_ERR_IO, "texture file '%s' %s", fname,
-                     mts_resolve_failure(L, mts_where(&P, "filename"), fname));
-        if (L->status == SPC_OK) {
-            t = spc_scene_new_texture(L->scene);
-            spc_error sub;
-            memset(&sub, 0, sizeof sub);
-            if (!t) {
-                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
-            } else if (spc_texture_load_bitmap(t, path, raw, &sub) != SPC_OK) {
-                char msg[SPC_ERROR_MSG_MAX];
-                spc_error_format(&sub, msg, sizeof msg);
-                mts_fail(L, node, sub.code ? sub.code : SPC_ERR_IO, "cannot load texture '%s': %s", fname, msg);
-            } else {
-                t->nearest = nearest;
-                t->wrap = wm;
-                set_to_uv(t, &to_uv);
-            }
-        }
-    } else if (strcmp(type, "checkerboard") == 0) {
-        spc_rgb c0 = mts_get_rgb(L, &P, "color0", spc_rgb1(0.4));
-        spc_rgb c1 = mts_get_rgb(L, &P, "color1", spc_rgb1(0.2));
-        if (L->status == SPC_OK) {
-            t = spc_scene_new_texture(L->scene);
-            if (!t) {
-                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
-            } else {
-                spc_texture_init_checkerboard(t, c0, c1);
-                set_to_uv(t, &to_uv);
-            }
-        }
-    } else if (strcmp(type, "rawconstant") == 0) {
-        /* a constant read as is (no colour conversion): a float or a 3-vector */
-        mts_prop *v = mts_find(&P, "value");
-        spc_rgb c = spc_rgb1(1.0);
-        if (v && v->kind == MTS_POINT)
-            c = spc_rgb3(v->v.x, v->v.y, v->v.z);
-        else
-            c = spc_rgb1(mts_get_float(L, &P, "value", 1.0));
-        if (L->status == SPC_OK) {
-            t = spc_scene_new_texture(L->scene);
-            if (!t)
-                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
-            else
-                spc_texture_init_constant(t, c);
-        }
-    } else if (strcmp(type, "mesh_attribute") == 0) {
-        const char *name = mts_get_string(L, &P, "name", NULL);
-        double scale = mts_get_float(L, &P, "scale", 1.0);
-        if (L->status == SPC_OK && !name)
-            mts_fail(L, node, SPC_ERR_VALUE, "mesh_attribute texture needs a name");
-        if (L->status == SPC_OK) {
-            t = spc_scene_new_texture(L->scene);
-            if (!t)
-                mts_fail(L, node, SPC_ERR_NOMEM, "out of memory");
-            else if (!spc_texture_init_mesh_attribute(t, name, scale))
-                mts_fail(L, mts_where(&P, "name"), SPC_ERR_VALUE,
-                         "mesh attribute name '%s' must start with 'vertex_' or 'face_' (at most 63 characters)", name);
-        }
+    mts_build_fn build = builder(L, "texture", type);
+    if (build) {
+        mts_build a = {.L = L, .node = node, .type = type, .P = &P, .object = &t, .transform = &to_uv};
+        build(&a);
     } else {
         mts_fail_plugin(L, node, "texture", type);
     }
@@ -438,21 +471,6 @@ void mts_bsdf_pplastic(const mts_build *a)
         mts_fail(L, a->node, SPC_ERR_VALUE, "pplastic: int_ior and ext_ior must be positive and differ");
 }
 
-/* principled, principledthin: parameters in mitsuba_principled.c */
-void mts_bsdf_principled(const mts_build *a)
-{
-    spc_bsdf *b = a->object;
-    b->type = SPC_BSDF_PRINCIPLED;
-    mts_build_principled(a->L, a->P, b, a->node);
-}
-
-void mts_bsdf_principledthin(const mts_build *a)
-{
-    spc_bsdf *b = a->object;
-    b->type = SPC_BSDF_PRINCIPLEDTHIN;
-    mts_build_principled(a->L, a->P, b, a->node);
-}
-
 void mts_bsdf_twosided(const mts_build *a)
 {
     spc_bsdf *b = a->object;
@@ -547,13 +565,6 @@ void mts_bsdf_blendbsdf(const mts_build *a)
     }
 }
 
-/* The builder of a type in the table's category, or NULL (the type is not read). */
-static mts_build_fn builder(const char *category, const char *type)
-{
-    const mts_plugin *p = mts_plugin_find(category, type);
-    return p ? p->build : NULL;
-}
-
 const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
 {
     void *cached;
@@ -574,7 +585,7 @@ const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node)
     b->sample_visible = true;
     b->eta = 1.0;
     b->bump_scale = 1.0;
-    mts_build_fn build = builder("bsdf", type);
+    mts_build_fn build = builder(L, "bsdf", type);
     if (build) {
         mts_build a = {
             .L = L, .node = node, .type = type, .P = &P, .object = b, .nested = mts_count_objects(&P, "bsdf")};
@@ -1219,7 +1230,7 @@ void mts_shape_instance(const mts_build *a)
 spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group)
 {
     const char *type = mts_type(node);
-    mts_build_fn build = builder("shape", type);
+    mts_build_fn build = builder(L, "shape", type);
     if (build) {
         mts_build a = {.L = L, .node = node, .type = type, .prefix = prefix, .in_group = in_group};
         build(&a);
@@ -1381,7 +1392,7 @@ spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape
     if (mts_props_collect(L, node, &P))
         return L->status;
     const char *type = mts_type(node);
-    mts_build_fn build = builder("emitter", type);
+    mts_build_fn build = builder(L, "emitter", type);
     bool area = build == mts_emitter_area;
     if (!build) {
         mts_fail_plugin(L, node, "emitter", type);

@@ -7,7 +7,7 @@
  */
 #include <string.h>
 
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
 
 /* Mitsuba's get_flag: the parameter is given and is not the float 0. */
 static bool given(mts_props *P, const char *name)
@@ -30,7 +30,8 @@ static const spc_texture *weight(mts_loader *L, mts_props *P, const char *name, 
     return t;
 }
 
-void mts_build_principled(mts_loader *L, mts_props *P, spc_bsdf *b, const spc_xml_node *node)
+/* Both BSDFs' parameters into b (b->type set). */
+static void read_params(mts_loader *L, mts_props *P, spc_bsdf *b, const spc_xml_node *node)
 {
     bool thin = b->type == SPC_BSDF_PRINCIPLEDTHIN;
     spc_principled_params *pr = &b->pr;
@@ -83,4 +84,20 @@ void mts_build_principled(mts_loader *L, mts_props *P, spc_bsdf *b, const spc_xm
     for (int k = 0; k < 5; ++k)
         if (L->status == SPC_OK && !(rates[k] >= 0.0))
             mts_fail(L, node, SPC_ERR_VALUE, "%s: sampling rates must not be negative", mts_type(node));
+}
+
+/* ---- the builders the plugin registry names ---- */
+
+void mts_bsdf_principled(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_PRINCIPLED;
+    read_params(a->L, a->P, b, a->node);
+}
+
+void mts_bsdf_principledthin(const mts_build *a)
+{
+    spc_bsdf *b = a->object;
+    b->type = SPC_BSDF_PRINCIPLEDTHIN;
+    read_params(a->L, a->P, b, a->node);
 }

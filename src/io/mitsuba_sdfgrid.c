@@ -11,7 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_builders.h"
 #include "io/vol.h"
 #include "scene/sdfgrid.h"
 

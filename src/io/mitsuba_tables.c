@@ -19,7 +19,7 @@
 #include <string.h>
 #include <strings.h>
 
-#include "io/mitsuba_internal.h"
+#include "io/mitsuba_tables.h"
 
 #define CIE_START 360
 #define CIE_STEP 5

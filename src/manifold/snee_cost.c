@@ -64,16 +64,6 @@ double spc_snee_query_prob(const spc_snee_params *p)
     return p->guide > 0.0 || !(p->query_p > 0.0 && p->query_p < 1.0) ? 1.0 : p->query_p;
 }
 
-bool spc_sphere_arc_unseen(double y1, double y2, const double p0[2], const double p1[2])
-{
-    /* y . P(t) = |y| cos(t - phi) on an arc shorter than half a turn: its largest value is |y| > 1
-     * where its derivative y2 cos t - y1 sin t turns from positive to negative inside, else at an
-     * end */
-    if (y2 * p0[0] - y1 * p0[1] > 0.0 && y2 * p1[0] - y1 * p1[1] < 0.0)
-        return false;
-    return fmax(y1 * p0[0] + y2 * p0[1], y1 * p1[0] + y2 * p1[1]) < 1.0 - 1e-9;
-}
-
 double spc_snee_caster_share(const spc_scene *sc, const spc_chain_casters *cs, spc_vec3 x)
 {
     if (!cs)

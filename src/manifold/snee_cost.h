@@ -22,13 +22,6 @@
 bool spc_snee_spheres_keep_apart(const spc_scene *sc, const spc_chain_casters *cs, spc_vec3 x, bool reflect,
                                  int max_chain);
 
-/* Is every point P of the unit circle's arc from p0 to p1 (counterclockwise, less than half a turn;
- * each given as (cos t, sin t)) behind its tangent line as seen from y = (y1, y2), i.e. y . P < 1
- * there (with a margin of 1e-9)? A chain that leaves the circle by an outside reflection at such a
- * point cannot reach y (the reflected ray leaves the tangent line on the far side from y), so no
- * root of that chain lies there. */
-bool spc_sphere_arc_unseen(double y1, double y2, const double p0[2], const double p1[2]);
-
 /* The probability that specular NEE makes this query (spc_snee_params.query_p, later_p): query_p
  * where it is in (0, 1) and guided directions are off, else 1. */
 double spc_snee_query_prob(const spc_snee_params *p);

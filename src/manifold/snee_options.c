@@ -13,7 +13,7 @@
 #include "manifold/solver.h"
 
 /* guide without a value: a cone as wide as the light's image through the chain to its point facing
- * x (measured in bench/RESULTS.md, Session 7: 1 against 1.5 and 2 on the pools). */
+ * x (measured in bench/RESULTS.md, "Guided directions": 1 against 1.5 and 2 on the pools). */
 #define SPC_SNEE_GUIDE 1.0
 /* The largest integer an option takes (six digits: far beyond any sensible count). */
 #define SPC_SNEE_COUNT_MAX 999999

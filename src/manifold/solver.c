@@ -10,7 +10,8 @@
 #define SPC_SNEE_CONE_COS 0.9
 
 /* Area-point seeds (SEED_SHAPE, and SEED_CONE from inside a caster's bounding sphere): points of the
- * shape drawn until one faces x, at most this many. Measured in bench/RESULTS.md (Session 4). */
+ * shape drawn until one faces x, at most this many. Measured in bench/RESULTS.md ("reflections off
+ * glass, MIS with a solve-probability stand-in, specular NEE from the camera"). */
 #define SPC_SNEE_FACING_TRIES 16
 
 void spc_snee_query_init(spc_snee_query *q, const spc_scene *sc, const spc_snee_params *p, const spc_hit *x,

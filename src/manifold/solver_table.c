@@ -19,19 +19,20 @@
  * specular NEE's variance x time fell 1.9-2.7x on the caustic scenes (bench_snee, bench/RESULTS.md). */
 #define SPC_SNEE_ANGULAR_WINDOW 4
 #define SPC_SNEE_ANGULAR_WINDOW_KEEP 0.5
-/* The angular solver's cap of the trial count: its attempts now end within ~6 traces, so a longer
+/* The angular solver's cap of the trial count: its attempts end within ~6 traces, so a longer
  * count is affordable, and the window lowers the probability of hard solutions (a glass ball's
  * rim, near a fold): at 64, 0.4-0.7% of the counts were cut (bias, tests/test_manifold.c's glass
  * ball), at 256 none in that test while the mean trial count stays 2.2. Bias only below p ~ 1%. */
 #define SPC_SNEE_ANGULAR_MAX_TRIALS 256
 /* reflect's default probability of a reflection at a dielectric vertex of a seed chain. Measured in
- * bench/RESULTS.md (Session 4). */
+ * bench/RESULTS.md ("reflections off glass, MIS with a solve-probability stand-in"). */
 #define SPC_SNEE_REFLECT_P 0.2
 /* The MIS weight's stand-in for the probability that a randomized attempt finds a chain (params.
- * mis_solve; measured in bench/RESULTS.md, Session 4). */
+ * mis_solve; measured in bench/RESULTS.md, "reflections off glass, MIS with a solve-probability
+ * stand-in"). */
 #define SPC_SNEE_MIS_SOLVE 0.1
 /* params.long_p's default: the probability per call of the longer chains on one sphere (measured in
- * bench/RESULTS.md, Session 6: 0.1 against 0.25 on the glass ball). */
+ * bench/RESULTS.md, "how far specular NEE can go": 0.1 against 0.25 on the glass ball). */
 #define SPC_SNEE_LONG_P 0.1
 
 /* ---- solver table ---- */
@@ -82,7 +83,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->biased_seeds = SPC_SNEE_BIASED_SEEDS;
     /* reflections off glass: on for angular (and conic's angular part), off for newton, whose
      * attempts cost more and which they made worse on multi-interface chains (bench/RESULTS.md,
-     * Session 4) */
+     * "reflections off glass, MIS with a solve-probability stand-in") */
     p->reflect = solver == SPC_SNEE_ANGULAR || solver == SPC_SNEE_CONIC;
     p->reflect_p = SPC_SNEE_REFLECT_P;
     p->mis_solve = SPC_SNEE_MIS_SOLVE;

@@ -810,7 +810,8 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
     }
     /* with probability long_p the longer chains of one length too, each counted with 1 / psi: on a
      * sphere all of them (on the mirror ring the cylinder's longer chains cost a quarter of the
-     * samples and gained nothing: bench/RESULTS.md, Session 6), elsewhere one randomized attempt's */
+     * samples and gained nothing: bench/RESULTS.md, "how far specular NEE can go"), elsewhere one
+     * randomized attempt's */
     double u = long_on(q) ? spc_rng_next(rng) : 1.0;
     if (u < p->long_p) {
         int k = q->max_chain + 1 + (int)(u / p->long_p * (SPC_SNEE_LONG_MAX - q->max_chain));

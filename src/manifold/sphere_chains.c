@@ -25,7 +25,6 @@
 
 #include "bsdf/bsdf.h"
 #include "manifold/roots1d.h"
-#include "manifold/snee_cost.h"
 #include "manifold/solver.h"
 #include "scene/scene.h"
 
@@ -350,4 +349,14 @@ int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, 
         }
     }
     return n;
+}
+
+bool spc_sphere_arc_unseen(double y1, double y2, const double p0[2], const double p1[2])
+{
+    /* y . P(t) = |y| cos(t - phi) on an arc shorter than half a turn: its largest value is |y| > 1
+     * where its derivative y2 cos t - y1 sin t turns from positive to negative inside, else at an
+     * end */
+    if (y2 * p0[0] - y1 * p0[1] > 0.0 && y2 * p1[0] - y1 * p1[1] < 0.0)
+        return false;
+    return fmax(y1 * p0[0] + y2 * p0[1], y1 * p1[0] + y2 * p1[1]) < 1.0 - 1e-9;
 }

@@ -35,6 +35,13 @@ bool spc_sphere_chain_shape(const spc_shape *s);
 bool spc_sphere_chain_covers(const spc_chain *c, bool reflect);
 /* Is s such a sphere, and x outside it (the chains from x it enumerates are every chain on s)? */
 bool spc_sphere_chain_usable(const spc_shape *s, spc_vec3 x);
+/* Is every point P of the unit circle's arc from p0 to p1 (counterclockwise, less than half a turn;
+ * each given as (cos t, sin t)) behind its tangent line as seen from y = (y1, y2), i.e. y . P < 1
+ * there (with a margin of 1e-9)? A chain that leaves the circle by an outside reflection at such a
+ * point cannot reach y (the reflected ray leaves the tangent line on the far side from y), so no
+ * root of that chain lies there. */
+bool spc_sphere_arc_unseen(double y1, double y2, const double p0[2], const double p1[2]);
+
 /* Every such chain from q->x to q->y (at most max_out, written to out, polished and traced: each
  * segment before the last proven unblocked; the last is checked by spc_snee_chain_value). Adds the
  * chain traces it spends to *iterations. */

@@ -186,9 +186,11 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     memset(&ctx, 0, sizeof ctx);
     ctx.scene = sc;
     const char *iname = (o->integrator && o->integrator[0]) ? o->integrator : sc->integrator.type;
-    if (!spc_integrator_kind_from_name(iname, &ctx.kind))
-        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "unknown integrator '%s'; specula has: path, ipt, bdpt, volpath, ptracer",
-                             iname);
+    if (!spc_integrator_kind_from_name(iname, &ctx.kind)) {
+        char names[128];
+        spc_integrator_kind_names(names, sizeof names);
+        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "unknown integrator '%s'; specula has: %s", iname, names);
+    }
     ctx.max_depth = o->max_depth != 0 ? o->max_depth : sc->integrator.max_depth;
     if (ctx.max_depth < -1 || ctx.max_depth == 0)
         ctx.max_depth = -1;

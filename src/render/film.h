@@ -43,7 +43,7 @@ struct spc_film {
     uint64_t invalid_samples;
     /* bdpt strategy images (spc_render_options.strategy_images): films owned by this one, which
      * spc_film_destroy and spc_film_resolve handle with it; film 2 k is strategy k
-     * (integrator.h: spc_strategy_index) weighted, 2 k + 1 unweighted */
+     * (integrator/context.h: spc_strategy_index) weighted, 2 k + 1 unweighted */
     struct spc_film **strategy;
     int nstrategy;
     int strategy_s, strategy_t; /* of a strategy film */

@@ -1,19 +1,16 @@
 /*
- * io/mitsuba_internal.h: what the parts of the Mitsuba loader share (not a public interface).
- *
- *   mitsuba_xml.c      structure: parameters and $substitution, includes, dialects, ids and
- *                      references, property values and transforms, sensor/film/sampler,
- *                      integrator, the top-level walk
- *   mitsuba_plugins.c  shapes, BSDFs, textures, emitters
- *   mitsuba_media.c    participating media and phase functions
- *   mitsuba_tables.c   spectra -> RGB (CIE 1931), named IORs, conductor eta/k
+ * io/mitsuba_props.h: the loader's state and what its parts read through (not a public interface):
+ * the sticky error, file names resolved against the scene's folders, the id table, the properties
+ * of an object element with typed getters, and the plugin registry's row. The builders
+ * (mitsuba_builders.h) include this and nothing above it; the walk over the document
+ * (mitsuba_xml.c) sits on both.
  *
  * Errors are sticky: the first mts_fail() fills the caller's spc_error and sets L->status; later
  * ones are ignored, so value getters can return a default and let the builder check L->status
  * once.
  */
-#ifndef SPC_IO_MITSUBA_INTERNAL_H
-#define SPC_IO_MITSUBA_INTERNAL_H
+#ifndef SPC_IO_MITSUBA_PROPS_H
+#define SPC_IO_MITSUBA_PROPS_H
 
 #include <stdio.h>
 
@@ -21,8 +18,6 @@
 #include "core/math.h"
 #include "io/xml.h"
 #include "scene/scene.h"
-
-#define MTS_MAX_INCLUDE_DEPTH 15 /* Mitsuba 3's MI_XML_INCLUDE_MAX_RECURSION */
 
 typedef enum mts_kind {
     MTS_BOOL,
@@ -57,6 +52,7 @@ typedef struct mts_prop {
 } mts_prop;
 
 struct mts_loader;
+struct mts_plugin;
 
 typedef struct mts_props {
     struct mts_loader *L; /* no warnings once loading has failed */
@@ -111,13 +107,15 @@ typedef struct mts_loader {
     mts_mesh_entry *meshes; /* object-space meshes used by shapegroups */
     int nmeshes;
 
+    const struct mts_plugin *plugins; /* the plugin registry (mitsuba_plugin_list.c), nplugins rows */
+    int nplugins;
+
     const char *integrator_override; /* the "@integrator" define, or NULL */
     const spc_bsdf *default_bsdf;
     bool have_sensor, have_integrator;
     bool lenient; /* the "@unreferenced" define is "warn": properties no plugin reads only warn */
 } mts_loader;
 
-/* ---- mitsuba_xml.c ---- */
 spc_status mts_fail(mts_loader *L, const spc_xml_node *at, spc_status code, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 4, 5)))
@@ -167,66 +165,17 @@ const char *mts_resolve_failure(mts_loader *L, const spc_xml_node *at, const cha
 /* Id table. */
 mts_id *mts_lookup_id(mts_loader *L, const char *id);
 mts_id *mts_id_of(mts_loader *L, const spc_xml_node *node); /* NULL if node has no id */
+/* Out of memory at `at` (mts_fail with SPC_ERR_NOMEM). */
+spc_status mts_nomem(mts_loader *L, const spc_xml_node *at);
+/* A <path> directory written at `at`: as written if absolute; else relative to the directory of the
+ * file that holds `at`, the scene's directory, the <path> directories (latest first). The
+ * directory (value itself, or buf filled), or NULL if none exists. */
+const char *mts_resolve_dir(mts_loader *L, const spc_xml_node *at, const char *value, char *buf, size_t size);
+/* Is t the tag of an object element (bsdf, shape, ...; not a property)? */
+bool mts_is_object_tag(const char *t);
 
-/* ---- mitsuba_plugins.c ---- */
-const spc_bsdf *mts_build_bsdf(mts_loader *L, spc_xml_node *node);
-/* mitsuba_principled.c: principled and principledthin's parameters into b (b->type set). */
-void mts_build_principled(mts_loader *L, mts_props *P, spc_bsdf *b, const spc_xml_node *node);
-const spc_texture *mts_build_texture(mts_loader *L, spc_xml_node *node);
-/* A texture-valued property: rgb / spectrum / float constants, a nested texture or a ref. */
-const spc_texture *mts_get_texture(mts_loader *L, mts_props *P, const char *name, spc_rgb def);
-/* Builds a shape (or, for instance, copies of a shapegroup's shapes) with `prefix` applied
- * before its own to_world (identity at the top level). */
-spc_status mts_build_shape(mts_loader *L, spc_xml_node *node, const spc_mat4 *prefix, bool in_group);
-/* mitsuba_sdfgrid.c: the grid of an sdfgrid shape, or NULL after mts_fail */
-struct spc_sdfgrid *mts_load_sdfgrid(mts_loader *L, mts_props *P, const spc_xml_node *node, const spc_mat4 *to_world);
-spc_status mts_build_emitter(mts_loader *L, spc_xml_node *node, spc_shape *shape, int shape_index);
-void mts_mesh_cache_release(mts_loader *L);
-
-/* ---- mitsuba_curves.c ---- */
-struct spc_curve;
-/* Is type one of Mitsuba 3's curve shapes (linearcurve, bsplinecurve)? */
-bool mts_is_curve_type(const char *type);
-/* Reads a curve shape's file with its positions in world space (M); NULL after mts_fail. The caller
- * owns the result (spc_shape_init_curve takes it). */
-struct spc_curve *mts_load_curve(mts_loader *L, spc_xml_node *node, mts_props *P, const char *type,
-                                 const spc_mat4 *M);
-
-/* ---- mitsuba_media.c ---- */
-/* Builds a <medium> into the scene (once per id); returns its index in scene->media, or -1 after
- * mts_fail. */
-int mts_build_medium(mts_loader *L, spc_xml_node *node);
-/* Reads a <phase> element; false after mts_fail. */
-bool mts_build_phase(mts_loader *L, spc_xml_node *node, spc_phase *out);
-/* mitsuba_volumes.c: the volume-valued property `name` (a nested gridvolume or constvolume, or a
- * plain value read as a constvolume over the unit cube; def when absent) into *out; false on error.
- * mts_is_grid_volume: is the property a volume other than a constvolume (without reading it)? */
-bool mts_get_volume(mts_loader *L, mts_props *P, const char *name, spc_rgb def, spc_volume *out);
-bool mts_is_grid_volume(mts_props *P, const char *name);
-/* The interior and exterior media nested in or referenced by a shape's properties (-1: none);
- * false after mts_fail (a medium without name="interior" / "exterior", or two of one). */
-bool mts_shape_media(mts_loader *L, mts_props *P, int *interior, int *exterior);
-
-/* ---- mitsuba_tables.c ---- */
-/* Linear sRGB of a piecewise-linear spectrum (wavelengths in nm, increasing; zero outside),
- * integrated against the CIE 1931 2-degree observer and normalized so that a constant spectrum
- * of 1 gives (1, 1, 1). Negative channels are clamped to 0. */
-spc_rgb mts_spectrum_to_rgb(const double *wavelengths, const double *values, int n);
-/* The same spectrum as an emitter's radiance, as Mitsuba 3's RGB variants read it: XYZ divided by
- * the integral of y-bar, then linear sRGB, with no white normalization, so a constant spectrum of
- * 1 is the equal-energy illuminant, (1.2048, 0.9483, 0.9089) in sRGB. */
-spc_rgb mts_spectrum_to_rgb_emission(const double *wavelengths, const double *values, int n);
-double mts_srgb_to_linear(double v);
-/* Mitsuba's named IORs ("bk7", "water", ...); false if unknown. */
-bool mts_named_ior(const char *name, double *ior);
-/* RGB complex IOR of a conductor preset ("Au", "Cu", ...); false if unknown. */
-bool mts_conductor_preset(const char *name, spc_rgb *eta, spc_rgb *k);
-/* Comma-separated lists of the known names, for error messages. */
-const char *mts_ior_names(void);
-const char *mts_conductor_names(void);
-
-/* The Mitsuba 3 plugin table (mitsuba_plugin_list.c): what the loader reads, for docs/PLUGINS.md
- * and for the errors on plugins it does not read. */
+/* A row of the plugin registry (mitsuba_plugin_list.c, handed to the loader as L->plugins): what the
+ * loader reads, for docs/PLUGINS.md and for the errors on plugins it does not read. */
 typedef enum mts_plugin_status {
     MTS_PLUGIN_YES, /* read */
     MTS_PLUGIN_NO,  /* a Mitsuba 3 plugin the loader refuses (SPC_ERR_PLUGIN naming it) */
@@ -242,6 +191,16 @@ typedef enum mts_plugin_status {
  *            in_group: inside a shapegroup.
  *   emitter  P collected by mts_build_emitter; object: the spc_emitter being filled (to_world,
  *            to_local, scale 1 set); shape, shape_index: the shape an area emitter is nested in.
+ *   texture  P collected by mts_build_texture; transform: to_uv (0.x offsets and scales applied);
+ *            object: a spc_texture * the builder sets to the texture it adds to the scene.
+ *   medium   P collected by mts_build_medium; object: a spc_medium * the builder sets to the
+ *            medium it adds to the scene.
+ *   phase    P collected by mts_build_phase; object: the spc_phase to fill (isotropic set).
+ *   volume   P collected by mts_get_volume; transform: to_world; object: the spc_volume to fill
+ *            (zeroed).
+ *   integrator  P collected by mts_build_integrator; type: the type read (the "@integrator"
+ *            define's where it applies); nested: how deep the element is nested in aov, moment
+ *            or stokes. The builder fills L->scene->integrator.
  * A builder reports failure through mts_fail (L->status). */
 typedef struct mts_build {
     mts_loader *L;
@@ -254,6 +213,7 @@ typedef struct mts_build {
     bool in_group;
     spc_shape *shape;
     int shape_index;
+    const spc_mat4 *transform;
 } mts_build;
 typedef void (*mts_build_fn)(const mts_build *a);
 
@@ -268,68 +228,24 @@ typedef struct mts_plugin {
     mts_build_fn build; /* bsdf, shape, emitter: what the loader calls for this type */
 } mts_plugin;
 
-/* The builders the table names (mitsuba_plugins.c, mitsuba_principled.c). */
-void mts_bsdf_diffuse(const mts_build *a);
-void mts_bsdf_roughdiffuse(const mts_build *a);
-void mts_bsdf_phong(const mts_build *a);
-void mts_bsdf_conductor(const mts_build *a);
-void mts_bsdf_roughconductor(const mts_build *a);
-void mts_bsdf_dielectric(const mts_build *a);
-void mts_bsdf_thindielectric(const mts_build *a);
-void mts_bsdf_roughdielectric(const mts_build *a);
-void mts_bsdf_plastic(const mts_build *a);
-void mts_bsdf_roughplastic(const mts_build *a);
-void mts_bsdf_pplastic(const mts_build *a);
-void mts_bsdf_principled(const mts_build *a);
-void mts_bsdf_principledthin(const mts_build *a);
-void mts_bsdf_twosided(const mts_build *a);
-void mts_bsdf_normalmap(const mts_build *a);
-void mts_bsdf_bumpmap(const mts_build *a);
-void mts_bsdf_null(const mts_build *a);
-void mts_bsdf_polarizer(const mts_build *a);
-void mts_bsdf_mask(const mts_build *a);
-void mts_bsdf_blendbsdf(const mts_build *a);
+/* The row of L's registry for a plugin, or NULL. */
+const mts_plugin *mts_plugin_find(const mts_loader *L, const char *category, const char *name);
+/* Fails with SPC_ERR_PLUGIN at node: a Mitsuba 3 plugin the loader does not read is named as such
+ * (with the registry's note), anything else is "unknown <category> type", followed by the names of
+ * the category the registry marks read. */
+spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type);
 
-void mts_shape_sphere(const mts_build *a);
-void mts_shape_disk(const mts_build *a);
-void mts_shape_rectangle(const mts_build *a);
-void mts_shape_cube(const mts_build *a);
-void mts_shape_cylinder(const mts_build *a);
-void mts_shape_obj(const mts_build *a);
-void mts_shape_ply(const mts_build *a);
-void mts_shape_serialized(const mts_build *a);
-void mts_shape_sdf(const mts_build *a);
-void mts_shape_curve(const mts_build *a); /* linearcurve, bsplinecurve */
-void mts_shape_sdfgrid(const mts_build *a);
-void mts_shape_shapegroup(const mts_build *a);
-void mts_shape_instance(const mts_build *a);
-
-void mts_emitter_area(const mts_build *a);
-void mts_emitter_point(const mts_build *a);
-void mts_emitter_spot(const mts_build *a);
-void mts_emitter_directional(const mts_build *a);
-void mts_emitter_constant(const mts_build *a);
-void mts_emitter_envmap(const mts_build *a);
-void mts_emitter_projector(const mts_build *a);
-
-/* The whole table (*n rows, grouped by category); a row, or NULL. */
-const mts_plugin *mts_plugin_list(int *n);
-const mts_plugin *mts_plugin_find(const char *category, const char *name);
-/* specula's own plugin properties, which Mitsuba 3 refuses as unreferenced (mitsuba_plugin_list.c).
- * A scene may give them as <default name="..." value="..."/> inside the plugin element instead,
- * which Mitsuba 3 accepts and ignores: the loader reads such a default as the property, of the
- * kind listed here. The row named name, or NULL. */
+/* specula's own plugin properties, which Mitsuba 3 refuses as unreferenced. A scene may give them
+ * as <default name="..." value="..."/> inside the plugin element instead, which Mitsuba 3 accepts
+ * and ignores: the loader reads such a default as the property, of the kind listed here. */
 typedef struct mts_own_property {
     const char *category, *name;
     mts_kind kind;
     const char *meaning;
 } mts_own_property;
+/* The row named name, or NULL. */
 const mts_own_property *mts_own_property_find(const char *category, const char *name);
-/* Writes docs/PLUGINS.md's text; 0, or -1 on a write error. */
-int mts_plugins_markdown(FILE *out);
-/* Fails with SPC_ERR_PLUGIN at node: a Mitsuba 3 plugin the loader does not read is named as such
- * (with the table's note), anything else is "unknown <category> type", followed by the names of
- * the category the table marks read. */
-spc_status mts_fail_plugin(mts_loader *L, const spc_xml_node *node, const char *category, const char *type);
+/* The whole list (*n rows). */
+const mts_own_property *mts_own_property_list(int *n);
 
 #endif
