@@ -186,6 +186,7 @@ typedef struct spc_snee_query {
     spc_vec3 wo;
     spc_vec3 y, ny;    /* ny: the light's unit normal at y; (0,0,0) for a point light */
     double light_size; /* sqrt(area) of the light's shape; 0 for a point light */
+    double y_err;      /* absolute error bound of y (its shape sample's; 0 for a point light) */
     int max_chain;
     spc_snee_seed seed;
     bool any_surface;

@@ -254,8 +254,11 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
                 return zero;
     const spc_chain_vertex *last = &c->v[k - 1];
     spc_vec3 d = last->d;
-    /* the last segment must reach y unblocked (earlier segments are first hits by construction) */
-    double y_err = 1e-9 * (spc_max_abs(q->y) + q->scene->radius);
+    /* the last segment must reach y unblocked (earlier segments are first hits by construction);
+     * stopped short of y by its error bound: a point sampled on a triangle light may sit ~1e-7
+     * relative off the surface the ray tracer intersects, and a tighter margin lets the light
+     * shadow itself */
+    double y_err = spc_max(q->y_err, 1e-9 * (spc_max_abs(q->y) + q->scene->radius));
     spc_ray sr = spc_hit_spawn_to(&last->h, q->y, y_err);
     if (spc_scene_occluded(q->scene, &sr))
         return zero;
@@ -472,6 +475,7 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
         q->y = ss.p;
         q->ny = ss.n;
         q->light_size = sqrt(e->shape->area);
+        q->y_err = ss.err;
         *uv = ss.uv;
         *p_y = pmf * ss.pdf;
         break;
@@ -481,6 +485,7 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
         q->y = e->position;
         q->ny = spc_v3(0, 0, 0);
         q->light_size = 0.0;
+        q->y_err = 0.0;
         *p_y = pmf;
         break;
     case SPC_EMITTER_DIRECTIONAL:
@@ -1160,6 +1165,17 @@ void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, 
         t->single_ok = t->single_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 1);
         t->multi_ok = t->multi_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 2);
     }
+}
+
+void spc_snee_track_begin(spc_snee_track *t, const spc_snee_params *p, int budget, int long_max)
+{
+    t->live = budget > 0;
+    t->k = 0;
+    t->max_chain = budget;
+    t->single_ok = t->multi_ok = true;
+    t->any_surface = p->any_surface;
+    t->reflect = p->reflect;
+    t->long_max = budget > 0 ? spc_snee_track_long_max(p, long_max) : 0;
 }
 
 bool spc_snee_track_covers(const spc_snee_track *t, const spc_scene *sc, const spc_emitter *e)

@@ -148,6 +148,11 @@ typedef struct spc_snee_track {
     unsigned char events[SPC_CHAIN_MAX_VERTICES]; /* the chain event at each vertex passed */
 } spc_snee_track;
 
+/* The track of the paths leaving a receiver (a medium point, the pinhole) by its own sampling, where
+ * specular NEE ran with chain budget `budget` (0: it did not, and the track is dead) and the longer
+ * chains' depth bound long_max (spc_snee_track_long_max). */
+void spc_snee_track_begin(spc_snee_track *t, const spc_snee_params *p, int budget, int long_max);
+
 /* Specular NEE's chain budget at x: max_chain if x is a receiver with a non-delta lobe, else 0. */
 int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface);
 
