@@ -28,9 +28,10 @@
  *   with the angular solver, a glass icosphere with the conic solver (when registered). (The
  *   angular solver is not used on the icosphere or an analytic sphere: from deep inside, its
  *   attempts mostly end in total internal reflection and the capped count of attempts is biased
- *   low by 5-8%; see volpath.c.)
+ *   low by 5-8% without the straight-line attempt.)
  * - The connection takes the user's specular NEE options: on a glass sphere, trials=1 lowers the
- *   image's mean by more than 4 standard errors, seed=light changes the image.
+ *   image's mean by more than 4 standard errors; seed=light, chain=1, nomis and receivers=1 each
+ *   change the image.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -744,8 +745,11 @@ static bool films_differ(const spc_film *a, const spc_film *b)
 }
 
 /* volpath's connection takes the user's options: trials=1 caps every Bernoulli-trial count at 1, so
- * the light through the glass is underestimated (the count's mean is 1/p >= 1), and seed=light
- * changes the attempts; the same setting twice gives the same image. */
+ * the light through the glass is underestimated (the count's mean is 1/p >= 1); seed=light changes
+ * the attempts, chain=1 drops the chains that reflect inside the ball before they leave it, nomis
+ * drops the phase-sampled paths specular NEE covers instead of weighting them, receivers=1 leaves
+ * the second and later medium vertices to phase sampling; the same setting twice gives the same
+ * image. */
 TEST(volpath_honours_specular_nee_options)
 {
     char xml[4096];
@@ -761,6 +765,16 @@ TEST(volpath_honours_specular_nee_options)
     spc_film *a2 = render_nee(sc, "volpath", "angular", spp, 41);
     spc_film *capped = render_nee(sc, "volpath", "angular:trials=1", spp, 41);
     spc_film *light = render_nee(sc, "volpath", "angular:seed=light", spp, 41);
+    const char *others[3] = {"angular:chain=1", "angular:nomis", "angular:receivers=1"};
+    for (int i = 0; i < 3 && a; ++i) {
+        spc_film *o = render_nee(sc, "volpath", others[i], spp / 8, 41);
+        spc_film *a8 = render_nee(sc, "volpath", "angular", spp / 8, 41);
+        CHECK(o && a8);
+        if (o && a8)
+            CHECK_MSG(films_differ(a8, o), "%s is ignored", others[i]);
+        spc_film_destroy(o);
+        spc_film_destroy(a8);
+    }
     CHECK(a && a2 && capped && light);
     if (a && a2 && capped && light) {
         CHECK(!films_differ(a, a2));

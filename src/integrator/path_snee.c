@@ -59,13 +59,7 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
     for (int i = 0; i < n; ++i)
         if (in_window(ctx, sp[i].fx, sp[i].fy))
             spc_splat_add(ctx, tls, sp[i].fx, sp[i].fy, sp[i].value);
-    s->track.live = true;
-    s->track.k = 0;
-    s->track.max_chain = budget;
-    s->track.single_ok = s->track.multi_ok = true;
-    s->track.any_surface = s->p.any_surface;
-    s->track.reflect = s->p.reflect;
-    s->track.long_max = spc_snee_track_long_max(&s->p, long_budget);
+    spc_snee_track_begin(&s->track, &s->p, budget, long_budget);
     s->cam_track = true;
 }
 

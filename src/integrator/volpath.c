@@ -27,43 +27,25 @@
  * free-flight probabilities; since both strategies use the same pair, the weights still sum to 1.
  * In a scene without media and null surfaces the estimator and its sample dimensions are path.c's.
  *
- * Specular connections through one interface (ctx->specular_nee set; Walter et al. 2009,
- * "Single scattering in refractive media with triangle mesh boundaries", for the idea of
- * connecting medium points to a light through a refractive boundary). At every medium interaction
- * x (medium with sample_emitters), one light point y is sampled (light by power, point uniform by
- * area; point and spot lights are their position) and the solver finds the chains x -> P -> y with
- * one specular vertex P (refraction through a dielectric, reflection off a conductor, as
- * spc_chain_surface says; caster flags honoured, single-vertex chains). Each solution adds
+ * Specular NEE from medium points (ctx->specular_nee set). At every medium interaction x (medium
+ * with sample_emitters) the path tracer's own specular NEE runs with x as a medium receiver
+ * (manifold/receiver.h): the same light sample, solvers, trial counts and MIS as at a surface in
+ * path.c, with the user's options, the phase function in the place of the BSDF and the
+ * transmittance of the media the chain crosses (x's medium, then at each medium transition the
+ * medium of the side the chain goes to) in the chain's value (specular_nee.h). Chains fit in the
+ * depth left (k vertices add k + 1 segments). Surface vertices do not run specular NEE in volpath;
+ * the rough-vertex mode's own estimator does not run from medium points (its smooth chains do).
+ * "receivers=N" and "later=P" count medium vertices as a path's receivers.
  *
- *     beta * phase(wo, d0) T_m(x, P) * T_spec(P) * T_m'(P, y) * Le(y, -d1) * G(x <-> y) / p(y) * <1/p_solve>,
- *
- * T_m the transmittance of x's medium, m' the medium after P, T_spec spc_bsdf_specular_throughput
- * (Fresnel transmittance / eta^2 or conductor reflectance), G the chain's generalized geometry term
- * |dw(x)/dA(y)| (spc_chain_geometry), and <1/p_solve> 1 for a solver that returns every solution
- * (solve_all, e.g. "conic" on meshes), else the count of further attempts until the same solution
- * reappears (specular_nee.h; attempts are seeded from a mixture of the light point and the
- * solver's usual seeds, SPC_VOLPATH_SEED_LIGHT_PROB). A solver with both (conic) sums what
- * solve_all covers and estimates the rest, as spc_specular_nee does. The last segment P -> y must
- * be unblocked (no null crossing either). Connections are made at every medium vertex (every
- * scattering order: connecting single scattering only left the multiple-scattering fireflies of
- * phase sampling in place, bench/RESULTS.md) when max_depth allows the two more segments; surface
- * vertices do not run specular NEE in volpath. Of the setting's options (snee_options.h) these
- * connections use the solver's, trials and seed (the mixture's other half); their chains have one
- * vertex, refract through glass and are estimated one at a time, whatever reflect, exact, chain and
- * rough say.
- *
- * Nothing is counted twice. The paths both strategies produce are those that continue from such an
- * x by phase sampling, cross x's medium without interaction to the first surface P, take there the
- * delta lobe of the chain event (spc_snee_track_scatter), cross the next medium without
- * interaction and without any null surface, and hit an area emitter with nonzero light-selection
- * probability (tracked by spc_snee_track with a budget of one vertex). For such a path:
- *   - if its chain is one the solver enumerates (solve_all, and covers() if the solver has it), the
- *     two strategies are combined by the power heuristic on their densities in solid angle at x:
- *     phase(wo, d0) for phase sampling, p(y) / G for the connection (p(y) = pmf(light) / area, the
- *     connection's uniform area density); the emitter hit traces the chain from x once to get G;
- *   - otherwise (a solution found one at a time, with no density to weigh) phase sampling drops
- *     the emission: exclusion.
- * Every other path keeps its usual weight.
+ * Nothing is counted twice. A path that continues from such an x by phase sampling, crosses x's
+ * medium without interaction to the first surface, follows the chain events there as specular
+ * NEE's chains do (spc_snee_track), crosses the media without interaction and without any null
+ * surface, and hits an area emitter with nonzero light-selection probability is one specular NEE
+ * produces too: its emission is weighted against specular NEE's light sample by
+ * spc_snee_receiver_weight (the power heuristic with the phase function's density; 0, the path
+ * dropped, with "nomis"). Free-flight sampling along the chain's segments leaves the expected
+ * weight the transmittance, the factor specular NEE's value has. Every other path keeps its usual
+ * weight.
  */
 #include <string.h>
 
@@ -76,30 +58,13 @@
  * sensible nesting of index-matched boundaries, and it bounds the work of a ray that grazes along
  * a null surface and keeps re-hitting it. */
 #define SPC_VOLPATH_MAX_NULL_CROSSINGS 256
-/* Probability that a solve_one attempt from a medium point is seeded toward the light point
- * instead of a uniform point on a caster shape. From inside a dielectric most uniform seeds meet
- * the boundary beyond the critical angle (total internal reflection) and fail, so solutions were
- * found with p of a few percent, where the capped count of attempts is biased (measured: 5-40% low
- * on a glass slab and sphere); the straight line to the light lies near the solution and converges
- * almost always, so p >= 1/2 for that solution, while the other half of the seeds still reaches
- * every other solution. */
-#define SPC_VOLPATH_SEED_LIGHT_PROB 0.5
-/* Solutions kept from a solver that enumerates them all: one refraction through a closed mesh
- * seldom has more than a few; the rest would be dropped (bias), so the cap is generous. */
-#define SPC_VOLPATH_MAX_SOLUTIONS 16
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
 
 static bool is_null_surface(const spc_hit *h) { return h->bsdf && spc_bsdf_flags(h->bsdf) == SPC_LOBE_NULL; }
 
 /* The medium (index, -1 vacuum) of a ray leaving the surface of h along d, coming from `cur`. */
-static int medium_after(const spc_hit *h, spc_vec3 d, int cur)
-{
-    const spc_shape *s = h->shape;
-    if (!s || (s->interior_medium < 0 && s->exterior_medium < 0))
-        return cur;
-    return spc_dot(d, h->ng) < 0.0 ? s->interior_medium : s->exterior_medium;
-}
+static int medium_after(const spc_hit *h, spc_vec3 d, int cur) { return spc_receiver_medium_after(h, d, cur); }
 
 /* A scene whose shadow rays are plain occlusion queries: no media, no null surfaces. */
 static bool scene_is_plain(const spc_scene *sc)
@@ -196,198 +161,15 @@ static spc_rgb next_event(const spc_scene *sc, const spc_hit *h, spc_vec3 p, con
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), ds.L), w / lp);
 }
 
-/* ---- specular connections from medium points ---- */
+/* ---- specular NEE from medium points ---- */
 
-typedef struct conn_query {
-    const spc_scene *sc;
-    const spc_medium *m;
-    int med;
-    spc_vec3 x, wo;
-    const spc_emitter *e;
-    spc_vec2 uv;
-    double y_err; /* position error bound of the light point (its shape sample's) */
-} conn_query;
-
-/* The value of one solved chain x -> P -> y (without p(y) and <1/p_solve>): zero unless it is a
- * one-vertex chain with the event its surface's BSDF has, the caster may be in single chains, and
- * the last segment is unblocked. */
-static spc_rgb chain_value(const conn_query *cq, const spc_snee_query *q, const spc_chain *c, double *G_out,
-                           double *phase_out)
+/* The longest chain (k vertices make k + 1 segments) that fits in the depth left after `segments`
+ * segments, at most cap. */
+static int depth_left(const spc_render_ctx *ctx, int segments, int cap)
 {
-    const spc_rgb zero = spc_rgb1(0.0);
-    if (c->n != 1)
-        return zero;
-    const spc_chain_vertex *v = &c->v[0];
-    int event;
-    if (!spc_chain_surface(&v->h, q->any_surface, &event) || event != v->event ||
-        !(q->any_surface || spc_chain_caster_allowed(v->h.shape->caustic_flags, 1)))
-        return zero;
-    const spc_scene *sc = cq->sc;
-    spc_vec3 d = v->d;
-    /* the light point's own error bound: a float triangle's sampled point may sit ~1e-7 relative
-     * off the surface Embree intersects, and a tighter margin lets the light shadow itself */
-    double y_err = spc_max(cq->y_err, 1e-9 * (spc_max_abs(q->y) + sc->radius));
-    spc_ray sr = spc_hit_spawn_to(&v->h, q->y, y_err);
-    if (spc_scene_occluded(sc, &sr))
-        return zero;
-    spc_vec3 ny;
-    spc_rgb Le = spc_snee_light_radiance(cq->e, q->y, q->ny, cq->uv, v->h.p, d, &ny);
-    if (spc_rgb_is_black(Le))
-        return zero;
-    double ph = spc_phase_eval(&cq->m->phase, cq->wo, c->d0);
-    spc_rgb Ts = spc_bsdf_specular_throughput(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, spc_neg(v->wi), d);
-    if (!(ph > 0.0) || spc_rgb_is_black(Ts))
-        return zero;
-    double d_in = spc_distance(cq->x, v->h.p), d_out = spc_distance(v->h.p, q->y);
-    spc_rgb Tin = d_in > 0.0 ? spc_medium_transmittance_ray(cq->m, cq->x, spc_scale(spc_sub(v->h.p, cq->x), 1.0 / d_in),
-                                                            d_in)
-                             : spc_rgb1(1.0);
-    spc_rgb Tout = d_out > 0.0 ? tr_of(sc, medium_after(&v->h, d, cq->med), v->h.p,
-                                       spc_scale(spc_sub(q->y, v->h.p), 1.0 / d_out), d_out)
-                               : spc_rgb1(1.0);
-    double G = spc_chain_geometry(c, q->y, ny);
-    if (!(G > 0.0) || !isfinite(G))
-        return zero;
-    spc_rgb T = spc_rgb_mul(spc_rgb_mul(Tin, Tout), Ts);
-    *G_out = G;
-    *phase_out = ph;
-    return spc_rgb_scale(spc_rgb_mul(T, Le), ph * G);
-}
-
-/* One randomized attempt of a solver that finds one solution at a time, seeded from a mixture:
- * toward the light point y with probability SPC_VOLPATH_SEED_LIGHT_PROB, else the solver's usual
- * seed (a uniform point on a caster). The mixture is the same distribution on every call, as the
- * <1/p_solve> count requires. */
-static bool attempt(const spc_snee_query *q0, const spc_specular_solver *solver, spc_rng *rng, spc_chain *out,
-                    int *iterations)
-{
-    spc_snee_query q = *q0;
-    if (spc_rng_next(rng) < SPC_VOLPATH_SEED_LIGHT_PROB)
-        q.seed = SPC_SNEE_SEED_LIGHT;
-    return solver->solve_one(&q, rng, out, iterations);
-}
-
-/* The specular connection at the medium point x (contract at the top of the file), without beta. */
-static spc_rgb medium_connection(const spc_scene *sc, const spc_snee_params *snp, const spc_specular_solver *solver,
-                                 int med, spc_vec3 x, spc_vec3 wo, spc_rng *rng)
-{
-    const spc_rgb zero = spc_rgb1(0.0);
-    double pmf;
-    const spc_emitter *e = spc_scene_sample_emitter(sc, spc_rng_next(rng), &pmf);
-    if (!e)
-        return zero;
-    conn_query cq = {sc, sc->media[med], med, x, wo, e, spc_v2(0, 0), 0.0};
-    spc_hit xh; /* a free point: no offset, no surface */
-    memset(&xh, 0, sizeof xh);
-    xh.p = x;
-    xh.ng = spc_neg(wo);
-    xh.sh = spc_frame_from_n(xh.ng);
-    xh.err = 0.0;
-    xh.shape_index = -1;
-    spc_snee_query q;
-    memset(&q, 0, sizeof q);
-    q.scene = sc;
-    q.x = &xh;
-    q.wo = wo;
-    q.max_chain = 1;
-    q.seed = snp->seed;
-    q.any_surface = snp->any_surface;
-    q.params = snp;
-    double p_y;
-    switch (e->type) {
-    case SPC_EMITTER_AREA: {
-        spc_shape_sample ss;
-        spc_shape_sample_area(e->shape, spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &ss);
-        q.y = ss.p;
-        q.ny = ss.n;
-        q.light_size = sqrt(e->shape->area);
-        cq.uv = ss.uv;
-        cq.y_err = ss.err;
-        p_y = pmf * ss.pdf;
-        break;
-    }
-    case SPC_EMITTER_POINT:
-    case SPC_EMITTER_SPOT:
-        q.y = e->position;
-        q.ny = spc_v3(0, 0, 0);
-        q.light_size = 0.0;
-        p_y = pmf;
-        break;
-    case SPC_EMITTER_DIRECTIONAL:
-    case SPC_EMITTER_CONSTANT:
-    case SPC_EMITTER_ENVMAP:
-    case SPC_EMITTER_PROJECTOR:
-    default: return zero;
-    }
-    if (!(p_y > 0.0))
-        return zero;
-    /* a solver that enumerates solutions: their exact sum (chains traced from x, with their
-     * derivatives); a solver that also estimates (conic: meshes exactly, other shapes by the
-     * angular estimate) adds solve_one's estimate for the chains solve_all does not cover */
-    spc_rgb total = zero;
-    if (solver->solve_all) {
-        spc_chain sols[SPC_VOLPATH_MAX_SOLUTIONS];
-        int iterations = 0;
-        int n = solver->solve_all(&q, sols, SPC_VOLPATH_MAX_SOLUTIONS, &iterations);
-        for (int i = 0; i < n; ++i) {
-            double G = 0.0, ph = 0.0;
-            spc_rgb v = chain_value(&cq, &q, &sols[i], &G, &ph);
-            if (spc_rgb_is_black(v))
-                continue;
-            /* MIS against phase sampling: this strategy's density in solid angle at x is p_y / G */
-            double w = e->type == SPC_EMITTER_AREA ? spc_mis_power(p_y / G, ph) : 1.0;
-            total = spc_rgb_add(total, spc_rgb_scale(v, w));
-        }
-        total = spc_rgb_scale(total, 1.0 / p_y);
-        if (!solver->solve_one || !solver->covers || (solver->covers_all && solver->covers_all(&q)))
-            return total;
-    }
-    if (!solver->solve_one)
-        return total;
-    spc_chain sol;
-    int iterations = 0;
-    if (!attempt(&q, solver, rng, &sol, &iterations))
-        return total;
-    if (solver->solve_all && solver->covers(&sol))
-        return total; /* counted exactly above */
-    double G, ph;
-    spc_rgb v = chain_value(&cq, &q, &sol, &G, &ph);
-    if (spc_rgb_is_black(v))
-        return total;
-    bool capped;
-    int trials = spc_snee_count_same(&q, solver, attempt, rng, &sol, snp->max_trials, &capped, &iterations);
-    return spc_rgb_add(total, spc_rgb_scale(v, (double)trials / p_y));
-}
-
-/* The weight of an emitter hit by a path that left the medium vertex x along d0 (phase density
- * pdf_phase), crossed one chain vertex and reached the area emitter e at h: the path is one the
- * connection at x produces too. Chains the solver enumerates are weighted by the power heuristic
- * against the connection (density pmf(e) / area(e) / G in solid angle at x, G of the chain traced
- * from x along d0); those it estimates one at a time (solve_one: no density) are excluded (0). */
-static double covered_weight(const spc_scene *sc, const spc_specular_solver *solver, spc_vec3 x, spc_vec3 d0,
-                             double pdf_phase, const spc_hit *h)
-{
-    if (!solver->solve_all)
-        return 0.0;
-    spc_hit xh;
-    memset(&xh, 0, sizeof xh);
-    xh.p = x;
-    xh.ng = d0;
-    xh.sh = spc_frame_from_n(d0);
-    xh.shape_index = -1;
-    spc_frame fr = spc_frame_from_n(d0);
-    spc_chain_opts o = spc_chain_opts_default(1);
-    spc_chain c;
-    spc_chain_trace(sc, &xh, &fr, 0.0, 0.0, &o, &c);
-    if (c.n != 1)
-        return 1.0; /* the tracer does not reproduce the chain: neither would the solver's chains */
-    if (solver->covers && !solver->covers(&c))
-        return 0.0; /* left to solve_one's estimate */
-    double G = spc_chain_geometry(&c, h->p, h->ng);
-    double area = h->emitter->shape ? h->emitter->shape->area : 0.0;
-    if (!(G > 0.0) || !isfinite(G) || !(area > 0.0))
-        return 1.0;
-    return spc_mis_power(pdf_phase, spc_scene_emitter_pmf(sc, h->emitter) / area / G);
+    if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < cap)
+        return ctx->max_depth - segments - 1;
+    return cap;
 }
 
 /* ---- the path ---- */
@@ -407,18 +189,18 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
     bool prev_nee = false;
     double prev_pdf = 1.0, eta_scale = 1.0;
     spc_vec3 prev_p = ray.o;
-    /* specular connections from medium vertices */
-    const spc_specular_solver *solver = ctx->specular_nee ? spc_specular_solver_get(ctx->specular_nee) : NULL;
-    spc_snee_params snp = ctx->snee; /* the user's options: trials, seed, the solvers' own */
-    snp.max_chain = 1;
-    snp.reflect = false; /* the connections below refract (or reflect off conductors) only, as the
-                            exclusion here assumes */
-    snp.exact = false;   /* its own estimate from medium vertices (below), not spc_specular_nee's */
+    /* specular NEE from medium vertices: the user's options, MIS with phase sampling unless
+     * "nomis", smooth chains only (the rough-vertex estimator needs a surface receiver) */
+    const bool snee_on = ctx->specular_nee != SPC_SNEE_NONE;
+    spc_snee_params snp = ctx->snee;
+    snp.mis = !snp.no_mis;
     snp.newton.rough = false;
+    int receivers = 0;
     spc_snee_track track;
     memset(&track, 0, sizeof track);
-    spc_vec3 conn_x = spc_v3(0, 0, 0), conn_d0 = spc_v3(0, 0, 1); /* the vertex tracked and its direction */
-    double conn_pdf = 0.0;
+    spc_receiver conn; /* the medium receiver the track started at */
+    spc_vec3 conn_d0 = spc_v3(0, 0, 1); /* and the direction phase sampling took there */
+    memset(&conn, 0, sizeof conn);
     bool first = true;
     int nulls = 0;
     out->albedo = spc_rgb1(0.0);
@@ -456,14 +238,23 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                     spc_rgb c = next_event(sc, NULL, x, &m->phase, wo, med, plain, u_light, u_lpos);
                     L = spc_rgb_add(L, spc_rgb_mul(beta, c));
                 }
-                bool connected = false;
-                if (solver && nee && depth_allows(ctx->max_depth, segments + 2)) {
-                    /* its own deterministic stream: the sampler's dimensions stay as without it */
+                int budget = 0, long_budget = depth_left(ctx, segments, SPC_CHAIN_MAX_VERTICES);
+                spc_receiver_medium(&conn, x, wo, &m->phase, med);
+                if (snee_on && nee && !(snp.receivers > 0 && receivers >= snp.receivers)) {
+                    budget = depth_left(ctx, segments, ctx->specular_max_chain);
+                    if (budget > snp.max_chain)
+                        budget = snp.max_chain;
+                }
+                if (nee)
+                    ++receivers;
+                if (budget > 0) {
+                    /* spc_snee_params.later_p past the first receiver, as path.c has it; its own
+                     * deterministic stream: the sampler's dimensions stay as without it */
+                    snp.query_p = receivers > 1 ? snp.later_p : 1.0;
                     spc_rng rng;
                     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
-                    spc_rgb c = medium_connection(sc, &snp, solver, med, x, wo, &rng);
+                    spc_rgb c = spc_specular_nee_at(sc, &snp, &conn, budget, long_budget, &rng, NULL);
                     L = spc_rgb_add(L, spc_rgb_mul(beta, c));
-                    connected = true;
                 }
                 spc_vec2 u_dir = spc_sampler_2d(smp);
                 double u_rr = spc_sampler_1d(smp);
@@ -471,15 +262,9 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                 double pdf;
                 if (!spc_phase_sample(&m->phase, wo, u_dir, &wi, &pdf))
                     break;
-                /* a new receiver for the exclusion of the connection's paths */
-                track.live = connected;
-                track.k = 0;
-                track.max_chain = 1;
-                track.single_ok = track.multi_ok = true;
-                track.any_surface = snp.any_surface;
-                conn_x = x;
+                /* a new receiver for the exclusion of specular NEE's paths */
+                spc_snee_track_begin(&track, &snp, budget, long_budget);
                 conn_d0 = wi;
-                conn_pdf = pdf;
                 prev_nee = nee;
                 prev_pdf = pdf;
                 prev_p = x;
@@ -522,7 +307,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
             if (!spc_rgb_is_black(Le)) {
                 double w = 1.0;
                 if (covered) {
-                    w = covered_weight(sc, solver, conn_x, conn_d0, conn_pdf, &h);
+                    w = spc_snee_receiver_weight(sc, &snp, &conn, conn_d0, track.max_chain, track.k, track.events, &h);
                 } else if (prev_nee) {
                     double lp = spc_scene_emitter_pmf(sc, h.emitter) *
                                 spc_emitter_pdf_direct(h.emitter, prev_p, h.p, h.ng);
@@ -579,7 +364,7 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
         if (!more)
             break;
         nulls = 0;
-        spc_snee_track_scatter(&track, &h, bs.lobe, 0, snp.any_surface, false);
+        spc_snee_track_scatter(&track, &h, bs.lobe, 0, snp.any_surface, snp.reflect);
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))
             break;

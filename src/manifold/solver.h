@@ -22,6 +22,7 @@
 #include "manifold/newton.h"
 
 struct spc_camera_state;
+struct spc_receiver;
 
 /* Cap of the attempts counted for <1/p_solve> (the default of params.max_trials but for the angular
  * solver's). The count is cut for solutions found with probability below about 3/cap; at 64 that
@@ -185,6 +186,7 @@ typedef struct spc_snee_query {
     spc_vec3 wo;
     spc_vec3 y, ny;    /* ny: the light's unit normal at y; (0,0,0) for a point light */
     double light_size; /* sqrt(area) of the light's shape; 0 for a point light */
+    double y_err;      /* absolute error bound of y (its shape sample's; 0 for a point light) */
     int max_chain;
     spc_snee_seed seed;
     bool any_surface;
@@ -204,6 +206,9 @@ typedef struct spc_snee_query {
      * to the camera samples per pass (spc_snee_camera). NULL for a surface point. */
     const struct spc_camera_state *cam;
     double cam_scale;
+    /* The receiver x belongs to, with its scattering factor (receiver.h); NULL: the surface point x
+     * seen from wo, or the camera's pinhole when cam is set. */
+    const struct spc_receiver *receiver;
     /* The exact enumerations' shortest chain (0: 1), and the longest chain params.long_p may add
      * (0: none; spc_specular_nee_depth). */
     int min_chain, long_max;

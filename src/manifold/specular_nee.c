@@ -18,6 +18,7 @@
 
 #include "manifold/conic.h"
 #include "manifold/plane_chains.h"
+#include "manifold/receiver.h"
 #include "manifold/rough.h"
 #include "manifold/snee_cost.h"
 #include "manifold/snee_options.h"
@@ -228,6 +229,19 @@ static double mis3(double a, double b, double c)
 
 /* ---- contribution ---- */
 
+/* The receiver of q: its own, else the pinhole (q->cam) or the surface point q->x seen from q->wo,
+ * written to *own. */
+static const spc_receiver *query_receiver(const spc_snee_query *q, spc_receiver *own)
+{
+    if (q->receiver)
+        return q->receiver;
+    if (q->cam)
+        spc_receiver_camera(own, q->cam, q->cam_scale);
+    else
+        spc_receiver_surface(own, q->x, q->wo);
+    return own;
+}
+
 spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c)
 {
     const spc_rgb zero = spc_rgb1(0.0);
@@ -240,8 +254,11 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
                 return zero;
     const spc_chain_vertex *last = &c->v[k - 1];
     spc_vec3 d = last->d;
-    /* the last segment must reach y unblocked (earlier segments are first hits by construction) */
-    double y_err = 1e-9 * (spc_max_abs(q->y) + q->scene->radius);
+    /* the last segment must reach y unblocked (earlier segments are first hits by construction);
+     * stopped short of y by its error bound: a point sampled on a triangle light may sit ~1e-7
+     * relative off the surface the ray tracer intersects, and a tighter margin lets the light
+     * shadow itself */
+    double y_err = spc_max(q->y_err, 1e-9 * (spc_max_abs(q->y) + q->scene->radius));
     spc_ray sr = spc_hit_spawn_to(&last->h, q->y, y_err);
     if (spc_scene_occluded(q->scene, &sr))
         return zero;
@@ -251,24 +268,16 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
     if (spc_rgb_is_black(Le))
         return zero;
 
-    const spc_hit *x = q->x;
+    spc_receiver own;
+    const spc_receiver *r = query_receiver(q, &own);
     spc_rgb f;
     double cosx;
-    if (q->cam) {
-        /* from the pinhole: the importance toward the first vertex (a point the camera's rays reach,
-         * past the near plane), over the camera samples per pass (the caller splats it) */
-        spc_camera_direct cd;
-        if (!spc_camera_sample_direct(q->cam, c->v[0].h.p, &cd) || spc_dot(cd.wi, c->d0) > -1.0 + 1e-9)
-            return zero;
-        f = spc_rgb1(cd.We * q->cam_scale / ((double)q->cam->width * (double)q->cam->height));
-        cosx = 1.0;
-    } else {
-        f = spc_bsdf_eval(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0);
-        cosx = spc_absdot(c->d0, x->sh.n);
-    }
-    if (spc_rgb_is_black(f) || !(cosx > 0.0))
+    if (!spc_receiver_eval(r, c->d0, c->v[0].h.p, &f, &cosx))
         return zero;
-    spc_rgb T = spc_rgb1(1.0);
+    /* the media a chain from a medium point crosses (1 elsewhere) */
+    spc_rgb T = r->kind == SPC_RECEIVER_MEDIUM ? spc_receiver_transmittance(q->scene, r, c, q->y) : spc_rgb1(1.0);
+    if (spc_rgb_is_black(T))
+        return zero;
     for (int i = 0; i < k; ++i) {
         const spc_chain_vertex *v = &c->v[i];
         T = spc_rgb_mul(T, spc_bsdf_specular_throughput(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, spc_neg(v->wi), v->d));
@@ -280,8 +289,7 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
         return zero;
     double w = 1.0;
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
-        double pdf_x = q->cam ? spc_camera_pdf_dir(q->cam, c->d0) * q->cam_scale
-                              : spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, q->wo, c->d0);
+        double pdf_x = spc_receiver_pdf(r, c->d0);
         double pc = cones_pdf(cones_for(q, e), c->d0, k);
         w = mis3(q->p_y * (q->psi > 0.0 ? q->psi : 1.0), pdf_x * G, pc * G);
     }
@@ -467,6 +475,7 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
         q->y = ss.p;
         q->ny = ss.n;
         q->light_size = sqrt(e->shape->area);
+        q->y_err = ss.err;
         *uv = ss.uv;
         *p_y = pmf * ss.pdf;
         break;
@@ -476,6 +485,7 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
         q->y = e->position;
         q->ny = spc_v3(0, 0, 0);
         q->light_size = 0.0;
+        q->y_err = 0.0;
         *p_y = pmf;
         break;
     case SPC_EMITTER_DIRECTIONAL:
@@ -576,22 +586,23 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
     return random_psi(p);
 }
 
-/* The three strategies' densities (the light's area measure) of a covered path that left x (a
- * receiver toward wo, or the pinhole of cam) along d0 and reached the area light at the hit `light`
- * through k chain vertices with these events: *a specular NEE's light sample (psi p_y), *b the
- * sampling side's (the BSDF's, or the camera's W H / N pdf_dir, times the chain's geometry term),
+/* The three strategies' densities (the light's area measure) of a covered path that left the
+ * receiver r along d0 and reached the area light at the hit `light` through k chain vertices with
+ * these events: *a specular NEE's light sample (psi p_y), *b the sampling side's (the receiver's
+ * own density, spc_receiver_pdf, times the chain's geometry term),
  * *c guided directions' (params.guide; cones at x toward the light, cs if given, else built here).
  * The chain is retraced for its geometry term. False if the retrace does not reproduce the path.
  * p->mis is set and e is an area light. */
-static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
-                          const spc_camera_state *cam, double cam_scale, spc_vec3 d0, int max_chain, int k,
-                          const unsigned char *events, const spc_hit *light, const spc_snee_cones *cs, double *a,
-                          double *b, double *c)
+static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
+                          int max_chain, int k, const unsigned char *events, const spc_hit *light,
+                          const spc_snee_cones *cs, double *a, double *b, double *c)
 {
     const spc_emitter *e = light->emitter;
+    const spc_hit *x = spc_receiver_origin(r);
+    const spc_camera_state *cam = r->kind == SPC_RECEIVER_CAMERA ? r->cam : NULL;
     *a = *b = *c = 0.0;
     double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
-    bool guided = guide_on(p) && !cam;
+    bool guided = guide_on(p) && r->kind == SPC_RECEIVER_SURFACE;
     if (!(p_y > 0.0) && !guided) {
         *b = 1.0; /* specular NEE never draws this light point: BSDF sampling's alone */
         return true;
@@ -607,10 +618,12 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
     double G = spc_chain_geometry(&ch, light->p, light->ng);
     if (!(G > 0.0) || !isfinite(G))
         return false;
-    double pdf = cam ? spc_camera_pdf_dir(cam, ch.d0) * cam_scale : spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0);
+    /* a surface's density at the sampled direction, the others' at the retraced one */
+    double pdf = spc_receiver_pdf(r, r->kind == SPC_RECEIVER_SURFACE ? d0 : ch.d0);
     *b = pdf * G;
     spc_snee_query q;
-    spc_snee_query_init(&q, sc, p, x, wo, max_chain);
+    spc_snee_query_init(&q, sc, p, x, r->wo, max_chain);
+    q.receiver = r;
     spc_snee_cones own;
     if (guided) {
         if (!cs || cs->e != e || cs->budget != max_chain) {
@@ -626,7 +639,7 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.light_size = sqrt(e->shape->area);
         q.p_y = p_y;
         q.cam = cam;
-        q.cam_scale = cam_scale;
+        q.cam_scale = r->cam_scale;
         q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
         double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p);
         *a = chain_psi(&q, &ch) * p_y * ps;
@@ -634,24 +647,31 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
     return true;
 }
 
-/* The weight of a covered path sampled by the BSDF at x (or the camera), as covered_terms. */
-static double covered_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
-                             const spc_camera_state *cam, double cam_scale, spc_vec3 d0, int max_chain, int k,
-                             const unsigned char *events, const spc_hit *light)
+/* The weight of a covered path sampled by the receiver r itself, as covered_terms. */
+static double covered_weight(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
+                             int max_chain, int k, const unsigned char *events, const spc_hit *light)
 {
     double a, b, c;
-    if (!covered_terms(sc, p, x, wo, cam, cam_scale, d0, max_chain, k, events, light, NULL, &a, &b, &c))
+    if (!covered_terms(sc, p, r, d0, max_chain, k, events, light, NULL, &a, &b, &c))
         return 0.0;
     return mis3(b, a, c);
+}
+
+double spc_snee_receiver_weight(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
+                                int max_chain, int k, const unsigned char *events, const spc_hit *light)
+{
+    const spc_emitter *e = light->emitter;
+    if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
+        return 0.0;
+    return covered_weight(sc, p, r, d0, max_chain, k, events, light);
 }
 
 double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                                 spc_vec3 d0, int max_chain, int k, const unsigned char *events, const spc_hit *light)
 {
-    const spc_emitter *e = light->emitter;
-    if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
-        return 0.0;
-    return covered_weight(sc, p, x, wo, NULL, 0.0, d0, max_chain, k, events, light);
+    spc_receiver r;
+    spc_receiver_surface(&r, x, wo);
+    return spc_snee_receiver_weight(sc, p, &r, d0, max_chain, k, events, light);
 }
 
 int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface)
@@ -936,8 +956,9 @@ static void guided(spc_snee_query *q, spc_rng *rng, spc_snee_stats *st, snee_sin
                 return;
             spc_rgb Le = spc_emitter_eval_area(e, &h, spc_neg(ray.d));
             double a, b, c;
-            if (spc_rgb_is_black(Le) || !covered_terms(sc, p, x, q->wo, NULL, 0.0, d0, q->max_chain, t.k, t.events,
-                                                        &h, cs, &a, &b, &c))
+            spc_receiver own;
+            if (spc_rgb_is_black(Le) || !covered_terms(sc, p, query_receiver(q, &own), d0, q->max_chain, t.k,
+                                                        t.events, &h, cs, &a, &b, &c))
                 return;
             double w = mis3(c, a, b);
             if (!(w > 0.0))
@@ -971,6 +992,9 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
     return spc_specular_nee_depth(sc, p, x, wo, max_chain, SPC_CHAIN_MAX_VERTICES, rng, st);
 }
 
+static spc_rgb receiver_nee(const spc_scene *sc, const spc_snee_params *p, const spc_specular_solver *solver,
+                            const spc_receiver *r, int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st);
+
 spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                                int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st)
 {
@@ -983,24 +1007,51 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
         return zero;
     if (p->solver == SPC_SNEE_NEWTON && p->newton.rough)
         return spc_rough_nee(sc, p, x, wo, spc_snee_budget_params(p, x, max_chain), rng, st);
+    spc_receiver r;
+    spc_receiver_surface(&r, x, wo);
+    return receiver_nee(sc, p, solver, &r, max_chain, long_max, rng, st);
+}
+
+spc_rgb spc_specular_nee_at(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, int max_chain,
+                            int long_max, spc_rng *rng, spc_snee_stats *st)
+{
+    if (r->kind == SPC_RECEIVER_SURFACE)
+        return spc_specular_nee_depth(sc, p, r->hit, r->wo, max_chain, long_max, rng, st);
+    const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
+    if (max_chain > p->max_chain)
+        max_chain = p->max_chain;
+    if (max_chain > SPC_CHAIN_MAX_VERTICES)
+        max_chain = SPC_CHAIN_MAX_VERTICES;
+    if (r->kind != SPC_RECEIVER_MEDIUM || !solver || (!solver->solve_one && !solver->solve_all) || max_chain < 1 ||
+        (p->solver == SPC_SNEE_NEWTON && p->newton.rough))
+        return spc_rgb1(0.0);
+    return receiver_nee(sc, p, solver, r, max_chain, long_max, rng, st);
+}
+
+static spc_rgb receiver_nee(const spc_scene *sc, const spc_snee_params *p, const spc_specular_solver *solver,
+                            const spc_receiver *r, int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st)
+{
+    const spc_rgb zero = spc_rgb1(0.0);
     /* params.query_p: the query made with that probability, counted 1 / query_p times (p_y below) */
     double pq = spc_snee_query_prob(p);
     if (pq < 1.0 && !(spc_rng_next(rng) < pq))
         return zero;
 
     spc_snee_query q;
-    spc_snee_query_init(&q, sc, p, x, wo, max_chain);
+    spc_snee_query_init(&q, sc, p, spc_receiver_origin(r), r->wo, max_chain);
+    q.receiver = r;
     q.long_max = long_max < SPC_CHAIN_MAX_VERTICES ? long_max : SPC_CHAIN_MAX_VERTICES;
     const spc_emitter *e;
     spc_vec2 uv;
     double p_y;
+    /* params.guide: at surface receivers (the cones' directions are traced as BSDF samples) */
+    bool guide = guide_on(p) && r->kind == SPC_RECEIVER_SURFACE;
     bool lit = spc_snee_sample_light(sc, p->any_surface, rng, &q, &e, &uv, &p_y);
-    if (!lit && !guide_on(p))
+    if (!lit && !guide)
         return zero;
-    /* params.guide: the cones at x, built on first use (a light sample that fails still leaves the
-     * guided direction its turn: its density does not depend on specular NEE's) */
+    /* the cones at x, built on first use (a light sample that fails still leaves the guided
+     * direction its turn: its density does not depend on specular NEE's) */
     spc_snee_cones cones;
-    bool guide = guide_on(p);
     if (guide) {
         memset(&cones, 0, sizeof cones);
         cones.budget = max_chain;
@@ -1028,20 +1079,6 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
 
 /* ---- from the camera ---- */
 
-/* The pinhole as a chain's start point (no surface, no offset). */
-static spc_hit pinhole_hit(const spc_camera_state *cam)
-{
-    spc_hit x;
-    memset(&x, 0, sizeof x);
-    x.p = cam->origin;
-    x.ng = cam->forward;
-    x.sh = spc_frame_from_n(cam->forward);
-    x.err = 0.0;
-    x.t = 0.0;
-    x.shape_index = -1;
-    return x;
-}
-
 int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_camera_state *cam, double cam_scale,
                     int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st, spc_snee_splat *out, int max_out)
 {
@@ -1051,9 +1088,11 @@ int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_cam
     if (!solver || (!solver->solve_one && !solver->solve_all) || max_chain < 1 || !spc_camera_connectible(cam) ||
         (p->solver == SPC_SNEE_NEWTON && p->newton.rough))
         return 0;
-    spc_hit x = pinhole_hit(cam);
+    spc_receiver r;
+    spc_receiver_camera(&r, cam, cam_scale);
     spc_snee_query q;
-    spc_snee_query_init(&q, sc, p, &x, cam->forward, max_chain);
+    spc_snee_query_init(&q, sc, p, spc_receiver_origin(&r), r.wo, max_chain);
+    q.receiver = &r;
     q.cam = cam;
     q.cam_scale = cam_scale;
     q.long_max = long_max < SPC_CHAIN_MAX_VERTICES ? long_max : SPC_CHAIN_MAX_VERTICES;
@@ -1086,8 +1125,9 @@ double spc_snee_camera_bsdf_weight(const spc_scene *sc, const spc_snee_params *p
         return 1.0;
     if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
         return 0.0; /* covered and not weighted: specular NEE's alone */
-    spc_hit x = pinhole_hit(cam);
-    return covered_weight(sc, p, &x, cam->forward, cam, cam_scale, d0, max_chain, k, events, light);
+    spc_receiver r;
+    spc_receiver_camera(&r, cam, cam_scale);
+    return covered_weight(sc, p, &r, d0, max_chain, k, events, light);
 }
 
 /* ---- exclusion of the covered paths from BSDF sampling ---- */
@@ -1126,6 +1166,17 @@ void spc_snee_track_scatter(spc_snee_track *t, const spc_hit *h, unsigned lobe, 
         t->single_ok = t->single_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 1);
         t->multi_ok = t->multi_ok && spc_chain_caster_allowed(h->shape->caustic_flags, 2);
     }
+}
+
+void spc_snee_track_begin(spc_snee_track *t, const spc_snee_params *p, int budget, int long_max)
+{
+    t->live = budget > 0;
+    t->k = 0;
+    t->max_chain = budget;
+    t->single_ok = t->multi_ok = true;
+    t->any_surface = p->any_surface;
+    t->reflect = p->reflect;
+    t->long_max = budget > 0 ? spc_snee_track_long_max(p, long_max) : 0;
 }
 
 bool spc_snee_track_covers(const spc_snee_track *t, const spc_scene *sc, const spc_emitter *e)

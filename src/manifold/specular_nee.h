@@ -41,6 +41,7 @@
 
 #include "core/rng.h"
 #include "manifold/chain.h"
+#include "manifold/receiver.h"
 #include "manifold/snee_options.h"
 #include "manifold/solver.h"
 
@@ -74,6 +75,10 @@ static inline double spc_snee_mis_weight(double p_y, double p_b)
  * have looked for one; 0 (the path dropped, as without MIS) if the retrace does not reproduce it. */
 double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                                 spc_vec3 d0, int max_chain, int k, const unsigned char *events, const spc_hit *light);
+/* The same for any receiver r (receiver.h): a path its own sampling (BSDF, phase function, camera
+ * ray) sent along d0. */
+double spc_snee_receiver_weight(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
+                                int max_chain, int k, const unsigned char *events, const spc_hit *light);
 
 /* Does params.exact's enumeration (sphere_chains.h, cylinder_chains.h, plane_chains.h) hold every
  * chain of the query: one caster, a sphere x is outside of, a mirror cylinder, or (not from the
@@ -89,6 +94,13 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
  * left; spc_specular_nee: SPC_CHAIN_MAX_VERTICES). */
 spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                                int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st);
+
+/* The same at any receiver (receiver.h): a surface point as spc_specular_nee_depth; a medium point
+ * (volpath) with chains of at most max_chain vertices, the media's transmittance in the chain's
+ * value and the phase function in its place of the BSDF (not with rough vertices: 0). The camera's
+ * pinhole has its own entry, spc_snee_camera. */
+spc_rgb spc_specular_nee_at(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, int max_chain,
+                            int long_max, spc_rng *rng, spc_snee_stats *st);
 
 /* The contribution of one solved chain toward the light point of q on emitter e (uv: the
  * point's texture coordinates), without p(y) and <1/p_solve>: zero if the chain is not one specular
@@ -135,6 +147,11 @@ typedef struct spc_snee_track {
     int long_max;   /* followed up to this many vertices (params.long_p; <= max_chain: none) */
     unsigned char events[SPC_CHAIN_MAX_VERTICES]; /* the chain event at each vertex passed */
 } spc_snee_track;
+
+/* The track of the paths leaving a receiver (a medium point, the pinhole) by its own sampling, where
+ * specular NEE ran with chain budget `budget` (0: it did not, and the track is dead) and the longer
+ * chains' depth bound long_max (spc_snee_track_long_max). */
+void spc_snee_track_begin(spc_snee_track *t, const spc_snee_params *p, int budget, int long_max);
 
 /* Specular NEE's chain budget at x: max_chain if x is a receiver with a non-delta lobe, else 0. */
 int spc_snee_budget(const spc_hit *x, int max_chain, bool any_surface);
