@@ -2,11 +2,11 @@
 # Regenerates the README's pictures, each scene with the default (specular NEE chosen from the scene)
 # and with --specular-nee none at about equal CPU time (none gets as many more samples as the
 # default costs per sample):
-#   - scenes/demo.xml at its own size (256x256), the default at its 8 spp, none at 108 spp (the
-#     default's cost per sample there is 13.5x none's: 11.4 CPU-s at 8 spp against 11.1 at 108):
+#   - scenes/demo.xml at its own size (256x256), the default at its 8 spp, none at 104 spp (the
+#     default's cost per sample there is 13x none's: 10.7 CPU-s at 8 spp against 11.1 at 108):
 #     docs/images/demo_default.png, docs/images/demo_none.png;
 #   - scenes/caustic_mirror_ring.xml (a caustic inside a mirror ring under a small sphere light) at
-#     128x128, 32 against 578 spp (8.2 CPU-s at 32 spp against 5.0 at 352):
+#     128x128, 32 against 426 spp (5.9 CPU-s at 32 spp against 8.0 at 578):
 #     docs/images/ring_default.png, docs/images/ring_none.png.
 # Usage: bash tools/readme_images.sh
 set -euo pipefail
@@ -23,5 +23,5 @@ pair() {
   cp "$tmp/none.png" "docs/images/$2_none.png"
   echo "wrote docs/images/$2_default.png and docs/images/$2_none.png ($3x$3, $4 and $5 spp)"
 }
-pair scenes/demo.xml demo 256 8 108
-pair scenes/caustic_mirror_ring.xml ring 128 32 578
+pair scenes/demo.xml demo 256 8 104
+pair scenes/caustic_mirror_ring.xml ring 128 32 426
