@@ -16,6 +16,12 @@
  */
 #include "integrator/path_wave.h"
 
+#include <stdatomic.h>
+
+static atomic_uint_least64_t wave_samples;
+
+uint64_t spc_path_wave_samples(void) { return atomic_load(&wave_samples); }
+
 typedef struct lane {
     int path; /* the sample this lane runs (index into the caller's arrays); -1 when idle */
     spc_ray ray;
@@ -37,8 +43,14 @@ static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || 
 
 bool spc_path_wave_applies(const spc_render_ctx *ctx)
 {
-    return ctx->kind == SPC_INTEGRATOR_IPT ||
-           (ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee == SPC_SNEE_NONE);
+    if (!(ctx->kind == SPC_INTEGRATOR_IPT || (ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee == SPC_SNEE_NONE)))
+        return false;
+    /* Embree's curve intersectors for packets round differently from the single-ray ones (the
+     * curves scene's image changed), so scenes with curves keep path.c */
+    for (int i = 0; i < ctx->scene->nshapes; ++i)
+        if (ctx->scene->shapes[i]->type == SPC_SHAPE_CURVE)
+            return false;
+    return true;
 }
 
 static void lane_start(lane *ln, int path, const spc_ray *ray0, spc_sample_out *out)
@@ -173,6 +185,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                           spc_sample_out *out)
 {
     (void)tls; /* plain path tracing splats nothing */
+    atomic_fetch_add(&wave_samples, (uint64_t)n);
     enum { W = SPC_SCENE_PACKET };
     lane ln[W];
     spc_hit h[W];
