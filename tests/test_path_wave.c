@@ -104,8 +104,8 @@ static void check_scene_packets(const char *file, const char *integrator, int ma
     uint64_t wa = 0, wb = 0;
     bool ok = render_to(sc, integrator, max_depth, true, a, &wa) && render_to(sc, integrator, max_depth, false, b, &wb);
     CHECK_MSG(ok, "%s (%s): render failed", file, integrator);
-    CHECK_MSG((wa > 0) == packets && wb == 0, "%s (%s): packet samples %llu and %llu", file, integrator, (unsigned long long)wa,
-              (unsigned long long)wb);
+    CHECK_MSG((wa > 0) == packets && wb == 0, "%s (%s): packet samples %llu and %llu", file, integrator,
+              (unsigned long long)wa, (unsigned long long)wb);
     CHECK_MSG(ok && same_file(a, b), "%s (%s, max_depth %d): the packet path tracer's image differs from path.c's",
               file, integrator, max_depth);
     spc_scene_destroy(sc);
@@ -118,9 +118,9 @@ static void check_scene(const char *file, const char *integrator, int max_depth)
 
 TEST(path_matches_path_c)
 {
-    const char *files[] = {"demo.xml",     "shapes.xml",   "dielectrics.xml", "conductors.xml", "envmap.xml",
-                           "lights.xml",   "textures.xml", "thinlens.xml",    "sdf_shapes_csg.xml",
-                           "mask_null.xml", "normal_bump.xml", "spot_texture.xml"};
+    const char *files[] = {"demo.xml",           "shapes.xml",    "dielectrics.xml", "conductors.xml",
+                           "envmap.xml",         "lights.xml",    "textures.xml",    "thinlens.xml",
+                           "sdf_shapes_csg.xml", "mask_null.xml", "normal_bump.xml", "spot_texture.xml"};
     for (size_t i = 0; i < sizeof files / sizeof files[0]; ++i)
         check_scene(files[i], "path", 0);
     /* Embree's curves: path.c's single rays (their packet hits differ) */
@@ -142,8 +142,7 @@ int main(void)
     if (!getcwd(cwd, sizeof cwd))
         return 1;
     const char *src = spc_test_source_dir();
-    snprintf(scenes_dir, sizeof scenes_dir, "%s%s%s/scenes", src[0] == '/' ? "" : cwd, src[0] == '/' ? "" : "/",
-             src);
+    snprintf(scenes_dir, sizeof scenes_dir, "%s%s%s/scenes", src[0] == '/' ? "" : cwd, src[0] == '/' ? "" : "/", src);
     snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_path_wave_XXXXXX");
     if (!mkdtemp(tmpdir))
         return 1;

@@ -70,8 +70,8 @@ static void lane_start(lane *ln, int path, const spc_ray *ray0, spc_sample_out *
     out->depth = 0.0;
 }
 
-/* path.c's loop body from the intersection to the light sample's shadow ray (ln->shadow, ln->sr).
- * false: the path has ended. */
+/* path.c's loop body from the intersection to next-event estimation: emission, the depth, strict
+ * normals. false: the path has ended. */
 static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const spc_hit *h, spc_sampler *smp,
                          spc_sample_out *out)
 {
@@ -101,8 +101,8 @@ static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const sp
         if (!spc_rgb_is_black(Le)) {
             double w = 1.0;
             if (nee && !ln->specular) {
-                double lp = spc_scene_emitter_pmf(sc, h->emitter) *
-                            spc_emitter_pdf_direct(h->emitter, ln->prev_p, h->p, h->ng);
+                double lp =
+                    spc_scene_emitter_pmf(sc, h->emitter) * spc_emitter_pdf_direct(h->emitter, ln->prev_p, h->p, h->ng);
                 w = spc_mis_power(ln->prev_pdf, lp);
             }
             ln->L = spc_rgb_add(ln->L, spc_rgb_scale(spc_rgb_mul(ln->beta, Le), w));
@@ -112,11 +112,17 @@ static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const sp
         return false;
     if (ctx->strict_normals && spc_dot(wo, h->ng) * spc_dot(wo, h->sh.n) < 0.0)
         return false;
-    const spc_bsdf *b = h->bsdf;
+    return true;
+}
 
-    /* next-event estimation: path.c's dimensions, drawn whether used or not */
-    double u_light = spc_sampler_1d(smp);
-    spc_vec2 u_lpos = spc_sampler_2d(smp);
+/* Next-event estimation at h with path.c's dimensions u_light, u_lpos (drawn whether used or
+ * not): the light sample's shadow ray (ln->shadow, ln->sr) and what its contribution needs. */
+static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, double u_light, spc_vec2 u_lpos)
+{
+    const spc_scene *sc = ctx->scene;
+    const bool nee = ctx->kind == SPC_INTEGRATOR_PATH;
+    const spc_bsdf *b = h->bsdf;
+    const spc_vec3 wo = ln->wo;
     if (nee && spc_bsdf_has_smooth(b)) {
         double pmf;
         const spc_emitter *e = spc_scene_sample_emitter(sc, u_light, &pmf);
@@ -138,12 +144,13 @@ static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const sp
             }
         }
     }
-    return true;
 }
 
 /* path.c's loop body after the shadow ray (occluded: its answer): the light sample's contribution,
- * BSDF sampling, Russian roulette. false: the path has ended. */
-static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, spc_sampler *smp)
+ * BSDF sampling with path.c's dimensions u_lobe, u_dir, u_rr, Russian roulette. false: the path has
+ * ended. */
+static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, double u_lobe,
+                         spc_vec2 u_dir, double u_rr)
 {
     const spc_bsdf *b = h->bsdf;
     const spc_vec3 wo = ln->wo;
@@ -153,9 +160,6 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
         ln->L = spc_rgb_add(ln->L, spc_rgb_scale(c, ln->cosi * w / ln->lp));
     }
 
-    double u_lobe = spc_sampler_1d(smp);
-    spc_vec2 u_dir = spc_sampler_2d(smp);
-    double u_rr = spc_sampler_1d(smp);
     spc_bsdf_sample bs;
     if (!spc_bsdf_sample_dir(b, h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
         return false;
@@ -191,6 +195,8 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     spc_hit h[W];
     bool hit[W], alive[W], occluded[W];
     const spc_ray *r[W];
+    spc_sampler *ls[W];
+    spc_vec2 u[3 * W];
     int next = 0, live = 0;
     for (int i = 0; i < W; ++i) {
         ln[i].path = -1;
@@ -205,19 +211,26 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             r[i] = ln[i].path >= 0 ? &ln[i].ray : NULL;
         spc_scene_intersect_packet(ctx->scene, r, h, hit);
         for (int i = 0; i < W; ++i) {
-            alive[i] = false;
+            alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
+            ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
+        }
+        /* next-event estimation's dimensions (u_light, u_lpos) of every live lane at once */
+        spc_sampler_2d_many(ls, W, 2, u);
+        for (int i = 0; i < W; ++i) {
             r[i] = NULL;
-            if (ln[i].path < 0)
+            if (!alive[i])
                 continue;
-            alive[i] = lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
-            if (alive[i] && ln[i].shadow)
+            lane_light(ctx, &ln[i], &h[i], u[2 * i].x, u[2 * i + 1]);
+            if (ln[i].shadow)
                 r[i] = &ln[i].sr;
         }
         spc_scene_occluded_packet(ctx->scene, r, occluded);
+        /* BSDF sampling's dimensions (u_lobe, u_dir, u_rr) */
+        spc_sampler_2d_many(ls, W, 3, u);
         for (int i = 0; i < W; ++i) {
             if (ln[i].path < 0)
                 continue;
-            if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], &smp[ln[i].path]))
+            if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], u[3 * i].x, u[3 * i + 1], u[3 * i + 2].x))
                 continue;
             /* the path has ended: its estimate, and the lane takes the next sample */
             out[ln[i].path].L = ln[i].L;
