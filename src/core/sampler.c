@@ -115,28 +115,24 @@ double spc_sampler_1d(spc_sampler *s)
  * one thread, CPU time): the scalar loops alone are slower than the one-pair calls (a 1D draw's
  * unused y costs more than the independent chains gain); vectorized they take 3 to 4% off the
  * render, as much as an AVX-512 build of the same loops. */
-#define PAIRS_BODY                                                                                                   \
-    {                                                                                                                \
-        for (int j = 0; j < m; ++j) {                                                                                \
-            uint64_t x = seed[j];                                                                                    \
-            x ^= x >> 30;                                                                                            \
-            x *= 0xbf58476d1ce4e5b9ULL;                                                                              \
-            x ^= x >> 27;                                                                                            \
-            x *= 0x94d049bb133111ebULL;                                                                              \
-            x ^= x >> 31;                                                                                            \
-            h[j] = x;                                                                                                \
-        }                                                                                                            \
-        for (int j = 0; j < m; ++j)                                                                                  \
-            idx[j] = reverse_bits(lk_permute(rev[j], (uint32_t)h[j]));                                               \
-        for (int j = 0; j < m; ++j)                                                                                  \
-            ox[j] = reverse_bits(lk_permute(idx[j], (uint32_t)(h[j] >> 32)));                                         \
-        for (int j = 0; j < m; ++j)                                                                                  \
-            oy[j] = reverse_bits(lk_permute(sobol_dim1_reversed(idx[j]),                                             \
-                                            (uint32_t)((h[j] * 0xda942042e4dd58b5ULL) >> 32)));                       \
-    }
+static inline __attribute__((always_inline)) void pairs_loops(int m, const uint64_t *seed, const uint32_t *rev,
+                                                              uint64_t *h, uint32_t *idx, uint32_t *ox, uint32_t *oy)
+{
+    for (int j = 0; j < m; ++j)
+        h[j] = spc_hash64(seed[j]);
+    for (int j = 0; j < m; ++j)
+        idx[j] = reverse_bits(lk_permute(rev[j], (uint32_t)h[j]));
+    for (int j = 0; j < m; ++j)
+        ox[j] = reverse_bits(lk_permute(idx[j], (uint32_t)(h[j] >> 32)));
+    for (int j = 0; j < m; ++j)
+        oy[j] = reverse_bits(lk_permute(sobol_dim1_reversed(idx[j]), (uint32_t)((h[j] * 0xda942042e4dd58b5ULL) >> 32)));
+}
 
 static void pairs_base(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, uint32_t *ox,
-                       uint32_t *oy) PAIRS_BODY
+                       uint32_t *oy)
+{
+    pairs_loops(m, seed, rev, h, idx, ox, oy);
+}
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #if defined(__clang__)
@@ -145,7 +141,10 @@ static void pairs_base(int m, const uint64_t *seed, const uint32_t *rev, uint64_
 #define PAIRS_AVX2_ATTR __attribute__((target("avx2"), optimize("O3"))) /* GCC's -O2 does not */
 #endif
 PAIRS_AVX2_ATTR static void pairs_avx2(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h,
-                                                       uint32_t *idx, uint32_t *ox, uint32_t *oy) PAIRS_BODY
+                                                       uint32_t *idx, uint32_t *ox, uint32_t *oy)
+{
+    pairs_loops(m, seed, rev, h, idx, ox, oy);
+}
 #endif
 
 void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u)
