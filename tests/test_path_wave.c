@@ -9,7 +9,9 @@
  * (spheres, disks, cylinders, SDFs), smooth and rough glass and metals, an environment map, point,
  * spot and area lights, a thin lens, Russian roulette past max_depth, and the ipt mode. The
  * packet path tracer's sample count proves it ran (and that the other render did not use it); a
- * scene with Embree's curves, whose packet hits differ from single rays', must not take it.
+ * scene with Embree's curves, whose packet hits differ from single rays', must not take it. Embree
+ * is also forced to AVX2 and SSE4.2, where its 16-wide packets take a fallback path (which aborted
+ * on inactive lanes before they were marked by their ray data).
  */
 /* ctest-labels: scene */
 /* ctest-timeout: 300 */
@@ -127,6 +129,19 @@ TEST(path_matches_path_c)
     check_scene_packets("curves.xml", "path", 0, false);
 }
 
+/* Embree's packets on other instruction sets: a CPU without native 16-wide packets (AVX2, SSE4.2)
+ * runs them through another code path (which tells inactive lanes by their ray data). */
+TEST(other_isas_match_path_c)
+{
+    const char *isas[] = {"isa=avx2", "isa=sse4.2"};
+    for (int k = 0; k < 2; ++k) {
+        setenv("SPECULA_EMBREE_CONFIG", isas[k], 1);
+        check_scene("demo.xml", "path", 0);
+        check_scene("shapes.xml", "path", 0);
+        unsetenv("SPECULA_EMBREE_CONFIG");
+    }
+}
+
 TEST(ipt_and_roulette_match_path_c)
 {
     check_scene("demo.xml", "ipt", 0);
@@ -148,6 +163,7 @@ int main(void)
         return 1;
     RUN(path_matches_path_c);
     RUN(ipt_and_roulette_match_path_c);
+    RUN(other_isas_match_path_c);
     char cmd[128];
     snprintf(cmd, sizeof cmd, "rm -rf %s", tmpdir);
     if (system(cmd) != 0)

@@ -157,7 +157,10 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
         return NULL;
     }
     a->sc = sc;
-    a->device = rtcNewDevice("verbose=0");
+    /* SPECULA_EMBREE_CONFIG, if set, is Embree's device configuration: tests force an instruction
+     * set with it ("isa=avx2"), under which Embree's packet calls take other code paths */
+    const char *config = getenv("SPECULA_EMBREE_CONFIG");
+    a->device = rtcNewDevice(config ? config : "verbose=0");
     if (!a->device) {
         spc_error_set(err, SPC_ERR_ACCEL, NULL, 0, 0, "Embree: cannot create a device (error %d)",
                       (int)rtcGetDeviceError(NULL));
@@ -339,6 +342,21 @@ uint64_t spc_accel_raw_loop(const spc_accel *a, const spc_ray *rays, size_t n)
     return hits;
 }
 
+/* An inactive lane: besides the valid mask, marked inactive the way Embree's stream fallback (a
+ * CPU without native 16-wide packets, e.g. AVX2) tells them, by tnear > tfar, with finite data. */
+static void embree_lane_off(struct RTCRay16 *er, int i)
+{
+    er->org_x[i] = er->org_y[i] = er->org_z[i] = 0.0f;
+    er->dir_x[i] = er->dir_y[i] = 0.0f;
+    er->dir_z[i] = 1.0f;
+    er->tnear[i] = 0.0f;
+    er->tfar[i] = -INFINITY;
+    er->time[i] = 0.0f;
+    er->mask[i] = 0u;
+    er->id[i] = (unsigned)i;
+    er->flags[i] = 0;
+}
+
 /* One lane of a packet from a double ray, as to_embree_ray; the lane's id is its index. */
 static void to_embree_lane(const spc_ray *r, struct RTCRay16 *er, int i)
 {
@@ -377,7 +395,8 @@ void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_A
         if (valid[i]) {
             to_embree_lane(r[i], &rh.ray, i);
             ++nvalid;
-        }
+        } else
+            embree_lane_off(&rh.ray, i);
     }
     if (nvalid == 0)
         return;
@@ -416,7 +435,8 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
         if (valid[i]) {
             to_embree_lane(r[i], &er, i);
             ++nvalid;
-        }
+        } else
+            embree_lane_off(&er, i);
     }
     if (nvalid == 0)
         return;
