@@ -91,7 +91,8 @@ static bool render_to(spc_scene *sc, const char *integrator, int max_depth, bool
 static void check_scene_packets(const char *file, const char *integrator, int max_depth, bool packets)
 {
     char path[2300];
-    snprintf(path, sizeof path, "%s/%s", scenes_dir, file);
+    /* a file of scenes/, or an absolute path */
+    snprintf(path, sizeof path, "%s%s%s", file[0] == '/' ? "" : scenes_dir, file[0] == '/' ? "" : "/", file);
     spc_define defs[1] = {{"res", RES}};
     spc_scene *sc = NULL;
     spc_error err;
@@ -130,6 +131,50 @@ TEST(path_matches_path_c)
     check_scene_packets("curves.xml", "path", 0, false);
 }
 
+/* path.c's options that end paths or hide light: strict normals (shapes.xml's meshes with vertex
+ * normals, where shading and geometric normals disagree: the option changes its image) and hidden
+ * emitters, in a copy of shapes.xml with its mesh and texture paths made absolute. */
+TEST(strict_normals_and_hidden_emitters_match_path_c)
+{
+    char src[2300], dst[128];
+    snprintf(src, sizeof src, "%s/shapes.xml", scenes_dir);
+    snprintf(dst, sizeof dst, "%s/strict.xml", tmpdir);
+    long n = 0;
+    char *text = (char *)slurp(src, &n);
+    FILE *fp = text ? fopen(dst, "w") : NULL;
+    CHECK(fp != NULL);
+    if (!fp) {
+        free(text);
+        return;
+    }
+    static const char integ[] = "<integrator type=\"$integrator\">";
+    static const char *const dirs[] = {"value=\"meshes/", "value=\"textures/"};
+    int edits = 0;
+    for (long i = 0; i < n; ++i) {
+        if (strncmp(text + i, integ, sizeof integ - 1) == 0) {
+            fprintf(fp, "%s<boolean name=\"strict_normals\" value=\"true\"/>"
+                        "<boolean name=\"hide_emitters\" value=\"true\"/>",
+                    integ);
+            i += (long)sizeof integ - 2;
+            ++edits;
+            continue;
+        }
+        bool done = false;
+        for (int d = 0; d < 2 && !done; ++d)
+            if (strncmp(text + i, dirs[d], strlen(dirs[d])) == 0) {
+                fprintf(fp, "value=\"%s/%s", scenes_dir, dirs[d] + 7);
+                i += (long)strlen(dirs[d]) - 1;
+                done = true;
+            }
+        if (!done)
+            fputc(text[i], fp);
+    }
+    fclose(fp);
+    free(text);
+    CHECK(edits == 1);
+    check_scene(dst, "path", 0);
+}
+
 /* Embree's packets on other instruction sets: a CPU without native 16-wide packets (AVX2, SSE4.2)
  * runs them through another code path (which tells inactive lanes by their ray data). */
 TEST(other_isas_match_path_c)
@@ -165,6 +210,7 @@ int main(void)
     RUN(path_matches_path_c);
     RUN(ipt_and_roulette_match_path_c);
     RUN(other_isas_match_path_c);
+    RUN(strict_normals_and_hidden_emitters_match_path_c);
     char cmd[128];
     snprintf(cmd, sizeof cmd, "rm -rf %s", tmpdir);
     if (system(cmd) != 0)
