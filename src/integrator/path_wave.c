@@ -9,8 +9,8 @@
  * sample's contribution, samples the BSDF and plays Russian roulette. A lane whose path ends stores
  * the estimate and takes the next camera sample, so the packets stay full until the samples run out.
  *
- * Every lane draws its sampler dimensions in path.c's order and computes path.c's expressions in
- * path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
+ * Every lane draws its sampler dimensions in path.c's order (the live lanes' pairs of a stage at
+ * once, spc_sampler_2d_many: the same values) and computes path.c's expressions in path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
  * whole images). The light sample's MIS weight is computed after the shadow ray, as path.c does, so
  * occluded samples do not pay for the BSDF's pdf.
  */
