@@ -100,6 +100,44 @@ TEST(sampler_stratified_and_deterministic)
     CHECK_NEAR(acc / 4096.0, 0.25, 0.02);
 }
 
+/* Many streams at once (spc_sampler_2d_many) give the one-pair calls' values bit for bit and move
+ * each stream as they do; lanes without a stream are left alone. Sizes cross the batch's internal
+ * flush (64 pairs). */
+TEST(sampler_many_matches_one_at_a_time)
+{
+    int bad = 0, checked = 0;
+    for (int n = 1; n <= 40; n += 13)
+        for (int npairs = 1; npairs <= 3; ++npairs) {
+            spc_sampler a[40], b[40];
+            spc_sampler *pa[40];
+            spc_vec2 u[120];
+            for (int i = 0; i < n; ++i) {
+                spc_sampler_start(&a[i], (uint32_t)i, 5, (uint32_t)(i * 7 + n), 11);
+                for (int k = 0; k < i % 4; ++k) /* streams at different dimensions */
+                    spc_sampler_1d(&a[i]);
+                b[i] = a[i];
+                pa[i] = i % 5 == 3 ? NULL : &a[i];
+            }
+            for (int round = 0; round < 3; ++round) {
+                spc_sampler_2d_many(pa, n, npairs, u);
+                for (int i = 0; i < n; ++i) {
+                    if (!pa[i]) {
+                        bad += a[i].dim != b[i].dim;
+                        continue;
+                    }
+                    for (int k = 0; k < npairs; ++k) {
+                        spc_vec2 v = spc_sampler_2d(&b[i]);
+                        bad += v.x != u[i * npairs + k].x || v.y != u[i * npairs + k].y;
+                        ++checked;
+                    }
+                    bad += a[i].dim != b[i].dim;
+                }
+            }
+        }
+    CHECK_MSG(bad == 0, "%d of %d pairs or stream positions differ", bad, checked);
+    CHECK(checked > 500);
+}
+
 /* Monte Carlo integral of f / pdf over the warped samples equals the integral of f. */
 TEST(warps_match_their_pdfs)
 {
@@ -185,6 +223,7 @@ int main(void)
     RUN(mat4_inverse_and_lookat);
     RUN(frames_orthonormal);
     RUN(sampler_stratified_and_deterministic);
+    RUN(sampler_many_matches_one_at_a_time);
     RUN(warps_match_their_pdfs);
     RUN(tent_and_gaussian_inversions);
     RUN(distributions);

@@ -24,6 +24,16 @@ bool spc_accel_intersect(const spc_accel *a, const spc_ray *r, int *shape, int *
                          double *t);
 /* Any hit in (tmin, tmax). */
 bool spc_accel_occluded(const spc_accel *a, const spc_ray *r);
+/* Packets of up to SPC_ACCEL_PACKET rays traced together (Embree's rtcIntersect16/rtcOccluded16):
+ * lane i traces r[i] where r[i] is not NULL. The results are spc_accel_intersect's and
+ * spc_accel_occluded's per lane (shape[i] = -1 for a miss or an inactive lane; occluded[i] false
+ * for an inactive lane). */
+#define SPC_ACCEL_PACKET 16
+void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
+                                double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET]);
+void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                               bool occluded[SPC_ACCEL_PACKET]);
 /* Benchmark support: traces n rays with bare rtcIntersect1 calls (no hit records, no double
  * precision user geometry bookkeeping beyond what Embree calls) and returns how many hit. Not
  * counted in spc_accel_rays_traced. */

@@ -30,14 +30,32 @@ struct spc_accel {
     const struct spc_scene *sc;
 };
 
+/* A packet's double rays and their best analytic hits so far, per lane; a single ray is lane 0. The
+ * callbacks find a ray's lane from its Embree id (Embree may call them with other packet sizes and
+ * orders than the caller's). */
 typedef struct ctx_ext {
     struct RTCIntersectContext ctx; /* must be first */
-    const spc_ray *ray;
+    const spc_ray *const *rays;     /* per lane; NULL for an inactive lane */
     const struct spc_scene *sc;
     /* the best analytic hit so far, in double */
-    int geom;
-    double t, u, v;
+    int geom[SPC_ACCEL_PACKET];
+    double t[SPC_ACCEL_PACKET], u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET];
 } ctx_ext;
+
+/* The SoA layouts of rtcore_ray.h (its accessors are C++ only), for N rays: field k of lane i at
+ * k N + i, in 32-bit words; a ray's fields, then (RTCRayHitN) the hit's. N = 1 is RTCRayHit. */
+enum {
+    RAY_TFAR = 8,
+    RAY_ID = 10,
+    HIT_NG_X = 12,
+    HIT_NG_Y,
+    HIT_NG_Z,
+    HIT_U,
+    HIT_V,
+    HIT_PRIM,
+    HIT_GEOM,
+    HIT_INST
+};
 
 static _Thread_local uint64_t rays_traced = 0;
 
@@ -57,44 +75,54 @@ static void bounds_fn(const struct RTCBoundsFunctionArguments *args)
 
 static void intersect_fn(const struct RTCIntersectFunctionNArguments *args)
 {
-    if (!args->valid[0] || args->N != 1)
-        return;
     ctx_ext *cx = (ctx_ext *)args->context;
     const spc_shape *s = args->geometryUserPtr;
-    struct RTCRayHit *rh = (struct RTCRayHit *)args->rayhit;
-    spc_ray r = *cx->ray;
-    /* the current nearest hit: in double if it is our own analytic hit, else Embree's float */
-    if (cx->geom >= 0 && (float)cx->t == rh->ray.tfar)
-        r.tmax = spc_min(r.tmax, cx->t);
-    else
-        r.tmax = spc_min(r.tmax, (double)rh->ray.tfar);
-    double t, u, v;
-    if (!spc_shape_intersect_analytic(s, &r, &t, &u, &v))
-        return;
-    rh->ray.tfar = (float)t;
-    rh->hit.geomID = args->geomID;
-    rh->hit.primID = args->primID;
-    rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rh->hit.u = (float)u;
-    rh->hit.v = (float)v;
-    rh->hit.Ng_x = rh->hit.Ng_y = 0.0f;
-    rh->hit.Ng_z = 1.0f;
-    cx->geom = (int)args->geomID;
-    cx->t = t;
-    cx->u = u;
-    cx->v = v;
+    const unsigned N = args->N;
+    float *f = (float *)args->rayhit;
+    unsigned *w = (unsigned *)args->rayhit;
+    for (unsigned i = 0; i < N; ++i) {
+        if (!args->valid[i])
+            continue;
+        unsigned lane = w[RAY_ID * N + i];
+        spc_ray r = *cx->rays[lane];
+        /* the current nearest hit: in double if it is our own analytic hit, else Embree's float */
+        float tfar = f[RAY_TFAR * N + i];
+        if (cx->geom[lane] >= 0 && (float)cx->t[lane] == tfar)
+            r.tmax = spc_min(r.tmax, cx->t[lane]);
+        else
+            r.tmax = spc_min(r.tmax, (double)tfar);
+        double t, u, v;
+        if (!spc_shape_intersect_analytic(s, &r, &t, &u, &v))
+            continue;
+        f[RAY_TFAR * N + i] = (float)t;
+        w[HIT_GEOM * N + i] = args->geomID;
+        w[HIT_PRIM * N + i] = args->primID;
+        w[HIT_INST * N + i] = RTC_INVALID_GEOMETRY_ID;
+        f[HIT_U * N + i] = (float)u;
+        f[HIT_V * N + i] = (float)v;
+        f[HIT_NG_X * N + i] = f[HIT_NG_Y * N + i] = 0.0f;
+        f[HIT_NG_Z * N + i] = 1.0f;
+        cx->geom[lane] = (int)args->geomID;
+        cx->t[lane] = t;
+        cx->u[lane] = u;
+        cx->v[lane] = v;
+    }
 }
 
 static void occluded_fn(const struct RTCOccludedFunctionNArguments *args)
 {
-    if (!args->valid[0] || args->N != 1)
-        return;
     ctx_ext *cx = (ctx_ext *)args->context;
     const spc_shape *s = args->geometryUserPtr;
-    struct RTCRay *ray = (struct RTCRay *)args->ray;
-    double t, u, v;
-    if (spc_shape_intersect_analytic(s, cx->ray, &t, &u, &v))
-        ray->tfar = -INFINITY;
+    const unsigned N = args->N;
+    float *f = (float *)args->ray;
+    const unsigned *w = (const unsigned *)args->ray;
+    for (unsigned i = 0; i < N; ++i) {
+        if (!args->valid[i])
+            continue;
+        double t, u, v;
+        if (spc_shape_intersect_analytic(s, cx->rays[w[RAY_ID * N + i]], &t, &u, &v))
+            f[RAY_TFAR * N + i] = -INFINITY;
+    }
 }
 
 /* Culls a curve's back faces: a hit whose geometric normal (outward) faces along the ray. */
@@ -129,7 +157,10 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
         return NULL;
     }
     a->sc = sc;
-    a->device = rtcNewDevice("verbose=0");
+    /* SPECULA_EMBREE_CONFIG, if set, is Embree's device configuration: tests force an instruction
+     * set with it ("isa=avx2"), under which Embree's packet calls take other code paths */
+    const char *config = getenv("SPECULA_EMBREE_CONFIG");
+    a->device = rtcNewDevice(config ? config : "verbose=0");
     if (!a->device) {
         spc_error_set(err, SPC_ERR_ACCEL, NULL, 0, 0, "Embree: cannot create a device (error %d)",
                       (int)rtcGetDeviceError(NULL));
@@ -251,9 +282,9 @@ bool spc_accel_intersect(const spc_accel *a, const spc_ray *r, int *shape, int *
         return false;
     ctx_ext cx;
     rtcInitIntersectContext(&cx.ctx);
-    cx.ray = r;
+    cx.rays = &r;
     cx.sc = a->sc;
-    cx.geom = -1;
+    cx.geom[0] = -1;
     struct RTCRayHit rh;
     to_embree_ray(r, &rh.ray);
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -263,10 +294,10 @@ bool spc_accel_intersect(const spc_accel *a, const spc_ray *r, int *shape, int *
         return false;
     *shape = (int)rh.hit.geomID;
     *prim = (int)rh.hit.primID;
-    if (cx.geom == (int)rh.hit.geomID) {
-        *t = cx.t;
-        *u = cx.u;
-        *v = cx.v;
+    if (cx.geom[0] == (int)rh.hit.geomID) {
+        *t = cx.t[0];
+        *u = cx.u[0];
+        *v = cx.v[0];
     } else {
         *t = rh.ray.tfar;
         *u = rh.hit.u;
@@ -282,9 +313,9 @@ bool spc_accel_occluded(const spc_accel *a, const spc_ray *r)
         return false;
     ctx_ext cx;
     rtcInitIntersectContext(&cx.ctx);
-    cx.ray = r;
+    cx.rays = &r;
     cx.sc = a->sc;
-    cx.geom = -1;
+    cx.geom[0] = -1;
     struct RTCRay er;
     to_embree_ray(r, &er);
     rtcOccluded1(a->scene, &cx.ctx, &er);
@@ -299,8 +330,9 @@ uint64_t spc_accel_raw_loop(const spc_accel *a, const spc_ray *rays, size_t n)
     cx.sc = a->sc;
     for (size_t i = 0; i < n; ++i) {
         struct RTCRayHit rh;
-        cx.ray = &rays[i];
-        cx.geom = -1;
+        const spc_ray *r = &rays[i];
+        cx.rays = &r;
+        cx.geom[0] = -1;
         to_embree_ray(&rays[i], &rh.ray);
         rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
         rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -308,4 +340,107 @@ uint64_t spc_accel_raw_loop(const spc_accel *a, const spc_ray *rays, size_t n)
         hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
     }
     return hits;
+}
+
+/* An inactive lane: besides the valid mask, marked inactive the way Embree's stream fallback (a
+ * CPU without native 16-wide packets, e.g. AVX2) tells them, by tnear > tfar, with finite data. */
+static void embree_lane_off(struct RTCRay16 *er, int i)
+{
+    er->org_x[i] = er->org_y[i] = er->org_z[i] = 0.0f;
+    er->dir_x[i] = er->dir_y[i] = 0.0f;
+    er->dir_z[i] = 1.0f;
+    er->tnear[i] = 0.0f;
+    er->tfar[i] = -INFINITY;
+    er->time[i] = 0.0f;
+    er->mask[i] = 0u;
+    er->id[i] = (unsigned)i;
+    er->flags[i] = 0;
+}
+
+/* One lane of a packet from a double ray, as to_embree_ray; the lane's id is its index. */
+static void to_embree_lane(const spc_ray *r, struct RTCRay16 *er, int i)
+{
+    er->org_x[i] = (float)r->o.x;
+    er->org_y[i] = (float)r->o.y;
+    er->org_z[i] = (float)r->o.z;
+    er->dir_x[i] = (float)r->d.x;
+    er->dir_y[i] = (float)r->d.y;
+    er->dir_z[i] = (float)r->d.z;
+    er->tnear[i] = (float)r->tmin;
+    er->tfar[i] = r->tmax >= (double)FLT_MAX ? INFINITY : (float)r->tmax;
+    er->time[i] = 0.0f;
+    er->mask[i] = 0xFFFFFFFFu;
+    er->id[i] = (unsigned)i;
+    er->flags[i] = 0;
+}
+
+void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
+                                double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
+{
+    ctx_ext cx;
+    rtcInitIntersectContext(&cx.ctx);
+    cx.rays = r;
+    cx.sc = a->sc;
+    _Alignas(64) struct RTCRayHit16 rh;
+    _Alignas(64) int valid[SPC_ACCEL_PACKET];
+    int nvalid = 0;
+    for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
+        shape[i] = -1;
+        cx.geom[i] = -1;
+        valid[i] = r[i] && r[i]->tmax > r[i]->tmin ? -1 : 0;
+        rays_traced += r[i] != NULL;
+        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        if (valid[i]) {
+            to_embree_lane(r[i], &rh.ray, i);
+            ++nvalid;
+        } else
+            embree_lane_off(&rh.ray, i);
+    }
+    if (nvalid == 0)
+        return;
+    rtcIntersect16(valid, a->scene, &cx.ctx, &rh);
+    for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
+        if (!valid[i] || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID)
+            continue;
+        shape[i] = (int)rh.hit.geomID[i];
+        prim[i] = (int)rh.hit.primID[i];
+        if (cx.geom[i] == shape[i]) {
+            t[i] = cx.t[i];
+            u[i] = cx.u[i];
+            v[i] = cx.v[i];
+        } else {
+            t[i] = rh.ray.tfar[i];
+            u[i] = rh.hit.u[i];
+            v[i] = rh.hit.v[i];
+        }
+    }
+}
+
+void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                               bool occluded[SPC_ACCEL_PACKET])
+{
+    ctx_ext cx;
+    rtcInitIntersectContext(&cx.ctx);
+    cx.rays = r;
+    cx.sc = a->sc;
+    _Alignas(64) struct RTCRay16 er;
+    _Alignas(64) int valid[SPC_ACCEL_PACKET];
+    int nvalid = 0;
+    for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
+        occluded[i] = false;
+        valid[i] = r[i] && r[i]->tmax > r[i]->tmin ? -1 : 0;
+        rays_traced += r[i] != NULL;
+        if (valid[i]) {
+            to_embree_lane(r[i], &er, i);
+            ++nvalid;
+        } else
+            embree_lane_off(&er, i);
+    }
+    if (nvalid == 0)
+        return;
+    rtcOccluded16(valid, a->scene, &cx.ctx, &er);
+    for (int i = 0; i < SPC_ACCEL_PACKET; ++i)
+        occluded[i] = valid[i] && er.tfar[i] < 0.0f;
 }

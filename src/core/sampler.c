@@ -106,6 +106,86 @@ double spc_sampler_1d(spc_sampler *s)
     return pair_x(s, &h, &idx) * (1.0 / 4294967296.0);
 }
 
+/* spc_sampler_2d_many's lanes: up to MANY_LANES pairs computed side by side. */
+#define MANY_LANES 64
+
+/* The pairs of the lanes as plain loops over arrays (pair_x and spc_sampler_2d's arithmetic, in
+ * the same order), compiled twice: for the baseline ISA, and vectorized (-O3) with AVX2 where the
+ * CPU has it; the integer arithmetic is exact, so both give the same bits. Measured (cornell box,
+ * one thread, CPU time): the scalar loops alone are slower than the one-pair calls (a 1D draw's
+ * unused y costs more than the independent chains gain); vectorized they take 3 to 4% off the
+ * render, as much as an AVX-512 build of the same loops. */
+static inline __attribute__((always_inline)) void pairs_loops(int m, const uint64_t *seed, const uint32_t *rev,
+                                                              uint64_t *h, uint32_t *idx, uint32_t *ox, uint32_t *oy)
+{
+    for (int j = 0; j < m; ++j)
+        h[j] = spc_hash64(seed[j]);
+    for (int j = 0; j < m; ++j)
+        idx[j] = reverse_bits(lk_permute(rev[j], (uint32_t)h[j]));
+    for (int j = 0; j < m; ++j)
+        ox[j] = reverse_bits(lk_permute(idx[j], (uint32_t)(h[j] >> 32)));
+    for (int j = 0; j < m; ++j)
+        oy[j] = reverse_bits(lk_permute(sobol_dim1_reversed(idx[j]), (uint32_t)((h[j] * 0xda942042e4dd58b5ULL) >> 32)));
+}
+
+static void pairs_base(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, uint32_t *ox,
+                       uint32_t *oy)
+{
+    pairs_loops(m, seed, rev, h, idx, ox, oy);
+}
+
+#if defined(__GNUC__) && defined(__x86_64__)
+#if defined(__clang__)
+#define PAIRS_AVX2_ATTR __attribute__((target("avx2"))) /* clang vectorizes these loops at -O2 */
+#else
+#define PAIRS_AVX2_ATTR __attribute__((target("avx2"), optimize("O3"))) /* GCC's -O2 does not */
+#endif
+PAIRS_AVX2_ATTR static void pairs_avx2(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h,
+                                                       uint32_t *idx, uint32_t *ox, uint32_t *oy)
+{
+    pairs_loops(m, seed, rev, h, idx, ox, oy);
+}
+#endif
+
+void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u)
+{
+    uint64_t seed[MANY_LANES], h[MANY_LANES];
+    uint32_t rev[MANY_LANES], idx[MANY_LANES], ox[MANY_LANES], oy[MANY_LANES];
+    int slot[MANY_LANES];
+#if defined(__GNUC__) && defined(__x86_64__)
+    static int avx2 = -1;
+    if (avx2 < 0)
+        avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
+#endif
+    const double k = 1.0 / 4294967296.0;
+    int m = 0;
+    for (int i = 0;; ++i) {
+        /* gather the next lanes' pairs, compute them when full or at the end */
+        if (i < n && s[i])
+            for (int p = 0; p < npairs; ++p) {
+                seed[m] = s[i]->pixel_seed + 0x9e3779b97f4a7c15ULL * (uint64_t)(++s[i]->dim);
+                rev[m] = s[i]->index_rev;
+                slot[m] = i * npairs + p;
+                ++m;
+            }
+        if (m == 0 && i >= n)
+            break;
+        if (m + npairs > MANY_LANES || i + 1 >= n) {
+#if defined(__GNUC__) && defined(__x86_64__)
+            if (avx2)
+                pairs_avx2(m, seed, rev, h, idx, ox, oy);
+            else
+#endif
+                pairs_base(m, seed, rev, h, idx, ox, oy);
+            for (int j = 0; j < m; ++j)
+                u[slot[j]] = spc_v2(ox[j] * k, oy[j] * k);
+            m = 0;
+            if (i + 1 >= n)
+                break;
+        }
+    }
+}
+
 void spc_sampler_fork_rng(const spc_sampler *s, uint64_t stream, spc_rng *rng)
 {
     spc_rng_seed(rng, spc_hash_combine(s->pixel_seed, ((uint64_t)s->index << 32) | s->dim), stream);

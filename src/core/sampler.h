@@ -31,6 +31,12 @@ void spc_sampler_start_key(spc_sampler *s, uint64_t key, uint32_t index);
 double spc_sampler_1d(spc_sampler *s);
 /* Next point in [0,1)^2, stratified across the sample indices of the same stream. */
 spc_vec2 spc_sampler_2d(spc_sampler *s);
+/* The next npairs dimension pairs of each of the n streams s[i] (none where s[i] is NULL) at once:
+ * u[i * npairs + k] is what the k-th of npairs successive spc_sampler_2d calls on s[i] returns (a
+ * spc_sampler_1d call would return its x: it uses a whole pair), bit for bit, and each stream moves
+ * past the pairs. Many streams at once is cheaper per pair (independent dependency chains, vector
+ * instructions where the CPU has AVX2). */
+void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u);
 /* A generator of its own for a consumer of an unknown number of values (specular NEE's solver
  * attempts, an AOV's walk): seeded from the stream's state (pixel, index, next dimension) and
  * `stream`, which tells apart the forks taken at the same state. The sampler does not move, so

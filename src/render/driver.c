@@ -29,6 +29,7 @@
 #include "core/warp.h"
 #include "device/device.h"
 #include "integrator/integrator.h"
+#include "integrator/path_wave.h"
 #include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
@@ -57,6 +58,7 @@ typedef struct job {
     int stride;         /* doubles per pixel in a batch buffer: base, then 3 per strategy film */
     int base;           /* 3, or 10 with AOVs */
     int nfilms;         /* strategy films (spc_render_options.strategy_images), 0 without */
+    bool wave;          /* plain path tracing by tiles in packets (path_wave.h) */
     double *buf;        /* npasses * width * height * stride */
     spc_tls *tls;       /* npasses * ntiles */
     uint64_t seed;
@@ -88,6 +90,57 @@ static bool estimate_ok(spc_rgb L)
 /* AOVs are not estimates that can be discarded: a non-finite one is stored as zero. */
 static double finite_or_zero(double v) { return fabs(v) <= SPC_MAX_ESTIMATE ? v : 0.0; }
 
+/* The camera sample of pixel (x, y) of the rendered window in pass `pass`: its sampler started
+ * and moved past the camera's dimensions, and its ray. */
+static spc_ray camera_sample(const job *jb, int pass, int x, int y, spc_sampler *smp)
+{
+    const spc_render_ctx *ctx = jb->ctx;
+    int fx = x + ctx->crop_x, fy = y + ctx->crop_y;
+    spc_sampler_start(smp, (uint32_t)fx, (uint32_t)fy, (uint32_t)pass, jb->seed);
+    spc_vec2 u = spc_sampler_2d(smp);
+    /* the filter restricted to the rendered window, as Mitsuba's films (film.h) */
+    double px = fx + 0.5 + spc_film_filter_sample(ctx->film, u.x, fx + 0.5, ctx->crop_x, ctx->crop_x + ctx->width);
+    double py = fy + 0.5 + spc_film_filter_sample(ctx->film, u.y, fy + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
+    /* a lens sample only for a thin lens: a pinhole's sample dimensions stay as they were */
+    return spc_camera_has_lens(ctx->cam) ? spc_camera_ray_lens(ctx->cam, px, py, spc_sampler_2d(smp))
+                                         : spc_camera_ray(ctx->cam, px, py);
+}
+
+/* Stores the estimate `out` of pixel (x, y) (camera ray cam_ray) in a pass's buffer. */
+static void store_sample(const job *jb, spc_tls *tls, double *buf, int x, int y, const spc_ray *cam_ray,
+                         spc_sample_out *out, const spc_rgb *strategy_L)
+{
+    const spc_render_ctx *ctx = jb->ctx;
+    if (!estimate_ok(out->L)) {
+        tls->invalid++;
+        out->L = spc_rgb1(0.0);
+    }
+    double *d = buf + ((size_t)y * ctx->width + x) * jb->stride;
+    d[0] = out->L.r;
+    d[1] = out->L.g;
+    d[2] = out->L.b;
+    for (int j = 0; j < jb->nfilms; ++j) {
+        /* the rule of the image, so a strategy film equals a single-strategy render */
+        spc_rgb v = estimate_ok(strategy_L[j]) ? strategy_L[j] : spc_rgb1(0.0);
+        d[jb->base + 3 * j] = v.r;
+        d[jb->base + 3 * j + 1] = v.g;
+        d[jb->base + 3 * j + 2] = v.b;
+    }
+    if (jb->base == 3 + SPC_FILM_AOVS) {
+        spc_vec3 pos = out->depth > 0.0 ? spc_madd(cam_ray->o, cam_ray->d, out->depth) : spc_v3(0, 0, 0);
+        d[10] = finite_or_zero(pos.x);
+        d[11] = finite_or_zero(pos.y);
+        d[12] = finite_or_zero(pos.z);
+        d[3] = finite_or_zero(out->albedo.r);
+        d[4] = finite_or_zero(out->albedo.g);
+        d[5] = finite_or_zero(out->albedo.b);
+        d[6] = finite_or_zero(out->normal.x);
+        d[7] = finite_or_zero(out->normal.y);
+        d[8] = finite_or_zero(out->normal.z);
+        d[9] = finite_or_zero(out->depth);
+    }
+}
+
 static void render_item(job *jb, int item)
 {
     const spc_render_ctx *ctx = jb->ctx;
@@ -97,54 +150,36 @@ static void render_item(job *jb, int item)
     int pass = jb->pass0 + b;
     size_t npix = (size_t)ctx->width * (size_t)ctx->height;
     double *buf = jb->buf + (size_t)b * npix * (size_t)jb->stride;
+    if (jb->wave) {
+        /* the whole tile's camera samples at once, their rays traced in packets (path_wave.h) */
+        spc_ray rays[SPC_TILE * SPC_TILE];
+        spc_sampler smp[SPC_TILE * SPC_TILE];
+        spc_sample_out out[SPC_TILE * SPC_TILE];
+        int n = 0;
+        for (int y = t->y0; y < t->y1; ++y)
+            for (int x = t->x0; x < t->x1; ++x, ++n) {
+                rays[n] = camera_sample(jb, pass, x, y, &smp[n]);
+                out[n].strategy_L = NULL;
+                out[n].aovs = jb->base == 3 + SPC_FILM_AOVS;
+            }
+        spc_path_wave_sample(ctx, tls, n, rays, smp, out);
+        n = 0;
+        for (int y = t->y0; y < t->y1; ++y)
+            for (int x = t->x0; x < t->x1; ++x, ++n)
+                store_sample(jb, tls, buf, x, y, &rays[n], &out[n], NULL);
+        return;
+    }
     for (int y = t->y0; y < t->y1; ++y)
         for (int x = t->x0; x < t->x1; ++x) {
-            int fx = x + ctx->crop_x, fy = y + ctx->crop_y;
             spc_sampler smp;
-            spc_sampler_start(&smp, (uint32_t)fx, (uint32_t)fy, (uint32_t)pass, jb->seed);
-            spc_vec2 u = spc_sampler_2d(&smp);
-            /* the filter restricted to the rendered window, as Mitsuba's films (film.h) */
-            double px = fx + 0.5 +
-                        spc_film_filter_sample(ctx->film, u.x, fx + 0.5, ctx->crop_x, ctx->crop_x + ctx->width);
-            double py = fy + 0.5 +
-                        spc_film_filter_sample(ctx->film, u.y, fy + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
-            /* a lens sample only for a thin lens: a pinhole's sample dimensions stay as they were */
-            spc_ray ray = spc_camera_has_lens(ctx->cam) ? spc_camera_ray_lens(ctx->cam, px, py, spc_sampler_2d(&smp))
-                                                        : spc_camera_ray(ctx->cam, px, py);
+            spc_ray ray = camera_sample(jb, pass, x, y, &smp);
             spc_sample_out out;
             spc_rgb strategy_L[2 * SPC_STRATEGY_IMAGES_MAX];
             out.strategy_L = jb->nfilms > 0 ? strategy_L : NULL;
             out.aovs = jb->base == 3 + SPC_FILM_AOVS;
             const spc_ray cam_ray = ray;
             spc_integrator_sample(ctx, tls, &ray, &smp, &out);
-            if (!estimate_ok(out.L)) {
-                tls->invalid++;
-                out.L = spc_rgb1(0.0);
-            }
-            double *d = buf + ((size_t)y * ctx->width + x) * jb->stride;
-            d[0] = out.L.r;
-            d[1] = out.L.g;
-            d[2] = out.L.b;
-            for (int j = 0; j < jb->nfilms; ++j) {
-                /* the rule of the image, so a strategy film equals a single-strategy render */
-                spc_rgb v = estimate_ok(strategy_L[j]) ? strategy_L[j] : spc_rgb1(0.0);
-                d[jb->base + 3 * j] = v.r;
-                d[jb->base + 3 * j + 1] = v.g;
-                d[jb->base + 3 * j + 2] = v.b;
-            }
-            if (jb->base == 3 + SPC_FILM_AOVS) {
-                spc_vec3 pos = out.depth > 0.0 ? spc_madd(cam_ray.o, cam_ray.d, out.depth) : spc_v3(0, 0, 0);
-                d[10] = finite_or_zero(pos.x);
-                d[11] = finite_or_zero(pos.y);
-                d[12] = finite_or_zero(pos.z);
-                d[3] = finite_or_zero(out.albedo.r);
-                d[4] = finite_or_zero(out.albedo.g);
-                d[5] = finite_or_zero(out.albedo.b);
-                d[6] = finite_or_zero(out.normal.x);
-                d[7] = finite_or_zero(out.normal.y);
-                d[8] = finite_or_zero(out.normal.z);
-                d[9] = finite_or_zero(out.depth);
-            }
+            store_sample(jb, tls, buf, x, y, &cam_ray, &out, strategy_L);
         }
 }
 
@@ -442,6 +477,9 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         jb.stride = stride;
         jb.base = base;
         jb.nfilms = nfilms;
+        /* the same image either way; SPECULA_PATH_WAVE=0 keeps path.c (benchmarks, checks) */
+        const char *wave_env = getenv("SPECULA_PATH_WAVE");
+        jb.wave = nfilms == 0 && spc_path_wave_applies(&ctx) && !(wave_env && strcmp(wave_env, "0") == 0);
         jb.buf = buf;
         jb.tls = tls;
         jb.seed = o->seed;

@@ -363,6 +363,29 @@ bool spc_scene_intersect(const spc_scene *s, const spc_ray *r, spc_hit *h)
 
 bool spc_scene_occluded(const spc_scene *s, const spc_ray *r) { return spc_accel_occluded(s->accel, r); }
 
+_Static_assert(SPC_SCENE_PACKET == SPC_ACCEL_PACKET, "one packet size");
+
+void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], spc_hit h[SPC_SCENE_PACKET],
+                                bool hit[SPC_SCENE_PACKET])
+{
+    int shape[SPC_ACCEL_PACKET], prim[SPC_ACCEL_PACKET];
+    double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
+    spc_accel_intersect_packet(s->accel, r, shape, prim, u, v, t);
+    for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
+        hit[i] = shape[i] >= 0;
+        if (!hit[i])
+            continue;
+        h[i].shape_index = shape[i];
+        spc_shape_fill_hit(s->shapes[shape[i]], prim[i], u[i], v[i], r[i], t[i], &h[i]);
+    }
+}
+
+void spc_scene_occluded_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                               bool occluded[SPC_SCENE_PACKET])
+{
+    spc_accel_occluded_packet(s->accel, r, occluded);
+}
+
 const spc_emitter *spc_scene_sample_emitter(const spc_scene *s, double u, double *pmf)
 {
     if (s->light_distrib.n == 0)

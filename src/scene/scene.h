@@ -183,6 +183,14 @@ bool spc_scene_shape_is_caster(const spc_shape *s, bool any_surface, double *eta
 
 bool spc_scene_intersect(const spc_scene *s, const spc_ray *r, spc_hit *h);
 bool spc_scene_occluded(const spc_scene *s, const spc_ray *r);
+/* The same for a packet of SPC_SCENE_PACKET rays traced together (lane i where r[i] is not NULL):
+ * hit[i] and h[i] are spc_scene_intersect's for r[i] (hit[i] false for an inactive lane), occluded[i]
+ * spc_scene_occluded's. */
+#define SPC_SCENE_PACKET 16
+void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], spc_hit h[SPC_SCENE_PACKET],
+                                bool hit[SPC_SCENE_PACKET]);
+void spc_scene_occluded_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                               bool occluded[SPC_SCENE_PACKET]);
 
 /* Picks an emitter in proportion to power; *pmf receives its probability. NULL if none. */
 const spc_emitter *spc_scene_sample_emitter(const spc_scene *s, double u, double *pmf);

@@ -1,0 +1,246 @@
+/*
+ * integrator/path_wave.c: path.c's plain path tracer (path with specular NEE off, ipt) run over many
+ * camera samples at once, their rays traced in packets (path_wave.h).
+ *
+ * A wave holds SPC_SCENE_PACKET lanes, each one path. One step of the wave traces every live lane's
+ * ray as one packet (spc_scene_intersect_packet); each lane then takes what path.c does at the hit
+ * up to its light sample (emission, depth, strict normals, next-event estimation's light point);
+ * the shadow rays go out as one packet (spc_scene_occluded_packet); each lane adds its light
+ * sample's contribution, samples the BSDF and plays Russian roulette. A lane whose path ends stores
+ * the estimate and takes the next camera sample, so the packets stay full until the samples run out.
+ *
+ * Every lane draws its sampler dimensions in path.c's order (the live lanes' pairs of a stage at
+ * once, spc_sampler_2d_many: the same values) and computes path.c's expressions in path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
+ * whole images). The light sample's MIS weight is computed after the shadow ray, as path.c does, so
+ * occluded samples do not pay for the BSDF's pdf.
+ */
+#include "integrator/path_wave.h"
+
+#include <stdatomic.h>
+
+static atomic_uint_least64_t wave_samples;
+
+uint64_t spc_path_wave_samples(void) { return atomic_load(&wave_samples); }
+
+typedef struct lane {
+    int path; /* the sample this lane runs (index into the caller's arrays); -1 when idle */
+    spc_ray ray;
+    spc_rgb L, beta;
+    bool specular; /* the last scattering was a delta lobe (or it is the camera) */
+    double prev_pdf, eta_scale;
+    spc_vec3 prev_p;
+    int segments; /* the path's segments once ray is traced */
+    /* the light sample at the current vertex, waiting for its shadow ray */
+    bool shadow;
+    spc_ray sr;
+    spc_rgb f, Le;
+    spc_vec3 wo, wi;
+    double cosi, lp;
+    bool is_delta;
+} lane;
+
+static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
+
+bool spc_path_wave_applies(const spc_render_ctx *ctx)
+{
+    if (!(ctx->kind == SPC_INTEGRATOR_IPT || (ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee == SPC_SNEE_NONE)))
+        return false;
+    /* Embree's curve intersectors for packets round differently from the single-ray ones (the
+     * curves scene's image changed), so scenes with curves keep path.c */
+    for (int i = 0; i < ctx->scene->nshapes; ++i)
+        if (ctx->scene->shapes[i]->type == SPC_SHAPE_CURVE)
+            return false;
+    return true;
+}
+
+static void lane_start(lane *ln, int path, const spc_ray *ray0, spc_sample_out *out)
+{
+    ln->path = path;
+    ln->ray = *ray0;
+    ln->L = spc_rgb1(0.0);
+    ln->beta = spc_rgb1(1.0);
+    ln->specular = true;
+    ln->prev_pdf = 1.0;
+    ln->eta_scale = 1.0;
+    ln->prev_p = ray0->o;
+    ln->segments = 1;
+    ln->shadow = false;
+    out->albedo = spc_rgb1(0.0);
+    out->normal = spc_v3(0, 0, 0);
+    out->depth = 0.0;
+}
+
+/* path.c's loop body from the intersection to next-event estimation: emission, the depth, strict
+ * normals. false: the path has ended. */
+static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const spc_hit *h, spc_sampler *smp,
+                         spc_sample_out *out)
+{
+    const spc_scene *sc = ctx->scene;
+    const bool nee = ctx->kind == SPC_INTEGRATOR_PATH;
+    const int segments = ln->segments;
+    const spc_ray *ray = &ln->ray;
+    ln->shadow = false;
+    if (!hit) {
+        if (sc->env && !(segments == 1 && ctx->hide_emitters)) {
+            spc_rgb Le = spc_emitter_eval_infinite(sc->env, ray->d);
+            double w = 1.0;
+            if (nee && !ln->specular) {
+                double lp = spc_scene_emitter_pmf(sc, sc->env) * spc_emitter_pdf_infinite(sc->env, ray->d);
+                w = spc_mis_power(ln->prev_pdf, lp);
+            }
+            ln->L = spc_rgb_add(ln->L, spc_rgb_scale(spc_rgb_mul(ln->beta, Le), w));
+        }
+        return false;
+    }
+    spc_vec3 wo = spc_neg(ray->d);
+    ln->wo = wo;
+    if (segments == 1 && out->aovs)
+        spc_aov_from_hit(ctx, h, wo, smp, out);
+    if (h->emitter && !(segments == 1 && ctx->hide_emitters)) {
+        spc_rgb Le = spc_emitter_eval_area(h->emitter, h, wo);
+        if (!spc_rgb_is_black(Le)) {
+            double w = 1.0;
+            if (nee && !ln->specular) {
+                double lp =
+                    spc_scene_emitter_pmf(sc, h->emitter) * spc_emitter_pdf_direct(h->emitter, ln->prev_p, h->p, h->ng);
+                w = spc_mis_power(ln->prev_pdf, lp);
+            }
+            ln->L = spc_rgb_add(ln->L, spc_rgb_scale(spc_rgb_mul(ln->beta, Le), w));
+        }
+    }
+    if (!depth_allows(ctx->max_depth, segments + 1))
+        return false;
+    if (ctx->strict_normals && spc_dot(wo, h->ng) * spc_dot(wo, h->sh.n) < 0.0)
+        return false;
+    return true;
+}
+
+/* Next-event estimation at h with path.c's dimensions u_light, u_lpos (drawn whether used or
+ * not): the light sample's shadow ray (ln->shadow, ln->sr) and what its contribution needs. */
+static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, double u_light, spc_vec2 u_lpos)
+{
+    const spc_scene *sc = ctx->scene;
+    const bool nee = ctx->kind == SPC_INTEGRATOR_PATH;
+    const spc_bsdf *b = h->bsdf;
+    const spc_vec3 wo = ln->wo;
+    if (nee && spc_bsdf_has_smooth(b)) {
+        double pmf;
+        const spc_emitter *e = spc_scene_sample_emitter(sc, u_light, &pmf);
+        spc_emitter_direct ds;
+        if (e && spc_emitter_sample_direct(e, h->p, u_lpos, &ds)) {
+            spc_rgb f = spc_bsdf_eval(b, h, SPC_MODE_RADIANCE, wo, ds.wi);
+            double cosi = spc_absdot(ds.wi, h->sh.n);
+            if (ctx->strict_normals && !(spc_dot(ds.wi, h->ng) * spc_dot(ds.wi, h->sh.n) > 0.0))
+                cosi = 0.0;
+            if (!spc_rgb_is_black(f) && cosi > 0.0) {
+                ln->shadow = true;
+                ln->sr = ds.is_infinite ? spc_hit_spawn(h, ds.wi) : spc_hit_spawn_to(h, ds.p, ds.err);
+                ln->f = f;
+                ln->Le = ds.L;
+                ln->wi = ds.wi;
+                ln->cosi = cosi;
+                ln->lp = pmf * ds.pdf;
+                ln->is_delta = ds.is_delta;
+            }
+        }
+    }
+}
+
+/* path.c's loop body after the shadow ray (occluded: its answer): the light sample's contribution,
+ * BSDF sampling with path.c's dimensions u_lobe, u_dir, u_rr, Russian roulette. false: the path has
+ * ended. */
+static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, double u_lobe,
+                         spc_vec2 u_dir, double u_rr)
+{
+    const spc_bsdf *b = h->bsdf;
+    const spc_vec3 wo = ln->wo;
+    if (ln->shadow && !occluded) {
+        double w = ln->is_delta ? 1.0 : spc_mis_power(ln->lp, spc_bsdf_pdf(b, h, SPC_MODE_RADIANCE, wo, ln->wi));
+        spc_rgb c = spc_rgb_mul(spc_rgb_mul(ln->beta, ln->f), ln->Le);
+        ln->L = spc_rgb_add(ln->L, spc_rgb_scale(c, ln->cosi * w / ln->lp));
+    }
+
+    spc_bsdf_sample bs;
+    if (!spc_bsdf_sample_dir(b, h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
+        return false;
+    if (ctx->strict_normals && !(spc_dot(bs.wi, h->ng) * spc_dot(bs.wi, h->sh.n) > 0.0))
+        return false;
+    ln->beta = spc_rgb_mul(ln->beta, bs.weight);
+    if (spc_rgb_is_black(ln->beta))
+        return false;
+    ln->specular = (bs.lobe & SPC_LOBE_DELTA) != 0;
+    ln->prev_pdf = bs.pdf;
+    ln->prev_p = h->p;
+    if (bs.lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))
+        ln->eta_scale *= bs.eta * bs.eta;
+    ln->ray = spc_hit_spawn(h, bs.wi);
+
+    if (ln->segments >= ctx->rr_depth) {
+        double q = spc_min(0.95, spc_rgb_max(ln->beta) * ln->eta_scale);
+        if (!(u_rr < q))
+            return false;
+        ln->beta = spc_rgb_scale(ln->beta, 1.0 / q);
+    }
+    ++ln->segments;
+    return true;
+}
+
+void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const spc_ray *rays, spc_sampler *smp,
+                          spc_sample_out *out)
+{
+    (void)tls; /* plain path tracing splats nothing */
+    atomic_fetch_add(&wave_samples, (uint64_t)n);
+    enum { W = SPC_SCENE_PACKET };
+    lane ln[W];
+    spc_hit h[W];
+    bool hit[W], alive[W], occluded[W];
+    const spc_ray *r[W];
+    spc_sampler *ls[W];
+    spc_vec2 u[3 * W];
+    int next = 0, live = 0;
+    for (int i = 0; i < W; ++i) {
+        ln[i].path = -1;
+        if (next < n) {
+            lane_start(&ln[i], next, &rays[next], &out[next]);
+            ++next;
+            ++live;
+        }
+    }
+    while (live > 0) {
+        for (int i = 0; i < W; ++i)
+            r[i] = ln[i].path >= 0 ? &ln[i].ray : NULL;
+        spc_scene_intersect_packet(ctx->scene, r, h, hit);
+        for (int i = 0; i < W; ++i) {
+            alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
+            ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
+        }
+        /* next-event estimation's dimensions (u_light, u_lpos) of every live lane at once */
+        spc_sampler_2d_many(ls, W, 2, u);
+        for (int i = 0; i < W; ++i) {
+            r[i] = NULL;
+            if (!alive[i])
+                continue;
+            lane_light(ctx, &ln[i], &h[i], u[2 * i].x, u[2 * i + 1]);
+            if (ln[i].shadow)
+                r[i] = &ln[i].sr;
+        }
+        spc_scene_occluded_packet(ctx->scene, r, occluded);
+        /* BSDF sampling's dimensions (u_lobe, u_dir, u_rr) */
+        spc_sampler_2d_many(ls, W, 3, u);
+        for (int i = 0; i < W; ++i) {
+            if (ln[i].path < 0)
+                continue;
+            if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], u[3 * i].x, u[3 * i + 1], u[3 * i + 2].x))
+                continue;
+            /* the path has ended: its estimate, and the lane takes the next sample */
+            out[ln[i].path].L = ln[i].L;
+            ln[i].path = -1;
+            --live;
+            if (next < n) {
+                lane_start(&ln[i], next, &rays[next], &out[next]);
+                ++next;
+                ++live;
+            }
+        }
+    }
+}

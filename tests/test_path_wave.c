@@ -1,0 +1,219 @@
+/*
+ * tests/test_path_wave.c: the packet path tracer (integrator/path_wave.c) gives path.c's image bit
+ * for bit.
+ *
+ * Each scene is rendered twice through the public API, once with the driver's default (the packet
+ * path tracer wherever it applies) and once with SPECULA_PATH_WAVE=0 (path.c's one path at a time),
+ * and the EXRs (RGB, variance, AOVs) are compared byte for byte. The scenes cover what the packets
+ * must get right: triangles and Embree's curves, analytic shapes as user geometry in double
+ * (spheres, disks, cylinders, SDFs), smooth and rough glass and metals, an environment map, point,
+ * spot and area lights, a thin lens, Russian roulette past max_depth, and the ipt mode. The
+ * packet path tracer's sample count proves it ran (and that the other render did not use it); a
+ * scene with Embree's curves, whose packet hits differ from single rays', must not take it. Embree
+ * is also forced to AVX2 and SSE4.2, where its 16-wide packets take a fallback path (which aborted
+ * on inactive lanes before they were marked by their ray data).
+ */
+/* ctest-labels: scene */
+/* ctest-timeout: 300 */
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "harness.h"
+#include "integrator/path_wave.h"
+#include "specula/specula.h"
+
+#define RES "24"
+#define SPP 4
+
+static char tmpdir[64];
+static char scenes_dir[2048];
+
+static unsigned char *slurp(const char *path, long *size)
+{
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return NULL;
+    fseek(fp, 0, SEEK_END);
+    *size = ftell(fp);
+    fseek(fp, 0, SEEK_SET);
+    unsigned char *b = malloc(*size > 0 ? (size_t)*size : 1);
+    if (b && fread(b, 1, (size_t)*size, fp) != (size_t)*size) {
+        free(b);
+        b = NULL;
+    }
+    fclose(fp);
+    return b;
+}
+
+static bool same_file(const char *a, const char *b)
+{
+    long na = -1, nb = -2;
+    unsigned char *pa = slurp(a, &na), *pb = slurp(b, &nb);
+    bool same = pa && pb && na == nb && memcmp(pa, pb, (size_t)na) == 0;
+    free(pa);
+    free(pb);
+    return same;
+}
+
+/* Renders sc with the integrator and max_depth given, the packet path tracer on or off; writes an
+ * EXR with variance and AOVs to out. The samples the packet path tracer took go to *wave. */
+static bool render_to(spc_scene *sc, const char *integrator, int max_depth, bool packets, const char *out,
+                      uint64_t *wave)
+{
+    setenv("SPECULA_PATH_WAVE", packets ? "1" : "0", 1);
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.integrator = integrator;
+    o.specular_nee = "none";
+    o.spp = SPP;
+    o.seed = 7;
+    o.threads = 2;
+    o.aovs = true;
+    o.max_depth = max_depth;
+    spc_film *film = NULL;
+    spc_error err;
+    uint64_t w0 = spc_path_wave_samples();
+    spc_status st = spc_render(sc, &o, &film, NULL, &err);
+    *wave = spc_path_wave_samples() - w0;
+    bool ok = st == SPC_OK && film && spc_film_write_exr(film, out, true, &err) == SPC_OK;
+    if (!ok)
+        printf("  %s: %s\n", out, err.msg);
+    spc_film_destroy(film);
+    unsetenv("SPECULA_PATH_WAVE");
+    return ok;
+}
+
+/* One scene file of scenes/ with one integrator: the two renders agree byte for byte; the packet
+ * path tracer ran in the first (unless `packets` is false: a scene it must not take). */
+static void check_scene_packets(const char *file, const char *integrator, int max_depth, bool packets)
+{
+    char path[2300];
+    /* a file of scenes/, or an absolute path */
+    snprintf(path, sizeof path, "%s%s%s", file[0] == '/' ? "" : scenes_dir, file[0] == '/' ? "" : "/", file);
+    spc_define defs[1] = {{"res", RES}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    /* scenes without a "res" default are loaded as they are */
+    if (spc_scene_load(path, defs, 1, &sc, &err) != SPC_OK && spc_scene_load(path, NULL, 0, &sc, &err) != SPC_OK) {
+        CHECK_MSG(false, "%s: %s", file, err.msg);
+        return;
+    }
+    char a[128], b[128];
+    snprintf(a, sizeof a, "%s/packets.exr", tmpdir);
+    snprintf(b, sizeof b, "%s/single.exr", tmpdir);
+    uint64_t wa = 0, wb = 0;
+    bool ok = render_to(sc, integrator, max_depth, true, a, &wa) && render_to(sc, integrator, max_depth, false, b, &wb);
+    CHECK_MSG(ok, "%s (%s): render failed", file, integrator);
+    CHECK_MSG((wa > 0) == packets && wb == 0, "%s (%s): packet samples %llu and %llu", file, integrator,
+              (unsigned long long)wa, (unsigned long long)wb);
+    CHECK_MSG(ok && same_file(a, b), "%s (%s, max_depth %d): the packet path tracer's image differs from path.c's",
+              file, integrator, max_depth);
+    spc_scene_destroy(sc);
+}
+
+static void check_scene(const char *file, const char *integrator, int max_depth)
+{
+    check_scene_packets(file, integrator, max_depth, true);
+}
+
+TEST(path_matches_path_c)
+{
+    const char *files[] = {"demo.xml",           "shapes.xml",    "dielectrics.xml", "conductors.xml",
+                           "envmap.xml",         "lights.xml",    "textures.xml",    "thinlens.xml",
+                           "sdf_shapes_csg.xml", "mask_null.xml", "normal_bump.xml", "spot_texture.xml"};
+    const int nfiles = (int)(sizeof files / sizeof files[0]);
+    for (int i = 0; i < nfiles; i += spc_test_stride(nfiles))
+        check_scene(files[i], "path", 0);
+    /* Embree's curves: path.c's single rays (their packet hits differ) */
+    check_scene_packets("curves.xml", "path", 0, false);
+}
+
+/* path.c's options that end paths or hide light: strict normals (shapes.xml's meshes with vertex
+ * normals, where shading and geometric normals disagree: the option changes its image) and hidden
+ * emitters, in a copy of shapes.xml with its mesh and texture paths made absolute. */
+TEST(strict_normals_and_hidden_emitters_match_path_c)
+{
+    char src[2300], dst[128];
+    snprintf(src, sizeof src, "%s/shapes.xml", scenes_dir);
+    snprintf(dst, sizeof dst, "%s/strict.xml", tmpdir);
+    long n = 0;
+    char *text = (char *)slurp(src, &n);
+    FILE *fp = text ? fopen(dst, "w") : NULL;
+    CHECK(fp != NULL);
+    if (!fp) {
+        free(text);
+        return;
+    }
+    static const char integ[] = "<integrator type=\"$integrator\">";
+    static const char *const dirs[] = {"value=\"meshes/", "value=\"textures/"};
+    int edits = 0;
+    for (long i = 0; i < n; ++i) {
+        if (strncmp(text + i, integ, sizeof integ - 1) == 0) {
+            fprintf(fp, "%s<boolean name=\"strict_normals\" value=\"true\"/>"
+                        "<boolean name=\"hide_emitters\" value=\"true\"/>",
+                    integ);
+            i += (long)sizeof integ - 2;
+            ++edits;
+            continue;
+        }
+        bool done = false;
+        for (int d = 0; d < 2 && !done; ++d)
+            if (strncmp(text + i, dirs[d], strlen(dirs[d])) == 0) {
+                fprintf(fp, "value=\"%s/%s", scenes_dir, dirs[d] + 7);
+                i += (long)strlen(dirs[d]) - 1;
+                done = true;
+            }
+        if (!done)
+            fputc(text[i], fp);
+    }
+    fclose(fp);
+    free(text);
+    CHECK(edits == 1);
+    check_scene(dst, "path", 0);
+}
+
+/* Embree's packets on other instruction sets: a CPU without native 16-wide packets (AVX2, SSE4.2)
+ * runs them through another code path (which tells inactive lanes by their ray data). */
+TEST(other_isas_match_path_c)
+{
+    const char *isas[] = {"isa=avx2", "isa=sse4.2"};
+    for (int k = 0; k < 2; ++k) {
+        setenv("SPECULA_EMBREE_CONFIG", isas[k], 1);
+        check_scene("demo.xml", "path", 0);
+        check_scene("shapes.xml", "path", 0);
+        unsetenv("SPECULA_EMBREE_CONFIG");
+    }
+}
+
+TEST(ipt_and_roulette_match_path_c)
+{
+    check_scene("demo.xml", "ipt", 0);
+    check_scene("dielectrics.xml", "ipt", 0);
+    /* unbounded depth: Russian roulette ends every path */
+    check_scene("demo.xml", "path", -1);
+    check_scene("envmap.xml", "path", 3);
+}
+
+int main(void)
+{
+    char cwd[1024];
+    if (!getcwd(cwd, sizeof cwd))
+        return 1;
+    const char *src = spc_test_source_dir();
+    snprintf(scenes_dir, sizeof scenes_dir, "%s%s%s/scenes", src[0] == '/' ? "" : cwd, src[0] == '/' ? "" : "/", src);
+    snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_path_wave_XXXXXX");
+    if (!mkdtemp(tmpdir))
+        return 1;
+    RUN(path_matches_path_c);
+    RUN(ipt_and_roulette_match_path_c);
+    RUN(other_isas_match_path_c);
+    RUN(strict_normals_and_hidden_emitters_match_path_c);
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", tmpdir);
+    if (system(cmd) != 0)
+        printf("could not remove %s\n", tmpdir);
+    return spc_test_finish();
+}
