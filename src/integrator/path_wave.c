@@ -18,6 +18,8 @@
 
 #include <stdatomic.h>
 
+#include "integrator/aov.h"
+
 static atomic_uint_least64_t wave_samples;
 
 uint64_t spc_path_wave_samples(void) { return atomic_load(&wave_samples); }

@@ -12,7 +12,7 @@
 #ifndef SPC_INTEGRATOR_PATH_WAVE_H
 #define SPC_INTEGRATOR_PATH_WAVE_H
 
-#include "integrator/integrator.h"
+#include "integrator/context.h"
 
 /* Does the render run plain path tracing that spc_path_wave_sample covers (ctx->kind path with
  * specular NEE off, or ipt) in a scene without curves (whose packet hits differ from single rays')? */
