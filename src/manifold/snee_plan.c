@@ -14,6 +14,7 @@
 #include "emitter/emitter.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/plane_chains.h"
+#include "manifold/snee_cost.h"
 #include "manifold/snee_options.h"
 #include "manifold/sphere_chains.h"
 #include "scene/camera.h"
@@ -74,15 +75,7 @@ static double caster_share(const spc_emitter *e, const spc_scene *sc, const spc_
     } else {
         return 0.0;
     }
-    double share = 0.0;
-    for (int i = 0; i < cs->n && share < 1.0; ++i) {
-        const spc_shape *s = sc->shapes[cs->idx[i]];
-        spc_vec3 c = spc_scale(spc_add(s->bbox_min, s->bbox_max), 0.5);
-        double R = 0.5 * spc_length(spc_sub(s->bbox_max, s->bbox_min));
-        double d = spc_length(spc_sub(c, lc));
-        share += d > R ? 0.5 * (1.0 - sqrt(1.0 - (R / d) * (R / d))) : 1.0;
-    }
-    return spc_min(share, 1.0);
+    return spc_snee_caster_share(sc, cs, lc);
 }
 
 /* Segments drawn from points of the casters to points of a light to tell whether the light is seen
