@@ -21,6 +21,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "file_util.h"
 #include "harness.h"
 #include "integrator/path_wave.h"
 #include "specula/specula.h"
@@ -30,33 +31,6 @@
 
 static char tmpdir[64];
 static char scenes_dir[2048];
-
-static unsigned char *slurp(const char *path, long *size)
-{
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return NULL;
-    fseek(fp, 0, SEEK_END);
-    *size = ftell(fp);
-    fseek(fp, 0, SEEK_SET);
-    unsigned char *b = malloc(*size > 0 ? (size_t)*size : 1);
-    if (b && fread(b, 1, (size_t)*size, fp) != (size_t)*size) {
-        free(b);
-        b = NULL;
-    }
-    fclose(fp);
-    return b;
-}
-
-static bool same_file(const char *a, const char *b)
-{
-    long na = -1, nb = -2;
-    unsigned char *pa = slurp(a, &na), *pb = slurp(b, &nb);
-    bool same = pa && pb && na == nb && memcmp(pa, pb, (size_t)na) == 0;
-    free(pa);
-    free(pb);
-    return same;
-}
 
 /* Renders sc with the integrator and max_depth given, the packet path tracer on or off; writes an
  * EXR with variance and AOVs to out. The samples the packet path tracer took go to *wave. */
