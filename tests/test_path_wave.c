@@ -11,7 +11,8 @@
  * packet path tracer's sample count proves it ran (and that the other render did not use it); a
  * scene with Embree's curves, whose packet hits differ from single rays', must not take it. Embree
  * is also forced to AVX2 and SSE4.2, where its 16-wide packets take a fallback path (which aborted
- * on inactive lanes before they were marked by their ray data).
+ * on inactive lanes before they were marked by their ray data). The wave's light samples, computed
+ * for many lanes at once, are compared with the one-lane ones field by field.
  */
 /* ctest-labels: scene */
 /* ctest-timeout: 300 */
@@ -21,9 +22,14 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "core/rng.h"
+#include "emitter/emitter.h"
 #include "file_util.h"
 #include "harness.h"
 #include "integrator/path_wave.h"
+#include "io/mitsuba_xml.h"
+#include "scene/scene.h"
+#include "scene/shape.h"
 #include "specula/specula.h"
 
 #define RES "24"
@@ -171,6 +177,110 @@ TEST(ipt_and_roulette_match_path_c)
     check_scene("envmap.xml", "path", 3);
 }
 
+/* The wave's light samples (spc_emitter_sample_direct_many: mesh lights in vector form, others one
+ * lane at a time) equal spc_emitter_sample_direct's in every field and in their result, for
+ * reference points all around the lights (behind them, on their plane, far away): a rectangle (its
+ * kept normals), a flipped cube (the normal flipped) and the rectangle without its kept normals
+ * (computed from the edges), which the vector form covers; a sphere and a rectangle with a
+ * checkerboard radiance, which it does not. */
+static const char *many_xml =
+    "<scene version='3.0.0'>"
+    "<shape type='rectangle'><transform name='to_world'><scale value='0.7,0.4,1'/><rotate x='1' angle='30'/>"
+    "<translate value='0.2,1.5,-0.3'/></transform><emitter type='area'><rgb name='radiance' value='3,2,1'/>"
+    "</emitter></shape>"
+    "<shape type='cube'><boolean name='flip_normals' value='true'/><transform name='to_world'>"
+    "<scale value='0.3'/><translate value='-1,0.5,0.5'/></transform><emitter type='area'>"
+    "<rgb name='radiance' value='1,1,2'/></emitter></shape>"
+    "<shape type='sphere'><point name='center' value='1,0,1'/><float name='radius' value='0.25'/>"
+    "<emitter type='area'><rgb name='radiance' value='2,2,2'/></emitter></shape>"
+    "<shape type='rectangle'><transform name='to_world'><rotate y='1' angle='70'/><translate value='1.5,0.3,0'/>"
+    "</transform><emitter type='area'><texture type='checkerboard' name='radiance'/></emitter></shape>"
+    "</scene>";
+
+static int same_direct(bool ok_a, const spc_emitter_direct *a, bool ok_b, const spc_emitter_direct *b)
+{
+    if (ok_a != ok_b)
+        return 0;
+    if (!ok_a)
+        return 1;
+    return memcmp(&a->p, &b->p, sizeof a->p) == 0 && memcmp(&a->n, &b->n, sizeof a->n) == 0 &&
+           memcmp(&a->wi, &b->wi, sizeof a->wi) == 0 && memcmp(&a->dist, &b->dist, sizeof a->dist) == 0 &&
+           memcmp(&a->L, &b->L, sizeof a->L) == 0 && memcmp(&a->pdf, &b->pdf, sizeof a->pdf) == 0 &&
+           memcmp(&a->err, &b->err, sizeof a->err) == 0 && a->is_delta == b->is_delta &&
+           a->is_infinite == b->is_infinite;
+}
+
+static void check_many(const spc_scene *sc, int *covered, int *failed)
+{
+    enum { N = 37 }; /* more than two batches, the last one partial */
+    spc_rng rng;
+    spc_rng_seed(&rng, 11, 3);
+    for (int round = 0; round < 200; ++round) {
+        const spc_emitter *e[N];
+        spc_vec3 ref[N];
+        spc_vec2 u[N];
+        spc_emitter_direct many[N], one;
+        bool ok[N];
+        for (int i = 0; i < N; ++i) {
+            int k = (int)(spc_rng_next(&rng) * (sc->nemitters + 1));
+            e[i] = k < sc->nemitters ? sc->emitters[k] : NULL; /* NULL: no light sample */
+            ref[i] =
+                spc_v3(4.0 * spc_rng_next(&rng) - 2.0, 4.0 * spc_rng_next(&rng) - 1.0, 4.0 * spc_rng_next(&rng) - 2.0);
+            if (i % 9 == 4 && e[i] && e[i]->shape->type == SPC_SHAPE_MESH) {
+                /* a point on the light itself (its plane): no sample */
+                spc_shape_sample ss;
+                spc_shape_sample_area(e[i]->shape, spc_v2(0.3, 0.6), &ss);
+                ref[i] = ss.p;
+            }
+            u[i] = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
+            ok[i] = !(i % 2); /* must be overwritten */
+        }
+        spc_emitter_sample_direct_many(N, e, ref, u, many, ok);
+        for (int i = 0; i < N; ++i) {
+            if (!e[i]) {
+                *failed += ok[i];
+                continue;
+            }
+            *covered += spc_emitter_many_covers(e[i]) && ok[i];
+            bool ok1 = spc_emitter_sample_direct(e[i], ref[i], u[i], &one);
+            if (!same_direct(ok[i], &many[i], ok1, &one)) {
+                if (*failed < 3)
+                    printf("  lane %d (emitter %d): many %d, one %d\n", i, e[i]->index, ok[i], ok1);
+                ++*failed;
+            }
+        }
+    }
+}
+
+TEST(light_samples_many_match_one_at_a_time)
+{
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK(spc_mitsuba_load_string(many_xml, strlen(many_xml), "many.xml", NULL, NULL, 0, &sc, &err) == SPC_OK);
+    if (!sc)
+        return;
+    CHECK(sc->nemitters == 4);
+    int ncover = 0;
+    for (int k = 0; k < sc->nemitters; ++k)
+        ncover += spc_emitter_many_covers(sc->emitters[k]);
+    CHECK_MSG(ncover == 2, "%d lights covered by the vector form, expected the rectangle and the cube", ncover);
+    int covered = 0, failed = 0;
+    check_many(sc, &covered, &failed);
+    CHECK_MSG(failed == 0, "%d light samples differ", failed);
+    CHECK_MSG(covered > 500, "only %d samples through the vector form", covered);
+    /* the rectangle without its kept normals: its normal from the edges */
+    spc_shape *rect = (spc_shape *)sc->emitters[0]->shape;
+    CHECK(rect->type == SPC_SHAPE_MESH && rect->tri_frame != NULL);
+    double *kept = rect->tri_frame;
+    rect->tri_frame = NULL;
+    covered = failed = 0;
+    check_many(sc, &covered, &failed);
+    CHECK_MSG(failed == 0, "%d light samples differ without the kept normals", failed);
+    CHECK(covered > 500);
+    rect->tri_frame = kept;
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     char cwd[1024];
@@ -181,6 +291,7 @@ int main(void)
     snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_path_wave_XXXXXX");
     if (!mkdtemp(tmpdir))
         return 1;
+    RUN(light_samples_many_match_one_at_a_time);
     RUN(path_matches_path_c);
     RUN(ipt_and_roulette_match_path_c);
     RUN(other_isas_match_path_c);
