@@ -12,7 +12,8 @@
  * scene with Embree's curves, whose packet hits differ from single rays', must not take it. Embree
  * is also forced to AVX2 and SSE4.2, where its 16-wide packets take a fallback path (which aborted
  * on inactive lanes before they were marked by their ray data). The wave's light samples, computed
- * for many lanes at once, are compared with the one-lane ones field by field.
+ * for many lanes at once, and its diffuse lobe without bsdf.c's dispatch are compared with the
+ * one-lane ones field by field.
  */
 /* ctest-labels: scene */
 /* ctest-timeout: 300 */
@@ -22,6 +23,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "bsdf/diffuse_view.h"
 #include "core/rng.h"
 #include "emitter/emitter.h"
 #include "file_util.h"
@@ -281,6 +283,83 @@ TEST(light_samples_many_match_one_at_a_time)
     spc_scene_destroy(sc);
 }
 
+/* The wave's diffuse view (bsdf/diffuse_view.h) gives spc_bsdf_eval's, spc_bsdf_pdf's and
+ * spc_bsdf_sample_dir's values bit for bit: diffuse with a constant, a default and a checkerboard
+ * reflectance; twosided diffuse (the back side through a flipped frame), twosided with two
+ * diffuse sides, and twosided with a conductor behind (a view on the front only); directions on
+ * both sides and on the horizon. A conductor has no view. */
+static const char *view_xml =
+    "<scene version='3.0.0'>"
+    "<shape type='rectangle'><bsdf type='diffuse'><rgb name='reflectance' value='0.2,0.5,0.7'/></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='diffuse'/></shape>"
+    "<shape type='rectangle'><bsdf type='diffuse'><texture type='checkerboard' name='reflectance'/></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='twosided'><bsdf type='diffuse'><rgb name='reflectance' value='0.3'/>"
+    "</bsdf></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='twosided'><bsdf type='diffuse'><rgb name='reflectance' value='0.3'/>"
+    "</bsdf><bsdf type='diffuse'><rgb name='reflectance' value='0.6,0.1,0.1'/></bsdf></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='twosided'><bsdf type='diffuse'/><bsdf type='conductor'/></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='conductor'/></shape>"
+    "</scene>";
+
+TEST(diffuse_view_matches_bsdf)
+{
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK(spc_mitsuba_load_string(view_xml, strlen(view_xml), "view.xml", NULL, NULL, 0, &sc, &err) == SPC_OK);
+    if (!sc)
+        return;
+    CHECK(sc->nshapes == 7);
+    spc_rng rng;
+    spc_rng_seed(&rng, 5, 1);
+    int views = 0, back = 0, failed = 0;
+    for (int round = 0; round < 4000; ++round) {
+        const spc_bsdf *b = sc->shapes[round % sc->nshapes]->bsdf;
+        spc_hit h;
+        memset(&h, 0, sizeof h);
+        spc_vec3 n = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
+        h.sh = spc_frame_from_n(n);
+        h.ng = n;
+        h.uv = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
+        h.bsdf = b;
+        spc_vec3 wo = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
+        spc_vec3 wi = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
+        if (round % 50 == 7)
+            wo = h.sh.s; /* on the horizon */
+        if (round % 50 == 9)
+            wi = h.sh.t;
+        spc_vec2 u = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
+        spc_diffuse_view v;
+        if (!spc_diffuse_view_of(b, &h, wo, &v)) {
+            /* no view: neither diffuse nor a twosided side that is */
+            bool plain = b->type == SPC_BSDF_DIFFUSE;
+            bool twosided_diffuse = b->type == SPC_BSDF_TWOSIDED && spc_dot(wo, h.sh.n) >= 0.0 &&
+                                    b->nested[0]->type == SPC_BSDF_DIFFUSE;
+            failed += plain || twosided_diffuse;
+            continue;
+        }
+        ++views;
+        back += v.sign < 0.0;
+        spc_rgb f1 = spc_diffuse_view_eval(&v, &h, wo, wi), f0 = spc_bsdf_eval(b, &h, SPC_MODE_RADIANCE, wo, wi);
+        double p1 = spc_diffuse_view_pdf(&v, &h, wo, wi), p0 = spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE, wo, wi);
+        spc_bsdf_sample s1, s0;
+        memset(&s1, 0, sizeof s1);
+        memset(&s0, 0, sizeof s0);
+        bool ok1 = spc_diffuse_view_sample(&v, &h, wo, u, &s1);
+        bool ok0 = spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, 0.5, u, &s0);
+        bool same = memcmp(&f1, &f0, sizeof f1) == 0 && memcmp(&p1, &p0, sizeof p1) == 0 && ok1 == ok0 &&
+                    (!ok0 || (memcmp(&s1.wi, &s0.wi, sizeof s1.wi) == 0 &&
+                              memcmp(&s1.weight, &s0.weight, sizeof s1.weight) == 0 &&
+                              memcmp(&s1.pdf, &s0.pdf, sizeof s1.pdf) == 0 && s1.lobe == s0.lobe && s1.eta == s0.eta));
+        if (!same && failed < 3)
+            printf("  round %d (shape %d, sign %g): eval %g/%g pdf %g/%g sample %d/%d\n", round,
+                   round % sc->nshapes, v.sign, f1.r, f0.r, p1, p0, ok1, ok0);
+        failed += !same;
+    }
+    CHECK_MSG(failed == 0, "%d of %d diffuse views differ from the BSDF", failed, views);
+    CHECK_MSG(views > 2000 && back > 500, "%d views, %d of them on a back side", views, back);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     char cwd[1024];
@@ -292,6 +371,7 @@ int main(void)
     if (!mkdtemp(tmpdir))
         return 1;
     RUN(light_samples_many_match_one_at_a_time);
+    RUN(diffuse_view_matches_bsdf);
     RUN(path_matches_path_c);
     RUN(ipt_and_roulette_match_path_c);
     RUN(other_isas_match_path_c);

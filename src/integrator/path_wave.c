@@ -18,6 +18,7 @@
 
 #include <stdatomic.h>
 
+#include "bsdf/diffuse_view.h"
 #include "integrator/aov.h"
 
 static atomic_uint_least64_t wave_samples;
@@ -39,6 +40,9 @@ typedef struct lane {
     spc_vec3 wo, wi;
     double cosi, lp;
     bool is_delta;
+    /* the vertex's BSDF as a diffuse lobe (bsdf/diffuse_view.h), where it is one */
+    bool diffuse;
+    spc_diffuse_view dv;
 } lane;
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
@@ -114,14 +118,16 @@ static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const sp
         return false;
     if (ctx->strict_normals && spc_dot(wo, h->ng) * spc_dot(wo, h->sh.n) < 0.0)
         return false;
+    ln->diffuse = spc_diffuse_view_of(h->bsdf, h, wo, &ln->dv);
     return true;
 }
 
 /* Next-event estimation at h, path.c's first half: the light chosen with path.c's dimension u_light
  * (drawn whether used or not); NULL when the vertex takes no light sample. */
-static const spc_emitter *lane_pick_light(const spc_render_ctx *ctx, const spc_hit *h, double u_light, double *pmf)
+static const spc_emitter *lane_pick_light(const spc_render_ctx *ctx, const lane *ln, const spc_hit *h, double u_light,
+                                          double *pmf)
 {
-    if (ctx->kind != SPC_INTEGRATOR_PATH || !spc_bsdf_has_smooth(h->bsdf))
+    if (ctx->kind != SPC_INTEGRATOR_PATH || !(ln->diffuse || spc_bsdf_has_smooth(h->bsdf)))
         return NULL;
     return spc_scene_sample_emitter(ctx->scene, u_light, pmf);
 }
@@ -134,7 +140,8 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, do
     const spc_bsdf *b = h->bsdf;
     const spc_vec3 wo = ln->wo;
     if (ok) {
-        spc_rgb f = spc_bsdf_eval(b, h, SPC_MODE_RADIANCE, wo, ds->wi);
+        spc_rgb f = ln->diffuse ? spc_diffuse_view_eval(&ln->dv, h, wo, ds->wi)
+                                : spc_bsdf_eval(b, h, SPC_MODE_RADIANCE, wo, ds->wi);
         double cosi = spc_absdot(ds->wi, h->sh.n);
         if (ctx->strict_normals && !(spc_dot(ds->wi, h->ng) * spc_dot(ds->wi, h->sh.n) > 0.0))
             cosi = 0.0;
@@ -160,13 +167,20 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
     const spc_bsdf *b = h->bsdf;
     const spc_vec3 wo = ln->wo;
     if (ln->shadow && !occluded) {
-        double w = ln->is_delta ? 1.0 : spc_mis_power(ln->lp, spc_bsdf_pdf(b, h, SPC_MODE_RADIANCE, wo, ln->wi));
+        double w = 1.0;
+        if (!ln->is_delta) {
+            double pdf = ln->diffuse ? spc_diffuse_view_pdf(&ln->dv, h, wo, ln->wi)
+                                     : spc_bsdf_pdf(b, h, SPC_MODE_RADIANCE, wo, ln->wi);
+            w = spc_mis_power(ln->lp, pdf);
+        }
         spc_rgb c = spc_rgb_mul(spc_rgb_mul(ln->beta, ln->f), ln->Le);
         ln->L = spc_rgb_add(ln->L, spc_rgb_scale(c, ln->cosi * w / ln->lp));
     }
 
     spc_bsdf_sample bs;
-    if (!spc_bsdf_sample_dir(b, h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
+    bool sampled = ln->diffuse ? spc_diffuse_view_sample(&ln->dv, h, wo, u_dir, &bs)
+                               : spc_bsdf_sample_dir(b, h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs);
+    if (!sampled)
         return false;
     if (ctx->strict_normals && !(spc_dot(bs.wi, h->ng) * spc_dot(bs.wi, h->sh.n) > 0.0))
         return false;
@@ -233,7 +247,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             le[i] = NULL;
             if (!alive[i])
                 continue;
-            le[i] = lane_pick_light(ctx, &h[i], u[2 * i].x, &pmf[i]);
+            le[i] = lane_pick_light(ctx, &ln[i], &h[i], u[2 * i].x, &pmf[i]);
             ref[i] = h[i].p;
             u_lpos[i] = u[2 * i + 1];
         }
