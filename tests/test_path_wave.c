@@ -11,7 +11,9 @@
  * packet path tracer's sample count proves it ran (and that the other render did not use it); a
  * scene with Embree's curves, whose packet hits differ from single rays', must not take it. Embree
  * is also forced to AVX2 and SSE4.2, where its 16-wide packets take a fallback path (which aborted
- * on inactive lanes before they were marked by their ray data).
+ * on inactive lanes before they were marked by their ray data). The wave's light samples, computed
+ * for many lanes at once, and its diffuse lobe without bsdf.c's dispatch are compared with the
+ * one-lane ones field by field.
  */
 /* ctest-labels: scene */
 /* ctest-timeout: 300 */
@@ -21,9 +23,15 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "bsdf/diffuse_view.h"
+#include "core/rng.h"
+#include "emitter/emitter.h"
 #include "file_util.h"
 #include "harness.h"
 #include "integrator/path_wave.h"
+#include "io/mitsuba_xml.h"
+#include "scene/scene.h"
+#include "scene/shape.h"
 #include "specula/specula.h"
 
 #define RES "24"
@@ -171,6 +179,187 @@ TEST(ipt_and_roulette_match_path_c)
     check_scene("envmap.xml", "path", 3);
 }
 
+/* The wave's light samples (spc_emitter_sample_direct_many: mesh lights in vector form, others one
+ * lane at a time) equal spc_emitter_sample_direct's in every field and in their result, for
+ * reference points all around the lights (behind them, on their plane, far away): a rectangle (its
+ * kept normals), a flipped cube (the normal flipped) and the rectangle without its kept normals
+ * (computed from the edges), which the vector form covers; a sphere and a rectangle with a
+ * checkerboard radiance, which it does not. */
+static const char *many_xml =
+    "<scene version='3.0.0'>"
+    "<shape type='rectangle'><transform name='to_world'><scale value='0.7,0.4,1'/><rotate x='1' angle='30'/>"
+    "<translate value='0.2,1.5,-0.3'/></transform><emitter type='area'><rgb name='radiance' value='3,2,1'/>"
+    "</emitter></shape>"
+    "<shape type='cube'><boolean name='flip_normals' value='true'/><transform name='to_world'>"
+    "<scale value='0.3'/><translate value='-1,0.5,0.5'/></transform><emitter type='area'>"
+    "<rgb name='radiance' value='1,1,2'/></emitter></shape>"
+    "<shape type='sphere'><point name='center' value='1,0,1'/><float name='radius' value='0.25'/>"
+    "<emitter type='area'><rgb name='radiance' value='2,2,2'/></emitter></shape>"
+    "<shape type='rectangle'><transform name='to_world'><rotate y='1' angle='70'/><translate value='1.5,0.3,0'/>"
+    "</transform><emitter type='area'><texture type='checkerboard' name='radiance'/></emitter></shape>"
+    "</scene>";
+
+static int same_direct(bool ok_a, const spc_emitter_direct *a, bool ok_b, const spc_emitter_direct *b)
+{
+    if (ok_a != ok_b)
+        return 0;
+    if (!ok_a)
+        return 1;
+    return memcmp(&a->p, &b->p, sizeof a->p) == 0 && memcmp(&a->n, &b->n, sizeof a->n) == 0 &&
+           memcmp(&a->wi, &b->wi, sizeof a->wi) == 0 && memcmp(&a->dist, &b->dist, sizeof a->dist) == 0 &&
+           memcmp(&a->L, &b->L, sizeof a->L) == 0 && memcmp(&a->pdf, &b->pdf, sizeof a->pdf) == 0 &&
+           memcmp(&a->err, &b->err, sizeof a->err) == 0 && a->is_delta == b->is_delta &&
+           a->is_infinite == b->is_infinite;
+}
+
+static void check_many(const spc_scene *sc, int *covered, int *failed)
+{
+    enum { N = 37 }; /* more than two batches, the last one partial */
+    spc_rng rng;
+    spc_rng_seed(&rng, 11, 3);
+    for (int round = 0; round < 200; ++round) {
+        const spc_emitter *e[N];
+        spc_vec3 ref[N];
+        spc_vec2 u[N];
+        spc_emitter_direct many[N], one;
+        bool ok[N];
+        for (int i = 0; i < N; ++i) {
+            int k = (int)(spc_rng_next(&rng) * (sc->nemitters + 1));
+            e[i] = k < sc->nemitters ? sc->emitters[k] : NULL; /* NULL: no light sample */
+            ref[i] =
+                spc_v3(4.0 * spc_rng_next(&rng) - 2.0, 4.0 * spc_rng_next(&rng) - 1.0, 4.0 * spc_rng_next(&rng) - 2.0);
+            if (i % 9 == 4 && e[i] && e[i]->shape->type == SPC_SHAPE_MESH) {
+                /* a point on the light itself (its plane): no sample */
+                spc_shape_sample ss;
+                spc_shape_sample_area(e[i]->shape, spc_v2(0.3, 0.6), &ss);
+                ref[i] = ss.p;
+            }
+            u[i] = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
+            ok[i] = !(i % 2); /* must be overwritten */
+        }
+        spc_emitter_sample_direct_many(N, e, ref, u, many, ok);
+        for (int i = 0; i < N; ++i) {
+            if (!e[i]) {
+                *failed += ok[i];
+                continue;
+            }
+            *covered += spc_emitter_many_covers(e[i]) && ok[i];
+            bool ok1 = spc_emitter_sample_direct(e[i], ref[i], u[i], &one);
+            if (!same_direct(ok[i], &many[i], ok1, &one)) {
+                if (*failed < 3)
+                    printf("  lane %d (emitter %d): many %d, one %d\n", i, e[i]->index, ok[i], ok1);
+                ++*failed;
+            }
+        }
+    }
+}
+
+TEST(light_samples_many_match_one_at_a_time)
+{
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK(spc_mitsuba_load_string(many_xml, strlen(many_xml), "many.xml", NULL, NULL, 0, &sc, &err) == SPC_OK);
+    if (!sc)
+        return;
+    CHECK(sc->nemitters == 4);
+    int ncover = 0;
+    for (int k = 0; k < sc->nemitters; ++k)
+        ncover += spc_emitter_many_covers(sc->emitters[k]);
+    CHECK_MSG(ncover == 2, "%d lights covered by the vector form, expected the rectangle and the cube", ncover);
+    int covered = 0, failed = 0;
+    check_many(sc, &covered, &failed);
+    CHECK_MSG(failed == 0, "%d light samples differ", failed);
+    CHECK_MSG(covered > 500, "only %d samples through the vector form", covered);
+    /* the rectangle without its kept normals: its normal from the edges */
+    spc_shape *rect = (spc_shape *)sc->emitters[0]->shape;
+    CHECK(rect->type == SPC_SHAPE_MESH && rect->tri_frame != NULL);
+    double *kept = rect->tri_frame;
+    rect->tri_frame = NULL;
+    covered = failed = 0;
+    check_many(sc, &covered, &failed);
+    CHECK_MSG(failed == 0, "%d light samples differ without the kept normals", failed);
+    CHECK(covered > 500);
+    rect->tri_frame = kept;
+    spc_scene_destroy(sc);
+}
+
+/* The wave's diffuse view (bsdf/diffuse_view.h) gives spc_bsdf_eval's, spc_bsdf_pdf's and
+ * spc_bsdf_sample_dir's values bit for bit: diffuse with a constant, a default and a checkerboard
+ * reflectance; twosided diffuse (the back side through a flipped frame), twosided with two
+ * diffuse sides, and twosided with a conductor behind (a view on the front only); directions on
+ * both sides and on the horizon. A conductor has no view. */
+static const char *view_xml =
+    "<scene version='3.0.0'>"
+    "<shape type='rectangle'><bsdf type='diffuse'><rgb name='reflectance' value='0.2,0.5,0.7'/></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='diffuse'/></shape>"
+    "<shape type='rectangle'><bsdf type='diffuse'><texture type='checkerboard' name='reflectance'/></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='twosided'><bsdf type='diffuse'><rgb name='reflectance' value='0.3'/>"
+    "</bsdf></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='twosided'><bsdf type='diffuse'><rgb name='reflectance' value='0.3'/>"
+    "</bsdf><bsdf type='diffuse'><rgb name='reflectance' value='0.6,0.1,0.1'/></bsdf></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='twosided'><bsdf type='diffuse'/><bsdf type='conductor'/></bsdf></shape>"
+    "<shape type='rectangle'><bsdf type='conductor'/></shape>"
+    "</scene>";
+
+TEST(diffuse_view_matches_bsdf)
+{
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK(spc_mitsuba_load_string(view_xml, strlen(view_xml), "view.xml", NULL, NULL, 0, &sc, &err) == SPC_OK);
+    if (!sc)
+        return;
+    CHECK(sc->nshapes == 7);
+    spc_rng rng;
+    spc_rng_seed(&rng, 5, 1);
+    int views = 0, back = 0, failed = 0;
+    for (int round = 0; round < 4000; ++round) {
+        const spc_bsdf *b = sc->shapes[round % sc->nshapes]->bsdf;
+        spc_hit h;
+        memset(&h, 0, sizeof h);
+        spc_vec3 n = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
+        h.sh = spc_frame_from_n(n);
+        h.ng = n;
+        h.uv = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
+        h.bsdf = b;
+        spc_vec3 wo = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
+        spc_vec3 wi = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
+        if (round % 50 == 7)
+            wo = h.sh.s; /* on the horizon */
+        if (round % 50 == 9)
+            wi = h.sh.t;
+        spc_vec2 u = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
+        spc_diffuse_view v;
+        if (!spc_diffuse_view_of(b, &h, wo, &v)) {
+            /* no view: neither diffuse nor a twosided side that is */
+            bool plain = b->type == SPC_BSDF_DIFFUSE;
+            bool twosided_diffuse = b->type == SPC_BSDF_TWOSIDED && spc_dot(wo, h.sh.n) >= 0.0 &&
+                                    b->nested[0]->type == SPC_BSDF_DIFFUSE;
+            failed += plain || twosided_diffuse;
+            continue;
+        }
+        ++views;
+        back += v.sign < 0.0;
+        spc_rgb f1 = spc_diffuse_view_eval(&v, &h, wo, wi), f0 = spc_bsdf_eval(b, &h, SPC_MODE_RADIANCE, wo, wi);
+        double p1 = spc_diffuse_view_pdf(&v, &h, wo, wi), p0 = spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE, wo, wi);
+        spc_bsdf_sample s1, s0;
+        memset(&s1, 0, sizeof s1);
+        memset(&s0, 0, sizeof s0);
+        bool ok1 = spc_diffuse_view_sample(&v, &h, wo, u, &s1);
+        bool ok0 = spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, 0.5, u, &s0);
+        bool same = memcmp(&f1, &f0, sizeof f1) == 0 && memcmp(&p1, &p0, sizeof p1) == 0 && ok1 == ok0 &&
+                    (!ok0 || (memcmp(&s1.wi, &s0.wi, sizeof s1.wi) == 0 &&
+                              memcmp(&s1.weight, &s0.weight, sizeof s1.weight) == 0 &&
+                              memcmp(&s1.pdf, &s0.pdf, sizeof s1.pdf) == 0 && s1.lobe == s0.lobe && s1.eta == s0.eta));
+        if (!same && failed < 3)
+            printf("  round %d (shape %d, sign %g): eval %g/%g pdf %g/%g sample %d/%d\n", round,
+                   round % sc->nshapes, v.sign, f1.r, f0.r, p1, p0, ok1, ok0);
+        failed += !same;
+    }
+    CHECK_MSG(failed == 0, "%d of %d diffuse views differ from the BSDF", failed, views);
+    CHECK_MSG(views > 2000 && back > 500, "%d views, %d of them on a back side", views, back);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     char cwd[1024];
@@ -181,6 +370,8 @@ int main(void)
     snprintf(tmpdir, sizeof tmpdir, "/tmp/spc_path_wave_XXXXXX");
     if (!mkdtemp(tmpdir))
         return 1;
+    RUN(light_samples_many_match_one_at_a_time);
+    RUN(diffuse_view_matches_bsdf);
     RUN(path_matches_path_c);
     RUN(ipt_and_roulette_match_path_c);
     RUN(other_isas_match_path_c);

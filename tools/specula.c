@@ -713,6 +713,7 @@ static bool write_stats(const char *given, const spc_render_stats *st, const sta
     fprintf(fp, ",\n  \"wall_seconds\": ");
     json_number(fp, st->wall_seconds);
     fprintf(fp, ",\n  \"rays_traced\": %llu", (unsigned long long)st->rays_traced);
+    fprintf(fp, ",\n  \"shadow_rays\": %llu", (unsigned long long)st->shadow_rays_traced);
     fprintf(fp, ",\n  \"mrays_per_second\": ");
     json_number(fp, st->mrays_per_second);
     fprintf(fp, ",\n  \"threads\": %d", st->threads);

@@ -141,6 +141,7 @@ typedef struct spc_render_stats {
     int spp;
     double wall_seconds;
     uint64_t rays_traced;
+    uint64_t shadow_rays_traced; /* of rays_traced, the shadow rays (0 on the OpenCL device) */
     double mrays_per_second;
     int threads;
     uint64_t samples;

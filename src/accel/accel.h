@@ -40,5 +40,7 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
 uint64_t spc_accel_raw_loop(const spc_accel *a, const spc_ray *rays, size_t n);
 /* Rays traced by the calling thread so far. */
 uint64_t spc_accel_rays_traced(void);
+/* Of those, the shadow rays (spc_accel_occluded and the lanes of spc_accel_occluded_packet). */
+uint64_t spc_accel_shadow_rays_traced(void);
 
 #endif

@@ -61,6 +61,10 @@ static _Thread_local uint64_t rays_traced = 0;
 
 uint64_t spc_accel_rays_traced(void) { return rays_traced; }
 
+static _Thread_local uint64_t shadow_rays_traced = 0;
+
+uint64_t spc_accel_shadow_rays_traced(void) { return shadow_rays_traced; }
+
 static void bounds_fn(const struct RTCBoundsFunctionArguments *args)
 {
     const spc_shape *s = args->geometryUserPtr;
@@ -309,6 +313,7 @@ bool spc_accel_intersect(const spc_accel *a, const spc_ray *r, int *shape, int *
 bool spc_accel_occluded(const spc_accel *a, const spc_ray *r)
 {
     ++rays_traced;
+    ++shadow_rays_traced;
     if (!(r->tmax > r->tmin))
         return false;
     ctx_ext cx;
@@ -432,6 +437,7 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
         occluded[i] = false;
         valid[i] = r[i] && r[i]->tmax > r[i]->tmin ? -1 : 0;
         rays_traced += r[i] != NULL;
+        shadow_rays_traced += r[i] != NULL;
         if (valid[i]) {
             to_embree_lane(r[i], &er, i);
             ++nvalid;

@@ -92,6 +92,16 @@ bool spc_emitter_is_delta(const spc_emitter *e);
 bool spc_emitter_is_infinite(const spc_emitter *e);
 
 bool spc_emitter_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_vec2 u, spc_emitter_direct *out);
+/* Light samples of n reference points at once (area_many.c): ok[i] and out[i] bit for bit as
+ * ok[i] = spc_emitter_sample_direct(e[i], ref[i], u[i], &out[i]) gives them (e[i] NULL: ok[i] false,
+ * out[i] untouched). Lights that spc_emitter_many_covers share vector instructions across lanes;
+ * others are sampled one lane at a time. */
+#define SPC_EMITTER_MANY_MAX 16 /* lanes per vector batch: a path tracer wave's (SPC_SCENE_PACKET) */
+void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const spc_vec3 ref[], const spc_vec2 u[],
+                                    spc_emitter_direct out[], bool ok[]);
+/* Is e an area light on a triangle mesh without vertex normals, sampled uniformly by area, with a
+ * constant radiance (the lights spc_emitter_sample_direct_many samples in vector form)? */
+bool spc_emitter_many_covers(const spc_emitter *e);
 /* Solid-angle density at ref of sample_direct producing point p (normal n) on an area light. */
 double spc_emitter_pdf_direct(const spc_emitter *e, spc_vec3 ref, spc_vec3 p, spc_vec3 n);
 /* Radiance leaving an area light at hit h in direction w (unit, away from the surface). */

@@ -18,6 +18,7 @@
 
 #include <stdatomic.h>
 
+#include "bsdf/diffuse_view.h"
 #include "integrator/aov.h"
 
 static atomic_uint_least64_t wave_samples;
@@ -39,6 +40,9 @@ typedef struct lane {
     spc_vec3 wo, wi;
     double cosi, lp;
     bool is_delta;
+    /* the vertex's BSDF as a diffuse lobe (bsdf/diffuse_view.h), where it is one */
+    bool diffuse;
+    spc_diffuse_view dv;
 } lane;
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
@@ -114,36 +118,42 @@ static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const sp
         return false;
     if (ctx->strict_normals && spc_dot(wo, h->ng) * spc_dot(wo, h->sh.n) < 0.0)
         return false;
+    ln->diffuse = spc_diffuse_view_of(h->bsdf, h, wo, &ln->dv);
     return true;
 }
 
-/* Next-event estimation at h with path.c's dimensions u_light, u_lpos (drawn whether used or
- * not): the light sample's shadow ray (ln->shadow, ln->sr) and what its contribution needs. */
-static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, double u_light, spc_vec2 u_lpos)
+/* Next-event estimation at h, path.c's first half: the light chosen with path.c's dimension u_light
+ * (drawn whether used or not); NULL when the vertex takes no light sample. */
+static const spc_emitter *lane_pick_light(const spc_render_ctx *ctx, const lane *ln, const spc_hit *h, double u_light,
+                                          double *pmf)
 {
-    const spc_scene *sc = ctx->scene;
-    const bool nee = ctx->kind == SPC_INTEGRATOR_PATH;
+    if (ctx->kind != SPC_INTEGRATOR_PATH || !(ln->diffuse || spc_bsdf_has_smooth(h->bsdf)))
+        return NULL;
+    return spc_scene_sample_emitter(ctx->scene, u_light, pmf);
+}
+
+/* Next-event estimation's second half, with the light's sample ds (ok: spc_emitter_sample_direct's
+ * result with path.c's u_lpos): the shadow ray (ln->shadow, ln->sr) and what its contribution needs. */
+static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, double pmf, bool ok,
+                       const spc_emitter_direct *ds)
+{
     const spc_bsdf *b = h->bsdf;
     const spc_vec3 wo = ln->wo;
-    if (nee && spc_bsdf_has_smooth(b)) {
-        double pmf;
-        const spc_emitter *e = spc_scene_sample_emitter(sc, u_light, &pmf);
-        spc_emitter_direct ds;
-        if (e && spc_emitter_sample_direct(e, h->p, u_lpos, &ds)) {
-            spc_rgb f = spc_bsdf_eval(b, h, SPC_MODE_RADIANCE, wo, ds.wi);
-            double cosi = spc_absdot(ds.wi, h->sh.n);
-            if (ctx->strict_normals && !(spc_dot(ds.wi, h->ng) * spc_dot(ds.wi, h->sh.n) > 0.0))
-                cosi = 0.0;
-            if (!spc_rgb_is_black(f) && cosi > 0.0) {
-                ln->shadow = true;
-                ln->sr = ds.is_infinite ? spc_hit_spawn(h, ds.wi) : spc_hit_spawn_to(h, ds.p, ds.err);
-                ln->f = f;
-                ln->Le = ds.L;
-                ln->wi = ds.wi;
-                ln->cosi = cosi;
-                ln->lp = pmf * ds.pdf;
-                ln->is_delta = ds.is_delta;
-            }
+    if (ok) {
+        spc_rgb f = ln->diffuse ? spc_diffuse_view_eval(&ln->dv, h, wo, ds->wi)
+                                : spc_bsdf_eval(b, h, SPC_MODE_RADIANCE, wo, ds->wi);
+        double cosi = spc_absdot(ds->wi, h->sh.n);
+        if (ctx->strict_normals && !(spc_dot(ds->wi, h->ng) * spc_dot(ds->wi, h->sh.n) > 0.0))
+            cosi = 0.0;
+        if (!spc_rgb_is_black(f) && cosi > 0.0) {
+            ln->shadow = true;
+            ln->sr = ds->is_infinite ? spc_hit_spawn(h, ds->wi) : spc_hit_spawn_to(h, ds->p, ds->err);
+            ln->f = f;
+            ln->Le = ds->L;
+            ln->wi = ds->wi;
+            ln->cosi = cosi;
+            ln->lp = pmf * ds->pdf;
+            ln->is_delta = ds->is_delta;
         }
     }
 }
@@ -157,13 +167,20 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
     const spc_bsdf *b = h->bsdf;
     const spc_vec3 wo = ln->wo;
     if (ln->shadow && !occluded) {
-        double w = ln->is_delta ? 1.0 : spc_mis_power(ln->lp, spc_bsdf_pdf(b, h, SPC_MODE_RADIANCE, wo, ln->wi));
+        double w = 1.0;
+        if (!ln->is_delta) {
+            double pdf = ln->diffuse ? spc_diffuse_view_pdf(&ln->dv, h, wo, ln->wi)
+                                     : spc_bsdf_pdf(b, h, SPC_MODE_RADIANCE, wo, ln->wi);
+            w = spc_mis_power(ln->lp, pdf);
+        }
         spc_rgb c = spc_rgb_mul(spc_rgb_mul(ln->beta, ln->f), ln->Le);
         ln->L = spc_rgb_add(ln->L, spc_rgb_scale(c, ln->cosi * w / ln->lp));
     }
 
     spc_bsdf_sample bs;
-    if (!spc_bsdf_sample_dir(b, h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
+    bool sampled = ln->diffuse ? spc_diffuse_view_sample(&ln->dv, h, wo, u_dir, &bs)
+                               : spc_bsdf_sample_dir(b, h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs);
+    if (!sampled)
         return false;
     if (ctx->strict_normals && !(spc_dot(bs.wi, h->ng) * spc_dot(bs.wi, h->sh.n) > 0.0))
         return false;
@@ -199,6 +216,12 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     const spc_ray *r[W];
     spc_sampler *ls[W];
     spc_vec2 u[3 * W];
+    const spc_emitter *le[W];
+    double pmf[W];
+    spc_vec3 ref[W];
+    spc_vec2 u_lpos[W];
+    spc_emitter_direct ds[W];
+    bool ds_ok[W];
     int next = 0, live = 0;
     for (int i = 0; i < W; ++i) {
         ln[i].path = -1;
@@ -218,11 +241,22 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         }
         /* next-event estimation's dimensions (u_light, u_lpos) of every live lane at once */
         spc_sampler_2d_many(ls, W, 2, u);
+        /* the lights chosen, then every lane's light sample in one call (lanes of mesh lights share
+         * vector instructions, emitter/area_many.c) */
+        for (int i = 0; i < W; ++i) {
+            le[i] = NULL;
+            if (!alive[i])
+                continue;
+            le[i] = lane_pick_light(ctx, &ln[i], &h[i], u[2 * i].x, &pmf[i]);
+            ref[i] = h[i].p;
+            u_lpos[i] = u[2 * i + 1];
+        }
+        spc_emitter_sample_direct_many(W, le, ref, u_lpos, ds, ds_ok);
         for (int i = 0; i < W; ++i) {
             r[i] = NULL;
             if (!alive[i])
                 continue;
-            lane_light(ctx, &ln[i], &h[i], u[2 * i].x, u[2 * i + 1]);
+            lane_light(ctx, &ln[i], &h[i], pmf[i], le[i] && ds_ok[i], &ds[i]);
             if (ln[i].shadow)
                 r[i] = &ln[i].sr;
         }

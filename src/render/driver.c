@@ -67,6 +67,7 @@ typedef struct job {
                              * already started when a cancel was seen */
     volatile int *cancel;
     atomic_ullong rays;
+    atomic_ullong shadow_rays; /* of rays, the shadow rays */
 } job;
 
 static double now_seconds(void)
@@ -186,7 +187,7 @@ static void render_item(job *jb, int item)
 static void *worker(void *arg)
 {
     job *jb = arg;
-    uint64_t r0 = spc_accel_rays_traced();
+    uint64_t r0 = spc_accel_rays_traced(), s0 = spc_accel_shadow_rays_traced();
     for (;;) {
         int i = atomic_fetch_add(&jb->next, 1);
         if (i >= atomic_load(&jb->limit))
@@ -203,6 +204,7 @@ static void *worker(void *arg)
         render_item(jb, i);
     }
     atomic_fetch_add(&jb->rays, (unsigned long long)(spc_accel_rays_traced() - r0));
+    atomic_fetch_add(&jb->shadow_rays, (unsigned long long)(spc_accel_shadow_rays_traced() - s0));
     return NULL;
 }
 
@@ -434,7 +436,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     spc_ckpt_meta meta = {sc->content_hash, settings, (int)spp, sc->path, o->checkpoint_user};
 
     double t_start = now_seconds();
-    uint64_t rays = 0, invalid = film->invalid_samples;
+    uint64_t rays = 0, shadow_rays = 0, invalid = film->invalid_samples;
     const int start = film->spp;
     int done = start;
     double sec_per_pass = 0.0, last_ckpt = t_start;
@@ -487,6 +489,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         atomic_init(&jb.limit, batch * ntiles);
         jb.cancel = o->cancel;
         atomic_init(&jb.rays, 0);
+        atomic_init(&jb.shadow_rays, 0);
         double t0 = now_seconds();
         if (cl) {
             status = spc_cl_render_passes(cl, done, batch, o->seed, buf, stride, &invalid, &rays, err);
@@ -508,6 +511,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         for (int i = 1; i <= started; ++i)
             pthread_join(th[i], NULL);
         rays += atomic_load(&jb.rays);
+        shadow_rays += atomic_load(&jb.shadow_rays);
         int whole = atomic_load(&jb.limit) / ntiles; /* passes rendered in full */
         /* commit the passes in order, splats merged in tile order; drop the unfinished ones */
         for (int b = whole; b < batch; ++b)
@@ -589,6 +593,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         stats->spp = film->spp;
         stats->wall_seconds = wall;
         stats->rays_traced = rays;
+        stats->shadow_rays_traced = shadow_rays;
         stats->mrays_per_second = wall > 0.0 ? (double)rays / wall * 1e-6 : 0.0;
         stats->threads = threads;
         stats->samples = (uint64_t)film->spp * npix;

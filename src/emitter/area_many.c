@@ -1,0 +1,213 @@
+/*
+ * emitter/area_many.c: light samples of many reference points at once (spc_emitter_sample_direct_many),
+ * for a path tracer that runs many paths side by side (integrator/path_wave.c).
+ *
+ * Lights on triangle meshes sampled uniformly by area with a constant radiance (the common case:
+ * the cornell box's light, quad and mesh emitters without textures) go through three loops over
+ * the lanes in structure-of-arrays form: the triangle and its vertices (table lookups), the point,
+ * the direction and the solid-angle density (arithmetic only, compiled also for AVX2 and AVX-512
+ * and chosen at run time, so 4 or 8 lanes share an instruction), and the records. Every other
+ * light is sampled one lane at a time by spc_emitter_sample_direct.
+ *
+ * Bit for bit: the arithmetic is spc_area_sample_direct's, spc_shape_sample_area's and fill_mesh's
+ * (scene/shape.c) in their order, in double, without fused multiply-adds (ISO C11 builds do not
+ * contract, and the vector targets below do not include FMA); vector lanes round as scalars do.
+ * test_path_wave compares every field with spc_emitter_sample_direct's on random points.
+ */
+#include <float.h>
+#include <math.h>
+
+#include "emitter/emitter.h"
+#include "scene/shape.h"
+#include "scene/texture.h"
+
+/* fill_mesh's position error bound: 8 float epsilons of the largest coordinate involved */
+#define AREA_MANY_FLOAT_OFFSET (8.0 * FLT_EPSILON)
+
+bool spc_emitter_many_covers(const spc_emitter *e)
+{
+    if (e->type != SPC_EMITTER_AREA || e->has_cell_distrib || !spc_texture_is_constant(e->radiance))
+        return false;
+    const spc_shape *s = e->shape;
+    /* vertex normals turn fill_mesh's ng toward the interpolated normal: left to the one-lane path */
+    return s->type == SPC_SHAPE_MESH && !(s->mesh.n && !s->face_normals);
+}
+
+/* What the arithmetic loop reads and writes, one array per quantity (structure of arrays). */
+typedef struct soa {
+    double p0[3][SPC_EMITTER_MANY_MAX], p1[3][SPC_EMITTER_MANY_MAX], p2[3][SPC_EMITTER_MANY_MAX];
+    double ng[3][SPC_EMITTER_MANY_MAX], ref[3][SPC_EMITTER_MANY_MAX];
+    double ux[SPC_EMITTER_MANY_MAX], uy[SPC_EMITTER_MANY_MAX], inv_area[SPC_EMITTER_MANY_MAX];
+    /* out */
+    double p[3][SPC_EMITTER_MANY_MAX], wi[3][SPC_EMITTER_MANY_MAX];
+    double err[SPC_EMITTER_MANY_MAX], dist[SPC_EMITTER_MANY_MAX], pdf[SPC_EMITTER_MANY_MAX];
+    double facing[SPC_EMITTER_MANY_MAX]; /* dot(n, -wi): the light is seen from its front when > 0 */
+    int ok[SPC_EMITTER_MANY_MAX];
+} soa;
+
+static inline double max2(double a, double b) { return a > b ? a : b; }
+
+/* The point on the triangle (spc_warp_uniform_triangle's, then fill_mesh's), its error bound, and the direction and solid-angle density from ref:
+ * fill_mesh's p and err, then spc_area_sample_direct's tests and values. */
+#define AREA_MANY_BODY                                                                                                \
+    for (int i = 0; i < n; ++i) {                                                                                     \
+        /* spc_warp_uniform_triangle's two branches as selects: (b1, b2) its (b0, b1) */                              \
+        double ux = a->ux[i], uy = a->uy[i];                                                                          \
+        int upper = uy > ux;                                                                                          \
+        double half = (upper ? ux : uy) / 2.0, rx = ux - half, ry = uy - half;                                        \
+        double b1 = upper ? half : rx, b2 = upper ? ry : half, b0 = 1.0 - b1 - b2;                                    \
+        double px = a->p0[0][i] * b0 + a->p1[0][i] * b1 + a->p2[0][i] * b2;                                           \
+        double py = a->p0[1][i] * b0 + a->p1[1][i] * b1 + a->p2[1][i] * b2;                                           \
+        double pz = a->p0[2][i] * b0 + a->p1[2][i] * b1 + a->p2[2][i] * b2;                                           \
+        double m0 = max2(fabs(a->p0[0][i]), max2(fabs(a->p0[1][i]), fabs(a->p0[2][i])));                              \
+        double m1 = max2(fabs(a->p1[0][i]), max2(fabs(a->p1[1][i]), fabs(a->p1[2][i])));                              \
+        double m2 = max2(fabs(a->p2[0][i]), max2(fabs(a->p2[1][i]), fabs(a->p2[2][i])));                              \
+        double mag = max2(m0, max2(m1, m2));                                                                          \
+        double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
+        a->err[i] = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                           \
+        double dx = px - a->ref[0][i], dy = py - a->ref[1][i], dz = pz - a->ref[2][i];                                \
+        double dist2 = dx * dx + dy * dy + dz * dz;                                                                   \
+        double nx = a->ng[0][i], ny = a->ng[1][i], nz = a->ng[2][i];                                                  \
+        double cosl = fabs(nx * dx + ny * dy + nz * dz) / sqrt(dist2);                                                \
+        double pdf = a->inv_area[i] * dist2 / cosl;                                                                   \
+        double dist = sqrt(dist2);                                                                                    \
+        double inv = 1.0 / dist;                                                                                      \
+        double wx = dx * inv, wy = dy * inv, wz = dz * inv;                                                           \
+        a->p[0][i] = px;                                                                                              \
+        a->p[1][i] = py;                                                                                              \
+        a->p[2][i] = pz;                                                                                              \
+        a->wi[0][i] = wx;                                                                                             \
+        a->wi[1][i] = wy;                                                                                             \
+        a->wi[2][i] = wz;                                                                                             \
+        a->dist[i] = dist;                                                                                            \
+        a->pdf[i] = pdf;                                                                                              \
+        a->facing[i] = nx * -wx + ny * -wy + nz * -wz;                                                                \
+        a->ok[i] = (cosl > 0.0) & (dist2 > 0.0) & (dist > 0.0) & (pdf > 0.0) & (pdf <= DBL_MAX);                      \
+    }
+
+static void body_default(soa *a, int n) { AREA_MANY_BODY }
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define AREA_MANY_VECTOR 1
+#if defined(__clang__)
+#define AREA_MANY_ATTR(t) __attribute__((target(t)))
+#else
+#define AREA_MANY_ATTR(t) __attribute__((target(t), optimize("O3"))) /* GCC's -O2 does not vectorize */
+#endif
+AREA_MANY_ATTR("avx2") static void body_avx2(soa *a, int n) { AREA_MANY_BODY }
+AREA_MANY_ATTR("avx512f") static void body_avx512(soa *a, int n) { AREA_MANY_BODY }
+#endif
+
+static void body(soa *a, int n)
+{
+#ifdef AREA_MANY_VECTOR
+    static int isa = -1; /* 2: AVX-512, 1: AVX2, 0: neither (the same results) */
+    if (isa < 0)
+        isa = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
+    if (isa == 2)
+        body_avx512(a, n);
+    else if (isa == 1)
+        body_avx2(a, n);
+    else
+        body_default(a, n);
+#else
+    body_default(a, n);
+#endif
+}
+
+/* spc_distrib1d_sample, its search without branches (the triangle of a two-triangle quad is a coin
+ * flip to the branch predictor): the largest i < n with cdf[i] <= u, which is one index for any
+ * search since cdf is nondecreasing; then its empty-bin rule and remapped u. */
+static size_t distrib_sample(const spc_distrib1d *d, double u, double *u_remap)
+{
+    size_t lo = 0, len = d->n;
+    while (len > 1) {
+        size_t half = len / 2;
+        lo = d->cdf[lo + half] <= u ? lo + half : lo;
+        len -= half;
+    }
+    while (lo + 1 < d->n && d->pmf[lo] == 0.0)
+        ++lo;
+    while (lo > 0 && d->pmf[lo] == 0.0)
+        --lo;
+    double r = d->pmf[lo] > 0.0 ? (u - d->cdf[lo]) / d->pmf[lo] : 0.0;
+    *u_remap = spc_clamp(r, 0.0, 0x1.fffffffffffffp-1);
+    return lo;
+}
+
+/* Up to SPC_EMITTER_MANY_MAX lanes whose emitters all pass spc_emitter_many_covers. */
+static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const e[], const spc_vec3 ref[],
+                               const spc_vec2 u[], spc_emitter_direct out[], bool ok[])
+{
+    soa a;
+    for (int k = 0; k < n; ++k) {
+        int i = lane[k];
+        const spc_shape *s = e[i]->shape;
+        const spc_mesh *m = &s->mesh;
+        /* spc_shape_sample_area: the triangle by area, a point uniformly in it */
+        double ux;
+        size_t t = distrib_sample(&s->tri_distrib, u[i].x, &ux);
+        const uint32_t *idx = m->idx + 3 * t;
+        const float *q0 = m->p + 3 * (size_t)idx[0], *q1 = m->p + 3 * (size_t)idx[1], *q2 = m->p + 3 * (size_t)idx[2];
+        spc_vec3 ng;
+        if (s->tri_frame) {
+            const double *c = s->tri_frame + 6 * t;
+            ng = spc_v3(c[0], c[1], c[2]);
+        } else {
+            spc_vec3 p0 = spc_v3(q0[0], q0[1], q0[2]);
+            ng = spc_normalize(spc_cross(spc_sub(spc_v3(q1[0], q1[1], q1[2]), p0), spc_sub(spc_v3(q2[0], q2[1], q2[2]), p0)));
+        }
+        if (s->flip_normals)
+            ng = spc_neg(ng);
+        for (int c = 0; c < 3; ++c) {
+            a.p0[c][k] = q0[c];
+            a.p1[c][k] = q1[c];
+            a.p2[c][k] = q2[c];
+            a.ng[c][k] = spc_v3_get(ng, c);
+            a.ref[c][k] = spc_v3_get(ref[i], c);
+        }
+        a.ux[k] = ux;
+        a.uy[k] = u[i].y;
+        a.inv_area[k] = 1.0 / s->area;
+    }
+    body(&a, n);
+    for (int k = 0; k < n; ++k) {
+        int i = lane[k];
+        spc_emitter_direct *o = &out[i];
+        o->is_delta = false;
+        o->is_infinite = false;
+        ok[i] = false;
+        if (!a.ok[k])
+            continue;
+        o->p = spc_v3(a.p[0][k], a.p[1][k], a.p[2][k]);
+        o->n = spc_v3(a.ng[0][k], a.ng[1][k], a.ng[2][k]);
+        o->wi = spc_v3(a.wi[0][k], a.wi[1][k], a.wi[2][k]);
+        o->dist = a.dist[k];
+        /* spc_area_eval with a constant radiance */
+        o->L = a.facing[k] <= 0.0 ? spc_rgb1(0.0) : spc_texture_eval(e[i]->radiance, spc_v2(0.0, 0.0));
+        o->pdf = a.pdf[k];
+        o->err = a.err[k];
+        ok[i] = !spc_rgb_is_black(o->L);
+    }
+}
+
+void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const spc_vec3 ref[], const spc_vec2 u[],
+                                    spc_emitter_direct out[], bool ok[])
+{
+    int lane[SPC_EMITTER_MANY_MAX], m = 0;
+    for (int i = 0; i < n; ++i) {
+        if (!e[i]) {
+            ok[i] = false;
+        } else if (spc_emitter_many_covers(e[i])) {
+            lane[m++] = i;
+            if (m == SPC_EMITTER_MANY_MAX) {
+                sample_mesh_lights(m, lane, e, ref, u, out, ok);
+                m = 0;
+            }
+        } else {
+            ok[i] = spc_emitter_sample_direct(e[i], ref[i], u[i], &out[i]);
+        }
+    }
+    if (m > 0)
+        sample_mesh_lights(m, lane, e, ref, u, out, ok);
+}
