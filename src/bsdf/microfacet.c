@@ -107,8 +107,9 @@ static spc_vec3 sample_visible_ggx(double au, double av, spc_vec3 w, spc_vec2 u)
     double len2 = vh.x * vh.x + vh.y * vh.y;
     spc_vec3 t1 = len2 > 0.0 ? spc_scale(spc_v3(-vh.y, vh.x, 0.0), 1.0 / sqrt(len2)) : spc_v3(1.0, 0.0, 0.0);
     spc_vec3 t2 = spc_cross(vh, t1);
-    double r = sqrt(u.x), phi = 2.0 * SPC_PI * u.y;
-    double p1 = r * cos(phi), p2 = r * sin(phi);
+    double r = sqrt(u.x), sp, cp;
+    spc_sincos_2pi(u.y, &sp, &cp);
+    double p1 = r * cp, p2 = r * sp;
     double s = 0.5 * (1.0 + vh.z);
     p2 = (1.0 - s) * sqrt(spc_max(0.0, 1.0 - p1 * p1)) + s * p2;
     spc_vec3 nh = spc_add(spc_add(spc_scale(t1, p1), spc_scale(t2, p2)),
@@ -191,8 +192,9 @@ spc_vec3 spc_microfacet_sample(const spc_microfacet *md, spc_vec3 w, spc_vec2 u,
         m = md->type == SPC_MICROFACET_GGX ? sample_visible_ggx(au, av, w, u) : sample_visible_beckmann(au, av, w, u);
     } else {
         double r2 = md->type == SPC_MICROFACET_GGX ? u.x / (1.0 - u.x) : -log(1.0 - u.x);
-        double r = spc_safe_sqrt(r2), phi = 2.0 * SPC_PI * u.y;
-        m = spc_normalize(spc_v3(-au * r * cos(phi), -av * r * sin(phi), 1.0));
+        double r = spc_safe_sqrt(r2), sp, cp;
+        spc_sincos_2pi(u.y, &sp, &cp);
+        m = spc_normalize(spc_v3(-au * r * cp, -av * r * sp, 1.0));
     }
     *pdf = spc_microfacet_pdf(md, w, m);
     return m;
