@@ -83,7 +83,7 @@ double spc_warp_tent(double u)
     return 1.0 - sqrt(2.0 - 2.0 * u);
 }
 
-/* Giles 2010 single-precision approximation, refined by two Newton steps on erf. */
+/* Giles 2010 single-precision approximation, refined by a Halley step on erf. */
 double spc_erfinv(double x)
 {
     if (x <= -1.0)
@@ -114,12 +114,11 @@ double spc_erfinv(double x)
         p = 1.00167406 + p * w;
         p = 2.83297682 + p * w;
     }
+    /* one Halley step on erf(y) = x (f'' = -2 y f'): the approximation's relative error of about
+     * 1e-7 is cubed, as good as the two Newton steps it replaces, for one erf and exp fewer */
     double y = p * x;
-    for (int i = 0; i < 2; ++i) {
-        double err = erf(y) - x;
-        y -= err / (2.0 / sqrt(SPC_PI) * exp(-y * y));
-    }
-    return y;
+    double err = erf(y) - x;
+    return y - err / (2.0 / sqrt(SPC_PI) * exp(-y * y) + y * err);
 }
 
 double spc_warp_gaussian_truncated(double u, double stddev, double radius)
