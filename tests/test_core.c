@@ -166,6 +166,52 @@ TEST(warps_match_their_pdfs)
     CHECK_NEAR(tri / N, 1.0 / 3.0, 0.003);
 }
 
+/* The warps' sin and cos without libm: spc_sincos_2pi within 2 half-ulps of 1 of the exact sin and cos
+ * of 2 pi u over [0, 1] and beyond it, exact at the quarter turns; spc_sincos_quarter within 2 ulps relative on
+ * [-pi/4, pi/4]; and the concentric disk map equal to its form with libm's cos and sin. */
+TEST(sincos_without_libm)
+{
+    spc_rng r;
+    spc_rng_seed(&r, 5, 6);
+    double worst = 0.0, worst_rel = 0.0, worst_disk = 0.0;
+    for (int i = 0; i < 200000; ++i) {
+        double u = spc_rng_next(&r);
+        if (i % 3 == 1)
+            u = 6.0 * u - 3.0;
+        double s, c;
+        spc_sincos_2pi(u, &s, &c);
+        /* in long double: libm's double 2 pi u is itself rounded by up to 1.8e-15 at |u| = 3 */
+        long double a = 2.0L * 3.141592653589793238462643383279503L * (long double)u;
+        worst = fmax(worst, fmax(fabs((double)(s - sinl(a))), fabs((double)(c - cosl(a)))));
+        double x = (spc_rng_next(&r) - 0.5) * (SPC_PI / 2.0);
+        spc_sincos_quarter(x, &s, &c);
+        if (x != 0.0)
+            worst_rel = fmax(worst_rel, fabs(s - sin(x)) / fabs(sin(x)));
+        worst_rel = fmax(worst_rel, fabs(c - cos(x)) / cos(x));
+        spc_vec2 v = spc_v2(spc_rng_next(&r), spc_rng_next(&r));
+        spc_vec2 d = spc_warp_disk_concentric(v);
+        double p = 2.0 * v.x - 1.0, q = 2.0 * v.y - 1.0, rr, phi;
+        if (fabs(p) > fabs(q)) {
+            rr = p;
+            phi = (SPC_PI / 4.0) * (q / p);
+        } else {
+            rr = q;
+            phi = SPC_PI / 2.0 - (SPC_PI / 4.0) * (p / q);
+        }
+        worst_disk = fmax(worst_disk, fmax(fabs(d.x - rr * cos(phi)), fabs(d.y - rr * sin(phi))));
+    }
+    CHECK_MSG(worst <= 2.0 * 0x1p-53, "sincos_2pi off by %g", worst);
+    CHECK_MSG(worst_rel <= 2.0 * 0x1p-52, "sincos_quarter off by %g relative", worst_rel);
+    CHECK_MSG(worst_disk <= 1e-15, "concentric disk off by %g", worst_disk);
+    const double quarter[][3] = {{0.0, 0.0, 1.0}, {0.25, 1.0, 0.0}, {0.5, 0.0, -1.0},
+                                 {0.75, -1.0, 0.0}, {1.0, 0.0, 1.0}, {-0.25, -1.0, 0.0}};
+    for (int k = 0; k < 6; ++k) {
+        double s, c;
+        spc_sincos_2pi(quarter[k][0], &s, &c);
+        CHECK(s == quarter[k][1] && c == quarter[k][2]);
+    }
+}
+
 TEST(tent_and_gaussian_inversions)
 {
     /* tent: the CDF at x is 1/2 (1+x)^2 on [-1, 0] */
@@ -225,6 +271,7 @@ int main(void)
     RUN(sampler_stratified_and_deterministic);
     RUN(sampler_many_matches_one_at_a_time);
     RUN(warps_match_their_pdfs);
+    RUN(sincos_without_libm);
     RUN(tent_and_gaussian_inversions);
     RUN(distributions);
     return spc_test_finish();

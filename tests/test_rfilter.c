@@ -1,12 +1,14 @@
 /*
- * tests/test_rfilter.c: the pixel filter's sampling against its CDF: the drawn offset is the step
- * a plain search of the cumulative masses finds, and the CDF maps it back to u.
+ * tests/test_rfilter.c: the camera sample. The pixel filter's sampling against its CDF: the drawn
+ * offset is the step a plain search of the cumulative masses finds, and the CDF maps it back to u.
+ * The pinhole camera's ray through a film point against the camera's projection and clip planes.
  */
 /* ctest-labels: unit */
 #include <math.h>
 #include <string.h>
 
 #include "harness.h"
+#include "scene/camera.h"
 #include "scene/rfilter.h"
 #include "scene/scene.h"
 
@@ -30,14 +32,22 @@ static void check_filter(spc_rfilter_type type, double radius, double stddev)
     spc_film_filter_prepare(&f);
     double h = radius / SPC_FILTER_RESOLUTION;
     enum { N = 4000 };
-    /* a grid of u, then u exactly on every step's edge and one ulp either side */
-    double us[N + 6 * (SPC_FILTER_RESOLUTION + 1)];
+    /* a grid of u, then u exactly on every step's edge and on every guide bucket's edge, and one
+     * ulp either side */
+    double us[N + 6 * (SPC_FILTER_RESOLUTION + 1) + 6 * (SPC_FILTER_GUIDE + 1)];
     int n = 0;
     for (int i = 0; i < N; ++i)
         us[n++] = (i + 0.5) / N;
     for (int k = 0; k <= SPC_FILTER_RESOLUTION; ++k)
         for (int side = -1; side <= 1; side += 2) {
             double u = 0.5 + side * f.filter_step_cdf[k];
+            us[n++] = u;
+            us[n++] = nextafter(u, 0.0);
+            us[n++] = nextafter(u, 1.0);
+        }
+    for (int b = 0; b <= SPC_FILTER_GUIDE; ++b)
+        for (int side = -1; side <= 1; side += 2) {
+            double u = 0.5 + side * (b / (2.0 * SPC_FILTER_GUIDE));
             us[n++] = u;
             us[n++] = nextafter(u, 0.0);
             us[n++] = nextafter(u, 1.0);
@@ -66,11 +76,52 @@ TEST(gaussian_wide_sample_matches_cdf) { check_filter(SPC_RFILTER_GAUSSIAN, 4.0,
 TEST(tent_sample_matches_cdf) { check_filter(SPC_RFILTER_TENT, 1.0, 0.5); }
 TEST(box_sample_matches_cdf) { check_filter(SPC_RFILTER_BOX, 0.5, 0.5); }
 
+/* A pinhole's ray through film point (fx, fy): unit direction, from the pinhole, projecting back
+ * onto (fx, fy), its ends at the local depths near_clip and far_clip, and its direction that of
+ * to_world applied to ((1 - 2 fx/W) tan_x, (1 - 2 fy/H) tan_y, 1), under a rotated, translated
+ * and non-uniformly scaled to_world. */
+TEST(pinhole_ray_through_film_point)
+{
+    spc_camera c;
+    memset(&c, 0, sizeof c);
+    c.type = SPC_CAMERA_PERSPECTIVE;
+    spc_mat4 look, S = spc_mat4_scale(spc_v3(1.5, 0.7, 2.0));
+    CHECK(spc_mat4_lookat(spc_v3(1, 2, 3), spc_v3(-0.5, 0.3, 0.2), spc_v3(0.1, 1, 0), &look));
+    c.to_world = spc_mat4_mul(&look, &S);
+    c.fov = 38.0;
+    c.fov_axis = SPC_FOV_X;
+    c.near_clip = 0.01;
+    c.far_clip = 500.0;
+    spc_camera_state cs;
+    const int W = 96, H = 54;
+    CHECK(spc_camera_prepare(&cs, &c, W, H));
+    double worst_proj = 0.0, worst_clip = 0.0, worst_dir = 0.0;
+    for (int i = 0; i < 4000; ++i) {
+        double fx = W * ((i % 61) + 0.37) / 61.0, fy = H * ((i / 61) + 0.61) / 66.0;
+        spc_ray r = spc_camera_ray(&cs, fx, fy);
+        CHECK_NEAR(spc_length(r.d), 1.0, 1e-14);
+        CHECK(r.o.x == cs.origin.x && r.o.y == cs.origin.y && r.o.z == cs.origin.z);
+        double px, py;
+        CHECK(spc_camera_project(&cs, spc_madd(r.o, r.d, 3.0), &px, &py));
+        worst_proj = fmax(worst_proj, fmax(fabs(px - fx), fabs(py - fy)));
+        spc_vec3 a = spc_mat4_apply_point(&cs.to_local, spc_madd(r.o, r.d, r.tmin));
+        spc_vec3 b = spc_mat4_apply_point(&cs.to_local, spc_madd(r.o, r.d, r.tmax));
+        worst_clip = fmax(worst_clip, fmax(fabs(a.z - c.near_clip) / c.near_clip, fabs(b.z - c.far_clip) / c.far_clip));
+        spc_vec3 v = spc_v3((1.0 - 2.0 * fx / W) * cs.tan_x, (1.0 - 2.0 * fy / H) * cs.tan_y, 1.0);
+        spc_vec3 d = spc_normalize(spc_mat4_apply_vector(&cs.to_world, v));
+        worst_dir = fmax(worst_dir, spc_length(spc_sub(d, r.d)));
+    }
+    CHECK_MSG(worst_proj < 1e-9, "projection off by %g pixels", worst_proj);
+    CHECK_MSG(worst_clip < 1e-12, "clip depths off by %g relative", worst_clip);
+    CHECK_MSG(worst_dir < 1e-14, "direction off by %g", worst_dir);
+}
+
 int main(void)
 {
     RUN(gaussian_sample_matches_cdf);
     RUN(gaussian_wide_sample_matches_cdf);
     RUN(tent_sample_matches_cdf);
     RUN(box_sample_matches_cdf);
+    RUN(pinhole_ray_through_film_point);
     return spc_test_finish();
 }

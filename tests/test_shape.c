@@ -213,6 +213,53 @@ TEST(sphere_sampling_solid_angle)
     spc_shape_release(&s);
 }
 
+/* The solid-angle sample of a sphere is the cone warp's direction: for each u, the direction from
+ * the reference point to the sampled point has the cone warp's cos theta (1 - u.x (1 - cos_max))
+ * and azimuth 2 pi u.y + pi in spc_frame_from_n of the axis, and the point is the ray's nearest
+ * intersection with the sphere, from far (a tiny cone) to just outside the surface. */
+TEST(sphere_solid_angle_sample_is_the_cone_warp)
+{
+    spc_shape s;
+    memset(&s, 0, sizeof s);
+    spc_error err;
+    spc_vec3 c = spc_v3(0.5, -1.0, 2.0);
+    CHECK(spc_shape_init_sphere(&s, c, 0.75, NULL, NULL, 0, 0, &err));
+    CHECK(spc_shape_prepare(&s) == SPC_OK);
+    const double dists[] = {0.7501, 0.8, 1.5, 4.0, 30.0, 1000.0};
+    for (int k = 0; k < 6; ++k) {
+        spc_vec3 ref = spc_madd(c, spc_normalize(spc_v3(0.3, -0.8, 0.5)), dists[k]);
+        spc_vec3 axis = spc_normalize(spc_sub(c, ref));
+        spc_frame fr = spc_frame_from_n(axis);
+        double cos_max = sqrt(1.0 - 0.75 * 0.75 / spc_length2(spc_sub(c, ref)));
+        double worst_cos = 0.0, worst_phi = 0.0, worst_t = 0.0;
+        for (int i = 0; i < 2000; ++i) {
+            spc_vec2 u = spc_v2(rnd(), rnd());
+            spc_shape_sample ss;
+            CHECK(spc_shape_sample_solid_angle(&s, ref, u, false, &ss));
+            spc_vec3 d = spc_sub(ss.p, ref);
+            double t = spc_length(d);
+            spc_vec3 w = spc_scale(d, 1.0 / t);
+            spc_vec3 l = spc_frame_to_local(&fr, w);
+            worst_cos = fmax(worst_cos, fabs(l.z - (1.0 - u.x * (1.0 - cos_max))) / (1.0 - cos_max));
+            double phi = atan2(l.y, l.x), want = 2.0 * SPC_PI * u.y - SPC_PI;
+            double dphi = fabs(remainder(phi - want, 2.0 * SPC_PI));
+            if (1.0 - l.z * l.z > 1e-6)
+                worst_phi = fmax(worst_phi, dphi);
+            /* the nearest root along w, relative to the distance */
+            spc_vec3 f = spc_sub(ref, c);
+            double b = spc_dot(f, w), disc = 0.75 * 0.75 - spc_length2(spc_sub(f, spc_scale(w, b)));
+            double tn = -b - sqrt(fmax(disc, 0.0));
+            worst_t = fmax(worst_t, fabs(t - tn) / dists[k]);
+            CHECK_NEAR(spc_length(spc_sub(ss.p, c)), 0.75, 1e-12);
+            CHECK(spc_dot(ss.n, spc_sub(ref, ss.p)) >= -1e-9);
+        }
+        CHECK_MSG(worst_cos < 1e-6, "distance %g: cos theta off by %g of the cone", dists[k], worst_cos);
+        CHECK_MSG(worst_phi < 1e-6, "distance %g: azimuth off by %g", dists[k], worst_phi);
+        CHECK_MSG(worst_t < 1e-6, "distance %g: not the nearest point (%g)", dists[k], worst_t);
+    }
+    spc_shape_release(&s);
+}
+
 /* Hits on a mesh with its kept per-triangle frames (spc_shape.tri_frame) equal, bit for bit, the
  * hits computed from the vertices alone: with and without uvs, vertex normals, flip_normals, a
  * degenerate uv map. */
@@ -337,6 +384,7 @@ int main(void)
     RUN(surface_derivatives);
     RUN(analytic_disk_and_cylinder);
     RUN(sphere_sampling_solid_angle);
+    RUN(sphere_solid_angle_sample_is_the_cone_warp);
     RUN(mesh_area_sampling_uniform);
     RUN(mesh_kept_frames_match);
     return spc_test_finish();

@@ -55,6 +55,49 @@ static inline double spc_lerp(double t, double a, double b) { return a + t * (b 
 static inline double spc_min(double a, double b) { return a < b ? a : b; }
 static inline double spc_max(double a, double b) { return a > b ? a : b; }
 
+/* sin and cos of x for |x| <= pi/4, by their Taylor polynomials to x^17 and x^16 (the next terms
+ * are below 1e-19 there): within an ulp or two of libm's sincos, without its call, range reduction
+ * and branches. The warps' angles live in this range after an exact quarter-turn reduction. */
+static inline void spc_sincos_quarter(double x, double *s, double *c)
+{
+    double x2 = x * x;
+    double ps = -1.0 / 355687428096000.0;
+    ps = 1.0 / 1307674368000.0 + x2 * ps;
+    ps = -1.0 / 6227020800.0 + x2 * ps;
+    ps = 1.0 / 39916800.0 + x2 * ps;
+    ps = -1.0 / 362880.0 + x2 * ps;
+    ps = 1.0 / 5040.0 + x2 * ps;
+    ps = -1.0 / 120.0 + x2 * ps;
+    ps = 1.0 / 6.0 + x2 * ps;
+    double pc = 1.0 / 20922789888000.0;
+    pc = -1.0 / 87178291200.0 + x2 * pc;
+    pc = 1.0 / 479001600.0 + x2 * pc;
+    pc = -1.0 / 3628800.0 + x2 * pc;
+    pc = 1.0 / 40320.0 + x2 * pc;
+    pc = -1.0 / 720.0 + x2 * pc;
+    pc = 1.0 / 24.0 + x2 * pc;
+    pc = -0.5 + x2 * pc;
+    *s = x - x * x2 * ps;
+    *c = 1.0 + x2 * pc;
+}
+/* sin and cos of 2 pi u for finite |u| < 2^40 (a warp's phi = 2 pi u): u minus the nearest multiple
+ * of 1/4 is exact, so the only rounding before the polynomials is that of 2 pi r, |r| <= 1/8
+ * (libm rounds 2 pi u itself, a larger absolute error for u near 1). */
+static inline void spc_sincos_2pi(double u, double *s, double *c)
+{
+    double k = 4.0 * u + 0.5;
+    int64_t q = (int64_t)k;
+    q -= (double)q > k; /* floor */
+    double sr, cr;
+    spc_sincos_quarter(2.0 * SPC_PI * (u - 0.25 * (double)q), &sr, &cr);
+    switch (q & 3) {
+    case 0: *s = sr; *c = cr; break;
+    case 1: *s = cr; *c = -sr; break;
+    case 2: *s = -sr; *c = -cr; break;
+    default: *s = -cr; *c = sr; break;
+    }
+}
+
 /* ---- vec2 ---- */
 static inline spc_vec2 spc_v2(double x, double y) { return (spc_vec2){x, y}; }
 

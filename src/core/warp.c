@@ -11,15 +11,15 @@ spc_vec2 spc_warp_disk_concentric(spc_vec2 u)
     double a = 2.0 * u.x - 1.0, b = 2.0 * u.y - 1.0;
     if (a == 0.0 && b == 0.0)
         return spc_v2(0.0, 0.0);
-    double r, phi;
+    /* phi = (pi/4)(b/a), or pi/2 - (pi/4)(a/b), whose cos and sin are the sin and cos of
+     * (pi/4)(a/b): both angles within [-pi/4, pi/4], the polynomials' range */
+    double s, c;
     if (fabs(a) > fabs(b)) {
-        r = a;
-        phi = (SPC_PI / 4.0) * (b / a);
-    } else {
-        r = b;
-        phi = SPC_PI / 2.0 - (SPC_PI / 4.0) * (a / b);
+        spc_sincos_quarter((SPC_PI / 4.0) * (b / a), &s, &c);
+        return spc_v2(a * c, a * s);
     }
-    return spc_v2(r * cos(phi), r * sin(phi));
+    spc_sincos_quarter((SPC_PI / 4.0) * (a / b), &s, &c);
+    return spc_v2(b * s, b * c);
 }
 
 spc_vec3 spc_warp_cosine_hemisphere(spc_vec2 u)
@@ -35,16 +35,18 @@ spc_vec3 spc_warp_uniform_sphere(spc_vec2 u)
 {
     double z = 1.0 - 2.0 * u.x;
     double r = spc_safe_sqrt(1.0 - z * z);
-    double phi = 2.0 * SPC_PI * u.y;
-    return spc_v3(r * cos(phi), r * sin(phi), z);
+    double sp, cp;
+    spc_sincos_2pi(u.y, &sp, &cp);
+    return spc_v3(r * cp, r * sp, z);
 }
 
 spc_vec3 spc_warp_uniform_hemisphere(spc_vec2 u)
 {
     double z = u.x;
     double r = spc_safe_sqrt(1.0 - z * z);
-    double phi = 2.0 * SPC_PI * u.y;
-    return spc_v3(r * cos(phi), r * sin(phi), z);
+    double sp, cp;
+    spc_sincos_2pi(u.y, &sp, &cp);
+    return spc_v3(r * cp, r * sp, z);
 }
 
 spc_vec3 spc_warp_uniform_cone(spc_vec2 u, double cos_max)
@@ -53,8 +55,9 @@ spc_vec3 spc_warp_uniform_cone(spc_vec2 u, double cos_max)
     double one_minus_z = u.x * (1.0 - cos_max);
     double z = 1.0 - one_minus_z;
     double r = spc_safe_sqrt(one_minus_z * (2.0 - one_minus_z));
-    double phi = 2.0 * SPC_PI * u.y;
-    return spc_v3(r * cos(phi), r * sin(phi), z);
+    double sp, cp;
+    spc_sincos_2pi(u.y, &sp, &cp);
+    return spc_v3(r * cp, r * sp, z);
 }
 
 double spc_warp_uniform_cone_pdf(double cos_max) { return 1.0 / (2.0 * SPC_PI * (1.0 - cos_max)); }
@@ -80,7 +83,7 @@ double spc_warp_tent(double u)
     return 1.0 - sqrt(2.0 - 2.0 * u);
 }
 
-/* Giles 2010 single-precision approximation, refined by two Newton steps on erf. */
+/* Giles 2010 single-precision approximation, refined by a Halley step on erf. */
 double spc_erfinv(double x)
 {
     if (x <= -1.0)
@@ -111,12 +114,11 @@ double spc_erfinv(double x)
         p = 1.00167406 + p * w;
         p = 2.83297682 + p * w;
     }
+    /* one Halley step on erf(y) = x (f'' = -2 y f'): the approximation's relative error of about
+     * 1e-7 is cubed, as good as the two Newton steps it replaces, for one erf and exp fewer */
     double y = p * x;
-    for (int i = 0; i < 2; ++i) {
-        double err = erf(y) - x;
-        y -= err / (2.0 / sqrt(SPC_PI) * exp(-y * y));
-    }
-    return y;
+    double err = erf(y) - x;
+    return y - err / (2.0 / sqrt(SPC_PI) * exp(-y * y) + y * err);
 }
 
 double spc_warp_gaussian_truncated(double u, double stddev, double radius)

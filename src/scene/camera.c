@@ -40,6 +40,11 @@ bool spc_camera_prepare(spc_camera_state *cs, const spc_camera *c, int width, in
             return false;
     }
     cs->image_area = 4.0 * cs->tan_x * cs->tan_y;
+    /* M ((1 - 2 fx/W) tan_x, (1 - 2 fy/H) tan_y, 1) = M (tan_x, tan_y, 1) + fx M (-2 tan_x/W, 0, 0)
+     * + fy M (0, -2 tan_y/H, 0) */
+    cs->ray_d0 = spc_mat4_apply_vector(&cs->to_world, spc_v3(cs->tan_x, cs->tan_y, 1.0));
+    cs->ray_dfx = spc_mat4_apply_vector(&cs->to_world, spc_v3(-2.0 * cs->tan_x / width, 0.0, 0.0));
+    cs->ray_dfy = spc_mat4_apply_vector(&cs->to_world, spc_v3(0.0, -2.0 * cs->tan_y / height, 0.0));
     cs->aperture_radius = c->type == SPC_CAMERA_PERSPECTIVE ? c->aperture_radius : 0.0;
     cs->focus_distance = c->focus_distance;
     if (cs->aperture_radius > 0.0 && !(cs->focus_distance > 0.0))
@@ -70,17 +75,17 @@ spc_ray spc_camera_ray_lens(const spc_camera_state *cs, double fx, double fy, sp
 
 spc_ray spc_camera_ray(const spc_camera_state *cs, double fx, double fy)
 {
-    double x = (1.0 - 2.0 * fx / cs->width) * cs->tan_x;
-    double y = (1.0 - 2.0 * fy / cs->height) * cs->tan_y;
     spc_ray r;
     if (cs->type == SPC_CAMERA_ORTHOGRAPHIC) {
+        double x = (1.0 - 2.0 * fx / cs->width) * cs->tan_x;
+        double y = (1.0 - 2.0 * fy / cs->height) * cs->tan_y;
         r.o = spc_mat4_apply_point(&cs->to_world, spc_v3(x, y, 0.0));
         r.d = cs->forward;
         r.tmin = cs->near_clip * cs->pixel_scale;
         r.tmax = cs->far_clip * cs->pixel_scale;
         return r;
     }
-    spc_vec3 dw = spc_mat4_apply_vector(&cs->to_world, spc_v3(x, y, 1.0));
+    spc_vec3 dw = spc_madd(spc_madd(cs->ray_d0, cs->ray_dfx, fx), cs->ray_dfy, fy);
     double len = spc_length(dw);
     r.o = cs->origin;
     r.d = spc_scale(dw, 1.0 / len);

@@ -20,6 +20,9 @@ typedef struct spc_camera_state {
     double image_area;    /* area of the image plane at z = 1 (perspective) in world units */
     double pixel_scale;   /* world length of the camera's unit local x (to normalize scaled to_world) */
     double aperture_radius, focus_distance; /* thin lens (perspective); radius 0: the pinhole */
+    /* perspective: the world direction through film point (fx, fy), unnormalized, is
+     * ray_d0 + fx ray_dfx + fy ray_dfy (to_world applied to the local direction, precomputed) */
+    spc_vec3 ray_d0, ray_dfx, ray_dfy;
 } spc_camera_state;
 
 bool spc_camera_prepare(spc_camera_state *cs, const spc_camera *c, int width, int height);

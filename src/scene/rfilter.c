@@ -34,6 +34,14 @@ void spc_film_filter_prepare(spc_film_spec *f)
         f->filter_step[k] = Z > 0.0 ? f->filter_step[k] / Z : 0.0;
         f->filter_step_cdf[k + 1] = f->filter_step_cdf[k] + h * f->filter_step[k];
     }
+    /* the guide: for bucket b, the last step k <= RES - 1 with cdf[k] <= b / (2 GUIDE) */
+    int k = 0;
+    for (int b = 0; b <= SPC_FILTER_GUIDE; ++b) {
+        double t = b / (2.0 * SPC_FILTER_GUIDE);
+        while (k < SPC_FILTER_RESOLUTION - 1 && f->filter_step_cdf[k + 1] <= t)
+            ++k;
+        f->filter_guide[b] = (unsigned char)k;
+    }
 }
 
 /* The step holding |x| = a < radius. */
@@ -68,26 +76,22 @@ double spc_film_filter_cdf(const spc_film_spec *f, double x)
     return x < 0.0 ? 0.5 - m : 0.5 + m;
 }
 
-/* The branch-free search below steps through the cumulative masses by halving powers of two. */
-_Static_assert(((SPC_FILTER_RESOLUTION + 1) & SPC_FILTER_RESOLUTION) == 0,
-               "filter_inverse_cdf needs SPC_FILTER_RESOLUTION + 1 to be a power of two");
+_Static_assert(SPC_FILTER_RESOLUTION <= 255, "filter_guide holds step indices in bytes");
 
-/* The inverse CDF, for u in [0, 1]: the step by a search of the cumulative masses, then linear
- * within it (the density is constant there). The step is the last k <= RES - 1 with
- * filter_step_cdf[k] <= t, found without branches: the outcome of each comparison is a coin flip,
- * and a branchy bisection's mispredictions cost more than the rest of the sampling (veach-mis). */
+/* The inverse CDF, for u in [0, 1]: the step, then linear within it (the density is constant
+ * there). The step is the last k <= RES - 1 with filter_step_cdf[k] <= t: the guide table gives it
+ * at the lower end of t's bucket, and a short scan (no step for most t; the tent's and the
+ * Gaussian's outer steps are narrower than a bucket) finishes it. */
 static double filter_inverse_cdf(const spc_film_spec *f, double u)
 {
     double r = f->filter_radius;
     if (f->rfilter == SPC_RFILTER_BOX)
         return (2.0 * u - 1.0) * r;
     double t = fabs(u - 0.5), h = r / SPC_FILTER_RESOLUTION;
-    int lo = 0; /* filter_step_cdf[lo] <= t (filter_step_cdf[0] = 0) */
-    for (int step = (SPC_FILTER_RESOLUTION + 1) / 2; step > 0; step /= 2) {
-        int next = lo + step; /* at most SPC_FILTER_RESOLUTION: inside filter_step_cdf */
-        lo = f->filter_step_cdf[next] <= t ? next : lo;
-    }
-    lo = lo < SPC_FILTER_RESOLUTION - 1 ? lo : SPC_FILTER_RESOLUTION - 1;
+    int b = (int)(t * (2.0 * SPC_FILTER_GUIDE));
+    int lo = f->filter_guide[b < SPC_FILTER_GUIDE ? b : SPC_FILTER_GUIDE];
+    while (lo < SPC_FILTER_RESOLUTION - 1 && f->filter_step_cdf[lo + 1] <= t)
+        ++lo;
     double a = lo * h;
     if (f->filter_step[lo] > 0.0)
         a += (t - f->filter_step_cdf[lo]) / f->filter_step[lo];

@@ -57,6 +57,8 @@ typedef enum spc_rfilter_type {
 /* Steps of the tent and gaussian filters over [0, radius]: Mitsuba 3's MI_FILTER_RESOLUTION
  * (scene/rfilter.h says why the filters are step functions). */
 #define SPC_FILTER_RESOLUTION 31
+/* Buckets of |u - 1/2| in [0, 1/2] for the guide table of the filter's inverse CDF (scene/rfilter.c) */
+#define SPC_FILTER_GUIDE 128
 
 typedef struct spc_film_spec {
     int width, height;                      /* full film */
@@ -68,6 +70,7 @@ typedef struct spc_film_spec {
      * |x| and the mass of [0, k radius / RES) */
     double filter_step[SPC_FILTER_RESOLUTION];
     double filter_step_cdf[SPC_FILTER_RESOLUTION + 1];
+    unsigned char filter_guide[SPC_FILTER_GUIDE + 1]; /* the step at each bucket's lower end */
 } spc_film_spec;
 
 #define SPC_SPECULAR_NEE_NONE 0

@@ -920,20 +920,27 @@ bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, 
         out->pdf = pdf;
         return true;
     }
+    /* A direction uniform in the cone toward the sphere, as spc_warp_uniform_cone draws it, turned
+     * into the point it sees by the angle alpha at the center between the reference point and
+     * that point (pbrt-v4's Sphere::Sample): no ray-sphere intersection and no normalization on
+     * the dependency chain. cos_max, 1 - cos_theta and thus the density are the cone warp's. */
     spc_vec3 dc = spc_sub(s->center, ref);
-    double dist2 = spc_length2(dc), dist = sqrt(dist2);
+    double dist2 = spc_length2(dc), inv_dist = 1.0 / sqrt(dist2);
     double R = s->radius;
     double sin2_max = R * R / dist2;
     double cos_max = sqrt(spc_max(0.0, 1.0 - sin2_max));
-    spc_frame fr = spc_frame_from_n(spc_scale(dc, 1.0 / dist));
-    spc_vec3 wl = spc_warp_uniform_cone(u, cos_max);
-    spc_vec3 w = spc_frame_to_world(&fr, wl);
-    /* point on the sphere along w: nearest intersection (clamped to the tangent point) */
-    double b = spc_dot(w, dc);
-    double disc = R * R - (dist2 - b * b);
-    double t = b - spc_safe_sqrt(disc);
-    spc_vec3 p = spc_madd(ref, w, t);
-    spc_vec3 n = spc_normalize(spc_sub(p, s->center));
+    double one_minus_cos = u.x * (1.0 - cos_max);
+    double cos_t = 1.0 - one_minus_cos, sin2_t = one_minus_cos * (2.0 - one_minus_cos);
+    /* law of sines in the triangle (ref, center, point), the near intersection; clamped to the
+     * tangent point where rounding puts the direction past the cone */
+    double cos_a = sin2_t / (R * inv_dist) + cos_t * spc_safe_sqrt(1.0 - sin2_t / sin2_max);
+    cos_a = spc_min(cos_a, 1.0);
+    double sin_a = spc_safe_sqrt(1.0 - cos_a * cos_a);
+    double sp, cp;
+    spc_sincos_2pi(u.y, &sp, &cp);
+    /* the normal: from the center, turned by alpha from the direction back toward ref */
+    spc_frame fr = spc_frame_from_n(spc_scale(dc, inv_dist));
+    spc_vec3 n = spc_frame_to_world(&fr, spc_v3(-sin_a * cp, -sin_a * sp, -cos_a));
     out->p = spc_madd(s->center, n, R);
     out->n = s->flip_normals ? spc_neg(n) : n;
     out->uv = spc_v2(0.0, 0.0);
