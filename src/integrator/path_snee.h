@@ -50,9 +50,11 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
 
 /* Specular NEE at the path vertex h (wo toward the previous vertex; segments: the path's segments
  * so far), to be multiplied by the path throughput: chains within the depth left and the budget.
- * smp is not moved (the estimate draws from a fork of it). */
+ * With specular NEE on, the light sample's uniforms come from smp's next two dimension pairs
+ * (drawn at every vertex, so that they stay aligned across a pixel's samples and stratified); the
+ * rest of the estimate draws from a fork of it. */
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
-                                int segments, const spc_sampler *smp);
+                                int segments, spc_sampler *smp);
 
 /* After BSDF sampling at h (wo toward the previous vertex) chose direction wi in lobe `lobe`. */
 void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, spc_vec3 wi, unsigned lobe);

@@ -168,6 +168,12 @@ typedef struct spc_snee_params {
      * casters by spc_snee_later_prob; 0 counts as 1); not with guide, not from the camera (camera_p). */
     double later_p;
     double query_p;
+    /* The light sample's uniforms where the caller draws them from its stratified sample stream
+     * (light_u_on; the path integrator at each receiver): light_u[0] picks the light, light_u[1]
+     * and light_u[2] the point on it. Otherwise spc_snee_sample_light draws them from its own
+     * generator. */
+    bool light_u_on;
+    double light_u[3];
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular

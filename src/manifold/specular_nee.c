@@ -452,8 +452,11 @@ static bool sample_light_facing(const spc_shape *s, spc_vec3 cb, double cr, spc_
 bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, spc_snee_query *q,
                            const spc_emitter **e_out, spc_vec2 *uv, double *p_y)
 {
+    /* the caller's stratified uniforms where it has drawn them (spc_snee_params.light_u) */
+    const spc_snee_params *sp = q->params;
+    bool given = sp && sp->light_u_on;
     double pmf;
-    const spc_emitter *e = spc_scene_sample_emitter(sc, spc_rng_next(rng), &pmf);
+    const spc_emitter *e = spc_scene_sample_emitter(sc, given ? sp->light_u[0] : spc_rng_next(rng), &pmf);
     if (!e)
         return false;
     *e_out = e;
@@ -467,7 +470,7 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
         if (!caster_bound(sc, any_surface, &cb, &cr))
             return false;
         spc_shape_sample ss;
-        spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+        spc_vec2 u = given ? spc_v2(sp->light_u[1], sp->light_u[2]) : spc_v2(spc_rng_next(rng), spc_rng_next(rng));
         if (!sample_light_facing(e->shape, cb, cr, u, &ss))
             return false;
         if (spc_dot(ss.n, spc_sub(cb, ss.p)) + cr <= 0.0)
