@@ -27,7 +27,7 @@
  * reflections spread over every wall, a few photons a cell). */
 #define SPC_CGUIDE_MIN_SHARE 0.02
 /* Cells with fewer photons are dropped: their mean and spread are noise. */
-#define SPC_CGUIDE_MIN_PHOTONS 4
+#define SPC_CGUIDE_CELL_PHOTONS 4
 /* The smallest disk, in cells (a focus's photons may all fall on one point). */
 #define SPC_CGUIDE_MIN_RADIUS 0.125
 /* Entries whose weight at a vertex is below this share of the strongest one's are left out there. */
@@ -197,7 +197,7 @@ spc_cguide *spc_cguide_build(const spc_scene *sc, long photons, uint64_t seed, d
     /* the kept cells, busiest first */
     size_t nkeep = 0;
     for (size_t j = 0; j < cap; ++j)
-        if (cells[j].used && cells[j].count >= SPC_CGUIDE_MIN_PHOTONS)
+        if (cells[j].used && cells[j].count >= SPC_CGUIDE_CELL_PHOTONS)
             cells[nkeep++] = cells[j];
     qsort(cells, nkeep, sizeof *cells, cmp_power_desc);
     for (size_t j = 0; j < nkeep && g->n < SPC_CGUIDE_MAX_ENTRIES; ++j) {

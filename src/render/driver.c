@@ -438,8 +438,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     /* caustic guiding at receivers (caustic_guide.h): its photon pre-pass, once, on this thread */
     spc_cguide *cguide = NULL;
     if (ctx.kind == SPC_INTEGRATOR_PATH && ctx.specular_nee != SPC_SNEE_NONE && ctx.snee.recv_guide > 0.0 && !use_cl)
-        cguide = spc_cguide_build(sc, SPC_CGUIDE_PHOTONS, SPC_CGUIDE_STREAM,
-                                  ctx.snee.recv_guide);
+        cguide = spc_cguide_build(sc, spc_cguide_photons((double)ctx.width * ctx.height * (double)spp),
+                                  SPC_CGUIDE_STREAM, ctx.snee.recv_guide);
     ctx.snee.cguide = cguide;
     double guide_seconds = now_seconds() - t_start;
     uint64_t rays = 0, invalid = film->invalid_samples;
