@@ -62,7 +62,7 @@ static const char *const lit_caustic_xml =
     "<scene version=\"3.0.0\">\n"
     "<integrator type=\"path\"/>\n"
     "<sensor type=\"perspective\"><float name=\"fov\" value=\"50\"/>\n"
-    "  <transform name=\"to_world\"><lookat origin=\"0, 1.6, 3\" target=\"0, 0.6, 0\" up=\"0, 1, 0\"/></transform>\n"
+    "  <transform name=\"to_world\"><lookat origin=\"0, 1.6, 3\" target=\"0, 1, 0\" up=\"0, 1, 0\"/></transform>\n"
     "  <film type=\"hdrfilm\"><integer name=\"width\" value=\"12\"/><integer name=\"height\" value=\"12\"/>"
     "<rfilter type=\"box\"/></film></sensor>\n"
     "<shape type=\"rectangle\"><transform name=\"to_world\"><rotate x=\"1\" angle=\"-90\"/></transform>\n"
@@ -70,12 +70,12 @@ static const char *const lit_caustic_xml =
     "<shape type=\"rectangle\"><transform name=\"to_world\"><translate y=\"1\" z=\"-1\"/></transform>\n"
     "  <bsdf type=\"diffuse\"/></shape>\n"
     "<shape type=\"rectangle\"><transform name=\"to_world\"><scale x=\"0.3\" y=\"0.3\"/><rotate x=\"1\" angle=\"-90\"/>"
-    "<translate y=\"0.002\"/></transform>\n"
+    "<translate y=\"0.002\" z=\"0.5\"/></transform>\n"
     "  <bsdf type=\"diffuse\"/><emitter type=\"area\"><rgb name=\"radiance\" value=\"2\"/></emitter></shape>\n"
     "<shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0.8\" z=\"0\"/><float name=\"radius\" value=\"0.3\"/>\n"
     "  <bsdf type=\"dielectric\"/></shape>\n"
     "<shape type=\"rectangle\"><transform name=\"to_world\"><scale x=\"0.1\" y=\"0.1\"/><rotate x=\"1\" angle=\"90\"/>"
-    "<translate y=\"2\"/></transform>\n"
+    "<translate y=\"2\" z=\"-0.8\"/></transform>\n"
     "  <emitter type=\"area\"><rgb name=\"radiance\" value=\"60\"/></emitter></shape>\n"
     "</scene>\n";
 
