@@ -441,7 +441,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         cguide = spc_cguide_build(sc, spc_cguide_photons((double)ctx.width * ctx.height * (double)spp),
                                   SPC_CGUIDE_STREAM, ctx.snee.recv_guide);
     ctx.snee.cguide = cguide;
-    double guide_seconds = now_seconds() - t_start;
+    double guide_seconds = cguide ? now_seconds() - t_start : 0.0;
     uint64_t rays = 0, invalid = film->invalid_samples;
     const int start = film->spp;
     int done = start;
