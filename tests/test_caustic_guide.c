@@ -97,8 +97,10 @@ TEST(density_matches_sampling)
     }
     double gs = t / N, gs_se = sqrt((t2 / N - gs * gs) / N);
     CHECK_MSG(bad == 0, "%d samples without density", bad);
-    CHECK_MSG(fabs(gs - gu) < 4.0 * sqrt(gs_se * gs_se + gu_se * gu_se), "integral of g: guided %.4f (se %.4f), "
-              "uniform %.4f (se %.4f)", gs, gs_se, gu, gu_se);
+    CHECK_MSG(fabs(gs - gu) < 4.0 * sqrt(gs_se * gs_se + gu_se * gu_se),
+              "integral of g: guided %.4f (se %.4f), "
+              "uniform %.4f (se %.4f)",
+              gs, gs_se, gu, gu_se);
     printf("    integral of p_guide %.4f (se %.4f); of g: guided %.4f, uniform %.4f\n", mean, se, gs, gu);
     spc_scene_destroy(sc);
 }
@@ -136,9 +138,7 @@ TEST(mixture_is_unbiased)
     CHECK_MSG(worst < 1e-9, "record vs mixture: relative difference %.3g", worst);
     CHECK_MSG(fabs(mean - albedo) < 4.0 * se, "mean weight %.5f (se %.5f), albedo %.2f", mean, se, albedo);
     CHECK(fabs((double)guided / N - v.a) < 0.01);
-    /* the weight is bounded by the BSDF's own over 1 - a */
-    printf("    mean weight %.5f (se %.5f) for albedo %.2f; guided share %.3f\n", mean, se, albedo,
-           (double)guided / N);
+    printf("    mean weight %.5f (se %.5f) for albedo %.2f; guided share %.3f\n", mean, se, albedo, (double)guided / N);
     /* without a guide: the BSDF's own sample */
     spc_bsdf_sample a, b;
     CHECK(spc_cguide_sample_mix(NULL, &h, wo, 0.3, spc_v2(0.4, 0.6), &a) &&

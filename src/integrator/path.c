@@ -112,10 +112,11 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                     bool snee_has = spc_path_snee_light_covered(&sn, sc, &h, wo, ds.wi, e);
                     if (!snee_has && !spc_scene_occluded(sc, &sr)) {
                         double lp = pmf * ds.pdf;
-                        double w = ds.is_delta ? 1.0
-                                               : spc_mis_power(lp, spc_cguide_mix_pdf(gv, spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE,
-                                                                                              wo, ds.wi),
-                                                                                 ds.wi));
+                        /* against the continuation's density: the BSDF's, or the guided mixture's */
+                        double w = 1.0;
+                        if (!ds.is_delta)
+                            w = spc_mis_power(lp, spc_cguide_mix_pdf(
+                                                      gv, spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE, wo, ds.wi), ds.wi));
                         spc_rgb c = spc_rgb_mul(spc_rgb_mul(beta, f), ds.L);
                         L = spc_rgb_add(L, spc_rgb_scale(c, cosi * w / lp));
                     }

@@ -50,7 +50,9 @@
 static inline long spc_cguide_photons(double camera_samples)
 {
     double n = camera_samples / SPC_CGUIDE_SAMPLES_PER_PHOTON;
-    return n < SPC_CGUIDE_MIN_PHOTONS ? SPC_CGUIDE_MIN_PHOTONS : n > SPC_CGUIDE_MAX_PHOTONS ? SPC_CGUIDE_MAX_PHOTONS : (long)n;
+    return n < SPC_CGUIDE_MIN_PHOTONS   ? SPC_CGUIDE_MIN_PHOTONS
+           : n > SPC_CGUIDE_MAX_PHOTONS ? SPC_CGUIDE_MAX_PHOTONS
+                                        : (long)n;
 }
 
 /* The pre-pass's stream: fixed, so that every seed and thread count gets the same guide. */
@@ -61,18 +63,18 @@ static inline long spc_cguide_photons(double camera_samples)
 #define SPC_CGUIDE_MAX_ENTRIES 32
 
 typedef struct spc_cguide_entry {
-    spc_vec3 c, n;  /* disk centre and unit normal (toward the side the light arrived from) */
-    double r;       /* disk radius */
-    double power;   /* the photons' power (luminance, W) */
+    spc_vec3 c, n; /* disk centre and unit normal (toward the side the light arrived from) */
+    double r;      /* disk radius */
+    double power;  /* the photons' power (luminance, W) */
 } spc_cguide_entry;
 
 typedef struct spc_cguide {
-    int n;                                        /* entries */
+    int n; /* entries */
     spc_cguide_entry e[SPC_CGUIDE_MAX_ENTRIES];
-    double a;                                     /* the mixture's guide probability at a vertex that sees an entry */
-    long photons;                                 /* light paths traced */
-    long landed;                                  /* of them, landed after a delta vertex */
-    double power;                                 /* the power the landed photons carry */
+    double a;     /* the mixture's guide probability at a vertex that sees an entry */
+    long photons; /* light paths traced */
+    long landed;  /* of them, landed after a delta vertex */
+    double power; /* the power the landed photons carry */
 } spc_cguide;
 
 /* Traces `photons` light paths (stream `seed`), and builds the guide with mixture probability a
@@ -85,9 +87,9 @@ void spc_cguide_destroy(spc_cguide *g);
 typedef struct spc_cguide_vertex {
     const spc_cguide *g;
     spc_vec3 x;
-    double a;     /* the mixture probability at x (0: BSDF sampling alone) */
-    double wsum;  /* sum of w */
-    int n;        /* the entries x weighs (w > 0): their indices in g->e and their weights */
+    double a;    /* the mixture probability at x (0: BSDF sampling alone) */
+    double wsum; /* sum of w */
+    int n;       /* the entries x weighs (w > 0): their indices in g->e and their weights */
     unsigned char idx[SPC_CGUIDE_MAX_ENTRIES];
     double w[SPC_CGUIDE_MAX_ENTRIES];
 } spc_cguide_vertex;
