@@ -147,6 +147,8 @@ typedef struct spc_render_stats {
     uint64_t samples;
     uint64_t invalid_samples; /* NaN or infinite estimates, discarded and counted */
     char specular_nee[96];    /* the specular NEE setting that ran ("none" when off; see spc_scene_plan) */
+    int caustic_guide_entries;    /* caustic guiding at receivers: the guide's entries (0: it did not run) */
+    double caustic_guide_seconds; /* and its photon pre-pass's wall time (inside wall_seconds) */
 } spc_render_stats;
 
 spc_status spc_render(const spc_scene *s, const spc_render_options *o, spc_film **out, spc_render_stats *stats,

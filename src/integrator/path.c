@@ -18,6 +18,12 @@
  * paths may also end with the light sample taken at a rough vertex: that sample is dropped too
  * (spc_snee_track_covers_light), as is the emitter it would be weighted against by MIS.
  *
+ * Caustic guiding at receivers (params.recv_guide, manifold/caustic_guide.h): where the render's
+ * photon pre-pass found caustics a vertex sees, its continuation is drawn from a defensive mixture
+ * of directions toward them and the BSDF's sample (spc_cguide_sample_mix), and the mixture's
+ * density replaces the BSDF's in the throughput and in every MIS weight of that bounce (light NEE,
+ * the emitter hit, specular NEE through path_snee's receiver).
+ *
  * Throughput with Russian roulette: after rr_depth segments a path survives with probability
  * q = min(0.95, max(beta) * eta_scale^2), where eta_scale undoes the radiance scaling of
  * refraction so that paths inside glass are not killed for it (pbrt-v4).
@@ -85,6 +91,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         if (ctx->strict_normals && spc_dot(wo, h.ng) * spc_dot(wo, h.sh.n) < 0.0)
             break;
         const spc_bsdf *b = h.bsdf;
+        /* caustic guiding (caustic_guide.h): the continuation's mixture, NULL for the BSDF alone */
+        const spc_cguide_vertex *gv = spc_path_snee_guide_at(&sn, &h, wo);
 
         /* next-event estimation (always draw the same dimensions, so streams stay aligned) */
         double u_light = spc_sampler_1d(smp);
@@ -104,8 +112,11 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                     bool snee_has = spc_path_snee_light_covered(&sn, sc, &h, wo, ds.wi, e);
                     if (!snee_has && !spc_scene_occluded(sc, &sr)) {
                         double lp = pmf * ds.pdf;
-                        double w = ds.is_delta ? 1.0
-                                               : spc_mis_power(lp, spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE, wo, ds.wi));
+                        /* against the continuation's density: the BSDF's, or the guided mixture's */
+                        double w = 1.0;
+                        if (!ds.is_delta)
+                            w = spc_mis_power(lp, spc_cguide_mix_pdf(
+                                                      gv, spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE, wo, ds.wi), ds.wi));
                         spc_rgb c = spc_rgb_mul(spc_rgb_mul(beta, f), ds.L);
                         L = spc_rgb_add(L, spc_rgb_scale(c, cosi * w / lp));
                     }
@@ -123,7 +134,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         spc_vec2 u_dir = spc_sampler_2d(smp);
         double u_rr = spc_sampler_1d(smp);
         spc_bsdf_sample bs;
-        if (!spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs))
+        if (!spc_cguide_sample_mix(gv, &h, wo, u_lobe, u_dir, &bs))
             break;
         if (ctx->strict_normals && !(spc_dot(bs.wi, h.ng) * spc_dot(bs.wi, h.sh.n) > 0.0))
             break;

@@ -87,8 +87,16 @@ double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx
     if (s->cam_track)
         return spc_snee_camera_bsdf_weight(ctx->scene, &s->p, ctx->cam, s->cam_scale, s->cam_d0, t->max_chain, t->k,
                                            t->events, h);
-    return spc_snee_mis_bsdf_weight(ctx->scene, &s->p, &s->mis_x, s->mis_wo, s->mis_d0, t->max_chain, t->k,
-                                    t->events, h);
+    if (s->mis_gv.a > 0.0) { /* the receiver's density is the guided mixture's */
+        spc_snee_params p = s->p;
+        p.cguide_at = &s->mis_gv;
+        return spc_snee_mis_bsdf_weight(ctx->scene, &p, &s->mis_x, s->mis_wo, s->mis_d0, t->max_chain, t->k,
+                                        t->events, h);
+    }
+    spc_snee_params p = s->p;
+    p.cguide_at = NULL;
+    return spc_snee_mis_bsdf_weight(ctx->scene, &p, &s->mis_x, s->mis_wo, s->mis_d0, t->max_chain, t->k, t->events,
+                                    h);
 }
 
 bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, const spc_hit *h, spc_vec3 wo,
@@ -119,6 +127,18 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
     return spc_specular_nee_depth(ctx->scene, &s->p, h, wo, s->budget, s->long_budget, &rng, NULL);
 }
 
+const spc_cguide_vertex *spc_path_snee_guide_at(spc_path_snee *s, const spc_hit *h, spc_vec3 wo)
+{
+    s->p.cguide_at = NULL;
+    if (!s->on || !s->p.cguide || !(s->p.recv_guide > 0.0))
+        return NULL;
+    spc_cguide_vertex_init(&s->gv, s->p.cguide, h, wo);
+    if (!(s->gv.a > 0.0))
+        return NULL;
+    s->p.cguide_at = &s->gv;
+    return &s->gv;
+}
+
 void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, spc_vec3 wi, unsigned lobe)
 {
     if (s->on) {
@@ -127,6 +147,10 @@ void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, sp
             s->mis_x = *h;
             s->mis_wo = wo;
             s->mis_d0 = wi;
+            if (s->p.cguide_at)
+                s->mis_gv = s->gv;
+            else
+                s->mis_gv.a = 0.0;
         }
     }
     if (!(lobe & SPC_LOBE_DELTA)) {

@@ -17,6 +17,7 @@
 #define SPC_INTEGRATOR_PATH_SNEE_H
 
 #include "integrator/context.h"
+#include "manifold/caustic_guide.h"
 
 typedef struct spc_path_snee {
     bool on;                 /* specular NEE runs in this path */
@@ -30,6 +31,8 @@ typedef struct spc_path_snee {
     int receivers;           /* non-delta vertices so far */
     int budget, long_budget; /* at the current vertex: the chain budget specular NEE used (0: none)
                                 and the longer chains' bound */
+    spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
+    spc_cguide_vertex mis_gv; /* and at mis_x, the receiver the track started at */
 } spc_path_snee;
 
 /* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, and with
@@ -55,6 +58,12 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
  * rest of the estimate draws from a fork of it. */
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
                                 int segments, spc_sampler *smp);
+
+/* The caustic guide (caustic_guide.h) at the path vertex h (wo toward the previous vertex), to
+ * sample its continuation with spc_cguide_sample_mix and weigh it with spc_cguide_mix_pdf; specular
+ * NEE at h (spc_path_snee_at_vertex) and the MIS weight of the paths it covers from h use the same
+ * mixture. NULL where the guide does not run there (BSDF sampling alone). */
+const spc_cguide_vertex *spc_path_snee_guide_at(spc_path_snee *s, const spc_hit *h, spc_vec3 wo);
 
 /* After BSDF sampling at h (wo toward the previous vertex) chose direction wi in lobe `lobe`. */
 void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, spc_vec3 wi, unsigned lobe);

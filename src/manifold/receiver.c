@@ -7,6 +7,8 @@
 
 #include <string.h>
 
+#include "manifold/caustic_guide.h"
+
 /* A bare start point: no shape, BSDF or offset; the frame around n orients the chain's tangent
  * plane only. */
 static void bare_point(spc_hit *x, spc_vec3 p, spc_vec3 n)
@@ -81,7 +83,8 @@ bool spc_receiver_eval(const spc_receiver *r, spc_vec3 d0, spc_vec3 p1, spc_rgb 
 double spc_receiver_pdf(const spc_receiver *r, spc_vec3 d0)
 {
     switch (r->kind) {
-    case SPC_RECEIVER_SURFACE: return spc_bsdf_pdf(r->hit->bsdf, r->hit, SPC_MODE_RADIANCE, r->wo, d0);
+    case SPC_RECEIVER_SURFACE:
+        return spc_cguide_mix_pdf(r->guide, spc_bsdf_pdf(r->hit->bsdf, r->hit, SPC_MODE_RADIANCE, r->wo, d0), d0);
     case SPC_RECEIVER_MEDIUM: return spc_phase_pdf(r->phase, r->wo, d0);
     case SPC_RECEIVER_CAMERA: return spc_camera_pdf_dir(r->cam, d0) * r->cam_scale;
     default: return 0.0;

@@ -7,7 +7,8 @@
  * sampling picks d0 (solid angle at x; the other strategy of the MIS weight):
  *
  *   kind     factor f(d0) (times cos)                    density of d0
- *   surface  BSDF(wo, d0), radiance mode; |d0 . n_s|     the BSDF's sampling pdf
+ *   surface  BSDF(wo, d0), radiance mode; |d0 . n_s|     the BSDF's sampling pdf (mixed with the
+ *                                                        caustic guide's where r->guide is set)
  *   medium   phase(wo, d0); 1                            the phase function's (exact sampling)
  *   camera   We(p1) cam_scale / (W H); 1                 W H / N pdf_dir(d0), N the camera samples
  *                                                        per pass: pdf_dir(d0) cam_scale
@@ -48,6 +49,9 @@ typedef struct spc_receiver {
     int medium;                         /* medium: its index in scene->media */
     const spc_camera_state *cam;        /* camera (borrowed) */
     double cam_scale;                   /* camera: the full film's pixels over the samples per pass */
+    /* surface: the caustic guide at the hit (caustic_guide.h), or NULL; with one, the receiver's
+     * own density is the guided mixture's (a p_guide + (1 - a) p_bsdf) */
+    const struct spc_cguide_vertex *guide;
 } spc_receiver;
 
 /* A surface receiver at h (borrowed: it must outlive r), wo toward the previous vertex. */

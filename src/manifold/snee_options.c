@@ -15,6 +15,8 @@
 /* guide without a value: a cone as wide as the light's image through the chain to its point facing
  * x (measured in bench/RESULTS.md, "Guided directions": 1 against 1.5 and 2 on the pools). */
 #define SPC_SNEE_GUIDE 1.0
+/* recguide without a value: the guided share of a vertex's directions (caustic_guide.h) */
+#define SPC_SNEE_RECV_GUIDE 0.25
 /* The largest integer an option takes (six digits: far beyond any sensible count). */
 #define SPC_SNEE_COUNT_MAX 999999
 
@@ -70,6 +72,10 @@ static const spc_snee_option options[] = {
      NULL, "guided directions in cones M times the light's image through a chain (guide alone: M 1)"},
     {"sneep", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(snee_p), 0, NULL,
      "with guide: the light sample (and its solve) made with probability Q where a guided cone exists"},
+    {"recguide", "norecguide", SPC_SNEE_OPT_REAL, true, "A", 0, 0.9, true, false, NULL, 0, NO, AT(recv_guide),
+     SPC_SNEE_RECV_GUIDE, NULL,
+     "path: at a non-delta vertex, with probability A a direction toward the caustics a photon pre-pass "
+     "found (recguide alone: A 0.25)"},
 };
 #define NOPTIONS ((int)(sizeof options / sizeof options[0]))
 

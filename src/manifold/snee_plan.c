@@ -411,6 +411,10 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             p.later_p);
     if (p.camera && p.camera_p < 1.0)
         put(&b, "  from the camera on a share %g of the samples\n", p.camera_p);
+    if (p.recv_guide > 0.0)
+        put(&b, "  caustic guiding at receivers (path): a share %g of a vertex's directions toward the caustics "
+                "a photon pre-pass finds at render start\n",
+            p.recv_guide);
     const spc_chain_casters *cs = spc_chain_casters_of(sc, p.any_surface);
     for (int i = 0; cs && i < cs->n; ++i) {
         const spc_shape *s = sc->shapes[cs->idx[i]];

@@ -174,6 +174,14 @@ typedef struct spc_snee_params {
      * generator. */
     bool light_u_on;
     double light_u[3];
+    /* Caustic guiding at receivers (the user's "recguide=A" / "norecguide"; caustic_guide.h): the
+     * path tracer's BSDF sampling at a non-delta vertex draws, with probability A, a direction
+     * toward the caustic photons' disks that x sees, and weighs every strategy with the mixture's
+     * density. 0: off. cguide is the guide the render built (NULL: none) and cguide_at the guide at
+     * the receiver being queried (set by the path tracer per vertex; NULL: BSDF sampling alone). */
+    double recv_guide;
+    const struct spc_cguide *cguide;
+    const struct spc_cguide_vertex *cguide_at;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular

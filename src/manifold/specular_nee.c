@@ -237,8 +237,10 @@ static const spc_receiver *query_receiver(const spc_snee_query *q, spc_receiver 
         return q->receiver;
     if (q->cam)
         spc_receiver_camera(own, q->cam, q->cam_scale);
-    else
+    else {
         spc_receiver_surface(own, q->x, q->wo);
+        own->guide = q->params ? q->params->cguide_at : NULL;
+    }
     return own;
 }
 
@@ -674,6 +676,7 @@ double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, c
 {
     spc_receiver r;
     spc_receiver_surface(&r, x, wo);
+    r.guide = p->cguide_at;
     return spc_snee_receiver_weight(sc, p, &r, d0, max_chain, k, events, light);
 }
 
@@ -1012,6 +1015,7 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
         return spc_rough_nee(sc, p, x, wo, spc_snee_budget_params(p, x, max_chain), rng, st);
     spc_receiver r;
     spc_receiver_surface(&r, x, wo);
+    r.guide = p->cguide_at;
     return receiver_nee(sc, p, solver, &r, max_chain, long_max, rng, st);
 }
 

@@ -32,6 +32,7 @@
 #include "integrator/path_wave.h"
 #include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
+#include "manifold/caustic_guide.h"
 #include "manifold/specular_nee.h"
 #include "scene/camera.h"
 #include "render/checkpoint.h"
@@ -437,6 +438,13 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
 
     double t_start = now_seconds();
     uint64_t rays = 0, shadow_rays = 0, invalid = film->invalid_samples;
+    /* caustic guiding at receivers (caustic_guide.h): its photon pre-pass, once, on this thread */
+    spc_cguide *cguide = NULL;
+    if (ctx.kind == SPC_INTEGRATOR_PATH && ctx.specular_nee != SPC_SNEE_NONE && ctx.snee.recv_guide > 0.0 && !use_cl)
+        cguide = spc_cguide_build(sc, spc_cguide_photons((double)ctx.width * ctx.height * (double)spp),
+                                  SPC_CGUIDE_STREAM, ctx.snee.recv_guide);
+    ctx.snee.cguide = cguide;
+    double guide_seconds = cguide ? now_seconds() - t_start : 0.0;
     const int start = film->spp;
     int done = start;
     double sec_per_pass = 0.0, last_ckpt = t_start;
@@ -577,6 +585,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
             status = cs;
     }
     double wall = now_seconds() - t_start;
+    int guide_entries = cguide ? cguide->n : 0;
+    spc_cguide_destroy(cguide);
     spc_cl_destroy(cl);
     for (size_t i = 0; i < (size_t)max_batch * ntiles; ++i)
         free(tls[i].splats);
@@ -599,6 +609,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         stats->samples = (uint64_t)film->spp * npix;
         stats->invalid_samples = invalid;
         snprintf(stats->specular_nee, sizeof stats->specular_nee, "%s", ctx.specular_nee ? sname : "none");
+        stats->caustic_guide_entries = guide_entries;
+        stats->caustic_guide_seconds = guide_seconds;
     }
     *out = film; /* also with a checkpoint write error: the image rendered so far is valid */
     if (status == SPC_ERR_INTERRUPTED)

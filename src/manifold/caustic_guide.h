@@ -1,0 +1,126 @@
+/*
+ * manifold/caustic_guide.h: sampling directions toward the caustics that light a receiver.
+ *
+ * Specular NEE gives a caustic's radiance exactly where the camera path's vertex lies in it, but a
+ * path that sees the caustic only through a diffuse bounce (the ceiling lit by the bright spot under
+ * a glass ball) reaches that spot by BSDF sampling alone, rarely and with a large weight. The guide
+ * makes that bounce less rare:
+ *
+ *   - a pre-pass (spc_cguide_build) traces light paths from the lights through at least one delta
+ *     vertex to their first non-delta hit, and records where they land with their power (caustic
+ *     photons); photons are binned in a grid on the landing surfaces and each busy cell becomes an
+ *     entry: a disk at the photons' mean position, in the plane of their mean normal (toward the
+ *     side the light came from), reaching the farthest of them (within the cell), with their
+ *     power;
+ *   - at a path vertex x (spc_cguide_vertex_init) each entry gets a selection weight: its power times
+ *     the cosines at both ends over the squared distance (what the entry's radiance would give x,
+ *     up to the albedo), zero for an entry x sees edge-on or from behind, or that lies behind x's
+ *     surface when the BSDF only reflects;
+ *   - the continuation direction is drawn from the defensive mixture
+ *         p(w) = a p_guide(w) + (1 - a) p_bsdf(w),
+ *     where p_guide picks an entry by its weight, a point uniformly on its disk and the direction
+ *     toward it. p_guide is evaluable for any direction: the sum over entries of the selection
+ *     probability times the disk's area density at the ray's crossing of the disk's plane, times
+ *     t^2 / |cos|. The disks are a proposal only (no occlusion test; a direction toward an occluded
+ *     disk is wasted, not wrong), so the estimator is unbiased for any cloud, and a = 0 (no entry
+ *     seen from x) leaves the BSDF's sampling alone.
+ * The path integrator uses the mixture's density wherever it used the BSDF's for that bounce: the
+ * throughput, MIS against light NEE, and MIS of specular NEE against BSDF sampling (receiver.h: a
+ * surface receiver's density is the mixture's when it carries a guide vertex).
+ *
+ * Determinism: the pre-pass uses one fixed stream per photon and runs on one thread; the entries do
+ * not depend on thread count or timing.
+ */
+#ifndef SPC_MANIFOLD_CAUSTIC_GUIDE_H
+#define SPC_MANIFOLD_CAUSTIC_GUIDE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "scene/scene.h"
+
+/* Light paths the render's pre-pass traces: one per SPC_CGUIDE_SAMPLES_PER_PHOTON camera samples
+ * of the render, from SPC_CGUIDE_MIN_PHOTONS to SPC_CGUIDE_MAX_PHOTONS (a render with a time limit:
+ * the most), so that the pre-pass stays a few percent of the render: on the demo a light path costs
+ * about a tenth of a camera sample with specular NEE (callgrind: 65536 of them, 5.5% of a 32x32
+ * render at 16 spp), and some 4% of them reach the glass or mirror ball. */
+#define SPC_CGUIDE_MIN_PHOTONS 8192
+#define SPC_CGUIDE_MAX_PHOTONS 65536
+#define SPC_CGUIDE_SAMPLES_PER_PHOTON 4.0
+static inline long spc_cguide_photons(double camera_samples)
+{
+    double n = camera_samples / SPC_CGUIDE_SAMPLES_PER_PHOTON;
+    return n < SPC_CGUIDE_MIN_PHOTONS   ? SPC_CGUIDE_MIN_PHOTONS
+           : n > SPC_CGUIDE_MAX_PHOTONS ? SPC_CGUIDE_MAX_PHOTONS
+                                        : (long)n;
+}
+
+/* The pre-pass's stream: fixed, so that every seed and thread count gets the same guide. */
+#define SPC_CGUIDE_STREAM 0x63617573746963ULL
+
+/* The most entries a guide keeps (the busiest cells): every vertex weighs each of them, and each
+ * density evaluation tests the ray against each disk. */
+#define SPC_CGUIDE_MAX_ENTRIES 32
+
+typedef struct spc_cguide_entry {
+    spc_vec3 c, n; /* disk centre and unit normal (toward the side the light arrived from) */
+    double r;      /* disk radius */
+    double power;  /* the photons' power (luminance, W) */
+} spc_cguide_entry;
+
+typedef struct spc_cguide {
+    int n; /* entries */
+    spc_cguide_entry e[SPC_CGUIDE_MAX_ENTRIES];
+    double a;     /* the mixture's guide probability at a vertex that sees an entry */
+    long photons; /* light paths traced */
+    long landed;  /* of them, landed after a delta vertex */
+    double power; /* the power the landed photons carry */
+} spc_cguide;
+
+/* Traces `photons` light paths (stream `seed`), and builds the guide with mixture probability a
+ * (0 < a < 1). Returns NULL where no photon lands after a delta vertex (no caster lit) or memory
+ * runs out: the caller then samples by the BSDF alone. Free with spc_cguide_destroy. */
+spc_cguide *spc_cguide_build(const spc_scene *sc, long photons, uint64_t seed, double a);
+void spc_cguide_destroy(spc_cguide *g);
+
+/* The guide at one path vertex: the entries' selection weights from x. */
+typedef struct spc_cguide_vertex {
+    const spc_cguide *g;
+    spc_vec3 x;
+    double a;    /* the mixture probability at x (0: BSDF sampling alone) */
+    double wsum; /* sum of w */
+    int n;       /* the entries x weighs (w > 0): their indices in g->e and their weights */
+    unsigned char idx[SPC_CGUIDE_MAX_ENTRIES];
+    double w[SPC_CGUIDE_MAX_ENTRIES];
+} spc_cguide_vertex;
+
+/* The guide at the surface hit h (wo toward the previous vertex). g may be NULL (then a = 0). The
+ * guide runs only at BSDFs with a smooth lobe and no transmission lobe. */
+void spc_cguide_vertex_init(spc_cguide_vertex *v, const spc_cguide *g, const spc_hit *h, spc_vec3 wo);
+
+/* Draws a direction from p_guide (u1 picks the entry, u2 the point on its disk): false where v->a
+ * is 0 or the point is x itself. */
+bool spc_cguide_sample(const spc_cguide_vertex *v, double u1, spc_vec2 u2, spc_vec3 *wi);
+
+/* p_guide(wi) (solid angle at x; 0 where v->a is 0). */
+double spc_cguide_pdf(const spc_cguide_vertex *v, spc_vec3 wi);
+
+/* Samples the continuation at the surface hit h (wo toward the previous vertex) from the mixture
+ * at v (radiance mode), as spc_bsdf_sample_dir does from the BSDF alone (which it is where v is
+ * NULL or v->a is 0): u_lobe < a picks the guide (u_lobe / a its entry, u_dir the disk point),
+ * else the BSDF with (u_lobe - a) / (1 - a). The record's pdf is the mixture's density of wi (for a
+ * delta lobe the BSDF's probability times 1 - a) and weight = f |cos| / pdf. A guided direction is
+ * reported as the BSDF's diffuse (else glossy) reflection lobe. False: no sample. */
+bool spc_cguide_sample_mix(const spc_cguide_vertex *v, const spc_hit *h, spc_vec3 wo, double u_lobe, spc_vec2 u_dir,
+                           struct spc_bsdf_sample *bs);
+
+/* The mixture's density of wi, given the BSDF's density pdf_bsdf of it: a p_guide + (1 - a) pdf_bsdf;
+ * pdf_bsdf itself where v is NULL or a is 0. */
+static inline double spc_cguide_mix_pdf(const spc_cguide_vertex *v, double pdf_bsdf, spc_vec3 wi)
+{
+    if (!v || !(v->a > 0.0))
+        return pdf_bsdf;
+    return v->a * spc_cguide_pdf(v, wi) + (1.0 - v->a) * pdf_bsdf;
+}
+
+#endif

@@ -1,0 +1,134 @@
+/*
+ * tests/test_caustic_guide_render.c: the path tracer with caustic guiding at receivers
+ * (manifold/caustic_guide.h, the "recguide" option) against the same specular NEE without it.
+ *
+ * Two scenes, each rendered with recguide=0.5 (half of every guided vertex's directions toward the
+ * photons' disks, so that a wrong mixture density shows) and without, compared by the per-pixel
+ * z-test and the image means:
+ *   - lit_caustic: a glass ball focuses a small ceiling light onto a second area light lying on
+ *     the floor (the photons land on that light's surface), seen from a back wall: the wall's
+ *     guided directions reach an emitter, so the weight of an emitter hit by BSDF sampling against
+ *     light NEE must use the mixture's density on both sides;
+ *   - the demo (scenes/demo.xml): the ceiling and walls lit by the glass ball's caustic on the
+ *     floor, specular NEE at the floor point weighted against BSDF sampling through the glass.
+ * And the render's statistics say when the guide ran.
+ */
+/* ctest-labels: stat */
+/* ctest-timeout: 600 */
+#include <string.h>
+#include <unistd.h>
+
+#include "harness.h"
+#include "render_util.h"
+
+static spc_film *render_stats(const spc_scene *sc, const char *snee, int spp, uint64_t seed, spc_render_stats *st)
+{
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = spp;
+    o.threads = 2;
+    o.seed = seed;
+    o.integrator = "path";
+    o.specular_nee = snee;
+    spc_film *f = NULL;
+    spc_error err;
+    memset(st, 0, sizeof *st);
+    if (spc_render(sc, &o, &f, st, &err) != SPC_OK) {
+        printf("  render failed: %s\n", err.msg);
+        spc_film_destroy(f);
+        return NULL;
+    }
+    return f;
+}
+
+static spc_scene *load_text(const char *text)
+{
+    char path[64];
+    snprintf(path, sizeof path, "/tmp/spc_cguide_%ld.xml", (long)getpid());
+    FILE *fp = fopen(path, "w");
+    if (!fp)
+        return NULL;
+    fputs(text, fp);
+    fclose(fp);
+    spc_scene *sc = NULL;
+    spc_error err;
+    if (spc_scene_load(path, NULL, 0, &sc, &err) != SPC_OK)
+        printf("  load failed: %s\n", err.msg);
+    remove(path);
+    return sc;
+}
+
+static const char *const lit_caustic_xml =
+    "<scene version=\"3.0.0\">\n"
+    "<integrator type=\"path\"/>\n"
+    "<sensor type=\"perspective\"><float name=\"fov\" value=\"50\"/>\n"
+    "  <transform name=\"to_world\"><lookat origin=\"0, 1.6, 3\" target=\"0, 1, 0\" up=\"0, 1, 0\"/></transform>\n"
+    "  <film type=\"hdrfilm\"><integer name=\"width\" value=\"12\"/><integer name=\"height\" value=\"12\"/>"
+    "<rfilter type=\"box\"/></film></sensor>\n"
+    "<shape type=\"rectangle\"><transform name=\"to_world\"><rotate x=\"1\" angle=\"-90\"/></transform>\n"
+    "  <bsdf type=\"diffuse\"/></shape>\n"
+    "<shape type=\"rectangle\"><transform name=\"to_world\"><translate y=\"1\" z=\"-1\"/></transform>\n"
+    "  <bsdf type=\"diffuse\"/></shape>\n"
+    "<shape type=\"rectangle\"><transform name=\"to_world\"><scale x=\"0.3\" y=\"0.3\"/><rotate x=\"1\" angle=\"-90\"/>"
+    "<translate y=\"0.002\" z=\"0.5\"/></transform>\n"
+    "  <bsdf type=\"diffuse\"/><emitter type=\"area\"><rgb name=\"radiance\" value=\"2\"/></emitter></shape>\n"
+    "<shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0.8\" z=\"0\"/><float name=\"radius\" value=\"0.3\"/>\n"
+    "  <bsdf type=\"dielectric\"/></shape>\n"
+    "<shape type=\"rectangle\"><transform name=\"to_world\"><scale x=\"0.1\" y=\"0.1\"/><rotate x=\"1\" angle=\"90\"/>"
+    "<translate y=\"2\" z=\"-0.8\"/></transform>\n"
+    "  <emitter type=\"area\"><rgb name=\"radiance\" value=\"60\"/></emitter></shape>\n"
+    "</scene>\n";
+
+/* Renders sc with `base` and with base + ",recguide=0.5" (spp each, seeds apart) and compares them. */
+static void guided_agrees(const spc_scene *sc, const char *base, int spp, const char *label)
+{
+    char guided[128];
+    snprintf(guided, sizeof guided, "%s,recguide=0.5", base);
+    spc_render_stats sg, sb;
+    spc_film *img = render_stats(sc, guided, spp, 71, &sg);
+    spc_film *ref = render_stats(sc, base, spp, 72, &sb);
+    CHECK(img && ref);
+    if (img && ref) {
+        /* the statistics say which render had the guide */
+        CHECK_MSG(sg.caustic_guide_entries > 0 && sb.caustic_guide_entries == 0, "%s: entries %d, %d", label,
+                  sg.caustic_guide_entries, sb.caustic_guide_entries);
+        CHECK(strstr(sg.specular_nee, "recguide=0.5") && !strstr(sb.specular_nee, "recguide"));
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(img, ref, 0.99, label, &d));
+        printf("    %s: z-test pass %.4f of %d pixels; means %.5f vs %.5f; guide: %d entries, %.3f s\n", label,
+               d.ztest_pass_fraction, d.ztest_pixels, d.mean_a[0], d.mean_b[0], sg.caustic_guide_entries,
+               sg.caustic_guide_seconds);
+    }
+    spc_film_destroy(img);
+    spc_film_destroy(ref);
+}
+
+TEST(lit_caustic)
+{
+    spc_scene *sc = load_text(lit_caustic_xml);
+    CHECK(sc);
+    if (sc)
+        guided_agrees(sc, "angular:later=1", 2048, "lit caustic: recguide vs none");
+    spc_scene_destroy(sc);
+}
+
+TEST(demo)
+{
+    char path[1200];
+    snprintf(path, sizeof path, "%s/scenes/demo.xml", spc_test_source_dir());
+    spc_define defs[1] = {{"res", "16"}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK_MSG(spc_scene_load(path, defs, 1, &sc, &err) == SPC_OK, "%s", err.msg);
+    if (sc)
+        guided_agrees(sc, "angular:camera=0.22,later=0.25", 512, "demo: recguide vs without");
+    spc_scene_destroy(sc);
+}
+
+int main(void)
+{
+    RUN(lit_caustic);
+    RUN(demo);
+    return spc_test_finish();
+}
