@@ -13,6 +13,7 @@
 #include "core/rng.h"
 #include "emitter/emitter.h"
 #include "manifold/cylinder_chains.h"
+#include "manifold/flat_chains.h"
 #include "manifold/plane_chains.h"
 #include "manifold/snee_cost.h"
 #include "manifold/snee_options.h"
@@ -349,6 +350,8 @@ spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *
             return SPC_SNEE_METHOD_CYLINDER;
         if (spc_plane_chain_shape(s))
             return SPC_SNEE_METHOD_PLANE;
+        if (spc_flat_chain_shape(s))
+            return SPC_SNEE_METHOD_FLAT;
     }
     return SPC_SNEE_METHOD_SOLVER;
 }
@@ -430,6 +433,14 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             put(&b, "every chain through the normal-mapped plane enumerated exactly, 1 vertex");
             if (p.max_chain > 1)
                 put(&b, "; longer chains by %s", solver ? solver->name : "?");
+            break;
+        case SPC_SNEE_METHOD_FLAT:
+            put(&b, "every chain through its flat faces (and other flat casters') enumerated exactly, 1-%d vertices",
+                p.max_chain < SPC_FLAT_MAX_VERTICES ? p.max_chain : SPC_FLAT_MAX_VERTICES);
+            if (p.max_chain > SPC_FLAT_MAX_VERTICES)
+                put(&b, "; longer chains by %s", solver ? solver->name : "?");
+            else if (p.max_chain < SPC_FLAT_MAX_VERTICES && p.long_p > 0.0 && !p.no_mis)
+                put(&b, " (up to %d with probability %g)", SPC_FLAT_MAX_VERTICES, p.long_p);
             break;
         case SPC_SNEE_METHOD_SOLVER:
             put(&b, "%s, 1-%d vertices%s", solver ? solver->name : "?", p.max_chain,
