@@ -30,9 +30,9 @@
 
 /* The smoothing's stages: mu from 0.1 of the problem's size down to MU_END of it, by MU_FALL per
  * stage, at most STAGE_STEPS Newton steps each (one or two are enough once the path is followed). */
-#define SPC_FLAT_MU_FALL 0.1
+#define SPC_FLAT_MU_FALL 0.01
 #define SPC_FLAT_MU_END 1e-7
-#define SPC_FLAT_STAGE_STEPS 6
+#define SPC_FLAT_STAGE_STEPS 5
 
 /* Converged when each vertex's tangential mismatch (a difference of unit vectors times indices)
  * is below this: the 3D polish then needs one trace. */
@@ -49,11 +49,17 @@ typedef struct flat_face {
     double d;         /* n . p for p on the plane */
     spc_vec3 o, u, v; /* a point on the plane, an orthonormal tangent basis */
     int first, count; /* its triangles: corner[3 * first ..], tri2d[6 * first ..] */
+    spc_vec3 c;       /* the centre of its corners' bounding box, */
+    double rad;       /* and the radius of the sphere around c that holds them */
 } flat_face;
 
 typedef struct flat_cache {
     void (*destroy)(void *); /* first member: spc_shape_release calls it */
     bool ok;
+    /* closed (every edge shared by two triangles) and convex (every corner on the inner side of
+     * every face's plane): a glass cube, slab or prism. A path then meets such a shape's faces from
+     * the inside only between two of its own vertices, and never meets it twice from outside. */
+    bool convex;
     int nfaces;
     flat_face face[SPC_FLAT_MAX_FACES];
     int ntri;
@@ -76,6 +82,54 @@ static void cache_destroy(void *p)
 static spc_vec3 vert(const spc_mesh *m, uint32_t i)
 {
     return spc_v3(m->p[3 * i], m->p[3 * i + 1], m->p[3 * i + 2]);
+}
+
+/* Signed distance of p from face f's plane (positive on the exterior side). */
+static double plane_dist(const flat_face *f, spc_vec3 p) { return spc_dot(f->n, p) - f->d; }
+
+/* Is p inside the convex shape of fc, beyond tol from every face's plane? */
+static bool inside_convex(const flat_cache *fc, spc_vec3 p, double tol)
+{
+    for (int f = 0; f < fc->nfaces; ++f)
+        if (!(plane_dist(&fc->face[f], p) < -tol))
+            return false;
+    return true;
+}
+
+/* Does the reflection arriving along d at a face of normal n reflect totally (ratio: n(arriving
+ * side) / n(other side))? */
+static bool total_reflection(spc_vec3 d, spc_vec3 n, double ratio)
+{
+    double c = spc_dot(d, n);
+    return ratio * sqrt(fmax(0.0, 1.0 - c * c)) > 1.0;
+}
+
+static bool same_point(spc_vec3 a, spc_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+
+/* Is the mesh closed (each triangle edge met, reversed, by exactly one other triangle edge, by
+ * position: a cube's faces have vertices of their own) and convex (every corner within tol of the
+ * inner side of every face's plane)? At most SPC_FLAT_CONVEX_TRIS triangles are checked. */
+#define SPC_FLAT_CONVEX_TRIS 512
+static bool closed_convex(const flat_cache *c, const spc_mesh *m, double scale)
+{
+    if (c->ntri == 0 || c->ntri > SPC_FLAT_CONVEX_TRIS || (size_t)c->ntri != m->ntris)
+        return false;
+    for (int f = 0; f < c->nfaces; ++f)
+        for (int j = 0; j < 3 * c->ntri; ++j)
+            if (plane_dist(&c->face[f], c->corner[j]) > 1e-7 * scale)
+                return false;
+    /* corner[] holds each triangle's corners in its winding order (the mesh's) */
+    for (int t = 0; t < c->ntri; ++t)
+        for (int e = 0; e < 3; ++e) {
+            spc_vec3 a = c->corner[3 * t + e], b = c->corner[3 * t + (e + 1) % 3];
+            int twins = 0;
+            for (int u = 0; u < c->ntri; ++u)
+                for (int g = 0; g < 3 && u != t; ++g)
+                    twins += same_point(c->corner[3 * u + g], b) && same_point(c->corner[3 * u + (g + 1) % 3], a);
+            if (twins != 1)
+                return false;
+        }
+    return true;
 }
 
 /* Groups s's triangles by plane; c->ok false if they make more than SPC_FLAT_MAX_FACES planes or
@@ -142,7 +196,20 @@ static void cache_build(const spc_shape *s, flat_cache *c)
         }
     }
     c->ntri = at;
+    for (int f = 0; f < c->nfaces; ++f) {
+        flat_face *F = &c->face[f];
+        spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
+        for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j) {
+            lo = spc_v3(fmin(lo.x, c->corner[j].x), fmin(lo.y, c->corner[j].y), fmin(lo.z, c->corner[j].z));
+            hi = spc_v3(fmax(hi.x, c->corner[j].x), fmax(hi.y, c->corner[j].y), fmax(hi.z, c->corner[j].z));
+        }
+        F->c = spc_scale(spc_add(lo, hi), 0.5);
+        F->rad = 0.0;
+        for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j)
+            F->rad = fmax(F->rad, spc_distance(F->c, c->corner[j]));
+    }
     c->ok = c->nfaces > 0;
+    c->convex = closed_convex(c, m, scale);
 }
 
 /* May s be a flat chain shape at all (before its faces are counted)? */
@@ -215,7 +282,9 @@ typedef struct flat_vertex {
     int side_in;  /* side of the face the path arrives from: +1 exterior, -1 interior */
     int side_out; /* side it leaves to */
     unsigned char event;
-    double eta; /* the shape's (0: conductor) */
+    double eta;  /* the shape's (0: conductor) */
+    double tir;  /* > 0: a reflection off glass in a longer chain, which must be total: the ratio
+                    n(arriving side) / n(other side) that sin(incidence) times must exceed 1 */
 } flat_vertex;
 
 typedef struct flat_problem {
@@ -435,8 +504,6 @@ static bool in_face(const flat_cache *fc, const flat_face *f, spc_vec3 p, double
     return false;
 }
 
-/* Signed distance of p from face f's plane (positive on the exterior side). */
-static double plane_dist(const flat_face *f, spc_vec3 p) { return spc_dot(f->n, p) - f->d; }
 
 /* Is the segment a -> b clear of every face of the flat-faced casters but those its ends lie on
  * (fa, fb; NULL for x and y)? A root whose path passes through another face of its own shape or of
@@ -487,6 +554,8 @@ static bool solve_sequence(const spc_scene *sc, const spc_chain_casters *cs, fla
             return false;
         if (!in_face(P->v[i].fc, f, p[i + 1], SPC_FLAT_EDGE_REL * P->scale))
             return false;
+        if (P->v[i].tir > 0.0 && !total_reflection(spc_normalize(spc_sub(p[i + 1], p[i])), f->n, P->v[i].tir))
+            return false;
     }
     for (int j = 0; j <= k; ++j)
         if (!segment_clear(sc, cs, p[j], p[j + 1], j > 0 ? P->v[j - 1].f : NULL, j < k ? P->v[j].f : NULL, tol))
@@ -504,6 +573,123 @@ static bool corner_on_side(const flat_cache *fc, const flat_face *f, const flat_
     return false;
 }
 
+/* Is every segment from a point of face b (of a shape with cache fb) to the point z blocked by
+ * another closed convex flat caster (every such segment crossing the inside of one of its faces)?
+ * The segments from z to b meet a plane that separates them in b's central projection from z, a
+ * convex polygon (b is one: a face of a convex shape, or a triangle list whose hull is tested)
+ * held by the face when its corners' images are. */
+static bool shadowed(const spc_scene *sc, const spc_chain_casters *cs, const flat_cache *fb, const flat_face *b,
+                     spc_vec3 z, double tol)
+{
+    for (int j = 0; j < cs->n; ++j) {
+        const flat_cache *fc = flat_get(sc->shapes[cs->idx[j]]);
+        if (!fc || fc == fb || !fc->convex)
+            continue;
+        for (int fi = 0; fi < fc->nfaces; ++fi) {
+            const flat_face *f = &fc->face[fi];
+            double dz = plane_dist(f, z);
+            if (fabs(dz) <= tol)
+                continue;
+            bool all = true;
+            for (int t = 3 * b->first; t < 3 * (b->first + b->count) && all; ++t) {
+                spc_vec3 c = fb->corner[t];
+                double dc = plane_dist(f, c);
+                if (!(dc * dz < 0.0 && fabs(dc) > tol)) {
+                    all = false;
+                    break;
+                }
+                spc_vec3 q = spc_add(c, spc_scale(spc_sub(z, c), dc / (dc - dz)));
+                all = in_face(fc, f, q, -tol);
+            }
+            if (all)
+                return true;
+        }
+    }
+    return false;
+}
+
+/* ---- direction cones ----
+ *
+ * A set of directions bounded by a cap of the unit sphere: axis a, half-angle r (r >= pi: any
+ * direction). The walk carries the cap that holds the direction of the segment leaving the last
+ * vertex, and prunes a sequence where no direction of it can do what the next face asks: meet the
+ * plane from the chosen side, refract out of glass without total internal reflection, point from
+ * one face toward the next or toward y. Each cap is a bound (every direction a real chain can take
+ * lies in it), so pruning loses nothing:
+ *   - from x to a face: the directions toward its corners' bounding sphere;
+ *   - reflection: an isometry of directions, the cap reflected;
+ *   - refraction into a denser medium (n_in < n_out): inside the critical cone around the normal,
+ *     half-angle asin(n_in / n_out); and since the map is a contraction of the sphere there (the
+ *     polar angle's derivative cos ti n_in / (cos tt n_out) < 1, the azimuth's sin tt / sin ti < 1),
+ *     inside the cap of the same r around the refracted axis;
+ *   - refraction out (n_in > n_out): only directions within asin(n_out / n_in) of the normal pass;
+ *     the polar angle out is asin(n_in / n_out sin ti) of the largest ti in the cap. */
+
+typedef struct cone {
+    spc_vec3 a;
+    double r;
+} cone;
+
+static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(fmax(-1.0, fmin(1.0, spc_dot(a, b)))); }
+
+/* The directions from the points of the sphere (c0, r0) to those of the sphere (c1, r1). */
+static cone cone_between(spc_vec3 c0, double r0, spc_vec3 c1, double r1)
+{
+    spc_vec3 d = spc_sub(c1, c0);
+    double len = spc_length(d), r = r0 + r1;
+    if (!(len > r))
+        return (cone){spc_v3(0, 0, 1), 4.0};
+    return (cone){spc_scale(d, 1.0 / len), asin(r / len)};
+}
+
+static bool cones_meet(cone p, cone q)
+{
+    return p.r + q.r >= SPC_PI || angle_between(p.a, q.a) <= p.r + q.r + 1e-9;
+}
+
+/* The cap of the directions leaving a vertex on the plane of unit normal m (toward the side the
+ * path arrives from) with the event given, from the cap c of the arriving ones; false if none can
+ * arrive (or, refracting out, pass). n_in, n_out the indices (equal for a reflection). */
+static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n_out, cone *out)
+{
+    spc_vec3 down = spc_neg(m); /* the direction straight into the plane */
+    double th = c.r >= SPC_PI ? 0.0 : angle_between(c.a, down);
+    if (c.r < SPC_PI && th - c.r >= 0.5 * SPC_PI - 1e-12)
+        return false; /* every direction runs parallel to the plane or away from it */
+    if (reflect) {
+        if (c.r >= SPC_PI) {
+            *out = c;
+            return true;
+        }
+        *out = (cone){spc_sub(c.a, spc_scale(m, 2.0 * spc_dot(c.a, m))), c.r};
+        return true;
+    }
+    if (n_in == n_out) {
+        *out = c;
+        return true;
+    }
+    if (n_in < n_out) {
+        double crit = asin(n_in / n_out);
+        cone best = {down, crit};
+        if (c.r < crit && th < 0.5 * SPC_PI) {
+            /* the axis refracted: tangential part scaled by n_in / n_out */
+            spc_vec3 tan = spc_add(c.a, spc_scale(m, spc_dot(c.a, down)));
+            spc_vec3 tt = spc_scale(tan, n_in / n_out);
+            double st2 = spc_dot(tt, tt);
+            spc_vec3 ra = spc_add(tt, spc_scale(down, sqrt(fmax(0.0, 1.0 - st2))));
+            best = (cone){spc_normalize(ra), c.r};
+        }
+        *out = best;
+        return true;
+    }
+    double crit = asin(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
+    if (c.r < SPC_PI && th - c.r >= crit)
+        return false; /* total internal reflection for every direction */
+    double so = fmin(1.0, n_in / n_out * sin(ti));
+    *out = (cone){down, c.r >= SPC_PI ? 0.5 * SPC_PI : asin(so)};
+    return true;
+}
+
 /* ---- the walk over face sequences ---- */
 
 typedef struct flat_walk {
@@ -518,7 +704,10 @@ typedef struct flat_walk {
     bool stop;
 } flat_walk;
 
-static void walk(flat_walk *w, int i, double medium)
+/* i: the vertex to choose; medium: the index of the segment arriving there (-1: not known); dir:
+ * the cap of that segment's directions; tir: some vertex before is a total internal reflection;
+ * mixed: the vertices before lie on more than one shape. */
+static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, bool mixed)
 {
     flat_problem *P = &w->P;
     const int k = P->k;
@@ -541,9 +730,33 @@ static void walk(flat_walk *w, int i, double medium)
                     fabs(plane_dist(f, prev->f->o)) < tol)
                     continue; /* one plane: a segment between them would lie in it */
             }
+            /* the directions that can arrive at f: from x, or those leaving the last vertex that
+             * point from its face toward f */
+            cone arrive = dir;
+            if (!prev) {
+                arrive = cone_between(P->x, 0.0, f->c, f->rad);
+            } else {
+                cone between = cone_between(prev->f->c, prev->f->rad, f->c, f->rad);
+                if (!cones_meet(dir, between))
+                    continue;
+                if (between.r < arrive.r)
+                    arrive = between;
+            }
             for (int side = 1; side >= -1; side -= 2) {
+                if (fc->convex) {
+                    if (side < 0) { /* from the inside: only from a vertex of the same shape, or x inside */
+                        if (prev ? !(prev->s == s && prev->side_out < 0) : !inside_convex(fc, P->x, tol))
+                            continue;
+                    } else if (prev && prev->s == s) {
+                        continue; /* a path that left a convex shape does not meet it again */
+                    }
+                }
+                if (prev && prev->fc->convex && prev->side_out < 0 && !(prev->s == s && side < 0))
+                    continue; /* a path inside a convex shape meets its faces next */
                 if (!prev) {
                     if (!(side * plane_dist(f, P->x) > tol))
+                        continue;
+                    if (side > 0 && shadowed(w->sc, w->cs, fc, f, P->x, tol))
                         continue;
                 } else if (!corner_on_side(prev->fc, prev->f, f, side, tol) ||
                            !corner_on_side(fc, f, prev->f, prev->side_out, tol)) {
@@ -557,9 +770,30 @@ static void walk(flat_walk *w, int i, double medium)
                     unsigned char event = ev ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
                     if (eta > 0.0 ? (event == SPC_CHAIN_REFLECT && !w->reflect) : event == SPC_CHAIN_REFRACT)
                         continue;
+                    /* off glass: one reflection alone (the light's image in a pane), or a total
+                     * internal reflection in a longer chain (flat_chains.h) */
+                    double tir = 0.0;
+                    if (eta > 0.0 && event == SPC_CHAIN_REFLECT && k > 1) {
+                        tir = side_index(eta, side) / side_index(eta, -side);
+                        if (!(tir > 1.0) || mixed || (prev && prev->s != s))
+                            continue; /* total internal reflections only in chains on one shape */
+                        if (arrive.r < SPC_PI &&
+                            angle_between(arrive.a, spc_scale(f->n, -side)) + arrive.r <= asin(1.0 / tir))
+                            continue;
+                    }
                     int side_out = event == SPC_CHAIN_REFRACT ? -side : side;
+                    if (i == k - 1 && fc->convex && side_out < 0 && !inside_convex(fc, P->y, tol))
+                        continue;
+                    if (i == k - 1 && side_out > 0 && shadowed(w->sc, w->cs, fc, f, P->y, tol))
+                        continue;
                     double m_out = eta > 0.0 ? side_index(eta, side_out) : m_in;
                     if (i == k - 1 && !(side_out * plane_dist(f, P->y) > tol))
+                        continue;
+                    double n_in = m_in >= 0.0 ? m_in : 1.0, n_out = m_out >= 0.0 ? m_out : 1.0;
+                    cone leave;
+                    if (!cone_through(arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
+                        continue;
+                    if (i == k - 1 && !cones_meet(leave, cone_between(f->c, f->rad, P->y, 0.0)))
                         continue;
                     flat_vertex *v = &P->v[i];
                     v->s = s;
@@ -570,10 +804,13 @@ static void walk(flat_walk *w, int i, double medium)
                     v->side_out = side_out;
                     v->event = event;
                     v->eta = eta;
+                    v->tir = tir;
+                    if ((tir_before || tir > 0.0) && prev && prev->s != s)
+                        continue;
                     P->seg[i] = m_in;
                     P->seg[i + 1] = m_out;
                     if (i + 1 < k) {
-                        walk(w, i + 1, m_out);
+                        walk(w, i + 1, m_out, leave, tir_before || tir > 0.0, mixed || (prev && prev->s != s));
                         continue;
                     }
                     flat_problem Q = *P;
@@ -609,7 +846,7 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
     w.P.scale = spc_length(spc_sub(y, x)) + 2.0 * cs->radius;
     w.found = found;
     w.user = user;
-    walk(&w, 0, -1.0);
+    walk(&w, 0, -1.0, (cone){spc_v3(0, 0, 1), 4.0}, false, false);
     return w.sequences;
 }
 
@@ -699,6 +936,14 @@ bool spc_flat_chain_covers(const spc_chain *c, bool reflect)
             return false;
         const flat_face *f = &fc->face[fc->tri_face[v->h.prim]];
         int side = spc_dot(v->wi, f->n) < 0.0 ? 1 : -1;
+        if (eta > 0.0 && v->event == SPC_CHAIN_REFLECT && n > 1) {
+            double ratio = side_index(eta, side) / side_index(eta, -side);
+            if (!(ratio > 1.0) || !total_reflection(v->wi, f->n, ratio))
+                return false; /* a partial reflection off glass in a longer chain: not enumerated */
+            for (int j = 0; j < n; ++j)
+                if (c->v[j].h.shape != s)
+                    return false; /* total internal reflections only in chains on one shape */
+        }
         double in = side_index(eta, side);
         if (in >= 0.0 && medium >= 0.0 && fabs(in - medium) > 1e-9 * in)
             return false;
