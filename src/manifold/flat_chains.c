@@ -692,11 +692,17 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
 
 /* ---- the walk over face sequences ---- */
 
+/* Shapes whose shadow tests a walk caches (more are tested each time). */
+#define SPC_FLAT_WALK_SHAPES 32
+
 typedef struct flat_walk {
     const spc_scene *sc;
     const spc_chain_casters *cs;
     bool any_surface, reflect;
-    flat_problem P;
+    int lo, hi; /* the chain lengths wanted */
+    flat_problem P; /* P.k: the vertices chosen so far, while walking */
+    /* shadowed() from x and from y, per caster slot and face: 0 not yet known, 1 no, 2 yes */
+    unsigned char shadow[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
     /* per complete sequence: */
     bool (*found)(void *user, const flat_problem *P, const spc_vec3 *p);
     void *user;
@@ -704,30 +710,38 @@ typedef struct flat_walk {
     bool stop;
 } flat_walk;
 
+/* shadowed() of face fi of the caster in slot j from x (end 0) or y (end 1), cached. */
+static bool walk_shadowed(flat_walk *w, int end, int j, const flat_cache *fc, int fi, double tol)
+{
+    if (j >= SPC_FLAT_WALK_SHAPES)
+        return shadowed(w->sc, w->cs, fc, &fc->face[fi], end ? w->P.y : w->P.x, tol);
+    unsigned char *c = &w->shadow[end][j][fi];
+    if (!*c)
+        *c = shadowed(w->sc, w->cs, fc, &fc->face[fi], end ? w->P.y : w->P.x, tol) ? 2 : 1;
+    return *c == 2;
+}
+
 /* i: the vertex to choose; medium: the index of the segment arriving there (-1: not known); dir:
- * the cap of that segment's directions; tir: some vertex before is a total internal reflection;
- * mixed: the vertices before lie on more than one shape. */
+ * the cap of that segment's directions; tir_before: some vertex before is a total internal
+ * reflection; mixed: the vertices before lie on more than one shape. Each sequence of lo to hi
+ * vertices that passes the pruning is solved as it is completed, and longer ones grow from it. */
 static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, bool mixed)
 {
     flat_problem *P = &w->P;
-    const int k = P->k;
     double tol = SPC_FLAT_SIDE_REL * P->scale;
+    const flat_vertex *prev = i > 0 ? &P->v[i - 1] : NULL;
     for (int j = 0; j < w->cs->n && !w->stop; ++j) {
         const spc_shape *s = w->sc->shapes[w->cs->idx[j]];
-        if (!w->any_surface && !spc_chain_caster_allowed(s->caustic_flags, k))
-            continue;
         const flat_cache *fc = flat_get(s);
         if (!fc)
             continue;
         double eta = shape_eta(s);
         for (int fi = 0; fi < fc->nfaces && !w->stop; ++fi) {
             const flat_face *f = &fc->face[fi];
-            const flat_vertex *prev = i > 0 ? &P->v[i - 1] : NULL;
             if (prev) {
                 if (prev->f == f)
                     continue;
-                if (fabs(spc_dot(prev->f->n, f->n)) > 1.0 - 1e-12 &&
-                    fabs(plane_dist(f, prev->f->o)) < tol)
+                if (fabs(spc_dot(prev->f->n, f->n)) > 1.0 - 1e-12 && fabs(plane_dist(f, prev->f->o)) < tol)
                     continue; /* one plane: a segment between them would lie in it */
             }
             /* the directions that can arrive at f: from x, or those leaving the last vertex that
@@ -756,7 +770,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, 
                 if (!prev) {
                     if (!(side * plane_dist(f, P->x) > tol))
                         continue;
-                    if (side > 0 && shadowed(w->sc, w->cs, fc, f, P->x, tol))
+                    if (side > 0 && walk_shadowed(w, 0, j, fc, fi, tol))
                         continue;
                 } else if (!corner_on_side(prev->fc, prev->f, f, side, tol) ||
                            !corner_on_side(fc, f, prev->f, prev->side_out, tol)) {
@@ -766,34 +780,29 @@ static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, 
                 if (in >= 0.0 && medium >= 0.0 && fabs(in - medium) > 1e-9 * in)
                     continue; /* the two ends of the segment disagree on its medium */
                 double m_in = in >= 0.0 ? in : medium;
-                for (int ev = 0; ev < 2; ++ev) {
+                for (int ev = 0; ev < 2 && !w->stop; ++ev) {
                     unsigned char event = ev ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
                     if (eta > 0.0 ? (event == SPC_CHAIN_REFLECT && !w->reflect) : event == SPC_CHAIN_REFRACT)
                         continue;
                     /* off glass: one reflection alone (the light's image in a pane), or a total
-                     * internal reflection in a longer chain (flat_chains.h) */
+                     * internal reflection in a chain on one shape (flat_chains.h) */
                     double tir = 0.0;
-                    if (eta > 0.0 && event == SPC_CHAIN_REFLECT && k > 1) {
+                    bool tir_ok = true; /* may be a total internal reflection in a longer chain */
+                    if (eta > 0.0 && event == SPC_CHAIN_REFLECT) {
                         tir = side_index(eta, side) / side_index(eta, -side);
-                        if (!(tir > 1.0) || mixed || (prev && prev->s != s))
-                            continue; /* total internal reflections only in chains on one shape */
-                        if (arrive.r < SPC_PI &&
-                            angle_between(arrive.a, spc_scale(f->n, -side)) + arrive.r <= asin(1.0 / tir))
+                        tir_ok = tir > 1.0 && !mixed && !(prev && prev->s != s) &&
+                                 !(arrive.r < SPC_PI &&
+                                   angle_between(arrive.a, spc_scale(f->n, -side)) + arrive.r <= asin(1.0 / tir));
+                        if (i > 0 && !tir_ok)
                             continue;
                     }
+                    if (tir_before && prev && prev->s != s)
+                        continue;
                     int side_out = event == SPC_CHAIN_REFRACT ? -side : side;
-                    if (i == k - 1 && fc->convex && side_out < 0 && !inside_convex(fc, P->y, tol))
-                        continue;
-                    if (i == k - 1 && side_out > 0 && shadowed(w->sc, w->cs, fc, f, P->y, tol))
-                        continue;
                     double m_out = eta > 0.0 ? side_index(eta, side_out) : m_in;
-                    if (i == k - 1 && !(side_out * plane_dist(f, P->y) > tol))
-                        continue;
                     double n_in = m_in >= 0.0 ? m_in : 1.0, n_out = m_out >= 0.0 ? m_out : 1.0;
                     cone leave;
                     if (!cone_through(arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
-                        continue;
-                    if (i == k - 1 && !cones_meet(leave, cone_between(f->c, f->rad, P->y, 0.0)))
                         continue;
                     flat_vertex *v = &P->v[i];
                     v->s = s;
@@ -805,31 +814,45 @@ static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, 
                     v->event = event;
                     v->eta = eta;
                     v->tir = tir;
-                    if ((tir_before || tir > 0.0) && prev && prev->s != s)
-                        continue;
                     P->seg[i] = m_in;
                     P->seg[i + 1] = m_out;
-                    if (i + 1 < k) {
-                        walk(w, i + 1, m_out, leave, tir_before || tir > 0.0, mixed || (prev && prev->s != s));
-                        continue;
+                    int k = i + 1;
+                    /* complete at k vertices: the last segment reaches y */
+                    bool finish = k >= w->lo && side_out * plane_dist(f, P->y) > tol &&
+                                  !(fc->convex && side_out < 0 && !inside_convex(fc, P->y, tol)) &&
+                                  !(side_out > 0 && walk_shadowed(w, 1, j, fc, fi, tol)) &&
+                                  cones_meet(leave, cone_between(f->c, f->rad, P->y, 0.0));
+                    for (int q = 0; q < k && finish && !w->any_surface; ++q)
+                        finish = spc_chain_caster_allowed(P->v[q].s->caustic_flags, k);
+                    if (finish) {
+                        flat_problem Q = *P;
+                        Q.k = k;
+                        /* a reflection off glass alone is no total internal reflection */
+                        if (k == 1)
+                            Q.v[0].tir = 0.0;
+                        spc_vec3 p[SPC_FLAT_MAX_VERTICES + 2];
+                        ++w->sequences;
+                        if (solve_sequence(w->sc, w->cs, &Q, p) && !w->found(w->user, &Q, p))
+                            w->stop = true;
                     }
-                    flat_problem Q = *P;
-                    spc_vec3 p[SPC_FLAT_MAX_VERTICES + 2];
-                    ++w->sequences;
-                    if (solve_sequence(w->sc, w->cs, &Q, p) && !w->found(w->user, &Q, p))
-                        w->stop = true;
+                    if (k < w->hi && tir_ok)
+                        walk(w, k, m_out, leave, tir_before || tir > 0.0, mixed || (prev && prev->s != s));
                 }
             }
         }
     }
 }
 
-/* Walks every face sequence of k vertices from x to y; found() is called with each root and
- * returns false to stop. Returns the number of sequences solved. */
-static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
+/* Walks every face sequence of lo to hi vertices from x to y; found() is called with each root
+ * and returns false to stop. Returns the number of sequences solved. */
+static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int lo, int hi,
                     bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user)
 {
-    if (k < 1 || k > SPC_FLAT_MAX_VERTICES)
+    if (lo < 1)
+        lo = 1;
+    if (hi > SPC_FLAT_MAX_VERTICES)
+        hi = SPC_FLAT_MAX_VERTICES;
+    if (lo > hi)
         return 0;
     const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
     if (!cs || cs->n == 0)
@@ -840,9 +863,10 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
     w.cs = cs;
     w.any_surface = any_surface;
     w.reflect = reflect;
+    w.lo = lo;
+    w.hi = hi;
     w.P.x = x;
     w.P.y = y;
-    w.P.k = k;
     w.P.scale = spc_length(spc_sub(y, x)) + 2.0 * cs->radius;
     w.found = found;
     w.user = user;
@@ -874,7 +898,7 @@ int spc_flat_chain_roots(const spc_scene *sc, bool any_surface, bool reflect, sp
                          spc_vec3 *pts, unsigned char *events, int max, int *sequences)
 {
     roots_out o = {k, 0, max, pts, events};
-    int seq = walk_all(sc, any_surface, reflect, x, y, k, roots_found, &o);
+    int seq = walk_all(sc, any_surface, reflect, x, y, k, k, roots_found, &o);
     if (sequences)
         *sequences = seq;
     return o.n;
@@ -914,8 +938,7 @@ int spc_flat_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, in
     int lo = q->min_chain > 1 ? q->min_chain : 1;
     int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
     chains_out o = {q, out, 0, max_out, iterations};
-    for (int k = lo; k <= hi && o.n < max_out; ++k)
-        walk_all(q->scene, q->any_surface, reflect, q->x->p, q->y, k, chains_found, &o);
+    walk_all(q->scene, q->any_surface, reflect, q->x->p, q->y, lo, hi, chains_found, &o);
     return o.n;
 }
 
