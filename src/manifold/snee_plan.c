@@ -295,8 +295,12 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         off(out, "no light is seen from the casters (a light inside its housing)");
         return;
     }
-    if (out->light_sr > SPC_SNEE_PLAN_MAX_SR && out->caster_share < SPC_SNEE_PLAN_MIN_SHARE) {
-        snprintf(out->reason, sizeof out->reason, "every light is large: %.2g sr from the casters (share %.2g)", out->light_sr, out->caster_share);
+    bool any_flat = false;
+    for (int i = 0; i < cs->n; ++i)
+        any_flat = any_flat || flat(sc->shapes[cs->idx[i]]);
+    if (out->light_sr > SPC_SNEE_PLAN_MAX_SR && (out->caster_share < SPC_SNEE_PLAN_MIN_SHARE || any_flat)) {
+        snprintf(out->reason, sizeof out->reason, "every light is large: %.2g sr from the casters (share %.2g%s)",
+                 out->light_sr, out->caster_share, any_flat ? ", flat-faced casters" : "");
         out->on = false;
         snprintf(out->setting, sizeof out->setting, "none");
         return;
