@@ -26,11 +26,10 @@
  *     tracing on the Mitsuba 0.6 box, 0.062 sr, and 2x on the demo's Cornell box, 0.037 sr); but
  *     not if the casters (the spheres around their bounding boxes) fill a quarter or more of some
  *     light's directions (a light over a water surface, a lamp in a glass globe): most light then
- *     reaches the receivers through the casters; and always off with a large light if a caster
- *     is flat-faced: flat glass does not focus the light, BSDF sampling reaches a large light
- *     through it as often as without it, and the exact chains' cost (flat_chains.h: 20-40 us per
- *     query through two slabs) did not pay (scenes/newton_slabs.xml, 0.12 sr: relMSE 1.6x that
- *     of none at equal CPU time; bench/RESULTS.md, "Planar: exact chains through flat faces");
+ *     reaches the receivers through the casters;
+ *   - off too if a caster is flat-faced (enumerated by flat_chains.h) and the smallest light
+ *     subtends more than 0.002 sr (snee_plan.c, SPC_SNEE_PLAN_FLAT_MAX_SR): flat glass does not
+ *     focus the light, and the exact chains' cost paid only under a small light;
  *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
  *     the camera (SPC_SNEE_PLAN_SETTING; without that query if every caster is a mirror:
  *     SPC_SNEE_PLAN_SETTING_MIRRORS). Where every glass caster is enumerated exactly (below), that
