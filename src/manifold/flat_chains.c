@@ -217,14 +217,9 @@ static bool flat_kind(const spc_shape *s)
 {
     if (!s || s->type != SPC_SHAPE_MESH || s->emitter || !s->bsdf || (s->mesh.n && !s->face_normals))
         return false;
-    const spc_bsdf *b = s->bsdf;
-    if (b->type == SPC_BSDF_TWOSIDED) {
-        for (int i = 0; i < 2; ++i)
-            if (b->nested[i] && b->nested[i]->type != SPC_BSDF_CONDUCTOR)
-                return false;
-        return true;
-    }
-    return b->type == SPC_BSDF_DIELECTRIC || b->type == SPC_BSDF_CONDUCTOR;
+    /* glass only: on a flat mirror the enumeration's estimate read 0.6% below the reference in
+     * test_manifold's snee_point_estimates (not yet explained), so mirrors keep the solver */
+    return s->bsdf->type == SPC_BSDF_DIELECTRIC;
 }
 
 /* The shape's faces, built on first use and published atomically (as plane_chains.c's map); NULL

@@ -33,8 +33,9 @@
  * medium between two vertices is the same as seen from both (inside one dielectric, or outside).
  *
  * Shapes handled (spc_flat_chain_shape): a mesh without vertex normals (or face_normals) of at most
- * SPC_FLAT_MAX_FACES planes, a smooth dielectric or conductor (a two-sided mirror too; not a
- * normal map, which plane_chains.h handles), no emitter. Chains: 1 to SPC_FLAT_MAX_VERTICES
+ * SPC_FLAT_MAX_FACES planes, a smooth dielectric (not a normal map, which plane_chains.h handles),
+ * no emitter. The code handles conductor faces (reflections), but flat mirrors are left to the
+ * solver: on one, test_manifold's snee_point_estimates read 0.6% low, not yet explained. Chains: 1 to SPC_FLAT_MAX_VERTICES
  * vertices, every vertex on such a shape (one shape or several: two slabs' four faces), conductor
  * vertices reflect, dielectric vertices refract, or reflect when spc_snee_params.reflect.
  *
