@@ -1,12 +1,23 @@
 /*
  * manifold/polish.c: a root of an exact enumeration (sphere_chains.c, cylinder_chains.c,
- * plane_chains.c) made a chain: a few steps of the angular solver toward the query's light point,
+ * plane_chains.c, flat_chains.c) made a chain: a few steps of the angular solver toward the query's light point,
  * whose trace also proves the segments before the last unblocked (solver.h).
  */
 #include "manifold/solver.h"
 
 bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
                            spc_vec3 dir, spc_chain *out, int n, int *iterations)
+{
+    const spc_shape *shapes[SPC_CHAIN_MAX_VERTICES];
+    if (k < 1 || k > SPC_CHAIN_MAX_VERTICES)
+        return false;
+    for (int j = 0; j < k; ++j)
+        shapes[j] = s;
+    return spc_snee_exact_polish_shapes(q, shapes, k, events, dir, out, n, iterations);
+}
+
+bool spc_snee_exact_polish_shapes(const spc_snee_query *q, const spc_shape *const *shapes, int k,
+                                  const unsigned char *events, spc_vec3 dir, spc_chain *out, int n, int *iterations)
 {
     const spc_scene *sc = q->scene;
     spc_chain_opts opts = spc_chain_opts_default(k);
@@ -28,7 +39,7 @@ bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, c
     if (!conv || c->n != k)
         return false;
     for (int j = 0; j < k; ++j)
-        if (c->v[j].h.shape != s || c->v[j].event != events[j])
+        if (c->v[j].h.shape != shapes[j] || c->v[j].event != events[j])
             return false;
     for (int o = 0; o < n; ++o)
         if (spc_snee_same_solution(&out[o], c, sc->radius))

@@ -13,8 +13,9 @@
  *     since every chain's last segment is then blocked; lights not seen are left out of the rules
  *     below;
  *   - off too if a caster is flat-faced (a disk, a mesh without vertex normals: cubes, slabs,
- *     panes) and not a normal-mapped plane: flat glass does not focus light, its chains are left to
- *     the randomized attempts, and their Bernoulli trial counts were heavy-tailed there (the glass
+ *     panes) and neither a normal-mapped plane nor a mesh of few planes whose chains flat_chains.h
+ *     enumerates (a disk, a faceted ball): such chains are left to the randomized attempts, and
+ *     their Bernoulli trial counts were heavy-tailed there (the glass
  *     cube and silver ball at equal CPU time: relMSE 0.089 with specular NEE against 0.039 without,
  *     one pixel 94% of the error; two tilted slabs: newton -2.5% at 52x the cost; bench/RESULTS.md,
  *     "Caustics by default"), while on curved casters the attempts paid (the SDF torus 6.8x, a
@@ -26,6 +27,9 @@
  *     not if the casters (the spheres around their bounding boxes) fill a quarter or more of some
  *     light's directions (a light over a water surface, a lamp in a glass globe): most light then
  *     reaches the receivers through the casters;
+ *   - off too if a caster is flat-faced (enumerated by flat_chains.h) and the smallest light
+ *     subtends more than 0.002 sr (snee_plan.c, SPC_SNEE_PLAN_FLAT_MAX_SR): flat glass does not
+ *     focus the light, and the exact chains' cost paid only under a small light;
  *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
  *     the camera (SPC_SNEE_PLAN_SETTING; without that query if every caster is a mirror:
  *     SPC_SNEE_PLAN_SETTING_MIRRORS). Where every glass caster is enumerated exactly (below), that
@@ -109,6 +113,7 @@ typedef enum spc_snee_method {
     SPC_SNEE_METHOD_SPHERE,   /* every chain on the sphere enumerated (sphere_chains.h) */
     SPC_SNEE_METHOD_CYLINDER, /* every reflection chain on the mirror cylinder (cylinder_chains.h) */
     SPC_SNEE_METHOD_PLANE,    /* every one-vertex chain through the normal-mapped plane (plane_chains.h) */
+    SPC_SNEE_METHOD_FLAT,     /* every chain through the flat faces of such casters (flat_chains.h) */
     SPC_SNEE_METHOD_SOLVER    /* the plan's solver (randomized attempts, or conic's enumeration) */
 } spc_snee_method;
 

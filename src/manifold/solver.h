@@ -271,6 +271,9 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
  * signature and is not one of out[0..n). Adds its traces to *iterations. */
 bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
                            spc_vec3 dir, spc_chain *out, int n, int *iterations);
+/* The same for a chain whose vertex j lies on shapes[j] (flat_chains.h: a chain through two slabs). */
+bool spc_snee_exact_polish_shapes(const spc_snee_query *q, const spc_shape *const *shapes, int k,
+                                  const unsigned char *events, spc_vec3 dir, spc_chain *out, int n, int *iterations);
 
 /* Two converged chains with the same signature are the same solution when every vertex agrees to
  * this fraction of the scene's size: far above the solver's tolerance (angular.c, 1e-7), far below

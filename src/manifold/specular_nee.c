@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "manifold/conic.h"
+#include "manifold/flat_chains.h"
 #include "manifold/plane_chains.h"
 #include "manifold/receiver.h"
 #include "manifold/rough.h"
@@ -298,8 +299,8 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * w);
 }
 
-/* Is c a chain on one sphere, one mirror cylinder or (not from the camera) one normal-mapped plane
- * that params.exact enumerates for q? From the camera a rippled surface's glints are dozens of
+/* Is c a chain on one sphere, one mirror cylinder, through flat faces or (not from the camera) one
+ * normal-mapped plane that params.exact enumerates for q? From the camera a rippled surface's glints are dozens of
  * images of the light (35 on the pool's water: the enumeration costs five path samples there), so
  * the randomized attempts keep them. */
 static bool exact_shape_covers(const spc_snee_query *q, const spc_chain *c)
@@ -307,7 +308,7 @@ static bool exact_shape_covers(const spc_snee_query *q, const spc_chain *c)
     const spc_snee_params *p = q->params;
     return p && p->exact &&
            (spc_sphere_chain_covers(c, p->reflect) || spc_cylinder_chain_covers(c) ||
-            (!q->cam && spc_plane_chain_covers(c, p->reflect)));
+            spc_flat_chain_covers(c, p->reflect) || (!q->cam && spc_plane_chain_covers(c, p->reflect)));
 }
 
 /* Does specular NEE add the longer chains (params.long_p) at this query? */
@@ -346,6 +347,7 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
     if (!q->params || !q->params->exact)
         return false;
     int count = 0;
+    bool flat = false; /* the flat-faced shapes' chains are enumerated together, across shapes */
     const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
     if (!cs)
         return false;
@@ -356,13 +358,18 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
             used = spc_chain_caster_allowed(s->caustic_flags, k);
         if (!used)
             continue;
+        if (q->max_chain <= SPC_FLAT_MAX_VERTICES && spc_flat_chain_shape(s)) {
+            count += flat ? 0 : 1;
+            flat = true;
+            continue;
+        }
         if (!spc_sphere_chain_usable(s, q->x->p) && !spc_cylinder_chain_shape(s) &&
             (q->cam || !spc_plane_chain_shape(s)))
             return false;
         ++count;
     }
     /* two such shapes: chains through both are the randomized solver's, unless none is short enough */
-    return count <= 1 || spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain);
+    return count <= 1 || (!flat && spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain));
 }
 
 /* The biased estimator: the distinct solutions of biased_seeds attempts, each counted once. */
@@ -571,8 +578,8 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
 {
     const spc_snee_params *p = q->params;
     if (c->n > q->max_chain) { /* longer than the budget: one of params.long_p's, or none */
-        if (p->exact && spc_sphere_chain_covers(c, p->reflect))
-            return long_psi(q, c->n); /* enumerated on the sphere */
+        if (p->exact && (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_covers(c, p->reflect)))
+            return long_psi(q, c->n); /* enumerated on the sphere or through flat faces */
         return random_long(p) ? long_psi(q, c->n) * random_psi(p) : 0.0; /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
@@ -830,6 +837,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         int it = 0;
         int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &it);
         nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
+        nall += spc_flat_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
         emit_exact(q, e, uv, p_y, all, nall, it, st, sk);
         if (!q->cam)
             emit_plane_chains(q, e, uv, p_y, st, sk);
@@ -850,6 +858,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
                 spc_chain all[SPC_SNEE_MAX_ALL];
                 int it = 0;
                 int nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
+                nall += spc_flat_chains_all(&lq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
                 emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
             }
             if (random_long(p) && solver->solve_one && !(p->exact && spc_snee_exact_covers_all(&lq))) {

@@ -310,6 +310,11 @@ void spc_shape_release(spc_shape *s)
         (*destroy)(s->plane_cache);
         s->plane_cache = NULL;
     }
+    if (s->flat_cache) {
+        void (**destroy)(void *) = s->flat_cache;
+        (*destroy)(s->flat_cache);
+        s->flat_cache = NULL;
+    }
 }
 
 static double tri_area(const spc_mesh *m, size_t i)

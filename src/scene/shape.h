@@ -91,6 +91,8 @@ typedef struct spc_shape {
     void *solver_cache;
     /* The same for the exact chains on a normal-mapped plane (manifold/plane_chains.c). */
     void *plane_cache;
+    /* The same for the exact chains through flat faces (manifold/flat_chains.c: the planar faces). */
+    void *flat_cache;
 } spc_shape;
 
 /* Area-measure sample of a point on a shape. */

@@ -1,0 +1,973 @@
+/*
+ * manifold/flat_chains.c: every specular chain through flat faces (flat_chains.h).
+ *
+ * The faces of a shape are found once (flat_get: triangles grouped by plane) and kept in the
+ * shape's flat_cache. A query walks the sequences of (face, side, event) of 1 to max_chain vertices
+ * depth first with the pruning of flat_chains.h, and for each complete sequence minimizes the
+ * optical path length L over the vertices' plane coordinates (Fermat's principle; L convex, so its
+ * minimum is the sequence's one chain if there is one). Newton's method on L: gradient
+ * g_i = U_i^T (eta_{i-1} e_{i-1} - eta_i e_i) (e_j the unit direction of segment j, U_i the face's
+ * tangent basis) and the block-tridiagonal Hessian of the sum of eta_j |r_j|, whose terms are
+ * eta_j (I - e_j e_j^T) / |r_j|; a small Levenberg term keeps the step defined where the Hessian is
+ * singular (the sums of such projectors lose rank only on collinear configurations) and a
+ * backtracking line search on L makes it converge from any start (Boyd and Vandenberghe, Convex
+ * Optimization, 9.5). From the straight line x -> y a few steps reach machine precision.
+ */
+#include "manifold/flat_chains.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bsdf/bsdf.h"
+#include "manifold/solver.h"
+#include "scene/scene.h"
+#include "scene/shape.h"
+
+/* Newton's steps on L itself, from the end of the smoothed stages (below): two or three as a rule
+ * (quadratic convergence); the cap ends sequences that do not converge. */
+#define SPC_FLAT_NEWTON_STEPS 12
+
+/* The smoothing's stages: mu from 0.1 of the problem's size down to MU_END of it, by MU_FALL per
+ * stage, at most STAGE_STEPS Newton steps each (one or two are enough once the path is followed). */
+#define SPC_FLAT_MU_FALL 0.01
+#define SPC_FLAT_MU_END 1e-7
+#define SPC_FLAT_STAGE_STEPS 5
+
+/* Converged when each vertex's tangential mismatch (a difference of unit vectors times indices)
+ * is below this: the 3D polish then needs one trace. */
+#define SPC_FLAT_GRAD_TOL 1e-12
+
+/* Relative tolerances (of the problem's size): a point counts as off a plane beyond SIDE, inside a
+ * face's triangle within EDGE of its edges. Both far below any sensible scene's features and far
+ * above double rounding. */
+#define SPC_FLAT_SIDE_REL 1e-9
+#define SPC_FLAT_EDGE_REL 1e-9
+
+typedef struct flat_face {
+    spc_vec3 n;       /* unit normal toward the exterior (the winding, flip_normals applied) */
+    double d;         /* n . p for p on the plane */
+    spc_vec3 o, u, v; /* a point on the plane, an orthonormal tangent basis */
+    int first, count; /* its triangles: corner[3 * first ..], tri2d[6 * first ..] */
+    spc_vec3 c;       /* the centre of its corners' bounding box, */
+    double rad;       /* and the radius of the sphere around c that holds them */
+} flat_face;
+
+typedef struct flat_cache {
+    void (*destroy)(void *); /* first member: spc_shape_release calls it */
+    bool ok;
+    /* closed (every edge shared by two triangles) and convex (every corner on the inner side of
+     * every face's plane): a glass cube, slab or prism. A path then meets such a shape's faces from
+     * the inside only between two of its own vertices, and never meets it twice from outside. */
+    bool convex;
+    int nfaces;
+    flat_face face[SPC_FLAT_MAX_FACES];
+    int ntri;
+    int *tri_face;    /* per mesh triangle: its face, or -1 (degenerate) */
+    spc_vec3 *corner; /* per triangle in face order: its 3 corners */
+    double *tri2d;    /* per triangle in face order: its corners in the face's (u, v) */
+} flat_cache;
+
+static void cache_destroy(void *p)
+{
+    flat_cache *c = p;
+    if (!c)
+        return;
+    free(c->tri_face);
+    free(c->corner);
+    free(c->tri2d);
+    free(c);
+}
+
+static spc_vec3 vert(const spc_mesh *m, uint32_t i)
+{
+    return spc_v3(m->p[3 * i], m->p[3 * i + 1], m->p[3 * i + 2]);
+}
+
+/* Signed distance of p from face f's plane (positive on the exterior side). */
+static double plane_dist(const flat_face *f, spc_vec3 p) { return spc_dot(f->n, p) - f->d; }
+
+/* Is p inside the convex shape of fc, beyond tol from every face's plane? */
+static bool inside_convex(const flat_cache *fc, spc_vec3 p, double tol)
+{
+    for (int f = 0; f < fc->nfaces; ++f)
+        if (!(plane_dist(&fc->face[f], p) < -tol))
+            return false;
+    return true;
+}
+
+/* Does the reflection arriving along d at a face of normal n reflect totally (ratio: n(arriving
+ * side) / n(other side))? */
+static bool total_reflection(spc_vec3 d, spc_vec3 n, double ratio)
+{
+    double c = spc_dot(d, n);
+    return ratio * sqrt(fmax(0.0, 1.0 - c * c)) > 1.0;
+}
+
+static bool same_point(spc_vec3 a, spc_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+
+/* Is the mesh closed (each triangle edge met, reversed, by exactly one other triangle edge, by
+ * position: a cube's faces have vertices of their own) and convex (every corner within tol of the
+ * inner side of every face's plane)? At most SPC_FLAT_CONVEX_TRIS triangles are checked. */
+#define SPC_FLAT_CONVEX_TRIS 512
+static bool closed_convex(const flat_cache *c, const spc_mesh *m, double scale)
+{
+    if (c->ntri == 0 || c->ntri > SPC_FLAT_CONVEX_TRIS || (size_t)c->ntri != m->ntris)
+        return false;
+    for (int f = 0; f < c->nfaces; ++f)
+        for (int j = 0; j < 3 * c->ntri; ++j)
+            if (plane_dist(&c->face[f], c->corner[j]) > 1e-7 * scale)
+                return false;
+    /* corner[] holds each triangle's corners in its winding order (the mesh's) */
+    for (int t = 0; t < c->ntri; ++t)
+        for (int e = 0; e < 3; ++e) {
+            spc_vec3 a = c->corner[3 * t + e], b = c->corner[3 * t + (e + 1) % 3];
+            int twins = 0;
+            for (int u = 0; u < c->ntri; ++u)
+                for (int g = 0; g < 3 && u != t; ++g)
+                    twins += same_point(c->corner[3 * u + g], b) && same_point(c->corner[3 * u + (g + 1) % 3], a);
+            if (twins != 1)
+                return false;
+        }
+    return true;
+}
+
+/* Groups s's triangles by plane; c->ok false if they make more than SPC_FLAT_MAX_FACES planes or
+ * memory runs out. */
+static void cache_build(const spc_shape *s, flat_cache *c)
+{
+    const spc_mesh *m = &s->mesh;
+    size_t nt = m->ntris;
+    double scale = spc_length(spc_sub(s->bbox_max, s->bbox_min));
+    if (nt == 0 || !(scale > 0.0) || !isfinite(scale))
+        return;
+    c->tri_face = malloc(nt * sizeof *c->tri_face);
+    c->corner = malloc(3 * nt * sizeof *c->corner);
+    c->tri2d = malloc(6 * nt * sizeof *c->tri2d);
+    if (!c->tri_face || !c->corner || !c->tri2d)
+        return;
+    for (size_t t = 0; t < nt; ++t) {
+        spc_vec3 a = vert(m, m->idx[3 * t]), b = vert(m, m->idx[3 * t + 1]), e = vert(m, m->idx[3 * t + 2]);
+        spc_vec3 n = spc_cross(spc_sub(b, a), spc_sub(e, a));
+        double len = spc_length(n);
+        c->tri_face[t] = -1;
+        if (!(len > 1e-14 * scale * scale))
+            continue;
+        n = spc_scale(n, (s->flip_normals ? -1.0 : 1.0) / len);
+        double d = spc_dot(n, a);
+        int f = 0;
+        for (; f < c->nfaces; ++f)
+            if (spc_dot(n, c->face[f].n) > 1.0 - 1e-10 && fabs(d - c->face[f].d) < 1e-7 * scale)
+                break;
+        if (f == c->nfaces) {
+            if (c->nfaces == SPC_FLAT_MAX_FACES)
+                return;
+            flat_face *F = &c->face[c->nfaces++];
+            memset(F, 0, sizeof *F);
+            F->n = n;
+            F->d = d;
+            F->o = a;
+            spc_frame fr = spc_frame_from_n(n);
+            F->u = fr.s;
+            F->v = fr.t;
+        }
+        c->tri_face[t] = f;
+        c->face[f].count++;
+    }
+    /* the triangles in face order */
+    int at = 0;
+    for (int f = 0; f < c->nfaces; ++f) {
+        c->face[f].first = at;
+        at += c->face[f].count;
+        c->face[f].count = 0;
+    }
+    for (size_t t = 0; t < nt; ++t) {
+        int f = c->tri_face[t];
+        if (f < 0)
+            continue;
+        flat_face *F = &c->face[f];
+        int slot = F->first + F->count++;
+        for (int j = 0; j < 3; ++j) {
+            spc_vec3 p = vert(m, m->idx[3 * t + j]);
+            c->corner[3 * slot + j] = p;
+            spc_vec3 r = spc_sub(p, F->o);
+            c->tri2d[6 * slot + 2 * j] = spc_dot(r, F->u);
+            c->tri2d[6 * slot + 2 * j + 1] = spc_dot(r, F->v);
+        }
+    }
+    c->ntri = at;
+    for (int f = 0; f < c->nfaces; ++f) {
+        flat_face *F = &c->face[f];
+        spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
+        for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j) {
+            lo = spc_v3(fmin(lo.x, c->corner[j].x), fmin(lo.y, c->corner[j].y), fmin(lo.z, c->corner[j].z));
+            hi = spc_v3(fmax(hi.x, c->corner[j].x), fmax(hi.y, c->corner[j].y), fmax(hi.z, c->corner[j].z));
+        }
+        F->c = spc_scale(spc_add(lo, hi), 0.5);
+        F->rad = 0.0;
+        for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j)
+            F->rad = fmax(F->rad, spc_distance(F->c, c->corner[j]));
+    }
+    c->ok = c->nfaces > 0;
+    c->convex = closed_convex(c, m, scale);
+}
+
+/* May s be a flat chain shape at all (before its faces are counted)? */
+static bool flat_kind(const spc_shape *s)
+{
+    if (!s || s->type != SPC_SHAPE_MESH || s->emitter || !s->bsdf || (s->mesh.n && !s->face_normals))
+        return false;
+    /* glass only: on a flat mirror the enumeration's estimate read 0.6% below the reference in
+     * test_manifold's snee_point_estimates (not yet explained), so mirrors keep the solver */
+    return s->bsdf->type == SPC_BSDF_DIELECTRIC;
+}
+
+/* The shape's faces, built on first use and published atomically (as plane_chains.c's map); NULL
+ * if s is not a shape these chains handle. */
+static const flat_cache *flat_get(const spc_shape *s)
+{
+    if (!flat_kind(s))
+        return NULL;
+    void **slot = (void **)&((spc_shape *)s)->flat_cache;
+    flat_cache *cur = __atomic_load_n(slot, __ATOMIC_ACQUIRE);
+    if (!cur) {
+        flat_cache *fc = calloc(1, sizeof *fc);
+        if (!fc)
+            return NULL;
+        fc->destroy = cache_destroy;
+        cache_build(s, fc);
+        void *expected = NULL;
+        if (__atomic_compare_exchange_n(slot, &expected, (void *)fc, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+            cur = fc;
+        } else {
+            cache_destroy(fc); /* another thread won */
+            cur = expected;
+        }
+    }
+    return cur->ok ? cur : NULL;
+}
+
+bool spc_flat_chain_shape(const spc_shape *s) { return flat_get(s) != NULL; }
+
+/* eta = int_ior / ext_ior of a dielectric, 0 for a conductor. */
+static double shape_eta(const spc_shape *s)
+{
+    double eta = 0.0;
+    spc_bsdf_is_specular_interface(s->bsdf, &eta);
+    return eta;
+}
+
+/* The index of refraction on side `side` (+1 exterior, -1 interior) of a face of a shape whose eta
+ * is eta (0: a conductor, whose sides have no index of their own: -1). */
+static double side_index(double eta, int side)
+{
+    if (!(eta > 0.0))
+        return -1.0;
+    return side > 0 ? 1.0 : eta;
+}
+
+/* ---- the convex problem ---- */
+
+/* One vertex of a face sequence. */
+typedef struct flat_vertex {
+    const spc_shape *s;
+    int shape_index;
+    const flat_cache *fc;
+    const flat_face *f;
+    int side_in;  /* side of the face the path arrives from: +1 exterior, -1 interior */
+    int side_out; /* side it leaves to */
+    unsigned char event;
+    double eta;  /* the shape's (0: conductor) */
+    double tir;  /* > 0: a reflection off glass in a longer chain, which must be total: the ratio
+                    n(arriving side) / n(other side) that sin(incidence) times must exceed 1 */
+} flat_vertex;
+
+typedef struct flat_problem {
+    spc_vec3 x, y;
+    int k;
+    flat_vertex v[SPC_FLAT_MAX_VERTICES];
+    double seg[SPC_FLAT_MAX_VERTICES + 1]; /* index along each segment */
+    double scale;                          /* |y - x| and the faces' extent */
+} flat_problem;
+
+static spc_vec3 point_of(const flat_face *f, const double *s) { return spc_add(f->o, spc_add(spc_scale(f->u, s[0]), spc_scale(f->v, s[1]))); }
+
+/* L at the plane coordinates s (2 k numbers), each |r| smoothed to sqrt(|r|^2 + mu^2) (mu 0: L
+ * itself); the points written to p[0..k+1] (x and y at the ends). */
+static double path_length(const flat_problem *P, const double *s, double mu, spc_vec3 *p)
+{
+    p[0] = P->x;
+    for (int i = 0; i < P->k; ++i)
+        p[i + 1] = point_of(P->v[i].f, s + 2 * i);
+    p[P->k + 1] = P->y;
+    double L = 0.0;
+    for (int j = 0; j <= P->k; ++j) {
+        spc_vec3 r = spc_sub(p[j + 1], p[j]);
+        L += P->seg[j] * sqrt(spc_dot(r, r) + mu * mu);
+    }
+    return L;
+}
+
+/* Solves A z = b for the symmetric positive definite n x n matrix A (row-major, destroyed) by
+ * Cholesky; false if A is not positive definite. */
+static bool cholesky_solve(double *A, int n, const double *b, double *z)
+{
+    for (int j = 0; j < n; ++j) {
+        double dsum = A[j * n + j];
+        for (int k = 0; k < j; ++k)
+            dsum -= A[j * n + k] * A[j * n + k];
+        if (!(dsum > 0.0))
+            return false;
+        double l = sqrt(dsum);
+        A[j * n + j] = l;
+        for (int i = j + 1; i < n; ++i) {
+            double v = A[i * n + j];
+            for (int k = 0; k < j; ++k)
+                v -= A[i * n + k] * A[j * n + k];
+            A[i * n + j] = v / l;
+        }
+    }
+    for (int i = 0; i < n; ++i) {
+        double v = b[i];
+        for (int k = 0; k < i; ++k)
+            v -= A[i * n + k] * z[k];
+        z[i] = v / A[i * n + i];
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        double v = z[i];
+        for (int k = i + 1; k < n; ++k)
+            v -= A[k * n + i] * z[k];
+        z[i] = v / A[i * n + i];
+    }
+    return true;
+}
+
+/* The 2x2 block U_a^T M U_b for the 3x3 symmetric M. */
+static void block(double M[3][3], const flat_face *fa, const flat_face *fb, double out[2][2])
+{
+    const spc_vec3 A[2] = {fa->u, fa->v}, B[2] = {fb->u, fb->v};
+    for (int r = 0; r < 2; ++r)
+        for (int c = 0; c < 2; ++c) {
+            double a[3] = {A[r].x, A[r].y, A[r].z}, b[3] = {B[c].x, B[c].y, B[c].z}, sum = 0.0;
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    sum += a[i] * M[i][j] * b[j];
+            out[r][c] = sum;
+        }
+}
+
+/* Newton's steps on L smoothed by mu from s (updated, with p and *L) until each vertex's mismatch
+ * is below tol or `steps` are spent; returns the last mismatch (the largest component of the
+ * gradient), or -1 where the step is undefined or the line search finds no decrease. */
+static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, double *L, int steps, double tol)
+{
+    const int k = P->k, n = 2 * k;
+    double gmax = 0.0;
+    for (int it = 0; it <= steps; ++it) {
+        spc_vec3 e[SPC_FLAT_MAX_VERTICES + 1];
+        double M[SPC_FLAT_MAX_VERTICES + 1][3][3];
+        for (int j = 0; j <= k; ++j) {
+            spc_vec3 r = spc_sub(p[j + 1], p[j]);
+            double len = sqrt(spc_dot(r, r) + mu * mu);
+            if (!(len > 0.0))
+                return -1.0;
+            e[j] = spc_scale(r, 1.0 / len);
+            double ev[3] = {e[j].x, e[j].y, e[j].z};
+            for (int a = 0; a < 3; ++a)
+                for (int b = 0; b < 3; ++b)
+                    M[j][a][b] = P->seg[j] * ((a == b ? 1.0 : 0.0) - ev[a] * ev[b]) / len;
+        }
+        double g[2 * SPC_FLAT_MAX_VERTICES];
+        gmax = 0.0;
+        for (int i = 0; i < k; ++i) {
+            spc_vec3 t = spc_sub(spc_scale(e[i], P->seg[i]), spc_scale(e[i + 1], P->seg[i + 1]));
+            g[2 * i] = spc_dot(t, P->v[i].f->u);
+            g[2 * i + 1] = spc_dot(t, P->v[i].f->v);
+            gmax = fmax(gmax, fmax(fabs(g[2 * i]), fabs(g[2 * i + 1])));
+        }
+        if (gmax < tol || it == steps)
+            return gmax;
+        double H[4 * SPC_FLAT_MAX_VERTICES * SPC_FLAT_MAX_VERTICES], diag = 0.0;
+        memset(H, 0, sizeof H);
+        for (int i = 0; i < k; ++i) {
+            double Mi[3][3], B[2][2];
+            for (int a = 0; a < 3; ++a)
+                for (int b = 0; b < 3; ++b)
+                    Mi[a][b] = M[i][a][b] + M[i + 1][a][b];
+            block(Mi, P->v[i].f, P->v[i].f, B);
+            for (int r = 0; r < 2; ++r)
+                for (int c = 0; c < 2; ++c)
+                    H[(2 * i + r) * n + 2 * i + c] = B[r][c];
+            diag = fmax(diag, B[0][0] + B[1][1]);
+            if (i + 1 < k) {
+                block(M[i + 1], P->v[i].f, P->v[i + 1].f, B);
+                for (int r = 0; r < 2; ++r)
+                    for (int c = 0; c < 2; ++c) {
+                        H[(2 * i + r) * n + 2 * (i + 1) + c] = -B[r][c];
+                        H[(2 * (i + 1) + c) * n + 2 * i + r] = -B[r][c];
+                    }
+            }
+        }
+        for (int i = 0; i < n; ++i)
+            H[i * n + i] += 1e-12 * diag;
+        double step[2 * SPC_FLAT_MAX_VERTICES], rhs[2 * SPC_FLAT_MAX_VERTICES];
+        for (int i = 0; i < n; ++i)
+            rhs[i] = -g[i];
+        if (!cholesky_solve(H, n, rhs, step))
+            return -1.0;
+        double slope = 0.0;
+        for (int i = 0; i < n; ++i)
+            slope += g[i] * step[i];
+        /* backtracking: the full step near the minimum, shorter ones far from it */
+        double t = 1.0, s2[2 * SPC_FLAT_MAX_VERTICES], L2 = *L;
+        spc_vec3 p2[SPC_FLAT_MAX_VERTICES + 2];
+        int tries = 0;
+        for (; tries < 40; ++tries, t *= 0.5) {
+            for (int i = 0; i < n; ++i)
+                s2[i] = s[i] + t * step[i];
+            L2 = path_length(P, s2, mu, p2);
+            if (L2 <= *L + 1e-4 * t * slope)
+                break;
+        }
+        if (tries == 40)
+            return gmax; /* no decrease left to find in double precision */
+        memcpy(s, s2, sizeof(double) * (size_t)n);
+        memcpy(p, p2, sizeof(spc_vec3) * (size_t)(k + 2));
+        *L = L2;
+    }
+    return gmax;
+}
+
+/* Minimizes L from the straight line x -> y; writes the vertices to p[1..k] (p[0] = x, p[k+1] =
+ * y). False if it did not converge or a segment has no length (the minimum is a kink: no chain).
+ * L is not smooth where a segment vanishes, and Newton's method stalls near such a kink on its way
+ * (a vertex crossing the edge where two faces' planes meet); so it runs on L with each |r|
+ * smoothed to sqrt(|r|^2 + mu^2), a smooth, strictly convex function, for mu falling from a tenth
+ * of the problem's size by SPC_FLAT_MU_FALL per stage (a path-following homotopy), then on L. */
+static bool minimize(const flat_problem *P, spc_vec3 *p)
+{
+    const int k = P->k;
+    double s[2 * SPC_FLAT_MAX_VERTICES];
+    for (int i = 0; i < k; ++i) {
+        /* the point of the straight line at fraction (i+1)/(k+1), projected onto the face's plane */
+        spc_vec3 q = spc_add(P->x, spc_scale(spc_sub(P->y, P->x), (i + 1.0) / (k + 1.0)));
+        spc_vec3 r = spc_sub(q, P->v[i].f->o);
+        s[2 * i] = spc_dot(r, P->v[i].f->u);
+        s[2 * i + 1] = spc_dot(r, P->v[i].f->v);
+    }
+    double mu = 0.1 * P->scale;
+    double L = path_length(P, s, mu, p);
+    for (; mu > SPC_FLAT_MU_END * P->scale; mu *= SPC_FLAT_MU_FALL) {
+        L = path_length(P, s, mu, p);
+        if (newton(P, mu, s, p, &L, SPC_FLAT_STAGE_STEPS, 1e-3 * mu / P->scale) < 0.0)
+            return false;
+    }
+    L = path_length(P, s, 0.0, p);
+    double min_len = SPC_FLAT_SIDE_REL * P->scale;
+    for (int j = 0; j <= k; ++j)
+        if (!(spc_length(spc_sub(p[j + 1], p[j])) > 1e3 * min_len))
+            return false; /* a kink: no chain through this sequence */
+    double g = newton(P, 0.0, s, p, &L, SPC_FLAT_NEWTON_STEPS, SPC_FLAT_GRAD_TOL);
+    if (!(g >= 0.0 && g < 1e3 * SPC_FLAT_GRAD_TOL))
+        return false;
+    for (int j = 0; j <= k; ++j)
+        if (!(spc_length(spc_sub(p[j + 1], p[j])) > min_len))
+            return false;
+    return true;
+}
+
+/* Is p (on face f's plane) inside one of its triangles? */
+static bool in_face(const flat_cache *fc, const flat_face *f, spc_vec3 p, double tol)
+{
+    spc_vec3 r = spc_sub(p, f->o);
+    double pu = spc_dot(r, f->u), pv = spc_dot(r, f->v);
+    for (int t = f->first; t < f->first + f->count; ++t) {
+        const double *c = fc->tri2d + 6 * t;
+        bool in = true;
+        double area = (c[2] - c[0]) * (c[5] - c[1]) - (c[4] - c[0]) * (c[3] - c[1]);
+        double sgn = area < 0.0 ? -1.0 : 1.0;
+        for (int j = 0; j < 3 && in; ++j) {
+            const double *a = c + 2 * j, *b = c + 2 * ((j + 1) % 3);
+            double ex = b[0] - a[0], ey = b[1] - a[1];
+            double el = sqrt(ex * ex + ey * ey);
+            double cr = sgn * (ex * (pv - a[1]) - ey * (pu - a[0]));
+            in = cr >= -tol * el;
+        }
+        if (in)
+            return true;
+    }
+    return false;
+}
+
+
+/* Is the segment a -> b clear of every face of the flat-faced casters but those its ends lie on
+ * (fa, fb; NULL for x and y)? A root whose path passes through another face of its own shape or of
+ * another flat caster is no chain (the path would meet that face first). */
+static bool segment_clear(const spc_scene *sc, const spc_chain_casters *cs, spc_vec3 a, spc_vec3 b,
+                          const flat_face *fa, const flat_face *fb, double tol)
+{
+    for (int j = 0; j < cs->n; ++j) {
+        const flat_cache *fc = flat_get(sc->shapes[cs->idx[j]]);
+        if (!fc)
+            continue;
+        for (int fi = 0; fi < fc->nfaces; ++fi) {
+            const flat_face *f = &fc->face[fi];
+            if (f == fa || f == fb)
+                continue;
+            double da = plane_dist(f, a), db = plane_dist(f, b);
+            if (!((da > tol && db < -tol) || (da < -tol && db > tol)))
+                continue;
+            spc_vec3 q = spc_add(a, spc_scale(spc_sub(b, a), da / (da - db)));
+            if (in_face(fc, f, q, -tol))
+                return false;
+        }
+    }
+    return true;
+}
+
+/* The problem's sequence solved and checked: the minimum's vertices on the sides the sequence says
+ * and inside their faces, its segments clear of the other flat faces. */
+static bool solve_sequence(const spc_scene *sc, const spc_chain_casters *cs, flat_problem *P, spc_vec3 *p)
+{
+    /* the segments' indices: a conductor's both sides take the known index next to it, 1 if none */
+    const int k = P->k;
+    for (int i = k - 1; i >= 0; --i)
+        if (P->seg[i] < 0.0 && !(P->v[i].eta > 0.0))
+            P->seg[i] = P->seg[i + 1];
+    for (int i = 0; i < k; ++i)
+        if (P->seg[i + 1] < 0.0 && !(P->v[i].eta > 0.0))
+            P->seg[i + 1] = P->seg[i];
+    for (int j = 0; j <= k; ++j)
+        if (P->seg[j] < 0.0)
+            P->seg[j] = 1.0;
+    if (!minimize(P, p))
+        return false;
+    double tol = SPC_FLAT_SIDE_REL * P->scale;
+    for (int i = 0; i < k; ++i) {
+        const flat_face *f = P->v[i].f;
+        if (!(P->v[i].side_in * plane_dist(f, p[i]) > tol) || !(P->v[i].side_out * plane_dist(f, p[i + 2]) > tol))
+            return false;
+        if (!in_face(P->v[i].fc, f, p[i + 1], SPC_FLAT_EDGE_REL * P->scale))
+            return false;
+        if (P->v[i].tir > 0.0 && !total_reflection(spc_normalize(spc_sub(p[i + 1], p[i])), f->n, P->v[i].tir))
+            return false;
+    }
+    for (int j = 0; j <= k; ++j)
+        if (!segment_clear(sc, cs, p[j], p[j + 1], j > 0 ? P->v[j - 1].f : NULL, j < k ? P->v[j].f : NULL, tol))
+            return false;
+    return true;
+}
+
+/* Does some corner of face f lie strictly on side `side` of face g's plane? */
+static bool corner_on_side(const flat_cache *fc, const flat_face *f, const flat_face *g, int side, double tol)
+{
+    for (int t = f->first; t < f->first + f->count; ++t)
+        for (int j = 0; j < 3; ++j)
+            if (side * plane_dist(g, fc->corner[3 * t + j]) > tol)
+                return true;
+    return false;
+}
+
+/* Is every segment from a point of face b (of a shape with cache fb) to the point z blocked by
+ * another closed convex flat caster (every such segment crossing the inside of one of its faces)?
+ * The segments from z to b meet a plane that separates them in b's central projection from z, a
+ * convex polygon (b is one: a face of a convex shape, or a triangle list whose hull is tested)
+ * held by the face when its corners' images are. */
+static bool shadowed(const spc_scene *sc, const spc_chain_casters *cs, const flat_cache *fb, const flat_face *b,
+                     spc_vec3 z, double tol)
+{
+    for (int j = 0; j < cs->n; ++j) {
+        const flat_cache *fc = flat_get(sc->shapes[cs->idx[j]]);
+        if (!fc || fc == fb || !fc->convex)
+            continue;
+        for (int fi = 0; fi < fc->nfaces; ++fi) {
+            const flat_face *f = &fc->face[fi];
+            double dz = plane_dist(f, z);
+            if (fabs(dz) <= tol)
+                continue;
+            bool all = true;
+            for (int t = 3 * b->first; t < 3 * (b->first + b->count) && all; ++t) {
+                spc_vec3 c = fb->corner[t];
+                double dc = plane_dist(f, c);
+                if (!(dc * dz < 0.0 && fabs(dc) > tol)) {
+                    all = false;
+                    break;
+                }
+                spc_vec3 q = spc_add(c, spc_scale(spc_sub(z, c), dc / (dc - dz)));
+                all = in_face(fc, f, q, -tol);
+            }
+            if (all)
+                return true;
+        }
+    }
+    return false;
+}
+
+/* ---- direction cones ----
+ *
+ * A set of directions bounded by a cap of the unit sphere: axis a, half-angle r (r >= pi: any
+ * direction). The walk carries the cap that holds the direction of the segment leaving the last
+ * vertex, and prunes a sequence where no direction of it can do what the next face asks: meet the
+ * plane from the chosen side, refract out of glass without total internal reflection, point from
+ * one face toward the next or toward y. Each cap is a bound (every direction a real chain can take
+ * lies in it), so pruning loses nothing:
+ *   - from x to a face: the directions toward its corners' bounding sphere;
+ *   - reflection: an isometry of directions, the cap reflected;
+ *   - refraction into a denser medium (n_in < n_out): inside the critical cone around the normal,
+ *     half-angle asin(n_in / n_out); and since the map is a contraction of the sphere there (the
+ *     polar angle's derivative cos ti n_in / (cos tt n_out) < 1, the azimuth's sin tt / sin ti < 1),
+ *     inside the cap of the same r around the refracted axis;
+ *   - refraction out (n_in > n_out): only directions within asin(n_out / n_in) of the normal pass;
+ *     the polar angle out is asin(n_in / n_out sin ti) of the largest ti in the cap. */
+
+typedef struct cone {
+    spc_vec3 a;
+    double r;
+} cone;
+
+static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(fmax(-1.0, fmin(1.0, spc_dot(a, b)))); }
+
+/* The directions from the points of the sphere (c0, r0) to those of the sphere (c1, r1). */
+static cone cone_between(spc_vec3 c0, double r0, spc_vec3 c1, double r1)
+{
+    spc_vec3 d = spc_sub(c1, c0);
+    double len = spc_length(d), r = r0 + r1;
+    if (!(len > r))
+        return (cone){spc_v3(0, 0, 1), 4.0};
+    return (cone){spc_scale(d, 1.0 / len), asin(r / len)};
+}
+
+static bool cones_meet(cone p, cone q)
+{
+    return p.r + q.r >= SPC_PI || angle_between(p.a, q.a) <= p.r + q.r + 1e-9;
+}
+
+/* The cap of the directions leaving a vertex on the plane of unit normal m (toward the side the
+ * path arrives from) with the event given, from the cap c of the arriving ones; false if none can
+ * arrive (or, refracting out, pass). n_in, n_out the indices (equal for a reflection). */
+static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n_out, cone *out)
+{
+    spc_vec3 down = spc_neg(m); /* the direction straight into the plane */
+    double th = c.r >= SPC_PI ? 0.0 : angle_between(c.a, down);
+    if (c.r < SPC_PI && th - c.r >= 0.5 * SPC_PI - 1e-12)
+        return false; /* every direction runs parallel to the plane or away from it */
+    if (reflect) {
+        if (c.r >= SPC_PI) {
+            *out = c;
+            return true;
+        }
+        *out = (cone){spc_sub(c.a, spc_scale(m, 2.0 * spc_dot(c.a, m))), c.r};
+        return true;
+    }
+    if (n_in == n_out) {
+        *out = c;
+        return true;
+    }
+    if (n_in < n_out) {
+        double crit = asin(n_in / n_out);
+        cone best = {down, crit};
+        if (c.r < crit && th < 0.5 * SPC_PI) {
+            /* the axis refracted: tangential part scaled by n_in / n_out */
+            spc_vec3 tan = spc_add(c.a, spc_scale(m, spc_dot(c.a, down)));
+            spc_vec3 tt = spc_scale(tan, n_in / n_out);
+            double st2 = spc_dot(tt, tt);
+            spc_vec3 ra = spc_add(tt, spc_scale(down, sqrt(fmax(0.0, 1.0 - st2))));
+            best = (cone){spc_normalize(ra), c.r};
+        }
+        *out = best;
+        return true;
+    }
+    double crit = asin(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
+    if (c.r < SPC_PI && th - c.r >= crit)
+        return false; /* total internal reflection for every direction */
+    double so = fmin(1.0, n_in / n_out * sin(ti));
+    *out = (cone){down, c.r >= SPC_PI ? 0.5 * SPC_PI : asin(so)};
+    return true;
+}
+
+/* ---- the walk over face sequences ---- */
+
+/* Shapes whose shadow tests a walk caches (more are tested each time). */
+#define SPC_FLAT_WALK_SHAPES 32
+
+typedef struct flat_walk {
+    const spc_scene *sc;
+    const spc_chain_casters *cs;
+    bool any_surface, reflect;
+    int lo, hi; /* the chain lengths wanted */
+    flat_problem P; /* P.k: the vertices chosen so far, while walking */
+    /* shadowed() from x and from y, per caster slot and face: 0 not yet known, 1 no, 2 yes */
+    unsigned char shadow[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
+    /* per complete sequence: */
+    bool (*found)(void *user, const flat_problem *P, const spc_vec3 *p);
+    void *user;
+    int sequences;
+    bool stop;
+} flat_walk;
+
+/* shadowed() of face fi of the caster in slot j from x (end 0) or y (end 1), cached. */
+static bool walk_shadowed(flat_walk *w, int end, int j, const flat_cache *fc, int fi, double tol)
+{
+    if (j >= SPC_FLAT_WALK_SHAPES)
+        return shadowed(w->sc, w->cs, fc, &fc->face[fi], end ? w->P.y : w->P.x, tol);
+    unsigned char *c = &w->shadow[end][j][fi];
+    if (!*c)
+        *c = shadowed(w->sc, w->cs, fc, &fc->face[fi], end ? w->P.y : w->P.x, tol) ? 2 : 1;
+    return *c == 2;
+}
+
+/* i: the vertex to choose; medium: the index of the segment arriving there (-1: not known); dir:
+ * the cap of that segment's directions; tir_before: some vertex before is a total internal
+ * reflection; mixed: the vertices before lie on more than one shape. Each sequence of lo to hi
+ * vertices that passes the pruning is solved as it is completed, and longer ones grow from it. */
+static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, bool mixed)
+{
+    flat_problem *P = &w->P;
+    double tol = SPC_FLAT_SIDE_REL * P->scale;
+    const flat_vertex *prev = i > 0 ? &P->v[i - 1] : NULL;
+    for (int j = 0; j < w->cs->n && !w->stop; ++j) {
+        const spc_shape *s = w->sc->shapes[w->cs->idx[j]];
+        const flat_cache *fc = flat_get(s);
+        if (!fc)
+            continue;
+        double eta = shape_eta(s);
+        for (int fi = 0; fi < fc->nfaces && !w->stop; ++fi) {
+            const flat_face *f = &fc->face[fi];
+            if (prev) {
+                if (prev->f == f)
+                    continue;
+                if (fabs(spc_dot(prev->f->n, f->n)) > 1.0 - 1e-12 && fabs(plane_dist(f, prev->f->o)) < tol)
+                    continue; /* one plane: a segment between them would lie in it */
+            }
+            /* the directions that can arrive at f: from x, or those leaving the last vertex that
+             * point from its face toward f */
+            cone arrive = dir;
+            if (!prev) {
+                arrive = cone_between(P->x, 0.0, f->c, f->rad);
+            } else {
+                cone between = cone_between(prev->f->c, prev->f->rad, f->c, f->rad);
+                if (!cones_meet(dir, between))
+                    continue;
+                if (between.r < arrive.r)
+                    arrive = between;
+            }
+            for (int side = 1; side >= -1; side -= 2) {
+                if (fc->convex) {
+                    if (side < 0) { /* from the inside: only from a vertex of the same shape, or x inside */
+                        if (prev ? !(prev->s == s && prev->side_out < 0) : !inside_convex(fc, P->x, tol))
+                            continue;
+                    } else if (prev && prev->s == s) {
+                        continue; /* a path that left a convex shape does not meet it again */
+                    }
+                }
+                if (prev && prev->fc->convex && prev->side_out < 0 && !(prev->s == s && side < 0))
+                    continue; /* a path inside a convex shape meets its faces next */
+                if (!prev) {
+                    if (!(side * plane_dist(f, P->x) > tol))
+                        continue;
+                    if (side > 0 && walk_shadowed(w, 0, j, fc, fi, tol))
+                        continue;
+                } else if (!corner_on_side(prev->fc, prev->f, f, side, tol) ||
+                           !corner_on_side(fc, f, prev->f, prev->side_out, tol)) {
+                    continue;
+                }
+                double in = side_index(eta, side);
+                if (in >= 0.0 && medium >= 0.0 && fabs(in - medium) > 1e-9 * in)
+                    continue; /* the two ends of the segment disagree on its medium */
+                double m_in = in >= 0.0 ? in : medium;
+                for (int ev = 0; ev < 2 && !w->stop; ++ev) {
+                    unsigned char event = ev ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
+                    if (eta > 0.0 ? (event == SPC_CHAIN_REFLECT && !w->reflect) : event == SPC_CHAIN_REFRACT)
+                        continue;
+                    /* off glass: one reflection alone (the light's image in a pane), or a total
+                     * internal reflection in a chain on one shape (flat_chains.h) */
+                    double tir = 0.0;
+                    bool tir_ok = true; /* may be a total internal reflection in a longer chain */
+                    if (eta > 0.0 && event == SPC_CHAIN_REFLECT) {
+                        tir = side_index(eta, side) / side_index(eta, -side);
+                        tir_ok = tir > 1.0 && !mixed && !(prev && prev->s != s) &&
+                                 !(arrive.r < SPC_PI &&
+                                   angle_between(arrive.a, spc_scale(f->n, -side)) + arrive.r <= asin(1.0 / tir));
+                        if (i > 0 && !tir_ok)
+                            continue;
+                    }
+                    if (tir_before && prev && prev->s != s)
+                        continue;
+                    int side_out = event == SPC_CHAIN_REFRACT ? -side : side;
+                    double m_out = eta > 0.0 ? side_index(eta, side_out) : m_in;
+                    double n_in = m_in >= 0.0 ? m_in : 1.0, n_out = m_out >= 0.0 ? m_out : 1.0;
+                    cone leave;
+                    if (!cone_through(arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
+                        continue;
+                    flat_vertex *v = &P->v[i];
+                    v->s = s;
+                    v->shape_index = w->cs->idx[j];
+                    v->fc = fc;
+                    v->f = f;
+                    v->side_in = side;
+                    v->side_out = side_out;
+                    v->event = event;
+                    v->eta = eta;
+                    v->tir = tir;
+                    P->seg[i] = m_in;
+                    P->seg[i + 1] = m_out;
+                    int k = i + 1;
+                    /* complete at k vertices: the last segment reaches y */
+                    bool finish = k >= w->lo && side_out * plane_dist(f, P->y) > tol &&
+                                  !(fc->convex && side_out < 0 && !inside_convex(fc, P->y, tol)) &&
+                                  !(side_out > 0 && walk_shadowed(w, 1, j, fc, fi, tol)) &&
+                                  cones_meet(leave, cone_between(f->c, f->rad, P->y, 0.0));
+                    for (int q = 0; q < k && finish && !w->any_surface; ++q)
+                        finish = spc_chain_caster_allowed(P->v[q].s->caustic_flags, k);
+                    if (finish) {
+                        flat_problem Q = *P;
+                        Q.k = k;
+                        /* a reflection off glass alone is no total internal reflection */
+                        if (k == 1)
+                            Q.v[0].tir = 0.0;
+                        spc_vec3 p[SPC_FLAT_MAX_VERTICES + 2];
+                        ++w->sequences;
+                        if (solve_sequence(w->sc, w->cs, &Q, p) && !w->found(w->user, &Q, p))
+                            w->stop = true;
+                    }
+                    if (k < w->hi && tir_ok)
+                        walk(w, k, m_out, leave, tir_before || tir > 0.0, mixed || (prev && prev->s != s));
+                }
+            }
+        }
+    }
+}
+
+/* Walks every face sequence of lo to hi vertices from x to y; found() is called with each root
+ * and returns false to stop. Returns the number of sequences solved. */
+static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int lo, int hi,
+                    bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user)
+{
+    if (lo < 1)
+        lo = 1;
+    if (hi > SPC_FLAT_MAX_VERTICES)
+        hi = SPC_FLAT_MAX_VERTICES;
+    if (lo > hi)
+        return 0;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
+    if (!cs || cs->n == 0)
+        return 0;
+    flat_walk w;
+    memset(&w, 0, sizeof w);
+    w.sc = sc;
+    w.cs = cs;
+    w.any_surface = any_surface;
+    w.reflect = reflect;
+    w.lo = lo;
+    w.hi = hi;
+    w.P.x = x;
+    w.P.y = y;
+    w.P.scale = spc_length(spc_sub(y, x)) + 2.0 * cs->radius;
+    w.found = found;
+    w.user = user;
+    walk(&w, 0, -1.0, (cone){spc_v3(0, 0, 1), 4.0}, false, false);
+    return w.sequences;
+}
+
+typedef struct roots_out {
+    int k, n, max;
+    spc_vec3 *pts;
+    unsigned char *events;
+} roots_out;
+
+static bool roots_found(void *user, const flat_problem *P, const spc_vec3 *p)
+{
+    roots_out *o = user;
+    if (o->n >= o->max)
+        return false;
+    for (int i = 0; i < o->k; ++i) {
+        o->pts[o->k * o->n + i] = p[i + 1];
+        if (o->events)
+            o->events[o->k * o->n + i] = P->v[i].event;
+    }
+    ++o->n;
+    return true;
+}
+
+int spc_flat_chain_roots(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
+                         spc_vec3 *pts, unsigned char *events, int max, int *sequences)
+{
+    roots_out o = {k, 0, max, pts, events};
+    int seq = walk_all(sc, any_surface, reflect, x, y, k, k, roots_found, &o);
+    if (sequences)
+        *sequences = seq;
+    return o.n;
+}
+
+typedef struct chains_out {
+    const spc_snee_query *q;
+    spc_chain *out;
+    int n, max;
+    int *iterations;
+} chains_out;
+
+static bool chains_found(void *user, const flat_problem *P, const spc_vec3 *p)
+{
+    chains_out *o = user;
+    if (o->n >= o->max)
+        return false;
+    const spc_shape *shapes[SPC_FLAT_MAX_VERTICES];
+    unsigned char ev[SPC_FLAT_MAX_VERTICES];
+    for (int i = 0; i < P->k; ++i) {
+        shapes[i] = P->v[i].s;
+        ev[i] = P->v[i].event;
+    }
+    /* from the point the chain's first ray leaves from (x offset off its surface, as the trace
+     * spawns it) */
+    spc_vec3 xo = spc_hit_offset(o->q->x, spc_sub(p[1], o->q->x->p));
+    spc_vec3 dir = spc_normalize(spc_sub(p[1], xo));
+    if (spc_snee_exact_polish_shapes(o->q, shapes, P->k, ev, dir, o->out, o->n, o->iterations))
+        ++o->n;
+    return true;
+}
+
+int spc_flat_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, int *iterations)
+{
+    const spc_snee_params *p = q->params;
+    bool reflect = p && p->reflect;
+    int lo = q->min_chain > 1 ? q->min_chain : 1;
+    int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
+    chains_out o = {q, out, 0, max_out, iterations};
+    walk_all(q->scene, q->any_surface, reflect, q->x->p, q->y, lo, hi, chains_found, &o);
+    return o.n;
+}
+
+bool spc_flat_chain_covers(const spc_chain *c, bool reflect)
+{
+    int n = c->n;
+    if (n < 1 || n > SPC_FLAT_MAX_VERTICES)
+        return false;
+    double medium = -1.0;
+    for (int i = 0; i < n; ++i) {
+        const spc_chain_vertex *v = &c->v[i];
+        const spc_shape *s = v->h.shape;
+        const flat_cache *fc = flat_get(s);
+        if (!fc || v->h.prim < 0 || (size_t)v->h.prim >= s->mesh.ntris || fc->tri_face[v->h.prim] < 0)
+            return false;
+        double eta = shape_eta(s);
+        if (eta > 0.0 ? (v->event == SPC_CHAIN_REFLECT && !reflect) : v->event != SPC_CHAIN_REFLECT)
+            return false;
+        const flat_face *f = &fc->face[fc->tri_face[v->h.prim]];
+        int side = spc_dot(v->wi, f->n) < 0.0 ? 1 : -1;
+        if (eta > 0.0 && v->event == SPC_CHAIN_REFLECT && n > 1) {
+            double ratio = side_index(eta, side) / side_index(eta, -side);
+            if (!(ratio > 1.0) || !total_reflection(v->wi, f->n, ratio))
+                return false; /* a partial reflection off glass in a longer chain: not enumerated */
+            for (int j = 0; j < n; ++j)
+                if (c->v[j].h.shape != s)
+                    return false; /* total internal reflections only in chains on one shape */
+        }
+        double in = side_index(eta, side);
+        if (in >= 0.0 && medium >= 0.0 && fabs(in - medium) > 1e-9 * in)
+            return false;
+        double m_in = in >= 0.0 ? in : medium;
+        int side_out = v->event == SPC_CHAIN_REFRACT ? -side : side;
+        medium = eta > 0.0 ? side_index(eta, side_out) : m_in;
+    }
+    return true;
+}

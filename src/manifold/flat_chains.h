@@ -1,0 +1,85 @@
+/*
+ * manifold/flat_chains.h: every specular chain through flat faces, exactly.
+ *
+ * Glass slabs, cubes, prisms and flat mirrors are meshes whose triangles lie in a few planes. At a
+ * plane the refracted or reflected direction depends only on the arriving direction, and a chain
+ * from x through the planes of faces F1..Fk (in that order, each crossed or reflected off from a
+ * given side) to y is a stationary point of its optical path length
+ *
+ *     L(p1..pk) = eta_0 |p1 - x| + eta_1 |p2 - p1| + ... + eta_k |y - pk|,   pi on the plane of Fi,
+ *
+ * eta_j the index of refraction along segment j (Fermat's principle: at each vertex the tangential
+ * parts of eta_{i-1} w_in and eta_i w_out agree, which is Snell's law where the segments lie on
+ * opposite sides of the plane and the mirror law where on the same side with one index). Each term
+ * is the norm of an affine function of the vertices' plane coordinates, so L is convex: a chain,
+ * where it exists, is L's minimum, and a sequence of faces holds at most one chain (away from
+ * degenerate, collinear configurations). So the enumeration walks the sequences of faces and sides
+ * that can hold a path (the pruning below), minimizes L by Newton's method (damped, with a line
+ * search: global convergence on a convex function), and keeps a minimum whose segments have length,
+ * whose vertices lie on the sides the sequence says and inside their faces' polygons. Each is
+ * polished in 3D by the angular solver (spc_snee_exact_polish_shapes), whose trace proves the
+ * segments before the last unblocked and that nothing else lies between.
+ *
+ * Faces: a shape's triangles grouped by plane (same unit normal and offset): a cube or a slab gives
+ * 6, a triangular prism 5. The exterior side of a face is the side its normal points to (the winding,
+ * flip_normals applied), where the dielectric's outer index is; the segments between casters take
+ * index 1 and a segment inside a dielectric its eta = int_ior / ext_ior (only the ratios enter
+ * Snell's law at a face, so any common exterior medium works).
+ *
+ * Pruning (necessary conditions only, so nothing is lost): x in front of the first face on the side
+ * the chain arrives from, y in front of the last on the side it leaves to; no two consecutive faces
+ * in one plane; for consecutive faces Fi, Fi+1 some corner of Fi lies on the side of Fi+1's plane the
+ * path arrives from, and some corner of Fi+1 on the side of Fi's plane the path leaves to; the
+ * medium between two vertices is the same as seen from both (inside one dielectric, or outside).
+ *
+ * Shapes handled (spc_flat_chain_shape): a mesh without vertex normals (or face_normals) of at most
+ * SPC_FLAT_MAX_FACES planes, a smooth dielectric (not a normal map, which plane_chains.h handles),
+ * no emitter. The code handles conductor faces (reflections), but flat mirrors are left to the
+ * solver: on one, test_manifold's snee_point_estimates read 0.6% low, not yet explained. Chains: 1 to SPC_FLAT_MAX_VERTICES
+ * vertices, every vertex on such a shape (one shape or several: two slabs' four faces), conductor
+ * vertices reflect, dielectric vertices refract, or reflect when spc_snee_params.reflect.
+ *
+ * What is missed: chains with a segment whose medium the two faces at its ends disagree on (glass
+ * touching glass of another index, a face inside another shape); spc_flat_chain_covers leaves those
+ * to the randomized attempts. Longer chains than SPC_FLAT_MAX_VERTICES (the long=P pass's 5 and 6)
+ * are the randomized attempts' too.
+ */
+#ifndef SPC_MANIFOLD_FLAT_CHAINS_H
+#define SPC_MANIFOLD_FLAT_CHAINS_H
+
+#include <stdbool.h>
+
+#include "manifold/chain.h"
+
+struct spc_snee_query;
+
+/* Planes per shape the enumeration takes (a cube 6, a prism 5): the face sequences grow as the
+ * number of faces to the power of the chain's length, so a faceted ball is left to the solver. */
+#define SPC_FLAT_MAX_FACES 16
+
+/* Longest chain enumerated: two slabs' four faces; a cube's internal reflection (in, two total
+ * internal reflections, out). */
+#define SPC_FLAT_MAX_VERTICES 4
+
+/* Is s a flat-faced shape these chains handle? (Groups its faces on first use.) */
+bool spc_flat_chain_shape(const spc_shape *s);
+/* Is c one of the chains spc_flat_chains_all enumerates (1 to SPC_FLAT_MAX_VERTICES vertices, all
+ * on such shapes, the events above, each segment's medium agreed on by its two ends; reflect as
+ * spc_snee_params.reflect)? */
+bool spc_flat_chain_covers(const spc_chain *c, bool reflect);
+/* Every such chain from q->x to q->y of q->min_chain (0: 1) to q->max_chain vertices, at most
+ * max_out, written to out (polished and traced: each segment before the last proven unblocked; the
+ * last is checked by spc_snee_chain_value). Adds the chain traces it spends to *iterations. */
+int spc_flat_chains_all(const struct spc_snee_query *q, spc_chain *out, int max_out, int *iterations);
+
+/* ---- exposed for tests ---- */
+
+/* The roots of the planar problem, before the 3D polish: for each chain of exactly k vertices from
+ * x to y through the flat-faced casters of sc (any_surface as spc_snee_query's; reflect as
+ * spc_snee_params.reflect), its vertices (k points each, written to pts[k * i ..]) and events; at
+ * most max roots; returns their number. *sequences (may be NULL) receives the number of face
+ * sequences solved. */
+int spc_flat_chain_roots(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
+                         spc_vec3 *pts, unsigned char *events, int max, int *sequences);
+
+#endif

@@ -1,0 +1,394 @@
+/*
+ * tests/test_flat_chains.c: every specular chain through flat faces (manifold/flat_chains.c).
+ *
+ * - Closed forms: a horizontal glass slab between x and y (the chain in, out: the lateral shift,
+ *   the entry angle found by bisection on the horizontal distance), a triangular glass prism
+ *   (Snell's law's tangential condition at both vertices, the light bent toward the prism's base);
+ *   a flat mirror is left to the solver.
+ * - Faces: a cube gives 6, a prism 5, a smooth-normal mesh or a faceted ball none.
+ * - In scenes (a tilted glass cube, a prism, two separated tilted slabs of different index): from floor points to light points, every chain spc_flat_chains_all enumerates
+ *   ends on its light point and is distinct, and every distinct chain that randomized angular
+ *   attempts find (reflections off glass included, up to 4 vertices) is among them.
+ */
+/* ctest-labels: unit */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/rng.h"
+#include "harness.h"
+#include "manifold/angular.h"
+#include "manifold/flat_chains.h"
+#include "manifold/specular_nee.h"
+#include "render_util.h"
+
+static spc_rng rng;
+static double rnd(void) { return spc_rng_next(&rng); }
+
+/* An 8 x 8 diffuse floor (z = 0), shape 0. */
+static spc_scene *floor_scene(void)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_shape *floor = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_mat4 M = spc_mat4_scale(spc_v3(4, 4, 1));
+    spc_shape_init_rectangle(floor, &M, NULL, 0, 0, &err);
+    floor->bsdf = tu_diffuse(sc, 0.8);
+    return sc;
+}
+
+/* A cube [-1, 1]^3 placed by M with BSDF b. */
+static spc_shape *add_cube(spc_scene *sc, const spc_mat4 *M, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_cube(s, M, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+/* A triangular prism along y (length 2), its cross-section the triangle (-1, 0), (1, 0), (0, 1.4) in
+ * (x, z), placed by M, with BSDF b: 6 vertices, 8 triangles wound outward. */
+static spc_shape *add_prism(spc_scene *sc, const spc_mat4 *M, const spc_bsdf *b)
+{
+    static const float P[18] = {-1, -1, 0, 1, -1, 0, 0, -1, 1.4f, -1, 1, 0, 1, 1, 0, 0, 1, 1.4f};
+    /* ends: y = -1 facing -y, y = 1 facing +y; sides: base z = 0, and the two slanted faces */
+    static const uint32_t I[24] = {0, 1, 2, 3, 5, 4, 0, 3, 4, 0, 4, 1, 1, 4, 5, 1, 5, 2, 2, 5, 3, 2, 3, 0};
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    m.p = malloc(sizeof P + sizeof(float));
+    m.idx = malloc(sizeof I);
+    memcpy(m.p, P, sizeof P);
+    m.p[18] = 0.0f;
+    memcpy(m.idx, I, sizeof I);
+    m.nverts = 6;
+    m.ntris = 8;
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_mesh(s, &m, M, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+/* A sphere light (radius r, radiance 5) and the scene finalized; NULL on failure. */
+static spc_scene *add_light_finish(spc_scene *sc, spc_vec3 c, double r)
+{
+    spc_shape *light = tu_sphere(sc, c, r, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, sc->nshapes - 1, 5.0);
+    spc_error err;
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  finalize: %s\n", err.msg);
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+static spc_mat4 place(spc_vec3 scale, spc_vec3 axis, double degrees, spc_vec3 at)
+{
+    spc_mat4 S = spc_mat4_scale(scale), R = spc_mat4_rotate(axis, degrees), T = spc_mat4_translate(at);
+    spc_mat4 RS = spc_mat4_mul(&R, &S);
+    return spc_mat4_mul(&T, &RS);
+}
+
+/* ---- closed forms ---- */
+
+/* The horizontal distance a ray entering at angle t1 covers between heights 0 and zy through a slab
+ * [z0, z1] of index eta. */
+static double slab_distance(double t1, double eta, double z0, double z1, double zy)
+{
+    double t2 = asin(sin(t1) / eta);
+    return (zy - (z1 - z0)) * tan(t1) + (z1 - z0) * tan(t2);
+}
+
+TEST(slab_lateral_shift)
+{
+    spc_scene *sc = floor_scene();
+    const double eta = 1.5, zy = 2.0;
+    spc_mat4 M = place(spc_v3(3, 3, 0.1), spc_v3(0, 0, 1), 0.0, spc_v3(0, 0, 1.0));
+    add_cube(sc, &M, tu_glass(sc, eta));
+    sc = add_light_finish(sc, spc_v3(0, 0, 3.5), 0.2);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    /* the slab's faces as the mesh has them (float vertices) */
+    const spc_shape *slab = sc->shapes[1];
+    const double h0 = slab->bbox_min.z, h1 = slab->bbox_max.z;
+    spc_rng_seed(&rng, 21, 1);
+    double worst = 0.0;
+    int tried = 0;
+    for (int i = 0; i < 200; ++i) {
+        double D = 2.5 * rnd(), a = 2 * SPC_PI * rnd();
+        spc_vec3 x = spc_v3(0.3 * rnd(), 0.3 * rnd(), 0.0);
+        spc_vec3 y = spc_add(x, spc_v3(D * cos(a), D * sin(a), zy));
+        spc_vec3 pts[8];
+        unsigned char ev[8];
+        int n = spc_flat_chain_roots(sc, true, false, x, y, 2, pts, ev, 4, NULL);
+        CHECK_MSG(n == 1, "D %g: %d roots", D, n);
+        if (n != 1)
+            continue;
+        /* the entry angle by bisection on the horizontal distance */
+        double lo = 0.0, hi = 0.5 * SPC_PI - 1e-9;
+        for (int it = 0; it < 200; ++it) {
+            double mid = 0.5 * (lo + hi);
+            if (slab_distance(mid, eta, h0, h1, zy) < D)
+                lo = mid;
+            else
+                hi = mid;
+        }
+        double t1 = 0.5 * (lo + hi), t2 = asin(sin(t1) / eta);
+        spc_vec3 dir = spc_v3(cos(a), sin(a), 0.0);
+        spc_vec3 p0 = spc_add(x, spc_add(spc_scale(dir, h0 * tan(t1)), spc_v3(0, 0, h0)));
+        spc_vec3 p1 = spc_add(p0, spc_add(spc_scale(dir, (h1 - h0) * tan(t2)), spc_v3(0, 0, h1 - h0)));
+        worst = spc_max(worst, spc_max(spc_distance(p0, pts[0]), spc_distance(p1, pts[1])));
+        CHECK(ev[0] == SPC_CHAIN_REFRACT && ev[1] == SPC_CHAIN_REFRACT);
+        /* the exit direction is the entry direction */
+        spc_vec3 d0 = spc_normalize(spc_sub(pts[0], x)), d2 = spc_normalize(spc_sub(y, pts[1]));
+        CHECK(spc_distance(d0, d2) < 1e-9);
+        /* no one-vertex chain: x and y on opposite sides of every face's plane or behind it */
+        CHECK(spc_flat_chain_roots(sc, true, true, x, y, 1, pts, ev, 4, NULL) == 0);
+        ++tried;
+    }
+    printf("  slab: %d configurations, worst vertex error %.3g\n", tried, worst);
+    CHECK(tried == 200 && worst < 1e-9);
+    spc_scene_destroy(sc);
+}
+
+TEST(mirror_left_to_solver)
+{
+    spc_scene *sc = floor_scene();
+    /* the plane x = 2 facing -x, 3 x 3 */
+    spc_shape *m = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_mat4 M = place(spc_v3(1.5, 1.5, 1.0), spc_v3(0, 1, 0), -90.0, spc_v3(2.0, 0.0, 1.5));
+    spc_shape_init_rectangle(m, &M, NULL, 0, 0, &err);
+    m->bsdf = tu_mirror(sc);
+    sc = add_light_finish(sc, spc_v3(0.5, 0.5, 2.5), 0.2);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    /* flat mirrors are left to the solver (flat_chains.h) */
+    CHECK(!spc_flat_chain_shape(sc->shapes[1]));
+    spc_scene_destroy(sc);
+}
+
+/* Snell's law's tangential condition at a vertex on plane normal n: eta_i (n x wi) = eta_o (n x wo). */
+static double snell_residual(spc_vec3 n, spc_vec3 wi, double eta_i, spc_vec3 wo, double eta_o)
+{
+    return spc_length(spc_sub(spc_scale(spc_cross(n, wi), eta_i), spc_scale(spc_cross(n, wo), eta_o)));
+}
+
+/* The outward unit normal of the prism's face (base or slanted: triangles 2, 4, 6) nearest to p. */
+static spc_vec3 face_normal_at(const spc_shape *pr, spc_vec3 p)
+{
+    const int tris[3] = {2, 4, 6};
+    spc_vec3 best = spc_v3(0, 0, 0);
+    double dmin = INFINITY;
+    for (int i = 0; i < 3; ++i) {
+        const uint32_t *t = pr->mesh.idx + 3 * tris[i];
+        spc_vec3 v[3];
+        for (int j = 0; j < 3; ++j)
+            v[j] = spc_v3(pr->mesh.p[3 * t[j]], pr->mesh.p[3 * t[j] + 1], pr->mesh.p[3 * t[j] + 2]);
+        spc_vec3 n = spc_normalize(spc_cross(spc_sub(v[1], v[0]), spc_sub(v[2], v[0])));
+        double d = fabs(spc_dot(n, spc_sub(p, v[0])));
+        if (d < dmin) {
+            dmin = d;
+            best = n;
+        }
+    }
+    return dmin < 1e-9 ? best : spc_v3(0, 0, 0);
+}
+
+TEST(prism_bends_toward_base)
+{
+    spc_scene *sc = floor_scene();
+    /* the prism lying along y at height 1, its apex up; the light to one side, a little higher */
+    spc_mat4 M = place(spc_v3(0.6, 1.5, 0.6), spc_v3(0, 0, 1), 0.0, spc_v3(0, 0, 1.0));
+    add_prism(sc, &M, tu_glass(sc, 1.5));
+    sc = add_light_finish(sc, spc_v3(-2.0, 0.0, 1.3), 0.1);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const spc_shape *pr = sc->shapes[1];
+    CHECK(spc_flat_chain_shape(pr));
+    spc_rng_seed(&rng, 23, 1);
+    int chains = 0;
+    double worst = 0.0;
+    for (int i = 0; i < 400; ++i) {
+        spc_vec3 x = spc_v3(4.0 * rnd(), -1.0 + 2.0 * rnd(), 0.0);
+        spc_vec3 y = spc_v3(-2.0 + 0.1 * (rnd() - 0.5), 0.1 * (rnd() - 0.5), 1.3);
+        spc_vec3 pts[16];
+        unsigned char ev[8];
+        int n = spc_flat_chain_roots(sc, true, false, x, y, 2, pts, ev, 8, NULL);
+        CHECK(n <= 1);
+        for (int r = 0; r < n; ++r) {
+            spc_vec3 a = pts[2 * r], b = pts[2 * r + 1];
+            spc_vec3 w0 = spc_normalize(spc_sub(a, x)), w1 = spc_normalize(spc_sub(b, a)), w2 = spc_normalize(spc_sub(y, b));
+            /* the face each vertex lies on: the nearest of the base and the two slanted faces
+             * (their planes from the mesh's own vertices) */
+            spc_vec3 na = face_normal_at(pr, a), nb = face_normal_at(pr, b);
+            CHECK(spc_length(na) > 0.5 && spc_length(nb) > 0.5);
+            worst = spc_max(worst, snell_residual(na, w0, 1.0, w1, 1.5));
+            worst = spc_max(worst, snell_residual(nb, w1, 1.5, w2, 1.0));
+            /* the light (travelling from y to x) leaves the prism turned toward its base (-z) */
+            CHECK(ev[2 * r] == SPC_CHAIN_REFRACT && ev[2 * r + 1] == SPC_CHAIN_REFRACT);
+            CHECK(-w0.z < -w2.z);
+            ++chains;
+        }
+    }
+    printf("  prism: %d chains, worst Snell residual %.3g\n", chains, worst);
+    CHECK(chains > 20 && worst < 1e-9);
+    spc_scene_destroy(sc);
+}
+
+TEST(faces_of_shapes)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 M = place(spc_v3(0.5, 0.4, 0.3), spc_v3(1, 1, 0), 30.0, spc_v3(0, 0, 1.0));
+    spc_shape *cube = add_cube(sc, &M, tu_glass(sc, 1.5));
+    spc_shape *ball = tu_sphere(sc, spc_v3(2, 0, 1), 0.5, tu_glass(sc, 1.5));
+    sc = add_light_finish(sc, spc_v3(0, 0, 3), 0.2);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    CHECK(spc_flat_chain_shape(cube));
+    CHECK(!spc_flat_chain_shape(ball));
+    CHECK(!spc_flat_chain_shape(sc->shapes[0])); /* the diffuse floor */
+    spc_scene_destroy(sc);
+}
+
+/* ---- in scenes, against randomized attempts ---- */
+
+static double miss(const spc_chain *c, spc_vec3 y)
+{
+    const spc_chain_vertex *v = &c->v[c->n - 1];
+    spc_vec3 r = spc_sub(y, v->h.p);
+    double t = spc_dot(r, v->d);
+    return t < 0.0 ? spc_length(r) : spc_length(spc_sub(r, spc_scale(v->d, t)));
+}
+
+typedef struct tally {
+    int points, enumerated, random_distinct, random_missing, by_len[5];
+} tally;
+
+/* From the floor point below `above` to a light point: the enumeration against randomized attempts. */
+static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, uint64_t stream, tally *t)
+{
+    spc_hit x;
+    spc_ray ray = {above, spc_v3(0, 0, -1), 0, INFINITY};
+    if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
+        return;
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, p, &x, spc_v3(0, 0, 1), p->max_chain);
+    const spc_emitter *e;
+    spc_vec2 uv;
+    double p_y;
+    spc_rng r;
+    spc_rng_seed(&r, 3, stream);
+    if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+        return;
+    ++t->points;
+    CHECK(spc_snee_exact_covers_all(&q));
+    spc_chain all[32];
+    int it = 0;
+    int n = spc_flat_chains_all(&q, all, 32, &it);
+    t->enumerated += n;
+    for (int i = 0; i < n; ++i) {
+        ++t->by_len[all[i].n];
+        CHECK_MSG(miss(&all[i], q.y) < 1e-6, "chain %d of %d vertices misses y by %g", i, all[i].n, miss(&all[i], q.y));
+        CHECK(spc_flat_chain_covers(&all[i], p->reflect));
+        for (int j = 0; j < i; ++j)
+            CHECK(!spc_snee_same_solution(&all[i], &all[j], sc->radius));
+    }
+    spc_chain seen[32];
+    int nseen = 0;
+    for (int a = 0; a < 2000; ++a) {
+        spc_chain c;
+        int its = 0;
+        if (!spc_angular_solve_one(&q, &r, &c, &its) || !spc_flat_chain_covers(&c, p->reflect) ||
+            !(spc_snee_chain_value(&q, e, uv, &c).r > 0.0))
+            continue;
+        bool dup = false;
+        for (int j = 0; j < nseen && !dup; ++j)
+            dup = spc_snee_same_solution(&seen[j], &c, sc->radius);
+        if (dup || nseen == 32)
+            continue;
+        seen[nseen++] = c;
+        ++t->random_distinct;
+        bool in = false;
+        for (int i = 0; i < n && !in; ++i)
+            in = spc_snee_same_solution(&all[i], &c, sc->radius);
+        if (!in) {
+            ++t->random_missing;
+            printf("    x (%g %g %g), y (%g %g %g): a randomized chain of %d vertices (first at %g %g %g) not "
+                   "enumerated\n",
+                   x.p.x, x.p.y, x.p.z, q.y.x, q.y.y, q.y.z, c.n, c.v[0].h.p.x, c.v[0].h.p.y, c.v[0].h.p.z);
+        }
+    }
+}
+
+/* Floor points uniform in the square of half-side h around (cx, cy). */
+static void run_scene(spc_scene *sc, const char *label, int max_chain, int points, int min_distinct, double cx,
+                      double cy, double h)
+{
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_rng_seed(&rng, 31, (uint64_t)max_chain);
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, max_chain);
+    p.any_surface = true;
+    tally t;
+    memset(&t, 0, sizeof t);
+    for (int i = 0; i < points; ++i)
+        compare_at(sc, &p, spc_v3(cx + h * (2.0 * rnd() - 1.0), cy + h * (2.0 * rnd() - 1.0), 5.0), 100 + (uint64_t)i, &t);
+    printf("  %s: %d points, %d chains enumerated (1-4 vertices: %d %d %d %d), %d distinct randomized, %d "
+           "missing\n",
+           label, t.points, t.enumerated, t.by_len[1], t.by_len[2], t.by_len[3], t.by_len[4], t.random_distinct,
+           t.random_missing);
+    CHECK(t.points >= points / 2);
+    CHECK(t.random_distinct >= min_distinct);
+    CHECK(t.random_missing == 0);
+    spc_scene_destroy(sc);
+}
+
+TEST(tilted_cube_contains_randomized_solutions)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 M = place(spc_v3(0.5, 0.35, 0.4), spc_v3(1, 0.4, 0.2), 25.0, spc_v3(-0.3, 0.1, 0.8));
+    add_cube(sc, &M, tu_glass(sc, 1.5));
+    sc = add_light_finish(sc, spc_v3(-0.6, 0.4, 2.6), 0.2);
+    run_scene(sc, "tilted cube, up to 4 vertices", 4, 60, 10, 0.0, 0.0, 2.0);
+}
+
+TEST(prism_contains_randomized_solutions)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 M = place(spc_v3(0.6, 1.2, 0.6), spc_v3(1, 0, 0), 15.0, spc_v3(0, 0, 1.0));
+    add_prism(sc, &M, tu_glass(sc, 1.5));
+    sc = add_light_finish(sc, spc_v3(-1.8, 0.2, 1.4), 0.2);
+    run_scene(sc, "prism, up to 3 vertices", 3, 60, 5, 1.2, 0.0, 1.2);
+}
+
+TEST(two_slabs_contain_randomized_solutions)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 A = place(spc_v3(0.8, 0.8, 0.06), spc_v3(1, 0, 0), 12.0, spc_v3(-0.3, 0, 1.0));
+    spc_mat4 B = place(spc_v3(0.8, 0.8, 0.06), spc_v3(0, 1, 0), -10.0, spc_v3(0.2, 0.1, 1.6));
+    add_cube(sc, &A, tu_glass(sc, 1.5));
+    add_cube(sc, &B, tu_glass(sc, 1.33));
+    sc = add_light_finish(sc, spc_v3(0.0, 0.2, 2.8), 0.25);
+    run_scene(sc, "two slabs, up to 4 vertices", 4, 40, 10, 0.0, 0.0, 2.0);
+}
+
+int main(void)
+{
+    RUN(slab_lateral_shift);
+    RUN(mirror_left_to_solver);
+    RUN(prism_bends_toward_base);
+    RUN(faces_of_shapes);
+    RUN(tilted_cube_contains_randomized_solutions);
+    RUN(prism_contains_randomized_solutions);
+    RUN(two_slabs_contain_randomized_solutions);
+    return spc_test_finish();
+}

@@ -1,0 +1,127 @@
+/*
+ * tests/test_flat_default.c: the default's specular NEE on flat-faced glass (manifold/flat_chains.h)
+ * agrees with specular NEE off.
+ *
+ * - A small-light version of scenes/newton_slabs.xml (two glass slabs over a floor: chains of four
+ *   refractions; path tracing alone rarely reaches the light through them) at 16 x 16: the plan is
+ *   on and enumerates the flat casters' chains (spc_snee_plan_method); the default's image against
+ *   bdpt without specular NEE (light tracing reaches the floor through the slabs), per-pixel z-test
+ *   (Sidak) and image means.
+ * - newton_slabs itself and scenes/caustic_glass_cube.xml (a tilted glass cube beside a silver
+ *   ball: two refractions, total internal reflections, chains through cube and ball left to the
+ *   randomized attempts), whose lights are too large for the plan (off there): the setting it
+ *   would otherwise run, forced, agrees with path tracing without specular NEE the same way.
+ */
+/* ctest-labels: stat */
+/* ctest-timeout: 600 */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "harness.h"
+#include "io/mitsuba_xml.h"
+#include "manifold/flat_chains.h"
+#include "manifold/snee_plan.h"
+#include "render_util.h"
+
+static spc_scene *load(const char *path, const spc_define *defs, int ndefs)
+{
+    spc_scene *sc = NULL;
+    spc_error err;
+    if (spc_mitsuba_load(path, defs, ndefs, &sc, &err) != SPC_OK) {
+        printf("  %s: %s\n", path, err.msg);
+        return NULL;
+    }
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  %s: %s\n", path, err.msg);
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+/* The plan on sc is on, and every flat-faced glass caster's chains are enumerated. */
+static bool plan_uses_flat_chains(const spc_scene *sc, const char *label)
+{
+    spc_snee_plan plan;
+    spc_snee_plan_make(sc, "path", NULL, &plan);
+    if (!plan.on) {
+        printf("  %s: plan off (%s)\n", label, plan.reason);
+        return false;
+    }
+    spc_snee_params p;
+    if (!spc_snee_parse(plan.setting, 2, &p))
+        return false;
+    int flat = 0;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, false);
+    for (int i = 0; cs && i < cs->n; ++i)
+        flat += spc_snee_plan_method(&p, sc->shapes[cs->idx[i]]) == SPC_SNEE_METHOD_FLAT;
+    printf("  %s: plan %s, %d flat casters\n", label, plan.setting, flat);
+    return flat > 0;
+}
+
+/* setting: NULL for the plan's (which must enumerate the flat casters), else this one. */
+/* ref: the reference's integrator, without specular NEE ("path": none; "bdpt" where path tracing
+ * alone rarely finds the light). */
+static void agrees(const char *path, const spc_define *defs, int ndefs, const char *setting, int spp, const char *ref,
+                   int spp_none, const char *label)
+{
+    spc_scene *sc = load(path, defs, ndefs);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    if (!setting) {
+        CHECK(plan_uses_flat_chains(sc, label));
+    } else {
+        /* a large light over flat glass: the plan leaves specular NEE off (snee_plan.h) */
+        spc_snee_plan plan;
+        spc_snee_plan_make(sc, "path", NULL, &plan);
+        CHECK_MSG(!plan.on && strstr(plan.reason, "flat-faced casters under a light"), "%s: %s", label, plan.reason);
+    }
+    spc_film *def = tu_render_nee(sc, "path", setting, spp, 2, 11, NULL);
+    spc_film *none = tu_render_nee(sc, ref, "none", spp_none, 2, 12, NULL);
+    CHECK(def && none);
+    if (def && none) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(def, none, 0.99, label, &d));
+        double md, sd, mn, sn;
+        tu_image_mean(def, 1, &md, &sd);
+        tu_image_mean(none, 1, &mn, &sn);
+        printf("  %s: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f; summed variance %.3g "
+               "(default, %d spp) vs %.3g (%s, %d spp)\n",
+               label, d.ztest_pass_fraction, def->width * def->height, md, sd, mn, sn, tu_var_sum(def), spp,
+               tu_var_sum(none), ref, spp_none);
+    }
+    spc_film_destroy(def);
+    spc_film_destroy(none);
+    spc_scene_destroy(sc);
+}
+
+TEST(slabs_default_agrees_with_none)
+{
+    const spc_define d[2] = {{"res", "16"}, {"spp", "1"}};
+    agrees("scenes/newton_slabs.xml", d, 2, "angular:camera=0.4,later=0.25", 256, "path", 8192, "newton_slabs");
+}
+
+TEST(small_light_slabs_default_agrees_with_none)
+{
+    /* a light of radius 0.02 (0.00055 sr at the casters) and the same power */
+    const spc_define d[4] = {{"res", "16"}, {"spp", "1"}, {"light_radius", "0.02"},
+                             {"light_radiance", "6750, 6300, 5400"}};
+    agrees("scenes/newton_slabs.xml", d, 4, NULL, 256, "bdpt", 2048, "newton_slabs, small light");
+}
+
+TEST(glass_cube_default_agrees_with_none)
+{
+    const spc_define d[2] = {{"res", "16"}, {"spp", "1"}};
+    agrees("scenes/caustic_glass_cube.xml", d, 2, "angular:camera=0.3,later=0.25", 256, "path", 8192, "caustic_glass_cube");
+}
+
+int main(void)
+{
+    RUN(slabs_default_agrees_with_none);
+    RUN(small_light_slabs_default_agrees_with_none);
+    RUN(glass_cube_default_agrees_with_none);
+    return spc_test_finish();
+}
