@@ -28,6 +28,7 @@
 #include <string.h>
 
 #include "core/rng.h"
+#include "chain_compare.h"
 #include "harness.h"
 #include "manifold/angular.h"
 #include "manifold/specular_nee.h"
@@ -220,6 +221,20 @@ static bool covers(int kind, const spc_chain *c)
     return spc_sphere_chain_covers(c, true);
 }
 
+/* A randomized chain counts where the enumeration covers it and it reaches the light point (a
+ * chain whose last segment is blocked, by the wall below its rim or the light's far side, is not one). */
+typedef struct keep_ctx {
+    int kind;
+    const spc_emitter *e;
+    spc_vec2 uv;
+} keep_ctx;
+
+static bool keep_exact(const spc_snee_query *q, const spc_chain *c, void *ctx)
+{
+    const keep_ctx *k = ctx;
+    return covers(k->kind, c) && reaches(q, k->e, k->uv, c);
+}
+
 static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, uint64_t stream, int kind,
                        const char *label, tally *t)
 {
@@ -253,31 +268,9 @@ static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, 
     t->multi += t->reaching - reach0 >= 2 ? 1 : 0;
     /* randomized attempts (their events drawn as specular NEE draws them); a chain whose last
      * segment is blocked (by the wall below its rim, the light's far side) is not one */
-    spc_chain seen[32];
-    int nseen = 0;
-    for (int a = 0; a < 3000; ++a) {
-        spc_chain c;
-        int it = 0;
-        if (!spc_angular_solve_one(&q, &r, &c, &it) ||
-            !covers(kind, &c) || !reaches(&q, e, uv, &c))
-            continue;
-        bool dup = false;
-        for (int j = 0; j < nseen && !dup; ++j)
-            dup = spc_snee_same_solution(&seen[j], &c, sc->radius);
-        if (dup || nseen == 32)
-            continue;
-        seen[nseen++] = c;
-        ++t->random_distinct;
-        bool in = false;
-        for (int i = 0; i < n && !in; ++i)
-            in = spc_snee_same_solution(&all[i], &c, sc->radius);
-        if (!in) {
-            ++t->random_missing;
-            printf("    %s, x (%g %g %g), y (%g %g %g): a randomized chain of %d vertices (first at %g %g %g) not "
-                   "enumerated\n",
-                   label, x.p.x, x.p.y, x.p.z, q.y.x, q.y.y, q.y.z, c.n, c.v[0].h.p.x, c.v[0].h.p.y, c.v[0].h.p.z);
-        }
-    }
+    keep_ctx kc = {kind, e, uv};
+    chain_compare_random(&q, &r, 3000, all, n, sc->radius, keep_exact, &kc, label, &t->random_distinct,
+                         &t->random_missing);
 }
 
 static void print_tally(const char *label, const tally *t)

@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "core/rng.h"
+#include "chain_compare.h"
 #include "harness.h"
 #include "manifold/angular.h"
 #include "manifold/flat_chains.h"
@@ -271,6 +272,19 @@ typedef struct tally {
     int points, enumerated, random_distinct, random_missing, by_len[5];
 } tally;
 
+/* A randomized chain counts where the enumeration covers it and it carries light to x. */
+typedef struct keep_ctx {
+    bool reflect;
+    const spc_emitter *e;
+    spc_vec2 uv;
+} keep_ctx;
+
+static bool keep_flat(const spc_snee_query *q, const spc_chain *c, void *ctx)
+{
+    const keep_ctx *k = ctx;
+    return spc_flat_chain_covers(c, k->reflect) && spc_snee_chain_value(q, k->e, k->uv, c).r > 0.0;
+}
+
 /* From the floor point below `above` to a light point: the enumeration against randomized attempts. */
 static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, uint64_t stream, tally *t)
 {
@@ -300,31 +314,9 @@ static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, 
         for (int j = 0; j < i; ++j)
             CHECK(!spc_snee_same_solution(&all[i], &all[j], sc->radius));
     }
-    spc_chain seen[32];
-    int nseen = 0;
-    for (int a = 0; a < 2000; ++a) {
-        spc_chain c;
-        int its = 0;
-        if (!spc_angular_solve_one(&q, &r, &c, &its) || !spc_flat_chain_covers(&c, p->reflect) ||
-            !(spc_snee_chain_value(&q, e, uv, &c).r > 0.0))
-            continue;
-        bool dup = false;
-        for (int j = 0; j < nseen && !dup; ++j)
-            dup = spc_snee_same_solution(&seen[j], &c, sc->radius);
-        if (dup || nseen == 32)
-            continue;
-        seen[nseen++] = c;
-        ++t->random_distinct;
-        bool in = false;
-        for (int i = 0; i < n && !in; ++i)
-            in = spc_snee_same_solution(&all[i], &c, sc->radius);
-        if (!in) {
-            ++t->random_missing;
-            printf("    x (%g %g %g), y (%g %g %g): a randomized chain of %d vertices (first at %g %g %g) not "
-                   "enumerated\n",
-                   x.p.x, x.p.y, x.p.z, q.y.x, q.y.y, q.y.z, c.n, c.v[0].h.p.x, c.v[0].h.p.y, c.v[0].h.p.z);
-        }
-    }
+    keep_ctx kc = {p->reflect, e, uv};
+    chain_compare_random(&q, &r, 2000, all, n, sc->radius, keep_flat, &kc, "flat faces", &t->random_distinct,
+                         &t->random_missing);
 }
 
 /* Floor points uniform in the square of half-side h around (cx, cy). */
