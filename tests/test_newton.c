@@ -1325,8 +1325,10 @@ TEST(images_path_newton_vs_ipt)
 {
     const char *names[6] = {"glass sphere caustic", "pool", "two slabs", "rough sphere caustic",
                             "normal-mapped pool", "normal-mapped pool"};
-    const int ref_spp[6] = {8192, 8192, 8192, 8192, 8192, 8192}, snee_spp[6] = {256, 256, 256, 256, 256, 256};
-    /* the rough ball through rough chain vertices: the path tracer then drops the glossy paths and
+    const int ref_spp[6] = {8192, 8192, 8192, 8192, 8192, 8192}, snee_spp[6] = {256, 256, 256, 512, 256, 256};
+    /* the rough ball at 512 spp: its rough-vertex estimator is heavy-tailed (one sample at seed 12 put
+     * the caustic region 3 standard errors high at 256 spp; seeds 13-15 read -0.7 to +0.9).
+     * The rough ball through rough chain vertices: the path tracer then drops the glossy paths and
      * light samples those chains cover (an error there shows as a doubled or missing caustic); the
      * normal-mapped pool with its chains enumerated (plane_chains.h: exact, the default, whichever the
      * solver) and with angular's randomized attempts */
