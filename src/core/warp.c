@@ -177,14 +177,14 @@ void spc_distrib1d_release(spc_distrib1d *d)
 
 size_t spc_distrib1d_sample(const spc_distrib1d *d, double u, double *u_remap)
 {
-    /* largest i with cdf[i] <= u, skipping empty bins */
-    size_t lo = 0, hi = d->n;
-    while (hi - lo > 1) {
-        size_t mid = (lo + hi) / 2;
-        if (d->cdf[mid] <= u)
-            lo = mid;
-        else
-            hi = mid;
+    /* largest i with cdf[i] <= u (one index, cdf being nondecreasing), by a search without
+     * branches: a light of two triangles is a coin flip to the branch predictor; then skipping
+     * empty bins */
+    size_t lo = 0, len = d->n;
+    while (len > 1) {
+        size_t half = len / 2;
+        lo = d->cdf[lo + half] <= u ? lo + half : lo;
+        len -= half;
     }
     while (lo + 1 < d->n && d->pmf[lo] == 0.0)
         ++lo;

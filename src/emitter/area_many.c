@@ -115,26 +115,6 @@ static void body(soa *a, int n)
 #endif
 }
 
-/* spc_distrib1d_sample, its search without branches (the triangle of a two-triangle quad is a coin
- * flip to the branch predictor): the largest i < n with cdf[i] <= u, which is one index for any
- * search since cdf is nondecreasing; then its empty-bin rule and remapped u. */
-static size_t distrib_sample(const spc_distrib1d *d, double u, double *u_remap)
-{
-    size_t lo = 0, len = d->n;
-    while (len > 1) {
-        size_t half = len / 2;
-        lo = d->cdf[lo + half] <= u ? lo + half : lo;
-        len -= half;
-    }
-    while (lo + 1 < d->n && d->pmf[lo] == 0.0)
-        ++lo;
-    while (lo > 0 && d->pmf[lo] == 0.0)
-        --lo;
-    double r = d->pmf[lo] > 0.0 ? (u - d->cdf[lo]) / d->pmf[lo] : 0.0;
-    *u_remap = spc_clamp(r, 0.0, 0x1.fffffffffffffp-1);
-    return lo;
-}
-
 /* Up to SPC_EMITTER_MANY_MAX lanes whose emitters all pass spc_emitter_many_covers. */
 static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const e[], const spc_vec3 ref[],
                                const spc_vec2 u[], spc_emitter_direct out[], bool ok[])
@@ -146,7 +126,7 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
         const spc_mesh *m = &s->mesh;
         /* spc_shape_sample_area: the triangle by area, a point uniformly in it */
         double ux;
-        size_t t = distrib_sample(&s->tri_distrib, u[i].x, &ux);
+        size_t t = spc_distrib1d_sample(&s->tri_distrib, u[i].x, &ux);
         const uint32_t *idx = m->idx + 3 * t;
         const float *q0 = m->p + 3 * (size_t)idx[0], *q1 = m->p + 3 * (size_t)idx[1], *q2 = m->p + 3 * (size_t)idx[2];
         spc_vec3 ng;

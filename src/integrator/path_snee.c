@@ -87,14 +87,9 @@ double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx
     if (s->cam_track)
         return spc_snee_camera_bsdf_weight(ctx->scene, &s->p, ctx->cam, s->cam_scale, s->cam_d0, t->max_chain, t->k,
                                            t->events, h);
-    if (s->mis_gv.a > 0.0) { /* the receiver's density is the guided mixture's */
-        spc_snee_params p = s->p;
-        p.cguide_at = &s->mis_gv;
-        return spc_snee_mis_bsdf_weight(ctx->scene, &p, &s->mis_x, s->mis_wo, s->mis_d0, t->max_chain, t->k,
-                                        t->events, h);
-    }
+    /* the receiver's density: the guided mixture's where the scatter there was guided */
     spc_snee_params p = s->p;
-    p.cguide_at = NULL;
+    p.cguide_at = s->mis_gv.a > 0.0 ? &s->mis_gv : NULL;
     return spc_snee_mis_bsdf_weight(ctx->scene, &p, &s->mis_x, s->mis_wo, s->mis_d0, t->max_chain, t->k, t->events,
                                     h);
 }
