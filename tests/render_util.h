@@ -8,6 +8,7 @@
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "integrator/integrator.h"
 #include "render/film.h"
@@ -128,9 +129,9 @@ static inline spc_bsdf *tu_normal_mapped(spc_scene *sc, const spc_bsdf *nested, 
 }
 
 /* Renders with specular NEE `snee` (NULL: the scene's) and returns the film (caller destroys); NULL on
- * failure (message printed). *wall_seconds (if not NULL) gets the render's wall time. */
-static inline spc_film *tu_render_nee(const spc_scene *sc, const char *integrator, const char *snee, int spp,
-                                      int threads, uint64_t seed, double *wall_seconds)
+ * failure (message printed). *st (if not NULL) gets the render's statistics. */
+static inline spc_film *tu_render_stats(const spc_scene *sc, const char *integrator, const char *snee, int spp,
+                                        int threads, uint64_t seed, spc_render_stats *st)
 {
     spc_render_options o;
     spc_render_options_init(&o);
@@ -141,15 +142,27 @@ static inline spc_film *tu_render_nee(const spc_scene *sc, const char *integrato
     o.specular_nee = snee;
     spc_film *f = NULL;
     spc_error err;
-    spc_render_stats st;
-    if (spc_render(sc, &o, &f, &st, &err) != SPC_OK) {
+    spc_render_stats own;
+    if (!st)
+        st = &own;
+    memset(st, 0, sizeof *st);
+    if (spc_render(sc, &o, &f, st, &err) != SPC_OK) {
         char buf[1200];
         spc_error_format(&err, buf, sizeof buf);
         printf("  render failed: %s\n", buf);
         spc_film_destroy(f);
         return NULL;
     }
-    if (wall_seconds)
+    return f;
+}
+
+/* tu_render_stats, with only the wall time (*wall_seconds, if not NULL). */
+static inline spc_film *tu_render_nee(const spc_scene *sc, const char *integrator, const char *snee, int spp,
+                                      int threads, uint64_t seed, double *wall_seconds)
+{
+    spc_render_stats st;
+    spc_film *f = tu_render_stats(sc, integrator, snee, spp, threads, seed, &st);
+    if (f && wall_seconds)
         *wall_seconds = st.wall_seconds;
     return f;
 }

@@ -21,26 +21,6 @@
 #include "harness.h"
 #include "render_util.h"
 
-static spc_film *render_stats(const spc_scene *sc, const char *snee, int spp, uint64_t seed, spc_render_stats *st)
-{
-    spc_render_options o;
-    spc_render_options_init(&o);
-    o.spp = spp;
-    o.threads = 2;
-    o.seed = seed;
-    o.integrator = "path";
-    o.specular_nee = snee;
-    spc_film *f = NULL;
-    spc_error err;
-    memset(st, 0, sizeof *st);
-    if (spc_render(sc, &o, &f, st, &err) != SPC_OK) {
-        printf("  render failed: %s\n", err.msg);
-        spc_film_destroy(f);
-        return NULL;
-    }
-    return f;
-}
-
 static spc_scene *load_text(const char *text)
 {
     char path[64];
@@ -85,8 +65,8 @@ static void guided_agrees(const spc_scene *sc, const char *base, int spp, const 
     char guided[128];
     snprintf(guided, sizeof guided, "%s,recguide=0.5", base);
     spc_render_stats sg, sb;
-    spc_film *img = render_stats(sc, guided, spp, 71, &sg);
-    spc_film *ref = render_stats(sc, base, spp, 72, &sb);
+    spc_film *img = tu_render_stats(sc, "path", guided, spp, 2, 71, &sg);
+    spc_film *ref = tu_render_stats(sc, "path", base, spp, 2, 72, &sb);
     CHECK(img && ref);
     if (img && ref) {
         /* the statistics say which render had the guide */
