@@ -7,7 +7,8 @@
  * the lanes in structure-of-arrays form: the triangle and its vertices (table lookups), the point,
  * the direction and the solid-angle density (arithmetic only, compiled also for AVX2 and AVX-512
  * and chosen at run time, so 4 or 8 lanes share an instruction), and the records. Every other
- * light is sampled one lane at a time by spc_emitter_sample_direct.
+ * light is sampled one lane at a time by spc_emitter_sample_direct, except sphere lights with a constant
+ * radiance, which have their own loops (emitter/sphere_many.c).
  *
  * Bit for bit: the arithmetic is spc_area_sample_direct's, spc_shape_sample_area's and fill_mesh's
  * (scene/shape.c) in their order, in double, without fused multiply-adds (ISO C11 builds do not
@@ -175,6 +176,7 @@ void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const s
                                     spc_emitter_direct out[], bool ok[])
 {
     int lane[SPC_EMITTER_MANY_MAX], m = 0;
+    int sphere_lane[SPC_EMITTER_MANY_MAX], ms = 0;
     for (int i = 0; i < n; ++i) {
         if (!e[i]) {
             ok[i] = false;
@@ -184,10 +186,18 @@ void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const s
                 sample_mesh_lights(m, lane, e, ref, u, out, ok);
                 m = 0;
             }
+        } else if (spc_emitter_many_covers_sphere(e[i])) {
+            sphere_lane[ms++] = i;
+            if (ms == SPC_EMITTER_MANY_MAX) {
+                spc_emitter_sample_spheres_many(ms, sphere_lane, e, ref, u, out, ok);
+                ms = 0;
+            }
         } else {
             ok[i] = spc_emitter_sample_direct(e[i], ref[i], u[i], &out[i]);
         }
     }
     if (m > 0)
         sample_mesh_lights(m, lane, e, ref, u, out, ok);
+    if (ms > 0)
+        spc_emitter_sample_spheres_many(ms, sphere_lane, e, ref, u, out, ok);
 }

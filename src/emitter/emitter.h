@@ -102,6 +102,16 @@ void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const s
 /* Is e an area light on a triangle mesh without vertex normals, sampled uniformly by area, with a
  * constant radiance (the lights spc_emitter_sample_direct_many samples in vector form)? */
 bool spc_emitter_many_covers(const spc_emitter *e);
+/* Is e an area light on a sphere with a constant radiance (sampled in vector form by
+ * spc_emitter_sample_direct_many wherever the reference point is outside the sphere)? */
+bool spc_emitter_many_covers_sphere(const spc_emitter *e);
+/* The lanes lane[0..n) (n <= SPC_EMITTER_MANY_MAX) of spc_emitter_sample_direct_many's arrays whose
+ * emitters pass spc_emitter_many_covers_sphere (sphere_many.c): the same out and ok. */
+void spc_emitter_sample_spheres_many(int n, const int *lane, const spc_emitter *const e[], const spc_vec3 ref[],
+                                     const spc_vec2 u[], spc_emitter_direct out[], bool ok[]);
+/* Which of sphere_many.c's loops runs (tests): 2 AVX-512, 1 AVX2, 0 plain, capped at what the CPU
+ * has; -1 the best it has (the default). Returns the one that will run. Not thread-safe. */
+int spc_emitter_spheres_many_isa(int isa);
 /* Solid-angle density at ref of sample_direct producing point p (normal n) on an area light. */
 double spc_emitter_pdf_direct(const spc_emitter *e, spc_vec3 ref, spc_vec3 p, spc_vec3 n);
 /* Radiance leaving an area light at hit h in direction w (unit, away from the surface). */
