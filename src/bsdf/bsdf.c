@@ -119,6 +119,17 @@ double spc_bsdf_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc
     return 0.0;
 }
 
+spc_rgb spc_bsdf_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi,
+                          double *pdf)
+{
+    if (b && b->type == SPC_BSDF_ROUGHCONDUCTOR)
+        return spc_roughconductor_eval_pdf(b, h, mode, wo, wi, pdf);
+    if (b && b->type == SPC_BSDF_TWOSIDED)
+        return spc_twosided_eval_pdf(b, h, mode, wo, wi, pdf);
+    *pdf = spc_bsdf_pdf(b, h, mode, wo, wi);
+    return spc_bsdf_eval(b, h, mode, wo, wi);
+}
+
 bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
                          spc_vec2 u, spc_bsdf_sample *out)
 {

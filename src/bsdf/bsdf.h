@@ -152,6 +152,12 @@ spc_rgb spc_bsdf_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, s
 double spc_bsdf_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi);
 bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
                          spc_vec2 u, spc_bsdf_sample *out);
+/* spc_bsdf_eval and, in *pdf, spc_bsdf_pdf of the same directions, bit for bit the two calls' values:
+ * for next-event estimation, which needs both. Variants whose eval and pdf share terms compute them
+ * once (roughconductor: D(m) and G1(wo, m); twosided: the side and its flipped hit); the others
+ * make the two calls. */
+spc_rgb spc_bsdf_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi,
+                          double *pdf);
 /* Diffuse-like albedo at the hit for the albedo AOV and for light-path heuristics. */
 spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h);
 /* Mitsuba 3's null component (BSDFFlags::Null): the part of a surface that light passes straight

@@ -280,5 +280,12 @@ double spc_microfacet_pdf(const spc_microfacet *md, spc_vec3 w, spc_vec3 m)
         w = spc_neg(w);
     if (w.z == 0.0)
         return 0.0;
-    return spc_microfacet_g1(md, w, m) * spc_max(0.0, spc_dot(w, m)) * d / w.z;
+    return spc_microfacet_pdf_given(md, w, m, d, spc_microfacet_g1(md, w, m));
+}
+
+double spc_microfacet_pdf_given(const spc_microfacet *md, spc_vec3 w, spc_vec3 m, double d, double g1w)
+{
+    if (!md->sample_visible)
+        return d * m.z;
+    return g1w * spc_max(0.0, spc_dot(w, m)) * d / w.z;
 }

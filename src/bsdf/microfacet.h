@@ -48,5 +48,8 @@ spc_vec3 spc_microfacet_sample(const spc_microfacet *md, spc_vec3 w, spc_vec2 u,
 /* Density of spc_microfacet_sample producing m for the direction w (w may be in either
  * hemisphere; it is flipped to the upper one). */
 double spc_microfacet_pdf(const spc_microfacet *md, spc_vec3 w, spc_vec3 m);
+/* spc_microfacet_pdf for w with w.z > 0, given d = D(m) != 0 and, for visible-normal sampling,
+ * g1w = G1(w, m) (unused otherwise): the same value, for callers that have both already. */
+double spc_microfacet_pdf_given(const spc_microfacet *md, spc_vec3 w, spc_vec3 m, double d, double g1w);
 
 #endif

@@ -52,6 +52,30 @@ double spc_roughconductor_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport
     return spc_microfacet_pdf(&md, lo, m) / (4.0 * d_om);
 }
 
+/* eval and pdf at once: D(m) and G1(wo, m) computed once, each value as the two functions give it */
+spc_rgb spc_roughconductor_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
+                                    spc_vec3 wi, double *pdf)
+{
+    (void)mode;
+    *pdf = 0.0;
+    spc_vec3 lo = spc_bsdf_to_local(h, wo), li = spc_bsdf_to_local(h, wi);
+    if (lo.z <= 0.0 || li.z <= 0.0)
+        return spc_rgb1(0.0);
+    spc_vec3 m = spc_normalize(spc_add(lo, li));
+    spc_microfacet md = spc_microfacet_from_bsdf(b, h);
+    double d = spc_microfacet_d(&md, m);
+    if (d == 0.0)
+        return spc_rgb1(0.0);
+    double g1o = spc_microfacet_g1(&md, lo, m);
+    double d_om = spc_dot(lo, m);
+    if (d_om > 0.0)
+        *pdf = spc_microfacet_pdf_given(&md, lo, m, d, g1o) / (4.0 * d_om);
+    double g = g1o * spc_microfacet_g1(&md, li, m);
+    spc_rgb F = spc_bsdf_conductor_fresnel(b, spc_dot(lo, m));
+    spc_rgb ks = spc_bsdf_tex(b->specular_reflectance, h, spc_rgb1(1.0));
+    return spc_rgb_scale(spc_rgb_mul(F, ks), d * g / (4.0 * lo.z * li.z));
+}
+
 bool spc_roughconductor_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
                                spc_vec2 u, spc_bsdf_sample *out)
 {

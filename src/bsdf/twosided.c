@@ -43,6 +43,15 @@ double spc_twosided_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode,
     return spc_bsdf_pdf(nb, hs, mode, wo, wi);
 }
 
+spc_rgb spc_twosided_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi,
+                              double *pdf)
+{
+    spc_hit flip;
+    const spc_hit *hs;
+    const spc_bsdf *nb = twosided_side(b, h, wo, &flip, &hs);
+    return spc_bsdf_eval_pdf(nb, hs, mode, wo, wi, pdf);
+}
+
 bool spc_twosided_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
                          spc_vec2 u, spc_bsdf_sample *out)
 {

@@ -141,6 +141,8 @@ SPC_BSDF_VARIANT(roughdiffuse);
 SPC_BSDF_VARIANT(phong);
 SPC_BSDF_VARIANT(conductor);
 SPC_BSDF_VARIANT(roughconductor);
+spc_rgb spc_roughconductor_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
+                                    spc_vec3 wi, double *pdf);
 SPC_BSDF_VARIANT(dielectric);
 SPC_BSDF_VARIANT(thindielectric);
 spc_rgb spc_thindielectric_null_transmission(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo);
@@ -149,6 +151,8 @@ SPC_BSDF_VARIANT(plastic);
 SPC_BSDF_VARIANT(roughplastic);
 SPC_BSDF_VARIANT(pplastic);
 SPC_BSDF_VARIANT(twosided);
+spc_rgb spc_twosided_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi,
+                              double *pdf);
 SPC_BSDF_VARIANT(normalmap);
 spc_rgb spc_normalmap_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
                                           spc_vec3 wi);

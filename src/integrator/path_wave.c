@@ -39,6 +39,7 @@ typedef struct lane {
     spc_rgb f, Le;
     spc_vec3 wo, wi;
     double cosi, lp;
+    double bsdf_pdf; /* the BSDF's density of wi (not for a diffuse view, whose pdf is cheap) */
     bool is_delta;
     /* the vertex's BSDF as a diffuse lobe (bsdf/diffuse_view.h), where it is one */
     bool diffuse;
@@ -140,8 +141,9 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, do
     const spc_bsdf *b = h->bsdf;
     const spc_vec3 wo = ln->wo;
     if (ok) {
+        /* the BSDF's value and density in one call where they share terms (bsdf.h) */
         spc_rgb f = ln->diffuse ? spc_diffuse_view_eval(&ln->dv, h, wo, ds->wi)
-                                : spc_bsdf_eval(b, h, SPC_MODE_RADIANCE, wo, ds->wi);
+                                : spc_bsdf_eval_pdf(b, h, SPC_MODE_RADIANCE, wo, ds->wi, &ln->bsdf_pdf);
         double cosi = spc_absdot(ds->wi, h->sh.n);
         if (ctx->strict_normals && !(spc_dot(ds->wi, h->ng) * spc_dot(ds->wi, h->sh.n) > 0.0))
             cosi = 0.0;
@@ -169,8 +171,7 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
     if (ln->shadow && !occluded) {
         double w = 1.0;
         if (!ln->is_delta) {
-            double pdf = ln->diffuse ? spc_diffuse_view_pdf(&ln->dv, h, wo, ln->wi)
-                                     : spc_bsdf_pdf(b, h, SPC_MODE_RADIANCE, wo, ln->wi);
+            double pdf = ln->diffuse ? spc_diffuse_view_pdf(&ln->dv, h, wo, ln->wi) : ln->bsdf_pdf;
             w = spc_mis_power(ln->lp, pdf);
         }
         spc_rgb c = spc_rgb_mul(spc_rgb_mul(ln->beta, ln->f), ln->Le);
