@@ -18,6 +18,12 @@
 #include <float.h>
 #include <math.h>
 
+/* clang contracts a * b + c into a fused multiply-add by default where the target has one (its
+ * avx512f implies FMA), which would round differently from the one-lane code */
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#endif
+
 #include "emitter/emitter.h"
 #include "scene/shape.h"
 #include "scene/texture.h"

@@ -26,6 +26,11 @@
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC optimize("O3", "no-trapping-math")
 #endif
+/* clang contracts a * b + c into a fused multiply-add by default where the target has one (its
+ * avx512f implies FMA), which would round differently from the one-lane code */
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#endif
 #include <float.h>
 #include <math.h>
 
