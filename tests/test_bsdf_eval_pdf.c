@@ -85,15 +85,15 @@ TEST(eval_pdf_matches_eval_and_pdf)
         nonzero_pdf += pdf0 > 0.0;
         if (memcmp(&f0, &f1, sizeof f0) != 0 || memcmp(&pdf0, &pdf1, sizeof pdf0) != 0) {
             if (failed < 3)
-                printf("  shape %d: f %.17g %.17g %.17g / %.17g %.17g %.17g, pdf %.17g / %.17g\n",
-                       round % sc->nshapes, f0.r, f0.g, f0.b, f1.r, f1.g, f1.b, pdf0, pdf1);
+                printf("  shape %d: f %.17g %.17g %.17g / %.17g %.17g %.17g, pdf %.17g / %.17g\n", round % sc->nshapes,
+                       f0.r, f0.g, f0.b, f1.r, f1.g, f1.b, pdf0, pdf1);
             ++failed;
         }
     }
     CHECK_MSG(failed == 0, "%d evaluations differ", failed);
     /* the comparisons covered real lobe values and densities, on both sides */
-    CHECK_MSG(nonzero_f > 5000 && nonzero_pdf > 5000 && back > 5000, "f %d, pdf %d nonzero, %d back sides",
-              nonzero_f, nonzero_pdf, back);
+    CHECK_MSG(nonzero_f > 5000 && nonzero_pdf > 5000 && back > 5000, "f %d, pdf %d nonzero, %d back sides", nonzero_f,
+              nonzero_pdf, back);
     spc_scene_destroy(sc);
 }
 

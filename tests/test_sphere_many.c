@@ -59,10 +59,14 @@ static spc_vec3 ref_for(const spc_shape *s, int kind, spc_rng *rng)
     spc_vec3 d = spc_warp_uniform_sphere(spc_v2(spc_rng_next(rng), spc_rng_next(rng)));
     double R = s->radius;
     switch (kind) {
-    case 1: return spc_madd(s->center, d, R * (1.0 + 1e-7 * (1.0 + spc_rng_next(rng))));
-    case 2: return spc_madd(s->center, d, R * 1e5 * (1.0 + spc_rng_next(rng)));
-    case 3: return spc_madd(s->center, d, R * 0.9 * spc_rng_next(rng));
-    default: return spc_madd(s->center, d, R * (1.0 + 10.0 * spc_rng_next(rng)));
+    case 1:
+        return spc_madd(s->center, d, R * (1.0 + 1e-7 * (1.0 + spc_rng_next(rng))));
+    case 2:
+        return spc_madd(s->center, d, R * 1e5 * (1.0 + spc_rng_next(rng)));
+    case 3:
+        return spc_madd(s->center, d, R * 0.9 * spc_rng_next(rng));
+    default:
+        return spc_madd(s->center, d, R * (1.0 + 10.0 * spc_rng_next(rng)));
     }
 }
 
@@ -108,8 +112,7 @@ static void compare(const spc_scene *sc, int *vector, int *failed, int kinds[4])
                 continue;
             }
             bool ok1 = spc_emitter_sample_direct(e[i], ref[i], u[i], &one);
-            bool vec = spc_emitter_many_covers_sphere(e[i]) &&
-                       spc_shape_has_solid_angle_sampling(e[i]->shape, ref[i]);
+            bool vec = spc_emitter_many_covers_sphere(e[i]) && spc_shape_has_solid_angle_sampling(e[i]->shape, ref[i]);
             if (vec) {
                 ++*vector;
                 kinds[kind[i]] += ok1;

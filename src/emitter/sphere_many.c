@@ -58,74 +58,77 @@ typedef struct soa {
 /* spc_safe_sqrt as a select on the argument (the same value, NaN included: both give 0) */
 #define SPHERE_MANY_SAFE_SQRT(x) sqrt((x) > 0.0 ? (x) : 0.0)
 
-#define SPHERE_MANY_BODY                                                                                              \
-    for (int i = 0; i < n; ++i) {                                                                                     \
-        double cx = a->c[0][i], cy = a->c[1][i], cz = a->c[2][i];                                                     \
-        double rx = a->ref[0][i], ry = a->ref[1][i], rz = a->ref[2][i];                                               \
-        /* spc_shape_sample_solid_angle: the cone's direction, then the point by the angle at the center */         \
-        double dcx = cx - rx, dcy = cy - ry, dcz = cz - rz;                                                           \
-        double dist2 = dcx * dcx + dcy * dcy + dcz * dcz, inv_dist = 1.0 / sqrt(dist2);                               \
-        double R = a->R[i];                                                                                           \
-        double sin2_max = R * R / dist2;                                                                              \
-        double cm2 = 1.0 - sin2_max;                                                                                  \
-        double cos_max = sqrt(0.0 > cm2 ? 0.0 : cm2);                                                                 \
-        double one_minus_cos = a->ux[i] * (1.0 - cos_max);                                                            \
-        double cos_t = 1.0 - one_minus_cos, sin2_t = one_minus_cos * (2.0 - one_minus_cos);                           \
-        double ca2 = 1.0 - sin2_t / sin2_max;                                                                         \
-        double cos_a = sin2_t / (R * inv_dist) + cos_t * SPHERE_MANY_SAFE_SQRT(ca2);                                  \
-        cos_a = cos_a < 1.0 ? cos_a : 1.0;                                                                            \
-        double sa2 = 1.0 - cos_a * cos_a;                                                                             \
-        double sin_a = SPHERE_MANY_SAFE_SQRT(sa2);                                                                    \
-        /* spc_sincos_2pi(u.y): the quarter turn q = floor(4 u + 1/2), its quadrant q mod 4 */                        \
-        double uy = a->uy[i];                                                                                         \
-        double q = floor(4.0 * uy + 0.5);                                                                             \
-        double quad = q - 4.0 * floor(q * 0.25);                                                                      \
-        double sr, cr;                                                                                                \
-        spc_sincos_quarter(2.0 * SPC_PI * (uy - 0.25 * q), &sr, &cr);                                                 \
-        double sp = quad == 0.0 ? sr : quad == 1.0 ? cr : quad == 2.0 ? -sr : -cr;                                    \
-        double cp = quad == 0.0 ? cr : quad == 1.0 ? -sr : quad == 2.0 ? -cr : sr;                                    \
-        /* spc_frame_from_n(dc / |dc|) */                                                                             \
-        double fnx = dcx * inv_dist, fny = dcy * inv_dist, fnz = dcz * inv_dist;                                      \
-        double sign = copysign(1.0, fnz);                                                                             \
-        double fa = -1.0 / (sign + fnz);                                                                              \
-        double fb = fnx * fny * fa;                                                                                   \
-        double sx = 1.0 + sign * fnx * fnx * fa, sy = sign * fb, sz = -sign * fnx;                                    \
-        double tx = fb, ty = sign + fny * fny * fa, tz = -fny;                                                        \
-        /* spc_frame_to_world(v), v = (-sin_a cp, -sin_a sp, -cos_a) */                                               \
-        double vx = -sin_a * cp, vy = -sin_a * sp, vz = -cos_a;                                                       \
-        double nx = sx * vx + tx * vy + fnx * vz;                                                                     \
-        double ny = sy * vx + ty * vy + fny * vz;                                                                     \
-        double nz = sz * vx + tz * vy + fnz * vz;                                                                     \
-        double px = cx + nx * R, py = cy + ny * R, pz = cz + nz * R;                                                  \
-        double f = a->flip[i];                                                                                        \
-        double onx = f < 0.0 ? -nx : nx, ony = f < 0.0 ? -ny : ny, onz = f < 0.0 ? -nz : nz;                          \
-        double pdf = 1.0 / (2.0 * SPC_PI * (1.0 - cos_max)); /* spc_warp_uniform_cone_pdf */                        \
-        /* spc_area_sample_direct */                                                                                  \
-        double dx = px - rx, dy = py - ry, dz = pz - rz;                                                              \
-        double dist = sqrt(dx * dx + dy * dy + dz * dz);                                                              \
-        double inv = 1.0 / dist;                                                                                      \
-        double wx = dx * inv, wy = dy * inv, wz = dz * inv;                                                           \
-        a->p[0][i] = px;                                                                                              \
-        a->p[1][i] = py;                                                                                              \
-        a->p[2][i] = pz;                                                                                              \
-        a->n[0][i] = onx;                                                                                             \
-        a->n[1][i] = ony;                                                                                             \
-        a->n[2][i] = onz;                                                                                             \
-        a->wi[0][i] = wx;                                                                                             \
-        a->wi[1][i] = wy;                                                                                             \
-        a->wi[2][i] = wz;                                                                                             \
-        a->dist[i] = dist;                                                                                            \
-        a->pdf[i] = pdf;                                                                                              \
-        a->facing[i] = onx * -wx + ony * -wy + onz * -wz;                                                             \
+#define SPHERE_MANY_BODY                                                                                               \
+    for (int i = 0; i < n; ++i) {                                                                                      \
+        double cx = a->c[0][i], cy = a->c[1][i], cz = a->c[2][i];                                                      \
+        double rx = a->ref[0][i], ry = a->ref[1][i], rz = a->ref[2][i];                                                \
+        /* spc_shape_sample_solid_angle: the cone's direction, then the point by the angle at the center */            \
+        double dcx = cx - rx, dcy = cy - ry, dcz = cz - rz;                                                            \
+        double dist2 = dcx * dcx + dcy * dcy + dcz * dcz, inv_dist = 1.0 / sqrt(dist2);                                \
+        double R = a->R[i];                                                                                            \
+        double sin2_max = R * R / dist2;                                                                               \
+        double cm2 = 1.0 - sin2_max;                                                                                   \
+        double cos_max = sqrt(0.0 > cm2 ? 0.0 : cm2);                                                                  \
+        double one_minus_cos = a->ux[i] * (1.0 - cos_max);                                                             \
+        double cos_t = 1.0 - one_minus_cos, sin2_t = one_minus_cos * (2.0 - one_minus_cos);                            \
+        double ca2 = 1.0 - sin2_t / sin2_max;                                                                          \
+        double cos_a = sin2_t / (R * inv_dist) + cos_t * SPHERE_MANY_SAFE_SQRT(ca2);                                   \
+        cos_a = cos_a < 1.0 ? cos_a : 1.0;                                                                             \
+        double sa2 = 1.0 - cos_a * cos_a;                                                                              \
+        double sin_a = SPHERE_MANY_SAFE_SQRT(sa2);                                                                     \
+        /* spc_sincos_2pi(u.y): the quarter turn q = floor(4 u + 1/2), its quadrant q mod 4 */                         \
+        double uy = a->uy[i];                                                                                          \
+        double q = floor(4.0 * uy + 0.5);                                                                              \
+        double quad = q - 4.0 * floor(q * 0.25);                                                                       \
+        double sr, cr;                                                                                                 \
+        spc_sincos_quarter(2.0 * SPC_PI * (uy - 0.25 * q), &sr, &cr);                                                  \
+        double sp = quad == 0.0 ? sr : quad == 1.0 ? cr : quad == 2.0 ? -sr : -cr;                                     \
+        double cp = quad == 0.0 ? cr : quad == 1.0 ? -sr : quad == 2.0 ? -cr : sr;                                     \
+        /* spc_frame_from_n(dc / |dc|) */                                                                              \
+        double fnx = dcx * inv_dist, fny = dcy * inv_dist, fnz = dcz * inv_dist;                                       \
+        double sign = copysign(1.0, fnz);                                                                              \
+        double fa = -1.0 / (sign + fnz);                                                                               \
+        double fb = fnx * fny * fa;                                                                                    \
+        double sx = 1.0 + sign * fnx * fnx * fa, sy = sign * fb, sz = -sign * fnx;                                     \
+        double tx = fb, ty = sign + fny * fny * fa, tz = -fny;                                                         \
+        /* spc_frame_to_world(v), v = (-sin_a cp, -sin_a sp, -cos_a) */                                                \
+        double vx = -sin_a * cp, vy = -sin_a * sp, vz = -cos_a;                                                        \
+        double nx = sx * vx + tx * vy + fnx * vz;                                                                      \
+        double ny = sy * vx + ty * vy + fny * vz;                                                                      \
+        double nz = sz * vx + tz * vy + fnz * vz;                                                                      \
+        double px = cx + nx * R, py = cy + ny * R, pz = cz + nz * R;                                                   \
+        double f = a->flip[i];                                                                                         \
+        double onx = f < 0.0 ? -nx : nx, ony = f < 0.0 ? -ny : ny, onz = f < 0.0 ? -nz : nz;                           \
+        double pdf = 1.0 / (2.0 * SPC_PI * (1.0 - cos_max)); /* spc_warp_uniform_cone_pdf */                           \
+        /* spc_area_sample_direct */                                                                                   \
+        double dx = px - rx, dy = py - ry, dz = pz - rz;                                                               \
+        double dist = sqrt(dx * dx + dy * dy + dz * dz);                                                               \
+        double inv = 1.0 / dist;                                                                                       \
+        double wx = dx * inv, wy = dy * inv, wz = dz * inv;                                                            \
+        a->p[0][i] = px;                                                                                               \
+        a->p[1][i] = py;                                                                                               \
+        a->p[2][i] = pz;                                                                                               \
+        a->n[0][i] = onx;                                                                                              \
+        a->n[1][i] = ony;                                                                                              \
+        a->n[2][i] = onz;                                                                                              \
+        a->wi[0][i] = wx;                                                                                              \
+        a->wi[1][i] = wy;                                                                                              \
+        a->wi[2][i] = wz;                                                                                              \
+        a->dist[i] = dist;                                                                                             \
+        a->pdf[i] = pdf;                                                                                               \
+        a->facing[i] = onx * -wx + ony * -wy + onz * -wz;                                                              \
     }
 
-static void body_default(soa *a, int n) { SPHERE_MANY_BODY }
+static void body_default(soa *a, int n){SPHERE_MANY_BODY}
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #define SPHERE_MANY_VECTOR 1
 #define SPHERE_MANY_ATTR(t) __attribute__((target(t)))
-SPHERE_MANY_ATTR("avx2") static void body_avx2(soa *a, int n) { SPHERE_MANY_BODY }
-SPHERE_MANY_ATTR("avx512f") static void body_avx512(soa *a, int n) { SPHERE_MANY_BODY }
+SPHERE_MANY_ATTR("avx2") static void body_avx2(soa *a, int n){
+    SPHERE_MANY_BODY} SPHERE_MANY_ATTR("avx512f") static void body_avx512(soa *a, int n)
+{
+    SPHERE_MANY_BODY
+}
 #endif
 
 static int isa_forced = -1; /* spc_emitter_spheres_many_isa's choice; -1: the best the CPU has */
