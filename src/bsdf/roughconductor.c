@@ -53,8 +53,8 @@ double spc_roughconductor_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport
 }
 
 /* eval and pdf at once: D(m) and G1(wo, m) computed once, each value as the two functions give it */
-spc_rgb spc_roughconductor_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
-                                    spc_vec3 wi, double *pdf)
+spc_rgb spc_roughconductor_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi,
+                                    double *pdf)
 {
     (void)mode;
     *pdf = 0.0;
