@@ -20,7 +20,7 @@
  * tol, with the Anderson-Bjorck scaling of the end that stays twice in a row (Anderson and Bjorck
  * 1973: its value times 1 - fc / fb, or a half where that is not positive, the Illinois factor):
  * on the glass ball's render 12% fewer evaluations than the Illinois halving alone (callgrind). */
-static void illinois(spc_roots1d_fn fn, const void *ctx, double *pa, double *pfa, double *pb, double *pfb, double tol)
+static void regula_falsi(spc_roots1d_fn fn, const void *ctx, double *pa, double *pfa, double *pb, double *pfb, double tol)
 {
     double a = *pa, fa = *pfa, b = *pb, fb = *pfb;
     int side = 0;
@@ -68,12 +68,12 @@ static void add_root(spc_roots1d_fn fn, spc_roots1d_accept accept, const void *c
 {
     if (*n >= max_roots)
         return;
-    illinois(fn, ctx, &a, &fa, &b, &fb, tol > SPC_ROOTS1D_COARSE ? tol : SPC_ROOTS1D_COARSE);
+    regula_falsi(fn, ctx, &a, &fa, &b, &fb, tol > SPC_ROOTS1D_COARSE ? tol : SPC_ROOTS1D_COARSE);
     double th = fabs(fa) < fabs(fb) ? a : b, f, ahead;
     if (!fn(ctx, th, &f, &ahead, NULL) || !(ahead > 0.0) || (accept && !accept(ctx, th)))
         return;
     if (tol < SPC_ROOTS1D_COARSE && fa != 0.0 && fb != 0.0) {
-        illinois(fn, ctx, &a, &fa, &b, &fb, tol);
+        regula_falsi(fn, ctx, &a, &fa, &b, &fb, tol);
         th = fabs(fa) < fabs(fb) ? a : b;
     }
     for (int i = 0; i < *n; ++i)
