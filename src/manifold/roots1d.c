@@ -20,7 +20,8 @@
  * tol, with the Anderson-Bjorck scaling of the end that stays twice in a row (Anderson and Bjorck
  * 1973: its value times 1 - fc / fb, or a half where that is not positive, the Illinois factor):
  * on the glass ball's render 12% fewer evaluations than the Illinois halving alone (callgrind). */
-static void regula_falsi(spc_roots1d_fn fn, const void *ctx, double *pa, double *pfa, double *pb, double *pfb, double tol)
+static void regula_falsi(spc_roots1d_fn fn, const void *ctx, double *pa, double *pfa, double *pb, double *pfb,
+                         double tol)
 {
     double a = *pa, fa = *pfa, b = *pb, fb = *pfb;
     int side = 0;
