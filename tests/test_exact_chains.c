@@ -6,7 +6,9 @@
  *   angle, chords that turn by pi + 2 beta about the centre) scanned on a 20001-point grid, over
  *   random configurations, for the outside reflection and for 0 to 5 internal reflections,
  *   glass (eta 1.5, 1.33) and a bubble (eta 0.75, total internal reflection on entry): every root
- *   the dense scan finds is among spc_sphere_chain_roots', and every one of those is a root.
+ *   the dense scan finds is among spc_sphere_chain_roots', and every one of those is a root; and
+ *   1500 configurations of the outside reflection and the refraction through with y mostly behind
+ *   the sphere, where the refraction's caustic puts pairs of roots close together (its folds).
  * - In a scene: the chains spc_sphere_chains_all enumerates from floor points to light points
  *   through a glass ball (chains of up to 3 vertices, reflections included) and a mirror ball, each
  *   checked to end on its light point, contain every distinct chain that 3000 randomized angular
@@ -83,16 +85,22 @@ static bool f_angles(double d, double y1, double y2, int m, double eta, double t
     return true;
 }
 
-TEST(planar_roots_against_dense_scan)
+/* Random configurations against the dense scan: m from -1 to 5 (low: -1 and 0 only, the orders
+ * with the coarser grid, y mostly behind the sphere where the refraction's caustic and its folds
+ * lie, within a few radii). */
+static void planar_dense(int trials, bool low, int *pdense)
 {
-    spc_rng_seed(&rng, 5, 1);
     const double etas[3] = {1.5, 1.33, 0.75};
     int dense_roots = 0, found = 0, missed = 0, extra = 0, configs = 0;
-    for (int trial = 0; trial < 400; ++trial) {
-        int m = (int)(rnd() * 7) - 1; /* up to five internal reflections */
+    for (int trial = 0; trial < trials; ++trial) {
+        int m = low ? (int)(rnd() * 2) - 1 : (int)(rnd() * 7) - 1; /* up to five internal reflections */
         double eta = etas[(int)(rnd() * 3)];
         double d = 1.05 + 5.0 * rnd() * rnd();
         double r = 1.05 + 6.0 * rnd(), a = 2 * SPC_PI * rnd();
+        if (low && rnd() < 0.7) {
+            r = 1.02 + 3.0 * rnd();
+            a = SPC_PI + 1.2 * (2.0 * rnd() - 1.0);
+        }
         double y1 = r * cos(a), y2 = fabs(r * sin(a));
         double theta[16];
         int n = spc_sphere_chain_roots(d, y1, y2, m, eta, theta, 16);
@@ -134,10 +142,21 @@ TEST(planar_roots_against_dense_scan)
             tp = t;
         }
     }
-    printf("    %d configurations: dense scan %d roots, found %d, missed %d; %d returned roots false\n", configs,
-           dense_roots, found, missed, extra);
-    CHECK(dense_roots > 200);
+    printf("    %d configurations%s: dense scan %d roots, found %d, missed %d; %d returned roots false\n", configs,
+           low ? " (m -1 and 0)" : "", dense_roots, found, missed, extra);
     CHECK(missed == 0 && extra == 0);
+    *pdense = dense_roots;
+}
+
+TEST(planar_roots_against_dense_scan)
+{
+    spc_rng_seed(&rng, 5, 1);
+    int dense = 0;
+    planar_dense(400, false, &dense);
+    CHECK(dense > 200);
+    /* the outside reflection and the refraction through, on the coarser grid, near the folds */
+    planar_dense(1500, true, &dense);
+    CHECK(dense > 500);
 }
 
 /* ---- in a scene ---- */

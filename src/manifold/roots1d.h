@@ -11,7 +11,7 @@
  * toward zero (three samples of one sign, the middle one nearest zero, and the parabola through
  * them dipping below half the middle one): a parabolic search (golden sections where the parabola is
  * no help) for the extremum between the outer two, stopped as soon as f changes sign, then one
- * bracket on each side. Brackets are refined by the Illinois variant of regula falsi, first to 1e-6,
+ * bracket on each side. Brackets are refined by regula falsi with the Anderson-Bjorck scaling, first to 1e-6,
  * where a root is dropped unless the function's second output ("ahead", the target in front of the
  * chain's final segment) is positive and the caller accepts it, then to tol. A root within 1e-10 of
  * one kept before is the same.

@@ -31,7 +31,9 @@
 /* Samples of f over the arc x sees, shared by every signature (one pass computes the way in, the
  * chords, and each signature's way out). roots1d halves the cells where the chain's angles turn
  * fast, so the grid only has to see f's broad shape: 32 samples found the same roots in the tests
- * and in 40000 calls of bench_snee on the glass ball, at 1.5x the cost per call; 4 miss some. */
+ * and in 40000 calls of bench_snee on the glass ball, at 1.5x the cost per call; 4 miss some; 8 and
+ * 12 miss pairs of roots at the refraction's folds (test_exact_chains, 3000 configurations of one
+ * or two vertices behind the sphere: 2 and 4 of 1584 roots). */
 #define SPC_SPHERE_GRID 16
 /* Roots kept per planar problem. */
 #define SPC_SPHERE_MAX_ROOTS 16
@@ -157,9 +159,22 @@ static bool plane_eval_at(const plane_problem *pb, double qx, double qy, double 
     return true;
 }
 
+/* The entry point (cos th, sin th), |th| < pi / 2, from the polynomials of th / 2 and the double
+ * angle: the refinement's evaluations without libm's sincos (7% of the glass ball's render,
+ * callgrind). */
+static inline void entry_point(double th, double *qx, double *qy)
+{
+    double s, c;
+    spc_sincos_quarter(0.5 * th, &s, &c);
+    *qx = (c - s) * (c + s);
+    *qy = 2.0 * s * c;
+}
+
 static bool plane_fn(const void *ctx, double th, double *f, double *ahead, double *ang)
 {
-    return plane_eval_at(ctx, cos(th), sin(th), f, ahead, ang);
+    double qx, qy;
+    entry_point(th, &qx, &qy);
+    return plane_eval_at(ctx, qx, qy, f, ahead, ang);
 }
 
 /* f of every signature m = mlo..mhi at the entry point (qx, qy), sharing the way in and the chords:
@@ -217,8 +232,10 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
     double an[G + 1][SPC_SPHERE_SIGNATURES][SPHERE_ANGLES];
     bool ok[G + 1][SPC_SPHERE_SIGNATURES];
     /* the entry points by rotation from the first (cos and sin once) */
-    double step = 2.0 * tmax / G, cs = cos(step), sn = sin(step);
-    double cx = cos(tmax), cy = -sin(tmax);
+    double step = 2.0 * tmax / G, cs, sn, cx, cy;
+    spc_sincos_quarter(step, &sn, &cs); /* step < pi / G <= pi / 4 */
+    entry_point(tmax, &cx, &cy);
+    cy = -cy;
     plane_problem pb = {d, y1, y2, eta, 0};
     for (int j = 0; j <= G; ++j) {
         th[j] = -tmax + step * j;
