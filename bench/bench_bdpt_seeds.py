@@ -13,7 +13,8 @@ pixel that take --cpu CPU seconds (user + system, both threads), so path and bdp
 time however the machine's cores are shared; the table gives the CPU seconds actually used.
 
 --snee SPEC renders both integrators with --specular-nee SPEC (e.g. angular:camera);
---bdpt-snee SPEC only bdpt (path keeps its default, the scene's plan). --integrators picks which
+--bdpt-snee SPEC only bdpt (path keeps its default, the scene's plan). --bdpt-pool M renders bdpt
+with connections to M light vertices from the pass's pool (integrator/bdpt_pool.h). --integrators picks which
 of path and bdpt run. Each seed's line names its worst pixel (x, y).
 
 Per render: relMSE = mean over pixels and channels of ((a - b)^2 - var(b)) / (b^2 + 0.01) (as
@@ -72,6 +73,8 @@ def render(a, scene, defs, integrator, spp, seed, out):
            "--threads", "2", "--quiet", "--variance", "-o", out, "-D", "integrator=path"]
     if snee_of(a, integrator):
         cmd += ["--specular-nee", snee_of(a, integrator)]
+    if integrator == "bdpt" and a.bdpt_pool:
+        cmd += ["--bdpt-pool", str(a.bdpt_pool)]
     for d in defs:
         cmd += ["-D", d]
     c0 = cpu_children()
@@ -111,6 +114,7 @@ def main():
     ap.add_argument("--snee", default="")
     ap.add_argument("--bdpt-snee", default="")
     ap.add_argument("--integrators", default="path,bdpt")
+    ap.add_argument("--bdpt-pool", type=int, default=0)
     a = ap.parse_args()
     os.makedirs(a.refs, exist_ok=True)
     os.makedirs(a.out, exist_ok=True)
@@ -140,7 +144,8 @@ def main():
             rows = []
             for seed in range(1, a.seeds + 1):
                 sn = snee_of(a, it)
-                out = os.path.join(a.out, f"{name}_{it}{'_' + sn.replace(':', '_').replace(',', '_') if sn else ''}_{seed}.exr")
+                pool = f"_pool{a.bdpt_pool}" if it == "bdpt" and a.bdpt_pool else ""
+                out = os.path.join(a.out, f"{name}_{it}{'_' + sn.replace(':', '_').replace(',', '_') if sn else ''}{pool}_{seed}.exr")
                 cpu = render(a, scene, defs, it, spp, seed, out)
                 rm, share, wxy = errors(read_rgb(out), ref, ref_var)
                 zp = ztest_pass(a, out, ref_path)

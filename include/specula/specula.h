@@ -130,6 +130,10 @@ typedef struct spc_render_options {
      * with SPC_ERR_PLUGIN naming what it lacks; the film, passes and seeds work as on the CPU, the
      * image is deterministic for a given device (not equal to the CPU's bit for bit). */
     const char *device;
+    /* bdpt: each camera vertex also joins bdpt_pool light vertices picked by importance from a pool
+     * of the pass's light subpaths (integrator/bdpt_pool.h); 0: off. Not with strategy_s/t,
+     * strategy_images or the opencl device. */
+    int bdpt_pool;
 } spc_render_options;
 
 #define SPC_STRATEGY_IMAGES_MAX_DEPTH 8
