@@ -8,8 +8,9 @@
 SCENE is one of the names below (default: all). For each scene a Mitsuba 3 reference (path
 tracer, llvm_ad_rgb, `--mitsuba-spp` samples in 32 passes, tests/validation/mitsuba_ref.py) is
 rendered once into --refs (kept: delete it to render again). Each integrator's CPU seconds per
-sample are measured by a short calibration render, and every seed then renders the samples per
-pixel that take --cpu CPU seconds (user + system, both threads), so path and bdpt get equal CPU
+sample (and per render: bdpt's pool pilot) are measured by two short calibration renders, and
+every seed then renders the samples per pixel that take --cpu CPU seconds (user + system, both
+threads), so path and bdpt get equal CPU
 time however the machine's cores are shared; the table gives the CPU seconds actually used.
 
 --snee SPEC renders both integrators with --specular-nee SPEC (e.g. angular:camera);
@@ -138,9 +139,14 @@ def main():
               f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
         means = {}
         for it in a.integrators.split(","):
+            # two calibration renders, so that a fixed cost per render (bdpt's pool pilot) is not
+            # spread over the samples: CPU(spp) = fixed + spp * per_sample
             cal = 64
-            c = render(a, scene, defs, it, cal, 100, os.path.join(a.out, "cal.exr"))
-            spp = max(1, int(round(a.cpu / max(c, 1e-3) * cal)))
+            c1 = render(a, scene, defs, it, cal, 100, os.path.join(a.out, "cal.exr"))
+            c2 = render(a, scene, defs, it, 2 * cal, 100, os.path.join(a.out, "cal.exr"))
+            per = max((c2 - c1) / cal, 0.5 * c2 / (2 * cal), 1e-6)
+            fixed = min(max(c1 - cal * per, 0.0), 0.5 * a.cpu)
+            spp = max(1, int(round((a.cpu - fixed) / per)))
             rows = []
             for seed in range(1, a.seeds + 1):
                 sn = snee_of(a, it)
