@@ -12,6 +12,8 @@
  * - The pool lowers the door's variance at equal samples (its reason to exist; 2x measured).
  * - The image is bit-identical for 1 and 2 threads, and a render resumed from a checkpoint equals
  *   an uninterrupted one.
+ * - By default it is on (2 connections) where the camera sees mostly indirectly lit surfaces (the
+ *   door) and off elsewhere (the caustic).
  * - The options that exclude it are refused.
  */
 /* ctest-labels: stat */
@@ -37,7 +39,8 @@ static spc_scene *load(const char *rel, int res)
     return sc;
 }
 
-/* bdpt with `pool` connections per camera vertex (0: plain), the scene's specular NEE setting. */
+/* bdpt with `pool` connections per camera vertex (-1: plain, 0: the default), the scene's specular
+ * NEE setting. */
 static spc_film *render_pool(const spc_scene *sc, int pool, int spp, int threads, uint64_t seed, spc_status *status)
 {
     spc_render_options o;
@@ -69,7 +72,7 @@ static void agrees_with_bdpt(const char *rel, int res, int spp, int pool)
     if (!sc)
         return;
     spc_film *a = render_pool(sc, pool, spp, 2, 1, NULL);
-    spc_film *b = render_pool(sc, 0, 4 * spp, 2, 2, NULL);
+    spc_film *b = render_pool(sc, -1, 4 * spp, 2, 2, NULL);
     CHECK(a && b);
     if (a && b) {
         char label[256];
@@ -108,7 +111,7 @@ TEST(door_variance_falls)
     if (!sc)
         return;
     spc_film *a = render_pool(sc, 2, 64, 2, 3, NULL);
-    spc_film *b = render_pool(sc, 0, 64, 2, 3, NULL);
+    spc_film *b = render_pool(sc, -1, 64, 2, 3, NULL);
     CHECK(a && b);
     if (a && b) {
         double va = rel_var(a), vb = rel_var(b);
@@ -128,7 +131,7 @@ TEST(same_image_for_any_thread_count)
         return;
     spc_film *a = render_pool(sc, 2, 8, 1, 7, NULL);
     spc_film *b = render_pool(sc, 2, 8, 2, 7, NULL);
-    spc_film *c = render_pool(sc, 0, 8, 2, 7, NULL);
+    spc_film *c = render_pool(sc, -1, 8, 2, 7, NULL);
     CHECK(a && b && c);
     if (a && b && c) {
         size_t n = 3 * (size_t)a->width * a->height;
@@ -173,7 +176,7 @@ TEST(resumes_bit_for_bit)
         CHECK_MSG(spc_render(sc, &o, &resumed, NULL, &err) == SPC_OK, "%s", err.msg);
         /* without the pool the checkpoint is refused: the settings differ */
         spc_film *other = NULL;
-        o.bdpt_pool = 0;
+        o.bdpt_pool = -1;
         CHECK(spc_render(sc, &o, &other, NULL, &err) == SPC_ERR_VALUE);
         spc_film_destroy(other);
         o.bdpt_pool = 2;
@@ -192,6 +195,35 @@ TEST(resumes_bit_for_bit)
     spc_film_destroy(whole);
     spc_film_destroy(resumed);
     spc_scene_destroy(sc);
+}
+
+/* The default: the pool with 2 connections on the door (the camera sees no lit surface), none on
+ * the glass-ball caustic (lit directly): bit for bit the explicit settings. */
+static void default_is(const char *rel, int expected)
+{
+    spc_scene *sc = load(rel, 8);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *a = render_pool(sc, 0, 4, 2, 9, NULL);
+    spc_film *b = render_pool(sc, expected, 4, 2, 9, NULL);
+    spc_film *c = render_pool(sc, expected > 0 ? -1 : 2, 4, 2, 9, NULL);
+    CHECK(a && b && c);
+    if (a && b && c) {
+        size_t n = 3 * (size_t)a->width * a->height;
+        CHECK_MSG(memcmp(a->rgb, b->rgb, n * sizeof(float)) == 0, "%s: the default is not pool %d", rel, expected);
+        CHECK(memcmp(a->rgb, c->rgb, n * sizeof(float)) != 0);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_film_destroy(c);
+    spc_scene_destroy(sc);
+}
+
+TEST(default_where_the_camera_sees_indirect_light)
+{
+    default_is("scenes/indirect_door.xml", 2);
+    default_is("scenes/caustic_sphere.xml", -1);
 }
 
 TEST(refused_where_it_cannot_apply)
@@ -222,6 +254,7 @@ int main(void)
 {
     spc_warn_set_quiet(1);
     RUN(refused_where_it_cannot_apply);
+    RUN(default_where_the_camera_sees_indirect_light);
     RUN(same_image_for_any_thread_count);
     RUN(resumes_bit_for_bit);
     RUN(door_agrees_with_bdpt);

@@ -131,8 +131,9 @@ typedef struct spc_render_options {
      * image is deterministic for a given device (not equal to the CPU's bit for bit). */
     const char *device;
     /* bdpt: each camera vertex also joins bdpt_pool light vertices picked by importance from a pool
-     * of the pass's light subpaths (integrator/bdpt_pool.h); 0: off. Not with strategy_s/t,
-     * strategy_images or the opencl device. */
+     * of the pass's light subpaths (integrator/bdpt_pool.h); -1: off; 0: by default, 2 where fewer
+     * than a quarter of the camera's first hits see a light sample (indirectly lit scenes), else
+     * off. Not with strategy_s/t, strategy_images or the opencl device (by default off there). */
     int bdpt_pool;
 } spc_render_options;
 

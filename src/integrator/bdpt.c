@@ -114,6 +114,10 @@
 #define SPC_BDPT_PILOT_LIGHT_STREAM 0x70696c6f746c6974ULL
 #define SPC_BDPT_PILOT_CAMERA_STREAM 0x70696c6f7463616dULL
 
+/* spc_bdpt_pool_direct_share's camera rays: the share is known to about 0.015 (binomial). */
+#define SPC_BDPT_PROBE_RAYS 1024
+#define SPC_BDPT_PROBE_STREAM 0x70726f6265736861ULL
+
 /* The pool model's pilot (spc_bdpt_pool_learn): light subpaths, camera subpaths, and connections
  * from each camera vertex to uniformly chosen pilot light vertices. 16384 of each and 4 picks:
  * about 0.25 CPU-s once per render on the door (32x32, 128 spp, seed 3, M = 2: relative
@@ -1105,6 +1109,37 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
     free(pv);
     spc_bdpt_pool_model_finish(m, SPC_BDPT_PILOT_PATHS);
     return true;
+}
+
+double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed)
+{
+    const spc_scene *sc = ctx->scene;
+    spc_rng rng;
+    spc_rng_seed(&rng, spc_hash_combine(seed, SPC_BDPT_PROBE_STREAM), 0);
+    int hits = 0, lit = 0;
+    for (int i = 0; i < SPC_BDPT_PROBE_RAYS; ++i) {
+        double px = ctx->crop_x + ctx->width * spc_rng_next(&rng);
+        double py = ctx->crop_y + ctx->height * spc_rng_next(&rng);
+        double u_light = spc_rng_next(&rng);
+        spc_vec2 u_pos = {spc_rng_next(&rng), spc_rng_next(&rng)};
+        spc_ray ray = spc_camera_ray(ctx->cam, px, py);
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h) || !spc_bsdf_has_smooth(h.bsdf))
+            continue;
+        ++hits;
+        double pmf;
+        const spc_emitter *e = spc_scene_sample_emitter(sc, u_light, &pmf);
+        spc_emitter_direct ds;
+        if (!e || !(pmf > 0.0) || !spc_emitter_sample_direct(e, h.p, u_pos, &ds) || !(ds.pdf > 0.0))
+            continue;
+        spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), ds.wi);
+        if (spc_rgb_is_black(spc_rgb_mul(f, ds.L)))
+            continue;
+        spc_ray sr = ds.is_infinite ? spc_hit_spawn(&h, ds.wi) : spc_hit_spawn_to(&h, ds.p, ds.err);
+        if (!spc_scene_occluded(sc, &sr))
+            ++lit;
+    }
+    return hits > 0 ? (double)lit / hits : 1.0;
 }
 
 /* Connections of camera vertex z[t-1] to the pass's pool: M picks, each adding C w / (N M q). */

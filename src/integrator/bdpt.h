@@ -27,6 +27,10 @@ bool spc_bdpt_pool_trace(const spc_render_ctx *ctx, spc_tls *tls, int pass, uint
                          int y1);
 struct spc_bdpt_pool;
 bool spc_bdpt_pool_index(const spc_render_ctx *ctx, const spc_tls *items, int nitems, struct spc_bdpt_pool *pool);
+/* The share of the camera's first hits (non-delta surfaces, film positions uniform over the rendered
+ * window, SPC_BDPT_PROBE_RAYS of them, fixed streams from seed) whose light sample is unoccluded and
+ * nonzero: low where the camera sees mostly indirectly lit surfaces (1 if nothing is hit). */
+double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed);
 /* The pool's selection model for ctx's scene and camera from a pilot seeded by `seed` (one thread,
  * deterministic); M = connections per camera vertex. false if out of memory (then release m). */
 struct spc_bdpt_pool_model;

@@ -51,6 +51,13 @@
 /* bdpt's pool: light subpaths per batch at most (their vertices stay until the batch is committed:
  * about 2.5 KiB a subpath on the door, so 40 MiB) */
 #define SPC_POOL_BATCH_PATHS (1 << 14)
+/* bdpt's default: the pool with 2 connections per camera vertex where fewer than this share of the
+ * camera's first hits see a light sample (spc_bdpt_pool_direct_share). Measured at 32x32, 8 seeds,
+ * equal CPU time (bench/RESULTS.md): the door (share 0.009) and the lamp behind its shade (0.019)
+ * gain 1.7x and 1.6x; the glass-ball caustic (0.84) and the cornell box (0.64) lose 1.3x and
+ * 1.5x, where light sampling already reaches most of what the camera sees. */
+#define SPC_POOL_AUTO_SHARE 0.25
+#define SPC_POOL_AUTO_CONNECTIONS 2
 
 typedef struct tile {
     int x0, y0, x1, y1; /* in the rendered window */
@@ -284,8 +291,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                              "it); drop it or give none",
                              o->specular_nee, iname);
     ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
-    if (o->bdpt_pool < 0 || o->bdpt_pool > 64)
-        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "bdpt pool connections %d are outside 0..64", o->bdpt_pool);
+    if (o->bdpt_pool < -1 || o->bdpt_pool > 64)
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "bdpt pool connections %d are outside -1..64", o->bdpt_pool);
     if (o->bdpt_pool > 0 && ctx.kind != SPC_INTEGRATOR_BDPT)
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "a pool of light vertices needs the bdpt integrator, not '%s'",
                              iname);
@@ -342,6 +349,13 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     if (!spc_camera_prepare(&cam, &sc->camera, fs.width, fs.height))
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "invalid camera (singular transform or field of view)");
     ctx.cam = &cam;
+    /* bdpt's pool of light vertices: as asked, or by default where the camera sees mostly
+     * indirectly lit surfaces (bdpt_pool.h; SPC_POOL_AUTO_SHARE) */
+    int pool_m = o->bdpt_pool > 0 ? o->bdpt_pool : 0;
+    if (o->bdpt_pool == 0 && ctx.kind == SPC_INTEGRATOR_BDPT && !o->strategy_images && ctx.strategy_s < 0 &&
+        ctx.strategy_t < 0 && !spc_camera_has_lens(&cam) && !(spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl) &&
+        spc_bdpt_pool_direct_share(&ctx, o->seed) < SPC_POOL_AUTO_SHARE)
+        pool_m = SPC_POOL_AUTO_CONNECTIONS;
 
     long long spp = o->spp > 0 ? o->spp : sc->spp;
     if (o->time_limit > 0.0 && o->spp <= 0)
@@ -370,7 +384,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     const int base = aovs ? 3 + SPC_FILM_AOVS : 3;
     const int nfilms = ctx.strategy_images_depth > 0 ? 2 * spc_strategy_count(ctx.strategy_images_depth) : 0;
     const int stride = base + 3 * nfilms;
-    if (o->bdpt_pool > 0)
+    if (pool_m > 0)
         max_batch = (int)spc_max(1.0, spc_min(max_batch, (double)SPC_POOL_BATCH_PATHS / (double)npix));
     if (nfilms > 0) /* keep the batch buffer near its usual size (3 doubles per pixel-pass) */
         max_batch = (int)spc_max(1.0, spc_min(max_batch, 3.0 * SPC_BATCH_PIXELS / ((double)npix * stride)));
@@ -431,7 +445,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "unknown device '%s'; specula has: cpu, opencl[:N]",
                              o->device);
     }
-    if (use_cl && o->bdpt_pool > 0) {
+    if (use_cl && pool_m > 0) {
         free(tiles);
         free(buf);
         free(tls);
@@ -453,8 +467,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
 
     char settings[1024];
     spc_ckpt_settings_text(&ctx, sname, o->seed, aovs, settings, sizeof settings);
-    if (o->bdpt_pool > 0) /* the pool changes the image */
-        snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";bdpt_pool=%d", o->bdpt_pool);
+    if (pool_m > 0) /* the pool changes the image */
+        snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";bdpt_pool=%d", pool_m);
     if (use_cl) /* a checkpoint resumes only on the device that began it */
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";device=opencl:%d", cl_index);
     if (o->resume) {
@@ -484,9 +498,9 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     spc_bdpt_pool_model pool_model;
     memset(&pool_model, 0, sizeof pool_model);
     spc_bdpt_pool *pools = NULL;
-    if (o->bdpt_pool > 0) {
+    if (pool_m > 0) {
         pools = calloc((size_t)max_batch, sizeof *pools);
-        if (!pools || !spc_bdpt_pool_learn(&ctx, o->seed, o->bdpt_pool, &pool_model)) {
+        if (!pools || !spc_bdpt_pool_learn(&ctx, o->seed, pool_m, &pool_model)) {
             free(pools);
             spc_bdpt_pool_model_release(&pool_model);
             spc_cguide_destroy(cguide);
