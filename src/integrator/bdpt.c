@@ -78,6 +78,12 @@
  * from a direction sampled toward it from the pinhole (ptracer_visible_env). hide_emitters drops
  * (1, 1). No specular NEE.
  *
+ * Pool (ctx->pool_model, bdpt_pool.h): the pass's light subpaths are traced before its camera
+ * samples (spc_bdpt_pool_trace: the same subpaths and light tracing as here), each camera sample
+ * reads its own from the tile's store, and each camera vertex also makes M connections to light
+ * vertices picked from the pass's pool (connect_pool); mis_weight counts a connection as two
+ * techniques, the own subpath and the pool. Off in the debug modes.
+ *
  * Debug: ctx->strategy_s / strategy_t >= 0 keep only the matching strategies, weighted by MIS
  * only if ctx->strategy_weighted. The sum of the weighted single-strategy images is the full image.
  * With ctx->strategy_images_depth > 0 one render also hands every strategy's weighted and

@@ -140,8 +140,7 @@ void spc_bdpt_pool_release(spc_bdpt_pool *p)
     memset(p, 0, sizeof *p);
 }
 
-bool spc_bdpt_pool_pick(const spc_bdpt_pool *p, int c, double u1, double u2, const spc_bdpt_pool_ref **ref,
-                        double *q)
+bool spc_bdpt_pool_pick(const spc_bdpt_pool *p, int c, double u1, double u2, const spc_bdpt_pool_ref **ref, double *q)
 {
     const spc_bdpt_pool_model *m = p->m;
     const int n = m->ncells;

@@ -35,14 +35,14 @@
 #define SPC_BDPT_POOL_GRID 8
 
 typedef struct spc_bdpt_pool_model {
-    int connections;   /* M: connections per camera vertex */
-    spc_vec3 lo;       /* the grid's corner */
-    double inv_cell;   /* 1 / the cells' edge */
+    int connections; /* M: connections per camera vertex */
+    spc_vec3 lo;     /* the grid's corner */
+    double inv_cell; /* 1 / the cells' edge */
     int g[3], ncells;
-    double *nu;        /* ncells: connectible light vertices per light subpath in the cell */
-    double *score;     /* ncells x ncells: the pilot's summed contributions, camera cell major */
-    double *pi;        /* ncells x ncells: pi_c(k), rows sum to 1 (or 0 with no light vertices) */
-    double *cdf;       /* ncells x (ncells + 1): each row's running sums */
+    double *nu;    /* ncells: connectible light vertices per light subpath in the cell */
+    double *score; /* ncells x ncells: the pilot's summed contributions, camera cell major */
+    double *pi;    /* ncells x ncells: pi_c(k), rows sum to 1 (or 0 with no light vertices) */
+    double *cdf;   /* ncells x (ncells + 1): each row's running sums */
 } spc_bdpt_pool_model;
 
 /* Sets up the grid over [lo, hi] with the tables zeroed; false if out of memory (then release it). */
@@ -72,11 +72,11 @@ typedef struct spc_bdpt_pool_ref {
 /* A pass's pool: vertices added in a fixed order, then sorted by cell (stable). */
 typedef struct spc_bdpt_pool {
     const spc_bdpt_pool_model *m;
-    double light_paths;     /* N */
+    double light_paths;      /* N */
     spc_bdpt_pool_ref *refs; /* by cell after spc_bdpt_pool_finish */
     spc_bdpt_pool_ref *tmp;
     size_t n, cap;
-    int *start;              /* ncells + 1 */
+    int *start; /* ncells + 1 */
 } spc_bdpt_pool;
 
 /* Empties the pool for a new pass (keeps its memory). */
@@ -89,7 +89,6 @@ void spc_bdpt_pool_release(spc_bdpt_pool *p);
 /* Picks a light vertex for a camera vertex in cell c from uniforms u1 (the cell) and u2 (the
  * vertex in it); false if the picked cell is empty in this pool (the pick contributes nothing).
  * *q: the pick's probability pi_c(k) / n_k. */
-bool spc_bdpt_pool_pick(const spc_bdpt_pool *p, int c, double u1, double u2, const spc_bdpt_pool_ref **ref,
-                        double *q);
+bool spc_bdpt_pool_pick(const spc_bdpt_pool *p, int c, double u1, double u2, const spc_bdpt_pool_ref **ref, double *q);
 
 #endif

@@ -292,10 +292,11 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                              o->specular_nee, iname);
     ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
     if (o->bdpt_pool < -1 || o->bdpt_pool > 64)
-        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "bdpt pool connections %d are outside -1..64", o->bdpt_pool);
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "bdpt pool connections %d are outside -1..64",
+                             o->bdpt_pool);
     if (o->bdpt_pool > 0 && ctx.kind != SPC_INTEGRATOR_BDPT)
-        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "a pool of light vertices needs the bdpt integrator, not '%s'",
-                             iname);
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                             "a pool of light vertices needs the bdpt integrator, not '%s'", iname);
     if (o->bdpt_pool > 0 && (o->strategy_images || ctx.strategy_s >= 0 || ctx.strategy_t >= 0))
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
                              "a pool of light vertices and strategy images or a single strategy exclude each other");
@@ -353,7 +354,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
      * indirectly lit surfaces (bdpt_pool.h; SPC_POOL_AUTO_SHARE) */
     int pool_m = o->bdpt_pool > 0 ? o->bdpt_pool : 0;
     if (o->bdpt_pool == 0 && ctx.kind == SPC_INTEGRATOR_BDPT && !o->strategy_images && ctx.strategy_s < 0 &&
-        ctx.strategy_t < 0 && !spc_camera_has_lens(&cam) && !(spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl) &&
+        ctx.strategy_t < 0 && !spc_camera_has_lens(&cam) &&
+        !(spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl) &&
         spc_bdpt_pool_direct_share(&ctx, o->seed) < SPC_POOL_AUTO_SHARE)
         pool_m = SPC_POOL_AUTO_CONNECTIONS;
 
@@ -585,7 +587,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                 pthread_join(th[i], NULL);
             for (int b = 0; b < batch; ++b) {
                 if (!spc_bdpt_pool_index(&ctx, &tls[(size_t)b * ntiles], ntiles, &pools[b])) {
-                    status = spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for the pool of light vertices");
+                    status =
+                        spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for the pool of light vertices");
                     break;
                 }
                 for (int ti = 0; ti < ntiles; ++ti)
