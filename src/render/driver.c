@@ -58,6 +58,10 @@
  * 1.5x, where light sampling already reaches most of what the camera sees. */
 #define SPC_POOL_AUTO_SHARE 0.25
 #define SPC_POOL_AUTO_CONNECTIONS 2
+/* ... and at most this many pixels in the rendered window: a pass's pool keeps every light
+ * subpath's vertices (about 540 bytes each, 5 a subpath on the door: 2.7 KB a pixel, so 180 MB
+ * here); larger renders would need a compact store. */
+#define SPC_POOL_AUTO_MAX_PIXELS (1 << 16)
 
 typedef struct tile {
     int x0, y0, x1, y1; /* in the rendered window */
@@ -353,8 +357,9 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     /* bdpt's pool of light vertices: as asked, or by default where the camera sees mostly
      * indirectly lit surfaces (bdpt_pool.h; SPC_POOL_AUTO_SHARE) */
     int pool_m = o->bdpt_pool > 0 ? o->bdpt_pool : 0;
+    const long long npix_window = (long long)ctx.width * ctx.height;
     if (o->bdpt_pool == 0 && ctx.kind == SPC_INTEGRATOR_BDPT && !o->strategy_images && ctx.strategy_s < 0 &&
-        ctx.strategy_t < 0 && !spc_camera_has_lens(&cam) &&
+        ctx.strategy_t < 0 && !spc_camera_has_lens(&cam) && npix_window <= SPC_POOL_AUTO_MAX_PIXELS &&
         !(spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl) &&
         spc_bdpt_pool_direct_share(&ctx, o->seed) < SPC_POOL_AUTO_SHARE)
         pool_m = SPC_POOL_AUTO_CONNECTIONS;
