@@ -8,12 +8,14 @@
 SCENE is one of the names below (default: all). For each scene a Mitsuba 3 reference (path
 tracer, llvm_ad_rgb, `--mitsuba-spp` samples in 32 passes, tests/validation/mitsuba_ref.py) is
 rendered once into --refs (kept: delete it to render again). Each integrator's CPU seconds per
-sample are measured by a short calibration render, and every seed then renders the samples per
-pixel that take --cpu CPU seconds (user + system, both threads), so path and bdpt get equal CPU
+sample (and per render: bdpt's pool pilot) are measured by two short calibration renders, and
+every seed then renders the samples per pixel that take --cpu CPU seconds (user + system, both
+threads), so path and bdpt get equal CPU
 time however the machine's cores are shared; the table gives the CPU seconds actually used.
 
 --snee SPEC renders both integrators with --specular-nee SPEC (e.g. angular:camera);
---bdpt-snee SPEC only bdpt (path keeps its default, the scene's plan). --integrators picks which
+--bdpt-snee SPEC only bdpt (path keeps its default, the scene's plan). --bdpt-pool M renders bdpt
+with connections to M light vertices from the pass's pool (integrator/bdpt_pool.h). --integrators picks which
 of path and bdpt run. Each seed's line names its worst pixel (x, y).
 
 Per render: relMSE = mean over pixels and channels of ((a - b)^2 - var(b)) / (b^2 + 0.01) (as
@@ -72,6 +74,8 @@ def render(a, scene, defs, integrator, spp, seed, out):
            "--threads", "2", "--quiet", "--variance", "-o", out, "-D", "integrator=path"]
     if snee_of(a, integrator):
         cmd += ["--specular-nee", snee_of(a, integrator)]
+    if integrator == "bdpt" and a.bdpt_pool:
+        cmd += ["--bdpt-pool", str(a.bdpt_pool)]
     for d in defs:
         cmd += ["-D", d]
     c0 = cpu_children()
@@ -111,6 +115,7 @@ def main():
     ap.add_argument("--snee", default="")
     ap.add_argument("--bdpt-snee", default="")
     ap.add_argument("--integrators", default="path,bdpt")
+    ap.add_argument("--bdpt-pool", type=int, default=0)
     a = ap.parse_args()
     os.makedirs(a.refs, exist_ok=True)
     os.makedirs(a.out, exist_ok=True)
@@ -134,13 +139,19 @@ def main():
               f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
         means = {}
         for it in a.integrators.split(","):
+            # two calibration renders, so that a fixed cost per render (bdpt's pool pilot) is not
+            # spread over the samples: CPU(spp) = fixed + spp * per_sample
             cal = 64
-            c = render(a, scene, defs, it, cal, 100, os.path.join(a.out, "cal.exr"))
-            spp = max(1, int(round(a.cpu / max(c, 1e-3) * cal)))
+            c1 = render(a, scene, defs, it, cal, 100, os.path.join(a.out, "cal.exr"))
+            c2 = render(a, scene, defs, it, 2 * cal, 100, os.path.join(a.out, "cal.exr"))
+            per = max((c2 - c1) / cal, 0.5 * c2 / (2 * cal), 1e-6)
+            fixed = min(max(c1 - cal * per, 0.0), 0.5 * a.cpu)
+            spp = max(1, int(round((a.cpu - fixed) / per)))
             rows = []
             for seed in range(1, a.seeds + 1):
                 sn = snee_of(a, it)
-                out = os.path.join(a.out, f"{name}_{it}{'_' + sn.replace(':', '_').replace(',', '_') if sn else ''}_{seed}.exr")
+                pool = f"_pool{a.bdpt_pool}" if it == "bdpt" and a.bdpt_pool else ""
+                out = os.path.join(a.out, f"{name}_{it}{'_' + sn.replace(':', '_').replace(',', '_') if sn else ''}{pool}_{seed}.exr")
                 cpu = render(a, scene, defs, it, spp, seed, out)
                 rm, share, wxy = errors(read_rgb(out), ref, ref_var)
                 zp = ztest_pass(a, out, ref_path)

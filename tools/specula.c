@@ -134,6 +134,9 @@ static const char *const usage_render_more =
     "                         DIR/sS_tT_unweighted.exr (+ .png); the weighted ones sum to the image\n"
     "  --mis-balance          bdpt: weight strategies by the balance heuristic instead of the\n"
     "                         power heuristic (also the integrator property mis_balance)\n"
+    "  --bdpt-pool M          bdpt: join each camera vertex also to M light vertices picked by\n"
+    "                         importance from a pool of the pass's light subpaths; -1: off; 0\n"
+    "                         (default): 2 where the camera sees mostly indirectly lit surfaces\n"
     "  --device cpu|opencl[:N]  (info --devices)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"
@@ -893,6 +896,12 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         } else if (!strcmp(a, "--mis-balance")) {
             opt.mis_balance = true;
             ++i;
+        } else if (opt_value(argc, argv, &i, "--bdpt-pool", NULL, &v)) {
+            if (!parse_int(v, -1, 64, &opt.bdpt_pool))
+                code = usage_error(usage_render,
+                                   "--bdpt-pool needs connections per camera vertex in 1..64, 0 (default) or -1 (off), "
+                                   "not '%s'",
+                                   v ? v : "");
         } else if (!strcmp(a, "--variance")) {
             variance = true;
             ++i;

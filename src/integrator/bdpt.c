@@ -78,6 +78,12 @@
  * from a direction sampled toward it from the pinhole (ptracer_visible_env). hide_emitters drops
  * (1, 1). No specular NEE.
  *
+ * Pool (ctx->pool_model, bdpt_pool.h): the pass's light subpaths are traced before its camera
+ * samples (spc_bdpt_pool_trace: the same subpaths and light tracing as here), each camera sample
+ * reads its own from the tile's store, and each camera vertex also makes M connections to light
+ * vertices picked from the pass's pool (connect_pool); mis_weight counts a connection as two
+ * techniques, the own subpath and the pool. Off in the debug modes.
+ *
  * Debug: ctx->strategy_s / strategy_t >= 0 keep only the matching strategies, weighted by MIS
  * only if ctx->strategy_weighted. The sum of the weighted single-strategy images is the full image.
  * With ctx->strategy_images_depth > 0 one render also hands every strategy's weighted and
@@ -86,11 +92,13 @@
  * equals the corresponding --strategy render bit for bit.
  */
 #include <stdatomic.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/rng.h"
 #include "integrator/aov.h"
 #include "integrator/bdpt.h"
+#include "integrator/bdpt_pool.h"
 #include "integrator/splat.h"
 #include "manifold/specular_nee.h"
 
@@ -107,6 +115,21 @@
 #define SPC_BDPT_LIGHT_STREAM 0x6c69676874706174ULL
 #define SPC_BDPT_CONNECT_STREAM 0x636f6e6e65637473ULL
 #define SPC_BDPT_SNEE_STREAM 0x736e656573747265ULL
+/* Stream keys of the pool's picks (per camera sample) and of the pool model's pilot. */
+#define SPC_BDPT_POOL_STREAM 0x706f6f6c7069636bULL
+#define SPC_BDPT_PILOT_LIGHT_STREAM 0x70696c6f746c6974ULL
+#define SPC_BDPT_PILOT_CAMERA_STREAM 0x70696c6f7463616dULL
+
+/* spc_bdpt_pool_direct_share's camera rays: the share is known to about 0.015 (binomial). */
+#define SPC_BDPT_PROBE_RAYS 1024
+#define SPC_BDPT_PROBE_STREAM 0x70726f6265736861ULL
+
+/* The pool model's pilot (spc_bdpt_pool_learn): light subpaths, camera subpaths, and connections
+ * from each camera vertex to uniformly chosen pilot light vertices. 16384 of each and 4 picks:
+ * about 0.25 CPU-s once per render on the door (32x32, 128 spp, seed 3, M = 2: relative
+ * variance 0.0027 against 0.0037 with 4096 paths; 32768 gave 0.0022 for 15% more time). */
+#define SPC_BDPT_PILOT_PATHS 16384
+#define SPC_BDPT_PILOT_PICKS 4
 
 /* Corner receivers (corner_receiver): specular NEE also runs at a camera vertex whose non-delta
  * predecessor lies closer than this fraction of the scene's bounding radius. There the one BDPT
@@ -158,6 +181,7 @@ typedef struct bdpt {
     spc_snee_params snp;    /* its settings, with mis as the path integrator has it */
     double cam_scale;       /* full film's pixels over the rendered window's (spc_snee_camera) */
     spc_vec3 cam_d0;        /* the camera ray's direction (covered camera chains retrace it) */
+    const spc_bdpt_pool_model *pm; /* connections come from the pass's pool (NULL: own subpath) */
 } bdpt;
 
 /* ---- densities ---- */
@@ -380,7 +404,7 @@ static double heuristic(const bdpt *B, double r) { return B->balance ? r : r * r
  * pdf_cam_area: t = 1 only, the camera's density (times its sample count ratio) of y[s-1].
  */
 static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend,
-                         double pdf_cam_area)
+                         double pdf_cam_area, bool pick)
 {
     const spc_scene *sc = B->sc;
     const int n = s + t;
@@ -425,6 +449,26 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
     }
     /* p_1 samples x0 from x1 by sample_direct (for n = 2 it is the (1, 1) strategy: emission) */
     double D = n >= 3 ? light_direct_pdf(sc, l0, x[1]) : Lp[0];
+    /* With the pool (bdpt_pool.h) a connection with k light vertices (2 <= k <= n - 2) is made by
+     * two techniques: the camera sample's own light subpath (one sample of the path) and the pool's
+     * picks (c_k = spc_bdpt_pool_count samples). The multi-sample heuristic counts both: the
+     * strategy's term is h(r) (1 + h(c_k)), and a pick's own numerator h(c_s). */
+    int cell[SPC_BDPT_MAX_PATH];
+    double self = 1.0, num = 1.0;
+    if (B->pm) {
+        for (int j = 1; j <= n - 2; ++j)
+            cell[j] = spc_bdpt_pool_cell(B->pm, x[j]->p);
+        if (s >= 2 && t >= 2) {
+            double c = heuristic(B, spc_bdpt_pool_count(B->pm, cell[s], cell[s - 1]));
+            self = 1.0 + c;
+            if (pick)
+                num = c;
+        }
+        if (!(num > 0.0))
+            return 0.0;
+    }
+#define MULT(k)                                                                                                       \
+    (B->pm && (k) >= 2 && (k) <= n - 2 ? 1.0 + heuristic(B, spc_bdpt_pool_count(B->pm, cell[k], cell[(k) - 1])) : 1.0)
     const bool light_delta = spc_emitter_is_delta(l0->light);
 
     /* r(i + 1) / r(i) = p_{i+1} / p_i */
@@ -432,7 +476,7 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
     ((i) == 0 ? remap0(D) / remap0(Ep[0])                                                                             \
               : ((i) == 1 && n > 2 ? remap0(Lp[0]) * remap0(Lp[1]) / (remap0(D) * remap0(Ep[1]))                      \
                                    : remap0(Lp[i]) / remap0(Ep[i])))
-    double sum = 1.0, r = 1.0;
+    double sum = self, r = 1.0;
     for (int i = s; i + 1 <= n - 1; ++i) {
         r *= UP(i);
         int k = i + 1; /* strategy with k light vertices */
@@ -442,7 +486,7 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
         else
             valid = !dl[k - 1] && !dl[k];
         if (valid)
-            sum += heuristic(B, r);
+            sum += heuristic(B, r) * MULT(k);
     }
     r = 1.0;
     for (int i = s; i - 1 >= 0; --i) {
@@ -450,10 +494,11 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
         int k = i - 1;
         bool valid = k == 0 ? !light_delta : (!dl[k - 1] && !dl[k]);
         if (valid)
-            sum += heuristic(B, r);
+            sum += heuristic(B, r) * MULT(k);
     }
+#undef MULT
 #undef UP
-    double w = 1.0 / sum;
+    double w = num / sum;
     return isfinite(w) && w > 0.0 ? w : 0.0;
 }
 
@@ -627,13 +672,14 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
 
 /* ---- connections ---- */
 
-static double weight_of(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend, double pdf_cam)
+static double weight_of(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend, double pdf_cam,
+                        bool pick)
 {
     if (!B->weighted)
         return 1.0;
     /* only s = 0 makes the paths specular NEE covers at snee_receiver's vertices; at a corner
      * receiver also the connection across the corner (s, t >= 2) */
-    double w = mis_weight(B, y, s, z, t, lend, pdf_cam);
+    double w = mis_weight(B, y, s, z, t, lend, pdf_cam, pick);
     if (s == 0)
         return w * snee_share(B, y, s, z, t, lend);
     /* a connection's path is covered only with the joined pair as the corner */
@@ -677,7 +723,7 @@ static spc_rgb connect_s0(const bdpt *B, const vtx *z, int t, double *w)
     spc_rgb C = spc_rgb_mul(v->beta, Le);
     if (spc_rgb_is_black(C))
         return C;
-    *w = weight_of(B, NULL, 0, z, t, &l, 0.0);
+    *w = weight_of(B, NULL, 0, z, t, &l, 0.0, false);
     return C;
 }
 
@@ -725,7 +771,7 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
     if (B->weighted) {
         /* the camera's density of v: its direction density times W H / N (see the file comment) */
         double pdf_cam = to_area(cd.We / B->n_light_paths, &z[0], v);
-        w = mis_weight(B, y, s, z, 1, NULL, pdf_cam);
+        w = mis_weight(B, y, s, z, 1, NULL, pdf_cam, false);
     }
     spc_splat_add(ctx, tls, cd.fx, cd.fy, spc_rgb_scale(C, w));
     if (strategy >= 0) {
@@ -788,18 +834,19 @@ static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, sp
     l.d = spc_neg(ds.wi);
     l.pdf_rev = 0.0;
     l.pdf_fwd = light_origin_pdf(B->sc, &l);
-    *w = mis_weight(B, &l, 1, z, t, &l, 0.0);
+    *w = mis_weight(B, &l, 1, z, t, &l, 0.0, false);
     return C;
 }
 
-/* s >= 2, t >= 2: join two scattering vertices. */
-static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int t, double *mis)
+/* A light vertex a and a camera vertex b that a connection can join: scattering vertices with a
+ * non-delta lobe. */
+static bool connectible(const vtx *v) { return v->kind == V_SURFACE && spc_bsdf_has_smooth(v->h.bsdf); }
+
+/* The unoccluded contribution of joining light vertex a to camera vertex b, times b's throughput
+ * if with_b (the pool's pilot scores it without); d2_min bounds the squared distance below (0 for
+ * the estimate itself). */
+static spc_rgb connection_value(const vtx *a, const vtx *b, bool with_b, double d2_min)
 {
-    *mis = 1.0;
-    const vtx *a = &y[s - 1], *b = &z[t - 1];
-    if (a->kind != V_SURFACE || b->kind != V_SURFACE || !spc_bsdf_has_smooth(a->h.bsdf) ||
-        !spc_bsdf_has_smooth(b->h.bsdf))
-        return spc_rgb1(0.0);
     spc_vec3 d = spc_sub(b->p, a->p);
     double d2 = spc_length2(d);
     if (!(d2 > 0.0))
@@ -809,14 +856,25 @@ static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int 
     if (spc_rgb_is_black(fa))
         return fa;
     spc_rgb fb = spc_bsdf_eval(b->h.bsdf, &b->h, SPC_MODE_RADIANCE, b->wo, spc_neg(w));
-    double G = shading_fix(&a->h, a->wo, w) * spc_absdot(w, a->h.sh.n) * spc_absdot(w, b->h.sh.n) / d2;
-    spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(a->beta, fa), spc_rgb_mul(fb, b->beta)), G);
+    double G = shading_fix(&a->h, a->wo, w) * spc_absdot(w, a->h.sh.n) * spc_absdot(w, b->h.sh.n) /
+               spc_max(d2, d2_min);
+    return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(a->beta, fa), with_b ? spc_rgb_mul(fb, b->beta) : fb), G);
+}
+
+/* s >= 2, t >= 2: join two scattering vertices. */
+static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int t, bool pick, double *mis)
+{
+    *mis = 1.0;
+    const vtx *a = &y[s - 1], *b = &z[t - 1];
+    if (!connectible(a) || !connectible(b))
+        return spc_rgb1(0.0);
+    spc_rgb C = connection_value(a, b, true, 0.0);
     if (spc_rgb_is_black(C))
         return C;
     spc_ray sr = spc_hit_spawn_to(&a->h, b->p, b->h.err);
     if (spc_scene_occluded(B->sc, &sr))
         return spc_rgb1(0.0);
-    *mis = weight_of(B, y, s, z, t, NULL, 0.0);
+    *mis = weight_of(B, y, s, z, t, NULL, 0.0, pick);
     return C;
 }
 
@@ -867,6 +925,254 @@ static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *
     return L;
 }
 
+/* ---- the pool of light vertices (bdpt_pool.h) ---- */
+
+/* The camera's vertex z0 as light tracing (t = 1) and the MIS weights see it: at the pinhole (the
+ * pool's light subpaths are traced before any camera sample). */
+static void camera_vertex(const spc_render_ctx *ctx, vtx *z0)
+{
+    memset(z0, 0, sizeof *z0);
+    z0->kind = V_CAMERA;
+    z0->p = spc_mat4_apply_point(&ctx->cam->to_world, spc_v3(0, 0, 0));
+    z0->delta = !spc_camera_connectible(ctx->cam);
+    z0->beta = spc_rgb1(1.0);
+    z0->pdf_fwd = 1.0;
+}
+
+/* bdpt's state outside a camera sample (the pool's light subpaths, the pilot): weighted, as
+ * spc_bdpt_sample sets it without a debug mode. */
+static void bdpt_init(bdpt *B, const spc_render_ctx *ctx)
+{
+    memset(B, 0, sizeof *B);
+    B->ctx = ctx;
+    B->sc = ctx->scene;
+    B->n_light_paths = (double)ctx->width * (double)ctx->height;
+    B->film_pixels = (double)ctx->cam->width * (double)ctx->cam->height;
+    B->weighted = true;
+    B->balance = ctx->mis_balance;
+    B->snee = ctx->specular_nee != SPC_SNEE_NONE && !(ctx->snee.solver == SPC_SNEE_NEWTON && ctx->snee.newton.rough);
+    if (B->snee) {
+        B->snp = ctx->snee;
+        B->snp.mis = !B->snp.no_mis;
+    }
+    B->cam_scale = B->film_pixels / B->n_light_paths;
+    B->pm = ctx->pool_model;
+}
+
+/* Vertices a light subpath may have, and whether that bound cuts max_depth short. */
+static int light_depth_cap(const spc_render_ctx *ctx, bool *capped)
+{
+    *capped = ctx->max_depth < 0 || ctx->max_depth > SPC_BDPT_MAX_VERTICES;
+    return *capped ? SPC_BDPT_MAX_VERTICES : ctx->max_depth;
+}
+
+bool spc_bdpt_pool_trace(const spc_render_ctx *ctx, spc_tls *tls, int pass, uint64_t seed, int x0, int y0, int x1,
+                         int y1)
+{
+    bdpt B;
+    bdpt_init(&B, ctx);
+    bool capped;
+    int max_light = light_depth_cap(ctx, &capped);
+    vtx z0;
+    camera_vertex(ctx, &z0);
+    tls->lv_n = 0;
+    size_t npx = (size_t)(x1 - x0) * (size_t)(y1 - y0);
+    if (tls->lv_first_cap < npx + 1) {
+        size_t *f = realloc(tls->lv_first, (npx + 1) * sizeof *f);
+        if (!f)
+            return false;
+        tls->lv_first = f;
+        tls->lv_first_cap = npx + 1;
+    }
+    size_t ip = 0;
+    for (int py = y0; py < y1; ++py)
+        for (int px = x0; px < x1; ++px) {
+            tls->lv_first[ip++] = tls->lv_n;
+            if (tls->lv_cap - tls->lv_n < SPC_BDPT_MAX_VERTICES) {
+                size_t cap = tls->lv_cap ? 2 * tls->lv_cap : 16 * SPC_BDPT_MAX_VERTICES;
+                void *nv = realloc(tls->lv, cap * sizeof(vtx));
+                if (!nv)
+                    return false;
+                tls->lv = nv;
+                tls->lv_cap = cap;
+            }
+            vtx *y = (vtx *)tls->lv + tls->lv_n;
+            /* the light subpath of this pixel's camera sample in plain bdpt: the same streams */
+            spc_sampler smp, ls;
+            spc_sampler_start(&smp, (uint32_t)(px + ctx->crop_x), (uint32_t)(py + ctx->crop_y), (uint32_t)pass, seed);
+            spc_sampler_start_key(&ls, spc_hash_combine(smp.pixel_seed, SPC_BDPT_LIGHT_STREAM), smp.index);
+            int nl = light_subpath(&B, &ls, y, max_light, capped);
+            for (int s = 1; s <= nl; ++s) {
+                if (ctx->max_depth >= 0 && s > ctx->max_depth)
+                    break;
+                if (s == 1 && ctx->hide_emitters)
+                    continue;
+                connect_t1(&B, tls, y, s, &z0, -1);
+            }
+            if (nl >= 1)
+                tls->lv_n += (size_t)nl;
+        }
+    tls->lv_first[ip] = tls->lv_n;
+    return true;
+}
+
+bool spc_bdpt_pool_index(const spc_render_ctx *ctx, const spc_tls *items, int nitems, spc_bdpt_pool *pool)
+{
+    spc_bdpt_pool_clear(pool, ctx->pool_model, (double)ctx->width * (double)ctx->height);
+    for (int i = 0; i < nitems; ++i) {
+        const vtx *v = items[i].lv;
+        const vtx *sub = NULL;
+        for (size_t j = 0; j < items[i].lv_n; ++j) {
+            if (v[j].kind == V_LIGHT) { /* each subpath starts on a light, and only there */
+                sub = &v[j];
+                continue;
+            }
+            int s = (int)(&v[j] - sub) + 1;
+            if (s >= 2 && connectible(&v[j]) && !spc_bdpt_pool_add(pool, sub, s, spc_bdpt_pool_cell(pool->m, v[j].p)))
+                return false;
+        }
+    }
+    return spc_bdpt_pool_finish(pool);
+}
+
+static double lum(spc_rgb c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
+
+bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connections, spc_bdpt_pool_model *m)
+{
+    const spc_scene *sc = ctx->scene;
+    if (!spc_bdpt_pool_model_init(m, sc->bbox_min, sc->bbox_max, connections))
+        return false;
+    spc_render_ctx c1 = *ctx;
+    c1.pool_model = NULL;
+    bdpt B;
+    bdpt_init(&B, &c1);
+    bool light_capped;
+    int max_light = light_depth_cap(ctx, &light_capped);
+    bool cam_capped = ctx->max_depth < 0 || ctx->max_depth + 1 > SPC_BDPT_MAX_VERTICES;
+    int max_cam = cam_capped ? SPC_BDPT_MAX_VERTICES : ctx->max_depth + 1;
+    /* the pilot's light vertices, connectible ones only */
+    size_t n = 0, cap = 4 * SPC_BDPT_PILOT_PATHS;
+    vtx *pv = malloc(cap * sizeof *pv);
+    vtx y[SPC_BDPT_MAX_VERTICES], z[SPC_BDPT_MAX_VERTICES];
+    if (!pv)
+        return false;
+    for (int i = 0; i < SPC_BDPT_PILOT_PATHS; ++i) {
+        spc_sampler ls;
+        spc_sampler_start_key(&ls, spc_hash_combine(seed, SPC_BDPT_PILOT_LIGHT_STREAM), (uint32_t)i);
+        int nl = light_subpath(&B, &ls, y, max_light, light_capped);
+        for (int s = 2; s <= nl; ++s) {
+            if (!connectible(&y[s - 1]))
+                continue;
+            if (n == cap) {
+                vtx *g = realloc(pv, 2 * cap * sizeof *pv);
+                if (!g) {
+                    free(pv);
+                    return false;
+                }
+                pv = g;
+                cap *= 2;
+            }
+            pv[n++] = y[s - 1];
+            m->nu[spc_bdpt_pool_cell(m, y[s - 1].p)] += 1.0;
+        }
+    }
+    /* camera subpaths through uniform film positions of the rendered window; each connectible
+     * vertex joined to uniformly chosen pilot light vertices, scored by the unoccluded contribution
+     * without the camera throughput (the choice is per vertex), its geometry term bounded at a
+     * quarter cell's distance so that a rare short connection does not decide a row */
+    double cell = 1.0 / m->inv_cell, d2_min = 0.0625 * cell * cell;
+    spc_rng rng;
+    spc_rng_seed(&rng, spc_hash_combine(seed, SPC_BDPT_PILOT_CAMERA_STREAM), 0);
+    for (int i = 0; n > 0 && i < SPC_BDPT_PILOT_PATHS; ++i) {
+        double px = ctx->crop_x + ctx->width * spc_rng_next(&rng);
+        double py = ctx->crop_y + ctx->height * spc_rng_next(&rng);
+        spc_ray ray = spc_camera_ray(ctx->cam, px, py);
+        spc_sampler cs;
+        spc_sampler_start_key(&cs, spc_hash_combine(seed, SPC_BDPT_PILOT_CAMERA_STREAM), (uint32_t)i);
+        camera_vertex(ctx, &z[0]);
+        z[0].p = ray.o;
+        double pdf_cam = spc_camera_pdf_dir(ctx->cam, ray.d);
+        int nc = random_walk(&B, ray, spc_rgb1(1.0), pdf_cam > 0.0 ? pdf_cam : 1.0, SPC_MODE_RADIANCE, &cs, z, 1,
+                             max_cam, cam_capped);
+        for (int t = 2; t <= nc; ++t) {
+            const vtx *b = &z[t - 1];
+            if (!connectible(b))
+                continue;
+            int c = spc_bdpt_pool_cell(m, b->p);
+            for (int k = 0; k < SPC_BDPT_PILOT_PICKS; ++k) {
+                size_t j = (size_t)(spc_rng_next(&rng) * (double)n);
+                const vtx *a = &pv[j < n ? j : n - 1];
+                double v = lum(connection_value(a, b, false, d2_min));
+                if (!(v > 0.0) || !isfinite(v))
+                    continue;
+                spc_ray sr = spc_hit_spawn_to(&a->h, b->p, b->h.err);
+                if (spc_scene_occluded(sc, &sr))
+                    continue;
+                m->score[(size_t)c * m->ncells + spc_bdpt_pool_cell(m, a->p)] += v;
+            }
+        }
+    }
+    free(pv);
+    spc_bdpt_pool_model_finish(m, SPC_BDPT_PILOT_PATHS);
+    return true;
+}
+
+double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed)
+{
+    const spc_scene *sc = ctx->scene;
+    spc_rng rng;
+    spc_rng_seed(&rng, spc_hash_combine(seed, SPC_BDPT_PROBE_STREAM), 0);
+    int hits = 0, lit = 0;
+    for (int i = 0; i < SPC_BDPT_PROBE_RAYS; ++i) {
+        double px = ctx->crop_x + ctx->width * spc_rng_next(&rng);
+        double py = ctx->crop_y + ctx->height * spc_rng_next(&rng);
+        double u_light = spc_rng_next(&rng);
+        spc_vec2 u_pos = {spc_rng_next(&rng), spc_rng_next(&rng)};
+        spc_ray ray = spc_camera_ray(ctx->cam, px, py);
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h) || !spc_bsdf_has_smooth(h.bsdf))
+            continue;
+        ++hits;
+        double pmf;
+        const spc_emitter *e = spc_scene_sample_emitter(sc, u_light, &pmf);
+        spc_emitter_direct ds;
+        if (!e || !(pmf > 0.0) || !spc_emitter_sample_direct(e, h.p, u_pos, &ds) || !(ds.pdf > 0.0))
+            continue;
+        spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), ds.wi);
+        if (spc_rgb_is_black(spc_rgb_mul(f, ds.L)))
+            continue;
+        spc_ray sr = ds.is_infinite ? spc_hit_spawn(&h, ds.wi) : spc_hit_spawn_to(&h, ds.p, ds.err);
+        if (!spc_scene_occluded(sc, &sr))
+            ++lit;
+    }
+    return hits > 0 ? (double)lit / hits : 1.0;
+}
+
+/* Connections of camera vertex z[t-1] to the pass's pool: M picks, each adding C w / (N M q). */
+static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx *z, int t, spc_rng *rng)
+{
+    const spc_render_ctx *ctx = B->ctx;
+    const vtx *b = &z[t - 1];
+    spc_rgb L = spc_rgb1(0.0);
+    if (!connectible(b))
+        return L;
+    const int M = B->pm->connections;
+    const int c = spc_bdpt_pool_cell(B->pm, b->p);
+    for (int i = 0; i < M; ++i) {
+        double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
+        const spc_bdpt_pool_ref *ref;
+        double q;
+        if (!spc_bdpt_pool_pick(pool, c, u1, u2, &ref, &q))
+            continue;
+        if (ctx->max_depth >= 0 && ref->s + t - 1 > ctx->max_depth)
+            continue;
+        double w;
+        spc_rgb C = connect_st(B, ref->sub, ref->s, z, t, true, &w);
+        L = spc_rgb_add(L, spc_rgb_scale(C, w / (pool->light_paths * M * q)));
+    }
+    return L;
+}
+
 /* ---- one sample ---- */
 
 void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0, spc_sampler *smp,
@@ -892,6 +1198,10 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     }
     B.cam_scale = B.film_pixels / B.n_light_paths;
     B.cam_d0 = ray0->d;
+    /* with the pool (bdpt_pool.h) this pixel's light subpath and its light tracing (t = 1) were
+     * traced with the pool; each camera vertex adds connect_pool's connections */
+    const spc_bdpt_pool *pool = !ptracer && !debug && ctx->strategy_images_depth <= 0 ? tls->pool : NULL;
+    B.pm = pool ? ctx->pool_model : NULL;
     const bool unbounded = ctx->max_depth < 0;
     /* t <= max_depth + 1 (s = 0), s <= max_depth (t = 1) */
     const bool cam_capped = unbounded || ctx->max_depth + 1 > SPC_BDPT_MAX_VERTICES;
@@ -929,7 +1239,19 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     spc_sampler ls, cs;
     spc_sampler_start_key(&ls, spc_hash_combine(smp->pixel_seed, SPC_BDPT_LIGHT_STREAM), smp->index);
     spc_sampler_start_key(&cs, spc_hash_combine(smp->pixel_seed, SPC_BDPT_CONNECT_STREAM), smp->index);
-    int nl = light_subpath(&B, &ls, y, max_light, light_capped);
+    /* with the pool, this pixel's light subpath was traced with the pool (the same streams) */
+    const vtx *yl = y;
+    int nl;
+    if (pool) {
+        yl = (const vtx *)tls->lv + tls->lv_first[tls->lv_pixel];
+        nl = (int)(tls->lv_first[tls->lv_pixel + 1] - tls->lv_first[tls->lv_pixel]);
+    } else {
+        nl = light_subpath(&B, &ls, y, max_light, light_capped);
+    }
+    spc_rng prng;
+    memset(&prng, 0, sizeof prng);
+    if (pool)
+        spc_rng_seed(&prng, spc_hash_combine(smp->pixel_seed, SPC_BDPT_POOL_STREAM ^ (uint64_t)smp->index), 0);
     if (ptracer && nl >= 1 && y[0].infinite && !ctx->hide_emitters && (unbounded || ctx->max_depth >= 1))
         ptracer_visible_env(&B, tls, y[0].light, spc_scene_emitter_pmf(B.sc, y[0].light), spc_sampler_2d(&cs));
 
@@ -941,8 +1263,12 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     for (int t = 1; t <= nc; ++t) {
         double u_light = spc_sampler_1d(&cs);
         spc_vec2 u_lpos = spc_sampler_2d(&cs);
+        if (pool && t >= 2)
+            L = spc_rgb_add(L, connect_pool(&B, pool, z, t, &prng));
         for (int s = 0; s <= nl; ++s) {
             int segments = s + t - 1;
+            if (pool && t == 1)
+                break;
             if (segments < 1 || (!unbounded && segments > ctx->max_depth))
                 continue;
             if (segments == 1 && ctx->hide_emitters)
@@ -955,12 +1281,12 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             if (s == 0)
                 c = connect_s0(&B, z, t, &w);
             else if (t == 1) {
-                connect_t1(&B, tls, y, s, z, k);
+                connect_t1(&B, tls, yl, s, z, k);
                 continue;
             } else if (s == 1)
                 c = connect_s1(&B, z, t, u_light, u_lpos, &w);
             else
-                c = connect_st(&B, y, s, z, t, &w);
+                c = connect_st(&B, yl, s, z, t, false, &w);
             spc_rgb cw = spc_rgb_scale(c, w);
             L = spc_rgb_add(L, cw);
             if (k >= 0) {

@@ -17,4 +17,23 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
  * that long only occurs with max_depth -1, and Russian roulette makes it astronomically rare). */
 uint64_t spc_bdpt_truncated_paths(void);
 
+/* The pool of light vertices (bdpt_pool.h), with ctx->pool_model set. Before a pass's camera
+ * samples: spc_bdpt_pool_trace traces the light subpaths of pixels [x0, x1) x [y0, y1) of pass
+ * `pass` (the streams bdpt's camera samples there would use), splats their light tracing (t = 1)
+ * into tls and keeps their vertices in tls->lv; spc_bdpt_pool_index then gathers the connectible
+ * vertices of a pass's items, in item order, into its pool, which the pass's tls->pool points to
+ * while its camera samples run. Both false if out of memory. */
+bool spc_bdpt_pool_trace(const spc_render_ctx *ctx, spc_tls *tls, int pass, uint64_t seed, int x0, int y0, int x1,
+                         int y1);
+struct spc_bdpt_pool;
+bool spc_bdpt_pool_index(const spc_render_ctx *ctx, const spc_tls *items, int nitems, struct spc_bdpt_pool *pool);
+/* The share of the camera's first hits (non-delta surfaces, film positions uniform over the rendered
+ * window, SPC_BDPT_PROBE_RAYS of them, fixed streams from seed) whose light sample is unoccluded and
+ * nonzero: low where the camera sees mostly indirectly lit surfaces (1 if nothing is hit). */
+double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed);
+/* The pool's selection model for ctx's scene and camera from a pilot seeded by `seed` (one thread,
+ * deterministic); M = connections per camera vertex. false if out of memory (then release m). */
+struct spc_bdpt_pool_model;
+bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connections, struct spc_bdpt_pool_model *m);
+
 #endif

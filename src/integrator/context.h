@@ -53,6 +53,9 @@ typedef struct spc_render_ctx {
     /* film geometry for splats: the rendered window within the full film */
     int crop_x, crop_y, width, height;
     const spc_film_spec *film;
+    /* bdpt: connections to the pass's pool of light vertices (bdpt_pool.h) instead of the camera
+     * sample's own light subpath; NULL: off */
+    const struct spc_bdpt_pool_model *pool_model;
 } spc_render_ctx;
 
 typedef struct spc_splat {
@@ -67,6 +70,15 @@ typedef struct spc_tls {
     size_t nsplats, cap;
     bool oom; /* a splat could not be stored (reported as invalid samples) */
     uint64_t invalid;
+    /* bdpt with a pool (ctx->pool_model): the light subpaths this item traced for its pass (bdpt.c's
+     * vertices, lv_n of them; the subpath of the tile's pixel i, in row order, starts at lv_first[i]
+     * and ends at lv_first[i + 1]), the tile pixel whose camera sample runs (set by the driver), and
+     * the pass's pool that its camera samples connect to */
+    void *lv;
+    size_t lv_n, lv_cap;
+    size_t *lv_first, lv_first_cap;
+    int lv_pixel;
+    const struct spc_bdpt_pool *pool;
 } spc_tls;
 
 typedef struct spc_sample_out {

@@ -28,6 +28,8 @@
 #include "accel/accel.h"
 #include "core/warp.h"
 #include "device/device.h"
+#include "integrator/bdpt.h"
+#include "integrator/bdpt_pool.h"
 #include "integrator/integrator.h"
 #include "integrator/path_wave.h"
 #include "manifold/snee_options.h"
@@ -46,6 +48,20 @@
 #define SPC_BATCH_PIXELS (1 << 22)      /* pixel-passes per batch buffer: 4M x 3 doubles = 96 MiB */
 #define SPC_BATCH_TARGET_SECONDS 1.0    /* batches this long keep progress and cancellation responsive */
 #define SPC_MAX_THREADS 256
+/* bdpt's pool: light subpaths per batch at most (their vertices stay until the batch is committed:
+ * about 2.5 KiB a subpath on the door, so 40 MiB) */
+#define SPC_POOL_BATCH_PATHS (1 << 14)
+/* bdpt's default: the pool with 2 connections per camera vertex where fewer than this share of the
+ * camera's first hits see a light sample (spc_bdpt_pool_direct_share). Measured at 32x32, 8 seeds,
+ * equal CPU time (bench/RESULTS.md): the door (share 0.009) and the lamp behind its shade (0.019)
+ * gain 1.7x and 1.6x; the glass-ball caustic (0.84) and the cornell box (0.64) lose 1.3x and
+ * 1.5x, where light sampling already reaches most of what the camera sees. */
+#define SPC_POOL_AUTO_SHARE 0.25
+#define SPC_POOL_AUTO_CONNECTIONS 2
+/* ... and at most this many pixels in the rendered window: a pass's pool keeps every light
+ * subpath's vertices (about 540 bytes each, 5 a subpath on the door: 2.7 KB a pixel, so 180 MB
+ * here); larger renders would need a compact store. */
+#define SPC_POOL_AUTO_MAX_PIXELS (1 << 16)
 
 typedef struct tile {
     int x0, y0, x1, y1; /* in the rendered window */
@@ -60,6 +76,7 @@ typedef struct job {
     int base;           /* 3, or 10 with AOVs */
     int nfilms;         /* strategy films (spc_render_options.strategy_images), 0 without */
     bool wave;          /* plain path tracing by tiles in packets (path_wave.h) */
+    bool pool_phase;    /* bdpt's pool: the items trace the passes' light subpaths (no camera samples) */
     double *buf;        /* npasses * width * height * stride */
     spc_tls *tls;       /* npasses * ntiles */
     uint64_t seed;
@@ -152,6 +169,14 @@ static void render_item(job *jb, int item)
     int pass = jb->pass0 + b;
     size_t npix = (size_t)ctx->width * (size_t)ctx->height;
     double *buf = jb->buf + (size_t)b * npix * (size_t)jb->stride;
+    if (jb->pool_phase) {
+        if (!spc_bdpt_pool_trace(ctx, tls, pass, jb->seed, t->x0, t->y0, t->x1, t->y1)) {
+            tls->oom = true;
+            tls->invalid += (uint64_t)(t->x1 - t->x0) * (uint64_t)(t->y1 - t->y0);
+            tls->lv_n = 0;
+        }
+        return;
+    }
     if (jb->wave) {
         /* the whole tile's camera samples at once, their rays traced in packets (path_wave.h) */
         spc_ray rays[SPC_TILE * SPC_TILE];
@@ -180,6 +205,7 @@ static void render_item(job *jb, int item)
             out.strategy_L = jb->nfilms > 0 ? strategy_L : NULL;
             out.aovs = jb->base == 3 + SPC_FILM_AOVS;
             const spc_ray cam_ray = ray;
+            tls->lv_pixel = (y - t->y0) * (t->x1 - t->x0) + (x - t->x0);
             spc_integrator_sample(ctx, tls, &ray, &smp, &out);
             store_sample(jb, tls, buf, x, y, &cam_ray, &out, strategy_L);
         }
@@ -193,7 +219,7 @@ static void *worker(void *arg)
         int i = atomic_fetch_add(&jb->next, 1);
         if (i >= atomic_load(&jb->limit))
             break;
-        if (jb->cancel && *jb->cancel) {
+        if (jb->cancel && *jb->cancel && !jb->pool_phase) {
             /* items below i were all handed out: finish their passes, start none after them */
             int end = (i + jb->ntiles - 1) / jb->ntiles * jb->ntiles;
             int cur = atomic_load(&jb->limit);
@@ -269,6 +295,15 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                              "it); drop it or give none",
                              o->specular_nee, iname);
     ctx.mis_balance = o->mis_balance || sc->integrator.mis_balance; /* either asks for it */
+    if (o->bdpt_pool < -1 || o->bdpt_pool > 64)
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "bdpt pool connections %d are outside -1..64",
+                             o->bdpt_pool);
+    if (o->bdpt_pool > 0 && ctx.kind != SPC_INTEGRATOR_BDPT)
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                             "a pool of light vertices needs the bdpt integrator, not '%s'", iname);
+    if (o->bdpt_pool > 0 && (o->strategy_images || ctx.strategy_s >= 0 || ctx.strategy_t >= 0))
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                             "a pool of light vertices and strategy images or a single strategy exclude each other");
     ctx.strict_normals = sc->integrator.strict_normals;
     if (o->strategy_images) {
         if (ctx.kind != SPC_INTEGRATOR_BDPT)
@@ -319,6 +354,15 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     if (!spc_camera_prepare(&cam, &sc->camera, fs.width, fs.height))
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "invalid camera (singular transform or field of view)");
     ctx.cam = &cam;
+    /* bdpt's pool of light vertices: as asked, or by default where the camera sees mostly
+     * indirectly lit surfaces (bdpt_pool.h; SPC_POOL_AUTO_SHARE) */
+    int pool_m = o->bdpt_pool > 0 ? o->bdpt_pool : 0;
+    const long long npix_window = (long long)ctx.width * ctx.height;
+    if (o->bdpt_pool == 0 && ctx.kind == SPC_INTEGRATOR_BDPT && !o->strategy_images && ctx.strategy_s < 0 &&
+        ctx.strategy_t < 0 && !spc_camera_has_lens(&cam) && npix_window <= SPC_POOL_AUTO_MAX_PIXELS &&
+        !(spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl) &&
+        spc_bdpt_pool_direct_share(&ctx, o->seed) < SPC_POOL_AUTO_SHARE)
+        pool_m = SPC_POOL_AUTO_CONNECTIONS;
 
     long long spp = o->spp > 0 ? o->spp : sc->spp;
     if (o->time_limit > 0.0 && o->spp <= 0)
@@ -347,6 +391,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     const int base = aovs ? 3 + SPC_FILM_AOVS : 3;
     const int nfilms = ctx.strategy_images_depth > 0 ? 2 * spc_strategy_count(ctx.strategy_images_depth) : 0;
     const int stride = base + 3 * nfilms;
+    if (pool_m > 0)
+        max_batch = (int)spc_max(1.0, spc_min(max_batch, (double)SPC_POOL_BATCH_PATHS / (double)npix));
     if (nfilms > 0) /* keep the batch buffer near its usual size (3 doubles per pixel-pass) */
         max_batch = (int)spc_max(1.0, spc_min(max_batch, 3.0 * SPC_BATCH_PIXELS / ((double)npix * stride)));
     if (nfilms > 0) {
@@ -406,6 +452,14 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "unknown device '%s'; specula has: cpu, opencl[:N]",
                              o->device);
     }
+    if (use_cl && pool_m > 0) {
+        free(tiles);
+        free(buf);
+        free(tls);
+        free(th);
+        spc_film_destroy(film);
+        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "the opencl device has no pool of light vertices");
+    }
     if (use_cl) {
         spc_status cs = spc_cl_create(&ctx, cl_index, aovs, &cl, err);
         if (cs != SPC_OK) {
@@ -420,6 +474,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
 
     char settings[1024];
     spc_ckpt_settings_text(&ctx, sname, o->seed, aovs, settings, sizeof settings);
+    if (pool_m > 0) /* the pool changes the image */
+        snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";bdpt_pool=%d", pool_m);
     if (use_cl) /* a checkpoint resumes only on the device that began it */
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";device=opencl:%d", cl_index);
     if (o->resume) {
@@ -444,6 +500,27 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         cguide = spc_cguide_build(sc, spc_cguide_photons((double)ctx.width * ctx.height * (double)spp),
                                   SPC_CGUIDE_STREAM, ctx.snee.recv_guide);
     ctx.snee.cguide = cguide;
+    /* bdpt's pool: the selection model from its pilot, once (deterministic: the same for any thread
+     * count and on resuming), and a pool per pass of a batch */
+    spc_bdpt_pool_model pool_model;
+    memset(&pool_model, 0, sizeof pool_model);
+    spc_bdpt_pool *pools = NULL;
+    if (pool_m > 0) {
+        pools = calloc((size_t)max_batch, sizeof *pools);
+        if (!pools || !spc_bdpt_pool_learn(&ctx, o->seed, pool_m, &pool_model)) {
+            free(pools);
+            spc_bdpt_pool_model_release(&pool_model);
+            spc_cguide_destroy(cguide);
+            spc_cl_destroy(cl);
+            free(tiles);
+            free(buf);
+            free(tls);
+            free(th);
+            spc_film_destroy(film);
+            return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for the pool of light vertices");
+        }
+        ctx.pool_model = &pool_model;
+    }
     double guide_seconds = cguide ? now_seconds() - t_start : 0.0;
     const int start = film->spp;
     int done = start;
@@ -499,6 +576,34 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         atomic_init(&jb.rays, 0);
         atomic_init(&jb.shadow_rays, 0);
         double t0 = now_seconds();
+        jb.pool_phase = false;
+        if (pools) {
+            /* the batch's pools first: every pass's light subpaths, then each pass's pool in tile
+             * order, before any camera sample of the batch */
+            jb.pool_phase = true;
+            int np = threads < batch * ntiles ? threads : batch * ntiles, started = 0;
+            for (int i = 1; i < np; ++i) {
+                if (pthread_create(&th[i], NULL, worker, &jb) != 0)
+                    break;
+                ++started;
+            }
+            worker(&jb);
+            for (int i = 1; i <= started; ++i)
+                pthread_join(th[i], NULL);
+            for (int b = 0; b < batch; ++b) {
+                if (!spc_bdpt_pool_index(&ctx, &tls[(size_t)b * ntiles], ntiles, &pools[b])) {
+                    status =
+                        spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for the pool of light vertices");
+                    break;
+                }
+                for (int ti = 0; ti < ntiles; ++ti)
+                    tls[(size_t)b * ntiles + ti].pool = &pools[b];
+            }
+            if (status != SPC_OK)
+                break;
+            jb.pool_phase = false;
+            atomic_store(&jb.next, 0);
+        }
         if (cl) {
             status = spc_cl_render_passes(cl, done, batch, o->seed, buf, stride, &invalid, &rays, err);
             if (status != SPC_OK)
@@ -588,8 +693,15 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     int guide_entries = cguide ? cguide->n : 0;
     spc_cguide_destroy(cguide);
     spc_cl_destroy(cl);
-    for (size_t i = 0; i < (size_t)max_batch * ntiles; ++i)
+    for (int b = 0; pools && b < max_batch; ++b)
+        spc_bdpt_pool_release(&pools[b]);
+    free(pools);
+    spc_bdpt_pool_model_release(&pool_model);
+    for (size_t i = 0; i < (size_t)max_batch * ntiles; ++i) {
         free(tls[i].splats);
+        free(tls[i].lv);
+        free(tls[i].lv_first);
+    }
     free(tls);
     free(buf);
     free(tiles);

@@ -1,0 +1,94 @@
+/*
+ * integrator/bdpt_pool.h: bdpt's pool of light vertices (bdpt_pool.c): the selection model that
+ * says, for a camera vertex in a spatial cell, from which cells of light vertices to pick
+ * (learned once per render by bdpt.c's pilot), and the pass's pool of light vertices sorted by
+ * cell, from which camera vertices draw their connections.
+ *
+ * The estimator (Popov et al. 2015, "Probabilistic connections for bidirectional path tracing",
+ * secs. 4-5; Davidovic et al. 2014, "Light vertex cache"). Each pass traces N light subpaths (one
+ * per pixel of the rendered window: the subpaths plain bdpt's camera samples would trace) and
+ * keeps their connectible vertices. Each camera vertex in cell c keeps bdpt's connections to its
+ * own pixel's light subpath and makes M more; each picks a light cell k with probability pi_c(k)
+ * (the model, fixed for the render), then one of the n_k(P) vertices of this pass's pool P in cell
+ * k uniformly, and contributes C w / (N M q) with q = pi_c(k) / n_k(P) the pick's actual
+ * probability: given the pool, the expectation is the sum over the pool's vertices of C w / N, so
+ * the estimate is unbiased whatever the model. In the MIS weights a connection is two techniques:
+ * the own subpath (one sample of the path) and the pool (c = M pi_c(k) / nu_k samples, nu_k the
+ * expected number of connectible vertices per light subpath in cell k, the pilot's): functions of
+ * the path's two joined vertices only, so the weights of every path still sum to one (they use the
+ * model's expectation, never this pool's counts, which depend on the light subpath being weighted).
+ * Since the own subpath's connection covers every path, pi may be zero where the pilot found
+ * nothing: the pool then simply does not help there.
+ */
+#ifndef SPC_INTEGRATOR_BDPT_POOL_H
+#define SPC_INTEGRATOR_BDPT_POOL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/math.h"
+
+/* Cells along the scene box's longest side (the others in proportion, at least 1). 8 puts the
+ * door's partition (x = 0, box 6 wide) on a cell border and keeps the model's table at most
+ * 512 x 512; on the door (32x32, 128 spp, M = 2) 6 and 8 did equally, 12 and 16 worse (the
+ * pilot's samples spread over more pairs of cells). */
+#define SPC_BDPT_POOL_GRID 8
+
+typedef struct spc_bdpt_pool_model {
+    int connections; /* M: connections per camera vertex */
+    spc_vec3 lo;     /* the grid's corner */
+    double inv_cell; /* 1 / the cells' edge */
+    int g[3], ncells;
+    double *nu;    /* ncells: connectible light vertices per light subpath in the cell */
+    double *score; /* ncells x ncells: the pilot's summed contributions, camera cell major */
+    double *pi;    /* ncells x ncells: pi_c(k), rows sum to 1 (or 0 with no light vertices) */
+    double *cdf;   /* ncells x (ncells + 1): each row's running sums */
+} spc_bdpt_pool_model;
+
+/* Sets up the grid over [lo, hi] with the tables zeroed; false if out of memory (then release it). */
+bool spc_bdpt_pool_model_init(spc_bdpt_pool_model *m, spc_vec3 lo, spc_vec3 hi, int connections);
+void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m);
+/* The cell of point p (points outside the grid go to its nearest cell). */
+int spc_bdpt_pool_cell(const spc_bdpt_pool_model *m, spc_vec3 p);
+/* After the pilot has added to nu (vertex counts) and score: nu divided by the pilot's light
+ * subpaths, pi and its cdfs built. */
+void spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths);
+/* The MIS count of the connection joining a light vertex in cell k to a camera vertex in cell c:
+ * M pi_c(k) / nu_k (0 where nu_k is 0: such vertices are never picked). */
+static inline double spc_bdpt_pool_count(const spc_bdpt_pool_model *m, int c, int k)
+{
+    double nu = m->nu[k];
+    return nu > 0.0 ? m->connections * m->pi[(size_t)c * m->ncells + k] / nu : 0.0;
+}
+
+/* One vertex of the pool: its light subpath's first vertex (bdpt.c's vertex array) and the
+ * number s of light vertices up to it (the vertex is sub[s - 1]). */
+typedef struct spc_bdpt_pool_ref {
+    const void *sub;
+    int s;
+    int cell;
+} spc_bdpt_pool_ref;
+
+/* A pass's pool: vertices added in a fixed order, then sorted by cell (stable). */
+typedef struct spc_bdpt_pool {
+    const spc_bdpt_pool_model *m;
+    double light_paths;      /* N */
+    spc_bdpt_pool_ref *refs; /* by cell after spc_bdpt_pool_finish */
+    spc_bdpt_pool_ref *tmp;
+    size_t n, cap;
+    int *start; /* ncells + 1 */
+} spc_bdpt_pool;
+
+/* Empties the pool for a new pass (keeps its memory). */
+void spc_bdpt_pool_clear(spc_bdpt_pool *p, const spc_bdpt_pool_model *m, double light_paths);
+/* Adds a vertex; false if out of memory. */
+bool spc_bdpt_pool_add(spc_bdpt_pool *p, const void *sub, int s, int cell);
+/* Sorts the vertices by cell; false if out of memory. */
+bool spc_bdpt_pool_finish(spc_bdpt_pool *p);
+void spc_bdpt_pool_release(spc_bdpt_pool *p);
+/* Picks a light vertex for a camera vertex in cell c from uniforms u1 (the cell) and u2 (the
+ * vertex in it); false if the picked cell is empty in this pool (the pick contributes nothing).
+ * *q: the pick's probability pi_c(k) / n_k. */
+bool spc_bdpt_pool_pick(const spc_bdpt_pool *p, int c, double u1, double u2, const spc_bdpt_pool_ref **ref, double *q);
+
+#endif
