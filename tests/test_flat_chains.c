@@ -9,6 +9,8 @@
  * - In scenes (a tilted glass cube, a prism, two separated tilted slabs of different index): from floor points to light points, every chain spc_flat_chains_all enumerates
  *   ends on its light point and is distinct, and every distinct chain that randomized angular
  *   attempts find (reflections off glass included, up to 4 vertices) is among them.
+ * - The chains through two slabs (four vertices) counted at every call of specular NEE with the
+ *   path integrator's budget of 2, not on the longer chains' few calls.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -373,6 +375,48 @@ TEST(two_slabs_contain_randomized_solutions)
     run_scene(sc, "two slabs, up to 4 vertices", 4, 40, 10, 0.0, 0.0, 2.0);
 }
 
+/* Below two separated horizontal slabs under a small light the floor point is lit only through
+ * four interfaces. With the path integrator's parameters (budget 2, the longer chains on) those
+ * chains are enumerated at every call, psi 1: every light point on the half of the light facing x
+ * gives a contribution, and none is far above the mean (on the long pass's calls only, 1 in 40
+ * would, each counted 40 times: the largest about 100 times the mean). */
+TEST(four_vertex_chains_every_call)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 A = place(spc_v3(1.0, 1.0, 0.05), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 1.0));
+    spc_mat4 B = place(spc_v3(1.0, 1.0, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0.05, 0, 1.8));
+    add_cube(sc, &A, tu_glass(sc, 1.5));
+    add_cube(sc, &B, tu_glass(sc, 1.4));
+    sc = add_light_finish(sc, spc_v3(0.1, 0.0, 3.0), 0.05);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_hit x;
+    spc_ray ray = {spc_v3(0.02, 0.01, 0.5), spc_v3(0, 0, -1), 0, INFINITY};
+    CHECK(spc_scene_intersect(sc, &ray, &x) && x.shape_index == 0);
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+    p.any_surface = true;
+    p.mis = true; /* as the path integrator runs it */
+    CHECK(p.exact && p.long_p > 0.0 && p.long_p < 1.0);
+    spc_rng r;
+    spc_rng_seed(&r, 5, 9);
+    const int calls = 400;
+    int nonzero = 0;
+    double s1 = 0.0, vmax = 0.0;
+    for (int i = 0; i < calls; ++i) {
+        double v = spc_specular_nee_depth(sc, &p, &x, spc_v3(0, 0, 1), 2, SPC_CHAIN_MAX_VERTICES, &r, NULL).r;
+        nonzero += v > 0.0;
+        s1 += v;
+        vmax = fmax(vmax, v);
+    }
+    double mean = s1 / calls;
+    printf("  %d of %d calls nonzero, the largest %.2f times the mean\n", nonzero, calls, mean > 0.0 ? vmax / mean : 0.0);
+    CHECK(nonzero >= calls * 4 / 10);
+    CHECK(mean > 0.0 && vmax < 10.0 * mean);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(slab_lateral_shift);
@@ -382,5 +426,6 @@ int main(void)
     RUN(tilted_cube_contains_randomized_solutions);
     RUN(prism_contains_randomized_solutions);
     RUN(two_slabs_contain_randomized_solutions);
+    RUN(four_vertex_chains_every_call);
     return spc_test_finish();
 }

@@ -44,6 +44,10 @@
 #define SPC_FLAT_SIDE_REL 1e-9
 #define SPC_FLAT_EDGE_REL 1e-9
 
+/* Distinct corners kept per face for its direction caps (a cube's face has 4; a face with more
+ * is bounded by the sphere around its corners instead). */
+#define SPC_FLAT_FACE_CORNERS 12
+
 typedef struct flat_face {
     spc_vec3 n;       /* unit normal toward the exterior (the winding, flip_normals applied) */
     double d;         /* n . p for p on the plane */
@@ -51,7 +55,82 @@ typedef struct flat_face {
     int first, count; /* its triangles: corner[3 * first ..], tri2d[6 * first ..] */
     spc_vec3 c;       /* the centre of its corners' bounding box, */
     double rad;       /* and the radius of the sphere around c that holds them */
+    int ncorners;     /* its distinct corners (0: more than SPC_FLAT_FACE_CORNERS) */
+    spc_vec3 corners[SPC_FLAT_FACE_CORNERS];
 } flat_face;
+
+/* ---- direction cones ----
+ *
+ * A set of directions bounded by a cap of the unit sphere: axis a, half-angle r (r >= pi: any
+ * direction). The walk carries the cap that holds the direction of the segment leaving the last
+ * vertex, and prunes a sequence where no direction of it can do what the next face asks: meet the
+ * plane from the chosen side, refract out of glass without total internal reflection, point from
+ * one face toward the next or toward y. Each cap is a bound (every direction a real chain can take
+ * lies in it), so pruning loses nothing:
+ *   - from x to a face: the directions toward its corners' bounding sphere;
+ *   - reflection: an isometry of directions, the cap reflected;
+ *   - refraction into a denser medium (n_in < n_out): inside the critical cone around the normal,
+ *     half-angle asin(n_in / n_out); and since the map is a contraction of the sphere there (the
+ *     polar angle's derivative cos ti n_in / (cos tt n_out) < 1, the azimuth's sin tt / sin ti < 1),
+ *     inside the cap of the same r around the refracted axis;
+ *   - refraction out (n_in > n_out): only directions within asin(n_out / n_in) of the normal pass;
+ *     the polar angle out is asin(n_in / n_out sin ti) of the largest ti in the cap. */
+
+typedef struct cone {
+    spc_vec3 a;
+    double r;
+} cone;
+
+static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(fmax(-1.0, fmin(1.0, spc_dot(a, b)))); }
+
+/* The directions from the points of the sphere (c0, r0) to those of the sphere (c1, r1). */
+static cone cone_between(spc_vec3 c0, double r0, spc_vec3 c1, double r1)
+{
+    spc_vec3 d = spc_sub(c1, c0);
+    double len = spc_length(d), r = r0 + r1;
+    if (!(len > r))
+        return (cone){spc_v3(0, 0, 1), 4.0};
+    return (cone){spc_scale(d, 1.0 / len), asin(r / len)};
+}
+
+static bool cones_meet(cone p, cone q)
+{
+    return p.r + q.r >= SPC_PI || angle_between(p.a, q.a) <= p.r + q.r + 1e-9;
+}
+
+static cone cone_neg(cone c) { return (cone){spc_neg(c.a), c.r}; }
+
+/* The cap around the axis `axis` (unit) that holds the n vectors g (the generators of a convex
+ * cone: the directions between two convex sets are the conic hull of their corners' differences,
+ * and a cap narrower than a hemisphere is convex); any direction if some g is a right angle or more
+ * from the axis. */
+static cone cone_of(spc_vec3 axis, const spc_vec3 *g, int n)
+{
+    double cmin = 1.0;
+    for (int i = 0; i < n; ++i) {
+        double len = spc_length(g[i]);
+        double c = len > 0.0 ? spc_dot(axis, g[i]) / len : -1.0;
+        if (!(c > 1e-6))
+            return (cone){spc_v3(0, 0, 1), 4.0};
+        cmin = fmin(cmin, c);
+    }
+    return (cone){axis, acos(cmin) + 1e-9};
+}
+
+/* The directions from the points of face a to those of face b. */
+static cone cone_faces(const flat_face *a, const flat_face *b)
+{
+    spc_vec3 d = spc_sub(b->c, a->c);
+    double len = spc_length(d);
+    if (a->ncorners == 0 || b->ncorners == 0 || !(len > 0.0))
+        return cone_between(a->c, a->rad, b->c, b->rad);
+    spc_vec3 g[SPC_FLAT_FACE_CORNERS * SPC_FLAT_FACE_CORNERS];
+    int n = 0;
+    for (int i = 0; i < a->ncorners; ++i)
+        for (int j = 0; j < b->ncorners; ++j)
+            g[n++] = spc_sub(b->corners[j], a->corners[i]);
+    return cone_of(spc_scale(d, 1.0 / len), g, n);
+}
 
 typedef struct flat_cache {
     void (*destroy)(void *); /* first member: spc_shape_release calls it */
@@ -62,6 +141,7 @@ typedef struct flat_cache {
     bool convex;
     int nfaces;
     flat_face face[SPC_FLAT_MAX_FACES];
+    cone pair[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES]; /* cone_faces(face i, face j) */
     int ntri;
     int *tri_face;    /* per mesh triangle: its face, or -1 (degenerate) */
     spc_vec3 *corner; /* per triangle in face order: its 3 corners */
@@ -205,11 +285,28 @@ static void cache_build(const spc_shape *s, flat_cache *c)
         }
         F->c = spc_scale(spc_add(lo, hi), 0.5);
         F->rad = 0.0;
-        for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j)
+        F->ncorners = 0;
+        bool all = true;
+        for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j) {
             F->rad = fmax(F->rad, spc_distance(F->c, c->corner[j]));
+            bool seen = false;
+            for (int q = 0; q < F->ncorners && !seen; ++q)
+                seen = same_point(F->corners[q], c->corner[j]);
+            if (seen || !all)
+                continue;
+            if (F->ncorners == SPC_FLAT_FACE_CORNERS)
+                all = false;
+            else
+                F->corners[F->ncorners++] = c->corner[j];
+        }
+        if (!all)
+            F->ncorners = 0;
     }
     c->ok = c->nfaces > 0;
     c->convex = closed_convex(c, m, scale);
+    for (int i = 0; i < c->nfaces; ++i)
+        for (int j = 0; j < c->nfaces; ++j)
+            c->pair[i][j] = cone_faces(&c->face[i], &c->face[j]);
 }
 
 /* May s be a flat chain shape at all (before its faces are counted)? */
@@ -272,6 +369,7 @@ static double side_index(double eta, int side)
 typedef struct flat_vertex {
     const spc_shape *s;
     int shape_index;
+    int slot;         /* the caster's slot in the walk */
     const flat_cache *fc;
     const flat_face *f;
     int side_in;  /* side of the face the path arrives from: +1 exterior, -1 interior */
@@ -342,18 +440,15 @@ static bool cholesky_solve(double *A, int n, const double *b, double *z)
     return true;
 }
 
-/* The 2x2 block U_a^T M U_b for the 3x3 symmetric M. */
-static void block(double M[3][3], const flat_face *fa, const flat_face *fb, double out[2][2])
+/* The 2x2 block c U_a^T (I - e e^T) U_b of a segment's Hessian term (c = its index over its
+ * length, e its unit direction) between the tangent bases of faces fa and fb. */
+static void block(double c, spc_vec3 e, const flat_face *fa, const flat_face *fb, double out[2][2])
 {
     const spc_vec3 A[2] = {fa->u, fa->v}, B[2] = {fb->u, fb->v};
+    double ae[2] = {spc_dot(A[0], e), spc_dot(A[1], e)}, be[2] = {spc_dot(B[0], e), spc_dot(B[1], e)};
     for (int r = 0; r < 2; ++r)
-        for (int c = 0; c < 2; ++c) {
-            double a[3] = {A[r].x, A[r].y, A[r].z}, b[3] = {B[c].x, B[c].y, B[c].z}, sum = 0.0;
-            for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j)
-                    sum += a[i] * M[i][j] * b[j];
-            out[r][c] = sum;
-        }
+        for (int q = 0; q < 2; ++q)
+            out[r][q] = c * ((fa == fb ? (r == q ? 1.0 : 0.0) : spc_dot(A[r], B[q])) - ae[r] * be[q]);
 }
 
 /* Newton's steps on L smoothed by mu from s (updated, with p and *L) until each vertex's mismatch
@@ -365,17 +460,14 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
     double gmax = 0.0;
     for (int it = 0; it <= steps; ++it) {
         spc_vec3 e[SPC_FLAT_MAX_VERTICES + 1];
-        double M[SPC_FLAT_MAX_VERTICES + 1][3][3];
+        double cj[SPC_FLAT_MAX_VERTICES + 1];
         for (int j = 0; j <= k; ++j) {
             spc_vec3 r = spc_sub(p[j + 1], p[j]);
             double len = sqrt(spc_dot(r, r) + mu * mu);
             if (!(len > 0.0))
                 return -1.0;
             e[j] = spc_scale(r, 1.0 / len);
-            double ev[3] = {e[j].x, e[j].y, e[j].z};
-            for (int a = 0; a < 3; ++a)
-                for (int b = 0; b < 3; ++b)
-                    M[j][a][b] = P->seg[j] * ((a == b ? 1.0 : 0.0) - ev[a] * ev[b]) / len;
+            cj[j] = P->seg[j] / len;
         }
         double g[2 * SPC_FLAT_MAX_VERTICES];
         gmax = 0.0;
@@ -390,17 +482,17 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
         double H[4 * SPC_FLAT_MAX_VERTICES * SPC_FLAT_MAX_VERTICES], diag = 0.0;
         memset(H, 0, sizeof H);
         for (int i = 0; i < k; ++i) {
-            double Mi[3][3], B[2][2];
-            for (int a = 0; a < 3; ++a)
-                for (int b = 0; b < 3; ++b)
-                    Mi[a][b] = M[i][a][b] + M[i + 1][a][b];
-            block(Mi, P->v[i].f, P->v[i].f, B);
+            double B[2][2], B2[2][2];
+            block(cj[i], e[i], P->v[i].f, P->v[i].f, B);
+            block(cj[i + 1], e[i + 1], P->v[i].f, P->v[i].f, B2);
             for (int r = 0; r < 2; ++r)
-                for (int c = 0; c < 2; ++c)
+                for (int c = 0; c < 2; ++c) {
+                    B[r][c] += B2[r][c];
                     H[(2 * i + r) * n + 2 * i + c] = B[r][c];
+                }
             diag = fmax(diag, B[0][0] + B[1][1]);
             if (i + 1 < k) {
-                block(M[i + 1], P->v[i].f, P->v[i + 1].f, B);
+                block(cj[i + 1], e[i + 1], P->v[i].f, P->v[i + 1].f, B);
                 for (int r = 0; r < 2; ++r)
                     for (int c = 0; c < 2; ++c) {
                         H[(2 * i + r) * n + 2 * (i + 1) + c] = -B[r][c];
@@ -603,48 +695,47 @@ static bool shadowed(const spc_scene *sc, const spc_chain_casters *cs, const fla
     return false;
 }
 
-/* ---- direction cones ----
- *
- * A set of directions bounded by a cap of the unit sphere: axis a, half-angle r (r >= pi: any
- * direction). The walk carries the cap that holds the direction of the segment leaving the last
- * vertex, and prunes a sequence where no direction of it can do what the next face asks: meet the
- * plane from the chosen side, refract out of glass without total internal reflection, point from
- * one face toward the next or toward y. Each cap is a bound (every direction a real chain can take
- * lies in it), so pruning loses nothing:
- *   - from x to a face: the directions toward its corners' bounding sphere;
- *   - reflection: an isometry of directions, the cap reflected;
- *   - refraction into a denser medium (n_in < n_out): inside the critical cone around the normal,
- *     half-angle asin(n_in / n_out); and since the map is a contraction of the sphere there (the
- *     polar angle's derivative cos ti n_in / (cos tt n_out) < 1, the azimuth's sin tt / sin ti < 1),
- *     inside the cap of the same r around the refracted axis;
- *   - refraction out (n_in > n_out): only directions within asin(n_out / n_in) of the normal pass;
- *     the polar angle out is asin(n_in / n_out sin ti) of the largest ti in the cap. */
-
-typedef struct cone {
-    spc_vec3 a;
-    double r;
-} cone;
-
-static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(fmax(-1.0, fmin(1.0, spc_dot(a, b)))); }
-
-/* The directions from the points of the sphere (c0, r0) to those of the sphere (c1, r1). */
-static cone cone_between(spc_vec3 c0, double r0, spc_vec3 c1, double r1)
+/* The directions from the point z to the points of face f (from its corners; from the sphere
+ * around them where f keeps none). */
+static cone cone_point_face(spc_vec3 z, const flat_face *f)
 {
-    spc_vec3 d = spc_sub(c1, c0);
-    double len = spc_length(d), r = r0 + r1;
-    if (!(len > r))
-        return (cone){spc_v3(0, 0, 1), 4.0};
-    return (cone){spc_scale(d, 1.0 / len), asin(r / len)};
+    spc_vec3 d = spc_sub(f->c, z);
+    double len = spc_length(d);
+    if (f->ncorners == 0 || !(len > 0.0))
+        return cone_between(z, 0.0, f->c, f->rad);
+    spc_vec3 g[SPC_FLAT_FACE_CORNERS];
+    for (int i = 0; i < f->ncorners; ++i)
+        g[i] = spc_sub(f->corners[i], z);
+    return cone_of(spc_scale(d, 1.0 / len), g, f->ncorners);
 }
 
-static bool cones_meet(cone p, cone q)
+/* The directions from the points of face a (of the shape cached as ca) to those of face b (cb). */
+static cone faces_cap(const flat_cache *ca, const flat_face *a, const flat_cache *cb, const flat_face *b)
 {
-    return p.r + q.r >= SPC_PI || angle_between(p.a, q.a) <= p.r + q.r + 1e-9;
+    if (ca == cb)
+        return ca->pair[a - ca->face][b - ca->face];
+    return cone_faces(a, b);
+}
+
+/* The axis a refracted through the plane of unit normal m (toward the side it arrives from) from
+ * index n_in to n_out (its tangential part scaled by n_in / n_out; no total reflection). */
+static spc_vec3 refract_axis(spc_vec3 a, spc_vec3 m, double n_in, double n_out)
+{
+    spc_vec3 down = spc_neg(m);
+    spc_vec3 tan = spc_add(a, spc_scale(m, spc_dot(a, down)));
+    spc_vec3 tt = spc_scale(tan, n_in / n_out);
+    double st2 = spc_dot(tt, tt);
+    return spc_normalize(spc_add(tt, spc_scale(down, sqrt(fmax(0.0, 1.0 - st2)))));
 }
 
 /* The cap of the directions leaving a vertex on the plane of unit normal m (toward the side the
  * path arrives from) with the event given, from the cap c of the arriving ones; false if none can
- * arrive (or, refracting out, pass). n_in, n_out the indices (equal for a reflection). */
+ * arrive (or, refracting out, pass). n_in, n_out the indices (equal for a reflection). Where the
+ * cap is narrower than a hemisphere and its axis arrives, refraction is bounded by its Lipschitz
+ * constant on the cap (the largest stretch of the map's differential: polar n_in cos ti / (n_out
+ * cos to), azimuthal sin to / sin ti = n_in / n_out; both at most n_in / n_out into a denser
+ * medium, largest at the cap's widest incidence out of one): the image lies within r L of the
+ * refracted axis. */
 static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n_out, cone *out)
 {
     spc_vec3 down = spc_neg(m); /* the direction straight into the plane */
@@ -663,18 +754,10 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
         *out = c;
         return true;
     }
+    bool narrow = c.r < 0.5 * SPC_PI && th < 0.5 * SPC_PI;
     if (n_in < n_out) {
-        double crit = asin(n_in / n_out);
-        cone best = {down, crit};
-        if (c.r < crit && th < 0.5 * SPC_PI) {
-            /* the axis refracted: tangential part scaled by n_in / n_out */
-            spc_vec3 tan = spc_add(c.a, spc_scale(m, spc_dot(c.a, down)));
-            spc_vec3 tt = spc_scale(tan, n_in / n_out);
-            double st2 = spc_dot(tt, tt);
-            spc_vec3 ra = spc_add(tt, spc_scale(down, sqrt(fmax(0.0, 1.0 - st2))));
-            best = (cone){spc_normalize(ra), c.r};
-        }
-        *out = best;
+        double crit = asin(n_in / n_out), r = c.r * (n_in / n_out);
+        *out = narrow && r < crit ? (cone){refract_axis(c.a, m, n_in, n_out), r} : (cone){down, crit};
         return true;
     }
     double crit = asin(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
@@ -682,6 +765,11 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
         return false; /* total internal reflection for every direction */
     double so = fmin(1.0, n_in / n_out * sin(ti));
     *out = (cone){down, c.r >= SPC_PI ? 0.5 * SPC_PI : asin(so)};
+    if (narrow && ti < crit) {
+        double L = n_in * cos(ti) / (n_out * sqrt(fmax(1e-300, 1.0 - so * so)));
+        if (c.r * L < out->r)
+            *out = (cone){refract_axis(c.a, m, n_in, n_out), c.r * L};
+    }
     return true;
 }
 
@@ -696,8 +784,12 @@ typedef struct flat_walk {
     bool any_surface, reflect;
     int lo, hi; /* the chain lengths wanted */
     flat_problem P; /* P.k: the vertices chosen so far, while walking */
+    cone cap[SPC_FLAT_MAX_VERTICES + 1]; /* the caps of the segments arriving at the vertices chosen */
     /* shadowed() from x and from y, per caster slot and face: 0 not yet known, 1 no, 2 yes */
     unsigned char shadow[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
+    /* cone_point_face from x (end 0) and from y (end 1), per caster slot and face, and whether known */
+    cone ends[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
+    unsigned char ends_known[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
     /* per complete sequence: */
     bool (*found)(void *user, const flat_problem *P, const spc_vec3 *p);
     void *user;
@@ -714,6 +806,53 @@ static bool walk_shadowed(flat_walk *w, int end, int j, const flat_cache *fc, in
     if (!*c)
         *c = shadowed(w->sc, w->cs, fc, &fc->face[fi], end ? w->P.y : w->P.x, tol) ? 2 : 1;
     return *c == 2;
+}
+
+/* cone_point_face of face fi of the caster in slot j from x (end 0) or y (end 1), cached. */
+static cone walk_end_cap(flat_walk *w, int end, int j, const flat_cache *fc, int fi)
+{
+    spc_vec3 z = end ? w->P.y : w->P.x;
+    if (j >= SPC_FLAT_WALK_SHAPES)
+        return cone_point_face(z, &fc->face[fi]);
+    if (!w->ends_known[end][j][fi]) {
+        w->ends[end][j][fi] = cone_point_face(z, &fc->face[fi]);
+        w->ends_known[end][j][fi] = 1;
+    }
+    return w->ends[end][j][fi];
+}
+
+/* The sequence of P's first k vertices seen from y: the caps of its segments propagated back from
+ * the directions toward y through each vertex's event (reversed, the same maps), each narrowed by
+ * the directions between its faces and checked against the cap fwd[j] the walk from x found for
+ * segment j. False if some segment has no direction both ends allow (no chain). */
+static bool backward_meets(flat_walk *w, int k)
+{
+    const flat_problem *P = &w->P;
+    const cone *fwd = w->cap;
+    const flat_vertex *last = &P->v[k - 1];
+    cone b = cone_neg(walk_end_cap(w, 1, last->slot, last->fc, (int)(last->f - last->fc->face)));
+    if (!cones_meet(b, fwd[k]))
+        return false;
+    for (int i = k - 1; i >= 0; --i) {
+        const flat_vertex *v = &P->v[i];
+        spc_vec3 m = spc_scale(v->f->n, v->side_out); /* toward the side the reversed path arrives from */
+        if (v->tir > 0.0 && b.r < SPC_PI && angle_between(b.a, m) + b.r <= asin(1.0 / v->tir))
+            return false; /* every direction within the critical angle: no total reflection */
+        double n_in = P->seg[i] >= 0.0 ? P->seg[i] : 1.0, n_out = P->seg[i + 1] >= 0.0 ? P->seg[i + 1] : 1.0;
+        cone back;
+        if (!cone_through(cone_neg(b), m, v->event == SPC_CHAIN_REFLECT, n_out, n_in, &back))
+            return false;
+        b = cone_neg(back);
+        cone between = i > 0 ? faces_cap(P->v[i - 1].fc, P->v[i - 1].f, v->fc, v->f)
+                             : walk_end_cap(w, 0, v->slot, v->fc, (int)(v->f - v->fc->face));
+        if (!cones_meet(b, between))
+            return false;
+        if (between.r < b.r)
+            b = between;
+        if (!cones_meet(b, fwd[i]))
+            return false;
+    }
+    return true;
 }
 
 /* i: the vertex to choose; medium: the index of the segment arriving there (-1: not known); dir:
@@ -739,18 +878,8 @@ static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, 
                 if (fabs(spc_dot(prev->f->n, f->n)) > 1.0 - 1e-12 && fabs(plane_dist(f, prev->f->o)) < tol)
                     continue; /* one plane: a segment between them would lie in it */
             }
-            /* the directions that can arrive at f: from x, or those leaving the last vertex that
-             * point from its face toward f */
             cone arrive = dir;
-            if (!prev) {
-                arrive = cone_between(P->x, 0.0, f->c, f->rad);
-            } else {
-                cone between = cone_between(prev->f->c, prev->f->rad, f->c, f->rad);
-                if (!cones_meet(dir, between))
-                    continue;
-                if (between.r < arrive.r)
-                    arrive = between;
-            }
+            bool have_arrive = false;
             for (int side = 1; side >= -1; side -= 2) {
                 if (fc->convex) {
                     if (side < 0) { /* from the inside: only from a vertex of the same shape, or x inside */
@@ -774,6 +903,20 @@ static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, 
                 double in = side_index(eta, side);
                 if (in >= 0.0 && medium >= 0.0 && fabs(in - medium) > 1e-9 * in)
                     continue; /* the two ends of the segment disagree on its medium */
+                if (!have_arrive) {
+                    /* the directions that can arrive at f: from x, or those leaving the last
+                     * vertex that point from its face toward f */
+                    have_arrive = true;
+                    if (!prev) {
+                        arrive = walk_end_cap(w, 0, j, fc, fi);
+                    } else {
+                        cone between = faces_cap(prev->fc, prev->f, fc, f);
+                        if (!cones_meet(dir, between))
+                            break;
+                        if (between.r < arrive.r)
+                            arrive = between;
+                    }
+                }
                 double m_in = in >= 0.0 ? in : medium;
                 for (int ev = 0; ev < 2 && !w->stop; ++ev) {
                     unsigned char event = ev ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
@@ -800,7 +943,9 @@ static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, 
                     if (!cone_through(arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
                         continue;
                     flat_vertex *v = &P->v[i];
+                    w->cap[i] = arrive;
                     v->s = s;
+                    v->slot = j;
                     v->shape_index = w->cs->idx[j];
                     v->fc = fc;
                     v->f = f;
@@ -816,9 +961,13 @@ static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, 
                     bool finish = k >= w->lo && side_out * plane_dist(f, P->y) > tol &&
                                   !(fc->convex && side_out < 0 && !inside_convex(fc, P->y, tol)) &&
                                   !(side_out > 0 && walk_shadowed(w, 1, j, fc, fi, tol)) &&
-                                  cones_meet(leave, cone_between(f->c, f->rad, P->y, 0.0));
+                                  cones_meet(leave, cone_neg(walk_end_cap(w, 1, j, fc, fi)));
                     for (int q = 0; q < k && finish && !w->any_surface; ++q)
                         finish = spc_chain_caster_allowed(P->v[q].s->caustic_flags, k);
+                    if (finish) {
+                        w->cap[k] = leave;
+                        finish = backward_meets(w, k);
+                    }
                     if (finish) {
                         flat_problem Q = *P;
                         Q.k = k;

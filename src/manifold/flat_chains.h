@@ -30,7 +30,10 @@
  * the chain arrives from, y in front of the last on the side it leaves to; no two consecutive faces
  * in one plane; for consecutive faces Fi, Fi+1 some corner of Fi lies on the side of Fi+1's plane the
  * path arrives from, and some corner of Fi+1 on the side of Fi's plane the path leaves to; the
- * medium between two vertices is the same as seen from both (inside one dielectric, or outside).
+ * medium between two vertices is the same as seen from both (inside one dielectric, or outside);
+ * the caps of directions each segment can take (from x toward a face's corners, between two faces'
+ * corners, through each event: reflections exactly, refractions within their Lipschitz bound) meet,
+ * propagated from x while walking and, for a complete sequence, back from y.
  *
  * Shapes handled (spc_flat_chain_shape): a mesh without vertex normals (or face_normals) of at most
  * SPC_FLAT_MAX_FACES planes, a smooth dielectric (not a normal map, which plane_chains.h handles),

@@ -459,12 +459,12 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
                 put(&b, "; longer chains by %s", solver ? solver->name : "?");
             break;
         case SPC_SNEE_METHOD_FLAT:
+            /* past the budget where the longer chains run (specular_nee.c, flat_max) */
             put(&b, "every chain through its flat faces (and other flat casters') enumerated exactly, 1-%d vertices",
-                p.max_chain < SPC_FLAT_MAX_VERTICES ? p.max_chain : SPC_FLAT_MAX_VERTICES);
+                p.max_chain >= SPC_FLAT_MAX_VERTICES || (p.long_p > 0.0 && !p.no_mis) ? SPC_FLAT_MAX_VERTICES
+                                                                                      : p.max_chain);
             if (p.max_chain > SPC_FLAT_MAX_VERTICES)
                 put(&b, "; longer chains by %s", solver ? solver->name : "?");
-            else if (p.max_chain < SPC_FLAT_MAX_VERTICES && p.long_p > 0.0 && !p.no_mis)
-                put(&b, " (up to %d with probability %g)", SPC_FLAT_MAX_VERTICES, p.long_p);
             break;
         case SPC_SNEE_METHOD_SOLVER:
             put(&b, "%s, 1-%d vertices%s", solver ? solver->name : "?", p.max_chain,

@@ -332,6 +332,19 @@ static double long_psi(const spc_snee_query *q, int k)
     return q->params->long_p / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
 
+/* The longest chain through flat faces enumerated at every call: the budget, or where the longer
+ * chains run (the path's track then follows covered paths past the budget, to q->long_max) up to
+ * SPC_FLAT_MAX_VERTICES: two slabs' four interfaces, a slab's total internal reflections, each
+ * chain counted once (psi 1), instead of with 1 / psi on the long pass's few calls, whose tail held
+ * most of the small-light slabs' error (bench/RESULTS.md, "Planar" and "Flat 2"). */
+static int flat_max(const spc_snee_query *q)
+{
+    int hi = q->max_chain;
+    if (long_on(q) && hi < SPC_FLAT_MAX_VERTICES)
+        hi = q->long_max < SPC_FLAT_MAX_VERTICES ? q->long_max : SPC_FLAT_MAX_VERTICES;
+    return hi;
+}
+
 /* Is c counted exactly (no <1/p_solve>): enumerated by the solver's solve_all, or on one sphere or
  * mirror cylinder (params.exact)? */
 static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *c)
@@ -578,8 +591,10 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
 {
     const spc_snee_params *p = q->params;
     if (c->n > q->max_chain) { /* longer than the budget: one of params.long_p's, or none */
-        if (p->exact && (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_covers(c, p->reflect)))
-            return long_psi(q, c->n); /* enumerated on the sphere or through flat faces */
+        if (p->exact && spc_flat_chain_covers(c, p->reflect))
+            return c->n <= flat_max(q) ? 1.0 : long_psi(q, c->n); /* through flat faces, at every call */
+        if (p->exact && spc_sphere_chain_covers(c, p->reflect))
+            return long_psi(q, c->n); /* enumerated on the sphere */
         return random_long(p) ? long_psi(q, c->n) * random_psi(p) : 0.0; /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
@@ -837,8 +852,10 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         int it = 0;
         int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &it);
         nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
-        nall += spc_flat_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
-        emit_exact(q, e, uv, p_y, all, nall, it, st, sk);
+        spc_snee_query fq = *q; /* the flat chains may run past the budget */
+        fq.max_chain = flat_max(q);
+        nall += spc_flat_chains_all(&fq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
+        emit_exact(&fq, e, uv, p_y, all, nall, it, st, sk);
         if (!q->cam)
             emit_plane_chains(q, e, uv, p_y, st, sk);
     }
@@ -858,7 +875,8 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
                 spc_chain all[SPC_SNEE_MAX_ALL];
                 int it = 0;
                 int nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
-                nall += spc_flat_chains_all(&lq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
+                if (k > flat_max(q)) /* else counted above, at every call */
+                    nall += spc_flat_chains_all(&lq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
                 emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
             }
             if (random_long(p) && solver->solve_one && !(p->exact && spc_snee_exact_covers_all(&lq))) {
