@@ -17,6 +17,8 @@
 #define SPC_SNEE_GUIDE 1.0
 /* recguide without a value: the guided share of a vertex's directions (caustic_guide.h) */
 #define SPC_SNEE_RECV_GUIDE 0.25
+/* seedguide without a value: the guided share of a randomized attempt's seeds (seed_guide.h) */
+#define SPC_SNEE_SEED_GUIDE 0.5
 /* The largest integer an option takes (six digits: far beyond any sensible count). */
 #define SPC_SNEE_COUNT_MAX 999999
 
@@ -76,6 +78,10 @@ static const spc_snee_option options[] = {
      SPC_SNEE_RECV_GUIDE, NULL,
      "path: at a non-delta vertex, with probability A a direction toward the caustics a photon pre-pass "
      "found (recguide alone: A 0.25)"},
+    {"seedguide", "noseedguide", SPC_SNEE_OPT_REAL, true, "A", 0, 1, true, true, NULL, 0, NO, AT(seed_guide),
+     SPC_SNEE_SEED_GUIDE, NULL,
+     "randomized attempts seeded, with probability A, toward the chains of light paths a pre-pass traced "
+     "through the casters and that landed near the receiver (seedguide alone: A 0.5)"},
 };
 #define NOPTIONS ((int)(sizeof options / sizeof options[0]))
 

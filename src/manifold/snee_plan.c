@@ -359,6 +359,14 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,later=0.25", q);
     else
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING);
+    /* guided seeds where some caster's chains go to the randomized attempts (snee_plan.h) */
+    bool randomized = false;
+    for (int i = 0; i < cs->n; ++i)
+        randomized = randomized || spc_snee_plan_method(&p, sc->shapes[cs->idx[i]]) == SPC_SNEE_METHOD_SOLVER;
+    if (randomized && !bdpt) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_SEED_GUIDE);
+    }
 }
 
 spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *s)
@@ -434,6 +442,10 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             p.later_p);
     if (p.camera && p.camera_p < 1.0)
         put(&b, "  from the camera on a share %g of the samples\n", p.camera_p);
+    if (p.seed_guide > 0.0)
+        put(&b, "  guided seeds: a share %g of the randomized attempts seeded toward the chains of light paths "
+                "traced at render start that land near the receiver\n",
+            p.seed_guide);
     if (p.recv_guide > 0.0)
         put(&b, "  caustic guiding at receivers (path): a share %g of a vertex's directions toward the caustics "
                 "a photon pre-pass finds at render start\n",

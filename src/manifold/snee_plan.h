@@ -86,6 +86,14 @@
  * specular NEE"). */
 #define SPC_SNEE_PLAN_SETTING "angular:camera,later=0.25"
 
+/* Appended to path's and volpath's setting where some caster's chains go to the randomized
+ * attempts (a triangle mesh with vertex normals, an SDF): a share 0.8 of those attempts seeded toward
+ * the chains of light paths traced before the render that landed near the receiver (seed_guide.h).
+ * Their Bernoulli trial counts (mean 1/p) were the heavy tail there: at equal CPU time the triangle
+ * glass ball went from 0.4x to 4.5x none and a random triangle-ball scene from 0.4x to 11x, while
+ * 0.5 gave 2.4x on the ball (bench/RESULTS.md, "Guided seeds"). */
+#define SPC_SNEE_PLAN_SEED_GUIDE ",seedguide=0.8"
+
 /* The setting where every caster is a mirror: the same without the query from the camera. There the
  * camera sees the light only by reflection, which camera rays find as often as the query's splats
  * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal

@@ -182,6 +182,14 @@ typedef struct spc_snee_params {
     double recv_guide;
     const struct spc_cguide *cguide;
     const struct spc_cguide_vertex *cguide_at;
+    /* Guided seeds (the user's "seedguide=A" / "noseedguide"; seed_guide.h): with SEED_SHAPE or
+     * SEED_CONE, a randomized attempt at a receiver draws its seed with probability A toward the last
+     * caster vertex of a light path of the render's pre-pass that landed near x, else as before. The
+     * mixture is the same for every attempt of a query (the trials of <1/p_solve> included), so the
+     * count stays unbiased for the mixture's p, which is larger for the chains that light x. Not from
+     * the camera. 0: off. sguide is the pre-pass the render built (NULL: none, the seeds uniform). */
+    double seed_guide;
+    const struct spc_sguide *sguide;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
