@@ -87,6 +87,10 @@ typedef struct spc_snee_params {
      * finds, whose <1/p_solve> trial count makes them heavy-tailed where p_solve is small. */
     bool mis;
     double mis_solve;
+    /* With reflect: the stand-in psi of a randomized attempt's chain is mis_solve times the probability
+     * of the chain's events (spc_chain_events_prob), which its trial count is divided by (the user's
+     * "misev" / "nomisev"; on by default). */
+    bool mis_events;
     bool no_mis; /* the user's "nomis" option: the integrator does not set mis (covered BSDF paths
                     are then dropped, as before MIS) */
     /* Reflection at dielectric vertices (the user's "reflect[=P]"): chains may reflect off glass as

@@ -572,7 +572,7 @@ static double attempt_psi(const spc_snee_query *q, const spc_chain *c)
 {
     const spc_snee_params *p = q->params;
     double psi = random_psi(p);
-    if (p->reflect && !p->biased && psi < 1.0) {
+    if (p->mis_events && p->reflect && !p->biased && psi < 1.0) {
         spc_chain_sig sig;
         spc_chain_signature(c, &sig);
         psi *= spc_chain_events_prob(q->scene, &sig, p->any_surface, p->reflect_p);
