@@ -57,7 +57,8 @@ static const spc_snee_option options[] = {
     {"mispsi", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(mis_solve), 0, NULL,
      "MIS weighs the chains of randomized attempts as if found with probability Q"},
     {"misev", "nomisev", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(mis_events), NO, 0, NULL,
-     "with reflect, MIS weighs a randomized attempt's chain as if found with Q times its events' probability"},
+     "with reflect, MIS weighs a randomized attempt's chain as if found with mispsi times its events' "
+     "probability (off by default)"},
     {"receivers", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_SNEE_COUNT_MAX, false, false, NULL, 0, NO, AT(receivers),
      0, "every receiver", "specular NEE at the first N diffuse or glossy vertices of a path only"},
     {"later", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(later_p), 0, NULL,

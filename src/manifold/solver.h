@@ -89,7 +89,8 @@ typedef struct spc_snee_params {
     double mis_solve;
     /* With reflect: the stand-in psi of a randomized attempt's chain is mis_solve times the probability
      * of the chain's events (spc_chain_events_prob), which its trial count is divided by (the user's
-     * "misev" / "nomisev"; on by default). */
+     * "misev" / "nomisev"; off by default: it removed a longer chain's firefly on the SDF torus but
+     * made newton_pool 1.7x worse at equal samples, bench/RESULTS.md, "Guided seeds"). */
     bool mis_events;
     bool no_mis; /* the user's "nomis" option: the integrator does not set mis (covered BSDF paths
                     are then dropped, as before MIS) */

@@ -93,7 +93,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     }
     p->straight_first = solver == SPC_SNEE_ANGULAR;
     p->exact = true;
-    p->mis_events = true;
+    p->mis_events = false;
     p->long_p = SPC_SNEE_LONG_P;
     p->guide = 0.0;
     p->snee_p = 1.0;

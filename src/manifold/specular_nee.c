@@ -561,13 +561,12 @@ static double random_psi(const spc_snee_params *p)
     return p->biased || !(p->mis_solve > 0.0 && p->mis_solve < 1.0) ? 1.0 : p->mis_solve;
 }
 
-/* psi of the chain c found by a randomized attempt: random_psi, times the probability of c's events
- * where the attempts pick them (params.reflect; spc_chain_events_prob). The estimate divides the trial
- * count by that probability, so the stand-in follows it: a light sample's weighted value is then bounded
- * by about random_psi n f / (2 p_b) (n the trial count) whatever the events, where with random_psi
- * alone the bound grew by 1 / P(events) (a chain with two reflections off glass: 25x; the longer
- * chains through the SDF torus made one pixel 99% of a seed's error so; bench/RESULTS.md, "Guided
- * seeds"). Both sides of the MIS compute it from the chain's signature. */
+/* psi of the chain c found by a randomized attempt: random_psi, and with params.mis_events times the
+ * probability of c's events where the attempts pick them (params.reflect; spc_chain_events_prob). The
+ * estimate divides the trial count by that probability; with the stand-in following it, a light
+ * sample's weighted value is bounded by about random_psi n f / (2 p_b) (n the trial count) whatever
+ * the events, where with random_psi alone the bound grows by 1 / P(events) (two reflections off glass:
+ * 25x). Both sides of the MIS compute it from the chain's signature. */
 static double attempt_psi(const spc_snee_query *q, const spc_chain *c)
 {
     const spc_snee_params *p = q->params;
