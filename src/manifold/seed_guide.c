@@ -15,9 +15,12 @@
 #include "emitter/emitter.h"
 #include "manifold/chain.h"
 
-/* The grid's cell, in radii of the casters' bounding sphere. A seed draws from the 2 x 2 x 2 cells
- * nearest to x, so the light paths it uses landed within about two cells of x. */
-#define SPC_SGUIDE_CELL (1.0 / 24.0)
+/* The grid's cell, in scene radii. A seed draws from the 2 x 2 x 2 cells nearest to x, so the light
+ * paths it uses landed within about two cells of x. Measured on the triangle glass ball (scene radius
+ * 4.3, ball radius 0.5): cells of 1/32 of the scene's radius gave 4.5x none at equal time, cells of
+ * 1/24 of the casters' radius (6x finer) 0.5x: most receivers then had no record near them and kept
+ * the uniform seeds (bench/RESULTS.md, "Guided seeds"). */
+#define SPC_SGUIDE_CELL (1.0 / 32.0)
 /* The seed cone's half-angle: this many cells seen from the record's vertex at x's distance (the
  * vertex of the chain through x itself lies within about that of a light path that landed a cell
  * away), at most SPC_SGUIDE_MAX_SIN as a sine. */
@@ -48,7 +51,7 @@ struct spc_sguide {
     long n;
 };
 
-static double cellsize(const spc_chain_casters *cs) { return SPC_SGUIDE_CELL * cs->radius; }
+static double cellsize(const spc_scene *sc) { return SPC_SGUIDE_CELL * sc->radius; }
 
 static uint64_t key_hash(const int64_t k[3])
 {
@@ -125,9 +128,9 @@ static bool trace(const spc_scene *sc, const spc_chain_casters *cs, bool any_sur
             if (k == 0 || k > NK)
                 return false;
             out->k = k;
-            out->key[0] = (int64_t)floor(h.p.x / cellsize(cs));
-            out->key[1] = (int64_t)floor(h.p.y / cellsize(cs));
-            out->key[2] = (int64_t)floor(h.p.z / cellsize(cs));
+            out->key[0] = (int64_t)floor(h.p.x / cellsize(sc));
+            out->key[1] = (int64_t)floor(h.p.y / cellsize(sc));
+            out->key[2] = (int64_t)floor(h.p.z / cellsize(sc));
             return true;
         }
         spc_bsdf_sample bs;
@@ -168,7 +171,7 @@ spc_sguide *spc_sguide_build(const spc_scene *sc, long photons, uint64_t seed, b
         free(g);
         return NULL;
     }
-    g->h = cellsize(cs);
+    g->h = cellsize(sc);
     g->cap = 16;
     while (g->cap < (size_t)n * 2)
         g->cap *= 2;

@@ -15,8 +15,8 @@
  *     casters' bounding spheres (a uniform direction in the cone of a uniformly chosen caster), through
  *     chain surfaces (their delta lobes sampled in importance mode) to the first non-delta hit, and
  *     keeps, per landing point, the last caster vertex and the number of caster vertices k; the
- *     records are binned in a hash grid over the landing points (cells a small fraction of the radius
- *     of the casters' bounding sphere, seed_guide.c);
+ *     records are binned in a hash grid over the landing points (cells 1/32 of the scene's radius,
+ *     seed_guide.c);
  *   - a seed at x for chains of kmin..kmax vertices (spc_sguide_seed) picks one record uniformly
  *     among those with k in range in the 2 x 2 x 2 cells nearest to x, and a direction uniform in a
  *     cone around the line from x to the record's vertex.
