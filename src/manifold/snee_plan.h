@@ -90,8 +90,10 @@
  * attempts (a triangle mesh with vertex normals, an SDF): a share 0.8 of those attempts seeded toward
  * the chains of light paths traced before the render that landed near the receiver (seed_guide.h).
  * Their Bernoulli trial counts (mean 1/p) were the heavy tail there: at equal CPU time the triangle
- * glass ball went from 0.4x to 4.5x none and a random triangle-ball scene from 0.4x to 11x, while
- * 0.5 gave 2.4x on the ball (bench/RESULTS.md, "Guided seeds"). */
+ * glass ball went from 0.4x to 4.5x none and a random triangle-ball scene from 0.4x to 11x in one
+ * batch of 3 seeds (0.5: 2.4x on the ball), a mirror bowl mesh from 41x to 374x; a later batch still
+ * lost to none on both balls (0.6x, 0.8x: one seed's pixel each), so the guide lowers the tail but
+ * does not remove it (bench/RESULTS.md, "Guided seeds"). */
 #define SPC_SNEE_PLAN_SEED_GUIDE ",seedguide=0.8"
 
 /* The setting where every caster is a mirror: the same without the query from the camera. There the
