@@ -376,8 +376,14 @@ TEST(camera_query_from_glass_share)
     }
     spc_snee_plan p;
     spc_snee_plan_make(sc, "path", NULL, &p);
-    CHECK_MSG(p.on && p.glass_share > 0.05 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING), "SDF ball: share %g, %s",
-              p.glass_share, p.setting);
+    /* an SDF's chains go to the randomized attempts; guided seeds are not in the plan (snee_plan.h) */
+    CHECK_MSG(p.on && p.glass_share > 0.05 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING),
+              "SDF ball: share %g, %s", p.glass_share, p.setting);
+    spc_snee_params sp;
+    CHECK(spc_snee_parse(p.setting, 2, &sp) && sp.seed_guide == 0.0);
+    CHECK(spc_snee_parse(SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_SEED_GUIDE, 2, &sp) && sp.seed_guide == 0.8);
+    spc_snee_plan_make(sc, "bdpt", NULL, &p);
+    CHECK_MSG(p.on && !strstr(p.setting, "seedguide"), "bdpt: %s", p.setting);
     spc_scene_destroy(sc);
 }
 

@@ -17,6 +17,8 @@
 #define SPC_SNEE_GUIDE 1.0
 /* recguide without a value: the guided share of a vertex's directions (caustic_guide.h) */
 #define SPC_SNEE_RECV_GUIDE 0.25
+/* seedguide without a value: the guided share of a randomized attempt's seeds (seed_guide.h) */
+#define SPC_SNEE_SEED_GUIDE 0.5
 /* The largest integer an option takes (six digits: far beyond any sensible count). */
 #define SPC_SNEE_COUNT_MAX 999999
 
@@ -54,6 +56,9 @@ static const spc_snee_option options[] = {
      NULL, "chains also reflect off glass, with probability P at a dielectric vertex of a seed chain"},
     {"mispsi", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(mis_solve), 0, NULL,
      "MIS weighs the chains of randomized attempts as if found with probability Q"},
+    {"misev", "nomisev", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(mis_events), NO, 0, NULL,
+     "with reflect, MIS weighs a randomized attempt's chain as if found with mispsi times its events' "
+     "probability (off by default)"},
     {"receivers", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_SNEE_COUNT_MAX, false, false, NULL, 0, NO, AT(receivers),
      0, "every receiver", "specular NEE at the first N diffuse or glossy vertices of a path only"},
     {"later", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(later_p), 0, NULL,
@@ -76,6 +81,10 @@ static const spc_snee_option options[] = {
      SPC_SNEE_RECV_GUIDE, NULL,
      "path: at a non-delta vertex, with probability A a direction toward the caustics a photon pre-pass "
      "found (recguide alone: A 0.25)"},
+    {"seedguide", "noseedguide", SPC_SNEE_OPT_REAL, true, "A", 0, 1, true, true, NULL, 0, NO, AT(seed_guide),
+     SPC_SNEE_SEED_GUIDE, NULL,
+     "randomized attempts seeded, with probability A, toward the chains of light paths a pre-pass traced "
+     "through the casters and that landed near the receiver (seedguide alone: A 0.5)"},
 };
 #define NOPTIONS ((int)(sizeof options / sizeof options[0]))
 

@@ -434,6 +434,10 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             p.later_p);
     if (p.camera && p.camera_p < 1.0)
         put(&b, "  from the camera on a share %g of the samples\n", p.camera_p);
+    if (p.seed_guide > 0.0)
+        put(&b, "  guided seeds: a share %g of the randomized attempts seeded toward the chains of light paths "
+                "traced at render start that land near the receiver\n",
+            p.seed_guide);
     if (p.recv_guide > 0.0)
         put(&b, "  caustic guiding at receivers (path): a share %g of a vertex's directions toward the caustics "
                 "a photon pre-pass finds at render start\n",

@@ -86,6 +86,14 @@
  * specular NEE"). */
 #define SPC_SNEE_PLAN_SETTING "angular:camera,later=0.25"
 
+/* Guided seeds for the randomized attempts (a triangle mesh with vertex normals, an SDF): a share
+ * 0.8 of those attempts seeded toward the chains of light paths traced before the render that landed
+ * near the receiver (seed_guide.h). Not in the plan: they lower the Bernoulli trial counts' tail but
+ * do not remove it (the triangle glass ball 4.5x none in one batch of 3 seeds, 0.6x in another; the
+ * SDF torus over 8 seeds 0.7x against the unguided 1.5x: bench/RESULTS.md, "Guided seeds"), so
+ * they stay an option to append to a setting. */
+#define SPC_SNEE_PLAN_SEED_GUIDE ",seedguide=0.8"
+
 /* The setting where every caster is a mirror: the same without the query from the camera. There the
  * camera sees the light only by reflection, which camera rays find as often as the query's splats
  * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal

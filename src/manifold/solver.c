@@ -6,6 +6,8 @@
 
 #include <string.h>
 
+#include "manifold/seed_guide.h"
+
 /* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
 #define SPC_SNEE_CONE_COS 0.9
 
@@ -65,6 +67,15 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
     }
     case SPC_SNEE_SEED_SHAPE:
     case SPC_SNEE_SEED_CONE: {
+        /* guided seeds (seed_guide.h) with probability seed_guide, where a light path landed near x */
+        const spc_snee_params *p = q->params;
+        if (p->sguide && p->seed_guide > 0.0 && !q->cam) {
+            double ug = spc_rng_next(rng), u = spc_rng_next(rng);
+            spc_vec2 u2 = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+            if (ug < p->seed_guide && spc_sguide_seed(p->sguide, q->x->p, q->min_chain > 0 ? q->min_chain : 1,
+                                                     q->max_chain, u, u2, dir))
+                return true;
+        }
         /* uniform over the caster shapes, by one pass of reservoir sampling over their list (the
          * random streams of the seeds as they were when the pass went over every shape) */
         const spc_shape *pick = NULL;

@@ -87,6 +87,11 @@ typedef struct spc_snee_params {
      * finds, whose <1/p_solve> trial count makes them heavy-tailed where p_solve is small. */
     bool mis;
     double mis_solve;
+    /* With reflect: the stand-in psi of a randomized attempt's chain is mis_solve times the probability
+     * of the chain's events (spc_chain_events_prob), which its trial count is divided by (the user's
+     * "misev" / "nomisev"; off by default: it removed a longer chain's firefly on the SDF torus but
+     * made newton_pool 1.7x worse at equal samples, bench/RESULTS.md, "Guided seeds"). */
+    bool mis_events;
     bool no_mis; /* the user's "nomis" option: the integrator does not set mis (covered BSDF paths
                     are then dropped, as before MIS) */
     /* Reflection at dielectric vertices (the user's "reflect[=P]"): chains may reflect off glass as
@@ -182,6 +187,14 @@ typedef struct spc_snee_params {
     double recv_guide;
     const struct spc_cguide *cguide;
     const struct spc_cguide_vertex *cguide_at;
+    /* Guided seeds (the user's "seedguide=A" / "noseedguide"; seed_guide.h): with SEED_SHAPE or
+     * SEED_CONE, a randomized attempt at a receiver draws its seed with probability A toward the last
+     * caster vertex of a light path of the render's pre-pass that landed near x, else as before. The
+     * mixture is the same for every attempt of a query (the trials of <1/p_solve> included), so the
+     * count stays unbiased for the mixture's p, which is larger for the chains that light x. Not from
+     * the camera. 0: off. sguide is the pre-pass the render built (NULL: none, the seeds uniform). */
+    double seed_guide;
+    const struct spc_sguide *sguide;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular

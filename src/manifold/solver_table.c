@@ -93,11 +93,14 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     }
     p->straight_first = solver == SPC_SNEE_ANGULAR;
     p->exact = true;
+    p->mis_events = false;
     p->long_p = SPC_SNEE_LONG_P;
     p->guide = 0.0;
     p->snee_p = 1.0;
     p->later_p = 1.0;
     p->recv_guide = 0.0;
+    p->seed_guide = 0.0;
+    p->sguide = NULL;
     p->camera_p = 1.0;
     if (solver == SPC_SNEE_ANGULAR)
         p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;

@@ -574,6 +574,24 @@ static double random_psi(const spc_snee_params *p)
     return p->biased || !(p->mis_solve > 0.0 && p->mis_solve < 1.0) ? 1.0 : p->mis_solve;
 }
 
+/* psi of the chain c found by a randomized attempt: random_psi, and with params.mis_events times the
+ * probability of c's events where the attempts pick them (params.reflect; spc_chain_events_prob). The
+ * estimate divides the trial count by that probability; with the stand-in following it, a light
+ * sample's weighted value is bounded by about random_psi n f / (2 p_b) (n the trial count) whatever
+ * the events, where with random_psi alone the bound grows by 1 / P(events) (two reflections off glass:
+ * 25x). Both sides of the MIS compute it from the chain's signature. */
+static double attempt_psi(const spc_snee_query *q, const spc_chain *c)
+{
+    const spc_snee_params *p = q->params;
+    double psi = random_psi(p);
+    if (p->mis_events && p->reflect && !p->biased && psi < 1.0) {
+        spc_chain_sig sig;
+        spc_chain_signature(c, &sig);
+        psi *= spc_chain_events_prob(q->scene, &sig, p->any_surface, p->reflect_p);
+    }
+    return psi;
+}
+
 /* psi of the straight-line solution: 1 (it is found whenever it exists), but with guided
  * directions random_psi like any other, so that the BSDF side and a guided direction need not
  * repeat the straight-line attempt for every path that reaches the light (one solve each, more
@@ -595,7 +613,7 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
             return c->n <= flat_max(q) ? 1.0 : long_psi(q, c->n); /* through flat faces, at every call */
         if (p->exact && spc_sphere_chain_covers(c, p->reflect))
             return long_psi(q, c->n); /* enumerated on the sphere */
-        return random_long(p) ? long_psi(q, c->n) * random_psi(p) : 0.0; /* a randomized attempt's */
+        return random_long(p) ? long_psi(q, c->n) * attempt_psi(q, c) : 0.0; /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
         return 0.0; /* the exact enumerations alone run there, and c is not theirs */
@@ -610,7 +628,7 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
     int it = 0;
     if (straight_solve(q, solver, &straight, &it) && spc_snee_same_solution(&straight, c, q->scene->radius))
         return 1.0;
-    return random_psi(p);
+    return attempt_psi(q, c);
 }
 
 /* The three strategies' densities (the light's area measure) of a covered path that left the
@@ -829,7 +847,9 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
         st->iterations += (uint64_t)it;
     if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol))
         return;
-    spc_rgb v = spc_snee_chain_value(lq, e, uv, &sol);
+    spc_snee_query vq = *lq;
+    vq.psi = lq->psi * attempt_psi(lq, &sol);
+    spc_rgb v = spc_snee_chain_value(&vq, e, uv, &sol);
     if (spc_rgb_is_black(v))
         return;
     double inv_p = inv_p_solve(lq, solver, &sol, rng, st);
@@ -880,7 +900,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
                 emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
             }
             if (random_long(p) && solver->solve_one && !(p->exact && spc_snee_exact_covers_all(&lq))) {
-                lq.psi = psi * random_psi(p); /* MIS: as any randomized attempt's chain */
+                lq.psi = psi; /* MIS: times attempt_psi, as any randomized attempt's chain */
                 random_long_estimate(&lq, solver, e, uv, p_y * psi, rng, st, sk);
             }
         }
@@ -934,7 +954,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         return; /* counted exactly above */
     if (st)
         st->solved++;
-    q->psi = random_psi(p); /* neither the straight-line solution nor one of solve_all's */
+    q->psi = attempt_psi(q, &sol); /* neither the straight-line solution nor one of solve_all's */
     spc_rgb v = spc_snee_chain_value(q, e, uv, &sol);
     q->psi = 0.0;
     if (spc_rgb_is_black(v))

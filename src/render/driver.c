@@ -35,6 +35,7 @@
 #include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
 #include "manifold/caustic_guide.h"
+#include "manifold/seed_guide.h"
 #include "manifold/specular_nee.h"
 #include "scene/camera.h"
 #include "render/checkpoint.h"
@@ -521,6 +522,11 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         }
         ctx.pool_model = &pool_model;
     }
+    /* guided seeds of the randomized solvers (seed_guide.h): their light paths, once, on this thread */
+    spc_sguide *sguide = NULL;
+    if (ctx.specular_nee != SPC_SNEE_NONE && ctx.snee.seed_guide > 0.0 && !use_cl)
+        sguide = spc_sguide_build(sc, SPC_SGUIDE_PHOTONS, SPC_SGUIDE_STREAM, ctx.snee.any_surface);
+    ctx.snee.sguide = sguide;
     double guide_seconds = cguide ? now_seconds() - t_start : 0.0;
     const int start = film->spp;
     int done = start;
@@ -692,6 +698,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     double wall = now_seconds() - t_start;
     int guide_entries = cguide ? cguide->n : 0;
     spc_cguide_destroy(cguide);
+    spc_sguide_destroy(sguide);
     spc_cl_destroy(cl);
     for (int b = 0; pools && b < max_batch; ++b)
         spc_bdpt_pool_release(&pools[b]);

@@ -1,0 +1,298 @@
+/*
+ * tests/test_seed_guide.c: guided seeds of the randomized solvers (manifold/seed_guide.h).
+ *
+ * - The pre-pass on the triangle glass ball (bench/check/glass_ball_mesh.xml): deterministic (two
+ *   builds give the same seeds), records near the caustic under the ball, none far from it.
+ * - The trial count stays unbiased for the mixture: at floor points in the caustic, for the chains
+ *   that 4000 attempts from the mixture (seedguide=0.5) find most often, the mean of 300 Bernoulli
+ *   trial counts (spc_snee_count_same, the estimator's <1/p_solve>) times the measured frequency p is
+ *   1 within 4 standard errors. It fails if the trials drew their seeds from another distribution
+ *   than the first attempt (the guide on in one and off in the other).
+ * - The guide pays where it should: the same chains' frequency under the mixture is higher than
+ *   under uniform seeds alone (seedguide off), summed over the points.
+ * - The guide as the plan would append it (not by default: snee_plan.h) on that scene: its render agrees with specular NEE off
+ *   (under a wider light) and with the same setting unguided (per-pixel z-test, image means).
+ */
+/* ctest-labels: stat */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core/rng.h"
+#include "harness.h"
+#include "manifold/seed_guide.h"
+#include "manifold/snee_plan.h"
+#include "manifold/specular_nee.h"
+#include "render_util.h"
+#include "specula/specula.h"
+
+#define SCENE "bench/check/glass_ball_mesh.xml"
+
+static spc_scene *load(void)
+{
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_scene_load(SCENE, NULL, 0, &sc, &err) != SPC_OK) {
+        printf("    %s: %s\n", SCENE, err.msg);
+        return NULL;
+    }
+    return sc;
+}
+
+/* The floor point below (px, pz). */
+static bool floor_point(const spc_scene *sc, double px, double pz, spc_hit *x)
+{
+    spc_ray ray = {spc_v3(px, 0.05, pz), spc_v3(0, -1, 0), 0, INFINITY};
+    return spc_scene_intersect(sc, &ray, x) && x->shape_index == 1;
+}
+
+TEST(prepass_deterministic_and_local)
+{
+    spc_scene *sc = load();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_sguide *a = spc_sguide_build(sc, 16384, SPC_SGUIDE_STREAM, false);
+    spc_sguide *b = spc_sguide_build(sc, 16384, SPC_SGUIDE_STREAM, false);
+    CHECK(a && b);
+    if (!a || !b) {
+        spc_sguide_destroy(a);
+        spc_sguide_destroy(b);
+        spc_scene_destroy(sc);
+        return;
+    }
+    printf("    %ld of 16384 light paths landed after a caster vertex\n", spc_sguide_records(a));
+    CHECK(spc_sguide_records(a) == spc_sguide_records(b) && spc_sguide_records(a) > 4000);
+    /* the same seeds from both builds, at points around the ball */
+    int same = 0, tried = 0;
+    for (int i = 0; i < 64; ++i) {
+        spc_vec3 x = spc_v3(-0.6 + 0.02 * i, 0.0, 0.1 + 0.005 * i);
+        spc_vec3 da, db;
+        bool oa = spc_sguide_seed(a, x, 1, 2, 0.37, spc_v2(0.2, 0.7), &da);
+        bool ob = spc_sguide_seed(b, x, 1, 2, 0.37, spc_v2(0.2, 0.7), &db);
+        tried += oa ? 1 : 0;
+        same += oa == ob && (!oa || spc_distance(da, db) == 0.0) ? 1 : 0;
+    }
+    CHECK_MSG(same == 64 && tried > 0, "same %d of 64, %d with records", same, tried);
+    /* the caustic: the light at (0.4, 2.2, -0.6) above the ball at (0, 0.5, 0) focuses below and
+     * beyond the ball's centre; a far corner of the floor receives no light through the ball */
+    long under = spc_sguide_count(a, spc_v3(-0.1, 0.0, 0.15), 1, 2);
+    long far = spc_sguide_count(a, spc_v3(2.5, 0.0, 2.5), 1, 2);
+    printf("    records near the caustic %ld, at a far corner %ld\n", under, far);
+    CHECK(under > 20 && far == 0);
+    spc_sguide_destroy(a);
+    spc_sguide_destroy(b);
+    spc_scene_destroy(sc);
+}
+
+#define MAX_SOL 16
+
+typedef struct tally {
+    spc_chain c[MAX_SOL];
+    int hits[MAX_SOL];
+    int n;
+} tally;
+
+static void tally_add(tally *t, const spc_chain *c, double size)
+{
+    for (int i = 0; i < t->n; ++i)
+        if (spc_snee_same_solution(&t->c[i], c, size)) {
+            t->hits[i]++;
+            return;
+        }
+    if (t->n < MAX_SOL) {
+        t->c[t->n] = *c;
+        t->hits[t->n++] = 1;
+    }
+}
+
+static int tally_hits(const tally *t, const spc_chain *c, double size)
+{
+    for (int i = 0; i < t->n; ++i)
+        if (spc_snee_same_solution(&t->c[i], c, size))
+            return t->hits[i];
+    return 0;
+}
+
+TEST(trial_count_unbiased_for_the_mixture)
+{
+    spc_scene *sc = load();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_sguide *g = spc_sguide_build(sc, SPC_SGUIDE_PHOTONS, SPC_SGUIDE_STREAM, false);
+    CHECK(g != NULL);
+    spc_snee_params pm, pu;
+    CHECK(spc_snee_parse("angular:noreflect,seedguide=0.8", 2, &pm));
+    CHECK(spc_snee_parse("angular:noreflect", 2, &pu));
+    pm.sguide = g;
+    const int attempts = spc_test_quick() ? 1000 : 4000, counts = spc_test_quick() ? 100 : 300;
+    /* floor points in and around the caustic under the ball */
+    double px[9], pz[9];
+    for (int i = 0; i < 9; ++i) {
+        px[i] = -0.25 + 0.08 * (i % 3);
+        pz[i] = 0.12 + 0.08 * (i / 3);
+    }
+    double m2_mix = 0.0, m2_uni = 0.0;
+    int checked = 0;
+    spc_rng rng;
+    spc_rng_seed(&rng, 7, 11);
+    for (int i = 0; i < 9 && g; ++i) {
+        spc_hit x;
+        if (!floor_point(sc, px[i], pz[i], &x))
+            continue;
+        spc_snee_query qm, qu;
+        spc_snee_query_init(&qm, sc, &pm, &x, spc_v3(0, 1, 0), 2);
+        const spc_emitter *e;
+        spc_vec2 uv;
+        double p_y;
+        pm.light_u_on = true;
+        pm.light_u[0] = 0.5;
+        pm.light_u[1] = 0.3 + 0.2 * i;
+        pm.light_u[2] = 0.6;
+        if (!spc_snee_sample_light(sc, false, &rng, &qm, &e, &uv, &p_y))
+            continue;
+        pm.light_u_on = false;
+        qu = qm;
+        qu.params = &pu;
+        tally tm = {0}, tu = {0};
+        for (int a = 0; a < attempts; ++a) {
+            spc_chain c;
+            int it = 0;
+            if (spc_angular_solve_one(&qm, &rng, &c, &it))
+                tally_add(&tm, &c, sc->radius);
+            if (spc_angular_solve_one(&qu, &rng, &c, &it))
+                tally_add(&tu, &c, sc->radius);
+        }
+        /* the second moment of the estimate summed over the chains of value v: v^2 (2 - p) / p each */
+        tally all = tm;
+        for (int s = 0; s < tu.n; ++s)
+            if (!tally_hits(&all, &tu.c[s], sc->radius) && all.n < MAX_SOL)
+                all.c[all.n++] = tu.c[s];
+        for (int s = 0; s < all.n; ++s) {
+            double v = spc_rgb_lum(spc_snee_chain_value(&qm, e, uv, &all.c[s]));
+            double pms = (double)tally_hits(&tm, &all.c[s], sc->radius) / attempts;
+            double pus = (double)tally_hits(&tu, &all.c[s], sc->radius) / attempts;
+            if (!(v > 0.0))
+                continue; /* a chain of no value (its last segment blocked, the light's back) */
+            pms = pms > 0.0 ? pms : 1.0 / attempts;
+            pus = pus > 0.0 ? pus : 1.0 / attempts;
+            m2_mix += v * v * (2.0 - pms) / pms;
+            m2_uni += v * v * (2.0 - pus) / pus;
+            if (pms < 0.02)
+                continue;
+            spc_chain_sig want;
+            spc_chain_signature(&all.c[s], &want);
+            spc_snee_query tq = qm;
+            tq.want = &want;
+            double sn = 0.0, sn2 = 0.0;
+            for (int k = 0; k < counts; ++k) {
+                bool capped;
+                int it = 0;
+                int n = spc_snee_count_same(&tq, spc_specular_solver_get(SPC_SNEE_ANGULAR), NULL, &rng, &all.c[s],
+                                            100000, &capped, &it);
+                sn += n;
+                sn2 += (double)n * n;
+            }
+            double mean = sn / counts, var = (sn2 / counts - mean * mean) / counts;
+            /* the product's relative error: the count's mean and the frequency's */
+            double rel = sqrt(var / (mean * mean) + (1.0 - pms) / (pms * attempts));
+            double z = (mean * pms - 1.0) / rel;
+            printf("    x %d chain %d (%d vertices, value %.3g): p mixture %.4f, uniform %.4f; mean count %.2f, "
+                   "p x count %.3f (z %+.2f)\n",
+                   i, s, all.c[s].n, v, pms, pus, mean, mean * pms, z);
+            CHECK_MSG(fabs(z) < 4.0, "x %d chain %d: p %g, mean count %g, z %g", i, s, pms, mean, z);
+            ++checked;
+        }
+    }
+    CHECK_MSG(checked >= 3, "%d chains checked", checked);
+    printf("    second moment of the chains' estimates: mixture %.4g, uniform %.4g\n", m2_mix, m2_uni);
+    CHECK_MSG(m2_mix < 0.7 * m2_uni, "second moment: mixture %g, uniform %g", m2_mix, m2_uni);
+    spc_sguide_destroy(g);
+    spc_scene_destroy(sc);
+}
+
+/* The triangle glass ball of SCENE under a light `scale` times as wide (the same power), res x res
+ * pixels. */
+static spc_scene *ball_under_light(double scale, int res)
+{
+    char xml[4096], path[1200], obj[1200];
+    snprintf(obj, sizeof obj, "%s/bench/check/glass_ball_mesh.obj", spc_test_source_dir());
+    snprintf(xml, sizeof xml,
+             "<scene version=\"3.0.0\">\n"
+             "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/></integrator>\n"
+             "<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/>\n"
+             "<transform name=\"to_world\"><lookat origin=\"0, 2.0, 3.0\" target=\"0, 0.2, 0\" up=\"0, 1, 0\"/>"
+             "</transform>\n"
+             "<film type=\"hdrfilm\"><integer name=\"width\" value=\"%d\"/><integer name=\"height\" value=\"%d\"/>"
+             "<rfilter type=\"box\"/></film></sensor>\n"
+             "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"%g\"/>"
+             "<lookat origin=\"0.4, 2.2, -0.6\" target=\"0, 0, 0.1\" up=\"0, 1, 0.01\"/></transform>\n"
+             "<emitter type=\"area\"><rgb name=\"radiance\" value=\"%g\"/></emitter></shape>\n"
+             "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"3\"/>"
+             "<rotate x=\"1\" angle=\"-90\"/></transform>\n"
+             "<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.7\"/></bsdf></shape>\n"
+             "<shape type=\"obj\"><string name=\"filename\" value=\"%s\"/>"
+             "<transform name=\"to_world\"><translate y=\"0.5\"/></transform>\n"
+             "<bsdf type=\"dielectric\"><float name=\"int_ior\" value=\"1.5\"/></bsdf></shape>\n"
+             "</scene>\n",
+             res, res, 0.08 * scale, 1500.0 / (scale * scale), obj);
+    snprintf(path, sizeof path, "/tmp/spc_seed_guide_%ld.xml", (long)getpid());
+    FILE *fp = fopen(path, "w");
+    if (!fp)
+        return NULL;
+    fputs(xml, fp);
+    fclose(fp);
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_scene_load(path, NULL, 0, &sc, &err) != SPC_OK)
+        printf("    %s\n", err.msg);
+    remove(path);
+    return sc;
+}
+
+/* Guided seeds as the plan would append them (snee_plan.h) on the triangle glass ball against specular NEE off under a light
+ * twice as wide (so that path tracing alone converges: under the scene's own light it misses
+ * the light's image in the ball in short runs), and against the same setting unguided under the
+ * scene's light, by per-pixel z-test and image means (12 x 12 pixels). */
+TEST(guided_render_agrees_with_none)
+{
+    const int q = spc_test_quick() ? 4 : 1;
+    for (int wide = 1; wide >= 0; --wide) {
+        spc_scene *sc = ball_under_light(wide ? 2.0 : 1.0, 12);
+        CHECK(sc != NULL);
+        if (!sc)
+            return;
+        spc_render_stats st;
+        spc_film *img = tu_render_stats(sc, "path", SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_SEED_GUIDE, 1024 / q, 2, 21, &st);
+        CHECK_MSG(img && strstr(st.specular_nee, "seedguide="), "the render ran %s", img ? st.specular_nee : "-");
+        spc_film *ref = wide ? tu_render_nee(sc, "path", "none", 65536 / q, 2, 22, NULL)
+                             : tu_render_nee(sc, "path", "angular:camera,later=0.25", 1024 / q, 2, 23, NULL);
+        const char *label = wide ? "default vs none, light 2x wider" : "default vs unguided";
+        CHECK(img && ref);
+        if (img && ref) {
+            spc_diff_result d;
+            memset(&d, 0, sizeof d);
+            CHECK(tu_image_agrees(img, ref, 0.99, label, &d));
+            double m[2], se[2];
+            tu_image_mean(img, 0, &m[0], &se[0]);
+            tu_image_mean(ref, 0, &m[1], &se[1]);
+            printf("    %s: z-test pass %.4f of %d pixels; means %.5f (se %.2g) vs %.5f (%.2g)\n", label,
+                   d.ztest_pass_fraction, d.ztest_pixels, m[0], se[0], m[1], se[1]);
+        }
+        spc_film_destroy(img);
+        spc_film_destroy(ref);
+        spc_scene_destroy(sc);
+    }
+}
+
+int main(void)
+{
+    RUN(prepass_deterministic_and_local);
+    RUN(trial_count_unbiased_for_the_mixture);
+    RUN(guided_render_agrees_with_none);
+    return spc_test_finish();
+}
