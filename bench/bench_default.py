@@ -101,8 +101,10 @@ def main():
         plan = subprocess.run([a.specula, "info", scene], capture_output=True, text=True).stdout
         line = next((l for l in plan.splitlines() if l.startswith("specular NEE:")), "?")
         setting = line.split(":", 1)[1].split(";")[0].strip() if ":" in line else "?"
+        # loading and the acceleration structure; with specular NEE off, so that a pilot render
+        # (auto:pilot) is counted in the renders' time, not subtracted with the load
         base = run([a.specula, "render", scene, "-o", os.path.join(a.out, "x.exr"), "--spp", "1", "--res", "1x1",
-                    "--threads", "1", "--quiet"])
+                    "--threads", "1", "--quiet", "--specular-nee", "none"])
         if a.setting:
             setting = a.setting
         cal = {}

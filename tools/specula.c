@@ -721,6 +721,8 @@ static bool write_stats(const char *given, const spc_render_stats *st, const sta
     fprintf(fp, ",\n  \"invalid_samples\": %llu", (unsigned long long)st->invalid_samples);
     fprintf(fp, ",\n  \"specular_nee\": ");
     json_string(fp, st->specular_nee);
+    fprintf(fp, ",\n  \"specular_nee_pilot\": ");
+    json_string(fp, st->specular_nee_pilot);
     fprintf(fp, ",\n  \"caustic_guide_entries\": %d,\n  \"caustic_guide_seconds\": ", st->caustic_guide_entries);
     json_number(fp, st->caustic_guide_seconds);
     fprintf(fp, ",\n  \"interrupted\": %s\n}\n", in->interrupted ? "true" : "false");

@@ -128,6 +128,8 @@ typedef struct spc_snee_plan {
     double caster_share; /* the largest share of a light's directions that meet the casters (snee_plan.c) */
     double glass_share;  /* the share of the image whose camera ray meets a glass caster first (snee_plan.c) */
     double open_share;   /* the share of directions from the casters that leave the scene (snee_plan.c) */
+    bool pilot;          /* automatic and on, and the pilot render (render/snee_pilot.h) may check it */
+    char pilot_note[448]; /* what the pilot measured and chose, or "" */
 } spc_snee_plan;
 
 /* The plan for rendering sc with integrator `integrator` ("path", "volpath", "bdpt", "ipt") and the
