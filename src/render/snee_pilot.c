@@ -77,6 +77,19 @@ static double render_samples(const spc_scene *sc, const spc_render_options *o)
     return px * (spp > 0 ? spp : 1.0);
 }
 
+/* A pixel channel's error scale over the whole pilot image: (m^2 + guard) x its values, m the mean
+ * of every candidate's samples (all estimate the same image). */
+static double pixel_norm(double *const *sum, const double *n, int nc, size_t i)
+{
+    double s = 0.0, k = 0.0;
+    for (int c = 0; c < nc; ++c) {
+        s += sum[c][i];
+        k += n[c];
+    }
+    double m = s / k;
+    return m * m + SPC_SNEE_PILOT_GUARD;
+}
+
 void spc_snee_pilot_run(const spc_scene *sc, const spc_render_options *o, spc_snee_plan *plan, spc_snee_pilot *out)
 {
     memset(out, 0, sizeof *out);
@@ -104,11 +117,15 @@ void spc_snee_pilot_run(const spc_scene *sc, const spc_render_options *o, spc_sn
     /* per candidate: every group's sums pooled, and the sample count per pixel */
     double *sum[SPC_SNEE_PILOT_CANDIDATES], *sumsq[SPC_SNEE_PILOT_CANDIDATES];
     double sec[SPC_SNEE_PILOT_CANDIDATES] = {0}, n[SPC_SNEE_PILOT_CANDIDATES] = {0};
+    /* and each group's per-sample variance, per pixel and channel */
+    double *gvar[SPC_SNEE_PILOT_CANDIDATES][SPC_SNEE_PILOT_GROUPS] = {{NULL}};
     bool ok = true;
     for (int c = 0; c < nc; ++c) {
         sum[c] = calloc(3 * npix, sizeof(double));
         sumsq[c] = calloc(3 * npix, sizeof(double));
         ok = ok && sum[c] && sumsq[c];
+        for (int g = 0; g < SPC_SNEE_PILOT_GROUPS; ++g)
+            ok = ok && (gvar[c][g] = calloc(3 * npix, sizeof(double))) != NULL;
     }
     int spp[SPC_SNEE_PILOT_CANDIDATES];
     for (int c = 0; c < nc; ++c)
@@ -140,9 +157,11 @@ void spc_snee_pilot_run(const spc_scene *sc, const spc_render_options *o, spc_sn
                 sec[c] += t;
                 n[c] += f->spp;
                 out->seconds += t;
+                double k = f->spp;
                 for (size_t i = 0; i < 3 * npix; ++i) {
                     sum[c][i] += f->sum[i];
                     sumsq[c][i] += f->sumsq[i];
+                    gvar[c][g][i] = spc_max(0.0, (f->sumsq[i] - f->sum[i] * f->sum[i] / k) / (k - 1.0));
                 }
             }
             spc_film_destroy(f);
@@ -160,15 +179,29 @@ void spc_snee_pilot_run(const spc_scene *sc, const spc_render_options *o, spc_sn
         double N[SPC_SNEE_PILOT_CANDIDATES];
         for (int c = 0; c < nc; ++c)
             N[c] = spc_max(n[c], T / (rpix * out->cand[c].sec_per_sample));
+        /* the tail factor: each candidate's largest group variance over its groups' mean */
+        double gsum[SPC_SNEE_PILOT_CANDIDATES][SPC_SNEE_PILOT_GROUPS] = {{0}};
         for (size_t i = 0; i < 3 * npix; ++i) {
-            double m[SPC_SNEE_PILOT_CANDIDATES], v[SPC_SNEE_PILOT_CANDIDATES], pooled = 0.0;
+            double norm = pixel_norm(sum, n, nc, i);
+            for (int c = 0; c < nc; ++c)
+                for (int g = 0; g < SPC_SNEE_PILOT_GROUPS; ++g)
+                    gsum[c][g] += gvar[c][g][i] / norm;
+        }
+        for (int c = 0; c < nc; ++c) {
+            double mx = 0.0, mean = 0.0;
+            for (int g = 0; g < SPC_SNEE_PILOT_GROUPS; ++g) {
+                mx = spc_max(mx, gsum[c][g]);
+                mean += gsum[c][g] / SPC_SNEE_PILOT_GROUPS;
+            }
+            out->cand[c].tail = mean > 0.0 ? mx / mean : 1.0;
+        }
+        for (size_t i = 0; i < 3 * npix; ++i) {
+            double m[SPC_SNEE_PILOT_CANDIDATES], v[SPC_SNEE_PILOT_CANDIDATES];
             for (int c = 0; c < nc; ++c) {
                 m[c] = sum[c][i] / n[c];
                 v[c] = spc_max(0.0, (sumsq[c][i] - sum[c][i] * m[c]) / (n[c] - 1.0));
-                pooled += sum[c][i];
             }
-            pooled /= n[0] + n[1];
-            double norm = (pooled * pooled + SPC_SNEE_PILOT_GUARD) * 3.0 * (double)npix;
+            double norm = pixel_norm(sum, n, nc, i) * 3.0 * (double)npix;
             for (int c = 0; c < nc; ++c) {
                 int o2 = 1 - c;
                 /* the lower mean's deficit beyond both means' noise: mass its tail has not shown in
@@ -178,17 +211,18 @@ void spc_snee_pilot_run(const spc_scene *sc, const spc_render_options *o, spc_sn
                 double deficit = d > 0.0 ? spc_max(0.0, d * d - v[c] / n[c] - v[o2] / n[o2]) : 0.0;
                 out->cand[c].rel_var_plain += v[c] / norm;
                 out->cand[c].deficit += deficit / norm;
-                out->cand[c].score += (v[c] / N[c] + deficit * sqrt(n[c] / N[c])) / norm;
+                out->cand[c].score += (v[c] * out->cand[c].tail / N[c] + deficit * sqrt(n[c] / N[c])) / norm;
             }
         }
         out->ran = true;
         out->chosen = out->cand[1].score * SPC_SNEE_PILOT_MARGIN < out->cand[0].score ? 1 : 0;
         const spc_snee_pilot_candidate *a = &out->cand[0], *b = &out->cand[1];
         snprintf(plan->pilot_note, sizeof plan->pilot_note,
-                 "pilot %dx%d, %.3g CPU-s: none %d spp, %.3g us/sample, variance %.3g, deficit %.3g; "
-                 "%s %d spp, %.3g us/sample, variance %.3g, deficit %.3g; relMSE at equal time, none / plan %.3g: %s",
-                 w, h, out->seconds, a->spp, 1e6 * a->sec_per_sample, a->rel_var_plain, a->deficit, b->setting, b->spp,
-                 1e6 * b->sec_per_sample, b->rel_var_plain, b->deficit,
+                 "pilot %dx%d, %.3g CPU-s: none %d spp, %.3g us/sample, variance %.3g (tail %.2g), deficit %.3g; "
+                 "%s %d spp, %.3g us/sample, variance %.3g (tail %.2g), deficit %.3g; relMSE at equal time, none / "
+                 "plan %.3g: %s",
+                 w, h, out->seconds, a->spp, 1e6 * a->sec_per_sample, a->rel_var_plain, a->tail, a->deficit, b->setting,
+                 b->spp, 1e6 * b->sec_per_sample, b->rel_var_plain, b->tail, b->deficit,
                  b->score > 0.0 ? a->score / b->score : INFINITY, out->chosen ? "kept" : "off");
         if (!out->chosen) {
             plan->on = false;
@@ -199,5 +233,7 @@ void spc_snee_pilot_run(const spc_scene *sc, const spc_render_options *o, spc_sn
     for (int c = 0; c < nc; ++c) {
         free(sum[c]);
         free(sumsq[c]);
+        for (int g = 0; g < SPC_SNEE_PILOT_GROUPS; ++g)
+            free(gvar[c][g]);
     }
 }

@@ -66,6 +66,7 @@ typedef struct spc_snee_pilot_candidate {
     double sec_per_sample; /* CPU seconds per camera sample */
     int spp;               /* samples per pixel, all groups */
     double rel_var_plain;  /* relative variance per sample, from the sample variance */
+    double tail;           /* its largest group's variance over the groups' mean (snee_pilot.c) */
     double deficit;        /* relative squared deficit of its mean below the other's (snee_pilot.c) */
     double score;          /* the render's relMSE predicted at equal CPU time (snee_pilot.c) */
 } spc_snee_pilot_candidate;
