@@ -33,8 +33,8 @@ static spc_scene *ball_scene(bool toward, int res)
     spc_shape_init_rectangle(floor, &M, NULL, 0, 0, &err);
     floor->bsdf = tu_diffuse(sc, 0.7);
     tu_sphere(sc, spc_v3(0, 0, 0.5), 0.5, tu_glass(sc, 1.5));
-    spc_shape *light = tu_sphere(sc, spc_v3(0.3, 0.2, 2.2), 0.05, tu_diffuse(sc, 0.0));
-    tu_area(sc, light, 2, 4.0 * 25.0);
+    spc_shape *light = tu_sphere(sc, spc_v3(0.3, 0.2, 2.2), 0.02, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 2, 4.0 * 156.25);
     if (toward)
         tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.35), spc_v3(0, 0, 1), 50, res, res);
     else

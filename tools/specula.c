@@ -207,12 +207,13 @@ static const char *const usage_denoise =
     "  --quiet                no progress or summary\n";
 
 static const char *const usage_info =
-    "usage: specula info SCENE.xml [-D name=value]... [--lenient]\n"
+    "usage: specula info SCENE.xml [-D name=value]... [--lenient] [--specular-nee S]\n"
     "       specula info --devices   list the render devices (cpu, OpenCL platforms and devices)\n"
     "\n"
     "Prints the scene's shapes, triangles, BSDFs, emitters, bounding box, film and integrator,\n"
     "what specular NEE will do (the setting, and for each caster how its chains are found and\n"
-    "their lengths), then one line per shape, BSDF and emitter.\n";
+    "their lengths; with --specular-nee, for that setting: auto:pilot runs the pilot render a\n"
+    "render at the scene's size and samples would), then one line per shape, BSDF and emitter.\n";
 
 static int usage_error(const char *usage, const char *fmt, ...)
 #if defined(__GNUC__)
@@ -1479,7 +1480,7 @@ static int cmd_denoise(int argc, char **argv)
 
 static int cmd_info(int argc, char **argv)
 {
-    const char *scene_path = NULL;
+    const char *scene_path = NULL, *info_snee = NULL;
     defines defs;
     if (!defines_init(&defs, argc)) {
         fail("out of memory");
@@ -1512,6 +1513,8 @@ static int cmd_info(int argc, char **argv)
             defs.defs[defs.n].value = "warn";
             defs.n++;
             ++i;
+        } else if (opt_value(argc, argv, &i, "--specular-nee", NULL, &v)) {
+            info_snee = v;
         } else if (a[0] == '-' && a[1] != '\0') {
             code = usage_error(usage_info, "unknown option '%s'", a);
         } else {
@@ -1552,7 +1555,7 @@ static int cmd_info(int argc, char **argv)
         printf("integrator: %s (max_depth unbounded)\n", s.integrator);
     else
         printf("integrator: %s (max_depth %d)\n", s.integrator, s.max_depth);
-    char *plan = spc_scene_plan(scene, NULL, NULL);
+    char *plan = spc_scene_plan(scene, NULL, info_snee);
     if (plan)
         fputs(plan, stdout);
     free(plan);
