@@ -55,7 +55,8 @@
  * on the caustic scenes it was the fastest unbiased choice at equal time (the pool: 96x against
  * path, conic 45x, newton 26x); newton was slow and biased on multi-interface chains (two tilted
  * slabs: -2.5% at 52x the time per sample of path; bench/RESULTS.md). "none" (or "off") turns
- * specular NEE off; any other setting (spc_snee_parse) is used as given.
+ * specular NEE off; any other setting (spc_snee_parse) is used as given. "auto:pilot" makes the same
+ * plan and lets a pilot render keep it or turn it off (render/snee_pilot.h; plan.pilot).
  */
 #ifndef SPC_MANIFOLD_SNEE_PLAN_H
 #define SPC_MANIFOLD_SNEE_PLAN_H
