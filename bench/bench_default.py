@@ -16,9 +16,11 @@ seed's error sum, and the ratio none / setting of the means.
 usage (from the source root):
   python3 bench/bench_default.py [--specula build/specula] [--out /tmp/bench_default] [--res 24]
                                  [--budget 1.0] [--ref 12] [--seeds 3] [--setting S] [--extra S ...]
-                                 [--ref-setting S] [SCENE.xml ...]
+                                 [--ref-setting S] [--recalibrate] [SCENE.xml ...]
 (--setting S: S instead of the default in the first column, against the same reference; --extra S:
-one more column; --ref-setting S: the reference rendered with S instead of the default)
+one more column; --ref-setting S: the reference rendered with S instead of the default; --recalibrate:
+each setting timed once more at the sample count the first calibration gave, for settings whose cost
+per sample depends on the render's size, as auto:pilot's pilot render)
 """
 import argparse
 import glob
@@ -85,6 +87,8 @@ def main():
     ap.add_argument("--setting", default=None, help="render this setting in the default's column (no flag if absent)")
     ap.add_argument("--extra", action="append", default=[], help="one more column with this setting")
     ap.add_argument("--ref-setting", default=None, help="the reference's setting (default: no flag)")
+    ap.add_argument("--recalibrate", action="store_true",
+                    help="time each setting once more at the budget's sample count (for auto:pilot)")
     a = ap.parse_args()
     scenes = a.scenes or sorted(glob.glob(os.path.join(ROOT, "scenes", "caustic_*.xml")) +
                                 [os.path.join(ROOT, "scenes", "demo.xml")])
@@ -101,8 +105,10 @@ def main():
         plan = subprocess.run([a.specula, "info", scene], capture_output=True, text=True).stdout
         line = next((l for l in plan.splitlines() if l.startswith("specular NEE:")), "?")
         setting = line.split(":", 1)[1].split(";")[0].strip() if ":" in line else "?"
+        # loading and the acceleration structure; with specular NEE off, so that a pilot render
+        # (auto:pilot) is counted in the renders' time, not subtracted with the load
         base = run([a.specula, "render", scene, "-o", os.path.join(a.out, "x.exr"), "--spp", "1", "--res", "1x1",
-                    "--threads", "1", "--quiet"])
+                    "--threads", "1", "--quiet", "--specular-nee", "none"])
         if a.setting:
             setting = a.setting
         cal = {}
@@ -111,6 +117,12 @@ def main():
                 continue
             c = render(a, scene, os.path.join(a.out, "cal.exr"), s, 4, 99, a.res) - base
             cal[s] = max(c, 1e-3) / 4.0
+            if a.recalibrate and s != a.ref_setting:
+                # once more at the budget's sample count: a setting whose cost depends on the
+                # render's size (a pilot render, auto:pilot) is timed as it will run
+                spp = max(1, int(a.budget / cal[s]))
+                c = render(a, scene, os.path.join(a.out, "cal.exr"), s, spp, 99, a.res) - base
+                cal[s] = max(c, 1e-3) / spp
         ref_path = os.path.join(a.out, "%s_ref_%s.exr" % (name, (a.ref_setting or "default").replace(":", "_")))
         if not os.path.exists(ref_path):
             render(a, scene, ref_path, a.ref_setting, max(16, int(a.ref / cal[a.ref_setting])), 12345, a.res,

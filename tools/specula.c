@@ -210,12 +210,13 @@ static const char *const usage_denoise =
     "  --quiet                no progress or summary\n";
 
 static const char *const usage_info =
-    "usage: specula info SCENE.xml [-D name=value]... [--lenient]\n"
+    "usage: specula info SCENE.xml [-D name=value]... [--lenient] [--specular-nee S]\n"
     "       specula info --devices   list the render devices (cpu, OpenCL platforms and devices)\n"
     "\n"
     "Prints the scene's shapes, triangles, BSDFs, emitters, bounding box, film and integrator,\n"
     "what specular NEE will do (the setting, and for each caster how its chains are found and\n"
-    "their lengths), then one line per shape, BSDF and emitter.\n";
+    "their lengths; with --specular-nee, for that setting: auto:pilot runs the pilot render a\n"
+    "render at the scene's size and samples would), then one line per shape, BSDF and emitter.\n";
 
 static int usage_error(const char *usage, const char *fmt, ...)
 #if defined(__GNUC__)
@@ -724,6 +725,8 @@ static bool write_stats(const char *given, const spc_render_stats *st, const sta
     fprintf(fp, ",\n  \"invalid_samples\": %llu", (unsigned long long)st->invalid_samples);
     fprintf(fp, ",\n  \"specular_nee\": ");
     json_string(fp, st->specular_nee);
+    fprintf(fp, ",\n  \"specular_nee_pilot\": ");
+    json_string(fp, st->specular_nee_pilot);
     fprintf(fp, ",\n  \"caustic_guide_entries\": %d,\n  \"caustic_guide_seconds\": ", st->caustic_guide_entries);
     json_number(fp, st->caustic_guide_seconds);
     fprintf(fp, ",\n  \"interrupted\": %s\n}\n", in->interrupted ? "true" : "false");
@@ -1486,7 +1489,7 @@ static int cmd_denoise(int argc, char **argv)
 
 static int cmd_info(int argc, char **argv)
 {
-    const char *scene_path = NULL;
+    const char *scene_path = NULL, *info_snee = NULL;
     defines defs;
     if (!defines_init(&defs, argc)) {
         fail("out of memory");
@@ -1519,6 +1522,8 @@ static int cmd_info(int argc, char **argv)
             defs.defs[defs.n].value = "warn";
             defs.n++;
             ++i;
+        } else if (opt_value(argc, argv, &i, "--specular-nee", NULL, &v)) {
+            info_snee = v;
         } else if (a[0] == '-' && a[1] != '\0') {
             code = usage_error(usage_info, "unknown option '%s'", a);
         } else {
@@ -1559,7 +1564,7 @@ static int cmd_info(int argc, char **argv)
         printf("integrator: %s (max_depth unbounded)\n", s.integrator);
     else
         printf("integrator: %s (max_depth %d)\n", s.integrator, s.max_depth);
-    char *plan = spc_scene_plan(scene, NULL, NULL);
+    char *plan = spc_scene_plan(scene, NULL, info_snee);
     if (plan)
         fputs(plan, stdout);
     free(plan);

@@ -76,7 +76,9 @@ char *spc_scene_describe(const spc_scene *s);
 /* What specular NEE will do when s is rendered with this integrator (NULL: the scene's) and setting
  * (NULL: the scene's; "" or "auto": chosen from the scene; "none": off; else as given): a line with
  * the setting (or why it is off), then one per caster with the method that finds its chains and the
- * chain lengths. The caller frees the string; NULL if out of memory. */
+ * chain lengths, and what the pilot render that checks an automatic plan measured (a render at the
+ * scene's own size and sample count would make the same; render/snee_pilot.h). The caller frees the
+ * string; NULL if out of memory. */
 char *spc_scene_plan(const spc_scene *s, const char *integrator, const char *specular_nee);
 /* The options a specular NEE setting takes ("angular:trials=64,seed=light"), one paragraph each
  * with its values and default, lines indented by `indent` and at most `width` columns: the help of
@@ -154,6 +156,7 @@ typedef struct spc_render_stats {
     uint64_t samples;
     uint64_t invalid_samples; /* NaN or infinite estimates, discarded and counted */
     char specular_nee[96];    /* the specular NEE setting that ran ("none" when off; see spc_scene_plan) */
+    char specular_nee_pilot[448]; /* what the pilot render measured and chose, or "" where none ran */
     int caustic_guide_entries;    /* caustic guiding at receivers: the guide's entries (0: it did not run) */
     double caustic_guide_seconds; /* and its photon pre-pass's wall time (inside wall_seconds) */
 } spc_render_stats;

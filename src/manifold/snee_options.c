@@ -97,7 +97,8 @@ const spc_snee_option *spc_snee_options(int *n)
     return options;
 }
 
-bool spc_snee_setting_is_auto(const char *s) { return !s || !s[0] || !strcmp(s, "auto"); }
+bool spc_snee_setting_is_auto(const char *s) { return !s || !s[0] || !strcmp(s, "auto") || !strcmp(s, "auto:pilot"); }
+bool spc_snee_setting_pilot(const char *s) { return s && !strcmp(s, "auto:pilot"); }
 bool spc_snee_setting_is_off(const char *s) { return s && (!strcmp(s, "none") || !strcmp(s, "off")); }
 
 /* ---- field access ---- */
@@ -271,7 +272,7 @@ spc_snee_parse_result spc_snee_options_parse(const char *spec, int max_chain, sp
         name[nlen] = '\0';
     }
     if (nlen >= sizeof name || !spc_specular_solver_parse(name, &id)) {
-        refuse(why, why_len, "unknown specular NEE solver '%.*s'; valid: auto, off, %s", (int)(nlen < 64 ? nlen : 64),
+        refuse(why, why_len, "unknown specular NEE solver '%.*s'; valid: auto, auto:pilot, off, %s", (int)(nlen < 64 ? nlen : 64),
                spec, spc_specular_solver_names());
         return SPC_SNEE_PARSE_BAD_SOLVER;
     }

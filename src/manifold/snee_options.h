@@ -3,9 +3,10 @@
  *
  * A setting is what --specular-nee and the integrator property specular_nee take:
  *
- *     ""  |  auto  |  none  |  off  |  SOLVER[:OPTION[,OPTION...]]
+ *     ""  |  auto  |  auto:pilot  |  none  |  off  |  SOLVER[:OPTION[,OPTION...]]
  *
- * "" and auto let the scene choose (snee_plan.h), none and off turn specular NEE off, SOLVER is a
+ * "" and auto let the scene choose (snee_plan.h), auto:pilot too, checked by a pilot render
+ * (render/snee_pilot.h), none and off turn specular NEE off, SOLVER is a
  * name of the solver table (spc_specular_solver_parse: angular, newton, conic) and each OPTION is
  * one of the table below (spc_snee_options): a switch (NAME, or its negation noNAME), a value
  * (NAME=V) or a switch with an optional value (NAME[=V]). The one table drives the parser, the
@@ -78,8 +79,10 @@ spc_snee_parse_result spc_snee_options_parse(const char *setting, int max_chain,
  * and message as spc_snee_options_parse's. */
 spc_snee_parse_result spc_snee_setting_check(const char *setting, char *why, size_t why_len);
 
-/* The plan's words: "", NULL and auto choose from the scene; none and off turn specular NEE off. */
+/* The plan's words: "", NULL, auto and auto:pilot choose from the scene (auto:pilot also checks the
+ * plan's choice by a pilot render: render/snee_pilot.h); none and off turn specular NEE off. */
 bool spc_snee_setting_is_auto(const char *setting);
+bool spc_snee_setting_pilot(const char *setting); /* auto:pilot: the pilot render runs */
 bool spc_snee_setting_is_off(const char *setting);
 
 /* Writes the canonical setting of p (solver and every option of the table that applies to it, in

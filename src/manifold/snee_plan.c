@@ -359,6 +359,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,later=0.25", q);
     else
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING);
+    out->pilot = spc_snee_setting_pilot(setting);
 }
 
 spc_snee_method spc_snee_plan_method(const spc_snee_params *p, const spc_shape *s)
@@ -414,6 +415,8 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
     if (!plan->on) {
         put(&b, "specular NEE: none (%s%s); %d casters, %d receivers\n", plan->automatic ? "auto: " : "",
             plan->reason, plan->casters, plan->receivers);
+        if (plan->pilot_note[0])
+            put(&b, "  %s\n", plan->pilot_note);
         return (int)b.used;
     }
     spc_snee_params p;
@@ -425,6 +428,8 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
     put(&b, "specular NEE: %s%s; chains of 1-%d vertices%s%s; %d casters, %d receivers; smallest light %.2g sr\n",
         plan->setting, plan->automatic ? " (auto)" : "", p.max_chain, p.reflect ? ", reflections off glass" : "",
         !p.no_mis ? "" : ", no MIS", plan->casters, plan->receivers, plan->light_sr);
+    if (plan->pilot_note[0])
+        put(&b, "  %s\n", plan->pilot_note);
     if (plan->automatic && p.camera)
         put(&b, "  glass seen on %.3g of the image\n", plan->glass_share);
     if (plan->automatic)

@@ -55,7 +55,8 @@
  * on the caustic scenes it was the fastest unbiased choice at equal time (the pool: 96x against
  * path, conic 45x, newton 26x); newton was slow and biased on multi-interface chains (two tilted
  * slabs: -2.5% at 52x the time per sample of path; bench/RESULTS.md). "none" (or "off") turns
- * specular NEE off; any other setting (spc_snee_parse) is used as given.
+ * specular NEE off; any other setting (spc_snee_parse) is used as given. "auto:pilot" makes the same
+ * plan and lets a pilot render keep it or turn it off (render/snee_pilot.h; plan.pilot).
  */
 #ifndef SPC_MANIFOLD_SNEE_PLAN_H
 #define SPC_MANIFOLD_SNEE_PLAN_H
@@ -136,6 +137,8 @@ typedef struct spc_snee_plan {
     double caster_share; /* the largest share of a light's directions that meet the casters (snee_plan.c) */
     double glass_share;  /* the share of the image whose camera ray meets a glass caster first (snee_plan.c) */
     double open_share;   /* the share of directions from the casters that leave the scene (snee_plan.c) */
+    bool pilot;          /* automatic and on, and the pilot render (render/snee_pilot.h) may check it */
+    char pilot_note[448]; /* what the pilot measured and chose, or "" */
 } spc_snee_plan;
 
 /* The plan for rendering sc with integrator `integrator` ("path", "volpath", "bdpt", "ipt") and the

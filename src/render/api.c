@@ -12,6 +12,7 @@
 #include "io/mitsuba_xml.h"
 #include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
+#include "render/snee_pilot.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "scene/scene.h"
@@ -413,6 +414,12 @@ char *spc_scene_plan(const spc_scene *s, const char *integrator, const char *spe
     spc_snee_plan plan;
     spc_snee_plan_make(s, integrator ? integrator : s->integrator.type,
                        specular_nee ? specular_nee : s->integrator.specular_nee, &plan);
+    /* the pilot render a render at the scene's own size, samples and all cores would make */
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.integrator = integrator;
+    spc_snee_pilot pilot;
+    spc_snee_pilot_run(s, &o, &plan, &pilot);
     int chain = s->integrator.specular_max_chain > 0 ? s->integrator.specular_max_chain : 2;
     int n = spc_snee_plan_describe(s, &plan, chain, NULL, 0);
     char *buf = malloc((size_t)n + 1);

@@ -40,6 +40,7 @@
 #include "scene/camera.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
+#include "render/snee_pilot.h"
 #include "scene/rfilter.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
@@ -271,10 +272,12 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     const char *given = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
     bool dev_cl = false;
     int dev_index = 0;
-    if (spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl && (!given || !*given || !strcmp(given, "auto")))
+    if (spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl && spc_snee_setting_is_auto(given))
         given = "none";
     spc_snee_plan plan;
     spc_snee_plan_make(sc, spc_integrator_kind_name(ctx.kind), given, &plan);
+    spc_snee_pilot pilot;
+    spc_snee_pilot_run(sc, o, &plan, &pilot); /* keeps or turns off an automatic plan (snee_pilot.h) */
     const char *sname = plan.setting;
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
     char why[SPC_SNEE_WHY_MAX];
@@ -728,6 +731,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         stats->samples = (uint64_t)film->spp * npix;
         stats->invalid_samples = invalid;
         snprintf(stats->specular_nee, sizeof stats->specular_nee, "%s", ctx.specular_nee ? sname : "none");
+        snprintf(stats->specular_nee_pilot, sizeof stats->specular_nee_pilot, "%s", plan.pilot_note);
         stats->caustic_guide_entries = guide_entries;
         stats->caustic_guide_seconds = guide_seconds;
     }
