@@ -10,7 +10,7 @@
  * the estimate and takes the next camera sample, so the packets stay full until the samples run out.
  *
  * Every lane draws its sampler dimensions in path.c's order (the live lanes' pairs of a stage at
- * once, spc_sampler_2d_many: the same values) and computes path.c's expressions in path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
+ * once, spc_sampler_draw_many: the same values) and computes path.c's expressions in path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
  * whole images). The light sample's MIS weight is computed after the shadow ray, as path.c does, so
  * occluded samples do not pay for the BSDF's pdf.
  */
@@ -239,8 +239,9 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
         }
-        /* next-event estimation's dimensions (u_light, u_lpos) of every live lane at once */
-        spc_sampler_2d_many(ls, W, 2, u);
+        /* next-event estimation's dimensions (u_light, u_lpos) of every live lane at once; u_light
+         * is 1D (path.c's spc_sampler_1d: its pair's y is not computed) */
+        spc_sampler_draw_many(ls, W, 2, 0x2u, u);
         /* the lights chosen, then every lane's light sample in one call (lanes of mesh lights share
          * vector instructions, emitter/area_many.c) */
         for (int i = 0; i < W; ++i) {
@@ -261,8 +262,8 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 r[i] = &ln[i].sr;
         }
         spc_scene_occluded_packet(ctx->scene, r, occluded);
-        /* BSDF sampling's dimensions (u_lobe, u_dir, u_rr) */
-        spc_sampler_2d_many(ls, W, 3, u);
+        /* BSDF sampling's dimensions (u_lobe, u_dir, u_rr); u_lobe and u_rr are 1D */
+        spc_sampler_draw_many(ls, W, 3, 0x2u, u);
         for (int i = 0; i < W; ++i) {
             if (ln[i].path < 0)
                 continue;
