@@ -3,6 +3,7 @@
  * discrete distributions.
  */
 /* ctest-labels: unit */
+#include <string.h>
 #include <unistd.h>
 
 #include "core/math.h"
@@ -149,9 +150,44 @@ TEST(sampler_many_matches_one_at_a_time)
     CHECK(checked > 2000);
 }
 
-/* The same under the other instruction sets the batch is compiled for (SPECULA_SAMPLER_ISA caps the
- * one the process picks, so each runs in a child process of this program). */
-TEST(sampler_many_every_isa)
+/* spc_warp_cosine_hemisphere_many gives the one-at-a-time warp's directions bit for bit: random
+ * points, the center (the disk's origin), both diagonals (|a| = |b|, where the octant flips), the
+ * square's edges and corners, and counts that cross the batch (64). */
+TEST(cosine_hemisphere_many_matches_one_at_a_time)
+{
+    enum { N = 1000 };
+    spc_vec2 u[N];
+    spc_vec3 w[N];
+    spc_rng rng;
+    spc_rng_seed(&rng, 3, 9);
+    for (int i = 0; i < N; ++i) {
+        double x = spc_rng_next(&rng), y = spc_rng_next(&rng);
+        switch (i % 8) {
+        case 0: y = x; break;       /* a = b */
+        case 1: y = 1.0 - x; break; /* a = -b */
+        case 2: x = i % 16 < 8 ? 0.0 : 0x1.fffffffffffffp-1; break;
+        case 3: x = 0.5; break;
+        default: break;
+        }
+        u[i] = spc_v2(x, y);
+    }
+    u[7] = spc_v2(0.5, 0.5);
+    u[15] = spc_v2(0.0, 0.0);
+    u[23] = spc_v2(0.0, 0x1.fffffffffffffp-1);
+    int bad = 0;
+    for (int n = 0; n <= N; n += n < 70 ? 1 : 331) {
+        spc_warp_cosine_hemisphere_many(n, u, w);
+        for (int i = 0; i < n; ++i) {
+            spc_vec3 v = spc_warp_cosine_hemisphere(u[i]);
+            bad += memcmp(&v, &w[i], sizeof v) != 0;
+        }
+    }
+    CHECK_MSG(bad == 0, "%d directions differ", bad);
+}
+
+/* The same under the other instruction sets the batches are compiled for (SPECULA_VECTOR_ISA caps
+ * the one the process picks, so each runs in a child process of this program). */
+TEST(vector_batches_every_isa)
 {
     char exe[4096];
     ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
@@ -162,7 +198,8 @@ TEST(sampler_many_every_isa)
     const char *isas[] = {"base", "avx2", "avx512"};
     for (int i = 0; i < 3; ++i) {
         char cmd[4300];
-        snprintf(cmd, sizeof cmd, "SPECULA_SAMPLER_ISA=%s SPC_TEST_ONLY=sampler_many_matches_one_at_a_time '%s' >/dev/null",
+        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=sampler_many_matches_one_at_a_time,"
+                 "cosine_hemisphere_many_matches_one_at_a_time '%s' >/dev/null",
                  isas[i], exe);
         int rc = system(cmd);
         CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
@@ -301,7 +338,8 @@ int main(void)
     RUN(frames_orthonormal);
     RUN(sampler_stratified_and_deterministic);
     RUN(sampler_many_matches_one_at_a_time);
-    RUN(sampler_many_every_isa);
+    RUN(cosine_hemisphere_many_matches_one_at_a_time);
+    RUN(vector_batches_every_isa);
     RUN(warps_match_their_pdfs);
     RUN(sincos_without_libm);
     RUN(tent_and_gaussian_inversions);
