@@ -7,13 +7,13 @@
  * their back faces culled (Mitsuba 3's Embree is built so: a ray from inside a tube passes out of
  * it). The geometry ID of every shape equals its index in the scene.
  *
- * The scene is built without RTC_SCENE_FLAG_ROBUST, as Mitsuba 3 builds its own: Embree's fast
- * triangle test (Moeller-Trumbore in float) instead of its robust one. Measured (test_accel's
- * closed_mesh_cracks_are_rare, bench/RESULTS.md): plain path tracing of the cornell box takes 8% less
- * CPU time; rays aimed exactly at the shared edges and vertices of a closed mesh pass through the
- * crack 2 to 6% of the time instead of 0.01 to 0.04%, but random rays from inside a closed mesh of
- * 187 thousand triangles escape about once in a million (never robust), a bias far below what a
- * render resolves.
+ * The scene is built with RTC_SCENE_FLAG_ROBUST (Mitsuba 3 builds its own without): Embree's fast
+ * triangle test would take 8% off plain path tracing of the cornell box, but rays through the
+ * shared edges of a mesh then pass the crack between its triangles (test_accel's
+ * closed_mesh_cracks_are_rare: 2 to 6% of the rays aimed exactly at the edges of a closed mesh
+ * instead of 0.01 to 0.04%), and a ray through a quad light's center lies on its diagonal
+ * (test_emitter's rectangle chi-square test fails without the flag: the quadrature's node there
+ * misses the light). bench/RESULTS.md has the measurements.
  */
 #include "accel/accel.h"
 
@@ -186,7 +186,7 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
     for (int i = 0; i < sc->nshapes; ++i)
         if (sc->shapes[i]->type == SPC_SHAPE_MESH)
             ntris += sc->shapes[i]->mesh.ntris;
-    rtcSetSceneFlags(a->scene, (ntris >= SPC_ACCEL_COMPACT_TRIS ? RTC_SCENE_FLAG_COMPACT : RTC_SCENE_FLAG_NONE));
+    rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST | (ntris >= SPC_ACCEL_COMPACT_TRIS ? RTC_SCENE_FLAG_COMPACT : 0));
     for (int i = 0; i < sc->nshapes; ++i) {
         const spc_shape *s = sc->shapes[i];
         RTCGeometry g;
