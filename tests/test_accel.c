@@ -1,7 +1,8 @@
 /*
  * tests/test_accel.c: the acceleration structure's hits against closed-form ones, for a mesh whose
  * positions and indices Embree reads in place, below and at the size where the BVH turns compact
- * (SPC_ACCEL_COMPACT_TRIS); the scene's budget of kept triangle frames.
+ * (SPC_ACCEL_COMPACT_TRIS); the scene's budget of kept triangle frames; how rarely rays pass through the
+ * cracks of a closed mesh (robust triangle test).
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -143,10 +144,161 @@ TEST(kept_frames_budget)
 /* 2 * 512^2 = 524288 triangles: the compact BVH (SPC_ACCEL_COMPACT_TRIS) */
 TEST(grid_hits_compact) { CHECK(check_grid(512) == 2000); }
 
+/* A closed UV sphere (nlat bands, nlon sectors, shared vertices, poles as fans) rotated, scaled
+ * unevenly and moved off the origin, so its float vertices are not round numbers; the center is
+ * returned in c. */
+static spc_scene *closed_sphere_scene(int nlat, int nlon, spc_vec3 *c)
+{
+    spc_scene *sc = spc_scene_create();
+    if (!sc)
+        return NULL;
+    spc_bsdf *d = spc_scene_new_bsdf(sc);
+    d->type = SPC_BSDF_DIFFUSE;
+    d->reflectance = spc_scene_constant(sc, spc_rgb1(0.5));
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    m.nverts = (size_t)(nlat - 1) * nlon + 2;
+    m.ntris = 2 * (size_t)(nlat - 1) * nlon;
+    m.p = malloc(3 * m.nverts * sizeof(float));
+    m.idx = malloc(3 * m.ntris * sizeof(uint32_t));
+    if (!m.p || !m.idx) {
+        spc_mesh_release(&m);
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    *c = spc_v3(0.3137, -1.2719, 2.0411);
+    const double ca = cos(0.7), sa = sin(0.7), cb = cos(-0.4), sb = sin(-0.4);
+    for (size_t v = 0; v < m.nverts; ++v) {
+        double th, ph;
+        if (v + 2 >= m.nverts)
+            th = v + 2 == m.nverts ? 0.0 : SPC_PI, ph = 0.0;
+        else
+            th = SPC_PI * (double)(v / nlon + 1) / nlat, ph = 2.0 * SPC_PI * (double)(v % nlon) / nlon;
+        double x = 1.37 * sin(th) * cos(ph), y = 0.91 * sin(th) * sin(ph), z = 1.13 * cos(th);
+        double x1 = ca * x - sa * y, y1 = sa * x + ca * y;
+        double y2 = cb * y1 - sb * z, z2 = sb * y1 + cb * z;
+        m.p[3 * v] = (float)(x1 + c->x);
+        m.p[3 * v + 1] = (float)(y2 + c->y);
+        m.p[3 * v + 2] = (float)(z2 + c->z);
+    }
+    uint32_t north = (uint32_t)m.nverts - 2, south = (uint32_t)m.nverts - 1;
+    uint32_t *t = m.idx;
+    for (int j = 0; j < nlon; ++j) {
+        uint32_t j1 = (uint32_t)((j + 1) % nlon);
+        *t++ = north, *t++ = (uint32_t)j, *t++ = j1;
+        uint32_t last = (uint32_t)((nlat - 2) * nlon);
+        *t++ = south, *t++ = last + j1, *t++ = last + (uint32_t)j;
+        for (int i = 0; i + 2 < nlat; ++i) {
+            uint32_t a = (uint32_t)(i * nlon + j), b = (uint32_t)(i * nlon) + j1;
+            uint32_t a2 = a + (uint32_t)nlon, b2 = b + (uint32_t)nlon;
+            *t++ = a, *t++ = a2, *t++ = b2;
+            *t++ = a, *t++ = b2, *t++ = b;
+        }
+    }
+    spc_shape *sh = spc_scene_new_shape(sc);
+    spc_error err;
+    if (!sh || !spc_shape_init_mesh(sh, &m, NULL, NULL, 0, 0, &err)) {
+        spc_mesh_release(&m);
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    sh->bsdf = d;
+    spc_scene_set_defaults(sc);
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+/* Watertightness of the triangle test (Embree's robust one, RTC_SCENE_FLAG_ROBUST). Rays aimed
+ * exactly at the shared edges and vertices of a closed mesh, from inside it and from outside
+ * through the edge toward a point inside: a miss is a ray that passes through the crack between two
+ * triangles. Measured (1702 triangles, 24000 rays): intersection 3 misses, occlusion 10 (without the
+ * robust flag: 510 and 1368, 2.1% and 5.7%); the bounds below are 0.1% and 0.2%. Random rays from
+ * inside a fine closed mesh (187 thousand triangles, 2 x 1 million rays) never escaped (2 without
+ * the flag). Single rays and packets of 16 give the same hits. */
+TEST(closed_mesh_cracks_are_rare)
+{
+    spc_vec3 c;
+    spc_scene *sc = closed_sphere_scene(24, 37, &c);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const spc_mesh *m = &sc->shapes[0]->mesh;
+    spc_rng rng;
+    spc_rng_seed(&rng, 11, 3);
+    enum { N = 16 * 1500 };
+    int leaks = 0, leaks_occluded = 0, packet_differs = 0;
+    spc_ray pr[SPC_SCENE_PACKET];
+    bool single_hit[SPC_SCENE_PACKET];
+    double single_t[SPC_SCENE_PACKET];
+    const spc_ray *rp[SPC_SCENE_PACKET];
+    spc_hit h[SPC_SCENE_PACKET];
+    bool hit[SPC_SCENE_PACKET];
+    for (int s = 0; s < N; ++s) {
+        /* an edge of a random triangle, a point on it (its start vertex one time in eight) */
+        size_t tri = (size_t)(spc_rng_next(&rng) * m->ntris) % m->ntris;
+        int e = (int)(spc_rng_next(&rng) * 3) % 3;
+        const float *a = m->p + 3 * m->idx[3 * tri + e], *b = m->p + 3 * m->idx[3 * tri + (e + 1) % 3];
+        double f = spc_rng_next(&rng) < 0.125 ? 0.0 : spc_rng_next(&rng);
+        spc_vec3 q = spc_v3(a[0] + f * ((double)b[0] - a[0]), a[1] + f * ((double)b[1] - a[1]),
+                            a[2] + f * ((double)b[2] - a[2]));
+        /* from a point inside, near the center, or from outside: on the line from the inside point
+         * through q, beyond q; the shadow ray ends beyond q (from inside) or at the inside point */
+        spc_vec3 j = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_vec3 in = spc_madd(c, j, 0.8);
+        spc_vec3 o = s % 2 ? in : spc_madd(q, spc_sub(q, in), 0.5 + 4.0 * spc_rng_next(&rng));
+        spc_vec3 dq = spc_sub(s % 2 ? q : in, o);
+        spc_ray r = {o, spc_normalize(dq), 0.0, SPC_INF};
+        spc_hit hs;
+        int lane = s % SPC_SCENE_PACKET;
+        single_hit[lane] = spc_scene_intersect(sc, &r, &hs);
+        single_t[lane] = single_hit[lane] ? hs.t : 0.0;
+        leaks += !single_hit[lane];
+        spc_ray sr = r;
+        sr.tmax = s % 2 ? spc_length(dq) * 1.5 : spc_length(dq);
+        leaks_occluded += !spc_scene_occluded(sc, &sr);
+        pr[lane] = r;
+        rp[lane] = &pr[lane];
+        if (lane == SPC_SCENE_PACKET - 1) {
+            spc_scene_intersect_packet(sc, rp, h, hit);
+            for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+                packet_differs += hit[i] != single_hit[i] || (hit[i] && h[i].t != single_t[i]);
+        }
+    }
+    /* random rays from inside a fine closed mesh */
+    spc_scene_destroy(sc);
+    sc = closed_sphere_scene(300, 313, &c);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const int M = 1000000;
+    int escapes = 0;
+    for (int s = 0; s < M; ++s) {
+        spc_vec3 j = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_vec3 d = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_ray r = {spc_madd(c, j, 0.8), spc_normalize(d), 0.0, SPC_INF};
+        spc_hit hs;
+        escapes += !spc_scene_intersect(sc, &r, &hs);
+        r.tmax = 10.0;
+        escapes += !spc_scene_occluded(sc, &r);
+    }
+    printf("  %d rays at edges and vertices: %d pass (intersection), %d (occlusion), %d packet lanes differ; "
+           "%d of 2 x %d random rays from inside %zu triangles escape\n",
+           N, leaks, leaks_occluded, packet_differs, escapes, M, sc->shapes[0]->mesh.ntris);
+    CHECK(leaks < N / 1000);
+    CHECK(leaks_occluded < N / 500);
+    CHECK(packet_differs == 0);
+    CHECK(escapes <= 2);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(grid_hits_small);
     RUN(kept_frames_budget);
     RUN(grid_hits_compact);
+    RUN(closed_mesh_cracks_are_rare);
     return spc_test_finish();
 }

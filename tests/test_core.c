@@ -3,10 +3,14 @@
  * discrete distributions.
  */
 /* ctest-labels: unit */
+#include <string.h>
+#include <unistd.h>
+
 #include "core/math.h"
 #include "core/rng.h"
 #include "core/sampler.h"
 #include "core/warp.h"
+
 #include "harness.h"
 
 TEST(mat4_inverse_and_lookat)
@@ -100,42 +104,106 @@ TEST(sampler_stratified_and_deterministic)
     CHECK_NEAR(acc / 4096.0, 0.25, 0.02);
 }
 
-/* Many streams at once (spc_sampler_2d_many) give the one-pair calls' values bit for bit and move
- * each stream as they do; lanes without a stream are left alone. Sizes cross the batch's internal
- * flush (64 pairs). */
+/* Many streams at once (spc_sampler_2d_many, spc_sampler_draw_many with every mask of the pairs
+ * that need their y) give the one-pair calls' values bit for bit and move each stream as they do;
+ * a pair without its y gets 0 there; lanes without a stream are left alone. Sizes cross the batch's
+ * internal flush (64 pairs). */
 TEST(sampler_many_matches_one_at_a_time)
 {
     int bad = 0, checked = 0;
     for (int n = 1; n <= 40; n += 13)
-        for (int npairs = 1; npairs <= 3; ++npairs) {
-            spc_sampler a[40], b[40];
-            spc_sampler *pa[40];
-            spc_vec2 u[120];
-            for (int i = 0; i < n; ++i) {
-                spc_sampler_start(&a[i], (uint32_t)i, 5, (uint32_t)(i * 7 + n), 11);
-                for (int k = 0; k < i % 4; ++k) /* streams at different dimensions */
-                    spc_sampler_1d(&a[i]);
-                b[i] = a[i];
-                pa[i] = i % 5 == 3 ? NULL : &a[i];
-            }
-            for (int round = 0; round < 3; ++round) {
-                spc_sampler_2d_many(pa, n, npairs, u);
+        for (int npairs = 1; npairs <= 3; ++npairs)
+            for (unsigned mask = 0; mask <= 1u << npairs; ++mask) {
+                /* mask 1 << npairs: spc_sampler_2d_many */
+                bool all = mask == 1u << npairs;
+                spc_sampler a[40], b[40];
+                spc_sampler *pa[40];
+                spc_vec2 u[120];
                 for (int i = 0; i < n; ++i) {
-                    if (!pa[i]) {
+                    spc_sampler_start(&a[i], (uint32_t)i, 5, (uint32_t)(i * 7 + n), 11);
+                    for (int k = 0; k < i % 4; ++k) /* streams at different dimensions */
+                        spc_sampler_1d(&a[i]);
+                    b[i] = a[i];
+                    pa[i] = i % 5 == 3 ? NULL : &a[i];
+                }
+                for (int round = 0; round < 3; ++round) {
+                    if (all)
+                        spc_sampler_2d_many(pa, n, npairs, u);
+                    else
+                        spc_sampler_draw_many(pa, n, npairs, mask, u);
+                    for (int i = 0; i < n; ++i) {
+                        if (!pa[i]) {
+                            bad += a[i].dim != b[i].dim;
+                            continue;
+                        }
+                        for (int k = 0; k < npairs; ++k) {
+                            spc_vec2 v = spc_sampler_2d(&b[i]);
+                            double y = all || (mask >> k & 1u) ? v.y : 0.0;
+                            bad += v.x != u[i * npairs + k].x || y != u[i * npairs + k].y;
+                            ++checked;
+                        }
                         bad += a[i].dim != b[i].dim;
-                        continue;
                     }
-                    for (int k = 0; k < npairs; ++k) {
-                        spc_vec2 v = spc_sampler_2d(&b[i]);
-                        bad += v.x != u[i * npairs + k].x || v.y != u[i * npairs + k].y;
-                        ++checked;
-                    }
-                    bad += a[i].dim != b[i].dim;
                 }
             }
-        }
     CHECK_MSG(bad == 0, "%d of %d pairs or stream positions differ", bad, checked);
-    CHECK(checked > 500);
+    CHECK(checked > 2000);
+}
+
+/* spc_warp_cosine_hemisphere_many gives the one-at-a-time warp's directions bit for bit: random
+ * points, the center (the disk's origin), both diagonals (|a| = |b|, where the octant flips), the
+ * square's edges and corners, and counts that cross the batch (64). */
+TEST(cosine_hemisphere_many_matches_one_at_a_time)
+{
+    enum { N = 1000 };
+    spc_vec2 u[N];
+    spc_vec3 w[N];
+    spc_rng rng;
+    spc_rng_seed(&rng, 3, 9);
+    for (int i = 0; i < N; ++i) {
+        double x = spc_rng_next(&rng), y = spc_rng_next(&rng);
+        switch (i % 8) {
+        case 0: y = x; break;       /* a = b */
+        case 1: y = 1.0 - x; break; /* a = -b */
+        case 2: x = i % 16 < 8 ? 0.0 : 0x1.fffffffffffffp-1; break;
+        case 3: x = 0.5; break;
+        default: break;
+        }
+        u[i] = spc_v2(x, y);
+    }
+    u[7] = spc_v2(0.5, 0.5);
+    u[15] = spc_v2(0.0, 0.0);
+    u[23] = spc_v2(0.0, 0x1.fffffffffffffp-1);
+    int bad = 0;
+    for (int n = 0; n <= N; n += n < 70 ? 1 : 331) {
+        spc_warp_cosine_hemisphere_many(n, u, w);
+        for (int i = 0; i < n; ++i) {
+            spc_vec3 v = spc_warp_cosine_hemisphere(u[i]);
+            bad += memcmp(&v, &w[i], sizeof v) != 0;
+        }
+    }
+    CHECK_MSG(bad == 0, "%d directions differ", bad);
+}
+
+/* The same under the other instruction sets the batches are compiled for (SPECULA_VECTOR_ISA caps
+ * the one the process picks, so each runs in a child process of this program). */
+TEST(vector_batches_every_isa)
+{
+    char exe[4096];
+    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    CHECK(len > 0);
+    if (len <= 0)
+        return;
+    exe[len] = '\0';
+    const char *isas[] = {"base", "avx2", "avx512"};
+    for (int i = 0; i < 3; ++i) {
+        char cmd[4300];
+        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=sampler_many_matches_one_at_a_time,"
+                 "cosine_hemisphere_many_matches_one_at_a_time '%s' >/dev/null",
+                 isas[i], exe);
+        int rc = system(cmd);
+        CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
+    }
 }
 
 /* Monte Carlo integral of f / pdf over the warped samples equals the integral of f. */
@@ -270,6 +338,8 @@ int main(void)
     RUN(frames_orthonormal);
     RUN(sampler_stratified_and_deterministic);
     RUN(sampler_many_matches_one_at_a_time);
+    RUN(cosine_hemisphere_many_matches_one_at_a_time);
+    RUN(vector_batches_every_isa);
     RUN(warps_match_their_pdfs);
     RUN(sincos_without_libm);
     RUN(tent_and_gaussian_inversions);

@@ -5,7 +5,10 @@
  */
 /* ctest-labels: unit */
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "harness.h"
 #include "scene/camera.h"
@@ -116,6 +119,61 @@ TEST(pinhole_ray_through_film_point)
     CHECK_MSG(worst_dir < 1e-14, "direction off by %g", worst_dir);
 }
 
+/* spc_camera_ray_many gives spc_camera_ray's rays bit for bit (perspective and orthographic, counts
+ * that cross its batch of 64, film points inside and outside the film); with every ISA it is built
+ * for, each in a child process of this program (SPECULA_VECTOR_ISA caps the one a process picks). */
+TEST(camera_rays_many_match_one_at_a_time)
+{
+    int bad = 0;
+    for (int type = 0; type < 2; ++type) {
+        spc_camera c;
+        memset(&c, 0, sizeof c);
+        c.type = type ? SPC_CAMERA_ORTHOGRAPHIC : SPC_CAMERA_PERSPECTIVE;
+        spc_mat4 look, S = spc_mat4_scale(spc_v3(1.5, 0.7, 2.0));
+        CHECK(spc_mat4_lookat(spc_v3(1, 2, 3), spc_v3(-0.5, 0.3, 0.2), spc_v3(0.1, 1, 0), &look));
+        c.to_world = spc_mat4_mul(&look, &S);
+        c.fov = 38.0;
+        c.fov_axis = SPC_FOV_X;
+        c.near_clip = 0.01;
+        c.far_clip = 500.0;
+        spc_camera_state cs;
+        const int W = 96, H = 54;
+        CHECK(spc_camera_prepare(&cs, &c, W, H));
+        enum { N = 300 };
+        double fx[N], fy[N];
+        spc_ray r[N];
+        for (int i = 0; i < N; ++i) {
+            fx[i] = W * ((i % 17) - 2.3) / 13.0;
+            fy[i] = H * ((i / 17) + 0.61) / 16.0;
+        }
+        for (int n = 0; n <= N; n += n < 70 ? 1 : 77) {
+            spc_camera_ray_many(&cs, n, fx, fy, r);
+            for (int i = 0; i < n; ++i) {
+                spc_ray one = spc_camera_ray(&cs, fx[i], fy[i]);
+                bad += memcmp(&one.o, &r[i].o, sizeof one.o) || memcmp(&one.d, &r[i].d, sizeof one.d) ||
+                       memcmp(&one.tmin, &r[i].tmin, sizeof one.tmin) || memcmp(&one.tmax, &r[i].tmax, sizeof one.tmax);
+            }
+        }
+    }
+    CHECK_MSG(bad == 0, "%d rays differ", bad);
+    if (getenv("SPECULA_VECTOR_ISA"))
+        return;
+    char exe[4096];
+    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    CHECK(len > 0);
+    if (len <= 0)
+        return;
+    exe[len] = '\0';
+    const char *isas[] = {"base", "avx2"};
+    for (int i = 0; i < 2; ++i) {
+        char cmd[4300];
+        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=camera_rays_many_match_one_at_a_time '%s' >/dev/null",
+                 isas[i], exe);
+        int rc = system(cmd);
+        CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
+    }
+}
+
 int main(void)
 {
     RUN(gaussian_sample_matches_cdf);
@@ -123,5 +181,6 @@ int main(void)
     RUN(tent_sample_matches_cdf);
     RUN(box_sample_matches_cdf);
     RUN(pinhole_ray_through_film_point);
+    RUN(camera_rays_many_match_one_at_a_time);
     return spc_test_finish();
 }

@@ -72,14 +72,14 @@ static inline double spc_diffuse_view_pdf(const spc_diffuse_view *v, const spc_h
     return cos_i * SPC_INV_PI;
 }
 
-/* spc_bsdf_sample_dir, with its guard on the record */
-static inline bool spc_diffuse_view_sample(const spc_diffuse_view *v, const spc_hit *h, spc_vec3 wo, spc_vec2 u,
-                                           spc_bsdf_sample *out)
+/* spc_bsdf_sample_dir, with its guard on the record, from wl = spc_warp_cosine_hemisphere(u) (the
+ * local direction, computed beforehand for many lanes at once) */
+static inline bool spc_diffuse_view_sample_warped(const spc_diffuse_view *v, const spc_hit *h, spc_vec3 wo,
+                                                  spc_vec3 wl, spc_bsdf_sample *out)
 {
     spc_vec3 n = spc_diffuse_view_n(v, h);
     if (spc_dot(wo, n) <= 0.0)
         return false;
-    spc_vec3 wl = spc_warp_cosine_hemisphere(u);
     if (wl.z <= 0.0)
         return false;
     spc_frame f = h->sh;
@@ -91,6 +91,13 @@ static inline bool spc_diffuse_view_sample(const spc_diffuse_view *v, const spc_
     out->lobe = SPC_LOBE_DIFFUSE_REFLECTION;
     out->eta = 1.0;
     return out->pdf > 0.0 && spc_rgb_finite(out->weight) && spc_v3_finite(out->wi);
+}
+
+/* spc_bsdf_sample_dir, with its guard on the record */
+static inline bool spc_diffuse_view_sample(const spc_diffuse_view *v, const spc_hit *h, spc_vec3 wo, spc_vec2 u,
+                                           spc_bsdf_sample *out)
+{
+    return spc_diffuse_view_sample_warped(v, h, wo, spc_warp_cosine_hemisphere(u), out);
 }
 
 #endif

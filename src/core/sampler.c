@@ -4,6 +4,9 @@
 #include "core/sampler.h"
 
 #include <pthread.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "core/rng.h"
 
@@ -106,17 +109,16 @@ double spc_sampler_1d(spc_sampler *s)
     return pair_x(s, &h, &idx) * (1.0 / 4294967296.0);
 }
 
-/* spc_sampler_2d_many's lanes: up to MANY_LANES pairs computed side by side. */
+/* spc_sampler_draw_many's batch: up to MANY_LANES pairs computed side by side. */
 #define MANY_LANES 64
 
-/* The pairs of the lanes as plain loops over arrays (pair_x and spc_sampler_2d's arithmetic, in
- * the same order), compiled twice: for the baseline ISA, and vectorized (-O3) with AVX2 where the
- * CPU has it; the integer arithmetic is exact, so both give the same bits. Measured (cornell box,
- * one thread, CPU time): the scalar loops alone are slower than the one-pair calls (a 1D draw's
- * unused y costs more than the independent chains gain); vectorized they take 3 to 4% off the
- * render, as much as an AVX-512 build of the same loops. */
-static inline __attribute__((always_inline)) void pairs_loops(int m, const uint64_t *seed, const uint32_t *rev,
-                                                              uint64_t *h, uint32_t *idx, uint32_t *ox, uint32_t *oy)
+/* The pairs of a batch as plain loops over arrays (pair_x's and spc_sampler_2d's arithmetic, in
+ * the same order): the first coordinates of m pairs, then the second coordinates of those of them
+ * that need one. Each is compiled three times, for the baseline ISA and vectorized (-O3) with AVX2
+ * and with AVX-512 (whose 64-bit multiply, vpmullq, the hash needs; AVX2 emulates it), chosen at
+ * run time; the integer arithmetic is exact, so all give the same bits. */
+static inline __attribute__((always_inline)) void pairs_x_loops(int m, const uint64_t *seed, const uint32_t *rev,
+                                                                uint64_t *h, uint32_t *idx, uint32_t *ox)
 {
     for (int j = 0; j < m; ++j)
         h[j] = spc_hash64(seed[j]);
@@ -124,66 +126,109 @@ static inline __attribute__((always_inline)) void pairs_loops(int m, const uint6
         idx[j] = reverse_bits(lk_permute(rev[j], (uint32_t)h[j]));
     for (int j = 0; j < m; ++j)
         ox[j] = reverse_bits(lk_permute(idx[j], (uint32_t)(h[j] >> 32)));
+}
+
+static inline __attribute__((always_inline)) void pairs_y_loop(int m, const uint64_t *h, const uint32_t *idx,
+                                                               uint32_t *oy)
+{
     for (int j = 0; j < m; ++j)
         oy[j] = reverse_bits(lk_permute(sobol_dim1_reversed(idx[j]), (uint32_t)((h[j] * 0xda942042e4dd58b5ULL) >> 32)));
 }
 
-static void pairs_base(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, uint32_t *ox,
-                       uint32_t *oy)
+static void pairs_x_base(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, uint32_t *ox)
 {
-    pairs_loops(m, seed, rev, h, idx, ox, oy);
+    pairs_x_loops(m, seed, rev, h, idx, ox);
 }
+
+static void pairs_y_base(int m, const uint64_t *h, const uint32_t *idx, uint32_t *oy) { pairs_y_loop(m, h, idx, oy); }
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #if defined(__clang__)
-#define PAIRS_AVX2_ATTR __attribute__((target("avx2"))) /* clang vectorizes these loops at -O2 */
+#define PAIRS_ATTR(t) __attribute__((target(t))) /* clang vectorizes these loops at -O2 */
 #else
-#define PAIRS_AVX2_ATTR __attribute__((target("avx2"), optimize("O3"))) /* GCC's -O2 does not */
+#define PAIRS_ATTR(t) __attribute__((target(t), optimize("O3"))) /* GCC's -O2 does not */
 #endif
-PAIRS_AVX2_ATTR static void pairs_avx2(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h,
-                                                       uint32_t *idx, uint32_t *ox, uint32_t *oy)
+#define PAIRS_AVX512 "avx512f,avx512dq,avx512bw,avx512vl"
+PAIRS_ATTR("avx2")
+static void pairs_x_avx2(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, uint32_t *ox)
 {
-    pairs_loops(m, seed, rev, h, idx, ox, oy);
+    pairs_x_loops(m, seed, rev, h, idx, ox);
+}
+PAIRS_ATTR("avx2") static void pairs_y_avx2(int m, const uint64_t *h, const uint32_t *idx, uint32_t *oy)
+{
+    pairs_y_loop(m, h, idx, oy);
+}
+PAIRS_ATTR(PAIRS_AVX512)
+static void pairs_x_avx512(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, uint32_t *ox)
+{
+    pairs_x_loops(m, seed, rev, h, idx, ox);
+}
+PAIRS_ATTR(PAIRS_AVX512) static void pairs_y_avx512(int m, const uint64_t *h, const uint32_t *idx, uint32_t *oy)
+{
+    pairs_y_loop(m, h, idx, oy);
 }
 #endif
 
-void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u)
+typedef void (*pairs_x_fn)(int, const uint64_t *, const uint32_t *, uint64_t *, uint32_t *, uint32_t *);
+typedef void (*pairs_y_fn)(int, const uint64_t *, const uint32_t *, uint32_t *);
+
+/* SPECULA_VECTOR_ISA=base|avx2|avx512 (tests) caps the instruction set; the CPU's best otherwise. */
+static pairs_x_fn pairs_x = pairs_x_base;
+static pairs_y_fn pairs_y = pairs_y_base;
+static pthread_once_t pairs_once = PTHREAD_ONCE_INIT;
+
+static void pairs_init(void)
 {
+#if defined(__GNUC__) && defined(__x86_64__)
+    const char *cap = getenv("SPECULA_VECTOR_ISA");
+    bool allow512 = !cap || strcmp(cap, "avx512") == 0, allow2 = allow512 || strcmp(cap, "avx2") == 0;
+    if (allow512 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+        __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl")) {
+        pairs_x = pairs_x_avx512;
+        pairs_y = pairs_y_avx512;
+    } else if (allow2 && __builtin_cpu_supports("avx2")) {
+        pairs_x = pairs_x_avx2;
+        pairs_y = pairs_y_avx2;
+    }
+#endif
+}
+
+void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u)
+{
+    /* a batch: the pairs that need their y from the front (slot j < ny), the others from the back
+     * (slot j >= MANY_LANES - nx), so each loop runs over one contiguous range */
     uint64_t seed[MANY_LANES], h[MANY_LANES];
     uint32_t rev[MANY_LANES], idx[MANY_LANES], ox[MANY_LANES], oy[MANY_LANES];
     int slot[MANY_LANES];
-#if defined(__GNUC__) && defined(__x86_64__)
-    static int avx2 = -1;
-    if (avx2 < 0)
-        avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
-#endif
+    pthread_once(&pairs_once, pairs_init);
     const double k = 1.0 / 4294967296.0;
-    int m = 0;
-    for (int i = 0;; ++i) {
-        /* gather the next lanes' pairs, compute them when full or at the end */
-        if (i < n && s[i])
+    int ny = 0, nx = 0;
+    for (int i = 0; i < n; ++i) {
+        if (s[i])
             for (int p = 0; p < npairs; ++p) {
-                seed[m] = s[i]->pixel_seed + 0x9e3779b97f4a7c15ULL * (uint64_t)(++s[i]->dim);
-                rev[m] = s[i]->index_rev;
-                slot[m] = i * npairs + p;
-                ++m;
+                int j = ymask >> p & 1u ? ny++ : MANY_LANES - ++nx;
+                seed[j] = s[i]->pixel_seed + 0x9e3779b97f4a7c15ULL * (uint64_t)(++s[i]->dim);
+                rev[j] = s[i]->index_rev;
+                slot[j] = i * npairs + p;
             }
-        if (m == 0 && i >= n)
-            break;
-        if (m + npairs > MANY_LANES || i + 1 >= n) {
-#if defined(__GNUC__) && defined(__x86_64__)
-            if (avx2)
-                pairs_avx2(m, seed, rev, h, idx, ox, oy);
-            else
-#endif
-                pairs_base(m, seed, rev, h, idx, ox, oy);
-            for (int j = 0; j < m; ++j)
-                u[slot[j]] = spc_v2(ox[j] * k, oy[j] * k);
-            m = 0;
-            if (i + 1 >= n)
-                break;
-        }
+        if (ny + nx + npairs <= MANY_LANES && i + 1 < n)
+            continue;
+        /* the batch is full, or the last stream is in it */
+        int j0 = MANY_LANES - nx;
+        pairs_x(ny, seed, rev, h, idx, ox);
+        pairs_x(nx, seed + j0, rev + j0, h + j0, idx + j0, ox + j0);
+        pairs_y(ny, h, idx, oy);
+        for (int j = 0; j < ny; ++j)
+            u[slot[j]] = spc_v2(ox[j] * k, oy[j] * k);
+        for (int j = j0; j < MANY_LANES; ++j)
+            u[slot[j]] = spc_v2(ox[j] * k, 0.0);
+        ny = nx = 0;
     }
+}
+
+void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u)
+{
+    spc_sampler_draw_many(s, n, npairs, ~0u, u);
 }
 
 void spc_sampler_fork_rng(const spc_sampler *s, uint64_t stream, spc_rng *rng)

@@ -12,6 +12,9 @@
 
 spc_vec2 spc_warp_disk_concentric(spc_vec2 u);               /* unit disk, pdf 1/pi (area) */
 spc_vec3 spc_warp_cosine_hemisphere(spc_vec2 u);             /* z >= 0 */
+/* w[i] = spc_warp_cosine_hemisphere(u[i]) for i < n, bit for bit, many at once (core/warp_many.c:
+ * vector instructions where the CPU has AVX2 or AVX-512) */
+void spc_warp_cosine_hemisphere_many(int n, const spc_vec2 *u, spc_vec3 *w);
 double spc_warp_cosine_hemisphere_pdf(spc_vec3 w);           /* cos/pi, 0 for z <= 0 */
 spc_vec3 spc_warp_uniform_sphere(spc_vec2 u);                /* pdf 1/(4 pi) */
 spc_vec3 spc_warp_uniform_hemisphere(spc_vec2 u);            /* z >= 0, pdf 1/(2 pi) */

@@ -10,7 +10,7 @@
  * the estimate and takes the next camera sample, so the packets stay full until the samples run out.
  *
  * Every lane draws its sampler dimensions in path.c's order (the live lanes' pairs of a stage at
- * once, spc_sampler_2d_many: the same values) and computes path.c's expressions in path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
+ * once, spc_sampler_draw_many: the same values) and computes path.c's expressions in path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
  * whole images). The light sample's MIS weight is computed after the shadow ray, as path.c does, so
  * occluded samples do not pay for the BSDF's pdf.
  */
@@ -161,10 +161,10 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, do
 }
 
 /* path.c's loop body after the shadow ray (occluded: its answer): the light sample's contribution,
- * BSDF sampling with path.c's dimensions u_lobe, u_dir, u_rr, Russian roulette. false: the path has
- * ended. */
+ * BSDF sampling with path.c's dimensions u_lobe, u_dir, u_rr, Russian roulette. At a diffuse vertex
+ * *wl is u_dir's cosine-weighted direction (spc_warp_cosine_hemisphere). false: the path has ended. */
 static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, double u_lobe,
-                         spc_vec2 u_dir, double u_rr)
+                         spc_vec2 u_dir, const spc_vec3 *wl, double u_rr)
 {
     const spc_bsdf *b = h->bsdf;
     const spc_vec3 wo = ln->wo;
@@ -179,7 +179,7 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
     }
 
     spc_bsdf_sample bs;
-    bool sampled = ln->diffuse ? spc_diffuse_view_sample(&ln->dv, h, wo, u_dir, &bs)
+    bool sampled = ln->diffuse ? spc_diffuse_view_sample_warped(&ln->dv, h, wo, *wl, &bs)
                                : spc_bsdf_sample_dir(b, h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs);
     if (!sampled)
         return false;
@@ -223,6 +223,9 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     spc_vec2 u_lpos[W];
     spc_emitter_direct ds[W];
     bool ds_ok[W];
+    spc_vec2 u_dir[W];
+    spc_vec3 wl[W], wl_d[W];
+    int dlane[W];
     int next = 0, live = 0;
     for (int i = 0; i < W; ++i) {
         ln[i].path = -1;
@@ -240,8 +243,9 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
         }
-        /* next-event estimation's dimensions (u_light, u_lpos) of every live lane at once */
-        spc_sampler_2d_many(ls, W, 2, u);
+        /* next-event estimation's dimensions (u_light, u_lpos) of every live lane at once; u_light
+         * is 1D (path.c's spc_sampler_1d: its pair's y is not computed) */
+        spc_sampler_draw_many(ls, W, 2, 0x2u, u);
         /* the lights chosen, then every lane's light sample in one call (lanes of mesh lights share
          * vector instructions, emitter/area_many.c) */
         for (int i = 0; i < W; ++i) {
@@ -262,12 +266,23 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 r[i] = &ln[i].sr;
         }
         spc_scene_occluded_packet(ctx->scene, r, occluded);
-        /* BSDF sampling's dimensions (u_lobe, u_dir, u_rr) */
-        spc_sampler_2d_many(ls, W, 3, u);
+        /* BSDF sampling's dimensions (u_lobe, u_dir, u_rr); u_lobe and u_rr are 1D */
+        spc_sampler_draw_many(ls, W, 3, 0x2u, u);
+        /* the diffuse lanes' directions, warped together (core/warp_many.c) */
+        int nd = 0;
+        for (int i = 0; i < W; ++i)
+            if (alive[i] && ln[i].diffuse) {
+                dlane[nd] = i;
+                u_dir[nd++] = u[3 * i + 1];
+            }
+        spc_warp_cosine_hemisphere_many(nd, u_dir, wl_d);
+        for (int j = 0; j < nd; ++j)
+            wl[dlane[j]] = wl_d[j];
         for (int i = 0; i < W; ++i) {
             if (ln[i].path < 0)
                 continue;
-            if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], u[3 * i].x, u[3 * i + 1], u[3 * i + 2].x))
+            if (alive[i] &&
+                lane_scatter(ctx, &ln[i], occluded[i], &h[i], u[3 * i].x, u[3 * i + 1], &wl[i], u[3 * i + 2].x))
                 continue;
             /* the path has ended: its estimate, and the lane takes the next sample */
             out[ln[i].path].L = ln[i].L;

@@ -127,6 +127,39 @@ static spc_ray camera_sample(const job *jb, int pass, int x, int y, spc_sampler 
                                          : spc_camera_ray(ctx->cam, px, py);
 }
 
+/* camera_sample for every pixel of tile t at once (the packet path tracer's tiles): the samplers'
+ * pixel pairs drawn together and the pinhole rays computed together, the same values. Returns the
+ * pixel count; the samples run row by row. */
+static int camera_samples_tile(const job *jb, int pass, const tile *t, spc_ray *rays, spc_sampler *smp)
+{
+    const spc_render_ctx *ctx = jb->ctx;
+    spc_sampler *ps[SPC_TILE * SPC_TILE];
+    spc_vec2 u[SPC_TILE * SPC_TILE];
+    double px[SPC_TILE * SPC_TILE], py[SPC_TILE * SPC_TILE];
+    int n = 0;
+    for (int y = t->y0; y < t->y1; ++y)
+        for (int x = t->x0; x < t->x1; ++x, ++n) {
+            spc_sampler_start(&smp[n], (uint32_t)(x + ctx->crop_x), (uint32_t)(y + ctx->crop_y), (uint32_t)pass,
+                              jb->seed);
+            ps[n] = &smp[n];
+        }
+    spc_sampler_2d_many(ps, n, 1, u);
+    n = 0;
+    for (int y = t->y0; y < t->y1; ++y)
+        for (int x = t->x0; x < t->x1; ++x, ++n) {
+            int fx = x + ctx->crop_x, fy = y + ctx->crop_y;
+            px[n] = fx + 0.5 + spc_film_filter_sample(ctx->film, u[n].x, fx + 0.5, ctx->crop_x, ctx->crop_x + ctx->width);
+            py[n] = fy + 0.5 +
+                    spc_film_filter_sample(ctx->film, u[n].y, fy + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
+        }
+    if (spc_camera_has_lens(ctx->cam))
+        for (int i = 0; i < n; ++i)
+            rays[i] = spc_camera_ray_lens(ctx->cam, px[i], py[i], spc_sampler_2d(&smp[i]));
+    else
+        spc_camera_ray_many(ctx->cam, n, px, py, rays);
+    return n;
+}
+
 /* Stores the estimate `out` of pixel (x, y) (camera ray cam_ray) in a pass's buffer. */
 static void store_sample(const job *jb, spc_tls *tls, double *buf, int x, int y, const spc_ray *cam_ray,
                          spc_sample_out *out, const spc_rgb *strategy_L)
@@ -184,13 +217,11 @@ static void render_item(job *jb, int item)
         spc_ray rays[SPC_TILE * SPC_TILE];
         spc_sampler smp[SPC_TILE * SPC_TILE];
         spc_sample_out out[SPC_TILE * SPC_TILE];
-        int n = 0;
-        for (int y = t->y0; y < t->y1; ++y)
-            for (int x = t->x0; x < t->x1; ++x, ++n) {
-                rays[n] = camera_sample(jb, pass, x, y, &smp[n]);
-                out[n].strategy_L = NULL;
-                out[n].aovs = jb->base == 3 + SPC_FILM_AOVS;
-            }
+        int n = camera_samples_tile(jb, pass, t, rays, smp);
+        for (int i = 0; i < n; ++i) {
+            out[i].strategy_L = NULL;
+            out[i].aovs = jb->base == 3 + SPC_FILM_AOVS;
+        }
         spc_path_wave_sample(ctx, tls, n, rays, smp, out);
         n = 0;
         for (int y = t->y0; y < t->y1; ++y)

@@ -28,6 +28,9 @@ typedef struct spc_camera_state {
 bool spc_camera_prepare(spc_camera_state *cs, const spc_camera *c, int width, int height);
 /* Ray through continuous film position (fx, fy) in pixels of the full film. */
 spc_ray spc_camera_ray(const spc_camera_state *cs, double fx, double fy);
+/* out[i] = spc_camera_ray(cs, fx[i], fy[i]) for i < n, bit for bit, many at once (scene/camera_many.c:
+ * vector instructions where the CPU has AVX2 or AVX-512) */
+void spc_camera_ray_many(const spc_camera_state *cs, int n, const double *fx, const double *fy, spc_ray *out);
 /* True for a thin-lens camera (aperture_radius > 0): its rays need a lens sample. */
 static inline bool spc_camera_has_lens(const spc_camera_state *cs) { return cs->aperture_radius > 0.0; }
 /* A thin lens's ray through (fx, fy) from the lens point u_lens (uniform in [0,1)^2, mapped
