@@ -50,22 +50,12 @@ static spc_scene *ball_scene(bool toward, int res)
 /* Renders with setting snee; the stats' setting and pilot note go to ran (96) and note (448). */
 static spc_film *render_ran(const spc_scene *sc, const char *snee, int spp, int threads, char *ran, char *note)
 {
-    spc_render_options o;
-    spc_render_options_init(&o);
-    o.spp = spp;
-    o.threads = threads;
-    o.seed = 5;
-    o.specular_nee = snee;
-    spc_film *f = NULL;
     spc_render_stats st;
-    memset(&st, 0, sizeof st);
-    spc_error err;
-    if (spc_render(sc, &o, &f, &st, &err) != SPC_OK) {
-        printf("  render failed: %s\n", err.msg);
-        return NULL;
+    spc_film *f = tu_render_stats(sc, NULL, snee, spp, threads, 5, &st);
+    if (f) {
+        snprintf(ran, 96, "%s", st.specular_nee);
+        snprintf(note, 448, "%s", st.specular_nee_pilot);
     }
-    snprintf(ran, 96, "%s", st.specular_nee);
-    snprintf(note, 448, "%s", st.specular_nee_pilot);
     return f;
 }
 
