@@ -334,14 +334,15 @@ static double long_psi(const spc_snee_query *q, int k)
 
 /* The longest chain through flat faces enumerated at every call: the budget, or where the longer
  * chains run (the path's track then follows covered paths past the budget, to q->long_max) up to
- * SPC_FLAT_MAX_VERTICES: two slabs' four interfaces, a slab's total internal reflections, each
+ * SPC_FLAT_EVERY_CALL: two slabs' four interfaces, a slab's total internal reflections, each
  * chain counted once (psi 1), instead of with 1 / psi on the long pass's few calls, whose tail held
  * most of the small-light slabs' error (bench/RESULTS.md, "Planar" and "Flat 2"). */
+#define SPC_FLAT_EVERY_CALL 4
 static int flat_max(const spc_snee_query *q)
 {
     int hi = q->max_chain;
-    if (long_on(q) && hi < SPC_FLAT_MAX_VERTICES)
-        hi = q->long_max < SPC_FLAT_MAX_VERTICES ? q->long_max : SPC_FLAT_MAX_VERTICES;
+    if (long_on(q) && hi < SPC_FLAT_EVERY_CALL)
+        hi = q->long_max < SPC_FLAT_EVERY_CALL ? q->long_max : SPC_FLAT_EVERY_CALL;
     return hi;
 }
 
