@@ -40,7 +40,9 @@
  * no emitter. The code handles conductor faces (reflections), but flat mirrors are left to the
  * solver: on one, test_manifold's snee_point_estimates read 0.6% low, not yet explained. Chains: 1 to SPC_FLAT_MAX_VERTICES
  * vertices, every vertex on such a shape (one shape or several: two slabs' four faces), conductor
- * vertices reflect, dielectric vertices refract, or reflect when spc_snee_params.reflect.
+ * vertices reflect, dielectric vertices refract, or reflect when spc_snee_params.reflect (a
+ * reflection off glass alone, or a total internal reflection in a longer chain, on any of its
+ * shapes).
  *
  * What is missed: chains with a segment whose medium the two faces at its ends disagree on (glass
  * touching glass of another index, a face inside another shape); spc_flat_chain_covers leaves those

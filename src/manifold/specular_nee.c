@@ -596,7 +596,13 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
             return c->n <= flat_max(q) ? 1.0 : long_psi(q, c->n); /* through flat faces, at every call */
         if (p->exact && spc_sphere_chain_covers(c, p->reflect))
             return long_psi(q, c->n); /* enumerated on the sphere */
-        return random_long(p) ? long_psi(q, c->n) * random_psi(p) : 0.0; /* a randomized attempt's */
+        if (!random_long(p))
+            return 0.0;
+        spc_snee_query lq = *q;
+        lq.min_chain = lq.max_chain = c->n;
+        if (p->exact && spc_snee_exact_covers_all(&lq))
+            return 0.0; /* the long pass makes no randomized attempt there (estimate), and c is not exact */
+        return long_psi(q, c->n) * random_psi(p); /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
         return 0.0; /* the exact enumerations alone run there, and c is not theirs */
