@@ -856,10 +856,9 @@ static bool backward_meets(flat_walk *w, int k)
 }
 
 /* i: the vertex to choose; medium: the index of the segment arriving there (-1: not known); dir:
- * the cap of that segment's directions; tir_before: some vertex before is a total internal
- * reflection; mixed: the vertices before lie on more than one shape. Each sequence of lo to hi
- * vertices that passes the pruning is solved as it is completed, and longer ones grow from it. */
-static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, bool mixed)
+ * the cap of that segment's directions. Each sequence of lo to hi vertices that passes the
+ * pruning is solved as it is completed, and longer ones grow from it. */
+static void walk(flat_walk *w, int i, double medium, cone dir)
 {
     flat_problem *P = &w->P;
     double tol = SPC_FLAT_SIDE_REL * P->scale;
@@ -923,19 +922,17 @@ static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, 
                     if (eta > 0.0 ? (event == SPC_CHAIN_REFLECT && !w->reflect) : event == SPC_CHAIN_REFRACT)
                         continue;
                     /* off glass: one reflection alone (the light's image in a pane), or a total
-                     * internal reflection in a chain on one shape (flat_chains.h) */
+                     * internal reflection in a longer chain (flat_chains.h) */
                     double tir = 0.0;
                     bool tir_ok = true; /* may be a total internal reflection in a longer chain */
                     if (eta > 0.0 && event == SPC_CHAIN_REFLECT) {
                         tir = side_index(eta, side) / side_index(eta, -side);
-                        tir_ok = tir > 1.0 && !mixed && !(prev && prev->s != s) &&
+                        tir_ok = tir > 1.0 &&
                                  !(arrive.r < SPC_PI &&
                                    angle_between(arrive.a, spc_scale(f->n, -side)) + arrive.r <= asin(1.0 / tir));
                         if (i > 0 && !tir_ok)
                             continue;
                     }
-                    if (tir_before && prev && prev->s != s)
-                        continue;
                     int side_out = event == SPC_CHAIN_REFRACT ? -side : side;
                     double m_out = eta > 0.0 ? side_index(eta, side_out) : m_in;
                     double n_in = m_in >= 0.0 ? m_in : 1.0, n_out = m_out >= 0.0 ? m_out : 1.0;
@@ -980,7 +977,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir, bool tir_before, 
                             w->stop = true;
                     }
                     if (k < w->hi && tir_ok)
-                        walk(w, k, m_out, leave, tir_before || tir > 0.0, mixed || (prev && prev->s != s));
+                        walk(w, k, m_out, leave);
                 }
             }
         }
@@ -1014,7 +1011,7 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
     w.P.scale = spc_length(spc_sub(y, x)) + 2.0 * cs->radius;
     w.found = found;
     w.user = user;
-    walk(&w, 0, -1.0, (cone){spc_v3(0, 0, 1), 4.0}, false, false);
+    walk(&w, 0, -1.0, (cone){spc_v3(0, 0, 1), 4.0});
     return w.sequences;
 }
 
@@ -1107,9 +1104,6 @@ bool spc_flat_chain_covers(const spc_chain *c, bool reflect)
             double ratio = side_index(eta, side) / side_index(eta, -side);
             if (!(ratio > 1.0) || !total_reflection(v->wi, f->n, ratio))
                 return false; /* a partial reflection off glass in a longer chain: not enumerated */
-            for (int j = 0; j < n; ++j)
-                if (c->v[j].h.shape != s)
-                    return false; /* total internal reflections only in chains on one shape */
         }
         double in = side_index(eta, side);
         if (in >= 0.0 && medium >= 0.0 && fabs(in - medium) > 1e-9 * in)

@@ -40,12 +40,14 @@
  * no emitter. The code handles conductor faces (reflections), but flat mirrors are left to the
  * solver: on one, test_manifold's snee_point_estimates read 0.6% low, not yet explained. Chains: 1 to SPC_FLAT_MAX_VERTICES
  * vertices, every vertex on such a shape (one shape or several: two slabs' four faces), conductor
- * vertices reflect, dielectric vertices refract, or reflect when spc_snee_params.reflect.
+ * vertices reflect, dielectric vertices refract, or reflect when spc_snee_params.reflect (a
+ * reflection off glass alone, or a total internal reflection in a longer chain, on any of its
+ * shapes).
  *
  * What is missed: chains with a segment whose medium the two faces at its ends disagree on (glass
  * touching glass of another index, a face inside another shape); spc_flat_chain_covers leaves those
- * to the randomized attempts. Longer chains than SPC_FLAT_MAX_VERTICES (the long=P pass's 5 and 6)
- * are the randomized attempts' too.
+ * to the randomized attempts. Chains longer than SPC_FLAT_MAX_VERTICES are the randomized
+ * attempts' too.
  */
 #ifndef SPC_MANIFOLD_FLAT_CHAINS_H
 #define SPC_MANIFOLD_FLAT_CHAINS_H
@@ -60,9 +62,13 @@ struct spc_snee_query;
  * number of faces to the power of the chain's length, so a faceted ball is left to the solver. */
 #define SPC_FLAT_MAX_FACES 16
 
-/* Longest chain enumerated: two slabs' four faces; a cube's internal reflection (in, two total
- * internal reflections, out). */
-#define SPC_FLAT_MAX_VERTICES 4
+/* Longest chain enumerated: up to 4 vertices (two slabs' four faces; a cube's internal reflection:
+ * in, two total internal reflections, out) at every call of specular NEE (specular_nee.c,
+ * flat_max), 5 and 6 on the long pass (params.long_p): a total internal reflection off a slab's
+ * thin side face on the way through two slabs. Left to randomized attempts, such a chain is found
+ * so rarely that its <1/p_solve> made a heavy tail that read 2-4% low where it lands
+ * (bench/RESULTS.md, "Flat bias hunt"). */
+#define SPC_FLAT_MAX_VERTICES 6
 
 /* Is s a flat-faced shape these chains handle? (Groups its faces on first use.) */
 bool spc_flat_chain_shape(const spc_shape *s);

@@ -334,14 +334,15 @@ static double long_psi(const spc_snee_query *q, int k)
 
 /* The longest chain through flat faces enumerated at every call: the budget, or where the longer
  * chains run (the path's track then follows covered paths past the budget, to q->long_max) up to
- * SPC_FLAT_MAX_VERTICES: two slabs' four interfaces, a slab's total internal reflections, each
+ * SPC_FLAT_EVERY_CALL: two slabs' four interfaces, a slab's total internal reflections, each
  * chain counted once (psi 1), instead of with 1 / psi on the long pass's few calls, whose tail held
  * most of the small-light slabs' error (bench/RESULTS.md, "Planar" and "Flat 2"). */
+#define SPC_FLAT_EVERY_CALL 4
 static int flat_max(const spc_snee_query *q)
 {
     int hi = q->max_chain;
-    if (long_on(q) && hi < SPC_FLAT_MAX_VERTICES)
-        hi = q->long_max < SPC_FLAT_MAX_VERTICES ? q->long_max : SPC_FLAT_MAX_VERTICES;
+    if (long_on(q) && hi < SPC_FLAT_EVERY_CALL)
+        hi = q->long_max < SPC_FLAT_EVERY_CALL ? q->long_max : SPC_FLAT_EVERY_CALL;
     return hi;
 }
 
@@ -613,7 +614,13 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
             return c->n <= flat_max(q) ? 1.0 : long_psi(q, c->n); /* through flat faces, at every call */
         if (p->exact && spc_sphere_chain_covers(c, p->reflect))
             return long_psi(q, c->n); /* enumerated on the sphere */
-        return random_long(p) ? long_psi(q, c->n) * attempt_psi(q, c) : 0.0; /* a randomized attempt's */
+        if (!random_long(p))
+            return 0.0;
+        spc_snee_query lq = *q;
+        lq.min_chain = lq.max_chain = c->n;
+        if (p->exact && spc_snee_exact_covers_all(&lq))
+            return 0.0; /* the long pass makes no randomized attempt there (estimate), and c is not exact */
+        return long_psi(q, c->n) * attempt_psi(q, c); /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
         return 0.0; /* the exact enumerations alone run there, and c is not theirs */
