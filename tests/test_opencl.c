@@ -7,8 +7,8 @@
  *   and operation under a sphere light, with a mirror, a glass CSG object and rectangles
  *   (scenes/sdf_shapes_csg.xml); a rectangle light over SDF shapes and a glass sphere, with the
  *   tent filter.
- * - The device is deterministic (two renders are equal bit for bit) and keeps the driver's pass
- *   structure: a render checkpointed and resumed equals the uninterrupted one bit for bit, a
+ * - The device is deterministic (two renders are equal bit for bit; the image does not depend on
+ *   how a batch is cut into kernel launches) and keeps the driver's pass structure: a render checkpointed and resumed equals the uninterrupted one bit for bit, a
  *   checkpoint does not resume on another device, --time renders whole passes.
  * - Scenes and options it does not support are refused, naming what is missing, by the library
  *   and by `specula render --device opencl` (nonzero exit); `specula info --devices` lists an
@@ -212,6 +212,50 @@ TEST(deterministic)
     spc_scene_destroy(sc);
 }
 
+/* How the device cuts a batch into kernel launches does not change the image: bdpt's light-tracing
+ * splats reach pixels whose camera samples another launch renders (they were lost when a pass
+ * spanned two launches, which on a fast GPU, with many passes per batch, darkened the image by
+ * 4-6%). SPC_CL_LAUNCH_ITEMS makes the launches small: 100 items cut each 24x24 pass into six,
+ * 1000 hold one pass each. The sums are of floats in double, equal but for rounding. */
+TEST(launch_size_does_not_change_image)
+{
+    spc_scene *sc = load_scene("scenes/sdf_shapes_csg.xml", NULL, 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const char *integrators[] = {"bdpt", "path"};
+    for (int i = 0; i < 2; ++i) {
+        unsetenv("SPC_CL_LAUNCH_ITEMS");
+        spc_film *ref = render_on(sc, "opencl", integrators[i], 8, 24, 6, 5, NULL);
+        CHECK(ref != NULL);
+        const char *sizes[] = {"100", "1000"};
+        for (int k = 0; k < 2 && ref; ++k) {
+            setenv("SPC_CL_LAUNCH_ITEMS", sizes[k], 1);
+            spc_film *f = render_on(sc, "opencl", integrators[i], 8, 24, 6, 5, NULL);
+            CHECK(f != NULL);
+            if (!f)
+                continue;
+            int differ = 0;
+            double sum_ref = 0.0, sum = 0.0;
+            for (int p = 0; p < 3 * 24 * 24; ++p) {
+                double a = ref->rgb[p], b = f->rgb[p];
+                sum_ref += a;
+                sum += b;
+                if (!(fabs(a - b) <= 1e-6 * fabs(a) + 1e-30))
+                    ++differ;
+            }
+            printf("  %s, launches of %s items: %d of %d values differ, image sums %.6f and %.6f\n", integrators[i],
+                   sizes[k], differ, 3 * 24 * 24, sum_ref, sum);
+            CHECK_MSG(differ == 0, "%s, launches of %s items: %d values differ", integrators[i], sizes[k], differ);
+            CHECK(f->spp == ref->spp && ref->spp == 6);
+            spc_film_destroy(f);
+        }
+        unsetenv("SPC_CL_LAUNCH_ITEMS");
+        spc_film_destroy(ref);
+    }
+    spc_scene_destroy(sc);
+}
+
 /* A scene file with one thing the device lacks is refused with a message naming it. */
 static void check_refused(const char *xml, const char *integrator, const char *device, const char *expect)
 {
@@ -385,6 +429,7 @@ int main(void)
     RUN(devices_listed);
     RUN(unsupported_scenes_refused);
     RUN(deterministic);
+    RUN(launch_size_does_not_change_image);
     RUN(checkpoint_resume_and_time_limit);
     RUN(cli_refuses_by_name);
     RUN(torus_path_matches_cpu);

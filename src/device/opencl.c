@@ -22,6 +22,8 @@
  * Debugging: the environment variable SPC_CL_DEBUG adds kernel build options; "-DONLY_S=s
  * -DONLY_T=t" renders only bdpt's strategy (s, t), unweighted, or weighted with "-DWEIGHTED" (the
  * CPU's --strategy s,t [--strategy-weighted]), to compare one strategy with the CPU's.
+ * SPC_CL_LAUNCH_ITEMS=n (below the default) makes the kernel launches smaller: the image must not
+ * change (tests/test_opencl.c cuts passes into many launches with it).
  *
  * Built without OpenCL (CMake found no OpenCL), every entry point says so.
  */
@@ -678,6 +680,9 @@ spc_status spc_cl_create(const spc_render_ctx *ctx, int device_index, bool aovs,
         CHECK("clCreateBuffer");
     }
     r->launch_items = r->bdpt ? CL_LAUNCH_ITEMS_BDPT : CL_LAUNCH_ITEMS;
+    const char *li = getenv("SPC_CL_LAUNCH_ITEMS");
+    if (li && atoi(li) > 0 && atoi(li) < r->launch_items)
+        r->launch_items = atoi(li);
     r->out = clCreateBuffer(r->context, CL_MEM_WRITE_ONLY, (size_t)r->launch_items * 3 * sizeof(float), NULL, &e);
     CHECK("clCreateBuffer");
     r->host_out = malloc((size_t)r->launch_items * 3 * sizeof(float));
@@ -747,10 +752,30 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
         return spc_error_set(err, SPC_ERR_LIMIT, file, 0, 0,
                              "opencl device: bdpt's light-tracing splats index at most 2^24 pixels, the image has %zu",
                              npix);
+    /* Launches hold whole passes where a pass fits in one (the most that fit), else one part of a
+     * pass each, cut at the same pixels in every pass: where the launches start depends on the
+     * pass structure alone, not on the batch, so a pixel's sum below (its camera sample and the
+     * splats it receives, added in launch and work-item order) is the same in every batching (a
+     * resumed render equals an uninterrupted one bit for bit). */
+    size_t per_launch = (size_t)r->launch_items;
+    if (npix > 0 && npix <= per_launch)
+        per_launch = per_launch / npix * npix;
+    /* Splats reach any pixel of their pass, also one whose camera sample a later launch renders:
+     * every value is added to a zeroed batch, none assigned (an assignment would erase the splats
+     * that arrived before it). */
+    for (size_t g = 0; g < total; ++g) {
+        double *d = buf + g * (size_t)stride;
+        d[0] = d[1] = d[2] = 0.0;
+    }
     /* total == 0: one empty launch, which makes implementations that compile on first use (PoCL
      * specializes kernels for the work-group size then) do it before the render's clock starts */
-    for (size_t start = 0; start < total || (total == 0 && start == 0); start += (size_t)r->launch_items) {
-        size_t count = total - start < (size_t)r->launch_items ? total - start : (size_t)r->launch_items;
+    size_t start = 0;
+    do {
+        size_t count = per_launch;
+        if (npix > per_launch && npix - start % npix < count)
+            count = npix - start % npix; /* the pass's last part */
+        if (count > total - start)
+            count = total - start;
         cl_int base = (cl_int)start;
         cl_uint a = ARG_BATCH;
         cl_int e = clSetKernelArg(r->kernel, a++, sizeof p0, &p0);
@@ -793,12 +818,11 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
             const float *v = r->host_out + 3 * k;
             if (!finite_rgb(v)) {
                 ++*invalid;
-                d[0] = d[1] = d[2] = 0.0;
                 continue;
             }
-            d[0] = v[0];
-            d[1] = v[1];
-            d[2] = v[2];
+            d[0] += v[0];
+            d[1] += v[1];
+            d[2] += v[2];
         }
         if (r->bdpt) {
             /* splats in work-item order: deterministic; each record is the pixel index in the window
@@ -825,7 +849,8 @@ spc_status spc_cl_render_passes(spc_cl_renderer *r, int pass0, int npasses, uint
                 }
             }
         }
-    }
+        start += count;
+    } while (start < total);
     return SPC_OK;
 }
 
