@@ -6,7 +6,7 @@ after unpacking .devkit/lib.tar.xz (see bench/gpu/check.sh): LP is the library p
 then the driver's folder), OCL_ICD_VENDORS a folder naming the driver's libnvidia-opencl.so.1.
 Knobs (environment): RES, SPP, NS (seeds), SCENES (space-separated scene names), OPTIONS
 ('|'-separated kernel build options for full-image rows; "none" for no such rows), PATHROW (0 skips
-path), STRATS (space-separated s,t; default every strategy up to s + t = 6), BUDGET (seconds)."""
+path), STRATS (space-separated s,t, or none; default every strategy up to s + t = 6), BUDGET (seconds)."""
 import json, os, subprocess, sys, time, numpy as np
 K = os.path.join(os.getcwd(), ".devkit"); L = K + "/lib"; LP = os.environ.get("LP", L)
 OUT = os.environ.get("OUT", "/tmp/devout"); os.makedirs(OUT, exist_ok=True)
@@ -16,7 +16,9 @@ SCENES = os.environ.get("SCENES", "sdf_shapes_csg").split()
 OPTIONS = os.environ.get("OPTIONS", "|-cl-opt-disable|-cl-fp32-correctly-rounded-divide-sqrt|-cl-denorms-are-zero")
 PATHROW = os.environ.get("PATHROW", "1") == "1"
 STRATS = os.environ.get("STRATS")
-if STRATS:
+if STRATS == "none":
+    STRATS = []
+elif STRATS:
     STRATS = [tuple(map(int, x.split(","))) for x in STRATS.split()]
 else:
     STRATS = [(s, k - s) for k in range(2, 7) for s in range(0, k) if (s, k - s) != (1, 1)]
