@@ -213,10 +213,10 @@ TEST(deterministic)
 }
 
 /* How the device cuts a batch into kernel launches does not change the image: bdpt's light-tracing
- * splats reach pixels whose camera samples another launch renders (they were lost when a pass
- * spanned two launches, which on a fast GPU, with many passes per batch, darkened the image by
- * 4-6%). SPC_CL_LAUNCH_ITEMS makes the launches small: 100 items cut each 24x24 pass into six,
- * 1000 hold one pass each. The sums are of floats in double, equal but for rounding. */
+ * splats reach pixels whose camera samples another launch renders, earlier or later (on a fast GPU
+ * the driver's batches hold many passes, so a pass often spans two launches). SPC_CL_LAUNCH_ITEMS
+ * makes the launches small: 100 items cut each 24x24 pass into six, 1000 hold one pass each. The
+ * sums are of floats in double, equal but for rounding. */
 TEST(launch_size_does_not_change_image)
 {
     spc_scene *sc = load_scene("scenes/sdf_shapes_csg.xml", NULL, 0);
