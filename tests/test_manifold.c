@@ -1654,9 +1654,8 @@ static void combined_estimate(const spc_scene *sc, const spc_snee_params *p, con
  * the BSDF side: a mismatch with the pass's probability shows as a wrong sum), without the longer
  * chains (they are then BSDF sampling's alone), and with the ball's chains left to the randomized
  * attempts (noexact: the longer ones found by one attempt of fixed length and its trial count,
- * psi x mispsi in MIS with nosolvemis, the real solve probability by default). The BSDF-sampled
- * paths through the longer chains must have been handed in part to specular NEE (mean weight below
- * 1) but with the real solve probability. */
+ * psi x mispsi in MIS). The BSDF-sampled paths through the longer chains must have been handed in
+ * part to specular NEE (mean weight below 1). */
 TEST(snee_long_chains_point_combination)
 {
     spc_scene *sc = caustic_scene();
@@ -1670,32 +1669,27 @@ TEST(snee_long_chains_point_combination)
     brute_force_bsdf(sc, &x, wo, 8000000, 6, bf, bf_se);
     printf("    brute force: chains <= 2: %.3e +- %.1e, <= 6: %.3e +- %.1e\n", bf[0], bf_se[0], bf[1], bf_se[1]);
     CHECK(bf[1] > bf[0] + 4.0 * bf_se[1]); /* the longer chains matter here */
-    /* the last two: the ball's chains left to the randomized attempts (noexact), the longer ones too,
-     * weighed with the stand-in psi (nosolvemis) and with the real solve probability (solve_mis.h:
-     * the attempts rarely find a chain with internal reflections, so BSDF sampling keeps nearly
-     * all of those paths, and only the sum is checked) */
-    const double long_ps[5] = {0.5, 0.1, 0.0, 0.5, 0.5};
-    for (int li = 0; li < 5; ++li) {
+    /* the last: the ball's chains left to the randomized attempts (noexact), the longer ones too */
+    const double long_ps[4] = {0.5, 0.1, 0.0, 0.5};
+    for (int li = 0; li < 4; ++li) {
         spc_snee_params p;
         spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
         p.mis = true;
         p.long_p = long_ps[li];
         p.exact = li < 3;
-        p.solve_mis = li != 3;
         double m, se, wlong;
         int nlong;
         combined_estimate(sc, &p, &x, wo, 2, 6, 400000, 91, (uint64_t)li, &m, &se, &wlong, &nlong, NULL);
         printf("    long_p %.2f%s: specular NEE + weighted BSDF paths %.3e +- %.1e; %d BSDF paths through 3-6 vertices, "
                "mean weight %.3f\n",
-               long_ps[li], p.exact ? "" : li == 3 ? " (noexact, nosolvemis)" : " (noexact)", m, se, nlong,
-               nlong ? wlong / nlong : 0.0);
+               long_ps[li], p.exact ? "" : " (noexact)", m, se, nlong, nlong ? wlong / nlong : 0.0);
         CHECK_MSG(fabs(m - bf[1]) <= 4.0 * sqrt(se * se + bf_se[1] * bf_se[1]), "long_p %.2f: %.6f vs %.6f", long_ps[li],
                   m, bf[1]);
         CHECK(nlong >= 10);
-        if (li == 2)
-            CHECK(wlong == nlong);
-        else if (li < 4)
+        if (li != 2)
             CHECK(wlong < 0.9 * nlong);
+        else
+            CHECK(wlong == nlong);
     }
     spc_scene_destroy(sc);
 }
@@ -1950,7 +1944,6 @@ TEST(camera_snee_lamp_through_lens)
         if (sph == 2)
             p.camera_p = 0.3; /* "camera=0.3": the query's density scaled in both weights */
         p.mis_solve = 0.1;
-        p.solve_mis = false; /* the stand-in's deterministic weights (the real probability's are sampled) */
         const double cam_scale = 4.0;
         double worst = 0.0, wmin = 1.0, wmax = 0.0;
         int npaths = 0, nreflect = 0;

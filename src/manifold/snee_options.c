@@ -58,8 +58,8 @@ static const spc_snee_option options[] = {
      "MIS weighs the chains of randomized attempts as if found with probability Q"},
     {"solvemis", "nosolvemis", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(solve_mis), NO, 0,
      NULL,
-     "MIS weighs the chains of randomized attempts by their real solve probability, sampled by Bernoulli "
-     "trials (on by default; nosolvemis: the stand-in mispsi)"},
+     "MIS weighs the chains of randomized attempts through tessellated balls by their real solve "
+     "probability, sampled by Bernoulli trials (on by default; nosolvemis: the stand-in mispsi)"},
     {"misev", "nomisev", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(mis_events), NO, 0, NULL,
      "with reflect, MIS weighs a randomized attempt's chain as if found with mispsi times its events' "
      "probability (off by default)"},

@@ -625,10 +625,29 @@ static double straight_psi(const spc_snee_params *p)
  * guided directions (whose third strategy keeps the stand-in). */
 static bool solve_mis_on(const spc_snee_params *p) { return p->mis && p->solve_mis && !p->biased && !guide_on(p); }
 
+/* Is every vertex of c on a tessellated ball (a sphere fit, fit_seeds.h)? The real solve probability
+ * weighs only those chains: on a water mesh (scenes/newton_pool.xml, p moderate everywhere) it was
+ * 2.3x worse at equal time than the stand-in, which hands BSDF sampling more of the paths and so
+ * avoids the trial count's own variance, which the balance heuristic does not see; on the SDF torus
+ * the two were alike over 24 seeds (bench/RESULTS.md, "Tails 3"). A function of the chain, so both
+ * sides of the MIS decide alike. */
+static bool solve_mis_chain(const spc_snee_params *p, const spc_chain *c)
+{
+    if (!solve_mis_on(p) || c->n < 1)
+        return false;
+    for (int i = 0; i < c->n; ++i) {
+        spc_vec3 fc;
+        double fr;
+        if (!c->v[i].h.shape || !spc_fit_sphere(c->v[i].h.shape, &fc, &fr))
+            return false;
+    }
+    return true;
+}
+
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
  * straight-line solution: straight_psi), else random_psi; past the budget long_psi for a longer chain on one
  * sphere (params.long_p), else 0 (specular NEE never makes it). *rand_s: for a chain that a
- * randomized attempt finds (solve_mis_on), the probability of the query's pass that looks for it
+ * randomized attempt finds (solve_mis_chain), the probability of the query's pass that looks for it
  * (long_psi on the long pass, else 1); 0 for every other chain. */
 static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *rand_s)
 {
@@ -645,14 +664,14 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
         lq.min_chain = lq.max_chain = c->n;
         if (p->exact && spc_snee_exact_covers_all(&lq))
             return 0.0; /* the long pass makes no randomized attempt there (estimate), and c is not exact */
-        if (solve_mis_on(p))
+        if (solve_mis_chain(p, c))
             *rand_s = long_psi(q, c->n);
         return long_psi(q, c->n) * attempt_psi(q, c); /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
         return 0.0; /* the exact enumerations alone run there, and c is not theirs */
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
-    if (!solver || (random_psi(p) == 1.0 && !solve_mis_on(p)))
+    if (!solver || (random_psi(p) == 1.0 && !solve_mis_chain(p, c)))
         return 1.0;
     if (exact_covers(q, solver, c))
         return 1.0;
@@ -662,7 +681,7 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
     int it = 0;
     if (straight_solve(q, solver, &straight, &it) && spc_snee_same_solution(&straight, c, q->scene->radius))
         return 1.0;
-    if (solve_mis_on(p))
+    if (solve_mis_chain(p, c))
         *rand_s = 1.0;
     return attempt_psi(q, c);
 }
@@ -983,7 +1002,7 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
         st->iterations += (uint64_t)it;
     if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol))
         return;
-    if (solve_mis_on(lq->params)) {
+    if (solve_mis_chain(lq->params, &sol)) {
         if (st)
             st->solved++;
         emit_solve_mis(lq, solver, e, uv, p_y, &sol, rng, st, sk);
@@ -1096,7 +1115,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         return; /* counted exactly above */
     if (st)
         st->solved++;
-    if (solve_mis_on(p)) {
+    if (solve_mis_chain(p, &sol)) {
         emit_solve_mis(q, solver, e, uv, p_y, &sol, rng, st, sk);
         return;
     }
