@@ -16,15 +16,18 @@
  * sampling F / b times the weight b Z = 1 - r^N from a count of its own: unbiased, each side bounded
  * by F / b (Z <= 1 / b), so the count's heavy tail N / A where p is small stays only where b is
  * small against A, where BSDF sampling cannot take the path. The second moment of the pair is within
- * a small factor of the deterministic balance heuristic's (Z <= min(1 / b, N / (A + b))). (A
- * Bernoulli weight of the same mean, 1 with probability b / (p A + b), was measured worse on the
- * triangle glass ball: where b is small against p A it hands BSDF sampling's rare large value F / b
- * over whole.)
+ * a small factor of the deterministic balance heuristic's (Z <= min(1 / b, N / (A + b))). A 0/1
+ * weight of the same mean on the BSDF side (1 with probability b / (p A + b)) would add the
+ * variance of a coin flip on BSDF sampling's largest values F / b; b Z does not.
  *
  * Cost: specular NEE's count is the trial count it ran before (one attempt per trial); once r^n is
  * small (solve_mis.c) the rest of r^N is one Russian roulette of probability r per attempt, so a
- * count stops after a few times A / b attempts where p is small and b is not. Both sides count at most `cap` attempts, as the trial count always
- * was (N replaced by min(N, cap) on both sides: a cut count loses a little where p < ~1/cap).
+ * count stops after a few times A / b attempts where p is small and b is not. Both sides count at
+ * most `cap` attempts, as the trial count always was (N replaced by min(N, cap) on both sides: a
+ * cut count loses a little where p < ~1/cap).
+ *
+ * specular_nee.c applies it to the chains through tessellated balls (solver.h, solve_mis), whose
+ * seeds (fit_seeds.h) make p large; elsewhere MIS keeps the stand-in psi.
  */
 #ifndef SPC_MANIFOLD_SOLVE_MIS_H
 #define SPC_MANIFOLD_SOLVE_MIS_H
