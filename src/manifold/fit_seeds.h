@@ -28,7 +28,9 @@
 struct spc_snee_query;
 
 /* The share of a randomized attempt's seeds drawn from the fitted sphere's solutions where the caster
- * picked has a fit and solutions exist (measured in bench/RESULTS.md, "Tails 3"). */
+ * picked has a fit and solutions exist: at floor points in the triangle ball's caustic the rare sheet's
+ * p goes from 0.02-0.05 to 0.17-0.19 and the main chain's from 0.6 to 0.47 (test_fit_seeds; other
+ * shares not measured; bench/RESULTS.md, "Tails 3"). */
 #define SPC_FIT_SEED_SHARE 0.5
 /* Directions kept per shape and query. */
 #define SPC_FIT_MAX_DIRS 16
