@@ -56,6 +56,10 @@ static const spc_snee_option options[] = {
      NULL, "chains also reflect off glass, with probability P at a dielectric vertex of a seed chain"},
     {"mispsi", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(mis_solve), 0, NULL,
      "MIS weighs the chains of randomized attempts as if found with probability Q"},
+    {"solvemis", "nosolvemis", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(solve_mis), NO, 0,
+     NULL,
+     "MIS weighs the chains of randomized attempts through tessellated balls by their real solve "
+     "probability, sampled by Bernoulli trials (on by default; nosolvemis: the stand-in mispsi)"},
     {"misev", "nomisev", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(mis_events), NO, 0, NULL,
      "with reflect, MIS weighs a randomized attempt's chain as if found with mispsi times its events' "
      "probability (off by default)"},
@@ -81,6 +85,10 @@ static const spc_snee_option options[] = {
      SPC_SNEE_RECV_GUIDE, NULL,
      "path: at a non-delta vertex, with probability A a direction toward the caustics a photon pre-pass "
      "found (recguide alone: A 0.25)"},
+    {"fitseeds", "nofitseeds", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(fit_seeds), NO, 0,
+     NULL,
+     "a share of the randomized attempts on a tessellated ball seeded toward the exact solutions of the "
+     "sphere fitted to it (on by default)"},
     {"seedguide", "noseedguide", SPC_SNEE_OPT_REAL, true, "A", 0, 1, true, true, NULL, 0, NO, AT(seed_guide),
      SPC_SNEE_SEED_GUIDE, NULL,
      "randomized attempts seeded, with probability A, toward the chains of light paths a pre-pass traced "

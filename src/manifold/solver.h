@@ -87,6 +87,14 @@ typedef struct spc_snee_params {
      * finds, whose <1/p_solve> trial count makes them heavy-tailed where p_solve is small. */
     bool mis;
     double mis_solve;
+    /* With mis: the chains of randomized attempts through tessellated balls (every vertex on a shape
+     * with a sphere fit, fit_seeds.h) weighed by the balance heuristic with their real solve
+     * probability instead of the stand-in psi (the user's "solvemis" / "nosolvemis"; on by default;
+     * not with guide; other chains keep the stand-in, which measured better on a water mesh). Specular NEE's trial count N becomes the estimate (1 - r^N) / b of
+     * 1 / (p A + b), BSDF sampling's weight a roulette of the same trials (solve_mis.h): both sides
+     * bounded by the BSDF-sampled value f / b where BSDF sampling reaches the chain, so the count's
+     * tail N / A stays only where it cannot. */
+    bool solve_mis;
     /* With reflect: the stand-in psi of a randomized attempt's chain is mis_solve times the probability
      * of the chain's events (spc_chain_events_prob), which its trial count is divided by (the user's
      * "misev" / "nomisev"; off by default: it removed a longer chain's firefly on the SDF torus but
@@ -195,6 +203,11 @@ typedef struct spc_snee_params {
      * the camera. 0: off. sguide is the pre-pass the render built (NULL: none, the seeds uniform). */
     double seed_guide;
     const struct spc_sguide *sguide;
+    /* Seeds from a fitted sphere (the user's "fitseeds" / "nofitseeds"; on by default; fit_seeds.h):
+     * with SEED_SHAPE or SEED_CONE, where the caster an attempt picks is a tessellated ball, a share
+     * of its seeds go toward the exact solutions of the sphere fitted to it, so that every chain
+     * the ball has is found with a probability that keeps its trial count short. */
+    bool fit_seeds;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
@@ -241,6 +254,9 @@ typedef struct spc_snee_query {
     int min_chain, long_max;
     /* params.guide: the cones at x (built on first use per light, specular_nee.c); NULL without. */
     struct spc_snee_cones *cones;
+    /* The fitted spheres' solutions toward y (fit_seeds.h), kept for the query's attempts and trials;
+     * NULL: computed at each attempt. */
+    struct spc_fit_roots *fit;
 } spc_snee_query;
 
 /* A query from x (wo toward the previous path vertex) with chains of up to max_chain vertices, the

@@ -87,6 +87,8 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->reflect = solver == SPC_SNEE_ANGULAR || solver == SPC_SNEE_CONIC;
     p->reflect_p = SPC_SNEE_REFLECT_P;
     p->mis_solve = SPC_SNEE_MIS_SOLVE;
+    p->solve_mis = true;
+    p->fit_seeds = true;
     if (solver != SPC_SNEE_NEWTON) {
         p->angular.window = SPC_SNEE_ANGULAR_WINDOW;
         p->angular.window_keep = SPC_SNEE_ANGULAR_WINDOW_KEEP;

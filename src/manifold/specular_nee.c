@@ -17,12 +17,14 @@
 #include <string.h>
 
 #include "manifold/conic.h"
+#include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
 #include "manifold/plane_chains.h"
 #include "manifold/receiver.h"
 #include "manifold/rough.h"
 #include "manifold/snee_cost.h"
 #include "manifold/snee_options.h"
+#include "manifold/solve_mis.h"
 #include "scene/camera.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/sphere_chains.h"
@@ -245,9 +247,14 @@ static const spc_receiver *query_receiver(const spc_snee_query *q, spc_receiver 
     return own;
 }
 
-spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c)
+/* The contribution of chain c toward q's light point before MIS (f T Le cos G), and in *b BSDF
+ * sampling's density of the same path in the light's area measure (pdf_x G; 0 where MIS does not
+ * apply: no MIS, not an area light) and in *pc the guided directions' (params.guide). */
+static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c, double *b,
+                           double *pc)
 {
     const spc_rgb zero = spc_rgb1(0.0);
+    *b = *pc = 0.0;
     int k = c->n;
     if (k < 1 || k > q->max_chain)
         return zero;
@@ -290,13 +297,23 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
     double G = spc_chain_geometry(c, q->y, ny);
     if (!(G > 0.0) || !isfinite(G))
         return zero;
-    double w = 1.0;
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
-        double pdf_x = spc_receiver_pdf(r, c->d0);
-        double pc = cones_pdf(cones_for(q, e), c->d0, k);
-        w = mis3(q->p_y * (q->psi > 0.0 ? q->psi : 1.0), pdf_x * G, pc * G);
+        *b = spc_receiver_pdf(r, c->d0) * G;
+        *pc = cones_pdf(cones_for(q, e), c->d0, k) * G;
     }
-    return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * w);
+    return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G);
+}
+
+spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c)
+{
+    double b, pc;
+    spc_rgb v = chain_terms(q, e, uv, c, &b, &pc);
+    if (spc_rgb_is_black(v))
+        return v;
+    double w = 1.0;
+    if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0)
+        w = mis3(q->p_y * (q->psi > 0.0 ? q->psi : 1.0), b, pc);
+    return spc_rgb_scale(v, w);
 }
 
 /* Is c a chain on one sphere, one mirror cylinder, through flat faces or (not from the camera) one
@@ -603,12 +620,39 @@ static double straight_psi(const spc_snee_params *p)
     return guide_on(p) ? random_psi(p) : 1.0;
 }
 
+/* The randomized attempts' chains weighed by the balance heuristic with their real solve probability
+ * (params.solve_mis, solve_mis.h) rather than the stand-in psi: with MIS, unbiased attempts and no
+ * guided directions (whose third strategy keeps the stand-in). */
+static bool solve_mis_on(const spc_snee_params *p) { return p->mis && p->solve_mis && !p->biased && !guide_on(p); }
+
+/* Is every vertex of c on a tessellated ball (a sphere fit, fit_seeds.h)? The real solve probability
+ * weighs only those chains: on a water mesh (scenes/newton_pool.xml, p moderate everywhere) it was
+ * 2.3x worse at equal time than the stand-in, which hands BSDF sampling more of the paths and so
+ * avoids the trial count's own variance, which the balance heuristic does not see; on the SDF torus
+ * the two were alike over 24 seeds (bench/RESULTS.md, "Tails 3"). A function of the chain, so both
+ * sides of the MIS decide alike. */
+static bool solve_mis_chain(const spc_snee_params *p, const spc_chain *c)
+{
+    if (!solve_mis_on(p) || c->n < 1)
+        return false;
+    for (int i = 0; i < c->n; ++i) {
+        spc_vec3 fc;
+        double fr;
+        if (!c->v[i].h.shape || !spc_fit_sphere(c->v[i].h.shape, &fc, &fr))
+            return false;
+    }
+    return true;
+}
+
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
  * straight-line solution: straight_psi), else random_psi; past the budget long_psi for a longer chain on one
- * sphere (params.long_p), else 0 (specular NEE never makes it). */
-static double chain_psi(const spc_snee_query *q, const spc_chain *c)
+ * sphere (params.long_p), else 0 (specular NEE never makes it). *rand_s: for a chain that a
+ * randomized attempt finds (solve_mis_chain), the probability of the query's pass that looks for it
+ * (long_psi on the long pass, else 1); 0 for every other chain. */
+static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *rand_s)
 {
     const spc_snee_params *p = q->params;
+    *rand_s = 0.0;
     if (c->n > q->max_chain) { /* longer than the budget: one of params.long_p's, or none */
         if (p->exact && spc_flat_chain_covers(c, p->reflect))
             return c->n <= flat_max(q) ? 1.0 : long_psi(q, c->n); /* through flat faces, at every call */
@@ -620,12 +664,14 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
         lq.min_chain = lq.max_chain = c->n;
         if (p->exact && spc_snee_exact_covers_all(&lq))
             return 0.0; /* the long pass makes no randomized attempt there (estimate), and c is not exact */
+        if (solve_mis_chain(p, c))
+            *rand_s = long_psi(q, c->n);
         return long_psi(q, c->n) * attempt_psi(q, c); /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
         return 0.0; /* the exact enumerations alone run there, and c is not theirs */
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
-    if (!solver || random_psi(p) == 1.0)
+    if (!solver || (random_psi(p) == 1.0 && !solve_mis_chain(p, c)))
         return 1.0;
     if (exact_covers(q, solver, c))
         return 1.0;
@@ -635,7 +681,58 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
     int it = 0;
     if (straight_solve(q, solver, &straight, &it) && spc_snee_same_solution(&straight, c, q->scene->radius))
         return 1.0;
+    if (solve_mis_chain(p, c))
+        *rand_s = 1.0;
     return attempt_psi(q, c);
+}
+
+/* One Bernoulli trial of a chain's count (solve_mis.h): an attempt of the query (its want and
+ * events set to the chain's) that finds the same chain. */
+typedef struct solve_trial {
+    const spc_snee_query *q;
+    const spc_specular_solver *solver;
+    const spc_chain *target;
+    spc_rng *rng;
+    int iterations;
+    spc_chain scratch;
+} solve_trial;
+
+static bool solve_trial_same(void *user)
+{
+    solve_trial *t = user;
+    return t->solver->solve_one(t->q, t->rng, &t->scratch, &t->iterations) &&
+           spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
+}
+
+/* tq: q counting trials of chain c (its signature in *want, with reflect its events), and the
+ * probability of those events (what the count is divided by); 0 if they cannot happen. */
+static double trial_query(const spc_snee_query *q, const spc_chain *c, spc_chain_sig *want, spc_snee_query *tq)
+{
+    const spc_snee_params *p = q->params;
+    spc_chain_signature(c, want);
+    *tq = *q;
+    tq->want = want;
+    if (!p->reflect)
+        return 1.0;
+    tq->events = want->event;
+    return spc_chain_events_prob(q->scene, want, p->any_surface, p->reflect_p);
+}
+
+static int trial_cap(const spc_snee_params *p) { return p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS; }
+
+/* A generator for the BSDF side's trials (the weight functions get none): seeded by a hash of the
+ * path's coordinates (the receiver, the first direction, the light point), continuous random
+ * variables of the sample, so the stream is a fresh one per sample and the render deterministic. */
+static void path_rng(spc_rng *rng, spc_vec3 a, spc_vec3 b, spc_vec3 c)
+{
+    const double v[9] = {a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z};
+    uint64_t h = 0x736e65656d6973ULL;
+    for (int i = 0; i < 9; ++i) {
+        uint64_t bits;
+        memcpy(&bits, &v[i], sizeof bits);
+        h = spc_hash_combine(h, bits);
+    }
+    spc_rng_seed(rng, h, spc_hash64(h));
 }
 
 /* The three strategies' densities (the light's area measure) of a covered path that left the
@@ -647,12 +744,14 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c)
  * p->mis is set and e is an area light. */
 static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
                           int max_chain, int k, const unsigned char *events, const spc_hit *light,
-                          const spc_snee_cones *cs, double *a, double *b, double *c)
+                          const spc_snee_cones *cs, double *a, double *b, double *c, double *w_solve)
 {
     const spc_emitter *e = light->emitter;
     const spc_hit *x = spc_receiver_origin(r);
     const spc_camera_state *cam = r->kind == SPC_RECEIVER_CAMERA ? r->cam : NULL;
     *a = *b = *c = 0.0;
+    if (w_solve)
+        *w_solve = -1.0;
     double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
     bool guided = guide_on(p) && r->kind == SPC_RECEIVER_SURFACE;
     if (!(p_y > 0.0) && !guided) {
@@ -694,7 +793,26 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.cam_scale = r->cam_scale;
         q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
         double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p);
-        *a = chain_psi(&q, &ch) * p_y * ps;
+        double rs;
+        *a = chain_psi(&q, &ch, &rs) * p_y * ps;
+        const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
+        if (rs > 0.0 && w_solve && solver && solver->solve_one) {
+            /* a randomized attempt's chain: the weight sampled with the real solve probability, by
+             * the attempts specular NEE would make toward this light point (its long pass's length) */
+            spc_snee_query lq = q;
+            if (ch.n > max_chain)
+                lq.min_chain = lq.max_chain = ch.n;
+            spc_fit_roots fit;
+            fit.nshapes = 0;
+            lq.fit = &fit;
+            spc_chain_sig want;
+            spc_snee_query tq;
+            double p_ev = trial_query(&lq, &ch, &want, &tq);
+            spc_rng rng;
+            path_rng(&rng, x->p, d0, light->p);
+            solve_trial t = {.q = &tq, .solver = solver, .target = &ch, .rng = &rng};
+            *w_solve = spc_solve_mis_sampled(p_y * ps * rs * p_ev, *b, solve_trial_same, &t, &rng, trial_cap(p), NULL);
+        }
     }
     return true;
 }
@@ -703,10 +821,10 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
 static double covered_weight(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
                              int max_chain, int k, const unsigned char *events, const spc_hit *light)
 {
-    double a, b, c;
-    if (!covered_terms(sc, p, r, d0, max_chain, k, events, light, NULL, &a, &b, &c))
+    double a, b, c, ws;
+    if (!covered_terms(sc, p, r, d0, max_chain, k, events, light, NULL, &a, &b, &c, &ws))
         return 0.0;
-    return mis3(b, a, c);
+    return ws >= 0.0 ? ws : mis3(b, a, c);
 }
 
 double spc_snee_receiver_weight(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
@@ -841,6 +959,36 @@ static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *so
     return p_events > 0.0 ? (double)n / p_events : 0.0;
 }
 
+/* The chain sol of a randomized attempt toward q's light point (its density p_y, the query's and the
+ * long pass's probabilities included), weighed by the balance heuristic with its real solve
+ * probability: its value times spc_solve_mis_light's estimate of 1 / (p A + b) from its trials. */
+static void emit_solve_mis(const spc_snee_query *q, const spc_specular_solver *solver, const spc_emitter *e,
+                           spc_vec2 uv, double p_y, const spc_chain *sol, spc_rng *rng, spc_snee_stats *st,
+                           snee_sink *sk)
+{
+    double b, pc;
+    spc_rgb v = chain_terms(q, e, uv, sol, &b, &pc);
+    if (spc_rgb_is_black(v))
+        return;
+    spc_chain_sig want;
+    spc_snee_query tq;
+    double p_ev = trial_query(q, sol, &want, &tq);
+    if (!(p_ev > 0.0))
+        return;
+    solve_trial t = {.q = &tq, .solver = solver, .target = sol, .rng = rng};
+    int n = 0;
+    bool capped = false;
+    double z = spc_solve_mis_light(p_y * p_ev, b, solve_trial_same, &t, rng, trial_cap(q->params), &n, &capped);
+    if (st) {
+        st->trials += (uint64_t)n;
+        st->iterations += (uint64_t)t.iterations;
+        st->trial_iterations += (uint64_t)t.iterations;
+        st->capped += capped ? 1u : 0u;
+        st->contributions++;
+    }
+    emit(q, sk, sol, spc_rgb_scale(v, z));
+}
+
 /* params.long_p's pass for the angular solver: one randomized attempt for a chain of exactly
  * lq->max_chain vertices (not on one sphere when params.exact enumerates those), counted with its
  * <1/p_solve> over p_y (the light point's density times psi). */
@@ -854,6 +1002,12 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
         st->iterations += (uint64_t)it;
     if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol))
         return;
+    if (solve_mis_chain(lq->params, &sol)) {
+        if (st)
+            st->solved++;
+        emit_solve_mis(lq, solver, e, uv, p_y, &sol, rng, st, sk);
+        return;
+    }
     spc_snee_query vq = *lq;
     vq.psi = lq->psi * attempt_psi(lq, &sol);
     spc_rgb v = spc_snee_chain_value(&vq, e, uv, &sol);
@@ -961,6 +1115,10 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         return; /* counted exactly above */
     if (st)
         st->solved++;
+    if (solve_mis_chain(p, &sol)) {
+        emit_solve_mis(q, solver, e, uv, p_y, &sol, rng, st, sk);
+        return;
+    }
     q->psi = attempt_psi(q, &sol); /* neither the straight-line solution nor one of solve_all's */
     spc_rgb v = spc_snee_chain_value(q, e, uv, &sol);
     q->psi = 0.0;
@@ -1018,7 +1176,7 @@ static void guided(spc_snee_query *q, spc_rng *rng, spc_snee_stats *st, snee_sin
             double a, b, c;
             spc_receiver own;
             if (spc_rgb_is_black(Le) || !covered_terms(sc, p, query_receiver(q, &own), d0, q->max_chain, t.k,
-                                                        t.events, &h, cs, &a, &b, &c))
+                                                        t.events, &h, cs, &a, &b, &c, NULL))
                 return;
             double w = mis3(c, a, b);
             if (!(w > 0.0))
@@ -1102,6 +1260,9 @@ static spc_rgb receiver_nee(const spc_scene *sc, const spc_snee_params *p, const
     spc_snee_query_init(&q, sc, p, spc_receiver_origin(r), r->wo, max_chain);
     q.receiver = r;
     q.long_max = long_max < SPC_CHAIN_MAX_VERTICES ? long_max : SPC_CHAIN_MAX_VERTICES;
+    spc_fit_roots fit;
+    fit.nshapes = 0;
+    q.fit = &fit;
     const spc_emitter *e;
     spc_vec2 uv;
     double p_y;
@@ -1157,6 +1318,9 @@ int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_cam
     q.cam = cam;
     q.cam_scale = cam_scale;
     q.long_max = long_max < SPC_CHAIN_MAX_VERTICES ? long_max : SPC_CHAIN_MAX_VERTICES;
+    spc_fit_roots fit;
+    fit.nshapes = 0;
+    q.fit = &fit;
     /* params.camera_p: the query made with that probability, counted 1 / camera_p times */
     if (p->camera_p < 1.0 && !(spc_rng_next(rng) < p->camera_p))
         return 0;

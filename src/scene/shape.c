@@ -315,6 +315,11 @@ void spc_shape_release(spc_shape *s)
         (*destroy)(s->flat_cache);
         s->flat_cache = NULL;
     }
+    if (s->fit_cache) {
+        void (**destroy)(void *) = s->fit_cache;
+        (*destroy)(s->fit_cache);
+        s->fit_cache = NULL;
+    }
 }
 
 static double tri_area(const spc_mesh *m, size_t i)

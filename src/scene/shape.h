@@ -93,6 +93,8 @@ typedef struct spc_shape {
     void *plane_cache;
     /* The same for the exact chains through flat faces (manifold/flat_chains.c: the planar faces). */
     void *flat_cache;
+    /* The same for the sphere fitted to a tessellated ball (manifold/fit_seeds.c). */
+    void *fit_cache;
 } spc_shape;
 
 /* Area-measure sample of a point on a shape. */

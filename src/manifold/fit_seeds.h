@@ -1,0 +1,65 @@
+/*
+ * manifold/fit_seeds.h: seeds of the randomized attempts from a fitted sphere.
+ *
+ * A triangle mesh that approximates a ball (a tessellated glass or mirror ball) has its chains close
+ * to those of the sphere that fits it, which sphere_chains.h enumerates exactly. Seeded uniformly in
+ * the cone toward the mesh, an attempt finds the ball's second caustic sheet, its rim and its
+ * reflections with probabilities of a few percent, and their Bernoulli trial counts (1 / p) are
+ * the triangle ball's fireflies. With the fit, a share of the attempts (SPC_FIT_SEED_SHARE, only
+ * where the caster drawn has a fit) start along the direction toward an exact solution on the fitted
+ * sphere, one of them uniformly, and the solver converges to the mesh's chain nearby: every chain
+ * the sphere has then has a probability of at least about the share over the number of solutions.
+ *
+ * The seed mixture is a function of the query's x, y, chain lengths and the scene alone (not of the
+ * events or the chain being counted), so the first attempt and every Bernoulli trial that counts its
+ * chain draw from the same distribution and the count stays an unbiased 1 / p of the mixture's p
+ * (as for seed_guide.h). The fitted sphere's solutions are computed once per query (spc_fit_roots,
+ * shared by the query's copies) and reused by its trials.
+ */
+#ifndef SPC_MANIFOLD_FIT_SEEDS_H
+#define SPC_MANIFOLD_FIT_SEEDS_H
+
+#include <stdbool.h>
+
+#include "core/math.h"
+#include "core/rng.h"
+#include "scene/shape.h"
+
+struct spc_snee_query;
+
+/* The share of a randomized attempt's seeds drawn from the fitted sphere's solutions where the caster
+ * picked has a fit and solutions exist: at floor points in the triangle ball's caustic the rare sheet's
+ * p goes from 0.02-0.05 to 0.17-0.19 and the main chain's from 0.6 to 0.47 (test_fit_seeds; other
+ * shares not measured; bench/RESULTS.md, "Tails 3"). */
+#define SPC_FIT_SEED_SHARE 0.5
+/* Directions kept per shape and query. */
+#define SPC_FIT_MAX_DIRS 16
+/* Fitted shapes and chain lengths (the long pass's copies of a query) whose directions a query keeps
+ * (more: recomputed at each attempt). */
+#define SPC_FIT_MAX_SHAPES 4
+
+/* The fitted sphere's solution directions from a query's x to its y, per shape and chain lengths,
+ * filled on first use (the caller zeroes it and points spc_snee_query.fit at it for the query and
+ * its copies, which share its x and y). */
+typedef struct spc_fit_roots {
+    int nshapes;
+    struct {
+        const spc_shape *s;
+        int min_chain, max_chain;
+        int n;
+        spc_vec3 dir[SPC_FIT_MAX_DIRS];
+    } e[SPC_FIT_MAX_SHAPES];
+} spc_fit_roots;
+
+/* The sphere fitted to s (a triangle mesh with a smooth specular interface whose vertices all lie
+ * within a few percent of one sphere, filling its bounding box as a ball does): true with its centre
+ * and radius, false for every other shape. Built on first use and kept in s (thread-safe). */
+bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius);
+
+/* A seed direction for q's attempt toward caster s from the fitted sphere's solutions: with
+ * probability SPC_FIT_SEED_SHARE (one uniform from rng, drawn only where s has a fit) one of those
+ * solutions' first directions, uniformly (a second uniform). False where the attempt seeds as
+ * before (no fit, no solution, or the other share). */
+bool spc_fit_seed(const struct spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc_vec3 *dir);
+
+#endif

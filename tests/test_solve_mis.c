@@ -1,0 +1,244 @@
+/*
+ * tests/test_solve_mis.c: MIS with the randomized solver's real solve probability
+ * (manifold/solve_mis.h) and its use in specular NEE.
+ *
+ * - Each side alone, against Bernoulli trials of known probability p: specular NEE's estimate has
+ *   mean 1 / (p A + b) and never exceeds 1 / b; BSDF sampling's weight lies in [0, 1] and has mean
+ *   b / (p A + b); where p is small and b is not, either count ends after a few attempts instead
+ *   of 1 / p.
+ * - On the triangle glass ball (bench/check/glass_ball_mesh.xml), at floor points in its caustic:
+ *   specular NEE plus the BSDF-sampled paths it covers, each weighted by spc_snee_mis_bsdf_weight, add
+ *   up to the same value with the default (the real probability and the fitted sphere's seeds,
+ *   fit_seeds.h), the real probability alone and neither (the stand-in psi, nosolvemis,nofitseeds);
+ *   the default's second moment is below 0.6 of the stand-in's, the real probability's alone below
+ *   0.8, and its largest single sample under half the stand-in's (the trial count's tail, which the
+ *   stand-in's weight lets through where BSDF sampling reaches the chain).
+ */
+/* ctest-labels: stat */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "core/rng.h"
+#include "harness.h"
+#include "manifold/snee_options.h"
+#include "manifold/solve_mis.h"
+#include "manifold/specular_nee.h"
+#include "specula/specula.h"
+
+/* A Bernoulli trial of probability p from its own generator. */
+typedef struct bern {
+    double p;
+    spc_rng rng;
+    long calls;
+} bern;
+
+static bool bern_trial(void *user)
+{
+    bern *b = user;
+    b->calls++;
+    return spc_rng_next(&b->rng) < b->p;
+}
+
+typedef struct mis_case {
+    double p, A, b;
+} mis_case;
+
+static const mis_case cases[] = {
+    {0.5, 1.0, 1.0}, {0.05, 1.0, 0.2}, {0.01, 3.0, 0.05}, {0.002, 1.0, 1.0}, {0.2, 1.0, 0.0}, {0.9, 0.1, 10.0},
+};
+#define NCASES ((int)(sizeof cases / sizeof cases[0]))
+
+TEST(light_side_estimates_the_reciprocal)
+{
+    const int N = spc_test_quick() ? 50000 : 200000;
+    for (int c = 0; c < NCASES; ++c) {
+        const mis_case *k = &cases[c];
+        bern t = {k->p, {0, 0}, 0};
+        spc_rng_seed(&t.rng, 11, (uint64_t)c);
+        spc_rng rng;
+        spc_rng_seed(&rng, 12, (uint64_t)c);
+        double s1 = 0, s2 = 0, zmax = 0;
+        for (int i = 0; i < N; ++i) {
+            double z = spc_solve_mis_light(k->A, k->b, bern_trial, &t, &rng, 1 << 30, NULL, NULL);
+            s1 += z;
+            s2 += z * z;
+            zmax = z > zmax ? z : zmax;
+        }
+        double m = s1 / N, se = sqrt((s2 / N - m * m) / N), want = 1.0 / (k->p * k->A + k->b);
+        printf("    p %.3f A %.2f b %.2f: mean %.5g +- %.2g (1 / (p A + b) %.5g), max %.4g, %.2f attempts\n", k->p, k->A,
+               k->b, m, se, want, zmax, (double)t.calls / N);
+        CHECK_MSG(fabs(m - want) < 4.0 * se + 1e-12 * want, "case %d: %.6g against %.6g", c, m, want);
+        if (k->b > 0.0)
+            CHECK_MSG(zmax <= 1.0 / k->b * (1.0 + 1e-12), "case %d: a sample %.6g above 1 / b", c, zmax);
+    }
+}
+
+TEST(sampled_side_weight)
+{
+    const int N = spc_test_quick() ? 50000 : 200000;
+    for (int c = 0; c < NCASES; ++c) {
+        const mis_case *k = &cases[c];
+        bern t = {k->p, {0, 0}, 0};
+        spc_rng_seed(&t.rng, 21, (uint64_t)c);
+        spc_rng rng;
+        spc_rng_seed(&rng, 22, (uint64_t)c);
+        double s1 = 0, s2 = 0;
+        bool in01 = true;
+        for (int i = 0; i < N; ++i) {
+            double w = spc_solve_mis_sampled(k->A, k->b, bern_trial, &t, &rng, 1 << 30, NULL);
+            s1 += w;
+            s2 += w * w;
+            in01 = in01 && w >= 0.0 && w <= 1.0;
+        }
+        double m = s1 / N, want = k->b / (k->p * k->A + k->b), se = sqrt(spc_max(s2 / N - m * m, 0.0) / N);
+        CHECK(in01);
+        printf("    p %.3f A %.2f b %.2f: mean weight %.5f (b / (p A + b) %.5f), %.2f attempts\n", k->p, k->A, k->b, m,
+               want, (double)t.calls / N);
+        CHECK_MSG(fabs(m - want) <= 4.0 * se + 1e-12, "case %d: %.6f against %.6f", c, m, want);
+    }
+}
+
+/* The per-query cost: where p is 1e-4 and b equals A, each side's count ends after a few attempts
+ * on average (the plain count: 10^4). */
+TEST(count_ends_where_bsdf_sampling_takes_over)
+{
+    const int N = 20000;
+    bern t = {1e-4, {0, 0}, 0};
+    spc_rng_seed(&t.rng, 31, 1);
+    spc_rng rng;
+    spc_rng_seed(&rng, 32, 1);
+    for (int i = 0; i < N; ++i)
+        spc_solve_mis_light(1.0, 1.0, bern_trial, &t, &rng, 1 << 30, NULL, NULL);
+    double light = (double)t.calls / N;
+    t.calls = 0;
+    for (int i = 0; i < N; ++i)
+        spc_solve_mis_sampled(1.0, 1.0, bern_trial, &t, &rng, 1 << 30, NULL);
+    double sampled = (double)t.calls / N;
+    printf("    attempts per estimate: light side %.2f, sampled side %.2f\n", light, sampled);
+    CHECK(light < 8.0 && sampled < 8.0);
+}
+
+#define SCENE "bench/check/glass_ball_mesh.xml"
+
+/* The floor point below (px, pz). */
+static bool floor_point(const spc_scene *sc, double px, double pz, spc_hit *x)
+{
+    spc_ray ray = {spc_v3(px, 0.05, pz), spc_v3(0, -1, 0), 0, INFINITY};
+    return spc_scene_intersect(sc, &ray, x) && x->shape_index == 1;
+}
+
+/* Specular NEE (params p, chains of at most 2 vertices, longer ones to long_max) plus the
+ * BSDF-sampled paths from x that reach the light through at most long_max chain vertices, weighted
+ * by spc_snee_mis_bsdf_weight where specular NEE covers them: N samples of the luminance; mean,
+ * standard error, the largest sample. */
+static void combined(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo, int long_max, int N,
+                     uint64_t seed, double *mean, double *se, double *vmax)
+{
+    spc_rng r, u;
+    spc_rng_seed(&r, seed, 1);
+    spc_rng_seed(&u, seed, 2);
+    double s1 = 0, s2 = 0;
+    *vmax = 0.0;
+    for (int i = 0; i < N; ++i) {
+        double v = spc_rgb_lum(spc_specular_nee_depth(sc, p, x, wo, 2, long_max, &r, NULL));
+        spc_bsdf_sample bs;
+        if (spc_bsdf_sample_dir(x->bsdf, x, SPC_MODE_RADIANCE, wo, spc_rng_next(&u),
+                                spc_v2(spc_rng_next(&u), spc_rng_next(&u)), &bs)) {
+            spc_snee_track t;
+            memset(&t, 0, sizeof t);
+            spc_snee_track_scatter_params(&t, p, x, bs.lobe, 2, long_max);
+            spc_ray ray = spc_hit_spawn(x, bs.wi);
+            spc_rgb T = bs.weight;
+            for (int k = 0; k <= long_max; ++k) {
+                spc_hit h;
+                int ev;
+                if (!spc_scene_intersect(sc, &ray, &h))
+                    break;
+                if (h.emitter) {
+                    double w = 1.0;
+                    if (spc_snee_track_covers(&t, sc, h.emitter))
+                        w = spc_snee_mis_bsdf_weight(sc, p, x, wo, bs.wi, t.max_chain, t.k, t.events, &h);
+                    if (k >= 1)
+                        v += w * spc_rgb_lum(spc_rgb_mul(T, spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d))));
+                    break;
+                }
+                spc_bsdf_sample b2;
+                if (k == long_max || !spc_chain_surface(&h, false, &ev) ||
+                    !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), spc_rng_next(&u),
+                                         spc_v2(spc_rng_next(&u), spc_rng_next(&u)), &b2))
+                    break;
+                spc_snee_track_scatter_params(&t, p, &h, b2.lobe, 0, 0);
+                T = spc_rgb_mul(T, b2.weight);
+                ray = spc_hit_spawn(&h, b2.wi);
+            }
+        }
+        s1 += v;
+        s2 += v * v;
+        *vmax = v > *vmax ? v : *vmax;
+    }
+    *mean = s1 / N;
+    *se = sqrt(spc_max(s2 / N - *mean * *mean, 0.0) / N);
+}
+
+TEST(triangle_ball_tail)
+{
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    CHECK_MSG(spc_scene_load(SCENE, NULL, 0, &sc, &err) == SPC_OK, "%s: %s", SCENE, err.msg);
+    if (!sc)
+        return;
+    /* 0: the default (the real probability, the fitted sphere's seeds), 1: the real probability alone,
+     * 2: neither (the stand-in psi, the cone's seeds) */
+    static const char *const settings[3] = {"angular", "angular:nofitseeds", "angular:nosolvemis,nofitseeds"};
+    spc_snee_params p[3];
+    for (int j = 0; j < 3; ++j) {
+        CHECK(spc_snee_parse(settings[j], 2, &p[j]));
+        p[j].mis = true;
+    }
+    const int N = 20000; /* also under SPC_TEST_QUICK: the second moments' ratios need it */
+    double m2[3] = {0, 0, 0}, vmax[3] = {0, 0, 0}, zmax = 0.0;
+    int lit = 0;
+    for (int i = 0; i < 12; ++i) {
+        spc_hit x;
+        double px = -0.33 + 0.06 * (i % 4), pz = 0.06 + 0.08 * (i / 4);
+        if (!floor_point(sc, px, pz, &x))
+            continue;
+        double m[3], se[3], mx[3];
+        for (int j = 0; j < 3; ++j)
+            combined(sc, &p[j], &x, spc_v3(0, 1, 0), 4, N, 100 * (uint64_t)(j + 1) + (uint64_t)i, &m[j], &se[j], &mx[j]);
+        printf("    (%.2f, %.2f):", px, pz);
+        for (int j = 0; j < 3; ++j)
+            printf(" %.4f +- %.4f (largest %.4g)%s", m[j], se[j], mx[j], j < 2 ? " |" : "\n");
+        for (int j = 0; j < 2; ++j) {
+            double z = (m[j] - m[2]) / hypot(se[j], se[2]);
+            zmax = fabs(z) > zmax ? fabs(z) : zmax;
+        }
+        if (m[2] > 1.0) { /* in the caustic */
+            ++lit;
+            for (int j = 0; j < 3; ++j) {
+                m2[j] += se[j] * se[j] * N + m[j] * m[j];
+                vmax[j] = mx[j] > vmax[j] ? mx[j] : vmax[j];
+            }
+        }
+    }
+    printf("    %d points in the caustic: second moment against the stand-in's: default %.3f, real probability "
+           "alone %.3f; largest sample %.4g, %.4g, %.4g\n",
+           lit, m2[0] / m2[2], m2[1] / m2[2], vmax[0], vmax[1], vmax[2]);
+    CHECK_MSG(zmax < 4.0, "the weightings disagree: |z| %.2f", zmax);
+    CHECK(lit >= 4);
+    CHECK_MSG(m2[0] < 0.6 * m2[2], "default: second moment %.4g against the stand-in's %.4g", m2[0], m2[2]);
+    CHECK_MSG(m2[1] < 0.8 * m2[2], "real probability: second moment %.4g against the stand-in's %.4g", m2[1], m2[2]);
+    CHECK_MSG(vmax[1] < 0.5 * vmax[2], "largest sample %.4g against the stand-in's %.4g", vmax[1], vmax[2]);
+    spc_scene_destroy(sc);
+}
+
+int main(void)
+{
+    RUN(light_side_estimates_the_reciprocal);
+    RUN(sampled_side_weight);
+    RUN(count_ends_where_bsdf_sampling_takes_over);
+    RUN(triangle_ball_tail);
+    return spc_test_finish();
+}
