@@ -103,7 +103,8 @@ static double rel_var(const spc_film *f)
 }
 
 /* On the door the pool's picks reach the light through the gap: at equal samples the relative
- * variance is lower (measured 0.36x at 32x32, 128 spp; asked: below 0.75x at 24x24). */
+ * variance is lower. Measured here 0.342x (0.41x when the pilot picked its light vertices
+ * uniformly, without SPC_BDPT_PILOT_VERTEX_SHARE's cell-uniform share); asked: below 0.38x. */
 TEST(door_variance_falls)
 {
     spc_scene *sc = load("scenes/indirect_door.xml", 24);
@@ -116,7 +117,7 @@ TEST(door_variance_falls)
     if (a && b) {
         double va = rel_var(a), vb = rel_var(b);
         printf("  door 24x24, 64 spp: relative variance pool %.4g, plain %.4g (ratio %.3f)\n", va, vb, va / vb);
-        CHECK(va < 0.75 * vb);
+        CHECK(va < 0.38 * vb);
     }
     spc_film_destroy(a);
     spc_film_destroy(b);
