@@ -1164,8 +1164,7 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
     free(cst);
     free(ne);
     free(cidx);
-    spc_bdpt_pool_model_finish(m, SPC_BDPT_PILOT_PATHS);
-    return true;
+    return spc_bdpt_pool_model_finish(m, SPC_BDPT_PILOT_PATHS);
 }
 
 double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed)
