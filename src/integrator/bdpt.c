@@ -125,9 +125,11 @@
 #define SPC_BDPT_PROBE_STREAM 0x70726f6265736861ULL
 
 /* The pool model's pilot (spc_bdpt_pool_learn): light subpaths, camera subpaths, and connections
- * from each camera vertex to uniformly chosen pilot light vertices. 16384 of each and 4 picks:
- * about 0.25 CPU-s once per render on the door (32x32, 128 spp, seed 3, M = 2: relative
- * variance 0.0027 against 0.0037 with 4096 paths; 32768 gave 0.0022 for 15% more time). */
+ * from each camera vertex to pilot light vertices (SPC_BDPT_PILOT_VERTEX_SHARE). 16384 of each
+ * and 4 picks: about 0.25 CPU-s once per render on the door (with uniform picks, 32x32, 128 spp,
+ * seed 3, M = 2: relative variance 0.0027 against 0.0037 with 4096 paths; 32768 gave 0.0022 for
+ * 15% more time). With the mixture's picks 8x the paths lower it only 5% more (0.00230 ->
+ * 0.00219, seeds 1-2), and 8 picks do not lower it (0.00234): the pilot no longer limits. */
 #define SPC_BDPT_PILOT_PATHS 16384
 #define SPC_BDPT_PILOT_PICKS 4
 /* Each pilot pick is a uniform pilot light vertex with this probability, else a uniform nonempty
