@@ -12,7 +12,7 @@
  * - The pool lowers the door's variance at equal samples (its reason to exist; 2x measured).
  * - The image is bit-identical for 1 and 2 threads, and a render resumed from a checkpoint equals
  *   an uninterrupted one.
- * - By default it is on (2 connections) where the camera sees mostly indirectly lit surfaces (the
+ * - By default it is on (3 connections) where the camera sees mostly indirectly lit surfaces (the
  *   door) and off elsewhere (the caustic).
  * - The options that exclude it are refused.
  * - A pick's cell follows the model's row pi_c (its alias table) and its reported probability is
@@ -201,7 +201,7 @@ TEST(resumes_bit_for_bit)
     spc_scene_destroy(sc);
 }
 
-/* The default: the pool with 2 connections on the door (the camera sees no lit surface), none on
+/* The default: the pool with 3 connections on the door (the camera sees no lit surface), none on
  * the glass-ball caustic (lit directly): bit for bit the explicit settings. */
 static void default_is(const char *rel, int expected)
 {
@@ -226,7 +226,7 @@ static void default_is(const char *rel, int expected)
 
 TEST(default_where_the_camera_sees_indirect_light)
 {
-    default_is("scenes/indirect_door.xml", 2);
+    default_is("scenes/indirect_door.xml", 3);
     default_is("scenes/caustic_sphere.xml", -1);
 }
 
