@@ -136,7 +136,7 @@ static const char *const usage_render_more =
     "                         power heuristic (also the integrator property mis_balance)\n"
     "  --bdpt-pool M          bdpt: join each camera vertex also to M light vertices picked by\n"
     "                         importance from a pool of the pass's light subpaths; -1: off; 0\n"
-    "                         (default): 2 where the camera sees mostly indirectly lit surfaces\n"
+    "                         (default): 3 where the camera sees mostly indirectly lit surfaces\n"
     "  --device cpu|opencl[:N]  (info --devices)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"

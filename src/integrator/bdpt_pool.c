@@ -31,8 +31,9 @@ bool spc_bdpt_pool_model_init(spc_bdpt_pool_model *m, spc_vec3 lo, spc_vec3 hi, 
     m->nu = calloc(n, sizeof *m->nu);
     m->score = calloc(n * n, sizeof *m->score);
     m->pi = calloc(n * n, sizeof *m->pi);
-    m->cdf = calloc(n * (n + 1), sizeof *m->cdf);
-    return m->nu && m->score && m->pi && m->cdf;
+    m->keep = calloc(n * n, sizeof *m->keep);
+    m->alias = calloc(n * n, sizeof *m->alias);
+    return m->nu && m->score && m->pi && m->keep && m->alias;
 }
 
 void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m)
@@ -40,7 +41,8 @@ void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m)
     free(m->nu);
     free(m->score);
     free(m->pi);
-    free(m->cdf);
+    free(m->keep);
+    free(m->alias);
     memset(m, 0, sizeof *m);
 }
 
@@ -56,9 +58,48 @@ int spc_bdpt_pool_cell(const spc_bdpt_pool_model *m, spc_vec3 p)
     return (i[2] * m->g[1] + i[1]) * m->g[0] + i[0];
 }
 
-void spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths)
+/* Row pi (n entries summing to 1 or 0) into its alias table (Vose's construction: each slot
+ * holds at most two outcomes, so a pick costs one uniform and two reads); work holds 2n ints. */
+static void alias_build(const double *pi, int n, double *keep, int *alias, int *work)
+{
+    int *small = work, *large = work + n, ns = 0, nl = 0;
+    double sum = 0.0;
+    for (int k = 0; k < n; ++k)
+        sum += pi[k];
+    for (int k = 0; k < n; ++k) {
+        keep[k] = sum > 0.0 ? pi[k] * n / sum : 0.0;
+        alias[k] = k;
+        if (keep[k] < 1.0)
+            small[ns++] = k;
+        else
+            large[nl++] = k;
+    }
+    if (!(sum > 0.0))
+        return;
+    while (ns > 0 && nl > 0) {
+        int a = small[--ns], b = large[nl - 1];
+        alias[a] = b;
+        keep[b] -= 1.0 - keep[a];
+        if (keep[b] < 1.0) {
+            --nl;
+            small[ns++] = b;
+        }
+    }
+    /* what is left is 1 up to rounding; a zero-probability slot never keeps itself */
+    while (nl > 0)
+        keep[large[--nl]] = 1.0;
+    while (ns > 0) {
+        int a = small[--ns];
+        keep[a] = pi[a] > 0.0 ? 1.0 : 0.0;
+    }
+}
+
+bool spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths)
 {
     const int n = m->ncells;
+    int *work = malloc(2 * (size_t)n * sizeof *work);
+    if (!work)
+        return false;
     double nu_sum = 0.0;
     for (int k = 0; k < n; ++k) {
         m->nu[k] = light_paths > 0.0 ? m->nu[k] / light_paths : 0.0;
@@ -66,7 +107,7 @@ void spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths)
     }
     for (int c = 0; c < n; ++c) {
         const double *sc = m->score + (size_t)c * n;
-        double *pi = m->pi + (size_t)c * n, *cdf = m->cdf + (size_t)c * (n + 1);
+        double *pi = m->pi + (size_t)c * n;
         double s = 0.0;
         for (int k = 0; k < n; ++k)
             s += m->nu[k] > 0.0 ? sc[k] : 0.0;
@@ -76,10 +117,10 @@ void spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths)
             else /* a row the pilot never scored picks uniformly among the pool's vertices */
                 pi[k] = s > 0.0 ? sc[k] / s : m->nu[k] / nu_sum;
         }
-        cdf[0] = 0.0;
-        for (int k = 0; k < n; ++k)
-            cdf[k + 1] = cdf[k] + pi[k];
+        alias_build(pi, n, m->keep + (size_t)c * n, m->alias + (size_t)c * n, work);
     }
+    free(work);
+    return true;
 }
 
 void spc_bdpt_pool_clear(spc_bdpt_pool *p, const spc_bdpt_pool_model *m, double light_paths)
@@ -144,24 +185,18 @@ bool spc_bdpt_pool_pick(const spc_bdpt_pool *p, int c, double u1, double u2, con
 {
     const spc_bdpt_pool_model *m = p->m;
     const int n = m->ncells;
-    const double *cdf = m->cdf + (size_t)c * (n + 1);
-    double t = u1 * cdf[n];
-    int lo = 0, hi = n - 1; /* the first k with cdf[k + 1] > t */
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        if (cdf[mid + 1] > t)
-            hi = mid;
-        else
-            lo = mid + 1;
-    }
-    double pk = m->pi[(size_t)c * n + lo];
-    int cnt = p->start[lo + 1] - p->start[lo];
+    const size_t row = (size_t)c * n;
+    double f = u1 * n;
+    int slot = (int)f < n ? (int)f : n - 1;
+    int k = f - slot < m->keep[row + slot] ? slot : m->alias[row + slot];
+    double pk = m->pi[row + k];
+    int cnt = p->start[k + 1] - p->start[k];
     if (!(pk > 0.0) || cnt <= 0)
         return false;
     int j = (int)(u2 * cnt);
     if (j >= cnt)
         j = cnt - 1;
-    *ref = &p->refs[p->start[lo] + j];
-    *q = pk / (cdf[n] * cnt);
+    *ref = &p->refs[p->start[k] + j];
+    *q = pk / cnt;
     return true;
 }

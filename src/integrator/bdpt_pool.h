@@ -42,7 +42,9 @@ typedef struct spc_bdpt_pool_model {
     double *nu;    /* ncells: connectible light vertices per light subpath in the cell */
     double *score; /* ncells x ncells: the pilot's summed contributions, camera cell major */
     double *pi;    /* ncells x ncells: pi_c(k), rows sum to 1 (or 0 with no light vertices) */
-    double *cdf;   /* ncells x (ncells + 1): each row's running sums */
+    double *keep;  /* ncells x ncells: each row's alias table (Walker 1977): slot k keeps k with this
+                    * probability, else gives alias[slot]; a row that sums to 0 keeps nothing */
+    int *alias;    /* ncells x ncells */
 } spc_bdpt_pool_model;
 
 /* Sets up the grid over [lo, hi] with the tables zeroed; false if out of memory (then release it). */
@@ -51,8 +53,8 @@ void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m);
 /* The cell of point p (points outside the grid go to its nearest cell). */
 int spc_bdpt_pool_cell(const spc_bdpt_pool_model *m, spc_vec3 p);
 /* After the pilot has added to nu (vertex counts) and score: nu divided by the pilot's light
- * subpaths, pi and its cdfs built. */
-void spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths);
+ * subpaths, pi and its alias tables built; false if out of memory. */
+bool spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths);
 /* The MIS count of the connection joining a light vertex in cell k to a camera vertex in cell c:
  * M pi_c(k) / nu_k (0 where nu_k is 0: such vertices are never picked). */
 static inline double spc_bdpt_pool_count(const spc_bdpt_pool_model *m, int c, int k)

@@ -53,13 +53,14 @@
 /* bdpt's pool: light subpaths per batch at most (their vertices stay until the batch is committed:
  * about 2.5 KiB a subpath on the door, so 40 MiB) */
 #define SPC_POOL_BATCH_PATHS (1 << 14)
-/* bdpt's default: the pool with 2 connections per camera vertex where fewer than this share of the
+/* bdpt's default: the pool with 3 connections per camera vertex where fewer than this share of the
  * camera's first hits see a light sample (spc_bdpt_pool_direct_share). Measured at 32x32, 8 seeds,
  * equal CPU time (bench/RESULTS.md): the door (share 0.009) and the lamp behind its shade (0.019)
- * gain 1.7x and 1.6x; the glass-ball caustic (0.84) and the cornell box (0.64) lose 1.3x and
- * 1.5x, where light sampling already reaches most of what the camera sees. */
+ * gain 1.7x and 1.6x (with 2 connections); the glass-ball caustic (0.84) and the cornell box (0.64)
+ * lose 1.3x and 1.5x, where light sampling already reaches most of what the camera sees. 3
+ * connections against 2: the door 1.12x, the lamp 1.06x better at equal CPU time (8 seeds). */
 #define SPC_POOL_AUTO_SHARE 0.25
-#define SPC_POOL_AUTO_CONNECTIONS 2
+#define SPC_POOL_AUTO_CONNECTIONS 3
 /* ... and at most this many pixels in the rendered window: a pass's pool keeps every light
  * subpath's vertices (about 540 bytes each, 5 a subpath on the door: 2.7 KB a pixel, so 180 MB
  * here); larger renders would need a compact store. */
