@@ -1,5 +1,6 @@
 /*
- * render/driver.c: the render loop: passes of one sample per pixel, tiles, threads.
+ * render/driver.c: the render loop: passes of one sample per pixel, tiles, threads; below
+ * spc_render (render/api.c), which settles the specular NEE plan first (driver.h).
  *
  * Work is a list of (pass, tile) items handed to threads through an atomic counter. Every pixel's
  * samples come from its own deterministic stream (pixel, pass index, seed), each item writes only
@@ -39,8 +40,8 @@
 #include "manifold/specular_nee.h"
 #include "scene/camera.h"
 #include "render/checkpoint.h"
+#include "render/driver.h"
 #include "render/film.h"
-#include "render/snee_pilot.h"
 #include "scene/rfilter.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
@@ -274,8 +275,37 @@ static int default_threads(void)
     return n > 0 ? (int)n : 1;
 }
 
-spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film **out, spc_render_stats *stats,
-                      spc_error *err)
+void spc_render_options_init(spc_render_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->integrator = NULL;
+    o->specular_nee = NULL;
+    o->progress = NULL;
+    o->progress_user = NULL;
+    o->cancel = NULL;
+    o->strategy_s = -1;
+    o->strategy_t = -1;
+    o->strategy_weighted = false;
+    o->seed = 0;
+    o->checkpoint_every = 60.0;
+}
+
+void spc_driver_plan(const spc_scene *sc, const spc_render_options *o, spc_snee_plan *plan)
+{
+    const char *iname = (o->integrator && o->integrator[0]) ? o->integrator : sc->integrator.type;
+    /* the given setting, or the scene's, or the default chosen from the scene (snee_plan.h); the
+     * OpenCL device has no specular NEE, so there the default is off (an explicit setting is still
+     * refused by the device, by name) */
+    const char *given = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
+    bool dev_cl = false;
+    int dev_index = 0;
+    if (spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl && spc_snee_setting_is_auto(given))
+        given = "none";
+    spc_snee_plan_make(sc, iname, given, plan);
+}
+
+spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, const spc_snee_plan *plan,
+                             spc_film **out, spc_render_stats *stats, spc_error *err)
 {
     *out = NULL;
     const char *file = sc->path[0] ? sc->path : NULL;
@@ -297,19 +327,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.strategy_s = o->strategy_s;
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;
-    /* the given setting, or the scene's, or the default chosen from the scene (snee_plan.h); the
-     * OpenCL device has no specular NEE, so there the default is off (an explicit setting is still
-     * refused by the device, by name) */
-    const char *given = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
-    bool dev_cl = false;
-    int dev_index = 0;
-    if (spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl && spc_snee_setting_is_auto(given))
-        given = "none";
-    spc_snee_plan plan;
-    spc_snee_plan_make(sc, spc_integrator_kind_name(ctx.kind), given, &plan);
-    spc_snee_pilot pilot;
-    spc_snee_pilot_run(sc, o, &plan, &pilot); /* keeps or turns off an automatic plan (snee_pilot.h) */
-    const char *sname = plan.setting;
+    const char *sname = plan->setting;
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
     char why[SPC_SNEE_WHY_MAX];
     spc_snee_parse_result parsed = spc_snee_options_parse(sname, ctx.specular_max_chain, &ctx.snee, why, sizeof why);
@@ -392,6 +410,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     /* bdpt's pool of light vertices: as asked, or by default where the camera sees mostly
      * indirectly lit surfaces (bdpt_pool.h; SPC_POOL_AUTO_SHARE) */
     int pool_m = o->bdpt_pool > 0 ? o->bdpt_pool : 0;
+    bool dev_cl = false;
+    int dev_index = 0;
     const long long npix_window = (long long)ctx.width * ctx.height;
     if (o->bdpt_pool == 0 && ctx.kind == SPC_INTEGRATOR_BDPT && !o->strategy_images && ctx.strategy_s < 0 &&
         ctx.strategy_t < 0 && !spc_camera_has_lens(&cam) && npix_window <= SPC_POOL_AUTO_MAX_PIXELS &&
@@ -762,7 +782,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         stats->samples = (uint64_t)film->spp * npix;
         stats->invalid_samples = invalid;
         snprintf(stats->specular_nee, sizeof stats->specular_nee, "%s", ctx.specular_nee ? sname : "none");
-        snprintf(stats->specular_nee_pilot, sizeof stats->specular_nee_pilot, "%s", plan.pilot_note);
+        snprintf(stats->specular_nee_pilot, sizeof stats->specular_nee_pilot, "%s", plan->pilot_note);
         stats->caustic_guide_entries = guide_entries;
         stats->caustic_guide_seconds = guide_seconds;
     }
