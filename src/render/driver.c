@@ -434,10 +434,27 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
         return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for a %dx%d film", fs.crop_w, fs.crop_h);
     snprintf(film->integrator, sizeof film->integrator, "%s", spc_integrator_kind_name(ctx.kind));
     snprintf(film->specular_nee, sizeof film->specular_nee, "%s", ctx.specular_nee ? sname : "none");
+    /* what the render owns besides the film, freed at `cleanup` on every path (NULL: not made yet),
+     * and what the statistics read there */
+    tile *tiles = NULL;
+    double *buf = NULL;
+    spc_tls *tls = NULL;
+    pthread_t *th = NULL;
+    spc_cl_renderer *cl = NULL;
+    spc_cguide *cguide = NULL;
+    spc_sguide *sguide = NULL;
+    spc_bdpt_pool *pools = NULL;
+    spc_bdpt_pool_model pool_model;
+    memset(&pool_model, 0, sizeof pool_model);
+    spc_status status = SPC_OK;
+    bool rendered = false; /* the passes ran: the film goes to the caller, with status */
+    uint64_t rays = 0, shadow_rays = 0, invalid = 0;
+    double wall = 0.0, guide_seconds = 0.0;
+    int guide_entries = 0;
 
     int tx = (ctx.width + SPC_TILE - 1) / SPC_TILE, ty = (ctx.height + SPC_TILE - 1) / SPC_TILE;
     int ntiles = tx * ty;
-    tile *tiles = malloc((size_t)ntiles * sizeof *tiles);
+    tiles = malloc((size_t)ntiles * sizeof *tiles);
     size_t npix = (size_t)ctx.width * (size_t)ctx.height;
     int max_batch = (int)spc_max(1.0, spc_min((double)SPC_BATCH_PIXELS / (double)npix, 4096.0));
     film->naov_out = sc->integrator.naovs;
@@ -461,9 +478,9 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
                 film->nstrategy = j + 1;
         }
         if (!ok) {
-            spc_film_destroy(film);
-            return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for %d strategy films of %dx%d",
-                                 nfilms, fs.crop_w, fs.crop_h);
+            status = spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for %d strategy films of %dx%d",
+                                   nfilms, fs.crop_w, fs.crop_h);
+            goto cleanup;
         }
         for (int k = 1; k <= ctx.strategy_images_depth; ++k)
             for (int s = 0; s <= k; ++s)
@@ -474,16 +491,12 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
                     f->strategy_weighted = wt == 0;
                 }
     }
-    double *buf = malloc((size_t)max_batch * npix * (size_t)stride * sizeof(double));
-    spc_tls *tls = calloc((size_t)max_batch * (size_t)ntiles, sizeof *tls);
-    pthread_t *th = malloc((size_t)threads * sizeof *th);
+    buf = malloc((size_t)max_batch * npix * (size_t)stride * sizeof(double));
+    tls = calloc((size_t)max_batch * (size_t)ntiles, sizeof *tls);
+    th = malloc((size_t)threads * sizeof *th);
     if (!tiles || !buf || !tls || !th) {
-        free(tiles);
-        free(buf);
-        free(tls);
-        free(th);
-        spc_film_destroy(film);
-        return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for render buffers");
+        status = spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for render buffers");
+        goto cleanup;
     }
     for (int j = 0; j < ty; ++j)
         for (int i = 0; i < tx; ++i) {
@@ -497,35 +510,17 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     /* another device renders the batches (device/device.h); everything else stays the same */
     bool use_cl = false;
     int cl_index = 0;
-    spc_cl_renderer *cl = NULL;
     if (!spc_device_parse(o->device, &use_cl, &cl_index)) {
-        free(tiles);
-        free(buf);
-        free(tls);
-        free(th);
-        spc_film_destroy(film);
-        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "unknown device '%s'; specula has: cpu, opencl[:N]",
-                             o->device);
+        status = spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "unknown device '%s'; specula has: cpu, opencl[:N]",
+                               o->device);
+        goto cleanup;
     }
     if (use_cl && pool_m > 0) {
-        free(tiles);
-        free(buf);
-        free(tls);
-        free(th);
-        spc_film_destroy(film);
-        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "the opencl device has no pool of light vertices");
+        status = spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "the opencl device has no pool of light vertices");
+        goto cleanup;
     }
-    if (use_cl) {
-        spc_status cs = spc_cl_create(&ctx, cl_index, aovs, &cl, err);
-        if (cs != SPC_OK) {
-            free(tiles);
-            free(buf);
-            free(tls);
-            free(th);
-            spc_film_destroy(film);
-            return cs;
-        }
-    }
+    if (use_cl && (status = spc_cl_create(&ctx, cl_index, aovs, &cl, err)) != SPC_OK)
+        goto cleanup;
 
     char settings[1024];
     spc_ckpt_settings_text(&ctx, sname, o->seed, aovs, settings, sizeof settings);
@@ -533,59 +528,35 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";bdpt_pool=%d", pool_m);
     if (use_cl) /* a checkpoint resumes only on the device that began it */
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";device=opencl:%d", cl_index);
-    if (o->resume) {
-        spc_status rs = spc_ckpt_restore(o->resume, sc->content_hash, settings, film, err);
-        if (rs != SPC_OK) {
-            spc_cl_destroy(cl);
-            free(tiles);
-            free(buf);
-            free(tls);
-            free(th);
-            spc_film_destroy(film);
-            return rs;
-        }
-    }
+    if (o->resume && (status = spc_ckpt_restore(o->resume, sc->content_hash, settings, film, err)) != SPC_OK)
+        goto cleanup;
     spc_ckpt_meta meta = {sc->content_hash, settings, (int)spp, sc->path, o->checkpoint_user};
 
     double t_start = now_seconds();
-    uint64_t rays = 0, shadow_rays = 0, invalid = film->invalid_samples;
+    invalid = film->invalid_samples;
     /* caustic guiding at receivers (caustic_guide.h): its photon pre-pass, once, on this thread */
-    spc_cguide *cguide = NULL;
     if (ctx.kind == SPC_INTEGRATOR_PATH && ctx.specular_nee != SPC_SNEE_NONE && ctx.snee.recv_guide > 0.0 && !use_cl)
         cguide = spc_cguide_build(sc, spc_cguide_photons((double)ctx.width * ctx.height * (double)spp),
                                   SPC_CGUIDE_STREAM, ctx.snee.recv_guide);
     ctx.snee.cguide = cguide;
     /* bdpt's pool: the selection model from its pilot, once (deterministic: the same for any thread
      * count and on resuming), and a pool per pass of a batch */
-    spc_bdpt_pool_model pool_model;
-    memset(&pool_model, 0, sizeof pool_model);
-    spc_bdpt_pool *pools = NULL;
     if (pool_m > 0) {
         pools = calloc((size_t)max_batch, sizeof *pools);
         if (!pools || !spc_bdpt_pool_learn(&ctx, o->seed, pool_m, &pool_model)) {
-            free(pools);
-            spc_bdpt_pool_model_release(&pool_model);
-            spc_cguide_destroy(cguide);
-            spc_cl_destroy(cl);
-            free(tiles);
-            free(buf);
-            free(tls);
-            free(th);
-            spc_film_destroy(film);
-            return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for the pool of light vertices");
+            status = spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for the pool of light vertices");
+            goto cleanup;
         }
         ctx.pool_model = &pool_model;
     }
     /* guided seeds of the randomized solvers (seed_guide.h): their light paths, once, on this thread */
-    spc_sguide *sguide = NULL;
     if (ctx.specular_nee != SPC_SNEE_NONE && ctx.snee.seed_guide > 0.0 && !use_cl)
         sguide = spc_sguide_build(sc, SPC_SGUIDE_PHOTONS, SPC_SGUIDE_STREAM, ctx.snee.any_surface);
     ctx.snee.sguide = sguide;
-    double guide_seconds = cguide ? now_seconds() - t_start : 0.0;
+    guide_seconds = cguide ? now_seconds() - t_start : 0.0;
     const int start = film->spp;
     int done = start;
     double sec_per_pass = 0.0, last_ckpt = t_start;
-    spc_status status = SPC_OK;
     while (done < spp) {
         if (o->cancel && *o->cancel) {
             status = SPC_ERR_INTERRUPTED;
@@ -749,8 +720,10 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
         if (cs != SPC_OK)
             status = cs;
     }
-    double wall = now_seconds() - t_start;
-    int guide_entries = cguide ? cguide->n : 0;
+    wall = now_seconds() - t_start;
+    guide_entries = cguide ? cguide->n : 0;
+    rendered = true;
+cleanup:
     spc_cguide_destroy(cguide);
     spc_sguide_destroy(sguide);
     spc_cl_destroy(cl);
@@ -758,7 +731,7 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
         spc_bdpt_pool_release(&pools[b]);
     free(pools);
     spc_bdpt_pool_model_release(&pool_model);
-    for (size_t i = 0; i < (size_t)max_batch * ntiles; ++i) {
+    for (size_t i = 0; tls && i < (size_t)max_batch * ntiles; ++i) {
         free(tls[i].splats);
         free(tls[i].lv);
         free(tls[i].lv_first);
@@ -767,7 +740,10 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     free(buf);
     free(tiles);
     free(th);
-    film->invalid_samples = invalid;
+    if (!rendered) {
+        spc_film_destroy(film);
+        return status;
+    }
     if (!spc_film_resolve(film)) {
         spc_film_destroy(film);
         return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory resolving the film");
