@@ -28,6 +28,15 @@ static inline double spc_bsdf_tex1(const spc_texture *t, const spc_hit *h, doubl
 {
     return t ? spc_texture_eval1_hit(t, h) : fallback;
 }
+/* The cosine-weighted hemisphere's density of wi about sh.n (solid angle), 0 unless wo and wi are
+ * both above the surface (diffuse, roughdiffuse). */
+static inline double spc_bsdf_cosine_pdf(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
+{
+    double cos_i = spc_dot(wi, h->sh.n);
+    if (spc_dot(wo, h->sh.n) <= 0.0 || cos_i <= 0.0)
+        return 0.0;
+    return cos_i * SPC_INV_PI;
+}
 /* Mirror direction about the local z axis. */
 static inline spc_vec3 spc_bsdf_mirror_local(spc_vec3 w) { return spc_v3(-w.x, -w.y, w.z); }
 
