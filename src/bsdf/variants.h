@@ -129,40 +129,14 @@ static inline double spc_bsdf_bump_shadowing(const spc_hit *orig, const spc_hit 
 /* The nested BSDF of normalmap and bumpmap at the perturbed hit pert of orig (after
  * spc_bsdf_perturbed_face_view): its f rescaled by spc_bsdf_perturbed_scale and shadowed by
  * spc_bsdf_bump_shadowing, its pdf where both frames put wi on one side, and its sample (a null
- * lobe's as it is; otherwise none where the sides differ, and the shadowing in the weight). */
-static inline spc_rgb spc_bsdf_perturbed_eval(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert,
-                                              spc_transport mode, spc_vec3 wo, spc_vec3 wi)
-{
-    double k = spc_bsdf_perturbed_scale(orig, pert, wi);
-    if (k == 0.0)
-        return spc_rgb1(0.0);
-    k *= spc_bsdf_bump_shadowing(orig, pert, wi); /* as Mitsuba 3.9 */
-    return spc_rgb_scale(spc_bsdf_eval(nested, pert, mode, wo, wi), k);
-}
-
-static inline double spc_bsdf_perturbed_pdf(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert,
-                                             spc_transport mode, spc_vec3 wo, spc_vec3 wi)
-{
-    if (spc_bsdf_perturbed_scale(orig, pert, wi) == 0.0)
-        return 0.0;
-    return spc_bsdf_pdf(nested, pert, mode, wo, wi);
-}
-
-static inline bool spc_bsdf_perturbed_sample(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert,
-                                             spc_transport mode, spc_vec3 wo, double u_lobe, spc_vec2 u,
-                                             spc_bsdf_sample *out)
-{
-    if (!spc_bsdf_sample_dir(nested, pert, mode, wo, u_lobe, u, out))
-        return false;
-    if (out->lobe & SPC_LOBE_NULL)
-        return true;
-    if (spc_bsdf_perturbed_scale(orig, pert, out->wi) == 0.0)
-        return false;
-    /* the nested weight already uses the perturbed cosine, as the rescaled eval does; the
-     * shadowing term multiplies eval, so it multiplies the weight (not the pdf) */
-    out->weight = spc_rgb_scale(out->weight, spc_bsdf_bump_shadowing(orig, pert, out->wi));
-    return true;
-}
+ * lobe's as it is; otherwise none where the sides differ, and the shadowing in the weight).
+ * normalmap.c; bumpmap.c uses them too. */
+spc_rgb spc_bsdf_perturbed_eval(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert, spc_transport mode,
+                                spc_vec3 wo, spc_vec3 wi);
+double spc_bsdf_perturbed_pdf(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert, spc_transport mode,
+                              spc_vec3 wo, spc_vec3 wi);
+bool spc_bsdf_perturbed_sample(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert, spc_transport mode,
+                               spc_vec3 wo, double u_lobe, spc_vec2 u, spc_bsdf_sample *out);
 
 /* Fills a sample record (wi given in world space). */
 static inline void spc_bsdf_set_sample(spc_bsdf_sample *s, spc_vec3 wi, spc_rgb weight, double pdf, unsigned lobe,
