@@ -2,7 +2,7 @@
  * bench/bench_chains.h: the random admissible specular chains that bench_solvers and bench_newton
  * share (one definition, so both benchmarks solve exactly the same chains from the same random
  * streams): the three scenes built in code, the chain generator (traced from a light point through
- * exactly k specular interfaces) and the timer. Header-only; include once per benchmark program.
+ * exactly k specular interfaces). Header-only; include once per benchmark program.
  */
 #ifndef SPC_BENCH_CHAINS_H
 #define SPC_BENCH_CHAINS_H
@@ -10,21 +10,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "bench_util.h" /* bench_thread_seconds: the solves are timed by this thread's CPU time */
 #include "core/rng.h"
 #include "core/warp.h"
 #include "manifold/specular_nee.h"
 #include "render_util.h" /* tu_glass, tu_mirror (tests/) */
 #include "scene/scene.h"
-
-/* CPU time of this thread: the machine is shared, and wall time would count other processes. */
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 static spc_rng rng;
 static double rnd(void) { return spc_rng_next(&rng); }

@@ -15,20 +15,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "bench_util.h"
 #include "core/rng.h"
 #include "manifold/conic.h"
 #include "render/film.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts); /* CPU time: the machine is shared */
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 static spc_rng rng;
 static double rnd(void) { return spc_rng_next(&rng); }
@@ -133,10 +126,10 @@ static timing run_queries(const spc_conic_mesh *cm, const spc_conic_problem *pbs
     memset(&st, 0, sizeof st);
     long sols = 0;
     spc_conic_solution out[64];
-    double t0 = now();
+    double t0 = bench_thread_seconds();
     for (int i = 0; i < nq; ++i)
         sols += spc_conic_mesh_solve(cm, &pbs[i], out, 64, brute, &st);
-    double dt = now() - t0;
+    double dt = bench_thread_seconds() - t0;
     timing r;
     r.us_query = 1e6 * dt / nq;
     r.tris = (double)st.triangles / nq;
@@ -163,9 +156,9 @@ static void scaling(int nq)
                 fprintf(stderr, "mesh failed\n");
                 return;
             }
-            double tb = now();
+            double tb = bench_thread_seconds();
             spc_conic_mesh *cm = spc_conic_mesh_build(&shape);
-            double build = now() - tb;
+            double build = bench_thread_seconds() - tb;
             spc_rng_seed(&rng, 7, (uint64_t)li);
             spc_conic_problem *pbs = malloc((size_t)nq * sizeof *pbs);
             for (int i = 0; i < nq; ++i) {
@@ -215,13 +208,6 @@ static void scaling(int nq)
 }
 
 /* ---- equal time ---- */
-
-static double cpu_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 static spc_bsdf *diffuse(spc_scene *sc, double a)
 {
@@ -290,12 +276,12 @@ static spc_film *render(const spc_scene *sc, const char *snee, int spp, uint64_t
     spc_film *f = NULL;
     spc_error err;
     spc_render_stats st;
-    double c0 = cpu_now();
+    double c0 = bench_process_seconds();
     if (spc_render(sc, &o, &f, &st, &err) != SPC_OK) {
         fprintf(stderr, "render failed: %s\n", err.msg);
         return NULL;
     }
-    *cpu = cpu_now() - c0;
+    *cpu = bench_process_seconds() - c0;
     return f;
 }
 

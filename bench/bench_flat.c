@@ -15,21 +15,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "bench_util.h"
 #include "core/rng.h"
 #include "manifold/flat_chains.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
 #include "scene/shape.h"
 #include "specula/specula.h"
-
-static double cpu_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 int main(int argc, char **argv)
 {
@@ -38,19 +31,13 @@ int main(int argc, char **argv)
                 argv[0]);
         return 2;
     }
-    spc_define defs[32];
+    spc_define defs[BENCH_MAX_DEFINES];
     int nd = 0, npoints = 200, nlights = 5, kmax = SPC_FLAT_MAX_VERTICES;
     uint64_t seed = 1;
     for (int i = 2; i < argc; ++i) {
-        if (!strcmp(argv[i], "-D") && i + 1 < argc && nd < 32) {
-            char *eq = strchr(argv[++i], '=');
-            if (eq) {
-                *eq = '\0';
-                defs[nd].name = argv[i];
-                defs[nd].value = eq + 1;
-                ++nd;
-            }
-        } else if (!strcmp(argv[i], "--points") && i + 1 < argc) {
+        if (bench_define_arg(argc, argv, &i, defs, &nd))
+            continue;
+        if (!strcmp(argv[i], "--points") && i + 1 < argc) {
             npoints = atoi(argv[++i]);
         } else if (!strcmp(argv[i], "--lights") && i + 1 < argc) {
             nlights = atoi(argv[++i]);
@@ -62,14 +49,9 @@ int main(int argc, char **argv)
     }
     if (kmax < 1 || kmax > SPC_FLAT_MAX_VERTICES)
         kmax = SPC_FLAT_MAX_VERTICES;
-    spc_scene *sc;
-    spc_error err;
-    if (spc_scene_load(argv[1], defs, nd, &sc, &err) != SPC_OK) {
-        char buf[1200];
-        spc_error_format(&err, buf, sizeof buf);
-        fprintf(stderr, "%s\n", buf);
+    spc_scene *sc = bench_load(argv[1], defs, nd);
+    if (!sc)
         return 3;
-    }
     spc_camera_state cam;
     if (!spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height))
         return 4;
@@ -101,9 +83,9 @@ int main(int argc, char **argv)
             ++queries;
             for (int k = 1; k <= kmax; ++k) {
                 int ns = 0;
-                double t0 = cpu_now();
+                double t0 = bench_thread_seconds();
                 roots[k] += spc_flat_chain_roots(sc, false, true, x, ss.p, k, pts, NULL, 64, &ns);
-                t[k] += cpu_now() - t0;
+                t[k] += bench_thread_seconds() - t0;
                 seq[k] += ns;
             }
         }

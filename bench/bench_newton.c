@@ -144,7 +144,7 @@ int main(int argc, char **argv)
                     inseq += in;
                     int iters = 0;
                     bool conv;
-                    double t0 = now();
+                    double t0 = bench_thread_seconds();
                     if (cf->solver == 0) {
                         spc_angular_result res;
                         conv = spc_angular_solve(sc, &hx, &tg, sd, &o, &ao, &c, &res);
@@ -167,7 +167,7 @@ int main(int argc, char **argv)
                         if (in)
                             why[w]++;
                     }
-                    secs += now() - t0;
+                    secs += bench_thread_seconds() - t0;
                     it_all += iters;
                     if (conv && c.n == k) {
                         ++ok;

@@ -11,21 +11,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "accel/accel.h"
+#include "bench_util.h"
 #include "core/rng.h"
 #include "core/warp.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 int main(int argc, char **argv)
 {
@@ -34,29 +27,16 @@ int main(int argc, char **argv)
         return 2;
     }
     int spp = 16;
-    spc_define defs[32];
+    spc_define defs[BENCH_MAX_DEFINES];
     int nd = 0;
     for (int i = 2; i < argc; ++i) {
-        if (!strcmp(argv[i], "-D") && i + 1 < argc && nd < 32) {
-            char *eq = strchr(argv[++i], '=');
-            if (eq) {
-                *eq = '\0';
-                defs[nd].name = argv[i];
-                defs[nd].value = eq + 1;
-                ++nd;
-            }
-        } else {
+        if (!bench_define_arg(argc, argv, &i, defs, &nd))
             spp = atoi(argv[i]);
-        }
     }
-    spc_scene *sc;
-    spc_error err;
-    if (spc_scene_load(argv[1], defs, nd, &sc, &err) != SPC_OK) {
-        char buf[1200];
-        spc_error_format(&err, buf, sizeof buf);
-        fprintf(stderr, "%s\n", buf);
+    spc_scene *sc = bench_load(argv[1], defs, nd);
+    if (!sc)
         return 3;
-    }
+    spc_error err;
     printf("scene %s, %dx%d, %d spp, integrator path\n", argv[1], sc->film.width, sc->film.height, spp);
     for (int threads = 1; threads <= 2; ++threads) {
         spc_render_options o;
@@ -91,9 +71,9 @@ int main(int argc, char **argv)
                 rays[i].tmax = INFINITY;
             }
         }
-        double t0 = now();
+        double t0 = bench_wall_seconds();
         uint64_t hits = spc_accel_raw_loop(sc->accel, rays, n);
-        double raw = now() - t0;
+        double raw = bench_wall_seconds() - t0;
         double raw_mrays = n / raw * 1e-6;
         printf("threads %d: specula %.3f Mrays/s (%llu rays, %.2f s); raw Embree loop (1 thread) %.3f Mrays/s "
                "(%llu hits); ratio specula/raw = %.3f\n",

@@ -32,20 +32,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "bench_util.h"
 #include "core/rng.h"
 #include "manifold/specular_nee.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
-
-static double cpu_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 typedef struct point {
     spc_hit h;
@@ -122,9 +115,9 @@ static void profile(const spc_scene *sc, const spc_snee_params *p, const point *
             spc_angular_target tg = {q.y, q.ny, sc->radius, q.light_size};
             spc_chain c;
             spc_angular_result res;
-            double t0 = cpu_now();
+            double t0 = bench_thread_seconds();
             spc_angular_solve(sc, q.x, &tg, dir, &o, &p->angular, &c, &res);
-            double dt = cpu_now() - t0;
+            double dt = bench_thread_seconds() - t0;
             t_all += dt;
             t_stop[res.stop] += dt;
             count[res.stop]++;
@@ -217,22 +210,16 @@ int main(int argc, char **argv)
                 argv[0]);
         return 2;
     }
-    spc_define defs[32];
+    spc_define defs[BENCH_MAX_DEFINES];
     int nd = 0, npoints = 400, calls = 200, solver = SPC_SNEE_ANGULAR;
     uint64_t seed = 1;
     bool prof = false;
     const char *configs[32];
     int nc = 0;
     for (int i = 2; i < argc; ++i) {
-        if (!strcmp(argv[i], "-D") && i + 1 < argc && nd < 32) {
-            char *eq = strchr(argv[++i], '=');
-            if (eq) {
-                *eq = '\0';
-                defs[nd].name = argv[i];
-                defs[nd].value = eq + 1;
-                ++nd;
-            }
-        } else if (!strcmp(argv[i], "--points") && i + 1 < argc) {
+        if (bench_define_arg(argc, argv, &i, defs, &nd))
+            continue;
+        if (!strcmp(argv[i], "--points") && i + 1 < argc) {
             npoints = atoi(argv[++i]);
         } else if (!strcmp(argv[i], "--calls") && i + 1 < argc) {
             calls = atoi(argv[++i]);
@@ -251,14 +238,9 @@ int main(int argc, char **argv)
     }
     if (nc == 0)
         configs[nc++] = "shape";
-    spc_scene *sc;
-    spc_error err;
-    if (spc_scene_load(argv[1], defs, nd, &sc, &err) != SPC_OK) {
-        char buf[1200];
-        spc_error_format(&err, buf, sizeof buf);
-        fprintf(stderr, "%s\n", buf);
+    spc_scene *sc = bench_load(argv[1], defs, nd);
+    if (!sc)
         return 3;
-    }
     int max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
     point *pts = malloc((size_t)npoints * sizeof *pts);
     double *mean = malloc((size_t)npoints * sizeof *mean);
@@ -285,7 +267,7 @@ int main(int argc, char **argv)
         }
         spc_snee_stats st;
         memset(&st, 0, sizeof st);
-        double t0 = cpu_now(), sum_mean = 0.0, sum_var = 0.0, sum_se2 = 0.0;
+        double t0 = bench_thread_seconds(), sum_mean = 0.0, sum_var = 0.0, sum_se2 = 0.0;
         for (int i = 0; i < np; ++i) {
             double s1 = 0.0, s2 = 0.0;
             for (int k = 0; k < calls; ++k) {
@@ -305,7 +287,7 @@ int main(int argc, char **argv)
             sum_var += var[i];
             sum_se2 += var[i] / calls;
         }
-        double secs = cpu_now() - t0;
+        double secs = bench_thread_seconds() - t0;
         double us = secs / ((double)np * calls) * 1e6;
         double mvar = sum_var / np;
         double eff = mvar > 0.0 ? 1.0 / (mvar * us) : 0.0;

@@ -122,9 +122,9 @@ int main(int argc, char **argv)
                     bool in = spc_chain_sig_equal(&s1, &s2);
                     inseq += in;
                     spc_angular_result res;
-                    double t0 = now();
+                    double t0 = bench_thread_seconds();
                     bool conv = spc_angular_solve(sc, &hx, &tg, sd, &o, &ao, &c, &res);
-                    secs += now() - t0;
+                    secs += bench_thread_seconds() - t0;
                     it_all += res.iterations;
                     if (conv && c.n == k) {
                         ++ok;

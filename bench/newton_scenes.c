@@ -20,20 +20,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "bench_util.h"
 #include "bsdf/bsdf.h"
 #include "core/error.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
-
-static double cpu_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 static spc_film *render(const spc_scene *sc, const char *integrator, const char *snee, int spp, uint64_t seed,
                         double *cpu)
@@ -49,13 +42,13 @@ static spc_film *render(const spc_scene *sc, const char *integrator, const char 
     spc_film *f = NULL;
     spc_error err;
     spc_render_stats st;
-    double t0 = cpu_now();
+    double t0 = bench_process_seconds();
     if (spc_render(sc, &o, &f, &st, &err) != SPC_OK) {
         fprintf(stderr, "render failed: %s\n", err.msg);
         spc_film_destroy(f);
         return NULL;
     }
-    *cpu = cpu_now() - t0;
+    *cpu = bench_process_seconds() - t0;
     return f;
 }
 

@@ -128,25 +128,34 @@ static inline spc_bsdf *tu_normal_mapped(spc_scene *sc, const spc_bsdf *nested, 
     return b;
 }
 
-/* Renders with specular NEE `snee` (NULL: the scene's) and returns the film (caller destroys); NULL on
- * failure (message printed). *st (if not NULL) gets the render's statistics. */
-static inline spc_film *tu_render_stats(const spc_scene *sc, const char *integrator, const char *snee, int spp,
-                                        int threads, uint64_t seed, spc_render_stats *st)
+/* The options of tu_render_stats's renders (the others at their defaults), for a caller that sets
+ * more of them before tu_render_options. */
+static inline void tu_options(spc_render_options *o, const char *integrator, const char *snee, int spp, int threads,
+                              uint64_t seed)
 {
-    spc_render_options o;
-    spc_render_options_init(&o);
-    o.spp = spp;
-    o.threads = threads;
-    o.seed = seed;
-    o.integrator = integrator;
-    o.specular_nee = snee;
+    spc_render_options_init(o);
+    o->spp = spp;
+    o->threads = threads;
+    o->seed = seed;
+    o->integrator = integrator;
+    o->specular_nee = snee;
+}
+
+/* Renders with options o and returns the film (caller destroys); NULL on failure (message printed).
+ * *st (if not NULL) gets the render's statistics, *status (if not NULL) its status. */
+static inline spc_film *tu_render_options(const spc_scene *sc, const spc_render_options *o, spc_render_stats *st,
+                                          spc_status *status)
+{
     spc_film *f = NULL;
     spc_error err;
     spc_render_stats own;
     if (!st)
         st = &own;
     memset(st, 0, sizeof *st);
-    if (spc_render(sc, &o, &f, st, &err) != SPC_OK) {
+    spc_status s = spc_render(sc, o, &f, st, &err);
+    if (status)
+        *status = s;
+    if (s != SPC_OK) {
         char buf[1200];
         spc_error_format(&err, buf, sizeof buf);
         printf("  render failed: %s\n", buf);
@@ -154,6 +163,16 @@ static inline spc_film *tu_render_stats(const spc_scene *sc, const char *integra
         return NULL;
     }
     return f;
+}
+
+/* Renders with specular NEE `snee` (NULL: the scene's) and returns the film (caller destroys); NULL on
+ * failure (message printed). *st (if not NULL) gets the render's statistics. */
+static inline spc_film *tu_render_stats(const spc_scene *sc, const char *integrator, const char *snee, int spp,
+                                        int threads, uint64_t seed, spc_render_stats *st)
+{
+    spc_render_options o;
+    tu_options(&o, integrator, snee, spp, threads, seed);
+    return tu_render_options(sc, &o, st, NULL);
 }
 
 /* tu_render_stats, with only the wall time (*wall_seconds, if not NULL). */

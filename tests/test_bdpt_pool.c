@@ -47,24 +47,9 @@ static spc_scene *load(const char *rel, int res)
 static spc_film *render_pool(const spc_scene *sc, int pool, int spp, int threads, uint64_t seed, spc_status *status)
 {
     spc_render_options o;
-    spc_render_options_init(&o);
-    o.integrator = "bdpt";
-    o.spp = spp;
-    o.threads = threads;
-    o.seed = seed;
+    tu_options(&o, "bdpt", NULL, spp, threads, seed);
     o.bdpt_pool = pool;
-    spc_film *f = NULL;
-    spc_error err;
-    spc_status st = spc_render(sc, &o, &f, NULL, &err);
-    if (status)
-        *status = st;
-    else if (st != SPC_OK)
-        printf("  render failed: %s\n", err.msg);
-    if (st != SPC_OK) {
-        spc_film_destroy(f);
-        return NULL;
-    }
-    return f;
+    return tu_render_options(sc, &o, NULL, status);
 }
 
 /* The pool's image against plain bdpt at 4x the samples (different seeds). */

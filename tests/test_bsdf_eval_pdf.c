@@ -16,6 +16,7 @@
 #include "core/warp.h"
 #include "harness.h"
 #include "io/mitsuba_xml.h"
+#include "lanes.h"
 #include "scene/scene.h"
 #include "scene/shape.h"
 
@@ -42,6 +43,42 @@ static const char *bsdfs_xml =
     "<shape type='rectangle'><bsdf type='plastic'/></shape>"
     "</scene>";
 
+/* Nonzero values and densities compared, and rounds with wo on the back side. */
+typedef struct eval_pdf_counts {
+    int nonzero_f, nonzero_pdf, back;
+} eval_pdf_counts;
+
+/* One round: wi near the mirror direction (where a glossy lobe is large) or anywhere, sometimes wo
+ * on the horizon or wi = wo; spc_bsdf_eval_pdf against the two calls. */
+static bool eval_pdf_round(void *ctx, int round, const spc_bsdf *b, spc_hit *h, spc_vec3 wo, spc_rng *rng, bool loud)
+{
+    eval_pdf_counts *c = (eval_pdf_counts *)ctx;
+    spc_vec3 wi;
+    if (round % 3 == 0) {
+        spc_vec3 r = spc_reflect(wo, h->ng);
+        spc_vec3 j = spc_warp_uniform_sphere(spc_v2(spc_rng_next(rng), spc_rng_next(rng)));
+        wi = spc_normalize(spc_madd(r, j, 0.1 * spc_rng_next(rng)));
+    } else {
+        wi = spc_warp_uniform_sphere(spc_v2(spc_rng_next(rng), spc_rng_next(rng)));
+    }
+    if (round % 97 == 5)
+        wo = h->sh.s; /* on the horizon */
+    if (round % 89 == 7)
+        wi = wo;
+    c->back += spc_dot(wo, h->ng) < 0.0;
+    double pdf1 = -1.0;
+    spc_rgb f1 = spc_bsdf_eval_pdf(b, h, SPC_MODE_RADIANCE, wo, wi, &pdf1);
+    spc_rgb f0 = spc_bsdf_eval(b, h, SPC_MODE_RADIANCE, wo, wi);
+    double pdf0 = spc_bsdf_pdf(b, h, SPC_MODE_RADIANCE, wo, wi);
+    c->nonzero_f += !spc_rgb_is_black(f0);
+    c->nonzero_pdf += pdf0 > 0.0;
+    bool same = memcmp(&f0, &f1, sizeof f0) == 0 && memcmp(&pdf0, &pdf1, sizeof pdf0) == 0;
+    if (!same && loud)
+        printf("  round %d: f %.17g %.17g %.17g / %.17g %.17g %.17g, pdf %.17g / %.17g\n", round, f0.r, f0.g, f0.b,
+               f1.r, f1.g, f1.b, pdf0, pdf1);
+    return same;
+}
+
 TEST(eval_pdf_matches_eval_and_pdf)
 {
     spc_scene *sc = NULL;
@@ -50,50 +87,12 @@ TEST(eval_pdf_matches_eval_and_pdf)
     if (!sc)
         return;
     CHECK(sc->nshapes == 10);
-    spc_rng rng;
-    spc_rng_seed(&rng, 23, 2);
-    int failed = 0, nonzero_f = 0, nonzero_pdf = 0, back = 0;
-    for (int round = 0; round < 20000; ++round) {
-        const spc_bsdf *b = sc->shapes[round % sc->nshapes]->bsdf;
-        spc_hit h;
-        memset(&h, 0, sizeof h);
-        spc_vec3 n = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
-        h.sh = spc_frame_from_n(n);
-        h.ng = n;
-        h.uv = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
-        h.bsdf = b;
-        spc_vec3 wo = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
-        spc_vec3 wi;
-        if (round % 3 == 0) {
-            /* near the mirror direction, where a glossy lobe is large */
-            spc_vec3 r = spc_reflect(wo, n);
-            spc_vec3 j = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
-            wi = spc_normalize(spc_madd(r, j, 0.1 * spc_rng_next(&rng)));
-        } else {
-            wi = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
-        }
-        if (round % 97 == 5)
-            wo = h.sh.s; /* on the horizon */
-        if (round % 89 == 7)
-            wi = wo;
-        back += spc_dot(wo, n) < 0.0;
-        double pdf1 = -1.0;
-        spc_rgb f1 = spc_bsdf_eval_pdf(b, &h, SPC_MODE_RADIANCE, wo, wi, &pdf1);
-        spc_rgb f0 = spc_bsdf_eval(b, &h, SPC_MODE_RADIANCE, wo, wi);
-        double pdf0 = spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE, wo, wi);
-        nonzero_f += !spc_rgb_is_black(f0);
-        nonzero_pdf += pdf0 > 0.0;
-        if (memcmp(&f0, &f1, sizeof f0) != 0 || memcmp(&pdf0, &pdf1, sizeof pdf0) != 0) {
-            if (failed < 3)
-                printf("  shape %d: f %.17g %.17g %.17g / %.17g %.17g %.17g, pdf %.17g / %.17g\n", round % sc->nshapes,
-                       f0.r, f0.g, f0.b, f1.r, f1.g, f1.b, pdf0, pdf1);
-            ++failed;
-        }
-    }
+    eval_pdf_counts c = {0, 0, 0};
+    int failed = lanes_check_bsdfs(sc, 23, 2, 20000, eval_pdf_round, &c);
     CHECK_MSG(failed == 0, "%d evaluations differ", failed);
     /* the comparisons covered real lobe values and densities, on both sides */
-    CHECK_MSG(nonzero_f > 5000 && nonzero_pdf > 5000 && back > 5000, "f %d, pdf %d nonzero, %d back sides", nonzero_f,
-              nonzero_pdf, back);
+    CHECK_MSG(c.nonzero_f > 5000 && c.nonzero_pdf > 5000 && c.back > 5000, "f %d, pdf %d nonzero, %d back sides",
+              c.nonzero_f, c.nonzero_pdf, c.back);
     spc_scene_destroy(sc);
 }
 

@@ -30,6 +30,7 @@
 #include "harness.h"
 #include "integrator/path_wave.h"
 #include "io/mitsuba_xml.h"
+#include "lanes.h"
 #include "scene/scene.h"
 #include "scene/shape.h"
 #include "specula/specula.h"
@@ -199,59 +200,32 @@ static const char *many_xml =
     "</transform><emitter type='area'><texture type='checkerboard' name='radiance'/></emitter></shape>"
     "</scene>";
 
-static int same_direct(bool ok_a, const spc_emitter_direct *a, bool ok_b, const spc_emitter_direct *b)
+/* A lane's reference point: anywhere around the lights, or (every ninth lane on a mesh light) a point
+ * on the light itself (its plane: no sample). */
+static int many_setup(void *ctx, int i, const spc_emitter *e, spc_rng *rng, spc_vec3 *ref, spc_vec2 *u)
 {
-    if (ok_a != ok_b)
-        return 0;
-    if (!ok_a)
-        return 1;
-    return memcmp(&a->p, &b->p, sizeof a->p) == 0 && memcmp(&a->n, &b->n, sizeof a->n) == 0 &&
-           memcmp(&a->wi, &b->wi, sizeof a->wi) == 0 && memcmp(&a->dist, &b->dist, sizeof a->dist) == 0 &&
-           memcmp(&a->L, &b->L, sizeof a->L) == 0 && memcmp(&a->pdf, &b->pdf, sizeof a->pdf) == 0 &&
-           memcmp(&a->err, &b->err, sizeof a->err) == 0 && a->is_delta == b->is_delta &&
-           a->is_infinite == b->is_infinite;
+    (void)ctx;
+    *ref = spc_v3(4.0 * spc_rng_next(rng) - 2.0, 4.0 * spc_rng_next(rng) - 1.0, 4.0 * spc_rng_next(rng) - 2.0);
+    if (i % 9 == 4 && e && e->shape->type == SPC_SHAPE_MESH) {
+        spc_shape_sample ss;
+        spc_shape_sample_area(e->shape, spc_v2(0.3, 0.6), &ss);
+        *ref = ss.p;
+    }
+    *u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+    return 0;
+}
+
+/* Counts the samples that went through the vector form. */
+static void many_tally(void *ctx, const spc_emitter *e, spc_vec3 ref, int tag, bool ok_many, bool ok_one)
+{
+    (void)ref, (void)tag, (void)ok_one;
+    *(int *)ctx += spc_emitter_many_covers(e) && ok_many;
 }
 
 static void check_many(const spc_scene *sc, int *covered, int *failed)
 {
-    enum { N = 37 }; /* more than two batches, the last one partial */
-    spc_rng rng;
-    spc_rng_seed(&rng, 11, 3);
-    for (int round = 0; round < 200; ++round) {
-        const spc_emitter *e[N];
-        spc_vec3 ref[N];
-        spc_vec2 u[N];
-        spc_emitter_direct many[N], one;
-        bool ok[N];
-        for (int i = 0; i < N; ++i) {
-            int k = (int)(spc_rng_next(&rng) * (sc->nemitters + 1));
-            e[i] = k < sc->nemitters ? sc->emitters[k] : NULL; /* NULL: no light sample */
-            ref[i] =
-                spc_v3(4.0 * spc_rng_next(&rng) - 2.0, 4.0 * spc_rng_next(&rng) - 1.0, 4.0 * spc_rng_next(&rng) - 2.0);
-            if (i % 9 == 4 && e[i] && e[i]->shape->type == SPC_SHAPE_MESH) {
-                /* a point on the light itself (its plane): no sample */
-                spc_shape_sample ss;
-                spc_shape_sample_area(e[i]->shape, spc_v2(0.3, 0.6), &ss);
-                ref[i] = ss.p;
-            }
-            u[i] = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
-            ok[i] = !(i % 2); /* must be overwritten */
-        }
-        spc_emitter_sample_direct_many(N, e, ref, u, many, ok);
-        for (int i = 0; i < N; ++i) {
-            if (!e[i]) {
-                *failed += ok[i];
-                continue;
-            }
-            *covered += spc_emitter_many_covers(e[i]) && ok[i];
-            bool ok1 = spc_emitter_sample_direct(e[i], ref[i], u[i], &one);
-            if (!same_direct(ok[i], &many[i], ok1, &one)) {
-                if (*failed < 3)
-                    printf("  lane %d (emitter %d): many %d, one %d\n", i, e[i]->index, ok[i], ok1);
-                ++*failed;
-            }
-        }
-    }
+    lanes_direct_hooks hk = {many_setup, many_tally, covered};
+    *failed += lanes_check_direct(sc, 11, 3, 200, &hk);
 }
 
 TEST(light_samples_many_match_one_at_a_time)
@@ -301,6 +275,48 @@ static const char *view_xml =
     "<shape type='rectangle'><bsdf type='conductor'/></shape>"
     "</scene>";
 
+/* Views seen and how many of them on a back side. */
+typedef struct view_counts {
+    int views, back;
+} view_counts;
+
+/* One round of diffuse_view_matches_bsdf: the view's eval, pdf and sample against the BSDF's. */
+static bool view_round(void *ctx, int round, const spc_bsdf *b, spc_hit *h, spc_vec3 wo, spc_rng *rng, bool loud)
+{
+    view_counts *c = (view_counts *)ctx;
+    spc_vec3 wi = spc_warp_uniform_sphere(spc_v2(spc_rng_next(rng), spc_rng_next(rng)));
+    if (round % 50 == 7)
+        wo = h->sh.s; /* on the horizon */
+    if (round % 50 == 9)
+        wi = h->sh.t;
+    spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+    spc_diffuse_view v;
+    if (!spc_diffuse_view_of(b, h, wo, &v)) {
+        /* no view: neither diffuse nor a twosided side that is */
+        bool plain = b->type == SPC_BSDF_DIFFUSE;
+        bool twosided_diffuse =
+            b->type == SPC_BSDF_TWOSIDED && spc_dot(wo, h->sh.n) >= 0.0 && b->nested[0]->type == SPC_BSDF_DIFFUSE;
+        return !(plain || twosided_diffuse);
+    }
+    ++c->views;
+    c->back += v.sign < 0.0;
+    spc_rgb f1 = spc_diffuse_view_eval(&v, h, wo, wi), f0 = spc_bsdf_eval(b, h, SPC_MODE_RADIANCE, wo, wi);
+    double p1 = spc_diffuse_view_pdf(&v, h, wo, wi), p0 = spc_bsdf_pdf(b, h, SPC_MODE_RADIANCE, wo, wi);
+    spc_bsdf_sample s1, s0;
+    memset(&s1, 0, sizeof s1);
+    memset(&s0, 0, sizeof s0);
+    bool ok1 = spc_diffuse_view_sample(&v, h, wo, u, &s1);
+    bool ok0 = spc_bsdf_sample_dir(b, h, SPC_MODE_RADIANCE, wo, 0.5, u, &s0);
+    bool same = memcmp(&f1, &f0, sizeof f1) == 0 && memcmp(&p1, &p0, sizeof p1) == 0 && ok1 == ok0 &&
+                (!ok0 || (memcmp(&s1.wi, &s0.wi, sizeof s1.wi) == 0 &&
+                          memcmp(&s1.weight, &s0.weight, sizeof s1.weight) == 0 &&
+                          memcmp(&s1.pdf, &s0.pdf, sizeof s1.pdf) == 0 && s1.lobe == s0.lobe && s1.eta == s0.eta));
+    if (!same && loud)
+        printf("  round %d (sign %g): eval %g/%g pdf %g/%g sample %d/%d\n", round, v.sign, f1.r, f0.r, p1, p0, ok1,
+               ok0);
+    return same;
+}
+
 TEST(diffuse_view_matches_bsdf)
 {
     spc_scene *sc = NULL;
@@ -309,54 +325,10 @@ TEST(diffuse_view_matches_bsdf)
     if (!sc)
         return;
     CHECK(sc->nshapes == 7);
-    spc_rng rng;
-    spc_rng_seed(&rng, 5, 1);
-    int views = 0, back = 0, failed = 0;
-    for (int round = 0; round < 4000; ++round) {
-        const spc_bsdf *b = sc->shapes[round % sc->nshapes]->bsdf;
-        spc_hit h;
-        memset(&h, 0, sizeof h);
-        spc_vec3 n = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
-        h.sh = spc_frame_from_n(n);
-        h.ng = n;
-        h.uv = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
-        h.bsdf = b;
-        spc_vec3 wo = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
-        spc_vec3 wi = spc_warp_uniform_sphere(spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
-        if (round % 50 == 7)
-            wo = h.sh.s; /* on the horizon */
-        if (round % 50 == 9)
-            wi = h.sh.t;
-        spc_vec2 u = spc_v2(spc_rng_next(&rng), spc_rng_next(&rng));
-        spc_diffuse_view v;
-        if (!spc_diffuse_view_of(b, &h, wo, &v)) {
-            /* no view: neither diffuse nor a twosided side that is */
-            bool plain = b->type == SPC_BSDF_DIFFUSE;
-            bool twosided_diffuse = b->type == SPC_BSDF_TWOSIDED && spc_dot(wo, h.sh.n) >= 0.0 &&
-                                    b->nested[0]->type == SPC_BSDF_DIFFUSE;
-            failed += plain || twosided_diffuse;
-            continue;
-        }
-        ++views;
-        back += v.sign < 0.0;
-        spc_rgb f1 = spc_diffuse_view_eval(&v, &h, wo, wi), f0 = spc_bsdf_eval(b, &h, SPC_MODE_RADIANCE, wo, wi);
-        double p1 = spc_diffuse_view_pdf(&v, &h, wo, wi), p0 = spc_bsdf_pdf(b, &h, SPC_MODE_RADIANCE, wo, wi);
-        spc_bsdf_sample s1, s0;
-        memset(&s1, 0, sizeof s1);
-        memset(&s0, 0, sizeof s0);
-        bool ok1 = spc_diffuse_view_sample(&v, &h, wo, u, &s1);
-        bool ok0 = spc_bsdf_sample_dir(b, &h, SPC_MODE_RADIANCE, wo, 0.5, u, &s0);
-        bool same = memcmp(&f1, &f0, sizeof f1) == 0 && memcmp(&p1, &p0, sizeof p1) == 0 && ok1 == ok0 &&
-                    (!ok0 || (memcmp(&s1.wi, &s0.wi, sizeof s1.wi) == 0 &&
-                              memcmp(&s1.weight, &s0.weight, sizeof s1.weight) == 0 &&
-                              memcmp(&s1.pdf, &s0.pdf, sizeof s1.pdf) == 0 && s1.lobe == s0.lobe && s1.eta == s0.eta));
-        if (!same && failed < 3)
-            printf("  round %d (shape %d, sign %g): eval %g/%g pdf %g/%g sample %d/%d\n", round,
-                   round % sc->nshapes, v.sign, f1.r, f0.r, p1, p0, ok1, ok0);
-        failed += !same;
-    }
-    CHECK_MSG(failed == 0, "%d of %d diffuse views differ from the BSDF", failed, views);
-    CHECK_MSG(views > 2000 && back > 500, "%d views, %d of them on a back side", views, back);
+    view_counts c = {0, 0};
+    int failed = lanes_check_bsdfs(sc, 5, 1, 4000, view_round, &c);
+    CHECK_MSG(failed == 0, "%d of %d diffuse views differ from the BSDF", failed, c.views);
+    CHECK_MSG(c.views > 2000 && c.back > 500, "%d views, %d of them on a back side", c.views, c.back);
     spc_scene_destroy(sc);
 }
 

@@ -20,6 +20,7 @@
 #include "emitter/emitter.h"
 #include "harness.h"
 #include "io/mitsuba_xml.h"
+#include "lanes.h"
 #include "scene/scene.h"
 #include "scene/shape.h"
 
@@ -39,19 +40,6 @@ static const char *spheres_xml =
     "<shape type='rectangle'><transform name='to_world'><translate value='0.2,1.5,-0.3'/></transform>"
     "<emitter type='area'><rgb name='radiance' value='3,2,1'/></emitter></shape>"
     "</scene>";
-
-static bool same_direct(bool ok_a, const spc_emitter_direct *a, bool ok_b, const spc_emitter_direct *b)
-{
-    if (ok_a != ok_b)
-        return false;
-    if (!ok_a)
-        return true;
-    return memcmp(&a->p, &b->p, sizeof a->p) == 0 && memcmp(&a->n, &b->n, sizeof a->n) == 0 &&
-           memcmp(&a->wi, &b->wi, sizeof a->wi) == 0 && memcmp(&a->dist, &b->dist, sizeof a->dist) == 0 &&
-           memcmp(&a->L, &b->L, sizeof a->L) == 0 && memcmp(&a->pdf, &b->pdf, sizeof a->pdf) == 0 &&
-           memcmp(&a->err, &b->err, sizeof a->err) == 0 && a->is_delta == b->is_delta &&
-           a->is_infinite == b->is_infinite;
-}
 
 /* A reference point for sphere s: kind 0 random around it, 1 just outside its surface, 2 far, 3 inside. */
 static spc_vec3 ref_for(const spc_shape *s, int kind, spc_rng *rng)
@@ -78,51 +66,34 @@ static double u_for(int i, spc_rng *rng)
     return spc_rng_next(rng);
 }
 
-/* 300 rounds of 37 lanes (two full batches and a partial one): every record equal to the one-lane
- * call's; vector counts the lanes that went through the vector loop, kinds[k] those of each kind. */
-static void compare(const spc_scene *sc, int *vector, int *failed, int kinds[4])
+/* What the comparisons covered: lanes through the vector loop, and those of each kind of
+ * reference point that gave a sample. */
+typedef struct sphere_counts {
+    int vector, kinds[4];
+} sphere_counts;
+
+/* A lane's kind of reference point (drawn for every lane), its point (around the sphere by its
+ * kind, anywhere for other lights) and random numbers (the special ones on some lanes). */
+static int sphere_setup(void *ctx, int i, const spc_emitter *e, spc_rng *rng, spc_vec3 *ref, spc_vec2 *u)
 {
-    enum { N = 37 };
-    spc_rng rng;
-    spc_rng_seed(&rng, 17, 4);
-    for (int round = 0; round < 300; ++round) {
-        const spc_emitter *e[N];
-        spc_vec3 ref[N];
-        spc_vec2 u[N];
-        spc_emitter_direct many[N], one;
-        bool ok[N];
-        int kind[N];
-        for (int i = 0; i < N; ++i) {
-            int k = (int)(spc_rng_next(&rng) * (sc->nemitters + 1));
-            e[i] = k < sc->nemitters ? sc->emitters[k] : NULL;
-            kind[i] = (int)(spc_rng_next(&rng) * 4.0);
-            const spc_shape *s = e[i] ? e[i]->shape : NULL;
-            if (s && s->type == SPC_SHAPE_SPHERE)
-                ref[i] = ref_for(s, kind[i], &rng);
-            else
-                ref[i] = spc_v3(4.0 * spc_rng_next(&rng) - 2.0, 4.0 * spc_rng_next(&rng) - 2.0,
-                                4.0 * spc_rng_next(&rng) - 2.0);
-            u[i] = spc_v2(i % 7 == 2 ? (i % 2 ? 0.0 : 1.0 - DBL_EPSILON / 2) : spc_rng_next(&rng), u_for(i, &rng));
-            ok[i] = !(i % 2); /* must be overwritten */
-        }
-        spc_emitter_sample_direct_many(N, e, ref, u, many, ok);
-        for (int i = 0; i < N; ++i) {
-            if (!e[i]) {
-                *failed += ok[i];
-                continue;
-            }
-            bool ok1 = spc_emitter_sample_direct(e[i], ref[i], u[i], &one);
-            bool vec = spc_emitter_many_covers_sphere(e[i]) && spc_shape_has_solid_angle_sampling(e[i]->shape, ref[i]);
-            if (vec) {
-                ++*vector;
-                kinds[kind[i]] += ok1;
-            }
-            if (!same_direct(ok[i], &many[i], ok1, &one)) {
-                if (*failed < 3)
-                    printf("  lane %d (emitter %d, kind %d): many %d, one %d\n", i, e[i]->index, kind[i], ok[i], ok1);
-                ++*failed;
-            }
-        }
+    (void)ctx;
+    int kind = (int)(spc_rng_next(rng) * 4.0);
+    const spc_shape *s = e ? e->shape : NULL;
+    if (s && s->type == SPC_SHAPE_SPHERE)
+        *ref = ref_for(s, kind, rng);
+    else
+        *ref = spc_v3(4.0 * spc_rng_next(rng) - 2.0, 4.0 * spc_rng_next(rng) - 2.0, 4.0 * spc_rng_next(rng) - 2.0);
+    *u = spc_v2(i % 7 == 2 ? (i % 2 ? 0.0 : 1.0 - DBL_EPSILON / 2) : spc_rng_next(rng), u_for(i, rng));
+    return kind;
+}
+
+static void sphere_tally(void *ctx, const spc_emitter *e, spc_vec3 ref, int kind, bool ok_many, bool ok_one)
+{
+    (void)ok_many;
+    sphere_counts *c = (sphere_counts *)ctx;
+    if (spc_emitter_many_covers_sphere(e) && spc_shape_has_solid_angle_sampling(e->shape, ref)) {
+        ++c->vector;
+        c->kinds[kind] += ok_one;
     }
 }
 
@@ -140,14 +111,16 @@ TEST(sphere_samples_many_match_one_at_a_time)
     CHECK_MSG(ncover == 4, "%d lights covered by the sphere loops, expected the four constant spheres", ncover);
     for (int isa = 2; isa >= 0; --isa) {
         int used = spc_emitter_spheres_many_isa(isa);
-        int vector = 0, failed = 0, kinds[4] = {0, 0, 0, 0};
-        compare(sc, &vector, &failed, kinds);
+        sphere_counts c = {0, {0, 0, 0, 0}};
+        lanes_direct_hooks hk = {sphere_setup, sphere_tally, &c};
+        /* 300 rounds: every record equal to the one-lane call's */
+        int failed = lanes_check_direct(sc, 17, 4, 300, &hk);
         CHECK_MSG(failed == 0, "loop %d: %d light samples differ", used, failed);
-        CHECK_MSG(vector > 3000, "loop %d: only %d samples through the sphere loops", used, vector);
+        CHECK_MSG(c.vector > 3000, "loop %d: only %d samples through the sphere loops", used, c.vector);
         /* every kind of reference point outside gave real samples (inside ones go one lane at a time) */
-        CHECK_MSG(kinds[0] > 300 && kinds[1] > 300 && kinds[2] > 300, "loop %d: samples by kind %d %d %d", used,
-                  kinds[0], kinds[1], kinds[2]);
-        printf("  loop %d: %d lanes through the sphere loops, %d differ\n", used, vector, failed);
+        CHECK_MSG(c.kinds[0] > 300 && c.kinds[1] > 300 && c.kinds[2] > 300, "loop %d: samples by kind %d %d %d", used,
+                  c.kinds[0], c.kinds[1], c.kinds[2]);
+        printf("  loop %d: %d lanes through the sphere loops, %d differ\n", used, c.vector, failed);
     }
     spc_emitter_spheres_many_isa(-1);
     spc_scene_destroy(sc);

@@ -13,23 +13,14 @@
  */
 #include "bsdf/variants.h"
 
+/* A delta lobe: no value and no density for a given pair of directions (bsdf.h). */
 spc_rgb spc_conductor_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
-    (void)b;
-    (void)h;
-    (void)mode;
-    (void)wo;
-    (void)wi;
     return spc_rgb1(0.0);
 }
 
 double spc_conductor_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
-    (void)b;
-    (void)h;
-    (void)mode;
-    (void)wo;
-    (void)wi;
     return 0.0;
 }
 

@@ -17,12 +17,7 @@ spc_rgb spc_diffuse_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode
 
 double spc_diffuse_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
-    (void)b;
-    (void)mode;
-    double cos_i = spc_dot(wi, h->sh.n);
-    if (spc_dot(wo, h->sh.n) <= 0.0 || cos_i <= 0.0)
-        return 0.0;
-    return cos_i * SPC_INV_PI;
+    return spc_bsdf_cosine_pdf(h, wo, wi);
 }
 
 bool spc_diffuse_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,

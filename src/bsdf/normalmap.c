@@ -43,24 +43,52 @@ static void normalmap_hit(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_
     spc_bsdf_perturbed_face_view(h, out, wo);
 }
 
+/* The nested BSDF in the perturbed frame (variants.h), for normalmap and bumpmap. */
+spc_rgb spc_bsdf_perturbed_eval(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert, spc_transport mode,
+                                spc_vec3 wo, spc_vec3 wi)
+{
+    double k = spc_bsdf_perturbed_scale(orig, pert, wi);
+    if (k == 0.0)
+        return spc_rgb1(0.0);
+    k *= spc_bsdf_bump_shadowing(orig, pert, wi); /* as Mitsuba 3.9 */
+    return spc_rgb_scale(spc_bsdf_eval(nested, pert, mode, wo, wi), k);
+}
+
+double spc_bsdf_perturbed_pdf(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert, spc_transport mode,
+                              spc_vec3 wo, spc_vec3 wi)
+{
+    if (spc_bsdf_perturbed_scale(orig, pert, wi) == 0.0)
+        return 0.0;
+    return spc_bsdf_pdf(nested, pert, mode, wo, wi);
+}
+
+bool spc_bsdf_perturbed_sample(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert, spc_transport mode,
+                               spc_vec3 wo, double u_lobe, spc_vec2 u, spc_bsdf_sample *out)
+{
+    if (!spc_bsdf_sample_dir(nested, pert, mode, wo, u_lobe, u, out))
+        return false;
+    if (out->lobe & SPC_LOBE_NULL)
+        return true;
+    if (spc_bsdf_perturbed_scale(orig, pert, out->wi) == 0.0)
+        return false;
+    /* the nested weight already uses the perturbed cosine, as the rescaled eval does; the
+     * shadowing term multiplies eval, so it multiplies the weight (not the pdf) */
+    out->weight = spc_rgb_scale(out->weight, spc_bsdf_bump_shadowing(orig, pert, out->wi));
+    return true;
+}
+
 spc_rgb spc_normalmap_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
     spc_hit ph;
     normalmap_hit(b, h, wo, &ph);
-    double k = spc_bsdf_perturbed_scale(h, &ph, wi);
-    if (k == 0.0)
-        return spc_rgb1(0.0);
-    k *= spc_bsdf_bump_shadowing(h, &ph, wi); /* as Mitsuba 3.9 (variants.h) */
-    return spc_rgb_scale(spc_bsdf_eval(b->nested[0], &ph, mode, wo, wi), k);
+    return spc_bsdf_perturbed_eval(b->nested[0], h, &ph, mode, wo, wi);
 }
 
 double spc_normalmap_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
     spc_hit ph;
     normalmap_hit(b, h, wo, &ph);
-    if (spc_bsdf_perturbed_scale(h, &ph, wi) == 0.0)
-        return 0.0;
-    return spc_bsdf_pdf(b->nested[0], &ph, mode, wo, wi);
+    return spc_bsdf_perturbed_pdf(b->nested[0], h, &ph, mode, wo, wi);
 }
 
 bool spc_normalmap_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
@@ -68,16 +96,7 @@ bool spc_normalmap_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mod
 {
     spc_hit ph;
     normalmap_hit(b, h, wo, &ph);
-    if (!spc_bsdf_sample_dir(b->nested[0], &ph, mode, wo, u_lobe, u, out))
-        return false;
-    if (out->lobe & SPC_LOBE_NULL)
-        return true;
-    if (spc_bsdf_perturbed_scale(h, &ph, out->wi) == 0.0)
-        return false;
-    /* the nested weight already uses the perturbed cosine, as the rescaled eval does; the
-     * shadowing term multiplies eval, so it multiplies the weight (not the pdf) */
-    out->weight = spc_rgb_scale(out->weight, spc_bsdf_bump_shadowing(h, &ph, out->wi));
-    return true;
+    return spc_bsdf_perturbed_sample(b->nested[0], h, &ph, mode, wo, u_lobe, u, out);
 }
 
 spc_rgb spc_normalmap_albedo(const spc_bsdf *b, const spc_hit *h) { return spc_bsdf_albedo(b->nested[0], h); }

@@ -28,6 +28,15 @@ static inline double spc_bsdf_tex1(const spc_texture *t, const spc_hit *h, doubl
 {
     return t ? spc_texture_eval1_hit(t, h) : fallback;
 }
+/* The cosine-weighted hemisphere's density of wi about sh.n (solid angle), 0 unless wo and wi are
+ * both above the surface (diffuse, roughdiffuse). */
+static inline double spc_bsdf_cosine_pdf(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
+{
+    double cos_i = spc_dot(wi, h->sh.n);
+    if (spc_dot(wo, h->sh.n) <= 0.0 || cos_i <= 0.0)
+        return 0.0;
+    return cos_i * SPC_INV_PI;
+}
 /* Mirror direction about the local z axis. */
 static inline spc_vec3 spc_bsdf_mirror_local(spc_vec3 w) { return spc_v3(-w.x, -w.y, w.z); }
 
@@ -116,6 +125,18 @@ static inline double spc_bsdf_bump_shadowing(const spc_hit *orig, const spc_hit 
     double ci = spc_max(fabs(spc_dot(w, orig->sh.n)), 1e-6), ci2 = ci * ci;
     return 2.0 / (1.0 + sqrt(1.0 + a2 * (1.0 - ci2) / ci2));
 }
+
+/* The nested BSDF of normalmap and bumpmap at the perturbed hit pert of orig (after
+ * spc_bsdf_perturbed_face_view): its f rescaled by spc_bsdf_perturbed_scale and shadowed by
+ * spc_bsdf_bump_shadowing, its pdf where both frames put wi on one side, and its sample (a null
+ * lobe's as it is; otherwise none where the sides differ, and the shadowing in the weight).
+ * normalmap.c; bumpmap.c uses them too. */
+spc_rgb spc_bsdf_perturbed_eval(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert, spc_transport mode,
+                                spc_vec3 wo, spc_vec3 wi);
+double spc_bsdf_perturbed_pdf(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert, spc_transport mode,
+                              spc_vec3 wo, spc_vec3 wi);
+bool spc_bsdf_perturbed_sample(const spc_bsdf *nested, const spc_hit *orig, const spc_hit *pert, spc_transport mode,
+                               spc_vec3 wo, double u_lobe, spc_vec2 u, spc_bsdf_sample *out);
 
 /* Fills a sample record (wi given in world space). */
 static inline void spc_bsdf_set_sample(spc_bsdf_sample *s, spc_vec3 wi, spc_rgb weight, double pdf, unsigned lobe,

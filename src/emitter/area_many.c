@@ -24,6 +24,7 @@
 #pragma STDC FP_CONTRACT OFF
 #endif
 
+#include "emitter/direct_lanes.h"
 #include "emitter/emitter.h"
 #include "scene/shape.h"
 #include "scene/texture.h"
@@ -40,16 +41,14 @@ bool spc_emitter_many_covers(const spc_emitter *e)
     return s->type == SPC_SHAPE_MESH && !(s->mesh.n && !s->face_normals);
 }
 
-/* What the arithmetic loop reads and writes, one array per quantity (structure of arrays). */
+/* What the arithmetic loop reads and writes, one array per quantity (structure of arrays). The
+ * triangle's normal is an input, in out.n. */
 typedef struct soa {
     double p0[3][SPC_EMITTER_MANY_MAX], p1[3][SPC_EMITTER_MANY_MAX], p2[3][SPC_EMITTER_MANY_MAX];
-    double ng[3][SPC_EMITTER_MANY_MAX], ref[3][SPC_EMITTER_MANY_MAX];
+    double ref[3][SPC_EMITTER_MANY_MAX];
     double ux[SPC_EMITTER_MANY_MAX], uy[SPC_EMITTER_MANY_MAX], inv_area[SPC_EMITTER_MANY_MAX];
-    /* out */
-    double p[3][SPC_EMITTER_MANY_MAX], wi[3][SPC_EMITTER_MANY_MAX];
-    double err[SPC_EMITTER_MANY_MAX], dist[SPC_EMITTER_MANY_MAX], pdf[SPC_EMITTER_MANY_MAX];
-    double facing[SPC_EMITTER_MANY_MAX]; /* dot(n, -wi): the light is seen from its front when > 0 */
-    int ok[SPC_EMITTER_MANY_MAX];
+    spc_direct_lanes out;
+    int ok[SPC_EMITTER_MANY_MAX]; /* spc_area_sample_direct's tests passed */
 } soa;
 
 static inline double max2(double a, double b) { return a > b ? a : b; }
@@ -71,24 +70,16 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
         double m2 = max2(fabs(a->p2[0][i]), max2(fabs(a->p2[1][i]), fabs(a->p2[2][i])));                              \
         double mag = max2(m0, max2(m1, m2));                                                                          \
         double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
-        a->err[i] = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                           \
+        a->out.err[i] = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                       \
         double dx = px - a->ref[0][i], dy = py - a->ref[1][i], dz = pz - a->ref[2][i];                                \
         double dist2 = dx * dx + dy * dy + dz * dz;                                                                   \
-        double nx = a->ng[0][i], ny = a->ng[1][i], nz = a->ng[2][i];                                                  \
+        double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i];                                         \
         double cosl = fabs(nx * dx + ny * dy + nz * dz) / sqrt(dist2);                                                \
         double pdf = a->inv_area[i] * dist2 / cosl;                                                                   \
         double dist = sqrt(dist2);                                                                                    \
         double inv = 1.0 / dist;                                                                                      \
         double wx = dx * inv, wy = dy * inv, wz = dz * inv;                                                           \
-        a->p[0][i] = px;                                                                                              \
-        a->p[1][i] = py;                                                                                              \
-        a->p[2][i] = pz;                                                                                              \
-        a->wi[0][i] = wx;                                                                                             \
-        a->wi[1][i] = wy;                                                                                             \
-        a->wi[2][i] = wz;                                                                                             \
-        a->dist[i] = dist;                                                                                            \
-        a->pdf[i] = pdf;                                                                                              \
-        a->facing[i] = nx * -wx + ny * -wy + nz * -wz;                                                                \
+        SPC_DIRECT_LANES_STORE(&a->out, i, px, py, pz, nx, ny, nz, wx, wy, wz, dist, pdf);                            \
         a->ok[i] = (cosl > 0.0) & (dist2 > 0.0) & (dist > 0.0) & (pdf > 0.0) & (pdf <= DBL_MAX);                      \
     }
 
@@ -150,7 +141,7 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
             a.p0[c][k] = q0[c];
             a.p1[c][k] = q1[c];
             a.p2[c][k] = q2[c];
-            a.ng[c][k] = spc_v3_get(ng, c);
+            a.out.n[c][k] = spc_v3_get(ng, c);
             a.ref[c][k] = spc_v3_get(ref[i], c);
         }
         a.ux[k] = ux;
@@ -160,21 +151,7 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
     body(&a, n);
     for (int k = 0; k < n; ++k) {
         int i = lane[k];
-        spc_emitter_direct *o = &out[i];
-        o->is_delta = false;
-        o->is_infinite = false;
-        ok[i] = false;
-        if (!a.ok[k])
-            continue;
-        o->p = spc_v3(a.p[0][k], a.p[1][k], a.p[2][k]);
-        o->n = spc_v3(a.ng[0][k], a.ng[1][k], a.ng[2][k]);
-        o->wi = spc_v3(a.wi[0][k], a.wi[1][k], a.wi[2][k]);
-        o->dist = a.dist[k];
-        /* spc_area_eval with a constant radiance */
-        o->L = a.facing[k] <= 0.0 ? spc_rgb1(0.0) : spc_texture_eval(e[i]->radiance, spc_v2(0.0, 0.0));
-        o->pdf = a.pdf[k];
-        o->err = a.err[k];
-        ok[i] = !spc_rgb_is_black(o->L);
+        ok[i] = spc_direct_lanes_write(&a.out, k, a.ok[k], e[i]->radiance, &out[i]);
     }
 }
 

@@ -13,18 +13,10 @@ bool spc_point_prepare(spc_emitter *e)
 
 bool spc_point_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitter_direct *out)
 {
-    spc_vec3 d = spc_sub(e->position, ref);
-    double dist2 = spc_length2(d);
-    if (!(dist2 > 0.0))
+    double dist2 = spc_emitter_at_point(e, ref, out);
+    if (dist2 == 0.0)
         return false;
-    double dist = sqrt(dist2);
-    out->p = e->position;
-    out->wi = spc_scale(d, 1.0 / dist);
-    out->n = spc_neg(out->wi);
-    out->dist = dist;
     out->L = spc_rgb_scale(e->intensity, 1.0 / dist2);
-    out->pdf = 1.0;
-    out->err = 1e-9 * spc_max_abs(e->position);
     return true;
 }
 

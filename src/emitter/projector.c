@@ -80,23 +80,12 @@ bool spc_projector_prepare(spc_emitter *e)
 
 bool spc_projector_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitter_direct *out)
 {
-    spc_vec3 d = spc_sub(e->position, ref);
-    double dist2 = spc_length2(d);
-    if (!(dist2 > 0.0))
-        return false;
-    double dist = sqrt(dist2);
     spc_vec3 l = spc_mat4_apply_point(&e->to_local, ref);
     spc_vec2 uv;
-    if (!local_uv(e, l, &uv))
+    if (!local_uv(e, l, &uv) || spc_emitter_at_point(e, ref, out) == 0.0)
         return false;
     double cos_l = l.z / spc_length(l);
-    out->p = e->position;
-    out->wi = spc_scale(d, 1.0 / dist);
-    out->n = spc_neg(out->wi);
-    out->dist = dist;
     out->L = spc_rgb_scale(irradiance(e, uv), SPC_PI / (l.z * l.z * cos_l));
-    out->pdf = 1.0;
-    out->err = 1e-9 * spc_max_abs(e->position);
     return !spc_rgb_is_black(out->L);
 }
 

@@ -34,6 +34,7 @@
 #include <float.h>
 #include <math.h>
 
+#include "emitter/direct_lanes.h"
 #include "emitter/emitter.h"
 #include "scene/shape.h"
 #include "scene/texture.h"
@@ -49,10 +50,7 @@ typedef struct soa {
     double c[3][SPC_EMITTER_MANY_MAX], ref[3][SPC_EMITTER_MANY_MAX];
     double R[SPC_EMITTER_MANY_MAX], flip[SPC_EMITTER_MANY_MAX]; /* flip: -1 where flip_normals, else 1 */
     double ux[SPC_EMITTER_MANY_MAX], uy[SPC_EMITTER_MANY_MAX];
-    /* out */
-    double p[3][SPC_EMITTER_MANY_MAX], n[3][SPC_EMITTER_MANY_MAX], wi[3][SPC_EMITTER_MANY_MAX];
-    double dist[SPC_EMITTER_MANY_MAX], pdf[SPC_EMITTER_MANY_MAX];
-    double facing[SPC_EMITTER_MANY_MAX]; /* dot(n, -wi): the light is seen from its front when > 0 */
+    spc_direct_lanes out; /* err is set with the inputs */
 } soa;
 
 /* spc_safe_sqrt as a select on the argument (the same value, NaN included: both give 0) */
@@ -105,18 +103,10 @@ typedef struct soa {
         double dist = sqrt(dx * dx + dy * dy + dz * dz);                                                               \
         double inv = 1.0 / dist;                                                                                       \
         double wx = dx * inv, wy = dy * inv, wz = dz * inv;                                                            \
-        a->p[0][i] = px;                                                                                               \
-        a->p[1][i] = py;                                                                                               \
-        a->p[2][i] = pz;                                                                                               \
-        a->n[0][i] = onx;                                                                                              \
-        a->n[1][i] = ony;                                                                                              \
-        a->n[2][i] = onz;                                                                                              \
-        a->wi[0][i] = wx;                                                                                              \
-        a->wi[1][i] = wy;                                                                                              \
-        a->wi[2][i] = wz;                                                                                              \
-        a->dist[i] = dist;                                                                                             \
-        a->pdf[i] = pdf;                                                                                               \
-        a->facing[i] = onx * -wx + ony * -wy + onz * -wz;                                                              \
+        a->out.n[0][i] = onx;                                                                                          \
+        a->out.n[1][i] = ony;                                                                                          \
+        a->out.n[2][i] = onz;                                                                                          \
+        SPC_DIRECT_LANES_STORE(&a->out, i, px, py, pz, onx, ony, onz, wx, wy, wz, dist, pdf);                          \
     }
 
 static void body_default(soa *a, int n){SPHERE_MANY_BODY}
@@ -188,6 +178,7 @@ void spc_emitter_sample_spheres_many(int n, const int *lane, const spc_emitter *
         }
         a.R[k] = s->radius;
         a.flip[k] = s->flip_normals ? -1.0 : 1.0;
+        a.out.err[k] = 1e-9 * (spc_max_abs(s->center) + s->radius); /* the sphere's SPC_DOUBLE_OFFSET bound */
         a.ux[k] = u[i].x;
         a.uy[k] = u[i].y;
         slot[k++] = i;
@@ -197,23 +188,9 @@ void spc_emitter_sample_spheres_many(int n, const int *lane, const spc_emitter *
     body(&a, k);
     for (int j = 0; j < k; ++j) {
         int i = slot[j];
-        const spc_shape *s = e[i]->shape;
-        spc_emitter_direct *o = &out[i];
-        o->is_delta = false;
-        o->is_infinite = false;
-        ok[i] = false;
         /* spc_area_sample_direct's tests, outside the loop: a flag computed there lets GCC thread it
          * through cos_max's select and give up vectorizing */
-        if (!(a.dist[j] > 0.0) || !(a.pdf[j] > 0.0) || !(a.pdf[j] <= DBL_MAX))
-            continue;
-        o->p = spc_v3(a.p[0][j], a.p[1][j], a.p[2][j]);
-        o->n = spc_v3(a.n[0][j], a.n[1][j], a.n[2][j]);
-        o->wi = spc_v3(a.wi[0][j], a.wi[1][j], a.wi[2][j]);
-        o->dist = a.dist[j];
-        /* spc_area_eval with a constant radiance */
-        o->L = a.facing[j] <= 0.0 ? spc_rgb1(0.0) : spc_texture_eval(e[i]->radiance, spc_v2(0.0, 0.0));
-        o->pdf = a.pdf[j];
-        o->err = 1e-9 * (spc_max_abs(s->center) + s->radius); /* the sphere's SPC_DOUBLE_OFFSET bound */
-        ok[i] = !spc_rgb_is_black(o->L);
+        bool valid = a.out.dist[j] > 0.0 && a.out.pdf[j] > 0.0 && a.out.pdf[j] <= DBL_MAX;
+        ok[i] = spc_direct_lanes_write(&a.out, j, valid, e[i]->radiance, &out[i]);
     }
 }

@@ -6,6 +6,25 @@
 
 #include "emitter/emitter.h"
 
+/* The record toward a light at the point e->position from ref (point, spot, projector): p, wi,
+ * n = -wi, dist, pdf 1 (a delta position) and err; the caller sets L. Returns dist^2, or 0 where
+ * ref is at the light (no sample). */
+static inline double spc_emitter_at_point(const spc_emitter *e, spc_vec3 ref, spc_emitter_direct *out)
+{
+    spc_vec3 d = spc_sub(e->position, ref);
+    double dist2 = spc_length2(d);
+    if (!(dist2 > 0.0))
+        return 0.0;
+    double dist = sqrt(dist2);
+    out->p = e->position;
+    out->wi = spc_scale(d, 1.0 / dist);
+    out->n = spc_neg(out->wi);
+    out->dist = dist;
+    out->pdf = 1.0;
+    out->err = 1e-9 * spc_max_abs(e->position);
+    return dist2;
+}
+
 bool spc_point_prepare(spc_emitter *e);
 bool spc_point_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitter_direct *out);
 bool spc_point_sample_emission(const spc_emitter *e, spc_vec2 u_dir, spc_emitter_emission *out);

@@ -1,8 +1,8 @@
 /*
  * render/api.c: the public API around a loaded scene: loading (through the Mitsuba XML loader),
- * the summary and the per-object description that `specula info` prints, and the defaults of the
- * render options. Rendering itself is render/driver.c; films and images are film.c, film_io.c and
- * diff.c.
+ * the summary and the per-object description that `specula info` prints, the specular NEE plan, and
+ * spc_render: the plan, the pilot render that may turn an automatic one off (snee_pilot.h), then
+ * the render loop (render/driver.h). Films and images are film.c, film_io.c and diff.c.
  */
 #include <stdarg.h>
 #include <stdio.h>
@@ -12,9 +12,10 @@
 #include "io/mitsuba_xml.h"
 #include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
-#include "render/snee_pilot.h"
 #include "render/checkpoint.h"
+#include "render/driver.h"
 #include "render/film.h"
+#include "render/snee_pilot.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
 
@@ -33,19 +34,14 @@ spc_status spc_scene_load(const char *path, const spc_define *defs, int ndefs, s
     return st;
 }
 
-void spc_render_options_init(spc_render_options *o)
+spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film **out, spc_render_stats *stats,
+                      spc_error *err)
 {
-    memset(o, 0, sizeof *o);
-    o->integrator = NULL;
-    o->specular_nee = NULL;
-    o->progress = NULL;
-    o->progress_user = NULL;
-    o->cancel = NULL;
-    o->strategy_s = -1;
-    o->strategy_t = -1;
-    o->strategy_weighted = false;
-    o->seed = 0;
-    o->checkpoint_every = 60.0;
+    spc_snee_plan plan;
+    spc_driver_plan(sc, o, &plan);
+    spc_snee_pilot pilot;
+    spc_snee_pilot_run(sc, o, &plan, &pilot); /* keeps or turns off an automatic plan */
+    return spc_driver_render(sc, o, &plan, out, stats, err);
 }
 
 static bool shape_is_analytic(const spc_shape *sh)
@@ -411,13 +407,14 @@ char *spc_scene_describe(const spc_scene *s)
 
 char *spc_scene_plan(const spc_scene *s, const char *integrator, const char *specular_nee)
 {
-    spc_snee_plan plan;
-    spc_snee_plan_make(s, integrator ? integrator : s->integrator.type,
-                       specular_nee ? specular_nee : s->integrator.specular_nee, &plan);
-    /* the pilot render a render at the scene's own size, samples and all cores would make */
+    /* the plan and the pilot render a render at the scene's own size, samples and all cores would
+     * make */
     spc_render_options o;
     spc_render_options_init(&o);
     o.integrator = integrator;
+    o.specular_nee = specular_nee;
+    spc_snee_plan plan;
+    spc_driver_plan(s, &o, &plan);
     spc_snee_pilot pilot;
     spc_snee_pilot_run(s, &o, &plan, &pilot);
     int chain = s->integrator.specular_max_chain > 0 ? s->integrator.specular_max_chain : 2;

@@ -1,5 +1,6 @@
 /*
- * render/driver.c: the render loop: passes of one sample per pixel, tiles, threads.
+ * render/driver.c: the render loop: passes of one sample per pixel, tiles, threads; below
+ * spc_render (render/api.c), which settles the specular NEE plan first (driver.h).
  *
  * Work is a list of (pass, tile) items handed to threads through an atomic counter. Every pixel's
  * samples come from its own deterministic stream (pixel, pass index, seed), each item writes only
@@ -39,8 +40,8 @@
 #include "manifold/specular_nee.h"
 #include "scene/camera.h"
 #include "render/checkpoint.h"
+#include "render/driver.h"
 #include "render/film.h"
-#include "render/snee_pilot.h"
 #include "scene/rfilter.h"
 #include "scene/scene.h"
 #include "specula/specula.h"
@@ -275,8 +276,37 @@ static int default_threads(void)
     return n > 0 ? (int)n : 1;
 }
 
-spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film **out, spc_render_stats *stats,
-                      spc_error *err)
+void spc_render_options_init(spc_render_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->integrator = NULL;
+    o->specular_nee = NULL;
+    o->progress = NULL;
+    o->progress_user = NULL;
+    o->cancel = NULL;
+    o->strategy_s = -1;
+    o->strategy_t = -1;
+    o->strategy_weighted = false;
+    o->seed = 0;
+    o->checkpoint_every = 60.0;
+}
+
+void spc_driver_plan(const spc_scene *sc, const spc_render_options *o, spc_snee_plan *plan)
+{
+    const char *iname = (o->integrator && o->integrator[0]) ? o->integrator : sc->integrator.type;
+    /* the given setting, or the scene's, or the default chosen from the scene (snee_plan.h); the
+     * OpenCL device has no specular NEE, so there the default is off (an explicit setting is still
+     * refused by the device, by name) */
+    const char *given = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
+    bool dev_cl = false;
+    int dev_index = 0;
+    if (spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl && spc_snee_setting_is_auto(given))
+        given = "none";
+    spc_snee_plan_make(sc, iname, given, plan);
+}
+
+spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, const spc_snee_plan *plan,
+                             spc_film **out, spc_render_stats *stats, spc_error *err)
 {
     *out = NULL;
     const char *file = sc->path[0] ? sc->path : NULL;
@@ -298,19 +328,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     ctx.strategy_s = o->strategy_s;
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;
-    /* the given setting, or the scene's, or the default chosen from the scene (snee_plan.h); the
-     * OpenCL device has no specular NEE, so there the default is off (an explicit setting is still
-     * refused by the device, by name) */
-    const char *given = o->specular_nee ? o->specular_nee : sc->integrator.specular_nee;
-    bool dev_cl = false;
-    int dev_index = 0;
-    if (spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl && spc_snee_setting_is_auto(given))
-        given = "none";
-    spc_snee_plan plan;
-    spc_snee_plan_make(sc, spc_integrator_kind_name(ctx.kind), given, &plan);
-    spc_snee_pilot pilot;
-    spc_snee_pilot_run(sc, o, &plan, &pilot); /* keeps or turns off an automatic plan (snee_pilot.h) */
-    const char *sname = plan.setting;
+    const char *sname = plan->setting;
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
     char why[SPC_SNEE_WHY_MAX];
     spc_snee_parse_result parsed = spc_snee_options_parse(sname, ctx.specular_max_chain, &ctx.snee, why, sizeof why);
@@ -393,6 +411,8 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     /* bdpt's pool of light vertices: as asked, or by default where the camera sees mostly
      * indirectly lit surfaces (bdpt_pool.h; SPC_POOL_AUTO_SHARE) */
     int pool_m = o->bdpt_pool > 0 ? o->bdpt_pool : 0;
+    bool dev_cl = false;
+    int dev_index = 0;
     const long long npix_window = (long long)ctx.width * ctx.height;
     if (o->bdpt_pool == 0 && ctx.kind == SPC_INTEGRATOR_BDPT && !o->strategy_images && ctx.strategy_s < 0 &&
         ctx.strategy_t < 0 && !spc_camera_has_lens(&cam) && npix_window <= SPC_POOL_AUTO_MAX_PIXELS &&
@@ -415,10 +435,27 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for a %dx%d film", fs.crop_w, fs.crop_h);
     snprintf(film->integrator, sizeof film->integrator, "%s", spc_integrator_kind_name(ctx.kind));
     snprintf(film->specular_nee, sizeof film->specular_nee, "%s", ctx.specular_nee ? sname : "none");
+    /* what the render owns besides the film, freed at `cleanup` on every path (NULL: not made yet),
+     * and what the statistics read there */
+    tile *tiles = NULL;
+    double *buf = NULL;
+    spc_tls *tls = NULL;
+    pthread_t *th = NULL;
+    spc_cl_renderer *cl = NULL;
+    spc_cguide *cguide = NULL;
+    spc_sguide *sguide = NULL;
+    spc_bdpt_pool *pools = NULL;
+    spc_bdpt_pool_model pool_model;
+    memset(&pool_model, 0, sizeof pool_model);
+    spc_status status = SPC_OK;
+    bool rendered = false; /* the passes ran: the film goes to the caller, with status */
+    uint64_t rays = 0, shadow_rays = 0, invalid = 0;
+    double wall = 0.0, guide_seconds = 0.0;
+    int guide_entries = 0;
 
     int tx = (ctx.width + SPC_TILE - 1) / SPC_TILE, ty = (ctx.height + SPC_TILE - 1) / SPC_TILE;
     int ntiles = tx * ty;
-    tile *tiles = malloc((size_t)ntiles * sizeof *tiles);
+    tiles = malloc((size_t)ntiles * sizeof *tiles);
     size_t npix = (size_t)ctx.width * (size_t)ctx.height;
     int max_batch = (int)spc_max(1.0, spc_min((double)SPC_BATCH_PIXELS / (double)npix, 4096.0));
     film->naov_out = sc->integrator.naovs;
@@ -442,9 +479,9 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                 film->nstrategy = j + 1;
         }
         if (!ok) {
-            spc_film_destroy(film);
-            return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for %d strategy films of %dx%d",
-                                 nfilms, fs.crop_w, fs.crop_h);
+            status = spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for %d strategy films of %dx%d",
+                                   nfilms, fs.crop_w, fs.crop_h);
+            goto cleanup;
         }
         for (int k = 1; k <= ctx.strategy_images_depth; ++k)
             for (int s = 0; s <= k; ++s)
@@ -455,16 +492,12 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
                     f->strategy_weighted = wt == 0;
                 }
     }
-    double *buf = malloc((size_t)max_batch * npix * (size_t)stride * sizeof(double));
-    spc_tls *tls = calloc((size_t)max_batch * (size_t)ntiles, sizeof *tls);
-    pthread_t *th = malloc((size_t)threads * sizeof *th);
+    buf = malloc((size_t)max_batch * npix * (size_t)stride * sizeof(double));
+    tls = calloc((size_t)max_batch * (size_t)ntiles, sizeof *tls);
+    th = malloc((size_t)threads * sizeof *th);
     if (!tiles || !buf || !tls || !th) {
-        free(tiles);
-        free(buf);
-        free(tls);
-        free(th);
-        spc_film_destroy(film);
-        return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for render buffers");
+        status = spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for render buffers");
+        goto cleanup;
     }
     for (int j = 0; j < ty; ++j)
         for (int i = 0; i < tx; ++i) {
@@ -478,35 +511,17 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     /* another device renders the batches (device/device.h); everything else stays the same */
     bool use_cl = false;
     int cl_index = 0;
-    spc_cl_renderer *cl = NULL;
     if (!spc_device_parse(o->device, &use_cl, &cl_index)) {
-        free(tiles);
-        free(buf);
-        free(tls);
-        free(th);
-        spc_film_destroy(film);
-        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "unknown device '%s'; specula has: cpu, opencl[:N]",
-                             o->device);
+        status = spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "unknown device '%s'; specula has: cpu, opencl[:N]",
+                               o->device);
+        goto cleanup;
     }
     if (use_cl && pool_m > 0) {
-        free(tiles);
-        free(buf);
-        free(tls);
-        free(th);
-        spc_film_destroy(film);
-        return spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "the opencl device has no pool of light vertices");
+        status = spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "the opencl device has no pool of light vertices");
+        goto cleanup;
     }
-    if (use_cl) {
-        spc_status cs = spc_cl_create(&ctx, cl_index, aovs, &cl, err);
-        if (cs != SPC_OK) {
-            free(tiles);
-            free(buf);
-            free(tls);
-            free(th);
-            spc_film_destroy(film);
-            return cs;
-        }
-    }
+    if (use_cl && (status = spc_cl_create(&ctx, cl_index, aovs, &cl, err)) != SPC_OK)
+        goto cleanup;
 
     char settings[1024];
     spc_ckpt_settings_text(&ctx, sname, o->seed, aovs, settings, sizeof settings);
@@ -514,59 +529,35 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";bdpt_pool=%d", pool_m);
     if (use_cl) /* a checkpoint resumes only on the device that began it */
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";device=opencl:%d", cl_index);
-    if (o->resume) {
-        spc_status rs = spc_ckpt_restore(o->resume, sc->content_hash, settings, film, err);
-        if (rs != SPC_OK) {
-            spc_cl_destroy(cl);
-            free(tiles);
-            free(buf);
-            free(tls);
-            free(th);
-            spc_film_destroy(film);
-            return rs;
-        }
-    }
+    if (o->resume && (status = spc_ckpt_restore(o->resume, sc->content_hash, settings, film, err)) != SPC_OK)
+        goto cleanup;
     spc_ckpt_meta meta = {sc->content_hash, settings, (int)spp, sc->path, o->checkpoint_user};
 
     double t_start = now_seconds();
-    uint64_t rays = 0, shadow_rays = 0, invalid = film->invalid_samples;
+    invalid = film->invalid_samples;
     /* caustic guiding at receivers (caustic_guide.h): its photon pre-pass, once, on this thread */
-    spc_cguide *cguide = NULL;
     if (ctx.kind == SPC_INTEGRATOR_PATH && ctx.specular_nee != SPC_SNEE_NONE && ctx.snee.recv_guide > 0.0 && !use_cl)
         cguide = spc_cguide_build(sc, spc_cguide_photons((double)ctx.width * ctx.height * (double)spp),
                                   SPC_CGUIDE_STREAM, ctx.snee.recv_guide);
     ctx.snee.cguide = cguide;
     /* bdpt's pool: the selection model from its pilot, once (deterministic: the same for any thread
      * count and on resuming), and a pool per pass of a batch */
-    spc_bdpt_pool_model pool_model;
-    memset(&pool_model, 0, sizeof pool_model);
-    spc_bdpt_pool *pools = NULL;
     if (pool_m > 0) {
         pools = calloc((size_t)max_batch, sizeof *pools);
         if (!pools || !spc_bdpt_pool_learn(&ctx, o->seed, pool_m, &pool_model)) {
-            free(pools);
-            spc_bdpt_pool_model_release(&pool_model);
-            spc_cguide_destroy(cguide);
-            spc_cl_destroy(cl);
-            free(tiles);
-            free(buf);
-            free(tls);
-            free(th);
-            spc_film_destroy(film);
-            return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for the pool of light vertices");
+            status = spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory for the pool of light vertices");
+            goto cleanup;
         }
         ctx.pool_model = &pool_model;
     }
     /* guided seeds of the randomized solvers (seed_guide.h): their light paths, once, on this thread */
-    spc_sguide *sguide = NULL;
     if (ctx.specular_nee != SPC_SNEE_NONE && ctx.snee.seed_guide > 0.0 && !use_cl)
         sguide = spc_sguide_build(sc, SPC_SGUIDE_PHOTONS, SPC_SGUIDE_STREAM, ctx.snee.any_surface);
     ctx.snee.sguide = sguide;
-    double guide_seconds = cguide ? now_seconds() - t_start : 0.0;
+    guide_seconds = cguide ? now_seconds() - t_start : 0.0;
     const int start = film->spp;
     int done = start;
     double sec_per_pass = 0.0, last_ckpt = t_start;
-    spc_status status = SPC_OK;
     while (done < spp) {
         if (o->cancel && *o->cancel) {
             status = SPC_ERR_INTERRUPTED;
@@ -730,8 +721,10 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         if (cs != SPC_OK)
             status = cs;
     }
-    double wall = now_seconds() - t_start;
-    int guide_entries = cguide ? cguide->n : 0;
+    wall = now_seconds() - t_start;
+    guide_entries = cguide ? cguide->n : 0;
+    rendered = true;
+cleanup:
     spc_cguide_destroy(cguide);
     spc_sguide_destroy(sguide);
     spc_cl_destroy(cl);
@@ -739,7 +732,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         spc_bdpt_pool_release(&pools[b]);
     free(pools);
     spc_bdpt_pool_model_release(&pool_model);
-    for (size_t i = 0; i < (size_t)max_batch * ntiles; ++i) {
+    for (size_t i = 0; tls && i < (size_t)max_batch * ntiles; ++i) {
         free(tls[i].splats);
         free(tls[i].lv);
         free(tls[i].lv_first);
@@ -748,7 +741,10 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
     free(buf);
     free(tiles);
     free(th);
-    film->invalid_samples = invalid;
+    if (!rendered) {
+        spc_film_destroy(film);
+        return status;
+    }
     if (!spc_film_resolve(film)) {
         spc_film_destroy(film);
         return spc_error_set(err, SPC_ERR_NOMEM, file, 0, 0, "out of memory resolving the film");
@@ -763,7 +759,7 @@ spc_status spc_render(const spc_scene *sc, const spc_render_options *o, spc_film
         stats->samples = (uint64_t)film->spp * npix;
         stats->invalid_samples = invalid;
         snprintf(stats->specular_nee, sizeof stats->specular_nee, "%s", ctx.specular_nee ? sname : "none");
-        snprintf(stats->specular_nee_pilot, sizeof stats->specular_nee_pilot, "%s", plan.pilot_note);
+        snprintf(stats->specular_nee_pilot, sizeof stats->specular_nee_pilot, "%s", plan->pilot_note);
         stats->caustic_guide_entries = guide_entries;
         stats->caustic_guide_seconds = guide_seconds;
     }

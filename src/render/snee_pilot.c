@@ -1,9 +1,9 @@
 /*
  * render/snee_pilot.c: the pilot render that keeps or turns off the automatic specular NEE plan
  * (snee_pilot.h has the method and its reasons). Each candidate's groups are ordinary renders
- * (spc_render, one thread, an explicit setting, so they make no pilot of their own) of a small
- * image, whose films hold each pixel's sum and sum of squares: the per-sample variance of every
- * pixel, the camera query's splats included.
+ * through the render loop below spc_render (render/driver.h: one thread, the candidate's explicit
+ * setting, no pilot) of a small image, whose films hold each pixel's sum and sum of squares: the
+ * per-sample variance of every pixel, the camera query's splats included.
  */
 #include "render/snee_pilot.h"
 
@@ -14,6 +14,7 @@
 #include <time.h>
 
 #include "core/math.h"
+#include "render/driver.h"
 #include "render/film.h"
 #include "scene/scene.h"
 
@@ -52,7 +53,9 @@ static bool group_render(const spc_scene *sc, const spc_render_options *o, const
     spc_render_stats st;
     spc_error err;
     double t0 = thread_seconds();
-    spc_status s = spc_render(sc, &g, film, &st, &err);
+    spc_snee_plan plan;
+    spc_driver_plan(sc, &g, &plan);
+    spc_status s = spc_driver_render(sc, &g, &plan, film, &st, &err);
     *sec = thread_seconds() - t0;
     return s == SPC_OK && *film;
 }
