@@ -5,7 +5,7 @@
  * A wave holds SPC_SCENE_PACKET lanes, each one path. One step of the wave traces every live lane's
  * ray as one packet (spc_scene_intersect_packet); each lane then takes what path.c does at the hit
  * up to its light sample (emission, depth, strict normals, next-event estimation's light point);
- * the shadow rays go out as one packet (spc_scene_occluded_packet); each lane adds its light
+ * the shadow rays go out as one packet (spc_scene_occluded_light_packet); each lane adds its light
  * sample's contribution, samples the BSDF and plays Russian roulette. A lane whose path ends stores
  * the estimate and takes the next camera sample, so the packets stay full until the samples run out.
  *
@@ -267,7 +267,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             if (ln[i].shadow)
                 r[i] = &ln[i].sr;
         }
-        spc_scene_occluded_packet(ctx->scene, r, occluded);
+        spc_scene_occluded_light_packet(ctx->scene, r, le, occluded);
         /* the diffuse lanes' directions, warped together (core/warp_many.c) */
         int nd = 0;
         for (int i = 0; i < W; ++i)
