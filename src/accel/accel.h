@@ -32,6 +32,8 @@ bool spc_accel_occluded(const spc_accel *a, const spc_ray *r);
  * each, given at build in shape order); any other skip (or -1) tests every shape. */
 #define SPC_ACCEL_SKIP_MAX 31
 bool spc_accel_occluded_skip(const spc_accel *a, const spc_ray *r, int skip);
+/* Does the accel leave any shape untested for a skip (has it an emitting sphere)? */
+bool spc_accel_skips_any(const spc_accel *a);
 /* Packets of up to SPC_ACCEL_PACKET rays traced together (Embree's rtcIntersect16/rtcOccluded16):
  * lane i traces r[i] where r[i] is not NULL. The results are spc_accel_intersect's and
  * spc_accel_occluded's per lane (shape[i] = -1 for a miss or an inactive lane; occluded[i] false

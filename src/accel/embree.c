@@ -39,7 +39,10 @@ struct spc_accel {
     /* per shape, the ray mask of a shadow ray that skips it (spc_accel_occluded_skip): all ones
      * but the shape's own geometry mask bit, or all ones where it has none */
     unsigned *skip_mask;
+    int nskip; /* shapes with a mask bit of their own */
 };
+
+bool spc_accel_skips_any(const spc_accel *a) { return a->nskip > 0; }
 
 /* The ray mask of a shadow ray that may skip shape `skip` (-1: none). */
 static unsigned skip_mask_of(const spc_accel *a, int skip)
@@ -202,7 +205,6 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
         spc_error_set(err, SPC_ERR_NOMEM, NULL, 0, 0, "out of memory building the acceleration structure");
         return NULL;
     }
-    int nskip = 0; /* emitting spheres given a mask bit so far */
     for (int i = 0; i < sc->nshapes; ++i) {
         const spc_shape *s = sc->shapes[i];
         RTCGeometry g;
@@ -263,8 +265,8 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
         /* every geometry is in every ray's mask (Embree's default mask is all ones) except the
          * emitting spheres, each on a bit of its own that its shadow rays leave out */
         a->skip_mask[i] = 0xFFFFFFFFu;
-        if (s->type == SPC_SHAPE_SPHERE && s->emitter && nskip < SPC_ACCEL_SKIP_MAX) {
-            unsigned bit = 1u << (1 + nskip++);
+        if (s->type == SPC_SHAPE_SPHERE && s->emitter && a->nskip < SPC_ACCEL_SKIP_MAX) {
+            unsigned bit = 1u << (1 + a->nskip++);
             rtcSetGeometryMask(g, bit);
             a->skip_mask[i] = ~bit;
         }

@@ -203,7 +203,12 @@ bool spc_scene_occluded_light(const spc_scene *s, const spc_ray *r, const spc_em
  * without a texture's cell distribution, whose samples are on the cap that the reference point
  * sees (solid angle sampling from outside) or anywhere from inside (area sampling), so the
  * segment to the sample does not cross the sphere. */
-int spc_scene_light_skip(const spc_emitter *e);
+static inline int spc_scene_light_skip(const spc_emitter *e)
+{
+    if (!e || e->type != SPC_EMITTER_AREA || !e->shape || e->has_cell_distrib)
+        return -1;
+    return e->shape->type == SPC_SHAPE_SPHERE ? e->shape_index : -1;
+}
 /* spc_scene_occluded_light per lane: e[i] the emitter that sampled lane i's point (NULL: none). */
 void spc_scene_occluded_light_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                      const spc_emitter *const e[SPC_SCENE_PACKET], bool occluded[SPC_SCENE_PACKET]);
