@@ -24,6 +24,16 @@ bool spc_accel_intersect(const spc_accel *a, const spc_ray *r, int *shape, int *
                          double *t);
 /* Any hit in (tmin, tmax). */
 bool spc_accel_occluded(const spc_accel *a, const spc_ray *r);
+/* The same, where the caller knows that the shape with index skip cannot meet the ray in
+ * (tmin, tmax) in exact arithmetic (a shadow ray toward a point that the shape's own light sampled
+ * on the part of it that the origin sees): that shape may be left untested, so the answer differs
+ * from spc_accel_occluded's only where rounding made the shape block the ray. Shapes left
+ * untested: up to SPC_ACCEL_SKIP_MAX analytic spheres with an emitter (Embree's ray masks, one bit
+ * each, given at build in shape order); any other skip (or -1) tests every shape. */
+#define SPC_ACCEL_SKIP_MAX 31
+bool spc_accel_occluded_skip(const spc_accel *a, const spc_ray *r, int skip);
+/* Does the accel leave any shape untested for a skip (has it an emitting sphere)? */
+bool spc_accel_skips_any(const spc_accel *a);
 /* Packets of up to SPC_ACCEL_PACKET rays traced together (Embree's rtcIntersect16/rtcOccluded16):
  * lane i traces r[i] where r[i] is not NULL. The results are spc_accel_intersect's and
  * spc_accel_occluded's per lane (shape[i] = -1 for a miss or an inactive lane; occluded[i] false
@@ -34,6 +44,9 @@ void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_A
                                 double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET]);
 void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                bool occluded[SPC_ACCEL_PACKET]);
+/* spc_accel_occluded_skip per lane (skip[i] for lane i); skip NULL: spc_accel_occluded_packet. */
+void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                    const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET]);
 /* Benchmark support: traces n rays with bare rtcIntersect1 calls (no hit records, no double
  * precision user geometry bookkeeping beyond what Embree calls) and returns how many hit. Not
  * counted in spc_accel_rays_traced. */

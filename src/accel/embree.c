@@ -36,7 +36,19 @@ struct spc_accel {
     RTCDevice device;
     RTCScene scene;
     const struct spc_scene *sc;
+    /* per shape, the ray mask of a shadow ray that skips it (spc_accel_occluded_skip): all ones
+     * but the shape's own geometry mask bit, or all ones where it has none */
+    unsigned *skip_mask;
+    int nskip; /* shapes with a mask bit of their own */
 };
+
+bool spc_accel_skips_any(const spc_accel *a) { return a->nskip > 0; }
+
+/* The ray mask of a shadow ray that may skip shape `skip` (-1: none). */
+static unsigned skip_mask_of(const spc_accel *a, int skip)
+{
+    return skip >= 0 && skip < a->sc->nshapes ? a->skip_mask[skip] : 0xFFFFFFFFu;
+}
 
 /* A packet's double rays and their best analytic hits so far, per lane; a single ray is lane 0. The
  * callbacks find a ray's lane from its Embree id (Embree may call them with other packet sizes and
@@ -187,6 +199,12 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
         if (sc->shapes[i]->type == SPC_SHAPE_MESH)
             ntris += sc->shapes[i]->mesh.ntris;
     rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST | (ntris >= SPC_ACCEL_COMPACT_TRIS ? RTC_SCENE_FLAG_COMPACT : 0));
+    a->skip_mask = malloc((sc->nshapes > 0 ? (size_t)sc->nshapes : 1) * sizeof(unsigned));
+    if (!a->skip_mask) {
+        spc_accel_destroy(a);
+        spc_error_set(err, SPC_ERR_NOMEM, NULL, 0, 0, "out of memory building the acceleration structure");
+        return NULL;
+    }
     for (int i = 0; i < sc->nshapes; ++i) {
         const spc_shape *s = sc->shapes[i];
         RTCGeometry g;
@@ -244,6 +262,14 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
             rtcSetGeometryIntersectFunction(g, intersect_fn);
             rtcSetGeometryOccludedFunction(g, occluded_fn);
         }
+        /* every geometry is in every ray's mask (Embree's default mask is all ones) except the
+         * emitting spheres, each on a bit of its own that its shadow rays leave out */
+        a->skip_mask[i] = 0xFFFFFFFFu;
+        if (s->type == SPC_SHAPE_SPHERE && s->emitter && a->nskip < SPC_ACCEL_SKIP_MAX) {
+            unsigned bit = 1u << (1 + a->nskip++);
+            rtcSetGeometryMask(g, bit);
+            a->skip_mask[i] = ~bit;
+        }
         rtcCommitGeometry(g);
         rtcAttachGeometryByID(a->scene, g, (unsigned)i);
         rtcReleaseGeometry(g);
@@ -267,6 +293,7 @@ void spc_accel_destroy(spc_accel *a)
         rtcReleaseScene(a->scene);
     if (a->device)
         rtcReleaseDevice(a->device);
+    free(a->skip_mask);
     free(a);
 }
 
@@ -318,7 +345,9 @@ bool spc_accel_intersect(const spc_accel *a, const spc_ray *r, int *shape, int *
     return true;
 }
 
-bool spc_accel_occluded(const spc_accel *a, const spc_ray *r)
+bool spc_accel_occluded(const spc_accel *a, const spc_ray *r) { return spc_accel_occluded_skip(a, r, -1); }
+
+bool spc_accel_occluded_skip(const spc_accel *a, const spc_ray *r, int skip)
 {
     ++rays_traced;
     ++shadow_rays_traced;
@@ -331,6 +360,7 @@ bool spc_accel_occluded(const spc_accel *a, const spc_ray *r)
     cx.geom[0] = -1;
     struct RTCRay er;
     to_embree_ray(r, &er);
+    er.mask = skip_mask_of(a, skip);
     rtcOccluded1(a->scene, &cx.ctx, &er);
     return er.tfar < 0.0f;
 }
@@ -434,6 +464,12 @@ void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_A
 void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                bool occluded[SPC_ACCEL_PACKET])
 {
+    spc_accel_occluded_packet_skip(a, r, NULL, occluded);
+}
+
+void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                    const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET])
+{
     ctx_ext cx;
     rtcInitIntersectContext(&cx.ctx);
     cx.rays = r;
@@ -448,6 +484,8 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
         shadow_rays_traced += r[i] != NULL;
         if (valid[i]) {
             to_embree_lane(r[i], &er, i);
+            if (skip)
+                er.mask[i] = skip_mask_of(a, skip[i]);
             ++nvalid;
         } else
             embree_lane_off(&er, i);

@@ -19,6 +19,7 @@
 typedef struct spc_diffuse_view {
     const spc_texture *reflectance; /* the diffuse BSDF's (NULL: its default 0.5) */
     double sign;                    /* +1: h's shading frame; -1: twosided's flipped frame (t, n negated) */
+    spc_rgb albedo;                 /* the reflectance at h, looked up once for eval and sample */
 } spc_diffuse_view;
 
 /* Does b scatter from wo at h as a diffuse BSDF (itself, or twosided's side that wo sees)? */
@@ -39,6 +40,7 @@ static inline bool spc_diffuse_view_of(const spc_bsdf *b, const spc_hit *h, spc_
         return false;
     v->reflectance = b->reflectance;
     v->sign = sign;
+    v->albedo = v->reflectance ? spc_texture_eval_hit(v->reflectance, h) : spc_rgb1(0.5);
     return true;
 }
 
@@ -50,7 +52,8 @@ static inline spc_vec3 spc_diffuse_view_n(const spc_diffuse_view *v, const spc_h
 
 static inline spc_rgb spc_diffuse_view_albedo(const spc_diffuse_view *v, const spc_hit *h)
 {
-    return v->reflectance ? spc_texture_eval_hit(v->reflectance, h) : spc_rgb1(0.5);
+    (void)h;
+    return v->albedo;
 }
 
 /* spc_bsdf_eval (diffuse.c: R / pi where wo and wi are above the horizon) */

@@ -110,7 +110,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                     spc_ray sr = ds.is_infinite ? spc_hit_spawn(&h, ds.wi) : spc_hit_spawn_to(&h, ds.p, ds.err);
                     /* with rough chain vertices, specular NEE may have counted this path already */
                     bool snee_has = spc_path_snee_light_covered(&sn, sc, &h, wo, ds.wi, e);
-                    if (!snee_has && !spc_scene_occluded(sc, &sr)) {
+                    if (!snee_has && !spc_scene_occluded_light(sc, &sr, e)) {
                         double lp = pmf * ds.pdf;
                         /* against the continuation's density: the BSDF's, or the guided mixture's */
                         double w = 1.0;

@@ -5,7 +5,7 @@
  * A wave holds SPC_SCENE_PACKET lanes, each one path. One step of the wave traces every live lane's
  * ray as one packet (spc_scene_intersect_packet); each lane then takes what path.c does at the hit
  * up to its light sample (emission, depth, strict normals, next-event estimation's light point);
- * the shadow rays go out as one packet (spc_scene_occluded_packet); each lane adds its light
+ * the shadow rays go out as one packet (spc_scene_occluded_light_packet); each lane adds its light
  * sample's contribution, samples the BSDF and plays Russian roulette. A lane whose path ends stores
  * the estimate and takes the next camera sample, so the packets stay full until the samples run out.
  *
@@ -216,7 +216,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     bool hit[W], alive[W], occluded[W];
     const spc_ray *r[W];
     spc_sampler *ls[W];
-    spc_vec2 u[3 * W];
+    spc_vec2 u[5 * W];
     const spc_emitter *le[W];
     double pmf[W];
     spc_vec3 ref[W];
@@ -243,18 +243,20 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
         }
-        /* next-event estimation's dimensions (u_light, u_lpos) of every live lane at once; u_light
-         * is 1D (path.c's spc_sampler_1d: its pair's y is not computed) */
-        spc_sampler_draw_many(ls, W, 2, 0x2u, u);
+        /* the vertex's dimensions of every live lane at once, in path.c's order: next-event
+         * estimation's (u_light, u_lpos), then BSDF sampling's (u_lobe, u_dir, u_rr); u_light, u_lobe
+         * and u_rr are 1D (path.c's spc_sampler_1d: their pairs' y are not computed). Nothing
+         * between the two stages draws from the lanes' streams. */
+        spc_sampler_draw_many(ls, W, 5, 0xAu, u);
         /* the lights chosen, then every lane's light sample in one call (lanes of mesh lights share
          * vector instructions, emitter/area_many.c) */
         for (int i = 0; i < W; ++i) {
             le[i] = NULL;
             if (!alive[i])
                 continue;
-            le[i] = lane_pick_light(ctx, &ln[i], &h[i], u[2 * i].x, &pmf[i]);
+            le[i] = lane_pick_light(ctx, &ln[i], &h[i], u[5 * i].x, &pmf[i]);
             ref[i] = h[i].p;
-            u_lpos[i] = u[2 * i + 1];
+            u_lpos[i] = u[5 * i + 1];
         }
         spc_emitter_sample_direct_many(W, le, ref, u_lpos, ds, ds_ok);
         for (int i = 0; i < W; ++i) {
@@ -265,15 +267,13 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             if (ln[i].shadow)
                 r[i] = &ln[i].sr;
         }
-        spc_scene_occluded_packet(ctx->scene, r, occluded);
-        /* BSDF sampling's dimensions (u_lobe, u_dir, u_rr); u_lobe and u_rr are 1D */
-        spc_sampler_draw_many(ls, W, 3, 0x2u, u);
+        spc_scene_occluded_light_packet(ctx->scene, r, le, occluded);
         /* the diffuse lanes' directions, warped together (core/warp_many.c) */
         int nd = 0;
         for (int i = 0; i < W; ++i)
             if (alive[i] && ln[i].diffuse) {
                 dlane[nd] = i;
-                u_dir[nd++] = u[3 * i + 1];
+                u_dir[nd++] = u[5 * i + 3];
             }
         spc_warp_cosine_hemisphere_many(nd, u_dir, wl_d);
         for (int j = 0; j < nd; ++j)
@@ -282,7 +282,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             if (ln[i].path < 0)
                 continue;
             if (alive[i] &&
-                lane_scatter(ctx, &ln[i], occluded[i], &h[i], u[3 * i].x, u[3 * i + 1], &wl[i], u[3 * i + 2].x))
+                lane_scatter(ctx, &ln[i], occluded[i], &h[i], u[5 * i + 2].x, u[5 * i + 3], &wl[i], u[5 * i + 4].x))
                 continue;
             /* the path has ended: its estimate, and the lane takes the next sample */
             out[ln[i].path].L = ln[i].L;

@@ -386,6 +386,24 @@ void spc_scene_occluded_packet(const spc_scene *s, const spc_ray *const r[SPC_SC
     spc_accel_occluded_packet(s->accel, r, occluded);
 }
 
+bool spc_scene_occluded_light(const spc_scene *s, const spc_ray *r, const spc_emitter *e)
+{
+    return spc_accel_occluded_skip(s->accel, r, spc_scene_light_skip(e));
+}
+
+void spc_scene_occluded_light_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                                     const spc_emitter *const e[SPC_SCENE_PACKET], bool occluded[SPC_SCENE_PACKET])
+{
+    if (!spc_accel_skips_any(s->accel)) {
+        spc_accel_occluded_packet(s->accel, r, occluded);
+        return;
+    }
+    int skip[SPC_SCENE_PACKET];
+    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+        skip[i] = r[i] ? spc_scene_light_skip(e[i]) : -1;
+    spc_accel_occluded_packet_skip(s->accel, r, skip, occluded);
+}
+
 const spc_emitter *spc_scene_sample_emitter(const spc_scene *s, double u, double *pmf)
 {
     if (s->light_distrib.n == 0)

@@ -194,6 +194,24 @@ void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_S
                                 bool hit[SPC_SCENE_PACKET]);
 void spc_scene_occluded_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                bool occluded[SPC_SCENE_PACKET]);
+/* Next-event estimation's shadow ray r from a point toward the point that emitter e (NULL: none)
+ * sampled for it: spc_scene_occluded's answer, except that e's own shape is not tested where its
+ * sample cannot lie behind the shape (spc_scene_light_skip), so a light does not block its own
+ * sample through rounding, and its test (an analytic sphere's) is not paid for. */
+bool spc_scene_occluded_light(const spc_scene *s, const spc_ray *r, const spc_emitter *e);
+/* The shape index that a shadow ray toward a sample of e need not test, or -1: a sphere light
+ * without a texture's cell distribution, whose samples are on the cap that the reference point
+ * sees (solid angle sampling from outside) or anywhere from inside (area sampling), so the
+ * segment to the sample does not cross the sphere. */
+static inline int spc_scene_light_skip(const spc_emitter *e)
+{
+    if (!e || e->type != SPC_EMITTER_AREA || !e->shape || e->has_cell_distrib)
+        return -1;
+    return e->shape->type == SPC_SHAPE_SPHERE ? e->shape_index : -1;
+}
+/* spc_scene_occluded_light per lane: e[i] the emitter that sampled lane i's point (NULL: none). */
+void spc_scene_occluded_light_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                                     const spc_emitter *const e[SPC_SCENE_PACKET], bool occluded[SPC_SCENE_PACKET]);
 
 /* Picks an emitter in proportion to power; *pmf receives its probability. NULL if none. */
 const spc_emitter *spc_scene_sample_emitter(const spc_scene *s, double u, double *pmf);
