@@ -361,8 +361,9 @@ static bool has_flat_caster(const spc_snee_query *q)
  * counted with 1 / psi. Five vertices: a total internal reflection off a slab's thin side face on the
  * way through two slabs (a third of the caustic at test_flat_bias's floor point), whose enumeration
  * costs about 3x a sample without it; on the long pass (psi 1 / 40) one call in 40 carried 40x its
- * share, a tail that a 512-spp render missed on the small-light slabs' caustic pixels. Six vertices:
- * about 1% of the light there, at about 10x a sample's cost. Measured in bench/RESULTS.md, "Flat 5". */
+ * share (there the largest call was 46x the mean, at 0.25 7x). Six vertices: about 1% of the light
+ * there, at about 10x a sample's cost. Measured in bench/RESULTS.md, "Flat 5" (equal time: the worst
+ * seed 6x lower under two slabs, the mean 2.4x higher on the small-light slabs). */
 #define SPC_FLAT_PSI_5 0.25
 #define SPC_FLAT_PSI_6 0.025
 static double flat_psi(const spc_snee_query *q, int k)
