@@ -64,10 +64,10 @@ struct spc_snee_query;
 
 /* Longest chain enumerated: up to 4 vertices (two slabs' four faces; a cube's internal reflection:
  * in, two total internal reflections, out) at every call of specular NEE (specular_nee.c,
- * flat_max), 5 and 6 on the long pass (params.long_p): a total internal reflection off a slab's
- * thin side face on the way through two slabs. Left to randomized attempts, such a chain is found
- * so rarely that its <1/p_solve> made a heavy tail that read 2-4% low where it lands
- * (bench/RESULTS.md, "Flat bias hunt"). */
+ * flat_max), 5 and 6 each with its own probability per call (specular_nee.c, flat_psi): a total
+ * internal reflection off a slab's thin side face on the way through two slabs. Left to randomized
+ * attempts, such a chain is found so rarely that its <1/p_solve> made a heavy tail that read 2-4% low
+ * where it lands (bench/RESULTS.md, "Flat bias hunt"). */
 #define SPC_FLAT_MAX_VERTICES 6
 
 /* Is s a flat-faced shape these chains handle? (Groups its faces on first use.) */

@@ -363,6 +363,33 @@ static int flat_max(const spc_snee_query *q)
     return hi;
 }
 
+/* Is one of q's casters a flat-faced shape (flat_chains.h)? */
+static bool has_flat_caster(const spc_snee_query *q)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    for (int j = 0; cs && j < cs->n; ++j)
+        if (spc_flat_chain_shape(q->scene->shapes[cs->idx[j]]))
+            return true;
+    return false;
+}
+
+/* The probability per call that the chains through flat faces of 5 and 6 vertices (past flat_max,
+ * where the longer chains run: long_on) are enumerated, each length drawn on its own and its chains
+ * counted with 1 / psi. Five vertices: a total internal reflection off a slab's thin side face on the
+ * way through two slabs (a third of the caustic at test_flat_bias's floor point), whose enumeration
+ * costs about 3x a sample without it; on the long pass (psi 1 / 40) one call in 40 carried 40x its
+ * share (there the largest call was 46x the mean, at 0.25 7x). Six vertices: about 1% of the light
+ * there, at about 10x a sample's cost. Measured in bench/RESULTS.md, "Flat 5" (equal time: the worst
+ * seed 6x lower under two slabs, the mean 2.4x higher on the small-light slabs). */
+#define SPC_FLAT_PSI_5 0.25
+#define SPC_FLAT_PSI_6 0.025
+static double flat_psi(const spc_snee_query *q, int k)
+{
+    if (!long_on(q) || k <= flat_max(q) || k > q->long_max || k > SPC_FLAT_MAX_VERTICES)
+        return 0.0;
+    return k == 5 ? SPC_FLAT_PSI_5 : k == 6 ? SPC_FLAT_PSI_6 : 0.0;
+}
+
 /* Is c counted exactly (no <1/p_solve>): enumerated by the solver's solve_all, or on one sphere or
  * mirror cylinder (params.exact)? */
 static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *c)
@@ -655,7 +682,7 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
     *rand_s = 0.0;
     if (c->n > q->max_chain) { /* longer than the budget: one of params.long_p's, or none */
         if (p->exact && spc_flat_chain_covers(c, p->reflect))
-            return c->n <= flat_max(q) ? 1.0 : long_psi(q, c->n); /* through flat faces, at every call */
+            return c->n <= flat_max(q) ? 1.0 : flat_psi(q, c->n); /* through flat faces */
         if (p->exact && spc_sphere_chain_covers(c, p->reflect))
             return long_psi(q, c->n); /* enumerated on the sphere */
         if (!random_long(p))
@@ -1039,6 +1066,19 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         emit_exact(&fq, e, uv, p_y, all, nall, it, st, sk);
         if (!q->cam)
             emit_plane_chains(q, e, uv, p_y, st, sk);
+        /* the longer chains through flat faces, each length with its own probability (flat_psi) */
+        bool flat = fq.max_chain < SPC_FLAT_MAX_VERTICES && has_flat_caster(q);
+        for (int k = fq.max_chain + 1; flat && k <= SPC_FLAT_MAX_VERTICES; ++k) {
+            double psi = flat_psi(q, k);
+            if (!(psi > 0.0) || (psi < 1.0 && !(spc_rng_next(rng) < psi)))
+                continue;
+            spc_snee_query lq = *q;
+            lq.min_chain = lq.max_chain = k;
+            lq.psi = psi;
+            it = 0;
+            nall = spc_flat_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
+            emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
+        }
     }
     /* with probability long_p the longer chains of one length too, each counted with 1 / psi: on a
      * sphere all of them (on the mirror ring the cylinder's longer chains cost a quarter of the
@@ -1056,8 +1096,6 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
                 spc_chain all[SPC_SNEE_MAX_ALL];
                 int it = 0;
                 int nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
-                if (k > flat_max(q)) /* else counted above, at every call */
-                    nall += spc_flat_chains_all(&lq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
                 emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
             }
             if (random_long(p) && solver->solve_one && !(p->exact && spc_snee_exact_covers_all(&lq))) {
