@@ -9,6 +9,7 @@
 #ifndef SPC_TESTS_CHAIN_COMPARE_H
 #define SPC_TESTS_CHAIN_COMPARE_H
 
+#include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include "core/rng.h"
@@ -50,6 +51,44 @@ static inline void chain_compare_random(const spc_snee_query *q, spc_rng *r, int
                    c.v[0].h.p.z);
         }
     }
+}
+
+/* Distinct chains and how often attempts found each (the first CHAIN_TALLY_MAX), two chains being
+ * the same solution when spc_snee_same_solution says so at the given size. */
+#define CHAIN_TALLY_MAX 16
+
+typedef struct chain_tally {
+    spc_chain c[CHAIN_TALLY_MAX];
+    int hits[CHAIN_TALLY_MAX];
+    int n;
+} chain_tally;
+
+static inline void chain_tally_add(chain_tally *t, const spc_chain *c, double size)
+{
+    for (int i = 0; i < t->n; ++i)
+        if (spc_snee_same_solution(&t->c[i], c, size)) {
+            t->hits[i]++;
+            return;
+        }
+    if (t->n < CHAIN_TALLY_MAX) {
+        t->c[t->n] = *c;
+        t->hits[t->n++] = 1;
+    }
+}
+
+static inline int chain_tally_hits(const chain_tally *t, const spc_chain *c, double size)
+{
+    for (int i = 0; i < t->n; ++i)
+        if (spc_snee_same_solution(&t->c[i], c, size))
+            return t->hits[i];
+    return 0;
+}
+
+/* The point of shape `floor_shape` straight below (px, 0.05, pz). */
+static inline bool chain_floor_point(const spc_scene *sc, int floor_shape, double px, double pz, spc_hit *x)
+{
+    spc_ray ray = {spc_v3(px, 0.05, pz), spc_v3(0, -1, 0), 0, INFINITY};
+    return spc_scene_intersect(sc, &ray, x) && x->shape_index == floor_shape;
 }
 
 #endif

@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "core/rng.h"
+#include "chain_compare.h"
 #include "harness.h"
 #include "manifold/angular.h"
 #include "manifold/fit_seeds.h"
@@ -88,41 +89,6 @@ TEST(fit_of_a_tessellated_ball_only)
     spc_scene_destroy(sc);
 }
 
-#define MAX_SOL 16
-
-typedef struct tally {
-    spc_chain c[MAX_SOL];
-    int hits[MAX_SOL];
-    int n;
-} tally;
-
-static void tally_add(tally *t, const spc_chain *c, double size)
-{
-    for (int i = 0; i < t->n; ++i)
-        if (spc_snee_same_solution(&t->c[i], c, size)) {
-            t->hits[i]++;
-            return;
-        }
-    if (t->n < MAX_SOL) {
-        t->c[t->n] = *c;
-        t->hits[t->n++] = 1;
-    }
-}
-
-static int tally_hits(const tally *t, const spc_chain *c, double size)
-{
-    for (int i = 0; i < t->n; ++i)
-        if (spc_snee_same_solution(&t->c[i], c, size))
-            return t->hits[i];
-    return 0;
-}
-
-/* The floor point below (px, pz). */
-static bool floor_point(const spc_scene *sc, double px, double pz, spc_hit *x)
-{
-    spc_ray ray = {spc_v3(px, 0.05, pz), spc_v3(0, -1, 0), 0, INFINITY};
-    return spc_scene_intersect(sc, &ray, x) && x->shape_index == 1;
-}
 
 TEST(fit_seeds_find_every_chain_and_count_unbiased)
 {
@@ -141,7 +107,7 @@ TEST(fit_seeds_find_every_chain_and_count_unbiased)
     spc_rng_seed(&rng, 7, 12);
     for (int i = 0; i < 9; ++i) {
         spc_hit x;
-        if (!floor_point(sc, -0.25 + 0.08 * (i % 3), 0.12 + 0.08 * (i / 3), &x))
+        if (!chain_floor_point(sc, 1, -0.25 + 0.08 * (i % 3), 0.12 + 0.08 * (i / 3), &x))
             continue;
         spc_snee_query qf, qu;
         spc_snee_query_init(&qf, sc, &pf, &x, spc_v3(0, 1, 0), 2);
@@ -161,18 +127,18 @@ TEST(fit_seeds_find_every_chain_and_count_unbiased)
         qu = qf;
         qu.params = &pu;
         qu.fit = NULL;
-        tally tf = {0}, tu = {0};
+        chain_tally tf = {0}, tu = {0};
         for (int a = 0; a < attempts; ++a) {
             spc_chain c;
             int it = 0;
             if (spc_angular_solve_one(&qf, &rng, &c, &it))
-                tally_add(&tf, &c, sc->radius);
+                chain_tally_add(&tf, &c, sc->radius);
             if (spc_angular_solve_one(&qu, &rng, &c, &it))
-                tally_add(&tu, &c, sc->radius);
+                chain_tally_add(&tu, &c, sc->radius);
         }
-        tally all = tf;
+        chain_tally all = tf;
         for (int s = 0; s < tu.n; ++s)
-            if (!tally_hits(&all, &tu.c[s], sc->radius) && all.n < MAX_SOL)
+            if (!chain_tally_hits(&all, &tu.c[s], sc->radius) && all.n < CHAIN_TALLY_MAX)
                 all.c[all.n++] = tu.c[s];
         double vmax = 0.0;
         for (int s = 0; s < all.n; ++s)
@@ -181,8 +147,8 @@ TEST(fit_seeds_find_every_chain_and_count_unbiased)
             double v = spc_rgb_lum(spc_snee_chain_value(&qf, e, uv, &all.c[s]));
             if (!(v > 0.0))
                 continue; /* no value (the last segment blocked, the light's back) */
-            double pfs = (double)tally_hits(&tf, &all.c[s], sc->radius) / attempts;
-            double pus = (double)tally_hits(&tu, &all.c[s], sc->radius) / attempts;
+            double pfs = (double)chain_tally_hits(&tf, &all.c[s], sc->radius) / attempts;
+            double pus = (double)chain_tally_hits(&tu, &all.c[s], sc->radius) / attempts;
             pfs = pfs > 0.0 ? pfs : 1.0 / attempts;
             pus = pus > 0.0 ? pus : 1.0 / attempts;
             m2_fit += v * v * (2.0 - pfs) / pfs;

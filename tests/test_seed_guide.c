@@ -21,6 +21,7 @@
 #include <unistd.h>
 
 #include "core/rng.h"
+#include "chain_compare.h"
 #include "harness.h"
 #include "manifold/seed_guide.h"
 #include "manifold/snee_plan.h"
@@ -40,13 +41,6 @@ static spc_scene *load(void)
         return NULL;
     }
     return sc;
-}
-
-/* The floor point below (px, pz). */
-static bool floor_point(const spc_scene *sc, double px, double pz, spc_hit *x)
-{
-    spc_ray ray = {spc_v3(px, 0.05, pz), spc_v3(0, -1, 0), 0, INFINITY};
-    return spc_scene_intersect(sc, &ray, x) && x->shape_index == 1;
 }
 
 TEST(prepass_deterministic_and_local)
@@ -88,34 +82,6 @@ TEST(prepass_deterministic_and_local)
     spc_scene_destroy(sc);
 }
 
-#define MAX_SOL 16
-
-typedef struct tally {
-    spc_chain c[MAX_SOL];
-    int hits[MAX_SOL];
-    int n;
-} tally;
-
-static void tally_add(tally *t, const spc_chain *c, double size)
-{
-    for (int i = 0; i < t->n; ++i)
-        if (spc_snee_same_solution(&t->c[i], c, size)) {
-            t->hits[i]++;
-            return;
-        }
-    if (t->n < MAX_SOL) {
-        t->c[t->n] = *c;
-        t->hits[t->n++] = 1;
-    }
-}
-
-static int tally_hits(const tally *t, const spc_chain *c, double size)
-{
-    for (int i = 0; i < t->n; ++i)
-        if (spc_snee_same_solution(&t->c[i], c, size))
-            return t->hits[i];
-    return 0;
-}
 
 TEST(trial_count_unbiased_for_the_mixture)
 {
@@ -142,7 +108,7 @@ TEST(trial_count_unbiased_for_the_mixture)
     spc_rng_seed(&rng, 7, 11);
     for (int i = 0; i < 9 && g; ++i) {
         spc_hit x;
-        if (!floor_point(sc, px[i], pz[i], &x))
+        if (!chain_floor_point(sc, 1, px[i], pz[i], &x))
             continue;
         spc_snee_query qm, qu;
         spc_snee_query_init(&qm, sc, &pm, &x, spc_v3(0, 1, 0), 2);
@@ -158,24 +124,24 @@ TEST(trial_count_unbiased_for_the_mixture)
         pm.light_u_on = false;
         qu = qm;
         qu.params = &pu;
-        tally tm = {0}, tu = {0};
+        chain_tally tm = {0}, tu = {0};
         for (int a = 0; a < attempts; ++a) {
             spc_chain c;
             int it = 0;
             if (spc_angular_solve_one(&qm, &rng, &c, &it))
-                tally_add(&tm, &c, sc->radius);
+                chain_tally_add(&tm, &c, sc->radius);
             if (spc_angular_solve_one(&qu, &rng, &c, &it))
-                tally_add(&tu, &c, sc->radius);
+                chain_tally_add(&tu, &c, sc->radius);
         }
         /* the second moment of the estimate summed over the chains of value v: v^2 (2 - p) / p each */
-        tally all = tm;
+        chain_tally all = tm;
         for (int s = 0; s < tu.n; ++s)
-            if (!tally_hits(&all, &tu.c[s], sc->radius) && all.n < MAX_SOL)
+            if (!chain_tally_hits(&all, &tu.c[s], sc->radius) && all.n < CHAIN_TALLY_MAX)
                 all.c[all.n++] = tu.c[s];
         for (int s = 0; s < all.n; ++s) {
             double v = spc_rgb_lum(spc_snee_chain_value(&qm, e, uv, &all.c[s]));
-            double pms = (double)tally_hits(&tm, &all.c[s], sc->radius) / attempts;
-            double pus = (double)tally_hits(&tu, &all.c[s], sc->radius) / attempts;
+            double pms = (double)chain_tally_hits(&tm, &all.c[s], sc->radius) / attempts;
+            double pus = (double)chain_tally_hits(&tu, &all.c[s], sc->radius) / attempts;
             if (!(v > 0.0))
                 continue; /* a chain of no value (its last segment blocked, the light's back) */
             pms = pms > 0.0 ? pms : 1.0 / attempts;
