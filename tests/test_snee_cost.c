@@ -11,8 +11,9 @@
  * - spc_sphere_arc_unseen against a dense scan of y . P over random arcs and points y.
  * - spc_snee_query_prob: later_p's probability only where it applies.
  * - spc_snee_caster_share: one ball's cone of directions in closed form; 1 within a caster's bound.
- * - spc_snee_later_prob: later_p far from the casters, 1 beside them, in between in proportion to
- *   the share, never below later_p nor above 1; 1 without roulette.
+ * - spc_snee_later_prob, spc_snee_first_prob: later_p (first_p) far from the casters, 1 beside
+ *   them, in between in proportion to the share, never below later_p nor above 1; 1 without
+ *   roulette.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -204,21 +205,31 @@ TEST(later_prob_from_the_casters_share)
     CHECK(spc_snee_later_prob(sc, &p, spc_v3(-0.42, 0.1, 0.0)) == 1.0);
     CHECK(spc_snee_later_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 0.25);
     /* along a line away from the balls: from 1 down to later_p, never rising, and in between
-     * equal to the share over 0.3 */
+     * equal to the share over SPC_SNEE_QUERY_FULL_SHARE */
     double last = 2.0;
     int between = 0;
-    for (int i = 0; i <= 200; ++i) {
-        spc_vec3 y = spc_v3(-0.42 - 0.05 * i, 0.1, 0.0);
+    for (int i = 0; i <= 2000; ++i) {
+        spc_vec3 y = spc_v3(-0.42 - 0.005 * i, 0.1, 0.0);
         double q = spc_snee_later_prob(sc, &p, y), s = spc_snee_caster_share(sc, cs, y);
         CHECK_MSG(q >= 0.25 && q <= 1.0 && q <= last + 1e-12, "at %g: q %g after %g", y.x, q, last);
         if (q > 0.25 && q < 1.0) {
             ++between;
-            CHECK_MSG(fabs(q - s / 0.3) < 1e-12, "at %g: q %g, share %g", y.x, q, s);
+            CHECK_MSG(fabs(q - s / SPC_SNEE_QUERY_FULL_SHARE) < 1e-12, "at %g: q %g, share %g", y.x, q, s);
         }
         last = q;
     }
     CHECK(last == 0.25 && between > 5);
     CHECK(spc_snee_parse("angular", 2, &p) && spc_snee_later_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 1.0);
+    /* the first receiver's: the same rule with first_p, independent of later_p */
+    CHECK(spc_snee_first_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 1.0);
+    CHECK(spc_snee_parse("angular:first=0.1,later=0.5", 2, &p) && p.first_p == 0.1 && p.later_p == 0.5);
+    CHECK(spc_snee_first_prob(sc, &p, spc_v3(-0.42, 0.1, 0.0)) == 1.0);
+    CHECK(spc_snee_first_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 0.1);
+    CHECK(spc_snee_later_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 0.5);
+    spc_vec3 y = spc_v3(-1.2, 0.1, 0.0);
+    double s = spc_snee_caster_share(sc, cs, y) / SPC_SNEE_QUERY_FULL_SHARE;
+    CHECK_MSG(s > 0.1 && s < 1.0 && fabs(spc_snee_first_prob(sc, &p, y) - s) < 1e-12, "share %g", s);
+    CHECK(!spc_snee_parse("angular:first=0", 2, &p) && !spc_snee_parse("angular:first=1.5", 2, &p));
     spc_scene_destroy(sc);
 }
 

@@ -116,7 +116,8 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
     /* spc_snee_params.later_p: past the first receiver, the query by Russian roulette, made always
      * near the casters (spc_snee_later_prob); a covered BSDF path's MIS weight reads the same query_p
      * (a vertex with a smooth lobe is no chain vertex: a live track started at the last such vertex) */
-    s->p.query_p = s->receivers > 0 ? spc_snee_later_prob(ctx->scene, &s->p, h->p) : 1.0;
+    s->p.query_p = s->receivers > 0 ? spc_snee_later_prob(ctx->scene, &s->p, h->p)
+                                    : spc_snee_first_prob(ctx->scene, &s->p, h->p);
     spc_rng rng;
     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
     return spc_specular_nee_depth(ctx->scene, &s->p, h, wo, s->budget, s->long_budget, &rng, NULL);

@@ -51,6 +51,7 @@
 
 #include "integrator/aov.h"
 #include "integrator/volpath.h"
+#include "manifold/snee_cost.h"
 #include "manifold/specular_nee.h"
 #include "medium/medium.h"
 
@@ -248,9 +249,10 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                 if (nee)
                     ++receivers;
                 if (budget > 0) {
-                    /* spc_snee_params.later_p past the first receiver, as path.c has it; its own
-                     * deterministic stream: the sampler's dimensions stay as without it */
-                    snp.query_p = receivers > 1 ? snp.later_p : 1.0;
+                    /* spc_snee_params.later_p past the first receiver, raised near the casters as
+                     * path.c has it (first_p is path's only); its own deterministic stream: the
+                     * sampler's dimensions stay as without it */
+                    snp.query_p = receivers > 1 ? spc_snee_later_prob(sc, &snp, x) : 1.0;
                     spc_rng rng;
                     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
                     spc_rgb c = spc_specular_nee_at(sc, &snp, &conn, budget, long_budget, &rng, NULL);

@@ -1,8 +1,8 @@
 /*
  * manifold/snee_cost.c: exact early-outs for specular NEE (snee_cost.h). Each test proves that
  * some work cannot produce a chain (or a nonzero contribution), so skipping it leaves the estimate
- * unchanged. Also the query's Russian-roulette probability past a path's first receiver, from the
- * share of the receiver's directions that the casters fill.
+ * unchanged. Also the query's Russian-roulette probability at a path's receivers, from the share of
+ * the receiver's directions that the casters fill.
  */
 #include "manifold/snee_cost.h"
 
@@ -12,17 +12,6 @@
 #include "manifold/sphere_chains.h"
 #include "scene/scene.h"
 
-/* The share of x's directions taken by the casters from which the query past a path's first
- * receiver is always made (spc_snee_later_prob; below it the probability falls in proportion to the
- * share, down to later_p). A receiver close to a caster can lie at its caustic's focus, where one
- * query holds a large part of a pixel's value: there the roulette's 1/later_p weight made the
- * fireflies of the default (the floor beside the glass ball seen through it: the second receiver
- * at the focus; and MIS, weighing the query by later_p, left those paths to BSDF sampling). At
- * equal CPU time (bench/RESULTS.md, "Tails of the default") 0.3 gained 2.4x on
- * bench/check/ball_small_light.xml and 1.5x on the demo over a constant later_p, with the demo 21%
- * slower per sample; 0.1 cost the demo 46% per sample for no further gain, and 0.5 and 0.9 left a
- * demo seed with one pixel 85% of its error. */
-#define SPC_SNEE_LATER_FULL_SHARE 0.3
 
 /* Spheres closer than this (relative to the sum of their radii) count as overlapping. */
 #define SPC_SNEE_APART_REL 1e-6
@@ -79,11 +68,22 @@ double spc_snee_caster_share(const spc_scene *sc, const spc_chain_casters *cs, s
     return share < 1.0 ? share : 1.0;
 }
 
-double spc_snee_later_prob(const spc_scene *sc, const spc_snee_params *p, spc_vec3 x)
+/* The probability of a query at x with floor q (later_p or first_p): the share of x's directions
+ * the casters fill over SPC_SNEE_QUERY_FULL_SHARE, at least q and at most 1. */
+static double share_prob(const spc_scene *sc, const spc_snee_params *p, spc_vec3 x, double q)
 {
-    double q = p->later_p;
     if (!(q > 0.0 && q < 1.0))
         return 1.0;
-    double r = spc_snee_caster_share(sc, spc_chain_casters_of(sc, p->any_surface), x) / SPC_SNEE_LATER_FULL_SHARE;
+    double r = spc_snee_caster_share(sc, spc_chain_casters_of(sc, p->any_surface), x) / SPC_SNEE_QUERY_FULL_SHARE;
     return r >= 1.0 ? 1.0 : r > q ? r : q;
+}
+
+double spc_snee_later_prob(const spc_scene *sc, const spc_snee_params *p, spc_vec3 x)
+{
+    return share_prob(sc, p, x, p->later_p);
+}
+
+double spc_snee_first_prob(const spc_scene *sc, const spc_snee_params *p, spc_vec3 x)
+{
+    return share_prob(sc, p, x, p->first_p);
 }

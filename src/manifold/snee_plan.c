@@ -356,7 +356,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     else if (!glass)
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_MIRRORS);
     else if (q < SPC_SNEE_PLAN_CAMERA_ALL)
-        snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,later=0.25", q);
+        snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,first=0.1,later=0.1", q);
     else
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING);
     out->pilot = spc_snee_setting_pilot(setting);
@@ -434,6 +434,9 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
         put(&b, "  glass seen on %.3g of the image\n", plan->glass_share);
     if (plan->automatic)
         put(&b, "  open to the sky in %.3g of the directions from the casters\n", plan->open_share);
+    if (p.first_p < 1.0)
+        put(&b, "  at a path's first receiver with probability %g (Russian roulette), up to 1 near the casters\n",
+            p.first_p);
     if (p.later_p < 1.0)
         put(&b, "  past a path's first receiver with probability %g (Russian roulette), up to 1 near the casters\n",
             p.later_p);

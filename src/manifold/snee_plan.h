@@ -84,8 +84,12 @@
  * roulette): in an enclosed room most queries are at deeper vertices, where the caustic
  * only lights the room; equal-time relMSE against none went from 1.3x to 2.5x on the pool and from
  * 0.7x to 1.2x on the demo with reflections off (bench/RESULTS.md, "The per-sample cost of
- * specular NEE"). */
-#define SPC_SNEE_PLAN_SETTING "angular:camera,later=0.25"
+ * specular NEE"). At every receiver, the first included, the query is made always only where the
+ * casters' bounds fill x's directions and elsewhere with the share they fill, at least 0.1
+ * (first=0.1, later=0.1, snee_cost.h): the queries far from the casters found a faint caustic at
+ * full cost; 1.7x (glass sphere) and 2.0x (demo) lower relMSE x CPU than later=0.25 alone
+ * (bench/RESULTS.md, "Tenx"). */
+#define SPC_SNEE_PLAN_SETTING "angular:camera,first=0.1,later=0.1"
 
 /* Guided seeds for the randomized attempts (a triangle mesh with vertex normals, an SDF): a share
  * 0.8 of those attempts seeded toward the chains of light paths traced before the render that landed
@@ -100,7 +104,7 @@
  * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal
  * CPU time the query from the camera doubled relMSE (bench/RESULTS.md, "Plan rules from the
  * scene"). */
-#define SPC_SNEE_PLAN_SETTING_MIRRORS "angular:later=0.25"
+#define SPC_SNEE_PLAN_SETTING_MIRRORS "angular:first=0.1,later=0.1"
 
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
  * no BDPT strategy but s = 0 (and at corners), and the query from the camera on one sample in ten.

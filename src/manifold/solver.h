@@ -180,6 +180,12 @@ typedef struct spc_snee_params {
      * query_p per receiver (the path integrator: 1 at the first, after it later_p, raised near the
      * casters by spc_snee_later_prob; 0 counts as 1); not with guide, not from the camera (camera_p). */
     double later_p;
+    /* Russian roulette on the query at a path's first receiver (the user's "first=P"; 1 by
+     * default): as later_p, made always where the casters fill a large share of the receiver's
+     * directions and with probability down to P where they look small (spc_snee_first_prob); the
+     * caustic a receiver far from every caster sees is faint, and the query there costs as much as
+     * near the casters. The path integrator only; not from the camera. */
+    double first_p;
     double query_p;
     /* The light sample's uniforms where the caller draws them from its stratified sample stream
      * (light_u_on; the path integrator at each receiver): light_u[0] picks the light, light_u[1]
