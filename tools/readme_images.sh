@@ -2,11 +2,11 @@
 # Regenerates the README's pictures, each scene with the default (specular NEE chosen from the scene)
 # and with --specular-nee none at about equal CPU time (none gets as many more samples as the
 # default costs per sample):
-#   - scenes/demo.xml at its own size (256x256), the default at its 8 spp, none at 104 spp (the
-#     default's cost per sample there is 13x none's: 10.7 CPU-s at 8 spp against 11.1 at 108):
+#   - scenes/demo.xml at its own size (256x256), the default at its 8 spp, none at 60 spp (the
+#     default's cost per sample there is 7.5x none's: 5.4 CPU-s at 8 spp against 9.3 at 104):
 #     docs/images/demo_default.png, docs/images/demo_none.png;
 #   - scenes/caustic_mirror_ring.xml (a caustic inside a mirror ring under a small sphere light) at
-#     128x128, 32 against 426 spp (5.9 CPU-s at 32 spp against 8.0 at 578):
+#     128x128, 32 against 354 spp (4.2 CPU-s at 32 spp against 5.1 at 426):
 #     docs/images/ring_default.png, docs/images/ring_none.png.
 # Usage: bash tools/readme_images.sh
 set -euo pipefail
@@ -23,5 +23,5 @@ pair() {
   cp "$tmp/none.png" "docs/images/$2_none.png"
   echo "wrote docs/images/$2_default.png and docs/images/$2_none.png ($3x$3, $4 and $5 spp)"
 }
-pair scenes/demo.xml demo 256 8 104
-pair scenes/caustic_mirror_ring.xml ring 128 32 426
+pair scenes/demo.xml demo 256 8 60
+pair scenes/caustic_mirror_ring.xml ring 128 32 354
