@@ -864,6 +864,36 @@ TEST(sdf_torus_plan)
     spc_scene_destroy(sc);
 }
 
+/* The triangle glass ball (bench/check/glass_ball_mesh.xml, a tessellated sphere: fit_seeds.h) gets
+ * the setting without the first receiver's roulette (SPC_SNEE_PLAN_SETTING_BALLS), the same scene's
+ * ball as an analytic sphere keeps the roulette (SPC_SNEE_PLAN_SETTING or its camera fraction). */
+TEST(tessellated_ball_plan)
+{
+    char path[1200];
+    snprintf(path, sizeof path, "%s/bench/check/glass_ball_mesh.xml", spc_test_source_dir());
+    spc_define defs[1] = {{"res", "8"}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK_MSG(spc_scene_load(path, defs, 1, &sc, &err) == SPC_OK, "%s", err.msg);
+    if (!sc)
+        return;
+    spc_snee_plan p;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    spc_snee_params sp;
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS) && spc_snee_parse(p.setting, 2, &sp) &&
+                  sp.first_p == 1.0 && sp.later_p == 0.1 && sp.camera,
+              "glass_ball_mesh: %s (%s)", p.setting, p.reason);
+    spc_scene_destroy(sc);
+    snprintf(path, sizeof path, "%s/scenes/caustic_glass_sphere.xml", spc_test_source_dir());
+    sc = NULL;
+    CHECK_MSG(spc_scene_load(path, defs, 1, &sc, &err) == SPC_OK, "%s", err.msg);
+    if (!sc)
+        return;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && glass_setting(p.setting), "caustic_glass_sphere: %s", p.setting);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(demo_plan_on);
@@ -879,5 +909,6 @@ int main(void)
     RUN(reflections_at_depth_4_agree_with_bdpt);
     RUN(light_in_housing_plan_off);
     RUN(sdf_torus_plan);
+    RUN(tessellated_ball_plan);
     return spc_test_finish();
 }

@@ -13,6 +13,7 @@
 #include "core/rng.h"
 #include "emitter/emitter.h"
 #include "manifold/cylinder_chains.h"
+#include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
 #include "manifold/plane_chains.h"
 #include "manifold/snee_cost.h"
@@ -337,13 +338,16 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         }
     /* the query from the camera only where some caster is glass, by Russian roulette only where
      * every glass caster's chains are enumerated exactly (snee_plan.h) */
-    bool glass = false, exact = true;
+    bool glass = false, exact = true, ball = false;
     for (int i = 0; i < cs->n; ++i) {
         double eta = 0.0;
         const spc_shape *s = sc->shapes[cs->idx[i]];
         if (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) {
             glass = true;
             exact = exact && spc_snee_plan_method(&p, s) != SPC_SNEE_METHOD_SOLVER;
+            spc_vec3 c;
+            double r;
+            ball = ball || (spc_snee_plan_method(&p, s) == SPC_SNEE_METHOD_SOLVER && spc_fit_sphere(s, &c, &r));
         }
     }
     out->on = true;
@@ -355,6 +359,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
                  glass ? SPC_SNEE_PLAN_SETTING_BDPT : SPC_SNEE_PLAN_SETTING_BDPT_MIRRORS);
     else if (!glass)
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_MIRRORS);
+    else if (ball)
+        snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_BALLS);
     else if (q < SPC_SNEE_PLAN_CAMERA_ALL)
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,first=0.1,later=0.1", q);
     else
