@@ -586,18 +586,26 @@ TEST(small_light_ball_agrees_with_bdpt)
     spc_scene_destroy(sc);
 }
 
+/* The scene at `rel` under the source tree, its "res" set to `res`; NULL (and a failed check) if it
+ * does not load. */
+static spc_scene *load_at(const char *rel, const char *res)
+{
+    char path[1200];
+    snprintf(path, sizeof path, "%s/%s", spc_test_source_dir(), rel);
+    spc_define defs[1] = {{"res", res}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK_MSG(spc_scene_load(path, defs, 1, &sc, &err) == SPC_OK, "%s: %s", rel, err.msg);
+    return sc;
+}
+
 /* The README's first command: scenes/demo.xml (a Cornell box with a glass and a mirror ball under a
  * small ceiling light) renders with the plan's specular NEE, whose Russian roulette past the first
  * receiver and at it far from the casters (first=0.1, later=0.1) agrees with the query made at every
  * receiver. */
 TEST(demo_plan_on)
 {
-    char path[1200];
-    snprintf(path, sizeof path, "%s/scenes/demo.xml", spc_test_source_dir());
-    spc_define defs[1] = {{"res", "16"}};
-    spc_scene *sc = NULL;
-    spc_error err;
-    CHECK_MSG(spc_scene_load(path, defs, 1, &sc, &err) == SPC_OK, "%s", err.msg);
+    spc_scene *sc = load_at("scenes/demo.xml", "16");
     if (!sc)
         return;
     spc_snee_plan p;
@@ -839,12 +847,7 @@ TEST(light_in_housing_plan_off)
  * (bench/RESULTS.md, "Torus: the plan"). */
 TEST(sdf_torus_plan)
 {
-    char path[1200];
-    snprintf(path, sizeof path, "%s/scenes/caustic_sdf_torus.xml", spc_test_source_dir());
-    spc_define defs[1] = {{"res", "8"}};
-    spc_scene *sc = NULL;
-    spc_error err;
-    CHECK_MSG(spc_scene_load(path, defs, 1, &sc, &err) == SPC_OK, "%s", err.msg);
+    spc_scene *sc = load_at("scenes/caustic_sdf_torus.xml", "8");
     if (!sc)
         return;
     spc_snee_plan p;
@@ -869,12 +872,7 @@ TEST(sdf_torus_plan)
  * ball as an analytic sphere keeps the roulette (SPC_SNEE_PLAN_SETTING or its camera fraction). */
 TEST(tessellated_ball_plan)
 {
-    char path[1200];
-    snprintf(path, sizeof path, "%s/bench/check/glass_ball_mesh.xml", spc_test_source_dir());
-    spc_define defs[1] = {{"res", "8"}};
-    spc_scene *sc = NULL;
-    spc_error err;
-    CHECK_MSG(spc_scene_load(path, defs, 1, &sc, &err) == SPC_OK, "%s", err.msg);
+    spc_scene *sc = load_at("bench/check/glass_ball_mesh.xml", "8");
     if (!sc)
         return;
     spc_snee_plan p;
@@ -884,9 +882,7 @@ TEST(tessellated_ball_plan)
                   sp.first_p == 1.0 && sp.later_p == 0.1 && sp.camera,
               "glass_ball_mesh: %s (%s)", p.setting, p.reason);
     spc_scene_destroy(sc);
-    snprintf(path, sizeof path, "%s/scenes/caustic_glass_sphere.xml", spc_test_source_dir());
-    sc = NULL;
-    CHECK_MSG(spc_scene_load(path, defs, 1, &sc, &err) == SPC_OK, "%s", err.msg);
+    sc = load_at("scenes/caustic_glass_sphere.xml", "8");
     if (!sc)
         return;
     spc_snee_plan_make(sc, "path", NULL, &p);

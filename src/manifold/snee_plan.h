@@ -96,8 +96,8 @@
  * roulette's 1/P weight on the randomized chains through such a mesh made one-pixel fireflies: on
  * bench/check/glass_ball_mesh.xml at equal CPU time over 8 seeds the mean relMSE was 0.86 (worst seed
  * 6.5, one pixel 100% of it) with first=0.1 and 0.0745 (worst 0.39) without (none: 0.125); random
- * caustic scene 31 48x none against 40x, 41 6.2x against 9.0x (bench/RESULTS.md, "The merged main
- * after session 16"). */
+ * caustic scene 31 48x none against 40x, 41 6.2x against 9.0x (bench/RESULTS.md, "The tessellated
+ * ball and the first receiver's roulette"). */
 #define SPC_SNEE_PLAN_SETTING_BALLS "angular:camera,later=0.1"
 
 /* Guided seeds for the randomized attempts (a triangle mesh with vertex normals, an SDF): a share
