@@ -37,6 +37,7 @@
 #include "manifold/cylinder_chains.h"
 #include "manifold/plane_chains.h"
 #include "manifold/sphere_chains.h"
+#include "manifold/sphere_roots.h"
 #include "render_util.h"
 
 static spc_rng rng;

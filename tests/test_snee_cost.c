@@ -24,6 +24,7 @@
 #include "harness.h"
 #include "manifold/snee_cost.h"
 #include "manifold/sphere_chains.h"
+#include "manifold/sphere_roots.h"
 #include "render_util.h"
 
 /* A box floor (z = 0) with a glass ball and a mirror ball on it (or overlapping, if `overlap`), a

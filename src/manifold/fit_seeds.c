@@ -1,6 +1,6 @@
 /*
  * manifold/fit_seeds.c: seeds from the sphere fitted to a tessellated ball (fit_seeds.h): the fit,
- * kept in the shape, and the fitted sphere's exact solutions (sphere_chains.h's planar roots) as
+ * kept in the shape, and the fitted sphere's exact solutions (sphere_roots.h) as
  * seed directions.
  */
 #include "manifold/fit_seeds.h"
@@ -11,7 +11,7 @@
 
 #include "bsdf/bsdf.h"
 #include "manifold/solver.h"
-#include "manifold/sphere_chains.h"
+#include "manifold/sphere_roots.h"
 
 /* A ball's tessellation: every vertex within this fraction of the radius from the fitted sphere,
  * and each side of the bounding box within it of the diameter (a hemisphere, a cube, a torus or an
@@ -89,15 +89,9 @@ bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius)
 static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, spc_vec3 *dir, int max)
 {
     spc_vec3 x = q->x->p;
-    spc_vec3 e1 = spc_sub(x, c), w = spc_sub(q->y, c);
-    double d = spc_length(e1);
-    if (!(d > R) || !(spc_length(w) > R))
+    spc_sphere_plane pl;
+    if (!spc_sphere_plane_of(x, c, R, q->y, &pl))
         return 0;
-    e1 = spc_scale(e1, 1.0 / d);
-    spc_vec3 wp = spc_sub(w, spc_scale(e1, spc_dot(w, e1)));
-    double wpl = spc_length(wp);
-    spc_vec3 e2 = wpl > 1e-12 * spc_length(w) ? spc_scale(wp, 1.0 / wpl) : spc_frame_from_n(e1).s;
-    double y1 = spc_dot(w, e1) / R, y2 = spc_dot(w, e2) / R;
     double eta = 0.0;
     spc_bsdf_is_specular_interface(s->bsdf, &eta);
     bool conductor = !(eta > 0.0), reflect = q->params && q->params->reflect;
@@ -111,10 +105,9 @@ static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, dou
     int n = 0;
     for (int m = m_lo; m <= m_hi && n < max; ++m) {
         double theta[SPC_FIT_MAX_DIRS];
-        int nr = spc_sphere_chain_roots(d / R, y1, y2, m, eta, theta, max - n);
+        int nr = spc_sphere_chain_roots(pl.d, pl.y1, pl.y2, m, eta, theta, max - n);
         for (int r = 0; r < nr; ++r) {
-            spc_vec3 P = spc_add(c, spc_scale(spc_add(spc_scale(e1, cos(theta[r])), spc_scale(e2, sin(theta[r]))), R));
-            dir[n++] = spc_normalize(spc_sub(P, x));
+            dir[n++] = spc_normalize(spc_sub(spc_sphere_plane_point(&pl, theta[r]), x));
         }
     }
     return n;

@@ -1,22 +1,7 @@
 /*
- * manifold/sphere_chains.c: every specular chain through one sphere (sphere_chains.h).
- *
- * The planar problem, on the unit circle centred at the origin: x = (d, 0), d > 1, sees the arc of
- * entry points P(theta) = (cos theta, sin theta), |theta| < acos(1/d). The ray x -> P either
- * reflects there (m = -1) or refracts in (ratio 1/eta), crosses chords of length -2 t.Q (the
- * internal angle is the same at every internal vertex of a sphere), reflects at m of their ends
- * and refracts out (ratio eta). With Q the last vertex and v the final direction, the chain reaches
- * y where f(theta) = v x (y - Q) vanishes and (y - Q).v > 0. f is smooth in theta wherever the
- * refractions exist (the angle of the entry point, unlike the impact parameter, keeps the
- * derivative finite at the grazing rim).
- *
- * Root isolation (roots1d.h): f on SPC_SPHERE_GRID + 1 samples over the arc (ends pulled in by a
- * relative 1e-9), sign changes, and pairs of roots between samples at local extrema of the samples.
- * With f's few features (one extremum per rainbow order at most: the deviation of a ray through a
- * sphere has one stationary point per internal reflection count) the grid resolves them all but
- * pairs of roots within one sample spacing of the arc's grazing end. Roots are refined to 1e-12 in
- * theta; the polish in 3D (spc_sphere_chains_all) takes it from there, from the point the chain's
- * first ray leaves from, and in one trace as a rule.
+ * manifold/sphere_chains.c: every specular chain through one sphere (sphere_chains.h), from the
+ * planar problem's roots (sphere_roots.h) polished in 3D from the point the chain's first ray leaves
+ * from, in one trace as a rule.
  */
 #include "manifold/sphere_chains.h"
 
@@ -24,22 +9,12 @@
 #include <string.h>
 
 #include "bsdf/bsdf.h"
-#include "manifold/roots1d.h"
 #include "manifold/solver.h"
+#include "manifold/sphere_roots.h"
 #include "scene/scene.h"
 
-/* Samples of f over the arc x sees, shared by every signature (one pass computes the way in, the
- * chords, and each signature's way out). roots1d halves the cells where the chain's angles turn
- * fast, so the grid only has to see f's broad shape: 32 samples found the same roots in the tests
- * and in 40000 calls of bench_snee on the glass ball, at 1.5x the cost per call; 4 miss some; 8 and
- * 12 miss pairs of roots at the refraction's folds (test_exact_chains, 3000 configurations of one
- * or two vertices behind the sphere: 2 and 4 of 1584 roots). */
-#define SPC_SPHERE_GRID 16
-/* Roots kept per planar problem. */
-#define SPC_SPHERE_MAX_ROOTS 16
-/* Internal reflections at most, and the signatures (m = -1 .. SPC_SPHERE_MAX_M). */
-#define SPC_SPHERE_MAX_M (SPC_CHAIN_MAX_VERTICES - 2)
-#define SPC_SPHERE_SIGNATURES (SPC_SPHERE_MAX_M + 2)
+_Static_assert(SPC_SPHERE_MAX_M == SPC_CHAIN_MAX_VERTICES - 2, "a sphere chain has m + 2 vertices");
+
 /* x (and y) count as outside a sphere of radius R beyond R (1 + this). */
 #define SPC_SPHERE_OUTSIDE_REL 1e-6
 
@@ -88,222 +63,6 @@ bool spc_sphere_chain_covers(const spc_chain *c, bool reflect)
 
 bool spc_sphere_chain_usable(const spc_shape *s, spc_vec3 x) { return spc_sphere_chain_shape(s) && outside(s, x); }
 
-/* ---- the planar problem ---- */
-
-typedef struct plane_problem {
-    double d, y1, y2, eta;
-    int m;
-} plane_problem;
-
-/* w refracted at a boundary whose unit normal n faces against w (w.n < 0), ratio n1 / n2. */
-static inline bool refract2(double wx, double wy, double nx, double ny, double ratio, double *ox, double *oy)
-{
-    double ci = -(wx * nx + wy * ny);
-    double s2 = ratio * ratio * (1.0 - ci * ci);
-    if (s2 > 1.0 + 1e-9)
-        return false;
-    /* up to rounding, grazing: the way out of a sphere mirrors the way in, and at the arc's ends
-     * (grazing entry) sin i is within rounding of 1 */
-    s2 = s2 < 1.0 ? s2 : 1.0;
-    double ct = sqrt(1.0 - s2);
-    *ox = ratio * wx + (ratio * ci - ct) * nx;
-    *oy = ratio * wy + (ratio * ci - ct) * ny;
-    return true;
-}
-
-/* The angles roots1d watches (in turns): the way in, the first direction inside (the chords turn
- * with it) and the way out. */
-#define SPHERE_ANGLES 3
-
-/* f(theta) and (y - Q).v at the entry point (cos theta, sin theta) = (qx, qy), and (ang, if not
- * NULL) the angles; false where a refraction does not exist (total internal reflection). */
-static bool plane_eval_at(const plane_problem *pb, double qx, double qy, double *f, double *ahead, double *ang)
-{
-    double ux = qx - pb->d, uy = qy;
-    double ul = sqrt(ux * ux + uy * uy);
-    ux /= ul;
-    uy /= ul;
-    double vx, vy;
-    if (ang)
-        ang[0] = spc_roots1d_turns(ux, uy);
-    if (pb->m < 0) {
-        double dn = ux * qx + uy * qy;
-        vx = ux - 2.0 * dn * qx;
-        vy = uy - 2.0 * dn * qy;
-        if (ang)
-            ang[1] = spc_roots1d_turns(vx, vy);
-    } else {
-        double tx, ty;
-        if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
-            return false;
-        if (ang)
-            ang[1] = spc_roots1d_turns(tx, ty);
-        for (int j = 0; j <= pb->m; ++j) {
-            double len = -2.0 * (tx * qx + ty * qy);
-            qx += len * tx;
-            qy += len * ty;
-            if (j < pb->m) {
-                double dn = tx * qx + ty * qy;
-                tx -= 2.0 * dn * qx;
-                ty -= 2.0 * dn * qy;
-            }
-        }
-        if (!refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy))
-            return false;
-    }
-    if (ang)
-        ang[2] = spc_roots1d_turns(vx, vy);
-    double rx = pb->y1 - qx, ry = pb->y2 - qy;
-    *f = vx * ry - vy * rx;
-    *ahead = vx * rx + vy * ry;
-    return true;
-}
-
-/* The entry point (cos th, sin th), |th| < pi / 2, from the polynomials of th / 2 and the double
- * angle: the refinement's evaluations without libm's sincos (7% of the glass ball's render,
- * callgrind). */
-static inline void entry_point(double th, double *qx, double *qy)
-{
-    double s, c;
-    spc_sincos_quarter(0.5 * th, &s, &c);
-    *qx = (c - s) * (c + s);
-    *qy = 2.0 * s * c;
-}
-
-static bool plane_fn(const void *ctx, double th, double *f, double *ahead, double *ang)
-{
-    double qx, qy;
-    entry_point(th, &qx, &qy);
-    return plane_eval_at(ctx, qx, qy, f, ahead, ang);
-}
-
-/* f of every signature m = mlo..mhi at the entry point (qx, qy), sharing the way in and the chords:
- * f[m + 1], ok[m + 1] (m = -1: the outside reflection). */
-static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx, double qy, double *f, double *ahead,
-                           double (*ang)[SPHERE_ANGLES], bool *ok)
-{
-    for (int m = mlo; m <= mhi; ++m)
-        ok[m + 1] = false;
-    double ux = qx - pb->d, uy = qy;
-    double ul = sqrt(ux * ux + uy * uy);
-    ux /= ul;
-    uy /= ul;
-    double a_in = spc_roots1d_turns(ux, uy);
-    if (mlo < 0) {
-        double dn = ux * qx + uy * qy;
-        double vx = ux - 2.0 * dn * qx, vy = uy - 2.0 * dn * qy;
-        f[0] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
-        ahead[0] = vx * (pb->y1 - qx) + vy * (pb->y2 - qy);
-        ang[0][0] = a_in;
-        ang[0][1] = ang[0][2] = spc_roots1d_turns(vx, vy);
-        ok[0] = true;
-    }
-    if (mhi < 0)
-        return;
-    double tx, ty;
-    if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
-        return;
-    double a_t = spc_roots1d_turns(tx, ty);
-    for (int j = 0; j <= mhi; ++j) {
-        double len = -2.0 * (tx * qx + ty * qy);
-        qx += len * tx;
-        qy += len * ty;
-        double vx, vy;
-        if (j >= mlo && refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy)) {
-            f[j + 1] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
-            ahead[j + 1] = vx * (pb->y1 - qx) + vy * (pb->y2 - qy);
-            ang[j + 1][0] = a_in;
-            ang[j + 1][1] = a_t;
-            ang[j + 1][2] = spc_roots1d_turns(vx, vy);
-            ok[j + 1] = true;
-        }
-        double dn = tx * qx + ty * qy;
-        tx -= 2.0 * dn * qx;
-        ty -= 2.0 * dn * qy;
-    }
-}
-
-/* The roots of the signatures m = mlo..mhi on one arc (|theta| < tmax): theta[m + 1][...], n[m + 1]. */
-static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, int mhi, double tmax,
-                         double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
-{
-    enum { G = SPC_SPHERE_GRID };
-    double th[G + 1], f[G + 1][SPC_SPHERE_SIGNATURES], ah[G + 1][SPC_SPHERE_SIGNATURES], pc[G + 1][2];
-    double an[G + 1][SPC_SPHERE_SIGNATURES][SPHERE_ANGLES];
-    bool ok[G + 1][SPC_SPHERE_SIGNATURES];
-    /* the entry points by rotation from the first (cos and sin once) */
-    double step = 2.0 * tmax / G, cs, sn, cx, cy;
-    spc_sincos_quarter(step, &sn, &cs); /* step < pi / G <= pi / 4 */
-    entry_point(tmax, &cx, &cy);
-    cy = -cy;
-    plane_problem pb = {d, y1, y2, eta, 0};
-    for (int j = 0; j <= G; ++j) {
-        th[j] = -tmax + step * j;
-        pc[j][0] = cx;
-        pc[j][1] = cy;
-        plane_eval_all(&pb, mlo, mhi, cx, cy, f[j], ah[j], an[j], ok[j]);
-        double nx = cx * cs - cy * sn, ny = cx * sn + cy * cs;
-        cx = nx;
-        cy = ny;
-    }
-    for (int m = mlo; m <= mhi; ++m) {
-        double fm[G + 1], am[G + 1], angm[G + 1][SPC_ROOTS1D_MAX_ANGLES];
-        bool okm[G + 1];
-        for (int j = 0; j <= G; ++j) {
-            fm[j] = f[j][m + 1];
-            am[j] = ah[j][m + 1];
-            okm[j] = ok[j][m + 1];
-            for (int i = 0; i < SPHERE_ANGLES; ++i)
-                angm[j][i] = an[j][m + 1][i];
-        }
-        pb.m = m;
-        /* an outside reflection reaches y only from a point y sees (y beyond its tangent plane):
-         * the cells of the arc y cannot see hold no root (spc_sphere_arc_unseen) */
-        bool skip[G], any = false;
-        if (m < 0)
-            for (int j = 0; j < G; ++j)
-                any |= skip[j] = spc_sphere_arc_unseen(y1, y2, pc[j], pc[j + 1]);
-        /* to 1e-12: the 3D polish (spc_sphere_chains_all) converges from there in one trace */
-        n[m + 1] = spc_roots1d(plane_fn, NULL, &pb, th, fm, am, &angm[0][0], SPHERE_ANGLES, okm, G, any ? skip : NULL,
-                               1e-12 * tmax, theta[m + 1], SPC_SPHERE_MAX_ROOTS);
-    }
-}
-
-/* The roots of the signatures m = mlo..mhi (-1 <= mlo <= mhi <= SPC_SPHERE_MAX_M). */
-static void chain_roots(double d, double y1, double y2, double eta, int mlo, int mhi,
-                        double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
-{
-    for (int m = mlo; m <= mhi; ++m)
-        n[m + 1] = 0;
-    if (!(d > 1.0) || !(y1 * y1 + y2 * y2 > 1.0) || (mhi >= 0 && !(eta > 0.0)))
-        return;
-    double tmax = acos(1.0 / d) * (1.0 - 1e-9);
-    if (mhi >= 0 && eta < 1.0) {
-        /* a bubble (inside the lower index): the way in exists where sin i = d sin(theta) / |P - x|
-         * stays below eta, i.e. cos(theta) above (eta^2 + sqrt((d^2 - eta^2)(1 - eta^2))) / d; the
-         * way out then always does (it mirrors the way in). The outside reflection keeps the arc. */
-        double c = (eta * eta + sqrt((d * d - eta * eta) * (1.0 - eta * eta))) / d;
-        double tin = acos(c < 1.0 ? c : 1.0) * (1.0 - 1e-9);
-        if (mlo < 0)
-            roots_on_arc(d, y1, y2, eta, -1, -1, tmax, theta, n);
-        roots_on_arc(d, y1, y2, eta, mlo > 0 ? mlo : 0, mhi, tin < tmax ? tin : tmax, theta, n);
-        return;
-    }
-    roots_on_arc(d, y1, y2, eta, mlo, mhi, tmax, theta, n);
-}
-
-int spc_sphere_chain_roots(double d, double y1, double y2, int m, double eta, double *theta, int max_roots)
-{
-    if (m < -1 || m > SPC_SPHERE_MAX_M)
-        return 0;
-    double all[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
-    int n[SPC_SPHERE_SIGNATURES];
-    chain_roots(d, y1, y2, eta, m, m, all, n);
-    int k = n[m + 1] < max_roots ? n[m + 1] : max_roots;
-    memcpy(theta, all[m + 1], (size_t)k * sizeof *theta);
-    return k;
-}
-
 /* ---- in the scene ---- */
 
 int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, int *iterations)
@@ -324,15 +83,9 @@ int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, 
         /* the problem from the point the chain's first ray leaves from (x offset off its surface, as
          * spc_chain_trace spawns it), so that the polish's first trace already meets its tolerance */
         spc_vec3 xo = spc_hit_offset(q->x, spc_sub(s->center, x));
-        spc_vec3 e1 = spc_sub(xo, s->center);
-        double d = spc_length(e1);
-        e1 = spc_scale(e1, 1.0 / d);
-        spc_vec3 w = spc_sub(q->y, s->center);
-        spc_vec3 wp = spc_sub(w, spc_scale(e1, spc_dot(w, e1)));
-        double wpl = spc_length(wp);
-        /* y on the axis through x and the centre: a ring of solutions (measure zero); any plane */
-        spc_vec3 e2 = wpl > 1e-12 * spc_length(w) ? spc_scale(wp, 1.0 / wpl) : spc_frame_from_n(e1).s;
-        double y1 = spc_dot(w, e1) / R, y2 = spc_dot(w, e2) / R;
+        spc_sphere_plane pl;
+        if (!spc_sphere_plane_of(xo, s->center, R, q->y, &pl))
+            continue;
         double eta = 0.0;
         spc_bsdf_is_specular_interface(s->bsdf, &eta);
         /* m = -1: one reflection; m >= 0: in, m internal reflections, out */
@@ -346,7 +99,7 @@ int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, 
             continue;
         double roots[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
         int nroots[SPC_SPHERE_SIGNATURES];
-        chain_roots(d / R, y1, y2, eta, m_lo, m_hi, roots, nroots);
+        spc_sphere_chain_roots_all(pl.d, pl.y1, pl.y2, eta, m_lo, m_hi, roots, nroots);
         for (int m = m_lo; m <= m_hi && n < max_out; ++m) {
             int k = m < 0 ? 1 : m + 2;
             if (k > q->max_chain || (!q->any_surface && !spc_chain_caster_allowed(s->caustic_flags, k)))
@@ -357,23 +110,11 @@ int spc_sphere_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, 
             for (int v = 0; v < k; ++v)
                 ev[v] = (m >= 0 && (v == 0 || v == k - 1)) ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
             for (int r = 0; r < nr && n < max_out; ++r) {
-                spc_vec3 P = spc_add(s->center,
-                                     spc_scale(spc_add(spc_scale(e1, cos(theta[r])), spc_scale(e2, sin(theta[r]))), R));
-                spc_vec3 dir = spc_normalize(spc_sub(P, xo));
+                spc_vec3 dir = spc_normalize(spc_sub(spc_sphere_plane_point(&pl, theta[r]), xo));
                 if (spc_snee_exact_polish(q, s, k, ev, dir, out, n, iterations))
                     ++n;
             }
         }
     }
     return n;
-}
-
-bool spc_sphere_arc_unseen(double y1, double y2, const double p0[2], const double p1[2])
-{
-    /* y . P(t) = |y| cos(t - phi) on an arc shorter than half a turn: its largest value is |y| > 1
-     * where its derivative y2 cos t - y1 sin t turns from positive to negative inside, else at an
-     * end */
-    if (y2 * p0[0] - y1 * p0[1] > 0.0 && y2 * p1[0] - y1 * p1[1] < 0.0)
-        return false;
-    return fmax(y1 * p0[0] + y2 * p0[1], y1 * p1[0] + y2 * p1[1]) < 1.0 - 1e-9;
 }
