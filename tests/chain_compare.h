@@ -13,6 +13,7 @@
 #include <stdbool.h>
 #include <stdio.h>
 #include "core/rng.h"
+#include "harness.h"
 #include "manifold/angular.h"
 #include "manifold/specular_nee.h"
 
@@ -82,6 +83,87 @@ static inline int chain_tally_hits(const chain_tally *t, const spc_chain *c, dou
         if (spc_snee_same_solution(&t->c[i], c, size))
             return t->hits[i];
     return 0;
+}
+
+/* Two seed strategies for the randomized solver at one receiver point, a (tested) against b (the
+ * reference), summed over the points a test visits. */
+typedef struct chain_seeds_cmp {
+    double m2_a, m2_b;     /* second moment of the estimate, summed over chains of value v: v^2 (2 - p) / p */
+    double pmin_a, pmin_b; /* the smallest p of a chain worth more than 1% of the point's best */
+    int checked;           /* chains whose trial count was checked */
+} chain_seeds_cmp;
+
+static inline void chain_seeds_cmp_init(chain_seeds_cmp *r)
+{
+    r->m2_a = r->m2_b = 0.0;
+    r->pmin_a = r->pmin_b = 1.0;
+    r->checked = 0;
+}
+
+/* `attempts` solves of qa and of qb (same receiver and light point y on emitter e at uv) find the
+ * chains and each one's probability p per attempt under either strategy; the second moments and
+ * smallest p are added to *r. Each chain with p_a >= count_pmin is then counted with
+ * spc_snee_count_same `counts` times under qa: the mean trial count times p_a must be 1 (an unbiased
+ * 1/p), within 4 standard errors of both estimates. `radius`: the size that tells chains apart. */
+static inline void chain_seeds_compare(const spc_snee_query *qa, const spc_snee_query *qb, const spc_emitter *e,
+                                       spc_vec2 uv, double radius, spc_rng *rng, int attempts, int counts,
+                                       double count_pmin, int point, chain_seeds_cmp *r)
+{
+    chain_tally ta = {0}, tb = {0};
+    for (int a = 0; a < attempts; ++a) {
+        spc_chain c;
+        int it = 0;
+        if (spc_angular_solve_one(qa, rng, &c, &it))
+            chain_tally_add(&ta, &c, radius);
+        if (spc_angular_solve_one(qb, rng, &c, &it))
+            chain_tally_add(&tb, &c, radius);
+    }
+    chain_tally all = ta;
+    for (int s = 0; s < tb.n; ++s)
+        if (!chain_tally_hits(&all, &tb.c[s], radius) && all.n < CHAIN_TALLY_MAX)
+            all.c[all.n++] = tb.c[s];
+    double vmax = 0.0;
+    for (int s = 0; s < all.n; ++s)
+        vmax = fmax(vmax, spc_rgb_lum(spc_snee_chain_value(qa, e, uv, &all.c[s])));
+    for (int s = 0; s < all.n; ++s) {
+        double v = spc_rgb_lum(spc_snee_chain_value(qa, e, uv, &all.c[s]));
+        if (!(v > 0.0))
+            continue; /* no value (the last segment blocked, the light's back) */
+        double pa = (double)chain_tally_hits(&ta, &all.c[s], radius) / attempts;
+        double pb = (double)chain_tally_hits(&tb, &all.c[s], radius) / attempts;
+        pa = pa > 0.0 ? pa : 1.0 / attempts;
+        pb = pb > 0.0 ? pb : 1.0 / attempts;
+        r->m2_a += v * v * (2.0 - pa) / pa;
+        r->m2_b += v * v * (2.0 - pb) / pb;
+        if (v > 0.01 * vmax) {
+            r->pmin_a = pa < r->pmin_a ? pa : r->pmin_a;
+            r->pmin_b = pb < r->pmin_b ? pb : r->pmin_b;
+        }
+        if (pa < count_pmin)
+            continue;
+        spc_chain_sig want;
+        spc_chain_signature(&all.c[s], &want);
+        spc_snee_query tq = *qa;
+        tq.want = &want;
+        double sn = 0.0, sn2 = 0.0;
+        for (int k = 0; k < counts; ++k) {
+            bool capped;
+            int it = 0;
+            int n = spc_snee_count_same(&tq, spc_specular_solver_get(SPC_SNEE_ANGULAR), NULL, rng, &all.c[s], 100000,
+                                        &capped, &it);
+            sn += n;
+            sn2 += (double)n * n;
+        }
+        double mean = sn / counts, var = (sn2 / counts - mean * mean) / counts;
+        /* the product's relative error: the count's mean and the frequency's */
+        double rel = sqrt(var / (mean * mean) + (1.0 - pa) / (pa * attempts));
+        double z = (mean * pa - 1.0) / rel;
+        printf("    x %d chain %d (%d vertices, value %.3g): p %.4f, reference seeds %.4f; mean count %.2f, "
+               "p x count %.3f (z %+.2f)\n",
+               point, s, all.c[s].n, v, pa, pb, mean, mean * pa, z);
+        CHECK_MSG(fabs(z) < 4.0, "x %d chain %d: p %g, mean count %g, z %g", point, s, pa, mean, z);
+        ++r->checked;
+    }
 }
 
 /* The point of shape `floor_shape` straight below (px, 0.05, pz). */

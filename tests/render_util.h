@@ -17,6 +17,31 @@
 #include "scene/shape.h"
 #include "specula/specula.h"
 
+/* The scene file at `rel` (an absolute path, or one relative to the source tree: $SPC_SOURCE_DIR, else
+ * the working directory)
+ * with $res defined as res where res > 0; NULL on failure (printed with its file and line). */
+static inline spc_scene *tu_load(const char *rel, int res)
+{
+    const char *d = getenv("SPC_SOURCE_DIR");
+    char path[1024], r[16];
+    if (rel[0] == '/')
+        snprintf(path, sizeof path, "%s", rel);
+    else
+        snprintf(path, sizeof path, "%s/%s", d ? d : ".", rel);
+    snprintf(r, sizeof r, "%d", res);
+    spc_define defs[1] = {{"res", r}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_scene_load(path, defs, res > 0 ? 1 : 0, &sc, &err) != SPC_OK) {
+        char msg[1200];
+        spc_error_format(&err, msg, sizeof msg);
+        printf("  %s\n", msg);
+        return NULL;
+    }
+    return sc;
+}
+
 static inline spc_bsdf *tu_diffuse(spc_scene *sc, double albedo)
 {
     spc_bsdf *b = spc_scene_new_bsdf(sc);

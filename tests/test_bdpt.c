@@ -925,26 +925,6 @@ static double worst_rel_var(const spc_film *f, double *share)
     return worst;
 }
 
-/* scenes/caustic_sphere.xml (a glass ball on a floor, a small sphere light behind it) at res x res
- * pixels, or NULL (printed). */
-static spc_scene *load_caustic_sphere(int res)
-{
-    const char *d = getenv("SPC_SOURCE_DIR");
-    char path[1024], r[16];
-    snprintf(path, sizeof path, "%s/scenes/caustic_sphere.xml", d ? d : ".");
-    snprintf(r, sizeof r, "%d", res);
-    spc_define defs[1] = {{"res", r}};
-    spc_scene *sc = NULL;
-    spc_error err;
-    if (spc_scene_load(path, defs, 1, &sc, &err) != SPC_OK) {
-        char msg[1200];
-        spc_error_format(&err, msg, sizeof msg);
-        printf("  %s\n", msg);
-        return NULL;
-    }
-    return sc;
-}
-
 /* The glass ball's outliers: the paths that show the light and its caustic through the ball
  * (camera - glass - light, camera - glass - glass - floor - glass - glass - light) have one BDPT
  * strategy, s = 0, which finds the small light by chance; without specular NEE three pixels at
@@ -957,7 +937,7 @@ static spc_scene *load_caustic_sphere(int res)
  * worst pixel's variance falls to less than half and holds less than a quarter of the image's. */
 TEST(specular_nee_tames_s0_only_paths)
 {
-    spc_scene *sc = load_caustic_sphere(16);
+    spc_scene *sc = tu_load("scenes/caustic_sphere.xml", 16);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -999,7 +979,7 @@ TEST(specular_nee_tames_s0_only_paths)
  * of the variance. */
 TEST(specular_nee_camera_share_and_corners)
 {
-    spc_scene *sc = load_caustic_sphere(16);
+    spc_scene *sc = tu_load("scenes/caustic_sphere.xml", 16);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -1030,7 +1010,7 @@ TEST(specular_nee_camera_share_and_corners)
  * 0.0025; without corner receivers seed 2 caught the path and read 0.0083). */
 TEST(corner_receivers_take_the_corner_path)
 {
-    spc_scene *sc = load_caustic_sphere(32);
+    spc_scene *sc = tu_load("scenes/caustic_sphere.xml", 32);
     CHECK(sc != NULL);
     if (!sc)
         return;

@@ -24,24 +24,6 @@
 #include "integrator/bdpt_pool.h"
 #include "render_util.h"
 
-static spc_scene *load(const char *rel, int res)
-{
-    const char *d = getenv("SPC_SOURCE_DIR");
-    char path[1024], r[16];
-    snprintf(path, sizeof path, "%s/%s", d ? d : ".", rel);
-    snprintf(r, sizeof r, "%d", res);
-    spc_define defs[1] = {{"res", r}};
-    spc_scene *sc = NULL;
-    spc_error err;
-    if (spc_scene_load(path, defs, 1, &sc, &err) != SPC_OK) {
-        char msg[1200];
-        spc_error_format(&err, msg, sizeof msg);
-        printf("  %s\n", msg);
-        return NULL;
-    }
-    return sc;
-}
-
 /* bdpt with `pool` connections per camera vertex (-1: plain, 0: the default), the scene's specular
  * NEE setting. */
 static spc_film *render_pool(const spc_scene *sc, int pool, int spp, int threads, uint64_t seed, spc_status *status)
@@ -55,7 +37,7 @@ static spc_film *render_pool(const spc_scene *sc, int pool, int spp, int threads
 /* The pool's image against plain bdpt at 4x the samples (different seeds). */
 static void agrees_with_bdpt(const char *rel, int res, int spp, int pool)
 {
-    spc_scene *sc = load(rel, res);
+    spc_scene *sc = tu_load(rel, res);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -95,7 +77,7 @@ static double rel_var(const spc_film *f)
  * uniformly, without SPC_BDPT_PILOT_VERTEX_SHARE's cell-uniform share); asked: below 0.38x. */
 TEST(door_variance_falls)
 {
-    spc_scene *sc = load("scenes/indirect_door.xml", 24);
+    spc_scene *sc = tu_load("scenes/indirect_door.xml", 24);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -114,7 +96,7 @@ TEST(door_variance_falls)
 
 TEST(same_image_for_any_thread_count)
 {
-    spc_scene *sc = load("scenes/indirect_door.xml", 20);
+    spc_scene *sc = tu_load("scenes/indirect_door.xml", 20);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -138,7 +120,7 @@ TEST(same_image_for_any_thread_count)
  * the same, the pools are traced per pass). */
 TEST(resumes_bit_for_bit)
 {
-    spc_scene *sc = load("scenes/indirect_door.xml", 16);
+    spc_scene *sc = tu_load("scenes/indirect_door.xml", 16);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -190,7 +172,7 @@ TEST(resumes_bit_for_bit)
  * the glass-ball caustic (lit directly): bit for bit the explicit settings. */
 static void default_is(const char *rel, int expected)
 {
-    spc_scene *sc = load(rel, 8);
+    spc_scene *sc = tu_load(rel, 8);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -280,7 +262,7 @@ TEST(picks_follow_the_model)
 
 TEST(refused_where_it_cannot_apply)
 {
-    spc_scene *sc = load("scenes/indirect_door.xml", 8);
+    spc_scene *sc = tu_load("scenes/indirect_door.xml", 8);
     CHECK(sc != NULL);
     if (!sc)
         return;

@@ -25,25 +25,14 @@
 #include "manifold/fit_seeds.h"
 #include "manifold/snee_options.h"
 #include "manifold/specular_nee.h"
+#include "render_util.h"
 #include "specula/specula.h"
 
 #define SCENE "bench/check/glass_ball_mesh.xml"
 
-static spc_scene *load(const char *path)
-{
-    spc_scene *sc = NULL;
-    spc_error err;
-    memset(&err, 0, sizeof err);
-    if (spc_scene_load(path, NULL, 0, &sc, &err) != SPC_OK) {
-        printf("    %s: %s\n", path, err.msg);
-        return NULL;
-    }
-    return sc;
-}
-
 TEST(fit_of_a_tessellated_ball_only)
 {
-    spc_scene *sc = load(SCENE);
+    spc_scene *sc = tu_load(SCENE, 0);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -78,7 +67,7 @@ TEST(fit_of_a_tessellated_ball_only)
         return;
     fputs(xml, fp);
     fclose(fp);
-    sc = load(path);
+    sc = tu_load(path, 0);
     remove(path);
     CHECK(sc != NULL);
     for (int i = 0; sc && i < sc->nshapes; ++i) {
@@ -92,7 +81,7 @@ TEST(fit_of_a_tessellated_ball_only)
 
 TEST(fit_seeds_find_every_chain_and_count_unbiased)
 {
-    spc_scene *sc = load(SCENE);
+    spc_scene *sc = tu_load(SCENE, 0);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -101,8 +90,8 @@ TEST(fit_seeds_find_every_chain_and_count_unbiased)
     CHECK(spc_snee_parse("angular:noreflect,nofitseeds", 2, &pu));
     CHECK(pf.fit_seeds && !pu.fit_seeds);
     const int attempts = spc_test_quick() ? 1000 : 4000, counts = spc_test_quick() ? 100 : 300;
-    double m2_fit = 0.0, m2_uni = 0.0, pmin_fit = 1.0, pmin_uni = 1.0;
-    int checked = 0;
+    chain_seeds_cmp r;
+    chain_seeds_cmp_init(&r);
     spc_rng rng;
     spc_rng_seed(&rng, 7, 12);
     for (int i = 0; i < 9; ++i) {
@@ -127,64 +116,13 @@ TEST(fit_seeds_find_every_chain_and_count_unbiased)
         qu = qf;
         qu.params = &pu;
         qu.fit = NULL;
-        chain_tally tf = {0}, tu = {0};
-        for (int a = 0; a < attempts; ++a) {
-            spc_chain c;
-            int it = 0;
-            if (spc_angular_solve_one(&qf, &rng, &c, &it))
-                chain_tally_add(&tf, &c, sc->radius);
-            if (spc_angular_solve_one(&qu, &rng, &c, &it))
-                chain_tally_add(&tu, &c, sc->radius);
-        }
-        chain_tally all = tf;
-        for (int s = 0; s < tu.n; ++s)
-            if (!chain_tally_hits(&all, &tu.c[s], sc->radius) && all.n < CHAIN_TALLY_MAX)
-                all.c[all.n++] = tu.c[s];
-        double vmax = 0.0;
-        for (int s = 0; s < all.n; ++s)
-            vmax = fmax(vmax, spc_rgb_lum(spc_snee_chain_value(&qf, e, uv, &all.c[s])));
-        for (int s = 0; s < all.n; ++s) {
-            double v = spc_rgb_lum(spc_snee_chain_value(&qf, e, uv, &all.c[s]));
-            if (!(v > 0.0))
-                continue; /* no value (the last segment blocked, the light's back) */
-            double pfs = (double)chain_tally_hits(&tf, &all.c[s], sc->radius) / attempts;
-            double pus = (double)chain_tally_hits(&tu, &all.c[s], sc->radius) / attempts;
-            pfs = pfs > 0.0 ? pfs : 1.0 / attempts;
-            pus = pus > 0.0 ? pus : 1.0 / attempts;
-            m2_fit += v * v * (2.0 - pfs) / pfs;
-            m2_uni += v * v * (2.0 - pus) / pus;
-            if (v > 0.01 * vmax) { /* a chain that matters at x */
-                pmin_fit = pfs < pmin_fit ? pfs : pmin_fit;
-                pmin_uni = pus < pmin_uni ? pus : pmin_uni;
-            }
-            spc_chain_sig want;
-            spc_chain_signature(&all.c[s], &want);
-            spc_snee_query tq = qf;
-            tq.want = &want;
-            double sn = 0.0, sn2 = 0.0;
-            for (int k = 0; k < counts; ++k) {
-                bool capped;
-                int it = 0;
-                int n = spc_snee_count_same(&tq, spc_specular_solver_get(SPC_SNEE_ANGULAR), NULL, &rng, &all.c[s],
-                                            100000, &capped, &it);
-                sn += n;
-                sn2 += (double)n * n;
-            }
-            double mean = sn / counts, var = (sn2 / counts - mean * mean) / counts;
-            double rel = sqrt(var / (mean * mean) + (1.0 - pfs) / (pfs * attempts));
-            double z = (mean * pfs - 1.0) / rel;
-            printf("    x %d chain %d (value %.3g): p with the fit %.4f, cone seeds %.4f; mean count %.2f, "
-                   "p x count %.3f (z %+.2f)\n",
-                   i, s, v, pfs, pus, mean, mean * pfs, z);
-            CHECK_MSG(fabs(z) < 4.0, "x %d chain %d: p %g, mean count %g, z %g", i, s, pfs, mean, z);
-            ++checked;
-        }
+        chain_seeds_compare(&qf, &qu, e, uv, sc->radius, &rng, attempts, counts, 0.0, i, &r);
     }
     printf("    smallest p of a valuable chain: fit %.4f, cone seeds %.4f; second moment: fit %.4g, cone %.4g\n",
-           pmin_fit, pmin_uni, m2_fit, m2_uni);
-    CHECK_MSG(checked >= 6, "%d chains checked", checked);
-    CHECK_MSG(pmin_fit >= 0.1, "a valuable chain found with p %g", pmin_fit);
-    CHECK_MSG(m2_fit < 0.5 * m2_uni, "second moment: fit %g, cone seeds %g", m2_fit, m2_uni);
+           r.pmin_a, r.pmin_b, r.m2_a, r.m2_b);
+    CHECK_MSG(r.checked >= 6, "%d chains checked", r.checked);
+    CHECK_MSG(r.pmin_a >= 0.1, "a valuable chain found with p %g", r.pmin_a);
+    CHECK_MSG(r.m2_a < 0.5 * r.m2_b, "second moment: fit %g, cone seeds %g", r.m2_a, r.m2_b);
     spc_scene_destroy(sc);
 }
 

@@ -31,21 +31,9 @@
 
 #define SCENE "bench/check/glass_ball_mesh.xml"
 
-static spc_scene *load(void)
-{
-    spc_scene *sc = NULL;
-    spc_error err;
-    memset(&err, 0, sizeof err);
-    if (spc_scene_load(SCENE, NULL, 0, &sc, &err) != SPC_OK) {
-        printf("    %s: %s\n", SCENE, err.msg);
-        return NULL;
-    }
-    return sc;
-}
-
 TEST(prepass_deterministic_and_local)
 {
-    spc_scene *sc = load();
+    spc_scene *sc = tu_load(SCENE, 0);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -85,7 +73,7 @@ TEST(prepass_deterministic_and_local)
 
 TEST(trial_count_unbiased_for_the_mixture)
 {
-    spc_scene *sc = load();
+    spc_scene *sc = tu_load(SCENE, 0);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -102,8 +90,8 @@ TEST(trial_count_unbiased_for_the_mixture)
         px[i] = -0.25 + 0.08 * (i % 3);
         pz[i] = 0.12 + 0.08 * (i / 3);
     }
-    double m2_mix = 0.0, m2_uni = 0.0;
-    int checked = 0;
+    chain_seeds_cmp r;
+    chain_seeds_cmp_init(&r);
     spc_rng rng;
     spc_rng_seed(&rng, 7, 11);
     for (int i = 0; i < 9 && g; ++i) {
@@ -124,59 +112,11 @@ TEST(trial_count_unbiased_for_the_mixture)
         pm.light_u_on = false;
         qu = qm;
         qu.params = &pu;
-        chain_tally tm = {0}, tu = {0};
-        for (int a = 0; a < attempts; ++a) {
-            spc_chain c;
-            int it = 0;
-            if (spc_angular_solve_one(&qm, &rng, &c, &it))
-                chain_tally_add(&tm, &c, sc->radius);
-            if (spc_angular_solve_one(&qu, &rng, &c, &it))
-                chain_tally_add(&tu, &c, sc->radius);
-        }
-        /* the second moment of the estimate summed over the chains of value v: v^2 (2 - p) / p each */
-        chain_tally all = tm;
-        for (int s = 0; s < tu.n; ++s)
-            if (!chain_tally_hits(&all, &tu.c[s], sc->radius) && all.n < CHAIN_TALLY_MAX)
-                all.c[all.n++] = tu.c[s];
-        for (int s = 0; s < all.n; ++s) {
-            double v = spc_rgb_lum(spc_snee_chain_value(&qm, e, uv, &all.c[s]));
-            double pms = (double)chain_tally_hits(&tm, &all.c[s], sc->radius) / attempts;
-            double pus = (double)chain_tally_hits(&tu, &all.c[s], sc->radius) / attempts;
-            if (!(v > 0.0))
-                continue; /* a chain of no value (its last segment blocked, the light's back) */
-            pms = pms > 0.0 ? pms : 1.0 / attempts;
-            pus = pus > 0.0 ? pus : 1.0 / attempts;
-            m2_mix += v * v * (2.0 - pms) / pms;
-            m2_uni += v * v * (2.0 - pus) / pus;
-            if (pms < 0.02)
-                continue;
-            spc_chain_sig want;
-            spc_chain_signature(&all.c[s], &want);
-            spc_snee_query tq = qm;
-            tq.want = &want;
-            double sn = 0.0, sn2 = 0.0;
-            for (int k = 0; k < counts; ++k) {
-                bool capped;
-                int it = 0;
-                int n = spc_snee_count_same(&tq, spc_specular_solver_get(SPC_SNEE_ANGULAR), NULL, &rng, &all.c[s],
-                                            100000, &capped, &it);
-                sn += n;
-                sn2 += (double)n * n;
-            }
-            double mean = sn / counts, var = (sn2 / counts - mean * mean) / counts;
-            /* the product's relative error: the count's mean and the frequency's */
-            double rel = sqrt(var / (mean * mean) + (1.0 - pms) / (pms * attempts));
-            double z = (mean * pms - 1.0) / rel;
-            printf("    x %d chain %d (%d vertices, value %.3g): p mixture %.4f, uniform %.4f; mean count %.2f, "
-                   "p x count %.3f (z %+.2f)\n",
-                   i, s, all.c[s].n, v, pms, pus, mean, mean * pms, z);
-            CHECK_MSG(fabs(z) < 4.0, "x %d chain %d: p %g, mean count %g, z %g", i, s, pms, mean, z);
-            ++checked;
-        }
+        chain_seeds_compare(&qm, &qu, e, uv, sc->radius, &rng, attempts, counts, 0.02, i, &r);
     }
-    CHECK_MSG(checked >= 3, "%d chains checked", checked);
-    printf("    second moment of the chains' estimates: mixture %.4g, uniform %.4g\n", m2_mix, m2_uni);
-    CHECK_MSG(m2_mix < 0.7 * m2_uni, "second moment: mixture %g, uniform %g", m2_mix, m2_uni);
+    CHECK_MSG(r.checked >= 3, "%d chains checked", r.checked);
+    printf("    second moment of the chains' estimates: mixture %.4g, uniform %.4g\n", r.m2_a, r.m2_b);
+    CHECK_MSG(r.m2_a < 0.7 * r.m2_b, "second moment: mixture %g, uniform %g", r.m2_a, r.m2_b);
     spc_sguide_destroy(g);
     spc_scene_destroy(sc);
 }

@@ -2,6 +2,7 @@
  * core/sampler.c: shuffled, Owen-scrambled (0,2)-sequence per dimension pair (Burley 2020).
  */
 #include "core/sampler.h"
+#include "core/cpu_isa.h"
 
 #include <pthread.h>
 #include <stdbool.h>
@@ -172,7 +173,7 @@ PAIRS_ATTR(PAIRS_AVX512) static void pairs_y_avx512(int m, const uint64_t *h, co
 typedef void (*pairs_x_fn)(int, const uint64_t *, const uint32_t *, uint64_t *, uint32_t *, uint32_t *);
 typedef void (*pairs_y_fn)(int, const uint64_t *, const uint32_t *, uint32_t *);
 
-/* SPECULA_VECTOR_ISA=base|avx2|avx512 (tests) caps the instruction set; the CPU's best otherwise. */
+/* The best variant under cpu_isa.h's choice. */
 static pairs_x_fn pairs_x = pairs_x_base;
 static pairs_y_fn pairs_y = pairs_y_base;
 static pthread_once_t pairs_once = PTHREAD_ONCE_INIT;
@@ -180,13 +181,11 @@ static pthread_once_t pairs_once = PTHREAD_ONCE_INIT;
 static void pairs_init(void)
 {
 #if defined(__GNUC__) && defined(__x86_64__)
-    const char *cap = getenv("SPECULA_VECTOR_ISA");
-    bool allow512 = !cap || strcmp(cap, "avx512") == 0, allow2 = allow512 || strcmp(cap, "avx2") == 0;
-    if (allow512 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-        __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl")) {
+    int isa = spc_vector_isa();
+    if (isa == SPC_ISA_AVX512) {
         pairs_x = pairs_x_avx512;
         pairs_y = pairs_y_avx512;
-    } else if (allow2 && __builtin_cpu_supports("avx2")) {
+    } else if (isa == SPC_ISA_AVX2) {
         pairs_x = pairs_x_avx2;
         pairs_y = pairs_y_avx2;
     }

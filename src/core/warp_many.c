@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "core/warp.h"
+#include "core/cpu_isa.h"
 
 /* samples per pass of the loop (arrays on the stack) */
 #define WARP_MANY_BATCH 64
@@ -72,15 +73,14 @@ typedef void (*cosine_fn)(int, const double *, const double *, double *, double 
 static cosine_fn cosine = cosine_base;
 static pthread_once_t cosine_once = PTHREAD_ONCE_INIT;
 
-/* SPECULA_VECTOR_ISA=base|avx2|avx512 (tests) caps the instruction set; the CPU's best otherwise. */
+/* The best variant under cpu_isa.h's choice. */
 static void cosine_init(void)
 {
 #ifdef WARP_MANY_VECTOR
-    const char *cap = getenv("SPECULA_VECTOR_ISA");
-    bool allow512 = !cap || strcmp(cap, "avx512") == 0, allow2 = allow512 || strcmp(cap, "avx2") == 0;
-    if (allow512 && __builtin_cpu_supports("avx512f"))
+    int isa = spc_vector_isa();
+    if (isa == SPC_ISA_AVX512)
         cosine = cosine_avx512;
-    else if (allow2 && __builtin_cpu_supports("avx2"))
+    else if (isa == SPC_ISA_AVX2)
         cosine = cosine_avx2;
 #endif
 }

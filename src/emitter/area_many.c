@@ -24,6 +24,7 @@
 #pragma STDC FP_CONTRACT OFF
 #endif
 
+#include "core/cpu_isa.h"
 #include "emitter/direct_lanes.h"
 #include "emitter/emitter.h"
 #include "scene/shape.h"
@@ -99,12 +100,10 @@ AREA_MANY_ATTR("avx512f") static void body_avx512(soa *a, int n) { AREA_MANY_BOD
 static void body(soa *a, int n)
 {
 #ifdef AREA_MANY_VECTOR
-    static int isa = -1; /* 2: AVX-512, 1: AVX2, 0: neither (the same results) */
-    if (isa < 0)
-        isa = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
-    if (isa == 2)
+    int isa = spc_vector_isa(); /* the variants give the same results */
+    if (isa == SPC_ISA_AVX512)
         body_avx512(a, n);
-    else if (isa == 1)
+    else if (isa == SPC_ISA_AVX2)
         body_avx2(a, n);
     else
         body_default(a, n);

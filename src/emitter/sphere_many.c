@@ -34,6 +34,7 @@
 #include <float.h>
 #include <math.h>
 
+#include "core/cpu_isa.h"
 #include "emitter/direct_lanes.h"
 #include "emitter/emitter.h"
 #include "scene/shape.h"
@@ -127,10 +128,7 @@ static int isa_forced = -1; /* spc_emitter_spheres_many_isa's choice; -1: the be
 static int isa_best(void)
 {
 #ifdef SPHERE_MANY_VECTOR
-    static int isa = -1;
-    if (isa < 0)
-        isa = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
-    return isa;
+    return spc_vector_isa();
 #else
     return 0;
 #endif

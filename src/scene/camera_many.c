@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "scene/camera.h"
+#include "core/cpu_isa.h"
 
 /* rays per pass of the loop (arrays on the stack) */
 #define CAMERA_MANY_BATCH 64
@@ -75,15 +76,14 @@ typedef void (*pinhole_fn)(const pinhole *, int, const double *, const double *,
 static pinhole_fn pinhole_rays = pinhole_base;
 static pthread_once_t pinhole_once = PTHREAD_ONCE_INIT;
 
-/* SPECULA_VECTOR_ISA=base|avx2|avx512 (tests) caps the instruction set; the CPU's best otherwise. */
+/* The best variant under cpu_isa.h's choice. */
 static void pinhole_init(void)
 {
 #ifdef CAMERA_MANY_VECTOR
-    const char *cap = getenv("SPECULA_VECTOR_ISA");
-    bool allow512 = !cap || strcmp(cap, "avx512") == 0, allow2 = allow512 || strcmp(cap, "avx2") == 0;
-    if (allow512 && __builtin_cpu_supports("avx512f"))
+    int isa = spc_vector_isa();
+    if (isa == SPC_ISA_AVX512)
         pinhole_rays = pinhole_avx512;
-    else if (allow2 && __builtin_cpu_supports("avx2"))
+    else if (isa == SPC_ISA_AVX2)
         pinhole_rays = pinhole_avx2;
 #endif
 }
