@@ -92,12 +92,14 @@
 #define SPC_SNEE_PLAN_SETTING "angular:camera,first=0.1,later=0.1"
 
 /* The setting where a glass caster is a tessellated ball (a triangle mesh with a fitted sphere,
- * fit_seeds.h): the same with the query at every path's first receiver (no first=P roulette). The
- * roulette's 1/P weight on the randomized chains through such a mesh made one-pixel fireflies: on
+ * fit_seeds.h): the same with the query at every path's first receiver (no first=P roulette). On
  * bench/check/glass_ball_mesh.xml at equal CPU time over 8 seeds the mean relMSE was 0.86 (worst seed
  * 6.5, one pixel 100% of it) with first=0.1 and 0.0745 (worst 0.39) without (none: 0.125); random
  * caustic scene 31 48x none against 40x, 41 6.2x against 9.0x (bench/RESULTS.md, "The tessellated
- * ball and the first receiver's roulette"). */
+ * ball and the first receiver's roulette"). Over 24 seeds both settings have the same one-sample
+ * tail (0.62 with first=0.1, 0.78 without; medians 0.040), a BSDF-sampled path of MIS weight 1
+ * that the roulette does not change; on five of seven random triangle-ball scenes first=0.1 lost
+ * (bench/RESULTS.md, "The triangle glass ball's tail over 24 seeds"). */
 #define SPC_SNEE_PLAN_SETTING_BALLS "angular:camera,later=0.1"
 
 /* Guided seeds for the randomized attempts (a triangle mesh with vertex normals, an SDF): a share
