@@ -724,6 +724,43 @@ TEST(default_has_no_fireflies_through_glass)
     spc_scene_destroy(sc);
 }
 
+/* The query from the camera at the Q a large film's plan gives (sqrt(s) / 10), counted 1 / Q times
+ * and in both MIS weights, against the query in every camera sample, on an image of nothing but the
+ * light's images in and through a glass ball (default_has_no_fireflies_through_glass's scene): per
+ * pixel z-test and image means. */
+TEST(low_camera_q_agrees_on_light_images)
+{
+    spc_scene *sc = spc_scene_create();
+    add_floor(sc, 3.0, tu_diffuse(sc, 0.0));
+    tu_sphere(sc, spc_v3(0, 0, 0.5), 0.5, tu_glass(sc, 1.5));
+    spc_shape *light = tu_sphere(sc, spc_v3(0.3, 0.4, 2.0), 0.05, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 2, 2000.0);
+    tu_camera(sc, spc_v3(0, -3, 2), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 40, 16, 16);
+    if (!finalize(sc)) {
+        spc_scene_destroy(sc);
+        CHECK(false);
+        return;
+    }
+    char ran[96];
+    spc_film *low = render_ran(sc, "path", "angular:camera=0.037,first=0.1,later=0.1", 1024, 71, ran);
+    spc_film *all = render_ran(sc, "path", "angular:camera,first=0.1,later=0.1", 256, 72, ran);
+    CHECK(low && all);
+    if (low && all) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(low, all, 0.99, "camera=0.037 vs camera", &d));
+        double ml, sl, ma, sa;
+        tu_image_mean(low, 0, &ml, &sl);
+        tu_image_mean(all, 0, &ma, &sa);
+        CHECK_MSG(fabs(ml - ma) < 4.0 * sqrt(sl * sl + sa * sa), "means %g +- %g vs %g +- %g", ml, sl, ma, sa);
+        printf("    z-test pass %.4f of %d pixels; means %.6f +- %.6f vs %.6f +- %.6f\n", d.ztest_pass_fraction,
+               d.ztest_pixels, ml, sl, ma, sa);
+    }
+    spc_film_destroy(low);
+    spc_film_destroy(all);
+    spc_scene_destroy(sc);
+}
+
 /* Sums of img and ref over n x n pixel blocks agree: per block and channel z = (a - b) / sqrt(var_a +
  * var_b), two-sided, Sidak-corrected at 0.01 over every block and channel. A bias over a region
  * stays in its blocks' sums, while a path one estimator samples rarely (a reference that reaches
@@ -939,6 +976,7 @@ int main(void)
     RUN(small_light_ball_agrees_with_bdpt);
     RUN(bdpt_default_follows_the_plan);
     RUN(default_has_no_fireflies_through_glass);
+    RUN(low_camera_q_agrees_on_light_images);
     RUN(reflections_at_depth_4_agree_with_bdpt);
     RUN(light_in_housing_plan_off);
     RUN(sdf_torus_plan);
