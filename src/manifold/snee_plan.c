@@ -240,7 +240,7 @@ static double glass_image_share(const spc_scene *sc, const spc_chain_casters *cs
  * up to sqrt(s) where that leaves fewer than PASS queries a pass on the scene's film, at least
  * MIN, and in every sample from ALL up. The query's splats from every camera sample pool on the
  * few pixels that see the light in or through the glass: at Q = sqrt(s) they held 0.0-0.1% of the
- * variance on the glass sphere and the demo while the query was a third of the CPU, and at equal
+ * variance on the glass sphere and the demo while the query took 42% and 19% of the CPU, and at equal
  * CPU time Q = sqrt(s) / 10 lowered relMSE on the glass sphere, the demo, the pool and dielectrics
  * (bench/RESULTS.md, "Fold 6"). On a small film the light's images through glass are a pixel or
  * less, which camera rays hit as fireflies unless the query takes them (test_snee_plan's
