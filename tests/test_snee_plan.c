@@ -117,7 +117,7 @@ static bool glass_setting(const char *s)
     spc_snee_params p;
     if (!spc_snee_parse(s, 2, &p))
         return false;
-    return p.solver == SPC_SNEE_ANGULAR && p.reflect && p.camera && p.camera_p >= 0.1 && p.first_p == 0.1 &&
+    return p.solver == SPC_SNEE_ANGULAR && p.reflect && p.camera && p.camera_p >= 0.02 && p.first_p == 0.1 &&
            p.later_p == 0.1 && (p.camera_p == 1.0 ? !strcmp(s, SPC_SNEE_PLAN_SETTING) : p.camera_p < 0.95);
 }
 
@@ -329,13 +329,35 @@ TEST(default_agrees_with_none)
         printf("    summed variance: default %.4g at 1024 spp, none %.4g at 16384 spp\n", tu_var_sum(img),
                tu_var_sum(ref));
     }
+    /* the plan of the same scene on a 256 x 256 film: the query from the camera on sqrt(s) / 10 of
+     * the samples, counted 1 / Q times and in both MIS weights */
+    spc_scene *big = ball_scene(true, 0.1, spc_v3(0.35, 0.25, 2.6), 256);
+    spc_snee_plan bplan;
+    bplan.on = false;
+    if (big)
+        spc_snee_plan_make(big, "path", NULL, &bplan);
+    spc_scene_destroy(big);
+    spc_snee_params bp;
+    CHECK(bplan.on && spc_snee_parse(bplan.setting, 2, &bp) && bp.camera && bp.camera_p < 0.1 &&
+          glass_setting(bplan.setting));
+    spc_film *low = bplan.on ? render_ran(sc, "path", bplan.setting, 1024, 33, ran) : NULL;
+    CHECK(low != NULL);
+    if (ref && low) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(low, ref, 0.99, "default (256 x 256 plan) vs none", &d));
+        printf("    %s: z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", bplan.setting, d.ztest_pass_fraction,
+               d.ztest_pixels, d.mean_a[0], d.mean_b[0]);
+    }
+    spc_film_destroy(low);
     spc_film_destroy(img);
     spc_film_destroy(ref);
     spc_scene_destroy(sc);
 }
 
-/* The query from the camera in a fraction sqrt(s) of the camera samples, s the share of the image
- * whose camera ray meets a glass caster first (at least 0.1): the glass ball of radius 0.5 seen
+/* The query from the camera in a fraction sqrt(s) of the camera samples on this 16 x 16 film (on a
+ * larger one down to sqrt(s) / 10: snee_plan.c), s the share of the image whose camera ray meets a
+ * glass caster first: the glass ball of radius 0.5 seen
  * from 3 away on the axis covers pi r^2 / (d^2 - r^2) of the image plane at distance 1, over
  * (2 tan 25 deg)^2 for the 50-degree square image: 0.1032; from 0.8 away it fills the image. */
 TEST(camera_query_from_glass_share)
@@ -354,12 +376,27 @@ TEST(camera_query_from_glass_share)
         double want = i == 0 ? SPC_PI * 0.25 / (9.0 - 0.25) / pow(2.0 * tan(25.0 * SPC_PI / 180.0), 2.0) : 1.0;
         spc_snee_params sp;
         CHECK_MSG(p.on && fabs(p.glass_share - want) < 0.01 && spc_snee_parse(p.setting, 2, &sp) &&
-                      fabs(sp.camera_p - spc_max(0.1, sqrt(want))) < 0.01 && glass_setting(p.setting),
+                      fabs(sp.camera_p - spc_min(sqrt(want), 100.0 / 256.0)) < 0.01 && glass_setting(p.setting),
                   "distance %g: share %g (want %g), %s", d[i], p.glass_share, want, p.setting);
         printf("    camera %g from the ball: glass on %.4f of the image (%.4f), %s\n", d[i], p.glass_share, want,
                p.setting);
         spc_scene_destroy(sc);
     }
+    /* on a 64 x 64 film 100 queries a pass take a share 0.024 of the samples, under sqrt(s) / 10 */
+    spc_scene *big = ball_scene_open(true, 0.1, spc_v3(0.35, 0.25, 2.2), 16);
+    tu_camera(big, spc_v3(0, -3.0, 0.5), spc_v3(0, 0, 0.5), spc_v3(0, 0, 1), 50, 64, 64);
+    if (finalize(big)) {
+        spc_snee_plan p;
+        spc_snee_plan_make(big, "path", NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && fabs(sp.camera_p - 0.1 * sqrt(p.glass_share)) < 0.002 &&
+                      glass_setting(p.setting),
+                  "64 x 64: share %g, %s", p.glass_share, p.setting);
+        printf("    64 x 64 film: glass on %.4f of the image, %s\n", p.glass_share, p.setting);
+    } else {
+        CHECK(false);
+    }
+    spc_scene_destroy(big);
     /* the same ball as a signed distance field, whose chains go to the randomized attempts: the
      * query in every camera sample */
     spc_scene *sc = ball_scene_open(false, 0.1, spc_v3(0.35, 0.25, 2.2), 16);
@@ -687,6 +724,43 @@ TEST(default_has_no_fireflies_through_glass)
     spc_scene_destroy(sc);
 }
 
+/* The query from the camera at the Q a large film's plan gives (sqrt(s) / 10), counted 1 / Q times
+ * and in both MIS weights, against the query in every camera sample, on an image of nothing but the
+ * light's images in and through a glass ball (default_has_no_fireflies_through_glass's scene): per
+ * pixel z-test and image means. */
+TEST(low_camera_q_agrees_on_light_images)
+{
+    spc_scene *sc = spc_scene_create();
+    add_floor(sc, 3.0, tu_diffuse(sc, 0.0));
+    tu_sphere(sc, spc_v3(0, 0, 0.5), 0.5, tu_glass(sc, 1.5));
+    spc_shape *light = tu_sphere(sc, spc_v3(0.3, 0.4, 2.0), 0.05, tu_diffuse(sc, 0.0));
+    tu_area(sc, light, 2, 2000.0);
+    tu_camera(sc, spc_v3(0, -3, 2), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 40, 16, 16);
+    if (!finalize(sc)) {
+        spc_scene_destroy(sc);
+        CHECK(false);
+        return;
+    }
+    char ran[96];
+    spc_film *low = render_ran(sc, "path", "angular:camera=0.037,first=0.1,later=0.1", 1024, 71, ran);
+    spc_film *all = render_ran(sc, "path", "angular:camera,first=0.1,later=0.1", 256, 72, ran);
+    CHECK(low && all);
+    if (low && all) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(low, all, 0.99, "camera=0.037 vs camera", &d));
+        double ml, sl, ma, sa;
+        tu_image_mean(low, 0, &ml, &sl);
+        tu_image_mean(all, 0, &ma, &sa);
+        CHECK_MSG(fabs(ml - ma) < 4.0 * sqrt(sl * sl + sa * sa), "means %g +- %g vs %g +- %g", ml, sl, ma, sa);
+        printf("    z-test pass %.4f of %d pixels; means %.6f +- %.6f vs %.6f +- %.6f\n", d.ztest_pass_fraction,
+               d.ztest_pixels, ml, sl, ma, sa);
+    }
+    spc_film_destroy(low);
+    spc_film_destroy(all);
+    spc_scene_destroy(sc);
+}
+
 /* Sums of img and ref over n x n pixel blocks agree: per block and channel z = (a - b) / sqrt(var_a +
  * var_b), two-sided, Sidak-corrected at 0.01 over every block and channel. A bias over a region
  * stays in its blocks' sums, while a path one estimator samples rarely (a reference that reaches
@@ -902,6 +976,7 @@ int main(void)
     RUN(small_light_ball_agrees_with_bdpt);
     RUN(bdpt_default_follows_the_plan);
     RUN(default_has_no_fireflies_through_glass);
+    RUN(low_camera_q_agrees_on_light_images);
     RUN(reflections_at_depth_4_agree_with_bdpt);
     RUN(light_in_housing_plan_off);
     RUN(sdf_torus_plan);

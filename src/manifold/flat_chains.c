@@ -998,6 +998,12 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
     const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
     if (!cs || cs->n == 0)
         return 0;
+    /* no flat-faced caster: nothing to walk, and the walk's caches (several kB) are not cleared */
+    int flat = 0;
+    for (int j = 0; j < cs->n && !flat; ++j)
+        flat = flat_get(sc->shapes[cs->idx[j]]) != NULL;
+    if (!flat)
+        return 0;
     flat_walk w;
     memset(&w, 0, sizeof w);
     w.sc = sc;

@@ -235,11 +235,29 @@ static double glass_image_share(const spc_scene *sc, const spc_chain_casters *cs
     return (double)seen / (g * g);
 }
 
-/* The query from the camera is made in a fraction Q = sqrt(glass_share) of the camera samples where
- * every glass caster is enumerated exactly, at least MIN (snee_plan.h), and in every one from ALL
- * up (a glass surface filling the image). */
-#define SPC_SNEE_PLAN_CAMERA_MIN 0.1
+/* The query from the camera is made in a fraction Q of the camera samples where every glass caster
+ * is enumerated exactly (snee_plan.h), Q = sqrt(s) / 10 for glass on a share s of the image, but
+ * up to sqrt(s) where that leaves fewer than PASS queries a pass on the scene's film, at least
+ * MIN, and in every sample from ALL up. The query's splats from every camera sample pool on the
+ * few pixels that see the light in or through the glass: at Q = sqrt(s) they held 0.0-0.1% of the
+ * variance on the glass sphere and the demo while the query took 42% and 19% of the CPU, and at equal
+ * CPU time Q = sqrt(s) / 10 lowered relMSE on the glass sphere, the demo, the pool and dielectrics
+ * (bench/RESULTS.md, "Fold 6"). On a small film the light's images through glass are a pixel or
+ * less, which camera rays hit as fireflies unless the query takes them (test_snee_plan's
+ * default_has_no_fireflies_through_glass, 16 x 16: the image means' scatter over seeds 1.2% at
+ * Q = sqrt(s), 14% at sqrt(s) / 10; 2.8% at sqrt(s) / 10 on 64 x 64). */
+#define SPC_SNEE_PLAN_CAMERA_SCALE 0.1
+#define SPC_SNEE_PLAN_CAMERA_MIN 0.02
+#define SPC_SNEE_PLAN_CAMERA_PASS 100.0
 #define SPC_SNEE_PLAN_CAMERA_ALL 0.95
+
+/* The query from the camera's probability (above) for glass on a share s of the image. */
+static double camera_prob(const spc_scene *sc, double s)
+{
+    double pixels = (double)sc->film.width * (double)sc->film.height;
+    double small = pixels > 0.0 ? spc_min(sqrt(s), SPC_SNEE_PLAN_CAMERA_PASS / pixels) : sqrt(s);
+    return spc_max(SPC_SNEE_PLAN_CAMERA_MIN, spc_max(SPC_SNEE_PLAN_CAMERA_SCALE * sqrt(s), small));
+}
 
 static void off(spc_snee_plan *out, const char *why)
 {
@@ -353,7 +371,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     out->on = true;
     out->glass_share = glass ? glass_image_share(sc, cs) : 0.0;
     out->open_share = open_share(sc, cs);
-    double q = exact ? spc_max(SPC_SNEE_PLAN_CAMERA_MIN, sqrt(out->glass_share)) : 1.0;
+    double q = exact ? camera_prob(sc, out->glass_share) : 1.0;
     if (bdpt)
         snprintf(out->setting, sizeof out->setting, "%s",
                  glass ? SPC_SNEE_PLAN_SETTING_BDPT : SPC_SNEE_PLAN_SETTING_BDPT_MIRRORS);

@@ -33,13 +33,17 @@
  *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
  *     the camera (SPC_SNEE_PLAN_SETTING; without that query if every caster is a mirror:
  *     SPC_SNEE_PLAN_SETTING_MIRRORS). Where every glass caster is enumerated exactly (below), that
- *     query is made in a fraction Q = sqrt(s) of the camera samples (at least 0.1; camera=Q), s
- *     the share of the image whose camera ray meets a glass caster first (a grid of pinhole rays):
- *     the query costs about as much as the rest of specular NEE per sample wherever the glass is,
- *     and pays only on the pixels that see it. Russian roulette with probability Q minimizes cost
- *     x variance at Q = sqrt(c V_q / (c_q V)) (c, V the cost and variance of the rest, c_q and V_q
- *     the query's); with c_q ~ c and the query's variance on a share s of the pixels, Q ~ sqrt(s).
- *     At equal CPU time relMSE fell 1.3-1.6x on dielectrics, the demo and the glass sphere against
+ *     query is made in a fraction Q = sqrt(s) / 10 of the camera samples (up to sqrt(s) on films
+ *     too small for 100 queries a pass; camera=Q), s the share of the image whose camera ray
+ *     meets a glass caster first (a grid of pinhole rays): the query costs about as much as the
+ *     rest of specular NEE per sample wherever the glass is, and pays only on the pixels that see
+ *     it. Russian roulette with probability Q
+ *     minimizes cost x variance at Q = sqrt(c V_q / (c_q V)) (c, V the cost and variance of the
+ *     rest, c_q and V_q the query's); with c_q ~ c and the query's variance on a share s of the
+ *     pixels, Q ~ sqrt(s). The splats of every camera sample's query pool on the few pixels that
+ *     see the light's images, so V_q / V is far below s: at Q = sqrt(s) the splats held 0.0-0.1%
+ *     of the variance on the glass sphere and the demo, and sqrt(s) / 10 was 1.1-1.6x better at
+ *     equal CPU time than sqrt(s) (bench/RESULTS.md, "Fold 6"), which was 1.3-1.6x better than
  *     the query in every sample. Where glass goes to the randomized attempts, the query's splats
  *     already carry the Bernoulli trial counts' tail, and 1/Q on top lost: the SDF scene
  *     sdf_shapes_csg 2.2x worse at Q = 0.2 (bench/RESULTS.md, "Plan: never worse than none").
