@@ -81,8 +81,8 @@ static double bsdf_path(const spc_scene *sc, const spc_snee_params *p, const spc
     *k_out = -1;
     *w_out = -1.0;
     spc_bsdf_sample bs;
-    if (!spc_bsdf_sample_dir(x->bsdf, x, SPC_MODE_RADIANCE, wo, spc_rng_next(u), spc_v2(spc_rng_next(u), spc_rng_next(u)),
-                             &bs))
+    if (!spc_bsdf_sample_dir(x->bsdf, x, SPC_MODE_RADIANCE, wo, spc_rng_next(u),
+                             spc_v2(spc_rng_next(u), spc_rng_next(u)), &bs))
         return 0.0;
     return trace_from(sc, p, x, wo, bs.wi, bs.lobe, bs.weight, plain, u, k_out, w_out);
 }
@@ -123,7 +123,8 @@ TEST(long_chain_weight)
     int n = 0;
     double wsum = 0.0, wmax = 0.0;
     for (int i = 0; i < 100000; ++i) {
-        spc_vec3 d0 = spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(spc_rng_next(&u), spc_rng_next(&u)), cos_max));
+        spc_vec3 d0 =
+            spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(spc_rng_next(&u), spc_rng_next(&u)), cos_max));
         if (!(spc_dot(d0, x.ng) > 0.0))
             continue;
         int k;
