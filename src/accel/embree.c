@@ -417,12 +417,14 @@ static void to_embree_lane(const spc_ray *r, struct RTCRay16 *er, int i)
     er->flags[i] = 0;
 }
 
-void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
-                                int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
-                                double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
+/* spc_accel_intersect_packet with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*) */
+static void intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET], enum RTCIntersectContextFlags flags,
+                             int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
+                             double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
 {
     ctx_ext cx;
     rtcInitIntersectContext(&cx.ctx);
+    cx.ctx.flags = flags;
     cx.rays = r;
     cx.sc = a->sc;
     _Alignas(64) struct RTCRayHit16 rh;
@@ -459,6 +461,21 @@ void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_A
             v[i] = rh.hit.v[i];
         }
     }
+}
+
+void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
+                                double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
+{
+    intersect_packet(a, r, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, shape, prim, u, v, t);
+}
+
+void spc_accel_intersect_packet_coherent(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                         int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET],
+                                         double u[SPC_ACCEL_PACKET], double v[SPC_ACCEL_PACKET],
+                                         double t[SPC_ACCEL_PACKET])
+{
+    intersect_packet(a, r, RTC_INTERSECT_CONTEXT_FLAG_COHERENT, shape, prim, u, v, t);
 }
 
 void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
