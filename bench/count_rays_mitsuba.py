@@ -13,7 +13,8 @@ ends when its throughput is zero. The random numbers are a PCG32 stream per samp
 sampler: the counts are expectations, so any independent numbers give them.
 
 specula's counts come from its --stats JSON (rays_traced, shadow_rays) on the same XML, resolution
-and spp. Prints both per camera sample.
+and spp. Prints both per camera sample, then the distribution of path lengths under Mitsuba's rule
+(the share of samples by their number of extension rays).
 """
 import argparse
 import json
@@ -78,7 +79,9 @@ def mitsuba_counts(mi, dr, path, defs, spp, max_depth, rr_depth=5):
         throughput = dr.select(active_next & rr_active, throughput / q, throughput)
         active = active_next & (~rr_active | rr_continue) & (tmax != 0.0)
         dr.eval(ray, active, depth, throughput, eta, ext, shadow, rng)
-    return dr.sum(ext)[0] / n, dr.sum(shadow)[0] / n, (w, h)
+    import numpy as np
+    hist = np.bincount(np.array(ext, dtype=np.int64)) / n
+    return dr.sum(ext)[0] / n, dr.sum(shadow)[0] / n, (w, h), hist
 
 
 def main():
@@ -97,6 +100,7 @@ def main():
     print("| scene | resolution | spp | max_depth | specula extension / sample | Mitsuba extension / sample "
           "| specula shadow / sample | Mitsuba shadow / sample |")
     print("|---|---|---|---|---|---|---|---|")
+    hists = []
     for path, scale in scenes:
         d = defaults_of(path)
         defs = {"integrator": "path"}
@@ -104,7 +108,8 @@ def main():
             defs["resx"] = str(int(int(d["resx"]) * scale))
             defs["resy"] = str(int(int(d["resy"]) * scale))
         max_depth = int(d.get("max_depth", -1))
-        me, ms, (w, h) = mitsuba_counts(mi, dr, path, defs, a.spp, max_depth)
+        me, ms, (w, h), hist = mitsuba_counts(mi, dr, path, defs, a.spp, max_depth)
+        hists.append((path, hist))
         with tempfile.TemporaryDirectory() as tmp:
             st = os.path.join(tmp, "stats.json")
             dflags = sum((["-D", "%s=%s" % kv] for kv in defs.items()), [])
@@ -117,6 +122,15 @@ def main():
         name = os.path.basename(os.path.dirname(path)) if path.endswith("scene.xml") else os.path.basename(path)
         print("| %s | %dx%d | %d | %d | %.4f | %.4f | %.4f | %.4f |" % (name, w, h, a.spp, max_depth, se, me, ss, ms),
               flush=True)
+    # the path lengths under Mitsuba's rule: the share of samples with k rays traced for extension (the
+    # camera ray included), k = 1, 2, ...; the tail beyond 12 summed
+    print("\nMitsuba's rule, share of samples by extension rays (camera ray included):")
+    for path, hist in hists:
+        name = os.path.basename(os.path.dirname(path)) if path.endswith("scene.xml") else os.path.basename(path)
+        cells = ["%d: %.4f" % (k, hist[k]) for k in range(1, min(len(hist), 13))]
+        if len(hist) > 13:
+            cells.append(">12: %.5f (longest %d)" % (hist[13:].sum(), len(hist) - 1))
+        print("%s  %s" % (name, ", ".join(cells)))
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
  * tests/test_accel.c: the acceleration structure's hits against closed-form ones, for a mesh whose
  * positions and indices Embree reads in place, below and at the size where the BVH turns compact
  * (SPC_ACCEL_COMPACT_TRIS); the scene's budget of kept triangle frames; how rarely rays pass through the
- * cracks of a closed mesh (robust triangle test).
+ * cracks of a closed mesh (robust triangle test); coherent packets' hits against single rays'.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -294,11 +294,64 @@ TEST(closed_mesh_cracks_are_rare)
     spc_scene_destroy(sc);
 }
 
+/* Coherent packets (spc_scene_intersect_packet_coherent, Embree's coherent traversal, which the
+ * packet path tracer uses for a tile's camera rays) give the single rays' hits bit for bit: fans of
+ * 16 rays from one point through a 4 x 4 block of neighbouring directions (a camera's pixels), from
+ * outside and inside a closed mesh, some lanes inactive, and packets of scattered directions. */
+TEST(coherent_packets_match_single_rays)
+{
+    spc_vec3 c;
+    spc_scene *sc = closed_sphere_scene(24, 37, &c);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_rng rng;
+    spc_rng_seed(&rng, 5, 9);
+    int lanes = 0, differs = 0, hits = 0;
+    for (int s = 0; s < 3000; ++s) {
+        spc_vec3 j = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        bool inside = s % 3 == 0, fan = s % 3 != 2;
+        spc_vec3 o = inside ? spc_madd(c, j, 0.8) : spc_madd(c, spc_normalize(j), 3.0 + 4.0 * spc_rng_next(&rng));
+        spc_vec3 toward = spc_normalize(spc_sub(c, o));
+        spc_frame f = spc_frame_from_n(toward);
+        double step = 1e-3 + 0.05 * spc_rng_next(&rng);
+        spc_ray pr[SPC_SCENE_PACKET];
+        const spc_ray *rp[SPC_SCENE_PACKET];
+        for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
+            spc_vec3 d = fan ? spc_add(toward, spc_add(spc_scale(f.s, step * (i % 4 - 1.5)), spc_scale(f.t, step * (i / 4 - 1.5))))
+                             : spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+            pr[i] = (spc_ray){o, spc_normalize(d), 0.0, SPC_INF};
+            rp[i] = (s + i) % 7 == 0 ? NULL : &pr[i];
+        }
+        spc_hit h[SPC_SCENE_PACKET];
+        bool hit[SPC_SCENE_PACKET];
+        spc_scene_intersect_packet_coherent(sc, rp, h, hit);
+        for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
+            if (!rp[i]) {
+                differs += hit[i];
+                continue;
+            }
+            spc_hit hs;
+            bool single = spc_scene_intersect(sc, rp[i], &hs);
+            ++lanes;
+            hits += single;
+            differs += single != hit[i] ||
+                       (single && (hs.t != h[i].t || hs.prim != h[i].prim || hs.shape_index != h[i].shape_index ||
+                                   memcmp(&hs.p, &h[i].p, sizeof hs.p) != 0 || memcmp(&hs.uv, &h[i].uv, sizeof hs.uv) != 0));
+        }
+    }
+    printf("  %d lanes (%d hits): %d differ from single rays\n", lanes, hits, differs);
+    CHECK(lanes > 40000 && hits > 20000);
+    CHECK(differs == 0);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(grid_hits_small);
     RUN(kept_frames_budget);
     RUN(grid_hits_compact);
     RUN(closed_mesh_cracks_are_rare);
+    RUN(coherent_packets_match_single_rays);
     return spc_test_finish();
 }

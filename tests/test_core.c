@@ -295,6 +295,54 @@ TEST(tent_and_gaussian_inversions)
     CHECK_NEAR(erf(q / s), 0.5 * erf(2.0 / s), 1e-10);
 }
 
+/* The index and remapped u of spc_distrib1d_sample by a plain linear search: the largest i with
+ * cdf[i] <= u, then off empty bins (forward, else back), u rescaled within the bin. */
+static size_t distrib_linear(const spc_distrib1d *d, double u, double *u_remap)
+{
+    size_t lo = 0;
+    for (size_t i = 1; i < d->n; ++i)
+        if (d->cdf[i] <= u)
+            lo = i;
+    while (lo + 1 < d->n && d->pmf[lo] == 0.0)
+        ++lo;
+    while (lo > 0 && d->pmf[lo] == 0.0)
+        --lo;
+    double r = d->pmf[lo] > 0.0 ? (u - d->cdf[lo]) / d->pmf[lo] : 0.0;
+    *u_remap = spc_clamp(r, 0.0, 0x1.fffffffffffffp-1);
+    return lo;
+}
+
+/* spc_distrib1d_sample equals the linear search, index and remapped u bit for bit, on weights with
+ * and without empty bins (which it steps over only where there are any), at the bins' edges and
+ * at random u. */
+TEST(distrib_search_matches_linear)
+{
+    spc_rng r;
+    spc_rng_seed(&r, 4, 2);
+    int differ = 0, with_empty = 0, samples = 0;
+    for (int round = 0; round < 400; ++round) {
+        size_t n = 1 + (size_t)(spc_rng_next(&r) * 12);
+        double w[12];
+        for (size_t i = 0; i < n; ++i)
+            w[i] = round % 2 && spc_rng_next(&r) < 0.3 ? 0.0 : spc_rng_next(&r) + (round % 3 == 0 ? 0.0 : 0.01);
+        spc_distrib1d d;
+        if (!spc_distrib1d_init(&d, w, n))
+            continue;
+        with_empty += d.has_empty;
+        for (int k = 0; k < 200; ++k) {
+            double u = k < (int)n ? d.cdf[k] : k < 2 * (int)n ? nextafter(d.cdf[k - n], 0.0) : spc_rng_next(&r);
+            double ua, ub;
+            size_t a = spc_distrib1d_sample(&d, u, &ua), b = distrib_linear(&d, u, &ub);
+            differ += a != b || memcmp(&ua, &ub, sizeof ua) != 0;
+            ++samples;
+        }
+        spc_distrib1d_release(&d);
+    }
+    printf("  %d samples (%d distributions with empty bins): %d differ\n", samples, with_empty, differ);
+    CHECK(with_empty > 50 && samples > 60000);
+    CHECK(differ == 0);
+}
+
 TEST(distributions)
 {
     double w[5] = {1, 0, 3, 0, 4};
@@ -344,5 +392,6 @@ int main(void)
     RUN(sincos_without_libm);
     RUN(tent_and_gaussian_inversions);
     RUN(distributions);
+    RUN(distrib_search_matches_linear);
     return spc_test_finish();
 }

@@ -417,22 +417,24 @@ static void to_embree_lane(const spc_ray *r, struct RTCRay16 *er, int i)
     er->flags[i] = 0;
 }
 
-void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
-                                int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
-                                double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
+/* spc_accel_intersect_packet with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*) */
+static void intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET], enum RTCIntersectContextFlags flags,
+                             int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
+                             double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
 {
     ctx_ext cx;
     rtcInitIntersectContext(&cx.ctx);
+    cx.ctx.flags = flags;
     cx.rays = r;
     cx.sc = a->sc;
     _Alignas(64) struct RTCRayHit16 rh;
     _Alignas(64) int valid[SPC_ACCEL_PACKET];
-    int nvalid = 0;
+    int nvalid = 0, nrays = 0;
     for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
         shape[i] = -1;
         cx.geom[i] = -1;
         valid[i] = r[i] && r[i]->tmax > r[i]->tmin ? -1 : 0;
-        rays_traced += r[i] != NULL;
+        nrays += r[i] != NULL;
         rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
         rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
         if (valid[i]) {
@@ -441,6 +443,7 @@ void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_A
         } else
             embree_lane_off(&rh.ray, i);
     }
+    rays_traced += (uint64_t)nrays;
     if (nvalid == 0)
         return;
     rtcIntersect16(valid, a->scene, &cx.ctx, &rh);
@@ -461,6 +464,21 @@ void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_A
     }
 }
 
+void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
+                                double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
+{
+    intersect_packet(a, r, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, shape, prim, u, v, t);
+}
+
+void spc_accel_intersect_packet_coherent(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                         int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET],
+                                         double u[SPC_ACCEL_PACKET], double v[SPC_ACCEL_PACKET],
+                                         double t[SPC_ACCEL_PACKET])
+{
+    intersect_packet(a, r, RTC_INTERSECT_CONTEXT_FLAG_COHERENT, shape, prim, u, v, t);
+}
+
 void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                bool occluded[SPC_ACCEL_PACKET])
 {
@@ -476,12 +494,11 @@ void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[S
     cx.sc = a->sc;
     _Alignas(64) struct RTCRay16 er;
     _Alignas(64) int valid[SPC_ACCEL_PACKET];
-    int nvalid = 0;
+    int nvalid = 0, nrays = 0;
     for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
         occluded[i] = false;
         valid[i] = r[i] && r[i]->tmax > r[i]->tmin ? -1 : 0;
-        rays_traced += r[i] != NULL;
-        shadow_rays_traced += r[i] != NULL;
+        nrays += r[i] != NULL;
         if (valid[i]) {
             to_embree_lane(r[i], &er, i);
             if (skip)
@@ -490,9 +507,11 @@ void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[S
         } else
             embree_lane_off(&er, i);
     }
+    rays_traced += (uint64_t)nrays;
+    shadow_rays_traced += (uint64_t)nrays;
     if (nvalid == 0)
         return;
     rtcOccluded16(valid, a->scene, &cx.ctx, &er);
     for (int i = 0; i < SPC_ACCEL_PACKET; ++i)
-        occluded[i] = valid[i] && er.tfar[i] < 0.0f;
+        occluded[i] = (valid[i] != 0) & (er.tfar[i] < 0.0f);
 }

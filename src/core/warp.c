@@ -134,6 +134,7 @@ bool spc_distrib1d_init(spc_distrib1d *d, const double *w, size_t n)
     d->pmf = NULL;
     d->n = 0;
     d->sum = 0.0;
+    d->has_empty = false;
     if (n == 0)
         return false;
     double sum = 0.0;
@@ -158,6 +159,7 @@ bool spc_distrib1d_init(spc_distrib1d *d, const double *w, size_t n)
         acc += w[i];
         d->cdf[i + 1] = acc / sum;
         d->pmf[i] = w[i] / sum;
+        d->has_empty |= d->pmf[i] == 0.0;
     }
     d->cdf[n] = 1.0;
     d->n = n;
@@ -179,17 +181,19 @@ size_t spc_distrib1d_sample(const spc_distrib1d *d, double u, double *u_remap)
 {
     /* largest i with cdf[i] <= u (one index, cdf being nondecreasing), by a search without
      * branches: a light of two triangles is a coin flip to the branch predictor; then skipping
-     * empty bins */
+     * empty bins, where there are any (their tests' branches are as hard to predict) */
     size_t lo = 0, len = d->n;
     while (len > 1) {
         size_t half = len / 2;
         lo = d->cdf[lo + half] <= u ? lo + half : lo;
         len -= half;
     }
-    while (lo + 1 < d->n && d->pmf[lo] == 0.0)
-        ++lo;
-    while (lo > 0 && d->pmf[lo] == 0.0)
-        --lo;
+    if (d->has_empty) {
+        while (lo + 1 < d->n && d->pmf[lo] == 0.0)
+            ++lo;
+        while (lo > 0 && d->pmf[lo] == 0.0)
+            --lo;
+    }
     if (u_remap) {
         double r = d->pmf[lo] > 0.0 ? (u - d->cdf[lo]) / d->pmf[lo] : 0.0;
         *u_remap = spc_clamp(r, 0.0, 0x1.fffffffffffffp-1);

@@ -30,7 +30,8 @@ typedef struct spc_distrib1d {
     double *cdf; /* n+1 entries, cdf[0] = 0, cdf[n] = 1 */
     double *pmf; /* n entries */
     size_t n;
-    double sum; /* sum of the weights before normalization */
+    double sum;     /* sum of the weights before normalization */
+    bool has_empty; /* some pmf entry is 0: sampling steps over empty bins (only then) */
 } spc_distrib1d;
 
 /* Returns false (and leaves d empty) if allocation fails or every weight is zero or invalid. */

@@ -33,6 +33,8 @@ typedef struct lane {
     double prev_pdf, eta_scale;
     spc_vec3 prev_p;
     int segments; /* the path's segments once ray is traced */
+    bool camera_hit; /* ray is the camera ray, already traced: its hit waits in the wave's record */
+    bool camera_ok;  /* then: it hit something */
     /* the light sample at the current vertex, waiting for its shadow ray */
     bool shadow;
     spc_ray sr;
@@ -75,6 +77,38 @@ static void lane_start(lane *ln, int path, const spc_ray *ray0, spc_sample_out *
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
     out->depth = 0.0;
+}
+
+/* The camera rays of a tile's neighbouring pixels run nearly parallel, so each group of
+ * SPC_SCENE_PACKET consecutive samples' camera rays is traced ahead as one coherent packet, the same
+ * hits: bench_embree_replay measured Embree's coherent traversal at 25 ns per camera ray of the
+ * cornell box, against 63 ns in incoherent packets of their own and 100 ns for the rays mixed in the
+ * wave's packets. A lane that takes a sample takes its camera hit from the group and leaves its
+ * first packet. */
+typedef struct camera_hits {
+    int group; /* samples [group W, group W + W) are traced; -1: none yet */
+    spc_hit h[SPC_SCENE_PACKET];
+    bool hit[SPC_SCENE_PACKET];
+} camera_hits;
+
+/* lane_start for sample `path` of rays[0..n), with its camera hit in *h (the lane's record). */
+static void lane_take(const spc_render_ctx *ctx, lane *ln, spc_hit *h, int path, int n, const spc_ray *rays,
+                      spc_sample_out *out, camera_hits *ch)
+{
+    enum { W = SPC_SCENE_PACKET };
+    int g = path / W, k = path % W;
+    if (ch->group != g) {
+        const spc_ray *r[W];
+        for (int j = 0; j < W; ++j)
+            r[j] = g * W + j < n ? &rays[g * W + j] : NULL;
+        spc_scene_intersect_packet_coherent(ctx->scene, r, ch->h, ch->hit);
+        ch->group = g;
+    }
+    lane_start(ln, path, &rays[path], out);
+    ln->camera_hit = true;
+    ln->camera_ok = ch->hit[k];
+    if (ch->hit[k])
+        *h = ch->h[k];
 }
 
 /* path.c's loop body from the intersection to next-event estimation: emission, the depth, strict
@@ -227,19 +261,25 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     spc_vec3 wl[W], wl_d[W];
     int dlane[W];
     int next = 0, live = 0;
+    camera_hits ch;
+    ch.group = -1;
     for (int i = 0; i < W; ++i) {
         ln[i].path = -1;
         if (next < n) {
-            lane_start(&ln[i], next, &rays[next], &out[next]);
+            lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
             ++next;
             ++live;
         }
     }
     while (live > 0) {
         for (int i = 0; i < W; ++i)
-            r[i] = ln[i].path >= 0 ? &ln[i].ray : NULL;
+            r[i] = ln[i].path >= 0 && !ln[i].camera_hit ? &ln[i].ray : NULL;
         spc_scene_intersect_packet(ctx->scene, r, h, hit);
         for (int i = 0; i < W; ++i) {
+            if (ln[i].path >= 0 && ln[i].camera_hit) {
+                hit[i] = ln[i].camera_ok;
+                ln[i].camera_hit = false;
+            }
             alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
         }
@@ -289,7 +329,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             ln[i].path = -1;
             --live;
             if (next < n) {
-                lane_start(&ln[i], next, &rays[next], &out[next]);
+                lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
                 ++next;
                 ++live;
             }

@@ -365,12 +365,11 @@ bool spc_scene_occluded(const spc_scene *s, const spc_ray *r) { return spc_accel
 
 _Static_assert(SPC_SCENE_PACKET == SPC_ACCEL_PACKET, "one packet size");
 
-void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], spc_hit h[SPC_SCENE_PACKET],
-                                bool hit[SPC_SCENE_PACKET])
+/* The hit records of a packet's lanes from Embree's answers. */
+static void fill_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], const int *shape, const int *prim,
+                        const double *u, const double *v, const double *t, spc_hit h[SPC_SCENE_PACKET],
+                        bool hit[SPC_SCENE_PACKET])
 {
-    int shape[SPC_ACCEL_PACKET], prim[SPC_ACCEL_PACKET];
-    double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
-    spc_accel_intersect_packet(s->accel, r, shape, prim, u, v, t);
     for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
         hit[i] = shape[i] >= 0;
         if (!hit[i])
@@ -378,6 +377,24 @@ void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_S
         h[i].shape_index = shape[i];
         spc_shape_fill_hit(s->shapes[shape[i]], prim[i], u[i], v[i], r[i], t[i], &h[i]);
     }
+}
+
+void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], spc_hit h[SPC_SCENE_PACKET],
+                                bool hit[SPC_SCENE_PACKET])
+{
+    int shape[SPC_ACCEL_PACKET], prim[SPC_ACCEL_PACKET];
+    double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
+    spc_accel_intersect_packet(s->accel, r, shape, prim, u, v, t);
+    fill_packet(s, r, shape, prim, u, v, t, h, hit);
+}
+
+void spc_scene_intersect_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                                         spc_hit h[SPC_SCENE_PACKET], bool hit[SPC_SCENE_PACKET])
+{
+    int shape[SPC_ACCEL_PACKET], prim[SPC_ACCEL_PACKET];
+    double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
+    spc_accel_intersect_packet_coherent(s->accel, r, shape, prim, u, v, t);
+    fill_packet(s, r, shape, prim, u, v, t, h, hit);
 }
 
 void spc_scene_occluded_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],

@@ -192,6 +192,11 @@ bool spc_scene_occluded(const spc_scene *s, const spc_ray *r);
 #define SPC_SCENE_PACKET 16
 void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], spc_hit h[SPC_SCENE_PACKET],
                                 bool hit[SPC_SCENE_PACKET]);
+/* spc_scene_intersect_packet for rays that run nearly parallel from nearby origins (a camera's rays
+ * through neighbouring pixels): the same hits, by Embree's coherent traversal
+ * (spc_accel_intersect_packet_coherent). */
+void spc_scene_intersect_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                                         spc_hit h[SPC_SCENE_PACKET], bool hit[SPC_SCENE_PACKET]);
 void spc_scene_occluded_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                bool occluded[SPC_SCENE_PACKET]);
 /* Next-event estimation's shadow ray r from a point toward the point that emitter e (NULL: none)

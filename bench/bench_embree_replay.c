@@ -1,0 +1,193 @@
+/*
+ * bench/bench_embree_replay.c: Embree's cost per ray on the rays a render really traces, replayed
+ * outside the renderer, with the scene flags and call forms that specula could choose.
+ *
+ *   build/bench_embree_replay SCENE.xml RAYS [-D name=value]...
+ *
+ * RAYS is the prefix of two files written by a build with bench/patches/dump_rays.patch applied
+ * (SPECULA_DUMP_RAYS=RAYS specula render ... --threads 1): RAYS.isect and RAYS.occl, the active
+ * lanes of every intersection and occlusion packet in the order traced, 8 floats a ray (origin,
+ * direction, tnear, tfar), as Embree received them. Consecutive rays of a file are the packets'
+ * lanes, so a packet of 16 consecutive rays here is the render's packet (or one rebuilt from two
+ * where the render's had idle lanes).
+ *
+ * The scene's triangle meshes (every shape must be a mesh) are given to a fresh Embree device the
+ * way src/accel/embree.c does (shared float buffers, RTC_BUILD_QUALITY_HIGH), once with
+ * RTC_SCENE_FLAG_ROBUST (specula's) and once without (Mitsuba 3's), and every file is traced as
+ * single rays (rtcIntersect1/rtcOccluded1), as packets of 16 (rtcIntersect16/rtcOccluded16, the
+ * incoherent context flag, specula's calls) and as packets with the coherent flag. The time is
+ * this thread's CPU time (the machine is shared), the best of three rounds; the hit counts check
+ * that every form found the same hits. bench/count_rays_mitsuba.py --replay RAYS traces the same
+ * files through Mitsuba 3's own scene (its bundled Embree), for the comparison per ray.
+ */
+#include <embree3/rtcore.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench_util.h"
+#include "scene/scene.h"
+
+typedef struct rays {
+    float *r; /* 8 floats a ray */
+    size_t n;
+} rays;
+
+static bool read_rays(const char *prefix, const char *ext, rays *out)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s.%s", prefix, ext);
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        fprintf(stderr, "%s: cannot open\n", path);
+        return false;
+    }
+    fseek(f, 0, SEEK_END);
+    long bytes = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    out->n = (size_t)bytes / (8 * sizeof(float));
+    out->r = malloc(out->n * 8 * sizeof(float) + 1);
+    bool ok = out->r && fread(out->r, 8 * sizeof(float), out->n, f) == out->n;
+    fclose(f);
+    if (!ok)
+        fprintf(stderr, "%s: cannot read\n", path);
+    return ok;
+}
+
+static RTCScene build(RTCDevice dev, const spc_scene *sc, bool robust)
+{
+    RTCScene s = rtcNewScene(dev);
+    rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_HIGH);
+    rtcSetSceneFlags(s, robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+    for (int i = 0; i < sc->nshapes; ++i) {
+        const spc_shape *sh = sc->shapes[i];
+        RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+        float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                           sh->mesh.nverts);
+        unsigned *ix = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                               sh->mesh.ntris);
+        memcpy(v, sh->mesh.p, 3 * sh->mesh.nverts * sizeof(float));
+        memcpy(ix, sh->mesh.idx, 3 * sh->mesh.ntris * sizeof(unsigned));
+        rtcCommitGeometry(g);
+        rtcAttachGeometryByID(s, g, (unsigned)i);
+        rtcReleaseGeometry(g);
+    }
+    rtcCommitScene(s);
+    return s;
+}
+
+enum form { SINGLE, PACKET, PACKET_COHERENT };
+static const char *form_name[] = {"rtc*1", "rtc*16", "rtc*16 coherent"};
+
+/* Traces every ray of rs in the form given; returns the hits (or occluded rays) and the CPU time. */
+static size_t trace(RTCScene s, const rays *rs, bool occlusion, enum form form, double *seconds)
+{
+    size_t hits = 0;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    if (form == PACKET_COHERENT)
+        ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    double t0 = bench_thread_seconds();
+    if (form == SINGLE) {
+        for (size_t i = 0; i < rs->n; ++i) {
+            const float *q = rs->r + 8 * i;
+            struct RTCRayHit rh;
+            rh.ray.org_x = q[0], rh.ray.org_y = q[1], rh.ray.org_z = q[2];
+            rh.ray.dir_x = q[3], rh.ray.dir_y = q[4], rh.ray.dir_z = q[5];
+            rh.ray.tnear = q[6], rh.ray.tfar = q[7];
+            rh.ray.time = 0.0f, rh.ray.mask = 0xFFFFFFFFu, rh.ray.id = 0, rh.ray.flags = 0;
+            if (occlusion) {
+                rtcOccluded1(s, &ctx, &rh.ray);
+                hits += rh.ray.tfar < 0.0f;
+            } else {
+                rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+                rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+                rtcIntersect1(s, &ctx, &rh);
+                hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+            }
+        }
+    } else {
+        for (size_t i0 = 0; i0 < rs->n; i0 += 16) {
+            _Alignas(64) struct RTCRayHit16 rh;
+            _Alignas(64) int valid[16];
+            for (int k = 0; k < 16; ++k) {
+                size_t i = i0 + (size_t)k;
+                valid[k] = i < rs->n ? -1 : 0;
+                const float *q = rs->r + 8 * (i < rs->n ? i : i0);
+                rh.ray.org_x[k] = q[0], rh.ray.org_y[k] = q[1], rh.ray.org_z[k] = q[2];
+                rh.ray.dir_x[k] = q[3], rh.ray.dir_y[k] = q[4], rh.ray.dir_z[k] = q[5];
+                rh.ray.tnear[k] = q[6], rh.ray.tfar[k] = valid[k] ? q[7] : -INFINITY;
+                rh.ray.time[k] = 0.0f, rh.ray.mask[k] = 0xFFFFFFFFu, rh.ray.id[k] = (unsigned)k;
+                rh.ray.flags[k] = 0;
+                rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+                rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+            }
+            if (occlusion) {
+                rtcOccluded16(valid, s, &ctx, &rh.ray);
+                for (int k = 0; k < 16; ++k)
+                    hits += valid[k] && rh.ray.tfar[k] < 0.0f;
+            } else {
+                rtcIntersect16(valid, s, &ctx, &rh);
+                for (int k = 0; k < 16; ++k)
+                    hits += valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
+            }
+        }
+    }
+    *seconds = bench_thread_seconds() - t0;
+    return hits;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 3) {
+        fprintf(stderr, "usage: %s SCENE.xml RAYS [-D name=value]...\n", argv[0]);
+        return 2;
+    }
+    spc_define defs[BENCH_MAX_DEFINES];
+    int nd = 0;
+    for (int i = 3; i < argc; ++i)
+        if (!bench_define_arg(argc, argv, &i, defs, &nd)) {
+            fprintf(stderr, "unknown argument '%s'\n", argv[i]);
+            return 2;
+        }
+    spc_scene *sc = bench_load(argv[1], defs, nd);
+    if (!sc)
+        return 3;
+    size_t ntris = 0;
+    for (int i = 0; i < sc->nshapes; ++i) {
+        if (sc->shapes[i]->type != SPC_SHAPE_MESH) {
+            fprintf(stderr, "%s: shape %d is not a triangle mesh (this benchmark takes meshes only)\n", argv[1], i);
+            return 3;
+        }
+        ntris += sc->shapes[i]->mesh.ntris;
+    }
+    rays rs[2];
+    if (!read_rays(argv[2], "isect", &rs[0]) || !read_rays(argv[2], "occl", &rs[1]))
+        return 1;
+    printf("scene %s: %zu triangles; %zu intersection rays, %zu shadow rays\n", argv[1], ntris, rs[0].n, rs[1].n);
+    printf("| scene flags | call | intersection ns/ray | hits | shadow ns/ray | occluded |\n|---|---|---|---|---|---|\n");
+    RTCDevice dev = rtcNewDevice("verbose=0");
+    for (int robust = 1; robust >= 0; --robust) {
+        RTCScene s = build(dev, sc, robust);
+        for (int f = SINGLE; f <= PACKET_COHERENT; ++f) {
+            double best[2] = {1e30, 1e30};
+            size_t hits[2] = {0, 0};
+            for (int round = 0; round < 3; ++round)
+                for (int k = 0; k < 2; ++k) {
+                    double sec;
+                    hits[k] = trace(s, &rs[k], k == 1, (enum form)f, &sec);
+                    if (sec < best[k])
+                        best[k] = sec;
+                }
+            printf("| %s | %s | %.1f | %zu | %.1f | %zu |\n", robust ? "robust" : "none", form_name[f],
+                   1e9 * best[0] / (double)rs[0].n, hits[0], 1e9 * best[1] / (double)rs[1].n, hits[1]);
+            fflush(stdout);
+        }
+        rtcReleaseScene(s);
+    }
+    rtcReleaseDevice(dev);
+    free(rs[0].r);
+    free(rs[1].r);
+    spc_scene_destroy(sc);
+    return 0;
+}
