@@ -231,11 +231,6 @@ void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u)
     spc_sampler_draw_many(s, n, npairs, ~0u, u);
 }
 
-void spc_sampler_split(const spc_sampler *s, uint64_t stream, spc_sampler *out)
-{
-    spc_sampler_start_key(out, spc_hash_combine(s->pixel_seed, stream), s->index);
-}
-
 void spc_sampler_fork_rng(const spc_sampler *s, uint64_t stream, spc_rng *rng)
 {
     spc_rng_seed(rng, spc_hash_combine(s->pixel_seed, ((uint64_t)s->index << 32) | s->dim), stream);

@@ -42,13 +42,6 @@ void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u);
  * is spc_sampler_1d's value (the whole pair is used up all the same). Skipping those y's saves
  * about a third of the pair's work. */
 void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u);
-/* A stratified stream of its own for the same sample as s (its pixel, seed and sample index), told
- * apart by `stream`, started at its first dimension pair: across the sample indices its pairs are
- * stratified as s's are, and independent of s's. For an estimator that runs inside another and
- * must leave it the dimensions it has alone (specular NEE inside the path tracer: with it on, the
- * ordinary light sample, BSDF sample and roulette of every vertex draw what they draw with it off).
- * s does not move. */
-void spc_sampler_split(const spc_sampler *s, uint64_t stream, spc_sampler *out);
 /* A generator of its own for a consumer of an unknown number of values (specular NEE's solver
  * attempts, an AOV's walk): seeded from the stream's state (pixel, index, next dimension) and
  * `stream`, which tells apart the forks taken at the same state. The sampler does not move, so

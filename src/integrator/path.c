@@ -125,7 +125,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         }
 
         /* specular NEE: chains of at most the budget, within max_depth */
-        spc_rgb c_snee = spc_path_snee_at_vertex(&sn, ctx, &h, wo, segments);
+        spc_rgb c_snee = spc_path_snee_at_vertex(&sn, ctx, &h, wo, segments, smp);
         if (!spc_rgb_is_black(c_snee))
             L = spc_rgb_add(L, spc_rgb_mul(beta, c_snee));
 

@@ -1,8 +1,7 @@
 /*
  * integrator/path_snee.c: the path tracer's hooks into specular NEE (path_snee.h): the parameters
  * as a path runs them, the chain budget from the depth left, specular NEE from the camera and at
- * each receiver on a sample stream of its own (split from the path's sampler, so the ordinary
- * estimators keep the dimensions they have without it), and the exclusion track that keeps BSDF
+ * each receiver on streams forked from the sampler, and the exclusion track that keeps BSDF
  * sampling from counting specular NEE's paths again (specular_nee.h).
  */
 #include "integrator/path_snee.h"
@@ -11,9 +10,6 @@
 
 #include "integrator/splat.h"
 #include "manifold/snee_cost.h"
-
-/* Tells specular NEE's stream (spc_sampler_split) from the path's and from other consumers'. */
-#define SPC_PATH_SNEE_STREAM 0x736e65652d706174ULL /* "snee-pat" */
 
 /* The rough-vertex mode (newton's "rough"): its own estimator, without MIS or camera queries. */
 static bool rough_mode(const spc_snee_params *p) { return p->solver == SPC_SNEE_NEWTON && p->newton.rough; }
@@ -33,7 +29,7 @@ static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
     return fx >= ctx->crop_x && fx < ctx->crop_x + ctx->width && fy >= ctx->crop_y && fy < ctx->crop_y + ctx->height;
 }
 
-/* The light sample's uniforms for the query at a receiver from specular NEE's stratified stream
+/* The light sample's uniforms for the query at a receiver from smp's stratified stream
  * (spc_snee_params.light_u): over a pixel's samples the light points then cover the light evenly.
  * Where the query's value is smooth in its light point (a large light, a water surface) stratified
  * points converge faster than independent ones: at equal spp relMSE fell 2.4x on
@@ -61,7 +57,6 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
         return;
     s->p = ctx->snee;
     s->p.mis = !s->p.no_mis && !rough_mode(&s->p);
-    spc_sampler_split(smp, SPC_PATH_SNEE_STREAM, &s->smp);
     if (!s->p.camera || rough_mode(&s->p) || !spc_camera_connectible(ctx->cam))
         return;
     /* from the pinhole: its splats, and the camera ray tracked as from a receiver until its first
@@ -72,7 +67,7 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
     if (budget < 1)
         return;
     spc_rng rng;
-    spc_sampler_fork_rng(&s->smp, 0, &rng);
+    spc_sampler_fork_rng(smp, 0, &rng);
     spc_snee_splat sp[SPC_SNEE_CAMERA_SPLATS];
     int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
     int n = spc_snee_camera(ctx->scene, &s->p, ctx->cam, s->cam_scale, budget, long_budget, &rng, NULL, sp,
@@ -106,13 +101,13 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
 }
 
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
-                                int segments)
+                                int segments, spc_sampler *smp)
 {
     s->budget = 0;
     s->long_budget = depth_left(ctx, segments, SPC_CHAIN_MAX_VERTICES);
     if (!s->on)
         return spc_rgb1(0.0);
-    draw_light_u(&s->p, &s->smp);
+    draw_light_u(&s->p, smp);
     s->budget = spc_snee_budget_params(&s->p, h, depth_left(ctx, segments, ctx->specular_max_chain));
     if (s->p.receivers > 0 && s->receivers >= s->p.receivers)
         s->budget = 0; /* past the vertices specular NEE runs at */
@@ -124,7 +119,7 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
     s->p.query_p = s->receivers > 0 ? spc_snee_later_prob(ctx->scene, &s->p, h->p)
                                     : spc_snee_first_prob(ctx->scene, &s->p, h->p);
     spc_rng rng;
-    spc_sampler_fork_rng(&s->smp, (uint64_t)segments, &rng);
+    spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
     return spc_specular_nee_depth(ctx->scene, &s->p, h, wo, s->budget, s->long_budget, &rng, NULL);
 }
 

@@ -33,13 +33,10 @@ typedef struct spc_path_snee {
                                 and the longer chains' bound */
     spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
     spc_cguide_vertex mis_gv; /* and at mis_x, the receiver the track started at */
-    spc_sampler smp;          /* specular NEE's own stream (spc_sampler_split from the path's) */
 } spc_path_snee;
 
-/* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, specular
- * NEE's own stream split from smp (every random number specular NEE uses comes from it, so smp's
- * dimensions go to the ordinary estimators as with specular NEE off), and with params.camera
- * specular NEE from the pinhole, its splats added to the tile (spc_splat_add). */
+/* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, and with
+ * params.camera specular NEE from the pinhole, its splats added to the tile (spc_splat_add). */
 void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0,
                          const spc_sampler *smp);
 
@@ -56,12 +53,11 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
 
 /* Specular NEE at the path vertex h (wo toward the previous vertex; segments: the path's segments
  * so far), to be multiplied by the path throughput: chains within the depth left and the budget.
- * With specular NEE on, the light sample's uniforms come from the next two dimension pairs of
- * specular NEE's own stream (drawn at every vertex, so that they stay aligned across a pixel's
- * samples and stratified); the rest of the estimate draws from a fork of that stream. The path's
- * sampler is not touched. */
+ * With specular NEE on, the light sample's uniforms come from smp's next two dimension pairs
+ * (drawn at every vertex, so that they stay aligned across a pixel's samples and stratified); the
+ * rest of the estimate draws from a fork of it. */
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
-                                int segments);
+                                int segments, spc_sampler *smp);
 
 /* The caustic guide (caustic_guide.h) at the path vertex h (wo toward the previous vertex), to
  * sample its continuation with spc_cguide_sample_mix and weigh it with spc_cguide_mix_pdf; specular
