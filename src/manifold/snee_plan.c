@@ -21,6 +21,7 @@
 #include "manifold/sphere_chains.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
+#include "scene/sdf.h"
 
 /* Off when every light subtends more than this solid angle at the casters (snee_plan.h): BSDF
  * sampling then finds the lights through glass and mirrors often enough that specular NEE's cost
@@ -354,6 +355,19 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
             snprintf(out->setting, sizeof out->setting, "none");
             return;
         }
+    /* not with an SDF caster whose surface has creases (a box's edges, a CSG cut: spc_sdf_has_creases):
+     * near a crease the randomized attempts' solve probability is tiny, so the Bernoulli trial
+     * counts have a heavy tail that BSDF sampling's MIS does not bound (scenes/sdf_shapes_csg.xml,
+     * a glass box minus a sphere: bench/RESULTS.md, "CSG: the plan") */
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        if (s->type == SPC_SHAPE_SDF && s->sdf && spc_sdf_has_creases(s->sdf)) {
+            snprintf(out->reason, sizeof out->reason, "caster shape %d is an SDF with creases", cs->idx[i]);
+            out->on = false;
+            snprintf(out->setting, sizeof out->setting, "none");
+            return;
+        }
+    }
     /* the query from the camera only where some caster is glass, by Russian roulette only where
      * every glass caster's chains are enumerated exactly (snee_plan.h) */
     bool glass = false, exact = true, ball = false;

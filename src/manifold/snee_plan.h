@@ -27,6 +27,11 @@
  *     not if the casters (the spheres around their bounding boxes) fill a quarter or more of some
  *     light's directions (a light over a water surface, a lamp in a glass globe): most light then
  *     reaches the receivers through the casters;
+ *   - off too if a caster is an SDF whose surface has creases (spc_sdf_has_creases: a box's or a
+ *     cylinder's edges, a union, intersection or difference): the randomized attempts find chains
+ *     near a crease with a tiny probability, and their trial counts' tail held the default's error
+ *     (scenes/sdf_shapes_csg.xml; bench/RESULTS.md, "CSG: the plan"); smooth SDFs (a torus, a
+ *     capsule, smooth unions of smooth primitives) keep it;
  *   - off too if a caster is flat-faced (enumerated by flat_chains.h) and the smallest light
  *     subtends more than 0.002 sr (snee_plan.c, SPC_SNEE_PLAN_FLAT_MAX_SR): flat glass does not
  *     focus the light, and the exact chains' cost paid only under a small light;

@@ -1129,6 +1129,29 @@ double spc_sdf_size(const spc_sdf *s) { return s->size; }
 double spc_sdf_area(const spc_sdf *s) { return s->area; }
 bool spc_sdf_area_is_exact(const spc_sdf *s) { return s->area_exact; }
 
+static bool node_has_creases(const spc_sdf *s, int i)
+{
+    if (i < 0 || i >= s->n)
+        return false;
+    const node *n = &s->nodes[i];
+    switch (n->type) {
+    case SPC_SDF_SPHERE:
+    case SPC_SDF_TORUS:
+    case SPC_SDF_CAPSULE: return false;
+    case SPC_SDF_ROUNDBOX: return !(n->r > 0.0);
+    case SPC_SDF_SMOOTH_UNION: return node_has_creases(s, n->a) || node_has_creases(s, n->b);
+    case SPC_SDF_BOX:
+    case SPC_SDF_CYLINDER:
+    case SPC_SDF_PLANE:
+    case SPC_SDF_UNION:
+    case SPC_SDF_INTERSECTION:
+    case SPC_SDF_DIFFERENCE: return true;
+    }
+    return true;
+}
+
+bool spc_sdf_has_creases(const spc_sdf *s) { return node_has_creases(s, s->root); }
+
 /* ------------------------------------------------------------------------------------------------ */
 /* surface interaction and sampling */
 

@@ -113,6 +113,12 @@ void spc_sdf_bounds(const spc_sdf *s, spc_vec3 *lo, spc_vec3 *hi);
 double spc_sdf_size(const spc_sdf *s);
 double spc_sdf_area(const spc_sdf *s);
 bool spc_sdf_area_is_exact(const spc_sdf *s);
+/* Whether the surface may have creases, where its normal jumps: a box's or a capped cylinder's
+ * edges, a roundbox of radius 0, a plane's cut, or any union, intersection or difference (the
+ * min/max meets its children's surfaces at an angle unless they happen not to touch). false where
+ * every primitive is smooth (sphere, roundbox with radius > 0, torus, capsule) and they are joined
+ * only by smooth unions. */
+bool spc_sdf_has_creases(const spc_sdf *s);
 
 /* The first surface crossing of f along r in (r->tmin, r->tmax), in either direction (a ray that
  * starts inside finds its exit). false if none. A ray starting on the surface itself (|f| at the
