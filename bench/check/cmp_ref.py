@@ -11,9 +11,11 @@ floor: Mitsuba's float sums differ by 1e-5 on constant pixels); a pixel passes i
 the fraction passing, the mean z over pixels and channels, the worst |z| and the ratio of the
 sums over the pixels tested.
 
---floor AOV.exr: test only pixels whose every camera sample hit first a surface with this normal
-  (specula render --aovs: the normal AOV; default 0,1,0), e.g. against a ptracer reference, which
-  renders nothing seen through glass.
+--floor AOV.exr|NORMAL.npy: test only pixels whose every camera sample hit first a surface with this
+  normal (default 0,1,0), e.g. against a ptracer reference, which renders nothing seen through glass.
+  NORMAL.npy: mitsuba_ref.py --integrator normal (the first surface hit, mirrors and glass
+  included). AOV.exr: specula's normal AOV (render --aovs), which looks through delta surfaces, so
+  it also keeps pixels that see the floor through glass or in a mirror.
 --spikes: the pixels tested grouped by the number of reference batches with a spike (a batch above
   the batches' median by 8 robust standard deviations): where a rare path (a small light's image in
   a glass ball) carries part of a pixel, a reference that rarely samples it is low on the pixels
@@ -62,7 +64,10 @@ def main():
     if a.floor:
         path, _, normal = a.floor.partition(":")
         want = np.array([float(v) for v in normal.split(",")]) if normal else np.array([0.0, 1.0, 0.0])
-        nrm = np.array(dict(mi.Bitmap(path).split())["normal"], dtype=np.float64)
+        if path.endswith(".npy"):
+            nrm = np.load(path).astype(np.float64).mean(0)
+        else:
+            nrm = np.array(dict(mi.Bitmap(path).split())["normal"], dtype=np.float64)
         mask = np.all(np.abs(nrm - want) < 1e-6, axis=-1)
     for path in a.images:
         img, vi = load_exr(path)

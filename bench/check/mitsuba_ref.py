@@ -18,6 +18,11 @@ glass: no bias"). `ptracer` (light tracing, every path connected to the camera a
 diffuse vertex) reaches that reflection from the light and is the reference for pixels that see a
 diffuse surface directly; it renders nothing seen through glass or in a mirror, so compare only
 those pixels (cmp_ref.py --floor).
+
+`normal` (Mitsuba's aov integrator, nn:sh_normal) renders the shading normal of the first surface
+the camera ray hits, delta surfaces included, as the mask for that comparison: specula's normal AOV
+looks through glass and mirrors (OIDN's convention), so it would keep pixels that see the floor
+through a glass ball or in a mirror, which ptracer cannot render.
 """
 import argparse
 import os
@@ -38,7 +43,7 @@ def main():
     ap.add_argument("--spp", type=int, default=8192)
     ap.add_argument("--res", type=int, default=32)
     ap.add_argument("--max-depth", type=int, default=4)
-    ap.add_argument("--integrator", default="path", choices=["path", "ptracer"])
+    ap.add_argument("--integrator", default="path", choices=["path", "ptracer", "normal"])
     ap.add_argument("-D", action="append", default=[], help="name=value: a <default> of the scene")
     a = ap.parse_args()
     try:
@@ -48,7 +53,10 @@ def main():
     params = dict(kv.split("=", 1) for kv in a.D)
     params.update(res=a.res, spp=a.spp, max_depth=a.max_depth)
     scene = mi.load_file(a.scene, **params)
-    integrator = mi.load_dict({"type": a.integrator, "max_depth": a.max_depth})
+    if a.integrator == "normal":
+        integrator = mi.load_dict({"type": "aov", "aovs": "nn:sh_normal"})
+    else:
+        integrator = mi.load_dict({"type": a.integrator, "max_depth": a.max_depth})
     imgs = []
     t0 = time.time()
     for b in range(a.batches):
