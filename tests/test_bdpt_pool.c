@@ -241,9 +241,11 @@ TEST(picks_follow_the_model)
     CHECK(spc_bdpt_pool_model_finish(&m, 100.0));
     /* the first camera vertex (t = 2) makes SPC_BDPT_POOL_FIRST_FACTOR x M picks, and its MIS count
      * says so */
-    CHECK(spc_bdpt_pool_connections(&m, 2) == SPC_BDPT_POOL_FIRST_FACTOR * 2 && spc_bdpt_pool_connections(&m, 3) == 2);
+    CHECK(spc_bdpt_pool_connections(&m, 2) == SPC_BDPT_POOL_FIRST_FACTOR * 2 && spc_bdpt_pool_connections(&m, 3) == 2 &&
+          spc_bdpt_pool_connections(&m, 4) == 1 && spc_bdpt_pool_connections(&m, 9) == 1);
     CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 2) - SPC_BDPT_POOL_FIRST_FACTOR * 2 * (7.0 / 10.3) / 4.0) < 1e-12);
-    CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 5) - 2 * (7.0 / 10.3) / 4.0) < 1e-12);
+    CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 3) - 2 * (7.0 / 10.3) / 4.0) < 1e-12);
+    CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 5) - 1 * (7.0 / 10.3) / 4.0) < 1e-12);
     spc_bdpt_pool pool;
     memset(&pool, 0, sizeof pool);
     spc_bdpt_pool_clear(&pool, &m, 1.0);
