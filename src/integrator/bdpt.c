@@ -463,8 +463,8 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
     /* With the pool (bdpt_pool.h) a connection with k light vertices (2 <= k <= n - 2) is made by
      * two techniques: the camera sample's own light subpath (one sample of the path) and the pool's
      * picks (c_k = spc_bdpt_pool_count samples, its camera vertex the (n - k)-th of the camera
-     * subpath: the first makes more picks than the later ones). The multi-sample heuristic counts both: the
-     * strategy's term is h(r) (1 + h(c_k)), and a pick's own numerator h(c_s). */
+     * subpath: the first makes more picks than the later ones). The multi-sample heuristic counts
+     * both: the strategy's term is h(r) (1 + h(c_k)), and a pick's own numerator h(c_s). */
     int cell[SPC_BDPT_MAX_PATH];
     double self = 1.0, num = 1.0;
     if (B->pm) {
@@ -480,7 +480,9 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
             return 0.0;
     }
 #define MULT(k)                                                                                                       \
-    (B->pm && (k) >= 2 && (k) <= n - 2 ? 1.0 + heuristic(B, spc_bdpt_pool_count(B->pm, cell[k], cell[(k) - 1], n - (k))) : 1.0)
+    (B->pm && (k) >= 2 && (k) <= n - 2                                                                                \
+         ? 1.0 + heuristic(B, spc_bdpt_pool_count(B->pm, cell[k], cell[(k) - 1], n - (k)))                            \
+         : 1.0)
     const bool light_delta = spc_emitter_is_delta(l0->light);
 
     /* r(i + 1) / r(i) = p_{i+1} / p_i */
