@@ -462,15 +462,16 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
     double D = n >= 3 ? light_direct_pdf(sc, l0, x[1]) : Lp[0];
     /* With the pool (bdpt_pool.h) a connection with k light vertices (2 <= k <= n - 2) is made by
      * two techniques: the camera sample's own light subpath (one sample of the path) and the pool's
-     * picks (c_k = spc_bdpt_pool_count samples). The multi-sample heuristic counts both: the
-     * strategy's term is h(r) (1 + h(c_k)), and a pick's own numerator h(c_s). */
+     * picks (c_k = spc_bdpt_pool_count samples, its camera vertex the (n - k)-th of the camera
+     * subpath: the first makes more picks than the later ones). The multi-sample heuristic counts
+     * both: the strategy's term is h(r) (1 + h(c_k)), and a pick's own numerator h(c_s). */
     int cell[SPC_BDPT_MAX_PATH];
     double self = 1.0, num = 1.0;
     if (B->pm) {
         for (int j = 1; j <= n - 2; ++j)
             cell[j] = spc_bdpt_pool_cell(B->pm, x[j]->p);
         if (s >= 2 && t >= 2) {
-            double c = heuristic(B, spc_bdpt_pool_count(B->pm, cell[s], cell[s - 1]));
+            double c = heuristic(B, spc_bdpt_pool_count(B->pm, cell[s], cell[s - 1], t));
             self = 1.0 + c;
             if (pick)
                 num = c;
@@ -479,7 +480,9 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
             return 0.0;
     }
 #define MULT(k)                                                                                                       \
-    (B->pm && (k) >= 2 && (k) <= n - 2 ? 1.0 + heuristic(B, spc_bdpt_pool_count(B->pm, cell[k], cell[(k) - 1])) : 1.0)
+    (B->pm && (k) >= 2 && (k) <= n - 2                                                                                \
+         ? 1.0 + heuristic(B, spc_bdpt_pool_count(B->pm, cell[k], cell[(k) - 1], n - (k)))                            \
+         : 1.0)
     const bool light_delta = spc_emitter_is_delta(l0->light);
 
     /* r(i + 1) / r(i) = p_{i+1} / p_i */
@@ -1200,7 +1203,7 @@ double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed)
     return hits > 0 ? (double)lit / hits : 1.0;
 }
 
-/* Connections of camera vertex z[t-1] to the pass's pool: M picks, each adding C w / (N M q). */
+/* Connections of camera vertex z[t-1] to the pass's pool: M_t picks, each adding C w / (N M_t q). */
 static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx *z, int t, spc_rng *rng)
 {
     const spc_render_ctx *ctx = B->ctx;
@@ -1208,7 +1211,7 @@ static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx 
     spc_rgb L = spc_rgb1(0.0);
     if (!connectible(b))
         return L;
-    const int M = B->pm->connections;
+    const int M = spc_bdpt_pool_connections(B->pm, t);
     const int c = spc_bdpt_pool_cell(B->pm, b->p);
     for (int i = 0; i < M; ++i) {
         double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);

@@ -14,6 +14,8 @@ bool spc_bdpt_pool_model_init(spc_bdpt_pool_model *m, spc_vec3 lo, spc_vec3 hi, 
 {
     memset(m, 0, sizeof *m);
     m->connections = connections;
+    m->first = SPC_BDPT_POOL_FIRST_FACTOR * connections;
+    m->later = (connections + 2) / 3;
     double ext[3] = {hi.x - lo.x, hi.y - lo.y, hi.z - lo.z};
     double longest = spc_max(ext[0], spc_max(ext[1], ext[2]));
     if (!(longest > 0.0) || !isfinite(longest))
