@@ -133,7 +133,7 @@ typedef struct spc_render_options {
      * image is deterministic for a given device (not equal to the CPU's bit for bit). */
     const char *device;
     /* bdpt: each camera vertex also joins bdpt_pool light vertices picked by importance from a pool
-     * of the pass's light subpaths (integrator/bdpt_pool.h); -1: off; 0: by default, 2 where fewer
+     * of the pass's light subpaths (integrator/bdpt_pool.h); -1: off; 0: by default, 3 where fewer
      * than a quarter of the camera's first hits see a light sample (indirectly lit scenes) and the
      * rendered window has at most 65536 pixels, else off. Memory: each pass keeps its light
      * subpaths, about 2.7 KB a pixel on an indoor scene. Not with strategy_s/t, strategy_images or
