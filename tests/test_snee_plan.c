@@ -694,14 +694,9 @@ static bool seed_means(const spc_scene *sc, const char *snee, int spp, uint64_t 
     return true;
 }
 
-/* The default has no fireflies where the camera sees a small light in and through a glass ball:
- * bench/check/ball_small_light.xml's ball and light (radius 0.05) over a black floor, so that the
- * image is nothing but the light's images in the ball. Camera rays find those only by landing on
- * them (without specular NEE from the camera and reflections off glass, as angular:noreflect, the
- * earlier default, or none: not once in 8 x 16 spp, and at 4096 spp two seeds' image means differ
- * 4x), while the default's query from the camera finds them in every sample: over 8 seeds of 16
- * spp the image means scatter by 1.6% (bench/RESULTS.md, "Heavy tails of the default"). */
-TEST(default_has_no_fireflies_through_glass)
+/* bench/check/ball_small_light.xml's ball and light (radius 0.05) over a black floor, 16x16: an image
+ * of nothing but the light's images in and through the ball. NULL on failure. */
+static spc_scene *light_images_scene(void)
 {
     spc_scene *sc = spc_scene_create();
     add_floor(sc, 3.0, tu_diffuse(sc, 0.0));
@@ -711,9 +706,24 @@ TEST(default_has_no_fireflies_through_glass)
     tu_camera(sc, spc_v3(0, -3, 2), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 40, 16, 16);
     if (!finalize(sc)) {
         spc_scene_destroy(sc);
-        CHECK(false);
-        return;
+        return NULL;
     }
+    return sc;
+}
+
+/* The default has no fireflies where the camera sees a small light in and through a glass ball:
+ * bench/check/ball_small_light.xml's ball and light (radius 0.05) over a black floor, so that the
+ * image is nothing but the light's images in the ball. Camera rays find those only by landing on
+ * them (without specular NEE from the camera and reflections off glass, as angular:noreflect, the
+ * earlier default, or none: not once in 8 x 16 spp, and at 4096 spp two seeds' image means differ
+ * 4x), while the default's query from the camera finds them in every sample: over 8 seeds of 16
+ * spp the image means scatter by 1.6% (bench/RESULTS.md, "Heavy tails of the default"). */
+TEST(default_has_no_fireflies_through_glass)
+{
+    spc_scene *sc = light_images_scene();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
     double m, rel, m_nr, rel_nr;
     CHECK(seed_means(sc, NULL, 16, 61, 8, &m, &rel));
     CHECK(seed_means(sc, "angular:noreflect", 16, 61, 8, &m_nr, &rel_nr));
@@ -731,17 +741,10 @@ TEST(default_has_no_fireflies_through_glass)
  * pixel z-test and image means. */
 TEST(low_camera_q_agrees_on_light_images)
 {
-    spc_scene *sc = spc_scene_create();
-    add_floor(sc, 3.0, tu_diffuse(sc, 0.0));
-    tu_sphere(sc, spc_v3(0, 0, 0.5), 0.5, tu_glass(sc, 1.5));
-    spc_shape *light = tu_sphere(sc, spc_v3(0.3, 0.4, 2.0), 0.05, tu_diffuse(sc, 0.0));
-    tu_area(sc, light, 2, 2000.0);
-    tu_camera(sc, spc_v3(0, -3, 2), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 40, 16, 16);
-    if (!finalize(sc)) {
-        spc_scene_destroy(sc);
-        CHECK(false);
+    spc_scene *sc = light_images_scene();
+    CHECK(sc != NULL);
+    if (!sc)
         return;
-    }
     char ran[96];
     spc_film *low = render_ran(sc, "path", "angular:camera=0.037,first=0.1,later=0.1", 1024, 71, ran);
     spc_film *all = render_ran(sc, "path", "angular:camera,first=0.1,later=0.1", 256, 72, ran);
