@@ -374,6 +374,18 @@ static bool has_flat_caster(const spc_snee_query *q)
     return false;
 }
 
+/* Is one of q's casters a tessellated ball (a sphere fit, fit_seeds.h)? */
+static bool has_ball_caster(const spc_snee_query *q)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    spc_vec3 c;
+    double r;
+    for (int j = 0; cs && j < cs->n; ++j)
+        if (spc_fit_sphere(q->scene->shapes[cs->idx[j]], &c, &r))
+            return true;
+    return false;
+}
+
 /* The probability per call that the chains through flat faces of 5 and 6 vertices (past flat_max,
  * where the longer chains run: long_on) are enumerated, each length drawn on its own and its chains
  * counted with 1 / psi. Five vertices: a total internal reflection off a slab's thin side face on the
@@ -718,11 +730,44 @@ static bool solve_mis_chain(const spc_snee_params *p, const spc_chain *c)
     return true;
 }
 
+/* The longer chains on a tessellated ball (solve_mis_chain: every vertex on a sphere fit) have a
+ * pass of their own at every call where the longer chains run (long_on): one randomized attempt at a
+ * length drawn uniformly past the budget, its events picked with SPC_BALL_REFLECT_P (a chain reflected
+ * three times inside the ball: 0.8^2 0.2^3 = 0.005 at the default 0.2, 0.03 at 0.5). The general long
+ * pass (probability long_p) keeps the other chains only. With long_p's 1 / 40 per length and 0.2 per
+ * reflection, a 5-vertex chain under the triangle glass ball (bench/check/glass_ball_mesh.xml) had
+ * specular NEE's density 1 / 7 of BSDF sampling's even where every attempt finds it, so one BSDF-sampled
+ * path held a seed's whole error (bench/RESULTS.md, "The triangle glass ball's 5-vertex tail"). */
+#define SPC_BALL_LONG_P 1.0
+#define SPC_BALL_REFLECT_P 0.5
+
+/* The ball pass's event probability: SPC_BALL_REFLECT_P, or params.reflect_p where that is higher. */
+static double ball_reflect_p(const spc_snee_params *p)
+{
+    return p->reflect_p > SPC_BALL_REFLECT_P ? p->reflect_p : SPC_BALL_REFLECT_P;
+}
+
+/* The probability that a call's ball pass looks for chains of k vertices: 0 if it never does. */
+static double ball_long_psi(const spc_snee_query *q, int k)
+{
+    if (!long_on(q) || !solve_mis_on(q->params) || k <= q->max_chain || k > q->long_max || k > SPC_SNEE_LONG_MAX)
+        return 0.0;
+    return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
+}
+
+/* p with the ball pass's event probability. */
+static spc_snee_params ball_params(const spc_snee_params *p)
+{
+    spc_snee_params b = *p;
+    b.reflect_p = ball_reflect_p(p);
+    return b;
+}
+
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
  * straight-line solution: straight_psi), else random_psi; past the budget long_psi for a longer chain on one
  * sphere (params.long_p), else 0 (specular NEE never makes it). *rand_s: for a chain that a
  * randomized attempt finds (solve_mis_chain), the probability of the query's pass that looks for it
- * (long_psi on the long pass, else 1); 0 for every other chain. */
+ * (ball_long_psi, the ball pass's, past the budget, else 1); 0 for every other chain. */
 static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *rand_s)
 {
     const spc_snee_params *p = q->params;
@@ -738,8 +783,10 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
         lq.min_chain = lq.max_chain = c->n;
         if (p->exact && spc_snee_exact_covers_all(&lq))
             return 0.0; /* the long pass makes no randomized attempt there (estimate), and c is not exact */
-        if (solve_mis_chain(p, c))
-            *rand_s = long_psi(q, c->n);
+        if (solve_mis_chain(p, c)) { /* the ball pass's */
+            *rand_s = ball_long_psi(q, c->n);
+            return *rand_s * long_attempt_psi(q, c);
+        }
         return long_psi(q, c->n) * long_attempt_psi(q, c); /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
@@ -874,8 +921,11 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
             /* a randomized attempt's chain: the weight sampled with the real solve probability, by
              * the attempts specular NEE would make toward this light point (its long pass's length) */
             spc_snee_query lq = q;
-            if (ch.n > max_chain)
+            spc_snee_params bp = ball_params(p);
+            if (ch.n > max_chain) { /* the ball pass's chain */
                 lq.min_chain = lq.max_chain = ch.n;
+                lq.params = &bp;
+            }
             spc_fit_roots fit;
             fit.nshapes = 0;
             lq.fit = &fit;
@@ -1067,7 +1117,7 @@ static void emit_solve_mis(const spc_snee_query *q, const spc_specular_solver *s
  * lq->max_chain vertices (not on one sphere when params.exact enumerates those), counted with its
  * <1/p_solve> over p_y (the light point's density times psi). */
 static void random_long_estimate(const spc_snee_query *lq, const spc_specular_solver *solver, const spc_emitter *e,
-                                 spc_vec2 uv, double p_y, spc_rng *rng, spc_snee_stats *st, snee_sink *sk)
+                                 spc_vec2 uv, double p_y, bool ball, spc_rng *rng, spc_snee_stats *st, snee_sink *sk)
 {
     spc_chain sol;
     int it = 0;
@@ -1076,7 +1126,9 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
         st->iterations += (uint64_t)it;
     if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol))
         return;
-    if (solve_mis_chain(lq->params, &sol)) {
+    if (solve_mis_chain(lq->params, &sol) != ball)
+        return; /* the other pass's chain */
+    if (ball) {
         if (st)
             st->solved++;
         emit_solve_mis(lq, solver, e, uv, p_y, &sol, rng, st, sk);
@@ -1147,8 +1199,25 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
             }
             if (random_long(p) && solver->solve_one && !(p->exact && spc_snee_exact_covers_all(&lq))) {
                 lq.psi = psi; /* MIS: times attempt_psi, as any randomized attempt's chain */
-                random_long_estimate(&lq, solver, e, uv, p_y * psi, rng, st, sk);
+                random_long_estimate(&lq, solver, e, uv, p_y * psi, false, rng, st, sk);
             }
+        }
+    }
+    /* the ball pass: the longer chains on a tessellated ball (ball_long_psi) */
+    double ub = long_on(q) && solve_mis_on(p) && random_long(p) && solver->solve_one && has_ball_caster(q)
+                    ? spc_rng_next(rng)
+                    : 1.0;
+    if (ub < SPC_BALL_LONG_P) {
+        int k = q->max_chain + 1 + (int)(ub / SPC_BALL_LONG_P * (SPC_SNEE_LONG_MAX - q->max_chain));
+        double psi = ball_long_psi(q, k);
+        if (psi > 0.0) {
+            spc_snee_params bp = ball_params(p);
+            spc_snee_query lq = *q;
+            lq.params = &bp;
+            lq.min_chain = lq.max_chain = k;
+            lq.psi = psi;
+            if (!(p->exact && spc_snee_exact_covers_all(&lq)))
+                random_long_estimate(&lq, solver, e, uv, p_y * psi, true, rng, st, sk);
         }
     }
     if (p->exact && spc_snee_exact_covers_all(q))
