@@ -178,6 +178,10 @@ TEST(ipt_and_roulette_match_path_c)
     /* unbounded depth: Russian roulette ends every path */
     check_scene("demo.xml", "path", -1);
     check_scene("envmap.xml", "path", 3);
+    /* max_depth up to rr_depth: the wave's lanes run in lockstep (path_wave.c) */
+    check_scene("demo.xml", "path", 2);
+    check_scene("demo.xml", "path", 5);
+    check_scene("dielectrics.xml", "ipt", 4);
 }
 
 /* The wave's light samples (spc_emitter_sample_direct_many: mesh lights in vector form, others one

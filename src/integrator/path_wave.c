@@ -7,7 +7,9 @@
  * up to its light sample (emission, depth, strict normals, next-event estimation's light point);
  * the shadow rays go out as one packet (spc_scene_occluded_light_packet); each lane adds its light
  * sample's contribution, samples the BSDF and plays Russian roulette. A lane whose path ends stores
- * the estimate and takes the next camera sample, so the packets stay full until the samples run out.
+ * the estimate and takes the next camera sample, so the packets stay full until the samples run out;
+ * except where max_depth ends every path before Russian roulette starts (wave_lockstep): there the
+ * wave takes W samples at once and the next W when all of them have ended.
  *
  * Every lane draws its sampler dimensions in path.c's order (the live lanes' pairs of a stage at
  * once, spc_sampler_draw_many: the same values) and computes path.c's expressions in path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
@@ -239,6 +241,16 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
     return true;
 }
 
+/* Whether the wave runs its lanes in lockstep. When max_depth ends every path by rr_depth, the paths
+ * are short and of nearly equal length, and a path's last segment (the one max_depth stops at) only
+ * looks for emission: refilled lanes mix such segments into the steps of the others, so each step's
+ * light sampling, sampler draws and BSDF sampling run for fewer lanes. In lockstep those segments
+ * share their steps, which then skip everything after the intersection. Paired CPU time, one thread
+ * (bench/RESULTS.md, "part wave7"): veach-mis (max_depth 3) -10%, the cornell box at max_depth 3
+ * -12% and at 5 -3%; with Russian roulette's long tails (the cornell box's max_depth 30) lockstep
+ * left packets nearly empty and cost +3%. */
+static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0 && ctx->max_depth <= ctx->rr_depth; }
+
 void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const spc_ray *rays, spc_sampler *smp,
                           spc_sample_out *out)
 {
@@ -261,17 +273,18 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     spc_vec3 wl[W], wl_d[W];
     int dlane[W];
     int next = 0, live = 0;
+    const bool lockstep = wave_lockstep(ctx);
     camera_hits ch;
     ch.group = -1;
-    for (int i = 0; i < W; ++i) {
+    for (int i = 0; i < W; ++i)
         ln[i].path = -1;
-        if (next < n) {
-            lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
-            ++next;
-            ++live;
-        }
-    }
-    while (live > 0) {
+    while (live > 0 || next < n) {
+        if (live == 0) /* the first samples, or in lockstep the next W */
+            for (int i = 0; i < W && next < n; ++i) {
+                lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
+                ++next;
+                ++live;
+            }
         for (int i = 0; i < W; ++i)
             r[i] = ln[i].path >= 0 && !ln[i].camera_hit ? &ln[i].ray : NULL;
         spc_scene_intersect_packet(ctx->scene, r, h, hit);
@@ -328,7 +341,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             out[ln[i].path].L = ln[i].L;
             ln[i].path = -1;
             --live;
-            if (next < n) {
+            if (!lockstep && next < n) {
                 lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
                 ++next;
                 ++live;
