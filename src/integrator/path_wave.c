@@ -246,9 +246,9 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
  * looks for emission: refilled lanes mix such segments into the steps of the others, so each step's
  * light sampling, sampler draws and BSDF sampling run for fewer lanes. In lockstep those segments
  * share their steps, which then skip everything after the intersection. Paired CPU time, one thread
- * (bench/RESULTS.md, "part wave7"): veach-mis (max_depth 3) -10%, the cornell box at max_depth 3
- * -12% and at 5 -3%; with Russian roulette's long tails (the cornell box's max_depth 30) lockstep
- * left packets nearly empty and cost +3%. */
+ * (bench/RESULTS.md, "part 9: one pixel's samples in the wave's lanes"): veach-mis (max_depth 3)
+ * -10%, the cornell box at max_depth 3 -12% and at 5 -3%; with Russian roulette's long tails (the
+ * cornell box's max_depth 30) lockstep left packets nearly empty and cost +3%. */
 static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0 && ctx->max_depth <= ctx->rr_depth; }
 
 void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const spc_ray *rays, spc_sampler *smp,
