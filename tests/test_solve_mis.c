@@ -26,6 +26,7 @@
 #include "manifold/snee_options.h"
 #include "manifold/solve_mis.h"
 #include "manifold/specular_nee.h"
+#include "render_util.h"
 #include "specula/specula.h"
 
 /* A Bernoulli trial of probability p from its own generator. */
@@ -185,10 +186,8 @@ static void combined(const spc_scene *sc, const spc_snee_params *p, const spc_hi
 
 TEST(triangle_ball_tail)
 {
-    spc_scene *sc = NULL;
-    spc_error err;
-    memset(&err, 0, sizeof err);
-    CHECK_MSG(spc_scene_load(SCENE, NULL, 0, &sc, &err) == SPC_OK, "%s: %s", SCENE, err.msg);
+    spc_scene *sc = tu_load(SCENE, 0);
+    CHECK(sc != NULL);
     if (!sc)
         return;
     /* 0: the default (the real probability, the fitted sphere's seeds), 1: the real probability alone,
@@ -244,10 +243,8 @@ TEST(triangle_ball_tail)
  * a 24-seed benchmark's worst seed (bench/RESULTS.md, "The triangle glass ball's 5-vertex tail"). */
 TEST(ball_long_chain_weight)
 {
-    spc_scene *sc = NULL;
-    spc_error err;
-    memset(&err, 0, sizeof err);
-    CHECK_MSG(spc_scene_load(SCENE, NULL, 0, &sc, &err) == SPC_OK, "%s: %s", SCENE, err.msg);
+    spc_scene *sc = tu_load(SCENE, 0);
+    CHECK(sc != NULL);
     if (!sc)
         return;
     spc_snee_params p;
