@@ -650,37 +650,16 @@ static double attempt_psi(const spc_snee_query *q, const spc_chain *c)
     return psi;
 }
 
-/* Is s a signed distance field of one smooth primitive (a sphere, torus, capsule or rounded box:
- * no creases, unlike a box or a CSG operation's seams)? */
+/* Is s a signed distance field without creases (spc_sdf_has_creases: smooth primitives joined only
+ * by smooth unions; not a box, nor a CSG operation's seams)? */
 static bool smooth_sdf(const spc_shape *s)
 {
-    if (!s || s->type != SPC_SHAPE_SDF || !s->sdf)
-        return false;
-    spc_sdf_flat root;
-    int depth = 0;
-    if (spc_sdf_flatten(s->sdf, &root, 1, &depth) != 1)
-        return false;
-    switch (root.type) {
-    case SPC_SDF_SPHERE:
-    case SPC_SDF_TORUS:
-    case SPC_SDF_CAPSULE:
-    case SPC_SDF_ROUNDBOX:
-        return true;
-    case SPC_SDF_BOX:
-    case SPC_SDF_CYLINDER:
-    case SPC_SDF_PLANE:
-    case SPC_SDF_UNION:
-    case SPC_SDF_INTERSECTION:
-    case SPC_SDF_DIFFERENCE:
-    case SPC_SDF_SMOOTH_UNION:
-        return false;
-    }
-    return false;
+    return s && s->type == SPC_SHAPE_SDF && s->sdf && !spc_sdf_has_creases(s->sdf);
 }
 
 /* psi of a longer chain c (past the budget) that the long pass's randomized attempt finds, less the
- * pass's own probability long_psi: attempt_psi, but 1 where every vertex of c lies on a smooth SDF
- * primitive (smooth_sdf). The long pass looks for chains of k vertices with probability long_psi
+ * pass's own probability long_psi: attempt_psi, but 1 where every vertex of c lies on an SDF without
+ * creases (smooth_sdf). The long pass looks for chains of k vertices with probability long_psi
  * (0.025 for k = 4 past a budget of 2), so with the stand-in's further 0.1 a path reflected twice
  * inside the glass tube of scenes/caustic_sdf_torus.xml kept weight 0.59 on the BSDF side, which
  * reaches it rarely and with the value f / b (about 370: at 55 spp a pixel 40 times its mean, that
