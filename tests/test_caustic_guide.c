@@ -4,11 +4,12 @@
  * The guided density against its sampling: over uniform directions, 4 pi p_guide averages to 1 (a
  * density), and the guided samples' g / p_guide averages to the uniform estimate of the integral of
  * a test function g over the disks' directions (the density is the one the samples follow, where
- * disks overlap and where one is tilted). The defensive mixture as the path tracer runs it: the
+ * disks overlap, where one is tilted and where a cone overlaps a disk). The defensive mixture as the path tracer runs it: the
  * record's pdf is a p_guide + (1 - a) p_bsdf and its weight f cos / pdf, and the mean weight is the
  * diffuse albedo (unbiased). Where the guide stays off (a disk seen from below its plane, a BSDF
- * that transmits). The pre-pass on the demo: its busiest entry is the glass ball's caustic on the
- * floor, and two builds are identical.
+ * that transmits; a cone from within its sphere or behind the surface). The pre-pass on the demo:
+ * its busiest entry is the glass ball's caustic on the floor, its one cone is the glass ball's own
+ * sphere (whose directions from the ceiling all enter the ball), and two builds are identical.
  */
 /* ctest-labels: unit */
 #include <string.h>
@@ -27,15 +28,18 @@ static spc_vec3 random_dir(void)
     return spc_v3(r * cos(phi), r * sin(phi), z);
 }
 
-/* Three disks below a ceiling point: two overlapping in the plane z = 0, one tilted. */
+/* Three disks below a ceiling point: two overlapping in the plane z = 0, one tilted; and a cone
+ * toward a sphere that overlaps the first disk's directions. */
 static void three_disks(spc_cguide *g)
 {
     memset(g, 0, sizeof *g);
-    g->n = 3;
+    g->n = 4;
+    g->cones = 1;
     g->a = 0.3;
-    g->e[0] = (spc_cguide_entry){spc_v3(0, 0, 0), spc_v3(0, 0, 1), 0.6, 2.0};
-    g->e[1] = (spc_cguide_entry){spc_v3(0.3, 0, 0), spc_v3(0, 0, 1), 0.4, 1.0};
-    g->e[2] = (spc_cguide_entry){spc_v3(-1.0, 0.2, 0.4), spc_normalize(spc_v3(1, 0, 1)), 0.3, 1.5};
+    g->e[0] = (spc_cguide_entry){spc_v3(0, 0, 0), spc_v3(0, 0, 1), 0.6, 2.0, false};
+    g->e[1] = (spc_cguide_entry){spc_v3(0.3, 0, 0), spc_v3(0, 0, 1), 0.4, 1.0, false};
+    g->e[2] = (spc_cguide_entry){spc_v3(-1.0, 0.2, 0.4), spc_normalize(spc_v3(1, 0, 1)), 0.3, 1.5, false};
+    g->e[3] = (spc_cguide_entry){spc_v3(0.5, -0.3, 0.5), spc_v3(0, 0, 0), 0.35, 1.2, true};
 }
 
 /* A ceiling hit at p facing down (normal -z), of BSDF b, seen from below. */
@@ -61,7 +65,7 @@ TEST(density_matches_sampling)
     spc_hit h = ceiling_hit(tu_diffuse(sc, 0.5), spc_v3(0.2, 0.1, 1.5));
     spc_cguide_vertex v;
     spc_cguide_vertex_init(&v, &g, &h, spc_v3(0, 0, -1));
-    CHECK_MSG(v.a == g.a && v.n == 3, "a %g, %d entries", v.a, v.n);
+    CHECK_MSG(v.a == g.a && v.n == 4, "a %g, %d entries", v.a, v.n);
     /* 4 pi p_guide over uniform directions: 1; and the integral of g over the disks' directions */
     const int N = 400000;
     double s = 0.0, s2 = 0.0, gi = 0.0, gi2 = 0.0;
@@ -172,6 +176,21 @@ TEST(guide_off_where_it_cannot_help)
     h = ceiling_hit(tu_diffuse(sc, 0.5), spc_v3(0.1, 0.0, 1.0));
     spc_cguide_vertex_init(&v, NULL, &h, spc_v3(0, 0, -1));
     CHECK(v.a == 0.0 && spc_cguide_mix_pdf(&v, 0.25, spc_v3(0, 0, -1)) == 0.25);
+    /* a cone: not from within its sphere, nor where its centre lies behind the surface */
+    three_disks(&g);
+    g.e[0] = g.e[3];
+    g.n = 1;
+    h = ceiling_hit(tu_diffuse(sc, 0.5), spc_v3(0.6, -0.3, 0.6));
+    spc_cguide_vertex_init(&v, &g, &h, spc_v3(0, 0, -1));
+    CHECK(v.a == 0.0);
+    h = ceiling_hit(tu_diffuse(sc, 0.5), spc_v3(0.5, -0.3, 1.5));
+    h.ng = spc_v3(0, 0, 1);
+    h.sh = spc_frame_from_n(h.ng);
+    spc_cguide_vertex_init(&v, &g, &h, spc_v3(0, 0, 1));
+    CHECK(v.a == 0.0);
+    h = ceiling_hit(tu_diffuse(sc, 0.5), spc_v3(0.5, -0.3, 1.5));
+    spc_cguide_vertex_init(&v, &g, &h, spc_v3(0, 0, -1));
+    CHECK(v.a > 0.0 && spc_cguide_pdf(&v, spc_v3(0, 0, -1)) > 0.0 && spc_cguide_pdf(&v, spc_v3(0, 0, 1)) == 0.0);
     spc_scene_destroy(sc);
 }
 
@@ -189,12 +208,45 @@ TEST(demo_prepass)
     CHECK(g && g2);
     if (g && g2) {
         CHECK(g->n > 0 && g->n <= SPC_CGUIDE_MAX_ENTRIES && g->landed > 0 && g->landed < g->photons);
-        CHECK(g->n == g2->n && !memcmp(g->e, g2->e, sizeof g->e));
+        CHECK(g->n == g2->n && g->cones == g2->cones && !memcmp(g->e, g2->e, sizeof g->e));
+        /* one cone, last: the glass ball (not the mirror ball), its own sphere */
+        CHECK_MSG(g->cones == 1 && g->n >= 2, "%d cones", g->cones);
+        const spc_cguide_entry *cone = &g->e[g->n - 1];
+        CHECK(cone->cone && !g->e[0].cone);
+        CHECK_MSG(spc_distance(cone->c, spc_v3(-0.42, 0.36, -0.1)) < 1e-9 && fabs(cone->r - 0.36) < 1e-9,
+                  "cone at (%g, %g, %g), r %g", cone->c.x, cone->c.y, cone->c.z, cone->r);
+        /* from the ceiling above the ball, every direction the cone draws enters the ball */
+        spc_hit hc = ceiling_hit(tu_diffuse(sc, 0.7), spc_v3(-0.6, 2.0, 0.2));
+        hc.ng = spc_v3(0, -1, 0);
+        hc.sh = spc_frame_from_n(hc.ng);
+        spc_cguide_vertex v;
+        spc_cguide_vertex_init(&v, g, &hc, spc_v3(0, -1, 0));
+        int in_cone = -1;
+        for (int i = 0; i < v.n; ++i)
+            if (v.idx[i] == g->n - 1)
+                in_cone = i;
+        CHECK_MSG(v.a > 0.0 && in_cone >= 0, "the ceiling's guide: a %g, %d entries, cone %d", v.a, v.n, in_cone);
+        int missed = 0, drawn = 0;
+        for (int i = 0; i < 2000 && in_cone >= 0; ++i) {
+            spc_vec3 w;
+            /* u1 inside the cone's share of the selection */
+            double lo = 0.0;
+            for (int k = 0; k < in_cone; ++k)
+                lo += v.w[k];
+            double u1 = (lo + v.w[in_cone] * rnd()) / v.wsum;
+            if (!spc_cguide_sample(&v, u1, spc_v2(rnd(), rnd()), &w))
+                continue;
+            ++drawn;
+            spc_vec3 oc = spc_sub(hc.p, cone->c);
+            double b = spc_dot(oc, w), c = spc_length2(oc) - cone->r * cone->r;
+            missed += !(b < 0.0 && b * b - c > 0.0);
+        }
+        CHECK_MSG(drawn > 1900 && missed == 0, "%d of %d cone directions miss the ball", missed, drawn);
         /* the glass ball (centre x -0.42) focuses the ceiling light on the floor below it */
         const spc_cguide_entry *e = &g->e[0];
         CHECK_MSG(fabs(e->c.y) < 1e-6 && e->n.y > 0.99 && e->c.x < -0.3 && e->c.x > -0.7 && e->r > 0.0,
                   "busiest entry at (%g, %g, %g), normal (%g, %g, %g)", e->c.x, e->c.y, e->c.z, e->n.x, e->n.y, e->n.z);
-        for (int j = 1; j < g->n; ++j)
+        for (int j = 1; j < g->n - g->cones; ++j)
             CHECK(g->e[j].power <= g->e[j - 1].power);
         printf("    %d entries from %ld of %ld photons; busiest at (%.3f, %.3f, %.3f), r %.3f\n", g->n, g->landed,
                g->photons, e->c.x, e->c.y, e->c.z, e->r);

@@ -728,7 +728,8 @@ static bool write_stats(const char *given, const spc_render_stats *st, const sta
     json_string(fp, st->specular_nee);
     fprintf(fp, ",\n  \"specular_nee_pilot\": ");
     json_string(fp, st->specular_nee_pilot);
-    fprintf(fp, ",\n  \"caustic_guide_entries\": %d,\n  \"caustic_guide_seconds\": ", st->caustic_guide_entries);
+    fprintf(fp, ",\n  \"caustic_guide_entries\": %d,\n  \"caustic_guide_cones\": %d,\n  \"caustic_guide_seconds\": ",
+            st->caustic_guide_entries, st->caustic_guide_cones);
     json_number(fp, st->caustic_guide_seconds);
     fprintf(fp, ",\n  \"interrupted\": %s\n}\n", in->interrupted ? "true" : "false");
     bool ok = !ferror(fp);

@@ -158,6 +158,7 @@ typedef struct spc_render_stats {
     char specular_nee[96];    /* the specular NEE setting that ran ("none" when off; see spc_scene_plan) */
     char specular_nee_pilot[448]; /* what the pilot render measured and chose, or "" where none ran */
     int caustic_guide_entries;    /* caustic guiding at receivers: the guide's entries (0: it did not run) */
+    int caustic_guide_cones;      /* of them, cones toward glass casters */
     double caustic_guide_seconds; /* and its photon pre-pass's wall time (inside wall_seconds) */
 } spc_render_stats;
 

@@ -19,6 +19,7 @@
 #include "core/rng.h"
 #include "core/warp.h"
 #include "emitter/emitter.h"
+#include "manifold/fit_seeds.h"
 
 /* The grid's cell, in scene radii: the caustic under the demo's glass ball (0.25 x 0.2 on the
  * floor, scene radius 1.7) spans about four cells of 0.14; a cell bounds a disk's radius. */
@@ -41,11 +42,22 @@
 /* An entry whose plane is closer to x than this many disk radii is not guided toward: x lies in or
  * near the caustic, where specular NEE has it and the disk is seen edge-on. */
 #define SPC_CGUIDE_MIN_HEIGHT 0.5
+/* The most cone entries (glass casters) a guide keeps, the most powerful first; the disks take
+ * the other entries. */
+#define SPC_CGUIDE_MAX_CONES 8
+/* 1 - cos of the half-angle of the cone from a point at squared distance d2 to a sphere of radius
+ * r (d2 > r^2), without cancellation for small cones. */
+static double cone_one_minus_cos(double d2, double r)
+{
+    double s2 = r * r / d2;
+    return s2 / (1.0 + sqrt(spc_max(0.0, 1.0 - s2)));
+}
 
 typedef struct photon {
     spc_vec3 p, n;
     double power;
     int shape;
+    int glass;   /* the last glass caster it passed through (shape index), -1 if none */
     size_t cell; /* its cell's slot in the hash table */
 } photon;
 
@@ -85,6 +97,7 @@ static bool trace_photon(const spc_scene *sc, spc_rng *rng, photon *out)
     o.err = em.err;
     spc_ray ray = spc_hit_spawn(&o, em.d);
     int deltas = 0;
+    out->glass = -1;
     for (int bounce = 0; bounce <= SPC_CGUIDE_MAX_BOUNCES; ++bounce) {
         spc_hit h;
         if (!spc_scene_intersect(sc, &ray, &h))
@@ -109,6 +122,11 @@ static bool trace_photon(const spc_scene *sc, spc_rng *rng, photon *out)
             return false;
         if (!(bs.lobe & SPC_LOBE_NULL))
             ++deltas;
+        if (bs.lobe & SPC_LOBE_DELTA_TRANSMISSION) {
+            double eta = 0.0;
+            if (spc_bsdf_is_specular_interface(h.bsdf, &eta) && eta > 0.0)
+                out->glass = h.shape_index;
+        }
         ray = spc_hit_spawn(&h, bs.wi);
     }
     return false;
@@ -126,6 +144,19 @@ static int cmp_power_desc(const void *a, const void *b)
     if (x->shape != y->shape)
         return x->shape < y->shape ? -1 : 1;
     return x->side < y->side ? -1 : x->side > y->side;
+}
+
+bool spc_cguide_cone_sphere(const spc_scene *sc, const spc_shape *s, spc_vec3 *c, double *r)
+{
+    /* a box's corners reach up to sqrt(3) times a ball's radius: a wider cone than the ball's own */
+    if (s->type == SPC_SHAPE_SPHERE) {
+        *c = s->center;
+        *r = s->radius;
+    } else if (!spc_fit_sphere(s, c, r)) {
+        *c = spc_scale(spc_add(s->bbox_min, s->bbox_max), 0.5);
+        *r = 0.5 * spc_length(spc_sub(s->bbox_max, s->bbox_min));
+    }
+    return *r > 0.0 && isfinite(*r) && *r < SPC_CGUIDE_MAX_CONE * sc->radius;
 }
 
 spc_cguide *spc_cguide_build(const spc_scene *sc, long photons, uint64_t seed, double a)
@@ -193,14 +224,43 @@ spc_cguide *spc_cguide_build(const spc_scene *sc, long photons, uint64_t seed, d
         double d = spc_distance(ph[i].p, spc_scale(c->sp, 1.0 / c->power));
         c->rmax = spc_max(c->rmax, d);
     }
+    /* the cones: the power of the photons that passed each glass caster */
+    double *through = calloc((size_t)sc->nshapes, sizeof *through);
+    if (!through) {
+        free(ph);
+        free(cells);
+        free(g);
+        return NULL;
+    }
+    for (long i = 0; i < landed; ++i)
+        if (ph[i].glass >= 0 && ph[i].glass < sc->nshapes)
+            through[ph[i].glass] += ph[i].power / (double)photons;
     free(ph);
+    spc_cguide_entry cones[SPC_CGUIDE_MAX_CONES];
+    int ncones = 0;
+    while (ncones < SPC_CGUIDE_MAX_CONES) {
+        int best = -1;
+        for (int i = 0; i < sc->nshapes; ++i)
+            if (through[i] > 0.0 && (best < 0 || through[i] > through[best]))
+                best = i;
+        if (best < 0 || !(through[best] >= SPC_CGUIDE_MIN_SHARE * total))
+            break;
+        spc_cguide_entry *en = &cones[ncones];
+        en->n = spc_v3(0, 0, 0);
+        en->power = through[best];
+        en->cone = true;
+        if (spc_cguide_cone_sphere(sc, sc->shapes[best], &en->c, &en->r))
+            ++ncones;
+        through[best] = 0.0;
+    }
+    free(through);
     /* the kept cells, busiest first */
     size_t nkeep = 0;
     for (size_t j = 0; j < cap; ++j)
         if (cells[j].used && cells[j].count >= SPC_CGUIDE_CELL_PHOTONS)
             cells[nkeep++] = cells[j];
     qsort(cells, nkeep, sizeof *cells, cmp_power_desc);
-    for (size_t j = 0; j < nkeep && g->n < SPC_CGUIDE_MAX_ENTRIES; ++j) {
+    for (size_t j = 0; j < nkeep && g->n < SPC_CGUIDE_MAX_ENTRIES - ncones; ++j) {
         const cell *c = &cells[j];
         if (c->power < SPC_CGUIDE_MIN_SHARE * cells[0].power)
             break;
@@ -214,8 +274,13 @@ spc_cguide *spc_cguide_build(const spc_scene *sc, long photons, uint64_t seed, d
         en->n = spc_scale(c->sn, 1.0 / nl);
         en->r = spc_clamp(r, SPC_CGUIDE_MIN_RADIUS * h, SPC_CGUIDE_MAX_RADIUS * h);
         en->power = c->power;
+        en->cone = false;
     }
     free(cells);
+    /* the cones after the disks */
+    for (int j = 0; j < ncones; ++j)
+        g->e[g->n++] = cones[j];
+    g->cones = ncones;
     if (g->n == 0) {
         free(g);
         return NULL;
@@ -247,6 +312,19 @@ void spc_cguide_vertex_init(spc_cguide_vertex *v, const spc_cguide *g, const spc
     for (int j = 0; j < g->n; ++j) {
         const spc_cguide_entry *e = &g->e[j];
         spc_vec3 d = spc_sub(e->c, h->p);
+        if (e->cone) {
+            double d2 = spc_length2(d);
+            if (!(d2 > e->r * e->r) || !(side * spc_dot(d, h->ng) > 0.0))
+                continue;
+            /* power cos_x / d^2 */
+            double w = e->power * spc_absdot(d, h->sh.n) / (d2 * sqrt(d2));
+            if (!(w > 0.0) || !isfinite(w))
+                continue;
+            v->idx[v->n] = (unsigned char)j;
+            v->w[v->n++] = w;
+            wmax = spc_max(wmax, w);
+            continue;
+        }
         double height = -spc_dot(d, e->n); /* x's height over the disk's plane, on its lit side */
         if (!(height > SPC_CGUIDE_MIN_HEIGHT * e->r) || !(side * spc_dot(d, h->ng) > 0.0))
             continue;
@@ -288,6 +366,19 @@ bool spc_cguide_sample(const spc_cguide_vertex *v, double u1, spc_vec2 u2, spc_v
         ++i;
     }
     const spc_cguide_entry *e = &v->g->e[v->idx[i]];
+    if (e->cone) {
+        spc_vec3 d = spc_sub(e->c, v->x);
+        double d2 = spc_length2(d);
+        if (!(d2 > e->r * e->r))
+            return false;
+        double omc = u2.x * cone_one_minus_cos(d2, e->r);
+        double cost = 1.0 - omc, sint = sqrt(spc_max(0.0, omc * (2.0 - omc)));
+        double phi = 2.0 * SPC_PI * u2.y;
+        spc_frame fr = spc_frame_from_n(spc_scale(d, 1.0 / sqrt(d2)));
+        *wi =
+            spc_add(spc_add(spc_scale(fr.s, sint * cos(phi)), spc_scale(fr.t, sint * sin(phi))), spc_scale(fr.n, cost));
+        return true;
+    }
     spc_vec2 dk = spc_warp_disk_concentric(u2);
     spc_frame fr = spc_frame_from_n(e->n);
     spc_vec3 y = spc_add(e->c, spc_add(spc_scale(fr.s, dk.x * e->r), spc_scale(fr.t, dk.y * e->r)));
@@ -306,6 +397,16 @@ double spc_cguide_pdf(const spc_cguide_vertex *v, spc_vec3 wi)
     double pdf = 0.0;
     for (int i = 0; i < v->n; ++i) {
         const spc_cguide_entry *e = &v->g->e[v->idx[i]];
+        if (e->cone) {
+            spc_vec3 d = spc_sub(e->c, v->x);
+            double d2 = spc_length2(d);
+            if (!(d2 > e->r * e->r))
+                continue;
+            double omc = cone_one_minus_cos(d2, e->r);
+            if (spc_dot(wi, d) >= (1.0 - omc) * sqrt(d2))
+                pdf += v->w[i] / (2.0 * SPC_PI * omc);
+            continue;
+        }
         double cosd = spc_dot(wi, e->n);
         if (!(cosd < 0.0))
             continue; /* x is on the lit side: only directions against the normal reach the disk */

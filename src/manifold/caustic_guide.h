@@ -12,16 +12,24 @@
  *     entry: a disk at the photons' mean position, in the plane of their mean normal (toward the
  *     side the light came from), reaching the farthest of them (within the cell), with their
  *     power;
+ *   - each glass caster (a refracting specular interface) that photons passed before they landed
+ *     becomes a cone entry too: the sphere around its bounding box, with the power of those photons.
+ *     A disk is aimed at in a straight line, so it cannot reach a caustic that a vertex sees only
+ *     through the glass (the ceiling lit by the bright spot where a glass ball touches the floor,
+ *     seen through the ball); the cone draws directions uniformly in the solid angle of the
+ *     caster's sphere, and refraction takes a share of them to that caustic;
  *   - at a path vertex x (spc_cguide_vertex_init) each entry gets a selection weight: its power times
  *     the cosines at both ends over the squared distance (what the entry's radiance would give x,
  *     up to the albedo), zero for an entry x sees edge-on or from behind, or that lies behind x's
- *     surface when the BSDF only reflects;
+ *     surface when the BSDF only reflects (a cone: its power times the cosine at x over the squared
+ *     distance, zero from within its sphere or where its centre lies behind x's surface);
  *   - the continuation direction is drawn from the defensive mixture
  *         p(w) = a p_guide(w) + (1 - a) p_bsdf(w),
  *     where p_guide picks an entry by its weight, a point uniformly on its disk and the direction
- *     toward it. p_guide is evaluable for any direction: the sum over entries of the selection
- *     probability times the disk's area density at the ray's crossing of the disk's plane, times
- *     t^2 / |cos|. The disks are a proposal only (no occlusion test; a direction toward an occluded
+ *     toward it (a cone: a direction uniformly in the cone). p_guide is evaluable for any
+ *     direction: the sum over entries of the selection probability times the disk's area density
+ *     at the ray's crossing of the disk's plane, times t^2 / |cos| (a cone: 1 / its solid angle
+ *     within it). The disks are a proposal only (no occlusion test; a direction toward an occluded
  *     disk is wasted, not wrong), so the estimator is unbiased for any cloud, and a = 0 (no entry
  *     seen from x) leaves the BSDF's sampling alone.
  * The path integrator uses the mixture's density wherever it used the BSDF's for that bounce: the
@@ -63,9 +71,11 @@ static inline long spc_cguide_photons(double camera_samples)
 #define SPC_CGUIDE_MAX_ENTRIES 32
 
 typedef struct spc_cguide_entry {
-    spc_vec3 c, n; /* disk centre and unit normal (toward the side the light arrived from) */
-    double r;      /* disk radius */
+    spc_vec3 c, n; /* disk centre and unit normal (toward the side the light arrived from); a cone's
+                      sphere centre (n unused) */
+    double r;      /* disk radius; a cone's sphere radius */
     double power;  /* the photons' power (luminance, W) */
+    bool cone;     /* a glass caster's bounding sphere, not a disk */
 } spc_cguide_entry;
 
 typedef struct spc_cguide {
@@ -75,7 +85,15 @@ typedef struct spc_cguide {
     long photons; /* light paths traced */
     long landed;  /* of them, landed after a delta vertex */
     double power; /* the power the landed photons carry */
+    int cones;    /* of the entries, cones toward glass casters */
 } spc_cguide;
+
+/* The sphere a cone entry aims at for glass caster s of scene sc: s's own sphere (an analytic
+ * sphere, or the one fitted to a triangle ball), else the one around its bounding box. False where
+ * that sphere reaches further than SPC_CGUIDE_MAX_CONE of the scene's radius (a water surface over
+ * a pool): a cone there fills most of a vertex's sky and guides nowhere. */
+#define SPC_CGUIDE_MAX_CONE 0.5
+bool spc_cguide_cone_sphere(const spc_scene *sc, const spc_shape *s, spc_vec3 *c, double *r);
 
 /* Traces `photons` light paths (stream `seed`), and builds the guide with mixture probability a
  * (0 < a < 1). Returns NULL where no photon lands after a delta vertex (no caster lit) or memory

@@ -451,7 +451,7 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     bool rendered = false; /* the passes ran: the film goes to the caller, with status */
     uint64_t rays = 0, shadow_rays = 0, invalid = 0;
     double wall = 0.0, guide_seconds = 0.0;
-    int guide_entries = 0;
+    int guide_entries = 0, guide_cones = 0;
 
     int tx = (ctx.width + SPC_TILE - 1) / SPC_TILE, ty = (ctx.height + SPC_TILE - 1) / SPC_TILE;
     int ntiles = tx * ty;
@@ -723,6 +723,7 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     }
     wall = now_seconds() - t_start;
     guide_entries = cguide ? cguide->n : 0;
+    guide_cones = cguide ? cguide->cones : 0;
     rendered = true;
 cleanup:
     spc_cguide_destroy(cguide);
@@ -761,6 +762,7 @@ cleanup:
         snprintf(stats->specular_nee, sizeof stats->specular_nee, "%s", ctx.specular_nee ? sname : "none");
         snprintf(stats->specular_nee_pilot, sizeof stats->specular_nee_pilot, "%s", plan->pilot_note);
         stats->caustic_guide_entries = guide_entries;
+        stats->caustic_guide_cones = guide_cones;
         stats->caustic_guide_seconds = guide_seconds;
     }
     *out = film; /* also with a checkpoint write error: the image rendered so far is valid */
