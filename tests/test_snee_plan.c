@@ -28,6 +28,8 @@
  *   first receiver): specular NEE with reflections off glass against bdpt over pixel blocks.
  * - A light no caster sees (a bulb inside an opaque shade): the plan is off; with the shade's side
  *   toward the caster taken away, on.
+ * - Caustic guiding at receivers (its cones toward glass balls) in path's default where a glass
+ *   caster is an analytic sphere, not in volpath's or bdpt's, not with mirrors or a pool's water alone.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -1002,6 +1004,39 @@ TEST(tessellated_ball_plan)
     spc_scene_destroy(sc);
 }
 
+/* Caustic guiding at receivers where a glass caster is an analytic sphere small enough for a cone
+ * (snee_plan.h, SPC_SNEE_PLAN_GLASS_BALL): on in path's default on the demo and the glass-ball
+ * caustic, not in volpath's nor bdpt's, not with mirrors alone (the mirror ring) nor where the only
+ * glass is a water surface over a pool (too large for a cone). In a room (the demo), the longer
+ * chains with probability 0.2 (SPC_SNEE_PLAN_ROOM_LONG); in the open, 0.1. */
+TEST(recv_guide_with_glass_balls)
+{
+    static const struct {
+        const char *scene, *integrator;
+        bool guided;
+        double long_p;
+    } cases[] = {
+        {"scenes/demo.xml", "path", true, 0.2},
+        {"scenes/demo.xml", "volpath", false, 0.1},
+        {"scenes/demo.xml", "bdpt", false, 0.1},
+        {"scenes/caustic_glass_sphere.xml", "path", true, 0.1},
+        {"scenes/caustic_mirror_ring.xml", "path", false, 0.1},
+        {"scenes/caustic_pool.xml", "path", false, 0.1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        spc_scene *sc = load_at(cases[i].scene, "16");
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        spc_snee_params sp;
+        bool parsed = p.on && spc_snee_parse(p.setting, 2, &sp);
+        CHECK_MSG(parsed && sp.recv_guide == (cases[i].guided ? 0.1 : 0.0) && sp.long_p == cases[i].long_p,
+                  "%s, %s: %s", cases[i].scene, cases[i].integrator, p.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
 int main(void)
 {
     RUN(demo_plan_on);
@@ -1020,5 +1055,6 @@ int main(void)
     RUN(sdf_torus_plan);
     RUN(sdf_csg_plan_off);
     RUN(tessellated_ball_plan);
+    RUN(recv_guide_with_glass_balls);
     return spc_test_finish();
 }

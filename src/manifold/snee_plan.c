@@ -12,6 +12,7 @@
 #include "bsdf/bsdf.h"
 #include "core/rng.h"
 #include "emitter/emitter.h"
+#include "manifold/caustic_guide.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
@@ -370,12 +371,16 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     }
     /* the query from the camera only where some caster is glass, by Russian roulette only where
      * every glass caster's chains are enumerated exactly (snee_plan.h) */
-    bool glass = false, exact = true, ball = false;
+    bool glass = false, exact = true, ball = false, cone = false;
     for (int i = 0; i < cs->n; ++i) {
         double eta = 0.0;
         const spc_shape *s = sc->shapes[cs->idx[i]];
         if (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) {
             glass = true;
+            spc_vec3 cc;
+            double cr;
+            cone = cone ||
+                   (spc_snee_plan_method(&p, s) == SPC_SNEE_METHOD_SPHERE && spc_cguide_cone_sphere(sc, s, &cc, &cr));
             exact = exact && spc_snee_plan_method(&p, s) != SPC_SNEE_METHOD_SOLVER;
             spc_vec3 c;
             double r;
@@ -397,6 +402,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,first=0.1,later=0.1", q);
     else
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING);
+    /* path: caustic guiding at receivers, with a cone toward each glass ball, and in a room the
+     * longer chains more often (snee_plan.h) */
+    if (!strcmp(integrator, "path") && glass && cone) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s%s", SPC_SNEE_PLAN_GLASS_BALL,
+                 out->open_share < SPC_SNEE_PLAN_ROOM_OPEN ? SPC_SNEE_PLAN_ROOM_LONG : "");
+    }
     out->pilot = spc_snee_setting_pilot(setting);
 }
 
@@ -485,8 +497,9 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
                 "traced at render start that land near the receiver\n",
             p.seed_guide);
     if (p.recv_guide > 0.0)
-        put(&b, "  caustic guiding at receivers (path): a share %g of a vertex's directions toward the caustics "
-                "a photon pre-pass finds at render start\n",
+        put(&b,
+            "  caustic guiding at receivers (path): a share %g of a vertex's directions toward the caustics "
+            "a photon pre-pass finds at render start and toward the glass casters their light passed\n",
             p.recv_guide);
     const spc_chain_casters *cs = spc_chain_casters_of(sc, p.any_surface);
     for (int i = 0; cs && i < cs->n; ++i) {
