@@ -138,7 +138,11 @@ TEST(default_on_with_casters_only)
     char auto_setting[96];
     snprintf(auto_setting, sizeof auto_setting, "%s", p.setting);
     spc_snee_plan_make(with, "volpath", "auto", &p);
-    CHECK(p.on && !strcmp(p.setting, auto_setting));
+    /* volpath: path's setting without caustic guiding (SPC_SNEE_PLAN_GLASS_BALL: path's alone) */
+    size_t nv = strlen(p.setting);
+    CHECK_MSG(p.on && !strncmp(p.setting, auto_setting, nv) &&
+                  (auto_setting[nv] == '\0' || !strcmp(auto_setting + nv, SPC_SNEE_PLAN_GLASS_BALL)),
+              "volpath %s, path %s", p.setting, auto_setting);
     spc_snee_plan_make(with, "bdpt", "", &p);
     CHECK(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BDPT));
     spc_snee_plan_make(with, "ipt", NULL, &p);
