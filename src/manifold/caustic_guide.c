@@ -25,7 +25,8 @@
  * floor, scene radius 1.7) spans about four cells of 0.14; a cell bounds a disk's radius. */
 #define SPC_CGUIDE_CELL (1.0 / 12.0)
 /* Cells with less power than this share of the busiest one's are dropped (the mirror ball's
- * reflections spread over every wall, a few photons a cell). */
+ * reflections spread over every wall, a few photons a cell), and glass casters through which less
+ * than this share of the landed photons' power passed get no cone. */
 #define SPC_CGUIDE_MIN_SHARE 0.02
 /* Cells with fewer photons are dropped: their mean and spread are noise. */
 #define SPC_CGUIDE_CELL_PHOTONS 4

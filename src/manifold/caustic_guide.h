@@ -13,7 +13,8 @@
  *     side the light came from), reaching the farthest of them (within the cell), with their
  *     power;
  *   - each glass caster (a refracting specular interface) that photons passed before they landed
- *     becomes a cone entry too: the sphere around its bounding box, with the power of those photons.
+ *     becomes a cone entry too: its sphere (spc_cguide_cone_sphere), with the power of those
+ *     photons (the last glass caster each passed; at least 2% of the landed photons' power).
  *     A disk is aimed at in a straight line, so it cannot reach a caustic that a vertex sees only
  *     through the glass (the ceiling lit by the bright spot where a glass ball touches the floor,
  *     seen through the ball); the cone draws directions uniformly in the solid angle of the
@@ -75,7 +76,7 @@ typedef struct spc_cguide_entry {
                       sphere centre (n unused) */
     double r;      /* disk radius; a cone's sphere radius */
     double power;  /* the photons' power (luminance, W) */
-    bool cone;     /* a glass caster's bounding sphere, not a disk */
+    bool cone;     /* a cone toward a glass caster's sphere, not a disk */
 } spc_cguide_entry;
 
 typedef struct spc_cguide {
@@ -85,7 +86,7 @@ typedef struct spc_cguide {
     long photons; /* light paths traced */
     long landed;  /* of them, landed after a delta vertex */
     double power; /* the power the landed photons carry */
-    int cones;    /* of the entries, cones toward glass casters */
+    int cones;    /* of the entries, cones toward glass casters (the last ones) */
 } spc_cguide;
 
 /* The sphere a cone entry aims at for glass caster s of scene sc: s's own sphere (an analytic
