@@ -48,17 +48,18 @@
 
 #include "scene/scene.h"
 
-/* Light paths the render's pre-pass traces: one per SPC_CGUIDE_SAMPLES_PER_PHOTON camera samples
- * of the render, from SPC_CGUIDE_MIN_PHOTONS to SPC_CGUIDE_MAX_PHOTONS (a render with a time limit:
- * the most), so that the pre-pass stays a few percent of the render: on the demo a light path costs
- * about a tenth of a camera sample with specular NEE (callgrind: 65536 of them, 5.5% of a 32x32
- * render at 16 spp), and some 4% of them reach the glass or mirror ball. */
+/* Light paths the render's pre-pass traces: one per film pixel, from SPC_CGUIDE_MIN_PHOTONS to
+ * SPC_CGUIDE_MAX_PHOTONS, so that the pre-pass stays a few percent of a render of a few samples per
+ * pixel or more: on the demo a light path costs about a tenth of a camera sample with specular NEE
+ * (callgrind: 65536 of them, 5.5% of a 32x32 render at 16 spp), and some 4% of them reach the glass
+ * or mirror ball. Not from the sample count: a render cancelled or resumed after some passes must
+ * equal a render of that many passes (render/checkpoint.h), so the guide may not depend on how many
+ * were asked for. */
 #define SPC_CGUIDE_MIN_PHOTONS 8192
 #define SPC_CGUIDE_MAX_PHOTONS 65536
-#define SPC_CGUIDE_SAMPLES_PER_PHOTON 4.0
-static inline long spc_cguide_photons(double camera_samples)
+static inline long spc_cguide_photons(double pixels)
 {
-    double n = camera_samples / SPC_CGUIDE_SAMPLES_PER_PHOTON;
+    double n = pixels;
     return n < SPC_CGUIDE_MIN_PHOTONS   ? SPC_CGUIDE_MIN_PHOTONS
            : n > SPC_CGUIDE_MAX_PHOTONS ? SPC_CGUIDE_MAX_PHOTONS
                                         : (long)n;

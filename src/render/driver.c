@@ -537,8 +537,8 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     invalid = film->invalid_samples;
     /* caustic guiding at receivers (caustic_guide.h): its photon pre-pass, once, on this thread */
     if (ctx.kind == SPC_INTEGRATOR_PATH && ctx.specular_nee != SPC_SNEE_NONE && ctx.snee.recv_guide > 0.0 && !use_cl)
-        cguide = spc_cguide_build(sc, spc_cguide_photons((double)ctx.width * ctx.height * (double)spp),
-                                  SPC_CGUIDE_STREAM, ctx.snee.recv_guide);
+        cguide = spc_cguide_build(sc, spc_cguide_photons((double)ctx.width * ctx.height), SPC_CGUIDE_STREAM,
+                                  ctx.snee.recv_guide);
     ctx.snee.cguide = cguide;
     /* bdpt's pool: the selection model from its pilot, once (deterministic: the same for any thread
      * count and on resuming), and a pool per pass of a batch */
