@@ -402,12 +402,11 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,first=0.1,later=0.1", q);
     else
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING);
-    /* path: caustic guiding at receivers, with a cone toward each glass ball, and in a room the
+    /* path in a room: caustic guiding at receivers, with a cone toward each glass ball, and the
      * longer chains more often (snee_plan.h) */
-    if (!strcmp(integrator, "path") && glass && cone) {
+    if (!strcmp(integrator, "path") && glass && cone && out->open_share < SPC_SNEE_PLAN_ROOM_OPEN) {
         size_t n = strlen(out->setting);
-        snprintf(out->setting + n, sizeof out->setting - n, "%s%s", SPC_SNEE_PLAN_GLASS_BALL,
-                 out->open_share < SPC_SNEE_PLAN_ROOM_OPEN ? SPC_SNEE_PLAN_ROOM_LONG : "");
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_ROOM_GLASS_BALL);
     }
     out->pilot = spc_snee_setting_pilot(setting);
 }

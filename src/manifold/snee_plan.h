@@ -119,28 +119,29 @@
  * they stay an option to append to a setting. */
 #define SPC_SNEE_PLAN_SEED_GUIDE ",seedguide=0.8"
 
-/* Appended to path's glass settings where some glass caster is an analytic sphere
- * (its chains enumerated exactly) small enough for a cone (caustic_guide.h, spc_cguide_cone_sphere):
- * caustic guiding at receivers (recguide=0.1), a share 0.1 of each diffuse vertex's directions
- * toward the caustics a photon pre-pass finds and toward each glass ball. The paths it makes more
- * likely are the caustic seen through the glass from a diffuse bounce (the demo's ceiling sees the
- * bright spot where the glass ball touches the floor through the ball: camera - ceiling - glass -
- * glass - floor - specular NEE), which BSDF sampling finds rarely and with a large weight. The
- * defensive mixture costs every other direction 1 / (1 - A) in weight, so A stays small: on the
- * demo at equal CPU time over 8 seeds A = 0.1 lowered the mean relMSE 1.3x, A = 0.25 and 0.5 raised
- * it 2.5x and 4x; on the glass-ball caustic A = 0.1 lowered it 1.4x. Not for volpath (which builds
- * no guide) nor bdpt: not measured there. */
-#define SPC_SNEE_PLAN_GLASS_BALL ",recguide=0.1"
-
-/* ... and where the casters are enclosed (open to the sky in less than SPC_SNEE_PLAN_ROOM_OPEN of
- * their directions: a room), the longer chains (up to 6 vertices: internal reflections in the
- * ball) looked for with probability 0.2 per light sample instead of 0.1: their 1 / P count made
- * the demo's remaining one-pixel seeds (a spot on the red wall beside the glass ball, lit through
- * chains that reflect inside it). On the demo 14-15x none at equal CPU time against 10.5-11.2x with
- * the guide alone; on the glass-ball caustic in the open (open share 0.57) 9.9x against 10.5x: not
- * there (bench/RESULTS.md, "Caustic guiding toward glass balls in the default"). */
+/* Appended to path's glass settings in a room (the casters open to the sky in less than
+ * SPC_SNEE_PLAN_ROOM_OPEN of their directions, snee_plan.c's open_share: the demo's 0.109; the
+ * other caustic scenes 0.4-0.67) where some glass caster is an analytic sphere (its chains
+ * enumerated exactly) small enough for a cone (caustic_guide.h, spc_cguide_cone_sphere):
+ * - caustic guiding at receivers (recguide=0.1), a share 0.1 of each diffuse vertex's directions
+ *   toward the caustics a photon pre-pass finds and toward each glass ball. The paths it makes more
+ *   likely are the caustic seen through the glass from a diffuse bounce (the demo's ceiling sees the
+ *   bright spot where the glass ball touches the floor through the ball: camera - ceiling - glass -
+ *   glass - floor - specular NEE), which BSDF sampling finds rarely and with a large weight; in a
+ *   room that light reaches much of the image. The defensive mixture costs every other direction
+ *   1 / (1 - A) in weight, so A stays small: on the demo at equal CPU time over 8 seeds A = 0.1
+ *   lowered the mean relMSE 1.3x, A = 0.25 and 0.5 raised it 2.5x and 4x. In the open it was
+ *   mixed (3 seeds): the glass-ball caustic 1.4x lower, dielectrics 1.2x and ball_small_light 1.2x
+ *   higher (its cost per sample 1.4x), so not there;
+ * - the longer chains (up to 6 vertices: internal reflections in the ball) looked for with
+ *   probability 0.2 per light sample instead of 0.1 (long=0.2): their 1 / P count made the demo's
+ *   remaining one-pixel seeds (a spot on the red wall beside the glass ball, lit through chains that
+ *   reflect inside it).
+ * Together 14-15x none on the demo at equal CPU time against the plain setting's 7.5-8.3x and
+ * 10.5-11.2x with the guide alone (bench/RESULTS.md, "Caustic guiding toward glass balls in the
+ * default"). Not for volpath (which builds no guide) nor bdpt: not measured there. */
 #define SPC_SNEE_PLAN_ROOM_OPEN 0.25
-#define SPC_SNEE_PLAN_ROOM_LONG ",long=0.2"
+#define SPC_SNEE_PLAN_ROOM_GLASS_BALL ",recguide=0.1,long=0.2"
 
 /* The setting where every caster is a mirror: the same without the query from the camera. There the
  * camera sees the light only by reflection, which camera rays find as often as the query's splats
