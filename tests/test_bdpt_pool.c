@@ -76,8 +76,9 @@ static double rel_var(const spc_film *f)
 /* On the door the pool's picks reach the light through the gap: at equal samples the relative
  * variance is lower. Measured here 0.135x with M = 2 (picks by camera depth 20 / 2 / 1); 0.172x
  * with 10 / 2 / 2, 0.298x with 10 / 2 / 2 picks but MIS counts that said 2 everywhere, 0.342x
- * with 2 everywhere, 0.41x when the pilot also picked its light vertices uniformly. Asked: below
- * 0.18x. */
+ * with 2 everywhere, 0.41x when the pilot also picked its light vertices uniformly; 0.077x with
+ * the 8 light subpaths per camera sample that the pool brings by default (spc_render_options
+ * .bdpt_light_paths; their light tracing only). Asked: below 0.18x. */
 TEST(door_variance_falls)
 {
     spc_scene *sc = tu_load("scenes/indirect_door.xml", 24);
