@@ -69,10 +69,11 @@
 /* bdpt's light subpaths per camera sample by default (spc_render_options.bdpt_light_paths): the
  * extra ones serve light tracing only, at the cost of a light walk and its splats' shadow rays.
  * With the pool a camera sample costs several times that (its picks), and more subpaths pay: on
- * the door (32x32, 64 spp, seeds 1-8, one thread, relative variance of the mean times CPU s, the
- * pilot included) 2 of them 0.91x, 4 0.78-0.81x, 8 0.72-0.84x, 16 0.85x of one; the lamp behind
- * its shade 2: 0.94x, 4: 0.90x, 8: 0.91x. Without the pool they do not: the glass-ball caustic
- * 2: 1.00x, 3: 1.05x; the cornell box 2: 0.97x, 4: 0.93x (noise at this size). bench/RESULTS.md. */
+ * the door (32x32, 64 spp, three sets of seeds, one thread, relative variance of the mean times
+ * CPU s, the pilot included) 2 of them 0.91x, 4 0.78-0.81x, 8 0.72-0.84x, 16 0.85x of one; the
+ * lamp behind its shade 2: 0.94x, 4: 0.90x, 8: 0.91x. Without the pool they do not: the glass-ball
+ * caustic (256 spp, 4 seeds) 2: 1.00x, 3: 1.05x; the cornell box 2: 0.97x, 4: 0.93x (2 seeds,
+ * noise). The 8-seed bench: bench/RESULTS.md, "part bdpt8". */
 #define SPC_BDPT_AUTO_LIGHT_PATHS 1
 #define SPC_BDPT_POOL_LIGHT_PATHS 8
 
