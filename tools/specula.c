@@ -140,7 +140,7 @@ static const char *const usage_render_more =
     "                         (default): 3 where the camera sees mostly indirectly lit surfaces\n"
     "  --bdpt-light-paths K   bdpt: trace K light subpaths per camera sample, the first for every\n"
     "                         strategy, the others for light tracing only (1..64; 0\n"
-    "                         (default): 8 where the pool runs, else 1)\n"
+    "                         (default): 1)\n"
     "  --device cpu|opencl[:N]  (info --devices)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"

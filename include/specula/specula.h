@@ -140,8 +140,8 @@ typedef struct spc_render_options {
      * the opencl device (by default off there). */
     int bdpt_pool;
     /* bdpt: light subpaths traced per camera sample, 1..64: the first serves every strategy, the
-     * others light tracing (t = 1) only, which MIS then counts that many times; 0: by default, 8
-     * where the pool of light vertices runs (bdpt_pool), else 1. Not on the opencl device. */
+     * others light tracing (t = 1) only, which MIS then counts that many times; 0: by default (1).
+     * Not on the opencl device. */
     int bdpt_light_paths;
 } spc_render_options;
 

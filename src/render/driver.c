@@ -66,16 +66,15 @@
  * subpath's vertices (about 540 bytes each, 5 a subpath on the door: 2.7 KB a pixel, so 180 MB
  * here); larger renders would need a compact store. */
 #define SPC_POOL_AUTO_MAX_PIXELS (1 << 16)
-/* bdpt's light subpaths per camera sample by default (spc_render_options.bdpt_light_paths): the
- * extra ones serve light tracing only, at the cost of a light walk and its splats' shadow rays.
- * With the pool a camera sample costs several times that (its picks), and more subpaths pay: on
- * the door (32x32, 64 spp, three sets of seeds, one thread, relative variance of the mean times
- * CPU s, the pilot included) 2 of them 0.91x, 4 0.78-0.81x, 8 0.72-0.84x, 16 0.85x of one; the
- * lamp behind its shade 2: 0.94x, 4: 0.90x, 8: 0.91x. Without the pool they do not: the glass-ball
- * caustic (256 spp, 4 seeds) 2: 1.00x, 3: 1.05x; the cornell box 2: 0.97x, 4: 0.93x (2 seeds,
- * noise). The 8-seed bench: bench/RESULTS.md, "part bdpt8". */
+/* bdpt's light subpaths per camera sample by default (spc_render_options.bdpt_light_paths): one.
+ * The extra ones serve light tracing only, at the cost of a light walk (about 2 rays on the
+ * glass-ball caustic, 18% of a camera sample) and their splats. Measured at equal CPU time by the
+ * error over seeds, none paid: the door (with the pool, 8 seeds, 4 CPU-s) 8 of them 1.05x worse
+ * than one, the lamp behind its shade 1.02x better (noise); the glass-ball caustic (32x32, 128 spp,
+ * 8 seeds, the seeds' scatter times CPU s) 2: 1.07x, 4: 1.39x worse. The film's own variance
+ * estimate favoured them (0.72-0.84x on the door): it treats passes as independent, and the
+ * sampler's passes are stratified, more so for one light subpath (bench/RESULTS.md, part bdpt8). */
 #define SPC_BDPT_AUTO_LIGHT_PATHS 1
-#define SPC_BDPT_POOL_LIGHT_PATHS 8
 
 typedef struct tile {
     int x0, y0, x1, y1; /* in the rendered window */
@@ -436,8 +435,6 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
         !(spc_device_parse(o->device, &dev_cl, &dev_index) && dev_cl) &&
         spc_bdpt_pool_direct_share(&ctx, o->seed) < SPC_POOL_AUTO_SHARE)
         pool_m = SPC_POOL_AUTO_CONNECTIONS;
-    if (o->bdpt_light_paths == 0 && ctx.kind == SPC_INTEGRATOR_BDPT && pool_m > 0)
-        ctx.bdpt_light_paths = SPC_BDPT_POOL_LIGHT_PATHS;
 
     long long spp = o->spp > 0 ? o->spp : sc->spp;
     if (o->time_limit > 0.0 && o->spp <= 0)
