@@ -911,8 +911,9 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
                                    v ? v : "");
         } else if (opt_value(argc, argv, &i, "--bdpt-light-paths", NULL, &v)) {
             if (!parse_int(v, 0, 64, &opt.bdpt_light_paths))
-                code = usage_error(usage_render, "--bdpt-light-paths needs light subpaths per sample in 1..64 or 0 "
-                                                 "(default), not '%s'",
+                code = usage_error(usage_render,
+                                   "--bdpt-light-paths needs light subpaths per sample in 1..64 or 0 "
+                                   "(default), not '%s'",
                                    v ? v : "");
         } else if (!strcmp(a, "--variance")) {
             variance = true;

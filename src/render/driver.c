@@ -371,8 +371,8 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "bdpt light subpaths per sample %d are outside 0..64",
                              o->bdpt_light_paths);
     if (o->bdpt_light_paths > 0 && ctx.kind != SPC_INTEGRATOR_BDPT)
-        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "light subpaths per sample need the bdpt integrator, not '%s'",
-                             iname);
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                             "light subpaths per sample need the bdpt integrator, not '%s'", iname);
     ctx.bdpt_light_paths = o->bdpt_light_paths > 0 ? o->bdpt_light_paths : SPC_BDPT_AUTO_LIGHT_PATHS;
     ctx.strict_normals = sc->integrator.strict_normals;
     if (o->strategy_images) {
