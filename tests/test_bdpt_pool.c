@@ -27,27 +27,36 @@
 
 /* bdpt with `pool` connections per camera vertex (-1: plain, 0: the default), the scene's specular
  * NEE setting. */
-static spc_film *render_pool(const spc_scene *sc, int pool, int spp, int threads, uint64_t seed, spc_status *status)
+static spc_film *render_pool_k(const spc_scene *sc, int pool, int light_paths, int spp, int threads, uint64_t seed,
+                               spc_status *status)
 {
     spc_render_options o;
     tu_options(&o, "bdpt", NULL, spp, threads, seed);
     o.bdpt_pool = pool;
+    o.bdpt_light_paths = light_paths;
     return tu_render_options(sc, &o, NULL, status);
 }
 
-/* The pool's image against plain bdpt at 4x the samples (different seeds). */
-static void agrees_with_bdpt(const char *rel, int res, int spp, int pool)
+static spc_film *render_pool(const spc_scene *sc, int pool, int spp, int threads, uint64_t seed, spc_status *status)
+{
+    return render_pool_k(sc, pool, 0, spp, threads, seed, status);
+}
+
+/* The pool's image (with `light_paths` light subpaths per camera sample, 0: the default) against
+ * plain bdpt at 4x the samples (different seeds). */
+static void agrees_with_bdpt_k(const char *rel, int res, int spp, int pool, int light_paths)
 {
     spc_scene *sc = tu_load(rel, res);
     CHECK(sc != NULL);
     if (!sc)
         return;
-    spc_film *a = render_pool(sc, pool, spp, 2, 1, NULL);
+    spc_film *a = render_pool_k(sc, pool, light_paths, spp, 2, 1, NULL);
     spc_film *b = render_pool(sc, -1, 4 * spp, 2, 2, NULL);
     CHECK(a && b);
     if (a && b) {
         char label[256];
-        snprintf(label, sizeof label, "%s, pool %d at %d spp against bdpt at %d", rel, pool, spp, 4 * spp);
+        snprintf(label, sizeof label, "%s, pool %d, light subpaths %d, at %d spp against bdpt at %d", rel, pool,
+                 light_paths, spp, 4 * spp);
         spc_diff_result d;
         memset(&d, 0, sizeof d);
         CHECK(tu_image_agrees(a, b, 0.99, label, &d));
@@ -58,9 +67,13 @@ static void agrees_with_bdpt(const char *rel, int res, int spp, int pool)
     spc_scene_destroy(sc);
 }
 
-TEST(door_agrees_with_bdpt) { agrees_with_bdpt("scenes/indirect_door.xml", 12, 256, 2); }
+TEST(door_agrees_with_bdpt) { agrees_with_bdpt_k("scenes/indirect_door.xml", 12, 256, 2, 0); }
 
-TEST(caustic_agrees_with_bdpt) { agrees_with_bdpt("scenes/caustic_sphere.xml", 12, 256, 3); }
+TEST(caustic_agrees_with_bdpt) { agrees_with_bdpt_k("scenes/caustic_sphere.xml", 12, 256, 3, 0); }
+
+/* With the pool the extra light subpaths are traced with the pass's subpaths, before its camera
+ * samples (spc_bdpt_pool_trace), and only splat: the same MIS counts as without it. */
+TEST(door_with_light_paths_agrees_with_bdpt) { agrees_with_bdpt_k("scenes/indirect_door.xml", 12, 128, 2, 4); }
 
 /* Relative variance of the pixel means, averaged over pixels and channels (var / (mean^2 + 0.01),
  * the weighting of relMSE). */
@@ -304,6 +317,7 @@ int main(void)
     RUN(resumes_bit_for_bit);
     RUN(door_agrees_with_bdpt);
     RUN(caustic_agrees_with_bdpt);
+    RUN(door_with_light_paths_agrees_with_bdpt);
     RUN(door_variance_falls);
     return spc_test_finish();
 }

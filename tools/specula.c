@@ -138,6 +138,9 @@ static const char *const usage_render_more =
     "                         importance from a pool of the pass's light subpaths (the first\n"
     "                         vertex to 10 M, the third and later to M / 3); -1: off; 0\n"
     "                         (default): 3 where the camera sees mostly indirectly lit surfaces\n"
+    "  --bdpt-light-paths K   bdpt: trace K light subpaths per camera sample, the first for every\n"
+    "                         strategy, the others for light tracing only (1..64; 0\n"
+    "                         (default): 1)\n"
     "  --device cpu|opencl[:N]  (info --devices)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"
@@ -906,6 +909,12 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
                 code = usage_error(usage_render,
                                    "--bdpt-pool needs connections per camera vertex in 1..64, 0 (default) or -1 (off), "
                                    "not '%s'",
+                                   v ? v : "");
+        } else if (opt_value(argc, argv, &i, "--bdpt-light-paths", NULL, &v)) {
+            if (!parse_int(v, 0, 64, &opt.bdpt_light_paths))
+                code = usage_error(usage_render,
+                                   "--bdpt-light-paths needs light subpaths per sample in 1..64 or 0 "
+                                   "(default), not '%s'",
                                    v ? v : "");
         } else if (!strcmp(a, "--variance")) {
             variance = true;

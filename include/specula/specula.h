@@ -139,6 +139,10 @@ typedef struct spc_render_options {
      * subpaths, about 2.7 KB a pixel on an indoor scene. Not with strategy_s/t, strategy_images or
      * the opencl device (by default off there). */
     int bdpt_pool;
+    /* bdpt: light subpaths traced per camera sample, 1..64: the first serves every strategy, the
+     * others light tracing (t = 1) only, which MIS then counts that many times; 0: by default (1).
+     * Not on the opencl device. */
+    int bdpt_light_paths;
 } spc_render_options;
 
 #define SPC_STRATEGY_IMAGES_MAX_DEPTH 8

@@ -42,8 +42,12 @@
  *   genuinely zero one way) count as 1 in the ratios (remap0); the weights still sum to one.
  *   Delta lights (point, spot: delta position; directional: delta direction) cannot be hit (no
  *   s = 0); a light at infinity cannot be joined to the pinhole directly ((1, 1) is impossible).
- * The t = 1 strategy has N = (pixels of the rendered window) light paths per pass for each pixel,
- * against one camera sample: in the multi-sample heuristic its density counts N times. The camera's
+ * The t = 1 strategy has N = K (pixels of the rendered window) light paths per pass for each pixel,
+ * against one camera sample: in the multi-sample heuristic its density counts N times. K =
+ * ctx->bdpt_light_paths light subpaths are traced per camera sample: the first for every strategy,
+ * the other K - 1 for light tracing only (t = 1: a splat costs a shadow ray, and light tracing
+ * carries the caustics seen directly), so only t = 1 counts K; the camera vertex z1's density for
+ * MIS and t = 1's camera density are divided by K along with N. The camera's
  * density for MIS takes the pixel filter as 1 over the pixel (exact for the box of radius 0.5;
  * for wider filters the weights still sum to one, they are only less than optimal).
  *
@@ -186,6 +190,8 @@ typedef struct bdpt {
     const spc_render_ctx *ctx;
     const spc_scene *sc;
     double n_light_paths; /* light subpaths per pass: pixels of the rendered window */
+    double n_lt_paths;    /* light tracing's (t = 1) subpaths per pass: n_light_paths times K */
+    int lt_per_sample;    /* K: light subpaths per camera sample (ctx->bdpt_light_paths; 1 for ptracer) */
     double film_pixels;   /* pixels of the full film */
     bool weighted, balance;
     bool snee;              /* specular NEE at camera vertices (ctx->specular_nee; see the file comment) */
@@ -775,7 +781,7 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
         double g = shading_fix(&v->h, v->wo, cd.wi) * spc_absdot(cd.wi, v->h.sh.n) / (cd.dist * cd.dist);
         C = spc_rgb_scale(spc_rgb_mul(v->beta, f), g);
     }
-    C = spc_rgb_scale(C, cd.We / B->n_light_paths);
+    C = spc_rgb_scale(C, cd.We / B->n_lt_paths);
     if (spc_rgb_is_black(C))
         return;
     spc_ray sr = spc_hit_spawn_to(&v->h, cd.p_near, 0.0);
@@ -784,13 +790,39 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
     double w = 1.0;
     if (B->weighted) {
         /* the camera's density of v: its direction density times W H / N (see the file comment) */
-        double pdf_cam = to_area(cd.We / B->n_light_paths, &z[0], v);
+        double pdf_cam = to_area(cd.We / B->n_lt_paths, &z[0], v);
         w = mis_weight(B, y, s, z, 1, NULL, pdf_cam, false);
     }
     spc_splat_add(ctx, tls, cd.fx, cd.fy, spc_rgb_scale(C, w));
     if (strategy >= 0) {
         spc_splat_add_to(ctx, tls, 1 + 2 * strategy, cd.fx, cd.fy, spc_rgb_scale(C, w));
         spc_splat_add_to(ctx, tls, 2 + 2 * strategy, cd.fx, cd.fy, C);
+    }
+}
+
+/* Light tracing (t = 1) of a camera sample's extra light subpaths 1 .. K - 1 (the first, traced
+ * with the sample's other strategies, is not one of them), each from its own stream keyed by the
+ * pixel's seed, the subpath's number and the sample's index; y is scratch for the walk. With
+ * strategy images the splats also go to the t = 1 films, as connect_t1 does for the first. */
+static void light_trace_extra(const bdpt *B, spc_tls *tls, uint64_t pixel_seed, uint32_t index, const vtx *z, vtx *y,
+                              int max_light, bool capped)
+{
+    const spc_render_ctx *ctx = B->ctx;
+    if (ctx->strategy_t >= 0 && ctx->strategy_t != 1)
+        return;
+    const uint64_t key = spc_hash_combine(pixel_seed, SPC_BDPT_LIGHT_STREAM);
+    for (int j = 1; j < B->lt_per_sample; ++j) {
+        spc_sampler ls;
+        spc_sampler_start_key(&ls, spc_hash_combine(key, (uint64_t)j), index);
+        int nl = light_subpath(B, &ls, y, max_light, capped);
+        for (int s = 1; s <= nl; ++s) {
+            if (ctx->max_depth >= 0 && s > ctx->max_depth)
+                break;
+            if ((s == 1 && ctx->hide_emitters) || (ctx->strategy_s >= 0 && s != ctx->strategy_s))
+                continue;
+            int k = ctx->strategy_images_depth > 0 && s <= ctx->strategy_images_depth ? spc_strategy_index(s, 1) : -1;
+            connect_t1(B, tls, y, s, z, k);
+        }
     }
 }
 
@@ -970,6 +1002,8 @@ static void bdpt_init(bdpt *B, const spc_render_ctx *ctx)
         B->snp.mis = !B->snp.no_mis;
     }
     B->cam_scale = B->film_pixels / B->n_light_paths;
+    B->lt_per_sample = ctx->bdpt_light_paths > 1 ? ctx->bdpt_light_paths : 1;
+    B->n_lt_paths = B->n_light_paths * B->lt_per_sample;
     B->pm = ctx->pool_model;
 }
 
@@ -1025,6 +1059,18 @@ bool spc_bdpt_pool_trace(const spc_render_ctx *ctx, spc_tls *tls, int pass, uint
             }
             if (nl >= 1)
                 tls->lv_n += (size_t)nl;
+            if (B.lt_per_sample > 1) { /* scratch past the stored subpath, room for one more */
+                if (tls->lv_cap - tls->lv_n < SPC_BDPT_MAX_VERTICES) {
+                    size_t cap = 2 * tls->lv_cap;
+                    void *nv = realloc(tls->lv, cap * sizeof(vtx));
+                    if (!nv)
+                        return false;
+                    tls->lv = nv;
+                    tls->lv_cap = cap;
+                }
+                light_trace_extra(&B, tls, smp.pixel_seed, smp.index, &z0, (vtx *)tls->lv + tls->lv_n, max_light,
+                                  capped);
+            }
         }
     tls->lv_first[ip] = tls->lv_n;
     return true;
@@ -1252,6 +1298,8 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         B.snp.mis = !B.snp.no_mis;
     }
     B.cam_scale = B.film_pixels / B.n_light_paths;
+    B.lt_per_sample = !ptracer && ctx->bdpt_light_paths > 1 ? ctx->bdpt_light_paths : 1;
+    B.n_lt_paths = B.n_light_paths * B.lt_per_sample;
     B.cam_d0 = ray0->d;
     /* with the pool (bdpt_pool.h) this pixel's light subpath and its light tracing (t = 1) were
      * traced with the pool; each camera vertex adds connect_pool's connections */
@@ -1284,7 +1332,7 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     z0->pdf_fwd = 1.0;
     z0->pdf_rev = 0.0;
     z0->light = NULL;
-    double pdf_cam_mis = pdf_cam > 0.0 ? pdf_cam * B.film_pixels / B.n_light_paths : 1.0;
+    double pdf_cam_mis = pdf_cam > 0.0 ? pdf_cam * B.film_pixels / B.n_lt_paths : 1.0;
     int nc = random_walk(&B, *ray0, spc_rgb1(1.0), pdf_cam_mis, SPC_MODE_RADIANCE, smp, z, 1, max_cam, cam_capped);
     if (nc >= 2 && z[1].kind == V_SURFACE) {
         spc_aov_from_hit(ctx, &z[1].h, spc_neg(ray0->d), smp, out);
@@ -1351,5 +1399,8 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             }
         }
     }
+    /* the extra light subpaths' light tracing (with the pool, spc_bdpt_pool_trace did it) */
+    if (!pool && B.lt_per_sample > 1)
+        light_trace_extra(&B, tls, smp->pixel_seed, smp->index, z, y, max_light, light_capped);
     out->L = L;
 }

@@ -56,6 +56,9 @@ typedef struct spc_render_ctx {
     /* bdpt: connections to the pass's pool of light vertices (bdpt_pool.h) instead of the camera
      * sample's own light subpath; NULL: off */
     const struct spc_bdpt_pool_model *pool_model;
+    /* bdpt: light subpaths per camera sample (>= 1); the second and later serve light tracing
+     * (t = 1) only, and MIS counts t = 1 that many times (bdpt.c) */
+    int bdpt_light_paths;
 } spc_render_ctx;
 
 typedef struct spc_splat {

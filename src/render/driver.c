@@ -66,6 +66,15 @@
  * subpath's vertices (about 540 bytes each, 5 a subpath on the door: 2.7 KB a pixel, so 180 MB
  * here); larger renders would need a compact store. */
 #define SPC_POOL_AUTO_MAX_PIXELS (1 << 16)
+/* bdpt's light subpaths per camera sample by default (spc_render_options.bdpt_light_paths): one.
+ * The extra ones serve light tracing only, at the cost of a light walk (about 2 rays on the
+ * glass-ball caustic, 18% of a camera sample) and their splats. Measured at equal CPU time by the
+ * error over seeds, none paid: the door (with the pool, 8 seeds, 4 CPU-s) 8 of them 1.05x worse
+ * than one, the lamp behind its shade 1.02x better (noise); the glass-ball caustic (32x32, 128 spp,
+ * 8 seeds, the seeds' scatter times CPU s) 2: 1.07x, 4: 1.39x worse. The film's own variance
+ * estimate favoured them (0.72-0.84x on the door): it treats passes as independent, and the
+ * sampler's passes are stratified, more so for one light subpath (bench/RESULTS.md, part bdpt8). */
+#define SPC_BDPT_AUTO_LIGHT_PATHS 1
 
 typedef struct tile {
     int x0, y0, x1, y1; /* in the rendered window */
@@ -358,6 +367,13 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     if (o->bdpt_pool > 0 && (o->strategy_images || ctx.strategy_s >= 0 || ctx.strategy_t >= 0))
         return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
                              "a pool of light vertices and strategy images or a single strategy exclude each other");
+    if (o->bdpt_light_paths < 0 || o->bdpt_light_paths > 64)
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "bdpt light subpaths per sample %d are outside 0..64",
+                             o->bdpt_light_paths);
+    if (o->bdpt_light_paths > 0 && ctx.kind != SPC_INTEGRATOR_BDPT)
+        return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0,
+                             "light subpaths per sample need the bdpt integrator, not '%s'", iname);
+    ctx.bdpt_light_paths = o->bdpt_light_paths > 0 ? o->bdpt_light_paths : SPC_BDPT_AUTO_LIGHT_PATHS;
     ctx.strict_normals = sc->integrator.strict_normals;
     if (o->strategy_images) {
         if (ctx.kind != SPC_INTEGRATOR_BDPT)
@@ -516,6 +532,14 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
                                o->device);
         goto cleanup;
     }
+    if (use_cl && ctx.bdpt_light_paths > 1) {
+        if (o->bdpt_light_paths > 1) {
+            status = spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0,
+                                   "the opencl device traces one light subpath per camera sample");
+            goto cleanup;
+        }
+        ctx.bdpt_light_paths = 1;
+    }
     if (use_cl && pool_m > 0) {
         status = spc_error_set(err, SPC_ERR_PLUGIN, file, 0, 0, "the opencl device has no pool of light vertices");
         goto cleanup;
@@ -527,6 +551,9 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     spc_ckpt_settings_text(&ctx, sname, o->seed, aovs, settings, sizeof settings);
     if (pool_m > 0) /* the pool changes the image */
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";bdpt_pool=%d", pool_m);
+    if (ctx.kind == SPC_INTEGRATOR_BDPT && ctx.bdpt_light_paths > 1) /* so do more light subpaths */
+        snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";bdpt_light_paths=%d",
+                 ctx.bdpt_light_paths);
     if (use_cl) /* a checkpoint resumes only on the device that began it */
         snprintf(settings + strlen(settings), sizeof settings - strlen(settings), ";device=opencl:%d", cl_index);
     if (o->resume && (status = spc_ckpt_restore(o->resume, sc->content_hash, settings, film, err)) != SPC_OK)
