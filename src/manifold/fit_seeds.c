@@ -119,7 +119,8 @@ bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc
     double R;
     if (!spc_fit_sphere(s, &c, &R))
         return false;
-    if (!(spc_rng_next(rng) < SPC_FIT_SEED_SHARE))
+    double share = q->params && q->params->fit_share > 0.0 ? q->params->fit_share : SPC_FIT_SEED_SHARE;
+    if (!(spc_rng_next(rng) < share))
         return false;
     double u = spc_rng_next(rng);
     spc_fit_roots *fr = q->fit;

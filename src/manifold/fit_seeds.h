@@ -57,7 +57,7 @@ typedef struct spc_fit_roots {
 bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius);
 
 /* A seed direction for q's attempt toward caster s from the fitted sphere's solutions: with
- * probability SPC_FIT_SEED_SHARE (one uniform from rng, drawn only where s has a fit) one of those
+ * probability SPC_FIT_SEED_SHARE, or q's params.fit_share where set (one uniform from rng, drawn only where s has a fit) one of those
  * solutions' first directions, uniformly (a second uniform). False where the attempt seeds as
  * before (no fit, no solution, or the other share). */
 bool spc_fit_seed(const struct spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc_vec3 *dir);

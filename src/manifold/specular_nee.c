@@ -645,7 +645,7 @@ static double attempt_psi(const spc_snee_query *q, const spc_chain *c)
     if (p->mis_events && p->reflect && !p->biased && psi < 1.0) {
         spc_chain_sig sig;
         spc_chain_signature(c, &sig);
-        psi *= spc_chain_events_prob(q->scene, &sig, p->any_surface, p->reflect_p);
+        psi *= spc_snee_attempt_events_prob(q, &sig);
     }
     return psi;
 }
@@ -711,14 +711,28 @@ static bool solve_mis_chain(const spc_snee_params *p, const spc_chain *c)
 
 /* The longer chains on a tessellated ball (solve_mis_chain: every vertex on a sphere fit) have a
  * pass of their own at every call where the longer chains run (long_on): one randomized attempt at a
- * length drawn uniformly past the budget, its events picked with SPC_BALL_REFLECT_P (a chain reflected
- * three times inside the ball: 0.8^2 0.2^3 = 0.005 at the default 0.2, 0.03 at 0.5). The general long
- * pass (probability long_p) keeps the other chains only. With long_p's 1 / 40 per length and 0.2 per
+ * length drawn uniformly past the budget, its events the ball's (in, reflected, out) with probability
+ * SPC_BALL_EVENTS_P, else picked with SPC_BALL_REFLECT_P, its seeds from the fitted sphere's
+ * solutions of that length at SPC_BALL_FIT_SHARE. The general long pass (probability long_p) keeps
+ * the other chains only. With long_p's 1 / 40 per length and 0.2 per
  * reflection, a 5-vertex chain under the triangle glass ball (bench/check/glass_ball_mesh.xml) had
  * specular NEE's density 1 / 7 of BSDF sampling's even where every attempt finds it, so one BSDF-sampled
  * path held a seed's whole error (bench/RESULTS.md, "The triangle glass ball's 5-vertex tail"). */
 #define SPC_BALL_LONG_P 1.0
 #define SPC_BALL_REFLECT_P 0.5
+/* The ball pass's attempts take the events of a chain through one ball (in, reflected at every inner
+ * vertex, out: spc_snee_attempt_event_u) with this probability, the others pick each event at
+ * SPC_BALL_REFLECT_P: the only events a chain of 2 or more vertices on one convex ball can have get
+ * 0.9 instead of 0.5^k (0.03 at 5 vertices), and chains through two balls keep a share. With it and
+ * SPC_BALL_FIT_SHARE, the 5-vertex paths from the floor point under that tail reach the light with a
+ * mean BSDF-side weight of 0.005 instead of 0.15 (test_solve_mis; bench/RESULTS.md, "The triangle
+ * glass ball's 5-vertex chain"). */
+#define SPC_BALL_EVENTS_P 0.9
+/* The ball pass's share of seeds from the fitted sphere's solutions (fit_seeds.h): its chains have
+ * one length, so the fitted sphere's solutions of that length are the chains it looks for (at that
+ * floor point three of them, each found by its own seed in 3-5 iterations; p per chain 0.17-0.23
+ * at the default share 0.5, 0.25-0.35 at 0.9). */
+#define SPC_BALL_FIT_SHARE 0.9
 
 /* The ball pass's event probability: SPC_BALL_REFLECT_P, or params.reflect_p where that is higher. */
 static double ball_reflect_p(const spc_snee_params *p)
@@ -734,11 +748,13 @@ static double ball_long_psi(const spc_snee_query *q, int k)
     return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
 
-/* p with the ball pass's event probability. */
+/* p with the ball pass's events and seeds. */
 static spc_snee_params ball_params(const spc_snee_params *p)
 {
     spc_snee_params b = *p;
     b.reflect_p = ball_reflect_p(p);
+    b.ball_events_p = SPC_BALL_EVENTS_P;
+    b.fit_share = SPC_BALL_FIT_SHARE;
     return b;
 }
 
@@ -815,7 +831,7 @@ static double trial_query(const spc_snee_query *q, const spc_chain *c, spc_chain
     if (!p->reflect)
         return 1.0;
     tq->events = want->event;
-    return spc_chain_events_prob(q->scene, want, p->any_surface, p->reflect_p);
+    return spc_snee_attempt_events_prob(q, want);
 }
 
 static int trial_cap(const spc_snee_params *p) { return p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS; }
@@ -1047,7 +1063,7 @@ static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *so
     double p_events = 1.0;
     if (p->reflect) {
         tq.events = want.event;
-        p_events = spc_chain_events_prob(q->scene, &want, p->any_surface, p->reflect_p);
+        p_events = spc_snee_attempt_events_prob(q, &want);
     }
     bool capped;
     int iterations = 0;
