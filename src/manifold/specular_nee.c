@@ -740,14 +740,6 @@ static double ball_reflect_p(const spc_snee_params *p)
     return p->reflect_p > SPC_BALL_REFLECT_P ? p->reflect_p : SPC_BALL_REFLECT_P;
 }
 
-/* The probability that a call's ball pass looks for chains of k vertices: 0 if it never does. */
-static double ball_long_psi(const spc_snee_query *q, int k)
-{
-    if (!long_on(q) || !solve_mis_on(q->params) || k <= q->max_chain || k > q->long_max || k > SPC_SNEE_LONG_MAX)
-        return 0.0;
-    return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
-}
-
 /* p with the ball pass's events and seeds. */
 static spc_snee_params ball_params(const spc_snee_params *p)
 {
@@ -756,6 +748,34 @@ static spc_snee_params ball_params(const spc_snee_params *p)
     b.ball_events_p = SPC_BALL_EVENTS_P;
     b.fit_share = SPC_BALL_FIT_SHARE;
     return b;
+}
+
+/* Does the sphere fitted to one of q's casters have a chain of q's length (min_chain = max_chain)
+ * from x to q's light point (spc_fit_root_count: the roots its seeds draw from, kept in q->fit)? */
+static bool ball_has_roots(const spc_snee_query *q)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    for (int j = 0; cs && j < cs->n; ++j)
+        if (spc_fit_root_count(q, q->scene->shapes[cs->idx[j]]) > 0)
+            return true;
+    return false;
+}
+
+/* The probability that a call's ball pass looks for chains of k vertices: 0 if it never does, nor
+ * where no fitted sphere has a chain of k vertices toward q's light point (ball_has_roots: a chain
+ * the mesh has there is left to BSDF sampling; the attempt, which would have no fitted seed, is not
+ * made). A function of the query, so both sides of the MIS compute it alike. */
+static double ball_long_psi(const spc_snee_query *q, int k)
+{
+    if (!long_on(q) || !solve_mis_on(q->params) || k <= q->max_chain || k > q->long_max || k > SPC_SNEE_LONG_MAX)
+        return 0.0;
+    spc_snee_params bp = ball_params(q->params);
+    spc_snee_query lq = *q;
+    lq.params = &bp;
+    lq.min_chain = lq.max_chain = k;
+    if (!ball_has_roots(&lq))
+        return 0.0;
+    return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
 
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
@@ -908,6 +928,9 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.cam = cam;
         q.cam_scale = r->cam_scale;
         q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
+        spc_fit_roots fit; /* the fitted sphere's solutions toward this light point (fit_seeds.h) */
+        fit.nshapes = 0;
+        q.fit = &fit;
         double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p);
         double rs;
         *a = chain_psi(&q, &ch, &rs) * p_y * ps;
@@ -921,9 +944,6 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
                 lq.min_chain = lq.max_chain = ch.n;
                 lq.params = &bp;
             }
-            spc_fit_roots fit;
-            fit.nshapes = 0;
-            lq.fit = &fit;
             spc_chain_sig want;
             spc_snee_query tq;
             double p_ev = trial_query(&lq, &ch, &want, &tq);
