@@ -714,10 +714,10 @@ static bool solve_mis_chain(const spc_snee_params *p, const spc_chain *c)
  * length drawn uniformly past the budget, its events the ball's (in, reflected, out) with probability
  * SPC_BALL_EVENTS_P, else picked with SPC_BALL_REFLECT_P, its seeds from the fitted sphere's
  * solutions of that length at SPC_BALL_FIT_SHARE. The general long pass (probability long_p) keeps
- * the other chains only. With long_p's 1 / 40 per length and 0.2 per
- * reflection, a 5-vertex chain under the triangle glass ball (bench/check/glass_ball_mesh.xml) had
- * specular NEE's density 1 / 7 of BSDF sampling's even where every attempt finds it, so one BSDF-sampled
- * path held a seed's whole error (bench/RESULTS.md, "The triangle glass ball's 5-vertex tail"). */
+ * the other chains only. With long_p's 1 / 40 per length and 0.2 per reflection, a 5-vertex chain
+ * under the triangle glass ball (bench/check/glass_ball_mesh.xml) had specular NEE's density 1 / 7 of
+ * BSDF sampling's even where every attempt finds it, so one BSDF-sampled path held a seed's whole
+ * error (bench/RESULTS.md, "The triangle glass ball's 5-vertex tail"). */
 #define SPC_BALL_LONG_P 1.0
 #define SPC_BALL_REFLECT_P 0.5
 /* The ball pass's attempts take the events of a chain through one ball (in, reflected at every inner
