@@ -11,6 +11,9 @@
  * - The trial count stays unbiased for the mixture: for those chains the mean of 300 Bernoulli trial
  *   counts (spc_snee_count_same) times the measured p is 1 within 4 standard errors; it fails if the
  *   trials drew their seeds from another distribution than the first attempt.
+ * - The solutions counted per chain length (spc_fit_root_count, which the ball pass of specular NEE
+ *   asks before it looks for chains of a length): none of 3 vertices and three of 5 from a floor
+ *   point to the light.
  */
 /* ctest-labels: stat */
 #include <math.h>
@@ -126,9 +129,50 @@ TEST(fit_seeds_find_every_chain_and_count_unbiased)
     spc_scene_destroy(sc);
 }
 
+/* The fitted sphere's solutions that the seeds (and the ball pass's choice of lengths) use, from the
+ * floor point (-0.23, 0, 0.72) under the triangle glass ball to the centre of its light: none of 3
+ * vertices (one internal reflection sends the light back up), three of 5 (three reflections; each
+ * converges on the mesh to a chain of its own), and none for a cube. */
+TEST(fit_root_count_by_length)
+{
+    spc_scene *sc = tu_load(SCENE, 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_snee_params p;
+    CHECK(spc_snee_parse("angular", 2, &p));
+    spc_hit x;
+    CHECK(chain_floor_point(sc, 1, -0.23, 0.72, &x));
+    const spc_shape *ball = NULL, *floor = sc->shapes[1];
+    for (int i = 0; i < sc->nshapes && !ball; ++i) {
+        spc_vec3 c;
+        double r;
+        if (spc_fit_sphere(sc->shapes[i], &c, &r))
+            ball = sc->shapes[i];
+    }
+    CHECK(ball != NULL);
+    int n[7] = {0};
+    for (int k = 3; k <= 6 && ball; ++k) {
+        spc_snee_query q;
+        spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 1, 0), k);
+        q.min_chain = k;
+        q.y = spc_v3(0.4, 2.2, -0.6);
+        spc_fit_roots fit;
+        fit.nshapes = 0;
+        q.fit = &fit;
+        n[k] = spc_fit_root_count(&q, ball);
+        CHECK(spc_fit_root_count(&q, ball) == n[k] && fit.nshapes == 1); /* kept, not recomputed */
+        CHECK(spc_fit_root_count(&q, floor) == 0);
+    }
+    printf("    roots by length: 3: %d, 4: %d, 5: %d, 6: %d\n", n[3], n[4], n[5], n[6]);
+    CHECK(n[3] == 0 && n[5] == 3);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(fit_of_a_tessellated_ball_only);
     RUN(fit_seeds_find_every_chain_and_count_unbiased);
+    RUN(fit_root_count_by_length);
     return spc_test_finish();
 }

@@ -13,6 +13,10 @@
  *   the default's second moment is below 0.6 of the stand-in's, the real probability's alone below
  *   0.8, and its largest single sample under half the stand-in's (the trial count's tail, which the
  *   stand-in's weight lets through where BSDF sampling reaches the chain).
+ * - The 5-vertex paths (in, three internal reflections, out) from one floor point: their mean
+ *   BSDF-side weight is below 0.05 (the ball pass's events and seeds; 0.15 without them).
+ * - The ball pass's events: the frequency of each event sequence that an attempt's uniforms pick
+ *   matches the probability both MIS sides use (spc_snee_attempt_events_prob).
  */
 /* ctest-labels: stat */
 #include <math.h>
@@ -286,7 +290,73 @@ TEST(ball_long_chain_weight)
     }
     printf("    %d five-vertex paths, mean BSDF-side weight %.3f\n", n, n > 0 ? sw / n : -1.0);
     CHECK(n >= 50);
-    CHECK_MSG(n > 0 && sw / n < 0.5, "mean weight %.3f", n > 0 ? sw / n : -1.0);
+    CHECK_MSG(n > 0 && sw / n < 0.05, "mean weight %.3f", n > 0 ? sw / n : -1.0);
+    spc_scene_destroy(sc);
+}
+
+/* The ball pass's events: over the 32 event sequences of a 5-vertex chain through the glass ball, the
+ * frequency with which spc_snee_attempt_event_u's uniforms pick each (spc_chain_pick_event at
+ * reflect_p 0.5) matches spc_snee_attempt_events_prob within 4 standard errors, the probabilities sum
+ * to 1, and the ball's own sequence (in, three reflections, out) has 0.9 + 0.1 / 32; without the
+ * ball's share (ball_events_p 0) every sequence has 1 / 32. */
+TEST(ball_events_probability)
+{
+    spc_scene *sc = tu_load(SCENE, 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    int glass = -1;
+    for (int i = 0; i < sc->nshapes && glass < 0; ++i) {
+        spc_vec3 c;
+        double R;
+        if (spc_fit_sphere(sc->shapes[i], &c, &R))
+            glass = i;
+    }
+    CHECK(glass >= 0);
+    const int N = spc_test_quick() ? 20000 : 100000;
+    for (int pass = 0; pass < 2 && glass >= 0; ++pass) {
+        spc_snee_params p;
+        CHECK(spc_snee_parse("angular", 2, &p));
+        p.reflect_p = 0.5;
+        p.ball_events_p = pass == 0 ? 0.9 : 0.0;
+        spc_hit x;
+        memset(&x, 0, sizeof x);
+        spc_snee_query q;
+        spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 1, 0), 5);
+        q.min_chain = 5;
+        int count[32] = {0};
+        spc_rng r;
+        spc_rng_seed(&r, 41, (uint64_t)pass);
+        for (int i = 0; i < N; ++i) {
+            double u[SPC_CHAIN_MAX_VERTICES];
+            spc_snee_attempt_event_u(&q, &r, u);
+            int k = 0;
+            for (int v = 0; v < 5; ++v)
+                k |= (spc_chain_pick_event(SPC_CHAIN_REFRACT, u[v], p.reflect_p, NULL) == SPC_CHAIN_REFLECT) << v;
+            count[k]++;
+        }
+        double sum = 0.0, ball = 0.0;
+        for (int k = 0; k < 32; ++k) {
+            spc_chain_sig sig;
+            memset(&sig, 0, sizeof sig);
+            sig.n = 5;
+            for (int v = 0; v < 5; ++v) {
+                sig.shape[v] = glass;
+                sig.event[v] = (k >> v) & 1 ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
+            }
+            double P = spc_snee_attempt_events_prob(&q, &sig), f = (double)count[k] / N,
+                   se = sqrt(P * (1.0 - P) / N);
+            sum += P;
+            if (k == 0xe) /* refract, reflect x 3, refract */
+                ball = P;
+            CHECK_MSG(fabs(f - P) <= 4.0 * se + 1e-12, "pass %d, events %d: frequency %.5f, probability %.5f", pass, k,
+                      f, P);
+        }
+        printf("    ball_events_p %.1f: probabilities sum to %.6f, the ball's sequence %.5f\n", p.ball_events_p, sum,
+               ball);
+        CHECK(fabs(sum - 1.0) < 1e-9);
+        CHECK(fabs(ball - (pass == 0 ? 0.9 + 0.1 / 32.0 : 1.0 / 32.0)) < 1e-9);
+    }
     spc_scene_destroy(sc);
 }
 
@@ -297,5 +367,6 @@ int main(void)
     RUN(count_ends_where_bsdf_sampling_takes_over);
     RUN(triangle_ball_tail);
     RUN(ball_long_chain_weight);
+    RUN(ball_events_probability);
     return spc_test_finish();
 }

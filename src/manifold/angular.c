@@ -284,8 +284,7 @@ bool spc_angular_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_cha
     } else if (q->params->reflect && q->seed != SPC_SNEE_SEED_LIGHT) {
         /* the events of the seed chain's dielectric vertices (the straight-line seed keeps the
          * BSDFs' events: it is deterministic) */
-        for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
-            event_u[i] = spc_rng_next(rng);
+        spc_snee_attempt_event_u(q, rng, event_u);
         o.event_u = event_u;
         o.reflect_p = q->params->reflect_p;
     }

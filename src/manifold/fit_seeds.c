@@ -113,15 +113,11 @@ static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, dou
     return n;
 }
 
-bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc_vec3 *dir)
+/* The fitted sphere's solution directions for q and caster s (center c, radius R): q->fit's entry for
+ * s and q's chain lengths, filled on first use, or where q->fit has no room, computed into `all`. */
+static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R,
+                                 spc_vec3 all[SPC_FIT_MAX_DIRS], int *n)
 {
-    spc_vec3 c;
-    double R;
-    if (!spc_fit_sphere(s, &c, &R))
-        return false;
-    if (!(spc_rng_next(rng) < SPC_FIT_SEED_SHARE))
-        return false;
-    double u = spc_rng_next(rng);
     spc_fit_roots *fr = q->fit;
     int j = 0;
     while (fr && j < fr->nshapes &&
@@ -135,18 +131,40 @@ bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc
         fr->nshapes++;
     }
     if (fr && j < fr->nshapes) {
-        int n = fr->e[j].n;
-        if (n < 1)
-            return false;
-        int i = (int)(u * n);
-        *dir = fr->e[j].dir[i < n ? i : n - 1];
-        return true;
+        *n = fr->e[j].n;
+        return fr->e[j].dir;
     }
+    *n = fit_dirs(q, s, c, R, all, SPC_FIT_MAX_DIRS);
+    return all;
+}
+
+int spc_fit_root_count(const spc_snee_query *q, const spc_shape *s)
+{
+    spc_vec3 c, all[SPC_FIT_MAX_DIRS];
+    double R;
+    int n = 0;
+    if (!spc_fit_sphere(s, &c, &R))
+        return 0;
+    fit_entry(q, s, c, R, all, &n);
+    return n;
+}
+
+bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc_vec3 *dir)
+{
+    spc_vec3 c;
+    double R;
+    if (!spc_fit_sphere(s, &c, &R))
+        return false;
+    double share = q->params && q->params->fit_share > 0.0 ? q->params->fit_share : SPC_FIT_SEED_SHARE;
+    if (!(spc_rng_next(rng) < share))
+        return false;
+    double u = spc_rng_next(rng);
     spc_vec3 all[SPC_FIT_MAX_DIRS];
-    int n = fit_dirs(q, s, c, R, all, SPC_FIT_MAX_DIRS);
+    int n = 0;
+    const spc_vec3 *d = fit_entry(q, s, c, R, all, &n);
     if (n < 1)
         return false;
     int i = (int)(u * n);
-    *dir = all[i < n ? i : n - 1];
+    *dir = d[i < n ? i : n - 1];
     return true;
 }

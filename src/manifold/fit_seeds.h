@@ -57,9 +57,13 @@ typedef struct spc_fit_roots {
 bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius);
 
 /* A seed direction for q's attempt toward caster s from the fitted sphere's solutions: with
- * probability SPC_FIT_SEED_SHARE (one uniform from rng, drawn only where s has a fit) one of those
- * solutions' first directions, uniformly (a second uniform). False where the attempt seeds as
- * before (no fit, no solution, or the other share). */
+ * probability SPC_FIT_SEED_SHARE, or q's params.fit_share where set (one uniform from rng, drawn
+ * only where s has a fit) one of those solutions' first directions, uniformly (a second uniform).
+ * False where the attempt seeds as before (no fit, no solution, or the other share). */
 bool spc_fit_seed(const struct spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc_vec3 *dir);
+
+/* The number of the fitted sphere's solutions that spc_fit_seed draws from for q and caster s (of
+ * q's chain lengths, from its x to its y; kept in q->fit like them): 0 where s has no fit. */
+int spc_fit_root_count(const struct spc_snee_query *q, const spc_shape *s);
 
 #endif

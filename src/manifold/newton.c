@@ -864,8 +864,7 @@ bool spc_newton_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chai
         double event_u[SPC_CHAIN_MAX_VERTICES];
         bool reflect = q->params->reflect && !q->events;
         if (reflect)
-            for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
-                event_u[i] = spc_rng_next(rng);
+            spc_snee_attempt_event_u(q, rng, event_u);
         if (!spc_snee_seed_direction(q, rng, &dir) ||
             !seed_trace(q->scene, q->x, dir, q->max_chain, q->any_surface, NULL, noref, q->events,
                         reflect ? event_u : NULL, q->params->reflect_p, &p))

@@ -135,6 +135,43 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
     return false;
 }
 
+/* ---- the events of an attempt ---- */
+
+/* Does the ball's event at vertex i of a k-vertex chain reflect (every vertex but the first and the
+ * last)? */
+static bool ball_reflects(int i, int k) { return i > 0 && i < k - 1; }
+
+void spc_snee_attempt_event_u(const spc_snee_query *q, spc_rng *rng, double event_u[SPC_CHAIN_MAX_VERTICES])
+{
+    const spc_snee_params *p = q->params;
+    if (p->ball_events_p > 0.0 && spc_rng_next(rng) < p->ball_events_p) {
+        /* u = 0 reflects and u = 1 refracts at any reflect_p in (0, 1] (spc_chain_pick_event) */
+        for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
+            event_u[i] = ball_reflects(i, q->max_chain) ? 0.0 : 1.0;
+        return;
+    }
+    for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
+        event_u[i] = spc_rng_next(rng);
+}
+
+double spc_snee_attempt_events_prob(const spc_snee_query *q, const spc_chain_sig *sig)
+{
+    const spc_snee_params *p = q->params;
+    double P = spc_chain_events_prob(q->scene, sig, p->any_surface, p->reflect_p);
+    if (!(p->ball_events_p > 0.0))
+        return P;
+    bool ball = sig->n == q->max_chain;
+    for (int i = 0; i < sig->n && ball; ++i) {
+        int ev = SPC_CHAIN_REFLECT;
+        if (sig->shape[i] < 0 || sig->shape[i] >= q->scene->nshapes ||
+            !spc_chain_shape_is_caster(q->scene->shapes[sig->shape[i]], p->any_surface, &ev))
+            return 0.0;
+        if (ev == SPC_CHAIN_REFRACT)
+            ball = (sig->event[i] == SPC_CHAIN_REFLECT) == ball_reflects(i, q->max_chain);
+    }
+    return (1.0 - p->ball_events_p) * P + (ball ? p->ball_events_p : 0.0);
+}
+
 bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene_size)
 {
     if (a->n != b->n)

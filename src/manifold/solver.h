@@ -112,6 +112,12 @@ typedef struct spc_snee_params {
      * with the rough newton mode. */
     bool reflect;
     double reflect_p;
+    /* With reflect: the probability that an attempt takes the events of a chain through one convex
+     * ball instead of picking each at reflect_p: refract in at the first vertex, reflect at every
+     * inner one, refract out at the last (of the query's max_chain vertices;
+     * spc_snee_attempt_event_u). 0 (the default) everywhere but in specular NEE's pass for the
+     * longer chains on a tessellated ball, which sets it. */
+    double ball_events_p;
     /* Specular NEE at the first `receivers` non-delta vertices of a camera path only (0: at all;
      * the user's "receivers=N"). Unbiased: where it does not run, BSDF sampling keeps the paths it
      * would have covered (the track starts nowhere). Deep vertices carry little of the image and
@@ -214,6 +220,9 @@ typedef struct spc_snee_params {
      * of its seeds go toward the exact solutions of the sphere fitted to it, so that every chain
      * the ball has is found with a probability that keeps its trial count short. */
     bool fit_seeds;
+    /* The share of the seeds drawn from the fitted sphere's solutions where it applies
+     * (spc_fit_seed); 0 (the default): SPC_FIT_SEED_SHARE. */
+    double fit_share;
 } spc_snee_params;
 
 /* Defaults: SEED_CONE, max_trials SPC_SNEE_MAX_TRIALS, caustic flags respected, the angular
@@ -298,6 +307,16 @@ bool spc_snee_straight_hits_glass(const spc_snee_query *q);
 
 /* A seed direction for the query (shared by the solvers); false if none (no caster shape). */
 bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *dir);
+
+/* The uniforms that pick a randomized attempt's events (spc_chain_opts.event_u, one per vertex, for
+ * spc_chain_pick_event at q->params->reflect_p): independent uniforms, or with probability
+ * params.ball_events_p (one more uniform, drawn only where it is positive) the ball's events:
+ * refraction at the first and last of q->max_chain vertices, reflection between. */
+void spc_snee_attempt_event_u(const spc_snee_query *q, spc_rng *rng, double event_u[SPC_CHAIN_MAX_VERTICES]);
+/* The probability that an attempt for q picks the events of sig (spc_snee_attempt_event_u): the ball's
+ * share where sig has the ball's events at its dielectric vertices, plus the rest times
+ * spc_chain_events_prob at reflect_p. */
+double spc_snee_attempt_events_prob(const spc_snee_query *q, const spc_chain_sig *sig);
 
 /* For the exact enumerations (sphere_chains.h, cylinder_chains.h): the chain of k vertices on shape s
  * with these events that leaves x along dir (a root of a planar problem), polished by the angular

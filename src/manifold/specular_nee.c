@@ -645,7 +645,7 @@ static double attempt_psi(const spc_snee_query *q, const spc_chain *c)
     if (p->mis_events && p->reflect && !p->biased && psi < 1.0) {
         spc_chain_sig sig;
         spc_chain_signature(c, &sig);
-        psi *= spc_chain_events_prob(q->scene, &sig, p->any_surface, p->reflect_p);
+        psi *= spc_snee_attempt_events_prob(q, &sig);
     }
     return psi;
 }
@@ -711,14 +711,28 @@ static bool solve_mis_chain(const spc_snee_params *p, const spc_chain *c)
 
 /* The longer chains on a tessellated ball (solve_mis_chain: every vertex on a sphere fit) have a
  * pass of their own at every call where the longer chains run (long_on): one randomized attempt at a
- * length drawn uniformly past the budget, its events picked with SPC_BALL_REFLECT_P (a chain reflected
- * three times inside the ball: 0.8^2 0.2^3 = 0.005 at the default 0.2, 0.03 at 0.5). The general long
- * pass (probability long_p) keeps the other chains only. With long_p's 1 / 40 per length and 0.2 per
- * reflection, a 5-vertex chain under the triangle glass ball (bench/check/glass_ball_mesh.xml) had
- * specular NEE's density 1 / 7 of BSDF sampling's even where every attempt finds it, so one BSDF-sampled
- * path held a seed's whole error (bench/RESULTS.md, "The triangle glass ball's 5-vertex tail"). */
+ * length drawn uniformly past the budget, its events the ball's (in, reflected, out) with probability
+ * SPC_BALL_EVENTS_P, else picked with SPC_BALL_REFLECT_P, its seeds from the fitted sphere's
+ * solutions of that length at SPC_BALL_FIT_SHARE. The general long pass (probability long_p) keeps
+ * the other chains only. With long_p's 1 / 40 per length and 0.2 per reflection, a 5-vertex chain
+ * under the triangle glass ball (bench/check/glass_ball_mesh.xml) had specular NEE's density 1 / 7 of
+ * BSDF sampling's even where every attempt finds it, so one BSDF-sampled path held a seed's whole
+ * error (bench/RESULTS.md, "The triangle glass ball's 5-vertex tail"). */
 #define SPC_BALL_LONG_P 1.0
 #define SPC_BALL_REFLECT_P 0.5
+/* The ball pass's attempts take the events of a chain through one ball (in, reflected at every inner
+ * vertex, out: spc_snee_attempt_event_u) with this probability, the others pick each event at
+ * SPC_BALL_REFLECT_P: the only events a chain of 2 or more vertices on one convex ball can have get
+ * 0.9 instead of 0.5^k (0.03 at 5 vertices), and chains through two balls keep a share. With it and
+ * SPC_BALL_FIT_SHARE, the 5-vertex paths from the floor point under that tail reach the light with a
+ * mean BSDF-side weight of 0.005 instead of 0.15 (test_solve_mis; bench/RESULTS.md, "The triangle
+ * glass ball's 5-vertex chain"). */
+#define SPC_BALL_EVENTS_P 0.9
+/* The ball pass's share of seeds from the fitted sphere's solutions (fit_seeds.h): its chains have
+ * one length, so the fitted sphere's solutions of that length are the chains it looks for (at that
+ * floor point three of them, each found by its own seed in 3-5 iterations; p per chain 0.17-0.23
+ * at the default share 0.5, 0.25-0.35 at 0.9). */
+#define SPC_BALL_FIT_SHARE 0.9
 
 /* The ball pass's event probability: SPC_BALL_REFLECT_P, or params.reflect_p where that is higher. */
 static double ball_reflect_p(const spc_snee_params *p)
@@ -726,20 +740,42 @@ static double ball_reflect_p(const spc_snee_params *p)
     return p->reflect_p > SPC_BALL_REFLECT_P ? p->reflect_p : SPC_BALL_REFLECT_P;
 }
 
-/* The probability that a call's ball pass looks for chains of k vertices: 0 if it never does. */
-static double ball_long_psi(const spc_snee_query *q, int k)
-{
-    if (!long_on(q) || !solve_mis_on(q->params) || k <= q->max_chain || k > q->long_max || k > SPC_SNEE_LONG_MAX)
-        return 0.0;
-    return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
-}
-
-/* p with the ball pass's event probability. */
+/* p with the ball pass's events and seeds. */
 static spc_snee_params ball_params(const spc_snee_params *p)
 {
     spc_snee_params b = *p;
     b.reflect_p = ball_reflect_p(p);
+    b.ball_events_p = SPC_BALL_EVENTS_P;
+    b.fit_share = SPC_BALL_FIT_SHARE;
     return b;
+}
+
+/* Does the sphere fitted to one of q's casters have a chain of q's length (min_chain = max_chain)
+ * from x to q's light point (spc_fit_root_count: the roots its seeds draw from, kept in q->fit)? */
+static bool ball_has_roots(const spc_snee_query *q)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    for (int j = 0; cs && j < cs->n; ++j)
+        if (spc_fit_root_count(q, q->scene->shapes[cs->idx[j]]) > 0)
+            return true;
+    return false;
+}
+
+/* The probability that a call's ball pass looks for chains of k vertices: 0 if it never does, nor
+ * where no fitted sphere has a chain of k vertices toward q's light point (ball_has_roots: a chain
+ * the mesh has there is left to BSDF sampling; the attempt, which would have no fitted seed, is not
+ * made). A function of the query, so both sides of the MIS compute it alike. */
+static double ball_long_psi(const spc_snee_query *q, int k)
+{
+    if (!long_on(q) || !solve_mis_on(q->params) || k <= q->max_chain || k > q->long_max || k > SPC_SNEE_LONG_MAX)
+        return 0.0;
+    spc_snee_params bp = ball_params(q->params);
+    spc_snee_query lq = *q;
+    lq.params = &bp;
+    lq.min_chain = lq.max_chain = k;
+    if (!ball_has_roots(&lq))
+        return 0.0;
+    return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
 
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
@@ -815,7 +851,7 @@ static double trial_query(const spc_snee_query *q, const spc_chain *c, spc_chain
     if (!p->reflect)
         return 1.0;
     tq->events = want->event;
-    return spc_chain_events_prob(q->scene, want, p->any_surface, p->reflect_p);
+    return spc_snee_attempt_events_prob(q, want);
 }
 
 static int trial_cap(const spc_snee_params *p) { return p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS; }
@@ -892,6 +928,9 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.cam = cam;
         q.cam_scale = r->cam_scale;
         q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
+        spc_fit_roots fit; /* the fitted sphere's solutions toward this light point (fit_seeds.h) */
+        fit.nshapes = 0;
+        q.fit = &fit;
         double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p);
         double rs;
         *a = chain_psi(&q, &ch, &rs) * p_y * ps;
@@ -905,9 +944,6 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
                 lq.min_chain = lq.max_chain = ch.n;
                 lq.params = &bp;
             }
-            spc_fit_roots fit;
-            fit.nshapes = 0;
-            lq.fit = &fit;
             spc_chain_sig want;
             spc_snee_query tq;
             double p_ev = trial_query(&lq, &ch, &want, &tq);
@@ -1047,7 +1083,7 @@ static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *so
     double p_events = 1.0;
     if (p->reflect) {
         tq.events = want.event;
-        p_events = spc_chain_events_prob(q->scene, &want, p->any_surface, p->reflect_p);
+        p_events = spc_snee_attempt_events_prob(q, &want);
     }
     bool capped;
     int iterations = 0;
