@@ -36,7 +36,8 @@ spc_microfacet spc_microfacet_from_bsdf(const spc_bsdf *b, const spc_hit *h);
 
 /* Normal distribution D(m) (solid angle of m); 0 for m.z <= 0. */
 double spc_microfacet_d(const spc_microfacet *md, spc_vec3 m);
-/* Smith's Lambda(w) for the direction w (any hemisphere; uses |w.z|). */
+/* Smith's Lambda(w) for the direction w (any hemisphere; uses |w.z|). Beckmann's values below 2e-19
+ * are returned as 0 (they leave G1 = 1 / (1 + Lambda) unchanged in double). */
 double spc_microfacet_lambda(const spc_microfacet *md, spc_vec3 w);
 /* Smith's G1(w, m): 0 when w is on the back of m relative to its side of the macro-surface. */
 double spc_microfacet_g1(const spc_microfacet *md, spc_vec3 w, spc_vec3 m);
