@@ -3,9 +3,9 @@
  * bits. Where a = cot(theta) / alpha >= 6, spc_microfacet_lambda returns 0 without its exp and erfc;
  * G1 = 1 / (1 + Lambda) must then equal 1 / (1 + the full Lambda) (memcmp), which the test checks
  * over a dense sweep of a from 0.5 to 1e4 (both sides of the limit), isotropic and anisotropic, and
- * at random directions. Where the visible slope's upper end x >= 6 (tan_t <= 1/6), the slope CDF's
- * value there is taken as sqrt(pi): the full expression must give exactly that, checked over a
- * dense sweep of x in [6, 10] and of tan_t up to 1/6.
+ * at random directions. Where the visible slope's upper end x >= SPC_BECKMANN_SLOPE_CDF_FLAT (6), the
+ * slope CDF's value there is taken as sqrt(pi): the full expression must give exactly that, checked
+ * over a dense sweep of x from that limit to 10 and of tan_t up to its inverse.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -89,15 +89,16 @@ TEST(g1_random)
 
 TEST(slope_cdf_flat)
 {
-    /* microfacet.c's beckmann_slope_cdf at the upper end x = min(cot_t, 10) >= 6 */
+    /* microfacet.c's beckmann_slope_cdf at the upper end x = min(cot_t, 10) >= the flat limit */
+    const double lim = SPC_BECKMANN_SLOPE_CDF_FLAT;
     const double flat = sqrt(SPC_PI);
     int bad = 0, n = 0;
     for (int i = 0; i < 200000; ++i) {
-        double x = 6.0 + 4.0 * i / 199999.0;
+        double x = lim + (10.0 - lim) * i / 199999.0;
         for (int j = 0; j < 5; ++j) {
-            /* tan_t from 1/6 (x = cot_t = 6 at most) down to 1e-8 */
-            double tan_t = j == 0 ? 1.0 / 6.0 : (j == 1 ? 1.0 / x : pow(10.0, -2.0 * j));
-            if (tan_t > 1.0 / 6.0)
+            /* tan_t from 1 / lim (x = cot_t = lim) down to 1e-8 */
+            double tan_t = j == 0 ? 1.0 / lim : (j == 1 ? 1.0 / x : pow(10.0, -2.0 * j));
+            if (tan_t > 1.0 / lim)
                 continue;
             double F = 0.5 * sqrt(SPC_PI) * erfc(-x) + 0.5 * tan_t * exp(-x * x);
             ++n;

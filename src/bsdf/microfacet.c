@@ -36,11 +36,6 @@
  * and erfc; test_microfacet_fast checks G1's bits against the full formula on both sides of the
  * limit. Rough metals mostly see such directions (alpha 0.1: every theta below 59 degrees). */
 #define BECKMANN_LAMBDA_A2T2_NEGLIGIBLE (1.0 / 36.0)
-/* The slope CDF's upper end at x >= 6 (test_microfacet_fast): sqrt(pi)/2 erfc(-x) is sqrt(pi)/2
- * times 2 - erfc(x), erfc(6) = 2.2e-17 being below half an ulp of 2, and tan_t/2 exp(-x^2) with
- * tan_t <= 1/6 (x <= cot_t) is below 2e-17, under half an ulp of sqrt(pi) (1.1e-16): the CDF's
- * value there is sqrt(pi) in double, without its exp and erfc. */
-#define BECKMANN_SLOPE_CDF_FLAT 6.0
 
 spc_microfacet spc_microfacet_make(spc_microfacet_type type, double alpha_u, double alpha_v, bool sample_visible)
 {
@@ -149,8 +144,9 @@ static double invert_beckmann_slope_cdf(double u, double tan_t, double cot_t, do
 {
     double lo = -BECKMANN_SLOPE_LIMIT, hi = spc_min(cot_t, BECKMANN_SLOPE_LIMIT);
     double f_lo = beckmann_slope_cdf(lo, tan_t);
-    double f_hi = hi >= BECKMANN_SLOPE_CDF_FLAT && tan_t <= 1.0 / BECKMANN_SLOPE_CDF_FLAT ? sqrt(SPC_PI)
-                                                                                      : beckmann_slope_cdf(hi, tan_t);
+    double f_hi = hi >= SPC_BECKMANN_SLOPE_CDF_FLAT && tan_t <= 1.0 / SPC_BECKMANN_SLOPE_CDF_FLAT
+                      ? sqrt(SPC_PI)
+                      : beckmann_slope_cdf(hi, tan_t);
     double target = f_lo + u * (f_hi - f_lo);
     x = spc_clamp(x, lo, hi);
     if (!(x > lo && x < hi))
