@@ -107,18 +107,18 @@ TEST(sampler_stratified_and_deterministic)
 /* Many streams at once (spc_sampler_2d_many, spc_sampler_draw_many with every mask of the pairs
  * that need their y) give the one-pair calls' values bit for bit and move each stream as they do;
  * a pair without its y gets 0 there; lanes without a stream are left alone. Sizes cross the batch's
- * internal flush (64 pairs). */
+ * internal flush (128 pairs). */
 TEST(sampler_many_matches_one_at_a_time)
 {
     int bad = 0, checked = 0;
-    for (int n = 1; n <= 40; n += 13)
+    for (int n = 1; n <= 53; n += 13)
         for (int npairs = 1; npairs <= 3; ++npairs)
             for (unsigned mask = 0; mask <= 1u << npairs; ++mask) {
                 /* mask 1 << npairs: spc_sampler_2d_many */
                 bool all = mask == 1u << npairs;
-                spc_sampler a[40], b[40];
-                spc_sampler *pa[40];
-                spc_vec2 u[120];
+                spc_sampler a[53], b[53];
+                spc_sampler *pa[53];
+                spc_vec2 u[159];
                 for (int i = 0; i < n; ++i) {
                     spc_sampler_start(&a[i], (uint32_t)i, 5, (uint32_t)(i * 7 + n), 11);
                     for (int k = 0; k < i % 4; ++k) /* streams at different dimensions */

@@ -30,6 +30,12 @@
 /* Iterations of the Beckmann slope inversion: from the table's guess about 1.9 on average, up to
  * 19 in the tails' end cells (20000 draws); the bound only guards against pathological inputs. */
 #define BECKMANN_MAX_ITERATIONS 60
+/* Where a = cot(theta) / alpha(phi) >= 6, Beckmann's Lambda is below 2e-19 (asymptotically
+ * exp(-a^2) / (4 a^3 sqrt(pi)): 1.5e-19 at a = 6), far below half an ulp of 1
+ * (1.1e-16), so G1 = 1 / (1 + Lambda) is exactly 1 in double. Lambda then returns 0 without its exp
+ * and erfc; test_microfacet_fast checks G1's bits against the full formula on both sides of the
+ * limit. Rough metals mostly see such directions (alpha 0.1: every theta below 59 degrees). */
+#define BECKMANN_LAMBDA_A2T2_NEGLIGIBLE (1.0 / 36.0)
 
 spc_microfacet spc_microfacet_make(spc_microfacet_type type, double alpha_u, double alpha_v, bool sample_visible)
 {
@@ -79,6 +85,8 @@ double spc_microfacet_lambda(const spc_microfacet *md, spc_vec3 w)
         return 0.0;
     switch (md->type) {
     case SPC_MICROFACET_BECKMANN: {
+        if (a2t2 <= BECKMANN_LAMBDA_A2T2_NEGLIGIBLE)
+            return 0.0;
         double a = 1.0 / sqrt(a2t2);
         /* (erf(a) - 1)/2 + exp(-a^2)/(2 a sqrt(pi)), with erfc to keep precision for large a */
         return 0.5 * (exp(-a * a) / (a * sqrt(SPC_PI)) - erfc(a));
@@ -136,7 +144,10 @@ static double invert_beckmann_slope_cdf(double u, double tan_t, double cot_t, do
 {
     double lo = -BECKMANN_SLOPE_LIMIT, hi = spc_min(cot_t, BECKMANN_SLOPE_LIMIT);
     double f_lo = beckmann_slope_cdf(lo, tan_t);
-    double target = f_lo + u * (beckmann_slope_cdf(hi, tan_t) - f_lo);
+    double f_hi = hi >= SPC_BECKMANN_SLOPE_CDF_FLAT && tan_t <= 1.0 / SPC_BECKMANN_SLOPE_CDF_FLAT
+                      ? sqrt(SPC_PI)
+                      : beckmann_slope_cdf(hi, tan_t);
+    double target = f_lo + u * (f_hi - f_lo);
     x = spc_clamp(x, lo, hi);
     if (!(x > lo && x < hi))
         x = 0.5 * (lo + hi);

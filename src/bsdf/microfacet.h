@@ -23,6 +23,13 @@
  * the same floor). */
 #define SPC_MICROFACET_MIN_ALPHA 1e-4
 
+/* The Beckmann visible x-slope's unnormalized CDF, sqrt(pi)/2 erfc(-x) + tan_t/2 exp(-x^2), is
+ * sqrt(pi) in double at its upper end x >= this (with tan_t <= 1 / this, as x <= cot_t there):
+ * erfc(-x) = 2 - erfc(x) rounds to 2 (erfc(6) = 2.2e-17, half an ulp of 2 is 2.2e-16), and the
+ * second term is below 2e-17, under half an ulp of sqrt(pi) (1.1e-16). The sampler takes that value
+ * without its exp and erfc; test_microfacet_fast checks the expression's bits over [this, 10]. */
+#define SPC_BECKMANN_SLOPE_CDF_FLAT 6.0
+
 typedef struct spc_microfacet {
     spc_microfacet_type type;
     double alpha_u, alpha_v;
@@ -36,7 +43,8 @@ spc_microfacet spc_microfacet_from_bsdf(const spc_bsdf *b, const spc_hit *h);
 
 /* Normal distribution D(m) (solid angle of m); 0 for m.z <= 0. */
 double spc_microfacet_d(const spc_microfacet *md, spc_vec3 m);
-/* Smith's Lambda(w) for the direction w (any hemisphere; uses |w.z|). */
+/* Smith's Lambda(w) for the direction w (any hemisphere; uses |w.z|). Beckmann's values below 2e-19
+ * are returned as 0 (they leave G1 = 1 / (1 + Lambda) unchanged in double). */
 double spc_microfacet_lambda(const spc_microfacet *md, spc_vec3 w);
 /* Smith's G1(w, m): 0 when w is on the back of m relative to its side of the macro-surface. */
 double spc_microfacet_g1(const spc_microfacet *md, spc_vec3 w, spc_vec3 m);

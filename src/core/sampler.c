@@ -110,38 +110,44 @@ double spc_sampler_1d(spc_sampler *s)
     return pair_x(s, &h, &idx) * (1.0 / 4294967296.0);
 }
 
-/* spc_sampler_draw_many's batch: up to MANY_LANES pairs computed side by side. */
-#define MANY_LANES 64
+/* A 32-bit coordinate's value in [0, 1): the conversion and this product are exact. */
+#define SAMPLER_UNIT (1.0 / 4294967296.0)
+
+/* spc_sampler_draw_many's batch: up to MANY_LANES pairs computed side by side (the wave's 16 lanes'
+ * five pairs in one batch). */
+#define MANY_LANES 128
 
 /* The pairs of a batch as plain loops over arrays (pair_x's and spc_sampler_2d's arithmetic, in
  * the same order): the first coordinates of m pairs, then the second coordinates of those of them
  * that need one. Each is compiled three times, for the baseline ISA and vectorized (-O3) with AVX2
  * and with AVX-512 (whose 64-bit multiply, vpmullq, the hash needs; AVX2 emulates it), chosen at
- * run time; the integer arithmetic is exact, so all give the same bits. */
+ * run time; the integer arithmetic and the conversion to [0, 1) are exact, so all give the same bits. */
 static inline __attribute__((always_inline)) void pairs_x_loops(int m, const uint64_t *seed, const uint32_t *rev,
-                                                                uint64_t *h, uint32_t *idx, uint32_t *ox)
+                                                                uint64_t *h, uint32_t *idx, double *ux)
 {
     for (int j = 0; j < m; ++j)
         h[j] = spc_hash64(seed[j]);
     for (int j = 0; j < m; ++j)
         idx[j] = reverse_bits(lk_permute(rev[j], (uint32_t)h[j]));
     for (int j = 0; j < m; ++j)
-        ox[j] = reverse_bits(lk_permute(idx[j], (uint32_t)(h[j] >> 32)));
+        ux[j] = reverse_bits(lk_permute(idx[j], (uint32_t)(h[j] >> 32))) * SAMPLER_UNIT;
 }
 
 static inline __attribute__((always_inline)) void pairs_y_loop(int m, const uint64_t *h, const uint32_t *idx,
-                                                               uint32_t *oy)
+                                                               double *uy)
 {
     for (int j = 0; j < m; ++j)
-        oy[j] = reverse_bits(lk_permute(sobol_dim1_reversed(idx[j]), (uint32_t)((h[j] * 0xda942042e4dd58b5ULL) >> 32)));
+        uy[j] =
+            reverse_bits(lk_permute(sobol_dim1_reversed(idx[j]), (uint32_t)((h[j] * 0xda942042e4dd58b5ULL) >> 32))) *
+            SAMPLER_UNIT;
 }
 
-static void pairs_x_base(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, uint32_t *ox)
+static void pairs_x_base(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
 {
-    pairs_x_loops(m, seed, rev, h, idx, ox);
+    pairs_x_loops(m, seed, rev, h, idx, ux);
 }
 
-static void pairs_y_base(int m, const uint64_t *h, const uint32_t *idx, uint32_t *oy) { pairs_y_loop(m, h, idx, oy); }
+static void pairs_y_base(int m, const uint64_t *h, const uint32_t *idx, double *uy) { pairs_y_loop(m, h, idx, uy); }
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #if defined(__clang__)
@@ -151,27 +157,27 @@ static void pairs_y_base(int m, const uint64_t *h, const uint32_t *idx, uint32_t
 #endif
 #define PAIRS_AVX512 "avx512f,avx512dq,avx512bw,avx512vl"
 PAIRS_ATTR("avx2")
-static void pairs_x_avx2(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, uint32_t *ox)
+static void pairs_x_avx2(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
 {
-    pairs_x_loops(m, seed, rev, h, idx, ox);
+    pairs_x_loops(m, seed, rev, h, idx, ux);
 }
-PAIRS_ATTR("avx2") static void pairs_y_avx2(int m, const uint64_t *h, const uint32_t *idx, uint32_t *oy)
+PAIRS_ATTR("avx2") static void pairs_y_avx2(int m, const uint64_t *h, const uint32_t *idx, double *uy)
 {
-    pairs_y_loop(m, h, idx, oy);
+    pairs_y_loop(m, h, idx, uy);
 }
 PAIRS_ATTR(PAIRS_AVX512)
-static void pairs_x_avx512(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, uint32_t *ox)
+static void pairs_x_avx512(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
 {
-    pairs_x_loops(m, seed, rev, h, idx, ox);
+    pairs_x_loops(m, seed, rev, h, idx, ux);
 }
-PAIRS_ATTR(PAIRS_AVX512) static void pairs_y_avx512(int m, const uint64_t *h, const uint32_t *idx, uint32_t *oy)
+PAIRS_ATTR(PAIRS_AVX512) static void pairs_y_avx512(int m, const uint64_t *h, const uint32_t *idx, double *uy)
 {
-    pairs_y_loop(m, h, idx, oy);
+    pairs_y_loop(m, h, idx, uy);
 }
 #endif
 
-typedef void (*pairs_x_fn)(int, const uint64_t *, const uint32_t *, uint64_t *, uint32_t *, uint32_t *);
-typedef void (*pairs_y_fn)(int, const uint64_t *, const uint32_t *, uint32_t *);
+typedef void (*pairs_x_fn)(int, const uint64_t *, const uint32_t *, uint64_t *, uint32_t *, double *);
+typedef void (*pairs_y_fn)(int, const uint64_t *, const uint32_t *, double *);
 
 /* The best variant under cpu_isa.h's choice. */
 static pairs_x_fn pairs_x = pairs_x_base;
@@ -194,34 +200,56 @@ static void pairs_init(void)
 
 void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u)
 {
-    /* a batch: the pairs that need their y from the front (slot j < ny), the others from the back
-     * (slot j >= MANY_LANES - nx), so each loop runs over one contiguous range */
-    uint64_t seed[MANY_LANES], h[MANY_LANES];
-    uint32_t rev[MANY_LANES], idx[MANY_LANES], ox[MANY_LANES], oy[MANY_LANES];
-    int slot[MANY_LANES];
+    /* A batch of m streams, its pairs grouped by pair number: first the pairs that need their y
+     * (pair py[k] of stream q in slot k m + q), then the others (slot (ky + k) m + q), so that one
+     * pairs_x call covers them all and one pairs_y call the first group, and the per-pair
+     * bookkeeping is plain loops over the batch's streams. Every pair's values depend only on its
+     * (seed, rev), so the grouping changes no value. */
+    uint64_t seed[MANY_LANES], h[MANY_LANES], pseed[MANY_LANES];
+    uint32_t rev[MANY_LANES], idx[MANY_LANES], dim0[MANY_LANES];
+    double ux[MANY_LANES], uy[MANY_LANES];
+    int lane[MANY_LANES], pair[MANY_LANES];
+    if (npairs <= 0)
+        return;
     pthread_once(&pairs_once, pairs_init);
-    const double k = 1.0 / 4294967296.0;
-    int ny = 0, nx = 0;
-    for (int i = 0; i < n; ++i) {
-        if (s[i])
-            for (int p = 0; p < npairs; ++p) {
-                int j = ymask >> p & 1u ? ny++ : MANY_LANES - ++nx;
-                seed[j] = s[i]->pixel_seed + 0x9e3779b97f4a7c15ULL * (uint64_t)(++s[i]->dim);
-                rev[j] = s[i]->index_rev;
-                slot[j] = i * npairs + p;
+    int ky = 0;
+    for (int p = 0; p < npairs; ++p)
+        if (ymask >> p & 1u)
+            pair[ky++] = p;
+    for (int p = 0, kx = ky; p < npairs; ++p)
+        if (!(ymask >> p & 1u))
+            pair[kx++] = p;
+    const int per_batch = MANY_LANES / npairs;
+    for (int i = 0; i < n;) {
+        int m = 0;
+        for (; i < n && m < per_batch; ++i)
+            if (s[i]) {
+                lane[m] = i;
+                pseed[m] = s[i]->pixel_seed;
+                dim0[m] = s[i]->dim;
+                rev[m] = s[i]->index_rev;
+                s[i]->dim += (uint32_t)npairs;
+                ++m;
             }
-        if (ny + nx + npairs <= MANY_LANES && i + 1 < n)
-            continue;
-        /* the batch is full, or the last stream is in it */
-        int j0 = MANY_LANES - nx;
-        pairs_x(ny, seed, rev, h, idx, ox);
-        pairs_x(nx, seed + j0, rev + j0, h + j0, idx + j0, ox + j0);
-        pairs_y(ny, h, idx, oy);
-        for (int j = 0; j < ny; ++j)
-            u[slot[j]] = spc_v2(ox[j] * k, oy[j] * k);
-        for (int j = j0; j < MANY_LANES; ++j)
-            u[slot[j]] = spc_v2(ox[j] * k, 0.0);
-        ny = nx = 0;
+        if (m == 0)
+            break;
+        for (int k = 0; k < npairs; ++k) {
+            /* the stream's (dim0 + pair + 1)-th pair, spc_sampler_2d's seed (the dimension a 32-bit
+             * count) */
+            uint32_t d = (uint32_t)pair[k] + 1u;
+            for (int q = 0; q < m; ++q) {
+                seed[k * m + q] = pseed[q] + 0x9e3779b97f4a7c15ULL * (uint64_t)(uint32_t)(dim0[q] + d);
+                if (k > 0)
+                    rev[k * m + q] = rev[q];
+            }
+        }
+        pairs_x(npairs * m, seed, rev, h, idx, ux);
+        pairs_y(ky * m, h, idx, uy);
+        for (int k = 0; k < npairs; ++k)
+            for (int q = 0; q < m; ++q) {
+                int j = k * m + q;
+                u[lane[q] * npairs + pair[k]] = spc_v2(ux[j], k < ky ? uy[j] : 0.0);
+            }
     }
 }
 

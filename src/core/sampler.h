@@ -38,7 +38,7 @@ spc_vec2 spc_sampler_2d(spc_sampler *s);
  * instructions where the CPU has AVX2). */
 void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u);
 /* spc_sampler_2d_many where only some of the pairs are used as 2D points: bit k of ymask set says
- * that the k-th pair of each stream needs its y; where it is clear, u[i * npairs + k].y is 0 and x
+ * that the k-th pair of each stream needs its y (npairs <= 32); where it is clear, u[i * npairs + k].y is 0 and x
  * is spc_sampler_1d's value (the whole pair is used up all the same). Skipping those y's saves
  * about a third of the pair's work. */
 void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u);
