@@ -397,6 +397,26 @@ void spc_scene_intersect_packet_coherent(const spc_scene *s, const spc_ray *cons
     fill_packet(s, r, shape, prim, u, v, t, h, hit);
 }
 
+void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                                     spc_scene_answer a[SPC_SCENE_PACKET])
+{
+    int shape[SPC_ACCEL_PACKET], prim[SPC_ACCEL_PACKET];
+    double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
+    spc_accel_intersect_packet_coherent(s->accel, r, shape, prim, u, v, t);
+    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+        a[i] = shape[i] >= 0 ? (spc_scene_answer){shape[i], prim[i], u[i], v[i], t[i]}
+                             : (spc_scene_answer){-1, 0, 0.0, 0.0, 0.0};
+}
+
+bool spc_scene_fill_answer(const spc_scene *s, const spc_ray *r, const spc_scene_answer *a, spc_hit *h)
+{
+    if (a->shape < 0)
+        return false;
+    h->shape_index = a->shape;
+    spc_shape_fill_hit(s->shapes[a->shape], a->prim, a->u, a->v, r, a->t, h);
+    return true;
+}
+
 void spc_scene_occluded_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                bool occluded[SPC_SCENE_PACKET])
 {
