@@ -404,8 +404,7 @@ void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[
     double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
     spc_accel_intersect_packet_coherent(s->accel, r, shape, prim, u, v, t);
     for (int i = 0; i < SPC_SCENE_PACKET; ++i)
-        a[i] = shape[i] >= 0 ? (spc_scene_answer){shape[i], prim[i], u[i], v[i], t[i]}
-                             : (spc_scene_answer){-1, 0, 0.0, 0.0, 0.0};
+        a[i] = (spc_scene_answer){shape[i], prim[i], u[i], v[i], t[i]};
 }
 
 bool spc_scene_fill_answer(const spc_scene *s, const spc_ray *r, const spc_scene_answer *a, spc_hit *h)
