@@ -437,6 +437,12 @@ static void intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCE
         nrays += r[i] != NULL;
         rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
         rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        /* what Embree leaves unwritten (a miss's primitive and uv, a lane no analytic shape
+         * answered) reads as 0 in the answers below; set here, in the lanes' loop: a loop of its
+         * own compiled to `rep stos`, a fifth of this function's time on the cornell box (perf) */
+        rh.hit.primID[i] = 0;
+        rh.hit.u[i] = rh.hit.v[i] = 0.0f;
+        cx.t[i] = cx.u[i] = cx.v[i] = 0.0;
         if (valid[i]) {
             to_embree_lane(r[i], &rh.ray, i);
             ++nvalid;
@@ -450,13 +456,6 @@ static void intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCE
             t[i] = u[i] = v[i] = 0.0;
         }
         return;
-    }
-    /* what Embree leaves unwritten (a miss's primitive and uv, a lane no analytic shape answered)
-     * reads as 0 below */
-    for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
-        rh.hit.primID[i] = 0;
-        rh.hit.u[i] = rh.hit.v[i] = 0.0f;
-        cx.t[i] = cx.u[i] = cx.v[i] = 0.0;
     }
     rtcIntersect16(valid, a->scene, &cx.ctx, &rh);
     /* The answers without a branch per lane (whether a lane hit and whether an analytic shape's
