@@ -297,7 +297,10 @@ TEST(closed_mesh_cracks_are_rare)
 /* Coherent packets (spc_scene_intersect_packet_coherent, Embree's coherent traversal, which the
  * packet path tracer uses for a tile's camera rays) give the single rays' hits bit for bit: fans of
  * 16 rays from one point through a 4 x 4 block of neighbouring directions (a camera's pixels), from
- * outside and inside a closed mesh, some lanes inactive, and packets of scattered directions. */
+ * outside and inside a closed mesh, some lanes inactive, and packets of scattered directions. The
+ * same packets traced with spc_scene_trace_packet_coherent and filled lane by lane
+ * (spc_scene_fill_answer, as the path tracer fills its camera hits) give the same records, byte for
+ * byte. */
 TEST(coherent_packets_match_single_rays)
 {
     spc_vec3 c;
@@ -307,7 +310,7 @@ TEST(coherent_packets_match_single_rays)
         return;
     spc_rng rng;
     spc_rng_seed(&rng, 5, 9);
-    int lanes = 0, differs = 0, hits = 0;
+    int lanes = 0, differs = 0, hits = 0, answers_differ = 0;
     for (int s = 0; s < 3000; ++s) {
         spc_vec3 j = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
         bool inside = s % 3 == 0, fan = s % 3 != 2;
@@ -323,10 +326,21 @@ TEST(coherent_packets_match_single_rays)
             pr[i] = (spc_ray){o, spc_normalize(d), 0.0, SPC_INF};
             rp[i] = (s + i) % 7 == 0 ? NULL : &pr[i];
         }
-        spc_hit h[SPC_SCENE_PACKET];
+        spc_hit h[SPC_SCENE_PACKET], ha[SPC_SCENE_PACKET];
         bool hit[SPC_SCENE_PACKET];
+        spc_scene_answer a[SPC_SCENE_PACKET];
+        /* zeroed, so that whole records (their padding too) compare with memcmp */
+        memset(h, 0, sizeof h);
+        memset(ha, 0, sizeof ha);
         spc_scene_intersect_packet_coherent(sc, rp, h, hit);
+        spc_scene_trace_packet_coherent(sc, rp, a);
         for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
+            /* the answers traced ahead and filled one by one give the same records */
+            bool filled = spc_scene_fill_answer(sc, &pr[i], &a[i], &ha[i]);
+            answers_differ += filled != hit[i] || (filled && memcmp(&ha[i], &h[i], sizeof ha[i]) != 0);
+            /* a miss's or an inactive lane's answer is written in full, as zeros */
+            answers_differ += !filled && (a[i].shape != -1 || a[i].prim != 0 || a[i].u != 0.0 || a[i].v != 0.0 ||
+                                          a[i].t != 0.0);
             if (!rp[i]) {
                 differs += hit[i];
                 continue;
@@ -340,9 +354,12 @@ TEST(coherent_packets_match_single_rays)
                                    memcmp(&hs.p, &h[i].p, sizeof hs.p) != 0 || memcmp(&hs.uv, &h[i].uv, sizeof hs.uv) != 0));
         }
     }
-    printf("  %d lanes (%d hits): %d differ from single rays\n", lanes, hits, differs);
+    printf("  %d lanes (%d hits): %d differ from single rays; %d answers filled one by one differ from the "
+           "packet's records\n",
+           lanes, hits, differs, answers_differ);
     CHECK(lanes > 40000 && hits > 20000);
     CHECK(differs == 0);
+    CHECK(answers_differ == 0);
     spc_scene_destroy(sc);
 }
 

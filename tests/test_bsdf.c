@@ -238,6 +238,13 @@ TEST(test_flags)
     CHECK(spc_bsdf_is_specular_interface(c, &eta) && eta == 0.0);
     CHECK(spc_bsdf_is_specular_interface(mk_wrap(SPC_BSDF_TWOSIDED, c, NULL), &eta));
     CHECK(!spc_bsdf_is_specular_interface(d, &eta) && !spc_bsdf_is_specular_interface(rc, &eta));
+    /* which BSDFs read the hit's derivatives (normal and bump maps, nested anywhere) */
+    spc_bsdf *nm = mk_wrap(SPC_BSDF_NORMALMAP, d, NULL), *bm = mk_wrap(SPC_BSDF_BUMPMAP, rc, NULL);
+    CHECK(!spc_bsdf_reads_derivatives(d) && !spc_bsdf_reads_derivatives(m) && !spc_bsdf_reads_derivatives(NULL));
+    CHECK(!spc_bsdf_reads_derivatives(mk_wrap(SPC_BSDF_TWOSIDED, d, rc)));
+    CHECK(spc_bsdf_reads_derivatives(nm) && spc_bsdf_reads_derivatives(bm));
+    CHECK(spc_bsdf_reads_derivatives(mk_wrap(SPC_BSDF_TWOSIDED, d, nm)));
+    CHECK(spc_bsdf_reads_derivatives(mk_wrap(SPC_BSDF_BLENDBSDF, d, mk_wrap(SPC_BSDF_MASK, bm, NULL))));
 }
 
 TEST(test_diffuse_closed_form)

@@ -345,6 +345,92 @@ TEST(mesh_kept_frames_match)
     CHECK(checked == 8 * 250);
 }
 
+/* Every field of two records, each with memcmp (not the padding between them). */
+static bool same_record(const spc_hit *a, const spc_hit *b)
+{
+#define SAME(f) (memcmp(&a->f, &b->f, sizeof a->f) == 0)
+    return SAME(t) && SAME(p) && SAME(ng) && SAME(sh) && SAME(uv) && SAME(dpdu) && SAME(dpdv) && SAME(dndu) &&
+           SAME(dndv) && SAME(b1) && SAME(b2) && SAME(err) && SAME(n_unmapped) && SAME(normal_mapped) &&
+           SAME(prim) && SAME(shape_index) && SAME(shape) && SAME(bsdf) && SAME(emitter);
+#undef SAME
+}
+
+/* A shading record (spc_shape_fill_hit_shading) on a mesh with lazy_derivs leaves the derivatives
+ * out and has every other field of spc_shape_fill_hit's record; spc_shape_hit_derivatives then
+ * completes it to that record, field for field. The lazy record starts from a byte pattern, so a
+ * field that neither call fills differs. Meshes with and without uvs, vertex normals (also under
+ * face_normals), flip_normals, kept frames or not; without lazy_derivs the shading record is whole. */
+TEST(mesh_lazy_derivatives_match)
+{
+    int checked = 0, skipped = 0;
+    for (int kind = 0; kind < 5; ++kind)
+        for (int flip = 0; flip < 2; ++flip)
+            for (int keep = 0; keep < 2; ++keep)
+                for (int lazy = 0; lazy < 2; ++lazy) {
+                    spc_shape s;
+                    memset(&s, 0, sizeof s);
+                    spc_error err;
+                    spc_mat4 T = {{{1, 0.2, 0, 0.5}, {0, 1.3, 0.1, -2}, {0.3, 0, 0.7, 1}, {0, 0, 0, 1}}};
+                    if (kind == 0) {
+                        CHECK(spc_shape_init_cube(&s, &T, NULL, 0, 0, &err)); /* uvs */
+                    } else {
+                        /* kind 1: no uvs; 2: vertex normals; 3: vertex normals and uvs; 4: vertex
+                         * normals under face_normals */
+                        spc_mesh m;
+                        memset(&m, 0, sizeof m);
+                        m.nverts = 4;
+                        m.ntris = 2;
+                        m.p = malloc(12 * sizeof(float));
+                        m.idx = malloc(6 * sizeof(uint32_t));
+                        float P[12] = {0, 0, 0, 1, 0, 0.1f, 1, 1, 0, 0, 1, 0.3f};
+                        uint32_t I[6] = {0, 1, 2, 0, 2, 3};
+                        memcpy(m.p, P, sizeof P);
+                        memcpy(m.idx, I, sizeof I);
+                        if (kind >= 2) {
+                            float N[12] = {0, 0, 1, 0.1f, 0, 1, 0, 0.2f, 1, -0.1f, 0, 1};
+                            m.n = malloc(sizeof N);
+                            memcpy(m.n, N, sizeof N);
+                        }
+                        if (kind == 3) {
+                            float UV[8] = {0, 0, 1, 0.1f, 0.9f, 1, 0.2f, 0.8f};
+                            m.uv = malloc(sizeof UV);
+                            memcpy(m.uv, UV, sizeof UV);
+                        }
+                        CHECK(spc_shape_init_mesh(&s, &m, &T, NULL, 0, 0, &err));
+                        s.face_normals = kind == 4;
+                    }
+                    s.flip_normals = flip != 0;
+                    CHECK(spc_shape_prepare(&s) == SPC_OK);
+                    if (!keep)
+                        spc_shape_drop_frames(&s);
+                    s.lazy_derivs = lazy != 0;
+                    for (int i = 0; i < 100; ++i) {
+                        int prim = (int)(rnd() * (double)s.mesh.ntris);
+                        double b1 = rnd(), b2 = rnd() * (1.0 - b1);
+                        spc_hit e, l;
+                        memset(&e, 0, sizeof e);
+                        memset(&l, 0xA5, sizeof l);
+                        spc_shape_fill_hit(&s, prim, b1, b2, NULL, 1.5, &e);
+                        e.shape_index = 7;
+                        spc_shape_fill_hit_shading(&s, prim, b1, b2, NULL, 1.5, &l);
+                        l.shape_index = 7;
+                        if (lazy) {
+                            /* the derivatives were left out (still the pattern) */
+                            unsigned char pat[sizeof l.dndu];
+                            memset(pat, 0xA5, sizeof pat);
+                            skipped += memcmp(&l.dpdu, pat, sizeof pat) == 0 && memcmp(&l.dndv, pat, sizeof pat) == 0;
+                            CHECK(!same_record(&e, &l));
+                        }
+                        spc_shape_hit_derivatives(&l);
+                        CHECK(same_record(&e, &l));
+                        ++checked;
+                    }
+                    spc_shape_release(&s);
+                }
+    CHECK(checked == 5 * 2 * 2 * 2 * 100);
+    CHECK(skipped == checked / 2);
+}
+
 TEST(mesh_area_sampling_uniform)
 {
     spc_shape s;
@@ -387,5 +473,6 @@ int main(void)
     RUN(sphere_solid_angle_sample_is_the_cone_warp);
     RUN(mesh_area_sampling_uniform);
     RUN(mesh_kept_frames_match);
+    RUN(mesh_lazy_derivatives_match);
     return spc_test_finish();
 }

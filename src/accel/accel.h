@@ -36,8 +36,8 @@ bool spc_accel_occluded_skip(const spc_accel *a, const spc_ray *r, int skip);
 bool spc_accel_skips_any(const spc_accel *a);
 /* Packets of up to SPC_ACCEL_PACKET rays traced together (Embree's rtcIntersect16/rtcOccluded16):
  * lane i traces r[i] where r[i] is not NULL. The results are spc_accel_intersect's and
- * spc_accel_occluded's per lane (shape[i] = -1 for a miss or an inactive lane; occluded[i] false
- * for an inactive lane). */
+ * spc_accel_occluded's per lane (shape[i] = -1 and prim[i], u[i], v[i], t[i] 0 for a miss or an
+ * inactive lane; occluded[i] false for an inactive lane). */
 #define SPC_ACCEL_PACKET 16
 void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                 int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],

@@ -63,6 +63,37 @@ unsigned spc_bsdf_flags(const spc_bsdf *b)
     return 0;
 }
 
+bool spc_bsdf_reads_derivatives(const spc_bsdf *b)
+{
+    if (!b)
+        return false;
+    switch (b->type) {
+    case SPC_BSDF_NORMALMAP: /* the texture frame's rotation (spc_shape_texture_frame), dndu, dndv */
+    case SPC_BSDF_BUMPMAP:   /* dpdu, dpdv */
+        return true;
+    case SPC_BSDF_TWOSIDED:
+    case SPC_BSDF_BLENDBSDF:
+    case SPC_BSDF_MASK:
+        return spc_bsdf_reads_derivatives(b->nested[0]) || spc_bsdf_reads_derivatives(b->nested[1]);
+    case SPC_BSDF_DIFFUSE:
+    case SPC_BSDF_ROUGHDIFFUSE:
+    case SPC_BSDF_PHONG:
+    case SPC_BSDF_CONDUCTOR:
+    case SPC_BSDF_ROUGHCONDUCTOR:
+    case SPC_BSDF_DIELECTRIC:
+    case SPC_BSDF_THINDIELECTRIC:
+    case SPC_BSDF_ROUGHDIELECTRIC:
+    case SPC_BSDF_PLASTIC:
+    case SPC_BSDF_ROUGHPLASTIC:
+    case SPC_BSDF_PPLASTIC:
+    case SPC_BSDF_NULL:
+    case SPC_BSDF_PRINCIPLED:
+    case SPC_BSDF_PRINCIPLEDTHIN:
+        return false;
+    }
+    return true;
+}
+
 spc_rgb spc_bsdf_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
     if (!b)

@@ -145,6 +145,9 @@ typedef struct spc_bsdf_sample {
 void spc_bsdf_prepare(spc_bsdf *b);
 
 unsigned spc_bsdf_flags(const spc_bsdf *b);
+/* Does evaluating or sampling b read the hit's derivatives dpdu, dpdv, dndu, dndv (a normalmap or
+ * bumpmap anywhere in it)? Where not, a hit record may leave them out (scene/hit.h). */
+bool spc_bsdf_reads_derivatives(const spc_bsdf *b);
 static inline bool spc_bsdf_has_smooth(const spc_bsdf *b) { return (spc_bsdf_flags(b) & SPC_LOBE_SMOOTH) != 0; }
 static inline bool spc_bsdf_is_delta_only(const spc_bsdf *b) { return (spc_bsdf_flags(b) & SPC_LOBE_SMOOTH) == 0; }
 

@@ -16,6 +16,10 @@
  * - normal_mapped: the hit is a specular chain vertex whose normal map has already been applied
  *   (spc_bsdf_map_chain_hit): sh is the mapped frame, dndu/dndv its normal's derivatives, and
  *   n_unmapped the shading normal the map perturbed. False for every hit the shapes fill.
+ * - Every field is filled, except in the shading records of the packet calls (scene.h): on a mesh
+ *   whose BSDF reads no derivatives (spc_shape.lazy_derivs) they leave dpdu, dpdv, dndu, dndv and
+ *   n_unmapped out, and spc_shape_hit_derivatives fills them on demand, the values that
+ *   spc_shape_fill_hit gives. Shading reads t, p, ng, sh, uv, err, the indices and pointers.
  */
 #ifndef SPC_SCENE_HIT_H
 #define SPC_SCENE_HIT_H

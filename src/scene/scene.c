@@ -262,6 +262,7 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
             }
             sh->bsdf = default_bsdf;
         }
+        sh->lazy_derivs = sh->type == SPC_SHAPE_MESH && !spc_bsdf_reads_derivatives(sh->bsdf);
         if (sh->interior_medium >= s->nmedia || sh->exterior_medium >= s->nmedia)
             return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "shape %d ('%s') refers to a medium that does not exist",
                                  i, sh->id);
@@ -375,7 +376,7 @@ static void fill_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PAC
         if (!hit[i])
             continue;
         h[i].shape_index = shape[i];
-        spc_shape_fill_hit(s->shapes[shape[i]], prim[i], u[i], v[i], r[i], t[i], &h[i]);
+        spc_shape_fill_hit_shading(s->shapes[shape[i]], prim[i], u[i], v[i], r[i], t[i], &h[i]);
     }
 }
 
@@ -395,6 +396,25 @@ void spc_scene_intersect_packet_coherent(const spc_scene *s, const spc_ray *cons
     double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
     spc_accel_intersect_packet_coherent(s->accel, r, shape, prim, u, v, t);
     fill_packet(s, r, shape, prim, u, v, t, h, hit);
+}
+
+void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                                     spc_scene_answer a[SPC_SCENE_PACKET])
+{
+    int shape[SPC_ACCEL_PACKET], prim[SPC_ACCEL_PACKET];
+    double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
+    spc_accel_intersect_packet_coherent(s->accel, r, shape, prim, u, v, t);
+    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+        a[i] = (spc_scene_answer){shape[i], prim[i], u[i], v[i], t[i]};
+}
+
+bool spc_scene_fill_answer(const spc_scene *s, const spc_ray *r, const spc_scene_answer *a, spc_hit *h)
+{
+    if (a->shape < 0)
+        return false;
+    h->shape_index = a->shape;
+    spc_shape_fill_hit_shading(s->shapes[a->shape], a->prim, a->u, a->v, r, a->t, h);
+    return true;
 }
 
 void spc_scene_occluded_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],

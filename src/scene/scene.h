@@ -187,8 +187,9 @@ bool spc_scene_shape_is_caster(const spc_shape *s, bool any_surface, double *eta
 bool spc_scene_intersect(const spc_scene *s, const spc_ray *r, spc_hit *h);
 bool spc_scene_occluded(const spc_scene *s, const spc_ray *r);
 /* The same for a packet of SPC_SCENE_PACKET rays traced together (lane i where r[i] is not NULL):
- * hit[i] and h[i] are spc_scene_intersect's for r[i] (hit[i] false for an inactive lane), occluded[i]
- * spc_scene_occluded's. */
+ * hit[i] and h[i] are spc_scene_intersect's for r[i] (hit[i] false for an inactive lane), except
+ * that h[i] is a shading record (spc_shape_fill_hit_shading: on a mesh whose BSDF reads no
+ * derivatives, spc_shape_hit_derivatives fills them on demand); occluded[i] spc_scene_occluded's. */
 #define SPC_SCENE_PACKET 16
 void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], spc_hit h[SPC_SCENE_PACKET],
                                 bool hit[SPC_SCENE_PACKET]);
@@ -197,6 +198,21 @@ void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_S
  * (spc_accel_intersect_packet_coherent). */
 void spc_scene_intersect_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                          spc_hit h[SPC_SCENE_PACKET], bool hit[SPC_SCENE_PACKET]);
+/* A packet's answer for one ray before its hit record is filled: the shape index (-1: no hit), the
+ * primitive and the surface coordinates and distance that spc_shape_fill_hit takes. A caller that
+ * traces ahead keeps these (40 bytes a lane) and fills each record where it is used. */
+typedef struct spc_scene_answer {
+    int shape, prim;
+    double u, v, t;
+} spc_scene_answer;
+/* spc_scene_intersect_packet_coherent's traversal, the answers left unfilled (a[i].shape -1 for a
+ * miss or an inactive lane). */
+void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                                     spc_scene_answer a[SPC_SCENE_PACKET]);
+/* The hit record of answer a for ray r (the ray it was traced for), the packet calls' shading record
+ * (spc_scene_intersect's, the derivatives left out where spc_shape_fill_hit_shading leaves them out);
+ * false (h untouched) for a miss. */
+bool spc_scene_fill_answer(const spc_scene *s, const spc_ray *r, const spc_scene_answer *a, spc_hit *h);
 void spc_scene_occluded_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                bool occluded[SPC_SCENE_PACKET]);
 /* Next-event estimation's shadow ray r from a point toward the point that emitter e (NULL: none)

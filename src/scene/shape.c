@@ -566,11 +566,16 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
 
 /* ---- surface interaction ---- */
 
-/* A triangle's hit at barycentrics (b1, b2). With frame false only what a light sample needs is
- * filled (p, ng with its orientation, uv, err, b1, b2, dpdu, dpdv): no shading frame, no normal
- * derivatives; the values filled are the same either way, and the same with or without the
- * shape's tri_frame (which holds this function's own per-triangle normal and tangent). */
-static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool frame, spc_hit *h)
+/* What fill_mesh fills: MESH_LIGHT what a light sample needs (p, ng with its orientation, uv, err,
+ * b1, b2, dpdu, dpdv: no shading frame, no normal derivatives); MESH_SHADING what shading reads
+ * (p, ng, sh, uv, err, b1, b2: no derivatives); MESH_ALL every field. */
+typedef enum mesh_fill { MESH_LIGHT, MESH_SHADING, MESH_ALL } mesh_fill;
+
+/* A triangle's hit at barycentrics (b1, b2), the fields that `what` names. The values filled are
+ * the same whatever else is filled, and the same with or without the shape's tri_frame (which holds
+ * this function's own per-triangle normal and tangent); mesh_derivatives computes the derivatives
+ * that MESH_SHADING leaves out with the same expressions. */
+static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_fill what, spc_hit *h)
 {
     const spc_mesh *m = &s->mesh;
     uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
@@ -580,8 +585,10 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool f
     h->p = spc_add(spc_add(spc_scale(p0, b0), spc_scale(p1, b1)), spc_scale(p2, b2));
     spc_vec3 e1 = spc_sub(p1, p0), e2 = spc_sub(p2, p0);
     h->ng = c ? spc_v3(c[0], c[1], c[2]) : spc_normalize(spc_cross(e1, e2));
-    h->dpdu = e1;
-    h->dpdv = e2;
+    if (what != MESH_SHADING) {
+        h->dpdu = e1;
+        h->dpdv = e2;
+    }
     h->b1 = b1;
     h->b2 = b2;
     double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
@@ -600,7 +607,7 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool f
         double len = spc_length(nr);
         if (len > 1e-12) {
             spc_vec3 n = spc_scale(nr, 1.0 / len);
-            if (!frame) {
+            if (what == MESH_LIGHT) {
                 /* ng on the side of the (flipped) shading normal */
                 if (s->flip_normals)
                     n = spc_neg(n);
@@ -608,15 +615,18 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool f
                     h->ng = spc_neg(h->ng);
                 return;
             }
-            /* d(nr/|nr|) = (I - n n^T) d(nr) / |nr| */
-            spc_vec3 d1 = spc_sub(n1, n0), d2 = spc_sub(n2, n0);
-            h->dndu = spc_scale(spc_sub(d1, spc_scale(n, spc_dot(n, d1))), 1.0 / len);
-            h->dndv = spc_scale(spc_sub(d2, spc_scale(n, spc_dot(n, d2))), 1.0 / len);
-            if (s->flip_normals) {
-                n = spc_neg(n);
-                h->dndu = spc_neg(h->dndu);
-                h->dndv = spc_neg(h->dndv);
+            if (what == MESH_ALL) {
+                /* d(nr/|nr|) = (I - n n^T) d(nr) / |nr| */
+                spc_vec3 d1 = spc_sub(n1, n0), d2 = spc_sub(n2, n0);
+                h->dndu = spc_scale(spc_sub(d1, spc_scale(n, spc_dot(n, d1))), 1.0 / len);
+                h->dndv = spc_scale(spc_sub(d2, spc_scale(n, spc_dot(n, d2))), 1.0 / len);
+                if (s->flip_normals) {
+                    h->dndu = spc_neg(h->dndu);
+                    h->dndv = spc_neg(h->dndv);
+                }
             }
+            if (s->flip_normals)
+                n = spc_neg(n);
             if (spc_dot(n, h->ng) < 0.0)
                 h->ng = spc_neg(h->ng);
             h->sh = spc_frame_from_ns(n, tri_tangent(m, i0, i1, i2, e1, e2));
@@ -625,9 +635,10 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool f
     }
     if (s->flip_normals)
         h->ng = spc_neg(h->ng);
-    if (!frame)
+    if (what == MESH_LIGHT)
         return;
-    h->dndu = h->dndv = spc_v3(0, 0, 0);
+    if (what == MESH_ALL)
+        h->dndu = h->dndv = spc_v3(0, 0, 0);
     if (c && s->tri_frame_flip == s->flip_normals && !(c[3] == 0.0 && c[4] == 0.0 && c[5] == 0.0)) {
         /* spc_frame_from_ns(ng, tangent) with the kept tangent */
         h->sh.n = h->ng;
@@ -635,6 +646,34 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, bool f
         h->sh.t = spc_cross(h->ng, h->sh.s);
     } else {
         h->sh = spc_frame_from_ns(h->ng, tri_tangent(m, i0, i1, i2, e1, e2));
+    }
+}
+
+/* The derivatives that fill_mesh's MESH_SHADING leaves out (dpdu, dpdv, dndu, dndv), with
+ * fill_mesh's expressions, so the same values. */
+static void mesh_derivatives(const spc_shape *s, int prim, double b1, double b2, spc_hit *h)
+{
+    const spc_mesh *m = &s->mesh;
+    uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
+    spc_vec3 p0 = spc_mesh_p(m, i0);
+    h->dpdu = spc_sub(spc_mesh_p(m, i1), p0);
+    h->dpdv = spc_sub(spc_mesh_p(m, i2), p0);
+    h->dndu = h->dndv = spc_v3(0, 0, 0);
+    if (!m->n || s->face_normals)
+        return;
+    double b0 = 1.0 - b1 - b2;
+    spc_vec3 n0 = spc_mesh_n(m, i0), n1 = spc_mesh_n(m, i1), n2 = spc_mesh_n(m, i2);
+    spc_vec3 nr = spc_add(spc_add(spc_scale(n0, b0), spc_scale(n1, b1)), spc_scale(n2, b2));
+    double len = spc_length(nr);
+    if (!(len > 1e-12))
+        return;
+    spc_vec3 n = spc_scale(nr, 1.0 / len);
+    spc_vec3 d1 = spc_sub(n1, n0), d2 = spc_sub(n2, n0);
+    h->dndu = spc_scale(spc_sub(d1, spc_scale(n, spc_dot(n, d1))), 1.0 / len);
+    h->dndv = spc_scale(spc_sub(d2, spc_scale(n, spc_dot(n, d2))), 1.0 / len);
+    if (s->flip_normals) {
+        h->dndu = spc_neg(h->dndu);
+        h->dndv = spc_neg(h->dndv);
     }
 }
 
@@ -783,7 +822,8 @@ bool spc_shape_texture_frame(const spc_hit *h, spc_vec2 duv[2], spc_vec3 *T, spc
     return false;
 }
 
-void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h)
+/* The fields every shape fills alike. */
+static void fill_common(const spc_shape *s, int prim, double t, spc_hit *h)
 {
     h->t = t;
     h->prim = prim;
@@ -791,9 +831,34 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
     h->bsdf = s->bsdf;
     h->emitter = s->emitter;
     h->normal_mapped = false;
+}
+
+void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
+                                spc_hit *h)
+{
+    if (!s->lazy_derivs) {
+        spc_shape_fill_hit(s, prim, u, v, r, t, h);
+        return;
+    }
+    fill_common(s, prim, t, h);
+    fill_mesh(s, prim, u, v, MESH_SHADING, h);
+}
+
+void spc_shape_hit_derivatives(spc_hit *h)
+{
+    const spc_shape *s = h->shape;
+    if (!s || !s->lazy_derivs)
+        return;
+    h->n_unmapped = spc_v3(0, 0, 0);
+    mesh_derivatives(s, h->prim, h->b1, h->b2, h);
+}
+
+void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h)
+{
+    fill_common(s, prim, t, h);
     h->n_unmapped = spc_v3(0, 0, 0);
     switch (s->type) {
-    case SPC_SHAPE_MESH: fill_mesh(s, prim, u, v, true, h); break;
+    case SPC_SHAPE_MESH: fill_mesh(s, prim, u, v, MESH_ALL, h); break;
     case SPC_SHAPE_SPHERE: fill_sphere(s, r, t, h); break;
     case SPC_SHAPE_DISK: fill_disk(s, u, v, h); break;
     case SPC_SHAPE_CYLINDER: fill_cylinder(s, r, t, h); break;
@@ -815,7 +880,7 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
         size_t i = spc_distrib1d_sample(&s->tri_distrib, u.x, &ux);
         spc_vec2 b = spc_warp_uniform_triangle(spc_v2(ux, u.y));
         spc_hit h; /* the fields read below are all filled */
-        fill_mesh(s, (int)i, b.x, b.y, false, &h);
+        fill_mesh(s, (int)i, b.x, b.y, MESH_LIGHT, &h);
         out->p = h.p;
         out->n = h.ng;
         out->uv = h.uv;

@@ -84,6 +84,10 @@ typedef struct spc_shape {
      * meshes. */
     double *tri_frame;
     bool tri_frame_flip;
+    /* set by spc_scene_finalize: a MESH whose BSDF reads no derivatives
+     * (spc_bsdf_reads_derivatives), so that its shading hits may leave them out
+     * (spc_shape_fill_hit_shading) */
+    bool lazy_derivs;
     spc_vec3 bbox_min, bbox_max;
     /* Per-shape data of a specular solver (manifold/conic_solver.c: the mesh hierarchy), built on
      * first use and published atomically, so concurrent readers are safe. Its first member is its
@@ -151,6 +155,15 @@ bool spc_shape_texture_frame(const spc_hit *h, spc_vec2 duv[2], spc_vec3 *T, spc
 /* Fills every field of h for a hit of ray r at distance t on primitive prim with coordinates
  * (u, v) (barycentrics b1, b2 for triangles). */
 void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h);
+/* spc_shape_fill_hit for shading: on a shape with lazy_derivs, every field but dpdu, dpdv, dndu,
+ * dndv and n_unmapped (the same values as spc_shape_fill_hit's), which path tracing does not read
+ * there; on other shapes every field. */
+void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
+                                spc_hit *h);
+/* Fills what spc_shape_fill_hit_shading left out of h (a hit on h->shape at h->prim, h->b1,
+ * h->b2): afterwards h is byte for byte spc_shape_fill_hit's record. Does nothing on shapes
+ * without lazy_derivs, whose records are always whole. */
+void spc_shape_hit_derivatives(spc_hit *h);
 
 /* Uniform area sampling (meshes pick the triangle with u.x and reuse it, rescaled). */
 void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out);
