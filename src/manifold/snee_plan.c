@@ -6,7 +6,9 @@
 
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "bsdf/bsdf.h"
@@ -210,6 +212,41 @@ static bool flat(const spc_shape *s)
     return s->type == SPC_SHAPE_DISK || (s->type == SPC_SHAPE_MESH && (s->face_normals || !s->mesh.n));
 }
 
+static int edge_cmp(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Is s a closed triangle mesh: every edge (a pair of vertex indices) shared by exactly two
+ * triangles? A mesh whose vertices are split along seams reads as open (false), as does one whose
+ * edge list cannot be allocated. */
+static bool closed_mesh(const spc_shape *s)
+{
+    if (s->type != SPC_SHAPE_MESH || s->mesh.ntris == 0 || !s->mesh.idx)
+        return false;
+    size_t n = 3 * s->mesh.ntris;
+    uint64_t *e = malloc(n * sizeof *e);
+    if (!e)
+        return false;
+    for (size_t t = 0; t < s->mesh.ntris; ++t)
+        for (int k = 0; k < 3; ++k) {
+            uint64_t a = s->mesh.idx[3 * t + k], b = s->mesh.idx[3 * t + (k + 1) % 3];
+            e[3 * t + k] = a < b ? a << 32 | b : b << 32 | a;
+        }
+    qsort(e, n, sizeof *e, edge_cmp);
+    bool closed = true;
+    for (size_t i = 0; i < n && closed;) {
+        size_t j = i;
+        while (j < n && e[j] == e[i])
+            ++j;
+        closed = j - i == 2;
+        i = j;
+    }
+    free(e);
+    return closed;
+}
+
 /* Pinhole rays per side of the grid glass_image_share traces: 32 x 32 rays (a few ms at load) find
  * a caster that covers 1/1000 of the image. */
 #define SPC_SNEE_PLAN_SHARE_GRID 32
@@ -369,6 +406,22 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
             return;
         }
     }
+    /* not with a closed glass mesh that no sphere fits (snee_plan.h): its rarer two-refraction
+     * chains' trial counts are the image's fireflies */
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        spc_vec3 c;
+        double r;
+        if (s->type == SPC_SHAPE_MESH && spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0 &&
+            spc_snee_plan_method(&p, s) == SPC_SNEE_METHOD_SOLVER && !spc_fit_sphere(s, &c, &r) && closed_mesh(s)) {
+            snprintf(out->reason, sizeof out->reason, "caster shape %d is a closed glass mesh no sphere fits",
+                     cs->idx[i]);
+            out->on = false;
+            snprintf(out->setting, sizeof out->setting, "none");
+            return;
+        }
+    }
     /* the query from the camera only where some caster is glass, by Russian roulette only where
      * every glass caster's chains are enumerated exactly (snee_plan.h) */
     bool glass = false, exact = true, ball = false, cone = false;
@@ -397,7 +450,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     else if (!glass)
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_MIRRORS);
     else if (ball)
-        snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_BALLS);
+        snprintf(out->setting, sizeof out->setting, "%s",
+                 strcmp(integrator, "volpath") ? SPC_SNEE_PLAN_SETTING_BALLS : SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH);
     else if (q < SPC_SNEE_PLAN_CAMERA_ALL)
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,first=0.1,later=0.1", q);
     else

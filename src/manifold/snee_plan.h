@@ -32,6 +32,14 @@
  *     near a crease with a tiny probability, and their trial counts' tail held the default's error
  *     (scenes/sdf_shapes_csg.xml; bench/RESULTS.md, "CSG: the plan"); smooth SDFs (a torus, a
  *     capsule, smooth unions of smooth primitives) keep it;
+ *   - off too if a glass caster is a closed triangle mesh that no sphere fits (fit_seeds.h: a glass
+ *     figure, scenes/conic_bunny.xml): the two-refraction chains through an irregular closed mesh
+ *     have many solutions, the rarer ones found by a randomized attempt with a probability of a
+ *     few percent or less, and without a fitted sphere to seed them their Bernoulli trial counts
+ *     (1 / p) are the image's fireflies (the glass figure at equal CPU time over 16 seeds: relMSE
+ *     0.354 with specular NEE, worst seed 1.51 with one pixel 96% of it, against 0.065 without;
+ *     bench/RESULTS.md, "The default against none on every caster scene"); open meshes (a water
+ *     surface) and tessellated balls keep it;
  *   - off too if a caster is flat-faced (enumerated by flat_chains.h) and the smallest light
  *     subtends more than 0.002 sr (snee_plan.c, SPC_SNEE_PLAN_FLAT_MAX_SR): flat glass does not
  *     focus the light, and the exact chains' cost paid only under a small light;
@@ -60,6 +68,8 @@
  *     bdpt gets its own setting (SPC_SNEE_PLAN_SETTING_BDPT, _BDPT_MIRRORS): it runs specular NEE
  *     only where its own strategies cannot reach (integrator/bdpt.c), so it needs no roulette past
  *     the first receiver, and the query from the camera pays there on one sample in ten.
+ *     volpath, whose receivers are medium points, weighs the chains through a tessellated ball
+ *     with the stand-in psi (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH).
  * Why angular: of the solvers it has the exact enumerations with reflections and longer chains, and
  * on the caustic scenes it was the fastest unbiased choice at equal time (the pool: 96x against
  * path, conic 45x, newton 26x); newton was slow and biased on multi-interface chains (two tilted
@@ -110,6 +120,17 @@
  * that the roulette does not change; on five of seven random triangle-ball scenes first=0.1 lost
  * (bench/RESULTS.md, "The triangle glass ball's tail over 24 seeds"). */
 #define SPC_SNEE_PLAN_SETTING_BALLS "angular:camera,later=0.1"
+
+/* volpath's setting where a glass caster is a tessellated ball: SPC_SNEE_PLAN_SETTING_BALLS without
+ * the real solve probability's MIS (nosolvemis: the stand-in psi, as on every other caster) and so
+ * without the ball pass of the longer chains (specular_nee.c). volpath's receivers are medium points,
+ * whose phase function's density toward a chain's first vertex is small, so the real probability's
+ * count Z = (1 - r^N) / b is nearly the plain trial count N / A there (solve_mis.h), and the ball
+ * pass cost 45% of the time per sample: on scenes/medium_glass.xml (a glass icosphere filled with
+ * a scattering medium) at equal CPU time over 6 seeds the mean relMSE was 0.292 (worst seed 0.567)
+ * with solvemis and 0.0523 (0.113) without (none: 0.455), lower in every seed (bench/RESULTS.md,
+ * "The default against none on every caster scene"). */
+#define SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH "angular:camera,later=0.1,nosolvemis"
 
 /* Guided seeds for the randomized attempts (a triangle mesh with vertex normals, an SDF): a share
  * 0.8 of those attempts seeded toward the chains of light paths traced before the render that landed
