@@ -248,15 +248,23 @@ static const spc_receiver *query_receiver(const spc_snee_query *q, spc_receiver 
     return own;
 }
 
+static bool exact_shape_covers(const spc_snee_query *q, const spc_chain *c);
+
 /* The probability that BSDF sampling, continuing a path along c's first segment, picks c's events:
  * the product over c's vertices of the lobe choice (spc_bsdf_specular_prob: F for a reflection off
- * glass, 1 - F for a refraction). It is part of the sampling side's density of a covered path, in
- * the MIS weights of both sides: without it a chain reflected inside a glass ball three times
- * (F^3 (1 - F)^2, about 1e-3) kept the BSDF side's weight near 1 where specular NEE's long pass finds
- * it, and BSDF sampling, which reaches it once in millions of samples with the light's full
- * radiance, made the glass sphere's one-pixel tail (bench/RESULTS.md, "Fold 7"). */
-static double chain_events_sample_prob(const spc_chain *c)
+ * glass, 1 - F for a refraction), part of the sampling side's density of a covered path in the MIS
+ * weights of both sides. Without it a chain reflected three times inside a glass sphere (F^3 (1 -
+ * F)^2, about 0.01) kept the BSDF side's weight near 1 where specular NEE's long pass enumerates it,
+ * and BSDF sampling, which reaches such a path rarely and then with the light's full radiance times
+ * the floor's albedo, held one seed's error in one pixel on scenes/caustic_glass_sphere.xml
+ * (bench/RESULTS.md, "Fold 7"). Only for the chains an exact enumeration finds (exact_shape_covers,
+ * a function of q and c alone, so both sides agree): elsewhere specular NEE's density is a stand-in
+ * psi and its count of randomized attempts heavy-tailed, and handing it more of those paths made new
+ * one-pixel tails on the SDF torus; there the factor is 1, as before. */
+static double chain_events_sample_prob(const spc_snee_query *q, const spc_chain *c)
 {
+    if (!exact_shape_covers(q, c))
+        return 1.0;
     double P = 1.0;
     for (int i = 0; i < c->n && P > 0.0; ++i) {
         const spc_chain_vertex *v = &c->v[i];
@@ -317,7 +325,7 @@ static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_ve
     if (!(G > 0.0) || !isfinite(G))
         return zero;
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
-        double P_ev = chain_events_sample_prob(c);
+        double P_ev = chain_events_sample_prob(q, c);
         *b = spc_receiver_pdf(r, c->d0) * G * P_ev;
         *pc = cones_pdf(cones_for(q, e), c->d0, k) * G * P_ev;
     }
@@ -890,11 +898,12 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         return false;
     /* a surface's density at the sampled direction, the others' at the retraced one */
     double pdf = spc_receiver_pdf(r, r->kind == SPC_RECEIVER_SURFACE ? d0 : ch.d0);
-    double P_ev = chain_events_sample_prob(&ch);
-    *b = pdf * G * P_ev;
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, x, r->wo, max_chain);
     q.receiver = r;
+    q.cam = cam; /* chain_events_sample_prob reads it as the query from the camera does */
+    double P_ev = chain_events_sample_prob(&q, &ch);
+    *b = pdf * G * P_ev;
     spc_snee_cones own;
     if (guided) {
         if (!cs || cs->e != e || cs->budget != max_chain) {
@@ -909,7 +918,6 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.ny = light->ng;
         q.light_size = sqrt(e->shape->area);
         q.p_y = p_y;
-        q.cam = cam;
         q.cam_scale = r->cam_scale;
         q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
         double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p);
