@@ -8,9 +8,9 @@
  * - At the floor point of that scene's worst seed (pixel (12, 20) of 32x32, seed 5), the paths that
  *   leave it toward the sphere and reach the light through 3 or more sphere vertices (reflected
  *   inside the ball) keep a small MIS weight on the BSDF side: mean below 0.02 and none above 0.05
- *   (0.002 and 0.01 measured). Without the events' probability in the BSDF side's density (F^3
- *   (1 - F)^2, about 0.01 for such a path) the weight was 0.94 at the render's firefly, a path of
- *   value 217 in a pixel whose mean is about 1.
+ *   (0.0000 and 0.0006 measured). Without the events' probability in the BSDF side's density
+ *   (F^3 (1 - F)^2, about 0.01 for such a path): 0.053 and 0.83, and 0.94 at the render's firefly,
+ *   a path of value 217 in a pixel whose mean is 0.03.
  * - With a larger light (radius 0.4), at floor points in the caustic, at its rim and beside the ball, specular NEE
  *   plus the BSDF-sampled paths it covers (chains up to 6 vertices, weighted by
  *   spc_snee_mis_bsdf_weight) agree with BSDF sampling alone (every path weight 1, no specular NEE):

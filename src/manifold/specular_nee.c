@@ -260,7 +260,7 @@ static bool exact_shape_covers(const spc_snee_query *q, const spc_chain *c);
  * (bench/RESULTS.md, "Fold 7"). Only for the chains an exact enumeration finds (exact_shape_covers,
  * a function of q and c alone, so both sides agree): elsewhere specular NEE's density is a stand-in
  * psi and its count of randomized attempts heavy-tailed, and handing it more of those paths made new
- * one-pixel tails on the SDF torus; there the factor is 1, as before. */
+ * one-pixel tails on the SDF torus; there the factor is 1 (BSDF sampling keeps its larger share). */
 static double chain_events_sample_prob(const spc_snee_query *q, const spc_chain *c)
 {
     if (!exact_shape_covers(q, c))
