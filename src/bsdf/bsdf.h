@@ -177,10 +177,6 @@ bool spc_bsdf_sample_is_null(const spc_bsdf *b, const spc_bsdf_sample *bs);
  * possibly under a twosided or a normalmap): the specular solvers treat such surfaces as chain
  * vertices. *eta receives int_ior/ext_ior (0 for a reflector). */
 bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta);
-/* The factor of a delta lobe for a direction pair the caller constructed (specular.c): wi must be
- * the exact mirror (or refracted) direction of wo about h->sh.n. Reflection F * specular_
- * reflectance, refraction (1 - F) * specular_transmittance / eta_t^2 (radiance mode), the same
- * as BSDF sampling's weight times the lobe's probability. Zero where the BSDF has no such lobe. */
 /* A normal-mapped chain vertex: if h->bsdf is a normalmap (and h not yet mapped), replaces h->sh by
  * the mapped frame as the BSDF sees it from wo (toward the previous vertex), h->dndu/dndv by the
  * mapped normal's derivatives with respect to the surface parameters, keeps the old normal in
@@ -191,8 +187,18 @@ bool spc_bsdf_map_chain_hit(spc_hit *h, spc_vec3 wo);
 /* Is a shape with this BSDF a usable chain vertex as far as normal maps go (the shape can
  * differentiate its texture frame)? */
 bool spc_bsdf_chain_mappable(const spc_bsdf *b, int shape_type);
+/* The factor of a delta lobe for a direction pair the caller constructed (specular.c): wi must be
+ * the exact mirror (or refracted) direction of wo about h->sh.n. Reflection F * specular_
+ * reflectance, refraction (1 - F) * specular_transmittance / eta_t^2 (radiance mode), the same
+ * as BSDF sampling's weight times the lobe's probability. Zero where the BSDF has no such lobe. */
 spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
                                      spc_vec3 wi);
+/* The probability with which sample() chooses the delta lobe that carries wo to wi, for the same
+ * constructed direction pair (specular.c): F for a dielectric's reflection, 1 - F for its refraction,
+ * 1 for a conductor; the nested BSDF's under a twosided or a normalmap. The density of a path that
+ * BSDF sampling traces through specular vertices includes this factor at each of them (it is the
+ * pdf of spc_bsdf_sample's record for that lobe). Zero where the BSDF has no such lobe. */
+double spc_bsdf_specular_prob(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_vec3 wi);
 
 /* Fresnel helpers shared by the variants and the specular solvers (src/bsdf/fresnel.c). */
 /* Unpolarized dielectric reflectance for cos_i (signed: < 0 means wi on the inside) and

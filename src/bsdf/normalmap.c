@@ -192,3 +192,12 @@ spc_rgb spc_normalmap_specular_throughput(const spc_bsdf *b, const spc_hit *h, s
     return spc_rgb_scale(spc_bsdf_specular_throughput(b->nested[0], &m, mode, wo, wi),
                          spc_bsdf_bump_shadowing(&orig, &m, wi));
 }
+
+double spc_normalmap_specular_prob(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
+{
+    /* spc_normalmap_sample draws the nested BSDF's lobe in the mapped frame */
+    spc_hit m = *h;
+    if (!spc_bsdf_map_chain_hit(&m, wo))
+        return 0.0;
+    return spc_bsdf_specular_prob(b->nested[0], &m, wo, wi);
+}

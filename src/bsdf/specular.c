@@ -13,7 +13,9 @@
  *   normalmap               the nested BSDF's in the mapped frame (mapped here unless the hit is
  *                           already), 0 if wi lies on different sides of the two frames, times
  *                           the shadowing term (spc_normalmap_specular_throughput)
- * where F is the unpolarized Fresnel reflectance of fresnel.c.
+ * where F is the unpolarized Fresnel reflectance of fresnel.c. Also the probability with which
+ * BSDF sampling picks that lobe (spc_bsdf_specular_prob): the sampling side's density of a path
+ * through the interface, for the MIS weights of specular connections.
  */
 #include "bsdf/variants.h"
 
@@ -71,4 +73,51 @@ spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_tr
         return spc_rgb1(0.0);
     }
     return spc_rgb1(0.0);
+}
+
+double spc_bsdf_specular_prob(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
+{
+    if (!b)
+        return 0.0;
+    double co = spc_dot(wo, h->sh.n), ci = spc_dot(wi, h->sh.n);
+    switch (b->type) {
+    case SPC_BSDF_CONDUCTOR:
+        return co > 0.0 && ci > 0.0 ? 1.0 : 0.0;
+    case SPC_BSDF_DIELECTRIC: {
+        /* dielectric.c samples reflection with probability F, refraction with 1 - F */
+        if (co == 0.0 || ci == 0.0)
+            return 0.0;
+        double cos_t, eta_ti;
+        double F = spc_fresnel_dielectric(co, b->eta, &cos_t, &eta_ti);
+        return co * ci > 0.0 ? F : 1.0 - F;
+    }
+    case SPC_BSDF_NORMALMAP:
+        return spc_normalmap_specular_prob(b, h, wo, wi);
+    case SPC_BSDF_TWOSIDED: {
+        if (co >= 0.0)
+            return spc_bsdf_specular_prob(b->nested[0], h, wo, wi);
+        spc_hit flip = *h;
+        flip.sh.t = spc_neg(h->sh.t);
+        flip.sh.n = spc_neg(h->sh.n);
+        flip.ng = spc_neg(h->ng);
+        return spc_bsdf_specular_prob(b->nested[1] ? b->nested[1] : b->nested[0], &flip, wo, wi);
+    }
+    case SPC_BSDF_DIFFUSE:
+    case SPC_BSDF_ROUGHDIFFUSE:
+    case SPC_BSDF_PHONG:
+    case SPC_BSDF_ROUGHCONDUCTOR:
+    case SPC_BSDF_THINDIELECTRIC:
+    case SPC_BSDF_ROUGHDIELECTRIC:
+    case SPC_BSDF_PLASTIC:
+    case SPC_BSDF_ROUGHPLASTIC:
+    case SPC_BSDF_PPLASTIC:
+    case SPC_BSDF_PRINCIPLED:
+    case SPC_BSDF_PRINCIPLEDTHIN:
+    case SPC_BSDF_BUMPMAP:
+    case SPC_BSDF_NULL:
+    case SPC_BSDF_MASK:
+    case SPC_BSDF_BLENDBSDF:
+        return 0.0;
+    }
+    return 0.0;
 }

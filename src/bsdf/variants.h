@@ -177,6 +177,7 @@ spc_rgb spc_twosided_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport
 SPC_BSDF_VARIANT(normalmap);
 spc_rgb spc_normalmap_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
                                           spc_vec3 wi);
+double spc_normalmap_specular_prob(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_vec3 wi);
 SPC_BSDF_VARIANT(bumpmap);
 SPC_BSDF_VARIANT(null);
 spc_rgb spc_null_null_transmission(const spc_bsdf *b, const spc_hit *h);

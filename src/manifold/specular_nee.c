@@ -248,9 +248,35 @@ static const spc_receiver *query_receiver(const spc_snee_query *q, spc_receiver 
     return own;
 }
 
+static bool exact_shape_covers(const spc_snee_query *q, const spc_chain *c);
+
+/* The probability that BSDF sampling, continuing a path along c's first segment, picks c's events:
+ * the product over c's vertices of the lobe choice (spc_bsdf_specular_prob: F for a reflection off
+ * glass, 1 - F for a refraction), part of the sampling side's density of a covered path in the MIS
+ * weights of both sides. Without it a chain reflected three times inside a glass sphere (F^3 (1 -
+ * F)^2, about 0.01) kept the BSDF side's weight near 1 where specular NEE's long pass enumerates it,
+ * and BSDF sampling, which reaches such a path rarely and then with the light's full radiance times
+ * the floor's albedo, held one seed's error in one pixel on scenes/caustic_glass_sphere.xml
+ * (bench/RESULTS.md, "Fold 7"). Only for the chains an exact enumeration finds (exact_shape_covers,
+ * a function of q and c alone, so both sides agree): elsewhere specular NEE's density is a stand-in
+ * psi and its count of randomized attempts heavy-tailed, and handing it more of those paths made new
+ * one-pixel tails on the SDF torus; there the factor is 1 (BSDF sampling keeps its larger share). */
+static double chain_events_sample_prob(const spc_snee_query *q, const spc_chain *c)
+{
+    if (!exact_shape_covers(q, c))
+        return 1.0;
+    double P = 1.0;
+    for (int i = 0; i < c->n && P > 0.0; ++i) {
+        const spc_chain_vertex *v = &c->v[i];
+        P *= spc_bsdf_specular_prob(v->h.bsdf, &v->h, spc_neg(v->wi), v->d);
+    }
+    return P;
+}
+
 /* The contribution of chain c toward q's light point before MIS (f T Le cos G), and in *b BSDF
- * sampling's density of the same path in the light's area measure (pdf_x G; 0 where MIS does not
- * apply: no MIS, not an area light) and in *pc the guided directions' (params.guide). */
+ * sampling's density of the same path in the light's area measure (pdf_x G times the events'
+ * probability, chain_events_sample_prob; 0 where MIS does not apply: no MIS, not an area light) and
+ * in *pc the guided directions' (params.guide; they pick the events by BSDF sampling too). */
 static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c, double *b,
                            double *pc)
 {
@@ -299,8 +325,9 @@ static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_ve
     if (!(G > 0.0) || !isfinite(G))
         return zero;
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
-        *b = spc_receiver_pdf(r, c->d0) * G;
-        *pc = cones_pdf(cones_for(q, e), c->d0, k) * G;
+        double P_ev = chain_events_sample_prob(q, c);
+        *b = spc_receiver_pdf(r, c->d0) * G * P_ev;
+        *pc = cones_pdf(cones_for(q, e), c->d0, k) * G * P_ev;
     }
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G);
 }
@@ -874,7 +901,7 @@ static void path_rng(spc_rng *rng, spc_vec3 a, spc_vec3 b, spc_vec3 c)
 /* The three strategies' densities (the light's area measure) of a covered path that left the
  * receiver r along d0 and reached the area light at the hit `light` through k chain vertices with
  * these events: *a specular NEE's light sample (psi p_y), *b the sampling side's (the receiver's
- * own density, spc_receiver_pdf, times the chain's geometry term),
+ * own density, spc_receiver_pdf, times the chain's geometry term and its events' probability),
  * *c guided directions' (params.guide; cones at x toward the light, cs if given, else built here).
  * The chain is retraced for its geometry term. False if the retrace does not reproduce the path.
  * p->mis is set and e is an area light. */
@@ -907,17 +934,19 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         return false;
     /* a surface's density at the sampled direction, the others' at the retraced one */
     double pdf = spc_receiver_pdf(r, r->kind == SPC_RECEIVER_SURFACE ? d0 : ch.d0);
-    *b = pdf * G;
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, x, r->wo, max_chain);
     q.receiver = r;
+    q.cam = cam; /* chain_events_sample_prob reads it as the query from the camera does */
+    double P_ev = chain_events_sample_prob(&q, &ch);
+    *b = pdf * G * P_ev;
     spc_snee_cones own;
     if (guided) {
         if (!cs || cs->e != e || cs->budget != max_chain) {
             cones_build(&q, e, max_chain, &own);
             cs = &own;
         }
-        *c = cones_pdf(cs, ch.d0, k) * G;
+        *c = cones_pdf(cs, ch.d0, k) * G * P_ev;
     }
     if (p_y > 0.0) {
         /* psi as specular NEE has it for this chain toward this light point */
@@ -925,7 +954,6 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.ny = light->ng;
         q.light_size = sqrt(e->shape->area);
         q.p_y = p_y;
-        q.cam = cam;
         q.cam_scale = r->cam_scale;
         q.long_max = SPC_CHAIN_MAX_VERTICES; /* the track went no further than the caller's depth */
         spc_fit_roots fit; /* the fitted sphere's solutions toward this light point (fit_seeds.h) */
