@@ -2,8 +2,8 @@
 # Regenerates the README's pictures, each scene with the default (specular NEE chosen from the scene)
 # and with --specular-nee none at about equal CPU time (none gets as many more samples as the
 # default costs per sample):
-#   - scenes/demo.xml at its own size (256x256), the default at its 8 spp, none at 52 spp (the
-#     default's cost per sample there is 6.5x none's: 4.35 CPU-s at 8 spp against 4.07 at 48):
+#   - scenes/demo.xml at its own size (256x256), the default at its 8 spp, none at 64 spp (the
+#     default's cost per sample there is 8x none's: 4.6 CPU-s at 8 spp against 3.7 at 52):
 #     docs/images/demo_default.png, docs/images/demo_none.png;
 #   - scenes/caustic_mirror_ring.xml (a caustic inside a mirror ring under a small sphere light) at
 #     128x128, 32 against 354 spp (4.2 CPU-s at 32 spp against 5.1 at 426):
@@ -23,5 +23,5 @@ pair() {
   cp "$tmp/none.png" "docs/images/$2_none.png"
   echo "wrote docs/images/$2_default.png and docs/images/$2_none.png ($3x$3, $4 and $5 spp)"
 }
-pair scenes/demo.xml demo 256 8 52
+pair scenes/demo.xml demo 256 8 64
 pair scenes/caustic_mirror_ring.xml ring 128 32 354
