@@ -17,6 +17,7 @@
 
 #include "bsdf/bsdf.h"
 #include "core/rng.h"
+#include "core/warp.h"
 #include "harness.h"
 #include "manifold/snee_options.h"
 #include "manifold/specular_nee.h"
@@ -95,6 +96,37 @@ static inline double chain_mis_bsdf_path(const spc_scene *sc, const spc_snee_par
                              spc_v2(spc_rng_next(u), spc_rng_next(u)), &bs))
         return 0.0;
     return chain_mis_trace_from(sc, p, x, wo, bs.wi, bs.lobe, bs.weight, plain, false, u, k_out, w_out);
+}
+
+/* The MIS weights of the paths from x (seen along wo) whose first direction is drawn uniformly in
+ * the cone toward the sphere (centre, radius) and that reach the light through 3 or more chain
+ * vertices (chain_mis_trace_from with `even`): at most `draws` directions, stopping at nmax such
+ * paths; *n their count, *wsum and *wmax the sum and the largest of their weights. */
+static inline void chain_mis_long_weights(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                                          spc_vec3 centre, double radius, int draws, int nmax, bool even, int *n,
+                                          double *wsum, double *wmax)
+{
+    spc_vec3 axis = spc_sub(centre, x->p);
+    double dist = spc_length(axis), cos_max = sqrt(1.0 - radius * radius / (dist * dist));
+    spc_frame fr = spc_frame_from_n(spc_scale(axis, 1.0 / dist));
+    spc_rng u;
+    spc_rng_seed(&u, 7, 1);
+    *n = 0;
+    *wsum = *wmax = 0.0;
+    for (int i = 0; i < draws && *n < nmax; ++i) {
+        spc_vec3 d0 =
+            spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(spc_rng_next(&u), spc_rng_next(&u)), cos_max));
+        if (!(spc_dot(d0, x->ng) > 0.0))
+            continue;
+        int k;
+        double w;
+        chain_mis_trace_from(sc, p, x, wo, d0, SPC_LOBE_DIFFUSE_REFLECTION, spc_rgb1(1.0), false, even, &u, &k, &w);
+        if (k >= 3) {
+            ++*n;
+            *wsum += w;
+            *wmax = w > *wmax ? w : *wmax;
+        }
+    }
 }
 
 /* Specular NEE with MIS on angular chains of up to 2 vertices, the parameters both tests use. */

@@ -13,6 +13,7 @@
  *   (every path weight 1, no specular NEE): |z| < 4 at every point.
  */
 /* ctest-labels: stat */
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -49,27 +50,9 @@ TEST(long_chain_weight)
     spc_vec3 wo = spc_normalize(spc_sub(spc_v3(0.0, 3.2, 4.2), x.p));
     /* directions toward the torus's bounding sphere (centre (0, 0.64, 0), radius 1.08): the weight is a
      * function of the path, whatever drew its first direction */
-    spc_vec3 axis = spc_sub(spc_v3(0.0, 0.64, 0.0), x.p);
-    double dist = spc_length(axis), cos_max = sqrt(1.0 - 1.1 * 1.1 / (dist * dist));
-    spc_frame fr = spc_frame_from_n(spc_scale(axis, 1.0 / dist));
-    spc_rng u;
-    spc_rng_seed(&u, 7, 1);
-    int n = 0;
-    double wsum = 0.0, wmax = 0.0;
-    for (int i = 0; i < 100000; ++i) {
-        spc_vec3 d0 =
-            spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(spc_rng_next(&u), spc_rng_next(&u)), cos_max));
-        if (!(spc_dot(d0, x.ng) > 0.0))
-            continue;
-        int k;
-        double w;
-        chain_mis_trace_from(sc, &p, &x, wo, d0, SPC_LOBE_DIFFUSE_REFLECTION, spc_rgb1(1.0), false, false, &u, &k, &w);
-        if (k >= 3) {
-            ++n;
-            wsum += w;
-            wmax = w > wmax ? w : wmax;
-        }
-    }
+    int n;
+    double wsum, wmax;
+    chain_mis_long_weights(sc, &p, &x, wo, spc_v3(0.0, 0.64, 0.0), 1.1, 100000, INT_MAX, false, &n, &wsum, &wmax);
     printf("    %d paths through 3+ torus vertices: mean weight %.4f, largest %.4f\n", n, n ? wsum / n : 0.0, wmax);
     CHECK(n >= 5);
     CHECK_MSG(n > 0 && wsum / n < 0.004, "mean weight %.4f", n ? wsum / n : 0.0);

@@ -92,27 +92,9 @@ TEST(long_chain_weight)
     spc_vec3 wo = spc_normalize(spc_sub(CAMERA, x.p));
     /* directions toward the ball: the weight is a function of the path, whatever drew its first
      * direction */
-    spc_vec3 axis = spc_sub(BALL_C, x.p);
-    double dist = spc_length(axis), cos_max = sqrt(1.0 - BALL_R * BALL_R / (dist * dist));
-    spc_frame fr = spc_frame_from_n(spc_scale(axis, 1.0 / dist));
-    spc_rng u;
-    spc_rng_seed(&u, 7, 1);
-    int n = 0;
-    double wsum = 0.0, wmax = 0.0;
-    for (int i = 0; i < 800000 && n < 200; ++i) {
-        spc_vec3 d0 =
-            spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(spc_rng_next(&u), spc_rng_next(&u)), cos_max));
-        if (!(spc_dot(d0, x.ng) > 0.0))
-            continue;
-        int k;
-        double w;
-        chain_mis_trace_from(sc, &p, &x, wo, d0, SPC_LOBE_DIFFUSE_REFLECTION, spc_rgb1(1.0), false, true, &u, &k, &w);
-        if (k >= 3) {
-            ++n;
-            wsum += w;
-            wmax = w > wmax ? w : wmax;
-        }
-    }
+    int n;
+    double wsum, wmax;
+    chain_mis_long_weights(sc, &p, &x, wo, BALL_C, BALL_R, 800000, 200, true, &n, &wsum, &wmax);
     printf("    %d paths through 3+ sphere vertices: mean weight %.4f, largest %.4f\n", n, n ? wsum / n : 0.0, wmax);
     CHECK(n >= 20);
     CHECK_MSG(n > 0 && wsum / n < 0.02, "mean weight %.4f", n ? wsum / n : 0.0);
