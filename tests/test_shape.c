@@ -272,6 +272,33 @@ static bool same_hit(const spc_hit *a, const spc_hit *b)
            a->err == b->err;
 }
 
+/* The two-triangle quad (bent out of its plane) of the mesh frame tests, with vertex normals where
+ * `normals` and the uvs UV[0..8) where UV is not NULL; its arrays are malloc'ed, for
+ * spc_shape_init_mesh to take. */
+static spc_mesh quad_mesh(bool normals, const float *UV)
+{
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    m.nverts = 4;
+    m.ntris = 2;
+    m.p = malloc(12 * sizeof(float));
+    m.idx = malloc(6 * sizeof(uint32_t));
+    float P[12] = {0, 0, 0, 1, 0, 0.1f, 1, 1, 0, 0, 1, 0.3f};
+    uint32_t I[6] = {0, 1, 2, 0, 2, 3};
+    memcpy(m.p, P, sizeof P);
+    memcpy(m.idx, I, sizeof I);
+    if (normals) {
+        float N[12] = {0, 0, 1, 0.1f, 0, 1, 0, 0.2f, 1, -0.1f, 0, 1};
+        m.n = malloc(sizeof N);
+        memcpy(m.n, N, sizeof N);
+    }
+    if (UV) {
+        m.uv = malloc(8 * sizeof(float));
+        memcpy(m.uv, UV, 8 * sizeof(float));
+    }
+    return m;
+}
+
 TEST(mesh_kept_frames_match)
 {
     int checked = 0;
@@ -285,26 +312,8 @@ TEST(mesh_kept_frames_match)
                 CHECK(spc_shape_init_cube(&s, &T, NULL, 0, 0, &err)); /* uvs */
             } else {
                 /* two triangles; kind 1: no uvs, 2: vertex normals, 3: a uv map of zero area */
-                spc_mesh m;
-                memset(&m, 0, sizeof m);
-                m.nverts = 4;
-                m.ntris = 2;
-                m.p = malloc(12 * sizeof(float));
-                m.idx = malloc(6 * sizeof(uint32_t));
-                float P[12] = {0, 0, 0, 1, 0, 0.1f, 1, 1, 0, 0, 1, 0.3f};
-                uint32_t I[6] = {0, 1, 2, 0, 2, 3};
-                memcpy(m.p, P, sizeof P);
-                memcpy(m.idx, I, sizeof I);
-                if (kind == 2) {
-                    float N[12] = {0, 0, 1, 0.1f, 0, 1, 0, 0.2f, 1, -0.1f, 0, 1};
-                    m.n = malloc(sizeof N);
-                    memcpy(m.n, N, sizeof N);
-                }
-                if (kind == 3) {
-                    float UV[8] = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f};
-                    m.uv = malloc(sizeof UV);
-                    memcpy(m.uv, UV, sizeof UV);
-                }
+                static const float UV[8] = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f};
+                spc_mesh m = quad_mesh(kind == 2, kind == 3 ? UV : NULL);
                 CHECK(spc_shape_init_mesh(&s, &m, &T, NULL, 0, 0, &err));
             }
             s.flip_normals = flip != 0;
@@ -376,26 +385,8 @@ TEST(mesh_lazy_derivatives_match)
                     } else {
                         /* kind 1: no uvs; 2: vertex normals; 3: vertex normals and uvs; 4: vertex
                          * normals under face_normals */
-                        spc_mesh m;
-                        memset(&m, 0, sizeof m);
-                        m.nverts = 4;
-                        m.ntris = 2;
-                        m.p = malloc(12 * sizeof(float));
-                        m.idx = malloc(6 * sizeof(uint32_t));
-                        float P[12] = {0, 0, 0, 1, 0, 0.1f, 1, 1, 0, 0, 1, 0.3f};
-                        uint32_t I[6] = {0, 1, 2, 0, 2, 3};
-                        memcpy(m.p, P, sizeof P);
-                        memcpy(m.idx, I, sizeof I);
-                        if (kind >= 2) {
-                            float N[12] = {0, 0, 1, 0.1f, 0, 1, 0, 0.2f, 1, -0.1f, 0, 1};
-                            m.n = malloc(sizeof N);
-                            memcpy(m.n, N, sizeof N);
-                        }
-                        if (kind == 3) {
-                            float UV[8] = {0, 0, 1, 0.1f, 0.9f, 1, 0.2f, 0.8f};
-                            m.uv = malloc(sizeof UV);
-                            memcpy(m.uv, UV, sizeof UV);
-                        }
+                        static const float UV[8] = {0, 0, 1, 0.1f, 0.9f, 1, 0.2f, 0.8f};
+                        spc_mesh m = quad_mesh(kind >= 2, kind == 3 ? UV : NULL);
                         CHECK(spc_shape_init_mesh(&s, &m, &T, NULL, 0, 0, &err));
                         s.face_normals = kind == 4;
                     }

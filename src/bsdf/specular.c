@@ -19,6 +19,32 @@
  */
 #include "bsdf/variants.h"
 
+/* The probability with which dielectric.c's sampling picks the delta lobe that takes wo to wi,
+ * given their cosines co, ci with the shading normal: reflection with F(co), refraction with
+ * 1 - F(co); 0 when either direction is grazing. *eta_ti receives eta_t as fresnel.c defines it. */
+static double dielectric_event_prob(const spc_bsdf *b, double co, double ci, double *eta_ti)
+{
+    *eta_ti = 1.0;
+    if (co == 0.0 || ci == 0.0)
+        return 0.0;
+    double cos_t;
+    double F = spc_fresnel_dielectric(co, b->eta, &cos_t, eta_ti);
+    return co * ci > 0.0 ? F : 1.0 - F;
+}
+
+/* The nested BSDF of a twosided one that serves the side of wo (cosine co with the shading
+ * normal), and in *side the hit in that BSDF's frame: as given in front, flipped behind. */
+static const spc_bsdf *twosided_side(const spc_bsdf *b, const spc_hit *h, double co, spc_hit *side)
+{
+    *side = *h;
+    if (co >= 0.0)
+        return b->nested[0];
+    side->sh.t = spc_neg(h->sh.t);
+    side->sh.n = spc_neg(h->sh.n);
+    side->ng = spc_neg(h->ng);
+    return b->nested[1] ? b->nested[1] : b->nested[0];
+}
+
 spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
                                      spc_vec3 wi)
 {
@@ -33,13 +59,13 @@ spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_tr
     case SPC_BSDF_DIELECTRIC: {
         if (co == 0.0 || ci == 0.0)
             return spc_rgb1(0.0);
-        double cos_t, eta_ti;
-        double F = spc_fresnel_dielectric(co, b->eta, &cos_t, &eta_ti);
+        double eta_ti;
+        double p = dielectric_event_prob(b, co, ci, &eta_ti);
         if (co * ci > 0.0)
-            return spc_rgb_scale(spc_bsdf_tex(b->specular_reflectance, h, spc_rgb1(1.0)), F);
-        if (F >= 1.0)
+            return spc_rgb_scale(spc_bsdf_tex(b->specular_reflectance, h, spc_rgb1(1.0)), p);
+        if (p <= 0.0)
             return spc_rgb1(0.0); /* total internal reflection: nothing is transmitted */
-        spc_rgb T = spc_rgb_scale(spc_bsdf_tex(b->specular_transmittance, h, spc_rgb1(1.0)), 1.0 - F);
+        spc_rgb T = spc_rgb_scale(spc_bsdf_tex(b->specular_transmittance, h, spc_rgb1(1.0)), p);
         if (mode == SPC_MODE_RADIANCE)
             T = spc_rgb_scale(T, 1.0 / (eta_ti * eta_ti));
         return T;
@@ -47,13 +73,9 @@ spc_rgb spc_bsdf_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_tr
     case SPC_BSDF_NORMALMAP:
         return spc_normalmap_specular_throughput(b, h, mode, wo, wi);
     case SPC_BSDF_TWOSIDED: {
-        if (co >= 0.0)
-            return spc_bsdf_specular_throughput(b->nested[0], h, mode, wo, wi);
-        spc_hit flip = *h;
-        flip.sh.t = spc_neg(h->sh.t);
-        flip.sh.n = spc_neg(h->sh.n);
-        flip.ng = spc_neg(h->ng);
-        return spc_bsdf_specular_throughput(b->nested[1] ? b->nested[1] : b->nested[0], &flip, mode, wo, wi);
+        spc_hit side;
+        const spc_bsdf *nested = twosided_side(b, h, co, &side);
+        return spc_bsdf_specular_throughput(nested, &side, mode, wo, wi);
     }
     case SPC_BSDF_DIFFUSE:
     case SPC_BSDF_ROUGHDIFFUSE:
@@ -84,23 +106,15 @@ double spc_bsdf_specular_prob(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, 
     case SPC_BSDF_CONDUCTOR:
         return co > 0.0 && ci > 0.0 ? 1.0 : 0.0;
     case SPC_BSDF_DIELECTRIC: {
-        /* dielectric.c samples reflection with probability F, refraction with 1 - F */
-        if (co == 0.0 || ci == 0.0)
-            return 0.0;
-        double cos_t, eta_ti;
-        double F = spc_fresnel_dielectric(co, b->eta, &cos_t, &eta_ti);
-        return co * ci > 0.0 ? F : 1.0 - F;
+        double eta_ti;
+        return dielectric_event_prob(b, co, ci, &eta_ti);
     }
     case SPC_BSDF_NORMALMAP:
         return spc_normalmap_specular_prob(b, h, wo, wi);
     case SPC_BSDF_TWOSIDED: {
-        if (co >= 0.0)
-            return spc_bsdf_specular_prob(b->nested[0], h, wo, wi);
-        spc_hit flip = *h;
-        flip.sh.t = spc_neg(h->sh.t);
-        flip.sh.n = spc_neg(h->sh.n);
-        flip.ng = spc_neg(h->ng);
-        return spc_bsdf_specular_prob(b->nested[1] ? b->nested[1] : b->nested[0], &flip, wo, wi);
+        spc_hit side;
+        const spc_bsdf *nested = twosided_side(b, h, co, &side);
+        return spc_bsdf_specular_prob(nested, &side, wo, wi);
     }
     case SPC_BSDF_DIFFUSE:
     case SPC_BSDF_ROUGHDIFFUSE:

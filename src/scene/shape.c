@@ -566,6 +566,20 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
 
 /* ---- surface interaction ---- */
 
+/* The derivatives of the shading normal n = nr / |nr| (nr = b0 n0 + b1 n1 + b2 n2, len = |nr|) along
+ * the barycentrics b1, b2: d(nr/|nr|) = (I - n n^T) d(nr) / |nr|, negated under flip_normals. */
+static void mesh_normal_derivatives(const spc_shape *s, spc_vec3 n, spc_vec3 n0, spc_vec3 n1, spc_vec3 n2, double len,
+                                    spc_hit *h)
+{
+    spc_vec3 d1 = spc_sub(n1, n0), d2 = spc_sub(n2, n0);
+    h->dndu = spc_scale(spc_sub(d1, spc_scale(n, spc_dot(n, d1))), 1.0 / len);
+    h->dndv = spc_scale(spc_sub(d2, spc_scale(n, spc_dot(n, d2))), 1.0 / len);
+    if (s->flip_normals) {
+        h->dndu = spc_neg(h->dndu);
+        h->dndv = spc_neg(h->dndv);
+    }
+}
+
 /* What fill_mesh fills: MESH_LIGHT what a light sample needs (p, ng with its orientation, uv, err,
  * b1, b2, dpdu, dpdv: no shading frame, no normal derivatives); MESH_SHADING what shading reads
  * (p, ng, sh, uv, err, b1, b2: no derivatives); MESH_ALL every field. */
@@ -615,16 +629,8 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
                     h->ng = spc_neg(h->ng);
                 return;
             }
-            if (what == MESH_ALL) {
-                /* d(nr/|nr|) = (I - n n^T) d(nr) / |nr| */
-                spc_vec3 d1 = spc_sub(n1, n0), d2 = spc_sub(n2, n0);
-                h->dndu = spc_scale(spc_sub(d1, spc_scale(n, spc_dot(n, d1))), 1.0 / len);
-                h->dndv = spc_scale(spc_sub(d2, spc_scale(n, spc_dot(n, d2))), 1.0 / len);
-                if (s->flip_normals) {
-                    h->dndu = spc_neg(h->dndu);
-                    h->dndv = spc_neg(h->dndv);
-                }
-            }
+            if (what == MESH_ALL)
+                mesh_normal_derivatives(s, n, n0, n1, n2, len, h);
             if (s->flip_normals)
                 n = spc_neg(n);
             if (spc_dot(n, h->ng) < 0.0)
@@ -667,14 +673,7 @@ static void mesh_derivatives(const spc_shape *s, int prim, double b1, double b2,
     double len = spc_length(nr);
     if (!(len > 1e-12))
         return;
-    spc_vec3 n = spc_scale(nr, 1.0 / len);
-    spc_vec3 d1 = spc_sub(n1, n0), d2 = spc_sub(n2, n0);
-    h->dndu = spc_scale(spc_sub(d1, spc_scale(n, spc_dot(n, d1))), 1.0 / len);
-    h->dndv = spc_scale(spc_sub(d2, spc_scale(n, spc_dot(n, d2))), 1.0 / len);
-    if (s->flip_normals) {
-        h->dndu = spc_neg(h->dndu);
-        h->dndv = spc_neg(h->dndv);
-    }
+    mesh_normal_derivatives(s, spc_scale(nr, 1.0 / len), n0, n1, n2, len, h);
 }
 
 static void fill_sphere(const spc_shape *s, const spc_ray *r, double t, spc_hit *h)
