@@ -294,6 +294,60 @@ TEST(ball_long_chain_weight)
     spc_scene_destroy(sc);
 }
 
+/* The 2-vertex paths (in, out) from the floor point (-0.097, 0, 0.323) near the fold of the ball's
+ * caustic, where the fitted sphere has three 2-vertex chains to the light: uniform directions into
+ * the ball that reach the light, their mean BSDF-side weight. Each chain is counted exactly from its
+ * fitted solution's seed (fit_first in specular_nee.c), so the weight is the stand-in's b / (p_y + b):
+ * 0.012 over 100 paths; with the randomized attempts' solve probability (about 0.19 per chain) it was
+ * 0.135. */
+TEST(ball_fold_chain_weight)
+{
+    spc_scene *sc = tu_load(SCENE, 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_snee_params p;
+    CHECK(spc_snee_parse("angular", 2, &p));
+    p.mis = true;
+    spc_vec3 c = spc_v3(0, 0, 0);
+    double R = 0.0;
+    bool ball = false;
+    for (int i = 0; i < sc->nshapes && !ball; ++i)
+        ball = spc_fit_sphere(sc->shapes[i], &c, &R);
+    spc_hit x;
+    CHECK(ball);
+    CHECK(floor_point(sc, -0.097, 0.323, &x));
+    if (!ball || !floor_point(sc, -0.097, 0.323, &x)) {
+        spc_scene_destroy(sc);
+        return;
+    }
+    static const unsigned char ev[2] = {SPC_CHAIN_REFRACT, SPC_CHAIN_REFRACT};
+    spc_rng r;
+    spc_rng_seed(&r, 7, 2);
+    int n = 0;
+    double sw = 0.0;
+    for (int i = 0; i < 200000 && n < 100; ++i) {
+        spc_vec3 u;
+        do
+            u = spc_v3(2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1);
+        while (spc_dot(u, u) > 1.0);
+        spc_vec3 d0 = spc_normalize(spc_sub(spc_add(c, spc_scale(u, R)), x.p));
+        spc_frame fr = spc_frame_from_n(d0);
+        spc_chain_opts o = spc_chain_opts_default(2);
+        o.events = ev;
+        spc_chain ch;
+        if (spc_chain_trace(sc, &x, &fr, 0.0, 0.0, &o, &ch) != SPC_CHAIN_END_SURFACE || ch.n != 2 || !ch.has_end_hit ||
+            !ch.end_hit.emitter)
+            continue;
+        sw += spc_snee_mis_bsdf_weight(sc, &p, &x, spc_v3(0, 1, 0), d0, 2, 2, ev, &ch.end_hit);
+        ++n;
+    }
+    printf("    %d two-vertex paths, mean BSDF-side weight %.3f\n", n, n > 0 ? sw / n : -1.0);
+    CHECK(n >= 50);
+    CHECK_MSG(n > 0 && sw / n < 0.05, "mean weight %.3f", n > 0 ? sw / n : -1.0);
+    spc_scene_destroy(sc);
+}
+
 /* The ball pass's events: over the 32 event sequences of a 5-vertex chain through the glass ball, the
  * frequency with which spc_snee_attempt_event_u's uniforms pick each (spc_chain_pick_event at
  * reflect_p 0.5) matches spc_snee_attempt_events_prob within 4 standard errors, the probabilities sum
@@ -368,5 +422,6 @@ int main(void)
     RUN(triangle_ball_tail);
     RUN(ball_long_chain_weight);
     RUN(ball_events_probability);
+    RUN(ball_fold_chain_weight);
     return spc_test_finish();
 }

@@ -86,7 +86,8 @@ bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius)
 /* The first directions of the fitted sphere's chains (center c, radius R) from q's x to its y, of
  * the query's lengths and the events its params allow (a conductor: one reflection; a dielectric:
  * in and out, with reflect also one reflection and internal ones): at most max, written to dir. */
-static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, spc_vec3 *dir, int max)
+static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, spc_vec3 *dir,
+                    signed char *ms, int max)
 {
     spc_vec3 x = q->x->p;
     spc_sphere_plane pl;
@@ -107,16 +108,19 @@ static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, dou
         double theta[SPC_FIT_MAX_DIRS];
         int nr = spc_sphere_chain_roots(pl.d, pl.y1, pl.y2, m, eta, theta, max - n);
         for (int r = 0; r < nr; ++r) {
+            ms[n] = (signed char)m;
             dir[n++] = spc_normalize(spc_sub(spc_sphere_plane_point(&pl, theta[r]), x));
         }
     }
     return n;
 }
 
-/* The fitted sphere's solution directions for q and caster s (center c, radius R): q->fit's entry for
- * s and q's chain lengths, filled on first use, or where q->fit has no room, computed into `all`. */
+/* The fitted sphere's solution directions for q and caster s (center c, radius R) and their events
+ * (*ms): q->fit's entry for s and q's chain lengths, filled on first use, or where q->fit has no
+ * room, computed into `all` and `all_m`. */
 static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R,
-                                 spc_vec3 all[SPC_FIT_MAX_DIRS], int *n)
+                                 spc_vec3 all[SPC_FIT_MAX_DIRS], signed char all_m[SPC_FIT_MAX_DIRS], int *n,
+                                 const signed char **ms)
 {
     spc_fit_roots *fr = q->fit;
     int j = 0;
@@ -127,25 +131,48 @@ static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, sp
         fr->e[j].s = s;
         fr->e[j].min_chain = q->min_chain;
         fr->e[j].max_chain = q->max_chain;
-        fr->e[j].n = fit_dirs(q, s, c, R, fr->e[j].dir, SPC_FIT_MAX_DIRS);
+        fr->e[j].n = fit_dirs(q, s, c, R, fr->e[j].dir, fr->e[j].m, SPC_FIT_MAX_DIRS);
         fr->nshapes++;
     }
     if (fr && j < fr->nshapes) {
         *n = fr->e[j].n;
+        *ms = fr->e[j].m;
         return fr->e[j].dir;
     }
-    *n = fit_dirs(q, s, c, R, all, SPC_FIT_MAX_DIRS);
+    *n = fit_dirs(q, s, c, R, all, all_m, SPC_FIT_MAX_DIRS);
+    *ms = all_m;
     return all;
 }
 
 int spc_fit_root_count(const spc_snee_query *q, const spc_shape *s)
 {
     spc_vec3 c, all[SPC_FIT_MAX_DIRS];
+    signed char all_m[SPC_FIT_MAX_DIRS];
+    const signed char *ms;
     double R;
     int n = 0;
     if (!spc_fit_sphere(s, &c, &R))
         return 0;
-    fit_entry(q, s, c, R, all, &n);
+    fit_entry(q, s, c, R, all, all_m, &n, &ms);
+    return n;
+}
+
+int spc_fit_roots_of(const spc_snee_query *q, const spc_shape *s, spc_vec3 *dir, int *m, int max)
+{
+    spc_vec3 c, all[SPC_FIT_MAX_DIRS];
+    signed char all_m[SPC_FIT_MAX_DIRS];
+    const signed char *ms;
+    double R;
+    int n = 0;
+    if (!spc_fit_sphere(s, &c, &R))
+        return 0;
+    const spc_vec3 *d = fit_entry(q, s, c, R, all, all_m, &n, &ms);
+    if (n > max)
+        n = max;
+    for (int i = 0; i < n; ++i) {
+        dir[i] = d[i];
+        m[i] = ms[i];
+    }
     return n;
 }
 
@@ -160,8 +187,10 @@ bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc
         return false;
     double u = spc_rng_next(rng);
     spc_vec3 all[SPC_FIT_MAX_DIRS];
+    signed char all_m[SPC_FIT_MAX_DIRS];
+    const signed char *ms;
     int n = 0;
-    const spc_vec3 *d = fit_entry(q, s, c, R, all, &n);
+    const spc_vec3 *d = fit_entry(q, s, c, R, all, all_m, &n, &ms);
     if (n < 1)
         return false;
     int i = (int)(u * n);

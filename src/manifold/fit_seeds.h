@@ -48,6 +48,7 @@ typedef struct spc_fit_roots {
         int min_chain, max_chain;
         int n;
         spc_vec3 dir[SPC_FIT_MAX_DIRS];
+        signed char m[SPC_FIT_MAX_DIRS]; /* each solution's internal reflections; -1: one reflection */
     } e[SPC_FIT_MAX_SHAPES];
 } spc_fit_roots;
 
@@ -65,5 +66,10 @@ bool spc_fit_seed(const struct spc_snee_query *q, const spc_shape *s, spc_rng *r
 /* The number of the fitted sphere's solutions that spc_fit_seed draws from for q and caster s (of
  * q's chain lengths, from its x to its y; kept in q->fit like them): 0 where s has no fit. */
 int spc_fit_root_count(const struct spc_snee_query *q, const spc_shape *s);
+
+/* The fitted sphere's solutions of spc_fit_root_count: at most max first directions written to dir
+ * and their events to m (the internal reflections between the way in and the way out; -1 for one
+ * reflection off the outside). Returns their number, 0 where s has no fit. */
+int spc_fit_roots_of(const struct spc_snee_query *q, const spc_shape *s, spc_vec3 *dir, int *m, int max);
 
 #endif

@@ -48,6 +48,10 @@ bool spc_snee_straight_hits_glass(const spc_snee_query *q)
 bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *dir)
 {
     const spc_scene *sc = q->scene;
+    if (q->seed_dir) {
+        *dir = *q->seed_dir;
+        return true;
+    }
     switch (q->seed) {
     case SPC_SNEE_SEED_LIGHT: {
         spc_vec3 d = spc_sub(q->y, q->x->p);

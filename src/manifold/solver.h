@@ -272,6 +272,8 @@ typedef struct spc_snee_query {
     /* The fitted spheres' solutions toward y (fit_seeds.h), kept for the query's attempts and trials;
      * NULL: computed at each attempt. */
     struct spc_fit_roots *fit;
+    /* Set: the attempt's seed direction, fixed (no draw from the seed distribution); NULL otherwise. */
+    const spc_vec3 *seed_dir;
 } spc_snee_query;
 
 /* A query from x (wo toward the previous path vertex) with chains of up to max_chain vertices, the

@@ -805,6 +805,74 @@ static double ball_long_psi(const spc_snee_query *q, int k)
     return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
 
+/* The chains on tessellated balls found from each of the fitted sphere's solutions (fit_seeds.h) as
+ * the seed, with that solution's events (in, m internal reflections, out; or one reflection): a
+ * deterministic function of q, like the straight-line solution, so they are counted with psi 1 and
+ * the randomized attempts skip them. Near the caustic's fold a floor point under the triangle glass
+ * ball has three such 2-vertex chains; a randomized attempt found each with p about 0.19 (at most
+ * 1 / 3 with every seed fitted), so a BSDF-sampled path through one kept weight 0.75 and held a
+ * seed's error (bench/RESULTS.md, "fitted roots counted exactly"). Only where solve_mis_chain holds
+ * (the ball's chains), within q's lengths, without the straight-line solution (*straight, or NULL)
+ * and the exact enumerations' chains; duplicates once. Writes at most max to out. */
+static int fit_first(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *straight,
+                     spc_chain *out, int max, int *iterations)
+{
+    const spc_snee_params *p = q->params;
+    if (!solve_mis_on(p) || !p->fit_seeds || !solver || !solver->solve_one || solver->solve_all || p->biased ||
+        !has_ball_caster(q))
+        return 0;
+    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    int n = 0;
+    for (int j = 0; cs && j < cs->n; ++j) {
+        spc_vec3 dir[SPC_FIT_MAX_DIRS];
+        int m[SPC_FIT_MAX_DIRS];
+        int nr = spc_fit_roots_of(q, q->scene->shapes[cs->idx[j]], dir, m, SPC_FIT_MAX_DIRS);
+        for (int r = 0; r < nr && n < max; ++r) {
+            unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+            int k = m[r] < 0 ? 1 : m[r] + 2;
+            if (k > SPC_CHAIN_MAX_VERTICES)
+                continue;
+            for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
+                ev[i] = SPC_CHAIN_REFRACT;
+            for (int i = 1; i <= m[r]; ++i)
+                ev[i] = SPC_CHAIN_REFLECT;
+            if (m[r] < 0)
+                ev[0] = SPC_CHAIN_REFLECT;
+            spc_snee_query tq = *q;
+            tq.seed_dir = &dir[r];
+            tq.want = NULL;
+            tq.events = p->reflect ? ev : NULL;
+            spc_rng rng; /* unused by a fixed seed with fixed events; seeded for determinism */
+            spc_rng_seed(&rng, 1, 2);
+            spc_chain c;
+            if (!solver->solve_one(&tq, &rng, &c, iterations) || c.n > q->max_chain || c.n < 1 ||
+                !solve_mis_chain(p, &c) || exact_covers(q, solver, &c))
+                continue;
+            if (straight && spc_snee_same_solution(straight, &c, q->scene->radius))
+                continue;
+            bool dup = false;
+            for (int i = 0; i < n && !dup; ++i)
+                dup = spc_snee_same_solution(&out[i], &c, q->scene->radius);
+            if (!dup)
+                out[n++] = c;
+        }
+    }
+    return n;
+}
+
+/* Is c one of fit_first's chains for q? */
+static bool fit_first_has(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *straight,
+                          const spc_chain *c)
+{
+    spc_chain all[SPC_FIT_MAX_DIRS];
+    int it = 0;
+    int n = fit_first(q, solver, straight, all, SPC_FIT_MAX_DIRS, &it);
+    for (int i = 0; i < n; ++i)
+        if (spc_snee_same_solution(&all[i], c, q->scene->radius))
+            return true;
+    return false;
+}
+
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
  * straight-line solution: straight_psi), else random_psi; past the budget long_psi for a longer chain on one
  * sphere (params.long_p), else 0 (specular NEE never makes it). *rand_s: for a chain that a
@@ -842,10 +910,14 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
         return random_psi(p); /* straight_psi: no attempt to repeat */
     spc_chain straight;
     int it = 0;
-    if (straight_solve(q, solver, &straight, &it) && spc_snee_same_solution(&straight, c, q->scene->radius))
+    bool have_straight = straight_solve(q, solver, &straight, &it);
+    if (have_straight && spc_snee_same_solution(&straight, c, q->scene->radius))
         return 1.0;
-    if (solve_mis_chain(p, c))
+    if (solve_mis_chain(p, c)) {
+        if (fit_first_has(q, solver, have_straight ? &straight : NULL, c))
+            return 1.0;
         *rand_s = 1.0;
+    }
     return attempt_psi(q, c);
 }
 
@@ -1299,6 +1371,23 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         }
     }
 
+    /* the fitted sphere's solutions' chains, counted exactly (fit_first) */
+    spc_chain ff[SPC_FIT_MAX_DIRS];
+    it = 0;
+    int nff = fit_first(q, solver, have_straight ? &straight : NULL, ff, SPC_FIT_MAX_DIRS, &it);
+    if (st)
+        st->iterations += (uint64_t)it;
+    for (int i = 0; i < nff; ++i) {
+        q->psi = 1.0;
+        spc_rgb vf = spc_snee_chain_value(q, e, uv, &ff[i]);
+        q->psi = 0.0;
+        if (!spc_rgb_is_black(vf)) {
+            emit(q, sk, &ff[i], spc_rgb_scale(vf, 1.0 / p_y));
+            if (st)
+                st->contributions++;
+        }
+    }
+
     spc_chain sol;
     int iterations = 0;
     bool ok = solver->solve_one(q, rng, &sol, &iterations);
@@ -1310,6 +1399,9 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         return; /* already counted exactly */
     if (have_straight && spc_snee_same_solution(&straight, &sol, sc->radius))
         return; /* counted exactly above */
+    for (int i = 0; i < nff; ++i)
+        if (spc_snee_same_solution(&ff[i], &sol, sc->radius))
+            return; /* counted exactly above */
     if (st)
         st->solved++;
     if (solve_mis_chain(p, &sol)) {
