@@ -162,14 +162,19 @@ static spc_scene *ball_under_light(double scale, int res)
 }
 
 /* Guided seeds as the plan would append them (snee_plan.h) on the triangle glass ball against specular NEE off under a light
- * twice as wide (so that path tracing alone converges: under the scene's own light it misses
+ * four times as wide (so that path tracing alone converges: under the scene's own light it misses
  * the light's image in the ball in short runs), and against the same setting unguided under the
- * scene's light, by per-pixel z-test and image means (12 x 12 pixels). */
+ * scene's light, by per-pixel z-test and image means (12 x 12 pixels). At twice the width the
+ * reference misses its tail: the floor near the camera gets the ball's caustic from rare
+ * BSDF-sampled hits of the light (about 0.004 of a pixel's 0.70 each at 65536 samples, about one per
+ * pixel), so a run that draws none there has 0.7053 +- 0.0002 where the mean is 0.714 +- 0.002, and a
+ * default whose own error there is 0.002 fails the z-test on those pixels (bench/RESULTS.md, "the
+ * reference's tail"). Four times as wide, the hits are four times as frequent at a quarter of the value. */
 TEST(guided_render_agrees_with_none)
 {
     const int q = spc_test_quick() ? 4 : 1;
     for (int wide = 1; wide >= 0; --wide) {
-        spc_scene *sc = ball_under_light(wide ? 2.0 : 1.0, 12);
+        spc_scene *sc = ball_under_light(wide ? 4.0 : 1.0, 12);
         CHECK(sc != NULL);
         if (!sc)
             return;
@@ -178,7 +183,7 @@ TEST(guided_render_agrees_with_none)
         CHECK_MSG(img && strstr(st.specular_nee, "seedguide="), "the render ran %s", img ? st.specular_nee : "-");
         spc_film *ref = wide ? tu_render_nee(sc, "path", "none", 65536 / q, 2, 22, NULL)
                              : tu_render_nee(sc, "path", "angular:camera,later=0.25", 1024 / q, 2, 23, NULL);
-        const char *label = wide ? "default vs none, light 2x wider" : "default vs unguided";
+        const char *label = wide ? "default vs none, light 4x wider" : "default vs unguided";
         CHECK(img && ref);
         if (img && ref) {
             spc_diff_result d;
