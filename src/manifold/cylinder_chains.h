@@ -28,12 +28,10 @@ struct spc_snee_query;
  * chains run (long_p > 0 with MIS), past a shorter budget; counted once (probability 1), so BSDF
  * sampling's weight for such a path is the power heuristic's, not 1. Three reflections: inside a
  * ring the floor sees the light after three bounces off the wall, a path that BSDF sampling alone
- * found (value Le times the floor's albedo) on the mirror ring's worst seeds. The enumeration finds
- * every length in one pass over its grid; on the mirror ring the third reflection's roots and
- * polish cost 1.2x the rest of a sample (enumerated on a quarter of the calls and counted with 4x,
- * 0.35x: not kept, its measurement did not separate it from the ring's other outliers;
- * bench/RESULTS.md, "3-reflection chains on the mirror ring"). */
-#define SPC_CYLINDER_LONG_MAX 3
+ * found (value Le times the floor's albedo) on the mirror ring's worst seeds; the enumeration
+ * evaluates every length in one pass over its grid, so the third costs one more chord per grid
+ * point, its roots and their polish (bench/RESULTS.md, "3-vertex cylinder chains"). */
+#define SPC_CYLINDER_EVERY_CALL 3
 
 /* Is s a cylinder these chains handle? */
 bool spc_cylinder_chain_shape(const spc_shape *s);

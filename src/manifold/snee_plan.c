@@ -569,7 +569,7 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
         case SPC_SNEE_METHOD_CYLINDER:
             /* past the budget where the longer chains run (specular_nee.c, cyl_max) */
             put(&b, "every reflection on the mirror cylinder enumerated exactly, 1-%d vertices",
-                p.max_chain < SPC_CYLINDER_LONG_MAX && p.long_p > 0.0 && !p.no_mis ? SPC_CYLINDER_LONG_MAX
+                p.max_chain < SPC_CYLINDER_EVERY_CALL && p.long_p > 0.0 && !p.no_mis ? SPC_CYLINDER_EVERY_CALL
                                                                                      : p.max_chain);
             break;
         case SPC_SNEE_METHOD_PLANE:

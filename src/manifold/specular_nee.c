@@ -392,13 +392,13 @@ static int flat_max(const spc_snee_query *q)
 }
 
 /* The longest chain on one mirror cylinder enumerated at every call: the budget, or where the longer
- * chains run (the track then follows covered paths past the budget) up to SPC_CYLINDER_LONG_MAX
+ * chains run (the track then follows covered paths past the budget) up to SPC_CYLINDER_EVERY_CALL
  * (cylinder_chains.h), each chain counted once (psi 1). */
 static int cyl_max(const spc_snee_query *q)
 {
     int hi = q->max_chain;
-    if (long_on(q) && hi < SPC_CYLINDER_LONG_MAX)
-        hi = q->long_max < SPC_CYLINDER_LONG_MAX ? q->long_max : SPC_CYLINDER_LONG_MAX;
+    if (long_on(q) && hi < SPC_CYLINDER_EVERY_CALL)
+        hi = q->long_max < SPC_CYLINDER_EVERY_CALL ? q->long_max : SPC_CYLINDER_EVERY_CALL;
     return hi;
 }
 
@@ -1310,8 +1310,9 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         }
     }
     /* with probability long_p the longer chains of one length too, each counted with 1 / psi: on a
-     * sphere all of them (a mirror cylinder's are enumerated at every call up to cyl_max, above;
-     * longer ones are left to BSDF sampling), elsewhere one randomized attempt's */
+     * sphere all of them (on the mirror ring the cylinder's longer chains cost a quarter of the
+     * samples and gained nothing: bench/RESULTS.md, "how far specular NEE can go"), elsewhere one
+     * randomized attempt's */
     double u = long_on(q) ? spc_rng_next(rng) : 1.0;
     if (u < p->long_p) {
         int k = q->max_chain + 1 + (int)(u / p->long_p * (SPC_SNEE_LONG_MAX - q->max_chain));
