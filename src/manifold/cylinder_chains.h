@@ -24,15 +24,6 @@
 
 struct spc_snee_query;
 
-/* The longest chain specular NEE enumerates on a mirror cylinder at every call where its longer
- * chains run (long_p > 0 with MIS), past a shorter budget; counted once (probability 1), so BSDF
- * sampling's weight for such a path is the power heuristic's, not 1. Three reflections: inside a
- * ring the floor sees the light after three bounces off the wall, a path that BSDF sampling alone
- * found (value Le times the floor's albedo) on the mirror ring's worst seeds; the enumeration
- * evaluates every length in one pass over its grid, so the third costs one more chord per grid
- * point, its roots and their polish (bench/RESULTS.md, "3-vertex cylinder chains"). */
-#define SPC_CYLINDER_EVERY_CALL 3
-
 /* Is s a cylinder these chains handle? */
 bool spc_cylinder_chain_shape(const spc_shape *s);
 /* Is c one of the chains spc_cylinder_chains_all enumerates (every vertex a reflection on one such

@@ -567,10 +567,7 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
                 put(&b, " (up to 6 with probability %g)", p.long_p);
             break;
         case SPC_SNEE_METHOD_CYLINDER:
-            /* past the budget where the longer chains run (specular_nee.c, cyl_max) */
-            put(&b, "every reflection on the mirror cylinder enumerated exactly, 1-%d vertices",
-                p.max_chain < SPC_CYLINDER_EVERY_CALL && p.long_p > 0.0 && !p.no_mis ? SPC_CYLINDER_EVERY_CALL
-                                                                                     : p.max_chain);
+            put(&b, "every reflection on the mirror cylinder enumerated exactly, 1-%d vertices", p.max_chain);
             break;
         case SPC_SNEE_METHOD_PLANE:
             put(&b, "every chain through the normal-mapped plane enumerated exactly, 1 vertex");

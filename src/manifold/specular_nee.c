@@ -391,17 +391,6 @@ static int flat_max(const spc_snee_query *q)
     return hi;
 }
 
-/* The longest chain on one mirror cylinder enumerated at every call: the budget, or where the longer
- * chains run (the track then follows covered paths past the budget) up to SPC_CYLINDER_EVERY_CALL
- * (cylinder_chains.h), each chain counted once (psi 1). */
-static int cyl_max(const spc_snee_query *q)
-{
-    int hi = q->max_chain;
-    if (long_on(q) && hi < SPC_CYLINDER_EVERY_CALL)
-        hi = q->long_max < SPC_CYLINDER_EVERY_CALL ? q->long_max : SPC_CYLINDER_EVERY_CALL;
-    return hi;
-}
-
 /* Is one of q's casters a flat-faced shape (flat_chains.h)? */
 static bool has_flat_caster(const spc_snee_query *q)
 {
@@ -898,8 +887,6 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
             return c->n <= flat_max(q) ? 1.0 : flat_psi(q, c->n); /* through flat faces */
         if (p->exact && spc_sphere_chain_covers(c, p->reflect))
             return long_psi(q, c->n); /* enumerated on the sphere */
-        if (p->exact && spc_cylinder_chain_covers(c))
-            return c->n <= cyl_max(q) ? 1.0 : 0.0; /* on the mirror cylinder: no pass goes further */
         if (!random_long(p))
             return 0.0;
         spc_snee_query lq = *q;
@@ -1286,10 +1273,8 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         spc_chain all[SPC_SNEE_MAX_ALL];
         int it = 0;
         int nall = spc_sphere_chains_all(q, all, SPC_SNEE_MAX_ALL, &it);
-        spc_snee_query cq = *q; /* the cylinder's chains may run past the budget */
-        cq.max_chain = cyl_max(q);
-        nall += spc_cylinder_chains_all(&cq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
-        spc_snee_query fq = *q; /* the flat chains may run past the budget (never shorter than cq's) */
+        nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
+        spc_snee_query fq = *q; /* the flat chains may run past the budget */
         fq.max_chain = flat_max(q);
         nall += spc_flat_chains_all(&fq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
         emit_exact(&fq, e, uv, p_y, all, nall, it, st, sk);
