@@ -18,6 +18,11 @@
  * paths may also end with the light sample taken at a rough vertex: that sample is dropped too
  * (spc_snee_track_covers_light), as is the emitter it would be weighted against by MIS.
  *
+ * Emission splitting (split_emission): with specular NEE on, at a smooth dielectric reached through
+ * delta vertices only from the camera, the reflected ray is traced on every sample and its emitter
+ * hit counted with the reflection's factor F; the sampled path drops its own emission after a
+ * reflection chosen there. path_wave.c runs only with specular NEE off, so it has no such step.
+ *
  * Caustic guiding at receivers (params.recv_guide, manifold/caustic_guide.h): where the render's
  * photon pre-pass found caustics a vertex sees, its continuation is drawn from a defensive mixture
  * of directions toward them and the BSDF's sample (spc_cguide_sample_mix), and the mixture's
