@@ -101,8 +101,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     const bool nee = ctx->kind == SPC_INTEGRATOR_PATH;
     spc_rgb L = spc_rgb1(0.0), beta = spc_rgb1(1.0);
     spc_ray ray = *ray0;
-    bool specular = true; /* the last scattering was a delta lobe (or it is the camera) */
-    bool all_delta = true; /* every scattering so far was a delta lobe */
+    bool specular = true;       /* the last scattering was a delta lobe (or it is the camera) */
+    bool all_delta = true;      /* every scattering so far was a delta lobe */
     bool drop_emission = false; /* the emission at the next hit was counted by splitting */
     double prev_pdf = 1.0, eta_scale = 1.0;
     spc_vec3 prev_p = ray.o;
