@@ -18,6 +18,11 @@
  * paths may also end with the light sample taken at a rough vertex: that sample is dropped too
  * (spc_snee_track_covers_light), as is the emitter it would be weighted against by MIS.
  *
+ * Emission splitting (split_emission): with specular NEE on, at a smooth dielectric reached through
+ * delta vertices only from the camera, the reflected ray is traced on every sample and its emitter
+ * hit counted with the reflection's factor F; the sampled path drops its own emission after a
+ * reflection chosen there. path_wave.c runs only with specular NEE off, so it has no such step.
+ *
  * Caustic guiding at receivers (params.recv_guide, manifold/caustic_guide.h): where the render's
  * photon pre-pass found caustics a vertex sees, its continuation is drawn from a defensive mixture
  * of directions toward them and the BSDF's sample (spc_cguide_sample_mix), and the mixture's
@@ -35,6 +40,60 @@
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
 
+/* Emission splitting at a smooth dielectric seen through delta vertices only.
+ *
+ * At such a vertex h BSDF sampling picks the reflection with probability F (the Fresnel term), so a
+ * light seen in the reflection (a glint on water, seen from the camera) is found by a few samples
+ * in a hundred, each counting it 1/F times: with a small bright light, one pixel of a seed. Here
+ * every sample traces the reflected ray and counts the emitter it hits with the reflection's factor
+ * f = F * specular_reflectance (its sample weight times its probability) and the emitter hit's
+ * usual weights; the sampled path then drops its own emission at the hit after a reflection chosen
+ * at h (and nothing else: its later vertices, light samples and specular NEE stay as they were).
+ * Unbiased: the dropped term's expectation over the lobe choice is F * (beta f / F Le w) = beta f
+ * Le w, which is exactly the split term, counted with probability 1; both use the same MIS weight
+ * of the emitter hit (the same path, same strategies), so the weights of every path still sum to
+ * one. Only where specular NEE runs (its camera track gives the weight) and at vertices whose only
+ * lobes are one delta reflection and one delta transmission (dielectric, thindielectric, under a
+ * twosided or normalmap), chosen by u_lobe below the reflection's probability: u_lobe = 0 yields
+ * the reflection wherever F > 0. Draws no sampler dimension, so the streams stay as they are. */
+static bool splits_emission(const spc_bsdf *b)
+{
+    return spc_bsdf_flags(b) == (SPC_LOBE_DELTA_REFLECTION | SPC_LOBE_DELTA_TRANSMISSION);
+}
+
+/* The split term at h (wo toward the previous vertex; sn the specular NEE state before h's
+ * scattering), to be multiplied by the throughput that reached h. */
+static spc_rgb split_emission(const spc_render_ctx *ctx, const spc_path_snee *sn, const spc_hit *h, spc_vec3 wo)
+{
+    const spc_scene *sc = ctx->scene;
+    spc_bsdf_sample bs;
+    if (!spc_bsdf_sample_dir(h->bsdf, h, SPC_MODE_RADIANCE, wo, 0.0, spc_v2(0.5, 0.5), &bs) ||
+        bs.lobe != SPC_LOBE_DELTA_REFLECTION)
+        return spc_rgb1(0.0);
+    if (ctx->strict_normals && !(spc_dot(bs.wi, h->ng) * spc_dot(bs.wi, h->sh.n) > 0.0))
+        return spc_rgb1(0.0);
+    spc_rgb f = spc_rgb_scale(bs.weight, bs.pdf);
+    if (spc_rgb_is_black(f))
+        return spc_rgb1(0.0);
+    spc_ray ray = spc_hit_spawn(h, bs.wi);
+    spc_hit hr;
+    if (!spc_scene_intersect(sc, &ray, &hr)) {
+        /* after a delta vertex the environment's weight is 1, as in spc_path_sample */
+        if (!sc->env)
+            return spc_rgb1(0.0);
+        return spc_rgb_mul(f, spc_emitter_eval_infinite(sc->env, ray.d));
+    }
+    if (!hr.emitter)
+        return spc_rgb1(0.0);
+    spc_rgb Le = spc_emitter_eval_area(hr.emitter, &hr, spc_neg(ray.d));
+    if (spc_rgb_is_black(Le))
+        return spc_rgb1(0.0);
+    spc_path_snee snr = *sn;
+    spc_path_snee_scattered(&snr, h, wo, bs.wi, bs.lobe);
+    double w = spc_path_snee_emitter_weight(&snr, ctx, &hr);
+    return spc_rgb_scale(spc_rgb_mul(f, Le), w);
+}
+
 void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0, spc_sampler *smp,
                      spc_sample_out *out)
 {
@@ -42,7 +101,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     const bool nee = ctx->kind == SPC_INTEGRATOR_PATH;
     spc_rgb L = spc_rgb1(0.0), beta = spc_rgb1(1.0);
     spc_ray ray = *ray0;
-    bool specular = true; /* the last scattering was a delta lobe (or it is the camera) */
+    bool specular = true;       /* the last scattering was a delta lobe (or it is the camera) */
+    bool all_delta = true;      /* every scattering so far was a delta lobe */
+    bool drop_emission = false; /* the emission at the next hit was counted by splitting */
     double prev_pdf = 1.0, eta_scale = 1.0;
     spc_vec3 prev_p = ray.o;
     out->albedo = spc_rgb1(0.0);
@@ -56,7 +117,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         /* segments: the number of path segments once this ray is traced */
         spc_hit h;
         if (!spc_scene_intersect(sc, &ray, &h)) {
-            if (sc->env && !(segments == 1 && ctx->hide_emitters)) {
+            if (sc->env && !(segments == 1 && ctx->hide_emitters) && !drop_emission) {
                 spc_rgb Le = spc_emitter_eval_infinite(sc->env, ray.d);
                 double w = 1.0;
                 if (nee && !specular) {
@@ -70,7 +131,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         spc_vec3 wo = spc_neg(ray.d);
         if (segments == 1 && out->aovs)
             spc_aov_from_hit(ctx, &h, wo, smp, out);
-        if (h.emitter && !(segments == 1 && ctx->hide_emitters)) {
+        if (h.emitter && !(segments == 1 && ctx->hide_emitters) && !drop_emission) {
             spc_rgb Le = spc_emitter_eval_area(h.emitter, &h, wo);
             /* a path specular NEE covers: weighted against its light sample, or dropped */
             double w = spc_rgb_is_black(Le) ? 1.0 : spc_path_snee_emitter_weight(&sn, ctx, &h);
@@ -129,6 +190,14 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         if (!spc_rgb_is_black(c_snee))
             L = spc_rgb_add(L, spc_rgb_mul(beta, c_snee));
 
+        /* emission splitting (split_emission) */
+        const bool split = nee && sn.on && all_delta && !gv && splits_emission(b);
+        if (split) {
+            spc_rgb c_split = split_emission(ctx, &sn, &h, wo);
+            if (!spc_rgb_is_black(c_split))
+                L = spc_rgb_add(L, spc_rgb_mul(beta, c_split));
+        }
+
         /* BSDF sampling */
         double u_lobe = spc_sampler_1d(smp);
         spc_vec2 u_dir = spc_sampler_2d(smp);
@@ -143,6 +212,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         if (spc_rgb_is_black(beta))
             break;
         specular = (bs.lobe & SPC_LOBE_DELTA) != 0;
+        all_delta = all_delta && specular;
+        drop_emission = split && bs.lobe == SPC_LOBE_DELTA_REFLECTION;
         prev_pdf = bs.pdf;
         prev_p = h.p;
         if (bs.lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))
