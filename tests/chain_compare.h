@@ -148,11 +148,11 @@ static inline void chain_seeds_compare(const spc_snee_query *qa, const spc_snee_
         double sn = 0.0, sn2 = 0.0;
         for (int k = 0; k < counts; ++k) {
             bool capped;
-            int it = 0;
-            int n = spc_snee_count_same(&tq, spc_specular_solver_get(SPC_SNEE_ANGULAR), NULL, rng, &all.c[s], 100000,
-                                        &capped, &it);
+            int it = 0, att = 0;
+            double n = spc_snee_count_same(&tq, spc_specular_solver_get(SPC_SNEE_ANGULAR), NULL, rng, &all.c[s],
+                                           100000, &att, &capped, &it);
             sn += n;
-            sn2 += (double)n * n;
+            sn2 += n * n;
         }
         double mean = sn / counts, var = (sn2 / counts - mean * mean) / counts;
         /* the product's relative error: the count's mean and the frequency's */

@@ -21,6 +21,8 @@
 
 #include "core/rng.h"
 #include "harness.h"
+#include "manifold/solve_mis.h"
+#include "manifold/solver.h"
 #include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
 #include "scene/sdf.h"
@@ -748,12 +750,15 @@ TEST(bernoulli_estimator_unbiased)
         bern b;
         spc_rng_seed(&b.r, 77 + (uint64_t)k, 3);
         b.p = ps[k];
+        spc_rng rr;
+        spc_rng_seed(&rr, 5 + (uint64_t)k, 9);
         const int N = 200000;
         double sum = 0, sum2 = 0;
         int ncap = 0;
         for (int i = 0; i < N; ++i) {
             bool capped;
-            double n = spc_snee_count_trials(bern_trial, &b, 100000, &capped);
+            int att;
+            double n = spc_snee_count_trials(bern_trial, &b, 100000, &rr, &att, &capped);
             ncap += capped;
             sum += n;
             sum2 += n * n;
@@ -761,19 +766,77 @@ TEST(bernoulli_estimator_unbiased)
         double mean = sum / N, se = sqrt((sum2 / N - mean * mean) / N);
         CHECK_MSG(fabs(mean - 1.0 / b.p) < 4 * se, "p %g: mean %g, 1/p %g, se %g", b.p, mean, 1.0 / b.p, se);
         CHECK(ncap == 0);
-        /* with a cap M the expectation is (1 - (1-p)^M) / p, the documented bias */
-        const int M = 10;
-        sum = sum2 = 0;
-        for (int i = 0; i < N; ++i) {
+        /* where the cap is not reached the count is the plain integer count of attempts */
+        bern b2 = b;
+        spc_rng_seed(&b2.r, 1234, 5);
+        for (int i = 0; i < 1000; ++i) {
             bool capped;
-            double n = spc_snee_count_trials(bern_trial, &b, M, &capped);
+            int att;
+            double n = spc_snee_count_trials(bern_trial, &b2, 10, &rr, &att, &capped);
+            if (!capped)
+                CHECK(n == (double)att && att >= 1 && att <= 10);
+        }
+    }
+}
+
+/* A count's mean against 1/p where p is far below 1/cap: the roulette past the cap keeps it 1/p
+ * (a count cut at the cap has mean (1 - (1 - p)^cap) / p: 226 for p = 1e-3 and cap 256, 25 for
+ * p = 1e-4 and cap 25). The caps are scaled so that every p reaches them often at a few seconds. */
+TEST(trial_count_unbiased_past_cap)
+{
+    const double ps[3] = {1e-1, 1e-3, 1e-4};
+    const int caps[3] = {4, 256, 25};
+    const int counts[3] = {200000, 20000, 8000};
+    for (int k = 0; k < 3; ++k) {
+        bern b;
+        spc_rng_seed(&b.r, 901 + (uint64_t)k, 1);
+        b.p = ps[k];
+        spc_rng rr;
+        spc_rng_seed(&rr, 31 + (uint64_t)k, 7);
+        double sum = 0, sum2 = 0;
+        int ncap = 0;
+        for (int i = 0; i < counts[k]; ++i) {
+            bool capped;
+            int att;
+            double n = spc_snee_count_trials(bern_trial, &b, caps[k], &rr, &att, &capped);
+            ncap += capped;
             sum += n;
             sum2 += n * n;
         }
-        mean = sum / N;
-        se = sqrt((sum2 / N - mean * mean) / N);
-        double expect = (1.0 - pow(1.0 - b.p, M)) / b.p;
-        CHECK_MSG(fabs(mean - expect) < 4 * se + 1e-12, "capped, p %g: mean %g, expected %g", b.p, mean, expect);
+        double mean = sum / counts[k], se = sqrt((sum2 / counts[k] - mean * mean) / counts[k]);
+        double cut = (1.0 - pow(1.0 - b.p, caps[k])) / b.p;
+        CHECK_MSG(fabs(mean * b.p - 1.0) < 4 * se * b.p, "p %g cap %d: mean %g, 1/p %g, se %g (cut mean %g)", b.p,
+                  caps[k], mean, 1.0 / b.p, se, cut);
+        CHECK_MSG(fabs(mean - cut) > 8 * se, "p %g: the test cannot tell the cut count (%g) from 1/p", b.p, cut);
+        CHECK(ncap > 0);
+    }
+}
+
+/* The solve-probability MIS's light side past the cap: with b = 0 the count over A, with b > 0
+ * Z = (1 - r^N) / b; both means stay 1 / (p A + b) where p is far below 1/cap. */
+TEST(solve_mis_unbiased_past_cap)
+{
+    const struct {
+        double p, A, b;
+        int cap;
+    } ks[3] = {{1e-3, 1.0, 0.0, 256}, {1e-3, 1.0, 1e-4, 64}, {1e-4, 1.0, 0.0, 25}};
+    for (int k = 0; k < 3; ++k) {
+        bern b;
+        spc_rng_seed(&b.r, 411 + (uint64_t)k, 2);
+        b.p = ks[k].p;
+        spc_rng rr;
+        spc_rng_seed(&rr, 71 + (uint64_t)k, 3);
+        const int N = 8000;
+        double sum = 0, sum2 = 0;
+        for (int i = 0; i < N; ++i) {
+            double z = spc_solve_mis_light(ks[k].A, ks[k].b, bern_trial, &b, &rr, ks[k].cap, NULL, NULL);
+            sum += z;
+            sum2 += z * z;
+        }
+        double mean = sum / N, se = sqrt((sum2 / N - mean * mean) / N);
+        double expect = 1.0 / (b.p * ks[k].A + ks[k].b);
+        CHECK_MSG(fabs(mean - expect) < 4 * se, "p %g b %g cap %d: mean %g, expected %g, se %g", b.p, ks[k].b,
+                  ks[k].cap, mean, expect, se);
     }
 }
 
@@ -2205,6 +2268,8 @@ int main(void)
     RUN(solver_glass_sphere);
     RUN(solver_glass_slab_two_interfaces);
     RUN(bernoulli_estimator_unbiased);
+    RUN(trial_count_unbiased_past_cap);
+    RUN(solve_mis_unbiased_past_cap);
     RUN(snee_point_estimates);
     RUN(snee_normal_map_point_estimates);
     RUN(chain_pick_event);

@@ -99,6 +99,22 @@ static bool same_path(const spc_newton_path *a, const spc_newton_path *b, double
     return true;
 }
 
+/* One trial of <1/p_solve>: a fresh attempt that finds the solution sol again. */
+typedef struct rough_trial {
+    const rough_query *rq;
+    spc_rng *rng;
+    const spc_newton_path *sol;
+    int *iterations;
+    double scene_size;
+} rough_trial;
+
+static bool rough_trial_same(void *user)
+{
+    rough_trial *t = user;
+    spc_newton_path trial;
+    return rough_attempt(t->rq, t->rng, &trial, t->iterations) && same_path(t->sol, &trial, t->scene_size);
+}
+
 /* f_x |cos| prod(vertex factors) Le G for a solved (possibly rough) path; zero if it is not one
  * specular NEE produces or its last segment is blocked. */
 static spc_rgb rough_value(const rough_query *rq, const spc_emitter *e, spc_vec2 uv, const spc_newton_path *p)
@@ -257,21 +273,15 @@ spc_rgb spc_rough_nee(const spc_scene *sc, const spc_snee_params *prm, const spc
         return zero;
     double inv_p = 1.0;
     if (prm->seed != SPC_SNEE_SEED_LIGHT) {
-        int cap = prm->max_trials > 0 ? prm->max_trials : 64, n = 1;
-        bool found = false;
+        int cap = prm->max_trials > 0 ? prm->max_trials : 64, n = 0;
+        bool capped = false;
         iterations = 0;
-        for (; n <= cap; ++n)
-            if (rough_attempt(&rq, rng, &trial, &iterations) && same_path(&sol, &trial, sc->radius)) {
-                found = true;
-                break;
-            }
-        if (!found)
-            n = cap;
-        inv_p = (double)n;
+        rough_trial t = {&rq, rng, &sol, &iterations, sc->radius};
+        inv_p = spc_snee_count_trials(rough_trial_same, &t, cap, rng, &n, &capped);
         if (st) {
             st->trials += (uint64_t)n;
             st->iterations += (uint64_t)iterations;
-            st->capped += found ? 0u : 1u;
+            st->capped += capped ? 1u : 0u;
         }
     }
     if (st)

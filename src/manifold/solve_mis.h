@@ -22,9 +22,9 @@
  *
  * Cost: specular NEE's count is the trial count it ran before (one attempt per trial); once r^n is
  * small (solve_mis.c) the rest of r^N is one Russian roulette of probability r per attempt, so a
- * count stops after a few times A / b attempts where p is small and b is not. Both sides count at
- * most `cap` attempts, as the trial count always was (N replaced by min(N, cap) on both sides: a
- * cut count loses a little where p < ~1/cap).
+ * count stops after a few times A / b attempts where p is small and b is not. Both sides count the
+ * first `cap` attempts plainly; a count that reaches cap without its chain goes on by Russian
+ * roulette (SPC_TRIAL_GO_ON below), unbiased for every p.
  *
  * specular_nee.c applies it to the chains through tessellated balls (solver.h, solve_mis), whose
  * seeds (fit_seeds.h) make p large; elsewhere MIS keeps the stand-in psi.
@@ -36,17 +36,40 @@
 
 #include "core/rng.h"
 
+/* Russian roulette past a count's cap, for every trial count of specular NEE (this file's and
+ * solver.h's spc_snee_count_trials): a count whose first `cap` attempts failed goes on in blocks of
+ * twice the last block's attempts (at most SPC_TRIAL_MAX_BLOCK), each block entered with probability
+ * SPC_TRIAL_GO_ON and what its attempts add then weighted by the inverse of every entry so far. The
+ * count has no memory (the attempts are independent), so the expected rest of the count where a
+ * block is entered is the uncut count's: unbiased for every p > 0, where a cut count's mean is
+ * (1 - (1 - p)^cap) / p (226 for p = 1e-3, cap 256, against 1000). Its attempts are a prefix of the
+ * uncut count's, so it costs at most that count's 1/p; the doubling keeps its variance finite for every p
+ * (the chance of reaching a block falls faster than the weight 1 / GO_ON^k grows), where a roulette
+ * with blocks of a fixed `cap` has infinite variance for (1 - p)^cap > GO_ON (p below 4e-4 at cap 256
+ * and 0.9). Variance of 1/p's estimate at cap 256 against the uncut count's (1 - p) / p^2, and expected
+ * attempts times p (bench/RESULTS.md, part cap9): p = 1e-3: 1.34x, 0.87; 1e-4: 2.1x, 0.66; 1e-5: 3.4x,
+ * 0.47. A smaller GO_ON stops sooner at more variance (0.7: 9x at 1e-4 for 0.28 of the attempts). */
+#define SPC_TRIAL_GO_ON 0.9
+/* The longest block (the doubling's end, so a count's attempts fit an int for any p above ~1e-8). */
+#define SPC_TRIAL_MAX_BLOCK (1 << 24)
+
 /* One Bernoulli trial: one independent attempt; true if it found the chain. */
 typedef bool (*spc_solve_mis_trial)(void *user);
 
+/* The roulette past a count's cap: after `done` failed attempts, an unbiased estimate of the
+ * attempts the uncut count still needs (E[N - done | N > done] = 1 / p), blocks as above (the first
+ * of 2 done attempts). Draws rng only for the roulette. *attempts gets the attempts run. */
+double spc_trial_count_on(spc_solve_mis_trial trial, void *user, spc_rng *rng, int done, int *attempts);
+
 /* Specular NEE's side: Z above, an unbiased estimate of 1 / (p A + b) (with b = 0: N / A, the plain
  * trial count over A), after the first attempt found the chain. A > 0, b >= 0. *trials (may be
- * NULL) gets the attempts run, *capped (may be NULL) whether the count reached cap. */
+ * NULL) gets the attempts run, *capped (may be NULL) whether the count reached cap (and went on by
+ * roulette; Z may then exceed 1 / b). */
 double spc_solve_mis_light(double A, double b, spc_solve_mis_trial trial, void *user, spc_rng *rng, int cap,
                            int *trials, bool *capped);
 
-/* BSDF sampling's side: the weight b Z = 1 - r^N (in [0, 1]) from a count of its own, with
- * expectation b / (p A + b) (1 where A is 0, 0 where b is 0). */
+/* BSDF sampling's side: the weight b Z = 1 - r^N from a count of its own, with expectation
+ * b / (p A + b) (1 where A is 0, 0 where b is 0); in [0, 1] unless the count went past cap. */
 double spc_solve_mis_sampled(double A, double b, spc_solve_mis_trial trial, void *user, spc_rng *rng, int cap,
                              int *trials);
 

@@ -4,10 +4,12 @@
  */
 #include "manifold/solver.h"
 
+#include <limits.h>
 #include <string.h>
 
 #include "manifold/fit_seeds.h"
 #include "manifold/seed_guide.h"
+#include "manifold/solve_mis.h"
 
 /* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
 #define SPC_SNEE_CONE_COS 0.9
@@ -190,14 +192,23 @@ bool spc_snee_same_solution(const spc_chain *a, const spc_chain *b, double scene
     return true;
 }
 
-int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped)
+double spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, spc_rng *rng, int *attempts,
+                             bool *capped)
 {
+    if (cap < 1)
+        cap = 1;
     *capped = false;
     for (int n = 1; n <= cap; ++n)
-        if (trial(user))
+        if (trial(user)) {
+            *attempts = n;
             return n;
+        }
+    /* past the cap: the roulette (solve_mis.h) */
     *capped = true;
-    return cap;
+    int more = 0;
+    double count = cap + spc_trial_count_on(trial, user, rng, cap, &more);
+    *attempts = more < INT_MAX - cap ? cap + more : INT_MAX;
+    return count;
 }
 
 typedef struct trial_ctx {
@@ -218,8 +229,9 @@ static bool trial_same(void *user)
     return found && spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
 }
 
-int spc_snee_count_same(const spc_snee_query *q, const spc_specular_solver *solver, spc_snee_attempt attempt,
-                        spc_rng *rng, const spc_chain *target, int cap, bool *capped, int *iterations)
+double spc_snee_count_same(const spc_snee_query *q, const spc_specular_solver *solver, spc_snee_attempt attempt,
+                           spc_rng *rng, const spc_chain *target, int cap, int *attempts, bool *capped,
+                           int *iterations)
 {
     trial_ctx tc;
     tc.q = q;
@@ -228,7 +240,7 @@ int spc_snee_count_same(const spc_snee_query *q, const spc_specular_solver *solv
     tc.target = target;
     tc.rng = rng;
     tc.iterations = iterations;
-    return spc_snee_count_trials(trial_same, &tc, cap, capped);
+    return spc_snee_count_trials(trial_same, &tc, cap, rng, attempts, capped);
 }
 
 spc_rgb spc_snee_light_radiance(const spc_emitter *e, spc_vec3 y, spc_vec3 ny, spc_vec2 uv, spc_vec3 p, spc_vec3 d,

@@ -24,10 +24,10 @@
 struct spc_camera_state;
 struct spc_receiver;
 
-/* Cap of the attempts counted for <1/p_solve> (the default of params.max_trials but for the angular
- * solver's). The count is cut for solutions found with probability below about 3/cap; at 64 that
- * is p < 5%, seeds that rarely lead anywhere, and the cost of one estimate stays bounded (each
- * attempt is a full solve). */
+/* Attempts counted plainly for <1/p_solve> (the default of params.max_trials but for the angular
+ * solver's); past them the count goes on by Russian roulette (spc_snee_count_trials), which stays
+ * unbiased but adds variance and stops early, so most counts of solutions found with probability
+ * below about 3/cap cost less than their 1/p attempts (each attempt is a full solve). */
 #define SPC_SNEE_MAX_TRIALS 64
 
 /* Solver ids (index into the solver table; 0 = specular NEE off). */
@@ -358,9 +358,13 @@ typedef struct spc_snee_stats {
 spc_rgb spc_snee_light_radiance(const spc_emitter *e, spc_vec3 y, spc_vec3 ny, spc_vec2 uv, spc_vec3 p, spc_vec3 d,
                                 spc_vec3 *ny_out);
 
-/* Counts independent trials until the first success, capped: the geometric estimator of 1/p.
- * *capped is set if the cap was reached without success (the count is then cap). */
-int spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, bool *capped);
+/* Counts independent trials until the first success: the geometric estimator of 1/p, unbiased for
+ * every p > 0. The first `cap` trials are counted plainly (the value is then the integer count);
+ * where they all fail the count goes on by Russian roulette (solve_mis.h, SPC_TRIAL_GO_ON), so
+ * the value can then be any real >= cap. rng draws the roulette only past the cap. *attempts gets
+ * the trials run; *capped is set if the first cap failed. */
+double spc_snee_count_trials(bool (*trial)(void *user), void *user, int cap, spc_rng *rng, int *attempts,
+                             bool *capped);
 
 /* One randomized attempt of solver for q (the same distribution on every call); adds its
  * iterations to *iterations. */
@@ -368,9 +372,10 @@ typedef bool (*spc_snee_attempt)(const spc_snee_query *q, const spc_specular_sol
                                  spc_chain *out, int *iterations);
 /* The trial count that estimates <1/p_solve> for the solution `target` of q: independent attempts
  * (attempt; NULL: solver->solve_one) until one finds the same solution (spc_snee_same_solution),
- * at most cap (then *capped is set and the count is cap). Adds the attempts' iterations to
- * *iterations. */
-int spc_snee_count_same(const spc_snee_query *q, const spc_specular_solver *solver, spc_snee_attempt attempt,
-                        spc_rng *rng, const spc_chain *target, int cap, bool *capped, int *iterations);
+ * counted by spc_snee_count_trials with this cap (*attempts, *capped as there). Adds the attempts'
+ * iterations to *iterations. */
+double spc_snee_count_same(const spc_snee_query *q, const spc_specular_solver *solver, spc_snee_attempt attempt,
+                           spc_rng *rng, const spc_chain *target, int cap, int *attempts, bool *capped,
+                           int *iterations);
 
 #endif

@@ -1186,16 +1186,15 @@ static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *so
         p_events = spc_snee_attempt_events_prob(q, &want);
     }
     bool capped;
-    int iterations = 0;
-    int n = spc_snee_count_same(&tq, solver, NULL, rng, sol, p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS,
-                                &capped, &iterations);
+    int iterations = 0, n = 0;
+    double N = spc_snee_count_same(&tq, solver, NULL, rng, sol, trial_cap(p), &n, &capped, &iterations);
     if (st) {
         st->trials += (uint64_t)n;
         st->iterations += (uint64_t)iterations;
         st->trial_iterations += (uint64_t)iterations;
         st->capped += capped ? 1u : 0u;
     }
-    return p_events > 0.0 ? (double)n / p_events : 0.0;
+    return p_events > 0.0 ? N / p_events : 0.0;
 }
 
 /* The chain sol of a randomized attempt toward q's light point (its density p_y, the query's and the
