@@ -147,7 +147,7 @@ TEST(grid_hits_compact) { CHECK(check_grid(512) == 2000); }
 /* A closed UV sphere (nlat bands, nlon sectors, shared vertices, poles as fans) rotated, scaled
  * unevenly and moved off the origin, so its float vertices are not round numbers; the center is
  * returned in c. */
-static spc_scene *closed_sphere_scene(int nlat, int nlon, spc_vec3 *c, bool robust)
+static spc_scene *closed_sphere_scene(int nlat, int nlon, spc_vec3 *c, bool fast)
 {
     spc_scene *sc = spc_scene_create();
     if (!sc)
@@ -204,7 +204,8 @@ static spc_scene *closed_sphere_scene(int nlat, int nlon, spc_vec3 *c, bool robu
     }
     sh->bsdf = d;
     spc_scene_set_defaults(sc);
-    sc->accel_robust = robust;
+    if (fast)
+        sc->accel_robust = false; /* else the scene's default */
     if (spc_scene_finalize(sc, &err) != SPC_OK) {
         spc_scene_destroy(sc);
         return NULL;
@@ -222,7 +223,7 @@ static spc_scene *closed_sphere_scene(int nlat, int nlon, spc_vec3 *c, bool robu
 TEST(closed_mesh_cracks_are_rare)
 {
     spc_vec3 c;
-    spc_scene *sc = closed_sphere_scene(24, 37, &c, true);
+    spc_scene *sc = closed_sphere_scene(24, 37, &c, false);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -270,7 +271,7 @@ TEST(closed_mesh_cracks_are_rare)
     }
     /* random rays from inside a fine closed mesh */
     spc_scene_destroy(sc);
-    sc = closed_sphere_scene(300, 313, &c, true);
+    sc = closed_sphere_scene(300, 313, &c, false);
     CHECK(sc != NULL);
     if (!sc)
         return;
@@ -295,15 +296,16 @@ TEST(closed_mesh_cracks_are_rare)
     spc_scene_destroy(sc);
 }
 
-/* The scene's accel_robust (the property embree_use_robust_intersections) reaches Embree: rays
- * aimed exactly at a closed mesh's shared edges pass between the triangles only without the robust
- * flag. Measured on 2400 rays: robust 0 pass, fast 68 (intersection). */
+/* The scene's accel_robust (the property embree_use_robust_intersections) reaches Embree, and the
+ * default is the robust test: rays aimed exactly at a closed mesh's shared edges pass between the
+ * triangles only when the scene turns the flag off. Measured on 2400 rays: default 0 pass, fast 68
+ * (intersection). */
 TEST(fast_traversal_only_when_asked)
 {
     int leaks[2] = {0, 0};
     for (int robust = 0; robust < 2; ++robust) {
         spc_vec3 c;
-        spc_scene *sc = closed_sphere_scene(24, 37, &c, robust == 1);
+        spc_scene *sc = closed_sphere_scene(24, 37, &c, robust == 0);
         CHECK(sc != NULL);
         if (!sc)
             return;
@@ -324,7 +326,7 @@ TEST(fast_traversal_only_when_asked)
         }
         spc_scene_destroy(sc);
     }
-    printf("  2400 rays through shared edges from inside: %d pass (fast), %d (robust)\n", leaks[0], leaks[1]);
+    printf("  2400 rays through shared edges from inside: %d pass (fast), %d (default)\n", leaks[0], leaks[1]);
     CHECK(leaks[0] > 0);
     CHECK(leaks[1] <= 2);
 }
@@ -339,7 +341,7 @@ TEST(fast_traversal_only_when_asked)
 TEST(coherent_packets_match_single_rays)
 {
     spc_vec3 c;
-    spc_scene *sc = closed_sphere_scene(24, 37, &c, true);
+    spc_scene *sc = closed_sphere_scene(24, 37, &c, false);
     CHECK(sc != NULL);
     if (!sc)
         return;
