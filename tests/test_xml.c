@@ -1054,6 +1054,29 @@ TEST(bitmaps_and_envmap)
     spc_scene_destroy(s);
 }
 
+/* The scene's own property embree_use_robust_intersections (Mitsuba 3's name): read into
+ * spc_scene.accel_robust, true when absent; a value that is not a boolean is an error. */
+TEST(scene_robust_property)
+{
+    static const char *fmt = "<scene version=\"3.0.0\">\n%s  <shape type=\"sphere\"/>\n</scene>\n";
+    static const char *props[3] = {"", "  <boolean name=\"embree_use_robust_intersections\" value=\"false\"/>\n",
+                                   "  <boolean name=\"embree_use_robust_intersections\" value=\"TRUE\"/>\n"};
+    const bool want[3] = {true, false, true};
+    char xml[512];
+    for (int i = 0; i < 3; ++i) {
+        snprintf(xml, sizeof xml, fmt, props[i]);
+        spc_scene *s = load_ok(xml);
+        CHECK(s != NULL);
+        if (s)
+            CHECK(s->accel_robust == want[i]);
+        spc_scene_destroy(s);
+    }
+    snprintf(xml, sizeof xml, fmt, "  <boolean name=\"embree_use_robust_intersections\" value=\"maybe\"/>\n");
+    expect_error(xml, SPC_ERR_VALUE, 2, 3, "could not parse boolean");
+    snprintf(xml, sizeof xml, fmt, "  <boolean name=\"embree_robust\" value=\"true\"/>\n");
+    expect_error(xml, SPC_ERR_PARSE, 2, 3, "top level");
+}
+
 TEST(more_syntax)
 {
     write_file("refl.spd", "# wavelength value\n360 0.25\n830 0.25\n");
@@ -1232,6 +1255,7 @@ int main(int argc, char **argv)
     RUN(bsdf_variants);
     RUN(bitmaps_and_envmap);
     RUN(more_syntax);
+    RUN(scene_robust_property);
     RUN(fuzz_truncations_and_mutations);
     char cmd[512];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);

@@ -7,13 +7,14 @@
  * their back faces culled (Mitsuba 3's Embree is built so: a ray from inside a tube passes out of
  * it). The geometry ID of every shape equals its index in the scene.
  *
- * The scene is built with RTC_SCENE_FLAG_ROBUST (Mitsuba 3 builds its own without): Embree's fast
- * triangle test would take 8% off plain path tracing of the cornell box, but rays through the
- * shared edges of a mesh then pass the crack between its triangles (test_accel's
- * closed_mesh_cracks_are_rare: 2 to 6% of the rays aimed exactly at the edges of a closed mesh
- * instead of 0.01 to 0.04%), and a ray through a quad light's center lies on its diagonal
- * (test_emitter's rectangle chi-square test fails without the flag: the quadrature's node there
- * misses the light). bench/RESULTS.md has the measurements.
+ * The scene is built with RTC_SCENE_FLAG_ROBUST unless the scene turns it off
+ * (spc_scene.accel_robust, the property embree_use_robust_intersections; Mitsuba 3 reads the same
+ * property with the default false). Embree's fast triangle test takes about 9% off plain path
+ * tracing of the cornell box, but rays through the shared edges of a mesh then pass the crack
+ * between its triangles (test_accel's closed_mesh_cracks_are_rare: 2 to 6% of the rays aimed
+ * exactly at the edges of a closed mesh instead of 0.01 to 0.04%), and a ray through a quad
+ * light's center lies on its diagonal (test_emitter's rectangle chi-square test fails without the
+ * flag: the quadrature's node there misses the light). bench/RESULTS.md has the measurements.
  */
 #include "accel/accel.h"
 
@@ -198,7 +199,7 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
     for (int i = 0; i < sc->nshapes; ++i)
         if (sc->shapes[i]->type == SPC_SHAPE_MESH)
             ntris += sc->shapes[i]->mesh.ntris;
-    rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST | (ntris >= SPC_ACCEL_COMPACT_TRIS ? RTC_SCENE_FLAG_COMPACT : 0));
+    rtcSetSceneFlags(a->scene, (sc->accel_robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE) | (ntris >= SPC_ACCEL_COMPACT_TRIS ? RTC_SCENE_FLAG_COMPACT : 0));
     a->skip_mask = malloc((sc->nshapes > 0 ? (size_t)sc->nshapes : 1) * sizeof(unsigned));
     if (!a->skip_mask) {
         spc_accel_destroy(a);

@@ -34,6 +34,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "core/hash.h"
 #include "io/mitsuba_builders.h"
@@ -646,6 +647,25 @@ static void parse_sensor(mts_loader *L, spc_xml_node *node)
 /* ------------------------------------------------------------------------------------------------ */
 /* the scene */
 
+/* The scene's own property: Embree's watertight triangle test (spc_scene.accel_robust). Mitsuba 3
+ * reads it with the default false; specula's default is true. */
+#define SCENE_PROP_ROBUST "embree_use_robust_intersections"
+
+/* A <boolean> at the top level of the scene: true/1 or false/0 (any case), as in objects. */
+static void read_scene_bool(mts_loader *L, const spc_xml_node *c, bool *out)
+{
+    const char *v = spc_xml_get(c, "value");
+    if (!v)
+        mts_fail(L, c, SPC_ERR_PARSE, "<boolean name=\"%s\"> needs a 'value' attribute", spc_xml_get(c, "name"));
+    else if (strcasecmp(v, "true") == 0 || strcmp(v, "1") == 0)
+        *out = true;
+    else if (strcasecmp(v, "false") == 0 || strcmp(v, "0") == 0)
+        *out = false;
+    else
+        mts_fail(L, c, SPC_ERR_VALUE, "could not parse boolean value \"%s\" of property '%s' (true or false)", v,
+                 spc_xml_get(c, "name"));
+}
+
 static void build_scene(mts_loader *L, spc_xml_node *root)
 {
     for (int i = 0; i < root->nchildren && L->status == SPC_OK; ++i) {
@@ -688,6 +708,9 @@ static void build_scene(mts_loader *L, spc_xml_node *root)
             mts_build_phase(L, c, &unused); /* checked here, built where a medium refers to it */
         } else if (strcmp(t, "volume") == 0) {
             mts_fail(L, c, SPC_ERR_PLUGIN, "<%s type=\"%s\">: heterogeneous media are not supported", t, mts_type(c));
+        } else if (strcmp(t, "boolean") == 0 && spc_xml_get(c, "name") &&
+                   strcmp(spc_xml_get(c, "name"), SCENE_PROP_ROBUST) == 0) {
+            read_scene_bool(L, c, &L->scene->accel_robust);
         } else {
             mts_fail(L, c, SPC_ERR_PARSE, "unexpected <%s> at the top level of the scene", t);
         }

@@ -65,6 +65,7 @@ bool spc_fov_tangents(double fov, spc_fov_axis axis, int width, int height, doub
 void spc_scene_set_defaults(spc_scene *s)
 {
     s->camera.type = SPC_CAMERA_PERSPECTIVE;
+    s->accel_robust = true;
     s->camera.to_world = spc_mat4_identity();
     s->camera.fov = 45.0;
     s->camera.fov_axis = SPC_FOV_X;
