@@ -239,6 +239,51 @@ TEST(triangle_ball_tail)
     spc_scene_destroy(sc);
 }
 
+/* Uniform directions from the floor point (fx, 0, fz) toward the tessellated ball's fitted sphere,
+ * traced through the chain of events ev (k vertices); over the first `want` that reach the light, the
+ * mean MIS weight on the BSDF side (-1 if none did). *n: how many reached it. */
+static double ball_paths_mean_weight(spc_scene *sc, double fx, double fz, const unsigned char *ev, int k,
+                                     uint64_t stream, int want, int *n)
+{
+    spc_snee_params p;
+    CHECK(spc_snee_parse("angular", 2, &p));
+    p.mis = true;
+    spc_vec3 c = spc_v3(0, 0, 0);
+    double R = 0.0;
+    bool ball = false;
+    for (int i = 0; i < sc->nshapes && !ball; ++i)
+        ball = spc_fit_sphere(sc->shapes[i], &c, &R);
+    spc_hit x;
+    CHECK(ball);
+    *n = 0;
+    if (!ball || !floor_point(sc, fx, fz, &x)) {
+        CHECK_MSG(false, "no floor point at (%g, 0, %g)", fx, fz);
+        return -1.0;
+    }
+    spc_rng r;
+    spc_rng_seed(&r, 7, stream);
+    double sw = 0.0;
+    for (int i = 0; i < 200000 && *n < want; ++i) {
+        spc_vec3 u;
+        do
+            u = spc_v3(2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1);
+        while (spc_dot(u, u) > 1.0);
+        spc_vec3 d0 = spc_normalize(spc_sub(spc_add(c, spc_scale(u, R)), x.p));
+        spc_frame fr = spc_frame_from_n(d0);
+        spc_chain_opts o = spc_chain_opts_default(k);
+        o.events = ev;
+        spc_chain ch;
+        if (spc_chain_trace(sc, &x, &fr, 0.0, 0.0, &o, &ch) != SPC_CHAIN_END_SURFACE || ch.n != k || !ch.has_end_hit ||
+            !ch.end_hit.emitter)
+            continue;
+        sw += spc_snee_mis_bsdf_weight(sc, &p, &x, spc_v3(0, 1, 0), d0, 2, k, ev, &ch.end_hit);
+        ++*n;
+    }
+    double mean = *n > 0 ? sw / *n : -1.0;
+    printf("    %d %d-vertex paths, mean BSDF-side weight %.3f\n", *n, k, mean);
+    return mean;
+}
+
 /* The MIS weight on the BSDF side of the paths from the floor point (-0.23, 0, 0.72) under the
  * triangle glass ball that reach the light through five chain vertices (in, three internal
  * reflections, out): specular NEE finds them on its ball pass at every call (0.25 per length, the
@@ -251,46 +296,12 @@ TEST(ball_long_chain_weight)
     CHECK(sc != NULL);
     if (!sc)
         return;
-    spc_snee_params p;
-    CHECK(spc_snee_parse("angular", 2, &p));
-    p.mis = true;
-    spc_vec3 c = spc_v3(0, 0, 0);
-    double R = 0.0;
-    bool ball = false;
-    for (int i = 0; i < sc->nshapes && !ball; ++i)
-        ball = spc_fit_sphere(sc->shapes[i], &c, &R);
-    spc_hit x;
-    CHECK(ball);
-    CHECK(floor_point(sc, -0.23, 0.72, &x));
-    if (!ball || !floor_point(sc, -0.23, 0.72, &x)) {
-        spc_scene_destroy(sc);
-        return;
-    }
     static const unsigned char ev[5] = {SPC_CHAIN_REFRACT, SPC_CHAIN_REFLECT, SPC_CHAIN_REFLECT, SPC_CHAIN_REFLECT,
                                         SPC_CHAIN_REFRACT};
-    spc_rng r;
-    spc_rng_seed(&r, 7, 1);
-    int n = 0;
-    double sw = 0.0;
-    for (int i = 0; i < 200000 && n < 200; ++i) {
-        spc_vec3 u;
-        do
-            u = spc_v3(2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1);
-        while (spc_dot(u, u) > 1.0);
-        spc_vec3 d0 = spc_normalize(spc_sub(spc_add(c, spc_scale(u, R)), x.p));
-        spc_frame fr = spc_frame_from_n(d0);
-        spc_chain_opts o = spc_chain_opts_default(5);
-        o.events = ev;
-        spc_chain ch;
-        if (spc_chain_trace(sc, &x, &fr, 0.0, 0.0, &o, &ch) != SPC_CHAIN_END_SURFACE || ch.n != 5 || !ch.has_end_hit ||
-            !ch.end_hit.emitter)
-            continue;
-        sw += spc_snee_mis_bsdf_weight(sc, &p, &x, spc_v3(0, 1, 0), d0, 2, 5, ev, &ch.end_hit);
-        ++n;
-    }
-    printf("    %d five-vertex paths, mean BSDF-side weight %.3f\n", n, n > 0 ? sw / n : -1.0);
+    int n;
+    double w = ball_paths_mean_weight(sc, -0.23, 0.72, ev, 5, 1, 200, &n);
     CHECK(n >= 50);
-    CHECK_MSG(n > 0 && sw / n < 0.05, "mean weight %.3f", n > 0 ? sw / n : -1.0);
+    CHECK_MSG(n > 0 && w < 0.05, "mean weight %.3f", w);
     spc_scene_destroy(sc);
 }
 
@@ -306,45 +317,11 @@ TEST(ball_fold_chain_weight)
     CHECK(sc != NULL);
     if (!sc)
         return;
-    spc_snee_params p;
-    CHECK(spc_snee_parse("angular", 2, &p));
-    p.mis = true;
-    spc_vec3 c = spc_v3(0, 0, 0);
-    double R = 0.0;
-    bool ball = false;
-    for (int i = 0; i < sc->nshapes && !ball; ++i)
-        ball = spc_fit_sphere(sc->shapes[i], &c, &R);
-    spc_hit x;
-    CHECK(ball);
-    CHECK(floor_point(sc, -0.097, 0.323, &x));
-    if (!ball || !floor_point(sc, -0.097, 0.323, &x)) {
-        spc_scene_destroy(sc);
-        return;
-    }
     static const unsigned char ev[2] = {SPC_CHAIN_REFRACT, SPC_CHAIN_REFRACT};
-    spc_rng r;
-    spc_rng_seed(&r, 7, 2);
-    int n = 0;
-    double sw = 0.0;
-    for (int i = 0; i < 200000 && n < 100; ++i) {
-        spc_vec3 u;
-        do
-            u = spc_v3(2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1);
-        while (spc_dot(u, u) > 1.0);
-        spc_vec3 d0 = spc_normalize(spc_sub(spc_add(c, spc_scale(u, R)), x.p));
-        spc_frame fr = spc_frame_from_n(d0);
-        spc_chain_opts o = spc_chain_opts_default(2);
-        o.events = ev;
-        spc_chain ch;
-        if (spc_chain_trace(sc, &x, &fr, 0.0, 0.0, &o, &ch) != SPC_CHAIN_END_SURFACE || ch.n != 2 || !ch.has_end_hit ||
-            !ch.end_hit.emitter)
-            continue;
-        sw += spc_snee_mis_bsdf_weight(sc, &p, &x, spc_v3(0, 1, 0), d0, 2, 2, ev, &ch.end_hit);
-        ++n;
-    }
-    printf("    %d two-vertex paths, mean BSDF-side weight %.3f\n", n, n > 0 ? sw / n : -1.0);
+    int n;
+    double w = ball_paths_mean_weight(sc, -0.097, 0.323, ev, 2, 2, 100, &n);
     CHECK(n >= 50);
-    CHECK_MSG(n > 0 && sw / n < 0.05, "mean weight %.3f", n > 0 ? sw / n : -1.0);
+    CHECK_MSG(n > 0 && w < 0.05, "mean weight %.3f", w);
     spc_scene_destroy(sc);
 }
 
