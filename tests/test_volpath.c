@@ -744,8 +744,9 @@ static bool films_differ(const spc_film *a, const spc_film *b)
            memcmp(a->rgb, b->rgb, sizeof a->rgb[0] * 3 * (size_t)a->width * (size_t)a->height) != 0;
 }
 
-/* volpath's connection takes the user's options: trials=1 caps every Bernoulli-trial count at 1, so
- * the light through the glass is underestimated (the count's mean is 1/p >= 1); seed=light changes
+/* volpath's connection takes the user's options: trials=1 cuts every Bernoulli-trial count's plain
+ * part at 1 attempt, the rest going on by roulette in doubling blocks, so the image changes but its
+ * mean does not (the count's mean stays 1/p: unbiased past the cap); seed=light changes
  * the attempts, chain=1 drops the chains that reflect inside the ball before they leave it, nomis
  * drops the phase-sampled paths specular NEE covers instead of weighting them, receivers=1 leaves
  * the second and later medium vertices to phase sampling; the same setting twice gives the same
@@ -785,7 +786,7 @@ TEST(volpath_honours_specular_nee_options)
             tu_image_mean(a, c, &ma, &sa);
             tu_image_mean(capped, c, &mc, &scp);
             printf("  channel %d: mean %.5f (se %.2g), with trials=1 %.5f (se %.2g)\n", c, ma, sa, mc, scp);
-            CHECK_MSG(ma - mc > 4.0 * sqrt(sa * sa + scp * scp), "trials=1 does not lower the mean of channel %d", c);
+            CHECK_MSG(fabs(ma - mc) < 4.0 * sqrt(sa * sa + scp * scp), "trials=1 moves the mean of channel %d", c);
         }
     }
     spc_film_destroy(a);
