@@ -44,6 +44,11 @@
 #define SPC_FLAT_SIDE_REL 1e-9
 #define SPC_FLAT_EDGE_REL 1e-9
 
+/* The slack, relative to the problem's size, of the bound that ends a sequence whose minimum lies
+ * outside its faces (lower_bound_on_faces): 1e3 times SPC_FLAT_EDGE_REL covers in_face's tolerance
+ * on triangles with angles down to a milliradian, and L's rounding many times over. */
+#define SPC_FLAT_BOUND_SLACK 1e-6
+
 /* Distinct corners kept per face for its direction caps (a cube's face has 4; a face with more
  * is bounded by the sphere around its corners instead). */
 #define SPC_FLAT_FACE_CORNERS 12
@@ -93,9 +98,13 @@ static cone cone_between(spc_vec3 c0, double r0, spc_vec3 c1, double r1)
     return (cone){spc_scale(d, 1.0 / len), asin(r / len)};
 }
 
+/* Do the caps p and q share a direction? Their axes within the sum of their radii (and 1e-9): as a
+ * cosine, which spares an acos per test (the walk's most frequent one); the 1e-12 on the cosine
+ * keeps the test at least as wide as the angle's through the rounding of either. */
 static bool cones_meet(cone p, cone q)
 {
-    return p.r + q.r >= SPC_PI || angle_between(p.a, q.a) <= p.r + q.r + 1e-9;
+    double t = p.r + q.r + 1e-9;
+    return t >= SPC_PI || spc_dot(p.a, q.a) >= cos(t) - 1e-12;
 }
 
 static cone cone_neg(cone c) { return (cone){spc_neg(c.a), c.r}; }
@@ -386,6 +395,8 @@ typedef struct flat_problem {
     flat_vertex v[SPC_FLAT_MAX_VERTICES];
     double seg[SPC_FLAT_MAX_VERTICES + 1]; /* index along each segment */
     double scale;                          /* |y - x| and the faces' extent */
+    double uu[SPC_FLAT_MAX_VERTICES][2][2]; /* U_i^T U_{i+1}: consecutive faces' tangents (minimize) */
+    bool bound;                             /* end a solve by lower_bound_on_faces (tests switch it off) */
 } flat_problem;
 
 static spc_vec3 point_of(const flat_face *f, const double *s) { return spc_add(f->o, spc_add(spc_scale(f->u, s[0]), spc_scale(f->v, s[1]))); }
@@ -440,21 +451,56 @@ static bool cholesky_solve(double *A, int n, const double *b, double *z)
     return true;
 }
 
-/* The 2x2 block c U_a^T (I - e e^T) U_b of a segment's Hessian term (c = its index over its
- * length, e its unit direction) between the tangent bases of faces fa and fb. */
-static void block(double c, spc_vec3 e, const flat_face *fa, const flat_face *fb, double out[2][2])
+/* The 2x2 block c (U_a^T U_b - (U_a^T e)(U_b^T e)^T) of a segment's Hessian term c U_a^T (I - e
+ * e^T) U_b (c = its index over its length, e its unit direction) between the tangent bases of two
+ * faces: uu = U_a^T U_b (the identity for one face), ae = U_a^T e, be = U_b^T e. */
+static void block(double c, const double uu[2][2], const double ae[2], const double be[2], double out[2][2])
 {
-    const spc_vec3 A[2] = {fa->u, fa->v}, B[2] = {fb->u, fb->v};
-    double ae[2] = {spc_dot(A[0], e), spc_dot(A[1], e)}, be[2] = {spc_dot(B[0], e), spc_dot(B[1], e)};
     for (int r = 0; r < 2; ++r)
         for (int q = 0; q < 2; ++q)
-            out[r][q] = c * ((fa == fb ? (r == q ? 1.0 : 0.0) : spc_dot(A[r], B[q])) - ae[r] * be[q]);
+            out[r][q] = c * (uu[r][q] - ae[r] * be[q]);
+}
+
+/* A lower bound on L (mu 0) over the box C of the sequence: the points whose every vertex lies in
+ * the convex hull of its face's corners. L is convex, so at any s its tangent plane bounds it from
+ * below, L(c) >= L(s) + g . (c - s), and a linear function takes its minimum over the hull at a
+ * corner (per vertex: C is a product of polygons). Smoothing each of the k + 1 terms by mu adds at
+ * most mu eta_j to it, so from L_mu and its gradient g at s:
+ *
+ *     min over C of L  >=  L_mu(s) + sum_i min over corners c of face i of g_i . (c - s_i) - mu sum_j eta_j.
+ *
+ * The corners are those of the face's triangles in its (u, v) coordinates, the same coordinates s
+ * uses. Each vertex's term is lowered by |g_i| times SPC_FLAT_BOUND_SLACK of the problem's size: a
+ * root is accepted up to SPC_FLAT_EDGE_REL outside its triangles' edges (in_face), which moves it
+ * that far from the hull at most by that distance over the sine of half the triangles' sharpest
+ * angle. */
+static double lower_bound_on_faces(const flat_problem *P, double mu, const double *s, const double *g, double L)
+{
+    double lb = L, eta_sum = 0.0;
+    for (int j = 0; j <= P->k; ++j)
+        eta_sum += P->seg[j];
+    lb -= mu * eta_sum;
+    for (int i = 0; i < P->k; ++i) {
+        const flat_face *f = P->v[i].f;
+        const double *c = P->v[i].fc->tri2d + 6 * f->first;
+        double gu = g[2 * i], gv = g[2 * i + 1], su = s[2 * i], sv = s[2 * i + 1];
+        double m = INFINITY;
+        for (int j = 0; j < 3 * f->count; ++j)
+            m = fmin(m, gu * (c[2 * j] - su) + gv * (c[2 * j + 1] - sv));
+        lb += m - sqrt(gu * gu + gv * gv) * SPC_FLAT_BOUND_SLACK * P->scale;
+    }
+    return lb;
 }
 
 /* Newton's steps on L smoothed by mu from s (updated, with p and *L) until each vertex's mismatch
  * is below tol or `steps` are spent; returns the last mismatch (the largest component of the
- * gradient), or -1 where the step is undefined or the line search finds no decrease. */
-static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, double *L, int steps, double tol)
+ * gradient), or -1 where the step is undefined or the line search finds no decrease. *lb holds the
+ * largest lower bound on L over the faces' box C seen so far (lower_bound_on_faces, updated at
+ * every step); L's minimum is at most L_mu at every iterate, so where the bound exceeds that, the
+ * minimum lies outside C, no root of this sequence passes in_face, and newton returns -2 (where
+ * P->bound). */
+static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, double *L, int steps, double tol,
+                     double *lb)
 {
     const int k = P->k, n = 2 * k;
     double gmax = 0.0;
@@ -477,14 +523,27 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
             g[2 * i + 1] = spc_dot(t, P->v[i].f->v);
             gmax = fmax(gmax, fmax(fabs(g[2 * i]), fabs(g[2 * i + 1])));
         }
+        *lb = fmax(*lb, lower_bound_on_faces(P, mu, s, g, *L));
+        if (P->bound && *lb > *L + SPC_FLAT_BOUND_SLACK * P->scale)
+            return -2.0; /* every point of C is longer than this one: the minimum lies outside C */
         if (gmax < tol || it == steps)
             return gmax;
         double H[4 * SPC_FLAT_MAX_VERTICES * SPC_FLAT_MAX_VERTICES], diag = 0.0;
         memset(H, 0, sizeof H);
+        /* each face's tangents against the segments arriving at (ea) and leaving (el) its vertex */
+        double ea[SPC_FLAT_MAX_VERTICES][2], el[SPC_FLAT_MAX_VERTICES][2];
+        for (int i = 0; i < k; ++i) {
+            const flat_face *f = P->v[i].f;
+            ea[i][0] = spc_dot(f->u, e[i]);
+            ea[i][1] = spc_dot(f->v, e[i]);
+            el[i][0] = spc_dot(f->u, e[i + 1]);
+            el[i][1] = spc_dot(f->v, e[i + 1]);
+        }
+        static const double eye[2][2] = {{1.0, 0.0}, {0.0, 1.0}};
         for (int i = 0; i < k; ++i) {
             double B[2][2], B2[2][2];
-            block(cj[i], e[i], P->v[i].f, P->v[i].f, B);
-            block(cj[i + 1], e[i + 1], P->v[i].f, P->v[i].f, B2);
+            block(cj[i], eye, ea[i], ea[i], B);
+            block(cj[i + 1], eye, el[i], el[i], B2);
             for (int r = 0; r < 2; ++r)
                 for (int c = 0; c < 2; ++c) {
                     B[r][c] += B2[r][c];
@@ -492,7 +551,7 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
                 }
             diag = fmax(diag, B[0][0] + B[1][1]);
             if (i + 1 < k) {
-                block(cj[i + 1], e[i + 1], P->v[i].f, P->v[i + 1].f, B);
+                block(cj[i + 1], P->uu[i], el[i], ea[i + 1], B);
                 for (int r = 0; r < 2; ++r)
                     for (int c = 0; c < 2; ++c) {
                         H[(2 * i + r) * n + 2 * (i + 1) + c] = -B[r][c];
@@ -535,10 +594,18 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
  * L is not smooth where a segment vanishes, and Newton's method stalls near such a kink on its way
  * (a vertex crossing the edge where two faces' planes meet); so it runs on L with each |r|
  * smoothed to sqrt(|r|^2 + mu^2), a smooth, strictly convex function, for mu falling from a tenth
- * of the problem's size by SPC_FLAT_MU_FALL per stage (a path-following homotopy), then on L. */
-static bool minimize(const flat_problem *P, spc_vec3 *p)
+ * of the problem's size by SPC_FLAT_MU_FALL per stage (a path-following homotopy), then on L.
+ * Adds 1 to *bound_ends where the bound on the faces (newton) ended it. */
+static bool minimize(flat_problem *P, spc_vec3 *p, int *bound_ends)
 {
     const int k = P->k;
+    for (int i = 0; i + 1 < k; ++i) {
+        const flat_face *a = P->v[i].f, *b = P->v[i + 1].f;
+        const spc_vec3 A[2] = {a->u, a->v}, B[2] = {b->u, b->v};
+        for (int r = 0; r < 2; ++r)
+            for (int q = 0; q < 2; ++q)
+                P->uu[i][r][q] = a == b ? (r == q ? 1.0 : 0.0) : spc_dot(A[r], B[q]);
+    }
     double s[2 * SPC_FLAT_MAX_VERTICES];
     for (int i = 0; i < k; ++i) {
         /* the point of the straight line at fraction (i+1)/(k+1), projected onto the face's plane */
@@ -547,19 +614,23 @@ static bool minimize(const flat_problem *P, spc_vec3 *p)
         s[2 * i] = spc_dot(r, P->v[i].f->u);
         s[2 * i + 1] = spc_dot(r, P->v[i].f->v);
     }
-    double mu = 0.1 * P->scale;
+    double mu = 0.1 * P->scale, lb = -INFINITY;
     double L = path_length(P, s, mu, p);
     for (; mu > SPC_FLAT_MU_END * P->scale; mu *= SPC_FLAT_MU_FALL) {
         L = path_length(P, s, mu, p);
-        if (newton(P, mu, s, p, &L, SPC_FLAT_STAGE_STEPS, 1e-3 * mu / P->scale) < 0.0)
+        double g = newton(P, mu, s, p, &L, SPC_FLAT_STAGE_STEPS, 1e-3 * mu / P->scale, &lb);
+        if (g < 0.0) {
+            *bound_ends += g < -1.5;
             return false;
+        }
     }
     L = path_length(P, s, 0.0, p);
     double min_len = SPC_FLAT_SIDE_REL * P->scale;
     for (int j = 0; j <= k; ++j)
         if (!(spc_length(spc_sub(p[j + 1], p[j])) > 1e3 * min_len))
             return false; /* a kink: no chain through this sequence */
-    double g = newton(P, 0.0, s, p, &L, SPC_FLAT_NEWTON_STEPS, SPC_FLAT_GRAD_TOL);
+    double g = newton(P, 0.0, s, p, &L, SPC_FLAT_NEWTON_STEPS, SPC_FLAT_GRAD_TOL, &lb);
+    *bound_ends += g < -1.5;
     if (!(g >= 0.0 && g < 1e3 * SPC_FLAT_GRAD_TOL))
         return false;
     for (int j = 0; j <= k; ++j)
@@ -619,7 +690,8 @@ static bool segment_clear(const spc_scene *sc, const spc_chain_casters *cs, spc_
 
 /* The problem's sequence solved and checked: the minimum's vertices on the sides the sequence says
  * and inside their faces, its segments clear of the other flat faces. */
-static bool solve_sequence(const spc_scene *sc, const spc_chain_casters *cs, flat_problem *P, spc_vec3 *p)
+static bool solve_sequence(const spc_scene *sc, const spc_chain_casters *cs, flat_problem *P, spc_vec3 *p,
+                           int *bound_ends)
 {
     /* the segments' indices: a conductor's both sides take the known index next to it, 1 if none */
     const int k = P->k;
@@ -632,7 +704,7 @@ static bool solve_sequence(const spc_scene *sc, const spc_chain_casters *cs, fla
     for (int j = 0; j <= k; ++j)
         if (P->seg[j] < 0.0)
             P->seg[j] = 1.0;
-    if (!minimize(P, p))
+    if (!minimize(P, p, bound_ends))
         return false;
     double tol = SPC_FLAT_SIDE_REL * P->scale;
     for (int i = 0; i < k; ++i) {
@@ -794,6 +866,7 @@ typedef struct flat_walk {
     bool (*found)(void *user, const flat_problem *P, const spc_vec3 *p);
     void *user;
     int sequences;
+    int bound_ends; /* solves ended by the bound on the faces */
     bool stop;
 } flat_walk;
 
@@ -973,7 +1046,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                             Q.v[0].tir = 0.0;
                         spc_vec3 p[SPC_FLAT_MAX_VERTICES + 2];
                         ++w->sequences;
-                        if (solve_sequence(w->sc, w->cs, &Q, p) && !w->found(w->user, &Q, p))
+                        if (solve_sequence(w->sc, w->cs, &Q, p, &w->bound_ends) && !w->found(w->user, &Q, p))
                             w->stop = true;
                     }
                     if (k < w->hi && tir_ok)
@@ -985,9 +1058,11 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
 }
 
 /* Walks every face sequence of lo to hi vertices from x to y; found() is called with each root
- * and returns false to stop. Returns the number of sequences solved. */
+ * and returns false to stop. Returns the number of sequences solved; bound: whether a solve may end
+ * early by the bound on the faces, *bound_ends (may be NULL) the solves it ended. */
 static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int lo, int hi,
-                    bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user)
+                    bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
+                    int *bound_ends)
 {
     if (lo < 1)
         lo = 1;
@@ -1015,9 +1090,12 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
     w.P.x = x;
     w.P.y = y;
     w.P.scale = spc_length(spc_sub(y, x)) + 2.0 * cs->radius;
+    w.P.bound = bound;
     w.found = found;
     w.user = user;
     walk(&w, 0, -1.0, (cone){spc_v3(0, 0, 1), 4.0});
+    if (bound_ends)
+        *bound_ends = w.bound_ends;
     return w.sequences;
 }
 
@@ -1041,14 +1119,21 @@ static bool roots_found(void *user, const flat_problem *P, const spc_vec3 *p)
     return true;
 }
 
-int spc_flat_chain_roots(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
-                         spc_vec3 *pts, unsigned char *events, int max, int *sequences)
+int spc_flat_chain_roots_bound(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
+                               spc_vec3 *pts, unsigned char *events, int max, int *sequences, bool bound,
+                               int *bound_ends)
 {
     roots_out o = {k, 0, max, pts, events};
-    int seq = walk_all(sc, any_surface, reflect, x, y, k, k, roots_found, &o);
+    int seq = walk_all(sc, any_surface, reflect, x, y, k, k, roots_found, &o, bound, bound_ends);
     if (sequences)
         *sequences = seq;
     return o.n;
+}
+
+int spc_flat_chain_roots(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
+                         spc_vec3 *pts, unsigned char *events, int max, int *sequences)
+{
+    return spc_flat_chain_roots_bound(sc, any_surface, reflect, x, y, k, pts, events, max, sequences, true, NULL);
 }
 
 typedef struct chains_out {
@@ -1085,7 +1170,7 @@ int spc_flat_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, in
     int lo = q->min_chain > 1 ? q->min_chain : 1;
     int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
     chains_out o = {q, out, 0, max_out, iterations};
-    walk_all(q->scene, q->any_surface, reflect, q->x->p, q->y, lo, hi, chains_found, &o);
+    walk_all(q->scene, q->any_surface, reflect, q->x->p, q->y, lo, hi, chains_found, &o, true, NULL);
     return o.n;
 }
 
