@@ -418,36 +418,42 @@ static double path_length(const flat_problem *P, const double *s, double mu, spc
 }
 
 /* Solves A z = b for the symmetric positive definite n x n matrix A (row-major, destroyed) by
- * Cholesky; false if A is not positive definite. */
+ * Cholesky; false if A is not positive definite. A is block tridiagonal with 2x2 blocks (a vertex
+ * couples to its neighbours only), and so is its factor: the loops run over those blocks alone, the
+ * same operations in the same order as the dense factorization less its products with zeros. */
 static bool cholesky_solve(double *A, int n, const double *b, double *z)
 {
+#define BAND_LO(i) ((i) >= 4 ? 2 * ((i) / 2 - 1) : 0) /* the first column of row i in the band */
     for (int j = 0; j < n; ++j) {
         double dsum = A[j * n + j];
-        for (int k = 0; k < j; ++k)
+        for (int k = BAND_LO(j); k < j; ++k)
             dsum -= A[j * n + k] * A[j * n + k];
         if (!(dsum > 0.0))
             return false;
         double l = sqrt(dsum);
         A[j * n + j] = l;
-        for (int i = j + 1; i < n; ++i) {
+        int last = 2 * (j / 2) + 3 < n ? 2 * (j / 2) + 3 : n - 1; /* the band's last row in column j */
+        for (int i = j + 1; i <= last; ++i) {
             double v = A[i * n + j];
-            for (int k = 0; k < j; ++k)
+            for (int k = BAND_LO(i); k < j; ++k)
                 v -= A[i * n + k] * A[j * n + k];
             A[i * n + j] = v / l;
         }
     }
     for (int i = 0; i < n; ++i) {
         double v = b[i];
-        for (int k = 0; k < i; ++k)
+        for (int k = BAND_LO(i); k < i; ++k)
             v -= A[i * n + k] * z[k];
         z[i] = v / A[i * n + i];
     }
     for (int i = n - 1; i >= 0; --i) {
         double v = z[i];
-        for (int k = i + 1; k < n; ++k)
+        int last = 2 * (i / 2) + 3 < n ? 2 * (i / 2) + 3 : n - 1;
+        for (int k = i + 1; k <= last; ++k)
             v -= A[k * n + i] * z[k];
         z[i] = v / A[i * n + i];
     }
+#undef BAND_LO
     return true;
 }
 
