@@ -817,8 +817,11 @@ static spc_vec3 refract_axis(spc_vec3 a, spc_vec3 m, double n_in, double n_out)
 static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n_out, cone *out)
 {
     spc_vec3 down = spc_neg(m); /* the direction straight into the plane */
-    double th = c.r >= SPC_PI ? 0.0 : angle_between(c.a, down);
-    if (c.r < SPC_PI && th - c.r >= 0.5 * SPC_PI - 1e-12)
+    /* th, the axis's angle from straight in, is needed only refracting out of a denser medium;
+     * elsewhere its two tests read on the cosine (the test below: th >= c.r + pi/2 - 1e-12, as
+     * cos th <= -sin(c.r - 1e-12), with 1e-12 more on the cosine so that it is never wider) */
+    double cth = spc_dot(c.a, down), th = 0.0;
+    if (c.r < SPC_PI && c.r < 0.5 * SPC_PI + 1e-12 && cth < -sin(c.r - 1e-12) - 1e-12)
         return false; /* every direction runs parallel to the plane or away from it */
     if (reflect) {
         if (c.r >= SPC_PI) {
@@ -832,12 +835,14 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
         *out = c;
         return true;
     }
-    bool narrow = c.r < 0.5 * SPC_PI && th < 0.5 * SPC_PI;
+    bool narrow = c.r < 0.5 * SPC_PI && cth > 0.0;
     if (n_in < n_out) {
         double crit = asin(n_in / n_out), r = c.r * (n_in / n_out);
         *out = narrow && r < crit ? (cone){refract_axis(c.a, m, n_in, n_out), r} : (cone){down, crit};
         return true;
     }
+    if (c.r < SPC_PI)
+        th = acos(fmax(-1.0, fmin(1.0, cth)));
     double crit = asin(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
     if (c.r < SPC_PI && th - c.r >= crit)
         return false; /* total internal reflection for every direction */
