@@ -37,8 +37,31 @@ typedef struct spc_distrib1d {
 /* Returns false (and leaves d empty) if allocation fails or every weight is zero or invalid. */
 bool spc_distrib1d_init(spc_distrib1d *d, const double *w, size_t n);
 void spc_distrib1d_release(spc_distrib1d *d);
-/* Samples an index; *u_remap (if not NULL) receives u rescaled to [0,1) within the chosen bin. */
-size_t spc_distrib1d_sample(const spc_distrib1d *d, double u, double *u_remap);
+/* Samples an index; *u_remap (if not NULL) receives u rescaled to [0,1) within the chosen bin.
+ * Inline: light sampling calls it per lane (a scene's lights, a mesh light's triangles). */
+static inline size_t spc_distrib1d_sample(const spc_distrib1d *d, double u, double *u_remap)
+{
+    /* largest i with cdf[i] <= u (one index, cdf being nondecreasing), by a search without
+     * branches: a light of two triangles is a coin flip to the branch predictor; then skipping
+     * empty bins, where there are any (their tests' branches are as hard to predict) */
+    size_t lo = 0, len = d->n;
+    while (len > 1) {
+        size_t half = len / 2;
+        lo = d->cdf[lo + half] <= u ? lo + half : lo;
+        len -= half;
+    }
+    if (d->has_empty) {
+        while (lo + 1 < d->n && d->pmf[lo] == 0.0)
+            ++lo;
+        while (lo > 0 && d->pmf[lo] == 0.0)
+            --lo;
+    }
+    if (u_remap) {
+        double r = d->pmf[lo] > 0.0 ? (u - d->cdf[lo]) / d->pmf[lo] : 0.0;
+        *u_remap = spc_clamp(r, 0.0, 0x1.fffffffffffffp-1);
+    }
+    return lo;
+}
 
 /* 2D piecewise-constant distribution on [0,1)^2 (envmaps, textured lights). */
 typedef struct spc_distrib2d {

@@ -961,16 +961,6 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
     }
 }
 
-bool spc_shape_has_solid_angle_sampling(const spc_shape *s, spc_vec3 ref)
-{
-    if (s->type == SPC_SHAPE_SDF)
-        return true; /* from anywhere: the bounding sphere's cone, or all directions inside it */
-    if (s->type != SPC_SHAPE_SPHERE)
-        return false;
-    /* outside by a relative margin: inside, area sampling is used */
-    return spc_length2(spc_sub(ref, s->center)) > s->radius * s->radius * (1.0 + 1e-9);
-}
-
 bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, bool with_uv, spc_shape_sample *out)
 {
     if (!spc_shape_has_solid_angle_sampling(s, ref))

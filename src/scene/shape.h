@@ -178,6 +178,16 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
 bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, bool with_uv, spc_shape_sample *out);
 /* Density (solid angle at ref) of the above for the point p on the shape seen from ref. */
 double spc_shape_pdf_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec3 p);
-bool spc_shape_has_solid_angle_sampling(const spc_shape *s, spc_vec3 ref);
+/* Whether spc_shape_sample_solid_angle applies at ref: SDFs from anywhere (the bounding sphere's
+ * cone, or all directions inside it), spheres from outside by a relative margin (inside, area
+ * sampling is used). Inline: the sphere lights ask it per lane. */
+static inline bool spc_shape_has_solid_angle_sampling(const spc_shape *s, spc_vec3 ref)
+{
+    if (s->type == SPC_SHAPE_SDF)
+        return true;
+    if (s->type != SPC_SHAPE_SPHERE)
+        return false;
+    return spc_length2(spc_sub(ref, s->center)) > s->radius * s->radius * (1.0 + 1e-9);
+}
 
 #endif

@@ -133,7 +133,7 @@ static spc_rgb eval_bitmap(const spc_texture *t, spc_vec2 uv)
     return bilinear(t, uv, NULL);
 }
 
-spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv)
+spc_rgb spc_texture_eval_general(const spc_texture *t, spc_vec2 uv)
 {
     switch (t->type) {
     case SPC_TEX_CONSTANT:
@@ -161,7 +161,7 @@ double spc_texture_eval1(const spc_texture *t, spc_vec2 uv)
     return spc_rgb_avg(spc_texture_eval(t, uv));
 }
 
-spc_rgb spc_texture_eval_hit(const spc_texture *t, const spc_hit *h)
+spc_rgb spc_texture_eval_hit_general(const spc_texture *t, const spc_hit *h)
 {
     if (t->type == SPC_TEX_MESH_ATTRIBUTE)
         return spc_mesh_attribute_eval(t, h);
@@ -252,8 +252,6 @@ spc_rgb spc_texture_mean(const spc_texture *t)
     }
     return spc_rgb1(0.0);
 }
-
-bool spc_texture_is_constant(const spc_texture *t) { return t->type == SPC_TEX_CONSTANT; }
 
 void spc_texture_release(spc_texture *t)
 {

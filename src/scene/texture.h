@@ -53,10 +53,21 @@ struct spc_hit;
 
 /* A constant texture (the caller owns it: static or inside a scene). */
 void spc_texture_init_constant(spc_texture *t, spc_rgb value);
-spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv);
+/* The texture at uv. A constant's value is read inline (lights and BSDFs of constant parameters
+ * call this per lane and per vertex); every other type goes to spc_texture_eval_general, whose
+ * constant case returns the same value. */
+spc_rgb spc_texture_eval_general(const spc_texture *t, spc_vec2 uv);
+static inline spc_rgb spc_texture_eval(const spc_texture *t, spc_vec2 uv)
+{
+    return t->type == SPC_TEX_CONSTANT ? t->value : spc_texture_eval_general(t, uv);
+}
 /* The texture at a surface hit: what BSDFs call. Mesh attributes are read from the hit's mesh,
- * every other texture is spc_texture_eval at the hit's uv. */
-spc_rgb spc_texture_eval_hit(const spc_texture *t, const struct spc_hit *h);
+ * every other texture is spc_texture_eval at the hit's uv; a constant inline, as above. */
+spc_rgb spc_texture_eval_hit_general(const spc_texture *t, const struct spc_hit *h);
+static inline spc_rgb spc_texture_eval_hit(const spc_texture *t, const struct spc_hit *h)
+{
+    return t->type == SPC_TEX_CONSTANT ? t->value : spc_texture_eval_hit_general(t, h);
+}
 double spc_texture_eval1_hit(const spc_texture *t, const struct spc_hit *h);
 /* A mesh_attribute texture reading the attribute named name times scale (the caller owns it).
  * false when the name does not start with "vertex_" or "face_" or is too long. */
@@ -85,7 +96,7 @@ spc_rgb spc_texture_texel(const spc_texture *t, int64_t x, int64_t y);
 /* Mean value over [0,1]^2 (for light power and albedo estimates); 1/2 times the scale for a
  * mesh attribute (its values are not known without the mesh). */
 spc_rgb spc_texture_mean(const spc_texture *t);
-bool spc_texture_is_constant(const spc_texture *t);
+static inline bool spc_texture_is_constant(const spc_texture *t) { return t->type == SPC_TEX_CONSTANT; }
 /* A checkerboard texture with identity to_uv (the caller owns it). */
 void spc_texture_init_checkerboard(spc_texture *t, spc_rgb color0, spc_rgb color1);
 /* Loads an image (EXR, PNG, JPEG, BMP) into a bitmap texture: linear RGB (8/16-bit images are
