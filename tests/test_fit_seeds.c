@@ -81,7 +81,6 @@ TEST(fit_of_a_tessellated_ball_only)
     spc_scene_destroy(sc);
 }
 
-
 TEST(fit_seeds_find_every_chain_and_count_unbiased)
 {
     spc_scene *sc = tu_load(SCENE, 0);
@@ -173,8 +172,9 @@ TEST(fit_root_count_by_length)
  * about x, centre (0, 0.64, 0)): its fit (spc_fit_torus) and its tube spheres' seeds. At floor points
  * around the ring toward the light's centre (2 vertices, no reflections), the seeds' mixture finds
  * every chain worth over 1% of the point's best with p >= 0.03 and lowers the chains' summed second
- * moment below 0.7 of the cone seeds'; the trial counts stay an unbiased 1 / p of the mixture's p.
- * It fails without the torus's seeds (the two settings then draw alike). */
+ * moment below 0.7 of the cone seeds'; the trial counts stay an unbiased 1 / p of the mixture's p;
+ * chains of 4 vertices get no tube seed. It fails without the torus's seeds (the two settings then
+ * draw alike) and where the tube seeds go to the long pass's chains. */
 TEST(torus_tube_seeds)
 {
     spc_scene *sc = tu_load("scenes/caustic_sdf_torus.xml", 0);
@@ -232,6 +232,31 @@ TEST(torus_tube_seeds)
         qu.params = &pu;
         qu.fit = NULL;
         chain_seeds_compare(&qf, &qu, e, uv, sc->radius, &rng, attempts, counts, 0.0, i, &res);
+    }
+    /* the long pass's chains (past two vertices) keep the cone's seeds: the tube sphere's solutions
+     * with internal reflections lie far from the torus's, and those chains' counts grew */
+    spc_hit x;
+    bool xf = e && chain_floor_point(sc, 0, 0.75 * cos(M_PI / 16), 0.75 * sin(M_PI / 16), &x);
+    CHECK(xf);
+    spc_snee_params pr; /* with reflections: the tube sphere has 4-vertex solutions */
+    CHECK(spc_snee_parse("angular", 2, &pr));
+    if (xf) {
+        int got[2] = {0, 0};
+        for (int k = 0; k < 2; ++k) {
+            spc_snee_query q;
+            spc_snee_query_init(&q, sc, &pr, &x, spc_v3(0, 1, 0), k ? 4 : 2);
+            q.min_chain = k ? 4 : 1;
+            q.y = spc_v3(0.4, 2.92, -0.3);
+            spc_fit_roots fit;
+            fit.nshapes = 0;
+            q.fit = &fit;
+            for (int t = 0; t < 200; ++t) {
+                spc_vec3 d;
+                got[k] += spc_fit_seed(&q, torus, &rng, &d);
+            }
+        }
+        printf("    tube seeds in 200 draws: 2 vertices %d, 4 vertices %d\n", got[0], got[1]);
+        CHECK(got[0] > 50 && got[1] == 0);
     }
     printf("    smallest p of a valuable chain: tube seeds %.4f, cone seeds %.4f; second moment: %.4g, %.4g\n",
            res.pmin_a, res.pmin_b, res.m2_a, res.m2_b);

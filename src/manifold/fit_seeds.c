@@ -142,8 +142,8 @@ bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius)
 /* The first directions of the fitted sphere's chains (center c, radius R) from q's x to its y, of
  * the query's lengths and the events its params allow (a conductor: one reflection; a dielectric:
  * in and out, with reflect also one reflection and internal ones): at most max, written to dir. */
-static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, spc_vec3 *dir,
-                    signed char *ms, int max)
+static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, spc_vec3 *dir, signed char *ms,
+                    int max)
 {
     spc_vec3 x = q->x->p;
     spc_sphere_plane pl;
@@ -204,8 +204,10 @@ static bool core_point(spc_vec3 o, spc_vec3 a, double R, spc_vec3 p, spc_vec3 *c
  * of an earlier one left out. Across its tube a torus is that sphere (along the tube it curves with
  * R + r or R - r instead), so the sphere's exact solutions lie near the torus's. */
 #define SPC_TUBE_SEGMENT_STEPS 16
-static int tube_dirs(const spc_snee_query *q, const spc_shape *s, const fit_cache *fc, spc_vec3 *dir,
-                     signed char *ms, int max)
+/* The longest chains seeded from the tube spheres (spc_fit_seed). */
+#define SPC_TUBE_MAX_CHAIN 2
+static int tube_dirs(const spc_snee_query *q, const spc_shape *s, const fit_cache *fc, spc_vec3 *dir, signed char *ms,
+                     int max)
 {
     spc_vec3 x = q->x->p, y = q->y, cand[3];
     int nc = 0;
@@ -263,7 +265,8 @@ static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, sp
         *ms = fr->e[j].m;
         return fr->e[j].dir;
     }
-    *n = tube ? tube_dirs(q, s, tube, all, all_m, SPC_FIT_MAX_DIRS) : fit_dirs(q, s, c, R, all, all_m, SPC_FIT_MAX_DIRS);
+    *n =
+        tube ? tube_dirs(q, s, tube, all, all_m, SPC_FIT_MAX_DIRS) : fit_dirs(q, s, c, R, all, all_m, SPC_FIT_MAX_DIRS);
     *ms = all_m;
     return all;
 }
@@ -306,6 +309,11 @@ bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc
     double R = 0.0;
     const fit_cache *tube = NULL;
     if (s->type == SPC_SHAPE_SDF) {
+        /* chains of one or two vertices only: a longer chain reflects inside the tube and runs along
+         * it, where the sphere's solutions lie far from the torus's, and the long pass's chains then
+         * lost half their seeds' probability (their trial counts were that scene's worst seeds) */
+        if (q->max_chain > SPC_TUBE_MAX_CHAIN)
+            return false;
         tube = cache_of(s);
         if (!tube || !tube->torus)
             return false;

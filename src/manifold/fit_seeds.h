@@ -66,8 +66,9 @@ bool spc_fit_seed(const struct spc_snee_query *q, const spc_shape *s, spc_rng *r
 /* A smooth specular SDF whose field is one torus (a glass SDF torus): true with its centre, unit
  * axis, major and minor radii in world units, false for every other shape. Its seeds (spc_fit_seed)
  * are the exact solutions of spheres of the tube's radius on its core circle near the query (kept in
- * q->fit like a ball's); spc_fit_root_count and spc_fit_roots_of stay 0 for it (no ball pass, no
- * chains counted exactly). Built on first use and kept in s (thread-safe). */
+ * q->fit like a ball's), for chains of at most two vertices; spc_fit_root_count and
+ * spc_fit_roots_of stay 0 for it (no ball pass, no chains counted exactly). Built on first use and
+ * kept in s (thread-safe). */
 bool spc_fit_torus(const spc_shape *s, spc_vec3 *center, spc_vec3 *axis, double *major, double *minor);
 
 /* The number of the fitted sphere's solutions that spc_fit_seed draws from for q and caster s (of
