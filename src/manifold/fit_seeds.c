@@ -1,7 +1,8 @@
 /*
  * manifold/fit_seeds.c: seeds from the sphere fitted to a tessellated ball (fit_seeds.h): the fit,
  * kept in the shape, and the fitted sphere's exact solutions (sphere_roots.h) as
- * seed directions.
+ * seed directions. A glass SDF that is one torus gets seeds the same way from spheres of its tube's
+ * radius centred on its core circle near the query (spc_fit_torus).
  */
 #include "manifold/fit_seeds.h"
 
@@ -11,6 +12,7 @@
 
 #include "bsdf/bsdf.h"
 #include "manifold/solver.h"
+#include "scene/sdf.h"
 #include "manifold/sphere_roots.h"
 
 /* A ball's tessellation: every vertex within this fraction of the radius from the fitted sphere,
@@ -26,14 +28,61 @@ typedef struct fit_cache {
     bool ok;
     spc_vec3 center;
     double radius;
+    bool torus; /* an SDF of one torus primitive (spc_fit_torus) */
+    spc_vec3 axis;
+    double major, minor;
 } fit_cache;
 
 static void fit_destroy(void *p) { free(p); }
+
+/* A specular SDF whose field is one torus primitive: its centre, axis, major and minor radii in world
+ * units (the node frame has the torus around local y at the origin; M maps world to node). */
+static void torus_build(const spc_shape *s, fit_cache *fc)
+{
+    double eta = 0.0;
+    spc_sdf_flat f;
+    int depth = 0;
+    if (!s->sdf || !s->bsdf || !spc_bsdf_is_specular_interface(s->bsdf, &eta) ||
+        spc_sdf_flatten(s->sdf, &f, 1, &depth) != 1 || f.type != SPC_SDF_TORUS || !(f.s > 0.0))
+        return;
+    double(*M)[4] = f.M;
+    double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                 M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
+    if (!(fabs(det) > 0.0))
+        return;
+    double inv[3][3]; /* the inverse of M's linear part (adjugate over the determinant) */
+    inv[0][0] = (M[1][1] * M[2][2] - M[1][2] * M[2][1]) / det;
+    inv[0][1] = (M[0][2] * M[2][1] - M[0][1] * M[2][2]) / det;
+    inv[0][2] = (M[0][1] * M[1][2] - M[0][2] * M[1][1]) / det;
+    inv[1][0] = (M[1][2] * M[2][0] - M[1][0] * M[2][2]) / det;
+    inv[1][1] = (M[0][0] * M[2][2] - M[0][2] * M[2][0]) / det;
+    inv[1][2] = (M[0][2] * M[1][0] - M[0][0] * M[1][2]) / det;
+    inv[2][0] = (M[1][0] * M[2][1] - M[1][1] * M[2][0]) / det;
+    inv[2][1] = (M[0][1] * M[2][0] - M[0][0] * M[2][1]) / det;
+    inv[2][2] = (M[0][0] * M[1][1] - M[0][1] * M[1][0]) / det;
+    /* the node origin in world: M o + t = 0; the axis: the image of local y */
+    spc_vec3 o = spc_v3(-(inv[0][0] * M[0][3] + inv[0][1] * M[1][3] + inv[0][2] * M[2][3]),
+                        -(inv[1][0] * M[0][3] + inv[1][1] * M[1][3] + inv[1][2] * M[2][3]),
+                        -(inv[2][0] * M[0][3] + inv[2][1] * M[1][3] + inv[2][2] * M[2][3]));
+    spc_vec3 a = spc_v3(inv[0][1], inv[1][1], inv[2][1]);
+    double la = spc_length(a);
+    if (!(la > 0.0) || !(f.param[0] > f.param[1]) || !(f.param[1] > 0.0))
+        return;
+    fc->torus = true;
+    fc->center = o;
+    fc->axis = spc_scale(a, 1.0 / la);
+    fc->major = f.s * f.param[0];
+    fc->minor = f.s * f.param[1];
+}
 
 static void fit_build(const spc_shape *s, fit_cache *fc)
 {
     double eta = 0.0;
     const spc_mesh *m = &s->mesh;
+    if (s->type == SPC_SHAPE_SDF) {
+        torus_build(s, fc);
+        return;
+    }
     if (s->type != SPC_SHAPE_MESH || !s->bsdf || !spc_bsdf_is_specular_interface(s->bsdf, &eta) ||
         m->nverts < SPC_FIT_MIN_VERTS)
         return;
@@ -56,16 +105,15 @@ static void fit_build(const spc_shape *s, fit_cache *fc)
     fc->radius = R;
 }
 
-bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius)
+/* The shape's cache, built on first use (thread-safe); NULL where out of memory. */
+static const fit_cache *cache_of(const spc_shape *s)
 {
-    if (s->type != SPC_SHAPE_MESH)
-        return false;
     void **slot = (void **)&((spc_shape *)s)->fit_cache;
     fit_cache *cur = __atomic_load_n(slot, __ATOMIC_ACQUIRE);
     if (!cur) {
         fit_cache *fc = calloc(1, sizeof *fc);
         if (!fc)
-            return false;
+            return NULL;
         fc->destroy = fit_destroy;
         fit_build(s, fc);
         void *expected = NULL;
@@ -76,7 +124,15 @@ bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius)
             cur = expected;
         }
     }
-    if (!cur->ok)
+    return cur;
+}
+
+bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius)
+{
+    if (s->type != SPC_SHAPE_MESH)
+        return false;
+    const fit_cache *cur = cache_of(s);
+    if (!cur || !cur->ok)
         return false;
     *center = cur->center;
     *radius = cur->radius;
@@ -86,8 +142,8 @@ bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius)
 /* The first directions of the fitted sphere's chains (center c, radius R) from q's x to its y, of
  * the query's lengths and the events its params allow (a conductor: one reflection; a dielectric:
  * in and out, with reflect also one reflection and internal ones): at most max, written to dir. */
-static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, spc_vec3 *dir,
-                    signed char *ms, int max)
+static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, spc_vec3 *dir, signed char *ms,
+                    int max)
 {
     spc_vec3 x = q->x->p;
     spc_sphere_plane pl;
@@ -115,12 +171,81 @@ static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, dou
     return n;
 }
 
-/* The fitted sphere's solution directions for q and caster s (center c, radius R) and their events
- * (*ms): q->fit's entry for s and q's chain lengths, filled on first use, or where q->fit has no
+bool spc_fit_torus(const spc_shape *s, spc_vec3 *center, spc_vec3 *axis, double *major, double *minor)
+{
+    if (s->type != SPC_SHAPE_SDF)
+        return false;
+    const fit_cache *cur = cache_of(s);
+    if (!cur || !cur->torus)
+        return false;
+    *center = cur->center;
+    *axis = cur->axis;
+    *major = cur->major;
+    *minor = cur->minor;
+    return true;
+}
+
+/* The point of a torus's core circle (centre o, unit axis a, radius R) nearest to p, false on the
+ * axis. */
+static bool core_point(spc_vec3 o, spc_vec3 a, double R, spc_vec3 p, spc_vec3 *c)
+{
+    spc_vec3 v = spc_sub(p, o);
+    v = spc_sub(v, spc_scale(a, spc_dot(v, a)));
+    double l = spc_length(v);
+    if (!(l > 1e-9 * R))
+        return false;
+    *c = spc_add(o, spc_scale(v, R / l));
+    return true;
+}
+
+/* The first directions of the chains of spheres of the tube's radius r centred on the core circle
+ * where the chains from q's x to its y cross the tube: at the core points nearest to x, to y and to
+ * the point of the segment x y closest to the circle (SPC_TUBE_SEGMENT_STEPS samples), those within r
+ * of an earlier one left out. Across its tube a torus is that sphere (along the tube it curves with
+ * R + r or R - r instead), so the sphere's exact solutions lie near the torus's. */
+#define SPC_TUBE_SEGMENT_STEPS 16
+/* The longest chains seeded from the tube spheres (spc_fit_seed). */
+#define SPC_TUBE_MAX_CHAIN 2
+static int tube_dirs(const spc_snee_query *q, const spc_shape *s, const fit_cache *fc, spc_vec3 *dir, signed char *ms,
+                     int max)
+{
+    spc_vec3 x = q->x->p, y = q->y, cand[3];
+    int nc = 0;
+    spc_vec3 best = x;
+    double dbest = INFINITY;
+    for (int i = 0; i < SPC_TUBE_SEGMENT_STEPS; ++i) {
+        spc_vec3 p = spc_add(x, spc_scale(spc_sub(y, x), (i + 0.5) / SPC_TUBE_SEGMENT_STEPS)), c;
+        if (!core_point(fc->center, fc->axis, fc->major, p, &c))
+            continue;
+        double d = spc_distance(p, c);
+        if (d < dbest) {
+            dbest = d;
+            best = p;
+        }
+    }
+    spc_vec3 from[3] = {best, x, y};
+    for (int i = 0; i < 3; ++i) {
+        spc_vec3 c;
+        if (!core_point(fc->center, fc->axis, fc->major, from[i], &c))
+            continue;
+        bool near = false;
+        for (int j = 0; j < nc && !near; ++j)
+            near = spc_distance(cand[j], c) < fc->minor;
+        if (!near)
+            cand[nc++] = c;
+    }
+    int n = 0;
+    for (int i = 0; i < nc && n < max; ++i)
+        n += fit_dirs(q, s, cand[i], fc->minor, dir + n, ms + n, max - n);
+    return n;
+}
+
+/* The fitted sphere's solution directions for q and caster s (center c, radius R; or a torus's tube
+ * spheres where tube is its cache) and their events (*ms): q->fit's entry for s and q's chain lengths, filled on first use, or where q->fit has no
  * room, computed into `all` and `all_m`. */
 static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R,
-                                 spc_vec3 all[SPC_FIT_MAX_DIRS], signed char all_m[SPC_FIT_MAX_DIRS], int *n,
-                                 const signed char **ms)
+                                 const fit_cache *tube, spc_vec3 all[SPC_FIT_MAX_DIRS],
+                                 signed char all_m[SPC_FIT_MAX_DIRS], int *n, const signed char **ms)
 {
     spc_fit_roots *fr = q->fit;
     int j = 0;
@@ -131,7 +256,8 @@ static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, sp
         fr->e[j].s = s;
         fr->e[j].min_chain = q->min_chain;
         fr->e[j].max_chain = q->max_chain;
-        fr->e[j].n = fit_dirs(q, s, c, R, fr->e[j].dir, fr->e[j].m, SPC_FIT_MAX_DIRS);
+        fr->e[j].n = tube ? tube_dirs(q, s, tube, fr->e[j].dir, fr->e[j].m, SPC_FIT_MAX_DIRS)
+                          : fit_dirs(q, s, c, R, fr->e[j].dir, fr->e[j].m, SPC_FIT_MAX_DIRS);
         fr->nshapes++;
     }
     if (fr && j < fr->nshapes) {
@@ -139,7 +265,8 @@ static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, sp
         *ms = fr->e[j].m;
         return fr->e[j].dir;
     }
-    *n = fit_dirs(q, s, c, R, all, all_m, SPC_FIT_MAX_DIRS);
+    *n =
+        tube ? tube_dirs(q, s, tube, all, all_m, SPC_FIT_MAX_DIRS) : fit_dirs(q, s, c, R, all, all_m, SPC_FIT_MAX_DIRS);
     *ms = all_m;
     return all;
 }
@@ -153,7 +280,7 @@ int spc_fit_root_count(const spc_snee_query *q, const spc_shape *s)
     int n = 0;
     if (!spc_fit_sphere(s, &c, &R))
         return 0;
-    fit_entry(q, s, c, R, all, all_m, &n, &ms);
+    fit_entry(q, s, c, R, NULL, all, all_m, &n, &ms);
     return n;
 }
 
@@ -166,7 +293,7 @@ int spc_fit_roots_of(const spc_snee_query *q, const spc_shape *s, spc_vec3 *dir,
     int n = 0;
     if (!spc_fit_sphere(s, &c, &R))
         return 0;
-    const spc_vec3 *d = fit_entry(q, s, c, R, all, all_m, &n, &ms);
+    const spc_vec3 *d = fit_entry(q, s, c, R, NULL, all, all_m, &n, &ms);
     if (n > max)
         n = max;
     for (int i = 0; i < n; ++i) {
@@ -178,9 +305,19 @@ int spc_fit_roots_of(const spc_snee_query *q, const spc_shape *s, spc_vec3 *dir,
 
 bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc_vec3 *dir)
 {
-    spc_vec3 c;
-    double R;
-    if (!spc_fit_sphere(s, &c, &R))
+    spc_vec3 c = spc_v3(0, 0, 0);
+    double R = 0.0;
+    const fit_cache *tube = NULL;
+    if (s->type == SPC_SHAPE_SDF) {
+        /* chains of one or two vertices only: a longer chain reflects inside the tube and runs along
+         * it, where the sphere's solutions lie far from the torus's, and the long pass's chains then
+         * lost half their seeds' probability (their trial counts were that scene's worst seeds) */
+        if (q->max_chain > SPC_TUBE_MAX_CHAIN)
+            return false;
+        tube = cache_of(s);
+        if (!tube || !tube->torus)
+            return false;
+    } else if (!spc_fit_sphere(s, &c, &R))
         return false;
     double share = q->params && q->params->fit_share > 0.0 ? q->params->fit_share : SPC_FIT_SEED_SHARE;
     if (!(spc_rng_next(rng) < share))
@@ -190,7 +327,7 @@ bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc
     signed char all_m[SPC_FIT_MAX_DIRS];
     const signed char *ms;
     int n = 0;
-    const spc_vec3 *d = fit_entry(q, s, c, R, all, all_m, &n, &ms);
+    const spc_vec3 *d = fit_entry(q, s, c, R, tube, all, all_m, &n, &ms);
     if (n < 1)
         return false;
     int i = (int)(u * n);

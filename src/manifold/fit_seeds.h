@@ -63,6 +63,14 @@ bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius);
  * False where the attempt seeds as before (no fit, no solution, or the other share). */
 bool spc_fit_seed(const struct spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc_vec3 *dir);
 
+/* A smooth specular SDF whose field is one torus (a glass SDF torus): true with its centre, unit
+ * axis, major and minor radii in world units, false for every other shape. Its seeds (spc_fit_seed)
+ * are the exact solutions of spheres of the tube's radius on its core circle near the query (kept in
+ * q->fit like a ball's), for chains of at most two vertices; spc_fit_root_count and
+ * spc_fit_roots_of stay 0 for it (no ball pass, no chains counted exactly). Built on first use and
+ * kept in s (thread-safe). */
+bool spc_fit_torus(const spc_shape *s, spc_vec3 *center, spc_vec3 *axis, double *major, double *minor);
+
 /* The number of the fitted sphere's solutions that spc_fit_seed draws from for q and caster s (of
  * q's chain lengths, from its x to its y; kept in q->fit like them): 0 where s has no fit. */
 int spc_fit_root_count(const struct spc_snee_query *q, const spc_shape *s);
