@@ -999,12 +999,12 @@ static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *
             break;
         if (direct_receiver(B, k, &z[0], v)) {
             int budget = ctx->max_depth >= 0 && ctx->max_depth - 2 < ctx->specular_max_chain ? ctx->max_depth - 2
-                                                                                                : ctx->specular_max_chain;
+                                                                                             : ctx->specular_max_chain;
             int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 2 : SPC_CHAIN_MAX_VERTICES;
             int snee_budget = spc_snee_budget_params(&B->snp, &v->h, budget);
             if (snee_budget > 0) {
-                spc_rgb c = spc_specular_nee_depth(B->sc, &B->snp_direct, &v->h, v->wo, snee_budget, long_budget, &rng,
-                                                   NULL);
+                spc_rgb c =
+                    spc_specular_nee_depth(B->sc, &B->snp_direct, &v->h, v->wo, snee_budget, long_budget, &rng, NULL);
                 L = spc_rgb_add(L, spc_rgb_mul(v->beta, c));
             }
             break;
@@ -1050,8 +1050,8 @@ static void camera_vertex(const spc_render_ctx *ctx, vtx *z0)
 static void direct_setup(bdpt *B)
 {
     const spc_render_ctx *ctx = B->ctx;
-    B->direct = B->snee && B->snp.direct && B->snp.mis && spc_camera_connectible(ctx->cam) &&
-                ctx->strategy_t < 0 && ctx->strategy_s < 0;
+    B->direct = B->snee && B->snp.direct && B->snp.mis && spc_camera_connectible(ctx->cam) && ctx->strategy_t < 0 &&
+                ctx->strategy_s < 0;
     if (!B->direct)
         return;
     B->snp_direct = B->snp;

@@ -234,9 +234,8 @@ static double mis3(double a, double b, double c)
 /* The largest distance, in units of the light's size (sqrt of its area), between a covered path's
  * light point and its retrace's where another strategy's paths are weighed in (params.alt_ratio):
  * bdpt's light-traced caustics through the glass-ball caustic's sphere retrace to within 1e-3 of
- * it (single-precision-free arithmetic, but the directions recomputed from positions and the
- * focusing chain's Jacobian magnify the rounding); 1e-2 is far below any second solution's
- * distance on such a light. */
+ * it (their directions are recomputed from the vertices' positions, and the focusing chain
+ * magnifies that rounding); 1e-2 is far below the distance between two solutions on such a light. */
 #define SPC_SNEE_RETRACE_LIGHT_TOL 1e-2
 
 /* The BSDF side's density b of a covered path becomes b times this with params.alt_ratio: the
@@ -345,7 +344,8 @@ static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_ve
         return zero;
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
         double P_ev = chain_events_sample_prob(q, c);
-        *b = spc_receiver_pdf(r, c->d0) * G * P_ev * (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c->d0, d, e, q->y, q->ny) : 1.0);
+        *b = spc_receiver_pdf(r, c->d0) * G * P_ev *
+             (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c->d0, d, e, q->y, q->ny) : 1.0);
         *pc = cones_pdf(cones_for(q, e), c->d0, k) * G * P_ev;
     }
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G);
