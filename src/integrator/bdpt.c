@@ -63,8 +63,9 @@
  * through glass or mirrors with no two adjacent non-delta vertices before them: snee_receiver) and
  * from the pinhole, bdpt runs specular NEE as path does, and weighs s = 0's samples of the paths
  * it covers by the same split (see "specular NEE's share" below); also at corners (corner_receiver),
- * where s = 0 and the connection across the corner share the BSDF side of the split. Its
- * contributions are in the image but in no strategy image.
+ * where s = 0 and the connection across the corner share the BSDF side of the split; with
+ * params.direct also at the first camera vertex seen from the pinhole (direct_receiver), where
+ * s = 0 and light tracing share it. Its contributions are in the image but in no strategy image.
  *
  * Russian roulette on both subpaths from rr_depth segments, on the throughput since the
  * subpath's start (times eta^2 on camera paths, as path.c); the MIS weights ignore the survival
@@ -196,6 +197,8 @@ typedef struct bdpt {
     bool weighted, balance;
     bool snee;              /* specular NEE at camera vertices (ctx->specular_nee; see the file comment) */
     spc_snee_params snp;    /* its settings, with mis as the path integrator has it */
+    bool direct;            /* params.direct: specular NEE at z1 too (direct_receiver) */
+    spc_snee_params snp_direct; /* snp with query_p = direct_p and light tracing's density (direct_ratio) */
     double cam_scale;       /* full film's pixels over the rendered window's (spc_snee_camera) */
     spc_vec3 cam_d0;        /* the camera ray's direction (covered camera chains retrace it) */
     const spc_bdpt_pool_model *pm; /* connections come from the pass's pool (NULL: own subpath) */
@@ -568,6 +571,45 @@ static bool corner_receiver(const bdpt *B, int k, bool open, const vtx *prev, bo
     return spc_length2(spc_sub(v->p, prev->p)) < r * r;
 }
 
+/* A direct receiver (params.direct): the first camera vertex z_1, non-delta, seen from a pinhole
+ * light tracing can join to. The paths specular NEE covers there (camera - z_1 - delta chain -
+ * light: a caustic seen directly) have two BDPT strategies, s = 0 and light tracing (t = 1); light
+ * tracing's density enters specular NEE's split through direct_ratio, so specular NEE's sample
+ * keeps a^2 / (a^2 + b^2 + c^2) and both BDPT strategies' weights (which sum to one between them)
+ * are multiplied by (b^2 + c^2) / (a^2 + b^2 + c^2): a partition of unity for each such path. */
+static bool direct_receiver(const bdpt *B, int k, const vtx *prev, const vtx *v)
+{
+    return B->direct && k == 1 && prev->kind == V_CAMERA && !prev->delta && v->kind == V_SURFACE && !v->delta;
+}
+
+/* Light tracing's density over s = 0's (BSDF sampling's at x) for the path camera - x - chain -
+ * light point y, as BDPT's own weights have them (mis_weight, delta lobes as their choice
+ * probabilities per unit solid angle): the ratio p_t1 / p_s0 of the two strategies' path densities.
+ * Every segment's |cos| / d^2 and every chain vertex's lobe choice appears once in each, so it is
+ * p_L(y) (pdf_dir(y) / |cos_y|) |cos_x(d0)| / (p_cam(x) pdf_bsdf(x, wo, d0)): light tracing's
+ * origin density and emission direction at y against the camera's area density of x (its sample
+ * count ratio included, as z_1's pdf_fwd) and x's BSDF. 0 where light tracing cannot make it. */
+static double direct_ratio(const void *user, const spc_hit *x, spc_vec3 wo, spc_vec3 d0, spc_vec3 d_last,
+                           const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
+{
+    const bdpt *B = user;
+    const spc_render_ctx *ctx = B->ctx;
+    spc_vec3 c0 = spc_mat4_apply_point(&ctx->cam->to_world, spc_v3(0, 0, 0));
+    spc_vec3 w = spc_sub(x->p, c0);
+    double d2 = spc_length2(w);
+    double pcam = spc_camera_pdf_dir(ctx->cam, spc_normalize(w));
+    if (!(d2 > 0.0) || !(pcam > 0.0))
+        return 0.0;
+    double pE = pcam * B->film_pixels / B->n_lt_paths * spc_absdot(x->ng, wo) / d2;
+    double pb = spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0);
+    double pp, pd;
+    spc_emitter_pdf_emission(e, y, ny, spc_neg(d_last), &pp, &pd);
+    double cy = spc_absdot(ny, d_last);
+    double num = spc_scene_emitter_pmf(B->sc, e) * pp * pd * spc_absdot(x->ng, d0);
+    double den = pE * pb * cy;
+    return den > 0.0 && num > 0.0 ? num / den : 0.0;
+}
+
 /* Specular NEE from the pinhole (params.camera): its chain budget and the bound on its longer
  * chains; false if it does not run. */
 static bool camera_budget(const bdpt *B, int *budget, int *long_budget)
@@ -647,6 +689,7 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
         cam_track = true;
     }
     const vtx *rx = NULL; /* the receiver the track started at */
+    bool rx_direct = false; /* rx is a direct receiver (its own params) */
     spc_vec3 r_wo = spc_v3(0, 0, 1), r_d0 = r_wo;
     bool open = true; /* no two adjacent non-delta vertices in P[0 .. j-1] */
     for (int j = 1; j <= n - 2; ++j) {
@@ -661,7 +704,8 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
             budget = ctx->max_depth - segments - 1;
         if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < long_budget)
             long_budget = ctx->max_depth - segments - 1;
-        bool rcv = snee_receiver(j, open, P[j - 1].delta) ||
+        bool direct = j == 1 && !P[0].delta && !P[1].delta && direct_receiver(B, j, P[0].v, v);
+        bool rcv = direct || snee_receiver(j, open, P[j - 1].delta) ||
                    (!P[j].delta && !P[j - 1].delta && corner_receiver(B, j, open, P[j - 1].v, false, v));
         int snee_budget = rcv ? spc_snee_budget_params(&B->snp, &v->h, budget) : 0;
         unsigned lobe = SPC_LOBE_DIFFUSE_REFLECTION;
@@ -677,6 +721,7 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
                 rx = v;
                 r_wo = wo;
                 r_d0 = wi;
+                rx_direct = direct;
             }
         }
     }
@@ -687,7 +732,8 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
                                            track.events, &lh);
     if (!rx)
         return 1.0;
-    return spc_snee_mis_bsdf_weight(sc, &B->snp, &rx->h, r_wo, r_d0, track.max_chain, track.k, track.events, &lh);
+    return spc_snee_mis_bsdf_weight(sc, rx_direct ? &B->snp_direct : &B->snp, &rx->h, r_wo, r_d0, track.max_chain,
+                                    track.k, track.events, &lh);
 }
 
 /* ---- connections ---- */
@@ -792,6 +838,9 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
         /* the camera's density of v: its direction density times W H / N (see the file comment) */
         double pdf_cam = to_area(cd.We / B->n_lt_paths, &z[0], v);
         w = mis_weight(B, y, s, z, 1, NULL, pdf_cam, false);
+        /* light tracing makes the paths specular NEE covers at a direct receiver */
+        if (B->direct && s >= 2)
+            w *= snee_share(B, y, s, z, 1, NULL);
     }
     spc_splat_add(ctx, tls, cd.fx, cd.fy, spc_rgb_scale(C, w));
     if (strategy >= 0) {
@@ -948,6 +997,18 @@ static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *
         const vtx *v = &z[k];
         if (v->kind != V_SURFACE)
             break;
+        if (direct_receiver(B, k, &z[0], v)) {
+            int budget = ctx->max_depth >= 0 && ctx->max_depth - 2 < ctx->specular_max_chain ? ctx->max_depth - 2
+                                                                                             : ctx->specular_max_chain;
+            int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 2 : SPC_CHAIN_MAX_VERTICES;
+            int snee_budget = spc_snee_budget_params(&B->snp, &v->h, budget);
+            if (snee_budget > 0) {
+                spc_rgb c =
+                    spc_specular_nee_depth(B->sc, &B->snp_direct, &v->h, v->wo, snee_budget, long_budget, &rng, NULL);
+                L = spc_rgb_add(L, spc_rgb_mul(v->beta, c));
+            }
+            break;
+        }
         /* past two adjacent non-delta vertices specular NEE does not run (snee_receiver), but at the
          * second of the first such pair if they are a corner (corner_receiver) */
         bool corner = !v->delta && !z[k - 1].delta;
@@ -985,6 +1046,20 @@ static void camera_vertex(const spc_render_ctx *ctx, vtx *z0)
     z0->pdf_fwd = 1.0;
 }
 
+/* B->direct and B->snp_direct from B->snp (B at its final address: the ratio reads it). */
+static void direct_setup(bdpt *B)
+{
+    const spc_render_ctx *ctx = B->ctx;
+    B->direct = B->snee && B->snp.direct && B->snp.mis && spc_camera_connectible(ctx->cam) && ctx->strategy_t < 0 &&
+                ctx->strategy_s < 0;
+    if (!B->direct)
+        return;
+    B->snp_direct = B->snp;
+    B->snp_direct.query_p = B->snp.direct_p;
+    B->snp_direct.alt_ratio = direct_ratio;
+    B->snp_direct.alt_user = B;
+}
+
 /* bdpt's state outside a camera sample (the pool's light subpaths, the pilot): weighted, as
  * spc_bdpt_sample sets it without a debug mode. */
 static void bdpt_init(bdpt *B, const spc_render_ctx *ctx)
@@ -1001,6 +1076,7 @@ static void bdpt_init(bdpt *B, const spc_render_ctx *ctx)
         B->snp = ctx->snee;
         B->snp.mis = !B->snp.no_mis;
     }
+    direct_setup(B);
     B->cam_scale = B->film_pixels / B->n_light_paths;
     B->lt_per_sample = ctx->bdpt_light_paths > 1 ? ctx->bdpt_light_paths : 1;
     B->n_lt_paths = B->n_light_paths * B->lt_per_sample;
@@ -1297,6 +1373,7 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         B.snp = ctx->snee;
         B.snp.mis = !B.snp.no_mis;
     }
+    direct_setup(&B);
     B.cam_scale = B.film_pixels / B.n_light_paths;
     B.lt_per_sample = !ptracer && ctx->bdpt_light_paths > 1 ? ctx->bdpt_light_paths : 1;
     B.n_lt_paths = B.n_light_paths * B.lt_per_sample;

@@ -193,6 +193,23 @@ typedef struct spc_snee_params {
      * near the casters. The path integrator only; not from the camera. */
     double first_p;
     double query_p;
+    /* bdpt: specular NEE also at the surface points the camera sees directly (the user's
+     * "direct[=P]"; off by default): a caustic seen directly (camera - floor - glass - glass -
+     * light), which bdpt otherwise makes by light tracing (t = 1) and by s = 0 only, is then made by
+     * specular NEE at the floor point too, in a fraction P of such vertices (counted 1 / P times, as
+     * query_p), and the three are weighed together through alt_ratio. Not in the path integrator. */
+    bool direct;
+    double direct_p;
+    /* Another strategy that makes the covered paths besides specular NEE and BSDF sampling, weighed
+     * in by the power heuristic: alt_ratio returns its density over BSDF sampling's for the path
+     * x (seen from wo) - first direction d0 - chain - last direction d_last - light point y (unit
+     * normal ny) on e, and BSDF sampling's density b becomes b sqrt(1 + ratio^2) in every MIS
+     * weight of specular NEE's sample and of the covered paths, so that the BSDF side's weight is
+     * the two other strategies' share together (which the caller splits between them). A function
+     * of the path alone, so that both sides agree. NULL: none (bdpt sets it for "direct"). */
+    double (*alt_ratio)(const void *user, const spc_hit *x, spc_vec3 wo, spc_vec3 d0, spc_vec3 d_last,
+                        const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
+    const void *alt_user;
     /* The light sample's uniforms where the caller draws them from its stratified sample stream
      * (light_u_on; the path integrator at each receiver): light_u[0] picks the light, light_u[1]
      * and light_u[2] the point on it. Otherwise spc_snee_sample_light draws them from its own

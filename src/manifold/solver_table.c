@@ -105,6 +105,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->seed_guide = 0.0;
     p->sguide = NULL;
     p->camera_p = 1.0;
+    p->direct_p = 1.0;
     if (solver == SPC_SNEE_ANGULAR)
         p->max_trials = SPC_SNEE_ANGULAR_MAX_TRIALS;
 }

@@ -231,6 +231,24 @@ static double mis3(double a, double b, double c)
     return t > 0.0 ? a * a / t : 0.0;
 }
 
+/* The largest distance, in units of the light's size (sqrt of its area), between a covered path's
+ * light point and its retrace's where another strategy's paths are weighed in (params.alt_ratio):
+ * bdpt's light-traced caustics through the glass-ball caustic's sphere retrace to within 1e-3 of
+ * it (their directions are recomputed from the vertices' positions, and the focusing chain
+ * magnifies that rounding); 1e-2 is far below the distance between two solutions on such a light. */
+#define SPC_SNEE_RETRACE_LIGHT_TOL 1e-2
+
+/* The BSDF side's density b of a covered path becomes b times this with params.alt_ratio: the
+ * power heuristic's sqrt(b^2 + c^2) for the other strategy's density c = ratio b (solver.h). */
+static double alt_factor(const spc_snee_params *p, const spc_hit *x, spc_vec3 wo, spc_vec3 d0, spc_vec3 d_last,
+                         const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
+{
+    if (!p || !p->alt_ratio || !x)
+        return 1.0;
+    double r = p->alt_ratio(p->alt_user, x, wo, d0, d_last, e, y, ny);
+    return r > 0.0 && isfinite(r) ? sqrt(1.0 + r * r) : 1.0;
+}
+
 /* ---- contribution ---- */
 
 /* The receiver of q: its own, else the pinhole (q->cam) or the surface point q->x seen from q->wo,
@@ -326,7 +344,8 @@ static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_ve
         return zero;
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
         double P_ev = chain_events_sample_prob(q, c);
-        *b = spc_receiver_pdf(r, c->d0) * G * P_ev;
+        *b = spc_receiver_pdf(r, c->d0) * G * P_ev *
+             (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c->d0, d, e, q->y, q->ny) : 1.0);
         *pc = cones_pdf(cones_for(q, e), c->d0, k) * G * P_ev;
     }
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G);
@@ -998,8 +1017,15 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
     o.any_surface = p->any_surface;
     o.events = events;
     spc_chain ch;
+    /* the retrace's light point must be the path's: within rounding for a path sampled from x (the
+     * retrace repeats its arithmetic); a path traced from the light side (bdpt's light tracing,
+     * params.alt_ratio) lands up to about 1e-3 of the light's size away after a focusing chain,
+     * its directions recomputed from the vertices' positions */
+    double tol = 1e-6 * (sc->radius + spc_max_abs(light->p));
+    if (p->alt_ratio && e->shape)
+        tol = spc_max(tol, SPC_SNEE_RETRACE_LIGHT_TOL * sqrt(e->shape->area));
     if (spc_chain_trace(sc, x, &fr, 0.0, 0.0, &o, &ch) != SPC_CHAIN_END_SURFACE || ch.n != k || !ch.has_end_hit ||
-        ch.end_hit.emitter != e || spc_distance(ch.end_hit.p, light->p) > 1e-6 * (sc->radius + spc_max_abs(light->p)))
+        ch.end_hit.emitter != e || spc_distance(ch.end_hit.p, light->p) > tol)
         return false;
     double G = spc_chain_geometry(&ch, light->p, light->ng);
     if (!(G > 0.0) || !isfinite(G))
@@ -1011,7 +1037,8 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
     q.receiver = r;
     q.cam = cam; /* chain_events_sample_prob reads it as the query from the camera does */
     double P_ev = chain_events_sample_prob(&q, &ch);
-    *b = pdf * G * P_ev;
+    *b = pdf * G * P_ev *
+         (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(p, x, r->wo, d0, ch.v[k - 1].d, e, light->p, light->ng) : 1.0);
     spc_snee_cones own;
     if (guided) {
         if (!cs || cs->e != e || cs->budget != max_chain) {
