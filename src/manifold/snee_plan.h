@@ -116,9 +116,9 @@
  * the query from the camera in one camera sample in ten (camera=0.1, Russian roulette). The query
  * from the camera took half the CPU on bench/check/glass_ball_mesh.xml (45 against 90 spp at equal
  * time without it) while its splats held little of the error; at equal CPU time camera=0.1 against
- * the query in every sample: the glass ball over 24 seeds mean relMSE 0.208 against 0.455 (median
- * 0.030 against 0.043), random caustic scene 8 over 8 seeds 0.000226 against 0.000442, 41 0.00135
- * against 0.00330. Without the query at all, random 8 was 6.3x worse (a one-pixel firefly: the
+ * the query in every sample: the glass ball over 48 seeds mean relMSE 0.142 against 0.328 (median
+ * 0.028 against 0.044; none 0.079, median 0.069), random caustic scene 8 over 8 seeds 0.000226
+ * against 0.000442, 41 0.00135 against 0.00330. Without the query at all, random 8 was 6.3x worse (a one-pixel firefly: the
  * light seen in the ball from the camera). With the ball's real solve probability (solve_mis.h)
  * the query's splats do not carry the trial counts' tail that made 1/Q lose on randomized casters
  * elsewhere (bench/RESULTS.md, "The triangle glass ball's worst seeds traced"). On
