@@ -118,10 +118,11 @@
  * time without it) while its splats held little of the error; at equal CPU time camera=0.1 against
  * the query in every sample: the glass ball over 48 seeds mean relMSE 0.142 against 0.328 (median
  * 0.028 against 0.044; none 0.079, median 0.069), random caustic scene 8 over 8 seeds 0.000226
- * against 0.000442, 41 0.00135 against 0.00330. Without the query at all, random 8 was 6.3x worse (a one-pixel firefly: the
- * light seen in the ball from the camera). With the ball's real solve probability (solve_mis.h)
- * the query's splats do not carry the trial counts' tail that made 1/Q lose on randomized casters
- * elsewhere (bench/RESULTS.md, "The triangle glass ball's worst seeds traced"). On
+ * against 0.000442, 41 0.00135 against 0.00330. Without the query at all, random 8 was 6.3x worse
+ * (a one-pixel firefly: the light seen in the ball from the camera). With the ball's real solve
+ * probability (solve_mis.h) the query's splats do not carry the trial counts' tail that made 1/Q
+ * lose on randomized casters elsewhere (bench/RESULTS.md, "The triangle glass ball's worst seeds
+ * traced"). On
  * bench/check/glass_ball_mesh.xml at equal CPU time over 8 seeds the mean relMSE was 0.86 (worst seed
  * 6.5, one pixel 100% of it) with first=0.1 and 0.0745 (worst 0.39) without (none: 0.125); random
  * caustic scene 31 48x none against 40x, 41 6.2x against 9.0x (bench/RESULTS.md, "The tessellated
