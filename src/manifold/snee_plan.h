@@ -68,8 +68,9 @@
  *     bdpt gets its own setting (SPC_SNEE_PLAN_SETTING_BDPT, _BDPT_MIRRORS): it runs specular NEE
  *     only where its own strategies cannot reach (integrator/bdpt.c), so it needs no roulette past
  *     the first receiver, and the query from the camera pays there on one sample in ten.
- *     volpath, whose receivers are medium points, weighs the chains through a tessellated ball
- *     with the stand-in psi (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH).
+ *     A tessellated ball gets the query from the camera on one sample in ten
+ *     (SPC_SNEE_PLAN_SETTING_BALLS). volpath, whose receivers are medium points, weighs the chains
+ *     through a tessellated ball with the stand-in psi (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH).
  * Why angular: of the solvers it has the exact enumerations with reflections and longer chains, and
  * on the caustic scenes it was the fastest unbiased choice at equal time (the pool: 96x against
  * path, conic 45x, newton 26x); newton was slow and biased on multi-interface chains (two tilted
@@ -111,7 +112,17 @@
 #define SPC_SNEE_PLAN_SETTING "angular:camera,first=0.1,later=0.1"
 
 /* The setting where a glass caster is a tessellated ball (a triangle mesh with a fitted sphere,
- * fit_seeds.h): the same with the query at every path's first receiver (no first=P roulette). On
+ * fit_seeds.h): the same with the query at every path's first receiver (no first=P roulette), and
+ * the query from the camera in one camera sample in ten (camera=0.1, Russian roulette). The query
+ * from the camera took half the CPU on bench/check/glass_ball_mesh.xml (45 against 90 spp at equal
+ * time without it) while its splats held little of the error; at equal CPU time camera=0.1 against
+ * the query in every sample: the glass ball over 48 seeds mean relMSE 0.142 against 0.328 (median
+ * 0.028 against 0.044; none 0.079, median 0.069), random caustic scene 8 over 8 seeds 0.000226
+ * against 0.000442, 41 0.00135 against 0.00330. Without the query at all, random 8 was 6.3x worse
+ * (a one-pixel firefly: the light seen in the ball from the camera). With the ball's real solve
+ * probability (solve_mis.h) the query's splats do not carry the trial counts' tail that made 1/Q
+ * lose on randomized casters elsewhere (bench/RESULTS.md, "The triangle glass ball's worst seeds
+ * traced"). On
  * bench/check/glass_ball_mesh.xml at equal CPU time over 8 seeds the mean relMSE was 0.86 (worst seed
  * 6.5, one pixel 100% of it) with first=0.1 and 0.0745 (worst 0.39) without (none: 0.125); random
  * caustic scene 31 48x none against 40x, 41 6.2x against 9.0x (bench/RESULTS.md, "The tessellated
@@ -119,9 +130,10 @@
  * tail (0.62 with first=0.1, 0.78 without; medians 0.040), a BSDF-sampled path of MIS weight 1
  * that the roulette does not change; on five of seven random triangle-ball scenes first=0.1 lost
  * (bench/RESULTS.md, "The triangle glass ball's tail over 24 seeds"). */
-#define SPC_SNEE_PLAN_SETTING_BALLS "angular:camera,later=0.1"
+#define SPC_SNEE_PLAN_SETTING_BALLS "angular:camera=0.1,later=0.1"
 
-/* volpath's setting where a glass caster is a tessellated ball: SPC_SNEE_PLAN_SETTING_BALLS without
+/* volpath's setting where a glass caster is a tessellated ball: SPC_SNEE_PLAN_SETTING_BALLS with the
+ * query from the camera in every sample (camera=0.1 is not measured on volpath) and without
  * the real solve probability's MIS (nosolvemis: the stand-in psi, as on every other caster) and so
  * without the ball pass of the longer chains (specular_nee.c). volpath's receivers are medium points,
  * whose phase function's density toward a chain's first vertex is small, so the real probability's
