@@ -1101,6 +1101,7 @@ TEST(mis_count_gives_up_at_cap)
     p.reflect = false;
     p.mis = true;
     p.solve_mis = false;
+    p.mis_solve = 1e-4; /* specular NEE's density below BSDF sampling's (cap_gives_up) */
     p.max_trials = 1;
     spc_snee_stats st;
     memset(&st, 0, sizeof st);
