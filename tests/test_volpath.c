@@ -745,9 +745,9 @@ static bool films_differ(const spc_film *a, const spc_film *b)
 }
 
 /* volpath's connection takes the user's options: trials=1 cuts every Bernoulli-trial count at 1
- * attempt, a count that reaches it giving its chain up to phase sampling (whose weight holds the
- * probability of that), so the image changes but its mean does not (the check fails where phase
- * sampling leaves that share out: 0.016 against 0.019 in one channel); seed=light changes
+ * attempt, a count that reaches it giving its chain up to phase sampling where specular NEE's density
+ * is at most its cap times phase sampling's (cap_gives_up), else going on by roulette, so the image
+ * changes but its mean does not; seed=light changes
  * the attempts, chain=1 drops the chains that reflect inside the ball before they leave it, nomis
  * drops the phase-sampled paths specular NEE covers instead of weighting them, receivers=1 leaves
  * the second and later medium vertices to phase sampling; the same setting twice gives the same
