@@ -1081,18 +1081,20 @@ TEST(snee_normal_map_point_estimates)
     spc_scene_destroy(sc);
 }
 
-/* With MIS, a randomized attempt's count that reaches its cap gives the chain up to BSDF sampling
- * (whose weight then holds the probability of that) rather than going on past the cap: no count runs
- * more than cap attempts, so none carries the tail of a small solve probability. At cap 1 under the
- * glass ball of snee_point_estimates many counts reach the cap. */
+/* With MIS, at a medium receiver, a randomized attempt's count that reaches its cap gives the chain
+ * up to phase sampling (whose weight then holds the probability of that) rather than going on past
+ * the cap: no count runs more than cap attempts, so none carries the tail of a small solve
+ * probability. At cap 1 under the glass ball of snee_point_estimates many counts reach the cap; a
+ * small stand-in psi puts specular NEE's density below phase sampling's, where the give-up applies. */
 TEST(mis_count_gives_up_at_cap)
 {
     spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
     CHECK(sc != NULL);
     if (!sc)
         return;
-    spc_hit x;
-    CHECK(floor_hit(sc, spc_v3(0.15, 0.05, 0.05), &x));
+    spc_phase iso = {SPC_PHASE_ISOTROPIC, 0.0};
+    spc_receiver rc;
+    spc_receiver_medium(&rc, spc_v3(0.15, 0.05, 0.1), spc_v3(0, 0, 1), &iso, -1);
     spc_snee_params p;
     spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
     p.seed = SPC_SNEE_SEED_SHAPE;
@@ -1101,14 +1103,14 @@ TEST(mis_count_gives_up_at_cap)
     p.reflect = false;
     p.mis = true;
     p.solve_mis = false;
-    p.mis_solve = 1e-4; /* specular NEE's density below BSDF sampling's (cap_gives_up) */
+    p.mis_solve = 1e-5;
     p.max_trials = 1;
     spc_snee_stats st;
     memset(&st, 0, sizeof st);
     spc_rng r;
     spc_rng_seed(&r, 17, 3);
     for (int i = 0; i < 4000; ++i)
-        (void)spc_specular_nee(sc, &p, &x, spc_v3(0, 0, 1), 2, &r, &st);
+        (void)spc_specular_nee_at(sc, &p, &rc, 2, 2, &r, &st);
     printf("    counts' attempts %llu over %llu contributions, capped %llu\n", (unsigned long long)st.trials,
            (unsigned long long)st.contributions, (unsigned long long)st.capped);
     CHECK_MSG(st.capped > 10, "the cap was reached %llu times", (unsigned long long)st.capped);
