@@ -981,10 +981,10 @@ static double trial_query(const spc_snee_query *q, const spc_chain *c, spc_chain
 static int trial_cap(const spc_snee_params *p) { return p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS; }
 
 /* Does specular NEE give up a randomized attempt's chain whose count (inv_p_solve) reaches the cap,
- * leaving that path to the sampling side, rather than go on by Russian roulette? With MIS (where the
- * sampling side's density b of the chain is positive: the caller checks), a stand-in psi below 1,
+ * leaving that path to the sampling side, rather than go on by Russian roulette? With MIS (the
+ * sampling side's density b of the chain positive), a stand-in psi below 1,
  * attempts seeded at random and no guided directions (whose third strategy would need the share
- * too). A count cut there carries no tail: at most cap / A. With N the count (geometric, success
+ * too). A count cut there carries no tail: at most cap / a. With N the count (geometric, success
  * probability p per attempt) and C the cap, specular NEE then takes p E[N 1{N <= C}] = 1 - g(p) of
  * its MIS share, g(p) = (1 - p)^C (1 + C p), which is exactly the probability of at most one success
  * in C + 1 attempts; the sampling side adds the share times a 0/1 estimate of g(p) from C + 1 attempts
