@@ -1081,6 +1081,44 @@ TEST(snee_normal_map_point_estimates)
     spc_scene_destroy(sc);
 }
 
+/* With MIS, at a medium receiver, a randomized attempt's count that reaches its cap gives the chain
+ * up to phase sampling (whose weight then holds the probability of that) rather than going on past
+ * the cap: no count runs more than cap attempts, so none carries the tail of a small solve
+ * probability. At cap 1 under the glass ball of snee_point_estimates many counts reach the cap; a
+ * small stand-in psi puts specular NEE's density below phase sampling's, where the give-up applies. */
+TEST(mis_count_gives_up_at_cap)
+{
+    spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_phase iso = {SPC_PHASE_ISOTROPIC, 0.0};
+    spc_receiver rc;
+    spc_receiver_medium(&rc, spc_v3(0.15, 0.05, 0.1), spc_v3(0, 0, 1), &iso, -1);
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+    p.seed = SPC_SNEE_SEED_SHAPE;
+    p.straight_first = false;
+    p.exact = false;
+    p.reflect = false;
+    p.mis = true;
+    p.solve_mis = false;
+    p.mis_solve = 1e-5;
+    p.max_trials = 1;
+    spc_snee_stats st;
+    memset(&st, 0, sizeof st);
+    spc_rng r;
+    spc_rng_seed(&r, 17, 3);
+    for (int i = 0; i < 4000; ++i)
+        (void)spc_specular_nee_at(sc, &p, &rc, 2, 2, &r, &st);
+    printf("    counts' attempts %llu over %llu contributions, capped %llu\n", (unsigned long long)st.trials,
+           (unsigned long long)st.contributions, (unsigned long long)st.capped);
+    CHECK_MSG(st.capped > 10, "the cap was reached %llu times", (unsigned long long)st.capped);
+    CHECK_MSG(st.trials <= st.contributions, "%llu attempts in %llu counts of at most 1", (unsigned long long)st.trials,
+              (unsigned long long)st.contributions);
+    spc_scene_destroy(sc);
+}
+
 /* ---- chains that reflect off glass (spc_snee_params.reflect) ---- */
 
 /* A hit record on shape i (no position: what the tracker and the event picker look at). */
@@ -2269,6 +2307,7 @@ int main(void)
     RUN(solver_glass_slab_two_interfaces);
     RUN(bernoulli_estimator_unbiased);
     RUN(trial_count_unbiased_past_cap);
+    RUN(mis_count_gives_up_at_cap);
     RUN(solve_mis_unbiased_past_cap);
     RUN(snee_point_estimates);
     RUN(snee_normal_map_point_estimates);

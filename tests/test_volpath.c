@@ -29,9 +29,9 @@
  *   angular solver is not used on the icosphere or an analytic sphere: from deep inside, its
  *   attempts mostly end in total internal reflection and the capped count of attempts is biased
  *   low by 5-8% without the straight-line attempt.)
- * - The connection takes the user's specular NEE options: on a glass sphere, trials=1 lowers the
- *   image's mean by more than 4 standard errors; seed=light, chain=1, nomis and receivers=1 each
- *   change the image.
+ * - The connection takes the user's specular NEE options: on a glass sphere, trials=1 changes the
+ *   image but not its mean (within 4 standard errors); seed=light, chain=1, nomis and receivers=1
+ *   each change the image.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -744,9 +744,10 @@ static bool films_differ(const spc_film *a, const spc_film *b)
            memcmp(a->rgb, b->rgb, sizeof a->rgb[0] * 3 * (size_t)a->width * (size_t)a->height) != 0;
 }
 
-/* volpath's connection takes the user's options: trials=1 cuts every Bernoulli-trial count's plain
- * part at 1 attempt, the rest going on by roulette in doubling blocks, so the image changes but its
- * mean does not (the count's mean stays 1/p: unbiased past the cap); seed=light changes
+/* volpath's connection takes the user's options: trials=1 cuts every Bernoulli-trial count at 1
+ * attempt, a count that reaches it giving its chain up to phase sampling where specular NEE's density
+ * is at most its cap times phase sampling's (cap_gives_up), else going on by roulette, so the image
+ * changes but its mean does not; seed=light changes
  * the attempts, chain=1 drops the chains that reflect inside the ball before they leave it, nomis
  * drops the phase-sampled paths specular NEE covers instead of weighting them, receivers=1 leaves
  * the second and later medium vertices to phase sampling; the same setting twice gives the same

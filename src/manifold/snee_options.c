@@ -39,7 +39,9 @@ static const spc_snee_option options[] = {
      "unbiased: one solution per light sample, times its Bernoulli-trial count (1/p); biased: M attempts, "
      "the distinct solutions found summed (no trials: energy lost where solutions are hard to find)"},
     {"trials", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_SNEE_COUNT_MAX, false, false, NULL, 0, NO, AT(max_trials),
-     0, NULL, "the count's plain attempts, then roulette in doubling blocks (an unbiased 1/p)"},
+     0, NULL,
+     "the count's attempts; past them, with MIS at a medium point, the chain is left to phase sampling, "
+     "else roulette in doubling blocks (unbiased)"},
     {"seed", NULL, SPC_SNEE_OPT_CHOICE, false, "S", 0, 0, false, false, seed_choices, 0, NO, AT(seed), 0, NULL,
      "the randomized attempts' seeds: a uniform point of a caster (shape), the straight line to the light "
      "(light: Hanika et al.'s MNEE), a direction sampled from the receiver's BSDF (bsdf), or uniform in the "

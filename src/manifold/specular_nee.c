@@ -363,6 +363,25 @@ spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_
     return spc_rgb_scale(v, w);
 }
 
+/* spc_snee_chain_value, and in *a specular NEE's density of c (psi p_y) and in *b the sampling
+ * side's as chain_terms gives it (both 0 where MIS does not apply). */
+static spc_rgb counted_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c,
+                                   double *a, double *b)
+{
+    double pc;
+    *a = 0.0;
+    spc_rgb v = chain_terms(q, e, uv, c, b, &pc);
+    if (spc_rgb_is_black(v))
+        return v;
+    if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
+        *a = q->p_y * (q->psi > 0.0 ? q->psi : 1.0);
+        v = spc_rgb_scale(v, mis3(*a, *b, pc));
+    } else {
+        *b = 0.0;
+    }
+    return v;
+}
+
 /* Is c a chain on one sphere, one mirror cylinder, through flat faces or (not from the camera) one
  * normal-mapped plane that params.exact enumerates for q? From the camera a rippled surface's glints are dozens of
  * images of the light (35 on the pool's water: the enumeration costs five path samples there), so
@@ -896,11 +915,14 @@ static bool fit_first_has(const spc_snee_query *q, const spc_specular_solver *so
  * straight-line solution: straight_psi), else random_psi; past the budget long_psi for a longer chain on one
  * sphere (params.long_p), else 0 (specular NEE never makes it). *rand_s: for a chain that a
  * randomized attempt finds (solve_mis_chain), the probability of the query's pass that looks for it
- * (ball_long_psi, the ball pass's, past the budget, else 1); 0 for every other chain. */
-static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *rand_s)
+ * (ball_long_psi, the ball pass's, past the budget, else 1); 0 for every other chain. *counted: c is
+ * a randomized attempt's chain that specular NEE counts with inv_p_solve (neither solve_mis_chain's
+ * nor an exact one). */
+static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *rand_s, bool *counted)
 {
     const spc_snee_params *p = q->params;
     *rand_s = 0.0;
+    *counted = false;
     if (c->n > q->max_chain) { /* longer than the budget: one of params.long_p's, or none */
         if (p->exact && spc_flat_chain_covers(c, p->reflect))
             return c->n <= flat_max(q) ? 1.0 : flat_psi(q, c->n); /* through flat faces */
@@ -916,6 +938,7 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
             *rand_s = ball_long_psi(q, c->n);
             return *rand_s * long_attempt_psi(q, c);
         }
+        *counted = true;
         return long_psi(q, c->n) * long_attempt_psi(q, c); /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
@@ -936,6 +959,8 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
         if (fit_first_has(q, solver, have_straight ? &straight : NULL, c))
             return 1.0;
         *rand_s = 1.0;
+    } else {
+        *counted = true;
     }
     return attempt_psi(q, c);
 }
@@ -973,6 +998,55 @@ static double trial_query(const spc_snee_query *q, const spc_chain *c, spc_chain
 }
 
 static int trial_cap(const spc_snee_params *p) { return p->max_trials > 0 ? p->max_trials : SPC_SNEE_MAX_TRIALS; }
+
+/* Does specular NEE give up a randomized attempt's chain whose count (inv_p_solve) reaches the cap,
+ * leaving that path to the sampling side, rather than go on by Russian roulette? With MIS (the
+ * sampling side's density b of the chain positive), a stand-in psi below 1,
+ * attempts seeded at random and no guided directions (whose third strategy would need the share
+ * too). A count cut there carries no tail: at most cap / a. With N the count (geometric, success
+ * probability p per attempt) and C the cap, specular NEE then takes p E[N 1{N <= C}] = 1 - g(p) of
+ * its MIS share, g(p) = (1 - p)^C (1 + C p), which is exactly the probability of at most one success
+ * in C + 1 attempts; the sampling side adds the share times a 0/1 estimate of g(p) from C + 1 attempts
+ * of its own (cap_share_left), stopped at the second success. Only where a <= C b (a, b: specular NEE's
+ * and the sampling side's densities of the path): the share the sampling side gains then adds at
+ * most F / b <= C F / a to one of its samples, no more than specular NEE's count cut at C carries;
+ * where b is far smaller the count goes on by roulette. Only at medium receivers, where it was
+ * measured to pay: under the SDF torus (surface receivers) the 8 seeds measured read 1.4x the mean
+ * relMSE with it, too few seeds to call either way. A chain from a medium point deep in a
+ * glass ball has p ~ 1e-4 (its attempts end in total internal reflection): counted past the cap its
+ * 1/p ~ 1e4 made one pixel hold 99% of a seed's error on scenes/medium_glass.xml (bench/RESULTS.md,
+ * part medtail10). The same function of the query on both sides. */
+static bool cap_gives_up(const spc_snee_query *q, double a, double b)
+{
+    const spc_snee_params *p = q->params;
+    spc_receiver own;
+    return p->mis && !p->biased && !guide_on(p) && random_psi(p) < 1.0 && q->seed != SPC_SNEE_SEED_LIGHT &&
+           b > 0.0 && a > 0.0 && a <= trial_cap(p) * b && query_receiver(q, &own)->kind == SPC_RECEIVER_MEDIUM;
+}
+
+/* The count of t's trials until its chain is found again, 0 where the first cap attempts all fail
+ * (cap_gives_up). *attempts gets the attempts run. */
+static double count_within_cap(solve_trial *t, int cap, int *attempts)
+{
+    for (int n = 1; n <= cap; ++n)
+        if (solve_trial_same(t)) {
+            *attempts = n;
+            return n;
+        }
+    *attempts = cap;
+    return 0.0;
+}
+
+/* The sampling side's estimate of g(p) (cap_gives_up): 1 if at most one of cap + 1 trials of t finds
+ * its chain, else 0; stops at the second success. */
+static double cap_share_left(solve_trial *t, int cap)
+{
+    int found = 0;
+    for (int n = 0; n <= cap; ++n)
+        if (solve_trial_same(t) && ++found == 2)
+            return 0.0;
+    return 1.0;
+}
 
 /* A generator for the BSDF side's trials (the weight functions get none): seeded by a hash of the
  * path's coordinates (the receiver, the first direction, the light point), continuous random
@@ -1060,8 +1134,29 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.fit = &fit;
         double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p);
         double rs;
-        *a = chain_psi(&q, &ch, &rs) * p_y * ps;
+        bool counted;
+        *a = chain_psi(&q, &ch, &rs, &counted) * p_y * ps;
         const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
+        if (counted && w_solve && solver && solver->solve_one && cap_gives_up(&q, *a, *b)) {
+            /* specular NEE gives the chain up where its count reaches the cap: its MIS share times the
+             * probability of that, sampled by attempts toward this light point like its own */
+            spc_snee_query lq = q;
+            if (ch.n > max_chain) { /* the long pass's chain */
+                lq.min_chain = lq.max_chain = ch.n;
+            }
+            spc_chain_sig want;
+            spc_snee_query tq;
+            double p_ev = trial_query(&lq, &ch, &want, &tq);
+            double w_nee = mis3(*a, *b, *c);
+            double left = 1.0; /* events the attempts never pick: specular NEE never counts it */
+            if (p_ev > 0.0) {
+                spc_rng rng;
+                path_rng(&rng, x->p, d0, light->p);
+                solve_trial t = {.q = &tq, .solver = solver, .target = &ch, .rng = &rng};
+                left = cap_share_left(&t, trial_cap(p));
+            }
+            *w_solve = mis3(*b, *a, *c) + w_nee * left;
+        }
         if (rs > 0.0 && w_solve && solver && solver->solve_one) {
             /* a randomized attempt's chain: the weight sampled with the real solve probability, by
              * the attempts specular NEE would make toward this light point (its long pass's length) */
@@ -1196,9 +1291,11 @@ static void emit_plane_chains(const spc_snee_query *q, const spc_emitter *e, spc
 }
 
 /* <1/p_solve> of the solution sol of a randomized attempt for q: attempts until the same solution
- * is found again (with reflect, following its events, whose probability is known). */
+ * is found again (with reflect, following its events, whose probability is known); with give_up
+ * (cap_gives_up) 0 where the count reaches the cap,
+ * else past it by Russian roulette. */
 static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *sol,
-                          spc_rng *rng, spc_snee_stats *st)
+                          bool give_up, spc_rng *rng, spc_snee_stats *st)
 {
     const spc_snee_params *p = q->params;
     if (q->seed == SPC_SNEE_SEED_LIGHT)
@@ -1214,7 +1311,15 @@ static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *so
     }
     bool capped;
     int iterations = 0, n = 0;
-    double N = spc_snee_count_same(&tq, solver, NULL, rng, sol, trial_cap(p), &n, &capped, &iterations);
+    double N;
+    if (give_up) {
+        solve_trial t = {.q = &tq, .solver = solver, .target = sol, .rng = rng};
+        N = count_within_cap(&t, trial_cap(p), &n);
+        capped = N == 0.0;
+        iterations = t.iterations;
+    } else {
+        N = spc_snee_count_same(&tq, solver, NULL, rng, sol, trial_cap(p), &n, &capped, &iterations);
+    }
     if (st) {
         st->trials += (uint64_t)n;
         st->iterations += (uint64_t)iterations;
@@ -1277,10 +1382,11 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
     }
     spc_snee_query vq = *lq;
     vq.psi = lq->psi * long_attempt_psi(lq, &sol);
-    spc_rgb v = spc_snee_chain_value(&vq, e, uv, &sol);
+    double a, b;
+    spc_rgb v = counted_chain_value(&vq, e, uv, &sol, &a, &b);
     if (spc_rgb_is_black(v))
         return;
-    double inv_p = inv_p_solve(lq, solver, &sol, rng, st);
+    double inv_p = inv_p_solve(lq, solver, &sol, cap_gives_up(lq, a, b), rng, st);
     if (st) {
         st->solved++;
         st->contributions++;
@@ -1435,14 +1541,15 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         return;
     }
     q->psi = attempt_psi(q, &sol); /* neither the straight-line solution nor one of solve_all's */
-    spc_rgb v = spc_snee_chain_value(q, e, uv, &sol);
+    double a, b;
+    spc_rgb v = counted_chain_value(q, e, uv, &sol, &a, &b);
     q->psi = 0.0;
     if (spc_rgb_is_black(v))
         return;
 
     if (st)
         st->contributions++;
-    emit(q, sk, &sol, spc_rgb_scale(v, inv_p_solve(q, solver, &sol, rng, st) / p_y));
+    emit(q, sk, &sol, spc_rgb_scale(v, inv_p_solve(q, solver, &sol, cap_gives_up(q, a, b), rng, st) / p_y));
 }
 
 /* One guided direction (params.guide): a light by power, a direction in one of its cones at x,
