@@ -821,7 +821,8 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
      * elsewhere its two tests read on the cosine (the test below: th >= c.r + pi/2 - 1e-12, as
      * cos th <= -sin(c.r - 1e-12), with 1e-12 more on the cosine so that it is never wider) */
     double cth = spc_dot(c.a, down), th = 0.0;
-    if (c.r < SPC_PI && c.r < 0.5 * SPC_PI + 1e-12 && cth < -sin(c.r - 1e-12) - 1e-12)
+    /* cth >= 0 passes without the sine: sin(c.r - 1e-12) >= -1e-12 for the radii c.r >= 0 */
+    if (cth < 0.0 && c.r < SPC_PI && c.r < 0.5 * SPC_PI + 1e-12 && cth < -sin(c.r - 1e-12) - 1e-12)
         return false; /* every direction runs parallel to the plane or away from it */
     if (reflect) {
         if (c.r >= SPC_PI) {
