@@ -468,24 +468,27 @@ static void block(double c, const double uu[2][2], const double ae[2], const dou
 }
 
 /* A lower bound on L (mu 0) over the box C of the sequence: the points whose every vertex lies in
- * the convex hull of its face's corners. L is convex, so at any s its tangent plane bounds it from
- * below, L(c) >= L(s) + g . (c - s), and a linear function takes its minimum over the hull at a
- * corner (per vertex: C is a product of polygons). Smoothing each of the k + 1 terms by mu adds at
- * most mu eta_j to it, so from L_mu and its gradient g at s:
+ * the convex hull of its face's corners. For any vectors lambda_j with |lambda_j| <= eta_j,
+ * eta_j |r_j(c)| >= lambda_j . r_j(c) (Cauchy-Schwarz), and the sum of the right sides is affine
+ * in c. With lambda_j = eta_j r_j(s) / len_j (len_j = sqrt(|r_j(s)|^2 + mu^2), the smoothed
+ * terms' gradients at s), that sum is
  *
- *     min over C of L  >=  L_mu(s) + sum_i min over corners c of face i of g_i . (c - s_i) - mu sum_j eta_j.
+ *     L_mu(s) - sum_j eta_j mu^2 / len_j + g . (c - s),
  *
- * The corners are those of the face's triangles in its (u, v) coordinates, the same coordinates s
- * uses. Each vertex's term is lowered by |g_i| times SPC_FLAT_BOUND_SLACK of the problem's size: a
- * root is accepted up to SPC_FLAT_EDGE_REL outside its triangles' edges (in_face), which moves it
- * that far from the hull at most by that distance over the sine of half the triangles' sharpest
- * angle. */
-static double lower_bound_on_faces(const flat_problem *P, double mu, const double *s, const double *g, double L)
+ * g the gradient of L_mu at s, and a linear function takes its minimum over the hull at a corner
+ * (per vertex: C is a product of polygons). So
+ *
+ *     min over C of L  >=  L_mu(s) - mu^2 sum_j eta_j / len_j + sum_i min over corners c of face i of g_i . (c - s_i).
+ *
+ * (the smoothing's term is mu^2 eta_j / len_j <= mu eta_j, and far smaller on the segments longer
+ * than mu; `smooth` holds mu^2 sum_j eta_j / len_j). The corners are those of the face's triangles
+ * in its (u, v) coordinates, the same coordinates s uses. Each vertex's term is lowered by |g_i|
+ * times SPC_FLAT_BOUND_SLACK of the problem's size: a root is accepted up to SPC_FLAT_EDGE_REL
+ * outside its triangles' edges (in_face), which moves it that far from the hull at most by that
+ * distance over the sine of half the triangles' sharpest angle. */
+static double lower_bound_on_faces(const flat_problem *P, double smooth, const double *s, const double *g, double L)
 {
-    double lb = L, eta_sum = 0.0;
-    for (int j = 0; j <= P->k; ++j)
-        eta_sum += P->seg[j];
-    lb -= mu * eta_sum;
+    double lb = L - smooth;
     for (int i = 0; i < P->k; ++i) {
         const flat_face *f = P->v[i].f;
         const double *c = P->v[i].fc->tri2d + 6 * f->first;
@@ -521,7 +524,10 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
             e[j] = spc_scale(r, 1.0 / len);
             cj[j] = P->seg[j] / len;
         }
-        double g[2 * SPC_FLAT_MAX_VERTICES];
+        double g[2 * SPC_FLAT_MAX_VERTICES], smooth = 0.0;
+        for (int j = 0; j <= k; ++j)
+            smooth += cj[j];
+        smooth *= mu * mu;
         gmax = 0.0;
         for (int i = 0; i < k; ++i) {
             spc_vec3 t = spc_sub(spc_scale(e[i], P->seg[i]), spc_scale(e[i + 1], P->seg[i + 1]));
@@ -529,7 +535,7 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
             g[2 * i + 1] = spc_dot(t, P->v[i].f->v);
             gmax = fmax(gmax, fmax(fabs(g[2 * i]), fabs(g[2 * i + 1])));
         }
-        *lb = fmax(*lb, lower_bound_on_faces(P, mu, s, g, *L));
+        *lb = fmax(*lb, lower_bound_on_faces(P, smooth, s, g, *L));
         if (P->bound && *lb > *L + SPC_FLAT_BOUND_SLACK * P->scale)
             return -2.0; /* every point of C is longer than this one: the minimum lies outside C */
         if (gmax < tol || it == steps)
