@@ -88,6 +88,17 @@ typedef struct cone {
 
 static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(fmax(-1.0, fmin(1.0, spc_dot(a, b)))); }
 
+/* Does every direction of the cap (a, r), r < pi, lie within the angle crit < pi/2 of the unit
+ * vector m: angle(a, m) + r <= crit? Without the acos where the answer is plain: a cap wider than
+ * crit, or an axis at a right angle or more from m, is not within it (the angle is >= 0, and >=
+ * pi/2 > crit there). */
+static bool cap_within(spc_vec3 a, double r, spc_vec3 m, double crit)
+{
+    if (r > crit || !(spc_dot(a, m) > 0.0))
+        return false;
+    return angle_between(a, m) + r <= crit;
+}
+
 /* The directions from the points of the sphere (c0, r0) to those of the sphere (c1, r1). */
 static cone cone_between(spc_vec3 c0, double r0, spc_vec3 c1, double r1)
 {
@@ -927,7 +938,7 @@ static bool backward_meets(flat_walk *w, int k)
     for (int i = k - 1; i >= 0; --i) {
         const flat_vertex *v = &P->v[i];
         spc_vec3 m = spc_scale(v->f->n, v->side_out); /* toward the side the reversed path arrives from */
-        if (v->tir > 0.0 && b.r < SPC_PI && angle_between(b.a, m) + b.r <= asin(1.0 / v->tir))
+        if (v->tir > 0.0 && b.r < SPC_PI && cap_within(b.a, b.r, m, asin(1.0 / v->tir)))
             return false; /* every direction within the critical angle: no total reflection */
         double n_in = P->seg[i] >= 0.0 ? P->seg[i] : 1.0, n_out = P->seg[i + 1] >= 0.0 ? P->seg[i + 1] : 1.0;
         cone back;
@@ -1020,7 +1031,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                         tir = side_index(eta, side) / side_index(eta, -side);
                         tir_ok = tir > 1.0 &&
                                  !(arrive.r < SPC_PI &&
-                                   angle_between(arrive.a, spc_scale(f->n, -side)) + arrive.r <= asin(1.0 / tir));
+                                   cap_within(arrive.a, arrive.r, spc_scale(f->n, -side), asin(1.0 / tir)));
                         if (i > 0 && !tir_ok)
                             continue;
                     }
