@@ -88,6 +88,23 @@ typedef struct cone {
 
 static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(fmax(-1.0, fmin(1.0, spc_dot(a, b)))); }
 
+/* asin(x) for the critical angles: x is a ratio of the scene's indices, so one thread asks for a
+ * few values over and over; the last two are kept per thread (the same value, without the call). */
+static double critical_angle(double x)
+{
+    static _Thread_local double key[2] = {-1.0, -1.0}, val[2];
+    static _Thread_local int next;
+    if (x == key[0])
+        return val[0];
+    if (x == key[1])
+        return val[1];
+    int i = next;
+    next ^= 1;
+    key[i] = x;
+    val[i] = asin(x);
+    return val[i];
+}
+
 /* Does every direction of the cap (a, r), r < pi, lie within the angle crit < pi/2 of the unit
  * vector m: angle(a, m) + r <= crit? Without the acos where the answer is plain: a cap wider than
  * crit, or an axis at a right angle or more from m, is not within it (the angle is >= 0, and >=
@@ -855,13 +872,13 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
     }
     bool narrow = c.r < 0.5 * SPC_PI && cth > 0.0;
     if (n_in < n_out) {
-        double crit = asin(n_in / n_out), r = c.r * (n_in / n_out);
+        double crit = critical_angle(n_in / n_out), r = c.r * (n_in / n_out);
         *out = narrow && r < crit ? (cone){refract_axis(c.a, m, n_in, n_out), r} : (cone){down, crit};
         return true;
     }
     if (c.r < SPC_PI)
         th = acos(fmax(-1.0, fmin(1.0, cth)));
-    double crit = asin(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
+    double crit = critical_angle(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
     if (c.r < SPC_PI && th - c.r >= crit)
         return false; /* total internal reflection for every direction */
     double so = fmin(1.0, n_in / n_out * sin(ti));
@@ -938,7 +955,7 @@ static bool backward_meets(flat_walk *w, int k)
     for (int i = k - 1; i >= 0; --i) {
         const flat_vertex *v = &P->v[i];
         spc_vec3 m = spc_scale(v->f->n, v->side_out); /* toward the side the reversed path arrives from */
-        if (v->tir > 0.0 && b.r < SPC_PI && cap_within(b.a, b.r, m, asin(1.0 / v->tir)))
+        if (v->tir > 0.0 && b.r < SPC_PI && cap_within(b.a, b.r, m, critical_angle(1.0 / v->tir)))
             return false; /* every direction within the critical angle: no total reflection */
         double n_in = P->seg[i] >= 0.0 ? P->seg[i] : 1.0, n_out = P->seg[i + 1] >= 0.0 ? P->seg[i + 1] : 1.0;
         cone back;
@@ -1031,7 +1048,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                         tir = side_index(eta, side) / side_index(eta, -side);
                         tir_ok = tir > 1.0 &&
                                  !(arrive.r < SPC_PI &&
-                                   cap_within(arrive.a, arrive.r, spc_scale(f->n, -side), asin(1.0 / tir)));
+                                   cap_within(arrive.a, arrive.r, spc_scale(f->n, -side), critical_angle(1.0 / tir)));
                         if (i > 0 && !tir_ok)
                             continue;
                     }
