@@ -16,6 +16,7 @@
 #include "manifold/flat_chains.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -907,6 +908,10 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
 /* Shapes whose shadow tests a walk caches (more are tested each time). */
 #define SPC_FLAT_WALK_SHAPES 32
 
+/* Casters whose faces' direction caps toward another caster's faces a walk caches: 64 faces, 4 kB
+ * of flags cleared per walk (the caps themselves, 128 kB, are not cleared). */
+#define SPC_FLAT_PAIR_SLOTS 4
+
 typedef struct flat_walk {
     const spc_scene *sc;
     const spc_chain_casters *cs;
@@ -925,7 +930,26 @@ typedef struct flat_walk {
     int sequences;
     int bound_ends; /* solves ended by the bound on the faces */
     bool stop;
+    /* cone_faces between faces of two different casters in the first SPC_FLAT_PAIR_SLOTS slots,
+     * per (slot * SPC_FLAT_MAX_FACES + face) pair, and whether known; pair_cap is read only where
+     * known, so it stays out of the walk's clearing (it is last) */
+    unsigned char pair_known[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
+    cone pair_cap[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
 } flat_walk;
+
+/* faces_cap from vertex a's face to vertex b's, cached where they are on different casters. */
+static cone walk_faces_cap(flat_walk *w, const flat_vertex *a, int slot_b, const flat_cache *cb, const flat_face *b)
+{
+    if (a->fc == cb || a->slot >= SPC_FLAT_PAIR_SLOTS || slot_b >= SPC_FLAT_PAIR_SLOTS)
+        return faces_cap(a->fc, a->f, cb, b);
+    int ia = a->slot * SPC_FLAT_MAX_FACES + (int)(a->f - a->fc->face);
+    int ib = slot_b * SPC_FLAT_MAX_FACES + (int)(b - cb->face);
+    if (!w->pair_known[ia][ib]) {
+        w->pair_cap[ia][ib] = cone_faces(a->f, b);
+        w->pair_known[ia][ib] = 1;
+    }
+    return w->pair_cap[ia][ib];
+}
 
 /* shadowed() of face fi of the caster in slot j from x (end 0) or y (end 1), cached. */
 static bool walk_shadowed(flat_walk *w, int end, int j, const flat_cache *fc, int fi, double tol)
@@ -973,7 +997,7 @@ static bool backward_meets(flat_walk *w, int k)
         if (!cone_through(cone_neg(b), m, v->event == SPC_CHAIN_REFLECT, n_out, n_in, &back))
             return false;
         b = cone_neg(back);
-        cone between = i > 0 ? faces_cap(P->v[i - 1].fc, P->v[i - 1].f, v->fc, v->f)
+        cone between = i > 0 ? walk_faces_cap(w, &P->v[i - 1], v->slot, v->fc, v->f)
                              : walk_end_cap(w, 0, v->slot, v->fc, (int)(v->f - v->fc->face));
         if (!cones_meet(b, between))
             return false;
@@ -1039,7 +1063,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                     if (!prev) {
                         arrive = walk_end_cap(w, 0, j, fc, fi);
                     } else {
-                        cone between = faces_cap(prev->fc, prev->f, fc, f);
+                        cone between = walk_faces_cap(w, prev, j, fc, f);
                         if (!cones_meet(dir, between))
                             break;
                         if (between.r < arrive.r)
@@ -1137,7 +1161,7 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
     if (!flat)
         return 0;
     flat_walk w;
-    memset(&w, 0, sizeof w);
+    memset(&w, 0, offsetof(flat_walk, pair_cap));
     w.sc = sc;
     w.cs = cs;
     w.any_surface = any_surface;
