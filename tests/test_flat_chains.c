@@ -509,7 +509,8 @@ TEST(roots_do_not_depend_on_caster_order)
         spc_mat4 M[CASTERS];
         double eta[CASTERS];
         for (int i = 0; i < CASTERS; ++i) {
-            spc_vec3 scale = spc_v3(0.3 + 0.3 * rnd(), 0.3 + 0.3 * rnd(), rnd() < 0.6 ? 0.03 + 0.05 * rnd() : 0.2 + 0.2 * rnd());
+            double sx = 0.3 + 0.3 * rnd(), sy = 0.3 + 0.3 * rnd();
+            spc_vec3 scale = spc_v3(sx, sy, rnd() < 0.6 ? 0.03 + 0.05 * rnd() : 0.2 + 0.2 * rnd());
             spc_vec3 axis = spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
             spc_vec3 at = spc_v3(1.2 * rnd() - 0.6, 1.2 * rnd() - 0.6, 0.6 + 0.45 * i + 0.2 * rnd());
             M[i] = place(scale, axis, 60.0 * rnd() - 30.0, at);
