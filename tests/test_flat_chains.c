@@ -422,7 +422,8 @@ TEST(four_vertex_chains_every_call)
 
 /* Random configurations: two or three glass cubes or slabs and a prism, each scaled, tilted and
  * placed at random over the floor, x on the floor and y above the casters. For each, the roots of
- * each length 1 to 5 found with the bound on the faces and without it agree exactly. */
+ * each length 1 to 5 found with the bound on the faces and without it agree exactly, and the bound
+ * ends a share of the solves that only its tight form reaches. */
 TEST(face_bound_loses_no_root)
 {
     spc_rng_seed(&rng, 41, 3);
@@ -473,8 +474,87 @@ TEST(face_bound_loses_no_root)
            queries, roots, ended, solved_on, differ);
     CHECK(scenes == 6);
     CHECK(roots >= 20);
-    CHECK(ended >= 20);
+    /* the bound ends a ninth of the solves here or more (568 of 4523; 466 where the smoothing's
+     * term is taken as mu eta_j for every segment, the looser form) */
+    CHECK(ended * 9 >= solved_on);
     CHECK(solved_on == solved_off);
+    CHECK(differ == 0);
+}
+
+/* Orders roots (k points each) for comparison as sets. */
+static int k_cmp;
+static int root_cmp(const void *a, const void *b)
+{
+    const spc_vec3 *p = a, *q = b;
+    for (int i = 0; i < k_cmp; ++i) {
+        double d[3] = {p[i].x - q[i].x, p[i].y - q[i].y, p[i].z - q[i].z};
+        for (int c = 0; c < 3; ++c)
+            if (d[c] != 0.0)
+                return d[c] < 0.0 ? -1 : 1;
+    }
+    return 0;
+}
+
+/* Four glass slabs and cubes placed at random, loaded in one order and in the reverse: the walk
+ * visits the casters in their order (and caches the direction caps between faces of different
+ * casters by their slots), but the chains and the pruning are the scene's, so the roots of each
+ * length 1 to 4 agree as sets, bit for bit, and so does the number of face sequences solved (a
+ * wrong cap moves it long before it loses a root). */
+TEST(roots_do_not_depend_on_caster_order)
+{
+    spc_rng_seed(&rng, 77, 5);
+    int queries = 0, roots = 0, solved = 0, differ = 0;
+    enum { MAXR = 64, CASTERS = 4 };
+    for (int t = 0; t < 8; ++t) {
+        spc_mat4 M[CASTERS];
+        double eta[CASTERS];
+        for (int i = 0; i < CASTERS; ++i) {
+            double sx = 0.3 + 0.3 * rnd(), sy = 0.3 + 0.3 * rnd();
+            spc_vec3 scale = spc_v3(sx, sy, rnd() < 0.6 ? 0.03 + 0.05 * rnd() : 0.2 + 0.2 * rnd());
+            spc_vec3 axis = spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+            spc_vec3 at = spc_v3(1.2 * rnd() - 0.6, 1.2 * rnd() - 0.6, 0.6 + 0.45 * i + 0.2 * rnd());
+            M[i] = place(scale, axis, 60.0 * rnd() - 30.0, at);
+            eta[i] = 1.33 + 0.2 * rnd();
+        }
+        spc_vec3 light = spc_v3(0.4 * rnd() - 0.2, 0.4 * rnd() - 0.2, 3.2);
+        spc_scene *sc[2];
+        for (int o = 0; o < 2; ++o) {
+            sc[o] = floor_scene();
+            for (int i = 0; i < CASTERS; ++i) {
+                int c = o ? CASTERS - 1 - i : i;
+                add_cube(sc[o], &M[c], tu_glass(sc[o], eta[c]));
+            }
+            sc[o] = add_light_finish(sc[o], light, 0.1);
+            CHECK(sc[o] != NULL);
+        }
+        if (!sc[0] || !sc[1]) {
+            spc_scene_destroy(sc[0]);
+            spc_scene_destroy(sc[1]);
+            continue;
+        }
+        for (int qi = 0; qi < 16; ++qi) {
+            spc_vec3 x = spc_v3(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 0.0);
+            spc_vec3 y = spc_v3(0.4 * rnd() - 0.2, 0.4 * rnd() - 0.2, 3.1);
+            for (int k = 1; k <= 4; ++k) {
+                spc_vec3 pa[4 * MAXR], pb[4 * MAXR];
+                int sa = 0, sb = 0;
+                int na = spc_flat_chain_roots(sc[0], false, false, x, y, k, pa, NULL, MAXR, &sa);
+                int nb = spc_flat_chain_roots(sc[1], false, false, x, y, k, pb, NULL, MAXR, &sb);
+                k_cmp = k;
+                qsort(pa, (size_t)na, sizeof(spc_vec3) * (size_t)k, root_cmp);
+                qsort(pb, (size_t)nb, sizeof(spc_vec3) * (size_t)k, root_cmp);
+                ++queries;
+                roots += na;
+                solved += sa;
+                if (na != nb || sa != sb || memcmp(pa, pb, sizeof(spc_vec3) * (size_t)(k * na)) != 0)
+                    ++differ;
+            }
+        }
+        spc_scene_destroy(sc[0]);
+        spc_scene_destroy(sc[1]);
+    }
+    printf("  %d queries: %d roots, %d sequences solved, %d queries differ\n", queries, roots, solved, differ);
+    CHECK(roots >= 50);
     CHECK(differ == 0);
 }
 
@@ -489,5 +569,6 @@ int main(void)
     RUN(two_slabs_contain_randomized_solutions);
     RUN(four_vertex_chains_every_call);
     RUN(face_bound_loses_no_root);
+    RUN(roots_do_not_depend_on_caster_order);
     return spc_test_finish();
 }

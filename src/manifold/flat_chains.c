@@ -16,6 +16,7 @@
 #include "manifold/flat_chains.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -88,6 +89,34 @@ typedef struct cone {
 
 static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(fmax(-1.0, fmin(1.0, spc_dot(a, b)))); }
 
+/* asin(x) for the critical angles: x is a ratio of the scene's indices, so one thread asks for a
+ * few values over and over; the last two are kept per thread (the same value, without the call). */
+static double critical_angle(double x)
+{
+    static _Thread_local double key[2] = {-1.0, -1.0}, val[2];
+    static _Thread_local int next;
+    if (x == key[0])
+        return val[0];
+    if (x == key[1])
+        return val[1];
+    int i = next;
+    next ^= 1;
+    key[i] = x;
+    val[i] = asin(x);
+    return val[i];
+}
+
+/* Does every direction of the cap (a, r), r < pi, lie within the angle crit < pi/2 of the unit
+ * vector m: angle(a, m) + r <= crit? Without the acos where the answer is plain: a cap wider than
+ * crit, or an axis at a right angle or more from m, is not within it (the angle is >= 0, and >=
+ * pi/2 > crit there). */
+static bool cap_within(spc_vec3 a, double r, spc_vec3 m, double crit)
+{
+    if (r > crit || !(spc_dot(a, m) > 0.0))
+        return false;
+    return angle_between(a, m) + r <= crit;
+}
+
 /* The directions from the points of the sphere (c0, r0) to those of the sphere (c1, r1). */
 static cone cone_between(spc_vec3 c0, double r0, spc_vec3 c1, double r1)
 {
@@ -100,11 +129,22 @@ static cone cone_between(spc_vec3 c0, double r0, spc_vec3 c1, double r1)
 
 /* Do the caps p and q share a direction? Their axes within the sum of their radii (and 1e-9): as a
  * cosine, which spares an acos per test (the walk's most frequent one); the 1e-12 on the cosine
- * keeps the test at least as wide as the angle's through the rounding of either. */
-static bool cones_meet(cone p, cone q)
+ * keeps the test at least as wide as the angle's through the rounding of either. Most tests are
+ * decided by cos's polynomial bounds, without the call. */
+static inline bool cones_meet(cone p, cone q)
 {
     double t = p.r + q.r + 1e-9;
-    return t >= SPC_PI || spc_dot(p.a, q.a) >= cos(t) - 1e-12;
+    if (t >= SPC_PI)
+        return true;
+    /* cos t lies between 1 - t^2/2 and that plus t^4/24 (Taylor's bounds, for every t): outside
+     * that band widened by 1e-14 (far above the rounding of either side) the answer is the
+     * cosine's, which is computed only inside it */
+    double d = spc_dot(p.a, q.a), t2 = t * t, lo = 1.0 - 0.5 * t2;
+    if (d < lo - 1e-12 - 1e-14)
+        return false;
+    if (d >= lo + t2 * t2 * (1.0 / 24.0) - 1e-12 + 1e-14)
+        return true;
+    return d >= cos(t) - 1e-12;
 }
 
 static cone cone_neg(cone c) { return (cone){spc_neg(c.a), c.r}; }
@@ -468,24 +508,27 @@ static void block(double c, const double uu[2][2], const double ae[2], const dou
 }
 
 /* A lower bound on L (mu 0) over the box C of the sequence: the points whose every vertex lies in
- * the convex hull of its face's corners. L is convex, so at any s its tangent plane bounds it from
- * below, L(c) >= L(s) + g . (c - s), and a linear function takes its minimum over the hull at a
- * corner (per vertex: C is a product of polygons). Smoothing each of the k + 1 terms by mu adds at
- * most mu eta_j to it, so from L_mu and its gradient g at s:
+ * the convex hull of its face's corners. For any vectors lambda_j with |lambda_j| <= eta_j,
+ * eta_j |r_j(c)| >= lambda_j . r_j(c) (Cauchy-Schwarz), and the sum of the right sides is affine
+ * in c. With lambda_j = eta_j r_j(s) / len_j (len_j = sqrt(|r_j(s)|^2 + mu^2), the smoothed
+ * terms' gradients at s), that sum is
  *
- *     min over C of L  >=  L_mu(s) + sum_i min over corners c of face i of g_i . (c - s_i) - mu sum_j eta_j.
+ *     L_mu(s) - sum_j eta_j mu^2 / len_j + g . (c - s),
  *
- * The corners are those of the face's triangles in its (u, v) coordinates, the same coordinates s
- * uses. Each vertex's term is lowered by |g_i| times SPC_FLAT_BOUND_SLACK of the problem's size: a
- * root is accepted up to SPC_FLAT_EDGE_REL outside its triangles' edges (in_face), which moves it
- * that far from the hull at most by that distance over the sine of half the triangles' sharpest
- * angle. */
-static double lower_bound_on_faces(const flat_problem *P, double mu, const double *s, const double *g, double L)
+ * g the gradient of L_mu at s, and a linear function takes its minimum over the hull at a corner
+ * (per vertex: C is a product of polygons). So
+ *
+ *     min over C of L  >=  L_mu(s) - mu^2 sum_j eta_j / len_j + sum_i min over corners c of face i of g_i . (c - s_i).
+ *
+ * (the smoothing's term is mu^2 eta_j / len_j <= mu eta_j, and far smaller on the segments longer
+ * than mu; `smooth` holds mu^2 sum_j eta_j / len_j). The corners are those of the face's triangles
+ * in its (u, v) coordinates, the same coordinates s uses. Each vertex's term is lowered by |g_i|
+ * times SPC_FLAT_BOUND_SLACK of the problem's size: a root is accepted up to SPC_FLAT_EDGE_REL
+ * outside its triangles' edges (in_face), which moves it that far from the hull at most by that
+ * distance over the sine of half the triangles' sharpest angle. */
+static double lower_bound_on_faces(const flat_problem *P, double smooth, const double *s, const double *g, double L)
 {
-    double lb = L, eta_sum = 0.0;
-    for (int j = 0; j <= P->k; ++j)
-        eta_sum += P->seg[j];
-    lb -= mu * eta_sum;
+    double lb = L - smooth;
     for (int i = 0; i < P->k; ++i) {
         const flat_face *f = P->v[i].f;
         const double *c = P->v[i].fc->tri2d + 6 * f->first;
@@ -521,7 +564,10 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
             e[j] = spc_scale(r, 1.0 / len);
             cj[j] = P->seg[j] / len;
         }
-        double g[2 * SPC_FLAT_MAX_VERTICES];
+        double g[2 * SPC_FLAT_MAX_VERTICES], smooth = 0.0;
+        for (int j = 0; j <= k; ++j)
+            smooth += cj[j];
+        smooth *= mu * mu;
         gmax = 0.0;
         for (int i = 0; i < k; ++i) {
             spc_vec3 t = spc_sub(spc_scale(e[i], P->seg[i]), spc_scale(e[i + 1], P->seg[i + 1]));
@@ -529,7 +575,7 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
             g[2 * i + 1] = spc_dot(t, P->v[i].f->v);
             gmax = fmax(gmax, fmax(fabs(g[2 * i]), fabs(g[2 * i + 1])));
         }
-        *lb = fmax(*lb, lower_bound_on_faces(P, mu, s, g, *L));
+        *lb = fmax(*lb, lower_bound_on_faces(P, smooth, s, g, *L));
         if (P->bound && *lb > *L + SPC_FLAT_BOUND_SLACK * P->scale)
             return -2.0; /* every point of C is longer than this one: the minimum lies outside C */
         if (gmax < tol || it == steps)
@@ -821,7 +867,8 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
      * elsewhere its two tests read on the cosine (the test below: th >= c.r + pi/2 - 1e-12, as
      * cos th <= -sin(c.r - 1e-12), with 1e-12 more on the cosine so that it is never wider) */
     double cth = spc_dot(c.a, down), th = 0.0;
-    if (c.r < SPC_PI && c.r < 0.5 * SPC_PI + 1e-12 && cth < -sin(c.r - 1e-12) - 1e-12)
+    /* cth >= 0 passes without the sine: sin(c.r - 1e-12) >= -1e-12 for the radii c.r >= 0 */
+    if (cth < 0.0 && c.r < SPC_PI && c.r < 0.5 * SPC_PI + 1e-12 && cth < -sin(c.r - 1e-12) - 1e-12)
         return false; /* every direction runs parallel to the plane or away from it */
     if (reflect) {
         if (c.r >= SPC_PI) {
@@ -837,13 +884,13 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
     }
     bool narrow = c.r < 0.5 * SPC_PI && cth > 0.0;
     if (n_in < n_out) {
-        double crit = asin(n_in / n_out), r = c.r * (n_in / n_out);
+        double crit = critical_angle(n_in / n_out), r = c.r * (n_in / n_out);
         *out = narrow && r < crit ? (cone){refract_axis(c.a, m, n_in, n_out), r} : (cone){down, crit};
         return true;
     }
     if (c.r < SPC_PI)
         th = acos(fmax(-1.0, fmin(1.0, cth)));
-    double crit = asin(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
+    double crit = critical_angle(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
     if (c.r < SPC_PI && th - c.r >= crit)
         return false; /* total internal reflection for every direction */
     double so = fmin(1.0, n_in / n_out * sin(ti));
@@ -860,6 +907,10 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
 
 /* Shapes whose shadow tests a walk caches (more are tested each time). */
 #define SPC_FLAT_WALK_SHAPES 32
+
+/* Casters whose faces' direction caps toward another caster's faces a walk caches: 64 faces, 4 kB
+ * of flags cleared per walk (the caps themselves, 128 kB, are not cleared). */
+#define SPC_FLAT_PAIR_SLOTS 4
 
 typedef struct flat_walk {
     const spc_scene *sc;
@@ -879,7 +930,26 @@ typedef struct flat_walk {
     int sequences;
     int bound_ends; /* solves ended by the bound on the faces */
     bool stop;
+    /* cone_faces between faces of two different casters in the first SPC_FLAT_PAIR_SLOTS slots,
+     * per (slot * SPC_FLAT_MAX_FACES + face) pair, and whether known; pair_cap is read only where
+     * known, so it stays out of the walk's clearing (it is last) */
+    unsigned char pair_known[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
+    cone pair_cap[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
 } flat_walk;
+
+/* faces_cap from vertex a's face to vertex b's, cached where they are on different casters. */
+static cone walk_faces_cap(flat_walk *w, const flat_vertex *a, int slot_b, const flat_cache *cb, const flat_face *b)
+{
+    if (a->fc == cb || a->slot >= SPC_FLAT_PAIR_SLOTS || slot_b >= SPC_FLAT_PAIR_SLOTS)
+        return faces_cap(a->fc, a->f, cb, b);
+    int ia = a->slot * SPC_FLAT_MAX_FACES + (int)(a->f - a->fc->face);
+    int ib = slot_b * SPC_FLAT_MAX_FACES + (int)(b - cb->face);
+    if (!w->pair_known[ia][ib]) {
+        w->pair_cap[ia][ib] = cone_faces(a->f, b);
+        w->pair_known[ia][ib] = 1;
+    }
+    return w->pair_cap[ia][ib];
+}
 
 /* shadowed() of face fi of the caster in slot j from x (end 0) or y (end 1), cached. */
 static bool walk_shadowed(flat_walk *w, int end, int j, const flat_cache *fc, int fi, double tol)
@@ -920,14 +990,14 @@ static bool backward_meets(flat_walk *w, int k)
     for (int i = k - 1; i >= 0; --i) {
         const flat_vertex *v = &P->v[i];
         spc_vec3 m = spc_scale(v->f->n, v->side_out); /* toward the side the reversed path arrives from */
-        if (v->tir > 0.0 && b.r < SPC_PI && angle_between(b.a, m) + b.r <= asin(1.0 / v->tir))
+        if (v->tir > 0.0 && b.r < SPC_PI && cap_within(b.a, b.r, m, critical_angle(1.0 / v->tir)))
             return false; /* every direction within the critical angle: no total reflection */
         double n_in = P->seg[i] >= 0.0 ? P->seg[i] : 1.0, n_out = P->seg[i + 1] >= 0.0 ? P->seg[i + 1] : 1.0;
         cone back;
         if (!cone_through(cone_neg(b), m, v->event == SPC_CHAIN_REFLECT, n_out, n_in, &back))
             return false;
         b = cone_neg(back);
-        cone between = i > 0 ? faces_cap(P->v[i - 1].fc, P->v[i - 1].f, v->fc, v->f)
+        cone between = i > 0 ? walk_faces_cap(w, &P->v[i - 1], v->slot, v->fc, v->f)
                              : walk_end_cap(w, 0, v->slot, v->fc, (int)(v->f - v->fc->face));
         if (!cones_meet(b, between))
             return false;
@@ -993,7 +1063,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                     if (!prev) {
                         arrive = walk_end_cap(w, 0, j, fc, fi);
                     } else {
-                        cone between = faces_cap(prev->fc, prev->f, fc, f);
+                        cone between = walk_faces_cap(w, prev, j, fc, f);
                         if (!cones_meet(dir, between))
                             break;
                         if (between.r < arrive.r)
@@ -1013,7 +1083,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                         tir = side_index(eta, side) / side_index(eta, -side);
                         tir_ok = tir > 1.0 &&
                                  !(arrive.r < SPC_PI &&
-                                   angle_between(arrive.a, spc_scale(f->n, -side)) + arrive.r <= asin(1.0 / tir));
+                                   cap_within(arrive.a, arrive.r, spc_scale(f->n, -side), critical_angle(1.0 / tir)));
                         if (i > 0 && !tir_ok)
                             continue;
                     }
@@ -1091,7 +1161,7 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
     if (!flat)
         return 0;
     flat_walk w;
-    memset(&w, 0, sizeof w);
+    memset(&w, 0, offsetof(flat_walk, pair_cap));
     w.sc = sc;
     w.cs = cs;
     w.any_surface = any_surface;
