@@ -192,8 +192,8 @@
  * its weight there stays near 1, and such a hit of a small bright light is one sample hundreds of
  * times its pixel's mean. On bench/check/mirror_bowl.xml (a mirror bowl focusing a small light onto
  * the floor) at equal CPU time over 24 seeds, mean relMSE 0.0074 (worst seed 0.135, one pixel 99% of
- * it; median 0.0014) with first=0.1 against 0.0009 (worst 0.0021; median 0.0008) without, none
- * 0.032: the query costs 2.7x per sample there and still pays (bench/RESULTS.md, "The default
+ * it; median 0.0015) with first=0.1 against 0.0009 (worst 0.0021; median 0.0008) without, none
+ * 0.032: the query costs 2.5-2.7x per sample there and still pays (bench/RESULTS.md, "The default
  * against none on every caster scene at 8 seeds", and part mirror10). Where the mirrors' chains are
  * enumerated exactly (a sphere, a cylinder) the roulette stays: on scenes/caustic_mirror_ring.xml the
  * query at every first receiver cost 1.1x on the median over 24 seeds and left the same one-pixel
