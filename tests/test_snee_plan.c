@@ -1009,6 +1009,35 @@ TEST(tessellated_ball_plan)
     spc_scene_destroy(sc);
 }
 
+/* Where every caster is a mirror, one whose chains go to the randomized solver (the mirror bowl,
+ * bench/check/mirror_bowl.xml, a triangle mesh with vertex normals) gets the query at every first
+ * receiver (SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS: no first=P roulette, whose P in the query's side of
+ * MIS left BSDF-sampled hits of the light through the bowl near weight 1); mirrors enumerated
+ * exactly (the mirror ring's cylinder) keep the roulette (SPC_SNEE_PLAN_SETTING_MIRRORS). Neither
+ * has the query from the camera. */
+TEST(solved_mirror_plan_no_first_roulette)
+{
+    static const struct {
+        const char *scene, *setting;
+        double first_p;
+    } cases[] = {
+        {"bench/check/mirror_bowl.xml", SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS, 1.0},
+        {"scenes/caustic_mirror_ring.xml", SPC_SNEE_PLAN_SETTING_MIRRORS, 0.1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        spc_scene *sc = load_at(cases[i].scene, "8");
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && !strcmp(p.setting, cases[i].setting) && spc_snee_parse(p.setting, 2, &sp) &&
+                      sp.first_p == cases[i].first_p && sp.later_p == 0.1 && !sp.camera,
+                  "%s: %s (%s)", cases[i].scene, p.setting, p.reason);
+        spc_scene_destroy(sc);
+    }
+}
+
 /* Caustic guiding at receivers and the longer chains with probability 0.2 in a room where a glass
  * caster is an analytic sphere small enough for a cone (snee_plan.h, SPC_SNEE_PLAN_ROOM_GLASS_BALL):
  * on in path's default on the demo, not in volpath's nor bdpt's, not in the open (the glass-ball
@@ -1114,6 +1143,7 @@ int main(void)
     RUN(tessellated_ball_plan);
     RUN(recv_guide_with_glass_balls);
     RUN(closed_glass_mesh_plan_off);
+    RUN(solved_mirror_plan_no_first_roulette);
     RUN(volpath_ball_plan);
     return spc_test_finish();
 }

@@ -424,11 +424,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     }
     /* the query from the camera only where some caster is glass, by Russian roulette only where
      * every glass caster's chains are enumerated exactly (snee_plan.h) */
-    bool glass = false, exact = true, ball = false, cone = false;
+    bool glass = false, exact = true, ball = false, cone = false, solved_mirror = false;
     for (int i = 0; i < cs->n; ++i) {
         double eta = 0.0;
         const spc_shape *s = sc->shapes[cs->idx[i]];
-        if (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) {
+        if (!(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0))
+            solved_mirror = solved_mirror || spc_snee_plan_method(&p, s) == SPC_SNEE_METHOD_SOLVER;
+        else {
             glass = true;
             spc_vec3 cc;
             double cr;
@@ -448,7 +450,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting, sizeof out->setting, "%s",
                  glass ? SPC_SNEE_PLAN_SETTING_BDPT : SPC_SNEE_PLAN_SETTING_BDPT_MIRRORS);
     else if (!glass)
-        snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_MIRRORS);
+        snprintf(out->setting, sizeof out->setting, "%s",
+                 solved_mirror ? SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS : SPC_SNEE_PLAN_SETTING_MIRRORS);
     else if (ball)
         snprintf(out->setting, sizeof out->setting, "%s",
                  strcmp(integrator, "volpath") ? SPC_SNEE_PLAN_SETTING_BALLS : SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH);
