@@ -1326,6 +1326,25 @@ double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed)
 }
 
 /* Connections of camera vertex z[t-1] to the pass's pool: M_t picks, each adding C w / (N M_t q). */
+/* Picks connect_pool draws before joining any of them: the picked light vertices lie scattered
+ * over the pass's pool (each ~9 cache lines), and joining one waits on memory for most of its
+ * time (the door: the first read of a picked vertex held half of connect_st's own time). Drawing
+ * a batch first and prefetching its vertices lets those reads overlap. The draws and the sum keep
+ * their order, so the estimate is the same to the bit. */
+#define SPC_BDPT_PICK_BATCH 8
+
+/* Asks the cache for every line of light vertex v (a hint; no effect on the result). */
+static void prefetch_vertex(const vtx *v)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    const char *c = (const char *)v;
+    for (size_t off = 0; off < sizeof *v; off += 64)
+        __builtin_prefetch(c + off, 0, 3);
+#else
+    (void)v;
+#endif
+}
+
 static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx *z, int t, spc_rng *rng)
 {
     const spc_render_ctx *ctx = B->ctx;
@@ -1335,17 +1354,26 @@ static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx 
         return L;
     const int M = spc_bdpt_pool_connections(B->pm, t);
     const int c = spc_bdpt_pool_cell(B->pm, b->p);
-    for (int i = 0; i < M; ++i) {
-        double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
-        const spc_bdpt_pool_ref *ref;
-        double q;
-        if (!spc_bdpt_pool_pick(pool, c, u1, u2, &ref, &q))
-            continue;
-        if (ctx->max_depth >= 0 && ref->s + t - 1 > ctx->max_depth)
-            continue;
-        double w;
-        spc_rgb C = connect_st(B, ref->sub, ref->s, z, t, true, &w);
-        L = spc_rgb_add(L, spc_rgb_scale(C, w / (pool->light_paths * M * q)));
+    for (int i0 = 0; i0 < M; i0 += SPC_BDPT_PICK_BATCH) {
+        const int nb = M - i0 < SPC_BDPT_PICK_BATCH ? M - i0 : SPC_BDPT_PICK_BATCH;
+        const spc_bdpt_pool_ref *refs[SPC_BDPT_PICK_BATCH];
+        double qs[SPC_BDPT_PICK_BATCH];
+        for (int i = 0; i < nb; ++i) {
+            double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
+            if (!spc_bdpt_pool_pick(pool, c, u1, u2, &refs[i], &qs[i]) ||
+                (ctx->max_depth >= 0 && refs[i]->s + t - 1 > ctx->max_depth)) {
+                refs[i] = NULL;
+                continue;
+            }
+            prefetch_vertex((const vtx *)refs[i]->sub + (refs[i]->s - 1));
+        }
+        for (int i = 0; i < nb; ++i) {
+            if (!refs[i])
+                continue;
+            double w;
+            spc_rgb C = connect_st(B, refs[i]->sub, refs[i]->s, z, t, true, &w);
+            L = spc_rgb_add(L, spc_rgb_scale(C, w / (pool->light_paths * M * qs[i])));
+        }
     }
     return L;
 }
