@@ -1036,6 +1036,25 @@ static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *
 
 /* The camera's vertex z0 as light tracing (t = 1) and the MIS weights see it: at the pinhole (the
  * pool's light subpaths are traced before any camera sample). */
+/* Picks connect_pool draws before joining any of them: the picked light vertices lie scattered
+ * over the pass's pool (each ~9 cache lines), and joining one waits on memory for most of its
+ * time (the door: the first read of a picked vertex held half of connect_st's own time). Drawing
+ * a batch first and prefetching its vertices lets those reads overlap. The draws and the sum keep
+ * their order, so the estimate is the same to the bit. */
+#define SPC_BDPT_PICK_BATCH 8
+
+/* Asks the cache for every line of light vertex v (a hint; no effect on the result). */
+static void prefetch_vertex(const vtx *v)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    const char *c = (const char *)v;
+    for (size_t off = 0; off < sizeof *v; off += 64)
+        __builtin_prefetch(c + off, 0, 3);
+#else
+    (void)v;
+#endif
+}
+
 static void camera_vertex(const spc_render_ctx *ctx, vtx *z0)
 {
     memset(z0, 0, sizeof *z0);
@@ -1262,6 +1281,8 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
             if (!connectible(b))
                 continue;
             int c = spc_bdpt_pool_cell(m, b->p);
+            /* the picks first, their vertices prefetched (pv is tens of MB), then the joins */
+            const vtx *picked[SPC_BDPT_PILOT_PICKS];
             for (int k = 0; k < SPC_BDPT_PILOT_PICKS; ++k) {
                 size_t j;
                 double u = spc_rng_next(&rng);
@@ -1274,7 +1295,11 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
                     int jj = (int)((f - ci) * cnt);
                     j = (size_t)cidx[cst[kc] + (jj < cnt ? jj : cnt - 1)];
                 }
-                const vtx *a = &pv[j < n ? j : n - 1];
+                picked[k] = &pv[j < n ? j : n - 1];
+                prefetch_vertex(picked[k]);
+            }
+            for (int k = 0; k < SPC_BDPT_PILOT_PICKS; ++k) {
+                const vtx *a = picked[k];
                 int ka = spc_bdpt_pool_cell(m, a->p);
                 double p_pick = mix / (double)n + (1.0 - mix) / (nne * (double)(cst[ka + 1] - cst[ka]));
                 double v = lum(connection_value(a, b, false, d2_min)) / ((double)n * p_pick);
@@ -1326,25 +1351,6 @@ double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed)
 }
 
 /* Connections of camera vertex z[t-1] to the pass's pool: M_t picks, each adding C w / (N M_t q). */
-/* Picks connect_pool draws before joining any of them: the picked light vertices lie scattered
- * over the pass's pool (each ~9 cache lines), and joining one waits on memory for most of its
- * time (the door: the first read of a picked vertex held half of connect_st's own time). Drawing
- * a batch first and prefetching its vertices lets those reads overlap. The draws and the sum keep
- * their order, so the estimate is the same to the bit. */
-#define SPC_BDPT_PICK_BATCH 8
-
-/* Asks the cache for every line of light vertex v (a hint; no effect on the result). */
-static void prefetch_vertex(const vtx *v)
-{
-#if defined(__GNUC__) || defined(__clang__)
-    const char *c = (const char *)v;
-    for (size_t off = 0; off < sizeof *v; off += 64)
-        __builtin_prefetch(c + off, 0, 3);
-#else
-    (void)v;
-#endif
-}
-
 static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx *z, int t, spc_rng *rng)
 {
     const spc_render_ctx *ctx = B->ctx;
