@@ -1034,6 +1034,28 @@ static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *
 
 /* ---- the pool of light vertices (bdpt_pool.h) ---- */
 
+/* Picks connect_pool draws before joining any of them. The picked light vertices lie scattered
+ * over the pass's pool (a vertex spans about 9 cache lines), and a join waits on memory for most
+ * of its time (the door, one thread: the first read of a picked vertex held half of connect_st's
+ * own time). Drawing a batch first and prefetching its vertices lets those reads overlap; the pool
+ * model's pilot does the same with its SPC_BDPT_PILOT_PICKS picks. The draws and the sum keep
+ * their order, so the estimate is the same to the bit. 8: door and lamp 1.17-1.23x less CPU per
+ * sample (with the pilot's prefetch); prefetching the picked subpath's earlier vertices too (which
+ * the MIS weight reads) was 1.03x slower. */
+#define SPC_BDPT_PICK_BATCH 8
+
+/* Asks the cache for every line of light vertex v (a hint; no effect on the result). */
+static void prefetch_vertex(const vtx *v)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    const char *c = (const char *)v;
+    for (size_t off = 0; off < sizeof *v; off += 64)
+        __builtin_prefetch(c + off, 0, 3);
+#else
+    (void)v;
+#endif
+}
+
 /* The camera's vertex z0 as light tracing (t = 1) and the MIS weights see it: at the pinhole (the
  * pool's light subpaths are traced before any camera sample). */
 static void camera_vertex(const spc_render_ctx *ctx, vtx *z0)
@@ -1262,6 +1284,8 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
             if (!connectible(b))
                 continue;
             int c = spc_bdpt_pool_cell(m, b->p);
+            /* the picks first, their vertices prefetched (pv is tens of MB), then the joins */
+            const vtx *picked[SPC_BDPT_PILOT_PICKS];
             for (int k = 0; k < SPC_BDPT_PILOT_PICKS; ++k) {
                 size_t j;
                 double u = spc_rng_next(&rng);
@@ -1274,7 +1298,11 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
                     int jj = (int)((f - ci) * cnt);
                     j = (size_t)cidx[cst[kc] + (jj < cnt ? jj : cnt - 1)];
                 }
-                const vtx *a = &pv[j < n ? j : n - 1];
+                picked[k] = &pv[j < n ? j : n - 1];
+                prefetch_vertex(picked[k]);
+            }
+            for (int k = 0; k < SPC_BDPT_PILOT_PICKS; ++k) {
+                const vtx *a = picked[k];
                 int ka = spc_bdpt_pool_cell(m, a->p);
                 double p_pick = mix / (double)n + (1.0 - mix) / (nne * (double)(cst[ka + 1] - cst[ka]));
                 double v = lum(connection_value(a, b, false, d2_min)) / ((double)n * p_pick);
@@ -1335,17 +1363,26 @@ static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx 
         return L;
     const int M = spc_bdpt_pool_connections(B->pm, t);
     const int c = spc_bdpt_pool_cell(B->pm, b->p);
-    for (int i = 0; i < M; ++i) {
-        double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
-        const spc_bdpt_pool_ref *ref;
-        double q;
-        if (!spc_bdpt_pool_pick(pool, c, u1, u2, &ref, &q))
-            continue;
-        if (ctx->max_depth >= 0 && ref->s + t - 1 > ctx->max_depth)
-            continue;
-        double w;
-        spc_rgb C = connect_st(B, ref->sub, ref->s, z, t, true, &w);
-        L = spc_rgb_add(L, spc_rgb_scale(C, w / (pool->light_paths * M * q)));
+    for (int i0 = 0; i0 < M; i0 += SPC_BDPT_PICK_BATCH) {
+        const int nb = M - i0 < SPC_BDPT_PICK_BATCH ? M - i0 : SPC_BDPT_PICK_BATCH;
+        const spc_bdpt_pool_ref *refs[SPC_BDPT_PICK_BATCH];
+        double qs[SPC_BDPT_PICK_BATCH];
+        for (int i = 0; i < nb; ++i) {
+            double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
+            if (!spc_bdpt_pool_pick(pool, c, u1, u2, &refs[i], &qs[i]) ||
+                (ctx->max_depth >= 0 && refs[i]->s + t - 1 > ctx->max_depth)) {
+                refs[i] = NULL;
+                continue;
+            }
+            prefetch_vertex((const vtx *)refs[i]->sub + (refs[i]->s - 1));
+        }
+        for (int i = 0; i < nb; ++i) {
+            if (!refs[i])
+                continue;
+            double w;
+            spc_rgb C = connect_st(B, refs[i]->sub, refs[i]->s, z, t, true, &w);
+            L = spc_rgb_add(L, spc_rgb_scale(C, w / (pool->light_paths * M * qs[i])));
+        }
     }
     return L;
 }
