@@ -211,7 +211,8 @@ static bool core_point(spc_vec3 o, spc_vec3 a, double R, spc_vec3 p, spc_vec3 *c
  * the segment's sphere finds too, and one of a pair of valuable chains near a fold, which one seed
  * of the 5 reaches, got p 0.07 (a trial count of 42: that scene's worst seed); without that sphere
  * p 0.12, and test_fit_seeds' 8 ring points' summed second moment fell from 79 to 45
- * (bench/RESULTS.md, "torus11"). 2: an end on or just off the tube keeps its sphere. */
+ * (bench/RESULTS.md, "The SDF torus's tails traced"). 2: an end on or just off the tube keeps its
+ * sphere. */
 #define SPC_TUBE_NEAR 2.0
 /* The longest chains seeded from the tube spheres (spc_fit_seed). */
 #define SPC_TUBE_MAX_CHAIN 2
