@@ -266,11 +266,68 @@ TEST(torus_tube_seeds)
     spc_scene_destroy(sc);
 }
 
+/* Below the torus's low rim of scenes/caustic_sdf_torus.xml (the floor point of that scene's worst
+ * seed) toward the bottom of the light, two valuable 2-vertex chains lie near a fold, a few
+ * hundredths of a radian apart; one seed direction of the tube spheres reaches the second. The
+ * light's end lies 7 tube radii from the core circle, so its sphere gives no seeds: 3 directions,
+ * not 5, and that chain's p about 0.12 (0.07 with the light's sphere's seeds), its trial count still
+ * an unbiased 1 / p. Fails with the far end's sphere kept (p below 0.095, 5 directions). */
+TEST(torus_fold_pair_far_end)
+{
+    spc_scene *sc = tu_load("scenes/caustic_sdf_torus.xml", 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_snee_params pf, pu;
+    CHECK(spc_snee_parse("angular:camera,first=0.1,later=0.1", 2, &pf));
+    CHECK(spc_snee_parse("angular:camera,first=0.1,later=0.1,nofitseeds", 2, &pu));
+    const int attempts = spc_test_quick() ? 1500 : 3000, counts = spc_test_quick() ? 50 : 100;
+    chain_seeds_cmp res;
+    chain_seeds_cmp_init(&res);
+    spc_rng rng;
+    spc_rng_seed(&rng, 11, 5);
+    const spc_emitter *e = sc->nemitters > 0 ? sc->emitters[0] : NULL;
+    spc_hit x;
+    bool xf = e && chain_floor_point(sc, 0, -0.121, 0.877, &x);
+    CHECK(xf);
+    int ndirs = -1;
+    for (int i = 0; i < 2 && xf; ++i) {
+        spc_snee_query qf, qu;
+        spc_snee_query_init(&qf, sc, &pf, &x, spc_v3(0, 1, 0), 2);
+        spc_vec2 uv;
+        double p_y;
+        pf.light_u_on = true; /* the light's lowest points */
+        pf.light_u[0] = 0.5;
+        pf.light_u[1] = 0.05 * i;
+        pf.light_u[2] = 0.5;
+        bool lit = spc_snee_sample_light(sc, false, &rng, &qf, &e, &uv, &p_y);
+        pf.light_u_on = false;
+        CHECK(lit);
+        if (!lit)
+            continue;
+        spc_fit_roots fit;
+        fit.nshapes = 0;
+        qf.fit = &fit;
+        qu = qf;
+        qu.params = &pu;
+        qu.fit = NULL;
+        chain_seeds_compare(&qf, &qu, e, uv, sc->radius, &rng, attempts, counts, 0.01, i, &res);
+        ndirs = fit.nshapes > 0 ? fit.e[0].n : 0;
+    }
+    printf("    tube seed directions %d; smallest p of a valuable chain: tube seeds %.4f, cone seeds %.4f\n", ndirs,
+           res.pmin_a, res.pmin_b);
+    CHECK_MSG(ndirs == 3, "%d tube seed directions", ndirs);
+    CHECK_MSG(res.checked >= 4, "%d chains checked", res.checked);
+    CHECK_MSG(res.pmin_a >= 0.095, "a valuable chain found with p %g", res.pmin_a);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(fit_of_a_tessellated_ball_only);
     RUN(fit_seeds_find_every_chain_and_count_unbiased);
     RUN(fit_root_count_by_length);
     RUN(torus_tube_seeds);
+    RUN(torus_fold_pair_far_end);
     return spc_test_finish();
 }

@@ -199,11 +199,21 @@ static bool core_point(spc_vec3 o, spc_vec3 a, double R, spc_vec3 p, spc_vec3 *c
 }
 
 /* The first directions of the chains of spheres of the tube's radius r centred on the core circle
- * where the chains from q's x to its y cross the tube: at the core points nearest to x, to y and to
- * the point of the segment x y closest to the circle (SPC_TUBE_SEGMENT_STEPS samples), those within r
- * of an earlier one left out. Across its tube a torus is that sphere (along the tube it curves with
- * R + r or R - r instead), so the sphere's exact solutions lie near the torus's. */
+ * where the chains from q's x to its y cross the tube: at the core point nearest to the point of the
+ * segment x y closest to the circle (SPC_TUBE_SEGMENT_STEPS samples), and at those nearest to x and
+ * to y where that end lies within SPC_TUBE_NEAR r of the circle; a centre within r of an earlier one
+ * is left out. Across its tube a torus is that sphere (along the tube it curves with R + r or R - r
+ * instead), so the sphere's exact solutions lie near the torus's. */
 #define SPC_TUBE_SEGMENT_STEPS 16
+/* How near the core circle (in tube radii) an end of the query must lie for the tube sphere nearest
+ * it to seed. A far end's sphere lies across the ring from the chains: on
+ * scenes/caustic_sdf_torus.xml the light's (7 r away) gave 2 of a floor point's 5 seeds, to chains
+ * the segment's sphere finds too, and one of a pair of valuable chains near a fold, which one seed
+ * of the 5 reaches, got p 0.07 (a trial count of 42: that scene's worst seed); without that sphere
+ * p 0.12, and test_fit_seeds' 8 ring points' summed second moment fell from 79 to 45
+ * (bench/RESULTS.md, "The SDF torus's tails traced"). 2: an end on or just off the tube keeps its
+ * sphere. */
+#define SPC_TUBE_NEAR 2.0
 /* The longest chains seeded from the tube spheres (spc_fit_seed). */
 #define SPC_TUBE_MAX_CHAIN 2
 static int tube_dirs(const spc_snee_query *q, const spc_shape *s, const fit_cache *fc, spc_vec3 *dir, signed char *ms,
@@ -228,6 +238,8 @@ static int tube_dirs(const spc_snee_query *q, const spc_shape *s, const fit_cach
         spc_vec3 c;
         if (!core_point(fc->center, fc->axis, fc->major, from[i], &c))
             continue;
+        if (i > 0 && spc_distance(from[i], c) > SPC_TUBE_NEAR * fc->minor)
+            continue; /* an end far from the tube: its sphere lies away from the chains */
         bool near = false;
         for (int j = 0; j < nc && !near; ++j)
             near = spc_distance(cand[j], c) < fc->minor;
