@@ -89,7 +89,7 @@ static bool f_angles(double d, double y1, double y2, int m, double eta, double t
 /* Random configurations against the dense scan: m from -1 to 5 (low: -1 and 0 only, the orders
  * with the coarser grid, y mostly behind the sphere where the refraction's caustic and its folds
  * lie, within a few radii). */
-static void planar_dense(int trials, bool low, int *pdense)
+static void planar_dense(int trials, bool low, bool near, int *pdense)
 {
     const double etas[3] = {1.5, 1.33, 0.75};
     int dense_roots = 0, found = 0, missed = 0, extra = 0, configs = 0;
@@ -101,6 +101,23 @@ static void planar_dense(int trials, bool low, int *pdense)
         if (low && rnd() < 0.7) {
             r = 1.02 + 3.0 * rnd();
             a = SPC_PI + 1.2 * (2.0 * rnd() - 1.0);
+        }
+        if (near) {
+            /* x a floor point within 0.3 radii of the contact of a ball (radius 0.5, resting on
+             * the floor y = 0) and y a point of a small light above and beside it, as in
+             * bench/check/ball_small_light.xml */
+            double u = 0.15 * (2.0 * rnd() - 1.0), v = 0.15 * (2.0 * rnd() - 1.0);
+            double z0 = 2.0 * rnd() - 1.0, ph = 2.0 * SPC_PI * rnd(), rs = sqrt(1.0 - z0 * z0);
+            spc_vec3 xf = spc_v3(u, 0.0, v), c = spc_v3(0.0, 0.5, 0.0);
+            spc_vec3 yl = spc_v3(0.3 + 0.05 * rs * cos(ph), 2.0 + 0.05 * rs * sin(ph), -0.4 + 0.05 * z0);
+            spc_sphere_plane pl;
+            if (!spc_sphere_plane_of(xf, c, 0.5, yl, &pl))
+                continue;
+            d = pl.d;
+            r = sqrt(pl.y1 * pl.y1 + pl.y2 * pl.y2);
+            a = atan2(pl.y2, pl.y1);
+            m = (int)(rnd() * 2) - 1;
+            eta = 1.5;
         }
         double y1 = r * cos(a), y2 = fabs(r * sin(a));
         double theta[16];
@@ -153,10 +170,22 @@ TEST(planar_roots_against_dense_scan)
 {
     spc_rng_seed(&rng, 5, 1);
     int dense = 0;
-    planar_dense(400, false, &dense);
+    planar_dense(400, false, false, &dense);
     CHECK(dense > 200);
     /* the outside reflection and the refraction through, on the coarser grid, near the folds */
-    planar_dense(1500, true, &dense);
+    planar_dense(1500, true, false, &dense);
+    CHECK(dense > 500);
+}
+
+/* x within 0.05 radii of the sphere (a floor point by the contact of a glass ball resting on the
+ * floor, under a light): the arc x sees is narrow and the refraction's fold lies near its grazing
+ * end, where a grid of 16 samples missed pairs of roots and the default lost a fifth of a pixel's
+ * caustic at the fold beside the contact (bench/check/ball_small_light.xml). */
+TEST(planar_roots_near_the_sphere)
+{
+    spc_rng_seed(&rng, 7, 1);
+    int dense = 0;
+    planar_dense(1500, true, true, &dense);
     CHECK(dense > 500);
 }
 
@@ -767,6 +796,7 @@ TEST(plane_roots_against_dense_newton)
 int main(void)
 {
     RUN(planar_roots_against_dense_scan);
+    RUN(planar_roots_near_the_sphere);
     RUN(sphere_chains_contain_randomized_solutions);
     RUN(cylinder_roots_against_dense_scan);
     RUN(cylinder_chains_contain_randomized_solutions);

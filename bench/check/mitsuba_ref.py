@@ -32,6 +32,7 @@ import time
 import numpy as np
 
 os.environ.setdefault("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1")
+import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
 
@@ -45,7 +46,13 @@ def main():
     ap.add_argument("--max-depth", type=int, default=4)
     ap.add_argument("--integrator", default="path", choices=["path", "ptracer", "normal"])
     ap.add_argument("-D", action="append", default=[], help="name=value: a <default> of the scene")
+    ap.add_argument("--threads", type=int, default=0, help="Dr.Jit's worker threads (0: all cores)")
+    ap.add_argument("--first-batch", type=int, default=0,
+                    help="number of the first batch: its seed, so that runs with disjoint batch "
+                    "ranges are independent and can be concatenated")
     a = ap.parse_args()
+    if a.threads > 0:
+        dr.set_thread_count(a.threads)
     try:
         mi.set_variant("llvm_ad_rgb")
     except Exception:
@@ -60,7 +67,7 @@ def main():
     imgs = []
     t0 = time.time()
     for b in range(a.batches):
-        img = mi.render(scene, integrator=integrator, seed=7919 * (b + 1), spp=a.spp)
+        img = mi.render(scene, integrator=integrator, seed=7919 * (a.first_batch + b + 1), spp=a.spp)
         imgs.append(np.array(img)[:, :, :3])
         print("batch %d/%d, %.0f s" % (b + 1, a.batches, time.time() - t0), file=sys.stderr, flush=True)
     np.save(a.out, np.stack(imgs))

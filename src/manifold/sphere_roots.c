@@ -10,11 +10,13 @@
  * exist (the angle of the entry point, unlike the impact parameter, keeps the derivative finite at
  * the grazing rim).
  *
- * Root isolation (roots1d.h): f on SPC_SPHERE_GRID + 1 samples over the arc (ends pulled in by a
- * relative 1e-9), sign changes, and pairs of roots between samples at local extrema of the samples.
- * With f's few features (one extremum per rainbow order at most: the deviation of a ray through a
- * sphere has one stationary point per internal reflection count) the grid resolves them all but
- * pairs of roots within one sample spacing of the arc's grazing end. Roots are refined to 1e-12 in
+ * Root isolation (roots1d.h): f on SPC_SPHERE_GRID + 1 samples over the arc (SPC_SPHERE_GRID_NEAR
+ * + 1 where x is near the sphere; ends pulled in by a relative 1e-9), sign changes, and pairs of
+ * roots between samples at local extrema of the samples. With f's few features (one extremum per
+ * rainbow order at most: the deviation of a ray through a sphere has one stationary point per
+ * internal reflection count) the grid resolves them all but pairs of roots within one sample
+ * spacing of the arc's grazing end, and, from x near the sphere, pairs closer than the coarse
+ * grid's spacing anywhere on the arc (hence the finer grid there). Roots are refined to 1e-12 in
  * theta; the polish in 3D (sphere_chains.c) takes it from there.
  */
 #include "manifold/sphere_roots.h"
@@ -31,6 +33,15 @@
  * 12 miss pairs of roots at the refraction's folds (test_exact_chains, 3000 configurations of one
  * or two vertices behind the sphere: 2 and 4 of 1584 roots). */
 #define SPC_SPHERE_GRID 16
+/* Samples where x lies within SPC_SPHERE_NEAR_D radii of the centre (a floor point beside the
+ * contact of a ball resting on it): from there two roots of the refraction through (m = 0) near its
+ * fold lie closer than 16 samples resolve, away from the arc's ends. In test_exact_chains
+ * (planar_roots_near_the_sphere) 16 samples missed 8 of 903 roots, at d 1.04 to 1.07, and 32 missed
+ * some; 64 find them all. The misses cost the default 23% of the pixel of
+ * bench/check/ball_small_light.xml where that caustic's fold meets the contact. Points that near a
+ * sphere are few, so the cost stays local; 1.25 leaves a margin over the misses' d. */
+#define SPC_SPHERE_GRID_NEAR 64
+#define SPC_SPHERE_NEAR_D 1.25
 
 bool spc_sphere_plane_of(spc_vec3 x, spc_vec3 c, double R, spc_vec3 y, spc_sphere_plane *pl)
 {
@@ -195,17 +206,18 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
 static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, int mhi, double tmax,
                          double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
 {
-    enum { G = SPC_SPHERE_GRID };
+    enum { G = SPC_SPHERE_GRID_NEAR };
+    int g = d < SPC_SPHERE_NEAR_D ? SPC_SPHERE_GRID_NEAR : SPC_SPHERE_GRID;
     double th[G + 1], f[G + 1][SPC_SPHERE_SIGNATURES], ah[G + 1][SPC_SPHERE_SIGNATURES], pc[G + 1][2];
     double an[G + 1][SPC_SPHERE_SIGNATURES][SPHERE_ANGLES];
     bool ok[G + 1][SPC_SPHERE_SIGNATURES];
     /* the entry points by rotation from the first (cos and sin once) */
-    double step = 2.0 * tmax / G, cs, sn, cx, cy;
-    spc_sincos_quarter(step, &sn, &cs); /* step < pi / G <= pi / 4 */
+    double step = 2.0 * tmax / g, cs, sn, cx, cy;
+    spc_sincos_quarter(step, &sn, &cs); /* step < pi / g <= pi / 4 */
     entry_point(tmax, &cx, &cy);
     cy = -cy;
     plane_problem pb = {d, y1, y2, eta, 0};
-    for (int j = 0; j <= G; ++j) {
+    for (int j = 0; j <= g; ++j) {
         th[j] = -tmax + step * j;
         pc[j][0] = cx;
         pc[j][1] = cy;
@@ -217,7 +229,7 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
     for (int m = mlo; m <= mhi; ++m) {
         double fm[G + 1], am[G + 1], angm[G + 1][SPC_ROOTS1D_MAX_ANGLES];
         bool okm[G + 1];
-        for (int j = 0; j <= G; ++j) {
+        for (int j = 0; j <= g; ++j) {
             fm[j] = f[j][m + 1];
             am[j] = ah[j][m + 1];
             okm[j] = ok[j][m + 1];
@@ -229,10 +241,10 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
          * the cells of the arc y cannot see hold no root (spc_sphere_arc_unseen) */
         bool skip[G], any = false;
         if (m < 0)
-            for (int j = 0; j < G; ++j)
+            for (int j = 0; j < g; ++j)
                 any |= skip[j] = spc_sphere_arc_unseen(y1, y2, pc[j], pc[j + 1]);
         /* to 1e-12: the 3D polish (spc_sphere_chains_all) converges from there in one trace */
-        n[m + 1] = spc_roots1d(plane_fn, NULL, &pb, th, fm, am, &angm[0][0], SPHERE_ANGLES, okm, G, any ? skip : NULL,
+        n[m + 1] = spc_roots1d(plane_fn, NULL, &pb, th, fm, am, &angm[0][0], SPHERE_ANGLES, okm, g, any ? skip : NULL,
                                1e-12 * tmax, theta[m + 1], SPC_SPHERE_MAX_ROOTS);
     }
 }
