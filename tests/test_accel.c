@@ -400,6 +400,47 @@ TEST(coherent_packets_match_single_rays)
     spc_scene_destroy(sc);
 }
 
+/* spc_scene_trace's answer, filled with spc_shape_fill_hit (as the chains fill their hits), is
+ * spc_scene_intersect's record byte for byte, and a miss is an answer of shape -1: rays from outside
+ * and inside a closed mesh, some of which miss it. */
+TEST(single_trace_matches_intersect)
+{
+    spc_vec3 c;
+    spc_scene *sc = closed_sphere_scene(24, 37, &c, false);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_rng rng;
+    spc_rng_seed(&rng, 5, 11);
+    int hits = 0, misses = 0, differs = 0;
+    for (int s = 0; s < 4000; ++s) {
+        spc_vec3 j = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_vec3 o = s % 3 == 0 ? spc_madd(c, j, 0.8) : spc_madd(c, spc_normalize(j), 3.0);
+        spc_vec3 d = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_ray r = {o, spc_normalize(d), 0.0, SPC_INF};
+        spc_hit h, ha;
+        /* zeroed, so that whole records (their padding too) compare with memcmp */
+        memset(&h, 0, sizeof h);
+        memset(&ha, 0, sizeof ha);
+        bool hit = spc_scene_intersect(sc, &r, &h);
+        spc_scene_answer a;
+        spc_scene_trace(sc, &r, &a);
+        if (a.shape < 0) {
+            ++misses;
+            differs += hit;
+            continue;
+        }
+        ++hits;
+        ha.shape_index = a.shape;
+        spc_shape_fill_hit(sc->shapes[a.shape], a.prim, a.u, a.v, &r, a.t, &ha);
+        differs += !hit || memcmp(&ha, &h, sizeof h) != 0;
+    }
+    printf("  %d hits, %d misses: %d differ from spc_scene_intersect\n", hits, misses, differs);
+    CHECK(hits > 1000 && misses > 500);
+    CHECK(differs == 0);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(grid_hits_small);
@@ -408,5 +449,6 @@ int main(void)
     RUN(closed_mesh_cracks_are_rare);
     RUN(fast_traversal_only_when_asked);
     RUN(coherent_packets_match_single_rays);
+    RUN(single_trace_matches_intersect);
     return spc_test_finish();
 }

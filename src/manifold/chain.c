@@ -117,19 +117,25 @@ static bool refine_triangle(const spc_shape *s, int prim, const spc_ray *r, doub
     return isfinite(*t);
 }
 
+/* spc_scene_intersect's record, on a triangle at refine_triangle's coordinates where they are
+ * valid: the record is filled once, from the refined coordinates or else from Embree's. */
 static bool intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h)
 {
-    if (!spc_scene_intersect(sc, r, h))
+    spc_scene_answer a;
+    spc_scene_trace(sc, r, &a);
+    if (a.shape < 0)
         return false;
-    const spc_shape *s = h->shape;
-    if (s && s->type == SPC_SHAPE_MESH) {
+    const spc_shape *s = sc->shapes[a.shape];
+    if (s->type == SPC_SHAPE_MESH) {
         double t, b1, b2;
-        if (refine_triangle(s, h->prim, r, &t, &b1, &b2) && t > 0.0) {
-            int idx = h->shape_index;
-            spc_shape_fill_hit(s, h->prim, b1, b2, r, t, h);
-            h->shape_index = idx;
+        if (refine_triangle(s, a.prim, r, &t, &b1, &b2) && t > 0.0) {
+            a.u = b1;
+            a.v = b2;
+            a.t = t;
         }
     }
+    h->shape_index = a.shape;
+    spc_shape_fill_hit(s, a.prim, a.u, a.v, r, a.t, h);
     /* a normal-mapped chain surface: the mapped frame as the ray arriving sees it */
     if (h->bsdf && h->bsdf->type == SPC_BSDF_NORMALMAP && spc_chain_shape_is_caster(s, true, NULL))
         spc_bsdf_map_chain_hit(h, spc_neg(r->d));

@@ -399,6 +399,12 @@ void spc_scene_intersect_packet_coherent(const spc_scene *s, const spc_ray *cons
     fill_packet(s, r, shape, prim, u, v, t, h, hit);
 }
 
+void spc_scene_trace(const spc_scene *s, const spc_ray *r, spc_scene_answer *a)
+{
+    if (!spc_accel_intersect(s->accel, r, &a->shape, &a->prim, &a->u, &a->v, &a->t))
+        a->shape = -1;
+}
+
 void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                      spc_scene_answer a[SPC_SCENE_PACKET])
 {

@@ -210,6 +210,10 @@ typedef struct spc_scene_answer {
     int shape, prim;
     double u, v, t;
 } spc_scene_answer;
+/* spc_scene_intersect's traversal for one ray, the answer left unfilled (a->shape -1 for a miss):
+ * for a caller that refines the hit before filling its record (the chains' triangle hits), so that
+ * the record is filled once. */
+void spc_scene_trace(const spc_scene *s, const spc_ray *r, spc_scene_answer *a);
 /* spc_scene_intersect_packet_coherent's traversal, the answers left unfilled (a[i].shape -1 for a
  * miss or an inactive lane). */
 void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
