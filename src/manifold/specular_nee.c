@@ -439,6 +439,16 @@ static bool has_flat_caster(const spc_snee_query *q)
     return false;
 }
 
+/* Is one of q's casters a mirror cylinder (cylinder_chains.h)? */
+static bool has_cylinder_caster(const spc_snee_query *q)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    for (int j = 0; cs && j < cs->n; ++j)
+        if (spc_cylinder_chain_shape(q->scene->shapes[cs->idx[j]]))
+            return true;
+    return false;
+}
+
 /* Is one of q's casters a tessellated ball (a sphere fit, fit_seeds.h)? */
 static bool has_ball_caster(const spc_snee_query *q)
 {
@@ -466,6 +476,29 @@ static double flat_psi(const spc_snee_query *q, int k)
     if (!long_on(q) || k <= flat_max(q) || k > q->long_max || k > SPC_FLAT_MAX_VERTICES)
         return 0.0;
     return k == 5 ? SPC_FLAT_PSI_5 : k == 6 ? SPC_FLAT_PSI_6 : 0.0;
+}
+
+/* The probability per call that the chains of more than the budget's reflections on one mirror
+ * cylinder (cylinder_chains.h), up to q->long_max and SPC_SNEE_LONG_MAX, are enumerated, all lengths
+ * in one pass, each chain counted with 1 / psi; the BSDF side's density of such a path carries the
+ * same psi. On scenes/caustic_mirror_ring.xml BSDF-sampled paths floor -> 3 to 6 wall reflections ->
+ * light held every one-pixel tail at 24 seeds with MIS weight 1; enumerating them at every call
+ * costs 12x a sample there, at psi 0.01 1.15x; psi 0.01 gave the lowest worst seed of the shares
+ * measured, 0.02 and 0.05 cost more for no lower mean (bench/RESULTS.md, "The mirror ring's
+ * 3-6-reflection cylinder chains on a share of the calls"). */
+#ifndef SPC_CYLINDER_LONG_P
+#define SPC_CYLINDER_LONG_P 0.01
+#endif
+static int cyl_long_max(const spc_snee_query *q)
+{
+    return q->long_max < SPC_SNEE_LONG_MAX ? q->long_max : SPC_SNEE_LONG_MAX;
+}
+static double cyl_psi(const spc_snee_query *q, const spc_chain *c)
+{
+    if (!long_on(q) || c->n <= q->max_chain || c->n > cyl_long_max(q) ||
+        (!q->any_surface && !spc_chain_caster_allowed(c->v[0].h.shape->caustic_flags, c->n)))
+        return 0.0;
+    return SPC_CYLINDER_LONG_P;
 }
 
 /* Is c counted exactly (no <1/p_solve>): enumerated by the solver's solve_all, or on one sphere or
@@ -928,6 +961,8 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
             return c->n <= flat_max(q) ? 1.0 : flat_psi(q, c->n); /* through flat faces */
         if (p->exact && spc_sphere_chain_covers(c, p->reflect))
             return long_psi(q, c->n); /* enumerated on the sphere */
+        if (p->exact && spc_cylinder_chain_covers(c))
+            return cyl_psi(q, c); /* enumerated on the cylinder on a share of the calls */
         if (!random_long(p))
             return 0.0;
         spc_snee_query lq = *q;
@@ -1425,6 +1460,18 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
             nall = spc_flat_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
             emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
         }
+    }
+    /* on a share of the calls the longer chains on a mirror cylinder, every length at once (cyl_psi) */
+    if (p->exact && long_on(q) && cyl_long_max(q) > q->max_chain && has_cylinder_caster(q) &&
+        spc_rng_next(rng) < SPC_CYLINDER_LONG_P) {
+        spc_chain all[SPC_SNEE_MAX_ALL];
+        spc_snee_query lq = *q;
+        lq.min_chain = q->max_chain + 1;
+        lq.max_chain = cyl_long_max(q);
+        lq.psi = SPC_CYLINDER_LONG_P;
+        int it = 0;
+        int nall = spc_cylinder_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
+        emit_exact(&lq, e, uv, p_y * SPC_CYLINDER_LONG_P, all, nall, it, st, sk);
     }
     /* with probability long_p the longer chains of one length too, each counted with 1 / psi: on a
      * sphere all of them (on the mirror ring the cylinder's longer chains cost a quarter of the
