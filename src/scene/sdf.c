@@ -1012,12 +1012,16 @@ static bool walker_next(walker *w, double *t_hit)
  * h = o_x^2 + o_z^2. Between consecutive critical points of q (the roots of the cubic q', found by
  * bisection between the roots of the quadratic q'', which have a closed form) q is monotone, so f
  * changes sign at most once there. The walk evaluates f at those points and refines the first sign
- * change with the same regula falsi as sphere tracing: no root is missed at grazing angles (a pair
+ * change with the same regula falsi as sphere tracing (from a bracket of 1e-9 of the size around the
+ * quartic's own root there, found like the critical points, when f changes sign across it): no root is missed at grazing angles (a pair
  * of crossings is separated by a critical point), and the hit is refined on the exact distance. */
 
-/* Bisection steps for a critical point of q (the bracket halves to below the rounding level of
- * the walk's parameter long before this). */
+/* Steps of the safeguarded Newton iteration for a root of q's derivatives (it converges in a few;
+ * bisection bounds the rest, halving the bracket to the rounding level well before this). */
 #define SDF_TORUS_BISECT 200
+/* Half width, relative to the size, of the bracket around the quartic's root that the exact
+ * distance refines (the quartic's root is good to ~1e-13 of the size away from tangency). */
+#define SDF_TORUS_BRACKET 1e-9
 
 static double poly_eval(const double *c, int deg, double s)
 {
@@ -1027,9 +1031,38 @@ static double poly_eval(const double *c, int deg, double s)
     return v;
 }
 
+/* The root of polynomial c (degree deg) in the bracket [a, b] where it is monotone and
+ * changes sign (fa = c(a)): Newton's method from the middle, bisecting whenever a step leaves the
+ * bracket, until the bracket or the step falls below the rounding level. */
+static double poly_root_monotone(const double *c, int deg, double a, double b, double fa)
+{
+    double dc[4];
+    for (int k = 1; k <= deg; ++k)
+        dc[k - 1] = k * c[k];
+    double x = 0.5 * (a + b);
+    for (int it = 0; it < SDF_TORUS_BISECT; ++it) {
+        double fx = poly_eval(c, deg, x);
+        if (fx == 0.0)
+            return x;
+        if ((fx > 0.0) == (fa > 0.0))
+            a = x;
+        else
+            b = x;
+        double tol = 4.0 * DBL_EPSILON * (fabs(a) + fabs(b));
+        if (!(b - a > tol))
+            break;
+        double xn = x - fx / poly_eval(dc, deg - 1, x);
+        if (!(xn > a && xn < b))
+            xn = 0.5 * (a + b);
+        if (fabs(xn - x) <= tol)
+            return xn;
+        x = xn;
+    }
+    return 0.5 * (a + b);
+}
+
 /* The roots of the polynomial c (degree deg, c[deg] != 0) in (lo, hi), sorted, into out; the pieces
- * between the sorted roots of its derivative are monotone, so each holds at most one root,
- * bisected to the rounding level. */
+ * between the sorted roots of its derivative are monotone, so each holds at most one root. */
 static int poly_roots_in(const double *c, int deg, double lo, double hi, double *out)
 {
     double cut[4], dc[4];
@@ -1049,31 +1082,17 @@ static int poly_roots_in(const double *c, int deg, double lo, double hi, double 
     for (int k = 0; k < nc; ++k)
         ends[ne++] = cut[k];
     ends[ne++] = hi;
+    double fa = poly_eval(c, deg, lo);
     for (int k = 0; k + 1 < ne; ++k) {
         double a = ends[k], b = ends[k + 1];
-        double fa = poly_eval(c, deg, a), fb = poly_eval(c, deg, b);
+        double fb = poly_eval(c, deg, b);
         if (fa == 0.0) {
             if (a > lo && (n == 0 || out[n - 1] < a))
                 out[n++] = a;
-            continue;
+        } else if (fb != 0.0 && (fa > 0.0) != (fb > 0.0)) {
+            out[n++] = poly_root_monotone(c, deg, a, b, fa);
         }
-        if (fb == 0.0 || (fa > 0.0) == (fb > 0.0))
-            continue;
-        for (int it = 0; it < SDF_TORUS_BISECT; ++it) {
-            double m = 0.5 * (a + b);
-            if (!(m > a && m < b))
-                break;
-            double fm = poly_eval(c, deg, m);
-            if (fm == 0.0) {
-                a = b = m;
-                break;
-            }
-            if ((fm > 0.0) == (fa > 0.0))
-                a = m;
-            else
-                b = m;
-        }
-        out[n++] = 0.5 * (a + b);
+        fa = fb;
     }
     return n;
 }
@@ -1099,6 +1118,20 @@ static bool torus_next(walker *w, double *t_hit)
         if (isnan(fb))
             break;
         if ((fa > 0.0) ? !(fb > 0.0) : !(fb < 0.0)) {
+            /* narrow the bracket to the quartic's root when f changes sign across it */
+            double qa = poly_eval(q, 4, ta - t0), qb = poly_eval(q, 4, tb - t0);
+            if (qa != 0.0 && qb != 0.0 && (qa > 0.0) != (qb > 0.0)) {
+                double tq = t0 + poly_root_monotone(q, 4, ta - t0, tb - t0, qa), dt = SDF_TORUS_BRACKET * w->s->size / w->dl;
+                if (tq - dt > ta && tq + dt < tb) {
+                    double fl = ray_f(w, tq - dt), fr = ray_f(w, tq + dt);
+                    if ((fl > 0.0) == (fa > 0.0) && ((fa > 0.0) ? !(fr > 0.0) : !(fr < 0.0))) {
+                        ta = tq - dt;
+                        fa = fl;
+                        tb = tq + dt;
+                        fb = fr;
+                    }
+                }
+            }
             double tend;
             *t_hit = refine(w, ta, fa, tb, fb, &tend);
             w->t = tend;
