@@ -1009,14 +1009,15 @@ static bool walker_next(walker *w, double *t_hit)
  * keeps the coefficients near the torus's scale),
  * q(s) = a^2 s^4 + 4ab s^3 + (4b^2 + 2ac - 4R^2 e) s^2 + (4bc - 8R^2 g) s + c^2 - 4R^2 h
  * with a = d.d, b = o.d, c = o.o + R^2 - r^2, e = d_x^2 + d_z^2, g = o_x d_x + o_z d_z,
- * h = o_x^2 + o_z^2. Between consecutive critical points of q (the roots of the cubic q', found by
- * bisection between the roots of the quadratic q'', which have a closed form) q is monotone, so f
- * changes sign at most once there. The walk evaluates f at those points and refines the first sign
- * change with the same regula falsi as sphere tracing (from a bracket of 1e-9 of the size around the
- * quartic's own root there, found like the critical points, when f changes sign across it): no root is missed at grazing angles (a pair
- * of crossings is separated by a critical point), and the hit is refined on the exact distance. */
+ * h = o_x^2 + o_z^2. Between consecutive critical points of q (the roots of the cubic q', each
+ * found by safeguarded Newton between consecutive roots of the quadratic q'', found the same way
+ * between q'''s closed-form root) q is monotone, so f changes sign at most once there. The walk
+ * evaluates f at those points and refines the first sign change with the same regula falsi as
+ * sphere tracing, started from a bracket of 1e-9 of the size around the quartic's root in that
+ * piece when f changes sign across it: no crossing is missed at grazing angles (a pair of crossings
+ * is separated by a critical point), and the hit is refined on the exact distance. */
 
-/* Steps of the safeguarded Newton iteration for a root of q's derivatives (it converges in a few;
+/* Steps of the safeguarded Newton iteration for a root of q or its derivatives (it converges in a few;
  * bisection bounds the rest, halving the bracket to the rounding level well before this). */
 #define SDF_TORUS_BISECT 200
 /* Half width, relative to the size, of the bracket around the quartic's root that the exact
