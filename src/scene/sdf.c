@@ -1122,7 +1122,8 @@ static bool torus_next(walker *w, double *t_hit)
             /* narrow the bracket to the quartic's root when f changes sign across it */
             double qa = poly_eval(q, 4, ta - t0), qb = poly_eval(q, 4, tb - t0);
             if (qa != 0.0 && qb != 0.0 && (qa > 0.0) != (qb > 0.0)) {
-                double tq = t0 + poly_root_monotone(q, 4, ta - t0, tb - t0, qa), dt = SDF_TORUS_BRACKET * w->s->size / w->dl;
+                double tq = t0 + poly_root_monotone(q, 4, ta - t0, tb - t0, qa);
+                double dt = SDF_TORUS_BRACKET * w->s->size / w->dl;
                 if (tq - dt > ta && tq + dt < tb) {
                     double fl = ray_f(w, tq - dt), fr = ray_f(w, tq + dt);
                     if ((fl > 0.0) == (fa > 0.0) && ((fa > 0.0) ? !(fr > 0.0) : !(fr < 0.0))) {
