@@ -111,6 +111,7 @@ struct spc_sdf {
     double br;
     double area;
     bool area_exact;
+    bool torus; /* the root is one ring torus (R > r): rays are intersected analytically */
 };
 
 /* value, gradient, Hessian */
@@ -946,11 +947,15 @@ static double refine(const walker *w, double ta, double fa, double tb, double fb
     return fabs(fa) < fabs(fb) ? ta : tb;
 }
 
+static bool torus_next(walker *w, double *t_hit);
+
 /* The next crossing along the walk, or false at the end of the segment. */
 static bool walker_next(walker *w, double *t_hit)
 {
     if (w->done)
         return false;
+    if (w->s->torus)
+        return torus_next(w, t_hit);
     const double dl = w->dl, t1 = w->t1, min_step = w->min_step;
     double t = w->t, f = w->f, r = fabs(f) / dl, omega = SDF_RELAX;
     bool pos = f > 0.0;
@@ -992,6 +997,165 @@ static bool walker_next(walker *w, double *t_hit)
     }
     w->done = true;
     return false;
+}
+
+/* ------------------------------------------------------------------------------------------------ */
+/* analytic ray-torus crossings */
+
+/* A ring torus (major R > minor r) around the local y axis is the zero set of the quartic
+ * q(p) = (|p|^2 + R^2 - r^2)^2 - 4 R^2 (p_x^2 + p_z^2) = ((rho - R)^2 + y^2 - r^2) ((rho + R)^2 + y^2 - r^2)
+ * with rho = |p_xz|; the second factor is at least R^2 - r^2 > 0, so q has the sign of the exact
+ * distance f. Along the ray p = o + s d (s = t - t_start, the walk's current point as origin, which
+ * keeps the coefficients near the torus's scale),
+ * q(s) = a^2 s^4 + 4ab s^3 + (4b^2 + 2ac - 4R^2 e) s^2 + (4bc - 8R^2 g) s + c^2 - 4R^2 h
+ * with a = d.d, b = o.d, c = o.o + R^2 - r^2, e = d_x^2 + d_z^2, g = o_x d_x + o_z d_z,
+ * h = o_x^2 + o_z^2. Between consecutive critical points of q (the roots of the cubic q', each
+ * found by safeguarded Newton between consecutive roots of the quadratic q'', found the same way
+ * between q'''s closed-form root) q is monotone, so f changes sign at most once there. The walk
+ * evaluates f at those points and refines the first sign change with the same regula falsi as
+ * sphere tracing, started from a bracket of 1e-9 of the size around the quartic's root in that
+ * piece when f changes sign across it: no crossing is missed at grazing angles (a pair of crossings
+ * is separated by a critical point), and the hit is refined on the exact distance. */
+
+/* Steps of the safeguarded Newton iteration for a root of q or its derivatives (it converges in a few;
+ * bisection bounds the rest, halving the bracket to the rounding level well before this). */
+#define SDF_TORUS_BISECT 200
+/* Half width, relative to the size, of the bracket around the quartic's root that the exact
+ * distance refines (the quartic's root is good to ~1e-13 of the size away from tangency). */
+#define SDF_TORUS_BRACKET 1e-9
+
+static double poly_eval(const double *c, int deg, double s)
+{
+    double v = c[deg];
+    for (int k = deg - 1; k >= 0; --k)
+        v = v * s + c[k];
+    return v;
+}
+
+/* The root of polynomial c (degree deg) in the bracket [a, b] where it is monotone and
+ * changes sign (fa = c(a)): Newton's method from the middle, bisecting whenever a step leaves the
+ * bracket, until the bracket or the step falls below the rounding level. */
+static double poly_root_monotone(const double *c, int deg, double a, double b, double fa)
+{
+    double dc[4];
+    for (int k = 1; k <= deg; ++k)
+        dc[k - 1] = k * c[k];
+    double x = 0.5 * (a + b);
+    for (int it = 0; it < SDF_TORUS_BISECT; ++it) {
+        double fx = poly_eval(c, deg, x);
+        if (fx == 0.0)
+            return x;
+        if ((fx > 0.0) == (fa > 0.0))
+            a = x;
+        else
+            b = x;
+        double tol = 4.0 * DBL_EPSILON * (fabs(a) + fabs(b));
+        if (!(b - a > tol))
+            break;
+        double xn = x - fx / poly_eval(dc, deg - 1, x);
+        if (!(xn > a && xn < b))
+            xn = 0.5 * (a + b);
+        if (fabs(xn - x) <= tol)
+            return xn;
+        x = xn;
+    }
+    return 0.5 * (a + b);
+}
+
+/* The roots of the polynomial c (degree deg, c[deg] != 0) in (lo, hi), sorted, into out; the pieces
+ * between the sorted roots of its derivative are monotone, so each holds at most one root. */
+static int poly_roots_in(const double *c, int deg, double lo, double hi, double *out)
+{
+    double cut[4], dc[4];
+    int nc = 0;
+    if (deg == 1) {
+        double s = -c[0] / c[1];
+        if (s > lo && s < hi)
+            out[nc++] = s;
+        return nc;
+    }
+    for (int k = 1; k <= deg; ++k)
+        dc[k - 1] = k * c[k];
+    nc = poly_roots_in(dc, deg - 1, lo, hi, cut);
+    double ends[6];
+    int ne = 0, n = 0;
+    ends[ne++] = lo;
+    for (int k = 0; k < nc; ++k)
+        ends[ne++] = cut[k];
+    ends[ne++] = hi;
+    double fa = poly_eval(c, deg, lo);
+    for (int k = 0; k + 1 < ne; ++k) {
+        double a = ends[k], b = ends[k + 1];
+        double fb = poly_eval(c, deg, b);
+        if (fa == 0.0) {
+            if (a > lo && (n == 0 || out[n - 1] < a))
+                out[n++] = a;
+        } else if (fb != 0.0 && (fa > 0.0) != (fb > 0.0)) {
+            out[n++] = poly_root_monotone(c, deg, a, b, fa);
+        }
+        fa = fb;
+    }
+    return n;
+}
+
+static bool torus_next(walker *w, double *t_hit)
+{
+    const node *n = &w->s->nodes[w->s->root];
+    const double R = n->r, r = n->r2, t0 = w->t, t1 = w->t1;
+    spc_vec3 o = spc_madd(w->lo, w->ld, t0), d = w->ld;
+    double a = spc_dot(d, d), b = spc_dot(o, d), c = spc_dot(o, o) + R * R - r * r;
+    double e = d.x * d.x + d.z * d.z, g = o.x * d.x + o.z * d.z, h = o.x * o.x + o.z * o.z;
+    /* q / a^2, so that the leading coefficient is 1 */
+    double q[5] = {(c * c - 4.0 * R * R * h) / (a * a), (4.0 * b * c - 8.0 * R * R * g) / (a * a),
+                   (4.0 * b * b + 2.0 * a * c - 4.0 * R * R * e) / (a * a), 4.0 * b / a, 1.0};
+    double dq[4] = {q[1], 2.0 * q[2], 3.0 * q[3], 4.0 * q[4]}, crit[3];
+    int nc = poly_roots_in(dq, 3, 0.0, t1 - t0, crit);
+    double ta = t0, fa = w->f;
+    for (int k = 0; k <= nc; ++k) {
+        double tb = k < nc ? t0 + crit[k] : t1;
+        if (!(tb > ta))
+            continue;
+        double fb = ray_f(w, tb);
+        if (isnan(fb))
+            break;
+        if ((fa > 0.0) ? !(fb > 0.0) : !(fb < 0.0)) {
+            /* narrow the bracket to the quartic's root when f changes sign across it */
+            double qa = poly_eval(q, 4, ta - t0), qb = poly_eval(q, 4, tb - t0);
+            if (qa != 0.0 && qb != 0.0 && (qa > 0.0) != (qb > 0.0)) {
+                double tq = t0 + poly_root_monotone(q, 4, ta - t0, tb - t0, qa);
+                double dt = SDF_TORUS_BRACKET * w->s->size / w->dl;
+                if (tq - dt > ta && tq + dt < tb) {
+                    double fl = ray_f(w, tq - dt), fr = ray_f(w, tq + dt);
+                    if ((fl > 0.0) == (fa > 0.0) && ((fa > 0.0) ? !(fr > 0.0) : !(fr < 0.0))) {
+                        ta = tq - dt;
+                        fa = fl;
+                        tb = tq + dt;
+                        fb = fr;
+                    }
+                }
+            }
+            double tend;
+            *t_hit = refine(w, ta, fa, tb, fb, &tend);
+            w->t = tend;
+            w->f = ray_f(w, tend);
+            if (w->f == 0.0) {
+                w->t = tend + w->min_step;
+                w->f = w->t < t1 ? ray_f(w, w->t) : 0.0;
+            }
+            w->done = !(w->t < t1) || w->f == 0.0 || isnan(w->f);
+            return true;
+        }
+        ta = tb;
+        fa = fb;
+    }
+    w->done = true;
+    return false;
+}
+
+void spc_sdf_set_analytic(spc_sdf *s, bool on)
+{
+    const node *rn = s->finalized ? &s->nodes[s->root] : NULL;
+    s->torus = on && rn && rn->type == SPC_SDF_TORUS && rn->r > rn->r2 && rn->r2 > 0.0;
 }
 
 bool spc_sdf_intersect(const spc_sdf *s, const spc_ray *r, double *t)
@@ -1097,6 +1261,7 @@ bool spc_sdf_finalize(spc_sdf *s, int root, const spc_mat4 *to_world, const char
     s->bc = spc_scale(spc_add(s->lo, s->hi), 0.5);
     s->br = 0.5 * spc_length(spc_sub(s->hi, s->lo));
     s->finalized = true;
+    spc_sdf_set_analytic(s, true);
 
     double a = spc_sdf_type_is_operation(rn->type) ? 0.0 : prim_area(rn) * rn->s * rn->s;
     s->area_exact = a > 0.0;

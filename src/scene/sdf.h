@@ -128,6 +128,12 @@ bool spc_sdf_intersect(const spc_sdf *s, const spc_ray *r, double *t);
 /* All crossings along r in (tmin, tmax), in order, at most max of them stored; returns how many
  * were found (which may exceed max: counting stops at max + 1). */
 int spc_sdf_crossings(const spc_sdf *s, const spc_ray *r, double *t, int max);
+/* A field that is one ring torus (major radius above minor) finds its crossings analytically: the
+ * critical points of the ray's quartic split the segment into pieces with at most one crossing,
+ * and the first piece whose ends differ in sign is refined on the exact distance as sphere tracing
+ * refines its brackets. On by default after spc_sdf_finalize; off (on = false), or for any other
+ * field, the rays are sphere traced (tests and benchmarks compare the two). */
+void spc_sdf_set_analytic(spc_sdf *s, bool on);
 
 /* Surface interaction at a point p on the surface reached by a ray (see shape.c for the surface
  * parameters): fills p (as given), ng, sh, uv, dpdu, dpdv, dndu, dndv, b1 = b2 = 0 and err. */
