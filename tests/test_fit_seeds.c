@@ -33,6 +33,34 @@
 
 #define SCENE "bench/check/glass_ball_mesh.xml"
 
+/* Specular NEE from floor point x to the light point at light_u (0.5, u1, u2) (*e: the emitter drawn),
+ * with pf's fitted seeds against pu's cone seeds: chain_seeds_compare adds both to *res, the fitted
+ * roots are left in *fit. False where no light point is drawn. */
+static bool compare_fit_at(spc_scene *sc, spc_snee_params *pf, const spc_snee_params *pu, const spc_hit *x,
+                           double u1, double u2, spc_rng *rng, const spc_emitter **e, int attempts, int counts,
+                           double count_pmin, int point, chain_seeds_cmp *res, spc_fit_roots *fit)
+{
+    spc_snee_query qf, qu;
+    spc_snee_query_init(&qf, sc, pf, x, spc_v3(0, 1, 0), 2);
+    spc_vec2 uv;
+    double p_y;
+    pf->light_u_on = true;
+    pf->light_u[0] = 0.5;
+    pf->light_u[1] = u1;
+    pf->light_u[2] = u2;
+    bool lit = spc_snee_sample_light(sc, false, rng, &qf, e, &uv, &p_y);
+    pf->light_u_on = false;
+    if (!lit)
+        return false;
+    fit->nshapes = 0;
+    qf.fit = fit;
+    qu = qf;
+    qu.params = pu;
+    qu.fit = NULL;
+    chain_seeds_compare(&qf, &qu, *e, uv, sc->radius, rng, attempts, counts, count_pmin, point, res);
+    return true;
+}
+
 TEST(fit_of_a_tessellated_ball_only)
 {
     spc_scene *sc = tu_load(SCENE, 0);
@@ -100,25 +128,9 @@ TEST(fit_seeds_find_every_chain_and_count_unbiased)
         spc_hit x;
         if (!chain_floor_point(sc, 1, -0.25 + 0.08 * (i % 3), 0.12 + 0.08 * (i / 3), &x))
             continue;
-        spc_snee_query qf, qu;
-        spc_snee_query_init(&qf, sc, &pf, &x, spc_v3(0, 1, 0), 2);
         const spc_emitter *e;
-        spc_vec2 uv;
-        double p_y;
-        pf.light_u_on = true;
-        pf.light_u[0] = 0.5;
-        pf.light_u[1] = 0.3 + 0.05 * i;
-        pf.light_u[2] = 0.6;
-        if (!spc_snee_sample_light(sc, false, &rng, &qf, &e, &uv, &p_y))
-            continue;
-        pf.light_u_on = false;
         spc_fit_roots fit;
-        fit.nshapes = 0;
-        qf.fit = &fit;
-        qu = qf;
-        qu.params = &pu;
-        qu.fit = NULL;
-        chain_seeds_compare(&qf, &qu, e, uv, sc->radius, &rng, attempts, counts, 0.0, i, &r);
+        compare_fit_at(sc, &pf, &pu, &x, 0.3 + 0.05 * i, 0.6, &rng, &e, attempts, counts, 0.0, i, &r, &fit);
     }
     printf("    smallest p of a valuable chain: fit %.4f, cone seeds %.4f; second moment: fit %.4g, cone %.4g\n",
            r.pmin_a, r.pmin_b, r.m2_a, r.m2_b);
@@ -213,25 +225,8 @@ TEST(torus_tube_seeds)
         spc_hit x;
         if (!chain_floor_point(sc, 0, 0.75 * cos(phi), 0.75 * sin(phi), &x))
             continue;
-        spc_snee_query qf, qu;
-        spc_snee_query_init(&qf, sc, &pf, &x, spc_v3(0, 1, 0), 2);
-        spc_vec2 uv;
-        double p_y;
-        pf.light_u_on = true;
-        pf.light_u[0] = 0.5;
-        pf.light_u[1] = 0.3 + 0.05 * i;
-        pf.light_u[2] = 0.6;
-        bool lit = spc_snee_sample_light(sc, false, &rng, &qf, &e, &uv, &p_y);
-        pf.light_u_on = false;
-        if (!lit)
-            continue;
         spc_fit_roots fit;
-        fit.nshapes = 0;
-        qf.fit = &fit;
-        qu = qf;
-        qu.params = &pu;
-        qu.fit = NULL;
-        chain_seeds_compare(&qf, &qu, e, uv, sc->radius, &rng, attempts, counts, 0.0, i, &res);
+        compare_fit_at(sc, &pf, &pu, &x, 0.3 + 0.05 * i, 0.6, &rng, &e, attempts, counts, 0.0, i, &res, &fit);
     }
     /* the long pass's chains (past two vertices) keep the cone's seeds: the tube sphere's solutions
      * with internal reflections lie far from the torus's, and those chains' counts grew */
@@ -292,26 +287,11 @@ TEST(torus_fold_pair_far_end)
     CHECK(xf);
     int ndirs = -1;
     for (int i = 0; i < 2 && xf; ++i) {
-        spc_snee_query qf, qu;
-        spc_snee_query_init(&qf, sc, &pf, &x, spc_v3(0, 1, 0), 2);
-        spc_vec2 uv;
-        double p_y;
-        pf.light_u_on = true; /* the light's lowest points */
-        pf.light_u[0] = 0.5;
-        pf.light_u[1] = 0.05 * i;
-        pf.light_u[2] = 0.5;
-        bool lit = spc_snee_sample_light(sc, false, &rng, &qf, &e, &uv, &p_y);
-        pf.light_u_on = false;
+        spc_fit_roots fit; /* toward the light's lowest points */
+        bool lit = compare_fit_at(sc, &pf, &pu, &x, 0.05 * i, 0.5, &rng, &e, attempts, counts, 0.01, i, &res, &fit);
         CHECK(lit);
         if (!lit)
             continue;
-        spc_fit_roots fit;
-        fit.nshapes = 0;
-        qf.fit = &fit;
-        qu = qf;
-        qu.params = &pu;
-        qu.fit = NULL;
-        chain_seeds_compare(&qf, &qu, e, uv, sc->radius, &rng, attempts, counts, 0.01, i, &res);
         ndirs = fit.nshapes > 0 ? fit.e[0].n : 0;
     }
     printf("    tube seed directions %d; smallest p of a valuable chain: tube seeds %.4f, cone seeds %.4f\n", ndirs,
