@@ -1,7 +1,7 @@
 /*
  * tests/chain_mis.h: the BSDF-sampled paths that specular NEE also covers, and their MIS weights,
- * for the tests of the chain MIS weights on a scene with a glass object over a floor
- * (test_sphere_chain_mis.c, test_sdf_chain_mis.c).
+ * for the tests of the chain MIS weights on a scene with a glass or mirror object over a floor
+ * (test_sphere_chain_mis.c, test_sdf_chain_mis.c, test_cylinder_chain_mis.c).
  *
  * From a floor point, paths are sampled by the BSDFs alone and weighted by
  * spc_snee_mis_bsdf_weight where specular NEE covers them; chain_mis_zmax compares specular NEE
@@ -25,6 +25,18 @@
 
 /* The longest chain the tests weight: specular NEE's long pass of up to 6 vertices. */
 #define CHAIN_MIS_LONG_MAX 6
+
+/* The scene at `path`, with its light's radius and radiance set (the XML's defaults light_radius and
+ * light_radiance) where light_radius is given; NULL (and a failed check) if it does not load. */
+static inline spc_scene *chain_mis_load(const char *path, const char *light_radius, const char *light_radiance)
+{
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    spc_define defs[2] = {{"light_radius", light_radius}, {"light_radiance", light_radiance}};
+    CHECK_MSG(spc_scene_load(path, defs, light_radius ? 2 : 0, &sc, &err) == SPC_OK, "%s: %s", path, err.msg);
+    return sc;
+}
 
 /* The point of the floor (shape floor_index) below (px, pz). */
 static inline bool chain_mis_floor_point(const spc_scene *sc, int floor_index, double px, double pz, spc_hit *x)

@@ -144,6 +144,13 @@ TEST(kept_frames_budget)
 /* 2 * 512^2 = 524288 triangles: the compact BVH (SPC_ACCEL_COMPACT_TRIS) */
 TEST(grid_hits_compact) { CHECK(check_grid(512) == 2000); }
 
+/* A point drawn uniformly in the cube [-1/2, 1/2]^3 (offsets and unnormalized directions). */
+static spc_vec3 centred_draw(spc_rng *r)
+{
+    double x = spc_rng_next(r) - 0.5, y = spc_rng_next(r) - 0.5;
+    return spc_v3(x, y, spc_rng_next(r) - 0.5);
+}
+
 /* A closed UV sphere (nlat bands, nlon sectors, shared vertices, poles as fans) rotated, scaled
  * unevenly and moved off the origin, so its float vertices are not round numbers; the center is
  * returned in c. */
@@ -248,7 +255,7 @@ TEST(closed_mesh_cracks_are_rare)
                             a[2] + f * ((double)b[2] - a[2]));
         /* from a point inside, near the center, or from outside: on the line from the inside point
          * through q, beyond q; the shadow ray ends beyond q (from inside) or at the inside point */
-        spc_vec3 j = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_vec3 j = centred_draw(&rng);
         spc_vec3 in = spc_madd(c, j, 0.8);
         spc_vec3 o = s % 2 ? in : spc_madd(q, spc_sub(q, in), 0.5 + 4.0 * spc_rng_next(&rng));
         spc_vec3 dq = spc_sub(s % 2 ? q : in, o);
@@ -278,8 +285,8 @@ TEST(closed_mesh_cracks_are_rare)
     const int M = 1000000;
     int escapes = 0;
     for (int s = 0; s < M; ++s) {
-        spc_vec3 j = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
-        spc_vec3 d = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_vec3 j = centred_draw(&rng);
+        spc_vec3 d = centred_draw(&rng);
         spc_ray r = {spc_madd(c, j, 0.8), spc_normalize(d), 0.0, SPC_INF};
         spc_hit hs;
         escapes += !spc_scene_intersect(sc, &r, &hs);
@@ -349,7 +356,7 @@ TEST(coherent_packets_match_single_rays)
     spc_rng_seed(&rng, 5, 9);
     int lanes = 0, differs = 0, hits = 0, answers_differ = 0;
     for (int s = 0; s < 3000; ++s) {
-        spc_vec3 j = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_vec3 j = centred_draw(&rng);
         bool inside = s % 3 == 0, fan = s % 3 != 2;
         spc_vec3 o = inside ? spc_madd(c, j, 0.8) : spc_madd(c, spc_normalize(j), 3.0 + 4.0 * spc_rng_next(&rng));
         spc_vec3 toward = spc_normalize(spc_sub(c, o));
@@ -359,7 +366,7 @@ TEST(coherent_packets_match_single_rays)
         const spc_ray *rp[SPC_SCENE_PACKET];
         for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
             spc_vec3 d = fan ? spc_add(toward, spc_add(spc_scale(f.s, step * (i % 4 - 1.5)), spc_scale(f.t, step * (i / 4 - 1.5))))
-                             : spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+                             : centred_draw(&rng);
             pr[i] = (spc_ray){o, spc_normalize(d), 0.0, SPC_INF};
             rp[i] = (s + i) % 7 == 0 ? NULL : &pr[i];
         }
@@ -414,9 +421,9 @@ TEST(single_trace_matches_intersect)
     spc_rng_seed(&rng, 5, 11);
     int hits = 0, misses = 0, differs = 0;
     for (int s = 0; s < 4000; ++s) {
-        spc_vec3 j = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_vec3 j = centred_draw(&rng);
         spc_vec3 o = s % 3 == 0 ? spc_madd(c, j, 0.8) : spc_madd(c, spc_normalize(j), 3.0);
-        spc_vec3 d = spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5);
+        spc_vec3 d = centred_draw(&rng);
         spc_ray r = {o, spc_normalize(d), 0.0, SPC_INF};
         spc_hit h, ha;
         /* zeroed, so that whole records (their padding too) compare with memcmp */

@@ -32,19 +32,9 @@
 #define CAMERA spc_v3(0.3, 3.2, 1.9)
 #define FLOOR 1
 
-static spc_scene *load(const char *light_radius, const char *light_radiance)
-{
-    spc_scene *sc = NULL;
-    spc_error err;
-    memset(&err, 0, sizeof err);
-    spc_define defs[2] = {{"light_radius", light_radius}, {"light_radiance", light_radiance}};
-    CHECK_MSG(spc_scene_load(SCENE, defs, light_radius ? 2 : 0, &sc, &err) == SPC_OK, "%s: %s", SCENE, err.msg);
-    return sc;
-}
-
 TEST(three_reflection_weight)
 {
-    spc_scene *sc = load(NULL, NULL);
+    spc_scene *sc = chain_mis_load(SCENE, NULL, NULL);
     if (!sc)
         return;
     spc_snee_params p;
@@ -81,7 +71,7 @@ TEST(weighted_sum_agrees_with_bsdf_sampling)
 {
     /* a light of radius 0.4 (the same power), which BSDF sampling alone finds through the ring
      * often enough for a z-test */
-    spc_scene *sc = load("0.4", "25, 23.75, 21.25");
+    spc_scene *sc = chain_mis_load(SCENE, "0.4", "25, 23.75, 21.25");
     if (!sc)
         return;
     spc_snee_params p;

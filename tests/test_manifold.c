@@ -1081,6 +1081,21 @@ TEST(snee_normal_map_point_estimates)
     spc_scene_destroy(sc);
 }
 
+/* The parameters of the give-up tests below: randomized angular chains of up to 2 refractions seeded
+ * from the shape, MIS with the stand-in solve probability psi, at most one attempt per count. */
+static void give_up_params(spc_snee_params *p, double psi)
+{
+    spc_snee_params_default(p, SPC_SNEE_ANGULAR, 2);
+    p->seed = SPC_SNEE_SEED_SHAPE;
+    p->straight_first = false;
+    p->exact = false;
+    p->reflect = false;
+    p->mis = true;
+    p->solve_mis = false;
+    p->mis_solve = psi;
+    p->max_trials = 1;
+}
+
 /* With MIS, at a medium receiver, a randomized attempt's count that reaches its cap gives the chain
  * up to phase sampling (whose weight then holds the probability of that) rather than going on past
  * the cap: no count runs more than cap attempts, so none carries the tail of a small solve
@@ -1096,15 +1111,7 @@ TEST(mis_count_gives_up_at_cap)
     spc_receiver rc;
     spc_receiver_medium(&rc, spc_v3(0.15, 0.05, 0.1), spc_v3(0, 0, 1), &iso, -1);
     spc_snee_params p;
-    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
-    p.seed = SPC_SNEE_SEED_SHAPE;
-    p.straight_first = false;
-    p.exact = false;
-    p.reflect = false;
-    p.mis = true;
-    p.solve_mis = false;
-    p.mis_solve = 1e-5;
-    p.max_trials = 1;
+    give_up_params(&p, 1e-5);
     spc_snee_stats st;
     memset(&st, 0, sizeof st);
     spc_rng r;
@@ -1140,15 +1147,7 @@ TEST(mis_give_up_at_cap_adds_up)
     spc_receiver rc;
     spc_receiver_medium(&rc, xp, wo, &iso, -1);
     spc_snee_params p;
-    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
-    p.seed = SPC_SNEE_SEED_SHAPE;
-    p.straight_first = false;
-    p.exact = false;
-    p.reflect = false;
-    p.mis = true;
-    p.solve_mis = false;
-    p.mis_solve = 0.03; /* at 0.003 D's error estimate hangs on a few rare large samples */
-    p.max_trials = 1;
+    give_up_params(&p, 0.03); /* at 0.003 D's error estimate hangs on a few rare large samples */
     p.long_p = 0.0;
     spc_snee_stats st;
     memset(&st, 0, sizeof st);

@@ -28,18 +28,9 @@
 
 #define SCENE "scenes/caustic_sdf_torus.xml"
 
-static spc_scene *load(void)
-{
-    spc_scene *sc = NULL;
-    spc_error err;
-    memset(&err, 0, sizeof err);
-    CHECK_MSG(spc_scene_load(SCENE, NULL, 0, &sc, &err) == SPC_OK, "%s: %s", SCENE, err.msg);
-    return sc;
-}
-
 TEST(long_chain_weight)
 {
-    spc_scene *sc = load();
+    spc_scene *sc = chain_mis_load(SCENE, NULL, NULL);
     if (!sc)
         return;
     spc_snee_params p;
@@ -62,7 +53,7 @@ TEST(long_chain_weight)
 
 TEST(weighted_sum_agrees_with_bsdf_sampling)
 {
-    spc_scene *sc = load();
+    spc_scene *sc = chain_mis_load(SCENE, NULL, NULL);
     if (!sc)
         return;
     spc_snee_params p;

@@ -284,6 +284,21 @@ static double ball_paths_mean_weight(spc_scene *sc, double fx, double fz, const 
     return mean;
 }
 
+/* On SCENE, at least 50 of ball_paths_mean_weight's paths (at most `want`) from the floor point
+ * (fx, 0, fz) through the event sequence ev[0..k), and their mean BSDF-side weight below 0.05. */
+static void check_ball_weight_small(double fx, double fz, const unsigned char *ev, int k, uint64_t stream, int want)
+{
+    spc_scene *sc = tu_load(SCENE, 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    int n;
+    double w = ball_paths_mean_weight(sc, fx, fz, ev, k, stream, want, &n);
+    CHECK(n >= 50);
+    CHECK_MSG(n > 0 && w < 0.05, "mean weight %.3f", w);
+    spc_scene_destroy(sc);
+}
+
 /* The MIS weight on the BSDF side of the paths from the floor point (-0.23, 0, 0.72) under the
  * triangle glass ball that reach the light through five chain vertices (in, three internal
  * reflections, out): specular NEE finds them on its ball pass at every call (0.25 per length, the
@@ -292,17 +307,9 @@ static double ball_paths_mean_weight(spc_scene *sc, double fx, double fz, const 
  * a 24-seed benchmark's worst seed (bench/RESULTS.md, "The triangle glass ball's 5-vertex tail"). */
 TEST(ball_long_chain_weight)
 {
-    spc_scene *sc = tu_load(SCENE, 0);
-    CHECK(sc != NULL);
-    if (!sc)
-        return;
     static const unsigned char ev[5] = {SPC_CHAIN_REFRACT, SPC_CHAIN_REFLECT, SPC_CHAIN_REFLECT, SPC_CHAIN_REFLECT,
                                         SPC_CHAIN_REFRACT};
-    int n;
-    double w = ball_paths_mean_weight(sc, -0.23, 0.72, ev, 5, 1, 200, &n);
-    CHECK(n >= 50);
-    CHECK_MSG(n > 0 && w < 0.05, "mean weight %.3f", w);
-    spc_scene_destroy(sc);
+    check_ball_weight_small(-0.23, 0.72, ev, 5, 1, 200);
 }
 
 /* The 2-vertex paths (in, out) from the floor point (-0.097, 0, 0.323) near the fold of the ball's
@@ -313,16 +320,8 @@ TEST(ball_long_chain_weight)
  * 0.135. */
 TEST(ball_fold_chain_weight)
 {
-    spc_scene *sc = tu_load(SCENE, 0);
-    CHECK(sc != NULL);
-    if (!sc)
-        return;
     static const unsigned char ev[2] = {SPC_CHAIN_REFRACT, SPC_CHAIN_REFRACT};
-    int n;
-    double w = ball_paths_mean_weight(sc, -0.097, 0.323, ev, 2, 2, 100, &n);
-    CHECK(n >= 50);
-    CHECK_MSG(n > 0 && w < 0.05, "mean weight %.3f", w);
-    spc_scene_destroy(sc);
+    check_ball_weight_small(-0.097, 0.323, ev, 2, 2, 100);
 }
 
 /* The ball pass's events: over the 32 event sequences of a 5-vertex chain through the glass ball, the

@@ -35,21 +35,9 @@
 #define BALL_C spc_v3(0.0, 0.45, 0.0)
 #define BALL_R 0.45
 
-/* The scene, with its light's radius and radiance set where light_radius is given (NULL: as the
- * file has them). */
-static spc_scene *load(const char *light_radius, const char *light_radiance)
-{
-    spc_scene *sc = NULL;
-    spc_error err;
-    memset(&err, 0, sizeof err);
-    spc_define defs[2] = {{"light_radius", light_radius}, {"light_radiance", light_radiance}};
-    CHECK_MSG(spc_scene_load(SCENE, defs, light_radius ? 2 : 0, &sc, &err) == SPC_OK, "%s: %s", SCENE, err.msg);
-    return sc;
-}
-
 TEST(specular_prob_matches_sampling)
 {
-    spc_scene *sc = load(NULL, NULL);
+    spc_scene *sc = chain_mis_load(SCENE, NULL, NULL);
     if (!sc)
         return;
     /* the ball's top, hit from above */
@@ -82,7 +70,7 @@ TEST(specular_prob_matches_sampling)
 
 TEST(long_chain_weight)
 {
-    spc_scene *sc = load(NULL, NULL);
+    spc_scene *sc = chain_mis_load(SCENE, NULL, NULL);
     if (!sc)
         return;
     spc_snee_params p;
@@ -106,7 +94,7 @@ TEST(weighted_sum_agrees_with_bsdf_sampling)
 {
     /* a light of radius 0.4 (the same power), which BSDF sampling alone finds through the ball often
      * enough for a z-test */
-    spc_scene *sc = load("0.4", "19.8, 18, 15.3");
+    spc_scene *sc = chain_mis_load(SCENE, "0.4", "19.8, 18, 15.3");
     if (!sc)
         return;
     spc_snee_params p;
