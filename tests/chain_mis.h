@@ -186,4 +186,19 @@ static inline double chain_mis_zmax(const spc_scene *sc, const spc_snee_params *
     return zmax;
 }
 
+/* chain_mis_zmax on the scene at `path` (its light set as chain_mis_load sets it) with
+ * chain_mis_default_params: |z| < 4 at every point. */
+static inline void chain_mis_check_agrees(const char *path, const char *light_radius, const char *light_radiance,
+                                          int floor_index, const double (*pts)[2], int npts, spc_vec3 camera, int N)
+{
+    spc_scene *sc = chain_mis_load(path, light_radius, light_radiance);
+    if (!sc)
+        return;
+    spc_snee_params p;
+    chain_mis_default_params(&p);
+    double zmax = chain_mis_zmax(sc, &p, floor_index, pts, npts, camera, N);
+    CHECK_MSG(zmax < 4.0, "|z| %.2f", zmax);
+    spc_scene_destroy(sc);
+}
+
 #endif
