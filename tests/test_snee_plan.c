@@ -1123,6 +1123,61 @@ TEST(volpath_ball_plan)
     spc_scene_destroy(sc);
 }
 
+/* A water surface (a glass normal-mapped plane: scenes/caustic_pool.xml) with the camera and the
+ * light above it: path's plan has no query from the camera (from there the plane's chains are the
+ * light's glints, which the path tracer's emission splitting traces at every camera sample;
+ * SPC_SNEE_PLAN_SETTING_WATER). volpath and bdpt, which do not split, keep the query, and so does
+ * path with the light under the water, where chains from the camera refract to it. */
+TEST(water_plane_plan_no_camera_query)
+{
+    spc_scene *sc = load_at("scenes/caustic_pool.xml", "16");
+    if (!sc)
+        return;
+    spc_snee_plan p;
+    spc_snee_params sp;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER) && spc_snee_parse(p.setting, 2, &sp) &&
+                  !sp.camera && sp.exact,
+              "pool, path: %s (%s)", p.setting, p.reason);
+    printf("    pool, path: %s\n", p.setting);
+    static const char *const others[] = {"volpath", "bdpt"};
+    for (int i = 0; i < 2; ++i) {
+        spc_snee_plan_make(sc, others[i], NULL, &p);
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "pool, %s: %s", others[i], p.setting);
+    }
+    spc_scene_destroy(sc);
+    /* the same pool with the light under the water */
+    char path[1200];
+    snprintf(path, sizeof path, "%s/scenes/caustic_pool.xml", spc_test_source_dir());
+    FILE *fp = fopen(path, "rb");
+    CHECK(fp != NULL);
+    if (!fp)
+        return;
+    static char text[16384], moved[20000];
+    size_t n = fread(text, 1, sizeof text - 1, fp);
+    fclose(fp);
+    text[n] = 0;
+    const char *light = "x=\"0.6\" y=\"3\" z=\"-0.8\"", *map = "textures/waves_normal.png";
+    char *a = strstr(text, light), *b = strstr(text, map);
+    CHECK(a && b && a < b);
+    if (!(a && b && a < b))
+        return;
+    *a = 0;
+    *b = 0;
+    snprintf(moved, sizeof moved, "%sx=\"0.6\" y=\"-0.5\" z=\"-0.8\"%s%s/scenes/%s%s", text, a + strlen(light),
+             spc_test_source_dir(), map, b + strlen(map));
+    spc_error err;
+    sc = NULL;
+    CHECK_MSG(load_text(moved, &sc, &err) == SPC_OK, "moved light: %s", err.msg);
+    if (!sc)
+        return;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "light under the water, path: %s (%s)",
+              p.setting, p.reason);
+    printf("    light under the water, path: %s\n", p.setting);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(demo_plan_on);
@@ -1145,5 +1200,6 @@ int main(void)
     RUN(closed_glass_mesh_plan_off);
     RUN(solved_mirror_plan_no_first_roulette);
     RUN(volpath_ball_plan);
+    RUN(water_plane_plan_no_camera_query);
     return spc_test_finish();
 }

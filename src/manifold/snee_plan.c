@@ -290,6 +290,54 @@ static double glass_image_share(const spc_scene *sc, const spc_chain_casters *cs
 #define SPC_SNEE_PLAN_CAMERA_PASS 100.0
 #define SPC_SNEE_PLAN_CAMERA_ALL 0.95
 
+/* Are the chains from the camera to a light through one caster reflections off glass, which the
+ * path tracer splits at every camera sample (SPC_SNEE_PLAN_SETTING_WATER)? Every caster is a glass
+ * normal-mapped plane, and the pinhole and every light specular NEE draws on lie strictly on one
+ * side of each plane (an area light's bounding box whole): a path that refracts through a plane
+ * stays on its far side unless another caster turns it back. False where it cannot tell (the
+ * camera does not prepare, a plane's frame is not found). Only the choice of the query: without
+ * it the other strategies' MIS weights still sum to one. */
+static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
+{
+    spc_camera_state cam;
+    if (!sc->finalized || !spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height))
+        return false;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0, m[3];
+        spc_vec3 frame[3];
+        if (!(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) ||
+            spc_snee_plan_method(p, s) != SPC_SNEE_METHOD_PLANE || s->type != SPC_SHAPE_MESH || s->mesh.nverts < 1)
+            return false;
+        spc_vec3 o = spc_v3(s->mesh.p[0], s->mesh.p[1], s->mesh.p[2]);
+        if (!spc_plane_chain_model_normal(s, o, m, frame))
+            return false;
+        double side = spc_dot(spc_sub(cam.origin, o), frame[2]);
+        if (side == 0.0)
+            return false;
+        for (int k = 0; k < sc->nemitters; ++k) {
+            const spc_emitter *e = sc->emitters[k];
+            if (!snee_light(e))
+                continue;
+            if (e->type != SPC_EMITTER_AREA) {
+                if (!(side * spc_dot(spc_sub(e->position, o), frame[2]) > 0.0))
+                    return false;
+                continue;
+            }
+            if (e->shape_index < 0 || e->shape_index >= sc->nshapes)
+                return false;
+            const spc_shape *ls = sc->shapes[e->shape_index];
+            for (int c = 0; c < 8; ++c) {
+                spc_vec3 q = spc_v3(c & 1 ? ls->bbox_max.x : ls->bbox_min.x, c & 2 ? ls->bbox_max.y : ls->bbox_min.y,
+                                    c & 4 ? ls->bbox_max.z : ls->bbox_min.z);
+                if (!(side * spc_dot(spc_sub(q, o), frame[2]) > 0.0))
+                    return false;
+            }
+        }
+    }
+    return cs->n > 0;
+}
+
 /* The query from the camera's probability (above) for glass on a share s of the image. */
 static double camera_prob(const spc_scene *sc, double s)
 {
@@ -455,6 +503,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     else if (ball)
         snprintf(out->setting, sizeof out->setting, "%s",
                  strcmp(integrator, "volpath") ? SPC_SNEE_PLAN_SETTING_BALLS : SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH);
+    else if (!strcmp(integrator, "path") && camera_chains_split(sc, cs, &p))
+        snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_WATER);
     else if (q < SPC_SNEE_PLAN_CAMERA_ALL)
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,first=0.1,later=0.1", q);
     else
