@@ -72,13 +72,14 @@ static double ref_search(double u, double tan_t, double cot_t, double x)
 
 static bool same_bits(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
 
-/* A random query: incidence from normal to grazing, u anywhere (also in the tails' end cells), a
+/* A random query: incidence from normal (the y-slope's search) to grazing, u anywhere (also in the tails' end cells), a
  * guess near the root, or far from it, or the Gaussian's. */
 static void random_query(spc_rng *r, double *u, double *tan_t, double *cot_t, double *guess)
 {
-    double theta = spc_rng_next(r) * 1.55 + 1e-4;
+    /* one in ten at tan_t = 0: the y-slope's search (erf(x) = 2u - 1) */
+    double theta = spc_rng_next(r) < 0.1 ? 0.0 : spc_rng_next(r) * 1.55 + 1e-4;
     *tan_t = tan(theta);
-    *cot_t = 1.0 / *tan_t;
+    *cot_t = theta > 0.0 ? 1.0 / *tan_t : SPC_INF;
     double k = spc_rng_next(r);
     *u = k < 0.1 ? spc_rng_next(r) * 0.004 : k < 0.2 ? 1.0 - spc_rng_next(r) * 0.004 : spc_rng_next(r);
     double g = spc_erfinv(2.0 * spc_clamp(*u, 1e-12, 1.0 - 1e-12) - 1.0);

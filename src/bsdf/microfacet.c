@@ -14,7 +14,8 @@
  *   p(x) ~ (1 - x tan t) exp(-x^2), x < cot t, has the CDF
  *   F(x) = sqrt(pi)/2 erfc(-x) + tan(t)/2 exp(-x^2), which we invert to double precision by
  *   Halley's method safeguarded with bisection, started from a tabulated guess (the search is
- *   microfacet_many.c's, for one sample or many at once); the y-slope is Gaussian: erfinv(2u - 1).
+ *   microfacet_many.c's, for one sample or many at once); the y-slope is Gaussian, erfinv(2u - 1),
+ *   the root of the same search at normal incidence.
  * - sample_visible false: slopes drawn from the (stretched) isotropic slope distribution, giving
  *   the density D(m) m.z.
  */
@@ -179,44 +180,48 @@ static double beckmann_slope_guess(double u, double tan_t, bool *table)
 }
 
 /* Beckmann visible normal (Heitz and d'Eon 2014, sec. 4 and appendix A) in two halves around the
- * x-slope's search, so that many samples can share one search (spc_microfacet_sample_many): the
- * stretched direction and the y-slope, and the search's inputs; then the slopes rotated and
- * unstretched. */
+ * slopes' searches, so that many samples can share one search (spc_microfacet_sample_many): the
+ * stretched direction and the searches' inputs; then the slopes rotated and unstretched. The y-slope
+ * is an independent Gaussian with variance 1/2, erfinv(2 u.y - 1): the root of the same search with
+ * tan_t = 0 (sqrt(pi)/2 erfc(-y) = u.y sqrt(pi)), started from the table's guess at normal incidence;
+ * in the table's two end cells of u.y, and for both slopes at normal incidence, erfinv itself (u
+ * clamped away from 0 and 1 so that it stays finite). */
 typedef struct beckmann_visible {
     spc_vec3 ws;
-    double sin_t, sy;
-    bool normal;          /* normal incidence: the x-slope is Gaussian too, x below; no search */
-    bool table;           /* the search starts from the table's guess (else from erfinv's) */
-    double tan_t, cot_t, x; /* the search's inputs; x the guess, or the slope at normal incidence */
+    double sin_t;
+    bool normal;            /* normal incidence: both slopes Gaussian, x and y below; no search */
+    bool x_table, y_search; /* x's search starts from the table's guess (else erfinv's); y has one */
+    double tan_t, cot_t;    /* the x-slope's search */
+    double x, y;            /* the searches' guesses, or the slopes where there is no search */
 } beckmann_visible;
 
 static void beckmann_visible_begin(double au, double av, spc_vec3 w, spc_vec2 u, beckmann_visible *b)
 {
     b->ws = spc_normalize(spc_v3(au * w.x, av * w.y, w.z));
     b->sin_t = sqrt(b->ws.x * b->ws.x + b->ws.y * b->ws.y);
-    /* the y-slope is an independent Gaussian with variance 1/2; clamp u away from 0 and 1 so that
-     * erfinv stays finite */
-    double uy = spc_clamp(u.y, 1e-12, 1.0 - 1e-12);
-    b->sy = spc_erfinv(2.0 * uy - 1.0);
     b->normal = b->sin_t < 1e-12;
-    b->table = false;
+    b->x_table = b->y_search = false;
+    if (!b->normal)
+        b->y = beckmann_slope_guess(u.y, 0.0, &b->y_search);
+    if (!b->y_search)
+        b->y = spc_erfinv(2.0 * spc_clamp(u.y, 1e-12, 1.0 - 1e-12) - 1.0);
     if (b->normal) {
         b->x = spc_erfinv(2.0 * spc_clamp(u.x, 1e-12, 1.0 - 1e-12) - 1.0);
     } else {
         b->tan_t = b->sin_t / b->ws.z;
         b->cot_t = b->ws.z / b->sin_t;
-        b->x = beckmann_slope_guess(u.x, b->tan_t, &b->table);
+        b->x = beckmann_slope_guess(u.x, b->tan_t, &b->x_table);
     }
 }
 
-/* m from the x-slope x (the search's answer, or b->x at normal incidence) */
-static spc_vec3 beckmann_visible_end(double au, double av, const beckmann_visible *b, double x)
+/* m from the slopes x and y (the searches' answers, or b->x and b->y where there is none) */
+static spc_vec3 beckmann_visible_end(double au, double av, const beckmann_visible *b, double x, double y)
 {
-    double sx = x, sy = b->sy;
+    double sx = x, sy = y;
     if (!b->normal) {
         double c = b->ws.x / b->sin_t, s = b->ws.y / b->sin_t;
-        sx = c * x - s * b->sy;
-        sy = s * x + c * b->sy;
+        sx = c * x - s * y;
+        sy = s * x + c * y;
     }
     return spc_normalize(spc_v3(-sx * au, -sy * av, 1.0));
 }
@@ -226,7 +231,8 @@ static spc_vec3 sample_visible_beckmann(double au, double av, spc_vec3 w, spc_ve
     beckmann_visible b;
     beckmann_visible_begin(au, av, w, u, &b);
     double x = b.normal ? b.x : invert_beckmann_slope_cdf(u.x, b.tan_t, b.cot_t, b.x);
-    return beckmann_visible_end(au, av, &b, x);
+    double y = b.y_search ? invert_beckmann_slope_cdf(u.y, 0.0, SPC_INF, b.y) : b.y;
+    return beckmann_visible_end(au, av, &b, x, y);
 }
 
 spc_vec3 spc_microfacet_sample(const spc_microfacet *md, spc_vec3 w, spc_vec2 u, double *pdf)
@@ -255,37 +261,54 @@ spc_vec3 spc_microfacet_sample(const spc_microfacet *md, spc_vec3 w, spc_vec2 u,
 void spc_microfacet_sample_many(int n, const spc_microfacet *md, const spc_vec3 *w, const spc_vec2 *u, spc_vec3 *m,
                                 double *pdf)
 {
-    beckmann_visible b[MICROFACET_MANY_BATCH];
-    int lane[MICROFACET_MANY_BATCH];
-    double su[MICROFACET_MANY_BATCH], tan_t[MICROFACET_MANY_BATCH], cot_t[MICROFACET_MANY_BATCH];
-    double x[MICROFACET_MANY_BATCH];
-    for (int i0 = 0; i0 < n; i0 += MICROFACET_MANY_BATCH) {
-        int nb = 0;
-        for (int i = i0; i < n && i < i0 + MICROFACET_MANY_BATCH; ++i) {
+    enum { B = MICROFACET_MANY_BATCH };
+    beckmann_visible b[B];
+    int lane[B];
+    /* the searches of a pass: x-slopes in [0, nx), y-slopes in [B, B + ny) */
+    double su[2 * B], tan_t[2 * B], cot_t[2 * B], s[2 * B];
+    int xk[B], yk[B];
+    for (int i0 = 0; i0 < n; i0 += B) {
+        int nb = 0, nx = 0, ny = 0;
+        for (int i = i0; i < n && i < i0 + B; ++i) {
             if (!(md[i].sample_visible && md[i].type == SPC_MICROFACET_BECKMANN && w[i].z > 0.0)) {
                 m[i] = spc_microfacet_sample(&md[i], w[i], u[i], &pdf[i]);
                 continue;
             }
-            /* the searches from the table's guesses share a batch; those from the tails' end cells
-             * (a few in a thousand, and the slowest) go one at a time, with the same answers */
-            beckmann_visible *bi = &b[i - i0];
+            beckmann_visible *bi = &b[nb];
             beckmann_visible_begin(md[i].alpha_u, md[i].alpha_v, w[i], u[i], bi);
-            if (bi->normal || !bi->table) {
-                double xi = bi->normal ? bi->x : invert_beckmann_slope_cdf(u[i].x, bi->tan_t, bi->cot_t, bi->x);
-                m[i] = beckmann_visible_end(md[i].alpha_u, md[i].alpha_v, bi, xi);
-                pdf[i] = spc_microfacet_pdf(&md[i], w[i], m[i]);
-                continue;
+            /* the searches from the table's guesses share the pass; an x-slope's from the tails' end
+             * cells (a few in a thousand, and the slowest) goes alone, with the same answer */
+            xk[nb] = yk[nb] = -1;
+            if (!bi->normal && !bi->x_table)
+                bi->x = invert_beckmann_slope_cdf(u[i].x, bi->tan_t, bi->cot_t, bi->x);
+            else if (!bi->normal) {
+                su[nx] = u[i].x;
+                tan_t[nx] = bi->tan_t;
+                cot_t[nx] = bi->cot_t;
+                s[nx] = bi->x;
+                xk[nb] = nx++;
             }
-            lane[nb] = i;
-            su[nb] = u[i].x;
-            tan_t[nb] = bi->tan_t;
-            cot_t[nb] = bi->cot_t;
-            x[nb++] = bi->x;
+            if (bi->y_search) {
+                su[B + ny] = u[i].y;
+                tan_t[B + ny] = 0.0;
+                cot_t[B + ny] = SPC_INF;
+                s[B + ny] = bi->y;
+                yk[nb] = B + ny++;
+            }
+            lane[nb++] = i;
         }
-        spc_beckmann_slope_x_many(nb, su, tan_t, cot_t, x);
+        /* one call for both kinds: move the y-slopes next to the x-slopes */
+        for (int k = 0; k < ny; ++k) {
+            su[nx + k] = su[B + k];
+            tan_t[nx + k] = tan_t[B + k];
+            cot_t[nx + k] = cot_t[B + k];
+            s[nx + k] = s[B + k];
+        }
+        spc_beckmann_slope_x_many(nx + ny, su, tan_t, cot_t, s);
         for (int k = 0; k < nb; ++k) {
             int i = lane[k];
-            m[i] = beckmann_visible_end(md[i].alpha_u, md[i].alpha_v, &b[i - i0], x[k]);
+            double x = xk[k] >= 0 ? s[xk[k]] : b[k].x, y = yk[k] >= 0 ? s[nx + yk[k] - B] : b[k].y;
+            m[i] = beckmann_visible_end(md[i].alpha_u, md[i].alpha_v, &b[k], x, y);
             pdf[i] = spc_microfacet_pdf(&md[i], w[i], m[i]);
         }
     }
