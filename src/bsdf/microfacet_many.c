@@ -28,6 +28,14 @@
  * share its batch, and every ISA variant gives the same bits (no fused multiply-adds: ISO C11 builds do not contract, and the
  * vector targets below do not include FMA).
  */
+/* O3 vectorizes the lanes' loops; without trapping math GCC may if-convert the divisions and the
+ * other selected expressions that it otherwise moves under the selects (AVX2 has no masked
+ * arithmetic to run them there). Neither changes a value (no contraction, no reassociation). A
+ * pragma rather than per-function attributes, so that the inline helpers below are compiled with
+ * the same options. */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC optimize("O3", "no-trapping-math")
+#endif
 #include <math.h>
 #include <pthread.h>
 #include <stdint.h>
@@ -199,11 +207,7 @@ static void solve_base(int m, slope_lanes *a, const double *cot_t) { slope_solve
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #define SLOPE_MANY_VECTOR 1
-#if defined(__clang__)
 #define SLOPE_ATTR(t) __attribute__((target(t)))
-#else
-#define SLOPE_ATTR(t) __attribute__((target(t), optimize("O3"))) /* GCC's -O2 does not vectorize */
-#endif
 SLOPE_ATTR("avx2") static void solve_avx2(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t); }
 SLOPE_ATTR("avx512f,avx512dq,avx512vl")
 static void solve_avx512(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t); }
