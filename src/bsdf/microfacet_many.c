@@ -25,8 +25,8 @@
  * range (test_microfacet_many measures 3e-15 over 200000 queries): the sampled normals move by
  * rounding, the distribution does not. A lane whose search has ended keeps its x (the loop runs
  * until every lane has ended), so each lane's answer depends on its own inputs only, whatever lanes
- * share its batch, and every ISA variant gives the same bits (no fused multiply-adds: ISO C11 builds do not contract, and the
- * vector targets below do not include FMA).
+ * share its batch, and every ISA variant gives the same bits (no fused multiply-adds: ISO C11 builds
+ * do not contract, and the vector targets below do not include FMA).
  */
 /* O3 vectorizes the lanes' loops; without trapping math GCC may if-convert the divisions and the
  * other selected expressions that it otherwise moves under the selects (AVX2 has no masked
@@ -55,7 +55,7 @@
 /* Iterations of the search: from microfacet.c's tabulated guess about 1.9 on average, up to 19 in
  * the tails' end cells; the bound only guards against pathological inputs. */
 #define SLOPE_MAX_ITERATIONS 60
-/* lanes per pass of the loop (arrays on the stack); the vector variants round a pass up to a
+/* lanes per pass of the loop (arrays on the stack); a pass of more than one lane is rounded up to a
  * multiple of SLOPE_VECTOR with idle lanes so that no lane runs in a scalar remainder loop */
 #define SLOPE_BATCH 32
 #define SLOPE_VECTOR 8

@@ -8,8 +8,8 @@
  * the shadow rays go out as one packet (spc_scene_occluded_light_packet); the lanes' BSDFs are sampled
  * together (the diffuse ones' warps in one call, the others in spc_bsdf_sample_dir_many, where rough
  * metals share their visible-normal searches); each lane adds its light sample's contribution, takes
- * its BSDF sample and plays Russian roulette. A lane whose path ends stores
- * the estimate and takes the next camera sample, so the packets stay full until the samples run out;
+ * its BSDF sample and plays Russian roulette. A lane whose path ends stores the estimate and takes
+ * the next camera sample, so the packets stay full until the samples run out;
  * except where max_depth ends every path before Russian roulette starts (wave_lockstep): there the
  * wave takes W samples at once and the next W when all of them have ended.
  *
