@@ -194,6 +194,51 @@ bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode
     return ok;
 }
 
+void spc_bsdf_sample_dir_many(int n, const spc_bsdf *const b[], const spc_hit *const h[], spc_transport mode,
+                              const spc_vec3 wo[], const double u_lobe[], const spc_vec2 u[], spc_bsdf_sample out[],
+                              bool ok[])
+{
+    enum { BATCH = 16 };
+    spc_hit flip[BATCH];
+    const spc_bsdf *rb[BATCH];
+    const spc_hit *rh[BATCH];
+    spc_vec3 rwo[BATCH];
+    spc_vec2 ru[BATCH];
+    spc_bsdf_sample rout[BATCH];
+    bool rok[BATCH];
+    int lane[BATCH];
+    for (int i0 = 0; i0 < n; i0 += BATCH) {
+        int k = 0;
+        for (int i = i0; i < n && i < i0 + BATCH; ++i) {
+            /* a rough metal, or twosided's rough-metal side that wo sees (with twosided's flipped
+             * hit): to the batch; every other BSDF one at a time */
+            const spc_bsdf *nb = b[i];
+            const spc_hit *hs = h[i];
+            if (!nb) {
+                ok[i] = false;
+                continue;
+            }
+            if (nb->type == SPC_BSDF_TWOSIDED)
+                nb = spc_twosided_side(nb, h[i], wo[i], &flip[i - i0], &hs);
+            if (!(nb && nb->type == SPC_BSDF_ROUGHCONDUCTOR)) {
+                ok[i] = spc_bsdf_sample_dir(b[i], h[i], mode, wo[i], u_lobe[i], u[i], &out[i]);
+                continue;
+            }
+            rb[k] = nb;
+            rh[k] = hs;
+            rwo[k] = wo[i];
+            ru[k] = u[i];
+            lane[k++] = i;
+        }
+        spc_roughconductor_sample_many(k, rb, rh, rwo, ru, rout, rok);
+        for (int j = 0; j < k; ++j) {
+            int i = lane[j];
+            out[i] = rout[j];
+            ok[i] = rok[j] && out[i].pdf > 0.0 && spc_rgb_finite(out[i].weight) && spc_v3_finite(out[i].wi);
+        }
+    }
+}
+
 spc_rgb spc_bsdf_albedo(const spc_bsdf *b, const spc_hit *h)
 {
     if (!b)

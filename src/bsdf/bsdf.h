@@ -155,6 +155,13 @@ spc_rgb spc_bsdf_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, s
 double spc_bsdf_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi);
 bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
                          spc_vec2 u, spc_bsdf_sample *out);
+/* spc_bsdf_sample_dir of n lanes at once (lane i: b[i], h[i], wo[i], u_lobe[i], u[i] into out[i],
+ * ok[i]; none where b[i] is NULL), the same values: for a path tracer that runs many paths side by
+ * side. Rough metals (also
+ * under twosided) share one search for their Beckmann visible normals (bsdf/microfacet.h). */
+void spc_bsdf_sample_dir_many(int n, const spc_bsdf *const b[], const spc_hit *const h[], spc_transport mode,
+                              const spc_vec3 wo[], const double u_lobe[], const spc_vec2 u[], spc_bsdf_sample out[],
+                              bool ok[]);
 /* spc_bsdf_eval and, in *pdf, spc_bsdf_pdf of the same directions, bit for bit the two calls' values:
  * for next-event estimation, which needs both. Variants whose eval and pdf share terms compute them
  * once (roughconductor: D(m) and G1(wo, m); twosided: the side and its flipped hit); the others

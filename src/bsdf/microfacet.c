@@ -13,8 +13,9 @@
  *   the visible slope distribution for that incidence, rotate, unstretch. The x-slope marginal
  *   p(x) ~ (1 - x tan t) exp(-x^2), x < cot t, has the CDF
  *   F(x) = sqrt(pi)/2 erfc(-x) + tan(t)/2 exp(-x^2), which we invert to double precision by
- *   Halley's method safeguarded with bisection, started from a tabulated guess; the y-slope is
- *   Gaussian: erfinv(2u - 1).
+ *   Halley's method safeguarded with bisection, started from a tabulated guess (the search is
+ *   microfacet_many.c's, for one sample or many at once); the y-slope is Gaussian, erfinv(2u - 1),
+ *   the root of the same search at normal incidence.
  * - sample_visible false: slopes drawn from the (stretched) isotropic slope distribution, giving
  *   the density D(m) m.z.
  */
@@ -27,9 +28,6 @@
 /* Slopes beyond this are irrelevant for the Beckmann slope CDF: exp(-10^2) is below double
  * precision relative to the distribution's mass. */
 #define BECKMANN_SLOPE_LIMIT 10.0
-/* Iterations of the Beckmann slope inversion: from the table's guess about 1.9 on average, up to
- * 19 in the tails' end cells (20000 draws); the bound only guards against pathological inputs. */
-#define BECKMANN_MAX_ITERATIONS 60
 /* Where a = cot(theta) / alpha(phi) >= 6, Beckmann's Lambda is below 2e-19 (asymptotically
  * exp(-a^2) / (4 a^3 sqrt(pi)): 1.5e-19 at a = 6), far below half an ulp of 1
  * (1.1e-16), so G1 = 1 / (1 + Lambda) is exactly 1 in double. Lambda then returns 0 without its exp
@@ -127,67 +125,11 @@ static spc_vec3 sample_visible_ggx(double au, double av, spc_vec3 w, spc_vec2 u)
     return spc_normalize(spc_v3(au * nh.x, av * nh.y, spc_max(0.0, nh.z)));
 }
 
-/* Unnormalized CDF of the Beckmann visible x-slope for alpha = 1 and tan(theta) = tan_t. */
-static double beckmann_slope_cdf(double x, double tan_t)
-{
-    return 0.5 * sqrt(SPC_PI) * erfc(-x) + 0.5 * tan_t * exp(-x * x);
-}
-
-/* The visible x-slope for alpha = 1 and incidence angle theta (tan_t, cot_t): the root of
- * F(x) = F(lo) + u (F(hi) - F(lo)) from the guess x, by Halley's method safeguarded with
- * bisection. One erfc and one exp give F and, with the density F' = (1 - x tan_t) exp(-x^2), its
- * first three derivatives. A Halley step ends the search when its error estimate K |step|^3,
- * K = |F'''/(6 F') - F''^2/(4 F'^2)|, is below 1e-15 (1 + |x|); so does a Newton step below
- * 1e-14 (1 + |x|) (the test that also ends the search near cot_t, where F' vanishes and Halley's
- * estimate does not hold). */
+/* The visible x-slope for alpha = 1 and incidence angle theta (tan_t, cot_t), searched from the
+ * guess x (microfacet_many.c). */
 static double invert_beckmann_slope_cdf(double u, double tan_t, double cot_t, double x)
 {
-    double lo = -BECKMANN_SLOPE_LIMIT, hi = spc_min(cot_t, BECKMANN_SLOPE_LIMIT);
-    double f_lo = beckmann_slope_cdf(lo, tan_t);
-    double f_hi = hi >= SPC_BECKMANN_SLOPE_CDF_FLAT && tan_t <= 1.0 / SPC_BECKMANN_SLOPE_CDF_FLAT
-                      ? sqrt(SPC_PI)
-                      : beckmann_slope_cdf(hi, tan_t);
-    double target = f_lo + u * (f_hi - f_lo);
-    x = spc_clamp(x, lo, hi);
-    if (!(x > lo && x < hi))
-        x = 0.5 * (lo + hi);
-    for (int it = 0; it < BECKMANN_MAX_ITERATIONS; ++it) {
-        /* the CDF and its derivatives share exp(-x^2): beckmann_slope_cdf written out */
-        double e = exp(-x * x);
-        double F = (0.5 * sqrt(SPC_PI) * erfc(-x) + 0.5 * tan_t * e) - target;
-        if (F == 0.0)
-            return x;
-        if (F > 0.0)
-            hi = x;
-        else
-            lo = x;
-        double a = 1.0 - x * tan_t;
-        double d1 = a * e; /* F' */
-        if (!(d1 > 0.0)) {
-            x = 0.5 * (lo + hi);
-            continue;
-        }
-        double d2 = (-tan_t - 2.0 * x * a) * e; /* F'' */
-        double newton = F / d1;
-        double den = 1.0 - 0.5 * newton * d2 / d1;
-        bool halley = den > 0.5; /* else the Newton step */
-        double next = x - (halley ? newton / den : newton);
-        double scale = 1.0 + fabs(x);
-        if (fabs(newton) <= 1e-14 * scale)
-            return next;
-        if (next > lo && next < hi) {
-            double d3 = (-2.0 + 6.0 * x * tan_t + 4.0 * x * x - 4.0 * x * x * x * tan_t) * e; /* F''' */
-            double r = d2 / d1, step = fabs(next - x);
-            double K = fabs(d3 / (6.0 * d1) - 0.25 * r * r);
-            if (halley && (1.0 + K) * step * step * step <= 1e-15 * scale)
-                return next;
-        } else {
-            next = 0.5 * (lo + hi);
-        }
-        if (hi - lo <= 1e-15 * scale)
-            return next;
-        x = next;
-    }
+    spc_beckmann_slope_x_many(1, &u, &tan_t, &cot_t, &x);
     return x;
 }
 
@@ -219,45 +161,78 @@ static void beckmann_table_build(void)
     }
 }
 
-static double sample_beckmann_slope_x(double u, double tan_t, double cot_t)
+/* The guess for the x-slope's search: the table's, except in its two end cells of u, where x runs
+ * off into the tails (*table false there: the Gaussian's erfinv(2u - 1)). */
+static double beckmann_slope_guess(double u, double tan_t, bool *table)
 {
     double su = u * BECKMANN_TABLE_U;
     int j = (int)su;
-    double guess;
-    if (!(j >= 1 && j < BECKMANN_TABLE_U - 1)) {
-        guess = spc_erfinv(2.0 * u - 1.0);
-    } else {
-        pthread_once(&beckmann_table_once, beckmann_table_build);
-        double sg = tan_t / (1.0 + tan_t) * BECKMANN_TABLE_G;
-        int i = sg < BECKMANN_TABLE_G - 1 ? (int)sg : BECKMANN_TABLE_G - 1;
-        double fg = sg - i, fu = su - j;
-        const float *r0 = beckmann_table[i], *r1 = beckmann_table[i + 1];
-        double x0 = r0[j] + fu * (r0[j + 1] - r0[j]), x1 = r1[j] + fu * (r1[j + 1] - r1[j]);
-        guess = x0 + fg * (x1 - x0);
-    }
-    return invert_beckmann_slope_cdf(u, tan_t, cot_t, guess);
+    *table = j >= 1 && j < BECKMANN_TABLE_U - 1;
+    if (!*table)
+        return spc_erfinv(2.0 * u - 1.0);
+    pthread_once(&beckmann_table_once, beckmann_table_build);
+    double sg = tan_t / (1.0 + tan_t) * BECKMANN_TABLE_G;
+    int i = sg < BECKMANN_TABLE_G - 1 ? (int)sg : BECKMANN_TABLE_G - 1;
+    double fg = sg - i, fu = su - j;
+    const float *r0 = beckmann_table[i], *r1 = beckmann_table[i + 1];
+    double x0 = r0[j] + fu * (r0[j + 1] - r0[j]), x1 = r1[j] + fu * (r1[j + 1] - r1[j]);
+    return x0 + fg * (x1 - x0);
 }
 
-/* Beckmann visible normal (Heitz and d'Eon 2014, sec. 4 and appendix A). */
-static spc_vec3 sample_visible_beckmann(double au, double av, spc_vec3 w, spc_vec2 u)
+/* Beckmann visible normal (Heitz and d'Eon 2014, sec. 4 and appendix A) in two halves around the
+ * slopes' searches, so that many samples can share one search (spc_microfacet_sample_many): the
+ * stretched direction and the searches' inputs; then the slopes rotated and unstretched. The y-slope
+ * is an independent Gaussian with variance 1/2, erfinv(2 u.y - 1): the root of the same search with
+ * tan_t = 0 (sqrt(pi)/2 erfc(-y) = u.y sqrt(pi)), started from the table's guess at normal incidence;
+ * in the table's two end cells of u.y, and for both slopes at normal incidence, erfinv itself (u
+ * clamped away from 0 and 1 so that it stays finite). */
+typedef struct beckmann_visible {
+    spc_vec3 ws;
+    double sin_t;
+    bool normal;            /* normal incidence: both slopes Gaussian, x and y below; no search */
+    bool x_table, y_search; /* x's search starts from the table's guess (else erfinv's); y has one */
+    double tan_t, cot_t;    /* the x-slope's search */
+    double x, y;            /* the searches' guesses, or the slopes where there is no search */
+} beckmann_visible;
+
+static void beckmann_visible_begin(double au, double av, spc_vec3 w, spc_vec2 u, beckmann_visible *b)
 {
-    spc_vec3 ws = spc_normalize(spc_v3(au * w.x, av * w.y, w.z));
-    double sin_t = sqrt(ws.x * ws.x + ws.y * ws.y);
-    double sx, sy;
-    /* the y-slope is an independent Gaussian with variance 1/2; clamp u away from 0 and 1 so that
-     * erfinv stays finite */
-    double uy = spc_clamp(u.y, 1e-12, 1.0 - 1e-12);
-    sy = spc_erfinv(2.0 * uy - 1.0);
-    if (sin_t < 1e-12) {
-        sx = spc_erfinv(2.0 * spc_clamp(u.x, 1e-12, 1.0 - 1e-12) - 1.0);
+    b->ws = spc_normalize(spc_v3(au * w.x, av * w.y, w.z));
+    b->sin_t = sqrt(b->ws.x * b->ws.x + b->ws.y * b->ws.y);
+    b->normal = b->sin_t < 1e-12;
+    b->x_table = b->y_search = false;
+    if (!b->normal)
+        b->y = beckmann_slope_guess(u.y, 0.0, &b->y_search);
+    if (!b->y_search)
+        b->y = spc_erfinv(2.0 * spc_clamp(u.y, 1e-12, 1.0 - 1e-12) - 1.0);
+    if (b->normal) {
+        b->x = spc_erfinv(2.0 * spc_clamp(u.x, 1e-12, 1.0 - 1e-12) - 1.0);
     } else {
-        double tan_t = sin_t / ws.z, cot_t = ws.z / sin_t;
-        double x = sample_beckmann_slope_x(u.x, tan_t, cot_t);
-        double c = ws.x / sin_t, s = ws.y / sin_t;
-        sx = c * x - s * sy;
-        sy = s * x + c * sy;
+        b->tan_t = b->sin_t / b->ws.z;
+        b->cot_t = b->ws.z / b->sin_t;
+        b->x = beckmann_slope_guess(u.x, b->tan_t, &b->x_table);
+    }
+}
+
+/* m from the slopes x and y (the searches' answers, or b->x and b->y where there is none) */
+static spc_vec3 beckmann_visible_end(double au, double av, const beckmann_visible *b, double x, double y)
+{
+    double sx = x, sy = y;
+    if (!b->normal) {
+        double c = b->ws.x / b->sin_t, s = b->ws.y / b->sin_t;
+        sx = c * x - s * y;
+        sy = s * x + c * y;
     }
     return spc_normalize(spc_v3(-sx * au, -sy * av, 1.0));
+}
+
+static spc_vec3 sample_visible_beckmann(double au, double av, spc_vec3 w, spc_vec2 u)
+{
+    beckmann_visible b;
+    beckmann_visible_begin(au, av, w, u, &b);
+    double x = b.normal ? b.x : invert_beckmann_slope_cdf(u.x, b.tan_t, b.cot_t, b.x);
+    double y = b.y_search ? invert_beckmann_slope_cdf(u.y, 0.0, SPC_INF, b.y) : b.y;
+    return beckmann_visible_end(au, av, &b, x, y);
 }
 
 spc_vec3 spc_microfacet_sample(const spc_microfacet *md, spc_vec3 w, spc_vec2 u, double *pdf)
@@ -278,6 +253,65 @@ spc_vec3 spc_microfacet_sample(const spc_microfacet *md, spc_vec3 w, spc_vec2 u,
     }
     *pdf = spc_microfacet_pdf(md, w, m);
     return m;
+}
+
+/* spc_microfacet_sample_many's lanes per pass */
+#define MICROFACET_MANY_BATCH 16
+
+void spc_microfacet_sample_many(int n, const spc_microfacet *md, const spc_vec3 *w, const spc_vec2 *u, spc_vec3 *m,
+                                double *pdf)
+{
+    enum { B = MICROFACET_MANY_BATCH };
+    beckmann_visible b[B];
+    int lane[B];
+    /* the searches of a pass: x-slopes in [0, nx), y-slopes in [B, B + ny) */
+    double su[2 * B], tan_t[2 * B], cot_t[2 * B], s[2 * B];
+    int xk[B], yk[B];
+    for (int i0 = 0; i0 < n; i0 += B) {
+        int nb = 0, nx = 0, ny = 0;
+        for (int i = i0; i < n && i < i0 + B; ++i) {
+            if (!(md[i].sample_visible && md[i].type == SPC_MICROFACET_BECKMANN && w[i].z > 0.0)) {
+                m[i] = spc_microfacet_sample(&md[i], w[i], u[i], &pdf[i]);
+                continue;
+            }
+            beckmann_visible *bi = &b[nb];
+            beckmann_visible_begin(md[i].alpha_u, md[i].alpha_v, w[i], u[i], bi);
+            /* the searches from the table's guesses share the pass; an x-slope's from the tails' end
+             * cells (a few in a thousand, and the slowest) goes alone, with the same answer */
+            xk[nb] = yk[nb] = -1;
+            if (!bi->normal && !bi->x_table)
+                bi->x = invert_beckmann_slope_cdf(u[i].x, bi->tan_t, bi->cot_t, bi->x);
+            else if (!bi->normal) {
+                su[nx] = u[i].x;
+                tan_t[nx] = bi->tan_t;
+                cot_t[nx] = bi->cot_t;
+                s[nx] = bi->x;
+                xk[nb] = nx++;
+            }
+            if (bi->y_search) {
+                su[B + ny] = u[i].y;
+                tan_t[B + ny] = 0.0;
+                cot_t[B + ny] = SPC_INF;
+                s[B + ny] = bi->y;
+                yk[nb] = B + ny++;
+            }
+            lane[nb++] = i;
+        }
+        /* one call for both kinds: move the y-slopes next to the x-slopes */
+        for (int k = 0; k < ny; ++k) {
+            su[nx + k] = su[B + k];
+            tan_t[nx + k] = tan_t[B + k];
+            cot_t[nx + k] = cot_t[B + k];
+            s[nx + k] = s[B + k];
+        }
+        spc_beckmann_slope_x_many(nx + ny, su, tan_t, cot_t, s);
+        for (int k = 0; k < nb; ++k) {
+            int i = lane[k];
+            double x = xk[k] >= 0 ? s[xk[k]] : b[k].x, y = yk[k] >= 0 ? s[nx + yk[k] - B] : b[k].y;
+            m[i] = beckmann_visible_end(md[i].alpha_u, md[i].alpha_v, &b[k], x, y);
+            pdf[i] = spc_microfacet_pdf(&md[i], w[i], m[i]);
+        }
+    }
 }
 
 double spc_microfacet_pdf(const spc_microfacet *md, spc_vec3 w, spc_vec3 m)

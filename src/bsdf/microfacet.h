@@ -53,6 +53,16 @@ double spc_microfacet_g(const spc_microfacet *md, spc_vec3 wo, spc_vec3 wi, spc_
 /* Samples a microfacet normal for the direction w (w.z > 0 required; callers flip w to the upper
  * hemisphere first). Returns m (m.z > 0) and its density in *pdf (0 means no sample). */
 spc_vec3 spc_microfacet_sample(const spc_microfacet *md, spc_vec3 w, spc_vec2 u, double *pdf);
+/* spc_microfacet_sample of n samples at once, lane i with md[i], w[i], u[i] into m[i], pdf[i]: the
+ * same values. The Beckmann visible-normal samples among them share one slope search (below). */
+void spc_microfacet_sample_many(int n, const spc_microfacet *md, const spc_vec3 *w, const spc_vec2 *u, spc_vec3 *m,
+                                double *pdf);
+/* The Beckmann visible x-slope for alpha = 1 of n samples (microfacet_many.c): x[i], on input the
+ * search's guess, receives the root of F(x) = sqrt(pi)/2 erfc(-x) + tan_t/2 exp(-x^2) = u[i] F(hi)
+ * on [-10, hi], hi = min(cot_t[i], 10) (F there within 5e-14 of its range of the exact root's). With
+ * tan_t 0 and cot_t infinite that is the y-slope, erfinv(2u - 1). Each answer depends on its lane's
+ * inputs only (the same bits for n = 1 and in any batch, under every vector ISA). */
+void spc_beckmann_slope_x_many(int n, const double *u, const double *tan_t, const double *cot_t, double *x);
 /* Density of spc_microfacet_sample producing m for the direction w (w may be in either
  * hemisphere; it is flipped to the upper one). */
 double spc_microfacet_pdf(const spc_microfacet *md, spc_vec3 w, spc_vec3 m);

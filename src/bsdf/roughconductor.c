@@ -76,6 +76,28 @@ spc_rgb spc_roughconductor_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_tra
     return spc_rgb_scale(spc_rgb_mul(F, ks), d * g / (4.0 * lo.z * li.z));
 }
 
+/* The sample's second half, from the microfacet normal m and its density pdf_m (microfacet.h) */
+static bool sample_end(const spc_bsdf *b, const spc_hit *h, spc_vec3 lo, const spc_microfacet *md, spc_vec3 m,
+                       double pdf_m, spc_bsdf_sample *out)
+{
+    double d_om = spc_dot(lo, m);
+    if (!(pdf_m > 0.0) || d_om <= 0.0)
+        return false;
+    spc_vec3 li = spc_reflect(lo, m);
+    if (li.z <= 0.0)
+        return false;
+    double w;
+    if (md->sample_visible)
+        w = spc_microfacet_g1(md, li, m);
+    else
+        w = spc_microfacet_g(md, lo, li, m) * d_om / (lo.z * m.z);
+    spc_rgb F = spc_bsdf_conductor_fresnel(b, d_om);
+    spc_rgb ks = spc_bsdf_tex(b->specular_reflectance, h, spc_rgb1(1.0));
+    spc_bsdf_set_sample(out, spc_bsdf_to_world(h, li), spc_rgb_scale(spc_rgb_mul(F, ks), w), pdf_m / (4.0 * d_om),
+                        SPC_LOBE_GLOSSY_REFLECTION, 1.0);
+    return true;
+}
+
 bool spc_roughconductor_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
                                spc_vec2 u, spc_bsdf_sample *out)
 {
@@ -87,22 +109,35 @@ bool spc_roughconductor_sample(const spc_bsdf *b, const spc_hit *h, spc_transpor
     spc_microfacet md = spc_microfacet_from_bsdf(b, h);
     double pdf_m;
     spc_vec3 m = spc_microfacet_sample(&md, lo, u, &pdf_m);
-    double d_om = spc_dot(lo, m);
-    if (!(pdf_m > 0.0) || d_om <= 0.0)
-        return false;
-    spc_vec3 li = spc_reflect(lo, m);
-    if (li.z <= 0.0)
-        return false;
-    double w;
-    if (md.sample_visible)
-        w = spc_microfacet_g1(&md, li, m);
-    else
-        w = spc_microfacet_g(&md, lo, li, m) * d_om / (lo.z * m.z);
-    spc_rgb F = spc_bsdf_conductor_fresnel(b, d_om);
-    spc_rgb ks = spc_bsdf_tex(b->specular_reflectance, h, spc_rgb1(1.0));
-    spc_bsdf_set_sample(out, spc_bsdf_to_world(h, li), spc_rgb_scale(spc_rgb_mul(F, ks), w), pdf_m / (4.0 * d_om),
-                        SPC_LOBE_GLOSSY_REFLECTION, 1.0);
-    return true;
+    return sample_end(b, h, lo, &md, m, pdf_m, out);
+}
+
+void spc_roughconductor_sample_many(int n, const spc_bsdf *const b[], const spc_hit *const h[], const spc_vec3 wo[],
+                                    const spc_vec2 u[], spc_bsdf_sample out[], bool ok[])
+{
+    enum { BATCH = 16 };
+    spc_vec3 lo[BATCH], m[BATCH];
+    spc_microfacet md[BATCH];
+    spc_vec2 um[BATCH];
+    double pdf_m[BATCH];
+    int lane[BATCH];
+    for (int i0 = 0; i0 < n; i0 += BATCH) {
+        int k = 0;
+        for (int i = i0; i < n && i < i0 + BATCH; ++i) {
+            ok[i] = false;
+            lo[k] = spc_bsdf_to_local(h[i], wo[i]);
+            if (lo[k].z <= 0.0)
+                continue;
+            md[k] = spc_microfacet_from_bsdf(b[i], h[i]);
+            um[k] = u[i];
+            lane[k++] = i;
+        }
+        spc_microfacet_sample_many(k, md, lo, um, m, pdf_m);
+        for (int j = 0; j < k; ++j) {
+            int i = lane[j];
+            ok[i] = sample_end(b[i], h[i], lo[j], &md[j], m[j], pdf_m[j], &out[i]);
+        }
+    }
 }
 
 spc_rgb spc_roughconductor_albedo(const spc_bsdf *b, const spc_hit *h)

@@ -11,9 +11,8 @@
  */
 #include "bsdf/variants.h"
 
-/* The BSDF and hit to use for wo; *flip receives the flipped hit if needed. */
-static const spc_bsdf *twosided_side(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_hit *flip,
-                                     const spc_hit **hs)
+const spc_bsdf *spc_twosided_side(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_hit *flip,
+                                  const spc_hit **hs)
 {
     if (spc_dot(wo, h->sh.n) >= 0.0) {
         *hs = h;
@@ -31,7 +30,7 @@ spc_rgb spc_twosided_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mod
 {
     spc_hit flip;
     const spc_hit *hs;
-    const spc_bsdf *nb = twosided_side(b, h, wo, &flip, &hs);
+    const spc_bsdf *nb = spc_twosided_side(b, h, wo, &flip, &hs);
     return spc_bsdf_eval(nb, hs, mode, wo, wi);
 }
 
@@ -39,7 +38,7 @@ double spc_twosided_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode,
 {
     spc_hit flip;
     const spc_hit *hs;
-    const spc_bsdf *nb = twosided_side(b, h, wo, &flip, &hs);
+    const spc_bsdf *nb = spc_twosided_side(b, h, wo, &flip, &hs);
     return spc_bsdf_pdf(nb, hs, mode, wo, wi);
 }
 
@@ -48,7 +47,7 @@ spc_rgb spc_twosided_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport
 {
     spc_hit flip;
     const spc_hit *hs;
-    const spc_bsdf *nb = twosided_side(b, h, wo, &flip, &hs);
+    const spc_bsdf *nb = spc_twosided_side(b, h, wo, &flip, &hs);
     return spc_bsdf_eval_pdf(nb, hs, mode, wo, wi, pdf);
 }
 
@@ -57,7 +56,7 @@ bool spc_twosided_sample(const spc_bsdf *b, const spc_hit *h, spc_transport mode
 {
     spc_hit flip;
     const spc_hit *hs;
-    const spc_bsdf *nb = twosided_side(b, h, wo, &flip, &hs);
+    const spc_bsdf *nb = spc_twosided_side(b, h, wo, &flip, &hs);
     return spc_bsdf_sample_dir(nb, hs, mode, wo, u_lobe, u, out);
 }
 

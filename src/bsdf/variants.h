@@ -164,6 +164,11 @@ SPC_BSDF_VARIANT(conductor);
 SPC_BSDF_VARIANT(roughconductor);
 spc_rgb spc_roughconductor_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
                                     spc_vec3 wi, double *pdf);
+/* spc_roughconductor_sample of n lanes at once (b[i], h[i], wo[i], u[i] into out[i], ok[i]; the mode
+ * and u_lobe do not matter): the same values, the visible-normal searches shared
+ * (spc_microfacet_sample_many). */
+void spc_roughconductor_sample_many(int n, const spc_bsdf *const b[], const spc_hit *const h[], const spc_vec3 wo[],
+                                    const spc_vec2 u[], spc_bsdf_sample out[], bool ok[]);
 SPC_BSDF_VARIANT(dielectric);
 SPC_BSDF_VARIANT(thindielectric);
 spc_rgb spc_thindielectric_null_transmission(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo);
@@ -174,6 +179,9 @@ SPC_BSDF_VARIANT(pplastic);
 SPC_BSDF_VARIANT(twosided);
 spc_rgb spc_twosided_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi,
                               double *pdf);
+/* The nested BSDF that twosided b uses for wo at h, and in *hs the hit it sees: h, or *flip (the hit
+ * with sh.t, sh.n and ng negated) on the back side. */
+const spc_bsdf *spc_twosided_side(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_hit *flip, const spc_hit **hs);
 SPC_BSDF_VARIANT(normalmap);
 spc_rgb spc_normalmap_specular_throughput(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo,
                                           spc_vec3 wi);

@@ -5,9 +5,11 @@
  * A wave holds SPC_SCENE_PACKET lanes, each one path. One step of the wave traces every live lane's
  * ray as one packet (spc_scene_intersect_packet); each lane then takes what path.c does at the hit
  * up to its light sample (emission, depth, strict normals, next-event estimation's light point);
- * the shadow rays go out as one packet (spc_scene_occluded_light_packet); each lane adds its light
- * sample's contribution, samples the BSDF and plays Russian roulette. A lane whose path ends stores
- * the estimate and takes the next camera sample, so the packets stay full until the samples run out;
+ * the shadow rays go out as one packet (spc_scene_occluded_light_packet); the lanes' BSDFs are sampled
+ * together (the diffuse ones' warps in one call, the others in spc_bsdf_sample_dir_many, where rough
+ * metals share their visible-normal searches); each lane adds its light sample's contribution, takes
+ * its BSDF sample and plays Russian roulette. A lane whose path ends stores the estimate and takes
+ * the next camera sample, so the packets stay full until the samples run out;
  * except where max_depth ends every path before Russian roulette starts (wave_lockstep): there the
  * wave takes W samples at once and the next W when all of them have ended.
  *
@@ -196,11 +198,12 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, do
 
 /* path.c's loop body after the shadow ray (occluded: its answer): the light sample's contribution,
  * BSDF sampling with path.c's dimensions u_lobe, u_dir, u_rr, Russian roulette. At a diffuse vertex
- * *wl is u_dir's cosine-weighted direction (spc_warp_cosine_hemisphere). false: the path has ended. */
-static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, double u_lobe,
-                         spc_vec2 u_dir, const spc_vec3 *wl, double u_rr)
+ * *wl is u_dir's cosine-weighted direction (spc_warp_cosine_hemisphere); at any other vertex *pre is
+ * spc_bsdf_sample_dir's sample with u_lobe and u_dir and pre_ok its result. false: the path has
+ * ended. */
+static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, const spc_vec3 *wl,
+                         const spc_bsdf_sample *pre, bool pre_ok, double u_rr)
 {
-    const spc_bsdf *b = h->bsdf;
     const spc_vec3 wo = ln->wo;
     if (ln->shadow && !occluded) {
         double w = 1.0;
@@ -212,22 +215,22 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
         ln->L = spc_rgb_add(ln->L, spc_rgb_scale(c, ln->cosi * w / ln->lp));
     }
 
-    spc_bsdf_sample bs;
-    bool sampled = ln->diffuse ? spc_diffuse_view_sample_warped(&ln->dv, h, wo, *wl, &bs)
-                               : spc_bsdf_sample_dir(b, h, SPC_MODE_RADIANCE, wo, u_lobe, u_dir, &bs);
+    spc_bsdf_sample dbs;
+    bool sampled = ln->diffuse ? spc_diffuse_view_sample_warped(&ln->dv, h, wo, *wl, &dbs) : pre_ok;
     if (!sampled)
         return false;
-    if (ctx->strict_normals && !(spc_dot(bs.wi, h->ng) * spc_dot(bs.wi, h->sh.n) > 0.0))
+    const spc_bsdf_sample *bsp = ln->diffuse ? &dbs : pre;
+    if (ctx->strict_normals && !(spc_dot(bsp->wi, h->ng) * spc_dot(bsp->wi, h->sh.n) > 0.0))
         return false;
-    ln->beta = spc_rgb_mul(ln->beta, bs.weight);
+    ln->beta = spc_rgb_mul(ln->beta, bsp->weight);
     if (spc_rgb_is_black(ln->beta))
         return false;
-    ln->specular = (bs.lobe & SPC_LOBE_DELTA) != 0;
-    ln->prev_pdf = bs.pdf;
+    ln->specular = (bsp->lobe & SPC_LOBE_DELTA) != 0;
+    ln->prev_pdf = bsp->pdf;
     ln->prev_p = h->p;
-    if (bs.lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))
-        ln->eta_scale *= bs.eta * bs.eta;
-    ln->ray = spc_hit_spawn(h, bs.wi);
+    if (bsp->lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))
+        ln->eta_scale *= bsp->eta * bsp->eta;
+    ln->ray = spc_hit_spawn(h, bsp->wi);
 
     if (ln->segments >= ctx->rr_depth) {
         double q = spc_min(0.95, spc_rgb_max(ln->beta) * ln->eta_scale);
@@ -270,6 +273,14 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     spc_vec2 u_dir[W];
     spc_vec3 wl[W], wl_d[W];
     int dlane[W];
+    const spc_bsdf *sb[W];
+    const spc_hit *sh[W];
+    spc_vec3 swo[W];
+    double su_lobe[W];
+    spc_vec2 su_dir[W];
+    spc_bsdf_sample bs[W];
+    bool bs_ok[W];
+    int sidx[W];
     int next = 0, live = 0;
     const bool lockstep = wave_lockstep(ctx);
     camera_hits ch;
@@ -319,21 +330,35 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 r[i] = &ln[i].sr;
         }
         spc_scene_occluded_light_packet(ctx->scene, r, le, occluded);
-        /* the diffuse lanes' directions, warped together (core/warp_many.c) */
-        int nd = 0;
-        for (int i = 0; i < W; ++i)
-            if (alive[i] && ln[i].diffuse) {
+        /* the diffuse lanes' directions, warped together (core/warp_many.c); the other live lanes'
+         * BSDF samples in one call (rough metals share their visible-normal searches, bsdf.h), lane
+         * i's in bs[sidx[i]] */
+        int nd = 0, ns = 0;
+        for (int i = 0; i < W; ++i) {
+            if (!alive[i])
+                continue;
+            if (ln[i].diffuse) {
                 dlane[nd] = i;
                 u_dir[nd++] = u[5 * i + 3];
+                continue;
             }
+            sidx[i] = ns;
+            sb[ns] = h[i].bsdf;
+            sh[ns] = &h[i];
+            swo[ns] = ln[i].wo;
+            su_lobe[ns] = u[5 * i + 2].x;
+            su_dir[ns++] = u[5 * i + 3];
+        }
         spc_warp_cosine_hemisphere_many(nd, u_dir, wl_d);
         for (int j = 0; j < nd; ++j)
             wl[dlane[j]] = wl_d[j];
+        spc_bsdf_sample_dir_many(ns, sb, sh, SPC_MODE_RADIANCE, swo, su_lobe, su_dir, bs, bs_ok);
         for (int i = 0; i < W; ++i) {
             if (ln[i].path < 0)
                 continue;
-            if (alive[i] &&
-                lane_scatter(ctx, &ln[i], occluded[i], &h[i], u[5 * i + 2].x, u[5 * i + 3], &wl[i], u[5 * i + 4].x))
+            const bool diffuse = alive[i] && ln[i].diffuse;
+            if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], &wl[i], diffuse ? NULL : &bs[sidx[i]],
+                                         !diffuse && bs_ok[sidx[i]], u[5 * i + 4].x))
                 continue;
             /* the path has ended: its estimate, and the lane takes the next sample */
             out[ln[i].path].L = ln[i].L;
