@@ -1175,6 +1175,149 @@ TEST(direct_receivers_weigh_light_tracing)
     spc_scene_destroy(sc);
 }
 
+/* ---- emission aimed at the casters (bdpt.h, spc_bdpt_aim) ---- */
+
+/* A bdpt render of sc with the aim's share `aim` (0: the default, -1: off), and its stats. */
+static spc_film *render_aim(const spc_scene *sc, double aim, int spp, uint64_t seed, bool strategies,
+                            spc_render_stats *st)
+{
+    spc_render_options o;
+    spc_render_options_init(&o);
+    o.spp = spp;
+    o.threads = 2;
+    o.seed = seed;
+    o.integrator = "bdpt";
+    o.max_depth = strategies ? 6 : -1;
+    o.strategy_images = strategies;
+    o.bdpt_aim = aim;
+    spc_film *f = NULL;
+    spc_error err;
+    if (spc_render(sc, &o, &f, st, &err) != SPC_OK) {
+        char buf[1200];
+        spc_error_format(&err, buf, sizeof buf);
+        printf("  render failed: %s\n", buf);
+        spc_film_destroy(f);
+        return NULL;
+    }
+    return f;
+}
+
+/* The unweighted light-tracing film of light - glass - glass - diffuse vertex - camera (s = 4,
+ * t = 1): the sums over pixels and channels of its values and of its variances of the mean. */
+static bool caustic_light_tracing(const spc_film *full, double *sum, double *var)
+{
+    size_t np = (size_t)full->width * full->height * 3;
+    for (int i = 0; i < spc_film_strategy_count(full); ++i) {
+        int s = -1, t = -1;
+        bool w = true;
+        const spc_film *f = spc_film_strategy(full, i, &s, &t, &w);
+        if (!f || w || t != 1 || s != 4)
+            continue;
+        *sum = *var = 0.0;
+        for (size_t j = 0; j < np; ++j) {
+            *sum += f->rgb[j];
+            *var += f->var[j];
+        }
+        return true;
+    }
+    return false;
+}
+
+/* With the aim about a quarter of the light subpaths pass through the glass ball instead of 2%, so
+ * light tracing's own estimate of the caustic (s = 4, t = 1, unweighted) has several times less
+ * variance at the same samples (3.2x here), and the same mean. With the walks left without the aim
+ * (made by hand: the stats still report it) the variances are equal, 0.001162 both. The stats
+ * report the pilot's share (0 when off). */
+TEST(aim_raises_light_tracing_through_glass)
+{
+    /* the caustic scene without its wall: the floor's light of s = 4, t = 1 comes through the ball */
+    spc_scene *sc = spc_scene_create();
+    rect(sc, 3, 3, -90, 0, spc_v3(0, 0, 0), twosided_diffuse(sc, 0.7, 0.7, 0.7));
+    sphere(sc, spc_v3(0, 0.5, 0), 0.5, glass(sc, 1.5));
+    spc_shape *l = sphere(sc, spc_v3(0.9, 2.2, 0.6), 0.2, tu_diffuse(sc, 0.0));
+    spc_emitter *e = tu_area(sc, l, sc->nshapes - 1, 1.0);
+    e->radiance = spc_scene_constant(sc, spc_rgb3(30, 27, 22));
+    tu_camera(sc, spc_v3(0, 2.2, 3.2), spc_v3(-0.2, 0.3, 0), spc_v3(0, 1, 0), 45, 16, 16);
+    sc = finalize(sc);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_render_stats st_on, st_off;
+    memset(&st_on, 0, sizeof st_on);
+    memset(&st_off, 0, sizeof st_off);
+    spc_film *on = render_aim(sc, 0.0, 64, 31, true, &st_on);
+    spc_film *off = render_aim(sc, -1.0, 64, 31, true, &st_off);
+    CHECK(on && off);
+    double sum_on = 0.0, var_on = 0.0, sum_off = 0.0, var_off = 0.0;
+    if (on && off && caustic_light_tracing(on, &sum_on, &var_on) && caustic_light_tracing(off, &sum_off, &var_off)) {
+        printf("  caustic, light tracing through the glass (s = 4, t = 1): sum %.4g, variance %.4g with the aim "
+               "(share %.3f); sum %.4g, variance %.4g without\n",
+               sum_on, var_on, st_on.bdpt_aim, sum_off, var_off);
+        CHECK(st_on.bdpt_aim > 0.15 && st_on.bdpt_aim <= 0.25);
+        CHECK(st_off.bdpt_aim == 0.0);
+        CHECK(sum_on > 0.0 && sum_off > 0.0 && var_on > 0.0);
+        double se = sqrt(var_on + var_off);
+        CHECK_MSG(fabs(sum_on - sum_off) < 4.0 * se, "sums %.4g and %.4g differ by %.1f standard errors", sum_on,
+                  sum_off, fabs(sum_on - sum_off) / se);
+        CHECK_MSG(var_off > 2.0 * var_on, "variance %.4g with the aim, %.4g without", var_on, var_off);
+    } else {
+        CHECK_MSG(false, "no s = 4, t = 1 strategy film");
+    }
+    spc_film_destroy(on);
+    spc_film_destroy(off);
+    spc_scene_destroy(sc);
+}
+
+/* The mixture's density in the light subpath's weight and in every MIS weight: with most of the
+ * emission aimed (0.9) the images still agree with path's, on the caustic (one glass cone) and on the
+ * box with a glass and a mirror sphere (two cones; the light under the ceiling sees both). A weight
+ * divided by the cosine density instead of the mixture's (made by hand) puts the image means 84
+ * (caustic) and 141 (box) standard errors above path's. */
+TEST(aimed_emission_against_path)
+{
+    spc_scene *scs[2] = {caustic_scene(24), cornell_box(BOX_SPHERES, 24, 2.0)};
+    const char *what[2] = {"caustic, aim 0.9", "box with glass and mirror spheres, aim 0.9"};
+    const int spp_path[2] = {4096, 2048};
+    for (int k = 0; k < 2; ++k) {
+        CHECK(scs[k] != NULL);
+        if (!scs[k])
+            continue;
+        spc_render_stats st;
+        memset(&st, 0, sizeof st);
+        spc_film *b = render_aim(scs[k], 0.9, 256, 41, false, &st);
+        printf("  %s: aimed share %.3f\n", what[k], st.bdpt_aim);
+        CHECK(st.bdpt_aim > 0.5);
+        spc_film *p = render_opts(scs[k], "path", spp_path[k], 2, 42, -1, -1, -1, false, false);
+        check_against_path(b, p, what[k]);
+        spc_scene_destroy(scs[k]);
+    }
+}
+
+/* The pilot finds no caster where an opaque plate hides the ball from the light: no aim. */
+TEST(aim_off_where_casters_hidden)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_bsdf *white = twosided_diffuse(sc, 0.7, 0.7, 0.7);
+    rect(sc, 3, 3, -90, 0, spc_v3(0, 0, 0), white);
+    sphere(sc, spc_v3(0, 0.5, 0), 0.5, glass(sc, 1.5));
+    rect(sc, 1.5, 1.5, 90, 0, spc_v3(0, 1.5, 0), white); /* a plate between light and ball */
+    spc_shape *l = sphere(sc, spc_v3(0, 2.2, 0), 0.2, tu_diffuse(sc, 0.0));
+    spc_emitter *e = tu_area(sc, l, sc->nshapes - 1, 1.0);
+    e->radiance = spc_scene_constant(sc, spc_rgb3(30, 27, 22));
+    tu_camera(sc, spc_v3(0, 2.2, 3.2), spc_v3(0, 0.3, 0), spc_v3(0, 1, 0), 45, 8, 8);
+    sc = finalize(sc);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_render_stats st;
+    memset(&st, 0, sizeof st);
+    spc_film *f = render_aim(sc, 0.0, 1, 51, false, &st);
+    CHECK(f != NULL);
+    CHECK_MSG(st.bdpt_aim == 0.0, "aimed share %.3f behind the plate", st.bdpt_aim);
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
 TEST(same_image_for_any_thread_count)
 {
     spc_scene *sc = cornell_box(BOX_SPHERES, 20, 1.0);
@@ -1241,6 +1384,9 @@ int main(void)
     RUN(specular_nee_camera_share_and_corners);
     RUN(corner_receivers_take_the_corner_path);
     RUN(direct_receivers_weigh_light_tracing);
+    RUN(aim_raises_light_tracing_through_glass);
+    RUN(aimed_emission_against_path);
+    RUN(aim_off_where_casters_hidden);
     printf("bdpt subpaths truncated at the vertex limit: %llu\n", (unsigned long long)spc_bdpt_truncated_paths());
     return spc_test_finish();
 }

@@ -124,6 +124,17 @@ static bool glass_setting(const char *s)
            p.later_p == 0.1 && (p.camera_p == 1.0 ? !strcmp(s, SPC_SNEE_PLAN_SETTING) : p.camera_p < 0.95);
 }
 
+/* bdpt's setting for a glass ball (every glass caster enumerated exactly) with glass on a share
+ * `share` of the image: the query from the camera on sqrt(share) / 10 of the samples, at least 0.02,
+ * on any film size (snee_plan.c's camera_prob_bdpt). */
+static const char *bdpt_ball_setting(double share)
+{
+    static char buf[64];
+    double q = 0.1 * sqrt(share);
+    snprintf(buf, sizeof buf, "angular:camera=%.2g", q > 0.02 ? q : 0.02);
+    return buf;
+}
+
 TEST(default_on_with_casters_only)
 {
     spc_scene *with = ball_scene(true, 0.1, spc_v3(0.35, 0.25, 2.2), 4);
@@ -144,7 +155,7 @@ TEST(default_on_with_casters_only)
                   (auto_setting[nv] == '\0' || !strcmp(auto_setting + nv, SPC_SNEE_PLAN_ROOM_GLASS_BALL)),
               "volpath %s, path %s", p.setting, auto_setting);
     spc_snee_plan_make(with, "bdpt", "", &p);
-    CHECK(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BDPT));
+    CHECK_MSG(p.on && !strcmp(p.setting, bdpt_ball_setting(p.glass_share)), "%s", p.setting);
     spc_snee_plan_make(with, "ipt", NULL, &p);
     CHECK(!p.on);
     spc_snee_plan_make(with, "path", "none", &p);
@@ -172,7 +183,8 @@ TEST(default_on_with_casters_only)
     CHECK(f && !strcmp(ran, "none") && !strcmp(f->specular_nee, "none"));
     spc_film_destroy(f);
     f = render_ran(with, "bdpt", NULL, 2, 1, ran);
-    CHECK(f && !strcmp(ran, SPC_SNEE_PLAN_SETTING_BDPT));
+    spc_snee_plan_make(with, "bdpt", NULL, &p);
+    CHECK_MSG(f && !strcmp(ran, bdpt_ball_setting(p.glass_share)), "%s", ran);
     spc_film_destroy(f);
     f = render_ran(without, "path", NULL, 2, 1, ran);
     CHECK(f && !strcmp(ran, "none"));
@@ -558,9 +570,20 @@ TEST(bdpt_default_follows_the_plan)
     }
     spc_snee_plan p;
     spc_snee_plan_make(with, "bdpt", NULL, &p);
-    CHECK_MSG(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BDPT), "%s", p.setting);
+    /* the query from the camera on sqrt(s) / 10 of the samples (at least 0.02), not path's share,
+     * which a small film raises (0.1 or more here) */
+    char bdpt_setting[64];
+    snprintf(bdpt_setting, sizeof bdpt_setting, "%s", bdpt_ball_setting(p.glass_share));
+    CHECK_MSG(p.on && p.automatic && !strcmp(p.setting, bdpt_setting), "%s (glass share %.3f)", p.setting,
+              p.glass_share);
     spc_snee_params sp;
-    CHECK(spc_snee_parse(p.setting, 2, &sp) && sp.camera && sp.camera_p > 0.0 && sp.camera_p < 1.0);
+    CHECK(spc_snee_parse(p.setting, 2, &sp) && sp.camera && sp.camera_p >= 0.02 && sp.camera_p < 0.1);
+    const double q_bdpt = sp.camera_p;
+    spc_snee_plan path_plan;
+    spc_snee_plan_make(with, "path", NULL, &path_plan);
+    spc_snee_params path_sp;
+    CHECK_MSG(spc_snee_parse(path_plan.setting, 2, &path_sp) && path_sp.camera_p > sp.camera_p, "path %s, bdpt %s",
+              path_plan.setting, p.setting);
     spc_snee_plan_make(mirror, "bdpt", NULL, &p);
     CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BDPT_MIRRORS), "%s", p.setting);
     CHECK(spc_snee_parse(p.setting, 2, &sp) && !sp.camera);
@@ -573,14 +596,15 @@ TEST(bdpt_default_follows_the_plan)
     spc_snee_plan_make(with, "ptracer", NULL, &p);
     CHECK(!p.on);
     char *text = spc_scene_plan(with, "bdpt", NULL);
-    CHECK_MSG(text && strstr(text, "specular NEE: " SPC_SNEE_PLAN_SETTING_BDPT " (auto)") &&
-                  strstr(text, "from the camera on a share 0.1 of the samples"),
-              "%s", text ? text : "(null)");
+    char want_setting[96], want_share[96];
+    snprintf(want_setting, sizeof want_setting, "specular NEE: %s (auto)", bdpt_setting);
+    snprintf(want_share, sizeof want_share, "from the camera on a share %g of the samples", q_bdpt);
+    CHECK_MSG(text && strstr(text, want_setting) && strstr(text, want_share), "%s", text ? text : "(null)");
     free(text);
 
     char ran[96];
     spc_film *img = render_ran(with, "bdpt", NULL, 1024, 61, ran);
-    CHECK(img && !strcmp(ran, SPC_SNEE_PLAN_SETTING_BDPT));
+    CHECK_MSG(img && !strcmp(ran, bdpt_setting), "%s", ran);
     spc_film *ref = render_ran(with, "bdpt", "none", 4096, 62, ran);
     CHECK(ref && !strcmp(ran, "none"));
     if (img && ref) {

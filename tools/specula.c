@@ -141,6 +141,9 @@ static const char *const usage_render_more =
     "  --bdpt-light-paths K   bdpt: trace K light subpaths per camera sample, the first for every\n"
     "                         strategy, the others for light tracing only (1..64; 0\n"
     "                         (default): 1)\n"
+    "  --bdpt-aim A           bdpt: draw a share A (below 1) of the area lights' emission toward\n"
+    "                         the glass and mirror casters, scaled by how much of it a pilot sees\n"
+    "                         reach them; 0 (default): 0.25; -1: off\n"
     "  --device cpu|opencl[:N]  (info --devices)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"
@@ -734,6 +737,8 @@ static bool write_stats(const char *given, const spc_render_stats *st, const sta
     fprintf(fp, ",\n  \"caustic_guide_entries\": %d,\n  \"caustic_guide_cones\": %d,\n  \"caustic_guide_seconds\": ",
             st->caustic_guide_entries, st->caustic_guide_cones);
     json_number(fp, st->caustic_guide_seconds);
+    fprintf(fp, ",\n  \"bdpt_aim\": ");
+    json_number(fp, st->bdpt_aim);
     fprintf(fp, ",\n  \"interrupted\": %s\n}\n", in->interrupted ? "true" : "false");
     bool ok = !ferror(fp);
     if (fflush(fp) != 0 || fsync(fileno(fp)) != 0)
@@ -915,6 +920,10 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
                 code = usage_error(usage_render,
                                    "--bdpt-light-paths needs light subpaths per sample in 1..64 or 0 "
                                    "(default), not '%s'",
+                                   v ? v : "");
+        } else if (opt_value(argc, argv, &i, "--bdpt-aim", NULL, &v)) {
+            if (!parse_double(v, &opt.bdpt_aim) || !(opt.bdpt_aim < 1.0))
+                code = usage_error(usage_render, "--bdpt-aim needs a share below 1, 0 (default) or -1 (off), not '%s'",
                                    v ? v : "");
         } else if (!strcmp(a, "--variance")) {
             variance = true;

@@ -143,6 +143,10 @@ typedef struct spc_render_options {
      * others light tracing (t = 1) only, which MIS then counts that many times; 0: by default (1).
      * Not on the opencl device. */
     int bdpt_light_paths;
+    /* bdpt: the share of area lights' emission drawn toward the glass and mirror casters' spheres
+     * (integrator/bdpt.h), below 1, times the share of a pilot's aimed rays that reach a caster;
+     * 0: by default (0.25); negative: off (the lights' own emission). Not on the opencl device. */
+    double bdpt_aim;
 } spc_render_options;
 
 #define SPC_STRATEGY_IMAGES_MAX_DEPTH 8
@@ -164,6 +168,7 @@ typedef struct spc_render_stats {
     int caustic_guide_entries;    /* caustic guiding at receivers: the guide's entries (0: it did not run) */
     int caustic_guide_cones;      /* of them, cones toward glass casters */
     double caustic_guide_seconds; /* and its photon pre-pass's wall time (inside wall_seconds) */
+    double bdpt_aim;              /* bdpt: the share of area lights' emission aimed at casters (0: none) */
 } spc_render_stats;
 
 spc_status spc_render(const spc_scene *s, const spc_render_options *o, spc_film **out, spc_render_stats *stats,

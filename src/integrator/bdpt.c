@@ -89,6 +89,11 @@
  * vertices picked from the pass's pool (connect_pool); mis_weight counts a connection as two
  * techniques, the own subpath and the pool. Off in the debug modes.
  *
+ * Aim (ctx->bdpt_aim, bdpt.h): the light subpath's first direction on an area light is drawn from
+ * a mixture of the light's cosine law and cones toward the casters' spheres, and its density is the
+ * mixture's wherever a weight or a MIS density needs it (light_subpath, light_emit_pdf,
+ * direct_ratio). The particle tracer keeps the cosine law.
+ *
  * Debug: ctx->strategy_s / strategy_t >= 0 keep only the matching strategies, weighted by MIS
  * only if ctx->strategy_weighted. The sum of the weighted single-strategy images is the full image.
  * With ctx->strategy_images_depth > 0 one render also hands every strategy's weighted and
@@ -105,6 +110,7 @@
 #include "integrator/bdpt.h"
 #include "integrator/bdpt_pool.h"
 #include "integrator/splat.h"
+#include "manifold/caustic_guide.h"
 #include "manifold/specular_nee.h"
 
 /* Vertices per subpath (two arrays of ~500-byte vertices: 63 KiB of stack). Past rr_depth each
@@ -128,6 +134,10 @@
 /* spc_bdpt_pool_direct_share's camera rays: the share is known to about 0.015 (binomial). */
 #define SPC_BDPT_PROBE_RAYS 1024
 #define SPC_BDPT_PROBE_STREAM 0x70726f6265736861ULL
+
+/* spc_bdpt_aim_init's pilot rays: the fraction that reaches a caster is known to about 0.015. */
+#define SPC_BDPT_AIM_PILOT 1024
+#define SPC_BDPT_AIM_STREAM 0x61696d70696c6f74ULL
 
 /* The pool model's pilot (spc_bdpt_pool_learn): light subpaths, camera subpaths, and connections
  * from each camera vertex to pilot light vertices (SPC_BDPT_PILOT_VERTEX_SHARE). 16384 of each
@@ -202,6 +212,7 @@ typedef struct bdpt {
     double cam_scale;       /* full film's pixels over the rendered window's (spc_snee_camera) */
     spc_vec3 cam_d0;        /* the camera ray's direction (covered camera chains retrace it) */
     const spc_bdpt_pool_model *pm; /* connections come from the pass's pool (NULL: own subpath) */
+    const spc_bdpt_aim *aim;       /* area lights' emission aimed at the casters (NULL: off) */
 } bdpt;
 
 /* ---- densities ---- */
@@ -231,6 +242,50 @@ static spc_vec3 dir_to(const vtx *a, const vtx *b)
     return spc_normalize(spc_sub(b->p, a->p));
 }
 
+/* The cone of directions from p toward caster sphere i of the aim: false where p lies inside the
+ * sphere or its centre lies on or below p's horizon (normal n). */
+static bool aim_cone(const spc_bdpt_aim *aim, int i, spc_vec3 p, spc_vec3 n, spc_vec3 *axis, double *cos_max)
+{
+    spc_vec3 w = spc_sub(aim->c[i], p);
+    double d2 = spc_length2(w), r2 = aim->r[i] * aim->r[i];
+    if (!(d2 > r2) || !(spc_dot(w, n) > 0.0))
+        return false;
+    *axis = spc_scale(w, 1.0 / sqrt(d2));
+    *cos_max = sqrt(1.0 - r2 / d2);
+    return *cos_max < 1.0;
+}
+
+/* The aim's cones at p: how many (m of bdpt.h's mixture) and the sum of the densities of those that
+ * hold d (d may be NULL). */
+static int aim_cones(const spc_bdpt_aim *aim, spc_vec3 p, spc_vec3 n, const spc_vec3 *d, double *pdf_sum)
+{
+    int m = 0;
+    double sum = 0.0;
+    for (int i = 0; i < aim->n; ++i) {
+        spc_vec3 axis;
+        double cos_max;
+        if (!aim_cone(aim, i, p, n, &axis, &cos_max))
+            continue;
+        ++m;
+        if (d && spc_dot(axis, *d) >= cos_max)
+            sum += spc_warp_uniform_cone_pdf(cos_max);
+    }
+    if (pdf_sum)
+        *pdf_sum = sum;
+    return m;
+}
+
+/* The light subpath's solid-angle density of emitting along d from p (normal n) on light e, whose
+ * own emission density there is pd: the aim's mixture on area lights (bdpt.h), else pd. */
+static double emit_pdf_dir(const bdpt *B, const spc_emitter *e, spc_vec3 p, spc_vec3 n, spc_vec3 d, double pd)
+{
+    if (!B->aim || e->type != SPC_EMITTER_AREA)
+        return pd;
+    double cones;
+    int m = aim_cones(B->aim, p, n, &d, &cones);
+    return m > 0 ? (1.0 - B->aim->a) * pd + B->aim->a * cones / m : pd;
+}
+
 /* Density with which the light subpath picks its origin l: light pmf times the area density of
  * the position (the direction density for lights at infinity). */
 static double light_origin_pdf(const spc_scene *sc, const vtx *l)
@@ -241,15 +296,16 @@ static double light_origin_pdf(const spc_scene *sc, const vtx *l)
 }
 
 /* Density (measure of to) with which light endpoint l emits toward vertex `to`. */
-static double light_emit_pdf(const vtx *l, const vtx *to)
+static double light_emit_pdf(const bdpt *B, const vtx *l, const vtx *to)
 {
     double pp, pd;
     if (l->infinite) {
         spc_emitter_pdf_emission(l->light, l->p, l->n, l->d, &pp, &pd);
         return pp * (to->on_surface ? spc_absdot(to->n, l->d) : 1.0);
     }
-    spc_emitter_pdf_emission(l->light, l->p, l->n, dir_to(l, to), &pp, &pd);
-    return to_area(pd, l, to);
+    spc_vec3 d = dir_to(l, to);
+    spc_emitter_pdf_emission(l->light, l->p, l->n, d, &pp, &pd);
+    return to_area(emit_pdf_dir(B, l->light, l->p, l->n, d, pd), l, to);
 }
 
 /* Density (area at l) of spc_emitter_sample_direct producing l from ref, times the light pmf.
@@ -367,6 +423,30 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
     return n;
 }
 
+/* The aim's direction at area-light point p (normal n, m >= 1 cones there) for the light
+ * subpath's direction sample u: with probability a (u.x < a) uniform in one of the m cones, picked
+ * uniformly, else cosine-distributed (u rescaled, so that the stream's dimensions stay the same). */
+static spc_vec3 aim_sample(const spc_bdpt_aim *aim, int m, spc_vec3 p, spc_vec3 n, spc_vec2 u)
+{
+    const double a = aim->a;
+    if (u.x < a) {
+        double v = u.x / a * m;
+        int j = (int)v;
+        if (j > m - 1)
+            j = m - 1;
+        v -= j;
+        spc_vec3 axis = n;
+        double cos_max = 1.0;
+        for (int i = 0, k = 0; i < aim->n; ++i)
+            if (aim_cone(aim, i, p, n, &axis, &cos_max) && k++ == j)
+                break;
+        spc_frame fr = spc_frame_from_n(axis);
+        return spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(v, u.y), cos_max));
+    }
+    spc_frame fr = spc_frame_from_n(n);
+    return spc_frame_to_world(&fr, spc_warp_cosine_hemisphere(spc_v2((u.x - a) / (1.0 - a), u.y)));
+}
+
 /* The light subpath: y0 by emission sampling, then a walk in importance mode. */
 static int light_subpath(const bdpt *B, spc_sampler *smp, vtx *y, int max_vertices, bool capped)
 {
@@ -405,6 +485,20 @@ static int light_subpath(const bdpt *B, spc_sampler *smp, vtx *y, int max_vertic
     }
     if (max_vertices < 2)
         return 1;
+    /* the aim (bdpt.h): the direction from the mixture instead; an area light's radiance does not
+     * depend on the direction, so the weight is Le cos / (pdf_pos pdf_dir) with y0's Le */
+    int m = B->aim && e->type == SPC_EMITTER_AREA ? aim_cones(B->aim, em.p, em.n, NULL, NULL) : 0;
+    if (m > 0) {
+        spc_vec3 d = aim_sample(B->aim, m, em.p, em.n, u_dir);
+        double c = spc_dot(em.n, d), pp, pd;
+        if (!(c > 0.0)) /* a cone direction below the light's surface: no light subpath past y0 */
+            return 1;
+        spc_emitter_pdf_emission(e, em.p, em.n, d, &pp, &pd);
+        em.d = d;
+        em.pdf_dir = emit_pdf_dir(B, e, em.p, em.n, d, pd);
+        em.weight = spc_rgb_scale(y0->Le, c / (em.pdf_pos * em.pdf_dir));
+        y0->d = d;
+    }
     spc_ray ray;
     ray.o = y0->on_surface ? spc_hit_offset(&y0->h, em.d) : em.p;
     ray.d = em.d;
@@ -448,7 +542,7 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
     if (s == 0) {
         dl[0] = false;
         Lp[0] = light_origin_pdf(sc, l0);
-        Lp[1] = light_emit_pdf(l0, x[1]);
+        Lp[1] = light_emit_pdf(B, l0, x[1]);
     } else {
         const vtx *a = x[s - 1], *b = x[s];
         dl[s - 1] = dl[s] = false;
@@ -459,7 +553,7 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
             Ep[s - 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_RADIANCE, b->wo, ba), b, a);
         if (s == 1) {
             Lp[0] = l0->pdf_fwd;
-            Lp[1] = light_emit_pdf(a, b);
+            Lp[1] = light_emit_pdf(B, a, b);
         } else {
             Lp[s] = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_IMPORTANCE, a->wo, ab), a, b);
             Ep[s - 2] = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_RADIANCE, ab, a->wo), a, x[s - 2]);
@@ -604,6 +698,7 @@ static double direct_ratio(const void *user, const spc_hit *x, spc_vec3 wo, spc_
     double pb = spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0);
     double pp, pd;
     spc_emitter_pdf_emission(e, y, ny, spc_neg(d_last), &pp, &pd);
+    pd = emit_pdf_dir(B, e, y, ny, spc_neg(d_last), pd);
     double cy = spc_absdot(ny, d_last);
     double num = spc_scene_emitter_pmf(B->sc, e) * pp * pd * spc_absdot(x->ng, d0);
     double den = pE * pb * cy;
@@ -1103,6 +1198,7 @@ static void bdpt_init(bdpt *B, const spc_render_ctx *ctx)
     B->lt_per_sample = ctx->bdpt_light_paths > 1 ? ctx->bdpt_light_paths : 1;
     B->n_lt_paths = B->n_light_paths * B->lt_per_sample;
     B->pm = ctx->pool_model;
+    B->aim = ctx->bdpt_aim;
 }
 
 /* Vertices a light subpath may have, and whether that bound cuts max_depth short. */
@@ -1354,6 +1450,54 @@ double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed)
 }
 
 /* Connections of camera vertex z[t-1] to the pass's pool: M_t picks, each adding C w / (N M_t q). */
+bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, spc_bdpt_aim *aim)
+{
+    memset(aim, 0, sizeof *aim);
+    const spc_scene *sc = ctx->scene;
+    const spc_scene_casters *cs = &sc->casters[0];
+    if (!(share > 0.0 && share < 1.0))
+        return false;
+    for (int i = 0; i < cs->n && aim->n < SPC_BDPT_AIM_CONES; ++i)
+        if (spc_cguide_cone_sphere(sc, sc->shapes[cs->idx[i]], &aim->c[aim->n], &aim->r[aim->n]))
+            ++aim->n;
+    /* the pilot draws from the cones alone (u.x below a) */
+    aim->a = 0.5;
+    int tries = 0, hits = 0;
+    for (int k = 0; k < SPC_BDPT_AIM_PILOT && aim->n > 0; ++k) {
+        spc_rng rng;
+        spc_rng_seed(&rng, SPC_BDPT_AIM_STREAM, (uint64_t)k);
+        double u_light = spc_rng_next(&rng);
+        spc_vec2 u_pos = {spc_rng_next(&rng), spc_rng_next(&rng)};
+        spc_vec2 u_dir = {aim->a * spc_rng_next(&rng), spc_rng_next(&rng)};
+        double pmf;
+        const spc_emitter *e = spc_scene_sample_emitter(sc, u_light, &pmf);
+        spc_emitter_emission em;
+        if (!e || e->type != SPC_EMITTER_AREA || !(pmf > 0.0) || !spc_emitter_sample_emission(e, u_pos, u_dir, &em))
+            continue;
+        int m = aim_cones(aim, em.p, em.n, NULL, NULL);
+        if (m == 0)
+            continue;
+        ++tries;
+        spc_vec3 d = aim_sample(aim, m, em.p, em.n, u_dir);
+        if (!(spc_dot(em.n, d) > 0.0))
+            continue;
+        spc_hit lh, h;
+        memset(&lh, 0, sizeof lh);
+        lh.p = em.p;
+        lh.ng = em.n;
+        lh.err = em.err;
+        if (!spc_scene_intersect(sc, &(spc_ray){spc_hit_offset(&lh, d), d, 0.0, SPC_INF}, &h))
+            continue;
+        for (int i = 0; i < cs->n; ++i)
+            if (cs->idx[i] == h.shape_index) {
+                ++hits;
+                break;
+            }
+    }
+    aim->a = tries > 0 ? share * hits / tries : 0.0;
+    return aim->a > 0.0;
+}
+
 static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx *z, int t, spc_rng *rng)
 {
     const spc_render_ctx *ctx = B->ctx;
@@ -1415,6 +1559,8 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     B.lt_per_sample = !ptracer && ctx->bdpt_light_paths > 1 ? ctx->bdpt_light_paths : 1;
     B.n_lt_paths = B.n_light_paths * B.lt_per_sample;
     B.cam_d0 = ray0->d;
+    /* the particle tracer weighs nothing: it keeps the lights' own emission */
+    B.aim = ptracer ? NULL : ctx->bdpt_aim;
     /* with the pool (bdpt_pool.h) this pixel's light subpath and its light tracing (t = 1) were
      * traced with the pool; each camera vertex adds connect_pool's connections */
     const spc_bdpt_pool *pool = !ptracer && !debug && ctx->strategy_images_depth <= 0 ? tls->pool : NULL;

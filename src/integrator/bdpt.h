@@ -36,4 +36,26 @@ double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed);
 struct spc_bdpt_pool_model;
 bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connections, struct spc_bdpt_pool_model *m);
 
+/* Light subpaths aimed at the glass and mirror casters (bdpt.c). At a point p (normal n) of an area
+ * light the emission direction is drawn from the mixture
+ *     p(w) = (1 - a) cos(n, w) / pi + a (1 / m) sum_i [w in cone_i] / omega_i,
+ * cone_i the directions from p toward caster i's sphere (solid angle omega_i), over the m cones whose
+ * sphere p lies outside of and whose centre lies above p's horizon (a = 0 where there is none). In an
+ * open scene few of a small light's cosine-distributed directions meet a glass ball, yet the light
+ * tracing (t = 1) of its caustic and of the light it refracts into its shadow needs exactly those;
+ * every MIS weight uses the mixture's density, so the estimate stays unbiased for any a. */
+#define SPC_BDPT_AIM_CONES 8
+typedef struct spc_bdpt_aim {
+    double a; /* the cones' share of the mixture (0: emission by the light's own cosine law) */
+    int n;    /* casters' spheres: centres and radii */
+    spc_vec3 c[SPC_BDPT_AIM_CONES];
+    double r[SPC_BDPT_AIM_CONES];
+} spc_bdpt_aim;
+/* The aim for ctx's scene: the spheres around the first SPC_BDPT_AIM_CONES casters (a sphere's own,
+ * else the fitted or bounding sphere, as the caustic guide's cones), and a = share times the fraction
+ * of pilot rays drawn from the mixture's cones (SPC_BDPT_AIM_PILOT rays, a fixed stream) whose first
+ * hit is a caster: near 0 where the casters are hidden from the lights (a bulb in a shade). false
+ * (a = 0) where no area light, no caster or no pilot ray reaches one. */
+bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, spc_bdpt_aim *aim);
+
 #endif

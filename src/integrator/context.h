@@ -59,6 +59,8 @@ typedef struct spc_render_ctx {
     /* bdpt: light subpaths per camera sample (>= 1); the second and later serve light tracing
      * (t = 1) only, and MIS counts t = 1 that many times (bdpt.c) */
     int bdpt_light_paths;
+    /* bdpt: area lights' emission partly aimed at the casters (bdpt.h, spc_bdpt_aim); NULL: off */
+    const struct spc_bdpt_aim *bdpt_aim;
 } spc_render_ctx;
 
 typedef struct spc_splat {

@@ -71,7 +71,9 @@
  *     plane_chains.h); with only such casters the randomized solver itself never runs.
  *     bdpt gets its own setting (SPC_SNEE_PLAN_SETTING_BDPT, _BDPT_MIRRORS): it runs specular NEE
  *     only where its own strategies cannot reach (integrator/bdpt.c), so it needs no roulette past
- *     the first receiver, and the query from the camera pays there on one sample in ten.
+ *     the first receiver, and the query from the camera pays there on one sample in ten, or on
+ *     sqrt(s) / 10 (at least 0.02, no raise on small films) where every glass caster is
+ *     enumerated exactly.
  *     A tessellated ball gets the query from the camera on one sample in ten
  *     (SPC_SNEE_PLAN_SETTING_BALLS). volpath, whose receivers are medium points, weighs the chains
  *     through a tessellated ball with the stand-in psi (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH).
@@ -214,7 +216,9 @@
 #define SPC_SNEE_PLAN_SETTING_WATER "angular:first=0.1,later=0.1"
 
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
- * no BDPT strategy but s = 0 (and at corners), and the query from the camera on one sample in ten.
+ * no BDPT strategy but s = 0 (and at corners), and the query from the camera on one sample in ten;
+ * where every glass caster is enumerated exactly, the query on sqrt(s) / 10 of the samples instead
+ * (at least 0.02; snee_plan.c's camera_prob_bdpt), "angular:camera=Q".
  * The paths it covers (a caustic seen through glass, the light seen in or through glass) are
  * single samples hundreds of times their pixel's mean for s = 0 alone: on the glass-ball caustic at
  * equal CPU time bdpt's mean relMSE over 8 seeds was 2.1x lower with this setting than without
