@@ -116,22 +116,32 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
     res->residual = INFINITY;
     res->stop = SPC_ANGULAR_STOP_SEED;
     spc_frame fr = spc_frame_from_n(seed_dir);
-    spc_chain_trace(sc, x, &fr, 0.0, 0.0, opts, out);
+    /* the hits without what only shading reads while the solve runs, the chain it ends with filled
+     * in (a trace callback sees whole records) */
+    spc_chain_opts so = *opts;
+    so.slim = !ao->trace;
+    spc_chain_trace(sc, x, &fr, 0.0, 0.0, &so, out);
     /* a seed whose final segment runs into one more chain surface (LIMIT) still fixes a sequence
      * of max_vertices surfaces; the solved chain's last segment is checked for visibility later */
-    if (out->n < 1 || !(chain_ok(out) || out->end == SPC_CHAIN_END_LIMIT))
+    if (out->n < 1 || !(chain_ok(out) || out->end == SPC_CHAIN_END_LIMIT)) {
+        if (so.slim)
+            spc_chain_complete(out);
         return false;
+    }
     double tol = ao->tol_scene * tg->scale;
     if (tg->light_size > 0.0)
         tol = spc_min(tol, ao->tol_light * tg->light_size);
 
     spc_chain_sig sig;
     spc_chain_signature(out, &sig);
-    if (want && !spc_chain_sig_equal(&sig, want))
+    if (want && !spc_chain_sig_equal(&sig, want)) {
+        if (so.slim)
+            spc_chain_complete(out);
         return false;
+    }
     if (ao->trace)
         ao->trace(ao->trace_user, out, true);
-    spc_chain_opts fo = *opts;
+    spc_chain_opts fo = so;
     fo.fixed = &sig;
     fo.events = NULL;
     fo.find_end = false;
@@ -258,6 +268,8 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
     }
     if (out->a != 0.0 || out->b != 0.0)
         spc_chain_recenter(out);
+    if (so.slim)
+        spc_chain_complete(out);
     res->residual = sqrt(L);
     res->converged = L <= tol * tol;
     res->stop = res->converged ? SPC_ANGULAR_STOP_CONVERGED : stop;

@@ -118,8 +118,10 @@ static bool refine_triangle(const spc_shape *s, int prim, const spc_ray *r, doub
 }
 
 /* spc_scene_intersect's record, on a triangle at refine_triangle's coordinates where they are
- * valid: the record is filled once, from the refined coordinates or else from Embree's. */
-static bool intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h)
+ * valid: the record is filled once, from the refined coordinates or else from Embree's; with slim,
+ * a mesh hit without what only shading reads (spc_shape_fill_hit_chain), except on a normal-mapped
+ * surface, whose mapping reads the whole record. */
+static bool intersect(const spc_scene *sc, const spc_ray *r, bool slim, spc_hit *h)
 {
     spc_scene_answer a;
     spc_scene_trace(sc, r, &a);
@@ -135,7 +137,10 @@ static bool intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h)
         }
     }
     h->shape_index = a.shape;
-    spc_shape_fill_hit(s, a.prim, a.u, a.v, r, a.t, h);
+    if (slim && !(s->bsdf && s->bsdf->type == SPC_BSDF_NORMALMAP))
+        spc_shape_fill_hit_chain(s, a.prim, a.u, a.v, r, a.t, h);
+    else
+        spc_shape_fill_hit(s, a.prim, a.u, a.v, r, a.t, h);
     /* a normal-mapped chain surface: the mapped frame as the ray arriving sees it */
     if (h->bsdf && h->bsdf->type == SPC_BSDF_NORMALMAP && spc_chain_shape_is_caster(s, true, NULL))
         spc_bsdf_map_chain_hit(h, spc_neg(r->d));
@@ -147,7 +152,22 @@ bool spc_chain_hit_ready(const spc_hit *h)
     return !h->bsdf || h->bsdf->type != SPC_BSDF_NORMALMAP || !h->bsdf->normalmap || h->normal_mapped;
 }
 
-bool spc_chain_intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h) { return intersect(sc, r, h); }
+bool spc_chain_intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h) { return intersect(sc, r, false, h); }
+
+/* A normal-mapped hit is always whole (intersect), and filling it again would undo its mapping. */
+static void complete_hit(spc_hit *h)
+{
+    if (!(h->bsdf && h->bsdf->type == SPC_BSDF_NORMALMAP))
+        spc_shape_hit_complete(h);
+}
+
+void spc_chain_complete(spc_chain *c)
+{
+    for (int i = 0; i < c->n; ++i)
+        complete_hit(&c->v[i].h);
+    if (c->has_end_hit)
+        complete_hit(&c->end_hit);
+}
 
 /* Solves dp = dpdu du + dpdv dv (least squares) and returns dn = dndu du + dndv dv. */
 static bool normal_derivative(const spc_hit *h, spc_vec3 dp, spc_vec3 *dn)
@@ -235,7 +255,7 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
         if (fixed && i == limit && !opts->find_end)
             return c->end = SPC_CHAIN_END_SURFACE;
         spc_hit h;
-        if (!intersect(sc, &ray, &h)) {
+        if (!intersect(sc, &ray, opts->slim, &h)) {
             c->fail_vertex = i;
             return c->end = (fixed && i < limit) ? SPC_CHAIN_END_MISMATCH : SPC_CHAIN_END_ESCAPED;
         }
