@@ -14,6 +14,8 @@
  * - The solutions counted per chain length (spc_fit_root_count, which the ball pass of specular NEE
  *   asks before it looks for chains of a length): none of 3 vertices and three of 5 from a floor
  *   point to the light.
+ * - A trial count's reuse of a seed's outcome (solver.h, seed_decides): the angular and conic
+ *   solvers, with the events fixed, draw only the seed and answer as a function of it.
  */
 /* ctest-labels: stat */
 #include <math.h>
