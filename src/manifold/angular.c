@@ -146,9 +146,10 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
     fo.events = NULL;
     fo.find_end = false;
 
-    spc_chain trial;
+    /* the kept chain and the step's, swapped on an accepted step (out holds the kept one at the end) */
+    spc_chain other, *cur = out, *trial = &other;
     spc_vec3 r, J[2];
-    residual(out, tg, ao->loss, &r, J);
+    residual(cur, tg, ao->loss, &r, J);
     double L = spc_length2(r);
     double beta = 1.0, beta0 = 1.0;
     bool gd_init = false;
@@ -210,25 +211,27 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
             da *= SPC_ANGULAR_MAX_STEP / len;
             db *= SPC_ANGULAR_MAX_STEP / len;
         }
-        spc_chain_trace(sc, x, &out->frame, out->a + da, out->b + db, &fo, &trial);
+        spc_chain_trace(sc, x, &cur->frame, cur->a + da, cur->b + db, &fo, trial);
         res->iterations++;
         bool accepted = false;
-        if (!chain_ok(&trial) || trial.n != sig.n) {
+        if (!chain_ok(trial) || trial->n != sig.n) {
             hold = SPC_ANGULAR_BOUNDARY_HOLD;
         } else {
             spc_vec3 r2, J2[2];
-            residual(&trial, tg, ao->loss, &r2, J2);
+            residual(trial, tg, ao->loss, &r2, J2);
             double L2 = spc_length2(r2);
-            if (L2 < L && spc_chain_recenter(&trial)) {
+            if (L2 < L && spc_chain_recenter(trial)) {
                 stall = L2 > (1.0 - ao->stall_drop) * L ? stall + 1 : 0;
-                *out = trial;
-                residual(out, tg, ao->loss, &r, J); /* in the re-centred parameters */
+                spc_chain *kept = trial;
+                trial = cur;
+                cur = kept;
+                residual(cur, tg, ao->loss, &r, J); /* in the re-centred parameters */
                 L = spc_length2(r);
                 accepted = true;
             }
         }
         if (ao->trace)
-            ao->trace(ao->trace_user, accepted ? out : &trial, accepted);
+            ao->trace(ao->trace_user, accepted ? cur : trial, accepted);
         if (lm) {
             /* the damping takes the place of beta: a failed step turns the next toward the
              * gradient and shortens it, a good one turns it back toward Gauss-Newton */
@@ -266,6 +269,8 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
             }
         }
     }
+    if (cur != out)
+        *out = *cur;
     if (out->a != 0.0 || out->b != 0.0)
         spc_chain_recenter(out);
     if (so.slim)

@@ -254,24 +254,26 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
     for (int i = 0;; ++i) {
         if (fixed && i == limit && !opts->find_end)
             return c->end = SPC_CHAIN_END_SURFACE;
-        spc_hit h;
-        if (!intersect(sc, &ray, opts->slim, &h)) {
+        /* the hit goes straight into its vertex (the end hit past the last one is copied out) */
+        spc_hit hl, *hp = i < SPC_CHAIN_MAX_VERTICES ? &c->v[i].h : &hl;
+        if (!intersect(sc, &ray, opts->slim, hp)) {
             c->fail_vertex = i;
             return c->end = (fixed && i < limit) ? SPC_CHAIN_END_MISMATCH : SPC_CHAIN_END_ESCAPED;
         }
+        const spc_hit *h = hp;
         int event = SPC_CHAIN_REFLECT;
-        bool chain_surface = spc_chain_surface(&h, opts->any_surface, &event);
+        bool chain_surface = spc_chain_surface(h, opts->any_surface, &event);
         if (i == limit || !chain_surface) {
             if (fixed && i < limit) {
                 c->fail_vertex = i;
                 return c->end = SPC_CHAIN_END_MISMATCH;
             }
             c->has_end_hit = true;
-            c->end_hit = h;
+            c->end_hit = *h;
             return c->end = chain_surface ? SPC_CHAIN_END_LIMIT : SPC_CHAIN_END_SURFACE;
         }
         if (fixed) {
-            if (h.shape_index != fixed->shape[i]) {
+            if (h->shape_index != fixed->shape[i]) {
                 c->fail_vertex = i;
                 return c->end = SPC_CHAIN_END_MISMATCH;
             }
@@ -284,29 +286,28 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
 
         spc_chain_vertex *v = &c->v[i];
         c->fail_vertex = i;
-        if (!spc_chain_hit_ready(&h))
+        if (!spc_chain_hit_ready(h))
             return c->end = SPC_CHAIN_END_DEGENERATE;
-        v->h = h;
         v->wi = d;
         v->event = event;
         /* hit distance and position (eq. 16, 24), distance derivative from ng . dp = 0 (eq. 37) */
-        double t = spc_dot(spc_sub(h.p, ray.o), d);
-        double den = spc_dot(h.ng, d);
+        double t = spc_dot(spc_sub(h->p, ray.o), d);
+        double den = spc_dot(h->ng, d);
         if (!(fabs(den) > SPC_CHAIN_GRAZING))
             return c->end = SPC_CHAIN_END_DEGENERATE;
         v->t = t;
         for (int j = 0; j < 2; ++j) {
             spc_vec3 q = spc_madd(dprev[j], dd[j], t);
-            v->dt[j] = -spc_dot(h.ng, q) / den;
+            v->dt[j] = -spc_dot(h->ng, q) / den;
             v->dp[j] = spc_madd(q, d, v->dt[j]);
-            if (!normal_derivative(&h, v->dp[j], &v->dn[j]))
+            if (!normal_derivative(h, v->dp[j], &v->dn[j]))
                 return c->end = SPC_CHAIN_END_DEGENERATE;
         }
         if (event == SPC_CHAIN_REFLECT) {
             reflect(v, d, dd);
         } else {
             double eta;
-            spc_bsdf_is_specular_interface(h.bsdf, &eta);
+            spc_bsdf_is_specular_interface(h->bsdf, &eta);
             if (!(eta > 0.0))
                 return c->end = SPC_CHAIN_END_MISMATCH;
             if (!refract(v, eta, d, dd))
