@@ -119,10 +119,13 @@
  * (camera=0.1, Russian roulette). The first receiver's query holds two thirds of a sample's CPU
  * there; at equal CPU time over 48 seeds of bench/check/glass_ball_mesh.xml first=0.25 has mean
  * relMSE 0.058 (median 0.013), first=0.5 0.079 (0.015), the query at every first receiver 0.125
- * (0.023; none 0.079, median 0.068); random caustic scenes 8 and 41 over 8 seeds: first=0.5
- * 0.000105 and 0.00044 against 0.000208 and 0.00119 (bench/RESULTS.md, "The triangle glass ball's
- * cost per sample: ... the first receiver's share"). Before the ball pass's seeds and the camera
- * query's roulette, first=0.1 had lost there (below). The query
+ * (0.023; none 0.079, median 0.068). Random caustic scene 8 over 24 seeds: 5.8e-5 (first=0.5
+ * 1.0e-4) against 2.2e-4; random 41: 6.8e-3 (1.5e-3) against 2.5e-3, its worst seed one sample
+ * that the query at every first receiver draws alike, reached at first=0.25's higher sample count
+ * (without each one's worst seed 1.33e-3, 1.14e-3 and 1.42e-3). first=0.1 made a one-pixel
+ * firefly on random 8 (bench/RESULTS.md, "The triangle glass ball's cost per sample: ...");
+ * before the ball pass's seeds and the camera query's roulette it had lost here too (below). The
+ * query
  * from the camera took half the CPU on bench/check/glass_ball_mesh.xml (45 against 90 spp at equal
  * time without it) while its splats held little of the error; at equal CPU time camera=0.1 against
  * the query in every sample: the glass ball over 48 seeds mean relMSE 0.142 against 0.328 (median
