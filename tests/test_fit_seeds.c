@@ -14,6 +14,8 @@
  * - The solutions counted per chain length (spc_fit_root_count, which the ball pass of specular NEE
  *   asks before it looks for chains of a length): none of 3 vertices and three of 5 from a floor
  *   point to the light.
+ * - A trial count's reuse of a seed's outcome (solver.h, seed_decides): the angular and conic
+ *   solvers, with the events fixed, draw only the seed and answer as a function of it.
  */
 /* ctest-labels: stat */
 #include <math.h>
@@ -302,11 +304,106 @@ TEST(torus_fold_pair_far_end)
     spc_scene_destroy(sc);
 }
 
+/* The solvers marked seed_decides (solver.h) draw nothing from the random stream but the seed
+ * direction where the query fixes the events, and answer as a function of that direction: a trial
+ * count (specular_nee.c) then keeps the outcome of each fitted seed instead of solving it again.
+ * From the floor point of fit_root_count_by_length toward its light point, for 2- and 5-vertex
+ * chains with the ball pass's fitted share 0.9: a found chain's trials, each solved as a trial does
+ * it and again from the seed drawn alone (then given as q.seed_dir), give the same iteration count
+ * and chain, and the trial leaves the random stream where the seed's draw alone leaves it. It fails
+ * where such a solver draws more than its seed. */
+TEST(seed_decides_a_trial)
+{
+    spc_scene *sc = tu_load(SCENE, 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_snee_params p;
+    CHECK(spc_snee_parse("angular", 2, &p));
+    p.fit_share = 0.9;
+    spc_hit x;
+    CHECK(chain_floor_point(sc, 1, -0.23, 0.72, &x));
+    const spc_shape *ball = NULL;
+    for (int i = 0; i < sc->nshapes && !ball; ++i) {
+        spc_vec3 c;
+        double r;
+        if (spc_fit_sphere(sc->shapes[i], &c, &r))
+            ball = sc->shapes[i];
+    }
+    CHECK(ball != NULL);
+    const char *names[2] = {"angular", "conic"};
+    int trials = 0, fitted = 0, found = 0, differ = 0, chains = 0;
+    for (int si = 0; si < 2 && ball; ++si) {
+        int id = 0;
+        CHECK(spc_specular_solver_parse(names[si], &id));
+        const spc_specular_solver *solver = spc_specular_solver_get(id);
+        CHECK(solver && solver->solve_one && solver->seed_decides);
+        if (!solver || !solver->solve_one)
+            continue;
+        for (int k = 2; k <= 5; k += 3) {
+            spc_snee_query q;
+            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 1, 0), k);
+            q.min_chain = k;
+            q.y = spc_v3(0.4, 2.2, -0.6);
+            spc_fit_roots fit;
+            fit.nshapes = 0;
+            q.fit = &fit;
+            spc_vec3 fd[SPC_FIT_MAX_DIRS];
+            int fm[SPC_FIT_MAX_DIRS];
+            int nf = spc_fit_roots_of(&q, ball, fd, fm, SPC_FIT_MAX_DIRS);
+            spc_rng rng;
+            spc_rng_seed(&rng, 9, (uint64_t)(2 * k + si));
+            static spc_chain sol, c1, c2;
+            for (int a = 0; a < 40; ++a) {
+                int it = 0;
+                if (!solver->solve_one(&q, &rng, &sol, &it) || sol.n != k)
+                    continue;
+                ++chains;
+                spc_chain_sig want;
+                spc_chain_signature(&sol, &want);
+                spc_snee_query tq = q;
+                tq.want = &want;
+                tq.events = want.event;
+                for (int t = 0; t < 25; ++t) {
+                    spc_rng r1 = rng, r2 = rng;
+                    int it1 = 0, it2 = 0;
+                    bool ok1 = solver->solve_one(&tq, &r1, &c1, &it1), ok2 = false;
+                    spc_vec3 dir;
+                    if (spc_snee_seed_direction(&tq, &r2, &dir)) {
+                        spc_snee_query sq = tq;
+                        sq.seed_dir = &dir;
+                        spc_rng r3 = r2; /* what the solve from the given seed draws is not kept */
+                        ok2 = solver->solve_one(&sq, &r3, &c2, &it2);
+                        for (int i = 0; i < nf; ++i)
+                            fitted += memcmp(&fd[i], &dir, sizeof dir) == 0;
+                    }
+                    bool same = ok1 == ok2 && it1 == it2 && memcmp(&r1, &r2, sizeof r1) == 0;
+                    if (same && ok1) {
+                        same = c1.n == c2.n;
+                        for (int i = 0; same && i < c1.n; ++i)
+                            same = memcmp(&c1.v[i].h.p, &c2.v[i].h.p, sizeof c1.v[i].h.p) == 0;
+                        found += spc_snee_same_solution(&sol, &c1, sc->radius);
+                    }
+                    differ += !same;
+                    ++trials;
+                    rng = r1;
+                }
+            }
+        }
+    }
+    printf("    %d chains, %d trials (%d from a fitted seed, %d found the chain): %d differ\n", chains, trials,
+           fitted, found, differ);
+    CHECK(chains >= 8 && fitted > trials / 2 && found > trials / 4);
+    CHECK(differ == 0);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(fit_of_a_tessellated_ball_only);
     RUN(fit_seeds_find_every_chain_and_count_unbiased);
     RUN(fit_root_count_by_length);
+    RUN(seed_decides_a_trial);
     RUN(torus_tube_seeds);
     RUN(torus_fold_pair_far_end);
     return spc_test_finish();

@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "core/rng.h"
+#include "chain_compare.h"
 #include "harness.h"
 #include "manifold/solve_mis.h"
 #include "manifold/solver.h"
@@ -741,6 +742,81 @@ static bool bern_trial(void *user)
 {
     bern *b = user;
     return spc_rng_next(&b->r) < b->p;
+}
+
+/* A trace callback that records nothing: with one, the angular solver's steps fill whole hits. */
+static void no_trace(void *user, const spc_chain *c, bool accepted)
+{
+    (void)user;
+    (void)c;
+    (void)accepted;
+}
+
+/* Every field of two chain vertices (not the padding). */
+static bool same_vertex(const spc_chain_vertex *a, const spc_chain_vertex *b)
+{
+#define SAME(f) (memcmp(&a->f, &b->f, sizeof a->f) == 0)
+    return SAME(h.t) && SAME(h.p) && SAME(h.ng) && SAME(h.sh) && SAME(h.uv) && SAME(h.dpdu) && SAME(h.dpdv) &&
+           SAME(h.dndu) && SAME(h.dndv) && SAME(h.b1) && SAME(h.b2) && SAME(h.err) && SAME(h.n_unmapped) &&
+           SAME(h.normal_mapped) && SAME(h.prim) && SAME(h.shape_index) && SAME(h.shape) && SAME(h.bsdf) &&
+           SAME(h.emitter) && SAME(t) && SAME(dt) && SAME(dp) && SAME(dn) && SAME(wi) && SAME(d) && SAME(dd) &&
+           SAME(event) && SAME(eta_ti);
+#undef SAME
+}
+
+/* The angular solver steps with chain hits that leave out uv and the shading tangents (chain.h,
+ * opts.slim) and fills them in on the chain it returns: on the triangle glass ball (vertex normals),
+ * from floor points toward its light, seeded at random points of the ball with random events, every
+ * solve gives the same answer, iteration count and chain, vertex for vertex and field for field, as
+ * the solve whose steps fill whole hits (a trace callback turns the slim steps off). */
+TEST(angular_slim_steps_same_chains)
+{
+    spc_scene *sc = tu_load("bench/check/glass_ball_mesh.xml", 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_rng r;
+    spc_rng_seed(&r, 3, 17);
+    int solves = 0, converged = 0, stepped = 0, differ = 0;
+    static spc_chain a, b;
+    for (int i = 0; i < 1000; ++i) {
+        spc_hit x;
+        if (!chain_floor_point(sc, 1, -0.6 + 1.2 * spc_rng_next(&r), -0.6 + 1.2 * spc_rng_next(&r), &x))
+            continue;
+        spc_vec3 on = spc_madd(spc_v3(0, 0.5, 0), spc_normalize(spc_v3(spc_rng_next(&r) - 0.5,
+                                                                       spc_rng_next(&r) - 0.5,
+                                                                       spc_rng_next(&r) - 0.5)), 0.5);
+        spc_angular_target tg = {spc_v3(0.1 * spc_rng_next(&r), 2.2, 0.1 * spc_rng_next(&r)), spc_v3(0, -1, 0),
+                                 sc->radius, 0.1};
+        double event_u[SPC_CHAIN_MAX_VERTICES];
+        for (int k = 0; k < SPC_CHAIN_MAX_VERTICES; ++k)
+            event_u[k] = spc_rng_next(&r);
+        spc_chain_opts o = spc_chain_opts_default(1 + i % 4);
+        o.event_u = event_u;
+        o.reflect_p = 0.3;
+        spc_angular_options ao, aw;
+        spc_angular_options_default(&ao);
+        aw = ao;
+        aw.trace = no_trace;
+        spc_angular_result ra, rb;
+        memset(&a, 0, sizeof a);
+        memset(&b, 0, sizeof b);
+        spc_vec3 seed = spc_normalize(spc_sub(on, x.p));
+        bool oka = spc_angular_solve(sc, &x, &tg, seed, &o, &ao, &a, &ra);
+        bool okb = spc_angular_solve(sc, &x, &tg, seed, &o, &aw, &b, &rb);
+        ++solves;
+        converged += oka;
+        stepped += ra.iterations > 1 && a.n > 0;
+        bool same = oka == okb && ra.iterations == rb.iterations && ra.stop == rb.stop && a.n == b.n &&
+                    a.end == b.end && a.has_end_hit == b.has_end_hit && memcmp(&a.d0, &b.d0, sizeof a.d0) == 0;
+        for (int k = 0; same && k < a.n; ++k)
+            same = same_vertex(&a.v[k], &b.v[k]);
+        differ += !same;
+    }
+    printf("    %d solves, %d converged, %d with steps: %d differ\n", solves, converged, stepped, differ);
+    CHECK(solves > 800 && converged > 40 && stepped > 500);
+    CHECK(differ == 0);
+    spc_scene_destroy(sc);
 }
 
 TEST(bernoulli_estimator_unbiased)
@@ -2394,6 +2470,7 @@ int main(void)
     RUN(solver_mirror_sphere);
     RUN(solver_glass_sphere);
     RUN(solver_glass_slab_two_interfaces);
+    RUN(angular_slim_steps_same_chains);
     RUN(bernoulli_estimator_unbiased);
     RUN(trial_count_unbiased_past_cap);
     RUN(mis_count_gives_up_at_cap);

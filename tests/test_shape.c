@@ -422,6 +422,61 @@ TEST(mesh_lazy_derivatives_match)
     CHECK(skipped == checked / 2);
 }
 
+/* A chain record (spc_shape_fill_hit_chain, what a specular solver's steps read) has every field of
+ * spc_shape_fill_hit's record but uv and the tangents sh.s, sh.t, which are zero; spc_shape_hit_complete
+ * then makes it that record, field for field. The chain record starts from a byte pattern, so a field
+ * that neither call fills differs. Meshes with and without uvs, vertex normals (also under
+ * face_normals), flip_normals, kept frames or not. */
+TEST(mesh_chain_hits_complete)
+{
+    int checked = 0;
+    for (int kind = 0; kind < 5; ++kind)
+        for (int flip = 0; flip < 2; ++flip)
+            for (int keep = 0; keep < 2; ++keep) {
+                spc_shape s;
+                memset(&s, 0, sizeof s);
+                spc_error err;
+                spc_mat4 T = {{{1, 0.2, 0, 0.5}, {0, 1.3, 0.1, -2}, {0.3, 0, 0.7, 1}, {0, 0, 0, 1}}};
+                if (kind == 0) {
+                    CHECK(spc_shape_init_cube(&s, &T, NULL, 0, 0, &err)); /* uvs */
+                } else {
+                    /* kind 1: no uvs; 2: vertex normals; 3: vertex normals and uvs; 4: vertex normals
+                     * under face_normals */
+                    static const float UV[8] = {0, 0, 1, 0.1f, 0.9f, 1, 0.2f, 0.8f};
+                    spc_mesh m = quad_mesh(kind >= 2, kind == 3 ? UV : NULL);
+                    CHECK(spc_shape_init_mesh(&s, &m, &T, NULL, 0, 0, &err));
+                    s.face_normals = kind == 4;
+                }
+                s.flip_normals = flip != 0;
+                CHECK(spc_shape_prepare(&s) == SPC_OK);
+                if (!keep)
+                    spc_shape_drop_frames(&s);
+                for (int i = 0; i < 100; ++i) {
+                    int prim = (int)(rnd() * (double)s.mesh.ntris);
+                    double b1 = rnd(), b2 = rnd() * (1.0 - b1);
+                    spc_hit e, c;
+                    memset(&e, 0, sizeof e);
+                    memset(&c, 0xA5, sizeof c);
+                    spc_shape_fill_hit(&s, prim, b1, b2, NULL, 1.5, &e);
+                    e.shape_index = 7;
+                    spc_shape_fill_hit_chain(&s, prim, b1, b2, NULL, 1.5, &c);
+                    c.shape_index = 7;
+#define SAME(f) (memcmp(&e.f, &c.f, sizeof e.f) == 0)
+                    CHECK(SAME(t) && SAME(p) && SAME(ng) && SAME(sh.n) && SAME(dpdu) && SAME(dpdv) && SAME(dndu) &&
+                          SAME(dndv) && SAME(b1) && SAME(b2) && SAME(err) && SAME(n_unmapped) &&
+                          SAME(normal_mapped) && SAME(prim) && SAME(shape) && SAME(bsdf) && SAME(emitter));
+#undef SAME
+                    CHECK(c.uv.x == 0.0 && c.uv.y == 0.0 && spc_length2(c.sh.s) == 0.0 && spc_length2(c.sh.t) == 0.0);
+                    CHECK(!same_record(&e, &c));
+                    spc_shape_hit_complete(&c);
+                    CHECK(same_record(&e, &c));
+                    ++checked;
+                }
+                spc_shape_release(&s);
+            }
+    CHECK(checked == 5 * 2 * 2 * 100);
+}
+
 TEST(mesh_area_sampling_uniform)
 {
     spc_shape s;
@@ -465,5 +520,6 @@ int main(void)
     RUN(mesh_area_sampling_uniform);
     RUN(mesh_kept_frames_match);
     RUN(mesh_lazy_derivatives_match);
+    RUN(mesh_chain_hits_complete);
     return spc_test_finish();
 }

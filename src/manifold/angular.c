@@ -116,29 +116,40 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
     res->residual = INFINITY;
     res->stop = SPC_ANGULAR_STOP_SEED;
     spc_frame fr = spc_frame_from_n(seed_dir);
-    spc_chain_trace(sc, x, &fr, 0.0, 0.0, opts, out);
+    /* the hits without what only shading reads while the solve runs, the chain it ends with filled
+     * in (a trace callback sees whole records) */
+    spc_chain_opts so = *opts;
+    so.slim = !ao->trace;
+    spc_chain_trace(sc, x, &fr, 0.0, 0.0, &so, out);
     /* a seed whose final segment runs into one more chain surface (LIMIT) still fixes a sequence
      * of max_vertices surfaces; the solved chain's last segment is checked for visibility later */
-    if (out->n < 1 || !(chain_ok(out) || out->end == SPC_CHAIN_END_LIMIT))
+    if (out->n < 1 || !(chain_ok(out) || out->end == SPC_CHAIN_END_LIMIT)) {
+        if (so.slim)
+            spc_chain_complete(out);
         return false;
+    }
     double tol = ao->tol_scene * tg->scale;
     if (tg->light_size > 0.0)
         tol = spc_min(tol, ao->tol_light * tg->light_size);
 
     spc_chain_sig sig;
     spc_chain_signature(out, &sig);
-    if (want && !spc_chain_sig_equal(&sig, want))
+    if (want && !spc_chain_sig_equal(&sig, want)) {
+        if (so.slim)
+            spc_chain_complete(out);
         return false;
+    }
     if (ao->trace)
         ao->trace(ao->trace_user, out, true);
-    spc_chain_opts fo = *opts;
+    spc_chain_opts fo = so;
     fo.fixed = &sig;
     fo.events = NULL;
     fo.find_end = false;
 
-    spc_chain trial;
+    /* the kept chain and the step's, swapped on an accepted step (out holds the kept one at the end) */
+    spc_chain other, *cur = out, *trial = &other;
     spc_vec3 r, J[2];
-    residual(out, tg, ao->loss, &r, J);
+    residual(cur, tg, ao->loss, &r, J);
     double L = spc_length2(r);
     double beta = 1.0, beta0 = 1.0;
     bool gd_init = false;
@@ -200,25 +211,27 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
             da *= SPC_ANGULAR_MAX_STEP / len;
             db *= SPC_ANGULAR_MAX_STEP / len;
         }
-        spc_chain_trace(sc, x, &out->frame, out->a + da, out->b + db, &fo, &trial);
+        spc_chain_trace(sc, x, &cur->frame, cur->a + da, cur->b + db, &fo, trial);
         res->iterations++;
         bool accepted = false;
-        if (!chain_ok(&trial) || trial.n != sig.n) {
+        if (!chain_ok(trial) || trial->n != sig.n) {
             hold = SPC_ANGULAR_BOUNDARY_HOLD;
         } else {
             spc_vec3 r2, J2[2];
-            residual(&trial, tg, ao->loss, &r2, J2);
+            residual(trial, tg, ao->loss, &r2, J2);
             double L2 = spc_length2(r2);
-            if (L2 < L && spc_chain_recenter(&trial)) {
+            if (L2 < L && spc_chain_recenter(trial)) {
                 stall = L2 > (1.0 - ao->stall_drop) * L ? stall + 1 : 0;
-                *out = trial;
-                residual(out, tg, ao->loss, &r, J); /* in the re-centred parameters */
+                spc_chain *kept = trial;
+                trial = cur;
+                cur = kept;
+                residual(cur, tg, ao->loss, &r, J); /* in the re-centred parameters */
                 L = spc_length2(r);
                 accepted = true;
             }
         }
         if (ao->trace)
-            ao->trace(ao->trace_user, accepted ? out : &trial, accepted);
+            ao->trace(ao->trace_user, accepted ? cur : trial, accepted);
         if (lm) {
             /* the damping takes the place of beta: a failed step turns the next toward the
              * gradient and shortens it, a good one turns it back toward Gauss-Newton */
@@ -256,8 +269,12 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
             }
         }
     }
+    if (cur != out)
+        *out = *cur;
     if (out->a != 0.0 || out->b != 0.0)
         spc_chain_recenter(out);
+    if (so.slim)
+        spc_chain_complete(out);
     res->residual = sqrt(L);
     res->converged = L <= tol * tol;
     res->stop = res->converged ? SPC_ANGULAR_STOP_CONVERGED : stop;

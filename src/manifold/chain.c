@@ -118,8 +118,10 @@ static bool refine_triangle(const spc_shape *s, int prim, const spc_ray *r, doub
 }
 
 /* spc_scene_intersect's record, on a triangle at refine_triangle's coordinates where they are
- * valid: the record is filled once, from the refined coordinates or else from Embree's. */
-static bool intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h)
+ * valid: the record is filled once, from the refined coordinates or else from Embree's; with slim,
+ * a mesh hit without what only shading reads (spc_shape_fill_hit_chain), except on a normal-mapped
+ * surface, whose mapping reads the whole record. */
+static bool intersect(const spc_scene *sc, const spc_ray *r, bool slim, spc_hit *h)
 {
     spc_scene_answer a;
     spc_scene_trace(sc, r, &a);
@@ -135,7 +137,10 @@ static bool intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h)
         }
     }
     h->shape_index = a.shape;
-    spc_shape_fill_hit(s, a.prim, a.u, a.v, r, a.t, h);
+    if (slim && !(s->bsdf && s->bsdf->type == SPC_BSDF_NORMALMAP))
+        spc_shape_fill_hit_chain(s, a.prim, a.u, a.v, r, a.t, h);
+    else
+        spc_shape_fill_hit(s, a.prim, a.u, a.v, r, a.t, h);
     /* a normal-mapped chain surface: the mapped frame as the ray arriving sees it */
     if (h->bsdf && h->bsdf->type == SPC_BSDF_NORMALMAP && spc_chain_shape_is_caster(s, true, NULL))
         spc_bsdf_map_chain_hit(h, spc_neg(r->d));
@@ -147,7 +152,22 @@ bool spc_chain_hit_ready(const spc_hit *h)
     return !h->bsdf || h->bsdf->type != SPC_BSDF_NORMALMAP || !h->bsdf->normalmap || h->normal_mapped;
 }
 
-bool spc_chain_intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h) { return intersect(sc, r, h); }
+bool spc_chain_intersect(const spc_scene *sc, const spc_ray *r, spc_hit *h) { return intersect(sc, r, false, h); }
+
+/* A normal-mapped hit is always whole (intersect), and filling it again would undo its mapping. */
+static void complete_hit(spc_hit *h)
+{
+    if (!(h->bsdf && h->bsdf->type == SPC_BSDF_NORMALMAP))
+        spc_shape_hit_complete(h);
+}
+
+void spc_chain_complete(spc_chain *c)
+{
+    for (int i = 0; i < c->n; ++i)
+        complete_hit(&c->v[i].h);
+    if (c->has_end_hit)
+        complete_hit(&c->end_hit);
+}
 
 /* Solves dp = dpdu du + dpdv dv (least squares) and returns dn = dndu du + dndv dv. */
 static bool normal_derivative(const spc_hit *h, spc_vec3 dp, spc_vec3 *dn)
@@ -234,24 +254,26 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
     for (int i = 0;; ++i) {
         if (fixed && i == limit && !opts->find_end)
             return c->end = SPC_CHAIN_END_SURFACE;
-        spc_hit h;
-        if (!intersect(sc, &ray, &h)) {
+        /* the hit goes straight into its vertex (the end hit past the last one is copied out) */
+        spc_hit hl, *hp = i < SPC_CHAIN_MAX_VERTICES ? &c->v[i].h : &hl;
+        if (!intersect(sc, &ray, opts->slim, hp)) {
             c->fail_vertex = i;
             return c->end = (fixed && i < limit) ? SPC_CHAIN_END_MISMATCH : SPC_CHAIN_END_ESCAPED;
         }
+        const spc_hit *h = hp;
         int event = SPC_CHAIN_REFLECT;
-        bool chain_surface = spc_chain_surface(&h, opts->any_surface, &event);
+        bool chain_surface = spc_chain_surface(h, opts->any_surface, &event);
         if (i == limit || !chain_surface) {
             if (fixed && i < limit) {
                 c->fail_vertex = i;
                 return c->end = SPC_CHAIN_END_MISMATCH;
             }
             c->has_end_hit = true;
-            c->end_hit = h;
+            c->end_hit = *h;
             return c->end = chain_surface ? SPC_CHAIN_END_LIMIT : SPC_CHAIN_END_SURFACE;
         }
         if (fixed) {
-            if (h.shape_index != fixed->shape[i]) {
+            if (h->shape_index != fixed->shape[i]) {
                 c->fail_vertex = i;
                 return c->end = SPC_CHAIN_END_MISMATCH;
             }
@@ -264,29 +286,28 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
 
         spc_chain_vertex *v = &c->v[i];
         c->fail_vertex = i;
-        if (!spc_chain_hit_ready(&h))
+        if (!spc_chain_hit_ready(h))
             return c->end = SPC_CHAIN_END_DEGENERATE;
-        v->h = h;
         v->wi = d;
         v->event = event;
         /* hit distance and position (eq. 16, 24), distance derivative from ng . dp = 0 (eq. 37) */
-        double t = spc_dot(spc_sub(h.p, ray.o), d);
-        double den = spc_dot(h.ng, d);
+        double t = spc_dot(spc_sub(h->p, ray.o), d);
+        double den = spc_dot(h->ng, d);
         if (!(fabs(den) > SPC_CHAIN_GRAZING))
             return c->end = SPC_CHAIN_END_DEGENERATE;
         v->t = t;
         for (int j = 0; j < 2; ++j) {
             spc_vec3 q = spc_madd(dprev[j], dd[j], t);
-            v->dt[j] = -spc_dot(h.ng, q) / den;
+            v->dt[j] = -spc_dot(h->ng, q) / den;
             v->dp[j] = spc_madd(q, d, v->dt[j]);
-            if (!normal_derivative(&h, v->dp[j], &v->dn[j]))
+            if (!normal_derivative(h, v->dp[j], &v->dn[j]))
                 return c->end = SPC_CHAIN_END_DEGENERATE;
         }
         if (event == SPC_CHAIN_REFLECT) {
             reflect(v, d, dd);
         } else {
             double eta;
-            spc_bsdf_is_specular_interface(h.bsdf, &eta);
+            spc_bsdf_is_specular_interface(h->bsdf, &eta);
             if (!(eta > 0.0))
                 return c->end = SPC_CHAIN_END_MISMATCH;
             if (!refract(v, eta, d, dd))

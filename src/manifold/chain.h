@@ -110,6 +110,10 @@ typedef struct spc_chain_opts {
     bool any_surface;            /* every specular interface is a chain surface, whatever its
                                     caustic flags (tests, benchmarks) */
     bool find_end;               /* with fixed: also intersect the final segment (end, end_hit) */
+    /* a solver's step: the vertices' hits on meshes without uv and the shading tangents
+     * (spc_shape_fill_hit_chain), which tracing, the derivatives and the residuals do not read;
+     * spc_chain_complete fills them in the chain the solver keeps */
+    bool slim;
 } spc_chain_opts;
 
 /* Default options: up to max_vertices vertices, BSDF events, caustic flags respected. */
@@ -157,6 +161,10 @@ spc_vec3 spc_chain_direction(const spc_frame *f, double a, double b, spc_vec3 dd
  * may pass err = 0) and returns out->end. */
 spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_frame *frame, double a, double b,
                               const spc_chain_opts *opts, spc_chain *out);
+
+/* Fills what opts.slim left out of the chain's hits: afterwards each is spc_chain_intersect's
+ * record, byte for byte. */
+void spc_chain_complete(spc_chain *c);
 
 /* Re-expresses the chain in the frame centred on its current direction d0 (a = b = 0) by the
  * chain rule, without tracing again. False if the old parameterization is singular there. */

@@ -159,15 +159,20 @@ static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, dou
         m_hi = q->max_chain - 2;
     if (q->min_chain > 1 && m_lo < q->min_chain - 2)
         m_lo = q->min_chain - 2;
+    if (m_hi > SPC_SPHERE_MAX_M)
+        m_hi = SPC_SPHERE_MAX_M;
+    if (m_lo > m_hi)
+        return 0;
+    /* every length in one pass over the arc (the way in and the chords shared), in order of m */
+    double theta[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
+    int nr[SPC_SPHERE_SIGNATURES];
+    spc_sphere_chain_roots_all(pl.d, pl.y1, pl.y2, eta, m_lo, m_hi, theta, nr);
     int n = 0;
-    for (int m = m_lo; m <= m_hi && n < max; ++m) {
-        double theta[SPC_FIT_MAX_DIRS];
-        int nr = spc_sphere_chain_roots(pl.d, pl.y1, pl.y2, m, eta, theta, max - n);
-        for (int r = 0; r < nr; ++r) {
+    for (int m = m_lo; m <= m_hi; ++m)
+        for (int r = 0; r < nr[m + 1] && n < max; ++r) {
             ms[n] = (signed char)m;
-            dir[n++] = spc_normalize(spc_sub(spc_sphere_plane_point(&pl, theta[r]), x));
+            dir[n++] = spc_normalize(spc_sub(spc_sphere_plane_point(&pl, theta[m + 1][r]), x));
         }
-    }
     return n;
 }
 

@@ -74,9 +74,10 @@
  *     the first receiver, and the query from the camera pays there on one sample in ten, or on
  *     sqrt(s) / 10 (at least 0.02, no raise on small films) where every glass caster is
  *     enumerated exactly.
- *     A tessellated ball gets the query from the camera on one sample in ten
- *     (SPC_SNEE_PLAN_SETTING_BALLS). volpath, whose receivers are medium points, weighs the chains
- *     through a tessellated ball with the stand-in psi (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH).
+ *     A tessellated ball gets the query from the camera on one sample in ten and at a quarter of
+ *     the first receivers where it looks small (SPC_SNEE_PLAN_SETTING_BALLS). volpath, whose
+ *     receivers are medium points, weighs the chains through a tessellated ball with the stand-in
+ *     psi (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH).
  * Why angular: of the solvers it has the exact enumerations with reflections and longer chains, and
  * on the caustic scenes it was the fastest unbiased choice at equal time (the pool: 96x against
  * path, conic 45x, newton 26x); newton was slow and biased on multi-interface chains (two tilted
@@ -118,8 +119,18 @@
 #define SPC_SNEE_PLAN_SETTING "angular:camera,first=0.1,later=0.1"
 
 /* The setting where a glass caster is a tessellated ball (a triangle mesh with a fitted sphere,
- * fit_seeds.h): the same with the query at every path's first receiver (no first=P roulette), and
- * the query from the camera in one camera sample in ten (camera=0.1, Russian roulette). The query
+ * fit_seeds.h): the query at a path's first receiver with probability 0.25 where the casters look
+ * small (first=0.25, 1 near them: snee_cost.h), and from the camera in one camera sample in ten
+ * (camera=0.1, Russian roulette). The first receiver's query holds two thirds of a sample's CPU
+ * there; at equal CPU time over 48 seeds of bench/check/glass_ball_mesh.xml first=0.25 has mean
+ * relMSE 0.058 (median 0.013), first=0.5 0.079 (0.015), the query at every first receiver 0.125
+ * (0.023; none 0.079, median 0.068). Random caustic scene 8 over 24 seeds: 5.8e-5 (first=0.5
+ * 1.0e-4) against 2.2e-4; random 41: 6.8e-3 (1.5e-3) against 2.5e-3, its worst seed one sample
+ * that the query at every first receiver draws alike, reached at first=0.25's higher sample count
+ * (without each one's worst seed 1.33e-3, 1.14e-3 and 1.42e-3). first=0.1 made a one-pixel
+ * firefly on random 8 (bench/RESULTS.md, "The triangle glass ball's cost per sample: ...");
+ * before the ball pass's seeds and the camera query's roulette it had lost here too (below). The
+ * query
  * from the camera took half the CPU on bench/check/glass_ball_mesh.xml (45 against 90 spp at equal
  * time without it) while its splats held little of the error; at equal CPU time camera=0.1 against
  * the query in every sample: the glass ball over 48 seeds mean relMSE 0.142 against 0.328 (median
@@ -136,7 +147,7 @@
  * tail (0.62 with first=0.1, 0.78 without; medians 0.040), a BSDF-sampled path of MIS weight 1
  * that the roulette does not change; on five of seven random triangle-ball scenes first=0.1 lost
  * (bench/RESULTS.md, "The triangle glass ball's tail over 24 seeds"). */
-#define SPC_SNEE_PLAN_SETTING_BALLS "angular:camera=0.1,later=0.1"
+#define SPC_SNEE_PLAN_SETTING_BALLS "angular:camera=0.1,first=0.25,later=0.1"
 
 /* volpath's setting where a glass caster is a tessellated ball: SPC_SNEE_PLAN_SETTING_BALLS with the
  * query from the camera in every sample (camera=0.1 is not measured on volpath) and without

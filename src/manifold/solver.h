@@ -311,6 +311,10 @@ typedef struct spc_specular_solver {
      * query (then solve_one is not called). NULL: solve_all covers everything. */
     bool (*covers)(const spc_chain *c);
     bool (*covers_all)(const spc_snee_query *q);
+    /* solve_one draws from rng only its seed direction (spc_snee_seed_direction) where the query fixes
+     * the events (q->events, or no params.reflect): what it returns is then a function of the query
+     * and that direction, so a trial count may reuse the answer for a direction it drew before */
+    bool seed_decides;
 } spc_specular_solver;
 
 /* The solver of an id; NULL for none or an id outside the table. */

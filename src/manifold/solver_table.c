@@ -38,11 +38,11 @@
 /* ---- solver table ---- */
 
 static const spc_specular_solver solvers[] = {
-    {"none", NULL, NULL, NULL, NULL},
-    {"angular", spc_angular_solve_one, NULL, NULL, NULL},
-    {"newton", spc_newton_solve_one, NULL, NULL, NULL},
+    {"none", NULL, NULL, NULL, NULL, false},
+    {"angular", spc_angular_solve_one, NULL, NULL, NULL, true},
+    {"newton", spc_newton_solve_one, NULL, NULL, NULL, false},
     /* conic: every one-vertex chain on meshes exactly, the angular estimate for the rest */
-    {"conic", spc_angular_solve_one, spc_conic_solve_all, spc_conic_covers, spc_conic_covers_all},
+    {"conic", spc_angular_solve_one, spc_conic_solve_all, spc_conic_covers, spc_conic_covers_all, true},
 };
 #define NSOLVERS ((int)(sizeof solvers / sizeof solvers[0]))
 

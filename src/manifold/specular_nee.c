@@ -1000,8 +1000,16 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
     return attempt_psi(q, c);
 }
 
+/* Seed directions whose trial outcome a count keeps (solve_trial): the fitted sphere's solutions,
+ * which the ball pass's trials draw nine times in ten, are at most SPC_FIT_MAX_DIRS per caster; a
+ * cone seed is never drawn twice and only takes a slot. */
+#define SPC_TRIAL_MEMO 16
+
 /* One Bernoulli trial of a chain's count (solve_mis.h): an attempt of the query (its want and
- * events set to the chain's) that finds the same chain. */
+ * events set to the chain's) that finds the same chain. Where the solver's answer is a function of
+ * the seed direction (seed_decides, the events fixed), the outcome of a direction drawn before is
+ * reused: the same outcome, iteration count and random stream as solving again, for one solve per
+ * fitted seed instead of one per trial. */
 typedef struct solve_trial {
     const spc_snee_query *q;
     const spc_specular_solver *solver;
@@ -1009,13 +1017,40 @@ typedef struct solve_trial {
     spc_rng *rng;
     int iterations;
     spc_chain scratch;
+    int nmemo;
+    spc_vec3 memo_dir[SPC_TRIAL_MEMO];
+    bool memo_same[SPC_TRIAL_MEMO];
+    int memo_iterations[SPC_TRIAL_MEMO];
 } solve_trial;
 
 static bool solve_trial_same(void *user)
 {
     solve_trial *t = user;
-    return t->solver->solve_one(t->q, t->rng, &t->scratch, &t->iterations) &&
-           spc_snee_same_solution(t->target, &t->scratch, t->q->scene->radius);
+    const spc_snee_query *q = t->q;
+    if (!t->solver->seed_decides || (!q->events && q->params->reflect && q->seed != SPC_SNEE_SEED_LIGHT))
+        return t->solver->solve_one(q, t->rng, &t->scratch, &t->iterations) &&
+               spc_snee_same_solution(t->target, &t->scratch, q->scene->radius);
+    /* the seed as solve_one draws it, then solve_one from that seed (it draws nothing more) */
+    spc_vec3 dir;
+    if (!spc_snee_seed_direction(q, t->rng, &dir))
+        return false;
+    for (int i = 0; i < t->nmemo; ++i)
+        if (memcmp(&t->memo_dir[i], &dir, sizeof dir) == 0) {
+            t->iterations += t->memo_iterations[i];
+            return t->memo_same[i];
+        }
+    spc_snee_query sq = *q;
+    sq.seed_dir = &dir;
+    int it = 0;
+    bool same = t->solver->solve_one(&sq, t->rng, &t->scratch, &it) &&
+                spc_snee_same_solution(t->target, &t->scratch, q->scene->radius);
+    t->iterations += it;
+    if (t->nmemo < SPC_TRIAL_MEMO) {
+        t->memo_dir[t->nmemo] = dir;
+        t->memo_same[t->nmemo] = same;
+        t->memo_iterations[t->nmemo++] = it;
+    }
+    return same;
 }
 
 /* tq: q counting trials of chain c (its signature in *want, with reflect its events), and the

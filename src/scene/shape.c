@@ -582,8 +582,10 @@ static void mesh_normal_derivatives(const spc_shape *s, spc_vec3 n, spc_vec3 n0,
 
 /* What fill_mesh fills: MESH_LIGHT what a light sample needs (p, ng with its orientation, uv, err,
  * b1, b2, dpdu, dpdv: no shading frame, no normal derivatives); MESH_SHADING what shading reads
- * (p, ng, sh, uv, err, b1, b2: no derivatives); MESH_ALL every field. */
-typedef enum mesh_fill { MESH_LIGHT, MESH_SHADING, MESH_ALL } mesh_fill;
+ * (p, ng, sh, uv, err, b1, b2: no derivatives); MESH_CHAIN what a specular chain's vertex reads
+ * while a solver steps (every field but uv and the tangents sh.s, sh.t, which are zero); MESH_ALL
+ * every field. */
+typedef enum mesh_fill { MESH_LIGHT, MESH_SHADING, MESH_CHAIN, MESH_ALL } mesh_fill;
 
 /* A triangle's hit at barycentrics (b1, b2), the fields that `what` names. The values filled are
  * the same whatever else is filled, and the same with or without the shape's tri_frame (which holds
@@ -607,7 +609,9 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
     h->b2 = b2;
     double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
     h->err = SPC_FLOAT_OFFSET * spc_max(mag, spc_max_abs(h->p));
-    if (m->uv) {
+    if (what == MESH_CHAIN) {
+        h->uv = spc_v2(0.0, 0.0);
+    } else if (m->uv) {
         double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
         double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
         double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
@@ -629,12 +633,18 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
                     h->ng = spc_neg(h->ng);
                 return;
             }
-            if (what == MESH_ALL)
+            if (what == MESH_ALL || what == MESH_CHAIN)
                 mesh_normal_derivatives(s, n, n0, n1, n2, len, h);
             if (s->flip_normals)
                 n = spc_neg(n);
             if (spc_dot(n, h->ng) < 0.0)
                 h->ng = spc_neg(h->ng);
+            if (what == MESH_CHAIN) {
+                /* spc_frame_from_ns keeps n as its normal */
+                h->sh.n = n;
+                h->sh.s = h->sh.t = spc_v3(0, 0, 0);
+                return;
+            }
             h->sh = spc_frame_from_ns(n, tri_tangent(m, i0, i1, i2, e1, e2));
             return;
         }
@@ -643,8 +653,13 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
         h->ng = spc_neg(h->ng);
     if (what == MESH_LIGHT)
         return;
-    if (what == MESH_ALL)
+    if (what == MESH_ALL || what == MESH_CHAIN)
         h->dndu = h->dndv = spc_v3(0, 0, 0);
+    if (what == MESH_CHAIN) {
+        h->sh.n = h->ng;
+        h->sh.s = h->sh.t = spc_v3(0, 0, 0);
+        return;
+    }
     if (c && s->tri_frame_flip == s->flip_normals && !(c[3] == 0.0 && c[4] == 0.0 && c[5] == 0.0)) {
         /* spc_frame_from_ns(ng, tangent) with the kept tangent */
         h->sh.n = h->ng;
@@ -841,6 +856,25 @@ void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v
     }
     fill_common(s, prim, t, h);
     fill_mesh(s, prim, u, v, MESH_SHADING, h);
+}
+
+void spc_shape_fill_hit_chain(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
+                              spc_hit *h)
+{
+    if (s->type != SPC_SHAPE_MESH) {
+        spc_shape_fill_hit(s, prim, u, v, r, t, h);
+        return;
+    }
+    fill_common(s, prim, t, h);
+    h->n_unmapped = spc_v3(0, 0, 0);
+    fill_mesh(s, prim, u, v, MESH_CHAIN, h);
+}
+
+void spc_shape_hit_complete(spc_hit *h)
+{
+    const spc_shape *s = h->shape;
+    if (s && s->type == SPC_SHAPE_MESH)
+        fill_mesh(s, h->prim, h->b1, h->b2, MESH_ALL, h);
 }
 
 void spc_shape_hit_derivatives(spc_hit *h)

@@ -160,6 +160,15 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
  * there; on other shapes every field. */
 void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
                                 spc_hit *h);
+/* spc_shape_fill_hit for a specular chain's vertex while a solver steps: on a mesh every field but
+ * uv and the shading tangents sh.s, sh.t (zero; sh.n is filled), which the steps do not read; the
+ * fields filled are spc_shape_fill_hit's values. Other shapes: every field. */
+void spc_shape_fill_hit_chain(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
+                              spc_hit *h);
+/* Fills what spc_shape_fill_hit_chain left out of h (a hit on h->shape at h->prim, h->b1, h->b2):
+ * afterwards h is byte for byte spc_shape_fill_hit's record. Does nothing on other shapes, whose
+ * records are always whole. */
+void spc_shape_hit_complete(spc_hit *h);
 /* Fills what spc_shape_fill_hit_shading left out of h (a hit on h->shape at h->prim, h->b1,
  * h->b2): afterwards h is byte for byte spc_shape_fill_hit's record. Does nothing on shapes
  * without lazy_derivs, whose records are always whole. */
