@@ -34,6 +34,10 @@
 /* params.long_p's default: the probability per call of the longer chains on one sphere (measured in
  * bench/RESULTS.md, "how far specular NEE can go": 0.1 against 0.25 on the glass ball). */
 #define SPC_SNEE_LONG_P 0.1
+/* params.flat5_p and flat6_p's defaults: the shares of the calls that enumerate the 5- and 6-vertex
+ * chains through flat faces (bench/RESULTS.md, "Flat 5"). */
+#define SPC_SNEE_FLAT5_P 0.25
+#define SPC_SNEE_FLAT6_P 0.025
 
 /* ---- solver table ---- */
 
@@ -97,6 +101,8 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->exact = true;
     p->mis_events = false;
     p->long_p = SPC_SNEE_LONG_P;
+    p->flat5_p = SPC_SNEE_FLAT5_P;
+    p->flat6_p = SPC_SNEE_FLAT6_P;
     p->guide = 0.0;
     p->snee_p = 1.0;
     p->later_p = 1.0;

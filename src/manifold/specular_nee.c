@@ -469,13 +469,11 @@ static bool has_ball_caster(const spc_snee_query *q)
  * share (there the largest call was 46x the mean, at 0.25 7x). Six vertices: about 1% of the light
  * there, at about 10x a sample's cost. Measured in bench/RESULTS.md, "Flat 5" (equal time: the worst
  * seed 6x lower under two slabs, the mean 2.4x higher on the small-light slabs). */
-#define SPC_FLAT_PSI_5 0.25
-#define SPC_FLAT_PSI_6 0.025
 static double flat_psi(const spc_snee_query *q, int k)
 {
     if (!long_on(q) || k <= flat_max(q) || k > q->long_max || k > SPC_FLAT_MAX_VERTICES)
         return 0.0;
-    return k == 5 ? SPC_FLAT_PSI_5 : k == 6 ? SPC_FLAT_PSI_6 : 0.0;
+    return k == 5 ? q->params->flat5_p : k == 6 ? q->params->flat6_p : 0.0;
 }
 
 /* The probability per call that the chains of more than the budget's reflections on one mirror
