@@ -64,11 +64,17 @@ struct spc_snee_query;
 
 /* Longest chain enumerated: up to 4 vertices (two slabs' four faces; a cube's internal reflection:
  * in, two total internal reflections, out) at every call of specular NEE (specular_nee.c,
- * flat_max), 5 and 6 each with its own probability per call (specular_nee.c, flat_psi): a total
+ * flat_max), 5 and 6 each on its own share of the calls (specular_nee.c, flat_psi; 0 by default): a total
  * internal reflection off a slab's thin side face on the way through two slabs. Left to randomized
  * attempts, such a chain is found so rarely that its <1/p_solve> made a heavy tail that read 2-4% low
  * where it lands (bench/RESULTS.md, "Flat bias hunt"). */
 #define SPC_FLAT_MAX_VERTICES 6
+/* Where the longer chains run, the chains of up to this many vertices are enumerated at every call
+ * (specular_nee.c, flat_max): two slabs' four interfaces, a slab's total internal reflections, each
+ * chain counted once (psi 1), instead of with 1 / psi on the long pass's few calls, whose tail held
+ * most of the small-light slabs' error (bench/RESULTS.md, "Planar" and "Flat 2"). The longer ones
+ * on the shares spc_snee_params.flat5_p and flat6_p. */
+#define SPC_FLAT_EVERY_CALL 4
 
 /* Is s a flat-faced shape these chains handle? (Groups its faces on first use.) */
 bool spc_flat_chain_shape(const spc_shape *s);

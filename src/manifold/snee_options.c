@@ -85,6 +85,11 @@ static const spc_snee_option options[] = {
      "the randomized attempts"},
     {"long", "nolong", SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(long_p), 0, NULL,
      "with probability P per light sample, one longer chain length (up to 6 vertices) is looked for too"},
+    {"flat5", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, false, false, NULL, 0, NO, AT(flat5_p), 0, NULL,
+     "where the longer chains run, the 5-vertex chains through flat faces on a share Q of the calls, counted "
+     "1/Q times (0: left to BSDF sampling)"},
+    {"flat6", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, false, false, NULL, 0, NO, AT(flat6_p), 0, NULL,
+     "the same for the 6-vertex chains through flat faces"},
     {"guide", "noguide", SPC_SNEE_OPT_REAL, true, "M", 0, 100, true, false, NULL, 0, NO, AT(guide), SPC_SNEE_GUIDE,
      NULL, "guided directions in cones M times the light's image through a chain (guide alone: M 1)"},
     {"sneep", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(snee_p), 0, NULL,

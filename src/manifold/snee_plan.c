@@ -643,14 +643,26 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             if (p.max_chain > 1)
                 put(&b, "; longer chains by %s", solver ? solver->name : "?");
             break;
-        case SPC_SNEE_METHOD_FLAT:
-            /* past the budget where the longer chains run (specular_nee.c, flat_max) */
+        case SPC_SNEE_METHOD_FLAT: {
+            /* past the budget where the longer chains run: up to SPC_FLAT_EVERY_CALL vertices at every
+             * call, 5 and 6 on their shares of the calls (specular_nee.c, flat_max and flat_psi) */
+            bool lng = p.long_p > 0.0 && !p.no_mis;
+            int every = p.max_chain < SPC_FLAT_EVERY_CALL && lng ? SPC_FLAT_EVERY_CALL : p.max_chain;
+            if (every > SPC_FLAT_MAX_VERTICES)
+                every = SPC_FLAT_MAX_VERTICES;
             put(&b, "every chain through its flat faces (and other flat casters') enumerated exactly, 1-%d vertices",
-                p.max_chain >= SPC_FLAT_MAX_VERTICES || (p.long_p > 0.0 && !p.no_mis) ? SPC_FLAT_MAX_VERTICES
-                                                                                      : p.max_chain);
+                every);
+            for (int k = every + 1; lng && k <= SPC_FLAT_MAX_VERTICES; ++k) {
+                double share = k == 5 ? p.flat5_p : k == 6 ? p.flat6_p : 0.0;
+                if (share > 0.0)
+                    put(&b, "; %d on a share %g of the calls", k, share);
+                else
+                    put(&b, "; %d left to BSDF sampling", k);
+            }
             if (p.max_chain > SPC_FLAT_MAX_VERTICES)
                 put(&b, "; longer chains by %s", solver ? solver->name : "?");
             break;
+        }
         case SPC_SNEE_METHOD_SOLVER:
             put(&b, "%s, 1-%d vertices%s", solver ? solver->name : "?", p.max_chain,
                 p.biased ? " (biased)" : solver && solver->solve_all ? "" : " (unbiased: Bernoulli trial count)");

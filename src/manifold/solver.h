@@ -156,6 +156,13 @@ typedef struct spc_snee_params {
      * longer max_chain. Needs mis (off without it), reflect for dielectrics. From the camera too
      * (params.camera): the light seen through a ball after internal reflections. */
     double long_p;
+    /* The longer chains through flat faces (flat_chains.h; the user's "flat5=Q" and "flat6=Q"):
+     * where the longer chains run (long_p > 0 with mis), the chains of 5 and of 6 vertices past
+     * the every-call length (4) are enumerated each on its own share of the calls, flat5_p and
+     * flat6_p, and counted with 1 / share; the BSDF side's density of such a path carries the same
+     * share (MIS). 0: never enumerated (left to BSDF sampling, weight 1). */
+    double flat5_p;
+    double flat6_p;
     /* Guided directions (the user's "guide[=M]" / "noguide"): besides the light sample, one
      * direction per call drawn at x inside a cone around a chain toward the light, then traced
      * through the chain's surfaces by their BSDFs as a path would be; where it reaches that light

@@ -417,10 +417,7 @@ static double long_psi(const spc_snee_query *q, int k)
 
 /* The longest chain through flat faces enumerated at every call: the budget, or where the longer
  * chains run (the path's track then follows covered paths past the budget, to q->long_max) up to
- * SPC_FLAT_EVERY_CALL: two slabs' four interfaces, a slab's total internal reflections, each
- * chain counted once (psi 1), instead of with 1 / psi on the long pass's few calls, whose tail held
- * most of the small-light slabs' error (bench/RESULTS.md, "Planar" and "Flat 2"). */
-#define SPC_FLAT_EVERY_CALL 4
+ * SPC_FLAT_EVERY_CALL (flat_chains.h). */
 static int flat_max(const spc_snee_query *q)
 {
     int hi = q->max_chain;
@@ -462,20 +459,19 @@ static bool has_ball_caster(const spc_snee_query *q)
 }
 
 /* The probability per call that the chains through flat faces of 5 and 6 vertices (past flat_max,
- * where the longer chains run: long_on) are enumerated, each length drawn on its own and its chains
- * counted with 1 / psi. Five vertices: a total internal reflection off a slab's thin side face on the
- * way through two slabs (a third of the caustic at test_flat_bias's floor point), whose enumeration
- * costs about 3x a sample without it; on the long pass (psi 1 / 40) one call in 40 carried 40x its
- * share (there the largest call was 46x the mean, at 0.25 7x). Six vertices: about 1% of the light
- * there, at about 10x a sample's cost. Measured in bench/RESULTS.md, "Flat 5" (equal time: the worst
- * seed 6x lower under two slabs, the mean 2.4x higher on the small-light slabs). */
-#define SPC_FLAT_PSI_5 0.25
-#define SPC_FLAT_PSI_6 0.025
+ * where the longer chains run: long_on) are enumerated: params.flat5_p and flat6_p, each length drawn
+ * on its own and its chains counted with 1 / psi; chain_psi gives the BSDF side's density of such a
+ * path the same psi. At 0 (the default) specular NEE never makes them and BSDF sampling carries them
+ * with weight 1. Five vertices: a total internal reflection off a slab's thin side face on the way
+ * through two slabs (a third of the caustic at test_flat_bias's floor point); six: about 1% of the
+ * light there. Their enumeration cost 40% and 16% of a sample at the shares 0.25 and 0.025, for
+ * 0.7% and 0.1% of the image's light under two slabs (bench/RESULTS.md, "Flat 5" and "The 5- and
+ * 6-vertex flat chains left to BSDF sampling"). */
 static double flat_psi(const spc_snee_query *q, int k)
 {
     if (!long_on(q) || k <= flat_max(q) || k > q->long_max || k > SPC_FLAT_MAX_VERTICES)
         return 0.0;
-    return k == 5 ? SPC_FLAT_PSI_5 : k == 6 ? SPC_FLAT_PSI_6 : 0.0;
+    return k == 5 ? q->params->flat5_p : k == 6 ? q->params->flat6_p : 0.0;
 }
 
 /* The probability per call that the chains of more than the budget's reflections on one mirror
