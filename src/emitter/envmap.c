@@ -118,6 +118,10 @@ void spc_envmap_release(spc_emitter *e)
 
 spc_rgb spc_envmap_eval(const spc_emitter *e, spc_vec3 w)
 {
+    /* a constant radiance (the constant emitter) needs no uv: the two inverse trigonometric calls
+     * of dir_to_uv were 2.5% of a glass ball's render under a constant sky (perf) */
+    if (spc_texture_is_constant(e->radiance))
+        return spc_rgb_scale(e->radiance->value, e->scale);
     double st;
     spc_vec2 uv = dir_to_uv(e, w, &st);
     if (!is_image(e))
