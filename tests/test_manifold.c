@@ -938,6 +938,10 @@ static spc_scene *point_scene(int kind, double rl, spc_vec3 lp)
         slab->bsdf = tu_glass(sc, 1.5);
         break;
     }
+    case 3: /* a glass slab of two separate shapes: its lower face (facing down) and its upper face */
+        add_rect(sc, place(spc_v3(1.5, 1.5, 1), spc_v3(1, 0, 0), 180, spc_v3(0, 0, 0.9)), tu_glass(sc, 1.5));
+        add_rect(sc, place(spc_v3(1.5, 1.5, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 1.1)), tu_glass(sc, 1.5));
+        break;
     default: /* a glass ball, the floor inside its focal length (no caustic on it from this light) */
         add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, tu_glass(sc, 1.5));
         break;
@@ -1281,6 +1285,121 @@ TEST(mis_give_up_at_cap_adds_up)
     CHECK_MSG(st.capped * 4 > st.contributions, "the cap was reached %llu times in %llu counts",
               (unsigned long long)st.capped, (unsigned long long)st.contributions);
     CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f)", m, se, snee / N);
+    spc_scene_destroy(sc);
+}
+
+/* The same give-up at a surface receiver, where the chain crosses from one shape to another (a
+ * glass slab whose two faces are separate shapes; cosine-sampled directions traced through it
+ * instead of phase sampling): specular NEE plus the BSDF-sampled paths it covers, weighted by
+ * spc_snee_receiver_weight, equal the BSDF-sampled paths unweighted (D's mean 0, as in
+ * mis_give_up_at_cap_adds_up, cap 1), and with a stand-in psi that puts a <= C b on every chain no
+ * count runs past its cap (as mis_count_gives_up_at_cap). Under the glass ball of those tests, whose
+ * chains stay on one shape, a surface receiver's counts still run past the cap. */
+TEST(mis_give_up_at_cap_at_a_surface)
+{
+    spc_scene *sc = point_scene(3, 0.5, spc_v3(0.0, 0.1, 3.0));
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_hit hx;
+    spc_ray down = {spc_v3(0.15, 0.05, 0.1), spc_v3(0, 0, -1), 0.0, INFINITY};
+    CHECK(spc_scene_intersect(sc, &down, &hx) && hx.shape_index == 0);
+    const spc_vec3 wo = spc_v3(0, 0, 1);
+    spc_receiver rc;
+    spc_receiver_surface(&rc, &hx, wo);
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+    p.seed = SPC_SNEE_SEED_SHAPE;
+    p.straight_first = false;
+    p.exact = false;
+    p.reflect = false;
+    p.mis = true;
+    p.solve_mis = false;
+    p.mis_solve = 0.01; /* a <= C b on most chains; the give-up's share then moves D by ~9 se */
+    p.max_trials = 1;
+    p.long_p = 0.0;
+    spc_snee_stats st;
+    memset(&st, 0, sizeof st);
+    spc_rng r, rw;
+    spc_rng_seed(&r, 29, 5);
+    spc_rng_seed(&rw, 29, 6);
+    const int N = 100000;
+    double s1 = 0, s2 = 0, sref = 0, snee = 0, scov = 0;
+    for (int i = 0; i < N; ++i) {
+        double nee = spc_specular_nee_at(sc, &p, &rc, 2, 2, &r, &st).r, d = nee;
+        snee += nee;
+        spc_bsdf_sample b0;
+        if (spc_bsdf_sample_dir(hx.bsdf, &hx, SPC_MODE_RADIANCE, wo, spc_rng_next(&rw),
+                                spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &b0)) {
+            spc_vec3 wi = b0.wi;
+            spc_snee_track t;
+            spc_snee_track_begin(&t, &p, 2, 2);
+            spc_ray ray = spc_hit_spawn(&hx, wi);
+            double T = b0.weight.r;
+            for (int k = 0; k <= 2; ++k) {
+                spc_hit h;
+                if (!spc_scene_intersect(sc, &ray, &h))
+                    break;
+                if (h.emitter) {
+                    if (k >= 1) {
+                        double v = T * spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d)).r;
+                        sref += v;
+                        if (spc_snee_track_covers(&t, sc, h.emitter)) {
+                            double w = spc_snee_receiver_weight(sc, &p, &rc, wi, t.max_chain, t.k, t.events, &h);
+                            d += (w - 1.0) * v;
+                            scov += v;
+                        }
+                    }
+                    break;
+                }
+                int ev;
+                spc_bsdf_sample bs;
+                if (k == 2 || !spc_chain_surface(&h, false, &ev) ||
+                    !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), spc_rng_next(&rw),
+                                         spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &bs))
+                    break;
+                spc_snee_track_scatter_params(&t, &p, &h, bs.lobe, 0, 0);
+                T *= bs.weight.r;
+                ray = spc_hit_spawn(&h, bs.wi);
+            }
+        }
+        s1 += d;
+        s2 += d * d;
+    }
+    double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N), ref = sref / N;
+    printf("    BSDF sampling unweighted %.5f; specular NEE %.5f, covered paths %.5f; D = %.5f +- %.5f (%.2f se); "
+           "counts %llu, attempts %llu, capped %llu\n",
+           ref, snee / N, scov / N, m, se, se > 0.0 ? m / se : 0.0, (unsigned long long)st.contributions,
+           (unsigned long long)st.trials, (unsigned long long)st.capped);
+    CHECK(ref > 0.0 && snee > 0.0);
+    CHECK_MSG(st.capped * 20 > st.contributions, "the cap was reached %llu times in %llu counts",
+              (unsigned long long)st.capped, (unsigned long long)st.contributions);
+    CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f)", m, se, snee / N);
+    /* a stand-in psi so small that a <= C b holds on every chain: no count runs past its cap */
+    p.mis_solve = 1e-5;
+    memset(&st, 0, sizeof st);
+    for (int i = 0; i < 4000; ++i)
+        (void)spc_specular_nee_at(sc, &p, &rc, 2, 2, &r, &st);
+    printf("    stand-in psi 1e-5: counts' attempts %llu over %llu contributions, capped %llu\n",
+           (unsigned long long)st.trials, (unsigned long long)st.contributions, (unsigned long long)st.capped);
+    CHECK_MSG(st.capped > 10, "the cap was reached %llu times", (unsigned long long)st.capped);
+    CHECK_MSG(st.trials <= st.contributions, "%llu attempts in %llu counts of at most 1", (unsigned long long)st.trials,
+              (unsigned long long)st.contributions);
+    spc_scene_destroy(sc);
+    /* one shape: the counts go on past the cap by roulette */
+    sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    CHECK(spc_scene_intersect(sc, &down, &hx) && hx.shape_index == 0);
+    spc_receiver_surface(&rc, &hx, wo);
+    memset(&st, 0, sizeof st);
+    for (int i = 0; i < 4000; ++i)
+        (void)spc_specular_nee_at(sc, &p, &rc, 2, 2, &r, &st);
+    printf("    the glass ball: counts' attempts %llu over %llu contributions, capped %llu\n",
+           (unsigned long long)st.trials, (unsigned long long)st.contributions, (unsigned long long)st.capped);
+    CHECK_MSG(st.trials > st.contributions, "%llu attempts in %llu counts", (unsigned long long)st.trials,
+              (unsigned long long)st.contributions);
     spc_scene_destroy(sc);
 }
 
@@ -2475,6 +2594,7 @@ int main(void)
     RUN(trial_count_unbiased_past_cap);
     RUN(mis_count_gives_up_at_cap);
     RUN(mis_give_up_at_cap_adds_up);
+    RUN(mis_give_up_at_cap_at_a_surface);
     RUN(solve_mis_unbiased_past_cap);
     RUN(snee_point_estimates);
     RUN(snee_normal_map_point_estimates);
