@@ -16,14 +16,18 @@
  * - By default it is on (3 connections) where the camera sees mostly indirectly lit surfaces (the
  *   door) and off elsewhere (the caustic).
  * - The options that exclude it are refused.
+ * - A connection's MIS weight from the subpaths' precomputed sums equals the weight walked over the
+ *   whole path (door: power and balance heuristics; caustic: delta vertices).
  * - A pick's cell follows the model's row pi_c (its alias table) and its reported probability is
  *   pi_c(k) / n_k: counted over 2^20 stratified picks from a hand-made model and pool.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 300 */
 #include "harness.h"
+#include "integrator/bdpt.h"
 #include "integrator/bdpt_pool.h"
 #include "render_util.h"
+#include "scene/camera.h"
 
 /* bdpt with `pool` connections per camera vertex (-1: plain, 0: the default), the scene's specular
  * NEE setting. */
@@ -283,6 +287,49 @@ TEST(picks_follow_the_model)
     spc_bdpt_pool_model_release(&m);
 }
 
+/* The weight of a connection with the pool, formed from each subpath's precomputed sums, equals the
+ * weight walked over the whole path (to rounding): on the door (diffuse vertices, the power and the
+ * balance heuristic) and on the glass-ball caustic (delta vertices on both subpaths). */
+static void pool_weights_match(const char *rel, bool balance)
+{
+    spc_scene *sc = tu_load(rel, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_camera_state cam;
+    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
+    spc_render_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = sc;
+    ctx.cam = &cam;
+    ctx.kind = SPC_INTEGRATOR_BDPT;
+    ctx.max_depth = sc->integrator.max_depth > 0 ? sc->integrator.max_depth : -1;
+    ctx.rr_depth = 5;
+    ctx.strategy_s = ctx.strategy_t = -1;
+    ctx.mis_balance = balance;
+    ctx.width = sc->film.width;
+    ctx.height = sc->film.height;
+    ctx.bdpt_light_paths = 1;
+    spc_bdpt_pool_model m;
+    CHECK(spc_bdpt_pool_learn(&ctx, 7, 3, &m));
+    ctx.pool_model = &m;
+    long joins = 0;
+    double gap = spc_bdpt_pool_weight_gap(&ctx, 11, 4000, &joins);
+    printf("  %s, %s heuristic: %ld joins, largest relative gap %.3g\n", rel, balance ? "balance" : "power", joins,
+           gap);
+    CHECK(joins > 1000);
+    CHECK_MSG(gap < 1e-9, "%s: the pooled weight differs from the walked one by %.3g", rel, gap);
+    spc_bdpt_pool_model_release(&m);
+    spc_scene_destroy(sc);
+}
+
+TEST(pool_weights_match_the_walk)
+{
+    pool_weights_match("scenes/indirect_door.xml", false);
+    pool_weights_match("scenes/indirect_door.xml", true);
+    pool_weights_match("scenes/caustic_sphere.xml", false);
+}
+
 TEST(refused_where_it_cannot_apply)
 {
     spc_scene *sc = tu_load("scenes/indirect_door.xml", 8);
@@ -311,6 +358,7 @@ int main(void)
 {
     spc_warn_set_quiet(1);
     RUN(picks_follow_the_model);
+    RUN(pool_weights_match_the_walk);
     RUN(refused_where_it_cannot_apply);
     RUN(default_where_the_camera_sees_indirect_light);
     RUN(same_image_for_any_thread_count);

@@ -195,6 +195,13 @@ typedef struct vtx {
     double pdf_pos; /* V_LIGHT at infinity: area density on the emission disk */
     const spc_emitter *light;
     bool on_surface, delta, infinite;
+    /* With the pool (B->pm; light_side_sums, camera_side_sums): the vertex's cell, and far_sum,
+     * the part of the MIS weight's sum of a connection joining this vertex that depends on this
+     * vertex's own subpath only (mis_weight_pool); on a pooled light subpath's y0, pdf_direct:
+     * light_direct_pdf of y0 from y1. */
+    int cell;
+    double far_sum;
+    double pdf_direct;
 } vtx;
 
 typedef struct bdpt {
@@ -517,8 +524,8 @@ static double heuristic(const bdpt *B, double r) { return B->balance ? r : r * r
  * when it is not y[0] (s = 0: z[t-1] seen as a light; s = 1, t >= 2: the sample_direct vertex).
  * pdf_cam_area: t = 1 only, the camera's density (times its sample count ratio) of y[s-1].
  */
-static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend,
-                         double pdf_cam_area, bool pick)
+static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend,
+                              double pdf_cam_area, bool pick)
 {
     const spc_scene *sc = B->sc;
     const int n = s + t;
@@ -617,6 +624,130 @@ static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t
 #undef UP
     double w = num / sum;
     return isfinite(w) && w > 0.0 ? w : 0.0;
+}
+
+/*
+ * With the pool, a connection (s, t >= 2) is weighed many times per light vertex (each pick) and
+ * per camera vertex (every light vertex joined to it), and mis_weight's two loops walk both
+ * subpaths. Their terms factor: with x_{s-1} = y[s-1] joined to x_s = z[t-1], only the ratios
+ * next to the joined pair (UP(s-2), UP(s-1), UP(s), UP(s+1)) and the pool counts of the pairs
+ * that contain a joined vertex depend on the connection; every other ratio and count belongs to
+ * one subpath. Since h(r) (r or r^2) is multiplicative, the light side's terms for k <= s - 2 are
+ *   h(1 / (UP(s-1) UP(s-2))) * F_L(s),
+ *   F_L(s) = sum_{k <= s-2, valid} h(prod_{j=k}^{s-3} 1 / UP(j)) MULT(k),
+ * and the camera side's terms for k >= s + 2 are h(UP(s) UP(s+1)) * F_C(t), the same sum over the
+ * camera subpath. F_L(s + 1) = valid(s-1) MULT(s-1) + h(1 / UP(s-2)) F_L(s) (its MULT counts the
+ * later camera vertices': n - k >= t + 2 >= 4), and alike for F_C; each vertex keeps its own
+ * (far_sum), so a weight costs the same whatever the subpaths' lengths. The sum equals mis_weight's
+ * but is formed in another order: the weights differ from it in the last bits.
+ */
+
+/* r(j + 1) / r(j) for a ratio on the light subpath y (j <= s - 3 of the joined y[s-1]: no pdf there
+ * depends on the connection); D: light_direct_pdf of y0 from y1. */
+static double light_up(const vtx *y, int j, double D)
+{
+    if (j == 0)
+        return remap0(D) / remap0(y[0].pdf_rev);
+    if (j == 1)
+        return remap0(y[0].pdf_fwd) * remap0(y[1].pdf_fwd) / (remap0(D) * remap0(y[1].pdf_rev));
+    return remap0(y[j].pdf_fwd) / remap0(y[j].pdf_rev);
+}
+
+/* MULT(k) of mis_weight for a pair of vertices in cells ck (the k-th from the light) and ck1 (the
+ * (k-1)-th), the pair's camera-side vertex the t-th of the camera subpath. */
+static double pool_mult(const bdpt *B, int ck, int ck1, int t)
+{
+    return 1.0 + heuristic(B, spc_bdpt_pool_count(B->pm, ck, ck1, t));
+}
+
+/* Cells and F_L (far_sum of y[s-1], s >= 2) of a pooled light subpath y[0 .. nl-1]. */
+static void light_side_sums(const bdpt *B, vtx *y, int nl)
+{
+    for (int j = 0; j < nl; ++j)
+        y[j].cell = spc_bdpt_pool_cell(B->pm, y[j].p);
+    if (nl < 2)
+        return;
+    const double D = light_direct_pdf(B->sc, &y[0], &y[1]);
+    y[0].pdf_direct = D;
+    double f = spc_emitter_is_delta(y[0].light) ? 0.0 : 1.0; /* k = 0 */
+    y[1].far_sum = f;
+    for (int s = 2; s < nl; ++s) { /* F_L(s + 1) from F_L(s) */
+        const int k = s - 1;       /* >= 1 */
+        f = heuristic(B, 1.0 / light_up(y, s - 2, D)) * f;
+        if (!y[k - 1].delta && !y[k].delta)
+            f += k >= 2 ? pool_mult(B, y[k].cell, y[k - 1].cell, 4) : 1.0;
+        y[s].far_sum = f;
+    }
+}
+
+/* Cells and F_C (far_sum of z[t-1], t >= 2) of a camera subpath z[0 .. nc-1] with the pool. */
+static void camera_side_sums(const bdpt *B, vtx *z, int nc)
+{
+    for (int j = 0; j < nc; ++j)
+        z[j].cell = spc_bdpt_pool_cell(B->pm, z[j].p);
+    double f = 0.0;
+    if (nc >= 2)
+        z[1].far_sum = f;
+    for (int t = 2; t < nc; ++t) { /* F_C(t + 1) from F_C(t): the pair z[m], z[m+1] */
+        const int m = t - 2;
+        if (m >= 1)
+            f = heuristic(B, remap0(z[m].pdf_rev) / remap0(z[m].pdf_fwd)) * f;
+        if (!z[m].delta && !z[m + 1].delta)
+            f += m >= 1 ? pool_mult(B, z[m].cell, z[m + 1].cell, m + 1) : 1.0;
+        z[t].far_sum = f;
+    }
+}
+
+/* mis_weight of a connection (s, t >= 2) with the pool, from the subpaths' far sums (the comment
+ * above): y a pooled light subpath (light_side_sums), z a camera subpath (camera_side_sums). */
+static double mis_weight_pool(const bdpt *B, const vtx *y, int s, const vtx *z, int t, bool pick)
+{
+    const vtx *a = &y[s - 1], *b = &z[t - 1];
+    const double c = heuristic(B, spc_bdpt_pool_count(B->pm, b->cell, a->cell, t));
+    const double num = pick ? c : 1.0;
+    if (!(num > 0.0))
+        return 0.0;
+    const spc_vec3 ab = dir_to(a, b), ba = dir_to(b, a);
+    /* the densities that the connection sets: Ep[s-1], Lp[s], Ep[s-2] (and Lp[s+1] below) */
+    const double ep_a = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_RADIANCE, b->wo, ba), b, a);
+    const double lp_b = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_IMPORTANCE, a->wo, ab), a, b);
+    const double ep_prev = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_RADIANCE, ab, a->wo), a, &y[s - 2]);
+    const double D = y[0].pdf_direct;
+    const double lp01 = remap0(y[0].pdf_fwd) * remap0(y[1].pdf_fwd);
+    /* the light side: UP(s-1) and UP(s-2), then k = s - 1 and k <= s - 2 */
+    const double up1 = s == 2 ? lp01 / (remap0(D) * remap0(ep_a)) : remap0(a->pdf_fwd) / remap0(ep_a);
+    const double up2 = s == 2   ? remap0(D) / remap0(ep_prev)
+                       : s == 3 ? lp01 / (remap0(D) * remap0(ep_prev))
+                                : remap0(y[s - 2].pdf_fwd) / remap0(ep_prev);
+    const double r1 = 1.0 / up1, r2 = r1 / up2;
+    double sum = 1.0 + c;
+    if (!y[s - 2].delta)
+        sum += heuristic(B, r1) * (s >= 3 ? pool_mult(B, a->cell, y[s - 2].cell, t + 1) : 1.0);
+    sum += heuristic(B, r2) * a->far_sum;
+    /* the camera side: UP(s), k = s + 1; with t >= 3 UP(s + 1) and k >= s + 2 */
+    const double u1 = remap0(lp_b) / remap0(b->pdf_fwd);
+    if (t == 2) {
+        if (!z[0].delta)
+            sum += heuristic(B, u1);
+    } else {
+        const vtx *bn = &z[t - 2];
+        if (!bn->delta)
+            sum += heuristic(B, u1) * pool_mult(B, bn->cell, b->cell, t - 1);
+        const double lp_next = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, bn);
+        sum += heuristic(B, u1 * (remap0(lp_next) / remap0(bn->pdf_fwd))) * b->far_sum;
+    }
+    const double w = num / sum;
+    return isfinite(w) && w > 0.0 ? w : 0.0;
+}
+
+/* The MIS weight of strategy (s, t), as mis_weight_walk: with the pool and a connection, from the
+ * far sums (mis_weight_pool). */
+static double mis_weight(const bdpt *B, const vtx *y, int s, const vtx *z, int t, const vtx *lend,
+                         double pdf_cam_area, bool pick)
+{
+    if (B->pm && s >= 2 && t >= 2)
+        return mis_weight_pool(B, y, s, z, t, pick);
+    return mis_weight_walk(B, y, s, z, t, lend, pdf_cam_area, pick);
 }
 
 /* ---- specular NEE's share of a path ----
@@ -1056,7 +1187,9 @@ static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int 
 {
     *mis = 1.0;
     const vtx *a = &y[s - 1], *b = &z[t - 1];
-    if (!connectible(a) || !connectible(b))
+    /* a pick's vertices are connectible: the pool keeps only such light vertices, and connect_pool
+     * checks its camera vertex once for all its picks */
+    if (!pick && (!connectible(a) || !connectible(b)))
         return spc_rgb1(0.0);
     spc_rgb C = connection_value(a, b, true, 0.0);
     if (spc_rgb_is_black(C))
@@ -1244,6 +1377,8 @@ bool spc_bdpt_pool_trace(const spc_render_ctx *ctx, spc_tls *tls, int pass, uint
             spc_sampler_start(&smp, (uint32_t)(px + ctx->crop_x), (uint32_t)(py + ctx->crop_y), (uint32_t)pass, seed);
             spc_sampler_start_key(&ls, spc_hash_combine(smp.pixel_seed, SPC_BDPT_LIGHT_STREAM), smp.index);
             int nl = light_subpath(&B, &ls, y, max_light, capped);
+            if (B.pm)
+                light_side_sums(&B, y, nl);
             for (int s = 1; s <= nl; ++s) {
                 if (ctx->max_depth >= 0 && s > ctx->max_depth)
                     break;
@@ -1416,6 +1551,53 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
     free(ne);
     free(cidx);
     return spc_bdpt_pool_model_finish(m, SPC_BDPT_PILOT_PATHS);
+}
+
+static double rel_gap(double a, double b)
+{
+    double m = spc_max(fabs(a), fabs(b));
+    return m > 0.0 ? fabs(a - b) / m : 0.0;
+}
+
+double spc_bdpt_pool_weight_gap(const spc_render_ctx *ctx, uint64_t seed, int paths, long *joins)
+{
+    bdpt B;
+    bdpt_init(&B, ctx);
+    bool light_capped;
+    int max_light = light_depth_cap(ctx, &light_capped);
+    bool cam_capped = ctx->max_depth < 0 || ctx->max_depth + 1 > SPC_BDPT_MAX_VERTICES;
+    int max_cam = cam_capped ? SPC_BDPT_MAX_VERTICES : ctx->max_depth + 1;
+    vtx y[SPC_BDPT_MAX_VERTICES], z[SPC_BDPT_MAX_VERTICES];
+    spc_rng rng;
+    spc_rng_seed(&rng, spc_hash_combine(seed, SPC_BDPT_PILOT_CAMERA_STREAM), 1);
+    double gap = 0.0;
+    *joins = 0;
+    for (int i = 0; B.pm && i < paths; ++i) {
+        spc_sampler ls, cs;
+        spc_sampler_start_key(&ls, spc_hash_combine(seed, SPC_BDPT_PILOT_LIGHT_STREAM), (uint32_t)i);
+        int nl = light_subpath(&B, &ls, y, max_light, light_capped);
+        light_side_sums(&B, y, nl);
+        double px = ctx->crop_x + ctx->width * spc_rng_next(&rng);
+        double py = ctx->crop_y + ctx->height * spc_rng_next(&rng);
+        spc_ray ray = spc_camera_ray(ctx->cam, px, py);
+        spc_sampler_start_key(&cs, spc_hash_combine(seed, SPC_BDPT_PILOT_CAMERA_STREAM), (uint32_t)i);
+        camera_vertex(ctx, &z[0]);
+        z[0].p = ray.o;
+        double pdf_cam = spc_camera_pdf_dir(ctx->cam, ray.d);
+        int nc = random_walk(&B, ray, spc_rgb1(1.0), pdf_cam > 0.0 ? pdf_cam : 1.0, SPC_MODE_RADIANCE, &cs, z, 1,
+                             max_cam, cam_capped);
+        camera_side_sums(&B, z, nc);
+        for (int s = 2; s <= nl; ++s)
+            for (int t = 2; t <= nc; ++t) {
+                if (!connectible(&y[s - 1]) || !connectible(&z[t - 1]))
+                    continue;
+                for (int pick = 0; pick < 2; ++pick)
+                    gap = spc_max(gap, rel_gap(mis_weight_pool(&B, y, s, z, t, pick),
+                                               mis_weight_walk(&B, y, s, z, t, NULL, 0.0, pick)));
+                ++*joins;
+            }
+    }
+    return gap;
 }
 
 double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed)
@@ -1594,6 +1776,8 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     z0->light = NULL;
     double pdf_cam_mis = pdf_cam > 0.0 ? pdf_cam * B.film_pixels / B.n_lt_paths : 1.0;
     int nc = random_walk(&B, *ray0, spc_rgb1(1.0), pdf_cam_mis, SPC_MODE_RADIANCE, smp, z, 1, max_cam, cam_capped);
+    if (B.pm)
+        camera_side_sums(&B, z, nc);
     if (nc >= 2 && z[1].kind == V_SURFACE) {
         spc_aov_from_hit(ctx, &z[1].h, spc_neg(ray0->d), smp, out);
     }

@@ -58,4 +58,13 @@ typedef struct spc_bdpt_aim {
  * (a = 0) where no area light, no caster or no pilot ray reaches one. */
 bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, spc_bdpt_aim *aim);
 
+/* ---- exposed for tests ---- */
+/* With ctx->pool_model set: traces `paths` light subpaths and camera subpaths (through uniform film
+ * positions of the rendered window; fixed streams from seed), joins every pair of their connectible
+ * vertices (s, t >= 2), and returns the largest relative difference between the connection's MIS
+ * weight from the subpaths' precomputed sums (what bdpt uses with the pool) and the same weight
+ * walked over the whole path, with and without the pick's numerator; *joins gets the pairs
+ * compared. */
+double spc_bdpt_pool_weight_gap(const spc_render_ctx *ctx, uint64_t seed, int paths, long *joins);
+
 #endif
