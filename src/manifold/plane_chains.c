@@ -244,14 +244,14 @@ static spc_vec3 vert(const spc_mesh *m, size_t i)
     return spc_v3(m->p[3 * i], m->p[3 * i + 1], m->p[3 * i + 2]);
 }
 
-/* The bounds of node (i, j) of level l: a cell's from its four texels, above from the pyramid. */
-static void node_bnd(const plane_map *pm, int l, int i, int j, bnd *b)
+/* The bounds of node (i, j) of level l: a cell's from its four texels (left in mc), above from the
+ * pyramid. */
+static void node_bnd(const plane_map *pm, int l, int i, int j, bnd *b, double mc[4][3])
 {
     if (l > 0) {
         bnd_load(&pm->lev[l][(size_t)j * pm->nu[l] + i], b);
         return;
     }
-    double mc[4][3];
     int64_t ci = (int64_t)pm->i0 + i, cj = (int64_t)pm->j0 + j;
     texel_m(pm->tex, ci, cj, mc[0]);
     texel_m(pm->tex, ci + 1, cj, mc[1]);
@@ -371,13 +371,14 @@ static void map_build(const spc_shape *s, plane_map *pm)
         for (int j = 0; j < nv; ++j)
             for (int i = 0; i < nu; ++i) {
                 bnd b, c;
-                node_bnd(pm, l - 1, 2 * i, 2 * j, &b); /* 2i < bu, 2j < bv */
+                double mc[4][3];
+                node_bnd(pm, l - 1, 2 * i, 2 * j, &b, mc); /* 2i < bu, 2j < bv */
                 for (int dj = 0; dj < 2; ++dj)
                     for (int di = 0; di < 2; ++di) {
                         int ci = 2 * i + di, cj = 2 * j + dj;
                         if ((di == 0 && dj == 0) || ci >= bu || cj >= bv)
                             continue;
-                        node_bnd(pm, l - 1, ci, cj, &c);
+                        node_bnd(pm, l - 1, ci, cj, &c, mc);
                         bnd_merge(&b, &c);
                     }
                 bnd_store(&b, &pm->lev[l][(size_t)j * nu + i]);
@@ -500,13 +501,10 @@ static void bnd_turn(bnd *b)
     }
 }
 
-static void corners(const problem *pb, int64_t ci, int64_t cj, double c[4][3])
+/* The cell's corner vectors c from its texels' mc, turned in the turned pass. */
+static void corners(const problem *pb, double mc[4][3], double c[4][3])
 {
-    const spc_texture *t = pb->pm->tex;
-    texel_m(t, ci, cj, c[0]);
-    texel_m(t, ci + 1, cj, c[1]);
-    texel_m(t, ci, cj + 1, c[2]);
-    texel_m(t, ci + 1, cj + 1, c[3]);
+    memcpy(c, mc, sizeof(double[4][3]));
     if (pb->turned)
         for (int q = 0; q < 4; ++q) {
             c[q][0] = -c[q][0];
@@ -772,9 +770,12 @@ static void blend(double c[4][3], double a, double b, double out[3])
 #define SPC_PLANE_PIECES (1 << (SPC_PLANE_SPLIT - 1))
 #define SPC_PLANE_GRID (SPC_PLANE_PIECES + 1)
 
-/* A cell's corner vectors blended at the pieces' corners, once per cell (a piece's bounds are its
- * four corners'): the coordinates in the cell, the blended m, and its slopes where m_N > 0. */
+/* A cell's corner vectors blended at the pieces' corners, each when a piece first needs it (a piece's
+ * bounds are its four corners'): the coordinates in the cell, the blended m, and its slopes where
+ * m_N > 0. */
 typedef struct cell_grid {
+    double (*c)[3]; /* the cell's corner vectors */
+    bool done[SPC_PLANE_GRID][SPC_PLANE_GRID];
     double a[SPC_PLANE_GRID], b[SPC_PLANE_GRID];
     double m[SPC_PLANE_GRID][SPC_PLANE_GRID][3];
     double r[SPC_PLANE_GRID][SPC_PLANE_GRID][2];
@@ -792,19 +793,35 @@ static void grid_mid(double *v, int lo, int hi)
     grid_mid(v, mid, hi);
 }
 
+/* Grid corner (u, v): the blend and its slopes. */
+static void grid_point(cell_grid *g, int u, int v)
+{
+    double *m = g->m[u][v];
+    blend(g->c, g->a[u], g->b[v], m);
+    g->pos[u][v] = m[2] > 0.0;
+    if (g->pos[u][v]) {
+        g->r[u][v][0] = m[0] / m[2];
+        g->r[u][v][1] = m[1] / m[2];
+    }
+    g->done[u][v] = true;
+}
+
 /* The bounds of the piece with grid corners (i0, j0) .. (i1, j1). */
-static void piece_bnd(const cell_grid *g, int i0, int i1, int j0, int j1, bnd *b)
+static void piece_bnd(cell_grid *g, int i0, int i1, int j0, int j1, bnd *b)
 {
     const int ii[4] = {i0, i1, i0, i1}, jj[4] = {j0, j0, j1, j1};
     bnd_reset(b);
-    for (int c = 0; c < 4; ++c)
+    for (int c = 0; c < 4; ++c) {
+        if (!g->done[ii[c]][jj[c]])
+            grid_point(g, ii[c], jj[c]);
         bnd_add(b, g->m[ii[c]][jj[c]], g->pos[ii[c]][jj[c]], g->r[ii[c]][jj[c]]);
+    }
 }
 
 /* The piece with grid corners (i0, j0) .. (i1, j1) of the cell at (ci, cj): culled, split, or
  * Newton's start. The whole cell (depth 1) passed as the pyramid's node already. */
-static void solve_piece(problem *pb, double ci, double cj, double c[4][3], const cell_grid *g, int i0, int i1,
-                        int j0, int j1, int depth)
+static void solve_piece(problem *pb, double ci, double cj, double c[4][3], cell_grid *g, int i0, int i1, int j0, int j1,
+                        int depth)
 {
     if (depth > 1) {
         bnd b;
@@ -831,34 +848,26 @@ static void solve_piece(problem *pb, double ci, double cj, double c[4][3], const
     newton_cell(pb, ci, cj, c, 0.5 * (a0 + a1), 0.5 * (b0 + b1), g->a[0], g->a[n], g->b[0], g->b[n]);
 }
 
-static void solve_cell(problem *pb, int i, int j)
+static void solve_cell(problem *pb, int i, int j, double mc[4][3])
 {
     const plane_map *pm = pb->pm;
     int64_t ci = pm->i0 + i, cj = pm->j0 + j;
     double c[4][3];
-    corners(pb, ci, cj, c);
+    corners(pb, mc, c);
     double a0 = dmax2(0.0, pm->smin - (double)ci), a1 = dmin2(1.0, pm->smax - (double)ci);
     double b0 = dmax2(0.0, pm->tmin - (double)cj), b1 = dmin2(1.0, pm->tmax - (double)cj);
     if (!(a1 > a0 && b1 > b0))
         return;
     const int n = SPC_PLANE_GRID - 1;
     cell_grid g;
+    g.c = c;
+    memset(g.done, 0, sizeof g.done);
     g.a[0] = a0;
     g.a[n] = a1;
     g.b[0] = b0;
     g.b[n] = b1;
     grid_mid(g.a, 0, n);
     grid_mid(g.b, 0, n);
-    for (int u = 0; u <= n; ++u)
-        for (int v = 0; v <= n; ++v) {
-            double *m = g.m[u][v];
-            blend(c, g.a[u], g.b[v], m);
-            g.pos[u][v] = m[2] > 0.0;
-            if (g.pos[u][v]) {
-                g.r[u][v][0] = m[0] / m[2];
-                g.r[u][v][1] = m[1] / m[2];
-            }
-        }
     solve_piece(pb, (double)ci, (double)cj, c, &g, 0, n, 0, n, 1);
 }
 
@@ -873,13 +882,14 @@ static void descend(problem *pb, int l, int i, int j)
     if (!(s1 > s0 && t1 > t0))
         return;
     bnd b;
-    node_bnd(pm, l, i, j, &b);
+    double mc[4][3];
+    node_bnd(pm, l, i, j, &b, mc);
     if (pb->turned)
         bnd_turn(&b);
     if (!pb->may_hold(pb, s0, s1, t0, t1, &b))
         return;
     if (l == 0) {
-        solve_cell(pb, i, j);
+        solve_cell(pb, i, j, mc);
         return;
     }
     for (int dj = 0; dj < 2; ++dj)
