@@ -64,8 +64,8 @@ typedef double v4d __attribute__((vector_size(32)));
 #define V4_SQRT(a) V4_CAT(v2_sqrt(V4_LO(a)), v2_sqrt(V4_HI(a)))
 
 /* The culling test's helpers, inlined into each build of it (may_hold_base, may_hold_avx2): the AVX2
- * build then calls no SSE code while the upper halves of its vector registers are in use (a call
- * there made the pool's render 1.8x slower). */
+ * build then calls no SSE code while the upper halves of its vector registers are in use (SSE code
+ * run then is slow: calls left in cost the pool's render most of the AVX2 build's gain). */
 #define SPC_PLANE_INLINE static inline __attribute__((always_inline))
 
 /* Levels of pieces of a surviving cell (1: the cell, 2: its quarters, 3: sixteenths); Newton's
@@ -611,10 +611,10 @@ SPC_PLANE_INLINE bool may_hold_body(const problem *pb, double s0, double s1, dou
 }
 
 /* may_hold compiled for the base ISA and, on x86-64 with GCC or Clang, for AVX2 (its paired
- * quotients one 4-lane division: 0.93x the pool's CPU), picked by the CPU at each query (a flag the
- * runtime reads once). AVX2 without FMA: no product is
- * fused, so both compute the same IEEE operations and cull the same nodes. The AVX2 one clears the
- * upper halves of the vector registers before it returns, since its callers are SSE code. */
+ * quotients one 4-lane division: 0.95x the pool's CPU), picked by the CPU at each query (a flag the
+ * runtime reads once). AVX2 without FMA: no product is fused, so both compute the same IEEE
+ * operations and cull the same nodes. The AVX2 one clears the upper halves of the vector registers
+ * before it returns, since its callers are SSE code. */
 static bool may_hold_base(const problem *pb, double s0, double s1, double t0, double t1, const bnd *b)
 {
     return may_hold_body(pb, s0, s1, t0, t1, b);
