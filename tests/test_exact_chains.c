@@ -793,6 +793,56 @@ TEST(plane_roots_against_dense_newton)
     CHECK(found == dense);
 }
 
+/* The culling test's two builds (the base ISA's and AVX2's, where the CPU has it) give the same roots,
+ * bit for bit: on the square of water or mirror of plane_roots_against_dense_newton, 400 pairs x, y,
+ * refractions from either side, reflections from above and grazing ones. On a CPU without AVX2 both
+ * calls take the base build and the test says so. */
+TEST(plane_roots_same_on_every_isa)
+{
+    spc_rng_seed(&rng, 29, 7);
+    int configs = 0, roots = 0, differ = 0;
+    bool other = false;
+    for (int cfg = 0; cfg < 4; ++cfg) {
+        bool mirror = cfg % 2 == 1;
+        spc_scene *sc = floor_scene();
+        spc_shape *w = spc_scene_new_shape(sc);
+        spc_error err;
+        spc_mat4 M = spc_mat4_translate(spc_v3(0, 0, 1));
+        spc_shape_init_rectangle(w, &M, NULL, 0, 0, &err);
+        w->bsdf = tu_normal_mapped(sc, mirror ? tu_mirror(sc) : tu_glass(sc, 1.33), 16, 0.5, 2.0, 300 + (uint64_t)cfg);
+        sc = add_light_finish(sc, spc_v3(0, 0, 3), 0.1);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        w = sc->shapes[1];
+        for (int q = 0; q < 100; ++q) {
+            spc_vec3 x =
+                spc_v3(-1.2 + 2.4 * rnd(), -1.2 + 2.4 * rnd(), mirror ? 1.05 + 2.0 * rnd() : -0.5 + rnd() * 1.3);
+            spc_vec3 y = spc_v3(-1.5 + 3.0 * rnd(), -1.5 + 3.0 * rnd(), 1.2 + 2.0 * rnd());
+            if (mirror && q % 4 == 0) { /* grazing */
+                x = spc_v3(-1.3 - 0.5 * rnd(), -0.5 + rnd(), 1.03 + 0.1 * rnd());
+                y = spc_v3(1.3 + 0.5 * rnd(), -0.5 + rnd(), 1.05 + 0.2 * rnd());
+            }
+            if (!mirror && x.z > 1.0 && q % 2) /* refraction from above: y under the water */
+                y.z = 0.2 + 0.6 * rnd();
+            spc_vec3 a[256], b[256];
+            int na = spc_plane_chain_roots(w, x, y, !mirror, a, 256);
+            int nb = spc_plane_chain_roots_base_isa(w, x, y, !mirror, b, 256, &other);
+            ++configs;
+            roots += na;
+            if (na != nb || memcmp(a, b, sizeof a[0] * (size_t)na) != 0) {
+                ++differ;
+                printf("    configuration %d, pair %d: %d roots against the base build's %d\n", cfg, q, na, nb);
+            }
+        }
+        spc_scene_destroy(sc);
+    }
+    printf("    %d pairs, %d roots; the CPU's build %s; %d pairs differ\n", configs, roots,
+           other ? "is AVX2's" : "is the base ISA's (no AVX2 here: nothing compared)", differ);
+    CHECK(roots >= 100);
+    CHECK(differ == 0);
+}
+
 int main(void)
 {
     RUN(planar_roots_against_dense_scan);
@@ -803,5 +853,6 @@ int main(void)
     RUN(plane_model_normal_matches_chain_vertex);
     RUN(plane_chains_contain_randomized_solutions);
     RUN(plane_roots_against_dense_newton);
+    RUN(plane_roots_same_on_every_isa);
     return spc_test_finish();
 }

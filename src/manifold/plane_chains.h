@@ -69,5 +69,9 @@ bool spc_plane_chain_model_normal(const spc_shape *s, spc_vec3 p, double m[3], s
 /* The roots (world points on the plane) of the half-vector condition for x and y, at most max;
  * before the 3D polish. refract: eta on each side as the BSDF's, else a reflection. */
 int spc_plane_chain_roots(const spc_shape *s, spc_vec3 x, spc_vec3 y, bool refract, spc_vec3 *out, int max);
+/* The same with the culling test compiled for the base ISA, whatever the CPU; *other: whether
+ * spc_plane_chain_roots uses another build of it (AVX2) on this CPU. */
+int spc_plane_chain_roots_base_isa(const spc_shape *s, spc_vec3 x, spc_vec3 y, bool refract, spc_vec3 *out, int max,
+                                   bool *other);
 
 #endif
