@@ -27,8 +27,8 @@
  * until every lane has ended), so each lane's answer depends on its own inputs only, whatever lanes
  * share its batch, and every ISA variant gives the same bits: ISO C11 builds do not contract a * b + c,
  * and the one fused multiply-add written out (exp_lane's, in the AVX2 and AVX-512 variants) rounds
- * to the plain form's value. One lane (the one-sample callers) runs the AVX2 variant's scalar loop:
- * a single search is one chain of dependent operations, and that form's chain is shorter.
+ * to the plain form's value. One lane (the one-sample callers) runs a scalar variant with that fused
+ * form: a single search is one chain of dependent operations, and that form's chain is shorter.
  */
 /* O3 vectorizes the lanes' loops; without trapping math GCC may if-convert the divisions and the
  * other selected expressions that it otherwise moves under the selects (AVX2 has no masked
@@ -228,11 +228,15 @@ static void solve_base(int m, slope_lanes *a, const double *cot_t) { slope_solve
 SLOPE_ATTR("avx2,fma") static void solve_avx2(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t, 1); }
 SLOPE_ATTR("avx512f,avx512dq,avx512vl,fma")
 static void solve_avx512(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t, 1); }
+/* for one lane: scalar code (no 256-bit instructions, which some processors run slowly for a while
+ * after a pause in their use), with exp_lane's fused form */
+SLOPE_ATTR("avx2,fma") __attribute__((optimize("no-tree-vectorize", "no-tree-slp-vectorize")))
+static void solve_scalar_fma(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t, 1); }
 #endif
 
 typedef void (*solve_fn)(int, slope_lanes *, const double *);
 /* solve_one: for one lane, whose search is one chain of dependent operations (its time is that
- * chain's latency): the AVX2 variant's scalar loop, with exp_lane's shorter fused form */
+ * chain's latency): the scalar loop with exp_lane's shorter fused form */
 static solve_fn solve_vector = solve_base, solve_one = solve_base;
 static pthread_once_t solve_once = PTHREAD_ONCE_INIT;
 
@@ -249,7 +253,7 @@ static void solve_init(void)
     else if (isa == SPC_ISA_AVX2)
         solve_vector = solve_avx2;
     if (isa == SPC_ISA_AVX512 || isa == SPC_ISA_AVX2)
-        solve_one = solve_avx2;
+        solve_one = solve_scalar_fma;
 #endif
 }
 
