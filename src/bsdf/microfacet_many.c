@@ -229,8 +229,14 @@ SLOPE_ATTR("avx2,fma") static void solve_avx2(int m, slope_lanes *a, const doubl
 SLOPE_ATTR("avx512f,avx512dq,avx512vl,fma")
 static void solve_avx512(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t, 1); }
 /* for one lane: scalar code (no 256-bit instructions, which some processors run slowly for a while
- * after a pause in their use), with exp_lane's fused form */
-SLOPE_ATTR("avx2,fma") __attribute__((optimize("no-tree-vectorize", "no-tree-slp-vectorize")))
+ * after a pause in their use), with exp_lane's fused form; GCC is told not to vectorize it, clang is
+ * left to its own choice (the values are the same either way) */
+#if defined(__clang__)
+#define SLOPE_SCALAR
+#else
+#define SLOPE_SCALAR __attribute__((optimize("no-tree-vectorize", "no-tree-slp-vectorize")))
+#endif
+SLOPE_ATTR("avx2,fma") SLOPE_SCALAR
 static void solve_scalar_fma(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t, 1); }
 #endif
 
