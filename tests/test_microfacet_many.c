@@ -6,7 +6,8 @@
  *   (1 + |x|): farther apart only where the density is small, in the tails), over random
  *   incidences, u and guesses, and over the tails' end cells.
  * - Each lane's answer is the same bits alone (n = 1) and in batches of any size and mix, under
- *   every vector instruction set (children of this program with SPECULA_VECTOR_ISA).
+ *   every vector instruction set (children of this program with SPECULA_VECTOR_ISA); and the base
+ *   variant (exp in its plain form) and the vector ones (its fused form) give the same roots.
  * - spc_microfacet_sample_many and spc_roughconductor_sample_many (through spc_bsdf_sample_dir_many,
  *   also under twosided from the back) give their one-at-a-time functions' values bit for bit.
  */
@@ -14,6 +15,7 @@
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -276,6 +278,76 @@ TEST(batches_every_isa)
     }
 }
 
+/* A digest of the bits of many roots, one lane at a time and in batches of 16. */
+static unsigned long long slope_digest_value(void)
+{
+    spc_rng r;
+    spc_rng_seed(&r, 13, 4);
+    unsigned long long h = 1469598103934665603ull; /* FNV-1a over the roots' bytes */
+    for (int t = 0; t < 2000; ++t) {
+        enum { N = 16 };
+        double u[N], tan_t[N], cot_t[N], g[N], x[N];
+        for (int i = 0; i < N; ++i) {
+            random_query(&r, &u[i], &tan_t[i], &cot_t[i], &g[i]);
+            x[i] = g[i];
+        }
+        spc_beckmann_slope_x_many(N, u, tan_t, cot_t, x);
+        double x1 = g[0];
+        spc_beckmann_slope_x_many(1, &u[0], &tan_t[0], &cot_t[0], &x1);
+        for (int i = 0; i <= N; ++i) {
+            unsigned char b[sizeof(double)];
+            memcpy(b, i < N ? &x[i] : &x1, sizeof b);
+            for (size_t k = 0; k < sizeof b; ++k)
+                h = (h ^ b[k]) * 1099511628211ull;
+        }
+    }
+    return h;
+}
+
+/* In a child (SPC_SLOPE_DIGEST names a file): writes slope_digest_value() there. */
+TEST(slope_digest)
+{
+    const char *path = getenv("SPC_SLOPE_DIGEST");
+    if (!path)
+        return;
+    FILE *f = fopen(path, "w");
+    CHECK(f != NULL);
+    if (f) {
+        fprintf(f, "%llx\n", slope_digest_value());
+        fclose(f);
+    }
+}
+
+/* The same roots, bit for bit, under every instruction set: the base variant's exp in its plain
+ * form (truncation and correction, 1 + 2 d then times 2^k), the AVX2 and AVX-512 variants' (and
+ * the one-lane search's) in the fused form (floor, one fused multiply-add). */
+TEST(same_roots_every_isa)
+{
+    char exe[4096];
+    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    CHECK(len > 0);
+    if (len <= 0)
+        return;
+    exe[len] = '\0';
+    unsigned long long own = slope_digest_value();
+    const char *isas[] = {"base", "avx2", "avx512"};
+    for (int i = 0; i < 3; ++i) {
+        char path[256], cmd[4600];
+        snprintf(path, sizeof path, "/tmp/spc_test_slope_digest_%d_%s", (int)getpid(), isas[i]);
+        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_SLOPE_DIGEST=%s SPC_TEST_ONLY=slope_digest '%s' >/dev/null",
+                 isas[i], path, exe);
+        int rc = system(cmd);
+        CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
+        unsigned long long h = 0;
+        FILE *f = fopen(path, "r");
+        CHECK_MSG(f != NULL && fscanf(f, "%llx", &h) == 1, "%s: no digest", isas[i]);
+        if (f)
+            fclose(f);
+        remove(path);
+        CHECK_MSG(h == own, "%s: roots' digest %llx, this process's %llx", isas[i], h, own);
+    }
+}
+
 int main(void)
 {
     RUN(slope_matches_libm_search);
@@ -283,5 +355,7 @@ int main(void)
     RUN(microfacet_sample_many_matches_one_at_a_time);
     RUN(bsdf_sample_many_matches_one_at_a_time);
     RUN(batches_every_isa);
+    RUN(slope_digest);
+    RUN(same_roots_every_isa);
     return spc_test_finish();
 }

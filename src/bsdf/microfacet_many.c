@@ -25,8 +25,10 @@
  * range (test_microfacet_many measures 3e-15 over 200000 queries): the sampled normals move by
  * rounding, the distribution does not. A lane whose search has ended keeps its x (the loop runs
  * until every lane has ended), so each lane's answer depends on its own inputs only, whatever lanes
- * share its batch, and every ISA variant gives the same bits (no fused multiply-adds: ISO C11 builds
- * do not contract, and the vector targets below do not include FMA).
+ * share its batch, and every ISA variant gives the same bits: ISO C11 builds do not contract a * b + c,
+ * and the one fused multiply-add written out (exp_lane's, in the AVX2 and AVX-512 variants) rounds
+ * to the plain form's value. One lane (the one-sample callers) runs a scalar variant with that fused
+ * form: a single search is one chain of dependent operations, and that form's chain is shorter.
  */
 /* O3 vectorizes the lanes' loops; without trapping math GCC may if-convert the divisions and the
  * other selected expressions that it otherwise moves under the selects (AVX2 has no masked
@@ -73,24 +75,39 @@ static const double q_poly[19] = {
     3.0324319019343806e-07, 3.707709889265226e-07,  -1.7932399000454458e-07, -1.148415179060192e-09,
     2.7317509667868494e-08, -4.604287271113589e-09, -1.4743862181642865e-09};
 
-/* exp(a) for a in [-700, 0] (Cephes' exp.c: Pade form and ln2 split) */
-static inline __attribute__((always_inline)) double exp_lane(double a)
+/* exp(a) for a in [-700, 0] (Cephes' exp.c: Pade form and ln2 split). With fused set (a variant
+ * compiled for FMA and SSE4.1) the same value by a shorter chain: floor(y) in one rounding
+ * instruction instead of truncation and a correction, and (1 + 2 p/(q - p)) 2^k as one fused
+ * multiply-add, d (2 s) + s with d = p/(q - p), s = 2^k: 2 d and the scalings by 2^k are exact
+ * (every value here is normal), so the one rounding of s (2 d + 1) is s times the rounding of
+ * 1 + 2 d, the plain form's. */
+static inline __attribute__((always_inline)) double exp_lane(double a, const int fused)
 {
     const double log2e = 1.4426950408889634073599, c1 = 6.93145751953125E-1, c2 = 1.42860682030941723212E-6;
     double y = log2e * a + 0.5;
-    int k = (int)y; /* truncation, then down to floor(y) for negative y */
-    k -= (double)k > y;
-    double r = a - k * c1;
-    r = r - k * c2;
+    int k;
+    double kd;
+    if (fused) {
+        kd = floor(y);
+        k = (int)kd;
+    } else {
+        k = (int)y; /* truncation, then down to floor(y) for negative y */
+        k -= (double)k > y;
+        kd = k;
+    }
+    double r = a - kd * c1;
+    r = r - kd * c2;
     double rr = r * r;
     double p = r * ((1.26177193074810590878E-4 * rr + 3.02994407707441961300E-2) * rr + 9.99999999999999999910E-1);
     double q = ((3.00198505138664455042E-6 * rr + 2.52448340349684104192E-3) * rr + 2.27265548208155028766E-1) * rr +
                2.00000000000000000009E0;
-    double e = 1.0 + 2.0 * (p / (q - p));
+    double d = p / (q - p);
     uint64_t bits = (uint64_t)(int64_t)(k + 1023) << 52; /* 2^k, k in [-1010, 0] */
     double s;
     memcpy(&s, &bits, sizeof s);
-    return e * s;
+    if (fused)
+        return fma(d, 2.0 * s, s);
+    return (1.0 + 2.0 * d) * s;
 }
 
 /* erfc(-x) for |x| <= 10, given e = exp(-x^2). The polynomial in four interleaved Horner chains in
@@ -123,7 +140,7 @@ typedef struct slope_lanes {
 
 /* The search's interval, target and start for m lanes (x holds the guess, target u). The CDF at
  * hi has a loop of its own: GCC vectorizes it, not the rest. */
-static inline __attribute__((always_inline)) void slope_start(int m, slope_lanes *a, const double *cot_t)
+static inline __attribute__((always_inline)) void slope_start(int m, slope_lanes *a, const double *cot_t, const int fused)
 {
     double f_hi[SLOPE_BATCH];
     int flat_end[SLOPE_BATCH], steep = 0;
@@ -138,7 +155,7 @@ static inline __attribute__((always_inline)) void slope_start(int m, slope_lanes
     }
     if (steep)
         for (int i = 0; i < m; ++i)
-            f_hi[i] = cdf_lane(a->hi[i], exp_lane(-a->hi[i] * a->hi[i]), a->tan_t[i]);
+            f_hi[i] = cdf_lane(a->hi[i], exp_lane(-a->hi[i] * a->hi[i], fused), a->tan_t[i]);
     for (int i = 0; i < m; ++i) {
         double lo = -SLOPE_LIMIT, hi = a->hi[i];
         a->target[i] *= flat_end[i] ? sqrt(SPC_PI) : f_hi[i];
@@ -152,12 +169,12 @@ static inline __attribute__((always_inline)) void slope_start(int m, slope_lanes
 }
 
 /* One step of every lane whose search has not ended; returns how many have not ended after it. */
-static inline __attribute__((always_inline)) int slope_step(int m, slope_lanes *a)
+static inline __attribute__((always_inline)) int slope_step(int m, slope_lanes *a, const int fused)
 {
     int open = 0;
     for (int i = 0; i < m; ++i) {
         double x = a->x[i], tan_t = a->tan_t[i], lo = a->lo[i], hi = a->hi[i];
-        double e = exp_lane(-x * x);
+        double e = exp_lane(-x * x, fused);
         double F = cdf_lane(x, e, tan_t) - a->target[i];
         int root = F == 0.0;
         double lo1 = F > 0.0 ? lo : x, hi1 = F > 0.0 ? x : hi;
@@ -195,37 +212,54 @@ static inline __attribute__((always_inline)) int slope_step(int m, slope_lanes *
     return open;
 }
 
-static inline __attribute__((always_inline)) void slope_solve(int m, slope_lanes *a, const double *cot_t)
+static inline __attribute__((always_inline)) void slope_solve(int m, slope_lanes *a, const double *cot_t, const int fused)
 {
-    slope_start(m, a, cot_t);
+    slope_start(m, a, cot_t, fused);
     for (int it = 0; it < SLOPE_MAX_ITERATIONS; ++it)
-        if (slope_step(m, a) == 0)
+        if (slope_step(m, a, fused) == 0)
             break;
 }
 
-static void solve_base(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t); }
+static void solve_base(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t, 0); }
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #define SLOPE_MANY_VECTOR 1
 #define SLOPE_ATTR(t) __attribute__((target(t)))
-SLOPE_ATTR("avx2") static void solve_avx2(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t); }
-SLOPE_ATTR("avx512f,avx512dq,avx512vl")
-static void solve_avx512(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t); }
+SLOPE_ATTR("avx2,fma") static void solve_avx2(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t, 1); }
+SLOPE_ATTR("avx512f,avx512dq,avx512vl,fma")
+static void solve_avx512(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t, 1); }
+/* for one lane: scalar code (no 256-bit instructions, which some processors run slowly for a while
+ * after a pause in their use), with exp_lane's fused form; GCC is told not to vectorize it, clang is
+ * left to its own choice (the values are the same either way) */
+#if defined(__clang__)
+#define SLOPE_SCALAR
+#else
+#define SLOPE_SCALAR __attribute__((optimize("no-tree-vectorize", "no-tree-slp-vectorize")))
+#endif
+SLOPE_ATTR("avx2,fma") SLOPE_SCALAR
+static void solve_scalar_fma(int m, slope_lanes *a, const double *cot_t) { slope_solve(m, a, cot_t, 1); }
 #endif
 
 typedef void (*solve_fn)(int, slope_lanes *, const double *);
-static solve_fn solve_vector = solve_base;
+/* solve_one: for one lane, whose search is one chain of dependent operations (its time is that
+ * chain's latency): the scalar loop with exp_lane's shorter fused form */
+static solve_fn solve_vector = solve_base, solve_one = solve_base;
 static pthread_once_t solve_once = PTHREAD_ONCE_INIT;
 
-/* The best variant under cpu_isa.h's choice. */
+/* The best variant under cpu_isa.h's choice; the vector variants also need FMA (exp_lane's fused
+ * form), which every AVX-512 and nearly every AVX2 processor has. */
 static void solve_init(void)
 {
 #ifdef SLOPE_MANY_VECTOR
     int isa = spc_vector_isa();
+    if (!__builtin_cpu_supports("fma"))
+        return;
     if (isa == SPC_ISA_AVX512)
         solve_vector = solve_avx512;
     else if (isa == SPC_ISA_AVX2)
         solve_vector = solve_avx2;
+    if (isa == SPC_ISA_AVX512 || isa == SPC_ISA_AVX2)
+        solve_one = solve_scalar_fma;
 #endif
 }
 
@@ -233,15 +267,15 @@ void spc_beckmann_slope_x_many(int n, const double *u, const double *tan_t, cons
 {
     slope_lanes a;
     double cot[SLOPE_BATCH];
-    if (n == 1) { /* one lane: the plain loop, no idle lanes */
+    pthread_once(&solve_once, solve_init);
+    if (n == 1) { /* one lane: no idle lanes */
         a.tan_t[0] = tan_t[0];
         a.target[0] = u[0];
         a.x[0] = x[0];
-        solve_base(1, &a, cot_t);
+        solve_one(1, &a, cot_t);
         x[0] = a.x[0];
         return;
     }
-    pthread_once(&solve_once, solve_init);
     for (int i0 = 0; i0 < n; i0 += SLOPE_BATCH) {
         int m = n - i0 < SLOPE_BATCH ? n - i0 : SLOPE_BATCH;
         int mv = (m + SLOPE_VECTOR - 1) / SLOPE_VECTOR * SLOPE_VECTOR;
