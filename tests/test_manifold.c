@@ -1206,6 +1206,42 @@ TEST(mis_count_gives_up_at_cap)
     spc_scene_destroy(sc);
 }
 
+/* The give-up tests' walk: from the receiver rc along wi (ray, throughput T so far), through at most
+ * two chain surfaces by BSDF sampling (stream rw); a path that reaches the light adds its value to
+ * *sref and, where specular NEE covers it (chains of at most 2), to *scov. Returns the sum over
+ * covered paths of (w - 1) times the value, w the path's MIS weight (spc_snee_receiver_weight). */
+static double covered_walk(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *rc, spc_vec3 wi,
+                           spc_ray ray, double T, spc_rng *rw, double *sref, double *scov)
+{
+    spc_snee_track t;
+    spc_snee_track_begin(&t, p, 2, 2);
+    for (int k = 0; k <= 2; ++k) {
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h))
+            return 0.0;
+        if (h.emitter) {
+            if (k < 1)
+                return 0.0;
+            double v = T * spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d)).r;
+            *sref += v;
+            if (!spc_snee_track_covers(&t, sc, h.emitter))
+                return 0.0;
+            *scov += v;
+            return (spc_snee_receiver_weight(sc, p, rc, wi, t.max_chain, t.k, t.events, &h) - 1.0) * v;
+        }
+        int ev;
+        spc_bsdf_sample bs;
+        if (k == 2 || !spc_chain_surface(&h, false, &ev) ||
+            !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), spc_rng_next(rw),
+                                 spc_v2(spc_rng_next(rw), spc_rng_next(rw)), &bs))
+            return 0.0;
+        spc_snee_track_scatter_params(&t, p, &h, bs.lobe, 0, 0);
+        T *= bs.weight.r;
+        ray = spc_hit_spawn(&h, bs.wi);
+    }
+    return 0.0;
+}
+
 /* The give-up at the cap is unbiased only with phase sampling's share of it: at a medium point under
  * the glass ball of mis_count_gives_up_at_cap, cap 1 and a stand-in psi that puts specular NEE's
  * density a near phase sampling's b (so a <= C b holds on most chains and specular NEE's MIS share is
@@ -1242,36 +1278,9 @@ TEST(mis_give_up_at_cap_adds_up)
         spc_vec3 wi;
         double pdf;
         if (spc_phase_sample(&iso, wo, spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &wi, &pdf)) {
-            spc_snee_track t;
-            spc_snee_track_begin(&t, &p, 2, 2);
             spc_ray ray = {xp, wi, 0.0, INFINITY};
             double T = spc_phase_eval(&iso, wo, wi) / pdf;
-            for (int k = 0; k <= 2; ++k) {
-                spc_hit h;
-                if (!spc_scene_intersect(sc, &ray, &h))
-                    break;
-                if (h.emitter) {
-                    if (k >= 1) {
-                        double v = T * spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d)).r;
-                        sref += v;
-                        if (spc_snee_track_covers(&t, sc, h.emitter)) {
-                            double w = spc_snee_receiver_weight(sc, &p, &rc, wi, t.max_chain, t.k, t.events, &h);
-                            d += (w - 1.0) * v;
-                            scov += v;
-                        }
-                    }
-                    break;
-                }
-                int ev;
-                spc_bsdf_sample bs;
-                if (k == 2 || !spc_chain_surface(&h, false, &ev) ||
-                    !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), spc_rng_next(&rw),
-                                         spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &bs))
-                    break;
-                spc_snee_track_scatter_params(&t, &p, &h, bs.lobe, 0, 0);
-                T *= bs.weight.r;
-                ray = spc_hit_spawn(&h, bs.wi);
-            }
+            d += covered_walk(sc, &p, &rc, wi, ray, T, &rw, &sref, &scov);
         }
         s1 += d;
         s2 += d * d;
@@ -1332,36 +1341,9 @@ TEST(mis_give_up_at_cap_at_a_surface)
         if (spc_bsdf_sample_dir(hx.bsdf, &hx, SPC_MODE_RADIANCE, wo, spc_rng_next(&rw),
                                 spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &b0)) {
             spc_vec3 wi = b0.wi;
-            spc_snee_track t;
-            spc_snee_track_begin(&t, &p, 2, 2);
             spc_ray ray = spc_hit_spawn(&hx, wi);
             double T = b0.weight.r;
-            for (int k = 0; k <= 2; ++k) {
-                spc_hit h;
-                if (!spc_scene_intersect(sc, &ray, &h))
-                    break;
-                if (h.emitter) {
-                    if (k >= 1) {
-                        double v = T * spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d)).r;
-                        sref += v;
-                        if (spc_snee_track_covers(&t, sc, h.emitter)) {
-                            double w = spc_snee_receiver_weight(sc, &p, &rc, wi, t.max_chain, t.k, t.events, &h);
-                            d += (w - 1.0) * v;
-                            scov += v;
-                        }
-                    }
-                    break;
-                }
-                int ev;
-                spc_bsdf_sample bs;
-                if (k == 2 || !spc_chain_surface(&h, false, &ev) ||
-                    !spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, spc_neg(ray.d), spc_rng_next(&rw),
-                                         spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &bs))
-                    break;
-                spc_snee_track_scatter_params(&t, &p, &h, bs.lobe, 0, 0);
-                T *= bs.weight.r;
-                ray = spc_hit_spawn(&h, bs.wi);
-            }
+            d += covered_walk(sc, &p, &rc, wi, ray, T, &rw, &sref, &scov);
         }
         s1 += d;
         s2 += d * d;
