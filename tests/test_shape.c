@@ -364,6 +364,28 @@ static bool same_record(const spc_hit *a, const spc_hit *b)
 #undef SAME
 }
 
+/* The mesh of the hit-record tests below, prepared: kind 0 a cube (uvs); 1 a quad without uvs; 2
+ * with vertex normals; 3 vertex normals and uvs; 4 vertex normals under face_normals; under an affine
+ * transform, its normals flipped or not, its frames kept or dropped. */
+static void lazy_test_mesh(spc_shape *s, int kind, bool flip, bool keep)
+{
+    memset(s, 0, sizeof *s);
+    spc_error err;
+    spc_mat4 T = {{{1, 0.2, 0, 0.5}, {0, 1.3, 0.1, -2}, {0.3, 0, 0.7, 1}, {0, 0, 0, 1}}};
+    if (kind == 0) {
+        CHECK(spc_shape_init_cube(s, &T, NULL, 0, 0, &err));
+    } else {
+        static const float UV[8] = {0, 0, 1, 0.1f, 0.9f, 1, 0.2f, 0.8f};
+        spc_mesh m = quad_mesh(kind >= 2, kind == 3 ? UV : NULL);
+        CHECK(spc_shape_init_mesh(s, &m, &T, NULL, 0, 0, &err));
+        s->face_normals = kind == 4;
+    }
+    s->flip_normals = flip;
+    CHECK(spc_shape_prepare(s) == SPC_OK);
+    if (!keep)
+        spc_shape_drop_frames(s);
+}
+
 /* A shading record (spc_shape_fill_hit_shading) on a mesh with lazy_derivs leaves the derivatives
  * out and has every other field of spc_shape_fill_hit's record; spc_shape_hit_derivatives then
  * completes it to that record, field for field. The lazy record starts from a byte pattern, so a
@@ -377,23 +399,7 @@ TEST(mesh_lazy_derivatives_match)
             for (int keep = 0; keep < 2; ++keep)
                 for (int lazy = 0; lazy < 2; ++lazy) {
                     spc_shape s;
-                    memset(&s, 0, sizeof s);
-                    spc_error err;
-                    spc_mat4 T = {{{1, 0.2, 0, 0.5}, {0, 1.3, 0.1, -2}, {0.3, 0, 0.7, 1}, {0, 0, 0, 1}}};
-                    if (kind == 0) {
-                        CHECK(spc_shape_init_cube(&s, &T, NULL, 0, 0, &err)); /* uvs */
-                    } else {
-                        /* kind 1: no uvs; 2: vertex normals; 3: vertex normals and uvs; 4: vertex
-                         * normals under face_normals */
-                        static const float UV[8] = {0, 0, 1, 0.1f, 0.9f, 1, 0.2f, 0.8f};
-                        spc_mesh m = quad_mesh(kind >= 2, kind == 3 ? UV : NULL);
-                        CHECK(spc_shape_init_mesh(&s, &m, &T, NULL, 0, 0, &err));
-                        s.face_normals = kind == 4;
-                    }
-                    s.flip_normals = flip != 0;
-                    CHECK(spc_shape_prepare(&s) == SPC_OK);
-                    if (!keep)
-                        spc_shape_drop_frames(&s);
+                    lazy_test_mesh(&s, kind, flip != 0, keep != 0);
                     s.lazy_derivs = lazy != 0;
                     for (int i = 0; i < 100; ++i) {
                         int prim = (int)(rnd() * (double)s.mesh.ntris);
@@ -434,23 +440,7 @@ TEST(mesh_chain_hits_complete)
         for (int flip = 0; flip < 2; ++flip)
             for (int keep = 0; keep < 2; ++keep) {
                 spc_shape s;
-                memset(&s, 0, sizeof s);
-                spc_error err;
-                spc_mat4 T = {{{1, 0.2, 0, 0.5}, {0, 1.3, 0.1, -2}, {0.3, 0, 0.7, 1}, {0, 0, 0, 1}}};
-                if (kind == 0) {
-                    CHECK(spc_shape_init_cube(&s, &T, NULL, 0, 0, &err)); /* uvs */
-                } else {
-                    /* kind 1: no uvs; 2: vertex normals; 3: vertex normals and uvs; 4: vertex normals
-                     * under face_normals */
-                    static const float UV[8] = {0, 0, 1, 0.1f, 0.9f, 1, 0.2f, 0.8f};
-                    spc_mesh m = quad_mesh(kind >= 2, kind == 3 ? UV : NULL);
-                    CHECK(spc_shape_init_mesh(&s, &m, &T, NULL, 0, 0, &err));
-                    s.face_normals = kind == 4;
-                }
-                s.flip_normals = flip != 0;
-                CHECK(spc_shape_prepare(&s) == SPC_OK);
-                if (!keep)
-                    spc_shape_drop_frames(&s);
+                lazy_test_mesh(&s, kind, flip != 0, keep != 0);
                 for (int i = 0; i < 100; ++i) {
                     int prim = (int)(rnd() * (double)s.mesh.ntris);
                     double b1 = rnd(), b2 = rnd() * (1.0 - b1);
