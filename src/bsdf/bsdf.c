@@ -161,6 +161,13 @@ spc_rgb spc_bsdf_eval_pdf(const spc_bsdf *b, const spc_hit *h, spc_transport mod
     return spc_bsdf_eval(b, h, mode, wo, wi);
 }
 
+/* The one guard for every variant, one sample at a time or many: a sample is either usable or
+ * reported as none. */
+static bool sample_usable(const spc_bsdf_sample *s)
+{
+    return s->pdf > 0.0 && spc_rgb_finite(s->weight) && spc_v3_finite(s->wi);
+}
+
 bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, double u_lobe,
                          spc_vec2 u, spc_bsdf_sample *out)
 {
@@ -188,10 +195,7 @@ bool spc_bsdf_sample_dir(const spc_bsdf *b, const spc_hit *h, spc_transport mode
     case SPC_BSDF_PRINCIPLED: ok = spc_principled_sample(b, h, mode, wo, u_lobe, u, out); break;
     case SPC_BSDF_PRINCIPLEDTHIN: ok = spc_principledthin_sample(b, h, mode, wo, u_lobe, u, out); break;
     }
-    /* one guard for every variant: a sample is either usable or reported as none */
-    if (ok && !(out->pdf > 0.0 && spc_rgb_finite(out->weight) && spc_v3_finite(out->wi)))
-        ok = false;
-    return ok;
+    return ok && sample_usable(out);
 }
 
 void spc_bsdf_sample_dir_many(int n, const spc_bsdf *const b[], const spc_hit *const h[], spc_transport mode,
@@ -234,7 +238,7 @@ void spc_bsdf_sample_dir_many(int n, const spc_bsdf *const b[], const spc_hit *c
         for (int j = 0; j < k; ++j) {
             int i = lane[j];
             out[i] = rout[j];
-            ok[i] = rok[j] && out[i].pdf > 0.0 && spc_rgb_finite(out[i].weight) && spc_v3_finite(out[i].wi);
+            ok[i] = rok[j] && sample_usable(&out[i]);
         }
     }
 }
