@@ -122,22 +122,11 @@ double spc_sampler_1d(spc_sampler *s)
  * that need one. Each is compiled three times, for the baseline ISA and vectorized (-O3) with AVX2
  * and with AVX-512 (whose 64-bit multiply, vpmullq, the hash needs; AVX2 emulates it), chosen at
  * run time; the integer arithmetic and the conversion to [0, 1) are exact, so all give the same bits. */
-static inline __attribute__((always_inline)) void pairs_x_loops(int npairs, int m, const uint32_t *d,
-                                                                const uint64_t *pseed, const uint32_t *dim0,
-                                                                uint32_t *rev, uint64_t *h, uint32_t *idx,
-                                                                double *ux)
+static inline __attribute__((always_inline)) void pairs_x_loops(int m, const uint64_t *seed, const uint32_t *rev,
+                                                                uint64_t *h, uint32_t *idx, double *ux)
 {
-    /* pair k of stream q in slot k m + q: its seed, spc_sampler_2d's (the stream's (dim0 + d[k])-th
-     * pair, the dimension a 32-bit count), and the stream's index reversal rev[q] copied to the slot */
-    for (int k = 0; k < npairs; ++k)
-        for (int q = 0; q < m; ++q)
-            h[k * m + q] = pseed[q] + 0x9e3779b97f4a7c15ULL * (uint64_t)(uint32_t)(dim0[q] + d[k]);
-    for (int k = 1; k < npairs; ++k)
-        for (int q = 0; q < m; ++q)
-            rev[k * m + q] = rev[q];
-    m *= npairs;
     for (int j = 0; j < m; ++j)
-        h[j] = spc_hash64(h[j]);
+        h[j] = spc_hash64(seed[j]);
     for (int j = 0; j < m; ++j)
         idx[j] = reverse_bits(lk_permute(rev[j], (uint32_t)h[j]));
     for (int j = 0; j < m; ++j)
@@ -153,10 +142,9 @@ static inline __attribute__((always_inline)) void pairs_y_loop(int m, const uint
             SAMPLER_UNIT;
 }
 
-static void pairs_x_base(int npairs, int m, const uint32_t *d, const uint64_t *pseed, const uint32_t *dim0,
-                         uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
+static void pairs_x_base(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
 {
-    pairs_x_loops(npairs, m, d, pseed, dim0, rev, h, idx, ux);
+    pairs_x_loops(m, seed, rev, h, idx, ux);
 }
 
 static void pairs_y_base(int m, const uint64_t *h, const uint32_t *idx, double *uy) { pairs_y_loop(m, h, idx, uy); }
@@ -169,20 +157,18 @@ static void pairs_y_base(int m, const uint64_t *h, const uint32_t *idx, double *
 #endif
 #define PAIRS_AVX512 "avx512f,avx512dq,avx512bw,avx512vl"
 PAIRS_ATTR("avx2")
-static void pairs_x_avx2(int npairs, int m, const uint32_t *d, const uint64_t *pseed, const uint32_t *dim0,
-                         uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
+static void pairs_x_avx2(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
 {
-    pairs_x_loops(npairs, m, d, pseed, dim0, rev, h, idx, ux);
+    pairs_x_loops(m, seed, rev, h, idx, ux);
 }
 PAIRS_ATTR("avx2") static void pairs_y_avx2(int m, const uint64_t *h, const uint32_t *idx, double *uy)
 {
     pairs_y_loop(m, h, idx, uy);
 }
 PAIRS_ATTR(PAIRS_AVX512)
-static void pairs_x_avx512(int npairs, int m, const uint32_t *d, const uint64_t *pseed, const uint32_t *dim0,
-                           uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
+static void pairs_x_avx512(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
 {
-    pairs_x_loops(npairs, m, d, pseed, dim0, rev, h, idx, ux);
+    pairs_x_loops(m, seed, rev, h, idx, ux);
 }
 PAIRS_ATTR(PAIRS_AVX512) static void pairs_y_avx512(int m, const uint64_t *h, const uint32_t *idx, double *uy)
 {
@@ -190,8 +176,7 @@ PAIRS_ATTR(PAIRS_AVX512) static void pairs_y_avx512(int m, const uint64_t *h, co
 }
 #endif
 
-typedef void (*pairs_x_fn)(int, int, const uint32_t *, const uint64_t *, const uint32_t *, uint32_t *, uint64_t *,
-                           uint32_t *, double *);
+typedef void (*pairs_x_fn)(int, const uint64_t *, const uint32_t *, uint64_t *, uint32_t *, double *);
 typedef void (*pairs_y_fn)(int, const uint64_t *, const uint32_t *, double *);
 
 /* The best variant under cpu_isa.h's choice. */
@@ -220,8 +205,8 @@ void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ym
      * pairs_x call covers them all and one pairs_y call the first group, and the per-pair
      * bookkeeping is plain loops over the batch's streams. Every pair's values depend only on its
      * (seed, rev), so the grouping changes no value. */
-    uint64_t h[MANY_LANES], pseed[MANY_LANES];
-    uint32_t rev[MANY_LANES], idx[MANY_LANES], dim0[MANY_LANES], d[MANY_LANES];
+    uint64_t seed[MANY_LANES], h[MANY_LANES], pseed[MANY_LANES];
+    uint32_t rev[MANY_LANES], idx[MANY_LANES], dim0[MANY_LANES];
     double ux[MANY_LANES], uy[MANY_LANES];
     int lane[MANY_LANES], pair[MANY_LANES];
     if (npairs <= 0)
@@ -234,8 +219,6 @@ void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ym
     for (int p = 0, kx = ky; p < npairs; ++p)
         if (!(ymask >> p & 1u))
             pair[kx++] = p;
-    for (int k = 0; k < npairs; ++k)
-        d[k] = (uint32_t)pair[k] + 1u; /* pair k of a batch is the stream's (dim0 + d[k])-th */
     const int per_batch = MANY_LANES / npairs;
     for (int i = 0; i < n;) {
         int m = 0;
@@ -250,7 +233,17 @@ void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ym
             }
         if (m == 0)
             break;
-        pairs_x(npairs, m, d, pseed, dim0, rev, h, idx, ux);
+        for (int k = 0; k < npairs; ++k) {
+            /* the stream's (dim0 + pair + 1)-th pair, spc_sampler_2d's seed (the dimension a 32-bit
+             * count) */
+            uint32_t d = (uint32_t)pair[k] + 1u;
+            for (int q = 0; q < m; ++q) {
+                seed[k * m + q] = pseed[q] + 0x9e3779b97f4a7c15ULL * (uint64_t)(uint32_t)(dim0[q] + d);
+                if (k > 0)
+                    rev[k * m + q] = rev[q];
+            }
+        }
+        pairs_x(npairs * m, seed, rev, h, idx, ux);
         pairs_y(ky * m, h, idx, uy);
         for (int k = 0; k < npairs; ++k)
             for (int q = 0; q < m; ++q) {
