@@ -25,18 +25,25 @@ static int step_by_scan(const spc_film_spec *f, double t)
     return k;
 }
 
-enum { U_GRID = 4000, U_MAX = U_GRID + 6 * (SPC_FILTER_RESOLUTION + 1) + 6 * (SPC_FILTER_GUIDE + 1) };
-
-/* The u to test a filter's sampling with (at most U_MAX, the count returned): a grid of u, then u
- * exactly on every step's edge and on every guide bucket's edge, and one ulp either side. */
-static int u_cases(const spc_film_spec *f, double *us)
+static void check_filter(spc_rfilter_type type, double radius, double stddev)
 {
+    spc_film_spec f;
+    memset(&f, 0, sizeof f);
+    f.rfilter = type;
+    f.filter_radius = radius;
+    f.filter_stddev = stddev;
+    spc_film_filter_prepare(&f);
+    double h = radius / SPC_FILTER_RESOLUTION;
+    enum { N = 4000 };
+    /* a grid of u, then u exactly on every step's edge and on every guide bucket's edge, and one
+     * ulp either side */
+    double us[N + 6 * (SPC_FILTER_RESOLUTION + 1) + 6 * (SPC_FILTER_GUIDE + 1)];
     int n = 0;
-    for (int i = 0; i < U_GRID; ++i)
-        us[n++] = (i + 0.5) / U_GRID;
+    for (int i = 0; i < N; ++i)
+        us[n++] = (i + 0.5) / N;
     for (int k = 0; k <= SPC_FILTER_RESOLUTION; ++k)
         for (int side = -1; side <= 1; side += 2) {
-            double u = 0.5 + side * f->filter_step_cdf[k];
+            double u = 0.5 + side * f.filter_step_cdf[k];
             us[n++] = u;
             us[n++] = nextafter(u, 0.0);
             us[n++] = nextafter(u, 1.0);
@@ -48,20 +55,6 @@ static int u_cases(const spc_film_spec *f, double *us)
             us[n++] = nextafter(u, 0.0);
             us[n++] = nextafter(u, 1.0);
         }
-    return n;
-}
-
-static void check_filter(spc_rfilter_type type, double radius, double stddev)
-{
-    spc_film_spec f;
-    memset(&f, 0, sizeof f);
-    f.rfilter = type;
-    f.filter_radius = radius;
-    f.filter_stddev = stddev;
-    spc_film_filter_prepare(&f);
-    double h = radius / SPC_FILTER_RESOLUTION;
-    double us[U_MAX];
-    int n = u_cases(&f, us);
     int bad_step = 0, bad_cdf = 0;
     for (int i = 0; i < n; ++i) {
         double u = us[i];
@@ -126,70 +119,6 @@ TEST(pinhole_ray_through_film_point)
     CHECK_MSG(worst_dir < 1e-14, "direction off by %g", worst_dir);
 }
 
-/* Runs the test `name` again in a child process of this program under each of the ISAs below the
- * best (SPECULA_VECTOR_ISA caps the one a process picks); nothing when this process is such a child. */
-static void check_in_children(const char *name)
-{
-    if (getenv("SPECULA_VECTOR_ISA"))
-        return;
-    char exe[4096];
-    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    CHECK(len > 0);
-    if (len <= 0)
-        return;
-    exe[len] = '\0';
-    const char *isas[] = {"base", "avx2"};
-    for (int i = 0; i < 2; ++i) {
-        char cmd[4300];
-        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=%s '%s' >/dev/null", isas[i], name, exe);
-        int rc = system(cmd);
-        CHECK_MSG(rc == 0, "%s under %s: exit status %d", name, isas[i], rc);
-    }
-}
-
-/* spc_film_filter_sample_many gives spc_film_filter_sample's offsets bit for bit: tent, gaussian and
- * box, the u of check_filter (every step's and guide bucket's edge and one ulp either side) in
- * counts that cross the loop's batch of 64, pixel centers inside the window and near both of its
- * edges; with every ISA it is built for. */
-TEST(filter_sample_many_matches_one_at_a_time)
-{
-    const struct {
-        spc_rfilter_type type;
-        double radius, stddev;
-    } filters[] = {{SPC_RFILTER_GAUSSIAN, 2.0, 0.5}, {SPC_RFILTER_GAUSSIAN, 4.0, 1.0}, {SPC_RFILTER_GAUSSIAN, 0.7, 0.3},
-                   {SPC_RFILTER_TENT, 1.0, 0.5},     {SPC_RFILTER_TENT, 2.5, 0.5},     {SPC_RFILTER_BOX, 0.5, 0.5}};
-    static double us[U_MAX], cs[U_MAX], x[U_MAX];
-    int bad = 0, total = 0;
-    for (size_t fi = 0; fi < sizeof filters / sizeof filters[0]; ++fi) {
-        spc_film_spec f;
-        memset(&f, 0, sizeof f);
-        f.rfilter = filters[fi].type;
-        f.filter_radius = filters[fi].radius;
-        f.filter_stddev = filters[fi].stddev;
-        spc_film_filter_prepare(&f);
-        int n = u_cases(&f, us);
-        const double lo = 3.0, hi = 40.0; /* the window; centers from 3.5 to 39.5 */
-        for (int i = 0; i < n; ++i)
-            cs[i] = lo + 0.5 + (i * 7 % 37);
-        for (int m = 0; m <= n; m += m < 140 ? 1 : 997) {
-            spc_film_filter_sample_many(&f, m, us, cs, lo, hi, x);
-            for (int i = 0; i < m; ++i) {
-                double one = spc_film_filter_sample(&f, us[i], cs[i], lo, hi);
-                bad += memcmp(&one, &x[i], sizeof one) != 0;
-                ++total;
-            }
-        }
-        spc_film_filter_sample_many(&f, n, us, cs, lo, hi, x);
-        for (int i = 0; i < n; ++i) {
-            double one = spc_film_filter_sample(&f, us[i], cs[i], lo, hi);
-            bad += memcmp(&one, &x[i], sizeof one) != 0;
-            ++total;
-        }
-    }
-    CHECK_MSG(bad == 0, "%d of %d offsets differ", bad, total);
-    check_in_children("filter_sample_many_matches_one_at_a_time");
-}
-
 /* spc_camera_ray_many gives spc_camera_ray's rays bit for bit (perspective and orthographic, counts
  * that cross its batch of 64, film points inside and outside the film); with every ISA it is built
  * for, each in a child process of this program (SPECULA_VECTOR_ISA caps the one a process picks). */
@@ -251,7 +180,6 @@ int main(void)
     RUN(gaussian_wide_sample_matches_cdf);
     RUN(tent_sample_matches_cdf);
     RUN(box_sample_matches_cdf);
-    RUN(filter_sample_many_matches_one_at_a_time);
     RUN(pinhole_ray_through_film_point);
     RUN(camera_rays_many_match_one_at_a_time);
     return spc_test_finish();

@@ -5,10 +5,6 @@
 #include "scene/rfilter.h"
 
 #include <math.h>
-#include <pthread.h>
-#include <string.h>
-
-#include "core/cpu_isa.h"
 
 /* Mitsuba 3's filter profiles (unnormalized) at |x| = a. */
 static double filter_shape(const spc_film_spec *f, double a)
@@ -111,119 +107,6 @@ double spc_film_filter_sample(const spc_film_spec *f, double u, double c, double
     double a = spc_film_filter_cdf(f, lo - c), b = spc_film_filter_cdf(f, hi - c);
     double x = filter_inverse_cdf(f, a + u * (b - a));
     return spc_clamp(x, lo - c, hi - c);
-}
-
-/* filter_inverse_cdf for n values of u, x[i] for u[i]: one at a time, or in the vector variants
- * below. */
-typedef void (*inverse_cdf_fn)(const spc_film_spec *f, int n, const double *u, double *x);
-
-static void inverse_cdf_base(const spc_film_spec *f, int n, const double *u, double *x)
-{
-    for (int i = 0; i < n; ++i)
-        x[i] = filter_inverse_cdf(f, u[i]);
-}
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define RFILTER_VECTOR 1
-/* filter_inverse_cdf over many u, 8 at a time in GCC's vector types, the same values. Its step k is
- * the last one with filter_step_cdf[k] <= t (k <= RES - 1); as the CDF does not decrease, a binary
- * search finds it: over the CDF padded to 32 entries with +inf at the end, held in four vectors and
- * read per lane by shuffles (an AVX-512 vpermt2pd for each pair of vectors), without a table read
- * or a branch that depends on t. The step's quotient is computed in every lane and kept where the
- * step's density is positive, as filter_inverse_cdf adds it. Compiled for AVX2 and AVX-512 (chosen
- * at run time), without fused multiply-adds (ISO C11 builds do not contract, and the targets do not
- * include FMA). Tent and gaussian only. */
-typedef double v8d __attribute__((vector_size(64)));
-typedef long long v8l __attribute__((vector_size(64)));
-
-/* x in every lane; m ? a : b per lane (m all ones or all zeros); entry i[lane] of the 32-entry
- * table v[0..3] (i in [0, 32)). Macros: a function returning a 64-byte vector warns of its ABI in
- * the AVX2 variant. */
-#define SPLAT(x) ((v8d){(x), (x), (x), (x), (x), (x), (x), (x)})
-#define SPLATL(x) ((v8l){(x), (x), (x), (x), (x), (x), (x), (x)})
-#define SELECT8(m, a, b) ((v8d)(((m) & (v8l)(a)) | (~(m) & (v8l)(b))))
-#define LOOKUP32(v, i)                                                                                                \
-    SELECT8((i) < SPLATL(16), __builtin_shuffle((v)[0], (v)[1], (i) & SPLATL(15)),                                      \
-            __builtin_shuffle((v)[2], (v)[3], (i) & SPLATL(15)))
-
-static inline __attribute__((always_inline)) void inverse_cdf_loop(const spc_film_spec *f, int n, const double *u,
-                                                                   double *x)
-{
-    enum { LANES = 8 };
-    _Static_assert(SPC_FILTER_RESOLUTION < 32, "the search's table holds 32 entries");
-    const double r = f->filter_radius, h = r / SPC_FILTER_RESOLUTION;
-    double c32[32], s32[32];
-    for (int i = 0; i < 32; ++i) {
-        c32[i] = i < SPC_FILTER_RESOLUTION ? f->filter_step_cdf[i] : INFINITY; /* never <= t: k <= RES - 1 */
-        s32[i] = i < SPC_FILTER_RESOLUTION ? f->filter_step[i] : 0.0;
-    }
-    v8d cv[4], sv[4];
-    memcpy(cv, c32, sizeof cv);
-    memcpy(sv, s32, sizeof sv);
-    const v8l abs_mask = SPLATL(0x7fffffffffffffffLL);
-    for (int j0 = 0; j0 < n; j0 += LANES) {
-        double uj[LANES], xj[LANES];
-        for (int j = 0; j < LANES; ++j)
-            uj[j] = j0 + j < n ? u[j0 + j] : 0.5; /* lanes past n: any u, dropped */
-        v8d uv;
-        memcpy(&uv, uj, sizeof uv);
-        v8d t = (v8d)((v8l)(uv - SPLAT(0.5)) & abs_mask);
-        v8l k = SPLATL(0);
-        for (long long w = 16; w > 0; w /= 2) {
-            v8l cand = k + SPLATL(w);
-            v8l in = LOOKUP32(cv, cand) <= t;
-            k = (in & cand) | (~in & k);
-        }
-        v8d ck = LOOKUP32(cv, k), sk = LOOKUP32(sv, k);
-        v8d q = (t - ck) / sk;
-        v8d a = __builtin_convertvector(k, v8d) * SPLAT(h);
-        a = SELECT8(sk > SPLAT(0.0), a + q, a);
-        a = SELECT8(a < SPLAT(r), a, SPLAT(r));
-        v8d xv = SELECT8(uv < SPLAT(0.5), -a, a);
-        memcpy(xj, &xv, sizeof xv);
-        for (int j = 0; j < LANES && j0 + j < n; ++j)
-            x[j0 + j] = xj[j];
-    }
-}
-
-__attribute__((target("avx2"))) static void inverse_cdf_avx2(const spc_film_spec *f, int n, const double *u,
-                                                              double *x)
-{
-    inverse_cdf_loop(f, n, u, x);
-}
-__attribute__((target("avx512f"))) static void inverse_cdf_avx512(const spc_film_spec *f, int n, const double *u,
-                                                                   double *x)
-{
-    inverse_cdf_loop(f, n, u, x);
-}
-#endif
-
-static inverse_cdf_fn inverse_cdf_many = inverse_cdf_base;
-static pthread_once_t inverse_cdf_once = PTHREAD_ONCE_INIT;
-
-/* The best variant under cpu_isa.h's choice. */
-static void inverse_cdf_init(void)
-{
-#ifdef RFILTER_VECTOR
-    int isa = spc_vector_isa();
-    if (isa == SPC_ISA_AVX512)
-        inverse_cdf_many = inverse_cdf_avx512;
-    else if (isa == SPC_ISA_AVX2)
-        inverse_cdf_many = inverse_cdf_avx2;
-#endif
-}
-
-void spc_film_filter_sample_many(const spc_film_spec *f, int n, const double *u, const double *c, double lo,
-                                 double hi, double *x)
-{
-    double r = f->filter_radius;
-    if (f->rfilter != SPC_RFILTER_BOX) {
-        pthread_once(&inverse_cdf_once, inverse_cdf_init);
-        inverse_cdf_many(f, n, u, x);
-    }
-    for (int i = 0; i < n; ++i)
-        if (f->rfilter == SPC_RFILTER_BOX || !(c[i] - r >= lo && c[i] + r <= hi))
-            x[i] = spc_film_filter_sample(f, u[i], c[i], lo, hi);
 }
 
 double spc_film_filter_mass(const spc_film_spec *f, double c, double lo, double hi)

@@ -31,9 +31,5 @@ double spc_film_filter_eval(const struct spc_film_spec *f, double x);
 double spc_film_filter_cdf(const struct spc_film_spec *f, double x);
 double spc_film_filter_sample(const struct spc_film_spec *f, double u, double c, double lo, double hi);
 double spc_film_filter_mass(const struct spc_film_spec *f, double c, double lo, double hi);
-/* spc_film_filter_sample for n samples (u[i], c[i]) with one window [lo, hi): x[i] its value, bit
- * for bit (a loop that vectorizes for the samples whose support lies inside the window). */
-void spc_film_filter_sample_many(const struct spc_film_spec *f, int n, const double *u, const double *c, double lo,
-                                 double hi, double *x);
 
 #endif
