@@ -32,13 +32,14 @@ bool spc_path_lt_enabled(const spc_render_ctx *ctx, const spc_snee_params *p)
            spc_camera_connectible(ctx->cam) && !(p->receivers > 0 && p->receivers <= 1);
 }
 
-int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments)
+int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                       int receivers)
 {
     /* as spc_path_snee_at_vertex and spc_specular_nee_depth compute it */
     int cap = ctx->specular_max_chain;
     int left = ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < cap ? ctx->max_depth - segments - 1 : cap;
     int b = spc_snee_budget_params(p, x2, left);
-    if (b <= 0 || (p->receivers > 0 && p->receivers <= 1))
+    if (b <= 0 || (p->receivers > 0 && receivers >= p->receivers))
         return 0;
     if (b > p->max_chain)
         b = p->max_chain;
@@ -77,25 +78,14 @@ static double cone_pdf(const spc_scene *sc, bool any_surface, spc_vec3 y, spc_ve
     return 1.0 / (2.0 * SPC_PI * (1.0 - cm));
 }
 
-double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
-                         const spc_hit *x2, spc_vec3 w2, const spc_chain *c, const spc_emitter *e)
+/* Light tracing's density of the chain c from x toward the point light e, in area measure at x:
+ * the emission's direction density, the chain's lobe choices and |dw0/dA(x)| = cos(x) G. */
+static double light_density(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, const spc_chain *c,
+                            const spc_emitter *e)
 {
-    const spc_scene *sc = ctx->scene;
     int k = c->n;
     if (!e || e->type != SPC_EMITTER_POINT || k < 1 || !p->exact || !spc_sphere_chain_covers(c, p->reflect))
         return 0.0;
-    /* the camera's density of x1 per camera sample (bdpt's t = 1: We / N, to area) */
-    spc_camera_direct cd;
-    if (!spc_camera_sample_direct(ctx->cam, x1->p, &cd) || !in_window(ctx, cd.fx, cd.fy))
-        return 0.0;
-    double p_cam = cd.We / ((double)ctx->width * (double)ctx->height) * spc_absdot(cd.wi, x1->ng) / (cd.dist * cd.dist);
-    double p1 = spc_bsdf_pdf(x1->bsdf, x1, SPC_MODE_RADIANCE, cd.wi, w1);
-    double cos1 = spc_absdot(w1, x1->ng);
-    spc_vec3 d0 = c->d0;
-    double p2 = spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, w2);
-    double cos2 = spc_absdot(w2, x2->ng);
-    double cos2l = spc_absdot(d0, x2->ng);
-    /* the chain toward the point light: the final segment's direction, and the light's side */
     spc_vec3 d_last = c->v[k - 1].d;
     double G = spc_chain_geometry(c, e->position, spc_neg(d_last));
     double P = 1.0;
@@ -103,17 +93,77 @@ double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, co
         const spc_chain_vertex *v = &c->v[i];
         P *= spc_bsdf_specular_prob(v->h.bsdf, &v->h, spc_neg(v->wi), v->d);
     }
-    double pdir = cone_pdf(sc, p->any_surface, e->position, spc_neg(d_last));
-    /* specular NEE's query at x2 (the path's second receiver): roulette later_p */
+    return cone_pdf(sc, p->any_surface, e->position, spc_neg(d_last)) * P * spc_absdot(c->d0, x->ng) * G;
+}
+
+/* The probability of specular NEE's query at x: the roulette of the path's first receiver
+ * (first_p) or of a later one (later_p). */
+static double query_prob(const spc_scene *sc, const spc_snee_params *p, spc_vec3 x, bool first)
+{
     spc_snee_params pq = *p;
-    pq.query_p = spc_snee_later_prob(sc, p, x2->p);
-    double q = spc_snee_query_prob(&pq);
-    double num = pdir * P * cos2l * G * p2 * cos1;
-    double den = q * cos2 * p1 * p_cam;
+    pq.query_p = first ? spc_snee_first_prob(sc, p, x) : spc_snee_later_prob(sc, p, x);
+    return spc_snee_query_prob(&pq);
+}
+
+static double ratio_of(double num, double den)
+{
     if (!(num > 0.0) || !(den > 0.0))
         return 0.0;
     double r = num / den;
     return isfinite(r) ? r : 0.0;
+}
+
+double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
+                         const spc_hit *x2, spc_vec3 w2, const spc_chain *c, const spc_emitter *e)
+{
+    const spc_scene *sc = ctx->scene;
+    /* the camera's density of x1 per camera sample (bdpt's t = 1: We / N, to area) */
+    spc_camera_direct cd;
+    if (!spc_camera_sample_direct(ctx->cam, x1->p, &cd) || !in_window(ctx, cd.fx, cd.fy))
+        return 0.0;
+    double p_cam = cd.We / ((double)ctx->width * (double)ctx->height) * spc_absdot(cd.wi, x1->ng) / (cd.dist * cd.dist);
+    double p1 = spc_bsdf_pdf(x1->bsdf, x1, SPC_MODE_RADIANCE, cd.wi, w1);
+    double cos1 = spc_absdot(w1, x1->ng);
+    double p2 = spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_IMPORTANCE, c->d0, w2);
+    double cos2 = spc_absdot(w2, x2->ng);
+    double q = query_prob(sc, p, x2->p, false);
+    return ratio_of(light_density(sc, p, x2, c, e) * p2 * cos1, q * cos2 * p1 * p_cam);
+}
+
+/* The camera's density of the point x per camera sample, in area measure at x, where the camera
+ * sees x directly (cc NULL) or through the chain cc from x (one glass sphere, at most max_chain
+ * vertices: the chains spc_sphere_chains_all enumerates toward the pinhole); *cd the join to the
+ * pinhole. 0 where the camera does not see x so. */
+static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
+                             const spc_chain *cc, spc_camera_direct *cd)
+{
+    double N = (double)ctx->width * (double)ctx->height;
+    if (!cc) {
+        if (!spc_camera_sample_direct(ctx->cam, x->p, cd) || !in_window(ctx, cd->fx, cd->fy))
+            return 0.0;
+        return cd->We / N * spc_absdot(cd->wi, x->ng) / (cd->dist * cd->dist);
+    }
+    int j = cc->n;
+    if (j < 1 || j > p->max_chain || !spc_sphere_chain_covers(cc, p->reflect))
+        return 0.0;
+    const spc_chain_vertex *last = &cc->v[j - 1];
+    if (!spc_camera_sample_direct(ctx->cam, last->h.p, cd) || !in_window(ctx, cd->fx, cd->fy))
+        return 0.0;
+    double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
+    double P = 1.0;
+    for (int i = 0; i < j; ++i) {
+        const spc_chain_vertex *v = &cc->v[i];
+        P *= spc_bsdf_specular_prob(v->h.bsdf, &v->h, spc_neg(v->wi), v->d);
+    }
+    return cd->We / N * spc_absdot(cc->d0, x->ng) * G * P;
+}
+
+double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
+                               const spc_chain *cc, const spc_chain *c, const spc_emitter *e)
+{
+    spc_camera_direct cd;
+    double pc = camera_density(ctx, p, x, cc, &cd);
+    return ratio_of(light_density(ctx->scene, p, x, c, e), query_prob(ctx->scene, p, x->p, true) * pc);
 }
 
 /* The light chain's retrace from x2 along d0 with the events the light subpath took, in the form
@@ -133,6 +183,62 @@ static bool retrace_chain(const spc_scene *sc, const spc_snee_params *p, const s
             if (!spc_chain_caster_allowed(c->v[i].h.shape->caustic_flags, k))
                 return false;
     return true;
+}
+
+/* The joins of the light subpath at x2 (arrived from d0 with throughput beta through the chain c
+ * from the point light e) to the pinhole where x2 is the path's first receiver: directly, and
+ * through each chain of the glass sphere toward the pinhole. */
+static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_vec3 d0,
+                       spc_rgb beta, const spc_chain *c, const spc_emitter *e,
+                       void (*sink)(void *user, const spc_path_lt_join *j), void *user)
+{
+    const spc_scene *sc = ctx->scene;
+    double N = (double)ctx->width * (double)ctx->height;
+    spc_camera_direct cd;
+    if (c->n <= spc_path_lt_budget(ctx, p, x2, 1, 0) && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
+        spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cd.wi);
+        double g = shading_fix(x2, d0, cd.wi) * spc_absdot(cd.wi, x2->sh.n) / (cd.dist * cd.dist);
+        spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / N);
+        spc_ray sr = spc_hit_spawn_to(x2, cd.p_near, 0.0);
+        double r = spc_rgb_is_black(C) ? 0.0 : spc_path_lt_ratio_first(ctx, p, x2, NULL, c, e);
+        if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
+            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cd.wi, c, e, cd.fx, cd.fy, C, r, NULL};
+            sink(user, &j);
+        }
+    }
+    /* through the sphere: its chains from x2 to the pinhole */
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, p, x2, d0, p->max_chain);
+    q.y = ctx->cam->origin;
+    q.ny = spc_v3(0, 0, 0);
+    q.light_size = 0.0;
+    spc_chain all[SPC_PATH_LT_CAMERA_CHAINS];
+    int n = spc_sphere_chains_all(&q, all, SPC_PATH_LT_CAMERA_CHAINS, NULL);
+    for (int i = 0; i < n; ++i) {
+        const spc_chain *cc = &all[i];
+        if (c->n > spc_path_lt_budget(ctx, p, x2, cc->n + 1, 0))
+            continue;
+        double pc = camera_density(ctx, p, x2, cc, &cd);
+        if (!(pc > 0.0))
+            continue;
+        const spc_chain_vertex *last = &cc->v[cc->n - 1];
+        spc_rgb T = spc_rgb1(1.0);
+        for (int v = 0; v < cc->n; ++v)
+            T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE,
+                                                            cc->v[v].d, spc_neg(cc->v[v].wi)));
+        spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
+        double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
+        double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
+        spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N);
+        if (spc_rgb_is_black(C) || !isfinite(g))
+            continue;
+        double r = spc_path_lt_ratio_first(ctx, p, x2, cc, c, e);
+        spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
+        if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
+            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, e, cd.fx, cd.fy, C, r, cc};
+            sink(user, &j);
+        }
+    }
 }
 
 void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
@@ -191,6 +297,9 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     if (!retrace_chain(sc, p, &x2, d0, k, events, &c) || !spc_sphere_chain_covers(&c, p->reflect))
         return;
 
+    /* x2 as the path's first receiver: seen by the camera directly, or through the glass sphere */
+    join_first(ctx, p, &x2, d0, beta, &c, e, sink, user);
+
     /* x2's scattering toward the camera's side: a non-delta sample */
     spc_bsdf_sample bs;
     if (!spc_bsdf_sample_dir(x2.bsdf, &x2, SPC_MODE_IMPORTANCE, d0, spc_rng_next(rng),
@@ -207,7 +316,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
         if (!spc_scene_intersect(sc, &ray, &h))
             return;
         spc_vec3 wo = spc_neg(ray.d);
-        if (spc_bsdf_has_smooth(h.bsdf) && k <= spc_path_lt_budget(ctx, p, &x2, m + 2)) {
+        if (spc_bsdf_has_smooth(h.bsdf) && k <= spc_path_lt_budget(ctx, p, &x2, m + 2, 1)) {
             spc_camera_direct cd;
             if (spc_camera_sample_direct(ctx->cam, h.p, &cd) && in_window(ctx, cd.fx, cd.fy)) {
                 spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, cd.wi);
@@ -218,7 +327,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
                     double r = spc_path_lt_ratio(ctx, p, &h, wo, &x2, w2, &c, e);
                     spc_ray sr = spc_hit_spawn_to(&h, cd.p_near, 0.0);
                     if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
-                        spc_path_lt_join j = {&h, &x2, wo, w2, &c, e, cd.fx, cd.fy, C, r};
+                        spc_path_lt_join j = {&h, &x2, wo, w2, &c, e, cd.fx, cd.fy, C, r, NULL};
                         sink(user, &j);
                     }
                 }

@@ -1,6 +1,6 @@
 /*
- * integrator/path_lt.h: the path tracer's light-traced caustics of point lights seen through a
- * diffuse bounce (specular NEE's "ltcaus" option, off by default).
+ * integrator/path_lt.h: the path tracer's light-traced caustics of point lights (specular NEE's
+ * "ltcaus" option): seen through a diffuse bounce, directly, and through the glass sphere.
  *
  * The paths (point light) - k chain vertices - x2 - m delta scatterings - x1 - camera, where x1 is
  * the camera ray's first hit and scatters along a non-delta sample, x2 is a receiver where
@@ -25,6 +25,16 @@
  * reciprocity of the generalized geometry term (both ends in the same medium); the middle part's
  * lobe choices are the same both ways. r is a function of the path alone, computed by the same code
  * on both sides, so that the two weights sum to one whatever its accuracy.
+ *
+ * The same light subpath also joins x2 to the pinhole where x2 is the path's first receiver: seen
+ * directly (bdpt's t = 1), or through the glass sphere (each chain of the sphere from x2 toward the
+ * pinhole, spc_sphere_chains_all, valued with its throughput and generalized geometry term). There
+ * specular NEE's value, the caustic's irradiance at the point a pixel sees (through the ball: the
+ * floor under it, where the caustic folds), has the same log-divergent second moment. The camera's
+ * density of x2 is then We / N |dw_cam/dA(x2)| times the chain's lobe choices (which the path
+ * samples), and the query's roulette first_p's:
+ *
+ *     r = p_dir(w0) P_chain |dw0/dA(x2)| / (q(x2) We / N |dw_cam/dA(x2)| P_cam).
  */
 #ifndef SPC_INTEGRATOR_PATH_LT_H
 #define SPC_INTEGRATOR_PATH_LT_H
@@ -39,14 +49,25 @@
  * enumeration, a pinhole camera, no guided cones, no strict normals, no rough vertices)? */
 bool spc_path_lt_enabled(const spc_render_ctx *ctx, const spc_snee_params *p);
 
-/* Specular NEE's chain budget at x2 when x2 is the path's second receiver reached after `segments`
- * path segments (the path tracer's, 0 where it makes no query there). */
-int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments);
+/* Specular NEE's chain budget at x2 when x2 is a receiver of the path with `receivers` receivers
+ * before it, reached after `segments` path segments (the path tracer's, 0 where it makes no query
+ * there). */
+int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                       int receivers);
 
 /* The density ratio r = p_lt / p_path of the path x1 (left toward w1) - x2 (left toward w2 on the
  * x1 side) - chain c from x2 - point light e; 0 where light tracing does not make it. */
 double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
                          const spc_hit *x2, spc_vec3 w2, const spc_chain *c, const spc_emitter *e);
+
+/* The same ratio where x is the path's first receiver, seen by the camera directly (cc NULL) or
+ * through the chain cc from x toward the pinhole (one glass sphere): light tracing's density over
+ * the camera's and specular NEE's at x. */
+double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
+                               const spc_chain *cc, const spc_chain *c, const spc_emitter *e);
+
+/* Chains of the glass sphere from x2 toward the pinhole that one join enumerates. */
+#define SPC_PATH_LT_CAMERA_CHAINS 16
 
 /* One join of a light subpath to the pinhole: the path's vertices as path_lt.h names them (x1
  * left toward w1 on the light's side, x2 toward w2 on the camera's, the chain c retraced from x2
@@ -59,6 +80,7 @@ typedef struct spc_path_lt_join {
     double fx, fy;
     spc_rgb C;
     double r;
+    const spc_chain *cc; /* x2 is the first receiver (x1 NULL): the chain toward the pinhole, or NULL */
 } spc_path_lt_join;
 
 /* Traces one light subpath (rng: a stream of this camera sample) and hands each of its joins with

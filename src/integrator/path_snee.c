@@ -39,6 +39,36 @@ static double lt_share(const void *user, const spc_hit *x, spc_vec3 wo, const sp
     return 1.0 / (1.0 + r * r);
 }
 
+/* The same at the path's first receiver x (seen from wo), reached from the camera through the
+ * delta scatterings recorded in cam_events: the camera's chain retraced from x toward the pinhole. */
+static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c,
+                             const spc_emitter *e)
+{
+    const spc_path_snee *s = user;
+    int j = s->scatterings;
+    if (c->n > s->lt_kmax || j > s->p.max_chain || j > SPC_CHAIN_MAX_VERTICES)
+        return 1.0;
+    double r;
+    if (j == 0) {
+        r = spc_path_lt_ratio_first(s->ctx, &s->p, x, NULL, c, e);
+    } else {
+        unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+        for (int i = 0; i < j; ++i)
+            ev[i] = s->cam_events[j - 1 - i];
+        spc_frame f = spc_frame_from_n(wo);
+        spc_chain_opts o = spc_chain_opts_default(j);
+        o.events = ev;
+        o.any_surface = s->p.any_surface;
+        spc_chain cc;
+        spc_chain_trace(s->ctx->scene, x, &f, 0.0, 0.0, &o, &cc);
+        if (cc.n != j || cc.end == SPC_CHAIN_END_TIR || cc.end == SPC_CHAIN_END_MISMATCH ||
+            cc.end == SPC_CHAIN_END_DEGENERATE)
+            return 1.0;
+        r = spc_path_lt_ratio_first(s->ctx, &s->p, x, &cc, c, e);
+    }
+    return 1.0 / (1.0 + r * r);
+}
+
 /* Film positions the driver takes camera samples at (the rendered window). */
 static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
 {
@@ -145,8 +175,13 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
      * point-light chains are light tracing's too */
     s->p.delta_share = NULL;
     if (s->lt_on && s->receivers == 1) {
-        s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments);
+        s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, 1);
         s->p.delta_share = lt_share;
+        s->p.delta_user = s;
+    } else if (s->lt_enabled && s->receivers == 0) {
+        /* the first receiver, seen directly or through delta scatterings only */
+        s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, 0);
+        s->p.delta_share = lt_share_first;
         s->p.delta_user = s;
     }
     spc_rng rng;
@@ -184,8 +219,11 @@ void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, sp
         ++s->receivers;
         s->cam_track = false;
     }
-    /* the light-traced caustics' x1: the camera ray's hit left along a non-delta sample */
+    /* the light-traced caustics' x1: the camera ray's hit left along a non-delta sample; and the
+     * delta scatterings from the camera before the first receiver */
     if (s->lt_enabled) {
+        if (s->receivers == 0 && (lobe & SPC_LOBE_DELTA) && s->scatterings < SPC_CHAIN_MAX_VERTICES)
+            s->cam_events[s->scatterings] = lobe == SPC_LOBE_DELTA_REFLECTION ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
         if (!(lobe & SPC_LOBE_DELTA)) {
             s->lt_on = s->scatterings == 0;
             s->lt_x1 = *h;

@@ -41,6 +41,7 @@ typedef struct spc_path_snee {
     int lt_m, lt_kmax;
     spc_hit lt_x1;
     spc_vec3 lt_w1;
+    unsigned char cam_events[SPC_CHAIN_MAX_VERTICES]; /* the delta scatterings before the first receiver */
 } spc_path_snee;
 
 /* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, and with
