@@ -15,6 +15,8 @@
  *   from it specular NEE does (r < 1 on some).
  * - A render with ltcaus agrees with one without (the same estimator's two splits) by the per-pixel
  *   z-test and the image mean.
+ * - The plan (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) runs it for path where every light is a point
+ *   light and a glass sphere is a caster, and nowhere else.
  */
 /* ctest-labels: stat */
 #include <math.h>
@@ -24,6 +26,7 @@
 #include "harness.h"
 #include "integrator/path_lt.h"
 #include "manifold/snee_options.h"
+#include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
 #include "render_util.h"
@@ -145,9 +148,31 @@ TEST(render_agrees_without_it)
     spc_scene_destroy(sc);
 }
 
+/* The plan runs it for path where every light is a point light and a glass sphere is a caster:
+ * on the point-light ball, not with its small sphere light, nor with a sky besides the point light
+ * (scenes/dielectrics.xml), nor for volpath. */
+TEST(plan_with_point_lights_only)
+{
+    const char *files[] = {SCENE, "bench/check/point_light_ball_sphere.xml", "scenes/dielectrics.xml"};
+    for (int i = 0; i < 3; ++i) {
+        spc_scene *sc = tu_load(files[i], 8);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_snee_plan plan;
+        spc_snee_plan_make(sc, "path", NULL, &plan);
+        bool lt = strstr(plan.setting, "ltcaus") != NULL;
+        CHECK_MSG(plan.on && lt == (i == 0), "%s: %s", files[i], plan.setting);
+        spc_snee_plan_make(sc, "volpath", NULL, &plan);
+        CHECK_MSG(!strstr(plan.setting, "ltcaus"), "%s, volpath: %s", files[i], plan.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
 int main(void)
 {
     RUN(joins_are_specular_nee_chains_with_the_same_ratio);
     RUN(render_agrees_without_it);
+    RUN(plan_with_point_lights_only);
     return spc_test_finish();
 }
