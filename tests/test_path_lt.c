@@ -64,9 +64,9 @@ static void check_join(void *user, const spc_path_lt_join *j)
         }
     if (!match) {
         if (t->missing < 6) {
-            printf("    missing: k %d ev %d %d x2 (%.4f %.4f %.4f) d0 (%.4f %.4f %.4f) n %d r %.3g", j->c->n, j->c->v[0].event,
-                   j->c->n > 1 ? j->c->v[1].event : -1, j->x2->p.x, j->x2->p.y, j->x2->p.z, j->c->d0.x, j->c->d0.y,
-                   j->c->d0.z, n, j->r);
+            printf("    missing: k %d ev %d %d x2 (%.4f %.4f %.4f) d0 (%.4f %.4f %.4f) n %d r %.3g", j->c->n,
+                   j->c->v[0].event, j->c->n > 1 ? j->c->v[1].event : -1, j->x2->p.x, j->x2->p.y, j->x2->p.z,
+                   j->c->d0.x, j->c->d0.y, j->c->d0.z, n, j->r);
             for (int i = 0; i < n; ++i)
                 printf(" [%d: %.5f]", all[i].n, spc_dot(all[i].d0, j->c->d0));
             printf("\n");
@@ -116,8 +116,8 @@ TEST(joins_are_specular_nee_chains_with_the_same_ratio)
     spc_rng_seed(&rng, 17, 3);
     for (int i = 0; i < 20000; ++i)
         spc_path_lt_joins(&ctx, &p, &rng, check_join, &t);
-    printf("  %d joins, %d not enumerated, r > 1 on %d, r < 1 on %d, largest gap of the weights' sum from 1 %.3g\n", t.joins,
-           t.missing, t.above, t.below, t.worst_gap);
+    printf("  %d joins, %d not enumerated, r > 1 on %d, r < 1 on %d, largest gap of the weights' sum from 1 %.3g\n",
+           t.joins, t.missing, t.above, t.below, t.worst_gap);
     printf("  x2 seen directly %d, through the sphere %d, through a diffuse bounce %d\n", t.kinds[0], t.kinds[1],
            t.kinds[2]);
     CHECK(t.joins > 100 && t.kinds[0] > 10 && t.kinds[1] > 10 && t.kinds[2] > 10);

@@ -6,7 +6,6 @@
  */
 #include "integrator/path_lt.h"
 
-
 #include "integrator/splat.h"
 #include "manifold/snee_cost.h"
 #include "manifold/sphere_chains.h"
@@ -134,8 +133,8 @@ double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, co
  * sees x directly (cc NULL) or through the chain cc from x (one glass sphere, at most max_chain
  * vertices: the chains spc_sphere_chains_all enumerates toward the pinhole); *cd the join to the
  * pinhole. 0 where the camera does not see x so. */
-static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
-                             const spc_chain *cc, spc_camera_direct *cd)
+static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x, const spc_chain *cc,
+                             spc_camera_direct *cd)
 {
     double N = (double)ctx->width * (double)ctx->height;
     if (!cc) {
@@ -224,8 +223,8 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         const spc_chain_vertex *last = &cc->v[cc->n - 1];
         spc_rgb T = spc_rgb1(1.0);
         for (int v = 0; v < cc->n; ++v)
-            T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE,
-                                                            cc->v[v].d, spc_neg(cc->v[v].wi)));
+            T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE, cc->v[v].d,
+                                                            spc_neg(cc->v[v].wi)));
         spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
         double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
         double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
@@ -256,8 +255,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
     double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
     spc_frame fa = spc_frame_from_n(axis);
-    spc_vec3 w0 = spc_normalize(spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))),
-                                        spc_scale(fa.n, ct)));
+    spc_vec3 w0 = spc_normalize(
+        spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
     double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
     spc_rgb beta = spc_rgb_scale(e->intensity, 1.0 / (pmf * pdir));
     spc_ray ray = {.o = y, .d = w0, .tmin = 0.0, .tmax = SPC_INF};
@@ -321,8 +320,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
             if (spc_camera_sample_direct(ctx->cam, h.p, &cd) && in_window(ctx, cd.fx, cd.fy)) {
                 spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, cd.wi);
                 double g = shading_fix(&h, wo, cd.wi) * spc_absdot(cd.wi, h.sh.n) / (cd.dist * cd.dist);
-                spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f),
-                                          g * cd.We / ((double)ctx->width * (double)ctx->height));
+                spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
                 if (!spc_rgb_is_black(C)) {
                     double r = spc_path_lt_ratio(ctx, p, &h, wo, &x2, w2, &c, e);
                     spc_ray sr = spc_hit_spawn_to(&h, cd.p_near, 0.0);

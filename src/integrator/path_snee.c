@@ -41,8 +41,7 @@ static double lt_share(const void *user, const spc_hit *x, spc_vec3 wo, const sp
 
 /* The same at the path's first receiver x (seen from wo), reached from the camera through the
  * delta scatterings recorded in cam_events: the camera's chain retraced from x toward the pinhole. */
-static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c,
-                             const spc_emitter *e)
+static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e)
 {
     const spc_path_snee *s = user;
     int j = s->scatterings;
