@@ -8,6 +8,7 @@
 
 #include <string.h>
 
+#include "integrator/path_lt.h"
 #include "integrator/splat.h"
 #include "manifold/snee_cost.h"
 
@@ -21,6 +22,50 @@ static int depth_left(const spc_render_ctx *ctx, int segments, int cap)
     if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < cap)
         return ctx->max_depth - segments - 1;
     return cap;
+}
+
+/* The stream key of the light-traced caustics' subpath (path_lt.h), forked from the camera
+ * sample's sampler. */
+#define SPC_PATH_LT_STREAM 0x6c74636175737469ULL
+
+/* params.delta_share at the path's second receiver x (seen from wo): specular NEE's share of the
+ * point light's chain c against light tracing (path_lt.h). */
+static double lt_share(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e)
+{
+    const spc_path_snee *s = user;
+    if (c->n > s->lt_kmax)
+        return 1.0;
+    double r = spc_path_lt_ratio(s->ctx, &s->p, &s->lt_x1, s->lt_w1, x, wo, c, e);
+    return 1.0 / (1.0 + r * r);
+}
+
+/* The same at the path's first receiver x (seen from wo), reached from the camera through the
+ * delta scatterings recorded in cam_events: the camera's chain retraced from x toward the pinhole. */
+static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e)
+{
+    const spc_path_snee *s = user;
+    int j = s->scatterings;
+    if (c->n > s->lt_kmax || j > s->p.max_chain || j > SPC_CHAIN_MAX_VERTICES)
+        return 1.0;
+    double r;
+    if (j == 0) {
+        r = spc_path_lt_ratio_first(s->ctx, &s->p, x, NULL, c, e);
+    } else {
+        unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+        for (int i = 0; i < j; ++i)
+            ev[i] = s->cam_events[j - 1 - i];
+        spc_frame f = spc_frame_from_n(wo);
+        spc_chain_opts o = spc_chain_opts_default(j);
+        o.events = ev;
+        o.any_surface = s->p.any_surface;
+        spc_chain cc;
+        spc_chain_trace(s->ctx->scene, x, &f, 0.0, 0.0, &o, &cc);
+        if (cc.n != j || cc.end == SPC_CHAIN_END_TIR || cc.end == SPC_CHAIN_END_MISMATCH ||
+            cc.end == SPC_CHAIN_END_DEGENERATE)
+            return 1.0;
+        r = spc_path_lt_ratio_first(s->ctx, &s->p, x, &cc, c, e);
+    }
+    return 1.0 / (1.0 + r * r);
 }
 
 /* Film positions the driver takes camera samples at (the rendered window). */
@@ -57,6 +102,13 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
         return;
     s->p = ctx->snee;
     s->p.mis = !s->p.no_mis && !rough_mode(&s->p);
+    s->ctx = ctx;
+    s->lt_enabled = spc_path_lt_enabled(ctx, &s->p);
+    if (s->lt_enabled) {
+        spc_rng lrng;
+        spc_sampler_fork_rng(smp, SPC_PATH_LT_STREAM, &lrng);
+        spc_path_lt_trace(ctx, &s->p, tls, &lrng);
+    }
     if (!s->p.camera || rough_mode(&s->p) || !spc_camera_connectible(ctx->cam))
         return;
     /* from the pinhole: its splats, and the camera ray tracked as from a receiver until its first
@@ -118,6 +170,19 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
      * (a vertex with a smooth lobe is no chain vertex: a live track started at the last such vertex) */
     s->p.query_p = s->receivers > 0 ? spc_snee_later_prob(ctx->scene, &s->p, h->p)
                                     : spc_snee_first_prob(ctx->scene, &s->p, h->p);
+    /* the path's second receiver after only delta scatterings from the camera ray's hit: its
+     * point-light chains are light tracing's too */
+    s->p.delta_share = NULL;
+    if (s->lt_on && s->receivers == 1) {
+        s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, 1);
+        s->p.delta_share = lt_share;
+        s->p.delta_user = s;
+    } else if (s->lt_enabled && s->receivers == 0) {
+        /* the first receiver, seen directly or through delta scatterings only */
+        s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, 0);
+        s->p.delta_share = lt_share_first;
+        s->p.delta_user = s;
+    }
     spc_rng rng;
     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
     return spc_specular_nee_depth(ctx->scene, &s->p, h, wo, s->budget, s->long_budget, &rng, NULL);
@@ -153,4 +218,19 @@ void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, sp
         ++s->receivers;
         s->cam_track = false;
     }
+    /* the light-traced caustics' x1: the camera ray's hit left along a non-delta sample; and the
+     * delta scatterings from the camera before the first receiver */
+    if (s->lt_enabled) {
+        if (s->receivers == 0 && (lobe & SPC_LOBE_DELTA) && s->scatterings < SPC_CHAIN_MAX_VERTICES)
+            s->cam_events[s->scatterings] = lobe == SPC_LOBE_DELTA_REFLECTION ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
+        if (!(lobe & SPC_LOBE_DELTA)) {
+            s->lt_on = s->scatterings == 0;
+            s->lt_x1 = *h;
+            s->lt_w1 = wi;
+            s->lt_m = 0;
+        } else if (s->lt_on && ++s->lt_m > SPC_PATH_LT_MID_MAX) {
+            s->lt_on = false;
+        }
+    }
+    ++s->scatterings;
 }

@@ -33,6 +33,15 @@ typedef struct spc_path_snee {
                                 and the longer chains' bound */
     spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
     spc_cguide_vertex mis_gv; /* and at mis_x, the receiver the track started at */
+    /* the light-traced caustics (path_lt.h, params.lt_caustic): the path's first receiver x1, the
+     * camera ray's hit, with its sampled direction, while only delta scatterings (lt_m) follow it */
+    const spc_render_ctx *ctx;
+    int scatterings;
+    bool lt_enabled, lt_on;
+    int lt_m, lt_kmax;
+    spc_hit lt_x1;
+    spc_vec3 lt_w1;
+    unsigned char cam_events[SPC_CHAIN_MAX_VERTICES]; /* the delta scatterings before the first receiver */
 } spc_path_snee;
 
 /* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, and with

@@ -54,6 +54,9 @@ static const spc_snee_option options[] = {
      "not with reflect or exact)"},
     {"nomis", NULL, SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(no_mis), NO, 0, NULL,
      "no MIS with BSDF sampling: the BSDF-sampled paths specular NEE covers are dropped"},
+    {"ltcaus", "noltcaus", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(lt_caustic), NO, 0, NULL,
+     "path: point lights' caustics seen through a diffuse bounce also by light tracing (light subpaths through "
+     "a glass sphere, joined to the camera), weighed against specular NEE at the second receiver"},
     {"reflect", "noreflect", SPC_SNEE_OPT_REAL, true, "P", 0, 1, true, true, NULL, 0, AT(reflect), AT(reflect_p), 0,
      NULL, "chains also reflect off glass, with probability P at a dielectric vertex of a seed chain"},
     {"mispsi", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(mis_solve), 0, NULL,

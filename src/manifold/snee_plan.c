@@ -57,6 +57,27 @@ static bool receiver(const spc_shape *s)
     return s->bsdf && (s->caustic_flags & SPC_CAUSTIC_RECEIVER) && spc_bsdf_has_smooth(s->bsdf);
 }
 
+/* Is every light of the scene a point light? */
+static bool point_lights_only(const spc_scene *sc)
+{
+    for (int i = 0; i < sc->nemitters; ++i)
+        if (sc->emitters[i]->type != SPC_EMITTER_POINT)
+            return false;
+    return sc->nemitters > 0 && !sc->env;
+}
+
+/* Is some caster a glass sphere (its chains enumerated, sphere_chains.h)? */
+static bool glass_sphere(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (spc_sphere_chain_shape(s) && spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0)
+            return true;
+    }
+    return false;
+}
+
 /* A light specular NEE draws points on (spc_snee_sample_light). */
 static bool snee_light(const spc_emitter *e)
 {
@@ -530,6 +551,12 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (!strcmp(integrator, "path") && glass && cone && out->open_share < SPC_SNEE_PLAN_ROOM_OPEN) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_ROOM_GLASS_BALL);
+    }
+    /* path lit by point lights alone, with a glass sphere among the casters: the point lights'
+     * caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) */
+    if (!strcmp(integrator, "path") && glass && exact && point_lights_only(sc) && glass_sphere(sc, cs)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_POINT_LIGHTS);
     }
     out->pilot = spc_snee_setting_pilot(setting);
 }

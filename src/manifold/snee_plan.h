@@ -193,6 +193,17 @@
 #define SPC_SNEE_PLAN_ROOM_OPEN 0.25
 #define SPC_SNEE_PLAN_ROOM_GLASS_BALL ",recguide=0.1,long=0.2"
 
+/* Appended for path where every light is a point light and a glass sphere is a caster: the point
+ * lights' caustics also by light tracing (integrator/path_lt.h: seen directly, through the ball and
+ * through a diffuse bounce), weighed against specular NEE, whose value there, the caustic's
+ * irradiance at a sampled point, has a log-divergent second moment near the caustic's fold. On
+ * bench/check/point_light_ball.xml at equal CPU time (bench/RESULTS.md, "Point lights' caustics by
+ * light tracing"): 64x64, 4 CPU-s, 8 seeds, mean relMSE 0.0665 -> 0.0030 (worst seed 0.41 ->
+ * 0.0058); 32x32, 1 CPU-s, 16 seeds, 0.016 -> 0.0051; it costs 2.2x per sample. Not with other
+ * lights: on scenes/dielectrics.xml (a point light, a water ball, a sky) 1.2x worse (its cost per
+ * sample 1.14x, no gain in the error per sample). */
+#define SPC_SNEE_PLAN_POINT_LIGHTS ",ltcaus"
+
 /* The setting where every caster is a mirror: the same without the query from the camera. There the
  * camera sees the light only by reflection, which camera rays find as often as the query's splats
  * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal

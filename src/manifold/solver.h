@@ -217,6 +217,17 @@ typedef struct spc_snee_params {
     double (*alt_ratio)(const void *user, const spc_hit *x, spc_vec3 wo, spc_vec3 d0, spc_vec3 d_last,
                         const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
     const void *alt_user;
+    /* The path integrator's light-traced caustics of point lights (the user's "ltcaus";
+     * integrator/path_lt.h): on, specular NEE at the path's first receiver and at its second (after
+     * a diffuse bounce at the camera ray's hit) shares the point-light chains that light tracing
+     * also makes. delta_share returns specular NEE's power-heuristic share of the path receiver x
+     * (seen from wo) - chain c - point light e (1 where the other strategy does not make it); a
+     * function of the path alone, so that both sides agree. NULL: none. Not from the camera, not
+     * at medium points. */
+    bool lt_caustic;
+    double (*delta_share)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,
+                          const spc_emitter *e);
+    const void *delta_user;
     /* The light sample's uniforms where the caller draws them from its stratified sample stream
      * (light_u_on; the path integrator at each receiver): light_u[0] picks the light, light_u[1]
      * and light_u[2] the point on it. Otherwise spc_snee_sample_light draws them from its own

@@ -348,7 +348,12 @@ static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_ve
              (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c->d0, d, e, q->y, q->ny) : 1.0);
         *pc = cones_pdf(cones_for(q, e), c->d0, k) * G * P_ev;
     }
-    return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G);
+    /* a point light's chain that another strategy makes too (params.delta_share): its share */
+    double share = 1.0;
+    if (q->params && q->params->delta_share && e->type == SPC_EMITTER_POINT && !q->cam &&
+        r->kind == SPC_RECEIVER_SURFACE && q->x)
+        share = q->params->delta_share(q->params->delta_user, q->x, q->wo, c, e);
+    return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * share);
 }
 
 spc_rgb spc_snee_chain_value(const spc_snee_query *q, const spc_emitter *e, spc_vec2 uv, const spc_chain *c)

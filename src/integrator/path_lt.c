@@ -1,0 +1,359 @@
+/*
+ * integrator/path_lt.c: light-traced caustics of point lights seen through a diffuse bounce, for
+ * the path tracer (path_lt.h): the light subpath, its joins to the pinhole, and the density ratio
+ * that weighs them against specular NEE at the path's second receiver (Veach 1997, ch. 9 and
+ * 10.2: the power heuristic over two strategies of one path; bdpt's t = 1 join).
+ */
+#include "integrator/path_lt.h"
+
+#include "integrator/splat.h"
+#include "manifold/snee_cost.h"
+#include "manifold/sphere_chains.h"
+
+/* The adjoint BSDF's correction for shading normals (Veach 1997, sec. 5.3), as bdpt's. */
+static double shading_fix(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
+{
+    double den = spc_absdot(wo, h->ng) * spc_absdot(wi, h->sh.n);
+    if (!(den > 0.0))
+        return 0.0;
+    return spc_absdot(wo, h->sh.n) * spc_absdot(wi, h->ng) / den;
+}
+
+static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
+{
+    return fx >= ctx->crop_x && fx < ctx->crop_x + ctx->width && fy >= ctx->crop_y && fy < ctx->crop_y + ctx->height;
+}
+
+bool spc_path_lt_enabled(const spc_render_ctx *ctx, const spc_snee_params *p)
+{
+    return p->lt_caustic && ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee != SPC_SNEE_NONE && p->exact &&
+           !(p->guide > 0.0) && !ctx->strict_normals && !(p->solver == SPC_SNEE_NEWTON && p->newton.rough) &&
+           spc_camera_connectible(ctx->cam) && !(p->receivers > 0 && p->receivers <= 1);
+}
+
+int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                       int receivers)
+{
+    /* as spc_path_snee_at_vertex and spc_specular_nee_depth compute it */
+    int cap = ctx->specular_max_chain;
+    int left = ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < cap ? ctx->max_depth - segments - 1 : cap;
+    int b = spc_snee_budget_params(p, x2, left);
+    if (b <= 0 || (p->receivers > 0 && receivers >= p->receivers))
+        return 0;
+    if (b > p->max_chain)
+        b = p->max_chain;
+    return spc_snee_budget(x2, b, p->any_surface);
+}
+
+/* The cone from the point y toward the casters' bounding sphere: its axis and cosine (cos_max -1:
+ * the whole sphere of directions, y inside the bound). False without casters. */
+static bool caster_cone(const spc_scene *sc, bool any_surface, spc_vec3 y, spc_vec3 *axis, double *cos_max)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
+    if (!cs || cs->n == 0 || !(cs->radius > 0.0))
+        return false;
+    spc_vec3 a = spc_sub(cs->center, y);
+    double D = spc_length(a);
+    if (!(D > cs->radius)) {
+        *axis = spc_v3(0, 0, 1);
+        *cos_max = -1.0;
+        return true;
+    }
+    *axis = spc_scale(a, 1.0 / D);
+    double s = cs->radius / D;
+    *cos_max = sqrt(spc_max(0.0, 1.0 - s * s));
+    return true;
+}
+
+/* The emission's direction density of w (unit, from the light at y). */
+static double cone_pdf(const spc_scene *sc, bool any_surface, spc_vec3 y, spc_vec3 w)
+{
+    spc_vec3 axis;
+    double cm;
+    if (!caster_cone(sc, any_surface, y, &axis, &cm))
+        return 0.0;
+    if (cm > -1.0 && spc_dot(w, axis) < cm)
+        return 0.0;
+    return 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+}
+
+/* Light tracing's density of the chain c from x toward the point light e, in area measure at x:
+ * the emission's direction density, the chain's lobe choices and |dw0/dA(x)| = cos(x) G. */
+static double light_density(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, const spc_chain *c,
+                            const spc_emitter *e)
+{
+    int k = c->n;
+    if (!e || e->type != SPC_EMITTER_POINT || k < 1 || !p->exact || !spc_sphere_chain_covers(c, p->reflect))
+        return 0.0;
+    spc_vec3 d_last = c->v[k - 1].d;
+    double G = spc_chain_geometry(c, e->position, spc_neg(d_last));
+    double P = 1.0;
+    for (int i = 0; i < k; ++i) {
+        const spc_chain_vertex *v = &c->v[i];
+        P *= spc_bsdf_specular_prob(v->h.bsdf, &v->h, spc_neg(v->wi), v->d);
+    }
+    return cone_pdf(sc, p->any_surface, e->position, spc_neg(d_last)) * P * spc_absdot(c->d0, x->ng) * G;
+}
+
+/* The probability of specular NEE's query at x: the roulette of the path's first receiver
+ * (first_p) or of a later one (later_p). */
+static double query_prob(const spc_scene *sc, const spc_snee_params *p, spc_vec3 x, bool first)
+{
+    spc_snee_params pq = *p;
+    pq.query_p = first ? spc_snee_first_prob(sc, p, x) : spc_snee_later_prob(sc, p, x);
+    return spc_snee_query_prob(&pq);
+}
+
+static double ratio_of(double num, double den)
+{
+    if (!(num > 0.0) || !(den > 0.0))
+        return 0.0;
+    double r = num / den;
+    return isfinite(r) ? r : 0.0;
+}
+
+double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
+                         const spc_hit *x2, spc_vec3 w2, const spc_chain *c, const spc_emitter *e)
+{
+    const spc_scene *sc = ctx->scene;
+    /* the camera's density of x1 per camera sample (bdpt's t = 1: We / N, to area) */
+    spc_camera_direct cd;
+    if (!spc_camera_sample_direct(ctx->cam, x1->p, &cd) || !in_window(ctx, cd.fx, cd.fy))
+        return 0.0;
+    double p_cam = cd.We / ((double)ctx->width * (double)ctx->height) * spc_absdot(cd.wi, x1->ng) / (cd.dist * cd.dist);
+    double p1 = spc_bsdf_pdf(x1->bsdf, x1, SPC_MODE_RADIANCE, cd.wi, w1);
+    double cos1 = spc_absdot(w1, x1->ng);
+    double p2 = spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_IMPORTANCE, c->d0, w2);
+    double cos2 = spc_absdot(w2, x2->ng);
+    double q = query_prob(sc, p, x2->p, false);
+    return ratio_of(light_density(sc, p, x2, c, e) * p2 * cos1, q * cos2 * p1 * p_cam);
+}
+
+/* The camera's density of the point x per camera sample, in area measure at x, where the camera
+ * sees x directly (cc NULL) or through the chain cc from x (one glass sphere, at most max_chain
+ * vertices: the chains spc_sphere_chains_all enumerates toward the pinhole); *cd the join to the
+ * pinhole. 0 where the camera does not see x so. */
+static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x, const spc_chain *cc,
+                             spc_camera_direct *cd)
+{
+    double N = (double)ctx->width * (double)ctx->height;
+    if (!cc) {
+        if (!spc_camera_sample_direct(ctx->cam, x->p, cd) || !in_window(ctx, cd->fx, cd->fy))
+            return 0.0;
+        return cd->We / N * spc_absdot(cd->wi, x->ng) / (cd->dist * cd->dist);
+    }
+    int j = cc->n;
+    if (j < 1 || j > p->max_chain || !spc_sphere_chain_covers(cc, p->reflect))
+        return 0.0;
+    const spc_chain_vertex *last = &cc->v[j - 1];
+    if (!spc_camera_sample_direct(ctx->cam, last->h.p, cd) || !in_window(ctx, cd->fx, cd->fy))
+        return 0.0;
+    double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
+    double P = 1.0;
+    for (int i = 0; i < j; ++i) {
+        const spc_chain_vertex *v = &cc->v[i];
+        P *= spc_bsdf_specular_prob(v->h.bsdf, &v->h, spc_neg(v->wi), v->d);
+    }
+    return cd->We / N * spc_absdot(cc->d0, x->ng) * G * P;
+}
+
+double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
+                               const spc_chain *cc, const spc_chain *c, const spc_emitter *e)
+{
+    spc_camera_direct cd;
+    double pc = camera_density(ctx, p, x, cc, &cd);
+    return ratio_of(light_density(ctx->scene, p, x, c, e), query_prob(ctx->scene, p, x->p, true) * pc);
+}
+
+/* The light chain's retrace from x2 along d0 with the events the light subpath took, in the form
+ * specular NEE finds it (spc_chain from x2); false where it does not come out as k vertices. */
+static bool retrace_chain(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x2, spc_vec3 d0, int k,
+                          const unsigned char *events, spc_chain *c)
+{
+    spc_frame f = spc_frame_from_n(d0);
+    spc_chain_opts o = spc_chain_opts_default(k);
+    o.events = events;
+    o.any_surface = p->any_surface;
+    spc_chain_end end = spc_chain_trace(sc, x2, &f, 0.0, 0.0, &o, c);
+    if (c->n != k || !(end == SPC_CHAIN_END_ESCAPED || end == SPC_CHAIN_END_SURFACE || end == SPC_CHAIN_END_LIMIT))
+        return false;
+    if (!p->any_surface)
+        for (int i = 0; i < k; ++i)
+            if (!spc_chain_caster_allowed(c->v[i].h.shape->caustic_flags, k))
+                return false;
+    return true;
+}
+
+/* The joins of the light subpath at x2 (arrived from d0 with throughput beta through the chain c
+ * from the point light e) to the pinhole where x2 is the path's first receiver: directly, and
+ * through each chain of the glass sphere toward the pinhole. */
+static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_vec3 d0,
+                       spc_rgb beta, const spc_chain *c, const spc_emitter *e,
+                       void (*sink)(void *user, const spc_path_lt_join *j), void *user)
+{
+    const spc_scene *sc = ctx->scene;
+    double N = (double)ctx->width * (double)ctx->height;
+    spc_camera_direct cd;
+    if (c->n <= spc_path_lt_budget(ctx, p, x2, 1, 0) && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
+        spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cd.wi);
+        double g = shading_fix(x2, d0, cd.wi) * spc_absdot(cd.wi, x2->sh.n) / (cd.dist * cd.dist);
+        spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / N);
+        spc_ray sr = spc_hit_spawn_to(x2, cd.p_near, 0.0);
+        double r = spc_rgb_is_black(C) ? 0.0 : spc_path_lt_ratio_first(ctx, p, x2, NULL, c, e);
+        if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
+            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cd.wi, c, e, cd.fx, cd.fy, C, r, NULL};
+            sink(user, &j);
+        }
+    }
+    /* through the sphere: its chains from x2 to the pinhole */
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, p, x2, d0, p->max_chain);
+    q.y = ctx->cam->origin;
+    q.ny = spc_v3(0, 0, 0);
+    q.light_size = 0.0;
+    spc_chain all[SPC_PATH_LT_CAMERA_CHAINS];
+    int n = spc_sphere_chains_all(&q, all, SPC_PATH_LT_CAMERA_CHAINS, NULL);
+    for (int i = 0; i < n; ++i) {
+        const spc_chain *cc = &all[i];
+        if (c->n > spc_path_lt_budget(ctx, p, x2, cc->n + 1, 0))
+            continue;
+        double pc = camera_density(ctx, p, x2, cc, &cd);
+        if (!(pc > 0.0))
+            continue;
+        const spc_chain_vertex *last = &cc->v[cc->n - 1];
+        spc_rgb T = spc_rgb1(1.0);
+        for (int v = 0; v < cc->n; ++v)
+            T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE, cc->v[v].d,
+                                                            spc_neg(cc->v[v].wi)));
+        spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
+        double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
+        double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
+        spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N);
+        if (spc_rgb_is_black(C) || !isfinite(g))
+            continue;
+        double r = spc_path_lt_ratio_first(ctx, p, x2, cc, c, e);
+        spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
+        if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
+            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, e, cd.fx, cd.fy, C, r, cc};
+            sink(user, &j);
+        }
+    }
+}
+
+void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
+                       void (*sink)(void *user, const spc_path_lt_join *j), void *user)
+{
+    const spc_scene *sc = ctx->scene;
+    double pmf;
+    const spc_emitter *e = spc_scene_sample_emitter(sc, spc_rng_next(rng), &pmf);
+    if (!e || e->type != SPC_EMITTER_POINT || !(pmf > 0.0))
+        return;
+    spc_vec3 y = e->position, axis;
+    double cm;
+    if (!caster_cone(sc, p->any_surface, y, &axis, &cm))
+        return;
+    double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
+    double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
+    spc_frame fa = spc_frame_from_n(axis);
+    spc_vec3 w0 = spc_normalize(
+        spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
+    double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+    spc_rgb beta = spc_rgb_scale(e->intensity, 1.0 / (pmf * pdir));
+    spc_ray ray = {.o = y, .d = w0, .tmin = 0.0, .tmax = SPC_INF};
+
+    /* the chain: delta scatterings at chain surfaces, up to the longest budget */
+    int kmax = p->max_chain < SPC_CHAIN_MAX_VERTICES ? p->max_chain : SPC_CHAIN_MAX_VERTICES;
+    unsigned char events[SPC_CHAIN_MAX_VERTICES];
+    int k = 0;
+    spc_hit x2;
+    for (;;) {
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h))
+            return;
+        int ev;
+        if (!spc_chain_surface(&h, p->any_surface, &ev) || !spc_bsdf_is_delta_only(h.bsdf)) {
+            x2 = h;
+            break;
+        }
+        if (k == kmax)
+            return;
+        spc_vec3 wo = spc_neg(ray.d);
+        spc_bsdf_sample bs;
+        if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, spc_rng_next(rng),
+                                 spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bs) ||
+            !(bs.lobe & SPC_LOBE_DELTA))
+            return;
+        beta = spc_rgb_mul(beta, bs.weight);
+        if (spc_rgb_is_black(beta))
+            return;
+        events[k++] = bs.lobe == SPC_LOBE_DELTA_REFLECTION ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
+        ray = spc_hit_spawn(&h, bs.wi);
+    }
+    if (k < 1 || !spc_bsdf_has_smooth(x2.bsdf))
+        return;
+    spc_vec3 d0 = spc_neg(ray.d);
+    spc_chain c;
+    if (!retrace_chain(sc, p, &x2, d0, k, events, &c) || !spc_sphere_chain_covers(&c, p->reflect))
+        return;
+
+    /* x2 as the path's first receiver: seen by the camera directly, or through the glass sphere */
+    join_first(ctx, p, &x2, d0, beta, &c, e, sink, user);
+
+    /* x2's scattering toward the camera's side: a non-delta sample */
+    spc_bsdf_sample bs;
+    if (!spc_bsdf_sample_dir(x2.bsdf, &x2, SPC_MODE_IMPORTANCE, d0, spc_rng_next(rng),
+                             spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bs) ||
+        (bs.lobe & SPC_LOBE_DELTA))
+        return;
+    spc_vec3 w2 = bs.wi;
+    beta = spc_rgb_scale(spc_rgb_mul(beta, bs.weight), shading_fix(&x2, d0, w2));
+    ray = spc_hit_spawn(&x2, w2);
+
+    /* then m delta scatterings to x1, joined to the pinhole at each vertex with a smooth lobe */
+    for (int m = 0; m <= SPC_PATH_LT_MID_MAX && !spc_rgb_is_black(beta); ++m) {
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h))
+            return;
+        spc_vec3 wo = spc_neg(ray.d);
+        if (spc_bsdf_has_smooth(h.bsdf) && k <= spc_path_lt_budget(ctx, p, &x2, m + 2, 1)) {
+            spc_camera_direct cd;
+            if (spc_camera_sample_direct(ctx->cam, h.p, &cd) && in_window(ctx, cd.fx, cd.fy)) {
+                spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, cd.wi);
+                double g = shading_fix(&h, wo, cd.wi) * spc_absdot(cd.wi, h.sh.n) / (cd.dist * cd.dist);
+                spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
+                if (!spc_rgb_is_black(C)) {
+                    double r = spc_path_lt_ratio(ctx, p, &h, wo, &x2, w2, &c, e);
+                    spc_ray sr = spc_hit_spawn_to(&h, cd.p_near, 0.0);
+                    if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
+                        spc_path_lt_join j = {&h, &x2, wo, w2, &c, e, cd.fx, cd.fy, C, r, NULL};
+                        sink(user, &j);
+                    }
+                }
+            }
+        }
+        spc_bsdf_sample bm;
+        if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, spc_rng_next(rng),
+                                 spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bm) ||
+            !(bm.lobe & SPC_LOBE_DELTA))
+            return;
+        beta = spc_rgb_mul(beta, bm.weight);
+        ray = spc_hit_spawn(&h, bm.wi);
+    }
+}
+
+typedef struct splat_sink {
+    const spc_render_ctx *ctx;
+    spc_tls *tls;
+} splat_sink;
+
+static void splat_join(void *user, const spc_path_lt_join *j)
+{
+    const splat_sink *s = user;
+    spc_splat_add(s->ctx, s->tls, j->fx, j->fy, spc_rgb_scale(j->C, j->r * j->r / (1.0 + j->r * j->r)));
+}
+
+void spc_path_lt_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_tls *tls, spc_rng *rng)
+{
+    splat_sink s = {ctx, tls};
+    spc_path_lt_joins(ctx, p, rng, splat_join, &s);
+}

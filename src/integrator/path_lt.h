@@ -1,0 +1,95 @@
+/*
+ * integrator/path_lt.h: the path tracer's light-traced caustics of point lights (specular NEE's
+ * "ltcaus" option): seen through a diffuse bounce, directly, and through the glass sphere.
+ *
+ * The paths (point light) - k chain vertices - x2 - m delta scatterings - x1 - camera, where x1 is
+ * the camera ray's first hit and scatters along a non-delta sample, x2 is a receiver where
+ * specular NEE runs (the path's second receiver) and the chain is one that specular NEE counts
+ * exactly (one glass sphere, k within its budget at x2: spc_sphere_chain_covers), are made by
+ * specular NEE at x2 alone in the path tracer. Their value there is the caustic's irradiance at a
+ * sampled point, which near a fold grows as d^-1/2: its square is log-divergent, so that estimator
+ * has an infinite variance (bench/RESULTS.md, "point_light_ball"). Light tracing makes the same
+ * paths with the fold in its density instead: one light subpath per camera sample from a point
+ * light toward the casters' bounding sphere, through the chain, scattered at x2 by its BSDF, through
+ * m delta scatterings to x1, joined to the pinhole and splatted (bdpt's t = 1 strategy). The two are
+ * weighed by the power heuristic with the ratio r of their densities over the path's two free
+ * vertices (x1, x2; the light is a delta position):
+ *
+ *     p_lt   = pmf(e) p_dir(w0) P_chain |dw0/dA(x2)| p_x2(w2) |dw2/dA(x1)|
+ *     p_path = p_cam(x1) p_x1(w1) |dw1/dA(x2)| pmf(e) q(x2)
+ *
+ * (p_dir the emission's direction density, P_chain the chain's lobe choices, p_cam the camera's
+ * density of x1 per camera sample, p_x1, p_x2 the BSDF sampling densities at x1 and x2, q the query's
+ * roulette at x2). The chain's Jacobian |dw0/dA(x2)| = cos(x2) G, G spc_chain_geometry's term toward
+ * the point light, and the middle part's |dw2/dA(x1)| / |dw1/dA(x2)| = cos(x1) / cos(x2) by the
+ * reciprocity of the generalized geometry term (both ends in the same medium); the middle part's
+ * lobe choices are the same both ways. r is a function of the path alone, computed by the same code
+ * on both sides, so that the two weights sum to one whatever its accuracy.
+ *
+ * The same light subpath also joins x2 to the pinhole where x2 is the path's first receiver: seen
+ * directly (bdpt's t = 1), or through the glass sphere (each chain of the sphere from x2 toward the
+ * pinhole, spc_sphere_chains_all, valued with its throughput and generalized geometry term). There
+ * specular NEE's value, the caustic's irradiance at the point a pixel sees (through the ball: the
+ * floor under it, where the caustic folds), has the same log-divergent second moment. The camera's
+ * density of x2 is then We / N |dw_cam/dA(x2)| times the chain's lobe choices (which the path
+ * samples), and the query's roulette first_p's:
+ *
+ *     r = p_dir(w0) P_chain |dw0/dA(x2)| / (q(x2) We / N |dw_cam/dA(x2)| P_cam).
+ */
+#ifndef SPC_INTEGRATOR_PATH_LT_H
+#define SPC_INTEGRATOR_PATH_LT_H
+
+#include "integrator/context.h"
+
+/* Delta scatterings between x1 and x2 the strategy follows (a glass sphere between two floor
+ * points takes two; a few more leave room for reflections inside it). */
+#define SPC_PATH_LT_MID_MAX 4
+
+/* Is the strategy on for this render (the option, the path integrator with specular NEE, exact
+ * enumeration, a pinhole camera, no guided cones, no strict normals, no rough vertices)? */
+bool spc_path_lt_enabled(const spc_render_ctx *ctx, const spc_snee_params *p);
+
+/* Specular NEE's chain budget at x2 when x2 is a receiver of the path with `receivers` receivers
+ * before it, reached after `segments` path segments (the path tracer's, 0 where it makes no query
+ * there). */
+int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                       int receivers);
+
+/* The density ratio r = p_lt / p_path of the path x1 (left toward w1) - x2 (left toward w2 on the
+ * x1 side) - chain c from x2 - point light e; 0 where light tracing does not make it. */
+double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
+                         const spc_hit *x2, spc_vec3 w2, const spc_chain *c, const spc_emitter *e);
+
+/* The same ratio where x is the path's first receiver, seen by the camera directly (cc NULL) or
+ * through the chain cc from x toward the pinhole (one glass sphere): light tracing's density over
+ * the camera's and specular NEE's at x. */
+double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
+                               const spc_chain *cc, const spc_chain *c, const spc_emitter *e);
+
+/* Chains of the glass sphere from x2 toward the pinhole that one join enumerates. */
+#define SPC_PATH_LT_CAMERA_CHAINS 16
+
+/* One join of a light subpath to the pinhole: the path's vertices as path_lt.h names them (x1
+ * left toward w1 on the light's side, x2 toward w2 on the camera's, the chain c retraced from x2
+ * to the point light e), the film position, the contribution C before the weight, and r. */
+typedef struct spc_path_lt_join {
+    const spc_hit *x1, *x2;
+    spc_vec3 w1, w2;
+    const spc_chain *c;
+    const spc_emitter *e;
+    double fx, fy;
+    spc_rgb C;
+    double r;
+    const spc_chain *cc; /* x2 is the first receiver (x1 NULL): the chain toward the pinhole, or NULL */
+} spc_path_lt_join;
+
+/* Traces one light subpath (rng: a stream of this camera sample) and hands each of its joins with
+ * a positive r and an unblocked view of the pinhole to sink (the records live for the call). */
+void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
+                       void (*sink)(void *user, const spc_path_lt_join *j), void *user);
+
+/* The light-traced estimate of one camera sample: spc_path_lt_joins's joins splatted
+ * (spc_splat_add), each weighted r^2 / (1 + r^2). */
+void spc_path_lt_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_tls *tls, spc_rng *rng);
+
+#endif

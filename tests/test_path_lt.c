@@ -1,0 +1,178 @@
+/*
+ * tests/test_path_lt.c: the path tracer's light-traced caustics of point lights (integrator/path_lt.h,
+ * specular NEE's "ltcaus"), on bench/check/point_light_ball.xml
+ * (a point light above a glass ball on a floor).
+ *
+ * - Every join the light subpaths make (x2 seen by the camera directly, through the glass ball, or
+ *   from the first hit x1 of a diffuse bounce) is a path specular NEE counts at x2: the sphere
+ *   enumeration there (spc_sphere_chains_all, what specular NEE sums) finds the light subpath's
+ *   chain toward the point light (the nearest of its chains of that length, within 1e-6 in 1 - cos
+ *   of the first direction), and the two weights of the path, specular NEE's 1 / (1 + r^2) with r
+ *   from the enumerated chain and light tracing's r^2 / (1 + r^2) with r from its own retrace, sum
+ *   to one within 1e-3 (4.7e-4 measured: the floor's hits are single precision, and the chain's
+ *   Jacobian near the fold magnifies that in r). Each kind of join occurs.
+ * - Near the caustic's fold light tracing takes the larger share (r > 1 on some joins) and far
+ *   from it specular NEE does (r < 1 on some).
+ * - A render with ltcaus agrees with one without (the same estimator's two splits) by the per-pixel
+ *   z-test and the image mean.
+ * - The plan (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) runs it for path where every light is a point
+ *   light and a glass sphere is a caster, and nowhere else.
+ */
+/* ctest-labels: stat */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "harness.h"
+#include "integrator/path_lt.h"
+#include "manifold/snee_options.h"
+#include "manifold/snee_plan.h"
+#include "manifold/specular_nee.h"
+#include "manifold/sphere_chains.h"
+#include "render_util.h"
+
+#define SCENE "bench/check/point_light_ball.xml"
+#define SETTING "angular:camera=0.098,first=0.1,later=0.1,ltcaus"
+
+typedef struct tally {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    int joins, missing, above, below;
+    int kinds[3]; /* x2 seen directly, through the sphere, through a diffuse bounce */
+    double worst_gap;
+} tally;
+
+static void check_join(void *user, const spc_path_lt_join *j)
+{
+    tally *t = user;
+    const spc_scene *sc = t->ctx->scene;
+    ++t->joins;
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, t->p, j->x2, j->w2, t->p->max_chain);
+    q.y = j->e->position;
+    q.ny = spc_v3(0, 0, 0);
+    q.light_size = 0.0;
+    spc_chain all[16];
+    int n = spc_sphere_chains_all(&q, all, 16, NULL);
+    /* the enumerated chain nearest the light subpath's (two meet at the fold) */
+    const spc_chain *match = NULL;
+    double best = 1.0 - 1e-6;
+    for (int i = 0; i < n; ++i)
+        if (all[i].n == j->c->n && spc_dot(all[i].d0, j->c->d0) > best) {
+            best = spc_dot(all[i].d0, j->c->d0);
+            match = &all[i];
+        }
+    if (!match) {
+        if (t->missing < 6) {
+            printf("    missing: k %d ev %d %d x2 (%.4f %.4f %.4f) d0 (%.4f %.4f %.4f) n %d r %.3g", j->c->n,
+                   j->c->v[0].event, j->c->n > 1 ? j->c->v[1].event : -1, j->x2->p.x, j->x2->p.y, j->x2->p.z,
+                   j->c->d0.x, j->c->d0.y, j->c->d0.z, n, j->r);
+            for (int i = 0; i < n; ++i)
+                printf(" [%d: %.5f]", all[i].n, spc_dot(all[i].d0, j->c->d0));
+            printf("\n");
+        }
+        ++t->missing;
+        return;
+    }
+    double r = j->x1 ? spc_path_lt_ratio(t->ctx, t->p, j->x1, j->w1, j->x2, j->w2, match, j->e)
+                     : spc_path_lt_ratio_first(t->ctx, t->p, j->x2, j->cc, match, j->e);
+    ++t->kinds[j->x1 ? 2 : j->cc ? 1 : 0];
+    /* the two sides' weights of the path: specular NEE's from its chain, light tracing's from its own */
+    double gap = fabs(1.0 / (1.0 + r * r) + j->r * j->r / (1.0 + j->r * j->r) - 1.0);
+    if (gap > t->worst_gap)
+        t->worst_gap = gap;
+    t->above += j->r > 1.0;
+    t->below += j->r < 1.0;
+}
+
+TEST(joins_are_specular_nee_chains_with_the_same_ratio)
+{
+    spc_scene *sc = tu_load(SCENE, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_camera_state cam;
+    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
+    spc_snee_params p;
+    CHECK(spc_snee_parse(SETTING, 2, &p));
+    spc_render_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = sc;
+    ctx.cam = &cam;
+    ctx.kind = SPC_INTEGRATOR_PATH;
+    ctx.max_depth = -1;
+    ctx.rr_depth = 5;
+    ctx.specular_nee = SPC_SNEE_ANGULAR;
+    ctx.specular_max_chain = 2;
+    ctx.snee = p;
+    ctx.width = sc->film.width;
+    ctx.height = sc->film.height;
+    CHECK(spc_path_lt_enabled(&ctx, &p));
+    tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    spc_rng rng;
+    spc_rng_seed(&rng, 17, 3);
+    for (int i = 0; i < 20000; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, check_join, &t);
+    printf("  %d joins, %d not enumerated, r > 1 on %d, r < 1 on %d, largest gap of the weights' sum from 1 %.3g\n",
+           t.joins, t.missing, t.above, t.below, t.worst_gap);
+    printf("  x2 seen directly %d, through the sphere %d, through a diffuse bounce %d\n", t.kinds[0], t.kinds[1],
+           t.kinds[2]);
+    CHECK(t.joins > 100 && t.kinds[0] > 10 && t.kinds[1] > 10 && t.kinds[2] > 10);
+    CHECK_MSG(t.missing == 0, "%d joins are no chain specular NEE enumerates", t.missing);
+    CHECK_MSG(t.worst_gap < 1e-3, "the two weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK(t.above > 0 && t.below > 0);
+    spc_scene_destroy(sc);
+}
+
+TEST(render_agrees_without_it)
+{
+    spc_scene *sc = tu_load(SCENE, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *a = tu_render_nee(sc, "path", SETTING, 1024, 2, 41, NULL);
+    spc_film *b = tu_render_nee(sc, "path", "angular:camera=0.098,first=0.1,later=0.1", 1024, 2, 42, NULL);
+    CHECK(a && b);
+    if (a && b) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(a, b, 0.99, "ltcaus vs without", &d));
+        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
+               d.mean_a[0], d.mean_b[0]);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
+}
+
+/* The plan runs it for path where every light is a point light and a glass sphere is a caster:
+ * on the point-light ball, not with its small sphere light, nor with a sky besides the point light
+ * (scenes/dielectrics.xml), nor for volpath. */
+TEST(plan_with_point_lights_only)
+{
+    const char *files[] = {SCENE, "bench/check/point_light_ball_sphere.xml", "scenes/dielectrics.xml"};
+    for (int i = 0; i < 3; ++i) {
+        spc_scene *sc = tu_load(files[i], 8);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_snee_plan plan;
+        spc_snee_plan_make(sc, "path", NULL, &plan);
+        bool lt = strstr(plan.setting, "ltcaus") != NULL;
+        CHECK_MSG(plan.on && lt == (i == 0), "%s: %s", files[i], plan.setting);
+        spc_snee_plan_make(sc, "volpath", NULL, &plan);
+        CHECK_MSG(!strstr(plan.setting, "ltcaus"), "%s, volpath: %s", files[i], plan.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
+int main(void)
+{
+    RUN(joins_are_specular_nee_chains_with_the_same_ratio);
+    RUN(render_agrees_without_it);
+    RUN(plan_with_point_lights_only);
+    return spc_test_finish();
+}
