@@ -94,6 +94,18 @@ static inline bool refract2(double wx, double wy, double nx, double ny, double r
     return true;
 }
 
+/* The way out of the sphere at q along t (the inward normal -q, ratio eta). Every chord meets the
+ * circle at the internal angle of the way in, so the way out's transmitted cosine is the way in's
+ * incident cosine cos_in (Snell's law read backwards): the refraction without its square root, and
+ * it always exists where the way in does. */
+static inline void refract_out(double tx, double ty, double qx, double qy, double eta, double cos_in, double *ox,
+                               double *oy)
+{
+    double k = eta * (tx * qx + ty * qy) - cos_in;
+    *ox = eta * tx - k * qx;
+    *oy = eta * ty - k * qy;
+}
+
 /* The angles roots1d watches (in turns): the way in, the first direction inside (the chords turn
  * with it) and the way out. */
 #define SPHERE_ANGLES 3
@@ -107,7 +119,7 @@ static bool plane_eval_at(const plane_problem *pb, double qx, double qy, double 
     double ul = sqrt(ux * ux + uy * uy);
     ux /= ul;
     uy /= ul;
-    double vx, vy, tx, ty;
+    double vx, vy, tx, ty, cos_in = -(ux * qx + uy * qy);
     if (ang)
         ang[0] = spc_roots1d_turns(ux, uy);
     if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
@@ -124,8 +136,7 @@ static bool plane_eval_at(const plane_problem *pb, double qx, double qy, double 
             ty -= 2.0 * dn * qy;
         }
     }
-    if (!refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy))
-        return false;
+    refract_out(tx, ty, qx, qy, pb->eta, cos_in, &vx, &vy);
     if (ang)
         ang[2] = spc_roots1d_turns(vx, vy);
     double rx = pb->y1 - qx, ry = pb->y2 - qy;
@@ -164,7 +175,7 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
     ux /= ul;
     uy /= ul;
     double a_in = spc_roots1d_turns(ux, uy);
-    double tx, ty;
+    double tx, ty, cos_in = -(ux * qx + uy * qy);
     if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
         return;
     double a_t = spc_roots1d_turns(tx, ty);
@@ -172,8 +183,9 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
         double len = -2.0 * (tx * qx + ty * qy);
         qx += len * tx;
         qy += len * ty;
-        double vx, vy;
-        if (j >= mlo && refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy)) {
+        if (j >= mlo) {
+            double vx, vy;
+            refract_out(tx, ty, qx, qy, pb->eta, cos_in, &vx, &vy);
             f[j + 1] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
             ahead[j + 1] = vx * (pb->y1 - qx) + vy * (pb->y2 - qy);
             ang[j + 1][0] = a_in;
