@@ -9,6 +9,8 @@
  *   the dense scan finds is among spc_sphere_chain_roots', and every one of those is a root; and
  *   1500 configurations of the outside reflection and the refraction through with y mostly behind
  *   the sphere, where the refraction's caustic puts pairs of roots close together (its folds).
+ * - The outside reflection, which is solved in closed form (a quartic), against the dense scan over
+ *   4000 configurations: far, near the sphere, grazing, and y behind the sphere.
  * - In a scene: the chains spc_sphere_chains_all enumerates from floor points to light points
  *   through a glass ball (chains of up to 3 vertices, reflections included) and a mirror ball, each
  *   checked to end on its light point, contain every distinct chain that 3000 randomized angular
@@ -187,6 +189,99 @@ TEST(planar_roots_near_the_sphere)
     int dense = 0;
     planar_dense(1500, true, true, &dense);
     CHECK(dense > 500);
+}
+
+/* The outside reflection (solved as a quartic) against a dense scan of f_angles over 4000 random
+ * configurations of four kinds: x and y far (up to 1000 radii), x near the sphere (within 1e-4 to
+ * 0.1 radii), y near the grazing ray from x (the root at the arc's end), and y behind the sphere
+ * seen from x. Every root the scan brackets is returned, at the scan's root refined by bisection
+ * to within 1e-9, and every returned root is a root with y ahead. */
+TEST(reflection_roots_against_dense_scan)
+{
+    spc_rng_seed(&rng, 13, 1);
+    int dense_roots = 0, found = 0, missed = 0, extra = 0, most = 0;
+    double worst = 0.0;
+    for (int trial = 0; trial < 4000; ++trial) {
+        int kind = trial % 4;
+        double d, y1, y2;
+        if (kind == 0) { /* far */
+            d = 1.0 + exp(log(1000.0) * rnd());
+            double r = 1.0 + exp(log(1000.0) * rnd()), a = SPC_PI * rnd();
+            y1 = r * cos(a);
+            y2 = r * sin(a);
+        } else if (kind == 1) { /* x near the sphere */
+            d = 1.0 + exp(log(1e-4) + (log(0.1) - log(1e-4)) * rnd());
+            double r = 1.0 + 5.0 * rnd() * rnd(), a = SPC_PI * rnd();
+            y1 = r * cos(a);
+            y2 = r * sin(a);
+        } else if (kind == 2) { /* y beside the grazing ray from x past its tangent point */
+            d = 1.001 + 10.0 * rnd() * rnd();
+            double tm = acos(1.0 / d), px = cos(tm), py = sin(tm);
+            double ux = px - d, uy = py, ul = sqrt(ux * ux + uy * uy), s = 0.01 + 5.0 * rnd();
+            double e = exp(log(1e-7) + (log(0.1) - log(1e-7)) * rnd()) * (rnd() < 0.8 ? 1.0 : -1.0);
+            y1 = px + s * ux / ul + e * px;
+            y2 = py + s * uy / ul + e * py;
+            if (y1 * y1 + y2 * y2 <= 1.0 + 1e-9)
+                continue;
+        } else { /* y behind the sphere */
+            d = 1.01 + 10.0 * rnd() * rnd();
+            double r = 1.0 + exp(log(1e-3) + (log(3.0) - log(1e-3)) * rnd()), a = SPC_PI - 1.4 * rnd();
+            y1 = r * cos(a);
+            y2 = r * sin(a);
+        }
+        double r = sqrt(y1 * y1 + y2 * y2);
+        double theta[16];
+        int n = spc_sphere_chain_roots(d, y1, y2, -1, 1.5, theta, 16);
+        most = n > most ? n : most;
+        for (int i = 0; i < n; ++i) {
+            double f, ahead;
+            bool ok = f_angles(d, y1, y2, -1, 1.5, theta[i], &f, &ahead);
+            if (!(ok && fabs(f) < 1e-9 * (1.0 + r) && ahead > 0.0)) {
+                ++extra;
+                printf("    false: d %g y (%g, %g) root %g f %g ahead %g\n", d, y1, y2, theta[i], f, ahead);
+            }
+        }
+        const int N = 3000;
+        double tmax = acos(1.0 / d) * (1.0 - 1e-9);
+        double fp = 0, ap = 0, tp = 0;
+        for (int j = 0; j <= N; ++j) {
+            double t = -tmax + 2.0 * tmax * j / N, f, ahead;
+            f_angles(d, y1, y2, -1, 1.5, t, &f, &ahead);
+            if (j > 0 && (f > 0.0) != (fp > 0.0) && ahead > 0.0 && ap > 0.0) {
+                double lo = tp, hi = t, flo = fp;
+                for (int it = 0; it < 60; ++it) {
+                    double mid = 0.5 * (lo + hi), fm, am;
+                    f_angles(d, y1, y2, -1, 1.5, mid, &fm, &am);
+                    if ((fm > 0.0) == (flo > 0.0)) {
+                        lo = mid;
+                        flo = fm;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                double root = 0.5 * (lo + hi), best = 1e300;
+                ++dense_roots;
+                for (int i = 0; i < n; ++i)
+                    best = fmin(best, fabs(theta[i] - root));
+                if (best < 1e-9) {
+                    ++found;
+                    worst = fmax(worst, best);
+                } else {
+                    ++missed;
+                    printf("    missed: d %g y (%g, %g) root %g (arc +-%g), nearest returned %g away\n", d, y1, y2,
+                           root, tmax, best);
+                }
+            }
+            fp = f;
+            ap = ahead;
+            tp = t;
+        }
+    }
+    printf("    dense scan %d roots, found %d (at most %.2g apart), missed %d; %d returned roots false; at most %d "
+           "per configuration\n",
+           dense_roots, found, worst, missed, extra, most);
+    CHECK(missed == 0 && extra == 0);
+    CHECK(dense_roots > 1800);
 }
 
 /* ---- in a scene ---- */
@@ -847,6 +942,7 @@ int main(void)
 {
     RUN(planar_roots_against_dense_scan);
     RUN(planar_roots_near_the_sphere);
+    RUN(reflection_roots_against_dense_scan);
     RUN(sphere_chains_contain_randomized_solutions);
     RUN(cylinder_roots_against_dense_scan);
     RUN(cylinder_chains_contain_randomized_solutions);

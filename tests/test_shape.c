@@ -8,7 +8,9 @@
 
 #include "core/rng.h"
 #include "harness.h"
+#include "scene/scene.h"
 #include "scene/shape.h"
+#include "specula/specula.h"
 
 static spc_rng rng;
 static double rnd(void) { return spc_rng_next(&rng); }
@@ -499,6 +501,74 @@ TEST(mesh_area_sampling_uniform)
     spc_shape_release(&s);
 }
 
+/* A sphere's uv only where its materials read them: spc_scene_finalize marks the spheres whose BSDF
+ * and emitter read no uv (a constant reflectance, a dielectric, a constant area light) and not
+ * those with a checkerboard (also nested in twosided); on a marked sphere the hit's and the area
+ * sample's uv are zero and every other field is bit for bit the unmarked sphere's. */
+TEST(sphere_uv_only_where_read)
+{
+    static const char *xml =
+        "<scene version=\"3.0.0\">\n"
+        "<shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0\" z=\"0\"/>"
+        "<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5\"/></bsdf></shape>\n"
+        "<shape type=\"sphere\"><point name=\"center\" x=\"3\" y=\"0\" z=\"0\"/>"
+        "<bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\"/></bsdf></shape>\n"
+        "<shape type=\"sphere\"><point name=\"center\" x=\"6\" y=\"0\" z=\"0\"/>"
+        "<emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>\n"
+        "<shape type=\"sphere\"><point name=\"center\" x=\"9\" y=\"0\" z=\"0\"/><bsdf type=\"dielectric\"/></shape>\n"
+        "<shape type=\"sphere\"><point name=\"center\" x=\"12\" y=\"0\" z=\"0\"/><bsdf type=\"twosided\">"
+        "<bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\"/></bsdf></bsdf></shape>\n"
+        "</scene>\n";
+    const char *dir = getenv("TMPDIR");
+    char path[512];
+    snprintf(path, sizeof path, "%s/spc_test_sphere_uv_%d.xml", dir ? dir : "/tmp", (int)(rnd() * 1e9));
+    FILE *f = fopen(path, "w");
+    CHECK(f != NULL);
+    if (!f)
+        return;
+    fputs(xml, f);
+    fclose(f);
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK_MSG(spc_scene_load(path, NULL, 0, &sc, &err) == SPC_OK, "%s", err.msg);
+    remove(path);
+    if (!sc)
+        return;
+    CHECK(sc->nshapes == 5);
+    const bool unread[5] = {true, false, true, true, false};
+    for (int i = 0; i < 5 && i < sc->nshapes; ++i)
+        CHECK_MSG(sc->shapes[i]->uv_unread == unread[i], "sphere %d: uv_unread %d", i, sc->shapes[i]->uv_unread);
+    spc_shape read = *sc->shapes[0];
+    read.uv_unread = false;
+    const spc_shape *marked = sc->shapes[0];
+    int differ = 0, zero = 0, nonzero = 0;
+    for (int i = 0; i < 200; ++i) {
+        spc_vec3 n = spc_warp_uniform_sphere(spc_v2(rnd(), rnd()));
+        spc_ray r = {spc_madd(marked->center, n, 3.0), spc_neg(n), 0.0, INFINITY};
+        spc_hit a, b;
+        memset(&a, 0, sizeof a);
+        memset(&b, 0, sizeof b);
+        spc_shape_fill_hit(marked, 0, 0, 0, &r, 2.0, &a);
+        spc_shape_fill_hit(&read, 0, 0, 0, &r, 2.0, &b);
+        zero += a.uv.x == 0.0 && a.uv.y == 0.0 && a.b1 == 0.0 && a.b2 == 0.0;
+        nonzero += b.uv.y > 0.0 && b.b1 == b.uv.x && b.b2 == b.uv.y;
+        b.uv = a.uv;
+        b.b1 = a.b1;
+        b.b2 = a.b2;
+        b.shape = a.shape; /* the copy's address */
+        differ += memcmp(&a, &b, sizeof a) != 0;
+        spc_shape_sample sa, sb;
+        spc_vec2 u = spc_v2(rnd(), rnd());
+        spc_shape_sample_area(marked, u, &sa);
+        spc_shape_sample_area(&read, u, &sb);
+        zero += sa.uv.x == 0.0 && sa.uv.y == 0.0;
+        nonzero += sb.uv.y > 0.0;
+        differ += !(sa.p.x == sb.p.x && sa.p.y == sb.p.y && sa.p.z == sb.p.z && sa.pdf == sb.pdf);
+    }
+    CHECK_MSG(zero == 400 && nonzero == 400 && differ == 0, "uv zero %d, filled %d; %d differ", zero, nonzero, differ);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     spc_rng_seed(&rng, 12, 34);
@@ -511,5 +581,6 @@ int main(void)
     RUN(mesh_kept_frames_match);
     RUN(mesh_lazy_derivatives_match);
     RUN(mesh_chain_hits_complete);
+    RUN(sphere_uv_only_where_read);
     return spc_test_finish();
 }

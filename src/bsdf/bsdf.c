@@ -94,6 +94,26 @@ bool spc_bsdf_reads_derivatives(const spc_bsdf *b)
     return true;
 }
 
+static bool texture_reads_uv(const spc_texture *t) { return t && t->type != SPC_TEX_CONSTANT; }
+
+bool spc_bsdf_reads_uv(const spc_bsdf *b)
+{
+    if (!b)
+        return false;
+    if (b->type == SPC_BSDF_NORMALMAP || b->type == SPC_BSDF_BUMPMAP)
+        return true; /* their maps, and the texture frame from the surface coordinates */
+    const spc_principled_params *pr = &b->pr;
+    const spc_texture *tex[] = {b->reflectance,  b->specular_reflectance, b->specular_transmittance, b->alpha_u,
+                                b->alpha_v,      b->weight,               b->opacity,                pr->base_color,
+                                pr->roughness,   pr->anisotropic,         pr->metallic,              pr->spec_trans,
+                                pr->spec_tint,   pr->sheen,               pr->sheen_tint,            pr->flatness,
+                                pr->clearcoat,   pr->clearcoat_gloss,     pr->diff_trans,            pr->eta_thin};
+    for (size_t i = 0; i < sizeof tex / sizeof tex[0]; ++i)
+        if (texture_reads_uv(tex[i]))
+            return true;
+    return spc_bsdf_reads_uv(b->nested[0]) || spc_bsdf_reads_uv(b->nested[1]);
+}
+
 spc_rgb spc_bsdf_eval(const spc_bsdf *b, const spc_hit *h, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
 {
     if (!b)

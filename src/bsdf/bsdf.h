@@ -148,6 +148,9 @@ unsigned spc_bsdf_flags(const spc_bsdf *b);
 /* Does evaluating or sampling b read the hit's derivatives dpdu, dpdv, dndu, dndv (a normalmap or
  * bumpmap anywhere in it)? Where not, a hit record may leave them out (scene/hit.h). */
 bool spc_bsdf_reads_derivatives(const spc_bsdf *b);
+/* Whether b (or a BSDF nested in it) reads a hit's uv (or its surface coordinates b1, b2): a texture
+ * that is not a constant, a normal or bump map. False: uv does not change what it returns. */
+bool spc_bsdf_reads_uv(const spc_bsdf *b);
 static inline bool spc_bsdf_has_smooth(const spc_bsdf *b) { return (spc_bsdf_flags(b) & SPC_LOBE_SMOOTH) != 0; }
 static inline bool spc_bsdf_is_delta_only(const spc_bsdf *b) { return (spc_bsdf_flags(b) & SPC_LOBE_SMOOTH) == 0; }
 

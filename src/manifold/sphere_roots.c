@@ -18,6 +18,10 @@
  * spacing of the arc's grazing end, and, from x near the sphere, pairs closer than the coarse
  * grid's spacing anywhere on the arc (hence the finer grid there). Roots are refined to 1e-12 in
  * theta; the polish in 3D (sphere_chains.c) takes it from there.
+ *
+ * The outside reflection (m = -1) is Alhazen's problem and needs no grid: a quartic in
+ * tan(theta / 2) with one root at most on the arc both points see (reflection_roots below); 7.5x
+ * less CPU per query than the grid's search for it (bench: 116 against 870 ns), the same roots.
  */
 #include "manifold/sphere_roots.h"
 
@@ -90,46 +94,49 @@ static inline bool refract2(double wx, double wy, double nx, double ny, double r
     return true;
 }
 
+/* The way out of the sphere at q along t (the inward normal -q, ratio eta). Every chord meets the
+ * circle at the internal angle of the way in, so the way out's transmitted cosine is the way in's
+ * incident cosine cos_in (Snell's law read backwards): the refraction without its square root, and
+ * it always exists where the way in does. */
+static inline void refract_out(double tx, double ty, double qx, double qy, double eta, double cos_in, double *ox,
+                               double *oy)
+{
+    double k = eta * (tx * qx + ty * qy) - cos_in;
+    *ox = eta * tx - k * qx;
+    *oy = eta * ty - k * qy;
+}
+
 /* The angles roots1d watches (in turns): the way in, the first direction inside (the chords turn
  * with it) and the way out. */
 #define SPHERE_ANGLES 3
 
-/* f(theta) and (y - Q).v at the entry point (cos theta, sin theta) = (qx, qy), and (ang, if not
- * NULL) the angles; false where a refraction does not exist (total internal reflection). */
+/* f(theta) and (y - Q).v at the entry point (cos theta, sin theta) = (qx, qy) of a chain through the
+ * sphere (m >= 0), and (ang, if not NULL) the angles; false where a refraction does not exist (total
+ * internal reflection). */
 static bool plane_eval_at(const plane_problem *pb, double qx, double qy, double *f, double *ahead, double *ang)
 {
     double ux = qx - pb->d, uy = qy;
     double ul = sqrt(ux * ux + uy * uy);
     ux /= ul;
     uy /= ul;
-    double vx, vy;
+    double vx, vy, tx, ty, cos_in = -(ux * qx + uy * qy);
     if (ang)
         ang[0] = spc_roots1d_turns(ux, uy);
-    if (pb->m < 0) {
-        double dn = ux * qx + uy * qy;
-        vx = ux - 2.0 * dn * qx;
-        vy = uy - 2.0 * dn * qy;
-        if (ang)
-            ang[1] = spc_roots1d_turns(vx, vy);
-    } else {
-        double tx, ty;
-        if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
-            return false;
-        if (ang)
-            ang[1] = spc_roots1d_turns(tx, ty);
-        for (int j = 0; j <= pb->m; ++j) {
-            double len = -2.0 * (tx * qx + ty * qy);
-            qx += len * tx;
-            qy += len * ty;
-            if (j < pb->m) {
-                double dn = tx * qx + ty * qy;
-                tx -= 2.0 * dn * qx;
-                ty -= 2.0 * dn * qy;
-            }
+    if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
+        return false;
+    if (ang)
+        ang[1] = spc_roots1d_turns(tx, ty);
+    for (int j = 0; j <= pb->m; ++j) {
+        double len = -2.0 * (tx * qx + ty * qy);
+        qx += len * tx;
+        qy += len * ty;
+        if (j < pb->m) {
+            double dn = tx * qx + ty * qy;
+            tx -= 2.0 * dn * qx;
+            ty -= 2.0 * dn * qy;
         }
-        if (!refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy))
-            return false;
     }
+    refract_out(tx, ty, qx, qy, pb->eta, cos_in, &vx, &vy);
     if (ang)
         ang[2] = spc_roots1d_turns(vx, vy);
     double rx = pb->y1 - qx, ry = pb->y2 - qy;
@@ -156,8 +163,8 @@ static bool plane_fn(const void *ctx, double th, double *f, double *ahead, doubl
     return plane_eval_at(ctx, qx, qy, f, ahead, ang);
 }
 
-/* f of every signature m = mlo..mhi at the entry point (qx, qy), sharing the way in and the chords:
- * f[m + 1], ok[m + 1] (m = -1: the outside reflection). */
+/* f of every signature m = mlo..mhi (0 <= mlo) at the entry point (qx, qy), sharing the way in and
+ * the chords: f[m + 1], ok[m + 1]. */
 static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx, double qy, double *f, double *ahead,
                            double (*ang)[SPHERE_ANGLES], bool *ok)
 {
@@ -168,18 +175,7 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
     ux /= ul;
     uy /= ul;
     double a_in = spc_roots1d_turns(ux, uy);
-    if (mlo < 0) {
-        double dn = ux * qx + uy * qy;
-        double vx = ux - 2.0 * dn * qx, vy = uy - 2.0 * dn * qy;
-        f[0] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
-        ahead[0] = vx * (pb->y1 - qx) + vy * (pb->y2 - qy);
-        ang[0][0] = a_in;
-        ang[0][1] = ang[0][2] = spc_roots1d_turns(vx, vy);
-        ok[0] = true;
-    }
-    if (mhi < 0)
-        return;
-    double tx, ty;
+    double tx, ty, cos_in = -(ux * qx + uy * qy);
     if (!refract2(ux, uy, qx, qy, 1.0 / pb->eta, &tx, &ty))
         return;
     double a_t = spc_roots1d_turns(tx, ty);
@@ -187,8 +183,9 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
         double len = -2.0 * (tx * qx + ty * qy);
         qx += len * tx;
         qy += len * ty;
-        double vx, vy;
-        if (j >= mlo && refract2(tx, ty, -qx, -qy, pb->eta, &vx, &vy)) {
+        if (j >= mlo) {
+            double vx, vy;
+            refract_out(tx, ty, qx, qy, pb->eta, cos_in, &vx, &vy);
             f[j + 1] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
             ahead[j + 1] = vx * (pb->y1 - qx) + vy * (pb->y2 - qy);
             ang[j + 1][0] = a_in;
@@ -202,13 +199,130 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
     }
 }
 
-/* The roots of the signatures m = mlo..mhi on one arc (|theta| < tmax): theta[m + 1][...], n[m + 1]. */
+/* ---- the outside reflection: Alhazen's problem as a quartic ---- */
+
+/* P(t) = c[0] + c[1] t + ... + c[n] t^n by Horner's rule, and P'(t) in *dp. */
+static inline double poly_eval_d(const double *c, int n, double t, double *dp)
+{
+    double p = c[n], d = 0.0;
+    for (int i = n - 1; i >= 0; --i) {
+        d = d * t + p;
+        p = p * t + c[i];
+    }
+    *dp = d;
+    return p;
+}
+
+/* The root of P in (lo, hi), where P(lo) = flo and P(hi) = fhi have opposite signs and P has one
+ * simple root: Newton's method from the secant's point, each step kept inside the bracket (a halving
+ * where it leaves it; the bracket shrinks by the sign at every step), until a step moves t by less
+ * than tol (near the root a step is rounding noise, which tol must stay above: it is relative to the
+ * whole interval searched, not to t). */
+static double bracketed_root(const double *c, int n, double lo, double flo, double hi, double fhi, double tol)
+{
+    double t = (lo * fhi - hi * flo) / (fhi - flo);
+    if (!(t > lo && t < hi))
+        t = 0.5 * (lo + hi);
+    for (int it = 0; it < 100; ++it) {
+        double dp, p = poly_eval_d(c, n, t, &dp);
+        if (p == 0.0)
+            return t;
+        if ((p > 0.0) == (flo > 0.0))
+            lo = t;
+        else
+            hi = t;
+        double tn = t - p / dp;
+        if (!(tn > lo && tn < hi))
+            tn = 0.5 * (lo + hi);
+        if (fabs(tn - t) <= tol || tn == lo || tn == hi)
+            return tn;
+        t = tn;
+    }
+    return t;
+}
+
+/* The outside reflection's roots (m = -1) on the arc |theta| < tmax x sees. With the circle's points
+ * as complex numbers, x = d, y = y1 + i y2 and P = e^(i theta), the law of reflection at P with y
+ * ahead says that (x - P) / P and (y - P) / P are mirror images about the real axis up to a positive
+ * factor: w = (x - P)(y - P) / P^2 is real and positive (negative: y on the reflected line behind
+ * P). Im w = 0 reads
+ *     g(theta) = d (y2 cos 2theta - y1 sin 2theta) - y2 cos theta + (d + y1) sin theta = 0,
+ * and with t = tan(theta / 2) (cos theta = (1 - t^2) / (1 + t^2), sin theta = 2 t / (1 + t^2)),
+ * times (1 + t^2)^2, the quartic (Alhazen's problem)
+ *     y2 (d + 1) t^4 + (4 d y1 + 2 (d + y1)) t^3 - 6 d y2 t^2 + (2 (d + y1) - 4 d y1) t + y2 (d - 1).
+ * Of its up to four real roots one at most is a chain: a root with y ahead lies on the arc that
+ * both x and y see (the reflected ray leaves P outward, so y = P + s v has y.P > 1), and there the
+ * path length |x - P| + |y - P| is strictly convex in theta (d^2/dtheta^2 |x - P| =
+ * d (d cos theta - 1)(d - cos theta) / |x - P|^3 > 0 where x sees P, the same for y), so it has one
+ * stationary point at most, a simple root where g changes sign (g and the length's derivative are
+ * sin((a_x + a_y) / 2) times positive factors there, a_x, a_y the angles of x - P and y - P to the
+ * normal). So: the quartic on that arc's t-interval (|t| < tan(tmax / 2) <= 1: well conditioned),
+ * a root where its ends' signs differ, by bracketed Newton steps, then one Newton step on g in
+ * theta (its value and slope from t, no libm but the one atan); kept where y is ahead (the same
+ * arc up to rounding). */
+static int reflection_roots(double d, double y1, double y2, double tmax, double *theta, int max_roots)
+{
+    double c[5] = {y2 * (d - 1.0), 2.0 * (d + y1) - 4.0 * d * y1, -6.0 * d * y2, 4.0 * d * y1 + 2.0 * (d + y1),
+                   y2 * (d + 1.0)};
+    double T = sqrt((d - 1.0) / (d + 1.0)), t[4];
+    int nt = 0, n = 0;
+    /* y sees the arc between its tangent points P+- = (y +- s (-y2, y1)) / r^2, s = sqrt(r^2 - 1),
+     * at the angles phi +- acos(1 / r) about y's; t = P.y / (1 + P.x) */
+    double r2 = y1 * y1 + y2 * y2, s = sqrt(r2 - 1.0);
+    double pmx = (y1 + s * y2) / r2, pmy = (y2 - s * y1) / r2, ppx = (y1 - s * y2) / r2, ppy = (y2 + s * y1) / r2;
+    double tm = 1.0 + pmx > 0.0 ? pmy / (1.0 + pmx) : -INFINITY, tp = 1.0 + ppx > 0.0 ? ppy / (1.0 + ppx) : INFINITY;
+    double lo[2], hi[2];
+    int npieces = 0;
+    if (tm <= tp) {
+        lo[npieces] = fmax(tm, -T);
+        hi[npieces++] = fmin(tp, T);
+    } else {
+        /* y's arc holds theta = pi: t from tm up and from tp down */
+        lo[npieces] = fmax(tm, -T);
+        hi[npieces++] = T;
+        lo[npieces] = -T;
+        hi[npieces++] = fmin(tp, T);
+    }
+    for (int k = 0; k < npieces; ++k) {
+        if (!(lo[k] < hi[k]))
+            continue;
+        double dp, flo = poly_eval_d(c, 4, lo[k], &dp), fhi = poly_eval_d(c, 4, hi[k], &dp);
+        if (flo != 0.0 && fhi != 0.0 && (flo > 0.0) != (fhi > 0.0))
+            t[nt++] = bracketed_root(c, 4, lo[k], flo, hi[k], fhi, 1e-15 * T);
+    }
+    for (int i = 0; i < nt && n < max_roots; ++i) {
+        double t2 = t[i] * t[i], inv = 1.0 / (1.0 + t2);
+        double ct = (1.0 - t2) * inv, st = 2.0 * t[i] * inv;
+        double c2 = (ct - st) * (ct + st), s2 = 2.0 * st * ct;
+        double g = d * (y2 * c2 - y1 * s2) - y2 * ct + (d + y1) * st;
+        double dg = -2.0 * d * (y2 * s2 + y1 * c2) + y2 * st + (d + y1) * ct;
+        double th = 2.0 * atan(t[i]);
+        if (dg != 0.0 && fabs(g / dg) < 1e-6)
+            th -= g / dg;
+        if (!(fabs(th) < tmax))
+            continue;
+        /* y ahead of the reflected ray: (y - Q).v > 0, with v = u - 2 (u.Q) Q, u the unit x -> Q */
+        double ux = ct - d, uy = st, dn = ux * ct + uy * st;
+        double vx = ux - 2.0 * dn * ct, vy = uy - 2.0 * dn * st;
+        if (!(vx * (y1 - ct) + vy * (y2 - st) > 0.0))
+            continue;
+        bool same = false;
+        for (int j = 0; j < n; ++j)
+            same |= fabs(theta[j] - th) < 1e-10;
+        if (!same)
+            theta[n++] = th;
+    }
+    return n;
+}
+
+/* The roots of the signatures m = mlo..mhi (0 <= mlo) on one arc (|theta| < tmax): theta[m + 1][...],
+ * n[m + 1]. */
 static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, int mhi, double tmax,
                          double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
 {
     enum { G = SPC_SPHERE_GRID_NEAR };
     int g = d < SPC_SPHERE_NEAR_D ? SPC_SPHERE_GRID_NEAR : SPC_SPHERE_GRID;
-    double th[G + 1], f[G + 1][SPC_SPHERE_SIGNATURES], ah[G + 1][SPC_SPHERE_SIGNATURES], pc[G + 1][2];
+    double th[G + 1], f[G + 1][SPC_SPHERE_SIGNATURES], ah[G + 1][SPC_SPHERE_SIGNATURES];
     double an[G + 1][SPC_SPHERE_SIGNATURES][SPHERE_ANGLES];
     bool ok[G + 1][SPC_SPHERE_SIGNATURES];
     /* the entry points by rotation from the first (cos and sin once) */
@@ -219,8 +333,6 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
     plane_problem pb = {d, y1, y2, eta, 0};
     for (int j = 0; j <= g; ++j) {
         th[j] = -tmax + step * j;
-        pc[j][0] = cx;
-        pc[j][1] = cy;
         plane_eval_all(&pb, mlo, mhi, cx, cy, f[j], ah[j], an[j], ok[j]);
         double nx = cx * cs - cy * sn, ny = cx * sn + cy * cs;
         cx = nx;
@@ -237,15 +349,9 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
                 angm[j][i] = an[j][m + 1][i];
         }
         pb.m = m;
-        /* an outside reflection reaches y only from a point y sees (y beyond its tangent plane):
-         * the cells of the arc y cannot see hold no root (spc_sphere_arc_unseen) */
-        bool skip[G], any = false;
-        if (m < 0)
-            for (int j = 0; j < g; ++j)
-                any |= skip[j] = spc_sphere_arc_unseen(y1, y2, pc[j], pc[j + 1]);
         /* to 1e-12: the 3D polish (spc_sphere_chains_all) converges from there in one trace */
-        n[m + 1] = spc_roots1d(plane_fn, NULL, &pb, th, fm, am, &angm[0][0], SPHERE_ANGLES, okm, g, any ? skip : NULL,
-                               1e-12 * tmax, theta[m + 1], SPC_SPHERE_MAX_ROOTS);
+        n[m + 1] = spc_roots1d(plane_fn, NULL, &pb, th, fm, am, &angm[0][0], SPHERE_ANGLES, okm, g, NULL, 1e-12 * tmax,
+                               theta[m + 1], SPC_SPHERE_MAX_ROOTS);
     }
 }
 
@@ -257,15 +363,20 @@ void spc_sphere_chain_roots_all(double d, double y1, double y2, double eta, int 
     if (!(d > 1.0) || !(y1 * y1 + y2 * y2 > 1.0) || (mhi >= 0 && !(eta > 0.0)))
         return;
     double tmax = acos(1.0 / d) * (1.0 - 1e-9);
-    if (mhi >= 0 && eta < 1.0) {
+    if (mlo < 0) {
+        /* the outside reflection in closed form; the grid serves the signatures through the sphere */
+        n[0] = reflection_roots(d, y1, y2, tmax, theta[0], SPC_SPHERE_MAX_ROOTS);
+        mlo = 0;
+        if (mhi < 0)
+            return;
+    }
+    if (eta < 1.0) {
         /* a bubble (inside the lower index): the way in exists where sin i = d sin(theta) / |P - x|
          * stays below eta, i.e. cos(theta) above (eta^2 + sqrt((d^2 - eta^2)(1 - eta^2))) / d; the
          * way out then always does (it mirrors the way in). The outside reflection keeps the arc. */
         double c = (eta * eta + sqrt((d * d - eta * eta) * (1.0 - eta * eta))) / d;
         double tin = acos(c < 1.0 ? c : 1.0) * (1.0 - 1e-9);
-        if (mlo < 0)
-            roots_on_arc(d, y1, y2, eta, -1, -1, tmax, theta, n);
-        roots_on_arc(d, y1, y2, eta, mlo > 0 ? mlo : 0, mhi, tin < tmax ? tin : tmax, theta, n);
+        roots_on_arc(d, y1, y2, eta, mlo, mhi, tin < tmax ? tin : tmax, theta, n);
         return;
     }
     roots_on_arc(d, y1, y2, eta, mlo, mhi, tmax, theta, n);

@@ -6,7 +6,8 @@
  * radial, so each reflection and refraction keeps the direction in the plane that holds the
  * incoming ray and the centre. In that plane, scaled to the unit circle, the chain is a function of
  * one number, the angle of its entry point on the circle seen from x, and a solution is a root of
- * the signed distance between y and the chain's final line. The roots are isolated on a grid over
+ * the signed distance between y and the chain's final line. The outside reflection's roots are a
+ * quartic's (Alhazen's problem); the others' are isolated on a grid over
  * the arc x sees (sign changes, and pairs of roots between samples where the samples have a local
  * extremum that crosses zero: near a fold of the caustic) and refined by bracketed secant steps.
  * Pure geometry: the scene's chains (sphere_chains.h) and the fitted sphere's seeds (fit_seeds.h)

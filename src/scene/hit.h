@@ -20,6 +20,7 @@
  *   whose BSDF reads no derivatives (spc_shape.lazy_derivs) they leave dpdu, dpdv, dndu, dndv and
  *   n_unmapped out, and spc_shape_hit_derivatives fills them on demand, the values that
  *   spc_shape_fill_hit gives. Shading reads t, p, ng, sh, uv, err, the indices and pointers.
+ * - On a sphere whose BSDF and emitter read no uv (spc_shape.uv_unread) uv, b1 and b2 are zero.
  */
 #ifndef SPC_SCENE_HIT_H
 #define SPC_SCENE_HIT_H

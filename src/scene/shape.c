@@ -691,6 +691,11 @@ static void mesh_derivatives(const spc_shape *s, int prim, double b1, double b2,
     mesh_normal_derivatives(s, spc_scale(nr, 1.0 / len), n0, n1, n2, len, h);
 }
 
+/* The sphere's hit from the unit direction l of the point in the shape's local frame: its
+ * parameterization p = R (sin theta cos phi, sin theta sin phi, cos theta), u = phi / 2 pi,
+ * v = theta / pi, whose sines and cosines are l's coordinates (sin theta = |l.xy|), so the
+ * derivatives and the frame need no trigonometry; uv (acos, atan2) only where the shape's
+ * materials read it (uv_unread: zero). */
 static void fill_sphere(const spc_shape *s, const spc_ray *r, double t, spc_hit *h)
 {
     spc_vec3 p = spc_madd(r->o, r->d, t);
@@ -699,15 +704,22 @@ static void fill_sphere(const spc_shape *s, const spc_ray *r, double t, spc_hit 
     h->p = spc_madd(s->center, dir, R);
     h->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + R);
     spc_vec3 l = spc_mat4_apply_vector(&s->to_local, dir);
-    double theta = acos(spc_clamp(l.z, -1.0, 1.0));
-    double phi = atan2(l.y, l.x);
-    if (phi < 0.0)
-        phi += 2.0 * SPC_PI;
-    h->uv = spc_v2(phi * SPC_INV_2PI, theta * SPC_INV_PI);
+    if (s->uv_unread) {
+        h->uv = spc_v2(0.0, 0.0);
+    } else {
+        double theta = acos(spc_clamp(l.z, -1.0, 1.0));
+        double phi = atan2(l.y, l.x);
+        if (phi < 0.0)
+            phi += 2.0 * SPC_PI;
+        h->uv = spc_v2(phi * SPC_INV_2PI, theta * SPC_INV_PI);
+    }
     h->b1 = h->uv.x;
     h->b2 = h->uv.y;
-    double st = sin(theta), ct = cos(theta), sp = sin(phi), cp = cos(phi);
-    /* local p = R (st cp, st sp, ct); u = phi/2pi, v = theta/pi */
+    double st = sqrt(l.x * l.x + l.y * l.y), ct = l.z, sp = 0.0, cp = 1.0; /* at a pole atan2 gives phi = 0 */
+    if (st > 0.0) {
+        cp = l.x / st;
+        sp = l.y / st;
+    }
     spc_vec3 dpdu_l = spc_v3(-2.0 * SPC_PI * R * st * sp, 2.0 * SPC_PI * R * st * cp, 0.0);
     spc_vec3 dpdv_l = spc_v3(SPC_PI * R * ct * cp, SPC_PI * R * ct * sp, -SPC_PI * R * st);
     h->dpdu = spc_mat4_apply_vector(&s->to_world, dpdu_l);
@@ -925,11 +937,14 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
         spc_vec3 d = spc_warp_uniform_sphere(u);
         out->p = spc_madd(s->center, d, s->radius);
         out->n = s->flip_normals ? spc_neg(d) : d;
-        spc_vec3 l = spc_mat4_apply_vector(&s->to_local, d);
-        double phi = atan2(l.y, l.x);
-        if (phi < 0.0)
-            phi += 2.0 * SPC_PI;
-        out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
+        out->uv = spc_v2(0.0, 0.0); /* as fill_sphere: only where the shape's materials read it */
+        if (!s->uv_unread) {
+            spc_vec3 l = spc_mat4_apply_vector(&s->to_local, d);
+            double phi = atan2(l.y, l.x);
+            if (phi < 0.0)
+                phi += 2.0 * SPC_PI;
+            out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
+        }
         out->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + s->radius);
         return;
     }
@@ -1042,7 +1057,7 @@ bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, 
     out->p = spc_madd(s->center, n, R);
     out->n = s->flip_normals ? spc_neg(n) : n;
     out->uv = spc_v2(0.0, 0.0);
-    if (with_uv) {
+    if (with_uv && !s->uv_unread) {
         spc_vec3 l = spc_mat4_apply_vector(&s->to_local, n);
         double phi = atan2(l.y, l.x);
         if (phi < 0.0)

@@ -88,6 +88,10 @@ typedef struct spc_shape {
      * (spc_bsdf_reads_derivatives), so that its shading hits may leave them out
      * (spc_shape_fill_hit_shading) */
     bool lazy_derivs;
+    /* set by spc_scene_finalize: a SPHERE whose BSDF and emitter read no uv (spc_bsdf_reads_uv, a
+     * constant radiance), so that its hits leave uv, b1 and b2 at zero (fill_sphere: no acos and
+     * atan2 for coordinates nothing reads) */
+    bool uv_unread;
     spc_vec3 bbox_min, bbox_max;
     /* Per-shape data of a specular solver (manifold/conic_solver.c: the mesh hierarchy), built on
      * first use and published atomically, so concurrent readers are safe. Its first member is its
@@ -153,7 +157,7 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
  * probability-zero points where a shape's tangent is special (sphere poles, disk centre). */
 bool spc_shape_texture_frame(const spc_hit *h, spc_vec2 duv[2], spc_vec3 *T, spc_vec3 dT[2]);
 /* Fills every field of h for a hit of ray r at distance t on primitive prim with coordinates
- * (u, v) (barycentrics b1, b2 for triangles). */
+ * (u, v) (barycentrics b1, b2 for triangles); on a sphere with uv_unread, uv, b1 and b2 are zero. */
 void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h);
 /* spc_shape_fill_hit for shading: on a shape with lazy_derivs, every field but dpdu, dpdv, dndu,
  * dndv and n_unmapped (the same values as spc_shape_fill_hit's), which path tracing does not read
