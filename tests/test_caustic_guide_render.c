@@ -18,7 +18,7 @@
  * roulette reads the throughput BSDF sampling would have given (path.c), so guided paths last about
  * as long as unguided ones (here longer: more of them pass through the glass ball, where the
  * roulette does not thin them); reading the guided beta, which the guide's density scales down at
- * every bounce toward a caustic, it would end them about twice as often.
+ * every bounce toward a caustic, it would end them early: a third of the camera rays per sample.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
