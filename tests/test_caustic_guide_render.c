@@ -12,6 +12,13 @@
  *   - the demo (scenes/demo.xml): the ceiling and walls lit by the glass ball's caustic on the
  *     floor, specular NEE at the floor point weighted against BSDF sampling through the glass.
  * And the render's statistics say when the guide ran.
+ *
+ * The Russian roulette of guided paths: on the demo with roulette from the first bounce
+ * (rr_depth 1), the guide at 0.9 of the directions must not cut the camera paths short. The
+ * roulette reads the throughput BSDF sampling would have given (path.c), so guided paths last about
+ * as long as unguided ones (here longer: more of them pass through the glass ball, where the
+ * roulette does not thin them); reading the guided beta, which the guide's density scales down at
+ * every bounce toward a caustic, it would end them early: a third of the camera rays per sample.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -21,7 +28,7 @@
 #include "harness.h"
 #include "render_util.h"
 
-static spc_scene *load_text(const char *text)
+static spc_scene *load_text_defs(const char *text, const spc_define *defs, int ndefs)
 {
     char path[64];
     snprintf(path, sizeof path, "/tmp/spc_cguide_%ld.xml", (long)getpid());
@@ -32,11 +39,13 @@ static spc_scene *load_text(const char *text)
     fclose(fp);
     spc_scene *sc = NULL;
     spc_error err;
-    if (spc_scene_load(path, NULL, 0, &sc, &err) != SPC_OK)
+    if (spc_scene_load(path, defs, ndefs, &sc, &err) != SPC_OK)
         printf("  load failed: %s\n", err.msg);
     remove(path);
     return sc;
 }
+
+static spc_scene *load_text(const char *text) { return load_text_defs(text, NULL, 0); }
 
 static const char *const lit_caustic_xml =
     "<scene version=\"3.0.0\">\n"
@@ -106,8 +115,54 @@ TEST(demo)
     spc_scene_destroy(sc);
 }
 
+/* Rays traced from the camera (shadow rays left out) per camera sample. */
+static double camera_rays_per_sample(const spc_scene *sc, const char *snee, uint64_t seed)
+{
+    spc_render_stats st;
+    spc_film *f = tu_render_stats(sc, "path", snee, 32, 2, seed, &st);
+    spc_film_destroy(f);
+    return f && st.samples > 0 ? (double)(st.rays_traced - st.shadow_rays_traced) / (double)st.samples : 0.0;
+}
+
+TEST(guided_paths_survive_roulette)
+{
+    char path[1200];
+    snprintf(path, sizeof path, "%s/scenes/demo.xml", spc_test_source_dir());
+    FILE *fp = fopen(path, "rb");
+    CHECK(fp);
+    if (!fp)
+        return;
+    static char text[16384];
+    size_t n = fread(text, 1, sizeof text - 1, fp);
+    fclose(fp);
+    text[n] = 0;
+    /* the demo at 8x8, its roulette from the first bounce */
+    const char *at = "<integer name=\"max_depth\" value=\"$max_depth\"/>";
+    char *hit = strstr(text, at);
+    CHECK(hit);
+    if (!hit)
+        return;
+    static char edited[16600];
+    snprintf(edited, sizeof edited, "%.*s%s<integer name=\"rr_depth\" value=\"1\"/>%s", (int)(hit - text), text, at,
+             hit + strlen(at));
+    spc_define defs[1] = {{"res", "8"}};
+    spc_scene *sc = load_text_defs(edited, defs, 1);
+    CHECK(sc);
+    if (sc) {
+        double plain = camera_rays_per_sample(sc, "angular:later=1", 5);
+        double guided = camera_rays_per_sample(sc, "angular:later=1,recguide=0.9", 5);
+        /* guided / plain: 0.56 with the guided beta read by the roulette, 1.69 with the unguided one */
+        CHECK_MSG(plain > 0.0 && guided >= 0.9 * plain, "camera rays per sample: guided %.3f, plain %.3f", guided,
+                  plain);
+        printf("    camera rays per sample: guided %.3f, plain %.3f (ratio %.2f)\n", guided, plain,
+               plain > 0.0 ? guided / plain : 0.0);
+    }
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
+    RUN(guided_paths_survive_roulette);
     RUN(lit_caustic);
     RUN(demo);
     return spc_test_finish();

@@ -30,15 +30,39 @@
  * the emitter hit, specular NEE through path_snee's receiver).
  *
  * Throughput with Russian roulette: after rr_depth segments a path survives with probability
- * q = min(0.95, max(beta) * eta_scale^2), where eta_scale undoes the radiance scaling of
- * refraction so that paths inside glass are not killed for it (pbrt-v4).
+ * q = min(0.95, max(beta) * eta_scale^2 * guide_scale), where eta_scale undoes the radiance scaling
+ * of refraction so that paths inside glass are not killed for it (pbrt-v4), and guide_scale undoes
+ * the caustic guide's reweighting (the product of mixture / BSDF density over the guided bounces):
+ * a path the guide sent toward a caustic carries a small beta because the guide draws such
+ * directions often, not because it carries little light, so the roulette reads the throughput BSDF
+ * sampling would have given it. Otherwise the roulette kills most guided paths and scales the
+ * survivors' beta back up, and the caustic each survivor reaches (specular NEE near the caster, or
+ * the light hit through it) is counted at a throughput near 1: the guide's samples come back as
+ * the rare, bright ones it was built to avoid. Any q that depends only on the path so far keeps
+ * the estimate unbiased.
  */
 #include "integrator/path.h"
+
+#include <math.h>
 
 #include "integrator/aov.h"
 #include "integrator/path_snee.h"
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
+
+/* The factor by which the guided mixture at gv changed the throughput of the sample bs drawn at h:
+ * the mixture's density of bs.wi over the BSDF's own; for a delta lobe, which the mixture picks
+ * with probability 1 - a times the BSDF's, 1 - a. 1 where no guide ran or the BSDF's density is
+ * not positive. */
+static double guide_rr_factor(const spc_cguide_vertex *gv, const spc_hit *h, spc_vec3 wo, const spc_bsdf_sample *bs)
+{
+    if (!gv || !(gv->a > 0.0))
+        return 1.0;
+    if (bs->lobe & SPC_LOBE_DELTA)
+        return 1.0 - gv->a;
+    double pdf_bsdf = spc_bsdf_pdf(h->bsdf, h, SPC_MODE_RADIANCE, wo, bs->wi);
+    return pdf_bsdf > 0.0 && isfinite(bs->pdf) ? bs->pdf / pdf_bsdf : 1.0;
+}
 
 /* Emission splitting at a smooth dielectric seen through delta vertices only.
  *
@@ -105,6 +129,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     bool all_delta = true;      /* every scattering so far was a delta lobe */
     bool drop_emission = false; /* the emission at the next hit was counted by splitting */
     double prev_pdf = 1.0, eta_scale = 1.0;
+    double guide_scale = 1.0; /* beta * guide_scale: the throughput without the guide's reweighting */
     spc_vec3 prev_p = ray.o;
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
@@ -209,6 +234,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             break;
         spc_path_snee_scattered(&sn, &h, wo, bs.wi, bs.lobe);
         beta = spc_rgb_mul(beta, bs.weight);
+        guide_scale *= guide_rr_factor(gv, &h, wo, &bs);
         if (spc_rgb_is_black(beta))
             break;
         specular = (bs.lobe & SPC_LOBE_DELTA) != 0;
@@ -221,7 +247,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         ray = spc_hit_spawn(&h, bs.wi);
 
         if (segments >= ctx->rr_depth) {
-            double q = spc_min(0.95, spc_rgb_max(beta) * eta_scale);
+            double q = spc_min(0.95, spc_rgb_max(beta) * eta_scale * guide_scale);
             if (!(u_rr < q))
                 break;
             beta = spc_rgb_scale(beta, 1.0 / q);
