@@ -31,6 +31,7 @@ typedef struct fit_cache {
     bool torus; /* an SDF of one torus primitive (spc_fit_torus) */
     spc_vec3 axis;
     double major, minor;
+    double edge; /* a fitted mesh's longest edge over its radius (spc_fit_edge_angle) */
 } fit_cache;
 
 static void fit_destroy(void *p) { free(p); }
@@ -100,9 +101,17 @@ static void fit_build(const spc_shape *s, fit_cache *fc)
     for (size_t i = 0; i < m->nverts; ++i)
         if (fabs(spc_distance(spc_v3(m->p[3 * i], m->p[3 * i + 1], m->p[3 * i + 2]), c) - R) > SPC_FIT_TOL * R)
             return;
+    double e2 = 0.0;
+    for (size_t t = 0; t < m->ntris; ++t)
+        for (int k = 0; k < 3; ++k) {
+            const float *a = m->p + 3 * (size_t)m->idx[3 * t + k], *b = m->p + 3 * (size_t)m->idx[3 * t + (k + 1) % 3];
+            double dx = (double)a[0] - b[0], dy = (double)a[1] - b[1], dz = (double)a[2] - b[2];
+            e2 = fmax(e2, dx * dx + dy * dy + dz * dz);
+        }
     fc->ok = true;
     fc->center = c;
     fc->radius = R;
+    fc->edge = sqrt(e2) / R;
 }
 
 /* The shape's cache, built on first use (thread-safe); NULL where out of memory. */
@@ -174,6 +183,14 @@ static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, dou
             dir[n++] = spc_normalize(spc_sub(spc_sphere_plane_point(&pl, theta[m + 1][r]), x));
         }
     return n;
+}
+
+double spc_fit_edge_angle(const spc_shape *s)
+{
+    if (s->type != SPC_SHAPE_MESH)
+        return 0.0;
+    const fit_cache *cur = cache_of(s);
+    return cur && cur->ok ? cur->edge : 0.0;
 }
 
 bool spc_fit_torus(const spc_shape *s, spc_vec3 *center, spc_vec3 *axis, double *major, double *minor)

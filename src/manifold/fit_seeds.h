@@ -56,6 +56,10 @@ typedef struct spc_fit_roots {
  * within a few percent of one sphere, filling its bounding box as a ball does): true with its centre
  * and radius, false for every other shape. Built on first use and kept in s (thread-safe). */
 bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius);
+/* The longest edge of s over the radius of the sphere fitted to it (about the angle an edge
+ * subtends at the centre; a UV sphere of 48 x 25 faces: 0.18), 0 where s has no fit: how far a
+ * facet's plane tilts against its interpolated normals. */
+double spc_fit_edge_angle(const spc_shape *s);
 
 /* A seed direction for q's attempt toward caster s from the fitted sphere's solutions: with
  * probability SPC_FIT_SEED_SHARE, or q's params.fit_share where set (one uniform from rng, drawn

@@ -880,13 +880,146 @@ static double ball_long_psi(const spc_snee_query *q, int k)
     return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
 
+/* The grazing seeds of a tessellated ball: where the light point y lies just behind the fitted
+ * sphere's rim as seen from x, a ray that meets a facet at a grazing angle below the facet's tilt
+ * against its interpolated normals is reflected under the facet plane, meets the next facet and is
+ * reflected again: a (reflect, reflect) chain around the rim that the sphere itself (convex, no two
+ * reflections in a row) and so its fitted seeds do not have. The randomized attempts found one with
+ * p about 1e-3, so a BSDF-sampled path through it kept MIS weight 0.64 and held 0.95 of a seed's
+ * error under the triangle glass ball (bench/RESULTS.md, "grazing double reflections"). Such a chain
+ * exists only in a narrow window of grazing angles, too narrow for a few fixed seeds to land in: the
+ * rays in the plane of x, the centre and y, on y's side, passing the centre at fr (1 - delta), are
+ * traced through (reflect, reflect) on a grid of SPC_GRAZE_GRID + 1 values of delta up to
+ * SPC_GRAZE_DELTA e^2, e the mesh's edge angle (spc_fit_edge_angle; a facet tilts by about e / 2
+ * against its normals, and a ray at grazing angle g passes the centre at delta about g^2 / 2), and
+ * where the in-plane angle between the leaving ray and y changes sign between neighbours the
+ * interpolated direction is a seed, and so is the point past a run's end nearer zero where the chain
+ * stops existing between two grid points (a root there is common: the window is 2-3 grid points
+ * wide). Under the triangle glass ball (e = 0.18) its seeds' chains had delta 0.0005-0.0045; under
+ * random scene 338's coarser ball (e = 0.28) the BSDF-sampled ones holding its worst seeds
+ * 0.008-0.0085. Only where y lies less than SPC_GRAZE_GAP e behind the rim (the angle from x): of the
+ * glass ball's chains that fixed seeds found where the gap was below 0.6 rad, 99.5% lay below 0.15,
+ * at 29% of those queries. */
+#define SPC_GRAZE_GRID 32
+#define SPC_GRAZE_DELTA 0.15
+#define SPC_GRAZE_GAP 0.8
+#define SPC_GRAZE_MAX_SEEDS 4
+
+/* The unit direction whose sine against the centre's direction oh is sn, toward nh (unit, normal
+ * to oh). */
+static spc_vec3 graze_dir(spc_vec3 oh, spc_vec3 nh, double sn)
+{
+    return spc_add(spc_scale(oh, sqrt(1.0 - sn * sn)), spc_scale(nh, sn));
+}
+
+/* The grazing seed directions from q's x around the sphere (fc, fr) fitted to a mesh of edge angle e
+ * toward q's y (above): the number written to dir (at most SPC_GRAZE_MAX_SEEDS), 0 where y is not
+ * just behind the rim. */
+static int graze_seeds(const spc_snee_query *q, spc_vec3 fc, double fr, double e, const unsigned char *ev,
+                       spc_vec3 *dir)
+{
+    spc_vec3 oc = spc_sub(fc, q->x->p);
+    double D = spc_length(oc);
+    spc_vec3 d = spc_sub(q->y, q->x->p);
+    double L = spc_length(d);
+    if (!(D > fr) || !(L > D))
+        return 0;
+    spc_vec3 oh = spc_scale(oc, 1.0 / D);
+    d = spc_scale(d, 1.0 / L);
+    double cy = spc_dot(d, oh);
+    spc_vec3 nh = spc_sub(d, spc_scale(oh, cy));
+    double nl = spc_length(nh);
+    if (!(nl > 0.0))
+        return 0;
+    /* the rim's angle from the centre's direction, less y's: y behind the rim by this much */
+    double gap = asin(fr / D) - acos(spc_clamp(cy, -1.0, 1.0));
+    double delta_max = SPC_GRAZE_DELTA * e * e;
+    if (!(gap > 0.0 && gap < SPC_GRAZE_GAP * e) || !(delta_max > 0.0 && delta_max < 1.0))
+        return 0;
+    nh = spc_scale(nh, 1.0 / nl);
+    spc_chain_opts o = spc_chain_opts_default(2);
+    o.any_surface = q->any_surface;
+    o.events = ev;
+    o.slim = true;
+    double step = fr * delta_max / SPC_GRAZE_GRID / D; /* in sn */
+    /* the current run of grid points with a (reflect, reflect) chain: its first two and last two
+     * points (sn, f), its length, whether f changed sign in it */
+    double rs[4] = {0, 0, 0, 0}, rf[4] = {0, 0, 0, 0};
+    int len = 0, n = 0;
+    bool crossed = false;
+    for (int g = 0; g <= SPC_GRAZE_GRID + 1 && n < SPC_GRAZE_MAX_SEEDS; ++g) {
+        double sn = fr * (1.0 - delta_max * g / SPC_GRAZE_GRID) / D;
+        bool valid = false;
+        double f = 0.0;
+        if (g <= SPC_GRAZE_GRID) {
+            spc_frame fw = spc_frame_from_n(graze_dir(oh, nh, sn));
+            spc_chain ch;
+            spc_chain_end end = spc_chain_trace(q->scene, q->x, &fw, 0.0, 0.0, &o, &ch);
+            if ((end == SPC_CHAIN_END_SURFACE || end == SPC_CHAIN_END_ESCAPED) && ch.n == 2) {
+                /* the leaving ray's in-plane angle less that of the direction to y */
+                spc_vec3 out = ch.v[1].d, to_y = spc_sub(q->y, ch.v[1].h.p);
+                f = atan2(spc_dot(out, nh), spc_dot(out, oh)) - atan2(spc_dot(to_y, nh), spc_dot(to_y, oh));
+                valid = isfinite(f);
+            }
+        }
+        if (valid) {
+            if (len > 0 && (f > 0.0) != (rf[3] > 0.0)) { /* a root between two neighbours */
+                dir[n++] = graze_dir(oh, nh, rs[3] + (sn - rs[3]) * rf[3] / (rf[3] - f));
+                crossed = true;
+            }
+            if (len < 2) {
+                rs[len] = sn;
+                rf[len] = f;
+            }
+            rs[2] = rs[3];
+            rf[2] = rf[3];
+            rs[3] = sn;
+            rf[3] = f;
+            ++len;
+            continue;
+        }
+        /* the run ends: without a root inside it, the root may lie just past its end nearer zero,
+         * where the chain stops existing between two grid points; extrapolated from that end */
+        if (len == 1 && !crossed) {
+            dir[n++] = graze_dir(oh, nh, rs[0]);
+        } else if (len >= 2 && !crossed) {
+            bool last = fabs(rf[3]) < fabs(rf[0]);
+            double se = last ? rs[3] : rs[0], fe = last ? rf[3] : rf[0];
+            double sb = last ? rs[2] : rs[1], fb = last ? rf[2] : rf[1];
+            double s_root = se - fe * (se - sb) / (fe - fb);
+            if (fe != fb && fabs(s_root - se) <= step && s_root > 0.0 && s_root < 1.0)
+                dir[n++] = graze_dir(oh, nh, s_root);
+        }
+        len = 0;
+        crossed = false;
+    }
+    return n;
+}
+
+/* Appends c to fit_first's n chains in out unless it is not the ball's (solve_mis_chain), an exact
+ * enumeration's, the straight-line solution (*straight, or NULL) or one of them; the new count. */
+static int fit_keep(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *straight,
+                    const spc_chain *c, spc_chain *out, int n)
+{
+    if (!solve_mis_chain(q->params, c) || exact_covers(q, solver, c))
+        return n;
+    if (straight && spc_snee_same_solution(straight, c, q->scene->radius))
+        return n;
+    for (int i = 0; i < n; ++i)
+        if (spc_snee_same_solution(&out[i], c, q->scene->radius))
+            return n;
+    out[n] = *c;
+    return n + 1;
+}
+
 /* The chains on tessellated balls found from each of the fitted sphere's solutions (fit_seeds.h) as
  * the seed, with that solution's events (in, m internal reflections, out; or one reflection): a
  * deterministic function of q, like the straight-line solution, so they are counted with psi 1 and
  * the randomized attempts skip them. Near the caustic's fold a floor point under the triangle glass
  * ball has three such 2-vertex chains; a randomized attempt found each with p about 0.19 (at most
  * 1 / 3 with every seed fitted), so a BSDF-sampled path through one kept weight 0.75 and held a
- * seed's error (bench/RESULTS.md, "fitted roots counted exactly"). Only where solve_mis_chain holds
+ * seed's error (bench/RESULTS.md, "fitted roots counted exactly"). Then, within 2 vertices, the
+ * (reflect, reflect) chains from the grazing seeds (graze_seeds). Only where solve_mis_chain holds
  * (the ball's chains), within q's lengths, without the straight-line solution (*straight, or NULL)
  * and the exact enumerations' chains; duplicates once. Writes at most max to out. */
 static int fit_first(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *straight,
@@ -920,16 +1053,29 @@ static int fit_first(const spc_snee_query *q, const spc_specular_solver *solver,
             spc_rng rng; /* unused by a fixed seed with fixed events; seeded for determinism */
             spc_rng_seed(&rng, 1, 2);
             spc_chain c;
-            if (!solver->solve_one(&tq, &rng, &c, iterations) || c.n > q->max_chain || c.n < 1 ||
-                !solve_mis_chain(p, &c) || exact_covers(q, solver, &c))
-                continue;
-            if (straight && spc_snee_same_solution(straight, &c, q->scene->radius))
-                continue;
-            bool dup = false;
-            for (int i = 0; i < n && !dup; ++i)
-                dup = spc_snee_same_solution(&out[i], &c, q->scene->radius);
-            if (!dup)
-                out[n++] = c;
+            if (solver->solve_one(&tq, &rng, &c, iterations) && c.n <= q->max_chain && c.n >= 1)
+                n = fit_keep(q, solver, straight, &c, out, n);
+        }
+        unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+        for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
+            ev[i] = SPC_CHAIN_REFRACT;
+        ev[0] = ev[1] = SPC_CHAIN_REFLECT;
+        spc_vec3 fc, gdir[SPC_GRAZE_MAX_SEEDS];
+        double fr;
+        const spc_shape *s = q->scene->shapes[cs->idx[j]];
+        int ng = q->max_chain >= 2 && p->reflect && spc_fit_sphere(s, &fc, &fr)
+                     ? graze_seeds(q, fc, fr, spc_fit_edge_angle(s), ev, gdir)
+                     : 0;
+        for (int g = 0; g < ng && n < max; ++g) {
+            spc_snee_query tq = *q;
+            tq.seed_dir = &gdir[g];
+            tq.want = NULL;
+            tq.events = ev;
+            spc_rng rng; /* unused, as above */
+            spc_rng_seed(&rng, 1, 2);
+            spc_chain c;
+            if (solver->solve_one(&tq, &rng, &c, iterations) && c.n == 2)
+                n = fit_keep(q, solver, straight, &c, out, n);
         }
     }
     return n;
