@@ -1252,46 +1252,6 @@ static double covered_walk(const spc_scene *sc, const spc_snee_params *p, const 
  * add up, with its own standard error: the paths nobody covers cancel exactly. Without the sampling
  * side's share (w_nee times the 0/1 estimate of the given-up probability) the covered paths lose
  * most of specular NEE's share and D's mean falls well below 0. */
-/* The difference D of mis_give_up_at_cap_adds_up from N iterations at the medium point xp (phase
- * phase, toward wo) with params p and the streams seeded (23, 5) and (23, 6): its mean and standard
- * error, and the means of phase sampling unweighted, of specular NEE and of the covered paths; *st
- * gets specular NEE's statistics. */
-typedef struct adds_up {
-    double m, se, ref, nee, cov;
-} adds_up;
-
-static adds_up nee_plus_covered(const spc_scene *sc, const spc_snee_params *p, const spc_phase *phase, spc_vec3 xp,
-                                spc_vec3 wo, int N, spc_snee_stats *st)
-{
-    spc_receiver rc;
-    spc_receiver_medium(&rc, xp, wo, phase, -1);
-    memset(st, 0, sizeof *st);
-    spc_rng r, rw; /* specular NEE's stream, the walk's */
-    spc_rng_seed(&r, 23, 5);
-    spc_rng_seed(&rw, 23, 6);
-    double s1 = 0, s2 = 0, sref = 0, snee = 0, scov = 0;
-    for (int i = 0; i < N; ++i) {
-        double nee = spc_specular_nee_at(sc, p, &rc, 2, 2, &r, st).r, d = nee;
-        snee += nee;
-        spc_vec3 wi;
-        double pdf;
-        if (spc_phase_sample(phase, wo, spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &wi, &pdf)) {
-            spc_ray ray = {xp, wi, 0.0, INFINITY};
-            double T = spc_phase_eval(phase, wo, wi) / pdf;
-            d += covered_walk(sc, p, &rc, wi, ray, T, &rw, &sref, &scov);
-        }
-        s1 += d;
-        s2 += d * d;
-    }
-    adds_up u;
-    u.m = s1 / N;
-    u.se = sqrt(spc_max(s2 / N - u.m * u.m, 0.0) / N);
-    u.ref = sref / N;
-    u.nee = snee / N;
-    u.cov = scov / N;
-    return u;
-}
-
 TEST(mis_give_up_at_cap_adds_up)
 {
     spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
@@ -1299,55 +1259,41 @@ TEST(mis_give_up_at_cap_adds_up)
     if (!sc)
         return;
     spc_phase iso = {SPC_PHASE_ISOTROPIC, 0.0};
+    const spc_vec3 xp = spc_v3(0.15, 0.05, 0.1), wo = spc_v3(0, 0, 1);
+    spc_receiver rc;
+    spc_receiver_medium(&rc, xp, wo, &iso, -1);
     spc_snee_params p;
     give_up_params(&p, 0.03); /* at 0.003 D's error estimate hangs on a few rare large samples */
     p.long_p = 0.0;
     spc_snee_stats st;
-    adds_up u = nee_plus_covered(sc, &p, &iso, spc_v3(0.15, 0.05, 0.1), spc_v3(0, 0, 1), 20000, &st);
+    memset(&st, 0, sizeof st);
+    spc_rng r, rw; /* specular NEE's stream, the walk's */
+    spc_rng_seed(&r, 23, 5);
+    spc_rng_seed(&rw, 23, 6);
+    const int N = 20000;
+    double s1 = 0, s2 = 0, sref = 0, snee = 0, scov = 0;
+    for (int i = 0; i < N; ++i) {
+        double nee = spc_specular_nee_at(sc, &p, &rc, 2, 2, &r, &st).r, d = nee;
+        snee += nee;
+        spc_vec3 wi;
+        double pdf;
+        if (spc_phase_sample(&iso, wo, spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &wi, &pdf)) {
+            spc_ray ray = {xp, wi, 0.0, INFINITY};
+            double T = spc_phase_eval(&iso, wo, wi) / pdf;
+            d += covered_walk(sc, &p, &rc, wi, ray, T, &rw, &sref, &scov);
+        }
+        s1 += d;
+        s2 += d * d;
+    }
+    double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N), ref = sref / N;
     printf("    phase sampling unweighted %.5f; specular NEE %.5f, covered paths %.5f; D = %.5f +- %.5f (%.2f se); "
            "counts %llu, capped %llu\n",
-           u.ref, u.nee, u.cov, u.m, u.se, u.se > 0.0 ? u.m / u.se : 0.0, (unsigned long long)st.contributions,
+           ref, snee / N, scov / N, m, se, se > 0.0 ? m / se : 0.0, (unsigned long long)st.contributions,
            (unsigned long long)st.capped);
-    CHECK(u.ref > 0.0 && u.nee > 0.0);
+    CHECK(ref > 0.0 && snee > 0.0);
     CHECK_MSG(st.capped * 4 > st.contributions, "the cap was reached %llu times in %llu counts",
               (unsigned long long)st.capped, (unsigned long long)st.contributions);
-    CHECK_MSG(fabs(u.m) <= 4.0 * u.se, "D = %.6f +- %.6f (specular NEE %.6f)", u.m, u.se, u.nee);
-    spc_scene_destroy(sc);
-}
-
-/* Russian roulette on the randomized attempt (params.attempt_p): at the medium point of
- * mis_give_up_at_cap_adds_up, every chain left to the attempts (no straight-line solution, no exact
- * enumeration), specular NEE with attempt=0.25 plus the covered paths still add up to the phase-sampled
- * paths unweighted (D's mean 0 within 4 standard errors, cap 1 and the give-up as there; and with the
- * default cap), while it counts about a quarter of the chains. It fails without the attempt's 1 / P
- * (specular NEE's share falls to a quarter: D well below 0) and where the option makes no attempt
- * fewer. */
-TEST(attempt_roulette_adds_up)
-{
-    spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
-    CHECK(sc != NULL);
-    if (!sc)
-        return;
-    spc_phase iso = {SPC_PHASE_ISOTROPIC, 0.0};
-    for (int c = 0; c < 2; ++c) {
-        spc_snee_params p;
-        give_up_params(&p, 0.03);
-        p.long_p = 0.0;
-        if (c == 1)
-            p.max_trials = 256; /* the angular solver's default */
-        spc_snee_stats st1, st;
-        adds_up all = nee_plus_covered(sc, &p, &iso, spc_v3(0.15, 0.05, 0.1), spc_v3(0, 0, 1), 20000, &st1);
-        p.attempt_p = 0.25;
-        adds_up u = nee_plus_covered(sc, &p, &iso, spc_v3(0.15, 0.05, 0.1), spc_v3(0, 0, 1), 20000, &st);
-        printf("    cap %d: attempt=0.25: specular NEE %.5f (every attempt: %.5f), D = %.5f +- %.5f (%.2f se); "
-               "chains counted %llu of every attempt's %llu\n",
-               p.max_trials, u.nee, all.nee, u.m, u.se, u.se > 0.0 ? u.m / u.se : 0.0,
-               (unsigned long long)st.contributions, (unsigned long long)st1.contributions);
-        CHECK(u.nee > 0.0 && all.nee > 0.0);
-        CHECK_MSG(st.contributions * 3 < st1.contributions, "%llu chains counted with attempt=0.25, %llu without",
-                  (unsigned long long)st.contributions, (unsigned long long)st1.contributions);
-        CHECK_MSG(fabs(u.m) <= 4.0 * u.se, "D = %.6f +- %.6f (specular NEE %.6f)", u.m, u.se, u.nee);
-    }
+    CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f)", m, se, snee / N);
     spc_scene_destroy(sc);
 }
 
@@ -2630,7 +2576,6 @@ int main(void)
     RUN(trial_count_unbiased_past_cap);
     RUN(mis_count_gives_up_at_cap);
     RUN(mis_give_up_at_cap_adds_up);
-    RUN(attempt_roulette_adds_up);
     RUN(mis_give_up_at_cap_at_a_surface);
     RUN(solve_mis_unbiased_past_cap);
     RUN(snee_point_estimates);

@@ -69,9 +69,6 @@ static const spc_snee_option options[] = {
      0, "every receiver", "specular NEE at the first N diffuse or glossy vertices of a path only"},
     {"later", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(later_p), 0, NULL,
      "past a path's first diffuse or glossy vertex, the whole query with probability P, counted 1/P times"},
-    {"attempt", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(attempt_p), 0, NULL,
-     "the randomized attempt after the straight-line solution made with probability P per light sample, "
-     "its chain counted 1/P times (not with solvemis, guide or from the camera)"},
     {"first", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(first_p), 0, NULL,
      "at a path's first diffuse or glossy vertex, the query with probability P where the casters look small "
      "(always near them), counted 1/P times"},

@@ -193,15 +193,6 @@ typedef struct spc_snee_params {
      * query_p per receiver (the path integrator: 1 at the first, after it later_p, raised near the
      * casters by spc_snee_later_prob; 0 counts as 1); not with guide, not from the camera (camera_p). */
     double later_p;
-    /* Russian roulette on the randomized attempt (the user's "attempt=P"; 1 by default): after the
-     * straight-line solution, the exact enumerations and the fitted roots, the one randomized
-     * attempt per light sample (solve_one) is made with probability P and its chain counted 1 / P
-     * times. Unbiased for any P in (0, 1]; MIS keeps the stand-in psi, so the covered paths' weights
-     * do not change. Where the straight-line solution is nearly always the only chain (a medium
-     * point inside a glass ball: the attempt finds it again or fails, and costs as much as the rest
-     * of the query) it buys samples. Not where the attempts' chains are weighed by their real solve
-     * probability (solve_mis), not with guide, not from the camera. */
-    double attempt_p;
     /* Russian roulette on the query at a path's first receiver (the user's "first=P"; 1 by
      * default): as later_p, made always where the casters fill a large share of the receiver's
      * directions and with probability down to P where they look small (spc_snee_first_prob); the

@@ -110,7 +110,6 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->guide = 0.0;
     p->snee_p = 1.0;
     p->later_p = 1.0;
-    p->attempt_p = 1.0;
     p->first_p = 1.0;
     p->recv_guide = 0.0;
     p->seed_guide = 0.0;

@@ -726,16 +726,6 @@ static double random_psi(const spc_snee_params *p)
     return p->biased || !(p->mis_solve > 0.0 && p->mis_solve < 1.0) ? 1.0 : p->mis_solve;
 }
 
-/* The probability of the query's randomized attempt (params.attempt_p): attempt_p where it is in
- * (0, 1) and the attempt's chains are counted (no solve_mis, no guide, not from the camera), else 1. */
-static double attempt_prob(const spc_snee_query *q)
-{
-    const spc_snee_params *p = q->params;
-    if (!(p->attempt_p > 0.0 && p->attempt_p < 1.0) || p->solve_mis || guide_on(p) || q->cam)
-        return 1.0;
-    return p->attempt_p;
-}
-
 /* psi of the chain c found by a randomized attempt: random_psi, and with params.mis_events times the
  * probability of c's events where the attempts pick them (params.reflect; spc_chain_events_prob). The
  * estimate divides the trial count by that probability; with the stand-in following it, a light
@@ -1625,11 +1615,6 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         }
     }
 
-    /* params.attempt_p: the randomized attempt made with that probability, counted 1 / attempt_p
-     * times */
-    double pa = attempt_prob(q);
-    if (pa < 1.0 && !(spc_rng_next(rng) < pa))
-        return;
     spc_chain sol;
     int iterations = 0;
     bool ok = solver->solve_one(q, rng, &sol, &iterations);
@@ -1659,7 +1644,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
 
     if (st)
         st->contributions++;
-    emit(q, sk, &sol, spc_rgb_scale(v, inv_p_solve(q, solver, &sol, cap_gives_up(q, &sol, a, b), rng, st) / (p_y * pa)));
+    emit(q, sk, &sol, spc_rgb_scale(v, inv_p_solve(q, solver, &sol, cap_gives_up(q, &sol, a, b), rng, st) / p_y));
 }
 
 /* One guided direction (params.guide): a light by power, a direction in one of its cones at x,
