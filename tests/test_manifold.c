@@ -1297,6 +1297,49 @@ TEST(mis_give_up_at_cap_adds_up)
     spc_scene_destroy(sc);
 }
 
+/* The cone seeds (SEED_CONE) from a point inside a caster's bounding sphere: at a medium point in the
+ * glass ball of mis_count_gives_up_at_cap, SPC_SNEE_CONE_SHARE_MEDIUM (0.8) of the attempts' seeds lie
+ * in the cone of cosine 0.9 around the straight line to the light point, besides the uniform shape
+ * points that fall in it (about 0.05 of them from the centre); a surface point there keeps
+ * SPC_SNEE_CONE_SHARE (0.5). Fails where a medium point gets the surface's share. */
+TEST(medium_cone_seed_share)
+{
+    spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_phase iso = {SPC_PHASE_ISOTROPIC, 0.0};
+    const spc_vec3 xp = spc_v3(0.15, 0.05, 0.8), y = spc_v3(0.0, 0.1, 3.0);
+    spc_receiver rc;
+    spc_receiver_medium(&rc, xp, spc_v3(0, 0, 1), &iso, -1);
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+    CHECK(p.seed == SPC_SNEE_SEED_CONE);
+    spc_vec3 to_y = spc_normalize(spc_sub(y, xp));
+    double share[2];
+    for (int k = 0; k < 2; ++k) {
+        spc_snee_query q;
+        spc_snee_query_init(&q, sc, &p, &rc.point, spc_v3(0, 0, 1), 2);
+        q.receiver = k == 0 ? &rc : NULL; /* a medium point, then the same point as a surface's */
+        q.y = y;
+        spc_rng rng;
+        spc_rng_seed(&rng, 41, 3);
+        int n = 0, in = 0;
+        for (int i = 0; i < 4000; ++i) {
+            spc_vec3 d;
+            if (!spc_snee_seed_direction(&q, &rng, &d))
+                continue;
+            ++n;
+            in += spc_dot(d, to_y) >= 0.9;
+        }
+        share[k] = n ? (double)in / n : 0.0;
+    }
+    printf("    seeds in the cone toward the light: medium point %.3f, surface point %.3f\n", share[0], share[1]);
+    CHECK_MSG(share[0] > 0.75 && share[0] < 0.87, "medium point: %.3f of the seeds in the cone", share[0]);
+    CHECK_MSG(share[1] > 0.47 && share[1] < 0.6, "surface point: %.3f of the seeds in the cone", share[1]);
+    spc_scene_destroy(sc);
+}
+
 /* The same give-up at a surface receiver, where the chain crosses from one shape to another (a
  * glass slab whose two faces are separate shapes; cosine-sampled directions traced through it
  * instead of phase sampling): specular NEE plus the BSDF-sampled paths it covers, weighted by
@@ -2576,6 +2619,7 @@ int main(void)
     RUN(trial_count_unbiased_past_cap);
     RUN(mis_count_gives_up_at_cap);
     RUN(mis_give_up_at_cap_adds_up);
+    RUN(medium_cone_seed_share);
     RUN(mis_give_up_at_cap_at_a_surface);
     RUN(solve_mis_unbiased_past_cap);
     RUN(snee_point_estimates);
