@@ -26,7 +26,6 @@
 #include "manifold/sphere_roots.h"
 
 #include <math.h>
-#include <stdint.h>
 #include <string.h>
 
 #include "manifold/roots1d.h"
@@ -200,96 +199,6 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
     }
 }
 
-/* The signatures' refinements share their midpoints: roots1d halves a cell of the common grid at
- * its middle, so every signature that halves a cell asks for f at the same entry angles (the way in
- * and the first chord turn alike for all, and they decide most halvings). A slot keeps the chain at
- * such a point after the chords of the last signature asked for, and a later signature's request
- * (they are refined in increasing m) goes on along it from there: the chain's cost at the point is
- * that of its largest signature rather than the sum over them, and the values are, bit for bit,
- * those of each signature's own evaluation (plane_eval_at: the same operations in the same order).
- * Direct mapped on the angle's bits, a slot is valid for one query (its generation); a collision
- * only costs a re-evaluation. */
-#define SPHERE_MID_SLOTS 256
-
-typedef struct mid_slot {
-    double th;
-    unsigned gen;
-    bool ok; /* the way in exists */
-    int m;   /* the signature whose chord ends at q: f, ahead, a_out are its */
-    double qx, qy, tx, ty, cos_in, a_in, a_t, f, ahead, a_out;
-} mid_slot;
-
-typedef struct shared_problem {
-    plane_problem pb; /* pb.m: the signature being refined */
-    unsigned gen;
-    mid_slot *slots;
-} shared_problem;
-
-/* plane_fn for the signature sp->pb.m; the subdivision's requests (ang not NULL) through the slots,
- * the root refinement's (ang NULL: points of one signature's own) evaluated directly. */
-static bool plane_fn_shared(const void *ctx, double th, double *f, double *ahead, double *ang)
-{
-    const shared_problem *sp = ctx;
-    const plane_problem *pb = &sp->pb;
-    if (!ang)
-        return plane_fn(pb, th, f, ahead, NULL);
-    uint64_t bits;
-    memcpy(&bits, &th, sizeof bits);
-    mid_slot *sl = &sp->slots[(bits * 0x9E3779B97F4A7C15ull) >> 56];
-    int m = pb->m;
-    if (sl->gen != sp->gen || sl->th != th || sl->m > m) {
-        /* the way in, as plane_eval_at takes it */
-        double qx, qy;
-        entry_point(th, &qx, &qy);
-        double ux = qx - pb->d, uy = qy;
-        double ul = sqrt(ux * ux + uy * uy);
-        ux /= ul;
-        uy /= ul;
-        sl->gen = sp->gen;
-        sl->th = th;
-        sl->cos_in = -(ux * qx + uy * qy);
-        sl->a_in = spc_roots1d_turns(ux, uy);
-        sl->ok = refract2(ux, uy, qx, qy, 1.0 / pb->eta, &sl->tx, &sl->ty);
-        sl->a_t = sl->ok ? spc_roots1d_turns(sl->tx, sl->ty) : 0.0;
-        sl->qx = qx;
-        sl->qy = qy;
-        sl->m = -1;
-    }
-    ang[0] = sl->a_in;
-    if (!sl->ok)
-        return false;
-    if (sl->m < m) {
-        double qx = sl->qx, qy = sl->qy, tx = sl->tx, ty = sl->ty;
-        for (int j = sl->m + 1; j <= m; ++j) {
-            if (j > 0) {
-                /* the reflection at the end of chord j - 1 */
-                double dn = tx * qx + ty * qy;
-                tx -= 2.0 * dn * qx;
-                ty -= 2.0 * dn * qy;
-            }
-            double len = -2.0 * (tx * qx + ty * qy);
-            qx += len * tx;
-            qy += len * ty;
-        }
-        double vx, vy;
-        refract_out(tx, ty, qx, qy, pb->eta, sl->cos_in, &vx, &vy);
-        double rx = pb->y1 - qx, ry = pb->y2 - qy;
-        sl->f = vx * ry - vy * rx;
-        sl->ahead = vx * rx + vy * ry;
-        sl->a_out = spc_roots1d_turns(vx, vy);
-        sl->qx = qx;
-        sl->qy = qy;
-        sl->tx = tx;
-        sl->ty = ty;
-        sl->m = m;
-    }
-    *f = sl->f;
-    *ahead = sl->ahead;
-    ang[1] = sl->a_t;
-    ang[2] = sl->a_out;
-    return true;
-}
-
 /* ---- the outside reflection: Alhazen's problem as a quartic ---- */
 
 /* P(t) = c[0] + c[1] t + ... + c[n] t^n by Horner's rule, and P'(t) in *dp. */
@@ -422,14 +331,6 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
     entry_point(tmax, &cx, &cy);
     cy = -cy;
     plane_problem pb = {d, y1, y2, eta, 0};
-    static _Thread_local mid_slot slots[SPHERE_MID_SLOTS];
-    static _Thread_local unsigned gen;
-    if (++gen == 0) {
-        /* the generations wrapped: no slot may look valid */
-        memset(slots, 0, sizeof slots);
-        gen = 1;
-    }
-    shared_problem sp = {pb, gen, slots};
     for (int j = 0; j <= g; ++j) {
         th[j] = -tmax + step * j;
         plane_eval_all(&pb, mlo, mhi, cx, cy, f[j], ah[j], an[j], ok[j]);
@@ -447,13 +348,10 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
             for (int i = 0; i < SPHERE_ANGLES; ++i)
                 angm[j][i] = an[j][m + 1][i];
         }
-        sp.pb.m = m;
-        /* to 1e-12: the 3D polish (spc_sphere_chains_all) converges from there in one trace; one
-         * signature alone has nothing to share */
-        bool share = mlo < mhi;
-        n[m + 1] =
-            spc_roots1d(share ? plane_fn_shared : plane_fn, NULL, share ? (const void *)&sp : &sp.pb, th, fm, am,
-                        &angm[0][0], SPHERE_ANGLES, okm, g, NULL, 1e-12 * tmax, theta[m + 1], SPC_SPHERE_MAX_ROOTS);
+        pb.m = m;
+        /* to 1e-12: the 3D polish (spc_sphere_chains_all) converges from there in one trace */
+        n[m + 1] = spc_roots1d(plane_fn, NULL, &pb, th, fm, am, &angm[0][0], SPHERE_ANGLES, okm, g, NULL, 1e-12 * tmax,
+                               theta[m + 1], SPC_SPHERE_MAX_ROOTS);
     }
 }
 
