@@ -191,6 +191,44 @@ TEST(planar_roots_near_the_sphere)
     CHECK(dense > 500);
 }
 
+/* Every signature solved in one call (spc_sphere_chain_roots_all, whose signatures share the grid
+ * and the subdivision's midpoints) returns the same roots, bit for bit, as each signature solved
+ * alone (spc_sphere_chain_roots, which the dense scans above check). Configurations come in pairs
+ * with the same d and another y (the same grid and midpoint angles, other values: what one query
+ * left behind must not serve the next), far and near the sphere (the finer grid), each index. */
+TEST(sphere_signatures_together_same_as_alone)
+{
+    spc_rng_seed(&rng, 11, 1);
+    const double etas[3] = {1.5, 1.33, 0.75};
+    int configs = 0, roots = 0, differ = 0;
+    for (int trial = 0; trial < 1200; ++trial) {
+        double eta = etas[trial % 3];
+        double d = trial % 2 ? 1.005 + 0.25 * rnd() : 1.05 + 5.0 * rnd() * rnd();
+        for (int k = 0; k < 2; ++k) {
+            double r = 1.02 + 6.0 * rnd(), a = 2 * SPC_PI * rnd();
+            double y1 = r * cos(a), y2 = fabs(r * sin(a));
+            int mlo = (int)(rnd() * 3) - 1, mhi = SPC_SPHERE_MAX_M - (int)(rnd() * 3);
+            double all[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
+            int n[SPC_SPHERE_SIGNATURES];
+            spc_sphere_chain_roots_all(d, y1, y2, eta, mlo, mhi, all, n);
+            ++configs;
+            for (int m = mlo; m <= mhi; ++m) {
+                double alone[SPC_SPHERE_MAX_ROOTS];
+                int na = spc_sphere_chain_roots(d, y1, y2, m, eta, alone, SPC_SPHERE_MAX_ROOTS);
+                roots += na;
+                if (na != n[m + 1] || memcmp(alone, all[m + 1], (size_t)na * sizeof *alone) != 0) {
+                    ++differ;
+                    printf("    differ: d %g y (%g, %g) eta %g m %d: %d roots together, %d alone\n", d, y1, y2, eta, m,
+                           n[m + 1], na);
+                }
+            }
+        }
+    }
+    printf("    %d configurations, %d roots alone; %d signatures differ\n", configs, roots, differ);
+    CHECK(roots > 1000);
+    CHECK(differ == 0);
+}
+
 /* The outside reflection (solved as a quartic) against a dense scan of f_angles over 4000 random
  * configurations of four kinds: x and y far (up to 1000 radii), x near the sphere (within 1e-4 to
  * 0.1 radii), y near the grazing ray from x (the root at the arc's end), and y behind the sphere
@@ -943,6 +981,7 @@ int main(void)
     RUN(planar_roots_against_dense_scan);
     RUN(planar_roots_near_the_sphere);
     RUN(reflection_roots_against_dense_scan);
+    RUN(sphere_signatures_together_same_as_alone);
     RUN(sphere_chains_contain_randomized_solutions);
     RUN(cylinder_roots_against_dense_scan);
     RUN(cylinder_chains_contain_randomized_solutions);
