@@ -65,8 +65,8 @@
  * it covers by the same split (see "specular NEE's share" below); also at corners (corner_receiver),
  * where s = 0 and the connection across the corner share the BSDF side of the split; with
  * params.direct also at the first camera vertex seen from the pinhole (direct_receiver), where
- * s = 0 and light tracing share it. At a receiver the camera sees by a reflection off glass
- * (reflected_receiver) its query draws params.reflected_samples light points, each counted that many
+ * s = 0 and light tracing share it. At a receiver the camera sees by a reflection off a glass
+ * ball (reflected_receiver) its query draws params.reflected_samples light points, each counted that many
  * times less, and its MIS weights count them. Its contributions are in the image but in no
  * strategy image.
  *
@@ -114,6 +114,8 @@
 #include "integrator/bdpt_pool.h"
 #include "integrator/splat.h"
 #include "manifold/caustic_guide.h"
+#include "manifold/fit_seeds.h"
+#include "manifold/sphere_chains.h"
 #include "manifold/specular_nee.h"
 
 /* Vertices per subpath (two arrays of ~500-byte vertices: 63 KiB of stack). Past rr_depth each
@@ -811,19 +813,25 @@ static bool direct_receiver(const bdpt *B, int k, const vtx *prev, const vtx *v)
     return B->direct && k == 1 && prev->kind == V_CAMERA && !prev->delta && v->kind == V_SURFACE && !v->delta;
 }
 
-/* A receiver the camera sees by a reflection off glass: v, reached along the camera subpath pp - p -
- * v, where p is a delta vertex on a dielectric and pp and v lie on the same side of it. Specular
- * NEE's query there draws params.reflected_samples light points (snp_reflected): a glass ball's
- * rim reflects the surroundings next to the ball, its caustic among them, minified into a few
- * pixels, and the light point's variance there is most of those pixels' (manifold/solver_table.c,
- * SPC_SNEE_REFLECTED_SAMPLES). A function of the path's vertices, so that the query and the weight
- * of s = 0's samples of the same paths (snee_share) use the same count. */
+/* A receiver the camera sees by a reflection off a glass ball: v, reached along the camera subpath
+ * pp - p - v, where p is a delta vertex on a dielectric sphere (or a mesh fitted by one) and pp and
+ * v lie on the same side of it. Specular NEE's query there draws params.reflected_samples light
+ * points (snp_reflected): the ball's rim reflects the surroundings next to the ball, its caustic
+ * among them, minified into a few pixels, and the light point's variance there is most of those
+ * pixels' (manifold/solver_table.c, SPC_SNEE_REFLECTED_SAMPLES). Not off flat glass (water), which
+ * does not minify and whose reflections the camera sees often: there the extra light points cost
+ * 16% more CPU on the pool for no less variance. A function of the path's vertices, so that the
+ * query and the weight of s = 0's samples of the same paths (snee_share) use the same count. */
 static bool reflected_receiver(const vtx *pp, const vtx *p, const vtx *v)
 {
     double eta = 0.0;
     if (!pp || p->kind != V_SURFACE || !p->delta || !spc_bsdf_is_specular_interface(p->h.bsdf, &eta) || !(eta > 0.0))
         return false;
-    return spc_dot(spc_sub(pp->p, p->p), p->h.ng) * spc_dot(spc_sub(v->p, p->p), p->h.ng) > 0.0;
+    if (spc_dot(spc_sub(pp->p, p->p), p->h.ng) * spc_dot(spc_sub(v->p, p->p), p->h.ng) <= 0.0)
+        return false;
+    spc_vec3 c;
+    double r;
+    return p->h.shape && (spc_sphere_chain_shape(p->h.shape) || spc_fit_sphere(p->h.shape, &c, &r));
 }
 
 /* Specular NEE's settings at the snee_receiver v (pp - p - v as reflected_receiver; pp NULL when p

@@ -205,8 +205,8 @@ typedef struct spc_snee_params {
      * light sample with light_samples p_y, a density counted in samples per query as query_p's is.
      * Not with guide or light_u_on (one light point there). */
     int light_samples;
-    /* bdpt: light_samples at the receivers the camera sees by a reflection off glass (the user's
-     * "reflected=N"; SPC_SNEE_REFLECTED_SAMPLES by default). Not in the path integrator. */
+    /* bdpt: light_samples at the receivers the camera sees by a reflection off a glass ball (the
+     * user's "reflected=N"; SPC_SNEE_REFLECTED_SAMPLES by default). Not in the path integrator. */
     int reflected_samples;
     /* bdpt: specular NEE also at the surface points the camera sees directly (the user's
      * "direct[=P]"; off by default): a caustic seen directly (camera - floor - glass - glass -

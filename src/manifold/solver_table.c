@@ -43,7 +43,7 @@
 #define SPC_SNEE_FLAT5_P 0.0
 #define SPC_SNEE_FLAT6_P 0.0
 /* params.reflected_samples's default: bdpt's light points per query at a receiver the camera sees by
- * a reflection off glass. A glass ball's rim shows, by its Fresnel reflection, the floor around the
+ * a reflection off a glass ball. A glass ball's rim shows, by its Fresnel reflection, the floor around the
  * ball where the ball's own caustic lies, minified: a query there draws its light point where the
  * chain's geometry term varies steeply, and on the glass-ball caustic (32x32) three such rim pixels
  * held 28% of bdpt's variance, nearly all of it from the light point (two light points on the same
