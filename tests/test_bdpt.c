@@ -1186,8 +1186,8 @@ static void pixels_of(const spc_film *f, double *m, double *v)
     }
 }
 
-/* Receivers seen by a reflection off glass (reflected_receiver in bdpt.c): pixels (15..17, 17) of
- * the glass-ball caustic at 32x32 see, in the ball's rim, the floor next to the ball where its
+/* Receivers seen by a reflection off a glass ball (reflected_receiver in bdpt.c): pixels (15..17,
+ * 17) of the glass-ball caustic at 32x32 see, in the ball's rim, the floor next to the ball where its
  * caustic lies, and specular NEE's light point there made most of their variance. With reflected=4
  * (the default) each query there draws four light points, counted a quarter each and weighed so in
  * the MIS against s = 0: over four seeds the three pixels' variance at equal samples must fall
