@@ -51,7 +51,7 @@
  * share: 0.7% of the camera samples there). Measured at fixed samples (256 spp, one thread, the
  * seeds' scatter times CPU s; bench/RESULTS.md, "bdpt's receivers seen in a glass ball's rim"): over
  * 16 seeds 4 is 1.18x better than 1 (1.5% more CPU), and 2, 3 and 6 are 0.94x, 0.98x and 0.98x of
- * 4; over 8 seeds 8 and 16 were 0.96x and 0.90x of 4, and 4 light points at every receiver seen
+ * 4; over 8 seeds 8 and 16 were 0.96x and 0.92x of 4, and 4 light points at every receiver seen
  * through glass (refraction too) 0.94x of 1. */
 #define SPC_SNEE_REFLECTED_SAMPLES 4
 
