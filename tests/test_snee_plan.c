@@ -125,12 +125,12 @@ static bool glass_setting(const char *s)
 }
 
 /* bdpt's setting for a glass ball (every glass caster enumerated exactly) with glass on a share
- * `share` of the image: the query from the camera on sqrt(share) / 10 of the samples, at least 0.02,
+ * `share` of the image: the query from the camera on 0.17 sqrt(share) of the samples, at least 0.02,
  * on any film size (snee_plan.c's camera_prob_bdpt). */
 static const char *bdpt_ball_setting(double share)
 {
     static char buf[64];
-    double q = 0.1 * sqrt(share);
+    double q = 0.17 * sqrt(share);
     snprintf(buf, sizeof buf, "angular:camera=%.2g", q > 0.02 ? q : 0.02);
     return buf;
 }
@@ -570,7 +570,7 @@ TEST(bdpt_default_follows_the_plan)
     }
     spc_snee_plan p;
     spc_snee_plan_make(with, "bdpt", NULL, &p);
-    /* the query from the camera on sqrt(s) / 10 of the samples (at least 0.02), not path's share,
+    /* the query from the camera on 0.17 sqrt(s) of the samples (at least 0.02), not path's share,
      * which a small film raises (0.1 or more here) */
     char bdpt_setting[64];
     snprintf(bdpt_setting, sizeof bdpt_setting, "%s", bdpt_ball_setting(p.glass_share));

@@ -65,7 +65,10 @@
  * it covers by the same split (see "specular NEE's share" below); also at corners (corner_receiver),
  * where s = 0 and the connection across the corner share the BSDF side of the split; with
  * params.direct also at the first camera vertex seen from the pinhole (direct_receiver), where
- * s = 0 and light tracing share it. Its contributions are in the image but in no strategy image.
+ * s = 0 and light tracing share it. At a receiver the camera sees by a reflection off a glass
+ * ball (reflected_receiver) its query draws params.reflected_samples light points, each counted that many
+ * times less, and its MIS weights count them. Its contributions are in the image but in no
+ * strategy image.
  *
  * Russian roulette on both subpaths from rr_depth segments, on the throughput since the
  * subpath's start (times eta^2 on camera paths, as path.c); the MIS weights ignore the survival
@@ -111,6 +114,8 @@
 #include "integrator/bdpt_pool.h"
 #include "integrator/splat.h"
 #include "manifold/caustic_guide.h"
+#include "manifold/fit_seeds.h"
+#include "manifold/sphere_chains.h"
 #include "manifold/specular_nee.h"
 
 /* Vertices per subpath (two arrays of ~500-byte vertices: 63 KiB of stack). Past rr_depth each
@@ -216,6 +221,7 @@ typedef struct bdpt {
     spc_snee_params snp;    /* its settings, with mis as the path integrator has it */
     bool direct;            /* params.direct: specular NEE at z1 too (direct_receiver) */
     spc_snee_params snp_direct; /* snp with query_p = direct_p and light tracing's density (direct_ratio) */
+    spc_snee_params snp_reflected; /* snp with light_samples = reflected_samples (reflected_receiver) */
     double cam_scale;       /* full film's pixels over the rendered window's (spc_snee_camera) */
     spc_vec3 cam_d0;        /* the camera ray's direction (covered camera chains retrace it) */
     const spc_bdpt_pool_model *pm; /* connections come from the pass's pool (NULL: own subpath) */
@@ -807,6 +813,34 @@ static bool direct_receiver(const bdpt *B, int k, const vtx *prev, const vtx *v)
     return B->direct && k == 1 && prev->kind == V_CAMERA && !prev->delta && v->kind == V_SURFACE && !v->delta;
 }
 
+/* A receiver the camera sees by a reflection off a glass ball: v, reached along the camera subpath
+ * pp - p - v, where p is a delta vertex on a dielectric sphere (or a mesh fitted by one) and pp and
+ * v lie on the same side of it. Specular NEE's query there draws params.reflected_samples light
+ * points (snp_reflected): the ball's rim reflects the surroundings next to the ball, its caustic
+ * among them, minified into a few pixels, and the light point's variance there is most of those
+ * pixels' (manifold/solver_table.c, SPC_SNEE_REFLECTED_SAMPLES). Not off flat glass (water), which
+ * does not minify and whose reflections the camera sees often: there the extra light points cost
+ * 16% more CPU on the pool for no less variance. A function of the path's vertices, so that the
+ * query and the weight of s = 0's samples of the same paths (snee_share) use the same count. */
+static bool reflected_receiver(const vtx *pp, const vtx *p, const vtx *v)
+{
+    double eta = 0.0;
+    if (!pp || p->kind != V_SURFACE || !p->delta || !spc_bsdf_is_specular_interface(p->h.bsdf, &eta) || !(eta > 0.0))
+        return false;
+    if (spc_dot(spc_sub(pp->p, p->p), p->h.ng) * spc_dot(spc_sub(v->p, p->p), p->h.ng) <= 0.0)
+        return false;
+    spc_vec3 c;
+    double r;
+    return p->h.shape && (spc_sphere_chain_shape(p->h.shape) || spc_fit_sphere(p->h.shape, &c, &r));
+}
+
+/* Specular NEE's settings at the snee_receiver v (pp - p - v as reflected_receiver; pp NULL when p
+ * is the camera). */
+static const spc_snee_params *receiver_params(const bdpt *B, const vtx *pp, const vtx *p, const vtx *v)
+{
+    return reflected_receiver(pp, p, v) ? &B->snp_reflected : &B->snp;
+}
+
 /* Light tracing's density over s = 0's (BSDF sampling's at x) for the path camera - x - chain -
  * light point y, as BDPT's own weights have them (mis_weight, delta lobes as their choice
  * probabilities per unit solid angle): the ratio p_t1 / p_s0 of the two strategies' path densities.
@@ -915,7 +949,7 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
         cam_track = true;
     }
     const vtx *rx = NULL; /* the receiver the track started at */
-    bool rx_direct = false; /* rx is a direct receiver (its own params) */
+    const spc_snee_params *rx_params = NULL; /* specular NEE's settings at rx */
     spc_vec3 r_wo = spc_v3(0, 0, 1), r_d0 = r_wo;
     bool open = true; /* no two adjacent non-delta vertices in P[0 .. j-1] */
     for (int j = 1; j <= n - 2; ++j) {
@@ -931,7 +965,8 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
         if (ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < long_budget)
             long_budget = ctx->max_depth - segments - 1;
         bool direct = j == 1 && !P[0].delta && !P[1].delta && direct_receiver(B, j, P[0].v, v);
-        bool rcv = direct || snee_receiver(j, open, P[j - 1].delta) ||
+        bool through = snee_receiver(j, open, P[j - 1].delta);
+        bool rcv = direct || through ||
                    (!P[j].delta && !P[j - 1].delta && corner_receiver(B, j, open, P[j - 1].v, false, v));
         int snee_budget = rcv ? spc_snee_budget_params(&B->snp, &v->h, budget) : 0;
         unsigned lobe = SPC_LOBE_DIFFUSE_REFLECTION;
@@ -947,7 +982,9 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
                 rx = v;
                 r_wo = wo;
                 r_d0 = wi;
-                rx_direct = direct;
+                rx_params = direct    ? &B->snp_direct
+                            : through ? receiver_params(B, j >= 2 ? P[j - 2].v : NULL, P[j - 1].v, v)
+                                      : &B->snp;
             }
         }
     }
@@ -958,8 +995,7 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
                                            track.events, &lh);
     if (!rx)
         return 1.0;
-    return spc_snee_mis_bsdf_weight(sc, rx_direct ? &B->snp_direct : &B->snp, &rx->h, r_wo, r_d0, track.max_chain,
-                                    track.k, track.events, &lh);
+    return spc_snee_mis_bsdf_weight(sc, rx_params, &rx->h, r_wo, r_d0, track.max_chain, track.k, track.events, &lh);
 }
 
 /* ---- connections ---- */
@@ -1251,7 +1287,8 @@ static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *
         int snee_budget = corner || snee_receiver(k, true, z[k - 1].delta) ? spc_snee_budget_params(snp, &v->h, budget)
                                                                            : 0;
         if (snee_budget > 0) {
-            spc_rgb c = spc_specular_nee_depth(B->sc, snp, &v->h, v->wo, snee_budget, long_budget, &rng, NULL);
+            const spc_snee_params *rp = corner ? snp : receiver_params(B, k >= 2 ? &z[k - 2] : NULL, &z[k - 1], v);
+            spc_rgb c = spc_specular_nee_depth(B->sc, rp, &v->h, v->wo, snee_budget, long_budget, &rng, NULL);
             L = spc_rgb_add(L, spc_rgb_mul(v->beta, c));
         }
         if (corner)
@@ -1296,10 +1333,15 @@ static void camera_vertex(const spc_render_ctx *ctx, vtx *z0)
     z0->pdf_fwd = 1.0;
 }
 
-/* B->direct and B->snp_direct from B->snp (B at its final address: the ratio reads it). */
-static void direct_setup(bdpt *B)
+/* B->snp_reflected, B->direct and B->snp_direct from B->snp (B at its final address: the ratio
+ * reads it). */
+static void snee_setup(bdpt *B)
 {
     const spc_render_ctx *ctx = B->ctx;
+    if (B->snee) {
+        B->snp_reflected = B->snp;
+        B->snp_reflected.light_samples = B->snp.reflected_samples;
+    }
     B->direct = B->snee && B->snp.direct && B->snp.mis && spc_camera_connectible(ctx->cam) && ctx->strategy_t < 0 &&
                 ctx->strategy_s < 0;
     if (!B->direct)
@@ -1326,7 +1368,7 @@ static void bdpt_init(bdpt *B, const spc_render_ctx *ctx)
         B->snp = ctx->snee;
         B->snp.mis = !B->snp.no_mis;
     }
-    direct_setup(B);
+    snee_setup(B);
     B->cam_scale = B->film_pixels / B->n_light_paths;
     B->lt_per_sample = ctx->bdpt_light_paths > 1 ? ctx->bdpt_light_paths : 1;
     B->n_lt_paths = B->n_light_paths * B->lt_per_sample;
@@ -1736,7 +1778,7 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         B.snp = ctx->snee;
         B.snp.mis = !B.snp.no_mis;
     }
-    direct_setup(&B);
+    snee_setup(&B);
     B.cam_scale = B.film_pixels / B.n_light_paths;
     B.lt_per_sample = !ptracer && ctx->bdpt_light_paths > 1 ? ctx->bdpt_light_paths : 1;
     B.n_lt_paths = B.n_light_paths * B.lt_per_sample;

@@ -81,6 +81,10 @@ static const spc_snee_option options[] = {
     {"direct", NULL, SPC_SNEE_OPT_REAL, true, "P", 0, 1, true, false, NULL, 0, AT(direct), AT(direct_p), 0, NULL,
      "bdpt: specular NEE also at the surfaces the camera sees directly, at a fraction P of them, weighed "
      "against light tracing and BSDF sampling (a caustic seen directly)"},
+    {"reflected", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, 64, false, false, NULL, 0, NO, AT(reflected_samples), 0,
+     NULL,
+     "bdpt: N light points per query at the surfaces the camera sees by a reflection off a glass ball, each "
+     "counted 1/N times"},
     {"chain", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_CHAIN_MAX_VERTICES, false, false, NULL, 0, NO, AT(max_chain),
      0, "the integrator's specular_max_chain, 2", "the longest chain, in specular vertices"},
     {"exact", "noexact", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(exact), NO, 0, NULL,

@@ -308,6 +308,14 @@ static double glass_image_share(const spc_scene *sc, const spc_chain_casters *cs
  * Q = sqrt(s), 14% at sqrt(s) / 10; 2.8% at sqrt(s) / 10 on 64 x 64). */
 #define SPC_SNEE_PLAN_CAMERA_SCALE 0.1
 #define SPC_SNEE_PLAN_CAMERA_MIN 0.02
+/* bdpt's Q = SCALE_BDPT sqrt(s) (camera_prob_bdpt). On the glass-ball caustic at 32 x 32 (s = 0.09)
+ * 0.17 gives Q = 0.05, where 0.1 gave 0.03: with bdpt's rim receivers' four light points
+ * (reflected_samples) the one sample left that held over a quarter of a seed's error was s = 0
+ * reaching the light through the ball (seed 14: 27-31% over four 16-seed runs at 0.03, 6.8-7.6%
+ * at 0.05, every seed's worst pixel at most 21.3%), for 2% more mean relMSE at equal CPU over 16
+ * seeds; on the demo, the glass sphere and dielectrics (32 x 32, 64 spp, 8 seeds, one thread) 0.17
+ * against 0.1 was 1.00x, 1.06x and 0.99x at equal CPU (bench/RESULTS.md, part bcaus13). */
+#define SPC_SNEE_PLAN_CAMERA_SCALE_BDPT 0.17
 #define SPC_SNEE_PLAN_CAMERA_PASS 100.0
 #define SPC_SNEE_PLAN_CAMERA_ALL 0.95
 
@@ -359,8 +367,8 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
     return cs->n > 0;
 }
 
-/* bdpt's query from the camera where every glass caster is enumerated exactly: Q = sqrt(s) / 10,
- * at least MIN, without path's raise on small films. bdpt's query competes with s = 0 alone (light
+/* bdpt's query from the camera where every glass caster is enumerated exactly: Q = SCALE_BDPT
+ * sqrt(s) (0.17 sqrt(s)), at least MIN, without path's raise on small films. bdpt's query competes with s = 0 alone (light
  * tracing cannot reach the light through glass either), as path's with BSDF sampling, but its
  * samples cost more, so the query's share of their time is smaller for the same Q; on the glass-ball
  * caustic (32 x 32, where path's rule gives 0.098) Q from 0.003 to 0.03 was 1.1x better at equal CPU
@@ -370,7 +378,7 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
  * scatter over 8 seeds 0.60% and 0.55%: bdpt's fireflies through glass do not come back. */
 static double camera_prob_bdpt(double s)
 {
-    return spc_max(SPC_SNEE_PLAN_CAMERA_MIN, SPC_SNEE_PLAN_CAMERA_SCALE * sqrt(s));
+    return spc_max(SPC_SNEE_PLAN_CAMERA_MIN, SPC_SNEE_PLAN_CAMERA_SCALE_BDPT * sqrt(s));
 }
 
 /* The query from the camera's probability (above) for glass on a share s of the image. */

@@ -239,7 +239,7 @@
 
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
  * no BDPT strategy but s = 0 (and at corners), and the query from the camera on one sample in ten;
- * where every glass caster is enumerated exactly, the query on sqrt(s) / 10 of the samples instead
+ * where every glass caster is enumerated exactly, the query on 0.17 sqrt(s) of the samples instead
  * (at least 0.02; snee_plan.c's camera_prob_bdpt), "angular:camera=Q".
  * The paths it covers (a caustic seen through glass, the light seen in or through glass) are
  * single samples hundreds of times their pixel's mean for s = 0 alone: on the glass-ball caustic at

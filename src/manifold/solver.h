@@ -200,6 +200,14 @@ typedef struct spc_snee_params {
      * near the casters. The path integrator only; not from the camera. */
     double first_p;
     double query_p;
+    /* Independent light points per query (0 or 1: one; the caller sets it per receiver, as query_p):
+     * each is solved as a query of its own and counted 1 / light_samples times, and MIS weighs the
+     * light sample with light_samples p_y, a density counted in samples per query as query_p's is.
+     * Not with guide or light_u_on (one light point there). */
+    int light_samples;
+    /* bdpt: light_samples at the receivers the camera sees by a reflection off a glass ball (the
+     * user's "reflected=N"; SPC_SNEE_REFLECTED_SAMPLES by default). Not in the path integrator. */
+    int reflected_samples;
     /* bdpt: specular NEE also at the surface points the camera sees directly (the user's
      * "direct[=P]"; off by default): a caustic seen directly (camera - floor - glass - glass -
      * light), which bdpt otherwise makes by light tracing (t = 1) and by s = 0 only, is then made by

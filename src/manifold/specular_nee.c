@@ -204,6 +204,12 @@ static const spc_snee_cones *cones_for(const spc_snee_query *q, const spc_emitte
     return cs;
 }
 
+/* Light points per query (params.light_samples): one with guided directions or the caller's uniforms. */
+static int light_count(const spc_snee_params *p)
+{
+    return p->light_samples > 1 && !guide_on(p) && !p->light_u_on ? p->light_samples : 1;
+}
+
 static double snee_prob(const spc_snee_query *q, const spc_emitter *e)
 {
     const spc_snee_cones *cs = cones_for(q, e);
@@ -1369,7 +1375,7 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         spc_fit_roots fit; /* the fitted sphere's solutions toward this light point (fit_seeds.h) */
         fit.nshapes = 0;
         q.fit = &fit;
-        double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p);
+        double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p) * light_count(p);
         double rs;
         bool counted;
         *a = chain_psi(&q, &ch, &rs, &counted) * p_y * ps;
@@ -1939,6 +1945,25 @@ static spc_rgb receiver_nee(const spc_scene *sc, const spc_snee_params *p, const
     double p_y;
     /* params.guide: at surface receivers (the cones' directions are traced as BSDF samples) */
     bool guide = guide_on(p) && r->kind == SPC_RECEIVER_SURFACE;
+    /* params.light_samples: n light points, each a query of its own counted 1 / n times */
+    int n = light_count(p);
+    if (n > 1) {
+        snee_sink sk;
+        memset(&sk, 0, sizeof sk);
+        const spc_snee_query q0 = q;
+        for (int i = 0; i < n; ++i) {
+            q = q0;
+            fit.nshapes = 0;
+            if (!spc_snee_sample_light(sc, p->any_surface, rng, &q, &e, &uv, &p_y))
+                continue;
+            p_y *= pq * n;
+            q.p_y = p_y;
+            if (st)
+                st->calls++;
+            estimate(&q, solver, e, uv, p_y, rng, st, &sk);
+        }
+        return sk.total;
+    }
     bool lit = spc_snee_sample_light(sc, p->any_surface, rng, &q, &e, &uv, &p_y);
     if (!lit && !guide)
         return zero;
