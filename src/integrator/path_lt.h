@@ -74,7 +74,7 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 #define SPC_PATH_LT_CAMERA_CHAINS 16
 
 /* The share of light subpaths joined to the pinhole through the sphere (join 2). */
-#define SPC_PATH_LT_THROUGH_SHARE 1.0
+#define SPC_PATH_LT_THROUGH_SHARE 0.5
 
 /* One join of a light subpath to the pinhole: the path's vertices as path_lt.h names them (x1
  * left toward w1 on the light's side, x2 toward w2 on the camera's, the chain c retraced from x2
