@@ -13,6 +13,8 @@
  *   Jacobian near the fold magnifies that in r). Each kind of join occurs.
  * - Near the caustic's fold light tracing takes the larger share (r > 1 on some joins) and far
  *   from it specular NEE does (r < 1 on some).
+ * - The joins through the ball run on a share of the subpaths, counted over the share, with the
+ *   share in r on both sides.
  * - A render with ltcaus agrees with one without (the same estimator's two splits) by the per-pixel
  *   z-test and the image mean.
  * - The plan (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) runs it for path where every light is a point
@@ -95,6 +97,9 @@ TEST(joins_are_specular_nee_chains_with_the_same_ratio)
     CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
     spc_snee_params p;
     CHECK(spc_snee_parse(SETTING, 2, &p));
+    /* every subpath joined through the sphere, the stream this tolerance was measured on (the
+     * share's factor in r: through_sphere_on_a_share) */
+    p.lt_through = 1.0;
     spc_render_ctx ctx;
     memset(&ctx, 0, sizeof ctx);
     ctx.scene = sc;
@@ -148,6 +153,85 @@ TEST(render_agrees_without_it)
     spc_scene_destroy(sc);
 }
 
+typedef struct share_tally {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *whole; /* the same parameters with every subpath joined through the sphere */
+    double share;
+    int through;
+    double sum, sum2, worst_r; /* the through-sphere joins' contributions C (mean of r, g, b); r's gap */
+} share_tally;
+
+static void count_through(void *user, const spc_path_lt_join *j)
+{
+    share_tally *t = user;
+    if (j->x1 || !j->cc)
+        return;
+    ++t->through;
+    double v = spc_rgb_avg(j->C);
+    t->sum += v;
+    t->sum2 += v * v;
+    /* light tracing's density of the path, and so r, carries the share */
+    double r1 = spc_path_lt_ratio_first(t->ctx, t->whole, j->x2, j->cc, j->c, j->e);
+    double gap = fabs(j->r - t->share * r1) / (t->share * r1);
+    if (gap > t->worst_r)
+        t->worst_r = gap;
+}
+
+/* Joins through the sphere (the costly enumeration toward the pinhole) on a share of the light
+ * subpaths: about that share of them occur, each counted over the share (the sum of their
+ * contributions agrees with every subpath's), and r, on both sides from spc_path_lt_ratio_first,
+ * is the share times r of every subpath's joins. */
+TEST(through_sphere_on_a_share)
+{
+    spc_scene *sc = tu_load(SCENE, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_camera_state cam;
+    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
+    spc_snee_params whole;
+    CHECK(spc_snee_parse(SETTING, 2, &whole));
+    whole.lt_through = 1.0;
+    spc_render_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = sc;
+    ctx.cam = &cam;
+    ctx.kind = SPC_INTEGRATOR_PATH;
+    ctx.max_depth = -1;
+    ctx.rr_depth = 5;
+    ctx.specular_nee = SPC_SNEE_ANGULAR;
+    ctx.specular_max_chain = 2;
+    ctx.width = sc->film.width;
+    ctx.height = sc->film.height;
+    share_tally t[2];
+    const int n = 20000;
+    for (int s = 0; s < 2; ++s) {
+        spc_snee_params p = whole;
+        p.lt_through = s == 0 ? 1.0 : 0.5;
+        ctx.snee = p;
+        memset(&t[s], 0, sizeof t[s]);
+        t[s].ctx = &ctx;
+        t[s].whole = &whole;
+        t[s].share = p.lt_through;
+        spc_rng rng;
+        spc_rng_seed(&rng, 23 + s, 5);
+        for (int i = 0; i < n; ++i)
+            spc_path_lt_joins(&ctx, &p, &rng, count_through, &t[s]);
+    }
+    /* the sums' standard errors over the n subpaths (joins are few per subpath: as if independent) */
+    double se0 = sqrt(t[0].sum2), se1 = sqrt(t[1].sum2);
+    double z = (t[1].sum - t[0].sum) / sqrt(se0 * se0 + se1 * se1 + 1e-300);
+    printf("    through the sphere: %d joins with every subpath, %d with a share 0.5; sums %.4g vs %.4g (z %.2f); "
+           "r's largest relative gap from the share's %.2g\n",
+           t[0].through, t[1].through, t[0].sum, t[1].sum, z, t[1].worst_r);
+    CHECK(t[0].through > 100);
+    double frac = (double)t[1].through / (double)(t[0].through > 0 ? t[0].through : 1);
+    CHECK_MSG(frac > 0.4 && frac < 0.6, "a share 0.5 makes %.3f of the joins", frac);
+    CHECK_MSG(fabs(z) < 4.0, "the contributions' sums differ by z %.2f", z);
+    CHECK_MSG(t[0].worst_r < 1e-12 && t[1].worst_r < 1e-12, "r is not the share's: %.3g", t[1].worst_r);
+    spc_scene_destroy(sc);
+}
+
 /* The plan runs it for path where every light is a point light and a glass sphere is a caster:
  * on the point-light ball, not with its small sphere light, nor with a sky besides the point light
  * (scenes/dielectrics.xml), nor for volpath. */
@@ -173,6 +257,7 @@ int main(void)
 {
     RUN(joins_are_specular_nee_chains_with_the_same_ratio);
     RUN(render_agrees_without_it);
+    RUN(through_sphere_on_a_share);
     RUN(plan_with_point_lights_only);
     return spc_test_finish();
 }

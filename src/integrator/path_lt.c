@@ -10,6 +10,13 @@
 #include "manifold/snee_cost.h"
 #include "manifold/sphere_chains.h"
 
+/* The share of light subpaths joined to the pinhole through the sphere (p->lt_through, else the
+ * default). */
+static double through_share(const spc_snee_params *p)
+{
+    return p->lt_through > 0.0 && p->lt_through <= 1.0 ? p->lt_through : SPC_PATH_LT_THROUGH_SHARE;
+}
+
 /* The adjoint BSDF's correction for shading normals (Veach 1997, sec. 5.3), as bdpt's. */
 static double shading_fix(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
 {
@@ -162,7 +169,9 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 {
     spc_camera_direct cd;
     double pc = camera_density(ctx, p, x, cc, &cd);
-    return ratio_of(light_density(ctx->scene, p, x, c, e), query_prob(ctx->scene, p, x->p, true) * pc);
+    /* light tracing joins x to the pinhole through the sphere on a share of its subpaths only */
+    double share = cc ? through_share(p) : 1.0;
+    return ratio_of(share * light_density(ctx->scene, p, x, c, e), query_prob(ctx->scene, p, x->p, true) * pc);
 }
 
 /* The light chain's retrace from x2 along d0 with the events the light subpath took, in the form
@@ -188,7 +197,7 @@ static bool retrace_chain(const spc_scene *sc, const spc_snee_params *p, const s
  * from the point light e) to the pinhole where x2 is the path's first receiver: directly, and
  * through each chain of the glass sphere toward the pinhole. */
 static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_vec3 d0,
-                       spc_rgb beta, const spc_chain *c, const spc_emitter *e,
+                       spc_rgb beta, const spc_chain *c, const spc_emitter *e, spc_rng *rng,
                        void (*sink)(void *user, const spc_path_lt_join *j), void *user)
 {
     const spc_scene *sc = ctx->scene;
@@ -205,7 +214,12 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
             sink(user, &j);
         }
     }
-    /* through the sphere: its chains from x2 to the pinhole */
+    /* through the sphere: its chains from x2 to the pinhole, on a share of the subpaths (their
+     * contributions over the share; the share is in the density spc_path_lt_ratio_first weighs) */
+    double share = through_share(p);
+    if (!(share > 0.0) || (share < 1.0 && !(spc_rng_next(rng) < share)))
+        return;
+    double inv_share = share < 1.0 ? 1.0 / share : 1.0;
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, x2, d0, p->max_chain);
     q.y = ctx->cam->origin;
@@ -228,7 +242,7 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
         double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
         double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
-        spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N);
+        spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N * inv_share);
         if (spc_rgb_is_black(C) || !isfinite(g))
             continue;
         double r = spc_path_lt_ratio_first(ctx, p, x2, cc, c, e);
@@ -297,7 +311,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
         return;
 
     /* x2 as the path's first receiver: seen by the camera directly, or through the glass sphere */
-    join_first(ctx, p, &x2, d0, beta, &c, e, sink, user);
+    join_first(ctx, p, &x2, d0, beta, &c, e, rng, sink, user);
 
     /* x2's scattering toward the camera's side: a non-delta sample */
     spc_bsdf_sample bs;

@@ -35,6 +35,10 @@
  * samples), and the query's roulette first_p's:
  *
  *     r = p_dir(w0) P_chain |dw0/dA(x2)| / (q(x2) We / N |dw_cam/dA(x2)| P_cam).
+ *
+ * The joins through the sphere (its root search from x2, most of the strategy's cost) run on a
+ * share s of the subpaths (SPC_PATH_LT_THROUGH_SHARE, or the parameters' lt_through), counted 1/s
+ * times; light tracing's density of those paths, and so their r, carries the factor s.
  */
 #ifndef SPC_INTEGRATOR_PATH_LT_H
 #define SPC_INTEGRATOR_PATH_LT_H
@@ -68,6 +72,9 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 
 /* Chains of the glass sphere from x2 toward the pinhole that one join enumerates. */
 #define SPC_PATH_LT_CAMERA_CHAINS 16
+
+/* The share of light subpaths joined to the pinhole through the sphere (join 2). */
+#define SPC_PATH_LT_THROUGH_SHARE 0.5
 
 /* One join of a light subpath to the pinhole: the path's vertices as path_lt.h names them (x1
  * left toward w1 on the light's side, x2 toward w2 on the camera's, the chain c retraced from x2

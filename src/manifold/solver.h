@@ -233,6 +233,9 @@ typedef struct spc_snee_params {
      * function of the path alone, so that both sides agree. NULL: none. Not from the camera, not
      * at medium points. */
     bool lt_caustic;
+    /* With lt_caustic: the share of light subpaths joined to the pinhole through a glass sphere,
+     * in (0, 1]; 0: SPC_PATH_LT_THROUGH_SHARE (integrator/path_lt.h). */
+    double lt_through;
     double (*delta_share)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,
                           const spc_emitter *e);
     const void *delta_user;
