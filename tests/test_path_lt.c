@@ -87,6 +87,24 @@ static void check_join(void *user, const spc_path_lt_join *j)
     t->below += j->r < 1.0;
 }
 
+/* A path render context on sc with specular NEE's setting p, as the joins' callers see it. */
+static spc_render_ctx lt_ctx(spc_scene *sc, spc_camera_state *cam, const spc_snee_params *p)
+{
+    spc_render_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = sc;
+    ctx.cam = cam;
+    ctx.kind = SPC_INTEGRATOR_PATH;
+    ctx.max_depth = -1;
+    ctx.rr_depth = 5;
+    ctx.specular_nee = SPC_SNEE_ANGULAR;
+    ctx.specular_max_chain = 2;
+    ctx.snee = *p;
+    ctx.width = sc->film.width;
+    ctx.height = sc->film.height;
+    return ctx;
+}
+
 TEST(joins_are_specular_nee_chains_with_the_same_ratio)
 {
     spc_scene *sc = tu_load(SCENE, 16);
@@ -100,18 +118,7 @@ TEST(joins_are_specular_nee_chains_with_the_same_ratio)
     /* every subpath joined through the sphere, the stream this tolerance was measured on (the
      * share's factor in r: through_sphere_on_a_share) */
     p.lt_through = 1.0;
-    spc_render_ctx ctx;
-    memset(&ctx, 0, sizeof ctx);
-    ctx.scene = sc;
-    ctx.cam = &cam;
-    ctx.kind = SPC_INTEGRATOR_PATH;
-    ctx.max_depth = -1;
-    ctx.rr_depth = 5;
-    ctx.specular_nee = SPC_SNEE_ANGULAR;
-    ctx.specular_max_chain = 2;
-    ctx.snee = p;
-    ctx.width = sc->film.width;
-    ctx.height = sc->film.height;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
     CHECK(spc_path_lt_enabled(&ctx, &p));
     tally t;
     memset(&t, 0, sizeof t);
@@ -192,17 +199,7 @@ TEST(through_sphere_on_a_share)
     spc_snee_params whole;
     CHECK(spc_snee_parse(SETTING, 2, &whole));
     whole.lt_through = 1.0;
-    spc_render_ctx ctx;
-    memset(&ctx, 0, sizeof ctx);
-    ctx.scene = sc;
-    ctx.cam = &cam;
-    ctx.kind = SPC_INTEGRATOR_PATH;
-    ctx.max_depth = -1;
-    ctx.rr_depth = 5;
-    ctx.specular_nee = SPC_SNEE_ANGULAR;
-    ctx.specular_max_chain = 2;
-    ctx.width = sc->film.width;
-    ctx.height = sc->film.height;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &whole);
     share_tally t[2];
     const int n = 20000;
     for (int s = 0; s < 2; ++s) {

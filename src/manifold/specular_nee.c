@@ -623,14 +623,7 @@ static bool sample_light_facing(const spc_shape *s, spc_vec3 cb, double cr, spc_
     /* the point, normal, uv and error bound exactly as spc_shape_sample_area has them */
     out->p = spc_madd(s->center, d, R);
     out->n = d;
-    out->uv = spc_v2(0.0, 0.0);
-    if (!s->uv_unread) {
-        spc_vec3 l = spc_mat4_apply_vector(&s->to_local, d);
-        double lphi = atan2(l.y, l.x);
-        if (lphi < 0.0)
-            lphi += 2.0 * SPC_PI;
-        out->uv = spc_v2(lphi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
-    }
+    out->uv = spc_sphere_uv(s, d);
     out->pdf = 1.0 / (2.0 * SPC_PI * R * R * (1.0 - cmin));
     out->err = 1e-9 * (spc_max_abs(s->center) + R);
     out->prim = 0;

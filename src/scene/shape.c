@@ -691,6 +691,23 @@ static void mesh_derivatives(const spc_shape *s, int prim, double b1, double b2,
     mesh_normal_derivatives(s, spc_scale(nr, 1.0 / len), n0, n1, n2, len, h);
 }
 
+/* A sphere's (u, v) = (phi / 2 pi, theta / pi) of the unit direction l in its local frame. */
+static spc_vec2 sphere_uv_local(spc_vec3 l)
+{
+    double theta = acos(spc_clamp(l.z, -1.0, 1.0));
+    double phi = atan2(l.y, l.x);
+    if (phi < 0.0)
+        phi += 2.0 * SPC_PI;
+    return spc_v2(phi * SPC_INV_2PI, theta * SPC_INV_PI);
+}
+
+spc_vec2 spc_sphere_uv(const spc_shape *s, spc_vec3 dir)
+{
+    if (s->uv_unread)
+        return spc_v2(0.0, 0.0);
+    return sphere_uv_local(spc_mat4_apply_vector(&s->to_local, dir));
+}
+
 /* The sphere's hit from the unit direction l of the point in the shape's local frame: its
  * parameterization p = R (sin theta cos phi, sin theta sin phi, cos theta), u = phi / 2 pi,
  * v = theta / pi, whose sines and cosines are l's coordinates (sin theta = |l.xy|), so the
@@ -704,15 +721,7 @@ static void fill_sphere(const spc_shape *s, const spc_ray *r, double t, spc_hit 
     h->p = spc_madd(s->center, dir, R);
     h->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + R);
     spc_vec3 l = spc_mat4_apply_vector(&s->to_local, dir);
-    if (s->uv_unread) {
-        h->uv = spc_v2(0.0, 0.0);
-    } else {
-        double theta = acos(spc_clamp(l.z, -1.0, 1.0));
-        double phi = atan2(l.y, l.x);
-        if (phi < 0.0)
-            phi += 2.0 * SPC_PI;
-        h->uv = spc_v2(phi * SPC_INV_2PI, theta * SPC_INV_PI);
-    }
+    h->uv = s->uv_unread ? spc_v2(0.0, 0.0) : sphere_uv_local(l);
     h->b1 = h->uv.x;
     h->b2 = h->uv.y;
     double st = sqrt(l.x * l.x + l.y * l.y), ct = l.z, sp = 0.0, cp = 1.0; /* at a pole atan2 gives phi = 0 */
@@ -937,14 +946,7 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
         spc_vec3 d = spc_warp_uniform_sphere(u);
         out->p = spc_madd(s->center, d, s->radius);
         out->n = s->flip_normals ? spc_neg(d) : d;
-        out->uv = spc_v2(0.0, 0.0); /* as fill_sphere: only where the shape's materials read it */
-        if (!s->uv_unread) {
-            spc_vec3 l = spc_mat4_apply_vector(&s->to_local, d);
-            double phi = atan2(l.y, l.x);
-            if (phi < 0.0)
-                phi += 2.0 * SPC_PI;
-            out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
-        }
+        out->uv = spc_sphere_uv(s, d); /* as fill_sphere: only where the shape's materials read it */
         out->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + s->radius);
         return;
     }
@@ -1056,14 +1058,7 @@ bool spc_shape_sample_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec2 u, 
     spc_vec3 n = spc_frame_to_world(&fr, spc_v3(-sin_a * cp, -sin_a * sp, -cos_a));
     out->p = spc_madd(s->center, n, R);
     out->n = s->flip_normals ? spc_neg(n) : n;
-    out->uv = spc_v2(0.0, 0.0);
-    if (with_uv && !s->uv_unread) {
-        spc_vec3 l = spc_mat4_apply_vector(&s->to_local, n);
-        double phi = atan2(l.y, l.x);
-        if (phi < 0.0)
-            phi += 2.0 * SPC_PI;
-        out->uv = spc_v2(phi * SPC_INV_2PI, acos(spc_clamp(l.z, -1.0, 1.0)) * SPC_INV_PI);
-    }
+    out->uv = with_uv ? spc_sphere_uv(s, n) : spc_v2(0.0, 0.0);
     out->pdf = spc_warp_uniform_cone_pdf(cos_max);
     out->err = SPC_DOUBLE_OFFSET * (spc_max_abs(s->center) + R);
     out->prim = 0;

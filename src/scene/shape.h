@@ -180,6 +180,9 @@ void spc_shape_hit_derivatives(spc_hit *h);
 
 /* Uniform area sampling (meshes pick the triangle with u.x and reuse it, rescaled). */
 void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out);
+/* The sphere s's (u, v) at the unit direction dir from its centre (world space); zero where its
+ * materials read no uv (uv_unread). */
+spc_vec2 spc_sphere_uv(const spc_shape *s, spc_vec3 dir);
 
 /* Solid-angle sampling from a reference point where the shape supports it (spheres: the cone of
  * directions subtended; SDFs: the cone of their bounding sphere traced to the first crossing, from
