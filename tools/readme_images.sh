@@ -3,7 +3,7 @@
 # and with --specular-nee none at about equal CPU time (none gets as many more samples as the
 # default costs per sample):
 #   - scenes/demo.xml at its own size (256x256), the default at its 8 spp, none at 64 spp (the
-#     default's cost per sample there is 8x none's: 4.6 CPU-s at 8 spp against 3.7 at 52):
+#     default's cost per sample there is about 7x none's: 3.8 CPU-s at 8 spp against 4.1 at 64):
 #     docs/images/demo_default.png, docs/images/demo_none.png;
 #   - scenes/caustic_mirror_ring.xml (a caustic inside a mirror ring under a small sphere light) at
 #     128x128, 32 against 354 spp (4.2 CPU-s at 32 spp against 5.1 at 426):
