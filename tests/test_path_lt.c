@@ -4,13 +4,15 @@
  * (a point light above a glass ball on a floor).
  *
  * - Every join the light subpaths make (x2 seen by the camera directly, through the glass ball, or
- *   from the first hit x1 of a diffuse bounce) is a path specular NEE counts at x2: the sphere
- *   enumeration there (spc_sphere_chains_all, what specular NEE sums) finds the light subpath's
- *   chain toward the point light (the nearest of its chains of that length, within 1e-6 in 1 - cos
- *   of the first direction), and the two weights of the path, specular NEE's 1 / (1 + r^2) with r
- *   from the enumerated chain and light tracing's r^2 / (1 + r^2) with r from its own retrace, sum
- *   to one within 1e-3 (4.7e-4 measured: the floor's hits are single precision, and the chain's
- *   Jacobian near the fold magnifies that in r). Each kind of join occurs.
+ *   from the first hit x1 of a diffuse bounce) is a path specular NEE counts at x2 (the sphere
+ *   enumeration there, spc_sphere_chains_all, finds the light subpath's chain toward the point
+ *   light: the nearest of its chains of that length, within 1e-6 in 1 - cos of the first
+ *   direction), and the two weights of the path, specular NEE's 1 / (1 + r^2) with r from the
+ *   enumerated chain and light tracing's r^2 / (1 + r^2) with r from its own chain, sum to one
+ *   within 1e-5 (1.3e-6 measured over 8 seeds: light tracing's chain is solved through the light
+ *   from the rounded x2, as specular NEE's is); or it is a path specular NEE does not find (two
+ *   chains meeting at the caustic's fold, or x2 past it), and light tracing's weight is 1 there.
+ *   Over 8 seeds of 20000 subpaths each kind of join occurs and some joins are not enumerated.
  * - Near the caustic's fold light tracing takes the larger share (r > 1 on some joins) and far
  *   from it specular NEE does (r < 1 on some).
  * - The joins through the ball run on a share of the subpaths, counted over the share, with the
@@ -39,7 +41,7 @@
 typedef struct tally {
     const spc_render_ctx *ctx;
     const spc_snee_params *p;
-    int joins, missing, above, below;
+    int joins, missing, lt_only, above, below;
     int kinds[3]; /* x2 seen directly, through the sphere, through a diffuse bounce */
     double worst_gap;
 } tally;
@@ -65,7 +67,12 @@ static void check_join(void *user, const spc_path_lt_join *j)
             match = &all[i];
         }
     if (!match) {
-        if (t->missing < 6) {
+        /* specular NEE does not make this path: light tracing's weight must be 1 */
+        double g = fabs(spc_path_lt_weight(j->r) - 1.0);
+        if (g > t->worst_gap)
+            t->worst_gap = g;
+        t->lt_only += g == 0.0;
+        if (g > 0.0 && t->missing < 6) {
             printf("    missing: k %d ev %d %d x2 (%.4f %.4f %.4f) d0 (%.4f %.4f %.4f) n %d r %.3g", j->c->n,
                    j->c->v[0].event, j->c->n > 1 ? j->c->v[1].event : -1, j->x2->p.x, j->x2->p.y, j->x2->p.z,
                    j->c->d0.x, j->c->d0.y, j->c->d0.z, n, j->r);
@@ -80,7 +87,7 @@ static void check_join(void *user, const spc_path_lt_join *j)
                      : spc_path_lt_ratio_first(t->ctx, t->p, j->x2, j->cc, match, j->e);
     ++t->kinds[j->x1 ? 2 : j->cc ? 1 : 0];
     /* the two sides' weights of the path: specular NEE's from its chain, light tracing's from its own */
-    double gap = fabs(1.0 / (1.0 + r * r) + j->r * j->r / (1.0 + j->r * j->r) - 1.0);
+    double gap = fabs(1.0 / (1.0 + r * r) + spc_path_lt_weight(j->r) - 1.0);
     if (gap > t->worst_gap)
         t->worst_gap = gap;
     t->above += j->r > 1.0;
@@ -124,18 +131,30 @@ TEST(joins_are_specular_nee_chains_with_the_same_ratio)
     memset(&t, 0, sizeof t);
     t.ctx = &ctx;
     t.p = &p;
-    spc_rng rng;
-    spc_rng_seed(&rng, 17, 3);
-    for (int i = 0; i < 20000; ++i)
-        spc_path_lt_joins(&ctx, &p, &rng, check_join, &t);
-    printf("  %d joins, %d not enumerated, r > 1 on %d, r < 1 on %d, largest gap of the weights' sum from 1 %.3g\n",
-           t.joins, t.missing, t.above, t.below, t.worst_gap);
-    printf("  x2 seen directly %d, through the sphere %d, through a diffuse bounce %d\n", t.kinds[0], t.kinds[1],
-           t.kinds[2]);
-    CHECK(t.joins > 100 && t.kinds[0] > 10 && t.kinds[1] > 10 && t.kinds[2] > 10);
-    CHECK_MSG(t.missing == 0, "%d joins are no chain specular NEE enumerates", t.missing);
-    CHECK_MSG(t.worst_gap < 1e-3, "the two weights sum to 1 +- %.3g", t.worst_gap);
-    CHECK(t.above > 0 && t.below > 0);
+    /* several seeds: the joins specular NEE does not enumerate are rare (0-6 of 20000 subpaths) */
+    int total_missing = 0;
+    for (int seed = 17; seed < 25; ++seed) {
+        tally t;
+        memset(&t, 0, sizeof t);
+        t.ctx = &ctx;
+        t.p = &p;
+        spc_rng rng;
+        spc_rng_seed(&rng, (uint64_t)seed, 3);
+        for (int i = 0; i < 20000; ++i)
+            spc_path_lt_joins(&ctx, &p, &rng, check_join, &t);
+        printf("  seed %d: %d joins, %d not enumerated (%d of them weighed 1 by light tracing), r > 1 on %d, r < 1 on "
+               "%d, largest gap of the weights' sum from 1 %.3g; x2 seen directly %d, through the sphere %d, through "
+               "a diffuse bounce %d\n",
+               seed, t.joins, t.missing, t.lt_only, t.above, t.below, t.worst_gap, t.kinds[0], t.kinds[1], t.kinds[2]);
+        CHECK(t.joins > 100 && t.kinds[0] > 10 && t.kinds[1] > 10 && t.kinds[2] > 10);
+        CHECK_MSG(t.lt_only == t.missing, "seed %d: %d joins specular NEE does not enumerate weigh less than 1", seed,
+                  t.missing - t.lt_only);
+        CHECK_MSG(t.worst_gap < 1e-5, "seed %d: the two weights sum to 1 +- %.3g", seed, t.worst_gap);
+        CHECK(t.above > 0 && t.below > 0);
+        total_missing += t.missing;
+    }
+    /* the case the weight 1 is for occurs */
+    CHECK(total_missing > 0);
     spc_scene_destroy(sc);
 }
 
@@ -177,7 +196,10 @@ static void count_through(void *user, const spc_path_lt_join *j)
     double v = spc_rgb_avg(j->C);
     t->sum += v;
     t->sum2 += v * v;
-    /* light tracing's density of the path, and so r, carries the share */
+    /* light tracing's density of the path, and so r, carries the share (where specular NEE makes
+     * the path: r is infinite, light tracing's alone, where it does not) */
+    if (isinf(j->r))
+        return;
     double r1 = spc_path_lt_ratio_first(t->ctx, t->whole, j->x2, j->cc, j->c, j->e);
     double gap = fabs(j->r - t->share * r1) / (t->share * r1);
     if (gap > t->worst_r)

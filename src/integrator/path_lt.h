@@ -78,7 +78,9 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 
 /* One join of a light subpath to the pinhole: the path's vertices as path_lt.h names them (x1
  * left toward w1 on the light's side, x2 toward w2 on the camera's, the chain c retraced from x2
- * to the point light e), the film position, the contribution C before the weight, and r. */
+ * to the point light e), the film position, the contribution C before the weight, and r (infinite
+ * where specular NEE cannot make the path: no chain from x2 passes through the light, or its
+ * enumeration at x2 does not find c). */
 typedef struct spc_path_lt_join {
     const spc_hit *x1, *x2;
     spc_vec3 w1, w2;
@@ -95,8 +97,15 @@ typedef struct spc_path_lt_join {
 void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
                        void (*sink)(void *user, const spc_path_lt_join *j), void *user);
 
+/* Light tracing's power-heuristic weight r^2 / (1 + r^2) of a join with ratio r (1 where r is
+ * infinite). */
+static inline double spc_path_lt_weight(double r)
+{
+    return r > 0.0 ? 1.0 / (1.0 + 1.0 / (r * r)) : 0.0;
+}
+
 /* The light-traced estimate of one camera sample: spc_path_lt_joins's joins splatted
- * (spc_splat_add), each weighted r^2 / (1 + r^2). */
+ * (spc_splat_add), each weighted spc_path_lt_weight(r). */
 void spc_path_lt_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_tls *tls, spc_rng *rng);
 
 #endif
