@@ -1242,6 +1242,38 @@ static double covered_walk(const spc_scene *sc, const spc_snee_params *p, const 
     return 0.0;
 }
 
+/* The difference D of the give-up tests below, from N iterations at the medium receiver rc (point
+ * xp, direction wo, phase function ph): specular NEE (stream seeded with seed, 5) plus, from one
+ * phase-sampled walk (stream seed, 6), the sum over covered paths of (w - 1) T Le; its mean is 0 when
+ * specular NEE and the covered paths' weights add up. *m and *se: D's mean and its standard error;
+ * *ref, *snee: the phase-sampled paths unweighted and specular NEE, per iteration. */
+static void covered_difference(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *rc, spc_vec3 xp,
+                               spc_vec3 wo, const spc_phase *ph, uint64_t seed, int N, spc_snee_stats *st, double *m,
+                               double *se, double *ref, double *snee)
+{
+    spc_rng r, rw; /* specular NEE's stream, the walk's */
+    spc_rng_seed(&r, seed, 5);
+    spc_rng_seed(&rw, seed, 6);
+    double s1 = 0, s2 = 0, sref = 0, sn = 0, scov = 0;
+    for (int i = 0; i < N; ++i) {
+        double nee = spc_specular_nee_at(sc, p, rc, 2, 2, &r, st).r, d = nee;
+        sn += nee;
+        spc_vec3 wi;
+        double pdf;
+        if (spc_phase_sample(ph, wo, spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &wi, &pdf)) {
+            spc_ray ray = {xp, wi, 0.0, INFINITY};
+            double T = spc_phase_eval(ph, wo, wi) / pdf;
+            d += covered_walk(sc, p, rc, wi, ray, T, &rw, &sref, &scov);
+        }
+        s1 += d;
+        s2 += d * d;
+    }
+    *m = s1 / N;
+    *se = sqrt(spc_max(s2 / N - *m * *m, 0.0) / N);
+    *ref = sref / N;
+    *snee = sn / N;
+}
+
 /* The give-up at the cap is unbiased only with phase sampling's share of it: at a medium point under
  * the glass ball of mis_count_gives_up_at_cap, cap 1 and a stand-in psi that puts specular NEE's
  * density a near phase sampling's b (so a <= C b holds on most chains and specular NEE's MIS share is
@@ -1267,33 +1299,76 @@ TEST(mis_give_up_at_cap_adds_up)
     p.long_p = 0.0;
     spc_snee_stats st;
     memset(&st, 0, sizeof st);
-    spc_rng r, rw; /* specular NEE's stream, the walk's */
-    spc_rng_seed(&r, 23, 5);
-    spc_rng_seed(&rw, 23, 6);
-    const int N = 20000;
-    double s1 = 0, s2 = 0, sref = 0, snee = 0, scov = 0;
-    for (int i = 0; i < N; ++i) {
-        double nee = spc_specular_nee_at(sc, &p, &rc, 2, 2, &r, &st).r, d = nee;
-        snee += nee;
-        spc_vec3 wi;
-        double pdf;
-        if (spc_phase_sample(&iso, wo, spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &wi, &pdf)) {
-            spc_ray ray = {xp, wi, 0.0, INFINITY};
-            double T = spc_phase_eval(&iso, wo, wi) / pdf;
-            d += covered_walk(sc, &p, &rc, wi, ray, T, &rw, &sref, &scov);
-        }
-        s1 += d;
-        s2 += d * d;
-    }
-    double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N), ref = sref / N;
-    printf("    phase sampling unweighted %.5f; specular NEE %.5f, covered paths %.5f; D = %.5f +- %.5f (%.2f se); "
+    double m, se, ref, snee;
+    covered_difference(sc, &p, &rc, xp, wo, &iso, 23, 20000, &st, &m, &se, &ref, &snee);
+    printf("    phase sampling unweighted %.5f; specular NEE %.5f; D = %.5f +- %.5f (%.2f se); "
            "counts %llu, capped %llu\n",
-           ref, snee / N, scov / N, m, se, se > 0.0 ? m / se : 0.0, (unsigned long long)st.contributions,
+           ref, snee, m, se, se > 0.0 ? m / se : 0.0, (unsigned long long)st.contributions,
            (unsigned long long)st.capped);
     CHECK(ref > 0.0 && snee > 0.0);
     CHECK_MSG(st.capped * 4 > st.contributions, "the cap was reached %llu times in %llu counts",
               (unsigned long long)st.capped, (unsigned long long)st.contributions);
-    CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f)", m, se, snee / N);
+    CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f)", m, se, snee);
+    spc_scene_destroy(sc);
+}
+
+/* seed=bsdf at a medium receiver: the attempts' seeds are directions sampled from its phase
+ * function (it has no BSDF). Under the glass ball of mis_give_up_at_cap_adds_up, with a stand-in psi
+ * of 0.5 and cap 1 (a > C b on many chains, where a count goes on by roulette instead of giving
+ * up), specular NEE plus the phase-sampled paths it covers must again equal those paths unweighted
+ * (D's mean 0). Where the seeds fail at a medium point, specular NEE finds no randomized chain while
+ * MIS still hands it its share of them, and D falls well below 0. */
+TEST(medium_bsdf_seeds_add_up)
+{
+    spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_phase hg = {SPC_PHASE_HG, 0.5};
+    const spc_vec3 xp = spc_v3(0.15, 0.05, 0.1), wo = spc_v3(0, 0, -1); /* forward scattering, upward */
+    spc_receiver rc;
+    spc_receiver_medium(&rc, xp, wo, &hg, -1);
+    spc_snee_params p;
+    give_up_params(&p, 0.5);
+    p.seed = SPC_SNEE_SEED_BSDF;
+    p.long_p = 0.0;
+    spc_snee_stats st;
+    memset(&st, 0, sizeof st);
+    double m, se, ref, snee;
+    covered_difference(sc, &p, &rc, xp, wo, &hg, 29, 20000, &st, &m, &se, &ref, &snee);
+    printf("    phase sampling unweighted %.5f; specular NEE %.5f; D = %.5f +- %.5f (%.2f se); counts %llu\n", ref,
+           snee, m, se, se > 0.0 ? m / se : 0.0, (unsigned long long)st.contributions);
+    CHECK(ref > 0.0 && snee > 0.0);
+    CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f, phase sampling %.6f)", m, se, snee, ref);
+    spc_scene_destroy(sc);
+}
+
+/* seed=bsdf from a start point with neither a BSDF nor a phase function (the camera's pinhole):
+ * the cone seeds, rather than no seed at all. */
+TEST(bsdf_seeds_without_bsdf)
+{
+    spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_phase iso = {SPC_PHASE_ISOTROPIC, 0.0};
+    spc_receiver rc;
+    spc_receiver_medium(&rc, spc_v3(0.15, 0.05, 0.1), spc_v3(0, 0, 1), &iso, -1);
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+    p.seed = SPC_SNEE_SEED_BSDF;
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, &p, &rc.point, spc_v3(0, 0, 1), 2); /* no receiver: a bare point */
+    q.y = spc_v3(0.0, 0.1, 3.0);
+    CHECK(rc.point.bsdf == NULL);
+    spc_rng rng;
+    spc_rng_seed(&rng, 43, 1);
+    int n = 0;
+    for (int i = 0; i < 100; ++i) {
+        spc_vec3 d;
+        n += spc_snee_seed_direction(&q, &rng, &d) && fabs(spc_length(d) - 1.0) < 1e-9;
+    }
+    CHECK_MSG(n == 100, "%d of 100 seeds", n);
     spc_scene_destroy(sc);
 }
 
@@ -2619,6 +2694,8 @@ int main(void)
     RUN(trial_count_unbiased_past_cap);
     RUN(mis_count_gives_up_at_cap);
     RUN(mis_give_up_at_cap_adds_up);
+    RUN(medium_bsdf_seeds_add_up);
+    RUN(bsdf_seeds_without_bsdf);
     RUN(medium_cone_seed_share);
     RUN(mis_give_up_at_cap_at_a_surface);
     RUN(solve_mis_unbiased_past_cap);

@@ -44,8 +44,8 @@ static const spc_snee_option options[] = {
      "else roulette in doubling blocks (unbiased)"},
     {"seed", NULL, SPC_SNEE_OPT_CHOICE, false, "S", 0, 0, false, false, seed_choices, 0, NO, AT(seed), 0, NULL,
      "the randomized attempts' seeds: a uniform point of a caster (shape), the straight line to the light "
-     "(light: Hanika et al.'s MNEE), a direction sampled from the receiver's BSDF (bsdf), or uniform in the "
-     "cone toward a caster's bounding sphere (cone)"},
+     "(light: Hanika et al.'s MNEE), a direction sampled from the receiver's BSDF (bsdf; at a medium point its "
+     "phase function, from the camera cone), or uniform in the cone toward a caster's bounding sphere (cone)"},
     {"constraint", NULL, SPC_SNEE_OPT_CHOICE, false, "C", 0, 0, false, false, constraint_choices, SPC_SNEE_NEWTON, NO,
      AT(newton.constraint), 0, NULL, "newton: the constraints as half vectors (half) or as angle differences (angle)"},
     {"rough", NULL, SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, SPC_SNEE_NEWTON, AT(newton.rough), NO,

@@ -11,6 +11,7 @@
 #include "manifold/receiver.h"
 #include "manifold/seed_guide.h"
 #include "manifold/solve_mis.h"
+#include "medium/medium.h"
 
 /* Cosine of the half-angle of SEED_CONE's cone around x -> y (x inside the caster's bounding sphere). */
 #define SPC_SNEE_CONE_COS 0.9
@@ -65,7 +66,16 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
         *dir = *q->seed_dir;
         return true;
     }
-    switch (q->seed) {
+    /* SEED_BSDF at a start point with no BSDF: a medium point samples its phase function (below), the
+     * camera's pinhole, which samples no direction of its own here, takes the cone seeds. An attempt
+     * with no seed finds nothing, while MIS still hands specular NEE its share of the paths that only
+     * the attempts find: those paths would lose that share (scenes/medium_glass.xml read 8% low;
+     * bench/RESULTS.md, part seedbsdf15). */
+    spc_snee_seed seed = q->seed;
+    bool medium = q->receiver && q->receiver->kind == SPC_RECEIVER_MEDIUM;
+    if (seed == SPC_SNEE_SEED_BSDF && !medium && !q->x->bsdf)
+        seed = SPC_SNEE_SEED_CONE;
+    switch (seed) {
     case SPC_SNEE_SEED_LIGHT: {
         spc_vec3 d = spc_sub(q->y, q->x->p);
         double l = spc_length(d);
@@ -75,6 +85,11 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
         return true;
     }
     case SPC_SNEE_SEED_BSDF: {
+        if (medium) {
+            double pdf;
+            spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+            return spc_phase_sample(q->receiver->phase, q->wo, u, dir, &pdf) && pdf > 0.0;
+        }
         spc_bsdf_sample bs;
         double ul = spc_rng_next(rng);
         spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
@@ -106,7 +121,7 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
         /* a share toward the solutions of the sphere fitted to a tessellated ball (fit_seeds.h) */
         if (p->fit_seeds && spc_fit_seed(q, pick, rng, dir))
             return true;
-        if (q->seed == SPC_SNEE_SEED_CONE) {
+        if (seed == SPC_SNEE_SEED_CONE) {
             /* uniform in the cone of the sphere around the shape's bounding box, unless x is inside
              * it. (The exact cone of a sphere caster was measured worse: 1.6x the CPU at the same
              * variance on caustic_glass_sphere; seeds that miss fail at once.) */
@@ -122,7 +137,6 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
             /* x inside: a share of the seeds in a cone around the straight line toward y (a large
              * caster over x, such as a water surface: the solutions lie near that line), the rest
              * toward a uniform point of the shape (below) */
-            bool medium = q->receiver && q->receiver->kind == SPC_RECEIVER_MEDIUM;
             if (spc_rng_next(rng) < (medium ? SPC_SNEE_CONE_SHARE_MEDIUM : SPC_SNEE_CONE_SHARE)) {
                 spc_vec3 dy = spc_sub(q->y, q->x->p);
                 double ly = spc_length(dy);

@@ -41,7 +41,9 @@ enum {
 typedef enum spc_snee_seed {
     SPC_SNEE_SEED_SHAPE, /* toward a uniform point of a uniformly chosen caster shape */
     SPC_SNEE_SEED_LIGHT, /* toward y: deterministic, see above */
-    SPC_SNEE_SEED_BSDF,  /* along a direction sampled from x's BSDF: the path a tracer would take */
+    SPC_SNEE_SEED_BSDF,  /* along a direction sampled from x's BSDF: the path a tracer would take (at a
+                            medium point its phase function; from the camera, which samples no
+                            direction here, CONE) */
     SPC_SNEE_SEED_CONE   /* uniform in the cone of directions from x to the sphere around the
                             bounding box of a uniformly chosen caster (SHAPE's area point when x is
                             inside it); the default: 1.1-1.7x less CPU than SHAPE at the same
