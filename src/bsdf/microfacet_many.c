@@ -162,7 +162,7 @@ static inline __attribute__((always_inline)) void slope_start(int m, slope_lanes
         double x = a->x[i];
         x = x < lo ? lo : x;
         x = x > hi ? hi : x;
-        a->x[i] = (x > lo) & (x < hi) ? x : 0.5 * (lo + hi);
+        a->x[i] = ((x > lo) & (x < hi)) ? x : 0.5 * (lo + hi);
         a->lo[i] = lo;
         a->done[i] = 0;
     }
