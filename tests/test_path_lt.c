@@ -94,6 +94,19 @@ static void check_join(void *user, const spc_path_lt_join *j)
     t->below += j->r < 1.0;
 }
 
+/* The test scene at 16x16 with its camera prepared and the setting parsed into p; NULL (after a
+ * failed CHECK) if it does not load. */
+static spc_scene *lt_scene(spc_camera_state *cam, spc_snee_params *p)
+{
+    spc_scene *sc = tu_load(SCENE, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return NULL;
+    CHECK(spc_camera_prepare(cam, &sc->camera, sc->film.width, sc->film.height));
+    CHECK(spc_snee_parse(SETTING, 2, p));
+    return sc;
+}
+
 /* A path render context on sc with specular NEE's setting p, as the joins' callers see it. */
 static spc_render_ctx lt_ctx(spc_scene *sc, spc_camera_state *cam, const spc_snee_params *p)
 {
@@ -114,14 +127,11 @@ static spc_render_ctx lt_ctx(spc_scene *sc, spc_camera_state *cam, const spc_sne
 
 TEST(joins_are_specular_nee_chains_with_the_same_ratio)
 {
-    spc_scene *sc = tu_load(SCENE, 16);
-    CHECK(sc != NULL);
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_scene *sc = lt_scene(&cam, &p);
     if (!sc)
         return;
-    spc_camera_state cam;
-    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
-    spc_snee_params p;
-    CHECK(spc_snee_parse(SETTING, 2, &p));
     /* every subpath joined through the sphere, the stream this tolerance was measured on (the
      * share's factor in r: through_sphere_on_a_share) */
     p.lt_through = 1.0;
@@ -212,14 +222,11 @@ static void count_through(void *user, const spc_path_lt_join *j)
  * is the share times r of every subpath's joins. */
 TEST(through_sphere_on_a_share)
 {
-    spc_scene *sc = tu_load(SCENE, 16);
-    CHECK(sc != NULL);
+    spc_camera_state cam;
+    spc_snee_params whole;
+    spc_scene *sc = lt_scene(&cam, &whole);
     if (!sc)
         return;
-    spc_camera_state cam;
-    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
-    spc_snee_params whole;
-    CHECK(spc_snee_parse(SETTING, 2, &whole));
     whole.lt_through = 1.0;
     spc_render_ctx ctx = lt_ctx(sc, &cam, &whole);
     share_tally t[2];
