@@ -226,6 +226,7 @@ typedef struct bdpt {
     spc_vec3 cam_d0;        /* the camera ray's direction (covered camera chains retrace it) */
     const spc_bdpt_pool_model *pm; /* connections come from the pass's pool (NULL: own subpath) */
     const spc_bdpt_aim *aim;       /* area lights' emission aimed at the casters (NULL: off) */
+    double aim1;                   /* the aim's share at the first scattering vertex (bounce_aimable) */
 } bdpt;
 
 /* ---- densities ---- */
@@ -343,6 +344,88 @@ static double shading_fix(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
 
 static double remap0(double p) { return p > 0.0 && isfinite(p) ? p : 1.0; }
 
+/* A direction uniform in one of the aim's m cones at p (normal n, m >= 1), the cone picked uniformly
+ * by u.x (rescaled for the direction, so that the stream's dimensions stay the same). */
+static spc_vec3 cone_sample(const spc_bdpt_aim *aim, int m, spc_vec3 p, spc_vec3 n, spc_vec2 u)
+{
+    double v = u.x * m;
+    int j = (int)v;
+    if (j > m - 1)
+        j = m - 1;
+    v -= j;
+    spc_vec3 axis = n;
+    double cos_max = 1.0;
+    for (int i = 0, k = 0; i < aim->n; ++i)
+        if (aim_cone(aim, i, p, n, &axis, &cos_max) && k++ == j)
+            break;
+    spc_frame fr = spc_frame_from_n(axis);
+    return spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(v, u.y), cos_max));
+}
+
+/* The aim's direction at area-light point p (normal n, m >= 1 cones there) for the light
+ * subpath's direction sample u: with probability a (u.x < a) uniform in one of the m cones, picked
+ * uniformly, else cosine-distributed (u rescaled, so that the stream's dimensions stay the same). */
+static spc_vec3 aim_sample(const spc_bdpt_aim *aim, int m, spc_vec3 p, spc_vec3 n, spc_vec2 u)
+{
+    const double a = aim->a;
+    if (u.x < a)
+        return cone_sample(aim, m, p, n, spc_v2(u.x / a, u.y));
+    spc_frame fr = spc_frame_from_n(n);
+    return spc_frame_to_world(&fr, spc_warp_cosine_hemisphere(spc_v2((u.x - a) / (1.0 - a), u.y)));
+}
+
+/* The aim at the light subpath's first scattering vertex (bdpt.h, spc_bdpt_aim.a1): v, reached
+ * from prev, a point on an area light, draws its direction from (1 - a1) BSDF + a1 cones where its
+ * BSDF has no delta lobe. A function of the two vertices alone, so that the light walk and every
+ * MIS weight (mis_weight_walk's p_L of the vertex after v) agree on which density applies. */
+static bool bounce_aimable(const bdpt *B, const vtx *prev, const vtx *v)
+{
+    return B->aim1 > 0.0 && prev->kind == V_LIGHT && prev->on_surface && !prev->infinite && prev->light &&
+           prev->light->type == SPC_EMITTER_AREA && v->kind == V_SURFACE &&
+           !(spc_bsdf_flags(v->h.bsdf) & SPC_LOBE_DELTA) && spc_bsdf_has_smooth(v->h.bsdf);
+}
+
+/* v's geometric normal on the side of wo: the cones are those above the surface the light came from. */
+static spc_vec3 side_normal(const spc_hit *h, spc_vec3 wo) { return spc_dot(h->ng, wo) >= 0.0 ? h->ng : spc_neg(h->ng); }
+
+/* The solid-angle density with which a bounce_aimable v (wo toward the light) scatters along wi. */
+static double bounce_pdf(const bdpt *B, const vtx *v, spc_vec3 wo, spc_vec3 wi)
+{
+    double pb = spc_bsdf_pdf(v->h.bsdf, &v->h, SPC_MODE_IMPORTANCE, wo, wi);
+    double cones;
+    int m = aim_cones(B->aim, v->p, side_normal(&v->h, wo), &wi, &cones);
+    return m > 0 ? (1.0 - B->aim1) * pb + B->aim1 * cones / m : pb;
+}
+
+/* bounce_aimable v's sample of the mixture (m >= 1 cones above it, n its side_normal): u.x < a1 a
+ * cone, else the BSDF's sample (u.x rescaled); the weight f |cos| / pdf with the mixture's pdf.
+ * false: no sample. */
+static bool bounce_sample(const bdpt *B, const vtx *v, int m, spc_vec3 n, double u_lobe, spc_vec2 u,
+                          spc_bsdf_sample *bs)
+{
+    const double a = B->aim1;
+    spc_vec3 wi;
+    if (u.x < a) {
+        wi = cone_sample(B->aim, m, v->p, n, spc_v2(u.x / a, u.y));
+        bs->lobe = spc_dot(wi, v->h.ng) * spc_dot(v->wo, v->h.ng) > 0.0 ? SPC_LOBE_DIFFUSE_REFLECTION
+                                                                       : SPC_LOBE_DIFFUSE_TRANSMISSION;
+        bs->eta = 1.0;
+    } else {
+        if (!spc_bsdf_sample_dir(v->h.bsdf, &v->h, SPC_MODE_IMPORTANCE, v->wo, u_lobe,
+                                 spc_v2((u.x - a) / (1.0 - a), u.y), bs))
+            return false;
+        wi = bs->wi;
+    }
+    double pdf = bounce_pdf(B, v, v->wo, wi);
+    if (!(pdf > 0.0))
+        return false;
+    spc_rgb f = spc_bsdf_eval(v->h.bsdf, &v->h, SPC_MODE_IMPORTANCE, v->wo, wi);
+    bs->wi = wi;
+    bs->pdf = pdf;
+    bs->weight = spc_rgb_scale(f, spc_absdot(wi, v->h.sh.n) / pdf);
+    return !spc_rgb_is_black(bs->weight);
+}
+
 /* ---- random walks ---- */
 
 /* Extends path[0 .. n-1] by tracing `ray` from path[n-1], which sampled its direction with
@@ -400,7 +483,14 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         spc_vec2 u_dir = spc_sampler_2d(smp);
         double u_rr = u_lobe_rr.y;
         spc_bsdf_sample bs;
-        if (!spc_bsdf_sample_dir(h.bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
+        int m = 0;
+        spc_vec3 ns = h.ng;
+        if (mode == SPC_MODE_IMPORTANCE && bounce_aimable(B, prev, v)) {
+            ns = side_normal(&v->h, v->wo);
+            m = aim_cones(B->aim, v->p, ns, NULL, NULL);
+        }
+        if (m > 0 ? !bounce_sample(B, v, m, ns, u_lobe_rr.x, u_dir, &bs)
+                  : !spc_bsdf_sample_dir(h.bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
             break;
         spc_rgb w = bs.weight;
         if (mode == SPC_MODE_IMPORTANCE)
@@ -434,30 +524,6 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         }
     }
     return n;
-}
-
-/* The aim's direction at area-light point p (normal n, m >= 1 cones there) for the light
- * subpath's direction sample u: with probability a (u.x < a) uniform in one of the m cones, picked
- * uniformly, else cosine-distributed (u rescaled, so that the stream's dimensions stay the same). */
-static spc_vec3 aim_sample(const spc_bdpt_aim *aim, int m, spc_vec3 p, spc_vec3 n, spc_vec2 u)
-{
-    const double a = aim->a;
-    if (u.x < a) {
-        double v = u.x / a * m;
-        int j = (int)v;
-        if (j > m - 1)
-            j = m - 1;
-        v -= j;
-        spc_vec3 axis = n;
-        double cos_max = 1.0;
-        for (int i = 0, k = 0; i < aim->n; ++i)
-            if (aim_cone(aim, i, p, n, &axis, &cos_max) && k++ == j)
-                break;
-        spc_frame fr = spc_frame_from_n(axis);
-        return spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(v, u.y), cos_max));
-    }
-    spc_frame fr = spc_frame_from_n(n);
-    return spc_frame_to_world(&fr, spc_warp_cosine_hemisphere(spc_v2((u.x - a) / (1.0 - a), u.y)));
 }
 
 /* The light subpath: y0 by emission sampling, then a walk in importance mode. */
@@ -574,6 +640,10 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
         if (t >= 2)
             Lp[s + 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, x[s + 1]);
     }
+    /* the light walk's density of x2 where it aims at x1 (bounce_aimable), whichever subpath holds
+     * x1; n >= 4: with n = 3, x2 is the camera and Lp[2] unused */
+    if (n >= 4 && bounce_aimable(B, l0, x[1]))
+        Lp[2] = to_area(bounce_pdf(B, x[1], dir_to(x[1], l0), dir_to(x[1], x[2])), x[1], x[2]);
     /* p_1 samples x0 from x1 by sample_direct (for n = 2 it is the (1, 1) strategy: emission) */
     double D = n >= 3 ? light_direct_pdf(sc, l0, x[1]) : Lp[0];
     /* With the pool (bdpt_pool.h) a connection with k light vertices (2 <= k <= n - 2) is made by
@@ -1374,6 +1444,7 @@ static void bdpt_init(bdpt *B, const spc_render_ctx *ctx)
     B->n_lt_paths = B->n_light_paths * B->lt_per_sample;
     B->pm = ctx->pool_model;
     B->aim = ctx->bdpt_aim;
+    B->aim1 = B->aim && !ctx->pool_model ? B->aim->a1 : 0.0;
 }
 
 /* Vertices a light subpath may have, and whether that bound cuts max_depth short. */
@@ -1719,6 +1790,10 @@ bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, spc_bdpt_aim *ai
             }
     }
     aim->a = tries > 0 ? share * hits / tries : 0.0;
+    {
+        const char *e = getenv("SPC_AIM1");
+        aim->a1 = e ? atof(e) : 0.0;
+    }
     return aim->a > 0.0;
 }
 
@@ -1785,6 +1860,8 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     B.cam_d0 = ray0->d;
     /* the particle tracer weighs nothing: it keeps the lights' own emission */
     B.aim = ptracer ? NULL : ctx->bdpt_aim;
+    /* not with the pool, whose weights (mis_weight_pool) keep the BSDF's density at x1 */
+    B.aim1 = B.aim && !ctx->pool_model ? B.aim->a1 : 0.0;
     /* with the pool (bdpt_pool.h) this pixel's light subpath and its light tracing (t = 1) were
      * traced with the pool; each camera vertex adds connect_pool's connections */
     const spc_bdpt_pool *pool = !ptracer && !debug && ctx->strategy_images_depth <= 0 ? tls->pool : NULL;
