@@ -143,7 +143,6 @@
 /* spc_bdpt_aim_init's pilot rays: the fraction that reaches a caster is known to about 0.015. */
 #define SPC_BDPT_AIM_PILOT 1024
 #define SPC_BDPT_AIM_STREAM 0x61696d70696c6f74ULL
-#define SPC_BDPT_BRANCH_STREAM 0x6272616e63686573ULL
 
 /* The pool model's pilot (spc_bdpt_pool_learn): light subpaths, camera subpaths, and connections
  * from each camera vertex to pilot light vertices (SPC_BDPT_PILOT_VERTEX_SHARE). 16384 of each
@@ -227,8 +226,6 @@ typedef struct bdpt {
     spc_vec3 cam_d0;        /* the camera ray's direction (covered camera chains retrace it) */
     const spc_bdpt_pool_model *pm; /* connections come from the pass's pool (NULL: own subpath) */
     const spc_bdpt_aim *aim;       /* area lights' emission aimed at the casters (NULL: off) */
-    double aim1;                   /* the aim's share at the first scattering vertex (bounce_aimable) */
-    bool branch_short;             /* the branch ends at its first vertex with a non-delta lobe */
 } bdpt;
 
 /* ---- densities ---- */
@@ -346,86 +343,13 @@ static double shading_fix(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
 
 static double remap0(double p) { return p > 0.0 && isfinite(p) ? p : 1.0; }
 
-/* A direction uniform in one of the aim's m cones at p (normal n, m >= 1), the cone picked uniformly
- * by u.x (rescaled for the direction, so that the stream's dimensions stay the same). */
-static spc_vec3 cone_sample(const spc_bdpt_aim *aim, int m, spc_vec3 p, spc_vec3 n, spc_vec2 u)
-{
-    double v = u.x * m;
-    int j = (int)v;
-    if (j > m - 1)
-        j = m - 1;
-    v -= j;
-    spc_vec3 axis = n;
-    double cos_max = 1.0;
-    for (int i = 0, k = 0; i < aim->n; ++i)
-        if (aim_cone(aim, i, p, n, &axis, &cos_max) && k++ == j)
-            break;
-    spc_frame fr = spc_frame_from_n(axis);
-    return spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(v, u.y), cos_max));
-}
-
-/* The aim's direction at area-light point p (normal n, m >= 1 cones there) for the light
- * subpath's direction sample u: with probability a (u.x < a) uniform in one of the m cones, picked
- * uniformly, else cosine-distributed (u rescaled, so that the stream's dimensions stay the same). */
-static spc_vec3 aim_sample(const spc_bdpt_aim *aim, int m, spc_vec3 p, spc_vec3 n, spc_vec2 u)
-{
-    const double a = aim->a;
-    if (u.x < a)
-        return cone_sample(aim, m, p, n, spc_v2(u.x / a, u.y));
-    spc_frame fr = spc_frame_from_n(n);
-    return spc_frame_to_world(&fr, spc_warp_cosine_hemisphere(spc_v2((u.x - a) / (1.0 - a), u.y)));
-}
-
-/* The aim at the light subpath's first scattering vertex (bdpt.h, spc_bdpt_aim.a1): v, reached
- * from prev, a point on an area light, draws its direction from (1 - a1) BSDF + a1 cones where its
- * BSDF has no delta lobe. A function of the two vertices alone, so that the light walk and every
- * MIS weight (mis_weight_walk's p_L of the vertex after v) agree on which density applies. */
-static bool bounce_aimable(const bdpt *B, const vtx *prev, const vtx *v)
-{
-    return B->aim1 > 0.0 && prev->kind == V_LIGHT && prev->on_surface && !prev->infinite && prev->light &&
-           prev->light->type == SPC_EMITTER_AREA && v->kind == V_SURFACE &&
-           !(spc_bsdf_flags(v->h.bsdf) & SPC_LOBE_DELTA) && spc_bsdf_has_smooth(v->h.bsdf);
-}
-
-/* v's geometric normal on the side of wo: the cones are those above the surface the light came from. */
-static spc_vec3 side_normal(const spc_hit *h, spc_vec3 wo) { return spc_dot(h->ng, wo) >= 0.0 ? h->ng : spc_neg(h->ng); }
-
-/* The branch's solid-angle density at a bounce_aimable v (wo toward the light) along wi: aim1 (its
- * probability) times the mean of the density of the cones above v that hold wi. */
-static double branch_pdf(const bdpt *B, const vtx *v, spc_vec3 wo, spc_vec3 wi)
-{
-    double cones;
-    int m = aim_cones(B->aim, v->p, side_normal(&v->h, wo), &wi, &cones);
-    return m > 0 ? B->aim1 * cones / m : 0.0;
-}
-
-/* Light tracing's density of the light-side vertices x[0 .. last] (x[last] joined to the camera)
- * over the light walk's (q >= 1 of mis_weight_walk's t = 1 term): 1 + branch / BSDF for x2 at a
- * bounce_aimable x1 (x0 the light point), else 1; with branch_short only where x2 .. x[last - 1]
- * have delta lobes only, as the branch's walk does. */
-static double branch_ratio(const bdpt *B, const vtx *const *x, int last)
-{
-    if (last < 2 || !bounce_aimable(B, x[0], x[1]))
-        return 1.0;
-    if (B->branch_short)
-        for (int j = 2; j < last; ++j)
-            if (x[j]->kind != V_SURFACE || spc_bsdf_has_smooth(x[j]->h.bsdf))
-                return 1.0;
-    const vtx *x1 = x[1], *x2 = x[2];
-    spc_vec3 wo = dir_to(x1, x[0]), wi = dir_to(x1, x2);
-    double pb = spc_bsdf_pdf(x1->h.bsdf, &x1->h, SPC_MODE_IMPORTANCE, wo, wi);
-    double pc = branch_pdf(B, x1, wo, wi);
-    return pb > 0.0 && pc > 0.0 ? 1.0 + pc / pb : 1.0;
-}
-
 /* ---- random walks ---- */
 
 /* Extends path[0 .. n-1] by tracing `ray` from path[n-1], which sampled its direction with
  * solid-angle density pdf_dir; beta is the throughput carried by the ray. Returns the new vertex
- * count (at most max_vertices). With stop_smooth the walk ends at its first vertex whose BSDF has
- * a non-delta lobe (the branch's, branch_subpath). */
-static int walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir, spc_transport mode, spc_sampler *smp,
-                vtx *path, int n, int max_vertices, bool capped, bool stop_smooth)
+ * count (at most max_vertices). */
+static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir, spc_transport mode,
+                       spc_sampler *smp, vtx *path, int n, int max_vertices, bool capped)
 {
     const spc_render_ctx *ctx = B->ctx;
     const spc_transport other = mode == SPC_MODE_RADIANCE ? SPC_MODE_IMPORTANCE : SPC_MODE_RADIANCE;
@@ -470,8 +394,6 @@ static int walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir, spc_tr
                 atomic_fetch_add(&truncated_paths, 1);
             break;
         }
-        if (stop_smooth && spc_bsdf_has_smooth(h.bsdf))
-            break;
         int segments = n - 1;
 
         spc_vec2 u_lobe_rr = spc_sampler_2d(smp); /* one dimension pair for the lobe and roulette */
@@ -514,10 +436,28 @@ static int walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir, spc_tr
     return n;
 }
 
-static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir, spc_transport mode,
-                       spc_sampler *smp, vtx *path, int n, int max_vertices, bool capped)
+/* The aim's direction at area-light point p (normal n, m >= 1 cones there) for the light
+ * subpath's direction sample u: with probability a (u.x < a) uniform in one of the m cones, picked
+ * uniformly, else cosine-distributed (u rescaled, so that the stream's dimensions stay the same). */
+static spc_vec3 aim_sample(const spc_bdpt_aim *aim, int m, spc_vec3 p, spc_vec3 n, spc_vec2 u)
 {
-    return walk(B, ray, beta, pdf_dir, mode, smp, path, n, max_vertices, capped, false);
+    const double a = aim->a;
+    if (u.x < a) {
+        double v = u.x / a * m;
+        int j = (int)v;
+        if (j > m - 1)
+            j = m - 1;
+        v -= j;
+        spc_vec3 axis = n;
+        double cos_max = 1.0;
+        for (int i = 0, k = 0; i < aim->n; ++i)
+            if (aim_cone(aim, i, p, n, &axis, &cos_max) && k++ == j)
+                break;
+        spc_frame fr = spc_frame_from_n(axis);
+        return spc_frame_to_world(&fr, spc_warp_uniform_cone(spc_v2(v, u.y), cos_max));
+    }
+    spc_frame fr = spc_frame_from_n(n);
+    return spc_frame_to_world(&fr, spc_warp_cosine_hemisphere(spc_v2((u.x - a) / (1.0 - a), u.y)));
 }
 
 /* The light subpath: y0 by emission sampling, then a walk in importance mode. */
@@ -581,45 +521,6 @@ static int light_subpath(const bdpt *B, spc_sampler *smp, vtx *y, int max_vertic
                        max_vertices, capped);
 }
 
-/* The branch at the light subpath y's first scattering vertex y1 (bounce_aimable; bdpt.h,
- * spc_bdpt_aim.a1): with probability aim1 a second walk from y1 in a direction uniform in one of the
- * cones above it, for light tracing only (t = 1 of its vertices from y2 on), from its own stream.
- * yb[0], yb[1] copy y's with y0's reverse density for the branch's direction; yb[2]'s pdf_fwd is the
- * light walk's BSDF density, as mis_weight_walk reads it (branch_ratio adds the branch's). Returns
- * the branch's vertex count (0: no branch). */
-static int branch_subpath(const bdpt *B, const spc_sampler *smp, const vtx *y, vtx *yb, int max_vertices,
-                          bool capped)
-{
-    if (max_vertices < 3)
-        return 0;
-    spc_sampler bsm;
-    spc_sampler_start_key(&bsm, spc_hash_combine(smp->pixel_seed, SPC_BDPT_BRANCH_STREAM), smp->index);
-    double u = spc_sampler_1d(&bsm);
-    spc_vec2 ud = spc_sampler_2d(&bsm);
-    if (!(u < B->aim1))
-        return 0;
-    const vtx *v = &y[1];
-    spc_vec3 n = side_normal(&v->h, v->wo);
-    int m = aim_cones(B->aim, v->p, n, NULL, NULL);
-    if (m == 0)
-        return 0;
-    spc_vec3 wi = cone_sample(B->aim, m, v->p, n, ud);
-    double pc = branch_pdf(B, v, v->wo, wi);
-    double pb = spc_bsdf_pdf(v->h.bsdf, &v->h, SPC_MODE_IMPORTANCE, v->wo, wi);
-    if (!(pc > 0.0) || !(pb > 0.0))
-        return 0;
-    spc_rgb f = spc_bsdf_eval(v->h.bsdf, &v->h, SPC_MODE_IMPORTANCE, v->wo, wi);
-    spc_rgb w = spc_rgb_scale(f, spc_absdot(wi, v->h.sh.n) * shading_fix(&v->h, v->wo, wi) / pc);
-    if (spc_rgb_is_black(w) || !spc_rgb_finite(w))
-        return 0;
-    yb[0] = y[0];
-    yb[1] = y[1];
-    yb[0].pdf_rev = to_area(spc_bsdf_pdf(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, wi, v->wo), &yb[1], &yb[0]);
-    spc_ray ray = spc_hit_spawn(&yb[1].h, wi);
-    return walk(B, ray, spc_rgb_mul(v->beta, w), pb, SPC_MODE_IMPORTANCE, &bsm, yb, 2, max_vertices, capped,
-                B->branch_short);
-}
-
 /* ---- MIS ---- */
 
 static double heuristic(const bdpt *B, double r) { return B->balance ? r : r * r; }
@@ -673,17 +574,6 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
         if (t >= 2)
             Lp[s + 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, x[s + 1]);
     }
-    /* light tracing (t = 1) of a path whose x1 branches (bounce_aimable, n >= 4: x2 is no camera)
-     * has the density of the light walk's and the branch's samples of x2 together: q times the
-     * light walk's */
-    double q = 1.0;
-    if (B->aim1 > 0.0 && n >= 4) {
-        const vtx *xl[SPC_BDPT_MAX_PATH];
-        xl[0] = l0;
-        for (int j = 1; j <= n - 2; ++j)
-            xl[j] = x[j];
-        q = branch_ratio(B, xl, n - 2);
-    }
     /* p_1 samples x0 from x1 by sample_direct (for n = 2 it is the (1, 1) strategy: emission) */
     double D = n >= 3 ? light_direct_pdf(sc, l0, x[1]) : Lp[0];
     /* With the pool (bdpt_pool.h) a connection with k light vertices (2 <= k <= n - 2) is made by
@@ -726,7 +616,7 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
         else
             valid = !dl[k - 1] && !dl[k];
         if (valid)
-            sum += heuristic(B, k == n - 1 ? r * q : r) * MULT(k);
+            sum += heuristic(B, r) * MULT(k);
     }
     r = 1.0;
     for (int i = s; i - 1 >= 0; --i) {
@@ -738,8 +628,6 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
     }
 #undef MULT
 #undef UP
-    if (s == n - 1) /* t = 1 itself: its density is q times the walk's, every other term 1 / q */
-        sum = 1.0 + (sum - self) / heuristic(B, q);
     double w = num / sum;
     return isfinite(w) && w > 0.0 ? w : 0.0;
 }
@@ -1177,7 +1065,7 @@ static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
 
 /* t = 1: the light subpath's vertex y[s-1] joined to the pinhole, splatted; with strategy >= 0
  * also into that strategy's films (weighted, unweighted). */
-static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const vtx *z, int strategy, bool branch)
+static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const vtx *z, int strategy)
 {
     const spc_render_ctx *ctx = B->ctx;
     const vtx *v = &y[s - 1];
@@ -1202,15 +1090,6 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
         C = spc_rgb_scale(spc_rgb_mul(v->beta, f), g);
     }
     C = spc_rgb_scale(C, cd.We / B->n_lt_paths);
-    /* where y1 branches, the light walk's and the branch's samples of the path combine by their
-     * densities' shares (1 / q and (q - 1) / q), a partition of one before any MIS weight */
-    if (B->aim1 > 0.0 && s >= 3) {
-        const vtx *xl[SPC_BDPT_MAX_VERTICES];
-        for (int j = 0; j < s; ++j)
-            xl[j] = &y[j];
-        double q = branch_ratio(B, xl, s - 1);
-        C = spc_rgb_scale(C, branch ? (q - 1.0) / q : 1.0 / q);
-    }
     if (spc_rgb_is_black(C))
         return;
     spc_ray sr = spc_hit_spawn_to(&v->h, cd.p_near, 0.0);
@@ -1253,7 +1132,7 @@ static void light_trace_extra(const bdpt *B, spc_tls *tls, uint64_t pixel_seed, 
             if ((s == 1 && ctx->hide_emitters) || (ctx->strategy_s >= 0 && s != ctx->strategy_s))
                 continue;
             int k = ctx->strategy_images_depth > 0 && s <= ctx->strategy_images_depth ? spc_strategy_index(s, 1) : -1;
-            connect_t1(B, tls, y, s, z, k, false);
+            connect_t1(B, tls, y, s, z, k);
         }
     }
 }
@@ -1495,8 +1374,6 @@ static void bdpt_init(bdpt *B, const spc_render_ctx *ctx)
     B->n_lt_paths = B->n_light_paths * B->lt_per_sample;
     B->pm = ctx->pool_model;
     B->aim = ctx->bdpt_aim;
-    B->aim1 = B->aim && !ctx->pool_model && B->lt_per_sample == 1 ? B->aim->a1 : 0.0;
-    B->branch_short = getenv("SPC_BSHORT") != NULL;
 }
 
 /* Vertices a light subpath may have, and whether that bound cuts max_depth short. */
@@ -1549,7 +1426,7 @@ bool spc_bdpt_pool_trace(const spc_render_ctx *ctx, spc_tls *tls, int pass, uint
                     break;
                 if (s == 1 && ctx->hide_emitters)
                     continue;
-                connect_t1(&B, tls, y, s, &z0, -1, false);
+                connect_t1(&B, tls, y, s, &z0, -1);
             }
             if (nl >= 1)
                 tls->lv_n += (size_t)nl;
@@ -1842,10 +1719,6 @@ bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, spc_bdpt_aim *ai
             }
     }
     aim->a = tries > 0 ? share * hits / tries : 0.0;
-    {
-        const char *e = getenv("SPC_AIM1");
-        aim->a1 = e ? atof(e) : 0.0;
-    }
     return aim->a > 0.0;
 }
 
@@ -1887,7 +1760,7 @@ static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx 
 void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0, spc_sampler *smp,
                      spc_sample_out *out)
 {
-    vtx z[SPC_BDPT_MAX_VERTICES], y[SPC_BDPT_MAX_VERTICES], yb[SPC_BDPT_MAX_VERTICES];
+    vtx z[SPC_BDPT_MAX_VERTICES], y[SPC_BDPT_MAX_VERTICES];
     bdpt B;
     B.ctx = ctx;
     B.sc = ctx->scene;
@@ -1912,10 +1785,6 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     B.cam_d0 = ray0->d;
     /* the particle tracer weighs nothing: it keeps the lights' own emission */
     B.aim = ptracer ? NULL : ctx->bdpt_aim;
-    /* not with the pool, whose weights (mis_weight_pool) know no branch, nor with more light
-     * subpaths per sample, whose light tracing would need a branch each */
-    B.aim1 = B.aim && !ctx->pool_model && B.lt_per_sample == 1 ? B.aim->a1 : 0.0;
-    B.branch_short = getenv("SPC_BSHORT") != NULL;
     /* with the pool (bdpt_pool.h) this pixel's light subpath and its light tracing (t = 1) were
      * traced with the pool; each camera vertex adds connect_pool's connections */
     const spc_bdpt_pool *pool = !ptracer && !debug && ctx->strategy_images_depth <= 0 ? tls->pool : NULL;
@@ -1968,9 +1837,6 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     } else {
         nl = light_subpath(&B, &ls, y, max_light, light_capped);
     }
-    int nb = 0;
-    if (B.aim1 > 0.0 && !pool && nl >= 2 && bounce_aimable(&B, &y[0], &y[1]))
-        nb = branch_subpath(&B, smp, y, yb, max_light, light_capped);
     spc_rng prng;
     memset(&prng, 0, sizeof prng);
     if (pool)
@@ -2004,7 +1870,7 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             if (s == 0)
                 c = connect_s0(&B, z, t, &w);
             else if (t == 1) {
-                connect_t1(&B, tls, yl, s, z, k, false);
+                connect_t1(&B, tls, yl, s, z, k);
                 continue;
             } else if (s == 1)
                 c = connect_s1(&B, z, t, u_light, u_lpos, &w);
@@ -2018,13 +1884,6 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 SL[2 * k + 1] = spc_rgb_add(spc_rgb1(0.0), c);
             }
         }
-    }
-    /* the branch's light tracing: its vertices from y2 on */
-    for (int s = 3; s <= nb; ++s) {
-        if ((!unbounded && s > ctx->max_depth) || (ctx->strategy_s >= 0 && s != ctx->strategy_s) ||
-            (ctx->strategy_t >= 0 && ctx->strategy_t != 1))
-            continue;
-        connect_t1(&B, tls, yb, s, z, SL && s <= ctx->strategy_images_depth ? spc_strategy_index(s, 1) : -1, true);
     }
     /* the extra light subpaths' light tracing (with the pool, spc_bdpt_pool_trace did it) */
     if (!pool && B.lt_per_sample > 1)

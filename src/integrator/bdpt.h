@@ -47,7 +47,6 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
 #define SPC_BDPT_AIM_CONES 8
 typedef struct spc_bdpt_aim {
     double a; /* the cones' share of the mixture (0: emission by the light's own cosine law) */
-    double a1; /* the cones' share at the light subpath's first scattering vertex (aim_bounce) */
     int n;    /* casters' spheres: centres and radii */
     spc_vec3 c[SPC_BDPT_AIM_CONES];
     double r[SPC_BDPT_AIM_CONES];
