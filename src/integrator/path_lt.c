@@ -17,14 +17,15 @@ static double through_share(const spc_snee_params *p)
     return p->lt_through > 0.0 && p->lt_through <= 1.0 ? p->lt_through : SPC_PATH_LT_THROUGH_SHARE;
 }
 
-/* The share of light subpaths joined to the pinhole through the sphere by the chain cc from x2:
- * through_share for chains within the parameters' max_chain, beyond it p->lt_long, else the
- * default SPC_PATH_LT_LONG_SHARE. */
+/* The share of light subpaths joined to the pinhole through the sphere by chains longer than
+ * max_chain (p->lt_long, else the default). */
 static double long_share(const spc_snee_params *p)
 {
     return p->lt_long > 0.0 && p->lt_long <= 1.0 ? p->lt_long : SPC_PATH_LT_LONG_SHARE;
 }
 
+/* The share of light subpaths joined to the pinhole through the sphere by the chain cc from x2:
+ * through_share for chains within the parameters' max_chain, long_share beyond. */
 static double camera_chain_share(const spc_snee_params *p, const spc_chain *cc)
 {
     return cc->n > p->max_chain ? long_share(p) : through_share(p);
