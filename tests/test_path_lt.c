@@ -16,7 +16,10 @@
  * - Near the caustic's fold light tracing takes the larger share (r > 1 on some joins) and far
  *   from it specular NEE does (r < 1 on some).
  * - The joins through the ball run on a share of the subpaths, counted over the share, with the
- *   share in r on both sides.
+ *   share in r on both sides; those by chains longer than max_chain (internal reflections) on a
+ *   share of their own.
+ * - Joins through two diffuse bounces (x2 the path's third receiver) occur, their weights summing
+ *   to one as the others', and the path tracer's side follows such a path's middle vertex.
  * - A render with ltcaus agrees with one without (the same estimator's two splits) by the per-pixel
  *   z-test and the image mean.
  * - The plan (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) runs it for path where every light is a point
@@ -29,6 +32,7 @@
 
 #include "harness.h"
 #include "integrator/path_lt.h"
+#include "integrator/path_snee.h"
 #include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
@@ -42,7 +46,7 @@ typedef struct tally {
     const spc_render_ctx *ctx;
     const spc_snee_params *p;
     int joins, missing, lt_only, above, below;
-    int kinds[3]; /* x2 seen directly, through the sphere, through a diffuse bounce */
+    int kinds[4]; /* x2 seen directly, through the sphere, through a diffuse bounce, through two */
     double worst_gap;
 } tally;
 
@@ -83,9 +87,9 @@ static void check_join(void *user, const spc_path_lt_join *j)
         ++t->missing;
         return;
     }
-    double r = j->x1 ? spc_path_lt_ratio(t->ctx, t->p, j->x1, j->w1, j->x2, j->w2, match, j->e)
+    double r = j->x1 ? spc_path_lt_ratio_via(t->ctx, t->p, j->x1, j->w1, j->mid, j->nmid, j->x2, j->w2, match, j->e)
                      : spc_path_lt_ratio_first(t->ctx, t->p, j->x2, j->cc, match, j->e);
-    ++t->kinds[j->x1 ? 2 : j->cc ? 1 : 0];
+    ++t->kinds[j->x1 ? (j->nmid > 0 ? 3 : 2) : j->cc ? 1 : 0];
     /* the two sides' weights of the path: specular NEE's from its chain, light tracing's from its own */
     double gap = fabs(1.0 / (1.0 + r * r) + spc_path_lt_weight(j->r) - 1.0);
     if (gap > t->worst_gap)
@@ -142,7 +146,7 @@ TEST(joins_are_specular_nee_chains_with_the_same_ratio)
     t.ctx = &ctx;
     t.p = &p;
     /* several seeds: the joins specular NEE does not enumerate are rare (0-6 of 20000 subpaths) */
-    int total_missing = 0;
+    int total_missing = 0, total_two = 0;
     for (int seed = 17; seed < 25; ++seed) {
         tally t;
         memset(&t, 0, sizeof t);
@@ -154,15 +158,19 @@ TEST(joins_are_specular_nee_chains_with_the_same_ratio)
             spc_path_lt_joins(&ctx, &p, &rng, check_join, &t);
         printf("  seed %d: %d joins, %d not enumerated (%d of them weighed 1 by light tracing), r > 1 on %d, r < 1 on "
                "%d, largest gap of the weights' sum from 1 %.3g; x2 seen directly %d, through the sphere %d, through "
-               "a diffuse bounce %d\n",
-               seed, t.joins, t.missing, t.lt_only, t.above, t.below, t.worst_gap, t.kinds[0], t.kinds[1], t.kinds[2]);
+               "a diffuse bounce %d, through two %d\n",
+               seed, t.joins, t.missing, t.lt_only, t.above, t.below, t.worst_gap, t.kinds[0], t.kinds[1], t.kinds[2],
+               t.kinds[3]);
         CHECK(t.joins > 100 && t.kinds[0] > 10 && t.kinds[1] > 10 && t.kinds[2] > 10);
         CHECK_MSG(t.lt_only == t.missing, "seed %d: %d joins specular NEE does not enumerate weigh less than 1", seed,
                   t.missing - t.lt_only);
         CHECK_MSG(t.worst_gap < 1e-5, "seed %d: the two weights sum to 1 +- %.3g", seed, t.worst_gap);
         CHECK(t.above > 0 && t.below > 0);
         total_missing += t.missing;
+        total_two += t.kinds[3];
     }
+    /* x2 the path's third receiver: after two diffuse bounces (3 to 13 joins a seed) */
+    CHECK_MSG(total_two > 20, "%d joins through two diffuse bounces", total_two);
     /* the case the weight 1 is for occurs */
     CHECK(total_missing > 0);
     spc_scene_destroy(sc);
@@ -193,6 +201,7 @@ typedef struct share_tally {
     const spc_render_ctx *ctx;
     const spc_snee_params *whole; /* the same parameters with every subpath joined through the sphere */
     double share;
+    bool long_chains; /* count the chains longer than max_chain (their own share), else the others */
     int through;
     double sum, sum2, worst_r; /* the through-sphere joins' contributions C (mean of r, g, b); r's gap */
 } share_tally;
@@ -200,7 +209,7 @@ typedef struct share_tally {
 static void count_through(void *user, const spc_path_lt_join *j)
 {
     share_tally *t = user;
-    if (j->x1 || !j->cc)
+    if (j->x1 || !j->cc || (j->cc->n > t->whole->max_chain) != t->long_chains)
         return;
     ++t->through;
     double v = spc_rgb_avg(j->C);
@@ -258,6 +267,77 @@ TEST(through_sphere_on_a_share)
     spc_scene_destroy(sc);
 }
 
+/* The joins by chains through the sphere longer than max_chain (the camera's paths with internal
+ * reflections in the ball) on a share of their own (lt_long): about that share of them occur, each
+ * counted over the share, and r is the share times r with every subpath's. */
+TEST(long_camera_chains_on_their_own_share)
+{
+    spc_camera_state cam;
+    spc_snee_params whole;
+    spc_scene *sc = lt_scene(&cam, &whole);
+    if (!sc)
+        return;
+    whole.lt_long = 1.0;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &whole);
+    share_tally t[2];
+    const int n = 20000;
+    for (int s = 0; s < 2; ++s) {
+        spc_snee_params p = whole;
+        p.lt_long = s == 0 ? 1.0 : 0.25;
+        ctx.snee = p;
+        memset(&t[s], 0, sizeof t[s]);
+        t[s].ctx = &ctx;
+        t[s].whole = &whole;
+        t[s].share = p.lt_long;
+        t[s].long_chains = true;
+        spc_rng rng;
+        spc_rng_seed(&rng, 29 + s, 5);
+        for (int i = 0; i < n; ++i)
+            spc_path_lt_joins(&ctx, &p, &rng, count_through, &t[s]);
+    }
+    double z = (t[1].sum - t[0].sum) / sqrt(t[0].sum2 + t[1].sum2 + 1e-300);
+    printf("    longer chains through the sphere: %d joins with every subpath, %d with a share 0.25; sums %.4g vs "
+           "%.4g (z %.2f); r's largest relative gap from the share's %.2g\n",
+           t[0].through, t[1].through, t[0].sum, t[1].sum, z, t[1].worst_r);
+    CHECK(t[0].through > 100);
+    double frac = (double)t[1].through / (double)(t[0].through > 0 ? t[0].through : 1);
+    CHECK_MSG(frac > 0.15 && frac < 0.35, "a share 0.25 makes %.3f of the joins", frac);
+    CHECK_MSG(fabs(z) < 4.0, "the contributions' sums differ by z %.2f", z);
+    CHECK_MSG(t[0].worst_r < 1e-12 && t[1].worst_r < 1e-12, "r is not the share's: %.3g", t[1].worst_r);
+    spc_scene_destroy(sc);
+}
+
+/* The path tracer's side follows the vertices light tracing joins through: the camera ray's first
+ * hit x1, then one more non-delta scattering (with delta scatterings around it); a second one ends
+ * it, as does a first hit after a delta scattering. */
+TEST(path_side_follows_a_middle_vertex)
+{
+    spc_path_snee s;
+    memset(&s, 0, sizeof s);
+    s.lt_enabled = true;
+    spc_hit h;
+    memset(&h, 0, sizeof h);
+    h.p = spc_v3(1, 0, 0);
+    spc_vec3 wo = spc_v3(0, 1, 0), wi = spc_v3(0, 0, 1);
+    spc_path_snee_scattered(&s, &h, wo, wi, SPC_LOBE_DIFFUSE_REFLECTION);
+    CHECK(s.lt_on && s.lt_nmid == 0 && s.receivers == 1);
+    spc_path_snee_scattered(&s, &h, wo, wi, SPC_LOBE_DELTA_TRANSMISSION);
+    CHECK(s.lt_on && s.lt_m == 1);
+    h.p = spc_v3(2, 0, 0);
+    spc_path_snee_scattered(&s, &h, wo, wi, SPC_LOBE_DIFFUSE_REFLECTION);
+    CHECK_MSG(s.lt_on && s.lt_nmid == 1 && s.lt_m == 0 && s.receivers == 1 + s.lt_nmid,
+              "after the second non-delta scattering: on %d, %d middle vertices", s.lt_on, s.lt_nmid);
+    CHECK(s.lt_mid[0].h.p.x == 2.0 && s.lt_mid[0].a.y == 1.0 && s.lt_mid[0].b.z == 1.0);
+    spc_path_snee_scattered(&s, &h, wo, wi, SPC_LOBE_DIFFUSE_REFLECTION);
+    CHECK(!s.lt_on);
+    spc_path_snee t;
+    memset(&t, 0, sizeof t);
+    t.lt_enabled = true;
+    spc_path_snee_scattered(&t, &h, wo, wi, SPC_LOBE_DELTA_REFLECTION);
+    spc_path_snee_scattered(&t, &h, wo, wi, SPC_LOBE_DIFFUSE_REFLECTION);
+    CHECK(!t.lt_on);
+}
+
 /* The plan runs it for path where every light is a point light and a glass sphere is a caster:
  * on the point-light ball, not with its small sphere light, nor with a sky besides the point light
  * (scenes/dielectrics.xml), nor for volpath. */
@@ -284,6 +364,8 @@ int main(void)
     RUN(joins_are_specular_nee_chains_with_the_same_ratio);
     RUN(render_agrees_without_it);
     RUN(through_sphere_on_a_share);
+    RUN(long_camera_chains_on_their_own_share);
+    RUN(path_side_follows_a_middle_vertex);
     RUN(plan_with_point_lights_only);
     return spc_test_finish();
 }

@@ -17,6 +17,20 @@ static double through_share(const spc_snee_params *p)
     return p->lt_through > 0.0 && p->lt_through <= 1.0 ? p->lt_through : SPC_PATH_LT_THROUGH_SHARE;
 }
 
+/* The share of light subpaths joined to the pinhole through the sphere by chains longer than
+ * max_chain (p->lt_long, else the default). */
+static double long_share(const spc_snee_params *p)
+{
+    return p->lt_long > 0.0 && p->lt_long <= 1.0 ? p->lt_long : SPC_PATH_LT_LONG_SHARE;
+}
+
+/* The share of light subpaths joined to the pinhole through the sphere by the chain cc from x2:
+ * through_share for chains within the parameters' max_chain, long_share beyond. */
+static double camera_chain_share(const spc_snee_params *p, const spc_chain *cc)
+{
+    return cc->n > p->max_chain ? long_share(p) : through_share(p);
+}
+
 /* The adjoint BSDF's correction for shading normals (Veach 1997, sec. 5.3), as bdpt's. */
 static double shading_fix(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
 {
@@ -122,6 +136,13 @@ static double ratio_of(double num, double den)
 double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
                          const spc_hit *x2, spc_vec3 w2, const spc_chain *c, const spc_emitter *e)
 {
+    return spc_path_lt_ratio_via(ctx, p, x1, w1, NULL, 0, x2, w2, c, e);
+}
+
+double spc_path_lt_ratio_via(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
+                             const spc_path_lt_vertex *mid, int nmid, const spc_hit *x2, spc_vec3 w2,
+                             const spc_chain *c, const spc_emitter *e)
+{
     const spc_scene *sc = ctx->scene;
     /* the camera's density of x1 per camera sample (bdpt's t = 1: We / N, to area) */
     spc_camera_direct cd;
@@ -133,7 +154,13 @@ double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, co
     double p2 = spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_IMPORTANCE, c->d0, w2);
     double cos2 = spc_absdot(w2, x2->ng);
     double q = query_prob(sc, p, x2->p, false);
-    return ratio_of(light_density(sc, p, x2, c, e) * p2 * cos1, q * cos2 * p1 * p_cam);
+    double num = light_density(sc, p, x2, c, e) * p2 * cos1, den = q * cos2 * p1 * p_cam;
+    for (int i = 0; i < nmid; ++i) {
+        const spc_path_lt_vertex *v = &mid[i];
+        num *= spc_bsdf_pdf(v->h.bsdf, &v->h, SPC_MODE_IMPORTANCE, v->b, v->a) * spc_absdot(v->b, v->h.ng);
+        den *= spc_bsdf_pdf(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, v->a, v->b) * spc_absdot(v->a, v->h.ng);
+    }
+    return ratio_of(num, den);
 }
 
 /* The camera's density of the point x per camera sample, in area measure at x, where the camera
@@ -150,7 +177,7 @@ static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p
         return cd->We / N * spc_absdot(cd->wi, x->ng) / (cd->dist * cd->dist);
     }
     int j = cc->n;
-    if (j < 1 || j > p->max_chain || !spc_sphere_chain_covers(cc, p->reflect))
+    if (j < 1 || j > spc_path_lt_camera_max_chain(p) || !spc_sphere_chain_covers(cc, p->reflect))
         return 0.0;
     const spc_chain_vertex *last = &cc->v[j - 1];
     if (!spc_camera_sample_direct(ctx->cam, last->h.p, cd) || !in_window(ctx, cd->fx, cd->fy))
@@ -170,7 +197,7 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
     spc_camera_direct cd;
     double pc = camera_density(ctx, p, x, cc, &cd);
     /* light tracing joins x to the pinhole through the sphere on a share of its subpaths only */
-    double share = cc ? through_share(p) : 1.0;
+    double share = cc ? camera_chain_share(p, cc) : 1.0;
     return ratio_of(share * light_density(ctx->scene, p, x, c, e), query_prob(ctx->scene, p, x->p, true) * pc);
 }
 
@@ -282,6 +309,53 @@ static bool nee_finds(const spc_scene *sc, const spc_snee_params *p, const spc_h
     return false;
 }
 
+/* The joins of the light subpath at x2 (as join_first's) to the pinhole through the sphere, by
+ * its chains of min_chain to max_chain vertices from x2 toward the pinhole, each counted over the
+ * share of subpaths that looks for it (camera_chain_share). */
+static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_vec3 d0,
+                         spc_rgb beta, const spc_chain *c, const spc_emitter *e, bool lt_only, int min_chain,
+                         int max_chain, void (*sink)(void *user, const spc_path_lt_join *j), void *user)
+{
+    const spc_scene *sc = ctx->scene;
+    double N = (double)ctx->width * (double)ctx->height;
+    spc_camera_direct cd;
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, p, x2, d0, max_chain);
+    q.min_chain = min_chain;
+    q.y = ctx->cam->origin;
+    q.ny = spc_v3(0, 0, 0);
+    q.light_size = 0.0;
+    spc_chain all[SPC_PATH_LT_CAMERA_CHAINS];
+    int n = spc_sphere_chains_all(&q, all, SPC_PATH_LT_CAMERA_CHAINS, NULL);
+    for (int i = 0; i < n; ++i) {
+        const spc_chain *cc = &all[i];
+        if (cc->n < min_chain || cc->n > max_chain || c->n > spc_path_lt_budget(ctx, p, x2, cc->n + 1, 0))
+            continue;
+        double pc = camera_density(ctx, p, x2, cc, &cd);
+        if (!(pc > 0.0))
+            continue;
+        const spc_chain_vertex *last = &cc->v[cc->n - 1];
+        spc_rgb T = spc_rgb1(1.0);
+        for (int v = 0; v < cc->n; ++v)
+            T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE, cc->v[v].d,
+                                                            spc_neg(cc->v[v].wi)));
+        spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
+        double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
+        double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
+        spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N / camera_chain_share(p, cc));
+        if (spc_rgb_is_black(C) || !isfinite(g))
+            continue;
+        double r = spc_path_lt_ratio_first(ctx, p, x2, cc, c, e);
+        if (r > 0.0 && lt_only)
+            r = INFINITY;
+        spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
+        if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
+            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, e, cd.fx, cd.fy, C, r, cc, NULL, 0};
+            sink(user, &j);
+        }
+    }
+}
+
 /* The joins of the light subpath at x2 (arrived from d0 with throughput beta through the chain c
  * from the point light e) to the pinhole where x2 is the path's first receiver: directly, and
  * through each chain of the glass sphere toward the pinhole. */
@@ -301,50 +375,20 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         if (r > 0.0 && lt_only)
             r = INFINITY;
         if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
-            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cd.wi, c, e, cd.fx, cd.fy, C, r, NULL};
+            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cd.wi, c, e, cd.fx, cd.fy, C, r, NULL, NULL, 0};
             sink(user, &j);
         }
     }
     /* through the sphere: its chains from x2 to the pinhole, on a share of the subpaths (their
-     * contributions over the share; the share is in the density spc_path_lt_ratio_first weighs) */
+     * contributions over the share; the share is in the density spc_path_lt_ratio_first weighs);
+     * the chains longer than the parameters' max_chain on a share of their own */
     double share = through_share(p);
-    if (!(share > 0.0) || (share < 1.0 && !(spc_rng_next(rng) < share)))
-        return;
-    double inv_share = share < 1.0 ? 1.0 / share : 1.0;
-    spc_snee_query q;
-    spc_snee_query_init(&q, sc, p, x2, d0, p->max_chain);
-    q.y = ctx->cam->origin;
-    q.ny = spc_v3(0, 0, 0);
-    q.light_size = 0.0;
-    spc_chain all[SPC_PATH_LT_CAMERA_CHAINS];
-    int n = spc_sphere_chains_all(&q, all, SPC_PATH_LT_CAMERA_CHAINS, NULL);
-    for (int i = 0; i < n; ++i) {
-        const spc_chain *cc = &all[i];
-        if (c->n > spc_path_lt_budget(ctx, p, x2, cc->n + 1, 0))
-            continue;
-        double pc = camera_density(ctx, p, x2, cc, &cd);
-        if (!(pc > 0.0))
-            continue;
-        const spc_chain_vertex *last = &cc->v[cc->n - 1];
-        spc_rgb T = spc_rgb1(1.0);
-        for (int v = 0; v < cc->n; ++v)
-            T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE, cc->v[v].d,
-                                                            spc_neg(cc->v[v].wi)));
-        spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
-        double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
-        double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
-        spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N * inv_share);
-        if (spc_rgb_is_black(C) || !isfinite(g))
-            continue;
-        double r = spc_path_lt_ratio_first(ctx, p, x2, cc, c, e);
-        if (r > 0.0 && lt_only)
-            r = INFINITY;
-        spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
-        if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
-            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, e, cd.fx, cd.fy, C, r, cc};
-            sink(user, &j);
-        }
-    }
+    if (share > 0.0 && (share >= 1.0 || spc_rng_next(rng) < share))
+        join_through(ctx, p, x2, d0, beta, c, e, lt_only, 1, p->max_chain, sink, user);
+    double ls = long_share(p);
+    if (spc_path_lt_camera_max_chain(p) > p->max_chain && (ls >= 1.0 || spc_rng_next(rng) < ls))
+        join_through(ctx, p, x2, d0, beta, c, e, lt_only, p->max_chain + 1, spc_path_lt_camera_max_chain(p), sink,
+                     user);
 }
 
 void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
@@ -421,25 +465,30 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     beta = spc_rgb_scale(spc_rgb_mul(beta, bs.weight), shading_fix(&x2, d0, w2));
     ray = spc_hit_spawn(&x2, w2);
 
-    /* then m delta scatterings to x1, joined to the pinhole at each vertex with a smooth lobe */
+    /* then m delta scatterings to x1, joined to the pinhole at each vertex with a smooth lobe; a
+     * non-delta scattering there makes that vertex a middle one (up to SPC_PATH_LT_MID_VERTICES)
+     * and starts the count of delta scatterings again */
+    spc_path_lt_vertex mid[SPC_PATH_LT_MID_VERTICES > 0 ? SPC_PATH_LT_MID_VERTICES : 1];
+    int nmid = 0, segs = 0; /* segs: segments from x2 to h */
     for (int m = 0; m <= SPC_PATH_LT_MID_MAX && !spc_rgb_is_black(beta); ++m) {
         spc_hit h;
         if (!spc_scene_intersect(sc, &ray, &h))
             return;
+        ++segs;
         spc_vec3 wo = spc_neg(ray.d);
-        if (spc_bsdf_has_smooth(h.bsdf) && k <= spc_path_lt_budget(ctx, p, &x2, m + 2, 1)) {
+        if (spc_bsdf_has_smooth(h.bsdf) && k <= spc_path_lt_budget(ctx, p, &x2, segs + 1, 1 + nmid)) {
             spc_camera_direct cd;
             if (spc_camera_sample_direct(ctx->cam, h.p, &cd) && in_window(ctx, cd.fx, cd.fy)) {
                 spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, cd.wi);
                 double g = shading_fix(&h, wo, cd.wi) * spc_absdot(cd.wi, h.sh.n) / (cd.dist * cd.dist);
                 spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
                 if (!spc_rgb_is_black(C)) {
-                    double r = spc_path_lt_ratio(ctx, p, &h, wo, &x2, w2, &c, e);
+                    double r = spc_path_lt_ratio_via(ctx, p, &h, wo, mid, nmid, &x2, w2, &c, e);
                     if (r > 0.0 && lt_only)
                         r = INFINITY;
                     spc_ray sr = spc_hit_spawn_to(&h, cd.p_near, 0.0);
                     if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
-                        spc_path_lt_join j = {&h, &x2, wo, w2, &c, e, cd.fx, cd.fy, C, r, NULL};
+                        spc_path_lt_join j = {&h, &x2, wo, w2, &c, e, cd.fx, cd.fy, C, r, NULL, mid, nmid};
                         sink(user, &j);
                     }
                 }
@@ -447,9 +496,17 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
         }
         spc_bsdf_sample bm;
         if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, spc_rng_next(rng),
-                                 spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bm) ||
-            !(bm.lobe & SPC_LOBE_DELTA))
+                                 spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bm))
             return;
+        if (!(bm.lobe & SPC_LOBE_DELTA)) {
+            if (nmid >= SPC_PATH_LT_MID_VERTICES)
+                return;
+            mid[nmid++] = (spc_path_lt_vertex){h, bm.wi, wo};
+            beta = spc_rgb_scale(spc_rgb_mul(beta, bm.weight), shading_fix(&h, wo, bm.wi));
+            ray = spc_hit_spawn(&h, bm.wi);
+            m = -1;
+            continue;
+        }
         beta = spc_rgb_mul(beta, bm.weight);
         ray = spc_hit_spawn(&h, bm.wi);
     }

@@ -35,7 +35,7 @@ static double lt_share(const void *user, const spc_hit *x, spc_vec3 wo, const sp
     const spc_path_snee *s = user;
     if (c->n > s->lt_kmax)
         return 1.0;
-    double r = spc_path_lt_ratio(s->ctx, &s->p, &s->lt_x1, s->lt_w1, x, wo, c, e);
+    double r = spc_path_lt_ratio_via(s->ctx, &s->p, &s->lt_x1, s->lt_w1, s->lt_mid, s->lt_nmid, x, wo, c, e);
     return 1.0 / (1.0 + r * r);
 }
 
@@ -45,7 +45,7 @@ static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, co
 {
     const spc_path_snee *s = user;
     int j = s->scatterings;
-    if (c->n > s->lt_kmax || j > s->p.max_chain || j > SPC_CHAIN_MAX_VERTICES)
+    if (c->n > s->lt_kmax || j > spc_path_lt_camera_max_chain(&s->p) || j > SPC_CHAIN_MAX_VERTICES)
         return 1.0;
     double r;
     if (j == 0) {
@@ -173,8 +173,8 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
     /* the path's second receiver after only delta scatterings from the camera ray's hit: its
      * point-light chains are light tracing's too */
     s->p.delta_share = NULL;
-    if (s->lt_on && s->receivers == 1) {
-        s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, 1);
+    if (s->lt_on && s->receivers == 1 + s->lt_nmid) {
+        s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, s->receivers);
         s->p.delta_share = lt_share;
         s->p.delta_user = s;
     } else if (s->lt_enabled && s->receivers == 0) {
@@ -223,10 +223,17 @@ void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, sp
     if (s->lt_enabled) {
         if (s->receivers == 0 && (lobe & SPC_LOBE_DELTA) && s->scatterings < SPC_CHAIN_MAX_VERTICES)
             s->cam_events[s->scatterings] = lobe == SPC_LOBE_DELTA_REFLECTION ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
-        if (!(lobe & SPC_LOBE_DELTA)) {
-            s->lt_on = s->scatterings == 0;
+        if (!(lobe & SPC_LOBE_DELTA) && s->scatterings == 0) {
+            s->lt_on = true;
             s->lt_x1 = *h;
             s->lt_w1 = wi;
+            s->lt_m = 0;
+            s->lt_nmid = 0;
+        } else if (!(lobe & SPC_LOBE_DELTA)) {
+            if (s->lt_on && s->lt_nmid < SPC_PATH_LT_MID_VERTICES)
+                s->lt_mid[s->lt_nmid++] = (spc_path_lt_vertex){*h, wo, wi};
+            else
+                s->lt_on = false;
             s->lt_m = 0;
         } else if (s->lt_on && ++s->lt_m > SPC_PATH_LT_MID_MAX) {
             s->lt_on = false;

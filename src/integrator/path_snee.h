@@ -17,6 +17,7 @@
 #define SPC_INTEGRATOR_PATH_SNEE_H
 
 #include "integrator/context.h"
+#include "integrator/path_lt.h"
 #include "manifold/caustic_guide.h"
 
 typedef struct spc_path_snee {
@@ -34,13 +35,15 @@ typedef struct spc_path_snee {
     spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
     spc_cguide_vertex mis_gv; /* and at mis_x, the receiver the track started at */
     /* the light-traced caustics (path_lt.h, params.lt_caustic): the path's first receiver x1, the
-     * camera ray's hit, with its sampled direction, while only delta scatterings (lt_m) follow it */
+     * camera ray's hit, with its sampled direction, and the non-delta vertices after it (lt_mid),
+     * while at most SPC_PATH_LT_MID_MAX delta scatterings (lt_m) follow each */
     const spc_render_ctx *ctx;
     int scatterings;
     bool lt_enabled, lt_on;
-    int lt_m, lt_kmax;
+    int lt_m, lt_kmax, lt_nmid;
     spc_hit lt_x1;
     spc_vec3 lt_w1;
+    spc_path_lt_vertex lt_mid[SPC_PATH_LT_MID_VERTICES > 0 ? SPC_PATH_LT_MID_VERTICES : 1];
     unsigned char cam_events[SPC_CHAIN_MAX_VERTICES]; /* the delta scatterings before the first receiver */
 } spc_path_snee;
 

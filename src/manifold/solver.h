@@ -238,6 +238,9 @@ typedef struct spc_snee_params {
     /* With lt_caustic: the share of light subpaths joined to the pinhole through a glass sphere,
      * in (0, 1]; 0: SPC_PATH_LT_THROUGH_SHARE (integrator/path_lt.h). */
     double lt_through;
+    /* With lt_caustic: the share of light subpaths joined to the pinhole through a glass sphere by
+     * chains longer than max_chain (0: SPC_PATH_LT_LONG_SHARE, integrator/path_lt.h) */
+    double lt_long;
     double (*delta_share)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,
                           const spc_emitter *e);
     const void *delta_user;
