@@ -344,7 +344,10 @@ typedef struct spc_specular_solver {
     bool (*covers_all)(const spc_snee_query *q);
     /* solve_one draws from rng only its seed direction (spc_snee_seed_direction) where the query fixes
      * the events (q->events, or no params.reflect): what it returns is then a function of the query
-     * and that direction, so a trial count may reuse the answer for a direction it drew before */
+     * and that direction, so a trial count may reuse the answer for a direction it drew before.
+     * Where it draws the events too, it draws the seed direction first, and a chain it returns is
+     * what it returns from that direction with the chain's events fixed (the seed chain's events
+     * are the solution's), so a count may start from the attempt that found the chain. */
     bool seed_decides;
 } spc_specular_solver;
 
