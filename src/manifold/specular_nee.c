@@ -851,13 +851,14 @@ static spc_snee_params ball_params(const spc_snee_params *p)
     return b;
 }
 
-/* Does the sphere fitted to one of q's casters have a chain of q's length (min_chain = max_chain)
- * from x to q's light point (spc_fit_root_count: the roots its seeds draw from, kept in q->fit)? */
-static bool ball_has_roots(const spc_snee_query *q)
+/* Does the sphere fitted to one of lq's casters have a chain of lq's length (min_chain = max_chain)
+ * from x to lq's light point (spc_fit_root_count: the roots its seeds draw from, kept in lq->fit)?
+ * The roots of q's own lengths (lq is q's copy) come along on the same grid, for fit_first. */
+static bool ball_has_roots(const spc_snee_query *lq, const spc_snee_query *q)
 {
-    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    const spc_chain_casters *cs = spc_chain_casters_of(lq->scene, lq->any_surface);
     for (int j = 0; cs && j < cs->n; ++j)
-        if (spc_fit_root_count(q, q->scene->shapes[cs->idx[j]]) > 0)
+        if (spc_fit_root_count_with(lq, lq->scene->shapes[cs->idx[j]], q->min_chain, q->max_chain) > 0)
             return true;
     return false;
 }
@@ -874,7 +875,7 @@ static double ball_long_psi(const spc_snee_query *q, int k)
     spc_snee_query lq = *q;
     lq.params = &bp;
     lq.min_chain = lq.max_chain = k;
-    if (!ball_has_roots(&lq))
+    if (!ball_has_roots(&lq, q))
         return 0.0;
     return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
