@@ -235,8 +235,8 @@ TEST(sphere_signatures_together_same_as_alone)
                 some_roots += na;
                 if (na != n[m + 1] || memcmp(alone, all[m + 1], (size_t)na * sizeof *alone) != 0) {
                     ++differ;
-                    printf("    differ: d %g y (%g, %g) eta %g m %d (wanted %d): %d roots in the set, %d alone\n", d, y1,
-                           y2, eta, m, want[m + 1], n[m + 1], na);
+                    printf("    differ: d %g y (%g, %g) eta %g m %d (wanted %d): %d roots in the set, %d alone\n", d,
+                           y1, y2, eta, m, want[m + 1], n[m + 1], na);
                 }
             }
         }

@@ -442,13 +442,15 @@ static bool chains_identical(const spc_chain *a, const spc_chain *b)
 }
 
 /* What lets a trial count start from the randomized attempt that found its chain (specular NEE's
- * attempt and attempt_memo; solver.h, seed_decides): under the triangle glass ball, from floor points
+ * attempt and attempt_memo; solver.h, seed_decides), and the ball pass stop an attempt whose seed
+ * chain has another length than it keeps (keep_n): under the triangle glass ball, from floor points
  * in its caustic, shadow and rim, with the ball pass's events and seeds (ball_events_p 0.9, fit share
  * 0.9, reflections at 0.5) for chains of 1 to 5 vertices, an attempt (seed and events drawn) returns
  * bit for bit what solving from its seed direction, drawn first from the same stream, returns, after
  * the same draws and iterations; and where it finds a chain, solving from that direction with the
  * chain's events and signature fixed (a trial of its count) finds the same chain, in as many
- * iterations, drawing nothing. */
+ * iterations, drawing nothing. With keep_n set to the length, an attempt from the same stream
+ * returns that chain where it has the length, else nothing, after the same draws. */
 TEST(attempt_is_its_seeds_trial)
 {
     spc_scene *sc = tu_load(SCENE, 0);
@@ -501,6 +503,14 @@ TEST(attempt_is_its_seeds_trial)
                 }
                 bool same = oka == okb && ita == itb && ra.state == rb.state && ra.inc == rb.inc &&
                             (!oka || chains_identical(&A, &B));
+                /* with the kept length set (keep_n): the chain where it has that length, else none */
+                spc_snee_query kq = q;
+                kq.keep_n = len;
+                spc_rng rk = r;
+                spc_chain K;
+                int itk = 0;
+                bool okk = solver->solve_one(&kq, &rk, &K, &itk);
+                same = same && okk == (oka && A.n == len) && rk.state == ra.state && (!okk || chains_identical(&A, &K));
                 if (same && oka) {
                     spc_chain_sig sig;
                     spc_chain_signature(&A, &sig);

@@ -322,6 +322,10 @@ typedef struct spc_snee_query {
     struct spc_fit_roots *fit;
     /* Set: the attempt's seed direction, fixed (no draw from the seed distribution); NULL otherwise. */
     const spc_vec3 *seed_dir;
+    /* Set (> 0): the only chain length the caller keeps. A solver whose attempt keeps the length of
+     * its seed chain may stop an attempt whose seed chain has another (the caller would drop what it
+     * ends with; the same outcome, sooner). 0 otherwise. */
+    int keep_n;
 } spc_snee_query;
 
 /* A query from x (wo toward the previous path vertex) with chains of up to max_chain vertices, the

@@ -1645,7 +1645,9 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
     spc_vec3 seed;
     bool seeded;
     int it = 0;
-    bool ok = attempt(lq, solver, rng, &sol, &it, &seed, &seeded);
+    spc_snee_query aq = *lq;
+    aq.keep_n = lq->max_chain; /* a chain of another length is dropped below */
+    bool ok = attempt(&aq, solver, rng, &sol, &it, &seed, &seeded);
     if (st)
         st->iterations += (uint64_t)it;
     if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol))
