@@ -193,14 +193,16 @@ TEST(planar_roots_near_the_sphere)
 
 /* Every signature solved in one call (spc_sphere_chain_roots_all, whose signatures share the grid
  * and the subdivision's midpoints) returns the same roots, bit for bit, as each signature solved
- * alone (spc_sphere_chain_roots, which the dense scans above check). Configurations come in pairs
- * with the same d and another y (the same grid and midpoint angles, other values: what one query
- * left behind must not serve the next), far and near the sphere (the finer grid), each index. */
+ * alone (spc_sphere_chain_roots, which the dense scans above check); so does a set of signatures
+ * with gaps (spc_sphere_chain_roots_some), and it leaves the others without roots. Configurations
+ * come in pairs with the same d and another y (the same grid and midpoint angles, other values: what
+ * one query left behind must not serve the next), far and near the sphere (the finer grid), each
+ * index. */
 TEST(sphere_signatures_together_same_as_alone)
 {
     spc_rng_seed(&rng, 11, 1);
     const double etas[3] = {1.5, 1.33, 0.75};
-    int configs = 0, roots = 0, differ = 0;
+    int configs = 0, roots = 0, differ = 0, some_roots = 0;
     for (int trial = 0; trial < 1200; ++trial) {
         double eta = etas[trial % 3];
         double d = trial % 2 ? 1.005 + 0.25 * rnd() : 1.05 + 5.0 * rnd() * rnd();
@@ -222,8 +224,25 @@ TEST(sphere_signatures_together_same_as_alone)
                            n[m + 1], na);
                 }
             }
+            /* a set of signatures with gaps (spc_sphere_chain_roots_some) */
+            bool want[SPC_SPHERE_SIGNATURES];
+            for (int m = -1; m <= SPC_SPHERE_MAX_M; ++m)
+                want[m + 1] = rnd() < 0.4;
+            spc_sphere_chain_roots_some(d, y1, y2, eta, want, all, n);
+            for (int m = -1; m <= SPC_SPHERE_MAX_M; ++m) {
+                double alone[SPC_SPHERE_MAX_ROOTS];
+                int na = want[m + 1] ? spc_sphere_chain_roots(d, y1, y2, m, eta, alone, SPC_SPHERE_MAX_ROOTS) : 0;
+                some_roots += na;
+                if (na != n[m + 1] || memcmp(alone, all[m + 1], (size_t)na * sizeof *alone) != 0) {
+                    ++differ;
+                    printf("    differ: d %g y (%g, %g) eta %g m %d (wanted %d): %d roots in the set, %d alone\n", d,
+                           y1, y2, eta, m, want[m + 1], n[m + 1], na);
+                }
+            }
         }
     }
+    printf("    %d roots of sets with gaps\n", some_roots);
+    CHECK(some_roots > 500);
     printf("    %d configurations, %d roots alone; %d signatures differ\n", configs, roots, differ);
     CHECK(roots > 1000);
     CHECK(differ == 0);

@@ -145,7 +145,8 @@ TEST(fit_seeds_find_every_chain_and_count_unbiased)
 /* The fitted sphere's solutions that the seeds (and the ball pass's choice of lengths) use, from the
  * floor point (-0.23, 0, 0.72) under the triangle glass ball to the centre of its light: none of 3
  * vertices (one internal reflection sends the light back up), three of 5 (three reflections; each
- * converges on the mesh to a chain of its own), and none for a cube. */
+ * converges on the mesh to a chain of its own), and none for a cube. The roots of 1-2 vertices
+ * computed along with a longer length's are kept and give the directions computed alone. */
 TEST(fit_root_count_by_length)
 {
     spc_scene *sc = tu_load(SCENE, 0);
@@ -176,6 +177,26 @@ TEST(fit_root_count_by_length)
         n[k] = spc_fit_root_count(&q, ball);
         CHECK(spc_fit_root_count(&q, ball) == n[k] && fit.nshapes == 1); /* kept, not recomputed */
         CHECK(spc_fit_root_count(&q, floor) == 0);
+        /* the roots of the query's own lengths (1-2 vertices) computed along with the long ones'
+         * (spc_fit_root_count_with): its entry takes them, and its directions are those computed
+         * alone, bit for bit */
+        spc_snee_query q2;
+        spc_snee_query_init(&q2, sc, &p, &x, spc_v3(0, 1, 0), 2);
+        q2.y = q.y;
+        q2.fit = &fit;
+        spc_fit_roots fit_alone;
+        fit_alone.nshapes = 0;
+        spc_snee_query q2a = q2;
+        q2a.fit = &fit_alone;
+        fit.nshapes = 0;
+        CHECK(spc_fit_root_count_with(&q, ball, q2.min_chain, q2.max_chain) == n[k]);
+        CHECK(fit.nshapes == 1 && (fit.e[0].have & 3u) == 3u); /* m = -1 and 0 kept */
+        spc_vec3 d2[SPC_FIT_MAX_DIRS], d2a[SPC_FIT_MAX_DIRS];
+        int m2[SPC_FIT_MAX_DIRS], m2a[SPC_FIT_MAX_DIRS];
+        int n2 = spc_fit_roots_of(&q2, ball, d2, m2, SPC_FIT_MAX_DIRS);
+        int n2a = spc_fit_roots_of(&q2a, ball, d2a, m2a, SPC_FIT_MAX_DIRS);
+        CHECK(n2 > 0 && n2 == n2a && fit.nshapes == 2);
+        CHECK(memcmp(d2, d2a, (size_t)n2 * sizeof *d2) == 0 && memcmp(m2, m2a, (size_t)n2 * sizeof *m2) == 0);
     }
     printf("    roots by length: 3: %d, 4: %d, 5: %d, 6: %d\n", n[3], n[4], n[5], n[6]);
     CHECK(n[3] == 0 && n[5] == 3);

@@ -19,6 +19,8 @@
  *   mean BSDF-side weight is below 0.05 (fit_first's grazing seeds; 1.02 without them).
  * - The ball pass's events: the frequency of each event sequence that an attempt's uniforms pick
  *   matches the probability both MIS sides use (spc_snee_attempt_events_prob).
+ * - A randomized attempt returns what solving from its seed direction returns, and a trial of its
+ *   chain's count from that direction finds the chain again (a count may start from the attempt).
  */
 /* ctest-labels: stat */
 #include <math.h>
@@ -425,6 +427,115 @@ TEST(ball_events_probability)
     spc_scene_destroy(sc);
 }
 
+/* Bitwise the same chain: vertices, events, directions and parameters. */
+static bool chains_identical(const spc_chain *a, const spc_chain *b)
+{
+    if (a->n != b->n || a->end != b->end || memcmp(&a->a, &b->a, sizeof a->a) != 0 ||
+        memcmp(&a->b, &b->b, sizeof a->b) != 0 || memcmp(&a->d0, &b->d0, sizeof a->d0) != 0)
+        return false;
+    for (int i = 0; i < a->n; ++i)
+        if (a->v[i].event != b->v[i].event || a->v[i].h.shape_index != b->v[i].h.shape_index ||
+            memcmp(&a->v[i].h.p, &b->v[i].h.p, sizeof a->v[i].h.p) != 0 ||
+            memcmp(&a->v[i].d, &b->v[i].d, sizeof a->v[i].d) != 0)
+            return false;
+    return true;
+}
+
+/* What lets a trial count start from the randomized attempt that found its chain (specular NEE's
+ * attempt and attempt_memo; solver.h, seed_decides), and the ball pass stop an attempt whose seed
+ * chain has another length than it keeps (keep_n): under the triangle glass ball, from floor points
+ * in its caustic, shadow and rim, with the ball pass's events and seeds (ball_events_p 0.9, fit share
+ * 0.9, reflections at 0.5) for chains of 1 to 5 vertices, an attempt (seed and events drawn) returns
+ * bit for bit what solving from its seed direction, drawn first from the same stream, returns, after
+ * the same draws and iterations; and where it finds a chain, solving from that direction with the
+ * chain's events and signature fixed (a trial of its count) finds the same chain, in as many
+ * iterations, drawing nothing. With keep_n set to the length, an attempt from the same stream
+ * returns that chain where it has the length, else nothing, after the same draws. */
+TEST(attempt_is_its_seeds_trial)
+{
+    spc_scene *sc = tu_load(SCENE, 0);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_snee_params p;
+    CHECK(spc_snee_parse("angular", 2, &p));
+    p.mis = true;
+    p.reflect = true;
+    p.reflect_p = 0.5;
+    p.ball_events_p = 0.9;
+    p.fit_share = 0.9;
+    const spc_specular_solver *solver = spc_specular_solver_get(p.solver);
+    CHECK(solver && solver->solve_one && solver->seed_decides);
+    static const double pts[4][2] = {{-0.097, 0.323}, {-0.23, 0.72}, {-0.727, 0.599}, {0.2, 0.5}};
+    int found = 0, tried = 0, bad = 0;
+    for (int k = 0; k < 4 && solver; ++k) {
+        spc_hit x;
+        CHECK(floor_point(sc, pts[k][0], pts[k][1], &x));
+        for (int len = 1; len <= 5; ++len)
+            for (int i = 0; i < 40; ++i) {
+                spc_snee_query q;
+                spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 1, 0), len);
+                q.min_chain = len;
+                spc_fit_roots fit;
+                memset(&fit, 0, sizeof fit);
+                q.fit = &fit;
+                spc_rng r;
+                spc_rng_seed(&r, 1000u + (uint64_t)k, (uint64_t)(len * 100 + i));
+                const spc_emitter *e;
+                spc_vec2 uv;
+                double p_y;
+                if (!spc_snee_sample_light(sc, false, &r, &q, &e, &uv, &p_y))
+                    continue;
+                ++tried;
+                spc_rng ra = r, rb = r;
+                spc_chain A, B;
+                int ita = 0, itb = 0;
+                bool oka = solver->solve_one(&q, &ra, &A, &ita);
+                spc_vec3 seed;
+                bool okb = false;
+                if (spc_snee_seed_direction(&q, &rb, &seed)) {
+                    spc_snee_query sq = q;
+                    sq.seed_dir = &seed;
+                    okb = solver->solve_one(&sq, &rb, &B, &itb);
+                } else {
+                    itb = ita; /* solve_one stops at the seed too */
+                    B = A;
+                }
+                bool same = oka == okb && ita == itb && ra.state == rb.state && ra.inc == rb.inc &&
+                            (!oka || chains_identical(&A, &B));
+                /* with the kept length set (keep_n): the chain where it has that length, else none */
+                spc_snee_query kq = q;
+                kq.keep_n = len;
+                spc_rng rk = r;
+                spc_chain K;
+                int itk = 0;
+                bool okk = solver->solve_one(&kq, &rk, &K, &itk);
+                same = same && okk == (oka && A.n == len) && rk.state == ra.state && (!okk || chains_identical(&A, &K));
+                if (same && oka) {
+                    spc_chain_sig sig;
+                    spc_chain_signature(&A, &sig);
+                    spc_snee_query tq = q;
+                    tq.seed_dir = &seed;
+                    tq.events = sig.event;
+                    tq.want = &sig;
+                    spc_rng rc = r, rc0 = r;
+                    spc_chain C;
+                    int itc = 0;
+                    bool okc = solver->solve_one(&tq, &rc, &C, &itc);
+                    same = okc && itc == ita && chains_identical(&A, &C) && rc.state == rc0.state;
+                    ++found;
+                }
+                if (!same && bad++ < 5)
+                    CHECK_MSG(false, "point %d, %d vertices, stream %d: the attempt and its seed's solve differ", k,
+                              len, i);
+            }
+    }
+    printf("    %d attempts, %d chains found, %d differ\n", tried, found, bad);
+    CHECK(bad == 0);
+    CHECK(found >= 50);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(light_side_estimates_the_reciprocal);
@@ -435,5 +546,6 @@ int main(void)
     RUN(ball_events_probability);
     RUN(ball_fold_chain_weight);
     RUN(ball_grazing_reflections_weight);
+    RUN(attempt_is_its_seeds_trial);
     return spc_test_finish();
 }

@@ -106,10 +106,11 @@ void spc_angular_residual(const spc_chain *c, const spc_angular_target *tg, spc_
 static bool chain_ok(const spc_chain *c) { return c->end == SPC_CHAIN_END_ESCAPED || c->end == SPC_CHAIN_END_SURFACE; }
 
 /* spc_angular_solve; with want != NULL it gives up at once if the seed chain's signature differs
- * (the solve keeps the seed's signature, so it could not end on a chain with signature want). */
+ * (the solve keeps the seed's signature, so it could not end on a chain with signature want), and
+ * with keep_n > 0 if the seed chain does not have keep_n vertices (the same reason). */
 static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_target *tg, spc_vec3 seed_dir,
                   const spc_chain_opts *opts, const spc_angular_options *ao, const spc_chain_sig *want,
-                  spc_chain *out, spc_angular_result *res)
+                  int keep_n, spc_chain *out, spc_angular_result *res)
 {
     res->iterations = 1;
     res->converged = false;
@@ -134,7 +135,7 @@ static bool solve(const spc_scene *sc, const spc_hit *x, const spc_angular_targe
 
     spc_chain_sig sig;
     spc_chain_signature(out, &sig);
-    if (want && !spc_chain_sig_equal(&sig, want)) {
+    if ((want && !spc_chain_sig_equal(&sig, want)) || (keep_n > 0 && sig.n != keep_n)) {
         if (so.slim)
             spc_chain_complete(out);
         return false;
@@ -285,7 +286,7 @@ bool spc_angular_solve(const spc_scene *sc, const spc_hit *x, const spc_angular_
                        const spc_chain_opts *opts, const spc_angular_options *ao, spc_chain *out,
                        spc_angular_result *res)
 {
-    return solve(sc, x, tg, seed_dir, opts, ao, NULL, out, res);
+    return solve(sc, x, tg, seed_dir, opts, ao, NULL, 0, out, res);
 }
 
 bool spc_angular_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_chain *out, int *iterations)
@@ -311,7 +312,7 @@ bool spc_angular_solve_one(const struct spc_snee_query *q, spc_rng *rng, spc_cha
     tg.scale = q->scene->radius;
     tg.light_size = q->light_size;
     spc_angular_result res;
-    bool ok = solve(q->scene, q->x, &tg, seed, &o, &q->params->angular, q->want, out, &res);
+    bool ok = solve(q->scene, q->x, &tg, seed, &o, &q->params->angular, q->want, q->keep_n, out, &res);
     if (iterations)
         *iterations += res.iterations;
     return ok;

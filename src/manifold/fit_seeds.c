@@ -148,11 +148,43 @@ bool spc_fit_sphere(const spc_shape *s, spc_vec3 *center, double *radius)
     return true;
 }
 
+/* The signatures m (-1: one reflection; m >= 0: in, m internal reflections, out: m + 2 vertices) of
+ * chains of min_chain..max_chain vertices (min_chain 0: 1) on a sphere of a conductor or a dielectric,
+ * with params.reflect or not: [*lo, *hi], false where empty. */
+static bool m_range(int min_chain, int max_chain, bool conductor, bool reflect, int *lo, int *hi)
+{
+    int m_lo = conductor || reflect ? -1 : 0;
+    int m_hi = conductor ? -1 : (reflect ? SPC_CHAIN_MAX_VERTICES - 2 : 0);
+    if (m_hi > max_chain - 2)
+        m_hi = max_chain - 2;
+    if (min_chain > 1 && m_lo < min_chain - 2)
+        m_lo = min_chain - 2;
+    if (m_hi > SPC_SPHERE_MAX_M)
+        m_hi = SPC_SPHERE_MAX_M;
+    *lo = m_lo;
+    *hi = m_hi;
+    return m_lo <= m_hi;
+}
+
+/* Where the planar roots go: an entry of q->fit (its signatures' roots kept for later entries of the
+ * same shape), or none (computed for the call alone). */
+typedef struct root_store {
+    unsigned *have;
+    int *nr;
+    double (*theta)[SPC_SPHERE_MAX_ROOTS];
+    const spc_fit_roots *fr; /* the earlier entries, whose roots are taken */
+    int before;              /* how many */
+    const spc_shape *s;
+    int also_min, also_max; /* chain lengths whose roots come along (0, 0: none) */
+} root_store;
+
 /* The first directions of the fitted sphere's chains (center c, radius R) from q's x to its y, of
  * the query's lengths and the events its params allow (a conductor: one reflection; a dielectric:
- * in and out, with reflect also one reflection and internal ones): at most max, written to dir. */
-static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, spc_vec3 *dir, signed char *ms,
-                    int max)
+ * in and out, with reflect also one reflection and internal ones): at most max, written to dir.
+ * With st, the planar roots are taken from st's earlier entries where they hold them, else computed
+ * (with those of st's also lengths, on one grid) and kept in st. */
+static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, root_store *st, spc_vec3 *dir,
+                    signed char *ms, int max)
 {
     spc_vec3 x = q->x->p;
     spc_sphere_plane pl;
@@ -161,21 +193,50 @@ static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, dou
     double eta = 0.0;
     spc_bsdf_is_specular_interface(s->bsdf, &eta);
     bool conductor = !(eta > 0.0), reflect = q->params && q->params->reflect;
-    /* m = -1: one reflection; m >= 0: in, m internal reflections, out (m + 2 vertices) */
-    int m_lo = conductor || reflect ? -1 : 0;
-    int m_hi = conductor ? -1 : (reflect ? SPC_CHAIN_MAX_VERTICES - 2 : 0);
-    if (m_hi > q->max_chain - 2)
-        m_hi = q->max_chain - 2;
-    if (q->min_chain > 1 && m_lo < q->min_chain - 2)
-        m_lo = q->min_chain - 2;
-    if (m_hi > SPC_SPHERE_MAX_M)
-        m_hi = SPC_SPHERE_MAX_M;
-    if (m_lo > m_hi)
+    int m_lo, m_hi;
+    if (!m_range(q->min_chain, q->max_chain, conductor, reflect, &m_lo, &m_hi))
         return 0;
-    /* every length in one pass over the arc (the way in and the chords shared), in order of m */
-    double theta[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
-    int nr[SPC_SPHERE_SIGNATURES];
-    spc_sphere_chain_roots_all(pl.d, pl.y1, pl.y2, eta, m_lo, m_hi, theta, nr);
+    double own_theta[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
+    int own_nr[SPC_SPHERE_SIGNATURES];
+    double(*theta)[SPC_SPHERE_MAX_ROOTS] = own_theta;
+    int *nr = own_nr;
+    if (!st) {
+        /* every length in one pass over the arc (the way in and the chords shared), in order of m */
+        spc_sphere_chain_roots_all(pl.d, pl.y1, pl.y2, eta, m_lo, m_hi, theta, nr);
+    } else {
+        /* the signatures an earlier entry of s computed, then the rest (and the also lengths') */
+        *st->have = 0;
+        for (int j = 0; j < st->before; ++j) {
+            if (st->fr->e[j].s != s)
+                continue;
+            for (int m = -1; m <= SPC_SPHERE_MAX_M; ++m) {
+                unsigned bit = 1u << (m + 1);
+                if ((st->fr->e[j].have & bit) && !(*st->have & bit)) {
+                    st->nr[m + 1] = st->fr->e[j].nr[m + 1];
+                    memcpy(st->theta[m + 1], st->fr->e[j].theta[m + 1], sizeof st->theta[m + 1]);
+                    *st->have |= bit;
+                }
+            }
+        }
+        bool want[SPC_SPHERE_SIGNATURES] = {false}, any = false;
+        for (int m = m_lo; m <= m_hi; ++m)
+            any |= want[m + 1] = !(*st->have & (1u << (m + 1)));
+        int a_lo, a_hi;
+        if (any && m_range(st->also_min, st->also_max, conductor, reflect, &a_lo, &a_hi))
+            for (int m = a_lo; m <= a_hi; ++m)
+                want[m + 1] |= !(*st->have & (1u << (m + 1)));
+        if (any) {
+            spc_sphere_chain_roots_some(pl.d, pl.y1, pl.y2, eta, want, own_theta, own_nr);
+            for (int m = -1; m <= SPC_SPHERE_MAX_M; ++m)
+                if (want[m + 1]) {
+                    st->nr[m + 1] = own_nr[m + 1];
+                    memcpy(st->theta[m + 1], own_theta[m + 1], sizeof st->theta[m + 1]);
+                    *st->have |= 1u << (m + 1);
+                }
+        }
+        theta = st->theta;
+        nr = st->nr;
+    }
     int n = 0;
     for (int m = m_lo; m <= m_hi; ++m)
         for (int r = 0; r < nr[m + 1] && n < max; ++r) {
@@ -270,15 +331,16 @@ static int tube_dirs(const spc_snee_query *q, const spc_shape *s, const fit_cach
     }
     int n = 0;
     for (int i = 0; i < nc && n < max; ++i)
-        n += fit_dirs(q, s, cand[i], fc->minor, dir + n, ms + n, max - n);
+        n += fit_dirs(q, s, cand[i], fc->minor, NULL, dir + n, ms + n, max - n);
     return n;
 }
 
 /* The fitted sphere's solution directions for q and caster s (center c, radius R; or a torus's tube
- * spheres where tube is its cache) and their events (*ms): q->fit's entry for s and q's chain lengths, filled on first use, or where q->fit has no
- * room, computed into `all` and `all_m`. */
+ * spheres where tube is its cache) and their events (*ms): q->fit's entry for s and q's chain
+ * lengths, filled on first use (a ball's with the roots of chains of also_min..also_max vertices
+ * computed along: root_store), or where q->fit has no room, computed into `all` and `all_m`. */
 static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R,
-                                 const fit_cache *tube, spc_vec3 all[SPC_FIT_MAX_DIRS],
+                                 const fit_cache *tube, int also_min, int also_max, spc_vec3 all[SPC_FIT_MAX_DIRS],
                                  signed char all_m[SPC_FIT_MAX_DIRS], int *n, const signed char **ms)
 {
     spc_fit_roots *fr = q->fit;
@@ -290,8 +352,10 @@ static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, sp
         fr->e[j].s = s;
         fr->e[j].min_chain = q->min_chain;
         fr->e[j].max_chain = q->max_chain;
+        fr->e[j].have = 0;
+        root_store st = {&fr->e[j].have, fr->e[j].nr, fr->e[j].theta, fr, j, s, also_min, also_max};
         fr->e[j].n = tube ? tube_dirs(q, s, tube, fr->e[j].dir, fr->e[j].m, SPC_FIT_MAX_DIRS)
-                          : fit_dirs(q, s, c, R, fr->e[j].dir, fr->e[j].m, SPC_FIT_MAX_DIRS);
+                          : fit_dirs(q, s, c, R, &st, fr->e[j].dir, fr->e[j].m, SPC_FIT_MAX_DIRS);
         fr->nshapes++;
     }
     if (fr && j < fr->nshapes) {
@@ -299,13 +363,13 @@ static const spc_vec3 *fit_entry(const spc_snee_query *q, const spc_shape *s, sp
         *ms = fr->e[j].m;
         return fr->e[j].dir;
     }
-    *n =
-        tube ? tube_dirs(q, s, tube, all, all_m, SPC_FIT_MAX_DIRS) : fit_dirs(q, s, c, R, all, all_m, SPC_FIT_MAX_DIRS);
+    *n = tube ? tube_dirs(q, s, tube, all, all_m, SPC_FIT_MAX_DIRS)
+              : fit_dirs(q, s, c, R, NULL, all, all_m, SPC_FIT_MAX_DIRS);
     *ms = all_m;
     return all;
 }
 
-int spc_fit_root_count(const spc_snee_query *q, const spc_shape *s)
+int spc_fit_root_count_with(const spc_snee_query *q, const spc_shape *s, int min_chain, int max_chain)
 {
     spc_vec3 c, all[SPC_FIT_MAX_DIRS];
     signed char all_m[SPC_FIT_MAX_DIRS];
@@ -314,8 +378,13 @@ int spc_fit_root_count(const spc_snee_query *q, const spc_shape *s)
     int n = 0;
     if (!spc_fit_sphere(s, &c, &R))
         return 0;
-    fit_entry(q, s, c, R, NULL, all, all_m, &n, &ms);
+    fit_entry(q, s, c, R, NULL, min_chain, max_chain, all, all_m, &n, &ms);
     return n;
+}
+
+int spc_fit_root_count(const spc_snee_query *q, const spc_shape *s)
+{
+    return spc_fit_root_count_with(q, s, 0, 0);
 }
 
 int spc_fit_roots_of(const spc_snee_query *q, const spc_shape *s, spc_vec3 *dir, int *m, int max)
@@ -327,7 +396,7 @@ int spc_fit_roots_of(const spc_snee_query *q, const spc_shape *s, spc_vec3 *dir,
     int n = 0;
     if (!spc_fit_sphere(s, &c, &R))
         return 0;
-    const spc_vec3 *d = fit_entry(q, s, c, R, NULL, all, all_m, &n, &ms);
+    const spc_vec3 *d = fit_entry(q, s, c, R, NULL, 0, 0, all, all_m, &n, &ms);
     if (n > max)
         n = max;
     for (int i = 0; i < n; ++i) {
@@ -361,7 +430,7 @@ bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc
     signed char all_m[SPC_FIT_MAX_DIRS];
     const signed char *ms;
     int n = 0;
-    const spc_vec3 *d = fit_entry(q, s, c, R, tube, all, all_m, &n, &ms);
+    const spc_vec3 *d = fit_entry(q, s, c, R, tube, 0, 0, all, all_m, &n, &ms);
     if (n < 1)
         return false;
     int i = (int)(u * n);

@@ -23,6 +23,7 @@
 
 #include "core/math.h"
 #include "core/rng.h"
+#include "manifold/sphere_roots.h"
 #include "scene/shape.h"
 
 struct spc_snee_query;
@@ -39,8 +40,8 @@ struct spc_snee_query;
 #define SPC_FIT_MAX_SHAPES 4
 
 /* The fitted sphere's solution directions from a query's x to its y, per shape and chain lengths,
- * filled on first use (the caller zeroes it and points spc_snee_query.fit at it for the query and
- * its copies, which share its x and y). */
+ * filled on first use (the caller zeroes nshapes and points spc_snee_query.fit at it for the query
+ * and its copies, which share its x and y). */
 typedef struct spc_fit_roots {
     int nshapes;
     struct {
@@ -49,6 +50,11 @@ typedef struct spc_fit_roots {
         int n;
         spc_vec3 dir[SPC_FIT_MAX_DIRS];
         signed char m[SPC_FIT_MAX_DIRS]; /* each solution's internal reflections; -1: one reflection */
+        /* the planar roots (sphere_roots.h) of the signatures computed with this entry (bit m + 1 of
+         * have), which a later entry for the same shape takes instead of computing them again */
+        unsigned have;
+        int nr[SPC_SPHERE_SIGNATURES];
+        double theta[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
     } e[SPC_FIT_MAX_SHAPES];
 } spc_fit_roots;
 
@@ -78,6 +84,10 @@ bool spc_fit_torus(const spc_shape *s, spc_vec3 *center, spc_vec3 *axis, double 
 /* The number of the fitted sphere's solutions that spc_fit_seed draws from for q and caster s (of
  * q's chain lengths, from its x to its y; kept in q->fit like them): 0 where s has no fit. */
 int spc_fit_root_count(const struct spc_snee_query *q, const spc_shape *s);
+/* spc_fit_root_count, with the roots of chains of min_chain..max_chain vertices computed on the same
+ * grid and kept in q->fit for the query of those lengths that shares q's x and y (the query whose
+ * longer chains q looks for): one pass over the arc for both (the same roots). */
+int spc_fit_root_count_with(const struct spc_snee_query *q, const spc_shape *s, int min_chain, int max_chain);
 
 /* The fitted sphere's solutions of spc_fit_root_count: at most max first directions written to dir
  * and their events to m (the internal reflections between the way in and the way out; -1 for one

@@ -325,6 +325,10 @@ typedef struct spc_snee_query {
     struct spc_fit_roots *fit;
     /* Set: the attempt's seed direction, fixed (no draw from the seed distribution); NULL otherwise. */
     const spc_vec3 *seed_dir;
+    /* Set (> 0): the only chain length the caller keeps. A solver whose attempt keeps the length of
+     * its seed chain may stop an attempt whose seed chain has another (the caller would drop what it
+     * ends with; the same outcome, sooner). 0 otherwise. */
+    int keep_n;
 } spc_snee_query;
 
 /* A query from x (wo toward the previous path vertex) with chains of up to max_chain vertices, the
@@ -347,7 +351,10 @@ typedef struct spc_specular_solver {
     bool (*covers_all)(const spc_snee_query *q);
     /* solve_one draws from rng only its seed direction (spc_snee_seed_direction) where the query fixes
      * the events (q->events, or no params.reflect): what it returns is then a function of the query
-     * and that direction, so a trial count may reuse the answer for a direction it drew before */
+     * and that direction, so a trial count may reuse the answer for a direction it drew before.
+     * Where it draws the events too, it draws the seed direction first, and a chain it returns is
+     * what it returns from that direction with the chain's events fixed (the seed chain's events
+     * are the solution's), so a count may start from the attempt that found the chain. */
     bool seed_decides;
 } spc_specular_solver;
 

@@ -851,13 +851,14 @@ static spc_snee_params ball_params(const spc_snee_params *p)
     return b;
 }
 
-/* Does the sphere fitted to one of q's casters have a chain of q's length (min_chain = max_chain)
- * from x to q's light point (spc_fit_root_count: the roots its seeds draw from, kept in q->fit)? */
-static bool ball_has_roots(const spc_snee_query *q)
+/* Does the sphere fitted to one of lq's casters have a chain of lq's length (min_chain = max_chain)
+ * from x to lq's light point (spc_fit_root_count: the roots its seeds draw from, kept in lq->fit)?
+ * The roots of q's own lengths (lq is q's copy) come along on the same grid, for fit_first. */
+static bool ball_has_roots(const spc_snee_query *lq, const spc_snee_query *q)
 {
-    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    const spc_chain_casters *cs = spc_chain_casters_of(lq->scene, lq->any_surface);
     for (int j = 0; cs && j < cs->n; ++j)
-        if (spc_fit_root_count(q, q->scene->shapes[cs->idx[j]]) > 0)
+        if (spc_fit_root_count_with(lq, lq->scene->shapes[cs->idx[j]], q->min_chain, q->max_chain) > 0)
             return true;
     return false;
 }
@@ -874,7 +875,7 @@ static double ball_long_psi(const spc_snee_query *q, int k)
     spc_snee_query lq = *q;
     lq.params = &bp;
     lq.min_chain = lq.max_chain = k;
-    if (!ball_has_roots(&lq))
+    if (!ball_has_roots(&lq, q))
         return 0.0;
     return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
@@ -1172,11 +1173,18 @@ typedef struct solve_trial {
     int memo_iterations[SPC_TRIAL_MEMO];
 } solve_trial;
 
+/* Does t reuse the outcome of a seed direction drawn before (the solver's answer a function of it)? */
+static bool trial_memo_on(const solve_trial *t)
+{
+    const spc_snee_query *q = t->q;
+    return t->solver->seed_decides && (q->events || !q->params->reflect || q->seed == SPC_SNEE_SEED_LIGHT);
+}
+
 static bool solve_trial_same(void *user)
 {
     solve_trial *t = user;
     const spc_snee_query *q = t->q;
-    if (!t->solver->seed_decides || (!q->events && q->params->reflect && q->seed != SPC_SNEE_SEED_LIGHT))
+    if (!trial_memo_on(t))
         return t->solver->solve_one(q, t->rng, &t->scratch, &t->iterations) &&
                spc_snee_same_solution(t->target, &t->scratch, q->scene->radius);
     /* the seed as solve_one draws it, then solve_one from that seed (it draws nothing more) */
@@ -1565,12 +1573,43 @@ static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *so
     return p_events > 0.0 ? N / p_events : 0.0;
 }
 
+/* One randomized attempt of q (solver->solve_one, its iterations added to *iterations). Where the
+ * solver's answer is a function of its seed direction and events (seed_decides), the direction is
+ * drawn here, as solve_one draws it first, and handed to it: the same random stream and answer, and
+ * *seeded tells the direction (a count of the chain found starts from it: attempt_memo). */
+static bool attempt(const spc_snee_query *q, const spc_specular_solver *solver, spc_rng *rng, spc_chain *out,
+                    int *iterations, spc_vec3 *seed, bool *seeded)
+{
+    *seeded = false;
+    if (!solver->seed_decides || q->seed_dir)
+        return solver->solve_one(q, rng, out, iterations);
+    if (!spc_snee_seed_direction(q, rng, seed))
+        return false; /* solve_one stops there too, its iterations untouched */
+    spc_snee_query aq = *q;
+    aq.seed_dir = seed;
+    *seeded = true;
+    return solver->solve_one(&aq, rng, out, iterations);
+}
+
+/* The attempt that found t's chain from the seed direction seed in `iterations` iterations
+ * (attempt), kept as t's first memo: a trial drawing that direction finds the chain again, with as
+ * many iterations (seed_decides), without solving. */
+static void attempt_memo(solve_trial *t, const spc_vec3 *seed, int iterations)
+{
+    if (!seed || !trial_memo_on(t) || t->nmemo >= SPC_TRIAL_MEMO)
+        return;
+    t->memo_dir[t->nmemo] = *seed;
+    t->memo_same[t->nmemo] = true;
+    t->memo_iterations[t->nmemo++] = iterations;
+}
+
 /* The chain sol of a randomized attempt toward q's light point (its density p_y, the query's and the
  * long pass's probabilities included), weighed by the balance heuristic with its real solve
- * probability: its value times spc_solve_mis_light's estimate of 1 / (p A + b) from its trials. */
+ * probability: its value times spc_solve_mis_light's estimate of 1 / (p A + b) from its trials. seed
+ * (or NULL): the direction the attempt that found sol started from (attempt), in seed_it iterations. */
 static void emit_solve_mis(const spc_snee_query *q, const spc_specular_solver *solver, const spc_emitter *e,
-                           spc_vec2 uv, double p_y, const spc_chain *sol, spc_rng *rng, spc_snee_stats *st,
-                           snee_sink *sk)
+                           spc_vec2 uv, double p_y, const spc_chain *sol, const spc_vec3 *seed, int seed_it,
+                           spc_rng *rng, spc_snee_stats *st, snee_sink *sk)
 {
     double b, pc;
     spc_rgb v = chain_terms(q, e, uv, sol, &b, &pc);
@@ -1582,6 +1621,7 @@ static void emit_solve_mis(const spc_snee_query *q, const spc_specular_solver *s
     if (!(p_ev > 0.0))
         return;
     solve_trial t = {.q = &tq, .solver = solver, .target = sol, .rng = rng};
+    attempt_memo(&t, seed, seed_it);
     int n = 0;
     bool capped = false;
     double z = spc_solve_mis_light(p_y * p_ev, b, solve_trial_same, &t, rng, trial_cap(q->params), &n, &capped);
@@ -1602,8 +1642,12 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
                                  spc_vec2 uv, double p_y, bool ball, spc_rng *rng, spc_snee_stats *st, snee_sink *sk)
 {
     spc_chain sol;
+    spc_vec3 seed;
+    bool seeded;
     int it = 0;
-    bool ok = solver->solve_one(lq, rng, &sol, &it);
+    spc_snee_query aq = *lq;
+    aq.keep_n = lq->max_chain; /* a chain of another length is dropped below */
+    bool ok = attempt(&aq, solver, rng, &sol, &it, &seed, &seeded);
     if (st)
         st->iterations += (uint64_t)it;
     if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol))
@@ -1613,7 +1657,7 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
     if (ball) {
         if (st)
             st->solved++;
-        emit_solve_mis(lq, solver, e, uv, p_y, &sol, rng, st, sk);
+        emit_solve_mis(lq, solver, e, uv, p_y, &sol, seeded ? &seed : NULL, it, rng, st, sk);
         return;
     }
     spc_snee_query vq = *lq;
@@ -1769,8 +1813,10 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
     }
 
     spc_chain sol;
+    spc_vec3 seed;
+    bool seeded;
     int iterations = 0;
-    bool ok = solver->solve_one(q, rng, &sol, &iterations);
+    bool ok = attempt(q, solver, rng, &sol, &iterations, &seed, &seeded);
     if (st)
         st->iterations += (uint64_t)iterations;
     if (!ok)
@@ -1785,7 +1831,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
     if (st)
         st->solved++;
     if (solve_mis_chain(p, &sol)) {
-        emit_solve_mis(q, solver, e, uv, p_y, &sol, rng, st, sk);
+        emit_solve_mis(q, solver, e, uv, p_y, &sol, seeded ? &seed : NULL, iterations, rng, st, sk);
         return;
     }
     q->psi = attempt_psi(q, &sol); /* neither the straight-line solution nor one of solve_all's */

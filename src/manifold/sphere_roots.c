@@ -163,10 +163,10 @@ static bool plane_fn(const void *ctx, double th, double *f, double *ahead, doubl
     return plane_eval_at(ctx, qx, qy, f, ahead, ang);
 }
 
-/* f of every signature m = mlo..mhi (0 <= mlo) at the entry point (qx, qy), sharing the way in and
- * the chords: f[m + 1], ok[m + 1]. */
-static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx, double qy, double *f, double *ahead,
-                           double (*ang)[SPHERE_ANGLES], bool *ok)
+/* f of every signature m = mlo..mhi (0 <= mlo; those with want[m + 1] where want is not NULL) at the
+ * entry point (qx, qy), sharing the way in and the chords: f[m + 1], ok[m + 1]. */
+static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, const bool *want, double qx, double qy,
+                           double *f, double *ahead, double (*ang)[SPHERE_ANGLES], bool *ok)
 {
     for (int m = mlo; m <= mhi; ++m)
         ok[m + 1] = false;
@@ -183,7 +183,7 @@ static void plane_eval_all(const plane_problem *pb, int mlo, int mhi, double qx,
         double len = -2.0 * (tx * qx + ty * qy);
         qx += len * tx;
         qy += len * ty;
-        if (j >= mlo) {
+        if (j >= mlo && (!want || want[j + 1])) {
             double vx, vy;
             refract_out(tx, ty, qx, qy, pb->eta, cos_in, &vx, &vy);
             f[j + 1] = vx * (pb->y2 - qy) - vy * (pb->y1 - qx);
@@ -315,10 +315,10 @@ static int reflection_roots(double d, double y1, double y2, double tmax, double 
     return n;
 }
 
-/* The roots of the signatures m = mlo..mhi (0 <= mlo) on one arc (|theta| < tmax): theta[m + 1][...],
- * n[m + 1]. */
-static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, int mhi, double tmax,
-                         double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
+/* The roots of the signatures m = mlo..mhi (0 <= mlo; those with want[m + 1] where want is not NULL)
+ * on one arc (|theta| < tmax): theta[m + 1][...], n[m + 1]. */
+static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, int mhi, const bool *want,
+                         double tmax, double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
 {
     enum { G = SPC_SPHERE_GRID_NEAR };
     int g = d < SPC_SPHERE_NEAR_D ? SPC_SPHERE_GRID_NEAR : SPC_SPHERE_GRID;
@@ -333,12 +333,14 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
     plane_problem pb = {d, y1, y2, eta, 0};
     for (int j = 0; j <= g; ++j) {
         th[j] = -tmax + step * j;
-        plane_eval_all(&pb, mlo, mhi, cx, cy, f[j], ah[j], an[j], ok[j]);
+        plane_eval_all(&pb, mlo, mhi, want, cx, cy, f[j], ah[j], an[j], ok[j]);
         double nx = cx * cs - cy * sn, ny = cx * sn + cy * cs;
         cx = nx;
         cy = ny;
     }
     for (int m = mlo; m <= mhi; ++m) {
+        if (want && !want[m + 1])
+            continue;
         double fm[G + 1], am[G + 1], angm[G + 1][SPC_ROOTS1D_MAX_ANGLES];
         bool okm[G + 1];
         for (int j = 0; j <= g; ++j) {
@@ -355,7 +357,8 @@ static void roots_on_arc(double d, double y1, double y2, double eta, int mlo, in
     }
 }
 
-void spc_sphere_chain_roots_all(double d, double y1, double y2, double eta, int mlo, int mhi,
+/* spc_sphere_chain_roots_all for m = mlo..mhi, those with want[m + 1] where want is not NULL. */
+static void chain_roots(double d, double y1, double y2, double eta, int mlo, int mhi, const bool *want,
                         double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
 {
     for (int m = mlo; m <= mhi; ++m)
@@ -365,7 +368,8 @@ void spc_sphere_chain_roots_all(double d, double y1, double y2, double eta, int 
     double tmax = acos(1.0 / d) * (1.0 - 1e-9);
     if (mlo < 0) {
         /* the outside reflection in closed form; the grid serves the signatures through the sphere */
-        n[0] = reflection_roots(d, y1, y2, tmax, theta[0], SPC_SPHERE_MAX_ROOTS);
+        if (!want || want[0])
+            n[0] = reflection_roots(d, y1, y2, tmax, theta[0], SPC_SPHERE_MAX_ROOTS);
         mlo = 0;
         if (mhi < 0)
             return;
@@ -376,10 +380,31 @@ void spc_sphere_chain_roots_all(double d, double y1, double y2, double eta, int 
          * way out then always does (it mirrors the way in). The outside reflection keeps the arc. */
         double c = (eta * eta + sqrt((d * d - eta * eta) * (1.0 - eta * eta))) / d;
         double tin = acos(c < 1.0 ? c : 1.0) * (1.0 - 1e-9);
-        roots_on_arc(d, y1, y2, eta, mlo, mhi, tin < tmax ? tin : tmax, theta, n);
+        roots_on_arc(d, y1, y2, eta, mlo, mhi, want, tin < tmax ? tin : tmax, theta, n);
         return;
     }
-    roots_on_arc(d, y1, y2, eta, mlo, mhi, tmax, theta, n);
+    roots_on_arc(d, y1, y2, eta, mlo, mhi, want, tmax, theta, n);
+}
+
+void spc_sphere_chain_roots_all(double d, double y1, double y2, double eta, int mlo, int mhi,
+                                double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
+{
+    chain_roots(d, y1, y2, eta, mlo, mhi, NULL, theta, n);
+}
+
+void spc_sphere_chain_roots_some(double d, double y1, double y2, double eta, const bool want[SPC_SPHERE_SIGNATURES],
+                                 double theta[][SPC_SPHERE_MAX_ROOTS], int *n)
+{
+    int mlo = SPC_SPHERE_MAX_M + 1, mhi = -2;
+    for (int m = -1; m <= SPC_SPHERE_MAX_M; ++m) {
+        n[m + 1] = 0;
+        if (want[m + 1]) {
+            mlo = m < mlo ? m : mlo;
+            mhi = m;
+        }
+    }
+    if (mlo <= mhi)
+        chain_roots(d, y1, y2, eta, mlo, mhi, want, theta, n);
 }
 
 int spc_sphere_chain_roots(double d, double y1, double y2, int m, double eta, double *theta, int max_roots)

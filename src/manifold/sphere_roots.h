@@ -48,6 +48,10 @@ int spc_sphere_chain_roots(double d, double y1, double y2, int m, double eta, do
  * the way in and the chords: theta[m + 1][...], n[m + 1]. */
 void spc_sphere_chain_roots_all(double d, double y1, double y2, double eta, int mlo, int mhi,
                                 double theta[][SPC_SPHERE_MAX_ROOTS], int *n);
+/* The same for the signatures m with want[m + 1] set (n[m + 1] = 0 for the others), on one grid: each
+ * signature's roots are those spc_sphere_chain_roots_all finds for it, bit for bit. */
+void spc_sphere_chain_roots_some(double d, double y1, double y2, double eta, const bool want[SPC_SPHERE_SIGNATURES],
+                                 double theta[][SPC_SPHERE_MAX_ROOTS], int *n);
 
 /* Is every point P of the unit circle's arc from p0 to p1 (counterclockwise, less than half a turn;
  * each given as (cos t, sin t)) behind its tangent line as seen from y = (y1, y2), i.e. y . P < 1
