@@ -1140,7 +1140,7 @@ TEST(volpath_ball_plan)
     CHECK_MSG(!strcmp(sc->integrator.type, "volpath") && p.on && p.automatic &&
                   !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS) &&
                   spc_snee_parse(p.setting, 2, &sp) && !sp.solve_mis && sp.fit_seeds && sp.camera &&
-                  sp.first_p == 1.0 && sp.later_p == 0.1 && sp.seed == SPC_SNEE_SEED_CONE && sp.phase_seeds == 0.5,
+                  sp.first_p == 1.0 && sp.later_p == 0.1 && sp.seed == SPC_SNEE_SEED_CONE && sp.phase_seeds == 0.8,
               "medium_glass: %s (%s)", p.setting, p.reason);
     spc_snee_plan_make(sc, "path", NULL, &p);
     CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS) && spc_snee_parse(p.setting, 2, &sp) &&
