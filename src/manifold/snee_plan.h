@@ -175,7 +175,7 @@
  * 0.5 phase 0.24, seed=bsdf 0.155 (and 0.113 over 33-48, where 0.8 had 0.175), none 0.34; a glass
  * ball in a fog over a floor (bench/check/medium_fog_ball.xml) cone 0.070, 0.8 0.041, seed=bsdf
  * 0.040, none 0.033 (specular NEE does not pay there); HG g = 0.85 in medium_glass, 12 seeds, cone
- * 0.19, 0.5 phase 0.062, seed=bsdf 0.071, none 0.21. */
+ * 0.19, 0.8 0.058, 0.5 0.062, seed=bsdf 0.071, none 0.21. */
 #define SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS ",phaseseeds=0.8"
 
 /* Guided seeds for the randomized attempts (a triangle mesh with vertex normals, an SDF): a share
