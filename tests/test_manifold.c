@@ -1415,6 +1415,91 @@ TEST(medium_cone_seed_share)
     spc_scene_destroy(sc);
 }
 
+/* phaseseeds=A at a medium receiver: a share A of the random seeds sampled from the point's phase
+ * function, the rest by `seed` (the cone). From a medium point in the glass ball of
+ * medium_cone_seed_share with a forward HG phase function (g 0.9) scattering away from the light, the
+ * share of seeds within cosine 0.9 of the forward direction is the mixture's: A times the phase
+ * seeds' share (seed=bsdf) plus 1 - A times the cone seeds'. The same point as a surface's (no phase
+ * function) keeps its cone seeds, stream for stream. Fails where the option is ignored (the cone's
+ * share). */
+TEST(medium_phase_seed_share)
+{
+    spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_phase hg = {SPC_PHASE_HG, 0.9};
+    const spc_vec3 xp = spc_v3(0.15, 0.05, 0.8), y = spc_v3(0.0, 0.1, 3.0), wo = spc_v3(0, 0, 1);
+    const spc_vec3 fwd = spc_neg(wo); /* HG's forward direction: away from the light */
+    spc_receiver rc;
+    spc_receiver_medium(&rc, xp, wo, &hg, -1);
+    /* 0: cone seeds; 1: phase seeds (seed=bsdf); 2: phaseseeds=0.5; 3, 4: the point as a surface's,
+     * with phaseseeds=0.5 and without */
+    double share[5];
+    for (int k = 0; k < 5; ++k) {
+        spc_snee_params p;
+        spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+        if (k == 1)
+            p.seed = SPC_SNEE_SEED_BSDF;
+        if (k == 2 || k == 3)
+            p.phase_seeds = 0.5;
+        spc_snee_query q;
+        spc_snee_query_init(&q, sc, &p, &rc.point, wo, 2);
+        q.receiver = k >= 3 ? NULL : &rc;
+        q.y = y;
+        spc_rng rng;
+        spc_rng_seed(&rng, 47, 3);
+        int n = 0, in = 0;
+        for (int i = 0; i < 8000; ++i) {
+            spc_vec3 d;
+            if (!spc_snee_seed_direction(&q, &rng, &d))
+                continue;
+            ++n;
+            in += spc_dot(d, fwd) >= 0.9;
+        }
+        share[k] = n ? (double)in / n : 0.0;
+    }
+    double mix = 0.5 * share[0] + 0.5 * share[1];
+    printf("    seeds within cosine 0.9 of forward scattering: cone %.3f, phase %.3f, phaseseeds=0.5 %.3f "
+           "(mixture %.3f); at a surface %.3f, without the option %.3f\n",
+           share[0], share[1], share[2], mix, share[3], share[4]);
+    CHECK_MSG(share[1] > share[0] + 0.4, "phase seeds %.3f against cone seeds %.3f", share[1], share[0]);
+    CHECK_MSG(fabs(share[2] - mix) < 0.03, "phaseseeds=0.5: %.3f of the seeds forward, the mixture %.3f", share[2],
+              mix);
+    CHECK_MSG(share[3] == share[4], "surface point: %.3f, without the option %.3f", share[3], share[4]);
+    spc_scene_destroy(sc);
+}
+
+/* phaseseeds=0.5 with the cone seeds and their straight-line attempt keeps specular NEE and the
+ * phase-sampled paths it covers adding up (as medium_bsdf_seeds_add_up: psi 0.5, cap 1): the seed
+ * mixture is the same for every attempt of a query, so the counts stay unbiased for its p. */
+TEST(medium_phase_seeds_add_up)
+{
+    spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_phase hg = {SPC_PHASE_HG, 0.5};
+    const spc_vec3 xp = spc_v3(0.15, 0.05, 0.1), wo = spc_v3(0, 0, -1); /* forward scattering, upward */
+    spc_receiver rc;
+    spc_receiver_medium(&rc, xp, wo, &hg, -1);
+    spc_snee_params p;
+    give_up_params(&p, 0.5);
+    p.seed = SPC_SNEE_SEED_CONE;
+    p.straight_first = true;
+    p.phase_seeds = 0.5;
+    p.long_p = 0.0;
+    spc_snee_stats st;
+    memset(&st, 0, sizeof st);
+    double m, se, ref, snee;
+    covered_difference(sc, &p, &rc, xp, wo, &hg, 31, 20000, &st, &m, &se, &ref, &snee);
+    printf("    phase sampling unweighted %.5f; specular NEE %.5f; D = %.5f +- %.5f (%.2f se); counts %llu\n", ref,
+           snee, m, se, se > 0.0 ? m / se : 0.0, (unsigned long long)st.contributions);
+    CHECK(ref > 0.0 && snee > 0.0);
+    CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f, phase sampling %.6f)", m, se, snee, ref);
+    spc_scene_destroy(sc);
+}
+
 /* The same give-up at a surface receiver, where the chain crosses from one shape to another (a
  * glass slab whose two faces are separate shapes; cosine-sampled directions traced through it
  * instead of phase sampling): specular NEE plus the BSDF-sampled paths it covers, weighted by
@@ -2697,6 +2782,8 @@ int main(void)
     RUN(medium_bsdf_seeds_add_up);
     RUN(bsdf_seeds_without_bsdf);
     RUN(medium_cone_seed_share);
+    RUN(medium_phase_seed_share);
+    RUN(medium_phase_seeds_add_up);
     RUN(mis_give_up_at_cap_at_a_surface);
     RUN(solve_mis_unbiased_past_cap);
     RUN(snee_point_estimates);

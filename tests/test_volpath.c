@@ -40,6 +40,7 @@
 #include "chi2.h"
 #include "harness.h"
 #include "io/mitsuba_xml.h"
+#include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
 #include "medium/medium.h"
 #include "render_util.h"
@@ -737,6 +738,16 @@ TEST(glass_icosphere_connection_conic)
                     "glass icosphere: conic connection vs phase sampling");
 }
 
+/* The plan's volpath setting for a tessellated ball, phase seeds included (snee_plan.h), on the glass
+ * icosphere: the randomized attempts seeded half from the phase function, half from the cone, with
+ * the stand-in psi; it agrees with phase sampling alone per pixel and in the image mean. */
+TEST(glass_icosphere_plan_phase_seeds)
+{
+    connection_case("type=\"obj\">\n    <string name=\"filename\" value=\"meshes/icosphere.obj\"/>",
+                    SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS, 2048, 256,
+                    "glass icosphere: the plan's connection with phase seeds vs phase sampling");
+}
+
 /* Does a render differ from b anywhere, bit for bit? */
 static bool films_differ(const spc_film *a, const spc_film *b)
 {
@@ -811,6 +822,7 @@ int main(void)
     RUN(null_surface_is_invisible);
     RUN(glass_slab_connection_angular);
     RUN(glass_icosphere_connection_conic);
+    RUN(glass_icosphere_plan_phase_seeds);
     RUN(volpath_honours_specular_nee_options);
     return spc_test_finish();
 }

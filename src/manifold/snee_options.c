@@ -19,6 +19,9 @@
 #define SPC_SNEE_RECV_GUIDE 0.25
 /* seedguide without a value: the guided share of a randomized attempt's seeds (seed_guide.h) */
 #define SPC_SNEE_SEED_GUIDE 0.5
+/* phaseseeds without a value: the share of a randomized attempt's seeds drawn from a medium point's
+ * phase function, volpath's plan's (snee_plan.h, SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS) */
+#define SPC_SNEE_PHASE_SEEDS 0.8
 /* The largest integer an option takes (six digits: far beyond any sensible count). */
 #define SPC_SNEE_COUNT_MAX 999999
 
@@ -113,6 +116,10 @@ static const spc_snee_option options[] = {
      SPC_SNEE_SEED_GUIDE, NULL,
      "randomized attempts seeded, with probability A, toward the chains of light paths a pre-pass traced "
      "through the casters and that landed near the receiver (seedguide alone: A 0.5)"},
+    {"phaseseeds", "nophaseseeds", SPC_SNEE_OPT_REAL, true, "A", 0, 1, true, false, NULL, 0, NO, AT(phase_seeds),
+     SPC_SNEE_PHASE_SEEDS, NULL,
+     "at a medium point, a share A of the randomized attempts' seeds sampled from its phase function, the "
+     "rest by seed (phaseseeds alone: A 0.8)"},
 };
 #define NOPTIONS ((int)(sizeof options / sizeof options[0]))
 

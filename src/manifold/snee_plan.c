@@ -566,6 +566,12 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_POINT_LIGHTS);
     }
+    /* volpath: a share of the random seeds at medium points from the phase function, where some
+     * caster's chains go to the randomized attempts (snee_plan.h) */
+    if (!strcmp(integrator, "volpath") && (!exact || solved_mirror)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS);
+    }
     out->pilot = spc_snee_setting_pilot(setting);
 }
 
@@ -653,6 +659,9 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
         put(&b, "  guided seeds: a share %g of the randomized attempts seeded toward the chains of light paths "
                 "traced at render start that land near the receiver\n",
             p.seed_guide);
+    if (p.phase_seeds > 0.0)
+        put(&b, "  phase seeds: a share %g of the randomized attempts at medium points seeded from the phase function\n",
+            p.phase_seeds);
     if (p.recv_guide > 0.0)
         put(&b,
             "  caustic guiding at receivers (path): a share %g of a vertex's directions toward the caustics "

@@ -161,6 +161,23 @@
  * "The default against none on every caster scene"). */
 #define SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH "angular:camera,later=0.1,nosolvemis"
 
+/* volpath, where some caster's chains go to the randomized attempts (a tessellated ball, an SDF, a
+ * mirror mesh): 0.8 of those attempts' seeds at medium points drawn from the point's phase function,
+ * the rest from the cone with the straight-line attempt as before (spc_snee_params.phase_seeds).
+ * From a medium point near a glass ball's surface the chains that refract out of it, or reflect
+ * inside first, lie far from the straight line to the light, where the cone seeds find them
+ * rarely: their large trial counts (one count of 88 held a seed's whole error) and the weight-1
+ * phase-sampled paths they leave behind were the default's tail. At equal CPU time, 32x32, mean
+ * relMSE (bench/RESULTS.md, part medvol16): scenes/medium_glass.xml, cone seeds alone 0.078 over
+ * seeds 25-56 and 1.50 over 57-72 (one pixel of 22.7), phase seeds 0.8 0.016 over 57-88, all
+ * phase seeds (seed=bsdf, no straight-line attempt) 0.032 over the same seeds, none 0.295; a glass
+ * SDF torus filled with smoke (bench/check/medium_torus.xml, heavy tails) cone 0.38 over 32 seeds,
+ * 0.5 phase 0.24, seed=bsdf 0.155 (and 0.113 over 33-48, where 0.8 had 0.175), none 0.34; a glass
+ * ball in a fog over a floor (bench/check/medium_fog_ball.xml) cone 0.070, 0.8 0.041, seed=bsdf
+ * 0.040, none 0.033 (specular NEE does not pay there); HG g = 0.85 in medium_glass, 12 seeds, cone
+ * 0.19, 0.8 0.058, 0.5 0.062, seed=bsdf 0.071, none 0.21. */
+#define SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS ",phaseseeds=0.8"
+
 /* Guided seeds for the randomized attempts (a triangle mesh with vertex normals, an SDF): a share
  * 0.8 of those attempts seeded toward the chains of light paths traced before the render that landed
  * near the receiver (seed_guide.h). Not in the plan: they lower the Bernoulli trial counts' tail but

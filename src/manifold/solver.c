@@ -73,6 +73,12 @@ bool spc_snee_seed_direction(const spc_snee_query *q, spc_rng *rng, spc_vec3 *di
      * bench/RESULTS.md, part seedbsdf15). */
     spc_snee_seed seed = q->seed;
     bool medium = q->receiver && q->receiver->kind == SPC_RECEIVER_MEDIUM;
+    /* at a medium point a share of the random seeds from its phase function
+     * (spc_snee_params.phase_seeds; the straight-line attempt's SEED_LIGHT stays as it is) */
+    double ps = q->params ? q->params->phase_seeds : 0.0;
+    if (medium && ps > 0.0 && (seed == SPC_SNEE_SEED_SHAPE || seed == SPC_SNEE_SEED_CONE) &&
+        (ps >= 1.0 || spc_rng_next(rng) < ps))
+        seed = SPC_SNEE_SEED_BSDF;
     if (seed == SPC_SNEE_SEED_BSDF && !medium && !q->x->bsdf)
         seed = SPC_SNEE_SEED_CONE;
     switch (seed) {

@@ -266,6 +266,15 @@ typedef struct spc_snee_params {
      * the camera. 0: off. sguide is the pre-pass the render built (NULL: none, the seeds uniform). */
     double seed_guide;
     const struct spc_sguide *sguide;
+    /* Seeds from the phase function at medium receivers (the user's "phaseseeds=A" /
+     * "nophaseseeds"): at a medium point a randomized attempt draws its seed direction from the
+     * point's phase function with probability A, else by `seed` (the straight-line attempt of
+     * straight_first is made as `seed` says). The mixture is the same for every attempt of a query,
+     * trials included, so the count stays unbiased for the mixture's p: the phase seeds find the
+     * chains the medium scatters into (those far from the straight line, the ones that hold the
+     * cone seeds' rare large counts), the cone seeds those near it. Surfaces and the camera: no
+     * effect. 0: off; with `seed=bsdf` every seed at a medium point is a phase seed anyway. */
+    double phase_seeds;
     /* Seeds from a fitted sphere (the user's "fitseeds" / "nofitseeds"; on by default; fit_seeds.h):
      * with SEED_SHAPE or SEED_CONE, where the caster an attempt picks is a tessellated ball, a share
      * of its seeds go toward the exact solutions of the sphere fitted to it, so that every chain
