@@ -1506,7 +1506,7 @@ TEST(medium_phase_seeds_add_up)
  * spc_snee_receiver_weight, equal the BSDF-sampled paths unweighted (D's mean 0, as in
  * mis_give_up_at_cap_adds_up, cap 1), and with a stand-in psi that puts a <= C b on every chain no
  * count runs past its cap (as mis_count_gives_up_at_cap). Under the glass ball of those tests, whose
- * chains stay on one shape, a surface receiver's counts still run past the cap. */
+ * chains stay on one shape, a surface receiver's counts still run past the cap where a is well above b. */
 TEST(mis_give_up_at_cap_at_a_surface)
 {
     spc_scene *sc = point_scene(3, 0.5, spc_v3(0.0, 0.1, 3.0));
@@ -1571,7 +1571,10 @@ TEST(mis_give_up_at_cap_at_a_surface)
     CHECK_MSG(st.trials <= st.contributions, "%llu attempts in %llu counts of at most 1", (unsigned long long)st.trials,
               (unsigned long long)st.contributions);
     spc_scene_destroy(sc);
-    /* one shape: the counts go on past the cap by roulette */
+    /* one shape, a stand-in psi that puts a above b on many chains: there the counts go on past the cap
+     * by roulette (mis_give_up_one_shape_bounded: a chain on one shape is given up only where b is
+     * near a or above it) */
+    p.mis_solve = 0.9;
     sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
     CHECK(sc != NULL);
     if (!sc)
@@ -1585,6 +1588,65 @@ TEST(mis_give_up_at_cap_at_a_surface)
            (unsigned long long)st.trials, (unsigned long long)st.contributions, (unsigned long long)st.capped);
     CHECK_MSG(st.trials > st.contributions, "%llu attempts in %llu counts", (unsigned long long)st.trials,
               (unsigned long long)st.contributions);
+    spc_scene_destroy(sc);
+}
+
+/* A randomized chain on one shape at a surface receiver, where specular NEE's density a and the
+ * sampling side's b are close, is given up at the count where specular NEE's weighted sample would
+ * pass what the sampling side adds, f / b; a diffuse floor under the glass ball of
+ * mis_count_gives_up_at_cap has f / b = albedo T Le <= albedo Le (T the two refractions' Fresnel
+ * transmittance), so with the stand-in psi 0.1 and the cap 64 no specular NEE sample exceeds that
+ * (the rounding of the count to an attempt adds at most 1 / 20), where counts going on to the cap and
+ * past it by roulette weigh up to 64 psi / 2 = 3.2 times it. Specular NEE plus the BSDF-sampled paths
+ * it covers, weighted by spc_snee_receiver_weight, still equal those paths unweighted (D's mean 0, as
+ * mis_give_up_at_cap_at_a_surface). */
+TEST(mis_give_up_one_shape_bounded)
+{
+    spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_hit hx;
+    spc_ray down = {spc_v3(0.15, 0.05, 0.1), spc_v3(0, 0, -1), 0.0, INFINITY};
+    CHECK(spc_scene_intersect(sc, &down, &hx) && hx.shape_index == 0);
+    const spc_vec3 wo = spc_v3(0, 0, 1);
+    spc_receiver rc;
+    spc_receiver_surface(&rc, &hx, wo);
+    spc_snee_params p;
+    give_up_params(&p, 0.1);
+    p.max_trials = 0; /* the default cap */
+    p.long_p = 0.0;
+    const double bound = 0.8 * 5.0 * 1.05; /* albedo Le, and the count's rounding */
+    spc_snee_stats st;
+    memset(&st, 0, sizeof st);
+    spc_rng r, rw;
+    spc_rng_seed(&r, 31, 5);
+    spc_rng_seed(&rw, 31, 6);
+    const int N = 40000;
+    int over = 0;
+    double s1 = 0, s2 = 0, sref = 0, snee = 0, scov = 0, top = 0;
+    for (int i = 0; i < N; ++i) {
+        double nee = spc_specular_nee_at(sc, &p, &rc, 2, 2, &r, &st).r, d = nee;
+        snee += nee;
+        top = spc_max(top, nee);
+        over += nee > bound;
+        spc_bsdf_sample b0;
+        if (spc_bsdf_sample_dir(hx.bsdf, &hx, SPC_MODE_RADIANCE, wo, spc_rng_next(&rw),
+                                spc_v2(spc_rng_next(&rw), spc_rng_next(&rw)), &b0)) {
+            spc_ray ray = spc_hit_spawn(&hx, b0.wi);
+            d += covered_walk(sc, &p, &rc, b0.wi, ray, b0.weight.r, &rw, &sref, &scov);
+        }
+        s1 += d;
+        s2 += d * d;
+    }
+    double m = s1 / N, se = sqrt(spc_max(s2 / N - m * m, 0.0) / N), ref = sref / N;
+    printf("    BSDF sampling unweighted %.5f; specular NEE %.5f (largest sample %.3f, %d above %.2f), covered "
+           "paths %.5f; D = %.5f +- %.5f (%.2f se); counts %llu, attempts %llu, given up or capped %llu\n",
+           ref, snee / N, top, over, bound, scov / N, m, se, se > 0.0 ? m / se : 0.0,
+           (unsigned long long)st.contributions, (unsigned long long)st.trials, (unsigned long long)st.capped);
+    CHECK(ref > 0.0 && snee > 0.0);
+    CHECK_MSG(over == 0, "%d specular NEE samples above albedo Le (the largest %.3f)", over, top);
+    CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f)", m, se, snee / N);
     spc_scene_destroy(sc);
 }
 
@@ -2785,6 +2847,7 @@ int main(void)
     RUN(medium_phase_seed_share);
     RUN(medium_phase_seeds_add_up);
     RUN(mis_give_up_at_cap_at_a_surface);
+    RUN(mis_give_up_one_shape_bounded);
     RUN(solve_mis_unbiased_past_cap);
     RUN(snee_point_estimates);
     RUN(snee_normal_map_point_estimates);

@@ -1236,8 +1236,17 @@ static bool chain_crosses_shapes(const spc_chain *c)
     return false;
 }
 
-/* Does specular NEE give up a randomized attempt's chain whose count (inv_p_solve) reaches the cap,
- * leaving that path to the sampling side, rather than go on by Russian roulette? With MIS (the
+/* The largest count at which specular NEE keeps a randomized attempt's chain on one shape at a surface
+ * receiver, in units of the count at which its weighted sample equals the sampling side's unweighted
+ * one (give_up_cap). 1: specular NEE's sample never exceeds f / b, the most a sampled path adds. On
+ * scenes/caustic_sdf_torus.xml a 2-refraction chain with a ~ 1.9 b, found about once in 59 attempts,
+ * was counted 92 times (59 attempts over its events' probability 0.64) at weight 0.78: 3.9 f / b, one
+ * pixel's 99% of a seed's error (bench/RESULTS.md, part trace19). */
+#define SPC_SNEE_GIVE_UP_SCALE 1.0
+
+/* The count at which specular NEE gives up a randomized attempt's chain (inv_p_solve), leaving that
+ * path to the sampling side, rather than go on by Russian roulette past the cap; 0 where it never
+ * does. With MIS (the
  * sampling side's density b of the chain positive), a stand-in psi below 1,
  * attempts seeded at random and no guided directions (whose third strategy would need the share
  * too). A count cut there carries no tail: at most cap / a. With N the count (geometric, success
@@ -1251,25 +1260,44 @@ static bool chain_crosses_shapes(const spc_chain *c)
  * chains that cross from one shape to another, which no exact enumeration covers: where it was
  * measured to pay. On the demo a chain through the glass ball and off the mirror sphere counted 454
  * times held a seed's error; given up, the mean relMSE over 32 seeds fell 3x (bench/RESULTS.md, part
- * sphere12). Chains on one shape go on by roulette: under the SDF torus the give-up handed long
- * BSDF-sampled paths through it weight 1 (test_sdf_chain_mis) and its 8 seeds read 1.4x the mean
- * relMSE. A chain from a medium point deep in a
+ * sphere12). Chains on one shape at the cap went on by roulette: under the SDF torus the give-up at
+ * the cap handed long BSDF-sampled paths through it weight 1 (test_sdf_chain_mis) and its 8 seeds
+ * read 1.4x the mean relMSE. So a chain on one shape within the budget (psi, its stand-in, positive;
+ * 0 for the long pass's) is given up at a count of its own, where the sampling side's share is worth
+ * having: at the count C at which specular NEE's weighted sample, C / P(events) psi f w_a / a (w_a =
+ * a^2 / (a^2 + b^2), the power heuristic), equals f / b, the largest the sampling side adds with the
+ * share, times SPC_SNEE_GIVE_UP_SCALE, where C is below the cap (a and b within a factor of a few
+ * of each other; a = b: C = 2 P(events) / psi); at the cap where C is not and b >= a (specular NEE's
+ * sample at the cap is then below f / b too). Where b is far below a, the sampling side's paths are
+ * rare and large, and the count goes on by roulette. A chain from a medium point deep in a
  * glass ball has p ~ 1e-4 (its attempts end in total internal reflection): counted past the cap its
  * 1/p ~ 1e4 made one pixel hold 99% of a seed's error on scenes/medium_glass.xml (bench/RESULTS.md,
  * part medtail10). The same function of the query on both sides. */
-static bool cap_gives_up(const spc_snee_query *q, const spc_chain *c, double a, double b)
+static int give_up_cap(const spc_snee_query *q, const spc_chain *c, double a, double b, double psi)
 {
     const spc_snee_params *p = q->params;
     spc_receiver own;
+    int cap = trial_cap(p);
     if (!(p->mis && !p->biased && !guide_on(p) && random_psi(p) < 1.0 && q->seed != SPC_SNEE_SEED_LIGHT && b > 0.0 &&
-          a > 0.0 && a <= trial_cap(p) * b))
-        return false;
+          a > 0.0))
+        return 0;
     spc_receiver_kind kind = query_receiver(q, &own)->kind;
-    return kind == SPC_RECEIVER_MEDIUM || (kind == SPC_RECEIVER_SURFACE && chain_crosses_shapes(c));
+    if (kind == SPC_RECEIVER_MEDIUM || (kind == SPC_RECEIVER_SURFACE && chain_crosses_shapes(c)))
+        return a <= cap * b ? cap : 0;
+    if (kind != SPC_RECEIVER_SURFACE || !(psi > 0.0))
+        return 0;
+    double p_ev = 1.0;
+    if (p->reflect) {
+        spc_chain_sig sig;
+        spc_chain_signature(c, &sig);
+        p_ev = spc_snee_attempt_events_prob(q, &sig);
+    }
+    double C = SPC_SNEE_GIVE_UP_SCALE * p_ev * (a * a + b * b) / (psi * a * b);
+    return C < cap ? (int)ceil(C) : b >= a ? cap : 0;
 }
 
 /* The count of t's trials until its chain is found again, 0 where the first cap attempts all fail
- * (cap_gives_up). *attempts gets the attempts run. */
+ * (give_up_cap). *attempts gets the attempts run. */
 static double count_within_cap(solve_trial *t, int cap, int *attempts)
 {
     for (int n = 1; n <= cap; ++n)
@@ -1281,7 +1309,7 @@ static double count_within_cap(solve_trial *t, int cap, int *attempts)
     return 0.0;
 }
 
-/* The sampling side's estimate of g(p) (cap_gives_up): 1 if at most one of cap + 1 trials of t finds
+/* The sampling side's estimate of g(p) (give_up_cap): 1 if at most one of cap + 1 trials of t finds
  * its chain, else 0; stops at the second success. */
 static double cap_share_left(solve_trial *t, int cap)
 {
@@ -1379,9 +1407,13 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p) * light_count(p);
         double rs;
         bool counted;
-        *a = chain_psi(&q, &ch, &rs, &counted) * p_y * ps;
+        double psi = chain_psi(&q, &ch, &rs, &counted);
+        *a = psi * p_y * ps;
         const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
-        if (counted && w_solve && solver && solver->solve_one && cap_gives_up(&q, &ch, *a, *b)) {
+        /* the cap as specular NEE's query has it: its stand-in for a chain within the budget, none for
+         * the long pass's */
+        int cap = counted ? give_up_cap(&q, &ch, *a, *b, ch.n > max_chain ? 0.0 : psi) : 0;
+        if (cap > 0 && w_solve && solver && solver->solve_one) {
             /* specular NEE gives the chain up where its count reaches the cap: its MIS share times the
              * probability of that, sampled by attempts toward this light point like its own */
             spc_snee_query lq = q;
@@ -1397,7 +1429,7 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
                 spc_rng rng;
                 path_rng(&rng, x->p, d0, light->p);
                 solve_trial t = {.q = &tq, .solver = solver, .target = &ch, .rng = &rng};
-                left = cap_share_left(&t, trial_cap(p));
+                left = cap_share_left(&t, cap);
             }
             *w_solve = mis3(*b, *a, *c) + w_nee * left;
         }
@@ -1536,10 +1568,9 @@ static void emit_plane_chains(const spc_snee_query *q, const spc_emitter *e, spc
 
 /* <1/p_solve> of the solution sol of a randomized attempt for q: attempts until the same solution
  * is found again (with reflect, following its events, whose probability is known); with give_up
- * (cap_gives_up) 0 where the count reaches the cap,
- * else past it by Russian roulette. */
+ * positive (give_up_cap) 0 where the count reaches give_up, else past the cap by Russian roulette. */
 static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *sol,
-                          bool give_up, spc_rng *rng, spc_snee_stats *st)
+                          int give_up, spc_rng *rng, spc_snee_stats *st)
 {
     const spc_snee_params *p = q->params;
     if (q->seed == SPC_SNEE_SEED_LIGHT)
@@ -1556,9 +1587,9 @@ static double inv_p_solve(const spc_snee_query *q, const spc_specular_solver *so
     bool capped;
     int iterations = 0, n = 0;
     double N;
-    if (give_up) {
+    if (give_up > 0) {
         solve_trial t = {.q = &tq, .solver = solver, .target = sol, .rng = rng};
-        N = count_within_cap(&t, trial_cap(p), &n);
+        N = count_within_cap(&t, give_up, &n);
         capped = N == 0.0;
         iterations = t.iterations;
     } else {
@@ -1666,7 +1697,7 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
     spc_rgb v = counted_chain_value(&vq, e, uv, &sol, &a, &b);
     if (spc_rgb_is_black(v))
         return;
-    double inv_p = inv_p_solve(lq, solver, &sol, cap_gives_up(lq, &sol, a, b), rng, st);
+    double inv_p = inv_p_solve(lq, solver, &sol, give_up_cap(lq, &sol, a, b, 0.0), rng, st);
     if (st) {
         st->solved++;
         st->contributions++;
@@ -1834,7 +1865,8 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         emit_solve_mis(q, solver, e, uv, p_y, &sol, seeded ? &seed : NULL, iterations, rng, st, sk);
         return;
     }
-    q->psi = attempt_psi(q, &sol); /* neither the straight-line solution nor one of solve_all's */
+    double psi = attempt_psi(q, &sol); /* neither the straight-line solution nor one of solve_all's */
+    q->psi = psi;
     double a, b;
     spc_rgb v = counted_chain_value(q, e, uv, &sol, &a, &b);
     q->psi = 0.0;
@@ -1843,7 +1875,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
 
     if (st)
         st->contributions++;
-    emit(q, sk, &sol, spc_rgb_scale(v, inv_p_solve(q, solver, &sol, cap_gives_up(q, &sol, a, b), rng, st) / p_y));
+    emit(q, sk, &sol, spc_rgb_scale(v, inv_p_solve(q, solver, &sol, give_up_cap(q, &sol, a, b, psi), rng, st) / p_y));
 }
 
 /* One guided direction (params.guide): a light by power, a direction in one of its cones at x,
