@@ -24,6 +24,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/cpu_isa.h"
 #include "scene/curve.h"
 #include "scene/scene.h"
 
@@ -46,6 +47,7 @@ struct spc_accel {
      * in float, the sum of the center's absolute coordinates, the mask bit */
     float cull_c[SPC_ACCEL_SKIP_MAX][3], cull_r[SPC_ACCEL_SKIP_MAX], cull_c1[SPC_ACCEL_SKIP_MAX];
     unsigned cull_bit[SPC_ACCEL_SKIP_MAX];
+    bool cull_avx512; /* the cull's AVX-512 variant (core/cpu_isa.h's choice) */
 };
 
 bool spc_accel_skips_any(const spc_accel *a) { return a->nskip > 0; }
@@ -193,6 +195,7 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
         return NULL;
     }
     a->sc = sc;
+    a->cull_avx512 = spc_vector_isa() == SPC_ISA_AVX512;
     /* SPECULA_EMBREE_CONFIG, if set, is Embree's device configuration: tests force an instruction
      * set with it ("isa=avx2"), under which Embree's packet calls take other code paths */
     const char *config = getenv("SPECULA_EMBREE_CONFIG");
@@ -456,10 +459,9 @@ static void to_embree_lane(const spc_ray *r, struct RTCRay16 *er, int i)
 typedef float cull_v16 __attribute__((vector_size(64)));
 typedef int cull_v16i __attribute__((vector_size(64)));
 
-static void cull_lines(const spc_accel *a, struct RTCRay16 *er)
+/* cull_lines' body, inlined into each instruction set's variant: GCC vector types over the 16 lanes. */
+static inline __attribute__((always_inline)) void cull_loop(const spc_accel *a, struct RTCRay16 *er)
 {
-    if (a->nskip == 0)
-        return;
     cull_v16 ox, oy, oz, dx, dy, dz;
     cull_v16i mask;
     memcpy(&ox, er->org_x, sizeof ox);
@@ -488,6 +490,26 @@ static void cull_lines(const spc_accel *a, struct RTCRay16 *er)
         mask &= ~(out & (int)a->cull_bit[k]);
     }
     memcpy(er->mask, &mask, sizeof mask);
+}
+
+static void cull_base(const spc_accel *a, struct RTCRay16 *er) { cull_loop(a, er); }
+
+#if defined(__GNUC__) && defined(__x86_64__)
+#define CULL_AVX512 1
+__attribute__((target("avx512f"))) static void cull_avx512(const spc_accel *a, struct RTCRay16 *er) { cull_loop(a, er); }
+#endif
+
+static void cull_lines(const spc_accel *a, struct RTCRay16 *er)
+{
+    if (a->nskip == 0)
+        return;
+#ifdef CULL_AVX512
+    if (a->cull_avx512) {
+        cull_avx512(a, er);
+        return;
+    }
+#endif
+    cull_base(a, er);
 }
 
 /* spc_accel_intersect_packet with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*) */
