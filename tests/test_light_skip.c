@@ -9,7 +9,9 @@
  * nearest thing on the ray, and the packet form equals the single rays lane by lane.
  */
 /* ctest-labels: unit */
+#include <math.h>
 #include <stdbool.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -228,10 +230,129 @@ TEST(sphere_lights_beyond_the_mask_bits_are_tested)
     spc_scene_destroy(sc);
 }
 
+/* Two sphere lights and nothing else: A at (0,0,2) r 0.5 and B at (3,0,2) r 0.3, or the same far
+ * from the origin and small (centers near (1e4, -2e4, 3e3), radii 1e-3 and 2e-3). */
+static const char *two_lights_xml =
+    "<scene version='3.0.0'>"
+    "<shape type='sphere'><point name='center' value='0,0,2'/><float name='radius' value='0.5'/>"
+    "<emitter type='area'><rgb name='radiance' value='1,1,1'/></emitter></shape>"
+    "<shape type='sphere'><point name='center' value='3,0,2'/><float name='radius' value='0.3'/>"
+    "<emitter type='area'><rgb name='radiance' value='1,1,1'/></emitter></shape>"
+    "</scene>";
+static const char *far_lights_xml =
+    "<scene version='3.0.0'>"
+    "<shape type='sphere'><point name='center' value='10000.3,-20000.1,3000.7'/><float name='radius' value='0.001'/>"
+    "<emitter type='area'><rgb name='radiance' value='1,1,1'/></emitter></shape>"
+    "<shape type='sphere'><point name='center' value='10000.31,-20000.1,3000.7'/><float name='radius' value='0.002'/>"
+    "<emitter type='area'><rgb name='radiance' value='1,1,1'/></emitter></shape>"
+    "</scene>";
+
+/* A packet's lanes whose lines pass clearly outside a sphere light are not handed to its exact
+ * test (the packets' cull on the float rays): a packet of 16 shadow rays of which one passes
+ * through A runs exactly one analytic test (Embree's packet traversal alone hands every active
+ * lane to the callback of a sphere that any lane's ray meets: 16 here). */
+TEST(packets_skip_the_exact_test_for_lines_far_from_spheres)
+{
+    spc_scene *sc = load(two_lights_xml);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_ray rs[SPC_SCENE_PACKET];
+    const spc_ray *pr[SPC_SCENE_PACKET];
+    const spc_emitter *pe[SPC_SCENE_PACKET];
+    bool occ[SPC_SCENE_PACKET];
+    for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
+        /* lane 0 straight up through A; the others straight up at x = -1.5 - i/10 */
+        double x = i == 0 ? 0.1 : -1.5 - 0.1 * i;
+        rs[i] = seg(spc_v3(x, 0.05 * i, 0), spc_v3(x, 0.05 * i, 4));
+        pr[i] = &rs[i];
+        pe[i] = NULL;
+    }
+    uint64_t before = spc_accel_analytic_tests();
+    spc_scene_occluded_light_packet(sc, pr, pe, occ);
+    uint64_t tests = spc_accel_analytic_tests() - before;
+    CHECK(occ[0]);
+    int nocc = 0;
+    for (int i = 1; i < SPC_SCENE_PACKET; ++i)
+        nocc += occ[i];
+    CHECK_MSG(nocc == 0, "%d lanes blocked that pass beside the lights", nocc);
+    CHECK_MSG(tests == 1, "%llu exact tests for one lane that meets a light", (unsigned long long)tests);
+    spc_scene_destroy(sc);
+}
+
+/* The cull never changes an answer: rays whose lines pass at r (1 + eps) from a light's center,
+ * eps from -1e-3 to 1e-3 down to 1e-15 and 0, near the origin and far from it, give in packets
+ * the single rays' answers (which no cull touches) lane by lane, and the lanes whose lines pass
+ * within 1e-5 r of the silhouette still meet the exact test. */
+TEST(packets_cull_agrees_at_the_silhouette)
+{
+    const char *xmls[2] = {two_lights_xml, far_lights_xml};
+    static const double eps[] = {0.0, 1e-15, 1e-12, 1e-9, 1e-7, 1e-5, 1e-3, 1e-1, 1.0};
+    const int neps = (int)(sizeof eps / sizeof eps[0]);
+    for (int x = 0; x < 2; ++x) {
+        spc_scene *sc = load(xmls[x]);
+        CHECK(sc != NULL);
+        if (!sc)
+            return;
+        spc_rng rng;
+        spc_rng_seed(&rng, 11, (uint64_t)x);
+        int nbad = 0, nhit = 0, nmiss = 0, lanes = 0, nnear = 0;
+        uint64_t near_tests = 0;
+        spc_ray rs[SPC_SCENE_PACKET];
+        const spc_ray *pr[SPC_SCENE_PACKET];
+        const spc_emitter *pe[SPC_SCENE_PACKET];
+        bool occ[SPC_SCENE_PACKET], single[SPC_SCENE_PACKET];
+        bool near[SPC_SCENE_PACKET];
+        for (int k = 0; k < 4000; ++k) {
+            const spc_shape *s = sc->shapes[k % 2];
+            double R = s->radius;
+            /* a unit direction d and a unit normal n to it: the line through c + R (1 + e) n along d */
+            spc_vec3 d = spc_normalize(spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5));
+            spc_vec3 n = spc_normalize(spc_cross(d, spc_v3(spc_rng_next(&rng) - 0.5, spc_rng_next(&rng) - 0.5, 1.0)));
+            double e = eps[(k / 2) % neps] * (k % 4 < 2 ? 1.0 : -1.0);
+            double back = R * (2.0 + 50.0 * spc_rng_next(&rng));
+            spc_vec3 p = spc_add(s->center, spc_scale(n, R * (1.0 + e)));
+            int i = lanes++;
+            rs[i] = (spc_ray){spc_sub(p, spc_scale(d, back)), d, 0.0, 2.0 * back};
+            pr[i] = &rs[i];
+            pe[i] = NULL;
+            near[i] = fabs(e) <= 1e-5;
+            single[i] = spc_scene_occluded(sc, &rs[i]);
+            nhit += single[i];
+            nmiss += !single[i];
+            if (lanes < SPC_SCENE_PACKET)
+                continue;
+            spc_scene_occluded_light_packet(sc, pr, pe, occ);
+            for (int j = 0; j < SPC_SCENE_PACKET; ++j)
+                nbad += occ[j] != single[j];
+            /* the near lanes alone: each meets its sphere's exact test */
+            int m = 0;
+            for (int j = 0; j < SPC_SCENE_PACKET; ++j) {
+                pr[j] = near[j] ? &rs[j] : NULL;
+                m += near[j];
+            }
+            uint64_t before = spc_accel_analytic_tests();
+            spc_scene_occluded_light_packet(sc, pr, pe, occ);
+            near_tests += spc_accel_analytic_tests() - before;
+            nnear += m;
+            lanes = 0;
+        }
+        CHECK_MSG(nbad == 0, "scene %d: %d packet lanes differ from single rays", x, nbad);
+        CHECK_MSG(nhit > 500 && nmiss > 500, "scene %d: %d hits, %d misses", x, nhit, nmiss);
+        CHECK_MSG(near_tests >= (uint64_t)nnear, "scene %d: %llu exact tests for %d lanes at the silhouette", x,
+                  (unsigned long long)near_tests, nnear);
+        printf("  scene %d: %d hits, %d misses, %d silhouette lanes, %llu exact tests for them\n", x, nhit, nmiss,
+               nnear, (unsigned long long)near_tests);
+        spc_scene_destroy(sc);
+    }
+}
+
 int main(void)
 {
     RUN(only_the_named_sphere_light_is_skipped);
     RUN(shadow_rays_toward_samples_agree);
     RUN(sphere_lights_beyond_the_mask_bits_are_tested);
+    RUN(packets_skip_the_exact_test_for_lines_far_from_spheres);
+    RUN(packets_cull_agrees_at_the_silhouette);
     return spc_test_finish();
 }

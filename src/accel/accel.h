@@ -62,5 +62,8 @@ uint64_t spc_accel_raw_loop(const spc_accel *a, const spc_ray *rays, size_t n);
 uint64_t spc_accel_rays_traced(void);
 /* Of those, the shadow rays (spc_accel_occluded and the lanes of spc_accel_occluded_packet). */
 uint64_t spc_accel_shadow_rays_traced(void);
+/* Lanes that the calling thread's traces have handed to an analytic shape's exact test (Embree's
+ * user geometry callbacks) so far: a measure of the work the packets' culls save. */
+uint64_t spc_accel_analytic_tests(void);
 
 #endif
