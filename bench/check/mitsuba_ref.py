@@ -26,6 +26,7 @@ through a glass ball or in a mirror, which ptracer cannot render.
 """
 import argparse
 import os
+import re
 import sys
 import time
 
@@ -59,7 +60,19 @@ def main():
         mi.set_variant("scalar_rgb")
     params = dict(kv.split("=", 1) for kv in a.D)
     params.update(res=a.res, spp=a.spp, max_depth=a.max_depth)
-    scene = mi.load_file(a.scene, **params)
+    # Mitsuba refuses parameters the scene does not use (a scene with a fixed max_depth, say) and
+    # properties only specula reads (specular NEE settings): those are dropped, and an edited file
+    # is loaded with its folder on the file resolver (for relative paths).
+    text = open(a.scene).read()
+    params = {k: v for k, v in params.items() if "$" + k in text}
+    edited = re.sub(r'<(string|integer|boolean|float)\s+name="(specular_nee|specular_max_chain|mis_balance|'
+                    r'caustic_caster|caustic_receiver|caustic_caster_single|caustic_caster_multi)"[^>]*/>',
+                    "", text)
+    if edited != text:
+        mi.file_resolver().prepend(os.path.dirname(os.path.abspath(a.scene)))
+        scene = mi.load_string(edited, **params)
+    else:
+        scene = mi.load_file(a.scene, **params)
     if a.integrator == "normal":
         integrator = mi.load_dict({"type": "aov", "aovs": "nn:sh_normal"})
     else:
