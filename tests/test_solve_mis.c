@@ -239,7 +239,10 @@ TEST(triangle_ball_tail)
     CHECK(lit >= 4);
     CHECK_MSG(m2[0] < 0.6 * m2[2], "default: second moment %.4g against the stand-in's %.4g", m2[0], m2[2]);
     CHECK_MSG(m2[1] < 0.8 * m2[2], "real probability: second moment %.4g against the stand-in's %.4g", m2[1], m2[2]);
-    CHECK_MSG(vmax[1] < 0.5 * vmax[2], "largest sample %.4g against the stand-in's %.4g", vmax[1], vmax[2]);
+    /* The stand-in's chains on one shape are given up at the count where its weighted sample would pass
+     * f / b (specular_nee.c, give_up_cap), so its largest sample is bounded like the real probability's;
+     * counted on by roulette it reached 4532, 4x the default's. */
+    CHECK_MSG(vmax[2] < 2.0 * vmax[0], "largest sample: stand-in %.4g against the default's %.4g", vmax[2], vmax[0]);
     spc_scene_destroy(sc);
 }
 
