@@ -53,6 +53,11 @@
  * enumeration, a pinhole camera, no guided cones, no strict normals, no rough vertices)? */
 bool spc_path_lt_enabled(const spc_render_ctx *ctx, const spc_snee_params *p);
 
+/* With the strategy on, does it also trace area lights' caustics: MIS against BSDF sampling (whose
+ * weight at x2 it shares), no caustic guide at receivers (the guide's mixture density at x2 is the
+ * path's own)? */
+bool spc_path_lt_area_enabled(const spc_snee_params *p);
+
 /* Specular NEE's chain budget at x2 when x2 is a receiver of the path with `receivers` receivers
  * before it, reached after `segments` path segments (the path tracer's, 0 where it makes no query
  * there). */
@@ -69,6 +74,15 @@ double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, co
  * the camera's and specular NEE's at x. */
 double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
                                const spc_chain *cc, const spc_chain *c, const spc_emitter *e);
+
+/* For an area light e: light tracing's density over BSDF sampling's at x2 (params.alt_chain_ratio)
+ * of the path x1 (left toward w1; NULL: x2 is the first receiver, seen directly or through the
+ * chain cc toward the pinhole) - x2 (left toward wo2 on the camera's side) - chain c from x2 - the
+ * light's point y (unit normal ny); 0 where light tracing does not make it (not one glass sphere's
+ * chain, the camera does not see x1 or x2 so). */
+double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
+                              const spc_hit *x2, spc_vec3 wo2, const spc_chain *cc, const spc_chain *c,
+                              const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
 
 /* Chains of the glass sphere from x2 toward the pinhole that one join enumerates. */
 #define SPC_PATH_LT_CAMERA_CHAINS 16
@@ -90,6 +104,9 @@ typedef struct spc_path_lt_join {
     spc_rgb C;
     double r;
     const spc_chain *cc; /* x2 is the first receiver (x1 NULL): the chain toward the pinhole, or NULL */
+    spc_vec3 y, ny;      /* the light's point and its unit normal (a point light: its position, 0) */
+    double w;            /* light tracing's MIS weight: spc_path_lt_weight(r) for a point light; for an
+                            area light its share of the BSDF side's weight at x2 (path_lt.h, top) */
 } spc_path_lt_join;
 
 /* Traces one light subpath (rng: a stream of this camera sample) and hands each of its joins with
