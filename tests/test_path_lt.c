@@ -19,8 +19,9 @@
  *   share in r on both sides.
  * - A render with ltcaus agrees with one without (the same estimator's two splits) by the per-pixel
  *   z-test and the image mean.
- * - The plan (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) runs it for path where every light is a point
- *   light and a glass sphere is a caster, and nowhere else.
+ * - The plan (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS, SPC_SNEE_PLAN_AREA_LIGHTS) runs it for path
+ *   where a glass sphere is a caster and every light is a point light or a small area light, without
+ *   the caustic guide at receivers, and nowhere else.
  * - Area lights (a small sphere light, bench/check/ball_small_light.xml, and a small square one,
  *   bench/check/ball_rect_light.xml): every kind of join occurs, and on each the three weights of
  *   its path, specular NEE's at x2 (its enumerated chain toward the light point, its value with MIS
@@ -264,13 +265,17 @@ TEST(through_sphere_on_a_share)
     spc_scene_destroy(sc);
 }
 
-/* The plan runs it for path where every light is a point light and a glass sphere is a caster:
- * on the point-light ball, not with its small sphere light, nor with a sky besides the point light
- * (scenes/dielectrics.xml), nor for volpath. */
-TEST(plan_with_point_lights_only)
+/* The plan runs it for path where a glass sphere is a caster and every light is a point light or a
+ * small area light (a sky besides), without the caustic guide at receivers: on the point-light
+ * ball, its small sphere-light twin, the ball under a small sphere light and scenes/
+ * caustic_glass_sphere.xml (a sky besides); not with a point light and a sky (scenes/
+ * dielectrics.xml), nor on the demo (its plan guides caustics at receivers), nor for volpath. */
+TEST(plan_with_point_lights_and_small_area_lights)
 {
-    const char *files[] = {SCENE, "bench/check/point_light_ball_sphere.xml", "scenes/dielectrics.xml"};
-    for (int i = 0; i < 3; ++i) {
+    const char *files[] = {SCENE, "bench/check/point_light_ball_sphere.xml", "bench/check/ball_small_light.xml",
+                           "scenes/caustic_glass_sphere.xml", "scenes/dielectrics.xml", "scenes/demo.xml"};
+    const bool want[] = {true, true, true, true, false, false};
+    for (int i = 0; i < 6; ++i) {
         spc_scene *sc = tu_load(files[i], 8);
         CHECK(sc != NULL);
         if (!sc)
@@ -278,7 +283,7 @@ TEST(plan_with_point_lights_only)
         spc_snee_plan plan;
         spc_snee_plan_make(sc, "path", NULL, &plan);
         bool lt = strstr(plan.setting, "ltcaus") != NULL;
-        CHECK_MSG(plan.on && lt == (i == 0), "%s: %s", files[i], plan.setting);
+        CHECK_MSG(plan.on && lt == want[i], "%s: %s", files[i], plan.setting);
         spc_snee_plan_make(sc, "volpath", NULL, &plan);
         CHECK_MSG(!strstr(plan.setting, "ltcaus"), "%s, volpath: %s", files[i], plan.setting);
         spc_scene_destroy(sc);
@@ -456,7 +461,7 @@ int main(void)
     RUN(joins_are_specular_nee_chains_with_the_same_ratio);
     RUN(render_agrees_without_it);
     RUN(through_sphere_on_a_share);
-    RUN(plan_with_point_lights_only);
+    RUN(plan_with_point_lights_and_small_area_lights);
     RUN(area_light_weights_sum_to_one);
     RUN(area_light_render_agrees_without_it);
     return spc_test_finish();
