@@ -179,6 +179,12 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 
 /* ---- area lights ---- */
 
+/* The share of camera samples that trace an area light's subpath (p->lt_share, else 1). */
+static double area_share(const spc_snee_params *p)
+{
+    return p->lt_share > 0.0 && p->lt_share <= 1.0 ? p->lt_share : 1.0;
+}
+
 double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
                               const spc_hit *x2, spc_vec3 wo2, const spc_chain *cc, const spc_chain *c,
                               const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
@@ -190,8 +196,8 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
     spc_vec3 d_last = c->v[k - 1].d;
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
      * against BSDF sampling at x2 toward d0 and the light's cosine (G's part only area measure has) */
-    double num = spc_snee_light_pdf(sc, p->any_surface, e, y, ny) * cone_pdf(sc, p->any_surface, y, spc_neg(d_last)) *
-                 spc_absdot(c->d0, x2->ng);
+    double num = area_share(p) * spc_snee_light_pdf(sc, p->any_surface, e, y, ny) *
+                 cone_pdf(sc, p->any_surface, y, spc_neg(d_last)) * spc_absdot(c->d0, x2->ng);
     double den = spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_RADIANCE, wo2, c->d0) * spc_absdot(ny, d_last);
     if (x1) {
         /* the camera's side x1 - x2 against light tracing's x2 - x1, as spc_path_lt_ratio */
@@ -547,9 +553,14 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
         ray = (spc_ray){.o = y, .d = w0, .tmin = 0.0, .tmax = SPC_INF};
         L.y = y;
     } else if (e->type == SPC_EMITTER_AREA && e->shape && spc_path_lt_area_enabled(p)) {
-        /* the emitter's uniform again: spc_snee_sample_light picks the same light with it */
-        if (!area_start(sc, p, e, ue, rng, &ray, &L.y, &L.ny, &beta))
+        /* on a share of the samples, counted over it (the share is in the density
+         * spc_path_lt_area_ratio weighs); the emitter's uniform again: spc_snee_sample_light picks
+         * the same light with it */
+        double share = area_share(p);
+        if ((share < 1.0 && !(spc_rng_next(rng) < share)) || !area_start(sc, p, e, ue, rng, &ray, &L.y, &L.ny, &beta))
             return;
+        if (share < 1.0)
+            beta = spc_rgb_scale(beta, 1.0 / share);
         L.area = true;
     } else {
         return;
