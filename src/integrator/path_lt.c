@@ -1,7 +1,8 @@
 /*
- * integrator/path_lt.c: light-traced caustics of point lights seen through a diffuse bounce, for
- * the path tracer (path_lt.h): the light subpath, its joins to the pinhole, and the density ratio
- * that weighs them against specular NEE at the path's second receiver (Veach 1997, ch. 9 and
+ * integrator/path_lt.c: light-traced caustics of point and area lights seen directly, through the
+ * glass sphere and through a diffuse bounce, for the path tracer (path_lt.h): the light subpath, its
+ * joins to the pinhole, and the density ratio that weighs them against specular NEE (and, for area
+ * lights, BSDF sampling) at the caustic's receiver (Veach 1997, ch. 9 and
  * 10.2: the power heuristic over two strategies of one path; bdpt's t = 1 join).
  */
 #include "integrator/path_lt.h"

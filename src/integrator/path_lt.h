@@ -1,6 +1,7 @@
 /*
- * integrator/path_lt.h: the path tracer's light-traced caustics of point lights (specular NEE's
- * "ltcaus" option): seen through a diffuse bounce, directly, and through the glass sphere.
+ * integrator/path_lt.h: the path tracer's light-traced caustics of point lights and area lights
+ * (specular NEE's "ltcaus" option): seen through a diffuse bounce, directly, and through the glass
+ * sphere.
  *
  * The paths (point light) - k chain vertices - x2 - m delta scatterings - x1 - camera, where x1 is
  * the camera ray's first hit and scatters along a non-delta sample, x2 is a receiver where
@@ -39,6 +40,23 @@
  * The joins through the sphere (its root search from x2, most of the strategy's cost) run on a
  * share s of the subpaths (SPC_PATH_LT_THROUGH_SHARE, or the parameters' lt_through), counted 1/s
  * times; light tracing's density of those paths, and so their r, carries the factor s.
+ *
+ * Area lights (with MIS against BSDF sampling, without the caustic guide at receivers): the subpath
+ * starts at a point y drawn as specular NEE draws its light points (spc_snee_sample_light: the cap
+ * of a sphere light that faces the casters, other shapes by area, density p_y including the light's
+ * choice), with a direction uniform in the cone toward the casters' bounding sphere, its throughput
+ * Le cos(y) / (p_y p_dir). The same joins follow. There the path has three strategies at x2:
+ * specular NEE (density a, its light point), BSDF sampling at x2 (b) and light tracing (c), all in
+ * the measure of y given the camera's side. c / b is
+ *
+ *     r = p_y p_dir(w0) |cos(x2, d0)| / (p_bsdf(x2 -> d0) |cos(y)|) / (camera's side)
+ *
+ * (the chain's G toward y and its lobe choices cancel; the camera's side as above: the camera's
+ * density of x2, or p_cam(x1) p_x1(w1) cos(x2) / (p_x2(w2) cos(x1)) through a diffuse bounce), given
+ * to specular NEE as params.alt_chain_ratio: its weight and BSDF sampling's take b sqrt(1 + r^2) for
+ * b, and light tracing's weight is r^2 / (1 + r^2) of that joint share (spc_snee_receiver_weights),
+ * evaluated on the chain solved from x2 through y as specular NEE's is. The subpaths run on a share
+ * of the camera samples (params.lt_share), which c carries.
  */
 #ifndef SPC_INTEGRATOR_PATH_LT_H
 #define SPC_INTEGRATOR_PATH_LT_H
