@@ -411,8 +411,9 @@ TEST(area_light_weights_sum_to_one)
         spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
         CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
         for (int seed = 31; seed < 34; ++seed) {
-            /* the last seed with area subpaths on half of the samples (their share in both sides' r) */
-            p.lt_share = seed == 33 ? 0.5 : 0.0;
+            /* every sample traces an area subpath, the last seed half of them (the share in both
+             * sides' r) */
+            p.lt_share = seed == 33 ? 0.5 : 1.0;
             ctx.snee = p;
             area_tally t;
             memset(&t, 0, sizeof t);

@@ -180,10 +180,10 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 
 /* ---- area lights ---- */
 
-/* The share of camera samples that trace an area light's subpath (p->lt_share, else 1). */
+/* The share of camera samples that trace an area light's subpath (p->lt_share, else the default). */
 static double area_share(const spc_snee_params *p)
 {
-    return p->lt_share > 0.0 && p->lt_share <= 1.0 ? p->lt_share : 1.0;
+    return p->lt_share > 0.0 && p->lt_share <= 1.0 ? p->lt_share : SPC_PATH_LT_AREA_SHARE;
 }
 
 double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,

@@ -108,6 +108,13 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
 /* The share of light subpaths joined to the pinhole through the sphere (join 2). */
 #define SPC_PATH_LT_THROUGH_SHARE 0.5
 
+/* The share of camera samples that trace an area light's subpath (params.lt_share 0), counted 1/S
+ * times. The subpath and its joins cost 0.8-0.9 of a base sample; per sample the error hardly grew
+ * on the share (bench/RESULTS.md, "Area lights' caustics by light tracing": caustic_glass_sphere at
+ * equal CPU 5.6x lower relMSE than without with S = 1, 6.4x with 0.5, 7.9x with 0.25, 6.8x with 0.1;
+ * ball_small_light 2.5x, 2.9x (0.25), 2.8x (0.1)). */
+#define SPC_PATH_LT_AREA_SHARE 0.25
+
 /* One join of a light subpath to the pinhole: the path's vertices as path_lt.h names them (x1
  * left toward w1 on the light's side, x2 toward w2 on the camera's, the chain c retraced from x2
  * to the point light e), the film position, the contribution C before the weight, and r (infinite

@@ -245,8 +245,8 @@ typedef struct spc_snee_params {
      * in (0, 1]; 0: SPC_PATH_LT_THROUGH_SHARE (integrator/path_lt.h). */
     double lt_through;
     /* With lt_caustic: the share of camera samples that trace a light subpath from an area light
-     * (the user's "ltshare=S"), in (0, 1], counted 1/S times; 0: every sample. Point lights' subpaths
-     * run on every sample. */
+     * (the user's "ltshare=S"), in (0, 1], counted 1/S times; 0: SPC_PATH_LT_AREA_SHARE
+     * (integrator/path_lt.h). Point lights' subpaths run on every sample. */
     double lt_share;
     double (*delta_share)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,
                           const spc_emitter *e);
