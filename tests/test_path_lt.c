@@ -273,8 +273,12 @@ TEST(through_sphere_on_a_share)
  * dielectrics.xml), nor on the demo (its plan guides caustics at receivers), nor for volpath. */
 TEST(plan_with_point_lights_and_small_area_lights)
 {
-    const char *files[] = {SCENE, "bench/check/point_light_ball_sphere.xml", "bench/check/ball_small_light.xml",
-                           "scenes/caustic_glass_sphere.xml", "scenes/dielectrics.xml", "scenes/demo.xml"};
+    const char *files[] = {SCENE,
+                           "bench/check/point_light_ball_sphere.xml",
+                           "bench/check/ball_small_light.xml",
+                           "scenes/caustic_glass_sphere.xml",
+                           "scenes/dielectrics.xml",
+                           "scenes/demo.xml"};
     const bool want[] = {true, true, true, true, false, false};
     for (int i = 0; i < 6; ++i) {
         spc_scene *sc = tu_load(files[i], 8);
@@ -304,8 +308,8 @@ typedef struct area_cam {
     int kmax;
 } area_cam;
 
-static double area_cam_ratio(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c,
-                             const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
+static double area_cam_ratio(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
+                             spc_vec3 y, spc_vec3 ny)
 {
     const area_cam *a = user;
     if (c->n > a->kmax)
@@ -383,7 +387,10 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
         t->worst_gap = gap;
         if (gap > 1e-5)
             printf("    gap %.3g: k %d kind %d w_nee %.6f w_own %.6f w_lt %.6f (alt %.6f) r %.3g\n", gap, j->c->n,
-                   j->x1 ? 2 : j->cc ? 1 : 0, w_nee, w_own, j->w, w_alt, j->r);
+                   j->x1   ? 2
+                   : j->cc ? 1
+                           : 0,
+                   w_nee, w_own, j->w, w_alt, j->r);
     }
     t->lt_sum += j->w;
     t->above += j->w > 0.5;

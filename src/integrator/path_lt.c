@@ -228,8 +228,8 @@ typedef struct area_side {
     int kmax;
 } area_side;
 
-static double area_side_ratio(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c,
-                              const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
+static double area_side_ratio(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
+                              spc_vec3 y, spc_vec3 ny)
 {
     const area_side *a = user;
     if (c->n > a->kmax)

@@ -1311,8 +1311,7 @@ static void path_rng(spc_rng *rng, spc_vec3 a, spc_vec3 b, spc_vec3 c)
  * p->mis is set and e is an area light. */
 static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
                           int max_chain, int k, const unsigned char *events, const spc_hit *light,
-                          const spc_snee_cones *cs, double *a, double *b, double *c, double *w_solve,
-                          double *alt_f)
+                          const spc_snee_cones *cs, double *a, double *b, double *c, double *w_solve, double *alt_f)
 {
     const spc_emitter *e = light->emitter;
     const spc_hit *x = spc_receiver_origin(r);
@@ -1453,8 +1452,7 @@ double spc_snee_receiver_weight(const spc_scene *sc, const spc_snee_params *p, c
 }
 
 double spc_snee_receiver_weights(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
-                                 int max_chain, int k, const unsigned char *events, const spc_hit *light,
-                                 double *w_alt)
+                                 int max_chain, int k, const unsigned char *events, const spc_hit *light, double *w_alt)
 {
     const spc_emitter *e = light->emitter;
     *w_alt = 0.0;
@@ -1875,8 +1873,8 @@ static void guided(spc_snee_query *q, spc_rng *rng, spc_snee_stats *st, snee_sin
             spc_rgb Le = spc_emitter_eval_area(e, &h, spc_neg(ray.d));
             double a, b, c;
             spc_receiver own;
-            if (spc_rgb_is_black(Le) || !covered_terms(sc, p, query_receiver(q, &own), d0, q->max_chain, t.k,
-                                                        t.events, &h, cs, &a, &b, &c, NULL, NULL))
+            if (spc_rgb_is_black(Le) || !covered_terms(sc, p, query_receiver(q, &own), d0, q->max_chain, t.k, t.events,
+                                                       &h, cs, &a, &b, &c, NULL, NULL))
                 return;
             double w = mis3(c, a, b);
             if (!(w > 0.0))
