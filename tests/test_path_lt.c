@@ -1,7 +1,7 @@
 /*
- * tests/test_path_lt.c: the path tracer's light-traced caustics of point lights (integrator/path_lt.h,
- * specular NEE's "ltcaus"), on bench/check/point_light_ball.xml
- * (a point light above a glass ball on a floor).
+ * tests/test_path_lt.c: the path tracer's light-traced caustics (integrator/path_lt.h, specular NEE's
+ * "ltcaus"), on bench/check/point_light_ball.xml (a point light above a glass ball on a floor) and,
+ * for area lights, on the same ball under a small sphere or square light.
  *
  * - Every join the light subpaths make (x2 seen by the camera directly, through the glass ball, or
  *   from the first hit x1 of a diffuse bounce) is a path specular NEE counts at x2 (the sphere
@@ -22,8 +22,17 @@
  *   to one as the others', and the path tracer's side follows such a path's middle vertex.
  * - A render with ltcaus agrees with one without (the same estimator's two splits) by the per-pixel
  *   z-test and the image mean.
- * - The plan (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) runs it for path where every light is a point
- *   light and a glass sphere is a caster, and nowhere else.
+ * - The plan (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS, SPC_SNEE_PLAN_AREA_LIGHTS) runs it for path
+ *   where a glass sphere is a caster and every light is a point light or a small area light, without
+ *   the caustic guide at receivers, and nowhere else.
+ * - Area lights (a small sphere light, bench/check/ball_small_light.xml, and a small square one,
+ *   bench/check/ball_rect_light.xml): every kind of join occurs, and on each the three weights of
+ *   its path, specular NEE's at x2 (its enumerated chain toward the light point, its value with MIS
+ *   over its value without), BSDF sampling's own at x2 and light tracing's, sum to one within 1e-5
+ *   (9e-7 measured over 3 seeds each; the last with the subpaths on half of the samples, ltshare).
+ *   Their joins go through no middle vertex and no camera chain longer than max_chain, and the path
+ *   tracer's side puts light tracing into BSDF sampling's weight at the second receiver only.
+ *   A render with ltcaus agrees with one without.
  */
 /* ctest-labels: stat */
 #include <math.h>
@@ -34,6 +43,7 @@
 #include "integrator/path_lt.h"
 #include "integrator/path_snee.h"
 #include "manifold/snee_options.h"
+#include "manifold/snee_cost.h"
 #include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
@@ -338,13 +348,21 @@ TEST(path_side_follows_a_middle_vertex)
     CHECK(!t.lt_on);
 }
 
-/* The plan runs it for path where every light is a point light and a glass sphere is a caster:
- * on the point-light ball, not with its small sphere light, nor with a sky besides the point light
- * (scenes/dielectrics.xml), nor for volpath. */
-TEST(plan_with_point_lights_only)
+/* The plan runs it for path where a glass sphere is a caster and every light is a point light or a
+ * small area light (a sky besides), without the caustic guide at receivers: on the point-light
+ * ball, its small sphere-light twin, the ball under a small sphere light and scenes/
+ * caustic_glass_sphere.xml (a sky besides); not with a point light and a sky (scenes/
+ * dielectrics.xml), nor on the demo (its plan guides caustics at receivers), nor for volpath. */
+TEST(plan_with_point_lights_and_small_area_lights)
 {
-    const char *files[] = {SCENE, "bench/check/point_light_ball_sphere.xml", "scenes/dielectrics.xml"};
-    for (int i = 0; i < 3; ++i) {
+    const char *files[] = {SCENE,
+                           "bench/check/point_light_ball_sphere.xml",
+                           "bench/check/ball_small_light.xml",
+                           "scenes/caustic_glass_sphere.xml",
+                           "scenes/dielectrics.xml",
+                           "scenes/demo.xml"};
+    const bool want[] = {true, true, true, true, false, false};
+    for (int i = 0; i < 6; ++i) {
         spc_scene *sc = tu_load(files[i], 8);
         CHECK(sc != NULL);
         if (!sc)
@@ -352,11 +370,251 @@ TEST(plan_with_point_lights_only)
         spc_snee_plan plan;
         spc_snee_plan_make(sc, "path", NULL, &plan);
         bool lt = strstr(plan.setting, "ltcaus") != NULL;
-        CHECK_MSG(plan.on && lt == (i == 0), "%s: %s", files[i], plan.setting);
+        CHECK_MSG(plan.on && lt == want[i], "%s: %s", files[i], plan.setting);
         spc_snee_plan_make(sc, "volpath", NULL, &plan);
         CHECK_MSG(!strstr(plan.setting, "ltcaus"), "%s, volpath: %s", files[i], plan.setting);
         spc_scene_destroy(sc);
     }
+}
+
+/* ---- area lights ---- */
+
+#define AREA_SETTING "angular:camera=0.098,first=0.1,later=0.1,ltcaus"
+
+/* The camera's side of an area light's join as the path tracer's specular NEE at x2 reads it
+ * (params.alt_chain_ratio): its x1, w1 and camera chain cc, the chain budget at x2. */
+typedef struct area_cam {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    const spc_path_lt_join *j;
+    int kmax;
+} area_cam;
+
+static double area_cam_ratio(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
+                             spc_vec3 y, spc_vec3 ny)
+{
+    const area_cam *a = user;
+    if (c->n > a->kmax)
+        return 0.0;
+    return spc_path_lt_area_ratio(a->ctx, a->p, a->j->x1, a->j->w1, x, wo, a->j->cc, c, e, y, ny);
+}
+
+typedef struct area_tally {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    int joins, matched, kinds[3];
+    double worst_gap, lt_sum, above, below;
+} area_tally;
+
+/* The three weights of an area light's join: specular NEE's at x2 toward y (its enumerated chain,
+ * the value with MIS over the value without), BSDF sampling's own at x2 and light tracing's. */
+static void check_area_join(void *user, const spc_path_lt_join *j)
+{
+    area_tally *t = user;
+    const spc_scene *sc = t->ctx->scene;
+    ++t->joins;
+    ++t->kinds[j->x1 ? 2 : j->cc ? 1 : 0];
+    CHECK(j->e->type == SPC_EMITTER_AREA && j->w > 0.0 && j->w <= 1.0);
+    int segments = j->x1 ? 2 : j->cc ? j->cc->n + 1 : 1;
+    int kmax = spc_path_lt_budget(t->ctx, t->p, j->x2, segments, j->x1 ? 1 : 0);
+    area_cam side = {t->ctx, t->p, j, kmax};
+    spc_snee_params pp = *t->p;
+    pp.mis = true;
+    pp.query_p = j->x1 ? spc_snee_later_prob(sc, t->p, j->x2->p) : spc_snee_first_prob(sc, t->p, j->x2->p);
+    pp.alt_chain_ratio = area_cam_ratio;
+    pp.alt_user = &side;
+    /* specular NEE's query at x2 toward y, as the path tracer makes it */
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, &pp, j->x2, j->w2, kmax);
+    q.y = j->y;
+    q.ny = j->ny;
+    q.light_size = sqrt(j->e->shape->area);
+    q.y_err = 1e-6 * sc->radius; /* a light point's rounding off its surface, as a sampled point has */
+    q.p_y = spc_snee_light_pdf(sc, pp.any_surface, j->e, j->y, j->ny) * spc_snee_query_prob(&pp);
+    q.psi = 1.0;
+    spc_chain all[16];
+    int n = spc_sphere_chains_all(&q, all, 16, NULL);
+    const spc_chain *match = NULL;
+    double best = 1.0 - 1e-6;
+    for (int i = 0; i < n; ++i)
+        if (all[i].n == j->c->n && spc_dot(all[i].d0, j->c->d0) > best) {
+            best = spc_dot(all[i].d0, j->c->d0);
+            match = &all[i];
+        }
+    if (!match)
+        return;
+    ++t->matched;
+    spc_rgb v_mis = spc_snee_chain_value(&q, j->e, spc_v2(0, 0), match);
+    spc_snee_params pn = pp;
+    pn.mis = false;
+    q.params = &pn;
+    spc_rgb v_all = spc_snee_chain_value(&q, j->e, spc_v2(0, 0), match);
+    double w_nee = spc_rgb_avg(v_all) > 0.0 ? spc_rgb_avg(v_mis) / spc_rgb_avg(v_all) : 0.0;
+    /* BSDF sampling's own weight at x2 of the same path, and the other strategy's (light tracing's) */
+    spc_receiver r;
+    spc_receiver_surface(&r, j->x2, j->w2);
+    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+    for (int i = 0; i < j->c->n; ++i)
+        ev[i] = j->c->v[i].event;
+    spc_hit lh;
+    memset(&lh, 0, sizeof lh);
+    lh.p = j->y;
+    lh.ng = j->ny;
+    lh.emitter = j->e;
+    lh.shape = j->e->shape;
+    double w_alt;
+    double w_own = spc_snee_receiver_weights(sc, &pp, &r, j->c->d0, kmax, j->c->n, ev, &lh, &w_alt);
+    double gap = fabs(w_nee + w_own + j->w - 1.0);
+    if (gap > t->worst_gap) {
+        t->worst_gap = gap;
+        if (gap > 1e-5)
+            printf("    gap %.3g: k %d kind %d w_nee %.6f w_own %.6f w_lt %.6f (alt %.6f) r %.3g\n", gap, j->c->n,
+                   j->x1   ? 2
+                   : j->cc ? 1
+                           : 0,
+                   w_nee, w_own, j->w, w_alt, j->r);
+    }
+    t->lt_sum += j->w;
+    t->above += j->w > 0.5;
+    t->below += j->w < 0.5;
+}
+
+/* Area lights (a small sphere light, a small square light over the ball): the light subpaths start
+ * on the light where specular NEE samples its points and make every kind of join; on each, specular
+ * NEE's weight at x2 (with light tracing in its power heuristic), BSDF sampling's and light
+ * tracing's sum to one, and light tracing takes the larger share on some joins, specular NEE or
+ * BSDF sampling on others. */
+TEST(area_light_weights_sum_to_one)
+{
+    const char *files[] = {"bench/check/ball_small_light.xml", "bench/check/ball_rect_light.xml"};
+    for (int f = 0; f < 2; ++f) {
+        spc_scene *sc = tu_load(files[f], 16);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_camera_state cam;
+        spc_snee_params p;
+        CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
+        CHECK(spc_snee_parse(AREA_SETTING, 2, &p));
+        p.lt_through = 1.0;
+        spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+        CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
+        for (int seed = 31; seed < 34; ++seed) {
+            /* every sample traces an area subpath, the last seed half of them (the share in both
+             * sides' r) */
+            p.lt_share = seed == 33 ? 0.5 : 1.0;
+            ctx.snee = p;
+            area_tally t;
+            memset(&t, 0, sizeof t);
+            t.ctx = &ctx;
+            t.p = &p;
+            spc_rng rng;
+            spc_rng_seed(&rng, (uint64_t)seed, 7);
+            for (int i = 0; i < 20000; ++i)
+                spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+            printf("  %s seed %d: %d joins (%d enumerated at x2; directly %d, through the sphere %d, through a "
+                   "diffuse bounce %d), light tracing's weight above 1/2 on %.0f, below on %.0f, largest gap of "
+                   "the three weights' sum from 1 %.3g\n",
+                   files[f], seed, t.joins, t.matched, t.kinds[0], t.kinds[1], t.kinds[2], t.above, t.below,
+                   t.worst_gap);
+            CHECK(t.joins > 50 && t.kinds[0] > 10 && t.kinds[1] > 10 && t.kinds[2] > 10);
+            CHECK(t.matched > t.joins * 9 / 10);
+            CHECK_MSG(t.worst_gap < 1e-5, "%s seed %d: the three weights sum to 1 +- %.3g", files[f], seed,
+                      t.worst_gap);
+            CHECK(t.above > 0 && t.below > 0);
+        }
+        spc_scene_destroy(sc);
+    }
+}
+
+/* With an area light the render with ltcaus agrees with one without (the same paths, split three
+ * ways instead of two). */
+TEST(area_light_render_agrees_without_it)
+{
+    spc_scene *sc = tu_load("bench/check/ball_small_light.xml", 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *a = tu_render_nee(sc, "path", AREA_SETTING, 512, 2, 43, NULL);
+    spc_film *b = tu_render_nee(sc, "path", "angular:camera=0.098,first=0.1,later=0.1", 512, 2, 44, NULL);
+    CHECK(a && b);
+    if (a && b) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(a, b, 0.99, "area light: ltcaus vs without", &d));
+        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
+               d.mean_a[0], d.mean_b[0]);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
+}
+
+/* An area light's subpaths join through no middle vertex and through no camera chain longer than
+ * max_chain (those joins are point lights' only: the path tracer's side weighs area lights' paths
+ * against light tracing at the first and second receiver, by chains of at most max_chain), even
+ * with the longer chains on every subpath. */
+static void count_area_extra(void *user, const spc_path_lt_join *j)
+{
+    int *n = user;
+    ++n[0];
+    if (j->nmid > 0)
+        ++n[1];
+    if (j->cc && j->cc->n > 2)
+        ++n[2];
+}
+
+TEST(area_light_joins_only_at_the_first_two_receivers)
+{
+    spc_scene *sc = tu_load("bench/check/ball_small_light.xml", 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_camera_state cam;
+    spc_snee_params p;
+    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
+    CHECK(spc_snee_parse(AREA_SETTING, 2, &p));
+    CHECK(p.max_chain == 2);
+    p.lt_through = 1.0;
+    p.lt_long = 1.0;
+    p.lt_share = 1.0;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    int n[3] = {0, 0, 0};
+    spc_rng rng;
+    spc_rng_seed(&rng, 37, 7);
+    for (int i = 0; i < 40000; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, count_area_extra, n);
+    printf("    %d joins, %d through a middle vertex, %d through a chain longer than max_chain\n", n[0], n[1], n[2]);
+    CHECK(n[0] > 1000);
+    CHECK_MSG(n[1] == 0 && n[2] == 0, "%d joins through a middle vertex, %d through longer chains", n[1], n[2]);
+
+    /* the path tracer's side: at the second receiver light tracing is in BSDF sampling's weight
+     * (params.alt_chain_ratio), at the third (after a middle vertex) only point lights' delta
+     * share is */
+    spc_hit h;
+    spc_ray ray = {.o = spc_v3(1.0, 1.0, 1.0), .d = spc_v3(0, -1, 0), .tmin = 0.0, .tmax = SPC_INF};
+    CHECK(spc_scene_intersect(sc, &ray, &h));
+    for (int nmid = 0; nmid < 2; ++nmid) {
+        spc_path_snee s;
+        memset(&s, 0, sizeof s);
+        s.on = true;
+        s.p = p;
+        s.ctx = &ctx;
+        s.lt_enabled = s.lt_on = true;
+        s.lt_x1 = h;
+        s.lt_w1 = spc_v3(0, 1, 0);
+        s.lt_nmid = nmid;
+        s.receivers = 1 + nmid;
+        if (nmid > 0)
+            s.lt_mid[0] = (spc_path_lt_vertex){h, spc_v3(0, 1, 0), spc_v3(0, 1, 0)};
+        spc_sampler smp;
+        spc_sampler_start(&smp, 0, 0, 0, 1);
+        (void)spc_path_snee_at_vertex(&s, &ctx, &h, spc_v3(0, 1, 0), 2 + nmid, &smp);
+        CHECK_MSG(s.p.delta_share != NULL && (s.p.alt_chain_ratio != NULL) == (nmid == 0),
+                  "%d middle vertices: delta share %d, light tracing in BSDF sampling's weight %d", nmid,
+                  s.p.delta_share != NULL, s.p.alt_chain_ratio != NULL);
+    }
+    spc_scene_destroy(sc);
 }
 
 int main(void)
@@ -366,6 +624,9 @@ int main(void)
     RUN(through_sphere_on_a_share);
     RUN(long_camera_chains_on_their_own_share);
     RUN(path_side_follows_a_middle_vertex);
-    RUN(plan_with_point_lights_only);
+    RUN(plan_with_point_lights_and_small_area_lights);
+    RUN(area_light_weights_sum_to_one);
+    RUN(area_light_render_agrees_without_it);
+    RUN(area_light_joins_only_at_the_first_two_receivers);
     return spc_test_finish();
 }

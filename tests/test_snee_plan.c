@@ -149,10 +149,12 @@ TEST(default_on_with_casters_only)
     char auto_setting[96];
     snprintf(auto_setting, sizeof auto_setting, "%s", p.setting);
     spc_snee_plan_make(with, "volpath", "auto", &p);
-    /* volpath: path's setting without caustic guiding (SPC_SNEE_PLAN_ROOM_GLASS_BALL: path's alone) */
+    /* volpath: path's setting without caustic guiding (SPC_SNEE_PLAN_ROOM_GLASS_BALL: path's alone)
+     * and without the light-traced caustics of its small light (SPC_SNEE_PLAN_AREA_LIGHTS: path's) */
     size_t nv = strlen(p.setting);
     CHECK_MSG(p.on && !strncmp(p.setting, auto_setting, nv) &&
-                  (auto_setting[nv] == '\0' || !strcmp(auto_setting + nv, SPC_SNEE_PLAN_ROOM_GLASS_BALL)),
+                  (auto_setting[nv] == '\0' || !strcmp(auto_setting + nv, SPC_SNEE_PLAN_ROOM_GLASS_BALL) ||
+                   !strcmp(auto_setting + nv, SPC_SNEE_PLAN_AREA_LIGHTS)),
               "volpath %s, path %s", p.setting, auto_setting);
     spc_snee_plan_make(with, "bdpt", "", &p);
     CHECK_MSG(p.on && !strcmp(p.setting, bdpt_ball_setting(p.glass_share)), "%s", p.setting);

@@ -1,13 +1,17 @@
 /*
- * integrator/path_lt.c: light-traced caustics of point lights seen through a diffuse bounce, for
- * the path tracer (path_lt.h): the light subpath, its joins to the pinhole, and the density ratio
- * that weighs them against specular NEE at the path's second receiver (Veach 1997, ch. 9 and
+ * integrator/path_lt.c: light-traced caustics of point and area lights seen directly, through the
+ * glass sphere and through a diffuse bounce, for the path tracer (path_lt.h): the light subpath, its
+ * joins to the pinhole, and the density ratio that weighs them against specular NEE (and, for area
+ * lights, BSDF sampling) at the caustic's receiver (Veach 1997, ch. 9 and
  * 10.2: the power heuristic over two strategies of one path; bdpt's t = 1 join).
  */
 #include "integrator/path_lt.h"
 
+#include <string.h>
+
 #include "integrator/splat.h"
 #include "manifold/snee_cost.h"
+#include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
 
 /* The share of light subpaths joined to the pinhole through the sphere (p->lt_through, else the
@@ -201,6 +205,99 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
     return ratio_of(share * light_density(ctx->scene, p, x, c, e), query_prob(ctx->scene, p, x->p, true) * pc);
 }
 
+/* ---- area lights ---- */
+
+/* The share of camera samples that trace an area light's subpath (p->lt_share, else the default). */
+static double area_share(const spc_snee_params *p)
+{
+    return p->lt_share > 0.0 && p->lt_share <= 1.0 ? p->lt_share : SPC_PATH_LT_AREA_SHARE;
+}
+
+double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
+                              const spc_hit *x2, spc_vec3 wo2, const spc_chain *cc, const spc_chain *c,
+                              const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
+{
+    const spc_scene *sc = ctx->scene;
+    int k = c->n;
+    if (!e || e->type != SPC_EMITTER_AREA || k < 1 || !p->exact || !spc_sphere_chain_covers(c, p->reflect))
+        return 0.0;
+    /* the joins through the sphere by chains longer than max_chain are point lights' only */
+    if (cc && cc->n > p->max_chain)
+        return 0.0;
+    spc_vec3 d_last = c->v[k - 1].d;
+    /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
+     * against BSDF sampling at x2 toward d0 and the light's cosine (G's part only area measure has) */
+    double num = area_share(p) * spc_snee_light_pdf(sc, p->any_surface, e, y, ny) *
+                 cone_pdf(sc, p->any_surface, y, spc_neg(d_last)) * spc_absdot(c->d0, x2->ng);
+    double den = spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_RADIANCE, wo2, c->d0) * spc_absdot(ny, d_last);
+    if (x1) {
+        /* the camera's side x1 - x2 against light tracing's x2 - x1, as spc_path_lt_ratio */
+        spc_camera_direct cd;
+        if (!spc_camera_sample_direct(ctx->cam, x1->p, &cd) || !in_window(ctx, cd.fx, cd.fy))
+            return 0.0;
+        double p_cam =
+            cd.We / ((double)ctx->width * (double)ctx->height) * spc_absdot(cd.wi, x1->ng) / (cd.dist * cd.dist);
+        num *= spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_IMPORTANCE, c->d0, wo2) * spc_absdot(w1, x1->ng);
+        den *= spc_absdot(wo2, x2->ng) * spc_bsdf_pdf(x1->bsdf, x1, SPC_MODE_RADIANCE, cd.wi, w1) * p_cam;
+    } else {
+        spc_camera_direct cd;
+        num *= cc ? through_share(p) : 1.0;
+        den *= camera_density(ctx, p, x2, cc, &cd);
+    }
+    return ratio_of(num, den);
+}
+
+/* The camera's side of a join as params.alt_chain_ratio reads it (spc_path_lt_area_ratio's x1, w1,
+ * cc), with the chain budget at x2. */
+typedef struct area_side {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    const spc_hit *x1;
+    spc_vec3 w1;
+    const spc_chain *cc;
+    int kmax;
+} area_side;
+
+static double area_side_ratio(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
+                              spc_vec3 y, spc_vec3 ny)
+{
+    const area_side *a = user;
+    if (c->n > a->kmax)
+        return 0.0;
+    return spc_path_lt_area_ratio(a->ctx, a->p, a->x1, a->w1, x, wo, a->cc, c, e, y, ny);
+}
+
+/* Light tracing's weight of the join whose x2 (seen from wo2 on the camera's side) reached the area
+ * light's point y (normal ny) through k chain vertices with these events (from x2) along d0: the
+ * share the path tracer's BSDF-side weight at x2 (spc_snee_receiver_weights, with specular NEE's
+ * query probability there) leaves to it. side: the camera's side. */
+static double area_weight(const spc_render_ctx *ctx, const spc_snee_params *p, const area_side *side, bool first,
+                          const spc_hit *x2, spc_vec3 wo2, spc_vec3 d0, int k, const unsigned char *events,
+                          const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
+{
+    spc_snee_params pq = *p;
+    pq.mis = true;
+    pq.query_p = first ? spc_snee_first_prob(ctx->scene, p, x2->p) : spc_snee_later_prob(ctx->scene, p, x2->p);
+    pq.alt_ratio = NULL;
+    pq.alt_chain_ratio = area_side_ratio;
+    pq.alt_user = side;
+    pq.delta_share = NULL;
+    pq.light_u_on = false;
+    pq.cguide_at = NULL;
+    spc_receiver r;
+    spc_receiver_surface(&r, x2, wo2);
+    r.guide = NULL;
+    spc_hit lh;
+    memset(&lh, 0, sizeof lh);
+    lh.p = y;
+    lh.ng = ny;
+    lh.emitter = e;
+    lh.shape = e->shape;
+    double w_alt;
+    spc_snee_receiver_weights(ctx->scene, &pq, &r, d0, side->kmax, k, events, &lh, &w_alt);
+    return w_alt;
+}
+
 /* The chain from x2 with the light subpath's k events at the direction (a, b) of the frame f, in the
  * form specular NEE finds it (spc_chain from x2); false where it does not come out as k vertices. */
 static bool trace_events(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x2, const spc_frame *f,
@@ -309,15 +406,51 @@ static bool nee_finds(const spc_scene *sc, const spc_snee_params *p, const spc_h
     return false;
 }
 
+/* The light subpath's end as its joins read it: the light e and its point y (normal ny; a point
+ * light's position), the chain c from x2 to y, and x2's arrival direction d0 (toward the chain).
+ * Point lights: lt_only where specular NEE cannot make the path. Area lights: the chain's events
+ * from x2, for the BSDF side's weight at x2 (spc_path_lt_area_ratio, area_weight). */
+typedef struct lt_end {
+    const spc_emitter *e;
+    spc_vec3 y, ny, d0;
+    const spc_chain *c;
+    bool area, lt_only;
+    int k;
+    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+} lt_end;
+
+/* The ratio *r and light tracing's weight of the join x1 (NULL: x2 is the first receiver, seen
+ * through cc or directly) - the nmid middle vertices mid (point lights only) - x2 (seen from wo2) -
+ * the light subpath L; kmax the chain budget at x2. 0 where light tracing does not make the path. */
+static double join_weight(const spc_render_ctx *ctx, const spc_snee_params *p, const lt_end *L, const spc_hit *x1,
+                          spc_vec3 w1, const spc_path_lt_vertex *mid, int nmid, const spc_hit *x2, spc_vec3 wo2,
+                          const spc_chain *cc, int kmax, double *r)
+{
+    if (!L->area) {
+        *r = x1 ? spc_path_lt_ratio_via(ctx, p, x1, w1, mid, nmid, x2, wo2, L->c, L->e)
+                : spc_path_lt_ratio_first(ctx, p, x2, cc, L->c, L->e);
+        if (*r > 0.0 && L->lt_only)
+            *r = INFINITY;
+        return *r > 0.0 ? spc_path_lt_weight(*r) : 0.0;
+    }
+    *r = spc_path_lt_area_ratio(ctx, p, x1, w1, x2, wo2, cc, L->c, L->e, L->y, L->ny);
+    if (!(*r > 0.0))
+        return 0.0;
+    area_side side = {ctx, p, x1, w1, cc, kmax};
+    return area_weight(ctx, p, &side, x1 == NULL, x2, wo2, L->d0, L->k, L->ev, L->e, L->y, L->ny);
+}
+
 /* The joins of the light subpath at x2 (as join_first's) to the pinhole through the sphere, by
  * its chains of min_chain to max_chain vertices from x2 toward the pinhole, each counted over the
  * share of subpaths that looks for it (camera_chain_share). */
-static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_vec3 d0,
-                         spc_rgb beta, const spc_chain *c, const spc_emitter *e, bool lt_only, int min_chain,
-                         int max_chain, void (*sink)(void *user, const spc_path_lt_join *j), void *user)
+static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_rgb beta,
+                         const lt_end *L, int min_chain, int max_chain,
+                         void (*sink)(void *user, const spc_path_lt_join *j), void *user)
 {
     const spc_scene *sc = ctx->scene;
     double N = (double)ctx->width * (double)ctx->height;
+    spc_vec3 d0 = L->d0;
+    const spc_chain *c = L->c;
     spc_camera_direct cd;
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, x2, d0, max_chain);
@@ -329,7 +462,8 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
     int n = spc_sphere_chains_all(&q, all, SPC_PATH_LT_CAMERA_CHAINS, NULL);
     for (int i = 0; i < n; ++i) {
         const spc_chain *cc = &all[i];
-        if (cc->n < min_chain || cc->n > max_chain || c->n > spc_path_lt_budget(ctx, p, x2, cc->n + 1, 0))
+        int kmax_cc = spc_path_lt_budget(ctx, p, x2, cc->n + 1, 0);
+        if (cc->n < min_chain || cc->n > max_chain || c->n > kmax_cc)
             continue;
         double pc = camera_density(ctx, p, x2, cc, &cd);
         if (!(pc > 0.0))
@@ -345,37 +479,41 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
         spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N / camera_chain_share(p, cc));
         if (spc_rgb_is_black(C) || !isfinite(g))
             continue;
-        double r = spc_path_lt_ratio_first(ctx, p, x2, cc, c, e);
-        if (r > 0.0 && lt_only)
-            r = INFINITY;
         spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
-        if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
-            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, e, cd.fx, cd.fy, C, r, cc, NULL, 0};
+        double r = 0.0;
+        double w = join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, &r);
+        if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
+            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, L->e, cd.fx, cd.fy, C, r, cc, NULL, 0,
+                                  L->y, L->ny, w};
             sink(user, &j);
         }
     }
 }
 
-/* The joins of the light subpath at x2 (arrived from d0 with throughput beta through the chain c
- * from the point light e) to the pinhole where x2 is the path's first receiver: directly, and
- * through each chain of the glass sphere toward the pinhole. */
-static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_vec3 d0,
-                       spc_rgb beta, const spc_chain *c, const spc_emitter *e, bool lt_only, spc_rng *rng,
-                       void (*sink)(void *user, const spc_path_lt_join *j), void *user)
+/* The joins of the light subpath at x2 (arrived from d0 with throughput beta through the chain of
+ * L) to the pinhole where x2 is the path's first receiver: directly, and through each chain of the
+ * glass sphere toward the pinhole. */
+static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_rgb beta,
+                       const lt_end *L, spc_rng *rng, void (*sink)(void *user, const spc_path_lt_join *j), void *user)
 {
     const spc_scene *sc = ctx->scene;
     double N = (double)ctx->width * (double)ctx->height;
+    spc_vec3 d0 = L->d0;
+    const spc_chain *c = L->c;
     spc_camera_direct cd;
-    if (c->n <= spc_path_lt_budget(ctx, p, x2, 1, 0) && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
+    int kmax = spc_path_lt_budget(ctx, p, x2, 1, 0);
+    if (c->n <= kmax && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
         spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cd.wi);
         double g = shading_fix(x2, d0, cd.wi) * spc_absdot(cd.wi, x2->sh.n) / (cd.dist * cd.dist);
         spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / N);
         spc_ray sr = spc_hit_spawn_to(x2, cd.p_near, 0.0);
-        double r = spc_rgb_is_black(C) ? 0.0 : spc_path_lt_ratio_first(ctx, p, x2, NULL, c, e);
-        if (r > 0.0 && lt_only)
-            r = INFINITY;
-        if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
-            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cd.wi, c, e, cd.fx, cd.fy, C, r, NULL, NULL, 0};
+        double r = 0.0;
+        double w = spc_rgb_is_black(C)
+                       ? 0.0
+                       : join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cd.wi, NULL, kmax, &r);
+        if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
+            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cd.wi, c, L->e, cd.fx, cd.fy, C, r, NULL, NULL, 0,
+                                  L->y, L->ny, w};
             sink(user, &j);
         }
     }
@@ -384,33 +522,104 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
      * the chains longer than the parameters' max_chain on a share of their own */
     double share = through_share(p);
     if (share > 0.0 && (share >= 1.0 || spc_rng_next(rng) < share))
-        join_through(ctx, p, x2, d0, beta, c, e, lt_only, 1, p->max_chain, sink, user);
+        join_through(ctx, p, x2, beta, L, 1, p->max_chain, sink, user);
+    /* area lights' paths through the longer chains are not light tracing's (spc_path_lt_area_ratio) */
     double ls = long_share(p);
-    if (spc_path_lt_camera_max_chain(p) > p->max_chain && (ls >= 1.0 || spc_rng_next(rng) < ls))
-        join_through(ctx, p, x2, d0, beta, c, e, lt_only, p->max_chain + 1, spc_path_lt_camera_max_chain(p), sink,
-                     user);
+    if (!L->area && spc_path_lt_camera_max_chain(p) > p->max_chain && (ls >= 1.0 || spc_rng_next(rng) < ls))
+        join_through(ctx, p, x2, beta, L, p->max_chain + 1, spc_path_lt_camera_max_chain(p), sink, user);
+}
+
+bool spc_path_lt_area_enabled(const spc_snee_params *p) { return !p->no_mis && !(p->recv_guide > 0.0); }
+
+/* A light subpath's start on the area light e (picked with the uniform ue): the point y (normal
+ * ny) as specular NEE samples it (spc_snee_sample_light), a direction uniform in the cone toward
+ * the casters' bounding sphere; *beta the emitted radiance times the cosine at y over both
+ * densities. False where no light leaves toward the casters. */
+static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_emitter *e, double ue, spc_rng *rng,
+                       spc_ray *ray, spc_vec3 *y, spc_vec3 *ny, spc_rgb *beta)
+{
+    spc_snee_params lp = *p;
+    lp.light_u_on = true;
+    lp.light_u[0] = ue;
+    lp.light_u[1] = spc_rng_next(rng);
+    lp.light_u[2] = spc_rng_next(rng);
+    spc_snee_query q;
+    memset(&q, 0, sizeof q);
+    q.params = &lp;
+    const spc_emitter *es;
+    spc_vec2 uv;
+    double p_y;
+    if (!spc_snee_sample_light(sc, p->any_surface, rng, &q, &es, &uv, &p_y) || es != e || !(p_y > 0.0))
+        return false;
+    spc_vec3 axis;
+    double cm;
+    if (!caster_cone(sc, p->any_surface, q.y, &axis, &cm))
+        return false;
+    double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
+    double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
+    spc_frame fa = spc_frame_from_n(axis);
+    spc_vec3 w0 = spc_normalize(
+        spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
+    double cy = spc_dot(w0, q.ny);
+    if (!(cy > 0.0))
+        return false;
+    spc_vec3 nyo;
+    spc_rgb Le = spc_snee_light_radiance(e, q.y, q.ny, uv, spc_add(q.y, w0), spc_neg(w0), &nyo);
+    if (spc_rgb_is_black(Le))
+        return false;
+    double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+    *beta = spc_rgb_scale(Le, cy / (p_y * pdir));
+    *y = q.y;
+    *ny = q.ny;
+    spc_hit h;
+    memset(&h, 0, sizeof h);
+    h.p = q.y;
+    h.ng = q.ny;
+    h.err = spc_max(q.y_err, 1e-9 * (spc_max_abs(q.y) + sc->radius));
+    *ray = spc_hit_spawn(&h, w0);
+    return true;
 }
 
 void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
                        void (*sink)(void *user, const spc_path_lt_join *j), void *user)
 {
     const spc_scene *sc = ctx->scene;
-    double pmf;
-    const spc_emitter *e = spc_scene_sample_emitter(sc, spc_rng_next(rng), &pmf);
-    if (!e || e->type != SPC_EMITTER_POINT || !(pmf > 0.0))
+    double pmf, ue = spc_rng_next(rng);
+    const spc_emitter *e = spc_scene_sample_emitter(sc, ue, &pmf);
+    if (!e || !(pmf > 0.0))
         return;
-    spc_vec3 y = e->position, axis;
-    double cm;
-    if (!caster_cone(sc, p->any_surface, y, &axis, &cm))
+    lt_end L;
+    memset(&L, 0, sizeof L);
+    L.e = e;
+    spc_rgb beta;
+    spc_ray ray;
+    if (e->type == SPC_EMITTER_POINT) {
+        spc_vec3 y = e->position, axis;
+        double cm;
+        if (!caster_cone(sc, p->any_surface, y, &axis, &cm))
+            return;
+        double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
+        double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
+        spc_frame fa = spc_frame_from_n(axis);
+        spc_vec3 w0 = spc_normalize(
+            spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
+        double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+        beta = spc_rgb_scale(e->intensity, 1.0 / (pmf * pdir));
+        ray = (spc_ray){.o = y, .d = w0, .tmin = 0.0, .tmax = SPC_INF};
+        L.y = y;
+    } else if (e->type == SPC_EMITTER_AREA && e->shape && spc_path_lt_area_enabled(p)) {
+        /* on a share of the samples, counted over it (the share is in the density
+         * spc_path_lt_area_ratio weighs); the emitter's uniform again: spc_snee_sample_light picks
+         * the same light with it */
+        double share = area_share(p);
+        if ((share < 1.0 && !(spc_rng_next(rng) < share)) || !area_start(sc, p, e, ue, rng, &ray, &L.y, &L.ny, &beta))
+            return;
+        if (share < 1.0)
+            beta = spc_rgb_scale(beta, 1.0 / share);
+        L.area = true;
+    } else {
         return;
-    double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
-    double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
-    spc_frame fa = spc_frame_from_n(axis);
-    spc_vec3 w0 = spc_normalize(
-        spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
-    double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
-    spc_rgb beta = spc_rgb_scale(e->intensity, 1.0 / (pmf * pdir));
-    spc_ray ray = {.o = y, .d = w0, .tmin = 0.0, .tmax = SPC_INF};
+    }
 
     /* the chain: delta scatterings at chain surfaces, up to the longest budget */
     int kmax = p->max_chain < SPC_CHAIN_MAX_VERTICES ? p->max_chain : SPC_CHAIN_MAX_VERTICES;
@@ -443,17 +652,34 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     if (k < 1 || !spc_bsdf_has_smooth(x2.bsdf))
         return;
     spc_vec3 d0 = spc_neg(ray.d);
+    L.d0 = d0;
     spc_chain c;
-    bool exact;
-    if (!retrace_chain(sc, p, &x2, d0, k, events, y, &c, &exact) || !spc_sphere_chain_covers(&c, p->reflect))
-        return;
-    /* a path specular NEE cannot make is light tracing's alone: r infinite, its weight 1. Its
-     * enumeration at x2 is asked where it may miss the chain: near the caustic's fold, where the
-     * chain focuses the light (and where no chain passes through y) */
-    bool lt_only = (!exact || chain_focus(&c, &x2, y) > LT_CHECK_FOCUS) && !nee_finds(sc, p, &x2, &c, y);
+    if (!L.area) {
+        bool exact;
+        if (!retrace_chain(sc, p, &x2, d0, k, events, L.y, &c, &exact) || !spc_sphere_chain_covers(&c, p->reflect))
+            return;
+        /* a path specular NEE cannot make is light tracing's alone: r infinite, its weight 1. Its
+         * enumeration at x2 is asked where it may miss the chain: near the caustic's fold, where
+         * the chain focuses the light (and where no chain passes through y) */
+        L.lt_only = (!exact || chain_focus(&c, &x2, L.y) > LT_CHECK_FOCUS) && !nee_finds(sc, p, &x2, &c, L.y);
+    } else {
+        /* the events from x2, and the chain from x2 solved through y, as specular NEE's at x2 is: the
+         * BSDF side's weight (area_weight) retraces it along its first direction, and the weights
+         * of the path on the three sides sum to one only where they evaluate the same chain (the
+         * subpath's own misses y by the rounding of x2, magnified by the chain) */
+        L.k = k;
+        for (int i = 0; i < k; ++i)
+            L.ev[i] = events[k - 1 - i];
+        bool exact;
+        if (!retrace_chain(sc, p, &x2, d0, k, L.ev, L.y, &c, &exact) || !spc_sphere_chain_covers(&c, p->reflect))
+            return;
+        if (exact)
+            L.d0 = c.d0;
+    }
+    L.c = &c;
 
     /* x2 as the path's first receiver: seen by the camera directly, or through the glass sphere */
-    join_first(ctx, p, &x2, d0, beta, &c, e, lt_only, rng, sink, user);
+    join_first(ctx, p, &x2, beta, &L, rng, sink, user);
 
     /* x2's scattering toward the camera's side: a non-delta sample */
     spc_bsdf_sample bs;
@@ -476,19 +702,20 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
             return;
         ++segs;
         spc_vec3 wo = spc_neg(ray.d);
-        if (spc_bsdf_has_smooth(h.bsdf) && k <= spc_path_lt_budget(ctx, p, &x2, segs + 1, 1 + nmid)) {
+        int kmax2 = spc_path_lt_budget(ctx, p, &x2, segs + 1, 1 + nmid);
+        if (spc_bsdf_has_smooth(h.bsdf) && k <= kmax2) {
             spc_camera_direct cd;
             if (spc_camera_sample_direct(ctx->cam, h.p, &cd) && in_window(ctx, cd.fx, cd.fy)) {
                 spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, cd.wi);
                 double g = shading_fix(&h, wo, cd.wi) * spc_absdot(cd.wi, h.sh.n) / (cd.dist * cd.dist);
                 spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
                 if (!spc_rgb_is_black(C)) {
-                    double r = spc_path_lt_ratio_via(ctx, p, &h, wo, mid, nmid, &x2, w2, &c, e);
-                    if (r > 0.0 && lt_only)
-                        r = INFINITY;
+                    double r = 0.0;
+                    double w = join_weight(ctx, p, &L, &h, wo, mid, nmid, &x2, w2, NULL, kmax2, &r);
                     spc_ray sr = spc_hit_spawn_to(&h, cd.p_near, 0.0);
-                    if (r > 0.0 && !spc_scene_occluded(sc, &sr)) {
-                        spc_path_lt_join j = {&h, &x2, wo, w2, &c, e, cd.fx, cd.fy, C, r, NULL, mid, nmid};
+                    if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
+                        spc_path_lt_join j = {&h, &x2, wo, w2, &c, L.e, cd.fx, cd.fy, C, r, NULL, mid, nmid,
+                                              L.y, L.ny, w};
                         sink(user, &j);
                     }
                 }
@@ -499,7 +726,9 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
                                  spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bm))
             return;
         if (!(bm.lobe & SPC_LOBE_DELTA)) {
-            if (nmid >= SPC_PATH_LT_MID_VERTICES)
+            /* an area light's subpath has no middle vertex (the path tracer's side weighs its
+             * paths against light tracing at the second receiver only) */
+            if (L.area || nmid >= SPC_PATH_LT_MID_VERTICES)
                 return;
             mid[nmid++] = (spc_path_lt_vertex){h, bm.wi, wo};
             beta = spc_rgb_scale(spc_rgb_mul(beta, bm.weight), shading_fix(&h, wo, bm.wi));
@@ -520,7 +749,7 @@ typedef struct splat_sink {
 static void splat_join(void *user, const spc_path_lt_join *j)
 {
     const splat_sink *s = user;
-    spc_splat_add(s->ctx, s->tls, j->fx, j->fy, spc_rgb_scale(j->C, spc_path_lt_weight(j->r)));
+    spc_splat_add(s->ctx, s->tls, j->fx, j->fy, spc_rgb_scale(j->C, j->w));
 }
 
 void spc_path_lt_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_tls *tls, spc_rng *rng)

@@ -1,6 +1,7 @@
 /*
- * integrator/path_lt.h: the path tracer's light-traced caustics of point lights (specular NEE's
- * "ltcaus" option): seen through a diffuse bounce, directly, and through the glass sphere.
+ * integrator/path_lt.h: the path tracer's light-traced caustics of point lights and area lights
+ * (specular NEE's "ltcaus" option): seen through a diffuse bounce, directly, and through the glass
+ * sphere.
  *
  * The paths (point light) - k chain vertices - x2 - m delta scatterings - x1 - camera, where x1 is
  * the camera ray's first hit and scatters along a non-delta sample, x2 is a receiver where
@@ -39,6 +40,26 @@
  * The joins through the sphere (its root search from x2, most of the strategy's cost) run on a
  * share s of the subpaths (SPC_PATH_LT_THROUGH_SHARE, or the parameters' lt_through), counted 1/s
  * times; light tracing's density of those paths, and so their r, carries the factor s.
+ *
+ * Area lights (with MIS against BSDF sampling, without the caustic guide at receivers): the subpath
+ * starts at a point y drawn as specular NEE draws its light points (spc_snee_sample_light: the cap
+ * of a sphere light that faces the casters, other shapes by area, density p_y including the light's
+ * choice), with a direction uniform in the cone toward the casters' bounding sphere, its throughput
+ * Le cos(y) / (p_y p_dir). The same joins follow, except those through a middle vertex and those
+ * through chains longer than max_chain toward the pinhole (x2 the second receiver at most, the
+ * camera's chain within max_chain: the path tracer's side weighs only those paths against it).
+ * There the path has three strategies at x2: specular NEE (density a, its light point), BSDF
+ * sampling at x2 (b) and light tracing (c), all in the measure of y given the camera's side. c / b
+ * is
+ *
+ *     r = p_y p_dir(w0) |cos(x2, d0)| / (p_bsdf(x2 -> d0) |cos(y)|) / (camera's side)
+ *
+ * (the chain's G toward y and its lobe choices cancel; the camera's side as above: the camera's
+ * density of x2, or p_cam(x1) p_x1(w1) cos(x2) / (p_x2(w2) cos(x1)) through a diffuse bounce), given
+ * to specular NEE as params.alt_chain_ratio: its weight and BSDF sampling's take b sqrt(1 + r^2) for
+ * b, and light tracing's weight is r^2 / (1 + r^2) of that joint share (spc_snee_receiver_weights),
+ * evaluated on the chain solved from x2 through y as specular NEE's is. The subpaths run on a share
+ * of the camera samples (params.lt_share), which c carries.
  */
 #ifndef SPC_INTEGRATOR_PATH_LT_H
 #define SPC_INTEGRATOR_PATH_LT_H
@@ -66,6 +87,11 @@ typedef struct spc_path_lt_vertex {
 /* Is the strategy on for this render (the option, the path integrator with specular NEE, exact
  * enumeration, a pinhole camera, no guided cones, no strict normals, no rough vertices)? */
 bool spc_path_lt_enabled(const spc_render_ctx *ctx, const spc_snee_params *p);
+
+/* With the strategy on, does it also trace area lights' caustics: MIS against BSDF sampling (whose
+ * weight at x2 it shares), no caustic guide at receivers (the guide's mixture density at x2 is the
+ * path's own)? */
+bool spc_path_lt_area_enabled(const spc_snee_params *p);
 
 /* Specular NEE's chain budget at x2 when x2 is a receiver of the path with `receivers` receivers
  * before it, reached after `segments` path segments (the path tracer's, 0 where it makes no query
@@ -95,6 +121,15 @@ double spc_path_lt_ratio_via(const spc_render_ctx *ctx, const spc_snee_params *p
 double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
                                const spc_chain *cc, const spc_chain *c, const spc_emitter *e);
 
+/* For an area light e: light tracing's density over BSDF sampling's at x2 (params.alt_chain_ratio)
+ * of the path x1 (left toward w1; NULL: x2 is the first receiver, seen directly or through the
+ * chain cc toward the pinhole) - x2 (left toward wo2 on the camera's side) - chain c from x2 - the
+ * light's point y (unit normal ny); 0 where light tracing does not make it (not one glass sphere's
+ * chain, the camera does not see x1 or x2 so). */
+double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
+                              const spc_hit *x2, spc_vec3 wo2, const spc_chain *cc, const spc_chain *c,
+                              const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
+
 /* Chains of the glass sphere from x2 toward the pinhole that one join enumerates. */
 #define SPC_PATH_LT_CAMERA_CHAINS 16
 
@@ -122,6 +157,13 @@ static inline int spc_path_lt_camera_max_chain(const spc_snee_params *p)
  * 0.1), over 24 seeds 0.001018 against 0.001016, the same worst seed, at 0.85x the CPU. */
 #define SPC_PATH_LT_THROUGH_SHARE 0.25
 
+/* The share of camera samples that trace an area light's subpath (params.lt_share 0), counted 1/S
+ * times. The subpath and its joins cost 0.8-0.9 of a base sample; per sample the error hardly grew
+ * on the share (bench/RESULTS.md, "Area lights' caustics by light tracing": caustic_glass_sphere at
+ * equal CPU 5.6x lower relMSE than without with S = 1, 6.4x with 0.5, 7.9x with 0.25, 6.8x with 0.1;
+ * ball_small_light 2.5x, 2.9x (0.25), 2.8x (0.1)). */
+#define SPC_PATH_LT_AREA_SHARE 0.25
+
 /* One join of a light subpath to the pinhole: the path's vertices as path_lt.h names them (x1
  * left toward w1 on the light's side, x2 toward w2 on the camera's, the chain c retraced from x2
  * to the point light e), the film position, the contribution C before the weight, and r (infinite
@@ -138,6 +180,9 @@ typedef struct spc_path_lt_join {
     const spc_chain *cc; /* x2 is the first receiver (x1 NULL): the chain toward the pinhole, or NULL */
     const spc_path_lt_vertex *mid; /* the non-delta vertices between x1 and x2, from x2's side */
     int nmid;
+    spc_vec3 y, ny;      /* the light's point and its unit normal (a point light: its position, 0) */
+    double w;            /* light tracing's MIS weight: spc_path_lt_weight(r) for a point light; for an
+                            area light its share of the BSDF side's weight at x2 (path_lt.h, top) */
 } spc_path_lt_join;
 
 /* Traces one light subpath (rng: a stream of this camera sample) and hands each of its joins with

@@ -11,6 +11,7 @@
 #include "integrator/path_lt.h"
 #include "integrator/splat.h"
 #include "manifold/snee_cost.h"
+#include "manifold/specular_nee.h"
 
 /* The rough-vertex mode (newton's "rough"): its own estimator, without MIS or camera queries. */
 static bool rough_mode(const spc_snee_params *p) { return p->solver == SPC_SNEE_NEWTON && p->newton.rough; }
@@ -66,6 +67,42 @@ static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, co
         r = spc_path_lt_ratio_first(s->ctx, &s->p, x, &cc, c, e);
     }
     return 1.0 / (1.0 + r * r);
+}
+
+/* params.alt_chain_ratio at the path's second receiver x (seen from wo): light tracing's density
+ * of the area light's path x1 - x - chain c - y over BSDF sampling's at x (path_lt.h). */
+static double lt_alt(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
+                     spc_vec3 y, spc_vec3 ny)
+{
+    const spc_path_snee *s = user;
+    if (c->n > s->alt_kmax || !s->alt_x1_set)
+        return 0.0;
+    return spc_path_lt_area_ratio(s->ctx, &s->p, &s->alt_x1, s->alt_w1, x, wo, NULL, c, e, y, ny);
+}
+
+/* The same at the path's first receiver x, the camera's chain retraced as lt_share_first does. */
+static double lt_alt_first(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
+                           spc_vec3 y, spc_vec3 ny)
+{
+    const spc_path_snee *s = user;
+    int j = s->alt_scatterings;
+    if (c->n > s->alt_kmax || s->alt_x1_set || j > s->p.max_chain || j > SPC_CHAIN_MAX_VERTICES)
+        return 0.0;
+    if (j == 0)
+        return spc_path_lt_area_ratio(s->ctx, &s->p, NULL, spc_v3(0, 0, 0), x, wo, NULL, c, e, y, ny);
+    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+    for (int i = 0; i < j; ++i)
+        ev[i] = s->cam_events[j - 1 - i];
+    spc_frame f = spc_frame_from_n(wo);
+    spc_chain_opts o = spc_chain_opts_default(j);
+    o.events = ev;
+    o.any_surface = s->p.any_surface;
+    spc_chain cc;
+    spc_chain_trace(s->ctx->scene, x, &f, 0.0, 0.0, &o, &cc);
+    if (cc.n != j || cc.end == SPC_CHAIN_END_TIR || cc.end == SPC_CHAIN_END_MISMATCH ||
+        cc.end == SPC_CHAIN_END_DEGENERATE)
+        return 0.0;
+    return spc_path_lt_area_ratio(s->ctx, &s->p, NULL, spc_v3(0, 0, 0), x, wo, &cc, c, e, y, ny);
 }
 
 /* Film positions the driver takes camera samples at (the rendered window). */
@@ -142,6 +179,14 @@ double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx
     /* the receiver's density: the guided mixture's where the scatter there was guided */
     spc_snee_params p = s->p;
     p.cguide_at = s->mis_gv.a > 0.0 ? &s->mis_gv : NULL;
+    if (p.alt_chain_ratio) {
+        /* light tracing makes these paths too: BSDF sampling's own part of the two's share */
+        spc_receiver r;
+        spc_receiver_surface(&r, &s->mis_x, s->mis_wo);
+        r.guide = p.cguide_at;
+        double w_alt;
+        return spc_snee_receiver_weights(ctx->scene, &p, &r, s->mis_d0, t->max_chain, t->k, t->events, h, &w_alt);
+    }
     return spc_snee_mis_bsdf_weight(ctx->scene, &p, &s->mis_x, s->mis_wo, s->mis_d0, t->max_chain, t->k, t->events,
                                     h);
 }
@@ -173,15 +218,33 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
     /* the path's second receiver after only delta scatterings from the camera ray's hit: its
      * point-light chains are light tracing's too */
     s->p.delta_share = NULL;
+    s->p.alt_chain_ratio = NULL;
+    bool area = spc_path_lt_area_enabled(&s->p);
     if (s->lt_on && s->receivers == 1 + s->lt_nmid) {
         s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, s->receivers);
         s->p.delta_share = lt_share;
         s->p.delta_user = s;
+        /* area lights' subpaths join through no middle vertex: their paths are light tracing's at
+         * the second receiver only */
+        area = area && s->lt_nmid == 0;
+        s->p.alt_chain_ratio = area ? lt_alt : NULL;
+        s->p.alt_user = s;
+        if (area) {
+            s->alt_x1 = s->lt_x1;
+            s->alt_w1 = s->lt_w1;
+            s->alt_x1_set = true;
+            s->alt_kmax = s->lt_kmax;
+        }
     } else if (s->lt_enabled && s->receivers == 0) {
         /* the first receiver, seen directly or through delta scatterings only */
         s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, 0);
         s->p.delta_share = lt_share_first;
         s->p.delta_user = s;
+        s->p.alt_chain_ratio = area ? lt_alt_first : NULL;
+        s->p.alt_user = s;
+        s->alt_x1_set = false;
+        s->alt_scatterings = s->scatterings;
+        s->alt_kmax = s->lt_kmax;
     }
     spc_rng rng;
     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);

@@ -45,6 +45,14 @@ typedef struct spc_path_snee {
     spc_vec3 lt_w1;
     spc_path_lt_vertex lt_mid[SPC_PATH_LT_MID_VERTICES > 0 ? SPC_PATH_LT_MID_VERTICES : 1];
     unsigned char cam_events[SPC_CHAIN_MAX_VERTICES]; /* the delta scatterings before the first receiver */
+    /* the camera's side of the receiver where params.alt_chain_ratio was set (area lights' light
+     * tracing), kept for the BSDF side's weight of the paths that leave it (the state above moves
+     * on with the path): x1 and w1 (alt_x1_set: the second receiver), the delta scatterings before
+     * it (the first receiver), the chain budget there */
+    spc_hit alt_x1;
+    spc_vec3 alt_w1;
+    bool alt_x1_set;
+    int alt_scatterings, alt_kmax;
 } spc_path_snee;
 
 /* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, and with

@@ -58,8 +58,12 @@ static const spc_snee_option options[] = {
     {"nomis", NULL, SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(no_mis), NO, 0, NULL,
      "no MIS with BSDF sampling: the BSDF-sampled paths specular NEE covers are dropped"},
     {"ltcaus", "noltcaus", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(lt_caustic), NO, 0, NULL,
-     "path: point lights' caustics seen through a diffuse bounce also by light tracing (light subpaths through "
-     "a glass sphere, joined to the camera), weighed against specular NEE at the second receiver"},
+     "path: the caustics of point lights and (with MIS, without recguide) area lights through a glass sphere "
+     "also by light tracing (light subpaths joined to the camera directly, through the sphere and through a "
+     "diffuse bounce), weighed against specular NEE (and BSDF sampling) at the caustic's receiver"},
+    {"ltshare", NULL, SPC_SNEE_OPT_REAL, false, "S", 0, 1, true, false, NULL, 0, NO, AT(lt_share), 0, NULL,
+     "with ltcaus: area lights' light subpaths on a share S of the camera samples, counted 1/S times (default "
+     "0.25)"},
     {"reflect", "noreflect", SPC_SNEE_OPT_REAL, true, "P", 0, 1, true, true, NULL, 0, AT(reflect), AT(reflect_p), 0,
      NULL, "chains also reflect off glass, with probability P at a dielectric vertex of a seed chain"},
     {"mispsi", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(mis_solve), 0, NULL,

@@ -66,6 +66,27 @@ static bool point_lights_only(const spc_scene *sc)
     return sc->nemitters > 0 && !sc->env;
 }
 
+static double light_solid_angle(const spc_shape *s, spc_vec3 c);
+
+/* Are the scene's lights ones the light-traced caustics of area lights pay on
+ * (SPC_SNEE_PLAN_AREA_LIGHTS): some area light, every light a point or an area light (a sky
+ * besides), every area light small (a solid angle at most SPC_SNEE_PLAN_LT_AREA_SR from the
+ * casters' centre)? */
+static bool small_area_lights(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    bool area = false;
+    for (int i = 0; i < sc->nemitters; ++i) {
+        const spc_emitter *e = sc->emitters[i];
+        if (e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_CONSTANT || e->type == SPC_EMITTER_ENVMAP)
+            continue;
+        if (e->type != SPC_EMITTER_AREA || e->shape_index < 0 || e->shape_index >= sc->nshapes ||
+            light_solid_angle(sc->shapes[e->shape_index], cs->center) > SPC_SNEE_PLAN_LT_AREA_SR)
+            return false;
+        area = true;
+    }
+    return area;
+}
+
 /* Is some caster a glass sphere (its chains enumerated, sphere_chains.h)? */
 static bool glass_sphere(const spc_scene *sc, const spc_chain_casters *cs)
 {
@@ -565,6 +586,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (!strcmp(integrator, "path") && glass && exact && point_lights_only(sc) && glass_sphere(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_POINT_LIGHTS);
+    }
+    /* the same with small area lights, where no caustic guide runs at receivers (the light
+     * tracing of area lights does not run with it: integrator/path_lt.h) */
+    else if (!strcmp(integrator, "path") && glass && exact && !strstr(out->setting, "recguide") &&
+             glass_sphere(sc, cs) && small_area_lights(sc, cs)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_AREA_LIGHTS);
     }
     /* volpath: a share of the random seeds at medium points from the phase function, where some
      * caster's chains go to the randomized attempts (snee_plan.h) */

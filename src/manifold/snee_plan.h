@@ -221,6 +221,16 @@
  * sample 1.14x, no gain in the error per sample). */
 #define SPC_SNEE_PLAN_POINT_LIGHTS ",ltcaus"
 
+/* Appended for path where the lights are small area lights (and point lights, and a sky) and a
+ * glass sphere is a caster, without the caustic guide at receivers: the area lights' caustics also
+ * by light tracing from a point on the light (integrator/path_lt.h), weighed against specular NEE
+ * and BSDF sampling at the caustic's receiver. Measured in bench/RESULTS.md, "Area lights' caustics
+ * by light tracing". */
+#define SPC_SNEE_PLAN_AREA_LIGHTS ",ltcaus"
+/* The largest solid angle (sr, from the casters' centre) of an area light for that rule: the lights
+ * measured subtend 0.003-0.009 sr. */
+#define SPC_SNEE_PLAN_LT_AREA_SR 0.02
+
 /* The setting where every caster is a mirror: the same without the query from the camera. There the
  * camera sees the light only by reflection, which camera rays find as often as the query's splats
  * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal

@@ -227,6 +227,12 @@ typedef struct spc_snee_params {
     double (*alt_ratio)(const void *user, const spc_hit *x, spc_vec3 wo, spc_vec3 d0, spc_vec3 d_last,
                         const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
     const void *alt_user;
+    /* As alt_ratio, given the covered chain c itself (its vertices, d0 = c->d0, the last direction
+     * c->v[c->n - 1].d), for another strategy that makes some chains only (the path integrator's
+     * light-traced caustics of area lights: integrator/path_lt.h); used instead of alt_ratio where
+     * set, with alt_user. 0 where the other strategy does not make the path. */
+    double (*alt_chain_ratio)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,
+                              const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
     /* The path integrator's light-traced caustics of point lights (the user's "ltcaus";
      * integrator/path_lt.h): on, specular NEE at the path's first receiver and at its second (after
      * a diffuse bounce at the camera ray's hit) shares the point-light chains that light tracing
@@ -241,6 +247,10 @@ typedef struct spc_snee_params {
     /* With lt_caustic: the share of light subpaths joined to the pinhole through a glass sphere by
      * chains longer than max_chain (0: SPC_PATH_LT_LONG_SHARE, integrator/path_lt.h) */
     double lt_long;
+    /* With lt_caustic: the share of camera samples that trace a light subpath from an area light
+     * (the user's "ltshare=S"), in (0, 1], counted 1/S times; 0: SPC_PATH_LT_AREA_SHARE
+     * (integrator/path_lt.h). Point lights' subpaths run on every sample. */
+    double lt_share;
     double (*delta_share)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,
                           const spc_emitter *e);
     const void *delta_user;

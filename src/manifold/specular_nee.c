@@ -244,14 +244,16 @@ static double mis3(double a, double b, double c)
  * magnifies that rounding); 1e-2 is far below the distance between two solutions on such a light. */
 #define SPC_SNEE_RETRACE_LIGHT_TOL 1e-2
 
-/* The BSDF side's density b of a covered path becomes b times this with params.alt_ratio: the
- * power heuristic's sqrt(b^2 + c^2) for the other strategy's density c = ratio b (solver.h). */
-static double alt_factor(const spc_snee_params *p, const spc_hit *x, spc_vec3 wo, spc_vec3 d0, spc_vec3 d_last,
+/* The BSDF side's density b of a covered path becomes b times this with params.alt_ratio (or
+ * alt_chain_ratio): the power heuristic's sqrt(b^2 + c^2) for the other strategy's density c = ratio
+ * b (solver.h). c is the covered chain from x. */
+static double alt_factor(const spc_snee_params *p, const spc_hit *x, spc_vec3 wo, const spc_chain *c,
                          const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
 {
-    if (!p || !p->alt_ratio || !x)
+    if (!p || !(p->alt_ratio || p->alt_chain_ratio) || !x || c->n < 1)
         return 1.0;
-    double r = p->alt_ratio(p->alt_user, x, wo, d0, d_last, e, y, ny);
+    double r = p->alt_chain_ratio ? p->alt_chain_ratio(p->alt_user, x, wo, c, e, y, ny)
+                                  : p->alt_ratio(p->alt_user, x, wo, c->d0, c->v[c->n - 1].d, e, y, ny);
     return r > 0.0 && isfinite(r) ? sqrt(1.0 + r * r) : 1.0;
 }
 
@@ -351,7 +353,7 @@ static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_ve
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
         double P_ev = chain_events_sample_prob(q, c);
         *b = spc_receiver_pdf(r, c->d0) * G * P_ev *
-             (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c->d0, d, e, q->y, q->ny) : 1.0);
+             (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c, e, q->y, q->ny) : 1.0);
         *pc = cones_pdf(cones_for(q, e), c->d0, k) * G * P_ev;
     }
     /* a point light's chain that another strategy makes too (params.delta_share): its share */
@@ -1341,10 +1343,11 @@ static void path_rng(spc_rng *rng, spc_vec3 a, spc_vec3 b, spc_vec3 c)
  * own density, spc_receiver_pdf, times the chain's geometry term and its events' probability),
  * *c guided directions' (params.guide; cones at x toward the light, cs if given, else built here).
  * The chain is retraced for its geometry term. False if the retrace does not reproduce the path.
+ * *alt_f (if not NULL): the factor alt_factor put into *b (1 without another strategy).
  * p->mis is set and e is an area light. */
 static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
                           int max_chain, int k, const unsigned char *events, const spc_hit *light,
-                          const spc_snee_cones *cs, double *a, double *b, double *c, double *w_solve)
+                          const spc_snee_cones *cs, double *a, double *b, double *c, double *w_solve, double *alt_f)
 {
     const spc_emitter *e = light->emitter;
     const spc_hit *x = spc_receiver_origin(r);
@@ -1352,6 +1355,8 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
     *a = *b = *c = 0.0;
     if (w_solve)
         *w_solve = -1.0;
+    if (alt_f)
+        *alt_f = 1.0;
     double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
     bool guided = guide_on(p) && r->kind == SPC_RECEIVER_SURFACE;
     if (!(p_y > 0.0) && !guided) {
@@ -1368,7 +1373,7 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
      * params.alt_ratio) lands up to about 1e-3 of the light's size away after a focusing chain,
      * its directions recomputed from the vertices' positions */
     double tol = 1e-6 * (sc->radius + spc_max_abs(light->p));
-    if (p->alt_ratio && e->shape)
+    if ((p->alt_ratio || p->alt_chain_ratio) && e->shape)
         tol = spc_max(tol, SPC_SNEE_RETRACE_LIGHT_TOL * sqrt(e->shape->area));
     if (spc_chain_trace(sc, x, &fr, 0.0, 0.0, &o, &ch) != SPC_CHAIN_END_SURFACE || ch.n != k || !ch.has_end_hit ||
         ch.end_hit.emitter != e || spc_distance(ch.end_hit.p, light->p) > tol)
@@ -1383,8 +1388,10 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
     q.receiver = r;
     q.cam = cam; /* chain_events_sample_prob reads it as the query from the camera does */
     double P_ev = chain_events_sample_prob(&q, &ch);
-    *b = pdf * G * P_ev *
-         (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(p, x, r->wo, d0, ch.v[k - 1].d, e, light->p, light->ng) : 1.0);
+    double f_alt = r->kind == SPC_RECEIVER_SURFACE ? alt_factor(p, x, r->wo, &ch, e, light->p, light->ng) : 1.0;
+    if (alt_f)
+        *alt_f = f_alt;
+    *b = pdf * G * P_ev * f_alt;
     spc_snee_cones own;
     if (guided) {
         if (!cs || cs->e != e || cs->budget != max_chain) {
@@ -1454,14 +1461,25 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
     return true;
 }
 
-/* The weight of a covered path sampled by the receiver r itself, as covered_terms. */
+/* The weight of a covered path sampled by the receiver r itself, as covered_terms; with another
+ * strategy (params.alt_ratio, alt_chain_ratio) that weight is the two strategies' share together,
+ * split by their densities: *w_alt (if not NULL) gets the other strategy's part, and the receiver's
+ * own part is returned where w_alt is not NULL. */
 static double covered_weight(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
-                             int max_chain, int k, const unsigned char *events, const spc_hit *light)
+                             int max_chain, int k, const unsigned char *events, const spc_hit *light, double *w_alt)
 {
-    double a, b, c, ws;
-    if (!covered_terms(sc, p, r, d0, max_chain, k, events, light, NULL, &a, &b, &c, &ws))
+    double a, b, c, ws, f;
+    if (w_alt)
+        *w_alt = 0.0;
+    if (!covered_terms(sc, p, r, d0, max_chain, k, events, light, NULL, &a, &b, &c, &ws, &f))
         return 0.0;
-    return ws >= 0.0 ? ws : mis3(b, a, c);
+    double w = ws >= 0.0 ? ws : mis3(b, a, c);
+    if (!w_alt)
+        return w;
+    /* b = b_own f with f^2 = 1 + ratio^2: the receiver's own share 1 / f^2 of w, the other's the rest */
+    double own = w / (f * f);
+    *w_alt = w - own;
+    return own;
 }
 
 double spc_snee_receiver_weight(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
@@ -1470,7 +1488,17 @@ double spc_snee_receiver_weight(const spc_scene *sc, const spc_snee_params *p, c
     const spc_emitter *e = light->emitter;
     if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
         return 0.0;
-    return covered_weight(sc, p, r, d0, max_chain, k, events, light);
+    return covered_weight(sc, p, r, d0, max_chain, k, events, light, NULL);
+}
+
+double spc_snee_receiver_weights(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
+                                 int max_chain, int k, const unsigned char *events, const spc_hit *light, double *w_alt)
+{
+    const spc_emitter *e = light->emitter;
+    *w_alt = 0.0;
+    if (!p->mis || !e || k < 1 || k > SPC_CHAIN_MAX_VERTICES)
+        return 0.0;
+    return covered_weight(sc, p, r, d0, max_chain, k, events, light, w_alt);
 }
 
 double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
@@ -1923,8 +1951,8 @@ static void guided(spc_snee_query *q, spc_rng *rng, spc_snee_stats *st, snee_sin
             spc_rgb Le = spc_emitter_eval_area(e, &h, spc_neg(ray.d));
             double a, b, c;
             spc_receiver own;
-            if (spc_rgb_is_black(Le) || !covered_terms(sc, p, query_receiver(q, &own), d0, q->max_chain, t.k,
-                                                        t.events, &h, cs, &a, &b, &c, NULL))
+            if (spc_rgb_is_black(Le) || !covered_terms(sc, p, query_receiver(q, &own), d0, q->max_chain, t.k, t.events,
+                                                       &h, cs, &a, &b, &c, NULL, NULL))
                 return;
             double w = mis3(c, a, b);
             if (!(w > 0.0))
@@ -2119,7 +2147,7 @@ double spc_snee_camera_bsdf_weight(const spc_scene *sc, const spc_snee_params *p
         return 0.0; /* covered and not weighted: specular NEE's alone */
     spc_receiver r;
     spc_receiver_camera(&r, cam, cam_scale);
-    return covered_weight(sc, p, &r, d0, max_chain, k, events, light);
+    return covered_weight(sc, p, &r, d0, max_chain, k, events, light, NULL);
 }
 
 /* ---- exclusion of the covered paths from BSDF sampling ---- */

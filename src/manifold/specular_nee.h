@@ -79,6 +79,13 @@ double spc_snee_mis_bsdf_weight(const spc_scene *sc, const spc_snee_params *p, c
  * ray) sent along d0. */
 double spc_snee_receiver_weight(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
                                 int max_chain, int k, const unsigned char *events, const spc_hit *light);
+/* The same where another strategy makes the path too (params.alt_ratio or alt_chain_ratio):
+ * returns the receiver's own sampling's weight and writes the other strategy's to *w_alt; with
+ * specular NEE's weight of the same path the three sum to one. Without another strategy *w_alt is 0
+ * and the return spc_snee_receiver_weight's. */
+double spc_snee_receiver_weights(const spc_scene *sc, const spc_snee_params *p, const spc_receiver *r, spc_vec3 d0,
+                                 int max_chain, int k, const unsigned char *events, const spc_hit *light,
+                                 double *w_alt);
 
 /* Does params.exact's enumeration (sphere_chains.h, cylinder_chains.h, plane_chains.h) hold every
  * chain of the query: one caster, a sphere x is outside of, a mirror cylinder, or (not from the
