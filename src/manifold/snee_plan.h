@@ -160,12 +160,13 @@
  * with solvemis and 0.0523 (0.113) without (none: 0.455), lower in every seed (bench/RESULTS.md,
  * "The default against none on every caster scene"). The query at a path's first medium receiver
  * with probability 0.1 where the casters look small (first=0.1, 1 within their bounds: snee_cost.h),
- * as later=0.1 past it: in a fog around the ball (bench/check/medium_fog_ball.xml) most medium points
- * see the light directly and few see a caustic, and a query at each cost 1.5x none's time per sample
- * for 1.5x less variance; with first=0.1 the default's equal-CPU relMSE there fell from 0.7x none's
- * inverse to none's (first=0.05 the same, 0.25 a little worse: bench/RESULTS.md, part fog16), and in
- * medium_glass and in a smoke-filled torus, whose medium points lie within the casters' bounds, the
- * images are the same bit for bit. */
+ * as later=0.1 past it. In a fog around the ball (bench/check/medium_fog_ball.xml) most medium points
+ * see the light directly and few see a caustic; a query at each cost twice none's time per sample for
+ * 1.5x less variance. At equal CPU time over 24 paired seeds the mean relMSE there was 0.046 without
+ * the roulette, 0.031 with first=0.1 and 0.033 with none (first=0.05 like 0.1, 0.25 a little worse:
+ * bench/RESULTS.md, part fog16). In scenes/medium_glass.xml and bench/check/medium_torus.xml, whose
+ * medium points lie within the casters' bounds, the query stays certain and the images are the same
+ * bit for bit. */
 #define SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH "angular:camera,first=0.1,later=0.1,nosolvemis"
 
 /* volpath, where some caster's chains go to the randomized attempts (a tessellated ball, an SDF, a
