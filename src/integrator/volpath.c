@@ -35,7 +35,7 @@
  * medium of the side the chain goes to) in the chain's value (specular_nee.h). Chains fit in the
  * depth left (k vertices add k + 1 segments). Surface vertices do not run specular NEE in volpath;
  * the rough-vertex mode's own estimator does not run from medium points (its smooth chains do).
- * "receivers=N" and "later=P" count medium vertices as a path's receivers.
+ * "receivers=N", "first=P" and "later=P" count medium vertices as a path's receivers.
  *
  * Nothing is counted twice. A path that continues from such an x by phase sampling, crosses x's
  * medium without interaction to the first surface, follows the chain events there as specular
@@ -249,10 +249,13 @@ void spc_volpath_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *
                 if (nee)
                     ++receivers;
                 if (budget > 0) {
-                    /* spc_snee_params.later_p past the first receiver, raised near the casters as
-                     * path.c has it (first_p is path's only); its own deterministic stream: the
-                     * sampler's dimensions stay as without it */
-                    snp.query_p = receivers > 1 ? spc_snee_later_prob(sc, &snp, x) : 1.0;
+                    /* the query by Russian roulette, counted 1 / query_p times, as path.c has it:
+                     * first_p at the path's first medium receiver, later_p past it, each raised to 1
+                     * where the casters fill x's directions (snee_cost.h). The covered paths' MIS
+                     * weight (spc_snee_receiver_weight) reads the same snp.query_p, which stays
+                     * until the next medium vertex restarts the track. Its own deterministic
+                     * stream: the sampler's dimensions stay as without it. */
+                    snp.query_p = receivers > 1 ? spc_snee_later_prob(sc, &snp, x) : spc_snee_first_prob(sc, &snp, x);
                     spc_rng rng;
                     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
                     spc_rgb c = spc_specular_nee_at(sc, &snp, &conn, budget, long_budget, &rng, NULL);
