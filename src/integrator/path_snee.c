@@ -29,6 +29,22 @@ static int depth_left(const spc_render_ctx *ctx, int segments, int cap)
  * sample's sampler. */
 #define SPC_PATH_LT_STREAM 0x6c74636175737469ULL
 
+/* The camera's chain of j delta scatterings (cam_events, last first) retraced from x toward the
+ * pinhole (wo: toward the previous vertex); false where the trace does not follow those events. */
+static bool camera_chain(const spc_path_snee *s, const spc_hit *x, spc_vec3 wo, int j, spc_chain *cc)
+{
+    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+    for (int i = 0; i < j; ++i)
+        ev[i] = s->cam_events[j - 1 - i];
+    spc_frame f = spc_frame_from_n(wo);
+    spc_chain_opts o = spc_chain_opts_default(j);
+    o.events = ev;
+    o.any_surface = s->p.any_surface;
+    spc_chain_trace(s->ctx->scene, x, &f, 0.0, 0.0, &o, cc);
+    return cc->n == j && cc->end != SPC_CHAIN_END_TIR && cc->end != SPC_CHAIN_END_MISMATCH &&
+           cc->end != SPC_CHAIN_END_DEGENERATE;
+}
+
 /* params.delta_share at the path's second receiver x (seen from wo): specular NEE's share of the
  * point light's chain c against light tracing (path_lt.h). */
 static double lt_share(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e)
@@ -52,17 +68,8 @@ static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, co
     if (j == 0) {
         r = spc_path_lt_ratio_first(s->ctx, &s->p, x, NULL, c, e);
     } else {
-        unsigned char ev[SPC_CHAIN_MAX_VERTICES];
-        for (int i = 0; i < j; ++i)
-            ev[i] = s->cam_events[j - 1 - i];
-        spc_frame f = spc_frame_from_n(wo);
-        spc_chain_opts o = spc_chain_opts_default(j);
-        o.events = ev;
-        o.any_surface = s->p.any_surface;
         spc_chain cc;
-        spc_chain_trace(s->ctx->scene, x, &f, 0.0, 0.0, &o, &cc);
-        if (cc.n != j || cc.end == SPC_CHAIN_END_TIR || cc.end == SPC_CHAIN_END_MISMATCH ||
-            cc.end == SPC_CHAIN_END_DEGENERATE)
+        if (!camera_chain(s, x, wo, j, &cc))
             return 1.0;
         r = spc_path_lt_ratio_first(s->ctx, &s->p, x, &cc, c, e);
     }
@@ -90,17 +97,8 @@ static double lt_alt_first(const void *user, const spc_hit *x, spc_vec3 wo, cons
         return 0.0;
     if (j == 0)
         return spc_path_lt_area_ratio(s->ctx, &s->p, NULL, spc_v3(0, 0, 0), x, wo, NULL, c, e, y, ny);
-    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
-    for (int i = 0; i < j; ++i)
-        ev[i] = s->cam_events[j - 1 - i];
-    spc_frame f = spc_frame_from_n(wo);
-    spc_chain_opts o = spc_chain_opts_default(j);
-    o.events = ev;
-    o.any_surface = s->p.any_surface;
     spc_chain cc;
-    spc_chain_trace(s->ctx->scene, x, &f, 0.0, 0.0, &o, &cc);
-    if (cc.n != j || cc.end == SPC_CHAIN_END_TIR || cc.end == SPC_CHAIN_END_MISMATCH ||
-        cc.end == SPC_CHAIN_END_DEGENERATE)
+    if (!camera_chain(s, x, wo, j, &cc))
         return 0.0;
     return spc_path_lt_area_ratio(s->ctx, &s->p, NULL, spc_v3(0, 0, 0), x, wo, &cc, c, e, y, ny);
 }
