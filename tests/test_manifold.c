@@ -1312,13 +1312,10 @@ TEST(mis_give_up_at_cap_adds_up)
     spc_scene_destroy(sc);
 }
 
-/* seed=bsdf at a medium receiver: the attempts' seeds are directions sampled from its phase
- * function (it has no BSDF). Under the glass ball of mis_give_up_at_cap_adds_up, with a stand-in psi
- * of 0.5 and cap 1 (a > C b on many chains, where a count goes on by roulette instead of giving
- * up), specular NEE plus the phase-sampled paths it covers must again equal those paths unweighted
- * (D's mean 0). Where the seeds fail at a medium point, specular NEE finds no randomized chain while
- * MIS still hands it its share of them, and D falls well below 0. */
-TEST(medium_bsdf_seeds_add_up)
+/* Specular NEE with seeds chosen by seed, straight_first and phase_seeds (psi 0.5, cap 1) plus the
+ * phase-sampled paths it covers, against those paths unweighted, at a forward-scattering medium point
+ * under the glass ball (covered_difference, stream rng_seed): D's mean must be 0. */
+static void medium_seeds_add_up(spc_snee_seed seed, bool straight_first, double phase_seeds, uint64_t rng_seed)
 {
     spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
     CHECK(sc != NULL);
@@ -1330,17 +1327,30 @@ TEST(medium_bsdf_seeds_add_up)
     spc_receiver_medium(&rc, xp, wo, &hg, -1);
     spc_snee_params p;
     give_up_params(&p, 0.5);
-    p.seed = SPC_SNEE_SEED_BSDF;
+    p.seed = seed;
+    p.straight_first = straight_first;
+    p.phase_seeds = phase_seeds;
     p.long_p = 0.0;
     spc_snee_stats st;
     memset(&st, 0, sizeof st);
     double m, se, ref, snee;
-    covered_difference(sc, &p, &rc, xp, wo, &hg, 29, 20000, &st, &m, &se, &ref, &snee);
+    covered_difference(sc, &p, &rc, xp, wo, &hg, rng_seed, 20000, &st, &m, &se, &ref, &snee);
     printf("    phase sampling unweighted %.5f; specular NEE %.5f; D = %.5f +- %.5f (%.2f se); counts %llu\n", ref,
            snee, m, se, se > 0.0 ? m / se : 0.0, (unsigned long long)st.contributions);
     CHECK(ref > 0.0 && snee > 0.0);
     CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f, phase sampling %.6f)", m, se, snee, ref);
     spc_scene_destroy(sc);
+}
+
+/* seed=bsdf at a medium receiver: the attempts' seeds are directions sampled from its phase
+ * function (it has no BSDF). Under the glass ball of mis_give_up_at_cap_adds_up, with a stand-in psi
+ * of 0.5 and cap 1 (a > C b on many chains, where a count goes on by roulette instead of giving
+ * up), specular NEE plus the phase-sampled paths it covers must again equal those paths unweighted
+ * (D's mean 0). Where the seeds fail at a medium point, specular NEE finds no randomized chain while
+ * MIS still hands it its share of them, and D falls well below 0. */
+TEST(medium_bsdf_seeds_add_up)
+{
+    medium_seeds_add_up(SPC_SNEE_SEED_BSDF, false, 0.0, 29);
 }
 
 /* seed=bsdf from a start point with neither a BSDF nor a phase function (the camera's pinhole):
@@ -1475,29 +1485,7 @@ TEST(medium_phase_seed_share)
  * mixture is the same for every attempt of a query, so the counts stay unbiased for its p. */
 TEST(medium_phase_seeds_add_up)
 {
-    spc_scene *sc = point_scene(2, 0.5, spc_v3(0.0, 0.1, 3.0));
-    CHECK(sc != NULL);
-    if (!sc)
-        return;
-    spc_phase hg = {SPC_PHASE_HG, 0.5};
-    const spc_vec3 xp = spc_v3(0.15, 0.05, 0.1), wo = spc_v3(0, 0, -1); /* forward scattering, upward */
-    spc_receiver rc;
-    spc_receiver_medium(&rc, xp, wo, &hg, -1);
-    spc_snee_params p;
-    give_up_params(&p, 0.5);
-    p.seed = SPC_SNEE_SEED_CONE;
-    p.straight_first = true;
-    p.phase_seeds = 0.5;
-    p.long_p = 0.0;
-    spc_snee_stats st;
-    memset(&st, 0, sizeof st);
-    double m, se, ref, snee;
-    covered_difference(sc, &p, &rc, xp, wo, &hg, 31, 20000, &st, &m, &se, &ref, &snee);
-    printf("    phase sampling unweighted %.5f; specular NEE %.5f; D = %.5f +- %.5f (%.2f se); counts %llu\n", ref,
-           snee, m, se, se > 0.0 ? m / se : 0.0, (unsigned long long)st.contributions);
-    CHECK(ref > 0.0 && snee > 0.0);
-    CHECK_MSG(fabs(m) <= 4.0 * se, "D = %.6f +- %.6f (specular NEE %.6f, phase sampling %.6f)", m, se, snee, ref);
-    spc_scene_destroy(sc);
+    medium_seeds_add_up(SPC_SNEE_SEED_CONE, true, 0.5, 31);
 }
 
 /* The same give-up at a surface receiver, where the chain crosses from one shape to another (a
