@@ -235,6 +235,34 @@ static void count_through(void *user, const spc_path_lt_join *j)
         t->worst_r = gap;
 }
 
+/* 20000 light subpaths' joins through the sphere tallied twice (streams seed and seed + 1): t[0] with
+ * every subpath's share 1, t[1] with the share `share` of the joins by chains up to max_chain
+ * (lt_through) or, with long_chains, of those by longer chains (lt_long). */
+static void tally_shares(spc_scene *sc, spc_camera_state *cam, const spc_snee_params *whole,
+                         bool long_chains, double share, uint64_t seed, share_tally t[2])
+{
+    spc_render_ctx ctx = lt_ctx(sc, cam, whole);
+    for (int s = 0; s < 2; ++s) {
+        spc_snee_params p = *whole;
+        double sh = s == 0 ? 1.0 : share;
+        if (long_chains)
+            p.lt_long = sh;
+        else
+            p.lt_through = sh;
+        ctx.snee = p;
+        memset(&t[s], 0, sizeof t[s]);
+        t[s].ctx = &ctx;
+        t[s].whole = whole;
+        t[s].share = sh;
+        t[s].long_chains = long_chains;
+        spc_rng rng;
+        spc_rng_seed(&rng, seed + (uint64_t)s, 5);
+        for (int i = 0; i < 20000; ++i)
+            spc_path_lt_joins(&ctx, &p, &rng, count_through, &t[s]);
+        t[s].ctx = NULL; /* ctx is this function's */
+    }
+}
+
 /* Joins through the sphere (the costly enumeration toward the pinhole) on a share of the light
  * subpaths: about that share of them occur, each counted over the share (the sum of their
  * contributions agrees with every subpath's), and r, on both sides from spc_path_lt_ratio_first,
@@ -247,22 +275,8 @@ TEST(through_sphere_on_a_share)
     if (!sc)
         return;
     whole.lt_through = 1.0;
-    spc_render_ctx ctx = lt_ctx(sc, &cam, &whole);
     share_tally t[2];
-    const int n = 20000;
-    for (int s = 0; s < 2; ++s) {
-        spc_snee_params p = whole;
-        p.lt_through = s == 0 ? 1.0 : 0.5;
-        ctx.snee = p;
-        memset(&t[s], 0, sizeof t[s]);
-        t[s].ctx = &ctx;
-        t[s].whole = &whole;
-        t[s].share = p.lt_through;
-        spc_rng rng;
-        spc_rng_seed(&rng, 23 + s, 5);
-        for (int i = 0; i < n; ++i)
-            spc_path_lt_joins(&ctx, &p, &rng, count_through, &t[s]);
-    }
+    tally_shares(sc, &cam, &whole, false, 0.5, 23, t);
     /* the sums' standard errors over the n subpaths (joins are few per subpath: as if independent) */
     double se0 = sqrt(t[0].sum2), se1 = sqrt(t[1].sum2);
     double z = (t[1].sum - t[0].sum) / sqrt(se0 * se0 + se1 * se1 + 1e-300);
@@ -288,23 +302,8 @@ TEST(long_camera_chains_on_their_own_share)
     if (!sc)
         return;
     whole.lt_long = 1.0;
-    spc_render_ctx ctx = lt_ctx(sc, &cam, &whole);
     share_tally t[2];
-    const int n = 20000;
-    for (int s = 0; s < 2; ++s) {
-        spc_snee_params p = whole;
-        p.lt_long = s == 0 ? 1.0 : 0.25;
-        ctx.snee = p;
-        memset(&t[s], 0, sizeof t[s]);
-        t[s].ctx = &ctx;
-        t[s].whole = &whole;
-        t[s].share = p.lt_long;
-        t[s].long_chains = true;
-        spc_rng rng;
-        spc_rng_seed(&rng, 29 + s, 5);
-        for (int i = 0; i < n; ++i)
-            spc_path_lt_joins(&ctx, &p, &rng, count_through, &t[s]);
-    }
+    tally_shares(sc, &cam, &whole, true, 0.25, 29, t);
     double z = (t[1].sum - t[0].sum) / sqrt(t[0].sum2 + t[1].sum2 + 1e-300);
     printf("    longer chains through the sphere: %d joins with every subpath, %d with a share 0.25; sums %.4g vs "
            "%.4g (z %.2f); r's largest relative gap from the share's %.2g\n",
