@@ -3,15 +3,17 @@
 (bench/check/cmp_ref.py).
 
   python3 bench/check/mitsuba_ref.py SCENE.xml OUT.npy [--batches 32] [--spp 8192] [--res 32]
-                                     [--max-depth 4] [--integrator path|ptracer] [-D name=value]...
+                                     [--max-depth 4] [--integrator path|volpath|ptracer]
+                                     [-D name=value]...
 
 Renders --batches independent images of --spp samples each with the llvm_ad_rgb variant (scalar_rgb
 if LLVM is missing) and saves them as one array, batches x height x width x 3; the per-pixel
 variance of the mean comes from the batches.
 
-Which integrator: `path` (the scene's own kind) finds a small light's reflection in a glass ball
-only when a BSDF sample from the floor lands on the light's tiny image in the ball (about once in
-1e5 samples for random caustic scene 2); at 524k spp most floor pixels still have none, so its
+Which integrator: the one named here replaces the scene's, so a scene with media needs `volpath`.
+`path` (the scene's own kind) finds a small light's reflection in a glass ball only when a BSDF
+sample from the floor lands on the light's tiny image in the ball (about once in 1e5 samples for
+random caustic scene 2); at 524k spp most floor pixels still have none, so its
 per-pixel mean is low there with a batch variance that does not show it, and any estimator that
 gets that reflection right fails a per-pixel test against it (bench/RESULTS.md, "Reflections off
 glass: no bias"). `ptracer` (light tracing, every path connected to the camera at its last
@@ -45,7 +47,7 @@ def main():
     ap.add_argument("--spp", type=int, default=8192)
     ap.add_argument("--res", type=int, default=32)
     ap.add_argument("--max-depth", type=int, default=4)
-    ap.add_argument("--integrator", default="path", choices=["path", "ptracer", "normal"])
+    ap.add_argument("--integrator", default="path", choices=["path", "volpath", "ptracer", "normal"])
     ap.add_argument("-D", action="append", default=[], help="name=value: a <default> of the scene")
     ap.add_argument("--threads", type=int, default=0, help="Dr.Jit's worker threads (0: all cores)")
     ap.add_argument("--first-batch", type=int, default=0,
