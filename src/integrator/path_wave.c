@@ -2,20 +2,23 @@
  * integrator/path_wave.c: path.c's plain path tracer (path with specular NEE off, ipt) run over many
  * camera samples at once, their rays traced in packets (path_wave.h).
  *
- * A wave holds SPC_SCENE_PACKET lanes, each one path. One step of the wave traces every live lane's
- * ray as one packet (spc_scene_intersect_packet); each lane then takes what path.c does at the hit
- * up to its light sample (emission, depth, strict normals, next-event estimation's light point);
- * the shadow rays go out as one packet (spc_scene_occluded_light_packet); the lanes' BSDFs are sampled
- * together (the diffuse ones' warps in one call, the others in spc_bsdf_sample_dir_many, where rough
- * metals share their visible-normal searches); each lane adds its light sample's contribution, takes
- * its BSDF sample and plays Russian roulette. A lane whose path ends stores the estimate and takes
- * the next camera sample, so the packets stay full until the samples run out;
- * except where max_depth ends every path before Russian roulette starts (wave_lockstep): there the
- * wave takes W samples at once and the next W when all of them have ended.
+ * A wave holds up to WAVE_MAX lanes (a tile's camera samples), each one path. One step of the wave
+ * traces every live lane's ray, in packets of SPC_SCENE_PACKET (spc_scene_trace_packet); each lane
+ * then takes what path.c does at the hit up to its light sample (emission, depth, strict normals,
+ * next-event estimation's light point); the shadow rays go out in packets whose rays share an
+ * octant, by Embree's coherent traversal (spc_scene_occluded_light_packet_coherent); the lanes'
+ * BSDFs are sampled together (the diffuse ones' warps in one call, the others in
+ * spc_bsdf_sample_dir_many, where rough metals share their visible-normal searches); each lane adds
+ * its light sample's contribution, takes its BSDF sample and plays Russian roulette. A lane whose
+ * path ends stores the estimate and takes the next camera sample while there is one; the live lanes
+ * are then packed to the front, so the steps of the wave's last long paths cost what those paths
+ * need. Where max_depth ends every path before Russian roulette starts (wave_lockstep) the wave
+ * takes W samples at once and the next W when all of them have ended.
  *
  * Every lane draws its sampler dimensions in path.c's order (the live lanes' pairs of a stage at
- * once, spc_sampler_draw_many: the same values) and computes path.c's expressions in path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
- * whole images). The light sample's MIS weight is computed after the shadow ray, as path.c does, so
+ * once, spc_sampler_draw_many: the same values) and computes path.c's expressions in path.c's
+ * order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on whole
+ * images); which lanes share a packet changes no answer. The light sample's MIS weight is computed after the shadow ray, as path.c does, so
  * occluded samples do not pay for the BSDF's pdf.
  */
 #include "integrator/path_wave.h"
@@ -252,27 +255,31 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
  * cornell box's max_depth 30) lockstep left packets nearly empty and cost +3%. */
 static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0 && ctx->max_depth <= ctx->rr_depth; }
 
-/* Lanes in a wave: a tile's camera samples (the driver's 16 x 16 pixels, one pass) all at once. Each
- * step's rays then come from up to 256 paths, enough that grouping them by octant fills packets of
- * one octant, which Embree's coherent traversal takes at a lower cost per ray than mixed packets
- * (bench/RESULTS.md, part perf23: the cornell box's extension rays 81 -> 59 ns, its shadow rays 41 ->
- * 28 ns in a replay; packets of one octant from 64 lanes lose, from 128 gain half of that). The
- * per-lane arrays below take about 1.1 KB a lane, 290 KB of the thread's stack. */
+/* Lanes in a wave: a tile's camera samples (the driver's 16 x 16 pixels, one pass) at once. Against
+ * a wave of 16 lanes (one packet), paired CPU time, one thread (bench/RESULTS.md, part perf23):
+ * veach-mis -10%, the cornell box -10%. The vector stages (the sampler's draws, light samples, the
+ * rough metals' searches) run over more lanes a call, and a step's shadow rays, grouped by octant,
+ * fill packets of one octant, which Embree's coherent traversal takes at a lower cost per ray than
+ * mixed packets (a replay of the cornell box's shadow rays: 41 -> 28 ns a ray with 256 lanes, 31
+ * with 128, 37 with 64). Extension rays stay in Embree's incoherent traversal: its coherent one
+ * breaks ties between coincident surfaces (scenes/mask_null.xml) in another order than single rays,
+ * so the images would no longer be path.c's. The per-lane arrays take about 1.1 KB a lane, 290 KB
+ * of the thread's stack. */
 enum { WAVE_MAX = 256 };
 
 /* The octant of d (its three sign bits). */
 static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0.0) << 2; }
 
-/* The rays r[0..w) (NULL: none) grouped by their directions' octants, in packets of up to
- * SPC_SCENE_PACKET lanes of one octant: pk[k] the lane of packet slot k (-1: idle slot), returns the
- * packets. */
-static int octant_packets(int w, const spc_ray *const *r, int *pk)
+/* The rays r[0..w) (NULL: none) in packets of up to SPC_SCENE_PACKET lanes, in lane order, and with
+ * by_octant grouped by their directions' octants (a packet's rays then share one): pk[k] the lane of
+ * packet slot k (-1: an idle slot). Returns the packets. */
+static int lane_packets(int w, const spc_ray *const *r, bool by_octant, int *pk)
 {
     enum { P = SPC_SCENE_PACKET };
     int count[8] = {0}, key[WAVE_MAX];
     for (int i = 0; i < w; ++i)
         if (r[i])
-            ++count[key[i] = octant(r[i]->d)];
+            ++count[key[i] = by_octant ? octant(r[i]->d) : 0];
     int start[8], np = 0;
     for (int k = 0; k < 8; ++k) {
         start[k] = np * P;
@@ -320,35 +327,35 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     int sidx[WAVE_MAX];
     int pk[WAVE_MAX + 8 * P];
     int next = 0, live = 0;
+    int nl = 0; /* the lanes in use, [0, nl): live lanes are kept packed at the front */
     const bool lockstep = wave_lockstep(ctx);
     camera_hits ch;
     ch.group = -1;
-    for (int i = 0; i < W; ++i)
-        ln[i].path = -1;
     while (live > 0 || next < n) {
         if (live == 0) /* the first samples, or in lockstep the next W */
-            for (int i = 0; i < W && next < n; ++i) {
-                lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
+            for (nl = 0; nl < W && next < n; ++nl) {
+                lane_take(ctx, &ln[nl], &h[nl], next, n, rays, &out[next], &ch);
                 ++next;
                 ++live;
             }
-        for (int i = 0; i < W; ++i)
+        for (int i = 0; i < nl; ++i)
             r[i] = ln[i].path >= 0 && !ln[i].camera_hit ? &ln[i].ray : NULL;
-        /* the rays in packets of one octant each, by Embree's coherent traversal (the same hits) */
-        int np = octant_packets(W, r, pk);
+        /* the live lanes' rays in full packets (Embree's incoherent traversal: its coherent one breaks
+         * ties between coincident surfaces in another order than single rays do) */
+        int np = lane_packets(nl, r, false, pk);
         for (int p = 0; p < np; ++p) {
             const spc_ray *pr[P];
             spc_scene_answer a[P];
             for (int j = 0; j < P; ++j)
                 pr[j] = pk[p * P + j] >= 0 ? r[pk[p * P + j]] : NULL;
-            spc_scene_trace_packet_coherent(ctx->scene, pr, a);
+            spc_scene_trace_packet(ctx->scene, pr, a);
             for (int j = 0; j < P; ++j) {
                 int i = pk[p * P + j];
                 if (i >= 0)
                     hit[i] = spc_scene_fill_answer(ctx->scene, r[i], &a[j], &h[i]);
             }
         }
-        for (int i = 0; i < W; ++i) {
+        for (int i = 0; i < nl; ++i) {
             if (ln[i].path >= 0 && ln[i].camera_hit) {
                 hit[i] = ln[i].camera_ok;
                 ln[i].camera_hit = false;
@@ -360,10 +367,10 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
          * estimation's (u_light, u_lpos), then BSDF sampling's (u_lobe, u_dir, u_rr); u_light, u_lobe
          * and u_rr are 1D (path.c's spc_sampler_1d: their pairs' y are not computed). Nothing
          * between the two stages draws from the lanes' streams. */
-        spc_sampler_draw_many(ls, W, 5, 0xAu, u);
+        spc_sampler_draw_many(ls, nl, 5, 0xAu, u);
         /* the lights chosen, then every lane's light sample in one call (lanes of mesh lights share
          * vector instructions, emitter/area_many.c) */
-        for (int i = 0; i < W; ++i) {
+        for (int i = 0; i < nl; ++i) {
             le[i] = NULL;
             if (!alive[i])
                 continue;
@@ -371,9 +378,10 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             ref[i] = h[i].p;
             u_lpos[i] = u[5 * i + 1];
         }
-        for (int i0 = 0; i0 < W; i0 += SPC_EMITTER_MANY_MAX)
-            spc_emitter_sample_direct_many(SPC_EMITTER_MANY_MAX, le + i0, ref + i0, u_lpos + i0, ds + i0, ds_ok + i0);
-        for (int i = 0; i < W; ++i) {
+        for (int i0 = 0; i0 < nl; i0 += SPC_EMITTER_MANY_MAX)
+            spc_emitter_sample_direct_many(nl - i0 < SPC_EMITTER_MANY_MAX ? nl - i0 : SPC_EMITTER_MANY_MAX, le + i0,
+                                           ref + i0, u_lpos + i0, ds + i0, ds_ok + i0);
+        for (int i = 0; i < nl; ++i) {
             r[i] = NULL;
             occluded[i] = false;
             if (!alive[i])
@@ -382,8 +390,9 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             if (ln[i].shadow)
                 r[i] = &ln[i].sr;
         }
-        /* the shadow rays likewise in packets of one octant */
-        np = octant_packets(W, r, pk);
+        /* the shadow rays in packets of one octant each, by Embree's coherent traversal (the same
+         * answers: whether anything lies between two points has no ties to break) */
+        np = lane_packets(nl, r, true, pk);
         for (int p = 0; p < np; ++p) {
             const spc_ray *pr[P];
             const spc_emitter *pe[P];
@@ -402,7 +411,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
          * BSDF samples in one call (rough metals share their visible-normal searches, bsdf.h), lane
          * i's in bs[sidx[i]] */
         int nd = 0, ns = 0;
-        for (int i = 0; i < W; ++i) {
+        for (int i = 0; i < nl; ++i) {
             if (!alive[i])
                 continue;
             if (ln[i].diffuse) {
@@ -421,7 +430,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         for (int j = 0; j < nd; ++j)
             wl[dlane[j]] = wl_d[j];
         spc_bsdf_sample_dir_many(ns, sb, sh, SPC_MODE_RADIANCE, swo, su_lobe, su_dir, bs, bs_ok);
-        for (int i = 0; i < W; ++i) {
+        for (int i = 0; i < nl; ++i) {
             if (ln[i].path < 0)
                 continue;
             const bool diffuse = alive[i] && ln[i].diffuse;
@@ -438,5 +447,19 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 ++live;
             }
         }
+        /* the live lanes packed to the front, so that the steps of a wave's last paths do not walk
+         * its ended lanes (a lane's state is ln[i], and h[i] where its camera hit waits) */
+        int m = 0;
+        for (int i = 0; i < nl; ++i) {
+            if (ln[i].path < 0)
+                continue;
+            if (i != m) {
+                ln[m] = ln[i];
+                if (ln[m].camera_hit)
+                    h[m] = h[i];
+            }
+            ++m;
+        }
+        nl = m;
     }
 }
