@@ -448,18 +448,18 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             }
         }
         /* the live lanes packed to the front, so that the steps of a wave's last paths do not walk
-         * its ended lanes (a lane's state is ln[i], and h[i] where its camera hit waits) */
-        int m = 0;
-        for (int i = 0; i < nl; ++i) {
-            if (ln[i].path < 0)
+         * its ended lanes: each ended lane's place taken by the last lane (a lane's state is ln[i],
+         * and h[i] where its camera hit waits) */
+        for (int i = 0; i < nl;) {
+            if (ln[i].path >= 0) {
+                ++i;
                 continue;
-            if (i != m) {
-                ln[m] = ln[i];
-                if (ln[m].camera_hit)
-                    h[m] = h[i];
             }
-            ++m;
+            if (i != --nl) {
+                ln[i] = ln[nl];
+                if (ln[i].camera_hit)
+                    h[i] = h[nl];
+            }
         }
-        nl = m;
     }
 }
