@@ -3,7 +3,7 @@
  * camera samples at once, their rays traced in packets (path_wave.h).
  *
  * A wave holds up to WAVE_MAX lanes (a tile's camera samples), each one path. One step of the wave
- * traces every live lane's ray, in packets of SPC_SCENE_PACKET (spc_scene_trace_packet); each lane
+ * traces every live lane's ray, in packets of SPC_SCENE_PACKET (spc_scene_intersect_packet); each lane
  * then takes what path.c does at the hit up to its light sample (emission, depth, strict normals,
  * next-event estimation's light point); the shadow rays go out in packets whose rays share an
  * octant, by Embree's coherent traversal (spc_scene_occluded_light_packet_coherent); the lanes'
@@ -270,29 +270,28 @@ enum { WAVE_MAX = 256 };
 /* The octant of d (its three sign bits). */
 static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0.0) << 2; }
 
-/* The rays r[0..w) (NULL: none) in packets of up to SPC_SCENE_PACKET lanes, in lane order, and with
- * by_octant grouped by their directions' octants (a packet's rays then share one): pk[k] the lane of
- * packet slot k (-1: an idle slot). Returns the packets. */
-static int lane_packets(int w, const spc_ray *const *r, bool by_octant, int *pk)
+/* The rays r[0..w) (NULL: none) grouped by their directions' octants in packets of up to
+ * SPC_SCENE_PACKET lanes of one octant: pk[k] the lane of packet slot k (-1: an idle slot). Returns
+ * the packets. */
+static int octant_packets(int w, const spc_ray *const *r, int *pk)
 {
     enum { P = SPC_SCENE_PACKET };
-    int count[8] = {0}, key[WAVE_MAX];
+    int count[8] = {0};
+    unsigned char key[WAVE_MAX];
     for (int i = 0; i < w; ++i)
         if (r[i])
-            ++count[key[i] = by_octant ? octant(r[i]->d) : 0];
+            ++count[key[i] = (unsigned char)octant(r[i]->d)];
     int start[8], np = 0;
     for (int k = 0; k < 8; ++k) {
         start[k] = np * P;
         np += (count[k] + P - 1) / P;
+        /* the idle slots of the octant's last packet */
+        for (int j = start[k] + count[k]; j < np * P; ++j)
+            pk[j] = -1;
     }
-    for (int j = 0; j < np * P; ++j)
-        pk[j] = -1;
-    int fill[8] = {0};
     for (int i = 0; i < w; ++i)
-        if (r[i]) {
-            int k = key[i];
-            pk[start[k] + fill[k]++] = i;
-        }
+        if (r[i])
+            pk[start[key[i]]++] = i;
     return np;
 }
 
@@ -326,7 +325,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     bool bs_ok[WAVE_MAX];
     int sidx[WAVE_MAX];
     int pk[WAVE_MAX + 8 * P];
-    int next = 0, live = 0;
+    int next = 0, live = 0, np;
     int nl = 0; /* the lanes in use, [0, nl): live lanes are kept packed at the front */
     const bool lockstep = wave_lockstep(ctx);
     camera_hits ch;
@@ -340,20 +339,14 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             }
         for (int i = 0; i < nl; ++i)
             r[i] = ln[i].path >= 0 && !ln[i].camera_hit ? &ln[i].ray : NULL;
-        /* the live lanes' rays in full packets (Embree's incoherent traversal: its coherent one breaks
-         * ties between coincident surfaces in another order than single rays do) */
-        int np = lane_packets(nl, r, false, pk);
-        for (int p = 0; p < np; ++p) {
+        /* the lanes' rays in packets of consecutive lanes (the live lanes are packed; a lane whose
+         * camera hit waits has none), by Embree's incoherent traversal: its coherent one breaks ties
+         * between coincident surfaces in another order than single rays */
+        for (int i0 = 0; i0 < nl; i0 += P) {
             const spc_ray *pr[P];
-            spc_scene_answer a[P];
             for (int j = 0; j < P; ++j)
-                pr[j] = pk[p * P + j] >= 0 ? r[pk[p * P + j]] : NULL;
-            spc_scene_trace_packet(ctx->scene, pr, a);
-            for (int j = 0; j < P; ++j) {
-                int i = pk[p * P + j];
-                if (i >= 0)
-                    hit[i] = spc_scene_fill_answer(ctx->scene, r[i], &a[j], &h[i]);
-            }
+                pr[j] = i0 + j < nl ? r[i0 + j] : NULL;
+            spc_scene_intersect_packet(ctx->scene, pr, h + i0, hit + i0);
         }
         for (int i = 0; i < nl; ++i) {
             if (ln[i].path >= 0 && ln[i].camera_hit) {
@@ -392,7 +385,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         }
         /* the shadow rays in packets of one octant each, by Embree's coherent traversal (the same
          * answers: whether anything lies between two points has no ties to break) */
-        np = lane_packets(nl, r, true, pk);
+        np = octant_packets(nl, r, pk);
         for (int p = 0; p < np; ++p) {
             const spc_ray *pr[P];
             const spc_emitter *pe[P];

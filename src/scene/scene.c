@@ -407,16 +407,6 @@ void spc_scene_trace(const spc_scene *s, const spc_ray *r, spc_scene_answer *a)
         a->shape = -1;
 }
 
-void spc_scene_trace_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
-                            spc_scene_answer a[SPC_SCENE_PACKET])
-{
-    int shape[SPC_ACCEL_PACKET], prim[SPC_ACCEL_PACKET];
-    double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
-    spc_accel_intersect_packet(s->accel, r, shape, prim, u, v, t);
-    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
-        a[i] = (spc_scene_answer){shape[i], prim[i], u[i], v[i], t[i]};
-}
-
 void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                      spc_scene_answer a[SPC_SCENE_PACKET])
 {

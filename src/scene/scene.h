@@ -218,10 +218,6 @@ void spc_scene_trace(const spc_scene *s, const spc_ray *r, spc_scene_answer *a);
  * miss or an inactive lane). */
 void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                      spc_scene_answer a[SPC_SCENE_PACKET]);
-/* The same by Embree's incoherent traversal (spc_scene_intersect_packet's): the same answers as
- * single rays, ties between coincident surfaces included. */
-void spc_scene_trace_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
-                            spc_scene_answer a[SPC_SCENE_PACKET]);
 /* The hit record of answer a for ray r (the ray it was traced for), the packet calls' shading record
  * (spc_scene_intersect's, the derivatives left out where spc_shape_fill_hit_shading leaves them out);
  * false (h untouched) for a miss. */
