@@ -593,8 +593,9 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
 }
 
 /* spc_accel_occluded_packet_skip with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*) */
-static void occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET], const int skip[SPC_ACCEL_PACKET],
-                            enum RTCIntersectContextFlags flags, bool occluded[SPC_ACCEL_PACKET])
+static void occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                            const int skip[SPC_ACCEL_PACKET], enum RTCIntersectContextFlags flags,
+                            bool occluded[SPC_ACCEL_PACKET])
 {
     ctx_ext cx;
     rtcInitIntersectContext(&cx.ctx);

@@ -3,8 +3,8 @@
  * camera samples at once, their rays traced in packets (path_wave.h).
  *
  * A wave holds up to WAVE_MAX lanes (a tile's camera samples), each one path. One step of the wave
- * traces every live lane's ray, in packets of SPC_SCENE_PACKET (spc_scene_intersect_packet); each lane
- * then takes what path.c does at the hit up to its light sample (emission, depth, strict normals,
+ * traces every live lane's ray, in packets of SPC_SCENE_PACKET (spc_scene_intersect_packet); each
+ * lane then takes what path.c does at the hit up to its light sample (emission, depth, strict normals,
  * next-event estimation's light point); the shadow rays go out in packets whose rays share an
  * octant, by Embree's coherent traversal (spc_scene_occluded_light_packet_coherent); the lanes'
  * BSDFs are sampled together (the diffuse ones' warps in one call, the others in
@@ -18,8 +18,8 @@
  * Every lane draws its sampler dimensions in path.c's order (the live lanes' pairs of a stage at
  * once, spc_sampler_draw_many: the same values) and computes path.c's expressions in path.c's
  * order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on whole
- * images); which lanes share a packet changes no answer. The light sample's MIS weight is computed after the shadow ray, as path.c does, so
- * occluded samples do not pay for the BSDF's pdf.
+ * images); which lanes share a packet changes no answer. The light sample's MIS weight is computed
+ * after the shadow ray, as path.c does, so occluded samples do not pay for the BSDF's pdf.
  */
 #include "integrator/path_wave.h"
 
