@@ -24,6 +24,8 @@
 #include "integrator/path_wave.h"
 
 #include <stdatomic.h>
+#include <stddef.h>
+#include <string.h>
 
 #include "bsdf/diffuse_view.h"
 #include "integrator/aov.h"
@@ -42,7 +44,9 @@ typedef struct lane {
     int segments; /* the path's segments once ray is traced */
     bool camera_hit; /* ray is the camera ray, already traced: its hit waits in the wave's record */
     bool camera_ok;  /* then: it hit something */
-    /* the light sample at the current vertex, waiting for its shadow ray */
+    /* the fields from here on are a step's own (the light sample at the current vertex, waiting for
+     * its shadow ray, and the vertex's BSDF view), dead between steps: a lane moved to another
+     * place between steps takes the fields above (lane_move) */
     bool shadow;
     spc_ray sr;
     spc_rgb f, Le;
@@ -54,6 +58,9 @@ typedef struct lane {
     bool diffuse;
     spc_diffuse_view dv;
 } lane;
+
+/* Lane `from`'s path into lane `to`, between two steps (the fields a step rewrites are left). */
+static void lane_move(lane *to, const lane *from) { memcpy(to, from, offsetof(lane, shadow)); }
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
 
@@ -449,7 +456,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 continue;
             }
             if (i != --nl) {
-                ln[i] = ln[nl];
+                lane_move(&ln[i], &ln[nl]);
                 if (ln[i].camera_hit)
                     h[i] = h[nl];
             }
