@@ -273,6 +273,7 @@ static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0
  * so the images would no longer be path.c's. The per-lane arrays take about 1.1 KB a lane, 290 KB
  * of the thread's stack. */
 enum { WAVE_MAX = 256 };
+_Static_assert(WAVE_MAX <= SPC_EMITTER_MANY_MAX, "a wave's light samples in one call");
 
 /* The octant of d (its three sign bits). */
 static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0.0) << 2; }
@@ -378,9 +379,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             ref[i] = h[i].p;
             u_lpos[i] = u[5 * i + 1];
         }
-        for (int i0 = 0; i0 < nl; i0 += SPC_EMITTER_MANY_MAX)
-            spc_emitter_sample_direct_many(nl - i0 < SPC_EMITTER_MANY_MAX ? nl - i0 : SPC_EMITTER_MANY_MAX, le + i0,
-                                           ref + i0, u_lpos + i0, ds + i0, ds_ok + i0);
+        spc_emitter_sample_direct_many(nl, le, ref, u_lpos, ds, ds_ok);
         for (int i = 0; i < nl; ++i) {
             r[i] = NULL;
             occluded[i] = false;
