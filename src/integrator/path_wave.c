@@ -264,7 +264,7 @@ static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0
 
 /* Lanes in a wave: a tile's camera samples (the driver's 16 x 16 pixels, one pass) at once. Against
  * a wave of 16 lanes (one packet), paired CPU time, one thread (bench/RESULTS.md, part perf23):
- * veach-mis -10%, the cornell box -10%. The vector stages (the sampler's draws, light samples, the
+ * veach-mis -11%, the cornell box -14%. The vector stages (the sampler's draws, light samples, the
  * rough metals' searches) run over more lanes a call, and a step's shadow rays, grouped by octant,
  * fill packets of one octant, which Embree's coherent traversal takes at a lower cost per ray than
  * mixed packets (a replay of the cornell box's shadow rays: 41 -> 28 ns a ray with 256 lanes, 31
