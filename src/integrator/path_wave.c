@@ -352,9 +352,13 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
          * between coincident surfaces in another order than single rays */
         for (int i0 = 0; i0 < nl; i0 += P) {
             const spc_ray *pr[P];
-            for (int j = 0; j < P; ++j)
+            bool any = false;
+            for (int j = 0; j < P; ++j) {
                 pr[j] = i0 + j < nl ? r[i0 + j] : NULL;
-            spc_scene_intersect_packet(ctx->scene, pr, h + i0, hit + i0);
+                any |= pr[j] != NULL;
+            }
+            if (any) /* (a packet of camera samples has its hits already) */
+                spc_scene_intersect_packet(ctx->scene, pr, h + i0, hit + i0);
         }
         for (int i = 0; i < nl; ++i) {
             if (ln[i].path >= 0 && ln[i].camera_hit) {
