@@ -407,6 +407,54 @@ TEST(coherent_packets_match_single_rays)
     spc_scene_destroy(sc);
 }
 
+/* Shadow packets whose rays share an octant, by Embree's coherent traversal
+ * (spc_scene_occluded_light_packet_coherent, the packet path tracer's shadow rays), answer as single
+ * rays do: segments between random points inside and outside a closed mesh, some lanes inactive,
+ * each packet's directions turned into one octant (sign flips of the components). */
+TEST(octant_shadow_packets_match_single_rays)
+{
+    spc_vec3 c;
+    spc_scene *sc = closed_sphere_scene(24, 37, &c, false);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_rng rng;
+    spc_rng_seed(&rng, 5, 13);
+    int lanes = 0, occluded = 0, differs = 0;
+    for (int s = 0; s < 2000; ++s) {
+        const int oct = s % 8;
+        spc_ray pr[SPC_SCENE_PACKET];
+        const spc_ray *rp[SPC_SCENE_PACKET];
+        const spc_emitter *le[SPC_SCENE_PACKET];
+        for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
+            spc_vec3 o = spc_madd(c, centred_draw(&rng), (s / 8) % 2 ? 0.8 : 4.0);
+            spc_vec3 d = centred_draw(&rng);
+            d = spc_v3((oct & 1) ? -fabs(d.x) : fabs(d.x), (oct & 2) ? -fabs(d.y) : fabs(d.y),
+                       (oct & 4) ? -fabs(d.z) : fabs(d.z));
+            double len = spc_length(d);
+            pr[i] = (spc_ray){o, spc_scale(d, 1.0 / len), 0.0, 5.0 * len};
+            rp[i] = (s + i) % 5 == 0 ? NULL : &pr[i];
+            le[i] = NULL;
+        }
+        bool occ[SPC_SCENE_PACKET];
+        spc_scene_occluded_light_packet_coherent(sc, rp, le, occ);
+        for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
+            if (!rp[i]) {
+                differs += occ[i];
+                continue;
+            }
+            ++lanes;
+            bool single = spc_scene_occluded_light(sc, rp[i], NULL);
+            occluded += single;
+            differs += single != occ[i];
+        }
+    }
+    printf("  %d lanes (%d occluded): %d answers differ from single rays\n", lanes, occluded, differs);
+    CHECK(lanes > 20000 && occluded > 5000 && occluded < lanes - 5000);
+    CHECK(differs == 0);
+    spc_scene_destroy(sc);
+}
+
 /* spc_scene_trace's answer, filled with spc_shape_fill_hit (as the chains fill their hits), is
  * spc_scene_intersect's record byte for byte, and a miss is an answer of shape -1: rays from outside
  * and inside a closed mesh, some of which miss it. */
@@ -456,6 +504,7 @@ int main(void)
     RUN(closed_mesh_cracks_are_rare);
     RUN(fast_traversal_only_when_asked);
     RUN(coherent_packets_match_single_rays);
+    RUN(octant_shadow_packets_match_single_rays);
     RUN(single_trace_matches_intersect);
     return spc_test_finish();
 }

@@ -54,6 +54,10 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
 /* spc_accel_occluded_skip per lane (skip[i] for lane i); skip NULL: spc_accel_occluded_packet. */
 void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                     const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET]);
+/* spc_accel_occluded_packet_skip for rays whose directions share their signs (one octant): Embree's
+ * coherent traversal, the same answers */
+void spc_accel_occluded_packet_skip_coherent(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                             const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET]);
 /* Benchmark support: traces n rays with bare rtcIntersect1 calls (no hit records, no double
  * precision user geometry bookkeeping beyond what Embree calls) and returns how many hit. Not
  * counted in spc_accel_rays_traced. */

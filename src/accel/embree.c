@@ -592,11 +592,14 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
     spc_accel_occluded_packet_skip(a, r, NULL, occluded);
 }
 
-void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
-                                    const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET])
+/* spc_accel_occluded_packet_skip with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*) */
+static void occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                            const int skip[SPC_ACCEL_PACKET], enum RTCIntersectContextFlags flags,
+                            bool occluded[SPC_ACCEL_PACKET])
 {
     ctx_ext cx;
     rtcInitIntersectContext(&cx.ctx);
+    cx.ctx.flags = flags;
     cx.rays = r;
     cx.sc = a->sc;
     _Alignas(64) struct RTCRay16 er;
@@ -622,4 +625,16 @@ void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[S
     rtcOccluded16(valid, a->scene, &cx.ctx, &er);
     for (int i = 0; i < SPC_ACCEL_PACKET; ++i)
         occluded[i] = (valid[i] != 0) & (er.tfar[i] < 0.0f);
+}
+
+void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                    const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET])
+{
+    occluded_packet(a, r, skip, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, occluded);
+}
+
+void spc_accel_occluded_packet_skip_coherent(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
+                                             const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET])
+{
+    occluded_packet(a, r, skip, RTC_INTERSECT_CONTEXT_FLAG_COHERENT, occluded);
 }

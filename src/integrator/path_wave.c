@@ -2,25 +2,30 @@
  * integrator/path_wave.c: path.c's plain path tracer (path with specular NEE off, ipt) run over many
  * camera samples at once, their rays traced in packets (path_wave.h).
  *
- * A wave holds SPC_SCENE_PACKET lanes, each one path. One step of the wave traces every live lane's
- * ray as one packet (spc_scene_intersect_packet); each lane then takes what path.c does at the hit
- * up to its light sample (emission, depth, strict normals, next-event estimation's light point);
- * the shadow rays go out as one packet (spc_scene_occluded_light_packet); the lanes' BSDFs are sampled
- * together (the diffuse ones' warps in one call, the others in spc_bsdf_sample_dir_many, where rough
- * metals share their visible-normal searches); each lane adds its light sample's contribution, takes
- * its BSDF sample and plays Russian roulette. A lane whose path ends stores the estimate and takes
- * the next camera sample, so the packets stay full until the samples run out;
- * except where max_depth ends every path before Russian roulette starts (wave_lockstep): there the
- * wave takes W samples at once and the next W when all of them have ended.
+ * A wave holds up to WAVE_MAX lanes (a tile's camera samples), each one path. One step of the wave
+ * traces every live lane's ray, in packets of SPC_SCENE_PACKET (spc_scene_intersect_packet); each
+ * lane then takes what path.c does at the hit up to its light sample (emission, depth, strict normals,
+ * next-event estimation's light point); the shadow rays go out in packets whose rays share an
+ * octant, by Embree's coherent traversal (spc_scene_occluded_light_packet_coherent); the lanes'
+ * BSDFs are sampled together (the diffuse ones' warps in one call, the others in
+ * spc_bsdf_sample_dir_many, where rough metals share their visible-normal searches); each lane adds
+ * its light sample's contribution, takes its BSDF sample and plays Russian roulette. A lane whose
+ * path ends stores the estimate and takes the next camera sample while there is one; the live lanes
+ * are then packed to the front, so the steps of the wave's last long paths cost what those paths
+ * need. Where max_depth ends every path before Russian roulette starts (wave_lockstep) the wave
+ * takes W samples at once and the next W when all of them have ended.
  *
  * Every lane draws its sampler dimensions in path.c's order (the live lanes' pairs of a stage at
- * once, spc_sampler_draw_many: the same values) and computes path.c's expressions in path.c's order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on
- * whole images). The light sample's MIS weight is computed after the shadow ray, as path.c does, so
- * occluded samples do not pay for the BSDF's pdf.
+ * once, spc_sampler_draw_many: the same values) and computes path.c's expressions in path.c's
+ * order, so each estimate is bit for bit spc_path_sample's (test_path_wave checks it on whole
+ * images); which lanes share a packet changes no answer. The light sample's MIS weight is computed
+ * after the shadow ray, as path.c does, so occluded samples do not pay for the BSDF's pdf.
  */
 #include "integrator/path_wave.h"
 
 #include <stdatomic.h>
+#include <stddef.h>
+#include <string.h>
 
 #include "bsdf/diffuse_view.h"
 #include "integrator/aov.h"
@@ -39,7 +44,9 @@ typedef struct lane {
     int segments; /* the path's segments once ray is traced */
     bool camera_hit; /* ray is the camera ray, already traced: its hit waits in the wave's record */
     bool camera_ok;  /* then: it hit something */
-    /* the light sample at the current vertex, waiting for its shadow ray */
+    /* the fields from here on are a step's own (the light sample at the current vertex, waiting for
+     * its shadow ray, and the vertex's BSDF view), dead between steps: a lane moved to another
+     * place between steps takes the fields above (lane_move) */
     bool shadow;
     spc_ray sr;
     spc_rgb f, Le;
@@ -51,6 +58,9 @@ typedef struct lane {
     bool diffuse;
     spc_diffuse_view dv;
 } lane;
+
+/* Lane `from`'s path into lane `to`, between two steps (the fields a step rewrites are left). */
+static void lane_move(lane *to, const lane *from) { memcpy(to, from, offsetof(lane, shadow)); }
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
 
@@ -252,52 +262,105 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
  * cornell box's max_depth 30) lockstep left packets nearly empty and cost +3%. */
 static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0 && ctx->max_depth <= ctx->rr_depth; }
 
+/* Lanes in a wave: a tile's camera samples (the driver's 16 x 16 pixels, one pass) at once. Against
+ * a wave of 16 lanes (one packet), paired CPU time, one thread (bench/RESULTS.md, part perf23):
+ * veach-mis -11%, the cornell box -14%. The vector stages (the sampler's draws, light samples, the
+ * rough metals' searches) run over more lanes a call, and a step's shadow rays, grouped by octant,
+ * fill packets of one octant, which Embree's coherent traversal takes at a lower cost per ray than
+ * mixed packets (a replay of the cornell box's shadow rays: 41 -> 28 ns a ray with 256 lanes, 31
+ * with 128, 37 with 64). Extension rays stay in Embree's incoherent traversal: its coherent one
+ * breaks ties between coincident surfaces (scenes/mask_null.xml) in another order than single rays,
+ * so the images would no longer be path.c's. The per-lane arrays take about 1.1 KB a lane, 290 KB
+ * of the thread's stack. */
+enum { WAVE_MAX = 256 };
+_Static_assert(WAVE_MAX <= SPC_EMITTER_MANY_MAX, "a wave's light samples in one call");
+
+/* The octant of d (its three sign bits). */
+static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0.0) << 2; }
+
+/* The rays r[0..w) (NULL: none) grouped by their directions' octants in packets of up to
+ * SPC_SCENE_PACKET lanes of one octant: pk[k] the lane of packet slot k (-1: an idle slot). Returns
+ * the packets. */
+static int octant_packets(int w, const spc_ray *const *r, int *pk)
+{
+    enum { P = SPC_SCENE_PACKET };
+    int count[8] = {0};
+    unsigned char key[WAVE_MAX];
+    for (int i = 0; i < w; ++i)
+        if (r[i])
+            ++count[key[i] = (unsigned char)octant(r[i]->d)];
+    int start[8], np = 0;
+    for (int k = 0; k < 8; ++k) {
+        start[k] = np * P;
+        np += (count[k] + P - 1) / P;
+        /* the idle slots of the octant's last packet */
+        for (int j = start[k] + count[k]; j < np * P; ++j)
+            pk[j] = -1;
+    }
+    for (int i = 0; i < w; ++i)
+        if (r[i])
+            pk[start[key[i]]++] = i;
+    return np;
+}
+
 void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const spc_ray *rays, spc_sampler *smp,
                           spc_sample_out *out)
 {
     (void)tls; /* plain path tracing splats nothing */
     atomic_fetch_add(&wave_samples, (uint64_t)n);
-    enum { W = SPC_SCENE_PACKET };
-    lane ln[W];
-    spc_hit h[W];
-    bool hit[W], alive[W], occluded[W];
-    const spc_ray *r[W];
-    spc_sampler *ls[W];
-    spc_vec2 u[5 * W];
-    const spc_emitter *le[W];
-    double pmf[W];
-    spc_vec3 ref[W];
-    spc_vec2 u_lpos[W];
-    spc_emitter_direct ds[W];
-    bool ds_ok[W];
-    spc_vec2 u_dir[W];
-    spc_vec3 wl[W], wl_d[W];
-    int dlane[W];
-    const spc_bsdf *sb[W];
-    const spc_hit *sh[W];
-    spc_vec3 swo[W];
-    double su_lobe[W];
-    spc_vec2 su_dir[W];
-    spc_bsdf_sample bs[W];
-    bool bs_ok[W];
-    int sidx[W];
-    int next = 0, live = 0;
+    enum { P = SPC_SCENE_PACKET, W = WAVE_MAX };
+    lane ln[WAVE_MAX];
+    spc_hit h[WAVE_MAX];
+    bool hit[WAVE_MAX], alive[WAVE_MAX], occluded[WAVE_MAX];
+    const spc_ray *r[WAVE_MAX];
+    spc_sampler *ls[WAVE_MAX];
+    spc_vec2 u[5 * WAVE_MAX];
+    const spc_emitter *le[WAVE_MAX];
+    double pmf[WAVE_MAX];
+    spc_vec3 ref[WAVE_MAX];
+    spc_vec2 u_lpos[WAVE_MAX];
+    spc_emitter_direct ds[WAVE_MAX];
+    bool ds_ok[WAVE_MAX];
+    spc_vec2 u_dir[WAVE_MAX];
+    spc_vec3 wl[WAVE_MAX], wl_d[WAVE_MAX];
+    int dlane[WAVE_MAX];
+    const spc_bsdf *sb[WAVE_MAX];
+    const spc_hit *sh[WAVE_MAX];
+    spc_vec3 swo[WAVE_MAX];
+    double su_lobe[WAVE_MAX];
+    spc_vec2 su_dir[WAVE_MAX];
+    spc_bsdf_sample bs[WAVE_MAX];
+    bool bs_ok[WAVE_MAX];
+    int sidx[WAVE_MAX];
+    int pk[WAVE_MAX + 8 * P];
+    int next = 0, live = 0, np;
+    int nl = 0; /* the lanes in use, [0, nl): live lanes are kept packed at the front */
     const bool lockstep = wave_lockstep(ctx);
     camera_hits ch;
     ch.group = -1;
-    for (int i = 0; i < W; ++i)
-        ln[i].path = -1;
     while (live > 0 || next < n) {
         if (live == 0) /* the first samples, or in lockstep the next W */
-            for (int i = 0; i < W && next < n; ++i) {
-                lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
+            for (nl = 0; nl < W && next < n; ++nl) {
+                lane_take(ctx, &ln[nl], &h[nl], next, n, rays, &out[next], &ch);
                 ++next;
                 ++live;
             }
-        for (int i = 0; i < W; ++i)
+        for (int i = 0; i < nl; ++i)
             r[i] = ln[i].path >= 0 && !ln[i].camera_hit ? &ln[i].ray : NULL;
-        spc_scene_intersect_packet(ctx->scene, r, h, hit);
-        for (int i = 0; i < W; ++i) {
+        /* the lanes' rays in packets of consecutive lanes (the live lanes are packed; a lane whose
+         * camera hit waits has none), by Embree's incoherent traversal: its coherent one breaks ties
+         * between coincident surfaces in another order than single rays */
+        for (int i0 = 0; i0 < nl; i0 += P) {
+            const spc_ray *pr[P];
+            bool any = false;
+            for (int j = 0; j < P; ++j) {
+                pr[j] = i0 + j < nl ? r[i0 + j] : NULL;
+                any |= pr[j] != NULL;
+            }
+            if (any) /* (a packet of camera samples has its hits already) */
+                spc_scene_intersect_packet(ctx->scene, pr, h + i0, hit + i0);
+        }
+        for (int i = 0; i < nl; ++i) {
             if (ln[i].path >= 0 && ln[i].camera_hit) {
                 hit[i] = ln[i].camera_ok;
                 ln[i].camera_hit = false;
@@ -309,10 +372,10 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
          * estimation's (u_light, u_lpos), then BSDF sampling's (u_lobe, u_dir, u_rr); u_light, u_lobe
          * and u_rr are 1D (path.c's spc_sampler_1d: their pairs' y are not computed). Nothing
          * between the two stages draws from the lanes' streams. */
-        spc_sampler_draw_many(ls, W, 5, 0xAu, u);
+        spc_sampler_draw_many(ls, nl, 5, 0xAu, u);
         /* the lights chosen, then every lane's light sample in one call (lanes of mesh lights share
          * vector instructions, emitter/area_many.c) */
-        for (int i = 0; i < W; ++i) {
+        for (int i = 0; i < nl; ++i) {
             le[i] = NULL;
             if (!alive[i])
                 continue;
@@ -320,21 +383,38 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             ref[i] = h[i].p;
             u_lpos[i] = u[5 * i + 1];
         }
-        spc_emitter_sample_direct_many(W, le, ref, u_lpos, ds, ds_ok);
-        for (int i = 0; i < W; ++i) {
+        spc_emitter_sample_direct_many(nl, le, ref, u_lpos, ds, ds_ok);
+        for (int i = 0; i < nl; ++i) {
             r[i] = NULL;
+            occluded[i] = false;
             if (!alive[i])
                 continue;
             lane_light(ctx, &ln[i], &h[i], pmf[i], le[i] && ds_ok[i], &ds[i]);
             if (ln[i].shadow)
                 r[i] = &ln[i].sr;
         }
-        spc_scene_occluded_light_packet(ctx->scene, r, le, occluded);
+        /* the shadow rays in packets of one octant each, by Embree's coherent traversal (the same
+         * answers: whether anything lies between two points has no ties to break) */
+        np = octant_packets(nl, r, pk);
+        for (int p = 0; p < np; ++p) {
+            const spc_ray *pr[P];
+            const spc_emitter *pe[P];
+            bool po[P];
+            for (int j = 0; j < P; ++j) {
+                int i = pk[p * P + j];
+                pr[j] = i >= 0 ? r[i] : NULL;
+                pe[j] = i >= 0 ? le[i] : NULL;
+            }
+            spc_scene_occluded_light_packet_coherent(ctx->scene, pr, pe, po);
+            for (int j = 0; j < P; ++j)
+                if (pk[p * P + j] >= 0)
+                    occluded[pk[p * P + j]] = po[j];
+        }
         /* the diffuse lanes' directions, warped together (core/warp_many.c); the other live lanes'
          * BSDF samples in one call (rough metals share their visible-normal searches, bsdf.h), lane
          * i's in bs[sidx[i]] */
         int nd = 0, ns = 0;
-        for (int i = 0; i < W; ++i) {
+        for (int i = 0; i < nl; ++i) {
             if (!alive[i])
                 continue;
             if (ln[i].diffuse) {
@@ -353,7 +433,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         for (int j = 0; j < nd; ++j)
             wl[dlane[j]] = wl_d[j];
         spc_bsdf_sample_dir_many(ns, sb, sh, SPC_MODE_RADIANCE, swo, su_lobe, su_dir, bs, bs_ok);
-        for (int i = 0; i < W; ++i) {
+        for (int i = 0; i < nl; ++i) {
             if (ln[i].path < 0)
                 continue;
             const bool diffuse = alive[i] && ln[i].diffuse;
@@ -368,6 +448,20 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
                 ++next;
                 ++live;
+            }
+        }
+        /* the live lanes packed to the front, so that the steps of a wave's last paths do not walk
+         * its ended lanes: each ended lane's place taken by the last lane (a lane's state is ln[i],
+         * and h[i] where its camera hit waits) */
+        for (int i = 0; i < nl;) {
+            if (ln[i].path >= 0) {
+                ++i;
+                continue;
+            }
+            if (i != --nl) {
+                lane_move(&ln[i], &ln[nl]);
+                if (ln[i].camera_hit)
+                    h[i] = h[nl];
             }
         }
     }

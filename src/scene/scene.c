@@ -437,6 +437,16 @@ bool spc_scene_occluded_light(const spc_scene *s, const spc_ray *r, const spc_em
     return spc_accel_occluded_skip(s->accel, r, spc_scene_light_skip(e));
 }
 
+void spc_scene_occluded_light_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                                              const spc_emitter *const e[SPC_SCENE_PACKET],
+                                              bool occluded[SPC_SCENE_PACKET])
+{
+    int skip[SPC_SCENE_PACKET];
+    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+        skip[i] = r[i] ? spc_scene_light_skip(e[i]) : -1;
+    spc_accel_occluded_packet_skip_coherent(s->accel, r, skip, occluded);
+}
+
 void spc_scene_occluded_light_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                      const spc_emitter *const e[SPC_SCENE_PACKET], bool occluded[SPC_SCENE_PACKET])
 {

@@ -242,6 +242,11 @@ static inline int spc_scene_light_skip(const spc_emitter *e)
 /* spc_scene_occluded_light per lane: e[i] the emitter that sampled lane i's point (NULL: none). */
 void spc_scene_occluded_light_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                      const spc_emitter *const e[SPC_SCENE_PACKET], bool occluded[SPC_SCENE_PACKET]);
+/* spc_scene_occluded_light_packet for rays whose directions share their signs (one octant), by
+ * Embree's coherent traversal: the same answers. */
+void spc_scene_occluded_light_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
+                                              const spc_emitter *const e[SPC_SCENE_PACKET],
+                                              bool occluded[SPC_SCENE_PACKET]);
 
 /* Picks an emitter in proportion to power; *pmf receives its probability. NULL if none. */
 const spc_emitter *spc_scene_sample_emitter(const spc_scene *s, double u, double *pmf);
