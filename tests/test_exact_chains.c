@@ -26,6 +26,8 @@
  *   model are refused; its roots against a dense Newton search on Snell's law (or the mirror law)
  *   with the modelled normal, the normal the BSDF turns toward a grazing viewer included; and in
  *   scenes, every chain randomized attempts find is enumerated.
+ * - roots1d itself on a cubic: a root is kept where the target is ahead of it and dropped where it
+ *   is behind, and no point is evaluated twice.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -38,6 +40,7 @@
 #include "manifold/specular_nee.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/plane_chains.h"
+#include "manifold/roots1d.h"
 #include "manifold/sphere_chains.h"
 #include "manifold/sphere_roots.h"
 #include "render_util.h"
@@ -189,6 +192,59 @@ TEST(planar_roots_near_the_sphere)
     int dense = 0;
     planar_dense(1500, true, true, &dense);
     CHECK(dense > 500);
+}
+
+/* roots1d (roots1d.h) on f(t) = t^3 + t / 2 - k, ahead(t) = t - a: the root is kept where the target
+ * is ahead at it and dropped where it is behind, to the tolerance; and no t is evaluated twice (a
+ * root's ahead test reads the value the refinement kept at its bracket's end). */
+typedef struct cubic_ctx {
+    double k, a;
+    double seen[512];
+    int n, twice;
+} cubic_ctx;
+
+static bool cubic_fn(const void *ctx, double t, double *f, double *ahead, double *ang)
+{
+    cubic_ctx *c = (cubic_ctx *)ctx;
+    for (int i = 0; i < c->n; ++i)
+        c->twice += c->seen[i] == t;
+    if (c->n < 512)
+        c->seen[c->n++] = t;
+    *f = t * t * t + 0.5 * t - c->k;
+    *ahead = t - c->a;
+    if (ang)
+        ang[0] = 0.0;
+    return true;
+}
+
+TEST(roots1d_ahead_read_at_the_root)
+{
+    enum { G = 8 };
+    int kept = 0, dropped = 0;
+    for (int i = 0; i < 40; ++i) {
+        cubic_ctx c = {.k = -0.7 + 1.4 * (i + 0.37) / 40.0, .a = (i % 2) ? -2.0 : 2.0};
+        double t[G + 1], f[G + 1], ah[G + 1], ang[G + 1][SPC_ROOTS1D_MAX_ANGLES] = {{0}};
+        bool ok[G + 1];
+        for (int j = 0; j <= G; ++j) {
+            t[j] = -1.0 + 2.0 * j / G;
+            f[j] = t[j] * t[j] * t[j] + 0.5 * t[j] - c.k;
+            ah[j] = t[j] - c.a;
+            ok[j] = true;
+        }
+        double roots[4];
+        int n = spc_roots1d(cubic_fn, NULL, &c, t, f, ah, &ang[0][0], 1, ok, G, NULL, 1e-12, roots, 4);
+        CHECK(c.twice == 0);
+        if (c.a < 0.0) {
+            CHECK(n == 1);
+            if (n == 1)
+                CHECK(fabs(roots[0] * roots[0] * roots[0] + 0.5 * roots[0] - c.k) < 1e-11);
+            kept += n;
+        } else {
+            CHECK(n == 0);
+            dropped += n == 0;
+        }
+    }
+    printf("  %d roots kept, %d dropped (target behind)\n", kept, dropped);
 }
 
 /* Every signature solved in one call (spc_sphere_chain_roots_all, whose signatures share the grid
@@ -1001,6 +1057,7 @@ int main(void)
     RUN(planar_roots_near_the_sphere);
     RUN(reflection_roots_against_dense_scan);
     RUN(sphere_signatures_together_same_as_alone);
+    RUN(roots1d_ahead_read_at_the_root);
     RUN(sphere_chains_contain_randomized_solutions);
     RUN(cylinder_roots_against_dense_scan);
     RUN(cylinder_chains_contain_randomized_solutions);

@@ -19,11 +19,13 @@
 /* Regula falsi on [*a, *b] (f of opposite signs at the ends) until the bracket is narrower than
  * tol, with the Anderson-Bjorck scaling of the end that stays twice in a row (Anderson and Bjorck
  * 1973: its value times 1 - fc / fb, or a half where that is not positive, the Illinois factor):
- * on the glass ball's render 12% fewer evaluations than the Illinois halving alone (callgrind). */
-static void regula_falsi(spc_roots1d_fn fn, const void *ctx, double *pa, double *pfa, double *pb, double *pfb,
-                         double tol)
+ * on the glass ball's render 12% fewer evaluations than the Illinois halving alone (callgrind).
+ * *pha, *phb: fn's "ahead" at the ends, kept with them (the scaling changes *pfa and *pfb, never
+ * the ends' ahead), so that the caller's test of a root at an end needs no evaluation. */
+static void regula_falsi(spc_roots1d_fn fn, const void *ctx, double *pa, double *pfa, double *pha, double *pb,
+                         double *pfb, double *phb, double tol)
 {
-    double a = *pa, fa = *pfa, b = *pb, fb = *pfb;
+    double a = *pa, fa = *pfa, ha = *pha, b = *pb, fb = *pfb, hb = *phb;
     int side = 0;
     for (int it = 0; it < 100 && fabs(b - a) > tol; ++it) {
         double c = (a * fb - b * fa) / (fb - fa);
@@ -35,6 +37,7 @@ static void regula_falsi(spc_roots1d_fn fn, const void *ctx, double *pa, double 
         if (fc == 0.0) {
             a = b = c;
             fa = fb = 0.0;
+            ha = hb = ahead;
             break;
         }
         if ((fc > 0.0) == (fb > 0.0)) {
@@ -44,6 +47,7 @@ static void regula_falsi(spc_roots1d_fn fn, const void *ctx, double *pa, double 
             }
             b = c;
             fb = fc;
+            hb = ahead;
             side = -1;
         } else {
             if (side == 1) {
@@ -52,29 +56,34 @@ static void regula_falsi(spc_roots1d_fn fn, const void *ctx, double *pa, double 
             }
             a = c;
             fa = fc;
+            ha = ahead;
             side = 1;
         }
     }
     *pa = a;
     *pfa = fa;
+    *pha = ha;
     *pb = b;
     *pfb = fb;
+    *phb = hb;
 }
 
-/* The root of f in [a, b] (fa, fb of opposite signs, both defined) added to theta: refined to
- * SPC_ROOTS1D_COARSE, then dropped if y is behind the chain or accept (if any) refuses it, else
- * refined to tol; kept unless within 1e-10 of a root kept before. */
-static void add_root(spc_roots1d_fn fn, spc_roots1d_accept accept, const void *ctx, double a, double fa, double b,
-                     double fb, double tol, double *theta, int *n, int max_roots)
+/* The root of f in [a, b] (fa, fb of opposite signs, both defined; ha, hb fn's "ahead" there) added
+ * to theta: refined to SPC_ROOTS1D_COARSE, then dropped if y is behind the chain (ahead at the end
+ * kept, which regula_falsi evaluated there) or accept (if any) refuses it, else refined to tol; kept
+ * unless within 1e-10 of a root kept before. */
+static void add_root(spc_roots1d_fn fn, spc_roots1d_accept accept, const void *ctx, double a, double fa, double ha,
+                     double b, double fb, double hb, double tol, double *theta, int *n, int max_roots)
 {
     if (*n >= max_roots)
         return;
-    regula_falsi(fn, ctx, &a, &fa, &b, &fb, tol > SPC_ROOTS1D_COARSE ? tol : SPC_ROOTS1D_COARSE);
-    double th = fabs(fa) < fabs(fb) ? a : b, f, ahead;
-    if (!fn(ctx, th, &f, &ahead, NULL) || !(ahead > 0.0) || (accept && !accept(ctx, th)))
+    regula_falsi(fn, ctx, &a, &fa, &ha, &b, &fb, &hb, tol > SPC_ROOTS1D_COARSE ? tol : SPC_ROOTS1D_COARSE);
+    bool at_a = fabs(fa) < fabs(fb);
+    double th = at_a ? a : b, ahead = at_a ? ha : hb;
+    if (!(ahead > 0.0) || (accept && !accept(ctx, th)))
         return;
     if (tol < SPC_ROOTS1D_COARSE && fa != 0.0 && fb != 0.0) {
-        regula_falsi(fn, ctx, &a, &fa, &b, &fb, tol);
+        regula_falsi(fn, ctx, &a, &fa, &ha, &b, &fb, &hb, tol);
         th = fabs(fa) < fabs(fb) ? a : b;
     }
     for (int i = 0; i < *n; ++i)
@@ -185,7 +194,7 @@ int spc_roots1d(spc_roots1d_fn fn, spc_roots1d_accept accept, const void *ctx, c
         if (f[j] == 0.0)
             add_exact(fn, accept, ctx, th[j], theta, &n, max_roots);
         else if ((f[j] > 0.0) != (f[j + 1] > 0.0) && f[j + 1] != 0.0)
-            add_root(fn, accept, ctx, th[j], f[j], th[j + 1], f[j + 1], tol, theta, &n, max_roots);
+            add_root(fn, accept, ctx, th[j], f[j], S.a[j], th[j + 1], f[j + 1], S.a[j + 1], tol, theta, &n, max_roots);
     }
     if (ok[last] && f[last] == 0.0)
         add_exact(fn, accept, ctx, th[last], theta, &n, max_roots);
@@ -215,7 +224,7 @@ int spc_roots1d(spc_roots1d_fn fn, spc_roots1d_accept accept, const void *ctx, c
          * sections where the parabola is no help), stopped as soon as f changes sign */
         double a = th[j - 1], b = th[j], c = th[j + 1];
         double fa = s * f[j - 1], fb = s * f[j], fc = s * f[j + 1];
-        double tm = b, fm = fb;
+        double hb = S.a[j], tm = b, fm = fb, hm = hb; /* hb, hm: ahead at b and tm */
         for (int it = 0; it < 40 && fm > 0.0; ++it) {
             double p1 = (b - a) * (fb - fc), p2 = (b - c) * (fb - fa);
             double den = 2.0 * (p1 - p2), t = b - ((b - a) * p1 - (b - c) * p2) / den;
@@ -238,6 +247,7 @@ int spc_roots1d(spc_roots1d_fn fn, spc_roots1d_accept accept, const void *ctx, c
                 }
                 b = t;
                 fb = ft;
+                hb = ahead;
             } else if (t < b) {
                 a = t;
                 fa = ft;
@@ -247,14 +257,15 @@ int spc_roots1d(spc_roots1d_fn fn, spc_roots1d_accept accept, const void *ctx, c
             }
             tm = b;
             fm = fb;
+            hm = hb;
             if (c - a < tol)
                 break;
         }
         if (!(fm < 0.0))
             continue; /* the extremum does not cross zero (or touches it: a double root, measure zero) */
         fm *= s;
-        add_root(fn, accept, ctx, th[j - 1], f[j - 1], tm, fm, tol, theta, &n, max_roots);
-        add_root(fn, accept, ctx, tm, fm, th[j + 1], f[j + 1], tol, theta, &n, max_roots);
+        add_root(fn, accept, ctx, th[j - 1], f[j - 1], S.a[j - 1], tm, fm, hm, tol, theta, &n, max_roots);
+        add_root(fn, accept, ctx, tm, fm, hm, th[j + 1], f[j + 1], S.a[j + 1], tol, theta, &n, max_roots);
     }
     return n;
 }
