@@ -13,6 +13,15 @@ every seed then renders the samples per pixel that take --cpu CPU seconds (user 
 threads), so path and bdpt get equal CPU
 time however the machine's cores are shared; the table gives the CPU seconds actually used.
 
+--ref-pool CPU pools the Mitsuba reference with a specula path and a specula bdpt render of CPU
+seconds each (seeds 9001 and 9002, not the bench's; cached in --refs) for the relMSE figures: the
+three images are averaged with one weight per image, inversely proportional to its image-wide
+relative variance (var / (ref^2 + 0.01), mean over pixels), so the weights do not follow any
+pixel's own noise and the pooled mean stays unbiased; its variance of the mean is the weighted sum
+of the three. A reference whose own error is a fraction of the renders' keeps it from moving the
+path / bdpt ratio. The z-test is always against the Mitsuba reference alone (an independent
+renderer, so a bias shared by specula's integrators still shows).
+
 --snee SPEC renders both integrators with --specular-nee SPEC (e.g. angular:camera);
 --bdpt-snee SPEC only bdpt (path keeps its default, the scene's plan). --bdpt-pool M renders bdpt
 with connections to M light vertices from the pass's pool (integrator/bdpt_pool.h). --integrators picks which
@@ -58,6 +67,31 @@ def read_exr(path):
 
 def read_rgb(path):
     return read_exr(path)[:, :, :3]
+
+
+def read_mean_var(path):
+    """(mean RGB, variance-of-the-mean RGB) of an EXR written with variance channels (Mitsuba's
+    reference or specula's --variance), found by channel name."""
+    import mitsuba as mi
+
+    mi.set_variant("scalar_rgb")
+    b = mi.Bitmap(path)
+    names = [f.name for f in b.struct_()]
+    px = np.array(b, dtype=np.float64)
+    idx = lambda keys: [names.index(k) for k in keys]
+    return px[:, :, idx(["R", "G", "B"])], px[:, :, idx(["variance.R", "variance.G", "variance.B"])]
+
+
+def pool_reference(parts):
+    """One weight per image, inversely proportional to its image-wide relative variance (a constant
+    per image, not per pixel, so the pooled mean is unbiased); returns the pooled mean, its variance
+    of the mean and the weights."""
+    base = parts[0][0]
+    rel = np.array([(v / (base ** 2 + 0.01)).mean() for _, v in parts])
+    w = (1.0 / rel) / (1.0 / rel).sum()
+    mean = sum(wi * m for wi, (m, _) in zip(w, parts))
+    var = sum(wi * wi * v for wi, (_, v) in zip(w, parts))
+    return mean, var, w
 
 
 def cpu_children():
@@ -116,6 +150,7 @@ def main():
     ap.add_argument("--bdpt-snee", default="")
     ap.add_argument("--integrators", default="path,bdpt")
     ap.add_argument("--bdpt-pool", type=int, default=0)
+    ap.add_argument("--ref-pool", type=float, default=0.0)
     a = ap.parse_args()
     os.makedirs(a.refs, exist_ok=True)
     os.makedirs(a.out, exist_ok=True)
@@ -133,20 +168,39 @@ def main():
             subprocess.run([sys.executable, os.path.join(ROOT, "tests/validation/mitsuba_ref.py"), scene, ref_path,
                             "--spp", str(a.mitsuba_spp), "--passes", "32", "--variant", "llvm_ad_rgb",
                             "-D", "integrator=path"] + [x for d in defs for x in ("-D", d)], check=True, env=env)
-        ref_all = read_exr(ref_path)
-        ref, ref_var = ref_all[:, :, :3], ref_all[:, :, 3:6]
-        print(f"  {name}: reference's own relMSE (its variance of the mean) "
+        ref, ref_var = read_mean_var(ref_path)
+        mref, mref_var = ref, ref_var
+        print(f"  {name}: Mitsuba reference's own relMSE (its variance of the mean) "
               f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
-        means = {}
-        for it in a.integrators.split(","):
+
+        def calibrate(it, budget):
             # two calibration renders, so that a fixed cost per render (bdpt's pool pilot) is not
             # spread over the samples: CPU(spp) = fixed + spp * per_sample
             cal = 64
             c1 = render(a, scene, defs, it, cal, 100, os.path.join(a.out, "cal.exr"))
             c2 = render(a, scene, defs, it, 2 * cal, 100, os.path.join(a.out, "cal.exr"))
             per = max((c2 - c1) / cal, 0.5 * c2 / (2 * cal), 1e-6)
-            fixed = min(max(c1 - cal * per, 0.0), 0.5 * a.cpu)
-            spp = max(1, int(round((a.cpu - fixed) / per)))
+            fixed = min(max(c1 - cal * per, 0.0), 0.5 * budget)
+            return max(1, int(round((budget - fixed) / per)))
+
+        if a.ref_pool > 0:
+            parts = [(ref, ref_var)]
+            for k, it in enumerate(("path", "bdpt")):
+                pooled = os.path.join(a.refs, f"{name}_{a.res}_{it}_{a.ref_pool:g}cpu.exr")
+                if not os.path.exists(pooled):
+                    spp = calibrate(it, a.ref_pool)
+                    cpu = render(a, scene, defs, it, spp, 9001 + k, pooled)
+                    print(f"  {name}: reference part {it}, {spp} spp, CPU {cpu:.1f} s", file=sys.stderr)
+                parts.append(read_mean_var(pooled))
+            for (m, v), label in zip(parts, ("mitsuba", "path", "bdpt")):
+                print(f"  {name}: reference part {label}: own relMSE {(v / (ref ** 2 + 0.01)).mean():.3g}",
+                      file=sys.stderr)
+            ref, ref_var, w = pool_reference(parts)
+            print(f"  {name}: pooled reference (weights {', '.join(f'{x:.3f}' for x in w)}): own relMSE "
+                  f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
+        means, means_m = {}, {}
+        for it in a.integrators.split(","):
+            spp = calibrate(it, a.cpu)
             rows = []
             for seed in range(1, a.seeds + 1):
                 sn = snee_of(a, it)
@@ -155,13 +209,20 @@ def main():
                 cpu = render(a, scene, defs, it, spp, seed, out)
                 rm, share, wxy = errors(read_rgb(out), ref, ref_var)
                 zp = ztest_pass(a, out, ref_path)
-                rows.append((rm, share, cpu, seed, zp))
+                rm_m = errors(read_rgb(out), mref, mref_var)[0]
+                rows.append((rm, share, cpu, seed, zp, rm_m))
                 print(f"  {name} {it} seed {seed}: spp {spp}, CPU {cpu:.2f} s, relMSE {rm:.4g}, worst pixel "
-                      f"{100 * share:.1f}% at {wxy}, z-test against Mitsuba {100 * zp:.2f}%", file=sys.stderr)
+                      f"{100 * share:.1f}% at {wxy}, z-test against Mitsuba {100 * zp:.2f}%"
+                      + (f", relMSE against Mitsuba alone {rm_m:.4g}" if a.ref_pool > 0 else ""), file=sys.stderr)
+            if a.ref_pool > 0:
+                means_m[it] = np.mean([r[5] for r in rows])
+                print(f"  {name} {it}: mean relMSE against Mitsuba alone {means_m[it]:.4g}"
+                      + (f", path / bdpt {means_m['path'] / means_m['bdpt']:.2f}" if it == "bdpt" and "path" in means_m
+                         else ""), file=sys.stderr)
             rm = np.array([r[0] for r in rows])
             worst = max(rows)
             means[it] = rm.mean()
-            ratio = f"{means['path'] / means['bdpt']:.1f}" if it == "bdpt" and "path" in means else ""
+            ratio = f"{means['path'] / means['bdpt']:.2f}" if it == "bdpt" and "path" in means else ""
             print(f"| {name} | {it} | {spp} | {np.mean([r[2] for r in rows]):.2f} | {rm.mean():.4g} | "
                   f"{worst[0]:.4g} ({worst[3]}) | {100 * max(r[1] for r in rows):.1f}% | "
                   f"{100 * min(r[4] for r in rows):.2f}% | {ratio} |", flush=True)
