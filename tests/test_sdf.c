@@ -471,6 +471,25 @@ TEST(crossings_of_torus)
     spc_sdf_destroy(s);
 }
 
+/* The torus's root finder stops once the polynomial's value is within its rounding error: on a
+ * quartic whose terms cancel (x - 3)^4 - 1e-4 near its root 3.1 (terms ~1e3, slope 4e-3) the
+ * Newton steps end in rounding noise after a few steps; the bracket rule alone bisected on for
+ * dozens more. The root is as accurate either way. */
+TEST(poly_root_stops_at_rounding_level)
+{
+    const double c[5] = {81.0 - 1e-4, -108.0, 54.0, -12.0, 1.0};
+    const double root = 3.0 + pow(1e-4, 0.25);
+    int steps = 0;
+    double x = spc_sdf_poly_root(c, 4, 3.05, 4.0, &steps);
+    CHECK_NEAR(x, root, 1e-9);
+    CHECK(steps <= 12);
+    /* a well-conditioned cubic, (x - 0.5)(x + 2)(x + 3) in [0, 1]: Newton to full precision */
+    const double d[4] = {-3.0, 3.5, 4.5, 1.0};
+    x = spc_sdf_poly_root(d, 3, 0.0, 1.0, &steps);
+    CHECK_NEAR(x, 0.5, 1e-15);
+    CHECK(steps <= 8);
+}
+
 /* The analytic ray-torus crossings against sphere tracing's on random rays through a rotated,
  * scaled and shifted torus: from inside the tube, from outside, and grazing its surface (tangent
  * at a surface point, offset along the normal by 1e-9 to 1e-3 of the size, either side). The first
@@ -1072,6 +1091,7 @@ int main(void)
     RUN(sphere_trace_matches_exact_sphere);
     RUN(rays_from_inside_exit);
     RUN(crossings_of_torus);
+    RUN(poly_root_stops_at_rounding_level);
     RUN(analytic_torus_matches_sphere_tracing);
     RUN(torus_normal_derivatives);
     RUN(crofton_area);

@@ -1034,16 +1034,28 @@ static double poly_eval(const double *c, int deg, double s)
 
 /* The root of polynomial c (degree deg) in the bracket [a, b] where it is monotone and
  * changes sign (fa = c(a)): Newton's method from the middle, bisecting whenever a step leaves the
- * bracket, until the bracket or the step falls below the rounding level. */
-static double poly_root_monotone(const double *c, int deg, double a, double b, double fa)
+ * bracket, until the bracket or the step falls below the rounding level, or c(x) itself does: where
+ * |c(x)| is within the rounding error of its evaluation (4 deg eps sum |c_k| |x|^k) its sign says
+ * nothing more, and the steps that followed only halved the bracket, one bit each. On the SDF
+ * torus's quartics that was 7% of the calls at 11-60 steps, 0.29 of all steps (mean 7.6 steps a
+ * call; stopped at the rounding level 5.6, and 0.1% above 10); the root moves within that level,
+ * far inside the 1e-9 bracket that refine then narrows on the exact distance. *steps gets the
+ * steps run. */
+static double poly_root_monotone(const double *c, int deg, double a, double b, double fa, int *steps)
 {
     double dc[4];
     for (int k = 1; k <= deg; ++k)
         dc[k - 1] = k * c[k];
     double x = 0.5 * (a + b);
     for (int it = 0; it < SDF_TORUS_BISECT; ++it) {
+        *steps = it + 1;
         double fx = poly_eval(c, deg, x);
         if (fx == 0.0)
+            return x;
+        double ax = fabs(x), bound = fabs(c[deg]);
+        for (int k = deg - 1; k >= 0; --k)
+            bound = bound * ax + fabs(c[k]);
+        if (fabs(fx) <= 4.0 * deg * DBL_EPSILON * bound)
             return x;
         if ((fx > 0.0) == (fa > 0.0))
             a = x;
@@ -1060,6 +1072,11 @@ static double poly_root_monotone(const double *c, int deg, double a, double b, d
         x = xn;
     }
     return 0.5 * (a + b);
+}
+
+double spc_sdf_poly_root(const double *c, int deg, double a, double b, int *steps)
+{
+    return poly_root_monotone(c, deg, a, b, poly_eval(c, deg, a), steps);
 }
 
 /* The roots of the polynomial c (degree deg, c[deg] != 0) in (lo, hi), sorted, into out; the pieces
@@ -1091,7 +1108,8 @@ static int poly_roots_in(const double *c, int deg, double lo, double hi, double 
             if (a > lo && (n == 0 || out[n - 1] < a))
                 out[n++] = a;
         } else if (fb != 0.0 && (fa > 0.0) != (fb > 0.0)) {
-            out[n++] = poly_root_monotone(c, deg, a, b, fa);
+            int steps;
+            out[n++] = poly_root_monotone(c, deg, a, b, fa, &steps);
         }
         fa = fb;
     }
@@ -1122,7 +1140,8 @@ static bool torus_next(walker *w, double *t_hit)
             /* narrow the bracket to the quartic's root when f changes sign across it */
             double qa = poly_eval(q, 4, ta - t0), qb = poly_eval(q, 4, tb - t0);
             if (qa != 0.0 && qb != 0.0 && (qa > 0.0) != (qb > 0.0)) {
-                double tq = t0 + poly_root_monotone(q, 4, ta - t0, tb - t0, qa);
+                int steps;
+                double tq = t0 + poly_root_monotone(q, 4, ta - t0, tb - t0, qa, &steps);
                 double dt = SDF_TORUS_BRACKET * w->s->size / w->dl;
                 if (tq - dt > ta && tq + dt < tb) {
                     double fl = ray_f(w, tq - dt), fr = ray_f(w, tq + dt);

@@ -134,6 +134,10 @@ int spc_sdf_crossings(const spc_sdf *s, const spc_ray *r, double *t, int max);
  * refines its brackets. On by default after spc_sdf_finalize; off (on = false), or for any other
  * field, the rays are sphere traced (tests and benchmarks compare the two). */
 void spc_sdf_set_analytic(spc_sdf *s, bool on);
+/* The root in [a, b] of the polynomial c[0] + c[1] x + ... + c[deg] x^deg (deg 1 to 4), which must
+ * be monotone there and change sign, as the analytic torus finds its crossings; *steps gets the
+ * Newton or bisection steps it took (for tests). */
+double spc_sdf_poly_root(const double *c, int deg, double a, double b, int *steps);
 
 /* Surface interaction at a point p on the surface reached by a ray (see shape.c for the surface
  * parameters): fills p (as given), ng, sh, uv, dpdu, dpdv, dndu, dndv, b1 = b2 = 0 and err. */
