@@ -453,7 +453,7 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
     spc_receiver r;
     spc_receiver_surface(&r, j->x2, j->w2);
     unsigned char ev[SPC_CHAIN_MAX_VERTICES];
-    for (int i = 0; i < j->c->n; ++i)
+    for (int i = 0; i < j->c->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
         ev[i] = j->c->v[i].event;
     spc_hit lh;
     memset(&lh, 0, sizeof lh);
