@@ -112,8 +112,8 @@ static double shortest_segment(const spc_chain *c, spc_vec3 x)
 
 /* From the floor point (px, pz), BSDF paths until `want` of them reach the light through k >= 3
  * vertices that covers accepts: the value of those the roots miss over the value of all, per k. */
-static void missed_share(const spc_scene *sc, double px, double pz, int want, double *missed, double *all,
-                         int *found, int *lost, int *edge)
+static void missed_share(const spc_scene *sc, double px, double pz, int want, double *missed, double *all, int *found,
+                         int *lost, int *edge)
 {
     spc_ray down = {spc_v3(px, 0.01, pz), spc_v3(0, -1, 0), 0, INFINITY};
     spc_hit x;
