@@ -15,10 +15,8 @@
  * - with a larger light (radius 0.3, the same power) and a share of 0.02, where specular NEE's
  *   density times the share is near the BSDF's (weights near 1/2: a share left out of either side
  *   moves the sum by about a sixth), specular NEE plus the BSDF-sampled paths it covers, weighted,
- *   agree with BSDF sampling alone: |z| < 4. (The enumeration misses about a fifth of the
- *   five-vertex chains' light at this point, whose MIS weight credits it to specular NEE: at this
- *   share that pulls z by about -1; at a share of 1, by about -3. Measured in bench/RESULTS.md,
- *   "The 5- and 6-vertex flat chains left to BSDF sampling".)
+ *   agree with BSDF sampling alone: |z| < 4. (The enumeration makes every five-vertex chain that
+ *   the MIS credits to it here: tests/test_flat_roots.c.)
  */
 /* ctest-labels: stat */
 #include <math.h>

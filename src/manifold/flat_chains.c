@@ -15,6 +15,7 @@
  */
 #include "manifold/flat_chains.h"
 
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdlib.h>
@@ -30,10 +31,22 @@
 #define SPC_FLAT_NEWTON_STEPS 12
 
 /* The smoothing's stages: mu from 0.1 of the problem's size down to MU_END of it, by MU_FALL per
- * stage, at most STAGE_STEPS Newton steps each (one or two are enough once the path is followed). */
+ * stage, at most STAGE_STEPS Newton steps each. One or two are enough once the path is followed;
+ * more where the first, wide stage's minimum lies at a kink (a short segment collapsed: a total
+ * internal reflection off a slab's side face near the edge with the face the path entered by) and
+ * the damped steps must carry it back: with 5 a stage, a quarter of the five-vertex chains through
+ * two slabs ended at the kink test (minimize) and were lost (tests/test_flat_roots.c); 20 finds
+ * them all there, and costs nothing measurable where the stages converge in one or two steps
+ * (bench/RESULTS.md, "flat5's deficit"). */
 #define SPC_FLAT_MU_FALL 0.01
 #define SPC_FLAT_MU_END 1e-7
-#define SPC_FLAT_STAGE_STEPS 5
+#define SPC_FLAT_STAGE_STEPS 20
+
+/* The line search's allowance for the rounding of L, in units of L's ulp: near the minimum a
+ * Newton step lowers L by about |g|^2 / H, below double precision once |g| is near 1e-8, and a
+ * strict decrease test then rejects the step that would bring |g| under the convergence test's
+ * 1e-9 (1 in 300 four-vertex chains through two slabs was lost that way). */
+#define SPC_FLAT_ROUNDING_ULPS 8.0
 
 /* Converged when each vertex's tangential mismatch (a difference of unit vectors times indices)
  * is below this: the 3D polish then needs one trace. */
@@ -629,7 +642,7 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
             for (int i = 0; i < n; ++i)
                 s2[i] = s[i] + t * step[i];
             L2 = path_length(P, s2, mu, p2);
-            if (L2 <= *L + 1e-4 * t * slope)
+            if (L2 <= *L + 1e-4 * t * slope + SPC_FLAT_ROUNDING_ULPS * DBL_EPSILON * fabs(*L))
                 break;
         }
         if (tries == 40)
