@@ -907,8 +907,8 @@ static bool walker_init(walker *w, const spc_sdf *s, const spc_ray *r)
 
 /* Illinois regula falsi on a bracket [ta, tb] (f(ta) of one sign, f(tb) of the other or zero),
  * bisecting whenever three steps did not halve the bracket. Returns the root; *tb_out is the end
- * of the final bracket beyond it. */
-static double refine(const walker *w, double ta, double fa, double tb, double fb, double *tb_out)
+ * of the final bracket beyond it and *fb_out f there (the walk continues from it). */
+static double refine(const walker *w, double ta, double fa, double tb, double fb, double *tb_out, double *fb_out)
 {
     double ga = fa, gb = fb, width0 = tb - ta;
     int side = 0;
@@ -942,6 +942,7 @@ static double refine(const walker *w, double ta, double fa, double tb, double fb
         }
     }
     *tb_out = tb;
+    *fb_out = fb;
     if (fb == 0.0)
         return tb;
     return fabs(fa) < fabs(fb) ? ta : tb;
@@ -978,10 +979,9 @@ static bool walker_next(walker *w, double *t_hit)
             if (isnan(fn))
                 break;
             double tb;
-            *t_hit = refine(w, t, f, tn, fn, &tb);
+            *t_hit = refine(w, t, f, tn, fn, &tb, &w->f);
             /* continue from the far end of the bracket (f there has the other sign, or is 0) */
             w->t = tb;
-            w->f = ray_f(w, tb);
             if (w->f == 0.0) {
                 w->t = tb + min_step;
                 w->f = w->t < t1 ? ray_f(w, w->t) : 0.0;
@@ -1200,9 +1200,8 @@ static bool torus_next(walker *w, double *t_hit)
                 }
             }
             double tend;
-            *t_hit = refine(w, ta, fa, tb, fb, &tend);
+            *t_hit = refine(w, ta, fa, tb, fb, &tend, &w->f);
             w->t = tend;
-            w->f = ray_f(w, tend);
             if (w->f == 0.0) {
                 w->t = tend + w->min_step;
                 w->f = w->t < t1 ? ray_f(w, w->t) : 0.0;
