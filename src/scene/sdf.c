@@ -1023,6 +1023,11 @@ static bool walker_next(walker *w, double *t_hit)
 /* Half width, relative to the size, of the bracket around the quartic's root that the exact
  * distance refines (the quartic's root is good to ~1e-13 of the size away from tangency). */
 #define SDF_TORUS_BRACKET 1e-9
+/* Half width, in units of the rounding of t (eps (|t| + the coordinates' magnitude / |d|)), of the
+ * bracket around the Newton step from the quartic's root: 3 in all, below refine's stopping width
+ * of 4, so that refine takes the bracket as it is. On scenes/caustic_sdf_torus.xml 99.2% of the
+ * crossings' brackets hold the sign change (151,594 of 152,847 at 10 spp). */
+#define SDF_TORUS_NEWTON_HALF 1.5
 
 static double poly_eval(const double *c, int deg, double s)
 {
@@ -1157,6 +1162,16 @@ static bool torus_misses(const walker *w, double R, double r)
     return lo > out * out || (in > 0.0 && hi < in * in);
 }
 
+/* f along the walk at t and its slope df/dt, for the ring torus at the root (prim_dist's torus and
+ * its gradient along ld). */
+static double torus_f_slope(const walker *w, double R, double r, double t, double *slope)
+{
+    spc_vec3 p = spc_madd(w->lo, w->ld, t), d = w->ld;
+    double rho = len2d(p.x, p.z), q1 = rho - R, L = len2d(q1, p.y);
+    *slope = w->rs * (q1 / L * (p.x * d.x + p.z * d.z) / rho + p.y * d.y / L);
+    return w->rs * (L - r);
+}
+
 static bool torus_next(walker *w, double *t_hit)
 {
     const node *n = &w->s->nodes[w->s->root];
@@ -1190,8 +1205,30 @@ static bool torus_next(walker *w, double *t_hit)
                 double tq = t0 + poly_root_monotone(q, 4, ta - t0, tb - t0, qa, &steps);
                 double dt = SDF_TORUS_BRACKET * w->s->size / w->dl;
                 if (tq - dt > ta && tq + dt < tb) {
-                    double fl = ray_f(w, tq - dt), fr = ray_f(w, tq + dt);
-                    if ((fl > 0.0) == (fa > 0.0) && ((fa > 0.0) ? !(fr > 0.0) : !(fr < 0.0))) {
+                    /* one Newton step on the exact distance from the quartic's root, and a bracket of
+                     * refine's final width around it (99% of the crossings: one exact distance and
+                     * two values instead of two values and four regula falsi steps); where its ends
+                     * do not differ in sign (grazing rays, rounding), the bracket of 1e-9 */
+                    double slope, fq = torus_f_slope(w, R, r, tq, &slope);
+                    double tn = tq - fq / slope;
+                    double h = SDF_TORUS_NEWTON_HALF * DBL_EPSILON * (fabs(tn) + w->tol_mag / w->dl);
+                    bool tight = false;
+                    if (fabs(tn - tq) < dt && tn - h > ta && tn + h < tb) {
+                        double fl = ray_f(w, tn - h), fr = ray_f(w, tn + h);
+                        if ((fl > 0.0) == (fa > 0.0) && ((fa > 0.0) ? !(fr > 0.0) : !(fr < 0.0))) {
+                            ta = tn - h;
+                            fa = fl;
+                            tb = tn + h;
+                            fb = fr;
+                            tight = true;
+                        }
+                    }
+                    double fl = 0.0, fr = 0.0;
+                    if (!tight) {
+                        fl = ray_f(w, tq - dt);
+                        fr = ray_f(w, tq + dt);
+                    }
+                    if (!tight && (fl > 0.0) == (fa > 0.0) && ((fa > 0.0) ? !(fr > 0.0) : !(fr < 0.0))) {
                         ta = tq - dt;
                         fa = fl;
                         tb = tq + dt;
