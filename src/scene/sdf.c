@@ -1162,6 +1162,56 @@ static bool torus_misses(const walker *w, double R, double r)
     return lo > out * out || (in > 0.0 && hi < in * in);
 }
 
+/* The roots of the cubic c (c[3] != 0) in (lo, hi) one at a time, in order, as poly_roots_in finds
+ * them (the same numbers): the walk needs the critical points of its quartic only up to the piece
+ * where f changes sign, usually the first, so the later ones are not solved for. */
+typedef struct crit_walk {
+    const double *c;
+    double ends[4]; /* lo, the roots of c' in (lo, hi), hi */
+    int ne, k, n;   /* ends, the next piece, roots returned */
+    double fa, last, lo;
+} crit_walk;
+
+static void crit_walk_init(crit_walk *cw, const double *c, double lo, double hi)
+{
+    double dc[3] = {c[1], 2.0 * c[2], 3.0 * c[3]}, cut[2];
+    int nc = poly_roots_in(dc, 2, lo, hi, cut);
+    cw->c = c;
+    cw->ne = 0;
+    cw->ends[cw->ne++] = lo;
+    for (int k = 0; k < nc; ++k)
+        cw->ends[cw->ne++] = cut[k];
+    cw->ends[cw->ne++] = hi;
+    cw->k = 0;
+    cw->n = 0;
+    cw->lo = lo;
+    cw->last = lo;
+    cw->fa = poly_eval(c, 3, lo);
+}
+
+static bool crit_walk_next(crit_walk *cw, double *x)
+{
+    while (cw->k + 1 < cw->ne) {
+        double a = cw->ends[cw->k], b = cw->ends[cw->k + 1], fa = cw->fa;
+        double fb = poly_eval(cw->c, 3, b);
+        cw->fa = fb;
+        ++cw->k;
+        if (fa == 0.0) {
+            if (a > cw->lo && (cw->n == 0 || cw->last < a)) {
+                cw->last = *x = a;
+                ++cw->n;
+                return true;
+            }
+        } else if (fb != 0.0 && (fa > 0.0) != (fb > 0.0)) {
+            int steps;
+            cw->last = *x = poly_root_monotone(cw->c, 3, a, b, fa, &steps);
+            ++cw->n;
+            return true;
+        }
+    }
+    return false;
+}
+
 /* f along the walk at t and its slope df/dt, for the ring torus at the root (prim_dist's torus and
  * its gradient along ld). */
 static double torus_f_slope(const walker *w, double R, double r, double t, double *slope)
@@ -1187,11 +1237,13 @@ static bool torus_next(walker *w, double *t_hit)
     /* q / a^2, so that the leading coefficient is 1 */
     double q[5] = {(c * c - 4.0 * R * R * h) / (a * a), (4.0 * b * c - 8.0 * R * R * g) / (a * a),
                    (4.0 * b * b + 2.0 * a * c - 4.0 * R * R * e) / (a * a), 4.0 * b / a, 1.0};
-    double dq[4] = {q[1], 2.0 * q[2], 3.0 * q[3], 4.0 * q[4]}, crit[3];
-    int nc = poly_roots_in(dq, 3, 0.0, t1 - t0, crit);
+    double dq[4] = {q[1], 2.0 * q[2], 3.0 * q[3], 4.0 * q[4]}, crit;
+    crit_walk cw;
+    crit_walk_init(&cw, dq, 0.0, t1 - t0);
     double ta = t0, fa = w->f;
-    for (int k = 0; k <= nc; ++k) {
-        double tb = k < nc ? t0 + crit[k] : t1;
+    for (bool more = true; more;) {
+        more = crit_walk_next(&cw, &crit);
+        double tb = more ? t0 + crit : t1;
         if (!(tb > ta))
             continue;
         double fb = ray_f(w, tb);
