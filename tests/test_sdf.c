@@ -591,6 +591,73 @@ TEST(analytic_torus_matches_sphere_tracing)
     spc_sdf_destroy(s);
 }
 
+/* Walks that stay outside the torus's slab |y| <= r or outside its cylinders rho = R -+ r (in the
+ * torus's own frame) are rejected before the quartic is solved, and lines just inside those bounds
+ * still find their crossings. The rays start inside the torus's own bounding box (so inside the world
+ * box of the rotated torus, which every one of them passes): without the rejection each of the
+ * missing ones would solve the quartic. */
+TEST(torus_misses_skip_the_quartic)
+{
+    const double R = 1.0, r = 0.3;
+    spc_sdf_desc d = desc(SPC_SDF_TORUS);
+    d.major = R;
+    d.minor = r;
+    d.to_world = similarity(1.7, spc_normalize(spc_v3(1, 2, 0.5)), 37.0, spc_v3(0.3, -0.2, 0.9));
+    spc_sdf *s = one(&d);
+    int misses = 0, solved = 0, hit = 0, near = 0, found = 0;
+    for (int i = 0; i < 3000; ++i) {
+        spc_vec3 o, dir;
+        double phi = 2.0 * SPC_PI * rnd(), sg = rnd() < 0.5 ? -1.0 : 1.0;
+        bool inner = false; /* a line just inside the bounds, through the tube */
+        switch (i % 4) {
+        case 0: /* parallel to the ring's plane, above or below the slab */
+            o = spc_v3(spc_lerp(rnd(), -1.3, 1.3), sg * spc_lerp(rnd(), 1.01 * r, 1.3 * r), spc_lerp(rnd(), -1.3, 1.3));
+            dir = spc_v3(cos(phi), 0.0, sin(phi));
+            break;
+        case 1: { /* along the axis through the hole */
+            double rho = (R - r) * 0.99 * sqrt(rnd());
+            o = spc_v3(rho * cos(phi), spc_lerp(rnd(), -0.4, 0.4), rho * sin(phi));
+            dir = spc_v3(0.0, sg, 0.0);
+            break;
+        }
+        case 2: { /* along the axis outside the ring, in the corners of its box */
+            double rho = spc_lerp(rnd(), 1.01, 1.4) * (R + r);
+            double c = spc_min(1.29, rho * 0.7071), e = sqrt(spc_max(rho * rho - c * c, 0.0));
+            if (e > 1.29)
+                e = 1.29;
+            o = spc_v3(sg * c, spc_lerp(rnd(), -0.3, 0.3), rnd() < 0.5 ? -e : e);
+            dir = spc_v3(0.0, rnd() < 0.5 ? -1.0 : 1.0, 0.0);
+            break;
+        }
+        default: { /* parallel to the ring's plane just inside the slab, across the tube's top */
+            double y = sg * r * (1.0 - pow(10.0, -7.0 + 5.0 * rnd()));
+            o = spc_v3(-1.3 * cos(phi), y, -1.3 * sin(phi));
+            dir = spc_v3(cos(phi), 0.0, sin(phi));
+            inner = true;
+            break;
+        }
+        }
+        spc_ray ray = {spc_mat4_apply_point(&d.to_world, o), spc_mat4_apply_vector(&d.to_world, dir), 0, INFINITY};
+        uint64_t before = spc_sdf_torus_solves();
+        double t;
+        bool got = spc_sdf_intersect(s, &ray, &t);
+        bool solves = spc_sdf_torus_solves() != before;
+        if (inner) {
+            ++near;
+            found += got && solves;
+            continue;
+        }
+        ++misses;
+        solved += solves;
+        hit += got;
+    }
+    printf("  %d missing lines: %d solved, %d hit; %d lines just inside the slab: %d found\n", misses, solved, hit,
+           near, found);
+    CHECK(solved == 0 && hit == 0);
+    CHECK(found == near);
+    spc_sdf_destroy(s);
+}
+
 /* ------------------------------------------------------------------------------------------------ */
 /* surface derivatives */
 
@@ -1093,6 +1160,7 @@ int main(void)
     RUN(crossings_of_torus);
     RUN(poly_root_stops_at_rounding_level);
     RUN(analytic_torus_matches_sphere_tracing);
+    RUN(torus_misses_skip_the_quartic);
     RUN(torus_normal_derivatives);
     RUN(crofton_area);
     RUN(area_sampling_is_uniform);

@@ -37,6 +37,7 @@
 #define SPC_SCENE_SDF_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "core/error.h"
 #include "core/math.h"
@@ -138,6 +139,9 @@ void spc_sdf_set_analytic(spc_sdf *s, bool on);
  * be monotone there and change sign, as the analytic torus finds its crossings; *steps gets the
  * Newton or bisection steps it took (for tests). */
 double spc_sdf_poly_root(const double *c, int deg, double a, double b, int *steps);
+/* Walks that the calling thread's analytic tori have solved so far (their quartic's critical points
+ * found): those that the cheap bounds (the torus's slab and cylinders) could not reject. For tests. */
+uint64_t spc_sdf_torus_solves(void);
 
 /* Surface interaction at a point p on the surface reached by a ray (see shape.c for the surface
  * parameters): fills p (as given), ng, sh, uv, dpdu, dpdv, dndu, dndv, b1 = b2 = 0 and err. */
