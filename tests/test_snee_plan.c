@@ -1209,8 +1209,8 @@ TEST(water_plane_plan_no_camera_query)
 
 /* Glass slabs (cubes scaled thin, their chains enumerated through flat faces) on a floor under a
  * square light whose size is given: a slab and the light of random caustic scene 435, a second slab
- * beside it where asked. */
-static spc_scene *slab_scene(double light_scale, bool two, bool slab)
+ * beside it, or a mirror ball, where asked. */
+static spc_scene *slab_scene(double light_scale, bool two, bool slab, bool mirror)
 {
     char text[3072];
     snprintf(text, sizeof text,
@@ -1224,7 +1224,7 @@ static spc_scene *slab_scene(double light_scale, bool two, bool slab)
              "value=\"8\"/></film></sensor>"
              "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"4\"/><rotate x=\"1\" "
              "angle=\"-90\"/></transform><bsdf type=\"diffuse\"/></shape>"
-             "%s%s"
+             "%s%s%s"
              "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"%g\"/><lookat "
              "origin=\"-0.632, 1.658, 2.044\" target=\"0, 0, 0\" up=\"0, 1, 0.01\"/></transform>"
              "<emitter type=\"area\"><rgb name=\"radiance\" value=\"100\"/></emitter></shape></scene>",
@@ -1238,6 +1238,9 @@ static spc_scene *slab_scene(double light_scale, bool two, bool slab)
                    "z=\"-0.6\"/></transform><bsdf type=\"dielectric\"><float name=\"int_ior\" "
                    "value=\"1.5\"/></bsdf></shape>"
                  : "",
+             mirror ? "<shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0.46\" z=\"-0.16\"/><float "
+                      "name=\"radius\" value=\"0.46\"/><bsdf type=\"conductor\"/></shape>"
+                    : "",
              light_scale);
     spc_scene *sc = NULL;
     spc_error err;
@@ -1247,22 +1250,23 @@ static spc_scene *slab_scene(double light_scale, bool two, bool slab)
 
 /* One slab under a light a little larger than the flat rule's (SPC_SNEE_PLAN_FLAT_MAX_SR): path's
  * plan is on with the slab's longer chains (SPC_SNEE_PLAN_FLAT_LONG); under a smaller light on
- * without them; under a larger light, with two slabs, for volpath and bdpt, and without casters,
- * off. */
+ * without them; under a larger light, with two slabs, with a mirror ball beside it, for volpath and
+ * bdpt, and without casters, off. */
 TEST(one_slab_plan_long_chains)
 {
     static const struct {
         double scale;
-        bool two, slab;
+        bool two, slab, mirror;
         const char *integrator;
         int want; /* 0 off, 1 on, 2 on with the longer chains */
     } cases[] = {
-        {0.143, false, true, "path", 2}, {0.05, false, true, "path", 1},   {0.5, false, true, "path", 0},
-        {0.143, true, true, "path", 0},  {0.143, false, true, "volpath", 0}, {0.143, false, true, "bdpt", 0},
-        {0.143, false, false, "path", 0},
+        {0.143, false, true, false, "path", 2},   {0.05, false, true, false, "path", 1},
+        {0.5, false, true, false, "path", 0},     {0.143, true, true, false, "path", 0},
+        {0.143, false, true, true, "path", 0},    {0.143, false, true, false, "volpath", 0},
+        {0.143, false, true, false, "bdpt", 0},   {0.143, false, false, false, "path", 0},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
-        spc_scene *sc = slab_scene(cases[i].scale, cases[i].two, cases[i].slab);
+        spc_scene *sc = slab_scene(cases[i].scale, cases[i].two, cases[i].slab, cases[i].mirror);
         if (!sc)
             continue;
         spc_snee_plan p;
@@ -1276,7 +1280,7 @@ TEST(one_slab_plan_long_chains)
                       p.light_sr, p.casters);
         if (!cases[i].slab)
             CHECK_MSG(p.casters == 0 && strstr(p.reason, "no specular casters"), "%s", p.reason);
-        if (cases[i].two)
+        if (cases[i].two || cases[i].mirror)
             CHECK_MSG(p.casters == 2 && strstr(p.reason, "flat-faced casters under a light"), "%s", p.reason);
         spc_scene_destroy(sc);
     }

@@ -39,12 +39,15 @@
  * (0.00066 sr) 7.3x lower relMSE than none; scenes/caustic_slabs.xml (0.011 sr) 0.4x,
  * scenes/caustic_glass_cube.xml (0.0038 sr) 1.0x, scenes/newton_slabs.xml (0.12 sr) 0.6x: off. */
 #define SPC_SNEE_PLAN_FLAT_MAX_SR 0.002
-/* ... and for path, where exactly one flat-faced shape is a caster (one slab, alone or beside glass
- * balls and mirrors), up to this solid angle, with the longer chains through its faces enumerated
- * too (SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h). Past it BSDF sampling finds the light through the slab
- * often enough; and with two flat casters the face sequences of 4-5 vertices make the query 30-165x
- * the cost of a sample without specular NEE (two slabs and a ball under 0.014 sr: 0.07x none at
- * equal CPU time). bench/RESULTS.md, "Slab scenes the plan left at none". */
+/* ... and for path, where exactly one flat-faced shape is a caster and every other caster is glass
+ * (one slab, alone or beside glass balls), up to this solid angle, with the longer chains through
+ * its faces enumerated too (SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h). Past it BSDF sampling finds the
+ * light through the slab often enough; with two flat casters the face sequences of 4-5 vertices
+ * make the query 30-165x the cost of a sample without specular NEE (two slabs and a ball under
+ * 0.014 sr: 0.07x none at equal CPU time); beside a mirror, chains off the mirror and through the
+ * slab (floor, mirror ball, three slab vertices, light) are made by BSDF sampling alone, and the
+ * query's cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one
+ * pixel 100% of a seed's error). bench/RESULTS.md, "Slab scenes the plan left at none". */
 #define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.006
 
 /* ... unless the casters fill at least this share of a light's directions (the light within or
@@ -482,11 +485,17 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         return;
     }
     int nflat = 0;
-    for (int i = 0; i < cs->n; ++i)
-        nflat += spc_flat_chain_shape(sc->shapes[cs->idx[i]]) ? 1 : 0; /* the others: below */
-    /* one slab under a light a little larger than the flat rule's: on, with its longer chains */
-    const bool flat_long = nflat == 1 && !strcmp(integrator, "path") && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
-                           out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR;
+    bool mirror = false;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        nflat += spc_flat_chain_shape(s) ? 1 : 0; /* the others: below */
+        mirror = mirror || !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0);
+    }
+    /* one slab, beside nothing but glass, under a light a little larger than the flat rule's: on,
+     * with its longer chains */
+    const bool flat_long = nflat == 1 && !mirror && !strcmp(integrator, "path") &&
+                           out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR;
     if (nflat > 0 && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && !flat_long) {
         snprintf(out->reason, sizeof out->reason, "flat-faced casters under a light of %.2g sr (over %g)",
                  out->light_sr, SPC_SNEE_PLAN_FLAT_MAX_SR);

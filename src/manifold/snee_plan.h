@@ -237,7 +237,8 @@
  * sample 1.14x, no gain in the error per sample). */
 #define SPC_SNEE_PLAN_POINT_LIGHTS ",ltcaus"
 
-/* Appended for path where exactly one caster is flat-faced (a slab) and the smallest light subtends
+/* Appended for path where exactly one caster is flat-faced (a slab), no caster is a mirror, and the
+ * smallest light subtends
  * between SPC_SNEE_PLAN_FLAT_MAX_SR and SPC_SNEE_PLAN_FLAT_LONG_MAX_SR (snee_plan.c) at the casters:
  * the longer chains on (long), so that the slab's chains of up to 4 vertices are enumerated at every
  * call, and its 5-vertex chains (in, three total internal reflections, out: the slab as a light
