@@ -41,14 +41,18 @@
 #define SPC_SNEE_PLAN_FLAT_MAX_SR 0.002
 /* ... and for path, where exactly one flat-faced shape is a caster and every other caster is glass
  * (one slab, alone or beside glass balls), up to this solid angle, with the longer chains through
- * its faces enumerated too (SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h). Past it BSDF sampling finds the
- * light through the slab often enough; with two flat casters the face sequences of 4-5 vertices
+ * its faces enumerated too (SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h). The value lies between the
+ * measured wins and the one loss, not at a cause: at equal CPU time against bdpt, random caustic
+ * scenes 410, 438, 488, 480, 409, 435, 400 (0.0021-0.0034 sr) gain 5-36x over none; 403 (one slab
+ * under a light of 0.0038 sr almost straight above it) loses (0.6x: the query costs 197x a sample
+ * without it there, against 5-43x on the others), and 425 (a slab and a glass ball, 0.0055 sr, 5.8x)
+ * is left off with it. With two flat casters the face sequences of 4-5 vertices
  * make the query 30-165x the cost of a sample without specular NEE (two slabs and a ball under
  * 0.014 sr: 0.07x none at equal CPU time); beside a mirror, chains off the mirror and through the
  * slab (floor, mirror ball, three slab vertices, light) are made by BSDF sampling alone, and the
  * query's cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one
  * pixel 100% of a seed's error). bench/RESULTS.md, "Slab scenes the plan left at none". */
-#define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.006
+#define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.0035
 
 /* ... unless the casters fill at least this share of a light's directions (the light within or
  * close over the spheres around them, as over a water surface): most light then reaches the
