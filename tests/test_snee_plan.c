@@ -30,6 +30,9 @@
  *   toward the caster taken away, on.
  * - Caustic guiding at receivers (its cones toward glass balls) in path's default in a room where a
  *   glass caster is an analytic sphere (the demo), not in volpath's or bdpt's, not in the open.
+ * - One glass slab under a light of 0.002-0.0035 sr: path's plan on with the slab's longer chains;
+ *   off with two slabs, a mirror beside it, a larger light, for volpath and bdpt, without casters;
+ *   its setting agrees with none (z-test, image means).
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
