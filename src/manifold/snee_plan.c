@@ -43,15 +43,16 @@
  * (one slab, alone or beside glass balls), up to this solid angle, with the longer chains through
  * its faces enumerated too (SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h). The value lies between the
  * measured wins and the one loss, not at a cause: at equal CPU time against bdpt, random caustic
- * scenes 410, 438, 488, 480, 409, 435, 400 (0.0021-0.0034 sr) gain 5-36x over none; 403 (one slab
+ * scenes 410, 438, 488, 480, 409, 435, 400 (0.0021-0.0034 sr) gain 4.6-36x over none; 403 (one slab
  * under a light of 0.0038 sr almost straight above it) loses (0.6x: the query costs 197x a sample
- * without it there, against 5-43x on the others), and 425 (a slab and a glass ball, 0.0055 sr, 5.8x)
- * is left off with it. With two flat casters the face sequences of 4-5 vertices
- * make the query 30-165x the cost of a sample without specular NEE (two slabs and a ball under
- * 0.014 sr: 0.07x none at equal CPU time); beside a mirror, chains off the mirror and through the
- * slab (floor, mirror ball, three slab vertices, light) are made by BSDF sampling alone, and the
- * query's cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one
- * pixel 100% of a seed's error). bench/RESULTS.md, "Slab scenes the plan left at none". */
+ * without it there, against 5-43x on the others). Left off with it, though they gain: 425 (a slab
+ * and a glass ball, 0.0055 sr, 5.8x) and 489 (one slab, 0.0066 sr, 40x forced). With two flat
+ * casters the face sequences of 4-5 vertices make the query 30-165x the cost of a sample without
+ * specular NEE (two slabs and a ball under 0.014 sr: 0.07x none at equal CPU time; two slabs under
+ * 0.003 sr, forced: 2.2x, one scene). Beside a mirror, chains off the mirror and through the slab
+ * (floor, mirror ball, three slab vertices, light) are made by BSDF sampling alone, and the query's
+ * cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one pixel 100%
+ * of a seed's error). bench/RESULTS.md, "Slab scenes the plan left at none". */
 #define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.0035
 
 /* ... unless the casters fill at least this share of a light's directions (the light within or
