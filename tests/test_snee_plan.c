@@ -30,6 +30,9 @@
  *   toward the caster taken away, on.
  * - Caustic guiding at receivers (its cones toward glass balls) in path's default in a room where a
  *   glass caster is an analytic sphere (the demo), not in volpath's or bdpt's, not in the open.
+ * - One glass slab under a light of 0.002-0.0035 sr: path's plan on with the slab's longer chains;
+ *   off with two slabs, a mirror beside it, a larger light, for volpath and bdpt, without casters;
+ *   its setting agrees with none (z-test, image means).
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -1207,6 +1210,105 @@ TEST(water_plane_plan_no_camera_query)
     spc_scene_destroy(sc);
 }
 
+/* Glass slabs (cubes scaled thin, their chains enumerated through flat faces) on a floor under a
+ * square light whose size is given: a slab and the light of random caustic scene 435, a second slab
+ * beside it, or a mirror ball, where asked. */
+static spc_scene *slab_scene(double light_scale, bool two, bool slab, bool mirror)
+{
+    char text[3072];
+    snprintf(text, sizeof text,
+             "<scene version=\"3.0.0\">"
+             "<integrator type=\"path\"><integer name=\"max_depth\" value=\"6\"/></integrator>"
+             "<sensor type=\"perspective\"><float name=\"fov\" value=\"31.5\"/>"
+             "<transform name=\"to_world\"><lookat origin=\"2.209, 3.502, 0.971\" target=\"0, 0.3, 0\" "
+             "up=\"0, 1, 0\"/></transform>"
+             "<sampler type=\"independent\"><integer name=\"sample_count\" value=\"4\"/></sampler>"
+             "<film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/><integer name=\"height\" "
+             "value=\"8\"/></film></sensor>"
+             "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"4\"/><rotate x=\"1\" "
+             "angle=\"-90\"/></transform><bsdf type=\"diffuse\"/></shape>"
+             "%s%s%s"
+             "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"%g\"/><lookat "
+             "origin=\"-0.632, 1.658, 2.044\" target=\"0, 0, 0\" up=\"0, 1, 0.01\"/></transform>"
+             "<emitter type=\"area\"><rgb name=\"radiance\" value=\"100\"/></emitter></shape></scene>",
+             slab ? "<shape type=\"cube\"><transform name=\"to_world\"><scale x=\"0.465\" y=\"0.112\" "
+                    "z=\"0.369\"/><rotate x=\"1\" angle=\"1.8\"/><rotate y=\"1\" angle=\"47.9\"/><translate "
+                    "x=\"0.885\" y=\"0.387\" z=\"-1.075\"/></transform><bsdf type=\"dielectric\"><float "
+                    "name=\"int_ior\" value=\"1.8\"/></bsdf></shape>"
+                  : "",
+             two ? "<shape type=\"cube\"><transform name=\"to_world\"><scale x=\"0.3\" y=\"0.08\" "
+                   "z=\"0.3\"/><rotate x=\"1\" angle=\"10\"/><translate x=\"-0.3\" y=\"0.5\" "
+                   "z=\"-0.6\"/></transform><bsdf type=\"dielectric\"><float name=\"int_ior\" "
+                   "value=\"1.5\"/></bsdf></shape>"
+                 : "",
+             mirror ? "<shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0.46\" z=\"-0.16\"/><float "
+                      "name=\"radius\" value=\"0.46\"/><bsdf type=\"conductor\"/></shape>"
+                    : "",
+             light_scale);
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK_MSG(load_text(text, &sc, &err) == SPC_OK, "slab scene: %s", err.msg);
+    return sc;
+}
+
+/* One slab under a light a little larger than the flat rule's (SPC_SNEE_PLAN_FLAT_MAX_SR): path's
+ * plan is on with the slab's longer chains (SPC_SNEE_PLAN_FLAT_LONG); under a smaller light on
+ * without them; under a larger light, with two slabs, with a mirror ball beside it, for volpath and
+ * bdpt, and without casters, off. */
+TEST(one_slab_plan_long_chains)
+{
+    static const struct {
+        double scale;
+        bool two, slab, mirror;
+        const char *integrator;
+        int want; /* 0 off, 1 on, 2 on with the longer chains */
+    } cases[] = {
+        {0.143, false, true, false, "path", 2},   {0.05, false, true, false, "path", 1},
+        {0.2, false, true, false, "path", 0},     {0.143, true, true, false, "path", 0},
+        {0.143, false, true, true, "path", 0},    {0.143, false, true, false, "volpath", 0},
+        {0.143, false, true, false, "bdpt", 0},   {0.143, false, false, false, "path", 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        spc_scene *sc = slab_scene(cases[i].scale, cases[i].two, cases[i].slab, cases[i].mirror);
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        bool flat_long = strstr(p.setting, SPC_SNEE_PLAN_FLAT_LONG) != NULL;
+        int got = !p.on ? 0 : flat_long ? 2 : 1;
+        CHECK_MSG(got == cases[i].want, "case %zu (%s, light %.3g sr): %s (%s)", i, cases[i].integrator,
+                  p.light_sr, p.setting, p.reason);
+        if (cases[i].want == 2)
+            CHECK_MSG(p.light_sr > 0.002 && p.light_sr <= 0.0035 && p.casters == 1, "%.3g sr, %d casters",
+                      p.light_sr, p.casters);
+        if (!cases[i].slab)
+            CHECK_MSG(p.casters == 0 && strstr(p.reason, "no specular casters"), "%s", p.reason);
+        if (cases[i].two || cases[i].mirror)
+            CHECK_MSG(p.casters == 2 && strstr(p.reason, "flat-faced casters under a light"), "%s", p.reason);
+        spc_scene_destroy(sc);
+    }
+    /* the setting it picks agrees with specular NEE off: per-pixel z-test (Sidak) and image means */
+    spc_scene *sc = slab_scene(0.143, false, true, false);
+    if (!sc)
+        return;
+    spc_film *def = tu_render_nee(sc, "path", NULL, 512, 2, 21, NULL);
+    spc_film *none = tu_render_nee(sc, "path", "none", 16384, 2, 22, NULL);
+    CHECK(def && none);
+    if (def && none) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(def, none, 0.99, "one slab", &d));
+        double md, sd, mn, sn;
+        tu_image_mean(def, 1, &md, &sd);
+        tu_image_mean(none, 1, &mn, &sn);
+        printf("    one slab: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f\n", d.ztest_pass_fraction,
+               def->width * def->height, md, sd, mn, sn);
+    }
+    spc_film_destroy(def);
+    spc_film_destroy(none);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(demo_plan_on);
@@ -1230,5 +1332,6 @@ int main(void)
     RUN(solved_mirror_plan_no_first_roulette);
     RUN(volpath_ball_plan);
     RUN(water_plane_plan_no_camera_query);
+    RUN(one_slab_plan_long_chains);
     return spc_test_finish();
 }

@@ -39,6 +39,21 @@
  * (0.00066 sr) 7.3x lower relMSE than none; scenes/caustic_slabs.xml (0.011 sr) 0.4x,
  * scenes/caustic_glass_cube.xml (0.0038 sr) 1.0x, scenes/newton_slabs.xml (0.12 sr) 0.6x: off. */
 #define SPC_SNEE_PLAN_FLAT_MAX_SR 0.002
+/* ... and for path, where exactly one flat-faced shape is a caster and every other caster is glass
+ * (one slab, alone or beside glass balls), up to this solid angle, with the longer chains through
+ * its faces enumerated too (SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h). The value lies between the
+ * measured wins and the one loss, not at a cause: at equal CPU time against bdpt, random caustic
+ * scenes 410, 438, 488, 480, 409, 435, 400 (0.0021-0.0034 sr) gain 4.6-36x over none; 403 (one slab
+ * under a light of 0.0038 sr almost straight above it) loses (0.6x: the query costs 197x a sample
+ * without it there, against 5-43x on the others). Left off with it, though they gain: 425 (a slab
+ * and a glass ball, 0.0055 sr, 5.8x) and 489 (one slab, 0.0066 sr, 40x forced). With two flat
+ * casters the face sequences of 4-5 vertices make the query 30-165x the cost of a sample without
+ * specular NEE (two slabs and a ball under 0.014 sr: 0.07x none at equal CPU time; two slabs under
+ * 0.003 sr, forced: 2.2x, one scene). Beside a mirror, chains off the mirror and through the slab
+ * (floor, mirror ball, three slab vertices, light) are made by BSDF sampling alone, and the query's
+ * cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one pixel 100%
+ * of a seed's error). bench/RESULTS.md, "Slab scenes the plan left at none". */
+#define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.0035
 
 /* ... unless the casters fill at least this share of a light's directions (the light within or
  * close over the spheres around them, as over a water surface): most light then reaches the
@@ -474,10 +489,19 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         off(out, "no light is seen from the casters (a light inside its housing)");
         return;
     }
-    bool any_flat = false;
-    for (int i = 0; i < cs->n; ++i)
-        any_flat = any_flat || spc_flat_chain_shape(sc->shapes[cs->idx[i]]); /* the others: below */
-    if (any_flat && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR) {
+    int nflat = 0;
+    bool mirror = false;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        nflat += spc_flat_chain_shape(s) ? 1 : 0; /* the others: below */
+        mirror = mirror || !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0);
+    }
+    /* one slab, beside nothing but glass, under a light a little larger than the flat rule's: on,
+     * with its longer chains */
+    const bool flat_long = nflat == 1 && !mirror && !strcmp(integrator, "path") &&
+                           out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR;
+    if (nflat > 0 && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && !flat_long) {
         snprintf(out->reason, sizeof out->reason, "flat-faced casters under a light of %.2g sr (over %g)",
                  out->light_sr, SPC_SNEE_PLAN_FLAT_MAX_SR);
         out->on = false;
@@ -593,6 +617,12 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
              glass_sphere(sc, cs) && small_area_lights(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_AREA_LIGHTS);
+    }
+    /* one slab under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: its chains of up to 4 vertices at every
+     * call and the 5-vertex ones (total internal reflections inside it) too (snee_plan.h) */
+    if (flat_long) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LONG);
     }
     /* volpath: a share of the random seeds at medium points from the phase function, where some
      * caster's chains go to the randomized attempts (snee_plan.h) */

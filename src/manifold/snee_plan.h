@@ -237,6 +237,16 @@
  * sample 1.14x, no gain in the error per sample). */
 #define SPC_SNEE_PLAN_POINT_LIGHTS ",ltcaus"
 
+/* Appended for path where exactly one caster is flat-faced (a slab), no caster is a mirror, and the
+ * smallest light subtends
+ * between SPC_SNEE_PLAN_FLAT_MAX_SR and SPC_SNEE_PLAN_FLAT_LONG_MAX_SR (snee_plan.c) at the casters:
+ * the longer chains on (long), so that the slab's chains of up to 4 vertices are enumerated at every
+ * call, and its 5-vertex chains (in, three total internal reflections, out: the slab as a light
+ * guide) on every call too. Without them only BSDF sampling makes those chains, and the query's cost
+ * per sample turns each such hit into a firefly (bench/RESULTS.md, "Glass sphere beside a flat
+ * slab"). Measured in bench/RESULTS.md, "Slab scenes the plan left at none". */
+#define SPC_SNEE_PLAN_FLAT_LONG ",long=0.3,flat5=1"
+
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
  * glass sphere is a caster, without the caustic guide at receivers: the area lights' caustics also
  * by light tracing from a point on the light (integrator/path_lt.h), weighed against specular NEE
