@@ -1457,7 +1457,9 @@ TEST(camera_aim_raises_camera_paths_through_glass)
 
 /* The camera's mixture density in the walk's weight and in every MIS weight: with most of the first
  * bounce aimed (0.9) the images still agree with path's, on the caustic with its bright spot and on
- * the box with a glass and a mirror sphere (two cones). */
+ * the box with a glass and a mirror sphere (two cones). With the BSDF's density in the weights of
+ * t = 1 and t = 2 instead of the mixture's (made by hand) the image means differ from path's by 4.3
+ * to 6.0 standard errors in five channels of the two scenes. */
 TEST(camera_aim_against_path)
 {
     spc_scene *scs[2] = {hot_spot_scene(16), cornell_box(BOX_SPHERES, 16, 2.0)};

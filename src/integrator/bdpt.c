@@ -369,13 +369,17 @@ static spc_vec3 cone_sample(const spc_bdpt_aim *aim, int m, spc_vec3 p, spc_vec3
 }
 
 /* The aim at the camera's first hit (spc_bdpt_aim.cam): v, reached from the camera vertex cam, draws
- * its direction from (1 - a) BSDF + a cones toward the casters where its BSDF has no delta lobe. A
- * function of the two vertices alone, so that the camera walk and every MIS weight (mis_weight_walk's
- * p_E of the vertex after v) agree on which density applies. */
+ * its direction from (1 - a) BSDF + a cones toward the casters where its BSDF is diffuse only (the
+ * receivers of caustics; a glossy lobe's own samples already gather what lies in it, and in the
+ * dielectrics scene aiming off rough glass added a sample 10 times its pixel's value in 16 seeds of
+ * 256 spp). A function of the two vertices alone, so that the camera walk and every MIS weight
+ * (mis_weight_walk's p_E of the vertex after v) agree on which density applies. */
 static bool camera_aimable(const bdpt *B, const vtx *cam, const vtx *v)
 {
-    return B->aim_cam > 0.0 && cam->kind == V_CAMERA && v->kind == V_SURFACE &&
-           !(spc_bsdf_flags(v->h.bsdf) & SPC_LOBE_DELTA) && spc_bsdf_has_smooth(v->h.bsdf);
+    if (!(B->aim_cam > 0.0) || cam->kind != V_CAMERA || v->kind != V_SURFACE)
+        return false;
+    unsigned f = spc_bsdf_flags(v->h.bsdf);
+    return (f & SPC_LOBE_DIFFUSE_REFLECTION) && !(f & ~(SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_DIFFUSE_TRANSMISSION));
 }
 
 /* v's geometric normal on the side of wo: the cones are those above the surface the camera sees. */
@@ -388,6 +392,16 @@ static double camera_aim_pdf(const bdpt *B, const vtx *v, spc_vec3 wo, spc_vec3 
     double cones;
     int m = aim_cones(B->aim, v->p, side_normal(&v->h, wo), &wi, &cones);
     return m > 0 ? (1.0 - B->aim_cam) * pb + B->aim_cam * cones / m : pb;
+}
+
+/* The camera walk's solid-angle density of leaving v (reached from prev; wo toward prev) along wi:
+ * the aim's mixture where camera_aimable, else v's BSDF's. Where the camera's first hit is a joined
+ * vertex (t = 2), or a light vertex joined to the camera (t = 1), this is the density mis_weight_walk
+ * needs of the vertex beyond it; with t >= 3 the walk's own pdf_fwd holds it. */
+static double camera_walk_pdf(const bdpt *B, const vtx *prev, const vtx *v, spc_vec3 wo, spc_vec3 wi)
+{
+    return camera_aimable(B, prev, v) ? camera_aim_pdf(B, v, wo, wi)
+                                      : spc_bsdf_pdf(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, wo, wi);
 }
 
 /* camera_aimable v's sample of the mixture (m >= 1 cones above it, n its side_normal): u.x < a a
@@ -634,22 +648,17 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
         if (t == 1)
             Ep[s - 1] = pdf_cam_area;
         else
-            Ep[s - 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_RADIANCE, b->wo, ba), b, a);
+            Ep[s - 1] = to_area(camera_walk_pdf(B, x[s + 1], b, b->wo, ba), b, a);
         if (s == 1) {
             Lp[0] = l0->pdf_fwd;
             Lp[1] = light_emit_pdf(B, a, b);
         } else {
             Lp[s] = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_IMPORTANCE, a->wo, ab), a, b);
-            Ep[s - 2] = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_RADIANCE, ab, a->wo), a, x[s - 2]);
+            Ep[s - 2] = to_area(camera_walk_pdf(B, b, a, ab, a->wo), a, x[s - 2]);
         }
         if (t >= 2)
             Lp[s + 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, x[s + 1]);
     }
-    /* the camera walk's density of x_{n-3} where it aims at x_{n-2} (camera_aimable); with t >= 3
-     * it is z[2]'s pdf_fwd already, else the joined vertex's BSDF density computed above */
-    if (n >= 3 && t <= 2 && camera_aimable(B, x[n - 1], x[n - 2]))
-        Ep[n - 3] = to_area(camera_aim_pdf(B, x[n - 2], dir_to(x[n - 2], x[n - 1]), dir_to(x[n - 2], x[n - 3])),
-                            x[n - 2], x[n - 3]);
     /* p_1 samples x0 from x1 by sample_direct (for n = 2 it is the (1, 1) strategy: emission) */
     double D = n >= 3 ? light_direct_pdf(sc, l0, x[1]) : Lp[0];
     /* With the pool (bdpt_pool.h) a connection with k light vertices (2 <= k <= n - 2) is made by
