@@ -146,7 +146,7 @@ static const char *const usage_render_more =
     "                         reach them; 0 (default): 0.25; -1: off\n"
     "  --bdpt-aim-camera C    bdpt: draw a share C (below 1) of the camera's first bounce toward\n"
     "                         the same casters, scaled by the share of their light that came\n"
-    "                         off a diffuse surface; 0 (default): 0.3; -1: off\n"
+    "                         off a diffuse surface; 0 (default): 0.2; -1: off\n"
     "  --device cpu|opencl[:N]  (info --devices)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"

@@ -149,7 +149,7 @@ typedef struct spc_render_options {
     double bdpt_aim;
     /* bdpt: the share of the camera's first bounce drawn toward the same casters' spheres, below 1,
      * times the share of the casters' light that reached them after a diffuse bounce (a pilot);
-     * 0: by default (0.3); negative: off. Only where the emission is aimed (bdpt_aim). */
+     * 0: by default (0.2); negative: off. Only where the emission is aimed (bdpt_aim). */
     double bdpt_aim_camera;
 } spc_render_options;
 
