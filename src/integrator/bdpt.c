@@ -371,8 +371,8 @@ static spc_vec3 cone_sample(const spc_bdpt_aim *aim, int m, spc_vec3 p, spc_vec3
 /* The aim at the camera's first hit (spc_bdpt_aim.cam): v, reached from the camera vertex cam, draws
  * its direction from (1 - a) BSDF + a cones toward the casters where its BSDF is diffuse only (the
  * receivers of caustics; a glossy lobe's own samples already gather what lies in it, and in the
- * dielectrics scene aiming off rough glass added a sample 10 times its pixel's value in 16 seeds of
- * 256 spp). A function of the two vertices alone, so that the camera walk and every MIS weight
+ * dielectrics scene aiming off its rough glass put one pixel of 16 seeds at 256 spp at 10 times its
+ * value). A function of the two vertices alone, so that the camera walk and every MIS weight
  * (mis_weight_walk's p_E of the vertex after v) agree on which density applies. */
 static bool camera_aimable(const bdpt *B, const vtx *cam, const vtx *v)
 {
@@ -1759,7 +1759,6 @@ double spc_bdpt_pool_direct_share(const spc_render_ctx *ctx, uint64_t seed)
     return hits > 0 ? (double)lit / hits : 1.0;
 }
 
-/* Connections of camera vertex z[t-1] to the pass's pool: M_t picks, each adding C w / (N M_t q). */
 /* The share of the power reaching the casters (cs) after a bounce off a non-delta surface, of all
  * that reaches them: SPC_BDPT_AIM_INDIRECT_PATHS light walks by the lights' own emission (a fixed
  * stream), each followed to its first caster hit through at most SPC_BDPT_AIM_INDIRECT_BOUNCES
@@ -1801,9 +1800,9 @@ static double indirect_share(const spc_scene *sc, const spc_scene_casters *cs)
                 break;
             }
             spc_bsdf_sample bs;
-            spc_vec2 u_lobe = {spc_rng_next(&rng), 0.0};
+            double u_lobe = spc_rng_next(&rng);
             spc_vec2 u = {spc_rng_next(&rng), spc_rng_next(&rng)};
-            if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, spc_neg(ray.d), u_lobe.x, u, &bs))
+            if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, spc_neg(ray.d), u_lobe, u, &bs))
                 break;
             if (!(bs.lobe & SPC_LOBE_DELTA))
                 bounced = true;
@@ -1814,6 +1813,7 @@ static double indirect_share(const spc_scene *sc, const spc_scene_casters *cs)
     return direct + indirect > 0.0 ? indirect / (direct + indirect) : 0.0;
 }
 
+/* Connections of camera vertex z[t-1] to the pass's pool: M_t picks, each adding C w / (N M_t q). */
 bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, double camera_share, spc_bdpt_aim *aim)
 {
     memset(aim, 0, sizeof *aim);
