@@ -1227,6 +1227,35 @@ TEST(reflected_receivers_take_more_light_points)
     spc_scene_destroy(sc);
 }
 
+/* The outlier of the glass-ball caustic at 32x32, seed 6: one s = 0 sample of camera - ball - ball -
+ * floor - ball - ball - ball - floor - ball - ball - light in pixel (18, 9), after 1,666 samples 0.514
+ * where the reference is 0.425 (29% of that seed's error in the bench). Specular NEE at the second
+ * floor vertex (a later receiver, receiver_params) with four light points leaves s = 0 a small
+ * weight there: 0.429. The same pixel, the same samples (the camera subpath's streams are the
+ * pixel's, whatever the window). */
+TEST(later_receivers_tame_the_caustic_outlier)
+{
+    spc_scene *sc = tu_load("scenes/caustic_sphere.xml", 32);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    sc->film.crop_x = 18;
+    sc->film.crop_y = 9;
+    sc->film.crop_w = 1;
+    sc->film.crop_h = 1;
+    spc_film *f = render_opts(sc, "bdpt", 1666, 1, 6, -1, -1, -1, false, false);
+    CHECK(f != NULL);
+    if (f) {
+        double m = 0.0;
+        for (int c = 0; c < 3; ++c)
+            m += f->rgb[c] / 3.0;
+        printf("  pixel (18, 9), seed 6, 1666 spp: %.4f (reference 0.425)\n", m);
+        CHECK_MSG(m > 0.38 && m < 0.47, "pixel (18, 9) at %.4f", m);
+    }
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
 /* ---- emission aimed at the casters (bdpt.h, spc_bdpt_aim) ---- */
 
 /* A bdpt render of sc with the aim's shares `aim` and `aim_camera` (0: the default, -1: off), and its
@@ -1547,6 +1576,7 @@ int main(void)
     RUN(corner_receivers_take_the_corner_path);
     RUN(direct_receivers_weigh_light_tracing);
     RUN(reflected_receivers_take_more_light_points);
+    RUN(later_receivers_tame_the_caustic_outlier);
     RUN(aim_raises_light_tracing_through_glass);
     RUN(aimed_emission_against_path);
     RUN(aim_off_where_casters_hidden);

@@ -920,10 +920,19 @@ static bool reflected_receiver(const vtx *pp, const vtx *p, const vtx *v)
 }
 
 /* Specular NEE's settings at the snee_receiver v (pp - p - v as reflected_receiver; pp NULL when p
- * is the camera). */
-static const spc_snee_params *receiver_params(const bdpt *B, const vtx *pp, const vtx *p, const vtx *v)
+ * is the camera): params.reflected_samples light points also at a later receiver (`later`: the
+ * camera subpath has a non-delta vertex before the delta chain that reaches v). There the paths are
+ * a caustic seen through glass from a surface itself seen through glass (camera - ball - ball -
+ * floor - ball - ball - ball - floor - ball - ball - light, the floor's caustic focus in front of the
+ * ball seen by internal reflection from the floor behind it): s = 0's sample of such a path kept
+ * about half the weight against one light point, and in the glass-ball caustic one such sample
+ * (seed 6, 1666 spp, pixel (18, 9) at 0.514 against 0.425) was 29% of its seed's error. Such
+ * receivers are rare, so the extra light points cost nothing measurable (16 seeds at 256 spp: CPU
+ * 0.648 against 0.647 s, scatter 0.99x). Both the query and snee_share read the rule off the
+ * path's vertices. */
+static const spc_snee_params *receiver_params(const bdpt *B, const vtx *pp, const vtx *p, const vtx *v, bool later)
 {
-    return reflected_receiver(pp, p, v) ? &B->snp_reflected : &B->snp;
+    return later || reflected_receiver(pp, p, v) ? &B->snp_reflected : &B->snp;
 }
 
 /* Light tracing's density over s = 0's (BSDF sampling's at x) for the path camera - x - chain -
@@ -979,6 +988,15 @@ typedef struct pv {
     const vtx *v;
     bool delta;
 } pv;
+
+/* receiver_params' `later` for the path's vertex P[j]: a non-delta vertex among P[1 .. j-2]. */
+static bool later_rx(const pv *P, int j)
+{
+    for (int m = 1; m + 1 < j; ++m)
+        if (!P[m].delta)
+            return true;
+    return false;
+}
 
 /* The factor of a BDPT strategy's weight for specular NEE (1 if it is off or the path is not
  * covered; 0 if the chain's retrace does not reproduce the path, which specular NEE then counts
@@ -1068,7 +1086,7 @@ static double snee_share(const bdpt *B, const vtx *y, int s, const vtx *z, int t
                 r_wo = wo;
                 r_d0 = wi;
                 rx_params = direct    ? &B->snp_direct
-                            : through ? receiver_params(B, j >= 2 ? P[j - 2].v : NULL, P[j - 1].v, v)
+                            : through ? receiver_params(B, j >= 2 ? P[j - 2].v : NULL, P[j - 1].v, v, later_rx(P, j))
                                       : &B->snp;
             }
         }
@@ -1372,7 +1390,10 @@ static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *
         int snee_budget = corner || snee_receiver(k, true, z[k - 1].delta) ? spc_snee_budget_params(snp, &v->h, budget)
                                                                            : 0;
         if (snee_budget > 0) {
-            const spc_snee_params *rp = corner ? snp : receiver_params(B, k >= 2 ? &z[k - 2] : NULL, &z[k - 1], v);
+            bool later = false;
+            for (int m = 1; m + 1 < k; ++m)
+                later = later || !z[m].delta;
+            const spc_snee_params *rp = corner ? snp : receiver_params(B, k >= 2 ? &z[k - 2] : NULL, &z[k - 1], v, later);
             spc_rgb c = spc_specular_nee_depth(B->sc, rp, &v->h, v->wo, snee_budget, long_budget, &rng, NULL);
             L = spc_rgb_add(L, spc_rgb_mul(v->beta, c));
         }
