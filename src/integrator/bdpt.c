@@ -907,32 +907,40 @@ static bool direct_receiver(const bdpt *B, int k, const vtx *prev, const vtx *v)
  * does not minify and whose reflections the camera sees often: there the extra light points cost
  * 16% more CPU on the pool for no less variance. A function of the path's vertices, so that the
  * query and the weight of s = 0's samples of the same paths (snee_share) use the same count. */
-static bool reflected_receiver(const vtx *pp, const vtx *p, const vtx *v)
+/* p is a delta vertex on a dielectric sphere or a mesh fitted by one. */
+static bool ball_vertex(const vtx *p)
 {
     double eta = 0.0;
-    if (!pp || p->kind != V_SURFACE || !p->delta || !spc_bsdf_is_specular_interface(p->h.bsdf, &eta) || !(eta > 0.0))
-        return false;
-    if (spc_dot(spc_sub(pp->p, p->p), p->h.ng) * spc_dot(spc_sub(v->p, p->p), p->h.ng) <= 0.0)
+    if (p->kind != V_SURFACE || !p->delta || !spc_bsdf_is_specular_interface(p->h.bsdf, &eta) || !(eta > 0.0))
         return false;
     spc_vec3 c;
     double r;
     return p->h.shape && (spc_sphere_chain_shape(p->h.shape) || spc_fit_sphere(p->h.shape, &c, &r));
 }
 
+static bool reflected_receiver(const vtx *pp, const vtx *p, const vtx *v)
+{
+    if (!pp || !ball_vertex(p))
+        return false;
+    return spc_dot(spc_sub(pp->p, p->p), p->h.ng) * spc_dot(spc_sub(v->p, p->p), p->h.ng) > 0.0;
+}
+
 /* Specular NEE's settings at the snee_receiver v (pp - p - v as reflected_receiver; pp NULL when p
- * is the camera): params.reflected_samples light points also at a later receiver (`later`: the
- * camera subpath has a non-delta vertex before the delta chain that reaches v). There the paths are
- * a caustic seen through glass from a surface itself seen through glass (camera - ball - ball -
- * floor - ball - ball - ball - floor - ball - ball - light, the floor's caustic focus in front of the
- * ball seen by internal reflection from the floor behind it): s = 0's sample of such a path kept
- * about half the weight against one light point, and in the glass-ball caustic one such sample
- * (seed 6, 1666 spp, pixel (18, 9) at 0.514 against 0.425) was 29% of its seed's error. Such
- * receivers are rare, so the extra light points cost nothing measurable (16 seeds at 256 spp: CPU
- * 0.648 against 0.647 s, scatter 0.99x). Both the query and snee_share read the rule off the
- * path's vertices. */
+ * is the camera): params.reflected_samples light points also at a later receiver reached through a
+ * ball (`later`: the camera subpath has a non-delta vertex before the delta chain that reaches v;
+ * p on a glass sphere or a mesh fitted by one). There the paths are a caustic seen through glass
+ * from a surface itself seen through glass (camera - ball - ball - floor - ball - ball - ball -
+ * floor - ball - ball - light: the floor's caustic focus in front of the ball, seen by internal
+ * reflection from the floor behind it); s = 0's sample of such a path kept about half the weight
+ * against one light point, and in the glass-ball caustic one such sample (seed 6, 1666 spp, pixel
+ * (18, 9) at 0.514 against 0.425) was 29% of its seed's error. Such receivers are rare there, so the
+ * extra light points cost nothing measurable (16 seeds at 256 spp: CPU 0.648 against 0.647 s,
+ * scatter 0.99x). Not through flat water: the pool's room seen from its floor makes such receivers
+ * common, and the light points cost 21% more CPU for 1% less variance. Both the query and
+ * snee_share read the rule off the path's vertices. */
 static const spc_snee_params *receiver_params(const bdpt *B, const vtx *pp, const vtx *p, const vtx *v, bool later)
 {
-    return later || reflected_receiver(pp, p, v) ? &B->snp_reflected : &B->snp;
+    return (later && ball_vertex(p)) || reflected_receiver(pp, p, v) ? &B->snp_reflected : &B->snp;
 }
 
 /* Light tracing's density over s = 0's (BSDF sampling's at x) for the path camera - x - chain -
