@@ -1227,11 +1227,41 @@ TEST(reflected_receivers_take_more_light_points)
     spc_scene_destroy(sc);
 }
 
+/* The outlier of the glass-ball caustic at 32x32, seed 6: one s = 0 sample of camera - ball - ball -
+ * floor - ball - ball - ball - floor - ball - ball - light in pixel (18, 9), after 1,666 samples 0.514
+ * where the reference is 0.425 (29% of that seed's error in the bench). Specular NEE at the second
+ * floor vertex (a later receiver, receiver_params) with four light points leaves s = 0 a small
+ * weight there: 0.429. The same pixel, the same samples (the camera subpath's streams are the
+ * pixel's, whatever the window). */
+TEST(later_receivers_tame_the_caustic_outlier)
+{
+    spc_scene *sc = tu_load("scenes/caustic_sphere.xml", 32);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    sc->film.crop_x = 18;
+    sc->film.crop_y = 9;
+    sc->film.crop_w = 1;
+    sc->film.crop_h = 1;
+    spc_film *f = render_opts(sc, "bdpt", 1666, 1, 6, -1, -1, -1, false, false);
+    CHECK(f != NULL);
+    if (f) {
+        double m = 0.0;
+        for (int c = 0; c < 3; ++c)
+            m += f->rgb[c] / 3.0;
+        printf("  pixel (18, 9), seed 6, 1666 spp: %.4f (reference 0.425)\n", m);
+        CHECK_MSG(m > 0.38 && m < 0.47, "pixel (18, 9) at %.4f", m);
+    }
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
 /* ---- emission aimed at the casters (bdpt.h, spc_bdpt_aim) ---- */
 
-/* A bdpt render of sc with the aim's share `aim` (0: the default, -1: off), and its stats. */
-static spc_film *render_aim(const spc_scene *sc, double aim, int spp, uint64_t seed, bool strategies,
-                            spc_render_stats *st)
+/* A bdpt render of sc with the aim's shares `aim` and `aim_camera` (0: the default, -1: off), and its
+ * stats. */
+static spc_film *render_aim2(const spc_scene *sc, double aim, double aim_camera, int spp, uint64_t seed,
+                             bool strategies, spc_render_stats *st)
 {
     spc_render_options o;
     spc_render_options_init(&o);
@@ -1242,6 +1272,7 @@ static spc_film *render_aim(const spc_scene *sc, double aim, int spp, uint64_t s
     o.max_depth = strategies ? 6 : -1;
     o.strategy_images = strategies;
     o.bdpt_aim = aim;
+    o.bdpt_aim_camera = aim_camera;
     spc_film *f = NULL;
     spc_error err;
     if (spc_render(sc, &o, &f, st, &err) != SPC_OK) {
@@ -1252,6 +1283,34 @@ static spc_film *render_aim(const spc_scene *sc, double aim, int spp, uint64_t s
         return NULL;
     }
     return f;
+}
+
+/* render_aim2 with the camera's share by default. */
+static spc_film *render_aim(const spc_scene *sc, double aim, int spp, uint64_t seed, bool strategies,
+                            spc_render_stats *st)
+{
+    return render_aim2(sc, aim, 0.0, spp, seed, strategies, st);
+}
+
+/* The unweighted film of strategy (s, t): the sums over pixels and channels of its values and of its
+ * variances of the mean. */
+static bool strategy_film_sums(const spc_film *full, int s_want, int t_want, double *sum, double *var)
+{
+    size_t np = (size_t)full->width * full->height * 3;
+    for (int i = 0; i < spc_film_strategy_count(full); ++i) {
+        int s = -1, t = -1;
+        bool w = true;
+        const spc_film *f = spc_film_strategy(full, i, &s, &t, &w);
+        if (!f || w || t != t_want || s != s_want)
+            continue;
+        *sum = *var = 0.0;
+        for (size_t j = 0; j < np; ++j) {
+            *sum += f->rgb[j];
+            *var += f->var[j];
+        }
+        return true;
+    }
+    return false;
 }
 
 /* The unweighted light-tracing film of light - glass - glass - diffuse vertex - camera (s = 4,
@@ -1370,6 +1429,86 @@ TEST(aim_off_where_casters_hidden)
     spc_scene_destroy(sc);
 }
 
+/* The glass-ball caustic of scenes/caustic_sphere.xml: a small light half a unit from the wall, whose
+ * bright spot the ball focuses onto the floor. */
+static spc_scene *hot_spot_scene(int res)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_bsdf *white = twosided_diffuse(sc, 0.7, 0.7, 0.7);
+    rect(sc, 3, 3, -90, 0, spc_v3(0, 0, 0), white);
+    rect(sc, 3, 2, 0, 0, spc_v3(0, 2, -1.5), white);
+    sphere(sc, spc_v3(0, 0.5, 0), 0.5, glass(sc, 1.5));
+    spc_shape *l = sphere(sc, spc_v3(-0.6, 2.0, -1.0), 0.1, tu_diffuse(sc, 0.0));
+    spc_emitter *e = tu_area(sc, l, sc->nshapes - 1, 1.0);
+    e->radiance = spc_scene_constant(sc, spc_rgb3(300, 270, 220));
+    tu_camera(sc, spc_v3(0, 2.4, 3.6), spc_v3(0.1, 0.3, 0.2), spc_v3(0, 1, 0), 40, res, res);
+    return finalize(sc);
+}
+
+/* The camera's first bounce aimed at the ball (bdpt.h, spc_bdpt_aim.cam): camera - floor - glass -
+ * glass - wall with a light point joined to the wall (s = 1, t = 5: the wall's bright spot seen
+ * through the ball from the floor) is sampled many times as often, so that strategy's own estimate
+ * (unweighted; it also holds the paths that bounce off the wall and the floor, which the aim samples
+ * less often) has less variance at the same samples (1.63-1.68x at 0.9, seeds 61-63), and the same
+ * mean. The pilot halves 0.9 here (half of the ball's light comes off the wall and the floor); none
+ * when off. */
+TEST(camera_aim_raises_camera_paths_through_glass)
+{
+    spc_scene *sc = hot_spot_scene(16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_render_stats st_on, st_off;
+    memset(&st_on, 0, sizeof st_on);
+    memset(&st_off, 0, sizeof st_off);
+    spc_film *on = render_aim2(sc, 0.0, 0.9, 256, 61, true, &st_on);
+    spc_film *off = render_aim2(sc, 0.0, -1.0, 256, 61, true, &st_off);
+    CHECK(on && off);
+    double sum_on = 0.0, var_on = 0.0, sum_off = 0.0, var_off = 0.0;
+    if (on && off && strategy_film_sums(on, 1, 5, &sum_on, &var_on) && strategy_film_sums(off, 1, 5, &sum_off, &var_off)) {
+        printf("  camera - floor - glass - glass - wall, light point (s = 1, t = 5): sum %.4g, variance %.4g with "
+               "the camera's aim (share %.3f); sum %.4g, variance %.4g without\n",
+               sum_on, var_on, st_on.bdpt_aim_camera, sum_off, var_off);
+        CHECK(st_on.bdpt_aim_camera > 0.3 && st_on.bdpt_aim_camera < 0.6);
+        CHECK(st_off.bdpt_aim_camera == 0.0 && st_off.bdpt_aim > 0.0);
+        CHECK(sum_on > 0.0 && sum_off > 0.0 && var_on > 0.0);
+        double se = sqrt(var_on + var_off);
+        CHECK_MSG(fabs(sum_on - sum_off) < 4.0 * se, "sums %.4g and %.4g differ by %.1f standard errors", sum_on,
+                  sum_off, fabs(sum_on - sum_off) / se);
+        CHECK_MSG(var_off > 1.4 * var_on, "variance %.4g with the camera's aim, %.4g without", var_on, var_off);
+    } else {
+        CHECK_MSG(false, "no s = 1, t = 5 strategy film");
+    }
+    spc_film_destroy(on);
+    spc_film_destroy(off);
+    spc_scene_destroy(sc);
+}
+
+/* The camera's mixture density in the walk's weight and in every MIS weight: with most of the first
+ * bounce aimed (0.9) the images still agree with path's, on the caustic with its bright spot and on
+ * the box with a glass and a mirror sphere (two cones). With the BSDF's density in the weights of
+ * t = 1 and t = 2 instead of the mixture's (made by hand) the image means differ from path's by 4.3
+ * to 6.0 standard errors in five channels of the two scenes. */
+TEST(camera_aim_against_path)
+{
+    spc_scene *scs[2] = {hot_spot_scene(16), cornell_box(BOX_SPHERES, 16, 2.0)};
+    const char *what[2] = {"caustic with its bright spot, camera aim 0.9", "box with glass and mirror spheres, camera aim 0.9"};
+    const int spp_path[2] = {4096, 2048};
+    for (int k = 0; k < 2; ++k) {
+        CHECK(scs[k] != NULL);
+        if (!scs[k])
+            continue;
+        spc_render_stats st;
+        memset(&st, 0, sizeof st);
+        spc_film *b = render_aim2(scs[k], 0.0, 0.9, 256, 71, false, &st);
+        printf("  %s: camera's aimed share %.3f\n", what[k], st.bdpt_aim_camera);
+        CHECK(st.bdpt_aim_camera > 0.1);
+        spc_film *p = render_opts(scs[k], "path", spp_path[k], 2, 72, -1, -1, -1, false, false);
+        check_against_path(b, p, what[k]);
+        spc_scene_destroy(scs[k]);
+    }
+}
+
 TEST(same_image_for_any_thread_count)
 {
     spc_scene *sc = cornell_box(BOX_SPHERES, 20, 1.0);
@@ -1437,9 +1576,12 @@ int main(void)
     RUN(corner_receivers_take_the_corner_path);
     RUN(direct_receivers_weigh_light_tracing);
     RUN(reflected_receivers_take_more_light_points);
+    RUN(later_receivers_tame_the_caustic_outlier);
     RUN(aim_raises_light_tracing_through_glass);
     RUN(aimed_emission_against_path);
     RUN(aim_off_where_casters_hidden);
+    RUN(camera_aim_raises_camera_paths_through_glass);
+    RUN(camera_aim_against_path);
     printf("bdpt subpaths truncated at the vertex limit: %llu\n", (unsigned long long)spc_bdpt_truncated_paths());
     return spc_test_finish();
 }

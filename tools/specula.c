@@ -144,6 +144,9 @@ static const char *const usage_render_more =
     "  --bdpt-aim A           bdpt: draw a share A (below 1) of the area lights' emission toward\n"
     "                         the glass and mirror casters, scaled by how much of it a pilot sees\n"
     "                         reach them; 0 (default): 0.25; -1: off\n"
+    "  --bdpt-aim-camera C    bdpt: draw a share C (below 1) of the camera's first bounce toward\n"
+    "                         the same casters, scaled by the share of their light that came\n"
+    "                         off a diffuse surface; 0 (default): 0.2; -1: off\n"
     "  --device cpu|opencl[:N]  (info --devices)\n"
     "  --quiet                no progress bar or summary\n"
     "  --checkpoint FILE      save the render state to FILE (atomically) every --checkpoint-every\n"
@@ -739,6 +742,8 @@ static bool write_stats(const char *given, const spc_render_stats *st, const sta
     json_number(fp, st->caustic_guide_seconds);
     fprintf(fp, ",\n  \"bdpt_aim\": ");
     json_number(fp, st->bdpt_aim);
+    fprintf(fp, ",\n  \"bdpt_aim_camera\": ");
+    json_number(fp, st->bdpt_aim_camera);
     fprintf(fp, ",\n  \"interrupted\": %s\n}\n", in->interrupted ? "true" : "false");
     bool ok = !ferror(fp);
     if (fflush(fp) != 0 || fsync(fileno(fp)) != 0)
@@ -924,6 +929,11 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         } else if (opt_value(argc, argv, &i, "--bdpt-aim", NULL, &v)) {
             if (!parse_double(v, &opt.bdpt_aim) || !(opt.bdpt_aim < 1.0))
                 code = usage_error(usage_render, "--bdpt-aim needs a share below 1, 0 (default) or -1 (off), not '%s'",
+                                   v ? v : "");
+        } else if (opt_value(argc, argv, &i, "--bdpt-aim-camera", NULL, &v)) {
+            if (!parse_double(v, &opt.bdpt_aim_camera) || !(opt.bdpt_aim_camera < 1.0))
+                code = usage_error(usage_render,
+                                   "--bdpt-aim-camera needs a share below 1, 0 (default) or -1 (off), not '%s'",
                                    v ? v : "");
         } else if (!strcmp(a, "--variance")) {
             variance = true;

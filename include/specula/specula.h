@@ -147,6 +147,10 @@ typedef struct spc_render_options {
      * (integrator/bdpt.h), below 1, times the share of a pilot's aimed rays that reach a caster;
      * 0: by default (0.25); negative: off (the lights' own emission). Not on the opencl device. */
     double bdpt_aim;
+    /* bdpt: the share of the camera's first bounce drawn toward the same casters' spheres, below 1,
+     * times the share of the casters' light that reached them after a diffuse bounce (a pilot);
+     * 0: by default (0.2); negative: off. Only where the emission is aimed (bdpt_aim). */
+    double bdpt_aim_camera;
 } spc_render_options;
 
 #define SPC_STRATEGY_IMAGES_MAX_DEPTH 8
@@ -169,6 +173,7 @@ typedef struct spc_render_stats {
     int caustic_guide_cones;      /* of them, cones toward glass casters */
     double caustic_guide_seconds; /* and its photon pre-pass's wall time (inside wall_seconds) */
     double bdpt_aim;              /* bdpt: the share of area lights' emission aimed at casters (0: none) */
+    double bdpt_aim_camera;       /* bdpt: the share of the camera's first bounce aimed at them (0: none) */
 } spc_render_stats;
 
 spc_status spc_render(const spc_scene *s, const spc_render_options *o, spc_film **out, spc_render_stats *stats,

@@ -44,9 +44,19 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
  * open scene few of a small light's cosine-distributed directions meet a glass ball, yet the light
  * tracing (t = 1) of its caustic and of the light it refracts into its shadow needs exactly those;
  * every MIS weight uses the mixture's density, so the estimate stays unbiased for any a. */
+/* The camera subpath's first hit z1 (a surface without delta lobes, seen from the camera) draws its
+ * direction from the same cones in the mixture
+ *     p(w) = (1 - cam) pdf_bsdf(w) + cam (1 / m) sum_i [w in cone_i] / omega_i,
+ * cone_i from z1 above its surface (the side the camera sees). It serves the caustics of light that
+ * reached a caster after a diffuse bounce (a wall lit by a nearby light, focused by a glass ball onto the floor): the light
+ * subpath finds those only after a random bounce into the caster, and the camera subpath after a
+ * random bounce from the floor; cam scales with that indirect light's share of the casters' light.
+ * Every MIS weight uses the mixture's density at z1 (not with the pool, nor where specular NEE
+ * runs at z1). */
 #define SPC_BDPT_AIM_CONES 8
 typedef struct spc_bdpt_aim {
     double a; /* the cones' share of the mixture (0: emission by the light's own cosine law) */
+    double cam; /* the cones' share at the camera's first hit (0: its BSDF alone) */
     int n;    /* casters' spheres: centres and radii */
     spc_vec3 c[SPC_BDPT_AIM_CONES];
     double r[SPC_BDPT_AIM_CONES];
@@ -54,9 +64,11 @@ typedef struct spc_bdpt_aim {
 /* The aim for ctx's scene: the spheres around the first SPC_BDPT_AIM_CONES casters (a sphere's own,
  * else the fitted or bounding sphere, as the caustic guide's cones), and a = share times the fraction
  * of pilot rays drawn from the mixture's cones (SPC_BDPT_AIM_PILOT rays, a fixed stream) whose first
- * hit is a caster: near 0 where the casters are hidden from the lights (a bulb in a shade). false
- * (a = 0) where no area light, no caster or no pilot ray reaches one. */
-bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, spc_bdpt_aim *aim);
+ * hit is a caster: near 0 where the casters are hidden from the lights (a bulb in a shade); cam =
+ * camera_share times the share of the power reaching the casters after a bounce off a non-delta
+ * surface (a pilot of light walks, a fixed stream), where a > 0. false (a = 0, cam = 0) where no area
+ * light, no caster or no pilot ray reaches one. */
+bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, double camera_share, spc_bdpt_aim *aim);
 
 /* ---- exposed for tests ---- */
 /* With ctx->pool_model set: traces `paths` light subpaths and camera subpaths (through uniform film
