@@ -14,12 +14,16 @@
  * - Renders against closed forms:
  *   * an absorbing slab between null (index-matched) boundaries seen head-on in front of an
  *     emitter: L = Le exp(-sigma_a d) per channel;
+ *   * the same slab bounded by glass (dielectric, eta 1.5): L = Le (1 - F)^2 T / (1 - F^2 T^2),
+ *     the interreflections inside included;
  *   * a diffuse plane under an absorbing null slab lit by a uniform environment: NEE's shadow
  *     rays carry the transmittance, BSDF sampling crosses by free flight, and MIS joins them:
  *     L = 2 a Le E_3(tau) with E_3(tau) = int_0^1 mu exp(-tau/mu) dmu;
  *   * radiance conservation: inside a sphere whose inner surface emits Le and reflects nothing,
  *     filled with a medium of albedo 1 (any sigma_t, any phase function), L = Le everywhere (the
- *     equilibrium L = Le solves the transfer equation with this boundary condition).
+ *     equilibrium L = Le solves the transfer equation with this boundary condition);
+ *   * the same behind glass: a dielectric sphere filled with an albedo-1 medium under a uniform
+ *     environment Le reads Le at every pixel (radiance over n^2 is conserved).
  * - volpath == path on a vacuum scene (box, glass and diffuse spheres), and volpath with == without
  *   an invisible (null) sphere in the light's beam: per-pixel z-tests (Sidak) and image means.
  * - A glass shape filled with a scattering medium, lit through its surface by a small area light:
@@ -489,6 +493,55 @@ TEST(absorbing_slab_head_on)
     spc_scene_destroy(sc);
 }
 
+/* The absorbing slab again, bounded by glass (dielectric, eta 1.5) instead of null faces: seen
+ * head-on the light crosses both interfaces with transmittance 1 - F each (radiance scaled by
+ * 1 / eta^2 going in and eta^2 coming out) and is reflected back and forth inside, so
+ * L = Le (1 - F)^2 T / (1 - F^2 T^2) with F = ((eta - 1) / (eta + 1))^2 and T = exp(-sigma_a d) per
+ * channel: the medium's transmittance, the dielectric's weights and the medium tracking across a
+ * refractive boundary on paths that reach an area light only by BSDF sampling. */
+TEST(absorbing_glass_slab_head_on)
+{
+    const double Le = 2.0, d = 0.8, eta = 1.5;
+    const spc_rgb sigma_a = spc_rgb3(0.3, 1.0, 2.5);
+    spc_scene *sc = spc_scene_create();
+    spc_medium *m = new_medium(sc, sigma_a, spc_rgb1(0.0), SPC_PHASE_ISOTROPIC, 0.0);
+    CHECK(m != NULL);
+    if (!m) {
+        spc_scene_destroy(sc);
+        return;
+    }
+    null_slab(sc, m, 10.0, -0.4, -0.4 + d);
+    spc_bsdf *g = spc_scene_new_bsdf(sc);
+    g->type = SPC_BSDF_DIELECTRIC;
+    g->eta = eta;
+    g->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    g->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
+    sc->shapes[sc->nshapes - 1]->bsdf = g; /* the slab null_slab just added */
+    spc_shape *light = spc_scene_new_shape(sc);
+    spc_mat4 S = spc_mat4_scale(spc_v3(30, 30, 1));
+    spc_mat4 T = spc_mat4_translate(spc_v3(0, 0, -3));
+    spc_mat4 M = spc_mat4_mul(&T, &S);
+    spc_error err;
+    spc_shape_init_rectangle(light, &M, NULL, 0, 0, &err);
+    light->bsdf = tu_diffuse(sc, 0.0);
+    tu_area(sc, light, 1, Le);
+    ortho_down(sc, 5.0);
+    CHECK(spc_scene_finalize(sc, &err) == SPC_OK);
+    spc_film *f = render_nee(sc, "volpath", "none", 16384, 7);
+    CHECK(f != NULL);
+    if (f) {
+        const double F = ((eta - 1.0) / (eta + 1.0)) * ((eta - 1.0) / (eta + 1.0));
+        double want[3];
+        for (int c = 0; c < 3; ++c) {
+            double Tc = exp(-rgb_c(sigma_a, c) * d);
+            want[c] = Le * (1.0 - F) * (1.0 - F) * Tc / (1.0 - F * F * Tc * Tc);
+        }
+        check_mean_rgb(f, want, 3.5, 0.02, "glass slab");
+    }
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
 /* E_3(tau) = int_0^1 mu exp(-tau / mu) dmu (Simpson; the integrand is smooth and 0 at mu = 0). */
 static double expint3(double tau)
 {
@@ -566,6 +619,53 @@ static void conservation_case(spc_rgb sigma_s, spc_phase_type pt, double g, uint
     }
     spc_film_destroy(f);
     spc_scene_destroy(sc);
+}
+
+/* The furnace behind glass: a dielectric sphere (eta 1.5) filled with an albedo-1 medium under a
+ * uniform environment Le, seen from outside. Radiance over n^2 is conserved by refraction, by
+ * reflection and by lossless scattering, so the equilibrium is Le outside and eta^2 Le inside, and
+ * every pixel (rays that miss the sphere too) reads Le: each path's value is Le times the 1 / eta^2
+ * of every entry and the eta^2 of every exit, in expectation over free flight, the spectral
+ * channel choice and the roulette (which here meets the eta^2 scale of paths inside). */
+static void glass_furnace_case(spc_rgb sigma_s, spc_phase_type pt, double g, uint64_t seed)
+{
+    const double Le = 1.5;
+    spc_scene *sc = spc_scene_create();
+    spc_medium *m = new_medium(sc, spc_rgb1(0.0), sigma_s, pt, g);
+    CHECK(m != NULL);
+    if (!m) {
+        spc_scene_destroy(sc);
+        return;
+    }
+    spc_shape *sh = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_sphere(sh, spc_v3(0.0, 0.0, 0.0), 1.0, NULL, NULL, 0, 0, &err);
+    spc_bsdf *glass = spc_scene_new_bsdf(sc);
+    glass->type = SPC_BSDF_DIELECTRIC;
+    glass->eta = 1.5;
+    glass->specular_reflectance = spc_scene_constant(sc, spc_rgb1(1.0));
+    glass->specular_transmittance = spc_scene_constant(sc, spc_rgb1(1.0));
+    sh->bsdf = glass;
+    sh->interior_medium = m->index;
+    spc_emitter *env = spc_scene_new_emitter(sc);
+    env->type = SPC_EMITTER_CONSTANT;
+    env->radiance = spc_scene_constant(sc, spc_rgb1(Le));
+    tu_camera(sc, spc_v3(0.0, 0.5, 3.5), spc_v3(0.0, 0.0, 0.0), spc_v3(0, 1, 0), 30, 8, 8);
+    CHECK(spc_scene_finalize(sc, &err) == SPC_OK);
+    spc_film *f = render_nee(sc, "volpath", "none", 2048, seed);
+    CHECK(f != NULL);
+    if (f) {
+        double want[3] = {Le, Le, Le};
+        check_mean_rgb(f, want, 3.5, 0.02, "glass furnace");
+    }
+    spc_film_destroy(f);
+    spc_scene_destroy(sc);
+}
+
+TEST(glass_furnace)
+{
+    glass_furnace_case(spc_rgb3(0.5, 1.5, 4.0), SPC_PHASE_HG, 0.6, 8);
+    glass_furnace_case(spc_rgb3(2.0, 0.3, 1.0), SPC_PHASE_ISOTROPIC, 0.0, 9);
 }
 
 TEST(radiance_conservation_furnace)
@@ -883,8 +983,10 @@ int main(void)
     RUN(free_flight_expectations);
     RUN(loader_media);
     RUN(absorbing_slab_head_on);
+    RUN(absorbing_glass_slab_head_on);
     RUN(diffuse_plane_under_absorbing_slab);
     RUN(radiance_conservation_furnace);
+    RUN(glass_furnace);
     RUN(volpath_equals_path_in_vacuum);
     RUN(null_surface_is_invisible);
     RUN(glass_slab_connection_angular);

@@ -6,7 +6,9 @@ standard error, to compare renderers and estimators on a part of the image.
 
 IMAGE is a Mitsuba batch array (bench/check/mitsuba_ref.py: batches x height x width x 3; the
 standard error from the batches' sums) or a specula render written with --variance (the standard
-error from its variance channels; pixels are independent). ROW0: the image is a film crop whose
+error from its variance channels; pixels are independent, but the R, G and B of a pixel come from
+the same paths, so the bound for correlation 1, (sd_R + sd_G + sd_B)^2 per pixel, is used: the sum
+of the three variances understates the sum's variance by up to a factor 3). ROW0: the image is a film crop whose
 first row is ROW0 of the full 32x32 frame (both kinds). The region is rows Y0..Y1-1, columns
 X0..X1-1 of the full frame; with --mask (Mitsuba's aov integrator, mitsuba_ref.py --integrator
 normal) only the pixels whose first hit is the floor (shading normal (0, 1, 0)) count: the pixels
@@ -54,7 +56,7 @@ def main():
             fi, fv = np.zeros((n, n, 3)), np.zeros((n, n, 3))
             fi[row0:row0 + img.shape[0], :img.shape[1]] = img
             fv[row0:row0 + img.shape[0], :img.shape[1]] = var
-            print("%-60s %10.4f +- %.4f" % (spec, fi[sel].sum(), np.sqrt(fv[sel].sum())))
+            print("%-60s %10.4f +- %.4f" % (spec, fi[sel].sum(), np.sqrt((np.sqrt(fv[sel]).sum(-1) ** 2).sum())))
 
 
 if __name__ == "__main__":

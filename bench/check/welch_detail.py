@@ -4,8 +4,11 @@
   python3 bench/check/welch_detail.py REF.npy IMG.exr [--list N]
 
 REF.npy: batches x height x width x 3 (bench/check/mitsuba_ref.py); IMG.exr: specula render
---variance. Prints the image-sum ratio IMG / REF with its standard error (pixels of IMG independent,
-REF's from its batches' sums) and its z, the sums of the four quadrants the same way, and the N
+--variance. Prints the image-sum ratio IMG / REF with its standard error (pixels of IMG independent;
+the R, G and B of one pixel come from the same paths and are correlated, which the variance
+channels do not record, so IMG's part is the bound for correlation 1, (sd_R + sd_G + sd_B)^2 per
+pixel: summing the three variances instead understates it by up to sqrt(3); REF's from its batches'
+sums) and its z, the sums of the four quadrants the same way, and the N
 failing pixels of largest |z| (every channel, alpha 0.01 Sidak, as in cmp_ref.py)
 with both values, their standard errors and the number of reference batches with a spike (a batch
 above the batches' median by 8 robust standard deviations): failures only where no batch has a
@@ -36,7 +39,7 @@ def main():
 
     def ratio(sel):
         si, sr = img[sel].sum(), m[sel].sum()
-        vsi = vi[sel].sum()
+        vsi = (np.sqrt(vi[sel]).sum(-1) ** 2).sum()  # channels correlated: the bound (see above)
         bs = ref[:, sel].reshape(nb, -1).sum(1)
         vsr = bs.var(ddof=1) / nb
         r = si / sr
