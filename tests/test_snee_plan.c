@@ -1013,7 +1013,7 @@ TEST(sdf_csg_plan_off)
 
 /* The triangle glass ball (bench/check/glass_ball_mesh.xml, a tessellated sphere: fit_seeds.h) gets
  * the setting with the first receiver's query at probability 0.15 where the ball looks small and the
- * query from the camera on 4% of the camera samples (SPC_SNEE_PLAN_SETTING_BALLS), the same scene's
+ * query from the camera on one camera sample in ten (SPC_SNEE_PLAN_SETTING_BALLS), the same scene's
  * ball as an analytic sphere keeps its own roulette (SPC_SNEE_PLAN_SETTING or its camera fraction). */
 TEST(tessellated_ball_plan)
 {
@@ -1024,7 +1024,7 @@ TEST(tessellated_ball_plan)
     spc_snee_plan_make(sc, "path", NULL, &p);
     spc_snee_params sp;
     CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS) && spc_snee_parse(p.setting, 2, &sp) &&
-                  sp.first_p == 0.15 && sp.later_p == 0.1 && sp.camera && sp.camera_p == 0.04,
+                  sp.first_p == 0.15 && sp.later_p == 0.1 && sp.camera && sp.camera_p == 0.1,
               "glass_ball_mesh: %s (%s)", p.setting, p.reason);
     spc_scene_destroy(sc);
     sc = load_at("scenes/caustic_glass_sphere.xml", "8");

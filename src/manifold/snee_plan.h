@@ -74,8 +74,8 @@
  *     the first receiver, and the query from the camera pays there on one sample in ten, or on
  *     sqrt(s) / 10 (at least 0.02, no raise on small films) where every glass caster is
  *     enumerated exactly.
- *     A tessellated ball gets the query from the camera on 4% of the samples and at 15% of the
- *     first receivers where it looks small (SPC_SNEE_PLAN_SETTING_BALLS). volpath, whose
+ *     A tessellated ball gets the query from the camera on one sample in ten and at a quarter of
+ *     the first receivers where it looks small (SPC_SNEE_PLAN_SETTING_BALLS). volpath, whose
  *     receivers are medium points, weighs the chains through a tessellated ball with the stand-in
  *     psi (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH).
  * Why angular: of the solvers it has the exact enumerations with reflections and longer chains, and
@@ -120,14 +120,8 @@
 
 /* The setting where a glass caster is a tessellated ball (a triangle mesh with a fitted sphere,
  * fit_seeds.h): the query at a path's first receiver with probability 0.15 where the casters look
- * small (first=0.15, 1 near them: snee_cost.h), and from the camera in 4% of the camera samples
- * (camera=0.04, Russian roulette). The query from the camera took 18-20% of a sample's CPU at
- * camera=0.1 while its splats held little of the error: camera=0.04 costs 0.89x the CPU per sample
- * (paired, 64 spp x 6 seeds; random triangle-ball scenes 0.85-0.92x) and at equal CPU time over 48
- * fresh seeds (49-96) the glass ball's mean relMSE was 0.0210 against 0.0254 at camera=0.1 (median
- * 0.0098 against 0.0113; bench/RESULTS.md, part ballmesh24). 0.04 is about what the exact
- * enumerations' rule gives this ball without the small-film raise (0.1 sqrt(s), s = 0.135 the
- * image's glass share: camera_prob in snee_plan.c). With the ball's chains cheaper and their grazing reflections
+ * small (first=0.15, 1 near them: snee_cost.h), and from the camera in one camera sample in ten
+ * (camera=0.1, Russian roulette). With the ball's chains cheaper and their grazing reflections
  * counted exactly, first=0.15 against 0.25 at equal CPU time (0.90x the CPU per sample): the glass
  * ball over 48 seeds mean relMSE 0.0141 against 0.0172 (none 0.079), random triangle-ball scenes
  * 338 (48 seeds) 5.8e-5 against 7.1e-5, 318 (48) 1.06e-3 against 1.12e-3, 41 (24) 3.6e-3 against
@@ -160,7 +154,7 @@
  * tail (0.62 with first=0.1, 0.78 without; medians 0.040), a BSDF-sampled path of MIS weight 1
  * that the roulette does not change; on five of seven random triangle-ball scenes first=0.1 lost
  * (bench/RESULTS.md, "The triangle glass ball's tail over 24 seeds"). */
-#define SPC_SNEE_PLAN_SETTING_BALLS "angular:camera=0.04,first=0.15,later=0.1"
+#define SPC_SNEE_PLAN_SETTING_BALLS "angular:camera=0.1,first=0.15,later=0.1"
 
 /* volpath's setting where a glass caster is a tessellated ball: SPC_SNEE_PLAN_SETTING_BALLS with the
  * query from the camera in every sample (camera=0.1 is not measured on volpath) and without
