@@ -6,8 +6,8 @@ a heavy tail (one sample in a few million holding a seed's whole error), a compa
 or settings needs the same reference and more seeds, and the sample count decides which rare samples
 a seed contains (renders are deterministic per seed and sample index). This script renders seeds
 seed0+1..seed0+N (`--seed0`, default 0: fresh seeds past a run's), `--jobs` at once, one thread
-each, each at the sample count that a 4-spp calibration says fits `--budget` CPU seconds (user + system of the child, less the load time), and
-prints per seed relMSE = mean over pixels of ((img - ref)^2 - var_ref) / (ref^2 + 0.01) scaled by
+each, each at the sample count that a 4-spp calibration says fits `--budget` CPU seconds (user +
+system of the child, less the load time), and prints per seed relMSE = mean over pixels of ((img - ref)^2 - var_ref) / (ref^2 + 0.01) scaled by
 cpu / budget (as bench_default.py), with the mean, median, worst seed and the worst pixel's share.
 
 usage (from the source root):
