@@ -7,12 +7,13 @@ or settings needs the same reference and more seeds, and the sample count decide
 a seed contains (renders are deterministic per seed and sample index). This script renders seeds
 seed0+1..seed0+N (`--seed0`, default 0: fresh seeds past a run's), `--jobs` at once, one thread
 each, each at the sample count that a 4-spp calibration says fits `--budget` CPU seconds (user +
-system of the child, less the load time), and prints per seed relMSE = mean over pixels of ((img - ref)^2 - var_ref) / (ref^2 + 0.01) scaled by
-cpu / budget (as bench_default.py), with the mean, median, worst seed and the worst pixel's share.
+system of the child, less the load time), and prints per seed relMSE = mean over pixels of ((img -
+ref)^2 - var_ref) / (ref^2 + 0.01) scaled by cpu / budget (as bench_default.py), with the mean,
+median, worst seed and the worst pixel's share.
 
 usage (from the source root):
-  python3 bench/bench_seeds.py SCENE.xml REF.exr [--setting S] [--seeds 24] [--seed0 0] [--jobs 4] [--res 32]
-                               [--budget 1.5] [--spp N] [--specula build/specula] [--out DIR]
+  python3 bench/bench_seeds.py SCENE.xml REF.exr [--setting S] [--seeds 24] [--seed0 0] [--jobs 4]
+                               [--res 32] [--budget 1.5] [--spp N] [--specula build/specula] [--out DIR]
 REF.exr: a render with --variance at the same size (e.g. bench_default.py's reference, or
 `specula render SCENE --spp 4096 --variance`). --setting: a --specular-nee value (default: no
 flag, the plan's). --spp: this sample count instead of the calibration's (same samples for two
