@@ -275,21 +275,41 @@ static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0
 enum { WAVE_MAX = 256 };
 _Static_assert(WAVE_MAX <= SPC_EMITTER_MANY_MAX, "a wave's light samples in one call");
 
+/* The records of lane i + PREFETCH_AHEAD asked for while lane i runs: a stage's per-lane code reads
+ * fields spread over a lane's and a hit's 300-odd bytes each (the hit's err, alone on its last cache
+ * line, stalled its first read), and the wave's records (about 170 KB) do not stay in L1 between
+ * stages. */
+enum { PREFETCH_AHEAD = 2 };
+static void prefetch_lane(const lane *ln, const spc_hit *h, int i, int nl)
+{
+    if (i + PREFETCH_AHEAD >= nl)
+        return;
+    const char *a = (const char *)&ln[i + PREFETCH_AHEAD], *b = (const char *)&h[i + PREFETCH_AHEAD];
+    for (size_t k = 0; k < sizeof(lane); k += 64)
+        __builtin_prefetch(a + k);
+    for (size_t k = 0; k < sizeof(spc_hit); k += 64)
+        __builtin_prefetch(b + k);
+}
+
 /* The octant of d (its three sign bits). */
 static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0.0) << 2; }
 
 /* The rays r[0..w) (NULL: none) grouped by their directions' octants in packets of up to
- * SPC_SCENE_PACKET lanes of one octant: pk[k] the lane of packet slot k (-1: an idle slot). Returns
- * the packets. */
+ * SPC_SCENE_PACKET lanes of one octant: pk[k] the lane of packet slot k (-1: an idle slot); pk holds
+ * OCTANT_PACKET_SLOTS entries. Returns the packets. The lanes without a ray go to a ninth group
+ * after the packets, so that the loops over the lanes take no branch on whether a lane has a ray
+ * (live and ended lanes alternate without a pattern). */
+enum { OCTANT_PACKET_SLOTS = WAVE_MAX + 8 * SPC_SCENE_PACKET + WAVE_MAX };
 static int octant_packets(int w, const spc_ray *const *r, int *pk)
 {
     enum { P = SPC_SCENE_PACKET };
-    int count[8] = {0};
+    int count[9] = {0};
     unsigned char key[WAVE_MAX];
-    for (int i = 0; i < w; ++i)
-        if (r[i])
-            ++count[key[i] = (unsigned char)octant(r[i]->d)];
-    int start[8], np = 0;
+    for (int i = 0; i < w; ++i) {
+        key[i] = (unsigned char)(r[i] ? octant(r[i]->d) : 8);
+        ++count[key[i]];
+    }
+    int start[9], np = 0;
     for (int k = 0; k < 8; ++k) {
         start[k] = np * P;
         np += (count[k] + P - 1) / P;
@@ -297,9 +317,9 @@ static int octant_packets(int w, const spc_ray *const *r, int *pk)
         for (int j = start[k] + count[k]; j < np * P; ++j)
             pk[j] = -1;
     }
+    start[8] = np * P;
     for (int i = 0; i < w; ++i)
-        if (r[i])
-            pk[start[key[i]]++] = i;
+        pk[start[key[i]]++] = i;
     return np;
 }
 
@@ -332,7 +352,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     spc_bsdf_sample bs[WAVE_MAX];
     bool bs_ok[WAVE_MAX];
     int sidx[WAVE_MAX];
-    int pk[WAVE_MAX + 8 * P];
+    int pk[OCTANT_PACKET_SLOTS];
     int next = 0, live = 0, np;
     int nl = 0; /* the lanes in use, [0, nl): live lanes are kept packed at the front */
     const bool lockstep = wave_lockstep(ctx);
@@ -365,6 +385,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 hit[i] = ln[i].camera_ok;
                 ln[i].camera_hit = false;
             }
+            prefetch_lane(ln, h, i, nl);
             alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
         }
@@ -389,6 +410,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             occluded[i] = false;
             if (!alive[i])
                 continue;
+            prefetch_lane(ln, h, i, nl);
             lane_light(ctx, &ln[i], &h[i], pmf[i], le[i] && ds_ok[i], &ds[i]);
             if (ln[i].shadow)
                 r[i] = &ln[i].sr;
@@ -436,6 +458,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         for (int i = 0; i < nl; ++i) {
             if (ln[i].path < 0)
                 continue;
+            prefetch_lane(ln, h, i, nl);
             const bool diffuse = alive[i] && ln[i].diffuse;
             if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], &wl[i], diffuse ? NULL : &bs[sidx[i]],
                                          !diffuse && bs_ok[sidx[i]], u[5 * i + 4].x))
