@@ -242,20 +242,14 @@ static void lane_contribute(lane *ln, const spc_hit *h)
     ln->L = spc_rgb_add(ln->L, spc_rgb_scale(c, ln->cosi * w / ln->lp));
 }
 
-/* path.c's loop body after the light sample's contribution (lane_contribute): BSDF sampling with
- * path.c's dimensions u_lobe, u_dir, u_rr, Russian roulette. At a diffuse vertex
- * *wl is u_dir's cosine-weighted direction (spc_warp_cosine_hemisphere); at any other vertex *pre is
- * spc_bsdf_sample_dir's sample with u_lobe and u_dir and pre_ok its result. false: the path has
- * ended. */
-static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, const spc_vec3 *wl,
-                         const spc_bsdf_sample *pre, bool pre_ok, double u_rr)
+/* path.c's loop body after the light sample's contribution (lane_contribute): the BSDF's sample
+ * *bsp (spc_bsdf_sample_dir's with path.c's dimensions u_lobe and u_dir; sampled: its result), then
+ * Russian roulette with u_rr. false: the path has ended. */
+static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, const spc_bsdf_sample *bsp,
+                         bool sampled, double u_rr)
 {
-    const spc_vec3 wo = ln->wo;
-    spc_bsdf_sample dbs;
-    bool sampled = ln->diffuse ? spc_diffuse_view_sample_warped(&ln->dv, h, wo, *wl, &dbs) : pre_ok;
     if (!sampled)
         return false;
-    const spc_bsdf_sample *bsp = ln->diffuse ? &dbs : pre;
     if (ctx->strict_normals && !(spc_dot(bsp->wi, h->ng) * spc_dot(bsp->wi, h->sh.n) > 0.0))
         return false;
     ln->beta = spc_rgb_mul(ln->beta, bsp->weight);
@@ -368,7 +362,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     spc_emitter_direct ds[WAVE_MAX];
     bool ds_ok[WAVE_MAX];
     spc_vec2 u_dir[WAVE_MAX];
-    spc_vec3 wl[WAVE_MAX], wl_d[WAVE_MAX];
+    spc_vec3 wl_d[WAVE_MAX];
     int dlane[WAVE_MAX];
     const spc_bsdf *sb[WAVE_MAX];
     const spc_hit *sh[WAVE_MAX];
@@ -470,9 +464,10 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         for (int i = 0; i < nl; ++i)
             if (r[i] && !occluded[i])
                 lane_contribute(&ln[i], &h[i]);
-        /* the diffuse lanes' directions, warped together (core/warp_many.c); the other live lanes'
-         * BSDF samples in one call (rough metals share their visible-normal searches, bsdf.h), lane
-         * i's in bs[sidx[i]] */
+        /* every live lane's BSDF sample, lane i's in bs[sidx[i]]: the other lanes' in one call (rough
+         * metals share their visible-normal searches, bsdf.h) into bs[0, ns), then the diffuse lanes'
+         * into bs[ns, ns + nd), their directions warped together (core/warp_many.c) and turned
+         * into their frames in one loop, one code path for all of them */
         int nd = 0, ns = 0;
         for (int i = 0; i < nl; ++i) {
             if (!alive[i])
@@ -489,17 +484,18 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             su_lobe[ns] = u[5 * i + 2].x;
             su_dir[ns++] = u[5 * i + 3];
         }
-        spc_warp_cosine_hemisphere_many(nd, u_dir, wl_d);
-        for (int j = 0; j < nd; ++j)
-            wl[dlane[j]] = wl_d[j];
         spc_bsdf_sample_dir_many(ns, sb, sh, SPC_MODE_RADIANCE, swo, su_lobe, su_dir, bs, bs_ok);
+        spc_warp_cosine_hemisphere_many(nd, u_dir, wl_d);
+        for (int j = 0; j < nd; ++j) {
+            int i = dlane[j];
+            sidx[i] = ns + j;
+            bs_ok[ns + j] = spc_diffuse_view_sample_warped(&ln[i].dv, &h[i], ln[i].wo, wl_d[j], &bs[ns + j]);
+        }
         for (int i = 0; i < nl; ++i) {
             if (ln[i].path < 0)
                 continue;
             prefetch_lane(ln, h, i, nl);
-            const bool diffuse = alive[i] && ln[i].diffuse;
-            if (alive[i] && lane_scatter(ctx, &ln[i], &h[i], &wl[i], diffuse ? NULL : &bs[sidx[i]],
-                                         !diffuse && bs_ok[sidx[i]], u[5 * i + 4].x))
+            if (alive[i] && lane_scatter(ctx, &ln[i], &h[i], &bs[sidx[i]], bs_ok[sidx[i]], u[5 * i + 4].x))
                 continue;
             /* the path has ended: its estimate, and the lane takes the next sample */
             out[ln[i].path].L = ln[i].L;
