@@ -25,6 +25,7 @@
 
 #include <stdatomic.h>
 #include <stddef.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "bsdf/diffuse_view.h"
@@ -179,11 +180,37 @@ static const spc_emitter *lane_pick_light(const spc_render_ctx *ctx, const lane 
     return spc_scene_sample_emitter(ctx->scene, u_light, pmf);
 }
 
+/* spc_hit_offset(h, d), its sign chosen without a branch: the side of ng that a new ray leaves by
+ * has no pattern across the lanes (a twosided wall is left on either side), and the branch's
+ * mispredictions were the largest single cost in the wave's own code (perf, the cornell box). The
+ * sign bit of err flipped is -err exactly, so the origin is spc_hit_offset's bit for bit (GCC turns
+ * a select or a product with -1.0 back into the branch). */
+static spc_vec3 offset_origin(const spc_hit *h, spc_vec3 d)
+{
+    uint64_t bits;
+    double off;
+    memcpy(&bits, &h->err, sizeof bits);
+    bits ^= (uint64_t)(spc_dot(h->ng, d) < 0.0) << 63;
+    memcpy(&off, &bits, sizeof off);
+    return spc_madd(h->p, h->ng, off);
+}
+
+/* spc_hit_spawn(h, d) with offset_origin */
+static spc_ray spawn(const spc_hit *h, spc_vec3 d)
+{
+    spc_ray r;
+    r.o = offset_origin(h, d);
+    r.d = d;
+    r.tmin = 0.0;
+    r.tmax = SPC_INF;
+    return r;
+}
+
 /* spc_hit_spawn_to(h, q, q_err) in two halves, the same expressions: the offset origin per lane,
  * then the direction and tmax (a square root and a division) in a loop of their own over a step's
  * shadow rays (shadow_to_finish), whose iterations the processor overlaps where the whole per-lane
  * code around them left it no room to. */
-static spc_vec3 spawn_to_origin(const spc_hit *h, spc_vec3 q) { return spc_hit_offset(h, spc_sub(q, h->p)); }
+static spc_vec3 spawn_to_origin(const spc_hit *h, spc_vec3 q) { return offset_origin(h, spc_sub(q, h->p)); }
 
 static void spawn_to_finish(spc_ray *r, spc_vec3 q, double q_err, spc_vec3 ng)
 {
@@ -215,7 +242,7 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, do
             ln->shadow = true;
             /* toward a point: only the origin here, the rest in spawn_to_finish */
             if (ds->is_infinite)
-                ln->sr = spc_hit_spawn(h, ds->wi);
+                ln->sr = spawn(h, ds->wi);
             else
                 ln->sr.o = spawn_to_origin(h, ds->p);
             ln->f = f;
@@ -260,7 +287,7 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, 
     ln->prev_p = h->p;
     if (bsp->lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))
         ln->eta_scale *= bsp->eta * bsp->eta;
-    ln->ray = spc_hit_spawn(h, bsp->wi);
+    ln->ray = spawn(h, bsp->wi);
 
     if (ln->segments >= ctx->rr_depth) {
         double q = spc_min(0.95, spc_rgb_max(ln->beta) * ln->eta_scale);
