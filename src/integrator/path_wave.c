@@ -206,26 +206,24 @@ static spc_ray spawn(const spc_hit *h, spc_vec3 d)
     return r;
 }
 
-/* spc_hit_spawn_to(h, q, q_err) in two halves, the same expressions: the offset origin per lane,
- * then the direction and tmax (a square root and a division) in a loop of their own over a step's
- * shadow rays (shadow_to_finish), whose iterations the processor overlaps where the whole per-lane
- * code around them left it no room to. */
-static spc_vec3 spawn_to_origin(const spc_hit *h, spc_vec3 q) { return offset_origin(h, spc_sub(q, h->p)); }
-
-static void spawn_to_finish(spc_ray *r, spc_vec3 q, double q_err, spc_vec3 ng)
+/* spc_hit_spawn_to(h, q, q_err) with offset_origin, the same expressions */
+static spc_ray spawn_to(const spc_hit *h, spc_vec3 q, double q_err)
 {
-    spc_vec3 d = spc_sub(q, r->o);
+    spc_vec3 o = offset_origin(h, spc_sub(q, h->p));
+    spc_vec3 d = spc_sub(q, o);
     double dist = spc_length(d);
-    r->d = dist > 0.0 ? spc_scale(d, 1.0 / dist) : ng;
-    r->tmin = 0.0;
-    r->tmax = dist - 2.0 * q_err - 1e-7 * dist;
-    if (r->tmax < 0.0)
-        r->tmax = 0.0;
+    spc_ray r;
+    r.o = o;
+    r.d = dist > 0.0 ? spc_scale(d, 1.0 / dist) : h->ng;
+    r.tmin = 0.0;
+    r.tmax = dist - 2.0 * q_err - 1e-7 * dist;
+    if (r.tmax < 0.0)
+        r.tmax = 0.0;
+    return r;
 }
 
 /* Next-event estimation's second half, with the light's sample ds (ok: spc_emitter_sample_direct's
- * result with path.c's u_lpos): the shadow ray (ln->shadow, ln->sr: toward a point, only its origin,
- * spawn_to_finish completes it) and what its contribution needs. */
+ * result with path.c's u_lpos): the shadow ray (ln->shadow, ln->sr) and what its contribution needs. */
 static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, double pmf, bool ok,
                        const spc_emitter_direct *ds)
 {
@@ -240,11 +238,7 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, do
             cosi = 0.0;
         if (!spc_rgb_is_black(f) && cosi > 0.0) {
             ln->shadow = true;
-            /* toward a point: only the origin here, the rest in spawn_to_finish */
-            if (ds->is_infinite)
-                ln->sr = spawn(h, ds->wi);
-            else
-                ln->sr.o = spawn_to_origin(h, ds->p);
+            ln->sr = ds->is_infinite ? spawn(h, ds->wi) : spawn_to(h, ds->p, ds->err);
             ln->f = f;
             ln->Le = ds->L;
             ln->wi = ds->wi;
@@ -255,28 +249,30 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, do
     }
 }
 
-/* The light sample's contribution where the shadow ray reached the light (path.c's loop body right
- * after the shadow ray), for the lanes whose shadow rays were not occluded: a loop of its own over
- * those lanes, whose divisions the processor overlaps across lanes. */
-static void lane_contribute(lane *ln, const spc_hit *h)
+/* path.c's loop body after the shadow ray (occluded: its answer): the light sample's contribution,
+ * BSDF sampling with path.c's dimensions u_lobe, u_dir, u_rr, Russian roulette. At a diffuse vertex
+ * *wl is u_dir's cosine-weighted direction (spc_warp_cosine_hemisphere); at any other vertex *pre is
+ * spc_bsdf_sample_dir's sample with u_lobe and u_dir and pre_ok its result. false: the path has
+ * ended. */
+static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, const spc_vec3 *wl,
+                         const spc_bsdf_sample *pre, bool pre_ok, double u_rr)
 {
-    double w = 1.0;
-    if (!ln->is_delta) {
-        double pdf = ln->diffuse ? spc_diffuse_view_pdf(&ln->dv, h, ln->wo, ln->wi) : ln->bsdf_pdf;
-        w = spc_mis_power(ln->lp, pdf);
+    const spc_vec3 wo = ln->wo;
+    if (ln->shadow && !occluded) {
+        double w = 1.0;
+        if (!ln->is_delta) {
+            double pdf = ln->diffuse ? spc_diffuse_view_pdf(&ln->dv, h, wo, ln->wi) : ln->bsdf_pdf;
+            w = spc_mis_power(ln->lp, pdf);
+        }
+        spc_rgb c = spc_rgb_mul(spc_rgb_mul(ln->beta, ln->f), ln->Le);
+        ln->L = spc_rgb_add(ln->L, spc_rgb_scale(c, ln->cosi * w / ln->lp));
     }
-    spc_rgb c = spc_rgb_mul(spc_rgb_mul(ln->beta, ln->f), ln->Le);
-    ln->L = spc_rgb_add(ln->L, spc_rgb_scale(c, ln->cosi * w / ln->lp));
-}
 
-/* path.c's loop body after the light sample's contribution (lane_contribute): the BSDF's sample
- * *bsp (spc_bsdf_sample_dir's with path.c's dimensions u_lobe and u_dir; sampled: its result), then
- * Russian roulette with u_rr. false: the path has ended. */
-static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, const spc_bsdf_sample *bsp,
-                         bool sampled, double u_rr)
-{
+    spc_bsdf_sample dbs;
+    bool sampled = ln->diffuse ? spc_diffuse_view_sample_warped(&ln->dv, h, wo, *wl, &dbs) : pre_ok;
     if (!sampled)
         return false;
+    const spc_bsdf_sample *bsp = ln->diffuse ? &dbs : pre;
     if (ctx->strict_normals && !(spc_dot(bsp->wi, h->ng) * spc_dot(bsp->wi, h->sh.n) > 0.0))
         return false;
     ln->beta = spc_rgb_mul(ln->beta, bsp->weight);
@@ -389,7 +385,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     spc_emitter_direct ds[WAVE_MAX];
     bool ds_ok[WAVE_MAX];
     spc_vec2 u_dir[WAVE_MAX];
-    spc_vec3 wl_d[WAVE_MAX];
+    spc_vec3 wl[WAVE_MAX], wl_d[WAVE_MAX];
     int dlane[WAVE_MAX];
     const spc_bsdf *sb[WAVE_MAX];
     const spc_hit *sh[WAVE_MAX];
@@ -399,7 +395,6 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     spc_bsdf_sample bs[WAVE_MAX];
     bool bs_ok[WAVE_MAX];
     int sidx[WAVE_MAX];
-    int fin[WAVE_MAX]; /* the lanes whose shadow rays go toward a point */
     int pk[OCTANT_PACKET_SLOTS];
     int next = 0, live = 0, np;
     int nl = 0; /* the lanes in use, [0, nl): live lanes are kept packed at the front */
@@ -453,7 +448,6 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             u_lpos[i] = u[5 * i + 1];
         }
         spc_emitter_sample_direct_many(nl, le, ref, u_lpos, ds, ds_ok);
-        int nfin = 0;
         for (int i = 0; i < nl; ++i) {
             r[i] = NULL;
             occluded[i] = false;
@@ -461,15 +455,8 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 continue;
             prefetch_lane(ln, h, i, nl);
             lane_light(ctx, &ln[i], &h[i], pmf[i], le[i] && ds_ok[i], &ds[i]);
-            if (ln[i].shadow) {
+            if (ln[i].shadow)
                 r[i] = &ln[i].sr;
-                if (!ds[i].is_infinite)
-                    fin[nfin++] = i;
-            }
-        }
-        for (int j = 0; j < nfin; ++j) {
-            int i = fin[j];
-            spawn_to_finish(&ln[i].sr, ds[i].p, ds[i].err, h[i].ng);
         }
         /* the shadow rays in packets of one octant each, by Embree's coherent traversal (the same
          * answers: whether anything lies between two points has no ties to break) */
@@ -488,13 +475,9 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 if (pk[p * P + j] >= 0)
                     occluded[pk[p * P + j]] = po[j];
         }
-        for (int i = 0; i < nl; ++i)
-            if (r[i] && !occluded[i])
-                lane_contribute(&ln[i], &h[i]);
-        /* every live lane's BSDF sample, lane i's in bs[sidx[i]]: the other lanes' in one call (rough
-         * metals share their visible-normal searches, bsdf.h) into bs[0, ns), then the diffuse lanes'
-         * into bs[ns, ns + nd), their directions warped together (core/warp_many.c) and turned
-         * into their frames in one loop, one code path for all of them */
+        /* the diffuse lanes' directions, warped together (core/warp_many.c); the other live lanes'
+         * BSDF samples in one call (rough metals share their visible-normal searches, bsdf.h), lane
+         * i's in bs[sidx[i]] */
         int nd = 0, ns = 0;
         for (int i = 0; i < nl; ++i) {
             if (!alive[i])
@@ -511,18 +494,17 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             su_lobe[ns] = u[5 * i + 2].x;
             su_dir[ns++] = u[5 * i + 3];
         }
-        spc_bsdf_sample_dir_many(ns, sb, sh, SPC_MODE_RADIANCE, swo, su_lobe, su_dir, bs, bs_ok);
         spc_warp_cosine_hemisphere_many(nd, u_dir, wl_d);
-        for (int j = 0; j < nd; ++j) {
-            int i = dlane[j];
-            sidx[i] = ns + j;
-            bs_ok[ns + j] = spc_diffuse_view_sample_warped(&ln[i].dv, &h[i], ln[i].wo, wl_d[j], &bs[ns + j]);
-        }
+        for (int j = 0; j < nd; ++j)
+            wl[dlane[j]] = wl_d[j];
+        spc_bsdf_sample_dir_many(ns, sb, sh, SPC_MODE_RADIANCE, swo, su_lobe, su_dir, bs, bs_ok);
         for (int i = 0; i < nl; ++i) {
             if (ln[i].path < 0)
                 continue;
             prefetch_lane(ln, h, i, nl);
-            if (alive[i] && lane_scatter(ctx, &ln[i], &h[i], &bs[sidx[i]], bs_ok[sidx[i]], u[5 * i + 4].x))
+            const bool diffuse = alive[i] && ln[i].diffuse;
+            if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], &wl[i], diffuse ? NULL : &bs[sidx[i]],
+                                         !diffuse && bs_ok[sidx[i]], u[5 * i + 4].x))
                 continue;
             /* the path has ended: its estimate, and the lane takes the next sample */
             out[ln[i].path].L = ln[i].L;
