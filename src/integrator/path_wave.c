@@ -337,21 +337,19 @@ static void prefetch_lane(const lane *ln, const spc_hit *h, int i, int nl)
 /* The octant of d (its three sign bits). */
 static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0.0) << 2; }
 
-/* The rays r[0..w) (NULL: none) grouped by their directions' octants in packets of up to
- * SPC_SCENE_PACKET lanes of one octant: pk[k] the lane of packet slot k (-1: an idle slot); pk holds
- * OCTANT_PACKET_SLOTS entries. Returns the packets. The lanes without a ray go to a ninth group
- * after the packets, so that placing the lanes takes no branch on whether a lane has a ray (lanes
- * with and without a shadow ray alternate without a pattern). */
+/* The lanes [0, w) grouped by key[i], their rays' octants (8: the lane has no ray), in packets of
+ * up to SPC_SCENE_PACKET lanes of one octant: pk[k] the lane of packet slot k (-1: an idle slot); pk
+ * holds OCTANT_PACKET_SLOTS entries. Returns the packets. The lanes without a ray go to a ninth
+ * group after the packets, so that placing the lanes takes no branch on whether a lane has a ray
+ * (lanes with and without a shadow ray alternate without a pattern). The keys are taken where the
+ * rays are made, while the lanes' records are in cache. */
 enum { OCTANT_PACKET_SLOTS = WAVE_MAX + 8 * SPC_SCENE_PACKET + WAVE_MAX };
-static int octant_packets(int w, const spc_ray *const *r, int *pk)
+static int octant_packets(int w, const unsigned char *key, int *pk)
 {
     enum { P = SPC_SCENE_PACKET };
     int count[9] = {0};
-    unsigned char key[WAVE_MAX];
-    for (int i = 0; i < w; ++i) {
-        key[i] = (unsigned char)(r[i] ? octant(r[i]->d) : 8);
+    for (int i = 0; i < w; ++i)
         ++count[key[i]];
-    }
     int start[9], np = 0;
     for (int k = 0; k < 8; ++k) {
         start[k] = np * P;
@@ -396,6 +394,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     bool bs_ok[WAVE_MAX];
     int sidx[WAVE_MAX];
     int pk[OCTANT_PACKET_SLOTS];
+    unsigned char okey[WAVE_MAX]; /* the shadow rays' octants (8: none) */
     int next = 0, live = 0, np;
     int nl = 0; /* the lanes in use, [0, nl): live lanes are kept packed at the front */
     const bool lockstep = wave_lockstep(ctx);
@@ -451,16 +450,19 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         for (int i = 0; i < nl; ++i) {
             r[i] = NULL;
             occluded[i] = false;
+            okey[i] = 8;
             if (!alive[i])
                 continue;
             prefetch_lane(ln, h, i, nl);
             lane_light(ctx, &ln[i], &h[i], pmf[i], le[i] && ds_ok[i], &ds[i]);
-            if (ln[i].shadow)
+            if (ln[i].shadow) {
                 r[i] = &ln[i].sr;
+                okey[i] = (unsigned char)octant(ln[i].sr.d);
+            }
         }
         /* the shadow rays in packets of one octant each, by Embree's coherent traversal (the same
          * answers: whether anything lies between two points has no ties to break) */
-        np = octant_packets(nl, r, pk);
+        np = octant_packets(nl, okey, pk);
         for (int p = 0; p < np; ++p) {
             const spc_ray *pr[P];
             const spc_emitter *pe[P];
