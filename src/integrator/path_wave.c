@@ -319,21 +319,6 @@ static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0
 enum { WAVE_MAX = 256 };
 _Static_assert(WAVE_MAX <= SPC_EMITTER_MANY_MAX, "a wave's light samples in one call");
 
-/* The records of lane i + PREFETCH_AHEAD asked for while lane i runs: a stage's per-lane code reads
- * fields spread over a lane's and a hit's 300-odd bytes each, and the wave's records (about 170 KB)
- * do not stay in L1 between stages. */
-enum { PREFETCH_AHEAD = 2 };
-static void prefetch_lane(const lane *ln, const spc_hit *h, int i, int nl)
-{
-    if (i + PREFETCH_AHEAD >= nl)
-        return;
-    const char *a = (const char *)&ln[i + PREFETCH_AHEAD], *b = (const char *)&h[i + PREFETCH_AHEAD];
-    for (size_t k = 0; k < sizeof(lane); k += 64)
-        __builtin_prefetch(a + k);
-    for (size_t k = 0; k < sizeof(spc_hit); k += 64)
-        __builtin_prefetch(b + k);
-}
-
 /* The octant of d (its three sign bits). */
 static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0.0) << 2; }
 
@@ -427,7 +412,6 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 hit[i] = ln[i].camera_ok;
                 ln[i].camera_hit = false;
             }
-            prefetch_lane(ln, h, i, nl);
             alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
         }
@@ -453,7 +437,6 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             okey[i] = 8;
             if (!alive[i])
                 continue;
-            prefetch_lane(ln, h, i, nl);
             lane_light(ctx, &ln[i], &h[i], pmf[i], le[i] && ds_ok[i], &ds[i]);
             if (ln[i].shadow) {
                 r[i] = &ln[i].sr;
@@ -503,7 +486,6 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         for (int i = 0; i < nl; ++i) {
             if (ln[i].path < 0)
                 continue;
-            prefetch_lane(ln, h, i, nl);
             const bool diffuse = alive[i] && ln[i].diffuse;
             if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], &wl[i], diffuse ? NULL : &bs[sidx[i]],
                                          !diffuse && bs_ok[sidx[i]], u[5 * i + 4].x))
