@@ -180,49 +180,6 @@ static const spc_emitter *lane_pick_light(const spc_render_ctx *ctx, const lane 
     return spc_scene_sample_emitter(ctx->scene, u_light, pmf);
 }
 
-/* spc_hit_offset(h, d), its sign chosen without a branch: the side of ng that a new ray leaves by
- * has no pattern across the lanes (a twosided wall is left on either side), and the stall after
- * the branch was the hottest line of the wave's own code (perf annotate, the cornell box: 8% of
- * spc_path_wave_sample's samples, about 2% of the render). The
- * sign bit of err flipped is -err exactly, so the origin is spc_hit_offset's bit for bit (GCC turns
- * a select or a product with -1.0 back into the branch). */
-static spc_vec3 offset_origin(const spc_hit *h, spc_vec3 d)
-{
-    uint64_t bits;
-    double off;
-    memcpy(&bits, &h->err, sizeof bits);
-    bits ^= (uint64_t)(spc_dot(h->ng, d) < 0.0) << 63;
-    memcpy(&off, &bits, sizeof off);
-    return spc_madd(h->p, h->ng, off);
-}
-
-/* spc_hit_spawn(h, d) with offset_origin */
-static spc_ray spawn(const spc_hit *h, spc_vec3 d)
-{
-    spc_ray r;
-    r.o = offset_origin(h, d);
-    r.d = d;
-    r.tmin = 0.0;
-    r.tmax = SPC_INF;
-    return r;
-}
-
-/* spc_hit_spawn_to(h, q, q_err) with offset_origin, the same expressions */
-static spc_ray spawn_to(const spc_hit *h, spc_vec3 q, double q_err)
-{
-    spc_vec3 o = offset_origin(h, spc_sub(q, h->p));
-    spc_vec3 d = spc_sub(q, o);
-    double dist = spc_length(d);
-    spc_ray r;
-    r.o = o;
-    r.d = dist > 0.0 ? spc_scale(d, 1.0 / dist) : h->ng;
-    r.tmin = 0.0;
-    r.tmax = dist - 2.0 * q_err - 1e-7 * dist;
-    if (r.tmax < 0.0)
-        r.tmax = 0.0;
-    return r;
-}
-
 /* Next-event estimation's second half, with the light's sample ds (ok: spc_emitter_sample_direct's
  * result with path.c's u_lpos): the shadow ray (ln->shadow, ln->sr) and what its contribution needs. */
 static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, double pmf, bool ok,
@@ -239,7 +196,7 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, do
             cosi = 0.0;
         if (!spc_rgb_is_black(f) && cosi > 0.0) {
             ln->shadow = true;
-            ln->sr = ds->is_infinite ? spawn(h, ds->wi) : spawn_to(h, ds->p, ds->err);
+            ln->sr = ds->is_infinite ? spc_hit_spawn(h, ds->wi) : spc_hit_spawn_to(h, ds->p, ds->err);
             ln->f = f;
             ln->Le = ds->L;
             ln->wi = ds->wi;
@@ -284,7 +241,7 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
     ln->prev_p = h->p;
     if (bsp->lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))
         ln->eta_scale *= bsp->eta * bsp->eta;
-    ln->ray = spawn(h, bsp->wi);
+    ln->ray = spc_hit_spawn(h, bsp->wi);
 
     if (ln->segments >= ctx->rr_depth) {
         double q = spc_min(0.95, spc_rgb_max(ln->beta) * ln->eta_scale);
