@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "bsdf/bsdf.h"
+#include "chain_mis.h"
 #include "core/rng.h"
 #include "harness.h"
 #include "manifold/chain.h"
@@ -30,17 +31,13 @@
  * and such paths (a vertex on a slab's edge) carry a vanishing share of the light. */
 #define SHORTEST 1e-4
 
+/* The scene, its light's radius and radiance set (the XML's defaults light_radius, light_radiance). */
 static spc_scene *load(const char *light_radius, const char *light_radiance)
 {
     const char *d = getenv("SPC_SOURCE_DIR");
     char path[1024];
     snprintf(path, sizeof path, "%s/%s", d ? d : ".", SCENE);
-    spc_scene *sc = NULL;
-    spc_error err;
-    memset(&err, 0, sizeof err);
-    spc_define defs[2] = {{"light_radius", light_radius}, {"light_radiance", light_radiance}};
-    CHECK_MSG(spc_scene_load(path, defs, light_radius ? 2 : 0, &sc, &err) == SPC_OK, "%s: %s", path, err.msg);
-    return sc;
+    return chain_mis_load(path, light_radius, light_radiance);
 }
 
 /* One BSDF-sampled path from x through delta vertices only: true where it reaches the light, with
