@@ -66,7 +66,7 @@ def main():
     # properties only specula reads (specular NEE settings): those are dropped, and an edited file
     # is loaded with its folder on the file resolver (for relative paths).
     text = open(a.scene).read()
-    params = {k: v for k, v in params.items() if "$" + k in text}
+    params = {k: v for k, v in params.items() if re.search(r"\$" + k + r"\b", text)}
     edited = re.sub(r'<(string|integer|boolean|float)\s+name="(specular_nee|specular_max_chain|mis_balance|'
                     r'caustic_caster|caustic_receiver|caustic_caster_single|caustic_caster_multi)"[^>]*/>',
                     "", text)
