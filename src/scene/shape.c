@@ -23,9 +23,11 @@
 #include "scene/shape.h"
 
 #include <float.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/cpu_isa.h"
 #include "scene/curve.h"
 #include "scene/sdf.h"
 #include "scene/sdfgrid.h"
@@ -1075,4 +1077,144 @@ double spc_shape_pdf_solid_angle(const spc_shape *s, spc_vec3 ref, spc_vec3 p)
     double dist2 = spc_length2(spc_sub(s->center, ref));
     double cos_max = sqrt(spc_max(0.0, 1.0 - s->radius * s->radius / dist2));
     return spc_warp_uniform_cone_pdf(cos_max);
+}
+
+/* ---- many hits on one shape at once ---- */
+
+/* Hits per pass of the structure-of-arrays fill (arrays on the stack). */
+#define FILL_MANY_BATCH 64
+
+/* One pass's hits on a mesh with kept triangle frames and no vertex normals, one array per
+ * coordinate: the vertices and the triangle's frame gathered in, the record's fields computed. */
+typedef struct fill_soa {
+    double b1[FILL_MANY_BATCH], b2[FILL_MANY_BATCH];
+    double p0[3][FILL_MANY_BATCH], p1[3][FILL_MANY_BATCH], p2[3][FILL_MANY_BATCH];
+    double c[6][FILL_MANY_BATCH]; /* tri_frame: normal, tangent */
+    double uv0[2][FILL_MANY_BATCH], duv1[2][FILL_MANY_BATCH], duv2[2][FILL_MANY_BATCH];
+    double p[3][FILL_MANY_BATCH], err[FILL_MANY_BATCH], uv[2][FILL_MANY_BATCH];
+    double ng[3][FILL_MANY_BATCH], t[3][FILL_MANY_BATCH];
+} fill_soa;
+
+/* fill_mesh's MESH_SHADING arithmetic for hits [0, m) of f, in its expressions and order (ISO C11
+ * builds do not contract a * b + c, and the vector targets do not include FMA): p, err, uv (the
+ * mesh's, or the barycentrics where has_uv is false), ng from the kept frame (negated under flip),
+ * sh.t = cross(ng, tangent). */
+static inline __attribute__((always_inline)) void fill_soa_loop(int m, bool has_uv, bool flip, fill_soa *f)
+{
+    for (int j = 0; j < m; ++j) {
+        double b1 = f->b1[j], b2 = f->b2[j];
+        double b0 = 1.0 - b1 - b2;
+        double mag0 = spc_max(fabs(f->p0[0][j]), spc_max(fabs(f->p0[1][j]), fabs(f->p0[2][j])));
+        double mag1 = spc_max(fabs(f->p1[0][j]), spc_max(fabs(f->p1[1][j]), fabs(f->p1[2][j])));
+        double mag2 = spc_max(fabs(f->p2[0][j]), spc_max(fabs(f->p2[1][j]), fabs(f->p2[2][j])));
+        double p[3];
+        for (int a = 0; a < 3; ++a) {
+            p[a] = f->p0[a][j] * b0 + f->p1[a][j] * b1 + f->p2[a][j] * b2;
+            f->p[a][j] = p[a];
+        }
+        double mag = spc_max(mag0, spc_max(mag1, mag2));
+        f->err[j] = SPC_FLOAT_OFFSET * spc_max(mag, spc_max(fabs(p[0]), spc_max(fabs(p[1]), fabs(p[2]))));
+        for (int a = 0; a < 2; ++a)
+            f->uv[a][j] = has_uv ? f->uv0[a][j] + b1 * f->duv1[a][j] + b2 * f->duv2[a][j] : (a == 0 ? b1 : b2);
+        double nx = flip ? -f->c[0][j] : f->c[0][j], ny = flip ? -f->c[1][j] : f->c[1][j];
+        double nz = flip ? -f->c[2][j] : f->c[2][j];
+        f->ng[0][j] = nx;
+        f->ng[1][j] = ny;
+        f->ng[2][j] = nz;
+        double sx = f->c[3][j], sy = f->c[4][j], sz = f->c[5][j];
+        f->t[0][j] = ny * sz - nz * sy;
+        f->t[1][j] = nz * sx - nx * sz;
+        f->t[2][j] = nx * sy - ny * sx;
+    }
+}
+
+static void fill_soa_base(int m, bool has_uv, bool flip, fill_soa *f) { fill_soa_loop(m, has_uv, flip, f); }
+
+#if defined(__GNUC__) && defined(__x86_64__)
+#define FILL_MANY_VECTOR 1
+#if defined(__clang__)
+#define FILL_MANY_ATTR(t) __attribute__((target(t)))
+#else
+#define FILL_MANY_ATTR(t) __attribute__((target(t), optimize("O3"))) /* GCC's -O2 does not vectorize */
+#endif
+FILL_MANY_ATTR("avx2")
+static void fill_soa_avx2(int m, bool has_uv, bool flip, fill_soa *f) { fill_soa_loop(m, has_uv, flip, f); }
+FILL_MANY_ATTR("avx512f")
+static void fill_soa_avx512(int m, bool has_uv, bool flip, fill_soa *f) { fill_soa_loop(m, has_uv, flip, f); }
+#endif
+
+typedef void (*fill_soa_fn)(int, bool, bool, fill_soa *);
+static fill_soa_fn fill_soa_run = fill_soa_base;
+static pthread_once_t fill_soa_once = PTHREAD_ONCE_INIT;
+
+/* The best variant under cpu_isa.h's choice. */
+static void fill_soa_init(void)
+{
+#ifdef FILL_MANY_VECTOR
+    int isa = spc_vector_isa();
+    if (isa == SPC_ISA_AVX512)
+        fill_soa_run = fill_soa_avx512;
+    else if (isa == SPC_ISA_AVX2)
+        fill_soa_run = fill_soa_avx2;
+#endif
+}
+
+void spc_shape_fill_hit_shading_many(const spc_shape *s, int n, const int *prim, const double *u, const double *v,
+                                     const spc_ray *const *r, const double *t, spc_hit *const *h)
+{
+    const spc_mesh *m = &s->mesh;
+    /* fill_mesh's MESH_SHADING path through a kept frame without vertex normals; any other shape or
+     * mesh one hit at a time */
+    if (!(s->type == SPC_SHAPE_MESH && s->lazy_derivs && s->tri_frame && s->tri_frame_flip == s->flip_normals &&
+          (!m->n || s->face_normals))) {
+        for (int k = 0; k < n; ++k)
+            spc_shape_fill_hit_shading(s, prim[k], u[k], v[k], r[k], t[k], h[k]);
+        return;
+    }
+    pthread_once(&fill_soa_once, fill_soa_init);
+    fill_soa f;
+    const bool has_uv = m->uv != NULL;
+    for (int k0 = 0; k0 < n; k0 += FILL_MANY_BATCH) {
+        const int mm = n - k0 < FILL_MANY_BATCH ? n - k0 : FILL_MANY_BATCH;
+        for (int j = 0; j < mm; ++j) {
+            const int pr = prim[k0 + j];
+            const uint32_t i0 = m->idx[3 * pr], i1 = m->idx[3 * pr + 1], i2 = m->idx[3 * pr + 2];
+            const double *c = s->tri_frame + 6 * (size_t)pr;
+            f.b1[j] = u[k0 + j];
+            f.b2[j] = v[k0 + j];
+            for (int a = 0; a < 3; ++a) {
+                f.p0[a][j] = m->p[3 * i0 + a];
+                f.p1[a][j] = m->p[3 * i1 + a];
+                f.p2[a][j] = m->p[3 * i2 + a];
+            }
+            for (int a = 0; a < 6; ++a)
+                f.c[a][j] = c[a];
+            if (has_uv)
+                for (int a = 0; a < 2; ++a) {
+                    f.uv0[a][j] = m->uv[2 * i0 + a];
+                    f.duv1[a][j] = m->uv[2 * i1 + a] - f.uv0[a][j];
+                    f.duv2[a][j] = m->uv[2 * i2 + a] - f.uv0[a][j];
+                }
+        }
+        fill_soa_run(mm, has_uv, s->flip_normals, &f);
+        for (int j = 0; j < mm; ++j) {
+            const int k = k0 + j;
+            spc_hit *hk = h[k];
+            if (f.c[3][j] == 0.0 && f.c[4][j] == 0.0 && f.c[5][j] == 0.0) {
+                /* no kept tangent: fill_mesh's spc_frame_from_ns */
+                spc_shape_fill_hit_shading(s, prim[k], u[k], v[k], r[k], t[k], hk);
+                continue;
+            }
+            fill_common(s, prim[k], t[k], hk);
+            hk->p = spc_v3(f.p[0][j], f.p[1][j], f.p[2][j]);
+            hk->ng = spc_v3(f.ng[0][j], f.ng[1][j], f.ng[2][j]);
+            hk->b1 = f.b1[j];
+            hk->b2 = f.b2[j];
+            hk->err = f.err[j];
+            hk->uv = spc_v2(f.uv[0][j], f.uv[1][j]);
+            hk->sh.n = hk->ng;
+            hk->sh.s = spc_v3(f.c[3][j], f.c[4][j], f.c[5][j]);
+            hk->sh.t = spc_v3(f.t[0][j], f.t[1][j], f.t[2][j]);
+        }
+    }
 }
