@@ -314,7 +314,6 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     enum { P = SPC_SCENE_PACKET, W = WAVE_MAX };
     lane ln[WAVE_MAX];
     spc_hit h[WAVE_MAX];
-    spc_scene_answer ans[WAVE_MAX];
     bool hit[WAVE_MAX], alive[WAVE_MAX], occluded[WAVE_MAX];
     const spc_ray *r[WAVE_MAX];
     spc_sampler *ls[WAVE_MAX];
@@ -363,13 +362,8 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 any |= pr[j] != NULL;
             }
             if (any) /* (a packet of camera samples has its hits already) */
-                spc_scene_trace_packet(ctx->scene, pr, ans + i0);
-            else
-                for (int j = 0; j < P && i0 + j < nl; ++j)
-                    ans[i0 + j].shape = -1;
+                spc_scene_intersect_packet(ctx->scene, pr, h + i0, hit + i0);
         }
-        /* the hit records of the step's rays, filled shape by shape after the whole wave is traced */
-        spc_scene_fill_answers(ctx->scene, nl, r, ans, h, hit);
         for (int i = 0; i < nl; ++i) {
             if (ln[i].path >= 0 && ln[i].camera_hit) {
                 hit[i] = ln[i].camera_ok;

@@ -417,65 +417,6 @@ void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[
         a[i] = (spc_scene_answer){shape[i], prim[i], u[i], v[i], t[i]};
 }
 
-void spc_scene_trace_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
-                            spc_scene_answer a[SPC_SCENE_PACKET])
-{
-    int shape[SPC_ACCEL_PACKET], prim[SPC_ACCEL_PACKET];
-    double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
-    spc_accel_intersect_packet(s->accel, r, shape, prim, u, v, t);
-    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
-        a[i] = (spc_scene_answer){shape[i], prim[i], u[i], v[i], t[i]};
-}
-
-/* answers filled per call of spc_shape_fill_hit_shading_many (arrays on the stack) */
-#define FILL_BATCH 256
-
-void spc_scene_fill_answers(const spc_scene *s, int n, const spc_ray *const *r, const spc_scene_answer *a, spc_hit *h,
-                            bool *hit)
-{
-    int ord[FILL_BATCH], tmp[FILL_BATCH];
-    int prim[FILL_BATCH];
-    double u[FILL_BATCH], v[FILL_BATCH], t[FILL_BATCH];
-    const spc_ray *rr[FILL_BATCH];
-    spc_hit *hh[FILL_BATCH];
-    for (int i0 = 0; i0 < n; i0 += FILL_BATCH) {
-        int m = 0;
-        for (int i = i0; i < n && i < i0 + FILL_BATCH; ++i) {
-            hit[i] = a[i].shape >= 0;
-            if (hit[i])
-                ord[m++] = i;
-        }
-        /* the hits in order of their shape: a stable radix sort of the shape indices, 8 bits a pass,
-         * as many passes as the scene's shape count has bytes */
-        for (int shift = 0; shift == 0 || (s->nshapes - 1) >> shift; shift += 8) {
-            int count[257] = {0};
-            for (int k = 0; k < m; ++k)
-                ++count[((a[ord[k]].shape >> shift) & 255) + 1];
-            for (int d = 0; d < 256; ++d)
-                count[d + 1] += count[d];
-            for (int k = 0; k < m; ++k)
-                tmp[count[(a[ord[k]].shape >> shift) & 255]++] = ord[k];
-            memcpy(ord, tmp, (size_t)m * sizeof *ord);
-        }
-        for (int k0 = 0; k0 < m;) {
-            int sh = a[ord[k0]].shape, k1 = k0;
-            for (; k1 < m && a[ord[k1]].shape == sh; ++k1) {
-                const int i = ord[k1];
-                const int j = k1 - k0;
-                prim[j] = a[i].prim;
-                u[j] = a[i].u;
-                v[j] = a[i].v;
-                t[j] = a[i].t;
-                rr[j] = r[i];
-                hh[j] = &h[i];
-                h[i].shape_index = sh;
-            }
-            spc_shape_fill_hit_shading_many(s->shapes[sh], k1 - k0, prim, u, v, rr, t, hh);
-            k0 = k1;
-        }
-    }
-}
-
 bool spc_scene_fill_answer(const spc_scene *s, const spc_ray *r, const spc_scene_answer *a, spc_hit *h)
 {
     if (a->shape < 0)

@@ -218,15 +218,6 @@ void spc_scene_trace(const spc_scene *s, const spc_ray *r, spc_scene_answer *a);
  * miss or an inactive lane). */
 void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
                                      spc_scene_answer a[SPC_SCENE_PACKET]);
-/* spc_scene_intersect_packet's traversal (Embree's incoherent one), the answers left unfilled
- * (a[i].shape -1 for a miss or an inactive lane). */
-void spc_scene_trace_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET],
-                            spc_scene_answer a[SPC_SCENE_PACKET]);
-/* spc_scene_fill_answer for n answers at once: hit[i] = spc_scene_fill_answer(s, r[i], &a[i], &h[i])
- * (h[i] untouched for a miss), the same records. The answers are taken shape by shape
- * (spc_shape_fill_hit_shading_many), so that one shape's hits are filled together. */
-void spc_scene_fill_answers(const spc_scene *s, int n, const spc_ray *const *r, const spc_scene_answer *a, spc_hit *h,
-                            bool *hit);
 /* The hit record of answer a for ray r (the ray it was traced for), the packet calls' shading record
  * (spc_scene_intersect's, the derivatives left out where spc_shape_fill_hit_shading leaves them out);
  * false (h untouched) for a miss. */

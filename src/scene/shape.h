@@ -164,12 +164,6 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
  * there; on other shapes every field. */
 void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
                                 spc_hit *h);
-/* spc_shape_fill_hit_shading(s, prim[k], u[k], v[k], r[k], t[k], h[k]) for k in [0, n): the same
- * records, filled together: on a small mesh without vertex normals (the walls and boxes of a room)
- * the arithmetic runs over the hits in structure-of-arrays form, compiled also for AVX2 and AVX-512
- * and chosen at run time (core/cpu_isa.h), bit for bit the one-at-a-time fill. */
-void spc_shape_fill_hit_shading_many(const spc_shape *s, int n, const int *prim, const double *u, const double *v,
-                                     const spc_ray *const *r, const double *t, spc_hit *const *h);
 /* spc_shape_fill_hit for a specular chain's vertex while a solver steps: on a mesh every field but
  * uv and the shading tangents sh.s, sh.t (zero; sh.n is filled), which the steps do not read; the
  * fields filled are spc_shape_fill_hit's values. Other shapes: every field. */
