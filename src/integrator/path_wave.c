@@ -23,14 +23,12 @@
  */
 #include "integrator/path_wave.h"
 
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>
 
 #include "bsdf/diffuse_view.h"
-#include "core/cpu_isa.h"
 #include "integrator/aov.h"
 
 static atomic_uint_least64_t wave_samples;
@@ -78,9 +76,6 @@ bool spc_path_wave_applies(const spc_render_ctx *ctx)
             return false;
     return true;
 }
-
-/* The stages are inlined into each instruction set's copy of the wave (wave_run). */
-#define STAGE inline __attribute__((always_inline))
 
 static void lane_start(lane *ln, int path, const spc_ray *ray0, spc_sample_out *out)
 {
@@ -131,7 +126,7 @@ static void lane_take(const spc_render_ctx *ctx, lane *ln, spc_hit *h, int path,
 
 /* path.c's loop body from the intersection to next-event estimation: emission, the depth, strict
  * normals. false: the path has ended. */
-static STAGE bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const spc_hit *h, spc_sampler *smp,
+static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const spc_hit *h, spc_sampler *smp,
                          spc_sample_out *out)
 {
     const spc_scene *sc = ctx->scene;
@@ -177,7 +172,7 @@ static STAGE bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, co
 
 /* Next-event estimation at h, path.c's first half: the light chosen with path.c's dimension u_light
  * (drawn whether used or not); NULL when the vertex takes no light sample. */
-static STAGE const spc_emitter *lane_pick_light(const spc_render_ctx *ctx, const lane *ln, const spc_hit *h, double u_light,
+static const spc_emitter *lane_pick_light(const spc_render_ctx *ctx, const lane *ln, const spc_hit *h, double u_light,
                                           double *pmf)
 {
     if (ctx->kind != SPC_INTEGRATOR_PATH || !(ln->diffuse || spc_bsdf_has_smooth(h->bsdf)))
@@ -187,7 +182,7 @@ static STAGE const spc_emitter *lane_pick_light(const spc_render_ctx *ctx, const
 
 /* Next-event estimation's second half, with the light's sample ds (ok: spc_emitter_sample_direct's
  * result with path.c's u_lpos): the shadow ray (ln->shadow, ln->sr) and what its contribution needs. */
-static STAGE void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, double pmf, bool ok,
+static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, double pmf, bool ok,
                        const spc_emitter_direct *ds)
 {
     const spc_bsdf *b = h->bsdf;
@@ -217,7 +212,7 @@ static STAGE void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit 
  * *wl is u_dir's cosine-weighted direction (spc_warp_cosine_hemisphere); at any other vertex *pre is
  * spc_bsdf_sample_dir's sample with u_lobe and u_dir and pre_ok its result. false: the path has
  * ended. */
-static STAGE bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, const spc_vec3 *wl,
+static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, const spc_vec3 *wl,
                          const spc_bsdf_sample *pre, bool pre_ok, double u_rr)
 {
     const spc_vec3 wo = ln->wo;
@@ -291,7 +286,7 @@ static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0
  * (lanes with and without a shadow ray alternate without a pattern). The keys are taken where the
  * rays are made, while the lanes' records are in cache. */
 enum { OCTANT_PACKET_SLOTS = WAVE_MAX + 8 * SPC_SCENE_PACKET + WAVE_MAX };
-static STAGE int octant_packets(int w, const unsigned char *key, int *pk)
+static int octant_packets(int w, const unsigned char *key, int *pk)
 {
     enum { P = SPC_SCENE_PACKET };
     int count[9] = {0};
@@ -311,11 +306,11 @@ static STAGE int octant_packets(int w, const unsigned char *key, int *pk)
     return np;
 }
 
-/* spc_path_wave_sample's body, compiled once per instruction set below (with the stages and the
- * vector helpers of core/math.h that it inlines). */
-static inline __attribute__((always_inline)) void wave_run(const spc_render_ctx *ctx, int n, const spc_ray *rays,
-                                                           spc_sampler *smp, spc_sample_out *out)
+void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const spc_ray *rays, spc_sampler *smp,
+                          spc_sample_out *out)
 {
+    (void)tls; /* plain path tracing splats nothing */
+    atomic_fetch_add(&wave_samples, (uint64_t)n);
     enum { P = SPC_SCENE_PACKET, W = WAVE_MAX };
     lane ln[WAVE_MAX];
     spc_hit h[WAVE_MAX];
@@ -477,52 +472,4 @@ static inline __attribute__((always_inline)) void wave_run(const spc_render_ctx 
             }
         }
     }
-}
-
-/* The wave for the CPU's instruction set, chosen at run time (core/cpu_isa.h). The lanes' arithmetic
- * is scalar double in path.c's order; compiled for AVX2 or AVX-512 it is the same arithmetic (ISO
- * C11 builds do not contract a * b + c, so the targets' fused multiply-add is not used) with the
- * wider registers and three-operand forms: the same images, less time (bench/RESULTS.md, part
- * perf25a). */
-static void wave_base(const spc_render_ctx *ctx, int n, const spc_ray *rays, spc_sampler *smp, spc_sample_out *out)
-{
-    wave_run(ctx, n, rays, smp, out);
-}
-
-#if defined(__GNUC__) && defined(__x86_64__)
-#define WAVE_VECTOR 1
-__attribute__((target("avx2"))) static void wave_avx2(const spc_render_ctx *ctx, int n, const spc_ray *rays,
-                                                      spc_sampler *smp, spc_sample_out *out)
-{
-    wave_run(ctx, n, rays, smp, out);
-}
-__attribute__((target("avx512f"))) static void wave_avx512(const spc_render_ctx *ctx, int n, const spc_ray *rays,
-                                                           spc_sampler *smp, spc_sample_out *out)
-{
-    wave_run(ctx, n, rays, smp, out);
-}
-#endif
-
-typedef void (*wave_fn)(const spc_render_ctx *, int, const spc_ray *, spc_sampler *, spc_sample_out *);
-static wave_fn wave = wave_base;
-static pthread_once_t wave_once = PTHREAD_ONCE_INIT;
-
-static void wave_init(void)
-{
-#ifdef WAVE_VECTOR
-    int isa = spc_vector_isa();
-    if (isa == SPC_ISA_AVX512)
-        wave = wave_avx512;
-    else if (isa == SPC_ISA_AVX2)
-        wave = wave_avx2;
-#endif
-}
-
-void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const spc_ray *rays, spc_sampler *smp,
-                          spc_sample_out *out)
-{
-    (void)tls; /* plain path tracing splats nothing */
-    atomic_fetch_add(&wave_samples, (uint64_t)n);
-    pthread_once(&wave_once, wave_init);
-    wave(ctx, n, rays, smp, out);
 }
