@@ -280,7 +280,8 @@ enum { WAVE_MAX = 256 };
  * cornell box (32 spp) 18% of the shadow-ray packets and 6% of the extension packets carry one or
  * two rays (2% and 0.5% of the rays). A packet call with one or two live rays costs more than as many
  * single-ray calls; paired CPU time, one thread, 2 against 0 (bench/RESULTS.md, part perf25a): the
- * cornell box -1.3% (faster in 17 of 24 rounds), veach-mis (few such packets) flat; 1 gained less. */
+ * cornell box -1.1% (faster in 22 of 32 rounds), veach-mis (few such packets) flat; 1 and 4 gained
+ * less. */
 enum { SINGLE_RAYS_MAX = 2 };
 _Static_assert(WAVE_MAX <= SPC_EMITTER_MANY_MAX, "a wave's light samples in one call");
 
