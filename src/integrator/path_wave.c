@@ -274,6 +274,15 @@ static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0
  * so the images would no longer be path.c's. The per-lane arrays take about 1.1 KB a lane, 290 KB
  * of the thread's stack. */
 enum { WAVE_MAX = 256 };
+
+/* Packets of at most this many rays are traced as single rays (the same hits and answers, scene.h).
+ * They are the remainders of the octant groups and the steps of a wave's last long paths: on the
+ * cornell box (32 spp) 18% of the shadow-ray packets and 6% of the extension packets carry one or
+ * two rays (2% and 0.5% of the rays). A packet call with one or two live rays costs more than as many
+ * single-ray calls; paired CPU time, one thread, 2 against 0 (bench/RESULTS.md, part perf25a): the
+ * cornell box -1.1% (faster in 22 of 32 rounds), veach-mis (few such packets) flat; 1 and 4 gained
+ * less. */
+enum { SINGLE_RAYS_MAX = 2 };
 _Static_assert(WAVE_MAX <= SPC_EMITTER_MANY_MAX, "a wave's light samples in one call");
 
 /* The octant of d (its three sign bits). */
@@ -356,13 +365,24 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
          * between coincident surfaces in another order than single rays */
         for (int i0 = 0; i0 < nl; i0 += P) {
             const spc_ray *pr[P];
-            bool any = false;
+            int active = 0;
             for (int j = 0; j < P; ++j) {
                 pr[j] = i0 + j < nl ? r[i0 + j] : NULL;
-                any |= pr[j] != NULL;
+                active += pr[j] != NULL;
             }
-            if (any) /* (a packet of camera samples has its hits already) */
+            if (active > SINGLE_RAYS_MAX) {
                 spc_scene_intersect_packet(ctx->scene, pr, h + i0, hit + i0);
+                continue;
+            }
+            /* (a packet of camera samples has its hits already: active is 0) */
+            for (int j = 0; j < P && i0 + j < nl; ++j) {
+                hit[i0 + j] = false;
+                if (pr[j]) {
+                    spc_scene_answer a;
+                    spc_scene_trace(ctx->scene, pr[j], &a);
+                    hit[i0 + j] = spc_scene_fill_answer(ctx->scene, pr[j], &a, &h[i0 + j]);
+                }
+            }
         }
         for (int i = 0; i < nl; ++i) {
             if (ln[i].path >= 0 && ln[i].camera_hit) {
@@ -407,12 +427,18 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             const spc_ray *pr[P];
             const spc_emitter *pe[P];
             bool po[P];
+            int active = 0;
             for (int j = 0; j < P; ++j) {
                 int i = pk[p * P + j];
                 pr[j] = i >= 0 ? r[i] : NULL;
                 pe[j] = i >= 0 ? le[i] : NULL;
+                active += i >= 0;
             }
-            spc_scene_occluded_light_packet_coherent(ctx->scene, pr, pe, po);
+            if (active > SINGLE_RAYS_MAX)
+                spc_scene_occluded_light_packet_coherent(ctx->scene, pr, pe, po);
+            else
+                for (int j = 0; j < P; ++j)
+                    po[j] = pr[j] && spc_scene_occluded_light(ctx->scene, pr[j], pe[j]);
             for (int j = 0; j < P; ++j)
                 if (pk[p * P + j] >= 0)
                     occluded[pk[p * P + j]] = po[j];
