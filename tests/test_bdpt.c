@@ -1530,7 +1530,7 @@ TEST(camera_aim_against_path)
  * than the rest of what they see (camera_aim_gain): on the hot-spot caustic, not on the box with a
  * glass and a mirror sphere under a ceiling light (its walls seen through the balls are lit as the
  * walls seen directly), nor on a glass ball on a floor under a sky; the light's aim stays on in
- * all three. Asked for 0.9 in each. */
+ * all three. Asked for 0.9 in each. A crop window gets the whole film's verdict. */
 TEST(camera_aim_gate)
 {
     spc_scene *scs[3] = {hot_spot_scene(16), cornell_box(BOX_SPHERES, 16, 2.0), NULL};
@@ -1561,6 +1561,21 @@ TEST(camera_aim_gate)
         else
             CHECK_MSG(st.bdpt_aim_camera == 0.0, "%s: camera's aimed share %.3f", what[k], st.bdpt_aim_camera);
         spc_film_destroy(f);
+        if (k == 0) {
+            /* a crop of pixels that see only the ball: the pilot reads the whole film, same aim */
+            double full = st.bdpt_aim_camera;
+            spc_scene *crop = scs[k];
+            crop->film.crop_x = 7;
+            crop->film.crop_y = 5;
+            crop->film.crop_w = 2;
+            crop->film.crop_h = 2;
+            memset(&st, 0, sizeof st);
+            f = render_aim2(crop, 0.0, 0.9, 1, 81, false, &st);
+            CHECK(f != NULL);
+            CHECK_MSG(st.bdpt_aim_camera == full, "crop: camera's aimed share %.3f, whole film %.3f",
+                      st.bdpt_aim_camera, full);
+            spc_film_destroy(f);
+        }
         spc_scene_destroy(scs[k]);
     }
 }

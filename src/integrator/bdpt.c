@@ -1900,10 +1900,11 @@ static double pilot_bounce(const spc_scene *sc, spc_ray ray, spc_rng *rng)
 }
 
 /* The camera's aim's gate (spc_bdpt_aim_init): at the first hits z1 of SPC_BDPT_AIM_GATE_RAYS camera
- * rays (uniform film positions of the rendered window, a fixed stream) that the aim would serve
- * (camera_aimable's BSDFs, a cone above them), the second moment that z1's BSDF sampling has of the
- * light arriving through the cones after a bounce (pilot_bounce along uniform cone directions,
- * weighed as (f cos)^2 / pdf_bsdf for z1's cosine density), over the second moment of z1's own
+ * rays (uniform positions of the whole film, not only the rendered window, so that a crop renders
+ * its pixels with the same aim; a fixed stream) that the aim would serve (camera_aimable's BSDFs,
+ * a cone above them), the second moment that z1's BSDF sampling has of the light arriving through
+ * the cones after a bounce (pilot_bounce along uniform cone directions, weighed as
+ * (f cos)^2 / pdf_bsdf for z1's cosine density), over the second moment of z1's own
  * estimate of what it reflects (one light sample and one BSDF-sampled bounce). That is about the
  * share of a pixel's variance the aim can lower: large where the casters show, from the surfaces
  * the camera sees, something much brighter than the rest of what those surfaces see (a wall's hot
@@ -1917,8 +1918,8 @@ static double camera_aim_gain(const spc_render_ctx *ctx, const spc_bdpt_aim *aim
     spc_rng_seed(&rng, SPC_BDPT_AIM_GATE_STREAM, 0);
     double cone_m2 = 0.0, own_m2 = 0.0;
     for (int k = 0; k < SPC_BDPT_AIM_GATE_RAYS; ++k) {
-        double px = ctx->crop_x + ctx->width * spc_rng_next(&rng);
-        double py = ctx->crop_y + ctx->height * spc_rng_next(&rng);
+        double px = ctx->cam->width * spc_rng_next(&rng);
+        double py = ctx->cam->height * spc_rng_next(&rng);
         spc_ray ray = spc_camera_ray(ctx->cam, px, py);
         spc_hit h;
         if (!spc_scene_intersect(sc, &ray, &h))
