@@ -153,9 +153,9 @@
  * chains of up to 8 delta vertices followed. The aim only where the cones' share of the second
  * moment reaches 0.05, about halfway (in ratio) between the glass-ball caustic's 0.11-0.19 (four
  * pilot streams), where the aim lowers the variance 1.15-1.2x at equal CPU, and the demo box's
- * 0.018-0.021, where it costs 3-5% CPU for nothing; the glass sphere under a sky 0.003-0.004, the
- * glass cube 0.012-0.015, the slabs 0.006-0.008, dielectrics below 0.001 (bench/RESULTS.md, parts
- * bdpt24 and bdpt25). */
+ * 0.018-0.021, where it lowers nothing and costs 0.5-5% CPU; the glass sphere under a sky
+ * 0.003-0.004, the glass cube 0.012-0.015, the slabs 0.006-0.008, dielectrics below 0.001
+ * (bench/RESULTS.md, parts bdpt24 and bdpt25). */
 #define SPC_BDPT_AIM_GATE_RAYS 4096
 #define SPC_BDPT_AIM_GATE_CHAIN 8
 #define SPC_BDPT_AIM_GATE_GAIN 0.05
