@@ -149,6 +149,17 @@
 #define SPC_BDPT_AIM_INDIRECT_PATHS 16384
 #define SPC_BDPT_AIM_INDIRECT_BOUNCES 3
 #define SPC_BDPT_AIM_INDIRECT_STREAM 0x61696d696e646972ULL
+/* The camera's aim's gate (camera_aim_gain): 4096 camera rays, a few milliseconds once per render;
+ * chains of up to 8 delta vertices followed. The aim only where the cones' share of the second
+ * moment reaches 0.05, about halfway (in ratio) between the glass-ball caustic's 0.11-0.19 (four
+ * pilot streams), where the aim lowers the variance 1.15-1.2x at equal CPU, and the demo box's
+ * 0.018-0.021, where it lowers nothing and costs 0.5-5% CPU; the glass sphere under a sky
+ * 0.003-0.004, the glass cube 0.012-0.015, the slabs 0.006-0.008, dielectrics below 0.001
+ * (bench/RESULTS.md, parts bdpt24 and bdpt25). */
+#define SPC_BDPT_AIM_GATE_RAYS 4096
+#define SPC_BDPT_AIM_GATE_CHAIN 8
+#define SPC_BDPT_AIM_GATE_GAIN 0.05
+#define SPC_BDPT_AIM_GATE_STREAM 0x61696d636f6e7472ULL
 
 /* The pool model's pilot (spc_bdpt_pool_learn): light subpaths, camera subpaths, and connections
  * from each camera vertex to pilot light vertices (SPC_BDPT_PILOT_VERTEX_SHARE). 16384 of each
@@ -1842,6 +1853,110 @@ static double indirect_share(const spc_scene *sc, const spc_scene_casters *cs)
     return direct + indirect > 0.0 ? indirect / (direct + indirect) : 0.0;
 }
 
+/* One light sample's reflected radiance at h toward wo (next-event estimation, its shadow ray),
+ * averaged over the channels; 0 where none. u: three uniform numbers. */
+static double pilot_direct(const spc_scene *sc, const spc_hit *h, spc_vec3 wo, const double *u)
+{
+    double pmf;
+    const spc_emitter *e = spc_scene_sample_emitter(sc, u[0], &pmf);
+    spc_emitter_direct ds;
+    if (!e || !(pmf > 0.0) || !spc_emitter_sample_direct(e, h->p, spc_v2(u[1], u[2]), &ds) || !(ds.pdf > 0.0))
+        return 0.0;
+    spc_rgb f = spc_bsdf_eval(h->bsdf, h, SPC_MODE_RADIANCE, wo, ds.wi);
+    spc_rgb c = spc_rgb_scale(spc_rgb_mul(f, ds.L), spc_absdot(ds.wi, h->sh.n) / (pmf * ds.pdf));
+    if (spc_rgb_is_black(c))
+        return 0.0;
+    spc_ray sr = ds.is_infinite ? spc_hit_spawn(h, ds.wi) : spc_hit_spawn_to(h, ds.p, ds.err);
+    double v = (c.r + c.g + c.b) / 3.0;
+    return isfinite(v) && !spc_scene_occluded(sc, &sr) ? v : 0.0;
+}
+
+/* The light that reaches a point along ray after a diffuse bounce: the ray followed through delta
+ * lobes (at most SPC_BDPT_AIM_GATE_CHAIN of them, their weights kept) to its first non-delta
+ * hit x, and x's reflected direct light (pilot_direct); the emission of x and of the environment
+ * is not counted (light tracing and specular NEE carry the light seen through a caster; the aim
+ * is for the light a caster passes on after a bounce). */
+static double pilot_bounce(const spc_scene *sc, spc_ray ray, spc_rng *rng)
+{
+    double w = 1.0;
+    for (int k = 0; k <= SPC_BDPT_AIM_GATE_CHAIN; ++k) {
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h))
+            return 0.0;
+        spc_vec3 wo = spc_neg(ray.d);
+        double u[6];
+        for (int i = 0; i < 6; ++i)
+            u[i] = spc_rng_next(rng);
+        if (spc_bsdf_has_smooth(h.bsdf))
+            return w * pilot_direct(sc, &h, wo, u);
+        spc_bsdf_sample bs;
+        if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, wo, u[3], spc_v2(u[4], u[5]), &bs) ||
+            !(bs.lobe & SPC_LOBE_DELTA))
+            return 0.0;
+        w *= (bs.weight.r + bs.weight.g + bs.weight.b) / 3.0;
+        ray = spc_hit_spawn(&h, bs.wi);
+    }
+    return 0.0;
+}
+
+/* The camera's aim's gate (spc_bdpt_aim_init): at the first hits z1 of SPC_BDPT_AIM_GATE_RAYS camera
+ * rays (uniform positions of the whole film, not only the rendered window, so that a crop renders
+ * its pixels with the same aim; a fixed stream) that the aim would serve (camera_aimable's BSDFs,
+ * a cone above them), the second moment that z1's BSDF sampling has of the light arriving through
+ * the cones after a bounce (pilot_bounce along uniform cone directions, weighed as
+ * (f cos)^2 / pdf_bsdf for z1's cosine density), over the second moment of z1's own
+ * estimate of what it reflects (one light sample and one BSDF-sampled bounce). That is about the
+ * share of a pixel's variance the aim can lower: large where the casters show, from the surfaces
+ * the camera sees, something much brighter than the rest of what those surfaces see (a wall's hot
+ * spot next to the light, focused by a glass ball), small where they show what the surroundings
+ * show anyway (a box's diffusely lit walls through a glass ball, a sky-lit floor through one).
+ * 0 where no such z1 is found. */
+static double camera_aim_gain(const spc_render_ctx *ctx, const spc_bdpt_aim *aim)
+{
+    const spc_scene *sc = ctx->scene;
+    spc_rng rng;
+    spc_rng_seed(&rng, SPC_BDPT_AIM_GATE_STREAM, 0);
+    double cone_m2 = 0.0, own_m2 = 0.0;
+    for (int k = 0; k < SPC_BDPT_AIM_GATE_RAYS; ++k) {
+        double px = ctx->cam->width * spc_rng_next(&rng);
+        double py = ctx->cam->height * spc_rng_next(&rng);
+        spc_ray ray = spc_camera_ray(ctx->cam, px, py);
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h))
+            continue;
+        unsigned f = spc_bsdf_flags(h.bsdf);
+        if (!(f & SPC_LOBE_DIFFUSE_REFLECTION) || (f & ~(SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_DIFFUSE_TRANSMISSION)))
+            continue;
+        spc_vec3 wo = spc_neg(ray.d), n = side_normal(&h, wo);
+        int m = aim_cones(aim, h.p, n, NULL, NULL);
+        if (m == 0)
+            continue;
+        double u[6];
+        for (int i = 0; i < 6; ++i)
+            u[i] = spc_rng_next(&rng);
+        /* z1's own estimate: its direct light and one bounce of its BSDF's sample */
+        double T = pilot_direct(sc, &h, wo, u);
+        spc_bsdf_sample bs;
+        if (spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_RADIANCE, wo, u[3], spc_v2(u[4], u[5]), &bs))
+            T += (bs.weight.r + bs.weight.g + bs.weight.b) / 3.0 * pilot_bounce(sc, spc_hit_spawn(&h, bs.wi), &rng);
+        own_m2 += T * T;
+        /* through the cones: a uniform direction in one of them; (f cos)^2 / pdf_bsdf over the cone
+         * mixture's density is the BSDF's second moment there, f cos / pdf_bsdf being the albedo */
+        spc_vec3 wi = cone_sample(aim, m, h.p, n, spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)));
+        double cones;
+        aim_cones(aim, h.p, n, &wi, &cones);
+        double pc = cones / m;
+        spc_rgb fc = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_RADIANCE, wo, wi);
+        double pb = spc_bsdf_pdf(h.bsdf, &h, SPC_MODE_RADIANCE, wo, wi);
+        if (!(pc > 0.0) || !(pb > 0.0))
+            continue;
+        double a = (fc.r + fc.g + fc.b) / 3.0 * spc_absdot(wi, h.sh.n) / pb;
+        double Lc = pilot_bounce(sc, spc_hit_spawn(&h, wi), &rng);
+        cone_m2 += a * a * Lc * Lc * pb / pc;
+    }
+    return own_m2 > 0.0 ? cone_m2 / own_m2 : 0.0;
+}
+
 /* Connections of camera vertex z[t-1] to the pass's pool: M_t picks, each adding C w / (N M_t q). */
 bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, double camera_share, spc_bdpt_aim *aim)
 {
@@ -1888,8 +2003,11 @@ bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, double camera_sh
             }
     }
     aim->a = tries > 0 ? share * hits / tries : 0.0;
-    if (aim->a > 0.0 && camera_share > 0.0)
+    if (aim->a > 0.0 && camera_share > 0.0) {
         aim->cam = camera_share * indirect_share(sc, cs);
+        if (camera_aim_gain(ctx, aim) < SPC_BDPT_AIM_GATE_GAIN)
+            aim->cam = 0.0;
+    }
     return aim->a > 0.0;
 }
 

@@ -66,8 +66,11 @@ typedef struct spc_bdpt_aim {
  * of pilot rays drawn from the mixture's cones (SPC_BDPT_AIM_PILOT rays, a fixed stream) whose first
  * hit is a caster: near 0 where the casters are hidden from the lights (a bulb in a shade); cam =
  * camera_share times the share of the power reaching the casters after a bounce off a non-delta
- * surface (a pilot of light walks, a fixed stream), where a > 0. false (a = 0, cam = 0) where no area
- * light, no caster or no pilot ray reaches one. */
+ * surface (a pilot of light walks, a fixed stream), where a > 0, and 0 unless a pilot of camera rays
+ * finds that the light coming through the cones after a bounce holds a share of the second moment of
+ * what the camera's first hits reflect worth aiming for (the casters show those hits something much
+ * brighter than the rest of what they see: a wall's hot spot next to the light, through a glass
+ * ball). false (a = 0, cam = 0) where no area light, no caster or no pilot ray reaches one. */
 bool spc_bdpt_aim_init(const spc_render_ctx *ctx, double share, double camera_share, spc_bdpt_aim *aim);
 
 /* ---- exposed for tests ---- */
