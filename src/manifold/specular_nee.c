@@ -1106,6 +1106,14 @@ static bool fit_first_has(const spc_snee_query *q, const spc_specular_solver *so
  * BSDF-sampled paths through 3 and 4 such reflections held the worst seeds under the triangle glass
  * ball (bench/RESULTS.md, "the rim's reflection chains"). */
 #define SPC_GRAZE_LONG_MAX 4
+/* The share of the calls (where the longer chains run) that look for them, each found chain counted
+ * 1 / share times. Looking at every call cost 2.0x a default sample under the triangle glass ball
+ * (paired CPU; 1.3x on a grid 4x coarser, which missed the 3-reflection chain of a traced tail path),
+ * while BSDF sampling's density of these chains is a tiny fraction of specular NEE's light sample:
+ * at share 0.05 the paths of test_solve_mis's ball_rim_reflections_weight keep a mean BSDF-side
+ * weight of 0.017 (3 reflections; one path in 60 that the seeds miss, at weight 1) and 0.000 (4),
+ * as at share 1. */
+#define SPC_GRAZE_LONG_P 0.05
 
 /* Are the rim's chains of k reflections past the budget counted exactly for q (graze_long)? A
  * function of q's parameters and casters; the callers check that the longer chains run (long_on,
@@ -1123,7 +1131,8 @@ static bool graze_long_on(const spc_snee_query *q, int k)
  * more grazing angle into the one after it. The sphere fitted to the ball has no such chain, so the
  * ball pass (which needs the fitted sphere's solutions of that length: ball_long_psi) never looks
  * for them, and BSDF sampling alone made them at MIS weight 1. A deterministic function of q like
- * fit_first's chains, counted with psi 1 at every call where the longer chains run. Writes at most
+ * fit_first's chains, counted with psi SPC_GRAZE_LONG_P (the share of the calls where the longer
+ * chains run that look for them). Writes at most
  * max distinct chains to out. */
 static int graze_long(const spc_snee_query *q, const spc_specular_solver *solver, int k, spc_chain *out, int max,
                       int *iterations)
@@ -1207,7 +1216,7 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
             return 0.0; /* the long pass makes no randomized attempt there (estimate), and c is not exact */
         if (solve_mis_chain(p, c)) { /* the ball pass's, or the rim's counted exactly (graze_long) */
             if (long_on(q) && c->n <= q->long_max && graze_long_has(q, spc_specular_solver_get(p->solver), c))
-                return 1.0;
+                return SPC_GRAZE_LONG_P;
             *rand_s = ball_long_psi(q, c->n);
             return *rand_s * long_attempt_psi(q, c);
         }
@@ -1906,8 +1915,11 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
                 random_long_estimate(&lq, solver, e, uv, p_y * psi, true, rng, st, sk);
         }
     }
-    /* the rim's chains of reflections past the budget, counted exactly (graze_long) */
-    for (int k = q->max_chain + 1; long_on(q) && k <= q->long_max && k <= SPC_GRAZE_LONG_MAX; ++k) {
+    /* the rim's chains of reflections past the budget, counted exactly on a share of the calls
+     * (graze_long, SPC_GRAZE_LONG_P) */
+    bool graze = long_on(q) && q->long_max > q->max_chain && q->max_chain < SPC_GRAZE_LONG_MAX &&
+                 graze_long_on(q, q->max_chain + 1 > 3 ? q->max_chain + 1 : 3) && spc_rng_next(rng) < SPC_GRAZE_LONG_P;
+    for (int k = q->max_chain + 1; graze && k <= q->long_max && k <= SPC_GRAZE_LONG_MAX; ++k) {
         spc_snee_query lq = *q;
         lq.min_chain = lq.max_chain = k;
         if (!graze_long_on(&lq, k) || (p->exact && spc_snee_exact_covers_all(&lq)))
@@ -1918,11 +1930,11 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         if (st)
             st->iterations += (uint64_t)it;
         for (int i = 0; i < ngl; ++i) {
-            lq.psi = 1.0;
+            lq.psi = SPC_GRAZE_LONG_P;
             spc_rgb vg = spc_snee_chain_value(&lq, e, uv, &gl[i]);
             lq.psi = 0.0;
             if (!spc_rgb_is_black(vg)) {
-                emit(&lq, sk, &gl[i], spc_rgb_scale(vg, 1.0 / p_y));
+                emit(&lq, sk, &gl[i], spc_rgb_scale(vg, 1.0 / (p_y * SPC_GRAZE_LONG_P)));
                 if (st)
                     st->contributions++;
             }
