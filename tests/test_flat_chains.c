@@ -477,7 +477,8 @@ TEST(face_bound_loses_no_root)
     CHECK(scenes == 6);
     CHECK(roots >= 20);
     /* the bounds end half of the solves here or more (2891 of 4523; the bound on the faces alone
-     * 681 (568 with 5 Newton steps a stage), 466 there where the smoothing's term is taken as mu eta_j for every segment, the looser form) */
+     * 681, 568 with 5 Newton steps a stage, 466 there where the smoothing's term is taken as mu
+     * eta_j for every segment, the looser form) */
     CHECK(ended * 2 >= solved_on);
     CHECK(solved_on == solved_off);
     CHECK(differ == 0);
