@@ -56,6 +56,11 @@
  * cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one pixel 100%
  * of a seed's error). */
 #define SPC_SNEE_PLAN_FLAT_COST_SR 0.08
+/* ... and only up to this solid angle, the largest of a measured gain (random scene 652, one slab
+ * under 0.0098 sr: 3.1x over none against bdpt): with one face or few the query's cost is small
+ * under any light, but so is the gain where BSDF sampling finds the light through flat glass often
+ * (scenes/caustic_slabs.xml, three slabs under 0.011 sr: 0.4x with the flat rule's setting). */
+#define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.01
 /* The pilot: receivers seen by pinhole rays through the centres of a grid of this many cells a side
  * of the film (a flat caster's own faces skipped), each queried toward the centre of the smallest
  * light with chains of 1 to SPC_FLAT_MAX_VERTICES - 1 vertices (flat5's longest); 8 x 8 rays cost
@@ -547,7 +552,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
      * with their longer chains, where the enumeration's cost pays (the pilot) */
     bool flat_long = false;
     if (nflat > 0 && !mirror && !strcmp(integrator, "path") && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
-        out->light_sr <= SPC_SNEE_PLAN_MAX_SR) {
+        out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR) {
         out->flat_sequences = flat_sequences_per_query(sc, smallest);
         flat_long = out->flat_sequences >= 0.0 &&
                     out->flat_sequences * out->light_sr <= SPC_SNEE_PLAN_FLAT_COST_SR;
