@@ -521,11 +521,11 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
                         : 0.0;
         if (!seen || sr < out->light_sr) {
             out->light_sr = sr;
-            smallest = e->type == SPC_EMITTER_AREA && e->shape_index >= 0 && e->shape_index < sc->nshapes
-                           ? spc_scale(spc_add(sc->shapes[e->shape_index]->bbox_min,
-                                               sc->shapes[e->shape_index]->bbox_max),
-                                       0.5)
-                           : e->position;
+            smallest =
+                e->type == SPC_EMITTER_AREA && e->shape_index >= 0 && e->shape_index < sc->nshapes
+                    ? spc_scale(spc_add(sc->shapes[e->shape_index]->bbox_min, sc->shapes[e->shape_index]->bbox_max),
+                                0.5)
+                    : e->position;
         }
         double share = caster_share(e, sc, cs);
         if (share > out->caster_share)
@@ -554,8 +554,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (nflat > 0 && !mirror && !strcmp(integrator, "path") && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
         out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR) {
         out->flat_sequences = flat_sequences_per_query(sc, smallest);
-        flat_long = out->flat_sequences >= 0.0 &&
-                    out->flat_sequences * out->light_sr <= SPC_SNEE_PLAN_FLAT_COST_SR;
+        flat_long = out->flat_sequences >= 0.0 && out->flat_sequences * out->light_sr <= SPC_SNEE_PLAN_FLAT_COST_SR;
     }
     if (nflat > 0 && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && !flat_long) {
         if (out->flat_sequences > 0.0)
