@@ -617,7 +617,8 @@ static double line_min(const flat_problem *P, const spc_vec3 *p, const double *s
  * lower_bound_on_faces's argument bounds sum_j lambda_j . r_j(c) from below by lb (the bound at s)
  * for every c in C, and for each j
  *
- *     L(c) - sum_i lambda_i . r_i(c)  =  sum_i (eta_i |r_i(c)| - lambda_i . r_i(c))  >=  (eta_j - |lambda_j|) |r_j(c)|.
+ *     L(c) - sum_i lambda_i . r_i(c) = sum_i (eta_i |r_i(c)| - lambda_i . r_i(c))
+ *                                    >= (eta_j - |lambda_j|) |r_j(c)|.
  *
  * L's minimum is at most L_mu(s), so there (eta_j - |lambda_j|) |r_j| <= gap = L_mu(s) - lb, with
  * eta_j - |lambda_j| = eta_j mu^2 / (len_j (len_j + |r_j|)): a segment collapsed to the smoothing's
