@@ -422,8 +422,10 @@ TEST(four_vertex_chains_every_call)
 
 /* Random configurations: two or three glass cubes or slabs and a prism, each scaled, tilted and
  * placed at random over the floor, x on the floor and y above the casters. For each, the roots of
- * each length 1 to 5 found with the bound on the faces and without it agree exactly, and the bound
- * ends a share of the solves that only its tight form reaches. */
+ * each length 1 to 5 found with the bounds on the faces and without them agree exactly, and the
+ * bounds end a share of the solves that only their tight forms reach: most sequences here have a
+ * kink for their minimum (a segment of no length on an edge), which the kink bound proves in the
+ * last smoothing stage. */
 TEST(face_bound_loses_no_root)
 {
     spc_rng_seed(&rng, 41, 3);
@@ -474,9 +476,10 @@ TEST(face_bound_loses_no_root)
            queries, roots, ended, solved_on, differ);
     CHECK(scenes == 6);
     CHECK(roots >= 20);
-    /* the bound ends a ninth of the solves here or more (568 of 4523; 466 where the smoothing's
-     * term is taken as mu eta_j for every segment, the looser form) */
-    CHECK(ended * 9 >= solved_on);
+    /* the bounds end half of the solves here or more (2891 of 4523; the bound on the faces alone
+     * 681, 568 with 5 Newton steps a stage, 466 there where the smoothing's term is taken as mu
+     * eta_j for every segment, the looser form) */
+    CHECK(ended * 2 >= solved_on);
     CHECK(solved_on == solved_off);
     CHECK(differ == 0);
 }

@@ -48,6 +48,13 @@
  * 1e-9 (1 in 300 four-vertex chains through two slabs was lost that way). */
 #define SPC_FLAT_ROUNDING_ULPS 8.0
 
+/* The line search's minimization along a Newton step (line_min): to this relative width of t, in
+ * at most this many evaluations of L_mu's slope along the step (each as cheap as one of L). A
+ * rough minimum is enough: the Newton step that follows lands near L_mu's minimum once the
+ * collapsed segment's length is near mu. */
+#define SPC_FLAT_LINE_TOL 1e-2
+#define SPC_FLAT_LINE_STEPS 20
+
 /* Converged when each vertex's tangential mismatch (a difference of unit vectors times indices)
  * is below this: the 3D polish then needs one trace. */
 #define SPC_FLAT_GRAD_TOL 1e-12
@@ -554,13 +561,90 @@ static double lower_bound_on_faces(const flat_problem *P, double smooth, const d
     return lb;
 }
 
+/* The t in (0, 1] that minimizes L_mu along the Newton step `step` (in the faces' coordinates)
+ * from the points p, to a relative SPC_FLAT_LINE_TOL. The segments are affine in t, r_j + t dr_j,
+ * so phi(t) = sum_j eta_j sqrt(|r_j + t dr_j|^2 + mu^2) is convex in t with phi'(0) < 0 (a descent
+ * direction), and each term of phi' changes sign where its segment is shortest along the line, at
+ * t_j = -r_j . dr_j / |dr_j|^2: phi' < 0 below the least t_j and > 0 above the largest, a bracket
+ * that safeguarded Newton steps on phi' (bisection where they leave it) narrow. Where a segment has
+ * collapsed to the smoothing's width, Newton's full step overshoots by up to (|r_j| / mu)^2 (the
+ * smoothed |r_j| has curvature mu^2 / len^3 along r_j), and halving from 1 took a dozen tries and
+ * left the other vertices where they were. */
+static double line_min(const flat_problem *P, const spc_vec3 *p, const double *step, double mu)
+{
+    const int k = P->k;
+    spc_vec3 r[SPC_FLAT_MAX_VERTICES + 1], dr[SPC_FLAT_MAX_VERTICES + 1], dp[SPC_FLAT_MAX_VERTICES + 2];
+    dp[0] = dp[k + 1] = spc_v3(0, 0, 0);
+    for (int i = 0; i < k; ++i)
+        dp[i + 1] = spc_add(spc_scale(P->v[i].f->u, step[2 * i]), spc_scale(P->v[i].f->v, step[2 * i + 1]));
+    double lo = 0.0, hi = 1.0, tmin = INFINITY, tmax = -INFINITY;
+    for (int j = 0; j <= k; ++j) {
+        r[j] = spc_sub(p[j + 1], p[j]);
+        dr[j] = spc_sub(dp[j + 1], dp[j]);
+        double dd = spc_dot(dr[j], dr[j]);
+        if (dd > 0.0) {
+            double tj = -spc_dot(r[j], dr[j]) / dd;
+            tmin = fmin(tmin, tj);
+            tmax = fmax(tmax, tj);
+        }
+    }
+    if (tmax > 0.0 && tmax < hi)
+        hi = tmax;
+    if (tmin > 0.0 && tmin < hi)
+        lo = tmin;
+    double t = 0.5 * (lo + hi);
+    for (int it = 0; it < SPC_FLAT_LINE_STEPS && hi - lo > SPC_FLAT_LINE_TOL * hi; ++it) {
+        double d1 = 0.0, d2 = 0.0;
+        for (int j = 0; j <= k; ++j) {
+            spc_vec3 q = spc_add(r[j], spc_scale(dr[j], t));
+            double len2 = spc_dot(q, q) + mu * mu, len = sqrt(len2), a = spc_dot(q, dr[j]);
+            d1 += P->seg[j] * a / len;
+            d2 += P->seg[j] * (spc_dot(dr[j], dr[j]) * len2 - a * a) / (len2 * len);
+        }
+        if (d1 > 0.0)
+            hi = t;
+        else
+            lo = t;
+        double tn = d2 > 0.0 ? t - d1 / d2 : -1.0;
+        t = tn > lo && tn < hi ? tn : 0.5 * (lo + hi);
+    }
+    return lo > 0.0 ? lo : t;
+}
+
+/* Does the minimum of L over C (lower_bound_on_faces) provably have a segment shorter than the kink
+ * test's 1e3 SPC_FLAT_SIDE_REL of the problem's size (minimize), so that the sequence has no chain?
+ * At the smoothed problem's iterate s, with lambda_j = eta_j r_j / len_j (|lambda_j| < eta_j),
+ * lower_bound_on_faces's argument bounds sum_j lambda_j . r_j(c) from below by lb (the bound at s)
+ * for every c in C, and for each j
+ *
+ *     L(c) - sum_i lambda_i . r_i(c) = sum_i (eta_i |r_i(c)| - lambda_i . r_i(c))
+ *                                    >= (eta_j - |lambda_j|) |r_j(c)|.
+ *
+ * L's minimum is at most L_mu(s), so there (eta_j - |lambda_j|) |r_j| <= gap = L_mu(s) - lb, with
+ * eta_j - |lambda_j| = eta_j mu^2 / (len_j (len_j + |r_j|)): a segment collapsed to the smoothing's
+ * width mu has at most a few mu at the minimum once the gradient is small. With the last stage's
+ * mu (1e-7 of the size) this ends the sequences whose minimum is a kink (most of those solved
+ * through two slabs) in a few steps instead of the stage's full count: the gradient's rounding
+ * (unit vectors of segments 1e-7 long) kept them above the stage's tolerance. */
+static bool kink_certain(const flat_problem *P, const spc_vec3 *p, double mu, double gap)
+{
+    const double limit = 1e3 * SPC_FLAT_SIDE_REL * P->scale;
+    for (int j = 0; j <= P->k; ++j) {
+        spc_vec3 r = spc_sub(p[j + 1], p[j]);
+        double r2 = spc_dot(r, r), len = sqrt(r2 + mu * mu);
+        if (gap * len * (len + sqrt(r2)) < limit * P->seg[j] * mu * mu)
+            return true;
+    }
+    return false;
+}
+
 /* Newton's steps on L smoothed by mu from s (updated, with p and *L) until each vertex's mismatch
  * is below tol or `steps` are spent; returns the last mismatch (the largest component of the
  * gradient), or -1 where the step is undefined or the line search finds no decrease. *lb holds the
  * largest lower bound on L over the faces' box C seen so far (lower_bound_on_faces, updated at
  * every step); L's minimum is at most L_mu at every iterate, so where the bound exceeds that, the
  * minimum lies outside C, no root of this sequence passes in_face, and newton returns -2 (where
- * P->bound). */
+ * P->bound); -3 where the same bound proves that the minimum over C is a kink (kink_certain). */
 static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, double *L, int steps, double tol,
                      double *lb)
 {
@@ -588,9 +672,12 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
             g[2 * i + 1] = spc_dot(t, P->v[i].f->v);
             gmax = fmax(gmax, fmax(fabs(g[2 * i]), fabs(g[2 * i + 1])));
         }
-        *lb = fmax(*lb, lower_bound_on_faces(P, smooth, s, g, *L));
+        double lb_here = lower_bound_on_faces(P, smooth, s, g, *L);
+        *lb = fmax(*lb, lb_here);
         if (P->bound && *lb > *L + SPC_FLAT_BOUND_SLACK * P->scale)
             return -2.0; /* every point of C is longer than this one: the minimum lies outside C */
+        if (P->bound && mu > 0.0 && kink_certain(P, p, mu, *L - lb_here))
+            return -3.0; /* the minimum over C has a segment shorter than the kink test's */
         if (gmax < tol || it == steps)
             return gmax;
         double H[4 * SPC_FLAT_MAX_VERTICES * SPC_FLAT_MAX_VERTICES], diag = 0.0;
@@ -634,11 +721,14 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
         double slope = 0.0;
         for (int i = 0; i < n; ++i)
             slope += g[i] * step[i];
-        /* backtracking: the full step near the minimum, shorter ones far from it */
+        /* backtracking: the full step near the minimum; where it fails, first the step to L_mu's
+         * minimum along the line (line_min), then halves of it */
         double t = 1.0, s2[2 * SPC_FLAT_MAX_VERTICES], L2 = *L;
         spc_vec3 p2[SPC_FLAT_MAX_VERTICES + 2];
         int tries = 0;
         for (; tries < 40; ++tries, t *= 0.5) {
+            if (tries == 1)
+                t = line_min(P, p, step, mu);
             for (int i = 0; i < n; ++i)
                 s2[i] = s[i] + t * step[i];
             L2 = path_length(P, s2, mu, p2);
@@ -660,7 +750,7 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
  * (a vertex crossing the edge where two faces' planes meet); so it runs on L with each |r|
  * smoothed to sqrt(|r|^2 + mu^2), a smooth, strictly convex function, for mu falling from a tenth
  * of the problem's size by SPC_FLAT_MU_FALL per stage (a path-following homotopy), then on L.
- * Adds 1 to *bound_ends where the bound on the faces (newton) ended it. */
+ * Adds 1 to *bound_ends where a bound (newton: the minimum outside the faces, or a kink) ended it. */
 static bool minimize(flat_problem *P, spc_vec3 *p, int *bound_ends)
 {
     const int k = P->k;
@@ -941,7 +1031,7 @@ typedef struct flat_walk {
     bool (*found)(void *user, const flat_problem *P, const spc_vec3 *p);
     void *user;
     int sequences;
-    int bound_ends; /* solves ended by the bound on the faces */
+    int bound_ends; /* solves ended by the bounds (newton) */
     bool stop;
     /* cone_faces between faces of two different casters in the first SPC_FLAT_PAIR_SLOTS slots,
      * per (slot * SPC_FLAT_MAX_FACES + face) pair, and whether known; pair_cap is read only where
@@ -1153,7 +1243,8 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
 
 /* Walks every face sequence of lo to hi vertices from x to y; found() is called with each root
  * and returns false to stop. Returns the number of sequences solved; bound: whether a solve may end
- * early by the bound on the faces, *bound_ends (may be NULL) the solves it ended. */
+ * early by the bound on the faces (the minimum outside them, or a kink), *bound_ends (may be NULL)
+ * the solves it ended. */
 static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int lo, int hi,
                     bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
                     int *bound_ends)

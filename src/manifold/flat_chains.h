@@ -97,7 +97,8 @@ int spc_flat_chains_all(const struct spc_snee_query *q, spc_chain *out, int max_
 int spc_flat_chain_roots(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
                          spc_vec3 *pts, unsigned char *events, int max, int *sequences);
 /* spc_flat_chain_roots with the bound that ends a sequence's solve once L over the sequence's faces
- * provably exceeds L's minimum (the minimum lies outside the faces: no root) on or off (bound;
+ * provably exceeds L's minimum (the minimum lies outside the faces: no root), or once it proves
+ * that the minimum over the faces has a segment of no length (a kink: no root), on or off (bound;
  * spc_flat_chain_roots and the renderer keep it on); *bound_ends (may be NULL) receives the number
  * of solves it ended. The roots are the same either way. */
 int spc_flat_chain_roots_bound(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,

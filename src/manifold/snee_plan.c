@@ -39,21 +39,33 @@
  * (0.00066 sr) 7.3x lower relMSE than none; scenes/caustic_slabs.xml (0.011 sr) 0.4x,
  * scenes/caustic_glass_cube.xml (0.0038 sr) 1.0x, scenes/newton_slabs.xml (0.12 sr) 0.6x: off. */
 #define SPC_SNEE_PLAN_FLAT_MAX_SR 0.002
-/* ... and for path, where exactly one flat-faced shape is a caster and every other caster is glass
- * (one slab, alone or beside glass balls), up to this solid angle, with the longer chains through
- * its faces enumerated too (SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h). The value lies between the
- * measured wins and the one loss, not at a cause: at equal CPU time against bdpt, random caustic
- * scenes 410, 438, 488, 480, 409, 435, 400 (0.0021-0.0034 sr) gain 4.6-36x over none; 403 (one slab
- * under a light of 0.0038 sr almost straight above it) loses (0.6x: the query costs 197x a sample
- * without it there, against 5-43x on the others). Left off with it, though they gain: 425 (a slab
- * and a glass ball, 0.0055 sr, 5.8x) and 489 (one slab, 0.0066 sr, 40x forced). With two flat
- * casters the face sequences of 4-5 vertices make the query 30-165x the cost of a sample without
- * specular NEE (two slabs and a ball under 0.014 sr: 0.07x none at equal CPU time; two slabs under
- * 0.003 sr, forced: 2.2x, one scene). Beside a mirror, chains off the mirror and through the slab
+/* ... and for path, where no caster is a mirror (every caster a specular dielectric), past that
+ * solid angle where the flat enumeration's cost pays (with the longer chains through the faces
+ * enumerated too, SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h): the face sequences the enumeration solves
+ * per query (a pilot, flat_sequences_per_query) times the light's solid angle at most this. The
+ * query's cost grows with the sequences (one solve per sequence, about 20 us through slabs), and
+ * the gain over BSDF sampling falls as the light grows (BSDF sampling reaches a light through flat
+ * glass about as often as without it, in proportion to its solid angle). At equal CPU time against
+ * bdpt (bench/RESULTS.md, "Slab scenes the plan left at none" and "a cost-based plan rule"), the
+ * scenes that gain (4.6-40x over none: random caustic scenes 400, 409, 410, 425, 435, 438, 480,
+ * 488, 489; two slabs in 490, 2.2x) have products 0.0023-0.045 sr, the two that lose 0.15 (403: one
+ * slab under a light of 0.0038 sr almost straight above it, 39 sequences a query, 0.6x) and 1.2
+ * (432: two slabs and a glass ball under 0.014 sr, 83 sequences, 0.07x): the limit sits between
+ * them, 1.8x from either. Beside a mirror, chains off the mirror and through the slab
  * (floor, mirror ball, three slab vertices, light) are made by BSDF sampling alone, and the query's
  * cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one pixel 100%
- * of a seed's error). bench/RESULTS.md, "Slab scenes the plan left at none". */
-#define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.0035
+ * of a seed's error). */
+#define SPC_SNEE_PLAN_FLAT_COST_SR 0.08
+/* ... and only up to this solid angle, the largest of a measured gain (random scene 652, one slab
+ * under 0.0098 sr: 3.1x over none against bdpt): with one face or few the query's cost is small
+ * under any light, but so is the gain where BSDF sampling finds the light through flat glass often
+ * (scenes/caustic_slabs.xml, three slabs under 0.011 sr: 0.4x with the flat rule's setting). */
+#define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.01
+/* The pilot: receivers seen by pinhole rays through the centres of a grid of this many cells a side
+ * of the film (a flat caster's own faces skipped), each queried toward the centre of the smallest
+ * light with chains of 1 to SPC_FLAT_MAX_VERTICES - 1 vertices (flat5's longest); 8 x 8 rays cost
+ * 20-90 ms at load on the slab scenes measured, once. */
+#define SPC_SNEE_PLAN_FLAT_PILOT_GRID 8
 
 /* ... unless the casters fill at least this share of a light's directions (the light within or
  * close over the spheres around them, as over a water surface): most light then reaches the
@@ -403,6 +415,38 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
     return cs->n > 0;
 }
 
+/* The face sequences the flat enumeration solves per query (spc_flat_chain_roots, chains of 1 to 5
+ * vertices, reflections off glass included) from the receivers that pinhole rays through a grid of
+ * SPC_SNEE_PLAN_FLAT_PILOT_GRID^2 cells of the film hit first, to the point y; -1 where nothing
+ * can be traced (the scene not finalized, a camera that does not prepare, no receiver seen).
+ * Deterministic. */
+static double flat_sequences_per_query(const spc_scene *sc, spc_vec3 y)
+{
+    spc_camera_state cam;
+    if (!sc->finalized || !spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height))
+        return -1.0;
+    const int g = SPC_SNEE_PLAN_FLAT_PILOT_GRID;
+    long sequences = 0;
+    int queries = 0;
+    spc_vec3 pts[5 * 64];
+    for (int j = 0; j < g; ++j)
+        for (int i = 0; i < g; ++i) {
+            spc_ray r = spc_camera_ray(&cam, (i + 0.5) * cam.width / g, (j + 0.5) * cam.height / g);
+            spc_hit h;
+            if (!spc_scene_intersect(sc, &r, &h) || !h.shape || h.emitter || !receiver(h.shape) ||
+                spc_flat_chain_shape(h.shape))
+                continue;
+            spc_vec3 x = spc_hit_offset(&h, spc_neg(r.d));
+            for (int k = 1; k <= 5; ++k) {
+                int n = 0;
+                spc_flat_chain_roots(sc, false, true, x, y, k, pts, NULL, 64, &n);
+                sequences += n;
+            }
+            ++queries;
+        }
+    return queries > 0 ? (double)sequences / queries : -1.0;
+}
+
 /* bdpt's query from the camera where every glass caster is enumerated exactly: Q = SCALE_BDPT
  * sqrt(s) (0.17 sqrt(s)), at least MIN, without path's raise on small films. bdpt's query competes with s = 0 alone (light
  * tracing cannot reach the light through glass either), as path's with BSDF sampling, but its
@@ -463,6 +507,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         return;
     }
     bool lit = false, seen = false;
+    spc_vec3 smallest = spc_v3(0, 0, 0); /* the centre of the smallest light seen */
     out->light_sr = 0.0;
     for (int i = 0; i < sc->nemitters; ++i) {
         const spc_emitter *e = sc->emitters[i];
@@ -474,8 +519,14 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         double sr = e->type == SPC_EMITTER_AREA && e->shape_index >= 0 && e->shape_index < sc->nshapes
                         ? light_solid_angle(sc->shapes[e->shape_index], cs->center)
                         : 0.0;
-        if (!seen || sr < out->light_sr)
+        if (!seen || sr < out->light_sr) {
             out->light_sr = sr;
+            smallest =
+                e->type == SPC_EMITTER_AREA && e->shape_index >= 0 && e->shape_index < sc->nshapes
+                    ? spc_scale(spc_add(sc->shapes[e->shape_index]->bbox_min, sc->shapes[e->shape_index]->bbox_max),
+                                0.5)
+                    : e->position;
+        }
         double share = caster_share(e, sc, cs);
         if (share > out->caster_share)
             out->caster_share = share;
@@ -497,13 +548,21 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         nflat += spc_flat_chain_shape(s) ? 1 : 0; /* the others: below */
         mirror = mirror || !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0);
     }
-    /* one slab, beside nothing but glass, under a light a little larger than the flat rule's: on,
-     * with its longer chains */
-    const bool flat_long = nflat == 1 && !mirror && !strcmp(integrator, "path") &&
-                           out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR;
+    /* flat-faced casters beside nothing but glass, under a light larger than the flat rule's: on,
+     * with their longer chains, where the enumeration's cost pays (the pilot) */
+    bool flat_long = false;
+    if (nflat > 0 && !mirror && !strcmp(integrator, "path") && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
+        out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR) {
+        out->flat_sequences = flat_sequences_per_query(sc, smallest);
+        flat_long = out->flat_sequences >= 0.0 && out->flat_sequences * out->light_sr <= SPC_SNEE_PLAN_FLAT_COST_SR;
+    }
     if (nflat > 0 && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && !flat_long) {
-        snprintf(out->reason, sizeof out->reason, "flat-faced casters under a light of %.2g sr (over %g)",
-                 out->light_sr, SPC_SNEE_PLAN_FLAT_MAX_SR);
+        if (out->flat_sequences > 0.0)
+            snprintf(out->reason, sizeof out->reason, "flat-faced casters: light %.2g sr x %.3g sequences a query > %g",
+                     out->light_sr, out->flat_sequences, SPC_SNEE_PLAN_FLAT_COST_SR);
+        else
+            snprintf(out->reason, sizeof out->reason, "flat-faced casters under a light of %.2g sr (over %g)",
+                     out->light_sr, SPC_SNEE_PLAN_FLAT_MAX_SR);
         out->on = false;
         snprintf(out->setting, sizeof out->setting, "none");
         return;
@@ -618,8 +677,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_AREA_LIGHTS);
     }
-    /* one slab under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: its chains of up to 4 vertices at every
-     * call and the 5-vertex ones (total internal reflections inside it) too (snee_plan.h) */
+    /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
+     * every call and the 5-vertex ones (total internal reflections inside a slab) too (snee_plan.h) */
     if (flat_long) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LONG);
@@ -703,6 +762,9 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
         put(&b, "  %s\n", plan->pilot_note);
     if (plan->automatic && p.camera)
         put(&b, "  glass seen on %.3g of the image\n", plan->glass_share);
+    if (plan->automatic && plan->flat_sequences > 0.0)
+        put(&b, "  flat enumeration: %.3g face sequences a query (pilot), times the light's solid angle %.3g sr\n",
+            plan->flat_sequences, plan->flat_sequences * plan->light_sr);
     if (plan->automatic)
         put(&b, "  open to the sky in %.3g of the directions from the casters\n", plan->open_share);
     if (p.first_p < 1.0)

@@ -237,14 +237,15 @@
  * sample 1.14x, no gain in the error per sample). */
 #define SPC_SNEE_PLAN_POINT_LIGHTS ",ltcaus"
 
-/* Appended for path where exactly one caster is flat-faced (a slab), no caster is a mirror, and the
- * smallest light subtends
- * between SPC_SNEE_PLAN_FLAT_MAX_SR and SPC_SNEE_PLAN_FLAT_LONG_MAX_SR (snee_plan.c) at the casters:
- * the longer chains on (long), so that the slab's chains of up to 4 vertices are enumerated at every
- * call, and its 5-vertex chains (in, three total internal reflections, out: the slab as a light
+/* Appended for path where some caster is flat-faced (a slab), no caster is a mirror, the smallest
+ * light subtends more than SPC_SNEE_PLAN_FLAT_MAX_SR at the casters, and the flat enumeration's
+ * face sequences per query times that solid angle is at most SPC_SNEE_PLAN_FLAT_COST_SR (a pilot,
+ * snee_plan.c): the longer chains on (long), so that the slabs' chains of up to 4 vertices are
+ * enumerated at every call, and their 5-vertex chains (in, three total internal reflections, out: the slab as a light
  * guide) on every call too. Without them only BSDF sampling makes those chains, and the query's cost
  * per sample turns each such hit into a firefly (bench/RESULTS.md, "Glass sphere beside a flat
- * slab"). Measured in bench/RESULTS.md, "Slab scenes the plan left at none". */
+ * slab"). Measured in bench/RESULTS.md, "Slab scenes the plan left at none" and "a cost-based plan
+ * rule". */
 #define SPC_SNEE_PLAN_FLAT_LONG ",long=0.3,flat5=1"
 
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
@@ -327,6 +328,8 @@ typedef struct spc_snee_plan {
     double caster_share; /* the largest share of a light's directions that meet the casters (snee_plan.c) */
     double glass_share;  /* the share of the image whose camera ray meets a glass caster first (snee_plan.c) */
     double open_share;   /* the share of directions from the casters that leave the scene (snee_plan.c) */
+    double flat_sequences; /* face sequences the flat enumeration solves per query (the pilot, snee_plan.c;
+                              0 where it did not run, -1 where it found no receiver) */
     bool pilot;          /* automatic and on, and the pilot render (render/snee_pilot.h) may check it */
     char pilot_note[448]; /* what the pilot measured and chose, or "" */
 } spc_snee_plan;
