@@ -642,7 +642,6 @@ static void check_guide_join(void *user, const spc_path_lt_guide_join *j)
     memset(&s, 0, sizeof s);
     s.on = true;
     s.p = *t->p;
-    s.p.mis = true;
     s.ctx = t->ctx;
     s.lg_enabled = spc_path_lt_guide_enabled(t->ctx, t->p);
     s.lg_min = spc_path_lt_guide_min_chain(t->ctx, t->p);
@@ -671,8 +670,9 @@ static void check_guide_join(void *user, const spc_path_lt_guide_join *j)
     t->below += j->r < 1.0;
 }
 
-/* The light guides of the glass SDF torus: every join is a chain longer than specular NEE's
- * (here 2 vertices), some of the ring's internal-reflection chains of 8 vertices and more occur,
+/* The light guides of the glass SDF torus: every join is a chain longer than any specular NEE's
+ * (here 6 vertices, the longer chains' bound), the ring's internal-reflection chains of 8 vertices
+ * and more among them,
  * and on each join light tracing's weight and the one the path tracer's hooks give BSDF sampling
  * for the same path sum to one (the ratio r from the path's ends, the same function on both
  * sides). Under this small light light tracing takes the larger share (r > 1) on the joins. */
@@ -686,9 +686,11 @@ TEST(guide_weights_sum_to_one)
     spc_snee_params p;
     CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
     CHECK(spc_snee_parse(GUIDE_SETTING, 2, &p));
+    p.mis = true; /* as the path tracer runs the parameters (path_snee.c) */
     spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
     CHECK(spc_path_lt_guide_enabled(&ctx, &p) && !spc_path_lt_enabled(&ctx, &p));
-    CHECK(spc_path_lt_guide_min_chain(&ctx, &p) == 3);
+    /* past the longer chains' 6 vertices, which specular NEE's randomized attempts make (long) */
+    CHECK(spc_path_lt_guide_min_chain(&ctx, &p) == 7);
     guide_tally t;
     memset(&t, 0, sizeof t);
     t.ctx = &ctx;
@@ -696,12 +698,12 @@ TEST(guide_weights_sum_to_one)
     t.kmin = SPC_PATH_LT_GUIDE_MAX + 1;
     spc_rng rng;
     spc_rng_seed(&rng, 51, 7);
-    for (int i = 0; i < 40000; ++i)
+    for (int i = 0; i < 120000; ++i)
         spc_path_lt_guide_joins(&ctx, &p, &rng, check_guide_join, &t);
     printf("  %d joins, chains of %d to %d vertices, light tracing's share above 1/2 on %d, below on %d, largest "
            "gap of the two weights' sum from 1 %.3g\n",
            t.joins, t.kmin, t.kmax, t.above, t.below, t.worst_gap);
-    CHECK(t.joins > 50 && t.kmin >= 3 && t.kmax >= 8);
+    CHECK(t.joins > 30 && t.kmin >= 7 && t.kmax >= 8);
     CHECK_MSG(t.worst_gap < 1e-6, "the two weights sum to 1 +- %.3g", t.worst_gap);
     CHECK(t.above > t.joins / 2);
     spc_scene_destroy(sc);
