@@ -226,8 +226,11 @@ void spc_path_lt_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
  * Russian roulette and the chain's lobe choices are left out of r (a function of the path alone
  * keeps the estimate unbiased; only the weights' optimality depends on it). */
 
-/* The most delta scatterings a light-guide subpath follows (the ring's 12-vertex chains, with room). */
-#define SPC_PATH_LT_GUIDE_MAX 16
+/* The most delta scatterings a light-guide subpath follows, and the path tracer's side weighs: on
+ * the SDF torus the BSDF-sampled paths that held a seed's error ran through chains of 8, 12 and 31
+ * vertices (the light led around the ring more than once; the path tracer's roulette keeps such
+ * paths at 0.95 per segment), and a cap of 16 left the 31-vertex one at weight 1. */
+#define SPC_PATH_LT_GUIDE_MAX 64
 
 /* Is the light-guide strategy on for this render ("ltguide": the path integrator with specular
  * NEE, a pinhole camera, no caustic guide at receivers, no strict normals, no rough vertices)? */
