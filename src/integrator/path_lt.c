@@ -3,7 +3,9 @@
  * glass sphere and through a diffuse bounce, for the path tracer (path_lt.h): the light subpath, its
  * joins to the pinhole, and the density ratio that weighs them against specular NEE (and, for area
  * lights, BSDF sampling) at the caustic's receiver (Veach 1997, ch. 9 and
- * 10.2: the power heuristic over two strategies of one path; bdpt's t = 1 join).
+ * 10.2: the power heuristic over two strategies of one path; bdpt's t = 1 join). At its end the
+ * light guides: area lights' light through chains longer than any specular NEE makes, joined to
+ * the pinhole at the first other surface and weighed against BSDF sampling there alone.
  */
 #include "integrator/path_lt.h"
 

@@ -36,7 +36,7 @@
 #define SPC_SNEE_LONG_P 0.1
 /* ltguide without a value: the share of camera samples that trace a light-guide subpath
  * (integrator/path_lt.h); 0.5 and 1 gave the same error at equal CPU on the SDF torus over 8 seeds
- * (bench/RESULTS.md, "light guides"). */
+ * (bench/RESULTS.md, "Light guides by light tracing"). */
 #define SPC_SNEE_LT_GUIDE_SHARE 0.5
 /* params.flat5_p and flat6_p's defaults: the shares of the calls that enumerate the 5- and 6-vertex
  * chains through flat faces. 0: those paths are left to BSDF sampling (MIS weight 1). At equal CPU
