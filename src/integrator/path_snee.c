@@ -184,8 +184,8 @@ double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx
         /* a light guide's path: weighed against light tracing (path_lt.h) */
         if (!s->lg_on || s->lg_k < s->lg_min)
             return 1.0;
-        double r = spc_path_lt_guide_ratio(ctx, &s->p, &s->lg_x, s->lg_wo, s->lg_d0, s->lg_dlast, h->emitter, h->p,
-                                           h->ng);
+        double r =
+            spc_path_lt_guide_ratio(ctx, &s->p, &s->lg_x, s->lg_wo, s->lg_d0, s->lg_dlast, h->emitter, h->p, h->ng);
         return 1.0 / (1.0 + r * r);
     }
     if (s->cam_track)
