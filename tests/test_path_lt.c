@@ -616,6 +616,155 @@ TEST(area_light_joins_only_at_the_first_two_receivers)
     spc_scene_destroy(sc);
 }
 
+/* ---- the light guides ---- */
+
+#define GUIDE_SCENE "scenes/caustic_sdf_torus.xml"
+#define GUIDE_SETTING "angular:camera,first=0.1,later=0.1,ltguide=1"
+
+typedef struct guide_tally {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    int joins, kmin, kmax, above, below;
+    double worst_gap;
+} guide_tally;
+
+/* A light-guide join's two weights: light tracing's, and BSDF sampling's as the path tracer's
+ * hooks (path_snee.h) give it when fed the same path from the camera's side: x's non-delta
+ * scattering toward the chain, each chain vertex's delta scattering, the light's hit. */
+static void check_guide_join(void *user, const spc_path_lt_guide_join *j)
+{
+    guide_tally *t = user;
+    ++t->joins;
+    t->kmin = j->k < t->kmin ? j->k : t->kmin;
+    t->kmax = j->k > t->kmax ? j->k : t->kmax;
+    CHECK(j->w > 0.0 && j->w <= 1.0 && j->e->type == SPC_EMITTER_AREA);
+    spc_path_snee s;
+    memset(&s, 0, sizeof s);
+    s.on = true;
+    s.p = *t->p;
+    s.ctx = t->ctx;
+    s.lg_enabled = spc_path_lt_guide_enabled(t->ctx, t->p);
+    s.lg_min = spc_path_lt_guide_min_chain(t->ctx, t->p);
+    spc_path_snee_scattered(&s, j->x, j->wo, j->d0, SPC_LOBE_DIFFUSE_REFLECTION);
+    for (int i = j->k - 1; i >= 0; --i) {
+        const spc_hit *h = &j->v[i];
+        spc_vec3 prev = i == j->k - 1 ? j->x->p : j->v[i + 1].p, next = i == 0 ? j->y : j->v[i - 1].p;
+        spc_vec3 wo = spc_normalize(spc_sub(prev, h->p)), wi = spc_normalize(spc_sub(next, h->p));
+        bool refl = spc_dot(wo, h->ng) * spc_dot(wi, h->ng) > 0.0;
+        spc_path_snee_scattered(&s, h, wo, wi, refl ? SPC_LOBE_DELTA_REFLECTION : SPC_LOBE_DELTA_TRANSMISSION);
+    }
+    spc_hit lh;
+    memset(&lh, 0, sizeof lh);
+    lh.p = j->y;
+    lh.ng = j->ny;
+    lh.emitter = j->e;
+    lh.shape = j->e->shape;
+    double w_path = spc_path_snee_emitter_weight(&s, t->ctx, &lh);
+    double gap = fabs(w_path + j->w - 1.0);
+    if (gap > t->worst_gap) {
+        t->worst_gap = gap;
+        if (gap > 1e-6)
+            printf("    gap %.3g: k %d, w_path %.6f, w_lt %.6f (r %.4g)\n", gap, j->k, w_path, j->w, j->r);
+    }
+    t->above += j->r > 1.0;
+    t->below += j->r < 1.0;
+}
+
+/* The light guides of the glass SDF torus: every join is a chain longer than any specular NEE's
+ * (here 6 vertices, the longer chains' bound), the ring's internal-reflection chains of 8 vertices
+ * and more among them,
+ * and on each join light tracing's weight and the one the path tracer's hooks give BSDF sampling
+ * for the same path sum to one (the ratio r from the path's ends, the same function on both
+ * sides). Under this small light light tracing takes the larger share (r > 1) on the joins. */
+TEST(guide_weights_sum_to_one)
+{
+    spc_scene *sc = tu_load(GUIDE_SCENE, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_camera_state cam;
+    spc_snee_params p;
+    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
+    CHECK(spc_snee_parse(GUIDE_SETTING, 2, &p));
+    p.mis = true; /* as the path tracer runs the parameters (path_snee.c) */
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    CHECK(spc_path_lt_guide_enabled(&ctx, &p) && !spc_path_lt_enabled(&ctx, &p));
+    /* past the longer chains' 6 vertices, which specular NEE's randomized attempts make (long) */
+    CHECK(spc_path_lt_guide_min_chain(&ctx, &p) == 7);
+    guide_tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    t.kmin = SPC_PATH_LT_GUIDE_MAX + 1;
+    spc_rng rng;
+    spc_rng_seed(&rng, 51, 7);
+    for (int i = 0; i < 120000; ++i)
+        spc_path_lt_guide_joins(&ctx, &p, &rng, check_guide_join, &t);
+    printf("  %d joins, chains of %d to %d vertices, light tracing's share above 1/2 on %d, below on %d, largest "
+           "gap of the two weights' sum from 1 %.3g\n",
+           t.joins, t.kmin, t.kmax, t.above, t.below, t.worst_gap);
+    CHECK(t.joins > 30 && t.kmin >= 7 && t.kmax >= 8);
+    CHECK_MSG(t.worst_gap < 1e-6, "the two weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK(t.above > t.joins / 2);
+    spc_scene_destroy(sc);
+}
+
+/* The path tracer's side follows a light guide from the camera ray's hit only, through delta
+ * scatterings at chain surfaces only: a first hit after a delta scattering, or a second non-delta
+ * scattering, ends it. */
+TEST(guide_path_side_from_the_first_hit)
+{
+    spc_path_snee s;
+    memset(&s, 0, sizeof s);
+    s.lg_enabled = true;
+    spc_hit h;
+    memset(&h, 0, sizeof h);
+    spc_bsdf diffuse;
+    memset(&diffuse, 0, sizeof diffuse);
+    diffuse.type = SPC_BSDF_DIFFUSE;
+    h.bsdf = &diffuse;
+    spc_vec3 wo = spc_v3(0, 1, 0), wi = spc_v3(0, 0, 1);
+    spc_path_snee_scattered(&s, &h, wo, wi, SPC_LOBE_DIFFUSE_REFLECTION);
+    CHECK(s.lg_on && s.lg_k == 0);
+    spc_path_snee_scattered(&s, &h, wo, wi, SPC_LOBE_DIFFUSE_REFLECTION);
+    CHECK(!s.lg_on);
+    spc_path_snee t;
+    memset(&t, 0, sizeof t);
+    t.lg_enabled = true;
+    spc_path_snee_scattered(&t, &h, wo, wi, SPC_LOBE_DELTA_REFLECTION);
+    spc_path_snee_scattered(&t, &h, wo, wi, SPC_LOBE_DIFFUSE_REFLECTION);
+    CHECK(!t.lg_on);
+}
+
+/* With the light guides the torus renders as without (the same paths, split two ways), under a
+ * larger light whose guided light BSDF sampling also finds often. */
+TEST(guide_render_agrees_without_it)
+{
+    char path[1024];
+    const char *d = getenv("SPC_SOURCE_DIR");
+    snprintf(path, sizeof path, "%s/%s", d ? d : ".", GUIDE_SCENE);
+    spc_define defs[3] = {{"res", "16"}, {"light_radius", "0.3"}, {"light_radiance", "40, 38, 34"}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    CHECK(spc_scene_load(path, defs, 3, &sc, &err) == SPC_OK);
+    if (!sc)
+        return;
+    spc_film *a = tu_render_nee(sc, "path", GUIDE_SETTING, 256, 2, 45, NULL);
+    spc_film *b = tu_render_nee(sc, "path", "angular:camera,first=0.1,later=0.1", 256, 2, 46, NULL);
+    CHECK(a && b);
+    if (a && b) {
+        spc_diff_result dr;
+        memset(&dr, 0, sizeof dr);
+        CHECK(tu_image_agrees(a, b, 0.99, "light guides vs without", &dr));
+        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", dr.ztest_pass_fraction, dr.ztest_pixels,
+               dr.mean_a[0], dr.mean_b[0]);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(joins_are_specular_nee_chains_with_the_same_ratio);
@@ -627,5 +776,8 @@ int main(void)
     RUN(area_light_weights_sum_to_one);
     RUN(area_light_render_agrees_without_it);
     RUN(area_light_joins_only_at_the_first_two_receivers);
+    RUN(guide_weights_sum_to_one);
+    RUN(guide_path_side_from_the_first_hit);
+    RUN(guide_render_agrees_without_it);
     return spc_test_finish();
 }

@@ -437,8 +437,9 @@ TEST(camera_query_from_glass_share)
     }
     spc_snee_plan p;
     spc_snee_plan_make(sc, "path", NULL, &p);
-    /* an SDF's chains go to the randomized attempts; guided seeds are not in the plan (snee_plan.h) */
-    CHECK_MSG(p.on && p.glass_share > 0.05 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING),
+    /* an SDF's chains go to the randomized attempts; guided seeds are not in the plan (snee_plan.h);
+     * under its small light the light guides' chains go to light tracing too */
+    CHECK_MSG(p.on && p.glass_share > 0.05 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES),
               "SDF ball: share %g, %s", p.glass_share, p.setting);
     spc_snee_params sp;
     CHECK(spc_snee_parse(p.setting, 2, &sp) && sp.seed_guide == 0.0);
@@ -957,7 +958,8 @@ TEST(light_in_housing_plan_off)
  * the variants a plan rule could pick (no query from the camera, no longer chains, chains of one
  * vertex, first=1, receivers=1, a smaller mispsi): none of them lowered the mean relMSE or the
  * worst pixel's share at equal CPU time, and the default beat none over 24 seeds
- * (bench/RESULTS.md, "Torus: the plan"). */
+ * (bench/RESULTS.md, "Torus: the plan"). Under its small light the light guides' chains go to
+ * light tracing too (ltguide). */
 TEST(sdf_torus_plan)
 {
     spc_scene *sc = load_at("scenes/caustic_sdf_torus.xml", "8");
@@ -965,7 +967,8 @@ TEST(sdf_torus_plan)
         return;
     spc_snee_plan p;
     spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
-    CHECK_MSG(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING) && p.casters == 1 &&
+    CHECK_MSG(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES) &&
+                  p.casters == 1 &&
                   p.receivers == 2 && p.light_sr > 0.0 && p.light_sr < 0.03,
               "caustic_sdf_torus: %s (%s, %g sr)", p.setting, p.reason, p.light_sr);
     spc_snee_params sp;

@@ -3,7 +3,9 @@
  * glass sphere and through a diffuse bounce, for the path tracer (path_lt.h): the light subpath, its
  * joins to the pinhole, and the density ratio that weighs them against specular NEE (and, for area
  * lights, BSDF sampling) at the caustic's receiver (Veach 1997, ch. 9 and
- * 10.2: the power heuristic over two strategies of one path; bdpt's t = 1 join).
+ * 10.2: the power heuristic over two strategies of one path; bdpt's t = 1 join). At its end the
+ * light guides: area lights' light through chains longer than any specular NEE makes, joined to
+ * the pinhole at the first other surface and weighed against BSDF sampling there alone.
  */
 #include "integrator/path_lt.h"
 
@@ -756,4 +758,120 @@ void spc_path_lt_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
 {
     splat_sink s = {ctx, tls};
     spc_path_lt_joins(ctx, p, rng, splat_join, &s);
+}
+
+/* ---- long chains: the light guides ---- */
+
+/* The share of camera samples that trace a light-guide subpath, counted 1/S times (params.lt_guide_share;
+ * outside (0, 1]: every sample). */
+static double guide_share(const spc_snee_params *p)
+{
+    return p->lt_guide_share > 0.0 && p->lt_guide_share <= 1.0 ? p->lt_guide_share : 1.0;
+}
+
+bool spc_path_lt_guide_enabled(const spc_render_ctx *ctx, const spc_snee_params *p)
+{
+    return p->lt_guide && ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee != SPC_SNEE_NONE &&
+           !(p->recv_guide > 0.0) && !ctx->strict_normals && !(p->solver == SPC_SNEE_NEWTON && p->newton.rough) &&
+           spc_camera_connectible(ctx->cam);
+}
+
+int spc_path_lt_guide_min_chain(const spc_render_ctx *ctx, const spc_snee_params *p)
+{
+    int b = p->max_chain > ctx->specular_max_chain ? p->max_chain : ctx->specular_max_chain;
+    int l = spc_snee_track_long_max(p, SPC_CHAIN_MAX_VERTICES);
+    return (l > b ? l : b) + 1;
+}
+
+double spc_path_lt_guide_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                               spc_vec3 d0, spc_vec3 d_last, const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
+{
+    const spc_scene *sc = ctx->scene;
+    if (!e || e->type != SPC_EMITTER_AREA || !e->shape)
+        return 0.0;
+    spc_camera_direct cd;
+    double num = guide_share(p) * spc_snee_light_pdf(sc, p->any_surface, e, y, ny) *
+                 cone_pdf(sc, p->any_surface, y, spc_neg(d_last)) * spc_absdot(d0, x->ng);
+    double den = spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0) * spc_absdot(ny, d_last) *
+                 camera_density(ctx, p, x, NULL, &cd);
+    return ratio_of(num, den);
+}
+
+void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
+                             void (*sink)(void *user, const spc_path_lt_guide_join *j), void *user)
+{
+    const spc_scene *sc = ctx->scene;
+    double share = guide_share(p);
+    if (share < 1.0 && !(spc_rng_next(rng) < share))
+        return;
+    double pmf, ue = spc_rng_next(rng);
+    const spc_emitter *e = spc_scene_sample_emitter(sc, ue, &pmf);
+    if (!e || !(pmf > 0.0) || e->type != SPC_EMITTER_AREA || !e->shape)
+        return;
+    spc_ray ray;
+    spc_vec3 y, ny;
+    spc_rgb beta;
+    if (!area_start(sc, p, e, ue, rng, &ray, &y, &ny, &beta))
+        return;
+    beta = spc_rgb_scale(beta, 1.0 / share);
+    spc_vec3 d_last = spc_neg(ray.d);
+
+    /* the delta scatterings at chain surfaces, to the first other surface x */
+    int k = 0;
+    spc_hit x, v[SPC_PATH_LT_GUIDE_MAX];
+    for (;;) {
+        spc_hit h;
+        if (!spc_scene_intersect(sc, &ray, &h))
+            return;
+        int ev;
+        if (!spc_chain_surface(&h, p->any_surface, &ev) || !spc_bsdf_is_delta_only(h.bsdf)) {
+            x = h;
+            break;
+        }
+        if (k == SPC_PATH_LT_GUIDE_MAX)
+            return;
+        spc_bsdf_sample bs;
+        if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, spc_neg(ray.d), spc_rng_next(rng),
+                                 spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bs) ||
+            !(bs.lobe & SPC_LOBE_DELTA))
+            return;
+        beta = spc_rgb_mul(beta, bs.weight);
+        if (spc_rgb_is_black(beta))
+            return;
+        v[k++] = h;
+        ray = spc_hit_spawn(&h, bs.wi);
+    }
+    /* a light guide's chain (longer than any specular NEE covers), within max_depth's k + 2 segments */
+    if (k < spc_path_lt_guide_min_chain(ctx, p) || (ctx->max_depth >= 0 && k + 2 > ctx->max_depth) ||
+        !spc_bsdf_has_smooth(x.bsdf))
+        return;
+    spc_vec3 d0 = spc_neg(ray.d);
+    spc_camera_direct cd;
+    if (!(camera_density(ctx, p, &x, NULL, &cd) > 0.0))
+        return;
+    spc_rgb f = spc_bsdf_eval(x.bsdf, &x, SPC_MODE_IMPORTANCE, d0, cd.wi);
+    double g = shading_fix(&x, d0, cd.wi) * spc_absdot(cd.wi, x.sh.n) / (cd.dist * cd.dist);
+    spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
+    if (spc_rgb_is_black(C) || !isfinite(g))
+        return;
+    double r = spc_path_lt_guide_ratio(ctx, p, &x, cd.wi, d0, d_last, e, y, ny);
+    if (!(r > 0.0))
+        return;
+    spc_ray sr = spc_hit_spawn_to(&x, cd.p_near, 0.0);
+    if (spc_scene_occluded(sc, &sr))
+        return;
+    spc_path_lt_guide_join j = {&x, cd.wi, d0, d_last, v, k, e, y, ny, cd.fx, cd.fy, C, r, spc_path_lt_weight(r)};
+    sink(user, &j);
+}
+
+static void splat_guide_join(void *user, const spc_path_lt_guide_join *j)
+{
+    const splat_sink *s = user;
+    spc_splat_add(s->ctx, s->tls, j->fx, j->fy, spc_rgb_scale(j->C, j->w));
+}
+
+void spc_path_lt_guide_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_tls *tls, spc_rng *rng)
+{
+    splat_sink s = {ctx, tls};
+    spc_path_lt_guide_joins(ctx, p, rng, splat_guide_join, &s);
 }

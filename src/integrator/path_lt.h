@@ -201,4 +201,77 @@ static inline double spc_path_lt_weight(double r)
  * (spc_splat_add), each weighted spc_path_lt_weight(r). */
 void spc_path_lt_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_tls *tls, spc_rng *rng);
 
+/* ---- long chains: the light guides ----
+ *
+ * The paths camera - x - k delta scatterings at chain surfaces - a point y on an area light, where
+ * x is the camera ray's hit (seen directly) and k is longer than any chain specular NEE covers
+ * (spc_path_lt_guide_min_chain), are made by BSDF sampling at x alone in the path tracer: a glass
+ * ring guides light around itself by total internal reflection and leaves it onto the floor after
+ * 6 or 10 reflections, and the rare BSDF sample from x that enters the ring and leaves it toward a
+ * small light adds hundreds to a pixel. Light tracing makes them with the light's own density: a
+ * subpath from y (spc_snee_sample_light's point, a direction uniform in the cone toward the
+ * casters' bounding sphere) through every delta scattering it meets, up to SPC_PATH_LT_GUIDE_MAX,
+ * to the first other surface x, joined to the pinhole. The two are weighed by the power heuristic
+ * with the ratio r of their densities in the measure of x and y:
+ *
+ *     p_lt   = S p_y p_dir(w_y) P |dw_y/dA(x)|,   p_path = p_cam(x) p_x(wo -> d0) P |dw0/dA(y)|
+ *     r      = S p_y p_dir(w_y) |cos(x, d0)| / (p_cam(x) p_x(wo -> d0) |cos(y, d_last)|)
+ *
+ * (S the share of camera samples that trace such a subpath, p_y including the light's choice, P the
+ * lobe choices, the same both ways for dielectrics; the chain's generalized geometry term cancels
+ * by reciprocity, which leaves the cosines at its two ends). r needs no solved chain: only the
+ * path's two ends and its first and last directions, computed by the same function on both sides,
+ * so the two weights sum to one on every path whatever the chain. Any caster and any solver: the
+ * chains are those specular NEE never makes, so the two strategies share them. The path tracer's
+ * Russian roulette and the chain's lobe choices are left out of r (a function of the path alone
+ * keeps the estimate unbiased; only the weights' optimality depends on it). */
+
+/* The most delta scatterings a light-guide subpath follows, and the path tracer's side weighs: on
+ * the SDF torus the BSDF-sampled paths that held a seed's error ran through chains of 8, 12 and 31
+ * vertices (the light led around the ring more than once; the path tracer's roulette keeps such
+ * paths at 0.95 per segment), and a cap of 16 left the 31-vertex one at weight 1. */
+#define SPC_PATH_LT_GUIDE_MAX 64
+
+/* Is the light-guide strategy on for this render ("ltguide": the path integrator with specular
+ * NEE, a pinhole camera, no caustic guide at receivers, no strict normals, no rough vertices)? */
+bool spc_path_lt_guide_enabled(const spc_render_ctx *ctx, const spc_snee_params *p);
+
+/* The fewest chain vertices of a light-guide path: one more than any chain specular NEE's track
+ * covers (the parameters' max_chain, the render's chain cap, and with "long" its bound). */
+int spc_path_lt_guide_min_chain(const spc_render_ctx *ctx, const spc_snee_params *p);
+
+/* r = p_lt / p_path of the path camera - x (left toward the camera along wo, toward the chain
+ * along d0) - chain - the area light e's point y (normal ny), the chain's last segment d_last
+ * (toward y); 0 where light tracing does not make it (not an area light, y outside the light's
+ * sampled cap, d_last outside the cone toward the casters, the camera does not see x). */
+double spc_path_lt_guide_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
+                               spc_vec3 d0, spc_vec3 d_last, const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
+
+/* One join of a light-guide subpath to the pinhole: the surface x the camera sees (left toward the
+ * pinhole along wo, arrived at along -d0), the k chain vertices from the light's side (v[0] the
+ * first the light's point y meets, d_last = -(the direction from y)), the light e and its point's
+ * unit normal ny, the film position, the contribution C before the weight, r and light tracing's
+ * weight w = spc_path_lt_weight(r). */
+typedef struct spc_path_lt_guide_join {
+    const spc_hit *x;
+    spc_vec3 wo, d0, d_last;
+    const spc_hit *v;
+    int k;
+    const spc_emitter *e;
+    spc_vec3 y, ny;
+    double fx, fy;
+    spc_rgb C;
+    double r, w;
+} spc_path_lt_guide_join;
+
+/* On a share of the camera samples, traces one subpath from an area light (rng: a stream of this
+ * camera sample) and hands its join to sink where its chain is a light guide's, the camera sees x
+ * unblocked and r is positive (the record lives for the call). */
+void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
+                             void (*sink)(void *user, const spc_path_lt_guide_join *j), void *user);
+
+/* The light-guide strategy's estimate of one camera sample: spc_path_lt_guide_joins's join
+ * splatted (spc_splat_add) with its weight. */
+void spc_path_lt_guide_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_tls *tls, spc_rng *rng);
+
 #endif

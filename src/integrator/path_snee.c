@@ -28,6 +28,8 @@ static int depth_left(const spc_render_ctx *ctx, int segments, int cap)
 /* The stream key of the light-traced caustics' subpath (path_lt.h), forked from the camera
  * sample's sampler. */
 #define SPC_PATH_LT_STREAM 0x6c74636175737469ULL
+/* And of the light-guide caustics' subpath. */
+#define SPC_PATH_LT_GUIDE_STREAM 0x6c74677569646573ULL
 
 /* The camera's chain of j delta scatterings (cam_events, last first) retraced from x toward the
  * pinhole (wo: toward the previous vertex); false where the trace does not follow those events. */
@@ -144,6 +146,13 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
         spc_sampler_fork_rng(smp, SPC_PATH_LT_STREAM, &lrng);
         spc_path_lt_trace(ctx, &s->p, tls, &lrng);
     }
+    s->lg_enabled = spc_path_lt_guide_enabled(ctx, &s->p);
+    if (s->lg_enabled) {
+        s->lg_min = spc_path_lt_guide_min_chain(ctx, &s->p);
+        spc_rng grng;
+        spc_sampler_fork_rng(smp, SPC_PATH_LT_GUIDE_STREAM, &grng);
+        spc_path_lt_guide_trace(ctx, &s->p, tls, &grng);
+    }
     if (!s->p.camera || rough_mode(&s->p) || !spc_camera_connectible(ctx->cam))
         return;
     /* from the pinhole: its splats, and the camera ray tracked as from a receiver until its first
@@ -169,8 +178,16 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
 double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h)
 {
     const spc_snee_track *t = &s->track;
-    if (!s->on || !spc_snee_track_covers(t, ctx->scene, h->emitter))
+    if (!s->on)
         return 1.0;
+    if (!spc_snee_track_covers(t, ctx->scene, h->emitter)) {
+        /* a light guide's path: weighed against light tracing (path_lt.h) */
+        if (!s->lg_on || s->lg_k < s->lg_min)
+            return 1.0;
+        double r =
+            spc_path_lt_guide_ratio(ctx, &s->p, &s->lg_x, s->lg_wo, s->lg_d0, s->lg_dlast, h->emitter, h->p, h->ng);
+        return 1.0 / (1.0 + r * r);
+    }
     if (s->cam_track)
         return spc_snee_camera_bsdf_weight(ctx->scene, &s->p, ctx->cam, s->cam_scale, s->cam_d0, t->max_chain, t->k,
                                            t->events, h);
@@ -278,6 +295,25 @@ void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, sp
     if (!(lobe & SPC_LOBE_DELTA)) {
         ++s->receivers;
         s->cam_track = false;
+    }
+    /* the light-guide caustics' x: the camera ray's hit left along a non-delta sample, then the
+     * delta scatterings at chain surfaces (as the light subpath follows them) */
+    if (s->lg_enabled) {
+        if (!(lobe & SPC_LOBE_DELTA)) {
+            s->lg_on = s->scatterings == 0 && spc_bsdf_has_smooth(h->bsdf);
+            s->lg_x = *h;
+            s->lg_wo = wo;
+            s->lg_d0 = wi;
+            s->lg_k = 0;
+        } else if (s->lg_on) {
+            int ev;
+            if (s->lg_k >= SPC_PATH_LT_GUIDE_MAX || !spc_chain_surface(h, s->p.any_surface, &ev) ||
+                !spc_bsdf_is_delta_only(h->bsdf))
+                s->lg_on = false;
+            else
+                ++s->lg_k;
+        }
+        s->lg_dlast = wi;
     }
     /* the light-traced caustics' x1: the camera ray's hit left along a non-delta sample; and the
      * delta scatterings from the camera before the first receiver */

@@ -53,6 +53,14 @@ typedef struct spc_path_snee {
     spc_vec3 alt_w1;
     bool alt_x1_set;
     int alt_scatterings, alt_kmax;
+    /* the light-guide caustics (path_lt.h, params.lt_guide): the camera ray's hit lg_x (left toward
+     * the camera along lg_wo, along lg_d0 by a non-delta sample), the delta scatterings at chain
+     * surfaces since (lg_k) and the last direction (lg_dlast); lg_on while the path is one the
+     * strategy may make */
+    bool lg_enabled, lg_on;
+    int lg_k, lg_min;
+    spc_hit lg_x;
+    spc_vec3 lg_wo, lg_d0, lg_dlast;
 } spc_path_snee;
 
 /* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, and with

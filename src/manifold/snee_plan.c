@@ -126,6 +126,18 @@ static bool glass_sphere(const spc_scene *sc, const spc_chain_casters *cs)
     return false;
 }
 
+/* Is some caster a glass SDF (smooth: creased ones turn the plan off)? */
+static bool glass_sdf(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (s->type == SPC_SHAPE_SDF && spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0)
+            return true;
+    }
+    return false;
+}
+
 /* A light specular NEE draws points on (spc_snee_sample_light). */
 static bool snee_light(const spc_emitter *e)
 {
@@ -676,6 +688,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
              glass_sphere(sc, cs) && small_area_lights(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_AREA_LIGHTS);
+    }
+    /* a glass SDF under small area lights: the light guides' long chains also by light tracing
+     * (snee_plan.h, SPC_SNEE_PLAN_LIGHT_GUIDES) */
+    if (!strcmp(integrator, "path") && glass && !strstr(out->setting, "recguide") && glass_sdf(sc, cs) &&
+        small_area_lights(sc, cs)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_LIGHT_GUIDES);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too (snee_plan.h) */

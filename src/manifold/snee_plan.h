@@ -258,6 +258,17 @@
  * measured subtend 0.003-0.009 sr. */
 #define SPC_SNEE_PLAN_LT_AREA_SR 0.02
 
+/* Appended for path where a glass caster is a smooth SDF (the randomized attempts' shape) and the
+ * lights are small area lights (SPC_SNEE_PLAN_LT_AREA_SR; point lights and a sky besides), without
+ * the caustic guide at receivers: the light guides' chains, longer than any specular NEE makes
+ * (a glass ring's total internal reflections), also by light tracing from a point on the light
+ * (integrator/path_lt.h), weighed against BSDF sampling at the camera ray's hit. On
+ * scenes/caustic_sdf_torus.xml each such BSDF-sampled path was a one-pixel firefly in a few seeds
+ * of 48; light tracing removes them at 2% of the CPU: over 96 fresh seeds at equal CPU the mean
+ * relMSE fell 0.149 -> 0.105 (bench/RESULTS.md, "Light guides by light tracing"). On the triangle
+ * glass ball it changed no pixel and cost 5.5%, so meshes are left out. */
+#define SPC_SNEE_PLAN_LIGHT_GUIDES ",ltguide"
+
 /* The setting where every caster is a mirror: the same without the query from the camera. There the
  * camera sees the light only by reflection, which camera rays find as often as the query's splats
  * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal

@@ -251,6 +251,12 @@ typedef struct spc_snee_params {
      * (the user's "ltshare=S"), in (0, 1], counted 1/S times; 0: SPC_PATH_LT_AREA_SHARE
      * (integrator/path_lt.h). Point lights' subpaths run on every sample. */
     double lt_share;
+    /* The path integrator's light-guide caustics (the user's "ltguide[=S]"; integrator/path_lt.h):
+     * on a share lt_guide_share of the camera samples (default 0.5), a subpath from an
+     * area light through chains longer than any specular NEE covers, joined to the pinhole at the
+     * first other surface, weighed against BSDF sampling there. Any caster, any solver. */
+    bool lt_guide;
+    double lt_guide_share;
     double (*delta_share)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,
                           const spc_emitter *e);
     const void *delta_user;

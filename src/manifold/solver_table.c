@@ -34,6 +34,10 @@
 /* params.long_p's default: the probability per call of the longer chains on one sphere (measured in
  * bench/RESULTS.md, "how far specular NEE can go": 0.1 against 0.25 on the glass ball). */
 #define SPC_SNEE_LONG_P 0.1
+/* ltguide without a value: the share of camera samples that trace a light-guide subpath
+ * (integrator/path_lt.h); 0.5 and 1 gave the same error at equal CPU on the SDF torus over 8 seeds
+ * (bench/RESULTS.md, "Light guides by light tracing"). */
+#define SPC_SNEE_LT_GUIDE_SHARE 0.5
 /* params.flat5_p and flat6_p's defaults: the shares of the calls that enumerate the 5- and 6-vertex
  * chains through flat faces. 0: those paths are left to BSDF sampling (MIS weight 1). At equal CPU
  * (16 seeds, 32x32, 1.5 s) the small-light slabs' mean relMSE fell 2.9x and two slabs under a sphere
@@ -117,6 +121,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->exact = true;
     p->mis_events = false;
     p->long_p = SPC_SNEE_LONG_P;
+    p->lt_guide_share = SPC_SNEE_LT_GUIDE_SHARE;
     p->flat5_p = SPC_SNEE_FLAT5_P;
     p->flat6_p = SPC_SNEE_FLAT6_P;
     p->guide = 0.0;
