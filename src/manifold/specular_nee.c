@@ -805,18 +805,23 @@ static double long_attempt_psi(const spc_snee_query *q, const spc_chain *c)
  * counted on by roulette). With those events, inside the SDF torus a 4-vertex chain (in, two
  * reflections, out) with a about 6 b, found once in about 600 attempts, was counted 620 times: a
  * sample of 3,300 in a pixel of 0.1, one seed's whole error, where its C is 5.5 (bench/RESULTS.md,
- * part torus25). Where b is far below a, C passes the cap and the count goes on by roulette. Not
- * without those events: there P(events) is small (0.13 for in, reflected, out at reflect_p 0.2), so
- * C falls below the cap even where b is a thousandth of a, and the BSDF-sampled paths through the
- * tube got their weight back (test_sdf_chain_mis). */
+ * part torus25). Where b is far below a, C passes the cap and the count goes on by roulette. Only
+ * for a chain with the light guide's events (their probability at least long_events_p): with other
+ * events P(events) is small (0.13 for in, reflected, out at reflect_p 0.2 without long_events_p),
+ * so C falls below the cap even where b is a thousandth of a, and the BSDF-sampled paths through
+ * the tube got their weight back: without the default's long pass they held whole seeds' errors
+ * (test_sdf_chain_mis; bench/RESULTS.md, part torus25). */
 static double long_give_up_psi(const spc_snee_query *q, const spc_chain *c)
 {
-    if (!(q->params->long_events_p > 0.0))
+    const spc_snee_params *p = q->params;
+    if (!(p->long_events_p > 0.0))
         return 0.0;
     for (int i = 0; i < c->n; ++i)
         if (!smooth_sdf(c->v[i].h.shape))
             return 0.0;
-    return 1.0;
+    spc_chain_sig sig;
+    spc_chain_signature(c, &sig);
+    return spc_snee_attempt_events_prob(q, &sig) >= p->long_events_p ? 1.0 : 0.0;
 }
 
 /* psi of the straight-line solution: 1 (it is found whenever it exists), but with guided
