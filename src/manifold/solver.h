@@ -158,8 +158,8 @@ typedef struct spc_snee_params {
      * longer max_chain. Needs mis (off without it), reflect for dielectrics. From the camera too
      * (params.camera): the light seen through a ball after internal reflections. */
     double long_p;
-    /* The longest chain that pass looks for (the user's "longmax=K", 0: 6 vertices): past 6 only
-     * its randomized attempts (not the spheres' enumeration, nor the ball pass), for light that
+    /* The longest chain that pass looks for (the user's "longmax=K", 0: 6 vertices; the ball pass
+     * and the mirror cylinders' longer chains keep to 6), for light that
      * runs along a glass tube by total internal reflection, as in a ring (a light guide): under the
      * SDF torus, 8-vertex paths (in, six reflections, out) that only BSDF sampling made added 445
      * to pixels of 0.03-0.16 (bench/RESULTS.md, part torus24). */
