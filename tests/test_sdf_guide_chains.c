@@ -5,10 +5,10 @@
  * reflection (a light guide) and leaves toward the light makes 7- and 8-vertex chains that only
  * BSDF sampling made before (a single path of value about 445 on a pixel of 0.03-0.16).
  *
- * - At a floor point beside the torus ((-1.6, 1.2): 5 such paths in 600,000 directions), the BSDF-sampled paths that reach the light through 7 or 8
- *   torus vertices: with "longmax=8,longev=0.9" specular NEE looks for them, so their MIS weight on
- *   the BSDF side is small (mean below 0.05); with the default longest chain (6) every one keeps
- *   weight 1.
+ * - At a floor point beside the torus ((-1.6, 1.2): 5 such paths in 600,000 directions), the
+ *   BSDF-sampled paths that reach the light through 7 or 8 torus vertices: with
+ *   "longmax=8,longev=0.9" specular NEE looks for them, so their MIS weight on the BSDF side is
+ *   small (mean below 0.05); with the default longest chain (6) every one keeps weight 1.
  * - The plan (snee_plan.h, SPC_SNEE_PLAN_SDF_GUIDE) runs those chains on this scene for path (not
  *   for volpath).
  * - The scene at 8 x 8 with its light 2.5x wider (power kept), rendered with the torus plan's

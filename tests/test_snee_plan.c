@@ -966,8 +966,8 @@ TEST(sdf_torus_plan)
         return;
     spc_snee_plan p;
     spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
-    CHECK_MSG(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_SDF_GUIDE) && p.casters == 1 &&
-                  p.receivers == 2 && p.light_sr > 0.0 && p.light_sr < 0.03,
+    CHECK_MSG(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_SDF_GUIDE) &&
+                  p.casters == 1 && p.receivers == 2 && p.light_sr > 0.0 && p.light_sr < 0.03,
               "caustic_sdf_torus: %s (%s, %g sr)", p.setting, p.reason, p.light_sr);
     spc_snee_params sp;
     CHECK(spc_snee_parse(p.setting, 2, &sp));
