@@ -23,8 +23,11 @@
 #include "manifold/specular_nee.h"
 #include "specula/specula.h"
 
-/* The longest chain the tests weight: specular NEE's long pass of up to 6 vertices. */
+/* The longest chain the tests weight: specular NEE's long pass of up to 6 vertices (a test of
+ * longer chains defines it before the include). */
+#ifndef CHAIN_MIS_LONG_MAX
 #define CHAIN_MIS_LONG_MAX 6
+#endif
 
 /* The scene at `path`, with its light's radius and radiance set (the XML's defaults light_radius and
  * light_radiance) where light_radius is given; NULL (and a failed check) if it does not load. */

@@ -104,6 +104,12 @@ static const spc_snee_option options[] = {
      "the randomized attempts"},
     {"long", "nolong", SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(long_p), 0, NULL,
      "with probability P per light sample, one longer chain length (up to 6 vertices) is looked for too"},
+    {"longmax", NULL, SPC_SNEE_OPT_COUNT, false, "K", 3, SPC_CHAIN_MAX_VERTICES, false, false, NULL, 0, NO,
+     AT(long_max), 0, "6",
+     "the longest chain the longer chains' pass looks for (the ball pass and mirror cylinders keep to 6)"},
+    {"longev", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, false, false, NULL, 0, NO, AT(long_events_p), 0, NULL,
+     "a share P of the longer chains' randomized attempts take a light guide's events (in, reflected at every "
+     "inner vertex, out)"},
     {"flat5", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, false, false, NULL, 0, NO, AT(flat5_p), 0, NULL,
      "where the longer chains run, the 5-vertex chains through flat faces on a share Q of the calls, counted "
      "1/Q times (0: left to BSDF sampling)"},

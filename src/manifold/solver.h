@@ -158,6 +158,17 @@ typedef struct spc_snee_params {
      * longer max_chain. Needs mis (off without it), reflect for dielectrics. From the camera too
      * (params.camera): the light seen through a ball after internal reflections. */
     double long_p;
+    /* The longest chain that pass looks for (the user's "longmax=K", 0: 6 vertices; the ball pass
+     * and the mirror cylinders' longer chains keep to 6), for light that
+     * runs along a glass tube by total internal reflection, as in a ring (a light guide): under the
+     * SDF torus, 8-vertex paths (in, six reflections, out) that only BSDF sampling made added 445
+     * to pixels of 0.03-0.16 (bench/RESULTS.md, part torus24). */
+    int long_max;
+    /* The share of that pass's randomized attempts that take a light guide's events (in, reflected
+     * at every inner vertex, out; the user's "longev=P", 0: none), the rest picking each event at
+     * reflect_p: a k-vertex guide chain's events then have probability about P instead of
+     * reflect_p^(k-2) (0.2^6 = 6.4e-5 at 8 vertices). */
+    double long_events_p;
     /* The longer chains through flat faces (flat_chains.h; the user's "flat5=Q" and "flat6=Q"):
      * where the longer chains run (long_p > 0 with mis), the chains of 5 and of 6 vertices past
      * the every-call length (4) are enumerated each on its own share of the calls, flat5_p and

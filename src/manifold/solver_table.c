@@ -122,6 +122,8 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->mis_events = false;
     p->long_p = SPC_SNEE_LONG_P;
     p->lt_guide_share = SPC_SNEE_LT_GUIDE_SHARE;
+    p->long_max = 0;
+    p->long_events_p = 0.0;
     p->flat5_p = SPC_SNEE_FLAT5_P;
     p->flat6_p = SPC_SNEE_FLAT6_P;
     p->guide = 0.0;

@@ -412,20 +412,40 @@ static bool exact_shape_covers(const spc_snee_query *q, const spc_chain *c)
  * attempts with the chain length fixed (the other solvers keep to their budget). */
 static bool random_long(const spc_snee_params *p) { return p->solver == SPC_SNEE_ANGULAR && !p->biased; }
 
+/* The longest chain the long pass looks for: params.long_max, SPC_SNEE_LONG_MAX where unset. */
+static int long_top(const spc_snee_params *p)
+{
+    if (p->long_max <= 0)
+        return SPC_SNEE_LONG_MAX;
+    return p->long_max < SPC_CHAIN_MAX_VERTICES ? p->long_max : SPC_CHAIN_MAX_VERTICES;
+}
+
 static bool long_on(const spc_snee_query *q)
 {
     const spc_snee_params *p = q->params;
     return p && (p->exact || random_long(p)) && p->mis && p->long_p > 0.0 && q->long_max > q->max_chain &&
-           q->max_chain < SPC_SNEE_LONG_MAX;
+           q->max_chain < long_top(p);
+}
+
+/* p as the long pass's randomized attempts have it: a share params.long_events_p of them take a light
+ * guide's events (spc_snee_attempt_event_u's ball events: in, reflected at every inner vertex, out).
+ * Both sides of the MIS, and the count, read the events' probability from these params. */
+static spc_snee_params long_params(const spc_snee_params *p)
+{
+    spc_snee_params l = *p;
+    if (p->long_events_p > 0.0)
+        l.ball_events_p = p->long_events_p;
+    return l;
 }
 
 /* The probability that a call enumerates the longer chains of k vertices (one length per pass, with
  * probability long_p): 0 if it never does. */
 static double long_psi(const spc_snee_query *q, int k)
 {
-    if (!long_on(q) || k <= q->max_chain || k > q->long_max || k > SPC_SNEE_LONG_MAX)
+    int top = long_top(q->params);
+    if (!long_on(q) || k <= q->max_chain || k > q->long_max || k > top)
         return 0.0;
-    return q->params->long_p / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
+    return q->params->long_p / (double)(top - q->max_chain);
 }
 
 /* The longest chain through flat faces enumerated at every call: the budget, or where the longer
@@ -776,6 +796,32 @@ static double long_attempt_psi(const spc_snee_query *q, const spc_chain *c)
         if (!smooth_sdf(c->v[i].h.shape))
             return attempt_psi(q, c);
     return 1.0;
+}
+
+/* The stand-in psi with which give_up_cap weighs a longer chain c (past the budget) of the long pass:
+ * where that pass's attempts take a light guide's events (params.long_events_p) and every vertex of
+ * c lies on an SDF without creases, 1 (long_attempt_psi's: such a chain is given up at its own count
+ * C = P(events) (a^2 + b^2) / (a b), as a chain within the budget is), else 0 (never given up:
+ * counted on by roulette). With those events, inside the SDF torus a 4-vertex chain (in, two
+ * reflections, out) with a about 6 b, found once in about 600 attempts, was counted 620 times: a
+ * sample of 3,300 in a pixel of 0.1, one seed's whole error, where its C is 5.5 (bench/RESULTS.md,
+ * part torus25). Where b is far below a, C passes the cap and the count goes on by roulette. Only
+ * for a chain with the light guide's events (their probability at least long_events_p): with other
+ * events P(events) is small (0.13 for in, reflected, out at reflect_p 0.2 without long_events_p),
+ * so C falls below the cap even where b is a thousandth of a, and the BSDF-sampled paths through
+ * the tube got their weight back: without the default's long pass they held whole seeds' errors
+ * (test_sdf_chain_mis; bench/RESULTS.md, part torus25). */
+static double long_give_up_psi(const spc_snee_query *q, const spc_chain *c)
+{
+    const spc_snee_params *p = q->params;
+    if (!(p->long_events_p > 0.0))
+        return 0.0;
+    for (int i = 0; i < c->n; ++i)
+        if (!smooth_sdf(c->v[i].h.shape))
+            return 0.0;
+    spc_chain_sig sig;
+    spc_chain_signature(c, &sig);
+    return spc_snee_attempt_events_prob(q, &sig) >= p->long_events_p ? 1.0 : 0.0;
 }
 
 /* psi of the straight-line solution: 1 (it is found whenever it exists), but with guided
@@ -1221,7 +1267,9 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
             return *rand_s * long_attempt_psi(q, c);
         }
         *counted = true;
-        return long_psi(q, c->n) * long_attempt_psi(q, c); /* a randomized attempt's */
+        spc_snee_params lp = long_params(p); /* the events as the long pass's attempts pick them */
+        lq.params = &lp;
+        return long_psi(q, c->n) * long_attempt_psi(&lq, c); /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
         return 0.0; /* the exact enumerations alone run there, and c is not theirs */
@@ -1512,14 +1560,21 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         double psi = chain_psi(&q, &ch, &rs, &counted);
         *a = psi * p_y * ps;
         const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
-        /* the cap as specular NEE's query has it: its stand-in for a chain within the budget, none for
-         * the long pass's */
-        int cap = counted ? give_up_cap(&q, &ch, *a, *b, ch.n > max_chain ? 0.0 : psi) : 0;
+        /* the cap as specular NEE's query has it: its stand-in for a chain within the budget, the
+         * long pass's (long_give_up_psi, with its length and events) for a longer one */
+        spc_snee_params lp = long_params(p);
+        spc_snee_query gq = q;
+        if (ch.n > max_chain) {
+            gq.min_chain = gq.max_chain = ch.n;
+            gq.params = &lp;
+        }
+        int cap = counted ? give_up_cap(&gq, &ch, *a, *b, ch.n > max_chain ? long_give_up_psi(&gq, &ch) : psi) : 0;
         if (cap > 0 && w_solve && solver && solver->solve_one) {
             /* specular NEE gives the chain up where its count reaches the cap: its MIS share times the
              * probability of that, sampled by attempts toward this light point like its own */
             spc_snee_query lq = q;
             if (ch.n > max_chain) { /* the long pass's chain */
+                lq.params = &lp;
                 lq.min_chain = lq.max_chain = ch.n;
             }
             spc_chain_sig want;
@@ -1822,7 +1877,7 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
     spc_rgb v = counted_chain_value(&vq, e, uv, &sol, &a, &b);
     if (spc_rgb_is_black(v))
         return;
-    double inv_p = inv_p_solve(lq, solver, &sol, give_up_cap(lq, &sol, a, b, 0.0), rng, st);
+    double inv_p = inv_p_solve(lq, solver, &sol, give_up_cap(lq, &sol, a, b, long_give_up_psi(lq, &sol)), rng, st);
     if (st) {
         st->solved++;
         st->contributions++;
@@ -1880,7 +1935,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
      * randomized attempt's */
     double u = long_on(q) ? spc_rng_next(rng) : 1.0;
     if (u < p->long_p) {
-        int k = q->max_chain + 1 + (int)(u / p->long_p * (SPC_SNEE_LONG_MAX - q->max_chain));
+        int k = q->max_chain + 1 + (int)(u / p->long_p * (long_top(p) - q->max_chain));
         double psi = long_psi(q, k);
         if (psi > 0.0) {
             spc_snee_query lq = *q;
@@ -1893,6 +1948,8 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
                 emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
             }
             if (random_long(p) && solver->solve_one && !(p->exact && spc_snee_exact_covers_all(&lq))) {
+                spc_snee_params lp = long_params(p);
+                lq.params = &lp;
                 lq.psi = psi; /* MIS: times attempt_psi, as any randomized attempt's chain */
                 random_long_estimate(&lq, solver, e, uv, p_y * psi, false, rng, st, sk);
             }
@@ -2378,7 +2435,7 @@ int spc_snee_track_long_max(const spc_snee_params *p, int long_max)
     /* as long_on has it at a query */
     if (!((p->exact || random_long(p)) && p->mis && p->long_p > 0.0))
         return 0;
-    return long_max < SPC_SNEE_LONG_MAX ? long_max : SPC_SNEE_LONG_MAX;
+    return long_max < long_top(p) ? long_max : long_top(p);
 }
 
 bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,
