@@ -582,6 +582,41 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
     return true;
 }
 
+/* Follows ray through the delta scatterings at chain surfaces, at most kmax of them, multiplying beta
+ * by each sampled weight (the importance transport of a light subpath). x: the first other surface;
+ * events[i] and verts[i] (each unless NULL): the i-th scattering's event and surface. The number of scatterings, or -1 where the
+ * walk ends before such a surface (the ray escapes, kmax is passed, a sample is not a delta lobe, the
+ * throughput is black). ray ends as the last segment's. */
+static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rng, int kmax, spc_ray *ray,
+                      spc_rgb *beta, unsigned char *events, spc_hit *verts, spc_hit *x)
+{
+    for (int k = 0;; ++k) {
+        spc_hit h;
+        if (!spc_scene_intersect(sc, ray, &h))
+            return -1;
+        int ev;
+        if (!spc_chain_surface(&h, p->any_surface, &ev) || !spc_bsdf_is_delta_only(h.bsdf)) {
+            *x = h;
+            return k;
+        }
+        if (k == kmax)
+            return -1;
+        spc_bsdf_sample bs;
+        if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, spc_neg(ray->d), spc_rng_next(rng),
+                                 spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bs) ||
+            !(bs.lobe & SPC_LOBE_DELTA))
+            return -1;
+        *beta = spc_rgb_mul(*beta, bs.weight);
+        if (spc_rgb_is_black(*beta))
+            return -1;
+        if (events)
+            events[k] = bs.lobe == SPC_LOBE_DELTA_REFLECTION ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
+        if (verts)
+            verts[k] = h;
+        *ray = spc_hit_spawn(&h, bs.wi);
+    }
+}
+
 void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
                        void (*sink)(void *user, const spc_path_lt_join *j), void *user)
 {
@@ -626,31 +661,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     /* the chain: delta scatterings at chain surfaces, up to the longest budget */
     int kmax = p->max_chain < SPC_CHAIN_MAX_VERTICES ? p->max_chain : SPC_CHAIN_MAX_VERTICES;
     unsigned char events[SPC_CHAIN_MAX_VERTICES];
-    int k = 0;
     spc_hit x2;
-    for (;;) {
-        spc_hit h;
-        if (!spc_scene_intersect(sc, &ray, &h))
-            return;
-        int ev;
-        if (!spc_chain_surface(&h, p->any_surface, &ev) || !spc_bsdf_is_delta_only(h.bsdf)) {
-            x2 = h;
-            break;
-        }
-        if (k == kmax)
-            return;
-        spc_vec3 wo = spc_neg(ray.d);
-        spc_bsdf_sample bs;
-        if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, spc_rng_next(rng),
-                                 spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bs) ||
-            !(bs.lobe & SPC_LOBE_DELTA))
-            return;
-        beta = spc_rgb_mul(beta, bs.weight);
-        if (spc_rgb_is_black(beta))
-            return;
-        events[k++] = bs.lobe == SPC_LOBE_DELTA_REFLECTION ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
-        ray = spc_hit_spawn(&h, bs.wi);
-    }
+    int k = delta_walk(sc, p, rng, kmax, &ray, &beta, events, NULL, &x2);
     if (k < 1 || !spc_bsdf_has_smooth(x2.bsdf))
         return;
     spc_vec3 d0 = spc_neg(ray.d);
@@ -817,30 +829,8 @@ void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p
     spc_vec3 d_last = spc_neg(ray.d);
 
     /* the delta scatterings at chain surfaces, to the first other surface x */
-    int k = 0;
     spc_hit x, v[SPC_PATH_LT_GUIDE_MAX];
-    for (;;) {
-        spc_hit h;
-        if (!spc_scene_intersect(sc, &ray, &h))
-            return;
-        int ev;
-        if (!spc_chain_surface(&h, p->any_surface, &ev) || !spc_bsdf_is_delta_only(h.bsdf)) {
-            x = h;
-            break;
-        }
-        if (k == SPC_PATH_LT_GUIDE_MAX)
-            return;
-        spc_bsdf_sample bs;
-        if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, spc_neg(ray.d), spc_rng_next(rng),
-                                 spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bs) ||
-            !(bs.lobe & SPC_LOBE_DELTA))
-            return;
-        beta = spc_rgb_mul(beta, bs.weight);
-        if (spc_rgb_is_black(beta))
-            return;
-        v[k++] = h;
-        ray = spc_hit_spawn(&h, bs.wi);
-    }
+    int k = delta_walk(sc, p, rng, SPC_PATH_LT_GUIDE_MAX, &ray, &beta, NULL, v, &x);
     /* a light guide's chain (longer than any specular NEE covers), within max_depth's k + 2 segments */
     if (k < spc_path_lt_guide_min_chain(ctx, p) || (ctx->max_depth >= 0 && k + 2 > ctx->max_depth) ||
         !spc_bsdf_has_smooth(x.bsdf))
