@@ -437,11 +437,9 @@ TEST(camera_query_from_glass_share)
     }
     spc_snee_plan p;
     spc_snee_plan_make(sc, "path", NULL, &p);
-    /* an SDF's chains go to the randomized attempts, its light-guide chains to 8 vertices too; guided
-     * seeds are not in the plan (snee_plan.h); under its small light the longer light guides'
-     * chains go to light tracing */
-    CHECK_MSG(p.on && p.glass_share > 0.05 &&
-                  !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES SPC_SNEE_PLAN_SDF_GUIDE),
+    /* an SDF's chains go to the randomized attempts; guided seeds are not in the plan (snee_plan.h);
+     * under its small light the light guides' chains go to light tracing too */
+    CHECK_MSG(p.on && p.glass_share > 0.05 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES),
               "SDF ball: share %g, %s", p.glass_share, p.setting);
     spc_snee_params sp;
     CHECK(spc_snee_parse(p.setting, 2, &sp) && sp.seed_guide == 0.0);
@@ -969,8 +967,7 @@ TEST(sdf_torus_plan)
         return;
     spc_snee_plan p;
     spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
-    CHECK_MSG(p.on && p.automatic &&
-                  !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES SPC_SNEE_PLAN_SDF_GUIDE) &&
+    CHECK_MSG(p.on && p.automatic && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES) &&
                   p.casters == 1 && p.receivers == 2 && p.light_sr > 0.0 && p.light_sr < 0.03,
               "caustic_sdf_torus: %s (%s, %g sr)", p.setting, p.reason, p.light_sr);
     spc_snee_params sp;

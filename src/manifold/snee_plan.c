@@ -488,21 +488,6 @@ static void off(spc_snee_plan *out, const char *why)
     snprintf(out->reason, sizeof out->reason, "%s", why);
 }
 
-/* Is a caster of cs a glass signed distance field without creases whose chains go to the randomized
- * attempts? */
-static bool smooth_sdf_glass(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
-{
-    for (int i = 0; i < cs->n; ++i) {
-        const spc_shape *s = sc->shapes[cs->idx[i]];
-        double eta = 0.0;
-        if (s->type == SPC_SHAPE_SDF && s->sdf && !spc_sdf_has_creases(s->sdf) &&
-            spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0 &&
-            spc_snee_plan_method(p, s) == SPC_SNEE_METHOD_SOLVER)
-            return true;
-    }
-    return false;
-}
-
 void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char *setting, spc_snee_plan *out)
 {
     memset(out, 0, sizeof *out);
@@ -716,12 +701,6 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (flat_long) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LONG);
-    }
-    /* path with a glass SDF without creases among the casters: its light-guide chains of up to 8
-     * vertices (snee_plan.h) */
-    if (!strcmp(integrator, "path") && glass && smooth_sdf_glass(sc, cs, &p)) {
-        size_t n = strlen(out->setting);
-        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_SDF_GUIDE);
     }
     /* volpath: a share of the random seeds at medium points from the phase function, where some
      * caster's chains go to the randomized attempts (snee_plan.h) */

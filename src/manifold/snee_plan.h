@@ -237,14 +237,12 @@
  * sample 1.14x, no gain in the error per sample). */
 #define SPC_SNEE_PLAN_POINT_LIGHTS ",ltcaus"
 
-/* Appended for path where a glass caster is a signed distance field without creases solved by the
- * randomized attempts (the SDF torus): the longer chains' pass looks for chains of up to 8
- * vertices, its attempts mostly with a light guide's events (in, reflected at every inner vertex,
- * out). Light that runs along a glass tube by total internal reflection makes 7- and 8-vertex
- * chains that only BSDF sampling made (on scenes/caustic_sdf_torus.xml single paths of 445 on
- * pixels of 0.03-0.16, and one of about 1,000 times a seed's mean). Measured in bench/RESULTS.md,
- * part torus25. */
-#define SPC_SNEE_PLAN_SDF_GUIDE ",longmax=8,longev=0.9"
+/* Not appended by the plan: the longer chains' pass to 8 vertices inside a glass SDF without creases
+ * (",longmax=8,longev=0.9": light that runs along a glass tube by total internal reflection makes 7-
+ * and 8-vertex chains). On scenes/caustic_sdf_torus.xml it removed one BSDF-sampled firefly but
+ * added new tails on about one fresh seed in ten at 1.22x the CPU per sample (80 fresh seeds;
+ * bench/RESULTS.md, part torus25 and the merged main's check), so the light guides go to light
+ * tracing alone (SPC_SNEE_PLAN_LIGHT_GUIDES). */
 
 /* Appended for path where some caster is flat-faced (a slab), no caster is a mirror, the smallest
  * light subtends more than SPC_SNEE_PLAN_FLAT_MAX_SR at the casters, and the flat enumeration's
