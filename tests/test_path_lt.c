@@ -186,24 +186,32 @@ TEST(joins_are_specular_nee_chains_with_the_same_ratio)
     spc_scene_destroy(sc);
 }
 
+/* path on sc with the setting `with` (seed) and `without` (seed + 1), spp each at 2 threads: the two
+ * images agree by the per-pixel z-test on 0.99 of the pixels. */
+static void settings_agree(spc_scene *sc, const char *with, const char *without, int spp, uint64_t seed,
+                           const char *label)
+{
+    spc_film *a = tu_render_nee(sc, "path", with, spp, 2, seed, NULL);
+    spc_film *b = tu_render_nee(sc, "path", without, spp, 2, seed + 1, NULL);
+    CHECK(a && b);
+    if (a && b) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(a, b, 0.99, label, &d));
+        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
+               d.mean_a[0], d.mean_b[0]);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+}
+
 TEST(render_agrees_without_it)
 {
     spc_scene *sc = tu_load(SCENE, 16);
     CHECK(sc != NULL);
     if (!sc)
         return;
-    spc_film *a = tu_render_nee(sc, "path", SETTING, 1024, 2, 41, NULL);
-    spc_film *b = tu_render_nee(sc, "path", "angular:camera=0.098,first=0.1,later=0.1", 1024, 2, 42, NULL);
-    CHECK(a && b);
-    if (a && b) {
-        spc_diff_result d;
-        memset(&d, 0, sizeof d);
-        CHECK(tu_image_agrees(a, b, 0.99, "ltcaus vs without", &d));
-        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction, d.ztest_pixels,
-               d.mean_a[0], d.mean_b[0]);
-    }
-    spc_film_destroy(a);
-    spc_film_destroy(b);
+    settings_agree(sc, SETTING, "angular:camera=0.098,first=0.1,later=0.1", 1024, 41, "ltcaus vs without");
     spc_scene_destroy(sc);
 }
 
@@ -750,18 +758,7 @@ TEST(guide_render_agrees_without_it)
     CHECK(spc_scene_load(path, defs, 3, &sc, &err) == SPC_OK);
     if (!sc)
         return;
-    spc_film *a = tu_render_nee(sc, "path", GUIDE_SETTING, 256, 2, 45, NULL);
-    spc_film *b = tu_render_nee(sc, "path", "angular:camera,first=0.1,later=0.1", 256, 2, 46, NULL);
-    CHECK(a && b);
-    if (a && b) {
-        spc_diff_result dr;
-        memset(&dr, 0, sizeof dr);
-        CHECK(tu_image_agrees(a, b, 0.99, "light guides vs without", &dr));
-        printf("    z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", dr.ztest_pass_fraction, dr.ztest_pixels,
-               dr.mean_a[0], dr.mean_b[0]);
-    }
-    spc_film_destroy(a);
-    spc_film_destroy(b);
+    settings_agree(sc, GUIDE_SETTING, "angular:camera,first=0.1,later=0.1", 256, 45, "light guides vs without");
     spc_scene_destroy(sc);
 }
 
