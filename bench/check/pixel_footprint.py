@@ -12,7 +12,7 @@ own: light sampling, specular NEE, BSDF sampling) plus the variance of the radia
 the same for path tracing with or without specular NEE; only strategies that reach the film from the
 light side (light tracing, bdpt) change it. The script renders pixel (X, Y) of the film at --res as
 --sub x --sub subpixels (the film at res * sub, cropped: bench/check/crop_scene.py's rewrite, written
-next to SCENE so that its relative paths hold) with --variance, and prints the pixel's mean, the
+next to SCENE so that its relative paths hold) with --variance (the image into a temporary folder), and prints the pixel's mean, the
 subpixels' coefficient of variation (the footprint's relative standard deviation per sample), the
 mean relative standard deviation per sample within a subpixel (the estimator's at that scale, itself
 partly the subpixel's footprint), and the footprint's share of the pixel's per-sample variance.
@@ -20,7 +20,9 @@ partly the subpixel's footprint), and the footprint's share of the pixel's per-s
 import argparse
 import os
 import re
+import shutil
 import subprocess
+import tempfile
 
 import numpy as np
 
@@ -58,15 +60,19 @@ def main():
     ap.add_argument("--specula", default=os.path.join(os.path.dirname(__file__), "..", "..", "build", "specula"))
     a = ap.parse_args()
     base = os.path.splitext(a.scene)[0]
-    xml, exr = base + "_footprint.xml", base + "_footprint.exr"
+    tmp = tempfile.mkdtemp(prefix="footprint_")
+    xml, exr = base + "_footprint.xml", os.path.join(tmp, "footprint.exr")
     crop_xml(a.scene, xml, a.res * a.sub, a.x * a.sub, a.y * a.sub, a.sub, a.sub)
     cmd = [a.specula, "render", xml, "-o", exr, "--spp", str(a.spp), "--seed", str(a.seed), "--threads", "1",
            "--variance", "--quiet"]
     if a.setting:
         cmd += ["--specular-nee", a.setting]
-    subprocess.run(cmd, check=True)
-    img, var = read(exr)
-    os.remove(xml)
+    try:
+        subprocess.run(cmd, check=True)
+        img, var = read(exr)
+    finally:
+        os.remove(xml)
+        shutil.rmtree(tmp)
     m = img.mean()
     # the radiance's variance over the pixel's area: the subpixel means' spread less their own noise
     foot = max(img.var() - var.mean(), 0.0)
