@@ -11,11 +11,14 @@ own: light sampling, specular NEE, BSDF sampling) plus the variance of the radia
 (the footprint's: a caustic's focus or a light's image smaller than the pixel). The second part is
 the same for path tracing with or without specular NEE; only strategies that reach the film from the
 light side (light tracing, bdpt) change it. The script renders pixel (X, Y) of the film at --res as
---sub x --sub subpixels (the film at res * sub, cropped: bench/check/crop_scene.py's rewrite, written
-next to SCENE so that its relative paths hold) with --variance (the image into a temporary folder), and prints the pixel's mean, the
-subpixels' coefficient of variation (the footprint's relative standard deviation per sample), the
-mean relative standard deviation per sample within a subpixel (the estimator's at that scale, itself
-partly the subpixel's footprint), and the footprint's share of the pixel's per-sample variance.
+--sub x --sub subpixels (the film at res * sub, cropped as bench/check/crop_scene.py does; the copy
+of the scene is written next to SCENE so that its relative paths hold, the image into a temporary
+folder) with --variance, and prints the pixel's mean, the subpixels' coefficient of variation (the
+footprint's relative standard deviation per sample), the mean relative standard deviation per sample
+within a subpixel (the estimator's at that scale, itself partly the subpixel's footprint: raise --sub
+until the share settles), and the footprint's share of the pixel's per-sample variance. The
+subpixels' spread is counted less the variance of their means, so that a few samples per subpixel do
+not read as footprint.
 """
 import argparse
 import os
