@@ -8,8 +8,9 @@
 SCENE is one of the names below (default: all). For each scene a Mitsuba 3 reference (path
 tracer, llvm_ad_rgb, `--mitsuba-spp` samples in 32 passes, tests/validation/mitsuba_ref.py) is
 rendered once into --refs (kept: delete it to render again); `--mitsuba-variant scalar_rgb` where
-drjit's LLVM backend does not load (it needs the libLLVM named in DRJIT_LIBLLVM_PATH below). Each integrator's CPU seconds per
-sample (and per render: bdpt's pool pilot) are measured by two short calibration renders, and
+drjit's LLVM backend does not load (it needs the libLLVM named in DRJIT_LIBLLVM_PATH below). Each
+integrator's CPU seconds per sample (and per render: bdpt's pool pilot) are measured by two short
+calibration renders, and
 every seed then renders the samples per pixel that take --cpu CPU seconds (user + system, both
 threads), so path and bdpt get equal CPU
 time however the machine's cores are shared; the table gives the CPU seconds actually used.
