@@ -3,12 +3,14 @@
 
     python3 bench/bench_bdpt_seeds.py [--specula build/specula] [--cpu 4] [--seeds 8] [--res 32]
                                       [--refs DIR] [--out DIR] [--mitsuba-spp 32768]
-                                      [--snee SPEC] [SCENE ...]
+                                      [--snee SPEC] [--mitsuba-variant V] [SCENE ...]
 
 SCENE is one of the names below (default: all). For each scene a Mitsuba 3 reference (path
 tracer, llvm_ad_rgb, `--mitsuba-spp` samples in 32 passes, tests/validation/mitsuba_ref.py) is
-rendered once into --refs (kept: delete it to render again). Each integrator's CPU seconds per
-sample (and per render: bdpt's pool pilot) are measured by two short calibration renders, and
+rendered once into --refs (kept: delete it to render again); `--mitsuba-variant scalar_rgb` where
+drjit's LLVM backend does not load (it needs the libLLVM named in DRJIT_LIBLLVM_PATH below). Each
+integrator's CPU seconds per sample (and per render: bdpt's pool pilot) are measured by two short
+calibration renders, and
 every seed then renders the samples per pixel that take --cpu CPU seconds (user + system, both
 threads), so path and bdpt get equal CPU
 time however the machine's cores are shared; the table gives the CPU seconds actually used.
@@ -146,6 +148,7 @@ def main():
     ap.add_argument("--refs", default="/tmp/specula_bdpt_refs")
     ap.add_argument("--out", default="/tmp/specula_bdpt_seeds")
     ap.add_argument("--mitsuba-spp", type=int, default=32768)
+    ap.add_argument("--mitsuba-variant", default="llvm_ad_rgb")
     ap.add_argument("--snee", default="")
     ap.add_argument("--bdpt-snee", default="")
     ap.add_argument("--integrators", default="path,bdpt")
@@ -166,7 +169,7 @@ def main():
         if not os.path.exists(ref_path):
             env = dict(os.environ, DRJIT_LIBLLVM_PATH="/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1")
             subprocess.run([sys.executable, os.path.join(ROOT, "tests/validation/mitsuba_ref.py"), scene, ref_path,
-                            "--spp", str(a.mitsuba_spp), "--passes", "32", "--variant", "llvm_ad_rgb",
+                            "--spp", str(a.mitsuba_spp), "--passes", "32", "--variant", a.mitsuba_variant,
                             "-D", "integrator=path"] + [x for d in defs for x in ("-D", d)], check=True, env=env)
         ref, ref_var = read_mean_var(ref_path)
         mref, mref_var = ref, ref_var
