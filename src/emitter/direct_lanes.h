@@ -16,13 +16,19 @@
 #include "emitter/emitter.h"
 #include "scene/texture.h"
 
+/* The most lanes of one batch of the arithmetic loops (a call of spc_emitter_sample_direct_many
+ * runs its lanes in batches of this many). A batch's arrays (about 25 of them, inputs and results)
+ * then take 6 KiB and stay in the L1 cache; at 256 lanes they took 50 KiB, and arrays 2 KiB apart
+ * fall on the same few cache sets, so the stores of a lane's 15 inputs evicted each other. */
+#define SPC_DIRECT_LANES_MAX 32
+
 /* A batch's results, lane k at index k. */
 typedef struct spc_direct_lanes {
-    double p[3][SPC_EMITTER_MANY_MAX];  /* the point on the light */
-    double n[3][SPC_EMITTER_MANY_MAX];  /* its normal (flip_normals applied) */
-    double wi[3][SPC_EMITTER_MANY_MAX]; /* unit direction from the reference point toward p */
-    double dist[SPC_EMITTER_MANY_MAX], pdf[SPC_EMITTER_MANY_MAX], err[SPC_EMITTER_MANY_MAX];
-    double facing[SPC_EMITTER_MANY_MAX]; /* dot(n, -wi): the light is seen from its front when > 0 */
+    double p[3][SPC_DIRECT_LANES_MAX];  /* the point on the light */
+    double n[3][SPC_DIRECT_LANES_MAX];  /* its normal (flip_normals applied) */
+    double wi[3][SPC_DIRECT_LANES_MAX]; /* unit direction from the reference point toward p */
+    double dist[SPC_DIRECT_LANES_MAX], pdf[SPC_DIRECT_LANES_MAX], err[SPC_DIRECT_LANES_MAX];
+    double facing[SPC_DIRECT_LANES_MAX]; /* dot(n, -wi): the light is seen from its front when > 0 */
 } spc_direct_lanes;
 
 /* Stores lane i's point (px, py, pz), direction (wx, wy, wz), distance and density into the arrays
