@@ -61,10 +61,13 @@ static inline bool spc_direct_lanes_write(const spc_direct_lanes *a, int k, bool
     out->n = spc_v3(a->n[0][k], a->n[1][k], a->n[2][k]);
     out->wi = spc_v3(a->wi[0][k], a->wi[1][k], a->wi[2][k]);
     out->dist = a->dist[k];
-    out->L = a->facing[k] <= 0.0 ? spc_rgb1(0.0) : spc_texture_eval(radiance, spc_v2(0.0, 0.0));
+    /* the radiance tested as a local value: read back from the record, its channels came through
+     * a store of two and a load of one (a stall) */
+    spc_rgb L = a->facing[k] <= 0.0 ? spc_rgb1(0.0) : spc_texture_eval(radiance, spc_v2(0.0, 0.0));
+    out->L = L;
     out->pdf = a->pdf[k];
     out->err = a->err[k];
-    return !spc_rgb_is_black(out->L);
+    return !spc_rgb_is_black(L);
 }
 
 #endif
