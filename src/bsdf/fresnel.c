@@ -35,10 +35,11 @@ double spc_fresnel_dielectric(double cos_i, double eta, double *cos_t, double *e
     return 0.5 * (rs * rs + rp * rp);
 }
 
-/* The three channels as a loop over arrays of four (the fourth a dummy, eta 1 and k 0), which -O3
- * vectorizes: two packed square roots and divisions of two lanes (SSE2) or one of four (AVX)
- * instead of one per channel. Each lane's arithmetic is the one-channel formula's, in its order, so
- * the values are those of the plain form (packed sqrt and division round as scalar ones do). */
+/* The three channels as one loop, which -O3 vectorizes: each square root and division as a packed
+ * pair and a scalar instead of three scalars (a fourth, dummy channel would be built through two
+ * 8-byte stores and a 16-byte load, a stall). Each lane's arithmetic is the one-channel formula's,
+ * in its order, so the values are those of the plain form (packed square roots and divisions round
+ * as scalar ones do). */
 #if defined(__GNUC__) && !defined(__clang__)
 __attribute__((optimize("O3")))
 #endif
