@@ -2,6 +2,7 @@
  * tests/test_rfilter.c: the camera sample. The pixel filter's sampling against its CDF: the drawn
  * offset is the step a plain search of the cumulative masses finds, and the CDF maps it back to u.
  * The pinhole camera's ray through a film point against the camera's projection and clip planes.
+ * The batch forms (filter offsets, camera rays) against the one-sample forms, bit for bit.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -119,6 +120,61 @@ TEST(pinhole_ray_through_film_point)
     CHECK_MSG(worst_dir < 1e-14, "direction off by %g", worst_dir);
 }
 
+/* spc_film_filter_sample_many gives spc_film_filter_sample's offsets bit for bit: tent, gaussians
+ * (one whose scan is too long for the vector loop) and box; u on a grid, on every step's and guide
+ * bucket's edge and one ulp either side; pixel centres inside a window, near its edges and away
+ * from them; counts that are not a multiple of a vector. Run under every ISA by
+ * camera_rays_many_match_one_at_a_time. */
+TEST(filter_samples_many_match_one_at_a_time)
+{
+    const double params[4][3] = {{SPC_RFILTER_TENT, 1.0, 0.5}, {SPC_RFILTER_GAUSSIAN, 2.0, 0.5},
+                                 {SPC_RFILTER_GAUSSIAN, 4.0, 1.0}, {SPC_RFILTER_BOX, 0.5, 0.5}};
+    int bad = 0, total = 0;
+    for (int p = 0; p < 4; ++p) {
+        spc_film_spec f;
+        memset(&f, 0, sizeof f);
+        f.rfilter = (spc_rfilter_type)params[p][0];
+        f.filter_radius = params[p][1];
+        f.filter_stddev = params[p][2];
+        spc_film_filter_prepare(&f);
+        enum { G = 1001, M = G + 6 * (SPC_FILTER_RESOLUTION + 1) + 6 * (SPC_FILTER_GUIDE + 1) + 2 };
+        static double u[M], c[M], x[M];
+        int n = 0;
+        for (int i = 0; i < G; ++i)
+            u[n++] = (i + 0.5) / G;
+        for (int k = 0; k <= SPC_FILTER_RESOLUTION; ++k)
+            for (int side = -1; side <= 1; side += 2) {
+                double e = 0.5 + side * f.filter_step_cdf[k];
+                u[n++] = e;
+                u[n++] = nextafter(e, 0.0);
+                u[n++] = nextafter(e, 1.0);
+            }
+        for (int b = 0; b <= SPC_FILTER_GUIDE; ++b)
+            for (int side = -1; side <= 1; side += 2) {
+                double e = 0.5 + side * (b / (2.0 * SPC_FILTER_GUIDE));
+                u[n++] = e;
+                u[n++] = nextafter(e, 0.0);
+                u[n++] = nextafter(e, 1.0);
+            }
+        u[n++] = 0.0;
+        u[n++] = 1.0;
+        for (int i = 0; i < n; ++i)
+            u[i] = u[i] < 0.0 ? 0.0 : u[i] > 1.0 ? 1.0 : u[i];
+        /* the window [3, 15): pixel centres 3.5 .. 14.5, the outer ones' supports crossing its edges */
+        for (int i = 0; i < n; ++i)
+            c[i] = 3.5 + (i * 7) % 12;
+        for (int m = n; m > 0; m = m > 40 ? m / 3 : m - 13) {
+            spc_film_filter_sample_many(&f, m, u, c, 3.0, 15.0, x);
+            for (int i = 0; i < m; ++i) {
+                double one = spc_film_filter_sample(&f, u[i], c[i], 3.0, 15.0);
+                bad += memcmp(&one, &x[i], sizeof one) != 0;
+                ++total;
+            }
+        }
+    }
+    CHECK_MSG(bad == 0, "%d of %d offsets differ", bad, total);
+}
+
 /* spc_camera_ray_many gives spc_camera_ray's rays bit for bit (perspective and orthographic, counts
  * that cross its batch of 64, film points inside and outside the film); with every ISA it is built
  * for, each in a child process of this program (SPECULA_VECTOR_ISA caps the one a process picks). */
@@ -167,7 +223,8 @@ TEST(camera_rays_many_match_one_at_a_time)
     const char *isas[] = {"base", "avx2"};
     for (int i = 0; i < 2; ++i) {
         char cmd[4300];
-        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=camera_rays_many_match_one_at_a_time '%s' >/dev/null",
+        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=camera_rays_many_match_one_at_a_time,"
+                 "filter_samples_many_match_one_at_a_time '%s' >/dev/null",
                  isas[i], exe);
         int rc = system(cmd);
         CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
@@ -181,6 +238,7 @@ int main(void)
     RUN(tent_sample_matches_cdf);
     RUN(box_sample_matches_cdf);
     RUN(pinhole_ray_through_film_point);
+    RUN(filter_samples_many_match_one_at_a_time);
     RUN(camera_rays_many_match_one_at_a_time);
     return spc_test_finish();
 }

@@ -45,11 +45,11 @@ bool spc_emitter_many_covers(const spc_emitter *e)
 /* What the arithmetic loop reads and writes, one array per quantity (structure of arrays). The
  * triangle's normal is an input, in out.n. */
 typedef struct soa {
-    double p0[3][SPC_EMITTER_MANY_MAX], p1[3][SPC_EMITTER_MANY_MAX], p2[3][SPC_EMITTER_MANY_MAX];
-    double ref[3][SPC_EMITTER_MANY_MAX];
-    double ux[SPC_EMITTER_MANY_MAX], uy[SPC_EMITTER_MANY_MAX], inv_area[SPC_EMITTER_MANY_MAX];
+    double p0[3][SPC_DIRECT_LANES_MAX], p1[3][SPC_DIRECT_LANES_MAX], p2[3][SPC_DIRECT_LANES_MAX];
+    double ref[3][SPC_DIRECT_LANES_MAX];
+    double ux[SPC_DIRECT_LANES_MAX], uy[SPC_DIRECT_LANES_MAX], inv_area[SPC_DIRECT_LANES_MAX];
     spc_direct_lanes out;
-    int ok[SPC_EMITTER_MANY_MAX]; /* spc_area_sample_direct's tests passed */
+    int ok[SPC_DIRECT_LANES_MAX]; /* spc_area_sample_direct's tests passed */
 } soa;
 
 static inline double max2(double a, double b) { return a > b ? a : b; }
@@ -112,7 +112,7 @@ static void body(soa *a, int n)
 #endif
 }
 
-/* Up to SPC_EMITTER_MANY_MAX lanes whose emitters all pass spc_emitter_many_covers. */
+/* Up to SPC_DIRECT_LANES_MAX lanes whose emitters all pass spc_emitter_many_covers. */
 static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const e[], const spc_vec3 ref[],
                                const spc_vec2 u[], spc_emitter_direct out[], bool ok[])
 {
@@ -157,20 +157,21 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
 void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const spc_vec3 ref[], const spc_vec2 u[],
                                     spc_emitter_direct out[], bool ok[])
 {
-    int lane[SPC_EMITTER_MANY_MAX], m = 0;
-    int sphere_lane[SPC_EMITTER_MANY_MAX], ms = 0;
+    /* the lanes of each kind in batches of SPC_DIRECT_LANES_MAX (direct_lanes.h) */
+    int lane[SPC_DIRECT_LANES_MAX], m = 0;
+    int sphere_lane[SPC_DIRECT_LANES_MAX], ms = 0;
     for (int i = 0; i < n; ++i) {
         if (!e[i]) {
             ok[i] = false;
         } else if (spc_emitter_many_covers(e[i])) {
             lane[m++] = i;
-            if (m == SPC_EMITTER_MANY_MAX) {
+            if (m == SPC_DIRECT_LANES_MAX) {
                 sample_mesh_lights(m, lane, e, ref, u, out, ok);
                 m = 0;
             }
         } else if (spc_emitter_many_covers_sphere(e[i])) {
             sphere_lane[ms++] = i;
-            if (ms == SPC_EMITTER_MANY_MAX) {
+            if (ms == SPC_DIRECT_LANES_MAX) {
                 spc_emitter_sample_spheres_many(ms, sphere_lane, e, ref, u, out, ok);
                 ms = 0;
             }

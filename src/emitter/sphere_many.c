@@ -48,9 +48,9 @@ bool spc_emitter_many_covers_sphere(const spc_emitter *e)
 
 /* What the arithmetic loop reads and writes, one array per quantity. */
 typedef struct soa {
-    double c[3][SPC_EMITTER_MANY_MAX], ref[3][SPC_EMITTER_MANY_MAX];
-    double R[SPC_EMITTER_MANY_MAX], flip[SPC_EMITTER_MANY_MAX]; /* flip: -1 where flip_normals, else 1 */
-    double ux[SPC_EMITTER_MANY_MAX], uy[SPC_EMITTER_MANY_MAX];
+    double c[3][SPC_DIRECT_LANES_MAX], ref[3][SPC_DIRECT_LANES_MAX];
+    double R[SPC_DIRECT_LANES_MAX], flip[SPC_DIRECT_LANES_MAX]; /* flip: -1 where flip_normals, else 1 */
+    double ux[SPC_DIRECT_LANES_MAX], uy[SPC_DIRECT_LANES_MAX];
     spc_direct_lanes out; /* err is set with the inputs */
 } soa;
 
@@ -157,11 +157,25 @@ static void body(soa *a, int n)
 #endif
 }
 
+/* Up to SPC_DIRECT_LANES_MAX lanes of spc_emitter_sample_spheres_many outside their spheres. */
+static void sample_batch(soa *a, int k, const int *slot, const spc_emitter *const e[], spc_emitter_direct out[],
+                         bool ok[])
+{
+    body(a, k);
+    for (int j = 0; j < k; ++j) {
+        int i = slot[j];
+        /* spc_area_sample_direct's tests, outside the loop: a flag computed there lets GCC thread it
+         * through cos_max's select and give up vectorizing */
+        bool valid = a->out.dist[j] > 0.0 && a->out.pdf[j] > 0.0 && a->out.pdf[j] <= DBL_MAX;
+        ok[i] = spc_direct_lanes_write(&a->out, j, valid, e[i]->radiance, &out[i]);
+    }
+}
+
 void spc_emitter_sample_spheres_many(int n, const int *lane, const spc_emitter *const e[], const spc_vec3 ref[],
                                      const spc_vec2 u[], spc_emitter_direct out[], bool ok[])
 {
     soa a;
-    int k = 0, slot[SPC_EMITTER_MANY_MAX];
+    int k = 0, slot[SPC_DIRECT_LANES_MAX];
     for (int j = 0; j < n; ++j) {
         int i = lane[j];
         const spc_shape *s = e[i]->shape;
@@ -180,15 +194,11 @@ void spc_emitter_sample_spheres_many(int n, const int *lane, const spc_emitter *
         a.ux[k] = u[i].x;
         a.uy[k] = u[i].y;
         slot[k++] = i;
+        if (k == SPC_DIRECT_LANES_MAX) {
+            sample_batch(&a, k, slot, e, out, ok);
+            k = 0;
+        }
     }
-    if (k == 0)
-        return;
-    body(&a, k);
-    for (int j = 0; j < k; ++j) {
-        int i = slot[j];
-        /* spc_area_sample_direct's tests, outside the loop: a flag computed there lets GCC thread it
-         * through cos_max's select and give up vectorizing */
-        bool valid = a.out.dist[j] > 0.0 && a.out.pdf[j] > 0.0 && a.out.pdf[j] <= DBL_MAX;
-        ok[i] = spc_direct_lanes_write(&a.out, j, valid, e[i]->radiance, &out[i]);
-    }
+    if (k > 0)
+        sample_batch(&a, k, slot, e, out, ok);
 }

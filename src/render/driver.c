@@ -169,14 +169,22 @@ static int camera_samples_tile(const job *jb, int pass, const tile *t, spc_ray *
             ps[n] = &smp[n];
         }
     spc_sampler_2d_many(ps, n, 1, u);
+    /* the filter's offsets from the pixel centres cx, cy, both axes in one call each */
+    double ux[SPC_TILE * SPC_TILE], uy[SPC_TILE * SPC_TILE], cx[SPC_TILE * SPC_TILE], cy[SPC_TILE * SPC_TILE];
     n = 0;
     for (int y = t->y0; y < t->y1; ++y)
         for (int x = t->x0; x < t->x1; ++x, ++n) {
-            int fx = x + ctx->crop_x, fy = y + ctx->crop_y;
-            px[n] = fx + 0.5 + spc_film_filter_sample(ctx->film, u[n].x, fx + 0.5, ctx->crop_x, ctx->crop_x + ctx->width);
-            py[n] = fy + 0.5 +
-                    spc_film_filter_sample(ctx->film, u[n].y, fy + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
+            ux[n] = u[n].x;
+            uy[n] = u[n].y;
+            cx[n] = x + ctx->crop_x + 0.5;
+            cy[n] = y + ctx->crop_y + 0.5;
         }
+    spc_film_filter_sample_many(ctx->film, n, ux, cx, ctx->crop_x, ctx->crop_x + ctx->width, px);
+    spc_film_filter_sample_many(ctx->film, n, uy, cy, ctx->crop_y, ctx->crop_y + ctx->height, py);
+    for (int i = 0; i < n; ++i) {
+        px[i] = cx[i] + px[i];
+        py[i] = cy[i] + py[i];
+    }
     if (spc_camera_has_lens(ctx->cam))
         for (int i = 0; i < n; ++i)
             rays[i] = spc_camera_ray_lens(ctx->cam, px[i], py[i], spc_sampler_2d(&smp[i]));

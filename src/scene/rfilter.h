@@ -30,6 +30,11 @@ void spc_film_filter_prepare(struct spc_film_spec *f);
 double spc_film_filter_eval(const struct spc_film_spec *f, double x);
 double spc_film_filter_cdf(const struct spc_film_spec *f, double x);
 double spc_film_filter_sample(const struct spc_film_spec *f, double u, double c, double lo, double hi);
+/* spc_film_filter_sample of n offsets in one window [lo, hi): x[i] = spc_film_filter_sample(f, u[i],
+ * c[i], lo, hi), the same values, the samples away from the window's edges in a loop that shares
+ * vector instructions between them (AVX2 or AVX-512 where the CPU has them). */
+void spc_film_filter_sample_many(const struct spc_film_spec *f, int n, const double *u, const double *c, double lo,
+                                 double hi, double *x);
 double spc_film_filter_mass(const struct spc_film_spec *f, double c, double lo, double hi);
 
 #endif

@@ -70,7 +70,8 @@ typedef struct spc_film_spec {
      * |x| and the mass of [0, k radius / RES) */
     double filter_step[SPC_FILTER_RESOLUTION];
     double filter_step_cdf[SPC_FILTER_RESOLUTION + 1];
-    unsigned char filter_guide[SPC_FILTER_GUIDE + 1]; /* the step at each bucket's lower end */
+    int filter_guide[SPC_FILTER_GUIDE + 1]; /* the step at each bucket's lower end */
+    int filter_guide_scan; /* the most steps the inverse CDF's scan moves past a bucket's guide */
 } spc_film_spec;
 
 #define SPC_SPECULAR_NEE_NONE 0
