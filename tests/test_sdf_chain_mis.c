@@ -15,8 +15,8 @@
  *   the camera rays that reach the light through them are weighed with the randomized attempts'
  *   real solve probability (solve_mis), not the stand-in psi: the weight, a sampled 1 - r^N, lies
  *   in [0, 1] and differs from the stand-in's power heuristic on most such rays (with the stand-in,
- *   specular NEE's trial count put one splat of 1,100 on a pixel of 0.7: bench/RESULTS.md, part
- *   torus26).
+ *   specular NEE's trial count put one splat of 1,100 on a pixel of 0.7: bench/RESULTS.md, "The
+ *   SDF torus's tails traced on fresh seeds").
  */
 /* ctest-labels: stat */
 #include <limits.h>

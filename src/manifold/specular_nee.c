@@ -874,7 +874,8 @@ static bool smooth_sdf_chain(const spc_chain *c)
  * glass SDF torus's (scenes/caustic_sdf_torus.xml) glints seen from the camera (one reflection, found
  * about once in 800 attempts) were counted 4,000 times: one splat of 1,100 on a pixel of 0.7, a
  * seed's whole error; the real probability bounds such a sample by the camera ray's value f / b
- * (bench/RESULTS.md, part torus26). A function of the chain, so both sides of the MIS decide alike. */
+ * (bench/RESULTS.md, "The SDF torus's tails traced on fresh seeds"). A function of the chain, so both
+ * sides of the MIS decide alike. */
 static bool solve_mis_within(const spc_snee_params *p, const spc_chain *c)
 {
     return solve_mis_chain(p, c) || (solve_mis_on(p) && smooth_sdf_chain(c));
