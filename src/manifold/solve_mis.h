@@ -27,7 +27,8 @@
  * roulette (SPC_TRIAL_GO_ON below), unbiased for every p.
  *
  * specular_nee.c applies it to the chains through tessellated balls (solver.h, solve_mis), whose
- * seeds (fit_seeds.h) make p large; elsewhere MIS keeps the stand-in psi.
+ * seeds (fit_seeds.h) make p large, and to the chains within the budget on SDFs without creases;
+ * elsewhere MIS keeps the stand-in psi.
  */
 #ifndef SPC_MANIFOLD_SOLVE_MIS_H
 #define SPC_MANIFOLD_SOLVE_MIS_H

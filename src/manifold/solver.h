@@ -90,8 +90,8 @@ typedef struct spc_snee_params {
     bool mis;
     double mis_solve;
     /* With mis: the chains of randomized attempts through tessellated balls (every vertex on a shape
-     * with a sphere fit, fit_seeds.h) weighed by the balance heuristic with their real solve
-     * probability instead of the stand-in psi (the user's "solvemis" / "nosolvemis"; on by default;
+     * with a sphere fit, fit_seeds.h), and those within the budget on SDFs without creases, weighed by
+     * the balance heuristic with their real solve probability instead of the stand-in psi (the user's "solvemis" / "nosolvemis"; on by default;
      * not with guide; other chains keep the stand-in, which measured better on a water mesh). Specular NEE's trial count N becomes the estimate (1 - r^N) / b of
      * 1 / (p A + b), BSDF sampling's weight a roulette of the same trials (solve_mis.h): both sides
      * bounded by the BSDF-sampled value f / b where BSDF sampling reaches the chain, so the count's

@@ -840,11 +840,11 @@ static double straight_psi(const spc_snee_params *p)
 static bool solve_mis_on(const spc_snee_params *p) { return p->mis && p->solve_mis && !p->biased && !guide_on(p); }
 
 /* Is every vertex of c on a tessellated ball (a sphere fit, fit_seeds.h)? The real solve probability
- * weighs only those chains: on a water mesh (scenes/newton_pool.xml, p moderate everywhere) it was
- * 2.3x worse at equal time than the stand-in, which hands BSDF sampling more of the paths and so
- * avoids the trial count's own variance, which the balance heuristic does not see; on the SDF torus
- * the two were alike over 24 seeds (bench/RESULTS.md, "Tails 3"). A function of the chain, so both
- * sides of the MIS decide alike. */
+ * weighs those chains and, within the budget, the smooth SDFs' (solve_mis_within), not the others:
+ * on a water mesh (scenes/newton_pool.xml, p moderate everywhere) it was 2.3x worse at equal time
+ * than the stand-in, which hands BSDF sampling more of the paths and so avoids the trial count's own
+ * variance, which the balance heuristic does not see. A function of the chain, so both sides of the
+ * MIS decide alike. */
 static bool solve_mis_chain(const spc_snee_params *p, const spc_chain *c)
 {
     if (!solve_mis_on(p) || c->n < 1)
@@ -856,6 +856,29 @@ static bool solve_mis_chain(const spc_snee_params *p, const spc_chain *c)
             return false;
     }
     return true;
+}
+
+/* Does every vertex of c lie on an SDF without creases (smooth_sdf)? */
+static bool smooth_sdf_chain(const spc_chain *c)
+{
+    if (c->n < 1)
+        return false;
+    for (int i = 0; i < c->n; ++i)
+        if (!smooth_sdf(c->v[i].h.shape))
+            return false;
+    return true;
+}
+
+/* Is c, a randomized attempt's chain within the budget, weighed by the balance heuristic with its real
+ * solve probability: solve_mis_chain's, or one on SDFs without creases? With the stand-in psi, the
+ * glass SDF torus's (scenes/caustic_sdf_torus.xml) glints seen from the camera (one reflection, found
+ * about once in 800 attempts) were counted 4,000 times: one splat of 1,100 on a pixel of 0.7, a
+ * seed's whole error; the real probability bounds such a sample by the camera ray's value f / b
+ * (bench/RESULTS.md, "The SDF torus's tails traced on fresh seeds"). A function of the chain, so both
+ * sides of the MIS decide alike. */
+static bool solve_mis_within(const spc_snee_params *p, const spc_chain *c)
+{
+    return solve_mis_chain(p, c) || (solve_mis_on(p) && smooth_sdf_chain(c));
 }
 
 /* The longer chains on a tessellated ball (solve_mis_chain: every vertex on a sphere fit) have a
@@ -1274,7 +1297,7 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
         return 0.0; /* the exact enumerations alone run there, and c is not theirs */
     const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
-    if (!solver || (random_psi(p) == 1.0 && !solve_mis_chain(p, c)))
+    if (!solver || (random_psi(p) == 1.0 && !solve_mis_within(p, c)))
         return 1.0;
     if (exact_covers(q, solver, c))
         return 1.0;
@@ -1285,7 +1308,7 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
     bool have_straight = straight_solve(q, solver, &straight, &it);
     if (have_straight && spc_snee_same_solution(&straight, c, q->scene->radius))
         return 1.0;
-    if (solve_mis_chain(p, c)) {
+    if (solve_mis_within(p, c)) {
         if (fit_first_has(q, solver, have_straight ? &straight : NULL, c))
             return 1.0;
         *rand_s = 1.0;
@@ -2068,7 +2091,7 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
             return; /* counted exactly above */
     if (st)
         st->solved++;
-    if (solve_mis_chain(p, &sol)) {
+    if (solve_mis_within(p, &sol)) {
         emit_solve_mis(q, solver, e, uv, p_y, &sol, seeded ? &seed : NULL, iterations, rng, st, sk);
         return;
     }
