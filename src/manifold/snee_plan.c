@@ -830,13 +830,14 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             /* past the budget where the longer chains run: up to SPC_FLAT_EVERY_CALL vertices at every
              * call, 5 and 6 on their shares of the calls (specular_nee.c, flat_max and flat_psi) */
             bool lng = p.long_p > 0.0 && !p.no_mis;
-            int every = p.max_chain < SPC_FLAT_EVERY_CALL && lng ? SPC_FLAT_EVERY_CALL : p.max_chain;
+            int every = p.max_chain < SPC_FLAT_EVERY_CALL && lng && p.flat34_p >= 1.0 ? SPC_FLAT_EVERY_CALL
+                                                                                      : p.max_chain;
             if (every > SPC_FLAT_MAX_VERTICES)
                 every = SPC_FLAT_MAX_VERTICES;
             put(&b, "every chain through its flat faces (and other flat casters') enumerated exactly, 1-%d vertices",
                 every);
             for (int k = every + 1; lng && k <= SPC_FLAT_MAX_VERTICES; ++k) {
-                double share = k == 5 ? p.flat5_p : k == 6 ? p.flat6_p : 0.0;
+                double share = k == 5 ? p.flat5_p : k == 6 ? p.flat6_p : k <= SPC_FLAT_EVERY_CALL ? p.flat34_p : 0.0;
                 if (share > 0.0)
                     put(&b, "; %d on a share %g of the calls", k, share);
                 else
