@@ -427,8 +427,8 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
     return cs->n > 0;
 }
 
-/* The face sequences the flat enumeration solves per query (spc_flat_chain_roots, chains of 1 to 5
- * vertices, reflections off glass included) from the receivers that pinhole rays through a grid of
+/* The face sequences the flat enumeration solves per query (chains of 1 to 5 vertices, reflections
+ * off glass included; counted by spc_flat_chain_sequences, not solved) from the receivers that pinhole rays through a grid of
  * SPC_SNEE_PLAN_FLAT_PILOT_GRID^2 cells of the film hit first, to the point y; -1 where nothing
  * can be traced (the scene not finalized, a camera that does not prepare, no receiver seen).
  * Deterministic. */
@@ -440,7 +440,6 @@ static double flat_sequences_per_query(const spc_scene *sc, spc_vec3 y)
     const int g = SPC_SNEE_PLAN_FLAT_PILOT_GRID;
     long sequences = 0;
     int queries = 0;
-    spc_vec3 pts[5 * 64];
     for (int j = 0; j < g; ++j)
         for (int i = 0; i < g; ++i) {
             spc_ray r = spc_camera_ray(&cam, (i + 0.5) * cam.width / g, (j + 0.5) * cam.height / g);
@@ -449,11 +448,8 @@ static double flat_sequences_per_query(const spc_scene *sc, spc_vec3 y)
                 spc_flat_chain_shape(h.shape))
                 continue;
             spc_vec3 x = spc_hit_offset(&h, spc_neg(r.d));
-            for (int k = 1; k <= 5; ++k) {
-                int n = 0;
-                spc_flat_chain_roots(sc, false, true, x, y, k, pts, NULL, 64, &n);
-                sequences += n;
-            }
+            for (int k = 1; k <= 5; ++k)
+                sequences += spc_flat_chain_sequences(sc, false, true, x, y, k);
             ++queries;
         }
     return queries > 0 ? (double)sequences / queries : -1.0;
