@@ -27,6 +27,7 @@
 #include "chain_mis.h"
 #include "core/rng.h"
 #include "harness.h"
+#include "render_util.h"
 #include "manifold/snee_options.h"
 #include "manifold/specular_nee.h"
 #include "specula/specula.h"
@@ -193,10 +194,46 @@ TEST(share_of_three_and_four_vertex_chains_agrees)
     CHECK_MSG(fabs(z) < 4.0, "flat34=0.05: specular NEE off the BSDF paths' share for it by %.2f sigma", z);
 }
 
+/* The whole image at flat34=0.3 (and the longer chains' other shares, flat5=0.3) against specular
+ * NEE off: per-pixel z-test (Sidak) and image means, 8 x 8, under a light of radius 0.1 (the same
+ * power). */
+TEST(share_render_agrees_with_none)
+{
+    const char *d = getenv("SPC_SOURCE_DIR");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", d ? d : ".", SCENE);
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    spc_define defs[3] = {{"light_radius", "0.1"}, {"light_radiance", "160, 153, 144"}, {"res", "8"}};
+    CHECK_MSG(spc_scene_load(path, defs, 3, &sc, &err) == SPC_OK, "%s: %s", path, err.msg);
+    if (!sc)
+        return;
+    bool quick = getenv("SPC_TEST_QUICK") != NULL;
+    spc_film *img = tu_render_nee(sc, "path", "angular:camera=0.1,first=0.1,later=0.1,long=0.3,flat34=0.3,flat5=0.3",
+                                  quick ? 64 : 256, 2, 41, NULL);
+    spc_film *ref = tu_render_nee(sc, "path", "none", quick ? 4096 : 16384, 2, 42, NULL);
+    CHECK(img && ref);
+    if (img && ref) {
+        spc_diff_result r;
+        memset(&r, 0, sizeof r);
+        CHECK(tu_image_agrees(img, ref, 0.99, "flat34=0.3 vs none", &r));
+        double mi, si, mr, sr;
+        tu_image_mean(img, 1, &mi, &si);
+        tu_image_mean(ref, 1, &mr, &sr);
+        printf("    flat34=0.3: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f\n",
+               r.ztest_pass_fraction, img->width * img->height, mi, si, mr, sr);
+    }
+    spc_film_destroy(img);
+    spc_film_destroy(ref);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(five_vertex_weight);
     RUN(weighted_sum_agrees_with_bsdf_sampling);
     RUN(share_of_three_and_four_vertex_chains_agrees);
+    RUN(share_render_agrees_with_none);
     return spc_test_finish();
 }
