@@ -168,7 +168,7 @@ TEST(weighted_sum_agrees_with_bsdf_sampling)
     double share5, w5;
     int n5;
     double z = snee_against_bsdf_share(&p, 5, &share5, &n5, &w5);
-    CHECK(share5 > 0.15);                   /* the five-vertex chains carry a good part here */
+    CHECK(share5 > 0.15);                  /* the five-vertex chains carry a good part here */
     CHECK(n5 > 0 && w5 > 0.2 && w5 < 0.8); /* and are weighted near 1/2 at this share */
     CHECK_MSG(fabs(z) < 4.0, "specular NEE off the BSDF paths' share for it by %.2f sigma", z);
 }

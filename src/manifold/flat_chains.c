@@ -1244,9 +1244,8 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
 
 /* Walks every face sequence of lo to hi vertices from x to y; found() is called with each root
  * and returns false to stop (found NULL: the sequences are counted, not solved). Returns the number
- * of sequences solved; bound: whether a solve may end
- * early by the bound on the faces (the minimum outside them, or a kink), *bound_ends (may be NULL)
- * the solves it ended. */
+ * of sequences solved; bound: whether a solve may end early by the bound on the faces (the minimum
+ * outside them, or a kink), *bound_ends (may be NULL) the solves it ended. */
 static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int lo, int hi,
                     bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
                     int *bound_ends)

@@ -428,10 +428,10 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
 }
 
 /* The face sequences the flat enumeration solves per query (chains of 1 to 5 vertices, reflections
- * off glass included; counted by spc_flat_chain_sequences, not solved) from the receivers that pinhole rays through a grid of
- * SPC_SNEE_PLAN_FLAT_PILOT_GRID^2 cells of the film hit first, to the point y; -1 where nothing
- * can be traced (the scene not finalized, a camera that does not prepare, no receiver seen).
- * Deterministic. */
+ * off glass included; counted by spc_flat_chain_sequences, not solved) from the receivers that
+ * pinhole rays through a grid of SPC_SNEE_PLAN_FLAT_PILOT_GRID^2 cells of the film hit first, to
+ * the point y; -1 where nothing can be traced (the scene not finalized, a camera that does not
+ * prepare, no receiver seen). Deterministic. */
 static double flat_sequences_per_query(const spc_scene *sc, spc_vec3 y)
 {
     spc_camera_state cam;
@@ -826,8 +826,8 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             /* past the budget where the longer chains run: up to SPC_FLAT_EVERY_CALL vertices at every
              * call, 5 and 6 on their shares of the calls (specular_nee.c, flat_max and flat_psi) */
             bool lng = p.long_p > 0.0 && !p.no_mis;
-            int every = p.max_chain < SPC_FLAT_EVERY_CALL && lng && p.flat34_p >= 1.0 ? SPC_FLAT_EVERY_CALL
-                                                                                      : p.max_chain;
+            int every =
+                p.max_chain < SPC_FLAT_EVERY_CALL && lng && p.flat34_p >= 1.0 ? SPC_FLAT_EVERY_CALL : p.max_chain;
             if (every > SPC_FLAT_MAX_VERTICES)
                 every = SPC_FLAT_MAX_VERTICES;
             put(&b, "every chain through its flat faces (and other flat casters') enumerated exactly, 1-%d vertices",
