@@ -1230,7 +1230,8 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                             Q.v[0].tir = 0.0;
                         spc_vec3 p[SPC_FLAT_MAX_VERTICES + 2];
                         ++w->sequences;
-                        if (solve_sequence(w->sc, w->cs, &Q, p, &w->bound_ends) && !w->found(w->user, &Q, p))
+                        if (w->found && solve_sequence(w->sc, w->cs, &Q, p, &w->bound_ends) &&
+                            !w->found(w->user, &Q, p))
                             w->stop = true;
                     }
                     if (k < w->hi && tir_ok)
@@ -1242,9 +1243,9 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
 }
 
 /* Walks every face sequence of lo to hi vertices from x to y; found() is called with each root
- * and returns false to stop. Returns the number of sequences solved; bound: whether a solve may end
- * early by the bound on the faces (the minimum outside them, or a kink), *bound_ends (may be NULL)
- * the solves it ended. */
+ * and returns false to stop (found NULL: the sequences are counted, not solved). Returns the number
+ * of sequences solved; bound: whether a solve may end early by the bound on the faces (the minimum
+ * outside them, or a kink), *bound_ends (may be NULL) the solves it ended. */
 static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int lo, int hi,
                     bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
                     int *bound_ends)
@@ -1313,6 +1314,11 @@ int spc_flat_chain_roots_bound(const spc_scene *sc, bool any_surface, bool refle
     if (sequences)
         *sequences = seq;
     return o.n;
+}
+
+int spc_flat_chain_sequences(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k)
+{
+    return walk_all(sc, any_surface, reflect, x, y, k, k, NULL, NULL, true, NULL);
 }
 
 int spc_flat_chain_roots(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,

@@ -86,6 +86,10 @@ bool spc_flat_chain_covers(const spc_chain *c, bool reflect);
  * max_out, written to out (polished and traced: each segment before the last proven unblocked; the
  * last is checked by spc_snee_chain_value). Adds the chain traces it spends to *iterations. */
 int spc_flat_chains_all(const struct spc_snee_query *q, spc_chain *out, int max_out, int *iterations);
+/* The face sequences of exactly k vertices from x to y through the flat-faced casters of sc that pass
+ * the pruning (any_surface and reflect as spc_flat_chain_roots's): the number that function solves,
+ * counted without solving them (a plan's cost estimate, snee_plan.c). */
+int spc_flat_chain_sequences(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k);
 
 /* ---- exposed for tests ---- */
 

@@ -115,6 +115,9 @@ static const spc_snee_option options[] = {
      "1/Q times (0: left to BSDF sampling)"},
     {"flat6", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, false, false, NULL, 0, NO, AT(flat6_p), 0, NULL,
      "the same for the 6-vertex chains through flat faces"},
+    {"flat34", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(flat34_p), 0, NULL,
+     "where the longer chains run, the 3- and 4-vertex chains through flat faces (past a budget of 2) on a share "
+     "Q of the calls, each length counted 1/Q times (default 1: at every call)"},
     {"guide", "noguide", SPC_SNEE_OPT_REAL, true, "M", 0, 100, true, false, NULL, 0, NO, AT(guide), SPC_SNEE_GUIDE,
      NULL, "guided directions in cones M times the light's image through a chain (guide alone: M 1)"},
     {"sneep", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(snee_p), 0, NULL,

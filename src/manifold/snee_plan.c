@@ -427,11 +427,11 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
     return cs->n > 0;
 }
 
-/* The face sequences the flat enumeration solves per query (spc_flat_chain_roots, chains of 1 to 5
- * vertices, reflections off glass included) from the receivers that pinhole rays through a grid of
- * SPC_SNEE_PLAN_FLAT_PILOT_GRID^2 cells of the film hit first, to the point y; -1 where nothing
- * can be traced (the scene not finalized, a camera that does not prepare, no receiver seen).
- * Deterministic. */
+/* The face sequences the flat enumeration solves per query (chains of 1 to 5 vertices, reflections
+ * off glass included; counted by spc_flat_chain_sequences, not solved) from the receivers that
+ * pinhole rays through a grid of SPC_SNEE_PLAN_FLAT_PILOT_GRID^2 cells of the film hit first, to
+ * the point y; -1 where nothing can be traced (the scene not finalized, a camera that does not
+ * prepare, no receiver seen). Deterministic. */
 static double flat_sequences_per_query(const spc_scene *sc, spc_vec3 y)
 {
     spc_camera_state cam;
@@ -440,7 +440,6 @@ static double flat_sequences_per_query(const spc_scene *sc, spc_vec3 y)
     const int g = SPC_SNEE_PLAN_FLAT_PILOT_GRID;
     long sequences = 0;
     int queries = 0;
-    spc_vec3 pts[5 * 64];
     for (int j = 0; j < g; ++j)
         for (int i = 0; i < g; ++i) {
             spc_ray r = spc_camera_ray(&cam, (i + 0.5) * cam.width / g, (j + 0.5) * cam.height / g);
@@ -449,11 +448,8 @@ static double flat_sequences_per_query(const spc_scene *sc, spc_vec3 y)
                 spc_flat_chain_shape(h.shape))
                 continue;
             spc_vec3 x = spc_hit_offset(&h, spc_neg(r.d));
-            for (int k = 1; k <= 5; ++k) {
-                int n = 0;
-                spc_flat_chain_roots(sc, false, true, x, y, k, pts, NULL, 64, &n);
-                sequences += n;
-            }
+            for (int k = 1; k <= 5; ++k)
+                sequences += spc_flat_chain_sequences(sc, false, true, x, y, k);
             ++queries;
         }
     return queries > 0 ? (double)sequences / queries : -1.0;
@@ -830,13 +826,14 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             /* past the budget where the longer chains run: up to SPC_FLAT_EVERY_CALL vertices at every
              * call, 5 and 6 on their shares of the calls (specular_nee.c, flat_max and flat_psi) */
             bool lng = p.long_p > 0.0 && !p.no_mis;
-            int every = p.max_chain < SPC_FLAT_EVERY_CALL && lng ? SPC_FLAT_EVERY_CALL : p.max_chain;
+            int every =
+                p.max_chain < SPC_FLAT_EVERY_CALL && lng && p.flat34_p >= 1.0 ? SPC_FLAT_EVERY_CALL : p.max_chain;
             if (every > SPC_FLAT_MAX_VERTICES)
                 every = SPC_FLAT_MAX_VERTICES;
             put(&b, "every chain through its flat faces (and other flat casters') enumerated exactly, 1-%d vertices",
                 every);
             for (int k = every + 1; lng && k <= SPC_FLAT_MAX_VERTICES; ++k) {
-                double share = k == 5 ? p.flat5_p : k == 6 ? p.flat6_p : 0.0;
+                double share = k == 5 ? p.flat5_p : k == 6 ? p.flat6_p : k <= SPC_FLAT_EVERY_CALL ? p.flat34_p : 0.0;
                 if (share > 0.0)
                     put(&b, "; %d on a share %g of the calls", k, share);
                 else

@@ -176,6 +176,10 @@ typedef struct spc_snee_params {
      * share (MIS). 0: never enumerated (left to BSDF sampling, weight 1). */
     double flat5_p;
     double flat6_p;
+    /* The same for the chains of 3 and 4 vertices past a budget of 2 (the user's "flat34=Q"): 1 (the
+     * default) enumerates them at every call (SPC_FLAT_EVERY_CALL), Q < 1 on that share of the calls,
+     * each length drawn on its own and counted with 1 / Q, the BSDF side's density carrying Q. */
+    double flat34_p;
     /* Guided directions (the user's "guide[=M]" / "noguide"): besides the light sample, one
      * direction per call drawn at x inside a cone around a chain toward the light, then traced
      * through the chain's surfaces by their BSDFs as a path would be; where it reaches that light

@@ -126,6 +126,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->long_events_p = 0.0;
     p->flat5_p = SPC_SNEE_FLAT5_P;
     p->flat6_p = SPC_SNEE_FLAT6_P;
+    p->flat34_p = 1.0;
     p->guide = 0.0;
     p->snee_p = 1.0;
     p->later_p = 1.0;

@@ -450,11 +450,12 @@ static double long_psi(const spc_snee_query *q, int k)
 
 /* The longest chain through flat faces enumerated at every call: the budget, or where the longer
  * chains run (the path's track then follows covered paths past the budget, to q->long_max) up to
- * SPC_FLAT_EVERY_CALL (flat_chains.h). */
+ * SPC_FLAT_EVERY_CALL (flat_chains.h), unless params.flat34_p puts the lengths past the budget up
+ * to SPC_FLAT_EVERY_CALL on a share of the calls (flat_psi). */
 static int flat_max(const spc_snee_query *q)
 {
     int hi = q->max_chain;
-    if (long_on(q) && hi < SPC_FLAT_EVERY_CALL)
+    if (long_on(q) && hi < SPC_FLAT_EVERY_CALL && q->params->flat34_p >= 1.0)
         hi = q->long_max < SPC_FLAT_EVERY_CALL ? q->long_max : SPC_FLAT_EVERY_CALL;
     return hi;
 }
@@ -492,7 +493,8 @@ static bool has_ball_caster(const spc_snee_query *q)
 }
 
 /* The probability per call that the chains through flat faces of 5 and 6 vertices (past flat_max,
- * where the longer chains run: long_on) are enumerated: params.flat5_p and flat6_p, each length drawn
+ * where the longer chains run: long_on) are enumerated: params.flat5_p and flat6_p (and for 3 and 4
+ * vertices past the budget params.flat34_p, where it is below 1), each length drawn
  * on its own and its chains counted with 1 / psi; chain_psi gives the BSDF side's density of such a
  * path the same psi. At 0 (the default) specular NEE never makes them and BSDF sampling carries them
  * with weight 1. Five vertices: a total internal reflection off a slab's thin side face on the way
@@ -504,6 +506,8 @@ static double flat_psi(const spc_snee_query *q, int k)
 {
     if (!long_on(q) || k <= flat_max(q) || k > q->long_max || k > SPC_FLAT_MAX_VERTICES)
         return 0.0;
+    if (k <= SPC_FLAT_EVERY_CALL)
+        return q->params->flat34_p; /* flat_max below SPC_FLAT_EVERY_CALL: params.flat34_p < 1 */
     return k == 5 ? q->params->flat5_p : k == 6 ? q->params->flat6_p : 0.0;
 }
 
