@@ -582,10 +582,23 @@ static void mesh_normal_derivatives(const spc_shape *s, spc_vec3 n, spc_vec3 n0,
 
 /* What fill_mesh fills: MESH_LIGHT what a light sample needs (p, ng with its orientation, uv, err,
  * b1, b2, dpdu, dpdv: no shading frame, no normal derivatives); MESH_SHADING what shading reads
- * (p, ng, sh, uv, err, b1, b2: no derivatives); MESH_CHAIN what a specular chain's vertex reads
+ * (p, ng, sh, uv, err, b1, b2: no derivatives; uv zero where the shape's materials read none,
+ * spc_shape.uv_unread); MESH_CHAIN what a specular chain's vertex reads
  * while a solver steps (every field but uv and the tangents sh.s, sh.t, which are zero); MESH_ALL
  * every field. */
 typedef enum mesh_fill { MESH_LIGHT, MESH_SHADING, MESH_CHAIN, MESH_ALL } mesh_fill;
+
+/* The texture coordinates at barycentrics (b1, b2) of the triangle (i0, i1, i2): the vertices' uvs
+ * interpolated, or (b1, b2) where the mesh has none. */
+static spc_vec2 mesh_uv(const spc_mesh *m, uint32_t i0, uint32_t i1, uint32_t i2, double b1, double b2)
+{
+    if (!m->uv)
+        return spc_v2(b1, b2);
+    double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
+    double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
+    double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
+    return spc_v2(u0 + b1 * du1 + b2 * du2, v0 + b1 * dv1 + b2 * dv2);
+}
 
 /* A triangle's hit at barycentrics (b1, b2), the fields that `what` names. The values filled are
  * the same whatever else is filled, and the same with or without the shape's tri_frame (which holds
@@ -609,16 +622,8 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
     h->b2 = b2;
     double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
     h->err = SPC_FLOAT_OFFSET * spc_max(mag, spc_max_abs(h->p));
-    if (what == MESH_CHAIN) {
-        h->uv = spc_v2(0.0, 0.0);
-    } else if (m->uv) {
-        double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
-        double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
-        double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
-        h->uv = spc_v2(u0 + b1 * du1 + b2 * du2, v0 + b1 * dv1 + b2 * dv2);
-    } else {
-        h->uv = spc_v2(b1, b2);
-    }
+    h->uv = what == MESH_CHAIN || (what == MESH_SHADING && s->uv_unread) ? spc_v2(0.0, 0.0)
+                                                                         : mesh_uv(m, i0, i1, i2, b1, b2);
     if (m->n && !s->face_normals) {
         spc_vec3 n0 = spc_mesh_n(m, i0), n1 = spc_mesh_n(m, i1), n2 = spc_mesh_n(m, i2);
         spc_vec3 nr = spc_add(spc_add(spc_scale(n0, b0), spc_scale(n1, b1)), spc_scale(n2, b2));
@@ -670,12 +675,14 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
     }
 }
 
-/* The derivatives that fill_mesh's MESH_SHADING leaves out (dpdu, dpdv, dndu, dndv), with
- * fill_mesh's expressions, so the same values. */
+/* The fields that fill_mesh's MESH_SHADING leaves out (dpdu, dpdv, dndu, dndv, and uv where
+ * uv_unread), with fill_mesh's expressions, so the same values. */
 static void mesh_derivatives(const spc_shape *s, int prim, double b1, double b2, spc_hit *h)
 {
     const spc_mesh *m = &s->mesh;
     uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
+    if (s->uv_unread)
+        h->uv = mesh_uv(m, i0, i1, i2, b1, b2);
     spc_vec3 p0 = spc_mesh_p(m, i0);
     h->dpdu = spc_sub(spc_mesh_p(m, i1), p0);
     h->dpdv = spc_sub(spc_mesh_p(m, i2), p0);
