@@ -45,11 +45,11 @@ bool spc_emitter_many_covers(const spc_emitter *e)
 /* What the arithmetic loop reads and writes, one array per quantity (structure of arrays). The
  * triangle's normal is an input, in out.n. */
 typedef struct soa {
-    double p0[3][SPC_EMITTER_MANY_MAX], p1[3][SPC_EMITTER_MANY_MAX], p2[3][SPC_EMITTER_MANY_MAX];
-    double ref[3][SPC_EMITTER_MANY_MAX];
-    double ux[SPC_EMITTER_MANY_MAX], uy[SPC_EMITTER_MANY_MAX], inv_area[SPC_EMITTER_MANY_MAX];
+    double p0[3][SPC_DIRECT_LANES_N], p1[3][SPC_DIRECT_LANES_N], p2[3][SPC_DIRECT_LANES_N];
+    double ref[3][SPC_DIRECT_LANES_N];
+    double ux[SPC_DIRECT_LANES_N], uy[SPC_DIRECT_LANES_N], inv_area[SPC_DIRECT_LANES_N];
     spc_direct_lanes out;
-    int ok[SPC_EMITTER_MANY_MAX]; /* spc_area_sample_direct's tests passed */
+    int ok[SPC_DIRECT_LANES_N]; /* spc_area_sample_direct's tests passed */
 } soa;
 
 static inline double max2(double a, double b) { return a > b ? a : b; }
@@ -140,9 +140,13 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
             a.p0[c][k] = q0[c];
             a.p1[c][k] = q1[c];
             a.p2[c][k] = q2[c];
-            a.out.n[c][k] = spc_v3_get(ng, c);
-            a.ref[c][k] = spc_v3_get(ref[i], c);
         }
+        a.out.n[0][k] = ng.x;
+        a.out.n[1][k] = ng.y;
+        a.out.n[2][k] = ng.z;
+        a.ref[0][k] = ref[i].x;
+        a.ref[1][k] = ref[i].y;
+        a.ref[2][k] = ref[i].z;
         a.ux[k] = ux;
         a.uy[k] = u[i].y;
         a.inv_area[k] = 1.0 / s->area;

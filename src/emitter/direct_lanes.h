@@ -16,13 +16,20 @@
 #include "emitter/emitter.h"
 #include "scene/texture.h"
 
+/* The length of every per-lane array of a batch: a cache line (8 doubles) more than the lanes. At
+ * exactly SPC_EMITTER_MANY_MAX the arrays lie 2 KiB apart, so lane k of all of them (the 15 to 20
+ * arrays that a lane's gather writes and the vector loop reads) falls into the same two sets of a
+ * 32 KiB 8-way L1 cache, which then evicts lines before their 8 lanes are used; the extra line
+ * staggers the arrays across sets. */
+#define SPC_DIRECT_LANES_N (SPC_EMITTER_MANY_MAX + 8)
+
 /* A batch's results, lane k at index k. */
 typedef struct spc_direct_lanes {
-    double p[3][SPC_EMITTER_MANY_MAX];  /* the point on the light */
-    double n[3][SPC_EMITTER_MANY_MAX];  /* its normal (flip_normals applied) */
-    double wi[3][SPC_EMITTER_MANY_MAX]; /* unit direction from the reference point toward p */
-    double dist[SPC_EMITTER_MANY_MAX], pdf[SPC_EMITTER_MANY_MAX], err[SPC_EMITTER_MANY_MAX];
-    double facing[SPC_EMITTER_MANY_MAX]; /* dot(n, -wi): the light is seen from its front when > 0 */
+    double p[3][SPC_DIRECT_LANES_N];  /* the point on the light */
+    double n[3][SPC_DIRECT_LANES_N];  /* its normal (flip_normals applied) */
+    double wi[3][SPC_DIRECT_LANES_N]; /* unit direction from the reference point toward p */
+    double dist[SPC_DIRECT_LANES_N], pdf[SPC_DIRECT_LANES_N], err[SPC_DIRECT_LANES_N];
+    double facing[SPC_DIRECT_LANES_N]; /* dot(n, -wi): the light is seen from its front when > 0 */
 } spc_direct_lanes;
 
 /* Stores lane i's point (px, py, pz), direction (wx, wy, wz), distance and density into the arrays

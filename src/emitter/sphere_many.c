@@ -48,9 +48,9 @@ bool spc_emitter_many_covers_sphere(const spc_emitter *e)
 
 /* What the arithmetic loop reads and writes, one array per quantity. */
 typedef struct soa {
-    double c[3][SPC_EMITTER_MANY_MAX], ref[3][SPC_EMITTER_MANY_MAX];
-    double R[SPC_EMITTER_MANY_MAX], flip[SPC_EMITTER_MANY_MAX]; /* flip: -1 where flip_normals, else 1 */
-    double ux[SPC_EMITTER_MANY_MAX], uy[SPC_EMITTER_MANY_MAX];
+    double c[3][SPC_DIRECT_LANES_N], ref[3][SPC_DIRECT_LANES_N];
+    double R[SPC_DIRECT_LANES_N], flip[SPC_DIRECT_LANES_N]; /* flip: -1 where flip_normals, else 1 */
+    double ux[SPC_DIRECT_LANES_N], uy[SPC_DIRECT_LANES_N];
     spc_direct_lanes out; /* err is set with the inputs */
 } soa;
 
@@ -170,10 +170,12 @@ void spc_emitter_sample_spheres_many(int n, const int *lane, const spc_emitter *
             ok[i] = spc_emitter_sample_direct(e[i], ref[i], u[i], &out[i]);
             continue;
         }
-        for (int c = 0; c < 3; ++c) {
-            a.c[c][k] = spc_v3_get(s->center, c);
-            a.ref[c][k] = spc_v3_get(ref[i], c);
-        }
+        a.c[0][k] = s->center.x;
+        a.c[1][k] = s->center.y;
+        a.c[2][k] = s->center.z;
+        a.ref[0][k] = ref[i].x;
+        a.ref[1][k] = ref[i].y;
+        a.ref[2][k] = ref[i].z;
         a.R[k] = s->radius;
         a.flip[k] = s->flip_normals ? -1.0 : 1.0;
         a.out.err[k] = 1e-9 * (spc_max_abs(s->center) + s->radius); /* the sphere's SPC_DOUBLE_OFFSET bound */
