@@ -373,17 +373,21 @@ spc_status spc_shape_prepare(spc_shape *s)
         free(s->tri_frame);
         s->tri_frame = NULL;
         if (m->ntris <= SPC_MESH_FRAME_MAX_TRIS) {
-            double *c = malloc(6 * m->ntris * sizeof(double));
+            double *c = malloc(SPC_TRI_FRAME_STRIDE * m->ntris * sizeof(double));
             if (!c)
                 return SPC_ERR_NOMEM;
             for (size_t i = 0; i < m->ntris; ++i) {
                 uint32_t i0 = m->idx[3 * i], i1 = m->idx[3 * i + 1], i2 = m->idx[3 * i + 2];
-                spc_vec3 p0 = spc_mesh_p(m, i0);
-                spc_vec3 e1 = spc_sub(spc_mesh_p(m, i1), p0), e2 = spc_sub(spc_mesh_p(m, i2), p0);
+                spc_vec3 p0 = spc_mesh_p(m, i0), p1 = spc_mesh_p(m, i1), p2 = spc_mesh_p(m, i2);
+                spc_vec3 e1 = spc_sub(p1, p0), e2 = spc_sub(p2, p0);
                 spc_vec3 ng = spc_normalize(spc_cross(e1, e2)), t = spc_v3(0, 0, 0);
-                spc_frame_tangent(s->flip_normals ? spc_neg(ng) : ng, tri_tangent(m, i0, i1, i2, e1, e2), &t);
-                double v[6] = {ng.x, ng.y, ng.z, t.x, t.y, t.z};
-                memcpy(c + 6 * i, v, sizeof v);
+                spc_vec3 n = s->flip_normals ? spc_neg(ng) : ng;
+                spc_frame_tangent(n, tri_tangent(m, i0, i1, i2, e1, e2), &t);
+                /* fill_mesh's expressions for the bitangent and the vertices' magnitude */
+                spc_vec3 b = spc_cross(n, t);
+                double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
+                double v[SPC_TRI_FRAME_STRIDE] = {ng.x, ng.y, ng.z, t.x, t.y, t.z, b.x, b.y, b.z, mag};
+                memcpy(c + SPC_TRI_FRAME_STRIDE * i, v, sizeof v);
             }
             s->tri_frame = c;
             s->tri_frame_flip = s->flip_normals;
@@ -609,7 +613,7 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
     const spc_mesh *m = &s->mesh;
     uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
     spc_vec3 p0 = spc_mesh_p(m, i0), p1 = spc_mesh_p(m, i1), p2 = spc_mesh_p(m, i2);
-    const double *c = s->tri_frame ? s->tri_frame + 6 * (size_t)prim : NULL;
+    const double *c = s->tri_frame ? s->tri_frame + SPC_TRI_FRAME_STRIDE * (size_t)prim : NULL;
     double b0 = 1.0 - b1 - b2;
     h->p = spc_add(spc_add(spc_scale(p0, b0), spc_scale(p1, b1)), spc_scale(p2, b2));
     spc_vec3 e1 = spc_sub(p1, p0), e2 = spc_sub(p2, p0);
@@ -620,7 +624,7 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
     }
     h->b1 = b1;
     h->b2 = b2;
-    double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
+    double mag = c ? c[9] : spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
     h->err = SPC_FLOAT_OFFSET * spc_max(mag, spc_max_abs(h->p));
     h->uv = what == MESH_CHAIN || (what == MESH_SHADING && s->uv_unread) ? spc_v2(0.0, 0.0)
                                                                          : mesh_uv(m, i0, i1, i2, b1, b2);
@@ -666,10 +670,11 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
         return;
     }
     if (c && s->tri_frame_flip == s->flip_normals && !(c[3] == 0.0 && c[4] == 0.0 && c[5] == 0.0)) {
-        /* spc_frame_from_ns(ng, tangent) with the kept tangent */
+        /* spc_frame_from_ns(ng, tangent) with the kept tangent and bitangent (the cross product of
+         * this ng, which flip_normals has turned as it was when they were kept, and the tangent) */
         h->sh.n = h->ng;
         h->sh.s = spc_v3(c[3], c[4], c[5]);
-        h->sh.t = spc_cross(h->ng, h->sh.s);
+        h->sh.t = spc_v3(c[6], c[7], c[8]);
     } else {
         h->sh = spc_frame_from_ns(h->ng, tri_tangent(m, i0, i1, i2, e1, e2));
     }
