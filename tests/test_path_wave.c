@@ -279,9 +279,11 @@ static const char *view_xml =
     "<shape type='rectangle'><bsdf type='conductor'/></shape>"
     "</scene>";
 
-/* Views seen and how many of them on a back side. */
+/* Views seen, how many of them on a back side, and how many were also made from the shape's
+ * constant sides (spc_shape.diffuse_const). */
 typedef struct view_counts {
-    int views, back;
+    const spc_scene *sc;
+    int views, back, consts;
 } view_counts;
 
 /* One round of diffuse_view_matches_bsdf: the view's eval, pdf and sample against the BSDF's. */
@@ -295,15 +297,28 @@ static bool view_round(void *ctx, int round, const spc_bsdf *b, spc_hit *h, spc_
         wi = h->sh.t;
     spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
     spc_diffuse_view v;
+    const spc_shape *shape = c->sc->shapes[round % c->sc->nshapes];
     if (!spc_diffuse_view_of(b, h, wo, &v)) {
         /* no view: neither diffuse nor a twosided side that is */
         bool plain = b->type == SPC_BSDF_DIFFUSE;
         bool twosided_diffuse =
             b->type == SPC_BSDF_TWOSIDED && spc_dot(wo, h->sh.n) >= 0.0 && b->nested[0]->type == SPC_BSDF_DIFFUSE;
-        return !(plain || twosided_diffuse);
+        return !(plain || twosided_diffuse) && !shape->diffuse_const;
     }
     ++c->views;
     c->back += v.sign < 0.0;
+    if (shape->diffuse_const) {
+        /* the path wave's view of a constant-reflectance shape: the same bytes */
+        int side = spc_diffuse_view_side(h, wo);
+        spc_diffuse_view k;
+        spc_diffuse_view_make(h, shape->diffuse_sign[side], shape->diffuse_albedo[side], &k);
+        ++c->consts;
+        if (memcmp(&k, &v, sizeof k) != 0) {
+            if (loud)
+                printf("  round %d: the constant sides' view differs (side %d)\n", round, side);
+            return false;
+        }
+    }
     spc_rgb f1 = spc_diffuse_view_eval(&v, h, wo, wi), f0 = spc_bsdf_eval(b, h, SPC_MODE_RADIANCE, wo, wi);
     double p1 = spc_diffuse_view_pdf(&v, h, wo, wi), p0 = spc_bsdf_pdf(b, h, SPC_MODE_RADIANCE, wo, wi);
     spc_bsdf_sample s1, s0;
@@ -329,10 +344,16 @@ TEST(diffuse_view_matches_bsdf)
     if (!sc)
         return;
     CHECK(sc->nshapes == 7);
-    view_counts c = {0, 0};
+    /* constant on both sides: the constant and default diffuse, the two twosided diffuse ones */
+    const bool consts[7] = {true, true, false, true, true, false, false};
+    for (int i = 0; i < 7 && i < sc->nshapes; ++i)
+        CHECK_MSG(sc->shapes[i]->diffuse_const == consts[i], "shape %d: diffuse_const %d", i,
+                  sc->shapes[i]->diffuse_const);
+    view_counts c = {sc, 0, 0, 0};
     int failed = lanes_check_bsdfs(sc, 5, 1, 4000, view_round, &c);
     CHECK_MSG(failed == 0, "%d of %d diffuse views differ from the BSDF", failed, c.views);
-    CHECK_MSG(c.views > 2000 && c.back > 500, "%d views, %d of them on a back side", c.views, c.back);
+    CHECK_MSG(c.views > 2000 && c.back > 500 && c.consts > 1500, "%d views, %d of them on a back side, %d constant",
+              c.views, c.back, c.consts);
     spc_scene_destroy(sc);
 }
 

@@ -392,10 +392,12 @@ static void lazy_test_mesh(spc_shape *s, int kind, bool flip, bool keep)
  * out and has every other field of spc_shape_fill_hit's record; spc_shape_hit_derivatives then
  * completes it to that record, field for field. The lazy record starts from a byte pattern, so a
  * field that neither call fills differs. Meshes with and without uvs, vertex normals (also under
- * face_normals), flip_normals, kept frames or not; without lazy_derivs the shading record is whole. */
+ * face_normals), flip_normals, kept frames or not; without lazy_derivs the shading record is whole.
+ * Where the mesh's materials also read no uv (uv_unread) the shading record's uv is zero until
+ * spc_shape_hit_derivatives. */
 TEST(mesh_lazy_derivatives_match)
 {
-    int checked = 0, skipped = 0;
+    int checked = 0, skipped = 0, uv_zero = 0;
     for (int kind = 0; kind < 5; ++kind)
         for (int flip = 0; flip < 2; ++flip)
             for (int keep = 0; keep < 2; ++keep)
@@ -403,6 +405,9 @@ TEST(mesh_lazy_derivatives_match)
                     spc_shape s;
                     lazy_test_mesh(&s, kind, flip != 0, keep != 0);
                     s.lazy_derivs = lazy != 0;
+                    /* half the lazy meshes' materials read no uv: their shading records leave uv
+                     * at zero, and spc_shape_hit_derivatives fills it */
+                    s.uv_unread = lazy && keep;
                     for (int i = 0; i < 100; ++i) {
                         int prim = (int)(rnd() * (double)s.mesh.ntris);
                         double b1 = rnd(), b2 = rnd() * (1.0 - b1);
@@ -419,6 +424,10 @@ TEST(mesh_lazy_derivatives_match)
                             memset(pat, 0xA5, sizeof pat);
                             skipped += memcmp(&l.dpdu, pat, sizeof pat) == 0 && memcmp(&l.dndv, pat, sizeof pat) == 0;
                             CHECK(!same_record(&e, &l));
+                            if (s.uv_unread) {
+                                CHECK(l.uv.x == 0.0 && l.uv.y == 0.0);
+                                uv_zero += e.uv.x != 0.0 || e.uv.y != 0.0;
+                            }
                         }
                         spc_shape_hit_derivatives(&l);
                         CHECK(same_record(&e, &l));
@@ -428,6 +437,7 @@ TEST(mesh_lazy_derivatives_match)
                 }
     CHECK(checked == 5 * 2 * 2 * 2 * 100);
     CHECK(skipped == checked / 2);
+    CHECK_MSG(uv_zero > checked / 8, "%d records with uv left out", uv_zero);
 }
 
 /* A chain record (spc_shape_fill_hit_chain, what a specular solver's steps read) has every field of

@@ -17,10 +17,48 @@
 #include "core/warp.h"
 
 typedef struct spc_diffuse_view {
-    const spc_texture *reflectance; /* the diffuse BSDF's (NULL: its default 0.5) */
-    double sign;                    /* +1: h's shading frame; -1: twosided's flipped frame (t, n negated) */
-    spc_rgb albedo;                 /* the reflectance at h, looked up once for eval and sample */
+    double sign;    /* +1: h's shading frame; -1: twosided's flipped frame (t, n negated) */
+    spc_vec3 n;     /* the view frame's normal, sign * h->sh.n, negated once for eval, pdf and sample */
+    spc_rgb albedo; /* the reflectance at h, looked up once for eval and sample */
 } spc_diffuse_view;
+
+/* The view's side toward wo: 0 where dot(wo, sh.n) >= 0 (twosided's front), else 1. */
+static inline int spc_diffuse_view_side(const spc_hit *h, spc_vec3 wo) { return !(spc_dot(wo, h->sh.n) >= 0.0); }
+
+/* The view at h from each side's sign and reflectance, where they do not depend on the hit (a
+ * constant reflectance: spc_diffuse_view_const); the same view as spc_diffuse_view_of. */
+static inline void spc_diffuse_view_make(const spc_hit *h, double sign, spc_rgb albedo, spc_diffuse_view *v)
+{
+    v->sign = sign;
+    v->n = spc_v3(sign * h->sh.n.x, sign * h->sh.n.y, sign * h->sh.n.z);
+    v->albedo = albedo;
+}
+
+/* Whether b is seen from either side as a diffuse lobe of constant reflectance (a diffuse BSDF
+ * whose reflectance is a constant texture or its default, or twosided over such BSDFs on both
+ * sides); then sign[k] and albedo[k] of side k (spc_diffuse_view_side), so that a caller shading
+ * many hits of one shape takes each hit's view without the BSDF's dispatch or a texture lookup. */
+static inline bool spc_diffuse_view_const(const spc_bsdf *b, double sign[2], spc_rgb albedo[2])
+{
+    if (!b)
+        return false;
+    const spc_bsdf *side[2] = {b, b};
+    sign[0] = sign[1] = 1.0;
+    if (b->type == SPC_BSDF_TWOSIDED) {
+        side[0] = b->nested[0];
+        side[1] = b->nested[1] ? b->nested[1] : b->nested[0];
+        sign[1] = -1.0;
+    }
+    for (int k = 0; k < 2; ++k) {
+        if (!side[k] || side[k]->type != SPC_BSDF_DIFFUSE)
+            return false;
+        const spc_texture *r = side[k]->reflectance;
+        if (r && r->type != SPC_TEX_CONSTANT)
+            return false;
+        albedo[k] = r ? r->value : spc_rgb1(0.5);
+    }
+    return true;
+}
 
 /* Does b scatter from wo at h as a diffuse BSDF (itself, or twosided's side that wo sees)? */
 static inline bool spc_diffuse_view_of(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_diffuse_view *v)
@@ -38,16 +76,15 @@ static inline bool spc_diffuse_view_of(const spc_bsdf *b, const spc_hit *h, spc_
     }
     if (!b || b->type != SPC_BSDF_DIFFUSE)
         return false;
-    v->reflectance = b->reflectance;
-    v->sign = sign;
-    v->albedo = v->reflectance ? spc_texture_eval_hit(v->reflectance, h) : spc_rgb1(0.5);
+    spc_diffuse_view_make(h, sign, b->reflectance ? spc_texture_eval_hit(b->reflectance, h) : spc_rgb1(0.5), v);
     return true;
 }
 
 /* the shading normal of the view's frame */
 static inline spc_vec3 spc_diffuse_view_n(const spc_diffuse_view *v, const spc_hit *h)
 {
-    return spc_v3(v->sign * h->sh.n.x, v->sign * h->sh.n.y, v->sign * h->sh.n.z);
+    (void)h;
+    return v->n;
 }
 
 static inline spc_rgb spc_diffuse_view_albedo(const spc_diffuse_view *v, const spc_hit *h)

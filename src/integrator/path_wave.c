@@ -166,7 +166,14 @@ static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const sp
         return false;
     if (ctx->strict_normals && spc_dot(wo, h->ng) * spc_dot(wo, h->sh.n) < 0.0)
         return false;
-    ln->diffuse = spc_diffuse_view_of(h->bsdf, h, wo, &ln->dv);
+    const spc_shape *s = h->shape;
+    if (s->diffuse_const) {
+        int side = spc_diffuse_view_side(h, wo);
+        spc_diffuse_view_make(h, s->diffuse_sign[side], s->diffuse_albedo[side], &ln->dv);
+        ln->diffuse = true;
+    } else {
+        ln->diffuse = spc_diffuse_view_of(h->bsdf, h, wo, &ln->dv);
+    }
     return true;
 }
 

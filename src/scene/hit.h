@@ -20,7 +20,9 @@
  *   whose BSDF reads no derivatives (spc_shape.lazy_derivs) they leave dpdu, dpdv, dndu, dndv and
  *   n_unmapped out, and spc_shape_hit_derivatives fills them on demand, the values that
  *   spc_shape_fill_hit gives. Shading reads t, p, ng, sh, uv, err, the indices and pointers.
- * - On a sphere whose BSDF and emitter read no uv (spc_shape.uv_unread) uv, b1 and b2 are zero.
+ * - On a sphere whose BSDF and emitter read no uv (spc_shape.uv_unread) uv, b1 and b2 are zero;
+ *   on such a mesh the packet calls' shading records leave uv at zero (spc_shape_hit_derivatives
+ *   fills it with the derivatives).
  */
 #ifndef SPC_SCENE_HIT_H
 #define SPC_SCENE_HIT_H

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "accel/accel.h"
+#include "bsdf/diffuse_view.h"
 
 #define GROW(arr, n, cap, type)                                                                                      \
     do {                                                                                                              \
@@ -264,8 +265,9 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
             sh->bsdf = default_bsdf;
         }
         sh->lazy_derivs = sh->type == SPC_SHAPE_MESH && !spc_bsdf_reads_derivatives(sh->bsdf);
-        sh->uv_unread = sh->type == SPC_SHAPE_SPHERE && !spc_bsdf_reads_uv(sh->bsdf) &&
+        sh->uv_unread = (sh->type == SPC_SHAPE_SPHERE || sh->type == SPC_SHAPE_MESH) && !spc_bsdf_reads_uv(sh->bsdf) &&
                         !(sh->emitter && sh->emitter->radiance && sh->emitter->radiance->type != SPC_TEX_CONSTANT);
+        sh->diffuse_const = spc_diffuse_view_const(sh->bsdf, sh->diffuse_sign, sh->diffuse_albedo);
         if (sh->interior_medium >= s->nmedia || sh->exterior_medium >= s->nmedia)
             return spc_error_set(err, SPC_ERR_VALUE, file, 0, 0, "shape %d ('%s') refers to a medium that does not exist",
                                  i, sh->id);

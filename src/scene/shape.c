@@ -373,17 +373,21 @@ spc_status spc_shape_prepare(spc_shape *s)
         free(s->tri_frame);
         s->tri_frame = NULL;
         if (m->ntris <= SPC_MESH_FRAME_MAX_TRIS) {
-            double *c = malloc(6 * m->ntris * sizeof(double));
+            double *c = malloc(SPC_TRI_FRAME_STRIDE * m->ntris * sizeof(double));
             if (!c)
                 return SPC_ERR_NOMEM;
             for (size_t i = 0; i < m->ntris; ++i) {
                 uint32_t i0 = m->idx[3 * i], i1 = m->idx[3 * i + 1], i2 = m->idx[3 * i + 2];
-                spc_vec3 p0 = spc_mesh_p(m, i0);
-                spc_vec3 e1 = spc_sub(spc_mesh_p(m, i1), p0), e2 = spc_sub(spc_mesh_p(m, i2), p0);
+                spc_vec3 p0 = spc_mesh_p(m, i0), p1 = spc_mesh_p(m, i1), p2 = spc_mesh_p(m, i2);
+                spc_vec3 e1 = spc_sub(p1, p0), e2 = spc_sub(p2, p0);
                 spc_vec3 ng = spc_normalize(spc_cross(e1, e2)), t = spc_v3(0, 0, 0);
-                spc_frame_tangent(s->flip_normals ? spc_neg(ng) : ng, tri_tangent(m, i0, i1, i2, e1, e2), &t);
-                double v[6] = {ng.x, ng.y, ng.z, t.x, t.y, t.z};
-                memcpy(c + 6 * i, v, sizeof v);
+                spc_vec3 n = s->flip_normals ? spc_neg(ng) : ng;
+                spc_frame_tangent(n, tri_tangent(m, i0, i1, i2, e1, e2), &t);
+                /* fill_mesh's expressions for the bitangent and the vertices' magnitude */
+                spc_vec3 b = spc_cross(n, t);
+                double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
+                double v[SPC_TRI_FRAME_STRIDE] = {ng.x, ng.y, ng.z, t.x, t.y, t.z, b.x, b.y, b.z, mag};
+                memcpy(c + SPC_TRI_FRAME_STRIDE * i, v, sizeof v);
             }
             s->tri_frame = c;
             s->tri_frame_flip = s->flip_normals;
@@ -582,10 +586,23 @@ static void mesh_normal_derivatives(const spc_shape *s, spc_vec3 n, spc_vec3 n0,
 
 /* What fill_mesh fills: MESH_LIGHT what a light sample needs (p, ng with its orientation, uv, err,
  * b1, b2, dpdu, dpdv: no shading frame, no normal derivatives); MESH_SHADING what shading reads
- * (p, ng, sh, uv, err, b1, b2: no derivatives); MESH_CHAIN what a specular chain's vertex reads
+ * (p, ng, sh, uv, err, b1, b2: no derivatives; uv zero where the shape's materials read none,
+ * spc_shape.uv_unread); MESH_CHAIN what a specular chain's vertex reads
  * while a solver steps (every field but uv and the tangents sh.s, sh.t, which are zero); MESH_ALL
  * every field. */
 typedef enum mesh_fill { MESH_LIGHT, MESH_SHADING, MESH_CHAIN, MESH_ALL } mesh_fill;
+
+/* The texture coordinates at barycentrics (b1, b2) of the triangle (i0, i1, i2): the vertices' uvs
+ * interpolated, or (b1, b2) where the mesh has none. */
+static spc_vec2 mesh_uv(const spc_mesh *m, uint32_t i0, uint32_t i1, uint32_t i2, double b1, double b2)
+{
+    if (!m->uv)
+        return spc_v2(b1, b2);
+    double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
+    double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
+    double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
+    return spc_v2(u0 + b1 * du1 + b2 * du2, v0 + b1 * dv1 + b2 * dv2);
+}
 
 /* A triangle's hit at barycentrics (b1, b2), the fields that `what` names. The values filled are
  * the same whatever else is filled, and the same with or without the shape's tri_frame (which holds
@@ -596,7 +613,7 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
     const spc_mesh *m = &s->mesh;
     uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
     spc_vec3 p0 = spc_mesh_p(m, i0), p1 = spc_mesh_p(m, i1), p2 = spc_mesh_p(m, i2);
-    const double *c = s->tri_frame ? s->tri_frame + 6 * (size_t)prim : NULL;
+    const double *c = s->tri_frame ? s->tri_frame + SPC_TRI_FRAME_STRIDE * (size_t)prim : NULL;
     double b0 = 1.0 - b1 - b2;
     h->p = spc_add(spc_add(spc_scale(p0, b0), spc_scale(p1, b1)), spc_scale(p2, b2));
     spc_vec3 e1 = spc_sub(p1, p0), e2 = spc_sub(p2, p0);
@@ -607,18 +624,10 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
     }
     h->b1 = b1;
     h->b2 = b2;
-    double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
+    double mag = c ? c[9] : spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
     h->err = SPC_FLOAT_OFFSET * spc_max(mag, spc_max_abs(h->p));
-    if (what == MESH_CHAIN) {
-        h->uv = spc_v2(0.0, 0.0);
-    } else if (m->uv) {
-        double u0 = m->uv[2 * i0], v0 = m->uv[2 * i0 + 1];
-        double du1 = m->uv[2 * i1] - u0, dv1 = m->uv[2 * i1 + 1] - v0;
-        double du2 = m->uv[2 * i2] - u0, dv2 = m->uv[2 * i2 + 1] - v0;
-        h->uv = spc_v2(u0 + b1 * du1 + b2 * du2, v0 + b1 * dv1 + b2 * dv2);
-    } else {
-        h->uv = spc_v2(b1, b2);
-    }
+    h->uv = what == MESH_CHAIN || (what == MESH_SHADING && s->uv_unread) ? spc_v2(0.0, 0.0)
+                                                                         : mesh_uv(m, i0, i1, i2, b1, b2);
     if (m->n && !s->face_normals) {
         spc_vec3 n0 = spc_mesh_n(m, i0), n1 = spc_mesh_n(m, i1), n2 = spc_mesh_n(m, i2);
         spc_vec3 nr = spc_add(spc_add(spc_scale(n0, b0), spc_scale(n1, b1)), spc_scale(n2, b2));
@@ -661,21 +670,24 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
         return;
     }
     if (c && s->tri_frame_flip == s->flip_normals && !(c[3] == 0.0 && c[4] == 0.0 && c[5] == 0.0)) {
-        /* spc_frame_from_ns(ng, tangent) with the kept tangent */
+        /* spc_frame_from_ns(ng, tangent) with the kept tangent and bitangent (the cross product of
+         * this ng, which flip_normals has turned as it was when they were kept, and the tangent) */
         h->sh.n = h->ng;
         h->sh.s = spc_v3(c[3], c[4], c[5]);
-        h->sh.t = spc_cross(h->ng, h->sh.s);
+        h->sh.t = spc_v3(c[6], c[7], c[8]);
     } else {
         h->sh = spc_frame_from_ns(h->ng, tri_tangent(m, i0, i1, i2, e1, e2));
     }
 }
 
-/* The derivatives that fill_mesh's MESH_SHADING leaves out (dpdu, dpdv, dndu, dndv), with
- * fill_mesh's expressions, so the same values. */
+/* The fields that fill_mesh's MESH_SHADING leaves out (dpdu, dpdv, dndu, dndv, and uv where
+ * uv_unread), with fill_mesh's expressions, so the same values. */
 static void mesh_derivatives(const spc_shape *s, int prim, double b1, double b2, spc_hit *h)
 {
     const spc_mesh *m = &s->mesh;
     uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
+    if (s->uv_unread)
+        h->uv = mesh_uv(m, i0, i1, i2, b1, b2);
     spc_vec3 p0 = spc_mesh_p(m, i0);
     h->dpdu = spc_sub(spc_mesh_p(m, i1), p0);
     h->dpdv = spc_sub(spc_mesh_p(m, i2), p0);

@@ -41,12 +41,14 @@ typedef enum spc_shape_type {
     SPC_SHAPE_SDFGRID
 } spc_shape_type;
 
-/* Meshes keep their triangles' normals and tangents (spc_shape.tri_frame, 48 bytes a triangle)
- * up to this many triangles, a mesh and a scene (spc_scene_finalize drops them from the meshes past
- * the scene's budget): at most 3 MiB. Those are the walls, boxes and quads that most rays of a room
+/* Meshes keep their triangles' frames (spc_shape.tri_frame, 80 bytes a triangle) up to this many
+ * triangles, a mesh and a scene (spc_scene_finalize drops them from the meshes past the scene's
+ * budget): at most 5 MiB. Those are the walls, boxes and quads that most rays of a room
  * hit, where a hit's normalizations were a tenth of the path tracer's time (cornell box); big meshes
  * are hit by fewer rays per triangle and keep their memory. */
 #define SPC_MESH_FRAME_MAX_TRIS 65536
+/* The doubles a triangle's entry takes in spc_shape.tri_frame. */
+#define SPC_TRI_FRAME_STRIDE 10
 
 /* Per-shape caustic flags (Mitsuba properties used by the caustics papers' scenes). */
 enum {
@@ -78,20 +80,29 @@ typedef struct spc_shape {
     double area;
     spc_distrib1d tri_distrib; /* MESH: triangle areas */
     /* MESH of at most SPC_MESH_FRAME_MAX_TRIS triangles: per triangle its unit geometric normal
-     * (before flip_normals) and the unit tangent of the shading frame on that normal as
-     * flip_normals was when it was made (tri_frame_flip; zero where the frame falls back to
-     * spc_frame_from_n), 6 doubles each, so that a hit does not recompute them; NULL for bigger
-     * meshes. */
+     * (before flip_normals), the unit tangent of the shading frame on that normal as flip_normals
+     * was when it was made (tri_frame_flip; zero where the frame falls back to spc_frame_from_n),
+     * the frame's bitangent (that normal, flipped as flip_normals was, crossed with the tangent) and
+     * the largest absolute coordinate of its vertices (the hit's error bound), SPC_TRI_FRAME_STRIDE
+     * doubles each, so that a hit does not recompute them; NULL for bigger meshes. */
     double *tri_frame;
     bool tri_frame_flip;
     /* set by spc_scene_finalize: a MESH whose BSDF reads no derivatives
      * (spc_bsdf_reads_derivatives), so that its shading hits may leave them out
      * (spc_shape_fill_hit_shading) */
     bool lazy_derivs;
-    /* set by spc_scene_finalize: a SPHERE whose BSDF and emitter read no uv (spc_bsdf_reads_uv, a
-     * constant radiance), so that its hits leave uv, b1 and b2 at zero (fill_sphere: no acos and
-     * atan2 for coordinates nothing reads) */
+    /* set by spc_scene_finalize: a SPHERE or MESH whose BSDF and emitter read no uv
+     * (spc_bsdf_reads_uv, a constant radiance), so that a sphere's hits leave uv, b1 and b2 at zero
+     * (fill_sphere: no acos and atan2 for coordinates nothing reads) and a mesh's shading records
+     * (spc_shape_fill_hit_shading) leave uv at zero (no interpolation of the vertices' uvs) */
     bool uv_unread;
+    /* set by spc_scene_finalize: the BSDF is a diffuse lobe of constant reflectance seen from either
+     * side (spc_diffuse_view_const: diffuse, or twosided over diffuse, with constant reflectances),
+     * with each side's frame sign and reflectance, so that the path wave shades this shape's diffuse
+     * hits without the BSDF's dispatch or a texture lookup */
+    bool diffuse_const;
+    double diffuse_sign[2];
+    spc_rgb diffuse_albedo[2];
     spc_vec3 bbox_min, bbox_max;
     /* Per-shape data of a specular solver (manifold/conic_solver.c: the mesh hierarchy), built on
      * first use and published atomically, so concurrent readers are safe. Its first member is its
@@ -157,11 +168,12 @@ bool spc_shape_intersect_analytic(const spc_shape *s, const spc_ray *r, double *
  * probability-zero points where a shape's tangent is special (sphere poles, disk centre). */
 bool spc_shape_texture_frame(const spc_hit *h, spc_vec2 duv[2], spc_vec3 *T, spc_vec3 dT[2]);
 /* Fills every field of h for a hit of ray r at distance t on primitive prim with coordinates
- * (u, v) (barycentrics b1, b2 for triangles); on a sphere with uv_unread, uv, b1 and b2 are zero. */
+ * (u, v) (barycentrics b1, b2 for triangles); on a sphere with uv_unread, uv, b1 and b2 are zero
+ * (a mesh's uv_unread leaves them filled here). */
 void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t, spc_hit *h);
 /* spc_shape_fill_hit for shading: on a shape with lazy_derivs, every field but dpdu, dpdv, dndu,
  * dndv and n_unmapped (the same values as spc_shape_fill_hit's), which path tracing does not read
- * there; on other shapes every field. */
+ * there, and uv (zero) where also uv_unread; on other shapes every field. */
 void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
                                 spc_hit *h);
 /* spc_shape_fill_hit for a specular chain's vertex while a solver steps: on a mesh every field but
