@@ -128,7 +128,7 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
         const float *q0 = m->p + 3 * (size_t)idx[0], *q1 = m->p + 3 * (size_t)idx[1], *q2 = m->p + 3 * (size_t)idx[2];
         spc_vec3 ng;
         if (s->tri_frame) {
-            const double *c = s->tri_frame + 6 * t;
+            const double *c = s->tri_frame + SPC_TRI_FRAME_STRIDE * t;
             ng = spc_v3(c[0], c[1], c[2]);
         } else {
             spc_vec3 p0 = spc_v3(q0[0], q0[1], q0[2]);
