@@ -586,6 +586,17 @@ TEST(mesh_ball_area_weights_sum_to_one)
     spc_scene_destroy(sc);
 }
 
+/* On the triangle glass ball the render with ltcaus agrees with one without. */
+TEST(mesh_ball_render_agrees_without_it)
+{
+    spc_scene *sc = tu_load(MESH_SCENE, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    settings_agree(sc, MESH_SETTING, "angular:camera=0.1,first=0.15,later=0.1", 1024, 45, "mesh ball: ltcaus vs without");
+    spc_scene_destroy(sc);
+}
+
 /* With an area light the render with ltcaus agrees with one without (the same paths, split three
  * ways instead of two). */
 TEST(area_light_render_agrees_without_it)
@@ -824,6 +835,7 @@ int main(void)
     RUN(plan_with_point_lights_and_small_area_lights);
     RUN(area_light_weights_sum_to_one);
     RUN(mesh_ball_area_weights_sum_to_one);
+    RUN(mesh_ball_render_agrees_without_it);
     RUN(area_light_render_agrees_without_it);
     RUN(area_light_joins_only_at_the_first_two_receivers);
     RUN(guide_weights_sum_to_one);
