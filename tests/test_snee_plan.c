@@ -1018,8 +1018,10 @@ TEST(sdf_csg_plan_off)
 
 /* The triangle glass ball (bench/check/glass_ball_mesh.xml, a tessellated sphere: fit_seeds.h) gets
  * the setting with the first receiver's query at probability 0.15 where the ball looks small and the
- * query from the camera on one camera sample in ten (SPC_SNEE_PLAN_SETTING_BALLS), the same scene's
- * ball as an analytic sphere keeps its own roulette (SPC_SNEE_PLAN_SETTING or its camera fraction). */
+ * query from the camera on one camera sample in ten (SPC_SNEE_PLAN_SETTING_BALLS), and under its
+ * small square light the light-traced caustics (SPC_SNEE_PLAN_AREA_LIGHTS, path only); the same
+ * scene's ball as an analytic sphere keeps its own roulette (SPC_SNEE_PLAN_SETTING or its camera
+ * fraction). */
 TEST(tessellated_ball_plan)
 {
     spc_scene *sc = load_at("bench/check/glass_ball_mesh.xml", "8");
@@ -1028,9 +1030,13 @@ TEST(tessellated_ball_plan)
     spc_snee_plan p;
     spc_snee_plan_make(sc, "path", NULL, &p);
     spc_snee_params sp;
-    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS) && spc_snee_parse(p.setting, 2, &sp) &&
-                  sp.first_p == 0.15 && sp.later_p == 0.1 && sp.camera && sp.camera_p == 0.1,
+    CHECK_MSG(p.on && !strncmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS, strlen(SPC_SNEE_PLAN_SETTING_BALLS)) &&
+                  strstr(p.setting, SPC_SNEE_PLAN_AREA_LIGHTS) && spc_snee_parse(p.setting, 2, &sp) &&
+                  sp.first_p == 0.15 && sp.later_p == 0.1 && sp.camera && sp.camera_p == 0.1 && sp.lt_caustic,
               "glass_ball_mesh: %s (%s)", p.setting, p.reason);
+    /* not for bdpt, whose own light tracing makes these paths */
+    spc_snee_plan_make(sc, "bdpt", NULL, &p);
+    CHECK_MSG(p.on && !strstr(p.setting, "ltcaus"), "glass_ball_mesh, bdpt: %s", p.setting);
     spc_scene_destroy(sc);
     sc = load_at("scenes/caustic_glass_sphere.xml", "8");
     if (!sc)
@@ -1136,7 +1142,8 @@ TEST(closed_glass_mesh_plan_off)
  * (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH, nosolvemis: no real solve probability, no ball pass) and
  * seeds most randomized attempts from the phase function (SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS), with
  * the query at a path's first medium receiver by first=0.1's roulette; path on the same scene keeps
- * SPC_SNEE_PLAN_SETTING_BALLS, without phase seeds. */
+ * SPC_SNEE_PLAN_SETTING_BALLS, without phase seeds, with the light-traced caustics of its small
+ * light (SPC_SNEE_PLAN_AREA_LIGHTS). */
 TEST(volpath_ball_plan)
 {
     spc_scene *sc = load_at("scenes/medium_glass.xml", "8");
@@ -1151,8 +1158,8 @@ TEST(volpath_ball_plan)
                   sp.first_p == 0.1 && sp.later_p == 0.1 && sp.seed == SPC_SNEE_SEED_CONE && sp.phase_seeds == 0.8,
               "medium_glass: %s (%s)", p.setting, p.reason);
     spc_snee_plan_make(sc, "path", NULL, &p);
-    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS) && spc_snee_parse(p.setting, 2, &sp) &&
-                  sp.solve_mis && sp.phase_seeds == 0.0,
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS SPC_SNEE_PLAN_AREA_LIGHTS) &&
+                  spc_snee_parse(p.setting, 2, &sp) && sp.solve_mis && sp.phase_seeds == 0.0,
               "medium_glass with path: %s", p.setting);
     spc_scene_destroy(sc);
 }

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "integrator/splat.h"
+#include "manifold/fit_seeds.h"
 #include "manifold/snee_cost.h"
 #include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
@@ -209,6 +210,30 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 
 /* ---- area lights ---- */
 
+/* Is the chain c (from x2 toward an area light) one whose paths light tracing makes: one glass
+ * sphere's (spc_sphere_chain_covers, with exact enumeration), or every vertex on one tessellated
+ * glass ball (a triangle mesh with a fitted sphere, fit_seeds.h) with x2 outside it? The area
+ * light's ratio is light tracing's density over BSDF sampling's at x2 (spc_path_lt_area_ratio),
+ * in which specular NEE's density does not appear, so the ball's chains need no exact count: the
+ * three weights come from spc_snee_receiver_weights on both sides, with specular NEE's own psi. */
+static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
+{
+    if (c->n < 1)
+        return false;
+    if (spc_sphere_chain_covers(c, p->reflect))
+        return p->exact;
+    const spc_shape *s = c->v[0].h.shape;
+    spc_vec3 fc;
+    double fr;
+    if (!s || s->type != SPC_SHAPE_MESH || !s->bsdf || s->bsdf->type != SPC_BSDF_DIELECTRIC ||
+        !spc_fit_sphere(s, &fc, &fr) || !(spc_distance(c->x, fc) > fr))
+        return false;
+    for (int i = 0; i < c->n; ++i)
+        if (c->v[i].h.shape != s || (!p->reflect && c->v[i].event == SPC_CHAIN_REFLECT))
+            return false;
+    return true;
+}
+
 /* The share of camera samples that trace an area light's subpath (p->lt_share, else the default). */
 static double area_share(const spc_snee_params *p)
 {
@@ -221,7 +246,7 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
 {
     const spc_scene *sc = ctx->scene;
     int k = c->n;
-    if (!e || e->type != SPC_EMITTER_AREA || k < 1 || !p->exact || !spc_sphere_chain_covers(c, p->reflect))
+    if (!e || e->type != SPC_EMITTER_AREA || k < 1 || !area_chain_covers(p, c))
         return 0.0;
     /* the joins through the sphere by chains longer than max_chain are point lights' only */
     if (cc && cc->n > p->max_chain)
@@ -685,7 +710,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
         for (int i = 0; i < k; ++i)
             L.ev[i] = events[k - 1 - i];
         bool exact;
-        if (!retrace_chain(sc, p, &x2, d0, k, L.ev, L.y, &c, &exact) || !spc_sphere_chain_covers(&c, p->reflect))
+        if (!retrace_chain(sc, p, &x2, d0, k, L.ev, L.y, &c, &exact) || !area_chain_covers(p, &c))
             return;
         if (exact)
             L.d0 = c.d0;

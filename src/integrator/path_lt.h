@@ -1,7 +1,7 @@
 /*
  * integrator/path_lt.h: the path tracer's light-traced caustics of point lights and area lights
  * (specular NEE's "ltcaus" option): seen through a diffuse bounce, directly, and through the glass
- * sphere.
+ * sphere; area lights' also through a tessellated glass ball.
  *
  * The paths (point light) - k chain vertices - x2 - m delta scatterings - x1 - camera, where x1 is
  * the camera ray's first hit and scatters along a non-delta sample, x2 is a receiver where
@@ -59,7 +59,11 @@
  * to specular NEE as params.alt_chain_ratio: its weight and BSDF sampling's take b sqrt(1 + r^2) for
  * b, and light tracing's weight is r^2 / (1 + r^2) of that joint share (spc_snee_receiver_weights),
  * evaluated on the chain solved from x2 through y as specular NEE's is. The subpaths run on a share
- * of the camera samples (params.lt_share), which c carries.
+ * of the camera samples (params.lt_share), which c carries. Since r holds no density of specular
+ * NEE, an area light's chain at x2 may also lie on a tessellated glass ball (one triangle mesh with a
+ * fitted sphere, fit_seeds.h), whose chains specular NEE does not count exactly: its weight there
+ * is its own (psi, or the sampled weight of a randomized attempt's chain), the same on all three
+ * sides. The joins through the ball toward the pinhole stay the analytic sphere's (its enumeration).
  */
 #ifndef SPC_INTEGRATOR_PATH_LT_H
 #define SPC_INTEGRATOR_PATH_LT_H

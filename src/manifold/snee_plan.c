@@ -685,6 +685,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_AREA_LIGHTS);
     }
+    /* and with a tessellated glass ball among the casters: light tracing's ratio for an area light
+     * is against BSDF sampling alone, so the ball's chains need no exact count (path_lt.h) */
+    else if (!strcmp(integrator, "path") && glass && ball && !strstr(out->setting, "recguide") &&
+             small_area_lights(sc, cs)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_AREA_LIGHTS);
+    }
     /* a glass SDF under small area lights: the light guides' long chains also by light tracing
      * (snee_plan.h, SPC_SNEE_PLAN_LIGHT_GUIDES) */
     if (!strcmp(integrator, "path") && glass && !strstr(out->setting, "recguide") && glass_sdf(sc, cs) &&

@@ -256,10 +256,11 @@
 #define SPC_SNEE_PLAN_FLAT_LONG ",long=0.3,flat5=1"
 
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
- * glass sphere is a caster, without the caustic guide at receivers: the area lights' caustics also
- * by light tracing from a point on the light (integrator/path_lt.h), weighed against specular NEE
- * and BSDF sampling at the caustic's receiver. Measured in bench/RESULTS.md, "Area lights' caustics
- * by light tracing". */
+ * glass sphere or a tessellated glass ball is a caster, without the caustic guide at receivers: the
+ * area lights' caustics also by light tracing from a point on the light (integrator/path_lt.h),
+ * weighed against specular NEE and BSDF sampling at the caustic's receiver. Measured in
+ * bench/RESULTS.md, "Area lights' caustics by light tracing" and "Light tracing of caustics through
+ * the triangle glass ball". */
 #define SPC_SNEE_PLAN_AREA_LIGHTS ",ltcaus"
 /* The largest solid angle (sr, from the casters' centre) of an area light for that rule: the lights
  * measured subtend 0.003-0.009 sr. */
