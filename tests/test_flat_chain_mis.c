@@ -39,7 +39,9 @@
 #define PX (-0.064)
 #define PZ 0.142
 
-static spc_scene *load(const char *light_radius, const char *light_radiance)
+/* The scene with the light's radius and radiance set (both NULL: the file's own) and, where res is
+ * not NULL, the film's size. */
+static spc_scene *load_res(const char *light_radius, const char *light_radiance, const char *res)
 {
     const char *d = getenv("SPC_SOURCE_DIR");
     char path[1024];
@@ -47,9 +49,15 @@ static spc_scene *load(const char *light_radius, const char *light_radiance)
     spc_scene *sc = NULL;
     spc_error err;
     memset(&err, 0, sizeof err);
-    spc_define defs[2] = {{"light_radius", light_radius}, {"light_radiance", light_radiance}};
-    CHECK_MSG(spc_scene_load(path, defs, light_radius ? 2 : 0, &sc, &err) == SPC_OK, "%s: %s", path, err.msg);
+    spc_define defs[3] = {{"light_radius", light_radius}, {"light_radiance", light_radiance}, {"res", res}};
+    int n = light_radius ? (res ? 3 : 2) : 0;
+    CHECK_MSG(spc_scene_load(path, defs, n, &sc, &err) == SPC_OK, "%s: %s", path, err.msg);
     return sc;
+}
+
+static spc_scene *load(const char *light_radius, const char *light_radiance)
+{
+    return load_res(light_radius, light_radiance, NULL);
 }
 
 /* The BSDF-sampled paths from the floor point through 5 or 6 flat vertices to the light, at most 60 of
@@ -199,14 +207,7 @@ TEST(share_of_three_and_four_vertex_chains_agrees)
  * power). */
 TEST(share_render_agrees_with_none)
 {
-    const char *d = getenv("SPC_SOURCE_DIR");
-    char path[1024];
-    snprintf(path, sizeof path, "%s/%s", d ? d : ".", SCENE);
-    spc_scene *sc = NULL;
-    spc_error err;
-    memset(&err, 0, sizeof err);
-    spc_define defs[3] = {{"light_radius", "0.1"}, {"light_radiance", "160, 153, 144"}, {"res", "8"}};
-    CHECK_MSG(spc_scene_load(path, defs, 3, &sc, &err) == SPC_OK, "%s: %s", path, err.msg);
+    spc_scene *sc = load_res("0.1", "160, 153, 144", "8");
     if (!sc)
         return;
     bool quick = getenv("SPC_TEST_QUICK") != NULL;

@@ -205,14 +205,21 @@ static void settings_agree(spc_scene *sc, const char *with, const char *without,
     spc_film_destroy(b);
 }
 
-TEST(render_agrees_without_it)
+/* Loads the scene at 16x16 and compares the two settings' renders (settings_agree). */
+static void scene_settings_agree(const char *scene, const char *with, const char *without, int spp, uint64_t seed,
+                                 const char *label)
 {
-    spc_scene *sc = tu_load(SCENE, 16);
+    spc_scene *sc = tu_load(scene, 16);
     CHECK(sc != NULL);
     if (!sc)
         return;
-    settings_agree(sc, SETTING, "angular:camera=0.098,first=0.1,later=0.1", 1024, 41, "ltcaus vs without");
+    settings_agree(sc, with, without, spp, seed, label);
     spc_scene_destroy(sc);
+}
+
+TEST(render_agrees_without_it)
+{
+    scene_settings_agree(SCENE, SETTING, "angular:camera=0.098,first=0.1,later=0.1", 1024, 41, "ltcaus vs without");
 }
 
 typedef struct share_tally {
@@ -589,12 +596,8 @@ TEST(mesh_ball_area_weights_sum_to_one)
 /* On the triangle glass ball the render with ltcaus agrees with one without. */
 TEST(mesh_ball_render_agrees_without_it)
 {
-    spc_scene *sc = tu_load(MESH_SCENE, 16);
-    CHECK(sc != NULL);
-    if (!sc)
-        return;
-    settings_agree(sc, MESH_SETTING, "angular:camera=0.1,first=0.15,later=0.1", 1024, 45, "mesh ball: ltcaus vs without");
-    spc_scene_destroy(sc);
+    scene_settings_agree(MESH_SCENE, MESH_SETTING, "angular:camera=0.1,first=0.15,later=0.1", 1024, 45,
+                         "mesh ball: ltcaus vs without");
 }
 
 /* With an area light the render with ltcaus agrees with one without (the same paths, split three
