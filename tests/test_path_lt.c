@@ -139,6 +139,19 @@ static spc_render_ctx lt_ctx(spc_scene *sc, spc_camera_state *cam, const spc_sne
     return ctx;
 }
 
+/* Loads the scene at 16x16 with its camera prepared and the specular NEE setting parsed (NULL and
+ * a failed check where any of it fails). */
+static spc_scene *lt_load(const char *scene, const char *setting, spc_camera_state *cam, spc_snee_params *p)
+{
+    spc_scene *sc = tu_load(scene, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return NULL;
+    CHECK(spc_camera_prepare(cam, &sc->camera, sc->film.width, sc->film.height));
+    CHECK(spc_snee_parse(setting, 2, p));
+    return sc;
+}
+
 TEST(joins_are_specular_nee_chains_with_the_same_ratio)
 {
     spc_camera_state cam;
@@ -562,14 +575,11 @@ TEST(area_light_weights_sum_to_one)
  * tracing takes the larger share on some joins, the other two on others. */
 TEST(mesh_ball_area_weights_sum_to_one)
 {
-    spc_scene *sc = tu_load(MESH_SCENE, 16);
-    CHECK(sc != NULL);
-    if (!sc)
-        return;
     spc_camera_state cam;
     spc_snee_params p;
-    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
-    CHECK(spc_snee_parse(MESH_SETTING, 2, &p));
+    spc_scene *sc = lt_load(MESH_SCENE, MESH_SETTING, &cam, &p);
+    if (!sc)
+        return;
     spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
     CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
     p.lt_share = 1.0;
@@ -639,14 +649,11 @@ static void count_area_extra(void *user, const spc_path_lt_join *j)
 
 TEST(area_light_joins_only_at_the_first_two_receivers)
 {
-    spc_scene *sc = tu_load("bench/check/ball_small_light.xml", 16);
-    CHECK(sc != NULL);
-    if (!sc)
-        return;
     spc_camera_state cam;
     spc_snee_params p;
-    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
-    CHECK(spc_snee_parse(AREA_SETTING, 2, &p));
+    spc_scene *sc = lt_load("bench/check/ball_small_light.xml", AREA_SETTING, &cam, &p);
+    if (!sc)
+        return;
     CHECK(p.max_chain == 2);
     p.lt_through = 1.0;
     p.lt_long = 1.0;
@@ -752,14 +759,11 @@ static void check_guide_join(void *user, const spc_path_lt_guide_join *j)
  * sides). Under this small light light tracing takes the larger share (r > 1) on the joins. */
 TEST(guide_weights_sum_to_one)
 {
-    spc_scene *sc = tu_load(GUIDE_SCENE, 16);
-    CHECK(sc != NULL);
-    if (!sc)
-        return;
     spc_camera_state cam;
     spc_snee_params p;
-    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
-    CHECK(spc_snee_parse(GUIDE_SETTING, 2, &p));
+    spc_scene *sc = lt_load(GUIDE_SCENE, GUIDE_SETTING, &cam, &p);
+    if (!sc)
+        return;
     p.mis = true; /* as the path tracer runs the parameters (path_snee.c) */
     spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
     CHECK(spc_path_lt_guide_enabled(&ctx, &p) && !spc_path_lt_enabled(&ctx, &p));
