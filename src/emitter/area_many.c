@@ -47,7 +47,10 @@ bool spc_emitter_many_covers(const spc_emitter *e)
 typedef struct soa {
     double p0[3][SPC_DIRECT_LANES_MAX], p1[3][SPC_DIRECT_LANES_MAX], p2[3][SPC_DIRECT_LANES_MAX];
     double ref[3][SPC_DIRECT_LANES_MAX];
-    double ux[SPC_DIRECT_LANES_MAX], uy[SPC_DIRECT_LANES_MAX], inv_area[SPC_DIRECT_LANES_MAX];
+    /* the triangle's bin of the area CDF: u.x - cdf[t] and pmf[t], whose quotient (clamped) is the
+     * point's first coordinate (spc_distrib1d_sample's remap, computed in the vector loop) */
+    double ux_off[SPC_DIRECT_LANES_MAX], ux_pmf[SPC_DIRECT_LANES_MAX];
+    double uy[SPC_DIRECT_LANES_MAX], area[SPC_DIRECT_LANES_MAX];
     spc_direct_lanes out;
     int ok[SPC_DIRECT_LANES_MAX]; /* spc_area_sample_direct's tests passed */
 } soa;
@@ -59,7 +62,8 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
 #define AREA_MANY_BODY                                                                                                \
     for (int i = 0; i < n; ++i) {                                                                                     \
         /* spc_warp_uniform_triangle's two branches as selects: (b1, b2) its (b0, b1) */                              \
-        double ux = a->ux[i], uy = a->uy[i];                                                                          \
+        double r = a->ux_pmf[i] > 0.0 ? a->ux_off[i] / a->ux_pmf[i] : 0.0;                                           \
+        double ux = spc_clamp(r, 0.0, 0x1.fffffffffffffp-1), uy = a->uy[i];                                           \
         int upper = uy > ux;                                                                                          \
         double half = (upper ? ux : uy) / 2.0, rx = ux - half, ry = uy - half;                                        \
         double b1 = upper ? half : rx, b2 = upper ? ry : half, b0 = 1.0 - b1 - b2;                                    \
@@ -76,7 +80,7 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
         double dist2 = dx * dx + dy * dy + dz * dz;                                                                   \
         double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i];                                         \
         double cosl = fabs(nx * dx + ny * dy + nz * dz) / sqrt(dist2);                                                \
-        double pdf = a->inv_area[i] * dist2 / cosl;                                                                   \
+        double pdf = 1.0 / a->area[i] * dist2 / cosl;                                                                 \
         double dist = sqrt(dist2);                                                                                    \
         double inv = 1.0 / dist;                                                                                      \
         double wx = dx * inv, wy = dy * inv, wz = dz * inv;                                                           \
@@ -122,8 +126,8 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
         const spc_shape *s = e[i]->shape;
         const spc_mesh *m = &s->mesh;
         /* spc_shape_sample_area: the triangle by area, a point uniformly in it */
-        double ux;
-        size_t t = spc_distrib1d_sample(&s->tri_distrib, u[i].x, &ux);
+        const spc_distrib1d *td = &s->tri_distrib;
+        size_t t = spc_distrib1d_sample(td, u[i].x, NULL);
         const uint32_t *idx = m->idx + 3 * t;
         const float *q0 = m->p + 3 * (size_t)idx[0], *q1 = m->p + 3 * (size_t)idx[1], *q2 = m->p + 3 * (size_t)idx[2];
         spc_vec3 ng;
@@ -143,9 +147,10 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
             a.out.n[c][k] = spc_v3_get(ng, c);
             a.ref[c][k] = spc_v3_get(ref[i], c);
         }
-        a.ux[k] = ux;
+        a.ux_off[k] = u[i].x - td->cdf[t];
+        a.ux_pmf[k] = td->pmf[t];
         a.uy[k] = u[i].y;
-        a.inv_area[k] = 1.0 / s->area;
+        a.area[k] = s->area;
     }
     body(&a, n);
     for (int k = 0; k < n; ++k) {
