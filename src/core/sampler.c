@@ -117,37 +117,46 @@ double spc_sampler_1d(spc_sampler *s)
  * five pairs in one batch). */
 #define MANY_LANES 128
 
-/* The pairs of a batch as plain loops over arrays (pair_x's and spc_sampler_2d's arithmetic, in
- * the same order): the first coordinates of m pairs, then the second coordinates of those of them
- * that need one. Each is compiled three times, for the baseline ISA and vectorized (-O3) with AVX2
- * and with AVX-512 (whose 64-bit multiply, vpmullq, the hash needs; AVX2 emulates it), chosen at
- * run time; the integer arithmetic and the conversion to [0, 1) are exact, so all give the same bits. */
-static inline __attribute__((always_inline)) void pairs_x_loops(int m, const uint64_t *seed, const uint32_t *rev,
-                                                                uint64_t *h, uint32_t *idx, double *ux)
+/* A batch's pairs as plain loops over arrays (pair_x's and spc_sampler_2d's arithmetic, in the same
+ * order): for m streams (their pixel seeds pseed, first dimensions dim0 and reversed indices rev) and
+ * np pairs each, pair number pair[k] in slot k m + q of stream q, the seeds, then the first
+ * coordinates of all np m pairs into ux, then the second coordinates of the first ky m into uy.
+ * Compiled three times, for the baseline ISA and vectorized (-O3) with AVX2 and with AVX-512 (whose
+ * 64-bit multiply, vpmullq, the seeds and the hash need; AVX2 emulates it), chosen at run time; the
+ * integer arithmetic and the conversion to [0, 1) are exact, so all give the same bits. */
+static inline __attribute__((always_inline)) void pairs_loops(int m, int np, int ky, const int *pair,
+                                                              const uint64_t *pseed, const uint32_t *dim0,
+                                                              const uint32_t *rev, double *ux, double *uy)
 {
-    for (int j = 0; j < m; ++j)
-        h[j] = spc_hash64(seed[j]);
-    for (int j = 0; j < m; ++j)
-        idx[j] = reverse_bits(lk_permute(rev[j], (uint32_t)h[j]));
-    for (int j = 0; j < m; ++j)
+    uint64_t h[MANY_LANES];
+    uint32_t idx[MANY_LANES], rk[MANY_LANES];
+    for (int k = 0; k < np; ++k) {
+        /* the stream's (dim0 + pair + 1)-th pair, spc_sampler_2d's seed (the dimension a 32-bit
+         * count) */
+        uint32_t d = (uint32_t)pair[k] + 1u;
+        for (int q = 0; q < m; ++q) {
+            h[k * m + q] = pseed[q] + 0x9e3779b97f4a7c15ULL * (uint64_t)(uint32_t)(dim0[q] + d);
+            rk[k * m + q] = rev[q];
+        }
+    }
+    const int mx = np * m, my = ky * m;
+    for (int j = 0; j < mx; ++j)
+        h[j] = spc_hash64(h[j]);
+    for (int j = 0; j < mx; ++j)
+        idx[j] = reverse_bits(lk_permute(rk[j], (uint32_t)h[j]));
+    for (int j = 0; j < mx; ++j)
         ux[j] = reverse_bits(lk_permute(idx[j], (uint32_t)(h[j] >> 32))) * SAMPLER_UNIT;
-}
-
-static inline __attribute__((always_inline)) void pairs_y_loop(int m, const uint64_t *h, const uint32_t *idx,
-                                                               double *uy)
-{
-    for (int j = 0; j < m; ++j)
+    for (int j = 0; j < my; ++j)
         uy[j] =
             reverse_bits(lk_permute(sobol_dim1_reversed(idx[j]), (uint32_t)((h[j] * 0xda942042e4dd58b5ULL) >> 32))) *
             SAMPLER_UNIT;
 }
 
-static void pairs_x_base(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
-{
-    pairs_x_loops(m, seed, rev, h, idx, ux);
-}
+#define PAIRS_ARGS                                                                                                     \
+    int m, int np, int ky, const int *pair, const uint64_t *pseed, const uint32_t *dim0, const uint32_t *rev,          \
+        double *ux, double *uy
 
-static void pairs_y_base(int m, const uint64_t *h, const uint32_t *idx, double *uy) { pairs_y_loop(m, h, idx, uy); }
+static void pairs_base(PAIRS_ARGS) { pairs_loops(m, np, ky, pair, pseed, dim0, rev, ux, uy); }
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #if defined(__clang__)
@@ -156,59 +165,41 @@ static void pairs_y_base(int m, const uint64_t *h, const uint32_t *idx, double *
 #define PAIRS_ATTR(t) __attribute__((target(t), optimize("O3"))) /* GCC's -O2 does not */
 #endif
 #define PAIRS_AVX512 "avx512f,avx512dq,avx512bw,avx512vl"
-PAIRS_ATTR("avx2")
-static void pairs_x_avx2(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
+PAIRS_ATTR("avx2") static void pairs_avx2(PAIRS_ARGS) { pairs_loops(m, np, ky, pair, pseed, dim0, rev, ux, uy); }
+PAIRS_ATTR(PAIRS_AVX512) static void pairs_avx512(PAIRS_ARGS)
 {
-    pairs_x_loops(m, seed, rev, h, idx, ux);
-}
-PAIRS_ATTR("avx2") static void pairs_y_avx2(int m, const uint64_t *h, const uint32_t *idx, double *uy)
-{
-    pairs_y_loop(m, h, idx, uy);
-}
-PAIRS_ATTR(PAIRS_AVX512)
-static void pairs_x_avx512(int m, const uint64_t *seed, const uint32_t *rev, uint64_t *h, uint32_t *idx, double *ux)
-{
-    pairs_x_loops(m, seed, rev, h, idx, ux);
-}
-PAIRS_ATTR(PAIRS_AVX512) static void pairs_y_avx512(int m, const uint64_t *h, const uint32_t *idx, double *uy)
-{
-    pairs_y_loop(m, h, idx, uy);
+    pairs_loops(m, np, ky, pair, pseed, dim0, rev, ux, uy);
 }
 #endif
 
-typedef void (*pairs_x_fn)(int, const uint64_t *, const uint32_t *, uint64_t *, uint32_t *, double *);
-typedef void (*pairs_y_fn)(int, const uint64_t *, const uint32_t *, double *);
+typedef void (*pairs_fn)(PAIRS_ARGS);
 
 /* The best variant under cpu_isa.h's choice. */
-static pairs_x_fn pairs_x = pairs_x_base;
-static pairs_y_fn pairs_y = pairs_y_base;
+static pairs_fn pairs = pairs_base;
 static pthread_once_t pairs_once = PTHREAD_ONCE_INIT;
 
 static void pairs_init(void)
 {
 #if defined(__GNUC__) && defined(__x86_64__)
     int isa = spc_vector_isa();
-    if (isa == SPC_ISA_AVX512) {
-        pairs_x = pairs_x_avx512;
-        pairs_y = pairs_y_avx512;
-    } else if (isa == SPC_ISA_AVX2) {
-        pairs_x = pairs_x_avx2;
-        pairs_y = pairs_y_avx2;
-    }
+    if (isa == SPC_ISA_AVX512)
+        pairs = pairs_avx512;
+    else if (isa == SPC_ISA_AVX2)
+        pairs = pairs_avx2;
 #endif
 }
 
 void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u)
 {
     /* A batch of m streams, its pairs grouped by pair number: first the pairs that need their y
-     * (pair py[k] of stream q in slot k m + q), then the others (slot (ky + k) m + q), so that one
-     * pairs_x call covers them all and one pairs_y call the first group, and the per-pair
+     * (pair py[k] of stream q in slot k m + q), then the others (slot (ky + k) m + q), so that the
+     * pairs' loops cover them all and their last loop the first group, and the per-pair
      * bookkeeping is plain loops over the batch's streams. Every pair's values depend only on its
      * (seed, rev), so the grouping changes no value. */
-    uint64_t seed[MANY_LANES], h[MANY_LANES], pseed[MANY_LANES];
-    uint32_t rev[MANY_LANES], idx[MANY_LANES], dim0[MANY_LANES];
+    uint64_t pseed[MANY_LANES];
+    uint32_t rev[MANY_LANES], dim0[MANY_LANES];
     double ux[MANY_LANES], uy[MANY_LANES];
-    int lane[MANY_LANES], pair[MANY_LANES];
+    int base[MANY_LANES], pair[MANY_LANES];
     if (npairs <= 0)
         return;
     pthread_once(&pairs_once, pairs_init);
@@ -224,7 +215,7 @@ void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ym
         int m = 0;
         for (; i < n && m < per_batch; ++i)
             if (s[i]) {
-                lane[m] = i;
+                base[m] = i * npairs;
                 pseed[m] = s[i]->pixel_seed;
                 dim0[m] = s[i]->dim;
                 rev[m] = s[i]->index_rev;
@@ -233,23 +224,19 @@ void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ym
             }
         if (m == 0)
             break;
-        for (int k = 0; k < npairs; ++k) {
-            /* the stream's (dim0 + pair + 1)-th pair, spc_sampler_2d's seed (the dimension a 32-bit
-             * count) */
-            uint32_t d = (uint32_t)pair[k] + 1u;
-            for (int q = 0; q < m; ++q) {
-                seed[k * m + q] = pseed[q] + 0x9e3779b97f4a7c15ULL * (uint64_t)(uint32_t)(dim0[q] + d);
-                if (k > 0)
-                    rev[k * m + q] = rev[q];
-            }
+        pairs(m, npairs, ky, pair, pseed, dim0, rev, ux, uy);
+        for (int k = 0; k < ky; ++k) {
+            const double *xk = ux + k * m, *yk = uy + k * m;
+            spc_vec2 *uk = u + pair[k];
+            for (int q = 0; q < m; ++q)
+                uk[base[q]] = spc_v2(xk[q], yk[q]);
         }
-        pairs_x(npairs * m, seed, rev, h, idx, ux);
-        pairs_y(ky * m, h, idx, uy);
-        for (int k = 0; k < npairs; ++k)
-            for (int q = 0; q < m; ++q) {
-                int j = k * m + q;
-                u[lane[q] * npairs + pair[k]] = spc_v2(ux[j], k < ky ? uy[j] : 0.0);
-            }
+        for (int k = ky; k < npairs; ++k) {
+            const double *xk = ux + k * m;
+            spc_vec2 *uk = u + pair[k];
+            for (int q = 0; q < m; ++q)
+                uk[base[q]] = spc_v2(xk[q], 0.0);
+        }
     }
 }
 
