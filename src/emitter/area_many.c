@@ -128,24 +128,33 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
         /* spc_shape_sample_area: the triangle by area, a point uniformly in it */
         const spc_distrib1d *td = &s->tri_distrib;
         size_t t = spc_distrib1d_sample(td, u[i].x, NULL);
-        const uint32_t *idx = m->idx + 3 * t;
-        const float *q0 = m->p + 3 * (size_t)idx[0], *q1 = m->p + 3 * (size_t)idx[1], *q2 = m->p + 3 * (size_t)idx[2];
         spc_vec3 ng;
         if (s->tri_frame) {
+            /* the normal and the vertices kept with the triangle (shape.h) */
             const double *c = s->tri_frame + SPC_TRI_FRAME_STRIDE * t;
             ng = spc_v3(c[0], c[1], c[2]);
+            for (int j = 0; j < 3; ++j) {
+                a.p0[j][k] = c[10 + j];
+                a.p1[j][k] = c[13 + j];
+                a.p2[j][k] = c[16 + j];
+            }
         } else {
+            const uint32_t *idx = m->idx + 3 * t;
+            const float *q0 = m->p + 3 * (size_t)idx[0], *q1 = m->p + 3 * (size_t)idx[1];
+            const float *q2 = m->p + 3 * (size_t)idx[2];
             spc_vec3 p0 = spc_v3(q0[0], q0[1], q0[2]);
             ng = spc_normalize(spc_cross(spc_sub(spc_v3(q1[0], q1[1], q1[2]), p0), spc_sub(spc_v3(q2[0], q2[1], q2[2]), p0)));
+            for (int j = 0; j < 3; ++j) {
+                a.p0[j][k] = q0[j];
+                a.p1[j][k] = q1[j];
+                a.p2[j][k] = q2[j];
+            }
         }
         if (s->flip_normals)
             ng = spc_neg(ng);
-        for (int c = 0; c < 3; ++c) {
-            a.p0[c][k] = q0[c];
-            a.p1[c][k] = q1[c];
-            a.p2[c][k] = q2[c];
-            a.out.n[c][k] = spc_v3_get(ng, c);
-            a.ref[c][k] = spc_v3_get(ref[i], c);
+        for (int j = 0; j < 3; ++j) {
+            a.out.n[j][k] = spc_v3_get(ng, j);
+            a.ref[j][k] = spc_v3_get(ref[i], j);
         }
         a.ux_off[k] = u[i].x - td->cdf[t];
         a.ux_pmf[k] = td->pmf[t];

@@ -386,7 +386,8 @@ spc_status spc_shape_prepare(spc_shape *s)
                 /* fill_mesh's expressions for the bitangent and the vertices' magnitude */
                 spc_vec3 b = spc_cross(n, t);
                 double mag = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
-                double v[SPC_TRI_FRAME_STRIDE] = {ng.x, ng.y, ng.z, t.x, t.y, t.z, b.x, b.y, b.z, mag};
+                double v[SPC_TRI_FRAME_STRIDE] = {ng.x, ng.y, ng.z, t.x, t.y, t.z, b.x, b.y, b.z, mag,
+                                                  p0.x, p0.y, p0.z, p1.x, p1.y, p1.z, p2.x, p2.y, p2.z};
                 memcpy(c + SPC_TRI_FRAME_STRIDE * i, v, sizeof v);
             }
             s->tri_frame = c;
@@ -611,9 +612,19 @@ static spc_vec2 mesh_uv(const spc_mesh *m, uint32_t i0, uint32_t i1, uint32_t i2
 static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_fill what, spc_hit *h)
 {
     const spc_mesh *m = &s->mesh;
-    uint32_t i0 = m->idx[3 * prim], i1 = m->idx[3 * prim + 1], i2 = m->idx[3 * prim + 2];
-    spc_vec3 p0 = spc_mesh_p(m, i0), p1 = spc_mesh_p(m, i1), p2 = spc_mesh_p(m, i2);
+    /* the vertex indices, read only where the kept frame does not hold what they lead to */
+    const uint32_t *vi = m->idx + 3 * (size_t)prim;
     const double *c = s->tri_frame ? s->tri_frame + SPC_TRI_FRAME_STRIDE * (size_t)prim : NULL;
+    spc_vec3 p0, p1, p2;
+    if (c) {
+        p0 = spc_v3(c[10], c[11], c[12]);
+        p1 = spc_v3(c[13], c[14], c[15]);
+        p2 = spc_v3(c[16], c[17], c[18]);
+    } else {
+        p0 = spc_mesh_p(m, vi[0]);
+        p1 = spc_mesh_p(m, vi[1]);
+        p2 = spc_mesh_p(m, vi[2]);
+    }
     double b0 = 1.0 - b1 - b2;
     h->p = spc_add(spc_add(spc_scale(p0, b0), spc_scale(p1, b1)), spc_scale(p2, b2));
     spc_vec3 e1 = spc_sub(p1, p0), e2 = spc_sub(p2, p0);
@@ -627,9 +638,9 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
     double mag = c ? c[9] : spc_max(spc_max_abs(p0), spc_max(spc_max_abs(p1), spc_max_abs(p2)));
     h->err = SPC_FLOAT_OFFSET * spc_max(mag, spc_max_abs(h->p));
     h->uv = what == MESH_CHAIN || (what == MESH_SHADING && s->uv_unread) ? spc_v2(0.0, 0.0)
-                                                                         : mesh_uv(m, i0, i1, i2, b1, b2);
+                                                                         : mesh_uv(m, vi[0], vi[1], vi[2], b1, b2);
     if (m->n && !s->face_normals) {
-        spc_vec3 n0 = spc_mesh_n(m, i0), n1 = spc_mesh_n(m, i1), n2 = spc_mesh_n(m, i2);
+        spc_vec3 n0 = spc_mesh_n(m, vi[0]), n1 = spc_mesh_n(m, vi[1]), n2 = spc_mesh_n(m, vi[2]);
         spc_vec3 nr = spc_add(spc_add(spc_scale(n0, b0), spc_scale(n1, b1)), spc_scale(n2, b2));
         double len = spc_length(nr);
         if (len > 1e-12) {
@@ -654,7 +665,7 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
                 h->sh.s = h->sh.t = spc_v3(0, 0, 0);
                 return;
             }
-            h->sh = spc_frame_from_ns(n, tri_tangent(m, i0, i1, i2, e1, e2));
+            h->sh = spc_frame_from_ns(n, tri_tangent(m, vi[0], vi[1], vi[2], e1, e2));
             return;
         }
     }
@@ -676,7 +687,7 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
         h->sh.s = spc_v3(c[3], c[4], c[5]);
         h->sh.t = spc_v3(c[6], c[7], c[8]);
     } else {
-        h->sh = spc_frame_from_ns(h->ng, tri_tangent(m, i0, i1, i2, e1, e2));
+        h->sh = spc_frame_from_ns(h->ng, tri_tangent(m, vi[0], vi[1], vi[2], e1, e2));
     }
 }
 

@@ -41,14 +41,14 @@ typedef enum spc_shape_type {
     SPC_SHAPE_SDFGRID
 } spc_shape_type;
 
-/* Meshes keep their triangles' frames (spc_shape.tri_frame, 80 bytes a triangle) up to this many
+/* Meshes keep their triangles' frames (spc_shape.tri_frame, 152 bytes a triangle) up to this many
  * triangles, a mesh and a scene (spc_scene_finalize drops them from the meshes past the scene's
- * budget): at most 5 MiB. Those are the walls, boxes and quads that most rays of a room
+ * budget): at most 9.5 MiB. Those are the walls, boxes and quads that most rays of a room
  * hit, where a hit's normalizations were a tenth of the path tracer's time (cornell box); big meshes
  * are hit by fewer rays per triangle and keep their memory. */
 #define SPC_MESH_FRAME_MAX_TRIS 65536
 /* The doubles a triangle's entry takes in spc_shape.tri_frame. */
-#define SPC_TRI_FRAME_STRIDE 10
+#define SPC_TRI_FRAME_STRIDE 19
 
 /* Per-shape caustic flags (Mitsuba properties used by the caustics papers' scenes). */
 enum {
@@ -83,8 +83,11 @@ typedef struct spc_shape {
      * (before flip_normals), the unit tangent of the shading frame on that normal as flip_normals
      * was when it was made (tri_frame_flip; zero where the frame falls back to spc_frame_from_n),
      * the frame's bitangent (that normal, flipped as flip_normals was, crossed with the tangent) and
-     * the largest absolute coordinate of its vertices (the hit's error bound), SPC_TRI_FRAME_STRIDE
-     * doubles each, so that a hit does not recompute them; NULL for bigger meshes. */
+     * the largest absolute coordinate of its vertices (the hit's error bound), and its three
+     * vertices' positions (as doubles: the floats' values), SPC_TRI_FRAME_STRIDE doubles each, so
+     * that a hit does not recompute them and reads one record rather than the indices and three
+     * vertices (two dependent loads that miss the L1 cache behind the ray tracer); NULL for bigger
+     * meshes. */
     double *tri_frame;
     bool tri_frame_flip;
     /* set by spc_scene_finalize: a MESH whose BSDF reads no derivatives
