@@ -112,13 +112,13 @@ TEST(sampler_many_matches_one_at_a_time)
 {
     int bad = 0, checked = 0;
     for (int n = 1; n <= 53; n += 13)
-        for (int npairs = 1; npairs <= 3; ++npairs)
+        for (int npairs = 1; npairs <= 5; ++npairs) /* the path wave draws 5 */
             for (unsigned mask = 0; mask <= 1u << npairs; ++mask) {
                 /* mask 1 << npairs: spc_sampler_2d_many */
                 bool all = mask == 1u << npairs;
                 spc_sampler a[53], b[53];
                 spc_sampler *pa[53];
-                spc_vec2 u[159];
+                spc_vec2 u[265];
                 for (int i = 0; i < n; ++i) {
                     spc_sampler_start(&a[i], (uint32_t)i, 5, (uint32_t)(i * 7 + n), 11);
                     for (int k = 0; k < i % 4; ++k) /* streams at different dimensions */
@@ -195,8 +195,8 @@ TEST(vector_batches_every_isa)
     if (len <= 0)
         return;
     exe[len] = '\0';
-    const char *isas[] = {"base", "avx2", "avx512"};
-    for (int i = 0; i < 3; ++i) {
+    const char *isas[] = {"base", "avx2", "avx512", "avx512gfni"};
+    for (int i = 0; i < 4; ++i) {
         char cmd[4300];
         snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=sampler_many_matches_one_at_a_time,"
                  "cosine_hemisphere_many_matches_one_at_a_time '%s' >/dev/null",
