@@ -321,8 +321,9 @@ TEST(distrib_search_matches_linear)
     spc_rng_seed(&r, 4, 2);
     int differ = 0, with_empty = 0, samples = 0;
     for (int round = 0; round < 400; ++round) {
-        size_t n = 1 + (size_t)(spc_rng_next(&r) * 12);
-        double w[12];
+        /* both searches: counting up to SPC_DISTRIB1D_COUNT_MAX entries, bisection beyond */
+        size_t n = 1 + (size_t)(spc_rng_next(&r) * (round % 4 == 3 ? 40 : 12));
+        double w[40];
         for (size_t i = 0; i < n; ++i)
             w[i] = round % 2 && spc_rng_next(&r) < 0.3 ? 0.0 : spc_rng_next(&r) + (round % 3 == 0 ? 0.0 : 0.01);
         spc_distrib1d d;

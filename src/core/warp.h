@@ -37,6 +37,10 @@ typedef struct spc_distrib1d {
 /* Returns false (and leaves d empty) if allocation fails or every weight is zero or invalid. */
 bool spc_distrib1d_init(spc_distrib1d *d, const double *w, size_t n);
 void spc_distrib1d_release(spc_distrib1d *d);
+/* Distributions of at most this many entries are searched by counting (spc_distrib1d_sample): a
+ * scene's few lights, a quad light's two triangles; the binary search's dependent steps cost more
+ * than n - 1 independent compares there. */
+#define SPC_DISTRIB1D_COUNT_MAX 16
 /* Samples an index; *u_remap (if not NULL) receives u rescaled to [0,1) within the chosen bin.
  * Inline: light sampling calls it per lane (a scene's lights, a mesh light's triangles). */
 static inline size_t spc_distrib1d_sample(const spc_distrib1d *d, double u, double *u_remap)
@@ -45,10 +49,17 @@ static inline size_t spc_distrib1d_sample(const spc_distrib1d *d, double u, doub
      * branches: a light of two triangles is a coin flip to the branch predictor; then skipping
      * empty bins, where there are any (their tests' branches are as hard to predict) */
     size_t lo = 0, len = d->n;
-    while (len > 1) {
-        size_t half = len / 2;
-        lo = d->cdf[lo + half] <= u ? lo + half : lo;
-        len -= half;
+    if (len <= SPC_DISTRIB1D_COUNT_MAX) {
+        /* that index is the count of cdf[1..n-1] at or below u: independent loads and compares
+         * instead of the search's chain of them */
+        for (size_t k = 1; k < len; ++k)
+            lo += d->cdf[k] <= u;
+    } else {
+        while (len > 1) {
+            size_t half = len / 2;
+            lo = d->cdf[lo + half] <= u ? lo + half : lo;
+            len -= half;
+        }
     }
     if (d->has_empty) {
         while (lo + 1 < d->n && d->pmf[lo] == 0.0)
