@@ -185,6 +185,30 @@ TEST(cosine_hemisphere_many_matches_one_at_a_time)
     CHECK_MSG(bad == 0, "%d directions differ", bad);
 }
 
+/* A row's streams started at once equal spc_sampler_start's, field for field, for rows that are no
+ * multiple of the pass (64) and pixel coordinates near 2^32. */
+TEST(sampler_start_row_matches_start)
+{
+    spc_rng r;
+    spc_rng_seed(&r, 8, 1);
+    int bad = 0, checked = 0;
+    spc_sampler a[150], b;
+    for (int round = 0; round < 40; ++round) {
+        int n = 1 + (int)(spc_rng_next(&r) * 150);
+        uint32_t px0 = round % 5 == 4 ? 0xffffff80u : (uint32_t)(spc_rng_next(&r) * 4096);
+        uint32_t py = (uint32_t)(spc_rng_next(&r) * 4096), index = (uint32_t)(spc_rng_next(&r) * 1e9);
+        uint64_t seed = (uint64_t)(spc_rng_next(&r) * 1e18);
+        spc_sampler_start_row(a, n, px0, py, index, seed);
+        for (int i = 0; i < n; ++i) {
+            spc_sampler_start(&b, px0 + (uint32_t)i, py, index, seed);
+            bad += a[i].pixel_seed != b.pixel_seed || a[i].index != b.index || a[i].index_rev != b.index_rev ||
+                   a[i].dim != b.dim;
+            ++checked;
+        }
+    }
+    CHECK_MSG(bad == 0, "%d of %d streams differ", bad, checked);
+}
+
 /* The same under the other instruction sets the batches are compiled for (SPECULA_VECTOR_ISA caps
  * the one the process picks, so each runs in a child process of this program). */
 TEST(vector_batches_every_isa)
@@ -198,7 +222,7 @@ TEST(vector_batches_every_isa)
     const char *isas[] = {"base", "avx2", "avx512", "avx512gfni"};
     for (int i = 0; i < 4; ++i) {
         char cmd[4300];
-        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=sampler_many_matches_one_at_a_time,"
+        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=sampler_many_matches_one_at_a_time,sampler_start_row_matches_start,"
                  "cosine_hemisphere_many_matches_one_at_a_time '%s' >/dev/null",
                  isas[i], exe);
         int rc = system(cmd);
@@ -394,5 +418,6 @@ int main(void)
     RUN(tent_and_gaussian_inversions);
     RUN(distributions);
     RUN(distrib_search_matches_linear);
+    RUN(sampler_start_row_matches_start);
     return spc_test_finish();
 }

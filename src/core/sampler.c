@@ -319,6 +319,54 @@ void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u)
     spc_sampler_draw_many(s, n, npairs, ~0u, u);
 }
 
+/* spc_sampler_start's pixel seeds of a row, hash64(hash64(((px0 + i) << 32 | py) ^ hs)) with
+ * hs = hash64(seed) + the golden-ratio constant (spc_hash_combine's), as a plain loop compiled like
+ * the pairs' (exact integer arithmetic: the same bits in every variant). */
+static inline __attribute__((always_inline)) void row_seeds_loop(int n, uint32_t px0, uint32_t py, uint64_t hs,
+                                                                 uint64_t *out)
+{
+    for (int i = 0; i < n; ++i)
+        out[i] = spc_hash64(spc_hash64(((uint64_t)(px0 + (uint32_t)i) << 32 | py) ^ hs));
+}
+
+static void row_seeds_base(int n, uint32_t px0, uint32_t py, uint64_t hs, uint64_t *out)
+{
+    row_seeds_loop(n, px0, py, hs, out);
+}
+
+#if defined(__GNUC__) && defined(__x86_64__)
+PAIRS_ATTR(PAIRS_AVX512) static void row_seeds_avx512(int n, uint32_t px0, uint32_t py, uint64_t hs, uint64_t *out)
+{
+    row_seeds_loop(n, px0, py, hs, out);
+}
+#endif
+
+/* a row's streams per pass of spc_sampler_start_row */
+#define ROW_CHUNK 64
+
+void spc_sampler_start_row(spc_sampler *s, int n, uint32_t px0, uint32_t py, uint32_t index, uint64_t seed)
+{
+    pthread_once(&sobol1_once, sobol1_init);
+    uint64_t hs = spc_hash64(seed) + 0x9e3779b97f4a7c15ULL, ps[ROW_CHUNK];
+    uint32_t rev = reverse_bits(index);
+    for (int i0 = 0; i0 < n; i0 += ROW_CHUNK) {
+        int m = n - i0 < ROW_CHUNK ? n - i0 : ROW_CHUNK;
+#if defined(__GNUC__) && defined(__x86_64__)
+        if (spc_vector_isa() == SPC_ISA_AVX512)
+            row_seeds_avx512(m, px0 + (uint32_t)i0, py, hs, ps);
+        else
+#endif
+            row_seeds_base(m, px0 + (uint32_t)i0, py, hs, ps);
+        for (int i = 0; i < m; ++i) {
+            spc_sampler *t = &s[i0 + i];
+            t->pixel_seed = ps[i];
+            t->index = index;
+            t->index_rev = rev;
+            t->dim = 0;
+        }
+    }
+}
+
 void spc_sampler_fork_rng(const spc_sampler *s, uint64_t stream, spc_rng *rng)
 {
     spc_rng_seed(rng, spc_hash_combine(s->pixel_seed, ((uint64_t)s->index << 32) | s->dim), stream);

@@ -25,6 +25,9 @@ typedef struct spc_sampler {
 
 /* Starts the stream of sample `index` of pixel (px, py) for the global `seed`. */
 void spc_sampler_start(spc_sampler *s, uint32_t px, uint32_t py, uint32_t index, uint64_t seed);
+/* spc_sampler_start of the n pixels (px0 + i, py), i in [0, n), into s[i], for the same index and
+ * seed (a row of a tile): the same streams, their hashes computed side by side. */
+void spc_sampler_start_row(spc_sampler *s, int n, uint32_t px0, uint32_t py, uint32_t index, uint64_t seed);
 /* Starts a stream identified by an arbitrary key (tests, light tracing, solver seeds). */
 void spc_sampler_start_key(spc_sampler *s, uint64_t key, uint32_t index);
 /* Next value in [0,1). Uses one dimension pair. */

@@ -162,12 +162,12 @@ static int camera_samples_tile(const job *jb, int pass, const tile *t, spc_ray *
     spc_vec2 u[SPC_TILE * SPC_TILE];
     double px[SPC_TILE * SPC_TILE], py[SPC_TILE * SPC_TILE];
     int n = 0;
-    for (int y = t->y0; y < t->y1; ++y)
-        for (int x = t->x0; x < t->x1; ++x, ++n) {
-            spc_sampler_start(&smp[n], (uint32_t)(x + ctx->crop_x), (uint32_t)(y + ctx->crop_y), (uint32_t)pass,
-                              jb->seed);
+    for (int y = t->y0; y < t->y1; ++y) {
+        spc_sampler_start_row(&smp[n], t->x1 - t->x0, (uint32_t)(t->x0 + ctx->crop_x), (uint32_t)(y + ctx->crop_y),
+                              (uint32_t)pass, jb->seed);
+        for (int x = t->x0; x < t->x1; ++x, ++n)
             ps[n] = &smp[n];
-        }
+    }
     spc_sampler_2d_many(ps, n, 1, u);
     /* the filter's offsets from the pixel centres cx, cy, both axes in one call each */
     double ux[SPC_TILE * SPC_TILE], uy[SPC_TILE * SPC_TILE], cx[SPC_TILE * SPC_TILE], cy[SPC_TILE * SPC_TILE];
