@@ -219,8 +219,8 @@ typedef struct vtx {
     bool on_surface, delta, infinite;
     /* With the pool (B->pm; light_side_sums, camera_side_sums): the vertex's cell, and far_sum,
      * the part of the MIS weight's sum of a connection joining this vertex that depends on this
-     * vertex's own subpath only (mis_weight_pool); on a pooled light subpath's y0, pdf_direct:
-     * light_direct_pdf of y0 from y1. */
+     * vertex's own subpath only (mis_weight_pool); on a light subpath's y0 with y1, pdf_direct:
+     * light_direct_pdf of y0 from y1 (light_subpath). */
     int cell;
     double far_sum;
     double pdf_direct;
@@ -460,8 +460,8 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         if (n >= max_vertices)
             break;
         vtx *prev = &path[n - 1], *v = &path[n];
-        spc_hit h;
-        if (!spc_scene_intersect(B->sc, &ray, &h)) {
+        /* the hit straight into the vertex (a miss leaves it untouched) */
+        if (!spc_scene_intersect(B->sc, &ray, &v->h)) {
             if (mode == SPC_MODE_RADIANCE && B->sc->env) {
                 v->kind = V_ENV;
                 v->p = ray.d;
@@ -475,18 +475,18 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
             }
             break;
         }
+        const spc_hit *h = &v->h;
         v->kind = V_SURFACE;
-        v->h = h;
-        v->p = h.p;
-        v->n = h.ng;
+        v->p = h->p;
+        v->n = h->ng;
         v->wo = spc_neg(ray.d);
         v->beta = beta;
         v->on_surface = true;
         v->delta = v->infinite = false;
-        v->light = h.emitter;
+        v->light = h->emitter;
         v->pdf_rev = 0.0;
         if (prev->kind == V_LIGHT && prev->infinite)
-            v->pdf_fwd = prev->pdf_pos * spc_absdot(h.ng, ray.d);
+            v->pdf_fwd = prev->pdf_pos * spc_absdot(h->ng, ray.d);
         else
             v->pdf_fwd = to_area(pdf_dir, prev, v);
         ++n;
@@ -502,13 +502,13 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         double u_rr = u_lobe_rr.y;
         spc_bsdf_sample bs;
         int m = 0;
-        spc_vec3 ns = h.ng;
+        spc_vec3 ns = h->ng;
         if (mode == SPC_MODE_RADIANCE && camera_aimable(B, prev, v)) {
             ns = side_normal(&v->h, v->wo);
             m = aim_cones(B->aim, v->p, ns, NULL, NULL);
         }
         if (m > 0 ? !camera_aim_sample(B, v, m, ns, u_lobe_rr.x, u_dir, &bs)
-                  : !spc_bsdf_sample_dir(h.bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
+                  : !spc_bsdf_sample_dir(h->bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
             break;
         spc_rgb w = bs.weight;
         if (mode == SPC_MODE_IMPORTANCE)
@@ -522,7 +522,7 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
             pdf_rev_dir = bs.pdf;
         } else {
             pdf_dir = bs.pdf;
-            pdf_rev_dir = spc_bsdf_pdf(h.bsdf, &v->h, other, bs.wi, v->wo);
+            pdf_rev_dir = spc_bsdf_pdf(h->bsdf, &v->h, other, bs.wi, v->wo);
         }
         prev->pdf_rev = to_area(pdf_rev_dir, v, prev);
         beta = spc_rgb_mul(beta, w);
@@ -613,8 +613,12 @@ static int light_subpath(const bdpt *B, spc_sampler *smp, vtx *y, int max_vertic
     ray.d = em.d;
     ray.tmin = 0.0;
     ray.tmax = SPC_INF;
-    return random_walk(B, ray, spc_rgb_scale(em.weight, 1.0 / pmf), em.pdf_dir, SPC_MODE_IMPORTANCE, smp, y, 1,
-                       max_vertices, capped);
+    int n = random_walk(B, ray, spc_rgb_scale(em.weight, 1.0 / pmf), em.pdf_dir, SPC_MODE_IMPORTANCE, smp, y, 1,
+                        max_vertices, capped);
+    /* every MIS weight of a strategy with s >= 2 reads it (mis_weight_walk's D): once per subpath */
+    if (n >= 2)
+        y0->pdf_direct = light_direct_pdf(B->sc, y0, &y[1]);
+    return n;
 }
 
 /* ---- MIS ---- */
@@ -671,7 +675,7 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
             Lp[s + 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, x[s + 1]);
     }
     /* p_1 samples x0 from x1 by sample_direct (for n = 2 it is the (1, 1) strategy: emission) */
-    double D = n >= 3 ? light_direct_pdf(sc, l0, x[1]) : Lp[0];
+    double D = n < 3 ? Lp[0] : s >= 2 ? y[0].pdf_direct : light_direct_pdf(sc, l0, x[1]);
     /* With the pool (bdpt_pool.h) a connection with k light vertices (2 <= k <= n - 2) is made by
      * two techniques: the camera sample's own light subpath (one sample of the path) and the pool's
      * picks (c_k = spc_bdpt_pool_count samples, its camera vertex the (n - k)-th of the camera
@@ -769,8 +773,7 @@ static void light_side_sums(const bdpt *B, vtx *y, int nl)
         y[j].cell = spc_bdpt_pool_cell(B->pm, y[j].p);
     if (nl < 2)
         return;
-    const double D = light_direct_pdf(B->sc, &y[0], &y[1]);
-    y[0].pdf_direct = D;
+    const double D = y[0].pdf_direct; /* light_subpath's */
     double f = spc_emitter_is_delta(y[0].light) ? 0.0 : 1.0; /* k = 0 */
     y[1].far_sum = f;
     for (int s = 2; s < nl; ++s) { /* F_L(s + 1) from F_L(s) */
