@@ -217,6 +217,7 @@ typedef struct vtx {
     double pdf_pos; /* V_LIGHT at infinity: area density on the emission disk */
     const spc_emitter *light;
     bool on_surface, delta, infinite;
+    unsigned flags; /* V_SURFACE: spc_bsdf_flags of its BSDF (read by every join) */
     /* With the pool (B->pm; light_side_sums, camera_side_sums): the vertex's cell, and far_sum,
      * the part of the MIS weight's sum of a connection joining this vertex that depends on this
      * vertex's own subpath only (mis_weight_pool); on a light subpath's y0 with y1, pdf_direct:
@@ -389,7 +390,7 @@ static bool camera_aimable(const bdpt *B, const vtx *cam, const vtx *v)
 {
     if (!(B->aim_cam > 0.0) || cam->kind != V_CAMERA || v->kind != V_SURFACE)
         return false;
-    unsigned f = spc_bsdf_flags(v->h.bsdf);
+    unsigned f = v->flags;
     return (f & SPC_LOBE_DIFFUSE_REFLECTION) && !(f & ~(SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_DIFFUSE_TRANSMISSION));
 }
 
@@ -483,6 +484,7 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         v->beta = beta;
         v->on_surface = true;
         v->delta = v->infinite = false;
+        v->flags = spc_bsdf_flags(h->bsdf);
         v->light = h->emitter;
         v->pdf_rev = 0.0;
         if (prev->kind == V_LIGHT && prev->infinite)
@@ -1198,7 +1200,7 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
      * rendered (as in path and Mitsuba: point and spot lights are invisible) */
     if (v->kind == V_LIGHT && (v->infinite || !v->on_surface))
         return;
-    if (v->kind == V_SURFACE && !spc_bsdf_has_smooth(v->h.bsdf))
+    if (v->kind == V_SURFACE && !(v->flags & SPC_LOBE_SMOOTH))
         return;
     spc_camera_direct cd;
     if (!spc_camera_sample_direct(ctx->cam, v->p, &cd) || !in_window(ctx, cd.fx, cd.fy))
@@ -1288,7 +1290,7 @@ static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, sp
 {
     *w = 1.0;
     const vtx *v = &z[t - 1];
-    if (v->kind != V_SURFACE || !spc_bsdf_has_smooth(v->h.bsdf))
+    if (v->kind != V_SURFACE || !(v->flags & SPC_LOBE_SMOOTH))
         return spc_rgb1(0.0);
     double pmf;
     const spc_emitter *e = spc_scene_sample_emitter(B->sc, u_light, &pmf);
@@ -1322,7 +1324,7 @@ static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, sp
 
 /* A light vertex a and a camera vertex b that a connection can join: scattering vertices with a
  * non-delta lobe. */
-static bool connectible(const vtx *v) { return v->kind == V_SURFACE && spc_bsdf_has_smooth(v->h.bsdf); }
+static bool connectible(const vtx *v) { return v->kind == V_SURFACE && (v->flags & SPC_LOBE_SMOOTH); }
 
 /* The unoccluded contribution of joining light vertex a to camera vertex b, times b's throughput
  * if with_b (the pool's pilot scores it without); d2_min bounds the squared distance below (0 for
@@ -1446,6 +1448,16 @@ static void prefetch_vertex(const vtx *v)
         __builtin_prefetch(c + off, 0, 3);
 #else
     (void)v;
+#endif
+}
+
+/* Asks the cache for the line holding p (a hint; no effect on the result). */
+static void prefetch_line(const void *p)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    __builtin_prefetch(p, 0, 3);
+#else
+    (void)p;
 #endif
 }
 
@@ -2027,10 +2039,20 @@ static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx 
         const int nb = M - i0 < SPC_BDPT_PICK_BATCH ? M - i0 : SPC_BDPT_PICK_BATCH;
         const spc_bdpt_pool_ref *refs[SPC_BDPT_PICK_BATCH];
         double qs[SPC_BDPT_PICK_BATCH];
+        /* the picks' records first (each a likely cache miss), then their vertices, whose addresses
+         * the records hold */
         for (int i = 0; i < nb; ++i) {
             double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
-            if (!spc_bdpt_pool_pick(pool, c, u1, u2, &refs[i], &qs[i]) ||
-                (ctx->max_depth >= 0 && refs[i]->s + t - 1 > ctx->max_depth)) {
+            if (!spc_bdpt_pool_pick(pool, c, u1, u2, &refs[i], &qs[i])) {
+                refs[i] = NULL;
+                continue;
+            }
+            prefetch_line(refs[i]);
+        }
+        for (int i = 0; i < nb; ++i) {
+            if (!refs[i])
+                continue;
+            if (ctx->max_depth >= 0 && refs[i]->s + t - 1 > ctx->max_depth) {
                 refs[i] = NULL;
                 continue;
             }
