@@ -217,10 +217,11 @@ typedef struct vtx {
     double pdf_pos; /* V_LIGHT at infinity: area density on the emission disk */
     const spc_emitter *light;
     bool on_surface, delta, infinite;
+    unsigned flags; /* V_SURFACE: spc_bsdf_flags of its BSDF (read by every join) */
     /* With the pool (B->pm; light_side_sums, camera_side_sums): the vertex's cell, and far_sum,
      * the part of the MIS weight's sum of a connection joining this vertex that depends on this
-     * vertex's own subpath only (mis_weight_pool); on a pooled light subpath's y0, pdf_direct:
-     * light_direct_pdf of y0 from y1. */
+     * vertex's own subpath only (mis_weight_pool); on a light subpath's y0 with y1, pdf_direct:
+     * light_direct_pdf of y0 from y1 (light_subpath). */
     int cell;
     double far_sum;
     double pdf_direct;
@@ -389,7 +390,7 @@ static bool camera_aimable(const bdpt *B, const vtx *cam, const vtx *v)
 {
     if (!(B->aim_cam > 0.0) || cam->kind != V_CAMERA || v->kind != V_SURFACE)
         return false;
-    unsigned f = spc_bsdf_flags(v->h.bsdf);
+    unsigned f = v->flags;
     return (f & SPC_LOBE_DIFFUSE_REFLECTION) && !(f & ~(SPC_LOBE_DIFFUSE_REFLECTION | SPC_LOBE_DIFFUSE_TRANSMISSION));
 }
 
@@ -460,8 +461,8 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         if (n >= max_vertices)
             break;
         vtx *prev = &path[n - 1], *v = &path[n];
-        spc_hit h;
-        if (!spc_scene_intersect(B->sc, &ray, &h)) {
+        /* the hit straight into the vertex (a miss leaves it untouched) */
+        if (!spc_scene_intersect(B->sc, &ray, &v->h)) {
             if (mode == SPC_MODE_RADIANCE && B->sc->env) {
                 v->kind = V_ENV;
                 v->p = ray.d;
@@ -475,18 +476,19 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
             }
             break;
         }
+        const spc_hit *h = &v->h;
         v->kind = V_SURFACE;
-        v->h = h;
-        v->p = h.p;
-        v->n = h.ng;
+        v->p = h->p;
+        v->n = h->ng;
         v->wo = spc_neg(ray.d);
         v->beta = beta;
         v->on_surface = true;
         v->delta = v->infinite = false;
-        v->light = h.emitter;
+        v->flags = spc_bsdf_flags(h->bsdf);
+        v->light = h->emitter;
         v->pdf_rev = 0.0;
         if (prev->kind == V_LIGHT && prev->infinite)
-            v->pdf_fwd = prev->pdf_pos * spc_absdot(h.ng, ray.d);
+            v->pdf_fwd = prev->pdf_pos * spc_absdot(h->ng, ray.d);
         else
             v->pdf_fwd = to_area(pdf_dir, prev, v);
         ++n;
@@ -502,13 +504,13 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         double u_rr = u_lobe_rr.y;
         spc_bsdf_sample bs;
         int m = 0;
-        spc_vec3 ns = h.ng;
+        spc_vec3 ns = h->ng;
         if (mode == SPC_MODE_RADIANCE && camera_aimable(B, prev, v)) {
             ns = side_normal(&v->h, v->wo);
             m = aim_cones(B->aim, v->p, ns, NULL, NULL);
         }
         if (m > 0 ? !camera_aim_sample(B, v, m, ns, u_lobe_rr.x, u_dir, &bs)
-                  : !spc_bsdf_sample_dir(h.bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
+                  : !spc_bsdf_sample_dir(h->bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
             break;
         spc_rgb w = bs.weight;
         if (mode == SPC_MODE_IMPORTANCE)
@@ -522,7 +524,7 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
             pdf_rev_dir = bs.pdf;
         } else {
             pdf_dir = bs.pdf;
-            pdf_rev_dir = spc_bsdf_pdf(h.bsdf, &v->h, other, bs.wi, v->wo);
+            pdf_rev_dir = spc_bsdf_pdf(h->bsdf, &v->h, other, bs.wi, v->wo);
         }
         prev->pdf_rev = to_area(pdf_rev_dir, v, prev);
         beta = spc_rgb_mul(beta, w);
@@ -613,8 +615,12 @@ static int light_subpath(const bdpt *B, spc_sampler *smp, vtx *y, int max_vertic
     ray.d = em.d;
     ray.tmin = 0.0;
     ray.tmax = SPC_INF;
-    return random_walk(B, ray, spc_rgb_scale(em.weight, 1.0 / pmf), em.pdf_dir, SPC_MODE_IMPORTANCE, smp, y, 1,
-                       max_vertices, capped);
+    int n = random_walk(B, ray, spc_rgb_scale(em.weight, 1.0 / pmf), em.pdf_dir, SPC_MODE_IMPORTANCE, smp, y, 1,
+                        max_vertices, capped);
+    /* every MIS weight of a strategy with s >= 2 reads it (mis_weight_walk's D): once per subpath */
+    if (n >= 2)
+        y0->pdf_direct = light_direct_pdf(B->sc, y0, &y[1]);
+    return n;
 }
 
 /* ---- MIS ---- */
@@ -671,7 +677,7 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
             Lp[s + 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, x[s + 1]);
     }
     /* p_1 samples x0 from x1 by sample_direct (for n = 2 it is the (1, 1) strategy: emission) */
-    double D = n >= 3 ? light_direct_pdf(sc, l0, x[1]) : Lp[0];
+    double D = n < 3 ? Lp[0] : s >= 2 ? y[0].pdf_direct : light_direct_pdf(sc, l0, x[1]);
     /* With the pool (bdpt_pool.h) a connection with k light vertices (2 <= k <= n - 2) is made by
      * two techniques: the camera sample's own light subpath (one sample of the path) and the pool's
      * picks (c_k = spc_bdpt_pool_count samples, its camera vertex the (n - k)-th of the camera
@@ -769,8 +775,7 @@ static void light_side_sums(const bdpt *B, vtx *y, int nl)
         y[j].cell = spc_bdpt_pool_cell(B->pm, y[j].p);
     if (nl < 2)
         return;
-    const double D = light_direct_pdf(B->sc, &y[0], &y[1]);
-    y[0].pdf_direct = D;
+    const double D = y[0].pdf_direct; /* light_subpath's */
     double f = spc_emitter_is_delta(y[0].light) ? 0.0 : 1.0; /* k = 0 */
     y[1].far_sum = f;
     for (int s = 2; s < nl; ++s) { /* F_L(s + 1) from F_L(s) */
@@ -1195,7 +1200,7 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
      * rendered (as in path and Mitsuba: point and spot lights are invisible) */
     if (v->kind == V_LIGHT && (v->infinite || !v->on_surface))
         return;
-    if (v->kind == V_SURFACE && !spc_bsdf_has_smooth(v->h.bsdf))
+    if (v->kind == V_SURFACE && !(v->flags & SPC_LOBE_SMOOTH))
         return;
     spc_camera_direct cd;
     if (!spc_camera_sample_direct(ctx->cam, v->p, &cd) || !in_window(ctx, cd.fx, cd.fy))
@@ -1285,7 +1290,7 @@ static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, sp
 {
     *w = 1.0;
     const vtx *v = &z[t - 1];
-    if (v->kind != V_SURFACE || !spc_bsdf_has_smooth(v->h.bsdf))
+    if (v->kind != V_SURFACE || !(v->flags & SPC_LOBE_SMOOTH))
         return spc_rgb1(0.0);
     double pmf;
     const spc_emitter *e = spc_scene_sample_emitter(B->sc, u_light, &pmf);
@@ -1319,7 +1324,7 @@ static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, sp
 
 /* A light vertex a and a camera vertex b that a connection can join: scattering vertices with a
  * non-delta lobe. */
-static bool connectible(const vtx *v) { return v->kind == V_SURFACE && spc_bsdf_has_smooth(v->h.bsdf); }
+static bool connectible(const vtx *v) { return v->kind == V_SURFACE && (v->flags & SPC_LOBE_SMOOTH); }
 
 /* The unoccluded contribution of joining light vertex a to camera vertex b, times b's throughput
  * if with_b (the pool's pilot scores it without); d2_min bounds the squared distance below (0 for
@@ -1443,6 +1448,16 @@ static void prefetch_vertex(const vtx *v)
         __builtin_prefetch(c + off, 0, 3);
 #else
     (void)v;
+#endif
+}
+
+/* Asks the cache for the line holding p (a hint; no effect on the result). */
+static void prefetch_line(const void *p)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    __builtin_prefetch(p, 0, 3);
+#else
+    (void)p;
 #endif
 }
 
@@ -2024,10 +2039,20 @@ static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx 
         const int nb = M - i0 < SPC_BDPT_PICK_BATCH ? M - i0 : SPC_BDPT_PICK_BATCH;
         const spc_bdpt_pool_ref *refs[SPC_BDPT_PICK_BATCH];
         double qs[SPC_BDPT_PICK_BATCH];
+        /* the picks' records first (each a likely cache miss), then their vertices, whose addresses
+         * the records hold */
         for (int i = 0; i < nb; ++i) {
             double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
-            if (!spc_bdpt_pool_pick(pool, c, u1, u2, &refs[i], &qs[i]) ||
-                (ctx->max_depth >= 0 && refs[i]->s + t - 1 > ctx->max_depth)) {
+            if (!spc_bdpt_pool_pick(pool, c, u1, u2, &refs[i], &qs[i])) {
+                refs[i] = NULL;
+                continue;
+            }
+            prefetch_line(refs[i]);
+        }
+        for (int i = 0; i < nb; ++i) {
+            if (!refs[i])
+                continue;
+            if (ctx->max_depth >= 0 && refs[i]->s + t - 1 > ctx->max_depth) {
                 refs[i] = NULL;
                 continue;
             }
