@@ -4,9 +4,11 @@ at equal CPU time, on every caustic scene in scenes/.
 
 For each scene: a reference rendered by the default (specula render, no flag; or --ref-setting) at
 `--ref` CPU seconds, with its per-pixel variance; then, for each of `--seeds` seeds, the default and
-none (and each --extra setting), each with the sample count that a short calibration render says
-fits `--budget` CPU seconds (user + system of the child, from os.wait4, minus the same command at 1
-spp on one pixel: loading and the acceleration structure). relMSE = mean over pixels of
+none (and each --extra setting), each with the sample count that fits `--budget` CPU seconds (user + system of the child, from
+os.wait4, minus the same command at 1 spp on one pixel with specular NEE off: loading and the
+acceleration structure). The calibration renders each setting at n and 2n spp: their difference
+gives the CPU per sample, the rest the fixed cost of a render (the plan's pilot), which is charged
+once to the budget, not to the samples. relMSE = mean over pixels of
 ((img - ref)^2 - var_ref) / (ref^2 + 0.01) (as `specula diff`, less the reference's own expected
 share, var_ref its variance of the mean: without it the reference's error sits in every column and
 caps the ratios), scaled to the budget (relMSE x cpu / budget, exact for an unbiased estimator).
@@ -66,6 +68,28 @@ def render(a, scene, out, setting, spp, seed, res, variance=False):
     return run(cmd)
 
 
+def calibrate(a, scene, s, base):
+    """(CPU per sample, fixed CPU per render beyond the load) of setting s: a render at 4 spp, then
+    renders at n and 2n spp, n doubled from 4 until their difference (n samples) takes a fifth of the
+    budget or more; the CPU per sample from the 4-spp and the last render's difference, the fixed
+    cost what the 4-spp render took beyond its 4 samples."""
+    cal = os.path.join(a.out, "cal.exr")
+    n = 4
+    t0 = t1 = render(a, scene, cal, s, n, 99, a.res) - base
+    while True:
+        t2 = render(a, scene, cal, s, 2 * n, 99, a.res) - base
+        if t2 - t1 >= 0.2 * a.budget or n >= 1 << 20:
+            break
+        n, t1 = 2 * n, t2
+    per = max(t2 - t0, 1e-4) / (2 * n - 4)
+    return per, max(t0 - 4 * per, 0.0)
+
+
+def budget_spp(budget, per, fixed):
+    """Samples that fill the budget after the fixed cost (at least 1)."""
+    return max(1, int((budget - fixed) / per))
+
+
 def read_exr_var(path):
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
@@ -111,27 +135,31 @@ def main():
                     "--threads", "1", "--quiet", "--specular-nee", "none"])
         if a.setting:
             setting = a.setting
-        cal = {}
+        # per setting: its CPU per sample and its fixed cost per render beyond the load (the plan's
+        # pilot at load, a pilot render), from two renders' difference: the fixed cost is spent once
+        # per render, so charging it to a few samples would make a setting with a pilot look 10-100x
+        # dearer per sample than it is and starve its column at equal time
+        cal, fixed = {}, {}
         for s in cols + [a.ref_setting]:
             if s in cal:
                 continue
-            c = render(a, scene, os.path.join(a.out, "cal.exr"), s, 4, 99, a.res) - base
-            cal[s] = max(c, 1e-3) / 4.0
+            cal[s], fixed[s] = calibrate(a, scene, s, base)
             if a.recalibrate and s != a.ref_setting:
-                # once more at the budget's sample count: a setting whose cost depends on the
-                # render's size (a pilot render, auto:pilot) is timed as it will run
-                spp = max(1, int(a.budget / cal[s]))
+                # once more at the budget's sample count: a setting whose cost per sample depends on
+                # the render's size (a pilot render, auto:pilot) is timed as it will run
+                spp = budget_spp(a.budget, cal[s], fixed[s])
                 c = render(a, scene, os.path.join(a.out, "cal.exr"), s, spp, 99, a.res) - base
-                cal[s] = max(c, 1e-3) / spp
+                cal[s] = max(c - fixed[s], 1e-3) / spp
         ref_path = os.path.join(a.out, "%s_ref_%s.exr" % (name, (a.ref_setting or "default").replace(":", "_")))
         if not os.path.exists(ref_path):
-            render(a, scene, ref_path, a.ref_setting, max(16, int(a.ref / cal[a.ref_setting])), 12345, a.res,
+            render(a, scene, ref_path, a.ref_setting, max(16, budget_spp(a.ref, cal[a.ref_setting],
+                                                                         fixed[a.ref_setting])), 12345, a.res,
                    variance=True)
         ref, ref_var = read_exr_var(ref_path)
         res = {}
         for s in cols:
             errs, shares = [], []
-            spp = max(1, int(a.budget / cal[s]))
+            spp = budget_spp(a.budget, cal[s], fixed[s])
             for k in range(a.seeds):
                 p = os.path.join(a.out, "%s_%s_%d.exr" % (name, (s or "default").replace(":", "_"), k))
                 cpu = render(a, scene, p, s, spp, 1 + k, a.res) - base

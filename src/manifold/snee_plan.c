@@ -56,6 +56,17 @@
  * cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one pixel 100%
  * of a seed's error). */
 #define SPC_SNEE_PLAN_FLAT_COST_SR 0.08
+/* ... and at most this where every caster is flat-faced (no glass sphere or ball beside the slabs):
+ * there the query pays only through the slabs' own caustic, which BSDF sampling reaches about as
+ * often as the light itself, while beside a ball the query also serves the ball's focused chains.
+ * At equal CPU time against bdpt (bench/RESULTS.md, "the slab plan never worse than none"), 16
+ * flat-only scenes under the product 0.08: 9 lose to none (0.07-0.91x; 4 of them by one-pixel
+ * seeds of the query's own), with products 0.0069-0.073, the 7 that gain 1.1-6.3x lie at
+ * 0.0275-0.067; no quantity of the pilot separated them (its sequences, the light's solid angle,
+ * the share of receivers whose query finds a chain, or one through the slab). Random scene 489 (one
+ * slab, 0.0275, 6.3-67x) stays on; random 667 (0.030, a one-pixel seed: 0.07-0.19x) goes off. Beside
+ * a ball or a glass sphere 12 of 13 gain (1.6-7.6x) up to 0.078, the one loss 0.79x. */
+#define SPC_SNEE_PLAN_FLAT_ALONE_COST_SR 0.028
 /* ... and only up to this solid angle, the largest of a measured gain (random scene 652, one slab
  * under 0.0098 sr: 3.1x over none against bdpt): with one face or few the query's cost is small
  * under any light, but so is the gain where BSDF sampling finds the light through flat glass often
@@ -559,15 +570,16 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     /* flat-faced casters beside nothing but glass, under a light larger than the flat rule's: on,
      * with their longer chains, where the enumeration's cost pays (the pilot) */
     bool flat_long = false;
+    double flat_cost_limit = nflat == cs->n ? SPC_SNEE_PLAN_FLAT_ALONE_COST_SR : SPC_SNEE_PLAN_FLAT_COST_SR;
     if (nflat > 0 && !mirror && !strcmp(integrator, "path") && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
         out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR) {
         out->flat_sequences = flat_sequences_per_query(sc, smallest);
-        flat_long = out->flat_sequences >= 0.0 && out->flat_sequences * out->light_sr <= SPC_SNEE_PLAN_FLAT_COST_SR;
+        flat_long = out->flat_sequences >= 0.0 && out->flat_sequences * out->light_sr <= flat_cost_limit;
     }
     if (nflat > 0 && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && !flat_long) {
         if (out->flat_sequences > 0.0)
-            snprintf(out->reason, sizeof out->reason, "flat-faced casters: light %.2g sr x %.3g sequences a query > %g",
-                     out->light_sr, out->flat_sequences, SPC_SNEE_PLAN_FLAT_COST_SR);
+            snprintf(out->reason, sizeof out->reason, "flat-faced casters%s: light %.2g sr x %.3g sequences a query > %g",
+                     nflat == cs->n ? " alone" : "", out->light_sr, out->flat_sequences, flat_cost_limit);
         else
             snprintf(out->reason, sizeof out->reason, "flat-faced casters under a light of %.2g sr (over %g)",
                      out->light_sr, SPC_SNEE_PLAN_FLAT_MAX_SR);

@@ -247,12 +247,12 @@
 /* Appended for path where some caster is flat-faced (a slab), no caster is a mirror, the smallest
  * light subtends more than SPC_SNEE_PLAN_FLAT_MAX_SR at the casters, and the flat enumeration's
  * face sequences per query times that solid angle is at most SPC_SNEE_PLAN_FLAT_COST_SR (a pilot,
- * snee_plan.c): the longer chains on (long), so that the slabs' chains of up to 4 vertices are
+ * snee_plan.c; SPC_SNEE_PLAN_FLAT_ALONE_COST_SR where every caster is flat-faced): the longer chains on (long), so that the slabs' chains of up to 4 vertices are
  * enumerated at every call, and their 5-vertex chains (in, three total internal reflections, out: the slab as a light
  * guide) on every call too. Without them only BSDF sampling makes those chains, and the query's cost
  * per sample turns each such hit into a firefly (bench/RESULTS.md, "Glass sphere beside a flat
- * slab"). Measured in bench/RESULTS.md, "Slab scenes the plan left at none" and "a cost-based plan
- * rule". */
+ * slab"). Measured in bench/RESULTS.md, "Slab scenes the plan left at none", "a cost-based plan
+ * rule" and "the slab plan never worse than none". */
 #define SPC_SNEE_PLAN_FLAT_LONG ",long=0.3,flat5=1"
 
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
