@@ -610,6 +610,102 @@ TEST(mesh_ball_render_agrees_without_it)
                          "mesh ball: ltcaus vs without");
 }
 
+#define MESH_POINT_SCENE "bench/check/point_light_ball_mesh.xml"
+
+typedef struct mesh_point_tally {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    int joins, lt_only, solved, kinds[4];
+    double worst_gap, above, below;
+} mesh_point_tally;
+
+/* A point light's join through the tessellated ball: specular NEE's solver at x2, seeded along the
+ * join's first direction with its events, toward the point light, solves the join's chain, and
+ * specular NEE's share 1 / (1 + r^2) with r from that chain and light tracing's weight sum to one;
+ * or the join is light tracing's alone (weight 1, r infinite). */
+static void check_mesh_point_join(void *user, const spc_path_lt_join *j)
+{
+    mesh_point_tally *t = user;
+    ++t->joins;
+    CHECK(j->e->type == SPC_EMITTER_POINT && j->w > 0.0 && j->w <= 1.0 && j->cc == NULL);
+    if (isinf(j->r)) {
+        ++t->lt_only;
+        CHECK(j->w == 1.0);
+        return;
+    }
+    ++t->kinds[j->x1 ? (j->nmid > 0 ? 3 : 2) : 0];
+    spc_snee_query q;
+    spc_snee_query_init(&q, t->ctx->scene, t->p, j->x2, j->w2, j->c->n);
+    q.y = j->e->position;
+    q.ny = spc_v3(0, 0, 0);
+    q.light_size = 0.0;
+    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+    for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
+        ev[i] = i < j->c->n ? j->c->v[i].event : SPC_CHAIN_REFRACT;
+    q.events = ev;
+    q.keep_n = j->c->n;
+    q.seed_dir = &j->c->d0;
+    spc_rng rng;
+    spc_rng_seed(&rng, 1, 2);
+    spc_chain c;
+    int it = 0;
+    const spc_specular_solver *solver = spc_specular_solver_get(t->p->solver);
+    if (!solver || !solver->solve_one(&q, &rng, &c, &it) || c.n != j->c->n ||
+        !spc_snee_same_solution(&c, j->c, t->ctx->scene->radius))
+        return;
+    ++t->solved;
+    double r = j->x1 ? spc_path_lt_ratio_via(t->ctx, t->p, j->x1, j->w1, j->mid, j->nmid, j->x2, j->w2, &c, j->e)
+                     : spc_path_lt_ratio_first(t->ctx, t->p, j->x2, NULL, &c, j->e);
+    double gap = fabs(1.0 / (1.0 + r * r) + j->w - 1.0);
+    if (gap > t->worst_gap)
+        t->worst_gap = gap;
+    t->above += j->r > 1.0;
+    t->below += j->r < 1.0;
+}
+
+/* The triangle glass ball under a point light: light tracing makes the ball's point-light chains
+ * (directly, through a diffuse bounce, through two), specular NEE's solver finds the same chain from
+ * x2, and the two weights of each such path sum to one; light tracing takes the larger share on
+ * some joins (near the caustic's fold), specular NEE on others; the joins toward the pinhole
+ * through the ball are not made (no enumeration of the mesh's chains toward the pinhole). */
+TEST(mesh_ball_point_weights_sum_to_one)
+{
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_scene *sc = lt_load(MESH_POINT_SCENE, MESH_SETTING, &cam, &p);
+    if (!sc)
+        return;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    CHECK(spc_path_lt_enabled(&ctx, &p));
+    mesh_point_tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    spc_rng rng;
+    spc_rng_seed(&rng, 37, 7);
+    int n = spc_test_quick() ? 5000 : 20000;
+    for (int i = 0; i < n; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, check_mesh_point_join, &t);
+    printf("  %s: %d joins (light tracing's alone %d; directly %d, through a diffuse bounce %d, through two %d), "
+           "specular NEE's solve from x2 finds the chain on %d, light tracing's weight above 1/2 on %.0f, below on "
+           "%.0f, largest gap of the two weights' sum from 1 %.3g\n",
+           MESH_POINT_SCENE, t.joins, t.lt_only, t.kinds[0], t.kinds[2], t.kinds[3], t.solved, t.above, t.below,
+           t.worst_gap);
+    CHECK(t.joins > 50 && t.kinds[0] > 10 && t.kinds[2] > 10);
+    CHECK_MSG(t.solved > (t.joins - t.lt_only) * 9 / 10, "specular NEE solves %d of %d joins' chains", t.solved,
+              t.joins - t.lt_only);
+    CHECK_MSG(t.worst_gap < 1e-5, "the two weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK(t.above > 0 && t.below > 0);
+    spc_scene_destroy(sc);
+}
+
+/* On the triangle glass ball under a point light the render with ltcaus agrees with one without. */
+TEST(mesh_ball_point_render_agrees_without_it)
+{
+    scene_settings_agree(MESH_POINT_SCENE, MESH_SETTING, "angular:camera=0.1,first=0.15,later=0.1", 1024, 47,
+                         "mesh ball, point light: ltcaus vs without");
+}
+
 /* With an area light the render with ltcaus agrees with one without (the same paths, split three
  * ways instead of two). */
 TEST(area_light_render_agrees_without_it)
@@ -843,6 +939,8 @@ int main(void)
     RUN(area_light_weights_sum_to_one);
     RUN(mesh_ball_area_weights_sum_to_one);
     RUN(mesh_ball_render_agrees_without_it);
+    RUN(mesh_ball_point_weights_sum_to_one);
+    RUN(mesh_ball_point_render_agrees_without_it);
     RUN(area_light_render_agrees_without_it);
     RUN(area_light_joins_only_at_the_first_two_receivers);
     RUN(guide_weights_sum_to_one);

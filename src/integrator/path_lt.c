@@ -105,13 +105,46 @@ static double cone_pdf(const spc_scene *sc, bool any_surface, spc_vec3 y, spc_ve
     return 1.0 / (2.0 * SPC_PI * (1.0 - cm));
 }
 
+/* Is every vertex of the chain c on one tessellated glass ball (a triangle mesh with a fitted
+ * sphere, fit_seeds.h, dielectric), with c's start x outside it and no reflection unless
+ * params.reflect? Specular NEE finds such chains by its randomized attempts and the fitted sphere's
+ * seeds, not by an exact enumeration. */
+static bool mesh_ball_chain(const spc_snee_params *p, const spc_chain *c)
+{
+    if (c->n < 1)
+        return false;
+    const spc_shape *s = c->v[0].h.shape;
+    spc_vec3 fc;
+    double fr;
+    if (!s || s->type != SPC_SHAPE_MESH || !s->bsdf || s->bsdf->type != SPC_BSDF_DIELECTRIC ||
+        !spc_fit_sphere(s, &fc, &fr) || !(spc_distance(c->x, fc) > fr))
+        return false;
+    for (int i = 0; i < c->n; ++i)
+        if (c->v[i].h.shape != s || (!p->reflect && c->v[i].event == SPC_CHAIN_REFLECT))
+            return false;
+    return true;
+}
+
+/* Is the chain c (from x2 toward a point light) one whose paths light tracing makes: one glass
+ * sphere's (with exact enumeration), or a tessellated glass ball's (mesh_ball_chain)? For the
+ * ball, specular NEE's estimate of each chain's value is unbiased but not an enumeration (the
+ * fitted sphere's seeds, randomized attempts counted by their trials): the weights need only be
+ * the same function of the path on both sides, so both sides take the ratio below with specular
+ * NEE's density that of an exact count (the query's roulette alone). */
+static bool point_chain_covers(const spc_snee_params *p, const spc_chain *c)
+{
+    if (!p->exact || c->n < 1)
+        return false;
+    return spc_sphere_chain_covers(c, p->reflect) || mesh_ball_chain(p, c);
+}
+
 /* Light tracing's density of the chain c from x toward the point light e, in area measure at x:
  * the emission's direction density, the chain's lobe choices and |dw0/dA(x)| = cos(x) G. */
 static double light_density(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, const spc_chain *c,
                             const spc_emitter *e)
 {
     int k = c->n;
-    if (!e || e->type != SPC_EMITTER_POINT || k < 1 || !p->exact || !spc_sphere_chain_covers(c, p->reflect))
+    if (!e || e->type != SPC_EMITTER_POINT || k < 1 || !point_chain_covers(p, c))
         return 0.0;
     spc_vec3 d_last = c->v[k - 1].d;
     double G = spc_chain_geometry(c, e->position, spc_neg(d_last));
@@ -222,16 +255,7 @@ static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
         return false;
     if (spc_sphere_chain_covers(c, p->reflect))
         return p->exact;
-    const spc_shape *s = c->v[0].h.shape;
-    spc_vec3 fc;
-    double fr;
-    if (!s || s->type != SPC_SHAPE_MESH || !s->bsdf || s->bsdf->type != SPC_BSDF_DIELECTRIC ||
-        !spc_fit_sphere(s, &fc, &fr) || !(spc_distance(c->x, fc) > fr))
-        return false;
-    for (int i = 0; i < c->n; ++i)
-        if (c->v[i].h.shape != s || (!p->reflect && c->v[i].event == SPC_CHAIN_REFLECT))
-            return false;
-    return true;
+    return mesh_ball_chain(p, c);
 }
 
 /* The share of camera samples that trace an area light's subpath (p->lt_share, else the default). */
@@ -695,12 +719,22 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     spc_chain c;
     if (!L.area) {
         bool exact;
-        if (!retrace_chain(sc, p, &x2, d0, k, events, L.y, &c, &exact) || !spc_sphere_chain_covers(&c, p->reflect))
+        if (!retrace_chain(sc, p, &x2, d0, k, events, L.y, &c, &exact) || !point_chain_covers(p, &c))
             return;
-        /* a path specular NEE cannot make is light tracing's alone: r infinite, its weight 1. Its
-         * enumeration at x2 is asked where it may miss the chain: near the caustic's fold, where
-         * the chain focuses the light (and where no chain passes through y) */
-        L.lt_only = (!exact || chain_focus(&c, &x2, L.y) > LT_CHECK_FOCUS) && !nee_finds(sc, p, &x2, &c, L.y);
+        if (spc_sphere_chain_covers(&c, p->reflect)) {
+            /* a path specular NEE cannot make is light tracing's alone: r infinite, its weight 1.
+             * Its enumeration at x2 is asked where it may miss the chain: near the caustic's fold,
+             * where the chain focuses the light (and where no chain passes through y) */
+            L.lt_only = (!exact || chain_focus(&c, &x2, L.y) > LT_CHECK_FOCUS) && !nee_finds(sc, p, &x2, &c, L.y);
+        } else {
+            /* the tessellated ball: where the retrace reaches the light, specular NEE's attempts
+             * find that chain with some probability and count it without bias (point_chain_covers);
+             * where it does not, no chain from x2 passes through the light with these events and the
+             * path is light tracing's alone. Otherwise the chain through y, as specular NEE solves it */
+            L.lt_only = !exact;
+            if (exact)
+                L.d0 = c.d0;
+        }
     } else {
         /* the events from x2, and the chain from x2 solved through y, as specular NEE's at x2 is: the
          * BSDF side's weight (area_weight) retraces it along its first direction, and the weights
