@@ -13,6 +13,7 @@
 
 #include "integrator/splat.h"
 #include "manifold/fit_seeds.h"
+#include "manifold/flat_chains.h"
 #include "manifold/snee_cost.h"
 #include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
@@ -71,6 +72,36 @@ int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, cons
     if (b > p->max_chain)
         b = p->max_chain;
     return spc_snee_budget(x2, b, p->any_surface);
+}
+
+/* The longest chain through flat faces the path's track follows past the budget with depth_left
+ * vertices left (spc_snee_track_long_max; the path runs it with MIS, which area lights' light tracing
+ * needs: spc_path_lt_area_enabled), at most SPC_FLAT_MAX_VERTICES. */
+static int flat_walk_max(const spc_snee_params *p, int depth_left)
+{
+    spc_snee_params pm = *p;
+    pm.mis = true;
+    int l = spc_snee_track_long_max(&pm, depth_left);
+    return l < SPC_FLAT_MAX_VERTICES ? l : SPC_FLAT_MAX_VERTICES;
+}
+
+int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                            int receivers)
+{
+    int b = spc_path_lt_budget(ctx, p, x2, segments, receivers);
+    if (b <= 0)
+        return 0;
+    /* the path's track past the budget, as spc_path_snee_at_vertex starts it at x2 */
+    int left = ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < SPC_CHAIN_MAX_VERTICES
+                   ? ctx->max_depth - segments - 1
+                   : SPC_CHAIN_MAX_VERTICES;
+    int l = flat_walk_max(p, left);
+    return l > b ? l : b;
+}
+
+int spc_path_lt_area_chain_max(const spc_snee_params *p, const spc_chain *c, int kmax, int kflat)
+{
+    return p->exact && spc_flat_chain_covers(c, p->reflect) && kflat > kmax ? kflat : kmax;
 }
 
 /* The cone from the point y toward the casters' bounding sphere: its axis and cosine (cos_max -1:
@@ -244,16 +275,18 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 /* ---- area lights ---- */
 
 /* Is the chain c (from x2 toward an area light) one whose paths light tracing makes: one glass
- * sphere's (spc_sphere_chain_covers, with exact enumeration), or every vertex on one tessellated
- * glass ball (a triangle mesh with a fitted sphere, fit_seeds.h) with x2 outside it? The area
- * light's ratio is light tracing's density over BSDF sampling's at x2 (spc_path_lt_area_ratio),
- * in which specular NEE's density does not appear, so the ball's chains need no exact count: the
- * three weights come from spc_snee_receiver_weights on both sides, with specular NEE's own psi. */
+ * sphere's (spc_sphere_chain_covers, with exact enumeration), through flat faces only (the slabs'
+ * chains, spc_flat_chain_covers, with exact enumeration; up to spc_path_lt_flat_budget's length),
+ * or every vertex on one tessellated glass ball (a triangle mesh with a fitted sphere, fit_seeds.h)
+ * with x2 outside it? The area light's ratio is light tracing's density over BSDF sampling's at x2
+ * (spc_path_lt_area_ratio), in which specular NEE's density does not appear, so the ball's chains
+ * need no exact count, and the flat chains past the budget none at every call: the three weights
+ * come from spc_snee_receiver_weights on both sides, with specular NEE's own psi. */
 static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
 {
     if (c->n < 1)
         return false;
-    if (spc_sphere_chain_covers(c, p->reflect))
+    if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_covers(c, p->reflect))
         return p->exact;
     return mesh_ball_chain(p, c);
 }
@@ -306,14 +339,14 @@ typedef struct area_side {
     const spc_hit *x1;
     spc_vec3 w1;
     const spc_chain *cc;
-    int kmax;
+    int kmax, kflat;
 } area_side;
 
 static double area_side_ratio(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
                               spc_vec3 y, spc_vec3 ny)
 {
     const area_side *a = user;
-    if (c->n > a->kmax)
+    if (c->n > spc_path_lt_area_chain_max(a->p, c, a->kmax, a->kflat))
         return 0.0;
     return spc_path_lt_area_ratio(a->ctx, a->p, a->x1, a->w1, x, wo, a->cc, c, e, y, ny);
 }
@@ -470,12 +503,24 @@ typedef struct lt_end {
     unsigned char ev[SPC_CHAIN_MAX_VERTICES];
 } lt_end;
 
+/* The chain budgets at x2 reached after `segments` segments with `receivers` receivers before it
+ * (*kmax: specular NEE's, *kflat: light tracing's for an area light's flat chains, else *kmax), and
+ * whether the light subpath's chain fits them. */
+static bool chain_fits(const spc_render_ctx *ctx, const spc_snee_params *p, const lt_end *L, const spc_hit *x2,
+                       int segments, int receivers, int *kmax, int *kflat)
+{
+    *kmax = spc_path_lt_budget(ctx, p, x2, segments, receivers);
+    *kflat = L->area ? spc_path_lt_flat_budget(ctx, p, x2, segments, receivers) : *kmax;
+    return L->c->n <= spc_path_lt_area_chain_max(p, L->c, *kmax, *kflat);
+}
+
 /* The ratio *r and light tracing's weight of the join x1 (NULL: x2 is the first receiver, seen
  * through cc or directly) - the nmid middle vertices mid (point lights only) - x2 (seen from wo2) -
- * the light subpath L; kmax the chain budget at x2. 0 where light tracing does not make the path. */
+ * the light subpath L; kmax the chain budget at x2, kflat the flat chains' (spc_path_lt_flat_budget). 0
+ * where light tracing does not make the path. */
 static double join_weight(const spc_render_ctx *ctx, const spc_snee_params *p, const lt_end *L, const spc_hit *x1,
                           spc_vec3 w1, const spc_path_lt_vertex *mid, int nmid, const spc_hit *x2, spc_vec3 wo2,
-                          const spc_chain *cc, int kmax, double *r)
+                          const spc_chain *cc, int kmax, int kflat, double *r)
 {
     if (!L->area) {
         *r = x1 ? spc_path_lt_ratio_via(ctx, p, x1, w1, mid, nmid, x2, wo2, L->c, L->e)
@@ -487,7 +532,7 @@ static double join_weight(const spc_render_ctx *ctx, const spc_snee_params *p, c
     *r = spc_path_lt_area_ratio(ctx, p, x1, w1, x2, wo2, cc, L->c, L->e, L->y, L->ny);
     if (!(*r > 0.0))
         return 0.0;
-    area_side side = {ctx, p, x1, w1, cc, kmax};
+    area_side side = {ctx, p, x1, w1, cc, kmax, kflat};
     return area_weight(ctx, p, &side, x1 == NULL, x2, wo2, L->d0, L->k, L->ev, L->e, L->y, L->ny);
 }
 
@@ -513,8 +558,8 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
     int n = spc_sphere_chains_all(&q, all, SPC_PATH_LT_CAMERA_CHAINS, NULL);
     for (int i = 0; i < n; ++i) {
         const spc_chain *cc = &all[i];
-        int kmax_cc = spc_path_lt_budget(ctx, p, x2, cc->n + 1, 0);
-        if (cc->n < min_chain || cc->n > max_chain || c->n > kmax_cc)
+        int kmax_cc, kflat_cc;
+        if (cc->n < min_chain || cc->n > max_chain || !chain_fits(ctx, p, L, x2, cc->n + 1, 0, &kmax_cc, &kflat_cc))
             continue;
         double pc = camera_density(ctx, p, x2, cc, &cd);
         if (!(pc > 0.0))
@@ -532,7 +577,7 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
             continue;
         spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
         double r = 0.0;
-        double w = join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, &r);
+        double w = join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, kflat_cc, &r);
         if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
             spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, L->e, cd.fx, cd.fy, C, r, cc, NULL, 0,
                                   L->y, L->ny, w};
@@ -552,8 +597,8 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
     spc_vec3 d0 = L->d0;
     const spc_chain *c = L->c;
     spc_camera_direct cd;
-    int kmax = spc_path_lt_budget(ctx, p, x2, 1, 0);
-    if (c->n <= kmax && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
+    int kmax, kflat;
+    if (chain_fits(ctx, p, L, x2, 1, 0, &kmax, &kflat) && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
         spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cd.wi);
         double g = shading_fix(x2, d0, cd.wi) * spc_absdot(cd.wi, x2->sh.n) / (cd.dist * cd.dist);
         spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / N);
@@ -561,7 +606,7 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         double r = 0.0;
         double w = spc_rgb_is_black(C)
                        ? 0.0
-                       : join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cd.wi, NULL, kmax, &r);
+                       : join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cd.wi, NULL, kmax, kflat, &r);
         if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
             spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cd.wi, c, L->e, cd.fx, cd.fy, C, r, NULL, NULL, 0,
                                   L->y, L->ny, w};
@@ -631,14 +676,16 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
     return true;
 }
 
-/* Follows ray through the delta scatterings at chain surfaces, at most kmax of them, multiplying beta
- * by each sampled weight (the importance transport of a light subpath). x: the first other surface;
+/* Follows ray through the delta scatterings at chain surfaces, at most kmax of them (up to kflat
+ * while every one is on a flat-faced caster, spc_flat_chain_shape), multiplying beta by each sampled
+ * weight (the importance transport of a light subpath). x: the first other surface;
  * events[i] and verts[i] (each unless NULL): the i-th scattering's event and surface. The number of scatterings, or -1 where the
  * walk ends before such a surface (the ray escapes, kmax is passed, a sample is not a delta lobe, the
  * throughput is black). ray ends as the last segment's. */
-static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rng, int kmax, spc_ray *ray,
-                      spc_rgb *beta, unsigned char *events, spc_hit *verts, spc_hit *x)
+static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rng, int kmax, int kflat,
+                      spc_ray *ray, spc_rgb *beta, unsigned char *events, spc_hit *verts, spc_hit *x)
 {
+    bool flat = kflat > kmax;
     for (int k = 0;; ++k) {
         spc_hit h;
         if (!spc_scene_intersect(sc, ray, &h))
@@ -648,7 +695,8 @@ static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rn
             *x = h;
             return k;
         }
-        if (k == kmax)
+        flat = flat && spc_flat_chain_shape(h.shape);
+        if (k >= (flat ? kflat : kmax))
             return -1;
         spc_bsdf_sample bs;
         if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, spc_neg(ray->d), spc_rng_next(rng),
@@ -707,11 +755,17 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
         return;
     }
 
-    /* the chain: delta scatterings at chain surfaces, up to the longest budget */
+    /* the chain: delta scatterings at chain surfaces, up to the longest budget (an area light's
+     * through flat faces: up to the longest its track may follow, spc_path_lt_flat_budget) */
     int kmax = p->max_chain < SPC_CHAIN_MAX_VERTICES ? p->max_chain : SPC_CHAIN_MAX_VERTICES;
+    int kflat = kmax;
+    if (L.area) {
+        int l = flat_walk_max(p, SPC_CHAIN_MAX_VERTICES);
+        kflat = l > kmax ? l : kmax;
+    }
     unsigned char events[SPC_CHAIN_MAX_VERTICES];
     spc_hit x2;
-    int k = delta_walk(sc, p, rng, kmax, &ray, &beta, events, NULL, &x2);
+    int k = delta_walk(sc, p, rng, kmax, kflat, &ray, &beta, events, NULL, &x2);
     if (k < 1 || !spc_bsdf_has_smooth(x2.bsdf))
         return;
     spc_vec3 d0 = spc_neg(ray.d);
@@ -775,8 +829,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
             return;
         ++segs;
         spc_vec3 wo = spc_neg(ray.d);
-        int kmax2 = spc_path_lt_budget(ctx, p, &x2, segs + 1, 1 + nmid);
-        if (spc_bsdf_has_smooth(h.bsdf) && k <= kmax2) {
+        int kmax2, kflat2;
+        if (spc_bsdf_has_smooth(h.bsdf) && chain_fits(ctx, p, &L, &x2, segs + 1, 1 + nmid, &kmax2, &kflat2)) {
             spc_camera_direct cd;
             if (spc_camera_sample_direct(ctx->cam, h.p, &cd) && in_window(ctx, cd.fx, cd.fy)) {
                 spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, cd.wi);
@@ -784,7 +838,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
                 spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
                 if (!spc_rgb_is_black(C)) {
                     double r = 0.0;
-                    double w = join_weight(ctx, p, &L, &h, wo, mid, nmid, &x2, w2, NULL, kmax2, &r);
+                    double w = join_weight(ctx, p, &L, &h, wo, mid, nmid, &x2, w2, NULL, kmax2, kflat2, &r);
                     spc_ray sr = spc_hit_spawn_to(&h, cd.p_near, 0.0);
                     if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
                         spc_path_lt_join j = {&h, &x2, wo, w2, &c, L.e, cd.fx, cd.fy, C, r, NULL, mid, nmid,
@@ -889,7 +943,7 @@ void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p
 
     /* the delta scatterings at chain surfaces, to the first other surface x */
     spc_hit x, v[SPC_PATH_LT_GUIDE_MAX];
-    int k = delta_walk(sc, p, rng, SPC_PATH_LT_GUIDE_MAX, &ray, &beta, NULL, v, &x);
+    int k = delta_walk(sc, p, rng, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, &ray, &beta, NULL, v, &x);
     /* a light guide's chain (longer than any specular NEE covers), within max_depth's k + 2 segments */
     if (k < spc_path_lt_guide_min_chain(ctx, p) || (ctx->max_depth >= 0 && k + 2 > ctx->max_depth) ||
         !spc_bsdf_has_smooth(x.bsdf))

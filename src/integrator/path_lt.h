@@ -103,6 +103,20 @@ bool spc_path_lt_area_enabled(const spc_snee_params *p);
 int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
                        int receivers);
 
+/* The longest chain through flat faces only (spc_flat_chain_covers: glass slabs, any events) whose
+ * paths light tracing makes for an area light at x2, reached as spc_path_lt_budget's x2: past the
+ * budget, up to the longest chain the path's track follows from x2 (the longer chains' pass:
+ * spc_snee_track_long_max, at most SPC_FLAT_MAX_VERTICES), where BSDF sampling's weight of the path
+ * is computed (spc_snee_receiver_weights) and so can leave light tracing its share; the budget
+ * where the track stops there. 0 where specular NEE makes no query at x2. */
+int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                            int receivers);
+
+/* The longest light chain c of an area light that light tracing makes at a receiver with these
+ * budgets (spc_path_lt_budget's kmax, spc_path_lt_flat_budget's kflat): kflat for a chain through
+ * flat faces only (with exact enumeration), kmax for the others. Both sides read it. */
+int spc_path_lt_area_chain_max(const spc_snee_params *p, const spc_chain *c, int kmax, int kflat);
+
 /* The density ratio r = p_lt / p_path of the path x1 (left toward w1) - x2 (left toward w2 on the
  * x1 side) - chain c from x2 - point light e; 0 where light tracing does not make it. */
 double spc_path_lt_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,

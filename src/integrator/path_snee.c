@@ -84,7 +84,7 @@ static double lt_alt(const void *user, const spc_hit *x, spc_vec3 wo, const spc_
                      spc_vec3 y, spc_vec3 ny)
 {
     const spc_path_snee *s = user;
-    if (c->n > s->alt_kmax || !s->alt_x1_set)
+    if (c->n > spc_path_lt_area_chain_max(&s->p, c, s->alt_kmax, s->alt_kflat) || !s->alt_x1_set)
         return 0.0;
     return spc_path_lt_area_ratio(s->ctx, &s->p, &s->alt_x1, s->alt_w1, x, wo, NULL, c, e, y, ny);
 }
@@ -95,7 +95,8 @@ static double lt_alt_first(const void *user, const spc_hit *x, spc_vec3 wo, cons
 {
     const spc_path_snee *s = user;
     int j = s->alt_scatterings;
-    if (c->n > s->alt_kmax || s->alt_x1_set || j > s->p.max_chain || j > SPC_CHAIN_MAX_VERTICES)
+    if (c->n > spc_path_lt_area_chain_max(&s->p, c, s->alt_kmax, s->alt_kflat) || s->alt_x1_set ||
+        j > s->p.max_chain || j > SPC_CHAIN_MAX_VERTICES)
         return 0.0;
     if (j == 0)
         return spc_path_lt_area_ratio(s->ctx, &s->p, NULL, spc_v3(0, 0, 0), x, wo, NULL, c, e, y, ny);
@@ -249,6 +250,7 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
             s->alt_w1 = s->lt_w1;
             s->alt_x1_set = true;
             s->alt_kmax = s->lt_kmax;
+            s->alt_kflat = spc_path_lt_flat_budget(ctx, &s->p, h, segments, s->receivers);
         }
     } else if (s->lt_enabled && s->receivers == 0) {
         /* the first receiver, seen directly or through delta scatterings only */
@@ -260,6 +262,7 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
         s->alt_x1_set = false;
         s->alt_scatterings = s->scatterings;
         s->alt_kmax = s->lt_kmax;
+        s->alt_kflat = spc_path_lt_flat_budget(ctx, &s->p, h, segments, 0);
     }
     spc_rng rng;
     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);

@@ -48,11 +48,11 @@ typedef struct spc_path_snee {
     /* the camera's side of the receiver where params.alt_chain_ratio was set (area lights' light
      * tracing), kept for the BSDF side's weight of the paths that leave it (the state above moves
      * on with the path): x1 and w1 (alt_x1_set: the second receiver), the delta scatterings before
-     * it (the first receiver), the chain budget there */
+     * it (the first receiver), the chain budget there and light tracing's for flat chains */
     spc_hit alt_x1;
     spc_vec3 alt_w1;
     bool alt_x1_set;
-    int alt_scatterings, alt_kmax;
+    int alt_scatterings, alt_kmax, alt_kflat;
     /* the light-guide caustics (path_lt.h, params.lt_guide): the camera ray's hit lg_x (left toward
      * the camera along lg_wo, along lg_d0 by a non-delta sample), the delta scatterings at chain
      * surfaces since (lg_k) and the last direction (lg_dlast); lg_on while the path is one the
