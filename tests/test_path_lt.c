@@ -766,6 +766,14 @@ TEST(mesh_ball_point_render_agrees_without_it)
                          "mesh ball, point light: ltcaus vs without");
 }
 
+/* Under the two slabs the render with ltcaus (light tracing's chains of 1-6 vertices through the
+ * flat faces) agrees with one without. */
+TEST(slab_render_agrees_without_it)
+{
+    scene_settings_agree(SLAB_SCENE, "angular:camera=0.036,first=0.1,later=0.1,ltcaus",
+                         "angular:camera=0.036,first=0.1,later=0.1", 512, 47, "slabs: ltcaus vs without");
+}
+
 /* With an area light the render with ltcaus agrees with one without (the same paths, split three
  * ways instead of two). */
 TEST(area_light_render_agrees_without_it)
@@ -1002,6 +1010,7 @@ int main(void)
     RUN(mesh_ball_point_weights_sum_to_one);
     RUN(mesh_ball_point_render_agrees_without_it);
     RUN(slab_area_weights_sum_to_one);
+    RUN(slab_render_agrees_without_it);
     RUN(area_light_render_agrees_without_it);
     RUN(area_light_joins_only_at_the_first_two_receivers);
     RUN(guide_weights_sum_to_one);

@@ -1263,6 +1263,54 @@ static spc_scene *slab_scene(double light_scale, bool two, bool slab, bool mirro
     return sc;
 }
 
+/* Slabs under small area lights, for path: light tracing makes their caustics too (",ltcaus") and
+ * the flat enumeration's 3- and 4-vertex chains run on a share of the calls (flat34=0.3), the
+ * 5-vertex ones too where the cost rule put them on every call (flat5=0.3); not for volpath or
+ * bdpt, and not where no caster is flat (the glass sphere keeps every chain at every call). */
+TEST(slab_plan_light_tracing)
+{
+    static const struct {
+        double scale;
+        const char *integrator;
+        int want; /* 0 no light tracing, 1 ltcaus with flat34, 2 with flat34 and flat5 */
+    } cases[] = {
+        {0.125, "path", 2}, {0.05, "path", 1}, {0.05, "volpath", 0}, {0.05, "bdpt", 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        spc_scene *sc = slab_scene(cases[i].scale, false, true, false, false);
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp), "case %zu: %s (%s)", i, p.setting, p.reason);
+        if (cases[i].want == 0)
+            CHECK_MSG(!strstr(p.setting, "ltcaus") && sp.flat34_p == 1.0, "case %zu (%s): %s", i,
+                      cases[i].integrator, p.setting);
+        else
+            CHECK_MSG(sp.lt_caustic && sp.flat34_p == 0.3 &&
+                          sp.flat5_p == (cases[i].want == 2 ? 0.3 : 0.0) && sp.long_p > 0.0,
+                      "case %zu: %s", i, p.setting);
+        spc_scene_destroy(sc);
+    }
+    spc_scene *sc = load_at("scenes/caustic_slabs_small_light.xml", "8");
+    if (sc) {
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        CHECK_MSG(p.on && strstr(p.setting, SPC_SNEE_PLAN_AREA_LIGHTS SPC_SNEE_PLAN_FLAT_LT), "caustic_slabs_small_light: %s",
+                  p.setting);
+        spc_scene_destroy(sc);
+    }
+    sc = load_at("scenes/caustic_glass_sphere.xml", "8");
+    if (sc) {
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        CHECK_MSG(p.on && strstr(p.setting, "ltcaus") && !strstr(p.setting, "flat34"), "caustic_glass_sphere: %s",
+                  p.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
 /* Flat-faced casters under a light larger than the flat rule's (SPC_SNEE_PLAN_FLAT_MAX_SR): path's
  * plan is on with the longer chains (SPC_SNEE_PLAN_FLAT_LONG) where the pilot's face sequences per
  * query times the light's solid angle (from the casters' centre) is at most
@@ -1374,5 +1422,6 @@ int main(void)
     RUN(volpath_ball_plan);
     RUN(water_plane_plan_no_camera_query);
     RUN(one_slab_plan_long_chains);
+    RUN(slab_plan_light_tracing);
     return spc_test_finish();
 }

@@ -125,6 +125,21 @@ static bool small_area_lights(const spc_scene *sc, const spc_chain_casters *cs)
     return area;
 }
 
+/* Flat-faced casters under small area lights, for path (no caustic guide at receivers): light
+ * tracing makes their caustics too (,ltcaus where no other rule added it) and the flat
+ * enumeration's longer chains run on a share of the calls (snee_plan.h, SPC_SNEE_PLAN_FLAT_LT and
+ * SPC_SNEE_PLAN_FLAT_LT_LONG where the 5-vertex chains ran at every call). */
+static void flat_light_tracing(const spc_scene *sc, const spc_chain_casters *cs, int nflat, const char *integrator,
+                               spc_snee_plan *out)
+{
+    if (nflat == 0 || strcmp(integrator, "path") || strstr(out->setting, "recguide") || !small_area_lights(sc, cs))
+        return;
+    size_t n = strlen(out->setting);
+    snprintf(out->setting + n, sizeof out->setting - n, "%s%s",
+             strstr(out->setting, "ltcaus") ? "" : SPC_SNEE_PLAN_AREA_LIGHTS,
+             strstr(out->setting, SPC_SNEE_PLAN_FLAT_LONG) ? SPC_SNEE_PLAN_FLAT_LT_LONG : SPC_SNEE_PLAN_FLAT_LT);
+}
+
 /* Is some caster a glass sphere (its chains enumerated, sphere_chains.h)? */
 static bool glass_sphere(const spc_scene *sc, const spc_chain_casters *cs)
 {
@@ -717,6 +732,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LONG);
     }
+    flat_light_tracing(sc, cs, nflat, integrator, out);
     /* volpath: a share of the random seeds at medium points from the phase function, where some
      * caster's chains go to the randomized attempts (snee_plan.h) */
     if (!strcmp(integrator, "volpath") && (!exact || solved_mirror)) {

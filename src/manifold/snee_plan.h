@@ -255,6 +255,18 @@
  * rule" and "the slab plan never worse than none". */
 #define SPC_SNEE_PLAN_FLAT_LONG ",long=0.3,flat5=1"
 
+/* Appended for path where some caster is flat-faced (a slab) and the lights are small area lights
+ * (as SPC_SNEE_PLAN_AREA_LIGHTS; ",ltcaus" first where no other rule added it), without the caustic
+ * guide at receivers: light tracing makes the slabs' caustics too (chains through flat faces of up
+ * to 6 vertices, integrator/path_lt.h), so specular NEE's flat chains past the budget, whose
+ * enumeration held most of a sample's cost, run on a share of the calls (flat34; and flat5 where
+ * SPC_SNEE_PLAN_FLAT_LONG put the 5-vertex chains on every call): without light tracing those
+ * shares made one-pixel seeds (BSDF sampling's paths at weight near 1), with it light tracing
+ * takes the larger part of those paths. Measured in bench/RESULTS.md, "Light tracing of caustics
+ * through flat glass slabs". */
+#define SPC_SNEE_PLAN_FLAT_LT ",flat34=0.3"
+#define SPC_SNEE_PLAN_FLAT_LT_LONG ",flat34=0.3,flat5=0.3"
+
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
  * glass sphere or a tessellated glass ball is a caster, without the caustic guide at receivers: the
  * area lights' caustics also by light tracing from a point on the light (integrator/path_lt.h),
