@@ -121,6 +121,22 @@ double spc_sampler_1d(spc_sampler *s)
  * five pairs in one batch). */
 #define MANY_LANES 128
 
+/* A batch's unhashed seeds and reversed indices: for m streams (pixel seeds pseed, first dimensions
+ * dim0, reversed indices rev) and np pairs each, slot k m + q holds stream q's (dim0 + pair[k] + 1)-th
+ * pair's seed, spc_sampler_2d's (the dimension a 32-bit count), and the stream's reversed index. */
+static inline __attribute__((always_inline)) void pair_seeds(int m, int np, const int *pair, const uint64_t *pseed,
+                                                             const uint32_t *dim0, const uint32_t *rev,
+                                                             uint64_t *seed, uint32_t *rk)
+{
+    for (int k = 0; k < np; ++k) {
+        uint32_t d = (uint32_t)pair[k] + 1u;
+        for (int q = 0; q < m; ++q) {
+            seed[k * m + q] = pseed[q] + 0x9e3779b97f4a7c15ULL * (uint64_t)(uint32_t)(dim0[q] + d);
+            rk[k * m + q] = rev[q];
+        }
+    }
+}
+
 /* A batch's pairs as plain loops over arrays (pair_x's and spc_sampler_2d's arithmetic, in the same
  * order): for m streams (their pixel seeds pseed, first dimensions dim0 and reversed indices rev) and
  * np pairs each, pair number pair[k] in slot k m + q of stream q, the seeds, then the first
@@ -134,15 +150,7 @@ static inline __attribute__((always_inline)) void pairs_loops(int m, int np, int
 {
     uint64_t h[MANY_LANES];
     uint32_t idx[MANY_LANES], rk[MANY_LANES];
-    for (int k = 0; k < np; ++k) {
-        /* the stream's (dim0 + pair + 1)-th pair, spc_sampler_2d's seed (the dimension a 32-bit
-         * count) */
-        uint32_t d = (uint32_t)pair[k] + 1u;
-        for (int q = 0; q < m; ++q) {
-            h[k * m + q] = pseed[q] + 0x9e3779b97f4a7c15ULL * (uint64_t)(uint32_t)(dim0[q] + d);
-            rk[k * m + q] = rev[q];
-        }
-    }
+    pair_seeds(m, np, pair, pseed, dim0, rev, h, rk);
     const int mx = np * m, my = ky * m;
     for (int j = 0; j < mx; ++j)
         h[j] = spc_hash64(h[j]);
@@ -208,13 +216,7 @@ PAIRS_ATTR(PAIRS_GFNI) static void pairs_gfni(PAIRS_ARGS)
 {
     uint64_t seed[MANY_LANES];
     uint32_t rk[MANY_LANES];
-    for (int k = 0; k < np; ++k) {
-        uint32_t d = (uint32_t)pair[k] + 1u;
-        for (int q = 0; q < m; ++q) {
-            seed[k * m + q] = pseed[q] + 0x9e3779b97f4a7c15ULL * (uint64_t)(uint32_t)(dim0[q] + d);
-            rk[k * m + q] = rev[q];
-        }
-    }
+    pair_seeds(m, np, pair, pseed, dim0, rev, seed, rk);
     const int mx = np * m, my = ky * m;
     const __m256i byte = _mm256_set1_epi32(0xff);
     for (int j = 0; j < mx; j += 8) {
