@@ -157,8 +157,9 @@ static bool mesh_ball_chain(const spc_snee_params *p, const spc_chain *c)
 }
 
 /* Is the chain c (from x2 toward a point light) one whose paths light tracing makes: one glass
- * sphere's (with exact enumeration), or a tessellated glass ball's (mesh_ball_chain)? For the
- * ball, specular NEE's estimate of each chain's value is unbiased but not an enumeration (the
+ * sphere's or through flat faces only (glass slabs; both with exact enumeration), or a tessellated
+ * glass ball's (mesh_ball_chain)? For the flat faces specular NEE's density carries the probability
+ * of its enumeration's pass (point_psi). For the ball, specular NEE's estimate of each chain's value is unbiased but not an enumeration (the
  * fitted sphere's seeds, randomized attempts counted by their trials): the weights need only be
  * the same function of the path on both sides, so both sides take the ratio below with specular
  * NEE's density that of an exact count (the query's roulette alone). */
@@ -166,7 +167,41 @@ static bool point_chain_covers(const spc_snee_params *p, const spc_chain *c)
 {
     if (!p->exact || c->n < 1)
         return false;
-    return spc_sphere_chain_covers(c, p->reflect) || mesh_ball_chain(p, c);
+    return spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_covers(c, p->reflect) || mesh_ball_chain(p, c);
+}
+
+/* The depth left after `segments` path segments for the longer chains (specular NEE's long_max at
+ * a receiver there, as spc_path_snee_at_vertex passes it). */
+static int long_left(const spc_render_ctx *ctx, int segments)
+{
+    return ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < SPC_CHAIN_MAX_VERTICES
+               ? ctx->max_depth - segments - 1
+               : SPC_CHAIN_MAX_VERTICES;
+}
+
+int spc_path_lt_point_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2,
+                                  int segments, int receivers)
+{
+    int b = spc_path_lt_budget(ctx, p, x2, segments, receivers);
+    if (b <= 0 || !p->exact)
+        return b > 0 ? b : 0;
+    int l = long_left(ctx, segments);
+    if (l > SPC_FLAT_MAX_VERTICES)
+        l = SPC_FLAT_MAX_VERTICES;
+    return l > b ? l : b;
+}
+
+/* The probability with which specular NEE's query at x2 (reached as spc_path_lt_budget's x2)
+ * enumerates the point light's chain c through flat faces (spc_snee_flat_psi with its budget and
+ * depth left there): the factor of specular NEE's density that light tracing's ratio of such a path
+ * (spc_path_lt_ratio_via, spc_path_lt_ratio_first) leaves out; 0 where it never does (the path is
+ * light tracing's alone); 1 for any other chain. */
+static double point_psi(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                        int receivers, const spc_chain *c)
+{
+    if (!p->exact || !spc_flat_chain_covers(c, p->reflect))
+        return 1.0;
+    return spc_snee_flat_psi(p, spc_path_lt_budget(ctx, p, x2, segments, receivers), long_left(ctx, segments), c->n);
 }
 
 /* Light tracing's density of the chain c from x toward the point light e, in area measure at x:
@@ -504,29 +539,36 @@ typedef struct lt_end {
 } lt_end;
 
 /* The chain budgets at x2 reached after `segments` segments with `receivers` receivers before it
- * (*kmax: specular NEE's, *kflat: light tracing's for an area light's flat chains, else *kmax), and
- * whether the light subpath's chain fits them. */
+ * (*kmax: specular NEE's, *kflat: light tracing's for flat chains, an area light's
+ * spc_path_lt_flat_budget or a point light's spc_path_lt_point_flat_budget), whether the light
+ * subpath's chain fits them, and in *psi (point lights) specular NEE's probability of enumerating
+ * that chain there (point_psi; 1 for area lights). */
 static bool chain_fits(const spc_render_ctx *ctx, const spc_snee_params *p, const lt_end *L, const spc_hit *x2,
-                       int segments, int receivers, int *kmax, int *kflat)
+                       int segments, int receivers, int *kmax, int *kflat, double *psi)
 {
     *kmax = spc_path_lt_budget(ctx, p, x2, segments, receivers);
-    *kflat = L->area ? spc_path_lt_flat_budget(ctx, p, x2, segments, receivers) : *kmax;
+    *kflat = L->area ? spc_path_lt_flat_budget(ctx, p, x2, segments, receivers)
+                     : spc_path_lt_point_flat_budget(ctx, p, x2, segments, receivers);
+    *psi = L->area ? 1.0 : point_psi(ctx, p, x2, segments, receivers, L->c);
     return L->c->n <= spc_path_lt_area_chain_max(p, L->c, *kmax, *kflat);
 }
 
 /* The ratio *r and light tracing's weight of the join x1 (NULL: x2 is the first receiver, seen
  * through cc or directly) - the nmid middle vertices mid (point lights only) - x2 (seen from wo2) -
- * the light subpath L; kmax the chain budget at x2, kflat the flat chains' (spc_path_lt_flat_budget). 0
+ * the light subpath L; kmax the chain budget at x2, kflat the flat chains' (spc_path_lt_flat_budget),
+ * psi (point lights) specular NEE's probability of enumerating the chain there (chain_fits). 0
  * where light tracing does not make the path. */
 static double join_weight(const spc_render_ctx *ctx, const spc_snee_params *p, const lt_end *L, const spc_hit *x1,
                           spc_vec3 w1, const spc_path_lt_vertex *mid, int nmid, const spc_hit *x2, spc_vec3 wo2,
-                          const spc_chain *cc, int kmax, int kflat, double *r)
+                          const spc_chain *cc, int kmax, int kflat, double psi, double *r)
 {
     if (!L->area) {
         *r = x1 ? spc_path_lt_ratio_via(ctx, p, x1, w1, mid, nmid, x2, wo2, L->c, L->e)
                 : spc_path_lt_ratio_first(ctx, p, x2, cc, L->c, L->e);
-        if (*r > 0.0 && L->lt_only)
+        if (*r > 0.0 && (L->lt_only || !(psi > 0.0)))
             *r = INFINITY;
+        else if (*r > 0.0)
+            *r /= psi;
         return *r > 0.0 ? spc_path_lt_weight(*r) : 0.0;
     }
     *r = spc_path_lt_area_ratio(ctx, p, x1, w1, x2, wo2, cc, L->c, L->e, L->y, L->ny);
@@ -559,7 +601,9 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
     for (int i = 0; i < n; ++i) {
         const spc_chain *cc = &all[i];
         int kmax_cc, kflat_cc;
-        if (cc->n < min_chain || cc->n > max_chain || !chain_fits(ctx, p, L, x2, cc->n + 1, 0, &kmax_cc, &kflat_cc))
+        double psi_cc;
+        if (cc->n < min_chain || cc->n > max_chain ||
+            !chain_fits(ctx, p, L, x2, cc->n + 1, 0, &kmax_cc, &kflat_cc, &psi_cc))
             continue;
         double pc = camera_density(ctx, p, x2, cc, &cd);
         if (!(pc > 0.0))
@@ -577,7 +621,7 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
             continue;
         spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
         double r = 0.0;
-        double w = join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, kflat_cc, &r);
+        double w = join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, kflat_cc, psi_cc, &r);
         if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
             spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, L->e, cd.fx, cd.fy, C, r, cc, NULL, 0,
                                   L->y, L->ny, w};
@@ -598,7 +642,8 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
     const spc_chain *c = L->c;
     spc_camera_direct cd;
     int kmax, kflat;
-    if (chain_fits(ctx, p, L, x2, 1, 0, &kmax, &kflat) && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
+    double psi;
+    if (chain_fits(ctx, p, L, x2, 1, 0, &kmax, &kflat, &psi) && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
         spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cd.wi);
         double g = shading_fix(x2, d0, cd.wi) * spc_absdot(cd.wi, x2->sh.n) / (cd.dist * cd.dist);
         spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / N);
@@ -606,7 +651,7 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         double r = 0.0;
         double w = spc_rgb_is_black(C)
                        ? 0.0
-                       : join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cd.wi, NULL, kmax, kflat, &r);
+                       : join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cd.wi, NULL, kmax, kflat, psi, &r);
         if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
             spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cd.wi, c, L->e, cd.fx, cd.fy, C, r, NULL, NULL, 0,
                                   L->y, L->ny, w};
@@ -762,6 +807,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     if (L.area) {
         int l = flat_walk_max(p, SPC_CHAIN_MAX_VERTICES);
         kflat = l > kmax ? l : kmax;
+    } else if (p->exact && SPC_FLAT_MAX_VERTICES > kmax) {
+        kflat = SPC_FLAT_MAX_VERTICES; /* a point light's: spc_path_lt_point_flat_budget */
     }
     unsigned char events[SPC_CHAIN_MAX_VERTICES];
     spc_hit x2;
@@ -772,14 +819,25 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     L.d0 = d0;
     spc_chain c;
     if (!L.area) {
+        /* the events from x2 (the subpath took them from the light: the reverse order, which the
+         * sphere's and the ball's chains, in, reflected inside, out, do not tell from it) */
+        unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+        for (int i = 0; i < k; ++i)
+            ev[i] = events[k - 1 - i];
         bool exact;
-        if (!retrace_chain(sc, p, &x2, d0, k, events, L.y, &c, &exact) || !point_chain_covers(p, &c))
+        if (!retrace_chain(sc, p, &x2, d0, k, ev, L.y, &c, &exact) || !point_chain_covers(p, &c))
             return;
         if (spc_sphere_chain_covers(&c, p->reflect)) {
             /* a path specular NEE cannot make is light tracing's alone: r infinite, its weight 1.
              * Its enumeration at x2 is asked where it may miss the chain: near the caustic's fold,
              * where the chain focuses the light (and where no chain passes through y) */
             L.lt_only = (!exact || chain_focus(&c, &x2, L.y) > LT_CHECK_FOCUS) && !nee_finds(sc, p, &x2, &c, L.y);
+        } else if (spc_flat_chain_covers(&c, p->reflect)) {
+            /* through flat faces: one chain per face sequence passes through y (no fold), and
+             * specular NEE's flat enumeration solves it from x2 on the calls it runs that length
+             * (point_psi); weighed with the chain solved through y, as specular NEE's is */
+            if (exact)
+                L.d0 = c.d0;
         } else {
             /* the tessellated ball: where the retrace reaches the light, specular NEE's attempts
              * find that chain with some probability and count it without bias (point_chain_covers);
@@ -830,7 +888,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
         ++segs;
         spc_vec3 wo = spc_neg(ray.d);
         int kmax2, kflat2;
-        if (spc_bsdf_has_smooth(h.bsdf) && chain_fits(ctx, p, &L, &x2, segs + 1, 1 + nmid, &kmax2, &kflat2)) {
+        double psi2;
+        if (spc_bsdf_has_smooth(h.bsdf) && chain_fits(ctx, p, &L, &x2, segs + 1, 1 + nmid, &kmax2, &kflat2, &psi2)) {
             spc_camera_direct cd;
             if (spc_camera_sample_direct(ctx->cam, h.p, &cd) && in_window(ctx, cd.fx, cd.fy)) {
                 spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, cd.wi);
@@ -838,7 +897,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
                 spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
                 if (!spc_rgb_is_black(C)) {
                     double r = 0.0;
-                    double w = join_weight(ctx, p, &L, &h, wo, mid, nmid, &x2, w2, NULL, kmax2, kflat2, &r);
+                    double w = join_weight(ctx, p, &L, &h, wo, mid, nmid, &x2, w2, NULL, kmax2, kflat2, psi2, &r);
                     spc_ray sr = spc_hit_spawn_to(&h, cd.p_near, 0.0);
                     if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
                         spc_path_lt_join j = {&h, &x2, wo, w2, &c, L.e, cd.fx, cd.fy, C, r, NULL, mid, nmid,

@@ -37,6 +37,14 @@
  *
  *     r = p_dir(w0) P_chain |dw0/dA(x2)| / (q(x2) We / N |dw_cam/dA(x2)| P_cam).
  *
+ * A point light's chain may also run through flat faces only (glass slabs, spc_flat_chain_covers, up
+ * to SPC_FLAT_MAX_VERTICES and the depth left: spc_path_lt_point_flat_budget): specular NEE's flat
+ * enumeration makes such a chain of k vertices on a share psi of its calls (spc_snee_flat_psi: 1
+ * up to 4 vertices by default, flat34 below that, flat5 and flat6 past it), so its density, and
+ * the r specular NEE's side reads, carries psi (r / psi; psi 0: light tracing's alone, as no other
+ * strategy reaches a point light). A point light's chain may lie on a tessellated glass ball too,
+ * with specular NEE's density that of an exact count (its estimate of each chain is unbiased).
+ *
  * The joins through the sphere (its root search from x2, most of the strategy's cost) run on a
  * share s of the subpaths (SPC_PATH_LT_THROUGH_SHARE, or the parameters' lt_through), counted 1/s
  * times; light tracing's density of those paths, and so their r, carries the factor s.
@@ -111,6 +119,15 @@ int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, cons
  * where the track stops there. 0 where specular NEE makes no query at x2. */
 int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
                             int receivers);
+
+/* The longest chain through flat faces only whose paths light tracing makes for a point light at
+ * x2, reached as spc_path_lt_budget's x2: past the budget, up to the depth left there (at most
+ * SPC_FLAT_MAX_VERTICES). BSDF sampling never reaches a point light, so past the lengths specular
+ * NEE's flat enumeration makes (spc_snee_flat_psi 0) such paths are light tracing's alone, and on
+ * the lengths it makes on a share of its calls light tracing's weight is against that share. 0
+ * where specular NEE makes no query at x2. */
+int spc_path_lt_point_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2,
+                                  int segments, int receivers);
 
 /* The longest light chain c of an area light that light tracing makes at a receiver with these
  * budgets (spc_path_lt_budget's kmax, spc_path_lt_flat_budget's kflat): kflat for a chain through
