@@ -274,11 +274,11 @@
  * which specular NEE does not make by default, no other strategy makes. At equal CPU time against
  * bdpt over 32 seeds, without the pixels that see the point light through the glass (bench/
  * RESULTS.md, "Point lights through flat glass by light tracing"), 1.05-9.3x lower mean relMSE than
- * without on 7 of 9 slab scenes under a point light, 0.96-0.97x on the other two; the image mean
- * of random scene 1018 from 0.992 of bdpt's to 1.006. The flat enumeration's 3- and 4-vertex chains
- * on a share of the calls besides (SPC_SNEE_PLAN_FLAT_LT, as under small area lights) was lower on
- * 8 of 9 (1.4-13x) but made one-pixel seeds on two (1057, 6101: shares 0.94 and 0.99, 6101 3x
- * worse than without): light tracing does not join the pixels that see the floor through a slab. */
+ * without on 7 of 9 slab scenes under a point light, 0.96-0.97x on the other two. The flat
+ * enumeration's 3- and 4-vertex chains on a share of the calls besides (SPC_SNEE_PLAN_FLAT_LT, as
+ * under small area lights) was lower on 8 of 9 (1.4-13x) but made one-pixel seeds on two (random
+ * scenes 1057 and 6101: shares 0.94 and 0.99, 6101 3x worse than without): light tracing does not
+ * join the pixels that see the floor through a slab. */
 #define SPC_SNEE_PLAN_FLAT_POINT_LIGHTS ",ltcaus"
 
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
