@@ -648,13 +648,28 @@ static void check_mesh_point_join(void *user, const spc_path_lt_join *j)
 {
     mesh_point_tally *t = user;
     ++t->joins;
-    CHECK(j->e->type == SPC_EMITTER_POINT && j->w > 0.0 && j->w <= 1.0 && j->cc == NULL);
+    CHECK(j->e->type == SPC_EMITTER_POINT && j->w > 0.0 && j->w <= 1.0);
     if (isinf(j->r)) {
         ++t->lt_only;
         CHECK(j->w == 1.0);
         return;
     }
-    ++t->kinds[j->x1 ? (j->nmid > 0 ? 3 : 2) : 0];
+    ++t->kinds[j->x1 ? (j->nmid > 0 ? 3 : 2) : j->cc ? 1 : 0];
+    /* through the ball toward the pinhole: the camera's chain as the path tracer retraces it from
+     * x2 (its events, along its first direction), which the camera's side weighs with */
+    spc_chain rc;
+    if (j->cc) {
+        unsigned char cev[SPC_CHAIN_MAX_VERTICES];
+        for (int i = 0; i < j->cc->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
+            cev[i] = j->cc->v[i].event;
+        spc_frame f = spc_frame_from_n(j->cc->d0);
+        spc_chain_opts o = spc_chain_opts_default(j->cc->n);
+        o.events = cev;
+        o.any_surface = t->p->any_surface;
+        spc_chain_trace(t->ctx->scene, j->x2, &f, 0.0, 0.0, &o, &rc);
+        if (rc.n != j->cc->n)
+            return;
+    }
     spc_snee_query q;
     spc_snee_query_init(&q, t->ctx->scene, t->p, j->x2, j->w2, j->c->n);
     q.y = j->e->position;
@@ -676,7 +691,7 @@ static void check_mesh_point_join(void *user, const spc_path_lt_join *j)
         return;
     ++t->solved;
     double r = j->x1 ? spc_path_lt_ratio_via(t->ctx, t->p, j->x1, j->w1, j->mid, j->nmid, j->x2, j->w2, &c, j->e)
-                     : spc_path_lt_ratio_first(t->ctx, t->p, j->x2, NULL, &c, j->e);
+                     : spc_path_lt_ratio_first(t->ctx, t->p, j->x2, j->cc ? &rc : NULL, &c, j->e);
     double gap = fabs(1.0 / (1.0 + r * r) + j->w - 1.0);
     if (gap > t->worst_gap)
         t->worst_gap = gap;
@@ -685,10 +700,11 @@ static void check_mesh_point_join(void *user, const spc_path_lt_join *j)
 }
 
 /* The triangle glass ball under a point light: light tracing makes the ball's point-light chains
- * (directly, through a diffuse bounce, through two), specular NEE's solver finds the same chain from
- * x2, and the two weights of each such path sum to one; light tracing takes the larger share on
- * some joins (near the caustic's fold), specular NEE on others; the joins toward the pinhole
- * through the ball are not made (no enumeration of the mesh's chains toward the pinhole). */
+ * and joins x2 to the pinhole directly, through the ball (the chains it solves from the fitted
+ * sphere's roots toward the pinhole), through a diffuse bounce and through two; specular NEE's
+ * solver finds the same chain from x2, and the two weights of each such path sum to one (through
+ * the ball with the camera's chain as the path tracer retraces it); light tracing takes the larger
+ * share on some joins (near the caustic's fold), specular NEE on others. */
 TEST(mesh_ball_point_weights_sum_to_one)
 {
     spc_camera_state cam;
@@ -707,12 +723,12 @@ TEST(mesh_ball_point_weights_sum_to_one)
     int n = spc_test_quick() ? 5000 : 20000;
     for (int i = 0; i < n; ++i)
         spc_path_lt_joins(&ctx, &p, &rng, check_mesh_point_join, &t);
-    printf("  %s: %d joins (light tracing's alone %d; directly %d, through a diffuse bounce %d, through two %d), "
-           "specular NEE's solve from x2 finds the chain on %d, light tracing's weight above 1/2 on %.0f, below on "
-           "%.0f, largest gap of the two weights' sum from 1 %.3g\n",
-           MESH_POINT_SCENE, t.joins, t.lt_only, t.kinds[0], t.kinds[2], t.kinds[3], t.solved, t.above, t.below,
-           t.worst_gap);
-    CHECK(t.joins > 50 && t.kinds[0] > 10 && t.kinds[2] > 10);
+    printf("  %s: %d joins (light tracing's alone %d; directly %d, through the ball %d, through a diffuse bounce %d, "
+           "through two %d), specular NEE's solve from x2 finds the chain on %d, light tracing's weight above 1/2 on "
+           "%.0f, below on %.0f, largest gap of the two weights' sum from 1 %.3g\n",
+           MESH_POINT_SCENE, t.joins, t.lt_only, t.kinds[0], t.kinds[1], t.kinds[2], t.kinds[3], t.solved, t.above,
+           t.below, t.worst_gap);
+    CHECK(t.joins > 50 && t.kinds[0] > 10 && t.kinds[1] > 10 && t.kinds[2] > 10);
     CHECK_MSG(t.solved > (t.joins - t.lt_only) * 9 / 10, "specular NEE solves %d of %d joins' chains", t.solved,
               t.joins - t.lt_only);
     CHECK_MSG(t.worst_gap < 1e-5, "the two weights sum to 1 +- %.3g", t.worst_gap);

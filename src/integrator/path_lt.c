@@ -269,6 +269,85 @@ double spc_path_lt_ratio_via(const spc_render_ctx *ctx, const spc_snee_params *p
     return ratio_of(num, den);
 }
 
+/* The most chains of the tessellated glass balls from x2 toward the pinhole a join looks for (the
+ * fitted sphere's solutions per ball). */
+#define MESH_CAMERA_CHAINS SPC_FIT_MAX_DIRS
+
+/* The chains of the tessellated glass balls (mesh_ball_chain) from x toward the pinhole, of at most
+ * max_chain vertices: for each ball, specular NEE's solver seeded along each of the fitted
+ * sphere's solutions toward the pinhole with that solution's events (as specular NEE seeds its
+ * fitted roots toward a light), the distinct chains it converges to. A deterministic function of x
+ * (no random draw: the seed and the events fixed), computed alike by light tracing's joins and by
+ * the path tracer's side, so that a path through the ball toward the pinhole is light tracing's
+ * to share exactly where its chain is one of these (mesh_camera_chain_found). At most max to out. */
+static int mesh_camera_chains(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x, int max_chain,
+                              spc_chain *out, int max)
+{
+    const spc_scene *sc = ctx->scene;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, p->any_surface);
+    const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
+    if (!cs || !solver || !solver->solve_one || max_chain < 1)
+        return 0;
+    int n = 0;
+    for (int j = 0; j < cs->n && n < max; ++j) {
+        const spc_shape *s = sc->shapes[cs->idx[j]];
+        spc_vec3 fc;
+        double fr;
+        if (s->type != SPC_SHAPE_MESH || !s->bsdf || s->bsdf->type != SPC_BSDF_DIELECTRIC ||
+            !spc_fit_sphere(s, &fc, &fr) || !(spc_distance(x->p, fc) > fr))
+            continue;
+        spc_snee_query q;
+        spc_snee_query_init(&q, sc, p, x, x->ng, max_chain);
+        q.y = ctx->cam->origin;
+        q.ny = spc_v3(0, 0, 0);
+        q.light_size = 0.0;
+        spc_vec3 dir[SPC_FIT_MAX_DIRS];
+        int m[SPC_FIT_MAX_DIRS];
+        int nr = spc_fit_roots_of(&q, s, dir, m, SPC_FIT_MAX_DIRS);
+        for (int r = 0; r < nr && n < max; ++r) {
+            int k = m[r] < 0 ? 1 : m[r] + 2;
+            if (k > max_chain || k > SPC_CHAIN_MAX_VERTICES)
+                continue;
+            unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+            for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
+                ev[i] = SPC_CHAIN_REFRACT;
+            for (int i = 1; i <= m[r]; ++i)
+                ev[i] = SPC_CHAIN_REFLECT;
+            if (m[r] < 0)
+                ev[0] = SPC_CHAIN_REFLECT;
+            if (!p->reflect && (m[r] != 0))
+                continue;
+            spc_snee_query tq = q;
+            tq.seed_dir = &dir[r];
+            tq.events = p->reflect ? ev : NULL;
+            spc_rng rng; /* unused by a fixed seed with fixed events; seeded for determinism */
+            spc_rng_seed(&rng, 1, 2);
+            spc_chain c;
+            int it = 0;
+            if (!solver->solve_one(&tq, &rng, &c, &it) || c.n < 1 || c.n > max_chain || !mesh_ball_chain(p, &c))
+                continue;
+            bool dup = false;
+            for (int i = 0; i < n && !dup; ++i)
+                dup = spc_snee_same_solution(&out[i], &c, sc->radius);
+            if (!dup)
+                out[n++] = c;
+        }
+    }
+    return n;
+}
+
+/* Is the camera's chain cc from x (a tessellated ball's) one of mesh_camera_chains's there? */
+static bool mesh_camera_chain_found(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
+                                    const spc_chain *cc)
+{
+    spc_chain all[MESH_CAMERA_CHAINS];
+    int n = mesh_camera_chains(ctx, p, x, p->max_chain, all, MESH_CAMERA_CHAINS);
+    for (int i = 0; i < n; ++i)
+        if (all[i].n == cc->n && spc_snee_same_solution(&all[i], cc, ctx->scene->radius))
+            return true;
+    return false;
+}
+
 /* The camera's density of the point x per camera sample, in area measure at x, where the camera
  * sees x directly (cc NULL) or through the chain cc from x (one glass sphere, at most max_chain
  * vertices: the chains spc_sphere_chains_all enumerates toward the pinhole); *cd the join to the
@@ -283,7 +362,9 @@ static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p
         return cd->We / N * spc_absdot(cd->wi, x->ng) / (cd->dist * cd->dist);
     }
     int j = cc->n;
-    if (j < 1 || j > spc_path_lt_camera_max_chain(p) || !spc_sphere_chain_covers(cc, p->reflect))
+    if (j < 1 || j > spc_path_lt_camera_max_chain(p))
+        return 0.0;
+    if (!spc_sphere_chain_covers(cc, p->reflect) && !(j <= p->max_chain && mesh_ball_chain(p, cc)))
         return 0.0;
     const spc_chain_vertex *last = &cc->v[j - 1];
     if (!spc_camera_sample_direct(ctx->cam, last->h.p, cd) || !in_window(ctx, cd->fx, cd->fy))
@@ -297,14 +378,27 @@ static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p
     return cd->We / N * spc_absdot(cc->d0, x->ng) * G * P;
 }
 
-double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
-                               const spc_chain *cc, const spc_chain *c, const spc_emitter *e)
+/* spc_path_lt_ratio_first where the camera's chain cc, if a tessellated ball's, is known to be one
+ * of mesh_camera_chains's at x (light tracing's joins, which take their cc from there). */
+static double ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x, const spc_chain *cc,
+                          const spc_chain *c, const spc_emitter *e)
 {
     spc_camera_direct cd;
     double pc = camera_density(ctx, p, x, cc, &cd);
     /* light tracing joins x to the pinhole through the sphere on a share of its subpaths only */
     double share = cc ? camera_chain_share(p, cc) : 1.0;
     return ratio_of(share * light_density(ctx->scene, p, x, c, e), query_prob(ctx->scene, p, x->p, true) * pc);
+}
+
+double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
+                               const spc_chain *cc, const spc_chain *c, const spc_emitter *e)
+{
+    /* through a tessellated ball, light tracing joins x to the pinhole by the chains it finds
+     * there only (mesh_camera_chains): the path tracer's side keeps the rest */
+    if (cc && !spc_sphere_chain_covers(cc, p->reflect) &&
+        !(cc->n <= p->max_chain && mesh_ball_chain(p, cc) && mesh_camera_chain_found(ctx, p, x, cc)))
+        return 0.0;
+    return ratio_first(ctx, p, x, cc, c, e);
 }
 
 /* ---- area lights ---- */
@@ -340,8 +434,9 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
     int k = c->n;
     if (!e || e->type != SPC_EMITTER_AREA || k < 1 || !area_chain_covers(p, c))
         return 0.0;
-    /* the joins through the sphere by chains longer than max_chain are point lights' only */
-    if (cc && cc->n > p->max_chain)
+    /* the joins through the sphere by chains longer than max_chain, and those through a
+     * tessellated ball, are point lights' only */
+    if (cc && (cc->n > p->max_chain || !spc_sphere_chain_covers(cc, p->reflect)))
         return 0.0;
     spc_vec3 d_last = c->v[k - 1].d;
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
@@ -564,7 +659,7 @@ static double join_weight(const spc_render_ctx *ctx, const spc_snee_params *p, c
 {
     if (!L->area) {
         *r = x1 ? spc_path_lt_ratio_via(ctx, p, x1, w1, mid, nmid, x2, wo2, L->c, L->e)
-                : spc_path_lt_ratio_first(ctx, p, x2, cc, L->c, L->e);
+                : ratio_first(ctx, p, x2, cc, L->c, L->e);
         if (*r > 0.0 && (L->lt_only || !(psi > 0.0)))
             *r = INFINITY;
         else if (*r > 0.0)
@@ -596,8 +691,12 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
     q.y = ctx->cam->origin;
     q.ny = spc_v3(0, 0, 0);
     q.light_size = 0.0;
-    spc_chain all[SPC_PATH_LT_CAMERA_CHAINS];
+    spc_chain all[SPC_PATH_LT_CAMERA_CHAINS + MESH_CAMERA_CHAINS];
     int n = spc_sphere_chains_all(&q, all, SPC_PATH_LT_CAMERA_CHAINS, NULL);
+    /* and a point light's paths through the tessellated balls' chains of at most max_chain */
+    if (!L->area && min_chain <= p->max_chain)
+        n += mesh_camera_chains(ctx, p, x2, p->max_chain < max_chain ? p->max_chain : max_chain, all + n,
+                                MESH_CAMERA_CHAINS);
     for (int i = 0; i < n; ++i) {
         const spc_chain *cc = &all[i];
         int kmax_cc, kflat_cc;

@@ -71,7 +71,19 @@
  * NEE, an area light's chain at x2 may also lie on a tessellated glass ball (one triangle mesh with a
  * fitted sphere, fit_seeds.h), whose chains specular NEE does not count exactly: its weight there
  * is its own (psi, or the sampled weight of a randomized attempt's chain), the same on all three
- * sides. The joins through the ball toward the pinhole stay the analytic sphere's (its enumeration).
+ * sides. An area light's joins through the ball toward the pinhole stay the analytic sphere's (its
+ * enumeration).
+ *
+ * A point light's chains through a tessellated glass ball are light tracing's too. Specular NEE
+ * finds them by the fitted sphere's seeds and randomized attempts, each counted so that its value
+ * is unbiased per chain (1 or the trial count), so any weight that is a function of the path
+ * alone, the same on both sides, splits them without bias: r takes specular NEE's density as an
+ * exact count's (the query's roulette). Where the retrace from x2 does not reach the light (no
+ * chain through it with those events) the path is light tracing's alone. The joins through the
+ * ball toward the pinhole take the chains of at most max_chain vertices that specular NEE's solver
+ * converges to from the fitted sphere's solutions toward the pinhole (a deterministic function of
+ * x2); the path tracer's side weighs its camera chain against light tracing only where its
+ * retraced chain is one of those (spc_path_lt_ratio_first), and keeps the others at weight 1.
  */
 #ifndef SPC_INTEGRATOR_PATH_LT_H
 #define SPC_INTEGRATOR_PATH_LT_H
@@ -151,8 +163,9 @@ double spc_path_lt_ratio_via(const spc_render_ctx *ctx, const spc_snee_params *p
                              const spc_chain *c, const spc_emitter *e);
 
 /* The same ratio where x is the path's first receiver, seen by the camera directly (cc NULL) or
- * through the chain cc from x toward the pinhole (one glass sphere): light tracing's density over
- * the camera's and specular NEE's at x. */
+ * through the chain cc from x toward the pinhole (one glass sphere, or a tessellated glass ball's
+ * chain of at most max_chain vertices that light tracing's joins find from x): light tracing's
+ * density over the camera's and specular NEE's at x; 0 for a ball's chain the joins do not find. */
 double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
                                const spc_chain *cc, const spc_chain *c, const spc_emitter *e);
 
