@@ -1314,8 +1314,8 @@ TEST(slab_plan_light_tracing)
 /* Slabs under point lights (a sky besides), for path: light tracing makes their caustics too
  * (",ltcaus"; the flat enumeration keeps its 3- and 4-vertex chains at every call): on
  * bench/check/two_slabs_point_light.xml and on one slab under a point light and a sky; not for
- * volpath or bdpt, not where a large area light is a light too, and not for the point light over
- * the triangle glass ball, where no caster is flat. */
+ * volpath or bdpt, and not where a large area light is a light too. The point light over the
+ * triangle glass ball has it by the ball's rule (SPC_SNEE_PLAN_BALL_POINT_LIGHTS), for path only. */
 TEST(slab_plan_point_light_tracing)
 {
     static const char *const lights[] = {
@@ -1369,7 +1369,8 @@ TEST(slab_plan_point_light_tracing)
         {"bench/check/two_slabs_point_light.xml", "path", true},
         {"bench/check/two_slabs_point_light.xml", "volpath", false},
         {"bench/check/two_slabs_point_light.xml", "bdpt", false},
-        {"bench/check/point_light_ball_mesh.xml", "path", false},
+        {"bench/check/point_light_ball_mesh.xml", "path", true},
+        {"bench/check/point_light_ball_mesh.xml", "volpath", false},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         spc_scene *sc = load_at(cases[i].file, "8");

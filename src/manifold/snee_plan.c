@@ -739,6 +739,15 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_AREA_LIGHTS);
     }
+    /* path lit by point lights (a sky besides), with a tessellated glass ball among the casters: the
+     * ball's point-light chains by light tracing too, joined to the pinhole through the ball as well,
+     * weighed against specular NEE's unbiased count of them (path_lt.h; snee_plan.h,
+     * SPC_SNEE_PLAN_BALL_POINT_LIGHTS) */
+    else if (!strcmp(integrator, "path") && glass && ball && !strstr(out->setting, "recguide") &&
+             point_lights_sky(sc)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_BALL_POINT_LIGHTS);
+    }
     /* and with a tessellated glass ball among the casters: light tracing's ratio for an area light
      * is against BSDF sampling alone, so the ball's chains need no exact count (path_lt.h) */
     else if (!strcmp(integrator, "path") && glass && ball && !strstr(out->setting, "recguide") &&

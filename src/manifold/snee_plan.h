@@ -267,6 +267,18 @@
 #define SPC_SNEE_PLAN_FLAT_LT ",flat34=0.3"
 #define SPC_SNEE_PLAN_FLAT_LT_LONG ",flat34=0.3,flat5=0.3"
 
+/* Appended for path where a glass caster is a tessellated ball (a triangle mesh with a fitted
+ * sphere) and every light is a point light (a sky besides), without the caustic guide at receivers:
+ * light tracing makes the ball's point-light chains too and joins them to the pinhole directly,
+ * through a diffuse bounce and through the ball (the chains specular NEE's solver finds from the
+ * fitted sphere's solutions toward the pinhole), weighed against specular NEE's unbiased count of
+ * them (integrator/path_lt.h). At equal CPU time against bdpt over 24 seeds, without the pixels
+ * that see the point light through the glass (bench/RESULTS.md, "Point lights through flat glass
+ * by light tracing", part 3): bench/check/point_light_ball_mesh.xml 2.3x lower mean relMSE than
+ * without, random triangle-ball scenes 1.15-1.23x on four of five and 0.90x on one; without the
+ * joins through the ball 0.77-1.11x (geometric mean 0.96x), which kept it out before. */
+#define SPC_SNEE_PLAN_BALL_POINT_LIGHTS ",ltcaus"
+
 /* Appended for path where some caster is flat-faced (a slab) and every light is a point light (a
  * sky besides), without the caustic guide at receivers, where no other rule added it: light
  * tracing makes the point lights' chains through flat faces of up to 6 vertices too
