@@ -159,10 +159,11 @@ static bool mesh_ball_chain(const spc_snee_params *p, const spc_chain *c)
 /* Is the chain c (from x2 toward a point light) one whose paths light tracing makes: one glass
  * sphere's or through flat faces only (glass slabs; both with exact enumeration), or a tessellated
  * glass ball's (mesh_ball_chain)? For the flat faces specular NEE's density carries the probability
- * of its enumeration's pass (point_psi). For the ball, specular NEE's estimate of each chain's value is unbiased but not an enumeration (the
- * fitted sphere's seeds, randomized attempts counted by their trials): the weights need only be
- * the same function of the path on both sides, so both sides take the ratio below with specular
- * NEE's density that of an exact count (the query's roulette alone). */
+ * of its enumeration's pass (point_psi). For the ball, specular NEE's estimate of each chain's value
+ * is unbiased but not an enumeration (the fitted sphere's seeds, randomized attempts counted by
+ * their trials): the weights need only be the same function of the path on both sides, so both
+ * sides take the ratio below with specular NEE's density that of an exact count (the query's
+ * roulette alone). */
 static bool point_chain_covers(const spc_snee_params *p, const spc_chain *c)
 {
     if (!p->exact || c->n < 1)
@@ -174,13 +175,12 @@ static bool point_chain_covers(const spc_snee_params *p, const spc_chain *c)
  * a receiver there, as spc_path_snee_at_vertex passes it). */
 static int long_left(const spc_render_ctx *ctx, int segments)
 {
-    return ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < SPC_CHAIN_MAX_VERTICES
-               ? ctx->max_depth - segments - 1
-               : SPC_CHAIN_MAX_VERTICES;
+    return ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < SPC_CHAIN_MAX_VERTICES ? ctx->max_depth - segments - 1
+                                                                                         : SPC_CHAIN_MAX_VERTICES;
 }
 
-int spc_path_lt_point_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2,
-                                  int segments, int receivers)
+int spc_path_lt_point_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                                  int receivers)
 {
     int b = spc_path_lt_budget(ctx, p, x2, segments, receivers);
     if (b <= 0 || !p->exact)
@@ -720,7 +720,8 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
             continue;
         spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
         double r = 0.0;
-        double w = join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, kflat_cc, psi_cc, &r);
+        double w =
+            join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, kflat_cc, psi_cc, &r);
         if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
             spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, L->e, cd.fx, cd.fy, C, r, cc, NULL, 0,
                                   L->y, L->ny, w};

@@ -138,8 +138,8 @@ int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p,
  * NEE's flat enumeration makes (spc_snee_flat_psi 0) such paths are light tracing's alone, and on
  * the lengths it makes on a share of its calls light tracing's weight is against that share. 0
  * where specular NEE makes no query at x2. */
-int spc_path_lt_point_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2,
-                                  int segments, int receivers);
+int spc_path_lt_point_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                                  int receivers);
 
 /* The longest light chain c of an area light that light tracing makes at a receiver with these
  * budgets (spc_path_lt_budget's kmax, spc_path_lt_flat_budget's kflat): kflat for a chain through

@@ -160,8 +160,8 @@ static bool point_lights_sky(const spc_scene *sc)
  * SPC_SNEE_PLAN_FLAT_POINT_LIGHTS, where no other rule added it). */
 static void flat_point_light_tracing(const spc_scene *sc, int nflat, const char *integrator, spc_snee_plan *out)
 {
-    if (nflat == 0 || strcmp(integrator, "path") || strstr(out->setting, "recguide") || strstr(out->setting, "ltcaus") ||
-        !point_lights_sky(sc))
+    if (nflat == 0 || strcmp(integrator, "path") || strstr(out->setting, "recguide") ||
+        strstr(out->setting, "ltcaus") || !point_lights_sky(sc))
         return;
     size_t n = strlen(out->setting);
     snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_POINT_LIGHTS);
