@@ -33,6 +33,11 @@
  *   Their joins go through no middle vertex and no camera chain longer than max_chain, and the path
  *   tracer's side puts light tracing into BSDF sampling's weight at the second receiver only.
  *   A render with ltcaus agrees with one without.
+ * - A point light over two glass slabs (bench/check/two_slabs_point_light.xml): light tracing's
+ *   chains through the flat faces of 1-6 vertices; each one specular NEE's flat enumeration makes
+ *   (on every call, or on a share of them: flat34) it finds at x2, and its share with psi in r and
+ *   light tracing's weight sum to one; the lengths it never makes are light tracing's alone. A
+ *   render with ltcaus agrees with one without.
  */
 /* ctest-labels: stat */
 #include <math.h>
@@ -643,13 +648,28 @@ static void check_mesh_point_join(void *user, const spc_path_lt_join *j)
 {
     mesh_point_tally *t = user;
     ++t->joins;
-    CHECK(j->e->type == SPC_EMITTER_POINT && j->w > 0.0 && j->w <= 1.0 && j->cc == NULL);
+    CHECK(j->e->type == SPC_EMITTER_POINT && j->w > 0.0 && j->w <= 1.0);
     if (isinf(j->r)) {
         ++t->lt_only;
         CHECK(j->w == 1.0);
         return;
     }
-    ++t->kinds[j->x1 ? (j->nmid > 0 ? 3 : 2) : 0];
+    ++t->kinds[j->x1 ? (j->nmid > 0 ? 3 : 2) : j->cc ? 1 : 0];
+    /* through the ball toward the pinhole: the camera's chain as the path tracer retraces it from
+     * x2 (its events, along its first direction), which the camera's side weighs with */
+    spc_chain rc;
+    if (j->cc) {
+        unsigned char cev[SPC_CHAIN_MAX_VERTICES];
+        for (int i = 0; i < j->cc->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
+            cev[i] = j->cc->v[i].event;
+        spc_frame f = spc_frame_from_n(j->cc->d0);
+        spc_chain_opts o = spc_chain_opts_default(j->cc->n);
+        o.events = cev;
+        o.any_surface = t->p->any_surface;
+        spc_chain_trace(t->ctx->scene, j->x2, &f, 0.0, 0.0, &o, &rc);
+        if (rc.n != j->cc->n)
+            return;
+    }
     spc_snee_query q;
     spc_snee_query_init(&q, t->ctx->scene, t->p, j->x2, j->w2, j->c->n);
     q.y = j->e->position;
@@ -671,7 +691,7 @@ static void check_mesh_point_join(void *user, const spc_path_lt_join *j)
         return;
     ++t->solved;
     double r = j->x1 ? spc_path_lt_ratio_via(t->ctx, t->p, j->x1, j->w1, j->mid, j->nmid, j->x2, j->w2, &c, j->e)
-                     : spc_path_lt_ratio_first(t->ctx, t->p, j->x2, NULL, &c, j->e);
+                     : spc_path_lt_ratio_first(t->ctx, t->p, j->x2, j->cc ? &rc : NULL, &c, j->e);
     double gap = fabs(1.0 / (1.0 + r * r) + j->w - 1.0);
     if (gap > t->worst_gap)
         t->worst_gap = gap;
@@ -680,10 +700,11 @@ static void check_mesh_point_join(void *user, const spc_path_lt_join *j)
 }
 
 /* The triangle glass ball under a point light: light tracing makes the ball's point-light chains
- * (directly, through a diffuse bounce, through two), specular NEE's solver finds the same chain from
- * x2, and the two weights of each such path sum to one; light tracing takes the larger share on
- * some joins (near the caustic's fold), specular NEE on others; the joins toward the pinhole
- * through the ball are not made (no enumeration of the mesh's chains toward the pinhole). */
+ * and joins x2 to the pinhole directly, through the ball (the chains it solves from the fitted
+ * sphere's roots toward the pinhole), through a diffuse bounce and through two; specular NEE's
+ * solver finds the same chain from x2, and the two weights of each such path sum to one (through
+ * the ball with the camera's chain as the path tracer retraces it); light tracing takes the larger
+ * share on some joins (near the caustic's fold), specular NEE on others. */
 TEST(mesh_ball_point_weights_sum_to_one)
 {
     spc_camera_state cam;
@@ -702,12 +723,12 @@ TEST(mesh_ball_point_weights_sum_to_one)
     int n = spc_test_quick() ? 5000 : 20000;
     for (int i = 0; i < n; ++i)
         spc_path_lt_joins(&ctx, &p, &rng, check_mesh_point_join, &t);
-    printf("  %s: %d joins (light tracing's alone %d; directly %d, through a diffuse bounce %d, through two %d), "
-           "specular NEE's solve from x2 finds the chain on %d, light tracing's weight above 1/2 on %.0f, below on "
-           "%.0f, largest gap of the two weights' sum from 1 %.3g\n",
-           MESH_POINT_SCENE, t.joins, t.lt_only, t.kinds[0], t.kinds[2], t.kinds[3], t.solved, t.above, t.below,
-           t.worst_gap);
-    CHECK(t.joins > 50 && t.kinds[0] > 10 && t.kinds[2] > 10);
+    printf("  %s: %d joins (light tracing's alone %d; directly %d, through the ball %d, through a diffuse bounce %d, "
+           "through two %d), specular NEE's solve from x2 finds the chain on %d, light tracing's weight above 1/2 on "
+           "%.0f, below on %.0f, largest gap of the two weights' sum from 1 %.3g\n",
+           MESH_POINT_SCENE, t.joins, t.lt_only, t.kinds[0], t.kinds[1], t.kinds[2], t.kinds[3], t.solved, t.above,
+           t.below, t.worst_gap);
+    CHECK(t.joins > 50 && t.kinds[0] > 10 && t.kinds[1] > 10 && t.kinds[2] > 10);
     CHECK_MSG(t.solved > (t.joins - t.lt_only) * 9 / 10, "specular NEE solves %d of %d joins' chains", t.solved,
               t.joins - t.lt_only);
     CHECK_MSG(t.worst_gap < 1e-5, "the two weights sum to 1 +- %.3g", t.worst_gap);
@@ -772,6 +793,125 @@ TEST(slab_render_agrees_without_it)
 {
     scene_settings_agree(SLAB_SCENE, "angular:camera=0.036,first=0.1,later=0.1,ltcaus",
                          "angular:camera=0.036,first=0.1,later=0.1", 512, 47, "slabs: ltcaus vs without");
+}
+
+#define SLAB_POINT_SCENE "bench/check/two_slabs_point_light.xml"
+#define SLAB_POINT_PLAN "angular:camera=0.036,first=0.1,later=0.1"
+
+typedef struct slab_point_tally {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    int joins, lt_only, matched, kinds[3], shared_psi;
+    int by_length[SPC_CHAIN_MAX_VERTICES + 1];
+    double worst_gap, above, below;
+} slab_point_tally;
+
+/* A point light's join through flat faces: where specular NEE's flat enumeration makes chains of
+ * its length at x2 (spc_snee_flat_psi above 0), it finds the join's chain there, and its share
+ * 1 / (1 + (r / psi)^2) (r from its chain, psi its enumeration's probability) and light tracing's
+ * weight sum to one; where it never does (psi 0), the join is light tracing's alone (weight 1). */
+static void check_slab_point_join(void *user, const spc_path_lt_join *j)
+{
+    slab_point_tally *t = user;
+    const spc_scene *sc = t->ctx->scene;
+    ++t->joins;
+    CHECK(j->e->type == SPC_EMITTER_POINT && j->w > 0.0 && j->w <= 1.0 && spc_flat_chain_covers(j->c, t->p->reflect));
+    ++t->kinds[j->x1 ? 2 : j->cc ? 1 : 0];
+    if (j->c->n <= SPC_CHAIN_MAX_VERTICES)
+        ++t->by_length[j->c->n];
+    /* max_depth -1: the budget and the depth left do not depend on the segments before x2 */
+    int kmax = spc_path_lt_budget(t->ctx, t->p, j->x2, 1, j->x1 ? 1 : 0);
+    double psi = spc_snee_flat_psi(t->p, kmax, SPC_CHAIN_MAX_VERTICES, j->c->n);
+    if (!(psi > 0.0)) {
+        ++t->lt_only;
+        CHECK_MSG(isinf(j->r) && j->w == 1.0, "a join of %d vertices no enumeration makes: r %g, w %g", j->c->n, j->r,
+                  j->w);
+        return;
+    }
+    t->shared_psi += psi < 1.0;
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, t->p, j->x2, j->w2, j->c->n);
+    q.min_chain = j->c->n;
+    q.y = j->e->position;
+    q.ny = spc_v3(0, 0, 0);
+    q.light_size = 0.0;
+    spc_chain all[16];
+    int n = spc_flat_chains_all(&q, all, 16, NULL);
+    const spc_chain *match = NULL;
+    double best = 1.0 - 1e-6;
+    for (int i = 0; i < n; ++i)
+        if (all[i].n == j->c->n && spc_dot(all[i].d0, j->c->d0) > best) {
+            best = spc_dot(all[i].d0, j->c->d0);
+            match = &all[i];
+        }
+    if (!match)
+        return;
+    ++t->matched;
+    double r = (j->x1 ? spc_path_lt_ratio_via(t->ctx, t->p, j->x1, j->w1, j->mid, j->nmid, j->x2, j->w2, match, j->e)
+                      : spc_path_lt_ratio_first(t->ctx, t->p, j->x2, j->cc, match, j->e)) /
+               psi;
+    double gap = fabs(1.0 / (1.0 + r * r) + j->w - 1.0);
+    if (gap > t->worst_gap)
+        t->worst_gap = gap;
+    t->above += j->w > 0.5;
+    t->below += j->w < 0.5;
+}
+
+/* Two glass slabs under a point light: light tracing makes the chains through their flat faces of
+ * 1-6 vertices (the budget's two, past it the two slabs' four, and the total internal reflections
+ * along their sides); with the 3- and 4-vertex chains enumerated on a share of specular NEE's calls
+ * (flat34=0.3) and the 5- and 6-vertex ones never, the joins of each kind occur, specular NEE's
+ * flat enumeration at x2 finds the chain of every join it makes, and the two weights of each path
+ * sum to one; the 5- and 6-vertex ones (a total internal reflection inside a slab on the way
+ * through both) are light tracing's alone. */
+TEST(slab_point_weights_sum_to_one)
+{
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_scene *sc = lt_load(SLAB_POINT_SCENE, SLAB_POINT_PLAN ",ltcaus,flat34=0.3", &cam, &p);
+    if (!sc)
+        return;
+    p.mis = true; /* as the path tracer runs specular NEE (spc_path_snee_begin): the longer chains' pass */
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    CHECK(spc_path_lt_enabled(&ctx, &p) && p.max_chain == 2);
+    slab_point_tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    spc_rng rng;
+    spc_rng_seed(&rng, 43, 7);
+    int n = spc_test_quick() ? 10000 : 40000;
+    for (int i = 0; i < n; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, check_slab_point_join, &t);
+    printf("  %s: %d joins (directly %d, through a diffuse bounce %d; chains of 1-6 vertices %d %d %d %d %d %d; "
+           "light tracing's alone %d), found by the flat enumeration %d (on a share of its calls %d), light "
+           "tracing's weight above 1/2 on %.0f, below on %.0f, largest gap of the two weights' sum from 1 %.3g\n",
+           SLAB_POINT_SCENE, t.joins, t.kinds[0], t.kinds[2], t.by_length[1], t.by_length[2], t.by_length[3],
+           t.by_length[4], t.by_length[5], t.by_length[6], t.lt_only, t.matched, t.shared_psi, t.above, t.below,
+           t.worst_gap);
+    CHECK(t.joins > 50 && t.kinds[0] > 10 && t.kinds[2] > 10 && t.kinds[1] == 0);
+    CHECK_MSG(t.by_length[2] > 10 && t.by_length[4] > 10, "joins by 2 and 4 vertices: %d, %d", t.by_length[2],
+              t.by_length[4]);
+    CHECK_MSG(t.shared_psi > 10, "joins of chains enumerated on a share of the calls: %d", t.shared_psi);
+    CHECK_MSG(t.matched > (t.joins - t.lt_only) * 95 / 100, "the flat enumeration finds %d of %d joins' chains",
+              t.matched, t.joins - t.lt_only);
+    CHECK_MSG(t.worst_gap < 1e-5, "the two weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK_MSG(t.lt_only > 10 && t.by_length[5] > 10, "light tracing's alone %d, by 5 vertices %d", t.lt_only,
+              t.by_length[5]);
+    /* flat glass does not focus: light tracing's density toward the casters passes the camera's
+     * spread over the film times the query's roulette on every join measured */
+    CHECK(t.above > 0);
+    spc_scene_destroy(sc);
+}
+
+/* Under the two slabs and a point light the render with ltcaus (light tracing's chains of 1-6
+ * vertices through the flat faces, specular NEE's 3- and 4-vertex ones on a share of its calls)
+ * agrees with one without (specular NEE's chains of 1-4 vertices at every call; the 6-vertex ones,
+ * light tracing's alone, carry too little light to show at this count). */
+TEST(slab_point_render_agrees_without_it)
+{
+    scene_settings_agree(SLAB_POINT_SCENE, SLAB_POINT_PLAN ",ltcaus,flat34=0.3", SLAB_POINT_PLAN, 512, 49,
+                         "slabs, point light: ltcaus vs without");
 }
 
 /* With an area light the render with ltcaus agrees with one without (the same paths, split three
@@ -1011,6 +1151,8 @@ int main(void)
     RUN(mesh_ball_point_render_agrees_without_it);
     RUN(slab_area_weights_sum_to_one);
     RUN(slab_render_agrees_without_it);
+    RUN(slab_point_weights_sum_to_one);
+    RUN(slab_point_render_agrees_without_it);
     RUN(area_light_render_agrees_without_it);
     RUN(area_light_joins_only_at_the_first_two_receivers);
     RUN(guide_weights_sum_to_one);

@@ -1311,6 +1311,82 @@ TEST(slab_plan_light_tracing)
     }
 }
 
+/* Slabs under point lights (a sky besides), for path: light tracing makes their caustics too
+ * (",ltcaus"; the flat enumeration keeps its 3- and 4-vertex chains at every call): on
+ * bench/check/two_slabs_point_light.xml and on one slab under a point light and a sky; not for
+ * volpath or bdpt, and not where a large area light is a light too. The point light over the
+ * triangle glass ball has it by the ball's rule (SPC_SNEE_PLAN_BALL_POINT_LIGHTS), for path only. */
+TEST(slab_plan_point_light_tracing)
+{
+    static const char *const lights[] = {
+        "<emitter type=\"point\"><point name=\"position\" x=\"-0.6\" y=\"2.5\" z=\"1.9\"/><rgb "
+        "name=\"intensity\" value=\"20\"/></emitter><emitter type=\"constant\"><rgb name=\"radiance\" "
+        "value=\"0.02\"/></emitter>",
+        "<emitter type=\"point\"><point name=\"position\" x=\"-0.6\" y=\"2.5\" z=\"1.9\"/><rgb "
+        "name=\"intensity\" value=\"20\"/></emitter><shape type=\"rectangle\"><transform "
+        "name=\"to_world\"><translate y=\"3\"/><rotate x=\"1\" angle=\"90\"/></transform><emitter "
+        "type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>",
+    };
+    const bool want[] = {true, false};
+    for (int i = 0; i < 2; ++i) {
+        char text[2048];
+        snprintf(text, sizeof text,
+                 "<scene version=\"3.0.0\">"
+                 "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/></integrator>"
+                 "<sensor type=\"perspective\"><float name=\"fov\" value=\"35\"/>"
+                 "<transform name=\"to_world\"><lookat origin=\"2.2, 3.5, 1.0\" target=\"0, 0.3, 0\" "
+                 "up=\"0, 1, 0\"/></transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
+                 "<integer name=\"height\" value=\"8\"/></film></sensor>"
+                 "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"4\"/><rotate x=\"1\" "
+                 "angle=\"-90\"/></transform><bsdf type=\"diffuse\"/></shape>"
+                 "<shape type=\"cube\"><transform name=\"to_world\"><scale x=\"0.4\" y=\"0.06\" z=\"0.3\"/>"
+                 "<rotate x=\"1\" angle=\"8\"/><translate y=\"0.6\"/></transform><bsdf type=\"dielectric\"/>"
+                 "</shape>%s</scene>",
+                 lights[i]);
+        spc_scene *sc = NULL;
+        spc_error err;
+        CHECK_MSG(load_text(text, &sc, &err) == SPC_OK, "slab scene %d: %s", i, err.msg);
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        spc_snee_params sp;
+        bool parsed = spc_snee_parse(p.setting, 2, &sp);
+        printf("  slab under %s: %s\n", want[i] ? "a point light and a sky" : "a point and an area light", p.setting);
+        if (want[i])
+            CHECK_MSG(p.on && parsed && sp.lt_caustic && sp.flat34_p == 1.0 &&
+                          strstr(p.setting, SPC_SNEE_PLAN_FLAT_POINT_LIGHTS),
+                      "slab, point light and sky: %s (%s)", p.setting, p.reason);
+        else
+            CHECK_MSG(!strstr(p.setting, "ltcaus") && !strstr(p.setting, "flat34"), "slab, point and area light: %s",
+                      p.setting);
+        spc_scene_destroy(sc);
+    }
+    static const struct {
+        const char *file, *integrator;
+        bool want;
+    } cases[] = {
+        {"bench/check/two_slabs_point_light.xml", "path", true},
+        {"bench/check/two_slabs_point_light.xml", "volpath", false},
+        {"bench/check/two_slabs_point_light.xml", "bdpt", false},
+        {"bench/check/point_light_ball_mesh.xml", "path", true},
+        {"bench/check/point_light_ball_mesh.xml", "volpath", false},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        spc_scene *sc = load_at(cases[i].file, "8");
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp), "%s, %s: %s (%s)", cases[i].file, cases[i].integrator,
+                  p.setting, p.reason);
+        CHECK_MSG(cases[i].want == sp.lt_caustic && sp.flat34_p == 1.0, "%s, %s: %s", cases[i].file,
+                  cases[i].integrator, p.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
 /* Flat-faced casters under a light larger than the flat rule's (SPC_SNEE_PLAN_FLAT_MAX_SR): path's
  * plan is on with the longer chains (SPC_SNEE_PLAN_FLAT_LONG) where the pilot's face sequences per
  * query times the light's solid angle (from the casters' centre) is at most
@@ -1423,5 +1499,6 @@ int main(void)
     RUN(water_plane_plan_no_camera_query);
     RUN(one_slab_plan_long_chains);
     RUN(slab_plan_light_tracing);
+    RUN(slab_plan_point_light_tracing);
     return spc_test_finish();
 }

@@ -157,16 +157,51 @@ static bool mesh_ball_chain(const spc_snee_params *p, const spc_chain *c)
 }
 
 /* Is the chain c (from x2 toward a point light) one whose paths light tracing makes: one glass
- * sphere's (with exact enumeration), or a tessellated glass ball's (mesh_ball_chain)? For the
- * ball, specular NEE's estimate of each chain's value is unbiased but not an enumeration (the
- * fitted sphere's seeds, randomized attempts counted by their trials): the weights need only be
- * the same function of the path on both sides, so both sides take the ratio below with specular
- * NEE's density that of an exact count (the query's roulette alone). */
+ * sphere's or through flat faces only (glass slabs; both with exact enumeration), or a tessellated
+ * glass ball's (mesh_ball_chain)? For the flat faces specular NEE's density carries the probability
+ * of its enumeration's pass (point_psi). For the ball, specular NEE's estimate of each chain's value
+ * is unbiased but not an enumeration (the fitted sphere's seeds, randomized attempts counted by
+ * their trials): the weights need only be the same function of the path on both sides, so both
+ * sides take the ratio below with specular NEE's density that of an exact count (the query's
+ * roulette alone). */
 static bool point_chain_covers(const spc_snee_params *p, const spc_chain *c)
 {
     if (!p->exact || c->n < 1)
         return false;
-    return spc_sphere_chain_covers(c, p->reflect) || mesh_ball_chain(p, c);
+    return spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_covers(c, p->reflect) || mesh_ball_chain(p, c);
+}
+
+/* The depth left after `segments` path segments for the longer chains (specular NEE's long_max at
+ * a receiver there, as spc_path_snee_at_vertex passes it). */
+static int long_left(const spc_render_ctx *ctx, int segments)
+{
+    return ctx->max_depth >= 0 && ctx->max_depth - segments - 1 < SPC_CHAIN_MAX_VERTICES ? ctx->max_depth - segments - 1
+                                                                                         : SPC_CHAIN_MAX_VERTICES;
+}
+
+int spc_path_lt_point_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                                  int receivers)
+{
+    int b = spc_path_lt_budget(ctx, p, x2, segments, receivers);
+    if (b <= 0 || !p->exact)
+        return b > 0 ? b : 0;
+    int l = long_left(ctx, segments);
+    if (l > SPC_FLAT_MAX_VERTICES)
+        l = SPC_FLAT_MAX_VERTICES;
+    return l > b ? l : b;
+}
+
+/* The probability with which specular NEE's query at x2 (reached as spc_path_lt_budget's x2)
+ * enumerates the point light's chain c through flat faces (spc_snee_flat_psi with its budget and
+ * depth left there): the factor of specular NEE's density that light tracing's ratio of such a path
+ * (spc_path_lt_ratio_via, spc_path_lt_ratio_first) leaves out; 0 where it never does (the path is
+ * light tracing's alone); 1 for any other chain. */
+static double point_psi(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                        int receivers, const spc_chain *c)
+{
+    if (!p->exact || !spc_flat_chain_covers(c, p->reflect))
+        return 1.0;
+    return spc_snee_flat_psi(p, spc_path_lt_budget(ctx, p, x2, segments, receivers), long_left(ctx, segments), c->n);
 }
 
 /* Light tracing's density of the chain c from x toward the point light e, in area measure at x:
@@ -234,6 +269,85 @@ double spc_path_lt_ratio_via(const spc_render_ctx *ctx, const spc_snee_params *p
     return ratio_of(num, den);
 }
 
+/* The most chains of the tessellated glass balls from x2 toward the pinhole a join looks for (the
+ * fitted sphere's solutions per ball). */
+#define MESH_CAMERA_CHAINS SPC_FIT_MAX_DIRS
+
+/* The chains of the tessellated glass balls (mesh_ball_chain) from x toward the pinhole, of at most
+ * max_chain vertices: for each ball, specular NEE's solver seeded along each of the fitted
+ * sphere's solutions toward the pinhole with that solution's events (as specular NEE seeds its
+ * fitted roots toward a light), the distinct chains it converges to. A deterministic function of x
+ * (no random draw: the seed and the events fixed), computed alike by light tracing's joins and by
+ * the path tracer's side, so that a path through the ball toward the pinhole is light tracing's
+ * to share exactly where its chain is one of these (mesh_camera_chain_found). At most max to out. */
+static int mesh_camera_chains(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x, int max_chain,
+                              spc_chain *out, int max)
+{
+    const spc_scene *sc = ctx->scene;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, p->any_surface);
+    const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
+    if (!cs || !solver || !solver->solve_one || max_chain < 1)
+        return 0;
+    int n = 0;
+    for (int j = 0; j < cs->n && n < max; ++j) {
+        const spc_shape *s = sc->shapes[cs->idx[j]];
+        spc_vec3 fc;
+        double fr;
+        if (s->type != SPC_SHAPE_MESH || !s->bsdf || s->bsdf->type != SPC_BSDF_DIELECTRIC ||
+            !spc_fit_sphere(s, &fc, &fr) || !(spc_distance(x->p, fc) > fr))
+            continue;
+        spc_snee_query q;
+        spc_snee_query_init(&q, sc, p, x, x->ng, max_chain);
+        q.y = ctx->cam->origin;
+        q.ny = spc_v3(0, 0, 0);
+        q.light_size = 0.0;
+        spc_vec3 dir[SPC_FIT_MAX_DIRS];
+        int m[SPC_FIT_MAX_DIRS];
+        int nr = spc_fit_roots_of(&q, s, dir, m, SPC_FIT_MAX_DIRS);
+        for (int r = 0; r < nr && n < max; ++r) {
+            int k = m[r] < 0 ? 1 : m[r] + 2;
+            if (k > max_chain || k > SPC_CHAIN_MAX_VERTICES)
+                continue;
+            unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+            for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
+                ev[i] = SPC_CHAIN_REFRACT;
+            for (int i = 1; i <= m[r]; ++i)
+                ev[i] = SPC_CHAIN_REFLECT;
+            if (m[r] < 0)
+                ev[0] = SPC_CHAIN_REFLECT;
+            if (!p->reflect && (m[r] != 0))
+                continue;
+            spc_snee_query tq = q;
+            tq.seed_dir = &dir[r];
+            tq.events = p->reflect ? ev : NULL;
+            spc_rng rng; /* unused by a fixed seed with fixed events; seeded for determinism */
+            spc_rng_seed(&rng, 1, 2);
+            spc_chain c;
+            int it = 0;
+            if (!solver->solve_one(&tq, &rng, &c, &it) || c.n < 1 || c.n > max_chain || !mesh_ball_chain(p, &c))
+                continue;
+            bool dup = false;
+            for (int i = 0; i < n && !dup; ++i)
+                dup = spc_snee_same_solution(&out[i], &c, sc->radius);
+            if (!dup)
+                out[n++] = c;
+        }
+    }
+    return n;
+}
+
+/* Is the camera's chain cc from x (a tessellated ball's) one of mesh_camera_chains's there? */
+static bool mesh_camera_chain_found(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
+                                    const spc_chain *cc)
+{
+    spc_chain all[MESH_CAMERA_CHAINS];
+    int n = mesh_camera_chains(ctx, p, x, p->max_chain, all, MESH_CAMERA_CHAINS);
+    for (int i = 0; i < n; ++i)
+        if (all[i].n == cc->n && spc_snee_same_solution(&all[i], cc, ctx->scene->radius))
+            return true;
+    return false;
+}
+
 /* The camera's density of the point x per camera sample, in area measure at x, where the camera
  * sees x directly (cc NULL) or through the chain cc from x (one glass sphere, at most max_chain
  * vertices: the chains spc_sphere_chains_all enumerates toward the pinhole); *cd the join to the
@@ -248,7 +362,9 @@ static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p
         return cd->We / N * spc_absdot(cd->wi, x->ng) / (cd->dist * cd->dist);
     }
     int j = cc->n;
-    if (j < 1 || j > spc_path_lt_camera_max_chain(p) || !spc_sphere_chain_covers(cc, p->reflect))
+    if (j < 1 || j > spc_path_lt_camera_max_chain(p))
+        return 0.0;
+    if (!spc_sphere_chain_covers(cc, p->reflect) && !(j <= p->max_chain && mesh_ball_chain(p, cc)))
         return 0.0;
     const spc_chain_vertex *last = &cc->v[j - 1];
     if (!spc_camera_sample_direct(ctx->cam, last->h.p, cd) || !in_window(ctx, cd->fx, cd->fy))
@@ -262,14 +378,27 @@ static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p
     return cd->We / N * spc_absdot(cc->d0, x->ng) * G * P;
 }
 
-double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
-                               const spc_chain *cc, const spc_chain *c, const spc_emitter *e)
+/* spc_path_lt_ratio_first where the camera's chain cc, if a tessellated ball's, is known to be one
+ * of mesh_camera_chains's at x (light tracing's joins, which take their cc from there). */
+static double ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x, const spc_chain *cc,
+                          const spc_chain *c, const spc_emitter *e)
 {
     spc_camera_direct cd;
     double pc = camera_density(ctx, p, x, cc, &cd);
     /* light tracing joins x to the pinhole through the sphere on a share of its subpaths only */
     double share = cc ? camera_chain_share(p, cc) : 1.0;
     return ratio_of(share * light_density(ctx->scene, p, x, c, e), query_prob(ctx->scene, p, x->p, true) * pc);
+}
+
+double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
+                               const spc_chain *cc, const spc_chain *c, const spc_emitter *e)
+{
+    /* through a tessellated ball, light tracing joins x to the pinhole by the chains it finds
+     * there only (mesh_camera_chains): the path tracer's side keeps the rest */
+    if (cc && !spc_sphere_chain_covers(cc, p->reflect) &&
+        !(cc->n <= p->max_chain && mesh_ball_chain(p, cc) && mesh_camera_chain_found(ctx, p, x, cc)))
+        return 0.0;
+    return ratio_first(ctx, p, x, cc, c, e);
 }
 
 /* ---- area lights ---- */
@@ -305,8 +434,9 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
     int k = c->n;
     if (!e || e->type != SPC_EMITTER_AREA || k < 1 || !area_chain_covers(p, c))
         return 0.0;
-    /* the joins through the sphere by chains longer than max_chain are point lights' only */
-    if (cc && cc->n > p->max_chain)
+    /* the joins through the sphere by chains longer than max_chain, and those through a
+     * tessellated ball, are point lights' only */
+    if (cc && (cc->n > p->max_chain || !spc_sphere_chain_covers(cc, p->reflect)))
         return 0.0;
     spc_vec3 d_last = c->v[k - 1].d;
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
@@ -504,29 +634,36 @@ typedef struct lt_end {
 } lt_end;
 
 /* The chain budgets at x2 reached after `segments` segments with `receivers` receivers before it
- * (*kmax: specular NEE's, *kflat: light tracing's for an area light's flat chains, else *kmax), and
- * whether the light subpath's chain fits them. */
+ * (*kmax: specular NEE's, *kflat: light tracing's for flat chains, an area light's
+ * spc_path_lt_flat_budget or a point light's spc_path_lt_point_flat_budget), whether the light
+ * subpath's chain fits them, and in *psi (point lights) specular NEE's probability of enumerating
+ * that chain there (point_psi; 1 for area lights). */
 static bool chain_fits(const spc_render_ctx *ctx, const spc_snee_params *p, const lt_end *L, const spc_hit *x2,
-                       int segments, int receivers, int *kmax, int *kflat)
+                       int segments, int receivers, int *kmax, int *kflat, double *psi)
 {
     *kmax = spc_path_lt_budget(ctx, p, x2, segments, receivers);
-    *kflat = L->area ? spc_path_lt_flat_budget(ctx, p, x2, segments, receivers) : *kmax;
+    *kflat = L->area ? spc_path_lt_flat_budget(ctx, p, x2, segments, receivers)
+                     : spc_path_lt_point_flat_budget(ctx, p, x2, segments, receivers);
+    *psi = L->area ? 1.0 : point_psi(ctx, p, x2, segments, receivers, L->c);
     return L->c->n <= spc_path_lt_area_chain_max(p, L->c, *kmax, *kflat);
 }
 
 /* The ratio *r and light tracing's weight of the join x1 (NULL: x2 is the first receiver, seen
  * through cc or directly) - the nmid middle vertices mid (point lights only) - x2 (seen from wo2) -
- * the light subpath L; kmax the chain budget at x2, kflat the flat chains' (spc_path_lt_flat_budget). 0
+ * the light subpath L; kmax the chain budget at x2, kflat the flat chains' (spc_path_lt_flat_budget),
+ * psi (point lights) specular NEE's probability of enumerating the chain there (chain_fits). 0
  * where light tracing does not make the path. */
 static double join_weight(const spc_render_ctx *ctx, const spc_snee_params *p, const lt_end *L, const spc_hit *x1,
                           spc_vec3 w1, const spc_path_lt_vertex *mid, int nmid, const spc_hit *x2, spc_vec3 wo2,
-                          const spc_chain *cc, int kmax, int kflat, double *r)
+                          const spc_chain *cc, int kmax, int kflat, double psi, double *r)
 {
     if (!L->area) {
         *r = x1 ? spc_path_lt_ratio_via(ctx, p, x1, w1, mid, nmid, x2, wo2, L->c, L->e)
-                : spc_path_lt_ratio_first(ctx, p, x2, cc, L->c, L->e);
-        if (*r > 0.0 && L->lt_only)
+                : ratio_first(ctx, p, x2, cc, L->c, L->e);
+        if (*r > 0.0 && (L->lt_only || !(psi > 0.0)))
             *r = INFINITY;
+        else if (*r > 0.0)
+            *r /= psi;
         return *r > 0.0 ? spc_path_lt_weight(*r) : 0.0;
     }
     *r = spc_path_lt_area_ratio(ctx, p, x1, w1, x2, wo2, cc, L->c, L->e, L->y, L->ny);
@@ -554,12 +691,18 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
     q.y = ctx->cam->origin;
     q.ny = spc_v3(0, 0, 0);
     q.light_size = 0.0;
-    spc_chain all[SPC_PATH_LT_CAMERA_CHAINS];
+    spc_chain all[SPC_PATH_LT_CAMERA_CHAINS + MESH_CAMERA_CHAINS];
     int n = spc_sphere_chains_all(&q, all, SPC_PATH_LT_CAMERA_CHAINS, NULL);
+    /* and a point light's paths through the tessellated balls' chains of at most max_chain */
+    if (!L->area && min_chain <= p->max_chain)
+        n += mesh_camera_chains(ctx, p, x2, p->max_chain < max_chain ? p->max_chain : max_chain, all + n,
+                                MESH_CAMERA_CHAINS);
     for (int i = 0; i < n; ++i) {
         const spc_chain *cc = &all[i];
         int kmax_cc, kflat_cc;
-        if (cc->n < min_chain || cc->n > max_chain || !chain_fits(ctx, p, L, x2, cc->n + 1, 0, &kmax_cc, &kflat_cc))
+        double psi_cc;
+        if (cc->n < min_chain || cc->n > max_chain ||
+            !chain_fits(ctx, p, L, x2, cc->n + 1, 0, &kmax_cc, &kflat_cc, &psi_cc))
             continue;
         double pc = camera_density(ctx, p, x2, cc, &cd);
         if (!(pc > 0.0))
@@ -577,7 +720,8 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
             continue;
         spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
         double r = 0.0;
-        double w = join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, kflat_cc, &r);
+        double w =
+            join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, kflat_cc, psi_cc, &r);
         if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
             spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, L->e, cd.fx, cd.fy, C, r, cc, NULL, 0,
                                   L->y, L->ny, w};
@@ -598,7 +742,8 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
     const spc_chain *c = L->c;
     spc_camera_direct cd;
     int kmax, kflat;
-    if (chain_fits(ctx, p, L, x2, 1, 0, &kmax, &kflat) && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
+    double psi;
+    if (chain_fits(ctx, p, L, x2, 1, 0, &kmax, &kflat, &psi) && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
         spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cd.wi);
         double g = shading_fix(x2, d0, cd.wi) * spc_absdot(cd.wi, x2->sh.n) / (cd.dist * cd.dist);
         spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / N);
@@ -606,7 +751,7 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         double r = 0.0;
         double w = spc_rgb_is_black(C)
                        ? 0.0
-                       : join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cd.wi, NULL, kmax, kflat, &r);
+                       : join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cd.wi, NULL, kmax, kflat, psi, &r);
         if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
             spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cd.wi, c, L->e, cd.fx, cd.fy, C, r, NULL, NULL, 0,
                                   L->y, L->ny, w};
@@ -762,6 +907,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     if (L.area) {
         int l = flat_walk_max(p, SPC_CHAIN_MAX_VERTICES);
         kflat = l > kmax ? l : kmax;
+    } else if (p->exact && SPC_FLAT_MAX_VERTICES > kmax) {
+        kflat = SPC_FLAT_MAX_VERTICES; /* a point light's: spc_path_lt_point_flat_budget */
     }
     unsigned char events[SPC_CHAIN_MAX_VERTICES];
     spc_hit x2;
@@ -772,14 +919,25 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     L.d0 = d0;
     spc_chain c;
     if (!L.area) {
+        /* the events from x2 (the subpath took them from the light: the reverse order, which the
+         * sphere's and the ball's chains, in, reflected inside, out, do not tell from it) */
+        unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+        for (int i = 0; i < k; ++i)
+            ev[i] = events[k - 1 - i];
         bool exact;
-        if (!retrace_chain(sc, p, &x2, d0, k, events, L.y, &c, &exact) || !point_chain_covers(p, &c))
+        if (!retrace_chain(sc, p, &x2, d0, k, ev, L.y, &c, &exact) || !point_chain_covers(p, &c))
             return;
         if (spc_sphere_chain_covers(&c, p->reflect)) {
             /* a path specular NEE cannot make is light tracing's alone: r infinite, its weight 1.
              * Its enumeration at x2 is asked where it may miss the chain: near the caustic's fold,
              * where the chain focuses the light (and where no chain passes through y) */
             L.lt_only = (!exact || chain_focus(&c, &x2, L.y) > LT_CHECK_FOCUS) && !nee_finds(sc, p, &x2, &c, L.y);
+        } else if (spc_flat_chain_covers(&c, p->reflect)) {
+            /* through flat faces: one chain per face sequence passes through y (no fold), and
+             * specular NEE's flat enumeration solves it from x2 on the calls it runs that length
+             * (point_psi); weighed with the chain solved through y, as specular NEE's is */
+            if (exact)
+                L.d0 = c.d0;
         } else {
             /* the tessellated ball: where the retrace reaches the light, specular NEE's attempts
              * find that chain with some probability and count it without bias (point_chain_covers);
@@ -830,7 +988,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
         ++segs;
         spc_vec3 wo = spc_neg(ray.d);
         int kmax2, kflat2;
-        if (spc_bsdf_has_smooth(h.bsdf) && chain_fits(ctx, p, &L, &x2, segs + 1, 1 + nmid, &kmax2, &kflat2)) {
+        double psi2;
+        if (spc_bsdf_has_smooth(h.bsdf) && chain_fits(ctx, p, &L, &x2, segs + 1, 1 + nmid, &kmax2, &kflat2, &psi2)) {
             spc_camera_direct cd;
             if (spc_camera_sample_direct(ctx->cam, h.p, &cd) && in_window(ctx, cd.fx, cd.fy)) {
                 spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, cd.wi);
@@ -838,7 +997,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
                 spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
                 if (!spc_rgb_is_black(C)) {
                     double r = 0.0;
-                    double w = join_weight(ctx, p, &L, &h, wo, mid, nmid, &x2, w2, NULL, kmax2, kflat2, &r);
+                    double w = join_weight(ctx, p, &L, &h, wo, mid, nmid, &x2, w2, NULL, kmax2, kflat2, psi2, &r);
                     spc_ray sr = spc_hit_spawn_to(&h, cd.p_near, 0.0);
                     if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
                         spc_path_lt_join j = {&h, &x2, wo, w2, &c, L.e, cd.fx, cd.fy, C, r, NULL, mid, nmid,

@@ -37,6 +37,14 @@
  *
  *     r = p_dir(w0) P_chain |dw0/dA(x2)| / (q(x2) We / N |dw_cam/dA(x2)| P_cam).
  *
+ * A point light's chain may also run through flat faces only (glass slabs, spc_flat_chain_covers, up
+ * to SPC_FLAT_MAX_VERTICES and the depth left: spc_path_lt_point_flat_budget): specular NEE's flat
+ * enumeration makes such a chain of k vertices on a share psi of its calls (spc_snee_flat_psi: 1
+ * up to 4 vertices by default, flat34 below that, flat5 and flat6 past it), so its density, and
+ * the r specular NEE's side reads, carries psi (r / psi; psi 0: light tracing's alone, as no other
+ * strategy reaches a point light). A point light's chain may lie on a tessellated glass ball too,
+ * with specular NEE's density that of an exact count (its estimate of each chain is unbiased).
+ *
  * The joins through the sphere (its root search from x2, most of the strategy's cost) run on a
  * share s of the subpaths (SPC_PATH_LT_THROUGH_SHARE, or the parameters' lt_through), counted 1/s
  * times; light tracing's density of those paths, and so their r, carries the factor s.
@@ -63,7 +71,19 @@
  * NEE, an area light's chain at x2 may also lie on a tessellated glass ball (one triangle mesh with a
  * fitted sphere, fit_seeds.h), whose chains specular NEE does not count exactly: its weight there
  * is its own (psi, or the sampled weight of a randomized attempt's chain), the same on all three
- * sides. The joins through the ball toward the pinhole stay the analytic sphere's (its enumeration).
+ * sides. An area light's joins through the ball toward the pinhole stay the analytic sphere's (its
+ * enumeration).
+ *
+ * A point light's chains through a tessellated glass ball are light tracing's too. Specular NEE
+ * finds them by the fitted sphere's seeds and randomized attempts, each counted so that its value
+ * is unbiased per chain (1 or the trial count), so any weight that is a function of the path
+ * alone, the same on both sides, splits them without bias: r takes specular NEE's density as an
+ * exact count's (the query's roulette). Where the retrace from x2 does not reach the light (no
+ * chain through it with those events) the path is light tracing's alone. The joins through the
+ * ball toward the pinhole take the chains of at most max_chain vertices that specular NEE's solver
+ * converges to from the fitted sphere's solutions toward the pinhole (a deterministic function of
+ * x2); the path tracer's side weighs its camera chain against light tracing only where its
+ * retraced chain is one of those (spc_path_lt_ratio_first), and keeps the others at weight 1.
  */
 #ifndef SPC_INTEGRATOR_PATH_LT_H
 #define SPC_INTEGRATOR_PATH_LT_H
@@ -112,6 +132,15 @@ int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, cons
 int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
                             int receivers);
 
+/* The longest chain through flat faces only whose paths light tracing makes for a point light at
+ * x2, reached as spc_path_lt_budget's x2: past the budget, up to the depth left there (at most
+ * SPC_FLAT_MAX_VERTICES). BSDF sampling never reaches a point light, so past the lengths specular
+ * NEE's flat enumeration makes (spc_snee_flat_psi 0) such paths are light tracing's alone, and on
+ * the lengths it makes on a share of its calls light tracing's weight is against that share. 0
+ * where specular NEE makes no query at x2. */
+int spc_path_lt_point_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
+                                  int receivers);
+
 /* The longest light chain c of an area light that light tracing makes at a receiver with these
  * budgets (spc_path_lt_budget's kmax, spc_path_lt_flat_budget's kflat): kflat for a chain through
  * flat faces only (with exact enumeration), kmax for the others. Both sides read it. */
@@ -134,8 +163,9 @@ double spc_path_lt_ratio_via(const spc_render_ctx *ctx, const spc_snee_params *p
                              const spc_chain *c, const spc_emitter *e);
 
 /* The same ratio where x is the path's first receiver, seen by the camera directly (cc NULL) or
- * through the chain cc from x toward the pinhole (one glass sphere): light tracing's density over
- * the camera's and specular NEE's at x. */
+ * through the chain cc from x toward the pinhole (one glass sphere, or a tessellated glass ball's
+ * chain of at most max_chain vertices that light tracing's joins find from x): light tracing's
+ * density over the camera's and specular NEE's at x; 0 for a ball's chain the joins do not find. */
 double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
                                const spc_chain *cc, const spc_chain *c, const spc_emitter *e);
 

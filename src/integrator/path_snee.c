@@ -48,23 +48,26 @@ static bool camera_chain(const spc_path_snee *s, const spc_hit *x, spc_vec3 wo, 
 }
 
 /* params.delta_share at the path's second receiver x (seen from wo): specular NEE's share of the
- * point light's chain c against light tracing (path_lt.h). */
-static double lt_share(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e)
+ * point light's chain c, made on psi of its calls, against light tracing (path_lt.h). */
+static double lt_share(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
+                       double psi)
 {
     const spc_path_snee *s = user;
-    if (c->n > s->lt_kmax)
+    if (c->n > spc_path_lt_area_chain_max(&s->p, c, s->lt_kmax, s->lt_kflat))
         return 1.0;
-    double r = spc_path_lt_ratio_via(s->ctx, &s->p, &s->lt_x1, s->lt_w1, s->lt_mid, s->lt_nmid, x, wo, c, e);
+    double r = spc_path_lt_ratio_via(s->ctx, &s->p, &s->lt_x1, s->lt_w1, s->lt_mid, s->lt_nmid, x, wo, c, e) / psi;
     return 1.0 / (1.0 + r * r);
 }
 
 /* The same at the path's first receiver x (seen from wo), reached from the camera through the
  * delta scatterings recorded in cam_events: the camera's chain retraced from x toward the pinhole. */
-static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e)
+static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
+                             double psi)
 {
     const spc_path_snee *s = user;
     int j = s->scatterings;
-    if (c->n > s->lt_kmax || j > spc_path_lt_camera_max_chain(&s->p) || j > SPC_CHAIN_MAX_VERTICES)
+    if (c->n > spc_path_lt_area_chain_max(&s->p, c, s->lt_kmax, s->lt_kflat) ||
+        j > spc_path_lt_camera_max_chain(&s->p) || j > SPC_CHAIN_MAX_VERTICES)
         return 1.0;
     double r;
     if (j == 0) {
@@ -75,6 +78,7 @@ static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, co
             return 1.0;
         r = spc_path_lt_ratio_first(s->ctx, &s->p, x, &cc, c, e);
     }
+    r /= psi;
     return 1.0 / (1.0 + r * r);
 }
 
@@ -238,6 +242,7 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
     bool area = spc_path_lt_area_enabled(&s->p);
     if (s->lt_on && s->receivers == 1 + s->lt_nmid) {
         s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, s->receivers);
+        s->lt_kflat = spc_path_lt_point_flat_budget(ctx, &s->p, h, segments, s->receivers);
         s->p.delta_share = lt_share;
         s->p.delta_user = s;
         /* area lights' subpaths join through no middle vertex: their paths are light tracing's at
@@ -255,6 +260,7 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
     } else if (s->lt_enabled && s->receivers == 0) {
         /* the first receiver, seen directly or through delta scatterings only */
         s->lt_kmax = spc_path_lt_budget(ctx, &s->p, h, segments, 0);
+        s->lt_kflat = spc_path_lt_point_flat_budget(ctx, &s->p, h, segments, 0);
         s->p.delta_share = lt_share_first;
         s->p.delta_user = s;
         s->p.alt_chain_ratio = area ? lt_alt_first : NULL;

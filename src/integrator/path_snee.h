@@ -40,7 +40,7 @@ typedef struct spc_path_snee {
     const spc_render_ctx *ctx;
     int scatterings;
     bool lt_enabled, lt_on;
-    int lt_m, lt_kmax, lt_nmid;
+    int lt_m, lt_kmax, lt_kflat, lt_nmid; /* lt_kflat: spc_path_lt_point_flat_budget's */
     spc_hit lt_x1;
     spc_vec3 lt_w1;
     spc_path_lt_vertex lt_mid[SPC_PATH_LT_MID_VERTICES > 0 ? SPC_PATH_LT_MID_VERTICES : 1];

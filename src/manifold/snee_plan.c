@@ -140,6 +140,33 @@ static void flat_light_tracing(const spc_scene *sc, const spc_chain_casters *cs,
              strstr(out->setting, SPC_SNEE_PLAN_FLAT_LONG) ? SPC_SNEE_PLAN_FLAT_LT_LONG : SPC_SNEE_PLAN_FLAT_LT);
 }
 
+/* Is every light of the scene a point light, a sky besides (some point light)? */
+static bool point_lights_sky(const spc_scene *sc)
+{
+    bool point = false;
+    for (int i = 0; i < sc->nemitters; ++i) {
+        const spc_emitter *e = sc->emitters[i];
+        if (e->type == SPC_EMITTER_CONSTANT || e->type == SPC_EMITTER_ENVMAP)
+            continue;
+        if (e->type != SPC_EMITTER_POINT)
+            return false;
+        point = true;
+    }
+    return point;
+}
+
+/* Flat-faced casters under point lights (a sky besides), for path (no caustic guide at receivers):
+ * light tracing makes the point lights' caustics through the slabs too (snee_plan.h,
+ * SPC_SNEE_PLAN_FLAT_POINT_LIGHTS, where no other rule added it). */
+static void flat_point_light_tracing(const spc_scene *sc, int nflat, const char *integrator, spc_snee_plan *out)
+{
+    if (nflat == 0 || strcmp(integrator, "path") || strstr(out->setting, "recguide") ||
+        strstr(out->setting, "ltcaus") || !point_lights_sky(sc))
+        return;
+    size_t n = strlen(out->setting);
+    snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_POINT_LIGHTS);
+}
+
 /* Is some caster a glass sphere (its chains enumerated, sphere_chains.h)? */
 static bool glass_sphere(const spc_scene *sc, const spc_chain_casters *cs)
 {
@@ -712,6 +739,15 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_AREA_LIGHTS);
     }
+    /* path lit by point lights (a sky besides), with a tessellated glass ball among the casters: the
+     * ball's point-light chains by light tracing too, joined to the pinhole through the ball as well,
+     * weighed against specular NEE's unbiased count of them (path_lt.h; snee_plan.h,
+     * SPC_SNEE_PLAN_BALL_POINT_LIGHTS) */
+    else if (!strcmp(integrator, "path") && glass && ball && !strstr(out->setting, "recguide") &&
+             point_lights_sky(sc)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_BALL_POINT_LIGHTS);
+    }
     /* and with a tessellated glass ball among the casters: light tracing's ratio for an area light
      * is against BSDF sampling alone, so the ball's chains need no exact count (path_lt.h) */
     else if (!strcmp(integrator, "path") && glass && ball && !strstr(out->setting, "recguide") &&
@@ -733,6 +769,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LONG);
     }
     flat_light_tracing(sc, cs, nflat, integrator, out);
+    flat_point_light_tracing(sc, nflat, integrator, out);
     /* volpath: a share of the random seeds at medium points from the phase function, where some
      * caster's chains go to the randomized attempts (snee_plan.h) */
     if (!strcmp(integrator, "volpath") && (!exact || solved_mirror)) {

@@ -267,6 +267,32 @@
 #define SPC_SNEE_PLAN_FLAT_LT ",flat34=0.3"
 #define SPC_SNEE_PLAN_FLAT_LT_LONG ",flat34=0.3,flat5=0.3"
 
+/* Appended for path where a glass caster is a tessellated ball (a triangle mesh with a fitted
+ * sphere) and every light is a point light (a sky besides), without the caustic guide at receivers:
+ * light tracing makes the ball's point-light chains too and joins them to the pinhole directly,
+ * through a diffuse bounce and through the ball (the chains specular NEE's solver finds from the
+ * fitted sphere's solutions toward the pinhole), weighed against specular NEE's unbiased count of
+ * them (integrator/path_lt.h). At equal CPU time against bdpt over 24 seeds, without the pixels
+ * that see the point light through the glass (bench/RESULTS.md, "Point lights through flat glass
+ * by light tracing", part 3): bench/check/point_light_ball_mesh.xml 2.3x lower mean relMSE than
+ * without, random triangle-ball scenes 1.15-1.23x on four of five and 0.90x on one; without the
+ * joins through the ball 0.77-1.11x (geometric mean 0.96x), which kept it out before. */
+#define SPC_SNEE_PLAN_BALL_POINT_LIGHTS ",ltcaus"
+
+/* Appended for path where some caster is flat-faced (a slab) and every light is a point light (a
+ * sky besides), without the caustic guide at receivers, where no other rule added it: light
+ * tracing makes the point lights' chains through flat faces of up to 6 vertices too
+ * (integrator/path_lt.h), weighed against specular NEE's flat enumeration; the 5- and 6-vertex ones,
+ * which specular NEE does not make by default, no other strategy makes. At equal CPU time against
+ * bdpt over 32 seeds, without the pixels that see the point light through the glass (bench/
+ * RESULTS.md, "Point lights through flat glass by light tracing"), 1.05-9.3x lower mean relMSE than
+ * without on 7 of 9 slab scenes under a point light, 0.96-0.97x on the other two. The flat
+ * enumeration's 3- and 4-vertex chains on a share of the calls besides (SPC_SNEE_PLAN_FLAT_LT, as
+ * under small area lights) was lower on 8 of 9 (1.4-13x) but made one-pixel seeds on two (random
+ * scenes 1057 and 6101: shares 0.94 and 0.99, 6101 3x worse than without): light tracing does not
+ * join the pixels that see the floor through a slab. */
+#define SPC_SNEE_PLAN_FLAT_POINT_LIGHTS ",ltcaus"
+
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
  * glass sphere or a tessellated glass ball is a caster, without the caustic guide at receivers: the
  * area lights' caustics also by light tracing from a point on the light (integrator/path_lt.h),

@@ -272,8 +272,10 @@ typedef struct spc_snee_params {
      * first other surface, weighed against BSDF sampling there. Any caster, any solver. */
     bool lt_guide;
     double lt_guide_share;
+    /* psi: the probability with which specular NEE's pass made c (below 1 only for chains through
+     * flat faces enumerated on a share of the calls: spc_snee_flat_psi, specular_nee.h) */
     double (*delta_share)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,
-                          const spc_emitter *e);
+                          const spc_emitter *e, double psi);
     const void *delta_user;
     /* The light sample's uniforms where the caller draws them from its stratified sample stream
      * (light_u_on; the path integrator at each receiver): light_u[0] picks the light, light_u[1]

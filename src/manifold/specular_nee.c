@@ -356,11 +356,15 @@ static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_ve
              (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c, e, q->y, q->ny) : 1.0);
         *pc = cones_pdf(cones_for(q, e), c->d0, k) * G * P_ev;
     }
-    /* a point light's chain that another strategy makes too (params.delta_share): its share */
+    /* a point light's chain that another strategy makes too (params.delta_share): its share, given
+     * the probability with which this pass enumerates c where that is below 1 (the flat chains past
+     * flat_max: flat_psi; the other passes read their psi as 1 there) */
     double share = 1.0;
     if (q->params && q->params->delta_share && e->type == SPC_EMITTER_POINT && !q->cam &&
-        r->kind == SPC_RECEIVER_SURFACE && q->x)
-        share = q->params->delta_share(q->params->delta_user, q->x, q->wo, c, e);
+        r->kind == SPC_RECEIVER_SURFACE && q->x) {
+        double psi = q->params->exact && spc_flat_chain_covers(c, q->params->reflect) && q->psi > 0.0 ? q->psi : 1.0;
+        share = q->params->delta_share(q->params->delta_user, q->x, q->wo, c, e, psi);
+    }
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(f, T), Le), cosx * G * share);
 }
 
@@ -2455,6 +2459,19 @@ void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, 
     spc_snee_track_scatter(t, h, lobe, snee_budget, p->any_surface, p->reflect && !rough_mode(p));
     if (!(lobe & SPC_LOBE_DELTA) && snee_budget > 0)
         t->long_max = spc_snee_track_long_max(p, long_max);
+}
+
+double spc_snee_flat_psi(const spc_snee_params *p, int max_chain, int long_max, int k)
+{
+    /* a query as receiver_nee builds it, for flat_max and flat_psi, which read no more of it */
+    spc_snee_query q;
+    memset(&q, 0, sizeof q);
+    q.params = p;
+    q.max_chain = max_chain;
+    q.long_max = long_max < SPC_CHAIN_MAX_VERTICES ? long_max : SPC_CHAIN_MAX_VERTICES;
+    if (!p->exact || k < 1 || k > SPC_FLAT_MAX_VERTICES)
+        return 0.0;
+    return k <= flat_max(&q) ? 1.0 : flat_psi(&q, k);
 }
 
 int spc_snee_track_long_max(const spc_snee_params *p, int long_max)

@@ -181,6 +181,13 @@ void spc_snee_track_scatter_params(spc_snee_track *t, const spc_snee_params *p, 
 /* How far a track follows chains for params.long_p, given the caller's depth bound long_max (0: not
  * past its max_chain): what the track's long_max is at a receiver, or from the camera. */
 int spc_snee_track_long_max(const spc_snee_params *p, int long_max);
+/* The probability with which specular NEE's query at a receiver, with chain budget max_chain and
+ * the longer chains' depth bound long_max (as spc_specular_nee_depth takes them), enumerates the
+ * chains of k vertices through flat faces (flat_chains.h, params.exact): 1 up to the lengths it
+ * enumerates at every call, params.flat34_p, flat5_p or flat6_p past them (where the longer chains
+ * run: params.mis and long_p), 0 where it never does. Light tracing of point lights
+ * (integrator/path_lt.h) weighs its flat chains against specular NEE's with it. */
+double spc_snee_flat_psi(const spc_snee_params *p, int max_chain, int long_max, int k);
 bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,
                                  const spc_hit *h, spc_vec3 wo, spc_vec3 wi, const spc_emitter *e);
 
