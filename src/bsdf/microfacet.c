@@ -161,22 +161,49 @@ static void beckmann_table_build(void)
     }
 }
 
-/* The guess for the x-slope's search: the table's, except in its two end cells of u, where x runs
- * off into the tails (*table false there: the Gaussian's erfinv(2u - 1)). */
-static double beckmann_slope_guess(double u, double tan_t, bool *table)
+/* The table built, once: the callers of the guesses below call it once per sample or per batch, so
+ * that the guesses themselves make no call */
+static void beckmann_table_ready(void) { pthread_once(&beckmann_table_once, beckmann_table_build); }
+
+/* u's cell in the table: whether it is one of the interior cells (*table), its index and fraction */
+static bool beckmann_table_cell(double u, int *j, double *fu)
 {
     double su = u * BECKMANN_TABLE_U;
-    int j = (int)su;
-    *table = j >= 1 && j < BECKMANN_TABLE_U - 1;
+    *j = (int)su;
+    *fu = su - *j;
+    return *j >= 1 && *j < BECKMANN_TABLE_U - 1;
+}
+
+/* The guess for the x-slope's search: the table's, except in its two end cells of u, where x runs
+ * off into the tails (*table false there: the Gaussian's erfinv(2u - 1)). The table must be built
+ * (beckmann_table_ready). */
+static double beckmann_slope_guess(double u, double tan_t, bool *table)
+{
+    int j;
+    double fu;
+    *table = beckmann_table_cell(u, &j, &fu);
     if (!*table)
         return spc_erfinv(2.0 * u - 1.0);
-    pthread_once(&beckmann_table_once, beckmann_table_build);
     double sg = tan_t / (1.0 + tan_t) * BECKMANN_TABLE_G;
     int i = sg < BECKMANN_TABLE_G - 1 ? (int)sg : BECKMANN_TABLE_G - 1;
-    double fg = sg - i, fu = su - j;
+    double fg = sg - i;
     const float *r0 = beckmann_table[i], *r1 = beckmann_table[i + 1];
     double x0 = r0[j] + fu * (r0[j + 1] - r0[j]), x1 = r1[j] + fu * (r1[j + 1] - r1[j]);
     return x0 + fg * (x1 - x0);
+}
+
+/* beckmann_slope_guess at normal incidence (tan_t = 0), the y-slope's: row 0 alone. The same value:
+ * there g = 0, so i = 0 and fg = 0, and x0 + 0 * (x1 - x0) is x0 (x1 - x0 is finite, and x0 is not
+ * -0: the row increases, so r0[j] + fu * (r0[j + 1] - r0[j]) adds a product of sign +). */
+static double beckmann_slope_guess_normal(double u, bool *table)
+{
+    int j;
+    double fu;
+    *table = beckmann_table_cell(u, &j, &fu);
+    if (!*table)
+        return spc_erfinv(2.0 * u - 1.0);
+    const float *r0 = beckmann_table[0];
+    return r0[j] + fu * (r0[j + 1] - r0[j]);
 }
 
 /* Beckmann visible normal (Heitz and d'Eon 2014, sec. 4 and appendix A) in two halves around the
@@ -202,7 +229,7 @@ static void beckmann_visible_begin(double au, double av, spc_vec3 w, spc_vec2 u,
     b->normal = b->sin_t < 1e-12;
     b->x_table = b->y_search = false;
     if (!b->normal)
-        b->y = beckmann_slope_guess(u.y, 0.0, &b->y_search);
+        b->y = beckmann_slope_guess_normal(u.y, &b->y_search);
     if (!b->y_search)
         b->y = spc_erfinv(2.0 * spc_clamp(u.y, 1e-12, 1.0 - 1e-12) - 1.0);
     if (b->normal) {
@@ -229,6 +256,7 @@ static spc_vec3 beckmann_visible_end(double au, double av, const beckmann_visibl
 static spc_vec3 sample_visible_beckmann(double au, double av, spc_vec3 w, spc_vec2 u)
 {
     beckmann_visible b;
+    beckmann_table_ready();
     beckmann_visible_begin(au, av, w, u, &b);
     double x = b.normal ? b.x : invert_beckmann_slope_cdf(u.x, b.tan_t, b.cot_t, b.x);
     double y = b.y_search ? invert_beckmann_slope_cdf(u.y, 0.0, SPC_INF, b.y) : b.y;
@@ -267,6 +295,7 @@ void spc_microfacet_sample_many(int n, const spc_microfacet *md, const spc_vec3 
     /* the searches of a pass: x-slopes in [0, nx), y-slopes in [B, B + ny) */
     double su[2 * B], tan_t[2 * B], cot_t[2 * B], s[2 * B];
     int xk[B], yk[B];
+    beckmann_table_ready();
     for (int i0 = 0; i0 < n; i0 += B) {
         int nb = 0, nx = 0, ny = 0;
         for (int i = i0; i < n && i < i0 + B; ++i) {
