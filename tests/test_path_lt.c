@@ -439,6 +439,11 @@ typedef struct area_tally {
     bool flat; /* slabs: specular NEE's chains at x2 by the flat enumeration, of the join's length */
     int exact; /* joins whose three weights sum to one within 1e-5 */
     int joins, matched, kinds[3];
+    /* slabs: joins by chains through flat faces that the enumeration leaves to BSDF sampling (a
+     * partial reflection inside the glass, or longer than it goes), and the largest gap of BSDF
+     * sampling's and light tracing's weights' sum from 1 on them */
+    int unlisted, unlisted_partial, unlisted_long;
+    double unlisted_gap;
     int by_length[SPC_CHAIN_MAX_VERTICES + 1]; /* joins by the light chain's vertices */
     double worst_gap, lt_sum, above, below;
 } area_tally;
@@ -493,6 +498,31 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
             best = spc_dot(all[i].d0, j->c->d0);
             match = &all[i];
         }
+    if (!match && t->flat && !spc_flat_chain_covers(j->c, pp.reflect)) {
+        /* specular NEE never makes this path (its psi is 0): BSDF sampling's own weight and light
+         * tracing's sum to one */
+        CHECK(spc_flat_chain_faces(j->c, pp.reflect));
+        ++t->unlisted;
+        t->unlisted_long += j->c->n > SPC_FLAT_MAX_VERTICES;
+        t->unlisted_partial += j->c->n <= SPC_FLAT_MAX_VERTICES;
+        spc_receiver r;
+        spc_receiver_surface(&r, j->x2, j->w2);
+        unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+        for (int i = 0; i < j->c->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
+            ev[i] = j->c->v[i].event;
+        spc_hit lh;
+        memset(&lh, 0, sizeof lh);
+        lh.p = j->y;
+        lh.ng = j->ny;
+        lh.emitter = j->e;
+        lh.shape = j->e->shape;
+        double w_alt;
+        double w_own = spc_snee_receiver_weights(sc, &pp, &r, j->c->d0, kmax, j->c->n, ev, &lh, &w_alt);
+        double gap = fabs(w_own + j->w - 1.0);
+        if (gap > t->unlisted_gap)
+            t->unlisted_gap = gap;
+        return;
+    }
     if (!match)
         return;
     ++t->matched;
@@ -777,6 +807,49 @@ TEST(slab_area_weights_sum_to_one)
     CHECK_MSG(t.matched > t.joins * 95 / 100, "the flat enumeration finds %d of %d joins' chains", t.matched, t.joins);
     CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
     CHECK(t.above > 0 && t.below > 0);
+    printf("  %d joins by chains the enumeration leaves to BSDF sampling (%d with a partial reflection, %d longer), "
+           "BSDF sampling's and light tracing's weights summing to 1 +- %.3g\n",
+           t.unlisted, t.unlisted_partial, t.unlisted_long, t.unlisted_gap);
+    CHECK_MSG(t.unlisted_partial > 0, "joins through a partial reflection: %d", t.unlisted_partial);
+    CHECK_MSG(t.unlisted_gap < 1e-5, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
+    CHECK(t.matched + t.unlisted == t.joins);
+    spc_scene_destroy(sc);
+}
+
+/* The same with the path's track and light tracing's chains up to 8 vertices (longmax=8): chains
+ * of 7 and 8 vertices through the slabs (total internal reflections along a slab, out of its side)
+ * are light tracing's and BSDF sampling's, whose two weights sum to one. */
+TEST(slab_area_weights_sum_to_one_long)
+{
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_scene *sc = lt_load(SLAB_SCENE, SLAB_SETTING ",longmax=8", &cam, &p);
+    if (!sc)
+        return;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
+    p.lt_share = 1.0;
+    ctx.snee = p;
+    area_tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    t.flat = true;
+    spc_rng rng;
+    spc_rng_seed(&rng, 41, 7);
+    int subpaths = spc_test_quick() ? 20000 : 60000;
+    for (int i = 0; i < subpaths; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    printf("  %s, longmax=8: %d joins, chains of 7 and 8 vertices %d %d; %d the enumeration leaves to BSDF sampling "
+           "(%d with a partial reflection, %d longer): weights summing to 1 +- %.3g; the others' three +- %.3g\n",
+           SLAB_SCENE, t.joins, t.by_length[7], t.by_length[8], t.unlisted, t.unlisted_partial, t.unlisted_long,
+           t.unlisted_gap, t.worst_gap);
+    CHECK_MSG(t.unlisted_long > 0, "joins by chains of 7-8 vertices: %d", t.unlisted_long);
+    /* (an 8-vertex chain of total internal reflections is retraced from x2 to within about 1e-5 of
+     * light tracing's own directions) */
+    CHECK_MSG(t.unlisted_gap < 1e-4, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
+    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK(t.matched + t.unlisted == t.joins);
     spc_scene_destroy(sc);
 }
 
@@ -912,6 +985,16 @@ TEST(slab_point_render_agrees_without_it)
 {
     scene_settings_agree(SLAB_POINT_SCENE, SLAB_POINT_PLAN ",ltcaus,flat34=0.3", SLAB_POINT_PLAN, 512, 49,
                          "slabs, point light: ltcaus vs without");
+}
+
+/* The same with the track and light tracing's flat chains up to 8 vertices (longmax=8): the chains
+ * the enumeration leaves out (partial reflections inside the glass, 7-8 vertices) split between
+ * BSDF sampling and light tracing. */
+TEST(slab_render_long_agrees_without_it)
+{
+    scene_settings_agree(SLAB_SCENE, "angular:camera=0.036,first=0.1,later=0.1,long=0.3,flat5=0.3,longmax=8,ltcaus",
+                         "angular:camera=0.036,first=0.1,later=0.1,long=0.3,flat5=0.3,longmax=8", 512, 53,
+                         "slabs, longmax=8: ltcaus vs without");
 }
 
 /* With an area light the render with ltcaus agrees with one without (the same paths, split three
@@ -1150,9 +1233,11 @@ int main(void)
     RUN(mesh_ball_point_weights_sum_to_one);
     RUN(mesh_ball_point_render_agrees_without_it);
     RUN(slab_area_weights_sum_to_one);
+    RUN(slab_area_weights_sum_to_one_long);
     RUN(slab_render_agrees_without_it);
     RUN(slab_point_weights_sum_to_one);
     RUN(slab_point_render_agrees_without_it);
+    RUN(slab_render_long_agrees_without_it);
     RUN(area_light_render_agrees_without_it);
     RUN(area_light_joins_only_at_the_first_two_receivers);
     RUN(guide_weights_sum_to_one);

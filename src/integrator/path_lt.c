@@ -76,13 +76,12 @@ int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, cons
 
 /* The longest chain through flat faces the path's track follows past the budget with depth_left
  * vertices left (spc_snee_track_long_max; the path runs it with MIS, which area lights' light tracing
- * needs: spc_path_lt_area_enabled), at most SPC_FLAT_MAX_VERTICES. */
+ * needs: spc_path_lt_area_enabled). */
 static int flat_walk_max(const spc_snee_params *p, int depth_left)
 {
     spc_snee_params pm = *p;
     pm.mis = true;
-    int l = spc_snee_track_long_max(&pm, depth_left);
-    return l < SPC_FLAT_MAX_VERTICES ? l : SPC_FLAT_MAX_VERTICES;
+    return spc_snee_track_long_max(&pm, depth_left);
 }
 
 int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
@@ -101,7 +100,7 @@ int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p,
 
 int spc_path_lt_area_chain_max(const spc_snee_params *p, const spc_chain *c, int kmax, int kflat)
 {
-    return p->exact && spc_flat_chain_covers(c, p->reflect) && kflat > kmax ? kflat : kmax;
+    return p->exact && spc_flat_chain_faces(c, p->reflect) && kflat > kmax ? kflat : kmax;
 }
 
 /* The cone from the point y toward the casters' bounding sphere: its axis and cosine (cos_max -1:
@@ -405,7 +404,9 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 
 /* Is the chain c (from x2 toward an area light) one whose paths light tracing makes: one glass
  * sphere's (spc_sphere_chain_covers, with exact enumeration), through flat faces only (the slabs'
- * chains, spc_flat_chain_covers, with exact enumeration; up to spc_path_lt_flat_budget's length),
+ * chains, spc_flat_chain_faces, with exact enumeration; up to spc_path_lt_flat_budget's length:
+ * also those the enumeration leaves to BSDF sampling, longer than it goes or with a partial
+ * reflection inside the glass, whose weights are then BSDF sampling's and light tracing's alone),
  * or every vertex on one tessellated glass ball (a triangle mesh with a fitted sphere, fit_seeds.h)
  * with x2 outside it? The area light's ratio is light tracing's density over BSDF sampling's at x2
  * (spc_path_lt_area_ratio), in which specular NEE's density does not appear, so the ball's chains
@@ -415,7 +416,7 @@ static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
 {
     if (c->n < 1)
         return false;
-    if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_covers(c, p->reflect))
+    if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect))
         return p->exact;
     return mesh_ball_chain(p, c);
 }

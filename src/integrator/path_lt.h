@@ -123,10 +123,10 @@ bool spc_path_lt_area_enabled(const spc_snee_params *p);
 int spc_path_lt_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,
                        int receivers);
 
-/* The longest chain through flat faces only (spc_flat_chain_covers: glass slabs, any events) whose
+/* The longest chain through flat faces only (spc_flat_chain_faces: glass slabs, any events) whose
  * paths light tracing makes for an area light at x2, reached as spc_path_lt_budget's x2: past the
  * budget, up to the longest chain the path's track follows from x2 (the longer chains' pass:
- * spc_snee_track_long_max, at most SPC_FLAT_MAX_VERTICES), where BSDF sampling's weight of the path
+ * spc_snee_track_long_max, params.long_max), where BSDF sampling's weight of the path
  * is computed (spc_snee_receiver_weights) and so can leave light tracing its share; the budget
  * where the track stops there. 0 where specular NEE makes no query at x2. */
 int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, int segments,

@@ -1365,10 +1365,13 @@ int spc_flat_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, in
     return o.n;
 }
 
-bool spc_flat_chain_covers(const spc_chain *c, bool reflect)
+/* Is c a chain of 1 to nmax vertices, all on flat-faced casters, with the events the enumeration
+ * takes (reflect as spc_snee_params.reflect) and each segment's medium agreed on by its two ends?
+ * total_only: a reflection off glass in a chain of more than one vertex must be total. */
+static bool flat_faces_chain(const spc_chain *c, bool reflect, int nmax, bool total_only)
 {
     int n = c->n;
-    if (n < 1 || n > SPC_FLAT_MAX_VERTICES)
+    if (n < 1 || n > nmax)
         return false;
     double medium = -1.0;
     for (int i = 0; i < n; ++i) {
@@ -1382,7 +1385,7 @@ bool spc_flat_chain_covers(const spc_chain *c, bool reflect)
             return false;
         const flat_face *f = &fc->face[fc->tri_face[v->h.prim]];
         int side = spc_dot(v->wi, f->n) < 0.0 ? 1 : -1;
-        if (eta > 0.0 && v->event == SPC_CHAIN_REFLECT && n > 1) {
+        if (total_only && eta > 0.0 && v->event == SPC_CHAIN_REFLECT && n > 1) {
             double ratio = side_index(eta, side) / side_index(eta, -side);
             if (!(ratio > 1.0) || !total_reflection(v->wi, f->n, ratio))
                 return false; /* a partial reflection off glass in a longer chain: not enumerated */
@@ -1395,4 +1398,14 @@ bool spc_flat_chain_covers(const spc_chain *c, bool reflect)
         medium = eta > 0.0 ? side_index(eta, side_out) : m_in;
     }
     return true;
+}
+
+bool spc_flat_chain_covers(const spc_chain *c, bool reflect)
+{
+    return flat_faces_chain(c, reflect, SPC_FLAT_MAX_VERTICES, true);
+}
+
+bool spc_flat_chain_faces(const spc_chain *c, bool reflect)
+{
+    return flat_faces_chain(c, reflect, SPC_CHAIN_MAX_VERTICES, false);
 }

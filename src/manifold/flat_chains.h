@@ -82,6 +82,10 @@ bool spc_flat_chain_shape(const spc_shape *s);
  * on such shapes, the events above, each segment's medium agreed on by its two ends; reflect as
  * spc_snee_params.reflect)? */
 bool spc_flat_chain_covers(const spc_chain *c, bool reflect);
+/* The same through flat faces alone, of up to SPC_CHAIN_MAX_VERTICES vertices and with partial
+ * reflections off glass anywhere in the chain: the paths light tracing makes through slabs
+ * (path_lt.h), of which the enumeration counts only those spc_flat_chain_covers takes. */
+bool spc_flat_chain_faces(const spc_chain *c, bool reflect);
 /* Every such chain from q->x to q->y of q->min_chain (0: 1) to q->max_chain vertices, at most
  * max_out, written to out (polished and traced: each segment before the last proven unblocked; the
  * last is checked by spc_snee_chain_value). Adds the chain traces it spends to *iterations. */

@@ -263,9 +263,13 @@
  * SPC_SNEE_PLAN_FLAT_LONG put the 5-vertex chains on every call): without light tracing those
  * shares made one-pixel seeds (BSDF sampling's paths at weight near 1), with it light tracing
  * takes the larger part of those paths. Measured in bench/RESULTS.md, "Light tracing of caustics
- * through flat glass slabs". */
-#define SPC_SNEE_PLAN_FLAT_LT ",flat34=0.3"
-#define SPC_SNEE_PLAN_FLAT_LT_LONG ",flat34=0.3,flat5=0.3"
+ * through flat glass slabs". The path's track and light tracing's flat chains go to 8 vertices
+ * (longmax=8; specular NEE's own chains through slabs stay within the enumeration's 6): a chain
+ * along a slab (in, five total internal reflections, out of its side face) is then light
+ * tracing's and BSDF sampling's; at 6 it was BSDF sampling's alone, a one-pixel seed at the
+ * query's cost per sample (bench/RESULTS.md, "the slab scenes' one-pixel seeds"). */
+#define SPC_SNEE_PLAN_FLAT_LT ",flat34=0.3,longmax=8"
+#define SPC_SNEE_PLAN_FLAT_LT_LONG ",flat34=0.3,flat5=0.3,longmax=8"
 
 /* Appended for path where a glass caster is a tessellated ball (a triangle mesh with a fitted
  * sphere) and every light is a point light (a sky besides), without the caustic guide at receivers:
