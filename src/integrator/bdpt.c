@@ -340,6 +340,25 @@ static double light_emit_pdf(const bdpt *B, const vtx *l, const vtx *to)
     return to_area(emit_pdf_dir(B, l->light, l->p, l->n, d, pd), l, to);
 }
 
+/* light_origin_pdf and light_emit_pdf of l toward `to` from one emission-density query: the
+ * position density does not depend on the direction, so the query made for the emission direction
+ * also gives the origin's (the s = 0 strategies need both). */
+static void light_origin_emit_pdf(const bdpt *B, const vtx *l, const vtx *to, double *origin, double *emit)
+{
+    double pp, pd;
+    double pmf = spc_scene_emitter_pmf(B->sc, l->light);
+    if (l->infinite) {
+        spc_emitter_pdf_emission(l->light, l->p, l->n, l->d, &pp, &pd);
+        *origin = pmf * pd;
+        *emit = pp * (to->on_surface ? spc_absdot(to->n, l->d) : 1.0);
+        return;
+    }
+    spc_vec3 d = dir_to(l, to);
+    spc_emitter_pdf_emission(l->light, l->p, l->n, d, &pp, &pd);
+    *origin = pmf * pp;
+    *emit = to_area(emit_pdf_dir(B, l->light, l->p, l->n, d, pd), l, to);
+}
+
 /* Density (area at l) of spc_emitter_sample_direct producing l from ref, times the light pmf.
  * For delta lights and lights at infinity it equals the origin density. */
 static double light_direct_pdf(const spc_scene *sc, const vtx *l, const vtx *ref)
@@ -656,8 +675,7 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
     const vtx *l0 = s == 0 ? lend : x[0]; /* the light endpoint, as a light */
     if (s == 0) {
         dl[0] = false;
-        Lp[0] = light_origin_pdf(sc, l0);
-        Lp[1] = light_emit_pdf(B, l0, x[1]);
+        light_origin_emit_pdf(B, l0, x[1], &Lp[0], &Lp[1]);
     } else {
         const vtx *a = x[s - 1], *b = x[s];
         dl[s - 1] = dl[s] = false;
