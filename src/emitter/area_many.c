@@ -121,23 +121,12 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
                                const spc_vec2 u[], spc_emitter_direct out[], bool ok[])
 {
     soa a;
-    /* the lanes of one light (most batches: a scene's lights are few) share its shape's fields,
-     * loaded again only where a lane's emitter differs from the last lane's, so that a lane's
-     * loads start from its triangle index rather than behind emitter -> shape -> distribution */
-    const spc_emitter *last = NULL;
-    const spc_shape *s = NULL;
-    const spc_distrib1d *td = NULL;
-    double area = 0.0;
     for (int k = 0; k < n; ++k) {
         int i = lane[k];
-        if (e[i] != last) {
-            last = e[i];
-            s = last->shape;
-            td = &s->tri_distrib;
-            area = s->area;
-        }
+        const spc_shape *s = e[i]->shape;
         const spc_mesh *m = &s->mesh;
         /* spc_shape_sample_area: the triangle by area, a point uniformly in it */
+        const spc_distrib1d *td = &s->tri_distrib;
         size_t t = spc_distrib1d_sample(td, u[i].x, NULL);
         spc_vec3 ng;
         if (s->tri_frame) {
@@ -170,7 +159,7 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
         a.ux_off[k] = u[i].x - td->cdf[t];
         a.ux_pmf[k] = td->pmf[t];
         a.uy[k] = u[i].y;
-        a.area[k] = area;
+        a.area[k] = s->area;
     }
     body(&a, n);
     for (int k = 0; k < n; ++k) {
