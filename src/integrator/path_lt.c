@@ -304,16 +304,10 @@ static int mesh_camera_chains(const spc_render_ctx *ctx, const spc_snee_params *
         int m[SPC_FIT_MAX_DIRS];
         int nr = spc_fit_roots_of(&q, s, dir, m, SPC_FIT_MAX_DIRS);
         for (int r = 0; r < nr && n < max; ++r) {
-            int k = m[r] < 0 ? 1 : m[r] + 2;
+            unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+            int k = spc_fit_root_events(m[r], ev);
             if (k > max_chain || k > SPC_CHAIN_MAX_VERTICES)
                 continue;
-            unsigned char ev[SPC_CHAIN_MAX_VERTICES];
-            for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
-                ev[i] = SPC_CHAIN_REFRACT;
-            for (int i = 1; i <= m[r]; ++i)
-                ev[i] = SPC_CHAIN_REFLECT;
-            if (m[r] < 0)
-                ev[0] = SPC_CHAIN_REFLECT;
             if (!p->reflect && (m[r] != 0))
                 continue;
             spc_snee_query tq = q;

@@ -437,3 +437,17 @@ bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc
     *dir = d[i < n ? i : n - 1];
     return true;
 }
+
+int spc_fit_root_events(int m, unsigned char ev[SPC_CHAIN_MAX_VERTICES])
+{
+    int k = m < 0 ? 1 : m + 2;
+    if (k > SPC_CHAIN_MAX_VERTICES)
+        return k;
+    for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
+        ev[i] = SPC_CHAIN_REFRACT;
+    for (int i = 1; i <= m; ++i)
+        ev[i] = SPC_CHAIN_REFLECT;
+    if (m < 0)
+        ev[0] = SPC_CHAIN_REFLECT;
+    return k;
+}

@@ -23,6 +23,7 @@
 
 #include "core/math.h"
 #include "core/rng.h"
+#include "manifold/chain.h"
 #include "manifold/sphere_roots.h"
 #include "scene/shape.h"
 
@@ -93,5 +94,12 @@ int spc_fit_root_count_with(const struct spc_snee_query *q, const spc_shape *s, 
  * and their events to m (the internal reflections between the way in and the way out; -1 for one
  * reflection off the outside). Returns their number, 0 where s has no fit. */
 int spc_fit_roots_of(const struct spc_snee_query *q, const spc_shape *s, spc_vec3 *dir, int *m, int max);
+
+/* The chain of one of spc_fit_roots_of's solutions, whose events are m (its internal reflections;
+ * -1 for one reflection off the outside): returns its number of vertices (1 for m = -1, else m + 2)
+ * and, where that is at most SPC_CHAIN_MAX_VERTICES, writes its events to ev (a reflection or
+ * the way in and out by refraction; refractions past the chain), the events a solver's attempt
+ * seeded along that solution is held to. */
+int spc_fit_root_events(int m, unsigned char ev[SPC_CHAIN_MAX_VERTICES]);
 
 #endif

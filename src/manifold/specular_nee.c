@@ -1122,15 +1122,8 @@ static int fit_first(const spc_snee_query *q, const spc_specular_solver *solver,
         int nr = spc_fit_roots_of(q, q->scene->shapes[cs->idx[j]], dir, m, SPC_FIT_MAX_DIRS);
         for (int r = 0; r < nr && n < max; ++r) {
             unsigned char ev[SPC_CHAIN_MAX_VERTICES];
-            int k = m[r] < 0 ? 1 : m[r] + 2;
-            if (k > SPC_CHAIN_MAX_VERTICES)
+            if (spc_fit_root_events(m[r], ev) > SPC_CHAIN_MAX_VERTICES)
                 continue;
-            for (int i = 0; i < SPC_CHAIN_MAX_VERTICES; ++i)
-                ev[i] = SPC_CHAIN_REFRACT;
-            for (int i = 1; i <= m[r]; ++i)
-                ev[i] = SPC_CHAIN_REFLECT;
-            if (m[r] < 0)
-                ev[0] = SPC_CHAIN_REFLECT;
             spc_snee_query tq = *q;
             tq.seed_dir = &dir[r];
             tq.want = NULL;
