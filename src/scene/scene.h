@@ -145,6 +145,9 @@ typedef struct spc_scene {
     double radius;                /* bounding sphere radius (>= a small positive value) */
     struct spc_accel *accel;
     bool finalized;
+    /* some mesh keeps no per-triangle frame (more than SPC_MESH_FRAME_MAX_TRIS triangles): its hits
+     * miss the cache, so packets prefetch their records before filling them */
+    bool prefetch_hits;
     spc_scene_casters casters[2]; /* the specular chains' casters: [0] by caustic flags, [1] any_surface */
 
     char path[512]; /* the file it was loaded from, if any */
