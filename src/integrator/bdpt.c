@@ -1309,13 +1309,16 @@ static void ptracer_visible_env(const bdpt *B, spc_tls *tls, const spc_emitter *
     spc_splat_add(ctx, tls, fx, fy, spc_rgb_scale(ds.L, We / (pmf * ds.pdf * B->n_light_paths)));
 }
 
-/* s = 1, t >= 2: a light point sampled from z[t-1] (next-event estimation). */
-static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, spc_vec2 u_lpos, double *w)
+/* s = 1, t >= 2: a light point sampled from z[t-1] (next-event estimation); cs is the connection
+ * stream at this camera vertex's two pairs. */
+static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, spc_sampler *cs, double *w)
 {
     *w = 1.0;
     const vtx *v = &z[t - 1];
     if (v->kind != V_SURFACE || !(v->flags & SPC_LOBE_SMOOTH))
         return spc_rgb1(0.0);
+    double u_light = spc_sampler_1d(cs);
+    spc_vec2 u_lpos = spc_sampler_2d(cs);
     double pmf;
     const spc_emitter *e = spc_scene_sample_emitter(B->sc, u_light, &pmf);
     spc_emitter_direct ds;
@@ -2199,8 +2202,10 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         for (int k = 0; k < 2 * spc_strategy_count(ctx->strategy_images_depth); ++k)
             SL[k] = spc_rgb1(0.0);
     for (int t = 1; t <= nc; ++t) {
-        double u_light = spc_sampler_1d(&cs);
-        spc_vec2 u_lpos = spc_sampler_2d(&cs);
+        /* the connection stream's two pairs of this camera vertex (s = 1's light point), drawn
+         * only where connect_s1 uses them: the stream moves past them either way */
+        spc_sampler cs_t = cs;
+        spc_sampler_skip(&cs, 2);
         if (pool && t >= 2)
             L = spc_rgb_add(L, connect_pool(&B, pool, z, t, &prng));
         for (int s = 0; s <= nl; ++s) {
@@ -2222,7 +2227,7 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 connect_t1(&B, tls, yl, s, z, k);
                 continue;
             } else if (s == 1)
-                c = connect_s1(&B, z, t, u_light, u_lpos, &w);
+                c = connect_s1(&B, z, t, &cs_t, &w);
             else
                 c = connect_st(&B, yl, s, z, t, false, &w);
             spc_rgb cw = spc_rgb_scale(c, w);
