@@ -9,6 +9,9 @@
  *   the dense scan finds is among spc_sphere_chain_roots', and every one of those is a root; and
  *   1500 configurations of the outside reflection and the refraction through with y mostly behind
  *   the sphere, where the refraction's caustic puts pairs of roots close together (its folds).
+ * - From inside the sphere (spc_sphere_inside_roots), the way out after 0 to 2 internal reflections
+ *   against a formulation by angles scanned over 20001 first directions: every isolated root found,
+ *   those by the edge of total internal reflection included, and every returned one a root.
  * - The outside reflection, which is solved in closed form (a quartic), against the dense scan over
  *   4000 configurations: far, near the sphere, grazing, and y behind the sphere.
  * - In a scene: the chains spc_sphere_chains_all enumerates from floor points to light points
