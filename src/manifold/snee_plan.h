@@ -181,7 +181,7 @@
  * over 48 seeds the mean relMSE was 0.0173 against 0.0247 (median 0.0125 both; seeds with one pixel
  * over 0.6 of the error 2 against 4; 1.0 over 24 of them 0.0214 against 0.0212 for 0.3); in the
  * fog around a ball (bench/check/medium_fog_ball.xml) 0.119 against 0.115 over 24 paired seeds, a
- * difference of 0.004 +- 0.004 (bench/RESULTS.md, part tails29). */
+ * difference of 0.004 +- 0.004 (bench/RESULTS.md, "medium_glass's one-pixel seeds"). */
 #define SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH "angular:camera,first=0.1,later=0.1,nosolvemis,mispsi=0.3"
 
 /* volpath, where some caster's chains go to the randomized attempts (a tessellated ball, an SDF, a
