@@ -1139,7 +1139,8 @@ TEST(closed_glass_mesh_plan_off)
 
 /* volpath on a tessellated glass ball (scenes/medium_glass.xml: a glass icosphere filled with a
  * scattering medium, its receivers medium points) weighs the ball's chains with the stand-in psi
- * (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH, nosolvemis: no real solve probability, no ball pass) and
+ * (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH, nosolvemis: no real solve probability, no ball pass; mispsi
+ * 0.3) and
  * seeds most randomized attempts from the phase function (SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS), with
  * the query at a path's first medium receiver by first=0.1's roulette; path on the same scene keeps
  * SPC_SNEE_PLAN_SETTING_BALLS, without phase seeds, with the light-traced caustics of its small
@@ -1155,7 +1156,8 @@ TEST(volpath_ball_plan)
     CHECK_MSG(!strcmp(sc->integrator.type, "volpath") && p.on && p.automatic &&
                   !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS) &&
                   spc_snee_parse(p.setting, 2, &sp) && !sp.solve_mis && sp.fit_seeds && sp.camera &&
-                  sp.first_p == 0.1 && sp.later_p == 0.1 && sp.seed == SPC_SNEE_SEED_CONE && sp.phase_seeds == 0.8,
+                  sp.first_p == 0.1 && sp.later_p == 0.1 && sp.seed == SPC_SNEE_SEED_CONE && sp.phase_seeds == 0.8 &&
+                  sp.mis_solve == 0.3,
               "medium_glass: %s (%s)", p.setting, p.reason);
     spc_snee_plan_make(sc, "path", NULL, &p);
     CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS SPC_SNEE_PLAN_AREA_LIGHTS) &&
