@@ -427,17 +427,19 @@ TEST(coherent_packets_match_single_rays)
     spc_scene_destroy(sc);
 }
 
-/* Shadow packets whose rays share an octant, by Embree's coherent traversal
- * (spc_scene_occluded_light_packet_coherent, the packet path tracer's shadow rays), answer as single
- * rays do: segments between random points inside and outside a closed mesh, some lanes inactive,
- * each packet's directions turned into one octant (sign flips of the components). */
-TEST(octant_shadow_packets_match_single_rays)
+/* Shadow packets whose rays share an octant (spc_scene_occluded_light_packet_coherent, the packet
+ * path tracer's shadow rays) answer as single rays do: segments between random points inside and
+ * outside a closed mesh, some lanes inactive, each packet's directions turned into one octant (sign
+ * flips of the components); a mesh below SPC_ACCEL_INCOHERENT_SHADOW_TRIS (Embree's coherent
+ * traversal) and one above it (its incoherent one). */
+static void check_octant_shadow_packets(int nlat, int nlon)
 {
     spc_vec3 c;
-    spc_scene *sc = closed_sphere_scene(24, 37, &c, false);
+    spc_scene *sc = closed_sphere_scene(nlat, nlon, &c, false);
     CHECK(sc != NULL);
     if (!sc)
         return;
+    CHECK(spc_accel_shadows_coherent(sc->accel) == (sc->shapes[0]->mesh.ntris < SPC_ACCEL_INCOHERENT_SHADOW_TRIS));
     spc_rng rng;
     spc_rng_seed(&rng, 5, 13);
     int lanes = 0, occluded = 0, differs = 0;
@@ -469,10 +471,18 @@ TEST(octant_shadow_packets_match_single_rays)
             differs += single != occ[i];
         }
     }
-    printf("  %d lanes (%d occluded): %d answers differ from single rays\n", lanes, occluded, differs);
+    printf("  %zu triangles, %d lanes (%d occluded): %d answers differ from single rays\n", sc->shapes[0]->mesh.ntris,
+           lanes, occluded, differs);
     CHECK(lanes > 20000 && occluded > 5000 && occluded < lanes - 5000);
     CHECK(differs == 0);
     spc_scene_destroy(sc);
+}
+
+TEST(octant_shadow_packets_match_single_rays)
+{
+    check_octant_shadow_packets(24, 37); /* 1702 triangles */
+    check_octant_shadow_packets(64, 80); /* 10080 triangles */
+    CHECK(2 * 23 * 37 < SPC_ACCEL_INCOHERENT_SHADOW_TRIS && 2 * 63 * 80 >= SPC_ACCEL_INCOHERENT_SHADOW_TRIS);
 }
 
 /* spc_scene_trace's answer, filled with spc_shape_fill_hit (as the chains fill their hits), is

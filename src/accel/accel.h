@@ -67,7 +67,13 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
 void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                     const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET]);
 /* spc_accel_occluded_packet_skip for rays whose directions share their signs (one octant): Embree's
- * coherent traversal, the same answers */
+ * coherent traversal in scenes of fewer than SPC_ACCEL_INCOHERENT_SHADOW_TRIS triangles, its
+ * incoherent one in bigger ones (spc_accel_shadows_coherent); the same answers either way. The
+ * coherent traversal pays on the cornell box's shadow packets (36 triangles), but on height fields
+ * of 10 thousand to a million triangles, whose BVH's deep levels the packet's rays part in, it costs
+ * 7 to 11% of plain path tracing's CPU time (bench/RESULTS.md). */
+#define SPC_ACCEL_INCOHERENT_SHADOW_TRIS (1u << 13)
+bool spc_accel_shadows_coherent(const spc_accel *a);
 void spc_accel_occluded_packet_skip_coherent(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                              const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET]);
 /* Benchmark support: traces n rays with bare rtcIntersect1 calls (no hit records, no double
