@@ -161,6 +161,8 @@ typedef struct spc_scene {
      * Without it a ray through a mesh's shared edge can pass between its two triangles and
      * plain path tracing of the cornell box takes about 9% less CPU time (bench/RESULTS.md). */
     bool accel_robust;
+    /* Embree's compact BVH from this many triangles in all; 0: SPC_ACCEL_COMPACT_TRIS (accel.h) */
+    size_t accel_compact_tris;
 } spc_scene;
 
 /* Returns NULL on allocation failure. */
