@@ -51,10 +51,15 @@
  * 488, 489; two slabs in 490, 2.2x) have products 0.0023-0.045 sr, the two that lose 0.15 (403: one
  * slab under a light of 0.0038 sr almost straight above it, 39 sequences a query, 0.6x) and 1.2
  * (432: two slabs and a glass ball under 0.014 sr, 83 sequences, 0.07x): the limit sits between
- * them, 1.8x from either. Beside a mirror, chains off the mirror and through the slab
- * (floor, mirror ball, three slab vertices, light) are made by BSDF sampling alone, and the query's
- * cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one pixel 100%
- * of a seed's error). */
+ * them, 1.8x from either. The same limit holds beside a mirror (a ball or a cylinder): of the
+ * random scenes with a slab beside a mirror under 0.002-0.01 sr (bench/RESULTS.md, "a glass slab
+ * beside a mirror"), those within it gain over none at equal CPU time over 16 seeds
+ * (scenes/caustic_glass_cube.xml 7.7x, random scenes 6251 8.7x, 6214 4.1x, 7074 2.9x, 6223 1.5x),
+ * and the three that lost to none with the slab setting forced lie past it (6202, 0.56 sr; 6278,
+ * 0.28; 6366 under 0.01 sr, past SPC_SNEE_PLAN_FLAT_LONG_MAX_SR; with 6353, 0.19, a gain left
+ * off); their one-pixel seeds, traced, were chains inside the
+ * slab (the floor seen through it, lit through it after 3-7 internal reflections, or 10 vertices
+ * along a thin slab), none off the mirror. */
 #define SPC_SNEE_PLAN_FLAT_COST_SR 0.08
 /* ... and at most this where every caster is flat-faced (no glass sphere or ball beside the slabs).
  * With light tracing through the slabs (SPC_SNEE_PLAN_FLAT_LT_LONG, snee_plan.h) taking the flat
@@ -603,18 +608,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         return;
     }
     int nflat = 0;
-    bool mirror = false;
-    for (int i = 0; i < cs->n; ++i) {
-        const spc_shape *s = sc->shapes[cs->idx[i]];
-        double eta = 0.0;
-        nflat += spc_flat_chain_shape(s) ? 1 : 0; /* the others: below */
-        mirror = mirror || !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0);
-    }
-    /* flat-faced casters beside nothing but glass, under a light larger than the flat rule's: on,
+    for (int i = 0; i < cs->n; ++i)
+        nflat += spc_flat_chain_shape(sc->shapes[cs->idx[i]]) ? 1 : 0; /* the others: below */
+    /* flat-faced casters under a light larger than the flat rule's (beside glass or mirrors): on,
      * with their longer chains, where the enumeration's cost pays (the pilot) */
     bool flat_long = false;
     double flat_cost_limit = nflat == cs->n ? SPC_SNEE_PLAN_FLAT_ALONE_COST_SR : SPC_SNEE_PLAN_FLAT_COST_SR;
-    if (nflat > 0 && !mirror && !strcmp(integrator, "path") && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
+    if (nflat > 0 && !strcmp(integrator, "path") && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
         out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR) {
         out->flat_sequences = flat_sequences_per_query(sc, smallest);
         flat_long = out->flat_sequences >= 0.0 && out->flat_sequences * out->light_sr <= flat_cost_limit;

@@ -244,7 +244,7 @@
  * bench/RESULTS.md, part torus25 and the merged main's check), so the light guides go to light
  * tracing alone (SPC_SNEE_PLAN_LIGHT_GUIDES). */
 
-/* Appended for path where some caster is flat-faced (a slab), no caster is a mirror, the smallest
+/* Appended for path where some caster is flat-faced (a slab; beside glass or mirrors), the smallest
  * light subtends more than SPC_SNEE_PLAN_FLAT_MAX_SR at the casters, and the flat enumeration's
  * face sequences per query times that solid angle is at most SPC_SNEE_PLAN_FLAT_COST_SR (a pilot,
  * snee_plan.c; SPC_SNEE_PLAN_FLAT_ALONE_COST_SR where every caster is flat-faced): the longer chains on (long), so that the slabs' chains of up to 4 vertices are
