@@ -39,10 +39,10 @@
  * (0.00066 sr) 7.3x lower relMSE than none; scenes/caustic_slabs.xml (0.011 sr) 0.4x,
  * scenes/caustic_glass_cube.xml (0.0038 sr) 1.0x, scenes/newton_slabs.xml (0.12 sr) 0.6x: off. */
 #define SPC_SNEE_PLAN_FLAT_MAX_SR 0.002
-/* ... and for path, where no caster is a mirror (every caster a specular dielectric), past that
- * solid angle where the flat enumeration's cost pays (with the longer chains through the faces
- * enumerated too, SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h): the face sequences the enumeration solves
- * per query (a pilot, flat_sequences_per_query) times the light's solid angle at most this. The
+/* ... and for path, past that solid angle where the flat enumeration's cost pays (with the longer
+ * chains through the faces enumerated too, SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h): the face
+ * sequences the enumeration solves per query (a pilot, flat_sequences_per_query) times the light's
+ * solid angle at most this. The
  * query's cost grows with the sequences (one solve per sequence, about 20 us through slabs), and
  * the gain over BSDF sampling falls as the light grows (BSDF sampling reaches a light through flat
  * glass about as often as without it, in proportion to its solid angle). At equal CPU time against
@@ -56,10 +56,10 @@
  * beside a mirror"), those within it gain over none at equal CPU time over 16 seeds
  * (scenes/caustic_glass_cube.xml 7.7x, random scenes 6251 8.7x, 6214 4.1x, 7074 2.9x, 6223 1.5x),
  * and the three that lost to none with the slab setting forced lie past it (6202, 0.56 sr; 6278,
- * 0.28; 6366 under 0.01 sr, past SPC_SNEE_PLAN_FLAT_LONG_MAX_SR; with 6353, 0.19, a gain left
- * off); their one-pixel seeds, traced, were chains inside the
- * slab (the floor seen through it, lit through it after 3-7 internal reflections, or 10 vertices
- * along a thin slab), none off the mirror. */
+ * 0.28) or past SPC_SNEE_PLAN_FLAT_LONG_MAX_SR (6366), with one that gained left off (6353, 0.19);
+ * their one-pixel seeds, traced, were chains inside the slab (the floor seen through it, lit
+ * through it after 3-7 internal reflections, or 10 vertices along a thin slab), none off the
+ * mirror. */
 #define SPC_SNEE_PLAN_FLAT_COST_SR 0.08
 /* ... and at most this where every caster is flat-faced (no glass sphere or ball beside the slabs).
  * With light tracing through the slabs (SPC_SNEE_PLAN_FLAT_LT_LONG, snee_plan.h) taking the flat
