@@ -251,10 +251,11 @@
  * bench/RESULTS.md, part torus25 and the merged main's check), so the light guides go to light
  * tracing alone (SPC_SNEE_PLAN_LIGHT_GUIDES). */
 
-/* Appended for path where some caster is flat-faced (a slab), no caster is a mirror, the smallest
+/* Appended for path where some caster is flat-faced (a slab; beside glass or mirrors), the smallest
  * light subtends more than SPC_SNEE_PLAN_FLAT_MAX_SR at the casters, and the flat enumeration's
  * face sequences per query times that solid angle is at most SPC_SNEE_PLAN_FLAT_COST_SR (a pilot,
- * snee_plan.c; SPC_SNEE_PLAN_FLAT_ALONE_COST_SR where every caster is flat-faced): the longer chains on (long), so that the slabs' chains of up to 4 vertices are
+ * snee_plan.c; SPC_SNEE_PLAN_FLAT_ALONE_COST_SR where every caster is flat-faced,
+ * SPC_SNEE_PLAN_FLAT_MIRROR_COST_SR beside a mirror): the longer chains on (long), so that the slabs' chains of up to 4 vertices are
  * enumerated at every call, and their 5-vertex chains (in, three total internal reflections, out: the slab as a light
  * guide) on every call too. Without them only BSDF sampling makes those chains, and the query's cost
  * per sample turns each such hit into a firefly (bench/RESULTS.md, "Glass sphere beside a flat
