@@ -161,7 +161,7 @@ TEST(partial_reflections_enumerated)
         q.y = cam.origin;
         q.light_size = 0.0;
         spc_chain a[16], b[16];
-        int na = spc_flat_chains_all(&q, a, 16, NULL), nb = spc_flat_chains_all_partial(&q, b, 16, NULL);
+        int na = spc_flat_chains_all(&q, a, 16, NULL), nb = spc_flat_chains_all_partial(&q, false, b, 16, NULL);
         total_all += na;
         partial_all += nb;
         for (int i = 0; i < nb; ++i)
@@ -195,10 +195,10 @@ TEST(weights_sum_to_one)
     int draws = spc_test_quick() ? 20000 : 100000;
     for (int i = 0; i < draws; ++i)
         spc_path_lt_view_joins(&ctx, &p, &rng, check_view_join, &t);
-    printf("  %d draws: %d joins (1 vertex %d, 2 %d, 3 %d, 4 %d), %d with a reflection, r > 1 on %d, r < 1 on %d; "
+    printf("  %d draws: %d joins (1 vertex %d, 2 %d, 3 %d), %d with a reflection, r > 1 on %d, r < 1 on %d; "
            "camera ray not reaching the light point %d, largest light-point distance %.3g of the scene, largest gap "
            "of the two weights' sum from 1 %.3g\n",
-           draws, t.joins, t.by_len[1], t.by_len[2], t.by_len[3], t.by_len[4], t.reflect, t.above, t.below,
+           draws, t.joins, t.by_len[1], t.by_len[2], t.by_len[3], t.reflect, t.above, t.below,
            t.unreached, t.worst_light, t.worst_gap);
     CHECK(t.joins > 100 && t.reflect > 10 && t.by_len[3] > 10);
     CHECK(t.above > 0);

@@ -47,6 +47,20 @@ static bool splits_emission(const spc_bsdf *b)
     return b && spc_bsdf_flags(b) == (SPC_LOBE_DELTA_REFLECTION | SPC_LOBE_DELTA_TRANSMISSION);
 }
 
+/* Has the chain two or more vertices with a reflection off glass among them? Where specular NEE
+ * from the pinhole runs (params.camera), its enumeration weighs the others (a chain without a
+ * reflection off glass, or a reflection alone): the joins solve only these. */
+static bool glass_reflect(const spc_chain *cc)
+{
+    if (cc->n < 2)
+        return false;
+    for (int i = 0; i < cc->n; ++i)
+        if (cc->v[i].event == SPC_CHAIN_REFLECT && cc->v[i].h.bsdf &&
+            (spc_bsdf_flags(cc->v[i].h.bsdf) & SPC_LOBE_DELTA_TRANSMISSION))
+            return true;
+    return false;
+}
+
 bool spc_path_lt_view_enabled(const spc_render_ctx *ctx, const spc_snee_params *p)
 {
     return p->lt_view && ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee != SPC_SNEE_NONE &&
@@ -61,6 +75,8 @@ double spc_path_lt_view_ratio(const spc_render_ctx *ctx, const spc_snee_params *
     if (!e || e->type != SPC_EMITTER_AREA || !e->shape || k < 1 || k > SPC_PATH_LT_VIEW_MAX_CHAIN ||
         (ctx->max_depth >= 0 && k + 1 > ctx->max_depth) || !spc_flat_chain_faces(cc, true))
         return 0.0;
+    if (p->camera && !glass_reflect(cc))
+        return 0.0; /* not solved by the joins (spc_flat_chains_all_partial's need_glass_reflect) */
     const spc_chain_vertex *last = &cc->v[k - 1];
     spc_camera_direct cd;
     if (!spc_camera_sample_direct(ctx->cam, last->h.p, &cd) || !in_window(ctx, cd.fx, cd.fy))
@@ -174,7 +190,7 @@ void spc_path_lt_view_joins(const spc_render_ctx *ctx, const spc_snee_params *p,
     yh.err = spc_max(q.y_err, 1e-9 * (spc_max_abs(q.y) + sc->radius));
     yh.shape = e->shape;
     yh.emitter = e;
-    /* every chain through flat faces from y to the pinhole */
+    /* the chains through flat faces from y to the pinhole */
     spc_snee_query cq;
     spc_snee_query_init(&cq, sc, p, &yh, q.ny, SPC_PATH_LT_VIEW_MAX_CHAIN);
     cq.min_chain = 1;
@@ -182,7 +198,9 @@ void spc_path_lt_view_joins(const spc_render_ctx *ctx, const spc_snee_params *p,
     cq.ny = spc_v3(0, 0, 0);
     cq.light_size = 0.0;
     spc_chain all[VIEW_CHAINS];
-    int n = spc_flat_chains_all_partial(&cq, all, VIEW_CHAINS, NULL);
+    /* where specular NEE from the pinhole runs, it weighs the chains its enumeration makes (no
+     * reflection off glass, or one alone): only the others are solved */
+    int n = spc_flat_chains_all_partial(&cq, p->camera, all, VIEW_CHAINS, NULL);
     double N = (double)ctx->width * (double)ctx->height;
     for (int i = 0; i < n; ++i) {
         const spc_chain *cc = &all[i];

@@ -17,10 +17,15 @@
  * (spc_path_lt_view_ratio), a function of the chain alone, so the weights sum to one.
  *
  * Which paths: the chain's vertices all on flat-faced casters (spc_flat_chain_faces with any
- * reflection), at most SPC_PATH_LT_VIEW_MAX_CHAIN of them and within max_depth, and specular NEE
- * from the pinhole leaves the path to the camera ray (its weight there is 1: no camera query, or
- * one that never makes the chain). Where specular NEE from the pinhole shares the path, neither
- * side weighs it here.
+ * reflection), at most SPC_PATH_LT_VIEW_MAX_CHAIN of them and within max_depth, with params.camera
+ * two or more of them with a reflection off glass among them (the rest are its enumeration's: not
+ * solved here, which keeps the joins' cost down), and specular NEE from the pinhole leaves the path
+ * to the camera ray (its weight there is 1: no camera query, or one that never makes the chain).
+ * Where specular NEE from the pinhole shares the path, neither side weighs it here.
+ *
+ * Cost: the face sequences with reflections inside the glass are many (a cube: about 75 of 3
+ * vertices from one light point); a draw costs 1.1-3x a camera sample on slab scenes, so the plan
+ * does not run it (bench/RESULTS.md, part pinhole29).
  */
 #ifndef SPC_INTEGRATOR_PATH_LT_VIEW_H
 #define SPC_INTEGRATOR_PATH_LT_VIEW_H
@@ -30,8 +35,9 @@
 
 /* The longest chain from the light to the pinhole this strategy solves: three vertices are the
  * light's image reflected once inside a slab (in, a partial reflection off the far face, out);
- * the face sequences grow as the faces to the power of the length (5^4 for a slab). */
-#define SPC_PATH_LT_VIEW_MAX_CHAIN 4
+ * the face sequences grow as the faces to the power of the length (four vertices cost 1.7-3.7x a
+ * camera sample on slab scenes that had no such chain, three 1.1-3x). */
+#define SPC_PATH_LT_VIEW_MAX_CHAIN 3
 
 /* The share of camera samples that trace a light point (the user's "ltview" without a value). */
 #define SPC_PATH_LT_VIEW_SHARE 0.25
