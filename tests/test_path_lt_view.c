@@ -112,8 +112,8 @@ static void check_view_join(void *user, const spc_path_lt_view_join *j)
     /* specular NEE from the pinhole leaves the path to the camera ray: its weight there is 1 */
     spc_snee_params pp = *t->p;
     pp.mis = true;
-    double cam_scale = (double)t->ctx->cam->width * (double)t->ctx->cam->height /
-                       ((double)t->ctx->width * (double)t->ctx->height);
+    double cam_scale =
+        (double)t->ctx->cam->width * (double)t->ctx->cam->height / ((double)t->ctx->width * (double)t->ctx->height);
     double w_query = spc_snee_camera_bsdf_weight(sc, &pp, t->ctx->cam, cam_scale, d, t->ctx->specular_max_chain, k, ev,
                                                  &cam.end_hit);
     if (!(w_query == 1.0))
@@ -198,8 +198,8 @@ TEST(weights_sum_to_one)
     printf("  %d draws: %d joins (1 vertex %d, 2 %d, 3 %d), %d with a reflection, r > 1 on %d, r < 1 on %d; "
            "camera ray not reaching the light point %d, largest light-point distance %.3g of the scene, largest gap "
            "of the two weights' sum from 1 %.3g\n",
-           draws, t.joins, t.by_len[1], t.by_len[2], t.by_len[3], t.reflect, t.above, t.below,
-           t.unreached, t.worst_light, t.worst_gap);
+           draws, t.joins, t.by_len[1], t.by_len[2], t.by_len[3], t.reflect, t.above, t.below, t.unreached,
+           t.worst_light, t.worst_gap);
     CHECK(t.joins > 100 && t.reflect > 10 && t.by_len[3] > 10);
     CHECK(t.above > 0);
     CHECK(t.unreached == 0);

@@ -64,8 +64,7 @@ static bool glass_reflect(const spc_chain *cc)
 bool spc_path_lt_view_enabled(const spc_render_ctx *ctx, const spc_snee_params *p)
 {
     return p->lt_view && ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee != SPC_SNEE_NONE &&
-           spc_path_lt_area_enabled(p) && !ctx->strict_normals && !rough_mode(p) &&
-           spc_camera_connectible(ctx->cam);
+           spc_path_lt_area_enabled(p) && !ctx->strict_normals && !rough_mode(p) && spc_camera_connectible(ctx->cam);
 }
 
 double spc_path_lt_view_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_emitter *e, spc_vec3 y,
@@ -154,10 +153,9 @@ static double query_weight(const spc_render_ctx *ctx, const spc_snee_params *p, 
     lh.ng = ny;
     lh.emitter = e;
     lh.shape = e->shape;
-    double cam_scale =
-        (double)ctx->cam->width * (double)ctx->cam->height / ((double)ctx->width * (double)ctx->height);
-    return spc_snee_camera_bsdf_weight(ctx->scene, &pp, ctx->cam, cam_scale, spc_neg(cc->v[n - 1].d), t.max_chain,
-                                       t.k, t.events, &lh);
+    double cam_scale = (double)ctx->cam->width * (double)ctx->cam->height / ((double)ctx->width * (double)ctx->height);
+    return spc_snee_camera_bsdf_weight(ctx->scene, &pp, ctx->cam, cam_scale, spc_neg(cc->v[n - 1].d), t.max_chain, t.k,
+                                       t.events, &lh);
 }
 
 void spc_path_lt_view_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
