@@ -239,11 +239,13 @@ static void agrees_with_none(const char *with, int spp, int spp_none, uint64_t s
 
 TEST(render_agrees_with_none)
 {
-    int q = spc_test_quick() ? 4 : 1;
-    agrees_with_none(PLAN ",ltview", 512 / q, 8192 / q, 31, "ltview vs none");
+    /* none at 8192 spp in both modes: fewer leave its T R T pixels to a few hits, and its variance
+     * there below the truth (4 of 256 pixels failed at 2048) */
+    int q = spc_test_quick() ? 2 : 1;
+    agrees_with_none(PLAN ",ltview", 512 / q, 8192, 31, "ltview vs none");
     /* on every sample, beside the camera query and light tracing of caustics alone (a setting of at most 95
      * characters: the plan's longer ones are cut there) */
-    agrees_with_none("angular:camera=0.025,ltcaus,ltview=1", 512 / q, 8192 / q, 33, "ltview=1 vs none");
+    agrees_with_none("angular:camera=0.025,ltcaus,ltview=1", 512 / q, 8192, 33, "ltview=1 vs none");
 }
 
 int main(void)
