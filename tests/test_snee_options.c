@@ -12,6 +12,8 @@
  */
 /* ctest-labels: unit */
 #include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "cli_util.h"
 #include "harness.h"
@@ -264,6 +266,43 @@ TEST(bad_settings_refused)
     snprintf(xml, sizeof xml, scene_fmt, "angular:long=0.5,mispsi=0.2");
     CHECK(write_file("good.xml", xml));
     CHECK(run("render", "good.xml", "-o", "g.exr", "--spp", "1", "--quiet", NULL) == 0);
+
+    /* a long setting runs whole (the stats record every character), a too long one is refused,
+     * never cut: a cut setting would run other options than those given */
+    char longer[SPC_SPECULAR_NEE_MAX + 64];
+    int n = snprintf(longer, sizeof longer, "angular:");
+    for (int k = 0; k < 19; ++k)
+        n += snprintf(longer + n, sizeof longer - (size_t)n, "first=0.1,");
+    snprintf(longer + n, sizeof longer - (size_t)n, "later=0.1");
+    CHECK(strlen(longer) > 150 && strlen(longer) < SPC_SPECULAR_NEE_MAX);
+    CHECK(run("render", "ok.xml", "-o", "l.exr", "--spp", "1", "--quiet", "--stats", "l.json", "--specular-nee",
+              longer, NULL) == 0);
+    char *json = read_text("l.json");
+    CHECK_MSG(json && strstr(json, longer), "the stats lack the whole setting: %s", json ? json : "(none)");
+    free(json);
+    n = (int)strlen(longer);
+    for (; n < SPC_SPECULAR_NEE_MAX + 20; n += 10)
+        memcpy(longer + n, ",first=0.1", 11);
+    CHECK(run("render", "ok.xml", "-o", "m.exr", "--spp", "1", "--quiet", "--specular-nee", longer, NULL) != 0);
+    CHECK(err_has("--specular-nee is ") && err_has("characters long (at most 255)"));
+    CHECK(!exists("m.exr"));
+    CHECK(run("info", "ok.xml", "--specular-nee", longer, NULL) != 0);
+    CHECK(err_has("characters long (at most 255)"));
+    /* the library refuses it too */
+    spc_scene *ok = NULL;
+    CHECK(spc_scene_load(tmp_path("ok.xml"), NULL, 0, &ok, &err) == SPC_OK);
+    if (ok) {
+        spc_render_options o;
+        spc_render_options_init(&o);
+        o.spp = 1;
+        o.threads = 1;
+        o.specular_nee = longer;
+        spc_film *f = NULL;
+        CHECK(spc_render(ok, &o, &f, NULL, &err) == SPC_ERR_VALUE && !f);
+        CHECK_MSG(strstr(err.msg, "characters long"), "%s", err.msg);
+        spc_film_destroy(f);
+        spc_scene_destroy(ok);
+    }
 }
 
 int main(void)

@@ -48,14 +48,14 @@ static spc_scene *ball_scene(bool toward, int res)
     return sc;
 }
 
-/* Renders with setting snee; the stats' setting and pilot note go to ran (96) and note (448). */
+/* Renders with setting snee; the stats' setting and pilot note go to ran (SPC_SPECULAR_NEE_MAX) and note (SPC_SPECULAR_NEE_NOTE_MAX). */
 static spc_film *render_ran(const spc_scene *sc, const char *snee, int spp, int threads, char *ran, char *note)
 {
     spc_render_stats st;
     spc_film *f = tu_render_stats(sc, NULL, snee, spp, threads, 5, &st);
     if (f) {
-        snprintf(ran, 96, "%s", st.specular_nee);
-        snprintf(note, 448, "%s", st.specular_nee_pilot);
+        snprintf(ran, SPC_SPECULAR_NEE_MAX, "%s", st.specular_nee);
+        snprintf(note, SPC_SPECULAR_NEE_NOTE_MAX, "%s", st.specular_nee_pilot);
     }
     return f;
 }
@@ -70,7 +70,7 @@ TEST(pilot_keeps_the_caustic_and_drops_the_useless)
         spc_snee_plan rules;
         spc_snee_plan_make(sc, "path", "auto", &rules);
         CHECK_MSG(rules.on && rules.pilot_note[0] == '\0', "the rules' plan (toward %d): %s", toward, rules.setting);
-        char ran[96], note[448];
+        char ran[SPC_SPECULAR_NEE_MAX], note[SPC_SPECULAR_NEE_NOTE_MAX];
         spc_film *f = render_ran(sc, "auto:pilot", 64, 2, ran, note);
         CHECK(f != NULL);
         printf("  camera %s the ball: ran %s; %s\n", toward ? "toward" : "away from", ran, note);
@@ -93,7 +93,7 @@ TEST(pilot_choice_and_image_do_not_depend_on_threads)
             CHECK(false);
             continue;
         }
-        char ran[3][96], note[3][448];
+        char ran[3][SPC_SPECULAR_NEE_MAX], note[3][SPC_SPECULAR_NEE_NOTE_MAX];
         spc_film *f[3];
         static const int threads[3] = {1, 2, 2};
         for (int k = 0; k < 3; ++k)
@@ -120,7 +120,7 @@ TEST(pilot_reported_and_opt_in)
         CHECK(false);
         return;
     }
-    char ran[96], note[448];
+    char ran[SPC_SPECULAR_NEE_MAX], note[SPC_SPECULAR_NEE_NOTE_MAX];
     spc_film *f = render_ran(sc, NULL, 4, 2, ran, note);
     CHECK_MSG(f && note[0] == '\0', "the default ran a pilot: %s", note);
     spc_film_destroy(f);

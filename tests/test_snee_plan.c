@@ -112,7 +112,7 @@ static spc_film *render_ran(const spc_scene *sc, const char *integrator, const c
         printf("  render failed: %s\n", err.msg);
         return NULL;
     }
-    snprintf(ran, 96, "%s", st.specular_nee);
+    snprintf(ran, SPC_SPECULAR_NEE_MAX, "%s", st.specular_nee);
     return f;
 }
 
@@ -150,7 +150,7 @@ TEST(default_on_with_casters_only)
     spc_snee_plan p;
     spc_snee_plan_make(with, "path", NULL, &p);
     CHECK(p.on && p.automatic && glass_setting(p.setting) && p.casters == 1 && p.receivers == 2);
-    char auto_setting[96];
+    char auto_setting[SPC_SPECULAR_NEE_MAX];
     snprintf(auto_setting, sizeof auto_setting, "%s", p.setting);
     spc_snee_plan_make(with, "volpath", "auto", &p);
     /* volpath: path's setting without caustic guiding (SPC_SNEE_PLAN_ROOM_GLASS_BALL: path's alone)
@@ -181,7 +181,7 @@ TEST(default_on_with_casters_only)
     }
 
     /* what ran, in the stats and in the film (the EXR header's attributes) */
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *f = render_ran(with, "path", NULL, 2, 1, ran);
     CHECK(f && !strcmp(ran, auto_setting) && !strcmp(f->specular_nee, auto_setting) && !strcmp(f->integrator, "path"));
     spc_film_destroy(f);
@@ -201,7 +201,7 @@ TEST(default_on_with_casters_only)
 
     /* the plan as `specula info` prints it */
     char *text = spc_scene_plan(with, NULL, NULL);
-    char line[160];
+    char line[SPC_SPECULAR_NEE_MAX + 32];
     snprintf(line, sizeof line, "specular NEE: %s (auto)", auto_setting);
     CHECK(text && strstr(text, line) && strstr(text, "glass seen on") &&
           strstr(text, "caster shape 1: glass sphere: every chain on the sphere enumerated exactly"));
@@ -339,7 +339,7 @@ TEST(default_agrees_with_none)
     spc_snee_plan_make(small, "path", NULL, &plan);
     spc_scene_destroy(small);
     CHECK(plan.on);
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *ref = render_ran(sc, "path", "none", 16384, 31, ran);
     spc_film *img = render_ran(sc, "path", plan.setting, 1024, 32, ran);
     CHECK(ref && img && !strcmp(ran, plan.setting) && glass_setting(ran));
@@ -503,7 +503,7 @@ TEST(mirror_only_plan_has_no_camera_query)
               both_plan.setting);
     CHECK(spc_snee_parse(both_plan.setting, 2, &sp) && sp.camera);
 
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *ref = render_ran(sc, "path", "none", 8192, 41, ran);
     spc_film *img = render_ran(sc, "path", p.setting, 1024, 42, ran);
     CHECK(ref && img && !strcmp(ran, SPC_SNEE_PLAN_SETTING_MIRRORS));
@@ -538,7 +538,7 @@ TEST(lamp_in_glass_globe_plan_on)
     spc_snee_plan_make(sc, "path", NULL, &p);
     CHECK_MSG(p.on && p.light_sr > 0.03 && p.caster_share >= 1.0 && glass_setting(p.setting),
               "%s (%s) %g sr, share %g", p.setting, p.reason, p.light_sr, p.caster_share);
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *ref = render_ran(sc, "path", "none", 16384, 71, ran);
     spc_film *img = render_ran(sc, "path", NULL, 4096, 72, ran);
     CHECK(ref && img && !strcmp(ran, p.setting));
@@ -603,13 +603,13 @@ TEST(bdpt_default_follows_the_plan)
     spc_snee_plan_make(with, "ptracer", NULL, &p);
     CHECK(!p.on);
     char *text = spc_scene_plan(with, "bdpt", NULL);
-    char want_setting[96], want_share[96];
+    char want_setting[SPC_SPECULAR_NEE_MAX], want_share[SPC_SPECULAR_NEE_MAX];
     snprintf(want_setting, sizeof want_setting, "specular NEE: %s (auto)", bdpt_setting);
     snprintf(want_share, sizeof want_share, "from the camera on a share %g of the samples", q_bdpt);
     CHECK_MSG(text && strstr(text, want_setting) && strstr(text, want_share), "%s", text ? text : "(null)");
     free(text);
 
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *img = render_ran(with, "bdpt", NULL, 1024, 61, ran);
     CHECK_MSG(img && !strcmp(ran, bdpt_setting), "%s", ran);
     spc_film *ref = render_ran(with, "bdpt", "none", 4096, 62, ran);
@@ -642,7 +642,7 @@ TEST(small_light_ball_agrees_with_bdpt)
     CHECK(sc != NULL);
     if (!sc)
         return;
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *ref = render_ran(sc, "bdpt", "angular:camera=0.1", 8192, 41, ran);
     spc_film *img = render_ran(sc, "path", NULL, 2048, 42, ran);
     CHECK(ref && img && glass_setting(ran));
@@ -687,7 +687,7 @@ TEST(demo_plan_on)
     spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
     CHECK_MSG(p.on && p.automatic && glass_setting(p.setting) && p.casters == 2 && p.light_sr < 0.03,
               "%s: %s (%g sr)", p.setting, p.reason, p.light_sr);
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *img = render_ran(sc, "path", NULL, 512, 51, ran);
     CHECK(img && !strcmp(ran, p.setting));
     spc_film *all = render_ran(sc, "path", "angular:camera", 512, 52, ran);
@@ -710,7 +710,7 @@ static bool seed_means(const spc_scene *sc, const char *snee, int spp, uint64_t 
                        double *rel)
 {
     double s = 0.0, s2 = 0.0;
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     for (int i = 0; i < n; ++i) {
         spc_film *f = render_ran(sc, "path", snee, spp, seed0 + (uint64_t)i, ran);
         if (!f)
@@ -782,7 +782,7 @@ TEST(low_camera_q_agrees_on_light_images)
     CHECK(sc != NULL);
     if (!sc)
         return;
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *low = render_ran(sc, "path", "angular:camera=0.037,first=0.1,later=0.1", 1024, 71, ran);
     spc_film *all = render_ran(sc, "path", "angular:camera,first=0.1,later=0.1", 256, 72, ran);
     CHECK(low && all);
@@ -849,7 +849,7 @@ TEST(reflections_at_depth_4_agree_with_bdpt)
     if (!sc)
         return;
     sc->integrator.max_depth = 4;
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *ref = render_ran(sc, "bdpt", "none", 8192, 51, ran);
     spc_film *img = render_ran(sc, "path", "angular", 2048, 52, ran);
     CHECK(ref && img && !strcmp(ran, "angular"));
@@ -946,7 +946,7 @@ TEST(light_in_housing_plan_off)
     spc_snee_plan p;
     spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
     CHECK_MSG(!p.on && p.casters == 1 && strstr(p.reason, "seen"), "indirect_lamp_glass: %s (%s)", p.setting, p.reason);
-    char ran[96];
+    char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *img = render_ran(sc, "path", NULL, 4, 61, ran);
     CHECK_MSG(img && !strcmp(ran, "none"), "indirect_lamp_glass ran %s", ran);
     spc_film_destroy(img);

@@ -888,6 +888,9 @@ static int render_run(int argc, char **argv, const spc_checkpoint *resume)
         } else if (opt_value(argc, argv, &i, "--specular-nee", NULL, &v)) {
             if (!v)
                 code = usage_error(usage_render, "--specular-nee needs a name");
+            else if (strlen(v) >= SPC_SPECULAR_NEE_MAX)
+                code = usage_error(usage_render, "--specular-nee is %zu characters long (at most %d)", strlen(v),
+                                   SPC_SPECULAR_NEE_MAX - 1);
             opt.specular_nee = v;
         } else if (opt_value(argc, argv, &i, "--max-depth", NULL, &v)) {
             if (!parse_int(v, -1, INT_MAX, &opt.max_depth))
@@ -1553,6 +1556,9 @@ static int cmd_info(int argc, char **argv)
             defs.n++;
             ++i;
         } else if (opt_value(argc, argv, &i, "--specular-nee", NULL, &v)) {
+            if (v && strlen(v) >= SPC_SPECULAR_NEE_MAX)
+                code = usage_error(usage_info, "--specular-nee is %zu characters long (at most %d)", strlen(v),
+                                   SPC_SPECULAR_NEE_MAX - 1);
             info_snee = v;
         } else if (a[0] == '-' && a[1] != '\0') {
             code = usage_error(usage_info, "unknown option '%s'", a);

@@ -158,6 +158,12 @@ typedef struct spc_render_options {
 
 void spc_render_options_init(spc_render_options *o);
 
+/* The longest specular NEE setting, with its terminating zero: a longer one given to spc_render (its
+ * options' specular_nee, or a scene's specular_nee property) is refused, never cut. */
+#define SPC_SPECULAR_NEE_MAX 256
+/* The pilot render's note (what it measured and chose), with its terminating zero. */
+#define SPC_SPECULAR_NEE_NOTE_MAX 704
+
 typedef struct spc_render_stats {
     int spp;
     double wall_seconds;
@@ -167,8 +173,8 @@ typedef struct spc_render_stats {
     int threads;
     uint64_t samples;
     uint64_t invalid_samples; /* NaN or infinite estimates, discarded and counted */
-    char specular_nee[96];    /* the specular NEE setting that ran ("none" when off; see spc_scene_plan) */
-    char specular_nee_pilot[448]; /* what the pilot render measured and chose, or "" where none ran */
+    char specular_nee[SPC_SPECULAR_NEE_MAX]; /* the specular NEE setting that ran ("none" when off; see spc_scene_plan) */
+    char specular_nee_pilot[SPC_SPECULAR_NEE_NOTE_MAX]; /* what the pilot render measured and chose, or "" where none ran */
     int caustic_guide_entries;    /* caustic guiding at receivers: the guide's entries (0: it did not run) */
     int caustic_guide_cones;      /* of them, cones toward glass casters */
     double caustic_guide_seconds; /* and its photon pre-pass's wall time (inside wall_seconds) */

@@ -93,6 +93,7 @@
 
 #include "manifold/snee_options.h"
 #include "manifold/solver.h"
+#include "specula/specula.h" /* SPC_SPECULAR_NEE_MAX */
 
 /* The setting the plan picks wherever specular NEE pays (the reasons are above): chains that
  * reflect off glass as well as refract (the light's image in a glass ball or on water, internal
@@ -389,7 +390,7 @@ typedef enum spc_snee_method {
 typedef struct spc_snee_plan {
     bool automatic;   /* chosen from the scene, not given */
     bool on;          /* specular NEE runs */
-    char setting[96]; /* what runs, as spc_snee_parse reads it: "none", "angular", "newton:biased=8", ... */
+    char setting[SPC_SPECULAR_NEE_MAX]; /* what runs, as spc_snee_parse reads it: "none", "angular", "newton:biased=8", ... */
     char reason[96];  /* why it is off, or "" */
     int casters;      /* caster shapes (spc_chain_casters_of) */
     int receivers;    /* shapes specular NEE may start at */
@@ -400,7 +401,7 @@ typedef struct spc_snee_plan {
     double flat_sequences; /* face sequences the flat enumeration solves per query (the pilot, snee_plan.c;
                               0 where it did not run, -1 where it found no receiver) */
     bool pilot;          /* automatic and on, and the pilot render (render/snee_pilot.h) may check it */
-    char pilot_note[448]; /* what the pilot measured and chose, or "" */
+    char pilot_note[SPC_SPECULAR_NEE_NOTE_MAX]; /* what the pilot measured and chose, or "" */
 } spc_snee_plan;
 
 /* The plan for rendering sc with integrator `integrator` ("path", "volpath", "bdpt", "ipt") and the

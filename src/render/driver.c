@@ -359,6 +359,10 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     ctx.strategy_s = o->strategy_s;
     ctx.strategy_t = o->strategy_t;
     ctx.strategy_weighted = o->strategy_weighted;
+    /* a longer setting would have been cut in the plan: refused, never run cut */
+    if (o->specular_nee && strlen(o->specular_nee) >= SPC_SPECULAR_NEE_MAX)
+        return spc_error_set(err, SPC_ERR_VALUE, NULL, 0, 0, "--specular-nee is %zu characters long (at most %d)",
+                             strlen(o->specular_nee), SPC_SPECULAR_NEE_MAX - 1);
     const char *sname = plan->setting;
     ctx.specular_max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
     char why[SPC_SNEE_WHY_MAX];

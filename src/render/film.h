@@ -51,7 +51,7 @@ struct spc_film {
     /* what rendered it, for the EXR header: the integrator and the specular NEE setting that ran
      * ("none" when off); "" for a film not rendered by spc_render */
     char integrator[16];
-    char specular_nee[96];
+    char specular_nee[SPC_SPECULAR_NEE_MAX];
 };
 
 /* NULL on allocation failure or absurd size. */

@@ -62,7 +62,7 @@
 #define SPC_SNEE_PILOT_CANDIDATES 2
 
 typedef struct spc_snee_pilot_candidate {
-    char setting[96];
+    char setting[SPC_SPECULAR_NEE_MAX];
     double sec_per_sample; /* CPU seconds per camera sample */
     int spp;               /* samples per pixel, all groups */
     double rel_var_plain;  /* relative variance per sample, from the sample variance */

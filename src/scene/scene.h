@@ -94,7 +94,7 @@ typedef struct spc_integrator_spec {
     int max_depth;        /* Mitsuba's meaning: 1 = emitters seen directly, 2 = direct light; -1 = no limit */
     int rr_depth;         /* Russian roulette starts at this depth (Mitsuba default 5) */
     bool hide_emitters;
-    char specular_nee[96];  /* "" or "auto" (chosen from the scene: manifold/snee_plan.h), "none" or "off",
+    char specular_nee[SPC_SPECULAR_NEE_MAX]; /* "" or "auto" (chosen from the scene: manifold/snee_plan.h), "none" or "off",
                              * "angular", "newton", "conic", with options (spc_snee_parse) */
     int specular_max_chain; /* longest chain of specular vertices for specular NEE */
     bool mis_balance;       /* bdpt: balance heuristic instead of the power heuristic */
