@@ -75,12 +75,13 @@
 #define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.01
 /* Flat-faced casters alone under area lights past SPC_SNEE_PLAN_FLAT_LONG_MAX_SR: on with light
  * tracing (flat_large_lights, SPC_SNEE_PLAN_FLAT_LARGE) up to this solid angle. At equal CPU time
- * against none (bench/RESULTS.md, "Slabs under larger lights"), random slab scenes with their
- * lights enlarged gain under 0.015-0.06 sr (0.7-15x, most 1.5-10x) and lose under 0.12-0.2 sr
- * (0.2-0.7x: BSDF sampling finds such a light through a slab often, and the query's cost, about a
+ * against none over 16 seeds (bench/RESULTS.md, "Slabs under larger lights"), random slab scenes
+ * with their lights enlarged gain under 0.015 and 0.03 sr (2.6-15x on 5 of 6; one loses, 0.7x, by
+ * one pixel), are mixed under 0.06 sr (1.5x, 1.5x, two slabs 0.6x) and lose under 0.12-0.2 sr
+ * (0.1-0.7x: BSDF sampling finds such a light through a slab often, and the query's cost, about a
  * hundred BSDF samples, is spent on a caustic that is a small part of the image); the limit sits
- * between 0.06 and 0.12. */
-#define SPC_SNEE_PLAN_FLAT_LARGE_MAX_SR 0.08
+ * between 0.03 and 0.06. */
+#define SPC_SNEE_PLAN_FLAT_LARGE_MAX_SR 0.045
 /* ... and up to this one where the slabs fill at least SPC_SNEE_PLAN_MIN_SHARE of a light's
  * directions (the light's power mostly through them, as over scenes/newton_slabs.xml's two plates,
  * 0.12 sr, share 1: 2-3x none). */

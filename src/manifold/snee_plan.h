@@ -271,8 +271,8 @@
 #define SPC_SNEE_PLAN_FLAT_LT ",flat34=0.3,longmax=8"
 #define SPC_SNEE_PLAN_FLAT_LT_LONG ",flat34=0.3,flat5=0.3,longmax=8"
 
-/* Appended for path where every caster is flat-faced glass (slabs, no mirror) and every light is an
- * area light larger than the flat rules' SPC_SNEE_PLAN_FLAT_LONG_MAX_SR up to
+/* Appended for path where every caster is closed flat-faced glass (slabs, no mirror) and every light
+ * is an area light larger than the flat rules' SPC_SNEE_PLAN_FLAT_LONG_MAX_SR up to
  * SPC_SNEE_PLAN_FLAT_LARGE_MAX_SR (snee_plan.c), without the caustic guide at receivers: the plan's
  * setting for slabs under small lights, with light tracing on every camera sample (ltshare=1). The
  * flat enumeration's query costs about a hundred BSDF samples there and carries the caustic with
