@@ -166,8 +166,8 @@ static bool flat_large_lights(const spc_scene *sc, const spc_chain_casters *cs, 
     if (nflat == 0 || nflat != cs->n || mirror || strcmp(integrator, "path") ||
         !(light_sr > SPC_SNEE_PLAN_FLAT_LONG_MAX_SR))
         return false;
-    const double max_sr =
-        caster_share >= SPC_SNEE_PLAN_MIN_SHARE ? SPC_SNEE_PLAN_FLAT_LARGE_SHARED_MAX_SR : SPC_SNEE_PLAN_FLAT_LARGE_MAX_SR;
+    const double max_sr = caster_share >= SPC_SNEE_PLAN_MIN_SHARE ? SPC_SNEE_PLAN_FLAT_LARGE_SHARED_MAX_SR
+                                                                  : SPC_SNEE_PLAN_FLAT_LARGE_MAX_SR;
     for (int i = 0; i < cs->n; ++i)
         if (!spc_flat_chain_closed(sc->shapes[cs->idx[i]]))
             return false;
