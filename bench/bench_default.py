@@ -17,7 +17,8 @@ seed's error sum, and the ratio none / setting of the means.
 
 usage (from the source root):
   python3 bench/bench_default.py [--specula build/specula] [--out /tmp/bench_default] [--res 24]
-                                 [--budget 1.0] [--ref 12] [--seeds 3] [--setting S] [--extra S ...]
+                                 [--budget 1.0] [--ref 12] [--seeds 3] [--seed0 1] [--per-seed]
+                                 [--setting S] [--extra S ...]
                                  [--ref-setting S] [--recalibrate] [SCENE.xml ...]
 (--setting S: S instead of the default in the first column, against the same reference; --extra S:
 one more column; --ref-setting S: the reference rendered with S instead of the default; --recalibrate:
@@ -108,6 +109,9 @@ def main():
     ap.add_argument("--budget", type=float, default=1.0)
     ap.add_argument("--ref", type=float, default=12.0)
     ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--seed0", type=int, default=1, help="the first seed of the renders (seeds seed0 .. seed0 + seeds - 1)")
+    ap.add_argument("--per-seed", action="store_true",
+                    help="print each seed's relMSE, its worst pixel (x, y) and that pixel's share")
     ap.add_argument("--setting", default=None, help="render this setting in the default's column (no flag if absent)")
     ap.add_argument("--extra", action="append", default=[], help="one more column with this setting")
     ap.add_argument("--ref-setting", default=None, help="the reference's setting (default: no flag)")
@@ -162,11 +166,15 @@ def main():
             spp = budget_spp(a.budget, cal[s], fixed[s])
             for k in range(a.seeds):
                 p = os.path.join(a.out, "%s_%s_%d.exr" % (name, (s or "default").replace(":", "_"), k))
-                cpu = render(a, scene, p, s, spp, 1 + k, a.res) - base
+                cpu = render(a, scene, p, s, spp, a.seed0 + k, a.res) - base
                 img = read_exr(p)
                 e = (((img - ref) ** 2 - ref_var) / (ref ** 2 + 0.01)).mean(-1)
                 errs.append(e.mean() * max(cpu, 1e-3) / a.budget)
                 shares.append(e.max() / max(e.sum(), 1e-300))
+                if a.per_seed:
+                    y, x = np.unravel_index(np.argmax(e), e.shape)
+                    print("#  %s %s seed %d: relMSE %.4g, worst pixel (x %d, y %d) share %.2f, cpu %.3f s" % (
+                        name, s or "default", a.seed0 + k, errs[-1], x, y, shares[-1], cpu))
             res[s] = (np.mean(errs), max(errs), max(shares), spp)
         d, n = res[a.setting], res["none"]
         row = "| %s | %s | %.3g (%.3g), %d spp | %.3g (%.3g), %d spp | %.1f |" % (

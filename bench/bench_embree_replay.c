@@ -12,8 +12,10 @@
  * where the render's had idle lanes).
  *
  * The scene's triangle meshes (every shape must be a mesh) are given to a fresh Embree device the
- * way src/accel/embree.c does (shared float buffers, RTC_BUILD_QUALITY_HIGH), once with
- * RTC_SCENE_FLAG_ROBUST (specula's) and once without (Mitsuba 3's), and every file is traced as
+ * way src/accel/embree.c does (float buffers, RTC_BUILD_QUALITY_HIGH), under four scene flags:
+ * robust and compact (specula's for meshes of 2^19 triangles and more), robust alone (specula's
+ * below), compact alone and none (Mitsuba 3's); each scene's build CPU time is printed. Every file
+ * is traced as
  * single rays (rtcIntersect1/rtcOccluded1), as packets of 16 (rtcIntersect16/rtcOccluded16, the
  * incoherent context flag, specula's calls) and as packets with the coherent flag. The time is
  * this thread's CPU time (the machine is shared), the best of three rounds; the hit counts check
@@ -54,11 +56,12 @@ static bool read_rays(const char *prefix, const char *ext, rays *out)
     return ok;
 }
 
-static RTCScene build(RTCDevice dev, const spc_scene *sc, bool robust)
+static RTCScene build(RTCDevice dev, const spc_scene *sc, enum RTCSceneFlags flags, double *seconds)
 {
+    double t0 = bench_thread_seconds();
     RTCScene s = rtcNewScene(dev);
     rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_HIGH);
-    rtcSetSceneFlags(s, robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+    rtcSetSceneFlags(s, flags);
     for (int i = 0; i < sc->nshapes; ++i) {
         const spc_shape *sh = sc->shapes[i];
         RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -73,6 +76,7 @@ static RTCScene build(RTCDevice dev, const spc_scene *sc, bool robust)
         rtcReleaseGeometry(g);
     }
     rtcCommitScene(s);
+    *seconds = bench_thread_seconds() - t0;
     return s;
 }
 
@@ -165,11 +169,28 @@ int main(int argc, char **argv)
     if (!read_rays(argv[2], "isect", &rs[0]) || !read_rays(argv[2], "occl", &rs[1]))
         return 1;
     printf("scene %s: %zu triangles; %zu intersection rays, %zu shadow rays\n", argv[1], ntris, rs[0].n, rs[1].n);
-    printf("| scene flags | call | intersection ns/ray | hits | shadow ns/ray | occluded |\n|---|---|---|---|---|---|\n");
-    RTCDevice dev = rtcNewDevice("verbose=0");
-    for (int robust = 1; robust >= 0; --robust) {
-        RTCScene s = build(dev, sc, robust);
+    printf("| scene flags | call | intersection ns/ray | hits | shadow ns/ray | occluded | build CPU s |\n"
+           "|---|---|---|---|---|---|---|\n");
+    /* REPLAY_EMBREE_CONFIG, if set, is the device's configuration (e.g. tri_builder=sah_fast_spatial) */
+    const char *config = getenv("REPLAY_EMBREE_CONFIG");
+    RTCDevice dev = rtcNewDevice(config ? config : "verbose=0");
+    /* specula's flags for big meshes first (robust and compact: Embree's BVH4 over triangle4i leaves,
+     * robust traversal), then robust alone (BVH8, triangle4v), compact alone (BVH4, triangle4i) and
+     * none (Mitsuba 3's: BVH8, triangle4, Moeller-Trumbore, the high-quality spatial-split build) */
+    static const struct {
+        enum RTCSceneFlags flags;
+        const char *name;
+    } variants[] = {{RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_COMPACT, "robust+compact"},
+                    {RTC_SCENE_FLAG_ROBUST, "robust"},
+                    {RTC_SCENE_FLAG_COMPACT, "compact"},
+                    {RTC_SCENE_FLAG_NONE, "none"}};
+    const char *only = getenv("REPLAY_FORMS"); /* e.g. "1": packets of 16 only (0 single, 1, 2 coherent) */
+    for (size_t vi = 0; vi < sizeof variants / sizeof variants[0]; ++vi) {
+        double build_s;
+        RTCScene s = build(dev, sc, variants[vi].flags, &build_s);
         for (int f = SINGLE; f <= PACKET_COHERENT; ++f) {
+            if (only && !strchr(only, '0' + f))
+                continue;
             double best[2] = {1e30, 1e30};
             size_t hits[2] = {0, 0};
             for (int round = 0; round < 3; ++round)
@@ -179,8 +200,8 @@ int main(int argc, char **argv)
                     if (sec < best[k])
                         best[k] = sec;
                 }
-            printf("| %s | %s | %.1f | %zu | %.1f | %zu |\n", robust ? "robust" : "none", form_name[f],
-                   1e9 * best[0] / (double)rs[0].n, hits[0], 1e9 * best[1] / (double)rs[1].n, hits[1]);
+            printf("| %s | %s | %.1f | %zu | %.1f | %zu | %.2f |\n", variants[vi].name, form_name[f],
+                   1e9 * best[0] / (double)rs[0].n, hits[0], 1e9 * best[1] / (double)rs[1].n, hits[1], build_s);
             fflush(stdout);
         }
         rtcReleaseScene(s);

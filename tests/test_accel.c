@@ -1,7 +1,7 @@
 /*
  * tests/test_accel.c: the acceleration structure's hits against closed-form ones, for a mesh whose
- * positions and indices Embree reads in place, below and at the size where the BVH turns compact
- * (SPC_ACCEL_COMPACT_TRIS); the scene's budget of kept triangle frames; how rarely rays pass through the
+ * positions and indices Embree reads in place, with Embree's default BVH and its compact one (a
+ * scene's own limit, spc_scene.accel_compact_tris, or SPC_ACCEL_COMPACT_TRIS); the scene's budget of kept triangle frames; how rarely rays pass through the
  * cracks of a closed mesh (robust triangle test); coherent packets' hits against single rays'.
  */
 /* ctest-labels: unit */
@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "accel/accel.h"
 #include "core/rng.h"
 #include "harness.h"
 #include "scene/scene.h"
@@ -51,8 +52,9 @@ static bool add_grid(spc_scene *sc, int k, double z, const spc_bsdf *d)
     return true;
 }
 
-/* A scene of grids of k[0], k[1], ... quads a side (n of them), at heights 0.25, 0.5, ... */
-static spc_scene *grids_scene(const int *k, int n)
+/* A scene of grids of k[0], k[1], ... quads a side (n of them), at heights 0.25, 0.5, ..., whose
+ * BVH is compact from compact_tris triangles (0: the default limit) */
+static spc_scene *grids_scene_compact(const int *k, int n, size_t compact_tris)
 {
     spc_scene *sc = spc_scene_create();
     if (!sc)
@@ -66,6 +68,7 @@ static spc_scene *grids_scene(const int *k, int n)
             return NULL;
         }
     spc_scene_set_defaults(sc);
+    sc->accel_compact_tris = compact_tris;
     spc_error err;
     if (spc_scene_finalize(sc, &err) != SPC_OK) {
         printf("  finalize: %s\n", err.msg);
@@ -75,17 +78,22 @@ static spc_scene *grids_scene(const int *k, int n)
     return sc;
 }
 
+static spc_scene *grids_scene(const int *k, int n) { return grids_scene_compact(k, n, 0); }
+
 /* Vertical and slanted rays onto the grid: each hits the triangle of its cell at the plane's
  * distance; rays beside the grid miss; a shadow ray through the plane is occluded, one stopping
  * short of it is not. */
-static int check_grid(int k)
+static int check_grid(int k, size_t compact_tris)
 {
     const double z = 0.25;
-    spc_scene *sc = grids_scene(&k, 1);
+    spc_scene *sc = grids_scene_compact(&k, 1, compact_tris);
     CHECK(sc != NULL);
     if (!sc)
         return 0;
     CHECK(sc->shapes[0]->mesh.p_padded);
+    /* compact exactly from the limit on */
+    size_t limit = compact_tris ? compact_tris : SPC_ACCEL_COMPACT_TRIS;
+    CHECK(spc_accel_compact(sc->accel) == (sc->shapes[0]->mesh.ntris >= limit));
     spc_rng rng;
     spc_rng_seed(&rng, (uint64_t)k, 7);
     int good = 0;
@@ -120,7 +128,7 @@ static int check_grid(int k)
     return good;
 }
 
-TEST(grid_hits_small) { CHECK(check_grid(16) == 2000); }
+TEST(grid_hits_small) { CHECK(check_grid(16, 0) == 2000); }
 
 /* The kept triangle frames' budget (SPC_MESH_FRAME_MAX_TRIS) holds for the scene: of three meshes
  * of 2 * 110^2 = 24200 triangles the first two keep them, the third would pass the budget with
@@ -141,8 +149,16 @@ TEST(kept_frames_budget)
     spc_scene_destroy(sc);
 }
 
-/* 2 * 512^2 = 524288 triangles: the compact BVH (SPC_ACCEL_COMPACT_TRIS) */
-TEST(grid_hits_compact) { CHECK(check_grid(512) == 2000); }
+/* 2 * 512^2 = 524288 triangles: Embree's default BVH (below SPC_ACCEL_COMPACT_TRIS), then a grid
+ * of 2 * 96^2 = 18432 triangles with the compact BVH by the scene's own limit, at it and one
+ * triangle above it */
+TEST(grid_hits_compact)
+{
+    CHECK(2u * 512 * 512 < SPC_ACCEL_COMPACT_TRIS);
+    CHECK(check_grid(512, 0) == 2000);
+    CHECK(check_grid(96, 2 * 96 * 96) == 2000);
+    CHECK(check_grid(96, 2 * 96 * 96 + 1) == 2000);
+}
 
 /* A point drawn uniformly in the cube [-1/2, 1/2]^3 (offsets and unnormalized directions). */
 static spc_vec3 centred_draw(spc_rng *r)
@@ -411,17 +427,19 @@ TEST(coherent_packets_match_single_rays)
     spc_scene_destroy(sc);
 }
 
-/* Shadow packets whose rays share an octant, by Embree's coherent traversal
- * (spc_scene_occluded_light_packet_coherent, the packet path tracer's shadow rays), answer as single
- * rays do: segments between random points inside and outside a closed mesh, some lanes inactive,
- * each packet's directions turned into one octant (sign flips of the components). */
-TEST(octant_shadow_packets_match_single_rays)
+/* Shadow packets whose rays share an octant (spc_scene_occluded_light_packet_coherent, the packet
+ * path tracer's shadow rays) answer as single rays do: segments between random points inside and
+ * outside a closed mesh, some lanes inactive, each packet's directions turned into one octant (sign
+ * flips of the components); a mesh below SPC_ACCEL_INCOHERENT_SHADOW_TRIS (Embree's coherent
+ * traversal) and one above it (its incoherent one). */
+static void check_octant_shadow_packets(int nlat, int nlon)
 {
     spc_vec3 c;
-    spc_scene *sc = closed_sphere_scene(24, 37, &c, false);
+    spc_scene *sc = closed_sphere_scene(nlat, nlon, &c, false);
     CHECK(sc != NULL);
     if (!sc)
         return;
+    CHECK(spc_accel_shadows_coherent(sc->accel) == (sc->shapes[0]->mesh.ntris < SPC_ACCEL_INCOHERENT_SHADOW_TRIS));
     spc_rng rng;
     spc_rng_seed(&rng, 5, 13);
     int lanes = 0, occluded = 0, differs = 0;
@@ -453,10 +471,18 @@ TEST(octant_shadow_packets_match_single_rays)
             differs += single != occ[i];
         }
     }
-    printf("  %d lanes (%d occluded): %d answers differ from single rays\n", lanes, occluded, differs);
+    printf("  %zu triangles, %d lanes (%d occluded): %d answers differ from single rays\n", sc->shapes[0]->mesh.ntris,
+           lanes, occluded, differs);
     CHECK(lanes > 20000 && occluded > 5000 && occluded < lanes - 5000);
     CHECK(differs == 0);
     spc_scene_destroy(sc);
+}
+
+TEST(octant_shadow_packets_match_single_rays)
+{
+    check_octant_shadow_packets(24, 37); /* 1702 triangles */
+    check_octant_shadow_packets(64, 80); /* 10080 triangles */
+    CHECK(2 * 23 * 37 < SPC_ACCEL_INCOHERENT_SHADOW_TRIS && 2 * 63 * 80 >= SPC_ACCEL_INCOHERENT_SHADOW_TRIS);
 }
 
 /* spc_scene_trace's answer, filled with spc_shape_fill_hit (as the chains fill their hits), is

@@ -9,6 +9,9 @@
  *   the dense scan finds is among spc_sphere_chain_roots', and every one of those is a root; and
  *   1500 configurations of the outside reflection and the refraction through with y mostly behind
  *   the sphere, where the refraction's caustic puts pairs of roots close together (its folds).
+ * - From inside the sphere (spc_sphere_inside_roots), the way out after 0 to 2 internal reflections
+ *   against a formulation by angles scanned over 20001 first directions: every isolated root found,
+ *   those by the edge of total internal reflection included, and every returned one a root.
  * - The outside reflection, which is solved in closed form (a quartic), against the dense scan over
  *   4000 configurations: far, near the sphere, grazing, and y behind the sphere.
  * - In a scene: the chains spc_sphere_chains_all enumerates from floor points to light points
@@ -192,6 +195,120 @@ TEST(planar_roots_near_the_sphere)
     int dense = 0;
     planar_dense(1500, true, true, &dense);
     CHECK(dense > 500);
+}
+
+/* The planar problem from inside the circle (spc_sphere_inside_roots), by angles and parametrized by
+ * the first direction phi from x = (d, 0): the ray's distance from the centre gives the incidence
+ * angle alpha (sin alpha = d |sin phi|) at every vertex, each chord turns the vertex by pi - 2 alpha
+ * about the centre in the sense of the ray's angular momentum, and the way out leaves at the angle
+ * beta (sin beta = eta sin alpha) to the outward normal, turned the same way. f = v x (y - Q); *th0
+ * the first vertex's angle; false where the way out is totally reflected. */
+static bool f_inside(double d, double y1, double y2, int m, double eta, double phi, double *f, double *ahead,
+                     double *th0)
+{
+    double L = d * sin(phi), sa = fabs(L);
+    if (sa >= 1.0 || L == 0.0)
+        return false;
+    double t = -d * cos(phi) + sqrt(1.0 - sa * sa);
+    *th0 = atan2(t * sin(phi), d + t * cos(phi));
+    double sg = L > 0.0 ? 1.0 : -1.0, alpha = asin(sa);
+    double qa = *th0 + sg * m * (SPC_PI - 2.0 * alpha);
+    double sb = eta * sa;
+    if (sb >= 1.0)
+        return false;
+    double va = qa + sg * asin(sb);
+    double rx = y1 - cos(qa), ry = y2 - sin(qa), vx = cos(va), vy = sin(va);
+    *f = vx * ry - vy * rx;
+    *ahead = vx * rx + vy * ry;
+    return true;
+}
+
+/* From points inside the sphere (a medium point in a glass ball), the way out after 0 to 2 internal
+ * reflections, over random configurations (x from the centre to 0.98 radii, y from 1.05 to 6 radii,
+ * glass and water): every root the dense scan over the first direction finds with no other root
+ * within two of the solver's grid cells is among the returned ones (their first directions within
+ * 0.01 radians: the roots seed attempts in a cone of 5 degrees), among them roots whose way out is
+ * within 11 degrees of grazing (the light seen at the ball's rim from inside, by the edge of total
+ * internal reflection), and every returned root has a sign change of f within 0.01 of its
+ * direction. Fails if the chords, the way out or the edge's bracket are got wrong. */
+TEST(inside_roots_against_dense_scan)
+{
+    spc_rng_seed(&rng, 11, 3);
+    const double etas[2] = {1.5, 1.33}, tol = 0.01, iso = 4.0 * SPC_PI / 32.0;
+    int configs = 0, dense = 0, isolated = 0, found = 0, missed = 0, returned = 0, false_roots = 0, grazing = 0;
+    for (int trial = 0; trial < 600; ++trial) {
+        int m = (int)(rnd() * 3);
+        double eta = etas[(int)(rnd() * 2)];
+        double d = 0.98 * rnd(), r = 1.05 + 5.0 * rnd() * rnd(), a = 2.0 * SPC_PI * rnd();
+        double y1 = r * cos(a), y2 = r * sin(a);
+        double theta[SPC_SPHERE_MAX_ROOTS];
+        int n = spc_sphere_inside_roots(d, y1, y2, m, eta, theta, SPC_SPHERE_MAX_ROOTS);
+        ++configs;
+        returned += n;
+        double phis[SPC_SPHERE_MAX_ROOTS]; /* the returned roots' first directions */
+        for (int k = 0; k < n; ++k)
+            phis[k] = atan2(sin(theta[k]), cos(theta[k]) - d);
+        /* the dense scan's roots, as first directions, and the sine of their way out */
+        double roots[64], sout[64];
+        int nr = 0;
+        const int N = 20000;
+        double fp = 0.0, ap = 0.0, pp = 0.0;
+        bool okp = false;
+        for (int j = 0; j <= N; ++j) {
+            double phi = -SPC_PI + 2.0 * SPC_PI * (j + 0.5) / (N + 1), f = 0.0, ahead = 0.0, th;
+            bool ok = f_inside(d, y1, y2, m, eta, phi, &f, &ahead, &th);
+            if (ok && okp && (f > 0.0) != (fp > 0.0) && ahead > 0.0 && ap > 0.0 && nr < 64) {
+                sout[nr] = eta * d * fabs(sin(phi));
+                roots[nr++] = pp + (phi - pp) * fp / (fp - f);
+            }
+            okp = ok;
+            fp = f;
+            ap = ahead;
+            pp = phi;
+        }
+        dense += nr;
+        for (int i = 0; i < nr; ++i) {
+            bool alone = true;
+            for (int j = 0; j < nr; ++j)
+                alone = alone && (j == i || fabs(wrap(roots[j] - roots[i])) > iso);
+            if (!alone)
+                continue;
+            ++isolated;
+            bool hit = false;
+            for (int k = 0; k < n; ++k)
+                hit = hit || fabs(wrap(phis[k] - roots[i])) < tol;
+            if (hit) {
+                ++found;
+                grazing += sout[i] > 0.98;
+            } else {
+                ++missed;
+                printf("    missed: d %g y (%g, %g) m %d eta %g root %g\n", d, y1, y2, m, eta, roots[i]);
+            }
+        }
+        /* each returned root: f changes sign within tol of its direction, or the way out ends there */
+        for (int k = 0; k < n; ++k) {
+            bool sign_change = false, edge = false;
+            double fl = 0.0;
+            bool okl = false;
+            for (int j = -20; j <= 20; ++j) {
+                double f = 0.0, ahead = 0.0, t0;
+                bool ok = f_inside(d, y1, y2, m, eta, phis[k] + tol * j / 20.0, &f, &ahead, &t0) && ahead > 0.0;
+                edge = edge || (okl != ok && j > -20);
+                sign_change = sign_change || (ok && okl && (f > 0.0) != (fl > 0.0));
+                okl = ok;
+                fl = f;
+            }
+            if (!sign_change && !edge) {
+                ++false_roots;
+                printf("    not a root: d %g y (%g, %g) m %d eta %g theta %g\n", d, y1, y2, m, eta, theta[k]);
+            }
+        }
+    }
+    printf("    %d configurations: dense scan %d roots (%d isolated), found %d (%d within 11 degrees of grazing), "
+           "missed %d; %d returned, %d not roots\n",
+           configs, dense, isolated, found, grazing, missed, returned, false_roots);
+    CHECK(isolated > 600 && missed == 0 && false_roots == 0);
+    CHECK(grazing >= 5);
 }
 
 /* roots1d (roots1d.h) on f(t) = t^3 + t / 2 - k, ahead(t) = t - a: the root is kept where the target
@@ -1055,6 +1172,7 @@ int main(void)
 {
     RUN(planar_roots_against_dense_scan);
     RUN(planar_roots_near_the_sphere);
+    RUN(inside_roots_against_dense_scan);
     RUN(reflection_roots_against_dense_scan);
     RUN(sphere_signatures_together_same_as_alone);
     RUN(roots1d_ahead_read_at_the_root);

@@ -17,7 +17,9 @@
  */
 /* ctest-labels: scene */
 /* ctest-timeout: 300 */
+#include <math.h>
 #include <stdbool.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -357,6 +359,69 @@ TEST(diffuse_view_matches_bsdf)
     spc_scene_destroy(sc);
 }
 
+/* A mesh too big for kept per-triangle frames (more than SPC_MESH_FRAME_MAX_TRIS triangles), with
+ * vertex normals and uvs: its packets prefetch the hits' index triples and vertices before filling
+ * them, and the image stays path.c's. The mesh is a bumpy height field written as a binary PLY. */
+TEST(big_mesh_prefetch_matches_path_c)
+{
+    enum { K = 200 }; /* K x K vertices, 2 (K - 1)^2 = 79,202 triangles */
+    char ply[128], xml[128];
+    snprintf(ply, sizeof ply, "%s/grid.ply", tmpdir);
+    snprintf(xml, sizeof xml, "%s/grid.xml", tmpdir);
+    FILE *fp = fopen(ply, "wb");
+    CHECK(fp != NULL);
+    if (!fp)
+        return;
+    fprintf(fp, "ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+                "property float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float u\n"
+                "property float v\nelement face %d\nproperty list uchar int vertex_indices\nend_header\n",
+            K * K, (K - 1) * (K - 1));
+    for (int j = 0; j < K; ++j)
+        for (int i = 0; i < K; ++i) {
+            float x = -1.0f + 2.0f * (float)i / (K - 1), z = -1.0f + 2.0f * (float)j / (K - 1);
+            float y = 0.05f * (float)(((i * 7 + j * 13) % 11) - 5) / 5.0f;
+            float nl = 1.0f / sqrtf(1.0f + 0.01f * (float)((i + j) % 5));
+            float v[8] = {x, y, z, 0.1f * (float)((i % 3) - 1) * nl, nl, 0.1f * (float)((j % 3) - 1) * nl,
+                          (float)i / (K - 1), (float)j / (K - 1)};
+            fwrite(v, sizeof v, 1, fp);
+        }
+    for (int j = 0; j + 1 < K; ++j)
+        for (int i = 0; i + 1 < K; ++i) {
+            unsigned char four = 4;
+            int32_t q[4] = {j * K + i, (j + 1) * K + i, (j + 1) * K + i + 1, j * K + i + 1};
+            fwrite(&four, 1, 1, fp);
+            fwrite(q, sizeof q, 1, fp);
+        }
+    fclose(fp);
+    fp = fopen(xml, "w");
+    CHECK(fp != NULL);
+    if (!fp)
+        return;
+    fprintf(fp, "<scene version=\"3.0.0\"><default name=\"res\" value=\"24\"/>"
+                "<integrator type=\"path\"><integer name=\"max_depth\" value=\"4\"/></integrator>"
+                "<sensor type=\"perspective\"><float name=\"fov\" value=\"50\"/>"
+                "<transform name=\"to_world\"><lookat origin=\"0, 1.6, 2.2\" target=\"0, 0, 0\" up=\"0, 1, 0\"/>"
+                "</transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"$res\"/>"
+                "<integer name=\"height\" value=\"$res\"/></film></sensor>"
+                "<shape type=\"ply\"><string name=\"filename\" value=\"%s\"/>"
+                "<bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\"/></bsdf></shape>"
+                "<shape type=\"rectangle\"><transform name=\"to_world\"><rotate x=\"1\" angle=\"90\"/>"
+                "<translate y=\"1.5\"/></transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"4\"/>"
+                "</emitter></shape></scene>",
+            ply);
+    fclose(fp);
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK_MSG(spc_scene_load(xml, NULL, 0, &sc, &err) == SPC_OK, "%s", err.msg);
+    if (!sc)
+        return;
+    CHECK(sc->prefetch_hits);
+    CHECK(sc->nshapes >= 1 && sc->shapes[0]->type == SPC_SHAPE_MESH && !sc->shapes[0]->tri_frame &&
+          sc->shapes[0]->mesh.ntris == 2 * (K - 1) * (K - 1) && sc->shapes[0]->mesh.n && sc->shapes[0]->mesh.uv);
+    spc_scene_destroy(sc);
+    check_scene(xml, "path", 0);
+}
+
 int main(void)
 {
     char cwd[1024];
@@ -373,6 +438,7 @@ int main(void)
     RUN(ipt_and_roulette_match_path_c);
     RUN(other_isas_match_path_c);
     RUN(strict_normals_and_hidden_emitters_match_path_c);
+    RUN(big_mesh_prefetch_matches_path_c);
     char cmd[128];
     snprintf(cmd, sizeof cmd, "rm -rf %s", tmpdir);
     if (system(cmd) != 0)

@@ -31,8 +31,9 @@
  * - Caustic guiding at receivers (its cones toward glass balls) in path's default in a room where a
  *   glass caster is an analytic sphere (the demo), not in volpath's or bdpt's, not in the open.
  * - One glass slab under a light of 0.002-0.0035 sr: path's plan on with the slab's longer chains;
- *   off with two slabs, a mirror beside it, a larger light, for volpath and bdpt, without casters;
- *   its setting agrees with none (z-test, image means).
+ *   beside a mirror ball on under a cost limit of its own; off with two slabs, a larger
+ *   light, for volpath and bdpt, without casters; its setting agrees with none, and beside the
+ *   mirror ball with bdpt (z-test, image means).
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -1139,7 +1140,8 @@ TEST(closed_glass_mesh_plan_off)
 
 /* volpath on a tessellated glass ball (scenes/medium_glass.xml: a glass icosphere filled with a
  * scattering medium, its receivers medium points) weighs the ball's chains with the stand-in psi
- * (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH, nosolvemis: no real solve probability, no ball pass) and
+ * (SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH, nosolvemis: no real solve probability, no ball pass; mispsi
+ * 0.3) and
  * seeds most randomized attempts from the phase function (SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS), with
  * the query at a path's first medium receiver by first=0.1's roulette; path on the same scene keeps
  * SPC_SNEE_PLAN_SETTING_BALLS, without phase seeds, with the light-traced caustics of its small
@@ -1155,7 +1157,8 @@ TEST(volpath_ball_plan)
     CHECK_MSG(!strcmp(sc->integrator.type, "volpath") && p.on && p.automatic &&
                   !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS) &&
                   spc_snee_parse(p.setting, 2, &sp) && !sp.solve_mis && sp.fit_seeds && sp.camera &&
-                  sp.first_p == 0.1 && sp.later_p == 0.1 && sp.seed == SPC_SNEE_SEED_CONE && sp.phase_seeds == 0.8,
+                  sp.first_p == 0.1 && sp.later_p == 0.1 && sp.seed == SPC_SNEE_SEED_CONE && sp.phase_seeds == 0.8 &&
+                  sp.mis_solve == 0.3,
               "medium_glass: %s (%s)", p.setting, p.reason);
     spc_snee_plan_make(sc, "path", NULL, &p);
     CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS SPC_SNEE_PLAN_AREA_LIGHTS) &&
@@ -1391,14 +1394,16 @@ TEST(slab_plan_point_light_tracing)
 /* Flat-faced casters under a light larger than the flat rule's (SPC_SNEE_PLAN_FLAT_MAX_SR): path's
  * plan is on with the longer chains (SPC_SNEE_PLAN_FLAT_LONG) where the pilot's face sequences per
  * query times the light's solid angle (from the casters' centre) is at most
- * SPC_SNEE_PLAN_FLAT_COST_SR (0.08) beside a glass sphere, at most SPC_SNEE_PLAN_FLAT_ALONE_COST_SR
+ * SPC_SNEE_PLAN_FLAT_COST_SR (0.08) beside a glass sphere or a mirror ball, at most SPC_SNEE_PLAN_FLAT_ALONE_COST_SR
  * (0.26) where the flat casters are alone, off past it, and off past SPC_SNEE_PLAN_FLAT_LONG_MAX_SR.
  * One slab (12 sequences a query): alone on under 0.0023, 0.003, 0.0059 and 0.0071 sr (past 0.08),
  * off under 0.013 and 0.037 sr (the light's size); beside a glass ball on under 0.003 sr, off under
  * 0.0059 sr (the cost); under 0.00037 sr on without the longer chains. Two slabs (28 sequences a
  * query): beside the ball on under 0.0025 sr, off under 0.005 sr; alone on under 0.0025 sr, off
- * past the limit under 0.0096 sr. Off with a mirror ball beside the slab, for volpath and bdpt, and
- * without casters. */
+ * past the limit under 0.0096 sr. Beside a mirror ball (SPC_SNEE_PLAN_FLAT_MIRROR_COST_SR, 0.068),
+ * one slab on under 0.0031 and 0.004 sr, off under 0.0079 sr (the cost); two slabs on under 0.0024
+ * sr, off under 0.0029 sr (0.077: within the glass limit, past the mirror's); under 0.002 sr on
+ * without the longer chains. Off for volpath and bdpt, and without casters. */
 TEST(one_slab_plan_long_chains)
 {
     static const struct {
@@ -1414,7 +1419,10 @@ TEST(one_slab_plan_long_chains)
         {0.5, false, true, false, true, "path", 0},    {0.1, true, true, false, true, "path", 2},
         {0.12, true, true, false, false, "path", 2},   {0.143, true, true, false, true, "path", 0},
         {0.235, true, true, false, false, "path", 0},  {0.22, false, true, false, false, "path", 2},
-        {0.143, false, true, true, false, "path", 0},  {0.143, false, true, false, true, "volpath", 0},
+        {0.143, false, true, true, false, "path", 2},  {0.143, false, true, false, true, "volpath", 0},
+        {0.1, false, true, true, false, "path", 1},    {0.125, false, true, true, false, "path", 2},
+        {0.2, false, true, true, false, "path", 0},    {0.125, false, true, true, false, "volpath", 0},
+        {0.11, true, true, true, false, "path", 2},    {0.12, true, true, true, false, "path", 0},
         {0.143, false, true, false, true, "bdpt", 0},  {0.143, false, false, false, false, "path", 0},
     };
     int alone_past_ball = 0; /* flat-only cases on past the limit beside a ball */
@@ -1429,17 +1437,17 @@ TEST(one_slab_plan_long_chains)
         double product = p.flat_sequences * p.light_sr;
         CHECK_MSG(got == cases[i].want, "case %zu (%s, light %.3g sr, %.3g sequences a query): %s (%s)", i,
                   cases[i].integrator, p.light_sr, p.flat_sequences, p.setting, p.reason);
+        /* the flat casters not alone: the limit 0.08 beside glass, 0.068 beside a mirror */
+        double limit = cases[i].mirror ? 0.068 : cases[i].ball ? 0.08 : 0.26;
         if (cases[i].want == 2)
-            CHECK_MSG(p.light_sr > 0.002 && p.flat_sequences > 0.0 && product <= (cases[i].ball ? 0.08 : 0.26),
+            CHECK_MSG(p.light_sr > 0.002 && p.flat_sequences > 0.0 && product <= limit,
                       "%.3g sr, %.3g sequences", p.light_sr, p.flat_sequences);
-        if (cases[i].want == 0 && cases[i].slab && !cases[i].mirror && !strcmp(cases[i].integrator, "path") &&
-            p.light_sr <= 0.01)
-            CHECK_MSG(product > (cases[i].ball ? 0.08 : 0.26) && strstr(p.reason, "sequences a query"), "%s",
-                      p.reason);
+        if (cases[i].want == 0 && cases[i].slab && !strcmp(cases[i].integrator, "path") && p.light_sr <= 0.01)
+            CHECK_MSG(product > limit && strstr(p.reason, "sequences a query"), "%s", p.reason);
         if (!cases[i].slab)
             CHECK_MSG(p.casters == 0 && strstr(p.reason, "no specular casters"), "%s", p.reason);
         if (cases[i].mirror)
-            CHECK_MSG(p.casters == 2 && strstr(p.reason, "flat-faced casters under a light"), "%s", p.reason);
+            CHECK_MSG(p.casters == (cases[i].two ? 3 : 2), "%d casters", p.casters);
         /* flat-faced casters alone: their own limit, past it off with the reason saying so, and on past
          * the limit beside a ball */
         if (cases[i].want == 0 && !cases[i].ball && cases[i].slab && !cases[i].mirror && p.light_sr <= 0.01)
@@ -1452,26 +1460,32 @@ TEST(one_slab_plan_long_chains)
     CHECK_MSG(alone_past_ball > 0, "flat-only cases on past 0.08: %d", alone_past_ball);
     /* the settings it picks for the slabs alone (SPC_SNEE_PLAN_FLAT_LONG with light tracing through
      * the slabs, SPC_SNEE_PLAN_FLAT_LT_LONG) agree with specular NEE off: per-pixel z-test (Sidak)
-     * and image means, one slab and two */
-    for (int two = 0; two < 2; ++two) {
-        spc_scene *sc = slab_scene(two ? 0.12 : 0.143, two, true, false, false);
+     * and image means, one slab, two, and one beside a mirror ball; that one against bdpt, since
+     * none's paths off the mirror to the light are rare enough that its variance estimate misses
+     * them (at 65536 spp none read 2-5% low on the floor pixels lit through the mirror, |z| up to 26
+     * against bdpt, where the plan's setting agreed with bdpt within |z| 2.4) */
+    for (int k = 0; k < 3; ++k) {
+        bool two = k == 1, mirror = k == 2;
+        const char *name = two ? "two slabs" : mirror ? "slab beside a mirror ball" : "one slab";
+        spc_scene *sc = slab_scene(two ? 0.12 : mirror ? 0.125 : 0.143, two, true, mirror, false);
         if (!sc)
             return;
         spc_snee_plan p;
         spc_snee_plan_make(sc, "path", NULL, &p);
         CHECK_MSG(p.on && strstr(p.setting, SPC_SNEE_PLAN_FLAT_LT_LONG), "%s", p.setting);
-        spc_film *def = tu_render_nee(sc, "path", p.setting, two ? 256 : 512, 2, two ? 31 : 21, NULL);
-        spc_film *none = tu_render_nee(sc, "path", "none", 16384, 2, two ? 32 : 22, NULL);
+        spc_film *def = tu_render_nee(sc, "path", p.setting, two ? 256 : 512, 2, 21 + 10 * k, NULL);
+        spc_film *none = mirror ? tu_render_nee(sc, "bdpt", "none", 8192, 2, 22 + 10 * k, NULL)
+                                : tu_render_nee(sc, "path", "none", 16384, 2, 22 + 10 * k, NULL);
         CHECK(def && none);
         if (def && none) {
             spc_diff_result d;
             memset(&d, 0, sizeof d);
-            CHECK(tu_image_agrees(def, none, 0.99, two ? "two slabs" : "one slab", &d));
+            CHECK(tu_image_agrees(def, none, 0.99, name, &d));
             double md, sd, mn, sn;
             tu_image_mean(def, 1, &md, &sd);
             tu_image_mean(none, 1, &mn, &sn);
-            printf("    %s: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f\n",
-                   two ? "two slabs" : "one slab", d.ztest_pass_fraction, def->width * def->height, md, sd, mn, sn);
+            printf("    %s: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f\n", name,
+                   d.ztest_pass_fraction, def->width * def->height, md, sd, mn, sn);
         }
         spc_film_destroy(def);
         spc_film_destroy(none);

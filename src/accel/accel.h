@@ -19,6 +19,18 @@ typedef struct spc_accel spc_accel;
 spc_accel *spc_accel_create(const struct spc_scene *scene, spc_error *err);
 void spc_accel_destroy(spc_accel *a);
 
+/* Scenes of at least this many triangles in all get Embree's compact BVH unless the scene sets its
+ * own limit (spc_scene.accel_compact_tris): a BVH4 whose leaves index the shared vertex buffer
+ * (triangle4i) instead of a BVH8 whose leaves hold copies of the vertices (triangle4v). The hits
+ * are the same either way. Compact builds in about half the time and memory but traces a ray in
+ * about 1.5x the time (a 999,698-triangle height field: 0.19 against 0.38 CPU-s to build, 34 MiB
+ * less peak memory, 480 against 314 ns a ray), so it pays only where a render traces fewer rays
+ * than about its triangles; a 10-million-triangle mesh loads in about half the memory with it
+ * (1230 -> 656 MiB peak). bench/RESULTS.md has the measurements. */
+#define SPC_ACCEL_COMPACT_TRIS (1u << 22)
+/* Was the BVH built compact? */
+bool spc_accel_compact(const spc_accel *a);
+
 /* Nearest hit in (tmin, tmax): shape index, primitive, surface coordinates and distance. */
 bool spc_accel_intersect(const spc_accel *a, const spc_ray *r, int *shape, int *prim, double *u, double *v,
                          double *t);
@@ -55,7 +67,13 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
 void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                     const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET]);
 /* spc_accel_occluded_packet_skip for rays whose directions share their signs (one octant): Embree's
- * coherent traversal, the same answers */
+ * coherent traversal in scenes of fewer than SPC_ACCEL_INCOHERENT_SHADOW_TRIS triangles, its
+ * incoherent one in bigger ones (spc_accel_shadows_coherent); the same answers either way. The
+ * coherent traversal pays on the cornell box's shadow packets (36 triangles), but on height fields
+ * of 10 thousand to a million triangles, whose BVH's deep levels the packet's rays part in, it costs
+ * 7 to 11% of plain path tracing's CPU time (bench/RESULTS.md). */
+#define SPC_ACCEL_INCOHERENT_SHADOW_TRIS (1u << 13)
+bool spc_accel_shadows_coherent(const spc_accel *a);
 void spc_accel_occluded_packet_skip_coherent(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                              const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET]);
 /* Benchmark support: traces n rays with bare rtcIntersect1 calls (no hit records, no double

@@ -28,13 +28,6 @@
 #include "scene/curve.h"
 #include "scene/scene.h"
 
-/* Scenes of at least this many triangles get Embree's compact BVH (leaves index the shared vertex
- * buffer instead of holding copies of the vertices). Measured: a 10-million-triangle mesh loads in
- * about half the memory (1230 -> 656 MiB peak) and 20% less CPU time; one of a million triangles
- * loads and renders (128x128, 16 spp) in 16% less CPU time; the cornell box (36 triangles) renders
- * 8% slower. Hits are the same either way. */
-#define SPC_ACCEL_COMPACT_TRIS (1u << 19)
-
 struct spc_accel {
     RTCDevice device;
     RTCScene scene;
@@ -48,9 +41,16 @@ struct spc_accel {
     float cull_c[SPC_ACCEL_SKIP_MAX][3], cull_r[SPC_ACCEL_SKIP_MAX], cull_c1[SPC_ACCEL_SKIP_MAX];
     unsigned cull_bit[SPC_ACCEL_SKIP_MAX];
     bool cull_avx512; /* the cull's AVX-512 variant (core/cpu_isa.h's choice) */
+    bool compact;     /* built with RTC_SCENE_FLAG_COMPACT (SPC_ACCEL_COMPACT_TRIS) */
+    /* octant shadow packets by the coherent traversal (SPC_ACCEL_INCOHERENT_SHADOW_TRIS) */
+    bool shadows_coherent;
 };
 
 bool spc_accel_skips_any(const spc_accel *a) { return a->nskip > 0; }
+
+bool spc_accel_compact(const spc_accel *a) { return a->compact; }
+
+bool spc_accel_shadows_coherent(const spc_accel *a) { return a->shadows_coherent; }
 
 /* The ray mask of a shadow ray that may skip shape `skip` (-1: none). */
 static unsigned skip_mask_of(const spc_accel *a, int skip)
@@ -213,7 +213,10 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
     for (int i = 0; i < sc->nshapes; ++i)
         if (sc->shapes[i]->type == SPC_SHAPE_MESH)
             ntris += sc->shapes[i]->mesh.ntris;
-    rtcSetSceneFlags(a->scene, (sc->accel_robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE) | (ntris >= SPC_ACCEL_COMPACT_TRIS ? RTC_SCENE_FLAG_COMPACT : 0));
+    a->compact = ntris >= (sc->accel_compact_tris ? sc->accel_compact_tris : SPC_ACCEL_COMPACT_TRIS);
+    a->shadows_coherent = ntris < SPC_ACCEL_INCOHERENT_SHADOW_TRIS;
+    rtcSetSceneFlags(a->scene, (sc->accel_robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE) |
+                                   (a->compact ? RTC_SCENE_FLAG_COMPACT : 0));
     a->skip_mask = malloc((sc->nshapes > 0 ? (size_t)sc->nshapes : 1) * sizeof(unsigned));
     if (!a->skip_mask) {
         spc_accel_destroy(a);
@@ -636,5 +639,7 @@ void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[S
 void spc_accel_occluded_packet_skip_coherent(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                              const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET])
 {
-    occluded_packet(a, r, skip, RTC_INTERSECT_CONTEXT_FLAG_COHERENT, occluded);
+    occluded_packet(a, r, skip,
+                    a->shadows_coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
+                    occluded);
 }

@@ -40,6 +40,10 @@ spc_vec2 spc_sampler_2d(spc_sampler *s);
  * past the pairs. Many streams at once is cheaper per pair (independent dependency chains, vector
  * instructions where the CPU has AVX2). */
 void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u);
+/* Moves the stream past npairs dimension pairs without computing them: the pairs after them are
+ * the same as if each had been drawn (a pair depends only on the stream and its position), so a
+ * caller may skip the draws it turns out not to need. */
+static inline void spc_sampler_skip(spc_sampler *s, uint32_t npairs) { s->dim += npairs; }
 /* spc_sampler_2d_many where only some of the pairs are used as 2D points: bit k of ymask set says
  * that the k-th pair of each stream needs its y (npairs <= 32); where it is clear, u[i * npairs + k].y is 0 and x
  * is spc_sampler_1d's value (the whole pair is used up all the same). Skipping those y's saves

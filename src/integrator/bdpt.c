@@ -684,7 +684,10 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
             Ep[s - 1] = pdf_cam_area;
         else
             Ep[s - 1] = to_area(camera_walk_pdf(B, x[s + 1], b, b->wo, ba), b, a);
-        if (s == 1) {
+        if (s == 1 && lend) {
+            /* connect_s1's light point: its origin and emission densities from one query */
+            light_origin_emit_pdf(B, a, b, &Lp[0], &Lp[1]);
+        } else if (s == 1) {
             Lp[0] = l0->pdf_fwd;
             Lp[1] = light_emit_pdf(B, a, b);
         } else {
@@ -695,7 +698,10 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
             Lp[s + 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, x[s + 1]);
     }
     /* p_1 samples x0 from x1 by sample_direct (for n = 2 it is the (1, 1) strategy: emission) */
-    double D = n < 3 ? Lp[0] : s >= 2 ? y[0].pdf_direct : light_direct_pdf(sc, l0, x[1]);
+    double D = n < 3             ? Lp[0]
+               : s >= 2          ? y[0].pdf_direct
+               : s == 1 && lend ? lend->pdf_direct
+                                 : light_direct_pdf(sc, l0, x[1]);
     /* With the pool (bdpt_pool.h) a connection with k light vertices (2 <= k <= n - 2) is made by
      * two techniques: the camera sample's own light subpath (one sample of the path) and the pool's
      * picks (c_k = spc_bdpt_pool_count samples, its camera vertex the (n - k)-th of the camera
@@ -1303,13 +1309,16 @@ static void ptracer_visible_env(const bdpt *B, spc_tls *tls, const spc_emitter *
     spc_splat_add(ctx, tls, fx, fy, spc_rgb_scale(ds.L, We / (pmf * ds.pdf * B->n_light_paths)));
 }
 
-/* s = 1, t >= 2: a light point sampled from z[t-1] (next-event estimation). */
-static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, spc_vec2 u_lpos, double *w)
+/* s = 1, t >= 2: a light point sampled from z[t-1] (next-event estimation); cs is the connection
+ * stream at this camera vertex's two pairs. */
+static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, spc_sampler *cs, double *w)
 {
     *w = 1.0;
     const vtx *v = &z[t - 1];
     if (v->kind != V_SURFACE || !(v->flags & SPC_LOBE_SMOOTH))
         return spc_rgb1(0.0);
+    double u_light = spc_sampler_1d(cs);
+    spc_vec2 u_lpos = spc_sampler_2d(cs);
     double pmf;
     const spc_emitter *e = spc_scene_sample_emitter(B->sc, u_light, &pmf);
     spc_emitter_direct ds;
@@ -1335,7 +1344,15 @@ static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, double u_light, sp
     l.n = l.on_surface ? ds.n : spc_v3(0, 0, 0);
     l.d = spc_neg(ds.wi);
     l.pdf_rev = 0.0;
-    l.pdf_fwd = light_origin_pdf(B->sc, &l);
+    /* mis_weight_walk takes the origin density with the emission density toward v (lend) */
+    l.pdf_fwd = 0.0;
+    /* light_direct_pdf of l from v: sample_direct's own density wherever spc_emitter_pdf_direct
+     * computes it by the same arithmetic (area lights without a cell distribution: a sphere's cone
+     * or the area density times dist^2 / cos; not an SDF's) */
+    if (e->type == SPC_EMITTER_AREA && !e->has_cell_distrib && e->shape->type != SPC_SHAPE_SDF)
+        l.pdf_direct = spc_scene_emitter_pmf(B->sc, e) * to_area(ds.pdf, v, &l);
+    else
+        l.pdf_direct = light_direct_pdf(B->sc, &l, v);
     *w = mis_weight(B, &l, 1, z, t, &l, 0.0, false);
     return C;
 }
@@ -2155,9 +2172,9 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     int nc = random_walk(&B, *ray0, spc_rgb1(1.0), pdf_cam_mis, SPC_MODE_RADIANCE, smp, z, 1, max_cam, cam_capped);
     if (B.pm)
         camera_side_sums(&B, z, nc);
-    if (nc >= 2 && z[1].kind == V_SURFACE) {
+    /* albedo, normal and depth only where the film keeps them (the driver says so in out->aovs) */
+    if (out->aovs && nc >= 2 && z[1].kind == V_SURFACE)
         spc_aov_from_hit(ctx, &z[1].h, spc_neg(ray0->d), smp, out);
-    }
 
     /* light subpath, from its own stream so that its dimensions do not depend on the camera's */
     spc_sampler ls, cs;
@@ -2185,8 +2202,10 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         for (int k = 0; k < 2 * spc_strategy_count(ctx->strategy_images_depth); ++k)
             SL[k] = spc_rgb1(0.0);
     for (int t = 1; t <= nc; ++t) {
-        double u_light = spc_sampler_1d(&cs);
-        spc_vec2 u_lpos = spc_sampler_2d(&cs);
+        /* the connection stream's two pairs of this camera vertex (s = 1's light point), drawn
+         * only where connect_s1 uses them: the stream moves past them either way */
+        spc_sampler cs_t = cs;
+        spc_sampler_skip(&cs, 2);
         if (pool && t >= 2)
             L = spc_rgb_add(L, connect_pool(&B, pool, z, t, &prng));
         for (int s = 0; s <= nl; ++s) {
@@ -2208,7 +2227,7 @@ void spc_bdpt_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 connect_t1(&B, tls, yl, s, z, k);
                 continue;
             } else if (s == 1)
-                c = connect_s1(&B, z, t, u_light, u_lpos, &w);
+                c = connect_s1(&B, z, t, &cs_t, &w);
             else
                 c = connect_st(&B, yl, s, z, t, false, &w);
             spc_rgb cw = spc_rgb_scale(c, w);

@@ -10,6 +10,7 @@
 
 #include "integrator/path_lt.h"
 #include "integrator/splat.h"
+#include "manifold/flat_chains.h"
 #include "manifold/snee_cost.h"
 #include "manifold/specular_nee.h"
 
@@ -28,6 +29,8 @@ static int depth_left(const spc_render_ctx *ctx, int segments, int cap)
 /* The stream key of the light-traced caustics' subpath (path_lt.h), forked from the camera
  * sample's sampler. */
 #define SPC_PATH_LT_STREAM 0x6c74636175737469ULL
+/* And of the light seen through flat glass (path_lt_view.h). */
+#define SPC_PATH_LT_VIEW_STREAM 0x6c74766965777321ULL
 /* And of the light-guide caustics' subpath. */
 #define SPC_PATH_LT_GUIDE_STREAM 0x6c74677569646573ULL
 
@@ -158,6 +161,13 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
         spc_sampler_fork_rng(smp, SPC_PATH_LT_GUIDE_STREAM, &grng);
         spc_path_lt_guide_trace(ctx, &s->p, tls, &grng);
     }
+    s->lv_enabled = spc_path_lt_view_enabled(ctx, &s->p);
+    if (s->lv_enabled) {
+        s->lv_on = true;
+        spc_rng vrng;
+        spc_sampler_fork_rng(smp, SPC_PATH_LT_VIEW_STREAM, &vrng);
+        spc_path_lt_view_trace(ctx, &s->p, tls, &vrng);
+    }
     if (!s->p.camera || rough_mode(&s->p) || !spc_camera_connectible(ctx->cam))
         return;
     /* from the pinhole: its splats, and the camera ray tracked as from a receiver until its first
@@ -180,7 +190,8 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
     s->cam_track = true;
 }
 
-double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h)
+/* spc_path_snee_emitter_weight without the light seen through flat glass. */
+static double emitter_weight_base(const spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h)
 {
     const spc_snee_track *t = &s->track;
     if (!s->on)
@@ -209,6 +220,15 @@ double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx
     }
     return spc_snee_mis_bsdf_weight(ctx->scene, &p, &s->mis_x, s->mis_wo, s->mis_d0, t->max_chain, t->k, t->events,
                                     h);
+}
+
+double spc_path_snee_emitter_weight(const spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h)
+{
+    double w = emitter_weight_base(s, ctx, h);
+    /* the light seen from the camera through flat glass: light tracing's too (path_lt_view.h) */
+    if (s->on && s->lv_on && s->lv_k >= 1)
+        w = spc_path_lt_view_camera_weight(ctx, &s->p, h, s->lv_dlast, s->lv_k, s->lv_ev, w);
+    return w;
 }
 
 bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, const spc_hit *h, spc_vec3 wo,
@@ -323,6 +343,15 @@ void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, sp
                 ++s->lg_k;
         }
         s->lg_dlast = wi;
+    }
+    /* the light seen through flat glass: the camera ray's delta scatterings on flat faces */
+    if (s->lv_on) {
+        if ((lobe & SPC_LOBE_DELTA) && s->lv_k < SPC_PATH_LT_VIEW_MAX_CHAIN && spc_flat_chain_shape(h->shape)) {
+            s->lv_ev[s->lv_k++] = lobe == SPC_LOBE_DELTA_REFLECTION ? SPC_CHAIN_REFLECT : SPC_CHAIN_REFRACT;
+            s->lv_dlast = wi;
+        } else {
+            s->lv_on = false;
+        }
     }
     /* the light-traced caustics' x1: the camera ray's hit left along a non-delta sample; and the
      * delta scatterings from the camera before the first receiver */

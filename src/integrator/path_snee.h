@@ -18,6 +18,7 @@
 
 #include "integrator/context.h"
 #include "integrator/path_lt.h"
+#include "integrator/path_lt_view.h"
 #include "manifold/caustic_guide.h"
 
 typedef struct spc_path_snee {
@@ -61,6 +62,14 @@ typedef struct spc_path_snee {
     int lg_k, lg_min;
     spc_hit lg_x;
     spc_vec3 lg_wo, lg_d0, lg_dlast;
+    /* the light seen through flat glass (path_lt_view.h, params.lt_view): lv_on while every
+     * scattering since the camera was a delta one on a flat-faced shape, at most
+     * SPC_PATH_LT_VIEW_MAX_CHAIN of them: their events (lv_ev, the camera's order) and the last
+     * direction (lv_dlast) */
+    bool lv_enabled, lv_on;
+    int lv_k;
+    unsigned char lv_ev[SPC_PATH_LT_VIEW_MAX_CHAIN];
+    spc_vec3 lv_dlast;
 } spc_path_snee;
 
 /* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, and with

@@ -11,6 +11,8 @@
 #include <string.h>
 
 #include "bsdf/bsdf.h"
+#include "core/warp.h"
+#include "manifold/receiver.h"
 #include "manifold/solver.h"
 #include "scene/sdf.h"
 #include "manifold/sphere_roots.h"
@@ -178,6 +180,36 @@ typedef struct root_store {
     int also_min, also_max; /* chain lengths whose roots come along (0, 0: none) */
 } root_store;
 
+/* The first directions of the fitted sphere's chains from q's x inside it (a medium point within a
+ * glass ball) to its y outside: the way out with no internal reflection (a chain of one vertex), at
+ * most max, written to dir (ms gets 0). Not the ways out after internal reflections: with them a render
+ * of scenes/medium_glass.xml took 1.4x the CPU of one without these seeds, against 1.1x for the way
+ * out alone, and the mean relMSE at equal CPU over 24 seeds was 0.033 against 0.023. */
+static int inside_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, double R, spc_vec3 *dir,
+                       signed char *ms, int max)
+{
+    spc_sphere_plane pl;
+    double eta = 0.0;
+    spc_bsdf_is_specular_interface(s->bsdf, &eta);
+    if (!(eta > 0.0) || q->min_chain > 1 || !spc_sphere_plane_inside(q->x->p, c, R, q->y, &pl))
+        return 0;
+    double theta[SPC_SPHERE_MAX_ROOTS];
+    int nr = spc_sphere_inside_roots(pl.d, pl.y1, pl.y2, 0, eta, theta, SPC_SPHERE_MAX_ROOTS);
+    int n = 0;
+    for (int r = 0; r < nr && n < max; ++r) {
+        ms[n] = 0;
+        dir[n++] = spc_normalize(spc_sub(spc_sphere_plane_point(&pl, theta[r]), q->x->p));
+    }
+    return n;
+}
+
+/* Is q's x a medium point inside the sphere (c, R)? The fitted roots' events (spc_fit_root_events)
+ * are those of chains from outside; from inside the seeds alone (spc_fit_seed) take the fit. */
+static bool x_inside(const spc_snee_query *q, spc_vec3 c, double R)
+{
+    return q->receiver && q->receiver->kind == SPC_RECEIVER_MEDIUM && spc_distance(q->x->p, c) < R;
+}
+
 /* The first directions of the fitted sphere's chains (center c, radius R) from q's x to its y, of
  * the query's lengths and the events its params allow (a conductor: one reflection; a dielectric:
  * in and out, with reflect also one reflection and internal ones): at most max, written to dir.
@@ -187,6 +219,8 @@ static int fit_dirs(const spc_snee_query *q, const spc_shape *s, spc_vec3 c, dou
                     signed char *ms, int max)
 {
     spc_vec3 x = q->x->p;
+    if (x_inside(q, c, R)) /* a torus's tube spheres from inside: not measured, none as before */
+        return s->type == SPC_SHAPE_MESH ? inside_dirs(q, s, c, R, dir, ms, max) : 0;
     spc_sphere_plane pl;
     if (!spc_sphere_plane_of(x, c, R, q->y, &pl))
         return 0;
@@ -376,7 +410,7 @@ int spc_fit_root_count_with(const spc_snee_query *q, const spc_shape *s, int min
     const signed char *ms;
     double R;
     int n = 0;
-    if (!spc_fit_sphere(s, &c, &R))
+    if (!spc_fit_sphere(s, &c, &R) || x_inside(q, c, R))
         return 0;
     fit_entry(q, s, c, R, NULL, min_chain, max_chain, all, all_m, &n, &ms);
     return n;
@@ -394,7 +428,7 @@ int spc_fit_roots_of(const spc_snee_query *q, const spc_shape *s, spc_vec3 *dir,
     const signed char *ms;
     double R;
     int n = 0;
-    if (!spc_fit_sphere(s, &c, &R))
+    if (!spc_fit_sphere(s, &c, &R) || x_inside(q, c, R))
         return 0;
     const spc_vec3 *d = fit_entry(q, s, c, R, NULL, 0, 0, all, all_m, &n, &ms);
     if (n > max)
@@ -435,6 +469,13 @@ bool spc_fit_seed(const spc_snee_query *q, const spc_shape *s, spc_rng *rng, spc
         return false;
     int i = (int)(u * n);
     *dir = d[i < n ? i : n - 1];
+    if (!tube && x_inside(q, c, R)) {
+        /* from inside, uniform in a cone around the fitted solution: near the rim the mesh's chain
+         * lies a degree or more from the sphere's, outside the basin of the exact direction */
+        spc_frame f = spc_frame_from_n(*dir);
+        spc_vec2 uj = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+        *dir = spc_frame_to_world(&f, spc_warp_uniform_cone(uj, SPC_FIT_INSIDE_COS));
+    }
     return true;
 }
 

@@ -1039,6 +1039,8 @@ typedef struct flat_walk {
     int sequences;
     int bound_ends; /* solves ended by the bounds (newton) */
     bool stop;
+    bool partial; /* reflections off glass inside a longer chain may be partial (reflect implied) */
+    bool need_glass_reflect; /* with partial: solve only the sequences of 2+ vertices with a reflection off glass */
     /* cone_faces between faces of two different casters in the first SPC_FLAT_PAIR_SLOTS slots,
      * per (slot * SPC_FLAT_MAX_FACES + face) pair, and whether known; pair_cap is read only where
      * known, so it stays out of the walk's clearing (it is last) */
@@ -1193,8 +1195,12 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                         tir_ok = tir > 1.0 &&
                                  !(arrive.r < SPC_PI &&
                                    cap_within(arrive.a, arrive.r, spc_scale(f->n, -side), critical_angle(1.0 / tir)));
-                        if (i > 0 && !tir_ok)
+                        if (w->partial) {
+                            tir_ok = true; /* any reflection, total or not */
+                            tir = 0.0;
+                        } else if (i > 0 && !tir_ok) {
                             continue;
+                        }
                     }
                     int side_out = event == SPC_CHAIN_REFRACT ? -side : side;
                     double m_out = eta > 0.0 ? side_index(eta, side_out) : m_in;
@@ -1224,6 +1230,12 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                                   cones_meet(leave, cone_neg(walk_end_cap(w, 1, j, fc, fi)));
                     for (int q = 0; q < k && finish && !w->any_surface; ++q)
                         finish = spc_chain_caster_allowed(P->v[q].s->caustic_flags, k);
+                    if (finish && w->need_glass_reflect) {
+                        bool glass_reflect = false;
+                        for (int q = 0; q < k; ++q)
+                            glass_reflect = glass_reflect || (P->v[q].eta > 0.0 && P->v[q].event == SPC_CHAIN_REFLECT);
+                        finish = glass_reflect && k > 1;
+                    }
                     if (finish) {
                         w->cap[k] = leave;
                         finish = backward_meets(w, k);
@@ -1249,11 +1261,13 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
 }
 
 /* Walks every face sequence of lo to hi vertices from x to y; found() is called with each root
- * and returns false to stop (found NULL: the sequences are counted, not solved). Returns the number
+ * and returns false to stop (found NULL: the sequences are counted, not solved). partial: 0 the
+ * enumeration's events, 1 any reflection off glass (total or partial), 2 the same, solving only the
+ * sequences of two or more vertices with a reflection off glass among them. Returns the number
  * of sequences solved; bound: whether a solve may end early by the bound on the faces (the minimum
  * outside them, or a kink), *bound_ends (may be NULL) the solves it ended. */
-static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int lo, int hi,
-                    bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
+static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int partial, spc_vec3 x, spc_vec3 y, int lo,
+                    int hi, bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
                     int *bound_ends)
 {
     if (lo < 1)
@@ -1276,7 +1290,9 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
     w.sc = sc;
     w.cs = cs;
     w.any_surface = any_surface;
-    w.reflect = reflect;
+    w.reflect = reflect || partial > 0;
+    w.partial = partial > 0;
+    w.need_glass_reflect = partial > 1;
     w.lo = lo;
     w.hi = hi;
     w.P.x = x;
@@ -1289,6 +1305,14 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
     if (bound_ends)
         *bound_ends = w.bound_ends;
     return w.sequences;
+}
+
+/* walk_run with the enumeration's own events: a reflection off glass inside a longer chain total. */
+static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int lo, int hi,
+                    bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
+                    int *bound_ends)
+{
+    return walk_run(sc, any_surface, reflect, 0, x, y, lo, hi, found, user, bound, bound_ends);
 }
 
 typedef struct roots_out {
@@ -1368,6 +1392,17 @@ int spc_flat_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, in
     int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
     chains_out o = {q, out, 0, max_out, iterations};
     walk_all(q->scene, q->any_surface, reflect, q->x->p, q->y, lo, hi, chains_found, &o, true, NULL);
+    return o.n;
+}
+
+int spc_flat_chains_all_partial(const spc_snee_query *q, bool need_glass_reflect, spc_chain *out, int max_out,
+                                int *iterations)
+{
+    int lo = q->min_chain > 1 ? q->min_chain : 1;
+    int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
+    chains_out o = {q, out, 0, max_out, iterations};
+    walk_run(q->scene, q->any_surface, true, need_glass_reflect ? 2 : 1, q->x->p, q->y, lo, hi, chains_found, &o, true,
+             NULL);
     return o.n;
 }
 

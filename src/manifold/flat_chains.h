@@ -92,6 +92,13 @@ bool spc_flat_chain_faces(const spc_chain *c, bool reflect);
  * max_out, written to out (polished and traced: each segment before the last proven unblocked; the
  * last is checked by spc_snee_chain_value). Adds the chain traces it spends to *iterations. */
 int spc_flat_chains_all(const struct spc_snee_query *q, spc_chain *out, int max_out, int *iterations);
+/* The same with every reflection off glass allowed, total or partial, anywhere in the chain
+ * (q->params.reflect not read): the chains spc_flat_chain_faces takes, up to SPC_FLAT_MAX_VERTICES
+ * vertices; need_glass_reflect: only those of two or more vertices with a reflection off glass
+ * among them (the others are spc_flat_chains_all's). Light tracing's joins of a light point to the
+ * pinhole (integrator/path_lt_view.h) use it. */
+int spc_flat_chains_all_partial(const struct spc_snee_query *q, bool need_glass_reflect, spc_chain *out, int max_out,
+                                int *iterations);
 /* The face sequences of exactly k vertices from x to y through the flat-faced casters of sc that pass
  * the pruning (any_surface and reflect as spc_flat_chain_roots's): the number that function solves,
  * counted without solving them (a plan's cost estimate, snee_plan.c). */

@@ -69,6 +69,12 @@ static const spc_snee_option options[] = {
      "path: area lights' light through chains longer than any specular NEE covers (light guides: a glass "
      "ring's total internal reflections) also by light tracing, on a share S of the camera samples (default "
      "0.5), joined to the camera at the first diffuse surface, weighed against BSDF sampling there"},
+    {"ltview", "noltview", SPC_SNEE_OPT_REAL, true, "S", 0, 1, true, false, NULL, 0, AT(lt_view), AT(lt_view_share), 0,
+     NULL,
+     "path: an area light seen from the camera through flat glass (slabs, cubes: 1-3 faces, partial "
+     "reflections off glass too; with camera, only chains with a reflection inside the glass) also by light "
+     "tracing, on a share S of the camera samples (default 0.25): a light point joined to the pinhole by "
+     "every such chain, weighed against the camera ray"},
     {"reflect", "noreflect", SPC_SNEE_OPT_REAL, true, "P", 0, 1, true, true, NULL, 0, AT(reflect), AT(reflect_p), 0,
      NULL, "chains also reflect off glass, with probability P at a dielectric vertex of a seed chain"},
     {"mispsi", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(mis_solve), 0, NULL,

@@ -39,23 +39,32 @@
  * (0.00066 sr) 7.3x lower relMSE than none; scenes/caustic_slabs.xml (0.011 sr) 0.4x,
  * scenes/caustic_glass_cube.xml (0.0038 sr) 1.0x, scenes/newton_slabs.xml (0.12 sr) 0.6x: off. */
 #define SPC_SNEE_PLAN_FLAT_MAX_SR 0.002
-/* ... and for path, where no caster is a mirror (every caster a specular dielectric), past that
- * solid angle where the flat enumeration's cost pays (with the longer chains through the faces
- * enumerated too, SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h): the face sequences the enumeration solves
- * per query (a pilot, flat_sequences_per_query) times the light's solid angle at most this. The
- * query's cost grows with the sequences (one solve per sequence, about 20 us through slabs), and
- * the gain over BSDF sampling falls as the light grows (BSDF sampling reaches a light through flat
- * glass about as often as without it, in proportion to its solid angle). At equal CPU time against
+/* ... and for path, past that solid angle where the flat enumeration's cost pays (with the longer
+ * chains through the faces enumerated too, SPC_SNEE_PLAN_FLAT_LONG, snee_plan.h): the face
+ * sequences the enumeration solves per query (a pilot, flat_sequences_per_query) times the light's
+ * solid angle at most this. The query's cost grows with the sequences (one solve per sequence,
+ * about 20 us through slabs), and the gain over BSDF sampling falls as the light grows (BSDF
+ * sampling reaches a light through flat glass about as often as without it, in proportion to its
+ * solid angle). At equal CPU time against
  * bdpt (bench/RESULTS.md, "Slab scenes the plan left at none" and "a cost-based plan rule"), the
  * scenes that gain (4.6-40x over none: random caustic scenes 400, 409, 410, 425, 435, 438, 480,
  * 488, 489; two slabs in 490, 2.2x) have products 0.0023-0.045 sr, the two that lose 0.15 (403: one
  * slab under a light of 0.0038 sr almost straight above it, 39 sequences a query, 0.6x) and 1.2
  * (432: two slabs and a glass ball under 0.014 sr, 83 sequences, 0.07x): the limit sits between
- * them, 1.8x from either. Beside a mirror, chains off the mirror and through the slab
- * (floor, mirror ball, three slab vertices, light) are made by BSDF sampling alone, and the query's
- * cost per sample turns them into fireflies (a slab and a mirror ball: 0.38x none, one pixel 100%
- * of a seed's error). */
+ * them, 1.8x from either. */
 #define SPC_SNEE_PLAN_FLAT_COST_SR 0.08
+/* ... and at most this where a mirror (a ball or a cylinder) stands beside the flat casters. Of the
+ * random scenes with a slab beside a mirror under 0.002-0.01 sr (bench/RESULTS.md, "a glass slab
+ * beside a mirror"), at equal CPU time over 16 seeds against none: those at products 0.0018-0.067
+ * gain (scenes/caustic_glass_cube.xml 7.7x at 0.012, random scenes 7005 124x, 7100 21x, 6251 8.7x
+ * at 0.067, 6214 4.1x, 7074 2.9x, 7152 2.0x, 6223 1.5x), past them 7180 (0.069) 1.1x, 7195 (0.072)
+ * 0.7x by the query's cost (18 spp against none's 2046) and 7147 (0.075) 6.9x, which no limit keeps
+ * apart from 7195 (both 9.1 sequences a query under 0.008 sr): the limit sits just past 6251, a
+ * threshold, not a cost model. The three that lost to none with the slab setting forced lie past
+ * it (6202, 0.56; 6278, 0.28) or past SPC_SNEE_PLAN_FLAT_LONG_MAX_SR (6366); their one-pixel seeds,
+ * traced, were chains inside the slab (the floor seen through it, lit through it after 3-7
+ * internal reflections, or 10 vertices along a thin slab), none off the mirror. */
+#define SPC_SNEE_PLAN_FLAT_MIRROR_COST_SR 0.068
 /* ... and at most this where every caster is flat-faced (no glass sphere or ball beside the slabs).
  * With light tracing through the slabs (SPC_SNEE_PLAN_FLAT_LT_LONG, snee_plan.h) taking the flat
  * chains the enumeration leaves to BSDF sampling (7-8 vertices along a slab, partial reflections
@@ -651,11 +660,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         nflat += spc_flat_chain_shape(s) ? 1 : 0; /* the others: below */
         mirror = mirror || !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0);
     }
-    /* flat-faced casters beside nothing but glass, under a light larger than the flat rule's: on,
+    /* flat-faced casters under a light larger than the flat rule's (beside glass or mirrors): on,
      * with their longer chains, where the enumeration's cost pays (the pilot) */
     bool flat_long = false;
-    double flat_cost_limit = nflat == cs->n ? SPC_SNEE_PLAN_FLAT_ALONE_COST_SR : SPC_SNEE_PLAN_FLAT_COST_SR;
-    if (nflat > 0 && !mirror && !strcmp(integrator, "path") && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
+    double flat_cost_limit = nflat == cs->n ? SPC_SNEE_PLAN_FLAT_ALONE_COST_SR
+                             : mirror       ? SPC_SNEE_PLAN_FLAT_MIRROR_COST_SR
+                                            : SPC_SNEE_PLAN_FLAT_COST_SR;
+    if (nflat > 0 && !strcmp(integrator, "path") && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
         out->light_sr <= SPC_SNEE_PLAN_FLAT_LONG_MAX_SR) {
         out->flat_sequences = flat_sequences_per_query(sc, smallest);
         flat_long = out->flat_sequences >= 0.0 && out->flat_sequences * out->light_sr <= flat_cost_limit;

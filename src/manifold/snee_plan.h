@@ -174,8 +174,15 @@
  * 0.0326, equal within the seeds' scatter (first=0.05 like 0.1, 0.25 a little worse: bench/RESULTS.md,
  * part fog16). In scenes/medium_glass.xml, whose medium points lie within the ball's bounds, the
  * query stays certain and the images are the same bit for bit (as in bench/check/medium_torus.xml,
- * whose SPC_SNEE_PLAN_SETTING has first=0.1 already). */
-#define SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH "angular:camera,first=0.1,later=0.1,nosolvemis"
+ * whose SPC_SNEE_PLAN_SETTING has first=0.1 already). The stand-in psi 0.3 (mispsi=0.3) instead of
+ * 0.1: a long phase-sampled path through the chromatic medium that left the ball by a reflection
+ * inside and a refraction (b = 1.06 against specular NEE's psi p_y = 0.625) kept weight 0.74 and one
+ * pixel of a seed's error; with 0.3 its weight is 0.24. On scenes/medium_glass.xml at equal CPU
+ * over 48 seeds the mean relMSE was 0.0173 against 0.0247 (median 0.0125 both; seeds with one pixel
+ * over 0.6 of the error 2 against 4; 1.0 over 24 of them 0.0214 against 0.0212 for 0.3); in the
+ * fog around a ball (bench/check/medium_fog_ball.xml) 0.119 against 0.115 over 24 paired seeds, a
+ * difference of 0.004 +- 0.004 (bench/RESULTS.md, "medium_glass's one-pixel seeds"). */
+#define SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH "angular:camera,first=0.1,later=0.1,nosolvemis,mispsi=0.3"
 
 /* volpath, where some caster's chains go to the randomized attempts (a tessellated ball, an SDF, a
  * mirror mesh): 0.8 of those attempts' seeds at medium points drawn from the point's phase function,
@@ -244,10 +251,11 @@
  * bench/RESULTS.md, part torus25 and the merged main's check), so the light guides go to light
  * tracing alone (SPC_SNEE_PLAN_LIGHT_GUIDES). */
 
-/* Appended for path where some caster is flat-faced (a slab), no caster is a mirror, the smallest
+/* Appended for path where some caster is flat-faced (a slab; beside glass or mirrors), the smallest
  * light subtends more than SPC_SNEE_PLAN_FLAT_MAX_SR at the casters, and the flat enumeration's
  * face sequences per query times that solid angle is at most SPC_SNEE_PLAN_FLAT_COST_SR (a pilot,
- * snee_plan.c; SPC_SNEE_PLAN_FLAT_ALONE_COST_SR where every caster is flat-faced): the longer chains on (long), so that the slabs' chains of up to 4 vertices are
+ * snee_plan.c; SPC_SNEE_PLAN_FLAT_ALONE_COST_SR where every caster is flat-faced,
+ * SPC_SNEE_PLAN_FLAT_MIRROR_COST_SR beside a mirror): the longer chains on (long), so that the slabs' chains of up to 4 vertices are
  * enumerated at every call, and their 5-vertex chains (in, three total internal reflections, out: the slab as a light
  * guide) on every call too. Without them only BSDF sampling makes those chains, and the query's cost
  * per sample turns each such hit into a firefly (bench/RESULTS.md, "Glass sphere beside a flat

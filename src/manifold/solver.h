@@ -279,6 +279,13 @@ typedef struct spc_snee_params {
      * first other surface, weighed against BSDF sampling there. Any caster, any solver. */
     bool lt_guide;
     double lt_guide_share;
+    /* The path integrator's light seen through flat glass (the user's "ltview[=S]";
+     * integrator/path_lt_view.h): on a share lt_view_share of the camera samples (default
+     * SPC_PATH_LT_VIEW_SHARE), a point on an area light joined to the pinhole by every chain through
+     * flat faces (partial reflections off glass too), weighed against the camera ray that makes the
+     * same path. */
+    bool lt_view;
+    double lt_view_share;
     /* psi: the probability with which specular NEE's pass made c (below 1 only for chains through
      * flat faces enumerated on a share of the calls: spc_snee_flat_psi, specular_nee.h) */
     double (*delta_share)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,

@@ -38,6 +38,9 @@
  * (integrator/path_lt.h); 0.5 and 1 gave the same error at equal CPU on the SDF torus over 8 seeds
  * (bench/RESULTS.md, "Light guides by light tracing"). */
 #define SPC_SNEE_LT_GUIDE_SHARE 0.5
+/* ltview without a value: the share of camera samples that draw a light point to join to the
+ * pinhole through flat glass (integrator/path_lt_view.h, SPC_PATH_LT_VIEW_SHARE: the same value). */
+#define SPC_SNEE_LT_VIEW_SHARE 0.25
 /* params.flat5_p and flat6_p's defaults: the shares of the calls that enumerate the 5- and 6-vertex
  * chains through flat faces. 0: those paths are left to BSDF sampling (MIS weight 1). At equal CPU
  * (16 seeds, 32x32, 1.5 s) the small-light slabs' mean relMSE fell 2.9x and two slabs under a sphere
@@ -122,6 +125,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->mis_events = false;
     p->long_p = SPC_SNEE_LONG_P;
     p->lt_guide_share = SPC_SNEE_LT_GUIDE_SHARE;
+    p->lt_view_share = SPC_SNEE_LT_VIEW_SHARE;
     p->long_max = 0;
     p->long_events_p = 0.0;
     p->flat5_p = SPC_SNEE_FLAT5_P;

@@ -2308,6 +2308,10 @@ int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_cam
     if (!solver || (!solver->solve_one && !solver->solve_all) || max_chain < 1 || !spc_camera_connectible(cam) ||
         (p->solver == SPC_SNEE_NEWTON && p->newton.rough))
         return 0;
+    /* params.camera_p: the query made with that probability, counted 1 / camera_p times (decided
+     * before the query is set up: most calls make none) */
+    if (p->camera_p < 1.0 && !(spc_rng_next(rng) < p->camera_p))
+        return 0;
     spc_receiver r;
     spc_receiver_camera(&r, cam, cam_scale);
     spc_snee_query q;
@@ -2319,9 +2323,6 @@ int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const spc_cam
     spc_fit_roots fit;
     fit.nshapes = 0;
     q.fit = &fit;
-    /* params.camera_p: the query made with that probability, counted 1 / camera_p times */
-    if (p->camera_p < 1.0 && !(spc_rng_next(rng) < p->camera_p))
-        return 0;
     const spc_emitter *e;
     spc_vec2 uv;
     double p_y;

@@ -22,6 +22,12 @@
  * The outside reflection (m = -1) is Alhazen's problem and needs no grid: a quartic in
  * tan(theta / 2) with one root at most on the arc both points see (reflection_roots below); 7.5x
  * less CPU per query than the grid's search for it (bench: 116 against 870 ns), the same roots.
+ *
+ * From inside (spc_sphere_inside_roots: x a medium point in a glass ball, d < 1) the chain is a
+ * function of its first direction from x, which sees the whole circle: f on a coarse grid of
+ * directions, brackets at sign changes and at the edges where the way out turns grazing (total
+ * internal reflection beyond), refined by bisection. Its roots only seed randomized attempts
+ * (fit_seeds.h), so they are kept to a fraction of a degree.
  */
 #include "manifold/sphere_roots.h"
 
@@ -417,6 +423,184 @@ int spc_sphere_chain_roots(double d, double y1, double y2, int m, double eta, do
     int k = n[m + 1] < max_roots ? n[m + 1] : max_roots;
     memcpy(theta, all[m + 1], (size_t)k * sizeof *theta);
     return k;
+}
+
+bool spc_sphere_plane_inside(spc_vec3 x, spc_vec3 c, double R, spc_vec3 y, spc_sphere_plane *pl)
+{
+    spc_vec3 e1 = spc_sub(x, c), w = spc_sub(y, c);
+    double d = spc_length(e1), wl = spc_length(w);
+    if (!(d < R) || !(wl > R))
+        return false;
+    /* x at the centre: the axis at right angles to y's direction, so that y keeps a component on e2 */
+    e1 = d > 1e-9 * R ? spc_scale(e1, 1.0 / d) : spc_frame_from_n(spc_scale(w, 1.0 / wl)).s;
+    spc_vec3 wp = spc_sub(w, spc_scale(e1, spc_dot(w, e1)));
+    double wpl = spc_length(wp);
+    pl->e1 = e1;
+    pl->e2 = wpl > 1e-12 * wl ? spc_scale(wp, 1.0 / wpl) : spc_frame_from_n(e1).s;
+    pl->c = c;
+    pl->R = R;
+    pl->d = d / R;
+    pl->y1 = spc_dot(w, e1) / R;
+    pl->y2 = spc_dot(w, pl->e2) / R;
+    return true;
+}
+
+/* Samples of the inside problem's f over the directions from x, and the bisection steps that refine
+ * a root or the edge of the range where the way out exists. The roots seed attempts (fit_seeds.h),
+ * which start in a cone of a few degrees around them, so 2 pi / 32 / 2^6 (0.2 degrees) is plenty.
+ * By direction rather than by the first vertex's angle: from x near the sphere the directions
+ * toward the nearest part of the circle crowd into a few degrees of vertex angle, where a grid of
+ * vertex angles missed roots. */
+#define SPC_SPHERE_INSIDE_GRID 32
+#define SPC_SPHERE_INSIDE_STEPS 6
+/* The edge where the way out turns grazing, to 2 pi / 32 / 2^24: a root by the edge lies within
+ * 1e-3 radians of it (f falls like the square root of the distance to the edge), and six steps
+ * stopped short of it (test_exact_chains, inside_roots_against_dense_scan). */
+#define SPC_SPHERE_INSIDE_EDGE_STEPS 24
+/* Samples within a cell between total reflection and y behind, where the range between them can be
+ * narrower than a cell (a way out after internal reflections, test_exact_chains). */
+#define SPC_SPHERE_INSIDE_SUB 8
+
+/* The inside problem along the first direction (ux, uy) from x = (d, 0): f = v x (y - Q) at the last
+ * vertex Q with the way out v, *th0 the first vertex's angle (if th0 is not NULL). Returns 0 where f
+ * is set, 1 where the way out is totally reflected, 2 where y lies behind the last vertex. */
+static int inside_eval(double d, double y1, double y2, int m, double eta, double ux, double uy, double *f,
+                       double *th0)
+{
+    double b = d * ux, disc = b * b - (d * d - 1.0);
+    double t = -b + sqrt(disc > 0.0 ? disc : 0.0);
+    double qx = d + t * ux, qy = t * uy;
+    double ql = sqrt(qx * qx + qy * qy);
+    if (!(ql > 0.0))
+        return 1;
+    qx /= ql;
+    qy /= ql;
+    if (th0)
+        *th0 = atan2(qy, qx);
+    double tx = ux, ty = uy;
+    /* every chord meets the circle at the same angle: cos i = t.Q at each vertex */
+    for (int j = 0; j < m; ++j) {
+        double c = tx * qx + ty * qy;
+        tx -= 2.0 * c * qx;
+        ty -= 2.0 * c * qy;
+        qx += 2.0 * c * tx; /* the chord, 2 cos i long, along the reflected direction (t.Q = -c) */
+        qy += 2.0 * c * ty;
+        double nl = sqrt(qx * qx + qy * qy);
+        qx /= nl;
+        qy /= nl;
+    }
+    double ci = tx * qx + ty * qy;
+    double s2 = eta * eta * (1.0 - ci * ci);
+    if (!(ci > 0.0) || s2 > 1.0)
+        return 1;
+    double k = sqrt(1.0 - s2) - eta * ci;
+    double vx = eta * tx + k * qx, vy = eta * ty + k * qy;
+    double ex = y1 - qx, ey = y2 - qy;
+    if (!(vx * ex + vy * ey > 0.0))
+        return 2;
+    *f = vx * ey - vy * ex;
+    return 0;
+}
+
+static int inside_eval_at(double d, double y1, double y2, int m, double eta, double phi, double *f, double *th0)
+{
+    return inside_eval(d, y1, y2, m, eta, cos(phi), sin(phi), f, th0);
+}
+
+typedef struct inside_problem {
+    double d, y1, y2, eta;
+    int m;
+    double *theta;
+    int n, max;
+} inside_problem;
+
+/* The root in the cell (p0, p1) of directions with states s0, s1 and values f0, f1 (inside_eval), if
+ * the cell brackets one, added to pb's roots; a cell that begins and ends where f is not defined for
+ * different reasons (total reflection on one side, y behind on the other) may hold a range where it
+ * is between them, narrower than the cell: it is searched on a finer grid of its own (depth 1). */
+static void inside_cell(inside_problem *pb, double p0, int s0, double f0, double p1, int s1, double f1, int depth)
+{
+    if (pb->n >= pb->max)
+        return;
+    double a = p0, b = p1, fa = f0;
+    bool have = false;
+    if (s0 == 0 && s1 == 0) {
+        have = (f0 < 0.0) != (f1 < 0.0);
+    } else if ((s0 == 0) != (s1 == 0)) {
+        /* the edge of the valid range, by bisection; a root by the edge where the way out turns
+         * grazing (the light seen at the ball's rim from inside) lies within it */
+        double good = s0 == 0 ? p0 : p1, bad = s0 == 0 ? p1 : p0, fg = s0 == 0 ? f0 : f1;
+        for (int it = 0; it < SPC_SPHERE_INSIDE_EDGE_STEPS; ++it) {
+            double mid = 0.5 * (good + bad), fm = 0.0;
+            if (inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, mid, &fm, NULL) == 0) {
+                good = mid;
+                fg = fm;
+            } else {
+                bad = mid;
+            }
+        }
+        if ((fg < 0.0) != ((s0 == 0 ? f0 : f1) < 0.0)) {
+            a = s0 == 0 ? p0 : good;
+            fa = s0 == 0 ? f0 : fg;
+            b = s0 == 0 ? good : p1;
+            have = true;
+        }
+    } else if (s0 != s1 && depth == 0) {
+        int sp = s0;
+        double pp = p0, fp = f0;
+        for (int j = 1; j <= SPC_SPHERE_INSIDE_SUB; ++j) {
+            double pj = p0 + (p1 - p0) * j / SPC_SPHERE_INSIDE_SUB, fj = 0.0;
+            int sj = j == SPC_SPHERE_INSIDE_SUB ? s1 : inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, pj, &fj, NULL);
+            if (j == SPC_SPHERE_INSIDE_SUB)
+                fj = f1;
+            inside_cell(pb, pp, sp, fp, pj, sj, fj, 1);
+            pp = pj;
+            sp = sj;
+            fp = fj;
+        }
+        return;
+    }
+    if (!have)
+        return;
+    for (int it = 0; it < SPC_SPHERE_INSIDE_STEPS; ++it) {
+        double mid = 0.5 * (a + b), fm = 0.0;
+        if (inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, mid, &fm, NULL) != 0)
+            break;
+        if ((fm < 0.0) == (fa < 0.0)) {
+            a = mid;
+            fa = fm;
+        } else {
+            b = mid;
+        }
+    }
+    double f, th;
+    if (inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, 0.5 * (a + b), &f, &th) == 0 ||
+        inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, a, &f, &th) == 0)
+        pb->theta[pb->n++] = th;
+}
+
+int spc_sphere_inside_roots(double d, double y1, double y2, int m, double eta, double *theta, int max_roots)
+{
+    if (m < 0 || m > SPC_SPHERE_MAX_M || !(d >= 0.0 && d < 1.0) || !(y1 * y1 + y2 * y2 > 1.0) || !(eta > 0.0))
+        return 0;
+    inside_problem pb = {d, y1, y2, eta, m, theta, 0, max_roots};
+    const double step = 2.0 * SPC_PI / SPC_SPHERE_INSIDE_GRID, cs = cos(step), sn = sin(step);
+    /* the grid's directions by rotation, from phi = -pi */
+    double ux = -1.0, uy = 0.0;
+    double p0 = -SPC_PI, f0 = 0.0;
+    int s0 = inside_eval(d, y1, y2, m, eta, ux, uy, &f0, NULL);
+    for (int i = 1; i <= SPC_SPHERE_INSIDE_GRID; ++i) {
+        double nx = ux * cs - uy * sn, ny = ux * sn + uy * cs;
+        ux = nx;
+        uy = ny;
+        double p1 = -SPC_PI + i * step, f1 = 0.0;
+        int s1 = inside_eval(d, y1, y2, m, eta, ux, uy, &f1, NULL);
+        inside_cell(&pb, p0, s0, f0, p1, s1, f1, 0);
+        p0 = p1;
+        f0 = f1;
+        s0 = s1;
+    }
+    return pb.n;
 }
 
 bool spc_sphere_arc_unseen(double y1, double y2, const double p0[2], const double p1[2])

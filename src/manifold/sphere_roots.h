@@ -53,6 +53,17 @@ void spc_sphere_chain_roots_all(double d, double y1, double y2, double eta, int 
 void spc_sphere_chain_roots_some(double d, double y1, double y2, double eta, const bool want[SPC_SPHERE_SIGNATURES],
                                  double theta[][SPC_SPHERE_MAX_ROOTS], int *n);
 
+/* The plane for x inside the sphere and y outside it: as spc_sphere_plane_of, with d < 1 (x at the
+ * centre: e1 any direction at right angles to y's); false where x is not inside or y not outside. */
+bool spc_sphere_plane_inside(spc_vec3 x, spc_vec3 c, double R, spc_vec3 y, spc_sphere_plane *pl);
+
+/* The planar problem from inside: x at (d, 0) with 0 <= d < 1, y at (y1, y2) outside the unit
+ * circle; the chain leaves x toward the circle, reflects inside m times (m >= 0) and refracts out
+ * (eta: the relative index inside / outside): m + 1 vertices. Writes the roots (the first vertex's
+ * angles theta, the point (cos theta, sin theta)) of chains that reach y, at most max_roots;
+ * returns their number. */
+int spc_sphere_inside_roots(double d, double y1, double y2, int m, double eta, double *theta, int max_roots);
+
 /* Is every point P of the unit circle's arc from p0 to p1 (counterclockwise, less than half a turn;
  * each given as (cos t, sin t)) behind its tangent line as seen from y = (y1, y2), i.e. y . P < 1
  * there (with a margin of 1e-9)? A chain that leaves the circle by an outside reflection at such a

@@ -352,6 +352,10 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
     s->accel = spc_accel_create(s, err);
     if (!s->accel)
         return err ? err->code : SPC_ERR_ACCEL;
+    s->prefetch_hits = false;
+    for (int i = 0; i < s->nshapes; ++i)
+        if (s->shapes[i]->type == SPC_SHAPE_MESH && !s->shapes[i]->tri_frame)
+            s->prefetch_hits = true;
     s->finalized = true;
     return SPC_OK;
 }
@@ -371,11 +375,26 @@ bool spc_scene_occluded(const spc_scene *s, const spc_ray *r) { return spc_accel
 
 _Static_assert(SPC_SCENE_PACKET == SPC_ACCEL_PACKET, "one packet size");
 
+/* Asks for the lanes' triangle records, then their vertices, before the first fill: on a big mesh
+ * each hit's reads miss the cache, and asking for all lanes at once overlaps those misses. */
+static void prefetch_packet(const spc_scene *s, const int *shape, const int *prim)
+{
+    if (!s->prefetch_hits)
+        return;
+    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+        if (shape[i] >= 0)
+            spc_shape_prefetch_hit(s->shapes[shape[i]], prim[i]);
+    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+        if (shape[i] >= 0)
+            spc_shape_prefetch_vertices(s->shapes[shape[i]], prim[i]);
+}
+
 /* The hit records of a packet's lanes from Embree's answers. */
 static void fill_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], const int *shape, const int *prim,
                         const double *u, const double *v, const double *t, spc_hit h[SPC_SCENE_PACKET],
                         bool hit[SPC_SCENE_PACKET])
 {
+    prefetch_packet(s, shape, prim);
     for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
         hit[i] = shape[i] >= 0;
         if (!hit[i])
@@ -417,6 +436,7 @@ void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[
     spc_accel_intersect_packet_coherent(s->accel, r, shape, prim, u, v, t);
     for (int i = 0; i < SPC_SCENE_PACKET; ++i)
         a[i] = (spc_scene_answer){shape[i], prim[i], u[i], v[i], t[i]};
+    prefetch_packet(s, shape, prim);
 }
 
 bool spc_scene_fill_answer(const spc_scene *s, const spc_ray *r, const spc_scene_answer *a, spc_hit *h)

@@ -145,6 +145,9 @@ typedef struct spc_scene {
     double radius;                /* bounding sphere radius (>= a small positive value) */
     struct spc_accel *accel;
     bool finalized;
+    /* some mesh keeps no per-triangle frame (more than SPC_MESH_FRAME_MAX_TRIS triangles): its hits
+     * miss the cache, so packets prefetch their records before filling them */
+    bool prefetch_hits;
     spc_scene_casters casters[2]; /* the specular chains' casters: [0] by caustic flags, [1] any_surface */
 
     char path[512]; /* the file it was loaded from, if any */
@@ -158,6 +161,8 @@ typedef struct spc_scene {
      * Without it a ray through a mesh's shared edge can pass between its two triangles and
      * plain path tracing of the cornell box takes about 9% less CPU time (bench/RESULTS.md). */
     bool accel_robust;
+    /* Embree's compact BVH from this many triangles in all; 0: SPC_ACCEL_COMPACT_TRIS (accel.h) */
+    size_t accel_compact_tris;
 } spc_scene;
 
 /* Returns NULL on allocation failure. */

@@ -891,6 +891,28 @@ static void fill_common(const spc_shape *s, int prim, double t, spc_hit *h)
     h->normal_mapped = false;
 }
 
+void spc_shape_prefetch_hit(const spc_shape *s, int prim)
+{
+    if (s->type == SPC_SHAPE_MESH && !s->tri_frame)
+        __builtin_prefetch(s->mesh.idx + 3 * (size_t)prim, 0, 3);
+}
+
+void spc_shape_prefetch_vertices(const spc_shape *s, int prim)
+{
+    if (s->type != SPC_SHAPE_MESH || s->tri_frame)
+        return;
+    const spc_mesh *m = &s->mesh;
+    const uint32_t *vi = m->idx + 3 * (size_t)prim;
+    for (int k = 0; k < 3; ++k) {
+        size_t i = vi[k];
+        __builtin_prefetch(m->p + 3 * i, 0, 3);
+        if (m->n && !s->face_normals)
+            __builtin_prefetch(m->n + 3 * i, 0, 3);
+        if (m->uv && !s->uv_unread)
+            __builtin_prefetch(m->uv + 2 * i, 0, 3);
+    }
+}
+
 void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
                                 spc_hit *h)
 {

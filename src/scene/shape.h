@@ -179,6 +179,13 @@ void spc_shape_fill_hit(const spc_shape *s, int prim, double u, double v, const 
  * there, and uv (zero) where also uv_unread; on other shapes every field. */
 void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
                                 spc_hit *h);
+/* Prefetches for a coming fill of a hit on primitive prim of a mesh without a kept frame (a big
+ * one): stage 1 asks for the triangle's index triple, stage 2 reads the indices and asks for the
+ * vertices' positions, normals and uvs. Run stage 1 over a whole packet, then stage 2, then the
+ * fills: such hits miss the cache, and this overlaps the misses of all lanes. Nothing is written;
+ * other shapes do nothing. */
+void spc_shape_prefetch_hit(const spc_shape *s, int prim);
+void spc_shape_prefetch_vertices(const spc_shape *s, int prim);
 /* spc_shape_fill_hit for a specular chain's vertex while a solver steps: on a mesh every field but
  * uv and the shading tangents sh.s, sh.t (zero; sh.n is filled), which the steps do not read; the
  * fields filled are spc_shape_fill_hit's values. Other shapes: every field. */
