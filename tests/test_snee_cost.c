@@ -12,7 +12,7 @@
  * - spc_snee_query_prob: later_p's probability only where it applies.
  * - spc_snee_caster_share: one ball's cone of directions in closed form; 1 within a caster's bound.
  * - spc_snee_later_prob, spc_snee_first_prob: later_p (first_p) far from the casters, 1 beside
- *   them, in between in proportion to the share, never below later_p nor above 1; 1 without
+ *   them (near_p with nearp), in between in proportion to the share, never below later_p nor above 1; 1 without
  *   roulette.
  */
 /* ctest-labels: unit */
@@ -231,6 +231,15 @@ TEST(later_prob_from_the_casters_share)
     double s = spc_snee_caster_share(sc, cs, y) / SPC_SNEE_QUERY_FULL_SHARE;
     CHECK_MSG(s > 0.1 && s < 1.0 && fabs(spc_snee_first_prob(sc, &p, y) - s) < 1e-12, "share %g", s);
     CHECK(!spc_snee_parse("angular:first=0", 2, &p) && !spc_snee_parse("angular:first=1.5", 2, &p));
+    /* nearp: the raised probability stops at near_p (under the ball and between), never below
+     * first_p or later_p; without first or later below 1 it does nothing */
+    CHECK(spc_snee_parse("angular:first=0.1,later=0.5,nearp=0.3", 2, &p) && p.near_p == 0.3);
+    CHECK(spc_snee_first_prob(sc, &p, spc_v3(-0.42, 0.1, 0.0)) == 0.3);
+    CHECK(spc_snee_later_prob(sc, &p, spc_v3(-0.42, 0.1, 0.0)) == 0.5);
+    CHECK(spc_snee_first_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 0.1);
+    CHECK_MSG(fabs(spc_snee_first_prob(sc, &p, y) - fmin(s, 0.3)) < 1e-12, "share %g", s);
+    CHECK(spc_snee_parse("angular:nearp=0.3", 2, &p) && spc_snee_first_prob(sc, &p, spc_v3(-0.42, 0.1, 0.0)) == 1.0);
+    CHECK(!spc_snee_parse("angular:nearp=0", 2, &p) && !spc_snee_parse("angular:nearp=2", 2, &p));
     spc_scene_destroy(sc);
 }
 

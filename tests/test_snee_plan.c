@@ -1493,6 +1493,57 @@ TEST(one_slab_plan_long_chains)
     }
 }
 
+/* Glass slabs alone under area lights past the flat rules' 0.01 sr, for path: on with light tracing
+ * on every sample (SPC_SNEE_PLAN_FLAT_LARGE) up to 0.045 sr: scenes/caustic_slabs.xml (0.011 sr, and
+ * 0.03 sr with a larger light; off under 0.066 sr); up to 0.2 sr where the slabs fill most
+ * of the light's directions: scenes/newton_slabs.xml (0.12 sr, and 0.17 sr with a larger light; off
+ * under 0.22 sr); off for volpath and bdpt, and beside a mirror (scenes/caustic_glass_cube.xml); the
+ * small-light slab scene keeps its own setting (light tracing on a quarter of the samples). */
+TEST(slab_plan_large_lights)
+{
+    static const struct {
+        const char *path, *radius, *integrator;
+        bool on;
+    } cases[] = {
+        {"scenes/caustic_slabs.xml", NULL, "path", true},   {"scenes/caustic_slabs.xml", "0.2", "path", true},
+        {"scenes/caustic_slabs.xml", "0.3", "path", false},
+        {"scenes/newton_slabs.xml", NULL, "path", true},
+        {"scenes/newton_slabs.xml", "0.36", "path", true},  {"scenes/newton_slabs.xml", "0.4", "path", false},
+        {"scenes/newton_slabs.xml", NULL, "volpath", false}, {"scenes/newton_slabs.xml", NULL, "bdpt", false},
+        {"scenes/caustic_glass_cube.xml", NULL, "path", false},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        char path[1200];
+        snprintf(path, sizeof path, "%s/%s", spc_test_source_dir(), cases[i].path);
+        spc_define defs[2] = {{"res", "8"}, {"light_radius", cases[i].radius}};
+        spc_scene *sc = NULL;
+        spc_error err;
+        CHECK_MSG(spc_scene_load(path, defs, cases[i].radius ? 2 : 1, &sc, &err) == SPC_OK, "%s: %s", path, err.msg);
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        spc_snee_params sp;
+        if (cases[i].on) {
+            CHECK_MSG(p.on && strstr(p.setting, SPC_SNEE_PLAN_FLAT_LARGE) && spc_snee_parse(p.setting, 2, &sp) &&
+                          sp.lt_caustic && sp.lt_share == 1.0 && sp.flat34_p == 0.3 && sp.long_max == 8,
+                      "case %zu (%.3g sr): %s (%s)", i, p.light_sr, p.setting, p.reason);
+            CHECK_MSG(p.light_sr > 0.01 && p.light_sr <= (p.caster_share >= 0.25 ? 0.2 : 0.045),
+                      "case %zu: %.3g sr, share %.3g", i, p.light_sr, p.caster_share);
+        } else
+            CHECK_MSG(!p.on || !strstr(p.setting, "ltshare"), "case %zu (%s, %.3g sr): %s", i, cases[i].integrator,
+                      p.light_sr, p.setting);
+        spc_scene_destroy(sc);
+    }
+    spc_scene *sc = load_at("scenes/caustic_slabs_small_light.xml", "8");
+    if (sc) {
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        CHECK_MSG(p.on && !strstr(p.setting, "ltshare") && strstr(p.setting, SPC_SNEE_PLAN_FLAT_LT), "%s", p.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
 int main(void)
 {
     RUN(demo_plan_on);
@@ -1519,5 +1570,6 @@ int main(void)
     RUN(one_slab_plan_long_chains);
     RUN(slab_plan_light_tracing);
     RUN(slab_plan_point_light_tracing);
+    RUN(slab_plan_large_lights);
     return spc_test_finish();
 }

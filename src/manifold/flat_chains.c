@@ -415,6 +415,12 @@ static const flat_cache *flat_get(const spc_shape *s)
 
 bool spc_flat_chain_shape(const spc_shape *s) { return flat_get(s) != NULL; }
 
+bool spc_flat_chain_closed(const spc_shape *s)
+{
+    const flat_cache *fc = flat_get(s);
+    return fc && fc->convex;
+}
+
 /* eta = int_ior / ext_ior of a dielectric, 0 for a conductor. */
 static double shape_eta(const spc_shape *s)
 {

@@ -78,6 +78,8 @@ struct spc_snee_query;
 
 /* Is s a flat-faced shape these chains handle? (Groups its faces on first use.) */
 bool spc_flat_chain_shape(const spc_shape *s);
+/* Is s such a shape, closed and convex (a slab: a cube's mesh, not an open pane)? */
+bool spc_flat_chain_closed(const spc_shape *s);
 /* Is c one of the chains spc_flat_chains_all enumerates (1 to SPC_FLAT_MAX_VERTICES vertices, all
  * on such shapes, the events above, each segment's medium agreed on by its two ends; reflect as
  * spc_snee_params.reflect)? */

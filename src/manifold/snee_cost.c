@@ -75,7 +75,8 @@ static double share_prob(const spc_scene *sc, const spc_snee_params *p, spc_vec3
     if (!(q > 0.0 && q < 1.0))
         return 1.0;
     double r = spc_snee_caster_share(sc, spc_chain_casters_of(sc, p->any_surface), x) / SPC_SNEE_QUERY_FULL_SHARE;
-    return r >= 1.0 ? 1.0 : r > q ? r : q;
+    double top = p->near_p > 0.0 && p->near_p < 1.0 ? fmax(p->near_p, q) : 1.0; /* params.near_p */
+    return r >= top ? top : r > q ? r : q;
 }
 
 double spc_snee_later_prob(const spc_scene *sc, const spc_snee_params *p, spc_vec3 x)

@@ -93,6 +93,9 @@ static const spc_snee_option options[] = {
     {"first", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(first_p), 0, NULL,
      "at a path's first diffuse or glossy vertex, the query with probability P where the casters look small "
      "(always near them), counted 1/P times"},
+    {"nearp", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(near_p), 0, NULL,
+     "with first or later below 1: near the casters the query with probability at most P (never below first "
+     "or later), counted 1/P times (default 1)"},
     {"camera", NULL, SPC_SNEE_OPT_REAL, true, "Q", 0, 1, true, false, NULL, 0, AT(camera), AT(camera_p), 0, NULL,
      "specular NEE from the camera's pinhole too, in a fraction Q of the camera samples (lights seen through "
      "glass, glints)"},

@@ -82,6 +82,19 @@
  * under any light, but so is the gain where BSDF sampling finds the light through flat glass often
  * (scenes/caustic_slabs.xml, three slabs under 0.011 sr: 0.4x with the flat rule's setting). */
 #define SPC_SNEE_PLAN_FLAT_LONG_MAX_SR 0.01
+/* Flat-faced casters alone under area lights past SPC_SNEE_PLAN_FLAT_LONG_MAX_SR: on with light
+ * tracing (flat_large_lights, SPC_SNEE_PLAN_FLAT_LARGE) up to this solid angle. At equal CPU time
+ * against none over 16 seeds (bench/RESULTS.md, "Slabs under larger lights"), random slab scenes
+ * with their lights enlarged gain under 0.015 and 0.03 sr (2.6-15x on 5 of 6; one loses, 0.7x, by
+ * one pixel), are mixed under 0.06 sr (1.5x, 1.5x, two slabs 0.6x) and lose under 0.12-0.2 sr
+ * (0.1-0.7x: BSDF sampling finds such a light through a slab often, and the query's cost, about a
+ * hundred BSDF samples, is spent on a caustic that is a small part of the image); the limit sits
+ * between 0.03 and 0.06. */
+#define SPC_SNEE_PLAN_FLAT_LARGE_MAX_SR 0.045
+/* ... and up to this one where the slabs fill at least SPC_SNEE_PLAN_MIN_SHARE of a light's
+ * directions (the light's power mostly through them, as over scenes/newton_slabs.xml's two plates,
+ * 0.12 sr, share 1: 2-3x none). */
+#define SPC_SNEE_PLAN_FLAT_LARGE_SHARED_MAX_SR 0.2
 /* The pilot: receivers seen by pinhole rays through the centres of a grid of this many cells a side
  * of the film (a flat caster's own faces skipped), each queried toward the centre of the smallest
  * light with chains of 1 to SPC_FLAT_MAX_VERTICES - 1 vertices (flat5's longest); 8 x 8 rays cost
@@ -148,6 +161,34 @@ static void flat_light_tracing(const spc_scene *sc, const spc_chain_casters *cs,
     snprintf(out->setting + n, sizeof out->setting - n, "%s%s",
              strstr(out->setting, "ltcaus") ? "" : SPC_SNEE_PLAN_AREA_LIGHTS,
              strstr(out->setting, SPC_SNEE_PLAN_FLAT_LONG) ? SPC_SNEE_PLAN_FLAT_LT_LONG : SPC_SNEE_PLAN_FLAT_LT);
+}
+
+/* Closed flat-faced glass casters alone (slabs: no mirror, no other caster, no open pane) under area
+ * lights (a sky besides), the smallest past SPC_SNEE_PLAN_FLAT_LONG_MAX_SR and every one at most
+ * SPC_SNEE_PLAN_FLAT_LARGE_MAX_SR from the casters' centre (SPC_SNEE_PLAN_FLAT_LARGE_SHARED_MAX_SR
+ * where the casters fill a share of some light's directions of at least SPC_SNEE_PLAN_MIN_SHARE),
+ * for path: the flat rules leave them off, this one turns them on with light tracing on every
+ * sample (SPC_SNEE_PLAN_FLAT_LARGE). */
+static bool flat_large_lights(const spc_scene *sc, const spc_chain_casters *cs, int nflat, bool mirror,
+                              const char *integrator, double light_sr, double caster_share)
+{
+    if (nflat == 0 || nflat != cs->n || mirror || strcmp(integrator, "path") ||
+        !(light_sr > SPC_SNEE_PLAN_FLAT_LONG_MAX_SR))
+        return false;
+    const double max_sr = caster_share >= SPC_SNEE_PLAN_MIN_SHARE ? SPC_SNEE_PLAN_FLAT_LARGE_SHARED_MAX_SR
+                                                                  : SPC_SNEE_PLAN_FLAT_LARGE_MAX_SR;
+    for (int i = 0; i < cs->n; ++i)
+        if (!spc_flat_chain_closed(sc->shapes[cs->idx[i]]))
+            return false;
+    for (int i = 0; i < sc->nemitters; ++i) {
+        const spc_emitter *e = sc->emitters[i];
+        if (e->type == SPC_EMITTER_CONSTANT || e->type == SPC_EMITTER_ENVMAP)
+            continue;
+        if (e->type != SPC_EMITTER_AREA || e->shape_index < 0 || e->shape_index >= sc->nshapes ||
+            light_solid_angle(sc->shapes[e->shape_index], cs->center) > max_sr)
+            return false;
+    }
+    return true;
 }
 
 /* Is every light of the scene a point light, a sky besides (some point light)? */
@@ -630,7 +671,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         out->flat_sequences = flat_sequences_per_query(sc, smallest);
         flat_long = out->flat_sequences >= 0.0 && out->flat_sequences * out->light_sr <= flat_cost_limit;
     }
-    if (nflat > 0 && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && !flat_long) {
+    const bool flat_large = flat_large_lights(sc, cs, nflat, mirror, integrator, out->light_sr, out->caster_share);
+    if (nflat > 0 && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR && !flat_long && !flat_large) {
         if (out->flat_sequences > 0.0)
             snprintf(out->reason, sizeof out->reason, "flat-faced casters%s: light %.2g sr x %.3g sequences a query > %g",
                      nflat == cs->n ? " alone" : "", out->light_sr, out->flat_sequences, flat_cost_limit);
@@ -641,7 +683,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting, sizeof out->setting, "none");
         return;
     }
-    if (out->light_sr > SPC_SNEE_PLAN_MAX_SR && out->caster_share < SPC_SNEE_PLAN_MIN_SHARE) {
+    if (out->light_sr > SPC_SNEE_PLAN_MAX_SR && out->caster_share < SPC_SNEE_PLAN_MIN_SHARE && !flat_large) {
         snprintf(out->reason, sizeof out->reason, "every light is large: %.2g sr from the casters (share %.2g)",
                  out->light_sr, out->caster_share);
         out->on = false;
@@ -780,7 +822,11 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LONG);
     }
-    flat_light_tracing(sc, cs, nflat, integrator, out);
+    if (flat_large && !strstr(out->setting, "recguide")) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LARGE);
+    } else
+        flat_light_tracing(sc, cs, nflat, integrator, out);
     flat_point_light_tracing(sc, nflat, integrator, out);
     /* volpath: a share of the random seeds at medium points from the phase function, where some
      * caster's chains go to the randomized attempts (snee_plan.h) */

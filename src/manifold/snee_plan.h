@@ -280,6 +280,16 @@
 #define SPC_SNEE_PLAN_FLAT_LT ",flat34=0.3,longmax=8"
 #define SPC_SNEE_PLAN_FLAT_LT_LONG ",flat34=0.3,flat5=0.3,longmax=8"
 
+/* Appended for path where every caster is closed flat-faced glass (slabs, no mirror) and every light
+ * is an area light larger than the flat rules' SPC_SNEE_PLAN_FLAT_LONG_MAX_SR up to
+ * SPC_SNEE_PLAN_FLAT_LARGE_MAX_SR (snee_plan.c), without the caustic guide at receivers: the plan's
+ * setting for slabs under small lights, with light tracing on every camera sample (ltshare=1). The
+ * flat enumeration's query costs about a hundred BSDF samples there and carries the caustic with
+ * little variance; light tracing on every sample takes more of the chains BSDF sampling and the
+ * query share. Measured at equal CPU time against none (bench/RESULTS.md, "Slabs under larger
+ * lights"). */
+#define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.3,longmax=8"
+
 /* Appended for path where a glass caster is a tessellated ball (a triangle mesh with a fitted
  * sphere) and every light is a point light (a sky besides), without the caustic guide at receivers:
  * light tracing makes the ball's point-light chains too and joins them to the pinhole directly,

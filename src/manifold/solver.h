@@ -216,6 +216,13 @@ typedef struct spc_snee_params {
      * caustic a receiver far from every caster sees is faint, and the query there costs as much as
      * near the casters. The path integrator only; not from the camera. */
     double first_p;
+    /* The most probable a query is near the casters (the user's "nearp=P"; 1 by default): where
+     * first_p or later_p is in (0, 1), the probability spc_snee_first_prob and spc_snee_later_prob
+     * raise with the casters' share of x's directions stops at P (never below first_p or later_p),
+     * so that a receiver under the casters makes the query on a share P of its visits, counted
+     * 1 / P times. For casters whose query costs a hundred BSDF samples under a light BSDF sampling
+     * finds through them often (flat glass under a large light). */
+    double near_p;
     double query_p;
     /* Independent light points per query (0 or 1: one; the caller sets it per receiver, as query_p):
      * each is solved as a query of its own and counted 1 / light_samples times, and MIS weighs the

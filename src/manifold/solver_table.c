@@ -135,6 +135,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->snee_p = 1.0;
     p->later_p = 1.0;
     p->first_p = 1.0;
+    p->near_p = 1.0;
     p->recv_guide = 0.0;
     p->seed_guide = 0.0;
     p->sguide = NULL;
