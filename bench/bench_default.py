@@ -18,11 +18,13 @@ seed's error sum, and the ratio none / setting of the means.
 usage (from the source root):
   python3 bench/bench_default.py [--specula build/specula] [--out /tmp/bench_default] [--res 24]
                                  [--budget 1.0] [--ref 12] [--seeds 3] [--setting S] [--extra S ...]
-                                 [--ref-setting S] [--recalibrate] [SCENE.xml ...]
+                                 [--ref-setting S] [--recalibrate] [--seed-base B] [SCENE.xml ...]
 (--setting S: S instead of the default in the first column, against the same reference; --extra S:
 one more column; --ref-setting S: the reference rendered with S instead of the default; --recalibrate:
 each setting timed once more at the sample count the first calibration gave, for settings whose cost
-per sample depends on the render's size, as auto:pilot's pilot render)
+per sample depends on the render's size, as auto:pilot's pilot render; --seed-base B: the render seeds
+are B .. B + seeds - 1, default 1). Per setting, one line on stderr names the worst seed, its relMSE,
+its worst pixel (x, y) and that pixel's share of the seed's error sum.
 """
 import argparse
 import glob
@@ -111,6 +113,7 @@ def main():
     ap.add_argument("--setting", default=None, help="render this setting in the default's column (no flag if absent)")
     ap.add_argument("--extra", action="append", default=[], help="one more column with this setting")
     ap.add_argument("--ref-setting", default=None, help="the reference's setting (default: no flag)")
+    ap.add_argument("--seed-base", type=int, default=1, help="the first render seed")
     ap.add_argument("--recalibrate", action="store_true",
                     help="time each setting once more at the budget's sample count (for auto:pilot)")
     a = ap.parse_args()
@@ -158,16 +161,25 @@ def main():
         ref, ref_var = read_exr_var(ref_path)
         res = {}
         for s in cols:
-            errs, shares = [], []
+            errs, shares, worst = [], [], []
             spp = budget_spp(a.budget, cal[s], fixed[s])
             for k in range(a.seeds):
                 p = os.path.join(a.out, "%s_%s_%d.exr" % (name, (s or "default").replace(":", "_"), k))
-                cpu = render(a, scene, p, s, spp, 1 + k, a.res) - base
+                cpu = render(a, scene, p, s, spp, a.seed_base + k, a.res) - base
                 img = read_exr(p)
                 e = (((img - ref) ** 2 - ref_var) / (ref ** 2 + 0.01)).mean(-1)
                 errs.append(e.mean() * max(cpu, 1e-3) / a.budget)
                 shares.append(e.max() / max(e.sum(), 1e-300))
+                y, x = np.unravel_index(np.argmax(e), e.shape)
+                worst.append((a.seed_base + k, int(x), int(y), shares[-1]))
             res[s] = (np.mean(errs), max(errs), max(shares), spp)
+            k = int(np.argmax(errs))
+            print("%s %s: worst seed %d relMSE %.4g, pixel (%d, %d) share %.2f; median %.4g" % (
+                name, s or "default", worst[k][0], errs[k], worst[k][1], worst[k][2], worst[k][3],
+                np.median(errs)), file=sys.stderr)
+            np.savetxt(os.path.join(a.out, "%s_%s_errs.txt" % (name, (s or "default").replace(":", "_"))),
+                       np.array([[w[0], errs[i], w[1], w[2], w[3]] for i, w in enumerate(worst)]),
+                       fmt="%.6g", header="seed relMSE worst_x worst_y worst_share")
         d, n = res[a.setting], res["none"]
         row = "| %s | %s | %.3g (%.3g), %d spp | %.3g (%.3g), %d spp | %.1f |" % (
             name, setting, d[0], d[1], d[3], n[0], n[1], n[3], n[0] / d[0])
