@@ -23,7 +23,9 @@ usage (from the source root):
 (--setting S: S instead of the default in the first column, against the same reference; --extra S:
 one more column; --ref-setting S: the reference rendered with S instead of the default; --recalibrate:
 each setting timed once more at the sample count the first calibration gave, for settings whose cost
-per sample depends on the render's size, as auto:pilot's pilot render)
+per sample depends on the render's size, as auto:pilot's pilot render; --seed0 B (or --seed-base B):
+the render seeds are B .. B + seeds - 1, default 1; --per-seed: each seed's line). Per setting, one line on stderr names the worst seed, its relMSE,
+its worst pixel (x, y) and that pixel's share of the seed's error sum.
 """
 import argparse
 import glob
@@ -109,7 +111,7 @@ def main():
     ap.add_argument("--budget", type=float, default=1.0)
     ap.add_argument("--ref", type=float, default=12.0)
     ap.add_argument("--seeds", type=int, default=3)
-    ap.add_argument("--seed0", type=int, default=1, help="the first seed of the renders (seeds seed0 .. seed0 + seeds - 1)")
+    ap.add_argument("--seed0", "--seed-base", dest="seed0", type=int, default=1, help="the first seed of the renders (seeds seed0 .. seed0 + seeds - 1)")
     ap.add_argument("--per-seed", action="store_true",
                     help="print each seed's relMSE, its worst pixel (x, y) and that pixel's share")
     ap.add_argument("--setting", default=None, help="render this setting in the default's column (no flag if absent)")
@@ -162,7 +164,7 @@ def main():
         ref, ref_var = read_exr_var(ref_path)
         res = {}
         for s in cols:
-            errs, shares = [], []
+            errs, shares, worst = [], [], []
             spp = budget_spp(a.budget, cal[s], fixed[s])
             for k in range(a.seeds):
                 p = os.path.join(a.out, "%s_%s_%d.exr" % (name, (s or "default").replace(":", "_"), k))
@@ -171,11 +173,19 @@ def main():
                 e = (((img - ref) ** 2 - ref_var) / (ref ** 2 + 0.01)).mean(-1)
                 errs.append(e.mean() * max(cpu, 1e-3) / a.budget)
                 shares.append(e.max() / max(e.sum(), 1e-300))
+                y, x = np.unravel_index(np.argmax(e), e.shape)
+                worst.append((a.seed0 + k, int(x), int(y), shares[-1]))
                 if a.per_seed:
-                    y, x = np.unravel_index(np.argmax(e), e.shape)
                     print("#  %s %s seed %d: relMSE %.4g, worst pixel (x %d, y %d) share %.2f, cpu %.3f s" % (
                         name, s or "default", a.seed0 + k, errs[-1], x, y, shares[-1], cpu))
             res[s] = (np.mean(errs), max(errs), max(shares), spp)
+            k = int(np.argmax(errs))
+            print("%s %s: worst seed %d relMSE %.4g, pixel (%d, %d) share %.2f; median %.4g" % (
+                name, s or "default", worst[k][0], errs[k], worst[k][1], worst[k][2], worst[k][3],
+                np.median(errs)), file=sys.stderr)
+            np.savetxt(os.path.join(a.out, "%s_%s_errs.txt" % (name, (s or "default").replace(":", "_"))),
+                       np.array([[w[0], errs[i], w[1], w[2], w[3]] for i, w in enumerate(worst)]),
+                       fmt="%.6g", header="seed relMSE worst_x worst_y worst_share")
         d, n = res[a.setting], res["none"]
         row = "| %s | %s | %.3g (%.3g), %d spp | %.3g (%.3g), %d spp | %.1f |" % (
             name, setting, d[0], d[1], d[3], n[0], n[1], n[3], n[0] / d[0])

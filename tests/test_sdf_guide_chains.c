@@ -13,7 +13,8 @@
  *   removed); light tracing takes the light guides there (ltguide).
  * - The scene at 8 x 8 with its light 2.5x wider (power kept), rendered with the torus plan's
  *   setting plus "longmax=8,longev=0.9", agrees with path tracing without specular NEE: per-pixel
- *   z-test (Sidak) on 0.99 of the pixels and the image means within 3 standard errors.
+ *   z-test (Sidak) on 0.99 of the pixels and the image means within 3 standard errors; so does the
+ *   plan's own setting for the torus (the light guides by light tracing, no longer chains' pass).
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -108,6 +109,19 @@ TEST(guide_render_agrees)
     spc_film *g = tu_render_nee(sc, "path", GUIDE_RENDER_SETTING, 512, 2, 11, NULL);
     spc_film *plan = tu_render_nee(sc, "path", PLAN_SETTING, 512, 2, 12, NULL);
     spc_film *none = tu_render_nee(sc, "path", "none", 8192, 2, 13, NULL);
+    /* the plan's setting as the torus gets it: ltguide, and the longer chains left to BSDF sampling */
+    spc_film *own = tu_render_nee(sc, "path", SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES, 512, 2, 14, NULL);
+    CHECK(own);
+    if (own && none) {
+        spc_diff_result ro;
+        memset(&ro, 0, sizeof ro);
+        CHECK(tu_image_agrees(own, none, 0.98, "torus, the plan's setting vs none", &ro));
+        double mo, so;
+        tu_image_mean(own, 1, &mo, &so);
+        printf("    the plan's setting (%s, 512 spp): z-test pass %.4f against none; mean %.5f +- %.5f\n",
+               SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES, ro.ztest_pass_fraction, mo, so);
+    }
+    spc_film_destroy(own);
     CHECK(g && plan && none);
     if (g && plan && none) {
         spc_diff_result r, rn;
@@ -140,6 +154,9 @@ TEST(plan_leaves_guide_chains_to_light_tracing)
     spc_snee_plan_make(sc, "path", NULL, &plan);
     printf("    plan: %s\n", plan.setting);
     CHECK(plan.on && !strstr(plan.setting, "longmax") && strstr(plan.setting, "ltguide"));
+    /* nor the longer chains' pass at all: its counted 3- and 4-vertex chains were the floor's tail */
+    spc_snee_params sp;
+    CHECK(spc_snee_parse(plan.setting, 2, &sp) && sp.long_p == 0.0);
     spc_snee_plan_make(sc, "volpath", NULL, &plan);
     CHECK(!strstr(plan.setting, "longmax"));
     spc_scene_destroy(sc);

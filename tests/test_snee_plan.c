@@ -960,7 +960,7 @@ TEST(light_in_housing_plan_off)
  * vertex, first=1, receivers=1, a smaller mispsi): none of them lowered the mean relMSE or the
  * worst pixel's share at equal CPU time, and the default beat none over 24 seeds
  * (bench/RESULTS.md, "Torus: the plan"). Under its small light the light guides' chains go to
- * light tracing too (ltguide). */
+ * light tracing too (ltguide), and the longer chains' pass is off (nolong, snee_plan.h). */
 TEST(sdf_torus_plan)
 {
     spc_scene *sc = load_at("scenes/caustic_sdf_torus.xml", "8");
@@ -973,6 +973,8 @@ TEST(sdf_torus_plan)
               "caustic_sdf_torus: %s (%s, %g sr)", p.setting, p.reason, p.light_sr);
     spc_snee_params sp;
     CHECK(spc_snee_parse(p.setting, 2, &sp));
+    /* no longer chains' pass: its counted 3- and 4-vertex chains on the torus were a tail */
+    CHECK(sp.long_p == 0.0);
     int sdf = 0;
     for (int i = 0; i < sc->nshapes; ++i)
         if (sc->shapes[i]->type == SPC_SHAPE_SDF) {
