@@ -36,6 +36,8 @@ LLVM_DEFAULT = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.normpath(os.path.join(HERE, ".."))
 
+# The height field under a small square light that faces it (turned down: a rectangle faces +z), so
+# that both renderers shade the mesh and trace shadow rays, not only extension rays.
 SCENE = """<scene version="3.0.0">
   <integrator type="path"><integer name="max_depth" value="3"/></integrator>
   <sensor type="perspective">
@@ -47,7 +49,7 @@ SCENE = """<scene version="3.0.0">
   <shape type="ply"><string name="filename" value="{ply}"/><boolean name="face_normals" value="true"/>
     <bsdf type="diffuse"/></shape>
   <shape type="rectangle">
-    <transform name="to_world"><scale value="0.3"/><translate value="0, 0, 2"/></transform>
+    <transform name="to_world"><scale value="0.3"/><rotate x="1" angle="180"/><translate value="0, 0, 2"/></transform>
     <emitter type="area"><rgb name="radiance" value="20"/></emitter>
   </shape>
 </scene>
