@@ -53,13 +53,10 @@
 #define SPC_SPHERE_GRID_NEAR 64
 #define SPC_SPHERE_NEAR_D 1.25
 
-bool spc_sphere_plane_of(spc_vec3 x, spc_vec3 c, double R, spc_vec3 y, spc_sphere_plane *pl)
+/* The plane through the centre c spanned by the unit axis e1 and y's direction w = y - c (e2: w's
+ * part across e1), in units of the radius R, with x at distance d from c along e1. */
+static void plane_fill(spc_vec3 e1, spc_vec3 w, spc_vec3 c, double R, double d, spc_sphere_plane *pl)
 {
-    spc_vec3 e1 = spc_sub(x, c), w = spc_sub(y, c);
-    double d = spc_length(e1);
-    if (!(d > R) || !(spc_length(w) > R))
-        return false;
-    e1 = spc_scale(e1, 1.0 / d);
     spc_vec3 wp = spc_sub(w, spc_scale(e1, spc_dot(w, e1)));
     double wpl = spc_length(wp);
     /* y on the axis through x and the centre: a ring of solutions (measure zero); any plane */
@@ -70,6 +67,15 @@ bool spc_sphere_plane_of(spc_vec3 x, spc_vec3 c, double R, spc_vec3 y, spc_spher
     pl->d = d / R;
     pl->y1 = spc_dot(w, e1) / R;
     pl->y2 = spc_dot(w, pl->e2) / R;
+}
+
+bool spc_sphere_plane_of(spc_vec3 x, spc_vec3 c, double R, spc_vec3 y, spc_sphere_plane *pl)
+{
+    spc_vec3 e1 = spc_sub(x, c), w = spc_sub(y, c);
+    double d = spc_length(e1);
+    if (!(d > R) || !(spc_length(w) > R))
+        return false;
+    plane_fill(spc_scale(e1, 1.0 / d), w, c, R, d, pl);
     return true;
 }
 
@@ -433,15 +439,7 @@ bool spc_sphere_plane_inside(spc_vec3 x, spc_vec3 c, double R, spc_vec3 y, spc_s
         return false;
     /* x at the centre: the axis at right angles to y's direction, so that y keeps a component on e2 */
     e1 = d > 1e-9 * R ? spc_scale(e1, 1.0 / d) : spc_frame_from_n(spc_scale(w, 1.0 / wl)).s;
-    spc_vec3 wp = spc_sub(w, spc_scale(e1, spc_dot(w, e1)));
-    double wpl = spc_length(wp);
-    pl->e1 = e1;
-    pl->e2 = wpl > 1e-12 * wl ? spc_scale(wp, 1.0 / wpl) : spc_frame_from_n(e1).s;
-    pl->c = c;
-    pl->R = R;
-    pl->d = d / R;
-    pl->y1 = spc_dot(w, e1) / R;
-    pl->y2 = spc_dot(w, pl->e2) / R;
+    plane_fill(e1, w, c, R, d, pl);
     return true;
 }
 
