@@ -463,6 +463,7 @@ typedef struct flat_problem {
     double scale;                          /* |y - x| and the faces' extent */
     double uu[SPC_FLAT_MAX_VERTICES][2][2]; /* U_i^T U_{i+1}: consecutive faces' tangents (minimize) */
     bool bound;                             /* end a solve by lower_bound_on_faces (tests switch it off) */
+    bool parallel;                          /* start from parallel_start where it applies (tests switch it off) */
 } flat_problem;
 
 static spc_vec3 point_of(const flat_face *f, const double *s) { return spc_add(f->o, spc_add(spc_scale(f->u, s[0]), spc_scale(f->v, s[1]))); }
@@ -750,14 +751,204 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
     return gmax;
 }
 
+/* ---- the closed form where the refracting faces are parallel ----
+ *
+ * A reflection at a plane mirrors the rest of the path, which keeps every segment's length: with
+ * the path after each reflecting vertex mirrored across its plane (unfolded), L is the optical
+ * length of a path from x to y' (y mirrored by every reflection) that only refracts, and the
+ * reflecting planes are where it crosses them. Where the refracting planes are then parallel (a
+ * slab's two faces, a box's top and bottom with total internal reflections off its sides, stacked
+ * parallel slabs), Snell's law at each says that the tangential part tau of eta_j e_j is the same
+ * on every segment (e_j its unit direction), so segment j, of height h_j across the planes, moves
+ *
+ *     w_j(a) = |h_j| a / sqrt(eta_j^2 - a^2)      (a = |tau| < the least eta_j)
+ *
+ * along the tangential offset D of y' from x, and the sum of the w_j, increasing in a from 0 to
+ * infinity, equals |D|: one equation in a. Its root gives every vertex, a stationary point of L
+ * and so (L convex) its minimum; minimize takes it as the start of Newton's steps on L itself,
+ * which certify it (the gradient test) or, where they do not converge, leave the sequence to the
+ * smoothed stages as before. A few dozen flops instead of a dozen Newton steps on the k-vertex
+ * system: a slab's chains, its total internal reflections, and stacked slabs' four interfaces.
+ *
+ * A chain of the sequence crosses each reflecting plane between its neighbours, which lie on
+ * opposite sides of the plane once unfolded, and its refracting vertices are then a stationary point
+ * of the problem without the reflecting planes, whose only one is the closed form's. So where both
+ * ends of the closed form's segment lie on one side of a reflecting plane, beyond the error that
+ * faces parallel only to SPC_FLAT_PARALLEL_COS leave in it (SPC_FLAT_CROSS_REL), the sequence has no
+ * chain: most of a slab's sequences with total internal reflections off its sides, which the smoothed
+ * stages took a dozen steps each to end. */
+
+/* An isometry p -> R p + t (R orthogonal, by its rows). */
+typedef struct flat_iso {
+    spc_vec3 r[3], t;
+} flat_iso;
+
+static spc_vec3 iso_apply(const flat_iso *T, spc_vec3 p)
+{
+    return spc_v3(spc_dot(T->r[0], p) + T->t.x, spc_dot(T->r[1], p) + T->t.y, spc_dot(T->r[2], p) + T->t.z);
+}
+
+static spc_vec3 iso_linear(const flat_iso *T, spc_vec3 v)
+{
+    return spc_v3(spc_dot(T->r[0], v), spc_dot(T->r[1], v), spc_dot(T->r[2], v));
+}
+
+/* The point q of the unfolded space taken back: R^T (q - t). */
+static spc_vec3 iso_invert(const flat_iso *T, spc_vec3 q)
+{
+    spc_vec3 d = spc_sub(q, T->t);
+    return spc_add(spc_add(spc_scale(T->r[0], d.x), spc_scale(T->r[1], d.y)), spc_scale(T->r[2], d.z));
+}
+
+/* T followed after the reflection across the plane n . p = d: p -> T(p - 2 (n . p - d) n). */
+static void iso_reflect(flat_iso *T, spc_vec3 n, double d)
+{
+    spc_vec3 c = iso_linear(T, spc_scale(n, 2.0 * d));
+    for (int i = 0; i < 3; ++i)
+        T->r[i] = spc_sub(T->r[i], spc_scale(n, 2.0 * spc_dot(T->r[i], n)));
+    T->t = spc_add(T->t, c);
+}
+
+/* Refracting planes' normals count as parallel within this (their cosine's distance from 1: angles
+ * to 1.4e-6): far above the rounding of a cube's normals from single-precision vertices (1e-7 of
+ * an angle, 1e-14 of the cosine). Newton's steps on L absorb the rest (SPC_FLAT_CLOSED_STEPS). */
+#define SPC_FLAT_PARALLEL_COS 1e-12
+
+/* The closed form's vertices move by at most a few times that angle times the problem's size from
+ * the exact minimum's (each segment's tangential part changes by at most the change of the total
+ * offset): a reflecting plane that both ends of a segment lie beyond by this share of the size is
+ * not crossed by the exact minimum either (70 times that error). */
+#define SPC_FLAT_CROSS_REL 1e-4
+
+/* Newton's steps on L from the closed form: none where the faces are parallel to the last bit, one or
+ * two where single-precision vertices tilt them by 1e-7; past these the sequence goes to the
+ * smoothed stages. */
+#define SPC_FLAT_CLOSED_STEPS 3
+
+/* The vertices' plane coordinates s (2 k numbers) of the minimum of L where the refracting faces
+ * of P's sequence are parallel once unfolded (above): returns 1; -1 where a reflecting plane is not
+ * crossed (no chain); 0 where the faces are not parallel or the closed form does not apply (a
+ * segment within the planes, a reflecting plane crossed too near an end). */
+static int parallel_start(const flat_problem *P, double *s)
+{
+    const int k = P->k;
+    const double tiny = SPC_FLAT_SIDE_REL * P->scale;
+    flat_iso T = {{spc_v3(1, 0, 0), spc_v3(0, 1, 0), spc_v3(0, 0, 1)}, spc_v3(0, 0, 0)};
+    flat_iso Tv[SPC_FLAT_MAX_VERTICES];
+    spc_vec3 N = spc_v3(0, 0, 0);
+    /* the refracting vertices' heights along N, and the merged segments' indices */
+    double z[SPC_FLAT_MAX_VERTICES + 2], eta[SPC_FLAT_MAX_VERTICES + 1];
+    int m = 0, seg_of[SPC_FLAT_MAX_VERTICES]; /* per vertex: the merged segment it lies on (a reflection) or ends */
+    eta[0] = P->seg[0];
+    for (int i = 0; i < k; ++i) {
+        const flat_face *f = P->v[i].f;
+        Tv[i] = T;
+        spc_vec3 n = iso_linear(&T, f->n);
+        if (P->v[i].event == SPC_CHAIN_REFLECT) {
+            seg_of[i] = m;
+            iso_reflect(&T, f->n, f->d);
+            continue;
+        }
+        if (m == 0)
+            N = n;
+        else if (!(fabs(spc_dot(n, N)) > 1.0 - SPC_FLAT_PARALLEL_COS))
+            return 0;
+        seg_of[i] = m;
+        z[++m] = spc_dot(N, iso_apply(&T, f->o));
+        eta[m] = P->seg[i + 1];
+    }
+    spc_vec3 y = iso_apply(&T, P->y), xy = spc_sub(y, P->x);
+    /* the path in the unfolded space: q[0] = x, q[j] on the j-th refracting plane, q[m + 1] = y' */
+    spc_vec3 q[SPC_FLAT_MAX_VERTICES + 2];
+    q[0] = P->x;
+    if (m == 0) {
+        q[1] = y;
+    } else {
+        z[0] = spc_dot(N, P->x);
+        z[m + 1] = spc_dot(N, y);
+        double emin = INFINITY, h[SPC_FLAT_MAX_VERTICES + 1];
+        for (int j = 0; j <= m; ++j) {
+            h[j] = fabs(z[j + 1] - z[j]);
+            if (!(h[j] > tiny) || !(eta[j] > 0.0))
+                return 0;
+            emin = fmin(emin, eta[j]);
+        }
+        spc_vec3 D = spc_sub(xy, spc_scale(N, spc_dot(N, xy)));
+        double dl = spc_length(D), a = 0.0;
+        spc_vec3 Dh = spc_v3(0, 0, 0);
+        if (dl > tiny) {
+            Dh = spc_scale(D, 1.0 / dl);
+            /* sum_j w_j(a) = dl: increasing and convex in a on [0, emin); Newton's steps kept in
+             * the bracket, bisection where they leave it */
+            double lo = 0.0, hi = emin;
+            a = 0.5 * emin;
+            for (int it = 0; it < 100; ++it) {
+                double F = -dl, dF = 0.0;
+                for (int j = 0; j <= m; ++j) {
+                    double c2 = eta[j] * eta[j] - a * a, c = sqrt(c2);
+                    F += h[j] * a / c;
+                    dF += h[j] * eta[j] * eta[j] / (c2 * c);
+                }
+                if (F > 0.0)
+                    hi = a;
+                else
+                    lo = a;
+                double an = a - F / dF;
+                if (!(an > lo && an < hi))
+                    an = 0.5 * (lo + hi);
+                if (fabs(an - a) <= 1e-15 * emin || hi - lo <= 1e-15 * emin) {
+                    a = an;
+                    break;
+                }
+                a = an;
+            }
+            if (!(a < emin))
+                return 0;
+        }
+        for (int j = 0; j <= m; ++j) {
+            double w = h[j] * a / sqrt(eta[j] * eta[j] - a * a);
+            q[j + 1] = spc_add(q[j], spc_add(spc_scale(Dh, w), spc_scale(N, z[j + 1] - z[j])));
+        }
+    }
+    for (int i = 0, r = 0; i < k; ++i) {
+        const flat_face *f = P->v[i].f;
+        spc_vec3 pt;
+        if (P->v[i].event == SPC_CHAIN_REFLECT) {
+            /* where the merged segment crosses the (unfolded) reflecting plane */
+            spc_vec3 a = q[seg_of[i]], b = q[seg_of[i] + 1];
+            spc_vec3 n = iso_linear(&Tv[i], f->n), o = iso_apply(&Tv[i], f->o);
+            double da = spc_dot(n, spc_sub(a, o)), db = spc_dot(n, spc_sub(b, o));
+            double far = SPC_FLAT_CROSS_REL * P->scale;
+            if ((da > far && db > far) || (da < -far && db < -far))
+                return -1;
+            if (!(fabs(da) > tiny && fabs(db) > tiny && (da > 0.0) != (db > 0.0)))
+                return 0;
+            pt = iso_invert(&Tv[i], spc_add(a, spc_scale(spc_sub(b, a), da / (da - db))));
+        } else {
+            pt = iso_invert(&Tv[i], q[++r]);
+        }
+        spc_vec3 d = spc_sub(pt, f->o);
+        s[2 * i] = spc_dot(d, f->u);
+        s[2 * i + 1] = spc_dot(d, f->v);
+    }
+    return 1;
+}
+
 /* Minimizes L from the straight line x -> y; writes the vertices to p[1..k] (p[0] = x, p[k+1] =
  * y). False if it did not converge or a segment has no length (the minimum is a kink: no chain).
  * L is not smooth where a segment vanishes, and Newton's method stalls near such a kink on its way
  * (a vertex crossing the edge where two faces' planes meet); so it runs on L with each |r|
  * smoothed to sqrt(|r|^2 + mu^2), a smooth, strictly convex function, for mu falling from a tenth
  * of the problem's size by SPC_FLAT_MU_FALL per stage (a path-following homotopy), then on L.
- * Adds 1 to *bound_ends where a bound (newton: the minimum outside the faces, or a kink) ended it. */
-static bool minimize(flat_problem *P, spc_vec3 *p, int *bound_ends)
+ * Adds 1 to t->bound_ends where a bound (newton: the minimum outside the faces, or a kink) ended it,
+ * and to t->closed where parallel_start settled it (its vertices certified by at most
+ * SPC_FLAT_CLOSED_STEPS Newton steps, or no chain). */
+typedef struct flat_tally {
+    int bound_ends;
+    int closed;
+} flat_tally;
+
+static bool minimize(flat_problem *P, spc_vec3 *p, flat_tally *t)
 {
     const int k = P->k;
     for (int i = 0; i + 1 < k; ++i) {
@@ -768,6 +959,32 @@ static bool minimize(flat_problem *P, spc_vec3 *p, int *bound_ends)
                 P->uu[i][r][q] = a == b ? (r == q ? 1.0 : 0.0) : spc_dot(A[r], B[q]);
     }
     double s[2 * SPC_FLAT_MAX_VERTICES];
+    const double min_len = SPC_FLAT_SIDE_REL * P->scale;
+    int closed = P->parallel ? parallel_start(P, s) : 0;
+    if (closed < 0) {
+        ++t->closed;
+        return false;
+    }
+    if (closed > 0) {
+        /* the closed form's minimum, certified by Newton's steps on L; where they do not converge,
+         * the smoothed stages below from the straight line */
+        double lb = -INFINITY, L = path_length(P, s, 0.0, p);
+        bool apart = true;
+        for (int j = 0; j <= k && apart; ++j)
+            apart = spc_length(spc_sub(p[j + 1], p[j])) > 1e3 * min_len;
+        double g = apart ? newton(P, 0.0, s, p, &L, SPC_FLAT_CLOSED_STEPS, SPC_FLAT_GRAD_TOL, &lb) : -1.0;
+        if (g < -1.5) {
+            ++t->bound_ends;
+            return false;
+        }
+        if (g >= 0.0 && g < 1e3 * SPC_FLAT_GRAD_TOL) {
+            ++t->closed;
+            for (int j = 0; j <= k; ++j)
+                if (!(spc_length(spc_sub(p[j + 1], p[j])) > min_len))
+                    return false;
+            return true;
+        }
+    }
     for (int i = 0; i < k; ++i) {
         /* the point of the straight line at fraction (i+1)/(k+1), projected onto the face's plane */
         spc_vec3 q = spc_add(P->x, spc_scale(spc_sub(P->y, P->x), (i + 1.0) / (k + 1.0)));
@@ -781,17 +998,16 @@ static bool minimize(flat_problem *P, spc_vec3 *p, int *bound_ends)
         L = path_length(P, s, mu, p);
         double g = newton(P, mu, s, p, &L, SPC_FLAT_STAGE_STEPS, 1e-3 * mu / P->scale, &lb);
         if (g < 0.0) {
-            *bound_ends += g < -1.5;
+            t->bound_ends += g < -1.5;
             return false;
         }
     }
     L = path_length(P, s, 0.0, p);
-    double min_len = SPC_FLAT_SIDE_REL * P->scale;
     for (int j = 0; j <= k; ++j)
         if (!(spc_length(spc_sub(p[j + 1], p[j])) > 1e3 * min_len))
             return false; /* a kink: no chain through this sequence */
     double g = newton(P, 0.0, s, p, &L, SPC_FLAT_NEWTON_STEPS, SPC_FLAT_GRAD_TOL, &lb);
-    *bound_ends += g < -1.5;
+    t->bound_ends += g < -1.5;
     if (!(g >= 0.0 && g < 1e3 * SPC_FLAT_GRAD_TOL))
         return false;
     for (int j = 0; j <= k; ++j)
@@ -852,7 +1068,7 @@ static bool segment_clear(const spc_scene *sc, const spc_chain_casters *cs, spc_
 /* The problem's sequence solved and checked: the minimum's vertices on the sides the sequence says
  * and inside their faces, its segments clear of the other flat faces. */
 static bool solve_sequence(const spc_scene *sc, const spc_chain_casters *cs, flat_problem *P, spc_vec3 *p,
-                           int *bound_ends)
+                           flat_tally *t)
 {
     /* the segments' indices: a conductor's both sides take the known index next to it, 1 if none */
     const int k = P->k;
@@ -865,7 +1081,7 @@ static bool solve_sequence(const spc_scene *sc, const spc_chain_casters *cs, fla
     for (int j = 0; j <= k; ++j)
         if (P->seg[j] < 0.0)
             P->seg[j] = 1.0;
-    if (!minimize(P, p, bound_ends))
+    if (!minimize(P, p, t))
         return false;
     double tol = SPC_FLAT_SIDE_REL * P->scale;
     for (int i = 0; i < k; ++i) {
@@ -1037,7 +1253,7 @@ typedef struct flat_walk {
     bool (*found)(void *user, const flat_problem *P, const spc_vec3 *p);
     void *user;
     int sequences;
-    int bound_ends; /* solves ended by the bounds (newton) */
+    flat_tally tally; /* solves ended by the bounds (newton), settled by the closed form (minimize) */
     bool stop;
     bool partial; /* reflections off glass inside a longer chain may be partial (reflect implied) */
     bool need_glass_reflect; /* with partial: solve only the sequences of 2+ vertices with a reflection off glass */
@@ -1248,7 +1464,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                             Q.v[0].tir = 0.0;
                         spc_vec3 p[SPC_FLAT_MAX_VERTICES + 2];
                         ++w->sequences;
-                        if (w->found && solve_sequence(w->sc, w->cs, &Q, p, &w->bound_ends) &&
+                        if (w->found && solve_sequence(w->sc, w->cs, &Q, p, &w->tally) &&
                             !w->found(w->user, &Q, p))
                             w->stop = true;
                     }
@@ -1265,10 +1481,11 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
  * enumeration's events, 1 any reflection off glass (total or partial), 2 the same, solving only the
  * sequences of two or more vertices with a reflection off glass among them. Returns the number
  * of sequences solved; bound: whether a solve may end early by the bound on the faces (the minimum
- * outside them, or a kink), *bound_ends (may be NULL) the solves it ended. */
+ * outside them, or a kink), *bound_ends (may be NULL) the solves it ended; parallel: whether a solve
+ * starts from the closed form where it applies, *closed (may be NULL) the solves it settled. */
 static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int partial, spc_vec3 x, spc_vec3 y, int lo,
                     int hi, bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
-                    int *bound_ends)
+                    bool parallel, int *bound_ends, int *closed)
 {
     if (lo < 1)
         lo = 1;
@@ -1299,20 +1516,23 @@ static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int par
     w.P.y = y;
     w.P.scale = spc_length(spc_sub(y, x)) + 2.0 * cs->radius;
     w.P.bound = bound;
+    w.P.parallel = parallel;
     w.found = found;
     w.user = user;
     walk(&w, 0, -1.0, (cone){spc_v3(0, 0, 1), 4.0});
     if (bound_ends)
-        *bound_ends = w.bound_ends;
+        *bound_ends = w.tally.bound_ends;
+    if (closed)
+        *closed = w.tally.closed;
     return w.sequences;
 }
 
 /* walk_run with the enumeration's own events: a reflection off glass inside a longer chain total. */
 static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int lo, int hi,
                     bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
-                    int *bound_ends)
+                    bool parallel, int *bound_ends, int *closed)
 {
-    return walk_run(sc, any_surface, reflect, 0, x, y, lo, hi, found, user, bound, bound_ends);
+    return walk_run(sc, any_surface, reflect, 0, x, y, lo, hi, found, user, bound, parallel, bound_ends, closed);
 }
 
 typedef struct roots_out {
@@ -1335,20 +1555,29 @@ static bool roots_found(void *user, const flat_problem *P, const spc_vec3 *p)
     return true;
 }
 
-int spc_flat_chain_roots_bound(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
+int spc_flat_chain_roots_solve(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
                                spc_vec3 *pts, unsigned char *events, int max, int *sequences, bool bound,
-                               int *bound_ends)
+                               bool parallel, int *bound_ends, int *closed)
 {
     roots_out o = {k, 0, max, pts, events};
-    int seq = walk_all(sc, any_surface, reflect, x, y, k, k, roots_found, &o, bound, bound_ends);
+    int seq =
+        walk_all(sc, any_surface, reflect, x, y, k, k, roots_found, &o, bound, parallel, bound_ends, closed);
     if (sequences)
         *sequences = seq;
     return o.n;
 }
 
+int spc_flat_chain_roots_bound(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
+                               spc_vec3 *pts, unsigned char *events, int max, int *sequences, bool bound,
+                               int *bound_ends)
+{
+    return spc_flat_chain_roots_solve(sc, any_surface, reflect, x, y, k, pts, events, max, sequences, bound, true,
+                                      bound_ends, NULL);
+}
+
 int spc_flat_chain_sequences(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k)
 {
-    return walk_all(sc, any_surface, reflect, x, y, k, k, NULL, NULL, true, NULL);
+    return walk_all(sc, any_surface, reflect, x, y, k, k, NULL, NULL, true, true, NULL, NULL);
 }
 
 int spc_flat_chain_roots(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
@@ -1391,7 +1620,7 @@ int spc_flat_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, in
     int lo = q->min_chain > 1 ? q->min_chain : 1;
     int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
     chains_out o = {q, out, 0, max_out, iterations};
-    walk_all(q->scene, q->any_surface, reflect, q->x->p, q->y, lo, hi, chains_found, &o, true, NULL);
+    walk_all(q->scene, q->any_surface, reflect, q->x->p, q->y, lo, hi, chains_found, &o, true, true, NULL, NULL);
     return o.n;
 }
 
@@ -1402,7 +1631,7 @@ int spc_flat_chains_all_partial(const spc_snee_query *q, bool need_glass_reflect
     int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
     chains_out o = {q, out, 0, max_out, iterations};
     walk_run(q->scene, q->any_surface, true, need_glass_reflect ? 2 : 1, q->x->p, q->y, lo, hi, chains_found, &o, true,
-             NULL);
+             true, NULL, NULL);
     return o.n;
 }
 

@@ -121,5 +121,13 @@ int spc_flat_chain_roots(const spc_scene *sc, bool any_surface, bool reflect, sp
 int spc_flat_chain_roots_bound(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
                                spc_vec3 *pts, unsigned char *events, int max, int *sequences, bool bound,
                                int *bound_ends);
+/* spc_flat_chain_roots_bound with the closed form for sequences whose refracting faces are parallel
+ * once the reflections are unfolded (flat_chains.c, parallel_start: the start of the Newton steps on
+ * L, which certify it, or the proof that a reflecting face is not crossed) on or off (parallel; the
+ * renderer keeps it on); *closed (may be NULL) receives the number of solves it settled. The roots
+ * are the same either way, to the convergence test's precision. */
+int spc_flat_chain_roots_solve(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
+                               spc_vec3 *pts, unsigned char *events, int max, int *sequences, bool bound, bool parallel,
+                               int *bound_ends, int *closed);
 
 #endif
