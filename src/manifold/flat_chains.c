@@ -1421,6 +1421,17 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                     int side_out = event == SPC_CHAIN_REFRACT ? -side : side;
                     double m_out = eta > 0.0 ? side_index(eta, side_out) : m_in;
                     double n_in = m_in >= 0.0 ? m_in : 1.0, n_out = m_out >= 0.0 ? m_out : 1.0;
+                    int k = i + 1;
+                    /* the tests of a complete sequence that need no cap first (y on the side the path
+                     * leaves to, inside the shape where it stays inside, not shadowed): a vertex that
+                     * can neither complete the sequence nor grow it needs no cap (the last vertex of
+                     * the longest sequences, most of the walk's nodes) */
+                    bool reach = k >= w->lo && side_out * plane_dist(f, P->y) > tol &&
+                                 !(fc->convex && side_out < 0 && !inside_convex(fc, P->y, tol)) &&
+                                 !(side_out > 0 && walk_shadowed(w, 1, j, fc, fi, tol));
+                    bool grow = k < w->hi && tir_ok;
+                    if (!reach && !grow)
+                        continue;
                     cone leave;
                     if (!cone_through(arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
                         continue;
@@ -1438,12 +1449,8 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                     v->tir = tir;
                     P->seg[i] = m_in;
                     P->seg[i + 1] = m_out;
-                    int k = i + 1;
                     /* complete at k vertices: the last segment reaches y */
-                    bool finish = k >= w->lo && side_out * plane_dist(f, P->y) > tol &&
-                                  !(fc->convex && side_out < 0 && !inside_convex(fc, P->y, tol)) &&
-                                  !(side_out > 0 && walk_shadowed(w, 1, j, fc, fi, tol)) &&
-                                  cones_meet(leave, cone_neg(walk_end_cap(w, 1, j, fc, fi)));
+                    bool finish = reach && cones_meet(leave, cone_neg(walk_end_cap(w, 1, j, fc, fi)));
                     for (int q = 0; q < k && finish && !w->any_surface; ++q)
                         finish = spc_chain_caster_allowed(P->v[q].s->caustic_flags, k);
                     if (finish && w->need_glass_reflect) {
@@ -1468,7 +1475,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                             !w->found(w->user, &Q, p))
                             w->stop = true;
                     }
-                    if (k < w->hi && tir_ok)
+                    if (grow)
                         walk(w, k, m_out, leave);
                 }
             }
