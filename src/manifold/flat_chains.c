@@ -1344,8 +1344,13 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
     flat_problem *P = &w->P;
     double tol = SPC_FLAT_SIDE_REL * P->scale;
     const flat_vertex *prev = i > 0 ? &P->v[i - 1] : NULL;
+    /* the convex shapes' rules below, for whole casters: inside one, only its own faces come next;
+     * having left one, none of its faces does */
+    bool inside = prev && prev->fc->convex && prev->side_out < 0;
     for (int j = 0; j < w->cs->n && !w->stop; ++j) {
         const spc_shape *s = w->sc->shapes[w->cs->idx[j]];
+        if (prev && (inside ? s != prev->s : s == prev->s && prev->fc->convex))
+            continue;
         const flat_cache *fc = flat_get(s);
         if (!fc)
             continue;
