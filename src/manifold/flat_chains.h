@@ -15,10 +15,11 @@
  * where it exists, is L's minimum, and a sequence of faces holds at most one chain (away from
  * degenerate, collinear configurations). So the enumeration walks the sequences of faces and sides
  * that can hold a path (the pruning below), minimizes L by Newton's method (damped, with a line
- * search: global convergence on a convex function), and keeps a minimum whose segments have length,
- * whose vertices lie on the sides the sequence says and inside their faces' polygons. Each is
- * polished in 3D by the angular solver (spc_snee_exact_polish_shapes), whose trace proves the
- * segments before the last unblocked and that nothing else lies between.
+ * search: global convergence on a convex function; where the refracting faces are parallel once the
+ * reflections are unfolded, from a closed form's minimum, flat_chains.c), and keeps a minimum whose
+ * segments have length, whose vertices lie on the sides the sequence says and inside their faces'
+ * polygons. Each is polished in 3D by the angular solver (spc_snee_exact_polish_shapes), whose trace
+ * proves the segments before the last unblocked and that nothing else lies between.
  *
  * Faces: a shape's triangles grouped by plane (same unit normal and offset): a cube or a slab gives
  * 6, a triangular prism 5. The exterior side of a face is the side its normal points to (the winding,
