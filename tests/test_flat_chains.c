@@ -17,6 +17,8 @@
  * - The closed form for faces that are parallel once reflections are unfolded loses no root and
  *   moves none: on random stacked parallel slabs (and one tilted slab), the roots with it are
  *   those without it, and it settles a share of the solves by itself.
+ * - One walk for several lengths (spc_flat_chains_all_later, spc_flat_chains_later) gives the
+ *   chains of one walk per length, bit for bit.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -637,6 +639,81 @@ TEST(parallel_closed_form_same_roots)
     CHECK(exact * 4 >= solved);
 }
 
+/* One walk for several lengths: on random slabs and cubes (each tilted its own way) from floor points
+ * to light points, spc_flat_chains_all_later for lengths 1-2 with 3 and 4 kept, then
+ * spc_flat_chains_later for 3 and 4, give the chains that three calls of spc_flat_chains_all give
+ * (lengths 1-2, 3, 4): as many, in the same order, every vertex bit for bit. */
+TEST(one_walk_for_several_lengths)
+{
+    spc_rng_seed(&rng, 91, 3);
+    int points = 0, chains[5] = {0}, differ = 0;
+    enum { MAXC = 16 };
+    for (int t = 0; t < 6; ++t) {
+        spc_scene *sc = floor_scene();
+        int n = 2 + (int)(rnd() * 2.0);
+        for (int i = 0; i < n; ++i) {
+            spc_vec3 scale =
+                spc_v3(0.3 + 0.5 * rnd(), 0.3 + 0.5 * rnd(), rnd() < 0.7 ? 0.03 + 0.05 * rnd() : 0.2 + 0.3 * rnd());
+            spc_vec3 axis = spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+            spc_vec3 at = spc_v3(1.2 * rnd() - 0.6, 1.2 * rnd() - 0.6, 0.6 + 0.5 * i + 0.3 * rnd());
+            spc_mat4 M = place(scale, axis, 50.0 * rnd() - 25.0, at);
+            add_cube(sc, &M, tu_glass(sc, 1.33 + 0.2 * rnd()));
+        }
+        sc = add_light_finish(sc, spc_v3(0.4 * rnd() - 0.2, 0.4 * rnd() - 0.2, 3.4), 0.3);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        spc_snee_params p;
+        spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 2);
+        p.any_surface = true;
+        p.reflect = true;
+        for (int qi = 0; qi < 40; ++qi) {
+            spc_hit x;
+            spc_ray ray = {spc_v3(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 5.0), spc_v3(0, 0, -1), 0, INFINITY};
+            if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
+                continue;
+            spc_snee_query q;
+            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 0, 1), 2);
+            const spc_emitter *e;
+            spc_vec2 uv;
+            double p_y;
+            spc_rng r;
+            spc_rng_seed(&r, 5, (uint64_t)(100 * t + qi));
+            if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+                continue;
+            ++points;
+            static spc_chain a[3][MAXC], b[3][MAXC];
+            int na[3], nb[3], it = 0;
+            na[0] = spc_flat_chains_all(&q, a[0], MAXC, &it);
+            spc_flat_later later;
+            nb[0] = spc_flat_chains_all_later(&q, 1u << 3 | 1u << 4, &later, b[0], MAXC, &it);
+            CHECK(!later.overflow);
+            for (int k = 3; k <= 4; ++k) {
+                spc_snee_query lq = q;
+                lq.min_chain = lq.max_chain = k;
+                na[k - 2] = spc_flat_chains_all(&lq, a[k - 2], MAXC, &it);
+                nb[k - 2] = spc_flat_chains_later(&lq, &later, k, b[k - 2], MAXC, &it);
+            }
+            for (int g = 0; g < 3; ++g) {
+                bool same = na[g] == nb[g];
+                for (int i = 0; same && i < na[g]; ++i) {
+                    same = a[g][i].n == b[g][i].n;
+                    for (int j = 0; same && j < a[g][i].n; ++j)
+                        same = memcmp(&a[g][i].v[j].h.p, &b[g][i].v[j].h.p, sizeof(spc_vec3)) == 0;
+                    chains[a[g][i].n] += same;
+                }
+                differ += !same;
+            }
+        }
+        spc_scene_destroy(sc);
+    }
+    printf("  %d points: chains of 1-4 vertices %d %d %d %d, %d groups differ\n", points, chains[1], chains[2],
+           chains[3], chains[4], differ);
+    CHECK(points >= 100);
+    CHECK(chains[2] >= 20 && chains[3] + chains[4] >= 5);
+    CHECK(differ == 0);
+}
+
 int main(void)
 {
     RUN(slab_lateral_shift);
@@ -650,5 +727,6 @@ int main(void)
     RUN(face_bound_loses_no_root);
     RUN(roots_do_not_depend_on_caster_order);
     RUN(parallel_closed_form_same_roots);
+    RUN(one_walk_for_several_lengths);
     return spc_test_finish();
 }

@@ -1241,7 +1241,8 @@ typedef struct flat_walk {
     const spc_scene *sc;
     const spc_chain_casters *cs;
     bool any_surface, reflect;
-    int lo, hi; /* the chain lengths wanted */
+    unsigned lengths; /* the chain lengths solved (bit k: k vertices) */
+    int hi;           /* the longest */
     flat_problem P; /* P.k: the vertices chosen so far, while walking */
     cone cap[SPC_FLAT_MAX_VERTICES + 1]; /* the caps of the segments arriving at the vertices chosen */
     /* shadowed() from x and from y, per caster slot and face: 0 not yet known, 1 no, 2 yes */
@@ -1431,7 +1432,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                      * leaves to, inside the shape where it stays inside, not shadowed): a vertex that
                      * can neither complete the sequence nor grow it needs no cap (the last vertex of
                      * the longest sequences, most of the walk's nodes) */
-                    bool reach = k >= w->lo && side_out * plane_dist(f, P->y) > tol &&
+                    bool reach = (w->lengths >> k & 1u) && side_out * plane_dist(f, P->y) > tol &&
                                  !(fc->convex && side_out < 0 && !inside_convex(fc, P->y, tol)) &&
                                  !(side_out > 0 && walk_shadowed(w, 1, j, fc, fi, tol));
                     bool grow = k < w->hi && tir_ok;
@@ -1488,7 +1489,8 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
     }
 }
 
-/* Walks every face sequence of lo to hi vertices from x to y; found() is called with each root
+/* Walks every face sequence of lo to hi vertices, and of the lengths k with bit k of extra set, from
+ * x to y (the longer sequences grow from the shorter ones); found() is called with each root
  * and returns false to stop (found NULL: the sequences are counted, not solved). partial: 0 the
  * enumeration's events, 1 any reflection off glass (total or partial), 2 the same, solving only the
  * sequences of two or more vertices with a reflection off glass among them. Returns the number
@@ -1496,15 +1498,20 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
  * outside them, or a kink), *bound_ends (may be NULL) the solves it ended; parallel: whether a solve
  * starts from the closed form where it applies, *closed (may be NULL) the solves it settled. */
 static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int partial, spc_vec3 x, spc_vec3 y, int lo,
-                    int hi, bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
-                    bool parallel, int *bound_ends, int *closed)
+                    int hi, unsigned extra, bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user,
+                    bool bound, bool parallel, int *bound_ends, int *closed)
 {
     if (lo < 1)
         lo = 1;
     if (hi > SPC_FLAT_MAX_VERTICES)
         hi = SPC_FLAT_MAX_VERTICES;
-    if (lo > hi)
+    unsigned lengths = extra & ((2u << SPC_FLAT_MAX_VERTICES) - 2u);
+    for (int k = lo; k <= hi; ++k)
+        lengths |= 1u << k;
+    if (!lengths)
         return 0;
+    for (hi = SPC_FLAT_MAX_VERTICES; !(lengths >> hi & 1u); --hi)
+        ;
     const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
     if (!cs || cs->n == 0)
         return 0;
@@ -1522,7 +1529,7 @@ static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int par
     w.reflect = reflect || partial > 0;
     w.partial = partial > 0;
     w.need_glass_reflect = partial > 1;
-    w.lo = lo;
+    w.lengths = lengths;
     w.hi = hi;
     w.P.x = x;
     w.P.y = y;
@@ -1544,7 +1551,7 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
                     bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
                     bool parallel, int *bound_ends, int *closed)
 {
-    return walk_run(sc, any_surface, reflect, 0, x, y, lo, hi, found, user, bound, parallel, bound_ends, closed);
+    return walk_run(sc, any_surface, reflect, 0, x, y, lo, hi, 0u, found, user, bound, parallel, bound_ends, closed);
 }
 
 typedef struct roots_out {
@@ -1636,14 +1643,80 @@ int spc_flat_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, in
     return o.n;
 }
 
+/* One walk for q's lengths and longer ones: q's chains polished as found (spc_flat_chains_all's,
+ * those past max_out dropped as that call stops there), the longer ones' roots kept in the order
+ * found, to be polished by spc_flat_chains_later as their own walks would polish them. */
+typedef struct later_out {
+    chains_out now; /* the lengths of q (lo to hi) */
+    int lo, hi;
+    spc_flat_later *later; /* the longer ones' roots */
+} later_out;
+
+static bool later_found(void *user, const flat_problem *P, const spc_vec3 *p)
+{
+    later_out *o = user;
+    if (P->k >= o->lo && P->k <= o->hi)
+        return o->now.n >= o->now.max || chains_found(&o->now, P, p); /* past the limit: dropped */
+    spc_flat_later *l = o->later;
+    if (l->n == SPC_FLAT_LATER_MAX) {
+        l->overflow = true;
+        return true;
+    }
+    spc_flat_later_root *r = &l->root[l->n++];
+    r->k = P->k;
+    for (int i = 0; i < P->k; ++i) {
+        r->shapes[i] = P->v[i].s;
+        r->ev[i] = P->v[i].event;
+    }
+    spc_vec3 xo = spc_hit_offset(o->now.q->x, spc_sub(p[1], o->now.q->x->p));
+    r->dir = spc_normalize(spc_sub(p[1], xo));
+    return true;
+}
+
+int spc_flat_chains_all_later(const spc_snee_query *q, unsigned later_lengths, spc_flat_later *later,
+                              spc_chain *out, int max_out, int *iterations)
+{
+    const spc_snee_params *p = q->params;
+    bool reflect = p && p->reflect;
+    int lo = q->min_chain > 1 ? q->min_chain : 1;
+    int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
+    unsigned extra = later_lengths & ((2u << SPC_FLAT_MAX_VERTICES) - 2u);
+    for (int k = lo; k <= hi; ++k)
+        extra &= ~(1u << k);
+    later->lengths = extra;
+    later->overflow = false;
+    later->n = 0;
+    later_out o = {{q, out, 0, max_out, iterations}, lo, hi, later};
+    walk_run(q->scene, q->any_surface, reflect, 0, q->x->p, q->y, lo, hi, extra, later_found, &o, true, true, NULL,
+             NULL);
+    return o.now.n;
+}
+
+int spc_flat_chains_later(const spc_snee_query *q, const spc_flat_later *later, int k, spc_chain *out, int max_out,
+                          int *iterations)
+{
+    if (k < 1 || k > SPC_FLAT_MAX_VERTICES || !(later->lengths >> k & 1u) || later->overflow) {
+        spc_snee_query lq = *q;
+        lq.min_chain = lq.max_chain = k;
+        return spc_flat_chains_all(&lq, out, max_out, iterations);
+    }
+    int n = 0;
+    for (int i = 0; i < later->n && n < max_out; ++i) {
+        const spc_flat_later_root *r = &later->root[i];
+        if (r->k == k && spc_snee_exact_polish_shapes(q, r->shapes, k, r->ev, r->dir, out, n, iterations))
+            ++n;
+    }
+    return n;
+}
+
 int spc_flat_chains_all_partial(const spc_snee_query *q, bool need_glass_reflect, spc_chain *out, int max_out,
                                 int *iterations)
 {
     int lo = q->min_chain > 1 ? q->min_chain : 1;
     int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
     chains_out o = {q, out, 0, max_out, iterations};
-    walk_run(q->scene, q->any_surface, true, need_glass_reflect ? 2 : 1, q->x->p, q->y, lo, hi, chains_found, &o, true,
-             true, NULL, NULL);
+    walk_run(q->scene, q->any_surface, true, need_glass_reflect ? 2 : 1, q->x->p, q->y, lo, hi, 0u, chains_found, &o,
+             true, true, NULL, NULL);
     return o.n;
 }
 

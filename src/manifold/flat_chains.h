@@ -93,6 +93,31 @@ bool spc_flat_chain_faces(const spc_chain *c, bool reflect);
  * max_out, written to out (polished and traced: each segment before the last proven unblocked; the
  * last is checked by spc_snee_chain_value). Adds the chain traces it spends to *iterations. */
 int spc_flat_chains_all(const struct spc_snee_query *q, spc_chain *out, int max_out, int *iterations);
+/* The roots of the longer lengths a walk met, kept to be polished later (spc_flat_chains_all_later,
+ * spc_flat_chains_later); storage the caller owns. */
+#define SPC_FLAT_LATER_MAX 48
+typedef struct spc_flat_later_root {
+    const spc_shape *shapes[SPC_FLAT_MAX_VERTICES];
+    unsigned char ev[SPC_FLAT_MAX_VERTICES];
+    spc_vec3 dir; /* the first segment's direction, from x offset off its surface */
+    int k;
+} spc_flat_later_root;
+typedef struct spc_flat_later {
+    unsigned lengths; /* the lengths kept (bit k: k vertices) */
+    bool overflow;    /* more roots than SPC_FLAT_LATER_MAX: spc_flat_chains_later walks again */
+    int n;
+    spc_flat_later_root root[SPC_FLAT_LATER_MAX];
+} spc_flat_later;
+/* spc_flat_chains_all, and in the same walk the roots of each further length k with bit k of
+ * later_lengths set (past q's lengths), kept in *later: a call that also wants the chains of 3 and
+ * 4 vertices walks the faces once, the longer sequences growing from the shorter ones. */
+int spc_flat_chains_all_later(const struct spc_snee_query *q, unsigned later_lengths, spc_flat_later *later,
+                              spc_chain *out, int max_out, int *iterations);
+/* The chains of exactly k vertices from the roots *later kept, polished: those
+ * spc_flat_chains_all writes for q with min_chain = max_chain = k, in the same order (at most
+ * max_out); where k was not kept, or the roots overflowed, that call itself. */
+int spc_flat_chains_later(const struct spc_snee_query *q, const spc_flat_later *later, int k, spc_chain *out,
+                          int max_out, int *iterations);
 /* The same with every reflection off glass allowed, total or partial, anywhere in the chain
  * (q->params.reflect not read): the chains spc_flat_chain_faces takes, up to SPC_FLAT_MAX_VERTICES
  * vertices; need_glass_reflect: only those of two or more vertices with a reflection off glass

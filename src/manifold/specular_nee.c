@@ -1923,22 +1923,31 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         nall += spc_cylinder_chains_all(q, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
         spc_snee_query fq = *q; /* the flat chains may run past the budget */
         fq.max_chain = flat_max(q);
-        nall += spc_flat_chains_all(&fq, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
+        /* the longer chains through flat faces, each length on its own share of the calls
+         * (flat_psi), drawn first so that one walk of the faces finds them with the shorter ones
+         * (spc_flat_chains_all_later); emitted after those, as their own walks were */
+        bool flat = fq.max_chain < SPC_FLAT_MAX_VERTICES && has_flat_caster(q);
+        unsigned longer = 0;
+        double psi_k[SPC_FLAT_MAX_VERTICES + 1] = {0.0};
+        for (int k = fq.max_chain + 1; flat && k <= SPC_FLAT_MAX_VERTICES; ++k) {
+            psi_k[k] = flat_psi(q, k);
+            if (psi_k[k] > 0.0 && (psi_k[k] >= 1.0 || spc_rng_next(rng) < psi_k[k]))
+                longer |= 1u << k;
+        }
+        spc_flat_later later;
+        nall += spc_flat_chains_all_later(&fq, longer, &later, all + nall, SPC_SNEE_MAX_ALL - nall, &it);
         emit_exact(&fq, e, uv, p_y, all, nall, it, st, sk);
         if (!q->cam)
             emit_plane_chains(q, e, uv, p_y, st, sk);
-        /* the longer chains through flat faces, each length with its own probability (flat_psi) */
-        bool flat = fq.max_chain < SPC_FLAT_MAX_VERTICES && has_flat_caster(q);
-        for (int k = fq.max_chain + 1; flat && k <= SPC_FLAT_MAX_VERTICES; ++k) {
-            double psi = flat_psi(q, k);
-            if (!(psi > 0.0) || (psi < 1.0 && !(spc_rng_next(rng) < psi)))
+        for (int k = fq.max_chain + 1; k <= SPC_FLAT_MAX_VERTICES; ++k) {
+            if (!(longer >> k & 1u))
                 continue;
             spc_snee_query lq = *q;
             lq.min_chain = lq.max_chain = k;
-            lq.psi = psi;
+            lq.psi = psi_k[k];
             it = 0;
-            nall = spc_flat_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
-            emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
+            nall = spc_flat_chains_later(&lq, &later, k, all, SPC_SNEE_MAX_ALL, &it);
+            emit_exact(&lq, e, uv, p_y * psi_k[k], all, nall, it, st, sk);
         }
     }
     /* on a share of the calls the longer chains on a mirror cylinder, every length at once (cyl_psi) */
