@@ -1247,8 +1247,7 @@ typedef struct flat_walk {
     cone cap[SPC_FLAT_MAX_VERTICES + 1]; /* the caps of the segments arriving at the vertices chosen */
     /* shadowed() from x and from y, per caster slot and face: 0 not yet known, 1 no, 2 yes */
     unsigned char shadow[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
-    /* cone_point_face from x (end 0) and from y (end 1), per caster slot and face, and whether known */
-    cone ends[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
+    /* whether ends[][][] (below) is known */
     unsigned char ends_known[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
     /* per complete sequence: */
     bool (*found)(void *user, const flat_problem *P, const spc_vec3 *p);
@@ -1260,8 +1259,11 @@ typedef struct flat_walk {
     bool need_glass_reflect; /* with partial: solve only the sequences of 2+ vertices with a reflection off glass */
     /* cone_faces between faces of two different casters in the first SPC_FLAT_PAIR_SLOTS slots,
      * per (slot * SPC_FLAT_MAX_FACES + face) pair, and whether known; pair_cap is read only where
-     * known, so it stays out of the walk's clearing (it is last) */
+     * known, so it stays out of the walk's clearing (it is last, after ends) */
     unsigned char pair_known[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
+    /* cone_point_face from x (end 0) and from y (end 1), per caster slot and face: read only where
+     * ends_known, so it stays out of the walk's clearing (32 kB) with pair_cap */
+    cone ends[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
     cone pair_cap[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
 } flat_walk;
 
@@ -1522,7 +1524,7 @@ static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int par
     if (!flat)
         return 0;
     flat_walk w;
-    memset(&w, 0, offsetof(flat_walk, pair_cap));
+    memset(&w, 0, offsetof(flat_walk, ends));
     w.sc = sc;
     w.cs = cs;
     w.any_surface = any_surface;
