@@ -25,7 +25,7 @@
  * REPLAY_SORT=W reorders the rays before tracing: each window of W consecutive rays of a file (a
  * wave's step traces up to 256 extension rays; W = 0 or more than the file: the whole file) sorted by
  * their direction's octant, then by the Morton code of their origin in the box of all origins (10
- * bits an axis), the order a renderer would get by sorting its rays before forming packets.
+ * bits an axis), then by their direction's (7 bits an axis: a camera's rays by pixel), the order a renderer would get by sorting its rays before forming packets.
  */
 #include <embree3/rtcore.h>
 #include <math.h>
@@ -112,7 +112,11 @@ static void sort_rays(rays *rs, size_t w)
             m |= spread3((uint32_t)(f * 1023.0f)) << (2 - k);
         }
         uint64_t oct = (uint64_t)((q[3] < 0.0f) | (q[4] < 0.0f) << 1 | (q[5] < 0.0f) << 2);
-        ks[i].key = oct << 32 | m;
+        /* rays from one origin (a camera's) by their direction's Morton code (7 bits an axis) */
+        uint32_t md = 0;
+        for (int k = 0; k < 3; ++k)
+            md |= spread3((uint32_t)((q[3 + k] * 0.5f + 0.5f) * 127.0f)) << (2 - k);
+        ks[i].key = oct << 51 | (uint64_t)m << 21 | md;
         ks[i].i = i;
     }
     for (size_t i0 = 0; i0 < rs->n; i0 += w)
