@@ -11,7 +11,7 @@ specula EXRs (independent seeds, e.g. bdpt). IMG_GLOB: a quoted glob of specula 
 channel's |z| is under the two-sided bound at alpha 0.01, Sidak-corrected over the pixels tested.
 Printed beside it: the same test with the images' own variance channels for se_a, the 4x4 block sums'
 test, the mean z, the image mean ratio a / b with its standard error from the seeds' and batches'
-image means, and the quadrants' ratios.
+image means, and the quadrants' ratios (over the pixels tested).
 
 --rel EPS (default 1e-4): a relative tolerance. With many seeds the per-pixel error of both images
   falls to 1e-4 of the value and below, where Mitsuba's own float32 arithmetic shows (its direct light
@@ -98,9 +98,9 @@ def main():
               1 - failv.sum() / n, (zb < thrb).mean(), z[mask].mean(), r, se, (r - 1) / se, thr, rel))
     quads = (("top left", slice(0, h // 2), slice(0, w // 2)), ("top right", slice(0, h // 2), slice(w // 2, w)),
              ("bottom left", slice(h // 2, h), slice(0, w // 2)), ("bottom right", slice(h // 2, h), slice(w // 2, w)))
-    print("  " + "; ".join("%s %.4f +- %.4f" % ((q,) + ratio_se(img[:, ys, xs].reshape(ni, -1).mean(1),
-                                                                 ref[:, ys, xs].reshape(nr, -1).mean(1)))
-                           for q, ys, xs in quads))
+    print("  " + "; ".join("%s %.4f +- %.4f" % ((q,) + ratio_se(img[:, ys, xs][:, mask[ys, xs]].reshape(ni, -1).mean(1),
+                                                                 ref[:, ys, xs][:, mask[ys, xs]].reshape(nr, -1).mean(1)))
+                           for q, ys, xs in quads if mask[ys, xs].sum() > 0))
     if "--map" in sys.argv:
         for y in range(h):
             print("  " + "".join(" " if not mask[y, x] else ("+" if zi[y, x] > 0 else "-") if fail[y, x] else
