@@ -9,14 +9,15 @@ SCENE.xml: a scene of /work/shared/tools/random_caustic_scene.py with a sphere o
 Writes OUTDIR/NAME_direct.xml: the scene with its casters and sky removed and max_depth 2, so every
 pixel is the floor's direct light or black; renders it with Mitsuba 3 (bench/check/mitsuba_ref.py,
 --seeds batches of --spp) and with specula (--seeds seeds of --spp, one thread, `--specular-nee
-none`), and prints each one's ratio to the exact image over the floor pixels (the mean over batches
-or seeds with its standard error, and the 5th, 50th and 95th percentiles per pixel).
+none`), and prints each one's ratio to the exact image over the lit floor pixels (the mean over
+batches or seeds with its standard error, the 5th, 50th and 95th percentiles per pixel, and the
+lowest and highest pixel).
 
 The exact image: a diffuse floor of albedo rho has radiance rho E / pi under irradiance E. A
 uniformly emitting sphere of radius r, radiance L, wholly above the horizon: E = pi L (r / d)^2
 cos(theta) (d the distance to its centre, theta that direction's angle to the normal). A polygon of
-radiance L: E = L / 2 sum_i angle(v_i, v_i+1) n . unit(v_i x v_i+1) (Lambert's formula; v_i the
-vertices less the point). Each pixel averages that over a 48 x 48 grid (the box filter). The camera
+radiance L emitting to one side: E = L / 2 sum_i angle(v_i, v_i+1) n . unit(v_i x v_i+1) (Lambert's
+formula; v_i the vertices less the point) in front of its plane, 0 behind. Each pixel averages that over a 48 x 48 grid (the box filter). The camera
 is Mitsuba's perspective look-at camera with the fov along x and a square film.
 
 Why: per-pixel Welch tests of many seeds reach a precision of 1e-4 of a pixel's value, where the
@@ -85,7 +86,8 @@ def exact(text, res, grid=48):
                 c = np.cross(v0, v1)
                 cosang = (v0 * v1).sum(-1) / (np.linalg.norm(v0, axis=-1) * np.linalg.norm(v1, axis=-1))
                 E = E + np.arccos(np.clip(cosang, -1, 1)) * c[..., 1] / np.linalg.norm(c, axis=-1)
-            return np.abs(E) / 2
+            # one-sided: no light behind the rectangle's plane
+            return np.where(((p - lo) * dz).sum(-1) > 0, np.abs(E) / 2, 0.0)
     d = (tg - o) / np.linalg.norm(tg - o)
     left = np.cross(up, d)
     left /= np.linalg.norm(left)
@@ -122,7 +124,7 @@ def main():
     xml = os.path.join(a.outdir, name + "_direct.xml")
     open(xml, "w").write(text)
     ex = exact(text, a.res)
-    keep = np.isfinite(ex[..., 0])
+    keep = np.isfinite(ex[..., 0]) & (ex.min(-1) > 0)
     mnpy = os.path.join(a.outdir, name + "_direct_mitsuba.npy")
     if not os.path.exists(mnpy):
         subprocess.run([sys.executable, os.path.join(HERE, "mitsuba_ref.py"), xml, mnpy, "--batches", str(a.seeds),
@@ -138,13 +140,16 @@ def main():
                             "--seed", str(k + 1), "--threads", "1", "--quiet", "--specular-nee", "none", "-o", out],
                            check=True)
         imgs.append(np.array(dict(mi.Bitmap(out).split())["<root>"], dtype=np.float64)[..., :3])
-    print("%s: %d floor pixels" % (name, keep.sum()))
+    print("%s: %d lit floor pixels" % (name, keep.sum()))
     for who, x in (("Mitsuba 3", np.load(mnpy).astype(np.float64)), ("specula", np.stack(imgs))):
         per = np.array([(xi[keep] / ex[keep]).mean() for xi in x])
         pix = (x.mean(0)[keep] / ex[keep]).mean(-1)
-        print("  %-9s / exact: %.5f +- %.5f; per pixel 5%% %.5f, median %.5f, 95%% %.5f" % (
-            who, per.mean(), per.std(ddof=1) / np.sqrt(len(per)), np.percentile(pix, 5), np.median(pix),
-            np.percentile(pix, 95)))
+        ys, xs = np.nonzero(keep)
+        lo, hi = int(np.argmin(pix)), int(np.argmax(pix))
+        print("  %-9s / exact: %.5f +- %.5f; per pixel 5%% %.5f, median %.5f, 95%% %.5f; lowest %.4f at (%d, %d), "
+              "highest %.4f at (%d, %d)" % (who, per.mean(), per.std(ddof=1) / np.sqrt(len(per)), np.percentile(pix, 5),
+                                            np.median(pix), np.percentile(pix, 95), pix[lo], xs[lo], ys[lo], pix[hi],
+                                            xs[hi], ys[hi]))
 
 
 if __name__ == "__main__":
