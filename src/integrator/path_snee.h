@@ -31,6 +31,8 @@ typedef struct spc_path_snee {
     double cam_scale;        /* the full film's pixels over the camera samples per pass */
     spc_vec3 cam_d0;         /* the camera ray's direction */
     int receivers;           /* non-delta vertices so far */
+    bool skip_query;         /* the next receiver's query was counted by splitting (path.c): its
+                                state is set up as usual, its value not added */
     int budget, long_budget; /* at the current vertex: the chain budget specular NEE used (0: none)
                                 and the longer chains' bound */
     spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
@@ -96,6 +98,8 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
                                 int segments, spc_sampler *smp);
 
+/* With skip_query set (then cleared): as spc_path_snee_at_vertex, every state the later MIS weights
+ * read set up alike, but the query itself not made (black). */
 /* The caustic guide (caustic_guide.h) at the path vertex h (wo toward the previous vertex), to
  * sample its continuation with spc_cguide_sample_mix and weigh it with spc_cguide_mix_pdf; specular
  * NEE at h (spc_path_snee_at_vertex) and the MIS weight of the paths it covers from h use the same
