@@ -7,7 +7,8 @@
  * 1.5) facing the ball, in which the camera sees the floor and its caustic reflected. BSDF sampling
  * picks that reflection with the Fresnel probability (about 0.05-0.1 here), so without splitting
  * the caustic's specular NEE value at the reflected floor point comes with that probability and
- * its full size. Checked:
+ * its full size. The pane is a triangle mesh (a rectangle), where the split runs; the ball is an
+ * analytic sphere, where it does not (spc_path_snee_splits). Checked:
  * - the render with splitting agrees per pixel (z-test, Sidak) and by image mean with the same
  *   setting with "nosplit" (the estimator as it was before the splitting, at another seed), and by
  *   image mean with `none` (no specular NEE);

@@ -118,12 +118,13 @@ static spc_rgb split_emission(const spc_render_ctx *ctx, const spc_path_snee *sn
     return spc_rgb_scale(spc_rgb_mul(f, Le), w);
 }
 
-/* Specular NEE splitting at the same vertices as split_emission: at a smooth dielectric h seen
- * from the camera through delta vertices only, the reflected ray is traced on every sample and
+/* Specular NEE splitting at the same vertices as split_emission where the glass is a triangle mesh
+ * (spc_path_snee_splits): at a smooth dielectric h seen from the camera through delta vertices
+ * only, the reflected ray is traced on every sample and
  * specular NEE made at the receiver it hits (hr) with the reflection's factor f = F *
  * specular_reflectance; the sampled path skips its own query at that receiver after a reflection
  * chosen at h (spc_path_snee.skip_query), and nothing else. Without it a caustic seen in the glass
- * (the floor's caustic of a glass ball, reflected in the ball or in a slab) is reached by a few
+ * (the floor's caustic of a tessellated glass ball, reflected in the ball) is reached by a few
  * samples in a hundred, each counting its full brightness: on random caustic scenes those samples
  * held most of a seed's error (bench/RESULTS.md, part tails30). Unbiased as split_emission is: the
  * skipped term's expectation over the lobe choice is F times the query's at hr, which the split
@@ -271,7 +272,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         }
 
         /* specular NEE at the reflection's receiver, by splitting (split_snee) */
-        const bool split_q = split && !sn.p.no_split;
+        const bool split_q = split && spc_path_snee_splits(&sn, &h);
         if (split_q) {
             spc_rgb c_rs = split_snee(ctx, &sn, &h, wo, segments, smp);
             if (!spc_rgb_is_black(c_rs))

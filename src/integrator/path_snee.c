@@ -380,3 +380,8 @@ void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, sp
     }
     ++s->scatterings;
 }
+
+bool spc_path_snee_splits(const spc_path_snee *s, const spc_hit *h)
+{
+    return s->on && !s->p.no_split && h->shape && h->shape->type == SPC_SHAPE_MESH;
+}

@@ -98,6 +98,15 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
                                 int segments, spc_sampler *smp);
 
+/* Does the path tracer split specular NEE at the reflection off the smooth dielectric h (path.c,
+ * split_snee)? Where specular NEE runs, unless "nosplit", at triangle meshes only (tessellated
+ * balls, slabs, panes): a tessellated ball seen from the camera reflects its own caustic on the
+ * floor beside it, which no other strategy takes there (light tracing joins the pinhole through
+ * analytic spheres only). At an analytic sphere those paths are light tracing's too (ltcaus), and
+ * on a smooth SDF (caustic_sdf_torus) the split's queries cost 5-10% more CPU per sample for no
+ * gain at equal CPU (bench/RESULTS.md, part tails30). */
+bool spc_path_snee_splits(const spc_path_snee *s, const spc_hit *h);
+
 /* With skip_query set (then cleared): as spc_path_snee_at_vertex, every state the later MIS weights
  * read set up alike, but the query itself not made (black). */
 /* The caustic guide (caustic_guide.h) at the path vertex h (wo toward the previous vertex), to
