@@ -120,9 +120,8 @@ static spc_rgb split_emission(const spc_render_ctx *ctx, const spc_path_snee *sn
 
 /* Specular NEE splitting at the same vertices as split_emission where the glass is a triangle mesh
  * (spc_path_snee_splits): at a smooth dielectric h seen from the camera through delta vertices
- * only, the reflected ray is traced on every sample and
- * specular NEE made at the receiver it hits (hr) with the reflection's factor f = F *
- * specular_reflectance; the sampled path skips its own query at that receiver after a reflection
+ * only, the reflected ray is traced on every sample and specular NEE made at the receiver it hits
+ * (hr) with the reflection's factor f = F * specular_reflectance; the sampled path skips its own query at that receiver after a reflection
  * chosen at h (spc_path_snee.skip_query), and nothing else. Without it a caustic seen in the glass
  * (the floor's caustic of a tessellated glass ball, reflected in the ball) is reached by a few
  * samples in a hundred, each counting its full brightness: on random caustic scenes those samples
