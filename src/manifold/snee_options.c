@@ -57,6 +57,9 @@ static const spc_snee_option options[] = {
      "not with reflect or exact)"},
     {"nomis", NULL, SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(no_mis), NO, 0, NULL,
      "no MIS with BSDF sampling: the BSDF-sampled paths specular NEE covers are dropped"},
+    {"nosplit", NULL, SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(no_split), NO, 0, NULL,
+     "path: no specular NEE by splitting at a reflection off a smooth glass mesh seen from the camera (the "
+     "receiver that the sampled reflection reaches queries instead)"},
     {"ltcaus", "noltcaus", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(lt_caustic), NO, 0, NULL,
      "path: the caustics of point lights and (with MIS, without recguide) area lights through a glass sphere "
      "also by light tracing (light subpaths joined to the camera directly, through the sphere and through a "

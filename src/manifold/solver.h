@@ -104,6 +104,9 @@ typedef struct spc_snee_params {
     bool mis_events;
     bool no_mis; /* the user's "nomis" option: the integrator does not set mis (covered BSDF paths
                     are then dropped, as before MIS) */
+    /* the user's "nosplit" option: the path tracer does not split specular NEE at the reflection off a
+     * smooth glass mesh seen from the camera (path.c, split_snee) */
+    bool no_split;
     /* Reflection at dielectric vertices (the user's "reflect[=P]"): chains may reflect off glass as
      * well as refract through it (the light's reflection in a glass ball on the floor, internal
      * reflections). A randomized attempt picks the event at each dielectric vertex of its seed chain
