@@ -68,13 +68,28 @@ double spc_snee_caster_share(const spc_scene *sc, const spc_chain_casters *cs, s
     return share < 1.0 ? share : 1.0;
 }
 
+/* spc_snee_caster_share with each caster's tight sphere (spc_scene_casters.bound_c, bound_r). */
+static double tight_caster_share(const spc_chain_casters *cs, spc_vec3 x)
+{
+    if (!cs || !cs->bound_c)
+        return 0.0;
+    double share = 0.0;
+    for (int i = 0; i < cs->n && share < 1.0; ++i) {
+        double R = cs->bound_r[i], d = spc_length(spc_sub(cs->bound_c[i], x));
+        share += d > R ? 0.5 * (1.0 - sqrt(1.0 - (R / d) * (R / d))) : 1.0;
+    }
+    return share < 1.0 ? share : 1.0;
+}
+
 /* The probability of a query at x with floor q (later_p or first_p): the share of x's directions
  * the casters fill over SPC_SNEE_QUERY_FULL_SHARE, at least q and at most 1. */
 static double share_prob(const spc_scene *sc, const spc_snee_params *p, spc_vec3 x, double q)
 {
     if (!(q > 0.0 && q < 1.0))
         return 1.0;
-    double r = spc_snee_caster_share(sc, spc_chain_casters_of(sc, p->any_surface), x) / SPC_SNEE_QUERY_FULL_SHARE;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, p->any_surface);
+    double r = (p->tight_share ? tight_caster_share(cs, x) : spc_snee_caster_share(sc, cs, x)) /
+               SPC_SNEE_QUERY_FULL_SHARE;
     double top = p->near_p > 0.0 && p->near_p < 1.0 ? fmax(p->near_p, q) : 1.0; /* params.near_p */
     return r >= top ? top : r > q ? r : q;
 }
