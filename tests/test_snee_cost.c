@@ -15,7 +15,8 @@
  *   them (near_p with nearp), in between in proportion to the share, never below later_p nor above 1; 1 without
  *   roulette.
  * - tightshare: the share by each caster's own sphere (a ball's radius, not its box's sqrt(3)
- *   times it) in closed form, so that the query is certain only within the ball; a tessellated
+ *   times it) in closed form, certain within the ball and in its shadow from the light, below 1
+ *   between the ball and the light; a tessellated
  *   ball's tight sphere holds every vertex and is the ball's, not its box's.
  */
 /* ctest-labels: unit */
@@ -270,13 +271,17 @@ TEST(tight_share_by_each_casters_sphere)
     double got = spc_snee_later_prob(sc, &p, x);
     CHECK_MSG(want > 0.1 && fabs(got - want) < 1e-9, "tight share %g, closed form %g", got, want);
     CHECK_MSG(spc_snee_later_prob(sc, &q, x) == 1.0, "box share %g", spc_snee_later_prob(sc, &q, x));
-    /* just outside the glass ball (1.3 r below its centre): the box's sphere holds the point, the
-     * ball does not */
-    spc_vec3 y = spc_v3(-0.42, 0.1, 0.36 - 1.3 * 0.36);
-    CHECK(spc_snee_first_prob(sc, &q, y) == 1.0);
-    double t = spc_snee_first_prob(sc, &p, y);
-    CHECK_MSG(t > 0.1 && t < 1.0, "tight first_prob %g", t);
-    CHECK(spc_snee_first_prob(sc, &p, spc_v3(-0.42, 0.1, 0.36 - 0.9 * 0.36)) == 1.0);
+    /* 1.3 r from the glass ball's centre toward the light (the light's centre at (0, 0, 2)) and as far
+     * behind it, in its shadow: the box's sphere holds both; with tightshare the query is certain
+     * only in the shadow, where the ball focuses the light */
+    spc_vec3 a = spc_normalize(spc_sub(cg, spc_v3(0, 0, 2)));
+    spc_vec3 up = spc_madd(cg, a, -1.3 * 0.36), behind = spc_madd(cg, a, 1.3 * 0.36);
+    CHECK(spc_snee_first_prob(sc, &q, up) == 1.0 && spc_snee_first_prob(sc, &q, behind) == 1.0);
+    double t = spc_snee_first_prob(sc, &p, up);
+    CHECK_MSG(t > 0.1 && t < 1.0, "tight first_prob toward the light %g", t);
+    CHECK(spc_snee_first_prob(sc, &p, behind) == 1.0);
+    CHECK(spc_snee_first_prob(sc, &p, spc_madd(cg, a, 6.0)) == 1.0);
+    CHECK(spc_snee_first_prob(sc, &p, spc_madd(cg, spc_v3(0, 1, 0), 0.9 * 0.36)) == 1.0);
     CHECK(spc_snee_first_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 0.1);
     spc_scene_destroy(sc);
 

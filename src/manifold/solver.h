@@ -226,8 +226,11 @@ typedef struct spc_snee_params {
     /* The share of a receiver's directions the casters fill, for first_p's and later_p's rule (the
      * user's "tightshare"; off by default): measured by each caster's tight sphere
      * (spc_scene_casters.bound_r: a sphere's own, a mesh's farthest vertex) instead of the sphere
-     * around its bounding box, whose radius is sqrt(3) times a ball's. The query is then certain
-     * only within the ball itself and falls with the ball's real solid angle outside it. */
+     * around its bounding box, whose radius is sqrt(3) times a ball's, and certain in each tight
+     * sphere's shadow from each light specular NEE samples (behind it, within its radius of the line
+     * from the light's centre through the sphere's: where a glass ball focuses its caustic). The
+     * query is then certain within the ball and its shadow and falls with the ball's real solid
+     * angle elsewhere. A function of x alone, so the roulette stays unbiased. */
     bool tight_share;
     double query_p;
     /* Independent light points per query (0 or 1: one; the caller sets it per receiver, as query_p):
