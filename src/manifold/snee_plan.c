@@ -232,10 +232,11 @@ static bool glass_sphere(const spc_scene *sc, const spc_chain_casters *cs)
 
 /* Do the glass casters sit in a medium: every glass caster with a medium on its outside and none
  * within it (a glass ball in a fog)? Its medium points then mostly see the lights directly, and the
- * chains through the glass carry a small part of their light: at equal CPU time volpath's ball
- * setting lost to none on the fog ball and on fresh fog-ball scenes (bench/RESULTS.md, "the fog
- * ball and dielectrics"), where a medium inside the glass (scenes/medium_glass.xml: every medium
- * point lit through the glass) gains 20-34x. */
+ * chains through the glass carry a small part of their light: at equal CPU time over 24 seeds
+ * volpath's ball setting was 0.62-1.01x none on bench/check/medium_fog_ball.xml and six fresh
+ * fog-ball scenes (0.88-1.05x with tightshare), where a medium inside the glass
+ * (scenes/medium_glass.xml: every medium point lit through the glass) gains 16-34x
+ * (bench/RESULTS.md, "The fog ball and dielectrics"). */
 static bool glass_in_medium(const spc_scene *sc, const spc_chain_casters *cs)
 {
     bool any = false;
