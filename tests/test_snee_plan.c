@@ -1160,12 +1160,31 @@ TEST(volpath_ball_plan)
                   !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS) &&
                   spc_snee_parse(p.setting, 2, &sp) && !sp.solve_mis && sp.fit_seeds && sp.camera &&
                   sp.first_p == 0.1 && sp.later_p == 0.1 && sp.seed == SPC_SNEE_SEED_CONE && sp.phase_seeds == 0.8 &&
-                  sp.mis_solve == 0.3,
+                  sp.mis_solve == 0.3 && !sp.tight_share,
               "medium_glass: %s (%s)", p.setting, p.reason);
     spc_snee_plan_make(sc, "path", NULL, &p);
     CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS SPC_SNEE_PLAN_AREA_LIGHTS) &&
-                  spc_snee_parse(p.setting, 2, &sp) && sp.solve_mis && sp.phase_seeds == 0.0,
+                  spc_snee_parse(p.setting, 2, &sp) && sp.solve_mis && sp.phase_seeds == 0.0 && !sp.tight_share,
               "medium_glass with path: %s", p.setting);
+    spc_scene_destroy(sc);
+}
+
+/* volpath with a tessellated glass ball that sits in a fog (bench/check/medium_fog_ball.xml: the
+ * ball's outside is the fog, its inside empty) leaves specular NEE off; the same ball filled with
+ * the medium (medium_glass, above) keeps it, and so does path on the fog ball (the fog's rule is
+ * volpath's). */
+TEST(volpath_ball_in_fog_plan_off)
+{
+    spc_scene *sc = load_at("bench/check/medium_fog_ball.xml", "8");
+    if (!sc)
+        return;
+    spc_snee_plan p;
+    spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
+    CHECK_MSG(!strcmp(sc->integrator.type, "volpath") && !p.on && p.automatic && !strcmp(p.setting, "none") &&
+                  strstr(p.reason, "sit in a medium"),
+              "fog ball: %s (%s)", p.setting, p.reason);
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on, "fog ball with path: %s (%s)", p.setting, p.reason);
     spc_scene_destroy(sc);
 }
 
@@ -1568,6 +1587,7 @@ int main(void)
     RUN(closed_glass_mesh_plan_off);
     RUN(solved_mirror_plan_no_first_roulette);
     RUN(volpath_ball_plan);
+    RUN(volpath_ball_in_fog_plan_off);
     RUN(water_plane_plan_no_camera_query);
     RUN(one_slab_plan_long_chains);
     RUN(slab_plan_light_tracing);

@@ -99,6 +99,11 @@ static const spc_snee_option options[] = {
     {"nearp", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(near_p), 0, NULL,
      "with first or later below 1: near the casters the query with probability at most P (never below first "
      "or later), counted 1/P times (default 1)"},
+    {"tightshare", "notightshare", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(tight_share), NO,
+     0, NULL,
+     "with first or later below 1: the casters' share of a receiver's directions measured by a tight sphere "
+     "per caster (a sphere's own, a mesh's farthest vertex) instead of the sphere around its bounding box, "
+     "and certain in each one's shadow from a light (where a glass ball focuses its caustic)"},
     {"camera", NULL, SPC_SNEE_OPT_REAL, true, "Q", 0, 1, true, false, NULL, 0, AT(camera), AT(camera_p), 0, NULL,
      "specular NEE from the camera's pinhole too, in a fraction Q of the camera samples (lights seen through "
      "glass, glints)"},

@@ -182,7 +182,12 @@
  * over 48 seeds the mean relMSE was 0.0173 against 0.0247 (median 0.0125 both; seeds with one pixel
  * over 0.6 of the error 2 against 4; 1.0 over 24 of them 0.0214 against 0.0212 for 0.3); in the
  * fog around a ball (bench/check/medium_fog_ball.xml) 0.119 against 0.115 over 24 paired seeds, a
- * difference of 0.004 +- 0.004 (bench/RESULTS.md, "medium_glass's one-pixel seeds"). */
+ * difference of 0.004 +- 0.004 (bench/RESULTS.md, "medium_glass's one-pixel seeds"). Where the balls
+ * sit in a fog instead (outside them, none within), volpath's plan leaves specular NEE off
+ * (snee_plan.c, glass_in_medium). The roulette's share by the ball's own sphere and its shadow
+ * (tightshare) is not in the setting: on scenes/medium_glass.xml at equal CPU over 24 seeds it was
+ * 0.0328 against 0.0323 without (the same one-pixel seed in both); it helped only in the fog, where
+ * the plan is now off (bench/RESULTS.md, "the fog ball and dielectrics"). */
 #define SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH "angular:camera,first=0.1,later=0.1,nosolvemis,mispsi=0.3"
 
 /* volpath, where some caster's chains go to the randomized attempts (a tessellated ball, an SDF, a

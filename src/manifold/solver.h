@@ -226,6 +226,15 @@ typedef struct spc_snee_params {
      * 1 / P times. For casters whose query costs a hundred BSDF samples under a light BSDF sampling
      * finds through them often (flat glass under a large light). */
     double near_p;
+    /* The share of a receiver's directions the casters fill, for first_p's and later_p's rule (the
+     * user's "tightshare"; off by default): measured by each caster's tight sphere
+     * (spc_scene_casters.bound_r: a sphere's own, a mesh's farthest vertex) instead of the sphere
+     * around its bounding box, whose radius is sqrt(3) times a ball's, and certain in each tight
+     * sphere's shadow from each light specular NEE samples (behind it, within its radius of the line
+     * from the light's centre through the sphere's: where a glass ball focuses its caustic). The
+     * query is then certain within the ball and its shadow and falls with the ball's real solid
+     * angle elsewhere. A function of x alone, so the roulette stays unbiased. */
+    bool tight_share;
     double query_p;
     /* Independent light points per query (0 or 1: one; the caller sets it per receiver, as query_p):
      * each is solved as a query of its own and counted 1 / light_samples times, and MIS weighs the
