@@ -44,6 +44,7 @@
  *   it and flat34=1.
  */
 /* ctest-labels: stat */
+/* ctest-timeout: 600 */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>

@@ -316,6 +316,27 @@
  * join the pixels that see the floor through a slab. */
 #define SPC_SNEE_PLAN_FLAT_POINT_LIGHTS ",ltcaus"
 
+/* Appended for path where some caster is flat-faced, every light is a point light (a sky besides)
+ * and light tracing runs (ltcaus, by the rule above or the sphere's or the ball's), without the
+ * caustic guide at receivers: light tracing also joins the receivers seen through a slab to the
+ * pinhole (chains of 1-2 flat faces, integrator/path_lt.h), paths that only specular NEE at the
+ * receiver made, and the 5- and 6-vertex light chains onto them none did (0.37% of
+ * bench/check/two_slabs_point_light.xml's image). 0.96-1.0x the CPU per sample; at equal CPU time
+ * over 16 seeds (bench/RESULTS.md, part rcvslab30) within the seeds' scatter of the setting
+ * without it where no pixel sees a floor through a slab, lower where some do (random scene 8037). */
+#define SPC_SNEE_PLAN_FLAT_POINT_JOINS ",ltslab"
+
+/* Appended after it where no caster is a mirror and no rule set flat34: the flat enumeration makes
+ * its 3- and 4-vertex chains on a share of 0.1 of its calls, counted 10 times (at every call it
+ * enumerates every face sequence of up to 4 vertices at every query: 67x none's CPU per sample on
+ * random scene 7812), weighed against light tracing, which with the joins above makes those paths
+ * at every receiver the camera sees directly or through a slab. At equal CPU time over 16 seeds
+ * (bench/RESULTS.md, part rcvslab30): 2.6-7.7x lower mean relMSE than without on the slab scenes
+ * without a mirror, 0.1 lower than 0.3 on each of them. Beside a mirror (a mirror ball: random
+ * scenes 6101 made point-lit and 8009) the share made one-pixel seeds at 0.1 and 0.3 alike, the
+ * joins or not (a floor seen in the mirror, lit through the slab), so it is left out there. */
+#define SPC_SNEE_PLAN_FLAT_POINT_SHARE ",flat34=0.1"
+
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
  * glass sphere or a tessellated glass ball is a caster, without the caustic guide at receivers: the
  * area lights' caustics also by light tracing from a point on the light (integrator/path_lt.h),
