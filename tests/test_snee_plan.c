@@ -1319,10 +1319,10 @@ TEST(slab_plan_light_tracing)
 
 /* Slabs under point lights (a sky besides), for path: light tracing makes their caustics too
  * (",ltcaus") and joins the receivers seen through a slab (SPC_SNEE_PLAN_FLAT_POINT_JOINS), and
- * without a mirror among the casters the flat enumeration makes its 3- and 4-vertex chains on a
+ * without a mirror ball among the casters the flat enumeration makes its 3- and 4-vertex chains on a
  * share of its calls (SPC_SNEE_PLAN_FLAT_POINT_SHARE, flat34 below 1): on
- * bench/check/two_slabs_point_light.xml and on one slab under a point light and a sky, beside a
- * mirror ball without the share; not for volpath or bdpt, and not where a large area light is a
+ * bench/check/two_slabs_point_light.xml and on one slab under a point light and a sky (also beside a
+ * mirror ring; beside a mirror ball without the share); not for volpath or bdpt, and not where a large area light is a
  * light too. The point light over the triangle glass ball has ltcaus by the ball's rule
  * (SPC_SNEE_PLAN_BALL_POINT_LIGHTS), for path only, without the joins (no flat caster). */
 TEST(slab_plan_point_light_tracing)
@@ -1339,9 +1339,13 @@ TEST(slab_plan_point_light_tracing)
         "name=\"intensity\" value=\"20\"/></emitter><shape type=\"sphere\"><point name=\"center\" "
         "x=\"0.9\" y=\"0.3\" z=\"-0.6\"/><float name=\"radius\" value=\"0.3\"/><bsdf "
         "type=\"conductor\"/></shape>",
+        "<emitter type=\"point\"><point name=\"position\" x=\"-0.6\" y=\"2.5\" z=\"1.9\"/><rgb "
+        "name=\"intensity\" value=\"20\"/></emitter><shape type=\"cylinder\"><float name=\"radius\" "
+        "value=\"0.45\"/><point name=\"p0\" x=\"0.9\" y=\"0\" z=\"-0.6\"/><point name=\"p1\" x=\"0.9\" "
+        "y=\"0.3\" z=\"-0.6\"/><bsdf type=\"twosided\"><bsdf type=\"conductor\"/></bsdf></shape>",
     };
-    const int want[] = {2, 0, 1}; /* 0 no light tracing, 1 ltcaus with the joins, 2 and the share */
-    for (int i = 0; i < 3; ++i) {
+    const int want[] = {2, 0, 1, 2}; /* 0 no light tracing, 1 ltcaus with the joins, 2 and the share */
+    for (int i = 0; i < 4; ++i) {
         char text[2048];
         snprintf(text, sizeof text,
                  "<scene version=\"3.0.0\">"
@@ -1366,7 +1370,10 @@ TEST(slab_plan_point_light_tracing)
         spc_snee_params sp;
         bool parsed = spc_snee_parse(p.setting, 2, &sp);
         printf("  slab under %s: %s\n",
-               i == 0 ? "a point light and a sky" : i == 1 ? "a point and an area light" : "a point light, beside a mirror",
+               i == 0   ? "a point light and a sky"
+               : i == 1 ? "a point and an area light"
+               : i == 2 ? "a point light, beside a mirror ball"
+                        : "a point light, beside a mirror ring",
                p.setting);
         if (want[i] > 0)
             CHECK_MSG(p.on && parsed && sp.lt_caustic && sp.lt_slab && strstr(p.setting, SPC_SNEE_PLAN_FLAT_POINT_JOINS) &&

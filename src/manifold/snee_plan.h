@@ -326,15 +326,17 @@
  * without it where no pixel sees a floor through a slab, lower where some do (random scene 8037). */
 #define SPC_SNEE_PLAN_FLAT_POINT_JOINS ",ltslab"
 
-/* Appended after it where no caster is a mirror and no rule set flat34: the flat enumeration makes
- * its 3- and 4-vertex chains on a share of 0.1 of its calls, counted 10 times (at every call it
- * enumerates every face sequence of up to 4 vertices at every query: 67x none's CPU per sample on
+/* Appended after it where no caster is a mirror ball and no rule set flat34: the flat enumeration
+ * makes its 3- and 4-vertex chains on a share of 0.1 of its calls, counted 10 times (at every call
+ * it enumerates every face sequence of up to 4 vertices at every query: 67x none's CPU per sample on
  * random scene 7812), weighed against light tracing, which with the joins above makes those paths
  * at every receiver the camera sees directly or through a slab. At equal CPU time over 16 seeds
- * (bench/RESULTS.md, part rcvslab30): 2.6-7.7x lower mean relMSE than without on the slab scenes
- * without a mirror, 0.1 lower than 0.3 on each of them. Beside a mirror (a mirror ball: random
- * scenes 6101 made point-lit and 8009) the share made one-pixel seeds at 0.1 and 0.3 alike, the
- * joins or not (a floor seen in the mirror, lit through the slab), so it is left out there. */
+ * (bench/RESULTS.md, part rcvslab30), against the setting without it: 2.6-7.7x lower mean relMSE on
+ * six slab scenes (two beside a mirror ring), 0.83x on one whose every setting had one-pixel seeds
+ * (a triangle ball beside the slab); 0.1 below 0.3 on those six. Beside a mirror ball (random scenes
+ * 6101 made point-lit, 8009) the share made one-pixel seeds at 0.1 and 0.3 alike, with the joins
+ * or without: specular NEE's 4-vertex chains at the floor seen in the ball (no light tracing in
+ * it), so it is left out there. */
 #define SPC_SNEE_PLAN_FLAT_POINT_SHARE ",flat34=0.1"
 
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
