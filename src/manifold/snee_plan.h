@@ -312,8 +312,9 @@
  * without on 7 of 9 slab scenes under a point light, 0.96-0.97x on the other two. The flat
  * enumeration's 3- and 4-vertex chains on a share of the calls besides (SPC_SNEE_PLAN_FLAT_LT, as
  * under small area lights) was lower on 8 of 9 (1.4-13x) but made one-pixel seeds on two (random
- * scenes 1057 and 6101: shares 0.94 and 0.99, 6101 3x worse than without): light tracing does not
- * join the pixels that see the floor through a slab. */
+ * scenes 1057 and 6101: shares 0.94 and 0.99, 6101 3x worse than without): light tracing did not
+ * join the pixels that see the floor through a slab (the joins below do now:
+ * SPC_SNEE_PLAN_FLAT_POINT_JOINS). */
 #define SPC_SNEE_PLAN_FLAT_POINT_LIGHTS ",ltcaus"
 
 /* Appended for path where some caster is flat-faced, every light is a point light (a sky besides)
@@ -323,7 +324,8 @@
  * receiver made, and the 5- and 6-vertex light chains onto them none did (0.37% of
  * bench/check/two_slabs_point_light.xml's image). 0.96-1.0x the CPU per sample; at equal CPU time
  * over 16 seeds (bench/RESULTS.md, part rcvslab30) within the seeds' scatter of the setting
- * without it where no pixel sees a floor through a slab, lower where some do (random scene 8037). */
+ * without it where no pixel sees a floor through a slab, lower where some do (random scenes 8066
+ * 3.7x, 8037 1.5x). */
 #define SPC_SNEE_PLAN_FLAT_POINT_JOINS ",ltslab"
 
 /* Appended after it where no caster is a mirror ball and no rule set flat34: the flat enumeration
@@ -331,9 +333,10 @@
  * it enumerates every face sequence of up to 4 vertices at every query: 67x none's CPU per sample on
  * random scene 7812), weighed against light tracing, which with the joins above makes those paths
  * at every receiver the camera sees directly or through a slab. At equal CPU time over 16 seeds
- * (bench/RESULTS.md, part rcvslab30), against the setting without it: 2.6-7.7x lower mean relMSE on
- * six slab scenes (two beside a mirror ring), 0.83x on one whose every setting had one-pixel seeds
- * (a triangle ball beside the slab); 0.1 below 0.3 on those six. Beside a mirror ball (random scenes
+ * (bench/RESULTS.md, part rcvslab30), against the setting without it: 2.3-97x lower mean relMSE on
+ * 11 of 12 slab scenes (two beside a mirror ring), 0.83x on one whose every setting had one-pixel
+ * seeds (a triangle ball beside the slab); 0.1 below 0.3 on 10 of the 12 (0.3 the safer tail: one
+ * scene fewer with a one-pixel seed). Beside a mirror ball (random scenes
  * 6101 made point-lit, 8009) the share made one-pixel seeds at 0.1 and 0.3 alike, with the joins
  * or without: specular NEE's 4-vertex chains at the floor seen in the ball (no light tracing in
  * it), so it is left out there. */
