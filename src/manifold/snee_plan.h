@@ -335,8 +335,8 @@
  * at every receiver the camera sees directly or through a slab. At equal CPU time over 16 seeds
  * (bench/RESULTS.md, part rcvslab30), against the setting without it: 2.3-97x lower mean relMSE on
  * 11 of 12 slab scenes (two beside a mirror ring), 0.83x on one whose every setting had one-pixel
- * seeds (a triangle ball beside the slab); 0.1 below 0.3 on 10 of the 12 (0.3 the safer tail: one
- * scene fewer with a one-pixel seed). Beside a mirror ball (random scenes
+ * seeds (a triangle ball beside the slab; 1.3x over 32 seeds); 0.1 below 0.3 on 10 of the 12 (0.3
+ * the safer tail: one scene fewer with one-pixel seeds). Beside a mirror ball (random scenes
  * 6101 made point-lit, 8009) the share made one-pixel seeds at 0.1 and 0.3 alike, with the joins
  * or without: specular NEE's 4-vertex chains at the floor seen in the ball (no light tracing in
  * it), so it is left out there. */
