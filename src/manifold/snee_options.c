@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "manifold/flat_chains.h"
 #include "manifold/solver.h"
 
 /* guide without a value: a cone as wide as the light's image through the chain to its point facing
@@ -78,6 +79,11 @@ static const spc_snee_option options[] = {
      "reflections off glass too; with camera, only chains with a reflection inside the glass) also by light "
      "tracing, on a share S of the camera samples (default 0.25): a light point joined to the pinhole by "
      "every such chain, weighed against the camera ray"},
+    {"ltslab", "noltslab", SPC_SNEE_OPT_COUNT, true, "K", 1, SPC_FLAT_MAX_VERTICES, false, false, NULL, 0, AT(lt_slab),
+     AT(lt_slab_max), 0, NULL,
+     "path, with ltcaus: a point light's subpath also joins the pinhole through the chains of 1-K flat faces "
+     "(glass slabs) from its receiver (the caustic seen through a slab; default K 2), weighed against specular "
+     "NEE there"},
     {"reflect", "noreflect", SPC_SNEE_OPT_REAL, true, "P", 0, 1, true, true, NULL, 0, AT(reflect), AT(reflect_p), 0,
      NULL, "chains also reflect off glass, with probability P at a dielectric vertex of a seed chain"},
     {"mispsi", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(mis_solve), 0, NULL,
