@@ -2,43 +2,56 @@
 """path against bdpt at equal CPU time over several seeds, with each seed's worst pixel.
 
     python3 bench/bench_bdpt_seeds.py [--specula build/specula] [--cpu 4] [--seeds 8] [--res 32]
-                                      [--refs DIR] [--out DIR] [--mitsuba-spp 32768]
-                                      [--snee SPEC] [--mitsuba-variant V] [SCENE ...]
+                                      [--first-seed 1] [--threads 1] [--jobs 1] [--refs DIR] [--out DIR]
+                                      [--arm INTEGRATOR[=SNEE] ...] [--mitsuba-spp 32768]
+                                      [--mitsuba-variant V] [SCENE ...]
 
-SCENE is one of the names below (default: all). For each scene a Mitsuba 3 reference (path
-tracer, llvm_ad_rgb, `--mitsuba-spp` samples in 32 passes, tests/validation/mitsuba_ref.py) is
-rendered once into --refs (kept: delete it to render again); `--mitsuba-variant scalar_rgb` where
-drjit's LLVM backend does not load (it needs the libLLVM named in DRJIT_LIBLLVM_PATH below). Each
-integrator's CPU seconds per sample (and per render: bdpt's pool pilot) are measured by two short
-calibration renders, and
-every seed then renders the samples per pixel that take --cpu CPU seconds (user + system, both
-threads), so path and bdpt get equal CPU
-time however the machine's cores are shared; the table gives the CPU seconds actually used.
+SCENE is one of the names below (default: all). An arm is an integrator and its specular NEE
+setting: `--arm path=none` renders path with `--specular-nee none` (plain path tracing), `--arm
+path` or `--arm path=plan` passes no `--specular-nee` (the scene's plan decides, as a user's
+render without flags), `--arm bdpt=angular:camera` passes that setting to bdpt (bdpt runs specular
+NEE as one of its strategies, so its setting matters too). The default arms are path=none,
+path=plan and bdpt=plan. Without --arm, the older flags build them: --integrators (path,bdpt)
+with --snee SPEC for every integrator, --path-snee / --bdpt-snee for one. Each arm's exact setting is
+printed in the header and in its table row.
+
+For each scene a Mitsuba 3 reference (path tracer, llvm_ad_rgb, `--mitsuba-spp` samples in 32
+passes, tests/validation/mitsuba_ref.py) is rendered once into --refs (kept: delete it to render
+again); `--mitsuba-variant scalar_rgb` where drjit's LLVM backend does not load (it needs the
+libLLVM named in DRJIT_LIBLLVM_PATH below). Each arm's CPU seconds per sample (and per render:
+bdpt's pool pilot) are measured by two short calibration renders, and every seed then renders the
+samples per pixel that take --cpu CPU seconds (user + system of the child, os.wait4), so the arms
+get equal CPU time however the machine's cores are shared; the table gives the CPU seconds actually
+used and compares arms by relMSE x CPU seconds. Renders use --threads threads (1: the project's
+rule for CPU figures); --jobs runs that many seeds at once.
 
 --ref-pool CPU pools the Mitsuba reference with a specula path and a specula bdpt render of CPU
-seconds each (seeds 9001 and 9002, not the bench's; cached in --refs) for the relMSE figures: the
-three images are averaged with one weight per image, inversely proportional to its image-wide
-relative variance (var / (ref^2 + 0.01), mean over pixels), so the weights do not follow any
-pixel's own noise and the pooled mean stays unbiased; its variance of the mean is the weighted sum
-of the three. A reference whose own error is a fraction of the renders' keeps it from moving the
-path / bdpt ratio. The z-test is always against the Mitsuba reference alone (an independent
-renderer, so a bias shared by specula's integrators still shows).
+seconds each (seeds 9001 and 9002, not the bench's, each integrator's plan, two threads; cached in
+--refs) for the relMSE figures: the three images are averaged with one weight per image, inversely
+proportional to its image-wide relative variance (var / (ref^2 + 0.01), mean over pixels), so the
+weights do not follow any pixel's own noise and the pooled mean stays unbiased; its variance of
+the mean is the weighted sum of the three. A reference whose own error is a fraction of the
+renders' keeps it from moving the arms' ratios. The z-test is always against the Mitsuba reference
+alone (an independent renderer, so a bias shared by specula's integrators still shows). Mitsuba
+3.9's LLVM variant splats with the exact tent (and gaussian), its scalar variant and specula with
+the 31-step table (scene/rfilter.h): at a sharp edge the two differ by several percent (the cornell
+box's light, measured in part bdpt30), so a scene with such a filter wants `--mitsuba-variant
+scalar_rgb` for its z-test (its cached reference deleted first).
 
---snee SPEC renders both integrators with --specular-nee SPEC (e.g. angular:camera);
---bdpt-snee SPEC only bdpt (path keeps its default, the scene's plan). --bdpt-pool M renders bdpt
-with connections to M light vertices from the pass's pool (integrator/bdpt_pool.h). --integrators picks which
-of path and bdpt run. Each seed's line names its worst pixel (x, y).
+--bdpt-pool M renders bdpt with connections to M light vertices from the pass's pool
+(integrator/bdpt_pool.h). Each seed's line names its worst pixel (x, y).
 
 Per render: relMSE = mean over pixels and channels of ((a - b)^2 - var(b)) / (b^2 + 0.01) (as
 `specula diff`, less the reference's own variance of the mean), and the worst pixel's share of
-that sum. Per scene and integrator: mean and worst relMSE
-over the seeds, the largest worst-pixel share, and path's mean over bdpt's.
+that sum. Per scene and arm: mean and worst relMSE over the seeds with the worst seed's worst-pixel
+share, the largest worst-pixel share over the seeds, the lowest z-test pass fraction, CPU
+microseconds per sample, and each arm's relMSE x CPU over the (first) bdpt arm's.
 """
 import argparse
 import os
-import resource
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -96,27 +109,50 @@ def pool_reference(parts):
     return mean, var, w
 
 
-def cpu_children():
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
+class Arm:
+    """One integrator with one specular NEE setting: snee '' passes no --specular-nee (the plan)."""
+
+    def __init__(self, spec):
+        it, _, sn = spec.partition("=")
+        if it not in ("path", "bdpt"):
+            raise SystemExit(f"unknown integrator in arm '{spec}'")
+        self.integrator, self.snee = it, "" if sn in ("", "plan") else sn
+
+    def label(self):
+        return f"{self.integrator}[{self.snee or 'plan'}]"
+
+    def flags(self):
+        return ["--specular-nee", self.snee] if self.snee else []
+
+    def setting(self):
+        return f"--specular-nee {self.snee}" if self.snee else "no --specular-nee (the plan)"
 
 
-def snee_of(a, integrator):
-    return a.bdpt_snee if integrator == "bdpt" and a.bdpt_snee else a.snee
+def arms_of(a):
+    if a.arm:
+        return [Arm(x) for x in a.arm]
+    arms = []
+    for it in a.integrators.split(","):
+        own = a.bdpt_snee if it == "bdpt" else a.path_snee
+        arms.append(Arm(f"{it}={own or a.snee}"))
+    return arms
 
 
-def render(a, scene, defs, integrator, spp, seed, out):
-    cmd = [a.specula, "render", scene, "--integrator", integrator, "--spp", str(spp), "--seed", str(seed),
-           "--threads", "2", "--quiet", "--variance", "-o", out, "-D", "integrator=path"]
-    if snee_of(a, integrator):
-        cmd += ["--specular-nee", snee_of(a, integrator)]
-    if integrator == "bdpt" and a.bdpt_pool:
+def render(a, scene, defs, arm, spp, seed, out, threads=None):
+    """Renders and returns the child's CPU seconds (user + system)."""
+    cmd = [a.specula, "render", scene, "--integrator", arm.integrator, "--spp", str(spp), "--seed", str(seed),
+           "--threads", str(threads or a.threads), "--quiet", "--variance", "-o", out, "-D", "integrator=path"]
+    cmd += arm.flags()
+    if arm.integrator == "bdpt" and a.bdpt_pool:
         cmd += ["--bdpt-pool", str(a.bdpt_pool)]
     for d in defs:
         cmd += ["-D", d]
-    c0 = cpu_children()
-    subprocess.run(cmd, check=True)
-    return cpu_children() - c0
+    p = subprocess.Popen(cmd)
+    _, status, ru = os.wait4(p.pid, 0)
+    p.returncode = os.waitstatus_to_exitcode(status)
+    if p.returncode != 0:
+        raise subprocess.CalledProcessError(p.returncode, cmd)
+    return ru.ru_utime + ru.ru_stime
 
 
 def ztest_pass(a, img, ref_path):
@@ -144,24 +180,36 @@ def main():
     ap.add_argument("--specula", default=os.path.join(ROOT, "build", "specula"))
     ap.add_argument("--cpu", type=float, default=4.0)
     ap.add_argument("--seeds", type=int, default=8)
+    ap.add_argument("--first-seed", type=int, default=1)
     ap.add_argument("--res", type=int, default=32)
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--refs", default="/tmp/specula_bdpt_refs")
     ap.add_argument("--out", default="/tmp/specula_bdpt_seeds")
     ap.add_argument("--mitsuba-spp", type=int, default=32768)
     ap.add_argument("--mitsuba-variant", default="llvm_ad_rgb")
+    ap.add_argument("--arm", action="append", default=[])
     ap.add_argument("--snee", default="")
+    ap.add_argument("--path-snee", default="")
     ap.add_argument("--bdpt-snee", default="")
-    ap.add_argument("--integrators", default="path,bdpt")
+    ap.add_argument("--integrators", default="")
     ap.add_argument("--bdpt-pool", type=int, default=0)
     ap.add_argument("--ref-pool", type=float, default=0.0)
     a = ap.parse_args()
+    if not a.arm and not a.integrators:
+        a.arm = ["path=none", "path=plan", "bdpt=plan"]
+    arms = arms_of(a)
     os.makedirs(a.refs, exist_ok=True)
     os.makedirs(a.out, exist_ok=True)
-    print(f"{a.res}x{a.res}, {a.cpu} CPU s per render, seeds 1..{a.seeds}, specular NEE '{a.snee or 'default'}' (bdpt: '{a.bdpt_snee or a.snee or 'default, the plan'}'), load average "
+    print(f"{a.res}x{a.res}, {a.cpu} CPU s per render, {a.threads} thread(s), seeds {a.first_seed}.."
+          f"{a.first_seed + a.seeds - 1}, load average "
           f"{open('/proc/loadavg').read().split()[:3]}")
-    print("| scene | integrator | spp | CPU s (mean) | relMSE mean | relMSE worst (seed) | worst pixel's share, "
-          "largest over seeds | z-test pass, lowest over seeds | path / bdpt (mean relMSE) |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    for arm in arms:
+        print(f"arm {arm.label()}: --integrator {arm.integrator}, {arm.setting()}"
+              + (f", --bdpt-pool {a.bdpt_pool}" if arm.integrator == "bdpt" and a.bdpt_pool else ""))
+    print("| scene | arm | spp | CPU s (mean) | CPU us / sample | relMSE mean | relMSE worst (seed): its worst pixel's "
+          "share | worst pixel's share, largest over seeds | z-test pass, lowest over seeds | relMSE x CPU / bdpt's |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name in a.scenes or list(SCENES):
         rel, defs_of = SCENES[name]
         scene, defs = scene_path(rel), defs_of(a.res)
@@ -176,12 +224,13 @@ def main():
         print(f"  {name}: Mitsuba reference's own relMSE (its variance of the mean) "
               f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
 
-        def calibrate(it, budget):
+        def calibrate(arm, budget, threads=None):
             # two calibration renders, so that a fixed cost per render (bdpt's pool pilot) is not
             # spread over the samples: CPU(spp) = fixed + spp * per_sample
             cal = 64
-            c1 = render(a, scene, defs, it, cal, 100, os.path.join(a.out, "cal.exr"))
-            c2 = render(a, scene, defs, it, 2 * cal, 100, os.path.join(a.out, "cal.exr"))
+            out = os.path.join(a.out, "cal.exr")
+            c1 = render(a, scene, defs, arm, cal, 100, out, threads)
+            c2 = render(a, scene, defs, arm, 2 * cal, 100, out, threads)
             per = max((c2 - c1) / cal, 0.5 * c2 / (2 * cal), 1e-6)
             fixed = min(max(c1 - cal * per, 0.0), 0.5 * budget)
             return max(1, int(round((budget - fixed) / per)))
@@ -191,8 +240,8 @@ def main():
             for k, it in enumerate(("path", "bdpt")):
                 pooled = os.path.join(a.refs, f"{name}_{a.res}_{it}_{a.ref_pool:g}cpu.exr")
                 if not os.path.exists(pooled):
-                    spp = calibrate(it, a.ref_pool)
-                    cpu = render(a, scene, defs, it, spp, 9001 + k, pooled)
+                    spp = calibrate(Arm(it), a.ref_pool, 2)
+                    cpu = render(a, scene, defs, Arm(it), spp, 9001 + k, pooled, 2)
                     print(f"  {name}: reference part {it}, {spp} spp, CPU {cpu:.1f} s", file=sys.stderr)
                 parts.append(read_mean_var(pooled))
             for (m, v), label in zip(parts, ("mitsuba", "path", "bdpt")):
@@ -201,34 +250,45 @@ def main():
             ref, ref_var, w = pool_reference(parts)
             print(f"  {name}: pooled reference (weights {', '.join(f'{x:.3f}' for x in w)}): own relMSE "
                   f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
-        means, means_m = {}, {}
-        for it in a.integrators.split(","):
-            spp = calibrate(it, a.cpu)
-            rows = []
-            for seed in range(1, a.seeds + 1):
-                sn = snee_of(a, it)
-                pool = f"_pool{a.bdpt_pool}" if it == "bdpt" and a.bdpt_pool else ""
-                out = os.path.join(a.out, f"{name}_{it}{'_' + sn.replace(':', '_').replace(',', '_') if sn else ''}{pool}_{seed}.exr")
-                cpu = render(a, scene, defs, it, spp, seed, out)
-                rm, share, wxy = errors(read_rgb(out), ref, ref_var)
+        results = []
+        for arm in arms:
+            spp = calibrate(arm, a.cpu)
+            pool = f"_pool{a.bdpt_pool}" if arm.integrator == "bdpt" and a.bdpt_pool else ""
+            tag = (arm.snee or "plan").replace(":", "_").replace(",", "_").replace("=", "_")
+
+            def one(seed):
+                out = os.path.join(a.out, f"{name}_{arm.integrator}_{tag}{pool}_{seed}.exr")
+                cpu = render(a, scene, defs, arm, spp, seed, out)
+                img = read_rgb(out)
+                rm, share, wxy = errors(img, ref, ref_var)
                 zp = ztest_pass(a, out, ref_path)
-                rm_m = errors(read_rgb(out), mref, mref_var)[0]
-                rows.append((rm, share, cpu, seed, zp, rm_m))
-                print(f"  {name} {it} seed {seed}: spp {spp}, CPU {cpu:.2f} s, relMSE {rm:.4g}, worst pixel "
+                rm_m = errors(img, mref, mref_var)[0]
+                print(f"  {name} {arm.label()} seed {seed}: spp {spp}, CPU {cpu:.2f} s, relMSE {rm:.4g}, worst pixel "
                       f"{100 * share:.1f}% at {wxy}, z-test against Mitsuba {100 * zp:.2f}%"
-                      + (f", relMSE against Mitsuba alone {rm_m:.4g}" if a.ref_pool > 0 else ""), file=sys.stderr)
+                      + (f", relMSE against Mitsuba alone {rm_m:.4g}" if a.ref_pool > 0 else ""), file=sys.stderr,
+                      flush=True)
+                return (rm, share, cpu, seed, zp, rm_m)
+
+            with ThreadPoolExecutor(max_workers=max(1, a.jobs)) as ex:
+                rows = list(ex.map(one, range(a.first_seed, a.first_seed + a.seeds)))
+            results.append((arm, spp, rows))
             if a.ref_pool > 0:
-                means_m[it] = np.mean([r[5] for r in rows])
-                print(f"  {name} {it}: mean relMSE against Mitsuba alone {means_m[it]:.4g}"
-                      + (f", path / bdpt {means_m['path'] / means_m['bdpt']:.2f}" if it == "bdpt" and "path" in means_m
-                         else ""), file=sys.stderr)
+                print(f"  {name} {arm.label()}: mean relMSE against Mitsuba alone "
+                      f"{np.mean([r[5] for r in rows]):.4g}", file=sys.stderr)
+        base = next((r for r in results if r[0].integrator == "bdpt"), None)
+
+        def cost(r):  # mean relMSE x mean CPU seconds: the error at one CPU second
+            return np.mean([x[0] for x in r[2]]) * np.mean([x[2] for x in r[2]])
+
+        for arm, spp, rows in results:
             rm = np.array([r[0] for r in rows])
             worst = max(rows)
-            means[it] = rm.mean()
-            ratio = f"{means['path'] / means['bdpt']:.2f}" if it == "bdpt" and "path" in means else ""
-            print(f"| {name} | {it} | {spp} | {np.mean([r[2] for r in rows]):.2f} | {rm.mean():.4g} | "
-                  f"{worst[0]:.4g} ({worst[3]}) | {100 * max(r[1] for r in rows):.1f}% | "
-                  f"{100 * min(r[4] for r in rows):.2f}% | {ratio} |", flush=True)
+            cpu = np.mean([r[2] for r in rows])
+            ratio = f"{cost((arm, spp, rows)) / cost(base):.2f}" if base else ""
+            print(f"| {name} | {arm.label()} | {spp} | {cpu:.2f} | {1e6 * cpu / (spp * a.res * a.res):.2f} | "
+                  f"{rm.mean():.4g} | {worst[0]:.4g} (s{worst[3]}): {100 * worst[1]:.1f}% | "
+                  f"{100 * max(r[1] for r in rows):.1f}% | {100 * min(r[4] for r in rows):.2f}% | {ratio} |",
+                  flush=True)
 
 
 if __name__ == "__main__":

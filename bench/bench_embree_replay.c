@@ -21,8 +21,15 @@
  * this thread's CPU time (the machine is shared), the best of three rounds; the hit counts check
  * that every form found the same hits. bench/count_rays_mitsuba.py --replay RAYS traces the same
  * files through Mitsuba 3's own scene (its bundled Embree), for the comparison per ray.
+ *
+ * REPLAY_SORT=W reorders the rays before tracing: each window of W consecutive rays of a file (a
+ * wave's step traces up to 256 extension rays; W = 0 or more than the file: the whole file) sorted by
+ * their direction's octant, then by the Morton code of their origin in the box of all origins (10
+ * bits an axis), then by their direction's (7 bits an axis: a camera's rays by pixel), the order a renderer would get by sorting its rays before forming packets.
  */
 #include <embree3/rtcore.h>
+#include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -54,6 +61,71 @@ static bool read_rays(const char *prefix, const char *ext, rays *out)
     if (!ok)
         fprintf(stderr, "%s: cannot read\n", path);
     return ok;
+}
+
+/* The Morton code of x's 10 low bits spread to every third bit. */
+static uint32_t spread3(uint32_t x)
+{
+    x &= 0x3FFu;
+    x = (x | x << 16) & 0x030000FFu;
+    x = (x | x << 8) & 0x0300F00Fu;
+    x = (x | x << 4) & 0x030C30C3u;
+    x = (x | x << 2) & 0x09249249u;
+    return x;
+}
+
+typedef struct keyed {
+    uint64_t key;
+    size_t i;
+} keyed;
+
+static int keyed_cmp(const void *a, const void *b)
+{
+    const keyed *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
+    return x->i < y->i ? -1 : x->i > y->i;
+}
+
+/* rs's rays sorted within windows of w (0: the whole file) by octant, then origin's Morton code. */
+static void sort_rays(rays *rs, size_t w)
+{
+    if (rs->n == 0)
+        return;
+    if (w == 0 || w > rs->n)
+        w = rs->n;
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < rs->n; ++i)
+        for (int k = 0; k < 3; ++k) {
+            float o = rs->r[8 * i + k];
+            lo[k] = o < lo[k] ? o : lo[k];
+            hi[k] = o > hi[k] ? o : hi[k];
+        }
+    keyed *ks = malloc(rs->n * sizeof *ks);
+    float *out = malloc(rs->n * 8 * sizeof(float) + 1);
+    for (size_t i = 0; i < rs->n; ++i) {
+        const float *q = rs->r + 8 * i;
+        uint32_t m = 0;
+        for (int k = 0; k < 3; ++k) {
+            float ext = hi[k] - lo[k];
+            float f = ext > 0.0f ? (q[k] - lo[k]) / ext : 0.0f;
+            m |= spread3((uint32_t)(f * 1023.0f)) << (2 - k);
+        }
+        uint64_t oct = (uint64_t)((q[3] < 0.0f) | (q[4] < 0.0f) << 1 | (q[5] < 0.0f) << 2);
+        /* rays from one origin (a camera's) by their direction's Morton code (7 bits an axis) */
+        uint32_t md = 0;
+        for (int k = 0; k < 3; ++k)
+            md |= spread3((uint32_t)((q[3 + k] * 0.5f + 0.5f) * 127.0f)) << (2 - k);
+        ks[i].key = oct << 51 | (uint64_t)m << 21 | md;
+        ks[i].i = i;
+    }
+    for (size_t i0 = 0; i0 < rs->n; i0 += w)
+        qsort(ks + i0, (i0 + w <= rs->n ? w : rs->n - i0), sizeof *ks, keyed_cmp);
+    for (size_t i = 0; i < rs->n; ++i)
+        memcpy(out + 8 * i, rs->r + 8 * ks[i].i, 8 * sizeof(float));
+    free(rs->r);
+    free(ks);
+    rs->r = out;
 }
 
 static RTCScene build(RTCDevice dev, const spc_scene *sc, enum RTCSceneFlags flags, double *seconds)
@@ -169,6 +241,13 @@ int main(int argc, char **argv)
     if (!read_rays(argv[2], "isect", &rs[0]) || !read_rays(argv[2], "occl", &rs[1]))
         return 1;
     printf("scene %s: %zu triangles; %zu intersection rays, %zu shadow rays\n", argv[1], ntris, rs[0].n, rs[1].n);
+    const char *sort = getenv("REPLAY_SORT");
+    if (sort) {
+        size_t w = (size_t)strtoull(sort, NULL, 10);
+        sort_rays(&rs[0], w);
+        sort_rays(&rs[1], w);
+        printf("rays sorted in windows of %zu by octant and origin\n", w);
+    }
     printf("| scene flags | call | intersection ns/ray | hits | shadow ns/ray | occluded | build CPU s |\n"
            "|---|---|---|---|---|---|---|\n");
     /* REPLAY_EMBREE_CONFIG, if set, is the device's configuration (e.g. tri_builder=sah_fast_spatial) */
@@ -185,7 +264,10 @@ int main(int argc, char **argv)
                     {RTC_SCENE_FLAG_COMPACT, "compact"},
                     {RTC_SCENE_FLAG_NONE, "none"}};
     const char *only = getenv("REPLAY_FORMS"); /* e.g. "1": packets of 16 only (0 single, 1, 2 coherent) */
+    const char *vonly = getenv("REPLAY_VARIANTS"); /* e.g. "1": robust alone (0-3 in the order above) */
     for (size_t vi = 0; vi < sizeof variants / sizeof variants[0]; ++vi) {
+        if (vonly && !strchr(vonly, '0' + (int)vi))
+            continue;
         double build_s;
         RTCScene s = build(dev, sc, variants[vi].flags, &build_s);
         for (int f = SINGLE; f <= PACKET_COHERENT; ++f) {

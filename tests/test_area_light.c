@@ -3,7 +3,8 @@
  * to their texels (emitter/area.c): the density sample_direct reports is the one pdf_direct and
  * pdf_emission compute for the same point; the irradiance estimated with it at a point matches a
  * deterministic quadrature of the same integral; it has less variance than uniform sampling; and
- * meshes too large for it, or untextured lights, keep uniform sampling.
+ * meshes too large for it, or untextured lights, keep uniform sampling; and a light does not shadow
+ * its own samples where shadow rays graze it.
  * (Image agreement with Mitsuba 3 for such lights: tests/test_mitsuba_refs.c, scene area_textured.)
  */
 /* ctest-labels: unit */
@@ -230,10 +231,50 @@ TEST(fallbacks)
     }
 }
 
+/* A light does not shadow its own samples where the shadow ray grazes it. A square light standing
+ * on its edge above the floor (its plane x = 0, facing +x), seen from floor points 0.002-0.05 in
+ * front of its plane: the shadow rays meet the light's plane at 0.1-3 degrees, where the
+ * accelerator's single-precision plane lies off p by far more along the ray than p's own error
+ * bound; nothing else is between, so no ray may be occluded. */
+TEST(grazing_samples_not_self_shadowed)
+{
+    spc_scene *s = load_light("<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"0.5\"/>"
+                              "<rotate y=\"1\" angle=\"90\"/><translate x=\"0.3\" y=\"1\" z=\"-0.2\"/></transform>"
+                              "<emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>");
+    CHECK(s != NULL);
+    if (!s)
+        return;
+    const spc_emitter *e = the_light(s);
+    CHECK(e != NULL);
+    const double front[4] = {0.002, 0.005, 0.02, 0.05};
+    spc_rng rng;
+    spc_rng_seed(&rng, 13, 0);
+    for (int k = 0; e && k < 4; ++k) {
+        spc_hit h;
+        memset(&h, 0, sizeof h);
+        h.p = spc_v3(0.3 + front[k], 0.0, -0.2 + 0.3 * k - 0.4);
+        h.ng = spc_v3(0.0, 1.0, 0.0);
+        h.err = 1e-7;
+        int n = 0, shadowed = 0;
+        for (int i = 0; i < 20000; ++i) {
+            spc_emitter_direct ds;
+            if (!spc_emitter_sample_direct(e, h.p, spc_v2(spc_rng_next(&rng), spc_rng_next(&rng)), &ds))
+                continue;
+            spc_ray r = spc_hit_spawn_to(&h, ds.p, ds.err);
+            ++n;
+            shadowed += spc_scene_occluded(s, &r);
+        }
+        CHECK_MSG(n > 19000 && shadowed == 0, "%g in front: %d of %d samples shadowed by the light itself", front[k],
+                  shadowed, n);
+    }
+    spc_scene_destroy(s);
+}
+
 int main(void)
 {
     RUN(pdf_matches_sample);
     RUN(irradiance_unbiased_and_lower_variance);
     RUN(fallbacks);
+    RUN(grazing_samples_not_self_shadowed);
     return spc_test_finish();
 }

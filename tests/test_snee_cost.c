@@ -14,6 +14,10 @@
  * - spc_snee_later_prob, spc_snee_first_prob: later_p (first_p) far from the casters, 1 beside
  *   them (near_p with nearp), in between in proportion to the share, never below later_p nor above 1; 1 without
  *   roulette.
+ * - tightshare: the share by each caster's own sphere (a ball's radius, not its box's sqrt(3)
+ *   times it) in closed form, certain within the ball and in its shadow from the light, below 1
+ *   between the ball and the light; a tessellated
+ *   ball's tight sphere holds every vertex and is the ball's, not its box's.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -243,6 +247,67 @@ TEST(later_prob_from_the_casters_share)
     spc_scene_destroy(sc);
 }
 
+TEST(tight_share_by_each_casters_sphere)
+{
+    spc_scene *sc = balls(false, false);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, false);
+    CHECK(cs && cs->n == 2 && cs->bound_c && cs->bound_r);
+    spc_snee_params p, q;
+    CHECK(spc_snee_parse("angular:first=0.1,later=0.1,tightshare", 2, &p) && p.tight_share);
+    CHECK(spc_snee_parse("angular:first=0.1,later=0.1", 2, &q) && !q.tight_share);
+    /* beside the glass ball, within its box's sphere: both balls' own cones in closed form */
+    spc_vec3 cg = spc_v3(-0.42, 0.1, 0.36), cm = spc_v3(0.45, -0.3, 0.33);
+    const spc_vec3 c[2] = {cg, cm};
+    const double r[2] = {0.36, 0.33};
+    spc_vec3 x = spc_v3(-0.92, 0.1, 0.36);
+    double want = 0.0;
+    for (int i = 0; i < 2; ++i) {
+        double d = spc_distance(x, c[i]);
+        want += 0.5 * (1.0 - sqrt(1.0 - r[i] * r[i] / (d * d)));
+    }
+    double got = spc_snee_later_prob(sc, &p, x);
+    CHECK_MSG(want > 0.1 && fabs(got - want) < 1e-9, "tight share %g, closed form %g", got, want);
+    CHECK_MSG(spc_snee_later_prob(sc, &q, x) == 1.0, "box share %g", spc_snee_later_prob(sc, &q, x));
+    /* 1.3 r from the glass ball's centre toward the light (the light's centre at (0, 0, 2)) and as far
+     * behind it, in its shadow: the box's sphere holds both; with tightshare the query is certain
+     * only in the shadow, where the ball focuses the light */
+    spc_vec3 a = spc_normalize(spc_sub(cg, spc_v3(0, 0, 2)));
+    spc_vec3 up = spc_madd(cg, a, -1.3 * 0.36), behind = spc_madd(cg, a, 1.3 * 0.36);
+    CHECK(spc_snee_first_prob(sc, &q, up) == 1.0 && spc_snee_first_prob(sc, &q, behind) == 1.0);
+    double t = spc_snee_first_prob(sc, &p, up);
+    CHECK_MSG(t > 0.1 && t < 1.0, "tight first_prob toward the light %g", t);
+    CHECK(spc_snee_first_prob(sc, &p, behind) == 1.0);
+    CHECK(spc_snee_first_prob(sc, &p, spc_madd(cg, a, 6.0)) == 1.0);
+    CHECK(spc_snee_first_prob(sc, &p, spc_madd(cg, spc_v3(0, 1, 0), 0.9 * 0.36)) == 1.0);
+    CHECK(spc_snee_first_prob(sc, &p, spc_v3(40.0, 0.0, 0.0)) == 0.1);
+    spc_scene_destroy(sc);
+
+    /* a tessellated ball (the icosphere, radius 0.5 about (0, 0.9, 0)): its tight sphere holds
+     * every vertex, within float rounding of the ball's radius, well inside its box's sqrt(3) */
+    sc = tu_load("bench/check/medium_fog_ball.xml", 8);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    cs = spc_chain_casters_of(sc, false);
+    CHECK(cs && cs->n == 1);
+    if (cs && cs->n == 1) {
+        const spc_shape *s = sc->shapes[cs->idx[0]];
+        CHECK(s->type == SPC_SHAPE_MESH);
+        double far = 0.0;
+        for (size_t v = 0; v < s->mesh.nverts; ++v) {
+            spc_vec3 w = spc_v3(s->mesh.p[3 * v], s->mesh.p[3 * v + 1], s->mesh.p[3 * v + 2]);
+            far = fmax(far, spc_distance(w, cs->bound_c[0]));
+        }
+        CHECK_MSG(far <= cs->bound_r[0] && cs->bound_r[0] < 0.5 * (1.0 + 1e-5) && cs->bound_r[0] > 0.49,
+                  "bound %g, farthest vertex %g", cs->bound_r[0], far);
+        CHECK_MSG(spc_distance(cs->bound_c[0], spc_v3(0, 0.9, 0)) < 1e-6, "bound centre");
+    }
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(spheres_keep_apart);
@@ -250,5 +315,6 @@ int main(void)
     RUN(arc_unseen_against_a_scan);
     RUN(query_prob);
     RUN(later_prob_from_the_casters_share);
+    RUN(tight_share_by_each_casters_sphere);
     return spc_test_finish();
 }

@@ -1160,12 +1160,31 @@ TEST(volpath_ball_plan)
                   !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH SPC_SNEE_PLAN_VOLPATH_PHASE_SEEDS) &&
                   spc_snee_parse(p.setting, 2, &sp) && !sp.solve_mis && sp.fit_seeds && sp.camera &&
                   sp.first_p == 0.1 && sp.later_p == 0.1 && sp.seed == SPC_SNEE_SEED_CONE && sp.phase_seeds == 0.8 &&
-                  sp.mis_solve == 0.3,
+                  sp.mis_solve == 0.3 && !sp.tight_share,
               "medium_glass: %s (%s)", p.setting, p.reason);
     spc_snee_plan_make(sc, "path", NULL, &p);
     CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_BALLS SPC_SNEE_PLAN_AREA_LIGHTS) &&
-                  spc_snee_parse(p.setting, 2, &sp) && sp.solve_mis && sp.phase_seeds == 0.0,
+                  spc_snee_parse(p.setting, 2, &sp) && sp.solve_mis && sp.phase_seeds == 0.0 && !sp.tight_share,
               "medium_glass with path: %s", p.setting);
+    spc_scene_destroy(sc);
+}
+
+/* volpath with a tessellated glass ball that sits in a fog (bench/check/medium_fog_ball.xml: the
+ * ball's outside is the fog, its inside empty) leaves specular NEE off; the same ball filled with
+ * the medium (medium_glass, above) keeps it, and so does path on the fog ball (the fog's rule is
+ * volpath's). */
+TEST(volpath_ball_in_fog_plan_off)
+{
+    spc_scene *sc = load_at("bench/check/medium_fog_ball.xml", "8");
+    if (!sc)
+        return;
+    spc_snee_plan p;
+    spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
+    CHECK_MSG(!strcmp(sc->integrator.type, "volpath") && !p.on && p.automatic && !strcmp(p.setting, "none") &&
+                  strstr(p.reason, "sit in a medium"),
+              "fog ball: %s (%s)", p.setting, p.reason);
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on, "fog ball with path: %s (%s)", p.setting, p.reason);
     spc_scene_destroy(sc);
 }
 
@@ -1318,10 +1337,13 @@ TEST(slab_plan_light_tracing)
 }
 
 /* Slabs under point lights (a sky besides), for path: light tracing makes their caustics too
- * (",ltcaus"; the flat enumeration keeps its 3- and 4-vertex chains at every call): on
- * bench/check/two_slabs_point_light.xml and on one slab under a point light and a sky; not for
- * volpath or bdpt, and not where a large area light is a light too. The point light over the
- * triangle glass ball has it by the ball's rule (SPC_SNEE_PLAN_BALL_POINT_LIGHTS), for path only. */
+ * (",ltcaus") and joins the receivers seen through a slab (SPC_SNEE_PLAN_FLAT_POINT_JOINS), and
+ * without a mirror ball among the casters the flat enumeration makes its 3- and 4-vertex chains on a
+ * share of its calls (SPC_SNEE_PLAN_FLAT_POINT_SHARE, flat34 below 1): on
+ * bench/check/two_slabs_point_light.xml and on one slab under a point light and a sky (also beside a
+ * mirror ring; beside a mirror ball without the share); not for volpath or bdpt, and not where a large area light is a
+ * light too. The point light over the triangle glass ball has ltcaus by the ball's rule
+ * (SPC_SNEE_PLAN_BALL_POINT_LIGHTS), for path only, without the joins (no flat caster). */
 TEST(slab_plan_point_light_tracing)
 {
     static const char *const lights[] = {
@@ -1332,9 +1354,17 @@ TEST(slab_plan_point_light_tracing)
         "name=\"intensity\" value=\"20\"/></emitter><shape type=\"rectangle\"><transform "
         "name=\"to_world\"><translate y=\"3\"/><rotate x=\"1\" angle=\"90\"/></transform><emitter "
         "type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>",
+        "<emitter type=\"point\"><point name=\"position\" x=\"-0.6\" y=\"2.5\" z=\"1.9\"/><rgb "
+        "name=\"intensity\" value=\"20\"/></emitter><shape type=\"sphere\"><point name=\"center\" "
+        "x=\"0.9\" y=\"0.3\" z=\"-0.6\"/><float name=\"radius\" value=\"0.3\"/><bsdf "
+        "type=\"conductor\"/></shape>",
+        "<emitter type=\"point\"><point name=\"position\" x=\"-0.6\" y=\"2.5\" z=\"1.9\"/><rgb "
+        "name=\"intensity\" value=\"20\"/></emitter><shape type=\"cylinder\"><float name=\"radius\" "
+        "value=\"0.45\"/><point name=\"p0\" x=\"0.9\" y=\"0\" z=\"-0.6\"/><point name=\"p1\" x=\"0.9\" "
+        "y=\"0.3\" z=\"-0.6\"/><bsdf type=\"twosided\"><bsdf type=\"conductor\"/></bsdf></shape>",
     };
-    const bool want[] = {true, false};
-    for (int i = 0; i < 2; ++i) {
+    const int want[] = {2, 0, 1, 2}; /* 0 no light tracing, 1 ltcaus with the joins, 2 and the share */
+    for (int i = 0; i < 4; ++i) {
         char text[2048];
         snprintf(text, sizeof text,
                  "<scene version=\"3.0.0\">"
@@ -1358,25 +1388,31 @@ TEST(slab_plan_point_light_tracing)
         spc_snee_plan_make(sc, "path", NULL, &p);
         spc_snee_params sp;
         bool parsed = spc_snee_parse(p.setting, 2, &sp);
-        printf("  slab under %s: %s\n", want[i] ? "a point light and a sky" : "a point and an area light", p.setting);
-        if (want[i])
-            CHECK_MSG(p.on && parsed && sp.lt_caustic && sp.flat34_p == 1.0 &&
-                          strstr(p.setting, SPC_SNEE_PLAN_FLAT_POINT_LIGHTS),
-                      "slab, point light and sky: %s (%s)", p.setting, p.reason);
+        printf("  slab under %s: %s\n",
+               i == 0   ? "a point light and a sky"
+               : i == 1 ? "a point and an area light"
+               : i == 2 ? "a point light, beside a mirror ball"
+                        : "a point light, beside a mirror ring",
+               p.setting);
+        if (want[i] > 0)
+            CHECK_MSG(p.on && parsed && sp.lt_caustic && sp.lt_slab && strstr(p.setting, SPC_SNEE_PLAN_FLAT_POINT_JOINS) &&
+                          (want[i] == 2 ? sp.flat34_p < 1.0 && strstr(p.setting, SPC_SNEE_PLAN_FLAT_POINT_SHARE)
+                                        : sp.flat34_p == 1.0),
+                      "slab, point light (case %d): %s (%s)", i, p.setting, p.reason);
         else
-            CHECK_MSG(!strstr(p.setting, "ltcaus") && !strstr(p.setting, "flat34"), "slab, point and area light: %s",
-                      p.setting);
+            CHECK_MSG(!strstr(p.setting, "ltcaus") && !strstr(p.setting, "flat34") && !strstr(p.setting, "ltslab"),
+                      "slab, point and area light: %s", p.setting);
         spc_scene_destroy(sc);
     }
     static const struct {
         const char *file, *integrator;
-        bool want;
+        bool want, share; /* ltcaus; with the slab joins and the flat share */
     } cases[] = {
-        {"bench/check/two_slabs_point_light.xml", "path", true},
-        {"bench/check/two_slabs_point_light.xml", "volpath", false},
-        {"bench/check/two_slabs_point_light.xml", "bdpt", false},
-        {"bench/check/point_light_ball_mesh.xml", "path", true},
-        {"bench/check/point_light_ball_mesh.xml", "volpath", false},
+        {"bench/check/two_slabs_point_light.xml", "path", true, true},
+        {"bench/check/two_slabs_point_light.xml", "volpath", false, false},
+        {"bench/check/two_slabs_point_light.xml", "bdpt", false, false},
+        {"bench/check/point_light_ball_mesh.xml", "path", true, false},
+        {"bench/check/point_light_ball_mesh.xml", "volpath", false, false},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         spc_scene *sc = load_at(cases[i].file, "8");
@@ -1387,8 +1423,9 @@ TEST(slab_plan_point_light_tracing)
         spc_snee_params sp;
         CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp), "%s, %s: %s (%s)", cases[i].file, cases[i].integrator,
                   p.setting, p.reason);
-        CHECK_MSG(cases[i].want == sp.lt_caustic && sp.flat34_p == 1.0, "%s, %s: %s", cases[i].file,
-                  cases[i].integrator, p.setting);
+        CHECK_MSG(cases[i].want == sp.lt_caustic && cases[i].share == sp.lt_slab &&
+                      (cases[i].share ? sp.flat34_p < 1.0 : sp.flat34_p == 1.0),
+                  "%s, %s: %s", cases[i].file, cases[i].integrator, p.setting);
         spc_scene_destroy(sc);
     }
 }
@@ -1568,6 +1605,7 @@ int main(void)
     RUN(closed_glass_mesh_plan_off);
     RUN(solved_mirror_plan_no_first_roulette);
     RUN(volpath_ball_plan);
+    RUN(volpath_ball_in_fog_plan_off);
     RUN(water_plane_plan_no_camera_query);
     RUN(one_slab_plan_long_chains);
     RUN(slab_plan_light_tracing);

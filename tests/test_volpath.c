@@ -37,7 +37,8 @@
  *   image but not its mean (within 4 standard errors); seed=light, chain=1, nomis and receivers=1
  *   each change the image.
  * - first=P at medium receivers: on a glass sphere in a fog box, first=0.1 changes the image and agrees
- *   with specular NEE off per pixel (z-test, Sidak) and in the mean.
+ *   with specular NEE off per pixel (z-test, Sidak) and in the mean; so does first=0.1,later=0.1
+ *   with tightshare (the roulette's probability from the ball's own sphere and its shadow).
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -962,12 +963,21 @@ TEST(volpath_first_receiver_roulette)
     spc_film *some4 = render_nee(sc, "volpath", "angular:first=0.1", spp / 8, 51);
     spc_film *some = render_nee(sc, "volpath", "angular:first=0.1", spp, 52);
     spc_film *none = render_nee(sc, "volpath", "none", 2 * spp, 53);
-    CHECK(all && some4 && some && none);
-    if (all && some4 && some && none) {
+    spc_film *tight4 = render_nee(sc, "volpath", "angular:first=0.1,later=0.1,tightshare", spp / 8, 51);
+    spc_film *loose4 = render_nee(sc, "volpath", "angular:first=0.1,later=0.1", spp / 8, 51);
+    spc_film *tight = render_nee(sc, "volpath", "angular:first=0.1,later=0.1,tightshare", spp, 54);
+    CHECK(all && some4 && some && none && tight4 && loose4 && tight);
+    if (all && some4 && some && none && tight4 && loose4 && tight) {
         CHECK_MSG(films_differ(all, some4), "first=0.1 is ignored at medium receivers");
         CHECK_MSG(ztest(some, none, "fog ball: first=0.1 vs specular NEE off") >= 0.99, "first=0.1 vs none");
         check_means_agree(some, none, 3.5, "fog ball: first=0.1 vs specular NEE off");
+        CHECK_MSG(films_differ(tight4, loose4), "tightshare is ignored at medium receivers");
+        CHECK_MSG(ztest(tight, none, "fog ball: tightshare vs specular NEE off") >= 0.99, "tightshare vs none");
+        check_means_agree(tight, none, 3.5, "fog ball: tightshare vs specular NEE off");
     }
+    spc_film_destroy(tight4);
+    spc_film_destroy(loose4);
+    spc_film_destroy(tight);
     spc_film_destroy(all);
     spc_film_destroy(some4);
     spc_film_destroy(some);

@@ -347,6 +347,7 @@ bool spc_area_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_vec2 u, spc_
         if (!(cosl > 0.0) || !(dist2 > 0.0))
             return false;
         pdf = ss.pdf * dist2 / cosl;
+        ss.err /= spc_max(cosl, SPC_AREA_GRAZING_COS); /* along the ray (emitter.h) */
     }
     spc_vec3 d = spc_sub(ss.p, ref);
     double dist = spc_length(d);

@@ -57,8 +57,8 @@ typedef struct soa {
 
 static inline double max2(double a, double b) { return a > b ? a : b; }
 
-/* The point on the triangle (spc_warp_uniform_triangle's, then fill_mesh's), its error bound, and the direction and solid-angle density from ref:
- * fill_mesh's p and err, then spc_area_sample_direct's tests and values. */
+/* The point on the triangle (spc_warp_uniform_triangle's, then fill_mesh's), its error bound along the ray, and the direction and
+ * solid-angle density from ref: fill_mesh's p and err, then spc_area_sample_direct's tests and values. */
 #define AREA_MANY_BODY                                                                                                \
     for (int i = 0; i < n; ++i) {                                                                                     \
         /* spc_warp_uniform_triangle's two branches as selects: (b1, b2) its (b0, b1) */                              \
@@ -75,12 +75,13 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
         double m2 = max2(fabs(a->p2[0][i]), max2(fabs(a->p2[1][i]), fabs(a->p2[2][i])));                              \
         double mag = max2(m0, max2(m1, m2));                                                                          \
         double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
-        a->out.err[i] = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                       \
+        double perr = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                         \
         double dx = px - a->ref[0][i], dy = py - a->ref[1][i], dz = pz - a->ref[2][i];                                \
         double dist2 = dx * dx + dy * dy + dz * dz;                                                                   \
         double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i];                                         \
         double cosl = fabs(nx * dx + ny * dy + nz * dz) / sqrt(dist2);                                                \
         double pdf = 1.0 / a->area[i] * dist2 / cosl;                                                                 \
+        a->out.err[i] = perr / max2(cosl, SPC_AREA_GRAZING_COS); /* along the ray (emitter.h) */                      \
         double dist = sqrt(dist2);                                                                                    \
         double inv = 1.0 / dist;                                                                                      \
         double wx = dx * inv, wy = dy * inv, wz = dz * inv;                                                           \

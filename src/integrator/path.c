@@ -118,6 +118,53 @@ static spc_rgb split_emission(const spc_render_ctx *ctx, const spc_path_snee *sn
     return spc_rgb_scale(spc_rgb_mul(f, Le), w);
 }
 
+/* Specular NEE splitting at the same vertices as split_emission where the glass is a triangle mesh
+ * (spc_path_snee_splits): at a smooth dielectric h seen from the camera through delta vertices
+ * only, the reflected ray is traced on every sample and specular NEE made at the receiver it hits
+ * (hr) with the reflection's factor f = F * specular_reflectance; the sampled path skips its own query at that receiver after a reflection
+ * chosen at h (spc_path_snee.skip_query), and nothing else. Without it a caustic seen in the glass
+ * (the floor's caustic of a tessellated glass ball, reflected in the ball) is reached by a few
+ * samples in a hundred, each counting its full brightness: on random caustic scenes those samples
+ * held most of a seed's error (bench/RESULTS.md, part tails30). Unbiased as split_emission is: the
+ * skipped term's expectation over the lobe choice is F times the query's at hr, which the split
+ * adds with probability 1, and the query at hr is the same estimator either way (the state the
+ * path would carry there, spc_path_snee_scattered's, and the sampler's dimensions that the path's
+ * next vertex would draw its query from: the three pairs of BSDF sampling at h, the two of light
+ * sampling at hr), so the MIS weights of the paths it covers stay as they are. sn: the specular
+ * NEE state before h's scattering; segments: the path's segments up to h. The result is to be
+ * multiplied by the throughput that reached h. */
+static spc_rgb split_snee(const spc_render_ctx *ctx, const spc_path_snee *sn, const spc_hit *h, spc_vec3 wo,
+                          int segments, const spc_sampler *smp)
+{
+    const spc_scene *sc = ctx->scene;
+    /* the receiver's query runs where the path's next vertex could run it */
+    if (!depth_allows(ctx->max_depth, segments + 2))
+        return spc_rgb1(0.0);
+    spc_bsdf_sample bs;
+    if (!spc_bsdf_sample_dir(h->bsdf, h, SPC_MODE_RADIANCE, wo, 0.0, spc_v2(0.5, 0.5), &bs) ||
+        bs.lobe != SPC_LOBE_DELTA_REFLECTION)
+        return spc_rgb1(0.0);
+    if (ctx->strict_normals && !(spc_dot(bs.wi, h->ng) * spc_dot(bs.wi, h->sh.n) > 0.0))
+        return spc_rgb1(0.0);
+    spc_rgb f = spc_rgb_scale(bs.weight, bs.pdf);
+    if (spc_rgb_is_black(f))
+        return spc_rgb1(0.0);
+    spc_ray ray = spc_hit_spawn(h, bs.wi);
+    spc_hit hr;
+    if (!spc_scene_intersect(sc, &ray, &hr))
+        return spc_rgb1(0.0);
+    spc_vec3 wr = spc_neg(ray.d);
+    if (ctx->strict_normals && spc_dot(wr, hr.ng) * spc_dot(wr, hr.sh.n) < 0.0)
+        return spc_rgb1(0.0);
+    spc_path_snee snr = *sn;
+    spc_path_snee_scattered(&snr, h, wo, bs.wi, bs.lobe);
+    spc_path_snee_guide_at(&snr, &hr, wr);
+    spc_sampler sr = *smp;
+    spc_sampler_skip(&sr, 5);
+    spc_rgb c = spc_path_snee_at_vertex(&snr, ctx, &hr, wr, segments + 1, &sr);
+    return spc_rgb_is_black(c) ? c : spc_rgb_mul(f, c);
+}
+
 void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0, spc_sampler *smp,
                      spc_sample_out *out)
 {
@@ -223,6 +270,14 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 L = spc_rgb_add(L, spc_rgb_mul(beta, c_split));
         }
 
+        /* specular NEE at the reflection's receiver, by splitting (split_snee) */
+        const bool split_q = split && spc_path_snee_splits(&sn, &h);
+        if (split_q) {
+            spc_rgb c_rs = split_snee(ctx, &sn, &h, wo, segments, smp);
+            if (!spc_rgb_is_black(c_rs))
+                L = spc_rgb_add(L, spc_rgb_mul(beta, c_rs));
+        }
+
         /* BSDF sampling */
         double u_lobe = spc_sampler_1d(smp);
         spc_vec2 u_dir = spc_sampler_2d(smp);
@@ -240,6 +295,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         specular = (bs.lobe & SPC_LOBE_DELTA) != 0;
         all_delta = all_delta && specular;
         drop_emission = split && bs.lobe == SPC_LOBE_DELTA_REFLECTION;
+        sn.skip_query = split_q && bs.lobe == SPC_LOBE_DELTA_REFLECTION;
         prev_pdf = bs.pdf;
         prev_p = h.p;
         if (bs.lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))

@@ -32,10 +32,32 @@ static double long_share(const spc_snee_params *p)
     return p->lt_long > 0.0 && p->lt_long <= 1.0 ? p->lt_long : SPC_PATH_LT_LONG_SHARE;
 }
 
+/* The longest chain through flat faces from x2 toward the pinhole that a point light's joins take
+ * (params.lt_slab_max; 0: none, ltslab off). */
+static int slab_max(const spc_snee_params *p)
+{
+    if (!p->lt_slab)
+        return 0;
+    return p->lt_slab_max >= 1 && p->lt_slab_max <= SPC_FLAT_MAX_VERTICES ? p->lt_slab_max : 2;
+}
+
+/* Is the camera's chain cc from x toward the pinhole one that a point light's joins take through
+ * flat faces (with ltslab): one of spc_flat_chains_all's chains (spc_flat_chain_covers with the
+ * parameters' reflect) of at most slab_max vertices? Both sides read it, so the joins solve from x
+ * exactly the chains the path tracer's side weighs against them. */
+static bool slab_camera_chain(const spc_snee_params *p, const spc_chain *cc)
+{
+    return p->exact && cc->n >= 1 && cc->n <= slab_max(p) && spc_flat_chain_covers(cc, p->reflect) &&
+           !spc_sphere_chain_covers(cc, p->reflect);
+}
+
 /* The share of light subpaths joined to the pinhole through the sphere by the chain cc from x2:
- * through_share for chains within the parameters' max_chain, long_share beyond. */
+ * through_share for chains within the parameters' max_chain, long_share beyond; 1 for a chain
+ * through flat faces (slab_camera_chain). */
 static double camera_chain_share(const spc_snee_params *p, const spc_chain *cc)
 {
+    if (slab_camera_chain(p, cc))
+        return 1.0; /* through flat faces: on every subpath (join_slab) */
     return cc->n > p->max_chain ? long_share(p) : through_share(p);
 }
 
@@ -357,7 +379,8 @@ static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p
     int j = cc->n;
     if (j < 1 || j > spc_path_lt_camera_max_chain(p))
         return 0.0;
-    if (!spc_sphere_chain_covers(cc, p->reflect) && !(j <= p->max_chain && mesh_ball_chain(p, cc)))
+    if (!spc_sphere_chain_covers(cc, p->reflect) && !(j <= p->max_chain && mesh_ball_chain(p, cc)) &&
+        !slab_camera_chain(p, cc))
         return 0.0;
     const spc_chain_vertex *last = &cc->v[j - 1];
     if (!spc_camera_sample_direct(ctx->cam, last->h.p, cd) || !in_window(ctx, cd->fx, cd->fy))
@@ -388,7 +411,7 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 {
     /* through a tessellated ball, light tracing joins x to the pinhole by the chains it finds
      * there only (mesh_camera_chains): the path tracer's side keeps the rest */
-    if (cc && !spc_sphere_chain_covers(cc, p->reflect) &&
+    if (cc && !spc_sphere_chain_covers(cc, p->reflect) && !slab_camera_chain(p, cc) &&
         !(cc->n <= p->max_chain && mesh_ball_chain(p, cc) && mesh_camera_chain_found(ctx, p, x, cc)))
         return 0.0;
     return ratio_first(ctx, p, x, cc, c, e);
@@ -668,6 +691,45 @@ static double join_weight(const spc_render_ctx *ctx, const spc_snee_params *p, c
     return area_weight(ctx, p, &side, x1 == NULL, x2, wo2, L->d0, L->k, L->ev, L->e, L->y, L->ny);
 }
 
+/* The join of the light subpath at x2 (as join_first's) to the pinhole through the chain cc from
+ * x2 toward it (the sphere's, a tessellated ball's or through flat faces), counted over the share of
+ * subpaths that looks for it (camera_chain_share), where it fits x2's budgets and the camera sees
+ * its last vertex unblocked. */
+static void join_chain(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_rgb beta,
+                       const lt_end *L, const spc_chain *cc, void (*sink)(void *user, const spc_path_lt_join *j),
+                       void *user)
+{
+    double N = (double)ctx->width * (double)ctx->height;
+    spc_vec3 d0 = L->d0;
+    spc_camera_direct cd;
+    int kmax_cc, kflat_cc;
+    double psi_cc;
+    if (!chain_fits(ctx, p, L, x2, cc->n + 1, 0, &kmax_cc, &kflat_cc, &psi_cc))
+        return;
+    double pc = camera_density(ctx, p, x2, cc, &cd);
+    if (!(pc > 0.0))
+        return;
+    const spc_chain_vertex *last = &cc->v[cc->n - 1];
+    spc_rgb T = spc_rgb1(1.0);
+    for (int v = 0; v < cc->n; ++v)
+        T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE, cc->v[v].d,
+                                                        spc_neg(cc->v[v].wi)));
+    spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
+    double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
+    double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
+    spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N / camera_chain_share(p, cc));
+    if (spc_rgb_is_black(C) || !isfinite(g))
+        return;
+    spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
+    double r = 0.0;
+    double w = join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, kflat_cc, psi_cc, &r);
+    if (w > 0.0 && !spc_scene_occluded(ctx->scene, &sr)) {
+        spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, L->c, L->e, cd.fx, cd.fy, C, r, cc, NULL, 0,
+                              L->y, L->ny, w};
+        sink(user, &j);
+    }
+}
+
 /* The joins of the light subpath at x2 (as join_first's) to the pinhole through the sphere, by
  * its chains of min_chain to max_chain vertices from x2 toward the pinhole, each counted over the
  * share of subpaths that looks for it (camera_chain_share). */
@@ -675,13 +737,8 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
                          const lt_end *L, int min_chain, int max_chain,
                          void (*sink)(void *user, const spc_path_lt_join *j), void *user)
 {
-    const spc_scene *sc = ctx->scene;
-    double N = (double)ctx->width * (double)ctx->height;
-    spc_vec3 d0 = L->d0;
-    const spc_chain *c = L->c;
-    spc_camera_direct cd;
     spc_snee_query q;
-    spc_snee_query_init(&q, sc, p, x2, d0, max_chain);
+    spc_snee_query_init(&q, ctx->scene, p, x2, L->d0, max_chain);
     q.min_chain = min_chain;
     q.y = ctx->cam->origin;
     q.ny = spc_v3(0, 0, 0);
@@ -692,37 +749,36 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
     if (!L->area && min_chain <= p->max_chain)
         n += mesh_camera_chains(ctx, p, x2, p->max_chain < max_chain ? p->max_chain : max_chain, all + n,
                                 MESH_CAMERA_CHAINS);
-    for (int i = 0; i < n; ++i) {
-        const spc_chain *cc = &all[i];
-        int kmax_cc, kflat_cc;
-        double psi_cc;
-        if (cc->n < min_chain || cc->n > max_chain ||
-            !chain_fits(ctx, p, L, x2, cc->n + 1, 0, &kmax_cc, &kflat_cc, &psi_cc))
-            continue;
-        double pc = camera_density(ctx, p, x2, cc, &cd);
-        if (!(pc > 0.0))
-            continue;
-        const spc_chain_vertex *last = &cc->v[cc->n - 1];
-        spc_rgb T = spc_rgb1(1.0);
-        for (int v = 0; v < cc->n; ++v)
-            T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE, cc->v[v].d,
-                                                            spc_neg(cc->v[v].wi)));
-        spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
-        double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
-        double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
-        spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N / camera_chain_share(p, cc));
-        if (spc_rgb_is_black(C) || !isfinite(g))
-            continue;
-        spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
-        double r = 0.0;
-        double w =
-            join_weight(ctx, p, L, NULL, spc_v3(0, 0, 0), NULL, 0, x2, cc->d0, cc, kmax_cc, kflat_cc, psi_cc, &r);
-        if (w > 0.0 && !spc_scene_occluded(sc, &sr)) {
-            spc_path_lt_join j = {NULL, x2, spc_v3(0, 0, 0), cc->d0, c, L->e, cd.fx, cd.fy, C, r, cc, NULL, 0,
-                                  L->y, L->ny, w};
-            sink(user, &j);
-        }
-    }
+    for (int i = 0; i < n; ++i)
+        if (all[i].n >= min_chain && all[i].n <= max_chain)
+            join_chain(ctx, p, x2, beta, L, &all[i], sink, user);
+}
+
+/* The most chains through flat faces from x2 toward the pinhole one join enumerates: a cube's
+ * sequences of one and two faces give a few (in and out, a reflection off a face). */
+#define SLAB_CAMERA_CHAINS 32
+
+/* A point light's joins at x2 to the pinhole through flat faces (ltslab): every chain of
+ * spc_flat_chains_all from x2 toward the pinhole of 1 to slab_max vertices (a floor point seen
+ * through a glass slab), on every subpath. The path tracer's side weighs the camera ray that meets
+ * x2 through such a chain against these (spc_path_lt_ratio_first, slab_camera_chain). */
+static void join_slab(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_rgb beta,
+                      const lt_end *L, void (*sink)(void *user, const spc_path_lt_join *j), void *user)
+{
+    int kmax = slab_max(p);
+    if (L->area || kmax < 1 || !p->exact)
+        return;
+    spc_snee_query q;
+    spc_snee_query_init(&q, ctx->scene, p, x2, L->d0, kmax);
+    q.min_chain = 1;
+    q.y = ctx->cam->origin;
+    q.ny = spc_v3(0, 0, 0);
+    q.light_size = 0.0;
+    spc_chain all[SLAB_CAMERA_CHAINS];
+    int n = spc_flat_chains_all(&q, all, SLAB_CAMERA_CHAINS, NULL);
+    for (int i = 0; i < n; ++i)
+        if (slab_camera_chain(p, &all[i]))
+            join_chain(ctx, p, x2, beta, L, &all[i], sink, user);
 }
 
 /* The joins of the light subpath at x2 (arrived from d0 with throughput beta through the chain of
@@ -759,6 +815,8 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
     double share = through_share(p);
     if (share > 0.0 && (share >= 1.0 || spc_rng_next(rng) < share))
         join_through(ctx, p, x2, beta, L, 1, p->max_chain, sink, user);
+    /* a point light's through flat faces (glass slabs), with ltslab */
+    join_slab(ctx, p, x2, beta, L, sink, user);
     /* area lights' paths through the longer chains are not light tracing's (spc_path_lt_area_ratio) */
     double ls = long_share(p);
     if (!L->area && spc_path_lt_camera_max_chain(p) > p->max_chain && (ls >= 1.0 || spc_rng_next(rng) < ls))

@@ -45,6 +45,16 @@
  * strategy reaches a point light). A point light's chain may lie on a tessellated glass ball too,
  * with specular NEE's density that of an exact count (its estimate of each chain is unbiased).
  *
+ * With ltslab (params.lt_slab) a point light's subpath at x2 also joins the pinhole through flat
+ * faces: every chain of spc_flat_chains_all from x2 toward the pinhole of 1 to params.lt_slab_max
+ * vertices (the floor seen through a glass slab, in and out), on every subpath. Without it the
+ * camera ray that meets x2 through such a chain leaves the path to specular NEE at x2 alone, which
+ * makes the slab's 3- and 4-vertex light chains on a share of its calls (flat34) counted 1/psi and
+ * the 5- and 6-vertex ones never. The camera's density of x2 through the chain is that of the
+ * sphere's chains (We / N |cos(x2)| G P_cam, G the chain's generalized geometry term toward the
+ * pinhole), and both sides take a camera chain as light tracing's exactly where it is one of those
+ * the joins enumerate (spc_flat_chain_covers, at most lt_slab_max vertices).
+ *
  * The joins through the sphere (its root search from x2, most of the strategy's cost) run on a
  * share s of the subpaths (SPC_PATH_LT_THROUGH_SHARE, or the parameters' lt_through), counted 1/s
  * times; light tracing's density of those paths, and so their r, carries the factor s.
@@ -163,9 +173,10 @@ double spc_path_lt_ratio_via(const spc_render_ctx *ctx, const spc_snee_params *p
                              const spc_chain *c, const spc_emitter *e);
 
 /* The same ratio where x is the path's first receiver, seen by the camera directly (cc NULL) or
- * through the chain cc from x toward the pinhole (one glass sphere, or a tessellated glass ball's
- * chain of at most max_chain vertices that light tracing's joins find from x): light tracing's
- * density over the camera's and specular NEE's at x; 0 for a ball's chain the joins do not find. */
+ * through the chain cc from x toward the pinhole (one glass sphere, a tessellated glass ball's
+ * chain of at most max_chain vertices that light tracing's joins find from x, or with ltslab flat
+ * faces' chain of at most lt_slab_max vertices): light tracing's density over the camera's and
+ * specular NEE's at x; 0 for a chain the joins do not find. */
 double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x,
                                const spc_chain *cc, const spc_chain *c, const spc_emitter *e);
 

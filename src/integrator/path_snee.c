@@ -240,6 +240,8 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
                                 int segments, spc_sampler *smp)
 {
+    bool skip = s->skip_query;
+    s->skip_query = false;
     s->budget = 0;
     s->long_budget = depth_left(ctx, segments, SPC_CHAIN_MAX_VERTICES);
     if (!s->on)
@@ -290,6 +292,8 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
         s->alt_kmax = s->lt_kmax;
         s->alt_kflat = spc_path_lt_flat_budget(ctx, &s->p, h, segments, 0);
     }
+    if (skip)
+        return spc_rgb1(0.0);
     spc_rng rng;
     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);
     return spc_specular_nee_depth(ctx->scene, &s->p, h, wo, s->budget, s->long_budget, &rng, NULL);
@@ -375,4 +379,9 @@ void spc_path_snee_scattered(spc_path_snee *s, const spc_hit *h, spc_vec3 wo, sp
         }
     }
     ++s->scatterings;
+}
+
+bool spc_path_snee_splits(const spc_path_snee *s, const spc_hit *h)
+{
+    return s->on && !s->p.no_split && h->shape && h->shape->type == SPC_SHAPE_MESH;
 }

@@ -33,6 +33,9 @@ typedef struct spc_path_snee {
     int receivers;           /* non-delta vertices so far */
     int budget, long_budget; /* at the current vertex: the chain budget specular NEE used (0: none)
                                 and the longer chains' bound */
+    /* the next receiver's query was counted by splitting (path.c): its state is set up as usual,
+     * its value not added */
+    bool skip_query;
     spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
     spc_cguide_vertex mis_gv; /* and at mis_x, the receiver the track started at */
     /* the light-traced caustics (path_lt.h, params.lt_caustic): the path's first receiver x1, the
@@ -92,9 +95,20 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
  * so far), to be multiplied by the path throughput: chains within the depth left and the budget.
  * With specular NEE on, the light sample's uniforms come from smp's next two dimension pairs
  * (drawn at every vertex, so that they stay aligned across a pixel's samples and stratified); the
- * rest of the estimate draws from a fork of it. */
+ * rest of the estimate draws from a fork of it. With s->skip_query set (then cleared; the query was
+ * counted by splitting, path.c): every state the later MIS weights read set up alike, the query
+ * itself not made (black). */
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
                                 int segments, spc_sampler *smp);
+
+/* Does the path tracer split specular NEE at the reflection off the smooth dielectric h (path.c,
+ * split_snee)? Where specular NEE runs, unless "nosplit", at triangle meshes only (tessellated
+ * balls, slabs, panes): a tessellated ball seen from the camera reflects its own caustic on the
+ * floor beside it, which no other strategy takes there (light tracing joins the pinhole through
+ * analytic spheres only). At an analytic sphere those paths are light tracing's too (ltcaus), and
+ * on a smooth SDF (caustic_sdf_torus) the split's queries cost 5-10% more CPU per sample for no
+ * gain at equal CPU (bench/RESULTS.md, part tails30). */
+bool spc_path_snee_splits(const spc_path_snee *s, const spc_hit *h);
 
 /* The caustic guide (caustic_guide.h) at the path vertex h (wo toward the previous vertex), to
  * sample its continuation with spc_cguide_sample_mix and weigh it with spc_cguide_mix_pdf; specular

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "manifold/flat_chains.h"
 #include "manifold/solver.h"
 
 /* guide without a value: a cone as wide as the light's image through the chain to its point facing
@@ -57,6 +58,9 @@ static const spc_snee_option options[] = {
      "not with reflect or exact)"},
     {"nomis", NULL, SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(no_mis), NO, 0, NULL,
      "no MIS with BSDF sampling: the BSDF-sampled paths specular NEE covers are dropped"},
+    {"nosplit", NULL, SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(no_split), NO, 0, NULL,
+     "path: no specular NEE by splitting at a reflection off a smooth glass mesh seen from the camera (the "
+     "receiver that the sampled reflection reaches queries instead)"},
     {"ltcaus", "noltcaus", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(lt_caustic), NO, 0, NULL,
      "path: the caustics of point lights and (with MIS, without recguide) area lights through a glass sphere "
      "also by light tracing (light subpaths joined to the camera directly, through the sphere and through a "
@@ -75,6 +79,11 @@ static const spc_snee_option options[] = {
      "reflections off glass too; with camera, only chains with a reflection inside the glass) also by light "
      "tracing, on a share S of the camera samples (default 0.25): a light point joined to the pinhole by "
      "every such chain, weighed against the camera ray"},
+    {"ltslab", "noltslab", SPC_SNEE_OPT_COUNT, true, "K", 1, SPC_FLAT_MAX_VERTICES, false, false, NULL, 0, AT(lt_slab),
+     AT(lt_slab_max), 0, NULL,
+     "path, with ltcaus: a point light's subpath also joins the pinhole through the chains of 1-K flat faces "
+     "(glass slabs) from its receiver (the caustic seen through a slab; default K 2), weighed against specular "
+     "NEE there"},
     {"reflect", "noreflect", SPC_SNEE_OPT_REAL, true, "P", 0, 1, true, true, NULL, 0, AT(reflect), AT(reflect_p), 0,
      NULL, "chains also reflect off glass, with probability P at a dielectric vertex of a seed chain"},
     {"mispsi", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(mis_solve), 0, NULL,
@@ -96,6 +105,11 @@ static const spc_snee_option options[] = {
     {"nearp", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(near_p), 0, NULL,
      "with first or later below 1: near the casters the query with probability at most P (never below first "
      "or later), counted 1/P times (default 1)"},
+    {"tightshare", "notightshare", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(tight_share), NO,
+     0, NULL,
+     "with first or later below 1: the casters' share of a receiver's directions measured by a tight sphere "
+     "per caster (a sphere's own, a mesh's farthest vertex) instead of the sphere around its bounding box, "
+     "and certain in each one's shadow from a light (where a glass ball focuses its caustic)"},
     {"camera", NULL, SPC_SNEE_OPT_REAL, true, "Q", 0, 1, true, false, NULL, 0, AT(camera), AT(camera_p), 0, NULL,
      "specular NEE from the camera's pinhole too, in a fraction Q of the camera samples (lights seen through "
      "glass, glints)"},

@@ -218,6 +218,38 @@ static void flat_point_light_tracing(const spc_scene *sc, int nflat, const char 
     snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_POINT_LIGHTS);
 }
 
+/* Is some caster a mirror ball (a sphere that is no glass interface)? */
+static bool mirror_ball(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (s->type == SPC_SHAPE_SPHERE && !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0))
+            return true;
+    }
+    return false;
+}
+
+/* Flat-faced casters under point lights (a sky besides), for path with light tracing's point-light
+ * chains on (ltcaus: from the rule above, the sphere's or the ball's), without the caustic guide at
+ * receivers: light tracing joins the receivers seen through a slab to the pinhole too
+ * (SPC_SNEE_PLAN_FLAT_POINT_JOINS), and where no mirror ball is a caster the flat enumeration makes
+ * its 3- and 4-vertex chains on a share of its calls (SPC_SNEE_PLAN_FLAT_POINT_SHARE, where no rule
+ * set that share). */
+static void flat_point_light_joins(const spc_scene *sc, const spc_chain_casters *cs, int nflat,
+                                   const char *integrator, spc_snee_plan *out)
+{
+    if (nflat == 0 || strcmp(integrator, "path") || strstr(out->setting, "recguide") ||
+        !strstr(out->setting, "ltcaus") || !point_lights_sky(sc))
+        return;
+    size_t n = strlen(out->setting);
+    snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_POINT_JOINS);
+    if (mirror_ball(sc, cs) || strstr(out->setting, "flat34"))
+        return;
+    n = strlen(out->setting);
+    snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_POINT_SHARE);
+}
+
 /* Is some caster a glass sphere (its chains enumerated, sphere_chains.h)? */
 static bool glass_sphere(const spc_scene *sc, const spc_chain_casters *cs)
 {
@@ -228,6 +260,28 @@ static bool glass_sphere(const spc_scene *sc, const spc_chain_casters *cs)
             return true;
     }
     return false;
+}
+
+/* Do the glass casters sit in a medium: every glass caster with a medium on its outside and none
+ * within it (a glass ball in a fog)? Its medium points then mostly see the lights directly, and the
+ * chains through the glass carry a small part of their light: at equal CPU time over 24 seeds
+ * volpath's ball setting was 0.62-1.01x none on bench/check/medium_fog_ball.xml and six fresh
+ * fog-ball scenes (0.88-1.05x with tightshare), where a medium inside the glass
+ * (scenes/medium_glass.xml: every medium point lit through the glass) gains 16-34x
+ * (bench/RESULTS.md, "The fog ball and dielectrics"). */
+static bool glass_in_medium(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    bool any = false;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (!(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0))
+            continue;
+        if (s->exterior_medium < 0 || s->interior_medium >= 0)
+            return false;
+        any = true;
+    }
+    return any;
 }
 
 /* Is some caster a glass SDF (smooth: creased ones turn the plan off)? */
@@ -753,6 +807,11 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
             ball = ball || (spc_snee_plan_method(&p, s) == SPC_SNEE_METHOD_SOLVER && spc_fit_sphere(s, &c, &r));
         }
     }
+    /* volpath: not with tessellated glass balls that sit in a medium (glass_in_medium) */
+    if (!strcmp(integrator, "volpath") && ball && glass_in_medium(sc, cs)) {
+        off(out, "volpath: the glass balls sit in a medium (most of its light arrives directly)");
+        return;
+    }
     out->on = true;
     out->glass_share = glass ? glass_image_share(sc, cs) : 0.0;
     out->open_share = open_share(sc, cs);
@@ -828,6 +887,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     } else
         flat_light_tracing(sc, cs, nflat, integrator, out);
     flat_point_light_tracing(sc, nflat, integrator, out);
+    flat_point_light_joins(sc, cs, nflat, integrator, out);
     /* volpath: a share of the random seeds at medium points from the phase function, where some
      * caster's chains go to the randomized attempts (snee_plan.h) */
     if (!strcmp(integrator, "volpath") && (!exact || solved_mirror)) {

@@ -182,7 +182,12 @@
  * over 48 seeds the mean relMSE was 0.0173 against 0.0247 (median 0.0125 both; seeds with one pixel
  * over 0.6 of the error 2 against 4; 1.0 over 24 of them 0.0214 against 0.0212 for 0.3); in the
  * fog around a ball (bench/check/medium_fog_ball.xml) 0.119 against 0.115 over 24 paired seeds, a
- * difference of 0.004 +- 0.004 (bench/RESULTS.md, "medium_glass's one-pixel seeds"). */
+ * difference of 0.004 +- 0.004 (bench/RESULTS.md, "medium_glass's one-pixel seeds"). Where the balls
+ * sit in a fog instead (outside them, none within), volpath's plan leaves specular NEE off
+ * (snee_plan.c, glass_in_medium). The roulette's share by the ball's own sphere and its shadow
+ * (tightshare) is not in the setting: on scenes/medium_glass.xml at equal CPU over 24 seeds it was
+ * 0.0328 against 0.0323 without (the same one-pixel seed in both); it helped only in the fog, where
+ * the plan is now off (bench/RESULTS.md, "the fog ball and dielectrics"). */
 #define SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH "angular:camera,first=0.1,later=0.1,nosolvemis,mispsi=0.3"
 
 /* volpath, where some caster's chains go to the randomized attempts (a tessellated ball, an SDF, a
@@ -312,9 +317,35 @@
  * without on 7 of 9 slab scenes under a point light, 0.96-0.97x on the other two. The flat
  * enumeration's 3- and 4-vertex chains on a share of the calls besides (SPC_SNEE_PLAN_FLAT_LT, as
  * under small area lights) was lower on 8 of 9 (1.4-13x) but made one-pixel seeds on two (random
- * scenes 1057 and 6101: shares 0.94 and 0.99, 6101 3x worse than without): light tracing does not
- * join the pixels that see the floor through a slab. */
+ * scenes 1057 and 6101: shares 0.94 and 0.99, 6101 3x worse than without): light tracing did not
+ * join the pixels that see the floor through a slab (the joins below do now:
+ * SPC_SNEE_PLAN_FLAT_POINT_JOINS). */
 #define SPC_SNEE_PLAN_FLAT_POINT_LIGHTS ",ltcaus"
+
+/* Appended for path where some caster is flat-faced, every light is a point light (a sky besides)
+ * and light tracing runs (ltcaus, by the rule above or the sphere's or the ball's), without the
+ * caustic guide at receivers: light tracing also joins the receivers seen through a slab to the
+ * pinhole (chains of 1-2 flat faces, integrator/path_lt.h), paths that only specular NEE at the
+ * receiver made, and the 5- and 6-vertex light chains onto them none did (0.37% of
+ * bench/check/two_slabs_point_light.xml's image). 0.96-1.0x the CPU per sample; at equal CPU time
+ * over 16 seeds (bench/RESULTS.md, part rcvslab30) within the seeds' scatter of the setting
+ * without it where no pixel sees a floor through a slab, lower where some do (random scenes 8066
+ * 3.7x, 8037 1.5x). */
+#define SPC_SNEE_PLAN_FLAT_POINT_JOINS ",ltslab"
+
+/* Appended after it where no caster is a mirror ball and no rule set flat34: the flat enumeration
+ * makes its 3- and 4-vertex chains on a share of 0.1 of its calls, counted 10 times (at every call
+ * it enumerates every face sequence of up to 4 vertices at every query: 67x none's CPU per sample on
+ * random scene 7812), weighed against light tracing, which with the joins above makes those paths
+ * at every receiver the camera sees directly or through a slab. At equal CPU time over 16 seeds
+ * (bench/RESULTS.md, part rcvslab30), against the setting without it: 2.3-97x lower mean relMSE on
+ * 11 of 12 slab scenes (two beside a mirror ring), 0.83x on one whose every setting had one-pixel
+ * seeds (a triangle ball beside the slab; 1.3x over 32 seeds); 0.1 below 0.3 on 10 of the 12 (0.3
+ * the safer tail: one scene fewer with one-pixel seeds). Beside a mirror ball (random scenes
+ * 6101 made point-lit, 8009) the share made one-pixel seeds at 0.1 and 0.3 alike, with the joins
+ * or without: specular NEE's 4-vertex chains at the floor seen in the ball (no light tracing in
+ * it), so it is left out there. */
+#define SPC_SNEE_PLAN_FLAT_POINT_SHARE ",flat34=0.1"
 
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
  * glass sphere or a tessellated glass ball is a caster, without the caustic guide at receivers: the

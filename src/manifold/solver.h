@@ -104,6 +104,9 @@ typedef struct spc_snee_params {
     bool mis_events;
     bool no_mis; /* the user's "nomis" option: the integrator does not set mis (covered BSDF paths
                     are then dropped, as before MIS) */
+    /* the user's "nosplit" option: the path tracer does not split specular NEE at the reflection off a
+     * smooth glass mesh seen from the camera (path.c, split_snee) */
+    bool no_split;
     /* Reflection at dielectric vertices (the user's "reflect[=P]"): chains may reflect off glass as
      * well as refract through it (the light's reflection in a glass ball on the floor, internal
      * reflections). A randomized attempt picks the event at each dielectric vertex of its seed chain
@@ -223,6 +226,15 @@ typedef struct spc_snee_params {
      * 1 / P times. For casters whose query costs a hundred BSDF samples under a light BSDF sampling
      * finds through them often (flat glass under a large light). */
     double near_p;
+    /* The share of a receiver's directions the casters fill, for first_p's and later_p's rule (the
+     * user's "tightshare"; off by default): measured by each caster's tight sphere
+     * (spc_scene_casters.bound_r: a sphere's own, a mesh's farthest vertex) instead of the sphere
+     * around its bounding box, whose radius is sqrt(3) times a ball's, and certain in each tight
+     * sphere's shadow from each light specular NEE samples (behind it, within its radius of the line
+     * from the light's centre through the sphere's: where a glass ball focuses its caustic). The
+     * query is then certain within the ball and its shadow and falls with the ball's real solid
+     * angle elsewhere. A function of x alone, so the roulette stays unbiased. */
+    bool tight_share;
     double query_p;
     /* Independent light points per query (0 or 1: one; the caller sets it per receiver, as query_p):
      * each is solved as a query of its own and counted 1 / light_samples times, and MIS weighs the
@@ -286,6 +298,13 @@ typedef struct spc_snee_params {
      * same path. */
     bool lt_view;
     double lt_view_share;
+    /* With lt_caustic (the user's "ltslab[=K]"; integrator/path_lt.h): a point light's subpath at the
+     * path's first receiver x2 also joins the pinhole through every chain of 1 to lt_slab_max
+     * vertices through flat faces (glass slabs: spc_flat_chains_all's chains from x2 toward the
+     * pinhole), weighed against specular NEE at x2 reached by the camera ray through that chain
+     * (the floor seen through a slab). Default K SPC_SNEE_LT_SLAB_MAX (solver_table.c). */
+    bool lt_slab;
+    int lt_slab_max;
     /* psi: the probability with which specular NEE's pass made c (below 1 only for chains through
      * flat faces enumerated on a share of the calls: spc_snee_flat_psi, specular_nee.h) */
     double (*delta_share)(const void *user, const spc_hit *x, spc_vec3 wo, const struct spc_chain *c,

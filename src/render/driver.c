@@ -2,18 +2,19 @@
  * render/driver.c: the render loop: passes of one sample per pixel, tiles, threads; below
  * spc_render (render/api.c), which settles the specular NEE plan first (driver.h).
  *
- * Work is a list of (pass, tile) items handed to threads through an atomic counter. Every pixel's
- * samples come from its own deterministic stream (pixel, pass index, seed), each item writes only
- * its own pixels and keeps its splats in its own list, and passes are committed to the film in
- * order with splats merged in tile order. The image is therefore bit-identical for any thread
- * count. Passes are grouped into batches so small images keep every thread busy; with a time
- * limit the batch size follows the measured time per pass.
+ * Work is a list of (pass, tile) items handed to threads through an atomic counter, pass by pass,
+ * or in a big scene tile by tile (item_place). Every pixel's samples come from its own
+ * deterministic stream (pixel, pass index, seed), each item writes only its own pixels and keeps its
+ * splats in its own list, and passes are committed to the film in order with splats merged in tile
+ * order. The image is therefore bit-identical for any thread count and either order of the items.
+ * Passes are grouped into batches so small images keep every thread busy; with a time limit the
+ * batch size follows the measured time per pass.
  *
  * Cancellation is polled before every work item, but a render only ever stops at a pass boundary:
- * the passes already started are finished, later ones dropped, and only whole passes reach the
- * film. Checkpoints (render/checkpoint.h) are written between batches, so they too hold whole
- * passes, and a resumed render starts at pass index = the checkpoint's pass count: the same
- * additions in the same order as an uninterrupted render.
+ * the passes already started (with every pass of their group of items) are finished, later ones
+ * dropped, and only whole passes reach the film. Checkpoints (render/checkpoint.h) are written
+ * between batches, so they too hold whole passes, and a resumed render starts at pass index = the
+ * checkpoint's pass count: the same additions in the same order as an uninterrupted render.
  */
 #include <float.h>
 #include <limits.h>
@@ -90,6 +91,14 @@
  * of that loss (the box 0.95x). */
 #define SPC_BDPT_AUTO_AIM_CAMERA 0.2
 
+/* Scenes of at least this many triangles render a batch's items tile by tile (a tile's passes one
+ * after the other), smaller ones pass by pass. A tile's next pass traces its rays through the BVH
+ * nodes and triangles its last pass left in the cache; pass by pass, the whole image runs between
+ * two visits of a tile. Paired CPU time, one thread, plain path at 256x256 (bench/RESULTS.md, part
+ * mesh30): the lit height field of 10k triangles -2%, 100k -4%, 1M -14%; the cornell box -1.1%,
+ * veach-mis +0.6% (5 of 6 rounds): small scenes, whose BVH stays in cache, keep the pass order. */
+#define SPC_TILE_PASSES_TRIS 8192
+
 typedef struct tile {
     int x0, y0, x1, y1; /* in the rendered window */
 } tile;
@@ -99,6 +108,7 @@ typedef struct job {
     const tile *tiles;
     int ntiles;
     int pass0, npasses; /* passes in this batch */
+    int group;          /* passes per group of items: a group's items take its passes tile by tile */
     int stride;         /* doubles per pixel in a batch buffer: base, then 3 per strategy film */
     int base;           /* 3, or 10 with AOVs */
     int nfilms;         /* strategy films (spc_render_options.strategy_images), 0 without */
@@ -108,8 +118,8 @@ typedef struct job {
     spc_tls *tls;       /* npasses * ntiles */
     uint64_t seed;
     atomic_int next;
-    atomic_int limit;       /* items below it are rendered: all of them, or up to the end of the passes
-                             * already started when a cancel was seen */
+    atomic_int limit;       /* items below it are rendered: all of them, or up to the end of the group
+                             * of passes already started when a cancel was seen */
     volatile int *cancel;
     atomic_ullong rays;
     atomic_ullong shadow_rays; /* of rays, the shadow rays */
@@ -228,12 +238,27 @@ static void store_sample(const job *jb, spc_tls *tls, double *buf, int x, int y,
     }
 }
 
+/* Item i's pass of the batch (*b) and tile (*ti). The items run in groups of jb->group passes (the
+ * last group may hold fewer), and inside a group tile by tile: a tile's passes one after the other,
+ * so the rays of the next pass meet the BVH nodes and triangles the last one left in the cache. Which
+ * item renders a (pass, tile) changes no value: each writes its own pixels of its pass's buffer. */
+static void item_place(const job *jb, int i, int *b, int *ti)
+{
+    int per = jb->group * jb->ntiles, g = i / per, j = i % per;
+    int gs = jb->npasses - g * jb->group;
+    if (gs > jb->group)
+        gs = jb->group;
+    *b = g * jb->group + j % gs;
+    *ti = j / gs;
+}
+
 static void render_item(job *jb, int item)
 {
     const spc_render_ctx *ctx = jb->ctx;
-    int b = item / jb->ntiles, ti = item % jb->ntiles;
+    int b, ti;
+    item_place(jb, item, &b, &ti);
     const tile *t = &jb->tiles[ti];
-    spc_tls *tls = &jb->tls[item];
+    spc_tls *tls = &jb->tls[(size_t)b * jb->ntiles + ti];
     int pass = jb->pass0 + b;
     size_t npix = (size_t)ctx->width * (size_t)ctx->height;
     double *buf = jb->buf + (size_t)b * npix * (size_t)jb->stride;
@@ -286,8 +311,9 @@ static void *worker(void *arg)
         if (i >= atomic_load(&jb->limit))
             break;
         if (jb->cancel && *jb->cancel && !jb->pool_phase) {
-            /* items below i were all handed out: finish their passes, start none after them */
-            int end = (i + jb->ntiles - 1) / jb->ntiles * jb->ntiles;
+            /* items below i were all handed out: finish their groups' passes, start none after them */
+            int per = jb->group * jb->ntiles;
+            int end = (i + per - 1) / per * per;
             int cur = atomic_load(&jb->limit);
             while (end < cur && !atomic_compare_exchange_weak(&jb->limit, &cur, end))
                 ;
@@ -637,6 +663,10 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     guide_seconds = cguide ? now_seconds() - t_start : 0.0;
     const int start = film->spp;
     int done = start;
+    size_t ntris = 0;
+    for (int i = 0; i < sc->nshapes; ++i)
+        if (sc->shapes[i]->type == SPC_SHAPE_MESH)
+            ntris += sc->shapes[i]->mesh.ntris;
     double sec_per_pass = 0.0, last_ckpt = t_start;
     while (done < spp) {
         if (o->cancel && *o->cancel) {
@@ -673,6 +703,12 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
         jb.ntiles = ntiles;
         jb.pass0 = done;
         jb.npasses = batch;
+        /* a big scene's items tile by tile through the whole batch (SPC_TILE_PASSES_TRIS);
+         * SPECULA_TILE_PASSES=N sets groups of N passes (0: the batch), the same image either way */
+        const char *group_env = getenv("SPECULA_TILE_PASSES");
+        jb.group = group_env ? atoi(group_env) : ntris >= SPC_TILE_PASSES_TRIS ? 0 : 1;
+        if (jb.group < 1 || jb.group > batch)
+            jb.group = batch;
         jb.stride = stride;
         jb.base = base;
         jb.nfilms = nfilms;

@@ -94,8 +94,11 @@ void spc_scene_destroy(spc_scene *s)
     if (!s)
         return;
     spc_accel_destroy(s->accel);
-    for (int k = 0; k < 2; ++k)
+    for (int k = 0; k < 2; ++k) {
         free(s->casters[k].idx);
+        free(s->casters[k].bound_c);
+        free(s->casters[k].bound_r);
+    }
     for (int i = 0; i < s->nshapes; ++i) {
         spc_shape_release(s->shapes[i]);
         free(s->shapes[i]);
@@ -217,19 +220,44 @@ bool spc_scene_shape_is_caster(const spc_shape *s, bool any_surface, double *eta
     return spc_scene_caster_allowed(s->caustic_flags, 1) || spc_scene_caster_allowed(s->caustic_flags, 2);
 }
 
+/* A sphere (c, r) that holds shape sh (spc_scene_casters.bound_c, bound_r). */
+static void caster_bound(const spc_shape *sh, spc_vec3 *c, double *r)
+{
+    *c = spc_scale(spc_add(sh->bbox_min, sh->bbox_max), 0.5);
+    *r = 0.5 * spc_length(spc_sub(sh->bbox_max, sh->bbox_min));
+    if (sh->type == SPC_SHAPE_SPHERE) {
+        *c = sh->center;
+        *r = sh->radius;
+    } else if (sh->type == SPC_SHAPE_MESH && sh->mesh.nverts > 0 && sh->mesh.p) {
+        double d2 = 0.0;
+        for (size_t v = 0; v < sh->mesh.nverts; ++v) {
+            spc_vec3 q = spc_v3(sh->mesh.p[3 * v], sh->mesh.p[3 * v + 1], sh->mesh.p[3 * v + 2]);
+            d2 = fmax(d2, spc_length2(spc_sub(q, *c)));
+        }
+        /* float vertices: a relative margin so that no vertex lies outside */
+        *r = fmin(*r, sqrt(d2) * (1.0 + 1e-6));
+    }
+}
+
 /* The caster list of one any_surface setting (spc_scene_casters); false if memory runs out. */
 static bool casters_build(const spc_scene *s, bool any_surface, spc_scene_casters *c)
 {
     free(c->idx);
+    free(c->bound_c);
+    free(c->bound_r);
     memset(c, 0, sizeof *c);
-    c->idx = malloc((size_t)(s->nshapes > 0 ? s->nshapes : 1) * sizeof *c->idx);
-    if (!c->idx)
+    size_t cap = (size_t)(s->nshapes > 0 ? s->nshapes : 1);
+    c->idx = malloc(cap * sizeof *c->idx);
+    c->bound_c = malloc(cap * sizeof *c->bound_c);
+    c->bound_r = malloc(cap * sizeof *c->bound_r);
+    if (!c->idx || !c->bound_c || !c->bound_r)
         return false;
     spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
     for (int i = 0; i < s->nshapes; ++i) {
         const spc_shape *sh = s->shapes[i];
         if (!spc_scene_shape_is_caster(sh, any_surface, NULL))
             continue;
+        caster_bound(sh, &c->bound_c[c->n], &c->bound_r[c->n]);
         c->idx[c->n++] = i;
         lo = spc_vmin(lo, sh->bbox_min);
         hi = spc_vmax(hi, sh->bbox_max);

@@ -109,12 +109,16 @@ typedef struct spc_integrator_spec {
 
 /* The shapes that may be vertices of a specular chain (spc_scene_shape_is_caster) for one
  * any_surface setting: their indices in ascending order and the sphere around their bounding boxes
- * (radius 0 if none). Built by spc_scene_finalize. */
+ * (radius 0 if none); per caster (bound_c[k], bound_r[k] for idx[k]) a sphere that holds it, as tight
+ * as is cheap: a sphere shape's own, for a mesh its box's centre and the farthest vertex from it,
+ * else the sphere around its bounding box. Built by spc_scene_finalize. */
 typedef struct spc_scene_casters {
     int n;
     int *idx;
     spc_vec3 center;
     double radius;
+    spc_vec3 *bound_c;
+    double *bound_r;
 } spc_scene_casters;
 
 typedef struct spc_scene {
