@@ -85,21 +85,35 @@ static bool splits_emission(const spc_bsdf *b)
     return spc_bsdf_flags(b) == (SPC_LOBE_DELTA_REFLECTION | SPC_LOBE_DELTA_TRANSMISSION);
 }
 
+/* The reflection both splits at a smooth dielectric h trace: its sample bs (the delta reflection
+ * lobe, chosen at the lobe's own point so no sampler dimension is used), its factor f = F *
+ * specular reflectance and the ray r leaving h. False where the reflection is not taken: another
+ * lobe, a direction strict normals reject, or a black factor. */
+static bool split_reflection(const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo, spc_bsdf_sample *bs,
+                             spc_rgb *f, spc_ray *r)
+{
+    if (!spc_bsdf_sample_dir(h->bsdf, h, SPC_MODE_RADIANCE, wo, 0.0, spc_v2(0.5, 0.5), bs) ||
+        bs->lobe != SPC_LOBE_DELTA_REFLECTION)
+        return false;
+    if (ctx->strict_normals && !(spc_dot(bs->wi, h->ng) * spc_dot(bs->wi, h->sh.n) > 0.0))
+        return false;
+    *f = spc_rgb_scale(bs->weight, bs->pdf);
+    if (spc_rgb_is_black(*f))
+        return false;
+    *r = spc_hit_spawn(h, bs->wi);
+    return true;
+}
+
 /* The split term at h (wo toward the previous vertex; sn the specular NEE state before h's
  * scattering), to be multiplied by the throughput that reached h. */
 static spc_rgb split_emission(const spc_render_ctx *ctx, const spc_path_snee *sn, const spc_hit *h, spc_vec3 wo)
 {
     const spc_scene *sc = ctx->scene;
     spc_bsdf_sample bs;
-    if (!spc_bsdf_sample_dir(h->bsdf, h, SPC_MODE_RADIANCE, wo, 0.0, spc_v2(0.5, 0.5), &bs) ||
-        bs.lobe != SPC_LOBE_DELTA_REFLECTION)
+    spc_rgb f;
+    spc_ray ray;
+    if (!split_reflection(ctx, h, wo, &bs, &f, &ray))
         return spc_rgb1(0.0);
-    if (ctx->strict_normals && !(spc_dot(bs.wi, h->ng) * spc_dot(bs.wi, h->sh.n) > 0.0))
-        return spc_rgb1(0.0);
-    spc_rgb f = spc_rgb_scale(bs.weight, bs.pdf);
-    if (spc_rgb_is_black(f))
-        return spc_rgb1(0.0);
-    spc_ray ray = spc_hit_spawn(h, bs.wi);
     spc_hit hr;
     if (!spc_scene_intersect(sc, &ray, &hr)) {
         /* after a delta vertex the environment's weight is 1, as in spc_path_sample */
@@ -141,15 +155,10 @@ static spc_rgb split_snee(const spc_render_ctx *ctx, const spc_path_snee *sn, co
     if (!depth_allows(ctx->max_depth, segments + 2))
         return spc_rgb1(0.0);
     spc_bsdf_sample bs;
-    if (!spc_bsdf_sample_dir(h->bsdf, h, SPC_MODE_RADIANCE, wo, 0.0, spc_v2(0.5, 0.5), &bs) ||
-        bs.lobe != SPC_LOBE_DELTA_REFLECTION)
+    spc_rgb f;
+    spc_ray ray;
+    if (!split_reflection(ctx, h, wo, &bs, &f, &ray))
         return spc_rgb1(0.0);
-    if (ctx->strict_normals && !(spc_dot(bs.wi, h->ng) * spc_dot(bs.wi, h->sh.n) > 0.0))
-        return spc_rgb1(0.0);
-    spc_rgb f = spc_rgb_scale(bs.weight, bs.pdf);
-    if (spc_rgb_is_black(f))
-        return spc_rgb1(0.0);
-    spc_ray ray = spc_hit_spawn(h, bs.wi);
     spc_hit hr;
     if (!spc_scene_intersect(sc, &ray, &hr))
         return spc_rgb1(0.0);
