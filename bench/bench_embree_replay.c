@@ -26,6 +26,14 @@
  * wave's step traces up to 256 extension rays; W = 0 or more than the file: the whole file) sorted by
  * their direction's octant, then by the Morton code of their origin in the box of all origins (10
  * bits an axis), then by their direction's (7 bits an axis: a camera's rays by pixel), the order a renderer would get by sorting its rays before forming packets.
+ * REPLAY_SORT_OCTANT=1 with REPLAY_SORT sorts by the octant alone (stable: the file's order within
+ * an octant), the order of a wave that groups its rays in octant packets as it does its shadow rays.
+ *
+ * REPLAY_DIFF=1 traces nothing for time: it builds the robust and the flagless scene and traces every
+ * ray of both files as a single ray (rtcIntersect1; a shadow ray's answer is whether it has a hit in
+ * (tnear, tfar)) through both, then prints the rays whose answers differ (an intersection: another
+ * shape or triangle; a shadow ray: blocked in one and not the other) with both hits (the first 40),
+ * and the count of each file's: which rays Embree's watertight test changes.
  */
 #include <embree3/rtcore.h>
 #include <math.h>
@@ -87,8 +95,9 @@ static int keyed_cmp(const void *a, const void *b)
     return x->i < y->i ? -1 : x->i > y->i;
 }
 
-/* rs's rays sorted within windows of w (0: the whole file) by octant, then origin's Morton code. */
-static void sort_rays(rays *rs, size_t w)
+/* rs's rays sorted within windows of w (0: the whole file) by octant, then (unless octant_only)
+ * origin's Morton code and direction's; equal keys keep the file's order. */
+static void sort_rays(rays *rs, size_t w, bool octant_only)
 {
     if (rs->n == 0)
         return;
@@ -116,7 +125,7 @@ static void sort_rays(rays *rs, size_t w)
         uint32_t md = 0;
         for (int k = 0; k < 3; ++k)
             md |= spread3((uint32_t)((q[3 + k] * 0.5f + 0.5f) * 127.0f)) << (2 - k);
-        ks[i].key = oct << 51 | (uint64_t)m << 21 | md;
+        ks[i].key = octant_only ? oct : oct << 51 | (uint64_t)m << 21 | md;
         ks[i].i = i;
     }
     for (size_t i0 = 0; i0 < rs->n; i0 += w)
@@ -213,6 +222,41 @@ static size_t trace(RTCScene s, const rays *rs, bool occlusion, enum form form, 
     return hits;
 }
 
+/* REPLAY_DIFF: the rays of rs whose single-ray answers differ between the robust scene and the
+ * flagless one, printed (the first 40) and counted. */
+static void diff_rays(RTCScene robust, RTCScene fast, const rays *rs, bool occlusion)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCScene scenes[2] = {robust, fast};
+    size_t differ = 0;
+    for (size_t i = 0; i < rs->n; ++i) {
+        const float *q = rs->r + 8 * i;
+        struct RTCRayHit rh[2];
+        for (int k = 0; k < 2; ++k) {
+            rh[k].ray.org_x = q[0], rh[k].ray.org_y = q[1], rh[k].ray.org_z = q[2];
+            rh[k].ray.dir_x = q[3], rh[k].ray.dir_y = q[4], rh[k].ray.dir_z = q[5];
+            rh[k].ray.tnear = q[6], rh[k].ray.tfar = q[7];
+            rh[k].ray.time = 0.0f, rh[k].ray.mask = 0xFFFFFFFFu, rh[k].ray.id = 0, rh[k].ray.flags = 0;
+            rh[k].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rh[k].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(scenes[k], &ctx, &rh[k]);
+        }
+        bool hit0 = rh[0].hit.geomID != RTC_INVALID_GEOMETRY_ID, hit1 = rh[1].hit.geomID != RTC_INVALID_GEOMETRY_ID;
+        bool d = occlusion ? hit0 != hit1 : rh[0].hit.geomID != rh[1].hit.geomID || (hit0 && rh[0].hit.primID != rh[1].hit.primID);
+        if (!d)
+            continue;
+        if (differ++ < 40) {
+            printf("%s ray %zu: o (%.9g, %.9g, %.9g) d (%.9g, %.9g, %.9g) t in (%.9g, %.9g)\n", occlusion ? "shadow" : "isect", i,
+                   q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7]);
+            for (int k = 0; k < 2; ++k)
+                printf("  %s: shape %d triangle %d t %.9g u %.9g v %.9g\n", k ? "flagless" : "robust  ", (int)rh[k].hit.geomID,
+                       (int)rh[k].hit.primID, rh[k].ray.tfar, rh[k].hit.u, rh[k].hit.v);
+        }
+    }
+    printf("%s rays: %zu of %zu answer differently\n", occlusion ? "shadow" : "intersection", differ, rs->n);
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 3) {
@@ -244,15 +288,30 @@ int main(int argc, char **argv)
     const char *sort = getenv("REPLAY_SORT");
     if (sort) {
         size_t w = (size_t)strtoull(sort, NULL, 10);
-        sort_rays(&rs[0], w);
-        sort_rays(&rs[1], w);
-        printf("rays sorted in windows of %zu by octant and origin\n", w);
+        bool oct = getenv("REPLAY_SORT_OCTANT") != NULL;
+        sort_rays(&rs[0], w, oct);
+        sort_rays(&rs[1], w, oct);
+        printf("rays sorted in windows of %zu by %s\n", w, oct ? "octant" : "octant and origin");
     }
     printf("| scene flags | call | intersection ns/ray | hits | shadow ns/ray | occluded | build CPU s |\n"
            "|---|---|---|---|---|---|---|\n");
     /* REPLAY_EMBREE_CONFIG, if set, is the device's configuration (e.g. tri_builder=sah_fast_spatial) */
     const char *config = getenv("REPLAY_EMBREE_CONFIG");
     RTCDevice dev = rtcNewDevice(config ? config : "verbose=0");
+    if (getenv("REPLAY_DIFF")) {
+        double build_s;
+        RTCScene robust = build(dev, sc, RTC_SCENE_FLAG_ROBUST, &build_s);
+        RTCScene fast = build(dev, sc, RTC_SCENE_FLAG_NONE, &build_s);
+        diff_rays(robust, fast, &rs[0], false);
+        diff_rays(robust, fast, &rs[1], true);
+        rtcReleaseScene(robust);
+        rtcReleaseScene(fast);
+        rtcReleaseDevice(dev);
+        free(rs[0].r);
+        free(rs[1].r);
+        spc_scene_destroy(sc);
+        return 0;
+    }
     /* specula's flags for big meshes first (robust and compact: Embree's BVH4 over triangle4i leaves,
      * robust traversal), then robust alone (BVH8, triangle4v), compact alone (BVH4, triangle4i) and
      * none (Mitsuba 3's: BVH8, triangle4, Moeller-Trumbore, the high-quality spatial-split build) */
