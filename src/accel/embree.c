@@ -44,6 +44,7 @@ struct spc_accel {
     bool compact;     /* built with RTC_SCENE_FLAG_COMPACT (SPC_ACCEL_COMPACT_TRIS) */
     /* octant shadow packets by the coherent traversal (SPC_ACCEL_INCOHERENT_SHADOW_TRIS) */
     bool shadows_coherent;
+    bool analytic; /* some shape is user geometry (its hits come in double from the callbacks) */
 };
 
 bool spc_accel_skips_any(const spc_accel *a) { return a->nskip > 0; }
@@ -273,6 +274,7 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
                 return NULL;
             }
         } else {
+            a->analytic = true;
             g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_USER);
             rtcSetGeometryUserPrimitiveCount(g, 1);
             rtcSetGeometryUserData(g, (void *)s);
@@ -515,6 +517,37 @@ static void cull_lines(const spc_accel *a, struct RTCRay16 *er)
     cull_base(a, er);
 }
 
+/* A packet's answers where every hit is Embree's (a scene without user geometry), the values of
+ * intersect_packet's general pick: shape[i] the geometry (-1 for a miss or an inactive lane, whose
+ * geomID stays invalid), prim[i] and the float distance and surface coordinates in double, all 0
+ * for a miss. In GCC vector types over the 16 lanes, the misses cleared with a mask: no branch per
+ * lane, and none of the general pick's per-lane tables (0.8% of the cornell box's instructions,
+ * bench/RESULTS.md). */
+typedef double ans_v16d __attribute__((vector_size(128)));
+typedef long long ans_v16l __attribute__((vector_size(128)));
+static void answers_float(const struct RTCRayHit16 *rh, int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET],
+                          double u[SPC_ACCEL_PACKET], double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
+{
+    cull_v16i g, pr;
+    cull_v16 tf, uf, vf;
+    memcpy(&g, rh->hit.geomID, sizeof g);
+    memcpy(&pr, rh->hit.primID, sizeof pr);
+    memcpy(&tf, rh->ray.tfar, sizeof tf);
+    memcpy(&uf, rh->hit.u, sizeof uf);
+    memcpy(&vf, rh->hit.v, sizeof vf);
+    const cull_v16i hit = g >= 0; /* -1 where the lane hit */
+    const ans_v16l m = __builtin_convertvector(hit, ans_v16l);
+    const ans_v16d td = __builtin_convertvector(tf, ans_v16d), ud = __builtin_convertvector(uf, ans_v16d),
+                   vd = __builtin_convertvector(vf, ans_v16d);
+    const ans_v16l tb = (ans_v16l)td & m, ub = (ans_v16l)ud & m, vb = (ans_v16l)vd & m;
+    pr &= hit;
+    memcpy(shape, &g, sizeof g);
+    memcpy(prim, &pr, sizeof pr);
+    memcpy(t, &tb, sizeof tb);
+    memcpy(u, &ub, sizeof ub);
+    memcpy(v, &vb, sizeof vb);
+}
+
 /* spc_accel_intersect_packet with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*) */
 static void intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET], enum RTCIntersectContextFlags flags,
                              int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
@@ -556,6 +589,10 @@ static void intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCE
         return;
     }
     rtcIntersect16(valid, a->scene, &cx.ctx, &rh);
+    if (!a->analytic) {
+        answers_float(&rh, shape, prim, u, v, t);
+        return;
+    }
     /* The answers without a branch per lane (whether a lane hit and whether an analytic shape's
      * double answer or Embree's float one holds are coin flips in a path tracer's packets; GCC turns
      * conditional expressions here back into branches, so the values are picked by index). An
