@@ -35,8 +35,7 @@ bool spc_bdpt_pool_model_init(spc_bdpt_pool_model *m, spc_vec3 lo, spc_vec3 hi, 
     m->pi = calloc(n * n, sizeof *m->pi);
     m->keep = calloc(n * n, sizeof *m->keep);
     m->alias = calloc(n * n, sizeof *m->alias);
-    m->slots = calloc(n * n, sizeof *m->slots);
-    return m->nu && m->score && m->pi && m->keep && m->alias && m->slots;
+    return m->nu && m->score && m->pi && m->keep && m->alias;
 }
 
 void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m)
@@ -46,7 +45,6 @@ void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m)
     free(m->pi);
     free(m->keep);
     free(m->alias);
-    free(m->slots);
     memset(m, 0, sizeof *m);
 }
 
@@ -122,10 +120,6 @@ bool spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths)
                 pi[k] = s > 0.0 ? sc[k] / s : m->nu[k] / nu_sum;
         }
         alias_build(pi, n, m->keep + (size_t)c * n, m->alias + (size_t)c * n, work);
-        for (int k = 0; k < n; ++k) {
-            const size_t i = (size_t)c * n + k;
-            m->slots[i] = (spc_bdpt_pool_slot){m->keep[i], pi[k], pi[m->alias[i]], m->alias[i]};
-        }
     }
     free(work);
     return true;
@@ -196,10 +190,8 @@ bool spc_bdpt_pool_pick(const spc_bdpt_pool *p, int c, double u1, double u2, con
     const size_t row = (size_t)c * n;
     double f = u1 * n;
     int slot = (int)f < n ? (int)f : n - 1;
-    const spc_bdpt_pool_slot *sl = &m->slots[row + slot];
-    const bool kept = f - slot < sl->keep;
-    int k = kept ? slot : sl->alias;
-    double pk = kept ? sl->pi_keep : sl->pi_alias;
+    int k = f - slot < m->keep[row + slot] ? slot : m->alias[row + slot];
+    double pk = m->pi[row + k];
     int cnt = p->start[k + 1] - p->start[k];
     if (!(pk > 0.0) || cnt <= 0)
         return false;

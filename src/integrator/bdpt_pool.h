@@ -58,18 +58,7 @@ typedef struct spc_bdpt_pool_model {
     double *keep;  /* ncells x ncells: each row's alias table (Walker 1977): slot k keeps k with this
                     * probability, else gives alias[slot]; a row that sums to 0 keeps nothing */
     int *alias;    /* ncells x ncells */
-    struct spc_bdpt_pool_slot *slots; /* ncells x ncells: keep, alias and pi together (the pick's) */
 } spc_bdpt_pool_model;
-
-/* One slot of a row's alias table with the densities of both its outcomes, so that a pick reads
- * one cache line of the model where keep, alias and pi would be three (a row spans kilobytes and
- * the picks' slots are random). */
-typedef struct spc_bdpt_pool_slot {
-    double keep;     /* keep[slot] */
-    double pi_keep;  /* pi_c(slot) */
-    double pi_alias; /* pi_c(alias[slot]) */
-    int alias;       /* alias[slot] */
-} spc_bdpt_pool_slot;
 
 /* Sets up the grid over [lo, hi] with the tables zeroed; false if out of memory (then release it). */
 bool spc_bdpt_pool_model_init(spc_bdpt_pool_model *m, spc_vec3 lo, spc_vec3 hi, int connections);
