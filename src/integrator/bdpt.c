@@ -105,9 +105,11 @@
  * equals the corresponding --strategy render bit for bit.
  */
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "bsdf/diffuse_view.h"
 #include "core/rng.h"
 #include "integrator/aov.h"
 #include "integrator/bdpt.h"
@@ -205,27 +207,37 @@ typedef enum vkind {
 } vkind;
 
 typedef struct vtx {
+    /* What the MIS weights read of a subpath's other vertices, first and together (a pool join
+     * reads it of three vertices of the picked light subpath: vertex_mis_prefetch) */
     vkind kind;
-    spc_hit h;      /* V_SURFACE: the hit; V_LIGHT: p, ng and err only (to spawn shadow rays) */
-    spc_vec3 p;     /* position (V_ENV: direction toward the environment) */
-    spc_vec3 n;     /* geometric normal if on_surface */
-    spc_vec3 wo;    /* V_SURFACE: unit direction toward the previous vertex of its own subpath */
-    spc_vec3 d;     /* V_LIGHT at infinity: the direction light travels */
-    spc_rgb beta;   /* subpath throughput arriving at the vertex (light endpoint: 1 / origin pdf) */
-    spc_rgb Le;     /* V_LIGHT on an area light: emitted radiance (front side) */
-    double pdf_fwd, pdf_rev;
-    double pdf_pos; /* V_LIGHT at infinity: area density on the emission disk */
-    const spc_emitter *light;
     bool on_surface, delta, infinite;
+    /* V_SURFACE: its BSDF as a diffuse lobe where it is one (vertex_view): dv_kind DV_NONE, DV_ANY
+     * (a diffuse BSDF: the view holds for every direction pair) or DV_SIDE (twosided: the view holds
+     * where the call's wo lies on side dv_side, spc_diffuse_view_side) */
+    signed char dv_kind, dv_side;
     unsigned flags; /* V_SURFACE: spc_bsdf_flags of its BSDF (read by every join) */
     /* With the pool (B->pm; light_side_sums, camera_side_sums): the vertex's cell, and far_sum,
      * the part of the MIS weight's sum of a connection joining this vertex that depends on this
      * vertex's own subpath only (mis_weight_pool); on a light subpath's y0 with y1, pdf_direct:
      * light_direct_pdf of y0 from y1 (light_subpath). */
     int cell;
+    double pdf_fwd, pdf_rev;
     double far_sum;
     double pdf_direct;
+    spc_vec3 p;     /* position (V_ENV: direction toward the environment) */
+    spc_vec3 n;     /* geometric normal if on_surface */
+    /* what a join reads of its two vertices besides the above */
+    spc_vec3 wo;    /* V_SURFACE: unit direction toward the previous vertex of its own subpath */
+    spc_rgb beta;   /* subpath throughput arriving at the vertex (light endpoint: 1 / origin pdf) */
+    spc_diffuse_view dv;
+    spc_hit h;      /* V_SURFACE: the hit; V_LIGHT: p, ng and err only (to spawn shadow rays) */
+    spc_vec3 d;     /* V_LIGHT at infinity: the direction light travels */
+    spc_rgb Le;     /* V_LIGHT on an area light: emitted radiance (front side) */
+    double pdf_pos; /* V_LIGHT at infinity: area density on the emission disk */
+    const spc_emitter *light;
 } vtx;
+
+enum { DV_NONE, DV_ANY, DV_SIDE };
 
 typedef struct bdpt {
     const spc_render_ctx *ctx;
@@ -272,6 +284,53 @@ static spc_vec3 dir_to(const vtx *a, const vtx *b)
     if (b->kind == V_LIGHT && b->infinite)
         return spc_neg(b->d);
     return spc_normalize(spc_sub(b->p, a->p));
+}
+
+/* ---- the vertex's BSDF ----
+ *
+ * A surface vertex keeps its BSDF as a diffuse lobe where it is one (bsdf/diffuse_view.h: a
+ * diffuse BSDF, or twosided's diffuse side facing the vertex's wo), set once when the walk
+ * reaches it. Every value and density asked of the vertex afterwards (each join asks two values
+ * and up to four densities, the pool's joins many times per vertex) then skips bsdf.c's dispatch,
+ * twosided's copy of the hit and the reflectance's lookup; the view's values are spc_bsdf_eval's
+ * and spc_bsdf_pdf's bit for bit, so the images do not move. */
+static void vertex_view(vtx *v)
+{
+    const spc_hit *h = &v->h;
+    const spc_shape *sh = h->shape;
+    v->dv_kind = DV_NONE;
+    v->dv_side = 0;
+    const spc_bsdf *b = h->bsdf;
+    if (!b || (b->type != SPC_BSDF_DIFFUSE && b->type != SPC_BSDF_TWOSIDED))
+        return;
+    const int side = spc_diffuse_view_side(h, v->wo);
+    if (sh && sh->bsdf == b && sh->diffuse_const)
+        spc_diffuse_view_make(h, sh->diffuse_sign[side], sh->diffuse_albedo[side], &v->dv);
+    else if (!spc_diffuse_view_of(b, h, v->wo, &v->dv))
+        return;
+    v->dv_kind = b->type == SPC_BSDF_DIFFUSE ? DV_ANY : DV_SIDE;
+    v->dv_side = (signed char)side;
+}
+
+/* Does v's view give its BSDF's values for calls whose first direction is wo? */
+static bool view_holds(const vtx *v, spc_vec3 wo)
+{
+    return v->dv_kind == DV_ANY || (v->dv_kind == DV_SIDE && spc_diffuse_view_side(&v->h, wo) == v->dv_side);
+}
+
+/* spc_bsdf_eval and spc_bsdf_pdf of surface vertex v's BSDF (the view's where it holds). */
+static spc_rgb vertex_eval(const vtx *v, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
+{
+    if (view_holds(v, wo))
+        return spc_diffuse_view_eval(&v->dv, &v->h, wo, wi);
+    return spc_bsdf_eval(v->h.bsdf, &v->h, mode, wo, wi);
+}
+
+static double vertex_pdf(const vtx *v, spc_transport mode, spc_vec3 wo, spc_vec3 wi)
+{
+    if (view_holds(v, wo))
+        return spc_diffuse_view_pdf(&v->dv, &v->h, wo, wi);
+    return spc_bsdf_pdf(v->h.bsdf, &v->h, mode, wo, wi);
 }
 
 /* The cone of directions from p toward caster sphere i of the aim: false where p lies inside the
@@ -419,7 +478,7 @@ static spc_vec3 side_normal(const spc_hit *h, spc_vec3 wo) { return spc_dot(h->n
 /* The solid-angle density with which a camera_aimable v (wo toward the camera) scatters along wi. */
 static double camera_aim_pdf(const bdpt *B, const vtx *v, spc_vec3 wo, spc_vec3 wi)
 {
-    double pb = spc_bsdf_pdf(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, wo, wi);
+    double pb = vertex_pdf(v, SPC_MODE_RADIANCE, wo, wi);
     double cones;
     int m = aim_cones(B->aim, v->p, side_normal(&v->h, wo), &wi, &cones);
     return m > 0 ? (1.0 - B->aim_cam) * pb + B->aim_cam * cones / m : pb;
@@ -432,7 +491,7 @@ static double camera_aim_pdf(const bdpt *B, const vtx *v, spc_vec3 wo, spc_vec3 
 static double camera_walk_pdf(const bdpt *B, const vtx *prev, const vtx *v, spc_vec3 wo, spc_vec3 wi)
 {
     return camera_aimable(B, prev, v) ? camera_aim_pdf(B, v, wo, wi)
-                                      : spc_bsdf_pdf(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, wo, wi);
+                                      : vertex_pdf(v, SPC_MODE_RADIANCE, wo, wi);
 }
 
 /* camera_aimable v's sample of the mixture (m >= 1 cones above it, n its side_normal): u.x < a a
@@ -457,7 +516,7 @@ static bool camera_aim_sample(const bdpt *B, const vtx *v, int m, spc_vec3 n, do
     double pdf = camera_aim_pdf(B, v, v->wo, wi);
     if (!(pdf > 0.0))
         return false;
-    spc_rgb f = spc_bsdf_eval(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, v->wo, wi);
+    spc_rgb f = vertex_eval(v, SPC_MODE_RADIANCE, v->wo, wi);
     bs->wi = wi;
     bs->pdf = pdf;
     bs->weight = spc_rgb_scale(f, spc_absdot(wi, v->h.sh.n) / pdf);
@@ -504,6 +563,7 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         v->on_surface = true;
         v->delta = v->infinite = false;
         v->flags = spc_bsdf_flags(h->bsdf);
+        vertex_view(v);
         v->light = h->emitter;
         v->pdf_rev = 0.0;
         if (prev->kind == V_LIGHT && prev->infinite)
@@ -529,7 +589,8 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
             m = aim_cones(B->aim, v->p, ns, NULL, NULL);
         }
         if (m > 0 ? !camera_aim_sample(B, v, m, ns, u_lobe_rr.x, u_dir, &bs)
-                  : !spc_bsdf_sample_dir(h->bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
+                  : view_holds(v, v->wo) ? !spc_diffuse_view_sample(&v->dv, &v->h, v->wo, u_dir, &bs)
+                                         : !spc_bsdf_sample_dir(h->bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
             break;
         spc_rgb w = bs.weight;
         if (mode == SPC_MODE_IMPORTANCE)
@@ -543,7 +604,7 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
             pdf_rev_dir = bs.pdf;
         } else {
             pdf_dir = bs.pdf;
-            pdf_rev_dir = spc_bsdf_pdf(h->bsdf, &v->h, other, bs.wi, v->wo);
+            pdf_rev_dir = vertex_pdf(v, other, bs.wi, v->wo);
         }
         prev->pdf_rev = to_area(pdf_rev_dir, v, prev);
         beta = spc_rgb_mul(beta, w);
@@ -691,11 +752,11 @@ static double mis_weight_walk(const bdpt *B, const vtx *y, int s, const vtx *z, 
             Lp[0] = l0->pdf_fwd;
             Lp[1] = light_emit_pdf(B, a, b);
         } else {
-            Lp[s] = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_IMPORTANCE, a->wo, ab), a, b);
+            Lp[s] = to_area(vertex_pdf(a, SPC_MODE_IMPORTANCE, a->wo, ab), a, b);
             Ep[s - 2] = to_area(camera_walk_pdf(B, b, a, ab, a->wo), a, x[s - 2]);
         }
         if (t >= 2)
-            Lp[s + 1] = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, x[s + 1]);
+            Lp[s + 1] = to_area(vertex_pdf(b, SPC_MODE_IMPORTANCE, ba, b->wo), b, x[s + 1]);
     }
     /* p_1 samples x0 from x1 by sample_direct (for n = 2 it is the (1, 1) strategy: emission) */
     double D = n < 3             ? Lp[0]
@@ -840,9 +901,9 @@ static double mis_weight_pool(const bdpt *B, const vtx *y, int s, const vtx *z, 
         return 0.0;
     const spc_vec3 ab = dir_to(a, b), ba = dir_to(b, a);
     /* the densities that the connection sets: Ep[s-1], Lp[s], Ep[s-2] (and Lp[s+1] below) */
-    const double ep_a = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_RADIANCE, b->wo, ba), b, a);
-    const double lp_b = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_IMPORTANCE, a->wo, ab), a, b);
-    const double ep_prev = to_area(spc_bsdf_pdf(a->h.bsdf, &a->h, SPC_MODE_RADIANCE, ab, a->wo), a, &y[s - 2]);
+    const double ep_a = to_area(vertex_pdf(b, SPC_MODE_RADIANCE, b->wo, ba), b, a);
+    const double lp_b = to_area(vertex_pdf(a, SPC_MODE_IMPORTANCE, a->wo, ab), a, b);
+    const double ep_prev = to_area(vertex_pdf(a, SPC_MODE_RADIANCE, ab, a->wo), a, &y[s - 2]);
     const double D = y[0].pdf_direct;
     const double lp01 = remap0(y[0].pdf_fwd) * remap0(y[1].pdf_fwd);
     /* the light side: UP(s-1) and UP(s-2), then k = s - 1 and k <= s - 2 */
@@ -864,7 +925,7 @@ static double mis_weight_pool(const bdpt *B, const vtx *y, int s, const vtx *z, 
         const vtx *bn = &z[t - 2];
         if (!bn->delta)
             sum += heuristic(B, u1) * pool_mult(B, bn->cell, b->cell, t - 1);
-        const double lp_next = to_area(spc_bsdf_pdf(b->h.bsdf, &b->h, SPC_MODE_IMPORTANCE, ba, b->wo), b, bn);
+        const double lp_next = to_area(vertex_pdf(b, SPC_MODE_IMPORTANCE, ba, b->wo), b, bn);
         sum += heuristic(B, u1 * (remap0(lp_next) / remap0(bn->pdf_fwd))) * b->far_sum;
     }
     const double w = num / sum;
@@ -1236,7 +1297,7 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
             return;
         C = spc_rgb_scale(spc_rgb_mul(v->beta, v->Le), c / (cd.dist * cd.dist));
     } else {
-        spc_rgb f = spc_bsdf_eval(v->h.bsdf, &v->h, SPC_MODE_IMPORTANCE, v->wo, cd.wi);
+        spc_rgb f = vertex_eval(v, SPC_MODE_IMPORTANCE, v->wo, cd.wi);
         double g = shading_fix(&v->h, v->wo, cd.wi) * spc_absdot(cd.wi, v->h.sh.n) / (cd.dist * cd.dist);
         C = spc_rgb_scale(spc_rgb_mul(v->beta, f), g);
     }
@@ -1324,7 +1385,7 @@ static spc_rgb connect_s1(const bdpt *B, const vtx *z, int t, spc_sampler *cs, d
     spc_emitter_direct ds;
     if (!e || !(pmf > 0.0) || !spc_emitter_sample_direct(e, v->p, u_lpos, &ds) || !(ds.pdf > 0.0))
         return spc_rgb1(0.0);
-    spc_rgb f = spc_bsdf_eval(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, v->wo, ds.wi);
+    spc_rgb f = vertex_eval(v, SPC_MODE_RADIANCE, v->wo, ds.wi);
     double c = spc_absdot(ds.wi, v->h.sh.n);
     spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(v->beta, f), ds.L), c / (pmf * ds.pdf));
     if (spc_rgb_is_black(C))
@@ -1371,13 +1432,27 @@ static spc_rgb connection_value(const vtx *a, const vtx *b, bool with_b, double 
     if (!(d2 > 0.0))
         return spc_rgb1(0.0);
     spc_vec3 w = spc_scale(d, 1.0 / sqrt(d2)); /* from a toward b */
-    spc_rgb fa = spc_bsdf_eval(a->h.bsdf, &a->h, SPC_MODE_IMPORTANCE, a->wo, w);
+    spc_rgb fa = vertex_eval(a, SPC_MODE_IMPORTANCE, a->wo, w);
     if (spc_rgb_is_black(fa))
         return fa;
-    spc_rgb fb = spc_bsdf_eval(b->h.bsdf, &b->h, SPC_MODE_RADIANCE, b->wo, spc_neg(w));
+    spc_rgb fb = vertex_eval(b, SPC_MODE_RADIANCE, b->wo, spc_neg(w));
     double G = shading_fix(&a->h, a->wo, w) * spc_absdot(w, a->h.sh.n) * spc_absdot(w, b->h.sh.n) /
                spc_max(d2, d2_min);
     return spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(a->beta, fa), with_b ? spc_rgb_mul(fb, b->beta) : fb), G);
+}
+
+/* Asks the cache for the lines of v that the MIS weights read (kind to n: the start of vtx; a
+ * hint, no effect on the result). */
+static void vertex_mis_prefetch(const vtx *v)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    const char *c = (const char *)v;
+    __builtin_prefetch(c, 0, 3);
+    __builtin_prefetch(c + 64, 0, 3);
+    __builtin_prefetch(c + offsetof(vtx, n) + sizeof v->n - 1, 0, 3);
+#else
+    (void)v;
+#endif
 }
 
 /* s >= 2, t >= 2: join two scattering vertices. */
@@ -1392,6 +1467,14 @@ static spc_rgb connect_st(const bdpt *B, const vtx *y, int s, const vtx *z, int 
     spc_rgb C = connection_value(a, b, true, 0.0);
     if (spc_rgb_is_black(C))
         return C;
+    /* a pick's MIS weight reads y0, y1 and y[s-2] of a subpath likely out of cache: asked for
+     * now, they arrive while the shadow ray is traced */
+    if (pick) {
+        vertex_mis_prefetch(&y[0]);
+        vertex_mis_prefetch(&y[1]);
+        if (s >= 4)
+            vertex_mis_prefetch(&y[s - 2]);
+    }
     spc_ray sr = spc_hit_spawn_to(&a->h, b->p, b->h.err);
     if (spc_scene_occluded(B->sc, &sr))
         return spc_rgb1(0.0);
