@@ -164,7 +164,7 @@ static spc_rgb split_snee(const spc_render_ctx *ctx, const spc_path_snee *sn, co
         return spc_rgb1(0.0);
     /* by roulette where the reflection is unlikely (spc_path_snee_split_prob): its own stream, so
      * that the sampler's dimensions stay as they are */
-    double p = spc_path_snee_split_prob(sn, bs.pdf);
+    double p = spc_path_snee_split_prob(sn, h, bs.pdf);
     if (p < 1.0) {
         spc_rng rng;
         spc_sampler_fork_rng(smp, SPC_PATH_SPLIT_STREAM, &rng);
