@@ -16,10 +16,10 @@
  *   of the same setting with "nosplit" (which renders as before the splitting; without the splitting the two
  *   would be the same render);
  * - the split by roulette on flat-faced glass (the pane) where F is below "splitf" (counted 1/p,
- *   p = F / splitf): at splitf=0.5
- *   (p = 2F on the pane) it agrees per pixel with "nosplit", and at the same seed its summed
- *   variance lies below nosplit's (p = F, as the sampled reflection itself) and above the
- *   default's (p = F / 0.25) by at least as much as the two pixel sets' nosplit sums differ.
+ *   p = F / splitf): at splitf=0.5 (p = 2F on the pane) it agrees per pixel with "nosplit", and at
+ *   the same seed its summed variance lies below nosplit's (p = F, as the sampled reflection
+ *   itself) and above the default's (p = F / 0.25) by at least as much as the two pixel sets'
+ *   nosplit sums differ.
  */
 /* ctest-labels: stat */
 #include "harness.h"

@@ -116,11 +116,12 @@ bool spc_path_snee_splits(const spc_path_snee *s, const spc_hit *h);
  * one query per sample; taken by roulette with probability p and counted 1/p, it leaves
  * F^2 Q^2 (1/p - 1), and at p = min(1, F / S) that is F (S - F) Q^2, never more than the lobe
  * choice's (p >= F), for a query on a share F / S of the samples. The split's worth per query
- * grows with F: on the glass cube the faces seen head-on (F 0.04-0.06) hold a few percent of the
- * variance it removes for most of its queries' CPU, while total internal reflection (F = 1) holds
- * most of it (bench/RESULTS.md, part cube31). On a tessellated ball the split runs on every
- * sample: its own caustic's fold, reflected at F 0.04-0.1, gives query values that the roulette's
- * S Q turned into one-pixel seeds (3 of 16 on a random scene, part cube31). */
+ * grows with F: on the glass cube the reflections at F below 0.1 (its faces seen head-on) held 20%
+ * of the variance it removes for 88% of its queries' CPU, those at F 0.25-1 (grazing, and inside
+ * the glass) 80% for 8% (bench/RESULTS.md, "The split by roulette on flat glass"). On a
+ * tessellated ball the split runs on every sample: its own caustic's fold, reflected at F
+ * 0.04-0.1, gives query values that the roulette's S Q turned into one-pixel seeds (3 of 16 seeds
+ * on a random scene). */
 #define SPC_PATH_SPLIT_F 0.25
 /* The sampler fork's stream of the split's roulette (spc_sampler_fork_rng). */
 #define SPC_PATH_SPLIT_STREAM 0x73706c6974ULL
