@@ -14,7 +14,12 @@
  *   image mean with `none` (no specular NEE);
  * - at the same sample count and seed its summed variance over the pixels it changed is below that
  *   of the same setting with "nosplit" (which renders as before the splitting; without the splitting the two
- *   would be the same render).
+ *   would be the same render);
+ * - the split by roulette on flat-faced glass (the pane) where F is below "splitf" (counted 1/p,
+ *   p = F / splitf): at splitf=0.5 (p = 2F on the pane) it agrees per pixel with "nosplit", and at
+ *   the same seed its summed variance lies below nosplit's (p = F, as the sampled reflection
+ *   itself) and above the default's (p = F / 0.25) by at least as much as the two pixel sets'
+ *   nosplit sums differ.
  */
 /* ctest-labels: stat */
 #include "harness.h"
@@ -116,8 +121,48 @@ TEST(split_agrees_with_nosplit_and_none_and_lowers_the_variance)
     spc_scene_destroy(sc);
 }
 
+TEST(split_by_roulette_agrees_with_nosplit_and_ranks_by_its_probability)
+{
+    spc_scene *sc = pane_scene();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const char *on = "angular:first=0.1,later=0.1", *half = "angular:first=0.1,later=0.1,splitf=0.5";
+    const char *off = "angular:first=0.1,later=0.1,nosplit";
+    int spp = spc_test_quick() ? 512 : 1024;
+    spc_film *rl = tu_render_nee(sc, "path", half, spp, 2, 41, NULL);
+    spc_film *nosplit = tu_render_nee(sc, "path", off, spp, 2, 43, NULL);
+    spc_film *paired = tu_render_nee(sc, "path", off, spp, 2, 41, NULL);
+    spc_film *split = tu_render_nee(sc, "path", on, spp, 2, 41, NULL);
+    CHECK(rl && nosplit && paired && split);
+    if (rl && nosplit && paired && split) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(rl, nosplit, 0.99, "splitf=0.5 vs nosplit", &d));
+        printf("    splitf=0.5 vs nosplit: z-test pass %.4f of %d pixels; means %.5f vs %.5f\n", d.ztest_pass_fraction,
+               d.ztest_pixels, d.mean_a[0], d.mean_b[0]);
+        /* the same seed, so the same camera paths: the pixels each split changed */
+        double vr, vn, vs, vn2;
+        int n, n2;
+        var_where_differ(rl, paired, &vr, &vn, &n);
+        var_where_differ(split, paired, &vs, &vn2, &n2);
+        printf("    summed variance at %d spp, seed 41: splitf=0.5 %.4g over %d pixels (nosplit %.4g), default "
+               "%.4g over %d pixels (nosplit %.4g)\n",
+               spp, vr, n, vn, vs, n2, vn2);
+        CHECK(n > 0 && n2 > 0);
+        CHECK(vr < vn);
+        CHECK(vs < vr + (vn2 - vn));
+    }
+    spc_film_destroy(rl);
+    spc_film_destroy(nosplit);
+    spc_film_destroy(paired);
+    spc_film_destroy(split);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(split_agrees_with_nosplit_and_none_and_lowers_the_variance);
+    RUN(split_by_roulette_agrees_with_nosplit_and_ranks_by_its_probability);
     return spc_test_finish();
 }

@@ -134,14 +134,17 @@ static spc_rgb split_emission(const spc_render_ctx *ctx, const spc_path_snee *sn
 
 /* Specular NEE splitting at the same vertices as split_emission where the glass is a triangle mesh
  * (spc_path_snee_splits): at a smooth dielectric h seen from the camera through delta vertices
- * only, the reflected ray is traced on every sample and specular NEE made at the receiver it hits
- * (hr) with the reflection's factor f = F * specular_reflectance; the sampled path skips its own query at that receiver after a reflection
- * chosen at h (spc_path_snee.skip_query), and nothing else. Without it a caustic seen in the glass
+ * only, the reflected ray is traced and specular NEE made at the receiver it hits (hr) with the
+ * reflection's factor f = F * specular_reflectance, on every sample where F is large and by
+ * roulette (probability p, counted 1/p) where it is small (spc_path_snee_split_prob); the sampled
+ * path skips its own query at that receiver after a reflection chosen at h
+ * (spc_path_snee.skip_query), and nothing else. Without it a caustic seen in the glass
  * (the floor's caustic of a tessellated glass ball, reflected in the ball) is reached by a few
  * samples in a hundred, each counting its full brightness: on random caustic scenes those samples
  * held most of a seed's error (bench/RESULTS.md, part tails30). Unbiased as split_emission is: the
  * skipped term's expectation over the lobe choice is F times the query's at hr, which the split
- * adds with probability 1, and the query at hr is the same estimator either way (the state the
+ * adds with probability p, counted 1/p (the roulette's uniform from a fork of the sampler, apart
+ * from the lobe choice and the query), and the query at hr is the same estimator either way (the state the
  * path would carry there, spc_path_snee_scattered's, and the sampler's dimensions that the path's
  * next vertex would draw its query from: the three pairs of BSDF sampling at h, the two of light
  * sampling at hr), so the MIS weights of the paths it covers stay as they are. sn: the specular
@@ -159,6 +162,16 @@ static spc_rgb split_snee(const spc_render_ctx *ctx, const spc_path_snee *sn, co
     spc_ray ray;
     if (!split_reflection(ctx, h, wo, &bs, &f, &ray))
         return spc_rgb1(0.0);
+    /* by roulette where the reflection is unlikely (spc_path_snee_split_prob): its own stream, so
+     * that the sampler's dimensions stay as they are */
+    double p = spc_path_snee_split_prob(sn, h, bs.pdf);
+    if (p < 1.0) {
+        spc_rng rng;
+        spc_sampler_fork_rng(smp, SPC_PATH_SPLIT_STREAM, &rng);
+        if (!(spc_rng_next(&rng) < p))
+            return spc_rgb1(0.0);
+        f = spc_rgb_scale(f, 1.0 / p);
+    }
     spc_hit hr;
     if (!spc_scene_intersect(sc, &ray, &hr))
         return spc_rgb1(0.0);

@@ -385,3 +385,11 @@ bool spc_path_snee_splits(const spc_path_snee *s, const spc_hit *h)
 {
     return s->on && !s->p.no_split && h->shape && h->shape->type == SPC_SHAPE_MESH;
 }
+
+double spc_path_snee_split_prob(const spc_path_snee *s, const spc_hit *h, double pr)
+{
+    if (!spc_flat_chain_shape(h->shape))
+        return 1.0;
+    double f = s->p.split_f > 0.0 && s->p.split_f <= 1.0 ? s->p.split_f : SPC_PATH_SPLIT_F;
+    return pr >= f ? 1.0 : pr / f;
+}

@@ -110,6 +110,27 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
  * gain at equal CPU (bench/RESULTS.md, part tails30). */
 bool spc_path_snee_splits(const spc_path_snee *s, const spc_hit *h);
 
+/* On flat-faced glass (spc_flat_chain_shape: a cube, a slab, a pane), the reflection's probability
+ * from which that split runs on every sample (params.split_f 0). The split removes the lobe
+ * choice's variance, F (1 - F) Q^2 for a query value Q at the reflected receiver, at the cost of
+ * one query per sample; taken by roulette with probability p and counted 1/p, it leaves
+ * F^2 Q^2 (1/p - 1), and at p = min(1, F / S) that is F (S - F) Q^2, never more than the lobe
+ * choice's (p >= F), for a query on a share F / S of the samples. The split's worth per query
+ * grows with F: on the glass cube the reflections at F below 0.1 (its faces seen head-on) held 20%
+ * of the variance it removes for 88% of its queries' CPU, those at F 0.25-1 (grazing, and inside
+ * the glass) 80% for 8% (bench/RESULTS.md, "The split by roulette on flat glass"). On a
+ * tessellated ball the split runs on every sample: its own caustic's fold, reflected at F
+ * 0.04-0.1, gives query values that the roulette's S Q turned into one-pixel seeds (3 of 16 seeds
+ * on a random scene). */
+#define SPC_PATH_SPLIT_F 0.25
+/* The sampler fork's stream of the split's roulette (spc_sampler_fork_rng). */
+#define SPC_PATH_SPLIT_STREAM 0x73706c6974ULL
+
+/* The probability that the split runs at the vertex h where the sampled path takes the reflection
+ * with probability pr (its Fresnel term): on flat-faced glass min(1, pr / S), S the "splitf" option
+ * or SPC_PATH_SPLIT_F; elsewhere 1. */
+double spc_path_snee_split_prob(const spc_path_snee *s, const spc_hit *h, double pr);
+
 /* The caustic guide (caustic_guide.h) at the path vertex h (wo toward the previous vertex), to
  * sample its continuation with spc_cguide_sample_mix and weigh it with spc_cguide_mix_pdf; specular
  * NEE at h (spc_path_snee_at_vertex) and the MIS weight of the paths it covers from h use the same

@@ -61,6 +61,10 @@ static const spc_snee_option options[] = {
     {"nosplit", NULL, SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(no_split), NO, 0, NULL,
      "path: no specular NEE by splitting at a reflection off a smooth glass mesh seen from the camera (the "
      "receiver that the sampled reflection reaches queries instead)"},
+    {"splitf", NULL, SPC_SNEE_OPT_REAL, false, "S", 0, 1, true, false, NULL, 0, NO, AT(split_f), 0, NULL,
+     "path: on flat-faced glass (a cube, a slab, a pane) that split runs on every sample where the "
+     "reflection's probability F (Fresnel) is at least S, else with probability F / S, counted S / F "
+     "times (default 0.25; a small S splits everywhere)"},
     {"ltcaus", "noltcaus", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(lt_caustic), NO, 0, NULL,
      "path: the caustics of point lights and (with MIS, without recguide) area lights through a glass sphere "
      "also by light tracing (light subpaths joined to the camera directly, through the sphere and through a "

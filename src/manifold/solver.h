@@ -107,6 +107,11 @@ typedef struct spc_snee_params {
     /* the user's "nosplit" option: the path tracer does not split specular NEE at the reflection off a
      * smooth glass mesh seen from the camera (path.c, split_snee) */
     bool no_split;
+    /* The reflection's probability at which the split above runs on every sample on flat-faced
+     * glass (the user's "splitf=S", in (0, 1]; 0: SPC_PATH_SPLIT_F, integrator/path_snee.h): where
+     * the sampled path takes the reflection with probability P_R, the split runs with probability
+     * min(1, P_R / S) and counts its query 1 / that times. */
+    double split_f;
     /* Reflection at dielectric vertices (the user's "reflect[=P]"): chains may reflect off glass as
      * well as refract through it (the light's reflection in a glass ball on the floor, internal
      * reflections). A randomized attempt picks the event at each dielectric vertex of its seed chain
