@@ -201,6 +201,20 @@ static cone cone_faces(const flat_face *a, const flat_face *b)
     return cone_of(spc_scale(d, 1.0 / len), g, n);
 }
 
+/* What the walk asks of a pair of faces, one from each of two shapes' caches a and b (or both of
+ * one shape), none of it depending on the query: the directions between them, and on which sides
+ * of each one's plane the other's corners lie (the walk's corner_on_side tests, read as the
+ * largest and least signed distance, compared with the query's tolerance). */
+typedef struct flat_link {
+    const struct flat_cache *to; /* b */
+    struct flat_link *next;      /* the next of a's links (flat_link_get) */
+    cone cap[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES]; /* cone_faces(a's face i, b's face j) */
+    /* max and min over the corners of a's face i of plane_dist(b's face j, corner) (top, bot),
+     * and over the corners of b's face j of plane_dist(a's face i, corner) (rtop, rbot) */
+    double top[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES], bot[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES];
+    double rtop[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES], rbot[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES];
+} flat_link;
+
 typedef struct flat_cache {
     void (*destroy)(void *); /* first member: spc_shape_release calls it */
     bool ok;
@@ -210,7 +224,8 @@ typedef struct flat_cache {
     bool convex;
     int nfaces;
     flat_face face[SPC_FLAT_MAX_FACES];
-    cone pair[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES]; /* cone_faces(face i, face j) */
+    flat_link self;    /* its faces against its own (to: itself) */
+    flat_link *links;  /* against other shapes' faces, built on first use (flat_link_get) */
     int ntri;
     int *tri_face;    /* per mesh triangle: its face, or -1 (degenerate) */
     spc_vec3 *corner; /* per triangle in face order: its 3 corners */
@@ -222,6 +237,10 @@ static void cache_destroy(void *p)
     flat_cache *c = p;
     if (!c)
         return;
+    for (flat_link *l = c->links, *next; l; l = next) {
+        next = l->next;
+        free(l);
+    }
     free(c->tri_face);
     free(c->corner);
     free(c->tri2d);
@@ -235,6 +254,32 @@ static spc_vec3 vert(const spc_mesh *m, uint32_t i)
 
 /* Signed distance of p from face f's plane (positive on the exterior side). */
 static double plane_dist(const flat_face *f, spc_vec3 p) { return spc_dot(f->n, p) - f->d; }
+
+/* The largest and least plane_dist(g, corner) over the corners of face f's triangles (in fc). */
+static void corner_extent(const flat_cache *fc, const flat_face *f, const flat_face *g, double *top, double *bot)
+{
+    double hi = -INFINITY, lo = INFINITY;
+    for (int t = f->first; t < f->first + f->count; ++t)
+        for (int j = 0; j < 3; ++j) {
+            double d = plane_dist(g, fc->corner[3 * t + j]);
+            hi = fmax(hi, d);
+            lo = fmin(lo, d);
+        }
+    *top = hi;
+    *bot = lo;
+}
+
+/* l's tables from a's faces to b's (a == b: a shape against itself); l->to = b. */
+static void link_fill(flat_link *l, const flat_cache *a, const flat_cache *b)
+{
+    l->to = b;
+    for (int i = 0; i < a->nfaces; ++i)
+        for (int j = 0; j < b->nfaces; ++j) {
+            l->cap[i][j] = cone_faces(&a->face[i], &b->face[j]);
+            corner_extent(a, &a->face[i], &b->face[j], &l->top[i][j], &l->bot[i][j]);
+            corner_extent(b, &b->face[j], &a->face[i], &l->rtop[i][j], &l->rbot[i][j]);
+        }
+}
 
 /* Is p inside the convex shape of fc, beyond tol from every face's plane? */
 static bool inside_convex(const flat_cache *fc, spc_vec3 p, double tol)
@@ -373,9 +418,7 @@ static void cache_build(const spc_shape *s, flat_cache *c)
     }
     c->ok = c->nfaces > 0;
     c->convex = closed_convex(c, m, scale);
-    for (int i = 0; i < c->nfaces; ++i)
-        for (int j = 0; j < c->nfaces; ++j)
-            c->pair[i][j] = cone_faces(&c->face[i], &c->face[j]);
+    link_fill(&c->self, c, c);
 }
 
 /* May s be a flat chain shape at all (before its faces are counted)? */
@@ -1158,12 +1201,39 @@ static cone cone_point_face(spc_vec3 z, const flat_face *f)
     return cone_of(spc_scale(d, 1.0 / len), g, f->ncorners);
 }
 
+/* The link from a's faces to b's: a's own where a == b, else found in a's list or built and added
+ * to it (atomically: threads that build the same one at once keep the first published); NULL where
+ * memory runs out (the caller computes what it needs itself). */
+static const flat_link *flat_link_get(const flat_cache *a, const flat_cache *b)
+{
+    if (a == b)
+        return &a->self;
+    flat_link **head = (flat_link **)&((flat_cache *)a)->links;
+    flat_link *mine = NULL;
+    for (;;) {
+        flat_link *first = __atomic_load_n(head, __ATOMIC_ACQUIRE);
+        for (flat_link *l = first; l; l = l->next)
+            if (l->to == b) {
+                free(mine);
+                return l;
+            }
+        if (!mine) {
+            mine = malloc(sizeof *mine);
+            if (!mine)
+                return NULL;
+            link_fill(mine, a, b);
+        }
+        mine->next = first;
+        if (__atomic_compare_exchange_n(head, &first, mine, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
+            return mine;
+    }
+}
+
 /* The directions from the points of face a (of the shape cached as ca) to those of face b (cb). */
 static cone faces_cap(const flat_cache *ca, const flat_face *a, const flat_cache *cb, const flat_face *b)
 {
-    if (ca == cb)
-        return ca->pair[a - ca->face][b - ca->face];
-    return cone_faces(a, b);
+    const flat_link *l = flat_link_get(ca, cb);
+    return l ? l->cap[a - ca->face][b - cb->face] : cone_faces(a, b);
 }
 
 /* The axis a refracted through the plane of unit normal m (toward the side it arrives from) from
@@ -1233,10 +1303,6 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
 /* Shapes whose shadow tests a walk caches (more are tested each time). */
 #define SPC_FLAT_WALK_SHAPES 32
 
-/* Casters whose faces' direction caps toward another caster's faces a walk caches: 64 faces, 4 kB
- * of flags cleared per walk (the caps themselves, 128 kB, are not cleared). */
-#define SPC_FLAT_PAIR_SLOTS 4
-
 typedef struct flat_walk {
     const spc_scene *sc;
     const spc_chain_casters *cs;
@@ -1257,29 +1323,10 @@ typedef struct flat_walk {
     bool stop;
     bool partial; /* reflections off glass inside a longer chain may be partial (reflect implied) */
     bool need_glass_reflect; /* with partial: solve only the sequences of 2+ vertices with a reflection off glass */
-    /* cone_faces between faces of two different casters in the first SPC_FLAT_PAIR_SLOTS slots,
-     * per (slot * SPC_FLAT_MAX_FACES + face) pair, and whether known; pair_cap is read only where
-     * known, so it stays out of the walk's clearing (it is last, after ends) */
-    unsigned char pair_known[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
     /* cone_point_face from x (end 0) and from y (end 1), per caster slot and face: read only where
-     * ends_known, so it stays out of the walk's clearing (32 kB) with pair_cap */
+     * ends_known, so it stays out of the walk's clearing (32 kB; it is last) */
     cone ends[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
-    cone pair_cap[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
 } flat_walk;
-
-/* faces_cap from vertex a's face to vertex b's, cached where they are on different casters. */
-static cone walk_faces_cap(flat_walk *w, const flat_vertex *a, int slot_b, const flat_cache *cb, const flat_face *b)
-{
-    if (a->fc == cb || a->slot >= SPC_FLAT_PAIR_SLOTS || slot_b >= SPC_FLAT_PAIR_SLOTS)
-        return faces_cap(a->fc, a->f, cb, b);
-    int ia = a->slot * SPC_FLAT_MAX_FACES + (int)(a->f - a->fc->face);
-    int ib = slot_b * SPC_FLAT_MAX_FACES + (int)(b - cb->face);
-    if (!w->pair_known[ia][ib]) {
-        w->pair_cap[ia][ib] = cone_faces(a->f, b);
-        w->pair_known[ia][ib] = 1;
-    }
-    return w->pair_cap[ia][ib];
-}
 
 /* shadowed() of face fi of the caster in slot j from x (end 0) or y (end 1), cached. */
 static bool walk_shadowed(flat_walk *w, int end, int j, const flat_cache *fc, int fi, double tol)
@@ -1327,7 +1374,7 @@ static bool backward_meets(flat_walk *w, int k)
         if (!cone_through(cone_neg(b), m, v->event == SPC_CHAIN_REFLECT, n_out, n_in, &back))
             return false;
         b = cone_neg(back);
-        cone between = i > 0 ? walk_faces_cap(w, &P->v[i - 1], v->slot, v->fc, v->f)
+        cone between = i > 0 ? faces_cap(P->v[i - 1].fc, P->v[i - 1].f, v->fc, v->f)
                              : walk_end_cap(w, 0, v->slot, v->fc, (int)(v->f - v->fc->face));
         if (!cones_meet(b, between))
             return false;
@@ -1357,6 +1404,9 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
         const flat_cache *fc = flat_get(s);
         if (!fc)
             continue;
+        /* the last vertex's face against this caster's faces (NULL: out of memory, computed here) */
+        const flat_link *lk = prev ? flat_link_get(prev->fc, fc) : NULL;
+        const int pf = prev ? (int)(prev->f - prev->fc->face) : 0;
         double eta = shape_eta(s);
         for (int fi = 0; fi < fc->nfaces && !w->stop; ++fi) {
             const flat_face *f = &fc->face[fi];
@@ -1384,9 +1434,11 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                         continue;
                     if (side > 0 && walk_shadowed(w, 0, j, fc, fi, tol))
                         continue;
-                } else if (!corner_on_side(prev->fc, prev->f, f, side, tol) ||
-                           !corner_on_side(fc, f, prev->f, prev->side_out, tol)) {
-                    continue;
+                } else if (lk ? !(side > 0 ? lk->top[pf][fi] > tol : lk->bot[pf][fi] < -tol) ||
+                                    !(prev->side_out > 0 ? lk->rtop[pf][fi] > tol : lk->rbot[pf][fi] < -tol)
+                              : !corner_on_side(prev->fc, prev->f, f, side, tol) ||
+                                    !corner_on_side(fc, f, prev->f, prev->side_out, tol)) {
+                    continue; /* some corner of each face on the side of the other's plane it needs */
                 }
                 double in = side_index(eta, side);
                 if (in >= 0.0 && medium >= 0.0 && fabs(in - medium) > 1e-9 * in)
@@ -1398,7 +1450,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                     if (!prev) {
                         arrive = walk_end_cap(w, 0, j, fc, fi);
                     } else {
-                        cone between = walk_faces_cap(w, prev, j, fc, f);
+                        cone between = lk ? lk->cap[pf][fi] : cone_faces(prev->f, f);
                         if (!cones_meet(dir, between))
                             break;
                         if (between.r < arrive.r)
