@@ -1255,8 +1255,9 @@ static spc_vec3 refract_axis(spc_vec3 a, spc_vec3 m, double n_in, double n_out)
  * cos to), azimuthal sin to / sin ti = n_in / n_out; both at most n_in / n_out into a denser
  * medium, largest at the cap's widest incidence out of one): the image lies within r L of the
  * refracted axis. */
-static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n_out, cone *out)
+static bool cone_through(const cone *cp, spc_vec3 m, bool reflect, double n_in, double n_out, cone *out)
 {
+    const cone c = *cp;
     spc_vec3 down = spc_neg(m); /* the direction straight into the plane */
     /* th, the axis's angle from straight in, is needed only refracting out of a denser medium;
      * elsewhere its two tests read on the cosine (the test below: th >= c.r + pi/2 - 1e-12, as
@@ -1371,7 +1372,8 @@ static bool backward_meets(flat_walk *w, int k)
             return false; /* every direction within the critical angle: no total reflection */
         double n_in = P->seg[i] >= 0.0 ? P->seg[i] : 1.0, n_out = P->seg[i + 1] >= 0.0 ? P->seg[i + 1] : 1.0;
         cone back;
-        if (!cone_through(cone_neg(b), m, v->event == SPC_CHAIN_REFLECT, n_out, n_in, &back))
+        cone rb = cone_neg(b);
+        if (!cone_through(&rb, m, v->event == SPC_CHAIN_REFLECT, n_out, n_in, &back))
             return false;
         b = cone_neg(back);
         cone between = i > 0 ? faces_cap(P->v[i - 1].fc, P->v[i - 1].f, v->fc, v->f)
@@ -1386,11 +1388,12 @@ static bool backward_meets(flat_walk *w, int k)
     return true;
 }
 
-/* i: the vertex to choose; medium: the index of the segment arriving there (-1: not known); dir:
+/* i: the vertex to choose; medium: the index of the segment arriving there (-1: not known); dirp:
  * the cap of that segment's directions. Each sequence of lo to hi vertices that passes the
  * pruning is solved as it is completed, and longer ones grow from it. */
-static void walk(flat_walk *w, int i, double medium, cone dir)
+static void walk(flat_walk *w, int i, double medium, const cone *dirp)
 {
+    const cone dir = *dirp;
     flat_problem *P = &w->P;
     double tol = SPC_FLAT_SIDE_REL * P->scale;
     const flat_vertex *prev = i > 0 ? &P->v[i - 1] : NULL;
@@ -1493,7 +1496,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                     if (!reach && !grow)
                         continue;
                     cone leave;
-                    if (!cone_through(arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
+                    if (!cone_through(&arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
                         continue;
                     flat_vertex *v = &P->v[i];
                     w->cap[i] = arrive;
@@ -1536,7 +1539,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                             w->stop = true;
                     }
                     if (grow)
-                        walk(w, k, m_out, leave);
+                        walk(w, k, m_out, &leave);
                 }
             }
         }
@@ -1592,7 +1595,8 @@ static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int par
     w.P.parallel = parallel;
     w.found = found;
     w.user = user;
-    walk(&w, 0, -1.0, (cone){spc_v3(0, 0, 1), 4.0});
+    const cone any = {spc_v3(0, 0, 1), 4.0};
+    walk(&w, 0, -1.0, &any);
     if (bound_ends)
         *bound_ends = w.tally.bound_ends;
     if (closed)
