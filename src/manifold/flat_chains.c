@@ -129,10 +129,19 @@ static double critical_angle(double x)
 /* Does every direction of the cap (a, r), r < pi, lie within the angle crit < pi/2 of the unit
  * vector m: angle(a, m) + r <= crit? Without the acos where the answer is plain: a cap wider than
  * crit, or an axis at a right angle or more from m, is not within it (the angle is >= 0, and >=
- * pi/2 > crit there). */
+ * pi/2 > crit there); otherwise the test reads acos(d) <= t = crit - r as d >= cos t, and cos t
+ * lies between 1 - t^2/2 + t^4/24 - t^6/720 and 1 - t^2/2 + t^4/24 (Taylor's bounds, t <= pi/2):
+ * outside that band widened by 1e-14 on the cosine (an angle of 1e-14 at least, far above the
+ * rounding of either form) the answer is decided, inside it the angles are compared as before. */
 static bool cap_within(spc_vec3 a, double r, spc_vec3 m, double crit)
 {
-    if (r > crit || !(spc_dot(a, m) > 0.0))
+    double d = spc_dot(a, m);
+    if (r > crit || !(d > 0.0))
+        return false;
+    double t = crit - r, t2 = t * t, hi = 1.0 - 0.5 * t2 + t2 * t2 * (1.0 / 24.0);
+    if (d >= hi + 1e-14)
+        return true;
+    if (d < hi - t2 * t2 * t2 * (1.0 / 720.0) - 1e-14)
         return false;
     return angle_between(a, m) + r <= crit;
 }
