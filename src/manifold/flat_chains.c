@@ -1000,6 +1000,8 @@ typedef struct flat_tally {
     int closed;
 } flat_tally;
 
+static bool in_face(const flat_cache *fc, const flat_face *f, spc_vec3 p, double tol);
+
 static bool minimize(flat_problem *P, spc_vec3 *p, flat_tally *t)
 {
     const int k = P->k;
@@ -1021,6 +1023,14 @@ static bool minimize(flat_problem *P, spc_vec3 *p, flat_tally *t)
         /* the closed form's minimum, certified by Newton's steps on L; where they do not converge,
          * the smoothed stages below from the straight line */
         double lb = -INFINITY, L = path_length(P, s, 0.0, p);
+        /* a vertex outside its face by more than the closed form's error (SPC_FLAT_CROSS_REL, as
+         * for the reflecting planes above): the minimum, L's only one, is outside the faces too,
+         * which solve_sequence would find after the steps below */
+        for (int i = 0; i < k; ++i)
+            if (!in_face(P->v[i].fc, P->v[i].f, p[i + 1], SPC_FLAT_CROSS_REL * P->scale)) {
+                ++t->closed;
+                return false;
+            }
         bool apart = true;
         for (int j = 0; j <= k && apart; ++j)
             apart = spc_length(spc_sub(p[j + 1], p[j])) > 1e3 * min_len;
