@@ -29,6 +29,7 @@
 #include "harness.h"
 #include "render_util.h"
 #include "manifold/snee_options.h"
+#include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
 #include "specula/specula.h"
 
@@ -230,11 +231,42 @@ TEST(share_render_agrees_with_none)
     spc_scene_destroy(sc);
 }
 
+/* The plan's setting for slabs under larger lights (SPC_SNEE_PLAN_FLAT_LARGE: light tracing on every
+ * sample, the 3- and 4-vertex chains on a share of the calls) against specular NEE off: per-pixel
+ * z-test (Sidak) and image means, 8 x 8, under a light of radius 0.25 (the same power). */
+TEST(large_light_setting_agrees_with_none)
+{
+    spc_scene *sc = load_res("0.25", "25.6, 24.5, 23.0", "8");
+    if (!sc)
+        return;
+    bool quick = getenv("SPC_TEST_QUICK") != NULL;
+    spc_film *img = tu_render_nee(sc, "path", "angular:camera=0.1,first=0.1,later=0.1" SPC_SNEE_PLAN_FLAT_LARGE,
+                                  quick ? 64 : 256, 2, 43, NULL);
+    spc_film *ref = tu_render_nee(sc, "path", "none", quick ? 4096 : 16384, 2, 44, NULL);
+    CHECK(img && ref);
+    if (img && ref) {
+        spc_diff_result r;
+        memset(&r, 0, sizeof r);
+        CHECK(tu_image_agrees(img, ref, 0.99, "large-light setting vs none", &r));
+        double mi, si, mr, sr;
+        tu_image_mean(img, 1, &mi, &si);
+        tu_image_mean(ref, 1, &mr, &sr);
+        CHECK_MSG(fabs(mi - mr) < 4.0 * sqrt(si * si + sr * sr), "image means %.5f +- %.5f vs %.5f +- %.5f", mi, si,
+                  mr, sr);
+        printf("    %s: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f\n", SPC_SNEE_PLAN_FLAT_LARGE,
+               r.ztest_pass_fraction, img->width * img->height, mi, si, mr, sr);
+    }
+    spc_film_destroy(img);
+    spc_film_destroy(ref);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(five_vertex_weight);
     RUN(weighted_sum_agrees_with_bsdf_sampling);
     RUN(share_of_three_and_four_vertex_chains_agrees);
     RUN(share_render_agrees_with_none);
+    RUN(large_light_setting_agrees_with_none);
     return spc_test_finish();
 }

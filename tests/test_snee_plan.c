@@ -1565,7 +1565,7 @@ TEST(slab_plan_large_lights)
         spc_snee_params sp;
         if (cases[i].on) {
             CHECK_MSG(p.on && strstr(p.setting, SPC_SNEE_PLAN_FLAT_LARGE) && spc_snee_parse(p.setting, 2, &sp) &&
-                          sp.lt_caustic && sp.lt_share == 1.0 && sp.flat34_p == 0.3 && sp.long_max == 8,
+                          sp.lt_caustic && sp.lt_share == 1.0 && sp.flat34_p == 0.1 && sp.long_max == 8,
                       "case %zu (%.3g sr): %s (%s)", i, p.light_sr, p.setting, p.reason);
             CHECK_MSG(p.light_sr > 0.01 && p.light_sr <= (p.caster_share >= 0.25 ? 0.2 : 0.045),
                       "case %zu: %.3g sr, share %.3g", i, p.light_sr, p.caster_share);

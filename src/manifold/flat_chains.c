@@ -129,10 +129,19 @@ static double critical_angle(double x)
 /* Does every direction of the cap (a, r), r < pi, lie within the angle crit < pi/2 of the unit
  * vector m: angle(a, m) + r <= crit? Without the acos where the answer is plain: a cap wider than
  * crit, or an axis at a right angle or more from m, is not within it (the angle is >= 0, and >=
- * pi/2 > crit there). */
+ * pi/2 > crit there); otherwise the test reads acos(d) <= t = crit - r as d >= cos t, and cos t
+ * lies between 1 - t^2/2 + t^4/24 - t^6/720 and 1 - t^2/2 + t^4/24 (Taylor's bounds, t <= pi/2):
+ * outside that band widened by 1e-14 on the cosine (an angle of 1e-14 at least, far above the
+ * rounding of either form) the answer is decided, inside it the angles are compared as before. */
 static bool cap_within(spc_vec3 a, double r, spc_vec3 m, double crit)
 {
-    if (r > crit || !(spc_dot(a, m) > 0.0))
+    double d = spc_dot(a, m);
+    if (r > crit || !(d > 0.0))
+        return false;
+    double t = crit - r, t2 = t * t, hi = 1.0 - 0.5 * t2 + t2 * t2 * (1.0 / 24.0);
+    if (d >= hi + 1e-14)
+        return true;
+    if (d < hi - t2 * t2 * t2 * (1.0 / 720.0) - 1e-14)
         return false;
     return angle_between(a, m) + r <= crit;
 }
@@ -201,6 +210,20 @@ static cone cone_faces(const flat_face *a, const flat_face *b)
     return cone_of(spc_scale(d, 1.0 / len), g, n);
 }
 
+/* What the walk asks of a pair of faces, one from each of two shapes' caches a and b (or both of
+ * one shape), none of it depending on the query: the directions between them, and on which sides
+ * of each one's plane the other's corners lie (the walk's corner_on_side tests, read as the
+ * largest and least signed distance, compared with the query's tolerance). */
+typedef struct flat_link {
+    const struct flat_cache *to; /* b */
+    struct flat_link *next;      /* the next of a's links (flat_link_get) */
+    cone cap[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES]; /* cone_faces(a's face i, b's face j) */
+    /* max and min over the corners of a's face i of plane_dist(b's face j, corner) (top, bot),
+     * and over the corners of b's face j of plane_dist(a's face i, corner) (rtop, rbot) */
+    double top[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES], bot[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES];
+    double rtop[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES], rbot[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES];
+} flat_link;
+
 typedef struct flat_cache {
     void (*destroy)(void *); /* first member: spc_shape_release calls it */
     bool ok;
@@ -210,7 +233,8 @@ typedef struct flat_cache {
     bool convex;
     int nfaces;
     flat_face face[SPC_FLAT_MAX_FACES];
-    cone pair[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES]; /* cone_faces(face i, face j) */
+    flat_link self;    /* its faces against its own (to: itself) */
+    flat_link *links;  /* against other shapes' faces, built on first use (flat_link_get) */
     int ntri;
     int *tri_face;    /* per mesh triangle: its face, or -1 (degenerate) */
     spc_vec3 *corner; /* per triangle in face order: its 3 corners */
@@ -222,6 +246,10 @@ static void cache_destroy(void *p)
     flat_cache *c = p;
     if (!c)
         return;
+    for (flat_link *l = c->links, *next; l; l = next) {
+        next = l->next;
+        free(l);
+    }
     free(c->tri_face);
     free(c->corner);
     free(c->tri2d);
@@ -235,6 +263,32 @@ static spc_vec3 vert(const spc_mesh *m, uint32_t i)
 
 /* Signed distance of p from face f's plane (positive on the exterior side). */
 static double plane_dist(const flat_face *f, spc_vec3 p) { return spc_dot(f->n, p) - f->d; }
+
+/* The largest and least plane_dist(g, corner) over the corners of face f's triangles (in fc). */
+static void corner_extent(const flat_cache *fc, const flat_face *f, const flat_face *g, double *top, double *bot)
+{
+    double hi = -INFINITY, lo = INFINITY;
+    for (int t = f->first; t < f->first + f->count; ++t)
+        for (int j = 0; j < 3; ++j) {
+            double d = plane_dist(g, fc->corner[3 * t + j]);
+            hi = fmax(hi, d);
+            lo = fmin(lo, d);
+        }
+    *top = hi;
+    *bot = lo;
+}
+
+/* l's tables from a's faces to b's (a == b: a shape against itself); l->to = b. */
+static void link_fill(flat_link *l, const flat_cache *a, const flat_cache *b)
+{
+    l->to = b;
+    for (int i = 0; i < a->nfaces; ++i)
+        for (int j = 0; j < b->nfaces; ++j) {
+            l->cap[i][j] = cone_faces(&a->face[i], &b->face[j]);
+            corner_extent(a, &a->face[i], &b->face[j], &l->top[i][j], &l->bot[i][j]);
+            corner_extent(b, &b->face[j], &a->face[i], &l->rtop[i][j], &l->rbot[i][j]);
+        }
+}
 
 /* Is p inside the convex shape of fc, beyond tol from every face's plane? */
 static bool inside_convex(const flat_cache *fc, spc_vec3 p, double tol)
@@ -373,9 +427,7 @@ static void cache_build(const spc_shape *s, flat_cache *c)
     }
     c->ok = c->nfaces > 0;
     c->convex = closed_convex(c, m, scale);
-    for (int i = 0; i < c->nfaces; ++i)
-        for (int j = 0; j < c->nfaces; ++j)
-            c->pair[i][j] = cone_faces(&c->face[i], &c->face[j]);
+    link_fill(&c->self, c, c);
 }
 
 /* May s be a flat chain shape at all (before its faces are counted)? */
@@ -948,6 +1000,8 @@ typedef struct flat_tally {
     int closed;
 } flat_tally;
 
+static bool in_face(const flat_cache *fc, const flat_face *f, spc_vec3 p, double tol);
+
 static bool minimize(flat_problem *P, spc_vec3 *p, flat_tally *t)
 {
     const int k = P->k;
@@ -969,6 +1023,14 @@ static bool minimize(flat_problem *P, spc_vec3 *p, flat_tally *t)
         /* the closed form's minimum, certified by Newton's steps on L; where they do not converge,
          * the smoothed stages below from the straight line */
         double lb = -INFINITY, L = path_length(P, s, 0.0, p);
+        /* a vertex outside its face by more than the closed form's error (SPC_FLAT_CROSS_REL, as
+         * for the reflecting planes above): the minimum, L's only one, is outside the faces too,
+         * which solve_sequence would find after the steps below */
+        for (int i = 0; i < k; ++i)
+            if (!in_face(P->v[i].fc, P->v[i].f, p[i + 1], SPC_FLAT_CROSS_REL * P->scale)) {
+                ++t->closed;
+                return false;
+            }
         bool apart = true;
         for (int j = 0; j <= k && apart; ++j)
             apart = spc_length(spc_sub(p[j + 1], p[j])) > 1e3 * min_len;
@@ -1158,12 +1220,39 @@ static cone cone_point_face(spc_vec3 z, const flat_face *f)
     return cone_of(spc_scale(d, 1.0 / len), g, f->ncorners);
 }
 
+/* The link from a's faces to b's: a's own where a == b, else found in a's list or built and added
+ * to it (atomically: threads that build the same one at once keep the first published); NULL where
+ * memory runs out (the caller computes what it needs itself). */
+static const flat_link *flat_link_get(const flat_cache *a, const flat_cache *b)
+{
+    if (a == b)
+        return &a->self;
+    flat_link **head = (flat_link **)&((flat_cache *)a)->links;
+    flat_link *mine = NULL;
+    for (;;) {
+        flat_link *first = __atomic_load_n(head, __ATOMIC_ACQUIRE);
+        for (flat_link *l = first; l; l = l->next)
+            if (l->to == b) {
+                free(mine);
+                return l;
+            }
+        if (!mine) {
+            mine = malloc(sizeof *mine);
+            if (!mine)
+                return NULL;
+            link_fill(mine, a, b);
+        }
+        mine->next = first;
+        if (__atomic_compare_exchange_n(head, &first, mine, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
+            return mine;
+    }
+}
+
 /* The directions from the points of face a (of the shape cached as ca) to those of face b (cb). */
 static cone faces_cap(const flat_cache *ca, const flat_face *a, const flat_cache *cb, const flat_face *b)
 {
-    if (ca == cb)
-        return ca->pair[a - ca->face][b - ca->face];
-    return cone_faces(a, b);
+    const flat_link *l = flat_link_get(ca, cb);
+    return l ? l->cap[a - ca->face][b - cb->face] : cone_faces(a, b);
 }
 
 /* The axis a refracted through the plane of unit normal m (toward the side it arrives from) from
@@ -1185,8 +1274,9 @@ static spc_vec3 refract_axis(spc_vec3 a, spc_vec3 m, double n_in, double n_out)
  * cos to), azimuthal sin to / sin ti = n_in / n_out; both at most n_in / n_out into a denser
  * medium, largest at the cap's widest incidence out of one): the image lies within r L of the
  * refracted axis. */
-static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n_out, cone *out)
+static bool cone_through(const cone *cp, spc_vec3 m, bool reflect, double n_in, double n_out, cone *out)
 {
+    const cone c = *cp;
     spc_vec3 down = spc_neg(m); /* the direction straight into the plane */
     /* th, the axis's angle from straight in, is needed only refracting out of a denser medium;
      * elsewhere its two tests read on the cosine (the test below: th >= c.r + pi/2 - 1e-12, as
@@ -1233,10 +1323,6 @@ static bool cone_through(cone c, spc_vec3 m, bool reflect, double n_in, double n
 /* Shapes whose shadow tests a walk caches (more are tested each time). */
 #define SPC_FLAT_WALK_SHAPES 32
 
-/* Casters whose faces' direction caps toward another caster's faces a walk caches: 64 faces, 4 kB
- * of flags cleared per walk (the caps themselves, 128 kB, are not cleared). */
-#define SPC_FLAT_PAIR_SLOTS 4
-
 typedef struct flat_walk {
     const spc_scene *sc;
     const spc_chain_casters *cs;
@@ -1257,29 +1343,10 @@ typedef struct flat_walk {
     bool stop;
     bool partial; /* reflections off glass inside a longer chain may be partial (reflect implied) */
     bool need_glass_reflect; /* with partial: solve only the sequences of 2+ vertices with a reflection off glass */
-    /* cone_faces between faces of two different casters in the first SPC_FLAT_PAIR_SLOTS slots,
-     * per (slot * SPC_FLAT_MAX_FACES + face) pair, and whether known; pair_cap is read only where
-     * known, so it stays out of the walk's clearing (it is last, after ends) */
-    unsigned char pair_known[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
     /* cone_point_face from x (end 0) and from y (end 1), per caster slot and face: read only where
-     * ends_known, so it stays out of the walk's clearing (32 kB) with pair_cap */
+     * ends_known, so it stays out of the walk's clearing (32 kB; it is last) */
     cone ends[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
-    cone pair_cap[SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES][SPC_FLAT_PAIR_SLOTS * SPC_FLAT_MAX_FACES];
 } flat_walk;
-
-/* faces_cap from vertex a's face to vertex b's, cached where they are on different casters. */
-static cone walk_faces_cap(flat_walk *w, const flat_vertex *a, int slot_b, const flat_cache *cb, const flat_face *b)
-{
-    if (a->fc == cb || a->slot >= SPC_FLAT_PAIR_SLOTS || slot_b >= SPC_FLAT_PAIR_SLOTS)
-        return faces_cap(a->fc, a->f, cb, b);
-    int ia = a->slot * SPC_FLAT_MAX_FACES + (int)(a->f - a->fc->face);
-    int ib = slot_b * SPC_FLAT_MAX_FACES + (int)(b - cb->face);
-    if (!w->pair_known[ia][ib]) {
-        w->pair_cap[ia][ib] = cone_faces(a->f, b);
-        w->pair_known[ia][ib] = 1;
-    }
-    return w->pair_cap[ia][ib];
-}
 
 /* shadowed() of face fi of the caster in slot j from x (end 0) or y (end 1), cached. */
 static bool walk_shadowed(flat_walk *w, int end, int j, const flat_cache *fc, int fi, double tol)
@@ -1324,10 +1391,11 @@ static bool backward_meets(flat_walk *w, int k)
             return false; /* every direction within the critical angle: no total reflection */
         double n_in = P->seg[i] >= 0.0 ? P->seg[i] : 1.0, n_out = P->seg[i + 1] >= 0.0 ? P->seg[i + 1] : 1.0;
         cone back;
-        if (!cone_through(cone_neg(b), m, v->event == SPC_CHAIN_REFLECT, n_out, n_in, &back))
+        cone rb = cone_neg(b);
+        if (!cone_through(&rb, m, v->event == SPC_CHAIN_REFLECT, n_out, n_in, &back))
             return false;
         b = cone_neg(back);
-        cone between = i > 0 ? walk_faces_cap(w, &P->v[i - 1], v->slot, v->fc, v->f)
+        cone between = i > 0 ? faces_cap(P->v[i - 1].fc, P->v[i - 1].f, v->fc, v->f)
                              : walk_end_cap(w, 0, v->slot, v->fc, (int)(v->f - v->fc->face));
         if (!cones_meet(b, between))
             return false;
@@ -1339,11 +1407,12 @@ static bool backward_meets(flat_walk *w, int k)
     return true;
 }
 
-/* i: the vertex to choose; medium: the index of the segment arriving there (-1: not known); dir:
+/* i: the vertex to choose; medium: the index of the segment arriving there (-1: not known); dirp:
  * the cap of that segment's directions. Each sequence of lo to hi vertices that passes the
  * pruning is solved as it is completed, and longer ones grow from it. */
-static void walk(flat_walk *w, int i, double medium, cone dir)
+static void walk(flat_walk *w, int i, double medium, const cone *dirp)
 {
+    const cone dir = *dirp;
     flat_problem *P = &w->P;
     double tol = SPC_FLAT_SIDE_REL * P->scale;
     const flat_vertex *prev = i > 0 ? &P->v[i - 1] : NULL;
@@ -1357,6 +1426,9 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
         const flat_cache *fc = flat_get(s);
         if (!fc)
             continue;
+        /* the last vertex's face against this caster's faces (NULL: out of memory, computed here) */
+        const flat_link *lk = prev ? flat_link_get(prev->fc, fc) : NULL;
+        const int pf = prev ? (int)(prev->f - prev->fc->face) : 0;
         double eta = shape_eta(s);
         for (int fi = 0; fi < fc->nfaces && !w->stop; ++fi) {
             const flat_face *f = &fc->face[fi];
@@ -1384,9 +1456,11 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                         continue;
                     if (side > 0 && walk_shadowed(w, 0, j, fc, fi, tol))
                         continue;
-                } else if (!corner_on_side(prev->fc, prev->f, f, side, tol) ||
-                           !corner_on_side(fc, f, prev->f, prev->side_out, tol)) {
-                    continue;
+                } else if (lk ? !(side > 0 ? lk->top[pf][fi] > tol : lk->bot[pf][fi] < -tol) ||
+                                    !(prev->side_out > 0 ? lk->rtop[pf][fi] > tol : lk->rbot[pf][fi] < -tol)
+                              : !corner_on_side(prev->fc, prev->f, f, side, tol) ||
+                                    !corner_on_side(fc, f, prev->f, prev->side_out, tol)) {
+                    continue; /* some corner of each face on the side of the other's plane it needs */
                 }
                 double in = side_index(eta, side);
                 if (in >= 0.0 && medium >= 0.0 && fabs(in - medium) > 1e-9 * in)
@@ -1398,7 +1472,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                     if (!prev) {
                         arrive = walk_end_cap(w, 0, j, fc, fi);
                     } else {
-                        cone between = walk_faces_cap(w, prev, j, fc, f);
+                        cone between = lk ? lk->cap[pf][fi] : cone_faces(prev->f, f);
                         if (!cones_meet(dir, between))
                             break;
                         if (between.r < arrive.r)
@@ -1441,7 +1515,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                     if (!reach && !grow)
                         continue;
                     cone leave;
-                    if (!cone_through(arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
+                    if (!cone_through(&arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
                         continue;
                     flat_vertex *v = &P->v[i];
                     w->cap[i] = arrive;
@@ -1484,7 +1558,7 @@ static void walk(flat_walk *w, int i, double medium, cone dir)
                             w->stop = true;
                     }
                     if (grow)
-                        walk(w, k, m_out, leave);
+                        walk(w, k, m_out, &leave);
                 }
             }
         }
@@ -1540,7 +1614,8 @@ static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int par
     w.P.parallel = parallel;
     w.found = found;
     w.user = user;
-    walk(&w, 0, -1.0, (cone){spc_v3(0, 0, 1), 4.0});
+    const cone any = {spc_v3(0, 0, 1), 4.0};
+    walk(&w, 0, -1.0, &any);
     if (bound_ends)
         *bound_ends = w.tally.bound_ends;
     if (closed)

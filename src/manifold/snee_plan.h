@@ -292,8 +292,12 @@
  * flat enumeration's query costs about a hundred BSDF samples there and carries the caustic with
  * little variance; light tracing on every sample takes more of the chains BSDF sampling and the
  * query share. Measured at equal CPU time against none (bench/RESULTS.md, "Slabs under larger
- * lights"). */
-#define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.3,longmax=8"
+ * lights"). The 3- and 4-vertex chains on a tenth of the calls: with light tracing on every sample
+ * they were half the query's cost for little of its variance (at equal CPU, 1.3-2x more samples;
+ * mean relMSE over 16-32 seeds: scenes/caustic_slabs.xml 2.6-2.8x lower, fresh slab scenes under
+ * 0.031-0.035 sr 1.4x and 2.5x; bench/RESULTS.md, "the 3- and 4-vertex chains on a tenth of the
+ * calls"); a share of 0.05 made one-pixel seeds. */
+#define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.1,longmax=8"
 
 /* Appended for path where a glass caster is a tessellated ball (a triangle mesh with a fitted
  * sphere) and every light is a point light (a sky besides), without the caustic guide at receivers:
