@@ -82,7 +82,7 @@ TEST(fit_share_weights_sum)
     CHECK(spc_snee_parse("angular:fitshare=0.9", 2, &p));
     p.mis = true;
     static const double pts[4][2] = {{-1.104, 1.734}, {-0.45, 0.0}, {0.0, -0.45}, {0.9, 0.0}};
-    double zmax = chain_mis_zmax(sc, &p, 0, pts, 4, spc_v3(0.0, 3.2, 4.2), spc_test_quick() ? 10000 : 30000);
+    double zmax = chain_mis_zmax(sc, &p, 0, pts, 4, spc_v3(0.0, 3.2, 4.2), 30000);
     CHECK_MSG(zmax < 4.0, "|z| %.2f", zmax);
     spc_scene_destroy(sc);
 }
