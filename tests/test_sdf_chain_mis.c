@@ -10,7 +10,8 @@
  *   f / b, about 370).
  * - At floor points under and beside the torus, specular NEE plus the BSDF-sampled paths it covers
  *   (chains up to 6 vertices, weighted by spc_snee_mis_bsdf_weight) agree with BSDF sampling alone
- *   (every path weight 1, no specular NEE): |z| < 4 at every point.
+ *   (every path weight 1, no specular NEE): |z| < 4 at every point; the same with nine in ten of
+ *   the randomized attempts seeded from the tube spheres (fitshare=0.9).
  * - The light's glints seen from the camera (one reflection off the torus; query from the camera):
  *   the camera rays that reach the light through them are weighed with the randomized attempts'
  *   real solve probability (solve_mis), not the stand-in psi: the weight, a sampled 1 - r^N, lies
@@ -64,6 +65,28 @@ TEST(weighted_sum_agrees_with_bsdf_sampling)
     chain_mis_check_agrees(SCENE, NULL, NULL, 0, pts, 4, spc_v3(0.0, 3.2, 4.2), 30000);
 }
 
+/* With a larger share of the randomized attempts seeded from the torus's tube spheres (fitshare: the
+ * attempts' seed mixture changes, and with it the solve probability the BSDF side's weight takes),
+ * specular NEE plus the weighted BSDF-sampled paths still agree with BSDF sampling alone at the
+ * same floor points: the option moves the weights, not their sum. The option parses in (0, 1]. */
+TEST(fit_share_weights_sum)
+{
+    spc_snee_params p;
+    CHECK(spc_snee_parse("angular:fitshare=0.9", 2, &p));
+    CHECK(p.fit_share == 0.9);
+    CHECK(!spc_snee_parse("angular:fitshare=0", 2, &p));
+    CHECK(!spc_snee_parse("angular:fitshare=1.5", 2, &p));
+    spc_scene *sc = chain_mis_load(SCENE, NULL, NULL);
+    if (!sc)
+        return;
+    CHECK(spc_snee_parse("angular:fitshare=0.9", 2, &p));
+    p.mis = true;
+    static const double pts[4][2] = {{-1.104, 1.734}, {-0.45, 0.0}, {0.0, -0.45}, {0.9, 0.0}};
+    double zmax = chain_mis_zmax(sc, &p, 0, pts, 4, spc_v3(0.0, 3.2, 4.2), 30000);
+    CHECK_MSG(zmax < 4.0, "|z| %.2f", zmax);
+    spc_scene_destroy(sc);
+}
+
 TEST(camera_glint_weight_sampled)
 {
     /* the light 3.75x wider (power kept): its glints cover more of the image */
@@ -112,6 +135,7 @@ int main(void)
 {
     RUN(long_chain_weight);
     RUN(weighted_sum_agrees_with_bsdf_sampling);
+    RUN(fit_share_weights_sum);
     RUN(camera_glint_weight_sampled);
     return spc_test_finish();
 }

@@ -157,6 +157,9 @@ static const spc_snee_option options[] = {
      NULL,
      "a share of the randomized attempts on a tessellated ball seeded toward the exact solutions of the "
      "sphere fitted to it (on by default)"},
+    {"fitshare", NULL, SPC_SNEE_OPT_REAL, false, "A", 0, 1, true, false, NULL, 0, NO, AT(fit_share), 0, NULL,
+     "with fitseeds, the share A of the randomized attempts' seeds drawn from the fitted sphere's (or an SDF "
+     "torus's tube spheres') solutions (default 0.5; the ball pass's 0.9)"},
     {"seedguide", "noseedguide", SPC_SNEE_OPT_REAL, true, "A", 0, 1, true, true, NULL, 0, NO, AT(seed_guide),
      SPC_SNEE_SEED_GUIDE, NULL,
      "randomized attempts seeded, with probability A, toward the chains of light paths a pre-pass traced "
