@@ -118,11 +118,18 @@ static bool receiver(const spc_shape *s)
     return s->bsdf && (s->caustic_flags & SPC_CAUSTIC_RECEIVER) && spc_bsdf_has_smooth(s->bsdf);
 }
 
-/* Is every light of the scene a point light? */
+/* Is e a light at a point: a point light or a spot light (light tracing takes both alike,
+ * integrator/path_lt.h)? */
+static bool point_light(const spc_emitter *e)
+{
+    return e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
+}
+
+/* Is every light of the scene a point or spot light? */
 static bool point_lights_only(const spc_scene *sc)
 {
     for (int i = 0; i < sc->nemitters; ++i)
-        if (sc->emitters[i]->type != SPC_EMITTER_POINT)
+        if (!point_light(sc->emitters[i]))
             return false;
     return sc->nemitters > 0 && !sc->env;
 }
@@ -191,7 +198,7 @@ static bool flat_large_lights(const spc_scene *sc, const spc_chain_casters *cs, 
     return true;
 }
 
-/* Is every light of the scene a point light, a sky besides (some point light)? */
+/* Is every light of the scene a point or spot light, a sky besides (some point or spot light)? */
 static bool point_lights_sky(const spc_scene *sc)
 {
     bool point = false;
@@ -199,7 +206,7 @@ static bool point_lights_sky(const spc_scene *sc)
         const spc_emitter *e = sc->emitters[i];
         if (e->type == SPC_EMITTER_CONSTANT || e->type == SPC_EMITTER_ENVMAP)
             continue;
-        if (e->type != SPC_EMITTER_POINT)
+        if (!point_light(e))
             return false;
         point = true;
     }

@@ -239,9 +239,9 @@
 #define SPC_SNEE_PLAN_ROOM_OPEN 0.25
 #define SPC_SNEE_PLAN_ROOM_GLASS_BALL ",recguide=0.1,long=0.2"
 
-/* Appended for path where every light is a point light and a glass sphere is a caster: the point
- * lights' caustics also by light tracing (integrator/path_lt.h: seen directly, through the ball and
- * through a diffuse bounce), weighed against specular NEE, whose value there, the caustic's
+/* Appended for path where every light is a point light (or a spot light, traced alike) and a glass
+ * sphere is a caster: the point lights' caustics also by light tracing (integrator/path_lt.h: seen
+ * directly, through the ball and through a diffuse bounce), weighed against specular NEE, whose value there, the caustic's
  * irradiance at a sampled point, has a log-divergent second moment near the caustic's fold. On
  * bench/check/point_light_ball.xml at equal CPU time (bench/RESULTS.md, "Point lights' caustics by
  * light tracing"): 64x64, 4 CPU-s, 8 seeds, mean relMSE 0.0665 -> 0.0030 (worst seed 0.41 ->
