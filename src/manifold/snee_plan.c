@@ -125,14 +125,7 @@ static bool point_light(const spc_emitter *e)
     return e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
 }
 
-/* Is every light of the scene a point or spot light? */
-static bool point_lights_only(const spc_scene *sc)
-{
-    for (int i = 0; i < sc->nemitters; ++i)
-        if (!point_light(sc->emitters[i]))
-            return false;
-    return sc->nemitters > 0 && !sc->env;
-}
+
 
 static double light_solid_angle(const spc_shape *s, spc_vec3 c);
 
@@ -846,9 +839,9 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_ROOM_GLASS_BALL);
     }
-    /* path lit by point lights alone, with a glass sphere among the casters: the point lights'
-     * caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) */
-    if (!strcmp(integrator, "path") && glass && exact && point_lights_only(sc) && glass_sphere(sc, cs)) {
+    /* path lit by point lights (a sky besides), with a glass sphere among the casters: the point
+     * lights' caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) */
+    if (!strcmp(integrator, "path") && glass && exact && point_lights_sky(sc) && glass_sphere(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_POINT_LIGHTS);
     }
