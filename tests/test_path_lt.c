@@ -896,6 +896,7 @@ TEST(spot_joins_weigh_as_specular_nee)
     spc_vec3 axis = spc_normalize(spc_mat4_apply_vector(&e->to_world, spc_v3(0, 0, 1)));
     double cos_beam = cos(e->beam_width * SPC_PI / 180.0), cos_cut = cos(e->cutoff_angle * SPC_PI / 180.0);
     int beam = 0, falloff = 0, past = 0;
+    int n = spc_test_quick() ? 10000 : 20000;
     for (int seed = 31; seed < 33; ++seed) {
         tally t;
         memset(&t, 0, sizeof t);
@@ -903,7 +904,7 @@ TEST(spot_joins_weigh_as_specular_nee)
         t.p = &p;
         spc_rng rng;
         spc_rng_seed(&rng, (uint64_t)seed, 3);
-        for (int i = 0; i < 20000; ++i)
+        for (int i = 0; i < n; ++i)
             spc_path_lt_joins(&ctx, &p, &rng, check_join, &t);
         printf("  spot, seed %d: %d joins, %d not enumerated (%d weighed 1), largest gap of the weights' sum from 1 "
                "%.3g; x2 seen directly %d, through the sphere %d, through a diffuse bounce %d\n",
