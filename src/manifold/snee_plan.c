@@ -125,8 +125,6 @@ static bool point_light(const spc_emitter *e)
     return e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
 }
 
-
-
 static double light_solid_angle(const spc_shape *s, spc_vec3 c);
 
 /* Are the scene's lights ones the light-traced caustics of area lights pay on
