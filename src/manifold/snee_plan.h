@@ -249,7 +249,7 @@
  * 0.0058); 32x32, 1 CPU-s, 16 seeds, 0.016 -> 0.0051; it costs 2.2x per sample. A sky besides
  * takes no part in it: random scene 8772 (a glass sphere under a point light and a sky) 2.6x -> 3.0x
  * none over 16 seeds (the sphere's caustic tail gone, one path-tracer tail left that both share),
- * fresh point-light-and-sky scenes with glass spheres 1.1-10x lower mean relMSE on 6 of 8, one at
+ * fresh point-light-and-sky scenes with glass spheres 1.1-10x lower mean relMSE on 8 of 10, one at
  * the reference's noise either way, one with no tail without it 7.5x worse (still 30x none);
  * bench/check/spot_ball.xml 6.8x lower (bench/RESULTS.md, part ltsky31). Not with other lights:
  * on scenes/dielectrics.xml (a point light, an area light, a water ball, a sky) 1.2x worse (its
