@@ -23,8 +23,11 @@
  * - A render with ltcaus agrees with one without (the same estimator's two splits) by the per-pixel
  *   z-test and the image mean.
  * - The plan (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS, SPC_SNEE_PLAN_AREA_LIGHTS) runs it for path
- *   where a glass sphere is a caster and every light is a point light or a small area light, without
- *   the caustic guide at receivers, and nowhere else.
+ *   where a glass sphere is a caster and every light is a point or spot light or a small area light,
+ *   without the caustic guide at receivers, and nowhere else.
+ * - A spot light (bench/check/spot_ball_edge.xml: the ball across the beam's edge): its joins weigh
+ *   as a point light's, its intensity toward the ball is Mitsuba 3's falloff, and a render with
+ *   ltcaus agrees with one without and with bdpt.
  * - Area lights (a small sphere light, bench/check/ball_small_light.xml, and a small square one,
  *   bench/check/ball_rect_light.xml): every kind of join occurs, and on each the three weights of
  *   its path, specular NEE's at x2 (its enumerated chain toward the light point, its value with MIS
@@ -398,9 +401,10 @@ TEST(plan_with_point_lights_and_small_area_lights)
                            "bench/check/ball_small_light.xml",
                            "scenes/caustic_glass_sphere.xml",
                            "scenes/dielectrics.xml",
-                           "scenes/demo.xml"};
-    const bool want[] = {true, true, true, true, false, false};
-    for (int i = 0; i < 6; ++i) {
+                           "scenes/demo.xml",
+                           "bench/check/spot_ball.xml"};
+    const bool want[] = {true, true, true, true, false, false, true};
+    for (int i = 0; i < 7; ++i) {
         spc_scene *sc = tu_load(files[i], 8);
         CHECK(sc != NULL);
         if (!sc)
@@ -863,6 +867,171 @@ TEST(mesh_ball_point_render_agrees_without_it)
 {
     scene_settings_agree(MESH_POINT_SCENE, MESH_SETTING, "angular:camera=0.1,first=0.15,later=0.1", 1024, 47,
                          "mesh ball, point light: ltcaus vs without");
+}
+
+/* ---- spot lights ---- */
+
+/* The glass ball of bench/check/spot_ball.xml under its spot aimed 15 degrees off the ball: the
+ * ball (4.8 degrees in radius from the light) spans the beam's edge, the falloff and the cutoff. */
+#define SPOT_SCENE "bench/check/spot_ball_edge.xml"
+#define SPOT_SETTING "angular:camera=0.024,first=0.1,later=0.1,ltcaus"
+
+/* A spot light's subpaths (path_lt.h: a point light's, their throughput the spot's intensity toward
+ * the first direction): every kind of join occurs, each a path specular NEE counts at x2 with the
+ * two weights summing to one within 1e-5 or one it does not make with light tracing's weight 1,
+ * as for the point light; and the spot's intensity toward directions around the ball, which spans
+ * its full beam, its falloff and past its cutoff, is Mitsuba 3's. */
+TEST(spot_joins_weigh_as_specular_nee)
+{
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_scene *sc = lt_load(SPOT_SCENE, SPOT_SETTING, &cam, &p);
+    if (!sc)
+        return;
+    CHECK(sc->nemitters == 1 && sc->emitters[0]->type == SPC_EMITTER_SPOT);
+    p.lt_through = 1.0;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    CHECK(spc_path_lt_enabled(&ctx, &p));
+    const spc_emitter *e = sc->emitters[0];
+    spc_vec3 axis = spc_normalize(spc_mat4_apply_vector(&e->to_world, spc_v3(0, 0, 1)));
+    double cos_beam = cos(e->beam_width * SPC_PI / 180.0), cos_cut = cos(e->cutoff_angle * SPC_PI / 180.0);
+    int beam = 0, falloff = 0, past = 0;
+    int n = spc_test_quick() ? 10000 : 20000;
+    for (int seed = 31; seed < 33; ++seed) {
+        tally t;
+        memset(&t, 0, sizeof t);
+        t.ctx = &ctx;
+        t.p = &p;
+        spc_rng rng;
+        spc_rng_seed(&rng, (uint64_t)seed, 3);
+        for (int i = 0; i < n; ++i)
+            spc_path_lt_joins(&ctx, &p, &rng, check_join, &t);
+        printf("  spot, seed %d: %d joins, %d not enumerated (%d weighed 1), largest gap of the weights' sum from 1 "
+               "%.3g; x2 seen directly %d, through the sphere %d, through a diffuse bounce %d\n",
+               seed, t.joins, t.missing, t.lt_only, t.worst_gap, t.kinds[0], t.kinds[1], t.kinds[2]);
+        CHECK(t.joins > 100 && t.kinds[0] > 10 && t.kinds[1] > 10 && t.kinds[2] > 10);
+        CHECK_MSG(t.lt_only == t.missing, "spot, seed %d: %d joins specular NEE does not enumerate weigh less than 1",
+                  seed, t.missing - t.lt_only);
+        CHECK_MSG(t.worst_gap < 1e-5, "spot, seed %d: the two weights sum to 1 +- %.3g", seed, t.worst_gap);
+    }
+    /* the emission toward the ball (a circle of radius 0.6 around its centre, 9 degrees from the
+     * light): the spot's intensity with Mitsuba 3's falloff, linear in the angle from the beam's
+     * edge to the cutoff, zero past it */
+    for (int i = 0; i < 64; ++i) {
+        double a = (i + 0.5) / 64.0 * 2.0 * SPC_PI;
+        spc_vec3 c = spc_v3(0.271 + 0.6 * cos(a), 0.318 + 0.6 * sin(a), 0.580);
+        spc_vec3 w = spc_normalize(spc_sub(c, e->position));
+        double ct = spc_dot(w, axis), I = spc_rgb_avg(spc_emitter_eval_intensity(e, w));
+        double want = ct >= cos_beam ? spc_rgb_avg(e->intensity)
+                      : ct <= cos_cut ? 0.0
+                                      : spc_rgb_avg(e->intensity) * (e->cutoff_angle * SPC_PI / 180.0 - acos(ct)) /
+                                            ((e->cutoff_angle - e->beam_width) * SPC_PI / 180.0);
+        CHECK_MSG(fabs(I - want) <= 1e-9 * spc_rgb_avg(e->intensity), "spot intensity %.6g, want %.6g", I, want);
+        beam += ct >= cos_beam;
+        falloff += ct < cos_beam && ct > cos_cut;
+        past += ct <= cos_cut;
+    }
+    printf("  spot: of 64 directions around the ball %d in the beam, %d in the falloff, %d past the cutoff\n",
+           beam, falloff, past);
+    CHECK(beam > 0 && falloff > 0 && past > 0);
+    spc_scene_destroy(sc);
+}
+
+/* Does every one of 4 x 4 camera rays across pixel (x, y) first meet a surface with a smooth lobe
+ * (the floor seen directly, not through the glass)? */
+static bool pixel_sees_smooth(const spc_scene *sc, const spc_camera_state *cam, int x, int y)
+{
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+            spc_ray r = spc_camera_ray(cam, x + (i + 0.5) / 4.0, y + (j + 0.5) / 4.0);
+            spc_hit h;
+            if (!spc_scene_intersect(sc, &r, &h) || !h.bsdf || spc_bsdf_is_delta_only(h.bsdf))
+                return false;
+        }
+    return true;
+}
+
+/* The per-pixel z-test (Sidak over the pixels tested, alpha 0.01, every channel) of a against b
+ * over the pixels that see the floor directly (pixel_sees_smooth) and where b is at least `floor`
+ * times its image mean in every channel. bdpt cannot make a delta light's caustic seen through
+ * the glass (the path's one non-delta vertex, the floor, joins neither the light nor the camera),
+ * and it finds the far floor's light (1e-4 of the image, through the ball) by rare light subpaths,
+ * so at these sample counts many of those pixels read zero with a zero variance estimate, which
+ * says nothing. The fraction of the tested pixels that pass (0 where fewer than 32 are tested);
+ * their count in *tested_out and their sums over a and b in sums[0], sums[1] (mean of r, g, b),
+ * with the standard errors in sums[2], sums[3]. */
+static double floor_pixels_agree(const spc_scene *sc, const spc_film *a, const spc_film *b, double floor,
+                                 int *tested_out, double sums[4])
+{
+    spc_camera_state cam;
+    if (!spc_camera_prepare(&cam, &sc->camera, b->width, b->height))
+        return 0.0;
+    double mean[3] = {0, 0, 0};
+    size_t npix = (size_t)b->width * b->height;
+    for (size_t i = 0; i < npix; ++i)
+        for (int c = 0; c < 3; ++c)
+            mean[c] += b->rgb[3 * i + c] / (double)npix;
+    bool use[64 * 64];
+    size_t tested = 0, passed = 0;
+    for (size_t i = 0; i < npix && i < 64 * 64; ++i) {
+        use[i] = pixel_sees_smooth(sc, &cam, (int)(i % (size_t)b->width), (int)(i / (size_t)b->width));
+        for (int c = 0; c < 3; ++c)
+            use[i] = use[i] && b->rgb[3 * i + c] >= floor * mean[c];
+        tested += use[i];
+    }
+    double alpha = -expm1(log1p(-0.01) / (double)(tested ? tested : 1));
+    sums[0] = sums[1] = sums[2] = sums[3] = 0.0;
+    for (size_t i = 0; i < npix && i < 64 * 64; ++i) {
+        if (!use[i])
+            continue;
+        double p_min = 1.0;
+        for (int c = 0; c < 3; ++c) {
+            double v = (double)a->var[3 * i + c] + b->var[3 * i + c];
+            double z = v > 0.0 ? (a->rgb[3 * i + c] - b->rgb[3 * i + c]) / sqrt(v) : 0.0;
+            double pz = erfc(fabs(z) / sqrt(2.0));
+            p_min = pz < p_min ? pz : p_min;
+            sums[0] += a->rgb[3 * i + c] / 3.0;
+            sums[1] += b->rgb[3 * i + c] / 3.0;
+            sums[2] += a->var[3 * i + c] / 9.0;
+            sums[3] += b->var[3 * i + c] / 9.0;
+        }
+        if (-expm1(3.0 * log1p(-p_min)) >= alpha)
+            ++passed;
+    }
+    sums[2] = sqrt(sums[2]);
+    sums[3] = sqrt(sums[3]);
+    *tested_out = (int)tested;
+    return tested >= 32 ? (double)passed / (double)tested : 0.0;
+}
+
+/* Under the spot the render with ltcaus agrees with one without (the same estimator's two splits:
+ * the per-pixel z-test on 0.99 of the pixels and the image means) and with bdpt (the spot's
+ * emission sampled by the light's own routine) over the floor seen directly where bdpt reads at
+ * least 0.01 of its mean: the z-test on 0.99 of those pixels, their sums within 3 standard errors. */
+TEST(spot_render_agrees_without_it_and_with_bdpt)
+{
+    spc_scene *sc = tu_load(SPOT_SCENE, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    settings_agree(sc, SPOT_SETTING, "angular:camera=0.024,first=0.1,later=0.1", 1024, 53, "spot: ltcaus vs without");
+    spc_film *a = tu_render_nee(sc, "path", SPOT_SETTING, 1024, 2, 55, NULL);
+    spc_film *b = tu_render_nee(sc, "bdpt", "none", 2048, 2, 56, NULL);
+    CHECK(a && b);
+    if (a && b) {
+        int tested = 0;
+        double sums[4];
+        double pass = floor_pixels_agree(sc, a, b, 0.01, &tested, sums);
+        double se = sqrt(sums[2] * sums[2] + sums[3] * sums[3]);
+        printf("    spot vs bdpt: z-test pass %.4f of %d floor pixels; their sums %.5f vs %.5f (se %.2g)\n", pass, tested,
+               sums[0], sums[1], se);
+        CHECK_MSG(pass >= 0.99, "spot: ltcaus vs bdpt, z-test pass %.4f", pass);
+        CHECK_MSG(fabs(sums[0] - sums[1]) <= 3.0 * se, "spot: floor sum %.5f vs bdpt %.5f (se %.2g)", sums[0], sums[1],
+                  se);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
 }
 
 /* Under the two slabs the render with ltcaus (light tracing's chains of 1-6 vertices through the
@@ -1382,6 +1551,8 @@ int main(void)
     RUN(mesh_ball_render_agrees_without_it);
     RUN(mesh_ball_point_weights_sum_to_one);
     RUN(mesh_ball_point_render_agrees_without_it);
+    RUN(spot_joins_weigh_as_specular_nee);
+    RUN(spot_render_agrees_without_it_and_with_bdpt);
     RUN(slab_area_weights_sum_to_one);
     RUN(slab_area_weights_sum_to_one_long);
     RUN(slab_render_agrees_without_it);

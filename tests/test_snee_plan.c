@@ -1430,6 +1430,116 @@ TEST(slab_plan_point_light_tracing)
     }
 }
 
+/* A glass sphere under a point light or a spot light with a sky besides: path's plan adds light
+ * tracing (SPC_SNEE_PLAN_POINT_LIGHTS; the sky takes no part in it), as without the sky; not with a
+ * large area light besides. */
+TEST(point_light_sky_plan)
+{
+    static const char *const lights[] = {
+        "<emitter type=\"point\"><point name=\"position\" x=\"-1.2\" y=\"2.8\" z=\"1.5\"/><rgb name=\"intensity\" "
+        "value=\"30\"/></emitter><emitter type=\"constant\"><rgb name=\"radiance\" value=\"0.02\"/></emitter>",
+        "<emitter type=\"spot\"><transform name=\"to_world\"><lookat origin=\"-1.2, 2.8, 1.5\" target=\"0, 0.4, 0\" "
+        "up=\"0, 1, 0\"/></transform><rgb name=\"intensity\" value=\"30\"/></emitter><emitter type=\"constant\">"
+        "<rgb name=\"radiance\" value=\"0.02\"/></emitter>",
+        "<emitter type=\"point\"><point name=\"position\" x=\"-1.2\" y=\"2.8\" z=\"1.5\"/><rgb name=\"intensity\" "
+        "value=\"30\"/></emitter><emitter type=\"constant\"><rgb name=\"radiance\" value=\"0.02\"/></emitter>"
+        "<shape type=\"rectangle\"><transform name=\"to_world\"><translate y=\"3\"/><rotate x=\"1\" angle=\"90\"/>"
+        "</transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>",
+    };
+    const bool want[] = {true, true, false};
+    for (int i = 0; i < 3; ++i) {
+        char text[2048];
+        snprintf(text, sizeof text,
+                 "<scene version=\"3.0.0\">"
+                 "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/></integrator>"
+                 "<sensor type=\"perspective\"><float name=\"fov\" value=\"35\"/>"
+                 "<transform name=\"to_world\"><lookat origin=\"2.2, 3.5, 1.0\" target=\"0, 0.3, 0\" "
+                 "up=\"0, 1, 0\"/></transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
+                 "<integer name=\"height\" value=\"8\"/></film></sensor>"
+                 "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"4\"/><rotate x=\"1\" "
+                 "angle=\"-90\"/></transform><bsdf type=\"diffuse\"/></shape>"
+                 "<shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0.4\" z=\"0\"/><float name=\"radius\" "
+                 "value=\"0.4\"/><bsdf type=\"dielectric\"/></shape>%s</scene>",
+                 lights[i]);
+        spc_scene *sc = NULL;
+        spc_error err;
+        CHECK_MSG(load_text(text, &sc, &err) == SPC_OK, "sky scene %d: %s", i, err.msg);
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        printf("  glass sphere under %s: %s\n",
+               i == 0   ? "a point light and a sky"
+               : i == 1 ? "a spot light and a sky"
+                        : "a point light, a sky and a large area light",
+               p.setting);
+        CHECK_MSG(p.on && (strstr(p.setting, "ltcaus") != NULL) == want[i], "sky scene %d: %s (%s)", i, p.setting,
+                  p.reason);
+        spc_snee_plan_make(sc, "volpath", NULL, &p);
+        CHECK_MSG(!strstr(p.setting, "ltcaus"), "sky scene %d, volpath: %s", i, p.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
+/* Spot lights count as point lights in the plan's light-tracing rules (light tracing takes them
+ * alike, integrator/path_lt.h): a spot over a glass sphere (bench/check/spot_ball.xml) gets ltcaus for
+ * path (SPC_SNEE_PLAN_POINT_LIGHTS), not for volpath or bdpt; a spot over a slab gets the slab rules'
+ * ltcaus and joins; beside an area light neither. */
+TEST(spot_plan_light_tracing)
+{
+    static const struct {
+        const char *integrator;
+        bool want;
+    } cases[] = {{"path", true}, {"volpath", false}, {"bdpt", false}};
+    spc_scene *sc = load_at("bench/check/spot_ball.xml", "8");
+    for (size_t i = 0; sc && i < sizeof cases / sizeof cases[0]; ++i) {
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        printf("  spot_ball, %s: %s\n", cases[i].integrator, p.setting);
+        CHECK_MSG(p.on && (strstr(p.setting, "ltcaus") != NULL) == cases[i].want, "spot_ball, %s: %s (%s)",
+                  cases[i].integrator, p.setting, p.reason);
+    }
+    spc_scene_destroy(sc);
+    sc = NULL;
+    static const char *const lights[] = {
+        "",
+        "<shape type=\"rectangle\"><transform name=\"to_world\"><translate y=\"3\"/><rotate x=\"1\" angle=\"90\"/>"
+        "</transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>",
+    };
+    for (int i = 0; i < 2; ++i) {
+        char text[2048];
+        snprintf(text, sizeof text,
+                 "<scene version=\"3.0.0\">"
+                 "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/></integrator>"
+                 "<sensor type=\"perspective\"><float name=\"fov\" value=\"35\"/>"
+                 "<transform name=\"to_world\"><lookat origin=\"2.2, 3.5, 1.0\" target=\"0, 0.3, 0\" "
+                 "up=\"0, 1, 0\"/></transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
+                 "<integer name=\"height\" value=\"8\"/></film></sensor>"
+                 "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"4\"/><rotate x=\"1\" "
+                 "angle=\"-90\"/></transform><bsdf type=\"diffuse\"/></shape>"
+                 "<shape type=\"cube\"><transform name=\"to_world\"><scale x=\"0.4\" y=\"0.06\" z=\"0.3\"/>"
+                 "<rotate x=\"1\" angle=\"8\"/><translate y=\"0.6\"/></transform><bsdf type=\"dielectric\"/>"
+                 "</shape><emitter type=\"spot\"><transform name=\"to_world\"><lookat origin=\"-0.6, 2.5, 1.9\" "
+                 "target=\"0, 0.6, 0\" up=\"0, 1, 0\"/></transform><float name=\"cutoff_angle\" value=\"25\"/>"
+                 "<rgb name=\"intensity\" value=\"20\"/></emitter>%s</scene>",
+                 lights[i]);
+        spc_error err;
+        CHECK_MSG(load_text(text, &sc, &err) == SPC_OK, "spot slab scene %d: %s", i, err.msg);
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        printf("  slab under a spot%s: %s\n", i ? " and an area light" : "", p.setting);
+        if (i == 0)
+            CHECK_MSG(p.on && strstr(p.setting, "ltcaus") && strstr(p.setting, SPC_SNEE_PLAN_FLAT_POINT_JOINS),
+                      "slab under a spot: %s (%s)", p.setting, p.reason);
+        else
+            CHECK_MSG(!strstr(p.setting, "ltcaus"), "slab under a spot and an area light: %s", p.setting);
+        spc_scene_destroy(sc);
+        sc = NULL;
+    }
+}
+
 /* Flat-faced casters under a light larger than the flat rule's (SPC_SNEE_PLAN_FLAT_MAX_SR): path's
  * plan is on with the longer chains (SPC_SNEE_PLAN_FLAT_LONG) where the pilot's face sequences per
  * query times the light's solid angle (from the casters' centre) is at most
@@ -1610,6 +1720,8 @@ int main(void)
     RUN(one_slab_plan_long_chains);
     RUN(slab_plan_light_tracing);
     RUN(slab_plan_point_light_tracing);
+    RUN(spot_plan_light_tracing);
+    RUN(point_light_sky_plan);
     RUN(slab_plan_large_lights);
     return spc_test_finish();
 }

@@ -146,6 +146,20 @@ bool spc_emitter_sample_emission(const spc_emitter *e, spc_vec2 u_pos, spc_vec2 
     return false;
 }
 
+spc_rgb spc_emitter_eval_intensity(const spc_emitter *e, spc_vec3 d)
+{
+    switch (e->type) {
+    case SPC_EMITTER_POINT: return e->intensity;
+    case SPC_EMITTER_SPOT: return spc_spot_eval_intensity(e, d);
+    case SPC_EMITTER_PROJECTOR:
+    case SPC_EMITTER_DIRECTIONAL:
+    case SPC_EMITTER_AREA:
+    case SPC_EMITTER_CONSTANT:
+    case SPC_EMITTER_ENVMAP: return spc_rgb1(0.0);
+    }
+    return spc_rgb1(0.0);
+}
+
 void spc_emitter_pdf_emission(const spc_emitter *e, spc_vec3 p, spc_vec3 n, spc_vec3 d, double *pdf_pos,
                               double *pdf_dir)
 {

@@ -134,6 +134,10 @@ spc_rgb spc_emitter_eval_infinite(const spc_emitter *e, spc_vec3 d);
  * the direction of a ray escaping the scene (it points toward the light). */
 double spc_emitter_pdf_infinite(const spc_emitter *e, spc_vec3 d);
 
+/* Radiant intensity (W/sr) of a light at a point (point, spot) toward the unit world direction d,
+ * with a spot's falloff and image; black for every other light. */
+spc_rgb spc_emitter_eval_intensity(const spc_emitter *e, spc_vec3 d);
+
 /* Emission sampling (BDPT, light tracing). */
 bool spc_emitter_sample_emission(const spc_emitter *e, spc_vec2 u_pos, spc_vec2 u_dir, spc_emitter_emission *out);
 /* Densities of sample_emission for the given origin, normal and direction. */

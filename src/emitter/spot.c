@@ -86,3 +86,9 @@ double spc_spot_pdf_dir(const spc_emitter *e, spc_vec3 d)
     spc_vec3 l = spc_normalize(spc_mat4_apply_vector(&e->to_local, d));
     return l.z >= cos_max ? spc_warp_uniform_cone_pdf(cos_max) : 0.0;
 }
+
+spc_rgb spc_spot_eval_intensity(const spc_emitter *e, spc_vec3 d)
+{
+    double f = falloff(e, d);
+    return f > 0.0 ? spc_rgb_scale(intensity_toward(e, d), f) : spc_rgb1(0.0);
+}

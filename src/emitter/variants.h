@@ -33,6 +33,8 @@ bool spc_spot_prepare(spc_emitter *e);
 bool spc_spot_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitter_direct *out);
 bool spc_spot_sample_emission(const spc_emitter *e, spc_vec2 u_dir, spc_emitter_emission *out);
 double spc_spot_pdf_dir(const spc_emitter *e, spc_vec3 d);
+/* The spot's radiant intensity toward the unit world direction d (falloff and image included). */
+spc_rgb spc_spot_eval_intensity(const spc_emitter *e, spc_vec3 d);
 
 bool spc_projector_prepare(spc_emitter *e);
 bool spc_projector_sample_direct(const spc_emitter *e, spc_vec3 ref, spc_emitter_direct *out);

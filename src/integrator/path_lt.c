@@ -225,13 +225,21 @@ static double point_psi(const spc_render_ctx *ctx, const spc_snee_params *p, con
     return spc_snee_flat_psi(p, spc_path_lt_budget(ctx, p, x2, segments, receivers), long_left(ctx, segments), c->n);
 }
 
-/* Light tracing's density of the chain c from x toward the point light e, in area measure at x:
- * the emission's direction density, the chain's lobe choices and |dw0/dA(x)| = cos(x) G. */
+/* Is e a light at a point whose caustics light tracing makes (a point light, or a spot light: the
+ * same subpaths, their throughput its intensity toward the subpath's direction)? */
+static bool point_like(const spc_emitter *e)
+{
+    return e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
+}
+
+/* Light tracing's density of the chain c from x toward the point or spot light e, in area measure
+ * at x: the emission's direction density (the cone toward the casters, whatever a spot's beam),
+ * the chain's lobe choices and |dw0/dA(x)| = cos(x) G. */
 static double light_density(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, const spc_chain *c,
                             const spc_emitter *e)
 {
     int k = c->n;
-    if (!e || e->type != SPC_EMITTER_POINT || k < 1 || !point_chain_covers(p, c))
+    if (!e || !point_like(e) || k < 1 || !point_chain_covers(p, c))
         return 0.0;
     spc_vec3 d_last = c->v[k - 1].d;
     double G = spc_chain_geometry(c, e->position, spc_neg(d_last));
@@ -925,7 +933,9 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     L.e = e;
     spc_rgb beta;
     spc_ray ray;
-    if (e->type == SPC_EMITTER_POINT) {
+    if (point_like(e)) {
+        /* a direction uniform in the cone toward the casters; a spot's beam (its falloff, zero
+         * past cutoff_angle) is in the throughput, so the density is the same as a point light's */
         spc_vec3 y = e->position, axis;
         double cm;
         if (!caster_cone(sc, p->any_surface, y, &axis, &cm))
@@ -936,7 +946,9 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
         spc_vec3 w0 = spc_normalize(
             spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
         double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
-        beta = spc_rgb_scale(e->intensity, 1.0 / (pmf * pdir));
+        beta = spc_rgb_scale(spc_emitter_eval_intensity(e, w0), 1.0 / (pmf * pdir));
+        if (spc_rgb_is_black(beta))
+            return;
         ray = (spc_ray){.o = y, .d = w0, .tmin = 0.0, .tmax = SPC_INF};
         L.y = y;
     } else if (e->type == SPC_EMITTER_AREA && e->shape && spc_path_lt_area_enabled(p)) {

@@ -118,13 +118,11 @@ static bool receiver(const spc_shape *s)
     return s->bsdf && (s->caustic_flags & SPC_CAUSTIC_RECEIVER) && spc_bsdf_has_smooth(s->bsdf);
 }
 
-/* Is every light of the scene a point light? */
-static bool point_lights_only(const spc_scene *sc)
+/* Is e a light at a point: a point light or a spot light (light tracing takes both alike,
+ * integrator/path_lt.h)? */
+static bool point_light(const spc_emitter *e)
 {
-    for (int i = 0; i < sc->nemitters; ++i)
-        if (sc->emitters[i]->type != SPC_EMITTER_POINT)
-            return false;
-    return sc->nemitters > 0 && !sc->env;
+    return e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
 }
 
 static double light_solid_angle(const spc_shape *s, spc_vec3 c);
@@ -191,7 +189,7 @@ static bool flat_large_lights(const spc_scene *sc, const spc_chain_casters *cs, 
     return true;
 }
 
-/* Is every light of the scene a point light, a sky besides (some point light)? */
+/* Is every light of the scene a point or spot light, a sky besides (some point or spot light)? */
 static bool point_lights_sky(const spc_scene *sc)
 {
     bool point = false;
@@ -199,7 +197,7 @@ static bool point_lights_sky(const spc_scene *sc)
         const spc_emitter *e = sc->emitters[i];
         if (e->type == SPC_EMITTER_CONSTANT || e->type == SPC_EMITTER_ENVMAP)
             continue;
-        if (e->type != SPC_EMITTER_POINT)
+        if (!point_light(e))
             return false;
         point = true;
     }
@@ -839,9 +837,9 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_ROOM_GLASS_BALL);
     }
-    /* path lit by point lights alone, with a glass sphere among the casters: the point lights'
-     * caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) */
-    if (!strcmp(integrator, "path") && glass && exact && point_lights_only(sc) && glass_sphere(sc, cs)) {
+    /* path lit by point lights (a sky besides), with a glass sphere among the casters: the point
+     * lights' caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) */
+    if (!strcmp(integrator, "path") && glass && exact && point_lights_sky(sc) && glass_sphere(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_POINT_LIGHTS);
     }

@@ -239,15 +239,21 @@
 #define SPC_SNEE_PLAN_ROOM_OPEN 0.25
 #define SPC_SNEE_PLAN_ROOM_GLASS_BALL ",recguide=0.1,long=0.2"
 
-/* Appended for path where every light is a point light and a glass sphere is a caster: the point
- * lights' caustics also by light tracing (integrator/path_lt.h: seen directly, through the ball and
- * through a diffuse bounce), weighed against specular NEE, whose value there, the caustic's
- * irradiance at a sampled point, has a log-divergent second moment near the caustic's fold. On
+/* Appended for path where every light is a point light (or a spot light, traced alike) and a glass
+ * sphere is a caster: the point lights' caustics also by light tracing (integrator/path_lt.h: seen
+ * directly, through the ball and through a diffuse bounce), weighed against specular NEE, whose
+ * value there, the caustic's irradiance at a sampled point, has a log-divergent second moment near
+ * the caustic's fold. On
  * bench/check/point_light_ball.xml at equal CPU time (bench/RESULTS.md, "Point lights' caustics by
  * light tracing"): 64x64, 4 CPU-s, 8 seeds, mean relMSE 0.0665 -> 0.0030 (worst seed 0.41 ->
- * 0.0058); 32x32, 1 CPU-s, 16 seeds, 0.016 -> 0.0051; it costs 2.2x per sample. Not with other
- * lights: on scenes/dielectrics.xml (a point light, a water ball, a sky) 1.2x worse (its cost per
- * sample 1.14x, no gain in the error per sample). */
+ * 0.0058); 32x32, 1 CPU-s, 16 seeds, 0.016 -> 0.0051; it costs 2.2x per sample. A sky besides
+ * takes no part in it: random scene 8772 (a glass sphere under a point light and a sky) 2.6x -> 3.0x
+ * none over 16 seeds (the sphere's caustic tail gone, one path-tracer tail left that both share),
+ * fresh point-light-and-sky scenes with glass spheres 1.1-10x lower mean relMSE on 8 of 10, one at
+ * the reference's noise either way, one with no tail without it 7.5x worse (still 30x none);
+ * bench/check/spot_ball.xml 6.8x lower (bench/RESULTS.md, part ltsky31). Not with other lights:
+ * on scenes/dielectrics.xml (a point light, an area light, a water ball, a sky) 1.2x worse (its
+ * cost per sample 1.14x, no gain in the error per sample). */
 #define SPC_SNEE_PLAN_POINT_LIGHTS ",ltcaus"
 
 /* Not appended by the plan: the longer chains' pass to 8 vertices inside a glass SDF without creases

@@ -356,12 +356,12 @@ static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_ve
              (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c, e, q->y, q->ny) : 1.0);
         *pc = cones_pdf(cones_for(q, e), c->d0, k) * G * P_ev;
     }
-    /* a point light's chain that another strategy makes too (params.delta_share): its share, given
-     * the probability with which this pass enumerates c where that is below 1 (the flat chains past
-     * flat_max: flat_psi; the other passes read their psi as 1 there) */
+    /* a point or spot light's chain that another strategy makes too (params.delta_share): its share,
+     * given the probability with which this pass enumerates c where that is below 1 (the flat chains
+     * past flat_max: flat_psi; the other passes read their psi as 1 there) */
     double share = 1.0;
-    if (q->params && q->params->delta_share && e->type == SPC_EMITTER_POINT && !q->cam &&
-        r->kind == SPC_RECEIVER_SURFACE && q->x) {
+    if (q->params && q->params->delta_share && (e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT) &&
+        !q->cam && r->kind == SPC_RECEIVER_SURFACE && q->x) {
         double psi = q->params->exact && spc_flat_chain_covers(c, q->params->reflect) && q->psi > 0.0 ? q->psi : 1.0;
         share = q->params->delta_share(q->params->delta_user, q->x, q->wo, c, e, psi);
     }
