@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/sampler.h"
 #include "manifold/conic.h"
 #include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
@@ -207,7 +208,7 @@ static const spc_snee_cones *cones_for(const spc_snee_query *q, const spc_emitte
 /* Light points per query (params.light_samples): one with guided directions or the caller's uniforms. */
 static int light_count(const spc_snee_params *p)
 {
-    return p->light_samples > 1 && !guide_on(p) && !p->light_u_on ? p->light_samples : 1;
+    return p->light_samples > 1 && !guide_on(p) && !p->light_u_on && !p->light_u_smp ? p->light_samples : 1;
 }
 
 static double snee_prob(const spc_snee_query *q, const spc_emitter *e)
@@ -665,9 +666,22 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
 {
     /* the caller's stratified uniforms where it has drawn them (spc_snee_params.light_u) */
     const spc_snee_params *sp = q->params;
-    bool given = sp && sp->light_u_on;
+    bool given = sp && (sp->light_u_on || sp->light_u_smp);
+    double lu[3] = {0.0, 0.0, 0.0};
+    if (given && sp->light_u_on) {
+        lu[0] = sp->light_u[0];
+        lu[1] = sp->light_u[1];
+        lu[2] = sp->light_u[2];
+    } else if (given) {
+        /* the caller's stream at the light sample's pairs, in its order: the point's pair first */
+        spc_sampler s = *sp->light_u_smp;
+        spc_vec2 u_pos = spc_sampler_2d(&s);
+        lu[0] = spc_sampler_1d(&s);
+        lu[1] = u_pos.x;
+        lu[2] = u_pos.y;
+    }
     double pmf;
-    const spc_emitter *e = spc_scene_sample_emitter(sc, given ? sp->light_u[0] : spc_rng_next(rng), &pmf);
+    const spc_emitter *e = spc_scene_sample_emitter(sc, given ? lu[0] : spc_rng_next(rng), &pmf);
     if (!e)
         return false;
     *e_out = e;
@@ -681,7 +695,7 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
         if (!caster_bound(sc, any_surface, &cb, &cr))
             return false;
         spc_shape_sample ss;
-        spc_vec2 u = given ? spc_v2(sp->light_u[1], sp->light_u[2]) : spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+        spc_vec2 u = given ? spc_v2(lu[1], lu[2]) : spc_v2(spc_rng_next(rng), spc_rng_next(rng));
         if (!sample_light_facing(e->shape, cb, cr, u, &ss))
             return false;
         if (spc_dot(ss.n, spc_sub(cb, ss.p)) + cr <= 0.0)
