@@ -24,8 +24,8 @@
 typedef struct spc_path_snee {
     bool on;                 /* specular NEE runs in this path */
     spc_snee_track track;    /* the exclusion track */
-    spc_hit mis_x;           /* the receiver the track started at, with its wo and sampled direction */
-    spc_vec3 mis_wo, mis_d0;
+    spc_vec3 mis_wo, mis_d0; /* the receiver the track started at (mis_x below): its wo and sampled
+                                direction */
     bool cam_track;          /* the track started at the pinhole (until the first non-delta scattering) */
     double cam_scale;        /* the full film's pixels over the camera samples per pass */
     spc_vec3 cam_d0;         /* the camera ray's direction */
@@ -71,11 +71,13 @@ typedef struct spc_path_snee {
     /* From here on spc_path_snee_begin clears nothing (most of the struct's size, cleared once per
      * camera sample at a measurable cost): each field is written before it is read, under the flag
      * or count above that says it holds a value (on, lt_on, lt_nmid, alt_x1_set, lg_on; gv by
-     * spc_path_snee_guide_at at every vertex; mis_gv with mis_x, its flag mis_gv.a cleared). */
+     * spc_path_snee_guide_at at every vertex; mis_x where the track starts with params.mis, the only
+     * case its weight reads it, and mis_gv with it, its flag mis_gv.a cleared). */
     spc_snee_params p;        /* the user's parameters, mis and query_p as this path runs them */
     spc_sampler light_smp;    /* the stream at the current vertex's light sample (skip_light_u) */
     spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
     spc_cguide_vertex mis_gv; /* and at mis_x, the receiver the track started at */
+    spc_hit mis_x;
     spc_hit lt_x1;
     spc_path_lt_vertex lt_mid[SPC_PATH_LT_MID_VERTICES > 0 ? SPC_PATH_LT_MID_VERTICES : 1];
     spc_hit alt_x1;

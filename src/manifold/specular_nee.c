@@ -2215,6 +2215,15 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
 static spc_rgb receiver_nee(const spc_scene *sc, const spc_snee_params *p, const spc_specular_solver *solver,
                             const spc_receiver *r, int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st);
 
+/* params.query_p: is the query made (with that probability; receiver_nee counts it 1 / query_p
+ * times)? The first draw of the query's stream, played before the receiver is built: most
+ * vertices of a path make no query. */
+static bool query_made(const spc_snee_params *p, spc_rng *rng)
+{
+    double pq = spc_snee_query_prob(p);
+    return !(pq < 1.0) || spc_rng_next(rng) < pq;
+}
+
 spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                                int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st)
 {
@@ -2227,6 +2236,8 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
         return zero;
     if (p->solver == SPC_SNEE_NEWTON && p->newton.rough)
         return spc_rough_nee(sc, p, x, wo, spc_snee_budget_params(p, x, max_chain), rng, st);
+    if (!query_made(p, rng))
+        return zero;
     spc_receiver r;
     spc_receiver_surface(&r, x, wo);
     r.guide = p->cguide_at;
@@ -2244,7 +2255,7 @@ spc_rgb spc_specular_nee_at(const spc_scene *sc, const spc_snee_params *p, const
     if (max_chain > SPC_CHAIN_MAX_VERTICES)
         max_chain = SPC_CHAIN_MAX_VERTICES;
     if (r->kind != SPC_RECEIVER_MEDIUM || !solver || (!solver->solve_one && !solver->solve_all) || max_chain < 1 ||
-        (p->solver == SPC_SNEE_NEWTON && p->newton.rough))
+        (p->solver == SPC_SNEE_NEWTON && p->newton.rough) || !query_made(p, rng))
         return spc_rgb1(0.0);
     return receiver_nee(sc, p, solver, r, max_chain, long_max, rng, st);
 }
@@ -2253,10 +2264,9 @@ static spc_rgb receiver_nee(const spc_scene *sc, const spc_snee_params *p, const
                             const spc_receiver *r, int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st)
 {
     const spc_rgb zero = spc_rgb1(0.0);
-    /* params.query_p: the query made with that probability, counted 1 / query_p times (p_y below) */
+    /* params.query_p: the query made with that probability (query_made, played by the caller),
+     * counted 1 / query_p times (p_y below) */
     double pq = spc_snee_query_prob(p);
-    if (pq < 1.0 && !(spc_rng_next(rng) < pq))
-        return zero;
 
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, spc_receiver_origin(r), r->wo, max_chain);
