@@ -74,7 +74,9 @@ typedef struct spc_path_snee {
      * spc_path_snee_guide_at at every vertex; mis_x where the track starts with params.mis, the only
      * case its weight reads it, and mis_gv with it, its flag mis_gv.a cleared). */
     spc_snee_params p;        /* the user's parameters, mis and query_p as this path runs them */
-    spc_sampler light_smp;    /* the stream at the current vertex's light sample (skip_light_u) */
+    /* the stream at the current vertex's light sample (skip_light_u), where p.light_u_smp points;
+     * a copy of the state points at the original's until spc_path_snee_at_vertex runs on it */
+    spc_sampler light_smp;
     spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
     spc_cguide_vertex mis_gv; /* and at mis_x, the receiver the track started at */
     spc_hit mis_x;
@@ -103,8 +105,8 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
 /* Specular NEE at the path vertex h (wo toward the previous vertex; segments: the path's segments
  * so far), to be multiplied by the path throughput: chains within the depth left and the budget.
  * With specular NEE on, the light sample's uniforms come from smp's next two dimension pairs
- * (drawn at every vertex, so that they stay aligned across a pixel's samples and stratified); the
- * rest of the estimate draws from a fork of it. With s->skip_query set (then cleared; the query was
+ * (used up at every vertex, so that they stay aligned across a pixel's samples and stratified, and
+ * computed only where the query samples a light); the rest of the estimate draws from a fork of it. With s->skip_query set (then cleared; the query was
  * counted by splitting, path.c): every state the later MIS weights read set up alike, the query
  * itself not made (black). */
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,

@@ -272,8 +272,8 @@ static void render_item(job *jb, int item)
                 store_sample(jb, tls, buf, x, y, &rays[n], &out[n], NULL);
         return;
     }
-    /* the tile's camera samples at once (the same rays and streams as camera_sample's, computed
-     * side by side), then each path */
+    /* the tile's camera samples at once, as the packet path takes them (the rays and streams of
+     * each pixel, computed side by side), then each path */
     spc_ray rays[SPC_TILE * SPC_TILE];
     spc_sampler smps[SPC_TILE * SPC_TILE];
     camera_samples_tile(jb, pass, t, rays, smps);
