@@ -9,12 +9,19 @@
  *   and about one chain in seven was lost (the image 14% low, z about -8, 94% of the pixels
  *   passing; random caustic scene 16 was 16% low on the floor in the ball's shadow). The light's size, radiance and the camera
  *   are those of that case, where the loss showed; a light three times larger lost nothing.
+ * - The light sample's uniforms from the path tracer's stream (spc_snee_params.light_u_smp): the
+ *   light and point spc_snee_sample_light draws from a copy of the stream are those of the
+ *   uniforms drawn at once in the path tracer's order (light_u_on), on two lights and many
+ *   streams, and differ from those of the pairs taken the other way round.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 300 */
 #include <string.h>
 
+#include "core/sampler.h"
 #include "harness.h"
+#include "manifold/snee_options.h"
+#include "manifold/specular_nee.h"
 #include "render_util.h"
 
 /* A floor (z = 0, half-size 4), a glass sphere of radius 0.257 resting on it, and a square light of
@@ -71,8 +78,101 @@ TEST(triangle_light_chains_not_self_shadowed)
     spc_scene_destroy(sc);
 }
 
+/* A floor, a glass ball and two square lights of different power (light_u[0] picks one). */
+static spc_scene *two_light_scene(void)
+{
+    spc_scene *sc = spc_scene_create();
+    spc_error err;
+    spc_shape *fl = spc_scene_new_shape(sc);
+    spc_mat4 F = spc_mat4_scale(spc_v3(4, 4, 1));
+    spc_shape_init_rectangle(fl, &F, NULL, 0, 0, &err);
+    fl->bsdf = tu_diffuse(sc, 0.5);
+    tu_sphere(sc, spc_v3(0, 0, 0.5), 0.5, tu_glass(sc, 1.5));
+    for (int i = 0; i < 2; ++i) {
+        spc_shape *light = spc_scene_new_shape(sc);
+        spc_mat4 look, S = spc_mat4_scale(spc_v3(0.3 + 0.2 * i, 0.3, 1));
+        spc_mat4_lookat(spc_v3(i ? -2.0 : 2.0, 0.5, 3.0), spc_v3(0, 0, 0), spc_v3(0, -0.01, 1), &look);
+        spc_mat4 M = spc_mat4_mul(&look, &S);
+        spc_shape_init_rectangle(light, &M, NULL, 0, 0, &err);
+        light->bsdf = tu_diffuse(sc, 0.0);
+        tu_area(sc, light, 2 + i, i ? 30.0 : 10.0);
+    }
+    tu_camera(sc, spc_v3(0, -3, 2), spc_v3(0, 0, 0.3), spc_v3(0, 0, 1), 40, 8, 8);
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  finalize: %s\n", err.msg);
+        spc_scene_destroy(sc);
+        return NULL;
+    }
+    return sc;
+}
+
+/* The light sample of spc_snee_sample_light with parameters p at the floor point x. */
+static bool light_sample(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, const spc_emitter **e,
+                         spc_snee_query *q, double *p_y)
+{
+    spc_snee_query_init(q, sc, p, x, spc_v3(0, 0, 1), 2);
+    spc_rng rng;
+    spc_rng_seed(&rng, 1, 2);
+    spc_vec2 uv;
+    return spc_snee_sample_light(sc, p->any_surface, &rng, q, e, &uv, p_y);
+}
+
+TEST(light_uniforms_from_the_stream)
+{
+    spc_scene *sc = two_light_scene();
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_snee_params p;
+    CHECK(spc_snee_parse("angular", 2, &p));
+    spc_hit x;
+    memset(&x, 0, sizeof x);
+    x.p = spc_v3(0.7, 0.3, 0.0);
+    x.ng = x.sh.n = spc_v3(0, 0, 1);
+    int same = 0, swapped_differ = 0, lights[2] = {0, 0}, n = 256;
+    for (int i = 0; i < n; ++i) {
+        spc_sampler s;
+        spc_sampler_start(&s, (uint32_t)(i % 16), (uint32_t)(i / 16), (uint32_t)i, 77);
+        spc_sampler_skip(&s, (uint32_t)(i % 5));
+        /* the path tracer's order: the point's pair, then the light's choice */
+        spc_sampler a = s;
+        spc_vec2 u_pos = spc_sampler_2d(&a);
+        spc_snee_params pe = p, pl = p, pw = p;
+        pe.light_u_on = true;
+        pe.light_u[0] = spc_sampler_1d(&a);
+        pe.light_u[1] = u_pos.x;
+        pe.light_u[2] = u_pos.y;
+        pl.light_u_smp = &s;
+        /* the two pairs the other way round */
+        spc_sampler b = s;
+        pw.light_u_on = true;
+        pw.light_u[0] = spc_sampler_1d(&b);
+        spc_vec2 u_w = spc_sampler_2d(&b);
+        pw.light_u[1] = u_w.x;
+        pw.light_u[2] = u_w.y;
+        const spc_emitter *ee = NULL, *el = NULL, *ew = NULL;
+        spc_snee_query qe, ql, qw;
+        double ye = 0.0, yl = 0.0, yw = 0.0;
+        bool oe = light_sample(sc, &pe, &x, &ee, &qe, &ye), ol = light_sample(sc, &pl, &x, &el, &ql, &yl),
+             ow = light_sample(sc, &pw, &x, &ew, &qw, &yw);
+        if (oe == ol && ee == el && (!oe || (qe.y.x == ql.y.x && qe.y.y == ql.y.y && qe.y.z == ql.y.z && ye == yl)))
+            ++same;
+        if (oe && (ow != oe || ew != ee || qw.y.x != qe.y.x || qw.y.y != qe.y.y))
+            ++swapped_differ;
+        if (oe && ee)
+            ++lights[ee == sc->emitters[0] ? 0 : 1];
+    }
+    printf("    %d of %d light samples the same; %d differ with the pairs swapped; lights picked %d, %d\n", same, n,
+           swapped_differ, lights[0], lights[1]);
+    CHECK(same == n);
+    CHECK(swapped_differ > n / 2);
+    CHECK(lights[0] > 0 && lights[1] > 0);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(triangle_light_chains_not_self_shadowed);
+    RUN(light_uniforms_from_the_stream);
     return spc_test_finish();
 }

@@ -6,6 +6,7 @@
  */
 #include "integrator/path_snee.h"
 
+#include <stddef.h>
 #include <string.h>
 
 #include "integrator/path_lt.h"
@@ -123,22 +124,24 @@ static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
  * (spc_snee_params.light_u): over a pixel's samples the light points then cover the light evenly.
  * Where the query's value is smooth in its light point (a large light, a water surface) stratified
  * points converge faster than independent ones: at equal spp relMSE fell 2.4x on
- * scenes/newton_pool.xml (bench/RESULTS.md, "Tails 2"). Drawn whether or not the query is made, so
- * that the dimensions stay aligned across the pixel's samples. Not for the query from the camera:
- * its splats land on other pixels, and no gain showed there. */
-static void draw_light_u(spc_snee_params *p, spc_sampler *smp)
+ * scenes/newton_pool.xml (bench/RESULTS.md, "Tails 2"). Their two dimension pairs are used up at
+ * every vertex, so that the dimensions stay aligned across the pixel's samples, but computed only
+ * where a light sample is made (params.light_u_smp, from the copy s->light_smp): most vertices make
+ * no query (the budget, the query's roulette). Not for the query from the camera: its splats land
+ * on other pixels, and no gain showed there. */
+static void skip_light_u(spc_path_snee *s, spc_sampler *smp)
 {
-    spc_vec2 u_pos = spc_sampler_2d(smp);
-    p->light_u_on = true;
-    p->light_u[0] = spc_sampler_1d(smp);
-    p->light_u[1] = u_pos.x;
-    p->light_u[2] = u_pos.y;
+    s->light_smp = *smp;
+    s->p.light_u_smp = &s->light_smp;
+    spc_sampler_skip(smp, 2);
 }
 
 void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0,
                          const spc_sampler *smp)
 {
-    memset(s, 0, sizeof *s);
+    /* the fields before p; those after it are written before they are read (path_snee.h) */
+    memset(s, 0, offsetof(spc_path_snee, p));
+    s->mis_gv.a = 0.0;
     s->mis_wo = s->mis_d0 = spc_v3(0, 0, 1);
     s->cam_d0 = ray0->d;
     s->cam_scale = (double)ctx->cam->width * (double)ctx->cam->height / ((double)ctx->width * (double)ctx->height);
@@ -246,7 +249,7 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
     s->long_budget = depth_left(ctx, segments, SPC_CHAIN_MAX_VERTICES);
     if (!s->on)
         return spc_rgb1(0.0);
-    draw_light_u(&s->p, smp);
+    skip_light_u(s, smp);
     s->budget = spc_snee_budget_params(&s->p, h, depth_left(ctx, segments, ctx->specular_max_chain));
     if (s->p.receivers > 0 && s->receivers >= s->p.receivers)
         s->budget = 0; /* past the vertices specular NEE runs at */

@@ -23,10 +23,9 @@
 
 typedef struct spc_path_snee {
     bool on;                 /* specular NEE runs in this path */
-    spc_snee_params p;       /* the user's parameters, mis and query_p as this path runs them */
     spc_snee_track track;    /* the exclusion track */
-    spc_hit mis_x;           /* the receiver the track started at, with its wo and sampled direction */
-    spc_vec3 mis_wo, mis_d0;
+    spc_vec3 mis_wo, mis_d0; /* the receiver the track started at (mis_x below): its wo and sampled
+                                direction */
     bool cam_track;          /* the track started at the pinhole (until the first non-delta scattering) */
     double cam_scale;        /* the full film's pixels over the camera samples per pass */
     spc_vec3 cam_d0;         /* the camera ray's direction */
@@ -36,34 +35,30 @@ typedef struct spc_path_snee {
     /* the next receiver's query was counted by splitting (path.c): its state is set up as usual,
      * its value not added */
     bool skip_query;
-    spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
-    spc_cguide_vertex mis_gv; /* and at mis_x, the receiver the track started at */
     /* the light-traced caustics (path_lt.h, params.lt_caustic): the path's first receiver x1, the
-     * camera ray's hit, with its sampled direction, and the non-delta vertices after it (lt_mid),
-     * while at most SPC_PATH_LT_MID_MAX delta scatterings (lt_m) follow each */
+     * camera ray's hit, with its sampled direction (lt_x1, lt_w1 below), and the non-delta vertices
+     * after it (lt_mid below), while at most SPC_PATH_LT_MID_MAX delta scatterings (lt_m) follow
+     * each */
     const spc_render_ctx *ctx;
     int scatterings;
     bool lt_enabled, lt_on;
     int lt_m, lt_kmax, lt_kflat, lt_nmid; /* lt_kflat: spc_path_lt_point_flat_budget's */
-    spc_hit lt_x1;
     spc_vec3 lt_w1;
-    spc_path_lt_vertex lt_mid[SPC_PATH_LT_MID_VERTICES > 0 ? SPC_PATH_LT_MID_VERTICES : 1];
     unsigned char cam_events[SPC_CHAIN_MAX_VERTICES]; /* the delta scatterings before the first receiver */
     /* the camera's side of the receiver where params.alt_chain_ratio was set (area lights' light
      * tracing), kept for the BSDF side's weight of the paths that leave it (the state above moves
-     * on with the path): x1 and w1 (alt_x1_set: the second receiver), the delta scatterings before
-     * it (the first receiver), the chain budget there and light tracing's for flat chains */
-    spc_hit alt_x1;
+     * on with the path): x1 (alt_x1 below) and w1 (alt_x1_set: the second receiver), the delta
+     * scatterings before it (the first receiver), the chain budget there and light tracing's for
+     * flat chains */
     spc_vec3 alt_w1;
     bool alt_x1_set;
     int alt_scatterings, alt_kmax, alt_kflat;
-    /* the light-guide caustics (path_lt.h, params.lt_guide): the camera ray's hit lg_x (left toward
-     * the camera along lg_wo, along lg_d0 by a non-delta sample), the delta scatterings at chain
-     * surfaces since (lg_k) and the last direction (lg_dlast); lg_on while the path is one the
+    /* the light-guide caustics (path_lt.h, params.lt_guide): the camera ray's hit lg_x (below; left
+     * toward the camera along lg_wo, along lg_d0 by a non-delta sample), the delta scatterings at
+     * chain surfaces since (lg_k) and the last direction (lg_dlast); lg_on while the path is one the
      * strategy may make */
     bool lg_enabled, lg_on;
     int lg_k, lg_min;
-    spc_hit lg_x;
     spc_vec3 lg_wo, lg_d0, lg_dlast;
     /* the light seen through flat glass (path_lt_view.h, params.lt_view): lv_on while every
      * scattering since the camera was a delta one on a flat-faced shape, at most
@@ -73,6 +68,22 @@ typedef struct spc_path_snee {
     int lv_k;
     unsigned char lv_ev[SPC_PATH_LT_VIEW_MAX_CHAIN];
     spc_vec3 lv_dlast;
+    /* From here on spc_path_snee_begin clears nothing (most of the struct's size, cleared once per
+     * camera sample at a measurable cost): each field is written before it is read, under the flag
+     * or count above that says it holds a value (on, lt_on, lt_nmid, alt_x1_set, lg_on; gv by
+     * spc_path_snee_guide_at at every vertex; mis_x where the track starts with params.mis, the only
+     * case its weight reads it, and mis_gv with it, its flag mis_gv.a cleared). */
+    spc_snee_params p;        /* the user's parameters, mis and query_p as this path runs them */
+    /* the stream at the current vertex's light sample (skip_light_u), where p.light_u_smp points;
+     * a copy of the state points at the original's until spc_path_snee_at_vertex runs on it */
+    spc_sampler light_smp;
+    spc_cguide_vertex gv;     /* the caustic guide at the current vertex (gv.a 0: none) */
+    spc_cguide_vertex mis_gv; /* and at mis_x, the receiver the track started at */
+    spc_hit mis_x;
+    spc_hit lt_x1;
+    spc_path_lt_vertex lt_mid[SPC_PATH_LT_MID_VERTICES > 0 ? SPC_PATH_LT_MID_VERTICES : 1];
+    spc_hit alt_x1;
+    spc_hit lg_x;
 } spc_path_snee;
 
 /* Begin a camera path (ray0, the camera ray; smp its sampler, not moved): the state, and with
@@ -94,8 +105,8 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
 /* Specular NEE at the path vertex h (wo toward the previous vertex; segments: the path's segments
  * so far), to be multiplied by the path throughput: chains within the depth left and the budget.
  * With specular NEE on, the light sample's uniforms come from smp's next two dimension pairs
- * (drawn at every vertex, so that they stay aligned across a pixel's samples and stratified); the
- * rest of the estimate draws from a fork of it. With s->skip_query set (then cleared; the query was
+ * (used up at every vertex, so that they stay aligned across a pixel's samples and stratified, and
+ * computed only where the query samples a light); the rest of the estimate draws from a fork of it. With s->skip_query set (then cleared; the query was
  * counted by splitting, path.c): every state the later MIS weights read set up alike, the query
  * itself not made (black). */
 spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,

@@ -317,10 +317,14 @@ typedef struct spc_snee_params {
     const void *delta_user;
     /* The light sample's uniforms where the caller draws them from its stratified sample stream
      * (light_u_on; the path integrator at each receiver): light_u[0] picks the light, light_u[1]
-     * and light_u[2] the point on it. Otherwise spc_snee_sample_light draws them from its own
-     * generator. */
+     * and light_u[2] the point on it. Otherwise, where light_u_smp is set, they are drawn when a
+     * light sample is made from a copy of that stream (its next pair gives light_u[1] and
+     * light_u[2], the pair after it light_u[0]; the caller has moved its own stream past both): the
+     * same values, not computed at the vertices where no query runs. Otherwise spc_snee_sample_light
+     * draws them from its own generator. */
     bool light_u_on;
     double light_u[3];
+    const struct spc_sampler *light_u_smp;
     /* Caustic guiding at receivers (the user's "recguide=A" / "norecguide"; caustic_guide.h): the
      * path tracer's BSDF sampling at a non-delta vertex draws, with probability A, a direction
      * toward the caustic photons' disks that x sees, and weighs every strategy with the mixture's

@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/sampler.h"
 #include "manifold/conic.h"
 #include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
@@ -207,7 +208,7 @@ static const spc_snee_cones *cones_for(const spc_snee_query *q, const spc_emitte
 /* Light points per query (params.light_samples): one with guided directions or the caller's uniforms. */
 static int light_count(const spc_snee_params *p)
 {
-    return p->light_samples > 1 && !guide_on(p) && !p->light_u_on ? p->light_samples : 1;
+    return p->light_samples > 1 && !guide_on(p) && !p->light_u_on && !p->light_u_smp ? p->light_samples : 1;
 }
 
 static double snee_prob(const spc_snee_query *q, const spc_emitter *e)
@@ -665,9 +666,22 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
 {
     /* the caller's stratified uniforms where it has drawn them (spc_snee_params.light_u) */
     const spc_snee_params *sp = q->params;
-    bool given = sp && sp->light_u_on;
+    bool given = sp && (sp->light_u_on || sp->light_u_smp);
+    double lu[3] = {0.0, 0.0, 0.0};
+    if (given && sp->light_u_on) {
+        lu[0] = sp->light_u[0];
+        lu[1] = sp->light_u[1];
+        lu[2] = sp->light_u[2];
+    } else if (given) {
+        /* the caller's stream at the light sample's pairs, in its order: the point's pair first */
+        spc_sampler s = *sp->light_u_smp;
+        spc_vec2 u_pos = spc_sampler_2d(&s);
+        lu[0] = spc_sampler_1d(&s);
+        lu[1] = u_pos.x;
+        lu[2] = u_pos.y;
+    }
     double pmf;
-    const spc_emitter *e = spc_scene_sample_emitter(sc, given ? sp->light_u[0] : spc_rng_next(rng), &pmf);
+    const spc_emitter *e = spc_scene_sample_emitter(sc, given ? lu[0] : spc_rng_next(rng), &pmf);
     if (!e)
         return false;
     *e_out = e;
@@ -681,7 +695,7 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
         if (!caster_bound(sc, any_surface, &cb, &cr))
             return false;
         spc_shape_sample ss;
-        spc_vec2 u = given ? spc_v2(sp->light_u[1], sp->light_u[2]) : spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+        spc_vec2 u = given ? spc_v2(lu[1], lu[2]) : spc_v2(spc_rng_next(rng), spc_rng_next(rng));
         if (!sample_light_facing(e->shape, cb, cr, u, &ss))
             return false;
         if (spc_dot(ss.n, spc_sub(cb, ss.p)) + cr <= 0.0)
@@ -2201,6 +2215,15 @@ spc_rgb spc_specular_nee(const spc_scene *sc, const spc_snee_params *p, const sp
 static spc_rgb receiver_nee(const spc_scene *sc, const spc_snee_params *p, const spc_specular_solver *solver,
                             const spc_receiver *r, int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st);
 
+/* params.query_p: is the query made (with that probability; receiver_nee counts it 1 / query_p
+ * times)? The first draw of the query's stream, played before the receiver is built: most
+ * vertices of a path make no query. */
+static bool query_made(const spc_snee_params *p, spc_rng *rng)
+{
+    double pq = spc_snee_query_prob(p);
+    return !(pq < 1.0) || spc_rng_next(rng) < pq;
+}
+
 spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                                int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st)
 {
@@ -2213,6 +2236,8 @@ spc_rgb spc_specular_nee_depth(const spc_scene *sc, const spc_snee_params *p, co
         return zero;
     if (p->solver == SPC_SNEE_NEWTON && p->newton.rough)
         return spc_rough_nee(sc, p, x, wo, spc_snee_budget_params(p, x, max_chain), rng, st);
+    if (!query_made(p, rng))
+        return zero;
     spc_receiver r;
     spc_receiver_surface(&r, x, wo);
     r.guide = p->cguide_at;
@@ -2230,7 +2255,7 @@ spc_rgb spc_specular_nee_at(const spc_scene *sc, const spc_snee_params *p, const
     if (max_chain > SPC_CHAIN_MAX_VERTICES)
         max_chain = SPC_CHAIN_MAX_VERTICES;
     if (r->kind != SPC_RECEIVER_MEDIUM || !solver || (!solver->solve_one && !solver->solve_all) || max_chain < 1 ||
-        (p->solver == SPC_SNEE_NEWTON && p->newton.rough))
+        (p->solver == SPC_SNEE_NEWTON && p->newton.rough) || !query_made(p, rng))
         return spc_rgb1(0.0);
     return receiver_nee(sc, p, solver, r, max_chain, long_max, rng, st);
 }
@@ -2239,10 +2264,9 @@ static spc_rgb receiver_nee(const spc_scene *sc, const spc_snee_params *p, const
                             const spc_receiver *r, int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st)
 {
     const spc_rgb zero = spc_rgb1(0.0);
-    /* params.query_p: the query made with that probability, counted 1 / query_p times (p_y below) */
+    /* params.query_p: the query made with that probability (query_made, played by the caller),
+     * counted 1 / query_p times (p_y below) */
     double pq = spc_snee_query_prob(p);
-    if (pq < 1.0 && !(spc_rng_next(rng) < pq))
-        return zero;
 
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, spc_receiver_origin(r), r->wo, max_chain);

@@ -146,25 +146,10 @@ static bool estimate_ok(spc_rgb L)
 /* AOVs are not estimates that can be discarded: a non-finite one is stored as zero. */
 static double finite_or_zero(double v) { return fabs(v) <= SPC_MAX_ESTIMATE ? v : 0.0; }
 
-/* The camera sample of pixel (x, y) of the rendered window in pass `pass`: its sampler started
- * and moved past the camera's dimensions, and its ray. */
-static spc_ray camera_sample(const job *jb, int pass, int x, int y, spc_sampler *smp)
-{
-    const spc_render_ctx *ctx = jb->ctx;
-    int fx = x + ctx->crop_x, fy = y + ctx->crop_y;
-    spc_sampler_start(smp, (uint32_t)fx, (uint32_t)fy, (uint32_t)pass, jb->seed);
-    spc_vec2 u = spc_sampler_2d(smp);
-    /* the filter restricted to the rendered window, as Mitsuba's films (film.h) */
-    double px = fx + 0.5 + spc_film_filter_sample(ctx->film, u.x, fx + 0.5, ctx->crop_x, ctx->crop_x + ctx->width);
-    double py = fy + 0.5 + spc_film_filter_sample(ctx->film, u.y, fy + 0.5, ctx->crop_y, ctx->crop_y + ctx->height);
-    /* a lens sample only for a thin lens: a pinhole's sample dimensions stay as they were */
-    return spc_camera_has_lens(ctx->cam) ? spc_camera_ray_lens(ctx->cam, px, py, spc_sampler_2d(smp))
-                                         : spc_camera_ray(ctx->cam, px, py);
-}
-
-/* camera_sample for every pixel of tile t at once (the packet path tracer's tiles): the samplers'
- * pixel pairs drawn together and the pinhole rays computed together, the same values. Returns the
- * pixel count; the samples run row by row. */
+/* The camera samples of every pixel of tile t of the rendered window in pass `pass`: each pixel's
+ * sampler started and moved past the camera's dimensions (the filter's pair, and a lens pair only
+ * for a thin lens), and its ray; the samplers' pixel pairs drawn together and the pinhole rays
+ * computed together. Returns the pixel count; the samples run row by row. */
 static int camera_samples_tile(const job *jb, int pass, const tile *t, spc_ray *rays, spc_sampler *smp)
 {
     const spc_render_ctx *ctx = jb->ctx;
@@ -287,10 +272,16 @@ static void render_item(job *jb, int item)
                 store_sample(jb, tls, buf, x, y, &rays[n], &out[n], NULL);
         return;
     }
+    /* the tile's camera samples at once, as the packet path takes them (the rays and streams of
+     * each pixel, computed side by side), then each path */
+    spc_ray rays[SPC_TILE * SPC_TILE];
+    spc_sampler smps[SPC_TILE * SPC_TILE];
+    camera_samples_tile(jb, pass, t, rays, smps);
+    int n = 0;
     for (int y = t->y0; y < t->y1; ++y)
-        for (int x = t->x0; x < t->x1; ++x) {
-            spc_sampler smp;
-            spc_ray ray = camera_sample(jb, pass, x, y, &smp);
+        for (int x = t->x0; x < t->x1; ++x, ++n) {
+            spc_sampler smp = smps[n];
+            spc_ray ray = rays[n];
             spc_sample_out out;
             spc_rgb strategy_L[2 * SPC_STRATEGY_IMAGES_MAX];
             out.strategy_L = jb->nfilms > 0 ? strategy_L : NULL;
