@@ -230,8 +230,7 @@ TEST(default_on_with_casters_only)
         CHECK(finalize(pane));
         spc_snee_plan_make(pane, "path", NULL, &p);
         if (kind == 0) {
-            CHECK_MSG(!p.on && p.casters == 1 && strstr(p.reason, "caster shape 2 is flat-faced"), "%s",
-                      p.reason);
+            CHECK_MSG(!p.on && p.casters == 1 && strstr(p.reason, "caster shape 2 is flat-faced"), "%s", p.reason);
             spc_snee_plan_make(pane, "path", "angular", &p);
             CHECK(p.on);
         } else {
@@ -295,7 +294,8 @@ TEST(xml_setting_words)
         "</scene>\n";
     static const struct {
         const char *value, *runs;
-    } words[] = {{"auto", NULL}, {"", NULL}, {"off", "none"}, {"none", "none"}, {"conic", "conic"}}; /* NULL: glass_setting */
+    } words[] = {
+        {"auto", NULL}, {"", NULL}, {"off", "none"}, {"none", "none"}, {"conic", "conic"}}; /* NULL: glass_setting */
     char text[1024];
     for (size_t i = 0; i < sizeof words / sizeof words[0]; ++i) {
         snprintf(text, sizeof text, fmt, words[i].value);
@@ -499,8 +499,7 @@ TEST(mirror_only_plan_has_no_camera_query)
     free(text);
     spc_snee_plan both_plan;
     spc_snee_plan_make(both, "path", NULL, &both_plan);
-    CHECK_MSG(both_plan.on && both_plan.casters == 2 && glass_setting(both_plan.setting), "%s",
-              both_plan.setting);
+    CHECK_MSG(both_plan.on && both_plan.casters == 2 && glass_setting(both_plan.setting), "%s", both_plan.setting);
     CHECK(spc_snee_parse(both_plan.setting, 2, &sp) && sp.camera);
 
     char ran[SPC_SPECULAR_NEE_MAX];
@@ -536,8 +535,8 @@ TEST(lamp_in_glass_globe_plan_on)
     CHECK(finalize(sc));
     spc_snee_plan p;
     spc_snee_plan_make(sc, "path", NULL, &p);
-    CHECK_MSG(p.on && p.light_sr > 0.03 && p.caster_share >= 1.0 && glass_setting(p.setting),
-              "%s (%s) %g sr, share %g", p.setting, p.reason, p.light_sr, p.caster_share);
+    CHECK_MSG(p.on && p.light_sr > 0.03 && p.caster_share >= 1.0 && glass_setting(p.setting), "%s (%s) %g sr, share %g",
+              p.setting, p.reason, p.light_sr, p.caster_share);
     char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *ref = render_ran(sc, "path", "none", 16384, 71, ran);
     spc_film *img = render_ran(sc, "path", NULL, 4096, 72, ran);
@@ -685,8 +684,8 @@ TEST(demo_plan_on)
         return;
     spc_snee_plan p;
     spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
-    CHECK_MSG(p.on && p.automatic && glass_setting(p.setting) && p.casters == 2 && p.light_sr < 0.03,
-              "%s: %s (%g sr)", p.setting, p.reason, p.light_sr);
+    CHECK_MSG(p.on && p.automatic && glass_setting(p.setting) && p.casters == 2 && p.light_sr < 0.03, "%s: %s (%g sr)",
+              p.setting, p.reason, p.light_sr);
     char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *img = render_ran(sc, "path", NULL, 512, 51, ran);
     CHECK(img && !strcmp(ran, p.setting));
@@ -706,8 +705,7 @@ TEST(demo_plan_on)
 
 /* The image mean (luminance) of each of `n` renders of spp samples (seeds seed0 + i), their mean
  * *mean and relative standard deviation *rel (0 if the mean is 0). False if a render failed. */
-static bool seed_means(const spc_scene *sc, const char *snee, int spp, uint64_t seed0, int n, double *mean,
-                       double *rel)
+static bool seed_means(const spc_scene *sc, const char *snee, int spp, uint64_t seed0, int n, double *mean, double *rel)
 {
     double s = 0.0, s2 = 0.0;
     char ran[SPC_SPECULAR_NEE_MAX];
@@ -1237,8 +1235,8 @@ TEST(water_plane_plan_no_camera_query)
     if (!sc)
         return;
     spc_snee_plan_make(sc, "path", NULL, &p);
-    CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "light under the water, path: %s (%s)",
-              p.setting, p.reason);
+    CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "light under the water, path: %s (%s)", p.setting,
+              p.reason);
     printf("    light under the water, path: %s\n", p.setting);
     spc_scene_destroy(sc);
 }
@@ -1246,6 +1244,23 @@ TEST(water_plane_plan_no_camera_query)
 /* Glass slabs (cubes scaled thin, their chains enumerated through flat faces) on a floor under a
  * square light whose size is given: a slab and the light of random caustic scene 435, a second slab
  * beside it, or a mirror ball, where asked. */
+/* An 8x8 path scene looked at from above and to the side: a diffuse floor (half size 4) and then
+ * `objects` (casters and lights, Mitsuba XML). */
+static void floor_scene_text(char *text, size_t n, const char *objects)
+{
+    snprintf(text, n,
+             "<scene version=\"3.0.0\">"
+             "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/></integrator>"
+             "<sensor type=\"perspective\"><float name=\"fov\" value=\"35\"/>"
+             "<transform name=\"to_world\"><lookat origin=\"2.2, 3.5, 1.0\" target=\"0, 0.3, 0\" "
+             "up=\"0, 1, 0\"/></transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
+             "<integer name=\"height\" value=\"8\"/></film></sensor>"
+             "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"4\"/><rotate x=\"1\" "
+             "angle=\"-90\"/></transform><bsdf type=\"diffuse\"/></shape>"
+             "%s</scene>",
+             objects);
+}
+
 static spc_scene *slab_scene(double light_scale, bool two, bool slab, bool mirror, bool ball)
 {
     char text[3584];
@@ -1299,7 +1314,10 @@ TEST(slab_plan_light_tracing)
         const char *integrator;
         int want; /* 0 no light tracing, 1 ltcaus with flat34, 2 with flat34 and flat5 */
     } cases[] = {
-        {0.125, "path", 2}, {0.05, "path", 1}, {0.05, "volpath", 0}, {0.05, "bdpt", 0},
+        {0.125, "path", 2},
+        {0.05, "path", 1},
+        {0.05, "volpath", 0},
+        {0.05, "bdpt", 0},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         spc_scene *sc = slab_scene(cases[i].scale, false, true, false, false);
@@ -1310,11 +1328,11 @@ TEST(slab_plan_light_tracing)
         spc_snee_params sp;
         CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp), "case %zu: %s (%s)", i, p.setting, p.reason);
         if (cases[i].want == 0)
-            CHECK_MSG(!strstr(p.setting, "ltcaus") && sp.flat34_p == 1.0, "case %zu (%s): %s", i,
-                      cases[i].integrator, p.setting);
+            CHECK_MSG(!strstr(p.setting, "ltcaus") && sp.flat34_p == 1.0, "case %zu (%s): %s", i, cases[i].integrator,
+                      p.setting);
         else
-            CHECK_MSG(sp.lt_caustic && sp.flat34_p == 0.3 &&
-                          sp.flat5_p == (cases[i].want == 2 ? 0.3 : 0.0) && sp.long_p > 0.0 && sp.long_max == 8,
+            CHECK_MSG(sp.lt_caustic && sp.flat34_p == 0.3 && sp.flat5_p == (cases[i].want == 2 ? 0.3 : 0.0) &&
+                          sp.long_p > 0.0 && sp.long_max == 8,
                       "case %zu: %s", i, p.setting);
         spc_scene_destroy(sc);
     }
@@ -1322,8 +1340,8 @@ TEST(slab_plan_light_tracing)
     if (sc) {
         spc_snee_plan p;
         spc_snee_plan_make(sc, "path", NULL, &p);
-        CHECK_MSG(p.on && strstr(p.setting, SPC_SNEE_PLAN_AREA_LIGHTS SPC_SNEE_PLAN_FLAT_LT), "caustic_slabs_small_light: %s",
-                  p.setting);
+        CHECK_MSG(p.on && strstr(p.setting, SPC_SNEE_PLAN_AREA_LIGHTS SPC_SNEE_PLAN_FLAT_LT),
+                  "caustic_slabs_small_light: %s", p.setting);
         spc_scene_destroy(sc);
     }
     sc = load_at("scenes/caustic_glass_sphere.xml", "8");
@@ -1366,19 +1384,13 @@ TEST(slab_plan_point_light_tracing)
     const int want[] = {2, 0, 1, 2}; /* 0 no light tracing, 1 ltcaus with the joins, 2 and the share */
     for (int i = 0; i < 4; ++i) {
         char text[2048];
-        snprintf(text, sizeof text,
-                 "<scene version=\"3.0.0\">"
-                 "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/></integrator>"
-                 "<sensor type=\"perspective\"><float name=\"fov\" value=\"35\"/>"
-                 "<transform name=\"to_world\"><lookat origin=\"2.2, 3.5, 1.0\" target=\"0, 0.3, 0\" "
-                 "up=\"0, 1, 0\"/></transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
-                 "<integer name=\"height\" value=\"8\"/></film></sensor>"
-                 "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"4\"/><rotate x=\"1\" "
-                 "angle=\"-90\"/></transform><bsdf type=\"diffuse\"/></shape>"
+        char objects[1536];
+        snprintf(objects, sizeof objects,
                  "<shape type=\"cube\"><transform name=\"to_world\"><scale x=\"0.4\" y=\"0.06\" z=\"0.3\"/>"
                  "<rotate x=\"1\" angle=\"8\"/><translate y=\"0.6\"/></transform><bsdf type=\"dielectric\"/>"
-                 "</shape>%s</scene>",
+                 "</shape>%s",
                  lights[i]);
+        floor_scene_text(text, sizeof text, objects);
         spc_scene *sc = NULL;
         spc_error err;
         CHECK_MSG(load_text(text, &sc, &err) == SPC_OK, "slab scene %d: %s", i, err.msg);
@@ -1395,7 +1407,8 @@ TEST(slab_plan_point_light_tracing)
                         : "a point light, beside a mirror ring",
                p.setting);
         if (want[i] > 0)
-            CHECK_MSG(p.on && parsed && sp.lt_caustic && sp.lt_slab && strstr(p.setting, SPC_SNEE_PLAN_FLAT_POINT_JOINS) &&
+            CHECK_MSG(p.on && parsed && sp.lt_caustic && sp.lt_slab &&
+                          strstr(p.setting, SPC_SNEE_PLAN_FLAT_POINT_JOINS) &&
                           (want[i] == 2 ? sp.flat34_p < 1.0 && strstr(p.setting, SPC_SNEE_PLAN_FLAT_POINT_SHARE)
                                         : sp.flat34_p == 1.0),
                       "slab, point light (case %d): %s (%s)", i, p.setting, p.reason);
@@ -1449,18 +1462,12 @@ TEST(point_light_sky_plan)
     const bool want[] = {true, true, false};
     for (int i = 0; i < 3; ++i) {
         char text[2048];
-        snprintf(text, sizeof text,
-                 "<scene version=\"3.0.0\">"
-                 "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/></integrator>"
-                 "<sensor type=\"perspective\"><float name=\"fov\" value=\"35\"/>"
-                 "<transform name=\"to_world\"><lookat origin=\"2.2, 3.5, 1.0\" target=\"0, 0.3, 0\" "
-                 "up=\"0, 1, 0\"/></transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
-                 "<integer name=\"height\" value=\"8\"/></film></sensor>"
-                 "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"4\"/><rotate x=\"1\" "
-                 "angle=\"-90\"/></transform><bsdf type=\"diffuse\"/></shape>"
+        char objects[1536];
+        snprintf(objects, sizeof objects,
                  "<shape type=\"sphere\"><point name=\"center\" x=\"0\" y=\"0.4\" z=\"0\"/><float name=\"radius\" "
-                 "value=\"0.4\"/><bsdf type=\"dielectric\"/></shape>%s</scene>",
+                 "value=\"0.4\"/><bsdf type=\"dielectric\"/></shape>%s",
                  lights[i]);
+        floor_scene_text(text, sizeof text, objects);
         spc_scene *sc = NULL;
         spc_error err;
         CHECK_MSG(load_text(text, &sc, &err) == SPC_OK, "sky scene %d: %s", i, err.msg);
@@ -1508,21 +1515,15 @@ TEST(spot_plan_light_tracing)
     };
     for (int i = 0; i < 2; ++i) {
         char text[2048];
-        snprintf(text, sizeof text,
-                 "<scene version=\"3.0.0\">"
-                 "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/></integrator>"
-                 "<sensor type=\"perspective\"><float name=\"fov\" value=\"35\"/>"
-                 "<transform name=\"to_world\"><lookat origin=\"2.2, 3.5, 1.0\" target=\"0, 0.3, 0\" "
-                 "up=\"0, 1, 0\"/></transform><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/>"
-                 "<integer name=\"height\" value=\"8\"/></film></sensor>"
-                 "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"4\"/><rotate x=\"1\" "
-                 "angle=\"-90\"/></transform><bsdf type=\"diffuse\"/></shape>"
+        char objects[1536];
+        snprintf(objects, sizeof objects,
                  "<shape type=\"cube\"><transform name=\"to_world\"><scale x=\"0.4\" y=\"0.06\" z=\"0.3\"/>"
                  "<rotate x=\"1\" angle=\"8\"/><translate y=\"0.6\"/></transform><bsdf type=\"dielectric\"/>"
                  "</shape><emitter type=\"spot\"><transform name=\"to_world\"><lookat origin=\"-0.6, 2.5, 1.9\" "
                  "target=\"0, 0.6, 0\" up=\"0, 1, 0\"/></transform><float name=\"cutoff_angle\" value=\"25\"/>"
-                 "<rgb name=\"intensity\" value=\"20\"/></emitter>%s</scene>",
+                 "<rgb name=\"intensity\" value=\"20\"/></emitter>%s",
                  lights[i]);
+        floor_scene_text(text, sizeof text, objects);
         spc_error err;
         CHECK_MSG(load_text(text, &sc, &err) == SPC_OK, "spot slab scene %d: %s", i, err.msg);
         if (!sc)
@@ -1589,8 +1590,8 @@ TEST(one_slab_plan_long_chains)
         /* the flat casters not alone: the limit 0.08 beside glass, 0.068 beside a mirror */
         double limit = cases[i].mirror ? 0.068 : cases[i].ball ? 0.08 : 0.26;
         if (cases[i].want == 2)
-            CHECK_MSG(p.light_sr > 0.002 && p.flat_sequences > 0.0 && product <= limit,
-                      "%.3g sr, %.3g sequences", p.light_sr, p.flat_sequences);
+            CHECK_MSG(p.light_sr > 0.002 && p.flat_sequences > 0.0 && product <= limit, "%.3g sr, %.3g sequences",
+                      p.light_sr, p.flat_sequences);
         if (cases[i].want == 0 && cases[i].slab && !strcmp(cases[i].integrator, "path") && p.light_sr <= 0.01)
             CHECK_MSG(product > limit && strstr(p.reason, "sequences a query"), "%s", p.reason);
         if (!cases[i].slab)
@@ -1654,11 +1655,10 @@ TEST(slab_plan_large_lights)
         const char *path, *radius, *integrator;
         bool on;
     } cases[] = {
-        {"scenes/caustic_slabs.xml", NULL, "path", true},   {"scenes/caustic_slabs.xml", "0.2", "path", true},
-        {"scenes/caustic_slabs.xml", "0.3", "path", false},
-        {"scenes/newton_slabs.xml", NULL, "path", true},
-        {"scenes/newton_slabs.xml", "0.36", "path", true},  {"scenes/newton_slabs.xml", "0.4", "path", false},
-        {"scenes/newton_slabs.xml", NULL, "volpath", false}, {"scenes/newton_slabs.xml", NULL, "bdpt", false},
+        {"scenes/caustic_slabs.xml", NULL, "path", true},       {"scenes/caustic_slabs.xml", "0.2", "path", true},
+        {"scenes/caustic_slabs.xml", "0.3", "path", false},     {"scenes/newton_slabs.xml", NULL, "path", true},
+        {"scenes/newton_slabs.xml", "0.36", "path", true},      {"scenes/newton_slabs.xml", "0.4", "path", false},
+        {"scenes/newton_slabs.xml", NULL, "volpath", false},    {"scenes/newton_slabs.xml", NULL, "bdpt", false},
         {"scenes/caustic_glass_cube.xml", NULL, "path", false},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
