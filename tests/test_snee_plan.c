@@ -1553,7 +1553,8 @@ TEST(spot_plan_light_tracing)
  * past the limit under 0.0096 sr. Beside a mirror ball (SPC_SNEE_PLAN_FLAT_MIRROR_COST_SR, 0.068),
  * one slab on under 0.0031 and 0.004 sr, off under 0.0079 sr (the cost); two slabs on under 0.0024
  * sr, off under 0.0029 sr (0.077: within the glass limit, past the mirror's); under 0.002 sr on
- * without the longer chains. Off for volpath and bdpt, and without casters. */
+ * without the longer chains; with the longer chains the query at every first receiver beside a
+ * mirror, by roulette elsewhere. Off for volpath and bdpt, and without casters. */
 TEST(one_slab_plan_long_chains)
 {
     static const struct {
@@ -1585,6 +1586,12 @@ TEST(one_slab_plan_long_chains)
         bool flat_long = strstr(p.setting, SPC_SNEE_PLAN_FLAT_LONG) != NULL;
         int got = !p.on ? 0 : flat_long ? 2 : 1;
         double product = p.flat_sequences * p.light_sr;
+        /* beside a mirror the query at every first receiver (SPC_SNEE_PLAN_FLAT_MIRROR_FIRST), by
+         * roulette without one */
+        spc_snee_params sp;
+        if (got == 2)
+            CHECK_MSG(spc_snee_parse(p.setting, 2, &sp) && (sp.first_p == 1.0) == cases[i].mirror, "case %zu: %s", i,
+                      p.setting);
         CHECK_MSG(got == cases[i].want, "case %zu (%s, light %.3g sr, %.3g sequences a query): %s (%s)", i,
                   cases[i].integrator, p.light_sr, p.flat_sequences, p.setting, p.reason);
         /* the flat casters not alone: the limit 0.08 beside glass, 0.068 beside a mirror */

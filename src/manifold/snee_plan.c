@@ -874,10 +874,12 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_LIGHT_GUIDES);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
-     * every call and the 5-vertex ones (total internal reflections inside a slab) too (snee_plan.h) */
+     * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a
+     * mirror the query at every first receiver (snee_plan.h) */
     if (flat_long) {
         size_t n = strlen(out->setting);
-        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LONG);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s%s", SPC_SNEE_PLAN_FLAT_LONG,
+                 mirror ? SPC_SNEE_PLAN_FLAT_MIRROR_FIRST : "");
     }
     if (flat_large && !strstr(out->setting, "recguide")) {
         size_t n = strlen(out->setting);

@@ -275,6 +275,17 @@
  * rule" and "the slab plan never worse than none". */
 #define SPC_SNEE_PLAN_FLAT_LONG ",long=0.3,flat5=1"
 
+/* Appended after SPC_SNEE_PLAN_FLAT_LONG where a mirror stands beside the flat casters: the query at
+ * every first receiver. With the first receiver's query by roulette (probability 0.1-0.3 there), a
+ * BSDF-sampled path through the glass and then off the mirror to the light keeps an MIS weight
+ * near 1 and is the image's one-pixel seeds; with the query certain specular NEE takes those paths.
+ * At equal CPU time (bench/RESULTS.md, part cube31 and "The merged main after session 31"):
+ * scenes/caustic_glass_cube.xml over 48 seeds 1.15x none's mean relMSE without it (4 one-pixel
+ * seeds, the worst at 0.71) and 9.6x with it; random scene 9304 (a glass cube beside a mirror
+ * cylinder) 15.4x -> 21.2x over 32 seeds. Not without a mirror: 9312 (glass cube and glass sphere)
+ * 51x -> 27x, 8504 (a tessellated ball beside slabs) 14.3x -> 10.1x. */
+#define SPC_SNEE_PLAN_FLAT_MIRROR_FIRST ",first=1"
+
 /* Appended for path where some caster is flat-faced (a slab) and the lights are small area lights
  * (as SPC_SNEE_PLAN_AREA_LIGHTS; ",ltcaus" first where no other rule added it), without the caustic
  * guide at receivers: light tracing makes the slabs' caustics too (chains through flat faces of up
