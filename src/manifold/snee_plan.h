@@ -251,7 +251,8 @@
  * none over 16 seeds (the sphere's caustic tail gone, one path-tracer tail left that both share),
  * fresh point-light-and-sky scenes with glass spheres 1.1-10x lower mean relMSE on 8 of 10, one at
  * the reference's noise either way, one with no tail without it 7.5x worse (still 30x none);
- * bench/check/spot_ball.xml 6.8x lower (bench/RESULTS.md, part ltsky31). Not with other lights:
+ * bench/check/spot_ball.xml 6.8x lower (bench/RESULTS.md, "Light tracing (`ltcaus`) for spot
+ * lights"). Not with other lights:
  * on scenes/dielectrics.xml (a point light, an area light, a water ball, a sky) 1.2x worse (its
  * cost per sample 1.14x, no gain in the error per sample). */
 #define SPC_SNEE_PLAN_POINT_LIGHTS ",ltcaus"
@@ -279,7 +280,8 @@
  * every first receiver. With the first receiver's query by roulette (probability 0.1-0.3 there), a
  * BSDF-sampled path through the glass and then off the mirror to the light keeps an MIS weight
  * near 1 and is the image's one-pixel seeds; with the query certain specular NEE takes those paths.
- * At equal CPU time (bench/RESULTS.md, part cube31 and "The merged main after session 31"):
+ * At equal CPU time (bench/RESULTS.md, "The split by roulette on flat glass" and "the glass cube
+ * queried at every first receiver"):
  * scenes/caustic_glass_cube.xml over 48 seeds 1.15x none's mean relMSE without it (4 one-pixel
  * seeds, the worst at 0.71) and 9.6x with it; random scene 9304 (a glass cube beside a mirror
  * cylinder) 15.4x -> 21.2x over 32 seeds. Not without a mirror: 9312 (glass cube and glass sphere)
