@@ -1057,6 +1057,33 @@ typedef struct slab_point_tally {
  * its length at x2 (spc_snee_flat_psi above 0), it finds the join's chain there, and its share
  * 1 / (1 + (r / psi)^2) (r from its chain, psi its enumeration's probability) and light tracing's
  * weight sum to one; where it never does (psi 0), the join is light tracing's alone (weight 1). */
+/* The flat enumeration's chain from a join's receiver x2 to its point light that is the join's own
+ * (the same vertex count, the same first direction within 1e-6), copied to *out; NULL where the
+ * enumeration does not make it. */
+static const spc_chain *point_light_flat_match(const spc_scene *sc, const spc_snee_params *p,
+                                               const spc_path_lt_join *j, spc_chain *out)
+{
+    spc_snee_query q;
+    spc_snee_query_init(&q, sc, p, j->x2, j->w2, j->c->n);
+    q.min_chain = j->c->n;
+    q.y = j->e->position;
+    q.ny = spc_v3(0, 0, 0);
+    q.light_size = 0.0;
+    spc_chain all[16];
+    int n = spc_flat_chains_all(&q, all, 16, NULL);
+    int match = -1;
+    double best = 1.0 - 1e-6;
+    for (int i = 0; i < n; ++i)
+        if (all[i].n == j->c->n && spc_dot(all[i].d0, j->c->d0) > best) {
+            best = spc_dot(all[i].d0, j->c->d0);
+            match = i;
+        }
+    if (match < 0)
+        return NULL;
+    *out = all[match];
+    return out;
+}
+
 static void check_slab_point_join(void *user, const spc_path_lt_join *j)
 {
     slab_point_tally *t = user;
@@ -1076,21 +1103,8 @@ static void check_slab_point_join(void *user, const spc_path_lt_join *j)
         return;
     }
     t->shared_psi += psi < 1.0;
-    spc_snee_query q;
-    spc_snee_query_init(&q, sc, t->p, j->x2, j->w2, j->c->n);
-    q.min_chain = j->c->n;
-    q.y = j->e->position;
-    q.ny = spc_v3(0, 0, 0);
-    q.light_size = 0.0;
-    spc_chain all[16];
-    int n = spc_flat_chains_all(&q, all, 16, NULL);
-    const spc_chain *match = NULL;
-    double best = 1.0 - 1e-6;
-    for (int i = 0; i < n; ++i)
-        if (all[i].n == j->c->n && spc_dot(all[i].d0, j->c->d0) > best) {
-            best = spc_dot(all[i].d0, j->c->d0);
-            match = &all[i];
-        }
+    spc_chain found;
+    const spc_chain *match = point_light_flat_match(sc, t->p, j, &found);
     if (!match)
         return;
     ++t->matched;
@@ -1219,21 +1233,8 @@ static void check_slab_camera_join(void *user, const spc_path_lt_join *j)
         return;
     }
     t->shared_psi += psi < 1.0;
-    spc_snee_query q;
-    spc_snee_query_init(&q, sc, t->p, j->x2, j->w2, j->c->n);
-    q.min_chain = j->c->n;
-    q.y = j->e->position;
-    q.ny = spc_v3(0, 0, 0);
-    q.light_size = 0.0;
-    spc_chain all[16];
-    int n = spc_flat_chains_all(&q, all, 16, NULL);
-    const spc_chain *match = NULL;
-    double best = 1.0 - 1e-6;
-    for (int i = 0; i < n; ++i)
-        if (all[i].n == j->c->n && spc_dot(all[i].d0, j->c->d0) > best) {
-            best = spc_dot(all[i].d0, j->c->d0);
-            match = &all[i];
-        }
+    spc_chain found;
+    const spc_chain *match = point_light_flat_match(sc, t->p, j, &found);
     if (!match)
         return;
     ++t->matched;
