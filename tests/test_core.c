@@ -150,6 +150,57 @@ TEST(sampler_many_matches_one_at_a_time)
     CHECK(checked > 2000);
 }
 
+/* spc_sampler_draw_many_used: the pairs a stream reads (its use bits, different per stream) are the
+ * one-pair calls' values bit for bit, the pairs it does not read are left as they were, and every
+ * stream moves past all its pairs, so the next draw is the same as after spc_sampler_draw_many.
+ * Sizes cross the batch's internal flush (128 pairs); use NULL reads every pair. */
+TEST(sampler_many_used_matches_one_at_a_time)
+{
+    int bad = 0, checked = 0, skipped = 0;
+    const double mark = -7.0;
+    for (int n = 1; n <= 79; n += 13)
+        for (int npairs = 1; npairs <= 5; ++npairs)
+            for (unsigned ymask = 0; ymask < 1u << npairs; ymask += 1u + (unsigned)npairs / 2u) {
+                spc_sampler a[79], b[79];
+                spc_sampler *pa[79];
+                unsigned use[79];
+                spc_vec2 u[395];
+                for (int i = 0; i < n; ++i) {
+                    spc_sampler_start(&a[i], (uint32_t)i, 9, (uint32_t)(i * 3 + n), 4);
+                    for (int k = 0; k < i % 3; ++k) /* streams at different dimensions */
+                        spc_sampler_1d(&a[i]);
+                    b[i] = a[i];
+                    pa[i] = i % 7 == 5 ? NULL : &a[i];
+                }
+                for (int round = 0; round < 3; ++round) {
+                    for (int i = 0; i < n; ++i) /* every mask, the empty one and the full one included */
+                        use[i] = (unsigned)(i * 11 + round * 5 + npairs) % (1u << npairs);
+                    for (int j = 0; j < n * npairs; ++j)
+                        u[j] = spc_v2(mark, mark);
+                    spc_sampler_draw_many_used(pa, round == 2 && n % 2 ? NULL : use, n, npairs, ymask, u);
+                    for (int i = 0; i < n; ++i) {
+                        if (!pa[i]) {
+                            bad += a[i].dim != b[i].dim;
+                            continue;
+                        }
+                        for (int k = 0; k < npairs; ++k) {
+                            spc_vec2 v = spc_sampler_2d(&b[i]), w = u[i * npairs + k];
+                            if (round == 2 && n % 2 ? false : !(use[i] >> k & 1u)) {
+                                bad += w.x != mark || w.y != mark;
+                                ++skipped;
+                                continue;
+                            }
+                            bad += v.x != w.x || (ymask >> k & 1u ? v.y : 0.0) != w.y;
+                            ++checked;
+                        }
+                        bad += a[i].dim != b[i].dim;
+                    }
+                }
+            }
+    CHECK_MSG(bad == 0, "%d pairs or stream positions differ (%d checked, %d skipped)", bad, checked, skipped);
+    CHECK(checked > 2000 && skipped > 1000);
+}
+
 /* spc_warp_cosine_hemisphere_many gives the one-at-a-time warp's directions bit for bit: random
  * points, the center (the disk's origin), both diagonals (|a| = |b|, where the octant flips), the
  * square's edges and corners, and counts that cross the batch (64). */
@@ -222,8 +273,8 @@ TEST(vector_batches_every_isa)
     const char *isas[] = {"base", "avx2", "avx512", "avx512gfni"};
     for (int i = 0; i < 4; ++i) {
         char cmd[4300];
-        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=sampler_many_matches_one_at_a_time,sampler_start_row_matches_start,"
-                 "cosine_hemisphere_many_matches_one_at_a_time '%s' >/dev/null",
+        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=sampler_many_matches_one_at_a_time,sampler_many_used_matches_one_at_a_time,"
+                 "sampler_start_row_matches_start,cosine_hemisphere_many_matches_one_at_a_time '%s' >/dev/null",
                  isas[i], exe);
         int rc = system(cmd);
         CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
@@ -411,6 +462,7 @@ int main(void)
     RUN(frames_orthonormal);
     RUN(sampler_stratified_and_deterministic);
     RUN(sampler_many_matches_one_at_a_time);
+    RUN(sampler_many_used_matches_one_at_a_time);
     RUN(cosine_hemisphere_many_matches_one_at_a_time);
     RUN(vector_batches_every_isa);
     RUN(warps_match_their_pdfs);

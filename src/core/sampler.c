@@ -265,32 +265,37 @@ static void pairs_init(void)
 #endif
 }
 
-void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u)
+/* spc_sampler_draw_many_used for the streams whose use bits (of the npairs pairs; use NULL: all)
+ * are `mask`. A batch of m streams, its pairs grouped by pair number: first the pairs of mask that
+ * need their y (pair[k] of stream q in slot k m + q), then the others, so that the pairs' loops
+ * cover them all and their last loop the first group, and the per-pair bookkeeping is plain loops
+ * over the batch's streams. */
+static void draw_group(spc_sampler *const *s, const unsigned *use, unsigned all, unsigned mask, int n, int npairs,
+                       unsigned ymask, spc_vec2 *u)
 {
-    /* A batch of m streams, its pairs grouped by pair number: first the pairs that need their y
-     * (pair py[k] of stream q in slot k m + q), then the others (slot (ky + k) m + q), so that the
-     * pairs' loops cover them all and their last loop the first group, and the per-pair
-     * bookkeeping is plain loops over the batch's streams. Every pair's values depend only on its
-     * (seed, rev), so the grouping changes no value. */
     uint64_t pseed[MANY_LANES];
     uint32_t rev[MANY_LANES], dim0[MANY_LANES];
     double ux[MANY_LANES], uy[MANY_LANES];
-    int base[MANY_LANES], pair[MANY_LANES];
-    if (npairs <= 0)
-        return;
-    pthread_once(&pairs_once, pairs_init);
-    int ky = 0;
+    int base[MANY_LANES], pair[32];
+    int ky = 0, np = 0;
     for (int p = 0; p < npairs; ++p)
-        if (ymask >> p & 1u)
+        if ((mask & ymask) >> p & 1u)
             pair[ky++] = p;
-    for (int p = 0, kx = ky; p < npairs; ++p)
-        if (!(ymask >> p & 1u))
-            pair[kx++] = p;
-    const int per_batch = MANY_LANES / npairs;
+    np = ky;
+    for (int p = 0; p < npairs; ++p)
+        if ((mask & ~ymask) >> p & 1u)
+            pair[np++] = p;
+    if (np == 0) {
+        for (int i = 0; i < n; ++i)
+            if (s[i] && (!use || (use[i] & all) == mask))
+                s[i]->dim += (uint32_t)npairs;
+        return;
+    }
+    const int per_batch = MANY_LANES / np;
     for (int i = 0; i < n;) {
         int m = 0;
         for (; i < n && m < per_batch; ++i)
-            if (s[i]) {
+            if (s[i] && (!use || (use[i] & all) == mask)) {
                 base[m] = i * npairs;
                 pseed[m] = s[i]->pixel_seed;
                 dim0[m] = s[i]->dim;
@@ -300,20 +305,67 @@ void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ym
             }
         if (m == 0)
             break;
-        pairs(m, npairs, ky, pair, pseed, dim0, rev, ux, uy);
+        pairs(m, np, ky, pair, pseed, dim0, rev, ux, uy);
         for (int k = 0; k < ky; ++k) {
             const double *xk = ux + k * m, *yk = uy + k * m;
             spc_vec2 *uk = u + pair[k];
             for (int q = 0; q < m; ++q)
                 uk[base[q]] = spc_v2(xk[q], yk[q]);
         }
-        for (int k = ky; k < npairs; ++k) {
+        for (int k = ky; k < np; ++k) {
             const double *xk = ux + k * m;
             spc_vec2 *uk = u + pair[k];
             for (int q = 0; q < m; ++q)
                 uk[base[q]] = spc_v2(xk[q], 0.0);
         }
     }
+}
+
+void spc_sampler_draw_many_used(spc_sampler *const *s, const unsigned *use, int n, int npairs, unsigned ymask,
+                                spc_vec2 *u)
+{
+    if (npairs <= 0)
+        return;
+    pthread_once(&pairs_once, pairs_init);
+    const unsigned all = npairs >= 32 ? ~0u : (1u << npairs) - 1u;
+    if (!use) {
+        draw_group(s, NULL, all, all, n, npairs, ymask, u);
+        return;
+    }
+    /* the streams grouped by their use bits, each group in one pass (a pair's values do not depend
+     * on the group it is drawn in); a path wave's lanes take a few different masks */
+    enum { GROUPS = 8 };
+    unsigned seen[GROUPS];
+    int ngroups = 0;
+    for (int i = 0; i < n; ++i) {
+        if (!s[i])
+            continue;
+        const unsigned mk = use[i] & all;
+        int g = 0;
+        while (g < ngroups && seen[g] != mk)
+            ++g;
+        if (g < ngroups)
+            continue;
+        if (ngroups == GROUPS) { /* more masks than groups: draw those seen, then the rest */
+            for (g = 0; g < ngroups; ++g)
+                draw_group(s, use, all, seen[g], i, npairs, ymask, u);
+            ngroups = 0;
+            s += i;
+            use += i;
+            u += (size_t)i * (size_t)npairs;
+            n -= i;
+            i = -1;
+            continue;
+        }
+        seen[ngroups++] = mk;
+    }
+    for (int g = 0; g < ngroups; ++g)
+        draw_group(s, use, all, seen[g], n, npairs, ymask, u);
+}
+
+void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u)
+{
+    spc_sampler_draw_many_used(s, NULL, n, npairs, ymask, u);
 }
 
 void spc_sampler_2d_many(spc_sampler *const *s, int n, int npairs, spc_vec2 *u)

@@ -49,6 +49,12 @@ static inline void spc_sampler_skip(spc_sampler *s, uint32_t npairs) { s->dim +=
  * is spc_sampler_1d's value (the whole pair is used up all the same). Skipping those y's saves
  * about a third of the pair's work. */
 void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u);
+/* spc_sampler_draw_many where each stream reads only some of its pairs: bit k of use[i] set says
+ * that stream i reads its k-th pair (use NULL: every stream reads every pair). The pairs a stream
+ * does not read are not computed and u[i * npairs + k] is left as it was; every stream still moves
+ * past all npairs pairs, so the pairs drawn are the same values as spc_sampler_draw_many's. */
+void spc_sampler_draw_many_used(spc_sampler *const *s, const unsigned *use, int n, int npairs, unsigned ymask,
+                                spc_vec2 *u);
 /* A generator of its own for a consumer of an unknown number of values (specular NEE's solver
  * attempts, an AOV's walk): seeded from the stream's state (pixel, index, next dimension) and
  * `stream`, which tells apart the forks taken at the same state. The sampler does not move, so

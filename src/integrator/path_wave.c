@@ -292,6 +292,11 @@ enum { WAVE_MAX = 256 };
 enum { SINGLE_RAYS_MAX = 2 };
 _Static_assert(WAVE_MAX <= SPC_EMITTER_MANY_MAX, "a wave's light samples in one call");
 
+/* The vertex's five sampler pairs that a lane reads (bits of spc_sampler_draw_many_used's use):
+ * u_light, u_lpos and u_dir always; u_lobe only at a vertex that is not a diffuse view (a diffuse
+ * lane's direction is u_dir's warp), u_rr only once Russian roulette plays (segments >= rr_depth). */
+enum { USE_ALWAYS = 1u << 0 | 1u << 1 | 1u << 3, USE_LOBE = 1u << 2, USE_RR = 1u << 4 };
+
 /* The octant of d (its three sign bits). */
 static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0.0) << 2; }
 
@@ -353,6 +358,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     int sidx[WAVE_MAX];
     int pk[OCTANT_PACKET_SLOTS];
     unsigned char okey[WAVE_MAX]; /* the shadow rays' octants (8: none) */
+    unsigned use[WAVE_MAX];       /* the pairs of u a lane reads at its vertex (USE_*) */
     int next = 0, live = 0, np;
     int nl = 0; /* the lanes in use, [0, nl): live lanes are kept packed at the front */
     const bool lockstep = wave_lockstep(ctx);
@@ -398,12 +404,14 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             }
             alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
+            use[i] = USE_ALWAYS | (ln[i].diffuse ? 0u : USE_LOBE) | (ln[i].segments >= ctx->rr_depth ? USE_RR : 0u);
         }
         /* the vertex's dimensions of every live lane at once, in path.c's order: next-event
          * estimation's (u_light, u_lpos), then BSDF sampling's (u_lobe, u_dir, u_rr); u_light, u_lobe
-         * and u_rr are 1D (path.c's spc_sampler_1d: their pairs' y are not computed). Nothing
-         * between the two stages draws from the lanes' streams. */
-        spc_sampler_draw_many(ls, nl, 5, 0xAu, u);
+         * and u_rr are 1D (path.c's spc_sampler_1d: their pairs' y are not computed), and a lane's
+         * u_lobe and u_rr are computed only where it reads them (use[i]). Nothing between the two
+         * stages draws from the lanes' streams. */
+        spc_sampler_draw_many_used(ls, use, nl, 5, 0xAu, u);
         /* the lights chosen, then every lane's light sample in one call (lanes of mesh lights share
          * vector instructions, emitter/area_many.c) */
         for (int i = 0; i < nl; ++i) {
@@ -478,7 +486,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 continue;
             const bool diffuse = alive[i] && ln[i].diffuse;
             if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], &wl[i], diffuse ? NULL : &bs[sidx[i]],
-                                         !diffuse && bs_ok[sidx[i]], u[5 * i + 4].x))
+                                         !diffuse && bs_ok[sidx[i]], use[i] & USE_RR ? u[5 * i + 4].x : 0.0))
                 continue;
             /* the path has ended: its estimate, and the lane takes the next sample */
             out[ln[i].path].L = ln[i].L;
