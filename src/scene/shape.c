@@ -605,11 +605,13 @@ static spc_vec2 mesh_uv(const spc_mesh *m, uint32_t i0, uint32_t i1, uint32_t i2
     return spc_v2(u0 + b1 * du1 + b2 * du2, v0 + b1 * dv1 + b2 * dv2);
 }
 
-/* A triangle's hit at barycentrics (b1, b2), the fields that `what` names. The values filled are
+/* A triangle's hit at barycentrics (b1, b2), the fields that `what` names (fill_mesh is its call;
+ * the shading fill inlines it with `what` constant). The values filled are
  * the same whatever else is filled, and the same with or without the shape's tri_frame (which holds
  * this function's own per-triangle normal and tangent); mesh_derivatives computes the derivatives
  * that MESH_SHADING leaves out with the same expressions. */
-static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_fill what, spc_hit *h)
+static inline __attribute__((always_inline)) void fill_mesh_inline(const spc_shape *s, int prim, double b1, double b2,
+                                                                   mesh_fill what, spc_hit *h)
 {
     const spc_mesh *m = &s->mesh;
     /* the vertex indices, read only where the kept frame does not hold what they lead to */
@@ -689,6 +691,11 @@ static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_f
     } else {
         h->sh = spc_frame_from_ns(h->ng, tri_tangent(m, vi[0], vi[1], vi[2], e1, e2));
     }
+}
+
+static void fill_mesh(const spc_shape *s, int prim, double b1, double b2, mesh_fill what, spc_hit *h)
+{
+    fill_mesh_inline(s, prim, b1, b2, what, h);
 }
 
 /* The fields that fill_mesh's MESH_SHADING leaves out (dpdu, dpdv, dndu, dndv, and uv where
@@ -921,7 +928,9 @@ void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v
         return;
     }
     fill_common(s, prim, t, h);
-    fill_mesh(s, prim, u, v, MESH_SHADING, h);
+    /* inlined with `what` constant: every hit a path tracer shades comes here, and the call and the
+     * tests of the other fill kinds were about a tenth of this fill's instructions (bench/RESULTS.md) */
+    fill_mesh_inline(s, prim, u, v, MESH_SHADING, h);
 }
 
 void spc_shape_fill_hit_chain(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
