@@ -2,7 +2,8 @@
 """Time of specula against Mitsuba 3 at equal samples per pixel, same threads each.
 
     python3 bench/bench_vs_mitsuba.py [--specula build/specula] [--spp 64] [--scale S] [--threads 2]
-                                      [--variant llvm_ad_rgb] [--scalar] [--repeats 3] [SCENE.xml[:SCALE] ...]
+                                      [--variant llvm_ad_rgb] [--scalar] [--repeats 3] [--base OTHER_SPECULA]
+                                      [SCENE.xml[:SCALE] ...]
 
 Default scenes: ../shared/scenes/cornell-box at 0.25 of its resolution (256x256) and veach-mis at
 its own (1280x720), rendered with the path tracer (-D integrator=path) and the scenes' max_depth;
@@ -16,7 +17,9 @@ loading excluded): specula's --stats wall_seconds, and for Mitsuba the mi.render
 untimed warm-up render (which, for the llvm variants, compiles the kernel; its time is reported
 separately). The renders alternate (specula, Mitsuba, specula, ...) `repeats` times and the table
 gives the medians and their ratio, so that load from other processes hits both alike; the 1-minute
-load average is printed before and after.
+load average is printed before and after. --base OTHER_SPECULA renders a second specula binary in
+the same loop (the two take turns going first), so that a change is measured before and after
+against the same Mitsuba renders.
 
 CPU seconds (user + system, all threads) are measured next to wall time, because on a shared
 machine wall time depends on what else runs: for specula getrusage(RUSAGE_CHILDREN) around the
@@ -75,6 +78,7 @@ def main():
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--scalar", action="store_true", help="also time scalar_rgb in the same run")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--base", default=None, help="a second specula binary timed in the same loop (before/after)")
     a = ap.parse_args()
     scenes = []
     for arg in a.scenes:
@@ -122,16 +126,20 @@ def main():
         if scalar:
             mi.set_variant("scalar_rgb")
             scene_scalar = mi.load_file(path, **defs)
-        ts, tm, cs, cm, tss, css = [], [], [], [], [], []
+        ts, tm, cs, cm, tss, css, tb, cb = [], [], [], [], [], [], [], []
         with tempfile.TemporaryDirectory() as tmp:
             for r in range(a.repeats):
                 stats = os.path.join(tmp, "stats.json")
-                c0 = cpu_seconds(resource.RUSAGE_CHILDREN)
-                subprocess.run([a.specula, "render", path, "-o", os.path.join(tmp, "out.exr"), "--spp", str(a.spp),
-                                "--threads", str(a.threads), "--quiet", "--stats", stats, "--seed", str(r)] + dflags,
-                               check=True)
-                cs.append(cpu_seconds(resource.RUSAGE_CHILDREN) - c0)
-                ts.append(json.load(open(stats))["wall_seconds"])
+                # with --base, the two specula binaries take turns going first
+                order = [(a.specula, ts, cs)] if not a.base else \
+                    [(a.specula, ts, cs), (a.base, tb, cb)][::1 if r % 2 == 0 else -1]
+                for binary, tl, cl in order:
+                    c0 = cpu_seconds(resource.RUSAGE_CHILDREN)
+                    subprocess.run([binary, "render", path, "-o", os.path.join(tmp, "out.exr"), "--spp", str(a.spp),
+                                    "--threads", str(a.threads), "--quiet", "--stats", stats, "--seed", str(r)] + dflags,
+                                   check=True)
+                    cl.append(cpu_seconds(resource.RUSAGE_CHILDREN) - c0)
+                    tl.append(json.load(open(stats))["wall_seconds"])
                 mi.set_variant(a.variant)
                 w, c = mitsuba_time(mi, dr, scene, a.spp, r + 1)
                 tm.append(w)
@@ -150,6 +158,8 @@ def main():
         if scalar:
             row["scalar_s"] = statistics.median(tss)
             row["scalar_cpu"] = statistics.median(css)
+        if a.base:
+            row["base_cpu"] = statistics.median(cb)
         rows.append(row)
         print("%-12s %-9s spp %d  wall: specula %.2f s  Mitsuba (%s) %.2f s (first render %.2f s)  ratio %.2f;"
               "  CPU: specula %.2f s  Mitsuba %.2f s  ratio %.2f" % (name, res, a.spp, row["specula_s"], a.variant,
@@ -159,6 +169,8 @@ def main():
         print("  CPU  specula %s  Mitsuba %s" % (["%.2f" % t for t in cs], ["%.2f" % t for t in cm]), flush=True)
         if scalar:
             print("  scalar_rgb wall %s  CPU %s" % (["%.2f" % t for t in tss], ["%.2f" % t for t in css]), flush=True)
+        if a.base:
+            print("  base specula wall %s  CPU %s" % (["%.2f" % t for t in tb], ["%.2f" % t for t in cb]), flush=True)
     print("load average after: %.2f" % os.getloadavg()[0])
     print()
     print("%d thread(s) each, medians of %d" % (a.threads, a.repeats))
@@ -168,6 +180,9 @@ def main():
     if scalar:
         head += " wall scalar_rgb (s) | CPU scalar_rgb (s) | CPU specula / scalar_rgb |"
         sep += "---|---|---|"
+    if a.base:
+        head += " CPU base specula (s) | CPU base / Mitsuba |"
+        sep += "---|---|"
     print(head + " Mitsuba first render (s) |")
     print(sep + "---|")
     for r in rows:
@@ -176,6 +191,8 @@ def main():
             r["mitsuba_cpu"], r["cpu_ratio"])
         if scalar:
             line += " %.2f | %.2f | %.2f |" % (r["scalar_s"], r["scalar_cpu"], r["specula_cpu"] / r["scalar_cpu"])
+        if a.base:
+            line += " %.2f | %.2f |" % (r["base_cpu"], r["base_cpu"] / r["mitsuba_cpu"])
         print(line + " %.2f |" % r["mitsuba_first_s"])
     return 0
 
