@@ -286,8 +286,8 @@ static void draw_group(spc_sampler *const *s, const unsigned *use, unsigned all,
         if ((mask & ~ymask) >> p & 1u)
             pair[np++] = p;
     /* Each stream is written into the batch's next slot and kept (m moves) where it is in the group:
-     * no branch on whether it is, which a wave's lanes of mixed masks make a coin flip (paired CPU
-     * time: veach-mis +1.7% with the branch). A lane without a stream reads a stand-in. */
+     * no branch on whether it is, which a wave's lanes of mixed masks make a coin flip. A lane
+     * without a stream reads a stand-in. */
     spc_sampler none = {0, 0, 0, 0};
     const int per_batch = np > 0 ? MANY_LANES / np : MANY_LANES;
     for (int i = 0; i < n;) {
