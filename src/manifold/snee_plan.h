@@ -471,6 +471,9 @@ typedef struct spc_snee_plan {
     double open_share;   /* the share of directions from the casters that leave the scene (snee_plan.c) */
     double flat_sequences; /* face sequences the flat enumeration solves per query (the pilot, snee_plan.c;
                               0 where it did not run, -1 where it found no receiver) */
+    double caustic_gain; /* none's relative variance per sample from the area lights' caustics on the image,
+                            as the caustic pilot predicts it (snee_plan.c, caustic_gain; -1 where it did
+                            not run) */
     bool pilot;          /* automatic and on, and the pilot render (render/snee_pilot.h) may check it */
     char pilot_note[SPC_SPECULAR_NEE_NOTE_MAX]; /* what the pilot measured and chose, or "" */
 } spc_snee_plan;
