@@ -43,6 +43,10 @@
  *   - off too if a caster is flat-faced (enumerated by flat_chains.h) and the smallest light
  *     subtends more than 0.002 sr (snee_plan.c, SPC_SNEE_PLAN_FLAT_MAX_SR): flat glass does not
  *     focus the light, and the exact chains' cost paid only under a small light;
+ *   - off too, for path, where every caster is flat-faced glass under area lights in the open and
+ *     the caustic pilot (snee_plan.c, caustic_gain: pinhole rays followed through the glass to
+ *     their receivers, joined to the lights by straight segments) finds no receiver in view lit
+ *     through the glass: the flat enumeration's cost then buys nothing in view;
  *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
  *     the camera (SPC_SNEE_PLAN_SETTING; without that query if every caster is a mirror:
  *     SPC_SNEE_PLAN_SETTING_MIRRORS, and with the query at every
