@@ -1700,6 +1700,69 @@ TEST(slab_plan_large_lights)
     }
 }
 
+/* A glass slab over the floor under a small area light, for path: where the slab's caustic falls
+ * outside the image (the slab high over the floor's middle, the light low behind it: its light
+ * goes to the floor beyond the view), the caustic pilot finds no receiver in view lit through the
+ * glass (caustic_gain 0) and the plan is off; with the slab low at the side, the caustic in view,
+ * it stays on (caustic_gain above 0); under a point light at the same place (a point light's
+ * caustic is none's bias, not its variance) and with a glass ball in the slab's place (curved
+ * glass: its small images of the light are the camera query's) the pilot does not run (-1) and
+ * the plan stays on. */
+TEST(caustic_out_of_view_plan_off)
+{
+    static const struct {
+        const char *slab;  /* translate x y z; NULL: a glass ball at the first case's place */
+        bool point;        /* a point light instead of the square one */
+        const char *integrator;
+        bool on;
+    } cases[] = {
+        {"x=\"0.5\" y=\"1.0\" z=\"0\"", false, "path", false},
+        {"x=\"0.885\" y=\"0.387\" z=\"-1.075\"", false, "path", true},
+        {"x=\"0.5\" y=\"1.0\" z=\"0\"", true, "path", true},
+        {NULL, false, "path", true},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        char objects[1536], text[3072];
+        char caster[512];
+        if (cases[i].slab)
+            snprintf(caster, sizeof caster,
+                     "<shape type=\"cube\"><transform name=\"to_world\"><scale x=\"0.465\" y=\"0.112\" "
+                     "z=\"0.369\"/><rotate x=\"1\" angle=\"1.8\"/><rotate y=\"1\" angle=\"47.9\"/><translate "
+                     "%s/></transform><bsdf type=\"dielectric\"><float name=\"int_ior\" value=\"1.8\"/></bsdf></shape>",
+                     cases[i].slab);
+        else
+            snprintf(caster, sizeof caster,
+                     "<shape type=\"sphere\"><point name=\"center\" x=\"0.5\" y=\"1.0\" z=\"0\"/><float "
+                     "name=\"radius\" value=\"0.3\"/><bsdf type=\"dielectric\"/></shape>");
+        snprintf(objects, sizeof objects, "%s%s", caster,
+                 cases[i].point ? "<emitter type=\"point\"><point name=\"position\" x=\"-0.632\" y=\"1.658\" "
+                                  "z=\"2.044\"/><rgb name=\"intensity\" value=\"10\"/></emitter>"
+                                : "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"0.125\"/>"
+                                  "<lookat origin=\"-0.632, 1.658, 2.044\" target=\"0, 0, 0\" up=\"0, 1, 0.01\"/>"
+                                  "</transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"100\"/>"
+                                  "</emitter></shape>");
+        floor_scene_text(text, sizeof text, objects);
+        spc_scene *sc = NULL;
+        spc_error err;
+        CHECK_MSG(load_text(text, &sc, &err) == SPC_OK, "case %zu: %s", i, err.msg);
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        CHECK_MSG(p.on == cases[i].on, "case %zu: %s (%s), caustic_gain %g", i, p.setting, p.reason, p.caustic_gain);
+        if (!cases[i].on)
+            CHECK_MSG(p.caustic_gain == 0.0 && strstr(p.reason, "no caustic in view"), "case %zu: %s, %g", i,
+                      p.reason, p.caustic_gain);
+        else if (!cases[i].point && cases[i].slab)
+            CHECK_MSG(p.caustic_gain > 0.0, "case %zu: caustic_gain %g", i, p.caustic_gain);
+        else
+            CHECK_MSG(p.caustic_gain == -1.0, "case %zu: caustic_gain %g", i, p.caustic_gain);
+        printf("    case %zu (%s%s): %s, caustic_gain %g\n", i, cases[i].integrator, cases[i].point ? ", point light" : "",
+               p.setting, p.caustic_gain);
+        spc_scene_destroy(sc);
+    }
+}
+
 int main(void)
 {
     RUN(demo_plan_on);
@@ -1730,5 +1793,6 @@ int main(void)
     RUN(spot_plan_light_tracing);
     RUN(point_light_sky_plan);
     RUN(slab_plan_large_lights);
+    RUN(caustic_out_of_view_plan_off);
     return spc_test_finish();
 }

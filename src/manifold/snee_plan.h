@@ -43,6 +43,10 @@
  *   - off too if a caster is flat-faced (enumerated by flat_chains.h) and the smallest light
  *     subtends more than 0.002 sr (snee_plan.c, SPC_SNEE_PLAN_FLAT_MAX_SR): flat glass does not
  *     focus the light, and the exact chains' cost paid only under a small light;
+ *   - off too, for path, where every caster is flat-faced glass under area lights in the open and
+ *     the caustic pilot (snee_plan.c, caustic_gain: pinhole rays followed through the glass to
+ *     their receivers, joined to the lights by straight segments) finds no receiver in view lit
+ *     through the glass: the flat enumeration's cost then buys nothing in view;
  *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
  *     the camera (SPC_SNEE_PLAN_SETTING; without that query if every caster is a mirror:
  *     SPC_SNEE_PLAN_SETTING_MIRRORS, and with the query at every
@@ -471,6 +475,9 @@ typedef struct spc_snee_plan {
     double open_share;   /* the share of directions from the casters that leave the scene (snee_plan.c) */
     double flat_sequences; /* face sequences the flat enumeration solves per query (the pilot, snee_plan.c;
                               0 where it did not run, -1 where it found no receiver) */
+    double caustic_gain; /* none's relative variance per sample from the area lights' caustics on the image,
+                            as the caustic pilot predicts it (snee_plan.c, caustic_gain; -1 where it did
+                            not run) */
     bool pilot;          /* automatic and on, and the pilot render (render/snee_pilot.h) may check it */
     char pilot_note[SPC_SPECULAR_NEE_NOTE_MAX]; /* what the pilot measured and chose, or "" */
 } spc_snee_plan;
