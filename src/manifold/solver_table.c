@@ -46,8 +46,8 @@
  * adds a reflection inside it, at a cube's ~6x the face sequences. */
 #define SPC_SNEE_LT_SLAB_MAX 2
 /* camsplit without a value: the extra camera rays per camera sample that meets delta-only glass
- * first (integrator/path_camsplit.h); set from the SDF torus's measurements (bench/RESULTS.md,
- * "The light seen through curved glass from the camera, split"). */
+ * first (integrator/path_camsplit.h); K 4 beat K 16 on the SDF torus at equal CPU (snee_plan.h,
+ * SPC_SNEE_PLAN_CAMERA_SPLIT). */
 #define SPC_SNEE_CAM_SPLIT_RAYS 4
 /* params.flat5_p and flat6_p's defaults: the shares of the calls that enumerate the 5- and 6-vertex
  * chains through flat faces. 0: those paths are left to BSDF sampling (MIS weight 1). At equal CPU
