@@ -23,6 +23,11 @@
  * hit counted with the reflection's factor F; the sampled path drops its own emission after a
  * reflection chosen there. path_wave.c runs only with specular NEE off, so it has no such step.
  *
+ * The camera-side split (params.cam_split, path_camsplit.h): where the camera ray's first hit is a
+ * delta-only surface, extra camera rays in the pixel that also meet such a surface first take the
+ * emission reached through delta scatterings only (class C); the sample counts the mean of theirs
+ * and its own (cs_scale on its class C terms). Draws no sampler dimension.
+ *
  * Caustic guiding at receivers (params.recv_guide, manifold/caustic_guide.h): where the render's
  * photon pre-pass found caustics a vertex sees, its continuation is drawn from a defensive mixture
  * of directions toward them and the BSDF's sample (spc_cguide_sample_mix), and the mixture's
