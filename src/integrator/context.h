@@ -83,6 +83,8 @@ typedef struct spc_tls {
     size_t lv_n, lv_cap;
     size_t *lv_first, lv_first_cap;
     int lv_pixel;
+    /* the full film's pixel whose camera sample runs (set by the driver) */
+    int px, py;
     const struct spc_bdpt_pool *pool;
 } spc_tls;
 

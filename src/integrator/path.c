@@ -23,6 +23,11 @@
  * hit counted with the reflection's factor F; the sampled path drops its own emission after a
  * reflection chosen there. path_wave.c runs only with specular NEE off, so it has no such step.
  *
+ * The camera-side split (params.cam_split, path_camsplit.h): where the camera ray's first hit is a
+ * delta-only surface, extra camera rays in the pixel that also meet such a surface first take the
+ * emission reached through delta scatterings only (class C); the sample counts the mean of theirs
+ * and its own (cs_scale on its class C terms). Draws no sampler dimension.
+ *
  * Caustic guiding at receivers (params.recv_guide, manifold/caustic_guide.h): where the render's
  * photon pre-pass found caustics a vertex sees, its continuation is drawn from a defensive mixture
  * of directions toward them and the BSDF's sample (spc_cguide_sample_mix), and the mixture's
@@ -46,6 +51,7 @@
 #include <math.h>
 
 #include "integrator/aov.h"
+#include "integrator/path_camsplit.h"
 #include "integrator/path_snee.h"
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
@@ -199,6 +205,12 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     bool drop_emission = false; /* the emission at the next hit was counted by splitting */
     double prev_pdf = 1.0, eta_scale = 1.0;
     double guide_scale = 1.0; /* beta * guide_scale: the throughput without the guide's reweighting */
+    /* the camera-side split (path_camsplit.h): while every vertex so far is delta-only (cs_class),
+     * the emission reached is class C's, counted cs_scale times (1 / (1 + M) where M extra rays
+     * took the class; 1 without the split) */
+    const bool camsplit = spc_path_camsplit_enabled(ctx);
+    bool cs_class = true;
+    double cs_scale = 1.0;
     spc_vec3 prev_p = ray.o;
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
@@ -218,6 +230,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                     double lp = spc_scene_emitter_pmf(sc, sc->env) * spc_emitter_pdf_infinite(sc->env, ray.d);
                     w = spc_mis_power(prev_pdf, lp);
                 }
+                if (cs_scale != 1.0 && cs_class)
+                    w *= cs_scale;
                 L = spc_rgb_add(L, spc_rgb_scale(spc_rgb_mul(beta, Le), w));
             }
             break;
@@ -225,6 +239,15 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         spc_vec3 wo = spc_neg(ray.d);
         if (segments == 1 && out->aovs)
             spc_aov_from_hit(ctx, &h, wo, smp, out);
+        /* the camera-side split: class C's extra rays where the first hit is delta-only glass */
+        if (segments == 1 && camsplit && sn.on && spc_path_camsplit_first(&h)) {
+            spc_rgb cs_sum = spc_rgb1(0.0);
+            int m = spc_path_camsplit_rays(ctx, tls, smp, &cs_sum);
+            if (m > 0) {
+                cs_scale = 1.0 / (1.0 + m);
+                L = spc_rgb_add(L, spc_rgb_scale(cs_sum, cs_scale));
+            }
+        }
         if (h.emitter && !(segments == 1 && ctx->hide_emitters) && !drop_emission) {
             spc_rgb Le = spc_emitter_eval_area(h.emitter, &h, wo);
             /* a path specular NEE covers: weighted against its light sample, or dropped */
@@ -235,6 +258,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                                 spc_emitter_pdf_direct(h.emitter, prev_p, h.p, h.ng);
                     w = spc_mis_power(prev_pdf, lp);
                 }
+                if (cs_scale != 1.0 && cs_class && segments > 1)
+                    w *= cs_scale;
                 L = spc_rgb_add(L, spc_rgb_scale(spc_rgb_mul(beta, Le), w));
             }
         }
@@ -288,6 +313,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         const bool split = nee && sn.on && all_delta && !gv && splits_emission(b);
         if (split) {
             spc_rgb c_split = split_emission(ctx, &sn, &h, wo);
+            if (cs_scale != 1.0 && cs_class && spc_path_camsplit_first(&h))
+                c_split = spc_rgb_scale(c_split, cs_scale);
             if (!spc_rgb_is_black(c_split))
                 L = spc_rgb_add(L, spc_rgb_mul(beta, c_split));
         }
@@ -299,6 +326,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             if (!spc_rgb_is_black(c_rs))
                 L = spc_rgb_add(L, spc_rgb_mul(beta, c_rs));
         }
+
+        if (!spc_path_camsplit_first(&h))
+            cs_class = false;
 
         /* BSDF sampling */
         double u_lobe = spc_sampler_1d(smp);

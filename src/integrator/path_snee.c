@@ -193,6 +193,41 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
     s->cam_track = true;
 }
 
+void spc_path_snee_begin_view(spc_path_snee *s, const spc_render_ctx *ctx, const spc_ray *ray0)
+{
+    memset(s, 0, offsetof(spc_path_snee, p));
+    s->mis_gv.a = 0.0;
+    s->mis_wo = s->mis_d0 = spc_v3(0, 0, 1);
+    s->cam_d0 = ray0->d;
+    s->cam_scale = (double)ctx->cam->width * (double)ctx->cam->height / ((double)ctx->width * (double)ctx->height);
+    s->on = ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee != SPC_SNEE_NONE;
+    if (!s->on)
+        return;
+    s->p = ctx->snee;
+    s->p.mis = !s->p.no_mis && !rough_mode(&s->p);
+    s->ctx = ctx;
+    /* the light seen through flat glass: its weight reads the camera ray's scatterings */
+    s->lv_enabled = spc_path_lt_view_enabled(ctx, &s->p);
+    s->lv_on = s->lv_enabled;
+    if (!s->p.camera || rough_mode(&s->p) || !spc_camera_connectible(ctx->cam))
+        return;
+    int budget = depth_left(ctx, 0, ctx->specular_max_chain);
+    if (budget > s->p.max_chain)
+        budget = s->p.max_chain;
+    if (budget < 1)
+        return;
+    int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
+    spc_snee_track_begin(&s->track, &s->p, budget, long_budget);
+    s->cam_track = true;
+}
+
+void spc_path_snee_delta_vertex(spc_path_snee *s, const spc_render_ctx *ctx, int segments)
+{
+    s->skip_query = false;
+    s->budget = 0;
+    s->long_budget = depth_left(ctx, segments, SPC_CHAIN_MAX_VERTICES);
+}
+
 /* spc_path_snee_emitter_weight without the light seen through flat glass. */
 static double emitter_weight_base(const spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h)
 {

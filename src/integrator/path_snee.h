@@ -91,6 +91,18 @@ typedef struct spc_path_snee {
 void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0,
                          const spc_sampler *smp);
 
+/* Begin the state of a camera ray that only follows delta scatterings and counts the emission it
+ * reaches (path_camsplit.h): the same exclusion track from the pinhole and the same record of the
+ * light seen through flat glass as spc_path_snee_begin sets up, so that spc_path_snee_emitter_weight
+ * gives such a path the weight the camera path would give it; no camera query, no light subpath,
+ * no sampler dimension. After each delta scattering at h the caller calls
+ * spc_path_snee_delta_vertex, then spc_path_snee_scattered. */
+void spc_path_snee_begin_view(spc_path_snee *s, const spc_render_ctx *ctx, const spc_ray *ray0);
+
+/* At a vertex with a delta-only BSDF reached after `segments` segments: the chain budget state
+ * spc_path_snee_at_vertex leaves there (no query, no sampler dimension). */
+void spc_path_snee_delta_vertex(spc_path_snee *s, const spc_render_ctx *ctx, int segments);
+
 /* The weight of the emission at the surface hit h (h->emitter set, its emission not black) reached
  * by BSDF sampling, against specular NEE: 1 where specular NEE does not cover the path; else the
  * MIS weight against its light sample (spc_snee_mis_bsdf_weight, spc_snee_camera_bsdf_weight), 0

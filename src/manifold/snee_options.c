@@ -83,6 +83,12 @@ static const spc_snee_option options[] = {
      "reflections off glass too; with camera, only chains with a reflection inside the glass) also by light "
      "tracing, on a share S of the camera samples (default 0.25): a light point joined to the pinhole by "
      "every such chain, weighed against the camera ray"},
+    {"camsplit", "nocamsplit", SPC_SNEE_OPT_COUNT, true, "K", 1, 64, false, false, NULL, 0, AT(cam_split),
+     AT(cam_split_rays), 0, NULL,
+     "path: where the camera ray first meets a surface that only reflects and refracts (smooth glass, a "
+     "mirror), up to K more camera rays in the same pixel that meet such a surface first follow its "
+     "reflections and refractions and count the light they reach (default K 4); the light seen through "
+     "the glass is the mean of their values and the camera ray's"},
     {"ltslab", "noltslab", SPC_SNEE_OPT_COUNT, true, "K", 1, SPC_FLAT_MAX_VERTICES, false, false, NULL, 0, AT(lt_slab),
      AT(lt_slab_max), 0, NULL,
      "path, with ltcaus: a point light's subpath also joins the pinhole through the chains of 1-K flat faces "

@@ -403,6 +403,21 @@
  * torus29). */
 #define SPC_SNEE_PLAN_LIGHT_GUIDES ",ltguide,nolong"
 
+/* Appended with SPC_SNEE_PLAN_LIGHT_GUIDES (path, a glass SDF under small area lights): the
+ * camera-side split (integrator/path_camsplit.h), 4 more camera rays where the camera ray meets the
+ * glass first. The light seen through the SDF after a reflection inside it (camera - T R T -
+ * light, T T T T) is the camera ray's alone (specular NEE from the pinhole takes 1-2 vertices,
+ * light tracing joins the pinhole through spheres and flat faces only), and on
+ * scenes/caustic_sdf_torus.xml it held most of the worst seeds' error. At equal CPU over 48 seeds
+ * the torus's mean relMSE fell 0.121 -> 0.095 with K 4 (none 0.240), without its one worst seed (a
+ * tail of another class) 0.083 -> 0.049; K 16 did worse (its rays cost 26% of the samples, K 4's
+ * 7%). On 6 fresh glass tori (24 seeds) 1.03-2.2x lower on five, 0.74x on one: a one-pixel seed
+ * of another class, whose squared error grows as the split's 10-15% of the samples go (0.95x
+ * without it). On analytic spheres and glass meshes the camera query already weighs those paths:
+ * the split changed no variance there (bench/RESULTS.md, "The light seen through a glass SDF from the
+ * camera, split"). */
+#define SPC_SNEE_PLAN_CAMERA_SPLIT ",camsplit=4"
+
 /* The setting where every caster is a mirror: the same without the query from the camera. There the
  * camera sees the light only by reflection, which camera rays find as often as the query's splats
  * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal

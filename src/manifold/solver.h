@@ -303,6 +303,13 @@ typedef struct spc_snee_params {
      * same path. */
     bool lt_view;
     double lt_view_share;
+    /* The path integrator's camera-side split (the user's "camsplit[=K]";
+     * integrator/path_camsplit.h): where the camera ray's first hit is a surface whose BSDF is
+     * delta only, up to cam_split_rays more camera rays in the same pixel whose first hit is such a
+     * surface too follow the delta scatterings and count only the emission they reach; the
+     * camera -> delta+ -> emitter part of the sample is their mean with the camera ray's own. */
+    bool cam_split;
+    int cam_split_rays;
     /* With lt_caustic (the user's "ltslab[=K]"; integrator/path_lt.h): a point light's subpath at the
      * path's first receiver x2 also joins the pinhole through every chain of 1 to lt_slab_max
      * vertices through flat faces (glass slabs: spc_flat_chains_all's chains from x2 toward the

@@ -45,6 +45,10 @@
  * a point light's subpath joins through: 2 is the camera's view through a slab (in and out); 3
  * adds a reflection inside it, at a cube's ~6x the face sequences. */
 #define SPC_SNEE_LT_SLAB_MAX 2
+/* camsplit without a value: the extra camera rays per camera sample that meets delta-only glass
+ * first (integrator/path_camsplit.h); K 4 beat K 16 on the SDF torus at equal CPU (snee_plan.h,
+ * SPC_SNEE_PLAN_CAMERA_SPLIT). */
+#define SPC_SNEE_CAM_SPLIT_RAYS 4
 /* params.flat5_p and flat6_p's defaults: the shares of the calls that enumerate the 5- and 6-vertex
  * chains through flat faces. 0: those paths are left to BSDF sampling (MIS weight 1). At equal CPU
  * (16 seeds, 32x32, 1.5 s) the small-light slabs' mean relMSE fell 2.9x and two slabs under a sphere
@@ -131,6 +135,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->lt_guide_share = SPC_SNEE_LT_GUIDE_SHARE;
     p->lt_view_share = SPC_SNEE_LT_VIEW_SHARE;
     p->lt_slab_max = SPC_SNEE_LT_SLAB_MAX;
+    p->cam_split_rays = SPC_SNEE_CAM_SPLIT_RAYS;
     p->long_max = 0;
     p->long_events_p = 0.0;
     p->flat5_p = SPC_SNEE_FLAT5_P;

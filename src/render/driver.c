@@ -288,6 +288,8 @@ static void render_item(job *jb, int item)
             out.aovs = jb->base == 3 + SPC_FILM_AOVS;
             const spc_ray cam_ray = ray;
             tls->lv_pixel = (y - t->y0) * (t->x1 - t->x0) + (x - t->x0);
+            tls->px = x + ctx->crop_x;
+            tls->py = y + ctx->crop_y;
             spc_integrator_sample(ctx, tls, &ray, &smp, &out);
             store_sample(jb, tls, buf, x, y, &cam_ray, &out, strategy_L);
         }

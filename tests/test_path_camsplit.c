@@ -1,0 +1,156 @@
+/*
+ * tests/test_path_camsplit.c: the camera-side split of the light seen through glass
+ * (integrator/path_camsplit.h, specular NEE's "camsplit"), on bench/check/ball_light_view.xml (a
+ * small sphere light seen by the camera through a glass ball) and scenes/caustic_sdf_torus.xml.
+ *
+ * - The option parses within its range and prints back.
+ * - Same seed with and without the split: only the pixels whose camera rays see the glass change
+ *   (the split draws no dimension of the sampler; the ball: the light and the sky through it, a
+ *   fifth of the image); on the ball without the camera
+ *   query (the light's image through it is then the camera ray's alone, class C at weight 1) their
+ *   summed variance falls; on the torus with its plan (the T R T image is the camera ray's alone)
+ *   a few pixels change.
+ * - The image does not depend on the thread count.
+ * - Renders with the split agree with --specular-nee none (per-pixel z-test, image mean): with the
+ *   camera query off (the class at weight 1) and with the plan's setting (its MIS weights kept).
+ */
+/* ctest-labels: stat */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "harness.h"
+#include "manifold/snee_options.h"
+#include "manifold/specular_nee.h"
+#include "render_util.h"
+
+#define BALL "bench/check/ball_light_view.xml"
+#define TORUS "scenes/caustic_sdf_torus.xml"
+/* the scenes' plans (specula info) */
+#define BALL_PLAN "angular:camera=0.04,first=0.1,later=0.1,ltcaus"
+#define TORUS_PLAN "angular:camera,first=0.1,later=0.1,ltguide,nolong"
+/* the ball without the camera query: its light's image is the camera ray's alone */
+#define BALL_NOCAM "angular:first=0.1,later=0.1"
+
+TEST(option_parses)
+{
+    spc_snee_params p;
+    CHECK(spc_snee_parse("angular:camsplit", 2, &p));
+    CHECK(p.cam_split && p.cam_split_rays == 4);
+    CHECK(spc_snee_parse("angular:camsplit=16", 2, &p));
+    CHECK(p.cam_split && p.cam_split_rays == 16);
+    CHECK(spc_snee_parse("angular:camsplit=16,nocamsplit", 2, &p));
+    CHECK(!p.cam_split);
+    CHECK(!spc_snee_parse("angular:camsplit=0", 2, &p));
+    CHECK(!spc_snee_parse("angular:camsplit=65", 2, &p));
+}
+
+/* setting and setting + ",camsplit=K" at the same seed and spp: the pixels that differ, at most
+ * max_changed of them and at least one, and their summed variance falls by at least `gain` (0: not
+ * checked; one render's variance of a heavy tail's pixels is no measure where its rare hits may be
+ * missing). */
+static void split_lowers_variance(const char *scene, const char *setting, int K, int spp, double max_changed,
+                                  double gain)
+{
+    spc_scene *sc = tu_load(scene, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    char with[128];
+    snprintf(with, sizeof with, "%s,camsplit=%d", setting, K);
+    spc_film *a = tu_render_nee(sc, "path", setting, spp, 2, 41, NULL);
+    spc_film *b = tu_render_nee(sc, "path", with, spp, 2, 41, NULL);
+    CHECK(a && b);
+    if (a && b) {
+        int n = a->width * a->height, changed = 0;
+        double va = 0.0, vb = 0.0;
+        for (int i = 0; i < n; ++i) {
+            bool d = false;
+            for (int c = 0; c < 3; ++c)
+                d = d || a->rgb[3 * i + c] != b->rgb[3 * i + c];
+            if (!d)
+                continue;
+            ++changed;
+            for (int c = 0; c < 3; ++c) {
+                va += a->var[3 * i + c];
+                vb += b->var[3 * i + c];
+            }
+        }
+        printf("    %s, %s: %d of %d pixels changed; their summed variance %.4g without, %.4g with camsplit=%d\n",
+               scene, setting, changed, n, va, vb, K);
+        CHECK(changed >= 1 && changed <= max_changed * n);
+        if (gain > 0.0)
+            CHECK(vb * gain < va);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
+}
+
+TEST(only_the_light_through_glass_changes)
+{
+    int q = spc_test_quick() ? 2 : 1;
+    split_lowers_variance(BALL, BALL_NOCAM, 8, 128 / q, 0.3, 3.0);
+    split_lowers_variance(TORUS, TORUS_PLAN, 8, 64 / q, 0.2, 0.0);
+}
+
+TEST(thread_count_independent)
+{
+    spc_scene *sc = tu_load(TORUS, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *a = tu_render_nee(sc, "path", TORUS_PLAN ",camsplit=8", 8, 1, 7, NULL);
+    spc_film *b = tu_render_nee(sc, "path", TORUS_PLAN ",camsplit=8", 8, 2, 7, NULL);
+    CHECK(a && b);
+    if (a && b)
+        CHECK(!memcmp(a->rgb, b->rgb, sizeof(float) * 3 * (size_t)a->width * (size_t)a->height));
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
+}
+
+/* path with `with` (seed) against none (seed + 1, spp_none): the images agree by the per-pixel
+ * z-test on 0.99 of the pixels and their means within 4 standard errors. */
+static void agrees_with_none(const char *scene, const char *with, int spp, int spp_none, uint64_t seed,
+                             const char *label)
+{
+    spc_scene *sc = tu_load(scene, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *a = tu_render_nee(sc, "path", with, spp, 2, seed, NULL);
+    spc_film *b = tu_render_nee(sc, "path", "none", spp_none, 2, seed + 1, NULL);
+    CHECK(a && b);
+    if (a && b) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(a, b, 0.99, label, &d));
+        double ma, sa, mb, sb;
+        tu_image_mean(a, 0, &ma, &sa);
+        tu_image_mean(b, 0, &mb, &sb);
+        double z = (ma - mb) / sqrt(sa * sa + sb * sb);
+        printf("    %s: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f (z %.2f)\n", label,
+               d.ztest_pass_fraction, d.ztest_pixels, ma, sa, mb, sb, z);
+        CHECK(fabs(z) < 4.0);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
+}
+
+TEST(render_agrees_with_none)
+{
+    int q = spc_test_quick() ? 2 : 1;
+    agrees_with_none(BALL, BALL_NOCAM ",camsplit=8", 512 / q, 8192 / q, 51, "ball, no camera query, camsplit=8");
+    agrees_with_none(BALL, BALL_PLAN ",camsplit=8", 512 / q, 8192 / q, 53, "ball, plan, camsplit=8");
+}
+
+int main(void)
+{
+    RUN(option_parses);
+    RUN(only_the_light_through_glass_changes);
+    RUN(thread_count_independent);
+    RUN(render_agrees_with_none);
+    return spc_test_finish();
+}
