@@ -25,6 +25,11 @@ get equal CPU time however the machine's cores are shared; the table gives the C
 used and compares arms by relMSE x CPU seconds. Renders use --threads threads (1: the project's
 rule for CPU figures); --jobs runs that many seeds at once.
 
+The arms run alternately, so that a drift of the machine's load over the minutes of a run falls on
+every arm alike: the calibration renders go arm by arm (every arm's short render, then every arm's
+long one), and each seed renders all arms one after the other, in the order given on the first seed,
+reversed on the second, and so on (with --jobs N, N seeds do so at once).
+
 --ref-pool CPU pools the Mitsuba reference with a specula path and a specula bdpt render of CPU
 seconds each (seeds 9001 and 9002, not the bench's, each integrator's plan, two threads; cached in
 --refs) for the relMSE figures: the three images are averaged with one weight per image, inversely
@@ -224,23 +229,27 @@ def main():
         print(f"  {name}: Mitsuba reference's own relMSE (its variance of the mean) "
               f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
 
-        def calibrate(arm, budget, threads=None):
-            # two calibration renders, so that a fixed cost per render (bdpt's pool pilot) is not
-            # spread over the samples: CPU(spp) = fixed + spp * per_sample
+        def calibrate(arms_, budget, threads=None):
+            # two calibration renders per arm, so that a fixed cost per render (bdpt's pool pilot) is
+            # not spread over the samples: CPU(spp) = fixed + spp * per_sample; every arm's short
+            # render, then every arm's long one
             cal = 64
             out = os.path.join(a.out, "cal.exr")
-            c1 = render(a, scene, defs, arm, cal, 100, out, threads)
-            c2 = render(a, scene, defs, arm, 2 * cal, 100, out, threads)
-            per = max((c2 - c1) / cal, 0.5 * c2 / (2 * cal), 1e-6)
-            fixed = min(max(c1 - cal * per, 0.0), 0.5 * budget)
-            return max(1, int(round((budget - fixed) / per)))
+            c1 = [render(a, scene, defs, arm, cal, 100, out, threads) for arm in arms_]
+            c2 = [render(a, scene, defs, arm, 2 * cal, 100, out, threads) for arm in arms_]
+            spps = []
+            for x1, x2 in zip(c1, c2):
+                per = max((x2 - x1) / cal, 0.5 * x2 / (2 * cal), 1e-6)
+                fixed = min(max(x1 - cal * per, 0.0), 0.5 * budget)
+                spps.append(max(1, int(round((budget - fixed) / per))))
+            return spps
 
         if a.ref_pool > 0:
             parts = [(ref, ref_var)]
             for k, it in enumerate(("path", "bdpt")):
                 pooled = os.path.join(a.refs, f"{name}_{a.res}_{it}_{a.ref_pool:g}cpu.exr")
                 if not os.path.exists(pooled):
-                    spp = calibrate(Arm(it), a.ref_pool, 2)
+                    spp = calibrate([Arm(it)], a.ref_pool, 2)[0]
                     cpu = render(a, scene, defs, Arm(it), spp, 9001 + k, pooled, 2)
                     print(f"  {name}: reference part {it}, {spp} spp, CPU {cpu:.1f} s", file=sys.stderr)
                 parts.append(read_mean_var(pooled))
@@ -250,28 +259,39 @@ def main():
             ref, ref_var, w = pool_reference(parts)
             print(f"  {name}: pooled reference (weights {', '.join(f'{x:.3f}' for x in w)}): own relMSE "
                   f"{(ref_var / (ref ** 2 + 0.01)).mean():.3g}", file=sys.stderr)
-        results = []
-        for arm in arms:
-            spp = calibrate(arm, a.cpu)
+        spps = calibrate(arms, a.cpu)
+
+        def one_arm(arm, spp, seed):
             pool = f"_pool{a.bdpt_pool}" if arm.integrator == "bdpt" and a.bdpt_pool else ""
             tag = (arm.snee or "plan").replace(":", "_").replace(",", "_").replace("=", "_")
+            out = os.path.join(a.out, f"{name}_{arm.integrator}_{tag}{pool}_{seed}.exr")
+            cpu = render(a, scene, defs, arm, spp, seed, out)
+            img = read_rgb(out)
+            rm, share, wxy = errors(img, ref, ref_var)
+            zp = ztest_pass(a, out, ref_path)
+            rm_m = errors(img, mref, mref_var)[0]
+            print(f"  {name} {arm.label()} seed {seed}: spp {spp}, CPU {cpu:.2f} s, relMSE {rm:.4g}, worst pixel "
+                  f"{100 * share:.1f}% at {wxy}, z-test against Mitsuba {100 * zp:.2f}%"
+                  + (f", relMSE against Mitsuba alone {rm_m:.4g}" if a.ref_pool > 0 else ""), file=sys.stderr,
+                  flush=True)
+            return (rm, share, cpu, seed, zp, rm_m)
 
-            def one(seed):
-                out = os.path.join(a.out, f"{name}_{arm.integrator}_{tag}{pool}_{seed}.exr")
-                cpu = render(a, scene, defs, arm, spp, seed, out)
-                img = read_rgb(out)
-                rm, share, wxy = errors(img, ref, ref_var)
-                zp = ztest_pass(a, out, ref_path)
-                rm_m = errors(img, mref, mref_var)[0]
-                print(f"  {name} {arm.label()} seed {seed}: spp {spp}, CPU {cpu:.2f} s, relMSE {rm:.4g}, worst pixel "
-                      f"{100 * share:.1f}% at {wxy}, z-test against Mitsuba {100 * zp:.2f}%"
-                      + (f", relMSE against Mitsuba alone {rm_m:.4g}" if a.ref_pool > 0 else ""), file=sys.stderr,
-                      flush=True)
-                return (rm, share, cpu, seed, zp, rm_m)
+        def one(seed):
+            # every arm on this seed, one after the other; the order turns with the seed
+            order = list(range(len(arms)))
+            if (seed - a.first_seed) % 2:
+                order.reverse()
+            rows = [None] * len(arms)
+            for i in order:
+                rows[i] = one_arm(arms[i], spps[i], seed)
+            return rows
 
-            with ThreadPoolExecutor(max_workers=max(1, a.jobs)) as ex:
-                rows = list(ex.map(one, range(a.first_seed, a.first_seed + a.seeds)))
-            results.append((arm, spp, rows))
+        with ThreadPoolExecutor(max_workers=max(1, a.jobs)) as ex:
+            per_seed = list(ex.map(one, range(a.first_seed, a.first_seed + a.seeds)))
+        results = []
+        for i, arm in enumerate(arms):
+            rows = [r[i] for r in per_seed]
+            results.append((arm, spps[i], rows))
             if a.ref_pool > 0:
                 print(f"  {name} {arm.label()}: mean relMSE against Mitsuba alone "
                       f"{np.mean([r[5] for r in rows]):.4g}", file=sys.stderr)

@@ -18,7 +18,7 @@
  * - The options that exclude it are refused.
  * - A connection's MIS weight from the subpaths' precomputed sums equals the weight walked over the
  *   whole path (door: power and balance heuristics; caustic: delta vertices).
- * - A pick's cell follows the model's row pi_c (its alias table) and its reported probability is
+ * - A pick's cell follows the model's row pi_c (its running sums) and its reported probability is
  *   pi_c(k) / n_k: counted over 2^20 stratified picks from a hand-made model and pool.
  */
 /* ctest-labels: stat */

@@ -1557,6 +1557,10 @@ static spc_rgb snee_camera_side(const bdpt *B, spc_tls *tls, const spc_sampler *
  * the MIS weight reads) was 1.03x slower. */
 #define SPC_BDPT_PICK_BATCH 8
 
+/* The golden ratio's fractional part: the step of connect_pool's second uniform from pick to pick
+ * (the additive sequence whose points spread most evenly over [0, 1)). */
+#define SPC_BDPT_PICK_GOLDEN 0.6180339887498949
+
 /* Asks the cache for every line of light vertex v (a hint; no effect on the result). */
 static void prefetch_vertex(const vtx *v)
 {
@@ -2153,6 +2157,15 @@ static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx 
         return L;
     const int M = spc_bdpt_pool_connections(B->pm, t);
     const int c = spc_bdpt_pool_cell(B->pm, b->p);
+    /* the picks' uniforms: M points spread evenly over the square (u1 on M equal steps, u2 along
+     * the golden-ratio sequence), the set shifted by one uniform pair modulo 1 (Cranley and
+     * Patterson 1976): each point alone is uniform, so each pick has the model's probability and
+     * the estimate stays unbiased, while together they cover the model's cells in proportion
+     * instead of at random (spc_bdpt_pool_pick inverts the row's running sum). At equal samples
+     * (32x32, paired seeds): the door's relMSE 7.8% lower at 64 spp and 3.0% at 262 spp, the
+     * lamp's 6.3% at 32 spp, against independent uniforms and the alias table (whose slots hold
+     * unrelated cells: u1 spread over them gave 4% at 64 spp) */
+    const double r1 = spc_rng_next(rng), r2 = spc_rng_next(rng);
     for (int i0 = 0; i0 < M; i0 += SPC_BDPT_PICK_BATCH) {
         const int nb = M - i0 < SPC_BDPT_PICK_BATCH ? M - i0 : SPC_BDPT_PICK_BATCH;
         const spc_bdpt_pool_ref *refs[SPC_BDPT_PICK_BATCH];
@@ -2160,7 +2173,10 @@ static spc_rgb connect_pool(const bdpt *B, const spc_bdpt_pool *pool, const vtx 
         /* the picks' records first (each a likely cache miss), then their vertices, whose addresses
          * the records hold */
         for (int i = 0; i < nb; ++i) {
-            double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
+            const int j = i0 + i;
+            double u1 = r1 + (double)j / M, u2 = r2 + (double)j * SPC_BDPT_PICK_GOLDEN;
+            u1 -= u1 >= 1.0 ? 1.0 : 0.0;
+            u2 -= floor(u2);
             if (!spc_bdpt_pool_pick(pool, c, u1, u2, &refs[i], &qs[i])) {
                 refs[i] = NULL;
                 continue;

@@ -33,9 +33,8 @@ bool spc_bdpt_pool_model_init(spc_bdpt_pool_model *m, spc_vec3 lo, spc_vec3 hi, 
     m->nu = calloc(n, sizeof *m->nu);
     m->score = calloc(n * n, sizeof *m->score);
     m->pi = calloc(n * n, sizeof *m->pi);
-    m->keep = calloc(n * n, sizeof *m->keep);
-    m->alias = calloc(n * n, sizeof *m->alias);
-    return m->nu && m->score && m->pi && m->keep && m->alias;
+    m->cdf = calloc(n * n, sizeof *m->cdf);
+    return m->nu && m->score && m->pi && m->cdf;
 }
 
 void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m)
@@ -43,8 +42,7 @@ void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m)
     free(m->nu);
     free(m->score);
     free(m->pi);
-    free(m->keep);
-    free(m->alias);
+    free(m->cdf);
     memset(m, 0, sizeof *m);
 }
 
@@ -60,48 +58,25 @@ int spc_bdpt_pool_cell(const spc_bdpt_pool_model *m, spc_vec3 p)
     return (i[2] * m->g[1] + i[1]) * m->g[0] + i[0];
 }
 
-/* Row pi (n entries summing to 1 or 0) into its alias table (Vose's construction: each slot
- * holds at most two outcomes, so a pick costs one uniform and two reads); work holds 2n ints. */
-static void alias_build(const double *pi, int n, double *keep, int *alias, int *work)
+/* Row pi (n entries summing to 1 or 0) into its running sums; from its last nonzero entry on they
+ * are 1, so that every u1 < 1 finds a cell that pi can pick despite rounding. */
+static void cdf_build(const double *pi, int n, double *cdf)
 {
-    int *small = work, *large = work + n, ns = 0, nl = 0;
     double sum = 0.0;
-    for (int k = 0; k < n; ++k)
-        sum += pi[k];
+    int last = -1;
     for (int k = 0; k < n; ++k) {
-        keep[k] = sum > 0.0 ? pi[k] * n / sum : 0.0;
-        alias[k] = k;
-        if (keep[k] < 1.0)
-            small[ns++] = k;
-        else
-            large[nl++] = k;
+        sum += pi[k];
+        cdf[k] = sum;
+        if (pi[k] > 0.0)
+            last = k;
     }
-    if (!(sum > 0.0))
-        return;
-    while (ns > 0 && nl > 0) {
-        int a = small[--ns], b = large[nl - 1];
-        alias[a] = b;
-        keep[b] -= 1.0 - keep[a];
-        if (keep[b] < 1.0) {
-            --nl;
-            small[ns++] = b;
-        }
-    }
-    /* what is left is 1 up to rounding; a zero-probability slot never keeps itself */
-    while (nl > 0)
-        keep[large[--nl]] = 1.0;
-    while (ns > 0) {
-        int a = small[--ns];
-        keep[a] = pi[a] > 0.0 ? 1.0 : 0.0;
-    }
+    for (int k = last < 0 ? n : last; k < n; ++k)
+        cdf[k] = 1.0;
 }
 
 bool spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths)
 {
     const int n = m->ncells;
-    int *work = malloc(2 * (size_t)n * sizeof *work);
-    if (!work)
-        return false;
     double nu_sum = 0.0;
     for (int k = 0; k < n; ++k) {
         m->nu[k] = light_paths > 0.0 ? m->nu[k] / light_paths : 0.0;
@@ -119,9 +94,8 @@ bool spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths)
             else /* a row the pilot never scored picks uniformly among the pool's vertices */
                 pi[k] = s > 0.0 ? sc[k] / s : m->nu[k] / nu_sum;
         }
-        alias_build(pi, n, m->keep + (size_t)c * n, m->alias + (size_t)c * n, work);
+        cdf_build(pi, n, m->cdf + (size_t)c * n);
     }
-    free(work);
     return true;
 }
 
@@ -188,9 +162,16 @@ bool spc_bdpt_pool_pick(const spc_bdpt_pool *p, int c, double u1, double u2, con
     const spc_bdpt_pool_model *m = p->m;
     const int n = m->ncells;
     const size_t row = (size_t)c * n;
-    double f = u1 * n;
-    int slot = (int)f < n ? (int)f : n - 1;
-    int k = f - slot < m->keep[row + slot] ? slot : m->alias[row + slot];
+    const double *cdf = m->cdf + row;
+    int lo = 0, hi = n - 1; /* the first k with u1 < cdf[k] (hi: a row of zeros, whose pi is 0) */
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        if (u1 < cdf[mid])
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    const int k = lo;
     double pk = m->pi[row + k];
     int cnt = p->start[k + 1] - p->start[k];
     if (!(pk > 0.0) || cnt <= 0)

@@ -13,7 +13,10 @@
  * (the model, fixed for the render), then one of the n_k(P) vertices of this pass's pool P in cell
  * k uniformly, and contributes C w / (N M q) with q = pi_c(k) / n_k(P) the pick's actual
  * probability: given the pool, the expectation is the sum over the pool's vertices of C w / N, so
- * the estimate is unbiased whatever the model. In the MIS weights a connection is two techniques:
+ * the estimate is unbiased whatever the model. A camera vertex's M_t picks draw their cells by
+ * inverting pi_c's running sum at M_t evenly spaced points shifted by one uniform (bdpt.c's
+ * connect_pool): each pick alone has the probabilities above, so the estimate stays unbiased, and
+ * together they take the cells in proportion to pi_c rather than at random. In the MIS weights a connection is two techniques:
  * the own subpath (one sample of the path) and the pool (c = M pi_c(k) / nu_k samples, nu_k the
  * expected number of connectible vertices per light subpath in cell k, the pilot's): functions of
  * the path's two joined vertices only, so the weights of every path still sum to one (they use the
@@ -55,9 +58,8 @@ typedef struct spc_bdpt_pool_model {
     double *nu;    /* ncells: connectible light vertices per light subpath in the cell */
     double *score; /* ncells x ncells: the pilot's summed contributions, camera cell major */
     double *pi;    /* ncells x ncells: pi_c(k), rows sum to 1 (or 0 with no light vertices) */
-    double *keep;  /* ncells x ncells: each row's alias table (Walker 1977): slot k keeps k with this
-                    * probability, else gives alias[slot]; a row that sums to 0 keeps nothing */
-    int *alias;    /* ncells x ncells */
+    double *cdf;   /* ncells x ncells: each row's running sum of pi (its last nonzero entry and those
+                    * after it set to 1); a row that sums to 0 stays 0 */
 } spc_bdpt_pool_model;
 
 /* Sets up the grid over [lo, hi] with the tables zeroed; false if out of memory (then release it). */
@@ -66,7 +68,7 @@ void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m);
 /* The cell of point p (points outside the grid go to its nearest cell). */
 int spc_bdpt_pool_cell(const spc_bdpt_pool_model *m, spc_vec3 p);
 /* After the pilot has added to nu (vertex counts) and score: nu divided by the pilot's light
- * subpaths, pi and its alias tables built; false if out of memory. */
+ * subpaths, pi and its running sums built; false if out of memory. */
 bool spc_bdpt_pool_model_finish(spc_bdpt_pool_model *m, double light_paths);
 /* Connections from the camera subpath's t-th vertex (t = 2: the camera ray's hit). */
 static inline int spc_bdpt_pool_connections(const spc_bdpt_pool_model *m, int t)
@@ -107,9 +109,10 @@ bool spc_bdpt_pool_add(spc_bdpt_pool *p, const void *sub, int s, int cell);
 /* Sorts the vertices by cell; false if out of memory. */
 bool spc_bdpt_pool_finish(spc_bdpt_pool *p);
 void spc_bdpt_pool_release(spc_bdpt_pool *p);
-/* Picks a light vertex for a camera vertex in cell c from uniforms u1 (the cell) and u2 (the
- * vertex in it); false if the picked cell is empty in this pool (the pick contributes nothing).
- * *q: the pick's probability pi_c(k) / n_k. */
+/* Picks a light vertex for a camera vertex in cell c from uniforms u1 (the cell: the first k whose
+ * running sum of pi_c exceeds u1, so that picks with evenly spread u1 take the cells in proportion)
+ * and u2 (the vertex in it); false if the picked cell is empty in this pool (the pick contributes
+ * nothing). *q: the pick's probability pi_c(k) / n_k. */
 bool spc_bdpt_pool_pick(const spc_bdpt_pool *p, int c, double u1, double u2, const spc_bdpt_pool_ref **ref, double *q);
 
 #endif
