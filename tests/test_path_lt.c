@@ -862,6 +862,65 @@ TEST(slab_area_weights_sum_to_one_long)
     spc_scene_destroy(sc);
 }
 
+/* The same slabs with ltslab: an area light's subpaths also join the pinhole through flat faces
+ * (the floor seen through a slab, camera chains of 1-2 vertices within max_chain); on each such join
+ * specular NEE's weight at x2, BSDF sampling's own (the camera's side through that chain) and light
+ * tracing's sum to one, and on those by chains the enumeration leaves to BSDF sampling (a partial
+ * reflection inside the glass) BSDF sampling's and light tracing's do. Without ltslab no area
+ * light's join goes through a slab. */
+TEST(slab_area_camera_weights_sum_to_one)
+{
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_scene *sc = lt_load(SLAB_SCENE, SLAB_SETTING ",ltslab", &cam, &p);
+    if (!sc)
+        return;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p) && p.lt_slab && p.max_chain == 2);
+    p.lt_share = 1.0;
+    ctx.snee = p;
+    area_tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    t.flat = true;
+    spc_rng rng;
+    spc_rng_seed(&rng, 43, 7);
+    int subpaths = spc_test_quick() ? 10000 : 40000;
+    for (int i = 0; i < subpaths; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    printf("  %s, ltslab: %d joins (directly %d, through a slab %d, through a diffuse bounce %d), found by the flat "
+           "enumeration %d, left to BSDF sampling %d (%d with a partial reflection); largest gap of the three "
+           "weights' sum from 1 %.3g, of the two's %.3g\n",
+           SLAB_SCENE, t.joins, t.kinds[0], t.kinds[1], t.kinds[2], t.matched, t.unlisted, t.unlisted_partial,
+           t.worst_gap, t.unlisted_gap);
+    CHECK_MSG(t.kinds[1] > 20, "joins through a slab toward the pinhole: %d", t.kinds[1]);
+    CHECK_MSG(t.matched > (t.joins - t.unlisted) * 95 / 100, "the flat enumeration finds %d of %d joins' chains",
+              t.matched, t.joins - t.unlisted);
+    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK_MSG(t.unlisted_gap < 1e-5, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
+    /* without ltslab: none through a slab */
+    p.lt_slab = false;
+    ctx.snee = p;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    t.flat = true;
+    for (int i = 0; i < subpaths / 4; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    CHECK_MSG(t.joins > 0 && t.kinds[1] == 0, "without ltslab: %d joins, %d through a slab", t.joins, t.kinds[1]);
+    spc_scene_destroy(sc);
+}
+
+/* With an area light and ltslab the slabs render as without light tracing (the floor seen through a
+ * slab: the same paths split three ways). */
+TEST(slab_area_camera_render_agrees_without_it)
+{
+    scene_settings_agree(SLAB_SCENE, "angular:camera=0.036,first=0.1,later=0.1,ltcaus,ltshare=1,ltslab",
+                         "angular:camera=0.036,first=0.1,later=0.1", 512, 67,
+                         "slabs, area light, ltslab vs without ltcaus");
+}
+
 /* On the triangle glass ball under a point light the render with ltcaus agrees with one without. */
 TEST(mesh_ball_point_render_agrees_without_it)
 {
@@ -1539,6 +1598,83 @@ TEST(guide_render_agrees_without_it)
     spc_scene_destroy(sc);
 }
 
+/* The slabs' light guides: scenes/caustic_slabs.xml (max_depth 12) with the plan's setting for slabs
+ * under larger lights and the light guides. Light tracing through flat faces (ltcaus) stops at the
+ * track's 8 vertices; the light guides start one past it, at 9, so the two strategies' subpaths are
+ * disjoint. slab_a guides light along itself by total internal reflection between its two large
+ * faces and leaves it onto the floor through a side face after 10 vertices: on each such join the
+ * two weights (light tracing's and the one the path tracer's hooks give BSDF sampling for the same
+ * path) sum to one. */
+#define SLAB_GUIDE_SCENE "scenes/caustic_slabs.xml"
+#define SLAB_GUIDE_SETTING "angular:camera=0.033,first=0.1,later=0.1" SPC_SNEE_PLAN_FLAT_LARGE ",ltguide=1"
+
+TEST(slab_guide_weights_sum_to_one)
+{
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_scene *sc = lt_load(SLAB_GUIDE_SCENE, SLAB_GUIDE_SETTING, &cam, &p);
+    if (!sc)
+        return;
+    p.mis = true;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    ctx.max_depth = sc->integrator.max_depth;
+    CHECK(ctx.max_depth == 12);
+    CHECK(spc_path_lt_guide_enabled(&ctx, &p) && spc_path_lt_enabled(&ctx, &p));
+    CHECK(spc_path_lt_guide_min_chain(&ctx, &p) == 9);
+    guide_tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    t.kmin = SPC_PATH_LT_GUIDE_MAX + 1;
+    spc_rng rng;
+    spc_rng_seed(&rng, 53, 7);
+    int n = getenv("SPC_TEST_QUICK") ? 100000 : 400000;
+    for (int i = 0; i < n; ++i)
+        spc_path_lt_guide_joins(&ctx, &p, &rng, check_guide_join, &t);
+    printf("  %d joins, chains of %d to %d vertices, light tracing's share above 1/2 on %d, below on %d, largest "
+           "gap of the two weights' sum from 1 %.3g\n",
+           t.joins, t.kmin, t.kmax, t.above, t.below, t.worst_gap);
+    CHECK(t.joins > 20 && t.kmin >= 9 && t.kmax <= 10);
+    CHECK_MSG(t.worst_gap < 1e-6, "the two weights sum to 1 +- %.3g", t.worst_gap);
+    spc_scene_destroy(sc);
+}
+
+/* With the light guides the slabs render as with specular NEE off: per-pixel z-test and image
+ * means, 8 x 8, under a light of radius 0.4 (the same power), whose guided light BSDF sampling
+ * finds often enough for the reference. */
+TEST(slab_guide_render_agrees_with_none)
+{
+    char path[1024];
+    const char *d = getenv("SPC_SOURCE_DIR");
+    snprintf(path, sizeof path, "%s/%s", d ? d : ".", SLAB_GUIDE_SCENE);
+    spc_define defs[3] = {{"res", "8"}, {"light_radius", "0.4"}, {"light_radiance", "10.8, 10.35, 9.45"}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    CHECK(spc_scene_load(path, defs, 3, &sc, &err) == SPC_OK);
+    if (!sc)
+        return;
+    bool quick = getenv("SPC_TEST_QUICK") != NULL;
+    spc_film *img = tu_render_nee(sc, "path", SLAB_GUIDE_SETTING, quick ? 64 : 256, 2, 47, NULL);
+    spc_film *ref = tu_render_nee(sc, "path", "none", quick ? 4096 : 16384, 2, 48, NULL);
+    CHECK(img && ref);
+    if (img && ref) {
+        spc_diff_result r;
+        memset(&r, 0, sizeof r);
+        CHECK(tu_image_agrees(img, ref, 0.99, "slab light guides vs none", &r));
+        double mi, si, mr, sr;
+        tu_image_mean(img, 1, &mi, &si);
+        tu_image_mean(ref, 1, &mr, &sr);
+        CHECK_MSG(fabs(mi - mr) < 4.0 * sqrt(si * si + sr * sr), "image means %.5f +- %.5f vs %.5f +- %.5f", mi, si, mr,
+                  sr);
+        printf("    z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f\n", r.ztest_pass_fraction,
+               img->width * img->height, mi, si, mr, sr);
+    }
+    spc_film_destroy(img);
+    spc_film_destroy(ref);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(joins_are_specular_nee_chains_with_the_same_ratio);
@@ -1556,6 +1692,8 @@ int main(void)
     RUN(spot_render_agrees_without_it_and_with_bdpt);
     RUN(slab_area_weights_sum_to_one);
     RUN(slab_area_weights_sum_to_one_long);
+    RUN(slab_area_camera_weights_sum_to_one);
+    RUN(slab_area_camera_render_agrees_without_it);
     RUN(slab_render_agrees_without_it);
     RUN(slab_point_weights_sum_to_one);
     RUN(slab_point_render_agrees_without_it);
@@ -1567,5 +1705,7 @@ int main(void)
     RUN(guide_weights_sum_to_one);
     RUN(guide_path_side_from_the_first_hit);
     RUN(guide_render_agrees_without_it);
+    RUN(slab_guide_weights_sum_to_one);
+    RUN(slab_guide_render_agrees_with_none);
     return spc_test_finish();
 }

@@ -460,9 +460,10 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
     int k = c->n;
     if (!e || e->type != SPC_EMITTER_AREA || k < 1 || !area_chain_covers(p, c))
         return 0.0;
-    /* the joins through the sphere by chains longer than max_chain, and those through a
-     * tessellated ball, are point lights' only */
-    if (cc && (cc->n > p->max_chain || !spc_sphere_chain_covers(cc, p->reflect)))
+    /* the joins by camera chains longer than max_chain (the path tracer's side weighs no others:
+     * path_snee.c), and those through a tessellated ball, are point lights' only; through the
+     * sphere and through flat faces (ltslab) both kinds' */
+    if (cc && (cc->n > p->max_chain || !(spc_sphere_chain_covers(cc, p->reflect) || slab_camera_chain(p, cc))))
         return 0.0;
     spc_vec3 d_last = c->v[k - 1].d;
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
@@ -481,7 +482,7 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
         den *= spc_absdot(wo2, x2->ng) * spc_bsdf_pdf(x1->bsdf, x1, SPC_MODE_RADIANCE, cd.wi, w1) * p_cam;
     } else {
         spc_camera_direct cd;
-        num *= cc ? through_share(p) : 1.0;
+        num *= cc ? camera_chain_share(p, cc) : 1.0;
         den *= camera_density(ctx, p, x2, cc, &cd);
     }
     return ratio_of(num, den);
@@ -766,15 +767,16 @@ static void join_through(const spc_render_ctx *ctx, const spc_snee_params *p, co
  * sequences of one and two faces give a few (in and out, a reflection off a face). */
 #define SLAB_CAMERA_CHAINS 32
 
-/* A point light's joins at x2 to the pinhole through flat faces (ltslab): every chain of
- * spc_flat_chains_all from x2 toward the pinhole of 1 to slab_max vertices (a floor point seen
- * through a glass slab), on every subpath. The path tracer's side weighs the camera ray that meets
- * x2 through such a chain against these (spc_path_lt_ratio_first, slab_camera_chain). */
+/* The joins at x2 to the pinhole through flat faces (ltslab): every chain of spc_flat_chains_all
+ * from x2 toward the pinhole of 1 to slab_max vertices (a floor point seen through a glass slab),
+ * on every subpath. The path tracer's side weighs the camera ray that meets x2 through such a chain
+ * against these (a point light's: spc_path_lt_ratio_first; an area light's: spc_path_lt_area_ratio
+ * with that chain, the camera's density through it from camera_density). */
 static void join_slab(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_rgb beta,
                       const lt_end *L, void (*sink)(void *user, const spc_path_lt_join *j), void *user)
 {
     int kmax = slab_max(p);
-    if (L->area || kmax < 1 || !p->exact)
+    if (kmax < 1 || !p->exact)
         return;
     spc_snee_query q;
     spc_snee_query_init(&q, ctx->scene, p, x2, L->d0, kmax);
@@ -823,7 +825,7 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
     double share = through_share(p);
     if (share > 0.0 && (share >= 1.0 || spc_rng_next(rng) < share))
         join_through(ctx, p, x2, beta, L, 1, p->max_chain, sink, user);
-    /* a point light's through flat faces (glass slabs), with ltslab */
+    /* through flat faces (glass slabs), with ltslab */
     join_slab(ctx, p, x2, beta, L, sink, user);
     /* area lights' paths through the longer chains are not light tracing's (spc_path_lt_area_ratio) */
     double ls = long_share(p);

@@ -47,9 +47,9 @@
  * strategy reaches a point light). A point light's chain may lie on a tessellated glass ball too,
  * with specular NEE's density that of an exact count (its estimate of each chain is unbiased).
  *
- * With ltslab (params.lt_slab) a point light's subpath at x2 also joins the pinhole through flat
- * faces: every chain of spc_flat_chains_all from x2 toward the pinhole of 1 to params.lt_slab_max
- * vertices (the floor seen through a glass slab, in and out), on every subpath. Without it the
+ * With ltslab (params.lt_slab) a point light's (and an area light's) subpath at x2 also joins the
+ * pinhole through flat faces: every chain of spc_flat_chains_all from x2 toward the pinhole of 1 to
+ * params.lt_slab_max vertices (the floor seen through a glass slab, in and out), on every subpath. Without it the
  * camera ray that meets x2 through such a chain leaves the path to specular NEE at x2 alone, which
  * makes the slab's 3- and 4-vertex light chains on a share of its calls (flat34) counted 1/psi and
  * the 5- and 6-vertex ones never. The camera's density of x2 through the chain is that of the
@@ -67,7 +67,9 @@
  * choice), with a direction uniform in the cone toward the casters' bounding sphere, its throughput
  * Le cos(y) / (p_y p_dir). The same joins follow, except those through a middle vertex and those
  * through chains longer than max_chain toward the pinhole (x2 the second receiver at most, the
- * camera's chain within max_chain: the path tracer's side weighs only those paths against it).
+ * camera's chain within max_chain: the path tracer's side weighs only those paths against it); with
+ * ltslab those through flat faces too (the floor seen through a slab, its camera density as for a
+ * point light).
  * There the path has three strategies at x2: specular NEE (density a, its light point), BSDF
  * sampling at x2 (b) and light tracing (c), all in the measure of y given the camera's side. c / b
  * is

@@ -91,7 +91,7 @@ static const spc_snee_option options[] = {
      "the glass is the mean of their values and the camera ray's"},
     {"ltslab", "noltslab", SPC_SNEE_OPT_COUNT, true, "K", 1, SPC_FLAT_MAX_VERTICES, false, false, NULL, 0, AT(lt_slab),
      AT(lt_slab_max), 0, NULL,
-     "path, with ltcaus: a point light's subpath also joins the pinhole through the chains of 1-K flat faces "
+     "path, with ltcaus: a light subpath also joins the pinhole through the chains of 1-K flat faces "
      "(glass slabs) from its receiver (the caustic seen through a slab; default K 2), weighed against specular "
      "NEE there"},
     {"reflect", "noreflect", SPC_SNEE_OPT_REAL, true, "P", 0, 1, true, true, NULL, 0, AT(reflect), AT(reflect_p), 0,

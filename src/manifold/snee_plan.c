@@ -1055,7 +1055,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     }
     if (flat_large && !strstr(out->setting, "recguide")) {
         size_t n = strlen(out->setting);
-        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LARGE);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s%s", SPC_SNEE_PLAN_FLAT_LARGE,
+                 out->glass_share >= SPC_SNEE_PLAN_FLAT_LARGE_GUIDE_GLASS ? SPC_SNEE_PLAN_FLAT_LARGE_GUIDES : "");
     } else
         flat_light_tracing(sc, cs, nflat, integrator, out);
     flat_point_light_tracing(sc, nflat, integrator, out);

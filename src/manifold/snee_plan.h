@@ -322,6 +322,23 @@
  * calls"); a share of 0.05 made one-pixel seeds. */
 #define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.1,longmax=8"
 
+/* Appended after SPC_SNEE_PLAN_FLAT_LARGE where the camera sees glass on at least
+ * SPC_SNEE_PLAN_FLAT_LARGE_GUIDE_GLASS of the image (snee_plan.c, glass_image_share): the two path
+ * classes that then held the mean's one-pixel seeds, both BSDF sampling's alone, get light tracing
+ * too: the light guides (ltguide: light led along a slab by total internal reflection, out of a
+ * side face onto the floor, 9-10 vertices, past the track's 8) and the floor seen through a slab
+ * (ltslab: the area light's subpaths joined to the pinhole through 1-2 flat faces, so the chains
+ * with a partial reflection inside the glass, which the enumeration leaves out, are light
+ * tracing's there too). At equal CPU time (bench/RESULTS.md, "the slabs' light guides"):
+ * scenes/caustic_slabs.xml over 32 seeds mean relMSE 0.00672 -> 0.00111 (3.0x -> 18.5x none),
+ * worst seed 0.063 -> 0.0018; scenes/newton_slabs.xml 3.8x -> 4.0x; a fresh slab under 0.022 sr
+ * with glass on 0.13 of the image 1.7x -> 5.4x. Their joins through the slab cost 1.06-1.4x per
+ * sample (the flat walk toward the pinhole from every receiver the light reaches through glass),
+ * which does not pay where little of the image looks through glass: a fresh slab with glass on
+ * 0.029 of the image lost 1.3x with them and 1.2x with the light guides alone (7.4x none without). */
+#define SPC_SNEE_PLAN_FLAT_LARGE_GUIDES ",ltguide,ltslab"
+#define SPC_SNEE_PLAN_FLAT_LARGE_GUIDE_GLASS 0.05
+
 /* Appended for path where a glass caster is a tessellated ball (a triangle mesh with a fitted
  * sphere) and every light is a point light (a sky besides), without the caustic guide at receivers:
  * light tracing makes the ball's point-light chains too and joins them to the pinhole directly,

@@ -314,7 +314,8 @@ typedef struct spc_snee_params {
      * path's first receiver x2 also joins the pinhole through every chain of 1 to lt_slab_max
      * vertices through flat faces (glass slabs: spc_flat_chains_all's chains from x2 toward the
      * pinhole), weighed against specular NEE at x2 reached by the camera ray through that chain
-     * (the floor seen through a slab). Default K SPC_SNEE_LT_SLAB_MAX (solver_table.c). */
+     * (the floor seen through a slab); an area light's subpath too, by camera chains of at most
+     * max_chain vertices. Default K SPC_SNEE_LT_SLAB_MAX (solver_table.c). */
     bool lt_slab;
     int lt_slab_max;
     /* psi: the probability with which specular NEE's pass made c (below 1 only for chains through
