@@ -458,6 +458,9 @@ bool spc_sphere_plane_inside(spc_vec3 x, spc_vec3 c, double R, spc_vec3 y, spc_s
 /* Samples within a cell between total reflection and y behind, where the range between them can be
  * narrower than a cell (a way out after internal reflections, test_exact_chains). */
 #define SPC_SPHERE_INSIDE_SUB 8
+/* Golden-section steps for the extremum between two cells that may hide a pair of roots (inside_pair):
+ * 0.618^12 of two cells, 0.07 degrees, well within the seeds' cone of 5 degrees. */
+#define SPC_SPHERE_INSIDE_PAIR_STEPS 12
 
 /* The inside problem along the first direction (ux, uy) from x = (d, 0): f = v x (y - Q) at the last
  * vertex Q with the way out v, *th0 the first vertex's angle (if th0 is not NULL). Returns 0 where f
@@ -512,6 +515,46 @@ typedef struct inside_problem {
     int n, max;
 } inside_problem;
 
+/* The pair of roots that an extremum of f in (pa, pc) may hide where f has the same sign sgn at
+ * both ends (fa, fc): the extremum of sgn f by golden section; where f there has crossed zero, the
+ * root on each side of it by bisection (inside_cell). At the refraction's fold the two ways out to y
+ * lie a few degrees apart, inside one cell of the grid or between the edge of total reflection and
+ * the first sample past it, and f has one sign at the cell's ends: a medium point low in
+ * scenes/medium_glass.xml's ball had its pair 8 degrees apart in an 11-degree cell, its mesh chains
+ * found by cone seeds alone and counted up to 124 times (bench/RESULTS.md, part vol32). */
+static void inside_cell(inside_problem *pb, double p0, int s0, double f0, double p1, int s1, double f1, int depth);
+
+static void inside_pair(inside_problem *pb, double pa, double fa, double pc, double fc)
+{
+    const double g = 0.6180339887498949, sgn = fa < 0.0 ? -1.0 : 1.0;
+    double a = pa, c = pc, u = c - g * (c - a), v = a + g * (c - a), fu = 0.0, fv = 0.0;
+    if (inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, u, &fu, NULL) != 0 ||
+        inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, v, &fv, NULL) != 0)
+        return;
+    for (int it = 0; it < SPC_SPHERE_INSIDE_PAIR_STEPS && sgn * fu > 0.0 && sgn * fv > 0.0; ++it) {
+        if (sgn * fu < sgn * fv) {
+            c = v;
+            v = u;
+            fv = fu;
+            u = c - g * (c - a);
+            if (inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, u, &fu, NULL) != 0)
+                return;
+        } else {
+            a = u;
+            u = v;
+            fu = fv;
+            v = a + g * (c - a);
+            if (inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, v, &fv, NULL) != 0)
+                return;
+        }
+    }
+    double pm = sgn * fu < sgn * fv ? u : v, fm = sgn * fu < sgn * fv ? fu : fv;
+    if (!(sgn * fm < 0.0))
+        return; /* no pair: an extremum short of zero */
+    inside_cell(pb, pa, 0, fa, pm, 0, fm, 1);
+    inside_cell(pb, pm, 0, fm, pc, 0, fc, 1);
+}
+
 /* The root in the cell (p0, p1) of directions with states s0, s1 and values f0, f1 (inside_eval), if
  * the cell brackets one, added to pb's roots; a cell that begins and ends where f is not defined for
  * different reasons (total reflection on one side, y behind on the other) may hold a range where it
@@ -542,6 +585,13 @@ static void inside_cell(inside_problem *pb, double p0, int s0, double f0, double
             fa = s0 == 0 ? f0 : fg;
             b = s0 == 0 ? good : p1;
             have = true;
+        } else if (depth == 0) {
+            /* one sign from the edge to the sample: a pair may lie between them */
+            if (s0 == 0)
+                inside_pair(pb, p0, f0, good, fg);
+            else
+                inside_pair(pb, good, fg, p1, f1);
+            return;
         }
     } else if (s0 != s1 && depth == 0) {
         int sp = s0;
@@ -587,6 +637,10 @@ int spc_sphere_inside_roots(double d, double y1, double y2, int m, double eta, d
     double ux = -1.0, uy = 0.0;
     double p0 = -SPC_PI, f0 = 0.0;
     int s0 = inside_eval(d, y1, y2, m, eta, ux, uy, &f0, NULL);
+    /* the sample before p0 (state sm, value fm at pm): where three valid samples of one sign have
+     * the middle one nearest zero, a pair of roots may lie between the outer two (inside_pair) */
+    double pm = p0, fm = 0.0;
+    int sm = 1;
     for (int i = 1; i <= SPC_SPHERE_INSIDE_GRID; ++i) {
         double nx = ux * cs - uy * sn, ny = ux * sn + uy * cs;
         ux = nx;
@@ -594,6 +648,18 @@ int spc_sphere_inside_roots(double d, double y1, double y2, int m, double eta, d
         double p1 = -SPC_PI + i * step, f1 = 0.0;
         int s1 = inside_eval(d, y1, y2, m, eta, ux, uy, &f1, NULL);
         inside_cell(&pb, p0, s0, f0, p1, s1, f1, 0);
+        /* beside an edge (the next or the last sample has no way out), the cell on the valid side
+         * where f falls toward the edge */
+        bool one_sign = (fm < 0.0) == (f0 < 0.0) && (f0 < 0.0) == (f1 < 0.0);
+        if (sm == 0 && s0 == 0 && s1 == 0 && one_sign && fabs(f0) < fabs(fm) && fabs(f0) < fabs(f1) && pb.n < pb.max)
+            inside_pair(&pb, pm, fm, p1, f1);
+        else if (sm == 0 && s0 == 0 && s1 != 0 && (fm < 0.0) == (f0 < 0.0) && fabs(f0) < fabs(fm) && pb.n < pb.max)
+            inside_pair(&pb, pm, fm, p0, f0);
+        else if (sm != 0 && s0 == 0 && s1 == 0 && (f0 < 0.0) == (f1 < 0.0) && fabs(f0) < fabs(f1) && pb.n < pb.max)
+            inside_pair(&pb, p0, f0, p1, f1);
+        pm = p0;
+        fm = f0;
+        sm = s0;
         p0 = p1;
         f0 = f1;
         s0 = s1;
