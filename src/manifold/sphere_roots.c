@@ -513,6 +513,7 @@ typedef struct inside_problem {
     int m;
     double *theta;
     int n, max;
+    double edge_p, edge_f; /* the last cell's edge and f there, where f kept one sign up to it (NAN: none) */
 } inside_problem;
 
 /* The pair of roots that an extremum of f in (pa, pc) may hide where f has the same sign sgn at
@@ -586,12 +587,9 @@ static void inside_cell(inside_problem *pb, double p0, int s0, double f0, double
             b = s0 == 0 ? good : p1;
             have = true;
         } else if (depth == 0) {
-            /* one sign from the edge to the sample: a pair may lie between them */
-            if (s0 == 0)
-                inside_pair(pb, p0, f0, good, fg);
-            else
-                inside_pair(pb, good, fg, p1, f1);
-            return;
+            /* one sign from the edge to the sample: the caller may look for a pair between them */
+            pb->edge_p = good;
+            pb->edge_f = fg;
         }
     } else if (s0 != s1 && depth == 0) {
         int sp = s0;
@@ -631,7 +629,7 @@ int spc_sphere_inside_roots(double d, double y1, double y2, int m, double eta, d
 {
     if (m < 0 || m > SPC_SPHERE_MAX_M || !(d >= 0.0 && d < 1.0) || !(y1 * y1 + y2 * y2 > 1.0) || !(eta > 0.0))
         return 0;
-    inside_problem pb = {d, y1, y2, eta, m, theta, 0, max_roots};
+    inside_problem pb = {d, y1, y2, eta, m, theta, 0, max_roots, NAN, 0.0};
     const double step = 2.0 * SPC_PI / SPC_SPHERE_INSIDE_GRID, cs = cos(step), sn = sin(step);
     /* the grid's directions by rotation, from phi = -pi */
     double ux = -1.0, uy = 0.0;
@@ -641,22 +639,41 @@ int spc_sphere_inside_roots(double d, double y1, double y2, int m, double eta, d
      * the middle one nearest zero, a pair of roots may lie between the outer two (inside_pair) */
     double pm = p0, fm = 0.0;
     int sm = 1;
+    /* an edge just before p0 with f of one sign from it to p0 (pending_p: NAN where none) */
+    double pending_p = NAN, pending_f = 0.0;
     for (int i = 1; i <= SPC_SPHERE_INSIDE_GRID; ++i) {
         double nx = ux * cs - uy * sn, ny = ux * sn + uy * cs;
         ux = nx;
         uy = ny;
         double p1 = -SPC_PI + i * step, f1 = 0.0;
         int s1 = inside_eval(d, y1, y2, m, eta, ux, uy, &f1, NULL);
+        pb.edge_p = NAN;
         inside_cell(&pb, p0, s0, f0, p1, s1, f1, 0);
-        /* beside an edge (the next or the last sample has no way out), the cell on the valid side
-         * where f falls toward the edge */
-        bool one_sign = (fm < 0.0) == (f0 < 0.0) && (f0 < 0.0) == (f1 < 0.0);
-        if (sm == 0 && s0 == 0 && s1 == 0 && one_sign && fabs(f0) < fabs(fm) && fabs(f0) < fabs(f1) && pb.n < pb.max)
-            inside_pair(&pb, pm, fm, p1, f1);
-        else if (sm == 0 && s0 == 0 && s1 != 0 && (fm < 0.0) == (f0 < 0.0) && fabs(f0) < fabs(fm) && pb.n < pb.max)
-            inside_pair(&pb, pm, fm, p0, f0);
-        else if (sm != 0 && s0 == 0 && s1 == 0 && (f0 < 0.0) == (f1 < 0.0) && fabs(f0) < fabs(f1) && pb.n < pb.max)
-            inside_pair(&pb, p0, f0, p1, f1);
+        /* where |f| falls toward a sample between two of the same sign, or toward an edge (a
+         * sample with no way out next), the pair the extremum may hide: a fold inside the cells
+         * of three valid samples, or in the valid cell or the edge's cell beside an edge */
+        if (pb.n < pb.max && s0 == 0) {
+            bool falls_from_m = sm == 0 && (fm < 0.0) == (f0 < 0.0) && fabs(f0) < fabs(fm);
+            bool falls_from_1 = s1 == 0 && (f1 < 0.0) == (f0 < 0.0) && fabs(f0) < fabs(f1);
+            if (falls_from_m && falls_from_1) {
+                inside_pair(&pb, pm, fm, p1, f1);
+            } else if (falls_from_m && s1 != 0) {
+                inside_pair(&pb, pm, fm, p0, f0);
+                if (!isnan(pb.edge_p) && pb.n < pb.max)
+                    inside_pair(&pb, p0, f0, pb.edge_p, pb.edge_f);
+            } else if (falls_from_1 && sm != 0) {
+                inside_pair(&pb, p0, f0, p1, f1);
+                if (!isnan(pending_p) && pb.n < pb.max)
+                    inside_pair(&pb, pending_p, pending_f, p0, f0);
+            } else if (sm != 0 && s1 != 0) { /* a lone valid sample: both edges' cells */
+                if (!isnan(pending_p))
+                    inside_pair(&pb, pending_p, pending_f, p0, f0);
+                if (!isnan(pb.edge_p) && pb.n < pb.max)
+                    inside_pair(&pb, p0, f0, pb.edge_p, pb.edge_f);
+            }
+        }
+        pending_p = s0 != 0 && s1 == 0 ? pb.edge_p : NAN;
+        pending_f = pb.edge_f;
         pm = p0;
         fm = f0;
         sm = s0;
