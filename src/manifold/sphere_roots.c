@@ -26,7 +26,8 @@
  * From inside (spc_sphere_inside_roots: x a medium point in a glass ball, d < 1) the chain is a
  * function of its first direction from x, which sees the whole circle: f on a coarse grid of
  * directions, brackets at sign changes and at the edges where the way out turns grazing (total
- * internal reflection beyond), refined by bisection. Its roots only seed randomized attempts
+ * internal reflection beyond), and the pairs of roots at the refraction's fold found where |f| falls
+ * toward a sample or an edge (an extremum between them, by golden section), refined by bisection. Its roots only seed randomized attempts
  * (fit_seeds.h), so they are kept to a fraction of a degree.
  */
 #include "manifold/sphere_roots.h"
