@@ -27,8 +27,8 @@
  * function of its first direction from x, which sees the whole circle: f on a coarse grid of
  * directions, brackets at sign changes and at the edges where the way out turns grazing (total
  * internal reflection beyond), and the pairs of roots at the refraction's fold found where |f| falls
- * toward a sample or an edge (an extremum between them, by golden section), refined by bisection. Its roots only seed randomized attempts
- * (fit_seeds.h), so they are kept to a fraction of a degree.
+ * toward a sample or an edge (an extremum between them, by golden section), refined by bisection.
+ * Its roots only seed randomized attempts (fit_seeds.h), so they are kept to a fraction of a degree.
  */
 #include "manifold/sphere_roots.h"
 
@@ -523,7 +523,8 @@ typedef struct inside_problem {
  * lie a few degrees apart, inside one cell of the grid or between the edge of total reflection and
  * the first sample past it, and f has one sign at the cell's ends: a medium point low in
  * scenes/medium_glass.xml's ball had its pair 8 degrees apart in an 11-degree cell, its mesh chains
- * found by cone seeds alone and counted up to 124 times (bench/RESULTS.md, part vol32). */
+ * found by cone seeds alone and counted up to 124 times (bench/RESULTS.md, "medium_glass's worst
+ * seed was a counted one-vertex chain at the refraction's fold"). */
 static void inside_cell(inside_problem *pb, double p0, int s0, double f0, double p1, int s1, double f1, int depth);
 
 static void inside_pair(inside_problem *pb, double pa, double fa, double pc, double fc)
