@@ -26,8 +26,9 @@
  * From inside (spc_sphere_inside_roots: x a medium point in a glass ball, d < 1) the chain is a
  * function of its first direction from x, which sees the whole circle: f on a coarse grid of
  * directions, brackets at sign changes and at the edges where the way out turns grazing (total
- * internal reflection beyond), refined by bisection. Its roots only seed randomized attempts
- * (fit_seeds.h), so they are kept to a fraction of a degree.
+ * internal reflection beyond), and the pairs of roots at the refraction's fold found where |f| falls
+ * toward a sample or an edge (an extremum between them, by golden section), refined by bisection.
+ * Its roots only seed randomized attempts (fit_seeds.h), so they are kept to a fraction of a degree.
  */
 #include "manifold/sphere_roots.h"
 
@@ -458,6 +459,9 @@ bool spc_sphere_plane_inside(spc_vec3 x, spc_vec3 c, double R, spc_vec3 y, spc_s
 /* Samples within a cell between total reflection and y behind, where the range between them can be
  * narrower than a cell (a way out after internal reflections, test_exact_chains). */
 #define SPC_SPHERE_INSIDE_SUB 8
+/* Golden-section steps for the extremum between two cells that may hide a pair of roots (inside_pair):
+ * 0.618^12 of two cells, 0.07 degrees, well within the seeds' cone of 5 degrees. */
+#define SPC_SPHERE_INSIDE_PAIR_STEPS 12
 
 /* The inside problem along the first direction (ux, uy) from x = (d, 0): f = v x (y - Q) at the last
  * vertex Q with the way out v, *th0 the first vertex's angle (if th0 is not NULL). Returns 0 where f
@@ -510,7 +514,49 @@ typedef struct inside_problem {
     int m;
     double *theta;
     int n, max;
+    double edge_p, edge_f; /* the last cell's edge and f there, where f kept one sign up to it (NAN: none) */
 } inside_problem;
+
+/* The pair of roots that an extremum of f in (pa, pc) may hide where f has the same sign sgn at
+ * both ends (fa, fc): the extremum of sgn f by golden section; where f there has crossed zero, the
+ * root on each side of it by bisection (inside_cell). At the refraction's fold the two ways out to y
+ * lie a few degrees apart, inside one cell of the grid or between the edge of total reflection and
+ * the first sample past it, and f has one sign at the cell's ends: a medium point low in
+ * scenes/medium_glass.xml's ball had its pair 8 degrees apart in an 11-degree cell, its mesh chains
+ * found by cone seeds alone and counted up to 124 times (bench/RESULTS.md, "medium_glass's worst
+ * seed was a counted one-vertex chain at the refraction's fold"). */
+static void inside_cell(inside_problem *pb, double p0, int s0, double f0, double p1, int s1, double f1, int depth);
+
+static void inside_pair(inside_problem *pb, double pa, double fa, double pc, double fc)
+{
+    const double g = 0.6180339887498949, sgn = fa < 0.0 ? -1.0 : 1.0;
+    double a = pa, c = pc, u = c - g * (c - a), v = a + g * (c - a), fu = 0.0, fv = 0.0;
+    if (inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, u, &fu, NULL) != 0 ||
+        inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, v, &fv, NULL) != 0)
+        return;
+    for (int it = 0; it < SPC_SPHERE_INSIDE_PAIR_STEPS && sgn * fu > 0.0 && sgn * fv > 0.0; ++it) {
+        if (sgn * fu < sgn * fv) {
+            c = v;
+            v = u;
+            fv = fu;
+            u = c - g * (c - a);
+            if (inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, u, &fu, NULL) != 0)
+                return;
+        } else {
+            a = u;
+            u = v;
+            fu = fv;
+            v = a + g * (c - a);
+            if (inside_eval_at(pb->d, pb->y1, pb->y2, pb->m, pb->eta, v, &fv, NULL) != 0)
+                return;
+        }
+    }
+    double pm = sgn * fu < sgn * fv ? u : v, fm = sgn * fu < sgn * fv ? fu : fv;
+    if (!(sgn * fm < 0.0))
+        return; /* no pair: an extremum short of zero */
+    inside_cell(pb, pa, 0, fa, pm, 0, fm, 1);
+    inside_cell(pb, pm, 0, fm, pc, 0, fc, 1);
+}
 
 /* The root in the cell (p0, p1) of directions with states s0, s1 and values f0, f1 (inside_eval), if
  * the cell brackets one, added to pb's roots; a cell that begins and ends where f is not defined for
@@ -542,6 +588,10 @@ static void inside_cell(inside_problem *pb, double p0, int s0, double f0, double
             fa = s0 == 0 ? f0 : fg;
             b = s0 == 0 ? good : p1;
             have = true;
+        } else if (depth == 0) {
+            /* one sign from the edge to the sample: the caller may look for a pair between them */
+            pb->edge_p = good;
+            pb->edge_f = fg;
         }
     } else if (s0 != s1 && depth == 0) {
         int sp = s0;
@@ -581,19 +631,54 @@ int spc_sphere_inside_roots(double d, double y1, double y2, int m, double eta, d
 {
     if (m < 0 || m > SPC_SPHERE_MAX_M || !(d >= 0.0 && d < 1.0) || !(y1 * y1 + y2 * y2 > 1.0) || !(eta > 0.0))
         return 0;
-    inside_problem pb = {d, y1, y2, eta, m, theta, 0, max_roots};
+    inside_problem pb = {d, y1, y2, eta, m, theta, 0, max_roots, NAN, 0.0};
     const double step = 2.0 * SPC_PI / SPC_SPHERE_INSIDE_GRID, cs = cos(step), sn = sin(step);
     /* the grid's directions by rotation, from phi = -pi */
     double ux = -1.0, uy = 0.0;
     double p0 = -SPC_PI, f0 = 0.0;
     int s0 = inside_eval(d, y1, y2, m, eta, ux, uy, &f0, NULL);
+    /* the sample before p0 (state sm, value fm at pm): where three valid samples of one sign have
+     * the middle one nearest zero, a pair of roots may lie between the outer two (inside_pair) */
+    double pm = p0, fm = 0.0;
+    int sm = 1;
+    /* an edge just before p0 with f of one sign from it to p0 (pending_p: NAN where none) */
+    double pending_p = NAN, pending_f = 0.0;
     for (int i = 1; i <= SPC_SPHERE_INSIDE_GRID; ++i) {
         double nx = ux * cs - uy * sn, ny = ux * sn + uy * cs;
         ux = nx;
         uy = ny;
         double p1 = -SPC_PI + i * step, f1 = 0.0;
         int s1 = inside_eval(d, y1, y2, m, eta, ux, uy, &f1, NULL);
+        pb.edge_p = NAN;
         inside_cell(&pb, p0, s0, f0, p1, s1, f1, 0);
+        /* where |f| falls toward a sample between two of the same sign, or toward an edge (a
+         * sample with no way out next), the pair the extremum may hide: a fold inside the cells
+         * of three valid samples, or in the valid cell or the edge's cell beside an edge */
+        if (pb.n < pb.max && s0 == 0) {
+            bool falls_from_m = sm == 0 && (fm < 0.0) == (f0 < 0.0) && fabs(f0) < fabs(fm);
+            bool falls_from_1 = s1 == 0 && (f1 < 0.0) == (f0 < 0.0) && fabs(f0) < fabs(f1);
+            if (falls_from_m && falls_from_1) {
+                inside_pair(&pb, pm, fm, p1, f1);
+            } else if (falls_from_m && s1 != 0) {
+                inside_pair(&pb, pm, fm, p0, f0);
+                if (!isnan(pb.edge_p) && pb.n < pb.max)
+                    inside_pair(&pb, p0, f0, pb.edge_p, pb.edge_f);
+            } else if (falls_from_1 && sm != 0) {
+                inside_pair(&pb, p0, f0, p1, f1);
+                if (!isnan(pending_p) && pb.n < pb.max)
+                    inside_pair(&pb, pending_p, pending_f, p0, f0);
+            } else if (sm != 0 && s1 != 0) { /* a lone valid sample: both edges' cells */
+                if (!isnan(pending_p))
+                    inside_pair(&pb, pending_p, pending_f, p0, f0);
+                if (!isnan(pb.edge_p) && pb.n < pb.max)
+                    inside_pair(&pb, p0, f0, pb.edge_p, pb.edge_f);
+            }
+        }
+        pending_p = s0 != 0 && s1 == 0 ? pb.edge_p : NAN;
+        pending_f = pb.edge_f;
+        pm = p0;
+        fm = f0;
+        sm = s0;
         p0 = p1;
         f0 = f1;
         s0 = s1;
