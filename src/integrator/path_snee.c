@@ -136,10 +136,11 @@ static void skip_light_u(spc_path_snee *s, spc_sampler *smp)
     spc_sampler_skip(smp, 2);
 }
 
-void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0,
-                         const spc_sampler *smp)
+/* The state every camera sample starts from: the fields before p cleared (those after it are
+ * written before they are read, path_snee.h), the camera ray's direction and the film's scale;
+ * the options copied where specular NEE is on. Returns s->on. */
+static bool begin_state(spc_path_snee *s, const spc_render_ctx *ctx, const spc_ray *ray0)
 {
-    /* the fields before p; those after it are written before they are read (path_snee.h) */
     memset(s, 0, offsetof(spc_path_snee, p));
     s->mis_gv.a = 0.0;
     s->mis_wo = s->mis_d0 = spc_v3(0, 0, 1);
@@ -147,10 +148,18 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
     s->cam_scale = (double)ctx->cam->width * (double)ctx->cam->height / ((double)ctx->width * (double)ctx->height);
     s->on = ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee != SPC_SNEE_NONE;
     if (!s->on)
-        return;
+        return false;
     s->p = ctx->snee;
     s->p.mis = !s->p.no_mis && !rough_mode(&s->p);
     s->ctx = ctx;
+    return true;
+}
+
+void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0,
+                         const spc_sampler *smp)
+{
+    if (!begin_state(s, ctx, ray0))
+        return;
     s->lt_enabled = spc_path_lt_enabled(ctx, &s->p);
     if (s->lt_enabled) {
         spc_rng lrng;
@@ -195,17 +204,8 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
 
 void spc_path_snee_begin_view(spc_path_snee *s, const spc_render_ctx *ctx, const spc_ray *ray0)
 {
-    memset(s, 0, offsetof(spc_path_snee, p));
-    s->mis_gv.a = 0.0;
-    s->mis_wo = s->mis_d0 = spc_v3(0, 0, 1);
-    s->cam_d0 = ray0->d;
-    s->cam_scale = (double)ctx->cam->width * (double)ctx->cam->height / ((double)ctx->width * (double)ctx->height);
-    s->on = ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee != SPC_SNEE_NONE;
-    if (!s->on)
+    if (!begin_state(s, ctx, ray0))
         return;
-    s->p = ctx->snee;
-    s->p.mis = !s->p.no_mis && !rough_mode(&s->p);
-    s->ctx = ctx;
     /* the light seen through flat glass: its weight reads the camera ray's scatterings */
     s->lv_enabled = spc_path_lt_view_enabled(ctx, &s->p);
     s->lv_on = s->lv_enabled;
