@@ -8,7 +8,8 @@
  * vertices, light tracing joins the pinhole through spheres and flat faces): a thin, bright image
  * of a small light that a pixel's rays cross rarely, each hit worth hundreds. At equal CPU the
  * default takes 15-100x fewer camera samples than plain path tracing, so this class has that many
- * times plain path tracing's variance per CPU second (bench/RESULTS.md, part torus31).
+ * times plain path tracing's variance per CPU second (bench/RESULTS.md, "The SDF torus's tails
+ * over 48 fresh seeds").
  *
  * Call this class C: the emission (and the environment) a camera path reaches at its second or a
  * later vertex while every vertex before was a surface whose BSDF is delta only. A sample's C part
