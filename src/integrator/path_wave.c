@@ -404,7 +404,10 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             }
             alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
-            use[i] = USE_ALWAYS | (ln[i].diffuse ? 0u : USE_LOBE) | (ln[i].segments >= ctx->rr_depth ? USE_RR : 0u);
+            /* (a lane that ended has no vertex: its diffuse flag was never set) */
+            use[i] = !alive[i] ? USE_ALWAYS
+                               : USE_ALWAYS | (ln[i].diffuse ? 0u : USE_LOBE) |
+                                     (ln[i].segments >= ctx->rr_depth ? USE_RR : 0u);
         }
         /* the vertex's dimensions of every live lane at once, in path.c's order: next-event
          * estimation's (u_light, u_lpos), then BSDF sampling's (u_lobe, u_dir, u_rr); u_light, u_lobe
