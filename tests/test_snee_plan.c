@@ -473,11 +473,12 @@ static spc_scene *mirror_scene(bool glass, double rl, int res)
     return sc;
 }
 
-/* Where every caster is a mirror, the plan leaves out the query from the camera (the camera sees
- * the light only by reflection, which camera rays find as often); with a glass caster too it keeps
- * it. The mirror-only setting agrees with specular NEE off (a larger light, so that plain path
- * tracing converges). */
-TEST(mirror_only_plan_has_no_camera_query)
+/* Where every caster is a mirror enumerated exactly, the plan makes the query from the camera by
+ * Russian roulette (SPC_SNEE_PLAN_SETTING_MIRRORS after "angular:camera=Q,"; the light's small
+ * image in a mirror ball is otherwise the camera ray's alone); with a glass caster too it keeps the
+ * glass setting. The mirror-only setting agrees with specular NEE off (a larger light, so that
+ * plain path tracing converges). */
+TEST(mirror_only_plan_camera_query_by_roulette)
 {
     spc_scene *mirror = mirror_scene(false, 0.1, 4);
     spc_scene *both = mirror_scene(true, 0.1, 4);
@@ -491,12 +492,18 @@ TEST(mirror_only_plan_has_no_camera_query)
     }
     spc_snee_plan p;
     spc_snee_plan_make(mirror, "path", NULL, &p);
-    CHECK_MSG(p.on && p.casters == 1 && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_MIRRORS), "%s", p.setting);
+    const size_t tail = strlen(SPC_SNEE_PLAN_SETTING_MIRRORS);
+    CHECK_MSG(p.on && p.casters == 1 && !strncmp(p.setting, "angular:camera=", 15) && strlen(p.setting) > tail &&
+                  !strcmp(p.setting + strlen(p.setting) - tail, SPC_SNEE_PLAN_SETTING_MIRRORS),
+              "%s", p.setting);
     spc_snee_params sp;
-    CHECK(spc_snee_parse(p.setting, 2, &sp) && !sp.camera && sp.later_p < 1.0);
+    CHECK_MSG(spc_snee_parse(p.setting, 2, &sp) && sp.camera && sp.camera_p > 0.0 && sp.camera_p < 1.0 &&
+                  sp.first_p == 0.1 && sp.later_p < 1.0,
+              "%s: camera %d, camera_p %g", p.setting, sp.camera, sp.camera_p);
     char *text = spc_scene_plan(mirror, NULL, NULL);
-    CHECK(text && strstr(text, "specular NEE: " SPC_SNEE_PLAN_SETTING_MIRRORS " (auto)") &&
-          strstr(text, "caster shape 1: mirror sphere"));
+    char want[SPC_SPECULAR_NEE_MAX + 32];
+    snprintf(want, sizeof want, "specular NEE: %s (auto)", p.setting);
+    CHECK(text && strstr(text, want) && strstr(text, "caster shape 1: mirror sphere"));
     free(text);
     spc_snee_plan both_plan;
     spc_snee_plan_make(both, "path", NULL, &both_plan);
@@ -506,7 +513,7 @@ TEST(mirror_only_plan_has_no_camera_query)
     char ran[SPC_SPECULAR_NEE_MAX];
     spc_film *ref = render_ran(sc, "path", "none", 8192, 41, ran);
     spc_film *img = render_ran(sc, "path", p.setting, 1024, 42, ran);
-    CHECK(ref && img && !strcmp(ran, SPC_SNEE_PLAN_SETTING_MIRRORS));
+    CHECK(ref && img && !strcmp(ran, p.setting));
     if (ref && img) {
         spc_diff_result d;
         memset(&d, 0, sizeof d);
@@ -1056,16 +1063,17 @@ TEST(tessellated_ball_plan)
  * bench/check/mirror_bowl.xml, a triangle mesh with vertex normals) gets the query at every first
  * receiver (SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS: no first=P roulette, whose P in the query's side of
  * MIS left BSDF-sampled hits of the light through the bowl near weight 1); mirrors enumerated
- * exactly (the mirror ring's cylinder) keep the roulette (SPC_SNEE_PLAN_SETTING_MIRRORS). Neither
- * has the query from the camera. */
+ * exactly (the mirror ring's cylinder) keep the roulette and make the query from the camera by
+ * roulette too (SPC_SNEE_PLAN_SETTING_MIRRORS); the bowl's setting has no query from the camera. */
 TEST(solved_mirror_plan_no_first_roulette)
 {
     static const struct {
         const char *scene, *setting;
         double first_p;
+        bool camera;
     } cases[] = {
-        {"bench/check/mirror_bowl.xml", SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS, 1.0},
-        {"scenes/caustic_mirror_ring.xml", SPC_SNEE_PLAN_SETTING_MIRRORS, 0.1},
+        {"bench/check/mirror_bowl.xml", SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS, 1.0, false},
+        {"scenes/caustic_mirror_ring.xml", SPC_SNEE_PLAN_SETTING_MIRRORS, 0.1, true},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         spc_scene *sc = load_at(cases[i].scene, "8");
@@ -1074,8 +1082,10 @@ TEST(solved_mirror_plan_no_first_roulette)
         spc_snee_plan p;
         spc_snee_plan_make(sc, "path", NULL, &p);
         spc_snee_params sp;
-        CHECK_MSG(p.on && !strcmp(p.setting, cases[i].setting) && spc_snee_parse(p.setting, 2, &sp) &&
-                      sp.first_p == cases[i].first_p && sp.later_p == 0.1 && !sp.camera,
+        const size_t n = strlen(p.setting), tail = strlen(cases[i].setting);
+        CHECK_MSG(p.on && n >= tail && !strcmp(p.setting + n - tail, cases[i].setting) &&
+                      spc_snee_parse(p.setting, 2, &sp) && sp.first_p == cases[i].first_p && sp.later_p == 0.1 &&
+                      sp.camera == cases[i].camera && (!sp.camera || sp.camera_p < 1.0),
                   "%s: %s (%s)", cases[i].scene, p.setting, p.reason);
         spc_scene_destroy(sc);
     }
@@ -1780,7 +1790,7 @@ int main(void)
     RUN(xml_setting_words);
     RUN(default_agrees_with_none);
     RUN(camera_query_from_glass_share);
-    RUN(mirror_only_plan_has_no_camera_query);
+    RUN(mirror_only_plan_camera_query_by_roulette);
     RUN(lamp_in_glass_globe_plan_on);
     RUN(small_light_ball_agrees_with_bdpt);
     RUN(bdpt_default_follows_the_plan);

@@ -491,7 +491,16 @@ static bool closed_mesh(const spc_shape *s)
 /* The share of the image whose camera ray meets a glass caster first: pinhole rays through the
  * centres of a grid of SPC_SNEE_PLAN_SHARE_GRID^2 cells of the scene's film. 1 where that cannot
  * be traced (the scene not finalized, a camera that does not prepare). Deterministic. */
+static double caster_image_share(const spc_scene *sc, const spc_chain_casters *cs, bool glass);
+
 static double glass_image_share(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    return caster_image_share(sc, cs, true);
+}
+
+/* The share of the image whose camera ray meets first a caster of the kind asked: glass (a
+ * dielectric interface) or a mirror. */
+static double caster_image_share(const spc_scene *sc, const spc_chain_casters *cs, bool glass)
 {
     spc_camera_state cam;
     if (!sc->finalized || !spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height))
@@ -505,8 +514,8 @@ static double glass_image_share(const spc_scene *sc, const spc_chain_casters *cs
             if (!spc_scene_intersect(sc, &r, &h))
                 continue;
             double eta = 0.0;
-            seen += is_caster(cs, h.shape_index) && h.shape && spc_bsdf_is_specular_interface(h.shape->bsdf, &eta) &&
-                    eta > 0.0;
+            seen += is_caster(cs, h.shape_index) && h.shape &&
+                    (spc_bsdf_is_specular_interface(h.shape->bsdf, &eta) && eta > 0.0) == glass;
         }
     return (double)seen / (g * g);
 }
@@ -989,9 +998,17 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     else if (bdpt)
         snprintf(out->setting, sizeof out->setting, "%s",
                  glass ? SPC_SNEE_PLAN_SETTING_BDPT : SPC_SNEE_PLAN_SETTING_BDPT_MIRRORS);
-    else if (!glass)
-        snprintf(out->setting, sizeof out->setting, "%s",
-                 solved_mirror ? SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS : SPC_SNEE_PLAN_SETTING_MIRRORS);
+    else if (!glass && solved_mirror)
+        snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS);
+    else if (!glass) {
+        /* mirrors enumerated exactly: the query from the camera by roulette, as for glass, with
+         * the share of the image that sees a mirror first (SPC_SNEE_PLAN_SETTING_MIRRORS) */
+        double qm = camera_prob(sc, caster_image_share(sc, cs, false));
+        if (qm < SPC_SNEE_PLAN_CAMERA_ALL)
+            snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,%s", qm, SPC_SNEE_PLAN_SETTING_MIRRORS);
+        else
+            snprintf(out->setting, sizeof out->setting, "angular:camera,%s", SPC_SNEE_PLAN_SETTING_MIRRORS);
+    }
     else if (ball)
         snprintf(out->setting, sizeof out->setting, "%s",
                  strcmp(integrator, "volpath") ? SPC_SNEE_PLAN_SETTING_BALLS : SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH);

@@ -48,9 +48,9 @@
  *     their receivers, joined to the lights by straight segments) finds no receiver in view lit
  *     through the glass: the flat enumeration's cost then buys nothing in view;
  *   - otherwise the angular solver with its defaults (spc_snee_params_default) and the query from
- *     the camera (SPC_SNEE_PLAN_SETTING; without that query if every caster is a mirror:
- *     SPC_SNEE_PLAN_SETTING_MIRRORS, and with the query at every
- *     first receiver where some mirror goes to the randomized solver:
+ *     the camera (SPC_SNEE_PLAN_SETTING; by roulette if every caster is a mirror enumerated
+ *     exactly: SPC_SNEE_PLAN_SETTING_MIRRORS, and without it, with the query at every
+ *     first receiver, where some mirror goes to the randomized solver:
  *     SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS; for path without it too where every caster is a glass
  *     normal-mapped plane with the camera and the lights on one side: SPC_SNEE_PLAN_SETTING_WATER).
  *     Where every glass caster is enumerated exactly (below), that
@@ -435,12 +435,18 @@
  * camera, split"). */
 #define SPC_SNEE_PLAN_CAMERA_SPLIT ",camsplit=4"
 
-/* The setting where every caster is a mirror: the same without the query from the camera. There the
- * camera sees the light only by reflection, which camera rays find as often as the query's splats
- * would, and the query's cost per sample did not pay: on scenes/caustic_mirror_ring.xml at equal
- * CPU time the query from the camera doubled relMSE (bench/RESULTS.md, "Plan rules from the
- * scene"). */
-#define SPC_SNEE_PLAN_SETTING_MIRRORS "angular:first=0.1,later=0.1"
+/* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
+ * cylinder), after the query from the camera: that query by Russian roulette in a fraction Q of the
+ * camera samples, Q from the share of the image that sees a mirror first as for glass (snee_plan.c,
+ * camera_prob; "angular:camera=Q," before this). On every sample the query doubled relMSE on
+ * scenes/caustic_mirror_ring.xml at equal CPU time (bench/RESULTS.md, "Plan rules from the scene"),
+ * but without it the light's small image in a convex mirror is the camera ray's alone, a one-pixel
+ * seed at the default's sample count: over 16 seeds at equal CPU time random scene 9878 (a mirror
+ * ball under a sphere light) 3.6x none without the query, far below the reference's noise with Q
+ * 0.024 (2300x), 9924 16.9x -> 71x (Q 0.03), 9904 62x -> 69x; where no such image is in view the
+ * query costs 3-9% (9908 70x -> 64x, 9910 10.8x -> 10.3x, the mirror ring 22.9x -> 22.3x)
+ * (bench/RESULTS.md, "The merged main after session 32"). */
+#define SPC_SNEE_PLAN_SETTING_MIRRORS "first=0.1,later=0.1"
 
 /* The setting where every caster is a mirror and some mirror's chains go to the randomized solver (a
  * mirror mesh with vertex normals, a smooth mirror SDF): the same with the query at every path's
@@ -481,8 +487,8 @@
  * sample for nothing); bench/RESULTS.md, "Issue 21, continued" and "Issue 21, part 4". */
 #define SPC_SNEE_PLAN_SETTING_BDPT "angular:camera=0.1"
 
-/* bdpt's setting where every caster is a mirror: the same without the query from the camera (as
- * path's, SPC_SNEE_PLAN_SETTING_MIRRORS). */
+/* bdpt's setting where every caster is a mirror: without the query from the camera (path's mirror
+ * setting takes it by roulette, SPC_SNEE_PLAN_SETTING_MIRRORS; not measured for bdpt). */
 #define SPC_SNEE_PLAN_SETTING_BDPT_MIRRORS "angular"
 
 /* How the chains of one caster are found under a plan. */
