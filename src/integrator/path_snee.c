@@ -155,6 +155,19 @@ static bool begin_state(spc_path_snee *s, const spc_render_ctx *ctx, const spc_r
     return true;
 }
 
+/* The chain budgets of the query from the camera and of the camera ray's track: false where that
+ * query does not run (off, the rough mode, a camera it cannot connect to, no vertex left). */
+static bool camera_budgets(const spc_path_snee *s, const spc_render_ctx *ctx, int *budget, int *long_budget)
+{
+    if (!s->p.camera || rough_mode(&s->p) || !spc_camera_connectible(ctx->cam))
+        return false;
+    *budget = depth_left(ctx, 0, ctx->specular_max_chain);
+    if (*budget > s->p.max_chain)
+        *budget = s->p.max_chain;
+    *long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
+    return *budget >= 1;
+}
+
 void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray0,
                          const spc_sampler *smp)
 {
@@ -180,19 +193,14 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
         spc_sampler_fork_rng(smp, SPC_PATH_LT_VIEW_STREAM, &vrng);
         spc_path_lt_view_trace(ctx, &s->p, tls, &vrng);
     }
-    if (!s->p.camera || rough_mode(&s->p) || !spc_camera_connectible(ctx->cam))
-        return;
     /* from the pinhole: its splats, and the camera ray tracked as from a receiver until its first
      * non-delta scattering */
-    int budget = depth_left(ctx, 0, ctx->specular_max_chain);
-    if (budget > s->p.max_chain)
-        budget = s->p.max_chain;
-    if (budget < 1)
+    int budget, long_budget;
+    if (!camera_budgets(s, ctx, &budget, &long_budget))
         return;
     spc_rng rng;
     spc_sampler_fork_rng(smp, 0, &rng);
     spc_snee_splat sp[SPC_SNEE_CAMERA_SPLATS];
-    int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
     int n = spc_snee_camera(ctx->scene, &s->p, ctx->cam, s->cam_scale, budget, long_budget, &rng, NULL, sp,
                             SPC_SNEE_CAMERA_SPLATS);
     for (int i = 0; i < n; ++i)
@@ -209,14 +217,9 @@ void spc_path_snee_begin_view(spc_path_snee *s, const spc_render_ctx *ctx, const
     /* the light seen through flat glass: its weight reads the camera ray's scatterings */
     s->lv_enabled = spc_path_lt_view_enabled(ctx, &s->p);
     s->lv_on = s->lv_enabled;
-    if (!s->p.camera || rough_mode(&s->p) || !spc_camera_connectible(ctx->cam))
+    int budget, long_budget;
+    if (!camera_budgets(s, ctx, &budget, &long_budget))
         return;
-    int budget = depth_left(ctx, 0, ctx->specular_max_chain);
-    if (budget > s->p.max_chain)
-        budget = s->p.max_chain;
-    if (budget < 1)
-        return;
-    int long_budget = ctx->max_depth >= 0 ? ctx->max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
     spc_snee_track_begin(&s->track, &s->p, budget, long_budget);
     s->cam_track = true;
 }

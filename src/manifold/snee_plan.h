@@ -445,7 +445,7 @@
  * ball under a sphere light) 3.6x none without the query, far below the reference's noise with Q
  * 0.024 (2300x), 9924 16.9x -> 71x (Q 0.03), 9904 62x -> 69x; where no such image is in view the
  * query costs 3-9% (9908 70x -> 64x, 9910 10.8x -> 10.3x, the mirror ring 22.9x -> 22.3x)
- * (bench/RESULTS.md, "The merged main after session 32"). */
+ * (bench/RESULTS.md, "mirror balls get the query from the camera by roulette"). */
 #define SPC_SNEE_PLAN_SETTING_MIRRORS "first=0.1,later=0.1"
 
 /* The setting where every caster is a mirror and some mirror's chains go to the randomized solver (a
