@@ -778,6 +778,43 @@ TEST(mesh_ball_point_weights_sum_to_one)
 #define SLAB_SCENE "bench/check/two_slabs_sphere_light.xml"
 #define SLAB_SETTING "angular:camera=0.036,first=0.1,later=0.1,long=0.3,flat5=1,flat6=1,ltcaus"
 
+/* One run of light tracing's joins on the slabs under an area light: the scene with the setting, its
+ * subpaths on every sample (ltshare=1), each join tallied by check_area_join with the flat
+ * enumeration. */
+typedef struct slab_run {
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_render_ctx ctx;
+    spc_scene *sc;
+    spc_rng rng;
+    area_tally t;
+} slab_run;
+
+static bool slab_run_start(slab_run *r, const char *setting, uint64_t seed)
+{
+    r->sc = lt_load(SLAB_SCENE, setting, &r->cam, &r->p);
+    if (!r->sc)
+        return false;
+    r->ctx = lt_ctx(r->sc, &r->cam, &r->p);
+    CHECK(spc_path_lt_enabled(&r->ctx, &r->p) && spc_path_lt_area_enabled(&r->p));
+    r->p.lt_share = 1.0;
+    r->ctx.snee = r->p;
+    spc_rng_seed(&r->rng, seed, 7);
+    return true;
+}
+
+/* Tallies the joins of n more subpaths afresh, with the run's present parameters. */
+static void slab_run_joins(slab_run *r, int n)
+{
+    r->ctx.snee = r->p;
+    memset(&r->t, 0, sizeof r->t);
+    r->t.ctx = &r->ctx;
+    r->t.p = &r->p;
+    r->t.flat = true;
+    for (int i = 0; i < n; ++i)
+        spc_path_lt_joins(&r->ctx, &r->p, &r->rng, check_area_join, &r->t);
+}
+
 /* Two glass slabs under a small sphere light: light tracing's joins by chains through flat faces,
  * of the budget's two vertices (one slab) and past it (two slabs' four, and the total internal
  * reflections off their sides), up to the longest chain the path's track follows. Specular NEE's
@@ -785,26 +822,12 @@ TEST(mesh_ball_point_weights_sum_to_one)
  * and its weight there, BSDF sampling's own and light tracing's sum to one. */
 TEST(slab_area_weights_sum_to_one)
 {
-    spc_camera_state cam;
-    spc_snee_params p;
-    spc_scene *sc = lt_load(SLAB_SCENE, SLAB_SETTING, &cam, &p);
-    if (!sc)
+    slab_run r;
+    if (!slab_run_start(&r, SLAB_SETTING, 39))
         return;
-    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
-    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
-    CHECK(p.max_chain == 2);
-    p.lt_share = 1.0;
-    ctx.snee = p;
-    area_tally t;
-    memset(&t, 0, sizeof t);
-    t.ctx = &ctx;
-    t.p = &p;
-    t.flat = true;
-    spc_rng rng;
-    spc_rng_seed(&rng, 39, 7);
-    int subpaths = spc_test_quick() ? 10000 : 40000;
-    for (int i = 0; i < subpaths; ++i)
-        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    CHECK(r.p.max_chain == 2);
+    slab_run_joins(&r, spc_test_quick() ? 10000 : 40000);
+    const area_tally t = r.t;
     printf("  %s: %d joins (%d found by the flat enumeration; directly %d, through a diffuse bounce %d; chains of "
            "1-6 vertices %d %d %d %d %d %d), the three weights summing to 1 on %d, light tracing's weight above 1/2 "
            "on %.0f, below on %.0f, largest gap %.3g\n",
@@ -822,7 +845,7 @@ TEST(slab_area_weights_sum_to_one)
     CHECK_MSG(t.unlisted_partial > 0, "joins through a partial reflection: %d", t.unlisted_partial);
     CHECK_MSG(t.unlisted_gap < 1e-5, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
     CHECK(t.matched + t.unlisted == t.joins);
-    spc_scene_destroy(sc);
+    spc_scene_destroy(r.sc);
 }
 
 /* The same with the path's track and light tracing's chains up to 8 vertices (longmax=8): chains
@@ -830,25 +853,11 @@ TEST(slab_area_weights_sum_to_one)
  * are light tracing's and BSDF sampling's, whose two weights sum to one. */
 TEST(slab_area_weights_sum_to_one_long)
 {
-    spc_camera_state cam;
-    spc_snee_params p;
-    spc_scene *sc = lt_load(SLAB_SCENE, SLAB_SETTING ",longmax=8", &cam, &p);
-    if (!sc)
+    slab_run r;
+    if (!slab_run_start(&r, SLAB_SETTING ",longmax=8", 41))
         return;
-    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
-    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
-    p.lt_share = 1.0;
-    ctx.snee = p;
-    area_tally t;
-    memset(&t, 0, sizeof t);
-    t.ctx = &ctx;
-    t.p = &p;
-    t.flat = true;
-    spc_rng rng;
-    spc_rng_seed(&rng, 41, 7);
-    int subpaths = spc_test_quick() ? 20000 : 60000;
-    for (int i = 0; i < subpaths; ++i)
-        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    slab_run_joins(&r, spc_test_quick() ? 20000 : 60000);
+    const area_tally t = r.t;
     printf("  %s, longmax=8: %d joins, chains of 7 and 8 vertices %d %d; %d the enumeration leaves to BSDF sampling "
            "(%d with a partial reflection, %d longer): weights summing to 1 +- %.3g; the others' three +- %.3g\n",
            SLAB_SCENE, t.joins, t.by_length[7], t.by_length[8], t.unlisted, t.unlisted_partial, t.unlisted_long,
@@ -859,7 +868,7 @@ TEST(slab_area_weights_sum_to_one_long)
     CHECK_MSG(t.unlisted_gap < 1e-4, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
     CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
     CHECK(t.matched + t.unlisted == t.joins);
-    spc_scene_destroy(sc);
+    spc_scene_destroy(r.sc);
 }
 
 /* The same slabs with ltslab: an area light's subpaths also join the pinhole through flat faces
@@ -870,46 +879,29 @@ TEST(slab_area_weights_sum_to_one_long)
  * light's join goes through a slab. */
 TEST(slab_area_camera_weights_sum_to_one)
 {
-    spc_camera_state cam;
-    spc_snee_params p;
-    spc_scene *sc = lt_load(SLAB_SCENE, SLAB_SETTING ",ltslab", &cam, &p);
-    if (!sc)
+    slab_run r;
+    if (!slab_run_start(&r, SLAB_SETTING ",ltslab", 43))
         return;
-    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
-    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p) && p.lt_slab && p.max_chain == 2);
-    p.lt_share = 1.0;
-    ctx.snee = p;
-    area_tally t;
-    memset(&t, 0, sizeof t);
-    t.ctx = &ctx;
-    t.p = &p;
-    t.flat = true;
-    spc_rng rng;
-    spc_rng_seed(&rng, 43, 7);
+    CHECK(r.p.lt_slab && r.p.max_chain == 2);
     int subpaths = spc_test_quick() ? 10000 : 40000;
-    for (int i = 0; i < subpaths; ++i)
-        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    slab_run_joins(&r, subpaths);
+    const area_tally *t = &r.t;
     printf("  %s, ltslab: %d joins (directly %d, through a slab %d, through a diffuse bounce %d), found by the flat "
            "enumeration %d, left to BSDF sampling %d (%d with a partial reflection); largest gap of the three "
            "weights' sum from 1 %.3g, of the two's %.3g\n",
-           SLAB_SCENE, t.joins, t.kinds[0], t.kinds[1], t.kinds[2], t.matched, t.unlisted, t.unlisted_partial,
-           t.worst_gap, t.unlisted_gap);
-    CHECK_MSG(t.kinds[1] > 20, "joins through a slab toward the pinhole: %d", t.kinds[1]);
-    CHECK_MSG(t.matched > (t.joins - t.unlisted) * 95 / 100, "the flat enumeration finds %d of %d joins' chains",
-              t.matched, t.joins - t.unlisted);
-    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
-    CHECK_MSG(t.unlisted_gap < 1e-5, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
+           SLAB_SCENE, t->joins, t->kinds[0], t->kinds[1], t->kinds[2], t->matched, t->unlisted, t->unlisted_partial,
+           t->worst_gap, t->unlisted_gap);
+    CHECK_MSG(t->kinds[1] > 20, "joins through a slab toward the pinhole: %d", t->kinds[1]);
+    CHECK_MSG(t->matched > (t->joins - t->unlisted) * 95 / 100, "the flat enumeration finds %d of %d joins' chains",
+              t->matched, t->joins - t->unlisted);
+    CHECK_MSG(t->worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t->worst_gap);
+    CHECK_MSG(t->unlisted_gap < 1e-5, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t->unlisted_gap);
     /* without ltslab: none through a slab */
-    p.lt_slab = false;
-    ctx.snee = p;
-    memset(&t, 0, sizeof t);
-    t.ctx = &ctx;
-    t.p = &p;
-    t.flat = true;
-    for (int i = 0; i < subpaths / 4; ++i)
-        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
-    CHECK_MSG(t.joins > 0 && t.kinds[1] == 0, "without ltslab: %d joins, %d through a slab", t.joins, t.kinds[1]);
-    spc_scene_destroy(sc);
+    r.p.lt_slab = false;
+    slab_run_joins(&r, subpaths / 4);
+    CHECK_MSG(t->joins > 0 && t->kinds[1] == 0, "without ltslab: %d joins, %d through a slab", t->joins,
+              t->kinds[1]);
+    spc_scene_destroy(r.sc);
 }
 
 /* With an area light and ltslab the slabs render as without light tracing (the floor seen through a
