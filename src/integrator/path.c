@@ -214,9 +214,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     bool cs_class = true;
     double cs_scale = 1.0;
     /* and class D (camsplit's recv): the vertices whose BSDF is not delta only so far, and the
-     * delta-only ones after the first of them */
+     * delta-only ones before and after the first of them */
     const bool cs_recv = camsplit && spc_path_camsplit_recv(ctx);
-    int cs_nd = 0, cs_after = 0;
+    int cs_nd = 0, cs_before = 0, cs_after = 0;
     spc_vec3 prev_p = ray.o;
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
@@ -228,7 +228,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     for (int segments = 1;; ++segments) {
         /* segments: the number of path segments once this ray is traced */
         /* the emission reached now is the split's class C or D (counted cs_scale times) */
-        const bool cs_term = cs_class || (cs_recv && cs_nd == 1 && cs_after >= 1);
+        const bool cs_term = cs_class || (cs_recv && cs_nd == 1 && cs_after >= 1 &&
+                                          cs_before + cs_after >= ctx->snee.cam_split_recv_min);
         spc_hit h;
         if (!spc_scene_intersect(sc, &ray, &h)) {
             if (sc->env && !(segments == 1 && ctx->hide_emitters) && !drop_emission) {
@@ -341,6 +342,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             cs_after = 0;
         } else if (cs_nd == 1) {
             ++cs_after;
+        } else if (cs_nd == 0) {
+            ++cs_before;
         }
 
         /* BSDF sampling */

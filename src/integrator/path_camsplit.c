@@ -35,11 +35,13 @@ static spc_rgb trace_view(const spc_render_ctx *ctx, const spc_ray *ray0, const 
     spc_hit h = *h0;
     /* past x (the first vertex that is not delta only), and the delta-only vertices since */
     bool past_x = false;
-    int after = 0;
+    int before = 0, after = 0;
+    const int min_len = ctx->snee.cam_split_recv_min;
     for (int segments = 1;; ++segments) {
         if (segments > 1) {
-            /* class C before x; class D past x once a delta-only vertex came between */
-            const bool counts = !past_x || after >= 1;
+            /* class C before x; class D past x once a delta-only vertex came between, on paths of
+             * at least min_len delta vertices */
+            const bool counts = !past_x || (after >= 1 && before + after >= min_len);
             if (!spc_scene_intersect(sc, &ray, &h)) {
                 /* after a delta vertex the environment's weight is 1, as in spc_path_sample */
                 if (sc->env && counts)
@@ -63,6 +65,8 @@ static spc_rgb trace_view(const spc_render_ctx *ctx, const spc_ray *ray0, const 
         if (spc_path_camsplit_first(&h)) {
             if (past_x)
                 ++after;
+            else
+                ++before;
             spc_path_snee_delta_vertex(&sn, ctx, segments);
         } else if (recv && !past_x) {
             /* x: its state as the camera path's (no query), then one sample of its BSDF */

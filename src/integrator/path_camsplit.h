@@ -31,7 +31,8 @@
  *
  * With params.cam_split_recv (the user's "camrecv") the extra rays also take class D: the emission
  * (and the environment) a camera path reaches past its first vertex x whose BSDF is not delta only,
- * after at least one delta-only vertex past x while every vertex but x was delta only (camera ->
+ * after at least one delta-only vertex past x while every vertex but x was delta only, on paths of
+ * at least params.cam_split_recv_min delta vertices in all (camera ->
  * T T -> floor -> T R R R T -> light: a light guide seen from a floor seen through the glass; camera
  * -> T R...R T -> floor -> T T -> light: the floor's caustic reached through a light guide from the
  * camera). Such a path is BSDF sampling's at x, rare and worth hundreds where x is a bright
