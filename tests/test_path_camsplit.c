@@ -13,6 +13,10 @@
  * - The image does not depend on the thread count.
  * - Renders with the split agree with --specular-nee none (per-pixel z-test, image mean): with the
  *   camera query off (the class at weight 1) and with the plan's setting (its MIS weights kept).
+ * - "camrecv" (class D: one sample of the first receiver behind the glass, then delta scatterings):
+ *   the option parses; same seed with and without it only pixels that see the torus change, the
+ *   image does not depend on the thread count, and the torus under a larger light (so that none
+ *   converges at a test's spp) agrees with none.
  */
 /* ctest-labels: stat */
 #include <math.h>
@@ -43,6 +47,15 @@ TEST(option_parses)
     CHECK(!p.cam_split);
     CHECK(!spc_snee_parse("angular:camsplit=0", 2, &p));
     CHECK(!spc_snee_parse("angular:camsplit=65", 2, &p));
+    CHECK(spc_snee_parse("angular:camsplit,camrecv", 2, &p));
+    CHECK(p.cam_split && p.cam_split_recv && p.cam_split_recv_min == 5);
+    CHECK(spc_snee_parse("angular:camsplit,camrecv=1", 2, &p));
+    CHECK(p.cam_split_recv && p.cam_split_recv_min == 1);
+    CHECK(!spc_snee_parse("angular:camsplit,camrecv=0", 2, &p));
+    CHECK(spc_snee_parse("angular:camsplit,camrecv,nocamrecv", 2, &p));
+    CHECK(!p.cam_split_recv);
+    CHECK(spc_snee_parse("angular:camsplit", 2, &p));
+    CHECK(!p.cam_split_recv);
 }
 
 /* setting and setting + ",camsplit=K" at the same seed and spp: the pixels that differ, at most
@@ -146,11 +159,92 @@ TEST(render_agrees_with_none)
     agrees_with_none(BALL, BALL_PLAN ",camsplit=8", 512 / q, 8192 / q, 53, "ball, plan, camsplit=8");
 }
 
+/* The torus under a sphere light of radius 0.3 (its power kept: radiance scaled by (0.08 / 0.3)^2),
+ * res x res: the floor's caustic and the light seen through the torus spread wide enough that none
+ * converges at a test's spp. */
+static spc_scene *torus_large_light(int res)
+{
+    const char *d = getenv("SPC_SOURCE_DIR");
+    char path[1024], r[16];
+    snprintf(path, sizeof path, "%s/%s", d ? d : ".", TORUS);
+    snprintf(r, sizeof r, "%d", res);
+    spc_define defs[3] = {{"res", r}, {"light_radius", "0.3"}, {"light_radiance", "28.44, 27.02, 24.18"}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_scene_load(path, defs, 3, &sc, &err) != SPC_OK)
+        return NULL;
+    return sc;
+}
+
+/* camrecv=1 (every class D path; the default's paths of 5 delta vertices or more are too rare to
+ * show at a test's spp), under the larger light (under the small one a class D path is rare too) */
+TEST(recv_changes_only_the_glass)
+{
+    spc_scene *sc = torus_large_light(16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    int spp = spc_test_quick() ? 16 : 32;
+    spc_film *a = tu_render_nee(sc, "path", TORUS_PLAN ",camsplit=4", spp, 2, 43, NULL);
+    spc_film *b = tu_render_nee(sc, "path", TORUS_PLAN ",camsplit=4,camrecv=1", spp, 2, 43, NULL);
+    spc_film *c = tu_render_nee(sc, "path", TORUS_PLAN ",camsplit=4,camrecv=1", spp, 1, 43, NULL);
+    CHECK(a && b && c);
+    if (a && b && c) {
+        int n = a->width * a->height, changed = 0;
+        for (int i = 0; i < n; ++i) {
+            bool d = false;
+            for (int k = 0; k < 3; ++k)
+                d = d || a->rgb[3 * i + k] != b->rgb[3 * i + k];
+            changed += d;
+        }
+        /* the torus covers about a fifth of the image (specula info: glass seen on 0.207) */
+        printf("    torus, camrecv=1: %d of %d pixels changed\n", changed, n);
+        CHECK(changed >= 1 && changed <= 0.3 * n);
+        CHECK(!memcmp(b->rgb, c->rgb, sizeof(float) * 3 * (size_t)n));
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_film_destroy(c);
+    spc_scene_destroy(sc);
+}
+
+TEST(recv_agrees_with_none)
+{
+    int q = spc_test_quick() ? 2 : 1;
+    spc_scene *sc = torus_large_light(16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    /* camrecv=1: every class D path, the common ones too, so that their weights are tested */
+    spc_film *a = tu_render_nee(sc, "path", TORUS_PLAN ",camsplit=8,camrecv=1", 256 / q, 2, 61, NULL);
+    spc_film *b = tu_render_nee(sc, "path", "none", 4096 / q, 2, 62, NULL);
+    CHECK(a && b);
+    if (a && b) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(a, b, 0.99, "torus, large light, camrecv=1", &d));
+        double ma, sa, mb, sb;
+        tu_image_mean(a, 0, &ma, &sa);
+        tu_image_mean(b, 0, &mb, &sb);
+        double z = (ma - mb) / sqrt(sa * sa + sb * sb);
+        printf("    torus, large light, camrecv=1: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f "
+               "(z %.2f)\n",
+               d.ztest_pass_fraction, d.ztest_pixels, ma, sa, mb, sb, z);
+        CHECK(fabs(z) < 4.0);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(option_parses);
     RUN(only_the_light_through_glass_changes);
     RUN(thread_count_independent);
     RUN(render_agrees_with_none);
+    RUN(recv_changes_only_the_glass);
+    RUN(recv_agrees_with_none);
     return spc_test_finish();
 }

@@ -26,7 +26,9 @@
  * The camera-side split (params.cam_split, path_camsplit.h): where the camera ray's first hit is a
  * delta-only surface, extra camera rays in the pixel that also meet such a surface first take the
  * emission reached through delta scatterings only (class C); the sample counts the mean of theirs
- * and its own (cs_scale on its class C terms). Draws no sampler dimension.
+ * and its own (cs_scale on its class C terms); with "camrecv" also of class D, the emission
+ * reached past the first receiver behind the glass through delta scatterings. Draws no sampler
+ * dimension.
  *
  * Caustic guiding at receivers (params.recv_guide, manifold/caustic_guide.h): where the render's
  * photon pre-pass found caustics a vertex sees, its continuation is drawn from a defensive mixture
@@ -211,6 +213,10 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     const bool camsplit = spc_path_camsplit_enabled(ctx);
     bool cs_class = true;
     double cs_scale = 1.0;
+    /* and class D (camsplit's recv): the vertices whose BSDF is not delta only so far, and the
+     * delta-only ones before and after the first of them */
+    const bool cs_recv = camsplit && spc_path_camsplit_recv(ctx);
+    int cs_nd = 0, cs_before = 0, cs_after = 0;
     spc_vec3 prev_p = ray.o;
     out->albedo = spc_rgb1(0.0);
     out->normal = spc_v3(0, 0, 0);
@@ -221,6 +227,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
 
     for (int segments = 1;; ++segments) {
         /* segments: the number of path segments once this ray is traced */
+        /* the emission reached now is the split's class C or D (counted cs_scale times) */
+        const bool cs_term = cs_class || (cs_recv && cs_nd == 1 && cs_after >= 1 &&
+                                          cs_before + cs_after >= ctx->snee.cam_split_recv_min);
         spc_hit h;
         if (!spc_scene_intersect(sc, &ray, &h)) {
             if (sc->env && !(segments == 1 && ctx->hide_emitters) && !drop_emission) {
@@ -230,7 +239,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                     double lp = spc_scene_emitter_pmf(sc, sc->env) * spc_emitter_pdf_infinite(sc->env, ray.d);
                     w = spc_mis_power(prev_pdf, lp);
                 }
-                if (cs_scale != 1.0 && cs_class)
+                if (cs_scale != 1.0 && cs_term)
                     w *= cs_scale;
                 L = spc_rgb_add(L, spc_rgb_scale(spc_rgb_mul(beta, Le), w));
             }
@@ -258,7 +267,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                                 spc_emitter_pdf_direct(h.emitter, prev_p, h.p, h.ng);
                     w = spc_mis_power(prev_pdf, lp);
                 }
-                if (cs_scale != 1.0 && cs_class && segments > 1)
+                if (cs_scale != 1.0 && cs_term && segments > 1)
                     w *= cs_scale;
                 L = spc_rgb_add(L, spc_rgb_scale(spc_rgb_mul(beta, Le), w));
             }
@@ -327,8 +336,15 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 L = spc_rgb_add(L, spc_rgb_mul(beta, c_rs));
         }
 
-        if (!spc_path_camsplit_first(&h))
+        if (!spc_path_camsplit_first(&h)) {
             cs_class = false;
+            ++cs_nd;
+            cs_after = 0;
+        } else if (cs_nd == 1) {
+            ++cs_after;
+        } else if (cs_nd == 0) {
+            ++cs_before;
+        }
 
         /* BSDF sampling */
         double u_lobe = spc_sampler_1d(smp);

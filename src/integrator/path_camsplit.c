@@ -4,6 +4,7 @@
  */
 #include "integrator/path_camsplit.h"
 
+#include "integrator/path_lt.h"
 #include "integrator/path_snee.h"
 #include "scene/rfilter.h"
 
@@ -19,9 +20,11 @@ bool spc_path_camsplit_enabled(const spc_render_ctx *ctx)
 bool spc_path_camsplit_first(const spc_hit *h) { return h->bsdf && spc_bsdf_is_delta_only(h->bsdf); }
 
 /* Class C's terms of the camera path that starts with ray0, whose first hit h0 is delta-only
- * glass: path.c's loop restricted to delta-only vertices (the same depth, strict normals and
- * Russian roulette rules), its lobe choices and roulette drawn from rng. */
-static spc_rgb trace_view(const spc_render_ctx *ctx, const spc_ray *ray0, const spc_hit *h0, spc_rng *rng)
+ * glass, and with recv (params.cam_split_recv) class D's: path.c's loop restricted to delta-only
+ * vertices, with recv one sample of the first receiver x's BSDF and the delta-only vertices after
+ * it (the same depth, strict normals and Russian roulette rules), its lobe choices, directions and
+ * roulette drawn from rng. */
+static spc_rgb trace_view(const spc_render_ctx *ctx, const spc_ray *ray0, const spc_hit *h0, bool recv, spc_rng *rng)
 {
     const spc_scene *sc = ctx->scene;
     spc_path_snee sn;
@@ -30,15 +33,22 @@ static spc_rgb trace_view(const spc_render_ctx *ctx, const spc_ray *ray0, const 
     double eta_scale = 1.0;
     spc_ray ray = *ray0;
     spc_hit h = *h0;
+    /* past x (the first vertex that is not delta only), and the delta-only vertices since */
+    bool past_x = false;
+    int before = 0, after = 0;
+    const int min_len = ctx->snee.cam_split_recv_min;
     for (int segments = 1;; ++segments) {
         if (segments > 1) {
+            /* class C before x; class D past x once a delta-only vertex came between, on paths of
+             * at least min_len delta vertices */
+            const bool counts = !past_x || (after >= 1 && before + after >= min_len);
             if (!spc_scene_intersect(sc, &ray, &h)) {
                 /* after a delta vertex the environment's weight is 1, as in spc_path_sample */
-                if (sc->env)
+                if (sc->env && counts)
                     L = spc_rgb_add(L, spc_rgb_mul(beta, spc_emitter_eval_infinite(sc->env, ray.d)));
                 break;
             }
-            if (h.emitter) {
+            if (h.emitter && counts) {
                 spc_rgb Le = spc_emitter_eval_area(h.emitter, &h, spc_neg(ray.d));
                 if (!spc_rgb_is_black(Le)) {
                     double w = spc_path_snee_emitter_weight(&sn, ctx, &h);
@@ -52,9 +62,19 @@ static spc_rgb trace_view(const spc_render_ctx *ctx, const spc_ray *ray0, const 
             break;
         if (ctx->strict_normals && spc_dot(wo, h.ng) * spc_dot(wo, h.sh.n) < 0.0)
             break;
-        if (!spc_path_camsplit_first(&h))
-            break; /* the class ends at the first vertex that is not delta-only */
-        spc_path_snee_delta_vertex(&sn, ctx, segments);
+        if (spc_path_camsplit_first(&h)) {
+            if (past_x)
+                ++after;
+            else
+                ++before;
+            spc_path_snee_delta_vertex(&sn, ctx, segments);
+        } else if (recv && !past_x) {
+            /* x: its state as the camera path's (no query), then one sample of its BSDF */
+            past_x = true;
+            spc_path_snee_receiver_view(&sn, ctx, &h, segments);
+        } else {
+            break; /* the classes end at the first vertex that is not delta only (recv: the second) */
+        }
         double u_lobe = spc_rng_next(rng);
         spc_vec2 u_dir;
         u_dir.x = spc_rng_next(rng);
@@ -68,7 +88,7 @@ static spc_rgb trace_view(const spc_render_ctx *ctx, const spc_ray *ray0, const 
         beta = spc_rgb_mul(beta, bs.weight);
         if (spc_rgb_is_black(beta))
             break;
-        if (bs.lobe & SPC_LOBE_DELTA_TRANSMISSION)
+        if (bs.lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))
             eta_scale *= bs.eta * bs.eta;
         ray = spc_hit_spawn(&h, bs.wi);
         if (segments >= ctx->rr_depth) {
@@ -81,12 +101,18 @@ static spc_rgb trace_view(const spc_render_ctx *ctx, const spc_ray *ray0, const 
     return L;
 }
 
+bool spc_path_camsplit_recv(const spc_render_ctx *ctx)
+{
+    return spc_path_camsplit_enabled(ctx) && ctx->snee.cam_split_recv && !spc_path_lt_enabled(ctx, &ctx->snee);
+}
+
 int spc_path_camsplit_rays(const spc_render_ctx *ctx, const spc_tls *tls, const spc_sampler *smp, spc_rgb *sum)
 {
     const int K = ctx->snee.cam_split_rays;
     spc_rng rng;
     spc_sampler_fork_rng(smp, SPC_PATH_CAMSPLIT_STREAM, &rng);
     const double cx = tls->px + 0.5, cy = tls->py + 0.5;
+    const bool recv = spc_path_camsplit_recv(ctx);
     int kept = 0;
     for (int t = 0; t < SPC_PATH_CAMSPLIT_TRIALS * K && kept < K; ++t) {
         /* a film position in the pixel as the driver draws the camera sample's (camera_samples_tile) */
@@ -106,7 +132,7 @@ int spc_path_camsplit_rays(const spc_render_ctx *ctx, const spc_tls *tls, const 
         if (!spc_scene_intersect(ctx->scene, &ray, &h) || !spc_path_camsplit_first(&h))
             continue;
         ++kept;
-        spc_rgb c = trace_view(ctx, &ray, &h, &rng);
+        spc_rgb c = trace_view(ctx, &ray, &h, recv, &rng);
         *sum = spc_rgb_add(*sum, c);
     }
     return kept;

@@ -28,6 +28,20 @@
  * the 1 + m has the conditional expectation E[F | A], and over u0 E[F 1_A] = E[F]. Every other
  * part of the sample is unchanged, and no dimension of the sampler is used, so with the option off
  * (or where the first hit is not delta-only glass) the image is bit for bit the same.
+ *
+ * With params.cam_split_recv (the user's "camrecv") the extra rays also take class D: the emission
+ * (and the environment) a camera path reaches past its first vertex x whose BSDF is not delta only,
+ * after at least one delta-only vertex past x while every vertex but x was delta only, on paths of
+ * at least params.cam_split_recv_min delta vertices in all (camera ->
+ * T T -> floor -> T R R R T -> light: a light guide seen from a floor seen through the glass; camera
+ * -> T R...R T -> floor -> T T -> light: the floor's caustic reached through a light guide from the
+ * camera). Such a path is BSDF sampling's at x, rare and worth hundreds where x is a bright
+ * caustic's receiver behind the glass; no other strategy joins it (light tracing joins the pinhole
+ * only where the camera sees x directly). Each kept ray samples x's BSDF once on its stream and
+ * follows the delta scatterings after it, with x's specular NEE state as the camera path has it
+ * (spc_path_snee_receiver_view) and so the same weights; the sample's class D part is the mean of
+ * the 1 + M as for class C, by the same argument (class D is 0 without A as well). The direct
+ * light at x, its queries and the emission x's sample reaches at once stay the camera path's.
  */
 #ifndef SPC_INTEGRATOR_PATH_CAMSPLIT_H
 #define SPC_INTEGRATOR_PATH_CAMSPLIT_H
@@ -44,11 +58,16 @@
  * receiver guide)? */
 bool spc_path_camsplit_enabled(const spc_render_ctx *ctx);
 
+/* Do the extra rays also take class D (params.cam_split_recv, with the split on and without light-traced
+ * caustics, params.lt_caustic, whose weights read the camera path's record of its scatterings)? */
+bool spc_path_camsplit_recv(const spc_render_ctx *ctx);
+
 /* A: is the camera ray's first hit h a surface that only reflects and refracts (delta-only BSDF)? */
 bool spc_path_camsplit_first(const spc_hit *h);
 
 /* The extra rays of the camera sample of pixel (tls->px, tls->py) whose sampler is smp (forked,
- * not moved): returns M, the rays kept, and adds to *sum the sum of their class C terms. */
+ * not moved): returns M, the rays kept, and adds to *sum the sum of their class C terms (and class
+ * D's with spc_path_camsplit_recv). */
 int spc_path_camsplit_rays(const spc_render_ctx *ctx, const spc_tls *tls, const spc_sampler *smp, spc_rgb *sum);
 
 #endif

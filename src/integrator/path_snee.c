@@ -278,21 +278,16 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
     return s->on && spc_snee_track_covers_light(&s->track, &s->p, sc, h, wo, wi, e);
 }
 
-spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
-                                int segments, spc_sampler *smp)
+/* The state specular NEE leaves at the path vertex h reached after `segments` segments, which the
+ * MIS weights of the paths leaving h read: the chain budgets, the query's probability and light
+ * tracing's shares. False where no query runs at h (budget 0). */
+static bool vertex_state(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, int segments)
 {
-    bool skip = s->skip_query;
-    s->skip_query = false;
-    s->budget = 0;
-    s->long_budget = depth_left(ctx, segments, SPC_CHAIN_MAX_VERTICES);
-    if (!s->on)
-        return spc_rgb1(0.0);
-    skip_light_u(s, smp);
     s->budget = spc_snee_budget_params(&s->p, h, depth_left(ctx, segments, ctx->specular_max_chain));
     if (s->p.receivers > 0 && s->receivers >= s->p.receivers)
         s->budget = 0; /* past the vertices specular NEE runs at */
     if (s->budget <= 0)
-        return spc_rgb1(0.0);
+        return false;
     /* spc_snee_params.later_p: past the first receiver, the query by Russian roulette, made always
      * near the casters (spc_snee_later_prob); a covered BSDF path's MIS weight reads the same query_p
      * (a vertex with a smooth lobe is no chain vertex: a live track started at the last such vertex) */
@@ -333,7 +328,30 @@ spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, con
         s->alt_kmax = s->lt_kmax;
         s->alt_kflat = spc_path_lt_flat_budget(ctx, &s->p, h, segments, 0);
     }
-    if (skip)
+    return true;
+}
+
+void spc_path_snee_receiver_view(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, int segments)
+{
+    s->skip_query = false;
+    s->budget = 0;
+    s->long_budget = depth_left(ctx, segments, SPC_CHAIN_MAX_VERTICES);
+    s->p.cguide_at = NULL;
+    if (s->on)
+        vertex_state(s, ctx, h, segments);
+}
+
+spc_rgb spc_path_snee_at_vertex(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, spc_vec3 wo,
+                                int segments, spc_sampler *smp)
+{
+    bool skip = s->skip_query;
+    s->skip_query = false;
+    s->budget = 0;
+    s->long_budget = depth_left(ctx, segments, SPC_CHAIN_MAX_VERTICES);
+    if (!s->on)
+        return spc_rgb1(0.0);
+    skip_light_u(s, smp);
+    if (!vertex_state(s, ctx, h, segments) || skip)
         return spc_rgb1(0.0);
     spc_rng rng;
     spc_sampler_fork_rng(smp, (uint64_t)segments, &rng);

@@ -103,6 +103,14 @@ void spc_path_snee_begin_view(spc_path_snee *s, const spc_render_ctx *ctx, const
  * spc_path_snee_at_vertex leaves there (no query, no sampler dimension). */
 void spc_path_snee_delta_vertex(spc_path_snee *s, const spc_render_ctx *ctx, int segments);
 
+/* At the first vertex h of such a camera ray whose BSDF is not delta only, reached after `segments`
+ * segments: the state spc_path_snee_at_vertex leaves there (chain budgets, the query's probability)
+ * without its query or a sampler dimension, so that the emission reached by a sample of h's BSDF
+ * gets the weight the camera path gives it. Not with light-traced caustics (params.lt_caustic),
+ * whose shares read the camera path's record of its scatterings. The caller then calls
+ * spc_path_snee_scattered. */
+void spc_path_snee_receiver_view(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, int segments);
+
 /* The weight of the emission at the surface hit h (h->emitter set, its emission not black) reached
  * by BSDF sampling, against specular NEE: 1 where specular NEE does not cover the path; else the
  * MIS weight against its light sample (spc_snee_mis_bsdf_weight, spc_snee_camera_bsdf_weight), 0

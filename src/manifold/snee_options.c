@@ -89,6 +89,12 @@ static const spc_snee_option options[] = {
      "mirror), up to K more camera rays in the same pixel that meet such a surface first follow its "
      "reflections and refractions and count the light they reach (default K 4); the light seen through "
      "the glass is the mean of their values and the camera ray's"},
+    {"camrecv", "nocamrecv", SPC_SNEE_OPT_COUNT, true, "L", 1, 64, false, false, NULL, 0, AT(cam_split_recv),
+     AT(cam_split_recv_min), 0, NULL,
+     "path, with camsplit (not with ltcaus): those rays also sample the first diffuse surface they meet "
+     "behind the glass once and count the light they reach from it through further reflections and "
+     "refractions, on paths of at least L reflections and refractions in all (a light guide, or a caustic "
+     "seen through a light guide; default L 5); that part is their mean with the camera ray's too"},
     {"ltslab", "noltslab", SPC_SNEE_OPT_COUNT, true, "K", 1, SPC_FLAT_MAX_VERTICES, false, false, NULL, 0, AT(lt_slab),
      AT(lt_slab_max), 0, NULL,
      "path, with ltcaus: a light subpath also joins the pinhole through the chains of 1-K flat faces "

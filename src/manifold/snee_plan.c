@@ -1054,13 +1054,14 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_AREA_LIGHTS);
     }
     /* a glass SDF under small area lights: the light guides' long chains also by light tracing, and
-     * the light seen through it by the camera-side split (snee_plan.h, SPC_SNEE_PLAN_LIGHT_GUIDES,
-     * SPC_SNEE_PLAN_CAMERA_SPLIT) */
+     * the light seen through it and the light guides and caustics seen behind it by the camera-side
+     * split (snee_plan.h, SPC_SNEE_PLAN_LIGHT_GUIDES, SPC_SNEE_PLAN_CAMERA_SPLIT,
+     * SPC_SNEE_PLAN_CAMERA_RECV) */
     if (!strcmp(integrator, "path") && glass && !strstr(out->setting, "recguide") && glass_sdf(sc, cs) &&
         small_area_lights(sc, cs)) {
         size_t n = strlen(out->setting);
-        snprintf(out->setting + n, sizeof out->setting - n, "%s%s", SPC_SNEE_PLAN_LIGHT_GUIDES,
-                 SPC_SNEE_PLAN_CAMERA_SPLIT);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s%s%s", SPC_SNEE_PLAN_LIGHT_GUIDES,
+                 SPC_SNEE_PLAN_CAMERA_SPLIT, SPC_SNEE_PLAN_CAMERA_RECV);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a

@@ -435,6 +435,19 @@
  * camera, split"). */
 #define SPC_SNEE_PLAN_CAMERA_SPLIT ",camsplit=4"
 
+/* Appended with SPC_SNEE_PLAN_CAMERA_SPLIT: the split's rays also take one sample of the first
+ * receiver behind the glass and the light it reaches through further delta scatterings
+ * (integrator/path_camsplit.h, class D): a light guide seen on the floor through the torus (camera
+ * - T T - floor - T R R R T - light) and the floor's caustic reached by a light guide from the
+ * camera (camera - T R...R T - floor - T T - light), BSDF sampling's alone at weight 1, held 0.85
+ * of the torus's summed error over 24 seeds. At equal CPU over 48 seeds the torus's mean relMSE
+ * fell 0.164 -> 0.054 (none 0.232; the three worst seeds 21x, 19x, 17x lower) for 6% of the
+ * samples. On fresh glass SDFs, where the class is rarer, it costs its 2-9% of the samples and
+ * its rays' own events of the class: 0.82x and 1.01x by mean over 48 seeds on two fresh tori,
+ * 0.82-0.93x over 16 on four (bench/RESULTS.md, "The light guides and caustics seen through a
+ * glass SDF, split"). */
+#define SPC_SNEE_PLAN_CAMERA_RECV ",camrecv"
+
 /* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
  * cylinder), after the query from the camera: that query by Russian roulette in a fraction Q of the
  * camera samples, Q from the share of the image that sees a mirror first as for glass (snee_plan.c,

@@ -310,6 +310,12 @@ typedef struct spc_snee_params {
      * camera -> delta+ -> emitter part of the sample is their mean with the camera ray's own. */
     bool cam_split;
     int cam_split_rays;
+    /* With cam_split (the user's "camrecv"): those rays also sample the BSDF of the first vertex
+     * whose BSDF is not delta only once and count the emission reached past it through delta
+     * scatterings (a light guide or caustic seen on a floor behind the glass); that part of the
+     * sample is their mean with the camera path's too (path_camsplit.h, class D). */
+    bool cam_split_recv;
+    int cam_split_recv_min; /* class D's paths: at least this many delta vertices in all */
     /* With lt_caustic (the user's "ltslab[=K]"; integrator/path_lt.h): a point light's subpath at the
      * path's first receiver x2 also joins the pinhole through every chain of 1 to lt_slab_max
      * vertices through flat faces (glass slabs: spc_flat_chains_all's chains from x2 toward the

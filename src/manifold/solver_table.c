@@ -49,6 +49,11 @@
  * first (integrator/path_camsplit.h); K 4 beat K 16 on the SDF torus at equal CPU (snee_plan.h,
  * SPC_SNEE_PLAN_CAMERA_SPLIT). */
 #define SPC_SNEE_CAM_SPLIT_RAYS 4
+/* camrecv without a value: class D's paths (integrator/path_camsplit.h) have at least this many delta
+ * vertices on both sides of the receiver together. The common camera - T T - floor - T T - light (4)
+ * is smooth over a pixel, and the camera ray's stratified samples estimate it better than the
+ * extra rays' independent ones; the rare paths are longer (light guides on either side). */
+#define SPC_SNEE_CAM_SPLIT_RECV_MIN 5
 /* params.flat5_p and flat6_p's defaults: the shares of the calls that enumerate the 5- and 6-vertex
  * chains through flat faces. 0: those paths are left to BSDF sampling (MIS weight 1). At equal CPU
  * (16 seeds, 32x32, 1.5 s) the small-light slabs' mean relMSE fell 2.9x and two slabs under a sphere
@@ -136,6 +141,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->lt_view_share = SPC_SNEE_LT_VIEW_SHARE;
     p->lt_slab_max = SPC_SNEE_LT_SLAB_MAX;
     p->cam_split_rays = SPC_SNEE_CAM_SPLIT_RAYS;
+    p->cam_split_recv_min = SPC_SNEE_CAM_SPLIT_RECV_MIN;
     p->long_max = 0;
     p->long_events_p = 0.0;
     p->flat5_p = SPC_SNEE_FLAT5_P;
