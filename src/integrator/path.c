@@ -34,6 +34,12 @@
  * density replaces the BSDF's in the throughput and in every MIS weight of that bounce (light NEE,
  * the emitter hit, specular NEE through path_snee's receiver).
  *
+ * Grazing directions along a mirror cylinder's wall (ctx->graze, path_graze.h): at a receiver near
+ * the foot of a circular mirror cylinder's wall, one more direction is drawn nearly along the wall
+ * and followed through the wall's reflections; a path that creeps along the wall to an area light
+ * through 9 to 64 reflections (past every chain specular NEE makes) is weighted against BSDF
+ * sampling's by the power heuristic on both sides. Draws no sampler dimension.
+ *
  * Throughput with Russian roulette: after rr_depth segments a path survives with probability
  * q = min(0.95, max(beta) * eta_scale^2 * guide_scale), where eta_scale undoes the radiance scaling
  * of refraction so that paths inside glass are not killed for it (pbrt-v4), and guide_scale undoes
