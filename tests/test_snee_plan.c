@@ -1204,8 +1204,9 @@ TEST(volpath_ball_in_fog_plan_off)
     spc_scene_destroy(sc);
 }
 
-/* A water surface (a glass normal-mapped plane: scenes/caustic_pool.xml) with the camera and the
- * light above it: path's plan has no query from the camera (from there the plane's chains are the
+/* A water surface (a glass normal-mapped plane: scenes/caustic_pool.xml; triangles:
+ * scenes/newton_pool.xml) with the camera and the light above it: path's plan has no query from the
+ * camera (from there the plane's chains are the
  * light's glints, which the path tracer's emission splitting traces at every camera sample;
  * SPC_SNEE_PLAN_SETTING_WATER). volpath and bdpt, which do not split, keep the query, and so does
  * path with the light under the water, where chains from the camera refract to it. */
@@ -1225,6 +1226,21 @@ TEST(water_plane_plan_no_camera_query)
     for (int i = 0; i < 2; ++i) {
         spc_snee_plan_make(sc, others[i], NULL, &p);
         CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "pool, %s: %s", others[i], p.setting);
+    }
+    spc_scene_destroy(sc);
+    /* a water surface made of triangles (the randomized solver's), the camera and the light above
+     * every triangle's plane: the same */
+    sc = load_at("scenes/newton_pool.xml", "16");
+    if (!sc)
+        return;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER) && spc_snee_parse(p.setting, 2, &sp) &&
+                  !sp.camera,
+              "newton_pool, path: %s (%s)", p.setting, p.reason);
+    printf("    newton_pool, path: %s\n", p.setting);
+    for (int i = 0; i < 2; ++i) {
+        spc_snee_plan_make(sc, others[i], NULL, &p);
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "newton_pool, %s: %s", others[i], p.setting);
     }
     spc_scene_destroy(sc);
     /* the same pool with the light under the water */

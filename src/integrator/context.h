@@ -61,6 +61,8 @@ typedef struct spc_render_ctx {
     int bdpt_light_paths;
     /* bdpt: area lights' emission partly aimed at the casters (bdpt.h, spc_bdpt_aim); NULL: off */
     const struct spc_bdpt_aim *bdpt_aim;
+    /* path: grazing directions along mirror cylinders' walls (path_graze.h); NULL: off */
+    const struct spc_path_graze *graze;
 } spc_render_ctx;
 
 typedef struct spc_splat {

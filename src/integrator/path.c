@@ -36,6 +36,12 @@
  * density replaces the BSDF's in the throughput and in every MIS weight of that bounce (light NEE,
  * the emitter hit, specular NEE through path_snee's receiver).
  *
+ * Grazing directions along a mirror cylinder's wall (ctx->graze, path_graze.h): at a receiver near
+ * the foot of a circular mirror cylinder's wall, one more direction is drawn nearly along the wall
+ * and followed through the wall's reflections; a path that creeps along the wall to an area light
+ * through 9 to 64 reflections (past every chain specular NEE makes) is weighted against BSDF
+ * sampling's by the power heuristic on both sides. Draws no sampler dimension.
+ *
  * Throughput with Russian roulette: after rr_depth segments a path survives with probability
  * q = min(0.95, max(beta) * eta_scale^2 * guide_scale), where eta_scale undoes the radiance scaling
  * of refraction so that paths inside glass are not killed for it (pbrt-v4), and guide_scale undoes
@@ -54,6 +60,7 @@
 
 #include "integrator/aov.h"
 #include "integrator/path_camsplit.h"
+#include "integrator/path_graze.h"
 #include "integrator/path_snee.h"
 
 static bool depth_allows(int max_depth, int segments) { return max_depth < 0 || segments <= max_depth; }
@@ -224,6 +231,9 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     /* specular NEE (path_snee.h): its state, and its queries from the camera */
     spc_path_snee sn;
     spc_path_snee_begin(&sn, ctx, tls, ray0, smp);
+    /* grazing directions along mirror cylinders (path_graze.h) */
+    const bool graze = nee && sn.on && spc_path_graze_enabled(ctx, sn.lg_enabled);
+    spc_graze_track gt = {.live = false};
 
     for (int segments = 1;; ++segments) {
         /* segments: the number of path segments once this ray is traced */
@@ -261,6 +271,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
             spc_rgb Le = spc_emitter_eval_area(h.emitter, &h, wo);
             /* a path specular NEE covers: weighted against its light sample, or dropped */
             double w = spc_rgb_is_black(Le) ? 1.0 : spc_path_snee_emitter_weight(&sn, ctx, &h);
+            if (graze && gt.live)
+                w *= spc_path_graze_bsdf_weight(ctx, &gt, &h);
             if (w > 0.0 && !spc_rgb_is_black(Le)) {
                 if (nee && !specular) {
                     double lp = spc_scene_emitter_pmf(sc, h.emitter) *
@@ -318,6 +330,15 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         if (!spc_rgb_is_black(c_snee))
             L = spc_rgb_add(L, spc_rgb_mul(beta, c_snee));
 
+        /* the grazing directions along a mirror cylinder's wall, at a receiver near it */
+        if (graze && !gv && spc_bsdf_has_smooth(b)) {
+            spc_rng grng;
+            spc_sampler_fork_rng(smp, SPC_GRAZE_STREAM, &grng);
+            spc_rgb c_graze = spc_path_graze_estimate(ctx, &h, wo, segments, &grng);
+            if (!spc_rgb_is_black(c_graze))
+                L = spc_rgb_add(L, spc_rgb_mul(beta, c_graze));
+        }
+
         /* emission splitting (split_emission) */
         const bool split = nee && sn.on && all_delta && !gv && splits_emission(b);
         if (split) {
@@ -356,6 +377,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         if (ctx->strict_normals && !(spc_dot(bs.wi, h.ng) * spc_dot(bs.wi, h.sh.n) > 0.0))
             break;
         spc_path_snee_scattered(&sn, &h, wo, bs.wi, bs.lobe);
+        if (graze)
+            spc_path_graze_scattered(ctx, &gt, &h, wo, bs.wi, bs.lobe, gv != NULL);
         beta = spc_rgb_mul(beta, bs.weight);
         guide_scale *= guide_rr_factor(gv, &h, wo, &bs);
         if (spc_rgb_is_black(beta))

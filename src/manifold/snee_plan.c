@@ -681,13 +681,61 @@ static double caustic_gain(const spc_scene *sc, const spc_chain_casters *cs)
 #define SPC_SNEE_PLAN_CAMERA_PASS 100.0
 #define SPC_SNEE_PLAN_CAMERA_ALL 0.95
 
+/* Do the pinhole o and every light specular NEE draws on (an area light's bounding box whole) lie
+ * strictly on one side of the plane through q with normal n? */
+static bool lights_on_side(const spc_scene *sc, spc_vec3 o, spc_vec3 q, spc_vec3 n)
+{
+    double side = spc_dot(spc_sub(o, q), n);
+    if (side == 0.0)
+        return false;
+    for (int k = 0; k < sc->nemitters; ++k) {
+        const spc_emitter *e = sc->emitters[k];
+        if (!snee_light(e))
+            continue;
+        if (e->type != SPC_EMITTER_AREA) {
+            if (!(side * spc_dot(spc_sub(e->position, q), n) > 0.0))
+                return false;
+            continue;
+        }
+        if (e->shape_index < 0 || e->shape_index >= sc->nshapes)
+            return false;
+        const spc_shape *ls = sc->shapes[e->shape_index];
+        for (int c = 0; c < 8; ++c) {
+            spc_vec3 b = spc_v3(c & 1 ? ls->bbox_max.x : ls->bbox_min.x, c & 2 ? ls->bbox_max.y : ls->bbox_min.y,
+                                c & 4 ? ls->bbox_max.z : ls->bbox_min.z);
+            if (!(side * spc_dot(spc_sub(b, q), n) > 0.0))
+                return false;
+        }
+    }
+    return true;
+}
+
+/* A glass triangle mesh that the randomized solver serves with the pinhole and the lights on one
+ * side of each of its triangles' planes (lights_on_side): an open sheet the camera and the lights
+ * see from one side only (a water surface made of triangles). */
+static bool mesh_sheet_faces_lights(const spc_scene *sc, const spc_shape *s, spc_vec3 o)
+{
+    const spc_mesh *m = &s->mesh;
+    if (m->ntris < 1)
+        return false;
+    for (size_t t = 0; t < m->ntris; ++t) {
+        const float *a = m->p + 3 * m->idx[3 * t], *b = m->p + 3 * m->idx[3 * t + 1], *c = m->p + 3 * m->idx[3 * t + 2];
+        spc_vec3 pa = spc_v3(a[0], a[1], a[2]), pb = spc_v3(b[0], b[1], b[2]), pc = spc_v3(c[0], c[1], c[2]);
+        spc_vec3 n = spc_cross(spc_sub(pb, pa), spc_sub(pc, pa));
+        if (!(spc_length(n) > 0.0) || !lights_on_side(sc, o, pa, n))
+            return false;
+    }
+    return true;
+}
+
 /* Are the chains from the camera to a light through one caster reflections off glass, which the
  * path tracer splits at every camera sample (SPC_SNEE_PLAN_SETTING_WATER)? Every caster is a glass
- * normal-mapped plane, and the pinhole and every light specular NEE draws on lie strictly on one
- * side of each plane (an area light's bounding box whole): a path that refracts through a plane
- * stays on its far side unless another caster turns it back. False where it cannot tell (the
- * camera does not prepare, a plane's frame is not found). Only the choice of the query: without
- * it the other strategies' MIS weights still sum to one. */
+ * normal-mapped plane, or a glass triangle mesh the randomized solver serves, and the pinhole and
+ * every light specular NEE draws on lie strictly on one side of each plane (of each triangle's
+ * plane; an area light's bounding box whole): a path that refracts through a plane stays on its far
+ * side unless another caster turns it back. False where it cannot tell (the camera does not
+ * prepare, a plane's frame is not found). Only the choice of the query: without it the other
+ * strategies' MIS weights still sum to one. */
 static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
 {
     spc_camera_state cam;
@@ -697,34 +745,19 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
         const spc_shape *s = sc->shapes[cs->idx[i]];
         double eta = 0.0, m[3];
         spc_vec3 frame[3];
-        if (!(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) ||
-            spc_snee_plan_method(p, s) != SPC_SNEE_METHOD_PLANE || s->type != SPC_SHAPE_MESH || s->mesh.nverts < 1)
+        if (!(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) || s->type != SPC_SHAPE_MESH ||
+            s->mesh.nverts < 1)
+            return false;
+        if (spc_snee_plan_method(p, s) == SPC_SNEE_METHOD_SOLVER) {
+            if (!mesh_sheet_faces_lights(sc, s, cam.origin))
+                return false;
+            continue;
+        }
+        if (spc_snee_plan_method(p, s) != SPC_SNEE_METHOD_PLANE)
             return false;
         spc_vec3 o = spc_v3(s->mesh.p[0], s->mesh.p[1], s->mesh.p[2]);
-        if (!spc_plane_chain_model_normal(s, o, m, frame))
+        if (!spc_plane_chain_model_normal(s, o, m, frame) || !lights_on_side(sc, cam.origin, o, frame[2]))
             return false;
-        double side = spc_dot(spc_sub(cam.origin, o), frame[2]);
-        if (side == 0.0)
-            return false;
-        for (int k = 0; k < sc->nemitters; ++k) {
-            const spc_emitter *e = sc->emitters[k];
-            if (!snee_light(e))
-                continue;
-            if (e->type != SPC_EMITTER_AREA) {
-                if (!(side * spc_dot(spc_sub(e->position, o), frame[2]) > 0.0))
-                    return false;
-                continue;
-            }
-            if (e->shape_index < 0 || e->shape_index >= sc->nshapes)
-                return false;
-            const spc_shape *ls = sc->shapes[e->shape_index];
-            for (int c = 0; c < 8; ++c) {
-                spc_vec3 q = spc_v3(c & 1 ? ls->bbox_max.x : ls->bbox_min.x, c & 2 ? ls->bbox_max.y : ls->bbox_min.y,
-                                    c & 4 ? ls->bbox_max.z : ls->bbox_min.z);
-                if (!(side * spc_dot(spc_sub(q, o), frame[2]) > 0.0))
-                    return false;
-            }
-        }
     }
     return cs->n > 0;
 }

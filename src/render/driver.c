@@ -33,6 +33,7 @@
 #include "integrator/bdpt.h"
 #include "integrator/bdpt_pool.h"
 #include "integrator/integrator.h"
+#include "integrator/path_graze.h"
 #include "integrator/path_wave.h"
 #include "manifold/snee_options.h"
 #include "manifold/snee_plan.h"
@@ -520,6 +521,7 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
     spc_bdpt_pool *pools = NULL;
     spc_bdpt_pool_model pool_model;
     spc_bdpt_aim aim;
+    spc_path_graze graze;
     memset(&pool_model, 0, sizeof pool_model);
     spc_status status = SPC_OK;
     bool rendered = false; /* the passes ran: the film goes to the caller, with status */
@@ -639,6 +641,11 @@ spc_status spc_driver_render(const spc_scene *sc, const spc_render_options *o, c
         cguide = spc_cguide_build(sc, spc_cguide_photons((double)ctx.width * ctx.height), SPC_CGUIDE_STREAM,
                                   ctx.snee.recv_guide);
     ctx.snee.cguide = cguide;
+    /* grazing directions along mirror cylinders' walls (path_graze.h): the path tracer with
+     * specular NEE */
+    if (ctx.kind == SPC_INTEGRATOR_PATH && ctx.specular_nee != SPC_SNEE_NONE && !use_cl &&
+        spc_path_graze_init(&graze, sc))
+        ctx.graze = &graze;
     /* bdpt's pool: the selection model from its pilot, once (deterministic: the same for any thread
      * count and on resuming), and a pool per pass of a batch */
     if (pool_m > 0) {
