@@ -805,9 +805,12 @@ static bool caustic_out_of_view(const spc_scene *sc, const spc_chain_casters *cs
 {
     if (strcmp(integrator, "path"))
         return false;
-    for (int i = 0; i < cs->n; ++i)
-        if (!spc_flat_chain_shape(sc->shapes[cs->idx[i]]))
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (!spc_flat_chain_shape(s) || !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0))
             return false;
+    }
     out->caustic_gain = caustic_gain(sc, cs);
     if (out->caustic_gain != 0.0 || open_share(sc, cs) < SPC_SNEE_PLAN_ROOM_OPEN)
         return false;
@@ -880,13 +883,19 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         off(out, "no light is seen from the casters (a light inside its housing)");
         return;
     }
+    /* nflat: the flat-faced glass casters, which the slab rules below are for; a flat mirror
+     * (enumerated by flat_chains.h too) is a mirror to them, as a mirror ball is: it guides no
+     * light by total internal reflection and holds no longer chains of its own, and the slab
+     * settings' longer chains, queries at every first receiver and light tracing only cost there
+     * (bench/RESULTS.md, part flatmirror33) */
     int nflat = 0;
     bool mirror = false;
     for (int i = 0; i < cs->n; ++i) {
         const spc_shape *s = sc->shapes[cs->idx[i]];
         double eta = 0.0;
-        nflat += spc_flat_chain_shape(s) ? 1 : 0; /* the others: below */
-        mirror = mirror || !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0);
+        bool glass = spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0;
+        nflat += glass && spc_flat_chain_shape(s) ? 1 : 0; /* the others: below */
+        mirror = mirror || !glass;
     }
     /* flat-faced casters under a light larger than the flat rule's (beside glass or mirrors): on,
      * with their longer chains, where the enumeration's cost pays (the pilot) */
