@@ -40,9 +40,11 @@
  *     0.354 with specular NEE, worst seed 1.51 with one pixel 96% of it, against 0.065 without;
  *     bench/RESULTS.md, "The default against none on every caster scene"); open meshes (a water
  *     surface) and tessellated balls keep it;
- *   - off too if a caster is flat-faced (enumerated by flat_chains.h) and the smallest light
+ *   - off too if a caster is flat-faced glass (enumerated by flat_chains.h) and the smallest light
  *     subtends more than 0.002 sr (snee_plan.c, SPC_SNEE_PLAN_FLAT_MAX_SR): flat glass does not
- *     focus the light, and the exact chains' cost paid only under a small light;
+ *     focus the light, and the exact chains' cost paid only under a small light; a flat mirror,
+ *     enumerated by flat_chains.h too, is a mirror to these rules and the slab rules below (as a
+ *     mirror ball is), not flat glass;
  *   - off too, for path, where every caster is flat-faced glass under area lights in the open and
  *     the caustic pilot (snee_plan.c, caustic_gain: pinhole rays followed through the glass to
  *     their receivers, joined to the lights by straight segments) finds no receiver in view lit
