@@ -887,7 +887,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
      * (enumerated by flat_chains.h too) is a mirror to them, as a mirror ball is: it guides no
      * light by total internal reflection and holds no longer chains of its own, and the slab
      * settings' longer chains, queries at every first receiver and light tracing only cost there
-     * (bench/RESULTS.md, part flatmirror33) */
+     * (bench/RESULTS.md, "Flat mirrors enumerated exactly": 0.3x none on a glass ball resting on
+     * a flat mirror with them, 1.7x without) */
     int nflat = 0;
     bool mirror = false;
     for (int i = 0; i < cs->n; ++i) {
