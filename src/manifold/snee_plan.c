@@ -146,6 +146,18 @@ static bool small_area_lights(const spc_scene *sc, const spc_chain_casters *cs)
     return area;
 }
 
+/* Is every caster a mirror whose chains the flat enumeration takes (a conductor mesh of few planes)? */
+static bool flat_mirrors_only(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (!spc_flat_chain_shape(s) || (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0))
+            return false;
+    }
+    return cs->n > 0;
+}
+
 /* Flat-faced casters under small area lights, for path (no caustic guide at receivers): light
  * tracing makes their caustics too (,ltcaus where no other rule added it) and the flat
  * enumeration's longer chains run on a share of the calls (snee_plan.h, SPC_SNEE_PLAN_FLAT_LT and
@@ -1071,6 +1083,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s%s", SPC_SNEE_PLAN_LIGHT_GUIDES,
                  SPC_SNEE_PLAN_CAMERA_SPLIT);
+    }
+    /* path where every caster is a flat mirror (flat_chains.h) and the lights are small area lights:
+     * the mirrors' caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_FLAT_MIRRORS_LT) */
+    if (!strcmp(integrator, "path") && !glass && !solved_mirror && flat_mirrors_only(sc, cs) &&
+        small_area_lights(sc, cs)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_MIRRORS_LT);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a

@@ -437,6 +437,14 @@
  * camera, split"). */
 #define SPC_SNEE_PLAN_CAMERA_SPLIT ",camsplit=4"
 
+/* Appended for path where every caster is a flat mirror (a conductor mesh of few planes,
+ * flat_chains.h) and the lights are small area lights: the mirrors' caustics also by light tracing
+ * from a point on the light (integrator/path_lt.h), as for glass balls (SPC_SNEE_PLAN_AREA_LIGHTS).
+ * At equal CPU time over 16 seeds (bench/RESULTS.md, "Flat mirrors enumerated exactly"):
+ * bench/check/mirror_tilt.xml 554x none without it, 1057x with it (seeds 10017-10032); random scene 10007
+ * with two flat mirrors for its mirror objects 102x without, 96x with it (seeds 10001-10016). */
+#define SPC_SNEE_PLAN_FLAT_MIRRORS_LT ",ltcaus"
+
 /* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
  * cylinder), after the query from the camera: that query by Russian roulette in a fraction Q of the
  * camera samples, Q from the share of the image that sees a mirror first as for glass (snee_plan.c,
