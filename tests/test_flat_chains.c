@@ -3,10 +3,12 @@
  *
  * - Closed forms: a horizontal glass slab between x and y (the chain in, out: the lateral shift,
  *   the entry angle found by bisection on the horizontal distance), a triangular glass prism
- *   (Snell's law's tangential condition at both vertices, the light bent toward the prism's base);
- *   a flat mirror is left to the solver.
+ *   (Snell's law's tangential condition at both vertices, the light bent toward the prism's base),
+ *   a flat mirror (the vertex where the line from x to y's mirror image meets the plane).
  * - Faces: a cube gives 6, a prism 5, a smooth-normal mesh or a faceted ball none.
- * - In scenes (a tilted glass cube, a prism, two separated tilted slabs of different index): from floor points to light points, every chain spc_flat_chains_all enumerates
+ * - In scenes (a tilted glass cube, a prism, two separated tilted slabs of different index, the
+ *   slabs beside an upright mirror, a cube beside a tilted mirror): from floor points to light
+ *   points, every chain spc_flat_chains_all enumerates
  *   ends on its light point and is distinct, and every distinct chain that randomized angular
  *   attempts find (reflections off glass included, up to 4 vertices) is among them.
  * - The chains through two slabs (four vertices) counted at every call of specular NEE with the
@@ -165,7 +167,7 @@ TEST(slab_lateral_shift)
     spc_scene_destroy(sc);
 }
 
-TEST(mirror_left_to_solver)
+TEST(mirror_image)
 {
     spc_scene *sc = floor_scene();
     /* the plane x = 2 facing -x, 3 x 3 */
@@ -178,8 +180,29 @@ TEST(mirror_left_to_solver)
     CHECK(sc != NULL);
     if (!sc)
         return;
-    /* flat mirrors are left to the solver (flat_chains.h) */
-    CHECK(!spc_flat_chain_shape(sc->shapes[1]));
+    CHECK(spc_flat_chain_shape(sc->shapes[1]));
+    spc_rng_seed(&rng, 22, 1);
+    double worst = 0.0;
+    int tried = 0;
+    for (int i = 0; i < 200; ++i) {
+        spc_vec3 x = spc_v3(-1.0 + 2.5 * rnd(), -1.0 + 2.0 * rnd(), 0.01);
+        spc_vec3 y = spc_v3(-0.5 + 2.0 * rnd(), -1.0 + 2.0 * rnd(), 1.0 + 2.0 * rnd());
+        spc_vec3 yi = spc_v3(4.0 - y.x, y.y, y.z); /* y mirrored in x = 2 */
+        double t = (2.0 - x.x) / (yi.x - x.x);
+        spc_vec3 want = spc_add(x, spc_scale(spc_sub(yi, x), t));
+        bool inside = fabs(want.y) < 1.5 && fabs(want.z - 1.5) < 1.5;
+        spc_vec3 pts[4];
+        unsigned char ev[4];
+        int n = spc_flat_chain_roots(sc, true, true, x, y, 1, pts, ev, 4, NULL);
+        CHECK_MSG(n == (inside ? 1 : 0), "%d roots, %s the mirror", n, inside ? "inside" : "outside");
+        if (n == 1 && inside) {
+            worst = spc_max(worst, spc_distance(pts[0], want));
+            CHECK(ev[0] == SPC_CHAIN_REFLECT);
+            ++tried;
+        }
+    }
+    printf("  mirror: %d reflections, worst vertex error %.3g\n", tried, worst);
+    CHECK(tried > 100 && worst < 1e-9);
     spc_scene_destroy(sc);
 }
 
@@ -381,6 +404,40 @@ TEST(two_slabs_contain_randomized_solutions)
     add_cube(sc, &B, tu_glass(sc, 1.33));
     sc = add_light_finish(sc, spc_v3(0.0, 0.2, 2.8), 0.25);
     run_scene(sc, "two slabs, up to 4 vertices", 4, 40, 10, 0.0, 0.0, 2.0);
+}
+
+TEST(two_slabs_and_mirror_contain_randomized_solutions)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 A = place(spc_v3(0.8, 0.8, 0.06), spc_v3(1, 0, 0), 12.0, spc_v3(-0.3, 0, 1.0));
+    spc_mat4 B = place(spc_v3(0.8, 0.8, 0.06), spc_v3(0, 1, 0), -10.0, spc_v3(0.2, 0.1, 1.6));
+    add_cube(sc, &A, tu_glass(sc, 1.5));
+    add_cube(sc, &B, tu_glass(sc, 1.33));
+    /* an upright one-sided mirror facing the slabs */
+    spc_shape *m = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_mat4 M = place(spc_v3(1.0, 1.0, 1.0), spc_v3(0, 1, 0), -80.0, spc_v3(1.8, 0.0, 1.2));
+    spc_shape_init_rectangle(m, &M, NULL, 0, 0, &err);
+    m->bsdf = tu_mirror(sc);
+    sc = add_light_finish(sc, spc_v3(0.0, 0.2, 2.8), 0.25);
+    run_scene(sc, "two slabs and a mirror, up to 4 vertices", 4, 40, 20, 0.0, 0.0, 2.0);
+}
+
+/* A tilted glass cube beside a tilted one-sided mirror that faces it and the floor: chains off the
+ * mirror, through the cube, off the mirror then through the cube, and through the cube then off
+ * the mirror. */
+TEST(cube_and_mirror_contain_randomized_solutions)
+{
+    spc_scene *sc = floor_scene();
+    spc_shape *m = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_mat4 F = place(spc_v3(0.7, 0.9, 1.0), spc_v3(0, 1, 0), -60.0, spc_v3(1.1, 0.0, 0.8));
+    spc_shape_init_rectangle(m, &F, NULL, 0, 0, &err);
+    m->bsdf = tu_mirror(sc);
+    spc_mat4 M = place(spc_v3(0.3, 0.3, 0.3), spc_v3(1, 0.3, 0.2), 20.0, spc_v3(0.0, 0.0, 0.9));
+    add_cube(sc, &M, tu_glass(sc, 1.5));
+    sc = add_light_finish(sc, spc_v3(-0.6, 0.3, 2.4), 0.25);
+    run_scene(sc, "cube and a mirror, up to 4 vertices", 4, 60, 10, 0.0, 0.0, 2.0);
 }
 
 /* Below two separated horizontal slabs under a small light the floor point is lit only through
@@ -717,12 +774,14 @@ TEST(one_walk_for_several_lengths)
 int main(void)
 {
     RUN(slab_lateral_shift);
-    RUN(mirror_left_to_solver);
+    RUN(mirror_image);
     RUN(prism_bends_toward_base);
     RUN(faces_of_shapes);
     RUN(tilted_cube_contains_randomized_solutions);
     RUN(prism_contains_randomized_solutions);
     RUN(two_slabs_contain_randomized_solutions);
+    RUN(two_slabs_and_mirror_contain_randomized_solutions);
+    RUN(cube_and_mirror_contain_randomized_solutions);
     RUN(four_vertex_chains_every_call);
     RUN(face_bound_loses_no_root);
     RUN(roots_do_not_depend_on_caster_order);

@@ -13,6 +13,10 @@
  *   internal reflections, chains through cube and ball left to the randomized attempts), on by the
  *   plan's rule for flat casters beside a mirror: the plan's setting against path tracing without
  *   specular NEE the same way.
+ * - Flat mirrors (bench/check): a glass ball resting on a square mirror (chains off the mirror,
+ *   through the ball, and through both: the randomized attempts') and a tilted mirror alone that
+ *   casts the light on the floor, their mirrors' chains enumerated by the plan's setting: against
+ *   bdpt without specular NEE the same way.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -120,10 +124,24 @@ TEST(glass_cube_default_agrees_with_none)
     agrees("scenes/caustic_glass_cube.xml", d, 2, NULL, 256, "path", 8192, "caustic_glass_cube");
 }
 
+TEST(mirror_floor_ball_default_agrees_with_none)
+{
+    const spc_define d[2] = {{"res", "16"}, {"spp", "1"}};
+    agrees("bench/check/ball_mirror_floor.xml", d, 2, NULL, 256, "bdpt", 2048, "ball_mirror_floor");
+}
+
+TEST(tilted_mirror_default_agrees_with_none)
+{
+    const spc_define d[2] = {{"res", "16"}, {"spp", "1"}};
+    agrees("bench/check/mirror_tilt.xml", d, 2, NULL, 256, "bdpt", 2048, "mirror_tilt");
+}
+
 int main(void)
 {
     RUN(slabs_default_agrees_with_none);
     RUN(small_light_slabs_default_agrees_with_none);
     RUN(glass_cube_default_agrees_with_none);
+    RUN(mirror_floor_ball_default_agrees_with_none);
+    RUN(tilted_mirror_default_agrees_with_none);
     return spc_test_finish();
 }

@@ -6,6 +6,7 @@
  *   with a glass pane under a light too large for flat glass (its chains enumerated, flat_chains.h),
  *   with ipt, with
  *   only an environment light, and when the setting says none or off; an explicit setting is kept;
+ *   flat mirrors enumerated through their faces with the mirrors' setting (no slab rules);
  *   without the query from the camera where every caster is a mirror, and with it in a fraction
  *   sqrt(s) of the camera samples where glass covers a share s of the image (an analytic share)
  *   and every glass caster is enumerated exactly (in every sample for an SDF ball);
@@ -1094,6 +1095,47 @@ TEST(solved_mirror_plan_no_first_roulette)
     }
 }
 
+/* Flat mirrors (a conductor rectangle) are enumerated through their flat faces (flat_chains.h) and
+ * take the mirrors' setting, not the flat glass's: a tilted mirror alone under a small light gets
+ * the query from the camera by roulette and light tracing, nothing of the slab rules (no longer
+ * chains, no 3-4-vertex shares); a glass ball on a mirror gets the glass ball's setting, without the
+ * slab rules' longer chains and queries at every first receiver. */
+TEST(flat_mirror_plan)
+{
+    static const char *const scenes[2] = {"bench/check/mirror_tilt.xml", "bench/check/ball_mirror_floor.xml"};
+    for (int i = 0; i < 2; ++i) {
+        spc_scene *sc = load_at(scenes[i], "8");
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp), "%s: %s (%s)", scenes[i], p.setting, p.reason);
+        int flat = 0;
+        const spc_chain_casters *cs = spc_chain_casters_of(sc, false);
+        for (int j = 0; cs && j < cs->n; ++j) {
+            const spc_shape *s = sc->shapes[cs->idx[j]];
+            if (s->bsdf && s->bsdf->type == SPC_BSDF_CONDUCTOR) {
+                CHECK(spc_snee_plan_method(&sp, s) == SPC_SNEE_METHOD_FLAT);
+                ++flat;
+            }
+        }
+        CHECK(flat == 1);
+        CHECK_MSG(sp.camera && sp.camera_p < 1.0 && sp.first_p == 0.1 && sp.later_p == 0.1 && !strstr(p.setting, "long=") &&
+                      !strstr(p.setting, "flat34") && !strstr(p.setting, "flat5"),
+                  "%s: %s", scenes[i], p.setting);
+        if (i == 0) {
+            /* the mirrors' setting, then light tracing (flat mirrors alone under a small light) */
+            char want[256];
+            snprintf(want, sizeof want, "%s%s", SPC_SNEE_PLAN_SETTING_MIRRORS, SPC_SNEE_PLAN_FLAT_MIRRORS_LT);
+            const size_t n = strlen(p.setting), tail = strlen(want);
+            CHECK_MSG(n >= tail && !strcmp(p.setting + n - tail, want) && sp.lt_caustic, "%s: %s", scenes[i],
+                      p.setting);
+        }
+        spc_scene_destroy(sc);
+    }
+}
+
 /* Caustic guiding at receivers and the longer chains with probability 0.2 in a room where a glass
  * caster is an analytic sphere small enough for a cone (snee_plan.h, SPC_SNEE_PLAN_ROOM_GLASS_BALL):
  * on in path's default on the demo, not in volpath's nor bdpt's, not in the open (the glass-ball
@@ -1823,6 +1865,7 @@ int main(void)
     RUN(recv_guide_with_glass_balls);
     RUN(closed_glass_mesh_plan_off);
     RUN(solved_mirror_plan_no_first_roulette);
+    RUN(flat_mirror_plan);
     RUN(volpath_ball_plan);
     RUN(volpath_ball_in_fog_plan_off);
     RUN(water_plane_plan_no_camera_query);

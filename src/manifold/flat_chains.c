@@ -231,6 +231,9 @@ typedef struct flat_cache {
      * every face's plane): a glass cube, slab or prism. A path then meets such a shape's faces from
      * the inside only between two of its own vertices, and never meets it twice from outside. */
     bool convex;
+    /* a one-sided mirror (a conductor, not two-sided): it reflects on its faces' exterior side
+     * only (the side the BSDF calls the front), so no chain meets a face from the interior */
+    bool front_only;
     int nfaces;
     flat_face face[SPC_FLAT_MAX_FACES];
     flat_link self;    /* its faces against its own (to: itself) */
@@ -427,6 +430,7 @@ static void cache_build(const spc_shape *s, flat_cache *c)
     }
     c->ok = c->nfaces > 0;
     c->convex = closed_convex(c, m, scale);
+    c->front_only = s->bsdf->type == SPC_BSDF_CONDUCTOR;
     link_fill(&c->self, c, c);
 }
 
@@ -435,9 +439,15 @@ static bool flat_kind(const spc_shape *s)
 {
     if (!s || s->type != SPC_SHAPE_MESH || s->emitter || !s->bsdf || (s->mesh.n && !s->face_normals))
         return false;
-    /* glass only: on a flat mirror the enumeration's estimate read 0.6% below the reference in
-     * test_manifold's snee_point_estimates (not yet explained), so mirrors keep the solver */
-    return s->bsdf->type == SPC_BSDF_DIELECTRIC;
+    const spc_bsdf *b = s->bsdf;
+    if (b->type == SPC_BSDF_TWOSIDED) {
+        /* a mirror on both sides: smooth conductors only (a normal map is plane_chains.h's) */
+        for (int i = 0; i < 2; ++i)
+            if (b->nested[i] && b->nested[i]->type != SPC_BSDF_CONDUCTOR)
+                return false;
+        return b->nested[0] != NULL;
+    }
+    return b->type == SPC_BSDF_DIELECTRIC || b->type == SPC_BSDF_CONDUCTOR;
 }
 
 /* The shape's faces, built on first use and published atomically (as plane_chains.c's map); NULL
@@ -1441,6 +1451,8 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
             cone arrive = dir;
             bool have_arrive = false;
             for (int side = 1; side >= -1; side -= 2) {
+                if (side < 0 && fc->front_only)
+                    continue;
                 if (fc->convex) {
                     if (side < 0) { /* from the inside: only from a vertex of the same shape, or x inside */
                         if (prev ? !(prev->s == s && prev->side_out < 0) : !inside_convex(fc, P->x, tol))

@@ -37,9 +37,9 @@
  * propagated from x while walking and, for a complete sequence, back from y.
  *
  * Shapes handled (spc_flat_chain_shape): a mesh without vertex normals (or face_normals) of at most
- * SPC_FLAT_MAX_FACES planes, a smooth dielectric (not a normal map, which plane_chains.h handles),
- * no emitter. The code handles conductor faces (reflections), but flat mirrors are left to the
- * solver: on one, test_manifold's snee_point_estimates read 0.6% low, not yet explained. Chains: 1 to SPC_FLAT_MAX_VERTICES
+ * SPC_FLAT_MAX_FACES planes, a smooth dielectric or a smooth conductor (a flat mirror; one-sided: its
+ * faces reflect on their exterior side only; or two-sided, conductors on both sides), not a normal
+ * map (plane_chains.h), no emitter. Chains: 1 to SPC_FLAT_MAX_VERTICES
  * vertices, every vertex on such a shape (one shape or several: two slabs' four faces), conductor
  * vertices reflect, dielectric vertices refract, or reflect when spc_snee_params.reflect (a
  * reflection off glass alone, or a total internal reflection in a longer chain, on any of its

@@ -146,6 +146,18 @@ static bool small_area_lights(const spc_scene *sc, const spc_chain_casters *cs)
     return area;
 }
 
+/* Is every caster a mirror whose chains the flat enumeration takes (a conductor mesh of few planes)? */
+static bool flat_mirrors_only(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (!spc_flat_chain_shape(s) || (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0))
+            return false;
+    }
+    return cs->n > 0;
+}
+
 /* Flat-faced casters under small area lights, for path (no caustic guide at receivers): light
  * tracing makes their caustics too (,ltcaus where no other rule added it) and the flat
  * enumeration's longer chains run on a share of the calls (snee_plan.h, SPC_SNEE_PLAN_FLAT_LT and
@@ -838,9 +850,12 @@ static bool caustic_out_of_view(const spc_scene *sc, const spc_chain_casters *cs
 {
     if (strcmp(integrator, "path"))
         return false;
-    for (int i = 0; i < cs->n; ++i)
-        if (!spc_flat_chain_shape(sc->shapes[cs->idx[i]]))
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (!spc_flat_chain_shape(s) || !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0))
             return false;
+    }
     out->caustic_gain = caustic_gain(sc, cs);
     if (out->caustic_gain != 0.0 || open_share(sc, cs) < SPC_SNEE_PLAN_ROOM_OPEN)
         return false;
@@ -913,13 +928,20 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         off(out, "no light is seen from the casters (a light inside its housing)");
         return;
     }
+    /* nflat: the flat-faced glass casters, which the slab rules below are for; a flat mirror
+     * (enumerated by flat_chains.h too) is a mirror to them, as a mirror ball is: it guides no
+     * light by total internal reflection and holds no longer chains of its own, and the slab
+     * settings' longer chains, queries at every first receiver and light tracing only cost there
+     * (bench/RESULTS.md, "Flat mirrors enumerated exactly": 0.3x none on a glass ball resting on
+     * a flat mirror with them, 1.7x without) */
     int nflat = 0;
     bool mirror = false;
     for (int i = 0; i < cs->n; ++i) {
         const spc_shape *s = sc->shapes[cs->idx[i]];
         double eta = 0.0;
-        nflat += spc_flat_chain_shape(s) ? 1 : 0; /* the others: below */
-        mirror = mirror || !(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0);
+        bool glass = spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0;
+        nflat += glass && spc_flat_chain_shape(s) ? 1 : 0; /* the others: below */
+        mirror = mirror || !glass;
     }
     /* flat-faced casters under a light larger than the flat rule's (beside glass or mirrors): on,
      * with their longer chains, where the enumeration's cost pays (the pilot) */
@@ -1095,6 +1117,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s%s%s", SPC_SNEE_PLAN_LIGHT_GUIDES,
                  SPC_SNEE_PLAN_CAMERA_SPLIT, SPC_SNEE_PLAN_CAMERA_RECV);
+    }
+    /* path where every caster is a flat mirror (flat_chains.h) and the lights are small area lights:
+     * the mirrors' caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_FLAT_MIRRORS_LT) */
+    if (!strcmp(integrator, "path") && !glass && !solved_mirror && flat_mirrors_only(sc, cs) &&
+        small_area_lights(sc, cs)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_MIRRORS_LT);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a

@@ -40,9 +40,11 @@
  *     0.354 with specular NEE, worst seed 1.51 with one pixel 96% of it, against 0.065 without;
  *     bench/RESULTS.md, "The default against none on every caster scene"); open meshes (a water
  *     surface) and tessellated balls keep it;
- *   - off too if a caster is flat-faced (enumerated by flat_chains.h) and the smallest light
+ *   - off too if a caster is flat-faced glass (enumerated by flat_chains.h) and the smallest light
  *     subtends more than 0.002 sr (snee_plan.c, SPC_SNEE_PLAN_FLAT_MAX_SR): flat glass does not
- *     focus the light, and the exact chains' cost paid only under a small light;
+ *     focus the light, and the exact chains' cost paid only under a small light; a flat mirror,
+ *     enumerated by flat_chains.h too, is a mirror to these rules and the slab rules below (as a
+ *     mirror ball is), not flat glass;
  *   - off too, for path, where every caster is flat-faced glass under area lights in the open and
  *     the caustic pilot (snee_plan.c, caustic_gain: pinhole rays followed through the glass to
  *     their receivers, joined to the lights by straight segments) finds no receiver in view lit
@@ -447,6 +449,14 @@
  * 0.82-0.93x over 16 on four (bench/RESULTS.md, "The light guides and caustics seen through a
  * glass SDF, split"). */
 #define SPC_SNEE_PLAN_CAMERA_RECV ",camrecv"
+
+/* Appended for path where every caster is a flat mirror (a conductor mesh of few planes,
+ * flat_chains.h) and the lights are small area lights: the mirrors' caustics also by light tracing
+ * from a point on the light (integrator/path_lt.h), as for glass balls (SPC_SNEE_PLAN_AREA_LIGHTS).
+ * At equal CPU time over 16 seeds (bench/RESULTS.md, "Flat mirrors enumerated exactly"):
+ * bench/check/mirror_tilt.xml 554x none without it, 1057x with it (seeds 10017-10032); random scene 10007
+ * with two flat mirrors for its mirror objects 102x without, 96x with it (seeds 10001-10016). */
+#define SPC_SNEE_PLAN_FLAT_MIRRORS_LT ",ltcaus"
 
 /* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
  * cylinder), after the query from the camera: that query by Russian roulette in a fraction Q of the
