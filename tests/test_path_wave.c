@@ -13,7 +13,7 @@
  * is also forced to AVX2 and SSE4.2, where its 16-wide packets take a fallback path (which aborted
  * on inactive lanes before they were marked by their ray data). The wave's light samples, computed
  * for many lanes at once, and its diffuse lobe without bsdf.c's dispatch are compared with the
- * one-lane ones field by field.
+ * one-lane ones field by field (the light samples under every instruction set).
  */
 /* ctest-labels: scene */
 /* ctest-timeout: 300 */
@@ -338,6 +338,27 @@ static bool view_round(void *ctx, int round, const spc_bsdf *b, spc_hit *h, spc_
     return same;
 }
 
+/* The same under every instruction set the light samples' loops are compiled for (SPECULA_VECTOR_ISA
+ * caps the one a process picks, so each runs in a child process of this program). */
+TEST(light_samples_many_every_isa)
+{
+    char exe[4096];
+    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    CHECK(len > 0);
+    if (len <= 0)
+        return;
+    exe[len] = '\0';
+    const char *isas[] = {"base", "avx2", "avx512"};
+    for (int i = 0; i < 3; ++i) {
+        char cmd[4300];
+        snprintf(cmd, sizeof cmd,
+                 "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=light_samples_many_match_one_at_a_time '%s' >/dev/null", isas[i],
+                 exe);
+        int rc = system(cmd);
+        CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
+    }
+}
+
 TEST(diffuse_view_matches_bsdf)
 {
     spc_scene *sc = NULL;
@@ -433,6 +454,7 @@ int main(void)
     if (!mkdtemp(tmpdir))
         return 1;
     RUN(light_samples_many_match_one_at_a_time);
+    RUN(light_samples_many_every_isa);
     RUN(diffuse_view_matches_bsdf);
     RUN(path_matches_path_c);
     RUN(ipt_and_roulette_match_path_c);

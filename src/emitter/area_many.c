@@ -13,7 +13,9 @@
  * Bit for bit: the arithmetic is spc_area_sample_direct's, spc_shape_sample_area's and fill_mesh's
  * (scene/shape.c) in their order, in double, without fused multiply-adds (ISO C11 builds do not
  * contract, and the vector targets below do not include FMA); vector lanes round as scalars do.
- * test_path_wave compares every field with spc_emitter_sample_direct's on random points.
+ * test_path_wave compares every field with spc_emitter_sample_direct's on random points, under every
+ * ISA. CMakeLists.txt compiles this file without trapping math: under it GCC keeps the point's
+ * division behind a branch in the AVX2 variant, which then is not vector code.
  */
 #include <float.h>
 #include <math.h>
@@ -175,16 +177,24 @@ void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const s
     /* the lanes of each kind in batches of SPC_DIRECT_LANES_MAX (direct_lanes.h) */
     int lane[SPC_DIRECT_LANES_MAX], m = 0;
     int sphere_lane[SPC_DIRECT_LANES_MAX], ms = 0;
+    /* the kind of the last lane's light (1 mesh, 2 sphere, 0 other), kept for the next lanes of the
+     * same light: the tests read the light, its texture and its shape, and most lanes share a light */
+    const spc_emitter *last = NULL;
+    int kind = 0;
     for (int i = 0; i < n; ++i) {
+        if (e[i] && e[i] != last) {
+            last = e[i];
+            kind = spc_emitter_many_covers(last) ? 1 : spc_emitter_many_covers_sphere(last) ? 2 : 0;
+        }
         if (!e[i]) {
             ok[i] = false;
-        } else if (spc_emitter_many_covers(e[i])) {
+        } else if (kind == 1) {
             lane[m++] = i;
             if (m == SPC_DIRECT_LANES_MAX) {
                 sample_mesh_lights(m, lane, e, ref, u, out, ok);
                 m = 0;
             }
-        } else if (spc_emitter_many_covers_sphere(e[i])) {
+        } else if (kind == 2) {
             sphere_lane[ms++] = i;
             if (ms == SPC_DIRECT_LANES_MAX) {
                 spc_emitter_sample_spheres_many(ms, sphere_lane, e, ref, u, out, ok);

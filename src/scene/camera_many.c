@@ -29,18 +29,25 @@ static inline __attribute__((always_inline)) void pinhole_loop(const pinhole *c,
                                                                const double *fy, double (*d)[CAMERA_MANY_BATCH],
                                                                double *tmin, double *tmax)
 {
+    /* the camera's terms in locals: read through c inside the loop, they might alias the outputs as
+     * far as GCC can tell, and the run-time checks for that are more than it makes (the loop stayed
+     * scalar in every variant) */
+    const double d0x = c->d0[0], d0y = c->d0[1], d0z = c->d0[2];
+    const double fxx = c->dfx[0], fxy = c->dfx[1], fxz = c->dfx[2];
+    const double fyx = c->dfy[0], fyy = c->dfy[1], fyz = c->dfy[2];
+    const double near_clip = c->near_clip, far_clip = c->far_clip;
     for (int j = 0; j < m; ++j) {
         /* spc_madd(spc_madd(d0, dfx, fx), dfy, fy), spc_length, spc_scale(dw, 1 / len) */
-        double x = (c->d0[0] + c->dfx[0] * fx[j]) + c->dfy[0] * fy[j];
-        double y = (c->d0[1] + c->dfx[1] * fx[j]) + c->dfy[1] * fy[j];
-        double z = (c->d0[2] + c->dfx[2] * fx[j]) + c->dfy[2] * fy[j];
+        double x = (d0x + fxx * fx[j]) + fyx * fy[j];
+        double y = (d0y + fxy * fx[j]) + fyy * fy[j];
+        double z = (d0z + fxz * fx[j]) + fyz * fy[j];
         double len = sqrt(x * x + y * y + z * z);
         double inv = 1.0 / len;
         d[0][j] = x * inv;
         d[1][j] = y * inv;
         d[2][j] = z * inv;
-        tmin[j] = c->near_clip * len;
-        tmax[j] = c->far_clip * len;
+        tmin[j] = near_clip * len;
+        tmax[j] = far_clip * len;
     }
 }
 
