@@ -460,10 +460,10 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
     int k = c->n;
     if (!e || e->type != SPC_EMITTER_AREA || k < 1 || !area_chain_covers(p, c))
         return 0.0;
-    /* the joins by camera chains longer than max_chain (the path tracer's side weighs no others:
-     * path_snee.c), and those through a tessellated ball, are point lights' only; through the
-     * sphere and through flat faces (ltslab) both kinds' */
-    if (cc && (cc->n > p->max_chain || !(spc_sphere_chain_covers(cc, p->reflect) || slab_camera_chain(p, cc))))
+    /* the joins through a tessellated ball are point lights' only; through the sphere (with its
+     * longer chains, join_first) and through flat faces (ltslab, within max_chain) both kinds' */
+    if (cc && !(spc_sphere_chain_covers(cc, p->reflect) ? cc->n <= spc_path_lt_camera_max_chain(p)
+                                                        : cc->n <= p->max_chain && slab_camera_chain(p, cc)))
         return 0.0;
     spc_vec3 d_last = c->v[k - 1].d;
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
@@ -827,9 +827,9 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         join_through(ctx, p, x2, beta, L, 1, p->max_chain, sink, user);
     /* through flat faces (glass slabs), with ltslab */
     join_slab(ctx, p, x2, beta, L, sink, user);
-    /* area lights' paths through the longer chains are not light tracing's (spc_path_lt_area_ratio) */
+    /* through the sphere's longer chains (in, reflections inside, out), on a share of their own */
     double ls = long_share(p);
-    if (!L->area && spc_path_lt_camera_max_chain(p) > p->max_chain && (ls >= 1.0 || spc_rng_next(rng) < ls))
+    if (spc_path_lt_camera_max_chain(p) > p->max_chain && (ls >= 1.0 || spc_rng_next(rng) < ls))
         join_through(ctx, p, x2, beta, L, p->max_chain + 1, spc_path_lt_camera_max_chain(p), sink, user);
 }
 
