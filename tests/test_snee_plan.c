@@ -1091,25 +1091,23 @@ TEST(solved_mirror_plan_no_first_roulette)
     }
 }
 
-/* The longer chains with probability 0.2 in a room where a glass caster is an analytic sphere
- * small enough for a cone, with caustic guiding at receivers unless the area lights' light tracing
- * runs (snee_plan.h, SPC_SNEE_PLAN_ROOM_GLASS_BALL, SPC_SNEE_PLAN_ROOM_LONG): path's default on the
- * demo (a glass sphere under a small area light) takes long=0.2 and ltcaus, no guide; neither in
- * volpath's nor bdpt's, nor in the open (the glass-ball caustic, the mirror ring, the pool). */
+/* Caustic guiding at receivers and the longer chains with probability 0.2 in a room where a glass
+ * caster is an analytic sphere small enough for a cone (snee_plan.h, SPC_SNEE_PLAN_ROOM_GLASS_BALL):
+ * on in path's default on the demo, not in volpath's nor bdpt's, not in the open (the glass-ball
+ * caustic, the mirror ring, the pool). */
 TEST(recv_guide_with_glass_balls)
 {
     static const struct {
         const char *scene, *integrator;
         bool guided;
         double long_p;
-        bool lt;
     } cases[] = {
-        {"scenes/demo.xml", "path", false, 0.2, true},
-        {"scenes/demo.xml", "volpath", false, 0.1, false},
-        {"scenes/demo.xml", "bdpt", false, 0.1, false},
-        {"scenes/caustic_glass_sphere.xml", "path", false, 0.1, true},
-        {"scenes/caustic_mirror_ring.xml", "path", false, 0.1, false},
-        {"scenes/caustic_pool.xml", "path", false, 0.1, false},
+        {"scenes/demo.xml", "path", true, 0.2},
+        {"scenes/demo.xml", "volpath", false, 0.1},
+        {"scenes/demo.xml", "bdpt", false, 0.1},
+        {"scenes/caustic_glass_sphere.xml", "path", false, 0.1},
+        {"scenes/caustic_mirror_ring.xml", "path", false, 0.1},
+        {"scenes/caustic_pool.xml", "path", false, 0.1},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         spc_scene *sc = load_at(cases[i].scene, "16");
@@ -1119,8 +1117,7 @@ TEST(recv_guide_with_glass_balls)
         spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
         spc_snee_params sp;
         bool parsed = p.on && spc_snee_parse(p.setting, 2, &sp);
-        CHECK_MSG(parsed && sp.recv_guide == (cases[i].guided ? 0.1 : 0.0) && sp.long_p == cases[i].long_p &&
-                      sp.lt_caustic == cases[i].lt,
+        CHECK_MSG(parsed && sp.recv_guide == (cases[i].guided ? 0.1 : 0.0) && sp.long_p == cases[i].long_p,
                   "%s, %s: %s", cases[i].scene, cases[i].integrator, p.setting);
         spc_scene_destroy(sc);
     }

@@ -1018,14 +1018,11 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,first=0.1,later=0.1", q);
     else
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING);
-    /* path in a room: the longer chains more often, and caustic guiding at receivers with a cone
-     * toward each glass ball, unless the area lights' light tracing takes those caustics (a glass
-     * sphere under small area lights: the rule below, which the guide would turn off; snee_plan.h) */
+    /* path in a room: caustic guiding at receivers, with a cone toward each glass ball, and the
+     * longer chains more often (snee_plan.h) */
     if (!strcmp(integrator, "path") && glass && cone && out->open_share < SPC_SNEE_PLAN_ROOM_OPEN) {
-        bool lt_area = exact && glass_sphere(sc, cs) && small_area_lights(sc, cs);
         size_t n = strlen(out->setting);
-        snprintf(out->setting + n, sizeof out->setting - n, "%s",
-                 lt_area ? SPC_SNEE_PLAN_ROOM_LONG : SPC_SNEE_PLAN_ROOM_GLASS_BALL);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_ROOM_GLASS_BALL);
     }
     /* path lit by point lights (a sky besides), with a glass sphere among the casters: the point
      * lights' caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) */

@@ -242,16 +242,6 @@
  * default"). Not for volpath (which builds no guide) nor bdpt: not measured there. */
 #define SPC_SNEE_PLAN_ROOM_OPEN 0.25
 #define SPC_SNEE_PLAN_ROOM_GLASS_BALL ",recguide=0.1,long=0.2"
-/* In such a room where a glass sphere is a caster and the lights are small area lights (the
- * conditions of SPC_SNEE_PLAN_AREA_LIGHTS), the longer chains alone: the area lights' light
- * tracing (",ltcaus", appended by that rule) makes the paths the guide was for, the ceiling's view
- * of the floor's caustic through the ball (camera - ceiling - glass - glass - floor - glass - glass
- * - light, joined at the floor) and the red wall's caustic seen from the floor, and it does not run
- * with the guide. On scenes/demo.xml at equal CPU time over 24 seeds (bench/RESULTS.md, "The glass
- * balls' one-pixel seeds") the mean relMSE fell 0.00431 -> 0.00357 (6.1x -> 7.4x none) and the
- * one-pixel seeds from 5 to 2 (both of another class: the light off the mirror ball focused by the
- * glass ball onto the red wall, a 3-vertex chain of the longer chains' randomized attempts). */
-#define SPC_SNEE_PLAN_ROOM_LONG ",long=0.2"
 
 /* Appended for path where every light is a point light (or a spot light, traced alike) and a glass
  * sphere is a caster: the point lights' caustics also by light tracing (integrator/path_lt.h: seen
