@@ -791,6 +791,21 @@ static void join_slab(const spc_render_ctx *ctx, const spc_snee_params *p, const
             join_chain(ctx, p, x2, beta, L, &all[i], sink, user);
 }
 
+/* Is some caster a glass sphere (a sphere whose chains spc_sphere_chains_all enumerates, with a
+ * refracting interface: the only sphere with chains longer than two vertices, in, reflections
+ * inside, out)? */
+static bool glass_sphere_caster(const spc_scene *sc, bool any_surface)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
+    for (int i = 0; cs && i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (spc_sphere_chain_shape(s) && spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0)
+            return true;
+    }
+    return false;
+}
+
 /* The joins of the light subpath at x2 (arrived from d0 with throughput beta through the chain of
  * L) to the pinhole where x2 is the path's first receiver: directly, and through each chain of the
  * glass sphere toward the pinhole. */
@@ -827,9 +842,11 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         join_through(ctx, p, x2, beta, L, 1, p->max_chain, sink, user);
     /* through flat faces (glass slabs), with ltslab */
     join_slab(ctx, p, x2, beta, L, sink, user);
-    /* through the sphere's longer chains (in, reflections inside, out), on a share of their own */
+    /* through the sphere's longer chains (in, reflections inside, out), on a share of their own;
+     * an area light's only where a glass sphere has such chains (elsewhere its stream is not drawn) */
     double ls = long_share(p);
-    if (spc_path_lt_camera_max_chain(p) > p->max_chain && (ls >= 1.0 || spc_rng_next(rng) < ls))
+    if (spc_path_lt_camera_max_chain(p) > p->max_chain && (!L->area || glass_sphere_caster(sc, p->any_surface)) &&
+        (ls >= 1.0 || spc_rng_next(rng) < ls))
         join_through(ctx, p, x2, beta, L, p->max_chain + 1, spc_path_lt_camera_max_chain(p), sink, user);
 }
 
