@@ -460,10 +460,10 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
     int k = c->n;
     if (!e || e->type != SPC_EMITTER_AREA || k < 1 || !area_chain_covers(p, c))
         return 0.0;
-    /* the joins by camera chains longer than max_chain (the path tracer's side weighs no others:
-     * path_snee.c), and those through a tessellated ball, are point lights' only; through the
-     * sphere and through flat faces (ltslab) both kinds' */
-    if (cc && (cc->n > p->max_chain || !(spc_sphere_chain_covers(cc, p->reflect) || slab_camera_chain(p, cc))))
+    /* the joins through a tessellated ball are point lights' only; through the sphere (with its
+     * longer chains, join_first) and through flat faces (ltslab, within max_chain) both kinds' */
+    if (cc && !(spc_sphere_chain_covers(cc, p->reflect) ? cc->n <= spc_path_lt_camera_max_chain(p)
+                                                        : cc->n <= p->max_chain && slab_camera_chain(p, cc)))
         return 0.0;
     spc_vec3 d_last = c->v[k - 1].d;
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
@@ -791,6 +791,21 @@ static void join_slab(const spc_render_ctx *ctx, const spc_snee_params *p, const
             join_chain(ctx, p, x2, beta, L, &all[i], sink, user);
 }
 
+/* Is some caster a glass sphere (a sphere whose chains spc_sphere_chains_all enumerates, with a
+ * refracting interface: the only sphere with chains longer than two vertices, in, reflections
+ * inside, out)? */
+static bool glass_sphere_caster(const spc_scene *sc, bool any_surface)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
+    for (int i = 0; cs && i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (spc_sphere_chain_shape(s) && spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0)
+            return true;
+    }
+    return false;
+}
+
 /* The joins of the light subpath at x2 (arrived from d0 with throughput beta through the chain of
  * L) to the pinhole where x2 is the path's first receiver: directly, and through each chain of the
  * glass sphere toward the pinhole. */
@@ -827,9 +842,11 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         join_through(ctx, p, x2, beta, L, 1, p->max_chain, sink, user);
     /* through flat faces (glass slabs), with ltslab */
     join_slab(ctx, p, x2, beta, L, sink, user);
-    /* area lights' paths through the longer chains are not light tracing's (spc_path_lt_area_ratio) */
+    /* through the sphere's longer chains (in, reflections inside, out), on a share of their own;
+     * an area light's only where a glass sphere has such chains (elsewhere its stream is not drawn) */
     double ls = long_share(p);
-    if (!L->area && spc_path_lt_camera_max_chain(p) > p->max_chain && (ls >= 1.0 || spc_rng_next(rng) < ls))
+    if (spc_path_lt_camera_max_chain(p) > p->max_chain && (!L->area || glass_sphere_caster(sc, p->any_surface)) &&
+        (ls >= 1.0 || spc_rng_next(rng) < ls))
         join_through(ctx, p, x2, beta, L, p->max_chain + 1, spc_path_lt_camera_max_chain(p), sink, user);
 }
 

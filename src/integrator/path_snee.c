@@ -104,7 +104,7 @@ static double lt_alt_first(const void *user, const spc_hit *x, spc_vec3 wo, cons
     const spc_path_snee *s = user;
     int j = s->alt_scatterings;
     if (c->n > spc_path_lt_area_chain_max(&s->p, c, s->alt_kmax, s->alt_kflat) || s->alt_x1_set ||
-        j > s->p.max_chain || j > SPC_CHAIN_MAX_VERTICES)
+        j > spc_path_lt_camera_max_chain(&s->p) || j > SPC_CHAIN_MAX_VERTICES)
         return 0.0;
     if (j == 0)
         return spc_path_lt_area_ratio(s->ctx, &s->p, NULL, spc_v3(0, 0, 0), x, wo, NULL, c, e, y, ny);

@@ -72,6 +72,9 @@ static const spc_snee_option options[] = {
     {"ltshare", NULL, SPC_SNEE_OPT_REAL, false, "S", 0, 1, true, false, NULL, 0, NO, AT(lt_share), 0, NULL,
      "with ltcaus: area lights' light subpaths on a share S of the camera samples, counted 1/S times (default "
      "0.25)"},
+    {"ltlong", NULL, SPC_SNEE_OPT_REAL, false, "S", 0, 1, true, false, NULL, 0, NO, AT(lt_long), 0, NULL,
+     "with ltcaus: light subpaths also joined to the camera through the glass sphere by its chains longer than "
+     "the budget (in, reflections inside, out) on a share S of them, counted 1/S times (default 0.05)"},
     {"ltguide", "noltguide", SPC_SNEE_OPT_REAL, true, "S", 0, 1, true, false, NULL, 0, AT(lt_guide), AT(lt_guide_share),
      0, NULL,
      "path: area lights' light through chains longer than any specular NEE covers (light guides: a glass "
