@@ -20,7 +20,7 @@
  *   whole path (door: power and balance heuristics; caustic: delta vertices).
  * - A pick's cell follows the model's row pi_c (its running sums) and its reported probability is
  *   pi_c(k) / n_k: counted over 2^20 stratified picks from a hand-made model and pool; the MIS
- *   count is a N / (a + N) with a = M pi_c(k) / nu_k.
+ *   count is min(a, N) with a = M pi_c(k) / nu_k.
  * - The door's seed-25 outlier (one pass whose light subpath bounced in a rarely visited corner
  *   cell) stays bounded: that pass alone, rendered from a doctored checkpoint.
  */
@@ -145,7 +145,7 @@ TEST(same_image_for_any_thread_count)
  * and the camera ray of pixel (24, 4) hits that corner 0.028 from one of them. When the pool's MIS
  * count was a = M pi / nu (37,000 there) the pool took such joins at weight 0.54 and the pass gave
  * the pixel 14.1 (channel mean), 1,200x its value 0.0116: 59% of the seed's error at 262 spp. With
- * the count a N / (a + N) the pass gives 0.21. The pass alone is rendered by resuming a
+ * the count min(a, N) the pass gives 0.20. The pass alone is rendered by resuming a
  * checkpoint of one pass whose sums are zeroed and whose pass count is set to 238. Asked: below 1. */
 TEST(door_corner_pass_stays_bounded)
 {
@@ -308,12 +308,14 @@ TEST(picks_follow_the_model)
     CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 2) - SPC_BDPT_POOL_FIRST_FACTOR * 2 * (7.0 / 10.3) / 4.0) < 1e-12);
     CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 3) - 2 * (7.0 / 10.3) / 4.0) < 1e-12);
     CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 5) - 1 * (7.0 / 10.3) / 4.0) < 1e-12);
-    /* with N light subpaths per pass the count is a N / (a + N): at most N, near a where a << N */
+    /* with N light subpaths per pass the count is min(a, N) */
     m.paths = 64.0;
-    double a = SPC_BDPT_POOL_FIRST_FACTOR * 2 * (7.0 / 10.3) / 4.0;
-    CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 2) - a * 64.0 / (a + 64.0)) < 1e-12);
-    m.nu[3] = 1e-6; /* a rare cell: a = 20 x 0.68 / 1e-6, the count just under N */
-    CHECK(spc_bdpt_pool_count(&m, 2, 3, 2) < 64.0 && spc_bdpt_pool_count(&m, 2, 3, 2) > 63.99);
+    CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 2) - SPC_BDPT_POOL_FIRST_FACTOR * 2 * (7.0 / 10.3) / 4.0) < 1e-12);
+    m.nu[3] = 1e-3; /* a rare cell: a = 20 x 0.68 / 1e-3 = 1359 */
+    CHECK(spc_bdpt_pool_count(&m, 2, 3, 2) == 64.0 && spc_bdpt_pool_count(&m, 2, 3, 5) == 64.0);
+    m.paths = 1000.0; /* a = 679 at t = 5 (one pick) stays, 1359 at t = 2 is bounded */
+    CHECK(fabs(spc_bdpt_pool_count(&m, 2, 3, 5) - 1 * (7.0 / 10.3) / 1e-3) < 1e-9);
+    CHECK(spc_bdpt_pool_count(&m, 2, 3, 2) == 1000.0);
     m.nu[3] = 4.0;
     m.paths = 0.0;
     spc_bdpt_pool pool;
