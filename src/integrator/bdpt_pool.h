@@ -16,21 +16,22 @@
  * the estimate is unbiased whatever the model. A camera vertex's M_t picks draw their cells by
  * inverting pi_c's running sum at M_t evenly spaced points shifted by one uniform (bdpt.c's
  * connect_pool): each pick alone has the probabilities above, so the estimate stays unbiased, and
- * together they take the cells in proportion to pi_c rather than at random. In the MIS weights a connection is two techniques:
- * the own subpath (one sample of the path) and the pool, counted as c = min(a, N) samples with a =
- * M pi_c(k) / nu_k (nu_k the expected number of connectible vertices per light subpath in cell k,
- * the pilot's; N the pass's light subpaths). Each vertex of cell k is taken a / N times on
+ * together they take the cells in proportion to pi_c rather than at random. In the MIS weights a
+ * connection is two techniques: the own subpath (one sample of the path) and the pool, counted as
+ * c = min(a, N) samples with a = M pi_c(k) / nu_k (nu_k the expected number of connectible
+ * vertices per light subpath in cell k, the pilot's; N the pass's light subpaths). Each vertex of cell k is taken a / N times on
  * average, and the pass holds N light subpaths: where a exceeds N (a rarely visited cell with a
  * large pi_c(k): the door's ceiling corner, a = 37,000 at N = 1,024) the picks take the same few
  * vertices many times over and add no sample of the light's side beyond the N subpaths. Counted as
  * a, such joins got the weight of a technique that had found the path 37,000 times where the pass
  * holds one light subpath there or none, and a pass whose subpath bounced in that corner gave one
  * pixel 1,200x its value (bench/RESULTS.md, "bdpt's pool counts its picks as at most N samples").
- * a N / (a + N) (the two stages' variances added) also removed that pass but lowered the count in
- * common cells too: 1.7% more error on the door's other seeds. The counts are functions of the path's two joined vertices only, so the weights of every path
- * still sum to one (they use the model's expectation, never this pool's counts, which depend on
- * the light subpath being weighted). Since the own subpath's connection covers every path, pi may
- * be zero where the pilot found nothing: the pool then simply does not help there.
+ * The count a N / (a + N) (the two stages' variances added) also tames that pass but lowers the
+ * count in common cells too: 1.7% more error on the door's other seeds. The counts are functions
+ * of the path's two joined vertices only, so the weights of every path still sum to one (they use
+ * the model's expectation, never this pool's counts, which depend on the light subpath being
+ * weighted). Since the own subpath's connection covers every path, pi may be zero where the pilot
+ * found nothing: the pool then simply does not help there.
  */
 #ifndef SPC_INTEGRATOR_BDPT_POOL_H
 #define SPC_INTEGRATOR_BDPT_POOL_H
