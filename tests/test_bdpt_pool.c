@@ -143,7 +143,7 @@ TEST(same_image_for_any_thread_count)
 /* The door at 32x32, seed 25 (bdpt's default, the pool with 3 connections): in pass 238 one light
  * subpath leaves 5 vertices in the ceiling's corner cell, where the pilot expects 0.125 per pass,
  * and the camera ray of pixel (24, 4) hits that corner 0.028 from one of them. When the pool's MIS
- * count was a = M pi / nu (37,000 there) the pool took such joins at weight 0.54 and the pass gave
+ * count was a = M pi / nu (36,000 there) the pool took such joins at weight 0.54 and the pass gave
  * the pixel 14.1 (channel mean), 1,200x its value 0.0116: 59% of the seed's error at 262 spp. With
  * the count min(a, N) the pass gives 0.20. The pass alone is rendered by resuming a
  * checkpoint of one pass whose sums are zeroed and whose pass count is set to 238. Asked: below 1. */

@@ -21,9 +21,9 @@
  * c = min(a, N) samples with a = M pi_c(k) / nu_k (nu_k the expected number of connectible
  * vertices per light subpath in cell k, the pilot's; N the pass's light subpaths). Each vertex of cell k is taken a / N times on
  * average, and the pass holds N light subpaths: where a exceeds N (a rarely visited cell with a
- * large pi_c(k): the door's ceiling corner, a = 37,000 at N = 1,024) the picks take the same few
+ * large pi_c(k): the door's ceiling corner, a = 36,000 at N = 1,024) the picks take the same few
  * vertices many times over and add no sample of the light's side beyond the N subpaths. Counted as
- * a, such joins got the weight of a technique that had found the path 37,000 times where the pass
+ * a, such joins got the weight of a technique that had found the path 36,000 times where the pass
  * holds one light subpath there or none, and a pass whose subpath bounced in that corner gave one
  * pixel 1,200x its value (bench/RESULTS.md, "bdpt's pool counts its picks as at most N samples").
  * The count a N / (a + N) (the two stages' variances added) also tames that pass but lowers the
