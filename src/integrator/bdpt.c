@@ -1736,6 +1736,7 @@ bool spc_bdpt_pool_learn(const spc_render_ctx *ctx, uint64_t seed, int connectio
     const spc_scene *sc = ctx->scene;
     if (!spc_bdpt_pool_model_init(m, sc->bbox_min, sc->bbox_max, connections))
         return false;
+    m->paths = (double)ctx->width * (double)ctx->height; /* spc_bdpt_pool_index's N */
     spc_render_ctx c1 = *ctx;
     c1.pool_model = NULL;
     bdpt B;

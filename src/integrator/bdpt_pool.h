@@ -16,13 +16,22 @@
  * the estimate is unbiased whatever the model. A camera vertex's M_t picks draw their cells by
  * inverting pi_c's running sum at M_t evenly spaced points shifted by one uniform (bdpt.c's
  * connect_pool): each pick alone has the probabilities above, so the estimate stays unbiased, and
- * together they take the cells in proportion to pi_c rather than at random. In the MIS weights a connection is two techniques:
- * the own subpath (one sample of the path) and the pool (c = M pi_c(k) / nu_k samples, nu_k the
- * expected number of connectible vertices per light subpath in cell k, the pilot's): functions of
- * the path's two joined vertices only, so the weights of every path still sum to one (they use the
- * model's expectation, never this pool's counts, which depend on the light subpath being weighted).
- * Since the own subpath's connection covers every path, pi may be zero where the pilot found
- * nothing: the pool then simply does not help there.
+ * together they take the cells in proportion to pi_c rather than at random. In the MIS weights a
+ * connection is two techniques: the own subpath (one sample of the path) and the pool, counted as
+ * c = min(a, N) samples with a = M pi_c(k) / nu_k (nu_k the expected number of connectible
+ * vertices per light subpath in cell k, the pilot's; N the pass's light subpaths). Each vertex of cell k is taken a / N times on
+ * average, and the pass holds N light subpaths: where a exceeds N (a rarely visited cell with a
+ * large pi_c(k): the door's ceiling corner, a = 36,000 at N = 1,024) the picks take the same few
+ * vertices many times over and add no sample of the light's side beyond the N subpaths. Counted as
+ * a, such joins got the weight of a technique that had found the path 36,000 times where the pass
+ * holds one light subpath there or none, and a pass whose subpath bounced in that corner gave one
+ * pixel 1,200x its value (bench/RESULTS.md, "bdpt's pool counts its picks as at most N samples").
+ * The count a N / (a + N) (the two stages' variances added) also tames that pass but lowers the
+ * count in common cells too: 1.7% more error on the door's other seeds. The counts are functions
+ * of the path's two joined vertices only, so the weights of every path still sum to one (they use
+ * the model's expectation, never this pool's counts, which depend on the light subpath being
+ * weighted). Since the own subpath's connection covers every path, pi may be zero where the pilot
+ * found nothing: the pool then simply does not help there.
  */
 #ifndef SPC_INTEGRATOR_BDPT_POOL_H
 #define SPC_INTEGRATOR_BDPT_POOL_H
@@ -60,9 +69,12 @@ typedef struct spc_bdpt_pool_model {
     double *pi;    /* ncells x ncells: pi_c(k), rows sum to 1 (or 0 with no light vertices) */
     double *cdf;   /* ncells x ncells: each row's running sum of pi (its last nonzero entry and those
                     * after it set to 1); a row that sums to 0 stays 0 */
+    double paths;  /* N, the light subpaths of a pass's pool (the rendered window's pixels): the
+                    * most a count may be (spc_bdpt_pool_count); 0: no bound */
 } spc_bdpt_pool_model;
 
-/* Sets up the grid over [lo, hi] with the tables zeroed; false if out of memory (then release it). */
+/* Sets up the grid over [lo, hi] with the tables zeroed and paths 0; false if out of memory (then
+ * release it). */
 bool spc_bdpt_pool_model_init(spc_bdpt_pool_model *m, spc_vec3 lo, spc_vec3 hi, int connections);
 void spc_bdpt_pool_model_release(spc_bdpt_pool_model *m);
 /* The cell of point p (points outside the grid go to its nearest cell). */
@@ -76,12 +88,15 @@ static inline int spc_bdpt_pool_connections(const spc_bdpt_pool_model *m, int t)
     return t == 2 ? m->first : t == 3 ? m->connections : m->later;
 }
 /* The MIS count of the connection joining a light vertex in cell k to a camera vertex in cell c,
- * the camera subpath's t-th vertex: M_t pi_c(k) / nu_k (0 where nu_k is 0: such vertices are never
- * picked). */
+ * the camera subpath's t-th vertex: min(a, N) with a = M_t pi_c(k) / nu_k and N = m->paths (a
+ * alone where paths is 0; 0 where nu_k is 0: such vertices are never picked). */
 static inline double spc_bdpt_pool_count(const spc_bdpt_pool_model *m, int c, int k, int t)
 {
     double nu = m->nu[k];
-    return nu > 0.0 ? spc_bdpt_pool_connections(m, t) * m->pi[(size_t)c * m->ncells + k] / nu : 0.0;
+    if (!(nu > 0.0))
+        return 0.0;
+    double a = spc_bdpt_pool_connections(m, t) * m->pi[(size_t)c * m->ncells + k] / nu;
+    return m->paths > 0.0 && a > m->paths ? m->paths : a;
 }
 
 /* One vertex of the pool: its light subpath's first vertex (bdpt.c's vertex array) and the
