@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static int spc_t_passed = 0, spc_t_failed = 0, spc_t_cur_failed = 0;
 static const char *spc_t_cur = "";
@@ -75,6 +76,25 @@ static inline int spc_test_stride(int ncases) { return spc_test_quick() && ncase
             spc_t_cur_failed = 1;                                                                                     \
         }                                                                                                             \
     } while (0)
+
+/* Runs the tests named in `only` (comma-separated) again in a child process of this program under
+ * each instruction set of isas (SPECULA_VECTOR_ISA caps the one a process picks), with their output
+ * discarded; the calling test fails for each child that exits nonzero. */
+static inline void spc_t_under_isas(const char *only, const char *const *isas, int n)
+{
+    char exe[4096];
+    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    CHECK(len > 0);
+    if (len <= 0)
+        return;
+    exe[len] = '\0';
+    for (int i = 0; i < n; ++i) {
+        char cmd[8192];
+        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=%s '%s' >/dev/null", isas[i], only, exe);
+        int rc = system(cmd);
+        CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
+    }
+}
 
 #define CHECK_NEAR(a, b, tol)                                                                                         \
     do {                                                                                                              \

@@ -266,21 +266,9 @@ TEST(sampler_start_row_matches_start)
  * the one the process picks, so each runs in a child process of this program). */
 TEST(vector_batches_every_isa)
 {
-    char exe[4096];
-    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    CHECK(len > 0);
-    if (len <= 0)
-        return;
-    exe[len] = '\0';
-    const char *isas[] = {"base", "avx2", "avx512", "avx512gfni"};
-    for (int i = 0; i < 4; ++i) {
-        char cmd[4300];
-        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=sampler_many_matches_one_at_a_time,sampler_many_used_matches_one_at_a_time,"
-                 "sampler_start_row_matches_start,cosine_hemisphere_many_matches_one_at_a_time '%s' >/dev/null",
-                 isas[i], exe);
-        int rc = system(cmd);
-        CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
-    }
+    const char *const isas[] = {"base", "avx2", "avx512", "avx512gfni"};
+    spc_t_under_isas("sampler_many_matches_one_at_a_time,sampler_many_used_matches_one_at_a_time,"
+                     "sampler_start_row_matches_start,cosine_hemisphere_many_matches_one_at_a_time", isas, 4);
 }
 
 /* Monte Carlo integral of f / pdf over the warped samples equals the integral of f. */

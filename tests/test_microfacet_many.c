@@ -260,22 +260,8 @@ TEST(bsdf_sample_many_matches_one_at_a_time)
  * one the process picks, so each runs in a child process of this program). */
 TEST(batches_every_isa)
 {
-    char exe[4096];
-    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    CHECK(len > 0);
-    if (len <= 0)
-        return;
-    exe[len] = '\0';
-    const char *isas[] = {"base", "avx2", "avx512"};
-    for (int i = 0; i < 3; ++i) {
-        char cmd[4300];
-        snprintf(cmd, sizeof cmd,
-                 "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=slope_batches_match_one_lane,"
-                 "microfacet_sample_many_matches_one_at_a_time '%s' >/dev/null",
-                 isas[i], exe);
-        int rc = system(cmd);
-        CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
-    }
+    const char *const isas[] = {"base", "avx2", "avx512"};
+    spc_t_under_isas("slope_batches_match_one_lane,microfacet_sample_many_matches_one_at_a_time", isas, 3);
 }
 
 /* A digest of the bits of many roots, one lane at a time and in batches of 16. */

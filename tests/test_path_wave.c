@@ -342,21 +342,8 @@ static bool view_round(void *ctx, int round, const spc_bsdf *b, spc_hit *h, spc_
  * caps the one a process picks, so each runs in a child process of this program). */
 TEST(light_samples_many_every_isa)
 {
-    char exe[4096];
-    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    CHECK(len > 0);
-    if (len <= 0)
-        return;
-    exe[len] = '\0';
-    const char *isas[] = {"base", "avx2", "avx512"};
-    for (int i = 0; i < 3; ++i) {
-        char cmd[4300];
-        snprintf(cmd, sizeof cmd,
-                 "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=light_samples_many_match_one_at_a_time '%s' >/dev/null", isas[i],
-                 exe);
-        int rc = system(cmd);
-        CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
-    }
+    const char *const isas[] = {"base", "avx2", "avx512"};
+    spc_t_under_isas("light_samples_many_match_one_at_a_time", isas, 3);
 }
 
 TEST(diffuse_view_matches_bsdf)

@@ -214,21 +214,8 @@ TEST(camera_rays_many_match_one_at_a_time)
     CHECK_MSG(bad == 0, "%d rays differ", bad);
     if (getenv("SPECULA_VECTOR_ISA"))
         return;
-    char exe[4096];
-    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    CHECK(len > 0);
-    if (len <= 0)
-        return;
-    exe[len] = '\0';
-    const char *isas[] = {"base", "avx2"};
-    for (int i = 0; i < 2; ++i) {
-        char cmd[4300];
-        snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=camera_rays_many_match_one_at_a_time,"
-                 "filter_samples_many_match_one_at_a_time '%s' >/dev/null",
-                 isas[i], exe);
-        int rc = system(cmd);
-        CHECK_MSG(rc == 0, "%s: exit status %d", isas[i], rc);
-    }
+    const char *const isas[] = {"base", "avx2"};
+    spc_t_under_isas("camera_rays_many_match_one_at_a_time,filter_samples_many_match_one_at_a_time", isas, 2);
 }
 
 int main(void)
