@@ -73,6 +73,12 @@
  *     longer chains with probability 0.1, and every chain on one analytic sphere, one mirror
  *     cylinder or one normal-mapped plane enumerated exactly (sphere_chains.h, cylinder_chains.h,
  *     plane_chains.h); with only such casters the randomized solver itself never runs.
+ *     For path where every caster is flat glass, the query from the camera stays only where a
+ *     pilot of SPC_SNEE_PLAN_CAMERA_PILOT such queries (snee_plan.c, camera_finds_light) finds a
+ *     light in view through or in the glass: slabs seldom show the camera a light, and where they
+ *     do not the query only costs, its splats all zero (scenes/newton_slabs.xml: 10% of the CPU
+ *     per sample, the image the same value for value; bench/RESULTS.md, "The query from the
+ *     camera only where it finds a light in view").
  *     bdpt gets its own setting (SPC_SNEE_PLAN_SETTING_BDPT, _BDPT_MIRRORS): it runs specular NEE
  *     only where its own strategies cannot reach (integrator/bdpt.c), so it needs no roulette past
  *     the first receiver, and the query from the camera pays there on one sample in ten, or on
@@ -516,6 +522,9 @@ typedef struct spc_snee_plan {
     double caustic_gain; /* none's relative variance per sample from the area lights' caustics on the image,
                             as the caustic pilot predicts it (snee_plan.c, caustic_gain; -1 where it did
                             not run) */
+    int camera_pilot;    /* the query from the camera's contributions in view that its pilot found where every
+                            caster is flat glass (snee_plan.c, camera_finds_light; 0: the query left out;
+                            -1 where it did not run) */
     bool pilot;          /* automatic and on, and the pilot render (render/snee_pilot.h) may check it */
     char pilot_note[SPC_SPECULAR_NEE_NOTE_MAX]; /* what the pilot measured and chose, or "" */
 } spc_snee_plan;
