@@ -301,6 +301,18 @@ static bool snee_light(const spc_emitter *e)
     return e->type == SPC_EMITTER_AREA || e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
 }
 
+/* Does specular NEE draw on some sphere light (an area light on a sphere with its normals out)? */
+static bool sphere_light(const spc_scene *sc)
+{
+    for (int i = 0; i < sc->nemitters; ++i) {
+        const spc_emitter *e = sc->emitters[i];
+        if (e->type == SPC_EMITTER_AREA && e->shape_index >= 0 && e->shape_index < sc->nshapes &&
+            sc->shapes[e->shape_index]->type == SPC_SHAPE_SPHERE && !sc->shapes[e->shape_index]->flip_normals)
+            return true;
+    }
+    return false;
+}
+
 /* The solid angle (sr, at most 2 pi) an area light's shape subtends at c: area / d^2 for a distant
  * light (d its bounding sphere's distance), 2 pi from within that sphere. */
 static double light_solid_angle(const spc_shape *s, spc_vec3 c)
@@ -1138,6 +1150,11 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && strstr(out->setting, "camera") &&
         !camera_finds_light(sc, out->setting, &out->camera_pilot))
         drop_camera(out->setting);
+    /* and under a sphere light, most of its points drawn from the receiver's cone (snee_plan.h) */
+    if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && sphere_light(sc)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LIGHT_X);
+    }
     /* volpath: a share of the random seeds at medium points from the phase function, where some
      * caster's chains go to the randomized attempts (snee_plan.h) */
     if (!strcmp(integrator, "volpath") && (!exact || solved_mirror)) {
@@ -1235,6 +1252,8 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             p.later_p);
     if (p.camera && p.camera_p < 1.0)
         put(&b, "  from the camera on a share %g of the samples\n", p.camera_p);
+    if (p.light_x > 0.0)
+        put(&b, "  a share %g of a sphere light's points drawn in the cone toward it from the receiver\n", p.light_x);
     if (p.seed_guide > 0.0)
         put(&b, "  guided seeds: a share %g of the randomized attempts seeded toward the chains of light paths "
                 "traced at render start that land near the receiver\n",

@@ -77,8 +77,8 @@
  *     pilot of SPC_SNEE_PLAN_CAMERA_PILOT such queries (snee_plan.c, camera_finds_light) finds a
  *     light in view through or in the glass: slabs seldom show the camera a light, and where they
  *     do not the query only costs, its splats all zero (scenes/newton_slabs.xml: 10% of the CPU
- *     per sample, the image the same value for value; bench/RESULTS.md, "The query from the
- *     camera only where it finds a light in view").
+ *     per sample, the image the same value for value; bench/RESULTS.md, "Flat glass under
+ *     sphere lights").
  *     bdpt gets its own setting (SPC_SNEE_PLAN_SETTING_BDPT, _BDPT_MIRRORS): it runs specular NEE
  *     only where its own strategies cannot reach (integrator/bdpt.c), so it needs no roulette past
  *     the first receiver, and the query from the camera pays there on one sample in ten, or on
@@ -479,6 +479,17 @@
  * 0.034) without the query against 0.0414 (worst 0.208, one pixel 86% of it) with it on 0.089 of
  * the samples; none 0.209 (bench/RESULTS.md, "The pool without the query from the camera"). */
 #define SPC_SNEE_PLAN_SETTING_WATER "angular:first=0.1,later=0.1"
+
+/* Appended for path where every caster is flat glass and specular NEE draws on a sphere light: 0.9 of
+ * the light's points drawn in the cone of directions toward the light from the receiver
+ * (params.light_x), the rest as before, on the cap facing the casters' bounding sphere. Flat glass
+ * bends a chain little, so a chain from the receiver ends on the side of the light the receiver
+ * sees, while slabs wider than the light's distance put the light inside the casters' sphere and
+ * the cap is then the whole light: on scenes/newton_slabs.xml 57% of the queries ended on the far
+ * side at the full cost of the flat walk, their value 0 (one query's second moment over its squared
+ * mean 3.36 at floor points; 1.07 with the share 0.9); the remaining 0.1 keeps every point a chain
+ * can reach drawn (bench/RESULTS.md, "Flat glass under sphere lights"). */
+#define SPC_SNEE_PLAN_FLAT_LIGHT_X ",lightx=0.9"
 
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
  * no BDPT strategy but s = 0 (and at corners), and the query from the camera on one sample in ten;
