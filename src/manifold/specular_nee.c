@@ -806,6 +806,21 @@ double spc_snee_light_pdf(const spc_scene *sc, bool any_surface, const spc_emitt
     return pmf / (2.0 * SPC_PI * R * R * (1.0 - cmin));
 }
 
+double spc_snee_light_pdf_at(const spc_scene *sc, const spc_snee_params *p, const spc_emitter *e, spc_vec3 y,
+                             spc_vec3 ny, spc_vec3 xp)
+{
+    double ax = e ? light_x_share(p, e->shape, xp) : 0.0;
+    if (!(ax > 0.0))
+        return spc_snee_light_pdf(sc, p->any_surface, e, y, ny);
+    /* the mixture's density, where y faces the casters' sphere (spc_snee_sample_light's exact test) */
+    spc_vec3 cb;
+    double cr;
+    double pmf = spc_scene_emitter_pmf(sc, e);
+    if (!(pmf > 0.0) || !caster_bound(sc, p->any_surface, &cb, &cr) || spc_dot(ny, spc_sub(cb, y)) + cr <= 0.0)
+        return 0.0;
+    return pmf * light_x_pdf(e->shape, cb, cr, ax, xp, y, ny);
+}
+
 /* The straight-line attempt of params.straight_first (deterministic: seeded toward y, the BSDFs'
  * events): false if it does not apply to q or finds nothing. */
 static bool straight_solve(const spc_snee_query *q, const spc_specular_solver *solver, spc_chain *out, int *iterations)
@@ -1589,17 +1604,8 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         *w_solve = -1.0;
     if (alt_f)
         *alt_f = 1.0;
-    double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
-    /* params.light_x: the mixture's density at a surface receiver, where the light point faces the
-     * casters' sphere (spc_snee_sample_light's exact test) */
-    double ax = r->kind == SPC_RECEIVER_SURFACE && e ? light_x_share(p, e->shape, x->p) : 0.0;
-    if (ax > 0.0) {
-        spc_vec3 cb;
-        double cr;
-        p_y = 0.0;
-        if (caster_bound(sc, p->any_surface, &cb, &cr) && spc_dot(light->ng, spc_sub(cb, light->p)) + cr > 0.0)
-            p_y = spc_scene_emitter_pmf(sc, e) * light_x_pdf(e->shape, cb, cr, ax, x->p, light->p, light->ng);
-    }
+    double p_y = r->kind == SPC_RECEIVER_SURFACE ? spc_snee_light_pdf_at(sc, p, e, light->p, light->ng, x->p)
+                                                 : spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
     bool guided = guide_on(p) && r->kind == SPC_RECEIVER_SURFACE;
     if (!(p_y > 0.0) && !guided) {
         *b = 1.0; /* specular NEE never draws this light point: BSDF sampling's alone */
