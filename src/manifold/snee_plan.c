@@ -301,16 +301,24 @@ static bool snee_light(const spc_emitter *e)
     return e->type == SPC_EMITTER_AREA || e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
 }
 
-/* Does specular NEE draw on some sphere light (an area light on a sphere with its normals out)? */
-static bool sphere_light(const spc_scene *sc)
+/* Does specular NEE draw on some sphere light (an area light on a sphere with its normals out), and
+ * does every such light lie outside the casters' bounding sphere cs (so that the cap of it facing
+ * the casters is less than the whole light)? */
+static bool sphere_lights_outside(const spc_scene *sc, const spc_chain_casters *cs)
 {
+    bool any = false;
     for (int i = 0; i < sc->nemitters; ++i) {
         const spc_emitter *e = sc->emitters[i];
-        if (e->type == SPC_EMITTER_AREA && e->shape_index >= 0 && e->shape_index < sc->nshapes &&
-            sc->shapes[e->shape_index]->type == SPC_SHAPE_SPHERE && !sc->shapes[e->shape_index]->flip_normals)
-            return true;
+        if (e->type != SPC_EMITTER_AREA || e->shape_index < 0 || e->shape_index >= sc->nshapes)
+            continue;
+        const spc_shape *s = sc->shapes[e->shape_index];
+        if (s->type != SPC_SHAPE_SPHERE || s->flip_normals)
+            continue;
+        if (!(spc_length(spc_sub(s->center, cs->center)) > cs->radius + s->radius))
+            return false;
+        any = true;
     }
-    return false;
+    return any;
 }
 
 /* The solid angle (sr, at most 2 pi) an area light's shape subtends at c: area / d^2 for a distant
@@ -1150,8 +1158,9 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && strstr(out->setting, "camera") &&
         !camera_finds_light(sc, out->setting, &out->camera_pilot))
         drop_camera(out->setting);
-    /* and under a sphere light, most of its points drawn from the receiver's cone (snee_plan.h) */
-    if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && sphere_light(sc)) {
+    /* and under sphere lights outside the casters' sphere, half of their points drawn from the
+     * receiver's cone (snee_plan.h) */
+    if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && sphere_lights_outside(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LIGHT_X);
     }

@@ -480,18 +480,20 @@
  * the samples; none 0.209 (bench/RESULTS.md, "The pool without the query from the camera"). */
 #define SPC_SNEE_PLAN_SETTING_WATER "angular:first=0.1,later=0.1"
 
-/* Appended for path where every caster is flat glass and specular NEE draws on a sphere light: half
- * of the light's points drawn in the cone of directions toward the light from the receiver
- * (params.light_x), the rest as before, on the cap facing the casters' bounding sphere. Flat glass
- * bends a chain little, so a chain from the receiver ends on the side of the light the receiver
- * sees, while slabs wider than the light's distance put the light inside the casters' sphere and
- * the cap is then the whole light: on scenes/newton_slabs.xml 57% of the queries ended on the far
- * side at the full cost of the flat walk, their value 0 (one query's second moment over its squared
- * mean 3.36 at floor points; 1.49 with the share 0.5, 1.07 with 0.9). The rest keeps every point a
- * chain can reach drawn; with 0.9 the chains that end outside the cone (drawn at a tenth of the old
- * density) gave newton_slabs a one-pixel tail (at 16 x 16, 4096 spp, one pixel 80% of the image's
- * variance), and 0.5 was as good at equal CPU time over 8 seeds (bench/RESULTS.md, "Flat glass
- * under sphere lights"). */
+/* Appended for path where every caster is flat glass and every sphere light specular NEE draws on
+ * lies outside the casters' bounding sphere: half of the light's points drawn in the cone of
+ * directions toward the light from the receiver (params.light_x), the rest as before, on the cap
+ * facing the casters' sphere. Flat glass bends a chain little, so a chain from the receiver ends on
+ * the side of the light the receiver sees: on scenes/caustic_slabs.xml one query's second moment
+ * over its squared mean at floor points 17.3 -> 7.2 (share 0.9) at the same cost, and at equal CPU
+ * time over 24 seeds 13.0x -> 19.6x none (bench/RESULTS.md, "Flat glass under sphere lights").
+ * The rest keeps every point a chain can reach drawn, at (1 - share) of the old density where the
+ * receiver's cone misses it. Not where a light lies inside the casters' sphere (slabs wider than
+ * the light's height: scenes/newton_slabs.xml, whose cap is then the whole light and 57% of the
+ * queries ended on its far side): there the chains that reach the light from outside the cone
+ * (the long pass's randomized chains off the slabs' side faces) are its one-pixel seeds, and
+ * drawing them at half the density made them heavier (one seed of 24 at 26x the median, its pixel
+ * 0.97 of it; with 0.9 one pixel held 80% of the variance at 16 x 16, 4096 spp). */
 #define SPC_SNEE_PLAN_FLAT_LIGHT_X ",lightx=0.5"
 
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
