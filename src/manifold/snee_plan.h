@@ -490,10 +490,11 @@
  * The rest keeps every point a chain can reach drawn, at (1 - share) of the old density where the
  * receiver's cone misses it. Not where a light lies inside the casters' sphere (slabs wider than
  * the light's height: scenes/newton_slabs.xml, whose cap is then the whole light and 57% of the
- * queries ended on its far side): there the chains that reach the light from outside the cone
- * (the long pass's randomized chains off the slabs' side faces) are its one-pixel seeds, and
- * drawing them at half the density made them heavier (one seed of 24 at 26x the median, its pixel
- * 0.97 of it; with 0.9 one pixel held 80% of the variance at 16 x 16, 4096 spp). */
+ * queries ended on its far side): there chains can reach the light from outside the cone (its
+ * one-pixel seeds were traced to the long pass's randomized chains off a slab's side face,
+ * bench/RESULTS.md, "The slabs' light guides"), and with the share one seed of 24 was a one-pixel
+ * seed at 26x the median (its pixel 0.97 of it, not traced); with 0.9 one pixel held 80% of the
+ * variance at 16 x 16, 4096 spp. */
 #define SPC_SNEE_PLAN_FLAT_LIGHT_X ",lightx=0.5"
 
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
