@@ -1158,9 +1158,10 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && strstr(out->setting, "camera") &&
         !camera_finds_light(sc, out->setting, &out->camera_pilot))
         drop_camera(out->setting);
-    /* and under sphere lights outside the casters' sphere, half of their points drawn from the
-     * receiver's cone (snee_plan.h) */
-    if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && sphere_lights_outside(sc, cs)) {
+    /* and under sphere lights outside the casters' sphere and larger than the small-light rule's,
+     * half of their points drawn from the receiver's cone (snee_plan.h) */
+    if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
+        sphere_lights_outside(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LIGHT_X);
     }
