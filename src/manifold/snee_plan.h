@@ -76,9 +76,9 @@
  *     For path where every caster is flat glass, the query from the camera stays only where a
  *     pilot of SPC_SNEE_PLAN_CAMERA_PILOT such queries (snee_plan.c, camera_finds_light) finds a
  *     light in view through or in the glass: slabs seldom show the camera a light, and where they
- *     do not the query only costs, its splats all zero (scenes/newton_slabs.xml: 10% of the CPU
- *     per sample, the image the same value for value; bench/RESULTS.md, "Flat glass under
- *     sphere lights").
+ *     do not the query only costs, its splats all zero (paired CPU per sample 2% on
+ *     scenes/newton_slabs.xml and caustic_slabs.xml, 7% on caustic_slabs_small_light.xml, each image
+ *     the same value for value; bench/RESULTS.md, "Flat glass under sphere lights").
  *     bdpt gets its own setting (SPC_SNEE_PLAN_SETTING_BDPT, _BDPT_MIRRORS): it runs specular NEE
  *     only where its own strategies cannot reach (integrator/bdpt.c), so it needs no roulette past
  *     the first receiver, and the query from the camera pays there on one sample in ten, or on
