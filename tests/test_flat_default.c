@@ -9,6 +9,8 @@
  *   (Sidak) and image means.
  * - newton_slabs itself (0.12 sr: the plan's rule for slabs alone under larger lights, light
  *   tracing on every sample) against path tracing without specular NEE the same way.
+ * - scenes/caustic_slabs.xml, whose plan draws half of its sphere light's points in the cone from the
+ *   receiver (lightx), against path tracing without specular NEE the same way.
  * - scenes/caustic_glass_cube.xml (a tilted glass cube beside a silver ball: two refractions, total
  *   internal reflections, chains through cube and ball left to the randomized attempts), on by the
  *   plan's rule for flat casters beside a mirror: the plan's setting against path tracing without
@@ -118,6 +120,23 @@ TEST(small_light_slabs_default_agrees_with_none)
     agrees("scenes/newton_slabs.xml", d, 4, NULL, 256, "bdpt", 2048, "newton_slabs, small light");
 }
 
+/* scenes/caustic_slabs.xml (three slabs under a sphere light outside their bounding sphere): the
+ * plan draws half of the light's points in the cone from the receiver (lightx=0.5). */
+TEST(caustic_slabs_default_agrees_with_none)
+{
+    const spc_define d[2] = {{"res", "16"}, {"spp", "1"}};
+    char path[1024];
+    snprintf(path, sizeof path, "%s/scenes/caustic_slabs.xml", spc_test_source_dir());
+    spc_scene *sc = load(path, d, 2);
+    if (sc) {
+        spc_snee_plan plan;
+        spc_snee_plan_make(sc, "path", NULL, &plan);
+        CHECK_MSG(strstr(plan.setting, "lightx=0.5"), "%s", plan.setting);
+        spc_scene_destroy(sc);
+    }
+    agrees("scenes/caustic_slabs.xml", d, 2, NULL, 256, "path", 8192, "caustic_slabs");
+}
+
 TEST(glass_cube_default_agrees_with_none)
 {
     const spc_define d[2] = {{"res", "16"}, {"spp", "1"}};
@@ -140,6 +159,7 @@ int main(void)
 {
     RUN(slabs_default_agrees_with_none);
     RUN(small_light_slabs_default_agrees_with_none);
+    RUN(caustic_slabs_default_agrees_with_none);
     RUN(glass_cube_default_agrees_with_none);
     RUN(mirror_floor_ball_default_agrees_with_none);
     RUN(tilted_mirror_default_agrees_with_none);

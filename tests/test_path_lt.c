@@ -491,7 +491,7 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
     q.ny = j->ny;
     q.light_size = sqrt(j->e->shape->area);
     q.y_err = 1e-6 * sc->radius; /* a light point's rounding off its surface, as a sampled point has */
-    q.p_y = spc_snee_light_pdf(sc, pp.any_surface, j->e, j->y, j->ny) * spc_snee_query_prob(&pp);
+    q.p_y = spc_snee_light_pdf_at(sc, &pp, j->e, j->y, j->ny, j->x2->p) * spc_snee_query_prob(&pp);
     q.psi = 1.0;
     spc_chain all[16];
     int n = 0;
@@ -861,10 +861,10 @@ static void slab_run_joins(slab_run *r, int n)
  * reflections off their sides), up to the longest chain the path's track follows. Specular NEE's
  * flat enumeration at x2 finds each join's chain (its psi 1 with flat5 and flat6 at every call),
  * and its weight there, BSDF sampling's own and light tracing's sum to one. */
-TEST(slab_area_weights_sum_to_one)
+static void slab_area_weights(const char *setting)
 {
     slab_run r;
-    if (!slab_run_start(&r, SLAB_SETTING, 39))
+    if (!slab_run_start(&r, setting, 39))
         return;
     CHECK(r.p.max_chain == 2);
     slab_run_joins(&r, spc_test_quick() ? 10000 : 40000);
@@ -888,6 +888,13 @@ TEST(slab_area_weights_sum_to_one)
     CHECK(t.matched + t.unlisted == t.joins);
     spc_scene_destroy(r.sc);
 }
+
+TEST(slab_area_weights_sum_to_one) { slab_area_weights(SLAB_SETTING); }
+
+/* The same with half of the sphere light's points drawn in the cone from the receiver (lightx=0.5,
+ * the plan's for flat glass under sphere lights): specular NEE's density there is the mixture's, in
+ * its own weight and in the path tracer's and light tracing's (spc_snee_light_pdf_at). */
+TEST(slab_area_weights_sum_to_one_lightx) { slab_area_weights(SLAB_SETTING ",lightx=0.5"); }
 
 /* The same with the path's track and light tracing's chains up to 8 vertices (longmax=8): chains
  * of 7 and 8 vertices through the slabs (total internal reflections along a slab, out of its side)
@@ -1734,6 +1741,7 @@ int main(void)
     RUN(spot_joins_weigh_as_specular_nee);
     RUN(spot_render_agrees_without_it_and_with_bdpt);
     RUN(slab_area_weights_sum_to_one);
+    RUN(slab_area_weights_sum_to_one_lightx);
     RUN(slab_area_weights_sum_to_one_long);
     RUN(slab_area_camera_weights_sum_to_one);
     RUN(slab_area_camera_render_agrees_without_it);

@@ -13,9 +13,13 @@
  *   light and point spc_snee_sample_light draws from a copy of the stream are those of the
  *   uniforms drawn at once in the path tracer's order (light_u_on), on two lights and many
  *   streams, and differ from those of the pairs taken the other way round.
+ * - A share of a sphere light's points drawn in the cone from the receiver (params.light_x): the
+ *   mixture's density integrates to the light's area, and the samples land on the side the
+ *   receiver sees.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 300 */
+#include <math.h>
 #include <string.h>
 
 #include "core/sampler.h"
@@ -170,9 +174,61 @@ TEST(light_uniforms_from_the_stream)
     spc_scene_destroy(sc);
 }
 
+/* params.light_x on scenes/newton_slabs.xml's sphere light (radius 0.3, inside the slabs' bounding
+ * sphere: every point of it faces the casters) from a floor point under the slabs: the mean of
+ * 1 / p_y over the light samples is the light's area 4 pi R^2 for the shares 0, 0.5 and 0.9 (every
+ * point drawn with the mixture's density, none left out), and the share of samples on the side the
+ * receiver sees (where the chains through the slabs end) rises from under a half to near 0.95. */
+TEST(light_cone_from_the_receiver)
+{
+    spc_scene *sc = tu_load("scenes/newton_slabs.xml", 8);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const spc_emitter *light = sc->emitters[0];
+    CHECK(light->type == SPC_EMITTER_AREA && light->shape->type == SPC_SHAPE_SPHERE);
+    const double R = light->shape->radius, area = 4.0 * SPC_PI * R * R;
+    spc_hit x;
+    memset(&x, 0, sizeof x);
+    x.p = spc_v3(0.1, 0.0, 0.2);
+    x.ng = x.sh.n = spc_v3(0, 1, 0);
+    const double shares[3] = {0.0, 0.5, 0.9};
+    double seen[3];
+    for (int k = 0; k < 3; ++k) {
+        spc_snee_params p;
+        CHECK(spc_snee_parse("angular", 4, &p));
+        p.light_x = shares[k];
+        spc_rng rng;
+        spc_rng_seed(&rng, 5, (uint64_t)k);
+        const int n = 200000;
+        double s1 = 0.0, s2 = 0.0;
+        int front = 0;
+        for (int i = 0; i < n; ++i) {
+            spc_snee_query q;
+            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 1, 0), 4);
+            const spc_emitter *e = NULL;
+            spc_vec2 uv;
+            double p_y = 0.0;
+            if (!spc_snee_sample_light(sc, p.any_surface, &rng, &q, &e, &uv, &p_y) || !(p_y > 0.0))
+                continue;
+            s1 += 1.0 / p_y;
+            s2 += 1.0 / (p_y * p_y);
+            front += spc_dot(q.ny, spc_sub(x.p, q.y)) > 0.0;
+        }
+        double m = s1 / n, se = sqrt(fmax(0.0, s2 / n - m * m) / n);
+        seen[k] = (double)front / n;
+        printf("    lightx=%g: mean 1/p_y %.5f +- %.5f (area %.5f), samples x sees %.3f\n", shares[k], m, se, area,
+               seen[k]);
+        CHECK_MSG(fabs(m - area) < 4.0 * se + 1e-9 * area, "lightx=%g: %.5f vs %.5f", shares[k], m, area);
+    }
+    CHECK(seen[0] < 0.5 && seen[1] > seen[0] + 0.2 && seen[2] > 0.9);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(triangle_light_chains_not_self_shadowed);
     RUN(light_uniforms_from_the_stream);
+    RUN(light_cone_from_the_receiver);
     return spc_test_finish();
 }

@@ -31,6 +31,10 @@
  *   toward the caster taken away, on.
  * - Caustic guiding at receivers (its cones toward glass balls) in path's default in a room where a
  *   glass caster is an analytic sphere (the demo), not in volpath's or bdpt's, not in the open.
+ * - Flat glass alone: no query from the camera where its pilot finds no light in view (the slab
+ *   scenes of scenes/), kept where a light is seen through a slab; without it the image is the same.
+ *   Half of a sphere light's points from the receiver's cone where the light lies outside the
+ *   casters' bounding sphere and is larger than the small-light rule's.
  * - One glass slab under a light of 0.002-0.0035 sr: path's plan on with the slab's longer chains;
  *   beside a mirror ball on under a cost limit of its own; off with two slabs, a larger
  *   light, for volpath and bdpt, without casters; its setting agrees with none, and beside the
@@ -1420,6 +1424,7 @@ TEST(slab_plan_light_tracing)
                   "caustic_slabs_small_light: %s", p.setting);
         spc_scene_destroy(sc);
     }
+    /* a curved glass caster's plan keeps the query without the pilot */
     sc = load_at("scenes/caustic_glass_sphere.xml", "8");
     if (sc) {
         spc_snee_plan p;
@@ -1844,6 +1849,78 @@ TEST(caustic_out_of_view_plan_off)
     }
 }
 
+/* Flat glass alone: the query from the camera only where its pilot finds a light in view
+ * (snee_plan.c, camera_finds_light). scenes/newton_slabs.xml, caustic_slabs.xml and
+ * caustic_slabs_small_light.xml (the camera sees no light through or in the slabs) lose it;
+ * bench/check/slab_light_view.xml (a light seen through its slab) keeps it, and the pilot found
+ * chains there. Where it was dropped, the query made on every camera sample leaves newton_slabs'
+ * image as it is without the query, value for value: it finds nothing in view. */
+TEST(flat_camera_query_pilot)
+{
+    static const struct {
+        const char *path;
+        bool kept;
+    } cases[] = {
+        {"scenes/newton_slabs.xml", false},
+        {"scenes/caustic_slabs.xml", false},
+        {"scenes/caustic_slabs_small_light.xml", false},
+        {"bench/check/slab_light_view.xml", true},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        spc_scene *sc = load_at(cases[i].path, "8");
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp), "%s: %s (%s)", cases[i].path, p.setting, p.reason);
+        if (cases[i].kept)
+            CHECK_MSG(sp.camera && sp.camera_p < 1.0 && p.camera_pilot > 0, "%s: %s, pilot %d", cases[i].path,
+                      p.setting, p.camera_pilot);
+        else
+            CHECK_MSG(!sp.camera && !strstr(p.setting, "camera") && p.camera_pilot == 0, "%s: %s, pilot %d",
+                      cases[i].path, p.setting, p.camera_pilot);
+        /* half of a sphere light's points from the receiver's cone where the light lies outside the
+         * casters' sphere (caustic_slabs), not inside it (newton_slabs) nor under the small-light
+         * rule's lights (caustic_slabs_small_light) */
+        bool lx = strstr(cases[i].path, "caustic_slabs.xml") != NULL;
+        CHECK_MSG(lx ? sp.light_x == 0.5 : sp.light_x == 0.0, "%s: %s", cases[i].path, p.setting);
+        printf("    %s: %s (pilot: %d found)\n", cases[i].path, p.setting, p.camera_pilot);
+        spc_scene_destroy(sc);
+    }
+    /* newton_slabs with the query on every camera sample: the same values */
+    spc_scene *sc = load_at("scenes/newton_slabs.xml", "8");
+    if (sc) {
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        char with[2048];
+        snprintf(with, sizeof with, "angular:camera,%s", p.setting + strlen("angular:"));
+        spc_film *a = tu_render_nee(sc, "path", NULL, 4, 1, 3, NULL);
+        spc_film *b = tu_render_nee(sc, "path", with, 4, 1, 3, NULL);
+        CHECK(a && b);
+        if (a && b) {
+            int differ = 0;
+            for (int k = 0; k < 3 * a->width * a->height; ++k)
+                differ += a->rgb[k] != b->rgb[k];
+            CHECK_MSG(differ == 0, "%d values differ with '%s'", differ, with);
+            double m;
+            double se;
+            tu_image_mean(a, 0, &m, &se);
+            CHECK(m > 0.0);
+        }
+        spc_film_destroy(a);
+        spc_film_destroy(b);
+        spc_scene_destroy(sc);
+    }
+    sc = load_at("scenes/caustic_glass_sphere.xml", "8");
+    if (sc) {
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        CHECK_MSG(p.camera_pilot == -1 && strstr(p.setting, "camera"), "%s, pilot %d", p.setting, p.camera_pilot);
+        spc_scene_destroy(sc);
+    }
+}
+
 int main(void)
 {
     RUN(demo_plan_on);
@@ -1876,5 +1953,6 @@ int main(void)
     RUN(point_light_sky_plan);
     RUN(slab_plan_large_lights);
     RUN(caustic_out_of_view_plan_off);
+    RUN(flat_camera_query_pilot);
     return spc_test_finish();
 }

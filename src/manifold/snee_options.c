@@ -157,6 +157,9 @@ static const spc_snee_option options[] = {
      "1/Q times (0: left to BSDF sampling)"},
     {"flat6", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, false, false, NULL, 0, NO, AT(flat6_p), 0, NULL,
      "the same for the 6-vertex chains through flat faces"},
+    {"lightx", NULL, SPC_SNEE_OPT_REAL, false, "A", 0, 1, false, false, NULL, 0, NO, AT(light_x), 0, NULL,
+     "at a surface receiver, a share A of the points on a sphere light drawn in the cone toward it from the "
+     "receiver, the rest facing the casters (default 0: none; flat glass under a sphere light)"},
     {"flat34", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, true, false, NULL, 0, NO, AT(flat34_p), 0, NULL,
      "where the longer chains run, the 3- and 4-vertex chains through flat faces (past a budget of 2) on a share "
      "Q of the calls, each length counted 1/Q times (default 1: at every call)"},

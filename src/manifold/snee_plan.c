@@ -21,6 +21,7 @@
 #include "manifold/plane_chains.h"
 #include "manifold/snee_cost.h"
 #include "manifold/snee_options.h"
+#include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
@@ -310,6 +311,26 @@ static bool glass_sdf(const spc_scene *sc, const spc_chain_casters *cs)
 static bool snee_light(const spc_emitter *e)
 {
     return e->type == SPC_EMITTER_AREA || e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
+}
+
+/* Does specular NEE draw on some sphere light (an area light on a sphere with its normals out), and
+ * does every such light lie outside the casters' bounding sphere cs (so that the cap of it facing
+ * the casters is less than the whole light)? */
+static bool sphere_lights_outside(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    bool any = false;
+    for (int i = 0; i < sc->nemitters; ++i) {
+        const spc_emitter *e = sc->emitters[i];
+        if (e->type != SPC_EMITTER_AREA || e->shape_index < 0 || e->shape_index >= sc->nshapes)
+            continue;
+        const spc_shape *s = sc->shapes[e->shape_index];
+        if (s->type != SPC_SHAPE_SPHERE || s->flip_normals)
+            continue;
+        if (!(spc_length(spc_sub(s->center, cs->center)) > cs->radius + s->radius))
+            return false;
+        any = true;
+    }
+    return any;
 }
 
 /* The solid angle (sr, at most 2 pi) an area light's shape subtends at c: area / d^2 for a distant
@@ -824,6 +845,59 @@ static double camera_prob(const spc_scene *sc, double s)
     return spc_max(SPC_SNEE_PLAN_CAMERA_MIN, spc_max(SPC_SNEE_PLAN_CAMERA_SCALE * sqrt(s), small));
 }
 
+/* The camera query's pilot (camera_finds_light): queries from the pinhole with the plan's setting,
+ * each toward a light point of its own, from one fixed stream. A light whose image through the
+ * glass lands in view from a share f of its points is missed with probability (1 - f)^1024 (0.6% at
+ * f = 0.005); the queries take a few milliseconds on the slab scenes (`specula info` 0.01 s). */
+#define SPC_SNEE_PLAN_CAMERA_PILOT 1024
+
+/* Does the query from the camera (params.camera) find any chain to a light that lands on the film?
+ * SPC_SNEE_PLAN_CAMERA_PILOT queries as the render makes them (spc_snee_camera, on every call, the
+ * scene's chain budget), counting the contributions that are not zero; the number found is written
+ * to *found. Where none is found the query only costs: the paths it covers (the light seen through
+ * or reflected in the glass) are then not in view, and BSDF sampling and the camera rays weigh the
+ * same paths by 1 where the query is off, so leaving it out changes no image but by the rare chain
+ * the pilot missed. */
+static bool camera_finds_light(const spc_scene *sc, const char *setting, int *found)
+{
+    *found = 0;
+    int max_chain = sc->integrator.specular_max_chain > 0 ? sc->integrator.specular_max_chain : 2;
+    spc_snee_params p;
+    spc_camera_state cam;
+    if (!spc_snee_parse(setting, max_chain, &p) || !p.camera ||
+        !spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height))
+        return true; /* not known: kept */
+    p.camera_p = 1.0;
+    int budget = max_chain < p.max_chain ? max_chain : p.max_chain;
+    int long_max = sc->integrator.max_depth >= 0 ? sc->integrator.max_depth - 1 : SPC_CHAIN_MAX_VERTICES;
+    spc_rng rng;
+    spc_rng_seed(&rng, 0x5eed0ca3e7aULL, 7);
+    for (int i = 0; i < SPC_SNEE_PLAN_CAMERA_PILOT; ++i) {
+        spc_snee_splat sp[SPC_SNEE_CAMERA_SPLATS];
+        int n = spc_snee_camera(sc, &p, &cam, 1.0, budget, long_max, &rng, NULL, sp, SPC_SNEE_CAMERA_SPLATS);
+        for (int j = 0; j < n; ++j)
+            if (sp[j].value.r > 0.0 || sp[j].value.g > 0.0 || sp[j].value.b > 0.0)
+                ++*found;
+    }
+    return *found > 0;
+}
+
+/* The setting without its "camera=Q," (or "camera,") option. */
+static void drop_camera(char *setting)
+{
+    char *c = strstr(setting, "camera");
+    if (!c || (c != setting && c[-1] != ':' && c[-1] != ','))
+        return;
+    char *end = c + strlen("camera");
+    if (*end == '=')
+        end += strcspn(end, ",");
+    if (*end == ',')
+        ++end;
+    else if (c[-1] == ',')
+        --c; /* the last option: its comma before it goes */
+    memmove(c, end, strlen(end) + 1);
+}
+
 static void off(spc_snee_plan *out, const char *why)
 {
     out->on = false;
@@ -867,6 +941,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
 {
     memset(out, 0, sizeof *out);
     out->caustic_gain = -1.0;
+    out->camera_pilot = -1;
     const spc_chain_casters *cs = sc ? spc_chain_casters_of(sc, false) : NULL;
     out->casters = cs ? cs->n : 0;
     for (int i = 0; sc && i < sc->nshapes; ++i)
@@ -1141,6 +1216,18 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         flat_light_tracing(sc, cs, nflat, integrator, out);
     flat_point_light_tracing(sc, nflat, integrator, out);
     flat_point_light_joins(sc, cs, nflat, integrator, out);
+    /* path, every caster flat glass: the query from the camera only where its pilot finds a light
+     * in view (snee_plan.h) */
+    if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && strstr(out->setting, "camera") &&
+        !camera_finds_light(sc, out->setting, &out->camera_pilot))
+        drop_camera(out->setting);
+    /* and under sphere lights outside the casters' sphere and larger than the small-light rule's,
+     * half of their points drawn from the receiver's cone (snee_plan.h) */
+    if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
+        sphere_lights_outside(sc, cs)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LIGHT_X);
+    }
     /* volpath: a share of the random seeds at medium points from the phase function, where some
      * caster's chains go to the randomized attempts (snee_plan.h) */
     if (!strcmp(integrator, "volpath") && (!exact || solved_mirror)) {
@@ -1220,6 +1307,8 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
         put(&b, "  %s\n", plan->pilot_note);
     if (plan->automatic && p.camera)
         put(&b, "  glass seen on %.3g of the image\n", plan->glass_share);
+    if (plan->automatic && plan->camera_pilot == 0)
+        put(&b, "  no query from the camera: %d pilot queries found no light in view\n", SPC_SNEE_PLAN_CAMERA_PILOT);
     if (plan->automatic && plan->flat_sequences > 0.0)
         put(&b, "  flat enumeration: %.3g face sequences a query (pilot), times the light's solid angle %.3g sr\n",
             plan->flat_sequences, plan->flat_sequences * plan->light_sr);
@@ -1236,6 +1325,8 @@ int spc_snee_plan_describe(const spc_scene *sc, const spc_snee_plan *plan, int m
             p.later_p);
     if (p.camera && p.camera_p < 1.0)
         put(&b, "  from the camera on a share %g of the samples\n", p.camera_p);
+    if (p.light_x > 0.0)
+        put(&b, "  a share %g of a sphere light's points drawn in the cone toward it from the receiver\n", p.light_x);
     if (p.seed_guide > 0.0)
         put(&b, "  guided seeds: a share %g of the randomized attempts seeded toward the chains of light paths "
                 "traced at render start that land near the receiver\n",

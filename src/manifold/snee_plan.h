@@ -75,6 +75,12 @@
  *     longer chains with probability 0.1, and every chain on one analytic sphere, one mirror
  *     cylinder or one normal-mapped plane enumerated exactly (sphere_chains.h, cylinder_chains.h,
  *     plane_chains.h); with only such casters the randomized solver itself never runs.
+ *     For path where every caster is flat glass, the query from the camera stays only where a
+ *     pilot of SPC_SNEE_PLAN_CAMERA_PILOT such queries (snee_plan.c, camera_finds_light) finds a
+ *     light in view through or in the glass: slabs seldom show the camera a light, and where they
+ *     do not the query only costs, its splats all zero (paired CPU per sample 2% on
+ *     scenes/newton_slabs.xml and caustic_slabs.xml, 7% on caustic_slabs_small_light.xml, each image
+ *     the same value for value; bench/RESULTS.md, "Flat glass under sphere lights").
  *     bdpt gets its own setting (SPC_SNEE_PLAN_SETTING_BDPT, _BDPT_MIRRORS): it runs specular NEE
  *     only where its own strategies cannot reach (integrator/bdpt.c), so it needs no roulette past
  *     the first receiver, and the query from the camera pays there on one sample in ten, or on
@@ -502,6 +508,26 @@
  * sample (bench/RESULTS.md, "The mirror ring's whispering gallery"). */
 #define SPC_SNEE_PLAN_SETTING_WATER "angular:first=0.1,later=0.1"
 
+/* Appended for path where every caster is flat glass under lights over SPC_SNEE_PLAN_FLAT_MAX_SR and
+ * every sphere light specular NEE draws on lies outside the casters' bounding sphere: half of the light's points drawn in the cone of
+ * directions toward the light from the receiver (params.light_x), the rest as before, on the cap
+ * facing the casters' sphere. Flat glass bends a chain little, so a chain from the receiver ends on
+ * the side of the light the receiver sees: on scenes/caustic_slabs.xml one query's second moment
+ * over its squared mean at floor points 17.3 -> 7.2 (share 0.9) at the same cost, and at equal CPU
+ * time over 24 seeds 13.0x -> 19.6x none (bench/RESULTS.md, "Flat glass under sphere lights").
+ * The rest keeps every point a chain can reach drawn, at (1 - share) of the old density where the
+ * receiver's cone misses it. Not where a light lies inside the casters' sphere (slabs wider than
+ * the light's height: scenes/newton_slabs.xml, whose cap is then the whole light and 57% of the
+ * queries ended on its far side): there chains can reach the light from outside the cone (its
+ * one-pixel seeds were traced to the long pass's randomized chains off a slab's side face,
+ * bench/RESULTS.md, "The slabs' light guides"), and with the share one seed of 24 was a one-pixel
+ * seed at 26x the median (its pixel 0.97 of it, not traced); with 0.9 one pixel held 80% of the
+ * variance at 16 x 16, 4096 spp. Nor under lights of at most SPC_SNEE_PLAN_FLAT_MAX_SR (the
+ * small-light setting): on scenes/caustic_slabs_small_light.xml (0.00066 sr) one of five renders at
+ * 16 x 16, 4096 spp had a pixel holding all of its variance (none of five without it; not traced),
+ * though 24 seeds at equal CPU time showed none (203x against 123x none). */
+#define SPC_SNEE_PLAN_FLAT_LIGHT_X ",lightx=0.5"
+
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
  * no BDPT strategy but s = 0 (and at corners), and the query from the camera on one sample in ten;
  * where every glass caster is enumerated exactly, the query on 0.17 sqrt(s) of the samples instead
@@ -544,6 +570,9 @@ typedef struct spc_snee_plan {
     double caustic_gain; /* none's relative variance per sample from the area lights' caustics on the image,
                             as the caustic pilot predicts it (snee_plan.c, caustic_gain; -1 where it did
                             not run) */
+    int camera_pilot;    /* the query from the camera's contributions in view that its pilot found where every
+                            caster is flat glass (snee_plan.c, camera_finds_light; 0: the query left out;
+                            -1 where it did not run) */
     bool pilot;          /* automatic and on, and the pilot render (render/snee_pilot.h) may check it */
     char pilot_note[SPC_SPECULAR_NEE_NOTE_MAX]; /* what the pilot measured and chose, or "" */
 } spc_snee_plan;

@@ -339,6 +339,10 @@ typedef struct spc_snee_params {
     bool light_u_on;
     double light_u[3];
     const struct spc_sampler *light_u_smp;
+    /* At a surface receiver x, a share light_x of the points on a sphere light drawn uniformly in
+     * the cone of directions toward it from x (the user's "lightx=A"), the rest as before (the cap
+     * facing the casters); the density is the mixture's (spc_snee_sample_light). 0: off. */
+    double light_x;
     /* Caustic guiding at receivers (the user's "recguide=A" / "norecguide"; caustic_guide.h): the
      * path tracer's BSDF sampling at a non-delta vertex draws, with probability A, a direction
      * toward the caustic photons' disks that x sees, and weighs every strategy with the mixture's

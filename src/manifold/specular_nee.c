@@ -661,6 +661,50 @@ static bool sample_light_facing(const spc_shape *s, spc_vec3 cb, double cr, spc_
     return true;
 }
 
+/* params.light_x: the share of the light points drawn in the cone toward the sphere light s from the
+ * surface receiver at xp (0 where it does not apply: no share, another shape, xp inside). */
+static double light_x_share(const spc_snee_params *p, const spc_shape *s, spc_vec3 xp)
+{
+    if (!p || !(p->light_x > 0.0) || !s || s->type != SPC_SHAPE_SPHERE || s->flip_normals)
+        return 0.0;
+    return spc_shape_has_solid_angle_sampling(s, xp) ? spc_min(p->light_x, 1.0) : 0.0;
+}
+
+/* The receiver point whose cone params.light_x draws from: a surface receiver's (not the pinhole's,
+ * not a medium point's); NULL otherwise. */
+static const spc_hit *light_x_receiver(const spc_snee_query *q)
+{
+    if (!q->x || q->cam || (q->receiver && q->receiver->kind != SPC_RECEIVER_SURFACE))
+        return NULL;
+    return q->x;
+}
+
+/* The area density at y (normal ny) on the sphere light s of spc_snee_sample_light's mixture at the
+ * receiver point xp with the share a of it in the cone from xp (light_x_share > 0), the light's pmf
+ * left out: the cone's solid angle density turned to area at y where xp sees y's side, plus the
+ * share 1 - a of the cap facing the casters' sphere (cb, cr) (sample_light_facing). */
+static double light_x_pdf(const spc_shape *s, spc_vec3 cb, double cr, double a, spc_vec3 xp, spc_vec3 y, spc_vec3 ny)
+{
+    double pc = 0.0;
+    spc_vec3 v = spc_sub(xp, y);
+    double d2 = spc_length2(v), cy = spc_dot(ny, v);
+    if (cy > 0.0 && d2 > 0.0)
+        pc = spc_shape_pdf_solid_angle(s, xp, y) * cy / (d2 * sqrt(d2));
+    double pf;
+    spc_vec3 axis = spc_sub(cb, s->center);
+    double D = spc_length(axis), R = s->radius;
+    double cmin = D > 0.0 ? (R - cr) / D : -1.0;
+    if (cmin >= 1.0)
+        pf = 0.0;
+    else if (!(cmin > -1.0))
+        pf = 1.0 / s->area;
+    else
+        pf = spc_dot(spc_normalize(spc_sub(y, s->center)), axis) / D < cmin
+                 ? 0.0
+                 : 1.0 / (2.0 * SPC_PI * R * R * (1.0 - cmin));
+    return a * pc + (1.0 - a) * pf;
+}
+
 bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, spc_snee_query *q,
                            const spc_emitter **e_out, spc_vec2 *uv, double *p_y)
 {
@@ -696,7 +740,14 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
             return false;
         spc_shape_sample ss;
         spc_vec2 u = given ? spc_v2(lu[1], lu[2]) : spc_v2(spc_rng_next(rng), spc_rng_next(rng));
-        if (!sample_light_facing(e->shape, cb, cr, u, &ss))
+        /* params.light_x: a share of the points in the cone from the receiver, u.x split between
+         * the two ways */
+        const spc_hit *xr = light_x_receiver(q);
+        double a = xr ? light_x_share(sp, e->shape, xr->p) : 0.0;
+        if (a > 0.0 && u.x < a) {
+            if (!spc_shape_sample_solid_angle(e->shape, xr->p, spc_v2(u.x / a, u.y), true, &ss) || !(ss.pdf > 0.0))
+                return false;
+        } else if (!sample_light_facing(e->shape, cb, cr, a > 0.0 ? spc_v2((u.x - a) / (1.0 - a), u.y) : u, &ss))
             return false;
         if (spc_dot(ss.n, spc_sub(cb, ss.p)) + cr <= 0.0)
             return false; /* exact: every chain would arrive from behind the light */
@@ -705,7 +756,7 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
         q->light_size = sqrt(e->shape->area);
         q->y_err = ss.err;
         *uv = ss.uv;
-        *p_y = pmf * ss.pdf;
+        *p_y = pmf * (a > 0.0 ? light_x_pdf(e->shape, cb, cr, a, xr->p, ss.p, ss.n) : ss.pdf);
         break;
     }
     case SPC_EMITTER_POINT:
@@ -753,6 +804,21 @@ double spc_snee_light_pdf(const spc_scene *sc, bool any_surface, const spc_emitt
     if (spc_dot(n, axis) / D < cmin)
         return 0.0;
     return pmf / (2.0 * SPC_PI * R * R * (1.0 - cmin));
+}
+
+double spc_snee_light_pdf_at(const spc_scene *sc, const spc_snee_params *p, const spc_emitter *e, spc_vec3 y,
+                             spc_vec3 ny, spc_vec3 xp)
+{
+    double ax = e ? light_x_share(p, e->shape, xp) : 0.0;
+    if (!(ax > 0.0))
+        return spc_snee_light_pdf(sc, p->any_surface, e, y, ny);
+    /* the mixture's density, where y faces the casters' sphere (spc_snee_sample_light's exact test) */
+    spc_vec3 cb;
+    double cr;
+    double pmf = spc_scene_emitter_pmf(sc, e);
+    if (!(pmf > 0.0) || !caster_bound(sc, p->any_surface, &cb, &cr) || spc_dot(ny, spc_sub(cb, y)) + cr <= 0.0)
+        return 0.0;
+    return pmf * light_x_pdf(e->shape, cb, cr, ax, xp, y, ny);
 }
 
 /* The straight-line attempt of params.straight_first (deterministic: seeded toward y, the BSDFs'
@@ -1538,7 +1604,8 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         *w_solve = -1.0;
     if (alt_f)
         *alt_f = 1.0;
-    double p_y = spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
+    double p_y = r->kind == SPC_RECEIVER_SURFACE ? spc_snee_light_pdf_at(sc, p, e, light->p, light->ng, x->p)
+                                                 : spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
     bool guided = guide_on(p) && r->kind == SPC_RECEIVER_SURFACE;
     if (!(p_y > 0.0) && !guided) {
         *b = 1.0; /* specular NEE never draws this light point: BSDF sampling's alone */

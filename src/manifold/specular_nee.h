@@ -58,6 +58,11 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
 /* The density in which spc_snee_sample_light draws the point y (normal ny) on emitter e: the
  * light's probability times the point's area density; 0 where it never draws y. */
 double spc_snee_light_pdf(const spc_scene *sc, bool any_surface, const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
+/* The same for a query at a surface receiver at xp with the parameters p (params.light_x: a share of a
+ * sphere light's points drawn in the cone from xp, the density the mixture's); spc_snee_light_pdf
+ * where light_x is 0 or does not apply. */
+double spc_snee_light_pdf_at(const spc_scene *sc, const spc_snee_params *p, const spc_emitter *e, spc_vec3 y,
+                             spc_vec3 ny, spc_vec3 xp);
 
 /* The power-heuristic weight of specular NEE's light sample against BSDF sampling (params.mis):
  * p_y and p_b as there. */
