@@ -77,17 +77,25 @@ static inline int spc_test_stride(int ncases) { return spc_test_quick() && ncase
         }                                                                                                             \
     } while (0)
 
+/* This program's path in exe (n bytes); false, after a failed check, if it cannot be read. */
+static inline int spc_t_self_exe(char *exe, size_t n)
+{
+    ssize_t len = readlink("/proc/self/exe", exe, n - 1);
+    CHECK(len > 0);
+    if (len <= 0)
+        return 0;
+    exe[len] = '\0';
+    return 1;
+}
+
 /* Runs the tests named in `only` (comma-separated) again in a child process of this program under
  * each instruction set of isas (SPECULA_VECTOR_ISA caps the one a process picks), with their output
  * discarded; the calling test fails for each child that exits nonzero. */
 static inline void spc_t_under_isas(const char *only, const char *const *isas, int n)
 {
     char exe[4096];
-    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    CHECK(len > 0);
-    if (len <= 0)
+    if (!spc_t_self_exe(exe, sizeof exe))
         return;
-    exe[len] = '\0';
     for (int i = 0; i < n; ++i) {
         char cmd[8192];
         snprintf(cmd, sizeof cmd, "SPECULA_VECTOR_ISA=%s SPC_TEST_ONLY=%s '%s' >/dev/null", isas[i], only, exe);
