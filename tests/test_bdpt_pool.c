@@ -140,6 +140,23 @@ TEST(same_image_for_any_thread_count)
     spc_scene_destroy(sc);
 }
 
+/* Renders bdpt with o's settings into *film, writing a checkpoint to the build folder's file `name`
+ * (its path left in path), and loads that checkpoint back (NULL where it cannot be read). */
+static spc_checkpoint *render_checkpointed(const spc_scene *sc, spc_render_options *o, const char *name,
+                                           char *path, size_t path_size, spc_film **film)
+{
+    const char *bd = getenv("SPC_BINARY_DIR");
+    snprintf(path, path_size, "%s/%s", bd ? bd : ".", name);
+    o->integrator = "bdpt";
+    o->threads = 2;
+    o->checkpoint_path = path;
+    spc_error err;
+    CHECK(spc_render(sc, o, film, NULL, &err) == SPC_OK);
+    spc_checkpoint *ck = NULL;
+    CHECK(spc_checkpoint_load(path, &ck, &err) == SPC_OK);
+    return ck;
+}
+
 /* The door at 32x32, seed 25 (bdpt's default, the pool with 3 connections): in pass 238 one light
  * subpath leaves 5 vertices in the ceiling's corner cell, where the pilot expects 0.125 per pass,
  * and the camera ray of pixel (24, 4) hits that corner 0.028 from one of them. When the pool's MIS
@@ -154,20 +171,13 @@ TEST(door_corner_pass_stays_bounded)
     if (!sc)
         return;
     char path[512];
-    const char *bd = getenv("SPC_BINARY_DIR");
-    snprintf(path, sizeof path, "%s/test_bdpt_pool_corner.ckpt", bd ? bd : ".");
     spc_render_options o;
     spc_render_options_init(&o);
-    o.integrator = "bdpt";
-    o.threads = 2;
     o.seed = 25;
     o.spp = 1;
-    o.checkpoint_path = path;
     spc_film *first = NULL, *pass = NULL;
     spc_error err;
-    CHECK(spc_render(sc, &o, &first, NULL, &err) == SPC_OK);
-    spc_checkpoint *ck = NULL;
-    CHECK(spc_checkpoint_load(path, &ck, &err) == SPC_OK);
+    spc_checkpoint *ck = render_checkpointed(sc, &o, "test_bdpt_pool_corner.ckpt", path, sizeof path, &first);
     if (ck) {
         const int pass_index = 238;
         size_t n = 3 * (size_t)ck->width * ck->height;
@@ -207,21 +217,14 @@ TEST(resumes_bit_for_bit)
     if (!sc)
         return;
     char path[512];
-    const char *bd = getenv("SPC_BINARY_DIR");
-    snprintf(path, sizeof path, "%s/test_bdpt_pool.ckpt", bd ? bd : ".");
     spc_render_options o;
     spc_render_options_init(&o);
-    o.integrator = "bdpt";
-    o.threads = 2;
     o.seed = 5;
     o.bdpt_pool = 2;
     o.spp = 4;
-    o.checkpoint_path = path;
     spc_film *part = NULL, *whole = NULL, *resumed = NULL;
     spc_error err;
-    CHECK(spc_render(sc, &o, &part, NULL, &err) == SPC_OK);
-    spc_checkpoint *ck = NULL;
-    CHECK(spc_checkpoint_load(path, &ck, &err) == SPC_OK);
+    spc_checkpoint *ck = render_checkpointed(sc, &o, "test_bdpt_pool.ckpt", path, sizeof path, &part);
     if (ck) {
         o.checkpoint_path = NULL;
         o.resume = ck;
