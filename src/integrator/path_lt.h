@@ -1,9 +1,10 @@
 /*
  * integrator/path_lt.h: the path tracer's light-traced caustics of point lights and area lights
  * (specular NEE's "ltcaus" option): seen through a diffuse bounce, directly, and through the glass
- * sphere; area lights' also through a tessellated glass ball and a glass SDF. A spot light is traced as a point
- * light, its subpath's throughput its intensity toward the first direction (falloff and image
- * included; zero past its cutoff), the direction's density the same cone toward the casters.
+ * sphere; area lights' also through a tessellated glass ball and a glass SDF. A spot light is
+ * traced as a point light, its subpath's throughput its intensity toward the first direction
+ * (falloff and image included; zero past its cutoff), the direction's density the same cone toward
+ * the casters.
  *
  * The paths (point light) - k chain vertices - x2 - m delta scatterings - x1 - camera, where x1 is
  * the camera ray's first hit and scatters along a non-delta sample, x2 is a receiver where

@@ -461,8 +461,11 @@
  * floor's caustic under the torus seen directly (two refractions near the caustic's fold, which
  * the randomized attempts rarely find and where BSDF sampling's value is large) is light
  * tracing's densest part. On scenes/caustic_sdf_torus.xml at equal CPU over 24 seeds (9851-9874)
- * the mean relMSE fell 0.119 -> 0.069 (none 0.427; median 0.055 -> 0.021) (bench/RESULTS.md,
- * "The glass SDF's caustics by light tracing"). */
+ * the mean relMSE fell 0.119 -> 0.069 (none 0.427; median 0.055 -> 0.021), over 48 fresh seeds
+ * 0.073 -> 0.055; on four fresh glass tori 1.4-3.7x lower over 16 seeds each, on a fresh capsule
+ * 1.14x (its one one-pixel seed the same pixel in both). The share of samples that trace a
+ * subpath, ltshare, stays 0.25: 0.1, 0.5 and 1 did worse on the torus (bench/RESULTS.md, "The
+ * glass SDF's caustics by light tracing"). */
 #define SPC_SNEE_PLAN_SDF_LT ",ltcaus"
 
 /* Appended for path where every caster is a flat mirror (a conductor mesh of few planes,
