@@ -444,9 +444,10 @@ TEST(camera_query_from_glass_share)
     spc_snee_plan p;
     spc_snee_plan_make(sc, "path", NULL, &p);
     /* an SDF's chains go to the randomized attempts; guided seeds are not in the plan (snee_plan.h);
-     * under its small light the light guides' chains go to light tracing too */
+     * under its small light the light guides' chains and its caustics go to light tracing too */
     CHECK_MSG(p.on && p.glass_share > 0.05 &&
-                  !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES SPC_SNEE_PLAN_CAMERA_SPLIT SPC_SNEE_PLAN_CAMERA_RECV),
+                  !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES SPC_SNEE_PLAN_CAMERA_SPLIT
+                                         SPC_SNEE_PLAN_CAMERA_RECV SPC_SNEE_PLAN_SDF_LT),
               "SDF ball: share %g, %s", p.glass_share, p.setting);
     spc_snee_params sp;
     CHECK(spc_snee_parse(p.setting, 2, &sp) && sp.seed_guide == 0.0);
@@ -973,7 +974,8 @@ TEST(light_in_housing_plan_off)
  * (bench/RESULTS.md, "Torus: the plan"). Under its small light the light guides' chains go to
  * light tracing too (ltguide), the longer chains' pass is off (nolong, snee_plan.h), and the light
  * seen through the torus from the camera takes the camera-side split (camsplit), whose rays also
- * sample the floor behind the torus once (camrecv). */
+ * sample the floor behind the torus once (camrecv), and the torus's caustics go to light tracing
+ * too (ltcaus). */
 TEST(sdf_torus_plan)
 {
     spc_scene *sc = load_at("scenes/caustic_sdf_torus.xml", "8");
@@ -982,7 +984,8 @@ TEST(sdf_torus_plan)
     spc_snee_plan p;
     spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
     CHECK_MSG(p.on && p.automatic &&
-                  !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES SPC_SNEE_PLAN_CAMERA_SPLIT SPC_SNEE_PLAN_CAMERA_RECV) &&
+                  !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES SPC_SNEE_PLAN_CAMERA_SPLIT
+                                         SPC_SNEE_PLAN_CAMERA_RECV SPC_SNEE_PLAN_SDF_LT) &&
                   p.casters == 1 && p.receivers == 2 && p.light_sr > 0.0 && p.light_sr < 0.03,
               "caustic_sdf_torus: %s (%s, %g sr)", p.setting, p.reason, p.light_sr);
     spc_snee_params sp;
@@ -993,6 +996,8 @@ TEST(sdf_torus_plan)
     CHECK(sp.cam_split && sp.cam_split_rays == 4);
     /* and its rays' one sample of the receiver behind the glass: light guides seen through the torus */
     CHECK(sp.cam_split_recv);
+    /* the torus's caustics of the light by light tracing too */
+    CHECK(sp.lt_caustic);
     int sdf = 0;
     for (int i = 0; i < sc->nshapes; ++i)
         if (sc->shapes[i]->type == SPC_SHAPE_SDF) {

@@ -4,7 +4,6 @@
  */
 #include "integrator/path_camsplit.h"
 
-#include "integrator/path_lt.h"
 #include "integrator/path_snee.h"
 #include "scene/rfilter.h"
 
@@ -103,7 +102,7 @@ static spc_rgb trace_view(const spc_render_ctx *ctx, const spc_ray *ray0, const 
 
 bool spc_path_camsplit_recv(const spc_render_ctx *ctx)
 {
-    return spc_path_camsplit_enabled(ctx) && ctx->snee.cam_split_recv && !spc_path_lt_enabled(ctx, &ctx->snee);
+    return spc_path_camsplit_enabled(ctx) && ctx->snee.cam_split_recv;
 }
 
 int spc_path_camsplit_rays(const spc_render_ctx *ctx, const spc_tls *tls, const spc_sampler *smp, spc_rgb *sum)

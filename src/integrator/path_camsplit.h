@@ -58,8 +58,9 @@
  * receiver guide)? */
 bool spc_path_camsplit_enabled(const spc_render_ctx *ctx);
 
-/* Do the extra rays also take class D (params.cam_split_recv, with the split on and without light-traced
- * caustics, params.lt_caustic, whose weights read the camera path's record of its scatterings)? */
+/* Do the extra rays also take class D (params.cam_split_recv, with the split on)? With light-traced
+ * caustics (params.lt_caustic) the rays keep the camera path's record of its scatterings, which
+ * their weights at the first receiver read (spc_path_snee_begin_view). */
 bool spc_path_camsplit_recv(const spc_render_ctx *ctx);
 
 /* A: is the camera ray's first hit h a surface that only reflects and refracts (delta-only BSDF)? */

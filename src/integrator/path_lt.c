@@ -17,6 +17,7 @@
 #include "manifold/snee_cost.h"
 #include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
+#include "scene/sdf.h"
 
 /* The share of light subpaths joined to the pinhole through the sphere (p->lt_through, else the
  * default). */
@@ -427,23 +428,43 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 
 /* ---- area lights ---- */
 
+/* Is every vertex of the chain c on one glass SDF without creases (a dielectric SDF shape), with no
+ * reflection unless params.reflect? Specular NEE finds such chains by randomized attempts weighed with
+ * their sampled solve probability (solve_mis.h), not by an enumeration; light tracing's ratio for an
+ * area light is against BSDF sampling alone, so, as for the tessellated ball, its three weights come
+ * from spc_snee_receiver_weights on every side and need no exact count. */
+static bool sdf_glass_chain(const spc_snee_params *p, const spc_chain *c)
+{
+    if (c->n < 1)
+        return false;
+    const spc_shape *s = c->v[0].h.shape;
+    if (!s || s->type != SPC_SHAPE_SDF || !s->sdf || spc_sdf_has_creases(s->sdf) || !s->bsdf ||
+        s->bsdf->type != SPC_BSDF_DIELECTRIC)
+        return false;
+    for (int i = 0; i < c->n; ++i)
+        if (c->v[i].h.shape != s || (!p->reflect && c->v[i].event == SPC_CHAIN_REFLECT))
+            return false;
+    return true;
+}
+
 /* Is the chain c (from x2 toward an area light) one whose paths light tracing makes: one glass
  * sphere's (spc_sphere_chain_covers, with exact enumeration), through flat faces only (the slabs'
  * chains, spc_flat_chain_faces, with exact enumeration; up to spc_path_lt_flat_budget's length:
  * also those the enumeration leaves to BSDF sampling, longer than it goes or with a partial
  * reflection inside the glass, whose weights are then BSDF sampling's and light tracing's alone),
  * or every vertex on one tessellated glass ball (a triangle mesh with a fitted sphere, fit_seeds.h)
- * with x2 outside it? The area light's ratio is light tracing's density over BSDF sampling's at x2
- * (spc_path_lt_area_ratio), in which specular NEE's density does not appear, so the ball's chains
- * need no exact count, and the flat chains past the budget none at every call: the three weights
- * come from spc_snee_receiver_weights on both sides, with specular NEE's own psi. */
+ * with x2 outside it, or on one glass SDF without creases (sdf_glass_chain)? The area light's ratio
+ * is light tracing's density over BSDF sampling's at x2 (spc_path_lt_area_ratio), in which specular
+ * NEE's density does not appear, so the ball's chains and the SDF's need no exact count, and the
+ * flat chains past the budget none at every call: the three weights come from
+ * spc_snee_receiver_weights on both sides, with specular NEE's own psi. */
 static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
 {
     if (c->n < 1)
         return false;
     if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect))
         return p->exact;
-    return mesh_ball_chain(p, c);
+    return mesh_ball_chain(p, c) || sdf_glass_chain(p, c);
 }
 
 /* The share of camera samples that trace an area light's subpath (p->lt_share, else the default). */

@@ -1,9 +1,10 @@
 /*
  * integrator/path_lt.h: the path tracer's light-traced caustics of point lights and area lights
  * (specular NEE's "ltcaus" option): seen through a diffuse bounce, directly, and through the glass
- * sphere; area lights' also through a tessellated glass ball. A spot light is traced as a point
- * light, its subpath's throughput its intensity toward the first direction (falloff and image
- * included; zero past its cutoff), the direction's density the same cone toward the casters.
+ * sphere; area lights' also through a tessellated glass ball and a glass SDF. A spot light is
+ * traced as a point light, its subpath's throughput its intensity toward the first direction
+ * (falloff and image included; zero past its cutoff), the direction's density the same cone toward
+ * the casters.
  *
  * The paths (point light) - k chain vertices - x2 - m delta scatterings - x1 - camera, where x1 is
  * the camera ray's first hit and scatters along a non-delta sample, x2 is a receiver where
@@ -90,7 +91,11 @@
  * fitted sphere, fit_seeds.h), whose chains specular NEE does not count exactly: its weight there
  * is its own (psi, or the sampled weight of a randomized attempt's chain), the same on all three
  * sides. An area light's joins through the ball toward the pinhole stay the analytic sphere's (its
- * enumeration).
+ * enumeration). So may its chain lie on one glass SDF without creases (the floor's caustic under a
+ * glass torus, two refractions whose fold the randomized attempts rarely find and where BSDF
+ * sampling's value is large), whose randomized attempts specular NEE weighs with their sampled solve
+ * probability (solve_mis.h) on all three sides alike; its joins are x2 seen directly and through a
+ * diffuse bounce (no chain through the SDF toward the pinhole).
  *
  * A point light's chains through a tessellated glass ball are light tracing's too. Specular NEE
  * finds them by the fitted sphere's seeds and randomized attempts, each counted so that its value

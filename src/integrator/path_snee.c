@@ -217,6 +217,9 @@ void spc_path_snee_begin_view(spc_path_snee *s, const spc_render_ctx *ctx, const
     /* the light seen through flat glass: its weight reads the camera ray's scatterings */
     s->lv_enabled = spc_path_lt_view_enabled(ctx, &s->p);
     s->lv_on = s->lv_enabled;
+    /* the light-traced caustics' weights at the first receiver read the delta scatterings before it
+     * (cam_events, spc_path_snee_scattered), recorded as the camera path records them; no subpath */
+    s->lt_enabled = spc_path_lt_enabled(ctx, &s->p);
     int budget, long_budget;
     if (!camera_budgets(s, ctx, &budget, &long_budget))
         return;

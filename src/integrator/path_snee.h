@@ -92,11 +92,12 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
                          const spc_sampler *smp);
 
 /* Begin the state of a camera ray that only follows delta scatterings and counts the emission it
- * reaches (path_camsplit.h): the same exclusion track from the pinhole and the same record of the
- * light seen through flat glass as spc_path_snee_begin sets up, so that spc_path_snee_emitter_weight
- * gives such a path the weight the camera path would give it; no camera query, no light subpath,
- * no sampler dimension. After each delta scattering at h the caller calls
- * spc_path_snee_delta_vertex, then spc_path_snee_scattered. */
+ * reaches (path_camsplit.h): the same exclusion track from the pinhole and the same records of the
+ * light seen through flat glass and of the scatterings before the first receiver (light-traced
+ * caustics' weights) as spc_path_snee_begin sets up, so that spc_path_snee_emitter_weight and the
+ * weights at the first receiver give such a path the weight the camera path would give it; no
+ * camera query, no light subpath, no sampler dimension. After each delta scattering at h the caller
+ * calls spc_path_snee_delta_vertex, then spc_path_snee_scattered. */
 void spc_path_snee_begin_view(spc_path_snee *s, const spc_render_ctx *ctx, const spc_ray *ray0);
 
 /* At a vertex with a delta-only BSDF reached after `segments` segments: the chain budget state

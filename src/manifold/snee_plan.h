@@ -456,6 +456,18 @@
  * glass SDF, split"). */
 #define SPC_SNEE_PLAN_CAMERA_RECV ",camrecv"
 
+/* Appended with SPC_SNEE_PLAN_CAMERA_RECV: the glass SDF's caustics of area lights by light tracing
+ * too (integrator/path_lt.h), weighed against specular NEE and BSDF sampling at the receiver: the
+ * floor's caustic under the torus seen directly (two refractions near the caustic's fold, which
+ * the randomized attempts rarely find and where BSDF sampling's value is large) is light
+ * tracing's densest part. On scenes/caustic_sdf_torus.xml at equal CPU over 24 seeds (9851-9874)
+ * the mean relMSE fell 0.119 -> 0.069 (none 0.427; median 0.055 -> 0.021), over 48 fresh seeds
+ * 0.073 -> 0.055; on four fresh glass tori 1.4-3.7x lower over 16 seeds each, on a fresh capsule
+ * 1.14x (its one one-pixel seed the same pixel in both). The share of samples that trace a
+ * subpath, ltshare, stays 0.25: 0.1, 0.5 and 1 did worse on the torus (bench/RESULTS.md, "The
+ * glass SDF's caustics by light tracing"). */
+#define SPC_SNEE_PLAN_SDF_LT ",ltcaus"
+
 /* Appended for path where every caster is a flat mirror (a conductor mesh of few planes,
  * flat_chains.h) and the lights are small area lights: the mirrors' caustics also by light tracing
  * from a point on the light (integrator/path_lt.h), as for glass balls (SPC_SNEE_PLAN_AREA_LIGHTS).

@@ -1,0 +1,211 @@
+/*
+ * tests/test_path_lt_sdf.c: the light-traced caustics of area lights through a glass SDF
+ * (integrator/path_lt.h, specular NEE's "ltcaus"), on scenes/caustic_sdf_torus.xml (a glass torus as
+ * a signed distance field over a floor under a small sphere light).
+ *
+ * - The light subpaths refracted through the torus reach the floor and join the pinhole there
+ *   (directly, and from the floor point a diffuse bounce reaches); every join's chain lies on the
+ *   torus, and its weight is the share the path tracer's side leaves to light tracing at x2: the
+ *   BSDF side's weights there (spc_snee_receiver_weights with the camera side's ratio) give light
+ *   tracing's part equal to the join's weight, and BSDF sampling's own part and light tracing's
+ *   are non-negative and sum to at most one (the rest is specular NEE's, whose randomized attempts
+ *   are weighed with their sampled solve probability, solve_mis.h: the three sum to one in
+ *   expectation). Light tracing takes the larger share on some joins (near the caustic's fold).
+ * - Renders with ltcaus agree with --specular-nee none (per-pixel z-test, image mean) under a larger
+ *   light, with the camera-side split and its receiver sample (camrecv=1, every class D path), whose
+ *   rays keep the camera path's record of its scatterings with ltcaus on.
+ */
+/* ctest-labels: stat */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "harness.h"
+#include "integrator/path_lt.h"
+#include "manifold/snee_cost.h"
+#include "manifold/snee_options.h"
+#include "manifold/specular_nee.h"
+#include "render_util.h"
+
+#define TORUS "scenes/caustic_sdf_torus.xml"
+/* the torus's plan (specula info) without its ltcaus */
+#define TORUS_PLAN "angular:camera,first=0.1,later=0.1,ltguide,nolong"
+
+/* A path render context on sc with specular NEE's setting p, as the joins' callers see it. */
+static spc_render_ctx lt_ctx(spc_scene *sc, spc_camera_state *cam, const spc_snee_params *p)
+{
+    spc_render_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = sc;
+    ctx.cam = cam;
+    ctx.kind = SPC_INTEGRATOR_PATH;
+    ctx.max_depth = -1;
+    ctx.rr_depth = 5;
+    ctx.specular_nee = SPC_SNEE_ANGULAR;
+    ctx.specular_max_chain = 2;
+    ctx.snee = *p;
+    ctx.width = sc->film.width;
+    ctx.height = sc->film.height;
+    return ctx;
+}
+
+/* The camera's side of a join as the path tracer's specular NEE at x2 reads it (params.alt_chain_ratio). */
+typedef struct cam_side {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    const spc_path_lt_join *j;
+    int kmax, kflat;
+} cam_side;
+
+static double cam_side_ratio(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
+                             spc_vec3 y, spc_vec3 ny)
+{
+    const cam_side *a = user;
+    if (c->n > spc_path_lt_area_chain_max(a->p, c, a->kmax, a->kflat))
+        return 0.0;
+    return spc_path_lt_area_ratio(a->ctx, a->p, a->j->x1, a->j->w1, x, wo, a->j->cc, c, e, y, ny);
+}
+
+typedef struct sdf_tally {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    int joins, kinds[2], off_torus, by_length[SPC_CHAIN_MAX_VERTICES + 1];
+    int above, below;
+    double worst_gap, worst_sum;
+} sdf_tally;
+
+static void check_sdf_join(void *user, const spc_path_lt_join *j)
+{
+    sdf_tally *t = user;
+    const spc_scene *sc = t->ctx->scene;
+    ++t->joins;
+    ++t->kinds[j->x1 ? 1 : 0];
+    CHECK_MSG(j->e->type == SPC_EMITTER_AREA && j->w > 0.0 && !j->cc, "a join of weight %.17g", j->w);
+    for (int i = 0; i < j->c->n; ++i)
+        t->off_torus += !j->c->v[i].h.shape || j->c->v[i].h.shape->type != SPC_SHAPE_SDF;
+    if (j->c->n <= SPC_CHAIN_MAX_VERTICES)
+        ++t->by_length[j->c->n];
+    int segments = j->x1 ? 2 : 1;
+    int kmax = spc_path_lt_budget(t->ctx, t->p, j->x2, segments, j->x1 ? 1 : 0);
+    int kflat = spc_path_lt_flat_budget(t->ctx, t->p, j->x2, segments, j->x1 ? 1 : 0);
+    CHECK(j->c->n <= spc_path_lt_area_chain_max(t->p, j->c, kmax, kflat));
+    cam_side side = {t->ctx, t->p, j, kmax, kflat};
+    spc_snee_params pp = *t->p;
+    pp.mis = true;
+    pp.query_p = j->x1 ? spc_snee_later_prob(sc, t->p, j->x2->p) : spc_snee_first_prob(sc, t->p, j->x2->p);
+    pp.alt_chain_ratio = cam_side_ratio;
+    pp.alt_user = &side;
+    spc_receiver r;
+    spc_receiver_surface(&r, j->x2, j->w2);
+    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+    for (int i = 0; i < j->c->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
+        ev[i] = j->c->v[i].event;
+    spc_hit lh;
+    memset(&lh, 0, sizeof lh);
+    lh.p = j->y;
+    lh.ng = j->ny;
+    lh.emitter = j->e;
+    lh.shape = j->e->shape;
+    double w_alt;
+    double w_own = spc_snee_receiver_weights(sc, &pp, &r, j->c->d0, kmax, j->c->n, ev, &lh, &w_alt);
+    double gap = fabs(w_alt - j->w);
+    if (gap > t->worst_gap)
+        t->worst_gap = gap;
+    CHECK_MSG(w_own >= 0.0 && w_alt >= 0.0, "weights %.17g %.17g", w_own, w_alt);
+    if (w_own + w_alt > t->worst_sum)
+        t->worst_sum = w_own + w_alt;
+    t->above += j->w > 0.5;
+    t->below += j->w < 0.5;
+}
+
+TEST(joins_on_the_torus_weigh_as_the_path_side)
+{
+    spc_scene *sc = tu_load(TORUS, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_camera_state cam;
+    spc_snee_params p;
+    CHECK(spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height));
+    CHECK(spc_snee_parse(TORUS_PLAN ",ltcaus", 2, &p));
+    p.lt_share = 1.0;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
+    sdf_tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    spc_rng rng;
+    spc_rng_seed(&rng, 71, 7);
+    int n = spc_test_quick() ? 4000 : 10000;
+    for (int i = 0; i < n; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, check_sdf_join, &t);
+    printf("  %s: %d joins of %d subpaths (directly %d, through a diffuse bounce %d; chains of 1, 2, 3, 4 "
+           "vertices %d %d %d %d), light tracing's weight above 1/2 on %d, below on %d; largest gap of its weight "
+           "from the path side's %.3g, largest sum of BSDF sampling's and light tracing's %.6f\n",
+           TORUS, t.joins, n, t.kinds[0], t.kinds[1], t.by_length[1], t.by_length[2], t.by_length[3], t.by_length[4],
+           t.above, t.below, t.worst_gap, t.worst_sum);
+    CHECK(t.joins > 100 && t.kinds[0] > 50 && t.kinds[1] > 10);
+    CHECK(t.by_length[2] > 50);
+    CHECK(t.off_torus == 0);
+    CHECK_MSG(t.worst_gap < 1e-9, "light tracing's weight against the path side's: gap %.3g", t.worst_gap);
+    CHECK(t.worst_sum <= 1.0 + 1e-9);
+    CHECK(t.above > 0 && t.below > 0);
+    spc_scene_destroy(sc);
+}
+
+/* The torus under a sphere light of radius 0.3 (power kept), at res x res: none converges at a
+ * test's spp there. */
+static spc_scene *torus_large_light(int res)
+{
+    const char *d = getenv("SPC_SOURCE_DIR");
+    char path[1024], r[16];
+    snprintf(path, sizeof path, "%s/%s", d ? d : ".", TORUS);
+    snprintf(r, sizeof r, "%d", res);
+    spc_define defs[3] = {{"res", r}, {"light_radius", "0.3"}, {"light_radiance", "28.44, 27.02, 24.18"}};
+    spc_scene *sc = NULL;
+    spc_error err;
+    memset(&err, 0, sizeof err);
+    if (spc_scene_load(path, defs, 3, &sc, &err) != SPC_OK)
+        return NULL;
+    return sc;
+}
+
+static void agrees_with_none(const char *setting, int spp, uint64_t seed, const char *label)
+{
+    int q = spc_test_quick() ? 2 : 1;
+    spc_scene *sc = torus_large_light(16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_film *a = tu_render_nee(sc, "path", setting, spp / q, 2, seed, NULL);
+    spc_film *b = tu_render_nee(sc, "path", "none", 4096 / q, 2, seed + 1, NULL);
+    CHECK(a && b);
+    if (a && b) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        CHECK(tu_image_agrees(a, b, 0.99, label, &d));
+        double ma, sa, mb, sb;
+        tu_image_mean(a, 0, &ma, &sa);
+        tu_image_mean(b, 0, &mb, &sb);
+        double z = (ma - mb) / sqrt(sa * sa + sb * sb);
+        printf("    %s: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f (z %.2f)\n", label,
+               d.ztest_pass_fraction, d.ztest_pixels, ma, sa, mb, sb, z);
+        CHECK(fabs(z) < 4.0);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    spc_scene_destroy(sc);
+}
+
+TEST(render_agrees_with_none)
+{
+    agrees_with_none(TORUS_PLAN ",camsplit=4,camrecv=1,ltcaus", 256, 81, "torus, large light, ltcaus and camrecv=1");
+}
+
+int main(void)
+{
+    RUN(joins_on_the_torus_weigh_as_the_path_side);
+    RUN(render_agrees_with_none);
+    return spc_test_finish();
+}
