@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "integrator/splat.h"
+#include "manifold/cylinder_chains.h"
 #include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
 #include "manifold/plane_chains.h"
@@ -451,7 +452,7 @@ static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
     if (c->n < 1)
         return false;
     if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect) ||
-        spc_plane_chain_covers(c, p->reflect))
+        spc_plane_chain_covers(c, p->reflect) || spc_cylinder_chain_covers(c))
         return p->exact;
     return mesh_ball_chain(p, c);
 }

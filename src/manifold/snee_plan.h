@@ -507,6 +507,14 @@
  * mean relMSE 0.00097 (worst seed 0.00115) without it against 0.00179 (0.00223) with it on every
  * sample (bench/RESULTS.md, "The mirror ring's whispering gallery"). */
 #define SPC_SNEE_PLAN_SETTING_WATER "angular:first=0.1,later=0.1"
+/* Appended to SPC_SNEE_PLAN_SETTING_WATER for path where every caster is a normal-mapped plane
+ * (plane_chains.h) and every light a small area light (a sky besides; SPC_SNEE_PLAN_LT_AREA_SR):
+ * the area light's subpaths refracted by the water onto the floor, joined to the pinhole through
+ * the plane's one-vertex chains, on every camera sample (integrator/path_lt.h). Where the light's
+ * image through the ripples is stretched (a fold of the caustic network) specular NEE's density
+ * falls and BSDF sampling's value is the light's full radiance; light tracing's density is largest
+ * there. Measured in bench/RESULTS.md, "The pool's caustic folds by light tracing". */
+#define SPC_SNEE_PLAN_WATER_LT ",ltcaus,ltshare=0.5"
 
 /* Appended for path where every caster is flat glass under lights over SPC_SNEE_PLAN_FLAT_MAX_SR and
  * every sphere light specular NEE draws on lies outside the casters' bounding sphere: half of the light's points drawn in the cone of
