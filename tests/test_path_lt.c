@@ -41,6 +41,10 @@
  *   (on every call, or on a share of them: flat34) it finds at x2, and its share with psi in r and
  *   light tracing's weight sum to one; the lengths it never makes are light tracing's alone. A
  *   render with ltcaus agrees with one without.
+ * - Area lights over water (scenes/caustic_pool.xml: a normal-mapped plane) and inside a mirror ring
+ *   (scenes/caustic_mirror_ring.xml): the floor seen through the water joins the pinhole through the
+ *   plane's chains, the ring's floor directly; on each join the three weights sum to one within 1e-5,
+ *   and a render with ltcaus agrees with one without.
  * - The same with ltslab: joins of the floor seen through a slab (chains of 1-2 flat faces toward the
  *   pinhole) occur, the path tracer's camera chain retraced from x2 passes the pinhole, and the two
  *   weights of each shared path sum to one; a render with it and flat34=0.3 agrees with one with
