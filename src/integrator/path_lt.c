@@ -954,6 +954,23 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
     return true;
 }
 
+/* The weight a light subpath that arrived at h along d carries past the delta sample bs there: the
+ * sample's own (importance transport), except on a normal-mapped plane, where it is the delta
+ * lobe's throughput as the path tracer's radiance transport has it for the reversed pair (the
+ * camera's side toward bs.wi, the light's behind), over the lobe's probability. The map's shading
+ * normal makes the adjoint BSDF differ from the importance-mode sample's weight (the eta^2 of a
+ * refraction, the cosine factors, the shadowing term), and the joins must carry the value that
+ * specular NEE and BSDF sampling give the same path. */
+static spc_rgb delta_weight(const spc_hit *h, spc_vec3 d, const spc_bsdf_sample *bs)
+{
+    if (!spc_plane_chain_shape(h->shape))
+        return bs->weight;
+    if (!(bs->pdf > 0.0))
+        return spc_rgb1(0.0);
+    spc_rgb T = spc_bsdf_specular_throughput(h->bsdf, h, SPC_MODE_RADIANCE, bs->wi, spc_neg(d));
+    return spc_rgb_scale(T, 1.0 / bs->pdf);
+}
+
 /* Follows ray through the delta scatterings at chain surfaces, at most kmax of them (up to kflat
  * while every one is on a flat-faced caster, spc_flat_chain_shape), multiplying beta by each sampled
  * weight (the importance transport of a light subpath). x: the first other surface;
@@ -981,20 +998,7 @@ static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rn
                                  spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bs) ||
             !(bs.lobe & SPC_LOBE_DELTA))
             return -1;
-        if (spc_plane_chain_shape(h.shape)) {
-            /* a normal-mapped plane: the delta lobe's throughput as the path tracer's radiance
-             * transport has it for the reversed pair (the camera's side toward x, the light's
-             * behind), over the lobe's probability here. The map's shading normal makes the
-             * adjoint BSDF differ from the importance-mode sample's weight (its cosine factors,
-             * the face-view turn, the shadowing term), and the joins must carry the value that
-             * specular NEE and BSDF sampling carry for the same path. */
-            spc_rgb T = spc_bsdf_specular_throughput(h.bsdf, &h, SPC_MODE_RADIANCE, bs.wi, spc_neg(ray->d));
-            if (!(bs.pdf > 0.0))
-                return -1;
-            *beta = spc_rgb_scale(spc_rgb_mul(*beta, T), 1.0 / bs.pdf);
-        } else {
-            *beta = spc_rgb_mul(*beta, bs.weight);
-        }
+        *beta = spc_rgb_mul(*beta, delta_weight(&h, ray->d, &bs));
         if (spc_rgb_is_black(*beta))
             return -1;
         if (events)
@@ -1172,7 +1176,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
             m = -1;
             continue;
         }
-        beta = spc_rgb_mul(beta, bm.weight);
+        beta = spc_rgb_mul(beta, delta_weight(&h, ray.d, &bm));
         ray = spc_hit_spawn(&h, bm.wi);
     }
 }
