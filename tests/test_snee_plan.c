@@ -1072,7 +1072,8 @@ TEST(tessellated_ball_plan)
  * receiver (SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS: no first=P roulette, whose P in the query's side of
  * MIS left BSDF-sampled hits of the light through the bowl near weight 1); mirrors enumerated
  * exactly (the mirror ring's cylinder) keep the roulette and make the query from the camera by
- * roulette too (SPC_SNEE_PLAN_SETTING_MIRRORS); the bowl's setting has no query from the camera. */
+ * roulette too (SPC_SNEE_PLAN_SETTING_MIRRORS), and under its small light light tracing
+ * (SPC_SNEE_PLAN_CYLINDER_LT); the bowl's setting has no query from the camera. */
 TEST(solved_mirror_plan_no_first_roulette)
 {
     static const struct {
@@ -1081,7 +1082,7 @@ TEST(solved_mirror_plan_no_first_roulette)
         bool camera;
     } cases[] = {
         {"bench/check/mirror_bowl.xml", SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS, 1.0, false},
-        {"scenes/caustic_mirror_ring.xml", SPC_SNEE_PLAN_SETTING_MIRRORS, 0.1, true},
+        {"scenes/caustic_mirror_ring.xml", SPC_SNEE_PLAN_SETTING_MIRRORS SPC_SNEE_PLAN_CYLINDER_LT, 0.1, true},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         spc_scene *sc = load_at(cases[i].scene, "8");
@@ -1254,9 +1255,7 @@ TEST(volpath_ball_in_fog_plan_off)
  * scenes/newton_pool.xml) with the camera and the light above it: path's plan has no query from the
  * camera (from there the plane's chains are the
  * light's glints, which the path tracer's emission splitting traces at every camera sample;
- * SPC_SNEE_PLAN_SETTING_WATER); over the normal-mapped plane under its small sphere light, light
- * tracing through the water (SPC_SNEE_PLAN_WATER_LT), not over the triangles (their chains are the
- * randomized solver's) nor for volpath and bdpt, nor under a light of 0.028 sr. volpath and bdpt, which do not split, keep the query, and so does
+ * SPC_SNEE_PLAN_SETTING_WATER). volpath and bdpt, which do not split, keep the query, and so does
  * path with the light under the water, where chains from the camera refract to it. */
 TEST(water_plane_plan_no_camera_query)
 {
@@ -1266,15 +1265,14 @@ TEST(water_plane_plan_no_camera_query)
     spc_snee_plan p;
     spc_snee_params sp;
     spc_snee_plan_make(sc, "path", NULL, &p);
-    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER SPC_SNEE_PLAN_WATER_LT) &&
-                  spc_snee_parse(p.setting, 2, &sp) && !sp.camera && sp.exact && sp.lt_caustic,
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER) && spc_snee_parse(p.setting, 2, &sp) &&
+                  !sp.camera && sp.exact,
               "pool, path: %s (%s)", p.setting, p.reason);
     printf("    pool, path: %s\n", p.setting);
     static const char *const others[] = {"volpath", "bdpt"};
     for (int i = 0; i < 2; ++i) {
         spc_snee_plan_make(sc, others[i], NULL, &p);
-        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera && !sp.lt_caustic, "pool, %s: %s", others[i],
-                  p.setting);
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "pool, %s: %s", others[i], p.setting);
     }
     spc_scene_destroy(sc);
     /* a water surface made of triangles (the randomized solver's), the camera and the light above
@@ -1321,33 +1319,6 @@ TEST(water_plane_plan_no_camera_query)
     CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "light under the water, path: %s (%s)", p.setting,
               p.reason);
     printf("    light under the water, path: %s\n", p.setting);
-    spc_scene_destroy(sc);
-    /* the pool under a larger light (radius 0.3: 0.028 sr from the water's centre): no light tracing */
-    fp = fopen(path, "rb");
-    CHECK(fp != NULL);
-    if (!fp)
-        return;
-    n = fread(text, 1, sizeof text - 1, fp);
-    fclose(fp);
-    text[n] = 0;
-    const char *radius = "name=\"radius\" value=\"0.15\"";
-    a = strstr(text, radius);
-    b = strstr(text, map);
-    CHECK(a && b && a < b);
-    if (!(a && b && a < b))
-        return;
-    *a = 0;
-    *b = 0;
-    snprintf(moved, sizeof moved, "%sname=\"radius\" value=\"0.3\"%s%s/scenes/%s%s", text, a + strlen(radius),
-             spc_test_source_dir(), map, b + strlen(map));
-    sc = NULL;
-    CHECK_MSG(load_text(moved, &sc, &err) == SPC_OK, "larger light: %s", err.msg);
-    if (!sc)
-        return;
-    spc_snee_plan_make(sc, "path", NULL, &p);
-    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER), "larger light, path: %s (%s)", p.setting,
-              p.reason);
-    printf("    larger light, path: %s\n", p.setting);
     spc_scene_destroy(sc);
 }
 

@@ -15,7 +15,6 @@
 #include "manifold/cylinder_chains.h"
 #include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
-#include "manifold/plane_chains.h"
 #include "manifold/snee_cost.h"
 #include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
@@ -53,21 +52,13 @@ static bool slab_camera_chain(const spc_snee_params *p, const spc_chain *cc)
            !spc_sphere_chain_covers(cc, p->reflect);
 }
 
-/* Is the camera's chain cc from x toward the pinhole one that an area light's joins take through a
- * normal-mapped plane (a floor seen through water): one vertex on such a plane, one of
- * spc_plane_chains_all's (with exact enumeration)? */
-static bool plane_camera_chain(const spc_snee_params *p, const spc_chain *cc)
-{
-    return p->exact && cc->n == 1 && spc_plane_chain_covers(cc, p->reflect);
-}
-
 /* The share of light subpaths joined to the pinhole through the sphere by the chain cc from x2:
  * through_share for chains within the parameters' max_chain, long_share beyond; 1 for a chain
- * through flat faces (slab_camera_chain) or through a normal-mapped plane (plane_camera_chain). */
+ * through flat faces (slab_camera_chain). */
 static double camera_chain_share(const spc_snee_params *p, const spc_chain *cc)
 {
-    if (slab_camera_chain(p, cc) || plane_camera_chain(p, cc))
-        return 1.0; /* on every subpath (join_slab, join_plane) */
+    if (slab_camera_chain(p, cc))
+        return 1.0; /* through flat faces: on every subpath (join_slab) */
     return cc->n > p->max_chain ? long_share(p) : through_share(p);
 }
 
@@ -398,7 +389,7 @@ static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p
     if (j < 1 || j > spc_path_lt_camera_max_chain(p))
         return 0.0;
     if (!spc_sphere_chain_covers(cc, p->reflect) && !(j <= p->max_chain && mesh_ball_chain(p, cc)) &&
-        !slab_camera_chain(p, cc) && !plane_camera_chain(p, cc))
+        !slab_camera_chain(p, cc))
         return 0.0;
     const spc_chain_vertex *last = &cc->v[j - 1];
     if (!spc_camera_sample_direct(ctx->cam, last->h.p, cd) || !in_window(ctx, cd->fx, cd->fy))
@@ -439,7 +430,8 @@ double spc_path_lt_ratio_first(const spc_render_ctx *ctx, const spc_snee_params 
 
 /* Is the chain c (from x2 toward an area light) one whose paths light tracing makes: one glass
  * sphere's (spc_sphere_chain_covers, with exact enumeration), through flat faces only (the slabs'
- * chains, spc_flat_chain_faces, with exact enumeration; up to spc_path_lt_flat_budget's length:
+ * chains, spc_flat_chain_faces, with exact enumeration; reflections on a mirror cylinder,
+ * spc_cylinder_chain_covers, with exact enumeration; up to spc_path_lt_flat_budget's length:
  * also those the enumeration leaves to BSDF sampling, longer than it goes or with a partial
  * reflection inside the glass, whose weights are then BSDF sampling's and light tracing's alone),
  * or every vertex on one tessellated glass ball (a triangle mesh with a fitted sphere, fit_seeds.h)
@@ -451,8 +443,7 @@ static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
 {
     if (c->n < 1)
         return false;
-    if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect) ||
-        spc_plane_chain_covers(c, p->reflect) || spc_cylinder_chain_covers(c))
+    if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect) || spc_cylinder_chain_covers(c))
         return p->exact;
     return mesh_ball_chain(p, c);
 }
@@ -473,9 +464,8 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
         return 0.0;
     /* the joins through a tessellated ball are point lights' only; through the sphere (with its
      * longer chains, join_first) and through flat faces (ltslab, within max_chain) both kinds' */
-    if (cc && !(spc_sphere_chain_covers(cc, p->reflect)
-                    ? cc->n <= spc_path_lt_camera_max_chain(p)
-                    : cc->n <= p->max_chain && (slab_camera_chain(p, cc) || plane_camera_chain(p, cc))))
+    if (cc && !(spc_sphere_chain_covers(cc, p->reflect) ? cc->n <= spc_path_lt_camera_max_chain(p)
+                                                        : cc->n <= p->max_chain && slab_camera_chain(p, cc)))
         return 0.0;
     spc_vec3 d_last = c->v[k - 1].d;
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
@@ -803,45 +793,6 @@ static void join_slab(const spc_render_ctx *ctx, const spc_snee_params *p, const
             join_chain(ctx, p, x2, beta, L, &all[i], sink, user);
 }
 
-/* The light subpath's end and the sink of its joins, for spc_plane_chains_each's callback. */
-typedef struct plane_join {
-    const spc_render_ctx *ctx;
-    const spc_snee_params *p;
-    const spc_hit *x2;
-    spc_rgb beta;
-    const lt_end *L;
-    void (*sink)(void *user, const spc_path_lt_join *j);
-    void *user;
-} plane_join;
-
-static void plane_join_one(void *user, const spc_chain *cc)
-{
-    const plane_join *pj = user;
-    if (plane_camera_chain(pj->p, cc))
-        join_chain(pj->ctx, pj->p, pj->x2, pj->beta, pj->L, cc, pj->sink, pj->user);
-}
-
-/* An area light's joins at x2 to the pinhole through a normal-mapped plane: every one-vertex chain
- * of spc_plane_chains_each from x2 toward the pinhole (the floor seen through water, often at
- * several points of the ripples), on every subpath. The path tracer's side weighs the camera ray
- * that meets x2 through such a chain against these (spc_path_lt_area_ratio with that chain; the
- * camera's density through it from camera_density). */
-static void join_plane(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_rgb beta,
-                       const lt_end *L, void (*sink)(void *user, const spc_path_lt_join *j), void *user)
-{
-    if (!L->area || !p->exact || p->max_chain < 1)
-        return;
-    spc_snee_query q;
-    spc_snee_query_init(&q, ctx->scene, p, x2, L->d0, 1);
-    q.min_chain = 1;
-    q.y = ctx->cam->origin;
-    q.ny = spc_v3(0, 0, 0);
-    q.light_size = 0.0;
-    plane_join pj = {ctx, p, x2, beta, L, sink, user};
-    int it = 0;
-    spc_plane_chains_each(&q, p->reflect, plane_join_one, &pj, &it);
-}
-
 /* Is some caster a glass sphere (a sphere whose chains spc_sphere_chains_all enumerates, with a
  * refracting interface: the only sphere with chains longer than two vertices, in, reflections
  * inside, out)? */
@@ -893,8 +844,6 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         join_through(ctx, p, x2, beta, L, 1, p->max_chain, sink, user);
     /* through flat faces (glass slabs), with ltslab */
     join_slab(ctx, p, x2, beta, L, sink, user);
-    /* an area light's through a normal-mapped plane (water), where its own chain ran through one */
-    join_plane(ctx, p, x2, beta, L, sink, user);
     /* through the sphere's longer chains (in, reflections inside, out), on a share of their own;
      * an area light's only where a glass sphere has such chains (elsewhere its stream is not drawn) */
     double ls = long_share(p);
@@ -954,23 +903,6 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
     return true;
 }
 
-/* The weight a light subpath that arrived at h along d carries past the delta sample bs there: the
- * sample's own (importance transport), except on a normal-mapped plane, where it is the delta
- * lobe's throughput as the path tracer's radiance transport has it for the reversed pair (the
- * camera's side toward bs.wi, the light's behind), over the lobe's probability. The map's shading
- * normal makes the adjoint BSDF differ from the importance-mode sample's weight (the eta^2 of a
- * refraction, the cosine factors, the shadowing term), and the joins must carry the value that
- * specular NEE and BSDF sampling give the same path. */
-static spc_rgb delta_weight(const spc_hit *h, spc_vec3 d, const spc_bsdf_sample *bs)
-{
-    if (!spc_plane_chain_shape(h->shape))
-        return bs->weight;
-    if (!(bs->pdf > 0.0))
-        return spc_rgb1(0.0);
-    spc_rgb T = spc_bsdf_specular_throughput(h->bsdf, h, SPC_MODE_RADIANCE, bs->wi, spc_neg(d));
-    return spc_rgb_scale(T, 1.0 / bs->pdf);
-}
-
 /* Follows ray through the delta scatterings at chain surfaces, at most kmax of them (up to kflat
  * while every one is on a flat-faced caster, spc_flat_chain_shape), multiplying beta by each sampled
  * weight (the importance transport of a light subpath). x: the first other surface;
@@ -998,7 +930,7 @@ static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rn
                                  spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bs) ||
             !(bs.lobe & SPC_LOBE_DELTA))
             return -1;
-        *beta = spc_rgb_mul(*beta, delta_weight(&h, ray->d, &bs));
+        *beta = spc_rgb_mul(*beta, bs.weight);
         if (spc_rgb_is_black(*beta))
             return -1;
         if (events)
@@ -1176,7 +1108,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
             m = -1;
             continue;
         }
-        beta = spc_rgb_mul(beta, delta_weight(&h, ray.d, &bm));
+        beta = spc_rgb_mul(beta, bm.weight);
         ray = spc_hit_spawn(&h, bm.wi);
     }
 }

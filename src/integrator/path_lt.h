@@ -92,15 +92,8 @@
  * sides. An area light's joins through the ball toward the pinhole stay the analytic sphere's (its
  * enumeration).
  *
- * An area light's chain may also be one vertex on a normal-mapped plane (a water surface,
- * plane_chains.h) or reflections on a mirror cylinder (cylinder_chains.h), both enumerated exactly
- * by specular NEE at x2. The camera sees a pool's floor through the water: a subpath's x2 then joins
- * the pinhole through every one-vertex chain of the plane from x2 toward it (spc_plane_chains_each,
- * the floor's images in the ripples), on every subpath, the camera's density through it as through
- * the sphere's chains. Through the plane the subpath carries the radiance transport's throughput
- * (the delta lobe's value for the reversed pair over the probability the walk chose it with): the
- * map's shading normal makes the importance-mode sample's weight differ from the adjoint that the
- * path tracer's side evaluates.
+ * An area light's chain may also be reflections on a mirror cylinder (cylinder_chains.h, enumerated
+ * exactly by specular NEE at x2): the floor inside a mirror ring, seen directly.
  *
  * A point light's chains through a tessellated glass ball are light tracing's too. Specular NEE
  * finds them by the fitted sphere's seeds and randomized attempts, each counted so that its value

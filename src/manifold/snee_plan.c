@@ -147,11 +147,11 @@ static bool small_area_lights(const spc_scene *sc, const spc_chain_casters *cs)
     return area;
 }
 
-/* Is every caster a normal-mapped plane whose chains plane_chains.h enumerates (a water surface)? */
-static bool water_planes_only(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
+/* Is every caster a mirror cylinder whose chains cylinder_chains.h enumerates? */
+static bool cylinders_only(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
 {
     for (int i = 0; i < cs->n; ++i)
-        if (spc_snee_plan_method(p, sc->shapes[cs->idx[i]]) != SPC_SNEE_METHOD_PLANE)
+        if (spc_snee_plan_method(p, sc->shapes[cs->idx[i]]) != SPC_SNEE_METHOD_CYLINDER)
             return false;
     return cs->n > 0;
 }
@@ -1163,13 +1163,6 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_ROOM_GLASS_BALL);
     }
-    /* path over water planes alone under small area lights: the caustic on the floor also by light
-     * tracing through the water (snee_plan.h, SPC_SNEE_PLAN_WATER_LT) */
-    if (!strcmp(integrator, "path") && !strcmp(out->setting, SPC_SNEE_PLAN_SETTING_WATER) &&
-        water_planes_only(sc, cs, &p) && small_area_lights(sc, cs)) {
-        size_t n = strlen(out->setting);
-        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_WATER_LT);
-    }
     /* path lit by point lights (a sky besides), with a glass sphere among the casters: the point
      * lights' caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) */
     if (!strcmp(integrator, "path") && glass && exact && point_lights_sky(sc) && glass_sphere(sc, cs)) {
@@ -1215,6 +1208,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         small_area_lights(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_MIRRORS_LT);
+    }
+    /* path where every caster is a mirror cylinder (cylinder_chains.h) under small area lights: the
+     * caustic on the floor also by light tracing (snee_plan.h, SPC_SNEE_PLAN_CYLINDER_LT) */
+    if (!strcmp(integrator, "path") && !glass && !solved_mirror && cylinders_only(sc, cs, &p) &&
+        small_area_lights(sc, cs) && !strstr(out->setting, "ltcaus")) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_CYLINDER_LT);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a

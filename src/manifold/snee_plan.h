@@ -507,14 +507,13 @@
  * mean relMSE 0.00097 (worst seed 0.00115) without it against 0.00179 (0.00223) with it on every
  * sample (bench/RESULTS.md, "The mirror ring's whispering gallery"). */
 #define SPC_SNEE_PLAN_SETTING_WATER "angular:first=0.1,later=0.1"
-/* Appended to SPC_SNEE_PLAN_SETTING_WATER for path where every caster is a normal-mapped plane
- * (plane_chains.h) and every light a small area light (a sky besides; SPC_SNEE_PLAN_LT_AREA_SR):
- * the area light's subpaths refracted by the water onto the floor, joined to the pinhole through
- * the plane's one-vertex chains, on every camera sample (integrator/path_lt.h). Where the light's
- * image through the ripples is stretched (a fold of the caustic network) specular NEE's density
- * falls and BSDF sampling's value is the light's full radiance; light tracing's density is largest
- * there. Measured in bench/RESULTS.md, "The pool's caustic folds by light tracing". */
-#define SPC_SNEE_PLAN_WATER_LT ",ltcaus,ltshare=0.5"
+/* Appended for path where every caster is a mirror cylinder (cylinder_chains.h) under small area
+ * lights: the area light's subpaths reflected by the wall onto the floor, joined to the pinhole
+ * (integrator/path_lt.h), weighed against specular NEE and BSDF sampling at the floor, where the
+ * wall's caustic folds. scenes/caustic_mirror_ring.xml at equal CPU over 24 seeds: mean relMSE
+ * 0.00464 -> 0.00335 (median 0.00303 -> 0.00176; none 0.147), bench/check/rings_square_light.xml
+ * over 16 seeds 0.000146 -> 0.000121 (bench/RESULTS.md, "Light tracing through the pool's water"). */
+#define SPC_SNEE_PLAN_CYLINDER_LT ",ltcaus,ltshare=0.5"
 
 /* Appended for path where every caster is flat glass under lights over SPC_SNEE_PLAN_FLAT_MAX_SR and
  * every sphere light specular NEE draws on lies outside the casters' bounding sphere: half of the light's points drawn in the cone of
