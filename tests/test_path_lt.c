@@ -41,6 +41,9 @@
  *   (on every call, or on a share of them: flat34) it finds at x2, and its share with psi in r and
  *   light tracing's weight sum to one; the lengths it never makes are light tracing's alone. A
  *   render with ltcaus agrees with one without.
+ * - Area lights inside a mirror ring (scenes/caustic_mirror_ring.xml): the floor's joins (seen
+ *   directly) carry chains of 1-2 reflections off the wall; on each the three weights sum to one within
+ *   1e-5, and a render with ltcaus agrees with one without.
  * - The same with ltslab: joins of the floor seen through a slab (chains of 1-2 flat faces toward the
  *   pinhole) occur, the path tracer's camera chain retraced from x2 passes the pinhole, and the two
  *   weights of each shared path sum to one; a render with it and flat34=0.3 agrees with one with
@@ -55,6 +58,7 @@
 #include "harness.h"
 #include "integrator/path_lt.h"
 #include "integrator/path_snee.h"
+#include "manifold/cylinder_chains.h"
 #include "manifold/flat_chains.h"
 #include "manifold/snee_options.h"
 #include "manifold/snee_cost.h"
@@ -446,6 +450,7 @@ typedef struct area_tally {
     const spc_snee_params *p;
     bool mesh; /* a tessellated ball: specular NEE's chain at x2 is the join's own (no enumeration) */
     bool flat; /* slabs: specular NEE's chains at x2 by the flat enumeration, of the join's length */
+    bool cylinder; /* a mirror cylinder: specular NEE's chains at x2 by the cylinder's enumeration */
     int exact; /* joins whose three weights sum to one within 1e-5 */
     int joins, matched, kinds[3];
     /* slabs: joins by chains through flat faces that the enumeration leaves to BSDF sampling (a
@@ -500,6 +505,8 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
         if (j->c->n > q.max_chain)
             q.min_chain = q.max_chain = j->c->n;
         n = spc_flat_chains_all(&q, all, 16, NULL);
+    } else if (t->cylinder) {
+        n = spc_cylinder_chains_all(&q, all, 16, NULL);
     } else if (!t->mesh) {
         n = spc_sphere_chains_all(&q, all, 16, NULL);
     }
@@ -1343,6 +1350,53 @@ static void check_slab_camera_join(void *user, const spc_path_lt_join *j)
         t->worst_gap = gap;
 }
 
+#define RING_SCENE "scenes/caustic_mirror_ring.xml"
+#define RING_PLAN "angular:camera=0.035,first=0.1,later=0.1"
+
+/* The mirror ring (an open mirror cylinder on a floor under a small sphere light): the area light's
+ * subpaths reflected by the wall onto the floor join the pinhole directly; on each join the three
+ * weights of its path (specular NEE's through the cylinder's enumerated chain toward y, BSDF
+ * sampling's own, light tracing's) sum to one, and light tracing takes the larger share on some. */
+TEST(ring_area_weights_sum_to_one)
+{
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_scene *sc = lt_load(RING_SCENE, RING_PLAN ",ltcaus", &cam, &p);
+    if (!sc)
+        return;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
+    p.lt_share = 1.0;
+    ctx.snee = p;
+    area_tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    t.cylinder = true;
+    spc_rng rng;
+    spc_rng_seed(&rng, 73, 7);
+    int n = spc_test_quick() ? 2000 : 8000;
+    for (int i = 0; i < n; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    printf("  %s: %d joins (%d enumerated at x2; directly %d, through a diffuse bounce %d; light chains of 1 and 2 "
+           "reflections %d %d), light tracing's weight above 1/2 on %.0f, below on %.0f, largest gap of the three "
+           "weights' sum from 1 %.3g\n",
+           RING_SCENE, t.joins, t.matched, t.kinds[0], t.kinds[2], t.by_length[1], t.by_length[2], t.above, t.below,
+           t.worst_gap);
+    CHECK_MSG(t.kinds[0] > n / 20, "joins of the floor seen directly: %d of %d subpaths", t.kinds[0], n);
+    CHECK_MSG(t.matched > t.joins * 95 / 100, "the cylinder's enumeration at x2 finds %d of %d joins' chains",
+              t.matched, t.joins);
+    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK(t.above > 0 && t.below > 0);
+    spc_scene_destroy(sc);
+}
+
+/* The ring's render with light tracing agrees with the render without it. */
+TEST(ring_render_agrees_without_it)
+{
+    scene_settings_agree(RING_SCENE, RING_PLAN ",ltcaus", RING_PLAN, 256, 79, "ring: ltcaus vs without");
+}
+
 /* Two glass slabs under a point light with ltslab: the floor seen through a slab gets joins (chains
  * of 1-2 flat faces toward the pinhole) carrying light chains of every length light tracing makes,
  * the 3- and 4-vertex ones on a share of specular NEE's calls (flat34=0.3) and the 5- and 6-vertex
@@ -1750,6 +1804,8 @@ int main(void)
     RUN(slab_point_render_agrees_without_it);
     RUN(slab_camera_point_weights_sum_to_one);
     RUN(slab_camera_point_render_agrees_with_the_share);
+    RUN(ring_area_weights_sum_to_one);
+    RUN(ring_render_agrees_without_it);
     RUN(slab_render_long_agrees_without_it);
     RUN(area_light_render_agrees_without_it);
     RUN(area_light_long_render_agrees_without_it);

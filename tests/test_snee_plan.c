@@ -1077,7 +1077,8 @@ TEST(tessellated_ball_plan)
  * receiver (SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS: no first=P roulette, whose P in the query's side of
  * MIS left BSDF-sampled hits of the light through the bowl near weight 1); mirrors enumerated
  * exactly (the mirror ring's cylinder) keep the roulette and make the query from the camera by
- * roulette too (SPC_SNEE_PLAN_SETTING_MIRRORS); the bowl's setting has no query from the camera. */
+ * roulette too (SPC_SNEE_PLAN_SETTING_MIRRORS), and under its small light light tracing
+ * (SPC_SNEE_PLAN_CYLINDER_LT); the bowl's setting has no query from the camera. */
 TEST(solved_mirror_plan_no_first_roulette)
 {
     static const struct {
@@ -1086,7 +1087,7 @@ TEST(solved_mirror_plan_no_first_roulette)
         bool camera;
     } cases[] = {
         {"bench/check/mirror_bowl.xml", SPC_SNEE_PLAN_SETTING_SOLVED_MIRRORS, 1.0, false},
-        {"scenes/caustic_mirror_ring.xml", SPC_SNEE_PLAN_SETTING_MIRRORS, 0.1, true},
+        {"scenes/caustic_mirror_ring.xml", SPC_SNEE_PLAN_SETTING_MIRRORS SPC_SNEE_PLAN_CYLINDER_LT, 0.1, true},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         spc_scene *sc = load_at(cases[i].scene, "8");

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "integrator/splat.h"
+#include "manifold/cylinder_chains.h"
 #include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
 #include "manifold/snee_cost.h"
@@ -449,7 +450,8 @@ static bool sdf_glass_chain(const spc_snee_params *p, const spc_chain *c)
 
 /* Is the chain c (from x2 toward an area light) one whose paths light tracing makes: one glass
  * sphere's (spc_sphere_chain_covers, with exact enumeration), through flat faces only (the slabs'
- * chains, spc_flat_chain_faces, with exact enumeration; up to spc_path_lt_flat_budget's length:
+ * chains, spc_flat_chain_faces, with exact enumeration; reflections on a mirror cylinder,
+ * spc_cylinder_chain_covers, with exact enumeration; up to spc_path_lt_flat_budget's length:
  * also those the enumeration leaves to BSDF sampling, longer than it goes or with a partial
  * reflection inside the glass, whose weights are then BSDF sampling's and light tracing's alone),
  * or every vertex on one tessellated glass ball (a triangle mesh with a fitted sphere, fit_seeds.h)
@@ -462,7 +464,7 @@ static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
 {
     if (c->n < 1)
         return false;
-    if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect))
+    if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect) || spc_cylinder_chain_covers(c))
         return p->exact;
     return mesh_ball_chain(p, c) || sdf_glass_chain(p, c);
 }

@@ -97,6 +97,9 @@
  * probability (solve_mis.h) on all three sides alike; its joins are x2 seen directly and through a
  * diffuse bounce (no chain through the SDF toward the pinhole).
  *
+ * An area light's chain may also be reflections on a mirror cylinder (cylinder_chains.h, enumerated
+ * exactly by specular NEE at x2): the floor inside a mirror ring, seen directly.
+ *
  * A point light's chains through a tessellated glass ball are light tracing's too. Specular NEE
  * finds them by the fitted sphere's seeds and randomized attempts, each counted so that its value
  * is unbiased per chain (1 or the trial count), so any weight that is a function of the path

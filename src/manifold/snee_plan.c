@@ -147,6 +147,15 @@ static bool small_area_lights(const spc_scene *sc, const spc_chain_casters *cs)
     return area;
 }
 
+/* Is every caster a mirror cylinder whose chains cylinder_chains.h enumerates? */
+static bool cylinders_only(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
+{
+    for (int i = 0; i < cs->n; ++i)
+        if (spc_snee_plan_method(p, sc->shapes[cs->idx[i]]) != SPC_SNEE_METHOD_CYLINDER)
+            return false;
+    return cs->n > 0;
+}
+
 /* Is every caster a mirror whose chains the flat enumeration takes (a conductor mesh of few planes)? */
 static bool flat_mirrors_only(const spc_scene *sc, const spc_chain_casters *cs)
 {
@@ -1201,6 +1210,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         small_area_lights(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_MIRRORS_LT);
+    }
+    /* path where every caster is a mirror cylinder (cylinder_chains.h) under small area lights: the
+     * caustic on the floor also by light tracing (snee_plan.h, SPC_SNEE_PLAN_CYLINDER_LT) */
+    if (!strcmp(integrator, "path") && !glass && !solved_mirror && cylinders_only(sc, cs, &p) &&
+        small_area_lights(sc, cs) && !strstr(out->setting, "ltcaus")) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_CYLINDER_LT);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a
