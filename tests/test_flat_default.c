@@ -8,7 +8,8 @@
  *   bdpt without specular NEE (light tracing reaches the floor through the slabs), per-pixel z-test
  *   (Sidak) and image means.
  * - newton_slabs itself (0.12 sr: the plan's rule for slabs alone under larger lights, light
- *   tracing on every sample) against path tracing without specular NEE the same way.
+ *   tracing on every sample, half of the sphere light's points in the cone from the receiver)
+ *   against path tracing without specular NEE the same way.
  * - scenes/caustic_slabs.xml, whose plan draws half of its sphere light's points in the cone from the
  *   receiver (lightx), against path tracing without specular NEE the same way.
  * - scenes/caustic_glass_cube.xml (a tilted glass cube beside a silver ball: two refractions, total

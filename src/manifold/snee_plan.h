@@ -509,23 +509,24 @@
 #define SPC_SNEE_PLAN_SETTING_WATER "angular:first=0.1,later=0.1"
 
 /* Appended for path where every caster is flat glass under lights over SPC_SNEE_PLAN_FLAT_MAX_SR and
- * every sphere light specular NEE draws on lies outside the casters' bounding sphere: half of the light's points drawn in the cone of
+ * specular NEE draws on some sphere light: half of the light's points drawn in the cone of
  * directions toward the light from the receiver (params.light_x), the rest as before, on the cap
  * facing the casters' sphere. Flat glass bends a chain little, so a chain from the receiver ends on
  * the side of the light the receiver sees: on scenes/caustic_slabs.xml one query's second moment
  * over its squared mean at floor points 17.3 -> 7.2 (share 0.9) at the same cost, and at equal CPU
  * time over 24 seeds 13.0x -> 19.6x none (bench/RESULTS.md, "Flat glass under sphere lights").
  * The rest keeps every point a chain can reach drawn, at (1 - share) of the old density where the
- * receiver's cone misses it. Not where a light lies inside the casters' sphere (slabs wider than
- * the light's height: scenes/newton_slabs.xml, whose cap is then the whole light and 57% of the
- * queries ended on its far side): there chains can reach the light from outside the cone (its
- * one-pixel seeds were traced to the long pass's randomized chains off a slab's side face,
- * bench/RESULTS.md, "The slabs' light guides"), and with the share one seed of 24 was a one-pixel
- * seed at 26x the median (its pixel 0.97 of it, not traced); with 0.9 one pixel held 80% of the
- * variance at 16 x 16, 4096 spp. Nor under lights of at most SPC_SNEE_PLAN_FLAT_MAX_SR (the
- * small-light setting): on scenes/caustic_slabs_small_light.xml (0.00066 sr) one of five renders at
- * 16 x 16, 4096 spp had a pixel holding all of its variance (none of five without it; not traced),
- * though 24 seeds at equal CPU time showed none (203x against 123x none). */
+ * receiver's cone misses it; the long pass's chains (params.long_p) draw their own point from the
+ * cap alone (spc_snee_sample_long_light). Where a light lies inside the casters' sphere (slabs
+ * wider than the light's height: scenes/newton_slabs.xml) chains off a slab's side face reach it
+ * from outside the cone, and the long pass's 7-vertex chains, counted with 1 / psi, at half the
+ * density made a one-pixel seed (9863, pixel (25, 20): 4.2 against 0.33); with their own point that
+ * sample is 0.33 and newton_slabs at equal CPU time over 24 seeds goes 4.0x -> 4.6x none
+ * (bench/RESULTS.md, "newton_slabs under lightx"). Not under lights of at most
+ * SPC_SNEE_PLAN_FLAT_MAX_SR (the small-light setting): on scenes/caustic_slabs_small_light.xml
+ * (0.00066 sr) one of five renders at 16 x 16, 4096 spp had a pixel holding all of its variance
+ * (none of five without it; not traced), though 24 seeds at equal CPU time showed none (203x
+ * against 123x none). */
 #define SPC_SNEE_PLAN_FLAT_LIGHT_X ",lightx=0.5"
 
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
