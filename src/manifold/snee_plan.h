@@ -327,8 +327,13 @@
  * they were half the query's cost for little of its variance (at equal CPU, 1.3-2x more samples;
  * mean relMSE over 16-32 seeds: scenes/caustic_slabs.xml 2.6-2.8x lower, fresh slab scenes under
  * 0.031-0.035 sr 1.4x and 2.5x; bench/RESULTS.md, "the 3- and 4-vertex chains on a tenth of the
- * calls"); a share of 0.05 made one-pixel seeds. */
-#define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.1,longmax=8"
+ * calls"); a share of 0.05 made one-pixel seeds. The long pass on 0.4 of the calls (long=0.4:
+ * psi 0.1 for each length past the budget, where 0.1 gave 0.025): its randomized 7- and 8-vertex
+ * chains through the slabs (partial and total reflections, out of a side face), counted with
+ * 1 / psi, were scenes/newton_slabs.xml's one-pixel seeds (a sample of 361 at seed 11021 against a
+ * pixel of 0.3), and the pass costs little (instructions per render +2.3% there, +0.2% on
+ * scenes/caustic_slabs.xml; bench/RESULTS.md, "newton_slabs under lightx"). */
+#define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.1,longmax=8,long=0.4"
 
 /* Appended after SPC_SNEE_PLAN_FLAT_LARGE where the camera sees glass on at least
  * SPC_SNEE_PLAN_FLAT_LARGE_GUIDE_GLASS of the image (snee_plan.c, glass_image_share): the two path
@@ -509,25 +514,24 @@
 #define SPC_SNEE_PLAN_SETTING_WATER "angular:first=0.1,later=0.1"
 
 /* Appended for path where every caster is flat glass under lights over SPC_SNEE_PLAN_FLAT_MAX_SR and
- * specular NEE draws on some sphere light: half of the light's points drawn in the cone of
- * directions toward the light from the receiver (params.light_x), the rest as before, on the cap
- * facing the casters' sphere. Flat glass bends a chain little, so a chain from the receiver ends on
- * the side of the light the receiver sees: on scenes/caustic_slabs.xml one query's second moment
- * over its squared mean at floor points 17.3 -> 7.2 (share 0.9) at the same cost, and at equal CPU
- * time over 24 seeds 13.0x -> 19.6x none (bench/RESULTS.md, "Flat glass under sphere lights").
- * The rest keeps every point a chain can reach drawn, at (1 - share) of the old density where the
- * receiver's cone misses it; the long pass's chains (params.long_p) draw their own point from the
- * cap alone (spc_snee_sample_long_light). Where a light lies inside the casters' sphere (slabs
- * wider than the light's height: scenes/newton_slabs.xml) chains off a slab's side face reach it
- * from outside the cone, and the long pass's 7-vertex chains, counted with 1 / psi, at half the
- * density made a one-pixel seed (9863, pixel (25, 20): 4.2 against 0.33); with their own point that
- * sample is 0.33 and newton_slabs at equal CPU time over 24 seeds goes 4.0x -> 4.6x none
- * (bench/RESULTS.md, "newton_slabs under lightx"). Not under lights of at most
- * SPC_SNEE_PLAN_FLAT_MAX_SR (the small-light setting): on scenes/caustic_slabs_small_light.xml
- * (0.00066 sr) one of five renders at 16 x 16, 4096 spp had a pixel holding all of its variance
- * (none of five without it; not traced), though 24 seeds at equal CPU time showed none (203x
- * against 123x none). */
-#define SPC_SNEE_PLAN_FLAT_LIGHT_X ",lightx=0.5"
+ * specular NEE draws on some sphere light: 0.9 of the light's points drawn in the cone of directions
+ * toward the light from the receiver (params.light_x), the rest as before, on the cap facing the
+ * casters' sphere. Flat glass bends a chain little, so a chain from the receiver ends on the side of
+ * the light the receiver sees: on scenes/caustic_slabs.xml one query's second moment over its
+ * squared mean at floor points 17.3 -> 7.2 at the same cost (bench/RESULTS.md, "Flat glass under
+ * sphere lights"). The rest keeps every point a chain can reach drawn, at (1 - share) of the old
+ * density where the receiver's cone misses it; the long pass's chains (params.long_p) draw their own
+ * point from the cap alone (spc_snee_sample_long_light). Where a light lies inside the casters'
+ * sphere (slabs wider than the light's height: scenes/newton_slabs.xml) chains off a slab's side
+ * face reach it from outside the cone, and the long pass's 7-vertex chains, counted with 1 / psi,
+ * at 1 - share of the density made one-pixel seeds (share 0.5: seed 9863, pixel (25, 20) 4.2
+ * against 0.33; 0.9: one pixel 82% of the variance at 16 x 16, 4096 spp); with their own point
+ * neither shows, and at equal CPU time over 2 x 24 seeds newton_slabs goes 4.0x / 3.9x -> 4.8x /
+ * 5.6x none and caustic_slabs keeps its figure (bench/RESULTS.md, "newton_slabs under lightx").
+ * Not under lights of at most SPC_SNEE_PLAN_FLAT_MAX_SR (the small-light setting): on
+ * scenes/caustic_slabs_small_light.xml (0.00066 sr) one of five renders at 16 x 16, 4096 spp had a
+ * pixel holding all of its variance with the share 0.5 (none of five without it; not traced). */
+#define SPC_SNEE_PLAN_FLAT_LIGHT_X ",lightx=0.9"
 
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
  * no BDPT strategy but s = 0 (and at corners), and the query from the camera on one sample in ten;
