@@ -891,9 +891,9 @@ static void slab_area_weights(const char *setting)
 
 TEST(slab_area_weights_sum_to_one) { slab_area_weights(SLAB_SETTING); }
 
-/* The same with half of the sphere light's points drawn in the cone from the receiver (lightx=0.5,
- * the plan's for flat glass under sphere lights): specular NEE's density there is the mixture's, in
- * its own weight and in the path tracer's and light tracing's (spc_snee_light_pdf_at). */
+/* The same with half of the sphere light's points drawn in the cone from the receiver (lightx=0.5;
+ * the plan draws 0.9 for flat glass under sphere lights): specular NEE's density there is the
+ * mixture's, in its own weight and in the path tracer's and light tracing's (spc_snee_light_pdf_at). */
 TEST(slab_area_weights_sum_to_one_lightx) { slab_area_weights(SLAB_SETTING ",lightx=0.5"); }
 
 /* The same with the path's track and light tracing's chains up to 8 vertices (longmax=8): chains
