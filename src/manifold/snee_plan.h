@@ -332,7 +332,7 @@
  * chains through the slabs (partial and total reflections, out of a side face), counted with
  * 1 / psi, were scenes/newton_slabs.xml's one-pixel seeds (a sample of 361 at seed 11021 against a
  * pixel of 0.3), and the pass costs little (instructions per render +2.3% there, +0.2% on
- * scenes/caustic_slabs.xml; bench/RESULTS.md, "newton_slabs under lightx"). */
+ * scenes/caustic_slabs.xml; bench/RESULTS.md, "The long pass's own light point under lightx"). */
 #define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.1,longmax=8,long=0.4"
 
 /* Appended after SPC_SNEE_PLAN_FLAT_LARGE where the camera sees glass on at least
@@ -526,8 +526,10 @@
  * face reach it from outside the cone, and the long pass's 7-vertex chains, counted with 1 / psi,
  * at 1 - share of the density made one-pixel seeds (share 0.5: seed 9863, pixel (25, 20) 4.2
  * against 0.33; 0.9: one pixel 82% of the variance at 16 x 16, 4096 spp); with their own point
- * neither shows, and at equal CPU time over 2 x 24 seeds newton_slabs goes 4.0x / 3.9x -> 4.8x /
- * 5.6x none and caustic_slabs keeps its figure (bench/RESULTS.md, "newton_slabs under lightx").
+ * neither shows. At equal CPU time over 2 x 24 seeds (with long=0.4, SPC_SNEE_PLAN_FLAT_LARGE)
+ * scenes/caustic_slabs.xml 21.8x -> 28.5x and 21.2x -> 27.3x none by mean relMSE; newton_slabs
+ * 1.1-1.2x lower relMSE per sample by medians, by means over 5 x 24 seeds as before (the long pass's
+ * own one-pixel seeds; bench/RESULTS.md, "The long pass's own light point under lightx").
  * Not under lights of at most SPC_SNEE_PLAN_FLAT_MAX_SR (the small-light setting): on
  * scenes/caustic_slabs_small_light.xml (0.00066 sr) one of five renders at 16 x 16, 4096 spp had a
  * pixel holding all of its variance with the share 0.5 (none of five without it; not traced). */
