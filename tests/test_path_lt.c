@@ -919,6 +919,29 @@ TEST(slab_area_weights_sum_to_one_long)
     spc_scene_destroy(r.sc);
 }
 
+/* The same with the long pass leaving chains through flat faces past their enumeration to light
+ * tracing and BSDF sampling (longflatlt) and with lightx: the 7- and 8-vertex joins weigh light
+ * tracing against BSDF sampling alone, their two weights summing to one, and specular NEE's chains
+ * of the others (its own light point's density included) with the three. */
+TEST(slab_area_weights_sum_to_one_long_flat_lt)
+{
+    slab_run r;
+    if (!slab_run_start(&r, SLAB_SETTING ",longmax=8,long=0.4,lightx=0.9,longflatlt", 41))
+        return;
+    CHECK(r.p.long_flat_lt);
+    slab_run_joins(&r, spc_test_quick() ? 20000 : 60000);
+    const area_tally t = r.t;
+    printf("  %s, longflatlt: %d joins, chains of 7 and 8 vertices %d %d; %d left to BSDF sampling (%d longer): "
+           "weights summing to 1 +- %.3g; the others' three +- %.3g\n",
+           SLAB_SCENE, t.joins, t.by_length[7], t.by_length[8], t.unlisted, t.unlisted_long, t.unlisted_gap,
+           t.worst_gap);
+    CHECK_MSG(t.unlisted_long > 0, "joins by chains of 7-8 vertices: %d", t.unlisted_long);
+    CHECK_MSG(t.unlisted_gap < 1e-4, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
+    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK(t.matched + t.unlisted == t.joins);
+    spc_scene_destroy(r.sc);
+}
+
 /* The same slabs with ltslab: an area light's subpaths also join the pinhole through flat faces
  * (the floor seen through a slab, camera chains of 1-2 vertices within max_chain); on each such join
  * specular NEE's weight at x2, BSDF sampling's own (the camera's side through that chain) and light
@@ -1742,6 +1765,7 @@ int main(void)
     RUN(spot_render_agrees_without_it_and_with_bdpt);
     RUN(slab_area_weights_sum_to_one);
     RUN(slab_area_weights_sum_to_one_lightx);
+    RUN(slab_area_weights_sum_to_one_long_flat_lt);
     RUN(slab_area_weights_sum_to_one_long);
     RUN(slab_area_camera_weights_sum_to_one);
     RUN(slab_area_camera_render_agrees_without_it);

@@ -453,6 +453,16 @@ static double long_psi(const spc_snee_query *q, int k)
     return q->params->long_p / (double)(top - q->max_chain);
 }
 
+/* Is c a chain the long pass leaves to light tracing and BSDF sampling (params.long_flat_lt): every
+ * vertex on flat faces, longer than their enumeration, an area light's (light tracing makes such
+ * chains from area lights only, integrator/path_lt.h)? */
+static bool long_flat_left(const spc_snee_query *q, const spc_chain *c)
+{
+    const spc_snee_params *p = q->params;
+    return p->long_flat_lt && p->lt_caustic && q->light_size > 0.0 && c->n > SPC_FLAT_MAX_VERTICES &&
+           spc_flat_chain_faces(c, p->reflect);
+}
+
 /* The longest chain through flat faces enumerated at every call: the budget, or where the longer
  * chains run (the path's track then follows covered paths past the budget, to q->long_max) up to
  * SPC_FLAT_EVERY_CALL (flat_chains.h), unless params.flat34_p puts the lengths past the budget up
@@ -1405,6 +1415,8 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
             *rand_s = ball_long_psi(q, c->n);
             return *rand_s * long_attempt_psi(q, c);
         }
+        if (long_flat_left(q, c))
+            return 0.0;
         *counted = true;
         *long_pass = true;
         spc_snee_params lp = long_params(p); /* the events as the long pass's attempts pick them */
@@ -2006,7 +2018,7 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
     bool ok = attempt(&aq, solver, rng, &sol, &it, &seed, &seeded);
     if (st)
         st->iterations += (uint64_t)it;
-    if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol))
+    if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol) || (!ball && long_flat_left(lq, &sol)))
         return;
     if (solve_mis_chain(lq->params, &sol) != ball)
         return; /* the other pass's chain */
