@@ -898,9 +898,9 @@ static void slab_area_weights(const char *setting)
 
 TEST(slab_area_weights_sum_to_one) { slab_area_weights(SLAB_SETTING); }
 
-/* The same with half of the sphere light's points drawn in the cone from the receiver (lightx=0.5,
- * the plan's for flat glass under sphere lights): specular NEE's density there is the mixture's, in
- * its own weight and in the path tracer's and light tracing's (spc_snee_light_pdf_at). */
+/* The same with half of the sphere light's points drawn in the cone from the receiver (lightx=0.5;
+ * the plan draws 0.9 for flat glass under sphere lights): specular NEE's density there is the
+ * mixture's, in its own weight and in the path tracer's and light tracing's (spc_snee_light_pdf_at). */
 TEST(slab_area_weights_sum_to_one_lightx) { slab_area_weights(SLAB_SETTING ",lightx=0.5"); }
 
 /* The same with the path's track and light tracing's chains up to 8 vertices (longmax=8): chains
@@ -920,6 +920,29 @@ TEST(slab_area_weights_sum_to_one_long)
     CHECK_MSG(t.unlisted_long > 0, "joins by chains of 7-8 vertices: %d", t.unlisted_long);
     /* (an 8-vertex chain of total internal reflections is retraced from x2 to within about 1e-5 of
      * light tracing's own directions) */
+    CHECK_MSG(t.unlisted_gap < 1e-4, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
+    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK(t.matched + t.unlisted == t.joins);
+    spc_scene_destroy(r.sc);
+}
+
+/* The same with the long pass leaving chains through flat faces past their enumeration to light
+ * tracing and BSDF sampling (longflatlt) and with lightx: the 7- and 8-vertex joins weigh light
+ * tracing against BSDF sampling alone, their two weights summing to one, and specular NEE's chains
+ * of the others (its own light point's density included) with the three. */
+TEST(slab_area_weights_sum_to_one_long_flat_lt)
+{
+    slab_run r;
+    if (!slab_run_start(&r, SLAB_SETTING ",longmax=8,long=0.4,lightx=0.9,longflatlt", 41))
+        return;
+    CHECK(r.p.long_flat_lt);
+    slab_run_joins(&r, spc_test_quick() ? 20000 : 60000);
+    const area_tally t = r.t;
+    printf("  %s, longflatlt: %d joins, chains of 7 and 8 vertices %d %d; %d left to BSDF sampling (%d longer): "
+           "weights summing to 1 +- %.3g; the others' three +- %.3g\n",
+           SLAB_SCENE, t.joins, t.by_length[7], t.by_length[8], t.unlisted, t.unlisted_long, t.unlisted_gap,
+           t.worst_gap);
+    CHECK_MSG(t.unlisted_long > 0, "joins by chains of 7-8 vertices: %d", t.unlisted_long);
     CHECK_MSG(t.unlisted_gap < 1e-4, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
     CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
     CHECK(t.matched + t.unlisted == t.joins);
@@ -1796,6 +1819,7 @@ int main(void)
     RUN(spot_render_agrees_without_it_and_with_bdpt);
     RUN(slab_area_weights_sum_to_one);
     RUN(slab_area_weights_sum_to_one_lightx);
+    RUN(slab_area_weights_sum_to_one_long_flat_lt);
     RUN(slab_area_weights_sum_to_one_long);
     RUN(slab_area_camera_weights_sum_to_one);
     RUN(slab_area_camera_render_agrees_without_it);

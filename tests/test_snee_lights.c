@@ -16,6 +16,9 @@
  * - A share of a sphere light's points drawn in the cone from the receiver (params.light_x): the
  *   mixture's density integrates to the light's area, and the samples land on the side the
  *   receiver sees.
+ * - The long pass's own light point under that share (spc_snee_sample_long_light): drawn from the
+ *   cap alone at its density, as without the share, on newton_slabs' light (the whole sphere) and
+ *   caustic_slabs' (a cap: the light outside the casters' sphere).
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 300 */
@@ -24,6 +27,7 @@
 
 #include "core/sampler.h"
 #include "harness.h"
+#include "manifold/fit_seeds.h"
 #include "manifold/snee_options.h"
 #include "manifold/specular_nee.h"
 #include "render_util.h"
@@ -225,10 +229,90 @@ TEST(light_cone_from_the_receiver)
     spc_scene_destroy(sc);
 }
 
+/* spc_snee_sample_long_light with params.light_x = 0.5 from a floor point: over many queries the
+ * mean of 1 / p_y of the long pass's own point equals that of the query's point drawn without the
+ * share (both the area of the cap facing the casters: the whole light on scenes/newton_slabs.xml, a
+ * cap on scenes/caustic_slabs.xml), and the share of its points the receiver sees is the cap's, not
+ * the mixture's; without the share nothing is drawn and the query's point is kept. */
+static void long_light_from_the_cap(const char *path, spc_vec3 xp)
+{
+    spc_scene *sc = tu_load(path, 8);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_hit x;
+    memset(&x, 0, sizeof x);
+    x.p = xp;
+    x.ng = x.sh.n = spc_v3(0, 1, 0);
+    const int n = 200000;
+    double m[2], se[2], seen[2];
+    for (int k = 0; k < 2; ++k) { /* k 0: the query's point without the share; 1: the long pass's with it */
+        spc_snee_params p;
+        CHECK(spc_snee_parse("angular", 4, &p));
+        p.light_x = k ? 0.5 : 0.0;
+        spc_rng rng;
+        spc_rng_seed(&rng, 7, (uint64_t)k);
+        double s1 = 0.0, s2 = 0.0;
+        /* the denominator: every query without the share (its failed draws count 0), the queries
+         * whose own point was drawn with it (the long pass runs only after one) */
+        int front = 0, drawn = 0, kept = 0, queries = 0;
+        for (int i = 0; i < n; ++i) {
+            spc_snee_query q;
+            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 1, 0), 4);
+            const spc_emitter *e = NULL;
+            spc_vec2 uv;
+            double p_y = 0.0;
+            bool lit = spc_snee_sample_light(sc, p.any_surface, &rng, &q, &e, &uv, &p_y) && p_y > 0.0;
+            queries += k == 0 || lit;
+            if (!lit)
+                continue;
+            spc_snee_query lq = q;
+            spc_fit_roots fit;
+            spc_vec2 luv = uv;
+            double lp = p_y;
+            bool ok = spc_snee_sample_long_light(&q, e, &rng, &lq, &fit, &luv, &lp);
+            if (k == 0) {
+                kept += ok && lp == p_y && spc_distance(lq.y, q.y) == 0.0;
+                lq = q;
+            } else {
+                if (!ok || !(lp > 0.0))
+                    continue;
+                drawn += spc_distance(lq.y, q.y) > 0.0;
+                CHECK(lq.p_y == lp);
+            }
+            double py = k ? lp : p_y;
+            s1 += 1.0 / py;
+            s2 += 1.0 / (py * py);
+            front += spc_dot(lq.ny, spc_sub(x.p, lq.y)) > 0.0;
+        }
+        m[k] = s1 / queries;
+        se[k] = sqrt(fmax(0.0, s2 / queries - m[k] * m[k]) / queries);
+        seen[k] = (double)front / queries;
+        if (k == 0)
+            CHECK_MSG(kept > n / 2, "%s: the query's point kept %d times", path, kept);
+        else
+            CHECK_MSG(drawn > n / 2, "%s: the long pass's own point drawn %d times", path, drawn);
+    }
+    printf("    %s: mean 1/p_y %.5f +- %.5f (the query's, no share) vs %.5f +- %.5f (the long pass's, share "
+           "0.5); share seen %.3f vs %.3f\n",
+           path, m[0], se[0], m[1], se[1], seen[0], seen[1]);
+    CHECK_MSG(fabs(m[0] - m[1]) < 4.0 * sqrt(se[0] * se[0] + se[1] * se[1]) + 1e-9 * m[0], "%s: %.5f vs %.5f", path,
+              m[0], m[1]);
+    CHECK_MSG(fabs(seen[0] - seen[1]) < 0.01, "%s: seen %.3f vs %.3f", path, seen[0], seen[1]);
+    spc_scene_destroy(sc);
+}
+
+TEST(long_pass_light_from_the_cap)
+{
+    long_light_from_the_cap("scenes/newton_slabs.xml", spc_v3(0.1, 0.0, 0.2));
+    long_light_from_the_cap("scenes/caustic_slabs.xml", spc_v3(0.1, 0.0, 0.2));
+}
+
 int main(void)
 {
     RUN(triangle_light_chains_not_self_shadowed);
     RUN(light_uniforms_from_the_stream);
     RUN(light_cone_from_the_receiver);
+    RUN(long_pass_light_from_the_cap);
     return spc_test_finish();
 }

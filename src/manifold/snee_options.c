@@ -69,6 +69,10 @@ static const spc_snee_option options[] = {
      "path: the caustics of point lights and (with MIS, without recguide) area lights through a glass sphere "
      "also by light tracing (light subpaths joined to the camera directly, through the sphere and through a "
      "diffuse bounce), weighed against specular NEE (and BSDF sampling) at the caustic's receiver"},
+    {"longflatlt", "nolongflatlt", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(long_flat_lt), NO, 0,
+     NULL,
+     "with ltcaus under area lights: the longer chains' pass leaves chains through flat faces alone, past their "
+     "enumeration, to light tracing and BSDF sampling"},
     {"ltshare", NULL, SPC_SNEE_OPT_REAL, false, "S", 0, 1, true, false, NULL, 0, NO, AT(lt_share), 0, NULL,
      "with ltcaus: area lights' light subpaths on a share S of the camera samples, counted 1/S times (default "
      "0.25)"},

@@ -322,24 +322,18 @@ static bool snee_light(const spc_emitter *e)
     return e->type == SPC_EMITTER_AREA || e->type == SPC_EMITTER_POINT || e->type == SPC_EMITTER_SPOT;
 }
 
-/* Does specular NEE draw on some sphere light (an area light on a sphere with its normals out), and
- * does every such light lie outside the casters' bounding sphere cs (so that the cap of it facing
- * the casters is less than the whole light)? */
-static bool sphere_lights_outside(const spc_scene *sc, const spc_chain_casters *cs)
+/* Does specular NEE draw on some sphere light (an area light on a sphere with its normals out)? */
+static bool sphere_lights(const spc_scene *sc)
 {
-    bool any = false;
     for (int i = 0; i < sc->nemitters; ++i) {
         const spc_emitter *e = sc->emitters[i];
         if (e->type != SPC_EMITTER_AREA || e->shape_index < 0 || e->shape_index >= sc->nshapes)
             continue;
         const spc_shape *s = sc->shapes[e->shape_index];
-        if (s->type != SPC_SHAPE_SPHERE || s->flip_normals)
-            continue;
-        if (!(spc_length(spc_sub(s->center, cs->center)) > cs->radius + s->radius))
-            return false;
-        any = true;
+        if (s->type == SPC_SHAPE_SPHERE && !s->flip_normals)
+            return true;
     }
-    return any;
+    return false;
 }
 
 /* The solid angle (sr, at most 2 pi) an area light's shape subtends at c: area / d^2 for a distant
@@ -1239,10 +1233,10 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && strstr(out->setting, "camera") &&
         !camera_finds_light(sc, out->setting, &out->camera_pilot))
         drop_camera(out->setting);
-    /* and under sphere lights outside the casters' sphere and larger than the small-light rule's,
-     * half of their points drawn from the receiver's cone (snee_plan.h) */
+    /* and under sphere lights larger than the small-light rule's, half of their points drawn from
+     * the receiver's cone (snee_plan.h) */
     if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && out->light_sr > SPC_SNEE_PLAN_FLAT_MAX_SR &&
-        sphere_lights_outside(sc, cs)) {
+        sphere_lights(sc)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_LIGHT_X);
     }

@@ -327,8 +327,19 @@
  * they were half the query's cost for little of its variance (at equal CPU, 1.3-2x more samples;
  * mean relMSE over 16-32 seeds: scenes/caustic_slabs.xml 2.6-2.8x lower, fresh slab scenes under
  * 0.031-0.035 sr 1.4x and 2.5x; bench/RESULTS.md, "the 3- and 4-vertex chains on a tenth of the
- * calls"); a share of 0.05 made one-pixel seeds. */
-#define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.1,longmax=8"
+ * calls"); a share of 0.05 made one-pixel seeds. The long pass on 0.4 of the calls (long=0.4:
+ * psi 0.1 for each length past the budget, where 0.1 gave 0.025): its randomized 7- and 8-vertex
+ * chains through the slabs (partial and total reflections, out of a side face), counted with
+ * 1 / psi, were scenes/newton_slabs.xml's one-pixel seeds (a sample of 361 at seed 11021 against a
+ * pixel of 0.3), and the pass costs little (instructions per render +2.3% there, +0.2% on
+ * scenes/caustic_slabs.xml; bench/RESULTS.md, "The long pass's own light point under lightx"). And
+ * the chains through the slabs alone that are longer than their enumeration left to light tracing
+ * and BSDF sampling (longflatlt): the long pass's count of them (events drawn at 0.2 a reflection,
+ * four reflections, 1/p estimates of 5-7 x 10^4 with its density and BSDF sampling's within 1.6x of
+ * each other) was newton_slabs' one-pixel seed; without it, over 3 x 24 seeds at equal CPU time,
+ * newton_slabs' mean relMSE 1.26x lower (no seed's worst pixel above 0.29 of it), caustic_slabs' the
+ * same (25.8x against 26.3x none). */
+#define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.1,longmax=8,long=0.4,longflatlt"
 
 /* Appended after SPC_SNEE_PLAN_FLAT_LARGE where the camera sees glass on at least
  * SPC_SNEE_PLAN_FLAT_LARGE_GUIDE_GLASS of the image (snee_plan.c, glass_image_share): the two path
@@ -528,24 +539,26 @@
 #define SPC_SNEE_PLAN_CYLINDER_LT ",ltcaus,ltshare=0.5"
 
 /* Appended for path where every caster is flat glass under lights over SPC_SNEE_PLAN_FLAT_MAX_SR and
- * every sphere light specular NEE draws on lies outside the casters' bounding sphere: half of the light's points drawn in the cone of
- * directions toward the light from the receiver (params.light_x), the rest as before, on the cap
- * facing the casters' sphere. Flat glass bends a chain little, so a chain from the receiver ends on
- * the side of the light the receiver sees: on scenes/caustic_slabs.xml one query's second moment
- * over its squared mean at floor points 17.3 -> 7.2 (share 0.9) at the same cost, and at equal CPU
- * time over 24 seeds 13.0x -> 19.6x none (bench/RESULTS.md, "Flat glass under sphere lights").
- * The rest keeps every point a chain can reach drawn, at (1 - share) of the old density where the
- * receiver's cone misses it. Not where a light lies inside the casters' sphere (slabs wider than
- * the light's height: scenes/newton_slabs.xml, whose cap is then the whole light and 57% of the
- * queries ended on its far side): there chains can reach the light from outside the cone (its
- * one-pixel seeds were traced to the long pass's randomized chains off a slab's side face,
- * bench/RESULTS.md, "The slabs' light guides"), and with the share one seed of 24 was a one-pixel
- * seed at 26x the median (its pixel 0.97 of it, not traced); with 0.9 one pixel held 80% of the
- * variance at 16 x 16, 4096 spp. Nor under lights of at most SPC_SNEE_PLAN_FLAT_MAX_SR (the
- * small-light setting): on scenes/caustic_slabs_small_light.xml (0.00066 sr) one of five renders at
- * 16 x 16, 4096 spp had a pixel holding all of its variance (none of five without it; not traced),
- * though 24 seeds at equal CPU time showed none (203x against 123x none). */
-#define SPC_SNEE_PLAN_FLAT_LIGHT_X ",lightx=0.5"
+ * specular NEE draws on some sphere light: 0.9 of the light's points drawn in the cone of directions
+ * toward the light from the receiver (params.light_x), the rest as before, on the cap facing the
+ * casters' sphere. Flat glass bends a chain little, so a chain from the receiver ends on the side of
+ * the light the receiver sees: on scenes/caustic_slabs.xml one query's second moment over its
+ * squared mean at floor points 17.3 -> 7.2 at the same cost (bench/RESULTS.md, "Flat glass under
+ * sphere lights"). The rest keeps every point a chain can reach drawn, at (1 - share) of the old
+ * density where the receiver's cone misses it; the long pass's chains (params.long_p) draw their own
+ * point from the cap alone (spc_snee_sample_long_light). Where a light lies inside the casters'
+ * sphere (slabs wider than the light's height: scenes/newton_slabs.xml) chains off a slab's side
+ * face reach it from outside the cone, and the long pass's 7-vertex chains, counted with 1 / psi,
+ * at 1 - share of the density made one-pixel seeds (share 0.5: seed 9863, pixel (25, 20) 4.2
+ * against 0.33; 0.9: one pixel 82% of the variance at 16 x 16, 4096 spp); with their own point
+ * neither shows. At equal CPU time over 2 x 24 seeds (with long=0.4, SPC_SNEE_PLAN_FLAT_LARGE)
+ * scenes/caustic_slabs.xml 21.8x -> 28.5x and 21.2x -> 27.3x none by mean relMSE; newton_slabs
+ * 1.1-1.2x lower relMSE per sample by medians, by means over 5 x 24 seeds as before (the long pass's
+ * own one-pixel seeds; bench/RESULTS.md, "The long pass's own light point under lightx").
+ * Not under lights of at most SPC_SNEE_PLAN_FLAT_MAX_SR (the small-light setting): on
+ * scenes/caustic_slabs_small_light.xml (0.00066 sr) one of five renders at 16 x 16, 4096 spp had a
+ * pixel holding all of its variance with the share 0.5 (none of five without it; not traced). */
+#define SPC_SNEE_PLAN_FLAT_LIGHT_X ",lightx=0.9"
 
 /* bdpt's setting where some caster is glass: specular NEE at the camera vertices whose paths have
  * no BDPT strategy but s = 0 (and at corners), and the query from the camera on one sample in ten;

@@ -280,6 +280,10 @@ typedef struct spc_snee_params {
      * function of the path alone, so that both sides agree. NULL: none. Not from the camera, not
      * at medium points. */
     bool lt_caustic;
+    /* With lt_caustic under area lights: the long pass (long_p) leaves the chains through flat faces
+     * alone that are longer than their enumeration (flat_chains.h) to light tracing and BSDF
+     * sampling, psi 0 on both sides. */
+    bool long_flat_lt;
     /* With lt_caustic: the share of light subpaths joined to the pinhole through a glass sphere,
      * in (0, 1]; 0: SPC_PATH_LT_THROUGH_SHARE (integrator/path_lt.h). */
     double lt_through;

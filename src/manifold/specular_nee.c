@@ -453,6 +453,16 @@ static double long_psi(const spc_snee_query *q, int k)
     return q->params->long_p / (double)(top - q->max_chain);
 }
 
+/* Is c a chain the long pass leaves to light tracing and BSDF sampling (params.long_flat_lt): every
+ * vertex on flat faces, longer than their enumeration, an area light's (light tracing makes such
+ * chains from area lights only, integrator/path_lt.h)? */
+static bool long_flat_left(const spc_snee_query *q, const spc_chain *c)
+{
+    const spc_snee_params *p = q->params;
+    return p->long_flat_lt && p->lt_caustic && q->light_size > 0.0 && c->n > SPC_FLAT_MAX_VERTICES &&
+           spc_flat_chain_faces(c, p->reflect);
+}
+
 /* The longest chain through flat faces enumerated at every call: the budget, or where the longer
  * chains run (the path's track then follows covered paths past the budget, to q->long_max) up to
  * SPC_FLAT_EVERY_CALL (flat_chains.h), unless params.flat34_p puts the lengths past the budget up
@@ -775,6 +785,37 @@ bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, 
     default:
         return false;
     }
+    return *p_y > 0.0;
+}
+
+bool spc_snee_sample_long_light(const spc_snee_query *q, const spc_emitter *e, spc_rng *rng, spc_snee_query *lq,
+                                struct spc_fit_roots *fit, spc_vec2 *uv, double *p_y)
+{
+    /* under params.light_x the mixture draws the points of chains that leave a slab through a side
+     * face (they reach the light from outside the receiver's cone) at only 1 - A of the cap's
+     * density, and the long pass's randomized chains, counted with 1 / psi, are the heaviest of
+     * those: its own point from the cap alone keeps them at the density they had without the cone */
+    const spc_hit *xr = light_x_receiver(q);
+    double a = xr && e->type == SPC_EMITTER_AREA ? light_x_share(q->params, e->shape, xr->p) : 0.0;
+    if (!(a > 0.0))
+        return true;
+    spc_vec3 cb;
+    double cr;
+    if (!caster_bound(q->scene, q->params->any_surface, &cb, &cr))
+        return false;
+    double mix = light_x_pdf(e->shape, cb, cr, a, xr->p, q->y, q->ny);
+    spc_vec2 u = spc_v2(spc_rng_next(rng), spc_rng_next(rng));
+    spc_shape_sample ss;
+    if (!(mix > 0.0) || !sample_light_facing(e->shape, cb, cr, u, &ss) || spc_dot(ss.n, spc_sub(cb, ss.p)) + cr <= 0.0)
+        return false;
+    lq->y = ss.p;
+    lq->ny = ss.n;
+    lq->y_err = ss.err;
+    fit->nshapes = 0;
+    lq->fit = fit;
+    *uv = ss.uv;
+    *p_y = *p_y / mix * ss.pdf;
+    lq->p_y = *p_y;
     return *p_y > 0.0;
 }
 
@@ -1345,17 +1386,21 @@ static bool graze_long_has(const spc_snee_query *q, const spc_specular_solver *s
  * randomized attempt finds (solve_mis_chain), the probability of the query's pass that looks for it
  * (ball_long_psi, the ball pass's, past the budget, else 1); 0 for every other chain. *counted: c is
  * a randomized attempt's chain that specular NEE counts with inv_p_solve (neither solve_mis_chain's
- * nor an exact one). */
-static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *rand_s, bool *counted)
+ * nor an exact one). *long_pass: c is the long pass's (params.long_p: on one sphere, or a randomized
+ * attempt's), which draws its own light point under params.light_x (spc_snee_sample_long_light). */
+static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *rand_s, bool *counted, bool *long_pass)
 {
     const spc_snee_params *p = q->params;
     *rand_s = 0.0;
     *counted = false;
+    *long_pass = false;
     if (c->n > q->max_chain) { /* longer than the budget: one of params.long_p's, or none */
         if (p->exact && spc_flat_chain_covers(c, p->reflect))
             return c->n <= flat_max(q) ? 1.0 : flat_psi(q, c->n); /* through flat faces */
-        if (p->exact && spc_sphere_chain_covers(c, p->reflect))
+        if (p->exact && spc_sphere_chain_covers(c, p->reflect)) {
+            *long_pass = true;
             return long_psi(q, c->n); /* enumerated on the sphere */
+        }
         if (p->exact && spc_cylinder_chain_covers(c))
             return cyl_psi(q, c); /* enumerated on the cylinder on a share of the calls */
         if (!random_long(p))
@@ -1370,7 +1415,10 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
             *rand_s = ball_long_psi(q, c->n);
             return *rand_s * long_attempt_psi(q, c);
         }
+        if (long_flat_left(q, c))
+            return 0.0;
         *counted = true;
+        *long_pass = true;
         spc_snee_params lp = long_params(p); /* the events as the long pass's attempts pick them */
         lq.params = &lp;
         return long_psi(q, c->n) * long_attempt_psi(&lq, c); /* a randomized attempt's */
@@ -1606,8 +1654,12 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         *alt_f = 1.0;
     double p_y = r->kind == SPC_RECEIVER_SURFACE ? spc_snee_light_pdf_at(sc, p, e, light->p, light->ng, x->p)
                                                  : spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng);
+    /* the long pass's own light point's density under params.light_x (spc_snee_sample_long_light):
+     * the cap's */
+    bool own_y = r->kind == SPC_RECEIVER_SURFACE && light_x_share(p, e->shape, x->p) > 0.0;
+    double p_long = own_y ? spc_snee_light_pdf(sc, p->any_surface, e, light->p, light->ng) : p_y;
     bool guided = guide_on(p) && r->kind == SPC_RECEIVER_SURFACE;
-    if (!(p_y > 0.0) && !guided) {
+    if (!(p_y > 0.0) && !(p_long > 0.0) && !guided) {
         *b = 1.0; /* specular NEE never draws this light point: BSDF sampling's alone */
         return true;
     }
@@ -1648,7 +1700,7 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         }
         *c = cones_pdf(cs, ch.d0, k) * G * P_ev;
     }
-    if (p_y > 0.0) {
+    if (p_y > 0.0 || p_long > 0.0) {
         /* psi as specular NEE has it for this chain toward this light point */
         q.y = light->p;
         q.ny = light->ng;
@@ -1661,8 +1713,10 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
         q.fit = &fit;
         double ps = cam ? p->camera_p : guided && cs && cs->n > 0 ? p->snee_p : spc_snee_query_prob(p) * light_count(p);
         double rs;
-        bool counted;
-        double psi = chain_psi(&q, &ch, &rs, &counted);
+        bool counted, long_pass;
+        double psi = chain_psi(&q, &ch, &rs, &counted, &long_pass);
+        if (long_pass) /* the long pass's chain: drawn toward its own light point */
+            p_y = q.p_y = p_long;
         *a = psi * p_y * ps;
         const spc_specular_solver *solver = spc_specular_solver_get(p->solver);
         /* the cap as specular NEE's query has it: its stand-in for a chain within the budget, the
@@ -1964,7 +2018,7 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
     bool ok = attempt(&aq, solver, rng, &sol, &it, &seed, &seeded);
     if (st)
         st->iterations += (uint64_t)it;
-    if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol))
+    if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol) || (!ball && long_flat_left(lq, &sol)))
         return;
     if (solve_mis_chain(lq->params, &sol) != ball)
         return; /* the other pass's chain */
@@ -2051,21 +2105,24 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
     if (u < p->long_p) {
         int k = q->max_chain + 1 + (int)(u / p->long_p * (long_top(p) - q->max_chain));
         double psi = long_psi(q, k);
-        if (psi > 0.0) {
-            spc_snee_query lq = *q;
+        spc_snee_query lq = *q;
+        spc_fit_roots lfit;
+        spc_vec2 luv = uv;
+        double lp_y = p_y; /* the pass's light point: the query's, or its own (spc_snee_sample_long_light) */
+        if (psi > 0.0 && spc_snee_sample_long_light(q, e, rng, &lq, &lfit, &luv, &lp_y)) {
             lq.min_chain = lq.max_chain = k;
             lq.psi = psi;
             if (p->exact) {
                 spc_chain all[SPC_SNEE_MAX_ALL];
                 int it = 0;
                 int nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
-                emit_exact(&lq, e, uv, p_y * psi, all, nall, it, st, sk);
+                emit_exact(&lq, e, luv, lp_y * psi, all, nall, it, st, sk);
             }
             if (random_long(p) && solver->solve_one && !(p->exact && spc_snee_exact_covers_all(&lq))) {
                 spc_snee_params lp = long_params(p);
                 lq.params = &lp;
                 lq.psi = psi; /* MIS: times attempt_psi, as any randomized attempt's chain */
-                random_long_estimate(&lq, solver, e, uv, p_y * psi, false, rng, st, sk);
+                random_long_estimate(&lq, solver, e, luv, lp_y * psi, false, rng, st, sk);
             }
         }
     }

@@ -55,6 +55,19 @@
 bool spc_snee_sample_light(const spc_scene *sc, bool any_surface, spc_rng *rng, spc_snee_query *q,
                            const spc_emitter **e, spc_vec2 *uv, double *p_y);
 
+/* The long pass's own light point (params.long_p's longer chains) for the query q, whose point
+ * spc_snee_sample_light drew on e with the density *p_y: where params.light_x applies at q (a surface
+ * receiver, a sphere light), a point drawn from the cap facing the casters' sphere alone (rng: two
+ * numbers), at the density it had without light_x; lq (a copy of q) gets the point (y, ny, y_err,
+ * p_y; fit, the caller's storage, emptied, as its cache of the fitted spheres' solutions toward it),
+ * *uv its texture coordinates, *p_y q's density over the mixture's times the cap's (the query's
+ * other factors kept). Where light_x does not apply: true, nothing drawn, lq, *uv and *p_y as they
+ * were. False where the cap's point faces away from every caster (no chain: the long pass makes no
+ * attempt; the cap's density is 0 there, as spc_snee_light_pdf has it). */
+struct spc_fit_roots;
+bool spc_snee_sample_long_light(const spc_snee_query *q, const spc_emitter *e, spc_rng *rng, spc_snee_query *lq,
+                                struct spc_fit_roots *fit, spc_vec2 *uv, double *p_y);
+
 /* The density in which spc_snee_sample_light draws the point y (normal ny) on emitter e: the
  * light's probability times the point's area density; 0 where it never draws y. */
 double spc_snee_light_pdf(const spc_scene *sc, bool any_surface, const spc_emitter *e, spc_vec3 y, spc_vec3 ny);
