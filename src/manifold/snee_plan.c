@@ -159,6 +159,21 @@ static bool flat_mirrors_only(const spc_scene *sc, const spc_chain_casters *cs)
     return cs->n > 0;
 }
 
+/* Is some caster glass and some other a mirror whose chains the flat enumeration takes? */
+static bool glass_beside_flat_mirror(const spc_scene *sc, const spc_chain_casters *cs)
+{
+    bool glass = false, flat_mirror = false;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0)
+            glass = true;
+        else
+            flat_mirror = flat_mirror || spc_flat_chain_shape(s);
+    }
+    return glass && flat_mirror;
+}
+
 /* Flat-faced casters under small area lights, for path (no caustic guide at receivers): light
  * tracing makes their caustics too (,ltcaus where no other rule added it) and the flat
  * enumeration's longer chains run on a share of the calls (snee_plan.h, SPC_SNEE_PLAN_FLAT_LT and
@@ -1123,6 +1138,11 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     out->glass_share = glass ? glass_image_share(sc, cs) : 0.0;
     out->open_share = open_share(sc, cs);
     double q = exact ? camera_prob(sc, out->glass_share) : 1.0;
+    /* path, glass beside a flat mirror: the query from the camera at least as often as
+     * SPC_SNEE_PLAN_GLASS_FLAT_MIRROR_CAMERA (snee_plan.h) */
+    const bool glass_flat_mirror = !strcmp(integrator, "path") && glass && exact && glass_beside_flat_mirror(sc, cs);
+    if (glass_flat_mirror)
+        q = spc_max(q, SPC_SNEE_PLAN_GLASS_FLAT_MIRROR_CAMERA);
     if (bdpt && glass && exact)
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g", camera_prob_bdpt(out->glass_share));
     else if (bdpt)
@@ -1199,6 +1219,12 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         small_area_lights(sc, cs)) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_MIRRORS_LT);
+    }
+    /* path, glass enumerated exactly beside a flat mirror: the longer chains more often, where no
+     * other rule set them (snee_plan.h) */
+    if (glass_flat_mirror && !flat_long && !strstr(out->setting, "long=")) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_GLASS_FLAT_MIRROR_LONG);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a
