@@ -1106,7 +1106,7 @@ TEST(solved_mirror_plan_no_first_roulette)
  * slab rules' 3-5-vertex shares and queries at every first receiver, and with the longer chains'
  * pass on a larger share of the calls (SPC_SNEE_PLAN_GLASS_FLAT_MIRROR_LONG: the chains through the
  * ball and off the mirror) and the query from the camera on at least 0.3 of the samples; the
- * mirror alone gets neither. */
+ * mirror alone gets neither, nor does a glass cube beside a mirror. */
 TEST(flat_mirror_plan)
 {
     static const char *const scenes[2] = {"bench/check/mirror_tilt.xml", "bench/check/ball_mirror_floor.xml"};
@@ -1149,6 +1149,18 @@ TEST(flat_mirror_plan)
             CHECK_MSG(n >= tail && !strcmp(p.setting + n - tail, want) && sp.lt_caustic, "%s: %s", scenes[i],
                       p.setting);
         }
+        spc_scene_destroy(sc);
+    }
+    /* a glass cube beside a flat mirror: their mixed chains are the flat enumeration's, so the
+     * glass ball's rule (the camera query's share) is not applied */
+    spc_scene *sc = load_at("bench/check/slab_mirror.xml", "64"); /* a film where its own Q is under 0.3 */
+    if (sc) {
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera_p < SPC_SNEE_PLAN_GLASS_FLAT_MIRROR_CAMERA &&
+                      !strstr(p.setting, SPC_SNEE_PLAN_GLASS_FLAT_MIRROR_LONG),
+                  "slab_mirror: %s (%s)", p.setting, p.reason);
         spc_scene_destroy(sc);
     }
 }

@@ -159,7 +159,8 @@ static bool flat_mirrors_only(const spc_scene *sc, const spc_chain_casters *cs)
     return cs->n > 0;
 }
 
-/* Is some caster glass and some other a mirror whose chains the flat enumeration takes? */
+/* Is some caster glass that is not flat-faced, and some other a mirror whose chains the flat
+ * enumeration takes? (Chains through flat glass and off a flat mirror are the flat enumeration's.) */
 static bool glass_beside_flat_mirror(const spc_scene *sc, const spc_chain_casters *cs)
 {
     bool glass = false, flat_mirror = false;
@@ -167,7 +168,7 @@ static bool glass_beside_flat_mirror(const spc_scene *sc, const spc_chain_caster
         const spc_shape *s = sc->shapes[cs->idx[i]];
         double eta = 0.0;
         if (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0)
-            glass = true;
+            glass = glass || !spc_flat_chain_shape(s);
         else
             flat_mirror = flat_mirror || spc_flat_chain_shape(s);
     }

@@ -464,9 +464,10 @@
  * with two flat mirrors for its mirror objects 102x without, 96x with it (seeds 10001-10016). */
 #define SPC_SNEE_PLAN_FLAT_MIRRORS_LT ",ltcaus"
 
-/* Path where a glass caster whose chains are enumerated exactly stands beside a flat mirror (a
- * conductor mesh of few planes, flat_chains.h). No enumeration takes a chain that mixes the glass
- * and the mirror (off the mirror and through or off the ball: the light's images seen in the
+/* Path where a glass caster whose chains are enumerated exactly, not flat-faced (a sphere), stands
+ * beside a flat mirror (a conductor mesh of few planes, flat_chains.h; chains through flat glass and
+ * off the mirror are that enumeration's). No enumeration takes a chain that mixes the ball and the
+ * mirror (off the mirror and through or off the ball: the light's images seen in the
  * mirror's view of the ball, the ball's caustic thrown on the floor by the mirror; 2-5 vertices),
  * so the randomized attempts (the longer chains' on a tenth of the calls by default) and BSDF
  * sampling make them, and from the camera, where the light's images in the ball and in the
