@@ -1142,8 +1142,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     double q = exact ? camera_prob(sc, out->glass_share) : 1.0;
     /* path, a ball beside a flat mirror: the query from the camera at least as often as
      * SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA (snee_plan.h) */
-    const bool ball_flat_mirror = !strcmp(integrator, "path") && exact && !solved_mirror &&
-                                  ball_beside_flat_mirror(sc, cs, &p);
+    const bool ball_flat_mirror =
+        !strcmp(integrator, "path") && exact && !solved_mirror && ball_beside_flat_mirror(sc, cs, &p);
     if (ball_flat_mirror)
         q = spc_max(q, SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA);
     if (bdpt && glass && exact)
