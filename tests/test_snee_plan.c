@@ -1109,11 +1109,15 @@ TEST(solved_mirror_plan_no_first_roulette)
  * take the mirrors' setting, not the flat glass's: a tilted mirror alone under a small light gets
  * the query from the camera by roulette and light tracing, nothing of the slab rules (no longer
  * chains, no 3-4-vertex shares); a glass ball on a mirror gets the glass ball's setting, without the
- * slab rules' longer chains and queries at every first receiver. */
+ * slab rules' 3-5-vertex shares and queries at every first receiver, and with the longer chains'
+ * pass on a larger share of the calls (SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG: the chains through the
+ * ball and off the mirror) and the query from the camera on at least 0.3 of the samples, as does a
+ * mirror ball on the mirror; the mirror alone gets neither, nor does a glass cube beside a mirror. */
 TEST(flat_mirror_plan)
 {
-    static const char *const scenes[2] = {"bench/check/mirror_tilt.xml", "bench/check/ball_mirror_floor.xml"};
-    for (int i = 0; i < 2; ++i) {
+    static const char *const scenes[3] = {"bench/check/mirror_tilt.xml", "bench/check/ball_mirror_floor.xml",
+                                          "bench/check/mirrorball_mirror_floor.xml"};
+    for (int i = 0; i < 3; ++i) {
         spc_scene *sc = load_at(scenes[i], "8");
         if (!sc)
             continue;
@@ -1125,15 +1129,25 @@ TEST(flat_mirror_plan)
         const spc_chain_casters *cs = spc_chain_casters_of(sc, false);
         for (int j = 0; cs && j < cs->n; ++j) {
             const spc_shape *s = sc->shapes[cs->idx[j]];
-            if (s->bsdf && s->bsdf->type == SPC_BSDF_CONDUCTOR) {
+            if (s->bsdf && s->bsdf->type == SPC_BSDF_CONDUCTOR && s->type == SPC_SHAPE_MESH) {
                 CHECK(spc_snee_plan_method(&sp, s) == SPC_SNEE_METHOD_FLAT);
                 ++flat;
             }
         }
         CHECK(flat == 1);
-        CHECK_MSG(sp.camera && sp.camera_p < 1.0 && sp.first_p == 0.1 && sp.later_p == 0.1 && !strstr(p.setting, "long=") &&
-                      !strstr(p.setting, "flat34") && !strstr(p.setting, "flat5"),
+        CHECK_MSG(sp.camera && sp.camera_p < 1.0 && sp.first_p == 0.1 && sp.later_p == 0.1 &&
+                      !strstr(p.setting, "flat34") && !strstr(p.setting, "flat5") && !strstr(p.setting, "first=1"),
                   "%s: %s", scenes[i], p.setting);
+        /* beside the glass or mirror ball the query from the camera on at least its share, and the
+         * longer chains on theirs; neither for the mirror alone (its camera share is the mirrors' rule) */
+        CHECK_MSG(i == 0 || sp.camera_p >= SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA, "%s: %s", scenes[i], p.setting);
+        spc_snee_params lw;
+        CHECK(spc_snee_parse(i == 0 ? "angular:later=0.1" : "angular:later=0.1" SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG, 2,
+                             &lw));
+        CHECK_MSG(sp.long_p == lw.long_p && sp.long_max == lw.long_max &&
+                      (i == 0) == !strstr(p.setting, SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG),
+                  "%s: %s (long %g, %d; want %g, %d)", scenes[i], p.setting, sp.long_p, sp.long_max, lw.long_p,
+                  lw.long_max);
         if (i == 0) {
             /* the mirrors' setting, then light tracing (flat mirrors alone under a small light) */
             char want[256];
@@ -1142,6 +1156,18 @@ TEST(flat_mirror_plan)
             CHECK_MSG(n >= tail && !strcmp(p.setting + n - tail, want) && sp.lt_caustic, "%s: %s", scenes[i],
                       p.setting);
         }
+        spc_scene_destroy(sc);
+    }
+    /* a glass cube beside a flat mirror: their mixed chains are the flat enumeration's, so the
+     * glass ball's rule (the camera query's share) is not applied */
+    spc_scene *sc = load_at("bench/check/slab_mirror.xml", "64"); /* a film where its own Q is under 0.3 */
+    if (sc) {
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, "path", NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera_p < SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA &&
+                      !strstr(p.setting, SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG),
+                  "slab_mirror: %s (%s)", p.setting, p.reason);
         spc_scene_destroy(sc);
     }
 }

@@ -168,6 +168,23 @@ static bool flat_mirrors_only(const spc_scene *sc, const spc_chain_casters *cs)
     return cs->n > 0;
 }
 
+/* Is some caster a ball whose chains are enumerated exactly (a glass or mirror sphere), and some
+ * other a mirror whose chains the flat enumeration takes? (Chains through flat glass and off a
+ * flat mirror are the flat enumeration's.) */
+static bool ball_beside_flat_mirror(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
+{
+    bool ball = false, flat_mirror = false;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (spc_snee_plan_method(p, s) == SPC_SNEE_METHOD_SPHERE)
+            ball = true;
+        else if (!(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0))
+            flat_mirror = flat_mirror || spc_flat_chain_shape(s);
+    }
+    return ball && flat_mirror;
+}
+
 /* Flat-faced casters under small area lights, for path (no caustic guide at receivers): light
  * tracing makes their caustics too (,ltcaus where no other rule added it) and the flat
  * enumeration's longer chains run on a share of the calls (snee_plan.h, SPC_SNEE_PLAN_FLAT_LT and
@@ -1126,6 +1143,12 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     out->glass_share = glass ? glass_image_share(sc, cs) : 0.0;
     out->open_share = open_share(sc, cs);
     double q = exact ? camera_prob(sc, out->glass_share) : 1.0;
+    /* path, a ball beside a flat mirror: the query from the camera at least as often as
+     * SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA (snee_plan.h) */
+    const bool ball_flat_mirror =
+        !strcmp(integrator, "path") && exact && !solved_mirror && ball_beside_flat_mirror(sc, cs, &p);
+    if (ball_flat_mirror)
+        q = spc_max(q, SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA);
     if (bdpt && glass && exact)
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g", camera_prob_bdpt(out->glass_share));
     else if (bdpt)
@@ -1137,6 +1160,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         /* mirrors enumerated exactly: the query from the camera by roulette, as for glass, with
          * the share of the image that sees a mirror first (SPC_SNEE_PLAN_SETTING_MIRRORS) */
         double qm = camera_prob(sc, caster_image_share(sc, cs, false));
+        if (ball_flat_mirror)
+            qm = spc_max(qm, SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA);
         if (qm < SPC_SNEE_PLAN_CAMERA_ALL)
             snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,%s", qm, SPC_SNEE_PLAN_SETTING_MIRRORS);
         else
@@ -1211,6 +1236,12 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         small_area_lights(sc, cs) && !strstr(out->setting, "ltcaus")) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_CYLINDER_LT);
+    }
+    /* path, a ball enumerated exactly beside a flat mirror: the longer chains more often, where no
+     * other rule set them (snee_plan.h) */
+    if (ball_flat_mirror && !flat_long && !strstr(out->setting, "long=")) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a

@@ -487,6 +487,25 @@
  * with two flat mirrors for its mirror objects 102x without, 96x with it (seeds 10001-10016). */
 #define SPC_SNEE_PLAN_FLAT_MIRRORS_LT ",ltcaus"
 
+/* Path where a ball whose chains are enumerated exactly (a glass or mirror sphere) stands beside a
+ * flat mirror (a conductor mesh of few planes, flat_chains.h; chains through flat glass and off the
+ * mirror are that enumeration's). No enumeration takes a chain that mixes the ball and the mirror
+ * (off the mirror and through or off the ball: the light's images seen in the mirror's view of the
+ * ball, the ball's caustic thrown on the floor by the mirror; 2-5 vertices), so the randomized
+ * attempts (the longer chains' on a tenth of the calls by default) and BSDF sampling make them,
+ * and from the camera, where the light's images in the ball and in the mirror's view of it are
+ * small and bright, a BSDF-sampled hit was the image's one-pixel seed. So: the query from the
+ * camera on at least SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA of the samples (the share rule,
+ * snee_plan.c's camera_prob, gives 0.024 to a ball that fills little of the image), and, where no
+ * other rule set them, the longer chains on SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG (half of the calls,
+ * lengths 3-5: the 3-vertex chains through the ball and off the mirror, the 5-vertex ones through
+ * the ball twice at its foot). Measured in bench/RESULTS.md, "A glass ball beside a flat mirror":
+ * lower medians on five glass scenes and the mirror ball's, 0.82x on one without one-pixel seeds (an
+ * upright mirror behind the ball: the queries only cost); the longer chains' randomized attempts
+ * keep one-pixel seeds of their own (a trial count at the mirror's edge). */
+#define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA 0.3
+#define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG ",long=0.5,longmax=5"
+
 /* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
  * cylinder), after the query from the camera: that query by Russian roulette in a fraction Q of the
  * camera samples, Q from the share of the image that sees a mirror first as for glass (snee_plan.c,
