@@ -1339,6 +1339,25 @@ static bool graze_long_has(const spc_snee_query *q, const spc_specular_solver *s
     return false;
 }
 
+static bool chain_crosses_shapes(const spc_chain *c);
+
+/* Is c a longer chain (past the budget) of the long pass's randomized attempts that passes through
+ * more than one shape (chain_crosses_shapes: the light reflected off a mirror ball and refracted by a
+ * glass ball beside it, which no exact enumeration covers), weighed at a surface receiver by the
+ * balance heuristic with its real solve probability (params.solve_mis_mixed, solve_mis.h) rather
+ * than the stand-in psi and the plain trial count? There the attempts find the chain rarely (trial
+ * counts of 2,000-3,000) and BSDF sampling reaches it with a density of the same order, so the
+ * count's tail N / A made one-pixel seeds of the demo and the glass cube; weighed so, specular NEE's
+ * value is bounded by f / b, as BSDF sampling's is. A function of the query and the chain, so both
+ * sides of the MIS decide alike. */
+static bool solve_mis_mixed(const spc_snee_query *q, const spc_chain *c)
+{
+    const spc_snee_params *p = q->params;
+    spc_receiver own;
+    return p->solve_mis_mixed && solve_mis_on(p) && q->seed != SPC_SNEE_SEED_LIGHT && chain_crosses_shapes(c) &&
+           !solve_mis_chain(p, c) && query_receiver(q, &own)->kind == SPC_RECEIVER_SURFACE;
+}
+
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
  * straight-line solution: straight_psi), else random_psi; past the budget long_psi for a longer chain on one
  * sphere (params.long_p), else 0 (specular NEE never makes it). *rand_s: for a chain that a
@@ -1370,9 +1389,13 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
             *rand_s = ball_long_psi(q, c->n);
             return *rand_s * long_attempt_psi(q, c);
         }
-        *counted = true;
         spc_snee_params lp = long_params(p); /* the events as the long pass's attempts pick them */
         lq.params = &lp;
+        if (solve_mis_mixed(q, c)) { /* weighed with the long pass's real solve probability */
+            *rand_s = long_psi(q, c->n);
+            return *rand_s * long_attempt_psi(&lq, c);
+        }
+        *counted = true;
         return long_psi(q, c->n) * long_attempt_psi(&lq, c); /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
@@ -1699,8 +1722,9 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
             /* a randomized attempt's chain: the weight sampled with the real solve probability, by
              * the attempts specular NEE would make toward this light point (its long pass's length) */
             spc_snee_query lq = q;
-            spc_snee_params bp = ball_params(p);
-            if (ch.n > max_chain) { /* the ball pass's chain */
+            /* the ball pass's attempts, or the long pass's for a chain through two shapes */
+            spc_snee_params bp = solve_mis_chain(p, &ch) ? ball_params(p) : long_params(p);
+            if (ch.n > max_chain) { /* the ball pass's or the long pass's chain */
                 lq.min_chain = lq.max_chain = ch.n;
                 lq.params = &bp;
             }
@@ -1971,6 +1995,12 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
     if (ball && graze_long_has(lq, solver, &sol))
         return; /* counted exactly (graze_long) */
     if (ball) {
+        if (st)
+            st->solved++;
+        emit_solve_mis(lq, solver, e, uv, p_y, &sol, seeded ? &seed : NULL, it, rng, st, sk);
+        return;
+    }
+    if (lq->params->mis && e->type == SPC_EMITTER_AREA && solve_mis_mixed(lq, &sol)) {
         if (st)
             st->solved++;
         emit_solve_mis(lq, solver, e, uv, p_y, &sol, seeded ? &seed : NULL, it, rng, st, sk);
