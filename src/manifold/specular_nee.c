@@ -1339,22 +1339,35 @@ static bool graze_long_has(const spc_snee_query *q, const spc_specular_solver *s
     return false;
 }
 
-static bool chain_crosses_shapes(const spc_chain *c);
+/* Does c reflect off a conductor at one vertex and meet a dielectric at another (spc_chain_surface's
+ * events: a mirror and glass, two shapes)? */
+static bool chain_mirror_and_glass(const spc_chain *c)
+{
+    bool mirror = false, glass = false;
+    for (int i = 0; i < c->n; ++i) {
+        int ev;
+        if (!spc_chain_surface(&c->v[i].h, true, &ev))
+            return false;
+        mirror |= ev == SPC_CHAIN_REFLECT;
+        glass |= ev == SPC_CHAIN_REFRACT;
+    }
+    return mirror && glass;
+}
 
-/* Is c a longer chain (past the budget) of the long pass's randomized attempts that passes through
- * more than one shape (chain_crosses_shapes: the light reflected off a mirror ball and refracted by a
- * glass ball beside it, which no exact enumeration covers), weighed at a surface receiver by the
- * balance heuristic with its real solve probability (params.solve_mis_mixed, solve_mis.h) rather
- * than the stand-in psi and the plain trial count? There the attempts find the chain rarely (trial
- * counts of 2,000-3,000) and BSDF sampling reaches it with a density of the same order, so the
- * count's tail N / A made one-pixel seeds of the demo and the glass cube; weighed so, specular NEE's
- * value is bounded by f / b, as BSDF sampling's is. A function of the query and the chain, so both
- * sides of the MIS decide alike. */
+/* Is c a longer chain (past the budget) of the long pass's randomized attempts that reflects off a
+ * mirror and passes through glass (chain_mirror_and_glass: the light reflected off a mirror ball and
+ * refracted by a glass ball or cube beside it, which no exact enumeration covers), weighed at a
+ * surface receiver by the balance heuristic with its real solve probability (params.solve_mis_mixed,
+ * solve_mis.h) rather than the stand-in psi and the plain trial count? There the attempts find the
+ * chain rarely (trial counts of 2,000-3,000 on the demo and the glass cube) and BSDF sampling reaches
+ * it with a density of the same order, so the count's tail N / A made one-pixel seeds; weighed so,
+ * specular NEE's value is bounded by f / b, as BSDF sampling's is. A function of the query and the
+ * chain, so both sides of the MIS decide alike. */
 static bool solve_mis_mixed(const spc_snee_query *q, const spc_chain *c)
 {
     const spc_snee_params *p = q->params;
     spc_receiver own;
-    return p->solve_mis_mixed && solve_mis_on(p) && q->seed != SPC_SNEE_SEED_LIGHT && chain_crosses_shapes(c) &&
+    return p->solve_mis_mixed && solve_mis_on(p) && q->seed != SPC_SNEE_SEED_LIGHT && chain_mirror_and_glass(c) &&
            !solve_mis_chain(p, c) && query_receiver(q, &own)->kind == SPC_RECEIVER_SURFACE;
 }
 
