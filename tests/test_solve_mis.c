@@ -22,11 +22,6 @@
  *   matches the probability both MIS sides use (spc_snee_attempt_events_prob).
  * - A randomized attempt returns what solving from its seed direction returns, and a trial of its
  *   chain's count from that direction finds the chain again (a count may start from the attempt).
- * - On the demo (scenes/demo.xml), at red-wall points lit off the mirror ball through the glass ball
- *   (a chain through two casters that only the long pass's randomized attempts find): specular NEE
- *   plus the BSDF-sampled paths it covers add up to the same value with that chain weighed by its
- *   real solve probability (the default) as with the stand-in psi and the plain count (nomixmis),
- *   and the largest single sample is no larger.
  */
 /* ctest-labels: stat */
 #include <math.h>
@@ -570,110 +565,6 @@ TEST(attempt_is_its_seeds_trial)
     spc_scene_destroy(sc);
 }
 
-#define DEMO "scenes/demo.xml"
-/* The demo's mirror ball (its centre and radius). */
-#define MIRROR_C spc_v3(0.45, 0.33, -0.45)
-#define MIRROR_R 0.33
-
-/* The delta lobe of h's BSDF toward which wo continues: a transmission (transmit) or a reflection;
- * false where it has none. */
-static bool delta_turn(const spc_hit *h, spc_vec3 wo, bool transmit, spc_vec3 *wi)
-{
-    static const double us[2] = {0.001, 0.999};
-    for (int i = 0; i < 2; ++i) {
-        spc_bsdf_sample bs;
-        if (spc_bsdf_sample_dir(h->bsdf, h, SPC_MODE_RADIANCE, wo, us[i], spc_v2(0.5, 0.5), &bs) &&
-            (bs.lobe & (transmit ? SPC_LOBE_DELTA_TRANSMISSION : SPC_LOBE_DELTA_REFLECTION))) {
-            *wi = bs.wi;
-            return true;
-        }
-    }
-    return false;
-}
-
-/* Points on the demo's red wall (x = -1) that the light reaches off the mirror ball and then through
- * the glass ball (reflect; refract, refract: the light's image in the mirror focused by the glass),
- * found by tracing rays from the light's points toward the mirror ball; up to max of them in pts,
- * at least `apart` from each other. Returns how many. */
-static int mixed_caustic_points(const spc_scene *sc, spc_hit *pts, int max, double apart)
-{
-    spc_rng r;
-    spc_rng_seed(&r, 57, 1);
-    int n = 0;
-    for (int i = 0; i < 400000 && n < max; ++i) {
-        spc_vec3 y = spc_v3(0.0833 * (2 * spc_rng_next(&r) - 1), 1.979, 0.0667 * (2 * spc_rng_next(&r) - 1)), u;
-        do
-            u = spc_v3(2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1, 2 * spc_rng_next(&r) - 1);
-        while (spc_dot(u, u) > 1.0);
-        spc_ray ray = {y, spc_normalize(spc_sub(spc_add(MIRROR_C, spc_scale(u, MIRROR_R)), y)), 0, INFINITY};
-        spc_hit h;
-        spc_vec3 wi;
-        if (!spc_scene_intersect(sc, &ray, &h) || fabs(spc_distance(h.p, MIRROR_C) - MIRROR_R) > 1e-4 ||
-            !delta_turn(&h, spc_neg(ray.d), false, &wi))
-            continue;
-        bool ok = true;
-        for (int k = 0; k < 2 && ok; ++k) { /* in and out of the glass ball */
-            ray = spc_hit_spawn(&h, wi);
-            ok = spc_scene_intersect(sc, &ray, &h) && h.bsdf && fabs(spc_distance(h.p, MIRROR_C) - MIRROR_R) > 1e-3 &&
-                 delta_turn(&h, spc_neg(ray.d), true, &wi);
-        }
-        if (!ok)
-            continue;
-        ray = spc_hit_spawn(&h, wi);
-        if (!spc_scene_intersect(sc, &ray, &h) || fabs(h.p.x + 1.0) > 1e-4)
-            continue;
-        bool near = false;
-        for (int j = 0; j < n && !near; ++j)
-            near = spc_distance(pts[j].p, h.p) < apart;
-        if (!near)
-            pts[n++] = h;
-    }
-    return n;
-}
-
-/* The chains through two casters that only the long pass's randomized attempts find (on the demo: a
- * mirror ball's reflection, then in and out of the glass ball, onto the red wall), weighed with their
- * real solve probability: at red-wall points in that caustic, specular NEE plus the BSDF-sampled
- * paths it covers add up to the same value as with the stand-in psi and the plain count (nomixmis);
- * and the largest single sample over those points is no larger than the stand-in's. */
-TEST(mixed_chain_weights)
-{
-    spc_scene *sc = tu_load(DEMO, 0);
-    CHECK(sc != NULL);
-    if (!sc)
-        return;
-    spc_hit pts[4];
-    int npts = mixed_caustic_points(sc, pts, 4, 0.05);
-    CHECK_MSG(npts >= 2, "%d red-wall points in the mixed caustic", npts);
-    static const char *const settings[2] = {"angular", "angular:nomixmis"};
-    spc_snee_params p[2];
-    for (int j = 0; j < 2; ++j) {
-        CHECK(spc_snee_parse(settings[j], 2, &p[j]));
-        p[j].mis = true;
-    }
-    CHECK(p[0].solve_mis_mixed && !p[1].solve_mis_mixed);
-    const int N = spc_test_quick() ? 10000 : 30000;
-    double zmax = 0.0, vmax[2] = {0, 0}, m2[2] = {0, 0};
-    for (int i = 0; i < npts; ++i) {
-        spc_vec3 wo = spc_normalize(spc_sub(spc_v3(0, 1, 3.9), pts[i].p));
-        double m[2], se[2], mx[2];
-        for (int j = 0; j < 2; ++j) {
-            combined(sc, &p[j], &pts[i], wo, 3, N, 500 + 10 * (uint64_t)i + (uint64_t)j, &m[j], &se[j], &mx[j]);
-            vmax[j] = mx[j] > vmax[j] ? mx[j] : vmax[j];
-            m2[j] += se[j] * se[j] * N + m[j] * m[j];
-        }
-        double z = (m[0] - m[1]) / hypot(se[0], se[1]);
-        zmax = fabs(z) > zmax ? fabs(z) : zmax;
-        printf("    (%.3f, %.3f, %.3f): %.4f +- %.4f (largest %.4g) | nomixmis %.4f +- %.4f (largest %.4g), z %.2f\n",
-               pts[i].p.x, pts[i].p.y, pts[i].p.z, m[0], se[0], mx[0], m[1], se[1], mx[1], z);
-    }
-    printf("    second moment against nomixmis's %.3f; largest sample %.4g against %.4g\n", m2[0] / m2[1], vmax[0],
-           vmax[1]);
-    CHECK_MSG(zmax < 4.0, "the weightings disagree: |z| %.2f", zmax);
-    CHECK_MSG(vmax[0] <= vmax[1], "largest sample %.4g against nomixmis's %.4g", vmax[0], vmax[1]);
-    spc_scene_destroy(sc);
-}
-
 int main(void)
 {
     RUN(light_side_estimates_the_reciprocal);
@@ -686,6 +577,5 @@ int main(void)
     RUN(ball_grazing_reflections_weight);
     RUN(ball_rim_reflections_weight);
     RUN(attempt_is_its_seeds_trial);
-    RUN(mixed_chain_weights);
     return spc_test_finish();
 }

@@ -111,12 +111,6 @@ static const spc_snee_option options[] = {
      NULL,
      "MIS weighs the chains of randomized attempts through tessellated balls by their real solve "
      "probability, sampled by Bernoulli trials (on by default; nosolvemis: the stand-in mispsi)"},
-    {"mixmis", "nomixmis", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(solve_mis_mixed), NO, 0,
-     NULL,
-     "with solvemis, the longer chains off a mirror and through glass (a mirror ball's reflection refracted by "
-     "a glass ball or cube), "
-     "which only the long pass's randomized attempts find, weighed by their real solve probability too at "
-     "surface receivers (on by default; nomixmis: the stand-in mispsi and the plain trial count)"},
     {"misev", "nomisev", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(mis_events), NO, 0, NULL,
      "with reflect, MIS weighs a randomized attempt's chain as if found with mispsi times its events' "
      "probability (off by default)"},

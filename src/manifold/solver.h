@@ -97,10 +97,6 @@ typedef struct spc_snee_params {
      * bounded by the BSDF-sampled value f / b where BSDF sampling reaches the chain, so the count's
      * tail N / A stays only where it cannot. */
     bool solve_mis;
-    /* With solve_mis: the long pass's chains off a mirror and through glass (a mirror ball's
-     * reflection refracted by a glass ball or cube) weighed the same way at surface receivers, for
-     * area lights (the user's "mixmis" / "nomixmis"; on by default). */
-    bool solve_mis_mixed;
     /* With reflect: the stand-in psi of a randomized attempt's chain is mis_solve times the probability
      * of the chain's events (spc_chain_events_prob), which its trial count is divided by (the user's
      * "misev" / "nomisev"; off by default: it removed a longer chain's firefly on the SDF torus but

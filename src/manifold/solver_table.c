@@ -128,7 +128,6 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->reflect_p = SPC_SNEE_REFLECT_P;
     p->mis_solve = SPC_SNEE_MIS_SOLVE;
     p->solve_mis = true;
-    p->solve_mis_mixed = true;
     p->fit_seeds = true;
     if (solver != SPC_SNEE_NEWTON) {
         p->angular.window = SPC_SNEE_ANGULAR_WINDOW;

@@ -1339,38 +1339,6 @@ static bool graze_long_has(const spc_snee_query *q, const spc_specular_solver *s
     return false;
 }
 
-/* Does c reflect off a conductor at one vertex and meet a dielectric at another (spc_chain_surface's
- * events: a mirror and glass, two shapes)? */
-static bool chain_mirror_and_glass(const spc_chain *c)
-{
-    bool mirror = false, glass = false;
-    for (int i = 0; i < c->n; ++i) {
-        int ev;
-        if (!spc_chain_surface(&c->v[i].h, true, &ev))
-            return false;
-        mirror |= ev == SPC_CHAIN_REFLECT;
-        glass |= ev == SPC_CHAIN_REFRACT;
-    }
-    return mirror && glass;
-}
-
-/* Is c a longer chain (past the budget) of the long pass's randomized attempts that reflects off a
- * mirror and passes through glass (chain_mirror_and_glass: the light reflected off a mirror ball and
- * refracted by a glass ball or cube beside it, which no exact enumeration covers), weighed at a
- * surface receiver by the balance heuristic with its real solve probability (params.solve_mis_mixed,
- * solve_mis.h) rather than the stand-in psi and the plain trial count? There the attempts find the
- * chain rarely (trial counts of 2,000-3,000 on the demo and the glass cube) and BSDF sampling reaches
- * it with a density of the same order, so the count's tail N / A made one-pixel seeds; weighed so,
- * specular NEE's value is bounded by f / b, as BSDF sampling's is. A function of the query and the
- * chain, so both sides of the MIS decide alike. */
-static bool solve_mis_mixed(const spc_snee_query *q, const spc_chain *c)
-{
-    const spc_snee_params *p = q->params;
-    spc_receiver own;
-    return p->solve_mis_mixed && solve_mis_on(p) && q->seed != SPC_SNEE_SEED_LIGHT && chain_mirror_and_glass(c) &&
-           !solve_mis_chain(p, c) && query_receiver(q, &own)->kind == SPC_RECEIVER_SURFACE;
-}
-
 /* psi of the chain c toward q's light point: 1 for a chain found exactly (solve_all's, or the
  * straight-line solution: straight_psi), else random_psi; past the budget long_psi for a longer chain on one
  * sphere (params.long_p), else 0 (specular NEE never makes it). *rand_s: for a chain that a
@@ -1402,13 +1370,9 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
             *rand_s = ball_long_psi(q, c->n);
             return *rand_s * long_attempt_psi(q, c);
         }
+        *counted = true;
         spc_snee_params lp = long_params(p); /* the events as the long pass's attempts pick them */
         lq.params = &lp;
-        if (solve_mis_mixed(q, c)) { /* weighed with the long pass's real solve probability */
-            *rand_s = long_psi(q, c->n);
-            return *rand_s * long_attempt_psi(&lq, c);
-        }
-        *counted = true;
         return long_psi(q, c->n) * long_attempt_psi(&lq, c); /* a randomized attempt's */
     }
     if (p->exact && !exact_shape_covers(q, c) && spc_snee_exact_covers_all(q))
@@ -1545,10 +1509,16 @@ static bool chain_crosses_shapes(const spc_chain *c)
  * chains that cross from one shape to another, which no exact enumeration covers: where it was
  * measured to pay. On the demo a chain through the glass ball and off the mirror sphere counted 454
  * times held a seed's error; given up, the mean relMSE over 32 seeds fell 3x (bench/RESULTS.md, part
- * sphere12). Chains on one shape at the cap went on by roulette: under the SDF torus the give-up at
- * the cap handed long BSDF-sampled paths through it weight 1 (test_sdf_chain_mis) and its 8 seeds
- * read 1.4x the mean relMSE. So a chain on one shape within the budget (psi, its stand-in, positive;
- * 0 for the long pass's) is given up at a count of its own, where the sampling side's share is worth
+ * sphere12). Weighed instead by the real solve probability (solve_mis.h), as the tessellated balls'
+ * chains are, the long pass's chains off a mirror ball and through glass lost: BSDF sampling's mean
+ * weight on them rose 1.2-21x (the attempts find them with p A of the order of b), and on two fresh
+ * scenes of a mirror ball beside a glass ball the mean relMSE at equal CPU rose 3.1x on one and the
+ * median 5.8x on the other (bench/RESULTS.md, "The real solve probability for the light off a mirror
+ * through glass"). Chains on one shape at the cap
+ * went on by roulette: under the SDF torus the give-up at the cap handed long BSDF-sampled paths
+ * through it weight 1 (test_sdf_chain_mis) and its 8 seeds read 1.4x the mean relMSE. So a chain on
+ * one shape within the budget (psi, its stand-in, positive; 0 for the long pass's) is given up at a
+ * count of its own, where the sampling side's share is worth
  * having: at the count C at which specular NEE's weighted sample, C / P(events) psi f w_a / a (w_a =
  * a^2 / (a^2 + b^2), the power heuristic), equals f / b, the largest the sampling side adds with the
  * share, times SPC_SNEE_GIVE_UP_SCALE, where C is below the cap (a and b within a factor of a few
@@ -1735,9 +1705,8 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
             /* a randomized attempt's chain: the weight sampled with the real solve probability, by
              * the attempts specular NEE would make toward this light point (its long pass's length) */
             spc_snee_query lq = q;
-            /* the ball pass's attempts, or the long pass's for a chain through two shapes */
-            spc_snee_params bp = solve_mis_chain(p, &ch) ? ball_params(p) : long_params(p);
-            if (ch.n > max_chain) { /* the ball pass's or the long pass's chain */
+            spc_snee_params bp = ball_params(p);
+            if (ch.n > max_chain) { /* the ball pass's chain */
                 lq.min_chain = lq.max_chain = ch.n;
                 lq.params = &bp;
             }
@@ -2008,12 +1977,6 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
     if (ball && graze_long_has(lq, solver, &sol))
         return; /* counted exactly (graze_long) */
     if (ball) {
-        if (st)
-            st->solved++;
-        emit_solve_mis(lq, solver, e, uv, p_y, &sol, seeded ? &seed : NULL, it, rng, st, sk);
-        return;
-    }
-    if (lq->params->mis && e->type == SPC_EMITTER_AREA && solve_mis_mixed(lq, &sol)) {
         if (st)
             st->solved++;
         emit_solve_mis(lq, solver, e, uv, p_y, &sol, seeded ? &seed : NULL, it, rng, st, sk);
