@@ -1557,10 +1557,16 @@ static bool chain_crosses_shapes(const spc_chain *c)
  * chains that cross from one shape to another, which no exact enumeration covers: where it was
  * measured to pay. On the demo a chain through the glass ball and off the mirror sphere counted 454
  * times held a seed's error; given up, the mean relMSE over 32 seeds fell 3x (bench/RESULTS.md, part
- * sphere12). Chains on one shape at the cap went on by roulette: under the SDF torus the give-up at
- * the cap handed long BSDF-sampled paths through it weight 1 (test_sdf_chain_mis) and its 8 seeds
- * read 1.4x the mean relMSE. So a chain on one shape within the budget (psi, its stand-in, positive;
- * 0 for the long pass's) is given up at a count of its own, where the sampling side's share is worth
+ * sphere12). Weighed instead by the real solve probability (solve_mis.h), as the tessellated balls'
+ * chains are, the long pass's chains off a mirror ball and through glass lost: BSDF sampling's mean
+ * weight on them rose 1.2-21x (the attempts find them with p A of the order of b), and on two fresh
+ * scenes of a mirror ball beside a glass ball the mean relMSE at equal CPU rose 3.1x on one and the
+ * median 5.8x on the other (bench/RESULTS.md, "The real solve probability for the light off a mirror
+ * through glass"). Chains on one shape at the cap
+ * went on by roulette: under the SDF torus the give-up at the cap handed long BSDF-sampled paths
+ * through it weight 1 (test_sdf_chain_mis) and its 8 seeds read 1.4x the mean relMSE. So a chain on
+ * one shape within the budget (psi, its stand-in, positive; 0 for the long pass's) is given up at a
+ * count of its own, where the sampling side's share is worth
  * having: at the count C at which specular NEE's weighted sample, C / P(events) psi f w_a / a (w_a =
  * a^2 / (a^2 + b^2), the power heuristic), equals f / b, the largest the sampling side adds with the
  * share, times SPC_SNEE_GIVE_UP_SCALE, where C is below the cap (a and b within a factor of a few
