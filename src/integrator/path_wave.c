@@ -48,15 +48,18 @@ typedef struct lane {
     /* the fields from here on are a step's own (the light sample at the current vertex, waiting for
      * its shadow ray, and the vertex's BSDF view), dead between steps: a lane moved to another
      * place between steps takes the fields above (lane_move) */
+    /* (in the order of the stages that write them, lane_surface's then lane_light's, so that a stage
+     * writes into few cache lines of the record) */
     bool shadow; /* the light sample waits for its shadow ray */
-    spc_rgb f, Le;
-    spc_vec3 wo, wi;
-    double cosi, lp;
-    double bsdf_pdf; /* the BSDF's density of wi (not for a diffuse view, whose pdf is cheap) */
-    bool is_delta;
     /* the vertex's BSDF as a diffuse lobe (bsdf/diffuse_view.h), where it is one */
     bool diffuse;
+    spc_vec3 wo;
     spc_diffuse_view dv;
+    bool is_delta;
+    double cosi, lp;
+    double bsdf_pdf; /* the BSDF's density of wi (not for a diffuse view, whose pdf is cheap) */
+    spc_rgb f, Le;
+    spc_vec3 wi;
 } lane;
 
 /* Lane `from`'s path into lane `to`, between two steps (the fields a step rewrites are left). */
