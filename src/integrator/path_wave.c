@@ -356,7 +356,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     int sidx[WAVE_MAX];
     int pk[OCTANT_PACKET_SLOTS];
     /* what the stages' loops over the lanes test, kept apart from the lanes' records: a record
-     * (ln[i], h[i]) is 700-odd bytes, a wave's records 190 KB, so a loop that reads one field of
+     * (ln[i], h[i]) is 600-odd bytes, a wave's records 160 KB, so a loop that reads one field of
      * every record misses the L1 cache at every lane (cachegrind's cache simulation of the cornell
      * box: the wave's own loops held three quarters of the render's L1 read misses) */
     bool cam[WAVE_MAX];   /* lane i's ray is its camera ray, traced: its hit waits in h[i] */
