@@ -35,31 +35,28 @@ static atomic_uint_least64_t wave_samples;
 
 uint64_t spc_path_wave_samples(void) { return atomic_load(&wave_samples); }
 
-/* A lane's path between its vertices. Its ray (the next segment) and its shadow ray lie in arrays of
- * the wave's own, apart from the records: Embree's packets read them from there. */
 typedef struct lane {
     int path; /* the sample this lane runs (index into the caller's arrays); -1 when idle */
+    spc_ray ray;
     spc_rgb L, beta;
     bool specular; /* the last scattering was a delta lobe (or it is the camera) */
     double prev_pdf, eta_scale;
     spc_vec3 prev_p;
-    int segments; /* the path's segments once the lane's ray is traced */
-    bool camera_ok; /* the lane's ray is the camera ray, already traced (the wave's cam[]): whether it hit */
+    int segments; /* the path's segments once ray is traced */
+    bool camera_ok; /* ray is the camera ray, already traced (the wave's cam[]): whether it hit something */
     /* the fields from here on are a step's own (the light sample at the current vertex, waiting for
      * its shadow ray, and the vertex's BSDF view), dead between steps: a lane moved to another
      * place between steps takes the fields above (lane_move) */
-    /* (in the order of the stages that write them, lane_surface's then lane_light's, so that a stage
-     * writes into few cache lines of the record) */
-    bool shadow; /* the light sample waits for its shadow ray */
-    /* the vertex's BSDF as a diffuse lobe (bsdf/diffuse_view.h), where it is one */
-    bool diffuse;
-    spc_vec3 wo;
-    spc_diffuse_view dv;
-    bool is_delta;
+    bool shadow;
+    spc_ray sr;
+    spc_rgb f, Le;
+    spc_vec3 wo, wi;
     double cosi, lp;
     double bsdf_pdf; /* the BSDF's density of wi (not for a diffuse view, whose pdf is cheap) */
-    spc_rgb f, Le;
-    spc_vec3 wi;
+    bool is_delta;
+    /* the vertex's BSDF as a diffuse lobe (bsdf/diffuse_view.h), where it is one */
+    bool diffuse;
+    spc_diffuse_view dv;
 } lane;
 
 /* Lane `from`'s path into lane `to`, between two steps (the fields a step rewrites are left). */
@@ -79,10 +76,10 @@ bool spc_path_wave_applies(const spc_render_ctx *ctx)
     return true;
 }
 
-static void lane_start(lane *ln, spc_ray *ray, int path, const spc_ray *ray0, spc_sample_out *out)
+static void lane_start(lane *ln, int path, const spc_ray *ray0, spc_sample_out *out)
 {
     ln->path = path;
-    *ray = *ray0;
+    ln->ray = *ray0;
     ln->L = spc_rgb1(0.0);
     ln->beta = spc_rgb1(1.0);
     ln->specular = true;
@@ -108,10 +105,10 @@ typedef struct camera_hits {
     spc_scene_answer a[SPC_SCENE_PACKET];
 } camera_hits;
 
-/* lane_start for sample `path` of rays[0..n), the lane's ray in *ray, with its camera hit filled in *h
- * (the lane's record); the caller marks the lane as holding its camera hit (the wave's cam[]). */
-static void lane_take(const spc_render_ctx *ctx, lane *ln, spc_ray *ray, spc_hit *h, int path, int n,
-                      const spc_ray *rays, spc_sample_out *out, camera_hits *ch)
+/* lane_start for sample `path` of rays[0..n), with its camera hit filled in *h (the lane's record); the caller
+ * marks the lane as holding its camera hit (the wave's cam[]). */
+static void lane_take(const spc_render_ctx *ctx, lane *ln, spc_hit *h, int path, int n, const spc_ray *rays,
+                      spc_sample_out *out, camera_hits *ch)
 {
     enum { W = SPC_SCENE_PACKET };
     int g = path / W, k = path % W;
@@ -122,18 +119,19 @@ static void lane_take(const spc_render_ctx *ctx, lane *ln, spc_ray *ray, spc_hit
         spc_scene_trace_packet_coherent(ctx->scene, r, ch->a);
         ch->group = g;
     }
-    lane_start(ln, ray, path, &rays[path], out);
+    lane_start(ln, path, &rays[path], out);
     ln->camera_ok = spc_scene_fill_answer(ctx->scene, &rays[path], &ch->a[k], h);
 }
 
-/* path.c's loop body from the intersection of the lane's ray to next-event estimation: emission, the
- * depth, strict normals. false: the path has ended. */
-static bool lane_surface(const spc_render_ctx *ctx, lane *ln, const spc_ray *ray, bool hit, const spc_hit *h,
-                         spc_sampler *smp, spc_sample_out *out)
+/* path.c's loop body from the intersection to next-event estimation: emission, the depth, strict
+ * normals. false: the path has ended. */
+static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const spc_hit *h, spc_sampler *smp,
+                         spc_sample_out *out)
 {
     const spc_scene *sc = ctx->scene;
     const bool nee = ctx->kind == SPC_INTEGRATOR_PATH;
     const int segments = ln->segments;
+    const spc_ray *ray = &ln->ray;
     ln->shadow = false;
     if (!hit) {
         if (sc->env && !(segments == 1 && ctx->hide_emitters)) {
@@ -185,8 +183,8 @@ static bool lane_takes_light(const spc_render_ctx *ctx, const lane *ln, const sp
 }
 
 /* Next-event estimation's second half, with the light's sample ds (ok: spc_emitter_sample_direct's
- * result with path.c's u_lpos): the shadow ray (ln->shadow, *sr) and what its contribution needs. */
-static void lane_light(const spc_render_ctx *ctx, lane *ln, spc_ray *sr, const spc_hit *h, double pmf, bool ok,
+ * result with path.c's u_lpos): the shadow ray (ln->shadow, ln->sr) and what its contribution needs. */
+static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, double pmf, bool ok,
                        const spc_emitter_direct *ds)
 {
     const spc_bsdf *b = h->bsdf;
@@ -200,7 +198,7 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, spc_ray *sr, const s
             cosi = 0.0;
         if (!spc_rgb_is_black(f) && cosi > 0.0) {
             ln->shadow = true;
-            *sr = ds->is_infinite ? spc_hit_spawn(h, ds->wi) : spc_hit_spawn_to(h, ds->p, ds->err);
+            ln->sr = ds->is_infinite ? spc_hit_spawn(h, ds->wi) : spc_hit_spawn_to(h, ds->p, ds->err);
             ln->f = f;
             ln->Le = ds->L;
             ln->wi = ds->wi;
@@ -216,8 +214,8 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, spc_ray *sr, const s
  * *wl is u_dir's cosine-weighted direction (spc_warp_cosine_hemisphere); at any other vertex *pre is
  * spc_bsdf_sample_dir's sample with u_lobe and u_dir and pre_ok its result. false: the path has
  * ended. */
-static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, spc_ray *ray, bool occluded, const spc_hit *h,
-                         const spc_vec3 *wl, const spc_bsdf_sample *pre, bool pre_ok, double u_rr)
+static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, const spc_hit *h, const spc_vec3 *wl,
+                         const spc_bsdf_sample *pre, bool pre_ok, double u_rr)
 {
     const spc_vec3 wo = ln->wo;
     if (ln->shadow && !occluded) {
@@ -245,7 +243,7 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, spc_ray *ray, bool
     ln->prev_p = h->p;
     if (bsp->lobe & (SPC_LOBE_DELTA_TRANSMISSION | SPC_LOBE_GLOSSY_TRANSMISSION | SPC_LOBE_DIFFUSE_TRANSMISSION))
         ln->eta_scale *= bsp->eta * bsp->eta;
-    *ray = spc_hit_spawn(h, bsp->wi);
+    ln->ray = spc_hit_spawn(h, bsp->wi);
 
     if (ln->segments >= ctx->rr_depth) {
         double q = spc_min(0.95, spc_rgb_max(ln->beta) * ln->eta_scale);
@@ -331,7 +329,6 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     atomic_fetch_add(&wave_samples, (uint64_t)n);
     enum { P = SPC_SCENE_PACKET, W = WAVE_MAX };
     lane ln[WAVE_MAX];
-    spc_ray ray[WAVE_MAX], sr[WAVE_MAX]; /* the lanes' rays and shadow rays */
     spc_hit h[WAVE_MAX];
     bool hit[WAVE_MAX], alive[WAVE_MAX], occluded[WAVE_MAX];
     const spc_ray *r[WAVE_MAX];
@@ -356,7 +353,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     int sidx[WAVE_MAX];
     int pk[OCTANT_PACKET_SLOTS];
     /* what the stages' loops over the lanes test, kept apart from the lanes' records: a record
-     * (ln[i], h[i]) is 600-odd bytes, a wave's records 160 KB, so a loop that reads one field of
+     * (ln[i], h[i]) is 700-odd bytes, a wave's records 190 KB, so a loop that reads one field of
      * every record misses the L1 cache at every lane (cachegrind's cache simulation of the cornell
      * box: the wave's own loops held three quarters of the render's L1 read misses) */
     bool cam[WAVE_MAX];   /* lane i's ray is its camera ray, traced: its hit waits in h[i] */
@@ -372,14 +369,14 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     while (live > 0 || next < n) {
         if (live == 0) /* the first samples, or in lockstep the next W */
             for (nl = 0; nl < W && next < n; ++nl) {
-                lane_take(ctx, &ln[nl], &ray[nl], &h[nl], next, n, rays, &out[next], &ch);
+                lane_take(ctx, &ln[nl], &h[nl], next, n, rays, &out[next], &ch);
                 cam[nl] = true;
                 ++next;
                 ++live;
             }
         /* (every lane in [0, nl) is live here: the ended ones were packed away) */
         for (int i = 0; i < nl; ++i)
-            r[i] = cam[i] ? NULL : &ray[i];
+            r[i] = cam[i] ? NULL : &ln[i].ray;
         /* the lanes' rays in packets of consecutive lanes (the live lanes are packed; a lane whose
          * camera hit waits has none), by Embree's incoherent traversal: its coherent one breaks ties
          * between coincident surfaces in another order than single rays */
@@ -409,7 +406,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 hit[i] = ln[i].camera_ok;
                 cam[i] = false;
             }
-            alive[i] = lane_surface(ctx, &ln[i], &ray[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
+            alive[i] = lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
             nee[i] = alive[i] && lane_takes_light(ctx, &ln[i], &h[i]);
             if (nee[i])
@@ -443,10 +440,10 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             okey[i] = 8;
             if (!alive[i])
                 continue;
-            lane_light(ctx, &ln[i], &sr[i], &h[i], pmf[i], le[i] && ds_ok[i], &ds[i]);
+            lane_light(ctx, &ln[i], &h[i], pmf[i], le[i] && ds_ok[i], &ds[i]);
             if (ln[i].shadow) {
-                r[i] = &sr[i];
-                okey[i] = (unsigned char)octant(sr[i].d);
+                r[i] = &ln[i].sr;
+                okey[i] = (unsigned char)octant(ln[i].sr.d);
             }
             if (ln[i].diffuse) {
                 dlane[nd] = i;
@@ -490,16 +487,15 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         for (int i = 0; i < nl; ++i) {
             ended[i] = false;
             const bool diffuse = alive[i] && ln[i].diffuse;
-            if (alive[i] && lane_scatter(ctx, &ln[i], &ray[i], occluded[i], &h[i], &wl[i],
-                                         diffuse ? NULL : &bs[sidx[i]], !diffuse && bs_ok[sidx[i]],
-                                         use[i] & USE_RR ? u[5 * i + 4].x : 0.0))
+            if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], &wl[i], diffuse ? NULL : &bs[sidx[i]],
+                                         !diffuse && bs_ok[sidx[i]], use[i] & USE_RR ? u[5 * i + 4].x : 0.0))
                 continue;
             /* the path has ended: its estimate, and the lane takes the next sample */
             out[ln[i].path].L = ln[i].L;
             ln[i].path = -1;
             --live;
             if (!lockstep && next < n) {
-                lane_take(ctx, &ln[i], &ray[i], &h[i], next, n, rays, &out[next], &ch);
+                lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
                 cam[i] = true;
                 ++next;
                 ++live;
@@ -509,7 +505,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         }
         /* the live lanes packed to the front, so that the steps of a wave's last paths do not walk
          * its ended lanes: each ended lane's place taken by the last lane (a lane's state is ln[i],
-         * ray[i] and cam[i], and h[i] where its camera hit waits) */
+         * and h[i] where its camera hit waits) */
         for (int i = 0; i < nl;) {
             if (!ended[i]) {
                 ++i;
@@ -517,7 +513,6 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             }
             if (i != --nl) {
                 lane_move(&ln[i], &ln[nl]);
-                ray[i] = ray[nl];
                 ended[i] = ended[nl];
                 cam[i] = cam[nl];
                 if (cam[i])
