@@ -43,8 +43,7 @@ typedef struct lane {
     double prev_pdf, eta_scale;
     spc_vec3 prev_p;
     int segments; /* the path's segments once ray is traced */
-    bool camera_hit; /* ray is the camera ray, already traced: its hit waits in the wave's record */
-    bool camera_ok;  /* then: it hit something */
+    bool camera_ok; /* ray is the camera ray, already traced (the wave's cam[]): whether it hit something */
     /* the fields from here on are a step's own (the light sample at the current vertex, waiting for
      * its shadow ray, and the vertex's BSDF view), dead between steps: a lane moved to another
      * place between steps takes the fields above (lane_move) */
@@ -106,7 +105,8 @@ typedef struct camera_hits {
     spc_scene_answer a[SPC_SCENE_PACKET];
 } camera_hits;
 
-/* lane_start for sample `path` of rays[0..n), with its camera hit filled in *h (the lane's record). */
+/* lane_start for sample `path` of rays[0..n), with its camera hit filled in *h (the lane's record); the caller
+ * marks the lane as holding its camera hit (the wave's cam[]). */
 static void lane_take(const spc_render_ctx *ctx, lane *ln, spc_hit *h, int path, int n, const spc_ray *rays,
                       spc_sample_out *out, camera_hits *ch)
 {
@@ -120,7 +120,6 @@ static void lane_take(const spc_render_ctx *ctx, lane *ln, spc_hit *h, int path,
         ch->group = g;
     }
     lane_start(ln, path, &rays[path], out);
-    ln->camera_hit = true;
     ln->camera_ok = spc_scene_fill_answer(ctx->scene, &rays[path], &ch->a[k], h);
 }
 
@@ -177,14 +176,10 @@ static bool lane_surface(const spc_render_ctx *ctx, lane *ln, bool hit, const sp
     return true;
 }
 
-/* Next-event estimation at h, path.c's first half: the light chosen with path.c's dimension u_light
- * (drawn whether used or not); NULL when the vertex takes no light sample. */
-static const spc_emitter *lane_pick_light(const spc_render_ctx *ctx, const lane *ln, const spc_hit *h, double u_light,
-                                          double *pmf)
+/* Whether the vertex at h takes next-event estimation's light sample (path.c's test). */
+static bool lane_takes_light(const spc_render_ctx *ctx, const lane *ln, const spc_hit *h)
 {
-    if (ctx->kind != SPC_INTEGRATOR_PATH || !(ln->diffuse || spc_bsdf_has_smooth(h->bsdf)))
-        return NULL;
-    return spc_scene_sample_emitter(ctx->scene, u_light, pmf);
+    return ctx->kind == SPC_INTEGRATOR_PATH && (ln->diffuse || spc_bsdf_has_smooth(h->bsdf));
 }
 
 /* Next-event estimation's second half, with the light's sample ds (ok: spc_emitter_sample_direct's
@@ -357,6 +352,13 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     bool bs_ok[WAVE_MAX];
     int sidx[WAVE_MAX];
     int pk[OCTANT_PACKET_SLOTS];
+    /* what the stages' loops over the lanes test, kept apart from the lanes' records: a record
+     * (ln[i], h[i]) is 700-odd bytes, a wave's records 190 KB, so a loop that reads one field of
+     * every record misses the L1 cache at every lane (cachegrind's cache simulation of the cornell
+     * box: the wave's own loops held three quarters of the render's L1 read misses) */
+    bool cam[WAVE_MAX];   /* lane i's ray is its camera ray, traced: its hit waits in h[i] */
+    bool nee[WAVE_MAX];   /* the live lane's vertex takes a light sample (lane_takes_light) */
+    bool ended[WAVE_MAX]; /* the lane's path ended in this step and it took no next sample */
     unsigned char okey[WAVE_MAX]; /* the shadow rays' octants (8: none) */
     unsigned use[WAVE_MAX];       /* the pairs of u a lane reads at its vertex (USE_*) */
     int next = 0, live = 0, np;
@@ -368,11 +370,13 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         if (live == 0) /* the first samples, or in lockstep the next W */
             for (nl = 0; nl < W && next < n; ++nl) {
                 lane_take(ctx, &ln[nl], &h[nl], next, n, rays, &out[next], &ch);
+                cam[nl] = true;
                 ++next;
                 ++live;
             }
+        /* (every lane in [0, nl) is live here: the ended ones were packed away) */
         for (int i = 0; i < nl; ++i)
-            r[i] = ln[i].path >= 0 && !ln[i].camera_hit ? &ln[i].ray : NULL;
+            r[i] = cam[i] ? NULL : &ln[i].ray;
         /* the lanes' rays in packets of consecutive lanes (the live lanes are packed; a lane whose
          * camera hit waits has none), by Embree's incoherent traversal: its coherent one breaks ties
          * between coincident surfaces in another order than single rays */
@@ -398,12 +402,15 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             }
         }
         for (int i = 0; i < nl; ++i) {
-            if (ln[i].path >= 0 && ln[i].camera_hit) {
+            if (cam[i]) {
                 hit[i] = ln[i].camera_ok;
-                ln[i].camera_hit = false;
+                cam[i] = false;
             }
-            alive[i] = ln[i].path >= 0 && lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
+            alive[i] = lane_surface(ctx, &ln[i], hit[i], &h[i], &smp[ln[i].path], &out[ln[i].path]);
             ls[i] = alive[i] ? &smp[ln[i].path] : NULL;
+            nee[i] = alive[i] && lane_takes_light(ctx, &ln[i], &h[i]);
+            if (nee[i])
+                ref[i] = h[i].p;
             /* (a lane that ended has no vertex: its diffuse flag was never set) */
             use[i] = !alive[i] ? USE_ALWAYS
                                : USE_ALWAYS | (ln[i].diffuse ? 0u : USE_LOBE) |
@@ -418,14 +425,15 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         /* the lights chosen, then every lane's light sample in one call (lanes of mesh lights share
          * vector instructions, emitter/area_many.c) */
         for (int i = 0; i < nl; ++i) {
-            le[i] = NULL;
-            if (!alive[i])
-                continue;
-            le[i] = lane_pick_light(ctx, &ln[i], &h[i], u[5 * i].x, &pmf[i]);
-            ref[i] = h[i].p;
+            le[i] = nee[i] ? spc_scene_sample_emitter(ctx->scene, u[5 * i].x, &pmf[i]) : NULL;
             u_lpos[i] = u[5 * i + 1];
         }
         spc_emitter_sample_direct_many(nl, le, ref, u_lpos, ds, ds_ok);
+        /* each live lane's light sample, and (while its record is in cache) its entry in the BSDF
+         * samples' lists below: the diffuse lanes' directions, warped together (core/warp_many.c);
+         * the other live lanes' BSDF samples in one call (rough metals share their visible-normal
+         * searches, bsdf.h), lane i's in bs[sidx[i]] */
+        int nd = 0, ns = 0;
         for (int i = 0; i < nl; ++i) {
             r[i] = NULL;
             occluded[i] = false;
@@ -437,6 +445,17 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 r[i] = &ln[i].sr;
                 okey[i] = (unsigned char)octant(ln[i].sr.d);
             }
+            if (ln[i].diffuse) {
+                dlane[nd] = i;
+                u_dir[nd++] = u[5 * i + 3];
+                continue;
+            }
+            sidx[i] = ns;
+            sb[ns] = h[i].bsdf;
+            sh[ns] = &h[i];
+            swo[ns] = ln[i].wo;
+            su_lobe[ns] = u[5 * i + 2].x;
+            su_dir[ns++] = u[5 * i + 3];
         }
         /* the shadow rays in packets of one octant each, by Embree's coherent traversal (the same
          * answers: whether anything lies between two points has no ties to break) */
@@ -461,32 +480,12 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
                 if (pk[p * P + j] >= 0)
                     occluded[pk[p * P + j]] = po[j];
         }
-        /* the diffuse lanes' directions, warped together (core/warp_many.c); the other live lanes'
-         * BSDF samples in one call (rough metals share their visible-normal searches, bsdf.h), lane
-         * i's in bs[sidx[i]] */
-        int nd = 0, ns = 0;
-        for (int i = 0; i < nl; ++i) {
-            if (!alive[i])
-                continue;
-            if (ln[i].diffuse) {
-                dlane[nd] = i;
-                u_dir[nd++] = u[5 * i + 3];
-                continue;
-            }
-            sidx[i] = ns;
-            sb[ns] = h[i].bsdf;
-            sh[ns] = &h[i];
-            swo[ns] = ln[i].wo;
-            su_lobe[ns] = u[5 * i + 2].x;
-            su_dir[ns++] = u[5 * i + 3];
-        }
         spc_warp_cosine_hemisphere_many(nd, u_dir, wl_d);
         for (int j = 0; j < nd; ++j)
             wl[dlane[j]] = wl_d[j];
         spc_bsdf_sample_dir_many(ns, sb, sh, SPC_MODE_RADIANCE, swo, su_lobe, su_dir, bs, bs_ok);
         for (int i = 0; i < nl; ++i) {
-            if (ln[i].path < 0)
-                continue;
+            ended[i] = false;
             const bool diffuse = alive[i] && ln[i].diffuse;
             if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], &wl[i], diffuse ? NULL : &bs[sidx[i]],
                                          !diffuse && bs_ok[sidx[i]], use[i] & USE_RR ? u[5 * i + 4].x : 0.0))
@@ -497,21 +496,26 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             --live;
             if (!lockstep && next < n) {
                 lane_take(ctx, &ln[i], &h[i], next, n, rays, &out[next], &ch);
+                cam[i] = true;
                 ++next;
                 ++live;
+            } else {
+                ended[i] = true;
             }
         }
         /* the live lanes packed to the front, so that the steps of a wave's last paths do not walk
          * its ended lanes: each ended lane's place taken by the last lane (a lane's state is ln[i],
          * and h[i] where its camera hit waits) */
         for (int i = 0; i < nl;) {
-            if (ln[i].path >= 0) {
+            if (!ended[i]) {
                 ++i;
                 continue;
             }
             if (i != --nl) {
                 lane_move(&ln[i], &ln[nl]);
-                if (ln[i].camera_hit)
+                ended[i] = ended[nl];
+                cam[i] = cam[nl];
+                if (cam[i])
                     h[i] = h[nl];
             }
         }

@@ -35,23 +35,26 @@ struct spc_shape;
 struct spc_bsdf;
 struct spc_emitter;
 
+/* The fields that shading reads and the packet calls fill come first, the derivatives last: a path
+ * tracer that keeps many records (integrator/path_wave.c, 256 of them) walks each stage over the
+ * first 26 words of every record, not over its 41. */
 typedef struct spc_hit {
     double t;        /* ray distance */
     spc_vec3 p;      /* world position */
     spc_vec3 ng;     /* geometric normal */
     spc_frame sh;    /* shading frame */
     spc_vec2 uv;     /* texture coordinates */
-    spc_vec3 dpdu, dpdv;
-    spc_vec3 dndu, dndv;
-    double b1, b2;   /* barycentrics of vertices 1 and 2 (triangles), surface coords otherwise */
     double err;      /* absolute error bound of p */
-    spc_vec3 n_unmapped; /* see normal_mapped */
-    bool normal_mapped;
-    int prim;        /* triangle index, 0 for analytic shapes */
-    int shape_index; /* index in scene->shapes */
+    double b1, b2;   /* barycentrics of vertices 1 and 2 (triangles), surface coords otherwise */
     const struct spc_shape *shape;
     const struct spc_bsdf *bsdf;       /* never NULL for a surface hit */
     const struct spc_emitter *emitter; /* area emitter attached to the shape, or NULL */
+    int prim;        /* triangle index, 0 for analytic shapes */
+    int shape_index; /* index in scene->shapes */
+    bool normal_mapped;
+    spc_vec3 dpdu, dpdv;
+    spc_vec3 dndu, dndv;
+    spc_vec3 n_unmapped; /* see normal_mapped */
 } spc_hit;
 
 /* The offset origin for a ray leaving h in direction d (robust against self-intersection):
