@@ -65,6 +65,7 @@
 #include "manifold/snee_plan.h"
 #include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
+#include "path_lt_util.h"
 #include "render_util.h"
 
 #define SCENE "bench/check/point_light_ball.xml"
@@ -137,24 +138,6 @@ static spc_scene *lt_scene(spc_camera_state *cam, spc_snee_params *p)
     CHECK(spc_camera_prepare(cam, &sc->camera, sc->film.width, sc->film.height));
     CHECK(spc_snee_parse(SETTING, 2, p));
     return sc;
-}
-
-/* A path render context on sc with specular NEE's setting p, as the joins' callers see it. */
-static spc_render_ctx lt_ctx(spc_scene *sc, spc_camera_state *cam, const spc_snee_params *p)
-{
-    spc_render_ctx ctx;
-    memset(&ctx, 0, sizeof ctx);
-    ctx.scene = sc;
-    ctx.cam = cam;
-    ctx.kind = SPC_INTEGRATOR_PATH;
-    ctx.max_depth = -1;
-    ctx.rr_depth = 5;
-    ctx.specular_nee = SPC_SNEE_ANGULAR;
-    ctx.specular_max_chain = 2;
-    ctx.snee = *p;
-    ctx.width = sc->film.width;
-    ctx.height = sc->film.height;
-    return ctx;
 }
 
 /* Loads the scene at 16x16 with its camera prepared and the specular NEE setting parsed (NULL and
@@ -284,8 +267,8 @@ static void count_through(void *user, const spc_path_lt_join *j)
 /* 20000 light subpaths' joins through the sphere tallied twice (streams seed and seed + 1): t[0] with
  * every subpath's share 1, t[1] with the share `share` of the joins by chains up to max_chain
  * (lt_through) or, with long_chains, of those by longer chains (lt_long). */
-static void tally_shares(spc_scene *sc, spc_camera_state *cam, const spc_snee_params *whole,
-                         bool long_chains, double share, uint64_t seed, share_tally t[2])
+static void tally_shares(spc_scene *sc, spc_camera_state *cam, const spc_snee_params *whole, bool long_chains,
+                         double share, uint64_t seed, share_tally t[2])
 {
     spc_render_ctx ctx = lt_ctx(sc, cam, whole);
     for (int s = 0; s < 2; ++s) {
@@ -427,31 +410,13 @@ TEST(plan_with_point_lights_and_small_area_lights)
 
 #define AREA_SETTING "angular:camera=0.098,first=0.1,later=0.1,ltcaus"
 
-/* The camera's side of an area light's join as the path tracer's specular NEE at x2 reads it
- * (params.alt_chain_ratio): its x1, w1 and camera chain cc, the chain budget at x2. */
-typedef struct area_cam {
-    const spc_render_ctx *ctx;
-    const spc_snee_params *p;
-    const spc_path_lt_join *j;
-    int kmax, kflat;
-} area_cam;
-
-static double area_cam_ratio(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
-                             spc_vec3 y, spc_vec3 ny)
-{
-    const area_cam *a = user;
-    if (c->n > spc_path_lt_area_chain_max(a->p, c, a->kmax, a->kflat))
-        return 0.0;
-    return spc_path_lt_area_ratio(a->ctx, a->p, a->j->x1, a->j->w1, x, wo, a->j->cc, c, e, y, ny);
-}
-
 typedef struct area_tally {
     const spc_render_ctx *ctx;
     const spc_snee_params *p;
-    bool mesh; /* a tessellated ball: specular NEE's chain at x2 is the join's own (no enumeration) */
-    bool flat; /* slabs: specular NEE's chains at x2 by the flat enumeration, of the join's length */
+    bool mesh;     /* a tessellated ball: specular NEE's chain at x2 is the join's own (no enumeration) */
+    bool flat;     /* slabs: specular NEE's chains at x2 by the flat enumeration, of the join's length */
     bool cylinder; /* a mirror cylinder: specular NEE's chains at x2 by the cylinder's enumeration */
-    int exact; /* joins whose three weights sum to one within 1e-5 */
+    int exact;     /* joins whose three weights sum to one within 1e-5 */
     int joins, matched, kinds[3];
     /* slabs: joins by chains through flat faces that the enumeration leaves to BSDF sampling (a
      * partial reflection inside the glass, or longer than it goes), and the largest gap of BSDF
@@ -977,8 +942,7 @@ TEST(slab_area_camera_weights_sum_to_one)
     /* without ltslab: none through a slab */
     r.p.lt_slab = false;
     slab_run_joins(&r, subpaths / 4);
-    CHECK_MSG(t->joins > 0 && t->kinds[1] == 0, "without ltslab: %d joins, %d through a slab", t->joins,
-              t->kinds[1]);
+    CHECK_MSG(t->joins > 0 && t->kinds[1] == 0, "without ltslab: %d joins, %d through a slab", t->joins, t->kinds[1]);
     spc_scene_destroy(r.sc);
 }
 
@@ -1051,7 +1015,7 @@ TEST(spot_joins_weigh_as_specular_nee)
         spc_vec3 c = spc_v3(0.271 + 0.6 * cos(a), 0.318 + 0.6 * sin(a), 0.580);
         spc_vec3 w = spc_normalize(spc_sub(c, e->position));
         double ct = spc_dot(w, axis), I = spc_rgb_avg(spc_emitter_eval_intensity(e, w));
-        double want = ct >= cos_beam ? spc_rgb_avg(e->intensity)
+        double want = ct >= cos_beam  ? spc_rgb_avg(e->intensity)
                       : ct <= cos_cut ? 0.0
                                       : spc_rgb_avg(e->intensity) * (e->cutoff_angle * SPC_PI / 180.0 - acos(ct)) /
                                             ((e->cutoff_angle - e->beam_width) * SPC_PI / 180.0);
@@ -1060,8 +1024,8 @@ TEST(spot_joins_weigh_as_specular_nee)
         falloff += ct < cos_beam && ct > cos_cut;
         past += ct <= cos_cut;
     }
-    printf("  spot: of 64 directions around the ball %d in the beam, %d in the falloff, %d past the cutoff\n",
-           beam, falloff, past);
+    printf("  spot: of 64 directions around the ball %d in the beam, %d in the falloff, %d past the cutoff\n", beam,
+           falloff, past);
     CHECK(beam > 0 && falloff > 0 && past > 0);
     spc_scene_destroy(sc);
 }
@@ -1152,8 +1116,8 @@ TEST(spot_render_agrees_without_it_and_with_bdpt)
         double sums[4];
         double pass = floor_pixels_agree(sc, a, b, 0.01, &tested, sums);
         double se = sqrt(sums[2] * sums[2] + sums[3] * sums[3]);
-        printf("    spot vs bdpt: z-test pass %.4f of %d floor pixels; their sums %.5f vs %.5f (se %.2g)\n", pass, tested,
-               sums[0], sums[1], se);
+        printf("    spot vs bdpt: z-test pass %.4f of %d floor pixels; their sums %.5f vs %.5f (se %.2g)\n", pass,
+               tested, sums[0], sums[1], se);
         CHECK_MSG(pass >= 0.99, "spot: ltcaus vs bdpt, z-test pass %.4f", pass);
         CHECK_MSG(fabs(sums[0] - sums[1]) <= 3.0 * se, "spot: floor sum %.5f vs bdpt %.5f (se %.2g)", sums[0], sums[1],
                   se);
@@ -1189,8 +1153,8 @@ typedef struct slab_point_tally {
 /* The flat enumeration's chain from a join's receiver x2 to its point light that is the join's own
  * (the same vertex count, the same first direction within 1e-6), copied to *out; NULL where the
  * enumeration does not make it. */
-static const spc_chain *point_light_flat_match(const spc_scene *sc, const spc_snee_params *p,
-                                               const spc_path_lt_join *j, spc_chain *out)
+static const spc_chain *point_light_flat_match(const spc_scene *sc, const spc_snee_params *p, const spc_path_lt_join *j,
+                                               spc_chain *out)
 {
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, j->x2, j->w2, j->c->n);
@@ -1454,8 +1418,8 @@ TEST(slab_camera_point_weights_sum_to_one)
     CHECK_MSG(t.through > 50, "joins through flat faces toward the pinhole: %d", t.through);
     CHECK_MSG(t.shared_psi > 10 && t.lt_only > 0, "shared on a share of the calls %d, light tracing's alone %d",
               t.shared_psi, t.lt_only);
-    CHECK_MSG(t.missed_camera == 0 && t.worst_miss < 1e-6, "camera chains not retraced %d, miss %.3g",
-              t.missed_camera, t.worst_miss);
+    CHECK_MSG(t.missed_camera == 0 && t.worst_miss < 1e-6, "camera chains not retraced %d, miss %.3g", t.missed_camera,
+              t.worst_miss);
     CHECK_MSG(t.matched > (t.through - t.lt_only) * 95 / 100, "the flat enumeration finds %d of %d joins' chains",
               t.matched, t.through - t.lt_only);
     CHECK_MSG(t.worst_gap < 1e-5, "the two weights sum to 1 +- %.3g", t.worst_gap);
@@ -1479,8 +1443,8 @@ TEST(slab_camera_point_weights_sum_to_one)
  * bench/RESULTS.md, part rcvslab30). */
 TEST(slab_camera_point_render_agrees_with_the_share)
 {
-    scene_settings_agree(SLAB_POINT_SCENE, SLAB_POINT_PLAN ",ltcaus,flat34=0.3,ltslab", SLAB_POINT_PLAN ",ltcaus,ltslab",
-                         512, 61, "slabs, point light, ltslab: flat34=0.3 vs 1");
+    scene_settings_agree(SLAB_POINT_SCENE, SLAB_POINT_PLAN ",ltcaus,flat34=0.3,ltslab",
+                         SLAB_POINT_PLAN ",ltcaus,ltslab", 512, 61, "slabs, point light, ltslab: flat34=0.3 vs 1");
 }
 
 /* The same with the track and light tracing's flat chains up to 8 vertices (longmax=8): the chains
@@ -1522,7 +1486,8 @@ TEST(area_light_render_agrees_without_it)
 TEST(area_light_long_render_agrees_without_it)
 {
     scene_settings_agree("bench/check/ball_small_light.xml", AREA_SETTING ",ltshare=1,ltlong=1",
-                         "angular:camera=0.098,first=0.1,later=0.1", 512, 45, "area light, ltlong=1: ltcaus vs without");
+                         "angular:camera=0.098,first=0.1,later=0.1", 512, 45,
+                         "area light, ltlong=1: ltcaus vs without");
 }
 
 /* An area light's subpaths join through no middle vertex (those joins are point lights' only: the
