@@ -10,7 +10,9 @@
 #include <string.h>
 
 #include "integrator/path_lt.h"
+#include "manifold/receiver.h"
 #include "manifold/snee_options.h"
+#include "manifold/specular_nee.h"
 #include "render_util.h"
 
 /* A path render context on sc with specular NEE's setting p, as the joins' callers see it. */
@@ -47,6 +49,26 @@ static double area_cam_ratio(const void *user, const spc_hit *x, spc_vec3 wo, co
     if (c->n > spc_path_lt_area_chain_max(a->p, c, a->kmax, a->kflat))
         return 0.0;
     return spc_path_lt_area_ratio(a->ctx, a->p, a->j->x1, a->j->w1, x, wo, a->j->cc, c, e, y, ny);
+}
+
+/* The weights spc_snee_receiver_weights gives a join's path at its receiver x2 (the chain j->c to the
+ * light point j->y) under pp with the chain budget kmax: specular NEE's own (returned) and the other
+ * strategies' (*w_alt). */
+static double join_receiver_weights(const spc_scene *sc, const spc_snee_params *pp, const spc_path_lt_join *j, int kmax,
+                                    double *w_alt)
+{
+    spc_receiver r;
+    spc_receiver_surface(&r, j->x2, j->w2);
+    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+    for (int i = 0; i < j->c->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
+        ev[i] = j->c->v[i].event;
+    spc_hit lh;
+    memset(&lh, 0, sizeof lh);
+    lh.p = j->y;
+    lh.ng = j->ny;
+    lh.emitter = j->e;
+    lh.shape = j->e->shape;
+    return spc_snee_receiver_weights(sc, pp, &r, j->c->d0, kmax, j->c->n, ev, &lh, w_alt);
 }
 
 #endif

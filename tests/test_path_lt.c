@@ -489,19 +489,8 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
         ++t->unlisted;
         t->unlisted_long += j->c->n > SPC_FLAT_MAX_VERTICES;
         t->unlisted_partial += j->c->n <= SPC_FLAT_MAX_VERTICES;
-        spc_receiver r;
-        spc_receiver_surface(&r, j->x2, j->w2);
-        unsigned char ev[SPC_CHAIN_MAX_VERTICES];
-        for (int i = 0; i < j->c->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
-            ev[i] = j->c->v[i].event;
-        spc_hit lh;
-        memset(&lh, 0, sizeof lh);
-        lh.p = j->y;
-        lh.ng = j->ny;
-        lh.emitter = j->e;
-        lh.shape = j->e->shape;
         double w_alt;
-        double w_own = spc_snee_receiver_weights(sc, &pp, &r, j->c->d0, kmax, j->c->n, ev, &lh, &w_alt);
+        double w_own = join_receiver_weights(sc, &pp, j, kmax, &w_alt);
         double gap = fabs(w_own + j->w - 1.0);
         if (gap > t->unlisted_gap)
             t->unlisted_gap = gap;
@@ -521,19 +510,8 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
     spc_rgb v_all = spc_snee_chain_value(&q, j->e, spc_v2(0, 0), match);
     double w_nee = spc_rgb_avg(v_all) > 0.0 ? spc_rgb_avg(v_mis) / spc_rgb_avg(v_all) : 0.0;
     /* BSDF sampling's own weight at x2 of the same path, and the other strategy's (light tracing's) */
-    spc_receiver r;
-    spc_receiver_surface(&r, j->x2, j->w2);
-    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
-    for (int i = 0; i < j->c->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
-        ev[i] = j->c->v[i].event;
-    spc_hit lh;
-    memset(&lh, 0, sizeof lh);
-    lh.p = j->y;
-    lh.ng = j->ny;
-    lh.emitter = j->e;
-    lh.shape = j->e->shape;
     double w_alt;
-    double w_own = spc_snee_receiver_weights(sc, &pp, &r, j->c->d0, kmax, j->c->n, ev, &lh, &w_alt);
+    double w_own = join_receiver_weights(sc, &pp, j, kmax, &w_alt);
     double gap = fabs(w_nee + w_own + j->w - 1.0);
     t->exact += gap < 1e-5;
     /* on the tessellated ball specular NEE's psi is 1 for its fitted roots' chains only (q.psi

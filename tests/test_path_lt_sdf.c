@@ -61,19 +61,8 @@ static void check_sdf_join(void *user, const spc_path_lt_join *j)
     pp.query_p = j->x1 ? spc_snee_later_prob(sc, t->p, j->x2->p) : spc_snee_first_prob(sc, t->p, j->x2->p);
     pp.alt_chain_ratio = area_cam_ratio;
     pp.alt_user = &side;
-    spc_receiver r;
-    spc_receiver_surface(&r, j->x2, j->w2);
-    unsigned char ev[SPC_CHAIN_MAX_VERTICES];
-    for (int i = 0; i < j->c->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
-        ev[i] = j->c->v[i].event;
-    spc_hit lh;
-    memset(&lh, 0, sizeof lh);
-    lh.p = j->y;
-    lh.ng = j->ny;
-    lh.emitter = j->e;
-    lh.shape = j->e->shape;
     double w_alt;
-    double w_own = spc_snee_receiver_weights(sc, &pp, &r, j->c->d0, kmax, j->c->n, ev, &lh, &w_alt);
+    double w_own = join_receiver_weights(sc, &pp, j, kmax, &w_alt);
     double gap = fabs(w_alt - j->w);
     if (gap > t->worst_gap)
         t->worst_gap = gap;
