@@ -92,6 +92,116 @@ static inline spc_shape *tu_sphere(spc_scene *sc, spc_vec3 c, double r, const sp
     return s;
 }
 
+/* The unit disk, rectangle or cube's placement: scale, then a rotation by deg degrees about axis,
+ * then a translation to pos. */
+static inline spc_mat4 tu_place(spc_vec3 scale, spc_vec3 axis, double deg, spc_vec3 pos)
+{
+    spc_mat4 S = spc_mat4_scale(scale), R = spc_mat4_rotate(axis, deg), T = spc_mat4_translate(pos);
+    spc_mat4 RS = spc_mat4_mul(&R, &S);
+    return spc_mat4_mul(&T, &RS);
+}
+
+static inline spc_shape *tu_disk(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_disk(s, &M, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+static inline spc_shape *tu_rect(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_rectangle(s, &M, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+static inline spc_shape *tu_cube(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_cube(s, &M, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+static inline spc_shape *tu_cylinder(spc_scene *sc, spc_vec3 p0, spc_vec3 p1, double r, const spc_bsdf *b)
+{
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    spc_shape_init_cylinder(s, p0, p1, r, NULL, NULL, 0, 0, &err);
+    s->bsdf = b;
+    return s;
+}
+
+/* A UV sphere tessellated into nu x nv quads with vertex normals (smooth shading), squashed along z
+ * by zscale (1: a sphere; otherwise an ellipsoid whose normals are the ellipsoid's, not radial). */
+static inline spc_shape *tu_mesh_sphere(spc_scene *sc, spc_vec3 c, double r, double zscale, int nu, int nv,
+                                        const spc_bsdf *b)
+{
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    m.nverts = (size_t)(nu * (nv + 1));
+    m.ntris = (size_t)(2 * nu * nv);
+    m.p = malloc(3 * m.nverts * sizeof(float));
+    m.n = malloc(3 * m.nverts * sizeof(float));
+    m.idx = malloc(3 * m.ntris * sizeof(uint32_t));
+    for (int j = 0; j <= nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            double th = SPC_PI * j / nv, ph = 2 * SPC_PI * i / nu;
+            spc_vec3 l = spc_v3(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
+            spc_vec3 n = zscale == 1.0 ? l : spc_normalize(spc_v3(l.x, l.y, l.z / zscale));
+            size_t k = (size_t)(j * nu + i);
+            m.p[3 * k] = (float)(c.x + r * l.x);
+            m.p[3 * k + 1] = (float)(c.y + r * l.y);
+            m.p[3 * k + 2] = (float)(c.z + r * zscale * l.z);
+            m.n[3 * k] = (float)n.x;
+            m.n[3 * k + 1] = (float)n.y;
+            m.n[3 * k + 2] = (float)n.z;
+        }
+    size_t t = 0;
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            uint32_t a = (uint32_t)(j * nu + i), bb = (uint32_t)(j * nu + (i + 1) % nu);
+            uint32_t cc = (uint32_t)((j + 1) * nu + i), dd = (uint32_t)((j + 1) * nu + (i + 1) % nu);
+            /* outward winding: (a, c, b) and (b, c, d) for theta growing downward */
+            uint32_t tri[6] = {a, cc, bb, bb, cc, dd};
+            memcpy(m.idx + 3 * t, tri, sizeof tri);
+            t += 2;
+        }
+    spc_shape *s = spc_scene_new_shape(sc);
+    spc_error err;
+    if (!spc_shape_init_mesh(s, &m, NULL, NULL, 0, 0, &err))
+        printf("  mesh: %s\n", err.msg);
+    s->bsdf = b;
+    return s;
+}
+
+/* Finalizes sc; false (and the reason printed) on failure. */
+static inline bool tu_finalize(spc_scene *sc)
+{
+    spc_error err;
+    if (spc_scene_finalize(sc, &err) != SPC_OK) {
+        printf("  finalize: %s\n", err.msg);
+        return false;
+    }
+    return true;
+}
+
+/* A free start point at p (no surface, no ray offset): normal +z. */
+static inline spc_hit tu_free_point(spc_vec3 p)
+{
+    spc_hit h;
+    memset(&h, 0, sizeof h);
+    h.p = p;
+    h.ng = spc_v3(0, 0, 1);
+    h.sh = spc_frame_from_n(h.ng);
+    return h;
+}
+
 /* A signed distance field shape of one primitive d (scene/sdf.h) placed by M, with BSDF b; NULL
  * (and the reason printed) if d or M is refused. */
 static inline spc_shape *tu_sdf(spc_scene *sc, const spc_sdf_desc *d, const spc_mat4 *M, const spc_bsdf *b)

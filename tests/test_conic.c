@@ -1601,15 +1601,6 @@ TEST(specular_polynomials_fixture)
 
 /* ================= images: path + conic against ipt ================= */
 
-static spc_shape *add_sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_sphere(s, c, r, NULL, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
 static spc_film *render_with(const spc_scene *sc, const char *integrator, const char *snee, int spp, uint64_t seed,
                              double *seconds)
 {
@@ -1646,7 +1637,7 @@ TEST(image_water_surface)
     spc_scene *sc = spc_scene_create();
     add_rect(sc, spc_v3(1.5, 1.5, 1), spc_v3(0, 0, 0), tu_diffuse(sc, 0.7));
     add_mesh(sc, water_mesh(40, 1.5, 0.5), tu_glass(sc, 1.33));
-    spc_shape *light = add_sphere(sc, spc_v3(0.3, 0.2, 2.2), 0.3, tu_diffuse(sc, 0.0));
+    spc_shape *light = tu_sphere(sc, spc_v3(0.3, 0.2, 2.2), 0.3, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 6.0);
     tu_camera(sc, spc_v3(0.0, -2.6, 2.4), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 45, 24, 24);
     sc->integrator.specular_max_chain = 1;
@@ -1684,7 +1675,7 @@ TEST(image_glass_blob)
     }
     add_mesh(sc, bunny, tu_glass(sc, 1.5));
     add_mesh(sc, blob_mesh(8, spc_v3(0.55, 0.1, 0.4), 0.3, 0.2), tu_mirror(sc));
-    spc_shape *light = add_sphere(sc, spc_v3(0.1, 0.3, 2.2), 0.3, tu_diffuse(sc, 0.0));
+    spc_shape *light = tu_sphere(sc, spc_v3(0.1, 0.3, 2.2), 0.3, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 3, 6.0);
     tu_camera(sc, spc_v3(0.2, -2.8, 2.2), spc_v3(0, 0, 0.3), spc_v3(0, 0, 1), 50, 24, 24);
     sc->integrator.specular_max_chain = 2;

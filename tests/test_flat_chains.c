@@ -97,13 +97,6 @@ static spc_scene *add_light_finish(spc_scene *sc, spc_vec3 c, double r)
     return sc;
 }
 
-static spc_mat4 place(spc_vec3 scale, spc_vec3 axis, double degrees, spc_vec3 at)
-{
-    spc_mat4 S = spc_mat4_scale(scale), R = spc_mat4_rotate(axis, degrees), T = spc_mat4_translate(at);
-    spc_mat4 RS = spc_mat4_mul(&R, &S);
-    return spc_mat4_mul(&T, &RS);
-}
-
 /* ---- closed forms ---- */
 
 /* The horizontal distance a ray entering at angle t1 covers between heights 0 and zy through a slab
@@ -118,7 +111,7 @@ TEST(slab_lateral_shift)
 {
     spc_scene *sc = floor_scene();
     const double eta = 1.5, zy = 2.0;
-    spc_mat4 M = place(spc_v3(3, 3, 0.1), spc_v3(0, 0, 1), 0.0, spc_v3(0, 0, 1.0));
+    spc_mat4 M = tu_place(spc_v3(3, 3, 0.1), spc_v3(0, 0, 1), 0.0, spc_v3(0, 0, 1.0));
     add_cube(sc, &M, tu_glass(sc, eta));
     sc = add_light_finish(sc, spc_v3(0, 0, 3.5), 0.2);
     CHECK(sc != NULL);
@@ -173,7 +166,7 @@ TEST(mirror_image)
     /* the plane x = 2 facing -x, 3 x 3 */
     spc_shape *m = spc_scene_new_shape(sc);
     spc_error err;
-    spc_mat4 M = place(spc_v3(1.5, 1.5, 1.0), spc_v3(0, 1, 0), -90.0, spc_v3(2.0, 0.0, 1.5));
+    spc_mat4 M = tu_place(spc_v3(1.5, 1.5, 1.0), spc_v3(0, 1, 0), -90.0, spc_v3(2.0, 0.0, 1.5));
     spc_shape_init_rectangle(m, &M, NULL, 0, 0, &err);
     m->bsdf = tu_mirror(sc);
     sc = add_light_finish(sc, spc_v3(0.5, 0.5, 2.5), 0.2);
@@ -237,7 +230,7 @@ TEST(prism_bends_toward_base)
 {
     spc_scene *sc = floor_scene();
     /* the prism lying along y at height 1, its apex up; the light to one side, a little higher */
-    spc_mat4 M = place(spc_v3(0.6, 1.5, 0.6), spc_v3(0, 0, 1), 0.0, spc_v3(0, 0, 1.0));
+    spc_mat4 M = tu_place(spc_v3(0.6, 1.5, 0.6), spc_v3(0, 0, 1), 0.0, spc_v3(0, 0, 1.0));
     add_prism(sc, &M, tu_glass(sc, 1.5));
     sc = add_light_finish(sc, spc_v3(-2.0, 0.0, 1.3), 0.1);
     CHECK(sc != NULL);
@@ -278,7 +271,7 @@ TEST(prism_bends_toward_base)
 TEST(faces_of_shapes)
 {
     spc_scene *sc = floor_scene();
-    spc_mat4 M = place(spc_v3(0.5, 0.4, 0.3), spc_v3(1, 1, 0), 30.0, spc_v3(0, 0, 1.0));
+    spc_mat4 M = tu_place(spc_v3(0.5, 0.4, 0.3), spc_v3(1, 1, 0), 30.0, spc_v3(0, 0, 1.0));
     spc_shape *cube = add_cube(sc, &M, tu_glass(sc, 1.5));
     spc_shape *ball = tu_sphere(sc, spc_v3(2, 0, 1), 0.5, tu_glass(sc, 1.5));
     sc = add_light_finish(sc, spc_v3(0, 0, 3), 0.2);
@@ -380,7 +373,7 @@ static void run_scene(spc_scene *sc, const char *label, int max_chain, int point
 TEST(tilted_cube_contains_randomized_solutions)
 {
     spc_scene *sc = floor_scene();
-    spc_mat4 M = place(spc_v3(0.5, 0.35, 0.4), spc_v3(1, 0.4, 0.2), 25.0, spc_v3(-0.3, 0.1, 0.8));
+    spc_mat4 M = tu_place(spc_v3(0.5, 0.35, 0.4), spc_v3(1, 0.4, 0.2), 25.0, spc_v3(-0.3, 0.1, 0.8));
     add_cube(sc, &M, tu_glass(sc, 1.5));
     sc = add_light_finish(sc, spc_v3(-0.6, 0.4, 2.6), 0.2);
     run_scene(sc, "tilted cube, up to 4 vertices", 4, 60, 10, 0.0, 0.0, 2.0);
@@ -389,7 +382,7 @@ TEST(tilted_cube_contains_randomized_solutions)
 TEST(prism_contains_randomized_solutions)
 {
     spc_scene *sc = floor_scene();
-    spc_mat4 M = place(spc_v3(0.6, 1.2, 0.6), spc_v3(1, 0, 0), 15.0, spc_v3(0, 0, 1.0));
+    spc_mat4 M = tu_place(spc_v3(0.6, 1.2, 0.6), spc_v3(1, 0, 0), 15.0, spc_v3(0, 0, 1.0));
     add_prism(sc, &M, tu_glass(sc, 1.5));
     sc = add_light_finish(sc, spc_v3(-1.8, 0.2, 1.4), 0.2);
     run_scene(sc, "prism, up to 3 vertices", 3, 60, 5, 1.2, 0.0, 1.2);
@@ -398,8 +391,8 @@ TEST(prism_contains_randomized_solutions)
 TEST(two_slabs_contain_randomized_solutions)
 {
     spc_scene *sc = floor_scene();
-    spc_mat4 A = place(spc_v3(0.8, 0.8, 0.06), spc_v3(1, 0, 0), 12.0, spc_v3(-0.3, 0, 1.0));
-    spc_mat4 B = place(spc_v3(0.8, 0.8, 0.06), spc_v3(0, 1, 0), -10.0, spc_v3(0.2, 0.1, 1.6));
+    spc_mat4 A = tu_place(spc_v3(0.8, 0.8, 0.06), spc_v3(1, 0, 0), 12.0, spc_v3(-0.3, 0, 1.0));
+    spc_mat4 B = tu_place(spc_v3(0.8, 0.8, 0.06), spc_v3(0, 1, 0), -10.0, spc_v3(0.2, 0.1, 1.6));
     add_cube(sc, &A, tu_glass(sc, 1.5));
     add_cube(sc, &B, tu_glass(sc, 1.33));
     sc = add_light_finish(sc, spc_v3(0.0, 0.2, 2.8), 0.25);
@@ -409,14 +402,14 @@ TEST(two_slabs_contain_randomized_solutions)
 TEST(two_slabs_and_mirror_contain_randomized_solutions)
 {
     spc_scene *sc = floor_scene();
-    spc_mat4 A = place(spc_v3(0.8, 0.8, 0.06), spc_v3(1, 0, 0), 12.0, spc_v3(-0.3, 0, 1.0));
-    spc_mat4 B = place(spc_v3(0.8, 0.8, 0.06), spc_v3(0, 1, 0), -10.0, spc_v3(0.2, 0.1, 1.6));
+    spc_mat4 A = tu_place(spc_v3(0.8, 0.8, 0.06), spc_v3(1, 0, 0), 12.0, spc_v3(-0.3, 0, 1.0));
+    spc_mat4 B = tu_place(spc_v3(0.8, 0.8, 0.06), spc_v3(0, 1, 0), -10.0, spc_v3(0.2, 0.1, 1.6));
     add_cube(sc, &A, tu_glass(sc, 1.5));
     add_cube(sc, &B, tu_glass(sc, 1.33));
     /* an upright one-sided mirror facing the slabs */
     spc_shape *m = spc_scene_new_shape(sc);
     spc_error err;
-    spc_mat4 M = place(spc_v3(1.0, 1.0, 1.0), spc_v3(0, 1, 0), -80.0, spc_v3(1.8, 0.0, 1.2));
+    spc_mat4 M = tu_place(spc_v3(1.0, 1.0, 1.0), spc_v3(0, 1, 0), -80.0, spc_v3(1.8, 0.0, 1.2));
     spc_shape_init_rectangle(m, &M, NULL, 0, 0, &err);
     m->bsdf = tu_mirror(sc);
     sc = add_light_finish(sc, spc_v3(0.0, 0.2, 2.8), 0.25);
@@ -431,10 +424,10 @@ TEST(cube_and_mirror_contain_randomized_solutions)
     spc_scene *sc = floor_scene();
     spc_shape *m = spc_scene_new_shape(sc);
     spc_error err;
-    spc_mat4 F = place(spc_v3(0.7, 0.9, 1.0), spc_v3(0, 1, 0), -60.0, spc_v3(1.1, 0.0, 0.8));
+    spc_mat4 F = tu_place(spc_v3(0.7, 0.9, 1.0), spc_v3(0, 1, 0), -60.0, spc_v3(1.1, 0.0, 0.8));
     spc_shape_init_rectangle(m, &F, NULL, 0, 0, &err);
     m->bsdf = tu_mirror(sc);
-    spc_mat4 M = place(spc_v3(0.3, 0.3, 0.3), spc_v3(1, 0.3, 0.2), 20.0, spc_v3(0.0, 0.0, 0.9));
+    spc_mat4 M = tu_place(spc_v3(0.3, 0.3, 0.3), spc_v3(1, 0.3, 0.2), 20.0, spc_v3(0.0, 0.0, 0.9));
     add_cube(sc, &M, tu_glass(sc, 1.5));
     sc = add_light_finish(sc, spc_v3(-0.6, 0.3, 2.4), 0.25);
     run_scene(sc, "cube and a mirror, up to 4 vertices", 4, 60, 10, 0.0, 0.0, 2.0);
@@ -448,8 +441,8 @@ TEST(cube_and_mirror_contain_randomized_solutions)
 TEST(four_vertex_chains_every_call)
 {
     spc_scene *sc = floor_scene();
-    spc_mat4 A = place(spc_v3(1.0, 1.0, 0.05), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 1.0));
-    spc_mat4 B = place(spc_v3(1.0, 1.0, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0.05, 0, 1.8));
+    spc_mat4 A = tu_place(spc_v3(1.0, 1.0, 0.05), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 1.0));
+    spc_mat4 B = tu_place(spc_v3(1.0, 1.0, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0.05, 0, 1.8));
     add_cube(sc, &A, tu_glass(sc, 1.5));
     add_cube(sc, &B, tu_glass(sc, 1.4));
     sc = add_light_finish(sc, spc_v3(0.1, 0.0, 3.0), 0.05);
@@ -500,7 +493,7 @@ TEST(face_bound_loses_no_root)
             spc_vec3 scale = spc_v3(0.3 + 0.5 * rnd(), 0.3 + 0.5 * rnd(), rnd() < 0.6 ? 0.03 + 0.05 * rnd() : 0.2 + 0.3 * rnd());
             spc_vec3 axis = spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
             spc_vec3 at = spc_v3(1.6 * rnd() - 0.8, 1.6 * rnd() - 0.8, 0.6 + 0.5 * i + 0.3 * rnd());
-            spc_mat4 M = place(scale, axis, 60.0 * rnd() - 30.0, at);
+            spc_mat4 M = tu_place(scale, axis, 60.0 * rnd() - 30.0, at);
             if (i == n - 1 && t % 2)
                 add_prism(sc, &M, tu_glass(sc, 1.4 + 0.2 * rnd()));
             else
@@ -581,7 +574,7 @@ TEST(roots_do_not_depend_on_caster_order)
             spc_vec3 scale = spc_v3(sx, sy, rnd() < 0.6 ? 0.03 + 0.05 * rnd() : 0.2 + 0.2 * rnd());
             spc_vec3 axis = spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
             spc_vec3 at = spc_v3(1.2 * rnd() - 0.6, 1.2 * rnd() - 0.6, 0.6 + 0.45 * i + 0.2 * rnd());
-            M[i] = place(scale, axis, 60.0 * rnd() - 30.0, at);
+            M[i] = tu_place(scale, axis, 60.0 * rnd() - 30.0, at);
             eta[i] = 1.33 + 0.2 * rnd();
         }
         spc_vec3 light = spc_v3(0.4 * rnd() - 0.2, 0.4 * rnd() - 0.2, 3.2);
@@ -650,11 +643,11 @@ TEST(parallel_closed_form_same_roots)
             spc_vec3 scale =
                 spc_v3(0.3 + 0.5 * rnd(), 0.3 + 0.5 * rnd(), rnd() < 0.7 ? 0.03 + 0.05 * rnd() : 0.2 + 0.3 * rnd());
             spc_vec3 at = spc_v3(1.2 * rnd() - 0.6, 1.2 * rnd() - 0.6, 0.6 + 0.5 * i + 0.3 * rnd());
-            spc_mat4 M = place(scale, axis, degrees, at);
+            spc_mat4 M = tu_place(scale, axis, degrees, at);
             add_cube(sc, &M, tu_glass(sc, 1.33 + 0.2 * rnd()));
         }
         if (t % 2) {
-            spc_mat4 M = place(spc_v3(0.4, 0.5, 0.05), spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5),
+            spc_mat4 M = tu_place(spc_v3(0.4, 0.5, 0.05), spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5),
                                40.0 * rnd() - 20.0, spc_v3(0.8 * rnd() - 0.4, 0.8 * rnd() - 0.4, 2.3));
             add_cube(sc, &M, tu_glass(sc, 1.5));
         }
@@ -713,7 +706,7 @@ TEST(one_walk_for_several_lengths)
                 spc_v3(0.3 + 0.5 * rnd(), 0.3 + 0.5 * rnd(), rnd() < 0.7 ? 0.03 + 0.05 * rnd() : 0.2 + 0.3 * rnd());
             spc_vec3 axis = spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
             spc_vec3 at = spc_v3(1.2 * rnd() - 0.6, 1.2 * rnd() - 0.6, 0.6 + 0.5 * i + 0.3 * rnd());
-            spc_mat4 M = place(scale, axis, 50.0 * rnd() - 25.0, at);
+            spc_mat4 M = tu_place(scale, axis, 50.0 * rnd() - 25.0, at);
             add_cube(sc, &M, tu_glass(sc, 1.33 + 0.2 * rnd()));
         }
         sc = add_light_finish(sc, spc_v3(0.4 * rnd() - 0.2, 0.4 * rnd() - 0.2, 3.4), 0.3);

@@ -33,116 +33,6 @@
 static spc_rng rng;
 static double rnd(void) { return spc_rng_next(&rng); }
 
-/* ---- scene building ---- */
-
-static spc_shape *add_sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_sphere(s, c, r, NULL, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
-/* A unit disk or rectangle placed by scale, rotation about an axis, translation. */
-static spc_mat4 place(spc_vec3 scale, spc_vec3 axis, double deg, spc_vec3 pos)
-{
-    spc_mat4 S = spc_mat4_scale(scale), R = spc_mat4_rotate(axis, deg), T = spc_mat4_translate(pos);
-    spc_mat4 RS = spc_mat4_mul(&R, &S);
-    return spc_mat4_mul(&T, &RS);
-}
-
-static spc_shape *add_disk(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_disk(s, &M, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
-static spc_shape *add_rect(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_rectangle(s, &M, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
-static spc_shape *add_cylinder(spc_scene *sc, spc_vec3 p0, spc_vec3 p1, double r, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_cylinder(s, p0, p1, r, NULL, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
-/* A UV sphere tessellated into nu x nv quads with vertex normals (smooth shading), optionally
- * squashed along z (an ellipsoid: normals are then the ellipsoid's, not radial). */
-static spc_shape *add_mesh_sphere(spc_scene *sc, spc_vec3 c, double r, double zscale, int nu, int nv,
-                                  const spc_bsdf *b)
-{
-    spc_mesh m;
-    memset(&m, 0, sizeof m);
-    m.nverts = (size_t)(nu * (nv + 1));
-    m.ntris = (size_t)(2 * nu * nv);
-    m.p = malloc(3 * m.nverts * sizeof(float));
-    m.n = malloc(3 * m.nverts * sizeof(float));
-    m.idx = malloc(3 * m.ntris * sizeof(uint32_t));
-    for (int j = 0; j <= nv; ++j)
-        for (int i = 0; i < nu; ++i) {
-            double th = SPC_PI * j / nv, ph = 2 * SPC_PI * i / nu;
-            spc_vec3 l = spc_v3(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
-            spc_vec3 n = spc_normalize(spc_v3(l.x, l.y, l.z / zscale));
-            size_t k = (size_t)(j * nu + i);
-            m.p[3 * k] = (float)(c.x + r * l.x);
-            m.p[3 * k + 1] = (float)(c.y + r * l.y);
-            m.p[3 * k + 2] = (float)(c.z + r * zscale * l.z);
-            m.n[3 * k] = (float)n.x;
-            m.n[3 * k + 1] = (float)n.y;
-            m.n[3 * k + 2] = (float)n.z;
-        }
-    size_t t = 0;
-    for (int j = 0; j < nv; ++j)
-        for (int i = 0; i < nu; ++i) {
-            uint32_t a = (uint32_t)(j * nu + i), bb = (uint32_t)(j * nu + (i + 1) % nu);
-            uint32_t cc = (uint32_t)((j + 1) * nu + i), dd = (uint32_t)((j + 1) * nu + (i + 1) % nu);
-            /* outward winding: (a, c, b) and (b, c, d) for theta growing downward */
-            uint32_t tri[6] = {a, cc, bb, bb, cc, dd};
-            memcpy(m.idx + 3 * t, tri, sizeof tri);
-            t += 2;
-        }
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    if (!spc_shape_init_mesh(s, &m, NULL, NULL, 0, 0, &err))
-        printf("  mesh: %s\n", err.msg);
-    s->bsdf = b;
-    return s;
-}
-
-static bool finalize(spc_scene *sc)
-{
-    spc_error err;
-    if (spc_scene_finalize(sc, &err) != SPC_OK) {
-        printf("  finalize: %s\n", err.msg);
-        return false;
-    }
-    return true;
-}
-
-/* A free start point (no surface, no ray offset). */
-static spc_hit free_point(spc_vec3 p)
-{
-    spc_hit h;
-    memset(&h, 0, sizeof h);
-    h.p = p;
-    h.ng = spc_v3(0, 0, 1);
-    h.sh = spc_frame_from_n(h.ng);
-    return h;
-}
-
 /* ---- chain derivatives against central finite differences ---- */
 
 typedef struct fd_case {
@@ -176,7 +66,7 @@ static bool same_chain(const spc_chain *a, const spc_chain *b)
 /* Checks every derivative at random parameters; returns how many samples were checked. */
 static int check_fd_case(const fd_case *fc, double *worst)
 {
-    spc_hit x = free_point(fc->x);
+    spc_hit x = tu_free_point(fc->x);
     spc_frame fr = spc_frame_from_n(spc_normalize(spc_sub(fc->aim, fc->x)));
     spc_chain_opts o = spc_chain_opts_default(fc->nverts);
     o.any_surface = true;
@@ -236,8 +126,8 @@ TEST(chain_derivatives_analytic_shapes)
     /* mirror sphere, 1 vertex */
     {
         spc_scene *sc = spc_scene_create();
-        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, tu_mirror(sc));
-        CHECK(finalize(sc));
+        tu_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, tu_mirror(sc));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"mirror sphere", sc, spc_v3(3, 1, 2), spc_v3(0.2, -0.1, 0.3), 0.2, 1, {0}, false};
         run_fd_case(&fc);
         spc_scene_destroy(sc);
@@ -245,8 +135,8 @@ TEST(chain_derivatives_analytic_shapes)
     /* glass sphere: 2 refractions, then 3 and 4 vertices with internal reflections */
     for (int k = 2; k <= 4; ++k) {
         spc_scene *sc = spc_scene_create();
-        add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
-        CHECK(finalize(sc));
+        tu_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"glass sphere", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.25, k, {1, 0, 0, 1}, true};
         if (k == 2)
             fc.events[1] = 1;
@@ -258,9 +148,9 @@ TEST(chain_derivatives_analytic_shapes)
     /* tilted mirror disk and a refracting disk */
     for (int k = 0; k < 2; ++k) {
         spc_scene *sc = spc_scene_create();
-        spc_mat4 M = place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3));
-        add_disk(sc, M, k == 0 ? tu_mirror(sc) : tu_glass(sc, 1.33));
-        CHECK(finalize(sc));
+        spc_mat4 M = tu_place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3));
+        tu_disk(sc, M, k == 0 ? tu_mirror(sc) : tu_glass(sc, 1.33));
+        CHECK(tu_finalize(sc));
         fd_case fc = {k == 0 ? "mirror disk" : "glass disk", sc, spc_v3(0.5, -0.4, 3), spc_v3(0.1, 0.2, -0.3), 0.2, 1,
                       {0}, false};
         run_fd_case(&fc);
@@ -269,8 +159,8 @@ TEST(chain_derivatives_analytic_shapes)
     /* glass cylinder: in and out, and with 1 and 2 internal reflections */
     for (int k = 2; k <= 4; ++k) {
         spc_scene *sc = spc_scene_create();
-        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, tu_glass(sc, 1.6));
-        CHECK(finalize(sc));
+        tu_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, tu_glass(sc, 1.6));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"glass cylinder", sc, spc_v3(3, 0.5, 0.4), spc_v3(0.15, 0.1, 0.0), 0.12, k, {1, 0, 0, 1}, true};
         if (k == 2)
             fc.events[1] = 1;
@@ -282,8 +172,8 @@ TEST(chain_derivatives_analytic_shapes)
     /* mirror cylinder (outside), 1 vertex */
     {
         spc_scene *sc = spc_scene_create();
-        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0, 0.3, 2), 0.8, tu_mirror(sc));
-        CHECK(finalize(sc));
+        tu_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0, 0.3, 2), 0.8, tu_mirror(sc));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"mirror cylinder", sc, spc_v3(3, 0.5, 0.4), spc_v3(0, 0, 0), 0.15, 1, {0}, false};
         run_fd_case(&fc);
         spc_scene_destroy(sc);
@@ -295,8 +185,8 @@ TEST(chain_derivatives_meshes)
     /* a mirror rectangle (face normals) */
     {
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)), tu_mirror(sc));
-        CHECK(finalize(sc));
+        tu_rect(sc, tu_place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)), tu_mirror(sc));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"mirror rectangle", sc, spc_v3(0.3, 1, 3), spc_v3(0, 0, 0), 0.3, 1, {0}, false};
         run_fd_case(&fc);
         spc_scene_destroy(sc);
@@ -304,8 +194,8 @@ TEST(chain_derivatives_meshes)
     /* an ellipsoidal glass mesh with interpolated normals: 2, 3, 4 vertices */
     for (int k = 2; k <= 4; ++k) {
         spc_scene *sc = spc_scene_create();
-        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 0.7, 24, 16, tu_glass(sc, 1.5));
-        CHECK(finalize(sc));
+        tu_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 0.7, 24, 16, tu_glass(sc, 1.5));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"glass mesh", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.2, k, {1, 0, 0, 1}, true};
         if (k == 2)
             fc.events[1] = 1;
@@ -317,8 +207,8 @@ TEST(chain_derivatives_meshes)
     /* a mirror mesh sphere, 1 vertex */
     {
         spc_scene *sc = spc_scene_create();
-        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 1.0, 20, 12, tu_mirror(sc));
-        CHECK(finalize(sc));
+        tu_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 1.0, 20, 12, tu_mirror(sc));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"mirror mesh", sc, spc_v3(2, -1, 1.5), spc_v3(0, 0, 0), 0.25, 1, {0}, false};
         run_fd_case(&fc);
         spc_scene_destroy(sc);
@@ -329,12 +219,12 @@ TEST(chain_derivatives_mixed)
 {
     /* a mirror disk, then a glass sphere (in, out), then a mirror mesh sphere: 4 vertices */
     spc_scene *sc = spc_scene_create();
-    add_disk(sc, place(spc_v3(2, 2, 2), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
-    add_sphere(sc, spc_v3(1.5, 0, 4.5), 0.9, tu_glass(sc, 1.5));
-    add_mesh_sphere(sc, spc_v3(3.8, 0.2, 9), 1.2, 1.0, 32, 20, tu_mirror(sc));
-    CHECK(finalize(sc));
+    tu_disk(sc, tu_place(spc_v3(2, 2, 2), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
+    tu_sphere(sc, spc_v3(1.5, 0, 4.5), 0.9, tu_glass(sc, 1.5));
+    tu_mesh_sphere(sc, spc_v3(3.8, 0.2, 9), 1.2, 1.0, 32, 20, tu_mirror(sc));
+    CHECK(tu_finalize(sc));
     /* find a base direction whose chain is mirror -> glass -> glass -> mesh */
-    spc_hit x = free_point(spc_v3(-1, 0.1, 3));
+    spc_hit x = tu_free_point(spc_v3(-1, 0.1, 3));
     spc_chain_opts o = spc_chain_opts_default(4);
     o.any_surface = true;
     static spc_chain c;
@@ -375,9 +265,9 @@ TEST(chain_derivatives_sdf)
 {
     for (int k = 1; k <= 3; ++k) {
         spc_scene *sc = spc_scene_create();
-        spc_mat4 M = place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
+        spc_mat4 M = tu_place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
         add_sdf(sc, k == 1 ? SPC_SDF_SPHERE : SPC_SDF_TORUS, &M, k == 1 ? tu_mirror(sc) : tu_glass(sc, 1.5));
-        CHECK(finalize(sc));
+        CHECK(tu_finalize(sc));
         /* aim at the tube of the torus (1 from its centre along its plane) */
         spc_vec3 aim = k == 1 ? spc_v3(0.1, -0.2, 0.3) : spc_mat4_apply_point(&M, spc_v3(1.0, 0, 0));
         fd_case fc = {k == 1 ? "sdf mirror sphere" : "sdf glass torus", sc, spc_v3(2.5, 1.5, 2.0), aim, 0.05, k == 1 ? 1 : 2,
@@ -402,25 +292,25 @@ TEST(chain_derivatives_normal_maps)
 {
     {
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)),
+        tu_rect(sc, tu_place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)),
                  tu_normal_mapped(sc, tu_glass(sc, 1.33), 8, 0.35, 2.0, 1));
-        CHECK(finalize(sc));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"mapped water", sc, spc_v3(0.3, 1, 3), spc_v3(0, 0, 0), 0.3, 1, {0}, false};
         run_fd_case(&fc);
         spc_scene_destroy(sc);
     }
     {
         spc_scene *sc = spc_scene_create();
-        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, tu_normal_mapped(sc, tu_mirror(sc), 8, 0.3, 3.0, 2));
-        CHECK(finalize(sc));
+        tu_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, tu_normal_mapped(sc, tu_mirror(sc), 8, 0.3, 3.0, 2));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"mapped mirror ball", sc, spc_v3(3, 1, 2), spc_v3(0.2, -0.1, 0.3), 0.2, 1, {0}, false};
         run_fd_case(&fc);
         spc_scene_destroy(sc);
     }
     {
         spc_scene *sc = spc_scene_create();
-        add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_normal_mapped(sc, tu_glass(sc, 1.5), 8, 0.2, 2.0, 3));
-        CHECK(finalize(sc));
+        tu_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_normal_mapped(sc, tu_glass(sc, 1.5), 8, 0.2, 2.0, 3));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"mapped glass ball", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.25, 2, {1, 1}, true};
         run_fd_case(&fc);
         spc_scene_destroy(sc);
@@ -428,12 +318,12 @@ TEST(chain_derivatives_normal_maps)
     for (int k = 0; k < 2; ++k) {
         spc_scene *sc = spc_scene_create();
         if (k == 0)
-            add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)),
+            tu_disk(sc, tu_place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)),
                      tu_normal_mapped(sc, tu_mirror(sc), 8, 0.3, 1.0, 4));
         else
-            add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8,
+            tu_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8,
                          tu_normal_mapped(sc, tu_glass(sc, 1.6), 8, 0.2, 2.0, 5));
-        CHECK(finalize(sc));
+        CHECK(tu_finalize(sc));
         fd_case fc = {k == 0 ? "mapped mirror disk" : "mapped glass cylinder", sc,
                       k == 0 ? spc_v3(0.5, -0.4, 3) : spc_v3(3, 0.5, 0.4),
                       k == 0 ? spc_v3(0.1, 0.2, -0.3) : spc_v3(0.15, 0.1, 0.0), k == 0 ? 0.2 : 0.12, k == 0 ? 1 : 2,
@@ -444,8 +334,8 @@ TEST(chain_derivatives_normal_maps)
     {
         /* interpolated normals and no uv: the map is read at the barycentrics */
         spc_scene *sc = spc_scene_create();
-        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 0.7, 12, 8, tu_normal_mapped(sc, tu_glass(sc, 1.5), 4, 0.2, 1.0, 6));
-        CHECK(finalize(sc));
+        tu_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 0.7, 12, 8, tu_normal_mapped(sc, tu_glass(sc, 1.5), 4, 0.2, 1.0, 6));
+        CHECK(tu_finalize(sc));
         fd_case fc = {"mapped glass mesh", sc, spc_v3(2.5, 0.7, -1.1), spc_v3(0, 0, 0), 0.2, 2, {1, 1}, true};
         run_fd_case(&fc);
         spc_scene_destroy(sc);
@@ -459,10 +349,10 @@ TEST(chain_derivatives_normal_maps)
 TEST(normal_map_chain_frame_matches_bsdf)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)),
+    tu_rect(sc, tu_place(spc_v3(2, 2, 1), spc_v3(1, 0, 0), 20, spc_v3(0, 0, 0)),
              tu_normal_mapped(sc, tu_glass(sc, 1.33), 8, 0.7, 2.0, 7));
-    add_sphere(sc, spc_v3(0, 0, 5), 1.0, tu_normal_mapped(sc, tu_mirror(sc), 8, 0.6, 3.0, 8));
-    CHECK(finalize(sc));
+    tu_sphere(sc, spc_v3(0, 0, 5), 1.0, tu_normal_mapped(sc, tu_mirror(sc), 8, 0.6, 3.0, 8));
+    CHECK(tu_finalize(sc));
     int checked = 0, turned = 0, zero = 0, flips = 0;
     double worst_d = 0.0, worst_f = 0.0;
     for (int it = 0; it < 4000; ++it) {
@@ -535,9 +425,9 @@ TEST(normal_map_chain_frame_matches_bsdf)
 TEST(chain_reports_tir)
 {
     spc_scene *sc = spc_scene_create();
-    add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
-    CHECK(finalize(sc));
-    spc_hit x = free_point(spc_v3(0, 0.9, 0)); /* inside, near the top */
+    tu_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
+    CHECK(tu_finalize(sc));
+    spc_hit x = tu_free_point(spc_v3(0, 0.9, 0)); /* inside, near the top */
     spc_frame fr = spc_frame_from_n(spc_v3(1, 0, 0)); /* hits the surface at about 64 degrees */
     spc_chain_opts o = spc_chain_opts_default(2);
     o.any_surface = true;
@@ -559,7 +449,7 @@ static const double scales[3] = {1e-3, 1.0, 1e3};
 static bool solve(spc_scene *sc, spc_vec3 x, spc_vec3 y, spc_vec3 ny, spc_vec3 aim, int max_vertices,
                   spc_angular_method method, spc_chain *c, spc_angular_result *res)
 {
-    spc_hit hx = free_point(x);
+    spc_hit hx = tu_free_point(x);
     spc_angular_target tg = {y, ny, sc->radius, 0.0};
     spc_chain_opts o = spc_chain_opts_default(max_vertices);
     o.any_surface = true;
@@ -576,8 +466,8 @@ TEST(solver_mirror_plane)
     for (int si = 0; si < 3; ++si) {
         double s = scales[si];
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(5 * s, 5 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
-        CHECK(finalize(sc));
+        tu_rect(sc, tu_place(spc_v3(5 * s, 5 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
+        CHECK(tu_finalize(sc));
         spc_vec3 x = spc_scale(spc_v3(-1, 0, 1), s), y = spc_scale(spc_v3(1.5, 0.3, 2), s);
         /* mirror image of y, and where the segment x -> image crosses z = 0 */
         spc_vec3 yi = spc_v3(y.x, y.y, -y.z);
@@ -610,8 +500,8 @@ TEST(solver_mirror_sphere)
         spc_scene *sc = spc_scene_create();
         spc_vec3 ctr = spc_scale(spc_v3(0.3, -0.2, 0.5), s);
         double R = 0.8 * s;
-        add_sphere(sc, ctr, R, tu_mirror(sc));
-        CHECK(finalize(sc));
+        tu_sphere(sc, ctr, R, tu_mirror(sc));
+        CHECK(tu_finalize(sc));
         /* x and y symmetric about the plane through the centre: the reflection point lies on the
          * bisector, at the sphere's point facing both */
         double D = 3 * s, al = 0.6;
@@ -643,10 +533,10 @@ TEST(solver_glass_sphere)
             spc_vec3 ctr = spc_scale(spc_v3(-0.2, 0.1, 0.3), s);
             double R = s;
             if (mesh)
-                add_mesh_sphere(sc, ctr, R, 1.0, 48, 32, tu_glass(sc, 1.5));
+                tu_mesh_sphere(sc, ctr, R, 1.0, 48, 32, tu_glass(sc, 1.5));
             else
-                add_sphere(sc, ctr, R, tu_glass(sc, 1.5));
-            CHECK(finalize(sc));
+                tu_sphere(sc, ctr, R, tu_glass(sc, 1.5));
+            CHECK(tu_finalize(sc));
             /* symmetric about the plane x = ctr.x: the path through the ball is symmetric and its
              * inner segment parallel to the x axis */
             spc_vec3 x = spc_add(ctr, spc_v3(-3 * s, 0.4 * s, 0.25 * s));
@@ -699,10 +589,10 @@ TEST(solver_glass_slab_two_interfaces)
         double w = 0.4 * s, eta = 1.6;
         spc_shape *slab = spc_scene_new_shape(sc);
         spc_error err;
-        spc_mat4 M = place(spc_v3(10 * s, 10 * s, 0.5 * w), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0));
+        spc_mat4 M = tu_place(spc_v3(10 * s, 10 * s, 0.5 * w), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0));
         spc_shape_init_cube(slab, &M, NULL, 0, 0, &err);
         slab->bsdf = tu_glass(sc, eta);
-        CHECK(finalize(sc));
+        CHECK(tu_finalize(sc));
         double h1 = 1.0 * s, h2 = 0.7 * s, D = 1.9 * s;
         spc_vec3 x = spc_v3(0, 0, 0.5 * w + h1), y = spc_v3(D * 0.6, D * 0.8, -0.5 * w - h2);
         /* the angle by bisection on the monotonic reach */
@@ -924,30 +814,30 @@ TEST(solve_mis_unbiased_past_cap)
 static spc_scene *point_scene(int kind, double rl, spc_vec3 lp)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
-    spc_shape *light = add_disk(sc, place(spc_v3(rl, rl, rl), spc_v3(1, 0, 0), 180, lp), tu_diffuse(sc, 0.0));
+    tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+    spc_shape *light = tu_disk(sc, tu_place(spc_v3(rl, rl, rl), spc_v3(1, 0, 0), 180, lp), tu_diffuse(sc, 0.0));
     tu_area(sc, light, 1, 5.0);
     switch (kind) {
     case 0: /* a vertical mirror in the plane x = 0 */
-        add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5)), tu_mirror(sc));
+        tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5)), tu_mirror(sc));
         break;
     case 1: { /* a glass slab between floor and light */
         spc_shape *slab = spc_scene_new_shape(sc);
         spc_error err;
-        spc_mat4 M = place(spc_v3(2.5, 2.5, 0.25), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 1.0));
+        spc_mat4 M = tu_place(spc_v3(2.5, 2.5, 0.25), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 1.0));
         spc_shape_init_cube(slab, &M, NULL, 0, 0, &err);
         slab->bsdf = tu_glass(sc, 1.5);
         break;
     }
     case 3: /* a glass slab of two separate shapes: its lower face (facing down) and its upper face */
-        add_rect(sc, place(spc_v3(1.5, 1.5, 1), spc_v3(1, 0, 0), 180, spc_v3(0, 0, 0.9)), tu_glass(sc, 1.5));
-        add_rect(sc, place(spc_v3(1.5, 1.5, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 1.1)), tu_glass(sc, 1.5));
+        tu_rect(sc, tu_place(spc_v3(1.5, 1.5, 1), spc_v3(1, 0, 0), 180, spc_v3(0, 0, 0.9)), tu_glass(sc, 1.5));
+        tu_rect(sc, tu_place(spc_v3(1.5, 1.5, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 1.1)), tu_glass(sc, 1.5));
         break;
     default: /* a glass ball, the floor inside its focal length (no caustic on it from this light) */
-        add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, tu_glass(sc, 1.5));
+        tu_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, tu_glass(sc, 1.5));
         break;
     }
-    if (!finalize(sc)) {
+    if (!tu_finalize(sc)) {
         spc_scene_destroy(sc);
         return NULL;
     }
@@ -1116,8 +1006,8 @@ TEST(flat_mirror_point_estimates)
     const spc_rgb eta = spc_rgb1(0.2), kk = spc_rgb1(3.0);
     for (int ci = 0; ci < 4; ci += spc_test_stride(4)) {
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
-        spc_shape *light = add_disk(sc, place(spc_v3(rl, rl, rl), spc_v3(1, 0, 0), 180, lp), tu_diffuse(sc, 0.0));
+        tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+        spc_shape *light = tu_disk(sc, tu_place(spc_v3(rl, rl, rl), spc_v3(1, 0, 0), 180, lp), tu_diffuse(sc, 0.0));
         tu_area(sc, light, 1, Le);
         spc_bsdf *m = tu_mirror(sc);
         if (cases[ci].bsdf == 1) {
@@ -1129,8 +1019,8 @@ TEST(flat_mirror_point_estimates)
             t->nested[0] = m;
             m = t;
         }
-        add_rect(sc, place(spc_v3(cases[ci].hz, 3, 1), spc_v3(0, 1, 0), cases[ci].deg, spc_v3(0, 0, cases[ci].zc)), m);
-        CHECK(finalize(sc));
+        tu_rect(sc, tu_place(spc_v3(cases[ci].hz, 3, 1), spc_v3(0, 1, 0), cases[ci].deg, spc_v3(0, 0, cases[ci].zc)), m);
+        CHECK(tu_finalize(sc));
         CHECK(spc_flat_chain_shape(sc->shapes[2]));
         spc_hit x;
         CHECK(floor_hit(sc, spc_add(xp, spc_v3(0, 0, 0.05)), &x));
@@ -1199,13 +1089,13 @@ TEST(flat_mirror_point_estimates)
 TEST(snee_normal_map_point_estimates)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
-    spc_shape *light = add_disk(sc, place(spc_v3(0.6, 0.6, 0.6), spc_v3(1, 0, 0), 180, spc_v3(0.3, 0.1, 3.0)),
+    tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+    spc_shape *light = tu_disk(sc, tu_place(spc_v3(0.6, 0.6, 0.6), spc_v3(1, 0, 0), 180, spc_v3(0.3, 0.1, 3.0)),
                                 tu_diffuse(sc, 0.0));
     tu_area(sc, light, 1, 5.0);
-    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 1.4)),
+    tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 1.4)),
              tu_normal_mapped(sc, tu_glass(sc, 1.33), 16, 0.3, 8.0, 11));
-    CHECK(finalize(sc));
+    CHECK(tu_finalize(sc));
     spc_hit x;
     CHECK(floor_hit(sc, spc_v3(0.1, 0.05, 0.05), &x));
     /* brute force */
@@ -1759,9 +1649,9 @@ static spc_hit shape_hit(const spc_scene *sc, int i)
 TEST(chain_pick_event)
 {
     spc_scene *sc = spc_scene_create();
-    add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5)); /* 0 */
-    add_sphere(sc, spc_v3(5, 0, 0), 1.0, tu_mirror(sc));     /* 1 */
-    CHECK(finalize(sc));
+    tu_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5)); /* 0 */
+    tu_sphere(sc, spc_v3(5, 0, 0), 1.0, tu_mirror(sc));     /* 1 */
+    CHECK(tu_finalize(sc));
     for (int i = 0; i < 200; ++i) {
         double u = rnd(), P = 0.05 + 0.9 * rnd(), pr, pm;
         int e = spc_chain_pick_event(SPC_CHAIN_REFRACT, u, P, &pr);
@@ -1838,14 +1728,14 @@ TEST(snee_reflect_point_estimates)
 {
     for (int mesh = 0; mesh < 2; ++mesh) {
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
-        spc_shape *light = add_sphere(sc, spc_v3(-1.4, 0.1, 1.4), 0.4, tu_diffuse(sc, 0.0));
+        tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+        spc_shape *light = tu_sphere(sc, spc_v3(-1.4, 0.1, 1.4), 0.4, tu_diffuse(sc, 0.0));
         tu_area(sc, light, 1, 5.0);
         if (mesh)
-            add_mesh_sphere(sc, spc_v3(0, 0, 0.7), 0.5, 1.0, 64, 32, tu_glass(sc, 1.5));
+            tu_mesh_sphere(sc, spc_v3(0, 0, 0.7), 0.5, 1.0, 64, 32, tu_glass(sc, 1.5));
         else
-            add_sphere(sc, spc_v3(0, 0, 0.7), 0.5, tu_glass(sc, 1.5));
-        CHECK(finalize(sc));
+            tu_sphere(sc, spc_v3(0, 0, 0.7), 0.5, tu_glass(sc, 1.5));
+        CHECK(tu_finalize(sc));
         spc_hit x;
         CHECK(floor_hit(sc, spc_v3(-0.8, 0.05, 0.05), &x));
         double ref[2], ref_se[2];
@@ -1911,13 +1801,13 @@ TEST(snee_reflect_point_estimates)
 TEST(snee_light_sampling_faces_casters)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+    tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
     const spc_vec3 bc = spc_v3(0.1, 0.0, 0.8), lc = spc_v3(0.6, -0.3, 2.6);
     const double br = 0.6, lr = 0.5;
-    add_sphere(sc, bc, br, tu_glass(sc, 1.5));
-    spc_shape *light = add_sphere(sc, lc, lr, tu_diffuse(sc, 0.0));
+    tu_sphere(sc, bc, br, tu_glass(sc, 1.5));
+    spc_shape *light = tu_sphere(sc, lc, lr, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 5.0);
-    if (!finalize(sc)) {
+    if (!tu_finalize(sc)) {
         CHECK(false);
         spc_scene_destroy(sc);
         return;
@@ -1979,11 +1869,11 @@ TEST(snee_light_sampling_faces_casters)
 TEST(snee_light_sample_takes_given_uniforms)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
-    add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, tu_glass(sc, 1.5));
-    spc_shape *light = add_sphere(sc, spc_v3(0.6, -0.3, 2.6), 0.5, tu_diffuse(sc, 0.0));
+    tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+    tu_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, tu_glass(sc, 1.5));
+    spc_shape *light = tu_sphere(sc, spc_v3(0.6, -0.3, 2.6), 0.5, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 5.0);
-    if (!finalize(sc)) {
+    if (!tu_finalize(sc)) {
         CHECK(false);
         spc_scene_destroy(sc);
         return;
@@ -2043,13 +1933,13 @@ TEST(snee_light_sample_takes_given_uniforms)
 static spc_scene *caustic_scene(void)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-    add_sphere(sc, spc_v3(0, 0, 0.55), 0.5, tu_glass(sc, 1.5));
-    spc_shape *light = add_sphere(sc, spc_v3(0.35, 0.25, 2.2), 0.25, tu_diffuse(sc, 0.0));
+    tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+    tu_sphere(sc, spc_v3(0, 0, 0.55), 0.5, tu_glass(sc, 1.5));
+    spc_shape *light = tu_sphere(sc, spc_v3(0.35, 0.25, 2.2), 0.25, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 4.0);
     tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.35), spc_v3(0, 0, 1), 50, 24, 24);
     sc->integrator.specular_max_chain = 2;
-    if (!finalize(sc)) {
+    if (!tu_finalize(sc)) {
         spc_scene_destroy(sc);
         return NULL;
     }
@@ -2429,14 +2319,14 @@ TEST(snee_guided_point_combination)
         spc_vec3 above;
         if (si < 2) {
             sc = spc_scene_create();
-            add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-            add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0.6)), tu_glass(sc, 1.33));
+            tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+            tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0.6)), tu_glass(sc, 1.33));
             if (si == 1) /* the slab's underside, facing down: the glass between 0.4 and 0.6 */
-                add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 180, spc_v3(0, 0, 0.4)), tu_glass(sc, 1.33));
-            spc_shape *light = add_sphere(sc, spc_v3(0.6, 0.2, 2.0), 0.2, tu_diffuse(sc, 0.0));
+                tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 180, spc_v3(0, 0, 0.4)), tu_glass(sc, 1.33));
+            spc_shape *light = tu_sphere(sc, spc_v3(0.6, 0.2, 2.0), 0.2, tu_diffuse(sc, 0.0));
             tu_area(sc, light, sc->nshapes - 1, 4.0);
             tu_camera(sc, spc_v3(0.2, -2.6, 1.9), spc_v3(0, 0, 0.35), spc_v3(0, 0, 1), 50, 24, 24);
-            if (!finalize(sc)) {
+            if (!tu_finalize(sc)) {
                 spc_scene_destroy(sc);
                 sc = NULL;
             }
@@ -2504,7 +2394,7 @@ TEST(snee_guided_point_combination)
 TEST(ring_image_exact_vs_randomized)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.75));
+    tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.75));
     spc_shape *cyl = spc_scene_new_shape(sc);
     spc_error err;
     spc_shape_init_cylinder(cyl, spc_v3(0, 0, 0), spc_v3(0, 0, 0.45), 0.8, NULL, NULL, 0, 0, &err);
@@ -2512,12 +2402,12 @@ TEST(ring_image_exact_vs_randomized)
     two->type = SPC_BSDF_TWOSIDED;
     two->nested[0] = tu_mirror(sc);
     cyl->bsdf = two;
-    spc_shape *light = add_sphere(sc, spc_v3(-2.2, 0.0, 1.3), 0.1, tu_diffuse(sc, 0.0));
+    spc_shape *light = tu_sphere(sc, spc_v3(-2.2, 0.0, 1.3), 0.1, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 400.0);
     tu_camera(sc, spc_v3(0, 0, 4.0), spc_v3(0, 0, 0), spc_v3(0, 1, 0), 30, 24, 24);
     sc->integrator.specular_max_chain = 2;
     sc->integrator.max_depth = 4;
-    CHECK(finalize(sc));
+    CHECK(tu_finalize(sc));
     double t = 0.0;
     spc_film *random = render_with(sc, "path", "angular:noexact", 1024, 32, &t);
     spc_film *exact = render_with(sc, "path", "angular", 512, 33, &t);
@@ -2590,13 +2480,13 @@ TEST(caustic_image_path_snee_vs_ipt)
 TEST(camera_snee_lamp_through_lens)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5));
-    add_sphere(sc, spc_v3(0, 0, 0.6), 0.5, tu_glass(sc, 1.5));
-    spc_shape *light = add_sphere(sc, spc_v3(0.1, 2.2, 0.8), 0.06, tu_diffuse(sc, 0.0));
+    tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5));
+    tu_sphere(sc, spc_v3(0, 0, 0.6), 0.5, tu_glass(sc, 1.5));
+    spc_shape *light = tu_sphere(sc, spc_v3(0.1, 2.2, 0.8), 0.06, tu_diffuse(sc, 0.0));
     tu_area(sc, light, 2, 300.0);
     tu_camera(sc, spc_v3(0, -3.0, 0.9), spc_v3(0, 0, 0.6), spc_v3(0, 0, 1), 30, 24, 24);
     sc->integrator.specular_max_chain = 2;
-    CHECK(finalize(sc));
+    CHECK(tu_finalize(sc));
     double t = 0.0;
     spc_film *ref = render_with(sc, "path", "none", 32768, 21, &t);
     spc_film *without = render_with(sc, "path", "angular:reflect", 1024, 22, &t);
@@ -2743,18 +2633,18 @@ static bool covers(const spc_scene *sc, int budget, const int *shapes, const uns
 TEST(exclusion_matches_specular_nee)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5)); /* 0 */
-    spc_shape *light = add_sphere(sc, spc_v3(0, 0, 3), 0.2, tu_diffuse(sc, 0.0));               /* 1 */
+    tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5)); /* 0 */
+    spc_shape *light = tu_sphere(sc, spc_v3(0, 0, 3), 0.2, tu_diffuse(sc, 0.0));               /* 1 */
     tu_area(sc, light, 1, 1.0);
-    add_sphere(sc, spc_v3(0, 0, 1), 0.5, tu_glass(sc, 1.5));                                        /* 2 */
-    add_sphere(sc, spc_v3(2, 0, 1), 0.5, tu_mirror(sc));                                            /* 3 */
-    spc_shape *single = add_sphere(sc, spc_v3(-2, 0, 1), 0.5, tu_glass(sc, 1.5));                   /* 4 */
+    tu_sphere(sc, spc_v3(0, 0, 1), 0.5, tu_glass(sc, 1.5));                                        /* 2 */
+    tu_sphere(sc, spc_v3(2, 0, 1), 0.5, tu_mirror(sc));                                            /* 3 */
+    spc_shape *single = tu_sphere(sc, spc_v3(-2, 0, 1), 0.5, tu_glass(sc, 1.5));                   /* 4 */
     single->caustic_flags = SPC_CAUSTIC_CASTER_SINGLE | SPC_CAUSTIC_FLAGS_EXPLICIT;
-    spc_shape *multi = add_sphere(sc, spc_v3(0, 2, 1), 0.5, tu_glass(sc, 1.5));                     /* 5 */
+    spc_shape *multi = tu_sphere(sc, spc_v3(0, 2, 1), 0.5, tu_glass(sc, 1.5));                     /* 5 */
     multi->caustic_flags = SPC_CAUSTIC_CASTER_MULTI | SPC_CAUSTIC_FLAGS_EXPLICIT;
-    spc_shape *none = add_sphere(sc, spc_v3(0, -2, 1), 0.5, tu_glass(sc, 1.5));                     /* 6 */
+    spc_shape *none = tu_sphere(sc, spc_v3(0, -2, 1), 0.5, tu_glass(sc, 1.5));                     /* 6 */
     none->caustic_flags = SPC_CAUSTIC_RECEIVER | SPC_CAUSTIC_FLAGS_EXPLICIT;
-    CHECK(finalize(sc));
+    CHECK(tu_finalize(sc));
     const unsigned T = SPC_LOBE_DELTA_TRANSMISSION, R = SPC_LOBE_DELTA_REFLECTION;
     int glass2[2] = {2, 2}, mirror1[1] = {3}, glass1[1] = {2};
     unsigned TT[2] = {T, T}, RR[2] = {R, R}, TR[2] = {T, R};
@@ -2807,13 +2697,13 @@ TEST(snee_point_light_mirror_scales)
     for (int si = 0; si < 3; ++si) {
         double s = scales[si];
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(4 * s, 4 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
-        add_rect(sc, place(spc_v3(3 * s, 3 * s, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5 * s)), tu_mirror(sc));
+        tu_rect(sc, tu_place(spc_v3(4 * s, 4 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+        tu_rect(sc, tu_place(spc_v3(3 * s, 3 * s, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5 * s)), tu_mirror(sc));
         spc_emitter *e = spc_scene_new_emitter(sc);
         e->type = SPC_EMITTER_POINT;
         e->intensity = spc_rgb1(3.0);
         e->position = spc_scale(spc_v3(2, 0.4, 2), s);
-        CHECK(finalize(sc));
+        CHECK(tu_finalize(sc));
         spc_hit x;
         CHECK(floor_hit(sc, spc_scale(spc_v3(1, 0.3, 0.05), s), &x));
         spc_vec3 yi = spc_v3(-e->position.x, e->position.y, e->position.z);
@@ -2867,16 +2757,16 @@ TEST(render_rejects_unknown_solver)
 TEST(caster_list_matches_shapes)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5)); /* 0 */
-    spc_shape *light = add_sphere(sc, spc_v3(0, 0, 3), 0.2, tu_glass(sc, 1.5));                     /* 1 */
+    tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5)); /* 0 */
+    spc_shape *light = tu_sphere(sc, spc_v3(0, 0, 3), 0.2, tu_glass(sc, 1.5));                     /* 1 */
     tu_area(sc, light, 1, 1.0); /* an emitter is no caster, whatever its BSDF */
-    add_sphere(sc, spc_v3(0, 0, 1), 0.5, tu_glass(sc, 1.5));                                         /* 2 */
+    tu_sphere(sc, spc_v3(0, 0, 1), 0.5, tu_glass(sc, 1.5));                                         /* 2 */
     for (int i = 0; i < 200; ++i)                                                                   /* 3..202 */
-        add_sphere(sc, spc_v3(-2.0 + 0.02 * i, 1.5, 0.1), 0.01, tu_diffuse(sc, 0.5));
-    add_sphere(sc, spc_v3(2, 0, 1), 0.4, tu_mirror(sc));                                             /* 203 */
-    spc_shape *recv = add_sphere(sc, spc_v3(-2, 0, 1), 0.3, tu_glass(sc, 1.5));                     /* 204 */
+        tu_sphere(sc, spc_v3(-2.0 + 0.02 * i, 1.5, 0.1), 0.01, tu_diffuse(sc, 0.5));
+    tu_sphere(sc, spc_v3(2, 0, 1), 0.4, tu_mirror(sc));                                             /* 203 */
+    spc_shape *recv = tu_sphere(sc, spc_v3(-2, 0, 1), 0.3, tu_glass(sc, 1.5));                     /* 204 */
     recv->caustic_flags = SPC_CAUSTIC_RECEIVER | SPC_CAUSTIC_FLAGS_EXPLICIT;
-    CHECK(finalize(sc));
+    CHECK(tu_finalize(sc));
     for (int any = 0; any < 2; ++any) {
         const spc_chain_casters *cs = spc_chain_casters_of(sc, any == 1);
         CHECK(cs != NULL);
@@ -2901,8 +2791,8 @@ TEST(caster_list_matches_shapes)
     spc_scene_destroy(sc);
     /* a scene without casters: an empty list */
     sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5));
-    CHECK(finalize(sc));
+    tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.5));
+    CHECK(tu_finalize(sc));
     const spc_chain_casters *none = spc_chain_casters_of(sc, false);
     CHECK(none && none->n == 0);
     spc_scene_destroy(sc);

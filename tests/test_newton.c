@@ -50,59 +50,6 @@ static spc_bsdf *mk_rough(spc_scene *sc, spc_bsdf_type type, double eta, double 
     return b;
 }
 
-static spc_shape *add_sphere(spc_scene *sc, spc_vec3 c, double r, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_sphere(s, c, r, NULL, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
-/* A unit disk, rectangle or cube placed by scale, rotation about an axis, translation. */
-static spc_mat4 place(spc_vec3 scale, spc_vec3 axis, double deg, spc_vec3 pos)
-{
-    spc_mat4 S = spc_mat4_scale(scale), R = spc_mat4_rotate(axis, deg), T = spc_mat4_translate(pos);
-    spc_mat4 RS = spc_mat4_mul(&R, &S);
-    return spc_mat4_mul(&T, &RS);
-}
-
-static spc_shape *add_disk(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_disk(s, &M, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
-static spc_shape *add_rect(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_rectangle(s, &M, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
-static spc_shape *add_cube(spc_scene *sc, spc_mat4 M, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_cube(s, &M, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
-static spc_shape *add_cylinder(spc_scene *sc, spc_vec3 p0, spc_vec3 p1, double r, const spc_bsdf *b)
-{
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    spc_shape_init_cylinder(s, p0, p1, r, NULL, NULL, 0, 0, &err);
-    s->bsdf = b;
-    return s;
-}
-
 /* A signed distance field shape (scene/sdf.h): a torus (major 1, minor 0.4) or a rounded box
  * (half sizes 0.8, 0.5, 0.3, corner radius 0.15), placed by M. */
 static spc_shape *add_sdf(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, const spc_bsdf *b)
@@ -117,45 +64,6 @@ static spc_shape *add_sdf(spc_scene *sc, spc_sdf_type type, const spc_mat4 *M, c
         d.radius = 0.15;
     }
     return tu_sdf(sc, &d, M, b);
-}
-
-/* A UV sphere tessellated into nu x nv quads with vertex normals (smooth shading). */
-static spc_shape *add_mesh_sphere(spc_scene *sc, spc_vec3 c, double r, int nu, int nv, const spc_bsdf *b)
-{
-    spc_mesh m;
-    memset(&m, 0, sizeof m);
-    m.nverts = (size_t)(nu * (nv + 1));
-    m.ntris = (size_t)(2 * nu * nv);
-    m.p = malloc(3 * m.nverts * sizeof(float));
-    m.n = malloc(3 * m.nverts * sizeof(float));
-    m.idx = malloc(3 * m.ntris * sizeof(uint32_t));
-    for (int j = 0; j <= nv; ++j)
-        for (int i = 0; i < nu; ++i) {
-            double th = SPC_PI * j / nv, ph = 2 * SPC_PI * i / nu;
-            spc_vec3 l = spc_v3(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
-            size_t k = (size_t)(j * nu + i);
-            m.p[3 * k] = (float)(c.x + r * l.x);
-            m.p[3 * k + 1] = (float)(c.y + r * l.y);
-            m.p[3 * k + 2] = (float)(c.z + r * l.z);
-            m.n[3 * k] = (float)l.x;
-            m.n[3 * k + 1] = (float)l.y;
-            m.n[3 * k + 2] = (float)l.z;
-        }
-    size_t t = 0;
-    for (int j = 0; j < nv; ++j)
-        for (int i = 0; i < nu; ++i) {
-            uint32_t a = (uint32_t)(j * nu + i), bb = (uint32_t)(j * nu + (i + 1) % nu);
-            uint32_t cc = (uint32_t)((j + 1) * nu + i), dd = (uint32_t)((j + 1) * nu + (i + 1) % nu);
-            uint32_t tri[6] = {a, cc, bb, bb, cc, dd};
-            memcpy(m.idx + 3 * t, tri, sizeof tri);
-            t += 2;
-        }
-    spc_shape *s = spc_scene_new_shape(sc);
-    spc_error err;
-    if (!spc_shape_init_mesh(s, &m, NULL, NULL, 0, 0, &err))
-        printf("  mesh: %s\n", err.msg);
-    s->bsdf = b;
-    return s;
 }
 
 /* A water surface: the square [-h, h]^2 at height z0 displaced by a sum of waves of amplitude amp,
@@ -201,27 +109,6 @@ static spc_shape *add_water(spc_scene *sc, double h, double z0, double amp, int 
     return s;
 }
 
-static bool finalize(spc_scene *sc)
-{
-    spc_error err;
-    if (spc_scene_finalize(sc, &err) != SPC_OK) {
-        printf("  finalize: %s\n", err.msg);
-        return false;
-    }
-    return true;
-}
-
-/* A free start point (no surface, no ray offset). */
-static spc_hit free_point(spc_vec3 p)
-{
-    spc_hit h;
-    memset(&h, 0, sizeof h);
-    h.p = p;
-    h.ng = spc_v3(0, 0, 1);
-    h.sh = spc_frame_from_n(h.ng);
-    return h;
-}
-
 /* ---- Newton converges on known solutions ---- */
 
 static const double scales[3] = {1e-3, 1.0, 1e3};
@@ -230,7 +117,7 @@ static const double scales[3] = {1e-3, 1.0, 1e3};
 static bool newton(spc_scene *sc, spc_vec3 x, spc_vec3 y, spc_vec3 aim, int max_vertices, bool straight,
                    spc_newton_constraint kind, spc_newton_path *p, spc_newton_result *res)
 {
-    spc_hit hx = free_point(x);
+    spc_hit hx = tu_free_point(x);
     spc_newton_options o;
     spc_newton_options_default(&o);
     o.constraint = kind;
@@ -251,8 +138,8 @@ TEST(converges_mirror_plane)
     for (int si = 0; si < 3; ++si) {
         double s = scales[si];
         spc_scene *sc = spc_scene_create();
-        add_rect(sc, place(spc_v3(5 * s, 5 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
-        CHECK(finalize(sc));
+        tu_rect(sc, tu_place(spc_v3(5 * s, 5 * s, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
+        CHECK(tu_finalize(sc));
         spc_vec3 x = spc_scale(spc_v3(-1, 0, 1), s), y = spc_scale(spc_v3(1.5, 0.3, 2), s);
         spc_vec3 yi = spc_v3(y.x, y.y, -y.z);
         spc_vec3 expect = spc_madd(x, spc_sub(yi, x), x.z / (x.z - yi.z));
@@ -280,8 +167,8 @@ TEST(converges_mirror_sphere)
         spc_scene *sc = spc_scene_create();
         spc_vec3 ctr = spc_scale(spc_v3(0.3, -0.2, 0.5), s);
         double R = 0.8 * s;
-        add_sphere(sc, ctr, R, tu_mirror(sc));
-        CHECK(finalize(sc));
+        tu_sphere(sc, ctr, R, tu_mirror(sc));
+        CHECK(tu_finalize(sc));
         /* x and y symmetric about a plane through the centre: the reflection point is on it */
         double D = 3 * s, al = 0.6;
         spc_vec3 x = spc_add(ctr, spc_v3(D * cos(al), D * sin(al), 0.2 * s));
@@ -307,8 +194,8 @@ TEST(converges_glass_sphere)
         double s = scales[si];
         spc_scene *sc = spc_scene_create();
         spc_vec3 ctr = spc_scale(spc_v3(-0.2, 0.1, 0.3), s);
-        add_sphere(sc, ctr, s, tu_glass(sc, 1.5));
-        CHECK(finalize(sc));
+        tu_sphere(sc, ctr, s, tu_glass(sc, 1.5));
+        CHECK(tu_finalize(sc));
         /* symmetric about the plane x = ctr.x: the inner segment is parallel to the x axis */
         spc_vec3 x = spc_add(ctr, spc_v3(-3 * s, 0.4 * s, 0.25 * s));
         spc_vec3 y = spc_add(ctr, spc_v3(3 * s, 0.4 * s, 0.25 * s));
@@ -352,10 +239,10 @@ TEST(converges_stacked_slabs)
             double w = 0.3 * s, g = 0.25 * s, eta = 1.6;
             for (int k = 0; k < nslab; ++k) {
                 double zc = -(w + g) * k;
-                add_cube(sc, place(spc_v3(10 * s, 10 * s, 0.5 * w), spc_v3(0, 0, 1), 0, spc_v3(0, 0, zc)),
+                tu_cube(sc, tu_place(spc_v3(10 * s, 10 * s, 0.5 * w), spc_v3(0, 0, 1), 0, spc_v3(0, 0, zc)),
                          tu_glass(sc, eta));
             }
-            CHECK(finalize(sc));
+            CHECK(tu_finalize(sc));
             double h1 = 1.0 * s, h2 = 0.7 * s, D = 1.3 * s;
             double zbot = -(w + g) * (nslab - 1) - 0.5 * w;
             spc_vec3 x = spc_v3(0, 0, 0.5 * w + h1), y = spc_v3(D * 0.6, D * 0.8, zbot - h2);
@@ -411,7 +298,7 @@ static double law_error(spc_vec3 x, const spc_newton_path *p, spc_vec3 y)
  * last vertex by dist. False if the traced chain does not have nv vertices. */
 static bool admissible_target(spc_scene *sc, spc_vec3 x, spc_vec3 aim, int nv, double dist, spc_vec3 *y)
 {
-    spc_hit hx = free_point(x);
+    spc_hit hx = tu_free_point(x);
     spc_frame fr = spc_frame_from_n(spc_normalize(spc_sub(aim, x)));
     spc_chain_opts o = spc_chain_opts_default(nv);
     o.any_surface = true;
@@ -439,48 +326,48 @@ TEST(converges_other_surfaces)
             int nv;
             switch (c) {
             case 0:
-                add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, tu_glass(sc, 1.6));
+                tu_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, tu_glass(sc, 1.6));
                 x = spc_v3(3, 0.5, 0.4), aim = spc_v3(0.1, 0.1, 0), nv = 2;
                 break;
             case 1:
-                add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)), tu_mirror(sc));
+                tu_disk(sc, tu_place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)), tu_mirror(sc));
                 x = spc_v3(0.5, -0.4, 3), aim = spc_v3(0.3, 0.2, -0.3), nv = 1;
                 break;
             case 2:
-                add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)),
+                tu_disk(sc, tu_place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)),
                          tu_glass(sc, 1.33));
                 x = spc_v3(0.5, -0.4, 3), aim = spc_v3(0.3, 0.2, -0.3), nv = 1;
                 break;
             case 3:
-                add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 48, 32, tu_glass(sc, 1.5));
+                tu_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 1.0, 48, 32, tu_glass(sc, 1.5));
                 x = spc_v3(2.5, 0.7, -1.1), aim = spc_v3(0.1, 0.1, 0), nv = 2;
                 break;
             case 4:
-                add_disk(sc, place(spc_v3(2, 2, 2), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
-                add_sphere(sc, spc_v3(1.2, 0, 3.0), 0.7, tu_glass(sc, 1.5));
+                tu_disk(sc, tu_place(spc_v3(2, 2, 2), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
+                tu_sphere(sc, spc_v3(1.2, 0, 3.0), 0.7, tu_glass(sc, 1.5));
                 x = spc_v3(-1, 0.1, 3), aim = spc_v3(0.15, 0.05, 0), nv = 3;
                 break;
             case 5: {
                 /* the tube of the torus (around its local y axis), in and out */
-                spc_mat4 M = place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
+                spc_mat4 M = tu_place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
                 add_sdf(sc, SPC_SDF_TORUS, &M, tu_glass(sc, 1.5));
                 x = spc_v3(2.5, 1.5, 2.0), aim = spc_mat4_apply_point(&M, spc_v3(1.0, 0, 0)), nv = 2;
                 break;
             }
             case 6: {
-                spc_mat4 M = place(spc_v3(1, 1, 1), spc_v3(0, 0, 1), 20, spc_v3(0, 0, 0));
+                spc_mat4 M = tu_place(spc_v3(1, 1, 1), spc_v3(0, 0, 1), 20, spc_v3(0, 0, 0));
                 add_sdf(sc, SPC_SDF_ROUNDBOX, &M, tu_mirror(sc));
                 x = spc_v3(0.3, -0.2, 2.5), aim = spc_mat4_apply_point(&M, spc_v3(0.72, 0.0, 0.25)), nv = 1;
                 break;
             }
             default:
-                add_cube(sc, place(spc_v3(3, 3, 0.1), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.9)), tu_glass(sc, 1.5));
-                add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
-                add_sphere(sc, spc_v3(2.2, 0, 3.0), 0.7, tu_mirror(sc));
+                tu_cube(sc, tu_place(spc_v3(3, 3, 0.1), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.9)), tu_glass(sc, 1.5));
+                tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_mirror(sc));
+                tu_sphere(sc, spc_v3(2.2, 0, 3.0), 0.7, tu_mirror(sc));
                 x = spc_v3(-1.2, 0.05, 2.0), aim = spc_v3(0, 0, 0), nv = 6;
                 break;
             }
-            CHECK(finalize(sc));
+            CHECK(tu_finalize(sc));
             spc_vec3 y;
             bool adm = admissible_target(sc, x, aim, nv, 2.0, &y);
             CHECK_MSG(adm, "%s: the chain toward aim is not admissible", names[c]);
@@ -617,43 +504,43 @@ static spc_scene *case_scene(int c, chain_case *cc)
     cc->sc = sc;
     switch (c) {
     case 0:
-        add_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, tu_mirror(sc));
+        tu_sphere(sc, spc_v3(0.2, -0.1, 0.3), 1.0, tu_mirror(sc));
         *cc = (chain_case){"mirror sphere", sc, {3, 1, 2}, {0.2, -0.1, 0.3}, 0.2, 1, {0}, false, false};
         break;
     case 1:
-        add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
+        tu_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
         *cc = (chain_case){"glass sphere", sc, {2.5, 0.7, -1.1}, {0, 0, 0}, 0.25, 2, {1, 1}, true, false};
         break;
     case 2:
-        add_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
+        tu_sphere(sc, spc_v3(0, 0, 0), 1.0, tu_glass(sc, 1.5));
         *cc = (chain_case){"glass sphere TIR", sc, {2.5, 0.7, -1.1}, {0, 0, 0}, 0.25, 4, {1, 0, 0, 1}, true, false};
         break;
     case 3:
-        add_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, tu_glass(sc, 1.6));
+        tu_cylinder(sc, spc_v3(0, 0, -2), spc_v3(0.3, 0.2, 2), 0.8, tu_glass(sc, 1.6));
         *cc = (chain_case){"glass cylinder", sc, {3, 0.5, 0.4}, {0.15, 0.1, 0}, 0.12, 3, {1, 0, 1}, true, false};
         break;
     case 4:
-        add_disk(sc, place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)), tu_glass(sc, 1.33));
+        tu_disk(sc, tu_place(spc_v3(1.5, 1.5, 1.5), spc_v3(1, 1, 0), 30, spc_v3(0.1, 0.2, -0.3)), tu_glass(sc, 1.33));
         *cc = (chain_case){"glass disk", sc, {0.5, -0.4, 3}, {0.1, 0.2, -0.3}, 0.2, 1, {0}, false, false};
         break;
     case 5:
-        add_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 24, 16, tu_glass(sc, 1.5));
+        tu_mesh_sphere(sc, spc_v3(0, 0, 0), 1.0, 1.0, 24, 16, tu_glass(sc, 1.5));
         *cc = (chain_case){"glass mesh", sc, {2.5, 0.7, -1.1}, {0, 0, 0}, 0.2, 2, {1, 1}, true, true};
         break;
     case 7: {
-        spc_mat4 M = place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
+        spc_mat4 M = tu_place(spc_v3(1, 1, 1), spc_v3(1, 0.3, 0), 50, spc_v3(0.1, -0.2, 0.3));
         add_sdf(sc, SPC_SDF_TORUS, &M, tu_glass(sc, 1.5));
         spc_vec3 aim = spc_mat4_apply_point(&M, spc_v3(1.0, 0, 0));
         *cc = (chain_case){"glass SDF torus", sc, {2.5, 1.5, 2.0}, aim, 0.04, 2, {1, 1}, true, false};
         break;
     }
     default:
-        add_cube(sc, place(spc_v3(3, 3, 0.2), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0)), tu_glass(sc, 1.6));
-        add_cube(sc, place(spc_v3(3, 3, 0.2), spc_v3(0, 0, 1), 0, spc_v3(0, 0, -0.7)), tu_glass(sc, 1.6));
+        tu_cube(sc, tu_place(spc_v3(3, 3, 0.2), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0)), tu_glass(sc, 1.6));
+        tu_cube(sc, tu_place(spc_v3(3, 3, 0.2), spc_v3(0, 0, 1), 0, spc_v3(0, 0, -0.7)), tu_glass(sc, 1.6));
         *cc = (chain_case){"two slabs", sc, {0.2, 0.1, 1.5}, {0, 0, -1}, 0.3, 4, {1, 1, 1, 1}, true, true};
         break;
     }
-    if (!finalize(sc)) {
+    if (!tu_finalize(sc)) {
         spc_scene_destroy(sc);
         return NULL;
     }
@@ -664,7 +551,7 @@ static spc_scene *case_scene(int c, chain_case *cc)
  * continuation of its final segment and a random light normal facing it. */
 static bool random_chain(const chain_case *cc, spc_chain *c, spc_vec3 *y, spc_vec3 *ny)
 {
-    spc_hit x = free_point(cc->x);
+    spc_hit x = tu_free_point(cc->x);
     spc_frame fr = spc_frame_from_n(spc_normalize(spc_sub(cc->aim, cc->x)));
     spc_chain_opts o = spc_chain_opts_default(cc->nv);
     o.any_surface = true;
@@ -840,7 +727,7 @@ TEST(geometry_term_finite_differences)
             spc_scene_destroy(sc);
             continue;
         }
-        spc_hit hx = free_point(cc.x);
+        spc_hit hx = tu_free_point(cc.x);
         for (int kind = 0; kind < 2; ++kind) {
             spc_newton_options o;
             spc_newton_options_default(&o);
@@ -962,20 +849,20 @@ TEST(parse_specular_nee_options)
 static spc_scene *point_scene(int kind, double rl, spc_vec3 lp)
 {
     spc_scene *sc = spc_scene_create();
-    add_rect(sc, place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
-    spc_shape *light = add_disk(sc, place(spc_v3(rl, rl, rl), spc_v3(1, 0, 0), 180, lp), tu_diffuse(sc, 0.0));
+    tu_rect(sc, tu_place(spc_v3(4, 4, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.8));
+    spc_shape *light = tu_disk(sc, tu_place(spc_v3(rl, rl, rl), spc_v3(1, 0, 0), 180, lp), tu_diffuse(sc, 0.0));
     tu_area(sc, light, 1, 5.0);
-    spc_mat4 slab = place(spc_v3(2.5, 2.5, 0.25), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 1.0));
-    spc_mat4 wall = place(spc_v3(3, 3, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5));
+    spc_mat4 slab = tu_place(spc_v3(2.5, 2.5, 0.25), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 1.0));
+    spc_mat4 wall = tu_place(spc_v3(3, 3, 1), spc_v3(0, 1, 0), 90, spc_v3(0, 0, 1.5));
     switch (kind) {
-    case 0: add_rect(sc, wall, tu_mirror(sc)); break;
-    case 1: add_cube(sc, slab, tu_glass(sc, 1.5)); break;
-    case 2: add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, tu_glass(sc, 1.5)); break;
-    case 3: add_rect(sc, wall, mk_rough(sc, SPC_BSDF_ROUGHCONDUCTOR, 0, 0.2)); break;
-    case 4: add_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, mk_rough(sc, SPC_BSDF_ROUGHDIELECTRIC, 1.5, 0.08)); break;
-    default: add_cube(sc, slab, mk_rough(sc, SPC_BSDF_ROUGHDIELECTRIC, 1.5, 0.15)); break;
+    case 0: tu_rect(sc, wall, tu_mirror(sc)); break;
+    case 1: tu_cube(sc, slab, tu_glass(sc, 1.5)); break;
+    case 2: tu_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, tu_glass(sc, 1.5)); break;
+    case 3: tu_rect(sc, wall, mk_rough(sc, SPC_BSDF_ROUGHCONDUCTOR, 0, 0.2)); break;
+    case 4: tu_sphere(sc, spc_v3(0.1, 0.0, 0.8), 0.6, mk_rough(sc, SPC_BSDF_ROUGHDIELECTRIC, 1.5, 0.08)); break;
+    default: tu_cube(sc, slab, mk_rough(sc, SPC_BSDF_ROUGHDIELECTRIC, 1.5, 0.15)); break;
     }
-    if (!finalize(sc)) {
+    if (!tu_finalize(sc)) {
         spc_scene_destroy(sc);
         return NULL;
     }
@@ -1194,9 +1081,9 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
         /* the floor inside the ball's focal length (0.75 from its centre), so the caustic is a
          * bright converging spot without a focus on the floor (where G has an integrable
          * singularity and every estimator an infinite variance); seen through the ball from above */
-        add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-        add_sphere(sc, spc_v3(0, 0, 0.55), 0.5, tu_glass(sc, 1.5));
-        spc_shape *light = add_sphere(sc, spc_v3(0.35, 0.25, 2.2), 0.35, tu_diffuse(sc, 0.0));
+        tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+        tu_sphere(sc, spc_v3(0, 0, 0.55), 0.5, tu_glass(sc, 1.5));
+        spc_shape *light = tu_sphere(sc, spc_v3(0.35, 0.25, 2.2), 0.35, tu_diffuse(sc, 0.0));
         tu_area(sc, light, 2, 2.0);
         tu_camera(sc, spc_v3(0.1, -1.2, 2.6), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 26, 24, 24);
         sc->integrator.specular_max_chain = 2;
@@ -1212,13 +1099,13 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
         /* a pool: bumpy mesh water with interpolated normals (1), or a flat water surface under a
          * normal map (4, 5: a 16 x 16 bilinear map of tilts up to ~0.15 rad, repeated twice; every
          * chain vertex's normal comes from the map) */
-        add_rect(sc, place(spc_v3(1, 1, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+        tu_rect(sc, tu_place(spc_v3(1, 1, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
         if (which == 1)
             add_water(sc, 1.3, 0.4, 0.02, 48, tu_glass(sc, 1.33));
         else
-            add_rect(sc, place(spc_v3(1.3, 1.3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0.4)),
+            tu_rect(sc, tu_place(spc_v3(1.3, 1.3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0.4)),
                      tu_normal_mapped(sc, tu_glass(sc, 1.33), 16, 0.15, 2.0, 3));
-        spc_shape *light = add_sphere(sc, spc_v3(0.2, 0.1, 2.0), 0.2, tu_diffuse(sc, 0.0));
+        spc_shape *light = tu_sphere(sc, spc_v3(0.2, 0.1, 2.0), 0.2, tu_diffuse(sc, 0.0));
         tu_area(sc, light, 2, 10.0);
         tu_camera(sc, spc_v3(0, -1.6, 2.4), spc_v3(0, 0, 0), spc_v3(0, 0, 1), 45, 24, 24);
         sc->integrator.specular_max_chain = 1;
@@ -1231,9 +1118,9 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
          * alpha 0.1 the offset-normal estimator is heavy-tailed (rare light samples whose offset
          * chain lies near a caustic of its own): 3% of the pixels failed at 256 spp, with the means
          * of blocks over the ball and the caustic within 1.3 standard errors of ipt's */
-        add_rect(sc, place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-        add_sphere(sc, spc_v3(0, 0, 0.55), 0.5, mk_rough(sc, SPC_BSDF_ROUGHDIELECTRIC, 1.5, 0.03));
-        spc_shape *light = add_sphere(sc, spc_v3(0.35, 0.25, 2.2), 0.35, tu_diffuse(sc, 0.0));
+        tu_rect(sc, tu_place(spc_v3(3, 3, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+        tu_sphere(sc, spc_v3(0, 0, 0.55), 0.5, mk_rough(sc, SPC_BSDF_ROUGHDIELECTRIC, 1.5, 0.03));
+        spc_shape *light = tu_sphere(sc, spc_v3(0.35, 0.25, 2.2), 0.35, tu_diffuse(sc, 0.0));
         tu_area(sc, light, 2, 2.0);
         tu_camera(sc, spc_v3(0.1, -1.2, 2.6), spc_v3(0, 0, 0.2), spc_v3(0, 0, 1), 26, 24, 24);
         sc->integrator.specular_max_chain = 2;
@@ -1244,10 +1131,10 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
     default: {
         /* slabs wider than the floor: every floor point sees the light through four interfaces
          * only (top and bottom faces); the camera looks at the floor from under the slabs */
-        add_rect(sc, place(spc_v3(1.2, 1.2, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
-        add_cube(sc, place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.9)), tu_glass(sc, 1.5));
-        add_cube(sc, place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.55)), tu_glass(sc, 1.5));
-        spc_shape *light = add_sphere(sc, spc_v3(0.3, 0.2, 2.2), 0.3, tu_diffuse(sc, 0.0));
+        tu_rect(sc, tu_place(spc_v3(1.2, 1.2, 1), spc_v3(1, 0, 0), 0, spc_v3(0, 0, 0)), tu_diffuse(sc, 0.7));
+        tu_cube(sc, tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.9)), tu_glass(sc, 1.5));
+        tu_cube(sc, tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(0, 0, 1), 0, spc_v3(0, 0, 0.55)), tu_glass(sc, 1.5));
+        spc_shape *light = tu_sphere(sc, spc_v3(0.3, 0.2, 2.2), 0.3, tu_diffuse(sc, 0.0));
         tu_area(sc, light, 3, 4.0);
         tu_camera(sc, spc_v3(0.1, -1.1, 0.4), spc_v3(0.1, 0.3, 0), spc_v3(0, 0, 1), 50, 24, 24);
         sc->integrator.specular_max_chain = 4;
@@ -1257,7 +1144,7 @@ static spc_scene *image_scene(int which, spc_vec3 *region_c, double *region_r)
         break;
     }
     }
-    if (!finalize(sc)) {
+    if (!tu_finalize(sc)) {
         spc_scene_destroy(sc);
         return NULL;
     }
