@@ -222,11 +222,11 @@ typedef struct flat_link {
      * and over the corners of b's face j of plane_dist(a's face i, corner) (rtop, rbot) */
     double top[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES], bot[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES];
     double rtop[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES], rbot[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES];
-    /* the states (state_bit: b's face j, the side the path leaves it to) a vertex may take next
-     * after a vertex on a's face i that the path leaves to side 2 s - 1 (s 0: interior, 1:
-     * exterior): the walk's rules for the sides of convex and one-sided shapes and its corner
-     * tests at tolerance 0, any event (so more than the walk takes: a bound, walk_run) */
-    uint32_t succ[SPC_FLAT_MAX_FACES][2];
+    /* per state of b (state_bit: b's face j and the side the path leaves it to, as bit 2 j + s, s
+     * 0 interior, 1 exterior), the states of a after which a vertex may take it next: the walk's
+     * rules for the sides of convex and one-sided shapes and its corner tests at tolerance 0, any
+     * event (so more than the walk takes: a bound, bound_near) */
+    uint32_t prev[2 * SPC_FLAT_MAX_FACES];
 } flat_link;
 
 /* A vertex's state for the walk's bound on the vertices still needed (walk_run): its face (index
@@ -301,11 +301,12 @@ static void link_fill(flat_link *l, const flat_cache *a, const flat_cache *b)
             corner_extent(b, &b->face[j], &a->face[i], &l->rtop[i][j], &l->rbot[i][j]);
         }
     /* the walk's rules (walk) without the query's tolerance, medium or direction caps: each
-     * transition the walk takes is in succ[][] */
+     * transition the walk takes is in prev[] */
+    memset(l->prev, 0, sizeof l->prev);
     for (int i = 0; i < a->nfaces; ++i)
         for (int so = 0; so < 2; ++so) {
             int prev_out = 2 * so - 1;
-            uint32_t m = 0;
+            uint32_t from = state_bit(i, prev_out), m = 0;
             for (int j = 0; j < b->nfaces; ++j) {
                 if (a == b && i == j)
                     continue;
@@ -326,7 +327,9 @@ static void link_fill(flat_link *l, const flat_cache *a, const flat_cache *b)
                         m |= state_bit(j, -side);
                 }
             }
-            l->succ[i][so] = m;
+            for (int t = 0; t < 2 * b->nfaces; ++t)
+                if (m >> t & 1u)
+                    l->prev[t] |= from;
         }
 }
 
@@ -1399,7 +1402,7 @@ typedef struct flat_walk {
      * ends_known, so it stays out of the walk's clearing (32 kB; it is last) */
     cone ends[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
     /* with bounded: near[q][j], the states (state_bit) of the caster in slot j from which some
-     * sequence of at most q more vertices can reach y, by the walk's rules (flat_link.succ) and its
+     * sequence of at most q more vertices can reach y, by the walk's rules (flat_link.prev) and its
      * tests of a last vertex; a vertex whose state is outside near[hi - k][j] (k vertices chosen)
      * completes no sequence and grows none, and is skipped */
     bool bounded;
@@ -1633,7 +1636,7 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
 /* Fills w->near (flat_walk) and sets w->bounded, for a walk of up to w->hi vertices from w->P.x to
  * w->P.y: near[0] holds the states in which a last vertex passes the walk's tests of y (y on the
  * side the path leaves to, inside a convex shape it stays in, the face not shadowed from y), and
- * near[q] adds those with a next state in near[q - 1] (flat_link.succ). Each holds at least the
+ * near[q] adds those with a next state in near[q - 1] (flat_link.prev). Each holds at least the
  * states the walk could complete a sequence from within q more vertices, so skipping the others
  * leaves the sequences solved, and their order, as they were. Not bounded (every state kept) for
  * more than SPC_FLAT_BOUND_SHAPES casters or where a link cannot be allocated. */
@@ -1668,21 +1671,28 @@ static void bound_near(flat_walk *w)
             }
         w->near[0][j] = m;
     }
+    /* breadth first from near[0]: the states first reached at q more vertices, front[], lead
+     * back to those first reached at q + 1 */
+    uint32_t front[SPC_FLAT_BOUND_SHAPES], next[SPC_FLAT_BOUND_SHAPES];
+    for (int j = 0; j < n; ++j)
+        front[j] = w->near[0][j];
     for (int q = 1; q < hi; ++q) {
-        bool grew = false;
+        bool any = false;
+        for (int j = 0; j < n; ++j)
+            next[j] = 0;
+        for (int b = 0; b < n; ++b)
+            for (uint32_t f = front[b]; f; f &= f - 1) {
+                int t = __builtin_ctz(f);
+                for (int j = 0; j < n; ++j)
+                    if (fc[j])
+                        next[j] |= lk[j][b]->prev[t];
+            }
         for (int j = 0; j < n; ++j) {
-            uint32_t m = w->near[q - 1][j];
-            for (int fi = 0; fc[j] && fi < fc[j]->nfaces; ++fi)
-                for (int so = 0; so < 2; ++so) {
-                    uint32_t bit = 1u << (2 * fi + so);
-                    for (int b = 0; b < n && !(m & bit); ++b)
-                        if (fc[b] && (lk[j][b]->succ[fi][so] & w->near[q - 1][b]))
-                            m |= bit;
-                }
-            grew = grew || m != w->near[q - 1][j];
-            w->near[q][j] = m;
+            front[j] = next[j] & ~w->near[q - 1][j];
+            w->near[q][j] = w->near[q - 1][j] | front[j];
+            any = any || front[j];
         }
-        if (!grew) { /* a fixed point: the longer bounds are the same */
+        if (!any) { /* nothing new: the longer bounds are the same */
             for (int r = q + 1; r < hi; ++r)
                 for (int j = 0; j < n; ++j)
                     w->near[r][j] = w->near[q][j];
