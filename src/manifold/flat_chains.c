@@ -251,6 +251,9 @@ typedef struct flat_cache {
     int *tri_face;    /* per mesh triangle: its face, or -1 (degenerate) */
     spc_vec3 *corner; /* per triangle in face order: its 3 corners */
     double *tri2d;    /* per triangle in face order: its corners in the face's (u, v) */
+    /* per triangle in face order, for in_face: each edge j's vector from corner j to the next and
+     * its length (3 j + 0, 1, 2), and the sign of its area (9) */
+    double *tri_edge;
 } flat_cache;
 
 static void cache_destroy(void *p)
@@ -265,6 +268,7 @@ static void cache_destroy(void *p)
     free(c->tri_face);
     free(c->corner);
     free(c->tri2d);
+    free(c->tri_edge);
     free(c);
 }
 
@@ -390,7 +394,8 @@ static void cache_build(const spc_shape *s, flat_cache *c)
     c->tri_face = malloc(nt * sizeof *c->tri_face);
     c->corner = malloc(3 * nt * sizeof *c->corner);
     c->tri2d = malloc(6 * nt * sizeof *c->tri2d);
-    if (!c->tri_face || !c->corner || !c->tri2d)
+    c->tri_edge = malloc(10 * nt * sizeof *c->tri_edge);
+    if (!c->tri_face || !c->corner || !c->tri2d || !c->tri_edge)
         return;
     for (size_t t = 0; t < nt; ++t) {
         spc_vec3 a = vert(m, m->idx[3 * t]), b = vert(m, m->idx[3 * t + 1]), e = vert(m, m->idx[3 * t + 2]);
@@ -440,6 +445,16 @@ static void cache_build(const spc_shape *s, flat_cache *c)
             c->tri2d[6 * slot + 2 * j] = spc_dot(r, F->u);
             c->tri2d[6 * slot + 2 * j + 1] = spc_dot(r, F->v);
         }
+        const double *tc = c->tri2d + 6 * slot;
+        double *te = c->tri_edge + 10 * slot;
+        for (int j = 0; j < 3; ++j) {
+            const double *a = tc + 2 * j, *b = tc + 2 * ((j + 1) % 3);
+            te[3 * j] = b[0] - a[0];
+            te[3 * j + 1] = b[1] - a[1];
+            te[3 * j + 2] = sqrt(te[3 * j] * te[3 * j] + te[3 * j + 1] * te[3 * j + 1]);
+        }
+        double area = (tc[2] - tc[0]) * (tc[5] - tc[1]) - (tc[4] - tc[0]) * (tc[3] - tc[1]);
+        te[9] = area < 0.0 ? -1.0 : 1.0;
     }
     c->ntri = at;
     for (int f = 0; f < c->nfaces; ++f) {
@@ -1134,16 +1149,12 @@ static bool in_face(const flat_cache *fc, const flat_face *f, spc_vec3 p, double
     spc_vec3 r = spc_sub(p, f->o);
     double pu = spc_dot(r, f->u), pv = spc_dot(r, f->v);
     for (int t = f->first; t < f->first + f->count; ++t) {
-        const double *c = fc->tri2d + 6 * t;
+        const double *c = fc->tri2d + 6 * t, *e = fc->tri_edge + 10 * t;
         bool in = true;
-        double area = (c[2] - c[0]) * (c[5] - c[1]) - (c[4] - c[0]) * (c[3] - c[1]);
-        double sgn = area < 0.0 ? -1.0 : 1.0;
         for (int j = 0; j < 3 && in; ++j) {
-            const double *a = c + 2 * j, *b = c + 2 * ((j + 1) % 3);
-            double ex = b[0] - a[0], ey = b[1] - a[1];
-            double el = sqrt(ex * ex + ey * ey);
-            double cr = sgn * (ex * (pv - a[1]) - ey * (pu - a[0]));
-            in = cr >= -tol * el;
+            const double *a = c + 2 * j;
+            double cr = e[9] * (e[3 * j] * (pv - a[1]) - e[3 * j + 1] * (pu - a[0]));
+            in = cr >= -tol * e[3 * j + 2];
         }
         if (in)
             return true;
