@@ -1783,8 +1783,8 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
                     bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
                     bool parallel, int *bound_ends, int *closed)
 {
-    return walk_run(sc, any_surface, reflect, 0, x, y, lo, hi, 0u, found, user, bound, parallel, bound_ends, closed, true,
-                    NULL);
+    return walk_run(sc, any_surface, reflect, 0, x, y, lo, hi, 0u, found, user, bound, parallel, bound_ends, closed,
+                    true, NULL);
 }
 
 typedef struct roots_out {
