@@ -21,6 +21,7 @@
  *   those without it, and it settles a share of the solves by itself.
  * - One walk for several lengths (spc_flat_chains_all_later, spc_flat_chains_later) gives the
  *   chains of one walk per length, bit for bit.
+ * - The walk's bound on the vertices a sequence still needs moves no root and no sequence solved.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -764,6 +765,92 @@ TEST(one_walk_for_several_lengths)
     CHECK(differ == 0);
 }
 
+/* The walk's bound on the vertices a sequence still needs (bound_near) skips only vertices from
+ * which no sequence reaches y: on random scenes of two or three glass slabs, cubes and prisms, one
+ * with a one-sided mirror beside them, and on newton_slabs' two stacked slabs wider than the floor,
+ * the roots of each length 1 to 5 with the bound are those without it, bit for bit, in the same
+ * order, and so are the sequences solved, for the enumeration's events and with partial reflections
+ * (path_lt_view's walk). A bound that ruled out one vertex too many loses a root or a sequence; one
+ * that rules out too few walks as many vertices: on the stacked slabs, where four interfaces are the
+ * only way up, it must skip most of them. */
+TEST(vertex_bound_same_roots)
+{
+    spc_rng_seed(&rng, 57, 3);
+    int queries = 0, roots = 0, seqs = 0, differ = 0;
+    long nodes_on = 0, nodes_off = 0, stacked_on = 0, stacked_off = 0;
+    enum { MAXR = 64 };
+    for (int t = 0; t < 7; ++t) {
+        spc_scene *sc = floor_scene();
+        spc_vec3 light = spc_v3(0.4 * rnd() - 0.2, 0.4 * rnd() - 0.2, 3.2);
+        if (t == 6) { /* newton_slabs: slabs 5 wide and 0.16 thick at 0.55 and 0.9 under a light at 2.2 */
+            spc_mat4 A = place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.55));
+            spc_mat4 B = place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.9));
+            add_cube(sc, &A, tu_glass(sc, 1.5));
+            add_cube(sc, &B, tu_glass(sc, 1.5));
+            light = spc_v3(0.3, 0.2, 2.2);
+        } else {
+            int n = 2 + (int)(rnd() * 2.0);
+            for (int i = 0; i < n; ++i) {
+                spc_vec3 scale =
+                    spc_v3(0.3 + 0.5 * rnd(), 0.3 + 0.5 * rnd(), rnd() < 0.6 ? 0.03 + 0.05 * rnd() : 0.2 + 0.3 * rnd());
+                spc_vec3 axis = spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+                spc_vec3 at = spc_v3(1.6 * rnd() - 0.8, 1.6 * rnd() - 0.8, 0.6 + 0.5 * i + 0.3 * rnd());
+                spc_mat4 M = place(scale, axis, 60.0 * rnd() - 30.0, at);
+                if (i == n - 1 && t % 2)
+                    add_prism(sc, &M, tu_glass(sc, 1.4 + 0.2 * rnd()));
+                else
+                    add_cube(sc, &M, tu_glass(sc, 1.33 + 0.2 * rnd()));
+            }
+            if (t == 5) { /* an upright one-sided mirror facing the glass */
+                spc_shape *m = spc_scene_new_shape(sc);
+                spc_error err;
+                spc_mat4 M = place(spc_v3(1.0, 1.0, 1.0), spc_v3(0, 1, 0), -80.0, spc_v3(1.8, 0.0, 1.2));
+                spc_shape_init_rectangle(m, &M, NULL, 0, 0, &err);
+                m->bsdf = tu_mirror(sc);
+            }
+        }
+        sc = add_light_finish(sc, light, 0.1);
+        CHECK(sc != NULL);
+        if (!sc)
+            continue;
+        for (int qi = 0; qi < 12; ++qi) {
+            spc_vec3 x = spc_v3(2.4 * rnd() - 1.2, 2.4 * rnd() - 1.2, 0.0);
+            spc_vec3 y = spc_v3(light.x + 0.1 * rnd() - 0.05, light.y + 0.1 * rnd() - 0.05, light.z - 0.1);
+            for (int k = 1; k <= 5; ++k) {
+                spc_vec3 pa[5 * MAXR], pb[5 * MAXR];
+                unsigned char ea[5 * MAXR], eb[5 * MAXR];
+                int sa = 0, sb = 0, partial = qi % 3;
+                bool reflect = qi % 2 == 0;
+                long na_nodes = 0, nb_nodes = 0;
+                int na = spc_flat_chain_roots_near(sc, false, reflect, partial, x, y, k, pa, ea, MAXR, &sa, true,
+                                                   &na_nodes);
+                int nb = spc_flat_chain_roots_near(sc, false, reflect, partial, x, y, k, pb, eb, MAXR, &sb, false,
+                                                   &nb_nodes);
+                ++queries;
+                roots += nb;
+                seqs += sb;
+                nodes_on += na_nodes;
+                nodes_off += nb_nodes;
+                if (t == 6) {
+                    stacked_on += na_nodes;
+                    stacked_off += nb_nodes;
+                }
+                if (na != nb || sa != sb || memcmp(pa, pb, sizeof(spc_vec3) * (size_t)(k * nb)) != 0 ||
+                    memcmp(ea, eb, (size_t)(k * nb)) != 0)
+                    ++differ;
+            }
+        }
+        spc_scene_destroy(sc);
+    }
+    printf("  %d queries: %d roots, %d sequences solved; vertices walked %ld with the bound, %ld without (the "
+           "stacked slabs %ld, %ld); %d queries differ\n",
+           queries, roots, seqs, nodes_on, nodes_off, stacked_on, stacked_off, differ);
+    CHECK(roots >= 50);
+    CHECK(differ == 0);
+    CHECK(nodes_on < nodes_off);
+    CHECK(stacked_on * 4 < stacked_off);
+}
+
 int main(void)
 {
     RUN(slab_lateral_shift);
@@ -780,5 +867,6 @@ int main(void)
     RUN(roots_do_not_depend_on_caster_order);
     RUN(parallel_closed_form_same_roots);
     RUN(one_walk_for_several_lengths);
+    RUN(vertex_bound_same_roots);
     return spc_test_finish();
 }

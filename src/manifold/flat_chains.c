@@ -222,7 +222,16 @@ typedef struct flat_link {
      * and over the corners of b's face j of plane_dist(a's face i, corner) (rtop, rbot) */
     double top[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES], bot[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES];
     double rtop[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES], rbot[SPC_FLAT_MAX_FACES][SPC_FLAT_MAX_FACES];
+    /* per state of b (state_bit: b's face j and the side the path leaves it to, as bit 2 j + s, s
+     * 0 interior, 1 exterior), the states of a after which a vertex may take it next: the walk's
+     * rules for the sides of convex and one-sided shapes and its corner tests at tolerance 0, any
+     * event (so more than the walk takes: a bound, bound_near) */
+    uint32_t prev[2 * SPC_FLAT_MAX_FACES];
 } flat_link;
+
+/* A vertex's state for the walk's bound on the vertices still needed (walk_run): its face (index
+ * in its shape's cache) and the side of it the path leaves to. */
+static inline uint32_t state_bit(int face, int side_out) { return 1u << (2 * face + (side_out > 0)); }
 
 typedef struct flat_cache {
     void (*destroy)(void *); /* first member: spc_shape_release calls it */
@@ -242,6 +251,9 @@ typedef struct flat_cache {
     int *tri_face;    /* per mesh triangle: its face, or -1 (degenerate) */
     spc_vec3 *corner; /* per triangle in face order: its 3 corners */
     double *tri2d;    /* per triangle in face order: its corners in the face's (u, v) */
+    /* per triangle in face order, for in_face: each edge j's vector from corner j to the next and
+     * its length (3 j + 0, 1, 2), and the sign of its area (9) */
+    double *tri_edge;
 } flat_cache;
 
 static void cache_destroy(void *p)
@@ -256,6 +268,7 @@ static void cache_destroy(void *p)
     free(c->tri_face);
     free(c->corner);
     free(c->tri2d);
+    free(c->tri_edge);
     free(c);
 }
 
@@ -290,6 +303,37 @@ static void link_fill(flat_link *l, const flat_cache *a, const flat_cache *b)
             l->cap[i][j] = cone_faces(&a->face[i], &b->face[j]);
             corner_extent(a, &a->face[i], &b->face[j], &l->top[i][j], &l->bot[i][j]);
             corner_extent(b, &b->face[j], &a->face[i], &l->rtop[i][j], &l->rbot[i][j]);
+        }
+    /* the walk's rules (walk) without the query's tolerance, medium or direction caps: each
+     * transition the walk takes is in prev[] */
+    memset(l->prev, 0, sizeof l->prev);
+    for (int i = 0; i < a->nfaces; ++i)
+        for (int so = 0; so < 2; ++so) {
+            int prev_out = 2 * so - 1;
+            uint32_t from = state_bit(i, prev_out), m = 0;
+            for (int j = 0; j < b->nfaces; ++j) {
+                if (a == b && i == j)
+                    continue;
+                for (int side = 1; side >= -1; side -= 2) {
+                    if (side < 0 && b->front_only)
+                        continue;
+                    if (b->convex && (side < 0 ? !(a == b && prev_out < 0) : a == b))
+                        continue; /* b's inside only from its own inside; b left is not met again */
+                    if (a->convex && prev_out < 0 && !(a == b && side < 0))
+                        continue; /* from inside a convex shape, its own faces next */
+                    if (!(side > 0 ? l->top[i][j] > 0.0 : l->bot[i][j] < 0.0) ||
+                        !(prev_out > 0 ? l->rtop[i][j] > 0.0 : l->rbot[i][j] < 0.0))
+                        continue;
+                    /* a reflection leaves to the side it arrives from, a refraction to the other
+                     * (a one-sided mirror only reflects) */
+                    m |= state_bit(j, side);
+                    if (!b->front_only)
+                        m |= state_bit(j, -side);
+                }
+            }
+            for (int t = 0; t < 2 * b->nfaces; ++t)
+                if (m >> t & 1u)
+                    l->prev[t] |= from;
         }
 }
 
@@ -350,7 +394,8 @@ static void cache_build(const spc_shape *s, flat_cache *c)
     c->tri_face = malloc(nt * sizeof *c->tri_face);
     c->corner = malloc(3 * nt * sizeof *c->corner);
     c->tri2d = malloc(6 * nt * sizeof *c->tri2d);
-    if (!c->tri_face || !c->corner || !c->tri2d)
+    c->tri_edge = malloc(10 * nt * sizeof *c->tri_edge);
+    if (!c->tri_face || !c->corner || !c->tri2d || !c->tri_edge)
         return;
     for (size_t t = 0; t < nt; ++t) {
         spc_vec3 a = vert(m, m->idx[3 * t]), b = vert(m, m->idx[3 * t + 1]), e = vert(m, m->idx[3 * t + 2]);
@@ -400,6 +445,16 @@ static void cache_build(const spc_shape *s, flat_cache *c)
             c->tri2d[6 * slot + 2 * j] = spc_dot(r, F->u);
             c->tri2d[6 * slot + 2 * j + 1] = spc_dot(r, F->v);
         }
+        const double *tc = c->tri2d + 6 * slot;
+        double *te = c->tri_edge + 10 * slot;
+        for (int j = 0; j < 3; ++j) {
+            const double *a = tc + 2 * j, *b = tc + 2 * ((j + 1) % 3);
+            te[3 * j] = b[0] - a[0];
+            te[3 * j + 1] = b[1] - a[1];
+            te[3 * j + 2] = sqrt(te[3 * j] * te[3 * j] + te[3 * j + 1] * te[3 * j + 1]);
+        }
+        double area = (tc[2] - tc[0]) * (tc[5] - tc[1]) - (tc[4] - tc[0]) * (tc[3] - tc[1]);
+        te[9] = area < 0.0 ? -1.0 : 1.0;
     }
     c->ntri = at;
     for (int f = 0; f < c->nfaces; ++f) {
@@ -1094,16 +1149,12 @@ static bool in_face(const flat_cache *fc, const flat_face *f, spc_vec3 p, double
     spc_vec3 r = spc_sub(p, f->o);
     double pu = spc_dot(r, f->u), pv = spc_dot(r, f->v);
     for (int t = f->first; t < f->first + f->count; ++t) {
-        const double *c = fc->tri2d + 6 * t;
+        const double *c = fc->tri2d + 6 * t, *e = fc->tri_edge + 10 * t;
         bool in = true;
-        double area = (c[2] - c[0]) * (c[5] - c[1]) - (c[4] - c[0]) * (c[3] - c[1]);
-        double sgn = area < 0.0 ? -1.0 : 1.0;
         for (int j = 0; j < 3 && in; ++j) {
-            const double *a = c + 2 * j, *b = c + 2 * ((j + 1) % 3);
-            double ex = b[0] - a[0], ey = b[1] - a[1];
-            double el = sqrt(ex * ex + ey * ey);
-            double cr = sgn * (ex * (pv - a[1]) - ey * (pu - a[0]));
-            in = cr >= -tol * el;
+            const double *a = c + 2 * j;
+            double cr = e[9] * (e[3 * j] * (pv - a[1]) - e[3 * j + 1] * (pu - a[0]));
+            in = cr >= -tol * e[3 * j + 2];
         }
         if (in)
             return true;
@@ -1333,6 +1384,10 @@ static bool cone_through(const cone *cp, spc_vec3 m, bool reflect, double n_in, 
 /* Shapes whose shadow tests a walk caches (more are tested each time). */
 #define SPC_FLAT_WALK_SHAPES 32
 
+/* Casters up to which a walk bounds the vertices a sequence still needs (walk_run): its tables cost
+ * the square of their number per walk. */
+#define SPC_FLAT_BOUND_SHAPES 8
+
 typedef struct flat_walk {
     const spc_scene *sc;
     const spc_chain_casters *cs;
@@ -1349,6 +1404,7 @@ typedef struct flat_walk {
     bool (*found)(void *user, const flat_problem *P, const spc_vec3 *p);
     void *user;
     int sequences;
+    long nodes; /* the vertices chosen (the walk's tree, for tests) */
     flat_tally tally; /* solves ended by the bounds (newton), settled by the closed form (minimize) */
     bool stop;
     bool partial; /* reflections off glass inside a longer chain may be partial (reflect implied) */
@@ -1356,6 +1412,12 @@ typedef struct flat_walk {
     /* cone_point_face from x (end 0) and from y (end 1), per caster slot and face: read only where
      * ends_known, so it stays out of the walk's clearing (32 kB; it is last) */
     cone ends[2][SPC_FLAT_WALK_SHAPES][SPC_FLAT_MAX_FACES];
+    /* with bounded: near[q][j], the states (state_bit) of the caster in slot j from which some
+     * sequence of at most q more vertices can reach y, by the walk's rules (flat_link.prev) and its
+     * tests of a last vertex; a vertex whose state is outside near[hi - k][j] (k vertices chosen)
+     * completes no sequence and grows none, and is skipped */
+    bool bounded;
+    uint32_t near[SPC_FLAT_MAX_VERTICES][SPC_FLAT_BOUND_SHAPES];
 } flat_walk;
 
 /* shadowed() of face fi of the caster in slot j from x (end 0) or y (end 1), cached. */
@@ -1442,6 +1504,8 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
         double eta = shape_eta(s);
         for (int fi = 0; fi < fc->nfaces && !w->stop; ++fi) {
             const flat_face *f = &fc->face[fi];
+            if (w->bounded && !(w->near[w->hi - i - 1][j] & (state_bit(fi, 1) | state_bit(fi, -1))))
+                continue; /* no sequence of at most hi vertices reaches y through this face */
             if (prev) {
                 if (prev->f == f)
                     continue;
@@ -1516,6 +1580,8 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
                     double m_out = eta > 0.0 ? side_index(eta, side_out) : m_in;
                     double n_in = m_in >= 0.0 ? m_in : 1.0, n_out = m_out >= 0.0 ? m_out : 1.0;
                     int k = i + 1;
+                    if (w->bounded && !(w->near[w->hi - k][j] & state_bit(fi, side_out)))
+                        continue;
                     /* the tests of a complete sequence that need no cap first (y on the side the path
                      * leaves to, inside the shape where it stays inside, not shadowed): a vertex that
                      * can neither complete the sequence nor grow it needs no cap (the last vertex of
@@ -1529,6 +1595,7 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
                     cone leave;
                     if (!cone_through(&arrive, spc_scale(f->n, side), event == SPC_CHAIN_REFLECT, n_in, n_out, &leave))
                         continue;
+                    ++w->nodes;
                     flat_vertex *v = &P->v[i];
                     w->cap[i] = arrive;
                     v->s = s;
@@ -1577,6 +1644,75 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
     }
 }
 
+/* Fills w->near (flat_walk) and sets w->bounded, for a walk of up to w->hi vertices from w->P.x to
+ * w->P.y: near[0] holds the states in which a last vertex passes the walk's tests of y (y on the
+ * side the path leaves to, inside a convex shape it stays in, the face not shadowed from y), and
+ * near[q] adds those with a next state in near[q - 1] (flat_link.prev). Each holds at least the
+ * states the walk could complete a sequence from within q more vertices, so skipping the others
+ * leaves the sequences solved, and their order, as they were. Not bounded (every state kept) for
+ * more than SPC_FLAT_BOUND_SHAPES casters or where a link cannot be allocated. */
+static void bound_near(flat_walk *w)
+{
+    const spc_chain_casters *cs = w->cs;
+    const int n = cs->n, hi = w->hi;
+    w->bounded = false;
+    if (n > SPC_FLAT_BOUND_SHAPES)
+        return;
+    const flat_cache *fc[SPC_FLAT_BOUND_SHAPES];
+    const flat_link *lk[SPC_FLAT_BOUND_SHAPES][SPC_FLAT_BOUND_SHAPES];
+    for (int j = 0; j < n; ++j)
+        fc[j] = flat_get(w->sc->shapes[cs->idx[j]]);
+    for (int j = 0; j < n; ++j)
+        for (int b = 0; b < n; ++b) {
+            lk[j][b] = NULL;
+            if (fc[j] && fc[b] && !(lk[j][b] = flat_link_get(fc[j], fc[b])))
+                return;
+        }
+    double tol = SPC_FLAT_SIDE_REL * w->P.scale;
+    for (int j = 0; j < n; ++j) {
+        uint32_t m = 0;
+        for (int fi = 0; fc[j] && fi < fc[j]->nfaces; ++fi)
+            for (int so = 1; so >= -1; so -= 2) {
+                /* walk's tests of y for a last vertex (reach), but the lengths */
+                const flat_face *f = &fc[j]->face[fi];
+                if (so * plane_dist(f, w->P.y) > tol &&
+                    !(fc[j]->convex && so < 0 && !inside_convex(fc[j], w->P.y, tol)) &&
+                    !(so > 0 && walk_shadowed(w, 1, j, fc[j], fi, tol)))
+                    m |= state_bit(fi, so);
+            }
+        w->near[0][j] = m;
+    }
+    /* breadth first from near[0]: the states first reached at q more vertices, front[], lead
+     * back to those first reached at q + 1 */
+    uint32_t front[SPC_FLAT_BOUND_SHAPES], next[SPC_FLAT_BOUND_SHAPES];
+    for (int j = 0; j < n; ++j)
+        front[j] = w->near[0][j];
+    for (int q = 1; q < hi; ++q) {
+        bool any = false;
+        for (int j = 0; j < n; ++j)
+            next[j] = 0;
+        for (int b = 0; b < n; ++b)
+            for (uint32_t f = front[b]; f; f &= f - 1) {
+                int t = __builtin_ctz(f);
+                for (int j = 0; j < n; ++j)
+                    if (fc[j])
+                        next[j] |= lk[j][b]->prev[t];
+            }
+        for (int j = 0; j < n; ++j) {
+            front[j] = next[j] & ~w->near[q - 1][j];
+            w->near[q][j] = w->near[q - 1][j] | front[j];
+            any = any || front[j];
+        }
+        if (!any) { /* nothing new: the longer bounds are the same */
+            for (int r = q + 1; r < hi; ++r)
+                for (int j = 0; j < n; ++j)
+                    w->near[r][j] = w->near[q][j];
+            break;
+        }
+    }
+    w->bounded = true;
+}
+
 /* Walks every face sequence of lo to hi vertices, and of the lengths k with bit k of extra set, from
  * x to y (the longer sequences grow from the shorter ones); found() is called with each root
  * and returns false to stop (found NULL: the sequences are counted, not solved). partial: 0 the
@@ -1584,10 +1720,12 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
  * sequences of two or more vertices with a reflection off glass among them. Returns the number
  * of sequences solved; bound: whether a solve may end early by the bound on the faces (the minimum
  * outside them, or a kink), *bound_ends (may be NULL) the solves it ended; parallel: whether a solve
- * starts from the closed form where it applies, *closed (may be NULL) the solves it settled. */
+ * starts from the closed form where it applies, *closed (may be NULL) the solves it settled; near:
+ * whether the walk skips the vertices bound_near rules out, *nodes (may be NULL) the vertices it
+ * chose. */
 static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int partial, spc_vec3 x, spc_vec3 y, int lo,
                     int hi, unsigned extra, bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user,
-                    bool bound, bool parallel, int *bound_ends, int *closed)
+                    bool bound, bool parallel, int *bound_ends, int *closed, bool near, long *nodes)
 {
     if (lo < 1)
         lo = 1;
@@ -1626,12 +1764,17 @@ static int walk_run(const spc_scene *sc, bool any_surface, bool reflect, int par
     w.P.parallel = parallel;
     w.found = found;
     w.user = user;
+    w.bounded = false;
+    if (near)
+        bound_near(&w);
     const cone any = {spc_v3(0, 0, 1), 4.0};
     walk(&w, 0, -1.0, &any);
     if (bound_ends)
         *bound_ends = w.tally.bound_ends;
     if (closed)
         *closed = w.tally.closed;
+    if (nodes)
+        *nodes = w.nodes;
     return w.sequences;
 }
 
@@ -1640,7 +1783,8 @@ static int walk_all(const spc_scene *sc, bool any_surface, bool reflect, spc_vec
                     bool (*found)(void *, const flat_problem *, const spc_vec3 *), void *user, bool bound,
                     bool parallel, int *bound_ends, int *closed)
 {
-    return walk_run(sc, any_surface, reflect, 0, x, y, lo, hi, 0u, found, user, bound, parallel, bound_ends, closed);
+    return walk_run(sc, any_surface, reflect, 0, x, y, lo, hi, 0u, found, user, bound, parallel, bound_ends, closed,
+                    true, NULL);
 }
 
 typedef struct roots_out {
@@ -1670,6 +1814,18 @@ int spc_flat_chain_roots_solve(const spc_scene *sc, bool any_surface, bool refle
     roots_out o = {k, 0, max, pts, events};
     int seq =
         walk_all(sc, any_surface, reflect, x, y, k, k, roots_found, &o, bound, parallel, bound_ends, closed);
+    if (sequences)
+        *sequences = seq;
+    return o.n;
+}
+
+int spc_flat_chain_roots_near(const spc_scene *sc, bool any_surface, bool reflect, int partial, spc_vec3 x, spc_vec3 y,
+                              int k, spc_vec3 *pts, unsigned char *events, int max, int *sequences, bool near,
+                              long *nodes)
+{
+    roots_out o = {k, 0, max, pts, events};
+    int seq = walk_run(sc, any_surface, reflect, partial, x, y, k, k, 0u, roots_found, &o, true, true, NULL, NULL, near,
+                       nodes);
     if (sequences)
         *sequences = seq;
     return o.n;
@@ -1777,7 +1933,7 @@ int spc_flat_chains_all_later(const spc_snee_query *q, unsigned later_lengths, s
     later->n = 0;
     later_out o = {{q, out, 0, max_out, iterations}, lo, hi, later};
     walk_run(q->scene, q->any_surface, reflect, 0, q->x->p, q->y, lo, hi, extra, later_found, &o, true, true, NULL,
-             NULL);
+             NULL, true, NULL);
     return o.now.n;
 }
 
@@ -1805,7 +1961,7 @@ int spc_flat_chains_all_partial(const spc_snee_query *q, bool need_glass_reflect
     int hi = q->max_chain < SPC_FLAT_MAX_VERTICES ? q->max_chain : SPC_FLAT_MAX_VERTICES;
     chains_out o = {q, out, 0, max_out, iterations};
     walk_run(q->scene, q->any_surface, true, need_glass_reflect ? 2 : 1, q->x->p, q->y, lo, hi, 0u, chains_found, &o,
-             true, true, NULL, NULL);
+             true, true, NULL, NULL, true, NULL);
     return o.n;
 }
 

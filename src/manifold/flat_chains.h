@@ -155,5 +155,14 @@ int spc_flat_chain_roots_bound(const spc_scene *sc, bool any_surface, bool refle
 int spc_flat_chain_roots_solve(const spc_scene *sc, bool any_surface, bool reflect, spc_vec3 x, spc_vec3 y, int k,
                                spc_vec3 *pts, unsigned char *events, int max, int *sequences, bool bound, bool parallel,
                                int *bound_ends, int *closed);
+/* spc_flat_chain_roots with partial as spc_flat_chains_all_partial's (0: the enumeration's events;
+ * 1: any reflection off glass; 2: the same, only sequences of 2 or more vertices with one) and the
+ * walk's bound on the vertices a sequence still needs to reach y (flat_chains.c, bound_near) on or
+ * off (near; the renderer keeps it on): it skips the vertices from which no sequence of at most k
+ * vertices can reach y by the walk's own rules, so the sequences solved, their order and the roots
+ * are the same either way. *nodes (may be NULL) receives the number of vertices the walk chose. */
+int spc_flat_chain_roots_near(const spc_scene *sc, bool any_surface, bool reflect, int partial, spc_vec3 x, spc_vec3 y,
+                              int k, spc_vec3 *pts, unsigned char *events, int max, int *sequences, bool near,
+                              long *nodes);
 
 #endif
