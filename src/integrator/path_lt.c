@@ -54,24 +54,55 @@ static bool slab_camera_chain(const spc_snee_params *p, const spc_chain *cc)
            !spc_sphere_chain_covers(cc, p->reflect);
 }
 
-/* Does the BSDF at h, a hit on a normal-mapped plane (spc_plane_chain_shape), turn the map's normal
- * for a viewer in the direction w (spc_bsdf_perturbed_face_view: w above the unmapped normal N but
- * below the map's n)? The path tracer's frame at a vertex is the one its camera-side direction
- * sees, a chain's (spc_chain_trace, the plane's enumeration) the one its x-side direction sees and a
- * light subpath's the one its light-side direction sees; the three agree wherever neither of the
- * vertex's two directions turns the normal. h may be a plain hit or a chain's mapped one: n is
- * read from the map again, from below N, where no turn applies. True where the map cannot be read. */
-static bool plane_turns(const spc_hit *h, spc_vec3 w)
+/* The unmapped normal N and the map's normal n (not turned) at h, a hit on a normal-mapped plane
+ * (spc_plane_chain_shape), plain or a chain's mapped one: n is read from the map again, from below
+ * N, where no turn applies. False where the map cannot be read. */
+static bool plane_normals(const spc_hit *h, spc_vec3 *N, spc_vec3 *n)
 {
     spc_hit m = *h;
     if (h->normal_mapped) {
         m.sh = spc_frame_from_ns(h->n_unmapped, h->sh.s);
         m.normal_mapped = false;
     }
-    spc_vec3 N = m.sh.n;
-    if (!spc_bsdf_map_chain_hit(&m, spc_neg(N)))
+    *N = m.sh.n;
+    if (!spc_bsdf_map_chain_hit(&m, spc_neg(*N)))
+        return false;
+    *n = m.sh.n;
+    return true;
+}
+
+/* Does the BSDF at h, a hit on a normal-mapped plane (spc_plane_chain_shape), turn the map's normal
+ * for a viewer in the direction w (spc_bsdf_perturbed_face_view: w above the unmapped normal N but
+ * below the map's n)? The path tracer's frame at a vertex is the one its camera-side direction
+ * sees, a chain's (spc_chain_trace, the plane's enumeration) the one its x-side direction sees and a
+ * light subpath's the one its light-side direction sees; the three agree wherever neither of the
+ * vertex's two directions turns the normal. True where the map cannot be read
+ * (plane_normals). */
+static bool plane_turns(const spc_hit *h, spc_vec3 w)
+{
+    spc_vec3 N, n;
+    if (!plane_normals(h, &N, &n))
         return true;
-    return spc_dot(w, N) > 0.0 && spc_dot(w, m.sh.n) < 0.0;
+    return spc_dot(w, N) > 0.0 && spc_dot(w, n) < 0.0;
+}
+
+/* The adjoint's correction for the map's shading normal at a delta vertex h on a normal-mapped plane
+ * that a light subpath (or a join's flux) crosses from the side of w_prev (toward the light) to the
+ * side of w_next: |w_prev.n| |w_next.N| / (|w_prev.N| |w_next.n|), n the map's normal, N the plane's
+ * (Veach 1997, sec. 5.3, as shading_fix at a diffuse vertex). The refraction law about n maps the
+ * rays' measure cos dA dw about n, while the flux and the joins' geometry count it about the plane:
+ * without it light tracing's estimate through the water differs from the path tracer's (whose
+ * radiance weights need none) by the two vertices' factors, most at the far water seen obliquely.
+ * Where neither direction turns the map's normal (plane_turns), both sides' frames are n's. */
+static double plane_shading_fix(const spc_hit *h, spc_vec3 w_prev, spc_vec3 w_next)
+{
+    spc_vec3 N, n;
+    if (!plane_normals(h, &N, &n))
+        return 0.0;
+    double den = spc_absdot(w_prev, N) * spc_absdot(w_next, n);
+    if (!(den > 0.0))
+        return 0.0;
+    return spc_absdot(w_prev, n) * spc_absdot(w_next, N) / den;
 }
 
 /* Is some vertex of the chain c on a normal-mapped plane one where either of its two directions turns
@@ -794,9 +825,12 @@ static void join_chain(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         return;
     const spc_chain_vertex *last = &cc->v[cc->n - 1];
     spc_rgb T = spc_rgb1(1.0);
-    for (int v = 0; v < cc->n; ++v)
+    for (int v = 0; v < cc->n; ++v) {
         T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE, cc->v[v].d,
                                                         spc_neg(cc->v[v].wi)));
+        if (spc_plane_chain_shape(cc->v[v].h.shape))
+            T = spc_rgb_scale(T, plane_shading_fix(&cc->v[v].h, spc_neg(cc->v[v].wi), cc->v[v].d));
+    }
     spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
     double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
     double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
@@ -1019,10 +1053,12 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
 /* The weight a light subpath that arrived at h along d carries past the delta sample bs there: the
  * sample's own (importance transport), except on a normal-mapped plane, where it is the delta
  * lobe's throughput as the path tracer's radiance transport has it for the reversed pair (the
- * camera's side toward bs.wi, the light's behind), over the lobe's probability. The map's shading
- * normal makes the adjoint BSDF differ from the importance-mode sample's weight (the eta^2 of a
- * refraction, the cosine factors, the shadowing term), and the joins must carry the value that
- * specular NEE and BSDF sampling give the same path. */
+ * camera's side toward bs.wi, the light's behind), times the map's shading factor
+ * (plane_shading_fix), over the lobe's probability. The map's shading normal makes the adjoint
+ * BSDF differ from the importance-mode sample's weight (the cosine factors, the shadowing term),
+ * and the joins must carry the value that specular NEE and BSDF sampling give the same path. The
+ * radiance throughput's eta^2 is the one the join's geometry term from x2 leaves out (a chain's
+ * term through one refraction is the one from x2's medium). */
 static spc_rgb delta_weight(const spc_hit *h, spc_vec3 d, const spc_bsdf_sample *bs)
 {
     if (!spc_plane_chain_shape(h->shape))
@@ -1030,6 +1066,7 @@ static spc_rgb delta_weight(const spc_hit *h, spc_vec3 d, const spc_bsdf_sample 
     if (!(bs->pdf > 0.0))
         return spc_rgb1(0.0);
     spc_rgb T = spc_bsdf_specular_throughput(h->bsdf, h, SPC_MODE_RADIANCE, bs->wi, spc_neg(d));
+    T = spc_rgb_scale(T, plane_shading_fix(h, spc_neg(d), bs->wi));
     return spc_rgb_scale(T, 1.0 / bs->pdf);
 }
 
