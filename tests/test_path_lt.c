@@ -1570,8 +1570,8 @@ TEST(pool_turned_camera_paths_not_light_tracings)
             int n = spc_plane_chains_all(&q, p.reflect, all, 16, NULL);
             bool shared = false;
             for (int i = 0; i < n; ++i)
-                shared = shared || spc_path_lt_area_ratio(&ctx, &p, NULL, spc_v3(0, 0, 0), &x2, wo2, &cc, &all[i], e,
-                                                          y, ny) > 0.0;
+                shared = shared || spc_path_lt_area_ratio(&ctx, &p, NULL, spc_v3(0, 0, 0), &x2, wo2, &cc, &all[i], e, y,
+                                                          ny) > 0.0;
             if (n < 1)
                 continue;
             turned += is_turned;
@@ -1660,8 +1660,7 @@ static void check_water_jacobians(void *user, const spc_path_lt_join *j)
 {
     water_jacobians *t = user;
     const spc_scene *sc = t->ctx->scene;
-    if (j->x1 || !j->cc || j->cc->n != 1 || j->c->n != 1 || !j->cc->v[0].h.normal_mapped ||
-        !j->c->v[0].h.normal_mapped)
+    if (j->x1 || !j->cc || j->cc->n != 1 || j->c->n != 1 || !j->cc->v[0].h.normal_mapped || !j->c->v[0].h.normal_mapped)
         return;
     spc_vec3 q = j->x2->p, nq = j->x2->ng;
     double cos_x2 = spc_absdot(j->cc->d0, nq), eta = 0.0;

@@ -471,9 +471,8 @@ static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p
     /* through a normal-mapped plane: not where the camera's ray (toward the pinhole from the
      * vertex) or x's side turns the map's normal (plane_turns): the camera's frame there is not the
      * chain's, and the retraced chain of such a camera path leaves the vertex elsewhere */
-    if (plane_camera_chain(p, cc) &&
-        (plane_turns(&last->h, spc_normalize(spc_sub(ctx->cam->origin, last->h.p))) ||
-         plane_turns(&last->h, spc_neg(last->wi))))
+    if (plane_camera_chain(p, cc) && (plane_turns(&last->h, spc_normalize(spc_sub(ctx->cam->origin, last->h.p))) ||
+                                      plane_turns(&last->h, spc_neg(last->wi))))
         return 0.0;
     double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
     double P = 1.0;
