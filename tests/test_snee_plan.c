@@ -1286,7 +1286,9 @@ TEST(volpath_ball_in_fog_plan_off)
  * scenes/newton_pool.xml) with the camera and the light above it: path's plan has no query from the
  * camera (from there the plane's chains are the
  * light's glints, which the path tracer's emission splitting traces at every camera sample;
- * SPC_SNEE_PLAN_SETTING_WATER). volpath and bdpt, which do not split, keep the query, and so does
+ * SPC_SNEE_PLAN_SETTING_WATER); over the normal-mapped plane under its small sphere light, light
+ * tracing through the water (SPC_SNEE_PLAN_WATER_LT), not over the triangles (their chains are the
+ * randomized solver's) nor for volpath and bdpt, nor under a light of 0.028 sr. volpath and bdpt, which do not split, keep the query, and so does
  * path with the light under the water, where chains from the camera refract to it. */
 TEST(water_plane_plan_no_camera_query)
 {
@@ -1296,14 +1298,15 @@ TEST(water_plane_plan_no_camera_query)
     spc_snee_plan p;
     spc_snee_params sp;
     spc_snee_plan_make(sc, "path", NULL, &p);
-    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER) && spc_snee_parse(p.setting, 2, &sp) &&
-                  !sp.camera && sp.exact,
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER SPC_SNEE_PLAN_WATER_LT) &&
+                  spc_snee_parse(p.setting, 2, &sp) && !sp.camera && sp.exact && sp.lt_caustic,
               "pool, path: %s (%s)", p.setting, p.reason);
     printf("    pool, path: %s\n", p.setting);
     static const char *const others[] = {"volpath", "bdpt"};
     for (int i = 0; i < 2; ++i) {
         spc_snee_plan_make(sc, others[i], NULL, &p);
-        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "pool, %s: %s", others[i], p.setting);
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera && !sp.lt_caustic, "pool, %s: %s", others[i],
+                  p.setting);
     }
     spc_scene_destroy(sc);
     /* a water surface made of triangles (the randomized solver's), the camera and the light above
@@ -1350,6 +1353,33 @@ TEST(water_plane_plan_no_camera_query)
     CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && sp.camera, "light under the water, path: %s (%s)", p.setting,
               p.reason);
     printf("    light under the water, path: %s\n", p.setting);
+    spc_scene_destroy(sc);
+    /* the pool under a larger light (radius 0.3: 0.028 sr from the water's centre): no light tracing */
+    fp = fopen(path, "rb");
+    CHECK(fp != NULL);
+    if (!fp)
+        return;
+    n = fread(text, 1, sizeof text - 1, fp);
+    fclose(fp);
+    text[n] = 0;
+    const char *radius = "name=\"radius\" value=\"0.15\"";
+    a = strstr(text, radius);
+    b = strstr(text, map);
+    CHECK(a && b && a < b);
+    if (!(a && b && a < b))
+        return;
+    *a = 0;
+    *b = 0;
+    snprintf(moved, sizeof moved, "%sname=\"radius\" value=\"0.3\"%s%s/scenes/%s%s", text, a + strlen(radius),
+             spc_test_source_dir(), map, b + strlen(map));
+    sc = NULL;
+    CHECK_MSG(load_text(moved, &sc, &err) == SPC_OK, "larger light: %s", err.msg);
+    if (!sc)
+        return;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER), "larger light, path: %s (%s)", p.setting,
+              p.reason);
+    printf("    larger light, path: %s\n", p.setting);
     spc_scene_destroy(sc);
 }
 

@@ -15,6 +15,7 @@
 #include "manifold/cylinder_chains.h"
 #include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
+#include "manifold/plane_chains.h"
 #include "manifold/snee_cost.h"
 #include "manifold/specular_nee.h"
 #include "manifold/sphere_chains.h"
@@ -53,13 +54,85 @@ static bool slab_camera_chain(const spc_snee_params *p, const spc_chain *cc)
            !spc_sphere_chain_covers(cc, p->reflect);
 }
 
+/* The unmapped normal N and the map's normal n (not turned) at h, a hit on a normal-mapped plane
+ * (spc_plane_chain_shape), plain or a chain's mapped one: n is read from the map again, from below
+ * N, where no turn applies. False where the map cannot be read. */
+static bool plane_normals(const spc_hit *h, spc_vec3 *N, spc_vec3 *n)
+{
+    spc_hit m = *h;
+    if (h->normal_mapped) {
+        m.sh = spc_frame_from_ns(h->n_unmapped, h->sh.s);
+        m.normal_mapped = false;
+    }
+    *N = m.sh.n;
+    if (!spc_bsdf_map_chain_hit(&m, spc_neg(*N)))
+        return false;
+    *n = m.sh.n;
+    return true;
+}
+
+/* Does the BSDF at h, a hit on a normal-mapped plane (spc_plane_chain_shape), turn the map's normal
+ * for a viewer in the direction w (spc_bsdf_perturbed_face_view: w above the unmapped normal N but
+ * below the map's n)? The path tracer's frame at a vertex is the one its camera-side direction
+ * sees, a chain's (spc_chain_trace, the plane's enumeration) the one its x-side direction sees and a
+ * light subpath's the one its light-side direction sees; the three agree wherever neither of the
+ * vertex's two directions turns the normal. True where the map cannot be read
+ * (plane_normals). */
+static bool plane_turns(const spc_hit *h, spc_vec3 w)
+{
+    spc_vec3 N, n;
+    if (!plane_normals(h, &N, &n))
+        return true;
+    return spc_dot(w, N) > 0.0 && spc_dot(w, n) < 0.0;
+}
+
+/* The adjoint's correction for the map's shading normal at a delta vertex h on a normal-mapped plane
+ * that a light subpath (or a join's flux) crosses from the side of w_prev (toward the light) to the
+ * side of w_next: |w_prev.n| |w_next.N| / (|w_prev.N| |w_next.n|), n the map's normal, N the plane's
+ * (Veach 1997, sec. 5.3, as shading_fix at a diffuse vertex). The refraction law about n maps the
+ * rays' measure cos dA dw about n, while the flux and the joins' geometry count it about the plane:
+ * without it light tracing's estimate through the water differs from the path tracer's (whose
+ * radiance weights need none) by the two vertices' factors, most at the far water seen obliquely.
+ * Where neither direction turns the map's normal (plane_turns), both sides' frames are n's. */
+static double plane_shading_fix(const spc_hit *h, spc_vec3 w_prev, spc_vec3 w_next)
+{
+    spc_vec3 N, n;
+    if (!plane_normals(h, &N, &n))
+        return 0.0;
+    double den = spc_absdot(w_prev, N) * spc_absdot(w_next, n);
+    if (!(den > 0.0))
+        return 0.0;
+    return spc_absdot(w_prev, n) * spc_absdot(w_next, N) / den;
+}
+
+/* Is some vertex of the chain c on a normal-mapped plane one where either of its two directions turns
+ * the map's normal (plane_turns)? Light tracing neither makes nor weighs such paths: its subpath's
+ * frame there, or the camera's, is not the one the chain's was solved in. */
+static bool plane_chain_turned(const spc_chain *c)
+{
+    for (int i = 0; i < c->n; ++i) {
+        const spc_chain_vertex *v = &c->v[i];
+        if (spc_plane_chain_shape(v->h.shape) && (plane_turns(&v->h, spc_neg(v->wi)) || plane_turns(&v->h, v->d)))
+            return true;
+    }
+    return false;
+}
+
+/* Is the camera's chain cc from x toward the pinhole one that an area light's joins take through a
+ * normal-mapped plane (a floor seen through water): one vertex on such a plane, one of
+ * spc_plane_chains_all's (with exact enumeration)? */
+static bool plane_camera_chain(const spc_snee_params *p, const spc_chain *cc)
+{
+    return p->exact && cc->n == 1 && spc_plane_chain_covers(cc, p->reflect);
+}
+
 /* The share of light subpaths joined to the pinhole through the sphere by the chain cc from x2:
  * through_share for chains within the parameters' max_chain, long_share beyond; 1 for a chain
- * through flat faces (slab_camera_chain). */
+ * through flat faces (slab_camera_chain) or through a normal-mapped plane (plane_camera_chain). */
 static double camera_chain_share(const spc_snee_params *p, const spc_chain *cc)
 {
-    if (slab_camera_chain(p, cc))
-        return 1.0; /* through flat faces: on every subpath (join_slab) */
+    if (slab_camera_chain(p, cc) || plane_camera_chain(p, cc))
+        return 1.0; /* on every subpath (join_slab, join_plane) */
     return cc->n > p->max_chain ? long_share(p) : through_share(p);
 }
 
@@ -390,10 +463,16 @@ static double camera_density(const spc_render_ctx *ctx, const spc_snee_params *p
     if (j < 1 || j > spc_path_lt_camera_max_chain(p))
         return 0.0;
     if (!spc_sphere_chain_covers(cc, p->reflect) && !(j <= p->max_chain && mesh_ball_chain(p, cc)) &&
-        !slab_camera_chain(p, cc))
+        !slab_camera_chain(p, cc) && !plane_camera_chain(p, cc))
         return 0.0;
     const spc_chain_vertex *last = &cc->v[j - 1];
     if (!spc_camera_sample_direct(ctx->cam, last->h.p, cd) || !in_window(ctx, cd->fx, cd->fy))
+        return 0.0;
+    /* through a normal-mapped plane: not where the camera's ray (toward the pinhole from the
+     * vertex) or x's side turns the map's normal (plane_turns): the camera's frame there is not the
+     * chain's, and the retraced chain of such a camera path leaves the vertex elsewhere */
+    if (plane_camera_chain(p, cc) && (plane_turns(&last->h, spc_normalize(spc_sub(ctx->cam->origin, last->h.p))) ||
+                                      plane_turns(&last->h, spc_neg(last->wi))))
         return 0.0;
     double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
     double P = 1.0;
@@ -464,8 +543,9 @@ static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
 {
     if (c->n < 1)
         return false;
-    if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect) || spc_cylinder_chain_covers(c))
-        return p->exact;
+    if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect) || spc_cylinder_chain_covers(c) ||
+        spc_plane_chain_covers(c, p->reflect))
+        return p->exact && !plane_chain_turned(c);
     return mesh_ball_chain(p, c) || sdf_glass_chain(p, c);
 }
 
@@ -485,8 +565,9 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
         return 0.0;
     /* the joins through a tessellated ball are point lights' only; through the sphere (with its
      * longer chains, join_first) and through flat faces (ltslab, within max_chain) both kinds' */
-    if (cc && !(spc_sphere_chain_covers(cc, p->reflect) ? cc->n <= spc_path_lt_camera_max_chain(p)
-                                                        : cc->n <= p->max_chain && slab_camera_chain(p, cc)))
+    if (cc && !(spc_sphere_chain_covers(cc, p->reflect)
+                    ? cc->n <= spc_path_lt_camera_max_chain(p)
+                    : cc->n <= p->max_chain && (slab_camera_chain(p, cc) || plane_camera_chain(p, cc))))
         return 0.0;
     spc_vec3 d_last = c->v[k - 1].d;
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
@@ -743,9 +824,12 @@ static void join_chain(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         return;
     const spc_chain_vertex *last = &cc->v[cc->n - 1];
     spc_rgb T = spc_rgb1(1.0);
-    for (int v = 0; v < cc->n; ++v)
+    for (int v = 0; v < cc->n; ++v) {
         T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE, cc->v[v].d,
                                                         spc_neg(cc->v[v].wi)));
+        if (spc_plane_chain_shape(cc->v[v].h.shape))
+            T = spc_rgb_scale(T, plane_shading_fix(&cc->v[v].h, spc_neg(cc->v[v].wi), cc->v[v].d));
+    }
     spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
     double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
     double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
@@ -814,6 +898,45 @@ static void join_slab(const spc_render_ctx *ctx, const spc_snee_params *p, const
             join_chain(ctx, p, x2, beta, L, &all[i], sink, user);
 }
 
+/* The light subpath's end and the sink of its joins, for spc_plane_chains_each's callback. */
+typedef struct plane_join {
+    const spc_render_ctx *ctx;
+    const spc_snee_params *p;
+    const spc_hit *x2;
+    spc_rgb beta;
+    const lt_end *L;
+    void (*sink)(void *user, const spc_path_lt_join *j);
+    void *user;
+} plane_join;
+
+static void plane_join_one(void *user, const spc_chain *cc)
+{
+    const plane_join *pj = user;
+    if (plane_camera_chain(pj->p, cc))
+        join_chain(pj->ctx, pj->p, pj->x2, pj->beta, pj->L, cc, pj->sink, pj->user);
+}
+
+/* An area light's joins at x2 to the pinhole through a normal-mapped plane: every one-vertex chain
+ * of spc_plane_chains_each from x2 toward the pinhole (the floor seen through water, often at
+ * several points of the ripples), on every subpath. The path tracer's side weighs the camera ray
+ * that meets x2 through such a chain against these (spc_path_lt_area_ratio with that chain; the
+ * camera's density through it from camera_density). */
+static void join_plane(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x2, spc_rgb beta,
+                       const lt_end *L, void (*sink)(void *user, const spc_path_lt_join *j), void *user)
+{
+    if (!L->area || !p->exact || p->max_chain < 1)
+        return;
+    spc_snee_query q;
+    spc_snee_query_init(&q, ctx->scene, p, x2, L->d0, 1);
+    q.min_chain = 1;
+    q.y = ctx->cam->origin;
+    q.ny = spc_v3(0, 0, 0);
+    q.light_size = 0.0;
+    plane_join pj = {ctx, p, x2, beta, L, sink, user};
+    int it = 0;
+    spc_plane_chains_each(&q, p->reflect, plane_join_one, &pj, &it);
+}
+
 /* Is some caster a glass sphere (a sphere whose chains spc_sphere_chains_all enumerates, with a
  * refracting interface: the only sphere with chains longer than two vertices, in, reflections
  * inside, out)? */
@@ -865,6 +988,8 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         join_through(ctx, p, x2, beta, L, 1, p->max_chain, sink, user);
     /* through flat faces (glass slabs), with ltslab */
     join_slab(ctx, p, x2, beta, L, sink, user);
+    /* an area light's through a normal-mapped plane (water), where its own chain ran through one */
+    join_plane(ctx, p, x2, beta, L, sink, user);
     /* through the sphere's longer chains (in, reflections inside, out), on a share of their own;
      * an area light's only where a glass sphere has such chains (elsewhere its stream is not drawn) */
     double ls = long_share(p);
@@ -924,6 +1049,26 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
     return true;
 }
 
+/* The weight a light subpath that arrived at h along d carries past the delta sample bs there: the
+ * sample's own (importance transport), except on a normal-mapped plane, where it is the delta
+ * lobe's throughput as the path tracer's radiance transport has it for the reversed pair (the
+ * camera's side toward bs.wi, the light's behind), times the map's shading factor
+ * (plane_shading_fix), over the lobe's probability. The map's shading normal makes the adjoint
+ * BSDF differ from the importance-mode sample's weight (the cosine factors, the shadowing term),
+ * and the joins must carry the value that specular NEE and BSDF sampling give the same path. The
+ * radiance throughput's eta^2 is the one the join's geometry term from x2 leaves out (a chain's
+ * term through one refraction is the one from x2's medium). */
+static spc_rgb delta_weight(const spc_hit *h, spc_vec3 d, const spc_bsdf_sample *bs)
+{
+    if (!spc_plane_chain_shape(h->shape))
+        return bs->weight;
+    if (!(bs->pdf > 0.0))
+        return spc_rgb1(0.0);
+    spc_rgb T = spc_bsdf_specular_throughput(h->bsdf, h, SPC_MODE_RADIANCE, bs->wi, spc_neg(d));
+    T = spc_rgb_scale(T, plane_shading_fix(h, spc_neg(d), bs->wi));
+    return spc_rgb_scale(T, 1.0 / bs->pdf);
+}
+
 /* Follows ray through the delta scatterings at chain surfaces, at most kmax of them (up to kflat
  * while every one is on a flat-faced caster, spc_flat_chain_shape), multiplying beta by each sampled
  * weight (the importance transport of a light subpath). x: the first other surface;
@@ -951,7 +1096,11 @@ static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rn
                                  spc_v2(spc_rng_next(rng), spc_rng_next(rng)), &bs) ||
             !(bs.lobe & SPC_LOBE_DELTA))
             return -1;
-        *beta = spc_rgb_mul(*beta, bs.weight);
+        /* on a normal-mapped plane, not where either direction turns the map's normal: the
+         * importance sample's frame is then not the one the path tracer's side has there */
+        if (spc_plane_chain_shape(h.shape) && (plane_turns(&h, spc_neg(ray->d)) || plane_turns(&h, bs.wi)))
+            return -1;
+        *beta = spc_rgb_mul(*beta, delta_weight(&h, ray->d, &bs));
         if (spc_rgb_is_black(*beta))
             return -1;
         if (events)
@@ -1129,7 +1278,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
             m = -1;
             continue;
         }
-        beta = spc_rgb_mul(beta, bm.weight);
+        beta = spc_rgb_mul(beta, delta_weight(&h, ray.d, &bm));
         ray = spc_hit_spawn(&h, bm.wi);
     }
 }

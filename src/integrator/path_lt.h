@@ -100,6 +100,18 @@
  * An area light's chain may also be reflections on a mirror cylinder (cylinder_chains.h, enumerated
  * exactly by specular NEE at x2): the floor inside a mirror ring, seen directly.
  *
+ * Or one vertex on a normal-mapped plane (a water surface, plane_chains.h, enumerated exactly at
+ * x2). The camera sees a pool's floor through the water: a subpath's x2 then joins the pinhole
+ * through every one-vertex chain of the plane from x2 toward it (spc_plane_chains_each, the floor's
+ * images in the ripples), on every subpath, the camera's density through it as through the
+ * sphere's chains. At each water vertex (the subpath's and the join's) the value carried is the
+ * radiance transport's throughput times the map's shading factor |w_prev.n| |w_next.N| /
+ * (|w_prev.N| |w_next.n|) (n the map's normal, N the plane's, w_prev toward the light's side): the
+ * refraction about n maps the rays' measure about n, the flux and the chain's geometry count it
+ * about the plane. Not where the map's face-view turn applies from either side of a water vertex
+ * (the camera's, the light's or x2's frame is then not the chain's): those paths are the other
+ * strategies' alone, on both sides of the weights.
+ *
  * A point light's chains through a tessellated glass ball are light tracing's too. Specular NEE
  * finds them by the fitted sphere's seeds and randomized attempts, each counted so that its value
  * is unbiased per chain (1 or the trial count), so any weight that is a function of the path

@@ -156,6 +156,15 @@ static bool cylinders_only(const spc_scene *sc, const spc_chain_casters *cs, con
     return cs->n > 0;
 }
 
+/* Is every caster a normal-mapped plane whose chains plane_chains.h enumerates (a water surface)? */
+static bool water_planes_only(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
+{
+    for (int i = 0; i < cs->n; ++i)
+        if (spc_snee_plan_method(p, sc->shapes[cs->idx[i]]) != SPC_SNEE_METHOD_PLANE)
+            return false;
+    return cs->n > 0;
+}
+
 /* Is every caster a mirror whose chains the flat enumeration takes (a conductor mesh of few planes)? */
 static bool flat_mirrors_only(const spc_scene *sc, const spc_chain_casters *cs)
 {
@@ -1181,6 +1190,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (!strcmp(integrator, "path") && glass && cone && out->open_share < SPC_SNEE_PLAN_ROOM_OPEN) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_ROOM_GLASS_BALL);
+    }
+    /* path over water planes alone under small area lights: the caustic on the floor also by light
+     * tracing through the water (snee_plan.h, SPC_SNEE_PLAN_WATER_LT) */
+    if (!strcmp(integrator, "path") && !strcmp(out->setting, SPC_SNEE_PLAN_SETTING_WATER) &&
+        water_planes_only(sc, cs, &p) && small_area_lights(sc, cs)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_WATER_LT);
     }
     /* path lit by point lights (a sky besides), with a glass sphere among the casters: the point
      * lights' caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_POINT_LIGHTS) */
