@@ -122,9 +122,42 @@ int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p,
     return l > b ? l : b;
 }
 
+/* Is s a mirror ball (a sphere with a smooth conductor)? */
+static bool mirror_ball(const spc_shape *s)
+{
+    return s && s->type == SPC_SHAPE_SPHERE && s->bsdf && s->bsdf->type == SPC_BSDF_CONDUCTOR;
+}
+
+/* Is s a glass caster (a shape with a smooth dielectric)? */
+static bool glass_shape(const spc_shape *s) { return s && s->bsdf && s->bsdf->type == SPC_BSDF_DIELECTRIC; }
+
+/* Is the chain c (from x2 toward an area light) the light off a mirror ball through glass: its last
+ * vertex (the light's side) a reflection off a mirror ball, every other vertex (at least two) on one
+ * glass shape (a glass ball, a cube), no reflection inside the glass unless params.reflect?
+ * Specular NEE finds such chains by its longer chains' randomized attempts alone (more vertices
+ * than the budget), counted by trials with a stand-in psi, and where the mirror's image of the
+ * light is focused by the glass onto a wall both their counts and BSDF sampling's values are large
+ * and rare (bench/RESULTS.md, "The real solve probability for the light off a mirror through
+ * glass"); light tracing's density is high exactly there. Its weights, as the tessellated ball's,
+ * come from spc_snee_receiver_weights on every side and need no exact count. */
+static bool mirror_glass_chain(const spc_snee_params *p, const spc_chain *c)
+{
+    int k = c->n;
+    if (k < 3 || !mirror_ball(c->v[k - 1].h.shape) || c->v[k - 1].event != SPC_CHAIN_REFLECT)
+        return false;
+    const spc_shape *g = c->v[0].h.shape;
+    if (!glass_shape(g))
+        return false;
+    for (int i = 0; i < k - 1; ++i)
+        if (c->v[i].h.shape != g || (!p->reflect && c->v[i].event == SPC_CHAIN_REFLECT))
+            return false;
+    return true;
+}
+
 int spc_path_lt_area_chain_max(const spc_snee_params *p, const spc_chain *c, int kmax, int kflat)
 {
-    return p->exact && spc_flat_chain_faces(c, p->reflect) && kflat > kmax ? kflat : kmax;
+    return ((p->exact && spc_flat_chain_faces(c, p->reflect)) || mirror_glass_chain(p, c)) && kflat > kmax ? kflat
+                                                                                                           : kmax;
 }
 
 /* The cone from the point y toward the casters' bounding sphere: its axis and cosine (cos_max -1:
@@ -466,7 +499,7 @@ static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
         return false;
     if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect) || spc_cylinder_chain_covers(c))
         return p->exact;
-    return mesh_ball_chain(p, c) || sdf_glass_chain(p, c);
+    return mesh_ball_chain(p, c) || sdf_glass_chain(p, c) || mirror_glass_chain(p, c);
 }
 
 /* The share of camera samples that trace an area light's subpath (p->lt_share, else the default). */
@@ -925,15 +958,17 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
 }
 
 /* Follows ray through the delta scatterings at chain surfaces, at most kmax of them (up to kflat
- * while every one is on a flat-faced caster, spc_flat_chain_shape), multiplying beta by each sampled
+ * while every one is on a flat-faced caster, spc_flat_chain_shape; up to kmix while the first is on
+ * a mirror ball and the others on one glass shape, mirror_glass_chain's), multiplying beta by each sampled
  * weight (the importance transport of a light subpath). x: the first other surface;
  * events[i] and verts[i] (each unless NULL): the i-th scattering's event and surface. The number of scatterings, or -1 where the
  * walk ends before such a surface (the ray escapes, kmax is passed, a sample is not a delta lobe, the
  * throughput is black). ray ends as the last segment's. */
-static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rng, int kmax, int kflat,
+static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rng, int kmax, int kflat, int kmix,
                       spc_ray *ray, spc_rgb *beta, unsigned char *events, spc_hit *verts, spc_hit *x)
 {
-    bool flat = kflat > kmax;
+    bool flat = kflat > kmax, mix = kmix > kmax;
+    const spc_shape *glass = NULL; /* the glass after the mirror ball */
     for (int k = 0;; ++k) {
         spc_hit h;
         if (!spc_scene_intersect(sc, ray, &h))
@@ -944,7 +979,13 @@ static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rn
             return k;
         }
         flat = flat && spc_flat_chain_shape(h.shape);
-        if (k >= (flat ? kflat : kmax))
+        if (k == 0)
+            mix = mix && mirror_ball(h.shape);
+        else if (k == 1)
+            mix = mix && glass_shape(glass = h.shape);
+        else
+            mix = mix && h.shape == glass;
+        if (k >= (flat ? kflat : mix ? kmix : kmax))
             return -1;
         spc_bsdf_sample bs;
         if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, spc_neg(ray->d), spc_rng_next(rng),
@@ -1019,7 +1060,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     }
     unsigned char events[SPC_CHAIN_MAX_VERTICES];
     spc_hit x2;
-    int k = delta_walk(sc, p, rng, kmax, kflat, &ray, &beta, events, NULL, &x2);
+    /* an area light's off a mirror ball through glass: up to the same (mirror_glass_chain) */
+    int k = delta_walk(sc, p, rng, kmax, kflat, L.area ? kflat : kmax, &ray, &beta, events, NULL, &x2);
     if (k < 1 || !spc_bsdf_has_smooth(x2.bsdf))
         return;
     spc_vec3 d0 = spc_neg(ray.d);
@@ -1209,7 +1251,8 @@ void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p
 
     /* the delta scatterings at chain surfaces, to the first other surface x */
     spc_hit x, v[SPC_PATH_LT_GUIDE_MAX];
-    int k = delta_walk(sc, p, rng, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, &ray, &beta, NULL, v, &x);
+    int k = delta_walk(sc, p, rng, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, &ray, &beta,
+                       NULL, v, &x);
     /* a light guide's chain (longer than any specular NEE covers), within max_depth's k + 2 segments */
     if (k < spc_path_lt_guide_min_chain(ctx, p) || (ctx->max_depth >= 0 && k + 2 > ctx->max_depth) ||
         !spc_bsdf_has_smooth(x.bsdf))

@@ -100,6 +100,12 @@
  * An area light's chain may also be reflections on a mirror cylinder (cylinder_chains.h, enumerated
  * exactly by specular NEE at x2): the floor inside a mirror ring, seen directly.
  *
+ * Or the light off a mirror ball through one glass shape (a reflection off the ball, then two or
+ * more scatterings in a glass ball or a cube: the demo's red wall, the cube's floor), longer than
+ * the budget: specular NEE finds such chains by its longer chains' randomized attempts only, so the
+ * subpath follows them up to the longest chain the path's track follows (as the flat chains past
+ * the budget), and their weights come from spc_snee_receiver_weights on all three sides.
+ *
  * A point light's chains through a tessellated glass ball are light tracing's too. Specular NEE
  * finds them by the fitted sphere's seeds and randomized attempts, each counted so that its value
  * is unbiased per chain (1 or the trial count), so any weight that is a function of the path
