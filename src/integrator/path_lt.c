@@ -192,6 +192,61 @@ static double cone_pdf(const spc_scene *sc, bool any_surface, spc_vec3 y, spc_ve
     return 1.0 / (2.0 * SPC_PI * (1.0 - cm));
 }
 
+/* The most mirror balls an area light's subpaths aim at. */
+#define MIRROR_AIMS 8
+
+/* The mirror balls among the casters that an area light's subpaths aim a share of their directions
+ * at (SPC_PATH_LT_MIRROR_SHARE): where a glass caster is there too and the subpath follows chains
+ * past the budget (the longer chains' pass on: mirror_glass_chain's joins). At most max to out; 0
+ * elsewhere, where the directions are the casters' cone alone. */
+static int mirror_aims(const spc_scene *sc, const spc_snee_params *p, const spc_shape **out, int max)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, p->any_surface);
+    if (!cs || flat_walk_max(p, SPC_CHAIN_MAX_VERTICES) <= p->max_chain)
+        return 0;
+    int n = 0;
+    bool glass = false;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        glass = glass || glass_shape(s);
+        if (mirror_ball(s) && n < max)
+            out[n++] = s;
+    }
+    return glass ? n : 0;
+}
+
+/* The cosine of the cone from y around the sphere (c, r), its axis in *axis; false with y inside. */
+static bool sphere_cone(spc_vec3 y, spc_vec3 c, double r, spc_vec3 *axis, double *cos_max)
+{
+    spc_vec3 a = spc_sub(c, y);
+    double D = spc_length(a);
+    if (!(D > r))
+        return false;
+    *axis = spc_scale(a, 1.0 / D);
+    *cos_max = sqrt(spc_max(0.0, 1.0 - (r / D) * (r / D)));
+    return true;
+}
+
+/* The direction density of an area light's subpath at y toward w (area_start's): the cone toward
+ * the casters, mixed with the cones toward the mirror balls (mirror_aims) on a share
+ * SPC_PATH_LT_MIRROR_SHARE. */
+static double area_dir_pdf(const spc_scene *sc, const spc_snee_params *p, spc_vec3 y, spc_vec3 w)
+{
+    double pdf = cone_pdf(sc, p->any_surface, y, w);
+    const spc_shape *balls[MIRROR_AIMS];
+    int nb = mirror_aims(sc, p, balls, MIRROR_AIMS);
+    if (nb == 0)
+        return pdf;
+    double pb = 0.0;
+    for (int i = 0; i < nb; ++i) {
+        spc_vec3 axis;
+        double cm;
+        if (sphere_cone(y, balls[i]->center, balls[i]->radius, &axis, &cm) && spc_dot(w, axis) >= cm)
+            pb += 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+    }
+    return (1.0 - SPC_PATH_LT_MIRROR_SHARE) * pdf + SPC_PATH_LT_MIRROR_SHARE * pb / nb;
+}
+
 /* Is every vertex of the chain c on one tessellated glass ball (a triangle mesh with a fitted
  * sphere, fit_seeds.h, dielectric), with c's start x outside it and no reflection unless
  * params.reflect? Specular NEE finds such chains by its randomized attempts and the fitted sphere's
@@ -525,7 +580,7 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
      * against BSDF sampling at x2 toward d0 and the light's cosine (G's part only area measure has) */
     double num = area_share(p) * spc_snee_light_pdf(sc, p->any_surface, e, y, ny) *
-                 cone_pdf(sc, p->any_surface, y, spc_neg(d_last)) * spc_absdot(c->d0, x2->ng);
+                 area_dir_pdf(sc, p, y, spc_neg(d_last)) * spc_absdot(c->d0, x2->ng);
     double den = spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_RADIANCE, wo2, c->d0) * spc_absdot(ny, d_last);
     if (x1) {
         /* the camera's side x1 - x2 against light tracing's x2 - x1, as spc_path_lt_ratio */
@@ -932,6 +987,17 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
     double cm;
     if (!caster_cone(sc, p->any_surface, q.y, &axis, &cm))
         return false;
+    /* a share of the directions toward one mirror ball (where mirror_aims has any), the rest toward
+     * the casters; the density is the mixture's (area_dir_pdf) */
+    const spc_shape *balls[MIRROR_AIMS];
+    int nb = mirror_aims(sc, p, balls, MIRROR_AIMS);
+    if (nb > 0 && spc_rng_next(rng) < SPC_PATH_LT_MIRROR_SHARE) {
+        int i = (int)(spc_rng_next(rng) * nb);
+        if (i >= nb)
+            i = nb - 1;
+        if (!sphere_cone(q.y, balls[i]->center, balls[i]->radius, &axis, &cm))
+            return false;
+    }
     double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
     double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
     spc_frame fa = spc_frame_from_n(axis);
@@ -944,7 +1010,9 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
     spc_rgb Le = spc_snee_light_radiance(e, q.y, q.ny, uv, spc_add(q.y, w0), spc_neg(w0), &nyo);
     if (spc_rgb_is_black(Le))
         return false;
-    double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+    double pdir = nb > 0 ? area_dir_pdf(sc, p, q.y, w0) : 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+    if (!(pdir > 0.0))
+        return false;
     *beta = spc_rgb_scale(Le, cy / (p_y * pdir));
     *y = q.y;
     *ny = q.ny;
@@ -1224,7 +1292,7 @@ double spc_path_lt_guide_ratio(const spc_render_ctx *ctx, const spc_snee_params 
         return 0.0;
     spc_camera_direct cd;
     double num = guide_share(p) * spc_snee_light_pdf(sc, p->any_surface, e, y, ny) *
-                 cone_pdf(sc, p->any_surface, y, spc_neg(d_last)) * spc_absdot(d0, x->ng);
+                 area_dir_pdf(sc, p, y, spc_neg(d_last)) * spc_absdot(d0, x->ng);
     double den = spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0) * spc_absdot(ny, d_last) *
                  camera_density(ctx, p, x, NULL, &cd);
     return ratio_of(num, den);
