@@ -195,9 +195,42 @@ int spc_path_lt_flat_budget(const spc_render_ctx *ctx, const spc_snee_params *p,
     return l > b ? l : b;
 }
 
+/* Is s a mirror ball (a sphere with a smooth conductor)? */
+static bool mirror_ball(const spc_shape *s)
+{
+    return s && s->type == SPC_SHAPE_SPHERE && s->bsdf && s->bsdf->type == SPC_BSDF_CONDUCTOR;
+}
+
+/* Is s a glass caster (a shape with a smooth dielectric)? */
+static bool glass_shape(const spc_shape *s) { return s && s->bsdf && s->bsdf->type == SPC_BSDF_DIELECTRIC; }
+
+/* Is the chain c (from x2 toward an area light) the light off a mirror ball through glass: its last
+ * vertex (the light's side) a reflection off a mirror ball, every other vertex (at least two) on one
+ * glass shape (a glass ball, a cube), no reflection inside the glass unless params.reflect?
+ * Specular NEE finds such chains by its longer chains' randomized attempts alone (more vertices
+ * than the budget), counted by trials with a stand-in psi, and where the mirror's image of the
+ * light is focused by the glass onto a wall both their counts and BSDF sampling's values are large
+ * and rare (bench/RESULTS.md, "The real solve probability for the light off a mirror through
+ * glass"); light tracing's density is high exactly there. Its weights, as the tessellated ball's,
+ * come from spc_snee_receiver_weights on every side and need no exact count. */
+static bool mirror_glass_chain(const spc_snee_params *p, const spc_chain *c)
+{
+    int k = c->n;
+    if (k < 3 || !mirror_ball(c->v[k - 1].h.shape) || c->v[k - 1].event != SPC_CHAIN_REFLECT)
+        return false;
+    const spc_shape *g = c->v[0].h.shape;
+    if (!glass_shape(g))
+        return false;
+    for (int i = 0; i < k - 1; ++i)
+        if (c->v[i].h.shape != g || (!p->reflect && c->v[i].event == SPC_CHAIN_REFLECT))
+            return false;
+    return true;
+}
+
 int spc_path_lt_area_chain_max(const spc_snee_params *p, const spc_chain *c, int kmax, int kflat)
 {
-    return p->exact && spc_flat_chain_faces(c, p->reflect) && kflat > kmax ? kflat : kmax;
+    return ((p->exact && spc_flat_chain_faces(c, p->reflect)) || mirror_glass_chain(p, c)) && kflat > kmax ? kflat
+                                                                                                           : kmax;
 }
 
 /* The cone from the point y toward the casters' bounding sphere: its axis and cosine (cos_max -1:
@@ -230,6 +263,61 @@ static double cone_pdf(const spc_scene *sc, bool any_surface, spc_vec3 y, spc_ve
     if (cm > -1.0 && spc_dot(w, axis) < cm)
         return 0.0;
     return 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+}
+
+/* The most mirror balls an area light's subpaths aim at. */
+#define MIRROR_AIMS 8
+
+/* The mirror balls among the casters that an area light's subpaths aim a share of their directions
+ * at (SPC_PATH_LT_MIRROR_SHARE): where a glass caster is there too and the subpath follows chains
+ * past the budget (the longer chains' pass on: mirror_glass_chain's joins). At most max to out; 0
+ * elsewhere, where the directions are the casters' cone alone. */
+static int mirror_aims(const spc_scene *sc, const spc_snee_params *p, const spc_shape **out, int max)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, p->any_surface);
+    if (!cs || flat_walk_max(p, SPC_CHAIN_MAX_VERTICES) <= p->max_chain)
+        return 0;
+    int n = 0;
+    bool glass = false;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        glass = glass || glass_shape(s);
+        if (mirror_ball(s) && n < max)
+            out[n++] = s;
+    }
+    return glass ? n : 0;
+}
+
+/* The cosine of the cone from y around the sphere (c, r), its axis in *axis; false with y inside. */
+static bool sphere_cone(spc_vec3 y, spc_vec3 c, double r, spc_vec3 *axis, double *cos_max)
+{
+    spc_vec3 a = spc_sub(c, y);
+    double D = spc_length(a);
+    if (!(D > r))
+        return false;
+    *axis = spc_scale(a, 1.0 / D);
+    *cos_max = sqrt(spc_max(0.0, 1.0 - (r / D) * (r / D)));
+    return true;
+}
+
+/* The direction density of an area light's subpath at y toward w (area_start's): the cone toward
+ * the casters, mixed with the cones toward the mirror balls (mirror_aims) on a share
+ * SPC_PATH_LT_MIRROR_SHARE. */
+static double area_dir_pdf(const spc_scene *sc, const spc_snee_params *p, spc_vec3 y, spc_vec3 w)
+{
+    double pdf = cone_pdf(sc, p->any_surface, y, w);
+    const spc_shape *balls[MIRROR_AIMS];
+    int nb = mirror_aims(sc, p, balls, MIRROR_AIMS);
+    if (nb == 0)
+        return pdf;
+    double pb = 0.0;
+    for (int i = 0; i < nb; ++i) {
+        spc_vec3 axis;
+        double cm;
+        if (sphere_cone(y, balls[i]->center, balls[i]->radius, &axis, &cm) && spc_dot(w, axis) >= cm)
+            pb += 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+    }
+    return (1.0 - SPC_PATH_LT_MIRROR_SHARE) * pdf + SPC_PATH_LT_MIRROR_SHARE * pb / nb;
 }
 
 /* Is every vertex of the chain c on one tessellated glass ball (a triangle mesh with a fitted
@@ -546,7 +634,7 @@ static bool area_chain_covers(const spc_snee_params *p, const spc_chain *c)
     if (spc_sphere_chain_covers(c, p->reflect) || spc_flat_chain_faces(c, p->reflect) || spc_cylinder_chain_covers(c) ||
         spc_plane_chain_covers(c, p->reflect))
         return p->exact && !plane_chain_turned(c);
-    return mesh_ball_chain(p, c) || sdf_glass_chain(p, c);
+    return mesh_ball_chain(p, c) || sdf_glass_chain(p, c) || mirror_glass_chain(p, c);
 }
 
 /* The share of camera samples that trace an area light's subpath (p->lt_share, else the default). */
@@ -573,7 +661,7 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
     /* light tracing's y, its direction toward the chain and |dw0/dA(x2)| without the chain's G,
      * against BSDF sampling at x2 toward d0 and the light's cosine (G's part only area measure has) */
     double num = area_share(p) * spc_snee_light_pdf(sc, p->any_surface, e, y, ny) *
-                 cone_pdf(sc, p->any_surface, y, spc_neg(d_last)) * spc_absdot(c->d0, x2->ng);
+                 area_dir_pdf(sc, p, y, spc_neg(d_last)) * spc_absdot(c->d0, x2->ng);
     double den = spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_RADIANCE, wo2, c->d0) * spc_absdot(ny, d_last);
     if (x1) {
         /* the camera's side x1 - x2 against light tracing's x2 - x1, as spc_path_lt_ratio */
@@ -1024,6 +1112,17 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
     double cm;
     if (!caster_cone(sc, p->any_surface, q.y, &axis, &cm))
         return false;
+    /* a share of the directions toward one mirror ball (where mirror_aims has any), the rest toward
+     * the casters; the density is the mixture's (area_dir_pdf) */
+    const spc_shape *balls[MIRROR_AIMS];
+    int nb = mirror_aims(sc, p, balls, MIRROR_AIMS);
+    if (nb > 0 && spc_rng_next(rng) < SPC_PATH_LT_MIRROR_SHARE) {
+        int i = (int)(spc_rng_next(rng) * nb);
+        if (i >= nb)
+            i = nb - 1;
+        if (!sphere_cone(q.y, balls[i]->center, balls[i]->radius, &axis, &cm))
+            return false;
+    }
     double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
     double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
     spc_frame fa = spc_frame_from_n(axis);
@@ -1036,7 +1135,9 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
     spc_rgb Le = spc_snee_light_radiance(e, q.y, q.ny, uv, spc_add(q.y, w0), spc_neg(w0), &nyo);
     if (spc_rgb_is_black(Le))
         return false;
-    double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+    double pdir = nb > 0 ? area_dir_pdf(sc, p, q.y, w0) : 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+    if (!(pdir > 0.0))
+        return false;
     *beta = spc_rgb_scale(Le, cy / (p_y * pdir));
     *y = q.y;
     *ny = q.ny;
@@ -1070,15 +1171,17 @@ static spc_rgb delta_weight(const spc_hit *h, spc_vec3 d, const spc_bsdf_sample 
 }
 
 /* Follows ray through the delta scatterings at chain surfaces, at most kmax of them (up to kflat
- * while every one is on a flat-faced caster, spc_flat_chain_shape), multiplying beta by each sampled
+ * while every one is on a flat-faced caster, spc_flat_chain_shape; up to kmix while the first is on
+ * a mirror ball and the others on one glass shape, mirror_glass_chain's), multiplying beta by each sampled
  * weight (the importance transport of a light subpath). x: the first other surface;
  * events[i] and verts[i] (each unless NULL): the i-th scattering's event and surface. The number of scatterings, or -1 where the
  * walk ends before such a surface (the ray escapes, kmax is passed, a sample is not a delta lobe, the
  * throughput is black). ray ends as the last segment's. */
-static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rng, int kmax, int kflat,
+static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rng, int kmax, int kflat, int kmix,
                       spc_ray *ray, spc_rgb *beta, unsigned char *events, spc_hit *verts, spc_hit *x)
 {
-    bool flat = kflat > kmax;
+    bool flat = kflat > kmax, mix = kmix > kmax;
+    const spc_shape *glass = NULL; /* the glass after the mirror ball */
     for (int k = 0;; ++k) {
         spc_hit h;
         if (!spc_scene_intersect(sc, ray, &h))
@@ -1089,7 +1192,13 @@ static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rn
             return k;
         }
         flat = flat && spc_flat_chain_shape(h.shape);
-        if (k >= (flat ? kflat : kmax))
+        if (k == 0)
+            mix = mix && mirror_ball(h.shape);
+        else if (k == 1)
+            mix = mix && glass_shape(glass = h.shape);
+        else
+            mix = mix && h.shape == glass;
+        if (k >= (flat ? kflat : mix ? kmix : kmax))
             return -1;
         spc_bsdf_sample bs;
         if (!spc_bsdf_sample_dir(h.bsdf, &h, SPC_MODE_IMPORTANCE, spc_neg(ray->d), spc_rng_next(rng),
@@ -1168,7 +1277,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     }
     unsigned char events[SPC_CHAIN_MAX_VERTICES];
     spc_hit x2;
-    int k = delta_walk(sc, p, rng, kmax, kflat, &ray, &beta, events, NULL, &x2);
+    /* an area light's off a mirror ball through glass: up to the same (mirror_glass_chain) */
+    int k = delta_walk(sc, p, rng, kmax, kflat, L.area ? kflat : kmax, &ray, &beta, events, NULL, &x2);
     if (k < 1 || !spc_bsdf_has_smooth(x2.bsdf))
         return;
     spc_vec3 d0 = spc_neg(ray.d);
@@ -1331,7 +1441,7 @@ double spc_path_lt_guide_ratio(const spc_render_ctx *ctx, const spc_snee_params 
         return 0.0;
     spc_camera_direct cd;
     double num = guide_share(p) * spc_snee_light_pdf(sc, p->any_surface, e, y, ny) *
-                 cone_pdf(sc, p->any_surface, y, spc_neg(d_last)) * spc_absdot(d0, x->ng);
+                 area_dir_pdf(sc, p, y, spc_neg(d_last)) * spc_absdot(d0, x->ng);
     double den = spc_bsdf_pdf(x->bsdf, x, SPC_MODE_RADIANCE, wo, d0) * spc_absdot(ny, d_last) *
                  camera_density(ctx, p, x, NULL, &cd);
     return ratio_of(num, den);
@@ -1358,7 +1468,8 @@ void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p
 
     /* the delta scatterings at chain surfaces, to the first other surface x */
     spc_hit x, v[SPC_PATH_LT_GUIDE_MAX];
-    int k = delta_walk(sc, p, rng, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, &ray, &beta, NULL, v, &x);
+    int k = delta_walk(sc, p, rng, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, &ray, &beta,
+                       NULL, v, &x);
     /* a light guide's chain (longer than any specular NEE covers), within max_depth's k + 2 segments */
     if (k < spc_path_lt_guide_min_chain(ctx, p) || (ctx->max_depth >= 0 && k + 2 > ctx->max_depth) ||
         !spc_bsdf_has_smooth(x.bsdf))

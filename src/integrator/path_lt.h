@@ -112,6 +112,12 @@
  * (the camera's, the light's or x2's frame is then not the chain's): those paths are the other
  * strategies' alone, on both sides of the weights.
  *
+ * Or the light off a mirror ball through one glass shape (a reflection off the ball, then two or
+ * more scatterings in a glass ball or a cube: the demo's red wall, the cube's floor), longer than
+ * the budget: specular NEE finds such chains by its longer chains' randomized attempts only, so the
+ * subpath follows them up to the longest chain the path's track follows (as the flat chains past
+ * the budget), and their weights come from spc_snee_receiver_weights on all three sides.
+ *
  * A point light's chains through a tessellated glass ball are light tracing's too. Specular NEE
  * finds them by the fitted sphere's seeds and randomized attempts, each counted so that its value
  * is unbiased per chain (1 or the trial count), so any weight that is a function of the path
@@ -250,6 +256,12 @@ static inline int spc_path_lt_camera_max_chain(const spc_snee_params *p)
  * equal CPU 5.6x lower relMSE than without with S = 1, 6.4x with 0.5, 7.9x with 0.25, 6.8x with 0.1;
  * ball_small_light 2.5x, 2.9x (0.25), 2.8x (0.1)). */
 #define SPC_PATH_LT_AREA_SHARE 0.25
+
+/* The share of an area light's subpaths aimed at a mirror ball (uniform in the cone toward one of
+ * them) where the casters hold a mirror ball and glass and the longer chains' pass is on: the light
+ * off the mirror ball through the glass (the demo's, the cube's) takes 0.8% and 0.015% of the
+ * subpaths aimed at the casters' bounding sphere. The value is the first tried, not tuned. */
+#define SPC_PATH_LT_MIRROR_SHARE 0.5
 
 /* One join of a light subpath to the pinhole: the path's vertices as path_lt.h names them (x1
  * left toward w1 on the light's side, x2 toward w2 on the camera's, the chain c retraced from x2
