@@ -1091,27 +1091,33 @@ static bool has_smooth_sdf_caster(const spc_snee_query *q)
 }
 
 /* The camera's longer chains on a glass SDF (params.cam_long): from the pinhole only, where the
- * real solve probability weighs the randomized attempts' chains. */
+ * real solve probability weighs the randomized attempts' chains, up to SPC_SNEE_CAM_LONG_MAX
+ * vertices: the class is in, one reflection inside the tube, out (the camera rays through those
+ * chains' film positions on scenes/caustic_sdf_torus.xml met the light after 3 vertices, none after
+ * 4: test_cam_long_sdf), and a longer length costs its attempts for fewer such chains. */
+#define SPC_SNEE_CAM_LONG_MAX 4
+
 static bool cam_long_params(const spc_snee_params *p)
 {
-    return p && p->cam_long && p->camera && solve_mis_on(p) && random_long(p);
+    return p && p->cam_long && p->cam_long_p > 0.0 && p->camera && solve_mis_on(p) && random_long(p);
 }
 
 static bool cam_long_on(const spc_snee_query *q)
 {
-    return q->cam && cam_long_params(q->params) && q->max_chain < q->params->cam_long_max &&
+    return q->cam && cam_long_params(q->params) && q->max_chain < SPC_SNEE_CAM_LONG_MAX &&
            q->long_max > q->max_chain && has_smooth_sdf_caster(q);
 }
 
-/* The probability that a camera query's SDF pass looks for chains of k vertices: one length per
- * query, uniform in max_chain + 1 .. cam_long_max (a length past the caller's depth is drawn but not
- * looked for), so that the value does not depend on the depth, which the BSDF side does not know.
- * A function of the query, so both sides of the MIS compute it alike. */
+/* The probability that a camera query's SDF pass looks for chains of k vertices: on a share
+ * cam_long_p of the queries one length, uniform in max_chain + 1 .. SPC_SNEE_CAM_LONG_MAX (a length
+ * past the caller's depth is drawn but not looked for), so that the value does not depend on the
+ * depth, which the BSDF side does not know. A function of the query, so both sides of the MIS
+ * compute it alike. */
 static double cam_long_psi(const spc_snee_query *q, int k)
 {
-    if (!cam_long_on(q) || k <= q->max_chain || k > q->params->cam_long_max || k > q->long_max)
+    if (!cam_long_on(q) || k <= q->max_chain || k > SPC_SNEE_CAM_LONG_MAX || k > q->long_max)
         return 0.0;
-    return 1.0 / (double)(q->params->cam_long_max - q->max_chain);
+    return q->params->cam_long_p / (double)(SPC_SNEE_CAM_LONG_MAX - q->max_chain);
 }
 
 /* Is c, a chain past the budget, one that the real solve probability weighs: the ball pass's
@@ -2193,12 +2199,11 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         }
     }
     /* from the camera, the longer chains on a glass SDF (cam_long_psi), weighed as the ball pass's */
-    if (cam_long_on(q) && solver->solve_one) {
-        double uc = spc_rng_next(rng);
-        int span = p->cam_long_max - q->max_chain;
-        int k = q->max_chain + 1 + (int)(uc * span);
-        if (k > p->cam_long_max)
-            k = p->cam_long_max;
+    double uc = cam_long_on(q) && solver->solve_one ? spc_rng_next(rng) : 1.0;
+    if (uc < p->cam_long_p) {
+        int k = q->max_chain + 1 + (int)(uc / p->cam_long_p * (SPC_SNEE_CAM_LONG_MAX - q->max_chain));
+        if (k > SPC_SNEE_CAM_LONG_MAX)
+            k = SPC_SNEE_CAM_LONG_MAX;
         double psi = cam_long_psi(q, k);
         if (psi > 0.0) {
             spc_snee_params bp = ball_params(p);
@@ -2703,7 +2708,7 @@ int spc_snee_camera_long_max(const spc_snee_params *p, int long_max, int track_l
 {
     if (!cam_long_params(p))
         return track_long_max;
-    int k = long_max < p->cam_long_max ? long_max : p->cam_long_max;
+    int k = long_max < SPC_SNEE_CAM_LONG_MAX ? long_max : SPC_SNEE_CAM_LONG_MAX;
     return k > track_long_max ? k : track_long_max;
 }
 
