@@ -479,6 +479,14 @@
  * glass SDF's caustics by light tracing"). */
 #define SPC_SNEE_PLAN_SDF_LT ",ltcaus"
 
+/* Appended with SPC_SNEE_PLAN_CAMERA_SPLIT: specular NEE from the pinhole also looks for the glass
+ * SDF's chains of 3 and 4 vertices (camlong: in, reflected inside the tube, out), weighed against
+ * the camera ray by their real solve probability: the light seen through the torus after a
+ * reflection inside its tube, a thin image of the light worth hundreds a hit, was the camera ray's
+ * alone (the camera-side split's class C) and held a seed's whole error where one ray met it
+ * (bench/RESULTS.md, "The light seen through the glass torus's tube from the pinhole"). */
+#define SPC_SNEE_PLAN_CAMERA_LONG ",camlong"
+
 /* Appended for path where every caster is a flat mirror (a conductor mesh of few planes,
  * flat_chains.h) and the lights are small area lights: the mirrors' caustics also by light tracing
  * from a point on the light (integrator/path_lt.h), as for glass balls (SPC_SNEE_PLAN_AREA_LIGHTS).
