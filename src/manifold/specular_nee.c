@@ -1104,8 +1104,8 @@ static bool cam_long_params(const spc_snee_params *p)
 
 static bool cam_long_on(const spc_snee_query *q)
 {
-    return q->cam && cam_long_params(q->params) && q->max_chain < SPC_SNEE_CAM_LONG_MAX &&
-           q->long_max > q->max_chain && has_smooth_sdf_caster(q);
+    return q->cam && cam_long_params(q->params) && q->max_chain < SPC_SNEE_CAM_LONG_MAX && q->long_max > q->max_chain &&
+           has_smooth_sdf_caster(q);
 }
 
 /* The probability that a camera query's SDF pass looks for chains of k vertices: on a share
