@@ -444,10 +444,11 @@ TEST(camera_query_from_glass_share)
     spc_snee_plan p;
     spc_snee_plan_make(sc, "path", NULL, &p);
     /* an SDF's chains go to the randomized attempts; guided seeds are not in the plan (snee_plan.h);
-     * under its small light the light guides' chains and its caustics go to light tracing too */
+     * under its small light the light guides' chains and its caustics go to light tracing too, and
+     * the camera's query looks for its longer chains */
     CHECK_MSG(p.on && p.glass_share > 0.05 &&
                   !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES SPC_SNEE_PLAN_CAMERA_SPLIT
-                                         SPC_SNEE_PLAN_CAMERA_RECV SPC_SNEE_PLAN_SDF_LT),
+                                         SPC_SNEE_PLAN_CAMERA_RECV SPC_SNEE_PLAN_SDF_LT SPC_SNEE_PLAN_CAMERA_LONG),
               "SDF ball: share %g, %s", p.glass_share, p.setting);
     spc_snee_params sp;
     CHECK(spc_snee_parse(p.setting, 2, &sp) && sp.seed_guide == 0.0);
@@ -974,8 +975,9 @@ TEST(light_in_housing_plan_off)
  * (bench/RESULTS.md, "Torus: the plan"). Under its small light the light guides' chains go to
  * light tracing too (ltguide), the longer chains' pass is off (nolong, snee_plan.h), and the light
  * seen through the torus from the camera takes the camera-side split (camsplit), whose rays also
- * sample the floor behind the torus once (camrecv), and the torus's caustics go to light tracing
- * too (ltcaus). */
+ * sample the floor behind the torus once (camrecv), the torus's caustics go to light tracing
+ * too (ltcaus), and specular NEE from the pinhole looks for its chains of 3 and 4 vertices too,
+ * on a quarter of its queries (camlong=0.25). */
 TEST(sdf_torus_plan)
 {
     spc_scene *sc = load_at("scenes/caustic_sdf_torus.xml", "8");
@@ -985,7 +987,7 @@ TEST(sdf_torus_plan)
     spc_snee_plan_make(sc, sc->integrator.type, sc->integrator.specular_nee, &p);
     CHECK_MSG(p.on && p.automatic &&
                   !strcmp(p.setting, SPC_SNEE_PLAN_SETTING SPC_SNEE_PLAN_LIGHT_GUIDES SPC_SNEE_PLAN_CAMERA_SPLIT
-                                         SPC_SNEE_PLAN_CAMERA_RECV SPC_SNEE_PLAN_SDF_LT) &&
+                                         SPC_SNEE_PLAN_CAMERA_RECV SPC_SNEE_PLAN_SDF_LT SPC_SNEE_PLAN_CAMERA_LONG) &&
                   p.casters == 1 && p.receivers == 2 && p.light_sr > 0.0 && p.light_sr < 0.03,
               "caustic_sdf_torus: %s (%s, %g sr)", p.setting, p.reason, p.light_sr);
     spc_snee_params sp;
@@ -998,6 +1000,8 @@ TEST(sdf_torus_plan)
     CHECK(sp.cam_split_recv);
     /* the torus's caustics of the light by light tracing too */
     CHECK(sp.lt_caustic);
+    /* the light seen through the torus after reflections inside its tube from the pinhole too */
+    CHECK(sp.cam_long && sp.cam_long_p == 0.25);
     int sdf = 0;
     for (int i = 0; i < sc->nshapes; ++i)
         if (sc->shapes[i]->type == SPC_SHAPE_SDF) {

@@ -207,6 +207,7 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
         if (in_window(ctx, sp[i].fx, sp[i].fy))
             spc_splat_add(ctx, tls, sp[i].fx, sp[i].fy, sp[i].value);
     spc_snee_track_begin(&s->track, &s->p, budget, long_budget);
+    s->track.long_max = spc_snee_camera_long_max(&s->p, long_budget, s->track.long_max);
     s->cam_track = true;
 }
 
@@ -224,6 +225,7 @@ void spc_path_snee_begin_view(spc_path_snee *s, const spc_render_ctx *ctx, const
     if (!camera_budgets(s, ctx, &budget, &long_budget))
         return;
     spc_snee_track_begin(&s->track, &s->p, budget, long_budget);
+    s->track.long_max = spc_snee_camera_long_max(&s->p, long_budget, s->track.long_max);
     s->cam_track = true;
 }
 

@@ -102,6 +102,11 @@ static const spc_snee_option options[] = {
      "behind the glass once and count the light they reach from it through further reflections and "
      "refractions, on paths of at least L reflections and refractions in all (a light guide, or a caustic "
      "seen through a light guide; default L 5); that part is their mean with the camera ray's too"},
+    {"camlong", "nocamlong", SPC_SNEE_OPT_REAL, true, "Q", 0, 1, true, false, NULL, 0, AT(cam_long), AT(cam_long_p), 0,
+     NULL,
+     "with camera: from the pinhole also the chains of 3 and 4 vertices on a glass SDF (the light seen "
+     "through a torus after reflections inside its tube), one randomized attempt on a share Q of the "
+     "queries (default 1), weighed against the camera ray by their real solve probability"},
     {"ltslab", "noltslab", SPC_SNEE_OPT_COUNT, true, "K", 1, SPC_FLAT_MAX_VERTICES, false, false, NULL, 0, AT(lt_slab),
      AT(lt_slab_max), 0, NULL,
      "path, with ltcaus: a light subpath also joins the pinhole through the chains of 1-K flat faces "

@@ -1231,13 +1231,15 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
      * light seen through it and the light guides and caustics seen behind it by the camera-side
      * split, and its caustics by light tracing too (snee_plan.h, SPC_SNEE_PLAN_LIGHT_GUIDES,
      * SPC_SNEE_PLAN_CAMERA_SPLIT, SPC_SNEE_PLAN_CAMERA_RECV, SPC_SNEE_PLAN_SDF_LT; ltcaus where no
-     * other rule added it) */
+     * other rule added it), and the light seen through it after reflections inside it by specular NEE
+     * from the pinhole too (SPC_SNEE_PLAN_CAMERA_LONG) */
     if (!strcmp(integrator, "path") && glass && !strstr(out->setting, "recguide") && glass_sdf(sc, cs) &&
         small_area_lights(sc, cs)) {
         bool lt = strstr(out->setting, "ltcaus") != NULL;
         size_t n = strlen(out->setting);
-        snprintf(out->setting + n, sizeof out->setting - n, "%s%s%s%s", SPC_SNEE_PLAN_LIGHT_GUIDES,
-                 SPC_SNEE_PLAN_CAMERA_SPLIT, SPC_SNEE_PLAN_CAMERA_RECV, lt ? "" : SPC_SNEE_PLAN_SDF_LT);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s%s%s%s%s", SPC_SNEE_PLAN_LIGHT_GUIDES,
+                 SPC_SNEE_PLAN_CAMERA_SPLIT, SPC_SNEE_PLAN_CAMERA_RECV, lt ? "" : SPC_SNEE_PLAN_SDF_LT,
+                 SPC_SNEE_PLAN_CAMERA_LONG);
     }
     /* path where every caster is a flat mirror (flat_chains.h) and the lights are small area lights:
      * the mirrors' caustics also by light tracing (snee_plan.h, SPC_SNEE_PLAN_FLAT_MIRRORS_LT) */

@@ -479,6 +479,18 @@
  * glass SDF's caustics by light tracing"). */
 #define SPC_SNEE_PLAN_SDF_LT ",ltcaus"
 
+/* Appended with SPC_SNEE_PLAN_CAMERA_SPLIT: specular NEE from the pinhole also looks for the glass
+ * SDF's chains of 3 and 4 vertices (camlong: in, reflected inside the tube, out) on a quarter of its
+ * queries, weighed against the camera ray by their real solve probability: the light seen through
+ * the torus after a reflection inside its tube, a thin image of the light worth hundreds a hit, was
+ * the camera ray's alone (the camera-side split's class C) and held a seed's whole error where one
+ * ray met it. On every query the pass cost 23% of the CPU a sample, on a quarter too little to
+ * measure; at equal CPU scenes/caustic_sdf_torus.xml's mean relMSE over 24 fresh seeds fell
+ * 0.0171 -> 0.0132 (every query: 0.0170), over 9851-9874 it was 0.0315 (every query: 0.0354), and
+ * on a fresh torus 0.0591 against main's 0.0626 (every query: 0.0566) (bench/RESULTS.md, "The light
+ * seen through the glass torus's tube from the pinhole"). */
+#define SPC_SNEE_PLAN_CAMERA_LONG ",camlong=0.25"
+
 /* Appended for path where every caster is a flat mirror (a conductor mesh of few planes,
  * flat_chains.h) and the lights are small area lights: the mirrors' caustics also by light tracing
  * from a point on the light (integrator/path_lt.h), as for glass balls (SPC_SNEE_PLAN_AREA_LIGHTS).

@@ -320,6 +320,15 @@ typedef struct spc_snee_params {
      * sample is their mean with the camera path's too (path_camsplit.h, class D). */
     bool cam_split_recv;
     int cam_split_recv_min; /* class D's paths: at least this many delta vertices in all */
+    /* Specular NEE from the pinhole (params.camera) also looks for the chains of max_chain + 1 to
+     * 4 vertices on a glass SDF without creases (the user's "camlong[=Q]"): on a share cam_long_p
+     * of the queries one randomized attempt at a length drawn uniformly among those, its events a light
+     * guide's (in, reflected at every inner vertex, out) on most attempts, weighed against the
+     * camera ray by the chain's real solve probability (solve_mis.h), as the ball pass weighs a
+     * tessellated ball's longer chains. The light seen through a glass torus after reflections
+     * inside its tube (path_camsplit.h's class C) is otherwise the camera ray's alone. */
+    bool cam_long;
+    double cam_long_p;
     /* With lt_caustic (the user's "ltslab[=K]"; integrator/path_lt.h): a point light's subpath at the
      * path's first receiver x2 also joins the pinhole through every chain of 1 to lt_slab_max
      * vertices through flat faces (glass slabs: spc_flat_chains_all's chains from x2 toward the

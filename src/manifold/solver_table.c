@@ -54,6 +54,9 @@
  * is smooth over a pixel, and the camera ray's stratified samples estimate it better than the
  * extra rays' independent ones; the rare paths are longer (light guides on either side). */
 #define SPC_SNEE_CAM_SPLIT_RECV_MIN 5
+/* camlong without a value: the share of the queries from the pinhole that look for a glass SDF's
+ * longer chains (spc_snee_params.cam_long). */
+#define SPC_SNEE_CAM_LONG_P 1.0
 /* params.flat5_p and flat6_p's defaults: the shares of the calls that enumerate the 5- and 6-vertex
  * chains through flat faces. 0: those paths are left to BSDF sampling (MIS weight 1). At equal CPU
  * (16 seeds, 32x32, 1.5 s) the small-light slabs' mean relMSE fell 2.9x and two slabs under a sphere
@@ -142,6 +145,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     p->lt_slab_max = SPC_SNEE_LT_SLAB_MAX;
     p->cam_split_rays = SPC_SNEE_CAM_SPLIT_RAYS;
     p->cam_split_recv_min = SPC_SNEE_CAM_SPLIT_RECV_MIN;
+    p->cam_long_p = SPC_SNEE_CAM_LONG_P;
     p->long_max = 0;
     p->long_events_p = 0.0;
     p->flat5_p = SPC_SNEE_FLAT5_P;

@@ -1080,6 +1080,53 @@ static double ball_long_psi(const spc_snee_query *q, int k)
     return SPC_BALL_LONG_P / (double)(SPC_SNEE_LONG_MAX - q->max_chain);
 }
 
+/* Does one of q's casters lie on a glass SDF without creases (smooth_sdf)? */
+static bool has_smooth_sdf_caster(const spc_snee_query *q)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    for (int j = 0; cs && j < cs->n; ++j)
+        if (smooth_sdf(q->scene->shapes[cs->idx[j]]))
+            return true;
+    return false;
+}
+
+/* The camera's longer chains on a glass SDF (params.cam_long): from the pinhole only, where the
+ * real solve probability weighs the randomized attempts' chains, up to SPC_SNEE_CAM_LONG_MAX
+ * vertices: the class is in, one reflection inside the tube, out (the camera rays through those
+ * chains' film positions on scenes/caustic_sdf_torus.xml met the light after 3 vertices, none after
+ * 4: test_cam_long_sdf), and a longer length costs its attempts for fewer such chains. */
+#define SPC_SNEE_CAM_LONG_MAX 4
+
+static bool cam_long_params(const spc_snee_params *p)
+{
+    return p && p->cam_long && p->cam_long_p > 0.0 && p->camera && solve_mis_on(p) && random_long(p);
+}
+
+static bool cam_long_on(const spc_snee_query *q)
+{
+    return q->cam && cam_long_params(q->params) && q->max_chain < SPC_SNEE_CAM_LONG_MAX && q->long_max > q->max_chain &&
+           has_smooth_sdf_caster(q);
+}
+
+/* The probability that a camera query's SDF pass looks for chains of k vertices: on a share
+ * cam_long_p of the queries one length, uniform in max_chain + 1 .. SPC_SNEE_CAM_LONG_MAX (a length
+ * past the caller's depth is drawn but not looked for), so that the value does not depend on the
+ * depth, which the BSDF side does not know. A function of the query, so both sides of the MIS
+ * compute it alike. */
+static double cam_long_psi(const spc_snee_query *q, int k)
+{
+    if (!cam_long_on(q) || k <= q->max_chain || k > SPC_SNEE_CAM_LONG_MAX || k > q->long_max)
+        return 0.0;
+    return q->params->cam_long_p / (double)(SPC_SNEE_CAM_LONG_MAX - q->max_chain);
+}
+
+/* Is c, a chain past the budget, one that the real solve probability weighs: the ball pass's
+ * (solve_mis_chain) or, from the camera, one on glass SDFs without creases (params.cam_long)? */
+static bool long_solve_mis_chain(const spc_snee_query *q, const spc_chain *c)
+{
+    return solve_mis_chain(q->params, c) || (q->cam && cam_long_params(q->params) && smooth_sdf_chain(c));
+}
+
 /* The grazing seeds of a tessellated ball: where the light point y lies just behind the fitted
  * sphere's rim as seen from x, a ray that meets a facet at a grazing angle below the facet's tilt
  * against its interpolated normals is reflected under the facet plane, meets the next facet and is
@@ -1409,10 +1456,12 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
         lq.min_chain = lq.max_chain = c->n;
         if (p->exact && spc_snee_exact_covers_all(&lq))
             return 0.0; /* the long pass makes no randomized attempt there (estimate), and c is not exact */
-        if (solve_mis_chain(p, c)) { /* the ball pass's, or the rim's counted exactly (graze_long) */
-            if (long_on(q) && c->n <= q->long_max && graze_long_has(q, spc_specular_solver_get(p->solver), c))
+        if (long_solve_mis_chain(q, c)) { /* the ball pass's, or the rim's counted exactly (graze_long) */
+            bool on_ball = solve_mis_chain(p, c);
+            if (on_ball && long_on(q) && c->n <= q->long_max &&
+                graze_long_has(q, spc_specular_solver_get(p->solver), c))
                 return SPC_GRAZE_LONG_P;
-            *rand_s = ball_long_psi(q, c->n);
+            *rand_s = on_ball ? ball_long_psi(q, c->n) : cam_long_psi(q, c->n);
             return *rand_s * long_attempt_psi(q, c);
         }
         if (long_flat_left(q, c))
@@ -2026,7 +2075,7 @@ static void random_long_estimate(const spc_snee_query *lq, const spc_specular_so
         st->iterations += (uint64_t)it;
     if (!ok || sol.n != lq->max_chain || exact_covers(lq, solver, &sol) || (!ball && long_flat_left(lq, &sol)))
         return;
-    if (solve_mis_chain(lq->params, &sol) != ball)
+    if (long_solve_mis_chain(lq, &sol) != ball)
         return; /* the other pass's chain */
     if (ball && graze_long_has(lq, solver, &sol))
         return; /* counted exactly (graze_long) */
@@ -2147,6 +2196,22 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
             lq.psi = psi;
             if (!(p->exact && spc_snee_exact_covers_all(&lq)))
                 random_long_estimate(&lq, solver, e, uv, p_y * psi, true, rng, st, sk);
+        }
+    }
+    /* from the camera, the longer chains on a glass SDF (cam_long_psi), weighed as the ball pass's */
+    double uc = cam_long_on(q) && solver->solve_one ? spc_rng_next(rng) : 1.0;
+    if (uc < p->cam_long_p) {
+        int k = q->max_chain + 1 + (int)(uc / p->cam_long_p * (SPC_SNEE_CAM_LONG_MAX - q->max_chain));
+        if (k > SPC_SNEE_CAM_LONG_MAX)
+            k = SPC_SNEE_CAM_LONG_MAX;
+        double psi = cam_long_psi(q, k);
+        if (psi > 0.0) {
+            spc_snee_params bp = ball_params(p);
+            spc_snee_query lq = *q;
+            lq.params = &bp;
+            lq.min_chain = lq.max_chain = k;
+            lq.psi = psi;
+            random_long_estimate(&lq, solver, e, uv, p_y * psi, true, rng, st, sk);
         }
     }
     /* the rim's chains of reflections past the budget, counted exactly on a share of the calls
@@ -2637,6 +2702,14 @@ int spc_snee_track_long_max(const spc_snee_params *p, int long_max)
     if (!((p->exact || random_long(p)) && p->mis && p->long_p > 0.0))
         return 0;
     return long_max < long_top(p) ? long_max : long_top(p);
+}
+
+int spc_snee_camera_long_max(const spc_snee_params *p, int long_max, int track_long_max)
+{
+    if (!cam_long_params(p))
+        return track_long_max;
+    int k = long_max < SPC_SNEE_CAM_LONG_MAX ? long_max : SPC_SNEE_CAM_LONG_MAX;
+    return k > track_long_max ? k : track_long_max;
 }
 
 bool spc_snee_track_covers_light(const spc_snee_track *t, const spc_snee_params *p, const spc_scene *sc,

@@ -152,6 +152,11 @@ typedef struct spc_snee_splat {
 int spc_snee_camera(const spc_scene *sc, const spc_snee_params *p, const struct spc_camera_state *cam,
                     double cam_scale, int max_chain, int long_max, spc_rng *rng, spc_snee_stats *st,
                     spc_snee_splat *out, int max_out);
+/* The longest chain the track from the pinhole follows (spc_snee_track.long_max), where the track
+ * would follow track_long_max: with params.cam_long the camera query's longer chains on a glass
+ * SDF too, within the depth's long_max. */
+int spc_snee_camera_long_max(const spc_snee_params *p, int long_max, int track_long_max);
+
 /* The MIS weight of a camera ray along d0 that reached the area emitter at the hit `light` through
  * k chain vertices with these events (params.camera and mis; the path integrator's track from the
  * camera), against spc_snee_camera's light sample: 0 if the retrace from the pinhole does not
