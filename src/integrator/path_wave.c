@@ -274,7 +274,14 @@ static bool wave_lockstep(const spc_render_ctx *ctx) { return ctx->max_depth > 0
  * with 128, 37 with 64). Extension rays stay in Embree's incoherent traversal: its coherent one
  * breaks ties between coincident surfaces (scenes/mask_null.xml) in another order than single rays,
  * so the images would no longer be path.c's. The per-lane arrays take about 1.1 KB a lane, 290 KB
- * of the thread's stack. */
+ * of the thread's stack. Fewer lanes, for records that fit a smaller cache, cost more than they
+ * save: on an AVX2 host with 32 KiB of L1 data cache and 512 KiB of L2 a core, 128 and 64 lanes
+ * took the cornell box's instructions +2.2% and +4.9% (each step's fixed work over fewer lanes,
+ * emptier octant packets) and left its modelled L1 misses where they were (the records, 95 and
+ * 48 KB, still pass through the L1 at every stage); paired CPU time, one thread, 128 / 64 / 32
+ * lanes: the cornell box +2.6% / +11% / +14% (an A/A copy +1.4%), veach-mis +12% with 32 lanes
+ * (128 and 64 within an A/A copy's +8%; bench/RESULTS.md, "the wave's width"). The width changes
+ * no image: each lane's estimate is path.c's. */
 enum { WAVE_MAX = 256 };
 
 /* Packets of at most this many rays are traced as single rays (the same hits and answers, scene.h).
