@@ -783,8 +783,8 @@ TEST(vertex_bound_same_roots)
         spc_scene *sc = floor_scene();
         spc_vec3 light = spc_v3(0.4 * rnd() - 0.2, 0.4 * rnd() - 0.2, 3.2);
         if (t == 6) { /* newton_slabs: slabs 5 wide and 0.16 thick at 0.55 and 0.9 under a light at 2.2 */
-            spc_mat4 A = place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.55));
-            spc_mat4 B = place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.9));
+            spc_mat4 A = tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.55));
+            spc_mat4 B = tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.9));
             add_cube(sc, &A, tu_glass(sc, 1.5));
             add_cube(sc, &B, tu_glass(sc, 1.5));
             light = spc_v3(0.3, 0.2, 2.2);
@@ -795,7 +795,7 @@ TEST(vertex_bound_same_roots)
                     spc_v3(0.3 + 0.5 * rnd(), 0.3 + 0.5 * rnd(), rnd() < 0.6 ? 0.03 + 0.05 * rnd() : 0.2 + 0.3 * rnd());
                 spc_vec3 axis = spc_v3(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
                 spc_vec3 at = spc_v3(1.6 * rnd() - 0.8, 1.6 * rnd() - 0.8, 0.6 + 0.5 * i + 0.3 * rnd());
-                spc_mat4 M = place(scale, axis, 60.0 * rnd() - 30.0, at);
+                spc_mat4 M = tu_place(scale, axis, 60.0 * rnd() - 30.0, at);
                 if (i == n - 1 && t % 2)
                     add_prism(sc, &M, tu_glass(sc, 1.4 + 0.2 * rnd()));
                 else
@@ -804,7 +804,7 @@ TEST(vertex_bound_same_roots)
             if (t == 5) { /* an upright one-sided mirror facing the glass */
                 spc_shape *m = spc_scene_new_shape(sc);
                 spc_error err;
-                spc_mat4 M = place(spc_v3(1.0, 1.0, 1.0), spc_v3(0, 1, 0), -80.0, spc_v3(1.8, 0.0, 1.2));
+                spc_mat4 M = tu_place(spc_v3(1.0, 1.0, 1.0), spc_v3(0, 1, 0), -80.0, spc_v3(1.8, 0.0, 1.2));
                 spc_shape_init_rectangle(m, &M, NULL, 0, 0, &err);
                 m->bsdf = tu_mirror(sc);
             }
