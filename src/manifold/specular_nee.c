@@ -590,6 +590,38 @@ static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *sol
     return exact_shape_covers(q, c);
 }
 
+/* Are the casters cs one sphere (sphere_chains.h, x outside it) and flat mirrors (unfold_chains.h)
+ * alone, with q's chains of at most two vertices and the unfolded enumeration on? Then every such
+ * chain is on the sphere, on the mirrors, or a sphere's vertex and a mirror's (a glass ball's T T
+ * and a mirror take three): all enumerated, provided x lies outside the sphere's image in each
+ * mirror plane (unfold_chains.h's condition for the mirror-first order). */
+static bool unfold_covers_all(const spc_snee_query *q, const spc_chain_casters *cs)
+{
+    if (q->max_chain > 2 || unfold_max(q) < q->max_chain)
+        return false;
+    const spc_shape *ball = NULL;
+    for (int j = 0; j < cs->n; ++j) {
+        const spc_shape *s = q->scene->shapes[cs->idx[j]];
+        if (spc_unfold_mirror_shape(s))
+            continue;
+        if (ball || !spc_sphere_chain_usable(s, q->x->p))
+            return false;
+        ball = s;
+    }
+    for (int j = 0; ball && j < cs->n; ++j) {
+        const spc_shape *s = q->scene->shapes[cs->idx[j]];
+        spc_vec3 nm[SPC_FLAT_MAX_FACES];
+        double dm[SPC_FLAT_MAX_FACES];
+        int np = s == ball ? 0 : spc_flat_shape_planes(s, nm, dm, SPC_FLAT_MAX_FACES);
+        for (int f = 0; f < np; ++f) {
+            spc_vec3 c = spc_unfold_mirror_point(ball->center, nm[f], dm[f]);
+            if (!(spc_distance(q->x->p, c) > ball->radius * (1.0 + 1e-6)))
+                return false;
+        }
+    }
+    return ball != NULL;
+}
+
 bool spc_snee_exact_covers_all(const spc_snee_query *q)
 {
     const spc_scene *sc = q->scene;
@@ -618,7 +650,8 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
         ++count;
     }
     /* two such shapes: chains through both are the randomized solver's, unless none is short enough */
-    return count <= 1 || (!flat && spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain));
+    return count <= 1 || (!flat && spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain)) ||
+           unfold_covers_all(q, cs);
 }
 
 /* The biased estimator: the distinct solutions of biased_seeds attempts, each counted once. */
