@@ -165,7 +165,8 @@ static void run_scene(spc_scene *sc, const char *label, int points, int min_dist
     tally t;
     memset(&t, 0, sizeof t);
     for (int i = 0; i < points; ++i)
-        compare_at(sc, &p, spc_v3(cx + h * (2.0 * rnd() - 1.0), cy + h * (2.0 * rnd() - 1.0), 5.0), 100 + (uint64_t)i, &t);
+        compare_at(sc, &p, spc_v3(cx + h * (2.0 * rnd() - 1.0), cy + h * (2.0 * rnd() - 1.0), 5.0), 100 + (uint64_t)i,
+                   &t);
     printf("  %s: %d points, %d chains enumerated (ball first %d, mirror first %d), %d distinct randomized, %d "
            "missing; law of reflection to %.3g, the mirror's plane to %.3g\n",
            label, t.points, t.enumerated, t.ball_first, t.mirror_first, t.random_distinct, t.random_missing,

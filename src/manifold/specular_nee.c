@@ -413,8 +413,7 @@ static bool exact_shape_covers(const spc_snee_query *q, const spc_chain *c)
     const spc_snee_params *p = q->params;
     return p && p->exact &&
            (spc_sphere_chain_covers(c, p->reflect) || spc_cylinder_chain_covers(c) ||
-            spc_flat_chain_covers(c, p->reflect) ||
-            (c->n <= unfold_max(q) && spc_unfold_chain_covers(c, p->reflect)) ||
+            spc_flat_chain_covers(c, p->reflect) || (c->n <= unfold_max(q) && spc_unfold_chain_covers(c, p->reflect)) ||
             (!q->cam && spc_plane_chain_covers(c, p->reflect)));
 }
 

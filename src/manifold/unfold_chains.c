@@ -74,8 +74,7 @@ bool spc_unfold_chain_covers(const spc_chain *c, bool reflect)
 /* The chains of one order through the sphere s and the mirror's plane (nm, dm): mirror_first puts
  * the mirror's vertex first. Appends to out[*n ..]. */
 static void order_chains(const spc_snee_query *q, const spc_shape *s, const spc_shape *mirror, spc_vec3 nm, double dm,
-                         bool mirror_first, int kmin, int kmax, spc_chain *out, int *n, int max_out,
-                         int *iterations)
+                         bool mirror_first, int kmin, int kmax, spc_chain *out, int *n, int max_out, int *iterations)
 {
     spc_vec3 x = q->x->p;
     double R = s->radius;
