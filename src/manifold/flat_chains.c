@@ -538,6 +538,17 @@ bool spc_flat_chain_closed(const spc_shape *s)
     return fc && fc->convex;
 }
 
+int spc_flat_shape_planes(const spc_shape *s, spc_vec3 *n, double *d, int max)
+{
+    const flat_cache *fc = flat_get(s);
+    int k = 0;
+    for (int i = 0; fc && i < fc->nfaces && k < max; ++i, ++k) {
+        n[k] = fc->face[i].n;
+        d[k] = fc->face[i].d;
+    }
+    return k;
+}
+
 /* eta = int_ior / ext_ior of a dielectric, 0 for a conductor. */
 static double shape_eta(const spc_shape *s)
 {

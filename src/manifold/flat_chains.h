@@ -81,6 +81,10 @@ struct spc_snee_query;
 bool spc_flat_chain_shape(const spc_shape *s);
 /* Is s such a shape, closed and convex (a slab: a cube's mesh, not an open pane)? */
 bool spc_flat_chain_closed(const spc_shape *s);
+/* The planes of such a shape's faces: unit normal n[i] toward the exterior and offset d[i] (n . p for
+ * p on the plane), at most max (SPC_FLAT_MAX_FACES holds all); returns their number, 0 where s is not
+ * such a shape. */
+int spc_flat_shape_planes(const spc_shape *s, spc_vec3 *n, double *d, int max);
 /* Is c one of the chains spc_flat_chains_all enumerates (1 to SPC_FLAT_MAX_VERTICES vertices, all
  * on such shapes, the events above, each segment's medium agreed on by its two ends; reflect as
  * spc_snee_params.reflect)? */

@@ -153,6 +153,9 @@ static const spc_snee_option options[] = {
     {"exact", "noexact", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(exact), NO, 0, NULL,
      "chains on one sphere, one mirror cylinder or one normal-mapped plane enumerated exactly, not left to "
      "the randomized attempts"},
+    {"unfold", "nounfold", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(unfold), NO, 0, NULL,
+     "with exact: chains through one sphere and one flat mirror (a ball's R or T T and the mirror's R) enumerated "
+     "exactly on the sphere's mirror images (on by default)"},
     {"long", "nolong", SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(long_p), 0, NULL,
      "with probability P per light sample, one longer chain length (up to 6 vertices) is looked for too"},
     {"longmax", NULL, SPC_SNEE_OPT_COUNT, false, "K", 3, SPC_CHAIN_MAX_VERTICES, false, false, NULL, 0, NO,

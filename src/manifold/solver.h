@@ -153,6 +153,10 @@ typedef struct spc_snee_params {
      * normal-mapped plane (rippled water or mirror; plane_chains.h), except from the camera. The
      * user's "exact" (the default for every solver) / "noexact". */
     bool exact;
+    /* With exact, the chains through one sphere and one flat mirror (unfold_chains.h) enumerated on
+     * the sphere's mirror images and counted with psi = 1, the randomized attempts skipping them
+     * (the user's "unfold", the default, / "nounfold"). */
+    bool unfold;
     /* Longer chains (the user's "long=P" / "nolong"): at each call, with probability long_p, one
      * more length k, uniform in max_chain + 1 .. 6 vertices (within the caller's depth), is looked
      * for too and counted with 1 / psi, psi = long_p / (6 - max_chain): on one sphere every chain of

@@ -138,6 +138,7 @@ void spc_snee_params_default(spc_snee_params *p, int solver, int max_chain)
     }
     p->straight_first = solver == SPC_SNEE_ANGULAR;
     p->exact = true;
+    p->unfold = true;
     p->mis_events = false;
     p->long_p = SPC_SNEE_LONG_P;
     p->lt_guide_share = SPC_SNEE_LT_GUIDE_SHARE;

@@ -30,6 +30,7 @@
 #include "scene/sdf.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/sphere_chains.h"
+#include "manifold/unfold_chains.h"
 
 /* Distinct solutions the biased estimator keeps per light sample (more are dropped: bias). */
 #define SPC_SNEE_BIASED_MAX_SOLUTIONS 8
@@ -400,16 +401,20 @@ static spc_rgb counted_chain_value(const spc_snee_query *q, const spc_emitter *e
     return v;
 }
 
-/* Is c a chain on one sphere, one mirror cylinder, through flat faces or (not from the camera) one
- * normal-mapped plane that params.exact enumerates for q? From the camera a rippled surface's glints are dozens of
- * images of the light (35 on the pool's water: the enumeration costs five path samples there), so
- * the randomized attempts keep them. */
+static int unfold_max(const spc_snee_query *q);
+
+/* Is c a chain on one sphere, one mirror cylinder, through flat faces, through one sphere and one
+ * flat mirror (up to unfold_max) or (not from the camera) one normal-mapped plane that params.exact
+ * enumerates for q? From the camera a rippled surface's glints are dozens of images of the light (35
+ * on the pool's water: the enumeration costs five path samples there), so the randomized attempts
+ * keep them. */
 static bool exact_shape_covers(const spc_snee_query *q, const spc_chain *c)
 {
     const spc_snee_params *p = q->params;
     return p && p->exact &&
            (spc_sphere_chain_covers(c, p->reflect) || spc_cylinder_chain_covers(c) ||
-            spc_flat_chain_covers(c, p->reflect) || (!q->cam && spc_plane_chain_covers(c, p->reflect)));
+            spc_flat_chain_covers(c, p->reflect) || (c->n <= unfold_max(q) && spc_unfold_chain_covers(c, p->reflect)) ||
+            (!q->cam && spc_plane_chain_covers(c, p->reflect)));
 }
 
 /* Does specular NEE add the longer chains (params.long_p) at this query? */
@@ -473,6 +478,32 @@ static int flat_max(const spc_snee_query *q)
     if (long_on(q) && hi < SPC_FLAT_EVERY_CALL && q->params->flat34_p >= 1.0)
         hi = q->long_max < SPC_FLAT_EVERY_CALL ? q->long_max : SPC_FLAT_EVERY_CALL;
     return hi;
+}
+
+/* The longest chain through one sphere and one flat mirror (unfold_chains.h) enumerated, at every
+ * call: the budget, and where the longer chains run (the path's track then follows covered paths
+ * past the budget) up to SPC_UNFOLD_MAX_VERTICES, a glass ball's T T and the mirror's R. Left to
+ * the long pass's randomized attempts, that 3-vertex chain's trial counts and 1 / psi made the
+ * one-pixel seeds of a glass ball beside a flat mirror (bench/RESULTS.md, part mirrorball34). */
+static int unfold_max(const spc_snee_query *q)
+{
+    if (!q->params || !q->params->unfold)
+        return 0;
+    int hi = long_on(q) && q->long_max > q->max_chain ? q->long_max : q->max_chain;
+    return hi < SPC_UNFOLD_MAX_VERTICES ? hi : SPC_UNFOLD_MAX_VERTICES;
+}
+
+/* Is one of q's casters a sphere and another a flat mirror (unfold_chains.h)? */
+static bool has_unfold_casters(const spc_snee_query *q)
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    bool sphere = false, mirror = false;
+    for (int j = 0; cs && j < cs->n; ++j) {
+        const spc_shape *s = q->scene->shapes[cs->idx[j]];
+        sphere = sphere || spc_sphere_chain_shape(s);
+        mirror = mirror || spc_unfold_mirror_shape(s);
+    }
+    return sphere && mirror;
 }
 
 /* Is one of q's casters a flat-faced shape (flat_chains.h)? */
@@ -558,6 +589,38 @@ static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *sol
     return exact_shape_covers(q, c);
 }
 
+/* Are the casters cs one sphere (sphere_chains.h, x outside it) and flat mirrors (unfold_chains.h)
+ * alone, with q's chains of at most two vertices and the unfolded enumeration on? Then every such
+ * chain is on the sphere, on the mirrors, or a sphere's vertex and a mirror's (a glass ball's T T
+ * and a mirror take three): all enumerated, provided x lies outside the sphere's image in each
+ * mirror plane (unfold_chains.h's condition for the mirror-first order). */
+static bool unfold_covers_all(const spc_snee_query *q, const spc_chain_casters *cs)
+{
+    if (q->max_chain > 2 || unfold_max(q) < q->max_chain)
+        return false;
+    const spc_shape *ball = NULL;
+    for (int j = 0; j < cs->n; ++j) {
+        const spc_shape *s = q->scene->shapes[cs->idx[j]];
+        if (spc_unfold_mirror_shape(s))
+            continue;
+        if (ball || !spc_sphere_chain_usable(s, q->x->p))
+            return false;
+        ball = s;
+    }
+    for (int j = 0; ball && j < cs->n; ++j) {
+        const spc_shape *s = q->scene->shapes[cs->idx[j]];
+        spc_vec3 nm[SPC_FLAT_MAX_FACES];
+        double dm[SPC_FLAT_MAX_FACES];
+        int np = s == ball ? 0 : spc_flat_shape_planes(s, nm, dm, SPC_FLAT_MAX_FACES);
+        for (int f = 0; f < np; ++f) {
+            spc_vec3 c = spc_unfold_mirror_point(ball->center, nm[f], dm[f]);
+            if (!(spc_distance(q->x->p, c) > ball->radius * (1.0 + 1e-6)))
+                return false;
+        }
+    }
+    return ball != NULL;
+}
+
 bool spc_snee_exact_covers_all(const spc_snee_query *q)
 {
     const spc_scene *sc = q->scene;
@@ -586,7 +649,8 @@ bool spc_snee_exact_covers_all(const spc_snee_query *q)
         ++count;
     }
     /* two such shapes: chains through both are the randomized solver's, unless none is short enough */
-    return count <= 1 || (!flat && spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain));
+    return count <= 1 || (!flat && spc_snee_spheres_keep_apart(sc, cs, q->x->p, q->params->reflect, q->max_chain)) ||
+           unfold_covers_all(q, cs);
 }
 
 /* The biased estimator: the distinct solutions of biased_seeds attempts, each counted once. */
@@ -1444,6 +1508,8 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
     if (c->n > q->max_chain) { /* longer than the budget: one of params.long_p's, or none */
         if (p->exact && spc_flat_chain_covers(c, p->reflect))
             return c->n <= flat_max(q) ? 1.0 : flat_psi(q, c->n); /* through flat faces */
+        if (p->exact && c->n <= unfold_max(q) && spc_unfold_chain_covers(c, p->reflect))
+            return 1.0; /* through a sphere and a flat mirror, at every call */
         if (p->exact && spc_sphere_chain_covers(c, p->reflect)) {
             *long_pass = true;
             return long_psi(q, c->n); /* enumerated on the sphere */
@@ -2129,6 +2195,14 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         emit_exact(&fq, e, uv, p_y, all, nall, it, st, sk);
         if (!q->cam)
             emit_plane_chains(q, e, uv, p_y, st, sk);
+        /* through one sphere and one flat mirror, up to unfold_max */
+        spc_snee_query uq = *q;
+        uq.max_chain = unfold_max(q);
+        if (uq.max_chain >= 2 && has_unfold_casters(q)) {
+            it = 0;
+            nall = spc_unfold_chains_all(&uq, all, SPC_SNEE_MAX_ALL, &it);
+            emit_exact(&uq, e, uv, p_y, all, nall, it, st, sk);
+        }
         for (int k = fq.max_chain + 1; k <= SPC_FLAT_MAX_VERTICES; ++k) {
             if (!(longer >> k & 1u))
                 continue;

@@ -1,0 +1,162 @@
+/*
+ * manifold/unfold_chains.c: every specular chain through one sphere and one flat mirror
+ * (unfold_chains.h): the sphere's planar roots (sphere_roots.h) toward the mirrored light point, or
+ * on the mirrored sphere, per plane of the mirror's faces, each polished in the real scene.
+ */
+#include "manifold/unfold_chains.h"
+
+#include <math.h>
+
+#include "bsdf/bsdf.h"
+#include "manifold/flat_chains.h"
+#include "manifold/solver.h"
+#include "manifold/sphere_chains.h"
+#include "manifold/sphere_roots.h"
+#include "scene/scene.h"
+
+/* A point counts as outside a sphere of radius R beyond R (1 + this): sphere_chains.c's margin. */
+#define SPC_UNFOLD_OUTSIDE_REL 1e-6
+
+spc_vec3 spc_unfold_mirror_point(spc_vec3 p, spc_vec3 n, double d)
+{
+    return spc_sub(p, spc_scale(n, 2.0 * (spc_dot(n, p) - d)));
+}
+
+static bool outside(spc_vec3 c, double R, spc_vec3 p)
+{
+    return spc_distance(p, c) > R * (1.0 + SPC_UNFOLD_OUTSIDE_REL);
+}
+
+bool spc_unfold_mirror_shape(const spc_shape *s)
+{
+    double eta = 0.0;
+    return s && s->bsdf && spc_flat_chain_shape(s) && spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta == 0.0;
+}
+
+/* The sphere's part of a chain, its vertices v[i0 .. i0 + ks - 1]: one of sphere_chains.h's chains
+ * of at most two vertices on the sphere s? */
+static bool sphere_part(const spc_chain *c, int i0, int ks, bool reflect, const spc_shape **s)
+{
+    *s = c->v[i0].h.shape;
+    if (ks < 1 || ks > 2 || !spc_sphere_chain_shape(*s))
+        return false;
+    for (int i = i0; i < i0 + ks; ++i)
+        if (c->v[i].h.shape != *s)
+            return false;
+    bool glass = (*s)->bsdf->type == SPC_BSDF_DIELECTRIC;
+    if (ks == 1)
+        return c->v[i0].event == SPC_CHAIN_REFLECT && (!glass || reflect);
+    return glass && c->v[i0].event == SPC_CHAIN_REFRACT && c->v[i0 + 1].event == SPC_CHAIN_REFRACT;
+}
+
+bool spc_unfold_chain_covers(const spc_chain *c, bool reflect)
+{
+    int n = c->n;
+    if (n < 2 || n > SPC_UNFOLD_MAX_VERTICES)
+        return false;
+    const spc_shape *s;
+    const spc_chain_vertex *m;
+    spc_vec3 cen;
+    if (spc_unfold_mirror_shape(c->v[n - 1].h.shape) && c->v[n - 1].event == SPC_CHAIN_REFLECT &&
+        sphere_part(c, 0, n - 1, reflect, &s)) {
+        cen = s->center; /* x - sphere - mirror - y: x outside the sphere itself */
+    } else if (spc_unfold_mirror_shape(c->v[0].h.shape) && c->v[0].event == SPC_CHAIN_REFLECT &&
+               sphere_part(c, 1, n - 1, reflect, &s)) {
+        m = &c->v[0]; /* x - mirror - sphere - y: x outside the sphere mirrored in the mirror's plane */
+        spc_vec3 nm = spc_normalize(m->h.ng);
+        cen = spc_unfold_mirror_point(s->center, nm, spc_dot(nm, m->h.p));
+    } else {
+        return false;
+    }
+    return outside(cen, s->radius, c->x);
+}
+
+/* The chains of one order through the sphere s and the mirror's plane (nm, dm): mirror_first puts
+ * the mirror's vertex first. Appends to out[*n ..]. */
+static void order_chains(const spc_snee_query *q, const spc_shape *s, const spc_shape *mirror, spc_vec3 nm, double dm,
+                         bool mirror_first, int kmin, int kmax, spc_chain *out, int *n, int max_out, int *iterations)
+{
+    spc_vec3 x = q->x->p;
+    double R = s->radius;
+    /* the sphere in the unfolded frame: itself where its vertices come first, else its image */
+    spc_vec3 c = mirror_first ? spc_unfold_mirror_point(s->center, nm, dm) : s->center;
+    spc_vec3 y1 = spc_unfold_mirror_point(q->y, nm, dm);
+    if (!outside(c, R, x) || !outside(c, R, y1))
+        return;
+    /* a reflection keeps the path on one side of the plane: the sphere's vertex next to the mirror's
+     * lies on the side of y (sphere first) or of x (mirror first), so a sphere wholly across the
+     * plane from that point has no chain of this order */
+    double sr = spc_dot(nm, mirror_first ? x : q->y) - dm, sc = spc_dot(nm, s->center) - dm;
+    if (sr == 0.0 || (sr * sc < 0.0 && fabs(sc) >= R))
+        return;
+    spc_vec3 xo = spc_hit_offset(q->x, spc_sub(c, x));
+    spc_sphere_plane pl;
+    if (!spc_sphere_plane_of(xo, c, R, y1, &pl))
+        return;
+    double eta = 0.0;
+    spc_bsdf_is_specular_interface(s->bsdf, &eta);
+    bool glass = s->bsdf->type == SPC_BSDF_DIELECTRIC;
+    bool reflect = q->params && q->params->reflect;
+    /* m = -1: one reflection off the sphere; m = 0: in and out (a glass ball) */
+    int m_lo = glass && !reflect ? 0 : -1;
+    int m_hi = glass ? 0 : -1;
+    if (m_lo < kmin - 3)
+        m_lo = kmin - 3;
+    if (m_hi > kmax - 3)
+        m_hi = kmax - 3;
+    if (m_hi < m_lo)
+        return;
+    double roots[SPC_SPHERE_SIGNATURES][SPC_SPHERE_MAX_ROOTS];
+    int nroots[SPC_SPHERE_SIGNATURES];
+    spc_sphere_chain_roots_all(pl.d, pl.y1, pl.y2, eta, m_lo, m_hi, roots, nroots);
+    for (int mm = m_lo; mm <= m_hi && *n < max_out; ++mm) {
+        int ks = mm < 0 ? 1 : 2, k = ks + 1;
+        if (!q->any_surface &&
+            (!spc_chain_caster_allowed(s->caustic_flags, k) || !spc_chain_caster_allowed(mirror->caustic_flags, k)))
+            continue;
+        const spc_shape *shapes[SPC_UNFOLD_MAX_VERTICES];
+        unsigned char ev[SPC_UNFOLD_MAX_VERTICES];
+        int i0 = mirror_first ? 1 : 0;
+        for (int v = 0; v < ks; ++v) {
+            shapes[i0 + v] = s;
+            ev[i0 + v] = ks == 2 ? SPC_CHAIN_REFRACT : SPC_CHAIN_REFLECT;
+        }
+        int im = mirror_first ? 0 : ks;
+        shapes[im] = mirror;
+        ev[im] = SPC_CHAIN_REFLECT;
+        for (int r = 0; r < nroots[mm + 1] && *n < max_out; ++r) {
+            spc_vec3 dir = spc_normalize(spc_sub(spc_sphere_plane_point(&pl, roots[mm + 1][r]), xo));
+            if (spc_snee_exact_polish_shapes(q, shapes, k, ev, dir, out, *n, iterations))
+                ++*n;
+        }
+    }
+}
+
+int spc_unfold_chains_all(const spc_snee_query *q, spc_chain *out, int max_out, int *iterations)
+{
+    const spc_scene *sc = q->scene;
+    int kmin = q->min_chain > 2 ? q->min_chain : 2;
+    int kmax = q->max_chain < SPC_UNFOLD_MAX_VERTICES ? q->max_chain : SPC_UNFOLD_MAX_VERTICES;
+    int n = 0;
+    if (kmax < kmin)
+        return 0;
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, q->any_surface);
+    for (int j = 0; cs && j < cs->n; ++j) {
+        const spc_shape *s = sc->shapes[cs->idx[j]];
+        if (!spc_sphere_chain_shape(s) || !spc_chain_shape_is_caster(s, q->any_surface, NULL))
+            continue;
+        for (int i = 0; i < cs->n; ++i) {
+            const spc_shape *mirror = sc->shapes[cs->idx[i]];
+            if (!spc_unfold_mirror_shape(mirror))
+                continue;
+            spc_vec3 nm[SPC_FLAT_MAX_FACES];
+            double dm[SPC_FLAT_MAX_FACES];
+            int np = spc_flat_shape_planes(mirror, nm, dm, SPC_FLAT_MAX_FACES);
+            for (int f = 0; f < np; ++f) {
+                order_chains(q, s, mirror, nm[f], dm[f], false, kmin, kmax, out, &n, max_out, iterations);
+                order_chains(q, s, mirror, nm[f], dm[f], true, kmin, kmax, out, &n, max_out, iterations);
+            }
+        }
+    }
+    return n;
+}
