@@ -32,13 +32,6 @@
 static spc_rng rng;
 static double rnd(void) { return spc_rng_next(&rng); }
 
-static spc_mat4 place(spc_vec3 scale, spc_vec3 axis, double degrees, spc_vec3 at)
-{
-    spc_mat4 S = spc_mat4_scale(scale), R = spc_mat4_rotate(axis, degrees), T = spc_mat4_translate(at);
-    spc_mat4 RS = spc_mat4_mul(&R, &S);
-    return spc_mat4_mul(&T, &RS);
-}
-
 /* An 8 x 8 diffuse floor (z = 0, shape 0), a one-sided mirror rectangle placed by M (shape 1) and a
  * sphere (c, r) of BSDF b (shape 2); the light added by finish. */
 static spc_scene *ball_and_mirror(const spc_mat4 *M, spc_vec3 c, double r, bool glass)
@@ -183,7 +176,7 @@ static void run_scene(spc_scene *sc, const char *label, int points, int min_dist
  * outside reflection with the mirror's (reflections off glass are chain events by default). */
 TEST(glass_ball_and_mirror_chains)
 {
-    spc_mat4 M = place(spc_v3(1.0, 1.5, 1.0), spc_v3(0, 1, 0), -90.0, spc_v3(1.2, 0.0, 1.0));
+    spc_mat4 M = tu_place(spc_v3(1.0, 1.5, 1.0), spc_v3(0, 1, 0), -90.0, spc_v3(1.2, 0.0, 1.0));
     spc_scene *sc = ball_and_mirror(&M, spc_v3(0.4, 0.0, 0.5), 0.4, true);
     sc = finish(sc, spc_v3(-0.4, 0.3, 2.4), 0.2);
     run_scene(sc, "glass ball beside an upright mirror", 40, 20, 0.3, 0.0, 1.2);
@@ -193,7 +186,7 @@ TEST(glass_ball_and_mirror_chains)
  * the mirror then the ball. */
 TEST(mirror_ball_and_tilted_mirror_chains)
 {
-    spc_mat4 M = place(spc_v3(1.0, 1.5, 1.0), spc_v3(0, 1, 0), -100.0, spc_v3(1.1, 0.0, 1.0));
+    spc_mat4 M = tu_place(spc_v3(1.0, 1.5, 1.0), spc_v3(0, 1, 0), -100.0, spc_v3(1.1, 0.0, 1.0));
     spc_scene *sc = ball_and_mirror(&M, spc_v3(0.2, -0.2, 0.6), 0.35, false);
     sc = finish(sc, spc_v3(-0.5, 0.4, 2.2), 0.2);
     run_scene(sc, "mirror ball beside a tilted mirror", 40, 10, 0.2, 0.0, 1.2);
