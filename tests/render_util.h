@@ -386,4 +386,33 @@ static inline bool tu_image_agrees(const spc_film *img, const spc_film *ref, dou
     return ok;
 }
 
+/* Renders sc by `path` under the specular NEE settings a_set (spp_a samples per pixel, seed) and
+ * b_set (spp_b, seed + 1) at 2 threads and compares the two: true where the per-pixel z-test passes
+ * on at least 99% of the pixels and the image means differ by less than 4 standard errors (both
+ * printed under label). */
+static inline bool tu_settings_agree(const spc_scene *sc, const char *a_set, int spp_a, const char *b_set, int spp_b,
+                                     uint64_t seed, const char *label)
+{
+    spc_film *a = tu_render_nee(sc, "path", a_set, spp_a, 2, seed, NULL);
+    spc_film *b = tu_render_nee(sc, "path", b_set, spp_b, 2, seed + 1, NULL);
+    bool ok = a && b;
+    if (ok) {
+        spc_diff_result d;
+        memset(&d, 0, sizeof d);
+        ok = tu_image_agrees(a, b, 0.99, label, &d);
+        double ma, sa, mb, sb;
+        tu_image_mean(a, 0, &ma, &sa);
+        tu_image_mean(b, 0, &mb, &sb);
+        double z = (ma - mb) / sqrt(sa * sa + sb * sb);
+        printf("    %s: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f (z %.2f)\n", label,
+               d.ztest_pass_fraction, d.ztest_pixels, ma, sa, mb, sb, z);
+        ok = ok && fabs(z) < 4.0;
+    } else {
+        printf("  %s: a render failed\n", label);
+    }
+    spc_film_destroy(a);
+    spc_film_destroy(b);
+    return ok;
+}
+
 #endif

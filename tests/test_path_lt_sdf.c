@@ -134,23 +134,7 @@ static void agrees_with_none(const char *setting, int spp, uint64_t seed, const 
     CHECK(sc != NULL);
     if (!sc)
         return;
-    spc_film *a = tu_render_nee(sc, "path", setting, spp / q, 2, seed, NULL);
-    spc_film *b = tu_render_nee(sc, "path", "none", 4096 / q, 2, seed + 1, NULL);
-    CHECK(a && b);
-    if (a && b) {
-        spc_diff_result d;
-        memset(&d, 0, sizeof d);
-        CHECK(tu_image_agrees(a, b, 0.99, label, &d));
-        double ma, sa, mb, sb;
-        tu_image_mean(a, 0, &ma, &sa);
-        tu_image_mean(b, 0, &mb, &sb);
-        double z = (ma - mb) / sqrt(sa * sa + sb * sb);
-        printf("    %s: z-test pass %.4f of %d pixels; means %.5f +- %.5f vs %.5f +- %.5f (z %.2f)\n", label,
-               d.ztest_pass_fraction, d.ztest_pixels, ma, sa, mb, sb, z);
-        CHECK(fabs(z) < 4.0);
-    }
-    spc_film_destroy(a);
-    spc_film_destroy(b);
+    CHECK(tu_settings_agree(sc, setting, spp / q, "none", 4096 / q, seed, label));
     spc_scene_destroy(sc);
 }
 
