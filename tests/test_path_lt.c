@@ -619,6 +619,48 @@ TEST(area_light_long_camera_chains_weights_sum_to_one)
     spc_scene_destroy(sc);
 }
 
+/* One run of light tracing's joins under an area light: the scene with the setting, its subpaths on
+ * every sample (ltshare=1), each join tallied by check_area_join with the casters' kind (area_tally's
+ * flags, set by the caller after area_run_start). */
+typedef struct area_run {
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_render_ctx ctx;
+    spc_scene *sc;
+    spc_rng rng;
+    bool mesh, flat, cylinder, plane;
+    area_tally t;
+} area_run;
+
+static bool area_run_start(area_run *r, const char *scene, const char *setting, uint64_t seed)
+{
+    memset(r, 0, sizeof *r);
+    r->sc = lt_load(scene, setting, &r->cam, &r->p);
+    if (!r->sc)
+        return false;
+    r->ctx = lt_ctx(r->sc, &r->cam, &r->p);
+    CHECK(spc_path_lt_enabled(&r->ctx, &r->p) && spc_path_lt_area_enabled(&r->p));
+    r->p.lt_share = 1.0;
+    r->ctx.snee = r->p;
+    spc_rng_seed(&r->rng, seed, 7);
+    return true;
+}
+
+/* Tallies the joins of n more subpaths afresh, with the run's present parameters. */
+static void area_run_joins(area_run *r, int n)
+{
+    r->ctx.snee = r->p;
+    memset(&r->t, 0, sizeof r->t);
+    r->t.ctx = &r->ctx;
+    r->t.p = &r->p;
+    r->t.mesh = r->mesh;
+    r->t.flat = r->flat;
+    r->t.cylinder = r->cylinder;
+    r->t.plane = r->plane;
+    for (int i = 0; i < n; ++i)
+        spc_path_lt_joins(&r->ctx, &r->p, &r->rng, check_area_join, &r->t);
+}
+
 #define MESH_SCENE "bench/check/glass_ball_mesh.xml"
 #define MESH_SETTING "angular:camera=0.1,first=0.15,later=0.1,ltcaus"
 
@@ -630,24 +672,12 @@ TEST(area_light_long_camera_chains_weights_sum_to_one)
  * tracing takes the larger share on some joins, the other two on others. */
 TEST(mesh_ball_area_weights_sum_to_one)
 {
-    spc_camera_state cam;
-    spc_snee_params p;
-    spc_scene *sc = lt_load(MESH_SCENE, MESH_SETTING, &cam, &p);
-    if (!sc)
+    area_run r;
+    if (!area_run_start(&r, MESH_SCENE, MESH_SETTING, 35))
         return;
-    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
-    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
-    p.lt_share = 1.0;
-    ctx.snee = p;
-    area_tally t;
-    memset(&t, 0, sizeof t);
-    t.ctx = &ctx;
-    t.p = &p;
-    t.mesh = true;
-    spc_rng rng;
-    spc_rng_seed(&rng, 35, 7);
-    for (int i = 0; i < 20000; ++i)
-        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    r.mesh = true;
+    area_run_joins(&r, 20000);
+    const area_tally t = r.t;
     printf("  %s: %d joins (directly %d, through the ball %d, through a diffuse bounce %d), the three weights "
            "summing to 1 on %d, light tracing's weight above 1/2 on %.0f, below on %.0f, largest gap of those %.3g\n",
            MESH_SCENE, t.joins, t.kinds[0], t.kinds[1], t.kinds[2], t.exact, t.above, t.below, t.worst_gap);
@@ -655,7 +685,7 @@ TEST(mesh_ball_area_weights_sum_to_one)
     CHECK_MSG(t.exact > t.joins * 8 / 10, "the three weights sum to 1 on %d of %d joins", t.exact, t.joins);
     CHECK(t.worst_gap < 1e-5);
     CHECK(t.above > 0 && t.below > 0);
-    spc_scene_destroy(sc);
+    spc_scene_destroy(r.sc);
 }
 
 /* On the triangle glass ball the render with ltcaus agrees with one without. */
@@ -773,41 +803,13 @@ TEST(mesh_ball_point_weights_sum_to_one)
 #define SLAB_SCENE "bench/check/two_slabs_sphere_light.xml"
 #define SLAB_SETTING "angular:camera=0.036,first=0.1,later=0.1,long=0.3,flat5=1,flat6=1,ltcaus"
 
-/* One run of light tracing's joins on the slabs under an area light: the scene with the setting, its
- * subpaths on every sample (ltshare=1), each join tallied by check_area_join with the flat
- * enumeration. */
-typedef struct slab_run {
-    spc_camera_state cam;
-    spc_snee_params p;
-    spc_render_ctx ctx;
-    spc_scene *sc;
-    spc_rng rng;
-    area_tally t;
-} slab_run;
-
-static bool slab_run_start(slab_run *r, const char *setting, uint64_t seed)
+/* A run on the slabs: their joins by the flat enumeration. */
+static bool slab_run_start(area_run *r, const char *setting, uint64_t seed)
 {
-    r->sc = lt_load(SLAB_SCENE, setting, &r->cam, &r->p);
-    if (!r->sc)
+    if (!area_run_start(r, SLAB_SCENE, setting, seed))
         return false;
-    r->ctx = lt_ctx(r->sc, &r->cam, &r->p);
-    CHECK(spc_path_lt_enabled(&r->ctx, &r->p) && spc_path_lt_area_enabled(&r->p));
-    r->p.lt_share = 1.0;
-    r->ctx.snee = r->p;
-    spc_rng_seed(&r->rng, seed, 7);
+    r->flat = true;
     return true;
-}
-
-/* Tallies the joins of n more subpaths afresh, with the run's present parameters. */
-static void slab_run_joins(slab_run *r, int n)
-{
-    r->ctx.snee = r->p;
-    memset(&r->t, 0, sizeof r->t);
-    r->t.ctx = &r->ctx;
-    r->t.p = &r->p;
-    r->t.flat = true;
-    for (int i = 0; i < n; ++i)
-        spc_path_lt_joins(&r->ctx, &r->p, &r->rng, check_area_join, &r->t);
 }
 
 /* Two glass slabs under a small sphere light: light tracing's joins by chains through flat faces,
@@ -817,11 +819,11 @@ static void slab_run_joins(slab_run *r, int n)
  * and its weight there, BSDF sampling's own and light tracing's sum to one. */
 static void slab_area_weights(const char *setting)
 {
-    slab_run r;
+    area_run r;
     if (!slab_run_start(&r, setting, 39))
         return;
     CHECK(r.p.max_chain == 2);
-    slab_run_joins(&r, spc_test_quick() ? 10000 : 40000);
+    area_run_joins(&r, spc_test_quick() ? 10000 : 40000);
     const area_tally t = r.t;
     printf("  %s: %d joins (%d found by the flat enumeration; directly %d, through a diffuse bounce %d; chains of "
            "1-6 vertices %d %d %d %d %d %d), the three weights summing to 1 on %d, light tracing's weight above 1/2 "
@@ -855,10 +857,10 @@ TEST(slab_area_weights_sum_to_one_lightx) { slab_area_weights(SLAB_SETTING ",lig
  * are light tracing's and BSDF sampling's, whose two weights sum to one. */
 TEST(slab_area_weights_sum_to_one_long)
 {
-    slab_run r;
+    area_run r;
     if (!slab_run_start(&r, SLAB_SETTING ",longmax=8", 41))
         return;
-    slab_run_joins(&r, spc_test_quick() ? 20000 : 60000);
+    area_run_joins(&r, spc_test_quick() ? 20000 : 60000);
     const area_tally t = r.t;
     printf("  %s, longmax=8: %d joins, chains of 7 and 8 vertices %d %d; %d the enumeration leaves to BSDF sampling "
            "(%d with a partial reflection, %d longer): weights summing to 1 +- %.3g; the others' three +- %.3g\n",
@@ -879,11 +881,11 @@ TEST(slab_area_weights_sum_to_one_long)
  * of the others (its own light point's density included) with the three. */
 TEST(slab_area_weights_sum_to_one_long_flat_lt)
 {
-    slab_run r;
+    area_run r;
     if (!slab_run_start(&r, SLAB_SETTING ",longmax=8,long=0.4,lightx=0.9,longflatlt", 41))
         return;
     CHECK(r.p.long_flat_lt);
-    slab_run_joins(&r, spc_test_quick() ? 20000 : 60000);
+    area_run_joins(&r, spc_test_quick() ? 20000 : 60000);
     const area_tally t = r.t;
     printf("  %s, longflatlt: %d joins, chains of 7 and 8 vertices %d %d; %d left to BSDF sampling (%d longer): "
            "weights summing to 1 +- %.3g; the others' three +- %.3g\n",
@@ -904,12 +906,12 @@ TEST(slab_area_weights_sum_to_one_long_flat_lt)
  * light's join goes through a slab. */
 TEST(slab_area_camera_weights_sum_to_one)
 {
-    slab_run r;
+    area_run r;
     if (!slab_run_start(&r, SLAB_SETTING ",ltslab", 43))
         return;
     CHECK(r.p.lt_slab && r.p.max_chain == 2);
     int subpaths = spc_test_quick() ? 10000 : 40000;
-    slab_run_joins(&r, subpaths);
+    area_run_joins(&r, subpaths);
     const area_tally *t = &r.t;
     printf("  %s, ltslab: %d joins (directly %d, through a slab %d, through a diffuse bounce %d), found by the flat "
            "enumeration %d, left to BSDF sampling %d (%d with a partial reflection); largest gap of the three "
@@ -923,7 +925,7 @@ TEST(slab_area_camera_weights_sum_to_one)
     CHECK_MSG(t->unlisted_gap < 1e-5, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t->unlisted_gap);
     /* without ltslab: none through a slab */
     r.p.lt_slab = false;
-    slab_run_joins(&r, subpaths / 4);
+    area_run_joins(&r, subpaths / 4);
     CHECK_MSG(t->joins > 0 && t->kinds[1] == 0, "without ltslab: %d joins, %d through a slab", t->joins, t->kinds[1]);
     spc_scene_destroy(r.sc);
 }
@@ -1328,25 +1330,13 @@ static void check_slab_camera_join(void *user, const spc_path_lt_join *j)
  * sampling's own, light tracing's) sum to one, and light tracing takes the larger share on some. */
 TEST(ring_area_weights_sum_to_one)
 {
-    spc_camera_state cam;
-    spc_snee_params p;
-    spc_scene *sc = lt_load(RING_SCENE, RING_PLAN ",ltcaus", &cam, &p);
-    if (!sc)
+    area_run r;
+    if (!area_run_start(&r, RING_SCENE, RING_PLAN ",ltcaus", 73))
         return;
-    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
-    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
-    p.lt_share = 1.0;
-    ctx.snee = p;
-    area_tally t;
-    memset(&t, 0, sizeof t);
-    t.ctx = &ctx;
-    t.p = &p;
-    t.cylinder = true;
-    spc_rng rng;
-    spc_rng_seed(&rng, 73, 7);
+    r.cylinder = true;
     int n = spc_test_quick() ? 2000 : 8000;
-    for (int i = 0; i < n; ++i)
-        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    area_run_joins(&r, n);
+    const area_tally t = r.t;
     printf("  %s: %d joins (%d enumerated at x2; directly %d, through a diffuse bounce %d; light chains of 1 and 2 "
            "reflections %d %d), light tracing's weight above 1/2 on %.0f, below on %.0f, largest gap of the three "
            "weights' sum from 1 %.3g\n",
@@ -1357,7 +1347,7 @@ TEST(ring_area_weights_sum_to_one)
               t.matched, t.joins);
     CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
     CHECK(t.above > 0 && t.below > 0);
-    spc_scene_destroy(sc);
+    spc_scene_destroy(r.sc);
 }
 
 /* The ring's render with light tracing agrees with the render without it. */
@@ -1377,25 +1367,13 @@ TEST(ring_render_agrees_without_it)
  * not on others. */
 TEST(pool_area_weights_sum_to_one)
 {
-    spc_camera_state cam;
-    spc_snee_params p;
-    spc_scene *sc = lt_load(POOL_SCENE, POOL_PLAN ",ltcaus", &cam, &p);
-    if (!sc)
+    area_run r;
+    if (!area_run_start(&r, POOL_SCENE, POOL_PLAN ",ltcaus", 67))
         return;
-    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
-    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
-    p.lt_share = 1.0;
-    ctx.snee = p;
-    area_tally t;
-    memset(&t, 0, sizeof t);
-    t.ctx = &ctx;
-    t.p = &p;
-    t.plane = true;
-    spc_rng rng;
-    spc_rng_seed(&rng, 67, 7);
+    r.plane = true;
     int n = spc_test_quick() ? 1000 : 4000;
-    for (int i = 0; i < n; ++i)
-        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    area_run_joins(&r, n);
+    const area_tally t = r.t;
     printf("  %s: %d joins (%d enumerated at x2; through the water %d, directly %d, through a diffuse bounce %d), "
            "light tracing's weight above 1/2 on %.0f, below on %.0f, largest gap of the three weights' sum from 1 "
            "%.3g\n",
@@ -1405,7 +1383,7 @@ TEST(pool_area_weights_sum_to_one)
               t.matched, t.kinds[1]);
     CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
     CHECK(t.above > 0 && t.below > 0);
-    spc_scene_destroy(sc);
+    spc_scene_destroy(r.sc);
 }
 
 /* Does the path tracer's BSDF sampling at the normal-mapped surface seen from o along w (the first
