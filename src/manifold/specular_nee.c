@@ -493,38 +493,27 @@ static int unfold_max(const spc_snee_query *q)
     return hi < SPC_UNFOLD_MAX_VERTICES ? hi : SPC_UNFOLD_MAX_VERTICES;
 }
 
+/* Is one of q's casters a shape s with is(s)? */
+static bool has_caster(const spc_snee_query *q, bool (*is)(const spc_shape *))
+{
+    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
+    for (int j = 0; cs && j < cs->n; ++j)
+        if (is(q->scene->shapes[cs->idx[j]]))
+            return true;
+    return false;
+}
+
 /* Is one of q's casters a sphere and another a flat mirror (unfold_chains.h)? */
 static bool has_unfold_casters(const spc_snee_query *q)
 {
-    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
-    bool sphere = false, mirror = false;
-    for (int j = 0; cs && j < cs->n; ++j) {
-        const spc_shape *s = q->scene->shapes[cs->idx[j]];
-        sphere = sphere || spc_sphere_chain_shape(s);
-        mirror = mirror || spc_unfold_mirror_shape(s);
-    }
-    return sphere && mirror;
+    return has_caster(q, spc_sphere_chain_shape) && has_caster(q, spc_unfold_mirror_shape);
 }
 
 /* Is one of q's casters a flat-faced shape (flat_chains.h)? */
-static bool has_flat_caster(const spc_snee_query *q)
-{
-    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
-    for (int j = 0; cs && j < cs->n; ++j)
-        if (spc_flat_chain_shape(q->scene->shapes[cs->idx[j]]))
-            return true;
-    return false;
-}
+static bool has_flat_caster(const spc_snee_query *q) { return has_caster(q, spc_flat_chain_shape); }
 
 /* Is one of q's casters a mirror cylinder (cylinder_chains.h)? */
-static bool has_cylinder_caster(const spc_snee_query *q)
-{
-    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
-    for (int j = 0; cs && j < cs->n; ++j)
-        if (spc_cylinder_chain_shape(q->scene->shapes[cs->idx[j]]))
-            return true;
-    return false;
-}
+static bool has_cylinder_caster(const spc_snee_query *q) { return has_caster(q, spc_cylinder_chain_shape); }
 
 /* Is one of q's casters a tessellated ball (a sphere fit, fit_seeds.h)? */
 static bool has_ball_caster(const spc_snee_query *q)
@@ -1145,14 +1134,7 @@ static double ball_long_psi(const spc_snee_query *q, int k)
 }
 
 /* Does one of q's casters lie on a glass SDF without creases (smooth_sdf)? */
-static bool has_smooth_sdf_caster(const spc_snee_query *q)
-{
-    const spc_chain_casters *cs = spc_chain_casters_of(q->scene, q->any_surface);
-    for (int j = 0; cs && j < cs->n; ++j)
-        if (smooth_sdf(q->scene->shapes[cs->idx[j]]))
-            return true;
-    return false;
-}
+static bool has_smooth_sdf_caster(const spc_snee_query *q) { return has_caster(q, smooth_sdf); }
 
 /* The camera's longer chains on a glass SDF (params.cam_long): from the pinhole only, where the
  * real solve probability weighs the randomized attempts' chains, up to SPC_SNEE_CAM_LONG_MAX
@@ -2196,9 +2178,9 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         if (!q->cam)
             emit_plane_chains(q, e, uv, p_y, st, sk);
         /* through one sphere and one flat mirror, up to unfold_max */
-        spc_snee_query uq = *q;
-        uq.max_chain = unfold_max(q);
-        if (uq.max_chain >= 2 && has_unfold_casters(q)) {
+        if (unfold_max(q) >= 2 && has_unfold_casters(q)) {
+            spc_snee_query uq = *q;
+            uq.max_chain = unfold_max(q);
             it = 0;
             nall = spc_unfold_chains_all(&uq, all, SPC_SNEE_MAX_ALL, &it);
             emit_exact(&uq, e, uv, p_y, all, nall, it, st, sk);
