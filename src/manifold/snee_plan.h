@@ -244,12 +244,20 @@
  * - the longer chains (up to 6 vertices: internal reflections in the ball) looked for with
  *   probability 0.2 per light sample instead of 0.1 (long=0.2): their 1 / P count made the demo's
  *   remaining one-pixel seeds (a spot on the red wall beside the glass ball, lit through chains that
- *   reflect inside it).
+ *   reflect inside it);
+ * - those chains only up to 4 vertices (longmax=4): the pass picks one length per light sample,
+ *   uniformly from 3 to its top, so at the top of 6 a 3-vertex chain was looked for on 0.05 of the
+ *   light samples and counted 20 times. The demo's one-pixel seeds of that class are 3-vertex chains
+ *   (light off the mirror ball through the glass ball onto the red wall) and one 5-vertex chain;
+ *   with the top at 4 the 3- and 4-vertex chains get 0.1 each and the 5- and 6-vertex ones are
+ *   left to BSDF sampling (weighed 1 there). At the top of 3 the 4-vertex chains' BSDF hits made
+ *   new one-pixel seeds; long=0.4 cost 1.2x the CPU per sample.
  * Together 14-15x none on the demo at equal CPU time against the plain setting's 7.5-8.3x and
  * 10.5-11.2x with the guide alone (bench/RESULTS.md, "Caustic guiding toward glass balls in the
- * default"). Not for volpath (which builds no guide) nor bdpt: not measured there. */
+ * default"; the longer chains' top: "The demo's longer chains up to 4 vertices"). Not for volpath
+ * (which builds no guide) nor bdpt: not measured there. */
 #define SPC_SNEE_PLAN_ROOM_OPEN 0.25
-#define SPC_SNEE_PLAN_ROOM_GLASS_BALL ",recguide=0.1,long=0.2"
+#define SPC_SNEE_PLAN_ROOM_GLASS_BALL ",recguide=0.1,long=0.2,longmax=4"
 
 /* Appended for path where every light is a point light (or a spot light, traced alike) and a glass
  * sphere is a caster: the point lights' caustics also by light tracing (integrator/path_lt.h: seen
