@@ -251,7 +251,7 @@
  *   (light off the mirror ball through the glass ball onto the red wall) and one 5-vertex chain;
  *   with the top at 4 the 3- and 4-vertex chains get 0.1 each and the 5- and 6-vertex ones are
  *   left to BSDF sampling (weighed 1 there). At the top of 3 the 4-vertex chains' BSDF hits made
- *   new one-pixel seeds; long=0.4 cost 1.2x the CPU per sample.
+ *   new one-pixel seeds; long=0.4 took 1.2x the CPU per sample (the bench's calibration).
  * Together 14-15x none on the demo at equal CPU time against the plain setting's 7.5-8.3x and
  * 10.5-11.2x with the guide alone (bench/RESULTS.md, "Caustic guiding toward glass balls in the
  * default"; the longer chains' top: "The demo's longer chains up to 4 vertices"). Not for volpath
