@@ -609,7 +609,7 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
             break;
         spc_rgb w = bs.weight;
         if (mode == SPC_MODE_IMPORTANCE) {
-            if (!spc_bsdf_perturbs(h->bsdf))
+            if (!spc_bsdf_perturbs(h->bsdf) || (bs.lobe & SPC_LOBE_NULL)) /* a null lobe: no scattering */
                 w = spc_rgb_scale(w, shading_fix(&v->h, v->wo, bs.wi));
             else if (bs.lobe & SPC_LOBE_DELTA) /* the sampled frame's normal, its shadowing */
                 w = spc_rgb_scale(w, spc_bsdf_adjoint_factor(&v->h, v->wo, bs.wi));
