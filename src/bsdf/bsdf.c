@@ -420,21 +420,6 @@ const char *spc_bsdf_type_name(spc_bsdf_type t)
     return "?";
 }
 
-double spc_bsdf_shading_adjoint(spc_vec3 wo, spc_vec3 wi, spc_vec3 ng, spc_vec3 ns)
-{
-    double den = spc_absdot(wo, ng) * spc_absdot(wi, ns);
-    if (!(den > 0.0))
-        return 0.0;
-    return spc_absdot(wo, ns) * spc_absdot(wi, ng) / den;
-}
-
-bool spc_bsdf_perturbs(const spc_bsdf *b)
-{
-    if (b && b->type == SPC_BSDF_TWOSIDED)
-        return spc_bsdf_perturbs(b->nested[0]) || spc_bsdf_perturbs(b->nested[1]);
-    return b && (b->type == SPC_BSDF_NORMALMAP || b->type == SPC_BSDF_BUMPMAP);
-}
-
 double spc_bsdf_adjoint_factor(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
 {
     const spc_bsdf *b = h->bsdf;

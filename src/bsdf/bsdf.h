@@ -196,12 +196,28 @@ bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta);
 bool spc_bsdf_map_chain_hit(spc_hit *h, spc_vec3 wo);
 /* Veach's adjoint correction for a shading normal ns against the normal ng that the measure counts
  * (1997, eq. 5.20): |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|), wo toward the light's side, wi toward the
- * camera's; 0 where it is undefined. */
-double spc_bsdf_shading_adjoint(spc_vec3 wo, spc_vec3 wi, spc_vec3 ng, spc_vec3 ns);
+ * camera's; 0 where it is undefined. Inline: bdpt asks it at every join. */
+static inline double spc_bsdf_shading_adjoint(spc_vec3 wo, spc_vec3 wi, spc_vec3 ng, spc_vec3 ns)
+{
+    double den = spc_absdot(wo, ng) * spc_absdot(wi, ns);
+    if (!(den > 0.0))
+        return 0.0;
+    return spc_absdot(wo, ns) * spc_absdot(wi, ng) / den;
+}
 /* Does b shade with a normal of its own (a normalmap or a bumpmap, possibly under a twosided),
  * rather than h->sh.n? Such BSDFs turn their frame with the viewer and shadow the light-side
- * direction, so their importance-mode value is not the radiance-mode one transposed. */
-bool spc_bsdf_perturbs(const spc_bsdf *b);
+ * direction, so their importance-mode value is not the radiance-mode one transposed. Inline:
+ * bdpt asks it at every vertex of a light subpath. */
+static inline bool spc_bsdf_is_map(const spc_bsdf *b)
+{
+    return b && (b->type == SPC_BSDF_NORMALMAP || b->type == SPC_BSDF_BUMPMAP);
+}
+static inline bool spc_bsdf_perturbs(const spc_bsdf *b)
+{
+    if (b && b->type == SPC_BSDF_TWOSIDED)
+        return spc_bsdf_is_map(b->nested[0]) || spc_bsdf_is_map(b->nested[1]);
+    return spc_bsdf_is_map(b);
+}
 /* The factor that turns a light subpath's importance-mode value at h (the weight of a sample from
  * wo, toward the light, to wi, toward the camera; or eval times |wi.sh.n|) into the adjoint of the
  * radiance-mode value the camera's paths carry. Where h->bsdf (or twosided's side for wo) is a

@@ -219,6 +219,7 @@ typedef struct vtx {
      * (a diffuse BSDF: the view holds for every direction pair) or DV_SIDE (twosided: the view holds
      * where the call's wo lies on side dv_side, spc_diffuse_view_side) */
     signed char dv_kind, dv_side;
+    bool mapped;    /* V_SURFACE on a light subpath: spc_bsdf_perturbs of its BSDF (light_eval) */
     unsigned flags; /* V_SURFACE: spc_bsdf_flags of its BSDF (read by every join) */
     /* With the pool (B->pm; light_side_sums, camera_side_sums): the vertex's cell, and far_sum,
      * the part of the MIS weight's sum of a connection joining this vertex that depends on this
@@ -339,14 +340,14 @@ static double vertex_pdf(const vtx *v, spc_transport mode, spc_vec3 wo, spc_vec3
 
 /* The value a light vertex v carries from wo (toward the light) to wi (toward the camera): times
  * shading_fix and |wi.sh.n|, the path's contribution there. The importance-mode value, except
- * where v's BSDF perturbs its normal (spc_bsdf_perturbs: normal and bump maps, whose frame turns
+ * where v's BSDF perturbs its normal (v->mapped: normal and bump maps, whose frame turns
  * with the viewer and whose shadowing term is of the light-side direction, so that their
  * importance-mode value is not the radiance-mode one transposed): there the camera's own
  * radiance-mode value f(wi, wo), which shading_fix (with the surface's normal sh.n, the one that
  * f's cosine rescaling is relative to) turns into the adjoint exactly. */
 static spc_rgb light_eval(const vtx *v, spc_vec3 wo, spc_vec3 wi)
 {
-    if (spc_bsdf_perturbs(v->h.bsdf))
+    if (v->mapped)
         return spc_bsdf_eval(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, wi, wo);
     return vertex_eval(v, SPC_MODE_IMPORTANCE, wo, wi);
 }
@@ -578,6 +579,7 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         v->on_surface = true;
         v->delta = v->infinite = false;
         v->flags = spc_bsdf_flags(h->bsdf);
+        v->mapped = mode == SPC_MODE_IMPORTANCE && spc_bsdf_perturbs(h->bsdf); /* read on light subpaths only */
         vertex_view(v);
         v->light = h->emitter;
         v->pdf_rev = 0.0;
@@ -609,7 +611,7 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
             break;
         spc_rgb w = bs.weight;
         if (mode == SPC_MODE_IMPORTANCE) {
-            if (!spc_bsdf_perturbs(h->bsdf) || (bs.lobe & SPC_LOBE_NULL)) /* a null lobe: no scattering */
+            if (!v->mapped || (bs.lobe & SPC_LOBE_NULL)) /* a null lobe: no scattering */
                 w = spc_rgb_scale(w, shading_fix(&v->h, v->wo, bs.wi));
             else if (bs.lobe & SPC_LOBE_DELTA) /* the sampled frame's normal, its shadowing */
                 w = spc_rgb_scale(w, spc_bsdf_adjoint_factor(&v->h, v->wo, bs.wi));
