@@ -8,7 +8,8 @@
  *   a glass and a mirror sphere; a caustic (glass sphere on a floor, small sphere light); a point
  *   light in a diffuse box; a constant environment and an environment map over a glass sphere;
  *   directional and spot lights; coarse smooth-shaded meshes (diffuse and glass), where the
- *   shading-normal correction of light subpaths matters; and bdpt's balance heuristic against its
+ *   shading-normal correction of light subpaths matters; a normal-mapped floor and wall, where it
+ *   must use the map's normal (also for ptracer); and bdpt's balance heuristic against its
  *   power heuristic.
  * - Strategies (debug mode): the weighted single-strategy images sum to the full image (same
  *   seed); each unweighted strategy (s, t) of length k = s + t - 1 in a scene without corners
@@ -414,6 +415,27 @@ static spc_scene *delta_lights_scene(int res)
     return finalize(sc);
 }
 
+/* A diffuse floor and back wall under a normal map of strong tilts (up to about 0.6 rad), lit by a
+ * spot light and a small area light, seen obliquely: a light subpath's shading-normal correction
+ * there needs the map's normal, not the surface's (spc_bsdf_adjoint_factor). With the surface's,
+ * light tracing's share of the floor (s >= 2, t = 1) was off by the two normals' cosines. */
+static spc_scene *normal_mapped_scene(int res)
+{
+    spc_scene *sc = spc_scene_create();
+    rect(sc, 2.5, 2.5, -90, 0, spc_v3(0, 0, 0), tu_normal_mapped(sc, tu_diffuse(sc, 0.7), 32, 0.15, 3.0, 7));
+    rect(sc, 2.5, 1.5, 0, 0, spc_v3(0, 1.5, -1.2), tu_normal_mapped(sc, tu_diffuse(sc, 0.6), 32, 0.3, 2.0, 8));
+    spc_shape *l = rect(sc, 0.2, 0.2, 90, 0, spc_v3(0.6, 1.6, 0.2), tu_diffuse(sc, 0.0));
+    tu_area(sc, l, sc->nshapes - 1, 12.0);
+    spc_emitter *sp = spc_scene_new_emitter(sc);
+    sp->type = SPC_EMITTER_SPOT;
+    sp->intensity = spc_rgb3(4, 4, 5);
+    sp->cutoff_angle = 40.0;
+    sp->beam_width = 30.0;
+    spc_mat4_lookat(spc_v3(-1.5, 1.2, 0.8), spc_v3(0, 0, -0.3), spc_v3(0, 1, 0), &sp->to_world);
+    tu_camera(sc, spc_v3(0, 0.8, 3.0), spc_v3(0, 0.3, -0.3), spc_v3(0, 1, 0), 45, res, res);
+    return finalize(sc);
+}
+
 /* ---- closed forms ---- */
 
 TEST(white_furnace_sphere)
@@ -577,6 +599,11 @@ TEST(directional_and_spot_against_path)
     compare_to_path(delta_lights_scene(24), 128, 1024, -1, "directional and spot lights");
 }
 
+TEST(normal_maps_against_path)
+{
+    compare_to_path(normal_mapped_scene(24), 256, 1024, -1, "normal-mapped floor and wall");
+}
+
 /* K light subpaths per camera sample, the extra ones for light tracing only: MIS counts t = 1 K
  * times (its camera density divided by K in every weight), so every path's weights still sum to
  * one and the image agrees with path's. A count that differs between the weights of t = 1 and of
@@ -723,6 +750,7 @@ TEST(ptracer_against_path)
     ptracer_vs_path(cornell_box(BOX_PLAIN, 16, 2.0), 256, 256, 3, true, "ptracer: box, max_depth 3, emitters hidden");
     ptracer_vs_path(cornell_box(BOX_POINT, 16, 1.0), 256, 512, -1, false, "ptracer: point light box");
     ptracer_vs_path(delta_lights_scene(16), 256, 512, -1, false, "ptracer: directional and spot lights");
+    ptracer_vs_path(normal_mapped_scene(16), 256, 512, -1, false, "ptracer: normal-mapped floor and wall");
 }
 
 /* A light at infinity seen directly (max_depth 1: only emitters), which ptracer splats from
@@ -1680,6 +1708,7 @@ int main(void)
     RUN(environment_against_path);
     RUN(shading_normals_against_path);
     RUN(directional_and_spot_against_path);
+    RUN(normal_maps_against_path);
     RUN(box_glass_mirror_against_path);
     RUN(caustic_against_path);
     RUN(light_paths_per_sample_against_path);

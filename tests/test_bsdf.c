@@ -962,6 +962,44 @@ TEST(test_normalmap)
     CHECK_MSG(rgb_rel_diff(got2, expect2) < 1e-9, "got %g expected %g", got2.r, expect2.r);
 }
 
+/* The light side's correction under a normal map (spc_bsdf_adjoint_factor): where neither
+ * direction turns the map's normal, the importance-mode value from l (toward the light) to c
+ * (toward the camera), times |c.N| and the factor, is the radiance-mode value the camera's paths
+ * carry from c to l, times |l.N| |c.ng| / |l.ng| (Veach 1997, eq. 5.20, with the map's normal
+ * and its shadowing term); the surface's own normal in the correction misses it. Under a twosided
+ * too. spc_bsdf_perturbs: normalmap and bumpmap, also under a twosided; not a plain diffuse. */
+TEST(test_normalmap_adjoint)
+{
+    spc_hit h = default_hit();
+    h.ng = spc_normalize(spc_add(h.sh.n, spc_scale(h.sh.t, 0.15))); /* a smooth-shaded surface */
+    spc_bsdf *d = mk_diffuse(0.6, 0.5, 0.4);
+    spc_bsdf *nm = mk_wrap(SPC_BSDF_NORMALMAP, d, NULL);
+    double nx = 0.35, nz = sqrt(1 - nx * nx);
+    nm->normalmap = tex3(0.5 * (nx + 1), 0.5, 0.5 * (nz + 1));
+    spc_bsdf *ts = mk_wrap(SPC_BSDF_TWOSIDED, nm, NULL);
+    CHECK(spc_bsdf_perturbs(nm) && spc_bsdf_perturbs(ts) && !spc_bsdf_perturbs(d) && !spc_bsdf_perturbs(NULL));
+    spc_bsdf *bsdfs[2] = {nm, ts};
+    const double ang[4][4] = {{20, 10, 50, 200}, {60, 0, 15, 90}, {35, 300, 70, 160}, {10, 45, 40, 20}};
+    int checked = 0, plain_off = 0;
+    for (int k = 0; k < 2; ++k)
+        for (int i = 0; i < 4; ++i) {
+            h.bsdf = bsdfs[k]; /* the factor reads the hit's BSDF, as a scene's hit carries it */
+            spc_vec3 l = dir(&h, ang[i][0], ang[i][1]), c = dir(&h, ang[i][2], ang[i][3]);
+            spc_rgb fr = spc_bsdf_eval(bsdfs[k], &h, SPC_MODE_RADIANCE, c, l);
+            spc_rgb fi = spc_bsdf_eval(bsdfs[k], &h, SPC_MODE_IMPORTANCE, l, c);
+            if (spc_rgb_is_black(fr) || spc_rgb_is_black(fi))
+                continue;
+            spc_rgb want = spc_rgb_scale(fr, spc_absdot(l, h.sh.n) * spc_absdot(c, h.ng) / spc_absdot(l, h.ng));
+            spc_rgb got = spc_rgb_scale(fi, spc_absdot(c, h.sh.n) * spc_bsdf_adjoint_factor(&h, l, c));
+            spc_rgb plain = spc_rgb_scale(fi, spc_absdot(c, h.sh.n) * spc_bsdf_shading_adjoint(l, c, h.ng, h.sh.n));
+            CHECK_MSG(rgb_rel_diff(got, want) < 1e-9, "case %d/%d: got %g want %g", k, i, got.r, want.r);
+            plain_off += rgb_rel_diff(plain, want) > 0.02;
+            ++checked;
+        }
+    CHECK_MSG(checked >= 6 && plain_off >= checked - 1, "%d pairs checked, the plain correction off on %d", checked,
+              plain_off);
+}
+
 /* Bump map with a height ramp along u: slope 2 scale in uv, flat hit with dpdu = s, dpdv = t. */
 TEST(test_bumpmap)
 {
@@ -1218,6 +1256,7 @@ int main(void)
     RUN(test_twosided);
     RUN(test_mask_null_blend);
     RUN(test_normalmap);
+    RUN(test_normalmap_adjoint);
     RUN(test_bumpmap);
     RUN(test_sample_consistency);
     RUN(test_beckmann_visible_inversion_exact);

@@ -419,3 +419,27 @@ const char *spc_bsdf_type_name(spc_bsdf_type t)
     }
     return "?";
 }
+
+double spc_bsdf_adjoint_factor(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
+{
+    const spc_bsdf *b = h->bsdf;
+    spc_hit flip;
+    const spc_hit *hs = h;
+    if (b && b->type == SPC_BSDF_TWOSIDED) /* the side the importance call takes, by wo */
+        b = spc_twosided_side(b, h, wo, &flip, &hs);
+    /* a chain's hit already mapped (spc_bsdf_map_chain_hit) carries the map's normal in sh */
+    if (!b || h->normal_mapped || (b->type != SPC_BSDF_NORMALMAP && b->type != SPC_BSDF_BUMPMAP))
+        return spc_bsdf_shading_adjoint(wo, wi, h->ng, h->sh.n);
+    spc_hit po, pc;
+    if (b->type == SPC_BSDF_NORMALMAP)
+        spc_normalmap_hit_frame(b, hs, &po);
+    else
+        spc_bumpmap_hit_frame(b, hs, &po);
+    pc = po;
+    spc_bsdf_perturbed_face_view(hs, &po, wo); /* the frame the importance call used */
+    spc_bsdf_perturbed_face_view(hs, &pc, wi); /* the frame the camera's radiance call uses */
+    double den = spc_absdot(wo, h->ng) * spc_absdot(wi, po.sh.n) * spc_bsdf_bump_shadowing(hs, &po, wi);
+    if (!(den > 0.0))
+        return 0.0;
+    return spc_absdot(wo, pc.sh.n) * spc_absdot(wi, h->ng) * spc_bsdf_bump_shadowing(hs, &pc, wo) / den;
+}

@@ -194,6 +194,40 @@ bool spc_bsdf_is_specular_interface(const spc_bsdf *b, double *eta);
  * frame as is). True with h unchanged for other BSDFs and normalmaps without a texture; false
  * where the shape has no texture-frame derivatives (spc_shape_texture_frame). */
 bool spc_bsdf_map_chain_hit(spc_hit *h, spc_vec3 wo);
+/* Veach's adjoint correction for a shading normal ns against the normal ng that the measure counts
+ * (1997, eq. 5.20): |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|), wo toward the light's side, wi toward the
+ * camera's; 0 where it is undefined. Inline: bdpt asks it at every join. */
+static inline double spc_bsdf_shading_adjoint(spc_vec3 wo, spc_vec3 wi, spc_vec3 ng, spc_vec3 ns)
+{
+    double den = spc_absdot(wo, ng) * spc_absdot(wi, ns);
+    if (!(den > 0.0))
+        return 0.0;
+    return spc_absdot(wo, ns) * spc_absdot(wi, ng) / den;
+}
+/* Does b shade with a normal of its own (a normalmap or a bumpmap, possibly under a twosided),
+ * rather than h->sh.n? Such BSDFs turn their frame with the viewer and shadow the light-side
+ * direction, so their importance-mode value is not the radiance-mode one transposed. Inline:
+ * bdpt asks it at every vertex of a light subpath. */
+static inline bool spc_bsdf_is_map(const spc_bsdf *b)
+{
+    return b && (b->type == SPC_BSDF_NORMALMAP || b->type == SPC_BSDF_BUMPMAP);
+}
+static inline bool spc_bsdf_perturbs(const spc_bsdf *b)
+{
+    if (b && b->type == SPC_BSDF_TWOSIDED)
+        return spc_bsdf_is_map(b->nested[0]) || spc_bsdf_is_map(b->nested[1]);
+    return spc_bsdf_is_map(b);
+}
+/* The factor that turns a light subpath's importance-mode value at h (the weight of a sample from
+ * wo, toward the light, to wi, toward the camera; or eval times |wi.sh.n|) into the adjoint of the
+ * radiance-mode value the camera's paths carry. Where h->bsdf (or twosided's side for wo) is a
+ * normalmap or a bumpmap, the shading normal is the map's, not h->sh.n: the radiance value is
+ * f |wo.n_c| G1(wo), the importance one f |wi.n_o| G1(wi), n_c and n_o the map's normal turned as
+ * the two calls see it from wi and from wo (the face-view turn, variants.h), G1 the bump shadowing,
+ * so the factor is |wo.n_c| |wi.ng| G1(wo) / (|wo.ng| |wi.n_o| G1(wi)); exact for a diffuse nested
+ * BSDF, and for any nested BSDF where neither direction turns the normal. Elsewhere
+ * spc_bsdf_shading_adjoint with h->sh.n. 0 where undefined. */
+double spc_bsdf_adjoint_factor(const spc_hit *h, spc_vec3 wo, spc_vec3 wi);
 /* Is a shape with this BSDF a usable chain vertex as far as normal maps go (the shape can
  * differentiate its texture frame)? */
 bool spc_bsdf_chain_mappable(const spc_bsdf *b, int shape_type);

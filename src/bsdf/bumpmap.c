@@ -42,7 +42,7 @@ static void texture_tangents(const spc_hit *h, spc_vec3 *dpdu, spc_vec3 *dpdv)
     spc_uv_tangents(h->dpdu, h->dpdv, duv, 1e-20, dpdu, dpdv);
 }
 
-static void bumpmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
+void spc_bumpmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
 {
     *out = *h;
     if (!b->bump)
@@ -66,7 +66,7 @@ static void bumpmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
 /* The perturbed hit as Mitsuba 3.9 sees it from wo (variants.h). */
 static void bumpmap_hit(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_hit *out)
 {
-    bumpmap_hit_frame(b, h, out);
+    spc_bumpmap_hit_frame(b, h, out);
     spc_bsdf_perturbed_face_view(h, out, wo);
 }
 

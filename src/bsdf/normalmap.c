@@ -22,7 +22,7 @@
 #include "bsdf/variants.h"
 #include "scene/shape.h"
 
-static void normalmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
+void spc_normalmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out)
 {
     *out = *h;
     if (!b->normalmap)
@@ -39,7 +39,7 @@ static void normalmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *ou
 /* The perturbed hit as Mitsuba 3.9 sees it from wo (variants.h). */
 static void normalmap_hit(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_hit *out)
 {
-    normalmap_hit_frame(b, h, out);
+    spc_normalmap_hit_frame(b, h, out);
     spc_bsdf_perturbed_face_view(h, out, wo);
 }
 
@@ -135,7 +135,7 @@ bool spc_bsdf_map_chain_hit(spc_hit *h, spc_vec3 wo)
     spc_vec3 m = spc_add(spc_add(spc_scale(S, nl.x), spc_scale(Tt, nl.y)), spc_scale(N, nl.z));
     double lm = spc_length(m);
     if (!(lm > 1e-12) || !spc_v3_finite(m)) {
-        /* the BSDF leaves such a frame as is (normalmap_hit_frame) */
+        /* the BSDF leaves such a frame as is (spc_normalmap_hit_frame) */
         h->n_unmapped = N;
         h->normal_mapped = true;
         return true;

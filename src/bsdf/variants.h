@@ -187,6 +187,10 @@ spc_rgb spc_normalmap_specular_throughput(const spc_bsdf *b, const spc_hit *h, s
                                           spc_vec3 wi);
 double spc_normalmap_specular_prob(const spc_bsdf *b, const spc_hit *h, spc_vec3 wo, spc_vec3 wi);
 SPC_BSDF_VARIANT(bumpmap);
+/* The map's perturbed hit of normalmap (bumpmap) b at h before the face-view turn: a copy of h with
+ * sh replaced (h's frame where the map leaves it as is). */
+void spc_normalmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out);
+void spc_bumpmap_hit_frame(const spc_bsdf *b, const spc_hit *h, spc_hit *out);
 SPC_BSDF_VARIANT(null);
 spc_rgb spc_null_null_transmission(const spc_bsdf *b, const spc_hit *h);
 SPC_BSDF_VARIANT(mask);

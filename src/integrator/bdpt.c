@@ -53,7 +53,11 @@
  *
  * Shading normals: BSDFs do not correct for them (bsdf.h), so light subpaths apply Veach's
  * adjoint correction (1997, eq. 5.20) |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) at each scattering and
- * at the light-side end of a connection. Camera subpaths need none.
+ * at the light-side end of a connection. Where a normal or bump map perturbs the normal the
+ * BSDF shades with, the value is the camera's radiance-mode one transposed (light_eval), which
+ * that correction with the surface's normal makes exact, and a delta lobe's sample takes the
+ * correction with the map's normal and shadowing (spc_bsdf_adjoint_factor). Camera subpaths
+ * need none.
  *
  * Specular NEE (ctx->specular_nee, src/manifold/specular_nee.h; by default as the scene's plan
  * says, manifold/snee_plan.h: on with smooth glass or mirror casters and a small light). Paths that go camera - delta vertices - a non-delta vertex - delta vertices - light
@@ -215,6 +219,7 @@ typedef struct vtx {
      * (a diffuse BSDF: the view holds for every direction pair) or DV_SIDE (twosided: the view holds
      * where the call's wo lies on side dv_side, spc_diffuse_view_side) */
     signed char dv_kind, dv_side;
+    bool mapped;    /* V_SURFACE on a light subpath: spc_bsdf_perturbs of its BSDF (light_eval) */
     unsigned flags; /* V_SURFACE: spc_bsdf_flags of its BSDF (read by every join) */
     /* With the pool (B->pm; light_side_sums, camera_side_sums): the vertex's cell, and far_sum,
      * the part of the MIS weight's sum of a connection joining this vertex that depends on this
@@ -333,6 +338,20 @@ static double vertex_pdf(const vtx *v, spc_transport mode, spc_vec3 wo, spc_vec3
     return spc_bsdf_pdf(v->h.bsdf, &v->h, mode, wo, wi);
 }
 
+/* The value a light vertex v carries from wo (toward the light) to wi (toward the camera): times
+ * shading_fix and |wi.sh.n|, the path's contribution there. The importance-mode value, except
+ * where v's BSDF perturbs its normal (v->mapped: normal and bump maps, whose frame turns
+ * with the viewer and whose shadowing term is of the light-side direction, so that their
+ * importance-mode value is not the radiance-mode one transposed): there the camera's own
+ * radiance-mode value f(wi, wo), which shading_fix (with the surface's normal sh.n, the one that
+ * f's cosine rescaling is relative to) turns into the adjoint exactly. */
+static spc_rgb light_eval(const vtx *v, spc_vec3 wo, spc_vec3 wi)
+{
+    if (v->mapped)
+        return spc_bsdf_eval(v->h.bsdf, &v->h, SPC_MODE_RADIANCE, wi, wo);
+    return vertex_eval(v, SPC_MODE_IMPORTANCE, wo, wi);
+}
+
 /* The cone of directions from p toward caster sphere i of the aim: false where p lies inside the
  * sphere or its centre lies on or below p's horizon (normal n). */
 static bool aim_cone(const spc_bdpt_aim *aim, int i, spc_vec3 p, spc_vec3 n, spc_vec3 *axis, double *cos_max)
@@ -432,10 +451,7 @@ static double light_direct_pdf(const spc_scene *sc, const vtx *l, const vtx *ref
  * the light side, wi toward the camera side. */
 static double shading_fix(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
 {
-    double den = spc_absdot(wo, h->ng) * spc_absdot(wi, h->sh.n);
-    if (!(den > 0.0))
-        return 0.0;
-    return spc_absdot(wo, h->sh.n) * spc_absdot(wi, h->ng) / den;
+    return spc_bsdf_shading_adjoint(wo, wi, h->ng, h->sh.n);
 }
 
 static double remap0(double p) { return p > 0.0 && isfinite(p) ? p : 1.0; }
@@ -563,6 +579,7 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
         v->on_surface = true;
         v->delta = v->infinite = false;
         v->flags = spc_bsdf_flags(h->bsdf);
+        v->mapped = mode == SPC_MODE_IMPORTANCE && spc_bsdf_perturbs(h->bsdf); /* read on light subpaths only */
         vertex_view(v);
         v->light = h->emitter;
         v->pdf_rev = 0.0;
@@ -593,8 +610,15 @@ static int random_walk(const bdpt *B, spc_ray ray, spc_rgb beta, double pdf_dir,
                                          : !spc_bsdf_sample_dir(h->bsdf, &v->h, mode, v->wo, u_lobe_rr.x, u_dir, &bs))
             break;
         spc_rgb w = bs.weight;
-        if (mode == SPC_MODE_IMPORTANCE)
-            w = spc_rgb_scale(w, shading_fix(&v->h, v->wo, bs.wi));
+        if (mode == SPC_MODE_IMPORTANCE) {
+            if (!v->mapped || (bs.lobe & SPC_LOBE_NULL)) /* a null lobe: no scattering */
+                w = spc_rgb_scale(w, shading_fix(&v->h, v->wo, bs.wi));
+            else if (bs.lobe & SPC_LOBE_DELTA) /* the sampled frame's normal, its shadowing */
+                w = spc_rgb_scale(w, spc_bsdf_adjoint_factor(&v->h, v->wo, bs.wi));
+            else /* the adjoint value (light_eval) over the density the sample was drawn with */
+                w = spc_rgb_scale(light_eval(v, v->wo, bs.wi),
+                                  shading_fix(&v->h, v->wo, bs.wi) * spc_absdot(bs.wi, v->h.sh.n) / bs.pdf);
+        }
         double pdf_rev_dir;
         if (bs.lobe & SPC_LOBE_DELTA) {
             /* a delta lobe's density counts as its choice probability per unit solid angle, so
@@ -1297,7 +1321,7 @@ static void connect_t1(const bdpt *B, spc_tls *tls, const vtx *y, int s, const v
             return;
         C = spc_rgb_scale(spc_rgb_mul(v->beta, v->Le), c / (cd.dist * cd.dist));
     } else {
-        spc_rgb f = vertex_eval(v, SPC_MODE_IMPORTANCE, v->wo, cd.wi);
+        spc_rgb f = light_eval(v, v->wo, cd.wi);
         double g = shading_fix(&v->h, v->wo, cd.wi) * spc_absdot(cd.wi, v->h.sh.n) / (cd.dist * cd.dist);
         C = spc_rgb_scale(spc_rgb_mul(v->beta, f), g);
     }
@@ -1432,7 +1456,7 @@ static spc_rgb connection_value(const vtx *a, const vtx *b, bool with_b, double 
     if (!(d2 > 0.0))
         return spc_rgb1(0.0);
     spc_vec3 w = spc_scale(d, 1.0 / sqrt(d2)); /* from a toward b */
-    spc_rgb fa = vertex_eval(a, SPC_MODE_IMPORTANCE, a->wo, w);
+    spc_rgb fa = light_eval(a, a->wo, w);
     if (spc_rgb_is_black(fa))
         return fa;
     spc_rgb fb = vertex_eval(b, SPC_MODE_RADIANCE, b->wo, spc_neg(w));

@@ -86,17 +86,6 @@ static bool plane_turns(const spc_hit *h, spc_vec3 w)
     return spc_dot(w, N) > 0.0 && spc_dot(w, n) < 0.0;
 }
 
-/* Veach's adjoint correction for a shading normal ns against the normal ng that the measure counts
- * (1997, eq. 5.20): |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|), wo toward the light's side, wi toward the
- * camera's; 0 where it is undefined. */
-static double adjoint_factor(spc_vec3 wo, spc_vec3 wi, spc_vec3 ng, spc_vec3 ns)
-{
-    double den = spc_absdot(wo, ng) * spc_absdot(wi, ns);
-    if (!(den > 0.0))
-        return 0.0;
-    return spc_absdot(wo, ns) * spc_absdot(wi, ng) / den;
-}
-
 /* The adjoint's correction for the map's shading normal at a delta vertex h on a normal-mapped plane
  * that a light subpath (or a join's flux) crosses from the side of w_prev (toward the light) to the
  * side of w_next: |w_prev.n| |w_next.N| / (|w_prev.N| |w_next.n|), n the map's normal, N the plane's
@@ -110,7 +99,7 @@ static double plane_shading_fix(const spc_hit *h, spc_vec3 w_prev, spc_vec3 w_ne
     spc_vec3 N, n;
     if (!plane_normals(h, &N, &n))
         return 0.0;
-    return adjoint_factor(w_prev, w_next, N, n);
+    return spc_bsdf_shading_adjoint(w_prev, w_next, N, n);
 }
 
 /* Is some vertex of the chain c on a normal-mapped plane one where either of its two directions turns
@@ -144,11 +133,9 @@ static double camera_chain_share(const spc_snee_params *p, const spc_chain *cc)
     return cc->n > p->max_chain ? long_share(p) : through_share(p);
 }
 
-/* The adjoint BSDF's correction for shading normals (Veach 1997, sec. 5.3), as bdpt's. */
-static double shading_fix(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
-{
-    return adjoint_factor(wo, wi, h->ng, h->sh.n);
-}
+/* The adjoint BSDF's correction for shading normals (Veach 1997, sec. 5.3), with a normal or bump
+ * map's normal where the hit has one (spc_bsdf_adjoint_factor), as bdpt's. */
+static double shading_fix(const spc_hit *h, spc_vec3 wo, spc_vec3 wi) { return spc_bsdf_adjoint_factor(h, wo, wi); }
 
 static bool in_window(const spc_render_ctx *ctx, double fx, double fy)
 {
