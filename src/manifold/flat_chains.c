@@ -1173,6 +1173,18 @@ static bool in_face(const flat_cache *fc, const flat_face *f, spc_vec3 p, double
     return false;
 }
 
+bool spc_flat_shape_face_holds(const spc_shape *s, int i, spc_vec3 p, double tol)
+{
+    const flat_cache *fc = flat_get(s);
+    return fc && i >= 0 && i < fc->nfaces && in_face(fc, &fc->face[i], p, tol);
+}
+
+bool spc_flat_shape_front_only(const spc_shape *s)
+{
+    const flat_cache *fc = flat_get(s);
+    return fc && fc->front_only;
+}
+
 
 /* Is the segment a -> b clear of every face of the flat-faced casters but those its ends lie on
  * (fa, fb; NULL for x and y)? A root whose path passes through another face of its own shape or of

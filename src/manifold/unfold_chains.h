@@ -46,6 +46,17 @@ int spc_unfold_chains_all(const struct spc_snee_query *q, spc_chain *out, int ma
 
 /* ---- exposed for tests ---- */
 
+/* What one enumeration did: the planar roots it met, those it polished into chains, and those it
+ * rejected unpolished (their unfolded segment misses the mirror's face), with the orders it skipped
+ * before solving (the mirror's back faces the chain). */
+typedef struct spc_unfold_tally {
+    long roots, chains, roots_culled, orders_culled;
+} spc_unfold_tally;
+/* spc_unfold_chains_all (cull true) or the same without its early-outs (cull false: every root
+ * polished, every order solved); the chains are the same. Adds to *tally (may be NULL). */
+int spc_unfold_chains_cull(const struct spc_snee_query *q, spc_chain *out, int max_out, int *iterations, bool cull,
+                           spc_unfold_tally *tally);
+
 /* p mirrored across the plane n . p = d (n a unit vector). */
 spc_vec3 spc_unfold_mirror_point(spc_vec3 p, spc_vec3 n, double d);
 
