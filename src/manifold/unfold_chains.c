@@ -116,8 +116,9 @@ static bool crosses_face(const spc_shape *mirror, int f, spc_vec3 nm, double dm,
 
 /* The chains of one order through the sphere s and face f of the mirror, on the face's plane (nm,
  * dm): mirror_first puts the mirror's vertex first. Appends to out[*n ..]. With cull, the roots
- * whose unfolded segment misses the face (crosses_face) are not polished, nor an order whose
- * mirror vertex would be seen from the back of a one-sided mirror: both have no chain. */
+ * whose unfolded segment misses the face (crosses_face) are not polished, and an order is not
+ * solved where its mirror vertex would be seen from the back of a one-sided mirror or no ray
+ * through the face reaches the sphere: these have no chain. */
 static void order_chains(const spc_snee_query *q, const spc_shape *s, const spc_shape *mirror, int f, spc_vec3 nm,
                          double dm, bool mirror_first, int kmin, int kmax, spc_chain *out, int *n, int max_out,
                          int *iterations, bool cull, spc_unfold_tally *tally)
@@ -144,6 +145,20 @@ static void order_chains(const spc_snee_query *q, const spc_shape *s, const spc_
     if (sr == 0.0 || (sr * sc < 0.0 && fabs(sc) >= R))
         return;
     spc_vec3 xo = spc_hit_offset(q->x, spc_sub(c, x));
+    /* the unfolded segment through the mirror's face, seen from its end off the sphere (x, or the
+     * mirrored light point), must go on to meet the sphere (or its image): where no ray from there
+     * through the face does, no root has a chain. A crossing within tol of the face moves a point
+     * at distance L beyond it by at most tol L / h off the face's pyramid, h the apex's height over
+     * the plane. */
+    if (cull) {
+        spc_vec3 a = mirror_first ? xo : y1;
+        double h = fabs(spc_dot(nm, a) - dm);
+        if (h > tol && !spc_flat_shape_face_cone_meets(mirror, f, a, c, R, tol * (spc_distance(a, c) + R) / h)) {
+            if (tally)
+                tally->orders_culled++;
+            return;
+        }
+    }
     spc_sphere_plane pl;
     if (!spc_sphere_plane_of(xo, c, R, y1, &pl))
         return;
