@@ -103,7 +103,8 @@ static bool last_sphere_vertex(const spc_sphere_plane *pl, double theta, int m, 
 /* May the segment a -> b of an unfolded chain cross the mirror's plane (nm, dm) inside face f
  * (within tol)? The real chain's mirror vertex is that crossing, so where the segment stays on one
  * side of the plane, or crosses it outside the face, the root has no chain. */
-static bool crosses_face(const spc_shape *mirror, int f, spc_vec3 nm, double dm, spc_vec3 a, spc_vec3 b, double tol)
+static bool crosses_face(const spc_shape *mirror, int f, spc_vec3 nm, double dm, spc_vec3 a, spc_vec3 b, double tol,
+                         spc_vec3 *at)
 {
     double sa = spc_dot(nm, a) - dm, sb = spc_dot(nm, b) - dm;
     if ((sa > tol && sb > tol) || (sa < -tol && sb < -tol))
@@ -111,7 +112,18 @@ static bool crosses_face(const spc_shape *mirror, int f, spc_vec3 nm, double dm,
     if (!(fabs(sa - sb) > tol))
         return true; /* both ends within tol of the plane: not decided here */
     spc_vec3 p = spc_add(a, spc_scale(spc_sub(b, a), sa / (sa - sb)));
+    *at = p;
     return spc_flat_shape_face_holds(mirror, f, p, tol);
+}
+
+/* Does the segment a -> b pass deeper than tol into the sphere (c, R)? */
+static bool segment_enters(spc_vec3 a, spc_vec3 b, spc_vec3 c, double R, double tol)
+{
+    spc_vec3 ab = spc_sub(b, a), ac = spc_sub(c, a);
+    double l2 = spc_dot(ab, ab);
+    double t = l2 > 0.0 ? spc_dot(ac, ab) / l2 : 0.0;
+    t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+    return spc_distance(spc_add(a, spc_scale(ab, t)), c) < R - tol;
 }
 
 /* The chains of one order through the sphere s and face f of the mirror, on the face's plane (nm,
@@ -206,7 +218,11 @@ static void order_chains(const spc_snee_query *q, const spc_shape *s, const spc_
                     have = last_sphere_vertex(&pl, roots[mm + 1][r], mm, eta, &a);
                     b = y1;
                 }
-                if (have && !crosses_face(mirror, f, nm, dm, a, b, tol)) {
+                spc_vec3 at = {NAN, NAN, NAN};
+                /* mirror first: the real sphere across x's way to the mirror blocks it (the trace
+                 * meets the sphere first) */
+                if (have && (!crosses_face(mirror, f, nm, dm, a, b, tol, &at) ||
+                             (mirror_first && !isnan(at.x) && segment_enters(xo, at, s->center, R, tol)))) {
                     if (tally)
                         tally->roots_culled++;
                     continue;
