@@ -1173,6 +1173,43 @@ static bool in_face(const flat_cache *fc, const flat_face *f, spc_vec3 p, double
     return false;
 }
 
+bool spc_flat_shape_face_holds(const spc_shape *s, int i, spc_vec3 p, double tol)
+{
+    const flat_cache *fc = flat_get(s);
+    return fc && i >= 0 && i < fc->nfaces && in_face(fc, &fc->face[i], p, tol);
+}
+
+bool spc_flat_shape_face_cone_meets(const spc_shape *s, int i, spc_vec3 a, spc_vec3 c, double R, double margin)
+{
+    const flat_cache *fc = flat_get(s);
+    if (!fc || i < 0 || i >= fc->nfaces)
+        return true;
+    const flat_face *f = &fc->face[i];
+    for (int t = f->first; t < f->first + f->count; ++t) {
+        const spc_vec3 *p = fc->corner + 3 * t;
+        bool outside = false;
+        for (int j = 0; j < 3 && !outside; ++j) {
+            /* the plane through a and the edge p[j] p[j + 1], its normal toward the third corner */
+            spc_vec3 n = spc_cross(spc_sub(p[j], a), spc_sub(p[(j + 1) % 3], a));
+            double nl = spc_length(n);
+            if (!(nl > 0.0))
+                break; /* a on the edge's line: this triangle is not decided here */
+            if (spc_dot(n, spc_sub(p[(j + 2) % 3], a)) < 0.0)
+                nl = -nl;
+            outside = spc_dot(n, spc_sub(c, a)) / nl < -(R + margin);
+        }
+        if (!outside)
+            return true;
+    }
+    return false;
+}
+
+bool spc_flat_shape_front_only(const spc_shape *s)
+{
+    const flat_cache *fc = flat_get(s);
+    return fc && fc->front_only;
+}
+
 
 /* Is the segment a -> b clear of every face of the flat-faced casters but those its ends lie on
  * (fa, fb; NULL for x and y)? A root whose path passes through another face of its own shape or of

@@ -85,6 +85,15 @@ bool spc_flat_chain_closed(const spc_shape *s);
  * p on the plane), at most max (SPC_FLAT_MAX_FACES holds all); returns their number, 0 where s is not
  * such a shape. */
 int spc_flat_shape_planes(const spc_shape *s, spc_vec3 *n, double *d, int max);
+/* Does face i of such a shape (spc_flat_shape_planes' i-th plane) hold the point p of its plane,
+ * within tol (a distance) of one of its triangles? false where s is not such a shape. */
+bool spc_flat_shape_face_holds(const spc_shape *s, int i, spc_vec3 p, double tol);
+/* May a ray from the point a through face i of such a shape (within margin of its triangles' side
+ * planes through a) meet the sphere (c, R)? false only where every triangle's pyramid from a lies
+ * more than margin from the sphere; true where s is not such a shape. */
+bool spc_flat_shape_face_cone_meets(const spc_shape *s, int i, spc_vec3 a, spc_vec3 c, double R, double margin);
+/* Is such a shape a one-sided mirror (its faces reflect on their exterior side only)? */
+bool spc_flat_shape_front_only(const spc_shape *s);
 /* Is c one of the chains spc_flat_chains_all enumerates (1 to SPC_FLAT_MAX_VERTICES vertices, all
  * on such shapes, the events above, each segment's medium agreed on by its two ends; reflect as
  * spc_snee_params.reflect)? */

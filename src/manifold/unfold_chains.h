@@ -13,6 +13,13 @@
  * unblocked. Every chain of the class is found: a real chain unfolds to one of the image problem's
  * roots, and the planar enumeration finds them all.
  *
+ * Most image problems have no chain (on bench/check/ball_mirror_wall.xml the polish of roots that
+ * cross the plane outside the face was 30% of the render), so exact early-outs come first: an order
+ * whose mirror vertex would face a one-sided mirror's back, or where no ray from x (mirror first) or
+ * y' (sphere first) through the face meets the sphere's image or the sphere, is not solved; a root
+ * whose unfolded segment crosses the plane outside the face is not polished. Each rejects only
+ * roots without a chain (margins far above the roots' error).
+ *
  * Class (spc_unfold_chain_covers): 2 to SPC_UNFOLD_MAX_VERTICES vertices, one on a flat mirror (a
  * conductor that flat_chains.h takes) and first or last, the others on one sphere that
  * sphere_chains.h takes, forming one of its chains of at most two vertices: a mirror ball's R, a
@@ -45,6 +52,18 @@ bool spc_unfold_chain_covers(const spc_chain *c, bool reflect);
 int spc_unfold_chains_all(const struct spc_snee_query *q, spc_chain *out, int max_out, int *iterations);
 
 /* ---- exposed for tests ---- */
+
+/* What one enumeration did: the planar roots it met, those it polished into chains, and those it
+ * rejected unpolished (their unfolded segment misses the mirror's face), with the orders it skipped
+ * before solving (the mirror's back faces the chain, or no ray through the face from x, or from the
+ * mirrored light point, meets the sphere or its image). */
+typedef struct spc_unfold_tally {
+    long roots, chains, roots_culled, orders_culled;
+} spc_unfold_tally;
+/* spc_unfold_chains_all (cull true) or the same without its early-outs (cull false: every root
+ * polished, every order solved); the chains are the same. Adds to *tally (may be NULL). */
+int spc_unfold_chains_cull(const struct spc_snee_query *q, spc_chain *out, int max_out, int *iterations, bool cull,
+                           spc_unfold_tally *tally);
 
 /* p mirrored across the plane n . p = d (n a unit vector). */
 spc_vec3 spc_unfold_mirror_point(spc_vec3 p, spc_vec3 n, double d);
