@@ -22,6 +22,7 @@
  * - One walk for several lengths (spc_flat_chains_all_later, spc_flat_chains_later) gives the
  *   chains of one walk per length, bit for bit.
  * - The walk's bound on the vertices a sequence still needs moves no root and no sequence solved.
+ * - The polish's seed traced without its final segment ends on the same chain, bit for bit.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -851,6 +852,97 @@ TEST(vertex_bound_same_roots)
     CHECK(stacked_on * 4 < stacked_off);
 }
 
+/* The polish of a root (polish.c) traces its seed chain without the final segment (skip_end): the
+ * solve takes the seed whatever that segment meets, so the chain it ends with must be the one it
+ * ends with when the segment is traced. Two stacked slabs (newton_slabs' four refractions), floor
+ * points to points on the light's lower half: from each root's first direction (as the walk hands
+ * it to the polish), the angular solve with the polish's options, the end traced and not: the same
+ * convergence, traces, residual, parameters and vertices bit for bit, and the seed's trace without
+ * its end stops at the last vertex with no end hit. */
+static bool same_bits(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
+static bool same_vec(spc_vec3 a, spc_vec3 b) { return same_bits(a.x, b.x) && same_bits(a.y, b.y) && same_bits(a.z, b.z); }
+
+TEST(polish_without_end_same_chain)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 A = tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.55));
+    spc_mat4 B = tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.9));
+    add_cube(sc, &A, tu_glass(sc, 1.5));
+    add_cube(sc, &B, tu_glass(sc, 1.5));
+    const spc_vec3 lc = spc_v3(0.3, -0.2, 2.2);
+    const double lr = 0.3;
+    sc = add_light_finish(sc, lc, lr);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_rng_seed(&rng, 36, 1);
+    spc_angular_options ao;
+    spc_angular_options_default(&ao);
+    ao.window = 0; /* the polish's options */
+    ao.max_iterations = 8;
+    int roots = 0, converged = 0, ends = 0, stepped = 0, differ = 0;
+    for (int i = 0; i < 80; ++i) {
+        spc_hit x;
+        spc_ray ray = {spc_v3(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 0.3), spc_v3(0, 0, -1), 0, INFINITY};
+        if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
+            continue;
+        /* a point on the light's lower half */
+        double z = -rnd(), phi = 2.0 * M_PI * rnd(), rho = sqrt(fmax(0.0, 1.0 - z * z));
+        spc_vec3 ny = spc_v3(rho * cos(phi), rho * sin(phi), z);
+        spc_vec3 y = spc_madd(lc, ny, lr);
+        spc_vec3 pts[4 * 8];
+        unsigned char ev[4 * 8];
+        int n = spc_flat_chain_roots(sc, false, false, x.p, y, 4, pts, ev, 8, NULL);
+        for (int j = 0; j < n; ++j) {
+            ++roots;
+            spc_vec3 xo = spc_hit_offset(&x, spc_sub(pts[4 * j], x.p));
+            spc_vec3 dir = spc_normalize(spc_sub(pts[4 * j], xo));
+            spc_angular_target tg = {y, ny, sc->radius, sqrt(4.0 * M_PI) * lr};
+            spc_chain c[2];
+            spc_angular_result res[2];
+            bool conv[2];
+            /* every other point's roots at a tolerance that the seed itself meets (the polish's
+             * seeds meet its own in a share of the calls) */
+            spc_angular_options aj = ao;
+            if (i % 2) {
+                aj.tol_scene = 1e-4;
+                aj.tol_light = 1e-2;
+            }
+            for (int e = 0; e < 2; ++e) {
+                spc_chain_opts o = spc_chain_opts_default(4);
+                o.events = &ev[4 * j];
+                o.skip_end = e == 1;
+                conv[e] = spc_angular_solve(sc, &x, &tg, dir, &o, &aj, &c[e], &res[e]);
+            }
+            converged += conv[0];
+            ends += conv[0] && res[0].iterations == 1 && c[0].has_end_hit;
+            stepped += res[0].iterations > 1;
+            bool same = conv[0] == conv[1] && res[0].iterations == res[1].iterations &&
+                        same_bits(res[0].residual, res[1].residual) && c[0].n == c[1].n &&
+                        same_bits(c[0].a, c[1].a) && same_bits(c[0].b, c[1].b) && same_vec(c[0].d0, c[1].d0);
+            for (int v = 0; same && v < c[0].n; ++v)
+                same = same_vec(c[0].v[v].h.p, c[1].v[v].h.p) && same_vec(c[0].v[v].d, c[1].v[v].d) &&
+                       same_vec(c[0].v[v].h.ng, c[1].v[v].h.ng) && c[0].v[v].event == c[1].v[v].event &&
+                       c[0].v[v].h.shape_index == c[1].v[v].h.shape_index;
+            differ += !same;
+            /* the seed alone: four vertices, no end hit */
+            spc_chain_opts o = spc_chain_opts_default(4);
+            o.events = &ev[4 * j];
+            o.skip_end = true;
+            spc_chain sd;
+            spc_frame fr = spc_frame_from_n(dir);
+            CHECK(spc_chain_trace(sc, &x, &fr, 0.0, 0.0, &o, &sd) == SPC_CHAIN_END_SURFACE && sd.n == 4 &&
+                  !sd.has_end_hit);
+        }
+    }
+    printf("  %d roots, %d polished (%d on the seed, its end traced; %d took a step), %d differ\n", roots, converged,
+           ends, stepped, differ);
+    CHECK(roots >= 40 && converged >= roots * 9 / 10);
+    CHECK(stepped >= roots / 4 && ends >= roots / 4);
+    CHECK(differ == 0);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(slab_lateral_shift);
@@ -868,5 +960,6 @@ int main(void)
     RUN(parallel_closed_form_same_roots);
     RUN(one_walk_for_several_lengths);
     RUN(vertex_bound_same_roots);
+    RUN(polish_without_end_same_chain);
     return spc_test_finish();
 }

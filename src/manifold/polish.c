@@ -23,6 +23,9 @@ bool spc_snee_exact_polish_shapes(const spc_snee_query *q, const spc_shape *cons
     spc_chain_opts opts = spc_chain_opts_default(k);
     opts.events = events;
     opts.any_surface = q->any_surface;
+    /* the seed's final segment is not traced: the solve takes the seed whatever it meets (an
+     * escape, a surface or one more chain surface), and nothing reads the end hit */
+    opts.skip_end = true;
     spc_angular_target tg = {q->y, q->ny, sc->radius, q->light_size};
     spc_angular_options ao;
     if (q->params)
