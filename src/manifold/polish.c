@@ -5,7 +5,6 @@
  */
 #include "manifold/solver.h"
 
-
 bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, const unsigned char *events,
                            spc_vec3 dir, spc_chain *out, int n, int *iterations)
 {
