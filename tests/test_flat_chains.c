@@ -22,6 +22,9 @@
  * - One walk for several lengths (spc_flat_chains_all_later, spc_flat_chains_later) gives the
  *   chains of one walk per length, bit for bit.
  * - The walk's bound on the vertices a sequence still needs moves no root and no sequence solved.
+ * - The polish's seed traced without its final segment ends on the same chain, bit for bit.
+ * - A flat root polished to the flat tolerances gives the chain and value of the angular solver's
+ *   own tolerance, to 1e-4, in fewer traces.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -33,6 +36,7 @@
 #include "harness.h"
 #include "manifold/angular.h"
 #include "manifold/flat_chains.h"
+#include "manifold/solver.h"
 #include "manifold/specular_nee.h"
 #include "render_util.h"
 
@@ -336,7 +340,8 @@ static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, 
     t->enumerated += n;
     for (int i = 0; i < n; ++i) {
         ++t->by_len[all[i].n];
-        CHECK_MSG(miss(&all[i], q.y) < 1e-6, "chain %d of %d vertices misses y by %g", i, all[i].n, miss(&all[i], q.y));
+        CHECK_MSG(miss(&all[i], q.y) < SPC_SNEE_FLAT_POLISH_TOL_SCENE * sc->radius, "chain %d of %d vertices misses y by %g",
+                  i, all[i].n, miss(&all[i], q.y));
         CHECK(spc_flat_chain_covers(&all[i], p->reflect));
         for (int j = 0; j < i; ++j)
             CHECK(!spc_snee_same_solution(&all[i], &all[j], sc->radius));
@@ -851,6 +856,179 @@ TEST(vertex_bound_same_roots)
     CHECK(stacked_on * 4 < stacked_off);
 }
 
+/* The polish of a root (polish.c) traces its seed chain without the final segment (skip_end): the
+ * solve takes the seed whatever that segment meets, so the chain it ends with must be the one it
+ * ends with when the segment is traced. Two stacked slabs (newton_slabs' four refractions), floor
+ * points to points on the light's lower half: from each root's first direction (as the walk hands
+ * it to the polish), the angular solve with the polish's options, the end traced and not: the same
+ * convergence, traces, residual, parameters and vertices bit for bit, and the seed's trace without
+ * its end stops at the last vertex with no end hit. */
+static bool same_bits(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
+static bool same_vec(spc_vec3 a, spc_vec3 b) { return same_bits(a.x, b.x) && same_bits(a.y, b.y) && same_bits(a.z, b.z); }
+
+TEST(polish_without_end_same_chain)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 A = tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.55));
+    spc_mat4 B = tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.9));
+    add_cube(sc, &A, tu_glass(sc, 1.5));
+    add_cube(sc, &B, tu_glass(sc, 1.5));
+    const spc_vec3 lc = spc_v3(0.3, -0.2, 2.2);
+    const double lr = 0.3;
+    sc = add_light_finish(sc, lc, lr);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_rng_seed(&rng, 36, 1);
+    spc_angular_options ao;
+    spc_angular_options_default(&ao);
+    ao.window = 0; /* the polish's options */
+    ao.max_iterations = 8;
+    int roots = 0, converged = 0, ends = 0, stepped = 0, differ = 0;
+    for (int i = 0; i < 80; ++i) {
+        spc_hit x;
+        spc_ray ray = {spc_v3(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 0.3), spc_v3(0, 0, -1), 0, INFINITY};
+        if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
+            continue;
+        /* a point on the light's lower half */
+        double z = -rnd(), phi = 2.0 * M_PI * rnd(), rho = sqrt(fmax(0.0, 1.0 - z * z));
+        spc_vec3 ny = spc_v3(rho * cos(phi), rho * sin(phi), z);
+        spc_vec3 y = spc_madd(lc, ny, lr);
+        spc_vec3 pts[4 * 8];
+        unsigned char ev[4 * 8];
+        int n = spc_flat_chain_roots(sc, false, false, x.p, y, 4, pts, ev, 8, NULL);
+        for (int j = 0; j < n; ++j) {
+            ++roots;
+            spc_vec3 xo = spc_hit_offset(&x, spc_sub(pts[4 * j], x.p));
+            spc_vec3 dir = spc_normalize(spc_sub(pts[4 * j], xo));
+            spc_angular_target tg = {y, ny, sc->radius, sqrt(4.0 * M_PI) * lr};
+            spc_chain c[2];
+            spc_angular_result res[2];
+            bool conv[2];
+            /* every other point's roots at a tolerance that the seed itself meets (the polish's
+             * seeds meet its own in a share of the calls) */
+            spc_angular_options aj = ao;
+            if (i % 2) {
+                aj.tol_scene = 1e-4;
+                aj.tol_light = 1e-2;
+            }
+            for (int e = 0; e < 2; ++e) {
+                spc_chain_opts o = spc_chain_opts_default(4);
+                o.events = &ev[4 * j];
+                o.skip_end = e == 1;
+                conv[e] = spc_angular_solve(sc, &x, &tg, dir, &o, &aj, &c[e], &res[e]);
+            }
+            converged += conv[0];
+            ends += conv[0] && res[0].iterations == 1 && c[0].has_end_hit;
+            stepped += res[0].iterations > 1;
+            bool same = conv[0] == conv[1] && res[0].iterations == res[1].iterations &&
+                        same_bits(res[0].residual, res[1].residual) && c[0].n == c[1].n &&
+                        same_bits(c[0].a, c[1].a) && same_bits(c[0].b, c[1].b) && same_vec(c[0].d0, c[1].d0);
+            for (int v = 0; same && v < c[0].n; ++v)
+                same = same_vec(c[0].v[v].h.p, c[1].v[v].h.p) && same_vec(c[0].v[v].d, c[1].v[v].d) &&
+                       same_vec(c[0].v[v].h.ng, c[1].v[v].h.ng) && c[0].v[v].event == c[1].v[v].event &&
+                       c[0].v[v].h.shape_index == c[1].v[v].h.shape_index;
+            differ += !same;
+            /* the seed alone: four vertices, no end hit */
+            spc_chain_opts o = spc_chain_opts_default(4);
+            o.events = &ev[4 * j];
+            o.skip_end = true;
+            spc_chain sd;
+            spc_frame fr = spc_frame_from_n(dir);
+            CHECK(spc_chain_trace(sc, &x, &fr, 0.0, 0.0, &o, &sd) == SPC_CHAIN_END_SURFACE && sd.n == 4 &&
+                  !sd.has_end_hit);
+        }
+    }
+    printf("  %d roots, %d polished (%d on the seed, its end traced; %d took a step), %d differ\n", roots, converged,
+           ends, stepped, differ);
+    CHECK(roots >= 40 && converged >= roots * 9 / 10);
+    CHECK(stepped >= roots / 4 && ends >= roots / 4);
+    CHECK(differ == 0);
+    spc_scene_destroy(sc);
+}
+
+/* The polish of a flat root to its own tolerances (spc_snee_exact_polish_flat) against the angular
+ * solver's (spc_snee_exact_polish_shapes), from the same root: newton_slabs' two stacked slabs, floor
+ * points under light points drawn as the renderer draws them. Each root polishes to the same
+ * solution either way, its value (spc_snee_chain_value) within 1e-4 relative, its final segment
+ * within the flat tolerance of the light point, in fewer traces. */
+TEST(flat_polish_same_values)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 A = tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.55));
+    spc_mat4 B = tu_place(spc_v3(2.5, 2.5, 0.08), spc_v3(1, 0, 0), 0.0, spc_v3(0, 0, 0.9));
+    add_cube(sc, &A, tu_glass(sc, 1.5));
+    add_cube(sc, &B, tu_glass(sc, 1.5));
+    sc = add_light_finish(sc, spc_v3(0.3, -0.2, 2.2), 0.3);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    spc_snee_params p;
+    spc_snee_params_default(&p, SPC_SNEE_ANGULAR, 4);
+    p.any_surface = true;
+    spc_rng_seed(&rng, 36, 2);
+    int roots = 0, both = 0, same = 0, close = 0, tight_traces = 0, flat_traces = 0;
+    double worst = 0.0;
+    for (int i = 0; i < 80; ++i) {
+        spc_hit x;
+        spc_ray ray = {spc_v3(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 0.3), spc_v3(0, 0, -1), 0, INFINITY};
+        if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
+            continue;
+        spc_snee_query q;
+        spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 0, 1), 4);
+        const spc_emitter *e;
+        spc_vec2 uv;
+        double p_y;
+        spc_rng r;
+        spc_rng_seed(&r, 7, (uint64_t)i);
+        if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+            continue;
+        spc_vec3 pts[4 * 8];
+        unsigned char ev[4 * 8];
+        int n = spc_flat_chain_roots(sc, true, false, x.p, q.y, 4, pts, ev, 8, NULL);
+        for (int j = 0; j < n; ++j) {
+            ++roots;
+            const spc_shape *shapes[4];
+            for (int v = 0; v < 4; ++v)
+                shapes[v] = NULL;
+            spc_vec3 xo = spc_hit_offset(&x, spc_sub(pts[4 * j], x.p));
+            spc_vec3 dir = spc_normalize(spc_sub(pts[4 * j], xo));
+            /* the shapes the root's vertices lie on: those of a first trace along its events */
+            spc_chain_opts o = spc_chain_opts_default(4);
+            o.events = &ev[4 * j];
+            o.any_surface = true;
+            o.skip_end = true;
+            spc_chain sd;
+            spc_frame fr = spc_frame_from_n(dir);
+            if (spc_chain_trace(sc, &x, &fr, 0.0, 0.0, &o, &sd) != SPC_CHAIN_END_SURFACE || sd.n != 4)
+                continue;
+            for (int v = 0; v < 4; ++v)
+                shapes[v] = sc->shapes[sd.v[v].h.shape_index];
+            spc_chain c[2];
+            int it[2] = {0, 0};
+            bool ok0 = spc_snee_exact_polish_shapes(&q, shapes, 4, &ev[4 * j], dir, c, 0, &it[0]);
+            bool ok1 = spc_snee_exact_polish_flat(&q, shapes, 4, &ev[4 * j], dir, c + 1, 0, &it[1]);
+            if (!(ok0 && ok1))
+                continue;
+            ++both;
+            tight_traces += it[0];
+            flat_traces += it[1];
+            same += spc_snee_same_solution(&c[0], &c[1], sc->radius);
+            spc_rgb v0 = spc_snee_chain_value(&q, e, uv, &c[0]), v1 = spc_snee_chain_value(&q, e, uv, &c[1]);
+            double rel = v0.r > 0.0 ? fabs(v1.r - v0.r) / v0.r : fabs(v1.r);
+            worst = fmax(worst, rel);
+            close += rel < 1e-4 && miss(&c[1], q.y) < SPC_SNEE_FLAT_POLISH_TOL_SCENE * sc->radius;
+        }
+    }
+    printf("  %d roots, %d polished both ways: %d the same solution, %d values within 1e-4 (worst %.2e); "
+           "traces %d (the angular solver's tolerance) against %d\n",
+           roots, both, same, close, worst, tight_traces, flat_traces);
+    CHECK(roots >= 40 && both >= roots * 9 / 10);
+    CHECK(same == both && close == both);
+    CHECK(flat_traces < tight_traces);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(slab_lateral_shift);
@@ -868,5 +1046,7 @@ int main(void)
     RUN(parallel_closed_form_same_roots);
     RUN(one_walk_for_several_lengths);
     RUN(vertex_bound_same_roots);
+    RUN(polish_without_end_same_chain);
+    RUN(flat_polish_same_values);
     return spc_test_finish();
 }

@@ -252,7 +252,7 @@ spc_chain_end spc_chain_trace(const spc_scene *sc, const spc_hit *x, const spc_f
     spc_vec3 d = c->d0, dd[2] = {c->dd0[0], c->dd0[1]};
     spc_ray ray = spc_hit_spawn(x, d);
     for (int i = 0;; ++i) {
-        if (fixed && i == limit && !opts->find_end)
+        if (i == limit && (fixed ? !opts->find_end : opts->skip_end))
             return c->end = SPC_CHAIN_END_SURFACE;
         /* the hit goes straight into its vertex (the end hit past the last one is copied out) */
         spc_hit hl, *hp = i < SPC_CHAIN_MAX_VERTICES ? &c->v[i].h : &hl;

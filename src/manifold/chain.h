@@ -110,6 +110,10 @@ typedef struct spc_chain_opts {
     bool any_surface;            /* every specular interface is a chain surface, whatever its
                                     caustic flags (tests, benchmarks) */
     bool find_end;               /* with fixed: also intersect the final segment (end, end_hit) */
+    /* without fixed: end after the last vertex without intersecting the final segment (end
+     * SURFACE, no end hit), for a caller that takes the chain whatever that segment meets (the
+     * polish of an exact root, whose final segment's visibility is tested later) */
+    bool skip_end;
     /* a solver's step: the vertices' hits on meshes without uv and the shading tangents
      * (spc_shape_fill_hit_chain), which tracing, the derivatives and the residuals do not read;
      * spc_chain_complete fills them in the chain the solver keeps */

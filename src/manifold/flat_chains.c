@@ -1920,7 +1920,7 @@ static bool chains_found(void *user, const flat_problem *P, const spc_vec3 *p)
      * spawns it) */
     spc_vec3 xo = spc_hit_offset(o->q->x, spc_sub(p[1], o->q->x->p));
     spc_vec3 dir = spc_normalize(spc_sub(p[1], xo));
-    if (spc_snee_exact_polish_shapes(o->q, shapes, P->k, ev, dir, o->out, o->n, o->iterations))
+    if (spc_snee_exact_polish_flat(o->q, shapes, P->k, ev, dir, o->out, o->n, o->iterations))
         ++o->n;
     return true;
 }
@@ -1996,7 +1996,7 @@ int spc_flat_chains_later(const spc_snee_query *q, const spc_flat_later *later, 
     int n = 0;
     for (int i = 0; i < later->n && n < max_out; ++i) {
         const spc_flat_later_root *r = &later->root[i];
-        if (r->k == k && spc_snee_exact_polish_shapes(q, r->shapes, k, r->ev, r->dir, out, n, iterations))
+        if (r->k == k && spc_snee_exact_polish_flat(q, r->shapes, k, r->ev, r->dir, out, n, iterations))
             ++n;
     }
     return n;

@@ -18,7 +18,7 @@
  * search: global convergence on a convex function; where the refracting faces are parallel once the
  * reflections are unfolded, from a closed form's minimum, flat_chains.c), and keeps a minimum whose
  * segments have length, whose vertices lie on the sides the sequence says and inside their faces'
- * polygons. Each is polished in 3D by the angular solver (spc_snee_exact_polish_shapes), whose trace
+ * polygons. Each is polished in 3D by the angular solver (spc_snee_exact_polish_flat), whose trace
  * proves the segments before the last unblocked and that nothing else lies between.
  *
  * Faces: a shape's triangles grouped by plane (same unit normal and offset): a cube or a slab gives

@@ -511,6 +511,21 @@ bool spc_snee_exact_polish(const spc_snee_query *q, const spc_shape *s, int k, c
 /* The same for a chain whose vertex j lies on shapes[j] (flat_chains.h: a chain through two slabs). */
 bool spc_snee_exact_polish_shapes(const spc_snee_query *q, const spc_shape *const *shapes, int k,
                                   const unsigned char *events, spc_vec3 dir, spc_chain *out, int n, int *iterations);
+/* The tolerances of the polish of a flat root (of the scene's size and of the light's, the smaller
+ * one applies; the other enumerations keep the angular solver's). A flat root is its chain to double
+ * rounding (flat_chains.c converges to 1e-12); the seed's trace misses the light point only by the
+ * rays' spawn offsets off each surface (8 float ulps of the coordinates), carried along the chain and
+ * stretched where the final segment meets the light's tangent plane obliquely: on newton_slabs'
+ * four-vertex chains 2.4e-7 of the scene's size at the median, 1.6e-6 at the 90th percentile, 1.4e-5
+ * at the 99th, where the angular solver's own 1e-7 took a second trace for 3 roots in 4. A chain's
+ * value moves by at most a few 1e-5 of itself (test_flat_chains: 3.5e-5; bench/RESULTS.md, "flat roots
+ * polished in one trace"). */
+#define SPC_SNEE_FLAT_POLISH_TOL_SCENE 1e-5
+#define SPC_SNEE_FLAT_POLISH_TOL_LIGHT 1e-3
+/* The same for a root of flat_chains.c, to the tolerances above (the polished chain's final segment
+ * meets the light's tangent plane within their smaller one of the light point). */
+bool spc_snee_exact_polish_flat(const spc_snee_query *q, const spc_shape *const *shapes, int k,
+                                const unsigned char *events, spc_vec3 dir, spc_chain *out, int n, int *iterations);
 
 /* Two converged chains with the same signature are the same solution when every vertex agrees to
  * this fraction of the scene's size: far above the solver's tolerance (angular.c, 1e-7), far below
