@@ -133,6 +133,12 @@ typedef struct spc_snee_params {
      * would have covered (the track starts nowhere). Deep vertices carry little of the image and
      * cost as much as the first (an enclosed pool: over half of the calls). */
     int receivers;
+    /* The path tracer's extra directions at its receivers past the first (the user's
+     * "deepsplit=M"; 0: none): at each such vertex M more directions from its BSDF, each followed
+     * through delta vertices only (glass, mirrors) to an area light, counting only the light
+     * reached through at least one of them, with the MIS weight the path's own sample of that
+     * direction would get; the path's own such light is counted 1 / (M + 1) (path_deep.h). */
+    int deep_split;
     /* Specular NEE from the camera too (the user's "camera"): once per camera sample, a light point
      * and a chain from the pinhole through the specular surfaces to it, splatted on the pixel its
      * first direction falls in (spc_snee_camera): the light seen through glass or in a mirror (a
