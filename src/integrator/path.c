@@ -344,7 +344,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         }
 
         /* the extra directions at a receiver past the first (path_deep.h) */
-        const bool deep = nee && !graze && !gv && spc_path_deep_at(&sn, &h);
+        const bool deep = spc_path_deep_at(&sn, &h);
         if (deep) {
             spc_rgb c_deep = spc_path_deep_estimate(ctx, &sn, &h, wo, segments, smp);
             if (!spc_rgb_is_black(c_deep))

@@ -16,7 +16,7 @@ static bool depth_allows(const spc_render_ctx *ctx, int segments)
 
 bool spc_path_deep_at(const spc_path_snee *sn, const spc_hit *h)
 {
-    return sn->on && sn->p.deep_split > 0 && sn->receivers >= 1 && h->bsdf && spc_bsdf_has_smooth(h->bsdf);
+    return sn->on && sn->p.bsdf_n > 1.0 && h->bsdf && spc_bsdf_has_smooth(h->bsdf);
 }
 
 /* One extra direction's light: x's BSDF sampled with the stream rng, then delta-only vertices as
@@ -78,7 +78,7 @@ static spc_rgb one_direction(const spc_render_ctx *ctx, const spc_path_snee *sn,
 spc_rgb spc_path_deep_estimate(const spc_render_ctx *ctx, const spc_path_snee *sn, const spc_hit *h, spc_vec3 wo,
                                int segments, const spc_sampler *smp)
 {
-    const int m = sn->p.deep_split;
+    const int m = (int)sn->p.bsdf_n - 1;
     spc_rng rng;
     spc_sampler_fork_rng(smp, SPC_PATH_DEEP_STREAM, &rng);
     spc_rgb sum = spc_rgb1(0.0);
@@ -91,7 +91,7 @@ void spc_path_deep_scattered(spc_path_deep_track *t, const spc_path_snee *sn, co
                              bool drawn)
 {
     if (drawn && !(lobe & SPC_LOBE_DELTA)) {
-        t->scale = 1.0 / (sn->p.deep_split + 1);
+        t->scale = 1.0 / sn->p.bsdf_n;
         t->k = 0;
     } else if (t->scale != 1.0 && (lobe & SPC_LOBE_DELTA) && h->bsdf && spc_bsdf_is_delta_only(h->bsdf)) {
         ++t->k;

@@ -139,6 +139,13 @@ typedef struct spc_snee_params {
      * reached through at least one of them, with the MIS weight the path's own sample of that
      * direction would get; the path's own such light is counted 1 / (M + 1) (path_deep.h). */
     int deep_split;
+    /* The number of directions the path draws from the BSDF at the receiver whose query this is
+     * (0 counts as 1): deep_split + 1 where the extra directions run (path_deep.h). BSDF
+     * sampling's density in the MIS weights of the paths that leave this receiver (specular NEE's
+     * and BSDF sampling's, each of the directions counted 1 / bsdf_n) is times this, the balance of
+     * one light sample against bsdf_n BSDF samples (Veach's n_i p_i). Set by the path tracer per
+     * receiver; never where light tracing shares the receiver's paths. */
+    double bsdf_n;
     /* Specular NEE from the camera too (the user's "camera"): once per camera sample, a light point
      * and a chain from the pinhole through the specular surfaces to it, splatted on the pixel its
      * first direction falls in (spc_snee_camera): the light seen through glass or in a mirror (a
