@@ -10,16 +10,20 @@
  * value. Such a path is rare and worth hundreds of times a dim pixel's mean: one of them held 0.98
  * of a seed's error on the pool (bench/RESULTS.md, part pool36).
  *
- * The estimator: at such a vertex x, M more directions are drawn from x's BSDF (not a delta lobe),
- * each followed through vertices whose BSDF is delta only (sampled as the path samples them, with
- * no Russian roulette) for at most SPC_CHAIN_MAX_VERTICES of them; the light of an area emitter
- * reached after at least one such vertex is counted with the MIS weight the path gives the same
- * light when its own sample reaches it (spc_path_snee_emitter_weight on the state the path would
- * carry), over M + 1. The path's own light of that kind (its next vertices after x delta only, an
- * area light reached after 1 to SPC_CHAIN_MAX_VERTICES of them) is counted 1 / (M + 1) times
- * (spc_path_deep_track). So that class is the mean of M + 1 independent samples of x's BSDF, each
- * an unbiased estimate of the same weighted integral: unbiased, with the weights of every other
- * strategy unchanged. The draws come from a stream forked from the sampler, so no dimension moves.
+ * The estimator: at such a vertex x, where specular NEE's query runs and light tracing shares none
+ * of x's paths (past the receivers its area-light joins reach) and the BSDF alone samples x (no
+ * caustic guide), M more directions are drawn from x's BSDF (not a delta lobe), each followed
+ * through vertices whose BSDF is delta only (sampled as the path samples them, with no Russian
+ * roulette) for at most SPC_CHAIN_MAX_VERTICES of them; the light of an area emitter reached after
+ * at least one such vertex is counted over M + 1 with the MIS weight the path gives the same light
+ * when its own sample reaches it (spc_path_snee_emitter_weight on the state the path would carry).
+ * The path's own light of that kind (its next vertices after x delta only, an area light reached
+ * after 1 to SPC_CHAIN_MAX_VERTICES of them) is counted 1 / (M + 1) times (spc_path_deep_track).
+ * Both weights, and specular NEE's at x, take BSDF sampling's density times M + 1
+ * (spc_snee_params.bsdf_n, set per receiver by path_snee.c): the M + 1 directions are one strategy
+ * of M + 1 samples (Veach's n_i p_i), so near a fold, where specular NEE's value stands at the power
+ * heuristic's bound, its weight falls too. Every path's weights still sum to one: unbiased. The
+ * draws come from a stream forked from the sampler, so no dimension moves.
  */
 #ifndef SPC_INTEGRATOR_PATH_DEEP_H
 #define SPC_INTEGRATOR_PATH_DEEP_H
@@ -42,8 +46,7 @@ typedef struct spc_path_deep_track {
 } spc_path_deep_track;
 
 /* Does the path draw extra directions at its vertex h (sn: the specular NEE state after h's
- * query)? With deepsplit, at a vertex whose BSDF has a smooth lobe, past the path's first such
- * vertex. */
+ * query)? Where path_snee.c set the receiver's BSDF count (params.bsdf_n) above 1. */
 bool spc_path_deep_at(const spc_path_snee *sn, const spc_hit *h);
 
 /* The extra directions' light at h (wo toward the previous vertex; segments: the path's segments

@@ -136,8 +136,9 @@ typedef struct spc_snee_params {
     /* The path tracer's extra directions at its receivers past the first (the user's
      * "deepsplit=M"; 0: none): at each such vertex M more directions from its BSDF, each followed
      * through delta vertices only (glass, mirrors) to an area light, counting only the light
-     * reached through at least one of them, with the MIS weight the path's own sample of that
-     * direction would get; the path's own such light is counted 1 / (M + 1) (path_deep.h). */
+     * reached through at least one of them, weighed as M + 1 BSDF samples (bsdf_n); the path's own
+     * such light is counted 1 / (M + 1) (path_deep.h). Where the query runs and light tracing
+     * shares none of the receiver's paths. */
     int deep_split;
     /* The number of directions the path draws from the BSDF at the receiver whose query this is
      * (0 counts as 1): deep_split + 1 where the extra directions run (path_deep.h). BSDF
