@@ -1328,7 +1328,8 @@ TEST(water_plane_plan_no_camera_query)
     spc_snee_params sp;
     spc_snee_plan_make(sc, "path", NULL, &p);
     CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER SPC_SNEE_PLAN_WATER_LT) &&
-                  spc_snee_parse(p.setting, 2, &sp) && !sp.camera && sp.exact && sp.lt_caustic,
+                  spc_snee_parse(p.setting, 2, &sp) && !sp.camera && sp.exact && sp.lt_caustic &&
+                  sp.deep_split == 8,
               "pool, path: %s (%s)", p.setting, p.reason);
     printf("    pool, path: %s\n", p.setting);
     static const char *const others[] = {"volpath", "bdpt"};
@@ -1345,7 +1346,7 @@ TEST(water_plane_plan_no_camera_query)
         return;
     spc_snee_plan_make(sc, "path", NULL, &p);
     CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER) && spc_snee_parse(p.setting, 2, &sp) &&
-                  !sp.camera,
+                  !sp.camera && sp.deep_split == 0,
               "newton_pool, path: %s (%s)", p.setting, p.reason);
     printf("    newton_pool, path: %s\n", p.setting);
     for (int i = 0; i < 2; ++i) {

@@ -60,6 +60,7 @@
 
 #include "integrator/aov.h"
 #include "integrator/path_camsplit.h"
+#include "integrator/path_deep.h"
 #include "integrator/path_graze.h"
 #include "integrator/path_snee.h"
 
@@ -234,6 +235,8 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
     /* grazing directions along mirror cylinders (path_graze.h) */
     const bool graze = nee && sn.on && spc_path_graze_enabled(ctx, sn.lg_enabled);
     spc_graze_track gt = {.live = false};
+    /* more directions at the receivers past the first (path_deep.h) */
+    spc_path_deep_track dt = {.scale = 1.0, .k = 0};
 
     for (int segments = 1;; ++segments) {
         /* segments: the number of path segments once this ray is traced */
@@ -281,6 +284,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 }
                 if (cs_scale != 1.0 && cs_term && segments > 1)
                     w *= cs_scale;
+                w *= spc_path_deep_factor(&dt);
                 L = spc_rgb_add(L, spc_rgb_scale(spc_rgb_mul(beta, Le), w));
             }
         }
@@ -339,6 +343,14 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
                 L = spc_rgb_add(L, spc_rgb_mul(beta, c_graze));
         }
 
+        /* the extra directions at a receiver past the first (path_deep.h) */
+        const bool deep = spc_path_deep_at(&sn, &h);
+        if (deep) {
+            spc_rgb c_deep = spc_path_deep_estimate(ctx, &sn, &h, wo, segments, smp);
+            if (!spc_rgb_is_black(c_deep))
+                L = spc_rgb_add(L, spc_rgb_mul(beta, c_deep));
+        }
+
         /* emission splitting (split_emission) */
         const bool split = nee && sn.on && all_delta && !gv && splits_emission(b);
         if (split) {
@@ -377,6 +389,7 @@ void spc_path_sample(const spc_render_ctx *ctx, spc_tls *tls, const spc_ray *ray
         if (ctx->strict_normals && !(spc_dot(bs.wi, h.ng) * spc_dot(bs.wi, h.sh.n) > 0.0))
             break;
         spc_path_snee_scattered(&sn, &h, wo, bs.wi, bs.lobe);
+        spc_path_deep_scattered(&dt, &sn, &h, bs.lobe, deep);
         if (graze)
             spc_path_graze_scattered(ctx, &gt, &h, wo, bs.wi, bs.lobe, gv != NULL);
         beta = spc_rgb_mul(beta, bs.weight);

@@ -288,6 +288,10 @@ bool spc_path_snee_light_covered(const spc_path_snee *s, const spc_scene *sc, co
  * tracing's shares. False where no query runs at h (budget 0). */
 static bool vertex_state(spc_path_snee *s, const spc_render_ctx *ctx, const spc_hit *h, int segments)
 {
+    /* one BSDF direction at a receiver unless the extra ones run there (below); a delta-only vertex
+     * keeps the receiver's count for the paths that pass it */
+    if (h->bsdf && spc_bsdf_has_smooth(h->bsdf))
+        s->p.bsdf_n = 1.0;
     s->budget = spc_snee_budget_params(&s->p, h, depth_left(ctx, segments, ctx->specular_max_chain));
     if (s->p.receivers > 0 && s->receivers >= s->p.receivers)
         s->budget = 0; /* past the vertices specular NEE runs at */
@@ -333,6 +337,11 @@ static bool vertex_state(spc_path_snee *s, const spc_render_ctx *ctx, const spc_
         s->alt_kmax = s->lt_kmax;
         s->alt_kflat = spc_path_lt_flat_budget(ctx, &s->p, h, segments, 0);
     }
+    /* the extra directions past the first receiver (path_deep.h), where light tracing shares none
+     * of the receiver's paths and the BSDF alone samples (no caustic guide): BSDF sampling's
+     * density counted deep_split + 1 times */
+    if (s->p.deep_split > 0 && s->receivers >= 1 && !s->p.delta_share && !s->p.alt_chain_ratio && !s->p.cguide_at)
+        s->p.bsdf_n = s->p.deep_split + 1;
     return true;
 }
 

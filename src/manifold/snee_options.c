@@ -125,6 +125,10 @@ static const spc_snee_option options[] = {
      "probability (off by default)"},
     {"receivers", NULL, SPC_SNEE_OPT_COUNT, false, "N", 1, SPC_SNEE_COUNT_MAX, false, false, NULL, 0, NO, AT(receivers),
      0, "every receiver", "specular NEE at the first N diffuse or glossy vertices of a path only"},
+    {"deepsplit", NULL, SPC_SNEE_OPT_COUNT, false, "M", 1, 64, false, false, NULL, 0, NO, AT(deep_split), 0, "none",
+     "path: at each diffuse or glossy vertex past a path's first (where light tracing shares none of its "
+     "paths), M more directions from its BSDF, counting the light they reach through glass and mirrors only, "
+     "weighed as M+1 BSDF samples against specular NEE (the path's own such light counted 1/(M+1))"},
     {"later", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(later_p), 0, NULL,
      "past a path's first diffuse or glossy vertex, the whole query with probability P, counted 1/P times"},
     {"first", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, true, false, NULL, 0, NO, AT(first_p), 0, NULL,

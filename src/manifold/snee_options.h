@@ -26,8 +26,9 @@
 
 struct spc_snee_params;
 
-/* The longest message spc_snee_options_parse writes (the valid options' list included). */
-#define SPC_SNEE_WHY_MAX 800
+/* The longest message spc_snee_options_parse writes (the valid options' list included: about 800
+ * characters, with room for more options). */
+#define SPC_SNEE_WHY_MAX 1024
 
 typedef enum spc_snee_option_kind {
     SPC_SNEE_OPT_SWITCH, /* NAME (and its negation, if any); no value */

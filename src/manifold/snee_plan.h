@@ -585,8 +585,16 @@
  * there. The joins carry the normal map's shading factor at both water vertices (path_lt.c,
  * plane_shading_fix), without which the image was 1-2% dark in the far water. scenes/caustic_pool.xml
  * at equal CPU: mean relMSE 0.147 -> 0.118 over 9851-9874 (median 0.057 -> 0.033), 0.0613 -> 0.0379
- * over 24 fresh seeds (bench/RESULTS.md, "The pool's light tracing through the water, unbiased"). */
-#define SPC_SNEE_PLAN_WATER_LT ",ltcaus,ltshare=0.5"
+ * over 24 fresh seeds (bench/RESULTS.md, "The pool's light tracing through the water, unbiased").
+ * Past the first two receivers (light tracing's), 8 more BSDF directions a receiver toward the
+ * light through the water, weighed as 9 BSDF samples against specular NEE's (deepsplit=8,
+ * integrator/path_deep.h): the paths that reach the light through the water from the third receiver
+ * on, BSDF sampling's near a fold and specular NEE's at its power-heuristic bound beside one, held
+ * the pool's one-pixel seeds (9860 (6,5), 9852 (20,1)). At equal CPU mean relMSE 0.0522 -> 0.0430
+ * over 9851-9874 and 0.0589 -> 0.0426 over 11751-11774, the worst seed 0.29 -> 0.058 and 0.35 ->
+ * 0.063 (deepsplit=24: 0.0542 and 0.0529, its 1.7x cost per sample too high; bench/RESULTS.md,
+ * part pool36). */
+#define SPC_SNEE_PLAN_WATER_LT ",ltcaus,ltshare=0.5,deepsplit=8"
 
 /* Appended for path where every caster is flat glass under lights over SPC_SNEE_PLAN_FLAT_MAX_SR and
  * specular NEE draws on some sphere light: 0.9 of the light's points drawn in the cone of directions

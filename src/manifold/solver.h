@@ -133,6 +133,20 @@ typedef struct spc_snee_params {
      * would have covered (the track starts nowhere). Deep vertices carry little of the image and
      * cost as much as the first (an enclosed pool: over half of the calls). */
     int receivers;
+    /* The path tracer's extra directions at its receivers past the first (the user's
+     * "deepsplit=M"; 0: none): at each such vertex M more directions from its BSDF, each followed
+     * through delta vertices only (glass, mirrors) to an area light, counting only the light
+     * reached through at least one of them, weighed as M + 1 BSDF samples (bsdf_n); the path's own
+     * such light is counted 1 / (M + 1) (path_deep.h). Where the query runs and light tracing
+     * shares none of the receiver's paths. */
+    int deep_split;
+    /* The number of directions the path draws from the BSDF at the receiver whose query this is
+     * (0 counts as 1): deep_split + 1 where the extra directions run (path_deep.h). BSDF
+     * sampling's density in the MIS weights of the paths that leave this receiver (specular NEE's
+     * and BSDF sampling's, each of the directions counted 1 / bsdf_n) is times this, the balance of
+     * one light sample against bsdf_n BSDF samples (Veach's n_i p_i). Set by the path tracer per
+     * receiver; never where light tracing shares the receiver's paths. */
+    double bsdf_n;
     /* Specular NEE from the camera too (the user's "camera"): once per camera sample, a light point
      * and a chain from the pinhole through the specular surfaces to it, splatted on the pixel its
      * first direction falls in (spc_snee_camera): the light seen through glass or in a mirror (a

@@ -246,6 +246,12 @@ static double mis3(double a, double b, double c)
  * magnifies that rounding); 1e-2 is far below the distance between two solutions on such a light. */
 #define SPC_SNEE_RETRACE_LIGHT_TOL 1e-2
 
+/* The directions the path draws from a surface receiver's BSDF (params.bsdf_n; 0 counts as 1). */
+static double bsdf_count(const spc_snee_params *p)
+{
+    return p && p->bsdf_n > 1.0 ? p->bsdf_n : 1.0;
+}
+
 /* The BSDF side's density b of a covered path becomes b times this with params.alt_ratio (or
  * alt_chain_ratio): the power heuristic's sqrt(b^2 + c^2) for the other strategy's density c = ratio
  * b (solver.h). c is the covered chain from x. */
@@ -355,7 +361,9 @@ static spc_rgb chain_terms(const spc_snee_query *q, const spc_emitter *e, spc_ve
     if (q->params && q->params->mis && e->type == SPC_EMITTER_AREA && q->p_y > 0.0) {
         double P_ev = chain_events_sample_prob(q, c);
         *b = spc_receiver_pdf(r, c->d0) * G * P_ev *
-             (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c, e, q->y, q->ny) : 1.0);
+             (r->kind == SPC_RECEIVER_SURFACE ? alt_factor(q->params, q->x, q->wo, c, e, q->y, q->ny) *
+                                                    bsdf_count(q->params)
+                                              : 1.0);
         *pc = cones_pdf(cones_for(q, e), c->d0, k) * G * P_ev;
     }
     /* a point or spot light's chain that another strategy makes too (params.delta_share): its share,
@@ -1785,7 +1793,8 @@ static bool covered_terms(const spc_scene *sc, const spc_snee_params *p, const s
     if (!(G > 0.0) || !isfinite(G))
         return false;
     /* a surface's density at the sampled direction, the others' at the retraced one */
-    double pdf = spc_receiver_pdf(r, r->kind == SPC_RECEIVER_SURFACE ? d0 : ch.d0);
+    double pdf = spc_receiver_pdf(r, r->kind == SPC_RECEIVER_SURFACE ? d0 : ch.d0) *
+                 (r->kind == SPC_RECEIVER_SURFACE ? bsdf_count(p) : 1.0);
     spc_snee_query q;
     spc_snee_query_init(&q, sc, p, x, r->wo, max_chain);
     q.receiver = r;
