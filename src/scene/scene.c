@@ -421,13 +421,13 @@ static void prefetch_packet(const spc_scene *s, const int *shape, const int *pri
             spc_shape_prefetch_vertices(s->shapes[shape[i]], prim[i]);
 }
 
-/* The hit records of a packet's lanes from Embree's answers. */
-static void fill_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], const int *shape, const int *prim,
-                        const double *u, const double *v, const double *t, spc_hit h[SPC_SCENE_PACKET],
-                        bool hit[SPC_SCENE_PACKET])
+/* The hit records of a packet's n lanes from Embree's answers: n the scene's packet width, a constant
+ * in each inlined copy (fill_packet). */
+static inline __attribute__((always_inline)) void fill_lanes(const spc_scene *s, const spc_ray *const *r,
+                                                             const int *shape, const int *prim, const double *u,
+                                                             const double *v, const double *t, spc_hit *h, bool *hit,
+                                                             const int n)
 {
-    prefetch_packet(s, shape, prim);
-    const int n = s->packet_width;
     for (int i = 0; i < n; ++i) {
         hit[i] = shape[i] >= 0;
         if (!hit[i])
@@ -435,6 +435,18 @@ static void fill_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PAC
         h[i].shape_index = shape[i];
         spc_shape_fill_hit_shading(s->shapes[shape[i]], prim[i], u[i], v[i], r[i], t[i], &h[i]);
     }
+}
+
+/* The hit records of a packet's lanes from Embree's answers. */
+static void fill_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], const int *shape, const int *prim,
+                        const double *u, const double *v, const double *t, spc_hit h[SPC_SCENE_PACKET],
+                        bool hit[SPC_SCENE_PACKET])
+{
+    prefetch_packet(s, shape, prim);
+    if (s->packet_width == 8)
+        fill_lanes(s, r, shape, prim, u, v, t, h, hit, 8);
+    else
+        fill_lanes(s, r, shape, prim, u, v, t, h, hit, 16);
 }
 
 void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], spc_hit h[SPC_SCENE_PACKET],
