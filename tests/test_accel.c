@@ -2,7 +2,8 @@
  * tests/test_accel.c: the acceleration structure's hits against closed-form ones, for a mesh whose
  * positions and indices Embree reads in place, with Embree's default BVH and its compact one (a
  * scene's own limit, spc_scene.accel_compact_tris, or SPC_ACCEL_COMPACT_TRIS); the scene's budget of kept triangle frames; how rarely rays pass through the
- * cracks of a closed mesh (robust triangle test); coherent packets' hits against single rays'.
+ * cracks of a closed mesh (robust triangle test); the packets' width; coherent packets' hits
+ * against single rays', in packets of 8 and of 16 lanes.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -12,6 +13,7 @@
 #include "accel/accel.h"
 #include "core/rng.h"
 #include "harness.h"
+#include "packets.h"
 #include "scene/scene.h"
 
 /* Adds a k x k grid of quads over [0,1]^2 at height z, two triangles per cell: cell (i, j) (x from
@@ -242,7 +244,7 @@ static spc_scene *closed_sphere_scene(int nlat, int nlon, spc_vec3 *c, bool fast
  * triangles. Measured (1702 triangles, 24000 rays): intersection 3 misses, occlusion 10 (without the
  * robust flag: 510 and 1368, 2.1% and 5.7%); the bounds below are 0.1% and 0.2%. Random rays from
  * inside a fine closed mesh (187 thousand triangles, 2 x 1 million rays) never escaped (2 without
- * the flag). Single rays and packets of 16 give the same hits. */
+ * the flag). Single rays and packets (of the native width) give the same hits. */
 TEST(closed_mesh_cracks_are_rare)
 {
     spc_vec3 c;
@@ -287,7 +289,7 @@ TEST(closed_mesh_cracks_are_rare)
         pr[lane] = r;
         rp[lane] = &pr[lane];
         if (lane == SPC_SCENE_PACKET - 1) {
-            spc_scene_intersect_packet(sc, rp, h, hit);
+            packets_intersect(sc, rp, h, hit, false);
             for (int i = 0; i < SPC_SCENE_PACKET; ++i)
                 packet_differs += hit[i] != single_hit[i] || (hit[i] && h[i].t != single_t[i]);
         }
@@ -354,9 +356,41 @@ TEST(fast_traversal_only_when_asked)
     CHECK(leaks[1] <= 2);
 }
 
+/* The packets' width (scene.h): Embree's native 8 or 16 lanes, or SPECULA_PACKET_WIDTH's where it
+ * is 8 or 16; any other value leaves the native width. */
+TEST(packet_width_native_or_asked)
+{
+    const int k[1] = {2};
+    packets_set_width(0);
+    spc_scene *sc = grids_scene(k, 1);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const int native = spc_scene_packet_width(sc);
+    printf("  native packet width %d\n", native);
+    CHECK(native == 8 || native == 16);
+    spc_scene_destroy(sc);
+    const char *asked[3] = {"8", "16", "12"};
+    const int expect[3] = {8, 16, native};
+    for (int i = 0; i < 3; ++i) {
+        setenv("SPECULA_PACKET_WIDTH", asked[i], 1);
+        sc = grids_scene(k, 1);
+        CHECK(sc != NULL);
+        if (!sc)
+            break;
+        CHECK_MSG(spc_scene_packet_width(sc) == expect[i], "SPECULA_PACKET_WIDTH=%s gives %d", asked[i],
+                  spc_scene_packet_width(sc));
+        spc_scene_destroy(sc);
+    }
+    packets_set_width(0);
+}
+
+/* The width the packet tests below expect their scenes to have (SPECULA_PACKET_WIDTH). */
+static int packet_width = 16;
+
 /* Coherent packets (spc_scene_intersect_packet_coherent, Embree's coherent traversal, which the
- * packet path tracer uses for a tile's camera rays) give the single rays' hits bit for bit: fans of
- * 16 rays from one point through a 4 x 4 block of neighbouring directions (a camera's pixels), from
+ * packet path tracer uses for a tile's camera rays) give the single rays' hits bit for bit, in packets
+ * of 8 and of 16 lanes: fans of 16 rays from one point through a 4 x 4 block of neighbouring directions (a camera's pixels), from
  * outside and inside a closed mesh, some lanes inactive, and packets of scattered directions. The
  * same packets traced with spc_scene_trace_packet_coherent and filled lane by lane
  * (spc_scene_fill_answer, as the path tracer fills its camera hits) give the same records, byte for
@@ -368,6 +402,7 @@ TEST(coherent_packets_match_single_rays)
     CHECK(sc != NULL);
     if (!sc)
         return;
+    CHECK(spc_scene_packet_width(sc) == packet_width);
     spc_rng rng;
     spc_rng_seed(&rng, 5, 9);
     int lanes = 0, differs = 0, hits = 0, answers_differ = 0;
@@ -392,8 +427,8 @@ TEST(coherent_packets_match_single_rays)
         /* zeroed, so that whole records (their padding too) compare with memcmp */
         memset(h, 0, sizeof h);
         memset(ha, 0, sizeof ha);
-        spc_scene_intersect_packet_coherent(sc, rp, h, hit);
-        spc_scene_trace_packet_coherent(sc, rp, a);
+        packets_intersect(sc, rp, h, hit, true);
+        packets_trace_coherent(sc, rp, a);
         for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
             /* the answers traced ahead and filled one by one give the same records */
             bool filled = spc_scene_fill_answer(sc, &pr[i], &a[i], &ha[i]);
@@ -439,6 +474,7 @@ static void check_octant_shadow_packets(int nlat, int nlon)
     CHECK(sc != NULL);
     if (!sc)
         return;
+    CHECK(spc_scene_packet_width(sc) == packet_width);
     CHECK(spc_accel_shadows_coherent(sc->accel) == (sc->shapes[0]->mesh.ntris < SPC_ACCEL_INCOHERENT_SHADOW_TRIS));
     spc_rng rng;
     spc_rng_seed(&rng, 5, 13);
@@ -459,7 +495,7 @@ static void check_octant_shadow_packets(int nlat, int nlon)
             le[i] = NULL;
         }
         bool occ[SPC_SCENE_PACKET];
-        spc_scene_occluded_light_packet_coherent(sc, rp, le, occ);
+        packets_occluded_light(sc, rp, le, occ, true);
         for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
             if (!rp[i]) {
                 differs += occ[i];
@@ -533,8 +569,15 @@ int main(void)
     RUN(grid_hits_compact);
     RUN(closed_mesh_cracks_are_rare);
     RUN(fast_traversal_only_when_asked);
-    RUN(coherent_packets_match_single_rays);
-    RUN(octant_shadow_packets_match_single_rays);
+    RUN(packet_width_native_or_asked);
+    /* the packets' comparisons with single rays at both widths, whichever is native here */
+    for (packet_width = 8; packet_width <= 16; packet_width += 8) {
+        packets_set_width(packet_width);
+        printf("packets of %d lanes\n", packet_width);
+        RUN(coherent_packets_match_single_rays);
+        RUN(octant_shadow_packets_match_single_rays);
+    }
+    packets_set_width(0);
     RUN(single_trace_matches_intersect);
     return spc_test_finish();
 }

@@ -6,7 +6,8 @@
  * shape (another sphere light, a plain sphere, triangles) still blocks it, and beyond the 31 mask
  * bits a sphere light is tested again. Shadow rays from points on a floor and from inside a light
  * toward that light's samples give spc_scene_occluded's answer wherever the light itself is not the
- * nearest thing on the ray, and the packet form equals the single rays lane by lane.
+ * nearest thing on the ray, and the packet form equals the single rays lane by lane, in packets of
+ * 8 and of 16 lanes.
  */
 /* ctest-labels: unit */
 #include <math.h>
@@ -21,6 +22,7 @@
 #include "emitter/emitter.h"
 #include "harness.h"
 #include "io/mitsuba_xml.h"
+#include "packets.h"
 #include "scene/hit.h"
 #include "scene/scene.h"
 
@@ -108,7 +110,7 @@ TEST(only_the_named_sphere_light_is_skipped)
         pr[i] = i % 5 == 4 ? NULL : rays[i % 4];
         pe[i] = ems[(i / 4 + i) % 4];
     }
-    spc_scene_occluded_light_packet(sc, pr, pe, occ);
+    packets_occluded_light(sc, pr, pe, occ, false);
     for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
         bool one = pr[i] ? spc_scene_occluded_light(sc, pr[i], pe[i]) : false;
         bad += one != occ[i];
@@ -178,7 +180,7 @@ TEST(shadow_rays_toward_samples_agree)
         if (++lanes == W) {
             for (int i = 0; i < W; ++i)
                 pr[i] = &pr_store[i];
-            spc_scene_occluded_light_packet(sc, pr, pe, occ);
+            packets_occluded_light(sc, pr, pe, occ, false);
             for (int i = 0; i < W; ++i)
                 npacket_bad += occ[i] != single[i];
             lanes = 0;
@@ -269,7 +271,7 @@ TEST(packets_skip_the_exact_test_for_lines_far_from_spheres)
         pe[i] = NULL;
     }
     uint64_t before = spc_accel_analytic_tests();
-    spc_scene_occluded_light_packet(sc, pr, pe, occ);
+    packets_occluded_light(sc, pr, pe, occ, false);
     uint64_t tests = spc_accel_analytic_tests() - before;
     CHECK(occ[0]);
     int nocc = 0;
@@ -322,7 +324,7 @@ TEST(packets_cull_agrees_at_the_silhouette)
             nmiss += !single[i];
             if (lanes < SPC_SCENE_PACKET)
                 continue;
-            spc_scene_occluded_light_packet(sc, pr, pe, occ);
+            packets_occluded_light(sc, pr, pe, occ, false);
             for (int j = 0; j < SPC_SCENE_PACKET; ++j)
                 nbad += occ[j] != single[j];
             /* the near lanes alone: each meets its sphere's exact test */
@@ -332,7 +334,7 @@ TEST(packets_cull_agrees_at_the_silhouette)
                 m += near[j];
             }
             uint64_t before = spc_accel_analytic_tests();
-            spc_scene_occluded_light_packet(sc, pr, pe, occ);
+            packets_occluded_light(sc, pr, pe, occ, false);
             near_tests += spc_accel_analytic_tests() - before;
             nnear += m;
             lanes = 0;
@@ -349,10 +351,15 @@ TEST(packets_cull_agrees_at_the_silhouette)
 
 int main(void)
 {
-    RUN(only_the_named_sphere_light_is_skipped);
-    RUN(shadow_rays_toward_samples_agree);
-    RUN(sphere_lights_beyond_the_mask_bits_are_tested);
-    RUN(packets_skip_the_exact_test_for_lines_far_from_spheres);
-    RUN(packets_cull_agrees_at_the_silhouette);
+    for (int w = 8; w <= 16; w += 8) {
+        packets_set_width(w);
+        printf("packets of %d lanes\n", w);
+        RUN(only_the_named_sphere_light_is_skipped);
+        RUN(shadow_rays_toward_samples_agree);
+        RUN(sphere_lights_beyond_the_mask_bits_are_tested);
+        RUN(packets_skip_the_exact_test_for_lines_far_from_spheres);
+        RUN(packets_cull_agrees_at_the_silhouette);
+    }
+    packets_set_width(0);
     return spc_test_finish();
 }

@@ -11,7 +11,7 @@
  * packet path tracer's sample count proves it ran (and that the other render did not use it); a
  * scene with Embree's curves, whose packet hits differ from single rays', must not take it. Embree
  * is also forced to AVX2 and SSE4.2, where its 16-wide packets take a fallback path (which aborted
- * on inactive lanes before they were marked by their ray data). The wave's light samples, computed
+ * on inactive lanes before they were marked by their ray data), and the packets to 8 and 16 lanes. The wave's light samples, computed
  * for many lanes at once, and its diffuse lobe without bsdf.c's dispatch are compared with the
  * one-lane ones field by field (the light samples under every instruction set).
  */
@@ -170,6 +170,19 @@ TEST(other_isas_match_path_c)
         check_scene("demo.xml", "path", 0);
         check_scene("shapes.xml", "path", 0);
         unsetenv("SPECULA_EMBREE_CONFIG");
+    }
+}
+
+/* The packets at both widths (SPECULA_PACKET_WIDTH), whichever is native here: 8-wide packets on an
+ * AVX-512 host and 16-wide ones on an AVX2 host are not native and take Embree's other code paths. */
+TEST(both_packet_widths_match_path_c)
+{
+    const char *widths[] = {"8", "16"};
+    for (int k = 0; k < 2; ++k) {
+        setenv("SPECULA_PACKET_WIDTH", widths[k], 1);
+        check_scene("demo.xml", "path", 0);
+        check_scene("shapes.xml", "path", 0);
+        unsetenv("SPECULA_PACKET_WIDTH");
     }
 }
 
@@ -446,6 +459,7 @@ int main(void)
     RUN(path_matches_path_c);
     RUN(ipt_and_roulette_match_path_c);
     RUN(other_isas_match_path_c);
+    RUN(both_packet_widths_match_path_c);
     RUN(strict_normals_and_hidden_emitters_match_path_c);
     RUN(big_mesh_prefetch_matches_path_c);
     char cmd[128];

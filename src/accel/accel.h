@@ -46,11 +46,16 @@ bool spc_accel_occluded(const spc_accel *a, const spc_ray *r);
 bool spc_accel_occluded_skip(const spc_accel *a, const spc_ray *r, int skip);
 /* Does the accel leave any shape untested for a skip (has it an emitting sphere)? */
 bool spc_accel_skips_any(const spc_accel *a);
-/* Packets of up to SPC_ACCEL_PACKET rays traced together (Embree's rtcIntersect16/rtcOccluded16):
- * lane i traces r[i] where r[i] is not NULL. The results are spc_accel_intersect's and
+/* Packets of spc_accel_packet_width(a) rays traced together (Embree's rtcIntersect8/16,
+ * rtcOccluded8/16): lane i of [0, width) traces r[i] where r[i] is not NULL; the functions read and
+ * write the arrays' first width entries only. The results are spc_accel_intersect's and
  * spc_accel_occluded's per lane (shape[i] = -1 and prim[i], u[i], v[i], t[i] 0 for a miss or an
- * inactive lane; occluded[i] false for an inactive lane). */
+ * inactive lane; occluded[i] false for an inactive lane), whatever the width. SPC_ACCEL_PACKET is
+ * the widest packet. */
 #define SPC_ACCEL_PACKET 16
+/* The packets' width, 8 or 16: Embree's native width on the host (16 with AVX-512, 8 with AVX2;
+ * 16 where neither is native), or SPECULA_PACKET_WIDTH's (8 or 16) where that is set. */
+int spc_accel_packet_width(const spc_accel *a);
 void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                 int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
                                 double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET]);

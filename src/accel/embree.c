@@ -45,7 +45,10 @@ struct spc_accel {
     /* octant shadow packets by the coherent traversal (SPC_ACCEL_INCOHERENT_SHADOW_TRIS) */
     bool shadows_coherent;
     bool analytic; /* some shape is user geometry (its hits come in double from the callbacks) */
+    int packet_width; /* the packets' lanes, 8 or 16 (spc_accel_packet_width) */
 };
+
+int spc_accel_packet_width(const spc_accel *a) { return a->packet_width; }
 
 bool spc_accel_skips_any(const spc_accel *a) { return a->nskip > 0; }
 
@@ -74,16 +77,27 @@ typedef struct ctx_ext {
 /* The SoA layouts of rtcore_ray.h (its accessors are C++ only), for N rays: field k of lane i at
  * k N + i, in 32-bit words; a ray's fields, then (RTCRayHitN) the hit's. N = 1 is RTCRayHit. */
 enum {
-    RAY_TFAR = 8,
-    RAY_ID = 10,
-    HIT_NG_X = 12,
+    RAY_ORG_X,
+    RAY_ORG_Y,
+    RAY_ORG_Z,
+    RAY_TNEAR,
+    RAY_DIR_X,
+    RAY_DIR_Y,
+    RAY_DIR_Z,
+    RAY_TIME,
+    RAY_TFAR,
+    RAY_MASK,
+    RAY_ID,
+    RAY_FLAGS,
+    HIT_NG_X,
     HIT_NG_Y,
     HIT_NG_Z,
     HIT_U,
     HIT_V,
     HIT_PRIM,
     HIT_GEOM,
-    HIT_INST
+    HIT_INST,
+    RAYHIT_WORDS
 };
 
 static _Thread_local uint64_t rays_traced = 0;
@@ -208,6 +222,17 @@ spc_accel *spc_accel_create(const struct spc_scene *sc, spc_error *err)
         return NULL;
     }
     rtcSetDeviceErrorFunction(a->device, error_fn, NULL);
+    /* 16 lanes where Embree traces 16-wide packets natively (AVX-512), else 8 where it traces 8-wide
+     * ones natively (AVX2), else 16: on an AVX2 host Embree's stream fallback copies a 16-wide packet
+     * into two native 8-wide ones (1% of the cornell box's instructions, bench/RESULTS.md).
+     * SPECULA_PACKET_WIDTH (8 or 16), if set, overrides the choice, so that tests run both widths on
+     * any host (Embree traces either width on any host, a width that is not native more slowly). */
+    a->packet_width = rtcGetDeviceProperty(a->device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED)  ? 16
+                      : rtcGetDeviceProperty(a->device, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) ? 8
+                                                                                                   : 16;
+    const char *width = getenv("SPECULA_PACKET_WIDTH");
+    if (width && (strcmp(width, "8") == 0 || strcmp(width, "16") == 0))
+        a->packet_width = atoi(width);
     a->scene = rtcNewScene(a->device);
     rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_HIGH);
     size_t ntris = 0;
@@ -412,36 +437,49 @@ uint64_t spc_accel_raw_loop(const spc_accel *a, const spc_ray *rays, size_t n)
     return hits;
 }
 
+/* A packet of N rays (RTCRayHitN or RTCRayN, N = 8 or 16, the accel's packet_width) as 32-bit
+ * words in the layout of the enum above; its code is written once for both widths, inlined into a
+ * function per width where N is a constant. */
+typedef union pk_word {
+    float f;
+    unsigned u;
+} pk_word;
+#define PK_F(pk, N, k, i) ((pk)[(k) * (N) + (i)].f)
+#define PK_U(pk, N, k, i) ((pk)[(k) * (N) + (i)].u)
+_Static_assert(sizeof(struct RTCRayHit8) == RAYHIT_WORDS * 8 * sizeof(pk_word), "RTCRayHit8's layout");
+_Static_assert(sizeof(struct RTCRayHit16) == RAYHIT_WORDS * 16 * sizeof(pk_word), "RTCRayHit16's layout");
+_Static_assert(SPC_ACCEL_PACKET == 16, "the widest packet");
+
 /* An inactive lane: besides the valid mask, marked inactive the way Embree's stream fallback (a
- * CPU without native 16-wide packets, e.g. AVX2) tells them, by tnear > tfar, with finite data. */
-static void embree_lane_off(struct RTCRay16 *er, int i)
+ * packet wider than the CPU's native one) tells them, by tnear > tfar, with finite data. */
+static inline __attribute__((always_inline)) void embree_lane_off(pk_word *er, const int N, int i)
 {
-    er->org_x[i] = er->org_y[i] = er->org_z[i] = 0.0f;
-    er->dir_x[i] = er->dir_y[i] = 0.0f;
-    er->dir_z[i] = 1.0f;
-    er->tnear[i] = 0.0f;
-    er->tfar[i] = -INFINITY;
-    er->time[i] = 0.0f;
-    er->mask[i] = 0u;
-    er->id[i] = (unsigned)i;
-    er->flags[i] = 0;
+    PK_F(er, N, RAY_ORG_X, i) = PK_F(er, N, RAY_ORG_Y, i) = PK_F(er, N, RAY_ORG_Z, i) = 0.0f;
+    PK_F(er, N, RAY_DIR_X, i) = PK_F(er, N, RAY_DIR_Y, i) = 0.0f;
+    PK_F(er, N, RAY_DIR_Z, i) = 1.0f;
+    PK_F(er, N, RAY_TNEAR, i) = 0.0f;
+    PK_F(er, N, RAY_TFAR, i) = -INFINITY;
+    PK_F(er, N, RAY_TIME, i) = 0.0f;
+    PK_U(er, N, RAY_MASK, i) = 0u;
+    PK_U(er, N, RAY_ID, i) = (unsigned)i;
+    PK_U(er, N, RAY_FLAGS, i) = 0;
 }
 
 /* One lane of a packet from a double ray, as to_embree_ray; the lane's id is its index. */
-static void to_embree_lane(const spc_ray *r, struct RTCRay16 *er, int i)
+static inline __attribute__((always_inline)) void to_embree_lane(const spc_ray *r, pk_word *er, const int N, int i)
 {
-    er->org_x[i] = (float)r->o.x;
-    er->org_y[i] = (float)r->o.y;
-    er->org_z[i] = (float)r->o.z;
-    er->dir_x[i] = (float)r->d.x;
-    er->dir_y[i] = (float)r->d.y;
-    er->dir_z[i] = (float)r->d.z;
-    er->tnear[i] = (float)r->tmin;
-    er->tfar[i] = r->tmax >= (double)FLT_MAX ? INFINITY : (float)r->tmax;
-    er->time[i] = 0.0f;
-    er->mask[i] = 0xFFFFFFFFu;
-    er->id[i] = (unsigned)i;
-    er->flags[i] = 0;
+    PK_F(er, N, RAY_ORG_X, i) = (float)r->o.x;
+    PK_F(er, N, RAY_ORG_Y, i) = (float)r->o.y;
+    PK_F(er, N, RAY_ORG_Z, i) = (float)r->o.z;
+    PK_F(er, N, RAY_DIR_X, i) = (float)r->d.x;
+    PK_F(er, N, RAY_DIR_Y, i) = (float)r->d.y;
+    PK_F(er, N, RAY_DIR_Z, i) = (float)r->d.z;
+    PK_F(er, N, RAY_TNEAR, i) = (float)r->tmin;
+    PK_F(er, N, RAY_TFAR, i) = r->tmax >= (double)FLT_MAX ? INFINITY : (float)r->tmax;
+    PK_F(er, N, RAY_TIME, i) = 0.0f;
+    PK_U(er, N, RAY_MASK, i) = 0xFFFFFFFFu;
+    PK_U(er, N, RAY_ID, i) = (unsigned)i;
+    PK_U(er, N, RAY_FLAGS, i) = 0;
 }
 
 /* Clears, in each lane's ray mask, the bit of every emitting sphere whose line the lane's ray passes
@@ -460,162 +498,187 @@ static void to_embree_lane(const spc_ray *r, struct RTCRay16 *er, int i)
  * Lanes with an infinite or NaN origin or direction keep every bit (the comparison is false). The
  * margin grows with the distance from the world's origin: far from it (coordinates 10^4 times a
  * light's radius) little is culled, and the callbacks answer as before. Written in GCC vector
- * types over the 16 lanes (four SSE registers, or one AVX-512 register). */
-typedef float cull_v16 __attribute__((vector_size(64)));
-typedef int cull_v16i __attribute__((vector_size(64)));
+ * types over 8 lanes at a time (two SSE registers, or one AVX register). */
+typedef float cull_v8 __attribute__((vector_size(32)));
+typedef int cull_v8i __attribute__((vector_size(32)));
 
-/* cull_lines' body, inlined into each instruction set's variant: GCC vector types over the 16 lanes. */
-static inline __attribute__((always_inline)) void cull_loop(const spc_accel *a, struct RTCRay16 *er)
+/* cull_lines' body, inlined into each instruction set's variant: a packet of n lanes (8 or 16). */
+static inline __attribute__((always_inline)) void cull_loop(const spc_accel *a, pk_word *er, int n)
 {
-    cull_v16 ox, oy, oz, dx, dy, dz;
-    cull_v16i mask;
-    memcpy(&ox, er->org_x, sizeof ox);
-    memcpy(&oy, er->org_y, sizeof oy);
-    memcpy(&oz, er->org_z, sizeof oz);
-    memcpy(&dx, er->dir_x, sizeof dx);
-    memcpy(&dy, er->dir_y, sizeof dy);
-    memcpy(&dz, er->dir_z, sizeof dz);
-    memcpy(&mask, er->mask, sizeof mask);
-    float o1a[SPC_ACCEL_PACKET], d1a[SPC_ACCEL_PACKET];
-    for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
-        o1a[i] = fabsf(er->org_x[i]) + fabsf(er->org_y[i]) + fabsf(er->org_z[i]);
-        d1a[i] = fabsf(er->dir_x[i]) + fabsf(er->dir_y[i]) + fabsf(er->dir_z[i]);
+    for (int c = 0; c < n; c += 8) {
+        cull_v8 ox, oy, oz, dx, dy, dz;
+        cull_v8i mask;
+        memcpy(&ox, &er[RAY_ORG_X * n + c], sizeof ox);
+        memcpy(&oy, &er[RAY_ORG_Y * n + c], sizeof oy);
+        memcpy(&oz, &er[RAY_ORG_Z * n + c], sizeof oz);
+        memcpy(&dx, &er[RAY_DIR_X * n + c], sizeof dx);
+        memcpy(&dy, &er[RAY_DIR_Y * n + c], sizeof dy);
+        memcpy(&dz, &er[RAY_DIR_Z * n + c], sizeof dz);
+        memcpy(&mask, &er[RAY_MASK * n + c], sizeof mask);
+        float o1a[8], d1a[8];
+        for (int i = 0; i < 8; ++i) {
+            o1a[i] = fabsf(ox[i]) + fabsf(oy[i]) + fabsf(oz[i]);
+            d1a[i] = fabsf(dx[i]) + fabsf(dy[i]) + fabsf(dz[i]);
+        }
+        cull_v8 o1, d1;
+        memcpy(&o1, o1a, sizeof o1);
+        memcpy(&d1, d1a, sizeof d1);
+        const cull_v8 scale = (1.0f + d1 * d1) * 0x1p-12f;
+        for (int k = 0; k < a->nskip; ++k) {
+            const cull_v8 fx = ox - a->cull_c[k][0], fy = oy - a->cull_c[k][1], fz = oz - a->cull_c[k][2];
+            const cull_v8 b = fx * dx + fy * dy + fz * dz;
+            const cull_v8 lx = fx - dx * b, ly = fy - dy * b, lz = fz - dz * b;
+            const cull_v8 l2 = lx * lx + ly * ly + lz * lz;
+            const cull_v8 m = a->cull_r[k] + scale * (o1 + (a->cull_c1[k] + a->cull_r[k]));
+            const cull_v8i out = l2 > m * m; /* -1 where the line is clearly outside; 0 for NaN */
+            mask &= ~(out & (int)a->cull_bit[k]);
+        }
+        memcpy(&er[RAY_MASK * n + c], &mask, sizeof mask);
     }
-    cull_v16 o1, d1;
-    memcpy(&o1, o1a, sizeof o1);
-    memcpy(&d1, d1a, sizeof d1);
-    const cull_v16 scale = (1.0f + d1 * d1) * 0x1p-12f;
-    for (int k = 0; k < a->nskip; ++k) {
-        const cull_v16 fx = ox - a->cull_c[k][0], fy = oy - a->cull_c[k][1], fz = oz - a->cull_c[k][2];
-        const cull_v16 b = fx * dx + fy * dy + fz * dz;
-        const cull_v16 lx = fx - dx * b, ly = fy - dy * b, lz = fz - dz * b;
-        const cull_v16 l2 = lx * lx + ly * ly + lz * lz;
-        const cull_v16 m = a->cull_r[k] + scale * (o1 + (a->cull_c1[k] + a->cull_r[k]));
-        const cull_v16i out = l2 > m * m; /* -1 where the line is clearly outside; 0 for NaN */
-        mask &= ~(out & (int)a->cull_bit[k]);
-    }
-    memcpy(er->mask, &mask, sizeof mask);
 }
 
-static void cull_base(const spc_accel *a, struct RTCRay16 *er) { cull_loop(a, er); }
+static void cull_base(const spc_accel *a, pk_word *er, int n) { cull_loop(a, er, n); }
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #define CULL_AVX512 1
-__attribute__((target("avx512f"))) static void cull_avx512(const spc_accel *a, struct RTCRay16 *er) { cull_loop(a, er); }
+__attribute__((target("avx512f"))) static void cull_avx512(const spc_accel *a, pk_word *er, int n)
+{
+    cull_loop(a, er, n);
+}
 #endif
 
-static void cull_lines(const spc_accel *a, struct RTCRay16 *er)
+static void cull_lines(const spc_accel *a, pk_word *er, int n)
 {
     if (a->nskip == 0)
         return;
 #ifdef CULL_AVX512
     if (a->cull_avx512) {
-        cull_avx512(a, er);
+        cull_avx512(a, er, n);
         return;
     }
 #endif
-    cull_base(a, er);
+    cull_base(a, er, n);
 }
 
 /* A packet's answers where every hit is Embree's (a scene without user geometry), the values of
  * intersect_packet's general pick: shape[i] the geometry (-1 for a miss or an inactive lane, whose
  * geomID stays invalid), prim[i] and the float distance and surface coordinates in double, all 0
- * for a miss. In GCC vector types over the 16 lanes, the misses cleared with a mask: no branch per
- * lane, and none of the general pick's per-lane tables (0.8% of the cornell box's instructions,
+ * for a miss. In GCC vector types over 8 lanes at a time, the misses cleared with a mask: no branch
+ * per lane, and none of the general pick's per-lane tables (0.8% of the cornell box's instructions,
  * bench/RESULTS.md). */
-typedef double ans_v16d __attribute__((vector_size(128)));
-typedef long long ans_v16l __attribute__((vector_size(128)));
-static void answers_float(const struct RTCRayHit16 *rh, int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET],
-                          double u[SPC_ACCEL_PACKET], double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
+typedef double ans_v8d __attribute__((vector_size(64)));
+typedef long long ans_v8l __attribute__((vector_size(64)));
+static inline __attribute__((always_inline)) void answers_float(const pk_word *rh, const int N, int *shape, int *prim,
+                                                                double *u, double *v, double *t)
 {
-    cull_v16i g, pr;
-    cull_v16 tf, uf, vf;
-    memcpy(&g, rh->hit.geomID, sizeof g);
-    memcpy(&pr, rh->hit.primID, sizeof pr);
-    memcpy(&tf, rh->ray.tfar, sizeof tf);
-    memcpy(&uf, rh->hit.u, sizeof uf);
-    memcpy(&vf, rh->hit.v, sizeof vf);
-    const cull_v16i hit = g >= 0; /* -1 where the lane hit */
-    const ans_v16l m = __builtin_convertvector(hit, ans_v16l);
-    const ans_v16d td = __builtin_convertvector(tf, ans_v16d), ud = __builtin_convertvector(uf, ans_v16d),
-                   vd = __builtin_convertvector(vf, ans_v16d);
-    const ans_v16l tb = (ans_v16l)td & m, ub = (ans_v16l)ud & m, vb = (ans_v16l)vd & m;
-    pr &= hit;
-    memcpy(shape, &g, sizeof g);
-    memcpy(prim, &pr, sizeof pr);
-    memcpy(t, &tb, sizeof tb);
-    memcpy(u, &ub, sizeof ub);
-    memcpy(v, &vb, sizeof vb);
+    for (int c = 0; c < N; c += 8) {
+        cull_v8i g, pr;
+        cull_v8 tf, uf, vf;
+        memcpy(&g, &rh[HIT_GEOM * N + c], sizeof g);
+        memcpy(&pr, &rh[HIT_PRIM * N + c], sizeof pr);
+        memcpy(&tf, &rh[RAY_TFAR * N + c], sizeof tf);
+        memcpy(&uf, &rh[HIT_U * N + c], sizeof uf);
+        memcpy(&vf, &rh[HIT_V * N + c], sizeof vf);
+        const cull_v8i hit = g >= 0; /* -1 where the lane hit */
+        const ans_v8l m = __builtin_convertvector(hit, ans_v8l);
+        const ans_v8d td = __builtin_convertvector(tf, ans_v8d), ud = __builtin_convertvector(uf, ans_v8d),
+                      vd = __builtin_convertvector(vf, ans_v8d);
+        const ans_v8l tb = (ans_v8l)td & m, ub = (ans_v8l)ud & m, vb = (ans_v8l)vd & m;
+        pr &= hit;
+        memcpy(shape + c, &g, sizeof g);
+        memcpy(prim + c, &pr, sizeof pr);
+        memcpy(t + c, &tb, sizeof tb);
+        memcpy(u + c, &ub, sizeof ub);
+        memcpy(v + c, &vb, sizeof vb);
+    }
 }
 
-/* spc_accel_intersect_packet with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*) */
-static void intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET], enum RTCIntersectContextFlags flags,
-                             int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
-                             double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
+/* spc_accel_intersect_packet with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*), in
+ * packets of N lanes */
+static inline __attribute__((always_inline)) void intersect_packet(const spc_accel *a, const spc_ray *const *r,
+                                                                   enum RTCIntersectContextFlags flags, int *shape,
+                                                                   int *prim, double *u, double *v, double *t,
+                                                                   const int N)
 {
     ctx_ext cx;
     rtcInitIntersectContext(&cx.ctx);
     cx.ctx.flags = flags;
     cx.rays = r;
     cx.sc = a->sc;
-    _Alignas(64) struct RTCRayHit16 rh;
+    _Alignas(64) pk_word rh[RAYHIT_WORDS * SPC_ACCEL_PACKET];
     _Alignas(64) int valid[SPC_ACCEL_PACKET];
     int nvalid = 0, nrays = 0;
-    for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
+    for (int i = 0; i < N; ++i) {
         shape[i] = -1;
         cx.geom[i] = -1;
         valid[i] = r[i] && r[i]->tmax > r[i]->tmin ? -1 : 0;
         nrays += r[i] != NULL;
-        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        PK_U(rh, N, HIT_GEOM, i) = RTC_INVALID_GEOMETRY_ID;
+        PK_U(rh, N, HIT_INST, i) = RTC_INVALID_GEOMETRY_ID;
         /* what Embree leaves unwritten (a miss's primitive and uv, a lane no analytic shape
          * answered) reads as 0 in the answers below; set here, in the lanes' loop: a loop of its
          * own compiled to `rep stos`, a fifth of this function's time on the cornell box (perf) */
-        rh.hit.primID[i] = 0;
-        rh.hit.u[i] = rh.hit.v[i] = 0.0f;
+        PK_U(rh, N, HIT_PRIM, i) = 0;
+        PK_F(rh, N, HIT_U, i) = PK_F(rh, N, HIT_V, i) = 0.0f;
         cx.t[i] = cx.u[i] = cx.v[i] = 0.0;
         if (valid[i]) {
-            to_embree_lane(r[i], &rh.ray, i);
+            to_embree_lane(r[i], rh, N, i);
             ++nvalid;
         } else
-            embree_lane_off(&rh.ray, i);
+            embree_lane_off(rh, N, i);
     }
     rays_traced += (uint64_t)nrays;
     if (nvalid == 0) {
-        for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
+        for (int i = 0; i < N; ++i) {
             prim[i] = 0;
             t[i] = u[i] = v[i] = 0.0;
         }
         return;
     }
-    rtcIntersect16(valid, a->scene, &cx.ctx, &rh);
+    if (N == 8)
+        rtcIntersect8(valid, a->scene, &cx.ctx, (struct RTCRayHit8 *)rh);
+    else
+        rtcIntersect16(valid, a->scene, &cx.ctx, (struct RTCRayHit16 *)rh);
     if (!a->analytic) {
-        answers_float(&rh, shape, prim, u, v, t);
+        answers_float(rh, N, shape, prim, u, v, t);
         return;
     }
     /* The answers without a branch per lane (whether a lane hit and whether an analytic shape's
      * double answer or Embree's float one holds are coin flips in a path tracer's packets; GCC turns
      * conditional expressions here back into branches, so the values are picked by index). An
      * inactive lane's geomID stays invalid, and RTC_INVALID_GEOMETRY_ID as int is -1. */
-    for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
-        int g = (int)rh.hit.geomID[i];
+    for (int i = 0; i < N; ++i) {
+        int g = (int)PK_U(rh, N, HIT_GEOM, i);
         int k = (g >= 0) + ((g >= 0) & (cx.geom[i] == g)); /* 0 miss, 1 Embree's answer, 2 ours */
-        const double tk[3] = {0.0, rh.ray.tfar[i], cx.t[i]};
-        const double uk[3] = {0.0, rh.hit.u[i], cx.u[i]};
-        const double vk[3] = {0.0, rh.hit.v[i], cx.v[i]};
+        const double tk[3] = {0.0, PK_F(rh, N, RAY_TFAR, i), cx.t[i]};
+        const double uk[3] = {0.0, PK_F(rh, N, HIT_U, i), cx.u[i]};
+        const double vk[3] = {0.0, PK_F(rh, N, HIT_V, i), cx.v[i]};
         shape[i] = g;
-        prim[i] = (int)rh.hit.primID[i];
+        prim[i] = (int)PK_U(rh, N, HIT_PRIM, i);
         t[i] = tk[k];
         u[i] = uk[k];
         v[i] = vk[k];
     }
 }
 
+static void intersect_packet8(const spc_accel *a, const spc_ray *const *r, enum RTCIntersectContextFlags flags,
+                              int *shape, int *prim, double *u, double *v, double *t)
+{
+    intersect_packet(a, r, flags, shape, prim, u, v, t, 8);
+}
+
+static void intersect_packet16(const spc_accel *a, const spc_ray *const *r, enum RTCIntersectContextFlags flags,
+                               int *shape, int *prim, double *u, double *v, double *t)
+{
+    intersect_packet(a, r, flags, shape, prim, u, v, t, 16);
+}
+
 void spc_accel_intersect_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                 int shape[SPC_ACCEL_PACKET], int prim[SPC_ACCEL_PACKET], double u[SPC_ACCEL_PACKET],
                                 double v[SPC_ACCEL_PACKET], double t[SPC_ACCEL_PACKET])
 {
-    intersect_packet(a, r, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, shape, prim, u, v, t);
+    (a->packet_width == 8 ? intersect_packet8 : intersect_packet16)(a, r, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, shape,
+                                                                    prim, u, v, t);
 }
 
 void spc_accel_intersect_packet_coherent(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
@@ -623,7 +686,8 @@ void spc_accel_intersect_packet_coherent(const spc_accel *a, const spc_ray *cons
                                          double u[SPC_ACCEL_PACKET], double v[SPC_ACCEL_PACKET],
                                          double t[SPC_ACCEL_PACKET])
 {
-    intersect_packet(a, r, RTC_INTERSECT_CONTEXT_FLAG_COHERENT, shape, prim, u, v, t);
+    (a->packet_width == 8 ? intersect_packet8 : intersect_packet16)(a, r, RTC_INTERSECT_CONTEXT_FLAG_COHERENT, shape,
+                                                                    prim, u, v, t);
 }
 
 void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
@@ -632,51 +696,68 @@ void spc_accel_occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_AC
     spc_accel_occluded_packet_skip(a, r, NULL, occluded);
 }
 
-/* spc_accel_occluded_packet_skip with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*) */
-static void occluded_packet(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
-                            const int skip[SPC_ACCEL_PACKET], enum RTCIntersectContextFlags flags,
-                            bool occluded[SPC_ACCEL_PACKET])
+/* spc_accel_occluded_packet_skip with the context's coherence flag (RTC_INTERSECT_CONTEXT_FLAG_*), in
+ * packets of N lanes */
+static inline __attribute__((always_inline)) void occluded_packet(const spc_accel *a, const spc_ray *const *r,
+                                                                  const int *skip, enum RTCIntersectContextFlags flags,
+                                                                  bool *occluded, const int N)
 {
     ctx_ext cx;
     rtcInitIntersectContext(&cx.ctx);
     cx.ctx.flags = flags;
     cx.rays = r;
     cx.sc = a->sc;
-    _Alignas(64) struct RTCRay16 er;
+    _Alignas(64) pk_word er[RAYHIT_WORDS * SPC_ACCEL_PACKET];
     _Alignas(64) int valid[SPC_ACCEL_PACKET];
     int nvalid = 0, nrays = 0;
-    for (int i = 0; i < SPC_ACCEL_PACKET; ++i) {
+    for (int i = 0; i < N; ++i) {
         occluded[i] = false;
         valid[i] = r[i] && r[i]->tmax > r[i]->tmin ? -1 : 0;
         nrays += r[i] != NULL;
         if (valid[i]) {
-            to_embree_lane(r[i], &er, i);
+            to_embree_lane(r[i], er, N, i);
             if (skip)
-                er.mask[i] = skip_mask_of(a, skip[i]);
+                PK_U(er, N, RAY_MASK, i) = skip_mask_of(a, skip[i]);
             ++nvalid;
         } else
-            embree_lane_off(&er, i);
+            embree_lane_off(er, N, i);
     }
     rays_traced += (uint64_t)nrays;
     shadow_rays_traced += (uint64_t)nrays;
     if (nvalid == 0)
         return;
-    cull_lines(a, &er);
-    rtcOccluded16(valid, a->scene, &cx.ctx, &er);
-    for (int i = 0; i < SPC_ACCEL_PACKET; ++i)
-        occluded[i] = (valid[i] != 0) & (er.tfar[i] < 0.0f);
+    cull_lines(a, er, N);
+    if (N == 8)
+        rtcOccluded8(valid, a->scene, &cx.ctx, (struct RTCRay8 *)er);
+    else
+        rtcOccluded16(valid, a->scene, &cx.ctx, (struct RTCRay16 *)er);
+    for (int i = 0; i < N; ++i)
+        occluded[i] = (valid[i] != 0) & (PK_F(er, N, RAY_TFAR, i) < 0.0f);
+}
+
+static void occluded_packet8(const spc_accel *a, const spc_ray *const *r, const int *skip,
+                             enum RTCIntersectContextFlags flags, bool *occluded)
+{
+    occluded_packet(a, r, skip, flags, occluded, 8);
+}
+
+static void occluded_packet16(const spc_accel *a, const spc_ray *const *r, const int *skip,
+                              enum RTCIntersectContextFlags flags, bool *occluded)
+{
+    occluded_packet(a, r, skip, flags, occluded, 16);
 }
 
 void spc_accel_occluded_packet_skip(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                     const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET])
 {
-    occluded_packet(a, r, skip, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, occluded);
+    (a->packet_width == 8 ? occluded_packet8 : occluded_packet16)(a, r, skip, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
+                                                                  occluded);
 }
 
 void spc_accel_occluded_packet_skip_coherent(const spc_accel *a, const spc_ray *const r[SPC_ACCEL_PACKET],
                                              const int skip[SPC_ACCEL_PACKET], bool occluded[SPC_ACCEL_PACKET])
 {
-    occluded_packet(a, r, skip,
-                    a->shadows_coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
-                    occluded);
+    (a->packet_width == 8 ? occluded_packet8 : occluded_packet16)(
+        a, r, skip, a->shadows_coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
+        occluded);
 }

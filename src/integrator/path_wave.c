@@ -3,7 +3,7 @@
  * camera samples at once, their rays traced in packets (path_wave.h).
  *
  * A wave holds up to WAVE_MAX lanes (a tile's camera samples), each one path. One step of the wave
- * traces every live lane's ray, in packets of SPC_SCENE_PACKET (spc_scene_intersect_packet); each
+ * traces every live lane's ray, in packets of the scene's width (spc_scene_intersect_packet); each
  * lane then takes what path.c does at the hit up to its light sample (emission, depth, strict normals,
  * next-event estimation's light point); the shadow rays go out in packets whose rays share an
  * octant, by Embree's coherent traversal (spc_scene_occluded_light_packet_coherent); the lanes'
@@ -101,7 +101,7 @@ static void lane_start(lane *ln, int path, const spc_ray *ray0, spc_sample_out *
  * (a record is 300-odd bytes: filling the group's records and copying one into the lane cost 1.6 to
  * 2.1% of the cornell box) and leaves its first packet. */
 typedef struct camera_hits {
-    int group; /* samples [group W, group W + W) are traced; -1: none yet */
+    int group; /* samples [group W, group W + W) are traced, W the scene's packet width; -1: none yet */
     spc_scene_answer a[SPC_SCENE_PACKET];
 } camera_hits;
 
@@ -110,10 +110,10 @@ typedef struct camera_hits {
 static void lane_take(const spc_render_ctx *ctx, lane *ln, spc_hit *h, int path, int n, const spc_ray *rays,
                       spc_sample_out *out, camera_hits *ch)
 {
-    enum { W = SPC_SCENE_PACKET };
+    const int W = spc_scene_packet_width(ctx->scene);
     int g = path / W, k = path % W;
     if (ch->group != g) {
-        const spc_ray *r[W];
+        const spc_ray *r[SPC_SCENE_PACKET];
         for (int j = 0; j < W; ++j)
             r[j] = g * W + j < n ? &rays[g * W + j] : NULL;
         spc_scene_trace_packet_coherent(ctx->scene, r, ch->a);
@@ -293,6 +293,7 @@ enum { WAVE_MAX = 256 };
  * less. */
 enum { SINGLE_RAYS_MAX = 2 };
 _Static_assert(WAVE_MAX <= SPC_EMITTER_MANY_MAX, "a wave's light samples in one call");
+_Static_assert(WAVE_MAX % SPC_SCENE_PACKET == 0, "a wave's lanes in whole packets of 8 or 16");
 
 /* The vertex's five sampler pairs that a lane reads (bits of spc_sampler_draw_many_used's use):
  * u_light, u_lpos and u_dir always; u_lobe only at a vertex that is not a diffuse view (a diffuse
@@ -303,15 +304,14 @@ enum { USE_ALWAYS = 1u << 0 | 1u << 1 | 1u << 3, USE_LOBE = 1u << 2, USE_RR = 1u
 static int octant(spc_vec3 d) { return (d.x < 0.0) | (d.y < 0.0) << 1 | (d.z < 0.0) << 2; }
 
 /* The lanes [0, w) grouped by key[i], their rays' octants (8: the lane has no ray), in packets of
- * up to SPC_SCENE_PACKET lanes of one octant: pk[k] the lane of packet slot k (-1: an idle slot); pk
+ * up to P lanes (at most SPC_SCENE_PACKET) of one octant: pk[k] the lane of packet slot k (-1: an idle slot); pk
  * holds OCTANT_PACKET_SLOTS entries. Returns the packets. The lanes without a ray go to a ninth
  * group after the packets, so that placing the lanes takes no branch on whether a lane has a ray
  * (lanes with and without a shadow ray alternate without a pattern). The keys are taken where the
  * rays are made, while the lanes' records are in cache. */
 enum { OCTANT_PACKET_SLOTS = WAVE_MAX + 8 * SPC_SCENE_PACKET + WAVE_MAX };
-static int octant_packets(int w, const unsigned char *key, int *pk)
+static inline __attribute__((always_inline)) int octant_packets(int w, const unsigned char *key, const int P, int *pk)
 {
-    enum { P = SPC_SCENE_PACKET };
     int count[9] = {0};
     for (int i = 0; i < w; ++i)
         ++count[key[i]];
@@ -329,12 +329,74 @@ static int octant_packets(int w, const unsigned char *key, int *pk)
     return np;
 }
 
+/* The lanes' rays r[0, nl) (NULL: none) traced in packets of P consecutive lanes (the scene's width,
+ * a constant in each inlined copy), their hits in h and hit; a packet of at most SINGLE_RAYS_MAX rays
+ * as single rays. By Embree's incoherent traversal: its coherent one breaks ties between coincident
+ * surfaces in another order than single rays. */
+static inline __attribute__((always_inline)) void trace_lanes(const spc_scene *sc, int nl, const spc_ray *const *r,
+                                                              spc_hit *h, bool *hit, const int P)
+{
+    for (int i0 = 0; i0 < nl; i0 += P) {
+        const spc_ray *pr[SPC_SCENE_PACKET];
+        int active = 0;
+        for (int j = 0; j < P; ++j) {
+            pr[j] = i0 + j < nl ? r[i0 + j] : NULL;
+            active += pr[j] != NULL;
+        }
+        if (active > SINGLE_RAYS_MAX) {
+            spc_scene_intersect_packet(sc, pr, h + i0, hit + i0);
+            continue;
+        }
+        /* (a packet of camera samples has its hits already: active is 0) */
+        for (int j = 0; j < P && i0 + j < nl; ++j) {
+            hit[i0 + j] = false;
+            if (pr[j]) {
+                spc_scene_answer a;
+                spc_scene_trace(sc, pr[j], &a);
+                hit[i0 + j] = spc_scene_fill_answer(sc, pr[j], &a, &h[i0 + j]);
+            }
+        }
+    }
+}
+
+/* The shadow rays r[0, nl) (NULL: none; le the emitters that sampled their ends) in packets of P
+ * lanes of one octant each (okey, octant_packets; pk its slots), by Embree's coherent traversal (the
+ * same answers: whether anything lies between two points has no ties to break): occluded[i] for
+ * every lane with a ray. */
+static inline __attribute__((always_inline)) void trace_shadows(const spc_scene *sc, int nl, const unsigned char *okey,
+                                                                const spc_ray *const *r, const spc_emitter *const *le,
+                                                                int *pk, bool *occluded, const int P)
+{
+    const int np = octant_packets(nl, okey, P, pk);
+    for (int p = 0; p < np; ++p) {
+        const spc_ray *pr[SPC_SCENE_PACKET];
+        const spc_emitter *pe[SPC_SCENE_PACKET];
+        bool po[SPC_SCENE_PACKET];
+        int active = 0;
+        for (int j = 0; j < P; ++j) {
+            int i = pk[p * P + j];
+            pr[j] = i >= 0 ? r[i] : NULL;
+            pe[j] = i >= 0 ? le[i] : NULL;
+            active += i >= 0;
+        }
+        if (active > SINGLE_RAYS_MAX)
+            spc_scene_occluded_light_packet_coherent(sc, pr, pe, po);
+        else
+            for (int j = 0; j < P; ++j)
+                po[j] = pr[j] && spc_scene_occluded_light(sc, pr[j], pe[j]);
+        for (int j = 0; j < P; ++j)
+            if (pk[p * P + j] >= 0)
+                occluded[pk[p * P + j]] = po[j];
+    }
+}
+
 void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const spc_ray *rays, spc_sampler *smp,
                           spc_sample_out *out)
 {
     (void)tls; /* plain path tracing splats nothing */
     atomic_fetch_add(&wave_samples, (uint64_t)n);
-    enum { P = SPC_SCENE_PACKET, W = WAVE_MAX };
+    enum { W = WAVE_MAX };
+    const int P = spc_scene_packet_width(ctx->scene); /* the packets' lanes: WAVE_MAX is a multiple */
     lane ln[WAVE_MAX];
     spc_hit h[WAVE_MAX];
     bool hit[WAVE_MAX], alive[WAVE_MAX], occluded[WAVE_MAX];
@@ -368,7 +430,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     bool ended[WAVE_MAX]; /* the lane's path ended in this step and it took no next sample */
     unsigned char okey[WAVE_MAX]; /* the shadow rays' octants (8: none) */
     unsigned use[WAVE_MAX];       /* the pairs of u a lane reads at its vertex (USE_*) */
-    int next = 0, live = 0, np;
+    int next = 0, live = 0;
     int nl = 0; /* the lanes in use, [0, nl): live lanes are kept packed at the front */
     const bool lockstep = wave_lockstep(ctx);
     camera_hits ch;
@@ -385,29 +447,12 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
         for (int i = 0; i < nl; ++i)
             r[i] = cam[i] ? NULL : &ln[i].ray;
         /* the lanes' rays in packets of consecutive lanes (the live lanes are packed; a lane whose
-         * camera hit waits has none), by Embree's incoherent traversal: its coherent one breaks ties
-         * between coincident surfaces in another order than single rays */
-        for (int i0 = 0; i0 < nl; i0 += P) {
-            const spc_ray *pr[P];
-            int active = 0;
-            for (int j = 0; j < P; ++j) {
-                pr[j] = i0 + j < nl ? r[i0 + j] : NULL;
-                active += pr[j] != NULL;
-            }
-            if (active > SINGLE_RAYS_MAX) {
-                spc_scene_intersect_packet(ctx->scene, pr, h + i0, hit + i0);
-                continue;
-            }
-            /* (a packet of camera samples has its hits already: active is 0) */
-            for (int j = 0; j < P && i0 + j < nl; ++j) {
-                hit[i0 + j] = false;
-                if (pr[j]) {
-                    spc_scene_answer a;
-                    spc_scene_trace(ctx->scene, pr[j], &a);
-                    hit[i0 + j] = spc_scene_fill_answer(ctx->scene, pr[j], &a, &h[i0 + j]);
-                }
-            }
-        }
+         * camera hit waits has none); the packets' loops in a copy per width, whose loops over the
+         * lanes of a packet unroll */
+        if (P == 8)
+            trace_lanes(ctx->scene, nl, r, h, hit, 8);
+        else
+            trace_lanes(ctx->scene, nl, r, h, hit, 16);
         for (int i = 0; i < nl; ++i) {
             if (cam[i]) {
                 hit[i] = ln[i].camera_ok;
@@ -464,29 +509,11 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             su_lobe[ns] = u[5 * i + 2].x;
             su_dir[ns++] = u[5 * i + 3];
         }
-        /* the shadow rays in packets of one octant each, by Embree's coherent traversal (the same
-         * answers: whether anything lies between two points has no ties to break) */
-        np = octant_packets(nl, okey, pk);
-        for (int p = 0; p < np; ++p) {
-            const spc_ray *pr[P];
-            const spc_emitter *pe[P];
-            bool po[P];
-            int active = 0;
-            for (int j = 0; j < P; ++j) {
-                int i = pk[p * P + j];
-                pr[j] = i >= 0 ? r[i] : NULL;
-                pe[j] = i >= 0 ? le[i] : NULL;
-                active += i >= 0;
-            }
-            if (active > SINGLE_RAYS_MAX)
-                spc_scene_occluded_light_packet_coherent(ctx->scene, pr, pe, po);
-            else
-                for (int j = 0; j < P; ++j)
-                    po[j] = pr[j] && spc_scene_occluded_light(ctx->scene, pr[j], pe[j]);
-            for (int j = 0; j < P; ++j)
-                if (pk[p * P + j] >= 0)
-                    occluded[pk[p * P + j]] = po[j];
-        }
+        /* the shadow rays in packets of one octant each */
+        if (P == 8)
+            trace_shadows(ctx->scene, nl, okey, r, le, pk, occluded, 8);
+        else
+            trace_shadows(ctx->scene, nl, okey, r, le, pk, occluded, 16);
         spc_warp_cosine_hemisphere_many(nd, u_dir, wl_d);
         for (int j = 0; j < nd; ++j)
             wl[dlane[j]] = wl_d[j];

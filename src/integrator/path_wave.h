@@ -4,7 +4,7 @@
  *
  * The estimate of every sample is bit for bit spc_path_sample's: each path keeps its own sampler
  * stream and runs path.c's arithmetic in path.c's order; only the order in which the paths' rays
- * reach Embree changes (packets of SPC_SCENE_PACKET camera, extension and shadow rays, whose hits
+ * reach Embree changes (packets of 8 or 16 camera, extension and shadow rays, whose hits
  * are the single rays' hits for triangles and analytic shapes; not for Embree's curves, whose scenes
  * keep path.c). So images stay the same for any thread count, and checkpoints and
  * resumed renders mix freely with path.c's.

@@ -380,6 +380,7 @@ spc_status spc_scene_finalize(spc_scene *s, spc_error *err)
     s->accel = spc_accel_create(s, err);
     if (!s->accel)
         return err ? err->code : SPC_ERR_ACCEL;
+    s->packet_width = spc_accel_packet_width(s->accel);
     s->prefetch_hits = false;
     for (int i = 0; i < s->nshapes; ++i)
         if (s->shapes[i]->type == SPC_SHAPE_MESH && !s->shapes[i]->tri_frame)
@@ -403,18 +404,37 @@ bool spc_scene_occluded(const spc_scene *s, const spc_ray *r) { return spc_accel
 
 _Static_assert(SPC_SCENE_PACKET == SPC_ACCEL_PACKET, "one packet size");
 
+int spc_scene_packet_width(const spc_scene *s) { return s->packet_width; }
+
 /* Asks for the lanes' triangle records, then their vertices, before the first fill: on a big mesh
  * each hit's reads miss the cache, and asking for all lanes at once overlaps those misses. */
 static void prefetch_packet(const spc_scene *s, const int *shape, const int *prim)
 {
     if (!s->prefetch_hits)
         return;
-    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+    const int n = s->packet_width;
+    for (int i = 0; i < n; ++i)
         if (shape[i] >= 0)
             spc_shape_prefetch_hit(s->shapes[shape[i]], prim[i]);
-    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+    for (int i = 0; i < n; ++i)
         if (shape[i] >= 0)
             spc_shape_prefetch_vertices(s->shapes[shape[i]], prim[i]);
+}
+
+/* The hit records of a packet's n lanes from Embree's answers: n the scene's packet width, a constant
+ * in each inlined copy (fill_packet). */
+static inline __attribute__((always_inline)) void fill_lanes(const spc_scene *s, const spc_ray *const *r,
+                                                             const int *shape, const int *prim, const double *u,
+                                                             const double *v, const double *t, spc_hit *h, bool *hit,
+                                                             const int n)
+{
+    for (int i = 0; i < n; ++i) {
+        hit[i] = shape[i] >= 0;
+        if (!hit[i])
+            continue;
+        h[i].shape_index = shape[i];
+        spc_shape_fill_hit_shading(s->shapes[shape[i]], prim[i], u[i], v[i], r[i], t[i], &h[i]);
+    }
 }
 
 /* The hit records of a packet's lanes from Embree's answers. */
@@ -423,13 +443,10 @@ static void fill_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PAC
                         bool hit[SPC_SCENE_PACKET])
 {
     prefetch_packet(s, shape, prim);
-    for (int i = 0; i < SPC_SCENE_PACKET; ++i) {
-        hit[i] = shape[i] >= 0;
-        if (!hit[i])
-            continue;
-        h[i].shape_index = shape[i];
-        spc_shape_fill_hit_shading(s->shapes[shape[i]], prim[i], u[i], v[i], r[i], t[i], &h[i]);
-    }
+    if (s->packet_width == 8)
+        fill_lanes(s, r, shape, prim, u, v, t, h, hit, 8);
+    else
+        fill_lanes(s, r, shape, prim, u, v, t, h, hit, 16);
 }
 
 void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], spc_hit h[SPC_SCENE_PACKET],
@@ -462,7 +479,8 @@ void spc_scene_trace_packet_coherent(const spc_scene *s, const spc_ray *const r[
     int shape[SPC_ACCEL_PACKET], prim[SPC_ACCEL_PACKET];
     double u[SPC_ACCEL_PACKET], v[SPC_ACCEL_PACKET], t[SPC_ACCEL_PACKET];
     spc_accel_intersect_packet_coherent(s->accel, r, shape, prim, u, v, t);
-    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+    const int n = s->packet_width;
+    for (int i = 0; i < n; ++i)
         a[i] = (spc_scene_answer){shape[i], prim[i], u[i], v[i], t[i]};
     prefetch_packet(s, shape, prim);
 }
@@ -492,7 +510,8 @@ void spc_scene_occluded_light_packet_coherent(const spc_scene *s, const spc_ray 
                                               bool occluded[SPC_SCENE_PACKET])
 {
     int skip[SPC_SCENE_PACKET];
-    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+    const int n = s->packet_width;
+    for (int i = 0; i < n; ++i)
         skip[i] = r[i] ? spc_scene_light_skip(e[i]) : -1;
     spc_accel_occluded_packet_skip_coherent(s->accel, r, skip, occluded);
 }
@@ -505,7 +524,8 @@ void spc_scene_occluded_light_packet(const spc_scene *s, const spc_ray *const r[
         return;
     }
     int skip[SPC_SCENE_PACKET];
-    for (int i = 0; i < SPC_SCENE_PACKET; ++i)
+    const int n = s->packet_width;
+    for (int i = 0; i < n; ++i)
         skip[i] = r[i] ? spc_scene_light_skip(e[i]) : -1;
     spc_accel_occluded_packet_skip(s->accel, r, skip, occluded);
 }

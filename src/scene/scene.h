@@ -152,6 +152,7 @@ typedef struct spc_scene {
     /* some mesh keeps no per-triangle frame (more than SPC_MESH_FRAME_MAX_TRIS triangles): its hits
      * miss the cache, so packets prefetch their records before filling them */
     bool prefetch_hits;
+    int packet_width;             /* the accel's (spc_scene_packet_width), kept here for the packet loops */
     spc_scene_casters casters[2]; /* the specular chains' casters: [0] by caustic flags, [1] any_surface */
 
     char path[512]; /* the file it was loaded from, if any */
@@ -201,11 +202,14 @@ bool spc_scene_shape_is_caster(const spc_shape *s, bool any_surface, double *eta
 
 bool spc_scene_intersect(const spc_scene *s, const spc_ray *r, spc_hit *h);
 bool spc_scene_occluded(const spc_scene *s, const spc_ray *r);
-/* The same for a packet of SPC_SCENE_PACKET rays traced together (lane i where r[i] is not NULL):
+/* The same for a packet of spc_scene_packet_width(s) rays traced together (lane i where r[i] is not
+ * NULL; the arrays' first width entries are read and written, SPC_SCENE_PACKET is the widest):
  * hit[i] and h[i] are spc_scene_intersect's for r[i] (hit[i] false for an inactive lane), except
  * that h[i] is a shading record (spc_shape_fill_hit_shading: on a mesh whose BSDF reads no
  * derivatives, spc_shape_hit_derivatives fills them on demand); occluded[i] spc_scene_occluded's. */
 #define SPC_SCENE_PACKET 16
+/* The packets' width, 8 or 16 (spc_accel_packet_width). */
+int spc_scene_packet_width(const spc_scene *s);
 void spc_scene_intersect_packet(const spc_scene *s, const spc_ray *const r[SPC_SCENE_PACKET], spc_hit h[SPC_SCENE_PACKET],
                                 bool hit[SPC_SCENE_PACKET]);
 /* spc_scene_intersect_packet for rays that run nearly parallel from nearby origins (a camera's rays
