@@ -802,6 +802,12 @@ TEST(mesh_ball_point_weights_sum_to_one)
 
 #define SLAB_SCENE "bench/check/two_slabs_sphere_light.xml"
 #define SLAB_SETTING "angular:camera=0.036,first=0.1,later=0.1,long=0.3,flat5=1,flat6=1,ltcaus"
+/* Joins through flat glass: the flat enumeration polishes its roots to SPC_SNEE_FLAT_POLISH_TOL_SCENE
+ * of the scene and SPC_SNEE_FLAT_POLISH_TOL_LIGHT of the light (exact roots, missed only by the rays'
+ * spawn offsets), so the strategies' densities of one path agree to that polish, not to the other
+ * enumerations' tighter one: their weights' sum is held to 1e-4 (measured up to 1.9e-5; a missing factor
+ * or density moves it by far more). */
+#define FLAT_WEIGHT_GAP 1e-4
 
 /* A run on the slabs: their joins by the flat enumeration. */
 static bool slab_run_start(area_run *r, const char *setting, uint64_t seed)
@@ -834,7 +840,7 @@ static void slab_area_weights(const char *setting)
     CHECK_MSG(t.by_length[2] > 10 && t.by_length[4] > 10, "joins by 2 and 4 vertices: %d, %d", t.by_length[2],
               t.by_length[4]);
     CHECK_MSG(t.matched > t.joins * 95 / 100, "the flat enumeration finds %d of %d joins' chains", t.matched, t.joins);
-    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK_MSG(t.worst_gap < FLAT_WEIGHT_GAP, "the three weights sum to 1 +- %.3g", t.worst_gap);
     CHECK(t.above > 0 && t.below > 0);
     printf("  %d joins by chains the enumeration leaves to BSDF sampling (%d with a partial reflection, %d longer), "
            "BSDF sampling's and light tracing's weights summing to 1 +- %.3g\n",
@@ -870,7 +876,7 @@ TEST(slab_area_weights_sum_to_one_long)
     /* (an 8-vertex chain of total internal reflections is retraced from x2 to within about 1e-5 of
      * light tracing's own directions) */
     CHECK_MSG(t.unlisted_gap < 1e-4, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
-    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK_MSG(t.worst_gap < FLAT_WEIGHT_GAP, "the three weights sum to 1 +- %.3g", t.worst_gap);
     CHECK(t.matched + t.unlisted == t.joins);
     spc_scene_destroy(r.sc);
 }
@@ -893,7 +899,7 @@ TEST(slab_area_weights_sum_to_one_long_flat_lt)
            t.worst_gap);
     CHECK_MSG(t.unlisted_long > 0, "joins by chains of 7-8 vertices: %d", t.unlisted_long);
     CHECK_MSG(t.unlisted_gap < 1e-4, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t.unlisted_gap);
-    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK_MSG(t.worst_gap < FLAT_WEIGHT_GAP, "the three weights sum to 1 +- %.3g", t.worst_gap);
     CHECK(t.matched + t.unlisted == t.joins);
     spc_scene_destroy(r.sc);
 }
@@ -921,7 +927,7 @@ TEST(slab_area_camera_weights_sum_to_one)
     CHECK_MSG(t->kinds[1] > 20, "joins through a slab toward the pinhole: %d", t->kinds[1]);
     CHECK_MSG(t->matched > (t->joins - t->unlisted) * 95 / 100, "the flat enumeration finds %d of %d joins' chains",
               t->matched, t->joins - t->unlisted);
-    CHECK_MSG(t->worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t->worst_gap);
+    CHECK_MSG(t->worst_gap < FLAT_WEIGHT_GAP, "the three weights sum to 1 +- %.3g", t->worst_gap);
     CHECK_MSG(t->unlisted_gap < 1e-5, "BSDF sampling's and light tracing's weights sum to 1 +- %.3g", t->unlisted_gap);
     /* without ltslab: none through a slab */
     r.p.lt_slab = false;
@@ -1749,7 +1755,7 @@ TEST(slab_camera_point_weights_sum_to_one)
     CHECK_MSG(t.through > 50, "joins through flat faces toward the pinhole: %d", t.through);
     CHECK_MSG(t.shared_psi > 10 && t.lt_only > 0, "shared on a share of the calls %d, light tracing's alone %d",
               t.shared_psi, t.lt_only);
-    CHECK_MSG(t.missed_camera == 0 && t.worst_miss < 1e-6, "camera chains not retraced %d, miss %.3g", t.missed_camera,
+    CHECK_MSG(t.missed_camera == 0 && t.worst_miss < SPC_SNEE_FLAT_POLISH_TOL_SCENE, "camera chains not retraced %d, miss %.3g", t.missed_camera,
               t.worst_miss);
     CHECK_MSG(t.matched > (t.through - t.lt_only) * 95 / 100, "the flat enumeration finds %d of %d joins' chains",
               t.matched, t.through - t.lt_only);
