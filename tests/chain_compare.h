@@ -17,6 +17,24 @@
 #include "manifold/angular.h"
 #include "manifold/specular_nee.h"
 
+/* The start the enumeration tests share: the receiver x where a ray straight down from `above` meets
+ * the floor (shape 0) first, the query q from it (normal +z, chains of up to max_chain vertices) and
+ * a light point drawn from r into q (its emitter and uv in *e and *uv where they are asked for).
+ * False where the ray misses the floor or no light point is drawn. q keeps a pointer to x. */
+static inline bool chain_compare_floor_query(const spc_scene *sc, const spc_snee_params *p, spc_vec3 above,
+                                             int max_chain, spc_rng *r, spc_hit *x, spc_snee_query *q,
+                                             const spc_emitter **e, spc_vec2 *uv)
+{
+    spc_ray ray = {above, spc_v3(0, 0, -1), 0, INFINITY};
+    if (!spc_scene_intersect(sc, &ray, x) || x->shape_index != 0)
+        return false;
+    spc_snee_query_init(q, sc, p, x, spc_v3(0, 0, 1), max_chain);
+    const spc_emitter *e_own;
+    spc_vec2 uv_own;
+    double p_y;
+    return spc_snee_sample_light(sc, true, r, q, e ? e : &e_own, uv ? uv : &uv_own, &p_y);
+}
+
 /* Whether a randomized chain counts: one the enumeration covers and that reaches the light. */
 typedef bool (*chain_compare_keep)(const spc_snee_query *q, const spc_chain *c, void *ctx);
 

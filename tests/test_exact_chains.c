@@ -693,17 +693,12 @@ static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, 
                        const char *label, tally *t)
 {
     spc_hit x;
-    spc_ray ray = {above, spc_v3(0, 0, -1), 0, INFINITY};
-    if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
-        return;
     spc_snee_query q;
-    spc_snee_query_init(&q, sc, p, &x, spc_v3(0, 0, 1), 3);
     const spc_emitter *e;
     spc_vec2 uv;
-    double p_y;
     spc_rng r;
     spc_rng_seed(&r, 3, stream);
-    if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+    if (!chain_compare_floor_query(sc, p, above, 3, &r, &x, &q, &e, &uv))
         return;
     ++t->points;
     CHECK(spc_snee_exact_covers_all(&q));

@@ -320,17 +320,12 @@ static bool keep_flat(const spc_snee_query *q, const spc_chain *c, void *ctx)
 static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, uint64_t stream, tally *t)
 {
     spc_hit x;
-    spc_ray ray = {above, spc_v3(0, 0, -1), 0, INFINITY};
-    if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
-        return;
     spc_snee_query q;
-    spc_snee_query_init(&q, sc, p, &x, spc_v3(0, 0, 1), p->max_chain);
     const spc_emitter *e;
     spc_vec2 uv;
-    double p_y;
     spc_rng r;
     spc_rng_seed(&r, 3, stream);
-    if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+    if (!chain_compare_floor_query(sc, p, above, p->max_chain, &r, &x, &q, &e, &uv))
         return;
     ++t->points;
     CHECK(spc_snee_exact_covers_all(&q));
@@ -725,17 +720,11 @@ TEST(one_walk_for_several_lengths)
         p.reflect = true;
         for (int qi = 0; qi < 40; ++qi) {
             spc_hit x;
-            spc_ray ray = {spc_v3(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 5.0), spc_v3(0, 0, -1), 0, INFINITY};
-            if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
-                continue;
             spc_snee_query q;
-            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 0, 1), 2);
-            const spc_emitter *e;
-            spc_vec2 uv;
-            double p_y;
+            spc_vec3 above = spc_v3(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 5.0);
             spc_rng r;
             spc_rng_seed(&r, 5, (uint64_t)(100 * t + qi));
-            if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+            if (!chain_compare_floor_query(sc, &p, above, 2, &r, &x, &q, NULL, NULL))
                 continue;
             ++points;
             static spc_chain a[3][MAXC], b[3][MAXC];
@@ -971,17 +960,13 @@ TEST(flat_polish_same_values)
     double worst = 0.0;
     for (int i = 0; i < 80; ++i) {
         spc_hit x;
-        spc_ray ray = {spc_v3(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 0.3), spc_v3(0, 0, -1), 0, INFINITY};
-        if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
-            continue;
         spc_snee_query q;
-        spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 0, 1), 4);
         const spc_emitter *e;
         spc_vec2 uv;
-        double p_y;
+        spc_vec3 above = spc_v3(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 0.3);
         spc_rng r;
         spc_rng_seed(&r, 7, (uint64_t)i);
-        if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+        if (!chain_compare_floor_query(sc, &p, above, 4, &r, &x, &q, &e, &uv))
             continue;
         spc_vec3 pts[4 * 8];
         unsigned char ev[4 * 8];

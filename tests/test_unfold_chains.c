@@ -107,17 +107,12 @@ static void reflection_law(const spc_chain_vertex *v, spc_vec3 n, spc_vec3 p0, d
 static void compare_at(spc_scene *sc, const spc_snee_params *p, spc_vec3 above, uint64_t stream, tally *t)
 {
     spc_hit x;
-    spc_ray ray = {above, spc_v3(0, 0, -1), 0, INFINITY};
-    if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
-        return;
     spc_snee_query q;
-    spc_snee_query_init(&q, sc, p, &x, spc_v3(0, 0, 1), p->max_chain);
     const spc_emitter *e;
     spc_vec2 uv;
-    double p_y;
     spc_rng r;
     spc_rng_seed(&r, 3, stream);
-    if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+    if (!chain_compare_floor_query(sc, p, above, p->max_chain, &r, &x, &q, &e, &uv))
         return;
     ++t->points;
     spc_chain all[32];
@@ -222,17 +217,11 @@ TEST(early_outs_reject_no_chain)
             continue;
         for (int i = 0; i < 60; ++i) {
             spc_hit x;
-            spc_ray ray = {spc_v3(3.0 * rnd() - 1.2, 3.0 * rnd() - 1.5, 5.0), spc_v3(0, 0, -1), 0, INFINITY};
-            if (!spc_scene_intersect(sc, &ray, &x) || x.shape_index != 0)
-                continue;
             spc_snee_query q;
-            spc_snee_query_init(&q, sc, &p, &x, spc_v3(0, 0, 1), p.max_chain);
-            const spc_emitter *e;
-            spc_vec2 uv;
-            double p_y;
+            spc_vec3 above = spc_v3(3.0 * rnd() - 1.2, 3.0 * rnd() - 1.5, 5.0);
             spc_rng r;
             spc_rng_seed(&r, 5, 1000 * (uint64_t)scene + (uint64_t)i);
-            if (!spc_snee_sample_light(sc, true, &r, &q, &e, &uv, &p_y))
+            if (!chain_compare_floor_query(sc, &p, above, p.max_chain, &r, &x, &q, NULL, NULL))
                 continue;
             ++queries;
             spc_chain a[32], b[32];
