@@ -102,6 +102,31 @@ static double plane_shading_fix(const spc_hit *h, spc_vec3 w_prev, spc_vec3 w_ne
     return spc_bsdf_shading_adjoint(w_prev, w_next, N, n);
 }
 
+/* The radiance transport's n^2 factor at a delta vertex h on a normal-mapped plane, the camera's
+ * side toward wo, the light's toward wi: (n_wo / n_wi)^2 for a refraction (radiance grows entering
+ * the denser medium), 1 for a reflection; read as the ratio of the two transport modes'
+ * throughputs, which differ by that factor alone. 1 where the throughput is zero. */
+static double plane_radiance_n2(const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
+{
+    spc_rgb a = spc_bsdf_specular_throughput(h->bsdf, h, SPC_MODE_RADIANCE, wo, wi);
+    spc_rgb b = spc_bsdf_specular_throughput(h->bsdf, h, SPC_MODE_IMPORTANCE, wo, wi);
+    double sb = b.r + b.g + b.b;
+    return sb > 0.0 ? (a.r + a.g + a.b) / sb : 1.0;
+}
+
+/* The joins' value of a light path whose normal-mapped planes' vertices (the subpath's and the
+ * join's chain toward the pinhole) carry the radiance transport's n^2 factors with the product n2,
+ * (n_camera / n_light)^2 where the path crosses water once: the light subpath carries flux, which a
+ * crossing does not scale (the importance transport's weight), and the joins' geometry terms are
+ * those of the media the path runs through, so that the radiance factors of a path that crosses
+ * into the water and out again (n2 1: the camera above the water) are the ones the chain's
+ * geometry term from x2 leaves out, and one unpaired crossing (the camera under the water) is
+ * divided out. C unchanged where n2 is 1 (up to rounding). */
+static spc_rgb plane_flux_value(spc_rgb C, double n2)
+{
+    return fabs(n2 - 1.0) > 1e-9 && n2 > 0.0 ? spc_rgb_scale(C, 1.0 / n2) : C;
+}
+
 /* Is some vertex of the chain c on a normal-mapped plane one where either of its two directions turns
  * the map's normal (plane_turns)? Light tracing neither makes nor weighs such paths: its subpath's
  * frame there, or the camera's, is not the one the chain's was solved in. */
@@ -842,6 +867,7 @@ typedef struct lt_end {
     bool area, lt_only;
     int k;
     unsigned char ev[SPC_CHAIN_MAX_VERTICES];
+    double n2; /* the subpath's radiance n^2 factors up to x2 (plane_radiance_n2) */
 } lt_end;
 
 /* The chain budgets at x2 reached after `segments` segments with `receivers` receivers before it
@@ -904,16 +930,20 @@ static void join_chain(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         return;
     const spc_chain_vertex *last = &cc->v[cc->n - 1];
     spc_rgb T = spc_rgb1(1.0);
+    double n2 = L->n2;
     for (int v = 0; v < cc->n; ++v) {
         T = spc_rgb_mul(T, spc_bsdf_specular_throughput(cc->v[v].h.bsdf, &cc->v[v].h, SPC_MODE_RADIANCE, cc->v[v].d,
                                                         spc_neg(cc->v[v].wi)));
-        if (spc_plane_chain_shape(cc->v[v].h.shape))
+        if (spc_plane_chain_shape(cc->v[v].h.shape)) {
             T = spc_rgb_scale(T, plane_shading_fix(&cc->v[v].h, spc_neg(cc->v[v].wi), cc->v[v].d));
+            n2 *= plane_radiance_n2(&cc->v[v].h, cc->v[v].d, spc_neg(cc->v[v].wi));
+        }
     }
     spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cc->d0);
     double G = spc_chain_geometry(cc, ctx->cam->origin, spc_neg(last->d));
     double g = shading_fix(x2, d0, cc->d0) * spc_absdot(cc->d0, x2->sh.n) * G;
-    spc_rgb C = spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N / camera_chain_share(p, cc));
+    spc_rgb C = plane_flux_value(
+        spc_rgb_scale(spc_rgb_mul(spc_rgb_mul(beta, f), T), g * cd.We / N / camera_chain_share(p, cc)), n2);
     if (spc_rgb_is_black(C) || !isfinite(g))
         return;
     spc_ray sr = spc_hit_spawn_to(&last->h, cd.p_near, 0.0);
@@ -1048,7 +1078,7 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
     if (chain_fits(ctx, p, L, x2, 1, 0, &kmax, &kflat, &psi) && camera_density(ctx, p, x2, NULL, &cd) > 0.0) {
         spc_rgb f = spc_bsdf_eval(x2->bsdf, x2, SPC_MODE_IMPORTANCE, d0, cd.wi);
         double g = shading_fix(x2, d0, cd.wi) * spc_absdot(cd.wi, x2->sh.n) / (cd.dist * cd.dist);
-        spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / N);
+        spc_rgb C = plane_flux_value(spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / N), L->n2);
         spc_ray sr = spc_hit_spawn_to(x2, cd.p_near, 0.0);
         double r = 0.0;
         double w = spc_rgb_is_black(C)
@@ -1150,13 +1180,16 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
  * BSDF differ from the importance-mode sample's weight (the cosine factors, the shadowing term),
  * and the joins must carry the value that specular NEE and BSDF sampling give the same path. The
  * radiance throughput's eta^2 is the one the join's geometry term from x2 leaves out (a chain's
- * term through one refraction is the one from x2's medium). */
-static spc_rgb delta_weight(const spc_hit *h, spc_vec3 d, const spc_bsdf_sample *bs)
+ * term through one refraction is the one from x2's medium) where the join crosses the water back;
+ * *n2 collects it (plane_radiance_n2), and the joins that do not cross back divide it out
+ * (plane_flux_value). */
+static spc_rgb delta_weight(const spc_hit *h, spc_vec3 d, const spc_bsdf_sample *bs, double *n2)
 {
     if (!spc_plane_chain_shape(h->shape))
         return bs->weight;
     if (!(bs->pdf > 0.0))
         return spc_rgb1(0.0);
+    *n2 *= plane_radiance_n2(h, bs->wi, spc_neg(d));
     spc_rgb T = spc_bsdf_specular_throughput(h->bsdf, h, SPC_MODE_RADIANCE, bs->wi, spc_neg(d));
     T = spc_rgb_scale(T, plane_shading_fix(h, spc_neg(d), bs->wi));
     return spc_rgb_scale(T, 1.0 / bs->pdf);
@@ -1170,7 +1203,7 @@ static spc_rgb delta_weight(const spc_hit *h, spc_vec3 d, const spc_bsdf_sample 
  * walk ends before such a surface (the ray escapes, kmax is passed, a sample is not a delta lobe, the
  * throughput is black). ray ends as the last segment's. */
 static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rng, int kmax, int kflat, int kmix,
-                      spc_ray *ray, spc_rgb *beta, unsigned char *events, spc_hit *verts, spc_hit *x)
+                      spc_ray *ray, spc_rgb *beta, double *n2, unsigned char *events, spc_hit *verts, spc_hit *x)
 {
     bool flat = kflat > kmax, mix = kmix > kmax;
     const spc_shape *glass = NULL; /* the glass after the mirror ball */
@@ -1201,7 +1234,7 @@ static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rn
          * importance sample's frame is then not the one the path tracer's side has there */
         if (spc_plane_chain_shape(h.shape) && (plane_turns(&h, spc_neg(ray->d)) || plane_turns(&h, bs.wi)))
             return -1;
-        *beta = spc_rgb_mul(*beta, delta_weight(&h, ray->d, &bs));
+        *beta = spc_rgb_mul(*beta, delta_weight(&h, ray->d, &bs, n2));
         if (spc_rgb_is_black(*beta))
             return -1;
         if (events)
@@ -1270,7 +1303,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     unsigned char events[SPC_CHAIN_MAX_VERTICES];
     spc_hit x2;
     /* an area light's off a mirror ball through glass: up to the same (mirror_glass_chain) */
-    int k = delta_walk(sc, p, rng, kmax, kflat, L.area ? kflat : kmax, &ray, &beta, events, NULL, &x2);
+    L.n2 = 1.0;
+    int k = delta_walk(sc, p, rng, kmax, kflat, L.area ? kflat : kmax, &ray, &beta, &L.n2, events, NULL, &x2);
     if (k < 1 || !spc_bsdf_has_smooth(x2.bsdf))
         return;
     spc_vec3 d0 = spc_neg(ray.d);
@@ -1339,6 +1373,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
      * and starts the count of delta scatterings again */
     spc_path_lt_vertex mid[SPC_PATH_LT_MID_VERTICES > 0 ? SPC_PATH_LT_MID_VERTICES : 1];
     int nmid = 0, segs = 0; /* segs: segments from x2 to h */
+    double n2 = L.n2;       /* and the radiance n^2 factors of the delta scatterings past x2 */
     for (int m = 0; m <= SPC_PATH_LT_MID_MAX && !spc_rgb_is_black(beta); ++m) {
         spc_hit h;
         if (!spc_scene_intersect(sc, &ray, &h))
@@ -1352,7 +1387,8 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
             if (spc_camera_sample_direct(ctx->cam, h.p, &cd) && in_window(ctx, cd.fx, cd.fy)) {
                 spc_rgb f = spc_bsdf_eval(h.bsdf, &h, SPC_MODE_IMPORTANCE, wo, cd.wi);
                 double g = shading_fix(&h, wo, cd.wi) * spc_absdot(cd.wi, h.sh.n) / (cd.dist * cd.dist);
-                spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
+                spc_rgb C = plane_flux_value(
+                    spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height)), n2);
                 if (!spc_rgb_is_black(C)) {
                     double r = 0.0;
                     double w = join_weight(ctx, p, &L, &h, wo, mid, nmid, &x2, w2, NULL, kmax2, kflat2, psi2, &r);
@@ -1380,7 +1416,7 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
             m = -1;
             continue;
         }
-        beta = spc_rgb_mul(beta, delta_weight(&h, ray.d, &bm));
+        beta = spc_rgb_mul(beta, delta_weight(&h, ray.d, &bm, &n2));
         ray = spc_hit_spawn(&h, bm.wi);
     }
 }
@@ -1460,8 +1496,9 @@ void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p
 
     /* the delta scatterings at chain surfaces, to the first other surface x */
     spc_hit x, v[SPC_PATH_LT_GUIDE_MAX];
+    double n2 = 1.0;
     int k = delta_walk(sc, p, rng, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, &ray, &beta,
-                       NULL, v, &x);
+                       &n2, NULL, v, &x);
     /* a light guide's chain (longer than any specular NEE covers), within max_depth's k + 2 segments */
     if (k < spc_path_lt_guide_min_chain(ctx, p) || (ctx->max_depth >= 0 && k + 2 > ctx->max_depth) ||
         !spc_bsdf_has_smooth(x.bsdf))
@@ -1472,7 +1509,8 @@ void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p
         return;
     spc_rgb f = spc_bsdf_eval(x.bsdf, &x, SPC_MODE_IMPORTANCE, d0, cd.wi);
     double g = shading_fix(&x, d0, cd.wi) * spc_absdot(cd.wi, x.sh.n) / (cd.dist * cd.dist);
-    spc_rgb C = spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height));
+    spc_rgb C = plane_flux_value(
+        spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height)), n2);
     if (spc_rgb_is_black(C) || !isfinite(g))
         return;
     double r = spc_path_lt_guide_ratio(ctx, p, &x, cd.wi, d0, d_last, e, y, ny);

@@ -108,7 +108,11 @@
  * radiance transport's throughput times the map's shading factor |w_prev.n| |w_next.N| /
  * (|w_prev.N| |w_next.n|) (n the map's normal, N the plane's, w_prev toward the light's side): the
  * refraction about n maps the rays' measure about n, the flux and the chain's geometry count it
- * about the plane. Not where the map's face-view turn applies from either side of a water vertex
+ * about the plane. The radiance throughput's n^2 factors cancel where the join crosses the water
+ * back toward the pinhole; where the path crosses it once (the camera under the water: x2 seen
+ * directly, in the surface's underside or through a second receiver) the join's value is divided by
+ * their product, since the subpath carries flux, which a crossing does not scale. Not where the
+ * map's face-view turn applies from either side of a water vertex
  * (the camera's, the light's or x2's frame is then not the chain's): those paths are the other
  * strategies' alone, on both sides of the weights.
  *
