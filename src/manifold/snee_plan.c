@@ -1271,7 +1271,9 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     }
     if (flat_large && !strstr(out->setting, "recguide")) {
         size_t n = strlen(out->setting);
-        snprintf(out->setting + n, sizeof out->setting - n, "%s%s", SPC_SNEE_PLAN_FLAT_LARGE,
+        const bool deep = sc->integrator.specular_max_chain >= SPC_SNEE_PLAN_FLAT_LARGE_DEEP;
+        snprintf(out->setting + n, sizeof out->setting - n, "%s%s",
+                 deep ? SPC_SNEE_PLAN_FLAT_LARGE_DEEP_LONG : SPC_SNEE_PLAN_FLAT_LARGE,
                  out->glass_share >= SPC_SNEE_PLAN_FLAT_LARGE_GUIDE_GLASS ? SPC_SNEE_PLAN_FLAT_LARGE_GUIDES : "");
     } else
         flat_light_tracing(sc, cs, nflat, integrator, out);

@@ -349,6 +349,16 @@
  * same (25.8x against 26.3x none). */
 #define SPC_SNEE_PLAN_FLAT_LARGE ",ltcaus,ltshare=1,flat34=0.1,longmax=8,long=0.4,longflatlt"
 
+/* SPC_SNEE_PLAN_FLAT_LARGE with the long pass on 0.2 of the calls (psi 0.05 for each length past the
+ * budget) where the scene's chain budget is SPC_SNEE_PLAN_FLAT_LARGE_DEEP vertices or more: the
+ * enumeration then holds the 3- and 4-vertex chains at every call and the pass has only the 5- to
+ * 8-vertex ones, so on 0.4 of the calls it costs more than it carries. At equal CPU time
+ * (bench/RESULTS.md, "the long pass on 0.2 of the calls where the budget is 4"): scenes/newton_slabs.xml
+ * (budget 4) 1.07-1.09x lower mean relMSE over 48 seeds before, and over the 48 of that section;
+ * scenes/caustic_slabs.xml (budget 2) the same at 0.2 and 0.4, so it keeps 0.4. */
+#define SPC_SNEE_PLAN_FLAT_LARGE_DEEP_LONG ",ltcaus,ltshare=1,flat34=0.1,longmax=8,long=0.2,longflatlt"
+#define SPC_SNEE_PLAN_FLAT_LARGE_DEEP 4
+
 /* Appended after SPC_SNEE_PLAN_FLAT_LARGE where the camera sees glass on at least
  * SPC_SNEE_PLAN_FLAT_LARGE_GUIDE_GLASS of the image (snee_plan.c, glass_image_share): the two path
  * classes that then held the mean's one-pixel seeds, both BSDF sampling's alone, get light tracing
