@@ -243,6 +243,7 @@ typedef struct flat_cache {
     /* a one-sided mirror (a conductor, not two-sided): it reflects on its faces' exterior side
      * only (the side the BSDF calls the front), so no chain meets a face from the interior */
     bool front_only;
+    double eta; /* shape_eta of the shape, read by the walk at every vertex */
     int nfaces;
     flat_face face[SPC_FLAT_MAX_FACES];
     flat_link self;    /* its faces against its own (to: itself) */
@@ -505,19 +506,32 @@ static bool flat_kind(const spc_shape *s)
     return b->type == SPC_BSDF_DIELECTRIC || b->type == SPC_BSDF_CONDUCTOR;
 }
 
+/* eta = int_ior / ext_ior of a dielectric, 0 for a conductor. */
+static double shape_eta(const spc_shape *s)
+{
+    double eta = 0.0;
+    spc_bsdf_is_specular_interface(s->bsdf, &eta);
+    return eta;
+}
+
 /* The shape's faces, built on first use and published atomically (as plane_chains.c's map); NULL
- * if s is not a shape these chains handle. */
+ * if s is not a shape these chains handle. A cache is only ever built for a shape of flat_kind (a
+ * property of the shape that does not change), so a published one answers without that test: the
+ * walk asks for every caster at every vertex. */
 static const flat_cache *flat_get(const spc_shape *s)
 {
-    if (!flat_kind(s))
+    if (!s)
         return NULL;
     void **slot = (void **)&((spc_shape *)s)->flat_cache;
     flat_cache *cur = __atomic_load_n(slot, __ATOMIC_ACQUIRE);
     if (!cur) {
+        if (!flat_kind(s))
+            return NULL;
         flat_cache *fc = calloc(1, sizeof *fc);
         if (!fc)
             return NULL;
         fc->destroy = cache_destroy;
+        fc->eta = shape_eta(s);
         cache_build(s, fc);
         void *expected = NULL;
         if (__atomic_compare_exchange_n(slot, &expected, (void *)fc, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
@@ -547,14 +561,6 @@ int spc_flat_shape_planes(const spc_shape *s, spc_vec3 *n, double *d, int max)
         d[k] = fc->face[i].d;
     }
     return k;
-}
-
-/* eta = int_ior / ext_ior of a dielectric, 0 for a conductor. */
-static double shape_eta(const spc_shape *s)
-{
-    double eta = 0.0;
-    spc_bsdf_is_specular_interface(s->bsdf, &eta);
-    return eta;
 }
 
 /* The index of refraction on side `side` (+1 exterior, -1 interior) of a face of a shape whose eta
@@ -1549,7 +1555,7 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
         /* the last vertex's face against this caster's faces (NULL: out of memory, computed here) */
         const flat_link *lk = prev ? flat_link_get(prev->fc, fc) : NULL;
         const int pf = prev ? (int)(prev->f - prev->fc->face) : 0;
-        double eta = shape_eta(s);
+        double eta = fc->eta;
         for (int fi = 0; fi < fc->nfaces && !w->stop; ++fi) {
             const flat_face *f = &fc->face[fi];
             if (w->bounded && !(w->near[w->hi - i - 1][j] & (state_bit(fi, 1) | state_bit(fi, -1))))
@@ -2028,7 +2034,7 @@ static bool flat_faces_chain(const spc_chain *c, bool reflect, int nmax, bool to
         const flat_cache *fc = flat_get(s);
         if (!fc || v->h.prim < 0 || (size_t)v->h.prim >= s->mesh.ntris || fc->tri_face[v->h.prim] < 0)
             return false;
-        double eta = shape_eta(s);
+        double eta = fc->eta;
         if (eta > 0.0 ? (v->event == SPC_CHAIN_REFLECT && !reflect) : v->event != SPC_CHAIN_REFLECT)
             return false;
         const flat_face *f = &fc->face[fc->tri_face[v->h.prim]];
