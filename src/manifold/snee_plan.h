@@ -352,10 +352,11 @@
 /* SPC_SNEE_PLAN_FLAT_LARGE with the long pass on 0.2 of the calls (psi 0.05 for each length past the
  * budget) where the scene's chain budget is SPC_SNEE_PLAN_FLAT_LARGE_DEEP vertices or more: the
  * enumeration then holds the 3- and 4-vertex chains at every call and the pass has only the 5- to
- * 8-vertex ones, so on 0.4 of the calls it costs more than it carries. At equal CPU time
- * (bench/RESULTS.md, "the long pass on 0.2 of the calls where the budget is 4"): scenes/newton_slabs.xml
- * (budget 4) 1.07-1.09x lower mean relMSE over 48 seeds before, and over the 48 of that section;
- * scenes/caustic_slabs.xml (budget 2) the same at 0.2 and 0.4, so it keeps 0.4. */
+ * 8-vertex ones, which carry little of the image. On scenes/newton_slabs.xml (budget 4) the same
+ * variance per sample at 0.2 as at 0.4 over 72 seeds (0.644 / 0.653, 0.574 / 0.576, 0.707 / 0.705)
+ * for 2.1% fewer instructions per sample, and no one-pixel seed from the pass (bench/RESULTS.md,
+ * "the long pass on 0.2 of the calls where the chain budget is 4"); scenes/caustic_slabs.xml
+ * (budget 2) read the same at 0.2 and 0.4 and keeps 0.4. */
 #define SPC_SNEE_PLAN_FLAT_LARGE_DEEP_LONG ",ltcaus,ltshare=1,flat34=0.1,longmax=8,long=0.2,longflatlt"
 #define SPC_SNEE_PLAN_FLAT_LARGE_DEEP 4
 
