@@ -581,11 +581,11 @@
  * of each plane from the lights): the water's setting and the area light's subpaths refracted by
  * the water onto the floor and walls, joined to the pinhole directly, in the underside's reflection
  * and through a second receiver (integrator/path_lt.h); no query from the camera (the plan's
- * setting there before, angular:camera=Q,first=0.1,later=0.1). At equal CPU over 24 seeds, two views
- * from under scenes/caustic_pool.xml's water: mean relMSE 0.0641 -> 0.0547 and 0.0975 -> 0.0662 (the
- * old setting's one-pixel seed, 0.63, gone; the new one took 0.81-0.82 CPU-s a render against
- * 0.91-1.06), none / it 18.6 -> 21.8 and 11.4 -> 16.7 (bench/RESULTS.md, "A camera under the
- * water"). */
+ * setting there before, angular:camera=Q,first=0.1,later=0.1). At equal CPU, three views from under
+ * scenes/caustic_pool.xml's water: mean relMSE 0.0641 -> 0.0547 and 0.0975 -> 0.0662 over 24 seeds
+ * (the old setting's one-pixel seed, 0.63, gone), 0.1136 -> 0.1008 over 40 (one seed's pixel, the
+ * worst of both, 0.65 -> 0.95 in the first 16); medians 1.12-1.39x lower (bench/RESULTS.md, "A
+ * camera under the water"). */
 #define SPC_SNEE_PLAN_SETTING_UNDER_WATER "angular:first=0.1,later=0.1,ltcaus,ltshare=0.5"
 /* Appended to SPC_SNEE_PLAN_SETTING_WATER for path where every caster is a normal-mapped plane
  * (plane_chains.h) and every light a small area light (a sky besides; SPC_SNEE_PLAN_LT_AREA_SR):
