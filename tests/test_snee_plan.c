@@ -1413,6 +1413,99 @@ TEST(water_plane_plan_no_camera_query)
     spc_scene_destroy(sc);
 }
 
+/* scenes/caustic_pool.xml with each from[i] replaced by to[i] (each found once, in order) and its
+ * normal map's path made absolute, loaded; NULL (and a failed check) where that fails. */
+static spc_scene *pool_variant(const char *const *from, const char *const *to, int n)
+{
+    static const char *const map = "textures/waves_normal.png";
+    char path[1200];
+    snprintf(path, sizeof path, "%s/scenes/caustic_pool.xml", spc_test_source_dir());
+    FILE *fp = fopen(path, "rb");
+    CHECK(fp != NULL);
+    if (!fp)
+        return NULL;
+    static char text[24000], out[24000];
+    size_t len = fread(text, 1, sizeof text - 1, fp);
+    fclose(fp);
+    text[len] = 0;
+    char mapto[1300];
+    snprintf(mapto, sizeof mapto, "%s/scenes/%s", spc_test_source_dir(), map);
+    for (int i = 0; i <= n; ++i) {
+        const char *f = i < n ? from[i] : map, *t = i < n ? to[i] : mapto;
+        char *a = strstr(text, f);
+        CHECK_MSG(a != NULL, "caustic_pool.xml has no %s", f);
+        if (!a)
+            return NULL;
+        size_t head = (size_t)(a - text), lt = strlen(t), lf = strlen(f), tail = strlen(a + lf);
+        CHECK(head + lt + tail < sizeof out);
+        if (!(head + lt + tail < sizeof out))
+            return NULL;
+        memcpy(out, text, head);
+        memcpy(out + head, t, lt);
+        memcpy(out + head + lt, a + lf, tail + 1);
+        memcpy(text, out, head + lt + tail + 1);
+    }
+    spc_scene *sc = NULL;
+    spc_error err;
+    CHECK_MSG(load_text(text, &sc, &err) == SPC_OK, "pool variant: %s", err.msg);
+    return sc;
+}
+
+/* The pool with the camera under the water (every caster a normal-mapped water plane, the pinhole on
+ * its far side from the small sphere light): path's plan traces the light through the water and
+ * joins it to the pinhole without the query from the camera (SPC_SNEE_PLAN_SETTING_UNDER_WATER);
+ * volpath and bdpt keep theirs; with the camera above the water or the light under it too, or under
+ * a light of 0.11 sr (tests/data/pool_under_water.xml), the plan is what it was. */
+TEST(water_plane_plan_camera_under_water)
+{
+    static const char *const cam_from[] = {"origin=\"0, 2.6, 2.4\" target=\"0, -0.8, 0\""};
+    static const char *const cam_to[] = {"origin=\"0, -0.3, 1.3\" target=\"0, -0.9, -0.8\""};
+    spc_scene *sc = pool_variant(cam_from, cam_to, 1);
+    if (!sc)
+        return;
+    spc_snee_plan p;
+    spc_snee_params sp;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_UNDER_WATER) && spc_snee_parse(p.setting, 2, &sp) &&
+                  !sp.camera && sp.exact && sp.lt_caustic,
+              "camera under the water, path: %s (%s)", p.setting, p.reason);
+    printf("    camera under the water, path: %s\n", p.setting);
+    static const char *const others[] = {"volpath", "bdpt"};
+    for (int i = 0; i < 2; ++i) {
+        spc_snee_plan_make(sc, others[i], NULL, &p);
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp) && !sp.lt_caustic, "camera under the water, %s: %s",
+                  others[i], p.setting);
+    }
+    spc_scene_destroy(sc);
+    /* the light under the water too: the camera and the light on one side */
+    static const char *const both_from[] = {"x=\"0.6\" y=\"3\" z=\"-0.8\"", cam_from[0]};
+    static const char *const both_to[] = {"x=\"0.6\" y=\"-0.5\" z=\"-0.8\"", cam_to[0]};
+    sc = pool_variant(both_from, both_to, 2);
+    if (!sc)
+        return;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && strcmp(p.setting, SPC_SNEE_PLAN_SETTING_UNDER_WATER) && spc_snee_parse(p.setting, 2, &sp) &&
+                  !sp.lt_caustic,
+              "camera and light under the water, path: %s (%s)", p.setting, p.reason);
+    printf("    camera and light under the water, path: %s\n", p.setting);
+    spc_scene_destroy(sc);
+    /* the camera above the water: the water's plan */
+    sc = pool_variant(NULL, NULL, 0);
+    if (!sc)
+        return;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(p.on && !strcmp(p.setting, SPC_SNEE_PLAN_SETTING_WATER SPC_SNEE_PLAN_WATER_LT), "pool, path: %s (%s)",
+              p.setting, p.reason);
+    spc_scene_destroy(sc);
+    /* a light of 0.11 sr: none */
+    sc = load_at("tests/data/pool_under_water.xml", "16");
+    if (!sc)
+        return;
+    spc_snee_plan_make(sc, "path", NULL, &p);
+    CHECK_MSG(!p.on && !strcmp(p.setting, "none"), "pool_under_water, path: %s (%s)", p.setting, p.reason);
+    spc_scene_destroy(sc);
+}
+
 /* Glass slabs (cubes scaled thin, their chains enumerated through flat faces) on a floor under a
  * square light whose size is given: a slab and the light of random caustic scene 435, a second slab
  * beside it, or a mirror ball, where asked. */
@@ -2045,6 +2138,7 @@ int main(void)
     RUN(volpath_ball_plan);
     RUN(volpath_ball_in_fog_plan_off);
     RUN(water_plane_plan_no_camera_query);
+    RUN(water_plane_plan_camera_under_water);
     RUN(one_slab_plan_long_chains);
     RUN(slab_plan_light_tracing);
     RUN(slab_plan_point_light_tracing);

@@ -824,6 +824,40 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
     return cs->n > 0;
 }
 
+/* Is the pinhole under the water: every caster a glass normal-mapped plane whose chains
+ * plane_chains.h enumerates (water_planes_only), with the pinhole strictly on one side of each plane
+ * and every light specular NEE draws on (an area light's bounding box whole) strictly on the other?
+ * Then the light reaches the receivers the camera sees through one crossing of the water, light
+ * tracing's subpaths join them without crossing back (integrator/path_lt.c, plane_flux_value), and
+ * the chains from the camera are refractions toward the light, which no split traces. False where
+ * it cannot tell (the camera does not prepare, a plane's frame is not found). */
+static bool camera_under_water(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
+{
+    spc_camera_state cam;
+    if (!water_planes_only(sc, cs, p) || !sc->finalized ||
+        !spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height))
+        return false;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0, m[3];
+        spc_vec3 frame[3];
+        if (!(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) || s->type != SPC_SHAPE_MESH ||
+            s->mesh.nverts < 1)
+            return false;
+        spc_vec3 o = spc_v3(s->mesh.p[0], s->mesh.p[1], s->mesh.p[2]);
+        if (!spc_plane_chain_model_normal(s, o, m, frame))
+            return false;
+        /* the pinhole mirrored in the plane: the lights on its side are on the far side of the
+         * pinhole's */
+        spc_vec3 n = frame[2];
+        double side = spc_dot(spc_sub(cam.origin, o), n) / spc_dot(n, n);
+        spc_vec3 mirrored = spc_sub(cam.origin, spc_scale(n, 2.0 * side));
+        if (side == 0.0 || !lights_on_side(sc, mirrored, o, n))
+            return false;
+    }
+    return cs->n > 0;
+}
+
 /* The face sequences the flat enumeration solves per query (chains of 1 to 5 vertices, reflections
  * off glass included; counted by spc_flat_chain_sequences, not solved) from the receivers that
  * pinhole rays through a grid of SPC_SNEE_PLAN_FLAT_PILOT_GRID^2 cells of the film hit first, to
@@ -1181,6 +1215,8 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
                  strcmp(integrator, "volpath") ? SPC_SNEE_PLAN_SETTING_BALLS : SPC_SNEE_PLAN_SETTING_BALLS_VOLPATH);
     else if (!strcmp(integrator, "path") && camera_chains_split(sc, cs, &p))
         snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_WATER);
+    else if (!strcmp(integrator, "path") && camera_under_water(sc, cs, &p) && small_area_lights(sc, cs))
+        snprintf(out->setting, sizeof out->setting, "%s", SPC_SNEE_PLAN_SETTING_UNDER_WATER);
     else if (q < SPC_SNEE_PLAN_CAMERA_ALL)
         snprintf(out->setting, sizeof out->setting, "angular:camera=%.2g,first=0.1,later=0.1", q);
     else

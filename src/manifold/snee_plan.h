@@ -587,6 +587,16 @@
  * 0.00464 -> 0.00335 (median 0.00303 -> 0.00176; none 0.147), bench/check/rings_square_light.xml
  * over 16 seeds 0.000146 -> 0.000121 (bench/RESULTS.md, "Light tracing through the pool's water"). */
 #define SPC_SNEE_PLAN_CYLINDER_LT ",ltcaus,ltshare=0.5"
+/* path where every caster is a glass normal-mapped plane (plane_chains.h), every light a small area
+ * light (a sky besides; SPC_SNEE_PLAN_LT_AREA_SR) and the pinhole under the water (on the far side
+ * of each plane from the lights): the water's setting and the area light's subpaths refracted by
+ * the water onto the floor and walls, joined to the pinhole directly, in the underside's reflection
+ * and through a second receiver (integrator/path_lt.h); no query from the camera (the plan's
+ * setting there before, angular:camera=Q,first=0.1,later=0.1). At equal CPU, three views from under
+ * scenes/caustic_pool.xml's water: mean relMSE 0.0651 -> 0.0539 and 0.0914 -> 0.0711 over 48 seeds,
+ * 0.1136 -> 0.1008 over 40 (one seed's pixel, the worst of both, 0.65 -> 0.95 in the first 16);
+ * medians 1.12-1.47x lower (bench/RESULTS.md, "A camera under the water"). */
+#define SPC_SNEE_PLAN_SETTING_UNDER_WATER "angular:first=0.1,later=0.1,ltcaus,ltshare=0.5"
 /* Appended to SPC_SNEE_PLAN_SETTING_WATER for path where every caster is a normal-mapped plane
  * (plane_chains.h) and every light a small area light (a sky besides; SPC_SNEE_PLAN_LT_AREA_SR):
  * the area light's subpaths refracted by the water onto the floor, joined to the pinhole through
