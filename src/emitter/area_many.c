@@ -53,7 +53,6 @@ typedef struct soa {
      * point's first coordinate (spc_distrib1d_sample's remap, computed in the vector loop) */
     double ux_off[SPC_DIRECT_LANES_MAX], ux_pmf[SPC_DIRECT_LANES_MAX];
     double uy[SPC_DIRECT_LANES_MAX], area[SPC_DIRECT_LANES_MAX];
-    double mag[SPC_DIRECT_LANES_MAX]; /* the largest absolute coordinate of the triangle's vertices */
     spc_direct_lanes out;
     int ok[SPC_DIRECT_LANES_MAX]; /* spc_area_sample_direct's tests passed */
 } soa;
@@ -73,8 +72,12 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
         double px = a->p0[0][i] * b0 + a->p1[0][i] * b1 + a->p2[0][i] * b2;                                           \
         double py = a->p0[1][i] * b0 + a->p1[1][i] * b1 + a->p2[1][i] * b2;                                           \
         double pz = a->p0[2][i] * b0 + a->p1[2][i] * b1 + a->p2[2][i] * b2;                                           \
+        double m0 = max2(fabs(a->p0[0][i]), max2(fabs(a->p0[1][i]), fabs(a->p0[2][i])));                              \
+        double m1 = max2(fabs(a->p1[0][i]), max2(fabs(a->p1[1][i]), fabs(a->p1[2][i])));                              \
+        double m2 = max2(fabs(a->p2[0][i]), max2(fabs(a->p2[1][i]), fabs(a->p2[2][i])));                              \
+        double mag = max2(m0, max2(m1, m2));                                                                          \
         double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
-        double perr = AREA_MANY_FLOAT_OFFSET * max2(a->mag[i], mp);                                                   \
+        double perr = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                         \
         double dx = px - a->ref[0][i], dy = py - a->ref[1][i], dz = pz - a->ref[2][i];                                \
         double dist2 = dx * dx + dy * dy + dz * dz;                                                                   \
         double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i];                                         \
@@ -133,7 +136,6 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
             /* the normal and the vertices kept with the triangle (shape.h) */
             const double *c = s->tri_frame + SPC_TRI_FRAME_STRIDE * t;
             ng = spc_v3(c[0], c[1], c[2]);
-            a.mag[k] = c[9]; /* fill_mesh's expression, computed with the frame */
             for (int j = 0; j < 3; ++j) {
                 a.p0[j][k] = c[10 + j];
                 a.p1[j][k] = c[13 + j];
@@ -150,8 +152,6 @@ static void sample_mesh_lights(int n, const int *lane, const spc_emitter *const 
                 a.p1[j][k] = q1[j];
                 a.p2[j][k] = q2[j];
             }
-            a.mag[k] = spc_max(spc_max_abs(p0), spc_max(spc_max_abs(spc_v3(q1[0], q1[1], q1[2])),
-                                                        spc_max_abs(spc_v3(q2[0], q2[1], q2[2]))));
         }
         if (s->flip_normals)
             ng = spc_neg(ng);
