@@ -104,6 +104,37 @@ TEST(sampler_stratified_and_deterministic)
     CHECK_NEAR(acc / 4096.0, 0.25, 0.02);
 }
 
+/* Each aligned block of 2^10 consecutive samples of a pixel's stream is a (0,10,2)-net in every
+ * dimension pair: every elementary interval of area 2^-10 (2^a by 2^(10-a) cells, a = 0..10) holds
+ * exactly one point. This needs the second coordinate to be the Sobol (Pascal matrix) dimension of
+ * the first's index: a different generator matrix breaks it in some of the 11 grids. */
+TEST(sampler_blocks_are_02_nets)
+{
+    enum { M = 10, N = 1 << M };
+    static unsigned char counts[N];
+    int bad = 0;
+    for (int block = 0; block < 2; ++block)
+        for (int dim = 0; dim < 4; ++dim) {
+            spc_vec2 u[N];
+            for (int i = 0; i < N; ++i) {
+                spc_sampler s;
+                spc_sampler_start(&s, 5, 9 + (uint32_t)block, (uint32_t)(block * N + i), 77);
+                for (int d = 0; d <= dim; ++d)
+                    u[i] = spc_sampler_2d(&s);
+            }
+            for (int a = 0; a <= M; ++a) {
+                memset(counts, 0, sizeof counts);
+                for (int i = 0; i < N; ++i) {
+                    int cx = (int)(u[i].x * (double)(1 << a)), cy = (int)(u[i].y * (double)(1 << (M - a)));
+                    counts[(cy << a) + cx]++;
+                }
+                for (int c = 0; c < N; ++c)
+                    bad += counts[c] != 1;
+            }
+        }
+    CHECK_MSG(bad == 0, "%d elementary intervals without exactly one point", bad);
+}
+
 /* Many streams at once (spc_sampler_2d_many, spc_sampler_draw_many with every mask of the pairs
  * that need their y) give the one-pair calls' values bit for bit and move each stream as they do;
  * a pair without its y gets 0 there; lanes without a stream are left alone. Sizes cross the batch's
@@ -451,6 +482,7 @@ int main(void)
     RUN(mat4_inverse_and_lookat);
     RUN(frames_orthonormal);
     RUN(sampler_stratified_and_deterministic);
+    RUN(sampler_blocks_are_02_nets);
     RUN(sampler_many_matches_one_at_a_time);
     RUN(sampler_many_used_matches_one_at_a_time);
     RUN(cosine_hemisphere_many_matches_one_at_a_time);

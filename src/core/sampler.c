@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/error.h"
 #include "core/rng.h"
 
 #if defined(__GNUC__) && defined(__x86_64__)
@@ -39,9 +40,26 @@ static uint32_t lk_permute(uint32_t x, uint32_t seed)
     return x;
 }
 
-/* The second Sobol dimension: index bits select rows of the Pascal matrix mod 2. Precomputed per
- * byte of the index (4 x 256 entries, built once; read-only afterwards), stored BIT-REVERSED so
- * that the Owen scramble (which works on reversed bits) needs one reversal less. */
+/* The second Sobol dimension, stored BIT-REVERSED so that the Owen scramble (which works on reversed
+ * bits) needs one reversal less. Index bit i selects row i of the Pascal matrix mod 2, the direction
+ * (1 + S)^i e (S a shift right by one, e the top bit), whose bit at distance p from the top is
+ * binomial(i, p) mod 2: set where the bits of p are a subset of those of i (Lucas). So reversed bit
+ * p of the result is the XOR of the index bits i whose index sets contain p's: the superset
+ * transform over the five bits of a bit's position, one shift, mask and XOR per position bit. Both
+ * this and the direction numbers' table are linear over GF(2); sobol1_init checks that they agree
+ * on every byte. */
+static uint32_t sobol_dim1_reversed(uint32_t index)
+{
+    uint32_t x = index;
+    x ^= (x >> 1) & 0x55555555u;
+    x ^= (x >> 2) & 0x33333333u;
+    x ^= (x >> 4) & 0x0f0f0f0fu;
+    x ^= (x >> 8) & 0x00ff00ffu;
+    return x ^ (x >> 16);
+}
+
+/* The same map per byte of the index from the direction numbers (4 x 256 entries, built once;
+ * read-only afterwards), for the GFNI pairs' gathers. */
 static uint32_t sobol1_table[4][256];
 static pthread_once_t sobol1_once = PTHREAD_ONCE_INIT;
 
@@ -58,13 +76,8 @@ static void sobol1_init(void)
                 if (x & (1 << b))
                     r ^= dir[8 * byte + b];
             sobol1_table[byte][x] = reverse_bits(r); /* stored bit-reversed: see spc_sampler_2d */
+            SPC_CHECK(sobol1_table[byte][x] == sobol_dim1_reversed((uint32_t)x << (8 * byte)));
         }
-}
-
-static uint32_t sobol_dim1_reversed(uint32_t index)
-{
-    return sobol1_table[0][index & 0xff] ^ sobol1_table[1][(index >> 8) & 0xff] ^
-           sobol1_table[2][(index >> 16) & 0xff] ^ sobol1_table[3][index >> 24];
 }
 
 void spc_sampler_start_key(spc_sampler *s, uint64_t key, uint32_t index)
@@ -141,9 +154,10 @@ static inline __attribute__((always_inline)) void pair_seeds(int m, int np, cons
  * order): for m streams (their pixel seeds pseed, first dimensions dim0 and reversed indices rev) and
  * np pairs each, pair number pair[k] in slot k m + q of stream q, the seeds, then the first
  * coordinates of all np m pairs into ux, then the second coordinates of the first ky m into uy.
- * Compiled three times, for the baseline ISA and vectorized (-O3) with AVX2 and with AVX-512 (whose
- * 64-bit multiply, vpmullq, the seeds and the hash need; AVX2 emulates it), chosen at run time; the
- * integer arithmetic and the conversion to [0, 1) are exact, so all give the same bits. */
+ * Compiled twice, for the baseline ISA and vectorized (-O3) with AVX-512 (whose 64-bit multiply,
+ * vpmullq, the seeds and the hash need), chosen at run time beside the intrinsic AVX2 and GFNI
+ * variants below; the integer arithmetic and the conversion to [0, 1) are exact, so all give the
+ * same bits. */
 static inline __attribute__((always_inline)) void pairs_loops(int m, int np, int ky, const int *pair,
                                                               const uint64_t *pseed, const uint32_t *dim0,
                                                               const uint32_t *rev, double *ux, double *uy)
@@ -177,7 +191,6 @@ static void pairs_base(PAIRS_ARGS) { pairs_loops(m, np, ky, pair, pseed, dim0, r
 #define PAIRS_ATTR(t) __attribute__((target(t), optimize("O3"))) /* GCC's -O2 does not */
 #endif
 #define PAIRS_AVX512 "avx512f,avx512dq,avx512bw,avx512vl"
-PAIRS_ATTR("avx2") static void pairs_avx2(PAIRS_ARGS) { pairs_loops(m, np, ky, pair, pseed, dim0, rev, ux, uy); }
 PAIRS_ATTR(PAIRS_AVX512) static void pairs_avx512(PAIRS_ARGS)
 {
     pairs_loops(m, np, ky, pair, pseed, dim0, rev, ux, uy);
@@ -244,6 +257,123 @@ PAIRS_ATTR(PAIRS_GFNI) static void pairs_gfni(PAIRS_ARGS)
         __m256i h3 =
             _mm512_cvtepi64_epi32(_mm512_srli_epi64(_mm512_mullo_epi64(h, _mm512_set1_epi64((long long)0xda942042e4dd58b5ULL)), 32));
         _mm512_mask_storeu_pd(uy + j, ylive, unit_v(rev32_gfni(lk_permute_v(sob, h3))));
+    }
+}
+
+/* The same loops written with AVX2 intrinsics, eight pairs a step, for AVX2 processors without
+ * AVX-512 (Haswell to Alder Lake, Zen 1-3), where GCC's vectorized pairs_loops spend most of their
+ * work on the 32-bit reversals (a byte swap and three rounds of shifts and masks each, three per
+ * pair), on the second dimension's table lookups (scalar loads: a gather is slower on Zen 3) and
+ * on a general unsigned conversion to double. Here a reversal is two 16-entry table lookups of each
+ * byte's nibbles (vpshufb) and a byte swap; the second dimension is sobol_dim1_reversed's five
+ * shifts, masks and XORs; a 64-bit product by a constant is three 32-bit products (AVX2 has no
+ * 64-bit multiply); a 32-bit value becomes a double as the signed conversion of it minus 2^31, plus
+ * 2^31 (both steps exact). Integer arithmetic and exact conversions throughout, so the same bits as
+ * pairs_loops (test_core runs both). */
+__attribute__((target("avx2"))) static inline __m256i rev32_avx2(__m256i x)
+{
+    /* a low nibble v becomes the reversed byte's high nibble, a high nibble its low one */
+    const __m256i lo_tab = _mm256_setr_epi8(0x00, (char)0x80, 0x40, (char)0xc0, 0x20, (char)0xa0, 0x60, (char)0xe0,
+                                            0x10, (char)0x90, 0x50, (char)0xd0, 0x30, (char)0xb0, 0x70, (char)0xf0,
+                                            0x00, (char)0x80, 0x40, (char)0xc0, 0x20, (char)0xa0, 0x60, (char)0xe0,
+                                            0x10, (char)0x90, 0x50, (char)0xd0, 0x30, (char)0xb0, 0x70, (char)0xf0);
+    const __m256i hi_tab = _mm256_setr_epi8(0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5, 0xd, 0x3, 0xb, 0x7,
+                                            0xf, 0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5, 0xd, 0x3, 0xb,
+                                            0x7, 0xf);
+    const __m256i bswap = _mm256_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12, 3, 2, 1, 0, 7, 6, 5,
+                                           4, 11, 10, 9, 8, 15, 14, 13, 12);
+    const __m256i nibble = _mm256_set1_epi8(0x0f);
+    __m256i lo = _mm256_and_si256(x, nibble), hi = _mm256_and_si256(_mm256_srli_epi16(x, 4), nibble);
+    x = _mm256_or_si256(_mm256_shuffle_epi8(lo_tab, lo), _mm256_shuffle_epi8(hi_tab, hi));
+    return _mm256_shuffle_epi8(x, bswap);
+}
+
+__attribute__((target("avx2"))) static inline __m256i lk_permute_avx2(__m256i x, __m256i seed)
+{
+    x = _mm256_add_epi32(x, seed);
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0x6c50b47cu)));
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0xb82f1e52u)));
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0xc7afe638u)));
+    return _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0x8d22f6e6u)));
+}
+
+/* sobol_dim1_reversed of eight lanes */
+__attribute__((target("avx2"))) static inline __m256i sobol_dim1_reversed_avx2(__m256i x)
+{
+    x = _mm256_xor_si256(x, _mm256_and_si256(_mm256_srli_epi32(x, 1), _mm256_set1_epi32(0x55555555)));
+    x = _mm256_xor_si256(x, _mm256_and_si256(_mm256_srli_epi32(x, 2), _mm256_set1_epi32(0x33333333)));
+    x = _mm256_xor_si256(x, _mm256_and_si256(_mm256_srli_epi32(x, 4), _mm256_set1_epi32(0x0f0f0f0f)));
+    x = _mm256_xor_si256(x, _mm256_and_si256(_mm256_srli_epi32(x, 8), _mm256_set1_epi32(0x00ff00ff)));
+    return _mm256_xor_si256(x, _mm256_srli_epi32(x, 16));
+}
+
+/* x c mod 2^64 in each 64-bit lane: lo(x) lo(c) + ((hi(x) lo(c) + lo(x) hi(c)) << 32) */
+__attribute__((target("avx2"))) static inline __m256i mul64_avx2(__m256i x, uint64_t c)
+{
+    const __m256i clo = _mm256_set1_epi64x((long long)(c & 0xffffffffu)), chi = _mm256_set1_epi64x((long long)(c >> 32));
+    __m256i cross = _mm256_add_epi64(_mm256_mul_epu32(_mm256_srli_epi64(x, 32), clo), _mm256_mul_epu32(x, chi));
+    return _mm256_add_epi64(_mm256_mul_epu32(x, clo), _mm256_slli_epi64(cross, 32));
+}
+
+/* spc_hash64 of four 64-bit lanes */
+__attribute__((target("avx2"))) static inline __m256i hash64_avx2(__m256i x)
+{
+    x = _mm256_xor_si256(x, _mm256_srli_epi64(x, 30));
+    x = mul64_avx2(x, 0xbf58476d1ce4e5b9ULL);
+    x = _mm256_xor_si256(x, _mm256_srli_epi64(x, 27));
+    x = mul64_avx2(x, 0x94d049bb133111ebULL);
+    return _mm256_xor_si256(x, _mm256_srli_epi64(x, 31));
+}
+
+/* The low (high: 1) 32-bit halves of the eight 64-bit lanes of a and b, in order. */
+__attribute__((target("avx2"))) static inline __m256i halves_avx2(__m256i a, __m256i b, int high)
+{
+    __m256 s = high ? _mm256_shuffle_ps(_mm256_castsi256_ps(a), _mm256_castsi256_ps(b), _MM_SHUFFLE(3, 1, 3, 1))
+                    : _mm256_shuffle_ps(_mm256_castsi256_ps(a), _mm256_castsi256_ps(b), _MM_SHUFFLE(2, 0, 2, 0));
+    /* s holds a0 a1 b0 b1 | a2 a3 b2 b3 */
+    return _mm256_permute4x64_epi64(_mm256_castps_si256(s), _MM_SHUFFLE(3, 1, 2, 0));
+}
+
+/* the first `live` (1-8) of eight 32-bit coordinates' values in [0, 1) (SAMPLER_UNIT) into dst */
+__attribute__((target("avx2"))) static inline void store_unit_avx2(double *dst, __m256i x, int live)
+{
+    const __m256d two31 = _mm256_set1_pd(2147483648.0), unit = _mm256_set1_pd(SAMPLER_UNIT);
+    x = _mm256_xor_si256(x, _mm256_set1_epi32(INT32_MIN));
+    __m256d a = _mm256_mul_pd(_mm256_add_pd(_mm256_cvtepi32_pd(_mm256_castsi256_si128(x)), two31), unit);
+    __m256d b = _mm256_mul_pd(_mm256_add_pd(_mm256_cvtepi32_pd(_mm256_extracti128_si256(x, 1)), two31), unit);
+    if (live == 8) {
+        _mm256_storeu_pd(dst, a);
+        _mm256_storeu_pd(dst + 4, b);
+        return;
+    }
+    const __m256i first = _mm256_setr_epi64x(0, 1, 2, 3), n = _mm256_set1_epi64x(live);
+    _mm256_maskstore_pd(dst, _mm256_cmpgt_epi64(n, first), a);
+    _mm256_maskstore_pd(dst + 4, _mm256_cmpgt_epi64(n, _mm256_add_epi64(first, _mm256_set1_epi64x(4))), b);
+}
+
+PAIRS_ATTR("avx2") static void pairs_avx2(PAIRS_ARGS)
+{
+    /* rounded up to whole steps of eight, the slots past the batch zero (read, never stored) */
+    uint64_t seed[MANY_LANES];
+    uint32_t rk[MANY_LANES];
+    pair_seeds(m, np, pair, pseed, dim0, rev, seed, rk);
+    const int mx = np * m, my = ky * m;
+    for (int j = mx; j < MANY_LANES && (j & 7); ++j) {
+        seed[j] = 0;
+        rk[j] = 0;
+    }
+    for (int j = 0; j < mx; j += 8) {
+        const int live = mx - j < 8 ? mx - j : 8;
+        __m256i ha = hash64_avx2(_mm256_loadu_si256((const __m256i *)(seed + j)));
+        __m256i hb = hash64_avx2(_mm256_loadu_si256((const __m256i *)(seed + j + 4)));
+        __m256i lo = halves_avx2(ha, hb, 0), hi = halves_avx2(ha, hb, 1);
+        __m256i idx = rev32_avx2(lk_permute_avx2(_mm256_loadu_si256((const __m256i *)(rk + j)), lo));
+        store_unit_avx2(ux + j, rev32_avx2(lk_permute_avx2(idx, hi)), live);
+        if (j >= my)
+            continue;
+        __m256i sob = sobol_dim1_reversed_avx2(idx);
+        __m256i h3 = halves_avx2(mul64_avx2(ha, 0xda942042e4dd58b5ULL), mul64_avx2(hb, 0xda942042e4dd58b5ULL), 1);
+        store_unit_avx2(uy + j, rev32_avx2(lk_permute_avx2(sob, h3)), my - j < live ? my - j : live);
     }
 }
 #endif
