@@ -221,7 +221,10 @@ static bool lane_scatter(const spc_render_ctx *ctx, lane *ln, bool occluded, con
     if (ln->shadow && !occluded) {
         double w = 1.0;
         if (!ln->is_delta) {
-            double pdf = ln->diffuse ? spc_diffuse_view_pdf(&ln->dv, h, wo, ln->wi) : ln->bsdf_pdf;
+            /* a diffuse view's pdf is spc_diffuse_view_pdf's cos_i / pi: its value was not zero
+             * (dot(wo, n) > 0 and cos_i = dot(wi, n) > 0), and cos_i is cosi, |dot(wi, sh.n)|, bit
+             * for bit (n is sh.n times +1 or -1, negation is exact) */
+            double pdf = ln->diffuse ? ln->cosi * SPC_INV_PI : ln->bsdf_pdf;
             w = spc_mis_power(ln->lp, pdf);
         }
         spc_rgb c = spc_rgb_mul(spc_rgb_mul(ln->beta, ln->f), ln->Le);
