@@ -190,10 +190,13 @@ static void lane_light(const spc_render_ctx *ctx, lane *ln, const spc_hit *h, do
     const spc_bsdf *b = h->bsdf;
     const spc_vec3 wo = ln->wo;
     if (ok) {
-        /* the BSDF's value and density in one call where they share terms (bsdf.h) */
-        spc_rgb f = ln->diffuse ? spc_diffuse_view_eval(&ln->dv, h, wo, ds->wi)
+        /* the BSDF's value and density in one call where they share terms (bsdf.h); a diffuse view's
+         * value comes with |dot(wi, sh.n)| where it is not zero (and where it is, cosi is not read) */
+        double cosi = 0.0;
+        spc_rgb f = ln->diffuse ? spc_diffuse_view_eval_cos(&ln->dv, h, wo, ds->wi, &cosi)
                                 : spc_bsdf_eval_pdf(b, h, SPC_MODE_RADIANCE, wo, ds->wi, &ln->bsdf_pdf);
-        double cosi = spc_absdot(ds->wi, h->sh.n);
+        if (!ln->diffuse)
+            cosi = spc_absdot(ds->wi, h->sh.n);
         if (ctx->strict_normals && !(spc_dot(ds->wi, h->ng) * spc_dot(ds->wi, h->sh.n) > 0.0))
             cosi = 0.0;
         if (!spc_rgb_is_black(f) && cosi > 0.0) {
