@@ -479,6 +479,73 @@ TEST(mesh_chain_hits_complete)
     CHECK(checked == 5 * 2 * 2 * 100);
 }
 
+/* The shading record of a mesh whose kept frames hold every field shading reads (spc_shape_fill_hit_shading's
+ * straight-line fill: frames kept, no vertex normals in use, the frames kept under the shape's
+ * flip_normals, the triangle's tangent not zero) is, field for field, the record the same call makes
+ * from the vertices with the frames dropped, and spc_shape_hit_derivatives completes it to
+ * spc_shape_fill_hit's. Both records start from a byte pattern. Meshes as lazy_test_mesh's and a quad
+ * with one triangle's kept tangent zero (that fill's fallback), flip_normals, flip_normals changed
+ * after the frames were kept, uv read or not. */
+TEST(mesh_kept_shading_fill_match)
+{
+    int checked = 0, zero_tangents = 0;
+    for (int kind = 0; kind < 6; ++kind)
+        for (int flip = 0; flip < 2; ++flip)
+            for (int turned = 0; turned < 2; ++turned)
+                for (int uv_unread = 0; uv_unread < 2; ++uv_unread) {
+                    spc_shape s;
+                    if (kind < 5) {
+                        lazy_test_mesh(&s, kind, flip != 0, true);
+                    } else {
+                        spc_error err;
+                        spc_mat4 T = {{{1, 0.2, 0, 0.5}, {0, 1.3, 0.1, -2}, {0.3, 0, 0.7, 1}, {0, 0, 0, 1}}};
+                        memset(&s, 0, sizeof s);
+                        spc_mesh m = quad_mesh(false, NULL);
+                        CHECK(spc_shape_init_mesh(&s, &m, &T, NULL, 0, 0, &err));
+                        s.flip_normals = flip != 0;
+                        CHECK(spc_shape_prepare(&s) == SPC_OK);
+                        /* the second triangle's kept tangent zero, as where its frame fell back to
+                         * spc_frame_from_n (the loader drops the degenerate triangles that would) */
+                        CHECK(s.tri_frame != NULL && s.mesh.ntris == 2);
+                        if (s.tri_frame)
+                            s.tri_frame[SPC_TRI_FRAME_STRIDE + 3] = s.tri_frame[SPC_TRI_FRAME_STRIDE + 4] =
+                                s.tri_frame[SPC_TRI_FRAME_STRIDE + 5] = 0.0;
+                    }
+                    CHECK(s.tri_frame != NULL);
+                    double *kept = s.tri_frame;
+                    for (size_t t = 0; t < s.mesh.ntris; ++t) {
+                        const double *c = kept + SPC_TRI_FRAME_STRIDE * t;
+                        zero_tangents += c[3] == 0.0 && c[4] == 0.0 && c[5] == 0.0;
+                    }
+                    if (turned)
+                        s.flip_normals = !s.flip_normals;
+                    s.lazy_derivs = true;
+                    s.uv_unread = uv_unread != 0;
+                    for (int i = 0; i < 50; ++i) {
+                        int prim = (int)(rnd() * (double)s.mesh.ntris);
+                        double b1 = rnd(), b2 = rnd() * (1.0 - b1);
+                        spc_hit e, a, b;
+                        memset(&e, 0, sizeof e);
+                        memset(&a, 0xA5, sizeof a);
+                        memset(&b, 0xA5, sizeof b);
+                        s.tri_frame = kept;
+                        spc_shape_fill_hit_shading(&s, prim, b1, b2, NULL, 1.5, &a);
+                        spc_shape_fill_hit(&s, prim, b1, b2, NULL, 1.5, &e);
+                        s.tri_frame = NULL;
+                        spc_shape_fill_hit_shading(&s, prim, b1, b2, NULL, 1.5, &b);
+                        s.tri_frame = kept;
+                        a.shape_index = b.shape_index = e.shape_index = 7;
+                        CHECK(same_record(&a, &b));
+                        spc_shape_hit_derivatives(&a);
+                        CHECK(same_record(&e, &a));
+                        ++checked;
+                    }
+                    spc_shape_release(&s);
+                }
+    CHECK(checked == 6 * 2 * 2 * 2 * 50);
+    CHECK_MSG(zero_tangents > 0, "no kept tangent of zero: the fill's fallback untested");
+}
+
 TEST(mesh_area_sampling_uniform)
 {
     spc_shape s;
@@ -591,6 +658,7 @@ int main(void)
     RUN(mesh_kept_frames_match);
     RUN(mesh_lazy_derivatives_match);
     RUN(mesh_chain_hits_complete);
+    RUN(mesh_kept_shading_fill_match);
     RUN(sphere_uv_only_where_read);
     return spc_test_finish();
 }

@@ -102,6 +102,22 @@ static inline spc_rgb spc_diffuse_view_eval(const spc_diffuse_view *v, const spc
     return spc_rgb_scale(spc_diffuse_view_albedo(v, h), SPC_INV_PI);
 }
 
+/* spc_diffuse_view_eval, and where its value is not zero *cos_i = dot(wi, n), the cosine that
+ * spc_diffuse_view_pdf divides by pi (then |dot(wi, h->sh.n)| bit for bit: n is sh.n times +1 or -1,
+ * and negation is exact); *cos_i is untouched where the value is zero */
+static inline spc_rgb spc_diffuse_view_eval_cos(const spc_diffuse_view *v, const spc_hit *h, spc_vec3 wo, spc_vec3 wi,
+                                                double *cos_i)
+{
+    spc_vec3 n = spc_diffuse_view_n(v, h);
+    if (spc_dot(wo, n) <= 0.0)
+        return spc_rgb1(0.0);
+    double c = spc_dot(wi, n);
+    if (c <= 0.0)
+        return spc_rgb1(0.0);
+    *cos_i = c;
+    return spc_rgb_scale(spc_diffuse_view_albedo(v, h), SPC_INV_PI);
+}
+
 /* spc_bsdf_pdf (cosine-weighted hemisphere) */
 static inline double spc_diffuse_view_pdf(const spc_diffuse_view *v, const spc_hit *h, spc_vec3 wo, spc_vec3 wi)
 {

@@ -920,8 +920,47 @@ void spc_shape_prefetch_vertices(const spc_shape *s, int prim)
     }
 }
 
-void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
-                                spc_hit *h)
+/* fill_mesh_inline's MESH_SHADING fill where the triangle's kept frame holds every field shading
+ * reads: a mesh with tri_frame, no vertex normals in use, its frame kept under the shape's
+ * flip_normals and the triangle's tangent kept (not zero). The same expressions on the same values,
+ * so the same record; straight-line code with no position edges (e1, e2) or vertex indices, which
+ * fill_mesh_inline computes for its other branches: there GCC kept them, with 240 bytes of spills,
+ * on every hit (about 150 instructions a hit on the cornell box, whose walls and boxes all come
+ * here). false: the triangle does not qualify and *h is untouched. */
+static inline __attribute__((always_inline)) bool fill_mesh_kept_shading(const spc_shape *s, int prim, double b1,
+                                                                         double b2, double t, spc_hit *h)
+{
+    const spc_mesh *m = &s->mesh;
+    if (!s->tri_frame || (m->n && !s->face_normals) || s->tri_frame_flip != s->flip_normals)
+        return false;
+    const double *c = s->tri_frame + SPC_TRI_FRAME_STRIDE * (size_t)prim;
+    if (c[3] == 0.0 && c[4] == 0.0 && c[5] == 0.0)
+        return false;
+    fill_common(s, prim, t, h);
+    spc_vec3 p0 = spc_v3(c[10], c[11], c[12]), p1 = spc_v3(c[13], c[14], c[15]), p2 = spc_v3(c[16], c[17], c[18]);
+    double b0 = 1.0 - b1 - b2;
+    h->p = spc_add(spc_add(spc_scale(p0, b0), spc_scale(p1, b1)), spc_scale(p2, b2));
+    spc_vec3 ng = spc_v3(c[0], c[1], c[2]);
+    h->ng = s->flip_normals ? spc_neg(ng) : ng;
+    h->b1 = b1;
+    h->b2 = b2;
+    h->err = SPC_FLOAT_OFFSET * spc_max(c[9], spc_max_abs(h->p));
+    if (s->uv_unread) {
+        h->uv = spc_v2(0.0, 0.0);
+    } else {
+        const uint32_t *vi = m->idx + 3 * (size_t)prim;
+        h->uv = mesh_uv(m, vi[0], vi[1], vi[2], b1, b2);
+    }
+    h->sh.n = h->ng;
+    h->sh.s = spc_v3(c[3], c[4], c[5]);
+    h->sh.t = spc_v3(c[6], c[7], c[8]);
+    return true;
+}
+
+/* spc_shape_fill_hit_shading where fill_mesh_kept_shading does not apply; apart, so that the kept
+ * frames' fill runs without this one's register saves and stack frame */
+static __attribute__((noinline)) void fill_hit_shading_other(const spc_shape *s, int prim, double u, double v,
+                                                            const spc_ray *r, double t, spc_hit *h)
 {
     if (!s->lazy_derivs) {
         spc_shape_fill_hit(s, prim, u, v, r, t, h);
@@ -931,6 +970,14 @@ void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v
     /* inlined with `what` constant: every hit a path tracer shades comes here, and the call and the
      * tests of the other fill kinds were about a tenth of this fill's instructions (bench/RESULTS.md) */
     fill_mesh_inline(s, prim, u, v, MESH_SHADING, h);
+}
+
+void spc_shape_fill_hit_shading(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
+                                spc_hit *h)
+{
+    if (s->lazy_derivs && fill_mesh_kept_shading(s, prim, u, v, t, h))
+        return;
+    fill_hit_shading_other(s, prim, u, v, r, t, h);
 }
 
 void spc_shape_fill_hit_chain(const spc_shape *s, int prim, double u, double v, const spc_ray *r, double t,
