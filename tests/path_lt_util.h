@@ -59,6 +59,7 @@ static double join_receiver_weights(const spc_scene *sc, const spc_snee_params *
 {
     spc_receiver r;
     spc_receiver_surface(&r, j->x2, j->w2);
+    r.guide = pp->cguide_at; /* the path's guided mixture at x2, if any */
     unsigned char ev[SPC_CHAIN_MAX_VERTICES];
     for (int i = 0; i < j->c->n && i < SPC_CHAIN_MAX_VERTICES; ++i)
         ev[i] = j->c->v[i].event;

@@ -36,6 +36,8 @@
  *   Their joins go through no middle vertex and no camera chain longer than max_chain, and the path
  *   tracer's side puts light tracing into BSDF sampling's weight at the second receiver only.
  *   A render with ltcaus agrees with one without.
+ * - The demo with its caustic guide at receivers and light tracing: the three weights of each join
+ *   enumerated at x2 sum to one within 1e-5 with the guided mixture's densities at x1 and x2.
  * - A point light over two glass slabs (bench/check/two_slabs_point_light.xml): light tracing's
  *   chains through the flat faces of 1-6 vertices; each one specular NEE's flat enumeration makes
  *   (on every call, or on a share of them: flat34) it finds at x2, and its share with psi in r and
@@ -58,6 +60,7 @@
 #include "harness.h"
 #include "integrator/path_lt.h"
 #include "integrator/path_snee.h"
+#include "manifold/caustic_guide.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/flat_chains.h"
 #include "manifold/plane_chains.h"
@@ -430,6 +433,9 @@ typedef struct area_tally {
      * light tracing takes the larger share */
     int longer, longer_matched, longer_above;
     double worst_gap, lt_sum, above, below;
+    /* with the caustic guide at receivers: joins whose x2 the guide runs at (a > 0), and joins through
+     * a diffuse bounce whose ratio r the guided mixture's densities moved (against the BSDF's) */
+    int guided, guided_r;
 } area_tally;
 
 /* The three weights of an area light's join: specular NEE's at x2 toward y (its enumerated chain,
@@ -456,6 +462,21 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
     pp.query_p = j->x1 ? spc_snee_later_prob(sc, t->p, j->x2->p) : spc_snee_first_prob(sc, t->p, j->x2->p);
     pp.alt_chain_ratio = area_cam_ratio;
     pp.alt_user = &side;
+    /* the path's guided mixture at x2 where the render has a caustic guide (spc_path_snee_guide_at):
+     * specular NEE's weight and BSDF sampling's at x2 read its density */
+    spc_cguide_vertex gv;
+    gv.a = 0.0;
+    if (pp.cguide && pp.recv_guide > 0.0)
+        spc_cguide_vertex_init(&gv, pp.cguide, j->x2, j->w2);
+    pp.cguide_at = gv.a > 0.0 ? &gv : NULL;
+    t->guided += gv.a > 0.0;
+    if (pp.cguide && pp.recv_guide > 0.0 && j->x1) {
+        spc_snee_params p0 = *t->p;
+        p0.recv_guide = 0.0;
+        double r0 = spc_path_lt_area_ratio(t->ctx, &p0, j->x1, j->w1, j->x2, j->w2, j->cc, j->c, j->e, j->y, j->ny);
+        double r1 = spc_path_lt_area_ratio(t->ctx, t->p, j->x1, j->w1, j->x2, j->w2, j->cc, j->c, j->e, j->y, j->ny);
+        t->guided_r += r0 > 0.0 && fabs(r1 / r0 - 1.0) > 1e-3;
+    }
     /* specular NEE's query at x2 toward y, as the path tracer makes it */
     spc_snee_query q;
     spc_snee_query_init(&q, sc, &pp, j->x2, j->w2, kmax);
@@ -583,6 +604,51 @@ TEST(area_light_weights_sum_to_one)
         }
         spc_scene_destroy(sc);
     }
+}
+
+/* The demo (a glass ball and a mirror ball in a room under a small square light) with its plan's
+ * caustic guide at receivers and light tracing: the path tracer draws its directions at x1 and x2
+ * from the guided mixture, so light tracing's ratio r and BSDF sampling's density at x2 are the
+ * mixture's. On each join enumerated at x2, specular NEE's weight (with the guide at x2),
+ * BSDF sampling's own and light tracing's sum to one; the guide runs at x2 on most joins and moves
+ * r on some joins through a diffuse bounce (the ceiling seeing the floor under the ball through
+ * it). */
+#define DEMO_GUIDED_SETTING "angular:camera=0.022,first=0.1,later=0.1,recguide=0.1,long=0.2,longmax=4,ltcaus"
+
+TEST(area_light_weights_sum_to_one_guided)
+{
+    spc_camera_state cam;
+    spc_snee_params p;
+    spc_scene *sc = lt_load("scenes/demo.xml", DEMO_GUIDED_SETTING, &cam, &p);
+    if (!sc)
+        return;
+    spc_cguide *g = spc_cguide_build(sc, SPC_CGUIDE_MIN_PHOTONS, SPC_CGUIDE_STREAM, p.recv_guide);
+    CHECK(g != NULL && g->cones > 0);
+    p.cguide = g;
+    p.lt_share = 1.0;
+    p.lt_through = 1.0;
+    spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+    CHECK(spc_path_lt_enabled(&ctx, &p) && spc_path_lt_area_enabled(&p));
+    area_tally t;
+    memset(&t, 0, sizeof t);
+    t.ctx = &ctx;
+    t.p = &p;
+    spc_rng rng;
+    spc_rng_seed(&rng, 12081, 7);
+    int n = spc_test_quick() ? 20000 : 60000;
+    for (int i = 0; i < n; ++i)
+        spc_path_lt_joins(&ctx, &p, &rng, check_area_join, &t);
+    printf("    %d joins (%d enumerated at x2; directly %d, through the sphere %d, through a diffuse bounce %d), "
+           "the guide at x2 on %d, r moved by it on %d; light tracing's weight above 1/2 on %.0f, below on %.0f, "
+           "largest gap of the three weights' sum from 1 %.3g\n",
+           t.joins, t.matched, t.kinds[0], t.kinds[1], t.kinds[2], t.guided, t.guided_r, t.above, t.below,
+           t.worst_gap);
+    CHECK(t.matched > 100 && t.kinds[2] > 10);
+    CHECK(t.guided > t.joins / 2 && t.guided_r > 10);
+    CHECK_MSG(t.worst_gap < 1e-5, "the three weights sum to 1 +- %.3g", t.worst_gap);
+    CHECK(t.above > 0 && t.below > 0);
+    spc_cguide_destroy(g);
+    spc_scene_destroy(sc);
 }
 
 /* The joins of an area light's subpaths to the pinhole through the sphere's longer chains (the
@@ -2112,6 +2178,7 @@ int main(void)
     RUN(path_side_follows_a_middle_vertex);
     RUN(plan_with_point_lights_and_small_area_lights);
     RUN(area_light_weights_sum_to_one);
+    RUN(area_light_weights_sum_to_one_guided);
     RUN(area_light_long_camera_chains_weights_sum_to_one);
     RUN(mesh_ball_area_weights_sum_to_one);
     RUN(mesh_ball_render_agrees_without_it);

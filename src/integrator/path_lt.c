@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "integrator/splat.h"
+#include "manifold/caustic_guide.h"
 #include "manifold/cylinder_chains.h"
 #include "manifold/fit_seeds.h"
 #include "manifold/flat_chains.h"
@@ -660,6 +661,21 @@ static double area_share(const spc_snee_params *p)
     return p->lt_share > 0.0 && p->lt_share <= 1.0 ? p->lt_share : SPC_PATH_LT_AREA_SHARE;
 }
 
+/* The path tracer's density of the continuation wi at its vertex h (wo toward the camera's side),
+ * given the BSDF's density pdf_bsdf of it: with the caustic guide at receivers the path draws it
+ * from the guided mixture (caustic_guide.h; spc_path_snee_guide_at), whose density is a function of
+ * h, wo and wi alone, so both sides of a join's ratio read the same; else the BSDF's. gv receives
+ * the guide at h (a = 0 where none). */
+static double path_dir_pdf(const spc_snee_params *p, const spc_hit *h, spc_vec3 wo, spc_vec3 wi, double pdf_bsdf,
+                           spc_cguide_vertex *gv)
+{
+    gv->a = 0.0;
+    if (!p->cguide || !(p->recv_guide > 0.0))
+        return pdf_bsdf;
+    spc_cguide_vertex_init(gv, p->cguide, h, wo);
+    return spc_cguide_mix_pdf(gv, pdf_bsdf, wi);
+}
+
 double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x1, spc_vec3 w1,
                               const spc_hit *x2, spc_vec3 wo2, const spc_chain *cc, const spc_chain *c,
                               const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
@@ -679,7 +695,9 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
      * against BSDF sampling at x2 toward d0 and the light's cosine (G's part only area measure has) */
     double num = area_share(p) * spc_snee_light_pdf(sc, p->any_surface, e, y, ny) *
                  area_dir_pdf(sc, p, y, spc_neg(d_last)) * spc_absdot(c->d0, x2->ng);
-    double den = spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_RADIANCE, wo2, c->d0) * spc_absdot(ny, d_last);
+    spc_cguide_vertex gv;
+    double den = path_dir_pdf(p, x2, wo2, c->d0, spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_RADIANCE, wo2, c->d0), &gv) *
+                 spc_absdot(ny, d_last);
     if (x1) {
         /* the camera's side x1 - x2 against light tracing's x2 - x1, as spc_path_lt_ratio */
         spc_camera_direct cd;
@@ -688,7 +706,8 @@ double spc_path_lt_area_ratio(const spc_render_ctx *ctx, const spc_snee_params *
         double p_cam =
             cd.We / ((double)ctx->width * (double)ctx->height) * spc_absdot(cd.wi, x1->ng) / (cd.dist * cd.dist);
         num *= spc_bsdf_pdf(x2->bsdf, x2, SPC_MODE_IMPORTANCE, c->d0, wo2) * spc_absdot(w1, x1->ng);
-        den *= spc_absdot(wo2, x2->ng) * spc_bsdf_pdf(x1->bsdf, x1, SPC_MODE_RADIANCE, cd.wi, w1) * p_cam;
+        den *= spc_absdot(wo2, x2->ng) *
+               path_dir_pdf(p, x1, cd.wi, w1, spc_bsdf_pdf(x1->bsdf, x1, SPC_MODE_RADIANCE, cd.wi, w1), &gv) * p_cam;
     } else {
         spc_camera_direct cd;
         num *= cc ? camera_chain_share(p, cc) : 1.0;
@@ -733,10 +752,16 @@ static double area_weight(const spc_render_ctx *ctx, const spc_snee_params *p, c
     pq.alt_user = side;
     pq.delta_share = NULL;
     pq.light_u_on = false;
-    pq.cguide_at = NULL;
+    /* the path's density at x2: the guided mixture's where the guide runs there (as
+     * spc_path_snee_guide_at sets it for the path tracer's query and its BSDF hit) */
+    spc_cguide_vertex gv;
+    gv.a = 0.0;
+    if (p->cguide && p->recv_guide > 0.0)
+        spc_cguide_vertex_init(&gv, p->cguide, x2, wo2);
+    pq.cguide_at = gv.a > 0.0 ? &gv : NULL;
     spc_receiver r;
     spc_receiver_surface(&r, x2, wo2);
-    r.guide = NULL;
+    r.guide = pq.cguide_at;
     spc_hit lh;
     memset(&lh, 0, sizeof lh);
     lh.p = y;
@@ -1108,7 +1133,7 @@ static void join_first(const spc_render_ctx *ctx, const spc_snee_params *p, cons
         join_through(ctx, p, x2, beta, L, p->max_chain + 1, spc_path_lt_camera_max_chain(p), sink, user);
 }
 
-bool spc_path_lt_area_enabled(const spc_snee_params *p) { return !p->no_mis && !(p->recv_guide > 0.0); }
+bool spc_path_lt_area_enabled(const spc_snee_params *p) { return !p->no_mis; }
 
 /* A light subpath's start on the area light e (picked with the uniform ue): the point y (normal
  * ny) as specular NEE samples it (spc_snee_sample_light), a direction uniform in the cone toward

@@ -62,7 +62,7 @@
  * share s of the subpaths (SPC_PATH_LT_THROUGH_SHARE, or the parameters' lt_through), counted 1/s
  * times; light tracing's density of those paths, and so their r, carries the factor s.
  *
- * Area lights (with MIS against BSDF sampling, without the caustic guide at receivers): the subpath
+ * Area lights (with MIS against BSDF sampling; with the caustic guide at receivers too): the subpath
  * starts at a point y drawn as specular NEE draws its light points (spc_snee_sample_light: the cap
  * of a sphere light that faces the casters, other shapes by area, density p_y including the light's
  * choice), with a direction uniform in the cone toward the casters' bounding sphere, its throughput
@@ -86,7 +86,11 @@
  * to specular NEE as params.alt_chain_ratio: its weight and BSDF sampling's take b sqrt(1 + r^2) for
  * b, and light tracing's weight is r^2 / (1 + r^2) of that joint share (spc_snee_receiver_weights),
  * evaluated on the chain solved from x2 through y as specular NEE's is. The subpaths run on a share
- * of the camera samples (params.lt_share), which c carries. Since r holds no density of specular
+ * of the camera samples (params.lt_share), which c carries. With the caustic guide at receivers
+ * (caustic_guide.h) the path tracer draws its directions at x1 and x2 from the guided mixture, so
+ * p_bsdf(x2 -> d0) and p_x1(w1) above are the mixture's densities (the guide at that vertex,
+ * spc_cguide_mix_pdf), in r on both sides and in BSDF sampling's b at x2 (the receiver's guide);
+ * light tracing's own scattering at x2 stays its BSDF's. Since r holds no density of specular
  * NEE, an area light's chain at x2 may also lie on a tessellated glass ball (one triangle mesh with a
  * fitted sphere, fit_seeds.h), whose chains specular NEE does not count exactly: its weight there
  * is its own (psi, or the sampled weight of a randomized attempt's chain), the same on all three
@@ -161,8 +165,8 @@ typedef struct spc_path_lt_vertex {
 bool spc_path_lt_enabled(const spc_render_ctx *ctx, const spc_snee_params *p);
 
 /* With the strategy on, does it also trace area lights' caustics: MIS against BSDF sampling (whose
- * weight at x2 it shares), no caustic guide at receivers (the guide's mixture density at x2 is the
- * path's own)? */
+ * weight at x2 it shares; with the caustic guide at receivers, against the guided mixture's density
+ * at x1 and x2, the path's own)? */
 bool spc_path_lt_area_enabled(const spc_snee_params *p);
 
 /* Specular NEE's chain budget at x2 when x2 is a receiver of the path with `receivers` receivers

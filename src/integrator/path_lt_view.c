@@ -61,10 +61,12 @@ static bool glass_reflect(const spc_chain *cc)
     return false;
 }
 
+/* Not with the caustic guide at receivers (not measured with it). */
 bool spc_path_lt_view_enabled(const spc_render_ctx *ctx, const spc_snee_params *p)
 {
     return p->lt_view && ctx->kind == SPC_INTEGRATOR_PATH && ctx->specular_nee != SPC_SNEE_NONE &&
-           spc_path_lt_area_enabled(p) && !ctx->strict_normals && !rough_mode(p) && spc_camera_connectible(ctx->cam);
+           spc_path_lt_area_enabled(p) && !(p->recv_guide > 0.0) && !ctx->strict_normals && !rough_mode(p) &&
+           spc_camera_connectible(ctx->cam);
 }
 
 double spc_path_lt_view_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_emitter *e, spc_vec3 y,

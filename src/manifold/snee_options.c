@@ -66,7 +66,7 @@ static const spc_snee_option options[] = {
      "reflection's probability F (Fresnel) is at least S, else with probability F / S, counted S / F "
      "times (default 0.25; a small S splits everywhere)"},
     {"ltcaus", "noltcaus", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(lt_caustic), NO, 0, NULL,
-     "path: the caustics of point lights and (with MIS, without recguide) area lights through a glass sphere "
+     "path: the caustics of point lights and (with MIS) area lights through a glass sphere "
      "also by light tracing (light subpaths joined to the camera directly, through the sphere and through a "
      "diffuse bounce), weighed against specular NEE (and BSDF sampling) at the caustic's receiver"},
     {"longflatlt", "nolongflatlt", SPC_SNEE_OPT_SWITCH, false, NULL, 0, 0, false, false, NULL, 0, AT(long_flat_lt), NO, 0,
