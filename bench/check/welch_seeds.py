@@ -21,6 +21,9 @@ image means, and the quadrants' ratios (over the pixels tested).
 --floor NORMAL.npy: test only the pixels whose first hit is the floor y = 0 at every sample
   (mitsuba_ref.py --integrator normal), e.g. against Mitsuba's ptracer, which renders nothing seen
   through glass or in a mirror.
+--not-floor: with --floor, test the other pixels instead (those that see glass, a mirror, the light
+  or the sky first): with the floor tested against Mitsuba's ptracer and the rest against its path
+  tracer, every pixel is tested once against a reference that can render it.
 --map: the pixels as a grid: '+' / '-' fail high / low, ''' / ',' |z| over 2.5, ' ' not tested.
 --top N: the N pixels of largest |z| with both values, their standard errors, the seeds' values and
   the largest reference batch over the batches' median (a spike: the reference's rare path).
@@ -72,6 +75,8 @@ def main():
     if "--floor" in sys.argv:
         nrm = np.load(arg("--floor", "")).astype(np.float64).mean(0)
         mask = (np.abs(nrm[..., 1] - 1) < 1e-4) & (np.abs(nrm[..., 0]) < 1e-4) & (np.abs(nrm[..., 2]) < 1e-4)
+        if "--not-floor" in sys.argv:
+            mask = ~mask
     n = int(mask.sum())
     a, b = img.mean(0), ref.mean(0)
     sb2 = ref.var(0, ddof=1) / nr
