@@ -526,6 +526,21 @@
 #define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA 0.3
 #define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG ",long=0.5,longmax=5"
 
+/* Appended for path where a ball enumerated exactly stands beside a flat mirror under a light of
+ * more than SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR from the casters (where no caustic guide runs at
+ * receivers): the camera-side split (integrator/path_camsplit.h), K more camera rays in a pixel
+ * whose camera ray meets the mirror or the ball first, following their reflections and
+ * refractions to the light. Under a large light BSDF sampling reaches it from the camera by
+ * all-specular chains of 6 and 9 vertices, off the mirror and through the ball twice, longer than
+ * any specular NEE strategy takes (weight 1, a sample worth 160-190 times the pixel): the same
+ * path at the same probability per sample as --specular-nee none, but the default costs 15-26
+ * times none's CPU a sample, so at equal CPU those paths' variance was 15-26 times none's and
+ * three of 24 seeds of bench/check/ball_mirror_biglight.xml were one-pixel seeds. The split counts
+ * each such path 1/(K+1) for a few percent of the CPU a sample. Measured in bench/RESULTS.md,
+ * "A ball beside a flat mirror under a large light". */
+#define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR 0.01
+#define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT ",camsplit=16"
+
 /* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
  * cylinder), after the query from the camera: that query by Russian roulette in a fraction Q of the
  * camera samples, Q from the share of the image that sees a mirror first as for glass (snee_plan.c,
