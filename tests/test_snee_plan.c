@@ -1177,12 +1177,13 @@ TEST(flat_mirror_plan)
     }
 }
 
-/* A ball beside a flat mirror under a light of more than SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR
- * (bench/check/ball_mirror_biglight.xml, 0.018 sr; the two other scenes of that name, 0.016 sr) takes
- * the camera-side split on top of the ball-and-mirror setting (the query from the camera on 0.3 of
- * the samples, the longer chains on half of the calls); the same scene under the smaller light
- * (ball_mirror_floor, 0.005 sr), the mirror ball and a ball beside an upright mirror under a small
- * light do not, nor does bdpt. */
+/* A glass ball resting on a flat mirror under a light of more than
+ * SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR (bench/check/ball_mirror_biglight.xml, 0.018 sr) takes the
+ * camera-side split on top of the ball-and-mirror setting (the query from the camera on 0.3 of the
+ * samples, the longer chains on half of the calls); a ball under a light as large beside an upright
+ * mirror that stands apart from it (the two other scenes of that name, 0.016 sr) does not, nor does
+ * the same scene under the smaller light (ball_mirror_floor, 0.005 sr), the mirror ball on the
+ * mirror, a ball beside an upright mirror under a small light, or bdpt. */
 TEST(ball_flat_mirror_large_light_split)
 {
     static const struct {
@@ -1190,8 +1191,8 @@ TEST(ball_flat_mirror_large_light_split)
         bool split;
     } cases[] = {
         {"bench/check/ball_mirror_biglight.xml", "path", true},
-        {"bench/check/ball_mirror_wall_biglight.xml", "path", true},
-        {"bench/check/flat_mirror_ball_focus_biglight.xml", "path", true},
+        {"bench/check/ball_mirror_wall_biglight.xml", "path", false},
+        {"bench/check/flat_mirror_ball_focus_biglight.xml", "path", false},
         {"bench/check/ball_mirror_biglight.xml", "bdpt", false},
         {"bench/check/ball_mirror_floor.xml", "path", false},
         {"bench/check/mirrorball_mirror_floor.xml", "path", false},
