@@ -13,6 +13,9 @@
  * - The image does not depend on the thread count.
  * - Renders with the split agree with --specular-nee none (per-pixel z-test, image mean): with the
  *   camera query off (the class at weight 1) and with the plan's setting (its MIS weights kept).
+ * - bench/check/ball_mirror_biglight.xml (a glass ball beside a flat mirror under a large light) with
+ *   its plan's setting, the split included, agrees with none: the split's rays there follow the
+ *   mirror and the ball to the light by chains of up to 9 vertices, weighed against the camera query.
  * - "camrecv" (class D: one sample of the first receiver behind the glass, then delta scatterings):
  *   the option parses; same seed with and without it only pixels that see the torus change, the
  *   image does not depend on the thread count, and the torus under a larger light (so that none
@@ -33,6 +36,9 @@
 /* the scenes' plans (specula info) */
 #define BALL_PLAN "angular:camera=0.04,first=0.1,later=0.1,ltcaus"
 #define TORUS_PLAN "angular:camera,first=0.1,later=0.1,ltguide,nolong"
+/* a glass ball beside a flat mirror under a large light, and its plan (specula info) */
+#define BIGLIGHT "bench/check/ball_mirror_biglight.xml"
+#define BIGLIGHT_PLAN "angular:camera=0.3,first=0.1,later=0.1,ltcaus,long=0.5,longmax=5,camsplit=16"
 /* the ball without the camera query: its light's image is the camera ray's alone */
 #define BALL_NOCAM "angular:first=0.1,later=0.1"
 
@@ -141,6 +147,7 @@ TEST(render_agrees_with_none)
     int q = spc_test_quick() ? 2 : 1;
     agrees_with_none(BALL, BALL_NOCAM ",camsplit=8", 512 / q, 8192 / q, 51, "ball, no camera query, camsplit=8");
     agrees_with_none(BALL, BALL_PLAN ",camsplit=8", 512 / q, 8192 / q, 53, "ball, plan, camsplit=8");
+    agrees_with_none(BIGLIGHT, BIGLIGHT_PLAN, 256 / q, 4096 / q, 55, "ball beside a mirror, large light, plan");
 }
 
 /* The torus under a sphere light of radius 0.3 (its power kept: radiance scaled by (0.08 / 0.3)^2),

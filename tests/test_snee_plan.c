@@ -1177,6 +1177,48 @@ TEST(flat_mirror_plan)
     }
 }
 
+/* A glass ball resting on a flat mirror under a light of more than
+ * SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR (bench/check/ball_mirror_biglight.xml, 0.018 sr) takes the
+ * camera-side split on top of the ball-and-mirror setting (the query from the camera on 0.3 of the
+ * samples, the longer chains on half of the calls); a ball under a light as large beside an upright
+ * mirror that stands apart from it (the two other scenes of that name, 0.016 sr) does not, nor does
+ * the same scene under the smaller light (ball_mirror_floor, 0.005 sr), the mirror ball on the
+ * mirror, a ball beside an upright mirror under a small light, or bdpt. */
+TEST(ball_flat_mirror_large_light_split)
+{
+    static const struct {
+        const char *scene, *integrator;
+        bool split;
+    } cases[] = {
+        {"bench/check/ball_mirror_biglight.xml", "path", true},
+        {"bench/check/ball_mirror_wall_biglight.xml", "path", false},
+        {"bench/check/flat_mirror_ball_focus_biglight.xml", "path", false},
+        {"bench/check/ball_mirror_biglight.xml", "bdpt", false},
+        {"bench/check/ball_mirror_floor.xml", "path", false},
+        {"bench/check/mirrorball_mirror_floor.xml", "path", false},
+        {"bench/check/ball_mirror_wall.xml", "path", false},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        spc_scene *sc = load_at(cases[i].scene, "16");
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp), "%s: %s (%s)", cases[i].scene, p.setting, p.reason);
+        CHECK_MSG((p.light_sr > SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR) ==
+                      (strstr(cases[i].scene, "biglight") != NULL),
+                  "%s: light %g sr", cases[i].scene, p.light_sr);
+        CHECK_MSG(sp.cam_split == cases[i].split && (!cases[i].split || strstr(p.setting, SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT)),
+                  "%s, %s: %s", cases[i].scene, cases[i].integrator, p.setting);
+        if (cases[i].split)
+            CHECK_MSG(sp.camera && sp.camera_p >= SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA &&
+                          strstr(p.setting, SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG),
+                      "%s: %s", cases[i].scene, p.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
 /* Caustic guiding at receivers and the longer chains with probability 0.2, up to 4 vertices, in a
  * room where a glass caster is an analytic sphere small enough for a cone (snee_plan.h,
  * SPC_SNEE_PLAN_ROOM_GLASS_BALL): on in path's default on the demo, not in volpath's nor bdpt's, not
@@ -2135,6 +2177,7 @@ int main(void)
     RUN(closed_glass_mesh_plan_off);
     RUN(solved_mirror_plan_no_first_roulette);
     RUN(flat_mirror_plan);
+    RUN(ball_flat_mirror_large_light_split);
     RUN(volpath_ball_plan);
     RUN(volpath_ball_in_fog_plan_off);
     RUN(water_plane_plan_no_camera_query);

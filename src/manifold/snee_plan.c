@@ -194,6 +194,31 @@ static bool ball_beside_flat_mirror(const spc_scene *sc, const spc_chain_casters
     return ball && flat_mirror;
 }
 
+/* Does a ball whose chains are enumerated exactly (an analytic glass or mirror sphere) rest on a
+ * flat mirror: the gap between the sphere and the mirror's bounding box at most
+ * SPC_SNEE_PLAN_BALL_ON_MIRROR_GAP of its radius (snee_plan.h)? */
+static bool ball_on_flat_mirror(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
+{
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *b = sc->shapes[cs->idx[i]];
+        if (b->type != SPC_SHAPE_SPHERE || spc_snee_plan_method(p, b) != SPC_SNEE_METHOD_SPHERE)
+            continue;
+        for (int j = 0; j < cs->n; ++j) {
+            const spc_shape *m = sc->shapes[cs->idx[j]];
+            double eta = 0.0;
+            if (j == i || !spc_flat_chain_shape(m) || (spc_bsdf_is_specular_interface(m->bsdf, &eta) && eta > 0.0))
+                continue;
+            /* the distance from the ball's centre to the mirror's box */
+            spc_vec3 c = b->center, lo = m->bbox_min, hi = m->bbox_max;
+            spc_vec3 q = spc_v3(spc_max(lo.x, spc_min(c.x, hi.x)), spc_max(lo.y, spc_min(c.y, hi.y)),
+                                spc_max(lo.z, spc_min(c.z, hi.z)));
+            if (spc_length(spc_sub(c, q)) - b->radius <= SPC_SNEE_PLAN_BALL_ON_MIRROR_GAP * b->radius)
+                return true;
+        }
+    }
+    return false;
+}
+
 /* Flat-faced casters under small area lights, for path (no caustic guide at receivers): light
  * tracing makes their caustics too (,ltcaus where no other rule added it) and the flat
  * enumeration's longer chains run on a share of the calls (snee_plan.h, SPC_SNEE_PLAN_FLAT_LT and
@@ -1296,6 +1321,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
     if (ball_flat_mirror && !flat_long && !strstr(out->setting, "long=")) {
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG);
+    }
+    /* and where the ball rests on the mirror under a large light the camera-side split, for BSDF
+     * sampling's long all-specular chains from the camera to the light (snee_plan.h) */
+    if (ball_flat_mirror && out->light_sr > SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR &&
+        !strstr(out->setting, "recguide") && !strstr(out->setting, "camsplit") && ball_on_flat_mirror(sc, cs, &p)) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT);
     }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a

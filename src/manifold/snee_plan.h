@@ -537,6 +537,27 @@
 #define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_CAMERA 0.3
 #define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG ",long=0.5,longmax=5"
 
+/* Appended for path where a ball enumerated exactly rests on a flat mirror (the gap between the
+ * sphere and the mirror's bounding box at most SPC_SNEE_PLAN_BALL_ON_MIRROR_GAP of its radius: the
+ * ball and its mirror image touch) under a light of more than
+ * SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR from the casters (where no caustic guide runs at
+ * receivers): the camera-side split (integrator/path_camsplit.h), K more camera rays in a pixel
+ * whose camera ray meets the mirror or the ball first, following their reflections and refractions
+ * to the light. Under a large light BSDF sampling reaches it from the camera by all-specular
+ * chains of 6 and 9 vertices, off the mirror and through the ball twice, longer than any specular
+ * NEE strategy takes (weight 1, a sample worth 160-190 times the pixel): the same path at the same
+ * probability per sample as --specular-nee none, but the default costs 15-26 times none's CPU a
+ * sample, so at equal CPU those paths' variance was 15-26 times none's and three of 24 seeds of
+ * bench/check/ball_mirror_biglight.xml were one-pixel seeds. The split counts each such path
+ * 1/(K+1) for a fifth more CPU a sample. Measured in bench/RESULTS.md, "A glass ball resting on a
+ * flat mirror under a large light". Where the mirror stands apart from the ball
+ * (bench/check/ball_mirror_wall_biglight.xml and flat_mirror_ball_focus_biglight.xml: gaps of 0.85
+ * and 0.64 radii by the box) no such seed showed and the split only cost: 1.27x higher mean relMSE
+ * at equal CPU over 24 seeds on both. */
+#define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR 0.01
+#define SPC_SNEE_PLAN_BALL_ON_MIRROR_GAP 0.25
+#define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT ",camsplit=16"
+
 /* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
  * cylinder), after the query from the camera: that query by Russian roulette in a fraction Q of the
  * camera samples, Q from the share of the image that sees a mirror first as for glass (snee_plan.c,
