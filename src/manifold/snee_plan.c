@@ -823,6 +823,25 @@ static bool mesh_sheet_faces_lights(const spc_scene *sc, const spc_shape *s, spc
  * side unless another caster turns it back. False where it cannot tell (the camera does not
  * prepare, a plane's frame is not found). Only the choice of the query: without it the other
  * strategies' MIS weights still sum to one. */
+/* Is s a glass triangle mesh (a specular interface with vertices)? */
+static bool glass_mesh(const spc_shape *s)
+{
+    double eta = 0.0;
+    return spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0 && s->type == SPC_SHAPE_MESH &&
+           s->mesh.nverts > 0;
+}
+
+/* The plane of a glass normal-mapped plane s: a point o on it (its first vertex) and the frame whose
+ * third axis is the model's normal; false where s is not a glass mesh or the frame is not found. */
+static bool glass_plane_frame(const spc_shape *s, spc_vec3 *o, spc_vec3 frame[3])
+{
+    double m[3];
+    if (!glass_mesh(s))
+        return false;
+    *o = spc_v3(s->mesh.p[0], s->mesh.p[1], s->mesh.p[2]);
+    return spc_plane_chain_model_normal(s, *o, m, frame);
+}
+
 static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs, const spc_snee_params *p)
 {
     spc_camera_state cam;
@@ -830,10 +849,8 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
         return false;
     for (int i = 0; i < cs->n; ++i) {
         const spc_shape *s = sc->shapes[cs->idx[i]];
-        double eta = 0.0, m[3];
-        spc_vec3 frame[3];
-        if (!(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) || s->type != SPC_SHAPE_MESH ||
-            s->mesh.nverts < 1)
+        spc_vec3 o, frame[3];
+        if (!glass_mesh(s))
             return false;
         if (spc_snee_plan_method(p, s) == SPC_SNEE_METHOD_SOLVER) {
             if (!mesh_sheet_faces_lights(sc, s, cam.origin))
@@ -842,8 +859,7 @@ static bool camera_chains_split(const spc_scene *sc, const spc_chain_casters *cs
         }
         if (spc_snee_plan_method(p, s) != SPC_SNEE_METHOD_PLANE)
             return false;
-        spc_vec3 o = spc_v3(s->mesh.p[0], s->mesh.p[1], s->mesh.p[2]);
-        if (!spc_plane_chain_model_normal(s, o, m, frame) || !lights_on_side(sc, cam.origin, o, frame[2]))
+        if (!glass_plane_frame(s, &o, frame) || !lights_on_side(sc, cam.origin, o, frame[2]))
             return false;
     }
     return cs->n > 0;
@@ -863,14 +879,8 @@ static bool camera_under_water(const spc_scene *sc, const spc_chain_casters *cs,
         !spc_camera_prepare(&cam, &sc->camera, sc->film.width, sc->film.height))
         return false;
     for (int i = 0; i < cs->n; ++i) {
-        const spc_shape *s = sc->shapes[cs->idx[i]];
-        double eta = 0.0, m[3];
-        spc_vec3 frame[3];
-        if (!(spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0) || s->type != SPC_SHAPE_MESH ||
-            s->mesh.nverts < 1)
-            return false;
-        spc_vec3 o = spc_v3(s->mesh.p[0], s->mesh.p[1], s->mesh.p[2]);
-        if (!spc_plane_chain_model_normal(s, o, m, frame))
+        spc_vec3 o, frame[3];
+        if (!glass_plane_frame(sc->shapes[cs->idx[i]], &o, frame))
             return false;
         /* the pinhole mirrored in the plane: the lights on its side are on the far side of the
          * pinhole's */
