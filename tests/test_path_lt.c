@@ -50,6 +50,10 @@
  *   pinhole) occur, the path tracer's camera chain retraced from x2 passes the pinhole, and the two
  *   weights of each shared path sum to one; a render with it and flat34=0.3 agrees with one with
  *   it and flat34=1.
+ * - A spot light's light guided along a glass slab (bench/check/spot_slab_guide.xml): the light
+ *   guides' joins from the spot carry chains of 7-8 vertices at weight 1 (with the long pass up to 8
+ *   vertices too), and with them the floor agrees with bdpt (with the long pass up to 8 too) where
+ *   without them the pixel the guided light lands in reads low.
  */
 /* ctest-labels: stat */
 /* ctest-timeout: 600 */
@@ -2169,6 +2173,120 @@ TEST(slab_guide_render_agrees_with_none)
     spc_scene_destroy(sc);
 }
 
+/* A spot light's light guided through a glass slab (bench/check/spot_slab_guide.xml, max_depth 10):
+ * in through the slab's near end, five total internal reflections, out through its far end onto the
+ * floor, 7 vertices, longer than the chains light tracing's caustics follow from a point light
+ * (SPC_FLAT_MAX_VERTICES) and than any specular NEE makes, and never met by BSDF sampling. The light
+ * guides' joins from the spot carry chains of 7 and 8 vertices, each weighed 1; with them the floor
+ * seen directly agrees with bdpt (floor_pixels_agree: the z-test on 0.99 of the pixels where bdpt
+ * reads at least 0.01 of its mean, their sums within 3 standard errors), and so does pixel (1, 12)
+ * at 16 x 16, where the guided light lands (within 3 standard errors), which without them reads low
+ * by more than 5 (the test sees the light they add: a fifth of that pixel). With the long pass up to 8
+ * vertices (long=1,longmax=8) the guides still start at 7 and specular NEE weighs its point-light
+ * chains of 7 and 8 at the camera ray's hit 0: the same joins, and the render agrees with bdpt too
+ * (a length counted twice would read high, one left to the long pass's rare finds low). */
+#define SPOT_GUIDE_SCENE "bench/check/spot_slab_guide.xml"
+#define SPOT_GUIDE_PLAN "angular:camera=0.025,first=0.1,later=0.1,ltcaus,ltslab,flat34=0.1"
+
+static void tally_spot_guide(void *user, const spc_path_lt_guide_join *j)
+{
+    guide_tally *t = user;
+    ++t->joins;
+    t->kmin = j->k < t->kmin ? j->k : t->kmin;
+    t->kmax = j->k > t->kmax ? j->k : t->kmax;
+    double gap = fabs(j->w - 1.0);
+    t->worst_gap = gap > t->worst_gap ? gap : t->worst_gap;
+}
+
+TEST(spot_slab_guide_joins_weigh_one)
+{
+    /* with the long pass up to 8 vertices too: its point-light chains of 7 and 8 at the camera ray's
+     * hit are the guides' (weighed 0 on specular NEE's side), so the guides still start at 7 */
+    static const char *const settings[] = {SPOT_GUIDE_PLAN ",ltguide", SPOT_GUIDE_PLAN ",ltguide,long=1,longmax=8"};
+    for (int s = 0; s < 2; ++s) {
+        spc_camera_state cam;
+        spc_snee_params p;
+        spc_scene *sc = lt_load(SPOT_GUIDE_SCENE, settings[s], &cam, &p);
+        if (!sc)
+            return;
+        CHECK(sc->nemitters == 1 && sc->emitters[0]->type == SPC_EMITTER_SPOT);
+        spc_render_ctx ctx = lt_ctx(sc, &cam, &p);
+        ctx.max_depth = sc->integrator.max_depth;
+        CHECK(ctx.max_depth == 10);
+        CHECK(spc_path_lt_guide_enabled(&ctx, &p) && spc_path_lt_enabled(&ctx, &p));
+        CHECK(spc_path_lt_guide_point_min_chain(&ctx, &p) == SPC_FLAT_MAX_VERTICES + 1);
+        /* an area light's guides start past the long pass (as the path runs it, with MIS) */
+        spc_snee_params pm = p;
+        pm.mis = true;
+        CHECK(spc_path_lt_guide_min_chain(&ctx, &pm) == (s == 0 ? SPC_FLAT_MAX_VERTICES + 1 : 9));
+        guide_tally t;
+        memset(&t, 0, sizeof t);
+        t.kmin = SPC_PATH_LT_GUIDE_MAX + 1;
+        spc_rng rng;
+        spc_rng_seed(&rng, 57, 7);
+        int n = getenv("SPC_TEST_QUICK") ? 100000 : 400000;
+        for (int i = 0; i < n; ++i)
+            spc_path_lt_guide_joins(&ctx, &p, &rng, tally_spot_guide, &t);
+        printf("  %s: %d joins, chains of %d to %d vertices, largest gap of the weight from 1 %.3g\n", settings[s],
+               t.joins, t.kmin, t.kmax, t.worst_gap);
+        CHECK(t.joins > 20 && t.kmin == SPC_FLAT_MAX_VERTICES + 1 && t.kmax <= 8);
+        CHECK(t.worst_gap == 0.0);
+        spc_scene_destroy(sc);
+    }
+}
+
+/* The floor seen directly against bdpt (floor_pixels_agree) and pixel (1, 12)'s z, the mean of r, g, b. */
+static void spot_guide_vs_bdpt(const spc_scene *sc, const spc_film *img, const spc_film *ref, const char *label,
+                               double *pass, double *z)
+{
+    int tested = 0;
+    double sums[4];
+    *pass = floor_pixels_agree(sc, img, ref, 0.01, &tested, sums);
+    double se = sqrt(sums[2] * sums[2] + sums[3] * sums[3]);
+    size_t i = 12 * (size_t)ref->width + 1;
+    *z = 0.0;
+    for (int c = 0; c < 3; ++c)
+        *z += (img->rgb[3 * i + c] - ref->rgb[3 * i + c]) / sqrt((double)img->var[3 * i + c] + ref->var[3 * i + c]) / 3.0;
+    printf("    %s vs bdpt: z-test pass %.4f of %d floor pixels; sums %.5f vs %.5f (se %.2g); pixel (1, 12) %.4f vs "
+           "%.4f (z %.2f)\n",
+           label, *pass, tested, sums[0], sums[1], se, img->rgb[3 * i + 1], ref->rgb[3 * i + 1], *z);
+    if (strncmp(label, "without", 7)) {
+        CHECK_MSG(*pass >= 0.99, "%s vs bdpt, z-test pass %.4f", label, *pass);
+        CHECK_MSG(fabs(sums[0] - sums[1]) <= 3.0 * se, "%s: floor sum %.5f vs bdpt %.5f (se %.2g)", label, sums[0],
+                  sums[1], se);
+        CHECK_MSG(fabs(*z) < 3.0, "%s: pixel (1, 12) z %.2f against bdpt", label, *z);
+    }
+}
+
+TEST(spot_slab_guide_render_agrees_with_bdpt)
+{
+    spc_scene *sc = tu_load(SPOT_GUIDE_SCENE, 16);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    bool quick = getenv("SPC_TEST_QUICK") != NULL;
+    int spp = quick ? 256 : 1024;
+    spc_film *with = tu_render_nee(sc, "path", SPOT_GUIDE_PLAN ",ltguide", spp, 2, 61, NULL);
+    spc_film *without = tu_render_nee(sc, "path", SPOT_GUIDE_PLAN, spp, 2, 62, NULL);
+    /* the long pass up to 8 vertices: no chain length counted twice (by it and the guides) or missed */
+    spc_film *with_long = tu_render_nee(sc, "path", SPOT_GUIDE_PLAN ",ltguide,long=1,longmax=8", spp, 2, 64, NULL);
+    spc_film *ref = tu_render_nee(sc, "bdpt", "none", quick ? 2048 : 8192, 2, 63, NULL);
+    CHECK(with && without && with_long && ref);
+    if (with && without && with_long && ref) {
+        double pass, z, pass0, z0, passl, zl;
+        spot_guide_vs_bdpt(sc, with, ref, "with the spot's light guides", &pass, &z);
+        spot_guide_vs_bdpt(sc, with_long, ref, "with them and long=1,longmax=8", &passl, &zl);
+        spot_guide_vs_bdpt(sc, without, ref, "without them", &pass0, &z0);
+        /* the test sees the light they add: without them the pixel reads low */
+        CHECK_MSG(z0 < -5.0, "pixel (1, 12) without the guides: z %.2f against bdpt", z0);
+    }
+    spc_film_destroy(with);
+    spc_film_destroy(without);
+    spc_film_destroy(with_long);
+    spc_film_destroy(ref);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(joins_are_specular_nee_chains_with_the_same_ratio);
@@ -2213,5 +2331,7 @@ int main(void)
     RUN(guide_render_agrees_without_it);
     RUN(slab_guide_weights_sum_to_one);
     RUN(slab_guide_render_agrees_with_none);
+    RUN(spot_slab_guide_joins_weigh_one);
+    RUN(spot_slab_guide_render_agrees_with_bdpt);
     return spc_test_finish();
 }

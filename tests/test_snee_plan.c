@@ -36,6 +36,9 @@
  *   scenes of scenes/), kept where a light is seen through a slab; without it the image is the same.
  *   Half of a sphere light's points from the receiver's cone where the light lies outside the
  *   casters' bounding sphere and is larger than the small-light rule's.
+ * - The light guides from point and spot lights in path's plan where such a light meets a slab and
+ *   max_depth leaves room for a chain of 7 vertices (bench/check/spot_slab_guide.xml,
+ *   bench/check/two_slabs_point_light.xml), not at max_depth 8, for volpath or bdpt, nor without a slab.
  * - One glass slab under a light of 0.002-0.0035 sr: path's plan on with the slab's longer chains;
  *   beside a mirror ball on under a cost limit of its own; off with two slabs, a larger
  *   light, for volpath and bdpt, without casters; its setting agrees with none, and beside the
@@ -1751,6 +1754,46 @@ TEST(slab_plan_point_light_tracing)
     }
 }
 
+/* The light guides from point and spot lights (SPC_SNEE_PLAN_POINT_GUIDES): in path's plan on
+ * bench/check/spot_slab_guide.xml (a spot light led along a glass slab by total internal reflections
+ * onto the floor) and bench/check/two_slabs_point_light.xml (two slabs under a point light), also
+ * at an unlimited depth; not at max_depth 8 (no room for a chain of 7), not for volpath or bdpt, and
+ * not without a slab (bench/check/point_light_ball.xml, bench/check/spot_ball.xml: a glass sphere). */
+TEST(point_light_guides_plan)
+{
+    static const struct {
+        const char *file, *integrator, *depth;
+        bool want;
+    } cases[] = {
+        {"bench/check/spot_slab_guide.xml", "path", "10", true},
+        {"bench/check/spot_slab_guide.xml", "path", "-1", true},
+        {"bench/check/spot_slab_guide.xml", "path", "8", false},
+        {"bench/check/spot_slab_guide.xml", "volpath", "10", false},
+        {"bench/check/spot_slab_guide.xml", "bdpt", "10", false},
+        {"bench/check/two_slabs_point_light.xml", "path", "10", true},
+        {"bench/check/point_light_ball.xml", "path", "10", false},
+        {"bench/check/spot_ball.xml", "path", "10", false},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        char path[1200];
+        snprintf(path, sizeof path, "%s/%s", spc_test_source_dir(), cases[i].file);
+        spc_define defs[2] = {{"res", "32"}, {"max_depth", cases[i].depth}};
+        spc_scene *sc = NULL;
+        spc_error err;
+        CHECK_MSG(spc_scene_load(path, defs, 2, &sc, &err) == SPC_OK, "%s: %s", cases[i].file, err.msg);
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        spc_snee_params sp;
+        bool parsed = p.on && spc_snee_parse(p.setting, 2, &sp);
+        printf("  %s, %s, max_depth %s: %s\n", cases[i].file, cases[i].integrator, cases[i].depth, p.setting);
+        CHECK_MSG(parsed && sp.lt_guide == cases[i].want && sp.lt_caustic == (strcmp(cases[i].integrator, "path") == 0),
+                  "%s, %s, max_depth %s: %s", cases[i].file, cases[i].integrator, cases[i].depth, p.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
 /* A glass sphere under a point light or a spot light with a sky besides: path's plan adds light
  * tracing (SPC_SNEE_PLAN_POINT_LIGHTS; the sky takes no part in it), as without the sky; not with a
  * large area light besides. */
@@ -2187,6 +2230,7 @@ int main(void)
     RUN(slab_plan_point_light_tracing);
     RUN(spot_plan_light_tracing);
     RUN(point_light_sky_plan);
+    RUN(point_light_guides_plan);
     RUN(slab_plan_large_lights);
     RUN(caustic_out_of_view_plan_off);
     RUN(flat_camera_query_pilot);

@@ -1270,6 +1270,28 @@ static int delta_walk(const spc_scene *sc, const spc_snee_params *p, spc_rng *rn
     }
 }
 
+/* The start of a point or spot light e's subpath (picked with probability pmf): a direction uniform
+ * in the cone toward the casters; a spot's beam (its falloff, zero past cutoff_angle) is in the
+ * throughput, so the density is the same as a point light's. false where the casters are out of
+ * reach or the throughput is black. */
+static bool point_start(const spc_scene *sc, const spc_snee_params *p, const spc_emitter *e, double pmf, spc_rng *rng,
+                        spc_ray *ray, spc_rgb *beta)
+{
+    spc_vec3 y = e->position, axis;
+    double cm;
+    if (!caster_cone(sc, p->any_surface, y, &axis, &cm))
+        return false;
+    double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
+    double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
+    spc_frame fa = spc_frame_from_n(axis);
+    spc_vec3 w0 = spc_normalize(
+        spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
+    double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
+    *beta = spc_rgb_scale(spc_emitter_eval_intensity(e, w0), 1.0 / (pmf * pdir));
+    *ray = (spc_ray){.o = y, .d = w0, .tmin = 0.0, .tmax = SPC_INF};
+    return !spc_rgb_is_black(*beta);
+}
+
 void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_rng *rng,
                        void (*sink)(void *user, const spc_path_lt_join *j), void *user)
 {
@@ -1284,23 +1306,9 @@ void spc_path_lt_joins(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
     spc_rgb beta;
     spc_ray ray;
     if (point_like(e)) {
-        /* a direction uniform in the cone toward the casters; a spot's beam (its falloff, zero
-         * past cutoff_angle) is in the throughput, so the density is the same as a point light's */
-        spc_vec3 y = e->position, axis;
-        double cm;
-        if (!caster_cone(sc, p->any_surface, y, &axis, &cm))
+        if (!point_start(sc, p, e, pmf, rng, &ray, &beta))
             return;
-        double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
-        double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
-        spc_frame fa = spc_frame_from_n(axis);
-        spc_vec3 w0 = spc_normalize(
-            spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
-        double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
-        beta = spc_rgb_scale(spc_emitter_eval_intensity(e, w0), 1.0 / (pmf * pdir));
-        if (spc_rgb_is_black(beta))
-            return;
-        ray = (spc_ray){.o = y, .d = w0, .tmin = 0.0, .tmax = SPC_INF};
-        L.y = y;
+        L.y = e->position;
     } else if (e->type == SPC_EMITTER_AREA && e->shape && spc_path_lt_area_enabled(p)) {
         /* on a share of the samples, counted over it (the share is in the density
          * spc_path_lt_area_ratio weighs); the emitter's uniform again: spc_snee_sample_light picks
@@ -1486,6 +1494,12 @@ int spc_path_lt_guide_min_chain(const spc_render_ctx *ctx, const spc_snee_params
     return (l > b ? l : b) + 1;
 }
 
+int spc_path_lt_guide_point_min_chain(const spc_render_ctx *ctx, const spc_snee_params *p)
+{
+    int b = p->max_chain > ctx->specular_max_chain ? p->max_chain : ctx->specular_max_chain;
+    return (b > SPC_FLAT_MAX_VERTICES ? b : SPC_FLAT_MAX_VERTICES) + 1;
+}
+
 double spc_path_lt_guide_ratio(const spc_render_ctx *ctx, const spc_snee_params *p, const spc_hit *x, spc_vec3 wo,
                                spc_vec3 d0, spc_vec3 d_last, const spc_emitter *e, spc_vec3 y, spc_vec3 ny)
 {
@@ -1509,12 +1523,15 @@ void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p
         return;
     double pmf, ue = spc_rng_next(rng);
     const spc_emitter *e = spc_scene_sample_emitter(sc, ue, &pmf);
-    if (!e || !(pmf > 0.0) || e->type != SPC_EMITTER_AREA || !e->shape)
+    if (!e || !(pmf > 0.0))
+        return;
+    bool delta = point_like(e);
+    if (!delta && (e->type != SPC_EMITTER_AREA || !e->shape))
         return;
     spc_ray ray;
-    spc_vec3 y, ny;
+    spc_vec3 y = e->position, ny = spc_v3(0.0, 0.0, 0.0);
     spc_rgb beta;
-    if (!area_start(sc, p, e, ue, rng, &ray, &y, &ny, &beta))
+    if (delta ? !point_start(sc, p, e, pmf, rng, &ray, &beta) : !area_start(sc, p, e, ue, rng, &ray, &y, &ny, &beta))
         return;
     beta = spc_rgb_scale(beta, 1.0 / share);
     spc_vec3 d_last = spc_neg(ray.d);
@@ -1525,9 +1542,15 @@ void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p
     int k = delta_walk(sc, p, rng, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, SPC_PATH_LT_GUIDE_MAX, &ray, &beta,
                        &n2, NULL, v, &x);
     /* a light guide's chain (longer than any specular NEE covers), within max_depth's k + 2 segments */
-    if (k < spc_path_lt_guide_min_chain(ctx, p) || (ctx->max_depth >= 0 && k + 2 > ctx->max_depth) ||
+    if (k < (delta ? spc_path_lt_guide_point_min_chain(ctx, p) : spc_path_lt_guide_min_chain(ctx, p)) ||
+        (ctx->max_depth >= 0 && k + 2 > ctx->max_depth) ||
         !spc_bsdf_has_smooth(x.bsdf))
         return;
+    /* a point or spot light's chain through a normal-mapped plane is not the guides' (the walk
+     * refuses some of them: plane_turns), so specular NEE keeps all of them (path_snee.c) */
+    for (int i = 0; delta && i < k; ++i)
+        if (spc_plane_chain_shape(v[i].shape))
+            return;
     spc_vec3 d0 = spc_neg(ray.d);
     spc_camera_direct cd;
     if (!(camera_density(ctx, p, &x, NULL, &cd) > 0.0))
@@ -1538,7 +1561,11 @@ void spc_path_lt_guide_joins(const spc_render_ctx *ctx, const spc_snee_params *p
         spc_rgb_scale(spc_rgb_mul(beta, f), g * cd.We / ((double)ctx->width * (double)ctx->height)), n2);
     if (spc_rgb_is_black(C) || !isfinite(g))
         return;
-    double r = spc_path_lt_guide_ratio(ctx, p, &x, cd.wi, d0, d_last, e, y, ny);
+    /* a point or spot light's: no other strategy makes the path (BSDF sampling never meets the
+     * light, light tracing's caustics' chains are shorter, specular NEE's within its budget are
+     * shorter and its long pass's longer ones at x are weighed 0: spc_path_lt_guide_point_min_chain),
+     * r infinite */
+    double r = delta ? INFINITY : spc_path_lt_guide_ratio(ctx, p, &x, cd.wi, d0, d_last, e, y, ny);
     if (!(r > 0.0))
         return;
     spc_ray sr = spc_hit_spawn_to(&x, cd.p_near, 0.0);

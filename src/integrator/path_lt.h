@@ -331,7 +331,14 @@ void spc_path_lt_trace(const spc_render_ctx *ctx, const spc_snee_params *p, spc_
  * so the two weights sum to one on every path whatever the chain. Any caster and any solver: the
  * chains are those specular NEE never makes, so the two strategies share them. The path tracer's
  * Russian roulette and the chain's lobe choices are left out of r (a function of the path alone
- * keeps the estimate unbiased; only the weights' optimality depends on it). */
+ * keeps the estimate unbiased; only the weights' optimality depends on it).
+ *
+ * A point or spot light's subpath (its start as light tracing's caustics', the cone toward the
+ * casters) follows the same walk: a spot's light led along a glass slab by total internal
+ * reflection (in at one end, 5 reflections, out at the other: 7 vertices) is longer than the chains
+ * light tracing's caustics follow from such a light (SPC_FLAT_MAX_VERTICES) and than any specular
+ * NEE makes, and BSDF sampling never meets the light, so past both (at least
+ * spc_path_lt_guide_point_min_chain vertices) such a path is light tracing's alone, its weight 1. */
 
 /* The most delta scatterings a light-guide subpath follows, and the path tracer's side weighs: on
  * the SDF torus the BSDF-sampled paths that held a seed's error ran through chains of 8, 12 and 31
@@ -346,6 +353,16 @@ bool spc_path_lt_guide_enabled(const spc_render_ctx *ctx, const spc_snee_params 
 /* The fewest chain vertices of a light-guide path: one more than any chain specular NEE's track
  * covers (the parameters' max_chain, the render's chain cap, and with "long" its bound). */
 int spc_path_lt_guide_min_chain(const spc_render_ctx *ctx, const spc_snee_params *p);
+
+/* The fewest chain vertices of a point or spot light's light-guide path: past specular NEE's
+ * budget (the larger of params.max_chain and the render's chain cap; light tracing's caustics from
+ * such a light keep within it) and past SPC_FLAT_MAX_VERTICES (the longest chain through flat faces
+ * specular NEE's flat enumeration and light tracing's caustics from such a light make). Not past the
+ * long pass's bound: its chains of a point or spot light at the camera ray's hit as long as this
+ * or longer are the light guides' alone, specular NEE weighs them 0 (params.delta_share,
+ * integrator/path_snee.c), so that with the long pass up to 8 vertices the 7- and 8-vertex chains
+ * its randomized attempts rarely find are made by light tracing at every length. */
+int spc_path_lt_guide_point_min_chain(const spc_render_ctx *ctx, const spc_snee_params *p);
 
 /* r = p_lt / p_path of the path camera - x (left toward the camera along wo, toward the chain
  * along d0) - chain - the area light e's point y (normal ny), the chain's last segment d_last

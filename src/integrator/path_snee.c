@@ -12,6 +12,7 @@
 #include "integrator/path_lt.h"
 #include "integrator/splat.h"
 #include "manifold/flat_chains.h"
+#include "manifold/plane_chains.h"
 #include "manifold/snee_cost.h"
 #include "manifold/specular_nee.h"
 
@@ -63,12 +64,28 @@ static double lt_share(const void *user, const spc_hit *x, spc_vec3 wo, const sp
     return 1.0 / (1.0 + r * r);
 }
 
+/* Is c (a point or spot light's chain from the path's first receiver) one the light guides make at
+ * weight 1: the receiver the camera ray's hit, seen directly, and c at least
+ * spc_path_lt_guide_point_min_chain vertices long (path_lt.h)? Specular NEE's share of it is 0. */
+static bool guide_takes(const spc_path_snee *s, const spc_chain *c)
+{
+    if (!s->lg_enabled || s->receivers != 0 || s->scatterings != 0 || c->n < s->lg_point_min)
+        return false;
+    /* not through a normal-mapped plane: the guides leave those (path_lt.c) */
+    for (int i = 0; i < c->n; ++i)
+        if (spc_plane_chain_shape(c->v[i].h.shape))
+            return false;
+    return true;
+}
+
 /* The same at the path's first receiver x (seen from wo), reached from the camera through the
  * delta scatterings recorded in cam_events: the camera's chain retraced from x toward the pinhole. */
 static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c, const spc_emitter *e,
                              double psi)
 {
     const spc_path_snee *s = user;
+    if (guide_takes(s, c))
+        return 0.0;
     int j = s->scatterings;
     if (c->n > spc_path_lt_area_chain_max(&s->p, c, s->lt_kmax, s->lt_kflat) ||
         j > spc_path_lt_camera_max_chain(&s->p) || j > SPC_CHAIN_MAX_VERTICES)
@@ -84,6 +101,15 @@ static double lt_share_first(const void *user, const spc_hit *x, spc_vec3 wo, co
     }
     r /= psi;
     return 1.0 / (1.0 + r * r);
+}
+
+/* params.delta_share at the camera ray's hit seen directly where light tracing's caustics do not
+ * run but the light guides do: 0 on their chains (guide_takes), 1 on the others. */
+static double guide_share_first(const void *user, const spc_hit *x, spc_vec3 wo, const spc_chain *c,
+                                const spc_emitter *e, double psi)
+{
+    (void)x, (void)wo, (void)e, (void)psi;
+    return guide_takes(user, c) ? 0.0 : 1.0;
 }
 
 /* params.alt_chain_ratio at the path's second receiver x (seen from wo): light tracing's density
@@ -182,6 +208,7 @@ void spc_path_snee_begin(spc_path_snee *s, const spc_render_ctx *ctx, spc_tls *t
     s->lg_enabled = spc_path_lt_guide_enabled(ctx, &s->p);
     if (s->lg_enabled) {
         s->lg_min = spc_path_lt_guide_min_chain(ctx, &s->p);
+        s->lg_point_min = spc_path_lt_guide_point_min_chain(ctx, &s->p);
         spc_rng grng;
         spc_sampler_fork_rng(smp, SPC_PATH_LT_GUIDE_STREAM, &grng);
         spc_path_lt_guide_trace(ctx, &s->p, tls, &grng);
@@ -336,6 +363,10 @@ static bool vertex_state(spc_path_snee *s, const spc_render_ctx *ctx, const spc_
         s->alt_scatterings = s->scatterings;
         s->alt_kmax = s->lt_kmax;
         s->alt_kflat = spc_path_lt_flat_budget(ctx, &s->p, h, segments, 0);
+    } else if (s->lg_enabled && s->receivers == 0 && s->scatterings == 0) {
+        /* the camera ray's hit: the point and spot lights' chains the light guides make */
+        s->p.delta_share = guide_share_first;
+        s->p.delta_user = s;
     }
     /* the extra directions past the first receiver (path_deep.h), where light tracing shares none
      * of the receiver's paths and the BSDF alone samples (no caustic guide): BSDF sampling's

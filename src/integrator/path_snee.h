@@ -56,9 +56,9 @@ typedef struct spc_path_snee {
     /* the light-guide caustics (path_lt.h, params.lt_guide): the camera ray's hit lg_x (below; left
      * toward the camera along lg_wo, along lg_d0 by a non-delta sample), the delta scatterings at
      * chain surfaces since (lg_k) and the last direction (lg_dlast); lg_on while the path is one the
-     * strategy may make */
+     * strategy may make; lg_point_min: spc_path_lt_guide_point_min_chain's */
     bool lg_enabled, lg_on;
-    int lg_k, lg_min;
+    int lg_k, lg_min, lg_point_min;
     spc_vec3 lg_wo, lg_d0, lg_dlast;
     /* the light seen through flat glass (path_lt_view.h, params.lt_view): lv_on while every
      * scattering since the camera was a delta one on a flat-faced shape, at most

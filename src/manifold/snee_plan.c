@@ -321,6 +321,29 @@ static void flat_point_light_joins(const spc_scene *sc, const spc_chain_casters 
     snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_FLAT_POINT_SHARE);
 }
 
+/* A closed flat-faced glass caster (a slab) under point or spot lights (a sky besides), for path
+ * with light tracing's point-light chains on (ltcaus) and no caustic guide at receivers, where the
+ * path's depth leaves room for a chain past SPC_FLAT_MAX_VERTICES: the light guides from the point
+ * lights too (snee_plan.h, SPC_SNEE_PLAN_POINT_GUIDES), where no rule turned them on. */
+static void point_light_guides(const spc_scene *sc, const spc_chain_casters *cs, const char *integrator,
+                               spc_snee_plan *out)
+{
+    const int depth = sc->integrator.max_depth;
+    if (strcmp(integrator, "path") || strstr(out->setting, "recguide") || !strstr(out->setting, "ltcaus") ||
+        strstr(out->setting, "ltguide") || (depth >= 0 && depth < SPC_FLAT_MAX_VERTICES + 3) ||
+        !point_lights_sky(sc))
+        return;
+    for (int i = 0; i < cs->n; ++i) {
+        const spc_shape *s = sc->shapes[cs->idx[i]];
+        double eta = 0.0;
+        if (spc_bsdf_is_specular_interface(s->bsdf, &eta) && eta > 0.0 && spc_flat_chain_closed(s)) {
+            size_t n = strlen(out->setting);
+            snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_POINT_GUIDES);
+            return;
+        }
+    }
+}
+
 /* Is some caster a glass sphere (its chains enumerated, sphere_chains.h)? */
 static bool glass_sphere(const spc_scene *sc, const spc_chain_casters *cs)
 {
@@ -1357,6 +1380,7 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         flat_light_tracing(sc, cs, nflat, integrator, out);
     flat_point_light_tracing(sc, nflat, integrator, out);
     flat_point_light_joins(sc, cs, nflat, integrator, out);
+    point_light_guides(sc, cs, integrator, out);
     /* path, every caster flat glass: the query from the camera only where its pilot finds a light
      * in view (snee_plan.h) */
     if (!strcmp(integrator, "path") && nflat == cs->n && !mirror && strstr(out->setting, "camera") &&

@@ -429,6 +429,17 @@
  * it), so it is left out there. */
 #define SPC_SNEE_PLAN_FLAT_POINT_SHARE ",flat34=0.1"
 
+/* Appended for path where a caster is a closed flat-faced glass shape (a slab), every light is a
+ * point or spot light (a sky besides) and light tracing's caustics run (ltcaus), without the caustic
+ * guide at receivers, where max_depth leaves room for a chain of SPC_FLAT_MAX_VERTICES + 1 vertices
+ * (or is unlimited): the light guides from the point and spot lights (integrator/path_lt.h), the
+ * light led along the slab by total internal reflections onto a surface the camera sees (in at one
+ * end, 5 reflections, out at the other: 7 vertices), which light tracing's caustics (at most
+ * SPC_FLAT_MAX_VERTICES) and specular NEE within its budget do not make and BSDF sampling never
+ * meets: without it bench/check/spot_slab_guide.xml reads a third low where that light lands
+ * (bench/RESULTS.md, "A spot light's light guided along a glass slab"). */
+#define SPC_SNEE_PLAN_POINT_GUIDES ",ltguide"
+
 /* Appended for path where the lights are small area lights (and point lights, and a sky) and a
  * glass sphere or a tessellated glass ball is a caster, without the caustic guide at receivers: the
  * area lights' caustics also by light tracing from a point on the light (integrator/path_lt.h),
