@@ -6,6 +6,7 @@
 
 #include <pthread.h>
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -396,17 +397,19 @@ static void pairs_init(void)
 }
 
 /* spc_sampler_draw_many_used for the streams s[idx[k]], k in [0, n) (none NULL), all of whose use
- * bits (of the npairs pairs) are `mask`. A batch of m streams, its pairs grouped by pair number:
+ * bits (of the npairs pairs) are `mask`, pair k of stream i into u[i is + k ks] (is, ks: the layout's
+ * strides). A batch of m streams, its pairs grouped by pair number:
  * first the pairs of mask that need their y (pair[k] of stream q in slot k m + q), then the others,
  * so that the pairs' loops cover them all and their last loop the first group, and the per-pair
  * bookkeeping is plain loops over the batch's streams. */
 static void draw_group(spc_sampler *const *s, const int *idx, int n, unsigned mask, int npairs, unsigned ymask,
-                       spc_vec2 *u)
+                       spc_vec2 *u, ptrdiff_t is, ptrdiff_t ks)
 {
     uint64_t pseed[MANY_LANES];
     uint32_t rev[MANY_LANES], dim0[MANY_LANES];
     double ux[MANY_LANES], uy[MANY_LANES];
-    int base[MANY_LANES], pair[32];
+    ptrdiff_t base[MANY_LANES];
+    int pair[32];
     int ky = 0, np = 0;
     for (int p = 0; p < npairs; ++p)
         if ((mask & ymask) >> p & 1u)
@@ -426,7 +429,7 @@ static void draw_group(spc_sampler *const *s, const int *idx, int n, unsigned ma
         for (int q = 0; q < m; ++q) {
             const int i = idx[k0 + q];
             spc_sampler *si = s[i];
-            base[q] = i * npairs;
+            base[q] = i * is;
             pseed[q] = si->pixel_seed;
             dim0[q] = si->dim;
             rev[q] = si->index_rev;
@@ -435,13 +438,13 @@ static void draw_group(spc_sampler *const *s, const int *idx, int n, unsigned ma
         pairs(m, np, ky, pair, pseed, dim0, rev, ux, uy);
         for (int k = 0; k < ky; ++k) {
             const double *xk = ux + k * m, *yk = uy + k * m;
-            spc_vec2 *uk = u + pair[k];
+            spc_vec2 *uk = u + pair[k] * ks;
             for (int q = 0; q < m; ++q)
                 uk[base[q]] = spc_v2(xk[q], yk[q]);
         }
         for (int k = ky; k < np; ++k) {
             const double *xk = ux + k * m;
-            spc_vec2 *uk = u + pair[k];
+            spc_vec2 *uk = u + pair[k] * ks;
             for (int q = 0; q < m; ++q)
                 uk[base[q]] = spc_v2(xk[q], 0.0);
         }
@@ -455,8 +458,10 @@ static void draw_group(spc_sampler *const *s, const int *idx, int n, unsigned ma
  * read only their own group's streams. A wave's 256 lanes are one chunk. */
 enum { GROUP_CHUNK = 256 };
 
-void spc_sampler_draw_many_used(spc_sampler *const *s, const unsigned *use, int n, int npairs, unsigned ymask,
-                                spc_vec2 *u)
+/* spc_sampler_draw_many_used and spc_sampler_draw_many_used_by_pair: pair k of stream i into
+ * u[i is + k ks] */
+static void draw_many_used(spc_sampler *const *s, const unsigned *use, int n, int npairs, unsigned ymask,
+                           spc_vec2 *u, ptrdiff_t is, ptrdiff_t ks)
 {
     if (npairs <= 0)
         return;
@@ -471,7 +476,7 @@ void spc_sampler_draw_many_used(spc_sampler *const *s, const unsigned *use, int 
             nl += s[i0 + j] != NULL;
         }
         if (!use) {
-            draw_group(s, left, nl, all, npairs, ymask, u);
+            draw_group(s, left, nl, all, npairs, ymask, u, is, ks);
             continue;
         }
         while (nl > 0) {
@@ -486,10 +491,22 @@ void spc_sampler_draw_many_used(spc_sampler *const *s, const unsigned *use, int 
                 ng += in;
                 nr += !in;
             }
-            draw_group(s, group, ng, mk, npairs, ymask, u);
+            draw_group(s, group, ng, mk, npairs, ymask, u, is, ks);
             nl = nr;
         }
     }
+}
+
+void spc_sampler_draw_many_used(spc_sampler *const *s, const unsigned *use, int n, int npairs, unsigned ymask,
+                                spc_vec2 *u)
+{
+    draw_many_used(s, use, n, npairs, ymask, u, npairs, 1);
+}
+
+void spc_sampler_draw_many_used_by_pair(spc_sampler *const *s, const unsigned *use, int n, int npairs,
+                                        unsigned ymask, spc_vec2 *u, int ldu)
+{
+    draw_many_used(s, use, n, npairs, ymask, u, 1, ldu);
 }
 
 void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u)
