@@ -471,16 +471,33 @@ static void draw_many_used(spc_sampler *const *s, const unsigned *use, int n, in
     for (int i0 = 0; i0 < n; i0 += GROUP_CHUNK) {
         const int c = n - i0 < GROUP_CHUNK ? n - i0 : GROUP_CHUNK;
         int nl = 0;
-        for (int j = 0; j < c; ++j) {
-            left[nl] = i0 + j;
-            nl += s[i0 + j] != NULL;
-        }
         if (!use) {
+            for (int j = 0; j < c; ++j) {
+                left[nl] = i0 + j;
+                nl += s[i0 + j] != NULL;
+            }
             draw_group(s, left, nl, all, npairs, ymask, u, is, ks);
             continue;
         }
+        /* up to 5 pairs the masks present are the bits of a word, so the last group needs no pass of
+         * its own: it is what is left */
+        uint32_t seen = 0;
+        for (int j = 0; j < c; ++j) {
+            const bool has = s[i0 + j] != NULL;
+            left[nl] = i0 + j;
+            nl += has;
+            if (npairs <= 5)
+                seen |= (uint32_t)has << (use[i0 + j] & all);
+        }
+        int groups = npairs <= 5 ? 0 : GROUP_CHUNK;
+        for (; seen; seen &= seen - 1u)
+            ++groups;
         while (nl > 0) {
             const unsigned mk = use[left[0]] & all;
+            if (groups-- == 1) {
+                draw_group(s, left, nl, mk, npairs, ymask, u, is, ks);
+                break;
+            }
             int ng = 0, nr = 0;
             /* (the rest is written over the list itself: nr <= k) */
             for (int k = 0; k < nl; ++k) {
