@@ -453,9 +453,9 @@ static void draw_group(spc_sampler *const *s, const int *idx, int n, unsigned ma
 
 /* The streams are taken GROUP_CHUNK at a time, grouped there by their use bits (a pair's values do
  * not depend on the group it is drawn in; a path wave's lanes take a few different masks): the
- * chunk's streams listed once, then each group split off the list in one branch-free pass over what
- * is left of it (the group of the list's first stream, the rest kept in order), so that the draws
- * read only their own group's streams. A wave's 256 lanes are one chunk. */
+ * chunk's streams listed once, then each group but the last split off the list in one branch-free
+ * pass over what is left of it (the group of the list's first stream, the rest kept in order), so
+ * that the draws read only their own group's streams. A wave's 256 lanes are one chunk. */
 enum { GROUP_CHUNK = 256 };
 
 /* spc_sampler_draw_many_used and spc_sampler_draw_many_used_by_pair: pair k of stream i into
