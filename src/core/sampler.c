@@ -398,10 +398,10 @@ static void pairs_init(void)
 
 /* spc_sampler_draw_many_used for the streams s[idx[k]], k in [0, n) (none NULL), all of whose use
  * bits (of the npairs pairs) are `mask`, pair k of stream i into u[i is + k ks] (is, ks: the layout's
- * strides). A batch of m streams, its pairs grouped by pair number:
- * first the pairs of mask that need their y (pair[k] of stream q in slot k m + q), then the others,
- * so that the pairs' loops cover them all and their last loop the first group, and the per-pair
- * bookkeeping is plain loops over the batch's streams. */
+ * strides). A batch of m streams, its pairs grouped by pair number: first the pairs of mask that need
+ * their y (pair[k] of stream q in slot k m + q), then the others, so that the pairs' loops cover them
+ * all and their last loop the first group, and the per-pair bookkeeping is plain loops over the
+ * batch's streams. */
 static void draw_group(spc_sampler *const *s, const int *idx, int n, unsigned mask, int npairs, unsigned ymask,
                        spc_vec2 *u, ptrdiff_t is, ptrdiff_t ks)
 {
