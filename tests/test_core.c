@@ -184,20 +184,22 @@ TEST(sampler_many_matches_one_at_a_time)
 /* spc_sampler_draw_many_used: the pairs a stream reads (its use bits, different per stream) are the
  * one-pair calls' values bit for bit, the pairs it does not read are left as they were, and every
  * stream moves past all its pairs, so the next draw is the same as after spc_sampler_draw_many.
- * Sizes cross the batch's internal flush (128 pairs); use NULL reads every pair; up to 5 pairs the
- * masks are found as bits of a word, beyond as a list of at most 8 at a time (7 pairs: more masks
- * than that). */
+ * Sizes cross the batch's internal flush (128 pairs) and the grouping's chunk (256 streams); use NULL
+ * reads every pair; up to 7 pairs, so up to 128 masks, each stream's group split off the list of
+ * those left. Every other call is spc_sampler_draw_many_used_by_pair's (pair k of stream i in
+ * u[k ldu + i]), the same values in the other layout. */
 TEST(sampler_many_used_matches_one_at_a_time)
 {
     int bad = 0, checked = 0, skipped = 0;
     const double mark = -7.0;
-    for (int n = 1; n <= 79; n += 13)
+    enum { NMAX = 271 }; /* odd: round 2 also reads use NULL */
+    for (int n = 1; n <= NMAX; n = n < 79 ? n + 13 : NMAX + (n == NMAX)) /* 1, 14, ..., 79, then 271 */
         for (int npairs = 1; npairs <= 7; ++npairs)
             for (unsigned ymask = 0; ymask < 1u << npairs; ymask += 1u + (unsigned)npairs * (unsigned)npairs / 4u) {
-                spc_sampler a[79], b[79];
-                spc_sampler *pa[79];
-                unsigned use[79];
-                spc_vec2 u[79 * 7];
+                spc_sampler a[NMAX], b[NMAX];
+                spc_sampler *pa[NMAX];
+                unsigned use[NMAX];
+                spc_vec2 u[(NMAX + 2) * 7];
                 for (int i = 0; i < n; ++i) {
                     spc_sampler_start(&a[i], (uint32_t)i, 9, (uint32_t)(i * 3 + n), 4);
                     for (int k = 0; k < i % 3; ++k) /* streams at different dimensions */
@@ -208,16 +210,22 @@ TEST(sampler_many_used_matches_one_at_a_time)
                 for (int round = 0; round < 3; ++round) {
                     for (int i = 0; i < n; ++i) /* every mask, the empty one and the full one included */
                         use[i] = (unsigned)(i * 11 + round * 5 + npairs) % (1u << npairs);
-                    for (int j = 0; j < n * npairs; ++j)
+                    const bool by_pair = (round + npairs) % 2 == 1;
+                    const int ldu = n + 2;
+                    for (int j = 0; j < ldu * npairs; ++j)
                         u[j] = spc_v2(mark, mark);
-                    spc_sampler_draw_many_used(pa, round == 2 && n % 2 ? NULL : use, n, npairs, ymask, u);
+                    if (by_pair)
+                        spc_sampler_draw_many_used_by_pair(pa, round == 2 && n % 2 ? NULL : use, n, npairs, ymask, u,
+                                                           ldu);
+                    else
+                        spc_sampler_draw_many_used(pa, round == 2 && n % 2 ? NULL : use, n, npairs, ymask, u);
                     for (int i = 0; i < n; ++i) {
                         if (!pa[i]) {
                             bad += a[i].dim != b[i].dim;
                             continue;
                         }
                         for (int k = 0; k < npairs; ++k) {
-                            spc_vec2 v = spc_sampler_2d(&b[i]), w = u[i * npairs + k];
+                            spc_vec2 v = spc_sampler_2d(&b[i]), w = by_pair ? u[k * ldu + i] : u[i * npairs + k];
                             if (round == 2 && n % 2 ? false : !(use[i] >> k & 1u)) {
                                 bad += w.x != mark || w.y != mark;
                                 ++skipped;

@@ -6,6 +6,7 @@
 
 #include <pthread.h>
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -395,18 +396,20 @@ static void pairs_init(void)
 #endif
 }
 
-/* spc_sampler_draw_many_used for the streams whose use bits (of the npairs pairs; use NULL: all)
- * are `mask`. A batch of m streams, its pairs grouped by pair number: first the pairs of mask that
- * need their y (pair[k] of stream q in slot k m + q), then the others, so that the pairs' loops
- * cover them all and their last loop the first group, and the per-pair bookkeeping is plain loops
- * over the batch's streams. */
-static void draw_group(spc_sampler *const *s, const unsigned *use, unsigned all, unsigned mask, int n, int npairs,
-                       unsigned ymask, spc_vec2 *u)
+/* spc_sampler_draw_many_used for the streams s[idx[k]], k in [0, n) (none NULL), all of whose use
+ * bits (of the npairs pairs) are `mask`, pair k of stream i into u[i is + k ks] (is, ks: the layout's
+ * strides). A batch of m streams, its pairs grouped by pair number: first the pairs of mask that need
+ * their y (pair[k] of stream q in slot k m + q), then the others, so that the pairs' loops cover them
+ * all and their last loop the first group, and the per-pair bookkeeping is plain loops over the
+ * batch's streams. */
+static void draw_group(spc_sampler *const *s, const int *idx, int n, unsigned mask, int npairs, unsigned ymask,
+                       spc_vec2 *u, ptrdiff_t is, ptrdiff_t ks)
 {
     uint64_t pseed[MANY_LANES];
     uint32_t rev[MANY_LANES], dim0[MANY_LANES];
     double ux[MANY_LANES], uy[MANY_LANES];
-    int base[MANY_LANES], pair[32];
+    ptrdiff_t base[MANY_LANES];
+    int pair[32];
     int ky = 0, np = 0;
     for (int p = 0; p < npairs; ++p)
         if ((mask & ymask) >> p & 1u)
@@ -415,37 +418,98 @@ static void draw_group(spc_sampler *const *s, const unsigned *use, unsigned all,
     for (int p = 0; p < npairs; ++p)
         if ((mask & ~ymask) >> p & 1u)
             pair[np++] = p;
-    /* Each stream is written into the batch's next slot and kept (m moves) where it is in the group:
-     * no branch on whether it is, which a wave's lanes of mixed masks make a coin flip. A lane
-     * without a stream reads a stand-in. */
-    spc_sampler none = {0, 0, 0, 0};
-    const int per_batch = np > 0 ? MANY_LANES / np : MANY_LANES;
-    for (int i = 0; i < n;) {
-        int m = 0;
-        for (; i < n && m < per_batch; ++i) {
-            spc_sampler *si = s[i] ? s[i] : &none;
-            const int take = (s[i] != NULL) & (!use || (use[i] & all) == mask);
-            base[m] = i * npairs;
-            pseed[m] = si->pixel_seed;
-            dim0[m] = si->dim;
-            rev[m] = si->index_rev;
-            si->dim += (uint32_t)(take * npairs);
-            m += take;
+    if (np == 0) {
+        for (int k = 0; k < n; ++k)
+            s[idx[k]]->dim += (uint32_t)npairs;
+        return;
+    }
+    const int per_batch = MANY_LANES / np;
+    for (int k0 = 0; k0 < n; k0 += per_batch) {
+        const int m = n - k0 < per_batch ? n - k0 : per_batch;
+        for (int q = 0; q < m; ++q) {
+            const int i = idx[k0 + q];
+            spc_sampler *si = s[i];
+            base[q] = i * is;
+            pseed[q] = si->pixel_seed;
+            dim0[q] = si->dim;
+            rev[q] = si->index_rev;
+            si->dim += (uint32_t)npairs;
         }
-        if (m == 0 || np == 0)
-            continue;
         pairs(m, np, ky, pair, pseed, dim0, rev, ux, uy);
         for (int k = 0; k < ky; ++k) {
             const double *xk = ux + k * m, *yk = uy + k * m;
-            spc_vec2 *uk = u + pair[k];
+            spc_vec2 *uk = u + pair[k] * ks;
             for (int q = 0; q < m; ++q)
                 uk[base[q]] = spc_v2(xk[q], yk[q]);
         }
         for (int k = ky; k < np; ++k) {
             const double *xk = ux + k * m;
-            spc_vec2 *uk = u + pair[k];
+            spc_vec2 *uk = u + pair[k] * ks;
             for (int q = 0; q < m; ++q)
                 uk[base[q]] = spc_v2(xk[q], 0.0);
+        }
+    }
+}
+
+/* The streams are taken GROUP_CHUNK at a time, grouped there by their use bits (a pair's values do
+ * not depend on the group it is drawn in; a path wave's lanes take a few different masks): the
+ * chunk's streams listed once, then each group but the last split off the list in one branch-free
+ * pass over what is left of it (the group of the list's first stream, the rest kept in order), so
+ * that the draws read only their own group's streams. A wave's 256 lanes are one chunk. */
+enum { GROUP_CHUNK = 256 };
+
+/* spc_sampler_draw_many_used and spc_sampler_draw_many_used_by_pair: pair k of stream i into
+ * u[i is + k ks] */
+static void draw_many_used(spc_sampler *const *s, const unsigned *use, int n, int npairs, unsigned ymask,
+                           spc_vec2 *u, ptrdiff_t is, ptrdiff_t ks)
+{
+    if (npairs <= 0)
+        return;
+    pthread_once(&pairs_once, pairs_init);
+    const unsigned all = npairs >= 32 ? ~0u : (1u << npairs) - 1u;
+    int left[GROUP_CHUNK], group[GROUP_CHUNK];
+    for (int i0 = 0; i0 < n; i0 += GROUP_CHUNK) {
+        const int c = n - i0 < GROUP_CHUNK ? n - i0 : GROUP_CHUNK;
+        int nl = 0;
+        if (!use) {
+            for (int j = 0; j < c; ++j) {
+                left[nl] = i0 + j;
+                nl += s[i0 + j] != NULL;
+            }
+            draw_group(s, left, nl, all, npairs, ymask, u, is, ks);
+            continue;
+        }
+        /* up to 5 pairs the masks present are the bits of a word, so the last group needs no pass of
+         * its own: it is what is left */
+        uint32_t seen = 0;
+        for (int j = 0; j < c; ++j) {
+            const bool has = s[i0 + j] != NULL;
+            left[nl] = i0 + j;
+            nl += has;
+            if (npairs <= 5)
+                seen |= (uint32_t)has << (use[i0 + j] & all);
+        }
+        int groups = npairs <= 5 ? 0 : GROUP_CHUNK;
+        for (; seen; seen &= seen - 1u)
+            ++groups;
+        while (nl > 0) {
+            const unsigned mk = use[left[0]] & all;
+            if (groups-- == 1) {
+                draw_group(s, left, nl, mk, npairs, ymask, u, is, ks);
+                break;
+            }
+            int ng = 0, nr = 0;
+            /* (the rest is written over the list itself: nr <= k) */
+            for (int k = 0; k < nl; ++k) {
+                const int i = left[k];
+                const int in = (use[i] & all) == mk;
+                group[ng] = i;
+                left[nr] = i;
+                ng += in;
+                nr += !in;
+            }
+            draw_group(s, group, ng, mk, npairs, ymask, u, is, ks);
+            nl = nr;
         }
     }
 }
@@ -453,53 +517,13 @@ static void draw_group(spc_sampler *const *s, const unsigned *use, unsigned all,
 void spc_sampler_draw_many_used(spc_sampler *const *s, const unsigned *use, int n, int npairs, unsigned ymask,
                                 spc_vec2 *u)
 {
-    if (npairs <= 0)
-        return;
-    pthread_once(&pairs_once, pairs_init);
-    const unsigned all = npairs >= 32 ? ~0u : (1u << npairs) - 1u;
-    if (!use) {
-        draw_group(s, NULL, all, all, n, npairs, ymask, u);
-        return;
-    }
-    /* the streams grouped by their use bits, each group in one pass (a pair's values do not depend
-     * on the group it is drawn in); a path wave's lanes take a few different masks. Up to 5 pairs
-     * the masks seen are bits of one word, set without a branch per stream. */
-    if (npairs <= 5) {
-        uint32_t seen = 0;
-        for (int i = 0; i < n; ++i)
-            seen |= (uint32_t)(s[i] != NULL) << (use[i] & all);
-        for (unsigned mk = 0; seen; ++mk, seen >>= 1)
-            if (seen & 1u)
-                draw_group(s, use, all, mk, n, npairs, ymask, u);
-        return;
-    }
-    enum { GROUPS = 8 };
-    unsigned seen[GROUPS];
-    int ngroups = 0;
-    for (int i = 0; i < n; ++i) {
-        if (!s[i])
-            continue;
-        const unsigned mk = use[i] & all;
-        int g = 0;
-        while (g < ngroups && seen[g] != mk)
-            ++g;
-        if (g < ngroups)
-            continue;
-        if (ngroups == GROUPS) { /* more masks than groups: draw those seen, then the rest */
-            for (g = 0; g < ngroups; ++g)
-                draw_group(s, use, all, seen[g], i, npairs, ymask, u);
-            ngroups = 0;
-            s += i;
-            use += i;
-            u += (size_t)i * (size_t)npairs;
-            n -= i;
-            i = -1;
-            continue;
-        }
-        seen[ngroups++] = mk;
-    }
-    for (int g = 0; g < ngroups; ++g)
-        draw_group(s, use, all, seen[g], n, npairs, ymask, u);
+    draw_many_used(s, use, n, npairs, ymask, u, npairs, 1);
+}
+
+void spc_sampler_draw_many_used_by_pair(spc_sampler *const *s, const unsigned *use, int n, int npairs,
+                                        unsigned ymask, spc_vec2 *u, int ldu)
+{
+    draw_many_used(s, use, n, npairs, ymask, u, 1, ldu);
 }
 
 void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ymask, spc_vec2 *u)

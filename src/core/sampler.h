@@ -55,6 +55,10 @@ void spc_sampler_draw_many(spc_sampler *const *s, int n, int npairs, unsigned ym
  * past all npairs pairs, so the pairs drawn are the same values as spc_sampler_draw_many's. */
 void spc_sampler_draw_many_used(spc_sampler *const *s, const unsigned *use, int n, int npairs, unsigned ymask,
                                 spc_vec2 *u);
+/* spc_sampler_draw_many_used with the pairs by pair number: stream i's k-th pair in u[k * ldu + i]
+ * (ldu >= n), so that each pair's values for all the streams are one array. */
+void spc_sampler_draw_many_used_by_pair(spc_sampler *const *s, const unsigned *use, int n, int npairs,
+                                        unsigned ymask, spc_vec2 *u, int ldu);
 /* A generator of its own for a consumer of an unknown number of values (specular NEE's solver
  * attempts, an AOV's walk): seeded from the stream's state (pixel, index, next dimension) and
  * `stream`, which tells apart the forks taken at the same state. The sampler does not move, so

@@ -429,11 +429,10 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
     bool hit[WAVE_MAX], alive[WAVE_MAX], occluded[WAVE_MAX];
     const spc_ray *r[WAVE_MAX];
     spc_sampler *ls[WAVE_MAX];
-    spc_vec2 u[5 * WAVE_MAX];
+    spc_vec2 u[5 * WAVE_MAX]; /* the lanes' pairs by pair number: lane i's k-th in u[k W + i] */
     const spc_emitter *le[WAVE_MAX];
     double pmf[WAVE_MAX];
     spc_vec3 ref[WAVE_MAX];
-    spc_vec2 u_lpos[WAVE_MAX];
     spc_emitter_direct ds[WAVE_MAX];
     bool ds_ok[WAVE_MAX];
     spc_vec2 u_dir[WAVE_MAX];
@@ -500,14 +499,12 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
          * and u_rr are 1D (path.c's spc_sampler_1d: their pairs' y are not computed), and a lane's
          * u_lobe and u_rr are computed only where it reads them (use[i]). Nothing between the two
          * stages draws from the lanes' streams. */
-        spc_sampler_draw_many_used(ls, use, nl, 5, 0xAu, u);
+        spc_sampler_draw_many_used_by_pair(ls, use, nl, 5, 0xAu, u, W);
         /* the lights chosen, then every lane's light sample in one call (lanes of mesh lights share
          * vector instructions, emitter/area_many.c) */
-        for (int i = 0; i < nl; ++i) {
-            le[i] = nee[i] ? spc_scene_sample_emitter(ctx->scene, u[5 * i].x, &pmf[i]) : NULL;
-            u_lpos[i] = u[5 * i + 1];
-        }
-        spc_emitter_sample_direct_many(nl, le, ref, u_lpos, ds, ds_ok);
+        for (int i = 0; i < nl; ++i)
+            le[i] = nee[i] ? spc_scene_sample_emitter(ctx->scene, u[i].x, &pmf[i]) : NULL;
+        spc_emitter_sample_direct_many(nl, le, ref, u + W, ds, ds_ok);
         /* each live lane's light sample, and (while its record is in cache) its entry in the BSDF
          * samples' lists below: the diffuse lanes' directions, warped together (core/warp_many.c);
          * the other live lanes' BSDF samples in one call (rough metals share their visible-normal
@@ -526,15 +523,15 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             }
             if (ln[i].diffuse) {
                 dlane[nd] = i;
-                u_dir[nd++] = u[5 * i + 3];
+                u_dir[nd++] = u[3 * W + i];
                 continue;
             }
             sidx[i] = ns;
             sb[ns] = h[i].bsdf;
             sh[ns] = &h[i];
             swo[ns] = ln[i].wo;
-            su_lobe[ns] = u[5 * i + 2].x;
-            su_dir[ns++] = u[5 * i + 3];
+            su_lobe[ns] = u[2 * W + i].x;
+            su_dir[ns++] = u[3 * W + i];
         }
         /* the shadow rays in packets of one octant each */
         if (P == 8)
@@ -549,7 +546,7 @@ void spc_path_wave_sample(const spc_render_ctx *ctx, spc_tls *tls, int n, const 
             ended[i] = false;
             const bool diffuse = alive[i] && ln[i].diffuse;
             if (alive[i] && lane_scatter(ctx, &ln[i], occluded[i], &h[i], &wl[i], diffuse ? NULL : &bs[sidx[i]],
-                                         !diffuse && bs_ok[sidx[i]], use[i] & USE_RR ? u[5 * i + 4].x : 0.0))
+                                         !diffuse && bs_ok[sidx[i]], use[i] & USE_RR ? u[4 * W + i].x : 0.0))
                 continue;
             /* the path has ended: its estimate, and the lane takes the next sample */
             out[ln[i].path].L = ln[i].L;
