@@ -517,31 +517,40 @@ static double shape_eta(const spc_shape *s)
 /* The shape's faces, built on first use and published atomically (as plane_chains.c's map); NULL
  * if s is not a shape these chains handle. A cache is only ever built for a shape of flat_kind (a
  * property of the shape that does not change), so a published one answers without that test: the
- * walk asks for every caster at every vertex. */
-static const flat_cache *flat_get(const spc_shape *s)
+ * walk asks for every caster at every vertex. flat_build builds and publishes it (s not NULL and
+ * not yet published); flat_get reads it. */
+static const flat_cache *flat_build(const spc_shape *s)
+{
+    void **slot = (void **)&((spc_shape *)s)->flat_cache;
+    if (!flat_kind(s))
+        return NULL;
+    flat_cache *fc = calloc(1, sizeof *fc);
+    if (!fc)
+        return NULL;
+    fc->destroy = cache_destroy;
+    fc->eta = shape_eta(s);
+    cache_build(s, fc);
+    flat_cache *cur;
+    void *expected = NULL;
+    if (__atomic_compare_exchange_n(slot, &expected, (void *)fc, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+        cur = fc;
+    } else {
+        cache_destroy(fc); /* another thread won */
+        cur = expected;
+    }
+    return cur->ok ? cur : NULL;
+}
+
+/* The published cache read inline (the walk asks at every vertex, for every caster); the first
+ * call per shape, and every call for a shape of another kind, goes to flat_build. */
+static inline const flat_cache *flat_get(const spc_shape *s)
 {
     if (!s)
         return NULL;
-    void **slot = (void **)&((spc_shape *)s)->flat_cache;
-    flat_cache *cur = __atomic_load_n(slot, __ATOMIC_ACQUIRE);
-    if (!cur) {
-        if (!flat_kind(s))
-            return NULL;
-        flat_cache *fc = calloc(1, sizeof *fc);
-        if (!fc)
-            return NULL;
-        fc->destroy = cache_destroy;
-        fc->eta = shape_eta(s);
-        cache_build(s, fc);
-        void *expected = NULL;
-        if (__atomic_compare_exchange_n(slot, &expected, (void *)fc, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
-            cur = fc;
-        } else {
-            cache_destroy(fc); /* another thread won */
-            cur = expected;
-        }
-    }
-    return cur->ok ? cur : NULL;
+    const flat_cache *cur = __atomic_load_n((void *const *)&s->flat_cache, __ATOMIC_ACQUIRE);
+    if (cur)
+        return cur->ok ? cur : NULL;
+    return flat_build(s);
 }
 
 bool spc_flat_chain_shape(const spc_shape *s) { return flat_get(s) != NULL; }
@@ -1303,9 +1312,13 @@ static bool shadowed(const spc_scene *sc, const spc_chain_casters *cs, const fla
             double dz = plane_dist(f, z);
             if (fabs(dz) <= tol)
                 continue;
+            /* b's distinct corners where it keeps them (each triangle corner is one of them, so
+             * the test over all of them is the same; a quad's 4 in place of its triangles' 6) */
+            const spc_vec3 *corner = b->ncorners > 0 ? b->corners : fb->corner + 3 * b->first;
+            const int ncorner = b->ncorners > 0 ? b->ncorners : 3 * b->count;
             bool all = true;
-            for (int t = 3 * b->first; t < 3 * (b->first + b->count) && all; ++t) {
-                spc_vec3 c = fb->corner[t];
+            for (int t = 0; t < ncorner && all; ++t) {
+                spc_vec3 c = corner[t];
                 double dc = plane_dist(f, c);
                 if (!(dc * dz < 0.0 && fabs(dc) > tol)) {
                     all = false;
@@ -1319,6 +1332,16 @@ static bool shadowed(const spc_scene *sc, const spc_chain_casters *cs, const fla
         }
     }
     return false;
+}
+
+bool spc_flat_shape_face_shadowed(const spc_scene *sc, bool any_surface, const spc_shape *s, int i, spc_vec3 z,
+                                  double scale)
+{
+    const flat_cache *fc = flat_get(s);
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
+    if (!fc || !cs || i < 0 || i >= fc->nfaces)
+        return false;
+    return shadowed(sc, cs, fc, &fc->face[i], z, SPC_FLAT_SIDE_REL * scale);
 }
 
 /* The directions from the point z to the points of face f (from its corners; from the sphere
