@@ -107,7 +107,13 @@ typedef struct cone {
     double r;
 } cone;
 
-static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(fmax(-1.0, fmin(1.0, spc_dot(a, b)))); }
+/* fmin and fmax with glibc's values (a NaN argument ignored, a tie such as -0 and +0 giving the
+ * second), inline: the walk and its solves ask for millions a render, and without
+ * -ffinite-math-only the compiler leaves each a library call. */
+static inline double dmin(double a, double b) { return b != b ? a : a != a ? b : a < b ? a : b; }
+static inline double dmax(double a, double b) { return b != b ? a : a != a ? b : a > b ? a : b; }
+
+static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(dmax(-1.0, dmin(1.0, spc_dot(a, b)))); }
 
 /* asin(x) for the critical angles: x is a ratio of the scene's indices, so one thread asks for a
  * few values over and over; the last two are kept per thread (the same value, without the call). */
@@ -190,7 +196,7 @@ static cone cone_of(spc_vec3 axis, const spc_vec3 *g, int n)
         double c = len > 0.0 ? spc_dot(axis, g[i]) / len : -1.0;
         if (!(c > 1e-6))
             return (cone){spc_v3(0, 0, 1), 4.0};
-        cmin = fmin(cmin, c);
+        cmin = dmin(cmin, c);
     }
     return (cone){axis, acos(cmin) + 1e-9};
 }
@@ -288,8 +294,8 @@ static void corner_extent(const flat_cache *fc, const flat_face *f, const flat_f
     for (int t = f->first; t < f->first + f->count; ++t)
         for (int j = 0; j < 3; ++j) {
             double d = plane_dist(g, fc->corner[3 * t + j]);
-            hi = fmax(hi, d);
-            lo = fmin(lo, d);
+            hi = dmax(hi, d);
+            lo = dmin(lo, d);
         }
     *top = hi;
     *bot = lo;
@@ -352,7 +358,7 @@ static bool inside_convex(const flat_cache *fc, spc_vec3 p, double tol)
 static bool total_reflection(spc_vec3 d, spc_vec3 n, double ratio)
 {
     double c = spc_dot(d, n);
-    return ratio * sqrt(fmax(0.0, 1.0 - c * c)) > 1.0;
+    return ratio * sqrt(dmax(0.0, 1.0 - c * c)) > 1.0;
 }
 
 static bool same_point(spc_vec3 a, spc_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
@@ -462,15 +468,15 @@ static void cache_build(const spc_shape *s, flat_cache *c)
         flat_face *F = &c->face[f];
         spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
         for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j) {
-            lo = spc_v3(fmin(lo.x, c->corner[j].x), fmin(lo.y, c->corner[j].y), fmin(lo.z, c->corner[j].z));
-            hi = spc_v3(fmax(hi.x, c->corner[j].x), fmax(hi.y, c->corner[j].y), fmax(hi.z, c->corner[j].z));
+            lo = spc_v3(dmin(lo.x, c->corner[j].x), dmin(lo.y, c->corner[j].y), dmin(lo.z, c->corner[j].z));
+            hi = spc_v3(dmax(hi.x, c->corner[j].x), dmax(hi.y, c->corner[j].y), dmax(hi.z, c->corner[j].z));
         }
         F->c = spc_scale(spc_add(lo, hi), 0.5);
         F->rad = 0.0;
         F->ncorners = 0;
         bool all = true;
         for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j) {
-            F->rad = fmax(F->rad, spc_distance(F->c, c->corner[j]));
+            F->rad = dmax(F->rad, spc_distance(F->c, c->corner[j]));
             bool seen = false;
             for (int q = 0; q < F->ncorners && !seen; ++q)
                 seen = same_point(F->corners[q], c->corner[j]);
@@ -705,7 +711,7 @@ static double lower_bound_on_faces(const flat_problem *P, double smooth, const d
         double gu = g[2 * i], gv = g[2 * i + 1], su = s[2 * i], sv = s[2 * i + 1];
         double m = INFINITY;
         for (int j = 0; j < 3 * f->count; ++j)
-            m = fmin(m, gu * (c[2 * j] - su) + gv * (c[2 * j + 1] - sv));
+            m = dmin(m, gu * (c[2 * j] - su) + gv * (c[2 * j + 1] - sv));
         lb += m - sqrt(gu * gu + gv * gv) * SPC_FLAT_BOUND_SLACK * P->scale;
     }
     return lb;
@@ -734,8 +740,8 @@ static double line_min(const flat_problem *P, const spc_vec3 *p, const double *s
         double dd = spc_dot(dr[j], dr[j]);
         if (dd > 0.0) {
             double tj = -spc_dot(r[j], dr[j]) / dd;
-            tmin = fmin(tmin, tj);
-            tmax = fmax(tmax, tj);
+            tmin = dmin(tmin, tj);
+            tmax = dmax(tmax, tj);
         }
     }
     if (tmax > 0.0 && tmax < hi)
@@ -820,10 +826,10 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
             spc_vec3 t = spc_sub(spc_scale(e[i], P->seg[i]), spc_scale(e[i + 1], P->seg[i + 1]));
             g[2 * i] = spc_dot(t, P->v[i].f->u);
             g[2 * i + 1] = spc_dot(t, P->v[i].f->v);
-            gmax = fmax(gmax, fmax(fabs(g[2 * i]), fabs(g[2 * i + 1])));
+            gmax = dmax(gmax, dmax(fabs(g[2 * i]), fabs(g[2 * i + 1])));
         }
         double lb_here = lower_bound_on_faces(P, smooth, s, g, *L);
-        *lb = fmax(*lb, lb_here);
+        *lb = dmax(*lb, lb_here);
         if (P->bound && *lb > *L + SPC_FLAT_BOUND_SLACK * P->scale)
             return -2.0; /* every point of C is longer than this one: the minimum lies outside C */
         if (P->bound && mu > 0.0 && kink_certain(P, p, mu, *L - lb_here))
@@ -851,7 +857,7 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
                     B[r][c] += B2[r][c];
                     H[(2 * i + r) * n + 2 * i + c] = B[r][c];
                 }
-            diag = fmax(diag, B[0][0] + B[1][1]);
+            diag = dmax(diag, B[0][0] + B[1][1]);
             if (i + 1 < k) {
                 block(cj[i + 1], P->uu[i], el[i], ea[i + 1], B);
                 for (int r = 0; r < 2; ++r)
@@ -1014,7 +1020,7 @@ static int parallel_start(const flat_problem *P, double *s)
             h[j] = fabs(z[j + 1] - z[j]);
             if (!(h[j] > tiny) || !(eta[j] > 0.0))
                 return 0;
-            emin = fmin(emin, eta[j]);
+            emin = dmin(emin, eta[j]);
         }
         spc_vec3 D = spc_sub(xy, spc_scale(N, spc_dot(N, xy)));
         double dl = spc_length(D), a = 0.0;
@@ -1401,7 +1407,7 @@ static spc_vec3 refract_axis(spc_vec3 a, spc_vec3 m, double n_in, double n_out)
     spc_vec3 tan = spc_add(a, spc_scale(m, spc_dot(a, down)));
     spc_vec3 tt = spc_scale(tan, n_in / n_out);
     double st2 = spc_dot(tt, tt);
-    return spc_normalize(spc_add(tt, spc_scale(down, sqrt(fmax(0.0, 1.0 - st2)))));
+    return spc_normalize(spc_add(tt, spc_scale(down, sqrt(dmax(0.0, 1.0 - st2)))));
 }
 
 /* The cap of the directions leaving a vertex on the plane of unit normal m (toward the side the
@@ -1458,14 +1464,14 @@ static bool cone_through(const cone *cp, spc_vec3 m, bool reflect, double n_in, 
         return true;
     }
     if (c.r < SPC_PI)
-        th = acos(fmax(-1.0, fmin(1.0, cth)));
-    double crit = critical_angle(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
+        th = acos(dmax(-1.0, dmin(1.0, cth)));
+    double crit = critical_angle(n_out / n_in), ti = dmin(0.5 * SPC_PI, th + c.r);
     if (c.r < SPC_PI && th - c.r >= crit)
         return false; /* total internal reflection for every direction */
-    double so = fmin(1.0, n_in / n_out * sin(ti));
+    double so = dmin(1.0, n_in / n_out * sin(ti));
     *out = (cone){down, c.r >= SPC_PI ? 0.5 * SPC_PI : asin(so)};
     if (narrow && ti < crit) {
-        double L = n_in * cos(ti) / (n_out * sqrt(fmax(1e-300, 1.0 - so * so)));
+        double L = n_in * cos(ti) / (n_out * sqrt(dmax(1e-300, 1.0 - so * so)));
         if (c.r * L < out->r)
             *out = (cone){refract_axis(c.a, m, n_in, n_out), c.r * L};
     }
