@@ -1035,8 +1035,10 @@ TEST(face_shadow_test_same_answer)
     spc_rng_seed(&rng, 38, 1);
     int tests = 0, hidden = 0, seen = 0, differ = 0;
     for (int n = 0; n < 400; ++n) {
-        double h = n % 4 == 0 ? 0.05 + 0.9 * rnd() : n % 4 == 1 ? 1.1 + 0.4 * rnd() : n % 4 == 2 ? 1.7 + 1.3 * rnd()
-                                                                                                 : 0.5 + 1.5 * rnd();
+        double h = n % 4 == 0   ? 0.05 + 0.9 * rnd()
+                   : n % 4 == 1 ? 1.1 + 0.4 * rnd()
+                   : n % 4 == 2 ? 1.7 + 1.3 * rnd()
+                                : 0.5 + 1.5 * rnd();
         double spread = n % 4 == 3 ? 4.0 : 2.0;
         spc_vec3 z = spc_v3(spread * (2.0 * rnd() - 1.0), spread * (2.0 * rnd() - 1.0), h);
         for (int si = 1; si <= 3; ++si) {

@@ -1410,14 +1410,6 @@ static spc_vec3 refract_axis(spc_vec3 a, spc_vec3 m, double n_in, double n_out)
     return spc_normalize(spc_add(tt, spc_scale(down, sqrt(dmax(0.0, 1.0 - st2)))));
 }
 
-/* The cap of the directions leaving a vertex on the plane of unit normal m (toward the side the
- * path arrives from) with the event given, from the cap c of the arriving ones; false if none can
- * arrive (or, refracting out, pass). n_in, n_out the indices (equal for a reflection). Where the
- * cap is narrower than a hemisphere and its axis arrives, refraction is bounded by its Lipschitz
- * constant on the cap (the largest stretch of the map's differential: polar n_in cos ti / (n_out
- * cos to), azimuthal sin to / sin ti = n_in / n_out; both at most n_in / n_out into a denser
- * medium, largest at the cap's widest incidence out of one): the image lies within r L of the
- * refracted axis. */
 /* cth < -sin(x) - 1e-12 (cone_through's test), for x <= pi/2: most calls are decided by sin's
  * polynomial bounds x - x^3/6 <= sin x <= x - x^3/6 + x^5/120 (x >= 0; Taylor's, for every such
  * x) outside that band widened by 1e-14 (far above the rounding of either side), the sine computed
@@ -1434,6 +1426,14 @@ static inline bool away(double cth, double x)
     return cth < -sin(x) - 1e-12;
 }
 
+/* The cap of the directions leaving a vertex on the plane of unit normal m (toward the side the
+ * path arrives from) with the event given, from the cap c of the arriving ones; false if none can
+ * arrive (or, refracting out, pass). n_in, n_out the indices (equal for a reflection). Where the
+ * cap is narrower than a hemisphere and its axis arrives, refraction is bounded by its Lipschitz
+ * constant on the cap (the largest stretch of the map's differential: polar n_in cos ti / (n_out
+ * cos to), azimuthal sin to / sin ti = n_in / n_out; both at most n_in / n_out into a denser
+ * medium, largest at the cap's widest incidence out of one): the image lies within r L of the
+ * refracted axis. */
 static bool cone_through(const cone *cp, spc_vec3 m, bool reflect, double n_in, double n_out, cone *out)
 {
     const cone c = *cp;
