@@ -1014,6 +1014,87 @@ TEST(flat_polish_same_values)
     spc_scene_destroy(sc);
 }
 
+/* The walk's test of a face hidden by another convex caster (spc_flat_shape_face_shadowed), from
+ * points below, between, above and beside three slabs, against the same test written out here over
+ * the face's corners found from the mesh's vertices on its plane: the same answer for every face and
+ * point, and both answers among them. */
+TEST(face_shadow_test_same_answer)
+{
+    spc_scene *sc = floor_scene();
+    spc_mat4 A = tu_place(spc_v3(1.5, 1.5, 0.06), spc_v3(1, 0, 0), 0.0, spc_v3(0.0, 0.0, 1.0));
+    spc_mat4 B = tu_place(spc_v3(1.5, 1.5, 0.06), spc_v3(1, 0, 0), 0.0, spc_v3(0.0, 0.0, 1.6));
+    spc_mat4 C = tu_place(spc_v3(0.4, 0.4, 0.05), spc_v3(0, 1, 0), 25.0, spc_v3(0.9, 0.3, 0.5));
+    add_cube(sc, &A, tu_glass(sc, 1.5));
+    add_cube(sc, &B, tu_glass(sc, 1.5));
+    add_cube(sc, &C, tu_glass(sc, 1.33));
+    sc = add_light_finish(sc, spc_v3(0.3, -0.2, 2.6), 0.2);
+    CHECK(sc != NULL);
+    if (!sc)
+        return;
+    const double scale = 4.0, tol = 1e-9 * scale; /* SPC_FLAT_SIDE_REL of the problem's size */
+    spc_rng_seed(&rng, 38, 1);
+    int tests = 0, hidden = 0, seen = 0, differ = 0;
+    for (int n = 0; n < 400; ++n) {
+        double h = n % 4 == 0   ? 0.05 + 0.9 * rnd()
+                   : n % 4 == 1 ? 1.1 + 0.4 * rnd()
+                   : n % 4 == 2 ? 1.7 + 1.3 * rnd()
+                                : 0.5 + 1.5 * rnd();
+        double spread = n % 4 == 3 ? 4.0 : 2.0;
+        spc_vec3 z = spc_v3(spread * (2.0 * rnd() - 1.0), spread * (2.0 * rnd() - 1.0), h);
+        for (int si = 1; si <= 3; ++si) {
+            const spc_shape *s = sc->shapes[si];
+            spc_vec3 nb[SPC_FLAT_MAX_FACES];
+            double db[SPC_FLAT_MAX_FACES];
+            int nfb = spc_flat_shape_planes(s, nb, db, SPC_FLAT_MAX_FACES);
+            for (int b = 0; b < nfb; ++b) {
+                /* the face's corners: the mesh's vertices on its plane (the shape is convex) */
+                spc_vec3 corner[64];
+                int nc = 0;
+                for (size_t v = 0; v < s->mesh.nverts && nc < 64; ++v) {
+                    spc_vec3 p = spc_v3(s->mesh.p[3 * v], s->mesh.p[3 * v + 1], s->mesh.p[3 * v + 2]);
+                    if (fabs(spc_dot(nb[b], p) - db[b]) < 1e-6)
+                        corner[nc++] = p;
+                }
+                bool want = false;
+                for (int ci = 1; ci <= 3 && !want; ++ci) {
+                    const spc_shape *c = sc->shapes[ci];
+                    if (ci == si || !spc_flat_chain_closed(c))
+                        continue;
+                    spc_vec3 nf[SPC_FLAT_MAX_FACES];
+                    double df[SPC_FLAT_MAX_FACES];
+                    int nff = spc_flat_shape_planes(c, nf, df, SPC_FLAT_MAX_FACES);
+                    for (int f = 0; f < nff && !want; ++f) {
+                        double dz = spc_dot(nf[f], z) - df[f];
+                        if (fabs(dz) <= tol)
+                            continue;
+                        bool all = nc > 0;
+                        for (int k = 0; k < nc && all; ++k) {
+                            double dc = spc_dot(nf[f], corner[k]) - df[f];
+                            if (!(dc * dz < 0.0 && fabs(dc) > tol)) {
+                                all = false;
+                                break;
+                            }
+                            spc_vec3 q = spc_add(corner[k], spc_scale(spc_sub(z, corner[k]), dc / (dc - dz)));
+                            all = spc_flat_shape_face_holds(c, f, q, -tol);
+                        }
+                        want = all;
+                    }
+                }
+                bool got = spc_flat_shape_face_shadowed(sc, true, s, b, z, scale);
+                ++tests;
+                hidden += got;
+                seen += !got;
+                differ += got != want;
+            }
+        }
+    }
+    printf("  %d faces tested: %d hidden, %d not; %d differ from the test over the mesh's corners\n", tests, hidden,
+           seen, differ);
+    CHECK(differ == 0);
+    CHECK(hidden >= 50 && seen >= 50);
+    spc_scene_destroy(sc);
+}
+
 int main(void)
 {
     RUN(slab_lateral_shift);
@@ -1033,5 +1114,6 @@ int main(void)
     RUN(vertex_bound_same_roots);
     RUN(polish_without_end_same_chain);
     RUN(flat_polish_same_values);
+    RUN(face_shadow_test_same_answer);
     return spc_test_finish();
 }

@@ -107,7 +107,13 @@ typedef struct cone {
     double r;
 } cone;
 
-static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(fmax(-1.0, fmin(1.0, spc_dot(a, b)))); }
+/* fmin and fmax with glibc's values (a NaN argument ignored, a tie such as -0 and +0 giving the
+ * second), inline: the walk and its solves ask for millions a render, and without
+ * -ffinite-math-only the compiler leaves each a library call. */
+static inline double dmin(double a, double b) { return b != b ? a : a != a ? b : a < b ? a : b; }
+static inline double dmax(double a, double b) { return b != b ? a : a != a ? b : a > b ? a : b; }
+
+static double angle_between(spc_vec3 a, spc_vec3 b) { return acos(dmax(-1.0, dmin(1.0, spc_dot(a, b)))); }
 
 /* asin(x) for the critical angles: x is a ratio of the scene's indices, so one thread asks for a
  * few values over and over; the last two are kept per thread (the same value, without the call). */
@@ -190,7 +196,7 @@ static cone cone_of(spc_vec3 axis, const spc_vec3 *g, int n)
         double c = len > 0.0 ? spc_dot(axis, g[i]) / len : -1.0;
         if (!(c > 1e-6))
             return (cone){spc_v3(0, 0, 1), 4.0};
-        cmin = fmin(cmin, c);
+        cmin = dmin(cmin, c);
     }
     return (cone){axis, acos(cmin) + 1e-9};
 }
@@ -288,8 +294,8 @@ static void corner_extent(const flat_cache *fc, const flat_face *f, const flat_f
     for (int t = f->first; t < f->first + f->count; ++t)
         for (int j = 0; j < 3; ++j) {
             double d = plane_dist(g, fc->corner[3 * t + j]);
-            hi = fmax(hi, d);
-            lo = fmin(lo, d);
+            hi = dmax(hi, d);
+            lo = dmin(lo, d);
         }
     *top = hi;
     *bot = lo;
@@ -352,7 +358,7 @@ static bool inside_convex(const flat_cache *fc, spc_vec3 p, double tol)
 static bool total_reflection(spc_vec3 d, spc_vec3 n, double ratio)
 {
     double c = spc_dot(d, n);
-    return ratio * sqrt(fmax(0.0, 1.0 - c * c)) > 1.0;
+    return ratio * sqrt(dmax(0.0, 1.0 - c * c)) > 1.0;
 }
 
 static bool same_point(spc_vec3 a, spc_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
@@ -462,15 +468,15 @@ static void cache_build(const spc_shape *s, flat_cache *c)
         flat_face *F = &c->face[f];
         spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
         for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j) {
-            lo = spc_v3(fmin(lo.x, c->corner[j].x), fmin(lo.y, c->corner[j].y), fmin(lo.z, c->corner[j].z));
-            hi = spc_v3(fmax(hi.x, c->corner[j].x), fmax(hi.y, c->corner[j].y), fmax(hi.z, c->corner[j].z));
+            lo = spc_v3(dmin(lo.x, c->corner[j].x), dmin(lo.y, c->corner[j].y), dmin(lo.z, c->corner[j].z));
+            hi = spc_v3(dmax(hi.x, c->corner[j].x), dmax(hi.y, c->corner[j].y), dmax(hi.z, c->corner[j].z));
         }
         F->c = spc_scale(spc_add(lo, hi), 0.5);
         F->rad = 0.0;
         F->ncorners = 0;
         bool all = true;
         for (int j = 3 * F->first; j < 3 * (F->first + F->count); ++j) {
-            F->rad = fmax(F->rad, spc_distance(F->c, c->corner[j]));
+            F->rad = dmax(F->rad, spc_distance(F->c, c->corner[j]));
             bool seen = false;
             for (int q = 0; q < F->ncorners && !seen; ++q)
                 seen = same_point(F->corners[q], c->corner[j]);
@@ -517,31 +523,40 @@ static double shape_eta(const spc_shape *s)
 /* The shape's faces, built on first use and published atomically (as plane_chains.c's map); NULL
  * if s is not a shape these chains handle. A cache is only ever built for a shape of flat_kind (a
  * property of the shape that does not change), so a published one answers without that test: the
- * walk asks for every caster at every vertex. */
-static const flat_cache *flat_get(const spc_shape *s)
+ * walk asks for every caster at every vertex. flat_build builds and publishes it (s not NULL and
+ * not yet published); flat_get reads it. */
+static const flat_cache *flat_build(const spc_shape *s)
+{
+    void **slot = (void **)&((spc_shape *)s)->flat_cache;
+    if (!flat_kind(s))
+        return NULL;
+    flat_cache *fc = calloc(1, sizeof *fc);
+    if (!fc)
+        return NULL;
+    fc->destroy = cache_destroy;
+    fc->eta = shape_eta(s);
+    cache_build(s, fc);
+    flat_cache *cur;
+    void *expected = NULL;
+    if (__atomic_compare_exchange_n(slot, &expected, (void *)fc, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+        cur = fc;
+    } else {
+        cache_destroy(fc); /* another thread won */
+        cur = expected;
+    }
+    return cur->ok ? cur : NULL;
+}
+
+/* The published cache read inline (the walk asks at every vertex, for every caster); the first
+ * call per shape, and every call for a shape of another kind, goes to flat_build. */
+static inline const flat_cache *flat_get(const spc_shape *s)
 {
     if (!s)
         return NULL;
-    void **slot = (void **)&((spc_shape *)s)->flat_cache;
-    flat_cache *cur = __atomic_load_n(slot, __ATOMIC_ACQUIRE);
-    if (!cur) {
-        if (!flat_kind(s))
-            return NULL;
-        flat_cache *fc = calloc(1, sizeof *fc);
-        if (!fc)
-            return NULL;
-        fc->destroy = cache_destroy;
-        fc->eta = shape_eta(s);
-        cache_build(s, fc);
-        void *expected = NULL;
-        if (__atomic_compare_exchange_n(slot, &expected, (void *)fc, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
-            cur = fc;
-        } else {
-            cache_destroy(fc); /* another thread won */
-            cur = expected;
-        }
-    }
-    return cur->ok ? cur : NULL;
+    const flat_cache *cur = __atomic_load_n((void *const *)&s->flat_cache, __ATOMIC_ACQUIRE);
+    if (cur)
+        return cur->ok ? cur : NULL;
+    return flat_build(s);
 }
 
 bool spc_flat_chain_shape(const spc_shape *s) { return flat_get(s) != NULL; }
@@ -696,7 +711,7 @@ static double lower_bound_on_faces(const flat_problem *P, double smooth, const d
         double gu = g[2 * i], gv = g[2 * i + 1], su = s[2 * i], sv = s[2 * i + 1];
         double m = INFINITY;
         for (int j = 0; j < 3 * f->count; ++j)
-            m = fmin(m, gu * (c[2 * j] - su) + gv * (c[2 * j + 1] - sv));
+            m = dmin(m, gu * (c[2 * j] - su) + gv * (c[2 * j + 1] - sv));
         lb += m - sqrt(gu * gu + gv * gv) * SPC_FLAT_BOUND_SLACK * P->scale;
     }
     return lb;
@@ -725,8 +740,8 @@ static double line_min(const flat_problem *P, const spc_vec3 *p, const double *s
         double dd = spc_dot(dr[j], dr[j]);
         if (dd > 0.0) {
             double tj = -spc_dot(r[j], dr[j]) / dd;
-            tmin = fmin(tmin, tj);
-            tmax = fmax(tmax, tj);
+            tmin = dmin(tmin, tj);
+            tmax = dmax(tmax, tj);
         }
     }
     if (tmax > 0.0 && tmax < hi)
@@ -811,10 +826,10 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
             spc_vec3 t = spc_sub(spc_scale(e[i], P->seg[i]), spc_scale(e[i + 1], P->seg[i + 1]));
             g[2 * i] = spc_dot(t, P->v[i].f->u);
             g[2 * i + 1] = spc_dot(t, P->v[i].f->v);
-            gmax = fmax(gmax, fmax(fabs(g[2 * i]), fabs(g[2 * i + 1])));
+            gmax = dmax(gmax, dmax(fabs(g[2 * i]), fabs(g[2 * i + 1])));
         }
         double lb_here = lower_bound_on_faces(P, smooth, s, g, *L);
-        *lb = fmax(*lb, lb_here);
+        *lb = dmax(*lb, lb_here);
         if (P->bound && *lb > *L + SPC_FLAT_BOUND_SLACK * P->scale)
             return -2.0; /* every point of C is longer than this one: the minimum lies outside C */
         if (P->bound && mu > 0.0 && kink_certain(P, p, mu, *L - lb_here))
@@ -842,7 +857,7 @@ static double newton(const flat_problem *P, double mu, double *s, spc_vec3 *p, d
                     B[r][c] += B2[r][c];
                     H[(2 * i + r) * n + 2 * i + c] = B[r][c];
                 }
-            diag = fmax(diag, B[0][0] + B[1][1]);
+            diag = dmax(diag, B[0][0] + B[1][1]);
             if (i + 1 < k) {
                 block(cj[i + 1], P->uu[i], el[i], ea[i + 1], B);
                 for (int r = 0; r < 2; ++r)
@@ -1005,7 +1020,7 @@ static int parallel_start(const flat_problem *P, double *s)
             h[j] = fabs(z[j + 1] - z[j]);
             if (!(h[j] > tiny) || !(eta[j] > 0.0))
                 return 0;
-            emin = fmin(emin, eta[j]);
+            emin = dmin(emin, eta[j]);
         }
         spc_vec3 D = spc_sub(xy, spc_scale(N, spc_dot(N, xy)));
         double dl = spc_length(D), a = 0.0;
@@ -1303,9 +1318,13 @@ static bool shadowed(const spc_scene *sc, const spc_chain_casters *cs, const fla
             double dz = plane_dist(f, z);
             if (fabs(dz) <= tol)
                 continue;
+            /* b's distinct corners where it keeps them (each triangle corner is one of them, so
+             * the test over all of them is the same; a quad's 4 in place of its triangles' 6) */
+            const spc_vec3 *corner = b->ncorners > 0 ? b->corners : fb->corner + 3 * b->first;
+            const int ncorner = b->ncorners > 0 ? b->ncorners : 3 * b->count;
             bool all = true;
-            for (int t = 3 * b->first; t < 3 * (b->first + b->count) && all; ++t) {
-                spc_vec3 c = fb->corner[t];
+            for (int t = 0; t < ncorner && all; ++t) {
+                spc_vec3 c = corner[t];
                 double dc = plane_dist(f, c);
                 if (!(dc * dz < 0.0 && fabs(dc) > tol)) {
                     all = false;
@@ -1319,6 +1338,16 @@ static bool shadowed(const spc_scene *sc, const spc_chain_casters *cs, const fla
         }
     }
     return false;
+}
+
+bool spc_flat_shape_face_shadowed(const spc_scene *sc, bool any_surface, const spc_shape *s, int i, spc_vec3 z,
+                                  double scale)
+{
+    const flat_cache *fc = flat_get(s);
+    const spc_chain_casters *cs = spc_chain_casters_of(sc, any_surface);
+    if (!fc || !cs || i < 0 || i >= fc->nfaces)
+        return false;
+    return shadowed(sc, cs, fc, &fc->face[i], z, SPC_FLAT_SIDE_REL * scale);
 }
 
 /* The directions from the point z to the points of face f (from its corners; from the sphere
@@ -1378,7 +1407,23 @@ static spc_vec3 refract_axis(spc_vec3 a, spc_vec3 m, double n_in, double n_out)
     spc_vec3 tan = spc_add(a, spc_scale(m, spc_dot(a, down)));
     spc_vec3 tt = spc_scale(tan, n_in / n_out);
     double st2 = spc_dot(tt, tt);
-    return spc_normalize(spc_add(tt, spc_scale(down, sqrt(fmax(0.0, 1.0 - st2)))));
+    return spc_normalize(spc_add(tt, spc_scale(down, sqrt(dmax(0.0, 1.0 - st2)))));
+}
+
+/* cth < -sin(x) - 1e-12 (cone_through's test), for x <= pi/2: most calls are decided by sin's
+ * polynomial bounds x - x^3/6 <= sin x <= x - x^3/6 + x^5/120 (x >= 0; Taylor's, for every such
+ * x) outside that band widened by 1e-14 (far above the rounding of either side), the sine computed
+ * only inside it, so the answer is the same. */
+static inline bool away(double cth, double x)
+{
+    if (x >= 0.0) {
+        double x2 = x * x, lo = x - x * x2 * (1.0 / 6.0), hi = lo + x * x2 * x2 * (1.0 / 120.0);
+        if (cth < -hi - 1e-12 - 1e-14)
+            return true;
+        if (cth >= -lo - 1e-12 + 1e-14)
+            return false;
+    }
+    return cth < -sin(x) - 1e-12;
 }
 
 /* The cap of the directions leaving a vertex on the plane of unit normal m (toward the side the
@@ -1398,7 +1443,7 @@ static bool cone_through(const cone *cp, spc_vec3 m, bool reflect, double n_in, 
      * cos th <= -sin(c.r - 1e-12), with 1e-12 more on the cosine so that it is never wider) */
     double cth = spc_dot(c.a, down), th = 0.0;
     /* cth >= 0 passes without the sine: sin(c.r - 1e-12) >= -1e-12 for the radii c.r >= 0 */
-    if (cth < 0.0 && c.r < SPC_PI && c.r < 0.5 * SPC_PI + 1e-12 && cth < -sin(c.r - 1e-12) - 1e-12)
+    if (cth < 0.0 && c.r < SPC_PI && c.r < 0.5 * SPC_PI + 1e-12 && away(cth, c.r - 1e-12))
         return false; /* every direction runs parallel to the plane or away from it */
     if (reflect) {
         if (c.r >= SPC_PI) {
@@ -1419,14 +1464,14 @@ static bool cone_through(const cone *cp, spc_vec3 m, bool reflect, double n_in, 
         return true;
     }
     if (c.r < SPC_PI)
-        th = acos(fmax(-1.0, fmin(1.0, cth)));
-    double crit = critical_angle(n_out / n_in), ti = fmin(0.5 * SPC_PI, th + c.r);
+        th = acos(dmax(-1.0, dmin(1.0, cth)));
+    double crit = critical_angle(n_out / n_in), ti = dmin(0.5 * SPC_PI, th + c.r);
     if (c.r < SPC_PI && th - c.r >= crit)
         return false; /* total internal reflection for every direction */
-    double so = fmin(1.0, n_in / n_out * sin(ti));
+    double so = dmin(1.0, n_in / n_out * sin(ti));
     *out = (cone){down, c.r >= SPC_PI ? 0.5 * SPC_PI : asin(so)};
     if (narrow && ti < crit) {
-        double L = n_in * cos(ti) / (n_out * sqrt(fmax(1e-300, 1.0 - so * so)));
+        double L = n_in * cos(ti) / (n_out * sqrt(dmax(1e-300, 1.0 - so * so)));
         if (c.r * L < out->r)
             *out = (cone){refract_axis(c.a, m, n_in, n_out), c.r * L};
     }
@@ -1556,10 +1601,17 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
         const flat_link *lk = prev ? flat_link_get(prev->fc, fc) : NULL;
         const int pf = prev ? (int)(prev->f - prev->fc->face) : 0;
         double eta = fc->eta;
-        for (int fi = 0; fi < fc->nfaces && !w->stop; ++fi) {
+        /* the faces to try, as bit 2 fi (state_bit's exterior-or-interior pair folded onto its
+         * even bit), in order: where bounded, only those through which some sequence of at most
+         * hi vertices reaches y */
+        uint32_t todo = 0x55555555u & (fc->nfaces >= 16 ? ~0u : (1u << 2 * fc->nfaces) - 1u);
+        if (w->bounded) {
+            uint32_t m = w->near[w->hi - i - 1][j];
+            todo &= m | m >> 1;
+        }
+        for (; todo && !w->stop; todo &= todo - 1u) {
+            const int fi = __builtin_ctz(todo) >> 1;
             const flat_face *f = &fc->face[fi];
-            if (w->bounded && !(w->near[w->hi - i - 1][j] & (state_bit(fi, 1) | state_bit(fi, -1))))
-                continue; /* no sequence of at most hi vertices reaches y through this face */
             if (prev) {
                 if (prev->f == f)
                     continue;

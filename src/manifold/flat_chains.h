@@ -92,6 +92,12 @@ bool spc_flat_shape_face_holds(const spc_shape *s, int i, spc_vec3 p, double tol
  * planes through a) meet the sphere (c, R)? false only where every triangle's pyramid from a lies
  * more than margin from the sphere; true where s is not such a shape. */
 bool spc_flat_shape_face_cone_meets(const spc_shape *s, int i, spc_vec3 a, spc_vec3 c, double R, double margin);
+/* Is face i of such a shape s hidden from the point z by another closed convex flat caster of sc
+ * (spc_chain_casters_of(sc, any_surface)): does every segment from z to the face cross the inside
+ * of one face of one such caster? The walk's test of a first and a last vertex's face, at its
+ * tolerance for a problem of size `scale`. false where s is not such a shape. */
+bool spc_flat_shape_face_shadowed(const spc_scene *sc, bool any_surface, const spc_shape *s, int i, spc_vec3 z,
+                                  double scale);
 /* Is such a shape a one-sided mirror (its faces reflect on their exterior side only)? */
 bool spc_flat_shape_front_only(const spc_shape *s);
 /* Is c one of the chains spc_flat_chains_all enumerates (1 to SPC_FLAT_MAX_VERTICES vertices, all
