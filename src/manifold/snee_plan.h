@@ -558,6 +558,18 @@
 #define SPC_SNEE_PLAN_BALL_ON_MIRROR_GAP 0.25
 #define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT ",camsplit=16"
 
+/* Appended for path where a ball enumerated exactly stands beside a flat mirror under small area
+ * lights (at most SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR from the casters, light tracing on, no
+ * caustic guide at receivers): light tracing's subpaths also join the pinhole through the mirror
+ * (integrator/path_lt.h, ltslab: camera chains through flat faces), so the ball's caustic on the
+ * floor seen in the mirror is light tracing's too. Without it that caustic was specular NEE's and
+ * BSDF sampling's alone, and where a light point put the floor point seen in the mirror on the
+ * caustic's fold, the sphere enumeration's two coalescing chains each carried the power heuristic's
+ * largest value, about the floor's albedo times the light's radiance over 2 (a sample worth 1000
+ * times the pixel): the one-pixel seeds of bench/check/hand_caustic_scenes.py's
+ * hb_flatmirror_ball. Measured in bench/RESULTS.md, part flatball38. */
+#define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_JOINS ",ltslab"
+
 /* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
  * cylinder), after the query from the camera: that query by Russian roulette in a fraction Q of the
  * camera samples, Q from the share of the image that sees a mirror first as for glass (snee_plan.c,
