@@ -568,8 +568,10 @@
  * largest value, about the floor's albedo times the light's radiance over 2 (a sample worth 1000
  * times the pixel): the one-pixel seeds of bench/check/hand_caustic_scenes.py's
  * hb_flatmirror_ball. At equal CPU time over 24 seeds its mean relMSE fell 2.3x (27.6x none's ->
- * 63.6x, the median 1.7x) for 5% fewer samples; bench/check/ball_mirror_floor.xml, where the mirror
- * lies under the ball and no join goes through it, pays that 5% (18.7x -> 17.5x over 16 seeds).
+ * 63.6x, the median 1.7x) for 5% fewer samples, and 1.1-1.25x over 16 seeds on three more scenes
+ * where the floor is seen in an upright mirror; where the mirror lies under the ball
+ * (bench/check/ball_mirror_floor.xml, ball_mirror_lifted.xml, ball_mirror_tilt.xml) few or no joins
+ * go through it and the samples' 1-9% are paid for nothing (0.93-0.99x none's ratio).
  * Measured in bench/RESULTS.md, part flatball38. */
 #define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_JOINS ",ltslab"
 
