@@ -572,7 +572,7 @@
  * where the floor is seen in an upright mirror; where the mirror lies under the ball
  * (bench/check/ball_mirror_floor.xml, ball_mirror_lifted.xml, ball_mirror_tilt.xml) few or no joins
  * go through it and the samples' 1-9% are paid for nothing (0.93-0.99x none's ratio).
- * Measured in bench/RESULTS.md, part flatball38. */
+ * Measured in bench/RESULTS.md, "hb_flatmirror_ball's tail is not a BSDF hit". */
 #define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_JOINS ",ltslab"
 
 /* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
