@@ -427,6 +427,9 @@ typedef struct area_tally {
     bool plane;    /* a normal-mapped plane: specular NEE's chains at x2 by the plane's enumeration */
     int exact;     /* joins whose three weights sum to one within 1e-5 */
     int joins, matched, kinds[3];
+    /* joins toward the pinhole through a camera chain of flat faces (ltslab), and those of them whose
+     * light chain the enumeration at x2 finds (their three weights checked) */
+    int through_flat, through_flat_matched;
     /* slabs: joins by chains through flat faces that the enumeration leaves to BSDF sampling (a
      * partial reflection inside the glass, or longer than it goes), and the largest gap of BSDF
      * sampling's and light tracing's weights' sum from 1 on them */
@@ -450,6 +453,7 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
     const spc_scene *sc = t->ctx->scene;
     ++t->joins;
     ++t->kinds[j->x1 ? 2 : j->cc ? 1 : 0];
+    t->through_flat += !j->x1 && j->cc && spc_flat_chain_covers(j->cc, t->p->reflect);
     /* (on the tessellated ball a randomized attempt's chain has a sampled weight, which may pass 1) */
     CHECK_MSG(j->e->type == SPC_EMITTER_AREA && j->w > 0.0 && (t->mesh || j->w <= 1.0), "light tracing's weight %.17g",
               j->w);
@@ -504,6 +508,10 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
     } else if (!t->mesh) {
         n = spc_sphere_chains_all(&q, all, 16, NULL);
     }
+    /* beside a ball, a light chain off a flat mirror is the flat enumeration's */
+    if (!t->flat && !t->mesh && !t->cylinder && !t->plane && spc_flat_chain_covers(j->c, pp.reflect) &&
+        !spc_sphere_chain_covers(j->c, pp.reflect) && j->c->n <= q.max_chain)
+        n = spc_flat_chains_all(&q, all, 16, NULL);
     const spc_chain *match = t->mesh ? j->c : NULL;
     double best = 1.0 - 1e-6;
     for (int i = 0; i < n; ++i)
@@ -530,6 +538,7 @@ static void check_area_join(void *user, const spc_path_lt_join *j)
     if (!match)
         return;
     ++t->matched;
+    t->through_flat_matched += !j->x1 && j->cc && spc_flat_chain_covers(j->cc, t->p->reflect);
     t->longer_matched += longer;
     t->longer_above += longer && j->w > 0.5;
     spc_rgb v_mis = spc_snee_chain_value(&q, j->e, spc_v2(0, 0), match);
@@ -1004,6 +1013,49 @@ TEST(slab_area_camera_weights_sum_to_one)
     area_run_joins(&r, subpaths / 4);
     CHECK_MSG(t->joins > 0 && t->kinds[1] == 0, "without ltslab: %d joins, %d through a slab", t->joins, t->kinds[1]);
     spc_scene_destroy(r.sc);
+}
+
+#define MIRROR_BALL_SCENE "bench/check/ball_mirror_wall.xml"
+#define MIRROR_BALL_SETTING "angular:camera=0.3,first=0.1,later=0.1,ltcaus,long=0.5,longmax=5"
+
+/* A glass ball before an upright flat mirror under a small light with ltslab: an area light's
+ * subpaths also join the pinhole through the mirror (the ball's caustic seen in it: camera chains of
+ * one flat mirror vertex); on each join whose light chain the sphere enumeration (or, off the mirror,
+ * the flat one) makes at x2, specular NEE's weight there, BSDF sampling's own (the camera's side
+ * through the mirror) and light tracing's sum to one, within the flat enumeration's polish
+ * (FLAT_WEIGHT_GAP). Without ltslab no join goes through the mirror. */
+TEST(mirror_ball_area_camera_weights_sum_to_one)
+{
+    area_run r;
+    if (!area_run_start(&r, MIRROR_BALL_SCENE, MIRROR_BALL_SETTING ",ltslab", 47))
+        return;
+    CHECK(r.p.lt_slab);
+    int subpaths = spc_test_quick() ? 10000 : 40000;
+    area_run_joins(&r, subpaths);
+    const area_tally *t = &r.t;
+    printf("  %s, ltslab: %d joins (directly %d, through a camera chain %d, %d of them off the mirror, through a "
+           "diffuse bounce %d), found by the enumerations at x2 %d (through the mirror %d); largest gap of the three "
+           "weights' sum from 1 %.3g\n",
+           MIRROR_BALL_SCENE, t->joins, t->kinds[0], t->kinds[1], t->through_flat, t->kinds[2], t->matched,
+           t->through_flat_matched, t->worst_gap);
+    CHECK_MSG(t->through_flat_matched > 20, "joins through the mirror toward the pinhole: %d (%d found at x2)",
+              t->through_flat, t->through_flat_matched);
+    CHECK_MSG(t->matched > t->joins * 9 / 10, "the enumerations find %d of %d joins' chains", t->matched, t->joins);
+    CHECK_MSG(t->worst_gap < FLAT_WEIGHT_GAP, "the three weights sum to 1 +- %.3g", t->worst_gap);
+    /* without ltslab: none through the mirror */
+    r.p.lt_slab = false;
+    area_run_joins(&r, subpaths / 4);
+    CHECK_MSG(t->joins > 0 && t->through_flat == 0, "without ltslab: %d joins, %d through the mirror", t->joins,
+              t->through_flat);
+    spc_scene_destroy(r.sc);
+}
+
+/* With ltslab the glass ball before the mirror renders as without it (the caustic seen in the mirror:
+ * the same paths split three ways instead of two). */
+TEST(mirror_ball_area_camera_render_agrees_without_it)
+{
+    scene_settings_agree(MIRROR_BALL_SCENE, MIRROR_BALL_SETTING ",ltslab", MIRROR_BALL_SETTING, 512, 71,
+                         "glass ball before a mirror, area light, ltslab vs without");
 }
 
 /* With an area light and ltslab the slabs render as without light tracing (the floor seen through a
@@ -2310,6 +2362,8 @@ int main(void)
     RUN(slab_area_weights_sum_to_one_long);
     RUN(slab_area_camera_weights_sum_to_one);
     RUN(slab_area_camera_render_agrees_without_it);
+    RUN(mirror_ball_area_camera_weights_sum_to_one);
+    RUN(mirror_ball_area_camera_render_agrees_without_it);
     RUN(slab_render_agrees_without_it);
     RUN(slab_point_weights_sum_to_one);
     RUN(slab_point_render_agrees_without_it);

@@ -1222,6 +1222,42 @@ TEST(ball_flat_mirror_large_light_split)
     }
 }
 
+/* A ball beside a flat mirror under small area lights (at most SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR)
+ * takes light tracing's joins through the mirror toward the pinhole (ltslab) on top of the ball's and
+ * the mirror's setting: the glass ball on the mirror, beside an upright mirror and seen in it; not
+ * under the large lights, nor for bdpt, nor the mirror ball (no light tracing), nor the mirror alone. */
+TEST(ball_flat_mirror_small_light_joins)
+{
+    static const struct {
+        const char *scene, *integrator;
+        bool joins;
+    } cases[] = {
+        {"bench/check/ball_mirror_floor.xml", "path", true},
+        {"bench/check/ball_mirror_wall.xml", "path", true},
+        {"bench/check/caustic_in_mirror.xml", "path", true},
+        {"bench/check/flat_mirror_ball_focus.xml", "path", true},
+        {"bench/check/ball_mirror_floor.xml", "bdpt", false},
+        {"bench/check/ball_mirror_biglight.xml", "path", false},
+        {"bench/check/ball_mirror_wall_biglight.xml", "path", false},
+        {"bench/check/mirrorball_mirror_floor.xml", "path", false},
+        {"bench/check/mirror_tilt.xml", "path", false},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        spc_scene *sc = load_at(cases[i].scene, "16");
+        if (!sc)
+            continue;
+        spc_snee_plan p;
+        spc_snee_plan_make(sc, cases[i].integrator, NULL, &p);
+        spc_snee_params sp;
+        CHECK_MSG(p.on && spc_snee_parse(p.setting, 2, &sp), "%s: %s (%s)", cases[i].scene, p.setting, p.reason);
+        CHECK_MSG(sp.lt_slab == cases[i].joins &&
+                      (!cases[i].joins || (sp.lt_caustic && p.light_sr <= SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR &&
+                                           strstr(p.setting, SPC_SNEE_PLAN_BALL_FLAT_MIRROR_LONG))),
+                  "%s, %s: %s", cases[i].scene, cases[i].integrator, p.setting);
+        spc_scene_destroy(sc);
+    }
+}
+
 /* Caustic guiding at receivers and the longer chains with probability 0.2, up to 4 vertices, in a
  * room where a glass caster is an analytic sphere small enough for a cone (snee_plan.h,
  * SPC_SNEE_PLAN_ROOM_GLASS_BALL): on in path's default on the demo, not in volpath's nor bdpt's, not
@@ -2221,6 +2257,7 @@ int main(void)
     RUN(solved_mirror_plan_no_first_roulette);
     RUN(flat_mirror_plan);
     RUN(ball_flat_mirror_large_light_split);
+    RUN(ball_flat_mirror_small_light_joins);
     RUN(volpath_ball_plan);
     RUN(volpath_ball_in_fog_plan_off);
     RUN(water_plane_plan_no_camera_query);

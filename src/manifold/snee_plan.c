@@ -1362,6 +1362,13 @@ void spc_snee_plan_make(const spc_scene *sc, const char *integrator, const char 
         size_t n = strlen(out->setting);
         snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT);
     }
+    /* and under small area lights light tracing's joins through the mirror toward the pinhole
+     * (snee_plan.h) */
+    if (ball_flat_mirror && out->light_sr <= SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR && small_area_lights(sc, cs) &&
+        strstr(out->setting, "ltcaus") && !strstr(out->setting, "ltslab") && !strstr(out->setting, "recguide")) {
+        size_t n = strlen(out->setting);
+        snprintf(out->setting + n, sizeof out->setting - n, "%s", SPC_SNEE_PLAN_BALL_FLAT_MIRROR_JOINS);
+    }
     /* flat casters under a light past SPC_SNEE_PLAN_FLAT_MAX_SR: their chains of up to 4 vertices at
      * every call and the 5-vertex ones (total internal reflections inside a slab) too, and beside a
      * mirror the query at every first receiver (snee_plan.h) */

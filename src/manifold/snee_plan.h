@@ -569,6 +569,23 @@
 #define SPC_SNEE_PLAN_BALL_ON_MIRROR_GAP 0.25
 #define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT ",camsplit=16"
 
+/* Appended for path where a ball enumerated exactly stands beside a flat mirror under small area
+ * lights (at most SPC_SNEE_PLAN_BALL_FLAT_MIRROR_SPLIT_SR from the casters, light tracing on, no
+ * caustic guide at receivers): light tracing's subpaths also join the pinhole through the mirror
+ * (integrator/path_lt.h, ltslab: camera chains through flat faces), so the ball's caustic on the
+ * floor seen in the mirror is light tracing's too. Without it that caustic was specular NEE's and
+ * BSDF sampling's alone, and where a light point put the floor point seen in the mirror on the
+ * caustic's fold, the sphere enumeration's two coalescing chains each carried the power heuristic's
+ * largest value, about the floor's albedo times the light's radiance over 2 (a sample worth 1000
+ * times the pixel): the one-pixel seeds of bench/check/hand_caustic_scenes.py's
+ * hb_flatmirror_ball. At equal CPU time over 24 seeds its mean relMSE fell 2.3x (27.6x none's ->
+ * 63.6x, the median 1.7x) for 5% fewer samples, and 1.1-1.25x over 16 seeds on three more scenes
+ * where the floor is seen in an upright mirror; where the mirror lies under the ball
+ * (bench/check/ball_mirror_floor.xml, ball_mirror_lifted.xml, ball_mirror_tilt.xml) few or no joins
+ * go through it and the samples' 1-9% are paid for nothing (0.93-0.99x none's ratio).
+ * Measured in bench/RESULTS.md, "hb_flatmirror_ball's tail is not a BSDF hit". */
+#define SPC_SNEE_PLAN_BALL_FLAT_MIRROR_JOINS ",ltslab"
+
 /* The setting where every caster is a mirror whose chains are enumerated exactly (a sphere, a
  * cylinder), after the query from the camera: that query by Russian roulette in a fraction Q of the
  * camera samples, Q from the share of the image that sees a mirror first as for glass (snee_plan.c,
