@@ -2239,10 +2239,15 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         int nall = spc_cylinder_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
         emit_exact(&lq, e, uv, p_y * SPC_CYLINDER_LONG_P, all, nall, it, st, sk);
     }
+    /* with probability long_p the longer chains of one length too, each counted with 1 / psi: on a
+     * sphere all of them (on the mirror ring the cylinder's longer chains cost a quarter of the
+     * samples and gained nothing: bench/RESULTS.md, "how far specular NEE can go"), elsewhere one
+     * randomized attempt's */
+    double u = long_on(q) ? spc_rng_next(rng) : 1.0;
     /* on a share of the calls the chains on one sphere past the long pass's top, every length at
-     * once (sphere_psi) */
-    if (sphere_long_max(q) > 0 && has_caster(q, spc_sphere_chain_shape) &&
-        spc_rng_next(rng) < p->sphere_long_p) {
+     * once (sphere_psi): where u > 1 - sphere_long_p, the top of the same draw, so that the stream
+     * of every other pass stays as it is without the option */
+    if (1.0 - u < p->sphere_long_p && sphere_long_max(q) > 0 && has_caster(q, spc_sphere_chain_shape)) {
         spc_chain all[SPC_SNEE_MAX_ALL];
         spc_snee_query lq = *q;
         lq.min_chain = long_top(p) + 1;
@@ -2252,11 +2257,6 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
         int nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
         emit_exact(&lq, e, uv, p_y * p->sphere_long_p, all, nall, it, st, sk);
     }
-    /* with probability long_p the longer chains of one length too, each counted with 1 / psi: on a
-     * sphere all of them (on the mirror ring the cylinder's longer chains cost a quarter of the
-     * samples and gained nothing: bench/RESULTS.md, "how far specular NEE can go"), elsewhere one
-     * randomized attempt's */
-    double u = long_on(q) ? spc_rng_next(rng) : 1.0;
     if (u < p->long_p) {
         int k = q->max_chain + 1 + (int)(u / p->long_p * (long_top(p) - q->max_chain));
         double psi = long_psi(q, k);
