@@ -165,6 +165,9 @@ static const spc_snee_option options[] = {
     {"longmax", NULL, SPC_SNEE_OPT_COUNT, false, "K", 3, SPC_CHAIN_MAX_VERTICES, false, false, NULL, 0, NO,
      AT(long_max), 0, "6",
      "the longest chain the longer chains' pass looks for (the ball pass and mirror cylinders keep to 6)"},
+    {"sphlong", NULL, SPC_SNEE_OPT_REAL, false, "Q", 0, 1, false, false, NULL, 0, NO, AT(sphere_long_p), 0, NULL,
+     "where the longer chains run, the chains on one sphere past longmax (up to 6 vertices) on a share Q of the "
+     "calls, all lengths at once, counted 1/Q times (0: left to BSDF sampling)"},
     {"longev", NULL, SPC_SNEE_OPT_REAL, false, "P", 0, 1, false, false, NULL, 0, NO, AT(long_events_p), 0, NULL,
      "a share P of the longer chains' randomized attempts take a light guide's events (in, reflected at every "
      "inner vertex, out)"},

@@ -251,13 +251,19 @@
  *   (light off the mirror ball through the glass ball onto the red wall) and one 5-vertex chain;
  *   with the top at 4 the 3- and 4-vertex chains get 0.1 each and the 5- and 6-vertex ones are
  *   left to BSDF sampling (weighed 1 there). At the top of 3 the 4-vertex chains' BSDF hits made
- *   new one-pixel seeds; long=0.4 took 1.2x the CPU per sample (the bench's calibration).
+ *   new one-pixel seeds; long=0.4 took 1.2x the CPU per sample (the bench's calibration);
+ * - the chains on the glass ball of 5 and 6 vertices (three and four internal reflections) on a
+ *   share 0.03 of the calls (sphlong=0.03), so that BSDF sampling's hits of them are weighed against
+ *   specular NEE instead of counted 1: left to BSDF sampling they were most of the demo's remaining
+ *   one-pixel seeds (floor, ceiling or back wall - glass T R R R T - light, 28-105 in a pixel of
+ *   0.1-0.25). The share 0.1 cost 1.13x per sample, 0.03 1.03x, and 0.01 left 12148's pixel at
+ *   1.5x its mean (bench/RESULTS.md, part demo38).
  * Together 14-15x none on the demo at equal CPU time against the plain setting's 7.5-8.3x and
  * 10.5-11.2x with the guide alone (bench/RESULTS.md, "Caustic guiding toward glass balls in the
  * default"; the longer chains' top: "The demo's longer chains up to 4 vertices"). Not for volpath
  * (which builds no guide) nor bdpt: not measured there. */
 #define SPC_SNEE_PLAN_ROOM_OPEN 0.25
-#define SPC_SNEE_PLAN_ROOM_GLASS_BALL ",recguide=0.1,long=0.2,longmax=4"
+#define SPC_SNEE_PLAN_ROOM_GLASS_BALL ",recguide=0.1,long=0.2,sphlong=0.03,longmax=4"
 
 /* Appended for path where every light is a point light (or a spot light, traced alike) and a glass
  * sphere is a caster: the point lights' caustics also by light tracing (integrator/path_lt.h: seen

@@ -190,6 +190,14 @@ typedef struct spc_snee_params {
      * SDF torus, 8-vertex paths (in, six reflections, out) that only BSDF sampling made added 445
      * to pixels of 0.03-0.16 (bench/RESULTS.md, part torus24). */
     int long_max;
+    /* The chains on one sphere past long_max, up to 6 vertices (the user's "sphlong=Q", 0: none):
+     * on a share Q of the calls, where the longer chains run, every such chain of long_max + 1 .. 6
+     * vertices is enumerated in one pass toward the query's light point and counted with 1 / Q; the
+     * track then follows covered paths to 6 vertices, so that BSDF sampling's density of such a
+     * path carries the same Q (MIS) instead of weight 1. A glass ball's chains with three and four
+     * internal reflections are a thousandth of its light, but a BSDF-sampled path that reaches a
+     * small light through them added 30-100 to one pixel of the demo (bench/RESULTS.md, part demo38). */
+    double sphere_long_p;
     /* The share of that pass's randomized attempts that take a light guide's events (in, reflected
      * at every inner vertex, out; the user's "longev=P", 0: none), the rest picking each event at
      * reflect_p: a k-vertex guide chain's events then have probability about P instead of

@@ -577,6 +577,26 @@ static double cyl_psi(const spc_snee_query *q, const spc_chain *c)
     return SPC_CYLINDER_LONG_P;
 }
 
+/* The longest chain on one sphere enumerated past long_top on a share of the calls
+ * (params.sphere_long_p): 6 vertices within the caller's depth, 0 where that pass never runs. */
+static int sphere_long_max(const spc_snee_query *q)
+{
+    const spc_snee_params *p = q->params;
+    if (!p->exact || !(p->sphere_long_p > 0.0) || !long_on(q))
+        return 0;
+    int hi = q->long_max < SPC_SNEE_LONG_MAX ? q->long_max : SPC_SNEE_LONG_MAX;
+    return hi > long_top(p) ? hi : 0;
+}
+
+/* The probability per call that the chains of k vertices on one sphere are enumerated: the long
+ * pass's (long_psi) up to long_top, params.sphere_long_p past it up to sphere_long_max. */
+static double sphere_psi(const spc_snee_query *q, int k)
+{
+    if (k <= long_top(q->params))
+        return long_psi(q, k);
+    return k <= sphere_long_max(q) ? q->params->sphere_long_p : 0.0;
+}
+
 /* Is c counted exactly (no <1/p_solve>): enumerated by the solver's solve_all, or on one sphere or
  * mirror cylinder (params.exact)? */
 static bool exact_covers(const spc_snee_query *q, const spc_specular_solver *solver, const spc_chain *c)
@@ -1501,8 +1521,10 @@ static double chain_psi(const spc_snee_query *q, const spc_chain *c, double *ran
         if (p->exact && c->n <= unfold_max(q) && spc_unfold_chain_covers(c, p->reflect))
             return 1.0; /* through a sphere and a flat mirror, at every call */
         if (p->exact && spc_sphere_chain_covers(c, p->reflect)) {
-            *long_pass = true;
-            return long_psi(q, c->n); /* enumerated on the sphere */
+            /* enumerated on the sphere: by the long pass toward its own light point, or past its
+             * top on a share of the calls toward the query's */
+            *long_pass = c->n <= long_top(p);
+            return sphere_psi(q, c->n);
         }
         if (p->exact && spc_cylinder_chain_covers(c))
             return cyl_psi(q, c); /* enumerated on the cylinder on a share of the calls */
@@ -2222,6 +2244,19 @@ static void estimate(spc_snee_query *q, const spc_specular_solver *solver, const
      * samples and gained nothing: bench/RESULTS.md, "how far specular NEE can go"), elsewhere one
      * randomized attempt's */
     double u = long_on(q) ? spc_rng_next(rng) : 1.0;
+    /* on a share of the calls the chains on one sphere past the long pass's top, every length at
+     * once (sphere_psi): where u > 1 - sphere_long_p, the top of the same draw, so that the stream
+     * of every other pass stays as it is without the option */
+    if (1.0 - u < p->sphere_long_p && sphere_long_max(q) > 0 && has_caster(q, spc_sphere_chain_shape)) {
+        spc_chain all[SPC_SNEE_MAX_ALL];
+        spc_snee_query lq = *q;
+        lq.min_chain = long_top(p) + 1;
+        lq.max_chain = sphere_long_max(q);
+        lq.psi = p->sphere_long_p;
+        int it = 0;
+        int nall = spc_sphere_chains_all(&lq, all, SPC_SNEE_MAX_ALL, &it);
+        emit_exact(&lq, e, uv, p_y * p->sphere_long_p, all, nall, it, st, sk);
+    }
     if (u < p->long_p) {
         int k = q->max_chain + 1 + (int)(u / p->long_p * (long_top(p) - q->max_chain));
         double psi = long_psi(q, k);
@@ -2766,7 +2801,10 @@ int spc_snee_track_long_max(const spc_snee_params *p, int long_max)
     /* as long_on has it at a query */
     if (!((p->exact || random_long(p)) && p->mis && p->long_p > 0.0))
         return 0;
-    return long_max < long_top(p) ? long_max : long_top(p);
+    int top = long_top(p);
+    if (p->exact && p->sphere_long_p > 0.0 && top < SPC_SNEE_LONG_MAX)
+        top = SPC_SNEE_LONG_MAX; /* the chains on one sphere past it (sphere_psi) */
+    return long_max < top ? long_max : top;
 }
 
 int spc_snee_camera_long_max(const spc_snee_params *p, int long_max, int track_long_max)
