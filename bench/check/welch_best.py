@@ -18,8 +18,11 @@ the images' variance channels.
 
 Per pixel z = (a - b) / sqrt(se_a^2 + se_b^2 + (EPS b)^2) on the channel of largest |z|; a pixel passes if
 |z| is under the two-sided Sidak bound at alpha 0.01 over all the pixels of the image. Printed: the pass
-rate over the image and per reference, the failures with their reference, and for every crop pixel its
-z against the crop and against the path tracer's batches (which side the crop settles).
+rate over the image and per reference, the failures with their reference, for every crop pixel its
+z against the crop and against the path tracer's batches (which side the crop settles), and for a
+window of more than one pixel the z of its mean (the window's pixels summed per seed and per batch: a
+rare path's hits spread over the window's pixels, so its mean settles a small difference that each
+pixel's few hits cannot).
 """
 import os
 import sys
@@ -56,7 +59,7 @@ def main():
         floor = (np.abs(nrm[..., 1] - 1) < 1e-4) & (np.abs(nrm[..., 0]) < 1e-4) & (np.abs(nrm[..., 2]) < 1e-4)
         b[floor], sb[floor] = fm[floor], fs[floor]
         src[floor] = "floor"
-    crops = []
+    crops, windows = [], []
     for i, arg in enumerate(sys.argv):
         if arg == "--crop":
             f, xy = sys.argv[i + 1].rsplit("@", 1)
@@ -69,6 +72,8 @@ def main():
                     b[y, x], sb[y, x] = cm[dy, dx], cs[dy, dx]
                     src[y, x] = "crop"
                     crops.append((x, y, c.shape[0], c[:, dy, dx].mean(-1)))
+            if c.shape[1] * c.shape[2] > 1:
+                windows.append((x0, y0, c))
 
     def worst(m, s):
         z = (a - m) / np.sqrt(sa ** 2 + s ** 2 + (rel * m) ** 2 + 1e-30)
@@ -94,6 +99,14 @@ def main():
                   x, y, lum_a[y, x], np.sqrt(img[:, y, x].mean(-1).var(ddof=1) / img.shape[0]), vals.mean(),
                   vals.std(ddof=1) / np.sqrt(nb), nb, " ".join("%.4g" % v for v in vals), bp[y, x].mean(),
                   np.sqrt(path[:, y, x].mean(-1).var(ddof=1) / path.shape[0]), z[y, x], zpath[y, x]))
+    for x0, y0, c in windows:
+        ys, xs = slice(y0, y0 + c.shape[1]), slice(x0, x0 + c.shape[2])
+        ra, rp = (v[:, ys, xs].mean((1, 2, 3)) for v in (img, path))
+        rc = c.mean((1, 2, 3))
+        d, sd = ra.mean() - rc.mean(), np.sqrt(ra.var(ddof=1) / len(ra) + rc.var(ddof=1) / len(rc))
+        dp, sdp = ra.mean() - rp.mean(), np.sqrt(ra.var(ddof=1) / len(ra) + rp.var(ddof=1) / len(rp))
+        print("  window (%d,%d) %dx%d, its mean: default %.5g, crop %.5g (z %+.1f), path %.5g (z %+.1f)" % (
+            x0, y0, c.shape[2], c.shape[1], ra.mean(), rc.mean(), d / sd, rp.mean(), dp / sdp))
     if "--map" in sys.argv:
         for y in range(h):
             print("  " + "".join(("+" if z[y, x] > 0 else "-") if fail[y, x] else
