@@ -4,7 +4,8 @@ best reference each pixel has: a high-spp crop where one was rendered, a light t
 the path tracer elsewhere.
 
   python3 bench/check/welch_best.py IMG_GLOB --path PATH.npy [--floor-ref REF --normal NORMAL.npy]
-                                    [--crop CROP.npy@X,Y]... [--rel EPS] [--top N] [--map]
+                                    [--crop CROP.npy@X,Y]... [--window CROP.npy@X,Y]...
+                                    [--rel EPS] [--top N] [--map]
 
 IMG_GLOB: a quoted glob of specula EXRs at different --seed values (the default's seeds). PATH.npy:
 Mitsuba's path tracer as batches (bench/check/mitsuba_ref.py). REF (with NORMAL.npy, Mitsuba's `normal`
@@ -61,6 +62,10 @@ def main():
         src[floor] = "floor"
     crops, windows = [], []
     for i, arg in enumerate(sys.argv):
+        if arg == "--window":
+            f, xy = sys.argv[i + 1].rsplit("@", 1)
+            x0, y0 = (int(v) for v in xy.split(","))
+            windows.append((x0, y0, np.load(f).astype(np.float64)))
         if arg == "--crop":
             f, xy = sys.argv[i + 1].rsplit("@", 1)
             x0, y0 = (int(v) for v in xy.split(","))
