@@ -50,9 +50,14 @@ def main():
     ap.add_argument("--integrator", default="path", choices=["path", "volpath", "ptracer", "normal"])
     ap.add_argument("-D", action="append", default=[], help="name=value: a <default> of the scene")
     ap.add_argument("--threads", type=int, default=0, help="Dr.Jit's worker threads (0: all cores)")
+    ap.add_argument("--crop", default="", help="X,Y,W,H: render only this window of the --res film "
+                    "(hdrfilm's crop), e.g. a few failing pixels at millions of spp; the array is "
+                    "batches x H x W x 3")
     ap.add_argument("--first-batch", type=int, default=0,
                     help="number of the first batch: its seed, so that runs with disjoint batch "
                     "ranges are independent and can be concatenated")
+    ap.add_argument("--seed0", type=int, default=-1,
+                    help="batch b's seed is SEED0 + b (default: 7919 (FIRST_BATCH + b + 1))")
     a = ap.parse_args()
     if a.threads > 0:
         dr.set_thread_count(a.threads)
@@ -67,10 +72,15 @@ def main():
     # is loaded with its folder on the file resolver (for relative paths).
     text = open(a.scene).read()
     params = {k: v for k, v in params.items() if re.search(r"\$" + k + r"\b", text)}
+    if a.crop:
+        cx, cy, cw, ch = (int(v) for v in a.crop.split(","))
+        text = re.sub(r'(<film type="hdrfilm">)', r'\1<integer name="crop_offset_x" value="%d"/>'
+                      r'<integer name="crop_offset_y" value="%d"/><integer name="crop_width" value="%d"/>'
+                      r'<integer name="crop_height" value="%d"/>' % (cx, cy, cw, ch), text, count=1)
     edited = re.sub(r'<(string|integer|boolean|float)\s+name="(specular_nee|specular_max_chain|mis_balance|'
                     r'caustic_caster|caustic_receiver|caustic_caster_single|caustic_caster_multi)"[^>]*/>',
                     "", text)
-    if edited != text:
+    if a.crop or edited != text:
         mi.file_resolver().prepend(os.path.dirname(os.path.abspath(a.scene)))
         scene = mi.load_string(edited, **params)
     else:
@@ -82,7 +92,8 @@ def main():
     imgs = []
     t0 = time.time()
     for b in range(a.batches):
-        img = mi.render(scene, integrator=integrator, seed=7919 * (a.first_batch + b + 1), spp=a.spp)
+        img = mi.render(scene, integrator=integrator, seed=(a.seed0 + b if a.seed0 >= 0 else
+                                                            7919 * (a.first_batch + b + 1)), spp=a.spp)
         imgs.append(np.array(img)[:, :, :3])
         print("batch %d/%d, %.0f s" % (b + 1, a.batches, time.time() - t0), file=sys.stderr, flush=True)
     np.save(a.out, np.stack(imgs))
