@@ -201,10 +201,10 @@ TEST(ipt_and_roulette_match_path_c)
 
 /* The wave's light samples (spc_emitter_sample_direct_many: mesh lights in vector form, others one
  * lane at a time) equal spc_emitter_sample_direct's in every field and in their result, for
- * reference points all around the lights (behind them, on their plane, far away): a rectangle (its
- * kept normals), a flipped cube (the normal flipped) and the rectangle without its kept normals
- * (computed from the edges), which the vector form covers; a sphere and a rectangle with a
- * checkerboard radiance, which it does not. */
+ * reference points all around the lights (behind them, on their plane, far away): a rectangle
+ * (sampled as one parallelogram), a flipped cube (the normal flipped), and the rectangle through the
+ * triangle pick with its kept normals and without them (computed from the edges), which the vector
+ * form covers; a sphere and a rectangle with a checkerboard radiance, which it does not. */
 static const char *many_xml =
     "<scene version='3.0.0'>"
     "<shape type='rectangle'><transform name='to_world'><scale value='0.7,0.4,1'/><rotate x='1' angle='30'/>"
@@ -263,9 +263,15 @@ TEST(light_samples_many_match_one_at_a_time)
     check_many(sc, &covered, &failed);
     CHECK_MSG(failed == 0, "%d light samples differ", failed);
     CHECK_MSG(covered > 500, "only %d samples through the vector form", covered);
-    /* the rectangle without its kept normals: its normal from the edges */
+    /* the rectangle through the triangle pick, with its kept normals and without them (its normal
+     * from the edges) */
     spc_shape *rect = (spc_shape *)sc->emitters[0]->shape;
-    CHECK(rect->type == SPC_SHAPE_MESH && rect->tri_frame != NULL);
+    CHECK(rect->type == SPC_SHAPE_MESH && rect->tri_frame != NULL && rect->has_para);
+    rect->has_para = false;
+    covered = failed = 0;
+    check_many(sc, &covered, &failed);
+    CHECK_MSG(failed == 0, "%d light samples differ through the triangle pick", failed);
+    CHECK(covered > 500);
     double *kept = rect->tri_frame;
     rect->tri_frame = NULL;
     covered = failed = 0;
@@ -273,6 +279,7 @@ TEST(light_samples_many_match_one_at_a_time)
     CHECK_MSG(failed == 0, "%d light samples differ without the kept normals", failed);
     CHECK(covered > 500);
     rect->tri_frame = kept;
+    rect->has_para = true;
     spc_scene_destroy(sc);
 }
 
