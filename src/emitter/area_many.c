@@ -57,6 +57,10 @@ typedef struct soa {
     double uy[SPC_DIRECT_LANES_MAX], area[SPC_DIRECT_LANES_MAX];
     /* a parallelogram's (spc_mesh_para) u.x and corners' magnitude; its o, e1, e2 go in p0, p1, p2 */
     double ux[SPC_DIRECT_LANES_MAX], mag[SPC_DIRECT_LANES_MAX];
+    /* the one parallelogram of PARA_ONE_BODY's lanes */
+    struct {
+        double o[3], e1[3], e2[3], ng[2][3], mag, area;
+    } one;
     spc_direct_lanes out;
     int ok[SPC_DIRECT_LANES_MAX]; /* spc_area_sample_direct's tests passed */
 } soa;
@@ -98,6 +102,24 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
         AREA_MANY_TAIL                                                                                                \
     }
 
+/* PARA_MANY_BODY for lanes that all sample one parallelogram, whose corner, edges, normals (flipped
+ * where the shape is), magnitude and area are the one1 record's: only u and ref per lane. */
+#define PARA_ONE_BODY                                                                                                 \
+    for (int i = 0; i < n; ++i) {                                                                                     \
+        double ux = a->ux[i], uy = a->uy[i];                                                                          \
+        int t = ux + uy > 1.0;                                                                                        \
+        a->out.n[0][i] = t ? a->one.ng[1][0] : a->one.ng[0][0];                                                       \
+        a->out.n[1][i] = t ? a->one.ng[1][1] : a->one.ng[0][1];                                                       \
+        a->out.n[2][i] = t ? a->one.ng[1][2] : a->one.ng[0][2];                                                       \
+        double px = a->one.o[0] + a->one.e1[0] * ux + a->one.e2[0] * uy;                                             \
+        double py = a->one.o[1] + a->one.e1[1] * ux + a->one.e2[1] * uy;                                             \
+        double pz = a->one.o[2] + a->one.e1[2] * ux + a->one.e2[2] * uy;                                             \
+        double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
+        double perr = AREA_MANY_FLOAT_OFFSET * max2(a->one.mag, mp);                                                  \
+        a->area[i] = a->one.area;                                                                                     \
+        AREA_MANY_TAIL                                                                                                \
+    }
+
 /* From the point (px, py, pz) and its error bound perr: spc_area_sample_direct's tests and values. */
 #define AREA_MANY_TAIL                                                                                                \
         double dx = px - a->ref[0][i], dy = py - a->ref[1][i], dz = pz - a->ref[2][i];                                \
@@ -114,6 +136,7 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
 
 static void body_default(soa *a, int n) { AREA_MANY_BODY }
 static void para_default(soa *a, int n) { PARA_MANY_BODY }
+static void para_one_default(soa *a, int n) { PARA_ONE_BODY }
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #define AREA_MANY_VECTOR 1
@@ -126,6 +149,8 @@ AREA_MANY_ATTR("avx2") static void body_avx2(soa *a, int n) { AREA_MANY_BODY }
 AREA_MANY_ATTR("avx512f") static void body_avx512(soa *a, int n) { AREA_MANY_BODY }
 AREA_MANY_ATTR("avx2") static void para_avx2(soa *a, int n) { PARA_MANY_BODY }
 AREA_MANY_ATTR("avx512f") static void para_avx512(soa *a, int n) { PARA_MANY_BODY }
+AREA_MANY_ATTR("avx2") static void para_one_avx2(soa *a, int n) { PARA_ONE_BODY }
+AREA_MANY_ATTR("avx512f") static void para_one_avx512(soa *a, int n) { PARA_ONE_BODY }
 #endif
 
 static void body(soa *a, int n)
@@ -143,18 +168,18 @@ static void body(soa *a, int n)
 #endif
 }
 
-static void para_body(soa *a, int n)
+static void para_body(soa *a, int n, bool one)
 {
 #ifdef AREA_MANY_VECTOR
     int isa = spc_vector_isa();
     if (isa == SPC_ISA_AVX512)
-        para_avx512(a, n);
+        one ? para_one_avx512(a, n) : para_avx512(a, n);
     else if (isa == SPC_ISA_AVX2)
-        para_avx2(a, n);
+        one ? para_one_avx2(a, n) : para_avx2(a, n);
     else
-        para_default(a, n);
+        one ? para_one_default(a, n) : para_default(a, n);
 #else
-    para_default(a, n);
+    one ? para_one_default(a, n) : para_default(a, n);
 #endif
 }
 
@@ -164,7 +189,31 @@ static void sample_para_lights(int n, const int *lane, const spc_emitter *const 
                                const spc_vec2 u[], spc_emitter_direct out[], bool ok[])
 {
     soa a;
-    for (int k = 0; k < n; ++k) {
+    /* one light's lanes (a room's one quad light, the common case): its record once, no per-lane copies */
+    const spc_shape *s0 = e[lane[0]]->shape;
+    bool one = true;
+    for (int k = 1; k < n; ++k)
+        one &= e[lane[k]]->shape == s0;
+    if (one) {
+        const spc_mesh_para *q = &s0->para;
+        for (int j = 0; j < 3; ++j) {
+            a.one.o[j] = spc_v3_get(q->o, j);
+            a.one.e1[j] = spc_v3_get(q->e1, j);
+            a.one.e2[j] = spc_v3_get(q->e2, j);
+            for (int t = 0; t < 2; ++t)
+                a.one.ng[t][j] = spc_v3_get(s0->flip_normals ? spc_neg(q->ng[t]) : q->ng[t], j);
+        }
+        a.one.mag = q->mag;
+        a.one.area = s0->area;
+        for (int k = 0; k < n; ++k) {
+            int i = lane[k];
+            for (int j = 0; j < 3; ++j)
+                a.ref[j][k] = spc_v3_get(ref[i], j);
+            a.ux[k] = u[i].x;
+            a.uy[k] = u[i].y;
+        }
+    }
+    for (int k = 0; k < n && !one; ++k) {
         int i = lane[k];
         const spc_shape *s = e[i]->shape;
         const spc_mesh_para *q = &s->para;
@@ -184,7 +233,7 @@ static void sample_para_lights(int n, const int *lane, const spc_emitter *const 
         a.mag[k] = q->mag;
         a.area[k] = s->area;
     }
-    para_body(&a, n);
+    para_body(&a, n, one);
     for (int k = 0; k < n; ++k) {
         int i = lane[k];
         ok[i] = spc_direct_lanes_write(&a.out, k, a.ok[k], e[i]->radiance, &out[i]);
