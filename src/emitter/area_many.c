@@ -86,6 +86,7 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
         double mag = max2(m0, max2(m1, m2));                                                                          \
         double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
         double perr = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                         \
+        double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i], area = a->area[i];                      \
         AREA_MANY_TAIL                                                                                                \
     }
 
@@ -99,34 +100,42 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
         double pz = a->p0[2][i] + a->p1[2][i] * ux + a->p2[2][i] * uy;                                                \
         double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
         double perr = AREA_MANY_FLOAT_OFFSET * max2(a->mag[i], mp);                                                   \
+        double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i], area = a->area[i];                      \
         AREA_MANY_TAIL                                                                                                \
     }
 
 /* PARA_MANY_BODY for lanes that all sample one parallelogram, whose corner, edges, normals (flipped
- * where the shape is), magnitude and area are the one1 record's: only u and ref per lane. */
+ * where the shape is), magnitude and area are the soa's one record (loaded once, before the loop, so that GCC
+ * vectorizes it): only u and ref per lane. */
 #define PARA_ONE_BODY                                                                                                 \
+    const double o0 = a->one.o[0], o1 = a->one.o[1], o2 = a->one.o[2];                                                \
+    const double e10 = a->one.e1[0], e11 = a->one.e1[1], e12 = a->one.e1[2];                                          \
+    const double e20 = a->one.e2[0], e21 = a->one.e2[1], e22 = a->one.e2[2];                                          \
+    const double n00 = a->one.ng[0][0], n01 = a->one.ng[0][1], n02 = a->one.ng[0][2];                                 \
+    const double n10 = a->one.ng[1][0], n11 = a->one.ng[1][1], n12 = a->one.ng[1][2];                                 \
+    const double mag = a->one.mag, area = a->one.area;                                                                \
     for (int i = 0; i < n; ++i) {                                                                                     \
         double ux = a->ux[i], uy = a->uy[i];                                                                          \
         int t = ux + uy > 1.0;                                                                                        \
-        a->out.n[0][i] = t ? a->one.ng[1][0] : a->one.ng[0][0];                                                       \
-        a->out.n[1][i] = t ? a->one.ng[1][1] : a->one.ng[0][1];                                                       \
-        a->out.n[2][i] = t ? a->one.ng[1][2] : a->one.ng[0][2];                                                       \
-        double px = a->one.o[0] + a->one.e1[0] * ux + a->one.e2[0] * uy;                                             \
-        double py = a->one.o[1] + a->one.e1[1] * ux + a->one.e2[1] * uy;                                             \
-        double pz = a->one.o[2] + a->one.e1[2] * ux + a->one.e2[2] * uy;                                             \
+        double nx = t ? n10 : n00, ny = t ? n11 : n01, nz = t ? n12 : n02;                                            \
+        a->out.n[0][i] = nx;                                                                                          \
+        a->out.n[1][i] = ny;                                                                                          \
+        a->out.n[2][i] = nz;                                                                                          \
+        double px = o0 + e10 * ux + e20 * uy;                                                                         \
+        double py = o1 + e11 * ux + e21 * uy;                                                                         \
+        double pz = o2 + e12 * ux + e22 * uy;                                                                         \
         double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
-        double perr = AREA_MANY_FLOAT_OFFSET * max2(a->one.mag, mp);                                                  \
-        a->area[i] = a->one.area;                                                                                     \
+        double perr = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                         \
         AREA_MANY_TAIL                                                                                                \
     }
 
-/* From the point (px, py, pz) and its error bound perr: spc_area_sample_direct's tests and values. */
+/* From the point (px, py, pz), its error bound perr, the normal (nx, ny, nz) and the area:
+ * spc_area_sample_direct's tests and values. */
 #define AREA_MANY_TAIL                                                                                                \
         double dx = px - a->ref[0][i], dy = py - a->ref[1][i], dz = pz - a->ref[2][i];                                \
         double dist2 = dx * dx + dy * dy + dz * dz;                                                                   \
-        double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i];                                         \
         double cosl = fabs(nx * dx + ny * dy + nz * dz) / sqrt(dist2);                                                \
-        double pdf = 1.0 / a->area[i] * dist2 / cosl;                                                                 \
+        double pdf = 1.0 / area * dist2 / cosl;                                                                       \
         a->out.err[i] = perr / max2(cosl, SPC_AREA_GRAZING_COS); /* along the ray (emitter.h) */                      \
         double dist = sqrt(dist2);                                                                                    \
         double inv = 1.0 / dist;                                                                                      \
