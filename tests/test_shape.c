@@ -721,7 +721,8 @@ TEST(mesh_parallelogram_sampling)
             const uint32_t *t = s.mesh.idx + 3 * ss.prim;
             spc_vec3 t0 = spc_mesh_p(&s.mesh, t[0]), e1 = spc_sub(spc_mesh_p(&s.mesh, t[1]), t0),
                      e2 = spc_sub(spc_mesh_p(&s.mesh, t[2]), t0), nc = spc_cross(e1, e2), d = spc_sub(ss.p, t0);
-            double n2 = spc_dot(nc, nc), b1 = spc_dot(spc_cross(d, e2), nc) / n2, b2 = spc_dot(spc_cross(e1, d), nc) / n2;
+            double n2 = spc_dot(nc, nc);
+            double b1 = spc_dot(spc_cross(d, e2), nc) / n2, b2 = spc_dot(spc_cross(e1, d), nc) / n2;
             bad += !(b1 > -1e-12 && b2 > -1e-12 && b1 + b2 < 1.0 + 1e-12);
             spc_vec3 ng = spc_normalize(nc);
             if (flip)

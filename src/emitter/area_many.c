@@ -308,7 +308,7 @@ void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const s
     int lane[SPC_DIRECT_LANES_MAX], m = 0;
     int sphere_lane[SPC_DIRECT_LANES_MAX], ms = 0;
     int para_lane[SPC_DIRECT_LANES_MAX], mp = 0;
-    /* the kind of the last lane's light (1 mesh, 2 sphere, 3 parallelogram mesh, 0 other), kept for the next lanes of the
+    /* the kind of the last lane's light (1 mesh, 2 sphere, 3 parallelogram, 0 other), kept for the next lanes of the
      * same light: the tests read the light, its texture and its shape, and most lanes share a light */
     const spc_emitter *last = NULL;
     int kind = 0;

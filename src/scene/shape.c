@@ -364,7 +364,8 @@ static bool find_parallelogram(const spc_mesh *m, spc_mesh_para *q)
     int match[3] = {-1, -1, -1}, shared = 0, used = 0;
     for (int j = 0; j < 3; ++j)
         for (int k = 0; k < 3; ++k)
-            if (match[j] < 0 && !(used & (1 << k)) && v[0][j].x == v[1][k].x && v[0][j].y == v[1][k].y && v[0][j].z == v[1][k].z) {
+            if (match[j] < 0 && !(used & (1 << k)) && v[0][j].x == v[1][k].x && v[0][j].y == v[1][k].y &&
+                v[0][j].z == v[1][k].z) {
                 match[j] = k;
                 used |= 1 << k;
                 ++shared;
