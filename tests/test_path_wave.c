@@ -201,10 +201,11 @@ TEST(ipt_and_roulette_match_path_c)
 
 /* The wave's light samples (spc_emitter_sample_direct_many: mesh lights in vector form, others one
  * lane at a time) equal spc_emitter_sample_direct's in every field and in their result, for
- * reference points all around the lights (behind them, on their plane, far away): a rectangle (its
- * kept normals), a flipped cube (the normal flipped) and the rectangle without its kept normals
- * (computed from the edges), which the vector form covers; a sphere and a rectangle with a
- * checkerboard radiance, which it does not. */
+ * reference points all around the lights (behind them, on their plane, far away): two rectangles
+ * (each sampled as one parallelogram; the second flipped: batches of lanes on both lights and on
+ * one), a flipped cube (the normal flipped), and the first rectangle through the triangle pick with
+ * its kept normals and without them (computed from the edges), which the vector form covers; a
+ * sphere and a rectangle with a checkerboard radiance, which it does not. */
 static const char *many_xml =
     "<scene version='3.0.0'>"
     "<shape type='rectangle'><transform name='to_world'><scale value='0.7,0.4,1'/><rotate x='1' angle='30'/>"
@@ -217,6 +218,9 @@ static const char *many_xml =
     "<emitter type='area'><rgb name='radiance' value='2,2,2'/></emitter></shape>"
     "<shape type='rectangle'><transform name='to_world'><rotate y='1' angle='70'/><translate value='1.5,0.3,0'/>"
     "</transform><emitter type='area'><texture type='checkerboard' name='radiance'/></emitter></shape>"
+    "<shape type='rectangle'><boolean name='flip_normals' value='true'/><transform name='to_world'>"
+    "<scale value='0.5,0.9,1'/><rotate z='1' angle='20'/><rotate x='1' angle='-40'/><translate value='-0.6,-0.4,0.8'/>"
+    "</transform><emitter type='area'><rgb name='radiance' value='1,3,2'/></emitter></shape>"
     "</scene>";
 
 /* A lane's reference point: anywhere around the lights, or (every ninth lane on a mesh light) a point
@@ -254,18 +258,25 @@ TEST(light_samples_many_match_one_at_a_time)
     CHECK(spc_mitsuba_load_string(many_xml, strlen(many_xml), "many.xml", NULL, NULL, 0, &sc, &err) == SPC_OK);
     if (!sc)
         return;
-    CHECK(sc->nemitters == 4);
+    CHECK(sc->nemitters == 5);
     int ncover = 0;
     for (int k = 0; k < sc->nemitters; ++k)
         ncover += spc_emitter_many_covers(sc->emitters[k]);
-    CHECK_MSG(ncover == 2, "%d lights covered by the vector form, expected the rectangle and the cube", ncover);
+    CHECK_MSG(ncover == 3, "%d lights covered by the vector form, expected the rectangles and the cube", ncover);
+    CHECK(sc->emitters[4]->shape->has_para);
     int covered = 0, failed = 0;
     check_many(sc, &covered, &failed);
     CHECK_MSG(failed == 0, "%d light samples differ", failed);
     CHECK_MSG(covered > 500, "only %d samples through the vector form", covered);
-    /* the rectangle without its kept normals: its normal from the edges */
+    /* the rectangle through the triangle pick, with its kept normals and without them (its normal
+     * from the edges) */
     spc_shape *rect = (spc_shape *)sc->emitters[0]->shape;
-    CHECK(rect->type == SPC_SHAPE_MESH && rect->tri_frame != NULL);
+    CHECK(rect->type == SPC_SHAPE_MESH && rect->tri_frame != NULL && rect->has_para);
+    rect->has_para = false;
+    covered = failed = 0;
+    check_many(sc, &covered, &failed);
+    CHECK_MSG(failed == 0, "%d light samples differ through the triangle pick", failed);
+    CHECK(covered > 500);
     double *kept = rect->tri_frame;
     rect->tri_frame = NULL;
     covered = failed = 0;
@@ -273,6 +284,7 @@ TEST(light_samples_many_match_one_at_a_time)
     CHECK_MSG(failed == 0, "%d light samples differ without the kept normals", failed);
     CHECK(covered > 500);
     rect->tri_frame = kept;
+    rect->has_para = true;
     spc_scene_destroy(sc);
 }
 

@@ -3,6 +3,7 @@
  * area / solid-angle sampling of shapes.
  */
 /* ctest-labels: unit */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -646,6 +647,140 @@ TEST(sphere_uv_only_where_read)
     spc_scene_destroy(sc);
 }
 
+/* A sheared parallelogram of two triangles, the second wound against the first and both listed
+ * from another corner (so that the sampler's corner roles are not the index order), with uvs that
+ * are each corner's parallelogram coordinates, for spc_shape_init_mesh to take. `bend` lifts one
+ * corner out of the plane by that much (relative to the corners' size). */
+static spc_mesh para_mesh(double bend)
+{
+    spc_mesh m;
+    memset(&m, 0, sizeof m);
+    m.nverts = 4;
+    m.ntris = 2;
+    m.p = malloc(12 * sizeof(float));
+    m.idx = malloc(6 * sizeof(uint32_t));
+    m.uv = malloc(8 * sizeof(float));
+    /* corners c0, c0 + a, c0 + a + b, c0 + b with a = (2, 0.5, 0), b = (0.5, 1, 0.25) */
+    float P[12] = {1, 1, 1, 3, 1.5f, 1, 3.5f, 2.5f, 1.25f, 1.5f, 2, 1.25f};
+    P[11] += (float)(bend * 4.0);
+    uint32_t I[6] = {1, 2, 0, 3, 2, 0};
+    float UV[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+    memcpy(m.p, P, sizeof P);
+    memcpy(m.idx, I, sizeof I);
+    memcpy(m.uv, UV, sizeof UV);
+    return m;
+}
+
+/* Pearson's statistic of counts against equal expectations, as standard deviations of the
+ * chi-square distribution (nbins - 1 degrees of freedom) above its mean. */
+static double chi2_uniform_sd(const int *count, int nbins, int n)
+{
+    double expect = (double)n / nbins, x2 = 0.0;
+    for (int i = 0; i < nbins; ++i)
+        x2 += (count[i] - expect) * (count[i] - expect) / expect;
+    return (x2 - (nbins - 1)) / sqrt(2.0 * (nbins - 1));
+}
+
+/* A mesh of two triangles that form a parallelogram is sampled as one (spc_shape.has_para): the
+ * points are uniform over the two halves (a chi-square on the triangle each lands in, which has
+ * half the area) and over a 6 x 6 grid of the parallelogram (its own coordinates, the uvs, which
+ * come from the triangle the sample names); each point lies in the triangle it names, with that
+ * triangle's normal (flipped with flip_normals) and the density 1 / area. A corner off the plane by
+ * more than SPC_PARA_TOL, vertex normals, a bent quad and more triangles keep the triangle pick;
+ * rectangles qualify, the cornell box's light among them. */
+TEST(mesh_parallelogram_sampling)
+{
+    spc_error err;
+    spc_mat4 I = spc_mat4_identity();
+    for (int flip = 0; flip < 2; ++flip) {
+        spc_shape s;
+        memset(&s, 0, sizeof s);
+        spc_mesh m = para_mesh(0.0);
+        CHECK(spc_shape_init_mesh(&s, &m, &I, NULL, 0, 0, &err));
+        s.flip_normals = flip != 0;
+        CHECK(spc_shape_prepare(&s) == SPC_OK);
+        CHECK(s.has_para);
+        spc_vec3 v[4];
+        for (int k = 0; k < 4; ++k)
+            v[k] = spc_mesh_p(&s.mesh, (uint32_t)k);
+        spc_vec3 ea = spc_sub(v[1], v[0]), eb = spc_sub(v[3], v[0]);
+        enum { G = 6, N = 144000 };
+        int half[2] = {0, 0}, grid[G * G], bad = 0;
+        memset(grid, 0, sizeof grid);
+        for (int i = 0; i < N; ++i) {
+            spc_shape_sample ss;
+            spc_shape_sample_area(&s, spc_v2(rnd(), rnd()), &ss);
+            bad += !(ss.prim == 0 || ss.prim == 1) || ss.pdf != 1.0 / s.area;
+            if (!(ss.prim == 0 || ss.prim == 1))
+                continue;
+            ++half[ss.prim];
+            /* the point at its uv (the parallelogram's coordinates) */
+            spc_vec3 q = spc_add(spc_add(v[0], spc_scale(ea, ss.uv.x)), spc_scale(eb, ss.uv.y));
+            bad += !(spc_length(spc_sub(q, ss.p)) < 1e-12 * 4.0);
+            /* in its triangle, with that triangle's normal */
+            const uint32_t *t = s.mesh.idx + 3 * ss.prim;
+            spc_vec3 t0 = spc_mesh_p(&s.mesh, t[0]), e1 = spc_sub(spc_mesh_p(&s.mesh, t[1]), t0),
+                     e2 = spc_sub(spc_mesh_p(&s.mesh, t[2]), t0), nc = spc_cross(e1, e2), d = spc_sub(ss.p, t0);
+            double n2 = spc_dot(nc, nc);
+            double b1 = spc_dot(spc_cross(d, e2), nc) / n2, b2 = spc_dot(spc_cross(e1, d), nc) / n2;
+            bad += !(b1 > -1e-12 && b2 > -1e-12 && b1 + b2 < 1.0 + 1e-12);
+            spc_vec3 ng = spc_normalize(nc);
+            if (flip)
+                ng = spc_neg(ng);
+            bad += !(spc_length(spc_sub(ng, ss.n)) < 1e-12) || !(ss.err > 0.0);
+            int gx = (int)(ss.uv.x * G), gy = (int)(ss.uv.y * G);
+            if (gx >= 0 && gx < G && gy >= 0 && gy < G)
+                ++grid[gx + G * gy];
+            else
+                ++bad;
+        }
+        CHECK_MSG(bad == 0, "%d samples off their triangle, uv, normal or density", bad);
+        /* below 5 standard deviations (p 0.005 at one degree of freedom, 5e-5 at 35; the stream is fixed) */
+        double zh = chi2_uniform_sd(half, 2, half[0] + half[1]), zg = chi2_uniform_sd(grid, G * G, N);
+        CHECK_MSG(zh < 5.0 && zg < 5.0, "halves %d/%d (%.2f sd), grid %.2f sd", half[0], half[1], zh, zg);
+        spc_shape_release(&s);
+    }
+    /* what keeps the triangle pick */
+    for (int kind = 0; kind < 4; ++kind) {
+        spc_shape s;
+        memset(&s, 0, sizeof s);
+        spc_mesh m = kind == 0 ? para_mesh(4.0 * SPC_PARA_TOL) : kind == 1 ? quad_mesh(false, NULL)
+                                                                           : quad_mesh(true, NULL);
+        if (kind == 2) {
+            /* the flat parallelogram with vertex normals */
+            spc_mesh_release(&m);
+            m = para_mesh(0.0);
+            m.n = malloc(12 * sizeof(float));
+            for (int k = 0; k < 12; ++k)
+                m.n[k] = k % 3 == 2 ? 1.0f : 0.0f;
+        }
+        if (kind == 3)
+            CHECK(spc_shape_init_cube(&s, &I, NULL, 0, 0, &err));
+        else
+            CHECK(spc_shape_init_mesh(&s, &m, &I, NULL, 0, 0, &err));
+        CHECK(spc_shape_prepare(&s) == SPC_OK);
+        CHECK_MSG(!s.has_para, "kind %d sampled as a parallelogram", kind);
+        if (kind == 3)
+            spc_mesh_release(&m);
+        spc_shape_release(&s);
+    }
+    /* rectangles: a rotated, scaled one and the cornell box's light (its to_world) */
+    spc_mat4 R = spc_mat4_rotate(spc_v3(0.3, 1, 0.2), 37.0), S = spc_mat4_scale(spc_v3(3.1, 0.7, 1));
+    spc_mat4 RS = spc_mat4_mul(&R, &S);
+    spc_mat4 C = {{{0.235, -1.66103e-008, -7.80685e-009, -0.005},
+                   {-2.05444e-008, 3.90343e-009, -0.0893, 1.98},
+                   {2.05444e-008, 0.19, 8.30516e-009, -0.03},
+                   {0, 0, 0, 1}}};
+    for (int k = 0; k < 2; ++k) {
+        spc_shape s;
+        memset(&s, 0, sizeof s);
+        CHECK(spc_shape_init_rectangle(&s, k ? &C : &RS, NULL, 0, 0, &err));
+        CHECK(spc_shape_prepare(&s) == SPC_OK);
+        CHECK_MSG(s.has_para, "rectangle %d not sampled as a parallelogram", k);
+        spc_shape_release(&s);
+    }
+}
+
 int main(void)
 {
     spc_rng_seed(&rng, 12, 34);
@@ -655,6 +790,7 @@ int main(void)
     RUN(sphere_sampling_solid_angle);
     RUN(sphere_solid_angle_sample_is_the_cone_warp);
     RUN(mesh_area_sampling_uniform);
+    RUN(mesh_parallelogram_sampling);
     RUN(mesh_kept_frames_match);
     RUN(mesh_lazy_derivatives_match);
     RUN(mesh_chain_hits_complete);

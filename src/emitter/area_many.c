@@ -6,7 +6,9 @@
  * the cornell box's light, quad and mesh emitters without textures) go through three loops over
  * the lanes in structure-of-arrays form: the triangle and its vertices (table lookups), the point,
  * the direction and the solid-angle density (arithmetic only, compiled also for AVX2 and AVX-512
- * and chosen at run time, so 4 or 8 lanes share an instruction), and the records. Every other
+ * and chosen at run time, so 4 or 8 lanes share an instruction), and the records. A light whose mesh
+ * is a parallelogram of two triangles (spc_shape.has_para: a rectangle emitter) has its own loops with
+ * no triangle to pick: o + u.x e1 + u.y e2, as spc_shape_sample_area draws it. Every other
  * light is sampled one lane at a time by spc_emitter_sample_direct, except sphere lights with a constant
  * radiance, which have their own loops (emitter/sphere_many.c).
  *
@@ -53,6 +55,12 @@ typedef struct soa {
      * point's first coordinate (spc_distrib1d_sample's remap, computed in the vector loop) */
     double ux_off[SPC_DIRECT_LANES_MAX], ux_pmf[SPC_DIRECT_LANES_MAX];
     double uy[SPC_DIRECT_LANES_MAX], area[SPC_DIRECT_LANES_MAX];
+    /* a parallelogram's (spc_mesh_para) u.x and corners' magnitude; its o, e1, e2 go in p0, p1, p2 */
+    double ux[SPC_DIRECT_LANES_MAX], mag[SPC_DIRECT_LANES_MAX];
+    /* the one parallelogram of PARA_ONE_BODY's lanes */
+    struct {
+        double o[3], e1[3], e2[3], ng[2][3], mag, area;
+    } one;
     spc_direct_lanes out;
     int ok[SPC_DIRECT_LANES_MAX]; /* spc_area_sample_direct's tests passed */
 } soa;
@@ -78,20 +86,66 @@ static inline double max2(double a, double b) { return a > b ? a : b; }
         double mag = max2(m0, max2(m1, m2));                                                                          \
         double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
         double perr = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                         \
+        double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i], area = a->area[i];                      \
+        AREA_MANY_TAIL                                                                                                \
+    }
+
+/* The parallelogram's point (spc_shape_sample_area's has_para branch) and its error bound, then the
+ * same direction and density. */
+#define PARA_MANY_BODY                                                                                                \
+    for (int i = 0; i < n; ++i) {                                                                                     \
+        double ux = a->ux[i], uy = a->uy[i];                                                                          \
+        double px = a->p0[0][i] + a->p1[0][i] * ux + a->p2[0][i] * uy;                                                \
+        double py = a->p0[1][i] + a->p1[1][i] * ux + a->p2[1][i] * uy;                                                \
+        double pz = a->p0[2][i] + a->p1[2][i] * ux + a->p2[2][i] * uy;                                                \
+        double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
+        double perr = AREA_MANY_FLOAT_OFFSET * max2(a->mag[i], mp);                                                   \
+        double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i], area = a->area[i];                      \
+        AREA_MANY_TAIL                                                                                                \
+    }
+
+/* PARA_MANY_BODY for lanes that all sample one parallelogram, whose corner, edges, normals (flipped
+ * where the shape is), magnitude and area are the soa's one record (loaded once, before the loop, so that GCC
+ * vectorizes it): only u and ref per lane. */
+#define PARA_ONE_BODY                                                                                                 \
+    const double o0 = a->one.o[0], o1 = a->one.o[1], o2 = a->one.o[2];                                                \
+    const double e10 = a->one.e1[0], e11 = a->one.e1[1], e12 = a->one.e1[2];                                          \
+    const double e20 = a->one.e2[0], e21 = a->one.e2[1], e22 = a->one.e2[2];                                          \
+    const double n00 = a->one.ng[0][0], n01 = a->one.ng[0][1], n02 = a->one.ng[0][2];                                 \
+    const double n10 = a->one.ng[1][0], n11 = a->one.ng[1][1], n12 = a->one.ng[1][2];                                 \
+    const double mag = a->one.mag, area = a->one.area;                                                                \
+    for (int i = 0; i < n; ++i) {                                                                                     \
+        double ux = a->ux[i], uy = a->uy[i];                                                                          \
+        int t = ux + uy > 1.0;                                                                                        \
+        double nx = t ? n10 : n00, ny = t ? n11 : n01, nz = t ? n12 : n02;                                            \
+        a->out.n[0][i] = nx;                                                                                          \
+        a->out.n[1][i] = ny;                                                                                          \
+        a->out.n[2][i] = nz;                                                                                          \
+        double px = o0 + e10 * ux + e20 * uy;                                                                         \
+        double py = o1 + e11 * ux + e21 * uy;                                                                         \
+        double pz = o2 + e12 * ux + e22 * uy;                                                                         \
+        double mp = max2(fabs(px), max2(fabs(py), fabs(pz)));                                                         \
+        double perr = AREA_MANY_FLOAT_OFFSET * max2(mag, mp);                                                         \
+        AREA_MANY_TAIL                                                                                                \
+    }
+
+/* From the point (px, py, pz), its error bound perr, the normal (nx, ny, nz) and the area:
+ * spc_area_sample_direct's tests and values. */
+#define AREA_MANY_TAIL                                                                                                \
         double dx = px - a->ref[0][i], dy = py - a->ref[1][i], dz = pz - a->ref[2][i];                                \
         double dist2 = dx * dx + dy * dy + dz * dz;                                                                   \
-        double nx = a->out.n[0][i], ny = a->out.n[1][i], nz = a->out.n[2][i];                                         \
         double cosl = fabs(nx * dx + ny * dy + nz * dz) / sqrt(dist2);                                                \
-        double pdf = 1.0 / a->area[i] * dist2 / cosl;                                                                 \
+        double pdf = 1.0 / area * dist2 / cosl;                                                                       \
         a->out.err[i] = perr / max2(cosl, SPC_AREA_GRAZING_COS); /* along the ray (emitter.h) */                      \
         double dist = sqrt(dist2);                                                                                    \
         double inv = 1.0 / dist;                                                                                      \
         double wx = dx * inv, wy = dy * inv, wz = dz * inv;                                                           \
         SPC_DIRECT_LANES_STORE(&a->out, i, px, py, pz, nx, ny, nz, wx, wy, wz, dist, pdf);                            \
-        a->ok[i] = (cosl > 0.0) & (dist2 > 0.0) & (dist > 0.0) & (pdf > 0.0) & (pdf <= DBL_MAX);                      \
-    }
+        a->ok[i] = (cosl > 0.0) & (dist2 > 0.0) & (dist > 0.0) & (pdf > 0.0) & (pdf <= DBL_MAX);
 
 static void body_default(soa *a, int n) { AREA_MANY_BODY }
+static void para_default(soa *a, int n) { PARA_MANY_BODY }
+static void para_one_default(soa *a, int n) { PARA_ONE_BODY }
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #define AREA_MANY_VECTOR 1
@@ -102,6 +156,10 @@ static void body_default(soa *a, int n) { AREA_MANY_BODY }
 #endif
 AREA_MANY_ATTR("avx2") static void body_avx2(soa *a, int n) { AREA_MANY_BODY }
 AREA_MANY_ATTR("avx512f") static void body_avx512(soa *a, int n) { AREA_MANY_BODY }
+AREA_MANY_ATTR("avx2") static void para_avx2(soa *a, int n) { PARA_MANY_BODY }
+AREA_MANY_ATTR("avx512f") static void para_avx512(soa *a, int n) { PARA_MANY_BODY }
+AREA_MANY_ATTR("avx2") static void para_one_avx2(soa *a, int n) { PARA_ONE_BODY }
+AREA_MANY_ATTR("avx512f") static void para_one_avx512(soa *a, int n) { PARA_ONE_BODY }
 #endif
 
 static void body(soa *a, int n)
@@ -117,6 +175,78 @@ static void body(soa *a, int n)
 #else
     body_default(a, n);
 #endif
+}
+
+static void para_body(soa *a, int n, bool one)
+{
+#ifdef AREA_MANY_VECTOR
+    int isa = spc_vector_isa();
+    if (isa == SPC_ISA_AVX512)
+        one ? para_one_avx512(a, n) : para_avx512(a, n);
+    else if (isa == SPC_ISA_AVX2)
+        one ? para_one_avx2(a, n) : para_avx2(a, n);
+    else
+        one ? para_one_default(a, n) : para_default(a, n);
+#else
+    one ? para_one_default(a, n) : para_default(a, n);
+#endif
+}
+
+/* Up to SPC_DIRECT_LANES_MAX lanes whose emitters all pass spc_emitter_many_covers and whose shapes
+ * are parallelograms (spc_shape.has_para): no triangle to pick. */
+static void sample_para_lights(int n, const int *lane, const spc_emitter *const e[], const spc_vec3 ref[],
+                               const spc_vec2 u[], spc_emitter_direct out[], bool ok[])
+{
+    soa a;
+    /* one light's lanes (a room's one quad light, the common case): its record once, no per-lane copies */
+    const spc_shape *s0 = e[lane[0]]->shape;
+    bool one = true;
+    for (int k = 1; k < n; ++k)
+        one &= e[lane[k]]->shape == s0;
+    if (one) {
+        const spc_mesh_para *q = &s0->para;
+        for (int j = 0; j < 3; ++j) {
+            a.one.o[j] = spc_v3_get(q->o, j);
+            a.one.e1[j] = spc_v3_get(q->e1, j);
+            a.one.e2[j] = spc_v3_get(q->e2, j);
+            for (int t = 0; t < 2; ++t)
+                a.one.ng[t][j] = spc_v3_get(s0->flip_normals ? spc_neg(q->ng[t]) : q->ng[t], j);
+        }
+        a.one.mag = q->mag;
+        a.one.area = s0->area;
+        for (int k = 0; k < n; ++k) {
+            int i = lane[k];
+            for (int j = 0; j < 3; ++j)
+                a.ref[j][k] = spc_v3_get(ref[i], j);
+            a.ux[k] = u[i].x;
+            a.uy[k] = u[i].y;
+        }
+    }
+    for (int k = 0; k < n && !one; ++k) {
+        int i = lane[k];
+        const spc_shape *s = e[i]->shape;
+        const spc_mesh_para *q = &s->para;
+        /* spc_shape_sample_area's triangle test, for the normal */
+        spc_vec3 ng = q->ng[u[i].x + u[i].y > 1.0];
+        if (s->flip_normals)
+            ng = spc_neg(ng);
+        for (int j = 0; j < 3; ++j) {
+            a.p0[j][k] = spc_v3_get(q->o, j);
+            a.p1[j][k] = spc_v3_get(q->e1, j);
+            a.p2[j][k] = spc_v3_get(q->e2, j);
+            a.out.n[j][k] = spc_v3_get(ng, j);
+            a.ref[j][k] = spc_v3_get(ref[i], j);
+        }
+        a.ux[k] = u[i].x;
+        a.uy[k] = u[i].y;
+        a.mag[k] = q->mag;
+        a.area[k] = s->area;
+    }
+    para_body(&a, n, one);
+    for (int k = 0; k < n; ++k) {
+        int i = lane[k];
+        ok[i] = spc_direct_lanes_write(&a.out, k, a.ok[k], e[i]->radiance, &out[i]);
+    }
 }
 
 /* Up to SPC_DIRECT_LANES_MAX lanes whose emitters all pass spc_emitter_many_covers. */
@@ -177,14 +307,17 @@ void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const s
     /* the lanes of each kind in batches of SPC_DIRECT_LANES_MAX (direct_lanes.h) */
     int lane[SPC_DIRECT_LANES_MAX], m = 0;
     int sphere_lane[SPC_DIRECT_LANES_MAX], ms = 0;
-    /* the kind of the last lane's light (1 mesh, 2 sphere, 0 other), kept for the next lanes of the
+    int para_lane[SPC_DIRECT_LANES_MAX], mp = 0;
+    /* the kind of the last lane's light (1 mesh, 2 sphere, 3 parallelogram, 0 other), kept for the next lanes of the
      * same light: the tests read the light, its texture and its shape, and most lanes share a light */
     const spc_emitter *last = NULL;
     int kind = 0;
     for (int i = 0; i < n; ++i) {
         if (e[i] && e[i] != last) {
             last = e[i];
-            kind = spc_emitter_many_covers(last) ? 1 : spc_emitter_many_covers_sphere(last) ? 2 : 0;
+            kind = spc_emitter_many_covers(last) ? (last->shape->has_para ? 3 : 1)
+                   : spc_emitter_many_covers_sphere(last) ? 2
+                                                          : 0;
         }
         if (!e[i]) {
             ok[i] = false;
@@ -193,6 +326,12 @@ void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const s
             if (m == SPC_DIRECT_LANES_MAX) {
                 sample_mesh_lights(m, lane, e, ref, u, out, ok);
                 m = 0;
+            }
+        } else if (kind == 3) {
+            para_lane[mp++] = i;
+            if (mp == SPC_DIRECT_LANES_MAX) {
+                sample_para_lights(mp, para_lane, e, ref, u, out, ok);
+                mp = 0;
             }
         } else if (kind == 2) {
             sphere_lane[ms++] = i;
@@ -208,4 +347,6 @@ void spc_emitter_sample_direct_many(int n, const spc_emitter *const e[], const s
         sample_mesh_lights(m, lane, e, ref, u, out, ok);
     if (ms > 0)
         spc_emitter_sample_spheres_many(ms, sphere_lane, e, ref, u, out, ok);
+    if (mp > 0)
+        sample_para_lights(mp, para_lane, e, ref, u, out, ok);
 }

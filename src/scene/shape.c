@@ -349,6 +349,54 @@ void spc_shape_drop_frames(spc_shape *s)
     s->tri_frame = NULL;
 }
 
+/* Whether the two triangles of m form a parallelogram (spc_mesh_para): they share two vertex
+ * positions exactly and triangle 1's third corner is o + e1 + e2 within SPC_PARA_TOL. Each
+ * triangle keeps its own normal (as a hit on it has it), so a pair wound either way qualifies. */
+static bool find_parallelogram(const spc_mesh *m, spc_mesh_para *q)
+{
+    if (m->ntris != 2)
+        return false;
+    spc_vec3 v[2][3];
+    for (int t = 0; t < 2; ++t)
+        for (int j = 0; j < 3; ++j)
+            v[t][j] = spc_mesh_p(m, m->idx[3 * t + j]);
+    /* match[j]: the vertex of triangle 1 at triangle 0's vertex j, or -1 */
+    int match[3] = {-1, -1, -1}, shared = 0, used = 0;
+    for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k)
+            if (match[j] < 0 && !(used & (1 << k)) && v[0][j].x == v[1][k].x && v[0][j].y == v[1][k].y &&
+                v[0][j].z == v[1][k].z) {
+                match[j] = k;
+                used |= 1 << k;
+                ++shared;
+            }
+    if (shared != 2)
+        return false;
+    int a0 = match[0] < 0 ? 0 : match[1] < 0 ? 1 : 2;
+    int a1 = !(used & 1) ? 0 : !(used & 2) ? 1 : 2;
+    int d0 = (a0 + 1) % 3, d1 = (a0 + 2) % 3;
+    q->o = v[0][a0];
+    q->e1 = spc_sub(v[0][d0], q->o);
+    q->e2 = spc_sub(v[0][d1], q->o);
+    double mag = 0.0;
+    for (int t = 0; t < 2; ++t)
+        for (int j = 0; j < 3; ++j)
+            mag = spc_max(mag, spc_max_abs(v[t][j]));
+    q->mag = mag;
+    spc_vec3 off = spc_sub(v[1][a1], spc_add(spc_add(q->o, q->e1), q->e2));
+    if (!(spc_max_abs(off) <= SPC_PARA_TOL * mag))
+        return false;
+    for (int t = 0; t < 2; ++t)
+        q->ng[t] = spc_normalize(spc_cross(spc_sub(v[t][1], v[t][0]), spc_sub(v[t][2], v[t][0])));
+    q->role[0][a0] = 0;
+    q->role[0][d0] = 1;
+    q->role[0][d1] = 2;
+    q->role[1][a1] = 0;
+    q->role[1][match[d0]] = 1;
+    q->role[1][match[d1]] = 2;
+    return true;
+}
+
 spc_status spc_shape_prepare(spc_shape *s)
 {
     switch (s->type) {
@@ -393,6 +441,8 @@ spc_status spc_shape_prepare(spc_shape *s)
             s->tri_frame = c;
             s->tri_frame_flip = s->flip_normals;
         }
+        /* vertex normals turn a sample's normal toward the interpolated one (fill_mesh): not here */
+        s->has_para = !(m->n && !s->face_normals) && find_parallelogram(m, &s->para);
         spc_vec3 lo = spc_v3(INFINITY, INFINITY, INFINITY), hi = spc_neg(lo);
         for (size_t i = 0; i < m->nverts; ++i) {
             lo = spc_vmin(lo, spc_mesh_p(m, (uint32_t)i));
@@ -1031,6 +1081,27 @@ void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out
     out->prim = 0;
     switch (s->type) {
     case SPC_SHAPE_MESH: {
+        if (s->has_para) {
+            /* the parallelogram (spc_mesh_para); the batch in emitter/area_many.c repeats this
+             * arithmetic in this order, bit for bit */
+            const spc_mesh_para *q = &s->para;
+            double a = u.x, b = u.y;
+            int t = a + b > 1.0;
+            out->p = spc_add(spc_add(q->o, spc_scale(q->e1, a)), spc_scale(q->e2, b));
+            out->n = s->flip_normals ? spc_neg(q->ng[t]) : q->ng[t];
+            out->err = SPC_FLOAT_OFFSET * spc_max(q->mag, spc_max_abs(out->p));
+            /* the point's weights on the triangle's corners, for its uv */
+            double w[3] = {1.0 - a - b, a, b};
+            if (t) {
+                w[0] = a + b - 1.0;
+                w[1] = 1.0 - b;
+                w[2] = 1.0 - a;
+            }
+            const uint32_t *vi = s->mesh.idx + 3 * t;
+            out->uv = mesh_uv(&s->mesh, vi[0], vi[1], vi[2], w[q->role[t][1]], w[q->role[t][2]]);
+            out->prim = t;
+            return;
+        }
         double ux;
         size_t i = spc_distrib1d_sample(&s->tri_distrib, u.x, &ux);
         spc_vec2 b = spc_warp_uniform_triangle(spc_v2(ux, u.y));

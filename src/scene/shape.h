@@ -49,6 +49,12 @@ typedef enum spc_shape_type {
 #define SPC_MESH_FRAME_MAX_TRIS 65536
 /* The doubles a triangle's entry takes in spc_shape.tri_frame. */
 #define SPC_TRI_FRAME_STRIDE 19
+/* How far, per coordinate and relative to the corners' largest coordinate, triangle 1's corner off
+ * the shared edge may be from o + e1 + e2 for a pair to be sampled as a parallelogram
+ * (spc_mesh_para): one float epsilon, an eighth of a hit's error bound (8 float epsilons), so the
+ * points drawn in triangle 1 lie on it well within that bound. Vertices that went through a
+ * transform in float keep a rectangle's corners within it. */
+#define SPC_PARA_TOL 0x1p-23
 
 /* Per-shape caustic flags (Mitsuba properties used by the caustics papers' scenes). */
 enum {
@@ -58,6 +64,20 @@ enum {
     SPC_CAUSTIC_CASTER_MULTI = 1u << 3,   /* only in chains of more than one vertex */
     SPC_CAUSTIC_FLAGS_EXPLICIT = 1u << 8  /* the file said something: do not apply defaults */
 };
+
+/* A mesh of two triangles that form a parallelogram, sampled as one (spc_shape_sample_area): the
+ * point o + a e1 + b e2 for (a, b) uniform in the unit square, uniform by area with no triangle to
+ * pick. o is triangle 0's corner off the shared edge and e1, e2 run from it to the shared edge's two
+ * ends; a + b <= 1 lies in triangle 0, a + b > 1 in triangle 1 (whose corner off the edge is
+ * o + e1 + e2 within SPC_PARA_TOL). */
+typedef struct spc_mesh_para {
+    spc_vec3 o, e1, e2;
+    spc_vec3 ng[2]; /* each triangle's unit normal, before flip_normals, as fill_mesh computes it */
+    double mag;     /* the largest absolute coordinate of the four corners (the point's error bound) */
+    /* for each triangle's vertex j, which of the point's three weights in that triangle is its
+     * barycentric: 0 the corner off the shared edge, 1 the edge's end at o + e1, 2 the one at o + e2 */
+    unsigned char role[2][3];
+} spc_mesh_para;
 
 typedef struct spc_shape {
     spc_shape_type type;
@@ -90,6 +110,10 @@ typedef struct spc_shape {
      * meshes. */
     double *tri_frame;
     bool tri_frame_flip;
+    /* MESH of two triangles without vertex normals (or with face_normals) whose corners off the
+     * shared edge mirror each other through its midpoint: sampled as the parallelogram para */
+    bool has_para;
+    spc_mesh_para para;
     /* set by spc_scene_finalize: a MESH whose BSDF reads no derivatives
      * (spc_bsdf_reads_derivatives), so that its shading hits may leave them out
      * (spc_shape_fill_hit_shading) */
@@ -200,7 +224,8 @@ void spc_shape_hit_complete(spc_hit *h);
  * without lazy_derivs, whose records are always whole. */
 void spc_shape_hit_derivatives(spc_hit *h);
 
-/* Uniform area sampling (meshes pick the triangle with u.x and reuse it, rescaled). */
+/* Uniform area sampling (meshes pick the triangle with u.x and reuse it, rescaled; a parallelogram
+ * of two triangles, spc_shape.has_para, is sampled as one: o + u.x e1 + u.y e2). */
 void spc_shape_sample_area(const spc_shape *s, spc_vec2 u, spc_shape_sample *out);
 /* The sphere s's (u, v) at the unit direction dir from its centre (world space); zero where its
  * materials read no uv (uv_unread). */
