@@ -464,7 +464,7 @@ static int fit_chains_of(const spc_snee_query *q, const spc_shape *ball, const s
 /* The floor points under the triangle glass ball where a camera sample's rare large contributions
  * land (bench/RESULTS.md, "the fold tail traced": a diffuse floor point seen by the camera reaches
  * them through the ball; specular NEE there adds two chains of nearly equal value): on the caustic's
- * fold, where two 2-vertex chains to the light merge. Toward a 16 x 16 grid of points on the light,
+ * fold, where two 2-vertex chains to the light merge. Toward a 32 x 32 grid of points on the light,
  * every chain that 400 randomized attempts find is one the fitted sphere's solutions give (counted
  * exactly, no trial count), and at some light points the pair lies within 10% in value, each over
  * 50: the fold's two near-merged roots are both found. It fails if a fitted solution stops
@@ -487,7 +487,7 @@ TEST(ball_fold_pair_counted_exactly)
     }
     CHECK(ball != NULL && solver && solver->solve_one);
     const double pts[2][2] = {{-0.0219, -0.0392}, {-0.1805, 0.2983}};
-    const int attempts = spc_test_quick() ? 200 : 400, grid = 16;
+    const int attempts = spc_test_quick() ? 200 : 400, grid = 32;
     spc_rng rng;
     spc_rng_seed(&rng, 13, 3);
     int lit = 0, chains = 0, missed = 0, pairs = 0;
