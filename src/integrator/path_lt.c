@@ -306,6 +306,16 @@ static int mirror_aims(const spc_scene *sc, const spc_snee_params *p, const spc_
     return glass ? n : 0;
 }
 
+/* The direction at (u1, u2) uniform over the cone of directions around axis with cosine at least cm
+ * (density 1 / (2 pi (1 - cm))). */
+static spc_vec3 cone_direction(spc_vec3 axis, double cm, double u1, double u2)
+{
+    double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
+    spc_frame fa = spc_frame_from_n(axis);
+    return spc_normalize(
+        spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
+}
+
 /* The cosine of the cone from y around the sphere (c, r), its axis in *axis; false with y inside. */
 static bool sphere_cone(spc_vec3 y, spc_vec3 c, double r, spc_vec3 *axis, double *cos_max)
 {
@@ -1171,10 +1181,7 @@ static bool area_start(const spc_scene *sc, const spc_snee_params *p, const spc_
             return false;
     }
     double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
-    double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
-    spc_frame fa = spc_frame_from_n(axis);
-    spc_vec3 w0 = spc_normalize(
-        spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
+    spc_vec3 w0 = cone_direction(axis, cm, u1, u2);
     double cy = spc_dot(w0, q.ny);
     if (!(cy > 0.0))
         return false;
@@ -1282,10 +1289,7 @@ static bool point_start(const spc_scene *sc, const spc_snee_params *p, const spc
     if (!caster_cone(sc, p->any_surface, y, &axis, &cm))
         return false;
     double u1 = spc_rng_next(rng), u2 = spc_rng_next(rng);
-    double ct = 1.0 - u1 * (1.0 - cm), st = sqrt(spc_max(0.0, 1.0 - ct * ct)), phi = 2.0 * SPC_PI * u2;
-    spc_frame fa = spc_frame_from_n(axis);
-    spc_vec3 w0 = spc_normalize(
-        spc_add(spc_add(spc_scale(fa.s, st * cos(phi)), spc_scale(fa.t, st * sin(phi))), spc_scale(fa.n, ct)));
+    spc_vec3 w0 = cone_direction(axis, cm, u1, u2);
     double pdir = 1.0 / (2.0 * SPC_PI * (1.0 - cm));
     *beta = spc_rgb_scale(spc_emitter_eval_intensity(e, w0), 1.0 / (pmf * pdir));
     *ray = (spc_ray){.o = y, .d = w0, .tmin = 0.0, .tmax = SPC_INF};

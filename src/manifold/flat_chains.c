@@ -1604,13 +1604,13 @@ static void walk(flat_walk *w, int i, double medium, const cone *dirp)
         /* the faces to try, as bit 2 fi (state_bit's exterior-or-interior pair folded onto its
          * even bit), in order: where bounded, only those through which some sequence of at most
          * hi vertices reaches y */
-        uint32_t todo = 0x55555555u & (fc->nfaces >= 16 ? ~0u : (1u << 2 * fc->nfaces) - 1u);
+        uint32_t faces_left = 0x55555555u & (fc->nfaces >= 16 ? ~0u : (1u << 2 * fc->nfaces) - 1u);
         if (w->bounded) {
             uint32_t m = w->near[w->hi - i - 1][j];
-            todo &= m | m >> 1;
+            faces_left &= m | m >> 1;
         }
-        for (; todo && !w->stop; todo &= todo - 1u) {
-            const int fi = __builtin_ctz(todo) >> 1;
+        for (; faces_left && !w->stop; faces_left &= faces_left - 1u) {
+            const int fi = __builtin_ctz(faces_left) >> 1;
             const flat_face *f = &fc->face[fi];
             if (prev) {
                 if (prev->f == f)
